@@ -1,0 +1,25 @@
+#pragma once
+// LCM channel names used by evermap (DESIGN.md section 1). One place, so a rename is one edit.
+
+namespace evermap::channels {
+
+inline constexpr const char* kStereo = "STEREO";              // stereo_image_t
+inline constexpr const char* kStereoCalib = "STEREO_CALIB";   // stereo_calib_t
+inline constexpr const char* kImu = "IMU";                    // imu_t
+inline constexpr const char* kWheelOdom = "WHEEL_ODOM";       // wheel_odom_t
+inline constexpr const char* kGroundTruth = "GROUND_TRUTH";   // pose_t
+inline constexpr const char* kVoDelta = "VO_DELTA";           // vo_delta_t
+inline constexpr const char* kKeyframe = "KEYFRAME";          // keyframe_t
+inline constexpr const char* kAttitude = "ATTITUDE";          // attitude_t
+inline constexpr const char* kFloor = "FLOOR";                // floor_t
+inline constexpr const char* kNodeAdded = "NODE_ADDED";       // node_added_t
+inline constexpr const char* kRegisterRequest = "REGISTER_REQUEST";  // register_request_t
+inline constexpr const char* kRegisterResult = "REGISTER_RESULT";    // register_result_t
+inline constexpr const char* kPose = "POSE";                  // pose_t
+inline constexpr const char* kMapGraph = "MAP_GRAPH";         // map_graph_t
+inline constexpr const char* kMapperStats = "MAPPER_STATS";   // mapper_stats_t
+inline constexpr const char* kDeputyStatus = "DEPUTY_STATUS"; // deputy_status_t
+inline constexpr const char* kDeputyOrder = "DEPUTY_ORDER";   // deputy_order_t
+inline constexpr const char* kDeputyOutput = "DEPUTY_OUTPUT"; // deputy_output_t
+
+}  // namespace evermap::channels
