@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build ccache pkg-config git
-  liblcm-dev liblcm-bin liblcm-java default-jdk-headless
+  liblcm-dev liblcm-bin liblcm-java libjchart2d-java default-jdk-headless
   libeigen3-dev libopencv-dev libsuitesparse-dev libsqlite3-dev sqlite3
   libgtest-dev libgmock-dev libbenchmark-dev
   iproute2 util-linux procps python3
