@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Replays an LCM log with lcm-logplayer inside the LCM sandbox while evermap-lcm-check
+# listens, and prints what was received per channel. Exit 0 when every message arrived intact.
+#   scripts/replay-check.sh LOG [SPEED]        (BUILD_DIR=build by default)
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build="${BUILD_DIR:-$root/build}"
+log="${1:?usage: replay-check.sh LOG [SPEED]}"
+speed="${2:-1}"
+[ -f "$log" ] || { echo "replay-check: $log: no such log" >&2; exit 2; }
+ready="$(mktemp -u /tmp/evermap-ready.XXXXXX)"
+exec "$root/scripts/lcm-sandbox" bash -c '
+  set -euo pipefail
+  "$1/bin/evermap-lcm-check" --log "$2" --ready-file "$4" --idle-timeout-s 10 &
+  checker=$!
+  for _ in $(seq 300); do [ -f "$4" ] && break; sleep 0.1; done
+  rm -f "$4"
+  lcm-logplayer -s "$3" "$2" >/dev/null
+  wait "$checker"
+' replay-check "$build" "$log" "$speed" "$ready"
