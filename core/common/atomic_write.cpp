@@ -19,7 +19,8 @@ Status writeFileAtomically(const std::filesystem::path& file, std::string_view b
   tmp_name += std::to_string(::getpid());
   const fs::path tmp = folder / tmp_name;
   std::FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (!f) return makeError(file.string(), ": cannot create ", tmp.string(), ": ", std::strerror(errno));
+  if (!f)
+    return makeError(file.string(), ": cannot create ", tmp.string(), ": ", std::strerror(errno));
   const bool written = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
   // fsync so that the rename never exposes a file whose data is not on disk yet.
   const bool flushed = std::fflush(f) == 0 && ::fsync(::fileno(f)) == 0;

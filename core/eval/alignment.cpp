@@ -52,8 +52,9 @@ Expected<AlignmentResult> umeyama(const std::vector<core::Vec3>& src,
   sigma2_x /= static_cast<double>(n);
   sigma_xy /= static_cast<double>(n);
   if (with_scale && !(sigma2_x > 1e-18)) {
-    return makeError("alignment: the estimated positions are all the same point; the scale is "
-                     "undefined");
+    return makeError(
+        "alignment: the estimated positions are all the same point; the scale is "
+        "undefined");
   }
 
   Eigen::JacobiSVD<Mat3> svd(sigma_xy, Eigen::ComputeFullU | Eigen::ComputeFullV);

@@ -58,7 +58,6 @@ Expected<AlignmentResult> umeyama(const std::vector<core::Vec3>& src,
 // Aligns the positions of `est` onto those of `gt` (same length, paired by index). kNone
 // returns the identity and needs only one pair.
 Expected<AlignmentResult> alignTrajectories(const std::vector<core::SE3d>& gt,
-                                            const std::vector<core::SE3d>& est,
-                                            AlignmentMode mode);
+                                            const std::vector<core::SE3d>& est, AlignmentMode mode);
 
 }  // namespace evermap::eval

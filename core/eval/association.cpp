@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <limits>
 
+#include "core/eval/number_format.h"
+
 namespace evermap::eval {
 namespace {
 
@@ -19,7 +21,7 @@ std::string span(const Trajectory& t) {
 
 Status AssociationOptions::validate() const {
   if (!(max_dt_s >= 0.0) || !std::isfinite(max_dt_s)) {
-    return makeError("max_dt_s must be finite and >= 0, got ", max_dt_s);
+    return makeError("max_dt_s must be finite and >= 0, got ", numberText(max_dt_s));
   }
   return Ok{};
 }

@@ -26,14 +26,14 @@ struct AssociationOptions {
 
 // Matched poses, in time order: gt[k] and est[k] belong together.
 struct Association {
-  std::vector<int64_t> t_ns;       // stamps of the ground-truth poses
-  std::vector<core::SE3d> gt;      // world_T_body of the ground truth
-  std::vector<core::SE3d> est;     // world'_T_body of the estimate (its own world frame)
-  std::vector<size_t> gt_index;    // indices into the input trajectories
+  std::vector<int64_t> t_ns;     // stamps of the ground-truth poses
+  std::vector<core::SE3d> gt;    // world_T_body of the ground truth
+  std::vector<core::SE3d> est;   // world'_T_body of the estimate (its own world frame)
+  std::vector<size_t> gt_index;  // indices into the input trajectories
   std::vector<size_t> est_index;
-  size_t gt_poses = 0;             // sizes of the inputs, for the summary
+  size_t gt_poses = 0;  // sizes of the inputs, for the summary
   size_t est_poses = 0;
-  double max_abs_dt_s = 0.0;       // largest |t_est - t_gt| among the pairs
+  double max_abs_dt_s = 0.0;  // largest |t_est - t_gt| among the pairs
   double mean_abs_dt_s = 0.0;
 
   size_t size() const { return gt.size(); }

@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "core/eval/metrics.h"
+#include "core/eval/number_format.h"
 
 namespace evermap::eval {
 
@@ -12,7 +13,7 @@ Status KittiDriftOptions::validate() const {
   if (segment_lengths_m.empty()) return makeError("KITTI drift: no segment length");
   for (double L : segment_lengths_m) {
     if (!(L > 0.0) || !std::isfinite(L)) {
-      return makeError("KITTI drift: segment lengths must be positive, got ", L);
+      return makeError("KITTI drift: segment lengths must be positive, got ", numberText(L));
     }
   }
   if (step_frames == 0) return makeError("KITTI drift: step_frames must be >= 1");
@@ -67,10 +68,10 @@ Expected<KittiDriftSummary> computeKittiDrift(const std::vector<core::SE3d>& gt,
     out.per_length.push_back(row);
   }
   if (out.segments == 0) {
-    return makeError("KITTI drift: the ground-truth path (", dist.back(),
+    return makeError("KITTI drift: the ground-truth path (", numberText(dist.back(), 4),
                      " m over the matched poses) is shorter than the shortest segment (",
-                     *std::min_element(options.segment_lengths_m.begin(),
-                                       options.segment_lengths_m.end()),
+                     numberText(*std::min_element(options.segment_lengths_m.begin(),
+                                                  options.segment_lengths_m.end())),
                      " m)");
   }
   const double n = static_cast<double>(out.segments);

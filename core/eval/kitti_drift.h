@@ -31,8 +31,8 @@ struct KittiDriftLength {
 
 struct KittiDriftSummary {
   size_t segments = 0;
-  double translation_percent = 0.0;     // mean of |t(E)| / L, in %
-  double rotation_deg_per_100m = 0.0;   // mean of angle(E) / L, in deg per 100 m
+  double translation_percent = 0.0;    // mean of |t(E)| / L, in %
+  double rotation_deg_per_100m = 0.0;  // mean of angle(E) / L, in deg per 100 m
   std::vector<KittiDriftLength> per_length;
 };
 

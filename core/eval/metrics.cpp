@@ -6,6 +6,8 @@
 #include <cstdlib>
 #include <numbers>
 
+#include "core/eval/number_format.h"
+
 namespace evermap::eval {
 namespace {
 
@@ -75,11 +77,13 @@ Status RpeOptions::validate() const {
   const bool frames = delta_frames > 0;
   const bool distance = delta_distance_m > 0.0 && std::isfinite(delta_distance_m);
   if (frames == distance) {
-    return makeError("RPE: give exactly one of delta_frames (> 0) and delta_distance_m (> 0), "
-                     "got ", delta_frames, " frames and ", delta_distance_m, " m");
+    return makeError(
+        "RPE: give exactly one of delta_frames (> 0) and delta_distance_m (> 0), "
+        "got ",
+        delta_frames, " frames and ", numberText(delta_distance_m), " m");
   }
   if (delta_distance_m < 0.0 || std::isnan(delta_distance_m)) {
-    return makeError("RPE: delta_distance_m must be >= 0, got ", delta_distance_m);
+    return makeError("RPE: delta_distance_m must be >= 0, got ", numberText(delta_distance_m));
   }
   return Ok{};
 }
@@ -110,16 +114,15 @@ Expected<RpeSummary> computeRpe(const std::vector<core::SE3d>& gt,
     }
     if (j >= gt.size()) break;
     // eq. (3): E = (Q_i⁻¹ Q_j)⁻¹ (P_i⁻¹ P_j).
-    const core::SE3d E =
-        core::between(core::between(gt[i], gt[j]), core::between(est[i], est[j]));
+    const core::SE3d E = core::between(core::between(gt[i], gt[j]), core::between(est[i], est[j]));
     trans_m.push_back(E.translation().norm());
     rot_deg.push_back(core::rotationAngle(E.so3()) * kRadToDeg);
   }
   if (trans_m.empty()) {
     if (options.byDistance()) {
-      return makeError("RPE: no pose pair is ", options.delta_distance_m,
-                       " m apart along the ground truth (its matched path is ", dist.back(),
-                       " m long)");
+      return makeError("RPE: no pose pair is ", numberText(options.delta_distance_m),
+                       " m apart along the ground truth (its matched path is ",
+                       numberText(dist.back(), 4), " m long)");
     }
     return makeError("RPE: a step of ", options.delta_frames, " frames needs more than ",
                      options.delta_frames, " matched poses, got ", gt.size());

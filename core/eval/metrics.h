@@ -46,7 +46,7 @@ Expected<AteSummary> computeAte(const std::vector<core::SE3d>& gt,
 
 struct RpeOptions {
   // Exactly one of the two is positive.
-  int delta_frames = 1;        // Δ in matched poses
+  int delta_frames = 1;           // Δ in matched poses
   double delta_distance_m = 0.0;  // Δ as distance travelled along the ground truth, metres
 
   Status validate() const;

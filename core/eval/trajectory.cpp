@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "core/common/atomic_write.h"
+#include "core/eval/number_format.h"
 
 namespace evermap::eval {
 namespace {
@@ -71,7 +72,8 @@ Expected<TrajectoryFormat> parseTrajectoryFormat(std::string_view name) {
 double Trajectory::pathLengthM() const {
   double length = 0.0;
   for (size_t k = 1; k < poses.size(); ++k) {
-    length += (poses[k].world_T_body.translation() - poses[k - 1].world_T_body.translation()).norm();
+    length +=
+        (poses[k].world_T_body.translation() - poses[k - 1].world_T_body.translation()).norm();
   }
   return length;
 }
@@ -85,9 +87,9 @@ Status validate(const Trajectory& trajectory) {
       return makeError(name, ": pose ", k, " is not finite");
     }
     if (k > 0 && trajectory.poses[k].t_ns <= trajectory.poses[k - 1].t_ns) {
-      return makeError(name, ": time stamps must increase, but pose ", k, " (t=",
-                       trajectory.poses[k].t_ns, " ns) follows t=", trajectory.poses[k - 1].t_ns,
-                       " ns");
+      return makeError(name, ": time stamps must increase, but pose ", k,
+                       " (t=", trajectory.poses[k].t_ns,
+                       " ns) follows t=", trajectory.poses[k - 1].t_ns, " ns");
     }
   }
   return Ok{};
@@ -147,8 +149,10 @@ Expected<Trajectory> readKitti(const std::filesystem::path& poses_file,
     const core::Mat3 R = T.topLeftCorner<3, 3>();
     const double orthogonality = (R.transpose() * R - core::Mat3::Identity()).cwiseAbs().maxCoeff();
     if (orthogonality > 1e-2 || R.determinant() < 0.0) {
-      return makeError(poses_file.string(), ":", n, ": the 3x3 block is not a rotation (|R^T R - I| = ",
-                       orthogonality, ", det = ", R.determinant(), ")");
+      return makeError(
+          poses_file.string(), ":", n,
+          ": the 3x3 block is not a rotation (|R^T R - I| = ", numberText(orthogonality, 3),
+          ", det = ", numberText(R.determinant(), 3), ")");
     }
     StampedPose p;
     // Without a times file the line index is the stamp, in seconds.
@@ -160,8 +164,8 @@ Expected<Trajectory> readKitti(const std::filesystem::path& poses_file,
     auto times = readKittiTimes(times_file);
     if (!times) return times.error();
     if (times->size() != out.poses.size()) {
-      return makeError(times_file.string(), ": ", times->size(), " stamps for ",
-                       out.poses.size(), " poses in ", poses_file.string());
+      return makeError(times_file.string(), ": ", times->size(), " stamps for ", out.poses.size(),
+                       " poses in ", poses_file.string());
     }
     for (size_t k = 0; k < out.poses.size(); ++k) out.poses[k].t_ns = (*times)[k];
   }
@@ -187,9 +191,10 @@ Status writeTum(const Trajectory& trajectory, const std::filesystem::path& file)
     const int64_t abs_ns = p.t_ns < 0 ? -p.t_ns : p.t_ns;
     const Eigen::Quaterniond& q = p.world_T_body.quaternion();
     const core::Vec3& t = p.world_T_body.translation();
-    std::snprintf(buf, sizeof(buf), "%s%" PRId64 ".%09" PRId64 " %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n",
-                  p.t_ns < 0 ? "-" : "", abs_ns / kNsPerS, abs_ns % kNsPerS, t.x(),
-                  t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+    std::snprintf(buf, sizeof(buf),
+                  "%s%" PRId64 ".%09" PRId64 " %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n",
+                  p.t_ns < 0 ? "-" : "", abs_ns / kNsPerS, abs_ns % kNsPerS, t.x(), t.y(), t.z(),
+                  q.x(), q.y(), q.z(), q.w());
     text += buf;
   }
   return writeFileAtomically(file, text);
