@@ -35,7 +35,7 @@ class Canvas {
                 bool dashed = false);
   void line(const Eigen::Vector2d& a, const Eigen::Vector2d& b, Rgb color, double width_px);
   void circle(const Eigen::Vector2d& center, double radius_px, Rgb color, bool filled);
-  // Axis-aligned rectangle; `fill` null-like when `filled` is false.
+  // Axis-aligned rectangle; `fill` is used only when `filled`.
   void rect(const Eigen::Vector2d& top_left, const Eigen::Vector2d& size, Rgb stroke,
             double stroke_px, bool filled = false, Rgb fill = {255, 255, 255});
   // Text whose baseline passes through `at`; `size_px` is the height of a capital letter.
