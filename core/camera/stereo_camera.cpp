@@ -8,7 +8,9 @@
 namespace evermap::core {
 namespace {
 
+// "%g" without the sign of a NaN ("-nan" from a YAML ".nan" reads as a typo).
 std::string num(double v) {
+  if (std::isnan(v)) return "nan";
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.6g", v);
   return buf;
