@@ -11,6 +11,7 @@
 
 #include "core/camera/calibration.h"
 #include "core/datasets/euroc_calibration.h"
+#include "scratch_dir.h"
 #include "test_data.h"
 
 namespace evermap::core {
@@ -139,15 +140,10 @@ std::string readText(const fs::path& p) {
   return ss.str();
 }
 
-// Writes `text` to a fresh file in a per-test temporary folder.
-fs::path writeTemp(const std::string& name, const std::string& text) {
-  const fs::path dir = fs::temp_directory_path() /
-                       ("evermap_calib_" + std::string(::testing::UnitTest::GetInstance()
-                                                           ->current_test_info()->name()));
-  fs::create_directories(dir);
-  const fs::path p = dir / name;
-  std::ofstream(p) << text;
-  return p;
+// Writes `text` to `name` in the test's scratch folder.
+fs::path writeTemp(const testing::ScratchDir& dir, const std::string& name, const std::string& text) {
+  std::ofstream(dir / name) << text;
+  return dir / name;
 }
 
 TEST(EurocCalibration, RealSensorYamlFilesAreReadExactly) {
@@ -178,6 +174,7 @@ TEST(EurocCalibration, RealSensorYamlFilesAreReadExactly) {
 
 TEST(EurocCalibration, BrokenFilesAreRefusedNamingTheFileAndField) {
   EVERMAP_REQUIRE_DATA(dir, "euroc-v101-micro");
+  const testing::ScratchDir scratch;
   const std::string good = readText(dir / "mav0/cam0/sensor.yaml");
   const auto refuse = [](const fs::path& p, const std::string& needle) {
     const auto c = datasets::readEurocCameraYaml(p);
@@ -187,36 +184,37 @@ TEST(EurocCalibration, BrokenFilesAreRefusedNamingTheFileAndField) {
         << "got: " << c.error().message << "\nwanted: " << needle;
   };
   refuse("/nonexistent/cam0/sensor.yaml", "cannot open");
-  refuse(writeTemp("garbage.yaml", "%YAML:1.0\nintrinsics: [1, 2\n  : ]]]\n"), "");
-  refuse(writeTemp("no_intrinsics.yaml",
+  refuse(writeTemp(scratch, "garbage.yaml", "%YAML:1.0\nintrinsics: [1, 2\n  : ]]]\n"), "");
+  refuse(writeTemp(scratch, "no_intrinsics.yaml",
                    std::regex_replace(good, std::regex("intrinsics:.*"), "")),
          "intrinsics must be 4 numbers");
-  refuse(writeTemp("three_intrinsics.yaml",
+  refuse(writeTemp(scratch, "three_intrinsics.yaml",
                    std::regex_replace(good, std::regex("intrinsics: \\[[^\\]]*\\]"),
                                       "intrinsics: [458.654, 457.296, 367.215]")),
          "intrinsics must be 4 numbers");
-  refuse(writeTemp("zero_fx.yaml",
+  refuse(writeTemp(scratch, "zero_fx.yaml",
                    std::regex_replace(good, std::regex("458\\.654"), "0.0")),
          "focal length fx = 0");
-  refuse(writeTemp("nan_fy.yaml", std::regex_replace(good, std::regex("457\\.296"), ".nan")),
+  refuse(writeTemp(scratch, "nan_fy.yaml", std::regex_replace(good, std::regex("457\\.296"), ".nan")),
          "focal length fy = nan");
-  refuse(writeTemp("pp_outside.yaml",
+  refuse(writeTemp(scratch, "pp_outside.yaml",
                    std::regex_replace(good, std::regex("367\\.215"), "900.0")),
          "principal point (900, 248.375) is outside the 752x480 image");
-  refuse(writeTemp("zero_size.yaml",
+  refuse(writeTemp(scratch, "zero_size.yaml",
                    std::regex_replace(good, std::regex("resolution: \\[752, 480\\]"),
                                       "resolution: [0, 480]")),
          "image size 0x480 must be positive");
-  refuse(writeTemp("fisheye.yaml",
+  refuse(writeTemp(scratch, "fisheye.yaml",
                    std::regex_replace(good, std::regex("radial-tangential"), "equidistant")),
          "distortion_model \"equidistant\" is not supported");
-  refuse(writeTemp("bad_tbs.yaml",
+  refuse(writeTemp(scratch, "bad_tbs.yaml",
                    std::regex_replace(good, std::regex("0\\.0148655429818"), "0.5")),
          "T_BS is not a rigid transform");
 }
 
 TEST(EurocCalibration, InconsistentPairsAreRefused) {
   EVERMAP_REQUIRE_DATA(dir, "euroc-v101-micro");
+  const testing::ScratchDir scratch;
   const fs::path cam0 = dir / "mav0/cam0/sensor.yaml";
   const std::string right = readText(dir / "mav0/cam1/sensor.yaml");
   // Same file twice: the cameras coincide.
@@ -225,7 +223,7 @@ TEST(EurocCalibration, InconsistentPairsAreRefused) {
   EXPECT_NE(c.error().message.find("baseline is 0 m"), std::string::npos) << c.error().message;
   // A right camera of another resolution.
   const fs::path small = writeTemp(
-      "cam1_small.yaml",
+      scratch, "cam1_small.yaml",
       std::regex_replace(right, std::regex("resolution: \\[752, 480\\]"), "resolution: [640, 480]"));
   c = datasets::readEurocStereoCalibration(cam0, small);
   ASSERT_FALSE(c.ok());

@@ -13,6 +13,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/messages/convert.h"
+#include "scratch_dir.h"
 
 namespace evermap::messages {
 namespace {
@@ -167,8 +168,8 @@ TEST(ImageMsg, MalformedImagesAreRefusedWithTheReason) {
 }
 
 TEST(ImageMsg, ImageFilesAreCarriedOrRefusedNamingTheFile) {
-  const fs::path dir = fs::temp_directory_path() / "evermap_messages_files";
-  fs::create_directories(dir);
+  const testing::ScratchDir scratch;
+  const fs::path dir = scratch.path();
   const cv::Mat image = testImage(40, 30, 5);
   cv::imwrite((dir / "a.png").string(), image);
   std::vector<uint8_t> file_bytes;
@@ -196,7 +197,6 @@ TEST(ImageMsg, ImageFilesAreCarriedOrRefusedNamingTheFile) {
   cv::imwrite((dir / "colour.png").string(), cv::Mat(8, 8, CV_8UC3, cv::Scalar(9, 8, 7)));
   expectError(imageMsgFromFile(dir / "colour.png", 1, ImageEncoding::kPng),
               (dir / "colour.png").string() + ": not an 8-bit gray image");
-  fs::remove_all(dir);
 }
 
 TEST(StereoMsg, RoundTripsAndRefusesMismatchedImages) {

@@ -52,9 +52,9 @@ Expected<evermap::image_t> toMsg(const cv::Mat& image, int64_t utime, ImageEncod
 // The image of a message, CV_8UC1 of width x height (a copy, independent of the message).
 Expected<cv::Mat> fromMsg(const evermap::image_t& msg);
 
-// An image file (any format OpenCV reads) as a message: it must decode to 8-bit gray. With
-// kPng, a PNG file's own bytes are carried unchanged (lossless, no re-encoding); other
-// formats are encoded. Errors name the file.
+// An image file (any format OpenCV reads) as a message: it must decode to 8-bit gray, and is
+// then encoded as asked (a PNG file is re-encoded too: lossless either way). Errors name the
+// file.
 Expected<evermap::image_t> imageMsgFromFile(const std::filesystem::path& file, int64_t utime,
                                             ImageEncoding encoding);
 
