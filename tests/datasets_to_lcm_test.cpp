@@ -87,7 +87,8 @@ void expectOrderedWithCalibrationFirst(const std::vector<Event>& events) {
     if (e.channel == channels::kImu) utime = decode<evermap::imu_t>(e).utime;
     if (e.channel == channels::kGroundTruth) utime = decode<evermap::pose_t>(e).utime;
     if (e.channel == channels::kStereoCalib) utime = decode<evermap::stereo_calib_t>(e).utime;
-    if (e.channel != channels::kStereo) ASSERT_EQ(utime, e.timestamp) << e.channel;
+    if (e.channel == channels::kStereo) utime = decode<evermap::stereo_image_t>(e).utime;
+    ASSERT_EQ(utime, e.timestamp) << e.channel;
   }
 }
 

@@ -90,8 +90,9 @@ TEST(ImageMsg, Gray8AndPngRoundTripPixelExactThroughTheWire) {
     ASSERT_TRUE(msg.ok()) << msg.error().message;
     EXPECT_EQ(msg->width, 75);
     EXPECT_EQ(msg->height, 48);
-    EXPECT_EQ(msg->pixelformat, e == ImageEncoding::kPng ? evermap::image_t::FORMAT_PNG
-                                                         : evermap::image_t::FORMAT_GRAY8);
+    const int32_t format = e == ImageEncoding::kPng ? int32_t{evermap::image_t::FORMAT_PNG}
+                                                    : int32_t{evermap::image_t::FORMAT_GRAY8};
+    EXPECT_EQ(msg->pixelformat, format);
     const auto back = fromMsg(throughWire(*msg));
     ASSERT_TRUE(back.ok()) << back.error().message;
     EXPECT_TRUE(sameImage(*back, image)) << toString(e);

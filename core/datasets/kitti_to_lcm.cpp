@@ -68,7 +68,7 @@ Expected<ConversionSummary> convertKittiToLcm(const fs::path& sequence, const fs
   }
   if (frames.empty()) return makeError(sequence.string(), ": no frame with both images");
   auto first = messages::imageMsgFromFile(left_dir / frameName(frames.front()), 0,
-                                          messages::ImageEncoding::kPng);
+                                          messages::ImageEncoding::kGray8);  // for its size
   if (!first) return first.error();
   auto calibration = kittiStereoCalibration(*projections, first->width, first->height,
                                             (sequence / "calib.txt").string());
