@@ -10,6 +10,8 @@
 #include <utility>
 #include <variant>
 
+#include "core/common/number_text.h"
+
 namespace evermap {
 
 struct Error {
@@ -21,7 +23,10 @@ template <typename... Args>
 Error makeError(Args&&... parts) {
   std::string s;
   auto append = [&s](const auto& p) {
-    if constexpr (std::is_arithmetic_v<std::decay_t<decltype(p)>>) {
+    using P = std::decay_t<decltype(p)>;
+    if constexpr (std::is_floating_point_v<P>) {
+      s += numberText(p);
+    } else if constexpr (std::is_arithmetic_v<P>) {
       s += std::to_string(p);
     } else {
       s += p;

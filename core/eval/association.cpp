@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <limits>
 
-#include "core/eval/number_format.h"
+#include "core/common/number_text.h"
 
 namespace evermap::eval {
 namespace {

@@ -1,6 +1,6 @@
 #include "core/eval/evaluation.h"
 
-#include "core/eval/number_format.h"
+#include "core/common/number_text.h"
 
 namespace evermap::eval {
 

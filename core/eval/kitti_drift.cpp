@@ -5,7 +5,7 @@
 #include <numbers>
 
 #include "core/eval/metrics.h"
-#include "core/eval/number_format.h"
+#include "core/common/number_text.h"
 
 namespace evermap::eval {
 

@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <numbers>
 
-#include "core/eval/number_format.h"
+#include "core/common/number_text.h"
 
 namespace evermap::eval {
 namespace {

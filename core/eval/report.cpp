@@ -5,7 +5,7 @@
 #include <numbers>
 
 #include "core/common/atomic_write.h"
-#include "core/eval/number_format.h"
+#include "core/common/number_text.h"
 
 namespace evermap::eval {
 namespace {

@@ -6,7 +6,7 @@
 #include <fstream>
 
 #include "core/common/atomic_write.h"
-#include "core/eval/number_format.h"
+#include "core/common/number_text.h"
 
 namespace evermap::eval {
 namespace {

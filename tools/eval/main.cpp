@@ -10,7 +10,7 @@
 #include <string>
 
 #include "core/eval/evaluation.h"
-#include "core/eval/number_format.h"
+#include "core/common/number_text.h"
 #include "core/eval/plot.h"
 #include "core/eval/report.h"
 
