@@ -5,6 +5,7 @@
 #include <fstream>
 
 #include "core/datasets/euroc.h"
+#include "scratch_dir.h"
 #include "test_data.h"
 
 namespace evermap::datasets {
@@ -36,16 +37,12 @@ TEST(EurocReaders, ReadTheRealExcerptCompletely) {
 }
 
 TEST(EurocReaders, MalformedLineIsReportedWithFileAndLine) {
-  const auto path = std::filesystem::temp_directory_path() / "evermap_bad_imu.csv";
-  {
-    std::ofstream f(path);
-    f << "#header\n1,0,0,0,0,0,9.81\n2,0,0,zero,0,0,9.81\n";
-  }
+  const evermap::testing::ScratchDir dir;
+  const auto path = dir.write("evermap_bad_imu.csv", "#header\n1,0,0,0,0,0,9.81\n2,0,0,zero,0,0,9.81\n");
   const auto imu = readEurocImu(path);
   ASSERT_FALSE(imu.ok());
   EXPECT_NE(imu.error().message.find("evermap_bad_imu.csv:3"), std::string::npos)
       << imu.error().message;
-  std::filesystem::remove(path);
 }
 
 TEST(EurocReaders, MissingFileIsAnErrorNamingIt) {
@@ -71,22 +68,21 @@ TEST(EurocReaders, SecondsAreReadToTheNanosecond) {
 }
 
 TEST(EurocReaders, TumLayoutCanBeForcedWhateverTheExtension) {
-  const auto path = std::filesystem::temp_directory_path() / "evermap_gt_forced.tum";
-  {
-    std::ofstream f(path);
-    f << "# t x y z qx qy qz qw\n\t1.5 1 2 3 0 0 0 1\n2.5 1 2 4 0 0 0.7071068 0.7071068\n";
-  }
+  const evermap::testing::ScratchDir dir;
+  const auto path = dir.write(
+      "evermap_gt_forced.tum",
+      "# t x y z qx qy qz qw\n\t1.5 1 2 3 0 0 0 1\n2.5 1 2 4 0 0 0.7071068 0.7071068\n");
   const auto gt = readEurocGroundTruth(path, PoseFileLayout::kTum);
   ASSERT_TRUE(gt.ok()) << gt.error().message;
   ASSERT_EQ(gt->size(), 2u);
   EXPECT_EQ(gt->at(0).t_ns, 1500000000LL);
   EXPECT_NEAR(gt->at(1).world_T_body.translation().z(), 4.0, 1e-12);
   EXPECT_NEAR(gt->at(1).world_T_body.quaternion().z(), std::sqrt(0.5), 1e-6);
-  std::filesystem::remove(path);
 }
 
 TEST(EurocReaders, BadGroundTruthLinesNameFileAndLine) {
-  const auto path = std::filesystem::temp_directory_path() / "evermap_gt_bad.txt";
+  const evermap::testing::ScratchDir dir;
+  const auto path = dir / "evermap_gt_bad.txt";
   const auto expectError = [&](const std::string& body, const std::string& what) {
     {
       std::ofstream f(path);
@@ -103,7 +99,6 @@ TEST(EurocReaders, BadGroundTruthLinesNameFileAndLine) {
   expectError("0 0 0 0 0 0 0 1\n1 nan 0 0 0 0 0 1\n", "non-finite");
   expectError("0 0 0 0 0 0 0 1\n1 0 0 0 0 0 0 2\n", "quaternion norm");
   expectError("0 0 0 0 0 0 0 1\n1x 0 0 0 0 0 0 1\n", "");
-  std::filesystem::remove(path);
 }
 
 }  // namespace

@@ -7,18 +7,12 @@
 #include <sstream>
 
 #include "core/eval/plot.h"
+#include "scratch_dir.h"
 
 namespace evermap::eval {
 namespace {
 
 namespace fs = std::filesystem;
-
-fs::path freshDir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("evermap_eval_plot_" + name);
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 
 std::string readAll(const fs::path& p) {
   std::ifstream in(p);
@@ -42,7 +36,7 @@ std::vector<core::Vec3> square(double dx) {
 }
 
 TEST(TopViewPlot, PngKeepsEqualScaleOnBothAxes) {
-  const fs::path dir = freshDir("png");
+  const testing::ScratchDir dir;
   TopViewOptions options;
   options.title = "square";
   const auto gt = square(0.0);
@@ -68,12 +62,12 @@ TEST(TopViewPlot, PngKeepsEqualScaleOnBothAxes) {
   // 40 m drawn at the same pixels per metre on both axes.
   EXPECT_NEAR(x1 - x0, y1 - y0, 4) << x0 << " " << x1 << " " << y0 << " " << y1;
   EXPECT_GT(y1 - y0, 400);  // the square fills most of the 664-pixel-high plot area
-  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1);
   fs::remove_all(dir);
 }
 
 TEST(TopViewPlot, SvgHasBothPathsTheLabelsEscapedAndThePlaneNamed) {
-  const fs::path dir = freshDir("svg");
+  const testing::ScratchDir dir;
   TopViewOptions options;
   options.est_label = "est <a&b>";
   // KITTI-like: y (down) barely changes, so the auto plane is x-z.
@@ -100,7 +94,7 @@ TEST(TopViewPlot, SvgHasBothPathsTheLabelsEscapedAndThePlaneNamed) {
 }
 
 TEST(TopViewPlot, BadInputsAreErrors) {
-  const fs::path dir = freshDir("bad");
+  const testing::ScratchDir dir;
   const auto gt = square(0.0);
   auto s = writeTopView(dir / "top.jpg", gt, gt, {});
   ASSERT_FALSE(s.ok());
@@ -115,7 +109,7 @@ TEST(TopViewPlot, BadInputsAreErrors) {
   tiny.width_px = 10;
   EXPECT_FALSE(writeTopView(dir / "top.png", gt, gt, tiny).ok());
   EXPECT_FALSE(writeTopView(dir / "missing/top.png", gt, gt, {}).ok());
-  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 0);
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 0);
   EXPECT_FALSE(parsePlotPlane("top").ok());
   fs::remove_all(dir);
 }

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "core/eval/report.h"
+#include "scratch_dir.h"
 #include "eval_synthetic.h"
 #include "test_data.h"
 
@@ -218,14 +219,13 @@ TEST(Evaluation, JsonIsWrittenThroughATemporaryFile) {
   const Trajectory gt = testing::syntheticTrajectory(50);
   const auto r = evaluate(gt, gt, {});
   ASSERT_TRUE(r.ok());
-  const auto dir = std::filesystem::temp_directory_path() / "evermap_eval_json";
-  std::filesystem::create_directories(dir);
+  const evermap::testing::ScratchDir dir;
   ASSERT_TRUE(writeJson(*r, dir / "out.json").ok());
   std::ifstream in(dir / "out.json");
   std::stringstream ss;
   ss << in.rdbuf();
   EXPECT_TRUE(FlatJson(ss.str()).ok());
-  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir),
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()),
                           std::filesystem::directory_iterator()),
             1);
   std::filesystem::remove_all(dir);

@@ -6,6 +6,7 @@
 
 #include "core/eval/association.h"
 #include "core/eval/trajectory.h"
+#include "scratch_dir.h"
 #include "eval_synthetic.h"
 #include "test_data.h"
 
@@ -14,25 +15,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class TempDir {
- public:
-  TempDir() {
-    path_ =
-        fs::temp_directory_path() /
-        ("evermap_eval_traj_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-         "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  fs::path write(const std::string& name, const std::string& text) const {
-    std::ofstream(path_ / name) << text;
-    return path_ / name;
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
+using TempDir = evermap::testing::ScratchDir;
 
 TEST(TrajectoryReaders, KittiPosesGetStampsFromTheTimesFileOrTheLineIndex) {
   TempDir dir;
