@@ -228,7 +228,6 @@ TEST(Evaluation, JsonIsWrittenThroughATemporaryFile) {
   EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()),
                           std::filesystem::directory_iterator()),
             1);
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
