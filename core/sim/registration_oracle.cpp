@@ -159,14 +159,14 @@ void RegistrationOracle::registerTrue(const Node& node, const KeyframeTruth& que
   r->reason.clear();
 }
 
-void RegistrationOracle::registerFalse(const Node& node, register_result_t* r) {
-  // A wrong relative pose that looks like an ordinary registration: a horizontal offset in the
-  // camera's x-z plane and a turn about its (vertical) y axis.
+void RegistrationOracle::registerFalse(const Node& node, const SE3d& base, register_result_t* r) {
+  // A wrong relative pose that looks like an ordinary registration: `base` moved by a
+  // horizontal offset in the camera's x-z plane and turned about its (vertical) y axis.
   const double heading = rng_.uniform(-std::numbers::pi, std::numbers::pi);
   const double dist = rng_.uniform(0.5, 2.5);
   const double turn = (rng_.bernoulli(0.5) ? 1.0 : -1.0) * rng_.uniform(0.1, 0.5);
-  const SE3d wrong(core::SO3d::exp(Vec3(0.0, turn, 0.0)),
-                   Vec3(dist * std::cos(heading), 0.0, dist * std::sin(heading)));
+  const SE3d wrong = base * SE3d(core::SO3d::exp(Vec3(0.0, turn, 0.0)),
+                                 Vec3(dist * std::cos(heading), 0.0, dist * std::sin(heading)));
   const double st = o_.translation_sigma_m + o_.translation_sigma_per_m * dist;
   const double sr = o_.rotation_sigma_rad + o_.rotation_sigma_per_rad * std::abs(turn);
   r->status = register_result_t::STATUS_OK;
@@ -217,7 +217,7 @@ RegistrationOracle::Answer RegistrationOracle::nodeMode(const register_request_t
   Answer a{emptyResult(req, register_result_t::STATUS_TOO_FEW_INLIERS, "too few inliers"), false};
   a.result.node_id = node.id;
   if (rng_.bernoulli(o_.false_match_rate_node)) {
-    registerFalse(node, &a.result);
+    registerFalse(node, node.world_T_cam.inverse() * query.world_T_cam, &a.result);
     a.false_match = true;
     return a;
   }
@@ -254,7 +254,8 @@ RegistrationOracle::Answer RegistrationOracle::globalMode(const register_request
       if (n.true_floor != query.floor || (n.world_T_cam.translation() - q).norm() > o_.max_distance_m) break;
       pick = pool[rng_.index(static_cast<int64_t>(pool.size()))];
     }
-    registerFalse(nodes_[pick], &a.result);
+    // Close to the wrong node, as if the query were there.
+    registerFalse(nodes_[pick], SE3d(), &a.result);
     a.false_match = true;
     return a;
   }

@@ -16,8 +16,10 @@
 //   σt = translation_sigma_m + translation_sigma_per_m * d,
 //   σr = rotation_sigma_rad + rotation_sigma_per_rad * a,
 // with that covariance. With probability false_match_rate_* per request the answer is a
-// false match instead: STATUS_OK with a plausible but wrong node (global) or a wrong pose
-// (0.5-2.5 m, 0.1-0.5 rad off), reported with an ordinary-looking covariance.
+// false match instead: STATUS_OK with a plausible but wrong node (global: a node of the floor
+// away from the query, with a relative pose of 0.5-2.5 m and 0.1-0.5 rad as if the query
+// were near it) or a wrong pose (node mode: 0.5-2.5 m and 0.1-0.5 rad off the truth), reported
+// with an ordinary-looking covariance.
 // Random draws come from the oracle's own stream, in request order.
 
 #include <cstdint>
@@ -116,7 +118,7 @@ class RegistrationOracle {
   Answer nodeMode(const register_request_t& req, const KeyframeTruth& query);
   Answer globalMode(const register_request_t& req, const KeyframeTruth& query);
   void registerTrue(const Node& node, const KeyframeTruth& query, double p, register_result_t* r);
-  void registerFalse(const Node& node, register_result_t* r);
+  void registerFalse(const Node& node, const SE3d& base, register_result_t* r);
   static register_result_t emptyResult(const register_request_t& req, int8_t status, const char* reason);
 
   OracleOptions o_;

@@ -1,7 +1,9 @@
 #include "core/sim/sensors.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
+#include <string>
 
 #include "core/geometry/se2.h"
 
@@ -16,14 +18,20 @@ void setDiagonal6(double* cov, double sigma_t, double sigma_r) {
   }
 }
 
+std::string shortest(double v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
 Status positive(double v, const char* name) {
-  if (!(v > 0.0)) return makeError(name, ": must be > 0, got ", v);
+  if (!(v > 0.0)) return makeError(name, ": must be > 0, got ", shortest(v));
   return Ok{};
 }
 
 Status nonNegative(std::initializer_list<double> values, const char* name) {
   for (double v : values) {
-    if (!(v >= 0.0)) return makeError(name, ": noise and rate parameters must be >= 0, got ", v);
+    if (!(v >= 0.0)) return makeError(name, ": noise and rate parameters must be >= 0, got ", shortest(v));
   }
   return Ok{};
 }

@@ -171,7 +171,12 @@ std::string SimOptions::toConfigText() const {
   std::ostringstream out;
   out << "mode = " << (mode == Mode::kBuilding ? "building" : "trajectory") << "\n";
   SimOptions copy = *this;
-  visitOptions(copy, [&](const char* key, auto* field) { out << key << " = " << format(*field) << "\n"; });
+  visitOptions(copy, [&](const char* key, auto* field) {
+    const std::string value = format(*field);
+    // An empty value cannot be written as `key = value`: leave the default in place.
+    if (value.empty()) out << "# " << key << " = (empty)\n";
+    else out << key << " = " << value << "\n";
+  });
   return out.str();
 }
 
