@@ -27,11 +27,11 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "core/common/key_value_file.h"
+#include "core/sim/oracle_server.h"
 #include "core/sim/registration_oracle.h"
 #include "core/sim/request_load.h"
 #include "core/sim/run.h"
 #include "core/sim/run_output.h"
-#include "oracle_server.h"
 
 namespace {
 
@@ -182,7 +182,7 @@ int runServe(const RunPlan& plan, const Args& args) {
     return 1;
   }
   evermap::sim::RegistrationOracle oracle(plan.options().oracle, plan.oracleSeed());
-  evermap::sim_measure::OracleServer server(lcm, oracle);
+  evermap::sim::OracleServer server(lcm, oracle);
   LcmSink sink(lcm, args.speed);
   evermap::sim::SessionObservers observers;
   observers.on_keyframe = [&](const KeyframeTruth& k) { oracle.addKeyframe(k); };
@@ -218,7 +218,7 @@ int runOracle(const RunPlan& plan, const Args& args) {
   observers.on_keyframe = [&](const KeyframeTruth& k) { oracle.addKeyframe(k); };
   evermap::sim::NullSink null;
   (void)evermap::sim::generateRun(plan, [&](int) -> evermap::sim::MessageSink& { return null; }, observers);
-  evermap::sim_measure::OracleServer server(lcm, oracle);
+  evermap::sim::OracleServer server(lcm, oracle);
   std::printf("evermap-sim-measure: oracle ready, %lld keyframes known\n",
               static_cast<long long>(oracle.summary().keyframes));
   std::fflush(stdout);

@@ -1,12 +1,12 @@
-#include "oracle_server.h"
+#include "core/sim/oracle_server.h"
 
 #include <cstdio>
 
 #include "core/messages/channels.h"
 
-namespace evermap::sim_measure {
+namespace evermap::sim {
 
-OracleServer::OracleServer(lcm::LCM& lcm, sim::RegistrationOracle& oracle) : lcm_(lcm), oracle_(oracle) {
+OracleServer::OracleServer(lcm::LCM& lcm, RegistrationOracle& oracle) : lcm_(lcm), oracle_(oracle) {
   lcm_.subscribe(channels::kNodeAdded, &OracleServer::onNodeAdded, this);
   lcm_.subscribe(channels::kRegisterRequest, &OracleServer::onRequest, this);
 }
@@ -15,11 +15,11 @@ void OracleServer::onNodeAdded(const lcm::ReceiveBuffer* buffer, const std::stri
   node_added_t m;
   if (m.decode(buffer->data, 0, static_cast<int>(buffer->data_size)) < 0 || m.keyframe_utime <= 0) {
     ++dropped_;
-    std::fprintf(stderr, "evermap-sim-measure: dropped a malformed %s message\n", channel.c_str());
+    std::fprintf(stderr, "evermap::sim oracle: dropped a malformed %s message\n", channel.c_str());
     return;
   }
   if (!oracle_.addNode(m)) {
-    std::fprintf(stderr, "evermap-sim-measure: node %lld names unknown keyframe %lld\n",
+    std::fprintf(stderr, "evermap::sim oracle: node %lld names unknown keyframe %lld\n",
                  static_cast<long long>(m.node_id), static_cast<long long>(m.keyframe_utime));
   }
 }
@@ -28,7 +28,7 @@ void OracleServer::onRequest(const lcm::ReceiveBuffer* buffer, const std::string
   register_request_t m;
   if (m.decode(buffer->data, 0, static_cast<int>(buffer->data_size)) < 0) {
     ++dropped_;
-    std::fprintf(stderr, "evermap-sim-measure: dropped a malformed %s message\n", channel.c_str());
+    std::fprintf(stderr, "evermap::sim oracle: dropped a malformed %s message\n", channel.c_str());
     return;
   }
   // The oracle answers malformed requests itself (STATUS_MALFORMED), so the mapper hears back.
@@ -37,4 +37,4 @@ void OracleServer::onRequest(const lcm::ReceiveBuffer* buffer, const std::string
   ++answered_;
 }
 
-}  // namespace evermap::sim_measure
+}  // namespace evermap::sim
