@@ -1,6 +1,7 @@
 // core/datasets/euroc: the readers against the real EuRoC excerpt and against broken files.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 
 #include "core/datasets/euroc.h"
@@ -51,6 +52,58 @@ TEST(EurocReaders, MissingFileIsAnErrorNamingIt) {
   const auto r = readEurocImages("/nonexistent/cam0/data.csv");
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().message.find("/nonexistent/cam0/data.csv"), std::string::npos);
+}
+
+TEST(EurocReaders, SecondsAreReadToTheNanosecond) {
+  int64_t ns = 0;
+  ASSERT_TRUE(parseSecondsToNs("1403715274.30214", &ns));
+  EXPECT_EQ(ns, 1403715274302140000LL);
+  ASSERT_TRUE(parseSecondsToNs("-0.5", &ns));
+  EXPECT_EQ(ns, -500000000LL);
+  ASSERT_TRUE(parseSecondsToNs("12", &ns));
+  EXPECT_EQ(ns, 12000000000LL);
+  ASSERT_TRUE(parseSecondsToNs("1.038752e-01", &ns));  // KITTI times.txt style
+  EXPECT_EQ(ns, 103875200LL);
+  EXPECT_FALSE(parseSecondsToNs("", &ns));
+  EXPECT_FALSE(parseSecondsToNs("1.2.3", &ns));
+  EXPECT_FALSE(parseSecondsToNs("abc", &ns));
+  EXPECT_FALSE(parseSecondsToNs("nan", &ns));
+}
+
+TEST(EurocReaders, TumLayoutCanBeForcedWhateverTheExtension) {
+  const auto path = std::filesystem::temp_directory_path() / "evermap_gt_forced.tum";
+  {
+    std::ofstream f(path);
+    f << "# t x y z qx qy qz qw\n\t1.5 1 2 3 0 0 0 1\n2.5 1 2 4 0 0 0.7071068 0.7071068\n";
+  }
+  const auto gt = readEurocGroundTruth(path, PoseFileLayout::kTum);
+  ASSERT_TRUE(gt.ok()) << gt.error().message;
+  ASSERT_EQ(gt->size(), 2u);
+  EXPECT_EQ(gt->at(0).t_ns, 1500000000LL);
+  EXPECT_NEAR(gt->at(1).world_T_body.translation().z(), 4.0, 1e-12);
+  EXPECT_NEAR(gt->at(1).world_T_body.quaternion().z(), std::sqrt(0.5), 1e-6);
+  std::filesystem::remove(path);
+}
+
+TEST(EurocReaders, BadGroundTruthLinesNameFileAndLine) {
+  const auto path = std::filesystem::temp_directory_path() / "evermap_gt_bad.txt";
+  const auto expectError = [&](const std::string& body, const std::string& what) {
+    {
+      std::ofstream f(path);
+      f << body;
+    }
+    const auto gt = readEurocGroundTruth(path);
+    ASSERT_FALSE(gt.ok()) << body;
+    EXPECT_NE(gt.error().message.find("evermap_gt_bad.txt:2"), std::string::npos)
+        << gt.error().message;
+    EXPECT_NE(gt.error().message.find(what), std::string::npos) << gt.error().message;
+  };
+  expectError("0 0 0 0 0 0 0 1\n1 0 0 0 0 0 1\n", "expected 8 numbers");
+  expectError("0 0 0 0 0 0 0 1\n1 0 0 0 0 0 0 1 5\n", "expected 8 numbers");
+  expectError("0 0 0 0 0 0 0 1\n1 nan 0 0 0 0 0 1\n", "non-finite");
+  expectError("0 0 0 0 0 0 0 1\n1 0 0 0 0 0 0 2\n", "quaternion norm");
+  expectError("0 0 0 0 0 0 0 1\n1x 0 0 0 0 0 0 1\n", "");
+  std::filesystem::remove(path);
 }
 
 }  // namespace

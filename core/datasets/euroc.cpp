@@ -40,29 +40,45 @@ std::vector<std::string> split(const std::string& line, char sep) {
   return out;
 }
 
+}  // namespace
+
 // "1403715274.30214" -> ns, exactly: seconds since the epoch do not fit a double's 53 bits
-// at nanosecond resolution.
+// at nanosecond resolution, so the whole and fractional parts are read as integers. Fields
+// with an exponent (KITTI times.txt: "1.038752e-01") go through a double.
 bool parseSecondsToNs(const std::string& field, int64_t* out) {
-  const size_t dot = field.find('.');
-  const std::string whole = field.substr(0, dot);
-  int64_t s = 0;
-  auto [p, ec] = std::from_chars(whole.data(), whole.data() + whole.size(), s);
-  if (ec != std::errc() || p != whole.data() + whole.size()) return false;
-  int64_t frac_ns = 0;
-  if (dot != std::string::npos) {
-    std::string frac = field.substr(dot + 1);
-    if (frac.empty() || frac.size() > 9) frac = frac.substr(0, 9);
-    for (char c : frac) {
-      if (c < '0' || c > '9') return false;
+  if (field.empty()) return false;
+  if (field.find_first_of("eE") != std::string::npos) {
+    double s = 0.0;
+    auto [p, ec] = std::from_chars(field.data(), field.data() + field.size(), s);
+    if (ec != std::errc() || p != field.data() + field.size() || !std::isfinite(s) ||
+        std::abs(s) > 9.2e9) {
+      return false;
     }
-    frac.append(9 - frac.size(), '0');
-    frac_ns = std::stoll(frac);
+    *out = std::llround(s * 1e9);
+    return true;
   }
-  *out = s * 1000000000LL + (s < 0 ? -frac_ns : frac_ns);
+  const bool negative = field[0] == '-';
+  const std::string body = negative ? field.substr(1) : field;
+  const size_t dot = body.find('.');
+  const std::string whole = body.substr(0, dot);
+  const std::string frac = dot == std::string::npos ? "" : body.substr(dot + 1);
+  if (whole.empty() && frac.empty()) return false;
+  int64_t s = 0;
+  if (!whole.empty()) {
+    auto [p, ec] = std::from_chars(whole.data(), whole.data() + whole.size(), s);
+    if (ec != std::errc() || p != whole.data() + whole.size() || s > 9200000000LL) return false;
+  }
+  int64_t frac_ns = 0;
+  int64_t digit_value = 100000000;  // the first fractional digit is worth 1e8 ns
+  for (char c : frac) {
+    if (c < '0' || c > '9') return false;
+    frac_ns += (c - '0') * digit_value;  // digits beyond the 9th (sub-ns) are dropped
+    digit_value /= 10;
+  }
+  const int64_t ns = s * 1000000000LL + frac_ns;
+  *out = negative ? -ns : ns;
   return true;
 }
-
-}  // namespace
 
 bool parseNumbers(const std::string& line, char separator, std::vector<double>* out) {
   out->clear();
@@ -138,10 +154,12 @@ Expected<std::vector<ImageEntry>> readEurocImages(const std::filesystem::path& c
   return out;
 }
 
-Expected<std::vector<StampedPose>> readEurocGroundTruth(const std::filesystem::path& file) {
+Expected<std::vector<StampedPose>> readEurocGroundTruth(const std::filesystem::path& file,
+                                                        PoseFileLayout layout) {
   std::ifstream in(file);
   if (!in) return makeError(file.string(), ": cannot open");
-  const bool tum = file.extension() == ".txt";
+  const bool tum = layout == PoseFileLayout::kTum ||
+                   (layout == PoseFileLayout::kByExtension && file.extension() == ".txt");
   std::vector<StampedPose> out;
   std::string line;
   std::vector<double> v;
@@ -151,10 +169,12 @@ Expected<std::vector<StampedPose>> readEurocGroundTruth(const std::filesystem::p
     Eigen::Vector3d t;
     Eigen::Quaterniond q;
     if (tum) {
-      if (!parseNumbers(line, ' ', &v) || v.size() < 8) {
-        return makeError(file.string(), ":", n, ": expected TUM \"t x y z qx qy qz qw\"");
+      if (!parseNumbers(line, ' ', &v) || v.size() != 8) {
+        return makeError(file.string(), ":", n,
+                         ": expected 8 numbers (TUM \"t x y z qx qy qz qw\")");
       }
-      const std::string first = line.substr(0, line.find_first_of(" \t"));
+      const size_t b = line.find_first_not_of(" \t");
+      const std::string first = line.substr(b, line.find_first_of(" \t\r", b) - b);
       if (!parseSecondsToNs(first, &p.t_ns)) {
         return makeError(file.string(), ":", n, ": bad time stamp \"", first, "\"");
       }
@@ -167,8 +187,13 @@ Expected<std::vector<StampedPose>> readEurocGroundTruth(const std::filesystem::p
       t = Eigen::Vector3d(v[1], v[2], v[3]);
       q = Eigen::Quaterniond(v[4], v[5], v[6], v[7]);
     }
-    if (!t.allFinite() || !q.coeffs().allFinite() || q.norm() < 0.5) {
-      return makeError(file.string(), ":", n, ": invalid pose");
+    if (!t.allFinite() || !q.coeffs().allFinite()) {
+      return makeError(file.string(), ":", n, ": non-finite value in the pose");
+    }
+    // Files print quaternions with ~6 digits; a norm far from 1 means a wrong column order
+    // or a corrupt line, not rounding.
+    if (std::abs(q.norm() - 1.0) > 1e-2) {
+      return makeError(file.string(), ":", n, ": quaternion norm ", q.norm(), " is not 1");
     }
     p.world_T_body = core::SE3d(q, t);
     out.push_back(p);

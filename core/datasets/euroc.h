@@ -34,10 +34,24 @@ struct StampedPose {
 Expected<std::vector<ImuSample>> readEurocImu(const std::filesystem::path& csv);
 // camN/data.csv: "t[ns], filename".
 Expected<std::vector<ImageEntry>> readEurocImages(const std::filesystem::path& csv);
-// Ground truth: EuRoC state_groundtruth_estimate0/data.csv layout
-// "t[ns], p xyz, q wxyz, ..." (extra columns ignored), or TUM text "t[s] x y z qx qy qz qw"
-// when the file name ends in .txt.
-Expected<std::vector<StampedPose>> readEurocGroundTruth(const std::filesystem::path& file);
+// How a ground-truth file is laid out.
+enum class PoseFileLayout {
+  kByExtension,  // TUM when the file name ends in .txt, else EuRoC CSV
+  kEurocCsv,     // "t[ns], p xyz, q wxyz, ..." (extra columns, e.g. v, bw, ba, ignored)
+  kTum,          // "t[s] x y z qx qy qz qw", exactly 8 whitespace-separated numbers
+};
+
+// Ground truth: EuRoC state_groundtruth_estimate0/data.csv layout or TUM text (Sturm et al.,
+// IROS 2012). Lines starting with '#' and blank lines are skipped. TUM stamps are read
+// exactly to the nanosecond ("1403715274.30214"); exponent notation ("1.5e+01") is accepted
+// at double precision. A malformed line, a non-finite value or a quaternion far from unit
+// norm is an error naming file:line. Also the TUM reader of core/eval.
+Expected<std::vector<StampedPose>> readEurocGroundTruth(
+    const std::filesystem::path& file, PoseFileLayout layout = PoseFileLayout::kByExtension);
+
+// Seconds as text ("1403715274.30214", "0.000000e+00") to nanoseconds: exact for plain
+// decimals, double precision with an exponent. False when the field is not a number.
+bool parseSecondsToNs(const std::string& field, int64_t* out);
 
 // Splits one CSV/whitespace line into numbers; returns false on a field that is not a number.
 bool parseNumbers(const std::string& line, char separator, std::vector<double>* out);

@@ -1,0 +1,40 @@
+#include "core/datasets/to_lcm.h"
+
+#include <cstdio>
+
+namespace evermap::datasets {
+
+std::string ConversionSummary::report() const {
+  std::string out;
+  char line[256];
+  for (const auto& [channel, count] : messages) {
+    std::snprintf(line, sizeof line, "  %-14s %10lld messages\n", channel.c_str(),
+                  static_cast<long long>(count));
+    out += line;
+  }
+  std::snprintf(line, sizeof line,
+                "skipped: %lld image rows/frames without an image file, %lld unpaired stamps\n",
+                static_cast<long long>(skipped_missing_image),
+                static_cast<long long>(skipped_unpaired));
+  out += line;
+  out += "ground truth: " + (ground_truth.empty() ? std::string("none") : ground_truth) + "\n";
+  std::snprintf(line, sizeof line, "log size: %.1f MB\n", static_cast<double>(bytes) / 1e6);
+  out += line;
+  return out;
+}
+
+Status EurocToLcmOptions::validate() const {
+  if (!ground_truth.empty() && !std::filesystem::is_regular_file(ground_truth)) {
+    return makeError(ground_truth.string(), ": ground-truth file not found");
+  }
+  return Ok{};
+}
+
+Status KittiToLcmOptions::validate() const {
+  if (!poses.empty() && !std::filesystem::is_regular_file(poses)) {
+    return makeError(poses.string(), ": poses file not found");
+  }
+  return Ok{};
+}
+
+}  // namespace evermap::datasets

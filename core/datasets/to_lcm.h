@@ -1,0 +1,70 @@
+#pragma once
+// Data-set converters: an EuRoC ASL folder or a KITTI odometry sequence to one LCM log with
+// the channels of core/messages/channels.h, every event in time order, so that the whole
+// system (or lcm-logplayer) replays a data set as if the sensors were live.
+//
+//   STEREO_CALIB  stereo_calib_t, once, first (utime = the earliest stamp of the log)
+//   STEREO        stereo_image_t per synchronised pair (EuRoC: raw, rectified = 0;
+//                 KITTI: rectified = 1), PNG-compressed or raw gray8
+//   IMU           imu_t per row of imu0/data.csv (EuRoC only)
+//   GROUND_TRUTH  pose_t world_T_body per ground-truth row (zero covariance, floor and
+//                 session -1); KITTI: body = camera 0
+// Events with the same utime are written IMU, GROUND_TRUTH, STEREO: a consumer has the
+// inertial data up to an image before the image.
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+
+#include "core/common/expected.h"
+#include "core/messages/convert.h"
+
+namespace evermap::datasets {
+
+struct ConversionSummary {
+  std::map<std::string, int64_t> messages;  // per channel
+  int64_t bytes = 0;                        // size of the log
+  // EuRoC: rows of camN/data.csv whose image file does not exist. KITTI: frames of times.txt
+  // skipped because image_0/NNNNNN.png or image_1/NNNNNN.png does not exist.
+  int64_t skipped_missing_image = 0;
+  // EuRoC: stamps with an image in one camera only (after the missing files are dropped).
+  int64_t skipped_unpaired = 0;
+  std::string ground_truth;  // the file the poses came from; empty when there were none
+
+  // A few plain lines: per-channel counts, what was skipped, the ground-truth source.
+  std::string report() const;
+};
+
+struct EurocToLcmOptions {
+  messages::ImageEncoding encoding = messages::ImageEncoding::kPng;
+  // Ground truth, EuRoC CSV ("t[ns], p xyz, q wxyz, ...") or TUM text (.txt). Empty: use
+  // mav0/state_groundtruth_estimate0/data.csv when it exists, else write no ground truth.
+  std::filesystem::path ground_truth;
+
+  Status validate() const;
+};
+
+// `asl_folder` is the folder holding mav0/ (mav0 itself is accepted too). Errors name the
+// file: a calibration that does not validate, a corrupt or unreadable image, an image whose
+// size differs from the calibration. Nothing is left at `output` on failure.
+Expected<ConversionSummary> convertEurocToLcm(const std::filesystem::path& asl_folder,
+                                              const std::filesystem::path& output,
+                                              const EurocToLcmOptions& options);
+
+struct KittiToLcmOptions {
+  messages::ImageEncoding encoding = messages::ImageEncoding::kPng;
+  // Ground-truth poses (KITTI format, one line per frame). Empty: <sequence>/poses.txt when it
+  // exists, else no ground truth.
+  std::filesystem::path poses;
+
+  Status validate() const;
+};
+
+// `sequence` holds image_0/, image_1/, calib.txt and times.txt. Refuses a folder without
+// image_1 (a monocular copy) and a poses file whose length differs from times.txt.
+Expected<ConversionSummary> convertKittiToLcm(const std::filesystem::path& sequence,
+                                              const std::filesystem::path& output,
+                                              const KittiToLcmOptions& options);
+
+}  // namespace evermap::datasets

@@ -1,0 +1,237 @@
+// core/camera calibration structs and the EuRoC sensor.yaml reader: the real files read
+// correctly, and every inconsistent calibration is refused with a message naming the input.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <regex>
+#include <sstream>
+#include <string>
+
+#include "core/camera/calibration.h"
+#include "core/datasets/euroc_calibration.h"
+#include "scratch_dir.h"
+#include "test_data.h"
+
+namespace evermap::core {
+namespace {
+
+namespace fs = std::filesystem;
+
+CameraCalibration pinhole() {
+  CameraCalibration c;
+  c.width = 640;
+  c.height = 480;
+  c.fx = c.fy = 400.0;
+  c.cx = 320.0;
+  c.cy = 240.0;
+  return c;
+}
+
+// A rectified pair with baseline b: the right camera at +b along x of the left.
+StereoCalibration rectifiedPair(double b) {
+  StereoCalibration s;
+  s.rectified = true;
+  s.left = pinhole();
+  s.right = pinhole();
+  s.right.body_T_cam = SE3d(SO3d(), Vec3(b, 0.0, 0.0));
+  return s;
+}
+
+void expectRefused(const Status& s, const std::string& needle) {
+  ASSERT_FALSE(s.ok()) << "accepted, wanted an error containing: " << needle;
+  EXPECT_NE(s.error().message.find(needle), std::string::npos)
+      << "got: " << s.error().message << "\nwanted: " << needle;
+}
+
+TEST(CameraCalibration, EachInconsistentFieldIsRefusedByName) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_TRUE(pinhole().validate("cam").ok());
+  auto c = pinhole();
+  c.fx = 0.0;
+  expectRefused(c.validate("cam0"), "cam0: focal length fx = 0");
+  c = pinhole();
+  c.fy = nan;
+  expectRefused(c.validate("cam0"), "focal length fy = nan");
+  c = pinhole();
+  c.fx = -458.0;
+  expectRefused(c.validate("cam0"), "fx = -458");
+  c = pinhole();
+  c.width = 0;
+  expectRefused(c.validate("cam0"), "image size 0x480 must be positive");
+  c = pinhole();
+  c.height = -480;
+  expectRefused(c.validate("cam0"), "image size 640x-480");
+  c = pinhole();
+  c.cx = 640.0;
+  expectRefused(c.validate("cam0"), "principal point (640, 240) is outside the 640x480 image");
+  c = pinhole();
+  c.cy = -1.0;
+  expectRefused(c.validate("cam0"), "principal point (320, -1) is outside");
+  c = pinhole();
+  c.distortion_model = DistortionModel::kRadTan;
+  c.distortion = {0.1, 0.2};
+  expectRefused(c.validate("cam0"), "needs 4 or 5 coefficients");
+  c.distortion = {0.1, nan, 0.0, 0.0};
+  expectRefused(c.validate("cam0"), "non-finite distortion");
+  c = pinhole();
+  c.distortion = {0.1};
+  expectRefused(c.validate("cam0"), "distortion model none with 1 coefficients");
+}
+
+TEST(StereoCalibration, ConsistentPairsAreAccepted) {
+  EXPECT_TRUE(rectifiedPair(0.537).validate().ok());
+  const auto cam = rectifiedStereoCamera(rectifiedPair(0.537));
+  ASSERT_TRUE(cam.ok()) << cam.error().message;
+  EXPECT_NEAR(cam->baselineM(), 0.537, 1e-12);
+  // An unrectified pair may be rotated and distorted.
+  StereoCalibration raw = rectifiedPair(0.11);
+  raw.rectified = false;
+  raw.right.body_T_cam = SE3d(SO3d::exp(Vec3(0.01, -0.02, 0.005)), Vec3(0.11, 0.002, -0.001));
+  raw.right.distortion_model = DistortionModel::kRadTan;
+  raw.right.distortion = {-0.28, 0.07, 0.0002, 0.00002};
+  EXPECT_TRUE(raw.validate().ok());
+}
+
+TEST(StereoCalibration, ImageSizeMismatchBetweenLeftAndRightIsRefused) {
+  StereoCalibration s = rectifiedPair(0.1);
+  s.right.width = 752;
+  s.right.cx = 376.0;
+  expectRefused(s.validate("rig.yaml"), "rig.yaml: image sizes differ: left 640x480, right 752x480");
+}
+
+TEST(StereoCalibration, ZeroBaselineIsRefused) {
+  expectRefused(rectifiedPair(0.0).validate(), "baseline is 0 m");
+  StereoCalibration raw = rectifiedPair(0.0);
+  raw.rectified = false;
+  expectRefused(raw.validate(), "baseline is 0 m");
+}
+
+TEST(StereoCalibration, RightCameraOnTheLeftIsRefusedAsSwapped) {
+  expectRefused(rectifiedPair(-0.5).validate(), "left and right swapped?");
+}
+
+TEST(StereoCalibration, RectifiedPairsMustBeUndistortedAlignedAndShareIntrinsics) {
+  StereoCalibration s = rectifiedPair(0.5);
+  s.left.distortion_model = DistortionModel::kRadTan;
+  s.left.distortion = {0.1, 0.0, 0.0, 0.0};
+  expectRefused(s.validate(), "marked rectified but a camera has a distortion model");
+  s = rectifiedPair(0.5);
+  s.right.fx = 401.0;
+  expectRefused(s.validate(), "marked rectified but the intrinsics differ");
+  s = rectifiedPair(0.5);
+  s.right.body_T_cam = SE3d(SO3d::exp(Vec3(0.0, 0.01, 0.0)), Vec3(0.5, 0.0, 0.0));
+  expectRefused(s.validate(), "marked rectified but the cameras are rotated");
+  s = rectifiedPair(0.5);
+  s.right.body_T_cam = SE3d(SO3d(), Vec3(0.5, 0.05, 0.0));
+  expectRefused(s.validate(), "the baseline is not along x");
+  s = rectifiedPair(0.5);
+  s.rectified = false;
+  EXPECT_FALSE(rectifiedStereoCamera(s).ok());
+}
+
+// ---- EuRoC sensor.yaml ----
+
+std::string readText(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Writes `text` to `name` in the test's scratch folder.
+fs::path writeTemp(const testing::ScratchDir& dir, const std::string& name, const std::string& text) {
+  std::ofstream(dir / name) << text;
+  return dir / name;
+}
+
+TEST(EurocCalibration, RealSensorYamlFilesAreReadExactly) {
+  EVERMAP_REQUIRE_DATA(dir, "euroc-v101-micro");
+  const auto c = datasets::readEurocStereoCalibration(dir / "mav0/cam0/sensor.yaml",
+                                                      dir / "mav0/cam1/sensor.yaml");
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  EXPECT_FALSE(c->rectified);
+  EXPECT_EQ(c->left.width, 752);
+  EXPECT_EQ(c->left.height, 480);
+  EXPECT_DOUBLE_EQ(c->left.fx, 458.654);
+  EXPECT_DOUBLE_EQ(c->left.fy, 457.296);
+  EXPECT_DOUBLE_EQ(c->left.cx, 367.215);
+  EXPECT_DOUBLE_EQ(c->left.cy, 248.375);
+  EXPECT_DOUBLE_EQ(c->right.cx, 379.999);
+  ASSERT_EQ(c->left.distortion.size(), 4u);
+  EXPECT_EQ(c->left.distortion_model, DistortionModel::kRadTan);
+  EXPECT_DOUBLE_EQ(c->left.distortion[0], -0.28340811);
+  EXPECT_DOUBLE_EQ(c->right.distortion[3], -3.55590700e-05);
+  EXPECT_NEAR(c->left.body_T_cam.translation().y(), -0.064676986768, 1e-12);
+  EXPECT_NEAR(c->left.body_T_cam.rotationMatrix()(0, 1), -0.999880929698, 1e-9);
+  // The known EuRoC stereo extrinsics: cam1 about 0.110 m along +x of cam0.
+  const SE3d r_T_l = c->right_T_left();
+  EXPECT_NEAR(r_T_l.translation().norm(), 0.1101, 5e-4);
+  EXPECT_NEAR(r_T_l.translation().x(), -0.1101, 1e-3);
+  EXPECT_NEAR(rotationAngle(r_T_l.so3()), 0.0143, 1e-3);  // the two cameras differ by 0.8 deg
+}
+
+TEST(EurocCalibration, BrokenFilesAreRefusedNamingTheFileAndField) {
+  EVERMAP_REQUIRE_DATA(dir, "euroc-v101-micro");
+  const testing::ScratchDir scratch;
+  const std::string good = readText(dir / "mav0/cam0/sensor.yaml");
+  const auto refuse = [](const fs::path& p, const std::string& needle) {
+    const auto c = datasets::readEurocCameraYaml(p);
+    ASSERT_FALSE(c.ok()) << p << " accepted";
+    EXPECT_NE(c.error().message.find(p.string()), std::string::npos) << c.error().message;
+    EXPECT_NE(c.error().message.find(needle), std::string::npos)
+        << "got: " << c.error().message << "\nwanted: " << needle;
+  };
+  refuse("/nonexistent/cam0/sensor.yaml", "cannot open");
+  refuse(writeTemp(scratch, "garbage.yaml", "%YAML:1.0\nintrinsics: [1, 2\n  : ]]]\n"), "");
+  refuse(writeTemp(scratch, "no_intrinsics.yaml",
+                   std::regex_replace(good, std::regex("intrinsics:.*"), "")),
+         "intrinsics must be 4 numbers");
+  refuse(writeTemp(scratch, "three_intrinsics.yaml",
+                   std::regex_replace(good, std::regex("intrinsics: \\[[^\\]]*\\]"),
+                                      "intrinsics: [458.654, 457.296, 367.215]")),
+         "intrinsics must be 4 numbers");
+  refuse(writeTemp(scratch, "zero_fx.yaml",
+                   std::regex_replace(good, std::regex("458\\.654"), "0.0")),
+         "focal length fx = 0");
+  refuse(writeTemp(scratch, "nan_fy.yaml", std::regex_replace(good, std::regex("457\\.296"), ".nan")),
+         "focal length fy = nan");
+  refuse(writeTemp(scratch, "pp_outside.yaml",
+                   std::regex_replace(good, std::regex("367\\.215"), "900.0")),
+         "principal point (900, 248.375) is outside the 752x480 image");
+  refuse(writeTemp(scratch, "zero_size.yaml",
+                   std::regex_replace(good, std::regex("resolution: \\[752, 480\\]"),
+                                      "resolution: [0, 480]")),
+         "image size 0x480 must be positive");
+  refuse(writeTemp(scratch, "fisheye.yaml",
+                   std::regex_replace(good, std::regex("radial-tangential"), "equidistant")),
+         "distortion_model \"equidistant\" is not supported");
+  refuse(writeTemp(scratch, "bad_tbs.yaml",
+                   std::regex_replace(good, std::regex("0\\.0148655429818"), "0.5")),
+         "T_BS is not a rigid transform");
+}
+
+TEST(EurocCalibration, InconsistentPairsAreRefused) {
+  EVERMAP_REQUIRE_DATA(dir, "euroc-v101-micro");
+  const testing::ScratchDir scratch;
+  const fs::path cam0 = dir / "mav0/cam0/sensor.yaml";
+  const std::string right = readText(dir / "mav0/cam1/sensor.yaml");
+  // Same file twice: the cameras coincide.
+  auto c = datasets::readEurocStereoCalibration(cam0, cam0);
+  ASSERT_FALSE(c.ok());
+  EXPECT_NE(c.error().message.find("baseline is 0 m"), std::string::npos) << c.error().message;
+  // A right camera of another resolution.
+  const fs::path small = writeTemp(
+      scratch, "cam1_small.yaml",
+      std::regex_replace(right, std::regex("resolution: \\[752, 480\\]"), "resolution: [640, 480]"));
+  c = datasets::readEurocStereoCalibration(cam0, small);
+  ASSERT_FALSE(c.ok());
+  EXPECT_NE(c.error().message.find("image sizes differ: left 752x480, right 640x480"),
+            std::string::npos)
+      << c.error().message;
+  EXPECT_NE(c.error().message.find("cam1_small.yaml"), std::string::npos) << c.error().message;
+}
+
+}  // namespace
+}  // namespace evermap::core

@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# The data-set converter programs as a user runs them: evermap-euroc2lcm on the real EuRoC
+# excerpt, evermap-kitti2lcm on a stereo folder made from real KITTI frames and on the real
+# monocular folder (refused), and their usage errors. Skips (77) without the data, except
+# under CI.
+set -euo pipefail
+build="$1"; src="$2"
+data="${EVERMAP_DATA:-${EVERMAP_DATA_DEFAULT:-$src/../shared/data}}"
+euroc="$data/euroc-v101-micro"; kitti="$data/kitti07-mono-160"
+for d in "$euroc" "$kitti"; do
+  if [ ! -d "$d" ]; then
+    echo "data set $d not found (set EVERMAP_DATA)"
+    [ "${CI:-}" = "true" ] && exit 1
+    exit 77
+  fi
+done
+euroc="$(cd "$euroc" && pwd)"; kitti="$(cd "$kitti" && pwd)"  # the symlinks below need absolute targets
+tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+expect_line() {  # expect_line FILE REGEX
+  grep -Eq "$2" "$1" || { cat "$1" >&2; fail "no line matching '$2'"; }
+}
+
+# EuRoC, options after the positional arguments as in docs/datasets.md.
+"$build/bin/evermap-euroc2lcm" "$euroc" "$tmp/euroc.lcmlog" \
+  --gt "$euroc/groundtruth_openvins/V1_01_easy.csv" > "$tmp/euroc.txt"
+cat "$tmp/euroc.txt"
+expect_line "$tmp/euroc.txt" '^  STEREO +95 messages'
+expect_line "$tmp/euroc.txt" '^  STEREO_CALIB +1 messages'
+expect_line "$tmp/euroc.txt" '^  IMU +29120 messages'
+expect_line "$tmp/euroc.txt" '^  GROUND_TRUTH +2895 messages'
+expect_line "$tmp/euroc.txt" '^skipped: 4 image rows'
+[ -s "$tmp/euroc.lcmlog" ] || fail "no log written"
+ls "$tmp" | grep -q '\.tmp\.' && fail "temporary file left behind"
+
+# KITTI: a stereo folder from 20 real frames (image_1 = image_0), then the real mono folder.
+seq="$tmp/07"; mkdir -p "$seq/image_0" "$seq/image_1"
+cp "$kitti/calib.txt" "$seq/"
+head -n 20 "$kitti/times.txt" > "$seq/times.txt"
+head -n 20 "$kitti/poses.txt" > "$seq/poses.txt"
+for i in $(seq -f %06g 0 19); do
+  ln -s "$kitti/image_0/$i.png" "$seq/image_0/$i.png"
+  ln -s "$kitti/image_0/$i.png" "$seq/image_1/$i.png"
+done
+"$build/bin/evermap-kitti2lcm" --raw "$seq" "$tmp/kitti.lcmlog" > "$tmp/kitti.txt"
+cat "$tmp/kitti.txt"
+expect_line "$tmp/kitti.txt" '^wrote .*kitti.lcmlog \(images: gray8\)'
+expect_line "$tmp/kitti.txt" '^  STEREO +20 messages'
+expect_line "$tmp/kitti.txt" '^  GROUND_TRUTH +20 messages'
+
+rc=0; "$build/bin/evermap-kitti2lcm" "$kitti" "$tmp/mono.lcmlog" 2> "$tmp/mono.err" || rc=$?
+[ "$rc" = 1 ] || fail "monocular folder: exit $rc, wanted 1"
+expect_line "$tmp/mono.err" 'image_1: no right images'
+[ "$(wc -l < "$tmp/mono.err")" = 1 ] || fail "the error is not one line"
+[ -e "$tmp/mono.lcmlog" ] && fail "a log was written for a refused input"
+
+rc=0; "$build/bin/evermap-euroc2lcm" "$euroc" 2> /dev/null || rc=$?
+[ "$rc" = 2 ] || fail "missing argument: exit $rc, wanted 2"
+rc=0; "$build/bin/evermap-kitti2lcm" --bogus "$seq" x 2> /dev/null || rc=$?
+[ "$rc" = 2 ] || fail "unknown option: exit $rc, wanted 2"
+echo "dataset tools: OK"
