@@ -105,7 +105,7 @@ TEST(SimRun, LogsHoldTheGeneratedMessagesInTimeOrder) {
         ASSERT_TRUE(tum >> t >> x >> y >> z >> qx >> qy >> qz >> qw);
         EXPECT_NEAR(t, p.utime * 1e-6, 1e-6);
         EXPECT_NEAR(x, p.position[0], 1e-8);
-        EXPECT_NEAR(qw, p.orientation[0], 1e-11);
+        EXPECT_NEAR(qw, p.orientation[0], 1e-8);
         ++gt;
       }
     }

@@ -1,6 +1,7 @@
 #pragma once
 // A session along a recorded trajectory: the KITTI odometry ground-truth poses (one line per
-// frame, 12 numbers: the row-major 3x4 pose of camera 0 in the frame of camera 0 at frame 0).
+// frame, 12 numbers: the row-major 3x4 pose of camera 0 in the frame of camera 0 at frame 0;
+// read by datasets::readKittiPoses).
 //
 // The KITTI camera becomes the simulator's camera: with C = body_T_cam (camera options),
 // world_T_body(i) = C * P(i) * C^-1, so world_T_cam(i) = C * P(i): the world is z-up with the

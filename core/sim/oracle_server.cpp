@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "core/messages/channels.h"
+#include "core/messages/convert.h"
 
 namespace evermap::sim {
 
@@ -12,27 +13,27 @@ OracleServer::OracleServer(lcm::LCM& lcm, RegistrationOracle& oracle) : lcm_(lcm
 }
 
 void OracleServer::onNodeAdded(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
-  node_added_t m;
-  if (m.decode(buffer->data, 0, static_cast<int>(buffer->data_size)) < 0 || m.keyframe_utime <= 0) {
+  auto m = messages::decodeLcm<node_added_t>(buffer->data, buffer->data_size, channel);
+  if (!m) {
     ++dropped_;
-    std::fprintf(stderr, "evermap::sim oracle: dropped a malformed %s message\n", channel.c_str());
+    std::fprintf(stderr, "evermap::sim oracle: dropped: %s\n", m.error().message.c_str());
     return;
   }
-  if (!oracle_.addNode(m)) {
+  if (!oracle_.addNode(*m)) {
     std::fprintf(stderr, "evermap::sim oracle: node %lld names unknown keyframe %lld\n",
-                 static_cast<long long>(m.node_id), static_cast<long long>(m.keyframe_utime));
+                 static_cast<long long>(m->node_id), static_cast<long long>(m->keyframe_utime));
   }
 }
 
 void OracleServer::onRequest(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
-  register_request_t m;
-  if (m.decode(buffer->data, 0, static_cast<int>(buffer->data_size)) < 0) {
+  auto m = messages::decodeLcm<register_request_t>(buffer->data, buffer->data_size, channel);
+  if (!m) {
     ++dropped_;
-    std::fprintf(stderr, "evermap::sim oracle: dropped a malformed %s message\n", channel.c_str());
+    std::fprintf(stderr, "evermap::sim oracle: dropped: %s\n", m.error().message.c_str());
     return;
   }
-  // The oracle answers malformed requests itself (STATUS_MALFORMED), so the mapper hears back.
-  const register_result_t r = oracle_.answer(m);
+  // The oracle answers invalid requests itself (STATUS_MALFORMED), so the mapper hears back.
+  const register_result_t r = oracle_.answer(*m);
   lcm_.publish(channels::kRegisterResult, &r);
   ++answered_;
 }

@@ -1,108 +1,24 @@
 #include "core/sim/run_output.h"
 
 #include <cstdio>
+#include <memory>
+#include <optional>
 #include <sstream>
 #include <system_error>
 
+#include "core/common/atomic_write.h"
+#include "core/eval/trajectory.h"
+
 namespace evermap::sim {
-namespace {
 
-std::filesystem::path tempNameFor(const std::filesystem::path& path) {
-  return path.parent_path() / (path.filename().string() + ".partial");
+void LogWriterSink::write(const std::string& channel, int64_t utime, const std::vector<uint8_t>& data) {
+  if (!error_.empty()) return;
+  if (auto s = writer_.writeBytes(channel, utime, data); !s) error_ = s.error().message;
 }
 
-Status renameInto(const std::filesystem::path& from, const std::filesystem::path& to) {
-  std::error_code ec;
-  std::filesystem::rename(from, to, ec);
-  if (ec) return makeError(to.string(), ": cannot rename from ", from.filename().string(), ": ", ec.message());
-  return Ok{};
-}
-
-Status writeTextFile(const std::filesystem::path& path, const std::string& text) {
-  const auto temp = tempNameFor(path);
-  {
-    std::ofstream out(temp);
-    if (!out) return makeError(temp.string(), ": cannot create");
-    out << text;
-    if (!out.flush()) return makeError(temp.string(), ": write failed");
-  }
-  return renameInto(temp, path);
-}
-
-}  // namespace
-
-Expected<std::unique_ptr<LogFileSink>> LogFileSink::open(const std::filesystem::path& path) {
-  std::unique_ptr<LogFileSink> sink(new LogFileSink());
-  sink->path_ = path;
-  sink->temp_ = tempNameFor(path);
-  sink->log_ = std::make_unique<lcm::LogFile>(sink->temp_.string(), "w");
-  if (!sink->log_->good()) return makeError(sink->temp_.string(), ": cannot create LCM log");
-  return sink;
-}
-
-LogFileSink::~LogFileSink() {
-  if (log_) {
-    log_.reset();
-    std::error_code ec;
-    std::filesystem::remove(temp_, ec);
-  }
-}
-
-void LogFileSink::write(const std::string& channel, int64_t utime, const std::vector<uint8_t>& data) {
-  if (!log_ || !error_.empty()) return;
-  lcm::LogEvent ev;
-  ev.eventnum = 0;  // assigned by LCM
-  ev.timestamp = utime;
-  ev.channel = channel;
-  ev.datalen = static_cast<int32_t>(data.size());
-  ev.data = const_cast<uint8_t*>(data.data());
-  if (log_->writeEvent(&ev) != 0) error_ = temp_.string() + ": write failed (disk full?)";
-}
-
-Status LogFileSink::close() {
-  if (!log_) return makeError(path_.string(), ": closed twice");
-  log_.reset();  // flushes and closes
-  if (!error_.empty()) {
-    std::error_code ec;
-    std::filesystem::remove(temp_, ec);
-    return Error{error_};
-  }
-  return renameInto(temp_, path_);
-}
-
-Expected<std::unique_ptr<TumWriter>> TumWriter::open(const std::filesystem::path& path) {
-  std::unique_ptr<TumWriter> w(new TumWriter());
-  w->path_ = path;
-  w->temp_ = tempNameFor(path);
-  w->out_.open(w->temp_);
-  if (!w->out_) return makeError(w->temp_.string(), ": cannot create");
-  w->out_ << "# ground truth world_T_body: time[s] tx ty tz qx qy qz qw\n";
-  return w;
-}
-
-TumWriter::~TumWriter() {
-  if (!closed_) {
-    out_.close();
-    std::error_code ec;
-    std::filesystem::remove(temp_, ec);
-  }
-}
-
-void TumWriter::add(int64_t utime, const SE3d& pose) {
-  const Vec3& t = pose.translation();
-  const Eigen::Quaterniond& q = pose.quaternion();
-  char line[256];
-  std::snprintf(line, sizeof line, "%lld.%06lld %.9f %.9f %.9f %.12f %.12f %.12f %.12f\n",
-                static_cast<long long>(utime / 1000000), static_cast<long long>(utime % 1000000), t.x(),
-                t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
-  out_ << line;
-}
-
-Status TumWriter::close() {
-  closed_ = true;
-  out_.close();
-  if (!out_) return makeError(temp_.string(), ": write failed");
-  return renameInto(temp_, path_);
+Status LogWriterSink::commit() {
+  if (!error_.empty()) return Error{error_};
+  return writer_.commit();
 }
 
 std::string sidecarText(const RunPlan& plan, const RunSummary& summary,
@@ -153,29 +69,25 @@ Expected<WrittenRun> writeRun(const RunPlan& plan, const std::filesystem::path& 
   if (ec) return makeError(folder.string(), ": cannot create folder: ", ec.message());
   const bool split = plan.options().output.split_sessions;
   const bool tum = plan.options().output.tum;
-  std::vector<std::string> names;
-  for (int i = 0; i < (split ? plan.sessions() : 1); ++i) {
-    char name[64];
-    std::snprintf(name, sizeof name, "session-%02d", i);
-    names.push_back(split ? name : "run");
-  }
-  std::unique_ptr<LogFileSink> log;
-  std::unique_ptr<TumWriter> tum_writer;
   std::string error;
   WrittenRun written;
+  std::unique_ptr<LogWriterSink> log;
+  std::optional<eval::Trajectory> truth;
+  std::string name;
+  // Commits the log and writes the ground truth of the one being finished.
   auto finish = [&]() {
     if (log) {
-      if (auto s = log->close(); !s && error.empty()) error = s.error().message;
+      if (auto s = log->commit(); !s && error.empty()) error = s.error().message;
       log.reset();
     }
-    if (tum_writer) {
-      if (auto s = tum_writer->close(); !s && error.empty()) error = s.error().message;
-      tum_writer.reset();
+    if (truth) {
+      if (auto s = eval::writeTum(*truth, folder / (name + ".tum")); !s && error.empty()) error = s.error().message;
+      truth.reset();
     }
   };
   SessionObservers all = observers;
   all.on_ground_truth = [&](int64_t utime, const BodyState& s) {
-    if (tum_writer) tum_writer->add(utime, s.world_T_body);
+    if (truth) truth->poses.push_back(datasets::StampedPose{utime * 1000, s.world_T_body});
     if (observers.on_ground_truth) observers.on_ground_truth(utime, s);
   };
   NullSink discard;  // after an error: run to the end without writing
@@ -183,22 +95,18 @@ Expected<WrittenRun> writeRun(const RunPlan& plan, const std::filesystem::path& 
     if (!error.empty()) return discard;
     if (!log || split) {
       finish();
-      const std::string& name = names[split ? session : 0];
-      auto opened = LogFileSink::open(folder / (name + ".lcmlog"));
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "session-%02d", session);
+      name = split ? buf : "run";
+      const auto path = folder / (name + ".lcmlog");
+      auto opened = messages::LogWriter::open(path);
       if (!opened) {
         error = opened.error().message;
         return discard;
       }
-      log = std::move(*opened);
-      written.logs.push_back(folder / (name + ".lcmlog"));
-      if (tum) {
-        auto t = TumWriter::open(folder / (name + ".tum"));
-        if (!t) {
-          error = t.error().message;
-          return discard;
-        }
-        tum_writer = std::move(*t);
-      }
+      log = std::make_unique<LogWriterSink>(std::move(*opened));
+      written.logs.push_back(path);
+      if (tum) truth = eval::Trajectory{(folder / (name + ".tum")).string(), {}};
     }
     return *log;
   };
@@ -208,7 +116,7 @@ Expected<WrittenRun> writeRun(const RunPlan& plan, const std::filesystem::path& 
   std::vector<std::string> log_names;
   for (const auto& p : written.logs) log_names.push_back(p.filename().string());
   written.sidecar = folder / "run.sim.txt";
-  if (auto s = writeTextFile(written.sidecar, sidecarText(plan, written.summary, log_names)); !s) {
+  if (auto s = writeFileAtomically(written.sidecar, sidecarText(plan, written.summary, log_names)); !s) {
     return s.error();
   }
   return written;

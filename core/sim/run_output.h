@@ -8,48 +8,26 @@
 
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
-#include <memory>
 #include <string>
 #include <vector>
 
-#include <lcm/lcm-cpp.hpp>
-
 #include "core/common/expected.h"
+#include "core/messages/log_writer.h"
 #include "core/sim/run.h"
 
 namespace evermap::sim {
 
-class LogFileSink final : public MessageSink {
+// A MessageSink that writes into an LCM log (messages::LogWriter: temporary file, renamed by
+// commit()). The first write error is kept and returned by commit().
+class LogWriterSink final : public MessageSink {
  public:
-  static Expected<std::unique_ptr<LogFileSink>> open(const std::filesystem::path& path);
-  ~LogFileSink() override;  // an unclosed log is removed
+  explicit LogWriterSink(messages::LogWriter writer) : writer_(std::move(writer)) {}
   void write(const std::string& channel, int64_t utime, const std::vector<uint8_t>& data) override;
-  // Closes the log and renames it into place; the first write error, if any.
-  Status close();
+  Status commit();
 
  private:
-  LogFileSink() = default;
-  std::filesystem::path path_;
-  std::filesystem::path temp_;
-  std::unique_ptr<lcm::LogFile> log_;
+  messages::LogWriter writer_;
   std::string error_;
-};
-
-// Ground truth as TUM text: `time tx ty tz qx qy qz qw`, time in seconds.
-class TumWriter {
- public:
-  static Expected<std::unique_ptr<TumWriter>> open(const std::filesystem::path& path);
-  ~TumWriter();
-  void add(int64_t utime, const SE3d& pose);
-  Status close();
-
- private:
-  TumWriter() = default;
-  std::filesystem::path path_;
-  std::filesystem::path temp_;
-  std::ofstream out_;
-  bool closed_ = false;
 };
 
 struct WrittenRun {

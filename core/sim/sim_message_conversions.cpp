@@ -1,5 +1,7 @@
 #include "core/sim/sim_message_conversions.h"
 
+#include "core/messages/convert.h"
+
 namespace evermap::sim {
 
 void writePose(const core::SE3d& pose, double translation[3], double orientation_wxyz[4]) {
@@ -33,12 +35,7 @@ core::Mat6 readCovariance(const double in[36]) {
 }
 
 pose_t toPoseMessage(int64_t utime, const core::SE3d& world_T_body, int floor, int session) {
-  pose_t m{};
-  m.utime = utime;
-  writePose(world_T_body, m.position, m.orientation);
-  m.floor = floor;
-  m.session = session;
-  return m;
+  return messages::toMsg(utime, core::UncertainPose{world_T_body, core::Mat6::Zero()}, floor, session);
 }
 
 core::SE3d poseOf(const pose_t& m) { return readPose(m.position, m.orientation); }

@@ -1,7 +1,8 @@
 #pragma once
 // Small conversions between evermap LCM messages and geometry types, private to the
-// simulator. core/messages/convert.h (in progress elsewhere) is meant to hold the project's
-// shared versions; once it lands these should be replaced by it.
+// simulator: core/messages/convert.h has no conversions yet for vo_delta_t,
+// register_result_t and keyframe_t; once it has, these should move there. GROUND_TRUTH uses
+// convert.h's pose_t conversion.
 
 #include <cstdint>
 
