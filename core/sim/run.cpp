@@ -1,5 +1,6 @@
 #include "core/sim/run.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <set>
@@ -69,6 +70,19 @@ int64_t RunSummary::voFailed() const {
   for (const auto& x : sessions) s += x.voFailed();
   return s;
 }
+double RunSummary::voDriftMedian(double min_length_m, int64_t* chains) const {
+  std::vector<double> ratios;
+  for (const auto& x : sessions) {
+    for (const VoChain& c : x.vo_chains) {
+      if (c.length_m >= min_length_m && c.length_m > 0.0) ratios.push_back(c.error_m / c.length_m);
+    }
+  }
+  if (chains) *chains = static_cast<int64_t>(ratios.size());
+  if (ratios.empty()) return 0.0;
+  std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+  return ratios[ratios.size() / 2];
+}
+
 std::vector<int> RunSummary::floorsVisited() const {
   std::set<int> all;
   for (const auto& x : sessions) all.insert(x.floors_visited.begin(), x.floors_visited.end());
@@ -104,6 +118,11 @@ std::string RunSummary::text() const {
   std::snprintf(line, sizeof line, "VO keyframes                %lld\n", static_cast<long long>(voKeyframes()));
   o << line;
   std::snprintf(line, sizeof line, "failed VO frames            %lld\n", static_cast<long long>(voFailed()));
+  o << line;
+  int64_t chains = 0;
+  const double drift = voDriftMedian(20.0, &chains);
+  std::snprintf(line, sizeof line, "VO drift, chains >= 20 m   %.2f %% of distance (median of %lld)\n", 100.0 * drift,
+                static_cast<long long>(chains));
   o << line;
   o << "channel              messages          bytes\n";
   for (const auto& [name, c] : channels) {

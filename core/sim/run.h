@@ -46,6 +46,9 @@ struct RunSummary {
   int64_t voFrames() const;
   int64_t voKeyframes() const;
   int64_t voFailed() const;
+  // Median of error / length over VO chains of at least min_length_m (0 when there are none),
+  // and how many chains that was.
+  double voDriftMedian(double min_length_m, int64_t* chains = nullptr) const;
   std::vector<int> floorsVisited() const;
   int64_t messages() const;
   int64_t bytes() const;

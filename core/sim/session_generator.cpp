@@ -164,6 +164,19 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
   int64_t wheel_prev_utime = start;
   BodyState wheel_prev = traj.at(start);
 
+  // Dead reckoning with the VO deltas, for the drift figure of the summary.
+  bool in_chain = false;
+  SE3d chain_estimate;
+  SE3d chain_truth;
+  double chain_start_m = 0.0;
+  double chain_end_m = 0.0;
+  auto closeChain = [&]() {
+    if (!in_chain) return;
+    summary.vo_chains.push_back(
+        VoChain{chain_end_m - chain_start_m, (chain_estimate.translation() - chain_truth.translation()).norm()});
+    in_chain = false;
+  };
+
   enum { kGt, kImu, kWheel, kAttitude, kFloor, kVo, kStreams };
   while (true) {
     const int64_t next[kStreams] = {
@@ -210,11 +223,24 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
         writeMessage(sink, channels::kVoDelta, m);
         ++summary.vo_frames;
         ++summary.vo_status[static_cast<size_t>(m.status)];
+        const SE3d world_T_cam = s.world_T_body * body_T_cam;
+        if (m.status == vo_delta_t::STATUS_NO_DATA) {
+          closeChain();
+          in_chain = true;
+          chain_estimate = chain_truth = world_T_cam;
+          chain_start_m = chain_end_m = s.odometer_m;
+        } else if (m.status == vo_delta_t::STATUS_OK && m.keyframe_changed) {
+          chain_estimate = chain_estimate * deltaOf(m);
+          chain_truth = world_T_cam;
+          chain_end_m = s.odometer_m;
+        } else if (m.status != vo_delta_t::STATUS_OK) {
+          closeChain();
+        }
         if (m.keyframe_changed) {
           ++summary.vo_keyframes;
           writeMessage(sink, channels::kKeyframe, keyframeIdentity(t, o.camera));
           if (observers.on_keyframe) {
-            observers.on_keyframe(KeyframeTruth{t, s.world_T_body * body_T_cam, s.floor, session});
+            observers.on_keyframe(KeyframeTruth{t, world_T_cam, s.floor, session});
           }
         }
         vo_clock.advance();
@@ -224,6 +250,7 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
         break;
     }
   }
+  closeChain();
   return summary;
 }
 

@@ -48,6 +48,13 @@ struct SessionObservers {
   std::function<void(int64_t utime, const BodyState&)> on_ground_truth;
 };
 
+// A stretch of uninterrupted visual odometry: the keyframe deltas chained from a (re)start to
+// the last keyframe before a failure, against ground truth.
+struct VoChain {
+  double length_m = 0.0;  // distance driven along the chain
+  double error_m = 0.0;   // position error of the chained estimate at its end
+};
+
 struct SessionSummary {
   int session = 0;
   int64_t start_utime = 0;
@@ -58,6 +65,7 @@ struct SessionSummary {
   int64_t vo_frames = 0;
   int64_t vo_keyframes = 0;                 // frames with keyframe_changed = 1
   std::array<int64_t, 7> vo_status{};       // frames per vo_delta_t status
+  std::vector<VoChain> vo_chains;
   int64_t passerby_events = 0;
   int64_t slip_events = 0;
 
