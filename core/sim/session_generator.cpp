@@ -238,10 +238,11 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
         }
         if (m.keyframe_changed) {
           ++summary.vo_keyframes;
-          writeMessage(sink, channels::kKeyframe, keyframeIdentity(t, o.camera));
+          // The oracle learns the keyframe before anyone can hear of it and ask.
           if (observers.on_keyframe) {
             observers.on_keyframe(KeyframeTruth{t, world_T_cam, s.floor, session});
           }
+          writeMessage(sink, channels::kKeyframe, keyframeIdentity(t, o.camera));
         }
         vo_clock.advance();
         break;
