@@ -24,13 +24,13 @@ set -e
 [ "$rc" -eq 2 ] || { echo "sim_measure: bad configuration gave exit status $rc, not 2"; exit 1; }
 grep -q "bad.conf:2: vo.rate_hz: must be > 0, got -3" "$tmp/err.txt" || { cat "$tmp/err.txt"; exit 1; }
 
-# 504 simulated seconds at 20x: about 25 s, ~1000 messages/s (gentle enough for loopback
+# 504 simulated seconds at 10x: about 50 s, ~500 messages/s (gentle enough for loopback
 # multicast on a busy machine).
 exec "$src/scripts/lcm-sandbox" bash -c '
   set -euo pipefail
   "$1/bin/evermap-lcm-check" --log "$2/run/session-00.lcmlog" --ready-file "$2/ready" --idle-timeout-s 10 &
   checker=$!
   for _ in $(seq 300); do [ -f "$2/ready" ] && break; sleep 0.1; done
-  "$1/bin/evermap-sim-measure" --config "$2/run/run.sim.txt" --serve --speed 20 > "$2/serve.txt"
+  "$1/bin/evermap-sim-measure" --config "$2/run/run.sim.txt" --serve --speed 10 > "$2/serve.txt"
   wait "$checker"
 ' sim_measure "$build" "$tmp"
