@@ -120,6 +120,22 @@ TEST(LogComparator, CountsMissingAndCorruptMessages) {
   std::filesystem::remove(path);
 }
 
+TEST(LogComparator, IgnoresLcmSelfTest) {
+  const auto path = writeLog(1);
+  auto cmp = LogComparator::fromLog(path);
+  ASSERT_TRUE(cmp.ok());
+  const uint8_t probe[4] = {'l', 'c', 'm', 0};
+  cmp->onMessage("LCM_SELF_TEST", probe, sizeof probe);
+  auto a = encode(imu(0));
+  cmp->onMessage(channels::kImu, a.data(), a.size());
+  EXPECT_FALSE(cmp->allReceived());  // the stereo message is still due
+  auto b = encode(stereo(0));
+  cmp->onMessage(channels::kStereo, b.data(), b.size());
+  EXPECT_TRUE(cmp->allReceived());
+  EXPECT_TRUE(cmp->summary().complete());
+  std::filesystem::remove(path);
+}
+
 TEST(LogComparator, MissingLogIsAnErrorNamingIt) {
   const auto r = LogComparator::fromLog("/nonexistent/session.lcmlog");
   ASSERT_FALSE(r.ok());

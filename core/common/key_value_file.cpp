@@ -1,0 +1,172 @@
+#include "core/common/key_value_file.h"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace evermap {
+namespace {
+
+std::string trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t\r");
+  if (b == std::string::npos) return "";
+  const auto e = s.find_last_not_of(" \t\r");
+  return s.substr(b, e - b + 1);
+}
+
+bool validKey(const std::string& k) {
+  if (k.empty()) return false;
+  for (char c : k) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    c == '_' || c == '.' || c == '-';
+    if (!ok) return false;
+  }
+  return true;
+}
+
+// Splits "key = value" (comment already removed); an error message on failure.
+Expected<std::pair<std::string, std::string>> splitAssignment(const std::string& text) {
+  const auto eq = text.find('=');
+  if (eq == std::string::npos) return makeError("expected 'key = value', got '", text, "'");
+  const std::string key = trim(text.substr(0, eq));
+  const std::string value = trim(text.substr(eq + 1));
+  if (!validKey(key)) return makeError("bad key '", key, "' (letters, digits, _ . - only)");
+  if (value.empty()) return makeError("key '", key, "' has no value");
+  return std::make_pair(key, value);
+}
+
+}  // namespace
+
+Expected<KeyValueFile> KeyValueFile::load(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) return makeError(path.string(), ": cannot open configuration file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  auto file = parse(text.str(), path.string());
+  if (file) file->folder_ = path.parent_path();
+  return file;
+}
+
+Expected<KeyValueFile> KeyValueFile::parse(const std::string& text, const std::string& name) {
+  KeyValueFile f;
+  f.name_ = name;
+  std::istringstream in(text);
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    const std::string origin = name + ":" + std::to_string(number);
+    if (line.find('\0') != std::string::npos) return makeError(origin, ": binary data in text");
+    const std::string body = trim(line.substr(0, line.find('#')));
+    if (body.empty()) continue;
+    auto kv = splitAssignment(body);
+    if (!kv) return makeError(origin, ": ", kv.error().message);
+    if (const Entry* prev = f.find(kv->first)) {
+      return makeError(origin, ": key '", kv->first, "' already set at ", prev->origin);
+    }
+    f.entries_.push_back(Entry{kv->first, kv->second, origin});
+  }
+  return f;
+}
+
+Status KeyValueFile::set(const std::string& assignment, const std::string& origin) {
+  auto kv = splitAssignment(trim(assignment));
+  if (!kv) return makeError(origin, ": ", kv.error().message);
+  for (Entry& e : entries_) {
+    if (e.key == kv->first) {
+      e.value = kv->second;
+      e.origin = origin;
+      return Ok{};
+    }
+  }
+  entries_.push_back(Entry{kv->first, kv->second, origin});
+  return Ok{};
+}
+
+const KeyValueFile::Entry* KeyValueFile::find(const std::string& key) const {
+  for (const Entry& e : entries_) {
+    if (e.key == key) return &e;
+  }
+  return nullptr;
+}
+
+KeyValueReader::KeyValueReader(const KeyValueFile& file)
+    : file_(file), used_(file.entries().size(), false) {}
+
+const KeyValueFile::Entry* KeyValueReader::use(const std::string& key) {
+  const auto& entries = file_.entries();
+  for (size_t i = 0; i < entries.size(); ++i) {
+    if (entries[i].key == key) {
+      used_[i] = true;
+      return &entries[i];
+    }
+  }
+  return nullptr;
+}
+
+template <typename T>
+void KeyValueReader::readNumber(const std::string& key, T* out, const char* what) {
+  const KeyValueFile::Entry* e = use(key);
+  if (!e) return;
+  T v{};
+  const char* b = e->value.data();
+  const char* end = b + e->value.size();
+  const auto [ptr, ec] = std::from_chars(b, end, v);
+  if (ec != std::errc() || ptr != end) {
+    if (first_error_.empty()) {
+      first_error_ = e->origin + ": " + key + ": expected " + what + ", got '" + e->value + "'";
+    }
+    return;
+  }
+  *out = v;
+}
+
+void KeyValueReader::read(const std::string& key, double* out) {
+  readNumber(key, out, "a number");
+  if (out && !std::isfinite(*out) && first_error_.empty()) {
+    first_error_ = where(key) + ": " + key + ": not a finite number";
+  }
+}
+void KeyValueReader::read(const std::string& key, int* out) { readNumber(key, out, "an integer"); }
+void KeyValueReader::read(const std::string& key, int64_t* out) {
+  readNumber(key, out, "an integer");
+}
+void KeyValueReader::read(const std::string& key, uint64_t* out) {
+  readNumber(key, out, "a non-negative integer");
+}
+
+void KeyValueReader::read(const std::string& key, bool* out) {
+  const KeyValueFile::Entry* e = use(key);
+  if (!e) return;
+  const std::string& v = e->value;
+  if (v == "true" || v == "1" || v == "yes" || v == "on") {
+    *out = true;
+  } else if (v == "false" || v == "0" || v == "no" || v == "off") {
+    *out = false;
+  } else if (first_error_.empty()) {
+    first_error_ = e->origin + ": " + key + ": expected true or false, got '" + v + "'";
+  }
+}
+
+void KeyValueReader::read(const std::string& key, std::string* out) {
+  if (const KeyValueFile::Entry* e = use(key)) *out = e->value;
+}
+
+std::string KeyValueReader::where(const std::string& key) const {
+  const KeyValueFile::Entry* e = file_.find(key);
+  return e ? e->origin : file_.name() + " (default value)";
+}
+
+Status KeyValueReader::finish(const std::string& ignored_prefix) const {
+  if (!first_error_.empty()) return Error{first_error_};
+  const auto& entries = file_.entries();
+  for (size_t i = 0; i < entries.size(); ++i) {
+    if (used_[i]) continue;
+    if (!ignored_prefix.empty() && entries[i].key.rfind(ignored_prefix, 0) == 0) continue;
+    return makeError(entries[i].origin, ": unknown key '", entries[i].key, "'");
+  }
+  return Ok{};
+}
+
+}  // namespace evermap

@@ -1,0 +1,286 @@
+// evermap-sim-measure: the measurement-level simulator (DESIGN.md section 8, docs/simulators.md).
+//
+//   evermap-sim-measure --config FILE [--set key=value]... --out DIR
+//       write an LCM log per session (or per run), TUM ground truth and run.sim.txt into DIR
+//   evermap-sim-measure --config FILE [--set key=value]... --stats [--no-load]
+//       generate without writing; print figures, message counts and timings; unless --no-load,
+//       drive the registration oracle with a synthetic request load (core/sim/request_load.h)
+//   evermap-sim-measure --config FILE --serve [--lcm-url URL] [--speed X]
+//       publish the run on LCM (X times real time within a session; 0: as fast as possible)
+//       and answer REGISTER_REQUEST from NODE_ADDED, standing in for loopclose-proc
+//   evermap-sim-measure --config FILE --oracle [--lcm-url URL] [--idle-exit-s S]
+//       only answer registration requests, for an lcm-logplayer replay of a written run
+//       (pass the run's run.sim.txt as the config: the keyframe truth is regenerated from it)
+//   evermap-sim-measure --config FILE --print-config
+//
+// Exit status: 0 done, 1 failed while running, 2 bad usage or configuration.
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "core/common/key_value_file.h"
+#include "core/sim/oracle_server.h"
+#include "core/sim/registration_oracle.h"
+#include "core/sim/request_load.h"
+#include "core/sim/run.h"
+#include "core/sim/run_output.h"
+
+namespace {
+
+using evermap::sim::KeyframeTruth;
+using evermap::sim::RunPlan;
+using Clock = std::chrono::steady_clock;
+
+// Set by SIGINT/SIGTERM; a signal handler can only reach static storage.
+std::atomic<bool> g_stop{false};
+void onSignal(int) { g_stop = true; }
+
+struct Args {
+  std::string config;
+  std::vector<std::string> sets;
+  std::string out;
+  std::string mode;  // out, stats, serve, oracle, print
+  std::string lcm_url;
+  double speed = 0.0;
+  double idle_exit_s = 0.0;
+  bool load = true;
+};
+
+void usage() {
+  std::fprintf(stderr,
+               "usage: evermap-sim-measure --config FILE [--set key=value]... "
+               "(--out DIR | --stats [--no-load] | --serve [--lcm-url URL] [--speed X] |\n"
+               "       --oracle [--lcm-url URL] [--idle-exit-s S] | --print-config)\n");
+}
+
+bool parseArgs(int argc, char** argv, Args* a) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string s = argv[i];
+    auto value = [&](std::string* out) {
+      if (i + 1 >= argc) return false;
+      *out = argv[++i];
+      return true;
+    };
+    std::string v;
+    if (s == "--config") {
+      if (!value(&a->config)) return false;
+    } else if (s == "--set") {
+      if (!value(&v)) return false;
+      a->sets.push_back(v);
+    } else if (s == "--out") {
+      if (!value(&a->out)) return false;
+      a->mode = "out";
+    } else if (s == "--stats" || s == "--serve" || s == "--oracle") {
+      a->mode = s.substr(2);
+    } else if (s == "--print-config") {
+      a->mode = "print";
+    } else if (s == "--no-load") {
+      a->load = false;
+    } else if (s == "--lcm-url") {
+      if (!value(&a->lcm_url)) return false;
+    } else if (s == "--speed") {
+      if (!value(&v)) return false;
+      a->speed = std::atof(v.c_str());
+    } else if (s == "--idle-exit-s") {
+      if (!value(&v)) return false;
+      a->idle_exit_s = std::atof(v.c_str());
+    } else {
+      std::fprintf(stderr, "evermap-sim-measure: unknown argument '%s'\n", s.c_str());
+      return false;
+    }
+  }
+  return !a->config.empty() && !a->mode.empty() && a->speed >= 0.0 && a->idle_exit_s >= 0.0;
+}
+
+double seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
+double cpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+int runStats(const RunPlan& plan, bool load) {
+  evermap::sim::RegistrationOracle oracle(plan.options().oracle, plan.oracleSeed());
+  evermap::sim::RequestLoad requests(oracle, evermap::sim::RequestLoadOptions{});
+  double oracle_s = 0.0;
+  double oracle_cpu_s = 0.0;
+  evermap::sim::SessionObservers observers;
+  if (load) {
+    observers.on_keyframe = [&](const KeyframeTruth& k) {
+      const auto t0 = Clock::now();
+      const double c0 = cpuSeconds();
+      requests.onKeyframe(k);
+      oracle_s += seconds(t0);
+      oracle_cpu_s += cpuSeconds() - c0;
+    };
+  }
+  evermap::sim::NullSink null;
+  const auto t0 = Clock::now();
+  const double cpu0 = cpuSeconds();
+  const auto summary = evermap::sim::generateRun(plan, [&](int) -> evermap::sim::MessageSink& { return null; },
+                                                 observers);
+  const double wall = seconds(t0);
+  std::printf("%s", summary.text().c_str());
+  std::printf("generation + encoding       %.2f s wall, %.2f s CPU\n", wall - oracle_s,
+              cpuSeconds() - cpu0 - oracle_cpu_s);
+  if (load) {
+    const auto& l = requests.summary();
+    std::printf("synthetic load              %lld nodes, %lld node + %lld global requests\n",
+                static_cast<long long>(l.nodes_added), static_cast<long long>(l.node_requests),
+                static_cast<long long>(l.global_requests));
+    std::printf("%s", oracle.summary().text().c_str());
+    std::printf("oracle + synthetic load     %.2f s wall, %.2f s CPU\n", oracle_s, oracle_cpu_s);
+  }
+  return 0;
+}
+
+int runOut(const RunPlan& plan, const std::string& folder) {
+  const auto t0 = Clock::now();
+  const double cpu0 = cpuSeconds();
+  auto written = evermap::sim::writeRun(plan, folder);
+  if (!written) {
+    std::fprintf(stderr, "evermap-sim-measure: %s\n", written.error().message.c_str());
+    return 1;
+  }
+  std::printf("%s", written->summary.text().c_str());
+  std::printf("generation + writing        %.2f s wall, %.2f s CPU\n", seconds(t0), cpuSeconds() - cpu0);
+  std::printf("wrote %zu log(s) and %s\n", written->logs.size(), written->sidecar.string().c_str());
+  return 0;
+}
+
+// Publishes every message on LCM; between messages, answers what arrived.
+class LcmSink final : public evermap::sim::MessageSink {
+ public:
+  LcmSink(lcm::LCM& lcm, double speed) : lcm_(lcm), speed_(speed) {}
+  void startSession() { first_utime_ = -1; }
+  void write(const std::string& channel, int64_t utime, const std::vector<uint8_t>& data) override {
+    if (g_stop) return;
+    if (speed_ > 0.0) {
+      if (first_utime_ < 0) {
+        first_utime_ = utime;
+        wall_start_ = Clock::now();
+      }
+      const auto due = wall_start_ + std::chrono::microseconds(static_cast<int64_t>((utime - first_utime_) / speed_));
+      while (Clock::now() < due && !g_stop) lcm_.handleTimeout(1);
+    }
+    lcm_.publish(channel, data.data(), static_cast<unsigned int>(data.size()));
+    while (lcm_.handleTimeout(0) > 0) {
+    }
+  }
+
+ private:
+  lcm::LCM& lcm_;
+  double speed_;
+  int64_t first_utime_ = -1;
+  Clock::time_point wall_start_;
+};
+
+int runServe(const RunPlan& plan, const Args& args) {
+  lcm::LCM lcm(args.lcm_url);
+  if (!lcm.good()) {
+    std::fprintf(stderr, "evermap-sim-measure: cannot start LCM (url \"%s\")\n", args.lcm_url.c_str());
+    return 1;
+  }
+  evermap::sim::RegistrationOracle oracle(plan.options().oracle, plan.oracleSeed());
+  evermap::sim::OracleServer server(lcm, oracle);
+  LcmSink sink(lcm, args.speed);
+  evermap::sim::SessionObservers observers;
+  observers.on_keyframe = [&](const KeyframeTruth& k) { oracle.addKeyframe(k); };
+  const auto summary = evermap::sim::generateRun(
+      plan,
+      [&](int session) -> evermap::sim::MessageSink& {
+        std::printf("evermap-sim-measure: session %d\n", session);
+        std::fflush(stdout);
+        sink.startSession();
+        return sink;
+      },
+      observers);
+  // Late requests for the last keyframes.
+  const auto end = Clock::now() + std::chrono::seconds(2);
+  while (Clock::now() < end && !g_stop) lcm.handleTimeout(50);
+  std::printf("%s", summary.text().c_str());
+  std::printf("%s", oracle.summary().text().c_str());
+  std::printf("answered %lld requests, dropped %lld messages\n", static_cast<long long>(server.answered()),
+              static_cast<long long>(server.dropped()));
+  return g_stop ? 1 : 0;
+}
+
+int runOracle(const RunPlan& plan, const Args& args) {
+  lcm::LCM lcm(args.lcm_url);
+  if (!lcm.good()) {
+    std::fprintf(stderr, "evermap-sim-measure: cannot start LCM (url \"%s\")\n", args.lcm_url.c_str());
+    return 1;
+  }
+  evermap::sim::OracleOptions options = plan.options().oracle;
+  options.keyframe_window_s = 0.0;  // a replay may ask about any keyframe of the run
+  evermap::sim::RegistrationOracle oracle(options, plan.oracleSeed());
+  evermap::sim::SessionObservers observers;
+  observers.on_keyframe = [&](const KeyframeTruth& k) { oracle.addKeyframe(k); };
+  evermap::sim::NullSink null;
+  (void)evermap::sim::generateRun(plan, [&](int) -> evermap::sim::MessageSink& { return null; }, observers);
+  evermap::sim::OracleServer server(lcm, oracle);
+  std::printf("evermap-sim-measure: oracle ready, %lld keyframes known\n",
+              static_cast<long long>(oracle.summary().keyframes));
+  std::fflush(stdout);
+  auto last = Clock::now();
+  int64_t seen = 0;
+  while (!g_stop) {
+    lcm.handleTimeout(100);
+    if (server.answered() != seen) {
+      seen = server.answered();
+      last = Clock::now();
+    }
+    if (args.idle_exit_s > 0.0 && seconds(last) > args.idle_exit_s) break;
+  }
+  std::printf("%s", oracle.summary().text().c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args args;
+  if (!parseArgs(argc, argv, &args)) {
+    usage();
+    return 2;
+  }
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
+  auto file = evermap::KeyValueFile::load(args.config);
+  if (!file) {
+    std::fprintf(stderr, "evermap-sim-measure: %s\n", file.error().message.c_str());
+    return 2;
+  }
+  for (const std::string& s : args.sets) {
+    if (auto st = file->set(s, "--set " + s); !st) {
+      std::fprintf(stderr, "evermap-sim-measure: %s\n", st.error().message.c_str());
+      return 2;
+    }
+  }
+  auto options = evermap::sim::loadSimOptions(*file);
+  if (!options) {
+    std::fprintf(stderr, "evermap-sim-measure: %s\n", options.error().message.c_str());
+    return 2;
+  }
+  if (args.mode == "print") {
+    std::printf("%s", options->toConfigText().c_str());
+    return 0;
+  }
+  auto plan = RunPlan::create(*options);
+  if (!plan) {
+    std::fprintf(stderr, "evermap-sim-measure: %s\n", plan.error().message.c_str());
+    return 2;
+  }
+  if (args.mode == "stats") return runStats(*plan, args.load);
+  if (args.mode == "out") return runOut(*plan, args.out);
+  if (args.mode == "serve") return runServe(*plan, args);
+  return runOracle(*plan, args);
+}
