@@ -16,5 +16,11 @@ exec "$root/scripts/lcm-sandbox" bash -c '
   for _ in $(seq 300); do [ -f "$4" ] && break; sleep 0.1; done
   rm -f "$4"
   lcm-logplayer -s "$3" "$2" >/dev/null
-  wait "$checker"
+  status=0
+  wait "$checker" || status=$?
+  # Kernel UDP counters of this namespace: where lost messages went, if any.
+  awk '"'"'/^Udp:/ { if (!h) { split($0, k); h = 1 } else { split($0, v);
+       for (i = 2; i <= NF; i++) if (k[i] ~ /InErrors|RcvbufErrors|InDatagrams/) printf "%s=%s ", k[i], v[i];
+       print "" } }'"'"' /proc/net/snmp
+  exit "$status"
 ' replay-check "$build" "$log" "$speed" "$ready"

@@ -71,11 +71,14 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-lcm-check: cannot start LCM (url \"%s\")\n", url.c_str());
     return 2;
   }
-  lcm.subscribeFunction(
+  lcm::Subscription* sub = lcm.subscribeFunction(
       ".*",
       +[](const lcm::ReceiveBuffer* rbuf, const std::string& channel,
           evermap::messages::LogComparator* c) { c->onMessage(channel, rbuf->data, rbuf->data_size); },
       &*comparator);
+  // LCM queues at most 30 messages per subscription by default and drops the oldest beyond
+  // that: a checker must not lose any, so its queue is unbounded.
+  sub->setQueueCapacity(0);
   if (!ready_file.empty()) std::ofstream(ready_file) << "ready\n";
   std::printf("evermap-lcm-check: waiting for %lld messages from %s\n",
               static_cast<long long>(comparator->expectedTotal()), log.c_str());
