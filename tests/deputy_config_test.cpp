@@ -230,6 +230,17 @@ TEST(DeputyConfig, ErrorsFromAFileNameTheFile) {
   EXPECT_EQ(c.error().message, (dir / "x.pmd").string() + ":2:10: exec takes a quoted string");
 }
 
+TEST(DeputyConfig, ReadsEveryShippedConfig) {
+  int n = 0;
+  for (const auto& e : std::filesystem::directory_iterator(std::filesystem::path(EVERMAP_SOURCE_DIR) / "config")) {
+    if (e.path().extension() != ".pmd") continue;
+    auto c = loadConfig(e.path());
+    EXPECT_TRUE(c.ok()) << c.error().message;
+    ++n;
+  }
+  EXPECT_GE(n, 3);
+}
+
 TEST(DeputyConfig, ReadsTheShippedPipelineConfigs) {
   for (const char* name : {"pipeline-log.pmd", "pipeline-oracle.pmd"}) {
     const auto path = std::filesystem::path(EVERMAP_SOURCE_DIR) / "config" / name;

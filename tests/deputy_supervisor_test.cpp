@@ -52,6 +52,28 @@ TEST(DeputySupervisor, WritesStdoutAndStderrToTheProcessLogAndTheSink) {
   EXPECT_NE(log.find("] ended: exit code 0"), std::string::npos) << log;
 }
 
+TEST(DeputySupervisor, RotatesALogFileThatGrowsTooBig) {
+  evermap::testing::ScratchDir dir;
+  SupervisorOptions o;
+  o.log_dir = dir.path();
+  o.max_log_bytes = 4000;
+  // 300 lines of 100 bytes: 30000 bytes, rotated every ~4000.
+  auto s = Supervisor::create(
+      {command("chatty", "i=0; while [ $i -lt 300 ]; do printf '%099d\\n' $i; i=$((i+1)); done")}, o);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  ASSERT_TRUE((*s)->start("chatty").ok());
+  ASSERT_TRUE(spinUntil(**s, [&] { return (*s)->status("chatty")->has_ended; }));
+  EXPECT_EQ((*s)->status("chatty")->last_exit_code, 0);
+  const auto current = std::filesystem::file_size(dir / "chatty.log");
+  const auto previous = std::filesystem::file_size(dir / "chatty.log.1");
+  EXPECT_LT(current, 4000u + 16384u);  // one read's worth may follow the limit
+  EXPECT_GE(previous, 4000u);
+  // The newest lines are in the two files, whole; the oldest went with earlier rotations.
+  const std::string both = readFile(dir / "chatty.log.1") + readFile(dir / "chatty.log");
+  EXPECT_NE(both.find("\n" + std::string(96, '0') + "299\n"), std::string::npos);
+  EXPECT_EQ(both.find(std::string(99, '0') + "\n"), std::string::npos);  // line 0
+}
+
 TEST(DeputySupervisor, LogFileNamesAreSafe) {
   evermap::testing::ScratchDir dir;
   auto s = makeSupervisor({command("../odd name/x", "true")}, dir.path());
@@ -252,18 +274,23 @@ TEST(DeputySupervisor, DestroyingTheSupervisorLeavesNoChild) {
 
 TEST(DeputySupervisor, MeasuresCpuAndMemoryOfTheProcessGroup) {
   evermap::testing::ScratchDir dir;
-  auto s = makeSupervisor({command("busy", "while :; do :; done")}, dir.path());
+  auto s = makeSupervisor({command("busy", "while :; do :; done"), command("idle", "sleep 1000")},
+                          dir.path());
   ASSERT_TRUE(s->start("busy").ok());
-  ASSERT_TRUE(spinUntil(*s, [&] { return s->status("busy")->state == ProcessState::kRunning; }));
+  ASSERT_TRUE(s->start("idle").ok());
+  ASSERT_TRUE(spinUntil(*s, [&] { return s->status("busy")->state == ProcessState::kRunning &&
+                                         s->status("idle")->state == ProcessState::kRunning; }));
   s->sampleUsage();
-  // On a loaded machine the loop gets less than a core; it gets some.
+  // On a loaded machine the loop gets less than a core; it gets some, the sleeper none.
   ASSERT_TRUE(spinUntil(*s, [&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
     s->sampleUsage();
-    return s->status("busy")->cpu_percent > 20.0;
+    return s->status("busy")->cpu_percent > 5.0;
   }));
   EXPECT_LT(s->status("busy")->cpu_percent, 110.0);  // one single-threaded shell
+  EXPECT_LT(s->status("idle")->cpu_percent, 5.0);
   EXPECT_GT(s->status("busy")->rss_bytes, 0);
+  EXPECT_GT(s->status("idle")->rss_bytes, 0);
   ASSERT_TRUE(s->stop("busy").ok());
   ASSERT_TRUE(spinUntil(*s, [&] { return s->status("busy")->state == ProcessState::kStopped; }));
   s->sampleUsage();

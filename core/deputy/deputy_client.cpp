@@ -21,6 +21,12 @@ bool inGroup(const std::string& group, const std::string& path) {
                            group[path.size()] == '/');
 }
 
+std::string secondsText(double s) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g s", s);
+  return buf;
+}
+
 std::chrono::steady_clock::duration seconds(double s) {
   return std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       std::chrono::duration<double>(s));
@@ -185,7 +191,7 @@ Expected<std::vector<deputy_status_t>> DeputyClient::gather() {
   }
   if (!latest_.empty()) return latestList();
   return makeError("no status from ", options_.host.empty() ? "any deputy" : options_.host,
-                   " on ", channels::kDeputyStatus, " within ", options_.timeout_s, " s");
+                   " on ", channels::kDeputyStatus, " within ", secondsText(options_.timeout_s));
 }
 
 Status DeputyClient::order(const std::vector<ProcRef>& refs, bool running) {
@@ -214,7 +220,7 @@ Status DeputyClient::order(const std::vector<ProcRef>& refs, bool running) {
     if (acknowledged) return Ok{};
     if (now - first_send > seconds(options_.timeout_s)) {
       return makeError("no acknowledgement of the ", running ? "start" : "stop", " order within ",
-                       options_.timeout_s, " s");
+                       secondsText(options_.timeout_s));
     }
     if (now >= next_send) {
       for (auto& [host, o] : by_host) {
@@ -279,7 +285,7 @@ Status DeputyClient::waitFor(const std::vector<CtlTarget>& targets, bool running
     if (reached) return Ok{};
     if (Clock::now() - start > seconds(options_.timeout_s)) {
       return makeError("not all targets ", running ? "running" : "stopped", " within ",
-                       options_.timeout_s, " s");
+                       secondsText(options_.timeout_s));
     }
     pumpOnce();
   }

@@ -1,6 +1,5 @@
 #include "core/deputy/supervisor.h"
 
-#include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -8,10 +7,10 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
-#include <ctime>
 #include <set>
 
 #include "core/deputy/child_process.h"
+#include "core/deputy/process_log.h"
 #include "core/deputy/proc_stats.h"
 
 namespace evermap::deputy {
@@ -35,7 +34,7 @@ struct Supervisor::Process {
   bool has_ended = false;
   int last_exit_code = 0;
   double last_backoff_ms = 0.0;
-  int log_fd = -1;
+  std::unique_ptr<ProcessLog> log;
   std::string partial_line;
   double cpu_percent = 0.0;
   int64_t rss_bytes = 0;
@@ -56,6 +55,7 @@ const char* toString(ProcessState state) {
 
 Status SupervisorOptions::validate() const {
   if (log_dir.empty()) return makeError("supervisor: no log folder given");
+  if (max_log_bytes < 0) return makeError("supervisor: max_log_bytes must be >= 0, got ", max_log_bytes);
   return backoff.validate();
 }
 
@@ -73,17 +73,6 @@ std::string fileNameFor(const std::string& name) {
   }
   if (out.empty() || out[0] == '.') out.insert(out.begin(), '_');
   return out + ".log";
-}
-
-std::string wallTimeText() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  tm local{};
-  localtime_r(&ts.tv_sec, &local);
-  char buf[64];
-  const size_t n = std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &local);
-  std::snprintf(buf + n, sizeof buf - n, ".%03ld", ts.tv_nsec / 1000000);
-  return buf;
 }
 
 std::string describeExit(int code) {
@@ -121,6 +110,7 @@ Supervisor::Supervisor(std::vector<CommandSpec> commands, SupervisorOptions opti
     p->plan = planLaunch(c.exec);
     p->spec = std::move(c);
     p->backoff = RespawnBackoff(options_.backoff);
+    p->log = std::make_unique<ProcessLog>(logFile(p->spec.name), options_.max_log_bytes);
     processes_.push_back(std::move(p));
   }
 }
@@ -134,7 +124,6 @@ Supervisor::~Supervisor() {
       }
     }
     p->child.closeFds();
-    if (p->log_fd >= 0) ::close(p->log_fd);
   }
 }
 
@@ -244,10 +233,6 @@ void Supervisor::scheduleStart(Process& p, double delay_ms, bool respawn) {
 }
 
 void Supervisor::launch(Process& p) {
-  if (p.log_fd < 0) {
-    p.log_fd = ::open(logFile(p.spec.name).c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC,
-                      0644);
-  }
   const bool respawn = p.next_start_is_respawn;
   p.next_start_is_respawn = false;
   p.stop_requested = false;
@@ -407,7 +392,7 @@ void Supervisor::emitLines(Process& p, std::string_view chunk) {
     }
     p.partial_line += c;
   }
-  if (!complete.empty()) writeLog(p, complete);
+  if (!complete.empty()) p.log->write(complete);
 }
 
 void Supervisor::flushPartialLine(Process& p) {
@@ -416,21 +401,8 @@ void Supervisor::flushPartialLine(Process& p) {
 }
 
 void Supervisor::note(Process& p, const std::string& text) {
-  if (p.log_fd < 0) {
-    p.log_fd = ::open(logFile(p.spec.name).c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC,
-                      0644);
-  }
-  writeLog(p, "[deputy " + wallTimeText() + "] " + text + "\n");
+  p.log->note(text);
   if (sink_) sink_(p.spec.name, text, true);
-}
-
-void Supervisor::writeLog(Process& p, std::string_view bytes) {
-  while (p.log_fd >= 0 && !bytes.empty()) {
-    const ssize_t n = ::write(p.log_fd, bytes.data(), bytes.size());
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return;  // disk full: the output still goes to the network
-    bytes.remove_prefix(static_cast<size_t>(n));
-  }
 }
 
 // ---- measurements ----------------------------------------------------------------------

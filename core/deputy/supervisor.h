@@ -57,6 +57,9 @@ struct SupervisorOptions {
   // One "<name>.log" per process (characters other than [A-Za-z0-9._-] become '_'), appended
   // to; created if missing.
   std::filesystem::path log_dir;
+  // A log file that reaches this size, bytes, is renamed to "<name>.log.1" (replacing the
+  // previous one) and started afresh; 0 keeps one file without limit.
+  int64_t max_log_bytes = int64_t{256} << 20;
   BackoffOptions backoff;
 
   Status validate() const;
@@ -124,7 +127,6 @@ class Supervisor {
   void emitLines(Process& p, std::string_view chunk);
   void flushPartialLine(Process& p);
   void note(Process& p, const std::string& text);
-  void writeLog(Process& p, std::string_view bytes);
 
   SupervisorOptions options_;
   std::vector<std::unique_ptr<Process>> processes_;

@@ -4,9 +4,10 @@
 //   evermap-deputy CONFIG --log-dir DIR [--host NAME] [--script NAME | --start-all]
 //                  [--exit-after-script] [--lcm-url URL] [--no-output] [--quiet]
 //                  [--backoff-initial-ms MS] [--backoff-max-ms MS] [--stable-after-s S]
+//                  [--max-log-mb MB]
 //   evermap-deputy CONFIG --check
 //
-// Exits 0 after a clean stop (SIGINT/SIGTERM; a second one kills at once), 2 on bad usage,
+// Exits 0 after a clean stop (SIGINT/SIGTERM/SIGHUP; a second one kills at once), 2 on bad usage,
 // a malformed configuration or when LCM cannot start.
 #include <signal.h>
 #include <sys/signalfd.h>
@@ -34,6 +35,7 @@ void usage() {
                "[--quiet]\n"
                "                      [--backoff-initial-ms MS] [--backoff-max-ms MS] "
                "[--stable-after-s S]\n"
+               "                      [--max-log-mb MB]\n"
                "       evermap-deputy CONFIG --check\n");
 }
 
@@ -66,6 +68,7 @@ int main(int argc, char** argv) {
   bool check = false, start_all = false, exit_after_script = false, quiet = false;
   bool publish_output = true;
   BackoffOptions backoff;
+  double max_log_mb = -1.0;  // default of SupervisorOptions
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -97,6 +100,7 @@ int main(int argc, char** argv) {
     else if (a == "--backoff-initial-ms") backoff.initial_delay_ms = number();
     else if (a == "--backoff-max-ms") backoff.max_delay_ms = number();
     else if (a == "--stable-after-s") backoff.stable_after_s = number();
+    else if (a == "--max-log-mb") max_log_mb = number();
     else if (a == "-h" || a == "--help") { usage(); return 0; }
     else if (!a.empty() && a[0] != '-' && config_path.empty()) config_path = a;
     else { usage(); return 2; }
@@ -118,12 +122,13 @@ int main(int argc, char** argv) {
     return 0;
   }
 
-  // SIGINT and SIGTERM arrive on a signalfd, read in the main loop (no handler, no global).
+  // SIGINT, SIGTERM and SIGHUP arrive on a signalfd, read in the main loop (no handler, no global).
   // Children get an empty mask (posix_spawn in child_process.cpp).
   sigset_t stop_signals;
   sigemptyset(&stop_signals);
   sigaddset(&stop_signals, SIGINT);
   sigaddset(&stop_signals, SIGTERM);
+  sigaddset(&stop_signals, SIGHUP);  // the terminal went away: stop cleanly, not abruptly
   sigprocmask(SIG_BLOCK, &stop_signals, nullptr);
   const int signal_fd = ::signalfd(-1, &stop_signals, SFD_NONBLOCK | SFD_CLOEXEC);
   if (signal_fd < 0) {
@@ -134,6 +139,7 @@ int main(int argc, char** argv) {
   const auto commands = config->commandsForHost(host);
   SupervisorOptions supervisor_options;
   supervisor_options.log_dir = log_dir;
+  if (max_log_mb >= 0) supervisor_options.max_log_bytes = static_cast<int64_t>(max_log_mb * (1 << 20));
   supervisor_options.backoff = backoff;
   auto supervisor = Supervisor::create(commands, supervisor_options);
   if (!supervisor) {
@@ -158,6 +164,11 @@ int main(int argc, char** argv) {
                host.c_str(), commands.size(), config->commands.size(), config_path.c_str(),
                log_dir.c_str(), backoff.describe().c_str());
 
+  if (commands.empty()) {
+    std::fprintf(stderr, "evermap-deputy: warning: no command of %s is for host \"%s\" "
+                 "(set --host, or host = \"localhost\" in the file)\n",
+                 config_path.c_str(), host.c_str());
+  }
   if (!script.empty()) {
     auto runner = ScriptRunner::create(*config, script);
     if (!runner) {
