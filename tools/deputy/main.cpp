@@ -1,0 +1,215 @@
+// evermap-deputy: starts and supervises the processes of a procman configuration, publishes
+// their status and output on LCM and obeys orders (docs/deputy.md).
+//
+//   evermap-deputy CONFIG --log-dir DIR [--host NAME] [--script NAME | --start-all]
+//                  [--exit-after-script] [--lcm-url URL] [--no-output] [--quiet]
+//                  [--backoff-initial-ms MS] [--backoff-max-ms MS] [--stable-after-s S]
+//                  [--max-log-mb MB]
+//   evermap-deputy CONFIG --check
+//
+// Exits 0 after a clean stop (SIGINT/SIGTERM/SIGHUP; a second one kills at once), 2 on bad usage,
+// a malformed configuration or when LCM cannot start.
+#include <signal.h>
+#include <sys/signalfd.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <lcm/lcm-cpp.hpp>
+#include <string>
+
+#include "core/deputy/config.h"
+#include "core/deputy/deputy_node.h"
+#include "core/deputy/script_runner.h"
+#include "core/deputy/supervisor.h"
+
+namespace {
+
+using namespace evermap::deputy;
+
+void usage() {
+  std::fprintf(stderr,
+               "usage: evermap-deputy CONFIG --log-dir DIR [--host NAME] [--script NAME | "
+               "--start-all]\n"
+               "                      [--exit-after-script] [--lcm-url URL] [--no-output] "
+               "[--quiet]\n"
+               "                      [--backoff-initial-ms MS] [--backoff-max-ms MS] "
+               "[--stable-after-s S]\n"
+               "                      [--max-log-mb MB]\n"
+               "       evermap-deputy CONFIG --check\n");
+}
+
+void printConfig(const Config& config, const std::string& host) {
+  const auto mine = config.commandsForHost(host);
+  std::printf("%s: %zu commands (%zu for host \"%s\"), %zu groups, %zu scripts\n",
+              config.source.c_str(), config.commands.size(), mine.size(), host.c_str(),
+              config.groups.size(), config.scripts.size());
+  for (const CommandSpec& c : config.commands) {
+    std::printf("  cmd %-24s group=%-16s host=%-10s respawn=%s stop=%d/%ds delay=%dms\n    %s\n",
+                ("\"" + c.name + "\"").c_str(), c.group.empty() ? "-" : c.group.c_str(),
+                c.host.empty() ? "-" : c.host.c_str(), c.auto_respawn ? "yes" : "no",
+                c.stop_signal, c.stop_time_allowed_s, c.start_delay_ms, c.exec.c_str());
+  }
+  for (const Script& s : config.scripts) {
+    std::printf("  script \"%s\": %zu actions\n", s.name.c_str(), s.actions.size());
+  }
+}
+
+std::string machineName() {
+  char buf[256] = {};
+  if (::gethostname(buf, sizeof buf - 1) != 0 || buf[0] == '\0') return "localhost";
+  return buf;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string config_path, log_dir, host, script, lcm_url;
+  bool check = false, start_all = false, exit_after_script = false, quiet = false;
+  bool publish_output = true;
+  BackoffOptions backoff;
+  double max_log_mb = -1.0;  // default of SupervisorOptions
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "evermap-deputy: %s needs a value\n", a.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    auto number = [&]() {
+      const std::string v = next();
+      char* end = nullptr;
+      const double d = std::strtod(v.c_str(), &end);
+      if (end == v.c_str() || *end != '\0') {
+        std::fprintf(stderr, "evermap-deputy: %s: not a number: %s\n", a.c_str(), v.c_str());
+        std::exit(2);
+      }
+      return d;
+    };
+    if (a == "--log-dir") log_dir = next();
+    else if (a == "--host") host = next();
+    else if (a == "--script") script = next();
+    else if (a == "--lcm-url") lcm_url = next();
+    else if (a == "--start-all") start_all = true;
+    else if (a == "--exit-after-script") exit_after_script = true;
+    else if (a == "--check") check = true;
+    else if (a == "--quiet") quiet = true;
+    else if (a == "--no-output") publish_output = false;
+    else if (a == "--backoff-initial-ms") backoff.initial_delay_ms = number();
+    else if (a == "--backoff-max-ms") backoff.max_delay_ms = number();
+    else if (a == "--stable-after-s") backoff.stable_after_s = number();
+    else if (a == "--max-log-mb") max_log_mb = number();
+    else if (a == "-h" || a == "--help") { usage(); return 0; }
+    else if (!a.empty() && a[0] != '-' && config_path.empty()) config_path = a;
+    else { usage(); return 2; }
+  }
+  if (config_path.empty() || (!check && log_dir.empty()) || (start_all && !script.empty()) ||
+      (exit_after_script && script.empty())) {
+    usage();
+    return 2;
+  }
+  if (host.empty()) host = machineName();
+
+  auto config = loadConfig(config_path);
+  if (!config) {
+    std::fprintf(stderr, "evermap-deputy: %s\n", config.error().message.c_str());
+    return 2;
+  }
+  if (check) {
+    printConfig(*config, host);
+    return 0;
+  }
+
+  // SIGINT, SIGTERM and SIGHUP arrive on a signalfd, read in the main loop (no handler, no global).
+  // Children get an empty mask (posix_spawn in child_process.cpp).
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  sigaddset(&stop_signals, SIGHUP);  // the terminal went away: stop cleanly, not abruptly
+  sigprocmask(SIG_BLOCK, &stop_signals, nullptr);
+  const int signal_fd = ::signalfd(-1, &stop_signals, SFD_NONBLOCK | SFD_CLOEXEC);
+  if (signal_fd < 0) {
+    std::perror("evermap-deputy: signalfd");
+    return 2;
+  }
+
+  const auto commands = config->commandsForHost(host);
+  SupervisorOptions supervisor_options;
+  supervisor_options.log_dir = log_dir;
+  if (max_log_mb >= 0) supervisor_options.max_log_bytes = static_cast<int64_t>(max_log_mb * (1 << 20));
+  supervisor_options.backoff = backoff;
+  auto supervisor = Supervisor::create(commands, supervisor_options);
+  if (!supervisor) {
+    std::fprintf(stderr, "evermap-deputy: %s\n", supervisor.error().message.c_str());
+    return 2;
+  }
+  lcm::LCM lcm(lcm_url);
+  if (!lcm.good()) {
+    std::fprintf(stderr, "evermap-deputy: cannot start LCM (url \"%s\")\n", lcm_url.c_str());
+    return 2;
+  }
+  DeputyNodeOptions node_options;
+  node_options.host = host;
+  node_options.publish_output = publish_output;
+  node_options.print_notes = !quiet;
+  if (auto ok = node_options.validate(); !ok) {
+    std::fprintf(stderr, "evermap-deputy: %s\n", ok.error().message.c_str());
+    return 2;
+  }
+  DeputyNode node(lcm, **supervisor, node_options);
+  std::fprintf(stderr, "evermap-deputy: host \"%s\": %zu of %zu commands from %s, logs in %s, %s\n",
+               host.c_str(), commands.size(), config->commands.size(), config_path.c_str(),
+               log_dir.c_str(), backoff.describe().c_str());
+
+  if (commands.empty()) {
+    std::fprintf(stderr, "evermap-deputy: warning: no command of %s is for host \"%s\" "
+                 "(set --host, or host = \"localhost\" in the file)\n",
+                 config_path.c_str(), host.c_str());
+  }
+  if (!script.empty()) {
+    auto runner = ScriptRunner::create(*config, script);
+    if (!runner) {
+      std::fprintf(stderr, "evermap-deputy: %s\n", runner.error().message.c_str());
+      return 2;
+    }
+    node.runScript(std::move(*runner));
+  }
+  if (start_all) {
+    for (const CommandSpec& c : commands) (void)(*supervisor)->start(c.name);
+  }
+
+  Supervisor& sup = **supervisor;
+  while (true) {
+    node.spinOnce(500, signal_fd);
+    signalfd_siginfo info{};
+    while (::read(signal_fd, &info, sizeof info) == static_cast<ssize_t>(sizeof info)) {
+      if (!sup.shuttingDown()) {
+        std::fprintf(stderr, "evermap-deputy: %s: stopping every process\n",
+                     strsignal(static_cast<int>(info.ssi_signo)));
+        sup.beginShutdown();
+      } else {
+        std::fprintf(stderr, "evermap-deputy: second signal: SIGKILL to every process\n");
+        sup.killAll();
+      }
+    }
+    if (exit_after_script && !node.scriptRunning() && !sup.shuttingDown()) {
+      std::fprintf(stderr, "evermap-deputy: script \"%s\" done: stopping every process\n",
+                   script.c_str());
+      sup.beginShutdown();
+    }
+    if (sup.shuttingDown() && sup.allStopped()) break;
+  }
+  node.publishStatus();
+  int restarts = 0;
+  for (const ProcessStatus& s : sup.status()) restarts += s.restarts;
+  const auto& c = node.counters();
+  std::fprintf(stderr,
+               "evermap-deputy: all stopped; %d automatic restarts, %lld orders applied, "
+               "%lld output lines not sent (rate limit)\n",
+               restarts, static_cast<long long>(c.orders_applied),
+               static_cast<long long>(node.outputLinesDropped()));
+  return 0;
+}
