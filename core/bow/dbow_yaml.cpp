@@ -137,8 +137,11 @@ Expected<Vocabulary> loadDbowYaml(const std::filesystem::path& file) {
     if (!fs.isOpened()) return makeError(name, ": cannot be read as OpenCV YAML");
     return parse(fs, name);
   } catch (const cv::Exception& e) {
-    // OpenCV's message spans lines and names its own source file; keep the first useful part.
-    std::string what = e.err.empty() ? e.what() : e.err;
+    // OpenCV's parser puts "file(line): what" in `func` and its own function name in `err`;
+    // what() spans lines and names OpenCV's source file. Keep the two short parts.
+    std::string what = e.err;
+    if (!e.func.empty()) what += (what.empty() ? "" : ": ") + e.func;
+    if (what.empty()) what = e.what();
     for (char& c : what) {
       if (c == '\n') c = ' ';
     }
