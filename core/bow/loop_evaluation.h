@@ -101,6 +101,14 @@ struct PrCurve {
   PrPoint best_at_full_precision;
 };
 
+// The operating points evermap-place-eval reports by default (docs/place-recognition.md):
+// with the epipolar check no score threshold is needed (the check alone decides among the top
+// candidates); the raw-score threshold was picked on RTAB-Map's samples for the default
+// vocabulary and does not carry over to other vocabularies (raw scores depend on the
+// vocabulary's size).
+inline constexpr double kDefaultGeometricThreshold = 0.0;
+inline constexpr double kDefaultRawThreshold = 0.10;
+
 // `records` must cover images 0..gt.size()-1 in order (runLoopDetector's output).
 PrCurve precisionRecall(const std::vector<QueryRecord>& records, const LoopGroundTruth& gt,
                         Decision decision, int exclude_recent);

@@ -49,8 +49,8 @@ struct CommandLine {
   std::string images, gt, vocab, train_root, csv;
   bool full_curve = false;
   SequenceOptions options;
-  double raw_threshold = 0.10;
-  double geo_threshold = 0.0;
+  double raw_threshold = kDefaultRawThreshold;
+  double geo_threshold = kDefaultGeometricThreshold;
 };
 
 std::optional<CommandLine> parse(int argc, char** argv) {
