@@ -56,7 +56,9 @@ TEST(PlaceDatabase, QueryScoresEqualBruteForceL1Scores) {
       EXPECT_NEAR(m.score, l1Score(q, stored[static_cast<size_t>(m.id)]), 1e-5);
       EXPECT_EQ(m.floor, m.id % 3);
       EXPECT_EQ(m.utime, 1000 * m.id);
-      if (k > 0) EXPECT_LE(m.score, (*result)[k - 1].score);
+      if (k > 0) {
+        EXPECT_LE(m.score, (*result)[k - 1].score);
+      }
     }
   }
 }

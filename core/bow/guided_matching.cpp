@@ -20,6 +20,7 @@ struct Best {
 };
 
 // For each feature of `from`, its best and second-best distance among `to`.
+EVERMAP_POPCNT_CLONES
 std::vector<Best> bestIn(const std::vector<uint32_t>& from, std::span<const Descriptor> df,
                          const std::vector<uint32_t>& to, std::span<const Descriptor> dt) {
   std::vector<Best> out(from.size());

@@ -27,6 +27,7 @@ Descriptor majorityOf(const BitCounts& counts, size_t n) {
 }
 
 // k-means++ seeds among all[members]; stops early when every member coincides with a seed.
+EVERMAP_POPCNT_CLONES
 std::vector<Descriptor> seedPlusPlus(std::span<const Descriptor> all,
                                      std::span<const uint32_t> members, int k, SplitMix64& rng) {
   std::vector<Descriptor> seeds;
@@ -68,6 +69,29 @@ std::vector<Descriptor> seedPlusPlus(std::span<const Descriptor> all,
   return seeds;
 }
 
+// Assigns each member to its nearest centre (the first on a tie); true if any assignment
+// changed.
+EVERMAP_POPCNT_CLONES
+bool assignToNearest(std::span<const Descriptor> all, std::span<const uint32_t> members,
+                     const std::vector<Descriptor>& centres, std::vector<uint32_t>& assignment) {
+  bool changed = false;
+  for (size_t i = 0; i < members.size(); ++i) {
+    const Descriptor& d = all[members[i]];
+    uint32_t best = 0;
+    int best_distance = hammingDistance(d, centres[0]);
+    for (uint32_t j = 1; j < centres.size(); ++j) {
+      const int dist = hammingDistance(d, centres[j]);
+      if (dist < best_distance) {
+        best_distance = dist;
+        best = j;
+      }
+    }
+    changed = changed || assignment[i] != best;
+    assignment[i] = best;
+  }
+  return changed;
+}
+
 }  // namespace
 
 Descriptor bitwiseMajority(std::span<const Descriptor> all, std::span<const uint32_t> members) {
@@ -92,24 +116,7 @@ KMajorityResult kMajority(std::span<const Descriptor> all, std::span<const uint3
   const size_t c = centres.size();
   std::vector<uint32_t> assignment(members.size(), std::numeric_limits<uint32_t>::max());
 
-  auto assign = [&]() {
-    bool changed = false;
-    for (size_t i = 0; i < members.size(); ++i) {
-      const Descriptor& d = all[members[i]];
-      uint32_t best = 0;
-      int best_distance = hammingDistance(d, centres[0]);
-      for (uint32_t j = 1; j < c; ++j) {
-        const int dist = hammingDistance(d, centres[j]);
-        if (dist < best_distance) {
-          best_distance = dist;
-          best = j;
-        }
-      }
-      changed = changed || assignment[i] != best;
-      assignment[i] = best;
-    }
-    return changed;
-  };
+  auto assign = [&]() { return assignToNearest(all, members, centres, assignment); };
 
   std::vector<BitCounts> counts(c);
   std::vector<size_t> sizes(c);

@@ -86,8 +86,8 @@ class PlaceDatabase {
   struct FloorIndex {
     std::vector<std::vector<Posting>> postings;
   };
-  void accumulate(const FloorIndex& index, const BowVector& bow, std::vector<float>& score,
-                  std::vector<uint32_t>& touched) const;
+  void accumulate(const FloorIndex& index, const BowVector& bow,
+                  std::vector<float>& score) const;
 
   size_t num_words_;
   uint64_t fingerprint_;

@@ -135,6 +135,7 @@ Expected<Vocabulary> Vocabulary::create(int branching, int levels, std::vector<N
   return v;
 }
 
+EVERMAP_POPCNT_CLONES
 uint32_t Vocabulary::descend(const Descriptor& d, int depth, uint32_t* node_at_depth) const {
   uint32_t node = 0;
   while (num_children_[node] > 0) {
