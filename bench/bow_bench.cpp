@@ -74,6 +74,7 @@ struct Setup {
   std::vector<BowVector> place_bows;
   std::vector<BowVector> queries;                    // revisits
   std::vector<int64_t> query_truth;                  // the place each query revisits
+  double postings_per_query = 0;                     // mean postings a query reads, one floor
   std::optional<PlaceDatabase> database;         // 10,000 places, one floor
   std::optional<PlaceDatabase> database_floors;  // the same places over 10 floors
 };
@@ -127,6 +128,14 @@ const Setup& setup() {
                  "set up in %.0f s\n",
                  r.real.size(), n, one.numPostings(), one.numPostings() * 8.0 / 1e6,
                  std::chrono::duration<double>(Clock::now() - t0).count());
+    std::vector<uint32_t> list_length(r.vocabulary->numWords(), 0);
+    for (const BowVector& b : r.place_bows) {
+      for (const WordWeight& e : b) ++list_length[e.word];
+    }
+    for (const BowVector& b : r.queries) {
+      for (const WordWeight& e : b) r.postings_per_query += list_length[e.word];
+    }
+    r.postings_per_query /= static_cast<double>(r.queries.size());
     r.database = std::move(one);
     r.database_floors = std::move(ten);
     return r;
@@ -184,6 +193,7 @@ void BM_QueryAllPlaces(benchmark::State& state, bool ten_floors) {
   timings.report(state);
   state.counters["places"] = static_cast<double>(db.size());
   state.counters["top1_is_source"] = static_cast<double>(first) / std::max<size_t>(asked, 1);
+  if (!ten_floors) state.counters["postings_read"] = s.postings_per_query;
 }
 
 // Building the database place by place; each insertion timed.

@@ -76,6 +76,15 @@ TEST(PrecisionRecall, FollowsTheDefinitionsOnAHandMadeRun) {
   EXPECT_EQ(geo.false_positives, 0);
   EXPECT_DOUBLE_EQ(geo.recall, 1.0);
 
+  // Re-deciding with another inlier threshold: at 55 only image 3 passes; at 5 every first
+  // candidate does, so the geometric decision equals the raw one.
+  const PrPoint strict = evaluateAt(records, gt, Decision::kGeometricCheck, 0, 0.0, 55);
+  EXPECT_EQ(strict.true_positives, 1);
+  EXPECT_EQ(strict.false_positives, 0);
+  const PrPoint lax = evaluateAt(records, gt, Decision::kGeometricCheck, 0, 0.0, 5);
+  EXPECT_EQ(lax.true_positives, 1);
+  EXPECT_EQ(lax.false_positives, 2);
+
   const PrCurve curve = precisionRecall(records, gt, Decision::kRawScore, 0);
   ASSERT_EQ(curve.points.size(), 4u);  // thresholds 0.3, 0.5, 0.6 and above all
   EXPECT_DOUBLE_EQ(curve.points[1].threshold, 0.5);

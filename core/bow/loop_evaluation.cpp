@@ -98,9 +98,10 @@ Expected<std::vector<QueryRecord>> runLoopDetector(const std::vector<std::filesy
 namespace {
 
 // The decision of one query: the chosen candidate, or null.
-const CandidateRecord* decide(const QueryRecord& r, Decision decision) {
+const CandidateRecord* decide(const QueryRecord& r, Decision decision, int min_inliers) {
   for (const CandidateRecord& c : r.candidates) {
-    if (decision == Decision::kRawScore || c.geometric_ok) return &c;
+    if (decision == Decision::kRawScore) return &c;
+    if (min_inliers >= 0 ? c.inliers >= min_inliers : c.geometric_ok) return &c;
   }
   return nullptr;
 }
@@ -108,11 +109,12 @@ const CandidateRecord* decide(const QueryRecord& r, Decision decision) {
 }  // namespace
 
 PrPoint evaluateAt(const std::vector<QueryRecord>& records, const LoopGroundTruth& gt,
-                   Decision decision, int exclude_recent, double threshold) {
+                   Decision decision, int exclude_recent, double threshold,
+                   int min_inliers) {
   PrPoint p;
   p.threshold = threshold;
   for (size_t i = 0; i < records.size() && i < gt.size(); ++i) {
-    const CandidateRecord* c = decide(records[i], decision);
+    const CandidateRecord* c = decide(records[i], decision, min_inliers);
     if (!c || c->score < threshold) continue;
     if (gt.loop(i, c->image)) {
       ++p.true_positives;
@@ -134,7 +136,7 @@ PrCurve precisionRecall(const std::vector<QueryRecord>& records, const LoopGroun
   curve.queries_with_loop = gt.numQueriesWithLoop(exclude_recent);
   std::vector<double> thresholds;
   for (const QueryRecord& r : records) {
-    if (const CandidateRecord* c = decide(r, decision)) thresholds.push_back(c->score);
+    if (const CandidateRecord* c = decide(r, decision, -1)) thresholds.push_back(c->score);
   }
   std::sort(thresholds.begin(), thresholds.end());
   thresholds.erase(std::unique(thresholds.begin(), thresholds.end()), thresholds.end());

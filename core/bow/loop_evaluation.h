@@ -112,8 +112,11 @@ inline constexpr double kDefaultRawThreshold = 0.10;
 // `records` must cover images 0..gt.size()-1 in order (runLoopDetector's output).
 PrCurve precisionRecall(const std::vector<QueryRecord>& records, const LoopGroundTruth& gt,
                         Decision decision, int exclude_recent);
-// The single point at `threshold`.
+// The single point at `threshold`. With kGeometricCheck, `min_inliers` >= 0 re-decides which
+// candidates pass (inliers >= min_inliers) instead of the check's recorded verdict, so the
+// inlier threshold can be swept without running the detector again.
 PrPoint evaluateAt(const std::vector<QueryRecord>& records, const LoopGroundTruth& gt,
-                   Decision decision, int exclude_recent, double threshold);
+                   Decision decision, int exclude_recent, double threshold,
+                   int min_inliers = -1);
 
 }  // namespace evermap::bow

@@ -128,6 +128,8 @@ Expected<Vocabulary> loadVocabulary(const std::filesystem::path& file) {
 }
 
 Expected<Vocabulary> loadAnyVocabulary(const std::filesystem::path& file) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) return makeError(file.string(), ": no such file");
   std::ifstream in(file, std::ios::binary);
   if (!in) return makeError(file.string(), ": cannot open for reading");
   char head[sizeof(kMagic)] = {};

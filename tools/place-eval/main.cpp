@@ -121,16 +121,18 @@ void printCurve(const PrCurve& curve, bool full) {
   std::printf("\nprecision-recall, %s (%zu queries with a loop)\n", name(curve.decision),
               curve.queries_with_loop);
   std::printf("  threshold   TP   FP  precision  recall\n");
-  // Without --full-curve: for each count of false positives, the point with the lowest
-  // threshold (the most true positives): the corners of the curve.
+  // Without --full-curve: a point whenever the false positives change or the recall has
+  // dropped by 5 points since the last printed one, and the last point.
+  const PrPoint* printed = nullptr;
   for (size_t k = 0; k < curve.points.size(); ++k) {
     const PrPoint& p = curve.points[k];
-    if (!full && k > 0 && curve.points[k - 1].false_positives == p.false_positives &&
-        k + 1 != curve.points.size()) {
-      continue;
-    }
+    const bool show = full || !printed || k + 1 == curve.points.size() ||
+                      p.false_positives != printed->false_positives ||
+                      printed->recall - p.recall >= 0.05 - 1e-12;
+    if (!show) continue;
     std::printf("  %9.4f %4d %4d  %8.1f%%  %5.1f%%\n", p.threshold, p.true_positives,
                 p.false_positives, 100 * p.precision, 100 * p.recall);
+    printed = &p;
   }
   const PrPoint& b = curve.best_at_full_precision;
   std::printf("  best recall at 100%% precision: %.1f%% (%d of %zu) from threshold %.4f\n",
@@ -177,6 +179,15 @@ int main(int argc, char** argv) {
 
   for (Decision d : {Decision::kRawScore, Decision::kGeometricCheck}) {
     printCurve(precisionRecall(*records, *gt, d, cmd->options.exclude_recent), cmd->full_curve);
+  }
+  // The other threshold of the check: inliers, at the chosen score threshold.
+  std::printf("\nscore + epipolar at score >= %.3f, by inlier threshold\n", cmd->geo_threshold);
+  std::printf("  inliers   TP   FP  precision  recall\n");
+  for (int m : {8, 10, 12, 15, 20, 25, 30, 40, 50, 60, 80, 100}) {
+    const PrPoint p = evaluateAt(*records, *gt, Decision::kGeometricCheck,
+                                 cmd->options.exclude_recent, cmd->geo_threshold, m);
+    std::printf("  %7d %4d %4d  %8.1f%%  %5.1f%%\n", m, p.true_positives, p.false_positives,
+                100 * p.precision, 100 * p.recall);
   }
   std::printf("\nat the chosen thresholds:\n");
   const PrPoint raw =
