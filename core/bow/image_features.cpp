@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
+#include <cstdlib>
 
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -18,6 +20,11 @@ std::string OrbOptions::validate() const {
 }
 
 ImageFeatures extractOrb(const cv::Mat& image, const OrbOptions& options) {
+  if (image.depth() != CV_8U) {
+    std::fprintf(stderr, "evermap: extractOrb needs an 8-bit image, got depth %d\n",
+                 image.depth());
+    std::abort();
+  }
   cv::Mat gray;
   if (image.channels() == 3) {
     cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);

@@ -33,7 +33,8 @@ struct ImageFeatures {
   cv::Size image_size;
 };
 
-// ORB on an 8-bit grey image (colour is converted).
+// ORB on an 8-bit image, grey or colour (colour is converted to grey). Contract: 8-bit depth
+// (what extractOrbFromFile reads); other depths abort with a message.
 ImageFeatures extractOrb(const cv::Mat& image, const OrbOptions& options);
 // Reads the file (any format OpenCV decodes) and extracts; an unreadable or empty image is an
 // error naming the file.

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 
 #include <opencv2/imgcodecs.hpp>
@@ -9,6 +11,15 @@
 #include "core/bow/place_database.h"
 
 namespace evermap::bow {
+
+LoopGroundTruth::LoopGroundTruth(size_t n, std::vector<uint8_t> cells)
+    : n_(n), cells_(std::move(cells)) {
+  if (cells_.size() != n_ * n_) {
+    std::fprintf(stderr, "evermap: LoopGroundTruth of size %zu given %zu cells\n", n_,
+                 cells_.size());
+    std::abort();
+  }
+}
 
 Expected<LoopGroundTruth> LoopGroundTruth::fromImage(const std::filesystem::path& file) {
   std::error_code ec;

@@ -31,7 +31,8 @@ namespace evermap::bow {
 class LoopGroundTruth {
  public:
   LoopGroundTruth() = default;
-  LoopGroundTruth(size_t n, std::vector<uint8_t> cells) : n_(n), cells_(std::move(cells)) {}
+  // Row-major n x n cells, nonzero = loop. Contract: cells.size() == n * n.
+  LoopGroundTruth(size_t n, std::vector<uint8_t> cells);
   // A square 8-bit image, nonzero = loop; row = query image, column = matched image, both
   // counted from the top-left (cv::imread already undoes BMP's bottom-up storage). RTAB-Map's
   // samples_GT.bmp marks only past images (below the diagonal). Errors name the file.
