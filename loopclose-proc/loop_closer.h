@@ -1,0 +1,138 @@
+#pragma once
+// loopclose-proc's logic, without LCM (DESIGN.md sections 1 and 5; paper IV-C, IV-D):
+//  - keeps a bounded cache of the most recent keyframes (KEYFRAME);
+//  - when the mapper announces a node (NODE_ADDED), stores the keyframe that describes it and
+//    adds the node to the place database (bag-of-words vector, floor, time), persisting both
+//    in the map store when one is given;
+//  - answers registration requests (REGISTER_REQUEST): the query keyframe against one given
+//    node (MODE_NODE), or against the best places of an appearance search on the requested
+//    floor (MODE_GLOBAL, candidates tried in score order until one registers);
+//  - at most `max_rate_hz` answers per second of data time, newest request first; a request
+//    older than `max_request_age_us`, or pushed out of the bounded queue, is answered
+//    STATUS_STALE and counted. Every failure is an answer with a status and a reason: the
+//    process never dies on input.
+// Time is data time: the newest utime of any message received (never the wall clock).
+// Threading: one thread; the caller serialises all calls.
+
+#include <cstdint>
+#include <deque>
+#include <list>
+#include <memory>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <evermap/node_added_t.hpp>
+#include <evermap/register_request_t.hpp>
+#include <evermap/register_result_t.hpp>
+
+#include "core/bow/place_database.h"
+#include "core/bow/place_store.h"
+#include "core/bow/vocabulary.h"
+#include "core/common/expected.h"
+#include "loopclose-proc/keyframe.h"
+#include "loopclose-proc/registration.h"
+
+namespace evermap::loopclose {
+
+struct LoopCloserOptions {
+  // Answers per second of data time (the paper's loop closure runs at 2 Hz).
+  double max_rate_hz = 2.0;
+  // Requests older than this behind the newest data time are stale, microseconds.
+  int64_t max_request_age_us = 2'000'000;
+  // Requests waiting at most; beyond, the oldest is answered stale.
+  size_t max_pending_requests = 8;
+  // Recent keyframes kept in memory for NODE_ADDED and queries.
+  size_t recent_keyframes = 64;
+  // Node keyframes kept decoded in memory when a map store holds the rest (with no store every
+  // node keyframe stays in memory).
+  size_t node_keyframe_cache = 256;
+  // Appearance search: candidates tried, lowest score considered, and how recent a place may
+  // be (places whose keyframe is within this of the query are not loop closures), µs.
+  int global_candidates = 3;
+  double min_candidate_score = 0.0;
+  int64_t exclude_recent_us = 10'000'000;
+
+  Status validate() const;
+};
+
+struct LoopCloserStats {
+  int64_t keyframes = 0;
+  int64_t keyframes_rejected = 0;      // failed validation
+  int64_t nodes = 0;
+  int64_t nodes_rejected = 0;          // unknown keyframe, duplicate id, store failure
+  int64_t requests = 0;
+  int64_t answered = 0;                // all answers, stale ones included
+  int64_t stale = 0;
+  int64_t ok = 0;
+  int64_t failed = 0;                  // answered with a failure status other than stale
+  int64_t store_errors = 0;
+  std::string text() const;            // one line
+};
+
+class LoopCloser {
+ public:
+  // `vocabulary` and `registration` must outlive the LoopCloser. With a `store`, the nodes it
+  // holds are loaded (the place database is rebuilt from it) and new ones are written to it.
+  static Expected<std::unique_ptr<LoopCloser>> create(const bow::Vocabulary& vocabulary,
+                                                      FrameRegistration& registration,
+                                                      const LoopCloserOptions& options,
+                                                      std::optional<bow::PlaceStore> store);
+
+  // KEYFRAME: validated and cached. An error names the keyframe (it is dropped and counted).
+  Status addKeyframe(const evermap::keyframe_t& msg);
+  // NODE_ADDED: the node's keyframe must be among the recent ones (or already stored).
+  Status addNode(const evermap::node_added_t& msg);
+  // REGISTER_REQUEST: queued; answered by poll().
+  void submit(const evermap::register_request_t& request);
+  // The answers due now: stale requests, and at most one answer per 1/max_rate_hz of data time
+  // (the newest pending request).
+  std::vector<evermap::register_result_t> poll();
+  // Answers one request immediately, ignoring rate and queue (tests, offline runs).
+  evermap::register_result_t answer(const evermap::register_request_t& request);
+
+  int64_t now() const { return now_utime_; }
+  size_t numNodes() const { return places_.size(); }
+  size_t pending() const { return pending_.size(); }
+  const LoopCloserStats& stats() const { return stats_; }
+
+ private:
+  struct Node {
+    int32_t floor = 0;
+    int64_t keyframe_utime = 0;
+  };
+  LoopCloser(const bow::Vocabulary& vocabulary, FrameRegistration& registration,
+             const LoopCloserOptions& options, std::optional<bow::PlaceStore> store);
+  void advanceClock(int64_t utime);
+  const Keyframe* recentKeyframe(int64_t utime) const;
+  // The keyframe of a node: memory, else the store (then cached). Null with a reason.
+  std::shared_ptr<const Keyframe> nodeKeyframe(int64_t node_id, std::string* why);
+  evermap::register_result_t failure(const evermap::register_request_t& request, int8_t status,
+                                     std::string reason);
+  evermap::register_result_t registerAgainst(const evermap::register_request_t& request,
+                                             const Keyframe& query, int64_t node_id,
+                                             double score, std::string* why);
+
+  const bow::Vocabulary& vocabulary_;
+  FrameRegistration& registration_;
+  LoopCloserOptions options_;
+  std::optional<bow::PlaceStore> store_;
+  bow::PlaceDatabase places_;
+  std::unordered_map<int64_t, Node> nodes_;
+  std::deque<std::shared_ptr<const Keyframe>> recent_;  // oldest first
+  // Node keyframes in memory: all of them without a store, else an LRU of bounded size.
+  struct Cached {
+    std::shared_ptr<const Keyframe> keyframe;
+    std::list<int64_t>::iterator lru_position;
+  };
+  std::unordered_map<int64_t, Cached> node_keyframes_;
+  std::list<int64_t> lru_;  // node ids, most recently used first
+  std::vector<evermap::register_result_t> ready_;  // stale answers made by submit()
+  std::deque<evermap::register_request_t> pending_;  // arrival order
+  int64_t now_utime_ = 0;
+  std::optional<int64_t> last_answer_utime_;
+  LoopCloserStats stats_;
+};
+
+}  // namespace evermap::loopclose

@@ -1,0 +1,50 @@
+#pragma once
+// The frame registration loopclose-proc calls: the pluggable part. The real one — brute-force
+// Hamming matching with mutual check, maximum-clique inliers, 6-DOF refinement by bidirectional
+// reprojection error, covariance (paper section IV-D) — lives in core/ and is written on the
+// `vo` branch; an adapter implementing this interface slots it in (main.cpp's
+// makeRegistration()). Tests use their own implementations.
+
+#include <string>
+
+#include "core/geometry/se3.h"
+#include "loopclose-proc/keyframe.h"
+
+namespace evermap::loopclose {
+
+struct RegistrationOutcome {
+  bool ok = false;
+  core::SE3d target_T_query;                        // camera frames: p_target = T * p_query
+  core::Mat6 covariance = core::Mat6::Identity();   // right tangent, (υ, ω) order
+  int inliers = 0;
+  std::string reason;                               // why not, when !ok
+};
+
+class FrameRegistration {
+ public:
+  virtual ~FrameRegistration() = default;
+  // Registers `query` against `target`. Must not throw; bad or insufficient data is an outcome
+  // with ok = false and a reason. Called from loopclose-proc's one thread.
+  virtual RegistrationOutcome registerFrames(const Keyframe& target, const Keyframe& query) = 0;
+  // One line for logs ("vo clique registration, min 30 inliers").
+  virtual std::string describe() const = 0;
+};
+
+}  // namespace evermap::loopclose
+
+namespace evermap::loopclose {
+
+// What loopclose-proc uses until the `vo` branch's registration is slotted in: every
+// registration fails with a reason that says so. (Appearance search, node bookkeeping, the
+// map store and the request protocol all work; no constraint is produced.)
+class NoRegistration final : public FrameRegistration {
+ public:
+  RegistrationOutcome registerFrames(const Keyframe&, const Keyframe&) override {
+    RegistrationOutcome o;
+    o.reason = "no frame registration in this build (core registration not merged yet)";
+    return o;
+  }
+  std::string describe() const override { return "none (every registration fails)"; }
+};
+
+}  // namespace evermap::loopclose

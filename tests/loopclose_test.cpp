@@ -1,0 +1,389 @@
+// loopclose-proc: node bookkeeping, the two request modes, failure answers with reasons, the
+// 2 Hz newest-first schedule with stale requests, persistence in the map store across
+// sessions, and the LCM wiring over memq://. Keyframes are synthetic: each "place" has its own
+// 80 random descriptors, and a keyframe of a place shows them with a few bits of noise. The
+// frame registration is a test double (the real one comes from core/, vo branch): it succeeds
+// when enough descriptors match index by index and returns a pose that encodes the pair.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "bow_synthetic.h"
+#include "core/bow/vocabulary_training.h"
+#include "core/messages/channels.h"
+#include "loopclose-proc/loop_closer.h"
+#include "loopclose-proc/server.h"
+
+namespace evermap::loopclose {
+namespace {
+
+using bow::Descriptor;
+using bow::SplitMix64;
+using evermap::register_request_t;
+using evermap::register_result_t;
+
+// lcm-gen declares the status constants without a definition: EXPECT_EQ binds references,
+// so compare against local copies.
+constexpr int kOk = register_result_t::STATUS_OK;
+constexpr int kNoCandidate = register_result_t::STATUS_NO_CANDIDATE;
+constexpr int kTooFewInliers = register_result_t::STATUS_TOO_FEW_INLIERS;
+constexpr int kUnknownNode = register_result_t::STATUS_UNKNOWN_NODE;
+constexpr int kUnknownKeyframe = register_result_t::STATUS_UNKNOWN_KEYFRAME;
+constexpr int kMalformed = register_result_t::STATUS_MALFORMED;
+constexpr int kStale = register_result_t::STATUS_STALE;
+constexpr int8_t kNode = register_request_t::MODE_NODE;
+constexpr int8_t kGlobal = register_request_t::MODE_GLOBAL;
+
+constexpr int kPlaces = 8;
+constexpr int kFeatures = 80;
+constexpr int64_t kSecond = 1'000'000;
+
+class World {
+ public:
+  World() : rng_(99) {
+    for (int p = 0; p < kPlaces; ++p) {
+      std::vector<Descriptor> prototypes;
+      for (int i = 0; i < kFeatures; ++i) prototypes.push_back(bow::testing::randomDescriptor(rng_));
+      places_.push_back(std::move(prototypes));
+    }
+    std::vector<std::vector<Descriptor>> training;
+    for (int copy = 0; copy < 3; ++copy) {
+      for (int p = 0; p < kPlaces; ++p) training.push_back(noisy(p));
+    }
+    bow::TrainingOptions o;
+    o.branching = 8;
+    o.levels = 3;
+    vocabulary_.emplace(bow::trainVocabulary(training, o).value());
+  }
+  const bow::Vocabulary& vocabulary() const { return *vocabulary_; }
+
+  std::vector<Descriptor> noisy(int place) {
+    std::vector<Descriptor> d;
+    for (const Descriptor& p : places_[static_cast<size_t>(place)]) {
+      d.push_back(bow::testing::flipBits(p, 6, rng_));
+    }
+    return d;
+  }
+  evermap::keyframe_t keyframe(int place, int64_t utime) {
+    evermap::keyframe_t k;
+    k.utime = utime;
+    k.fx = k.fy = 450.0;
+    k.cx = 320.0;
+    k.cy = 240.0;
+    k.baseline_m = 0.11;
+    const std::vector<Descriptor> d = place >= 0 ? noisy(place) : std::vector<Descriptor>{};
+    k.num_features = static_cast<int32_t>(d.size());
+    for (size_t i = 0; i < d.size(); ++i) {
+      k.keypoints.push_back({static_cast<float>(4 * i), 100.0f});
+      k.points.push_back({0.1f * static_cast<float>(i), 0.0f, 3.0f});
+      k.disparity.push_back(16.5f);
+      k.level.push_back(0);
+      k.descriptors.emplace_back(d[i].bytes.begin(), d[i].bytes.end());
+    }
+    return k;
+  }
+
+ private:
+  SplitMix64 rng_;
+  std::vector<std::vector<Descriptor>> places_;
+  std::optional<bow::Vocabulary> vocabulary_;
+};
+
+// Succeeds when >= 40 descriptors match index by index within 20 bits; the pose returned is a
+// translation of (target utime - query utime) seconds along x, so a test can tell the pair.
+class FakeRegistration final : public FrameRegistration {
+ public:
+  RegistrationOutcome registerFrames(const Keyframe& target, const Keyframe& query) override {
+    ++calls;
+    RegistrationOutcome o;
+    const size_t n = std::min(target.size(), query.size());
+    for (size_t i = 0; i < n; ++i) {
+      o.inliers += bow::hammingDistance(target.descriptors[i], query.descriptors[i]) <= 20;
+    }
+    if (o.inliers < 40) {
+      o.reason = std::to_string(o.inliers) + " inliers";
+      return o;
+    }
+    o.ok = true;
+    o.target_T_query = core::SE3d(core::SO3d(), core::Vec3(1e-6 * (target.utime - query.utime), 0, 0));
+    o.covariance = 0.01 * core::Mat6::Identity();
+    return o;
+  }
+  std::string describe() const override { return "fake"; }
+  int calls = 0;
+};
+
+evermap::node_added_t node(int64_t id, int64_t keyframe_utime, int32_t floor) {
+  evermap::node_added_t n{};
+  n.utime = keyframe_utime;
+  n.node_id = id;
+  n.keyframe_utime = keyframe_utime;
+  n.floor = floor;
+  return n;
+}
+
+register_request_t request(int64_t id, int64_t utime, int64_t keyframe, int8_t mode,
+                           int64_t target = -1, int32_t floor = -1) {
+  register_request_t r{};
+  r.utime = utime;
+  r.request_id = id;
+  r.keyframe_utime = keyframe;
+  r.mode = mode;
+  r.target_node_id = target;
+  r.floor = floor;
+  return r;
+}
+
+class LoopCloserTest : public ::testing::Test {
+ protected:
+  std::unique_ptr<LoopCloser> make(LoopCloserOptions o = {},
+                                   std::optional<bow::PlaceStore> store = std::nullopt) {
+    auto lc = LoopCloser::create(world_.vocabulary(), registration_, o, std::move(store));
+    EXPECT_TRUE(lc.ok());
+    return std::move(*lc);
+  }
+  // Nodes 1..kPlaces: place p - 1 seen at second p on floor 0.
+  void addMap(LoopCloser& lc) {
+    for (int p = 0; p < kPlaces; ++p) {
+      const int64_t t = (p + 1) * kSecond;
+      ASSERT_TRUE(lc.addKeyframe(world_.keyframe(p, t)).ok());
+      ASSERT_TRUE(lc.addNode(node(p + 1, t, 0)).ok());
+    }
+  }
+  static World world_;
+  FakeRegistration registration_;
+};
+World LoopCloserTest::world_;
+
+TEST_F(LoopCloserTest, NodeModeRegistersAgainstTheGivenNode) {
+  auto lc = make();
+  addMap(*lc);
+  EXPECT_EQ(lc->numNodes(), static_cast<size_t>(kPlaces));
+  const int64_t t = 60 * kSecond;
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(2, t)).ok());  // back at place 2 = node 3
+  register_result_t r = lc->answer(request(7, t, t, kNode, 3));
+  EXPECT_EQ(r.status, kOk) << r.reason;
+  EXPECT_EQ(r.request_id, 7);
+  EXPECT_EQ(r.keyframe_utime, t);
+  EXPECT_EQ(r.node_id, 3);
+  EXPECT_NEAR(r.translation[0], 3.0 - 60.0, 1e-9);
+  EXPECT_DOUBLE_EQ(r.orientation[0], 1.0);
+  EXPECT_DOUBLE_EQ(r.covariance[0], 0.01);
+  EXPECT_DOUBLE_EQ(r.covariance[7], 0.01);
+  EXPECT_DOUBLE_EQ(r.covariance[1], 0.0);
+  EXPECT_GE(r.num_inliers, 40);
+  EXPECT_GT(r.score, 0.3);
+  // Against another place: registration fails, and the answer says why.
+  r = lc->answer(request(8, t, t, kNode, 5));
+  EXPECT_EQ(r.status, kTooFewInliers);
+  EXPECT_NE(r.reason.find("inliers"), std::string::npos) << r.reason;
+  EXPECT_EQ(r.node_id, 5);
+}
+
+TEST_F(LoopCloserTest, GlobalModeFindsTheRevisitedPlaceOnTheRequestedFloor) {
+  auto lc = make();
+  addMap(*lc);
+  // Place 5 also seen on floor 1 (node 100) — as if two floors looked alike.
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(5, 20 * kSecond)).ok());
+  ASSERT_TRUE(lc->addNode(node(100, 20 * kSecond, 1)).ok());
+  const int64_t t = 60 * kSecond;
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(5, t)).ok());
+  register_result_t r = lc->answer(request(1, t, t, kGlobal, -1, 0));
+  EXPECT_EQ(r.status, kOk) << r.reason;
+  EXPECT_EQ(r.node_id, 6);
+  EXPECT_GT(r.score, 0.3);
+  r = lc->answer(request(2, t, t, kGlobal, -1, 1));
+  EXPECT_EQ(r.status, kOk) << r.reason;
+  EXPECT_EQ(r.node_id, 100);
+  r = lc->answer(request(3, t, t, kGlobal, -1, 4));
+  EXPECT_EQ(r.status, kNoCandidate);
+  EXPECT_NE(r.reason.find("floor 4"), std::string::npos) << r.reason;
+}
+
+TEST_F(LoopCloserTest, RecentPlacesAreNotLoopClosures) {
+  LoopCloserOptions o;
+  o.exclude_recent_us = 10 * kSecond;
+  auto lc = make(o);
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(1, 1 * kSecond)).ok());
+  ASSERT_TRUE(lc->addNode(node(1, 1 * kSecond, 0)).ok());
+  const int64_t t = 5 * kSecond;  // 4 s later, same place: not a loop yet
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(1, t)).ok());
+  register_result_t r = lc->answer(request(1, t, t, kGlobal));
+  EXPECT_EQ(r.status, kNoCandidate) << r.reason;
+  const int64_t later = 30 * kSecond;
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(1, later)).ok());
+  r = lc->answer(request(2, later, later, kGlobal));
+  EXPECT_EQ(r.status, kOk) << r.reason;
+}
+
+TEST_F(LoopCloserTest, BadInputIsAnsweredWithAReasonNeverACrash) {
+  auto lc = make();
+  addMap(*lc);
+  const int64_t t = 60 * kSecond;
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(2, t)).ok());
+  register_result_t r = lc->answer(request(1, t, t, kNode, 999));
+  EXPECT_EQ(r.status, kUnknownNode);
+  EXPECT_NE(r.reason.find("999"), std::string::npos);
+  r = lc->answer(request(2, t, t + 1, kNode, 3));
+  EXPECT_EQ(r.status, kUnknownKeyframe);
+  r = lc->answer(request(3, t, t, 7, 3));
+  EXPECT_EQ(r.status, kMalformed);
+  EXPECT_NE(r.reason.find("mode 7"), std::string::npos);
+  // An empty keyframe is accepted as data but answered with a reason when used.
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(-1, t + 10)).ok());
+  r = lc->answer(request(4, t, t + 10, kGlobal));
+  EXPECT_EQ(r.status, kTooFewInliers);
+  EXPECT_NE(r.reason.find("no features"), std::string::npos);
+  ASSERT_TRUE(lc->addNode(node(50, t + 10, 0)).ok());
+  r = lc->answer(request(5, t, t, kNode, 50));
+  EXPECT_EQ(r.status, kTooFewInliers);
+  EXPECT_NE(r.reason.find("no features"), std::string::npos) << r.reason;
+  // Malformed keyframes and nodes are refused and counted.
+  evermap::keyframe_t bad = world_.keyframe(1, t + 20);
+  bad.num_features = 3;
+  EXPECT_FALSE(lc->addKeyframe(bad).ok());
+  bad = world_.keyframe(1, t + 20);
+  bad.points[4][1] = std::nanf("");
+  EXPECT_FALSE(lc->addKeyframe(bad).ok());
+  bad = world_.keyframe(1, t + 20);
+  bad.fx = 0;
+  EXPECT_FALSE(lc->addKeyframe(bad).ok());
+  EXPECT_EQ(lc->stats().keyframes_rejected, 3);
+  EXPECT_FALSE(lc->addNode(node(60, 12345, 0)).ok());  // keyframe never seen
+  EXPECT_FALSE(lc->addNode(node(3, t, 0)).ok());       // id already used
+  EXPECT_EQ(lc->stats().nodes_rejected, 2);
+  EXPECT_EQ(lc->stats().failed, 5);
+}
+
+TEST_F(LoopCloserTest, AnswersAtMostTwoPerSecondNewestFirstAndDropsStaleOnes) {
+  auto lc = make();
+  addMap(*lc);
+  const int64_t t = 100 * kSecond;
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_TRUE(lc->addKeyframe(world_.keyframe(k, t + k * 100'000)).ok());
+  }
+  lc->submit(request(1, t, t, kNode, 1));
+  lc->submit(request(2, t + 100'000, t + 100'000, kNode, 2));
+  lc->submit(request(3, t + 200'000, t + 200'000, kNode, 3));
+  auto out = lc->poll();
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].request_id, 3);  // the newest
+  EXPECT_EQ(out[0].status, kOk) << out[0].reason;
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(4, t + 500'000)).ok());  // 0.3 s after: not due
+  EXPECT_TRUE(lc->poll().empty());
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(4, t + 700'000)).ok());  // 0.5 s after
+  out = lc->poll();
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].request_id, 2);
+  EXPECT_EQ(lc->pending(), 1u);
+  // Request 1 is now 2.5 s behind the data: stale, answered so and counted.
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(4, t + 2'500'000)).ok());
+  out = lc->poll();
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].request_id, 1);
+  EXPECT_EQ(out[0].status, kStale);
+  EXPECT_NE(out[0].reason.find("stale"), std::string::npos);
+  EXPECT_EQ(lc->stats().stale, 1);
+  EXPECT_EQ(lc->pending(), 0u);
+}
+
+TEST_F(LoopCloserTest, AFullQueueDropsTheOldestRequest) {
+  LoopCloserOptions o;
+  o.max_pending_requests = 2;
+  auto lc = make(o);
+  addMap(*lc);
+  const int64_t t = 100 * kSecond;
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(0, t)).ok());
+  for (int k = 1; k <= 3; ++k) lc->submit(request(k, t + k, t, kNode, 1));
+  auto out = lc->poll();
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].request_id, 1);
+  EXPECT_EQ(out[0].status, kStale);
+  EXPECT_EQ(out[1].request_id, 3);
+  EXPECT_EQ(out[1].status, kOk);
+  EXPECT_EQ(lc->stats().requests, 3);
+}
+
+TEST_F(LoopCloserTest, TheMapStoreCarriesNodesAndKeyframesToTheNextSession) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("evermap_loopclose_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const auto file = dir / "map.db";
+  const bow::Vocabulary& v = world_.vocabulary();
+  LoopCloserOptions o;
+  o.node_keyframe_cache = 2;  // most node keyframes must come back from the store
+  {
+    auto store = bow::PlaceStore::open(file, v.fingerprint(), v.numWords());
+    ASSERT_TRUE(store.ok()) << store.error().message;
+    auto lc = make(o, std::move(*store));
+    addMap(*lc);
+    EXPECT_EQ(lc->stats().store_errors, 0);
+  }
+  auto store = bow::PlaceStore::open(file, v.fingerprint(), v.numWords());
+  ASSERT_TRUE(store.ok());
+  auto lc = make(o, std::move(*store));
+  EXPECT_EQ(lc->numNodes(), static_cast<size_t>(kPlaces));
+  const int64_t t = 200 * kSecond;
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(1, t)).ok());
+  register_result_t r = lc->answer(request(1, t, t, kNode, 2));
+  EXPECT_EQ(r.status, kOk) << r.reason;
+  for (int p : {6, 0, 3}) {
+    ASSERT_TRUE(lc->addKeyframe(world_.keyframe(p, t + p + 1)).ok());
+    r = lc->answer(request(2, t, t + p + 1, kGlobal));
+    EXPECT_EQ(r.status, kOk) << r.reason;
+    EXPECT_EQ(r.node_id, p + 1);
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST_F(LoopCloserTest, ServesRequestsOverLcm) {
+  lcm::LCM lcm("memq://");
+  ASSERT_TRUE(lcm.good());
+  auto lc = make();
+  LoopCloseServer server(lcm, *lc);
+  std::vector<register_result_t> results;
+  struct Collector {
+    std::vector<register_result_t>* out;
+    void on(const lcm::ReceiveBuffer*, const std::string&, const register_result_t* r) {
+      out->push_back(*r);
+    }
+  } collector{&results};
+  lcm.subscribe(channels::kRegisterResult, &Collector::on, &collector);
+  auto deliver = [&]() {
+    while (lcm.handleTimeout(0) > 0) {
+    }
+  };
+  for (int p = 0; p < 3; ++p) {
+    const evermap::keyframe_t k = world_.keyframe(p, (p + 1) * kSecond);
+    lcm.publish(channels::kKeyframe, &k);
+    const evermap::node_added_t n = node(p + 1, (p + 1) * kSecond, 0);
+    lcm.publish(channels::kNodeAdded, &n);
+  }
+  deliver();
+  EXPECT_EQ(lc->numNodes(), 3u);
+  const evermap::keyframe_t q = world_.keyframe(1, 50 * kSecond);
+  lcm.publish(channels::kKeyframe, &q);
+  const register_request_t req = request(42, 50 * kSecond, 50 * kSecond,
+                                         kGlobal, -1, 0);
+  lcm.publish(channels::kRegisterRequest, &req);
+  // Garbage on every input channel: counted, never fatal.
+  const char junk[] = "not an lcm message";
+  for (const char* ch : {channels::kKeyframe, channels::kNodeAdded, channels::kRegisterRequest}) {
+    lcm.publish(ch, junk, sizeof(junk));
+  }
+  deliver();
+  ASSERT_EQ(results.size(), 1u);
+  EXPECT_EQ(results[0].request_id, 42);
+  EXPECT_EQ(results[0].status, kOk) << results[0].reason;
+  EXPECT_EQ(results[0].node_id, 2);
+  EXPECT_EQ(server.dropped(), 3);
+  EXPECT_EQ(server.published(), 1);
+}
+
+}  // namespace
+}  // namespace evermap::loopclose

@@ -1,0 +1,221 @@
+// evermap-place-eval: runs the bag-of-words loop detector (core/bow/loop_evaluation.h) over a
+// monocular image sequence with a loop ground-truth matrix and prints the precision-recall
+// curve of the raw scores and of the scores after the epipolar check, and the figures at the
+// chosen thresholds. Exit status: 0 done, 1 bad input (the message names it), 2 bad command
+// line.
+
+#include <charconv>
+#include <cstdio>
+#include <cstdlib>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/bow/image_training.h"
+#include "core/bow/loop_evaluation.h"
+#include "core/bow/vocabulary_io.h"
+#include "core/common/atomic_write.h"
+
+namespace {
+
+using namespace evermap;
+using namespace evermap::bow;
+
+constexpr const char* kUsage =
+    "usage: evermap-place-eval --images DIR --gt MATRIX.bmp (--vocab FILE | --train-default DIR)\n"
+    "  --vocab FILE           evermap (.evoc) or DBoW2/DBoW3 (.yml.gz) vocabulary\n"
+    "  --train-default DIR    train the default vocabulary from the shared data under DIR\n"
+    "                         (k=10, L=5, 1000 ORB features per image)\n"
+    "  --exclude-recent N     most recent images not searched (default 10)\n"
+    "  --candidates N         candidates per query for the geometric check (default 5)\n"
+    "  --min-inliers N        epipolar RANSAC inliers to accept (default 30)\n"
+    "  --raw-threshold S      operating threshold of the raw score (default 0.10)\n"
+    "  --geo-threshold S      operating threshold of the score after the check (default 0)\n"
+    "  --features N           ORB features per image (default 1000)\n"
+    "  --direct-depth N       direct-index depth for guided matching (default 2)\n"
+    "  --ratio R              ratio test of guided matching (default 0.8; 1 = off)\n"
+    "  --max-distance N       largest Hamming distance of a match (default 64)\n"
+    "  --ransac-px P          epipolar RANSAC threshold, pixels (default 2)\n"
+    "  --csv FILE             write every query's candidates as CSV\n"
+    "  --full-curve           print every point of the curves, not a summary\n";
+
+template <typename T>
+bool parseNumber(const std::string& s, T* out) {
+  auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), *out);
+  return ec == std::errc() && p == s.data() + s.size();
+}
+
+struct CommandLine {
+  std::string images, gt, vocab, train_root, csv;
+  bool full_curve = false;
+  SequenceOptions options;
+  double raw_threshold = kDefaultRawThreshold;
+  double geo_threshold = kDefaultGeometricThreshold;
+};
+
+std::optional<CommandLine> parse(int argc, char** argv) {
+  CommandLine c;
+  auto fail = [](const std::string& why) {
+    std::fprintf(stderr, "evermap-place-eval: %s\n%s", why.c_str(), kUsage);
+    return std::nullopt;
+  };
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      std::fputs(kUsage, stdout);
+      std::exit(0);
+    }
+    if (a == "--full-curve") {
+      c.full_curve = true;
+      continue;
+    }
+    if (i + 1 >= argc) return fail(a + " needs a value");
+    const std::string v = argv[++i];
+    bool ok = true;
+    if (a == "--images") {
+      c.images = v;
+    } else if (a == "--gt") {
+      c.gt = v;
+    } else if (a == "--vocab") {
+      c.vocab = v;
+    } else if (a == "--train-default") {
+      c.train_root = v;
+    } else if (a == "--csv") {
+      c.csv = v;
+    } else if (a == "--exclude-recent") {
+      ok = parseNumber(v, &c.options.exclude_recent);
+    } else if (a == "--candidates") {
+      ok = parseNumber(v, &c.options.candidates);
+    } else if (a == "--min-inliers") {
+      ok = parseNumber(v, &c.options.geometry.min_inliers);
+    } else if (a == "--raw-threshold") {
+      ok = parseNumber(v, &c.raw_threshold);
+    } else if (a == "--geo-threshold") {
+      ok = parseNumber(v, &c.geo_threshold);
+    } else if (a == "--direct-depth") {
+      ok = parseNumber(v, &c.options.direct_index_depth);
+    } else if (a == "--ratio") {
+      ok = parseNumber(v, &c.options.geometry.matching.ratio);
+    } else if (a == "--max-distance") {
+      ok = parseNumber(v, &c.options.geometry.matching.max_distance);
+    } else if (a == "--ransac-px") {
+      ok = parseNumber(v, &c.options.geometry.ransac_threshold_px);
+    } else if (a == "--features") {
+      ok = parseNumber(v, &c.options.orb.max_features);
+    } else {
+      return fail("unknown option " + a);
+    }
+    if (!ok) return fail("bad value for " + a + ": " + v);
+  }
+  if (c.images.empty() || c.gt.empty()) return fail("--images and --gt are required");
+  if (c.vocab.empty() == c.train_root.empty()) {
+    return fail("give exactly one of --vocab and --train-default");
+  }
+  if (std::string why = c.options.validate(); !why.empty()) return fail(why);
+  return c;
+}
+
+const char* name(Decision d) { return d == Decision::kRawScore ? "raw score" : "score + epipolar"; }
+
+void printCurve(const PrCurve& curve, bool full) {
+  std::printf("\nprecision-recall, %s (%zu queries with a loop)\n", name(curve.decision),
+              curve.queries_with_loop);
+  std::printf("  threshold   TP   FP  precision  recall\n");
+  // Without --full-curve: a point whenever the false positives change or the recall has
+  // dropped by 5 points since the last printed one, and the last point.
+  const PrPoint* printed = nullptr;
+  for (size_t k = 0; k < curve.points.size(); ++k) {
+    const PrPoint& p = curve.points[k];
+    const bool show = full || !printed || k + 1 == curve.points.size() ||
+                      p.false_positives != printed->false_positives ||
+                      printed->recall - p.recall >= 0.05 - 1e-12;
+    if (!show) continue;
+    std::printf("  %9.4f %4d %4d  %8.1f%%  %5.1f%%\n", p.threshold, p.true_positives,
+                p.false_positives, 100 * p.precision, 100 * p.recall);
+    printed = &p;
+  }
+  const PrPoint& b = curve.best_at_full_precision;
+  std::printf("  best recall at 100%% precision: %.1f%% (%d of %zu) from threshold %.4f\n",
+              100 * b.recall, b.true_positives, curve.queries_with_loop, b.threshold);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const auto cmd = parse(argc, argv);
+  if (!cmd) return 2;
+  auto fail = [](const std::string& m) {
+    std::fprintf(stderr, "evermap-place-eval: %s\n", m.c_str());
+    return 1;
+  };
+  auto images = listImages(cmd->images);
+  if (!images) return fail(images.error().message);
+  auto gt = LoopGroundTruth::fromImage(cmd->gt);
+  if (!gt) return fail(gt.error().message);
+  if (gt->size() != images->size()) {
+    return fail(cmd->gt + ": a " + std::to_string(gt->size()) + "x" +
+                std::to_string(gt->size()) + " matrix for " + std::to_string(images->size()) +
+                " images in " + cmd->images);
+  }
+  std::optional<Vocabulary> vocabulary;
+  if (!cmd->vocab.empty()) {
+    auto v = loadAnyVocabulary(cmd->vocab);
+    if (!v) return fail(v.error().message);
+    vocabulary = std::move(*v);
+    std::printf("vocabulary %s: k=%d L=%d, %zu words\n", cmd->vocab.c_str(), vocabulary->branching(),
+                vocabulary->levels(), vocabulary->numWords());
+  } else {
+    ImageTrainingSummary summary;
+    auto v = trainFromImageFolders(defaultTrainingFolders(cmd->train_root), {}, &summary);
+    if (!v) return fail(v.error().message);
+    vocabulary = std::move(*v);
+    std::printf("default vocabulary: %s\n", summary.message.c_str());
+  }
+  std::printf("%zu images, ground truth %zu positive cells; recent-frame exclusion %d images\n",
+              images->size(), gt->numCells(), cmd->options.exclude_recent);
+
+  auto records = runLoopDetector(*images, *vocabulary, cmd->options);
+  if (!records) return fail(records.error().message);
+
+  for (Decision d : {Decision::kRawScore, Decision::kGeometricCheck}) {
+    printCurve(precisionRecall(*records, *gt, d, cmd->options.exclude_recent), cmd->full_curve);
+  }
+  // The other threshold of the check: inliers, at the chosen score threshold.
+  std::printf("\nscore + epipolar at score >= %.3f, by inlier threshold\n", cmd->geo_threshold);
+  std::printf("  inliers   TP   FP  precision  recall\n");
+  for (int m : {8, 10, 12, 15, 20, 25, 30, 40, 50, 60, 80, 100}) {
+    const PrPoint p = evaluateAt(*records, *gt, Decision::kGeometricCheck,
+                                 cmd->options.exclude_recent, cmd->geo_threshold, m);
+    std::printf("  %7d %4d %4d  %8.1f%%  %5.1f%%\n", m, p.true_positives, p.false_positives,
+                100 * p.precision, 100 * p.recall);
+  }
+  std::printf("\nat the chosen thresholds:\n");
+  const PrPoint raw =
+      evaluateAt(*records, *gt, Decision::kRawScore, cmd->options.exclude_recent, cmd->raw_threshold);
+  const PrPoint geo = evaluateAt(*records, *gt, Decision::kGeometricCheck,
+                                 cmd->options.exclude_recent, cmd->geo_threshold);
+  std::printf("  raw score        >= %.3f: precision %.1f%%, recall %.1f%% (TP %d, FP %d)\n",
+              raw.threshold, 100 * raw.precision, 100 * raw.recall, raw.true_positives,
+              raw.false_positives);
+  std::printf("  score + epipolar >= %.3f, >= %d inliers: precision %.1f%%, recall %.1f%% "
+              "(TP %d, FP %d)\n",
+              geo.threshold, cmd->options.geometry.min_inliers, 100 * geo.precision,
+              100 * geo.recall, geo.true_positives, geo.false_positives);
+
+  if (!cmd->csv.empty()) {
+    std::string csv = "query,rank,candidate,score,matches,inliers,geometric_ok,ground_truth\n";
+    for (const QueryRecord& r : *records) {
+      for (size_t k = 0; k < r.candidates.size(); ++k) {
+        const CandidateRecord& c = r.candidates[k];
+        char line[160];
+        std::snprintf(line, sizeof(line), "%zu,%zu,%zu,%.6f,%d,%d,%d,%d\n", r.image + 1, k + 1,
+                      c.image + 1, c.score, c.matches, c.inliers, c.geometric_ok ? 1 : 0,
+                      gt->loop(r.image, c.image) ? 1 : 0);
+        csv += line;
+      }
+    }
+    if (Status s = writeFileAtomically(cmd->csv, csv); !s) return fail(s.error().message);
+    std::printf("candidates written to %s (images numbered from 1)\n", cmd->csv.c_str());
+  }
+  return 0;
+}
