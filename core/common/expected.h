@@ -48,7 +48,8 @@ class [[nodiscard]] Expected {
   // Contract: only call value() when ok(), error() when !ok(); a breach aborts with a message.
   T& value() & { check(true); return std::get<0>(v_); }
   const T& value() const& { check(true); return std::get<0>(v_); }
-  T&& value() && { check(true); return std::get<0>(std::move(v_)); }
+  // By value: `for (x : f().value())` must not point into a destroyed temporary.
+  T value() && { check(true); return std::get<0>(std::move(v_)); }
   T& operator*() & { return value(); }
   const T& operator*() const& { return value(); }
   T* operator->() { return &value(); }
