@@ -1,0 +1,87 @@
+#include "core/solver/robust_kernel.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+
+namespace evermap::solver {
+
+double RobustKernel::cost(double s) const {
+  const double b2 = parameter * parameter;
+  switch (type) {
+    case KernelType::kNone:
+      return s;
+    case KernelType::kPseudoHuber:
+      return 2.0 * b2 * (std::sqrt(1.0 + s / b2) - 1.0);
+    case KernelType::kCauchy:
+      return b2 * std::log1p(s / b2);
+    case KernelType::kDcs: {
+      const double phi = parameter;
+      const double m = std::min(1.0, 2.0 * phi / (phi + s));
+      return m * m * s + phi * (1.0 - m) * (1.0 - m);
+    }
+  }
+  return s;
+}
+
+double RobustKernel::weight(double s) const {
+  const double b2 = parameter * parameter;
+  switch (type) {
+    case KernelType::kNone:
+      return 1.0;
+    case KernelType::kPseudoHuber:
+      return 1.0 / std::sqrt(1.0 + s / b2);
+    case KernelType::kCauchy:
+      return 1.0 / (1.0 + s / b2);
+    case KernelType::kDcs: {
+      const double m = std::min(1.0, 2.0 * parameter / (parameter + s));
+      return m * m;
+    }
+  }
+  return 1.0;
+}
+
+std::string RobustKernel::name() const {
+  switch (type) {
+    case KernelType::kNone:
+      return "none";
+    case KernelType::kPseudoHuber:
+      return "pseudo-huber:" + std::to_string(parameter);
+    case KernelType::kCauchy:
+      return "cauchy:" + std::to_string(parameter);
+    case KernelType::kDcs:
+      return "dcs:" + std::to_string(parameter);
+  }
+  return "?";
+}
+
+Expected<RobustKernel> parseRobustKernel(const std::string& text) {
+  const size_t colon = text.find(':');
+  const std::string name = text.substr(0, colon);
+  RobustKernel k;
+  if (name == "none") {
+    k.type = KernelType::kNone;
+  } else if (name == "pseudo-huber" || name == "huber") {
+    k.type = KernelType::kPseudoHuber;
+    k.parameter = 0.5;  // iSAM's choice (isam.cpp: cost_pseudo_huber(d, .5))
+  } else if (name == "cauchy") {
+    k.type = KernelType::kCauchy;
+    k.parameter = 1.0;
+  } else if (name == "dcs") {
+    k.type = KernelType::kDcs;
+    k.parameter = 1.0;  // Φ = 1, the value Agarwal et al. recommend
+  } else {
+    return makeError("robust kernel '", text, "': expected none, pseudo-huber, cauchy or dcs");
+  }
+  if (colon != std::string::npos) {
+    char* end = nullptr;
+    const std::string p = text.substr(colon + 1);
+    k.parameter = std::strtod(p.c_str(), &end);
+    if (p.empty() || *end != '\0' || !(k.parameter > 0.0) || !std::isfinite(k.parameter)) {
+      return makeError("robust kernel '", text, "': parameter must be a positive number");
+    }
+  }
+  return k;
+}
+
+}  // namespace evermap::solver
