@@ -66,8 +66,8 @@ Values retracted(const Values& x, const Eigen::VectorXd& delta) {
   return out;
 }
 
-// Dog-leg step inside radius Δ from the Gauss-Newton step h_gn and the Cauchy step
-// h_sd = α g (Madsen et al. 2004, eq. 3.20).
+}  // namespace
+
 Eigen::VectorXd dogLegStep(const Eigen::VectorXd& h_gn, const Eigen::VectorXd& h_sd,
                            double radius) {
   if (h_gn.norm() <= radius) return h_gn;
@@ -82,8 +82,6 @@ Eigen::VectorXd dogLegStep(const Eigen::VectorXd& h_gn, const Eigen::VectorXd& h
   const double beta = c <= 0.0 ? (-c + root) / dd : r2 / (c + root);
   return h_sd + beta * d;
 }
-
-}  // namespace
 
 BatchSummary solveBatch(PoseGraph& graph, const BatchOptions& options) {
   BatchSummary summary;

@@ -58,6 +58,11 @@ struct BatchSummary {
   bool ok() const { return termination != Termination::kFailure; }
 };
 
+// Powell's dog-leg step inside radius Δ from the Gauss-Newton step h_gn and the Cauchy step
+// h_sd (Madsen, Nielsen & Tingleff 2004, eq. 3.20).
+Eigen::VectorXd dogLegStep(const Eigen::VectorXd& h_gn, const Eigen::VectorXd& h_sd,
+                           double radius);
+
 // Minimises the graph's robust cost starting from its current values; updates the values.
 BatchSummary solveBatch(PoseGraph& graph, const BatchOptions& options);
 

@@ -267,6 +267,7 @@ void SparseCholesky::extractSquareRoot(SquareRootFactor* R) const {
     for (size_t c = 0; c < row.cols.size(); ++c) {
       row.offsets[c + 1] = row.offsets[c] + R->dimAt(row.cols[c]);
     }
+    row.uniform = row.offsets.back() == static_cast<int>(row.cols.size()) * row.dim;
     row.A = SquareRootFactor::RowMatrix::Zero(row.dim, row.offsets.back());
     row.d = Eigen::VectorXd::Zero(row.dim);
     row.initialized = true;
@@ -289,6 +290,7 @@ void SparseCholesky::extractSquareRoot(SquareRootFactor* R) const {
       }
     }
   }
+  R->rebuildUsers();
 }
 
 }  // namespace evermap::solver

@@ -15,10 +15,16 @@ constexpr double kPivotTolerance = 1e-12;
 
 void SquareRootFactor::clear() {
   rows_.clear();
+  users_.clear();
   scalar_offsets_.assign(1, 0);
 }
 
 int SquareRootFactor::appendPosition(int dim) {
+  if (dim < 1 || dim > kMaxBlockDim) {
+    std::fprintf(stderr, "evermap: SquareRootFactor: block dimension %d out of range\n", dim);
+    std::abort();
+  }
+  users_.emplace_back();
   Row r;
   r.dim = dim;
   rows_.push_back(std::move(r));
@@ -26,12 +32,28 @@ int SquareRootFactor::appendPosition(int dim) {
   return size() - 1;
 }
 
+void SquareRootFactor::rebuildUsers() {
+  users_.assign(rows_.size(), {});
+  for (int p = 0; p < size(); ++p) {
+    for (size_t c = 1; c < rows_[p].cols.size(); ++c) users_[rows_[p].cols[c]].push_back(p);
+  }
+}
+
 int SquareRootFactor::parent(int position) const {
   const Row& r = rows_[position];
   return r.cols.size() > 1 ? r.cols[1] : -1;
 }
 
-void SquareRootFactor::relayout(Row* row, const std::vector<int>& cols) const {
+void SquareRootFactor::relayout(int position, const std::vector<int>& cols) {
+  Row* row = &rows_[position];
+  // Record the new block columns' users (rows that read them in back substitution).
+  {
+    size_t o = 0;
+    for (size_t c = 1; c < cols.size(); ++c) {
+      while (o < row->cols.size() && row->cols[o] < cols[c]) ++o;
+      if (o == row->cols.size() || row->cols[o] != cols[c]) users_[cols[c]].push_back(position);
+    }
+  }
   std::vector<int> offsets(cols.size() + 1, 0);
   for (size_t c = 0; c < cols.size(); ++c) offsets[c + 1] = offsets[c] + rows_[cols[c]].dim;
   RowMatrix A = RowMatrix::Zero(row->dim, offsets.back());
@@ -48,6 +70,7 @@ void SquareRootFactor::relayout(Row* row, const std::vector<int>& cols) const {
   }
   row->A.swap(A);
   row->cols = cols;
+  row->uniform = offsets.back() == static_cast<int>(cols.size()) * row->dim;
   row->offsets = std::move(offsets);
 }
 
@@ -56,9 +79,12 @@ double SquareRootFactor::addRows(std::span<const int> positions,
                                  const Eigen::Ref<const Eigen::VectorXd>& b,
                                  std::vector<int>* touched) {
   const int m = static_cast<int>(A.rows());
-  std::vector<int> S(positions.begin(), positions.end());
-  work_ = A;  // row-major copy
-  Eigen::VectorXd rhs = b;
+  std::vector<int>& S = structure_;
+  S.assign(positions.begin(), positions.end());
+  work_ = A;  // column-major: each scalar column of the new rows is contiguous
+  int base = 0;  // work_ columns [base, ...) belong to S
+  rhs_ = b;
+  double* rhs = rhs_.data();
 
   while (!S.empty()) {
     const int k = S.front();
@@ -74,58 +100,63 @@ double SquareRootFactor::addRows(std::span<const int> positions,
     } else {
       merged_ = S;
     }
-    if (!R.initialized || merged_.size() != R.cols.size()) relayout(&R, merged_);
+    if (!R.initialized || merged_.size() != R.cols.size()) relayout(k, merged_);
     const int width = static_cast<int>(R.A.cols());
 
     // Bring the new rows to the same layout.
     if (S.size() != merged_.size()) {
       work_next_.setZero(m, width);
       size_t c = 0;
-      int src = 0;
-      for (int s : S) {
-        while (merged_[c] != s) ++c;
-        const int w = rows_[s].dim;
+      int src = base;
+      for (int sp : S) {
+        while (merged_[c] != sp) ++c;
+        const int w = rows_[sp].dim;
         work_next_.middleCols(R.offsets[c], w) = work_.middleCols(src, w);
         src += w;
       }
       work_.swap(work_next_);
+      base = 0;
     }
 
     // One Householder reflection per column j zeroes the new rows' column j against R(j, j).
+    // Plain loops: m is 1..12 and the rows are short.
+    double* W = work_.data() + static_cast<int64_t>(base) * m;
     for (int j = 0; j < d; ++j) {
+      double* v = W + static_cast<int64_t>(j) * m;
       double norm2 = 0.0;
-      for (int r = 0; r < m; ++r) norm2 += work_(r, j) * work_(r, j);
+      for (int r = 0; r < m; ++r) norm2 += v[r] * v[r];
       if (norm2 == 0.0) continue;
-      const double alpha = R.A(j, j);
+      double* Rj = R.A.data() + static_cast<int64_t>(j) * width;
+      const double alpha = Rj[j];
       const double sigma = std::sqrt(alpha * alpha + norm2);
       const double beta = alpha > 0.0 ? -sigma : sigma;
       const double u0 = alpha - beta;
-      const double tau = -u0 / beta;  // 2 / (uᵀu) scaled for u0 = 1 below
-      // Normalise u so that u0 = 1: v_r = work(r, j) / u0.
+      // Reflector u = (1, v / u0), H = I − τ u uᵀ with τ = −u0 / β.
       const double inv_u0 = 1.0 / u0;
+      for (int r = 0; r < m; ++r) v[r] *= inv_u0;
+      const double tau = -u0 / beta;
       for (int c = j + 1; c < width; ++c) {
-        double s = R.A(j, c);
-        for (int r = 0; r < m; ++r) s += inv_u0 * work_(r, j) * work_(r, c);
+        double* wc = W + static_cast<int64_t>(c) * m;
+        double s = Rj[c];
+        for (int r = 0; r < m; ++r) s += v[r] * wc[r];
         s *= tau;
-        R.A(j, c) -= s;
-        for (int r = 0; r < m; ++r) work_(r, c) -= s * inv_u0 * work_(r, j);
+        Rj[c] -= s;
+        for (int r = 0; r < m; ++r) wc[r] -= s * v[r];
       }
       double s = R.d[j];
-      for (int r = 0; r < m; ++r) s += inv_u0 * work_(r, j) * rhs[r];
+      for (int r = 0; r < m; ++r) s += v[r] * rhs[r];
       s *= tau;
       R.d[j] -= s;
-      for (int r = 0; r < m; ++r) rhs[r] -= s * inv_u0 * work_(r, j);
-      R.A(j, j) = beta;
-      for (int r = 0; r < m; ++r) work_(r, j) = 0.0;
+      for (int r = 0; r < m; ++r) rhs[r] -= s * v[r];
+      Rj[j] = beta;
+      for (int r = 0; r < m; ++r) v[r] = 0.0;
     }
 
     // The new rows now start at the next block column.
     S.assign(merged_.begin() + 1, merged_.end());
-    if (S.empty()) break;
-    work_next_ = work_.rightCols(width - d);
-    work_.swap(work_next_);
+    base += d;
   }
-  return rhs.squaredNorm();
+  return rhs_.squaredNorm();
 }
 
 Status SquareRootFactor::backSubstitute(Eigen::VectorXd* x) const {
@@ -136,36 +167,78 @@ Status SquareRootFactor::backSubstitute(Eigen::VectorXd* x) const {
   return Ok{};
 }
 
+// acc −= Σ_{c ≥ 1} R_pc x_c for a row whose blocks all have dimension D (compile-time
+// sizes let the compiler unroll the 3x3 / 6x6 products).
+template <int D>
+void SquareRootFactor::subtractBlocks(const Row& R, const double* x, double* acc) const {
+  const int width = static_cast<int>(R.A.cols());
+  const double* Ad = R.A.data();
+  double sum[D] = {};
+  for (size_t c = 1; c < R.cols.size(); ++c) {
+    const double* xc = x + scalar_offsets_[R.cols[c]];
+    const int o = static_cast<int>(c) * D;
+    for (int j = 0; j < D; ++j) {
+      const double* a = Ad + static_cast<int64_t>(j) * width + o;
+      double s = 0.0;
+      for (int k = 0; k < D; ++k) s += a[k] * xc[k];
+      sum[j] += s;
+    }
+  }
+  for (int j = 0; j < D; ++j) acc[j] -= sum[j];
+}
+
 Expected<int> SquareRootFactor::backSubstitutePartial(const std::vector<char>& dirty,
                                                       double threshold,
                                                       Eigen::VectorXd* x) const {
   if (x->size() != scalarSize()) x->conservativeResizeLike(Eigen::VectorXd::Zero(scalarSize()));
-  // changed[p]: x at p moved by more than the threshold, so rows that read p must be redone.
-  std::vector<char> changed(rows_.size(), 0);
+  // Rows are solved from the last position down; a row is redone when its right-hand side
+  // changed (dirty) or a variable it reads moved by more than the threshold (users_ lists
+  // who reads each position, so a change marks exactly the rows to redo).
+  pending_.assign(dirty.begin(), dirty.end());
+  pending_.resize(rows_.size(), 0);
   int recomputed = 0;
-  Eigen::VectorXd acc;
+  double* xd = x->data();
+  double acc[kMaxBlockDim];
   for (int p = size() - 1; p >= 0; --p) {
+    if (!pending_[p]) continue;
     const Row& R = rows_[p];
-    bool redo = dirty[p] != 0;
-    for (size_t c = 1; !redo && c < R.cols.size(); ++c) redo = changed[R.cols[c]] != 0;
-    if (!redo) continue;
     ++recomputed;
-    if (!R.initialized) return makeError("square-root factor: variable at position ", p,
-                                         " has no factor");
-    acc = R.d;
-    for (size_t c = 1; c < R.cols.size(); ++c) {
-      const int w = R.offsets[c + 1] - R.offsets[c];
-      acc.noalias() -= R.A.middleCols(R.offsets[c], w) * x->segment(scalar_offsets_[R.cols[c]], w);
+    if (!R.initialized) {
+      return makeError("square-root factor: variable at position ", p, " has no factor");
+    }
+    // acc = d − Σ_c R_pc x_c with plain loops: the blocks are 3x3 or 6x6, too small for a
+    // library matrix-vector product to pay off.
+    const int d = R.dim;
+    const int width = static_cast<int>(R.A.cols());
+    for (int j = 0; j < d; ++j) acc[j] = R.d[j];
+    const double* Ad = R.A.data();
+    if (R.uniform && d == 3) {
+      subtractBlocks<3>(R, xd, acc);
+    } else if (R.uniform && d == 6) {
+      subtractBlocks<6>(R, xd, acc);
+    } else {
+      for (size_t c = 1; c < R.cols.size(); ++c) {
+        const double* xc = xd + scalar_offsets_[R.cols[c]];
+        const int o = R.offsets[c];
+        const int w = R.offsets[c + 1] - o;
+        for (int j = 0; j < d; ++j) {
+          const double* a = Ad + static_cast<int64_t>(j) * width + o;
+          double s = 0.0;
+          for (int k = 0; k < w; ++k) s += a[k] * xc[k];
+          acc[j] -= s;
+        }
+      }
     }
     // Upper-triangular solve of the diagonal block.
-    const int d = R.dim;
-    auto xp = x->segment(scalar_offsets_[p], d);
+    double* xp = xd + scalar_offsets_[p];
     double change = 0.0;
-    const double scale = R.A.row(0).cwiseAbs().maxCoeff();
+    double scale = 0.0;
+    for (int j = 0; j < d; ++j) scale = std::max(scale, std::abs(Ad[static_cast<int64_t>(j) * width + j]));
     for (int j = d - 1; j >= 0; --j) {
+      const double* a = Ad + static_cast<int64_t>(j) * width;
       double s = acc[j];
-      for (int c = j + 1; c < d; ++c) s -= R.A(j, c) * xp[c];
-      const double pivot = R.A(j, j);
+      for (int c = j + 1; c < d; ++c) s -= a[c] * xp[c];
+      const double pivot = a[j];
       if (!(std::abs(pivot) > kPivotTolerance * scale) || !std::isfinite(pivot)) {
         return makeError("square-root factor: zero pivot at position ", p,
                          " (a variable is not determined by its factors)");
@@ -174,7 +247,9 @@ Expected<int> SquareRootFactor::backSubstitutePartial(const std::vector<char>& d
       change = std::max(change, std::abs(v - xp[j]));
       xp[j] = v;
     }
-    changed[p] = change > threshold;
+    if (change > threshold) {
+      for (int r : users_[p]) pending_[r] = 1;
+    }
   }
   return recomputed;
 }

@@ -22,10 +22,13 @@ namespace evermap::solver {
 
 class SquareRootFactor {
  public:
+  // Largest variable block (SE(3)).
+  static constexpr int kMaxBlockDim = 6;
   using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   struct Row {
     int dim = 0;
     bool initialized = false;
+    bool uniform = false;      // every block column has this row's dimension
     std::vector<int> cols;     // block columns (positions), ascending; cols[0] = own position
     std::vector<int> offsets;  // scalar offset of each block column inside A; back() = width
     RowMatrix A;               // dim × width; the diagonal block is upper triangular
@@ -33,6 +36,8 @@ class SquareRootFactor {
   };
 
   void clear();
+  // Rebuilds the transpose structure after rows were set directly (mutableRow).
+  void rebuildUsers();
   // Adds an empty row block for a new variable at the next position; returns the position.
   int appendPosition(int dim);
   int size() const { return static_cast<int>(rows_.size()); }
@@ -70,14 +75,21 @@ class SquareRootFactor {
   int64_t nnz() const;
 
  private:
-  void relayout(Row* row, const std::vector<int>& cols) const;
+  void relayout(int position, const std::vector<int>& cols);
+  template <int D>
+  void subtractBlocks(const Row& R, const double* x, double* acc) const;
 
   std::vector<Row> rows_;
+  // users_[c]: positions p < c whose row reads block column c (the transpose structure).
+  std::vector<std::vector<int>> users_;
   std::vector<int> scalar_offsets_ = {0};
   // Scratch buffers for addRows (kept to avoid reallocating on every update).
+  mutable std::vector<char> pending_;
   std::vector<int> merged_;
-  RowMatrix work_;
-  RowMatrix work_next_;
+  std::vector<int> structure_;
+  Eigen::MatrixXd work_;
+  Eigen::MatrixXd work_next_;
+  Eigen::VectorXd rhs_;
 };
 
 }  // namespace evermap::solver
