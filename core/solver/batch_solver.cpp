@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "core/solver/normal_equations.h"
 #include "core/solver/ordering.h"
@@ -149,7 +150,14 @@ BatchSummary solveBatch(PoseGraph& graph, const BatchOptions& options) {
     const double step_max = step.lpNorm<Eigen::Infinity>();
     const Values candidate = retracted(x, step);
     const Cost new_cost = graph.cost(candidate);
-    const double decrease = cost.robust - new_cost.robust;
+    const bool finite = std::isfinite(new_cost.robust);
+    const double decrease = finite ? cost.robust - new_cost.robust
+                                   : -std::numeric_limits<double>::infinity();
+    if (!finite && options.method == Method::kGaussNewton) {
+      summary.termination = Termination::kFailure;
+      summary.message = "gauss-newton diverged (non-finite cost); try lm or dogleg";
+      break;
+    }
     if (options.verbose) {
       std::fprintf(stderr, "  iter %d: cost %.9g -> %.9g |step| %.3g%s\n", it + 1, cost.robust,
                    new_cost.robust, step_max,

@@ -169,7 +169,18 @@ Status IncrementalSolver::solveDogLeg(UpdateResult* result, bool from_batch) {
 
 Status IncrementalSolver::batchStep() {
   if (graph_.values().size() == 0) return Ok{};
-  graph_.mutableValues() = estimate();
+  const Values current = estimate();
+  for (int v = 0; v < current.size(); ++v) {
+    const PoseValue& p = current.at(v);
+    const bool finite = p.kind == PoseKind::kSE2
+                            ? p.se2.vector().allFinite()
+                            : (p.se3.translation().allFinite() && p.se3.quaternion().coeffs().allFinite());
+    if (!finite) {
+      return makeError("the estimate diverged (variable ", current.keyAt(v),
+                       " is not finite); try --method dogleg or a robust kernel");
+    }
+  }
+  graph_.mutableValues() = current;
   const BlockPattern pattern = buildPattern(graph_);
   chol_.analyze(pattern, fillReducingOrder(graph_.values().size(), activeFactorVariables(graph_)));
   Eigen::VectorXd g;

@@ -10,7 +10,7 @@
 //
 //  pseudo-Huber (b):  ρ = 2b²(√(1 + s/b²) − 1)            Hartley & Zisserman (2004) A6.8
 //  Cauchy (b):        ρ = b² log(1 + s/b²)                 ibid.
-//  DCS (Φ):           ρ = m² s + Φ (1 − m)², m = min(1, 2Φ/(Φ + s))
+//  DCS (Φ, default 20): ρ = m² s + Φ (1 − m)², m = min(1, 2Φ/(Φ + s))
 //                     Agarwal et al., "Robust map optimization using dynamic covariance
 //                     scaling", ICRA 2013, eq. (9)-(14): the switchable-constraint cost with the
 //                     switch m eliminated in closed form; ρ'(s) = m².
