@@ -16,9 +16,9 @@ double RobustKernel::cost(double s) const {
     case KernelType::kCauchy:
       return b2 * std::log1p(s / b2);
     case KernelType::kDcs: {
+      // ∫ m(s)² ds: s up to Φ, then 3Φ − 4Φ²/(Φ + s) (bounded by 3Φ).
       const double phi = parameter;
-      const double m = std::min(1.0, 2.0 * phi / (phi + s));
-      return m * m * s + phi * (1.0 - m) * (1.0 - m);
+      return s <= phi ? s : 3.0 * phi - 4.0 * phi * phi / (phi + s);
     }
   }
   return s;

@@ -10,10 +10,12 @@
 //
 //  pseudo-Huber (b):  ρ = 2b²(√(1 + s/b²) − 1)            Hartley & Zisserman (2004) A6.8
 //  Cauchy (b):        ρ = b² log(1 + s/b²)                 ibid.
-//  DCS (Φ, default 20): ρ = m² s + Φ (1 − m)², m = min(1, 2Φ/(Φ + s))
+//  DCS (Φ, default 20): IRLS weight m², m = min(1, 2Φ/(Φ + s)), and the matching cost
+//                     ρ = s for s ≤ Φ, else 3Φ − 4Φ²/(Φ + s) (the integral of m², bounded by 3Φ)
 //                     Agarwal et al., "Robust map optimization using dynamic covariance
-//                     scaling", ICRA 2013, eq. (9)-(14): the switchable-constraint cost with the
-//                     switch m eliminated in closed form; ρ'(s) = m².
+//                     scaling", ICRA 2013: switchable constraints with the switch eliminated
+//                     in closed form. (g2o reports m² s as the cost, which is not the
+//                     integral of its weight; we keep cost and weight consistent.)
 
 #include <string>
 
