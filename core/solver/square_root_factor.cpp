@@ -74,6 +74,46 @@ void SquareRootFactor::relayout(int position, const std::vector<int>& cols) {
   row->offsets = std::move(offsets);
 }
 
+namespace {
+
+// One Householder reflection that zeroes column j of the new rows W (column-major,
+// m × width) against R(j, j), applied to row j of R (Rj), to W's columns j+1.., and to the
+// right-hand sides. M is m at compile time (0: only known at run time); plain loops, since
+// m is 1..12 and the rows are short.
+template <int M>
+void reflect(int m_runtime, int j, int width, double* W, double* Rj, double* dj, double* rhs) {
+  const int m = M > 0 ? M : m_runtime;
+  double* v = W + static_cast<int64_t>(j) * m;
+  double norm2 = 0.0;
+  for (int r = 0; r < m; ++r) norm2 += v[r] * v[r];
+  if (norm2 == 0.0) return;
+  const double alpha = Rj[j];
+  const double sigma = std::sqrt(alpha * alpha + norm2);
+  const double beta = alpha > 0.0 ? -sigma : sigma;
+  const double u0 = alpha - beta;
+  // Reflector u = (1, v / u0), H = I − τ u uᵀ with τ = −u0 / β.
+  const double inv_u0 = 1.0 / u0;
+  for (int r = 0; r < m; ++r) v[r] *= inv_u0;
+  const double tau = -u0 / beta;
+  for (int c = j + 1; c < width; ++c) {
+    double* wc = W + static_cast<int64_t>(c) * m;
+    double s = Rj[c];
+    for (int r = 0; r < m; ++r) s += v[r] * wc[r];
+    s *= tau;
+    Rj[c] -= s;
+    for (int r = 0; r < m; ++r) wc[r] -= s * v[r];
+  }
+  double s = *dj;
+  for (int r = 0; r < m; ++r) s += v[r] * rhs[r];
+  s *= tau;
+  *dj -= s;
+  for (int r = 0; r < m; ++r) rhs[r] -= s * v[r];
+  Rj[j] = beta;
+  for (int r = 0; r < m; ++r) v[r] = 0.0;
+}
+
+}  // namespace
+
 double SquareRootFactor::addRows(std::span<const int> positions,
                                  const Eigen::Ref<const Eigen::MatrixXd>& A,
                                  const Eigen::Ref<const Eigen::VectorXd>& b,
@@ -119,37 +159,16 @@ double SquareRootFactor::addRows(std::span<const int> positions,
     }
 
     // One Householder reflection per column j zeroes the new rows' column j against R(j, j).
-    // Plain loops: m is 1..12 and the rows are short.
     double* W = work_.data() + static_cast<int64_t>(base) * m;
     for (int j = 0; j < d; ++j) {
-      double* v = W + static_cast<int64_t>(j) * m;
-      double norm2 = 0.0;
-      for (int r = 0; r < m; ++r) norm2 += v[r] * v[r];
-      if (norm2 == 0.0) continue;
       double* Rj = R.A.data() + static_cast<int64_t>(j) * width;
-      const double alpha = Rj[j];
-      const double sigma = std::sqrt(alpha * alpha + norm2);
-      const double beta = alpha > 0.0 ? -sigma : sigma;
-      const double u0 = alpha - beta;
-      // Reflector u = (1, v / u0), H = I − τ u uᵀ with τ = −u0 / β.
-      const double inv_u0 = 1.0 / u0;
-      for (int r = 0; r < m; ++r) v[r] *= inv_u0;
-      const double tau = -u0 / beta;
-      for (int c = j + 1; c < width; ++c) {
-        double* wc = W + static_cast<int64_t>(c) * m;
-        double s = Rj[c];
-        for (int r = 0; r < m; ++r) s += v[r] * wc[r];
-        s *= tau;
-        Rj[c] -= s;
-        for (int r = 0; r < m; ++r) wc[r] -= s * v[r];
+      if (m == 3) {
+        reflect<3>(3, j, width, W, Rj, &R.d[j], rhs);
+      } else if (m == 6) {
+        reflect<6>(6, j, width, W, Rj, &R.d[j], rhs);
+      } else {
+        reflect<0>(m, j, width, W, Rj, &R.d[j], rhs);
       }
-      double s = R.d[j];
-      for (int r = 0; r < m; ++r) s += v[r] * rhs[r];
-      s *= tau;
-      R.d[j] -= s;
-      for (int r = 0; r < m; ++r) rhs[r] -= s * v[r];
-      Rj[j] = beta;
-      for (int r = 0; r < m; ++r) v[r] = 0.0;
     }
 
     // The new rows now start at the next block column.

@@ -45,8 +45,10 @@ int fail(const std::string& message) {
 Expected<Values> initialValues(const GraphFile& g, const ToolOptions& o) {
   Init init = o.init;
   if (init == Init::kAuto) {
-    if (!g.vertices.empty()) init = Init::kFile;
-    else if (o.objective == Objective::kSeSync) init = Init::kChordal;
+    // SE-Sync's cost is minimised from the chordal relaxation (its own initialisation);
+    // otherwise the file's vertices when it has them, else odometry chaining as iSAM.
+    if (o.objective == Objective::kSeSync) init = Init::kChordal;
+    else if (!g.vertices.empty()) init = Init::kFile;
     else init = Init::kOdometry;
   }
   switch (init) {

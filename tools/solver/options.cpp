@@ -13,8 +13,8 @@ Optimises a pose graph (g2o 2-D/3-D, TORO 2-D, iSAM text) like iSAM's command li
   --batch                       batch optimisation (default: incremental in file order)
   --method gn|lm|dogleg         Gauss-Newton (default), Levenberg-Marquardt (batch only),
                                 Powell's dog leg (incremental: RISE)
-  --init auto|odometry|chordal|file   batch initial values (auto: file vertices if
-                                present, chordal for sesync, else odometry chaining)
+  --init auto|odometry|chordal|file   batch initial values (auto: chordal for sesync,
+                                else the file's vertices if present, else odometry)
   --robust none|pseudo-huber[:b]|cauchy[:b]|dcs[:phi]   kernel on loop closures
   --robust-odometry             apply the kernel to odometry edges too
   --batch-every N               incremental: batch relinearisation every N steps (100)
