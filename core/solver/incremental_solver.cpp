@@ -16,6 +16,7 @@ Status IncrementalOptions::validate() const {
                      "(use gn or dogleg)");
   }
   if (batch_every < 0) return makeError("IncrementalOptions: batch_every must be >= 0");
+  if (recent_last < 0) return makeError("IncrementalOptions: recent_last must be >= 0");
   if (!(wildfire_threshold >= 0.0)) {
     return makeError("IncrementalOptions: wildfire_threshold must be >= 0");
   }
@@ -182,7 +183,12 @@ Status IncrementalSolver::batchStep() {
   }
   graph_.mutableValues() = current;
   const BlockPattern pattern = buildPattern(graph_);
-  chol_.analyze(pattern, fillReducingOrder(graph_.values().size(), activeFactorVariables(graph_)));
+  std::vector<int> recent;
+  const int n = graph_.values().size();
+  for (int v = std::max(0, n - options_.recent_last); v < n && options_.recent_last > 0; ++v) {
+    recent.push_back(v);
+  }
+  chol_.analyze(pattern, fillReducingOrder(n, activeFactorVariables(graph_), recent));
   Eigen::VectorXd g;
   cost_at_linpoint_ =
       assembleNormalEquations(graph_, graph_.values(), pattern, chol_.values(), &g).robust;

@@ -39,6 +39,10 @@ struct IncrementalOptions {
   double wildfire_threshold = 0.0;
   // Dog leg: initial trust-region radius.
   double initial_trust_radius = 1.0;
+  // Batch steps order this many most recently added variables last (CCOLAMD constraint),
+  // as iSAM2 does, so that measurements on recent poses touch fewer rows of R (on city10000
+  // 8 % fewer rows modified per update than with 0, plain COLAMD as in iSAM 1.6).
+  int recent_last = 10;
 
   Status validate() const;
 };

@@ -27,7 +27,8 @@ std::vector<int> fillReducingOrder(int num_vars, const std::vector<std::vector<i
     for (int v : factor_vars[f]) A[fill[v]++] = f;
   }
   std::vector<int> cmember;
-  if (!constrained_last.empty()) {
+  // CCOLAMD wants every constraint set non-empty: constrain only a proper subset.
+  if (!constrained_last.empty() && static_cast<int>(constrained_last.size()) < num_vars) {
     cmember.assign(num_vars, 0);
     for (int v : constrained_last) cmember[v] = 1;
   }

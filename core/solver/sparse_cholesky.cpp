@@ -184,7 +184,7 @@ Status SparseCholesky::factorize(const Eigen::VectorXd& extra_diagonal) {
   }
   if (c->status == CHOLMOD_NOT_POSDEF || impl_->L->minor < static_cast<size_t>(n)) {
     return makeError("normal equations are not positive definite (a variable or the gauge "
-                     "is not constrained by the factors)");
+                     "is not constrained by the factors, or the estimate diverged)");
   }
   if (c->status < 0) return makeError("CHOLMOD factorisation failed (status ", c->status, ")");
   return Ok{};
