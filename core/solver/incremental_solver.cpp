@@ -170,18 +170,27 @@ Status IncrementalSolver::solveDogLeg(UpdateResult* result, bool from_batch) {
 
 Status IncrementalSolver::batchStep() {
   if (graph_.values().size() == 0) return Ok{};
-  const Values current = estimate();
-  for (int v = 0; v < current.size(); ++v) {
-    const PoseValue& p = current.at(v);
-    const bool finite = p.kind == PoseKind::kSE2
-                            ? p.se2.vector().allFinite()
-                            : (p.se3.translation().allFinite() && p.se3.quaternion().coeffs().allFinite());
-    if (!finite) {
-      return makeError("the estimate diverged (variable ", current.keyAt(v),
-                       " is not finite); try --method dogleg or a robust kernel");
+  // θ ← θ ⊞ Δ in place (copying Values would rebuild its key index); checked first so
+  // that a diverged estimate leaves the state untouched.
+  Values& theta = graph_.mutableValues();
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int v = 0; v < theta.size(); ++v) {
+      const PoseValue p = retract(theta.at(v), delta_.data() + R_.scalarOffset(position_of_[v]));
+      if (pass == 1) {
+        theta.at(v) = p;
+        continue;
+      }
+      const bool finite =
+          p.kind == PoseKind::kSE2
+              ? p.se2.vector().allFinite()
+              : (p.se3.translation().allFinite() && p.se3.quaternion().coeffs().allFinite());
+      if (!finite) {
+        return makeError("the estimate diverged (variable ", theta.keyAt(v),
+                         " is not finite); try --method dogleg or a robust kernel");
+      }
     }
   }
-  graph_.mutableValues() = current;
+  delta_.setZero(R_.scalarSize());
   const BlockPattern pattern = buildPattern(graph_);
   std::vector<int> recent;
   const int n = graph_.values().size();
