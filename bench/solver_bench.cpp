@@ -26,6 +26,7 @@
 #include "core/solver/batch_solver.h"
 #include "core/solver/graph_problem.h"
 #include "core/solver/online_runner.h"
+#include "core/solver/process_tuning.h"
 #include "core/solver/square_root_factor.h"
 
 namespace {
@@ -178,6 +179,7 @@ BENCHMARK(BM_AddRowsChainWithLoop)->Arg(100)->Arg(1000);
 }  // namespace
 
 int main(int argc, char** argv) {
+  tuneProcessForSolver();
   if (argc > 1 && std::string(argv[1]) == "--micro") {
     argv[1] = argv[0];
     --argc;

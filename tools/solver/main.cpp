@@ -17,6 +17,7 @@
 #include "core/solver/marginals.h"
 #include "core/solver/online_runner.h"
 #include "core/solver/outliers.h"
+#include "core/solver/process_tuning.h"
 #include "core/solver/trajectory_error.h"
 #include "options.h"
 
@@ -96,6 +97,7 @@ double percentile(std::vector<double> v, double q) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  tuneProcessForSolver();
   auto parsed = solver_tool::parseArguments(argc, argv);
   if (!parsed.ok()) {
     if (parsed.error().message == "help") {
