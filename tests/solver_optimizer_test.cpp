@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 
 #include "core/solver/batch_solver.h"
+#include "core/solver/graph_io.h"
 #include "core/solver/graph_problem.h"
 #include "core/solver/incremental_solver.h"
 #include "core/solver/marginals.h"
@@ -347,6 +348,78 @@ TEST(IncrementalSolver, RejectsInvalidRequestsWithoutChangingState) {
   IncrementalOptions lm;
   lm.method = Method::kLevenbergMarquardt;
   EXPECT_FALSE(lm.validate().ok());
+}
+
+GraphFile asFile(const Scenario& s) {
+  GraphFile g;
+  g.dimension = s.truth[0].kind == PoseKind::kSE2 ? 2 : 3;
+  g.format = GraphFormat::kG2o;
+  int line = 1;
+  for (const auto& [a, b, z] : s.edges) {
+    GraphEdge e;
+    e.from = a;
+    e.to = b;
+    e.measurement = z;
+    e.sqrt_information = Eigen::MatrixXd::Identity(g.dimension == 2 ? 3 : 6, g.dimension == 2 ? 3 : 6);
+    e.line = line++;
+    g.edges.push_back(e);
+  }
+  return g;
+}
+
+TEST(Initialization, ChordalRelaxationIsExactOnNoiseFreeGraphs) {
+  for (bool spatial : {false, true}) {
+    const Scenario s = spatial ? spatialScenario(25, 0.0, 6) : planarScenario(40, 0.0, 6);
+    auto v = chordalInitialization(asFile(s));
+    ASSERT_TRUE(v.ok()) << v.error().message;
+    EXPECT_EQ(v->size(), static_cast<int>(s.truth.size()));
+    EXPECT_LT(maxPoseError(*v, s.truth), 1e-9) << "spatial " << spatial;
+    auto odo = odometryInitialization(asFile(s));
+    ASSERT_TRUE(odo.ok());
+    EXPECT_LT(maxPoseError(*odo, s.truth), 1e-9);
+  }
+}
+
+TEST(Initialization, ChordalBeatsOdometryChainingOnNoisyGraphs) {
+  const Scenario s = spatialScenario(60, 0.05, 7);
+  const GraphFile g = asFile(s);
+  auto chordal = chordalInitialization(g);
+  auto odo = odometryInitialization(g);
+  ASSERT_TRUE(chordal.ok());
+  ASSERT_TRUE(odo.ok());
+  EXPECT_LT(seSyncCost(g, *chordal), seSyncCost(g, *odo));
+}
+
+TEST(Initialization, ReportsPosesThatNoEdgeConnects) {
+  Scenario s = planarScenario(10, 0.0, 1);
+  s.edges.emplace_back(20, 21, PoseValue::planar(SE2d(1, 0, 0)));
+  auto v = odometryInitialization(asFile(s));
+  ASSERT_FALSE(v.ok());
+  EXPECT_NE(v.error().message.find("not connected"), std::string::npos);
+}
+
+TEST(PartialPriors, RollPitchAndHeightFixOnlyWhatTheyMeasure) {
+  // One pose with a roll/pitch prior and a height prior, from a start with every
+  // coordinate wrong: the solve moves roll, pitch and z to the priors and leaves x, y and
+  // yaw where they were (the normal equations are singular in them, so use LM's damping).
+  PoseGraph g;
+  const SE3d start(core::SO3d::fromRollPitchYaw(0.3, -0.2, 1.0), core::Vec3(4.0, -2.0, 7.0));
+  ASSERT_TRUE(g.addVariable(0, PoseValue::spatial(start)).ok());
+  ASSERT_TRUE(g.addFactor(std::make_shared<RollPitchFactor>(0, 0.05, 0.02,
+                                                            100.0 * Eigen::MatrixXd::Identity(2, 2)))
+                  .ok());
+  ASSERT_TRUE(g.addFactor(std::make_shared<HeightFactor>(0, 1.5, 0.01)).ok());
+  BatchOptions o;
+  o.method = Method::kLevenbergMarquardt;
+  o.lm_initial_lambda = 1e-3;
+  ASSERT_TRUE(solveBatch(g, o).ok());
+  const SE3d& p = g.values().at(0).se3;
+  const core::Vec3 ypr = yawPitchRoll(p.rotationMatrix());
+  EXPECT_NEAR(ypr[2], 0.05, 1e-6);
+  EXPECT_NEAR(ypr[1], 0.02, 1e-6);
+  EXPECT_NEAR(p.translation().z(), 1.5, 1e-6);
+  EXPECT_NEAR(ypr[0], 1.0, 0.05) << "yaw is not observed";
+  EXPECT_NEAR(p.translation().x(), 4.0, 0.5) << "x is not observed";
 }
 
 TEST(Marginals, EqualTheBlocksOfTheDenseInverse) {
