@@ -152,7 +152,7 @@ Status IncrementalSolver::solveDogLeg(UpdateResult* result, bool from_batch) {
   for (int attempt = 0; attempt < (from_batch ? 30 : 1); ++attempt) {
     const Eigen::VectorXd h = dogLegStep(h_gn, h_sd, radius_);
     const double predicted = d2 - (R_.multiply(h) - d).squaredNorm();
-    const double actual = cost_at_linpoint_ - graph_.cost(valuesAt(h)).robust;
+    const double actual = cost_at_linpoint_ - graph_.cost(retractedAt(h)).robust;
     const double rho = predicted > 0.0 ? actual / predicted : -1.0;
     if (rho < 0.25) radius_ /= 2.0;
     if (rho > 0.75) radius_ = std::max(radius_, 3.0 * h.norm());
@@ -234,6 +234,14 @@ BatchSummary IncrementalSolver::optimize(const BatchOptions& options) {
   return summary;
 }
 
+std::vector<PoseValue> IncrementalSolver::retractedAt(const Eigen::VectorXd& step) const {
+  std::vector<PoseValue> out = graph_.values().all();
+  for (size_t v = 0; v < out.size(); ++v) {
+    out[v] = retract(out[v], step.data() + R_.scalarOffset(position_of_[v]));
+  }
+  return out;
+}
+
 Values IncrementalSolver::valuesAt(const Eigen::VectorXd& step) const {
   Values out = graph_.values();
   for (int v = 0; v < out.size(); ++v) {
@@ -250,6 +258,6 @@ PoseValue IncrementalSolver::estimate(Key key) const {
   return retract(graph_.values().at(v), delta_.data() + R_.scalarOffset(position_of_[v]));
 }
 
-Cost IncrementalSolver::cost() const { return graph_.cost(estimate()); }
+Cost IncrementalSolver::cost() const { return graph_.cost(retractedAt(delta_)); }
 
 }  // namespace evermap::solver

@@ -97,6 +97,7 @@ class IncrementalSolver {
   Status solveGaussNewton(const std::vector<char>& dirty, UpdateResult* result);
   Status solveDogLeg(UpdateResult* result, bool from_batch);
   Values valuesAt(const Eigen::VectorXd& step) const;
+  std::vector<PoseValue> retractedAt(const Eigen::VectorXd& step) const;
 
   IncrementalOptions options_;
   PoseGraph graph_;  // values = linearisation point θ

@@ -17,6 +17,10 @@ Expected<FactorId> PoseGraph::addFactor(FactorPtr factor) {
   if (keys.empty() || keys.size() > 8) {
     return makeError(factor->name(), " factor: needs 1 to 8 variables, has ", keys.size());
   }
+  if (factor->dim() > kMaxResidualDim) {
+    return makeError(factor->name(), " factor: residual dimension ", factor->dim(),
+                     " exceeds ", kMaxResidualDim);
+  }
   for (size_t i = 0; i < keys.size(); ++i) {
     const int v = values_.indexOf(keys[i]);
     if (v < 0) return makeError(factor->name(), " factor: unknown variable ", keys[i]);
@@ -43,12 +47,17 @@ Status PoseGraph::removeFactor(FactorId id) {
 }
 
 Cost PoseGraph::cost(const Values& at, FactorId id) const {
+  return costOf(std::span<const PoseValue>(at.all()), id);
+}
+
+Cost PoseGraph::costOf(std::span<const PoseValue> at, FactorId id) const {
   Cost c;
   const Factor& f = *factors_[id];
   std::array<const PoseValue*, 8> x{};
   const auto& idx = vars_[id];
-  for (size_t i = 0; i < idx.size(); ++i) x[i] = &at.at(idx[i]);
-  Eigen::VectorXd r(f.dim());
+  for (size_t i = 0; i < idx.size(); ++i) x[i] = &at[idx[i]];
+  double r_data[kMaxResidualDim];
+  Eigen::Map<Eigen::VectorXd> r(r_data, f.dim());
   f.evaluate(std::span<const PoseValue* const>(x.data(), idx.size()), r.data(), nullptr);
   const double s = (f.sqrtInformation().triangularView<Eigen::Upper>() * r).squaredNorm();
   c.weighted_sse = s;
@@ -57,11 +66,11 @@ Cost PoseGraph::cost(const Values& at, FactorId id) const {
   return c;
 }
 
-Cost PoseGraph::cost(const Values& at) const {
+Cost PoseGraph::cost(std::span<const PoseValue> at) const {
   Cost total;
   for (FactorId id = 0; id < numFactorSlots(); ++id) {
     if (!factors_[id]) continue;
-    const Cost c = cost(at, id);
+    const Cost c = costOf(at, id);
     total.robust += c.robust;
     total.weighted_sse += c.weighted_sse;
     total.residual_dim += c.residual_dim;

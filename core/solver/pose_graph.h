@@ -27,6 +27,9 @@ struct Cost {
 
 class PoseGraph {
  public:
+  // Limits of one factor: up to 8 variables and a residual of up to 64 rows.
+  static constexpr int kMaxResidualDim = 64;
+
   // Errors when the key exists.
   Status addVariable(Key key, const PoseValue& value);
   const Values& values() const { return values_; }
@@ -46,10 +49,14 @@ class PoseGraph {
   std::span<const int> variablesOf(FactorId id) const { return vars_[id]; }
 
   Cost cost() const { return cost(values_); }
-  Cost cost(const Values& at) const;
+  Cost cost(const Values& at) const { return cost(std::span<const PoseValue>(at.all())); }
   Cost cost(const Values& at, FactorId id) const;
+  // Cost at values given by dense index (same order as values()).
+  Cost cost(std::span<const PoseValue> at) const;
 
  private:
+  Cost costOf(std::span<const PoseValue> at, FactorId id) const;
+
   Values values_;
   std::vector<FactorPtr> factors_;
   std::vector<std::vector<int>> vars_;

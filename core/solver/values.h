@@ -60,6 +60,7 @@ class Values {
 
   int size() const { return static_cast<int>(values_.size()); }
   const PoseValue& at(int index) const { return values_[index]; }
+  const std::vector<PoseValue>& all() const { return values_; }
   PoseValue& at(int index) { return values_[index]; }
   const PoseValue& operator[](Key key) const;
   Key keyAt(int index) const { return keys_[index]; }
