@@ -119,6 +119,7 @@ int main(int argc, char** argv) {
     for (const auto& [tag, n] : g.skipped_tags) std::printf(" %s x%d", tag.c_str(), n);
   }
   std::printf("\n");
+  if (g.edges.empty()) return fail(g.path + ": no edges read (wrong --format?)");
   if (o.outliers > 0) {
     g = addFalseLoopClosures(g, OutlierOptions{o.outliers, o.seed});
     std::printf("added %d random false loop closures (seed %u)\n", o.outliers, o.seed);
