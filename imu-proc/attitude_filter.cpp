@@ -37,6 +37,8 @@ Eigen::Vector3d upFromRollPitch(double roll_rad, double pitch_rad) {
 Status AttitudeFilterOptions::validate() const {
   if (!(gravity_m_s2 > 0)) return makeError("gravity_m_s2 must be > 0");
   if (!(gyro_noise_density > 0)) return makeError("gyro_noise_density must be > 0");
+  if (!(gyro_scale_sigma >= 0)) return makeError("gyro_scale_sigma must be >= 0");
+  if (!(max_rejected_s > 0)) return makeError("max_rejected_s must be > 0");
   if (!(gyro_bias_walk_density >= 0)) return makeError("gyro_bias_walk_density must be >= 0");
   if (!(linear_accel_density > 0)) return makeError("linear_accel_density must be > 0");
   if (!(untrusted_accel_error_m_s2 > 0)) return makeError("untrusted_accel_error_m_s2 must be > 0");
@@ -66,10 +68,11 @@ Status AttitudeFilterOptions::validate() const {
 
 std::string AttitudeFilterCounts::summary() const {
   char buf[200];
-  std::snprintf(buf, sizeof buf, "updates %lld, untrusted %lld, innovation rejected %lld, resets %lld, velocity resets %lld",
+  std::snprintf(buf, sizeof buf, "updates %lld, untrusted %lld, innovation rejected %lld, resets %lld, recoveries %lld, "
+                "velocity resets %lld",
                 static_cast<long long>(updates), static_cast<long long>(untrusted),
                 static_cast<long long>(innovation_rejected), static_cast<long long>(resets),
-                static_cast<long long>(velocity_resets));
+                static_cast<long long>(recoveries), static_cast<long long>(velocity_resets));
   return buf;
 }
 
@@ -86,8 +89,10 @@ void AttitudeFilter::initialize(const ImuSample& s) {
   const Eigen::Vector2d rp = rollPitchFromUp(s.accel_m_s2);
   world_R_body_ = core::SO3d::fromRollPitchYaw(rp[0], rp[1], 0.0);
   smoothed_accel_ = s.accel_m_s2;
+  last_gyro_ = s.gyro_rad_s;
   smoothed_horizontal_.setZero();
   untrusted_for_s_ = 0;
+  rejected_for_s_ = 0;
   // The first sample may be taken in motion: then its tilt is only known to max_tilt_sigma.
   const bool plausible =
       std::abs(s.accel_m_s2.norm() - options_.gravity_m_s2) <= options_.untrusted_accel_error_m_s2;
@@ -185,9 +190,19 @@ bool AttitudeFilter::add(const ImuSample& s) {
     const Eigen::Vector3d r = s.accel_m_s2.normalized() - Rt.col(2);
     if (update<3>(r, H, var_dir * Eigen::Matrix3d::Identity())) {
       ++counts_.updates;
+      rejected_for_s_ = 0;
     } else {
       ++counts_.innovation_rejected;
       last_trusted_ = false;
+      rejected_for_s_ += dt;
+      if (rejected_for_s_ > options_.max_rejected_s) {
+        // Gravity has looked steady for seconds and disagrees with the estimate.
+        ++counts_.recoveries;
+        rejected_for_s_ = 0;
+        ImuSample level = s;
+        level.accel_m_s2 = smoothed_accel_;
+        initialize(level);
+      }
     }
   } else {
     last_trusted_ = false;
@@ -232,7 +247,11 @@ void AttitudeFilter::applyVelocityPrior() {
 }
 
 void AttitudeFilter::propagate(const ImuSample& s, double dt) {
-  const Eigen::Vector3d w = s.gyro_rad_s - bias_;
+  // Trapezoidal rate over the interval; the difference of the two readings bounds what the
+  // interpolation misses (at 10 Hz a swung phone changes rate by rad/s between samples).
+  const Eigen::Vector3d w = 0.5 * (s.gyro_rad_s + last_gyro_) - bias_;
+  const double interp_err = 0.5 * (s.gyro_rad_s - last_gyro_).norm() * dt;
+  last_gyro_ = s.gyro_rad_s;
   world_R_body_ = world_R_body_ * core::SO3d::exp(w * dt);
   const Eigen::Matrix3d R = world_R_body_.matrix();
   // Horizontal specific force in the world = horizontal acceleration (gravity is vertical).
@@ -249,8 +268,11 @@ void AttitudeFilter::propagate(const ImuSample& s, double dt) {
   }
   MatN Q = MatN::Zero();
   // R n R^T with isotropic n is isotropic: the tilt noise does not depend on the attitude.
+  const double scale_err = options_.gyro_scale_sigma * w.norm() * dt;
   Q.block<2, 2>(kTilt, kTilt) =
-      options_.gyro_noise_density * options_.gyro_noise_density * dt * Eigen::Matrix2d::Identity();
+      (options_.gyro_noise_density * options_.gyro_noise_density * dt + scale_err * scale_err +
+       interp_err * interp_err) *
+      Eigen::Matrix2d::Identity();
   Q.block<3, 3>(kBias, kBias) = options_.gyro_bias_walk_density *
                                 options_.gyro_bias_walk_density * dt * Eigen::Matrix3d::Identity();
   if (use_velocity) Q.block<2, 2>(kVel, kVel) =
@@ -276,10 +298,15 @@ bool AttitudeFilter::accelTrusted(const Eigen::Vector3d& accel, double dt) {
   const double jerk = (smoothed_accel_ - previous).norm() / dt;
   const double error = std::abs(smoothed_accel_.norm() - options_.gravity_m_s2);
   const double raw_error = std::abs(accel.norm() - options_.gravity_m_s2);
+  // A tilt error of theta shows as g sin(theta) of "horizontal acceleration": while the
+  // filter itself is that unsure, the disagreement is its own error, not the body's motion.
+  const double tilt_sigma = std::sqrt(std::max(P_(kTilt, kTilt), P_(kTilt + 1, kTilt + 1)));
+  const double horizontal_limit = std::max(options_.untrusted_horizontal_accel_m_s2,
+                                           3.0 * options_.gravity_m_s2 * std::sin(std::min(tilt_sigma, 0.5)));
   const bool trusted = error <= options_.untrusted_accel_error_m_s2 &&
                        raw_error <= 2.0 * options_.untrusted_accel_error_m_s2 &&
                        jerk <= options_.untrusted_jerk_m_s3 &&
-                       smoothed_horizontal_.norm() <= options_.untrusted_horizontal_accel_m_s2;
+                       smoothed_horizontal_.norm() <= horizontal_limit;
   untrusted_for_s_ = trusted ? 0.0 : untrusted_for_s_ + dt;
   return trusted || untrusted_for_s_ > options_.max_untrusted_s;
 }

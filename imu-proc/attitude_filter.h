@@ -41,6 +41,10 @@ struct AttitudeFilterOptions {
   // are a few times a MEMS data sheet (ADIS16448: 2e-4, 2e-5): unmodelled scale errors too.
   double gyro_noise_density = 1e-3;
   double gyro_bias_walk_density = 1e-4;
+  // Gyro scale-factor and integration error, as a fraction of each rotation increment: a
+  // phone at 10 Hz swung at 5 rad/s loses degrees per step to aliasing; this widens the
+  // covariance while the body turns, so gravity pulls the tilt back afterwards.
+  double gyro_scale_sigma = 0.03;
   // Linear acceleration treated as noise on the measured specific force, m/s^2/sqrt(Hz).
   // Larger: trusts the gyro longer (smoother, slower to correct).
   double linear_accel_density = 0.3;
@@ -69,6 +73,9 @@ struct AttitudeFilterOptions {
   // Updates whose innovation has a Mahalanobis distance^2 above this are rejected (chi^2 with
   // 2 degrees of freedom: 13.8 is p = 0.001).
   double innovation_gate_chi2 = 13.8;
+  // When the innovation gate has rejected gravity this long while the accelerometer looked
+  // static, the tilt estimate is wrong, not the measurement: restart it from gravity.
+  double max_rejected_s = 2.0;
   // Initial uncertainty (after the first sample or a gap).
   double initial_tilt_sigma_rad = 0.1;
   double initial_gyro_bias_sigma_rad_s = 0.05;
@@ -88,6 +95,7 @@ struct AttitudeFilterOptions {
     f("gravity_m_s2", gravity_m_s2, "m/s^2");
     f("gyro_noise_density", gyro_noise_density, "rad/s/sqrt(Hz)");
     f("gyro_bias_walk_density", gyro_bias_walk_density, "rad/s^2/sqrt(Hz)");
+    f("gyro_scale_sigma", gyro_scale_sigma, "of each increment");
     f("linear_accel_density", linear_accel_density, "m/s^2/sqrt(Hz)");
     f("velocity_prior_sigma_m_s", velocity_prior_sigma_m_s, "m/s");
     f("velocity_prior_period_s", velocity_prior_period_s, "s");
@@ -98,6 +106,7 @@ struct AttitudeFilterOptions {
     f("trust_smoothing_s", trust_smoothing_s, "s");
     f("max_untrusted_s", max_untrusted_s, "s");
     f("innovation_gate_chi2", innovation_gate_chi2, "");
+    f("max_rejected_s", max_rejected_s, "s");
     f("initial_tilt_sigma_rad", initial_tilt_sigma_rad, "rad");
     f("initial_gyro_bias_sigma_rad_s", initial_gyro_bias_sigma_rad_s, "rad/s");
     f("init_window_s", init_window_s, "s");
@@ -121,6 +130,7 @@ struct AttitudeFilterCounts {
   int64_t untrusted = 0;         // samples where gravity was not observable
   int64_t innovation_rejected = 0;
   int64_t resets = 0;            // re-initialisations after a gap
+  int64_t recoveries = 0;        // re-initialisations after max_rejected_s of rejections
   int64_t velocity_resets = 0;   // velocity prior rejected: integrated velocity restarted
   bool still_start = false;      // the start-up window was still: gyro bias from it
   std::string summary() const;
@@ -171,6 +181,8 @@ class AttitudeFilter {
   Eigen::Vector3d smoothed_accel_ = Eigen::Vector3d::Zero();
   Eigen::Vector2d smoothed_horizontal_ = Eigen::Vector2d::Zero();  // world, m/s^2
   double untrusted_for_s_ = 0;
+  double rejected_for_s_ = 0;
+  Eigen::Vector3d last_gyro_ = Eigen::Vector3d::Zero();
   bool last_trusted_ = false;
   std::vector<ImuSample> startup_;  // samples of the start-up window
 };

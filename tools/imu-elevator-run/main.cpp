@@ -1,59 +1,218 @@
-// evermap-imu-elevator-run: the offline runner for imu-proc and elevator-proc.
+// evermap-imu-elevator-run: the offline runner of imu-proc and elevator-proc. Runs the
+// attitude filter and the elevator tracker over a recording, deterministically and as fast
+// as the CPU allows, and prints the attitude error (with ground truth) and the per-ride
+// table (with a barometer).
+//
+//   evermap-imu-elevator-run --euroc-imu mav0/imu0/data.csv [--ground-truth gt.txt]
+//   evermap-imu-elevator-run --hackzurich DIR --session N
+//   evermap-imu-elevator-run --lcm-log FILE [--channel IMU]
+// Options: --set key=value (attitude or elevator option), --config FILE, --print-options,
+//          --dump-attitude FILE, --dump-trace FILE (the elevator's 0.1 s grid).
+
 #include <cstdio>
 #include <fstream>
-#include <numbers>
 #include <string>
 #include <vector>
 
+#include <evermap/imu_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+
 #include "core/common/option_fields.h"
 #include "core/datasets/euroc.h"
+#include "core/datasets/hackzurich.h"
+#include "core/messages/channels.h"
+#include "elevator-proc/elevator_tracker.h"
 #include "imu-proc/attitude_evaluation.h"
 #include "imu-proc/attitude_filter.h"
+#include "imu-proc/lcm_convert.h"
+#include "ride_report.h"
 
-int main(int argc, char** argv) {
-  using namespace evermap;
-  std::string imu_csv, gt_file, dump;
-  double offset_ms = 0;
-  imu::AttitudeFilterOptions options;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string a = argv[i];
-    if (a == "--euroc-imu") imu_csv = argv[i + 1];
-    else if (a == "--ground-truth") gt_file = argv[i + 1];
-    else if (a == "--time-offset-ms") offset_ms = std::stod(argv[i + 1]);
-    else if (a == "--dump-attitude") dump = argv[i + 1];
-    else if (a == "--set") {
-      const Status st = setFieldFromAssignment(&options, argv[i + 1]);
-      if (!st.ok()) { std::fprintf(stderr, "%s\n", st.error().message.c_str()); return 2; }
+namespace {
+
+using namespace evermap;
+
+struct Args {
+  std::string euroc_imu, ground_truth, hackzurich, lcm_log, channel = channels::kImu;
+  std::string dump_attitude, dump_trace;
+  int session = 1;
+  bool print_options = false;
+  imu::AttitudeFilterOptions attitude;
+  elevator::ElevatorTrackerOptions elevator;
+};
+
+int usage() {
+  std::fprintf(stderr,
+               "usage: evermap-imu-elevator-run (--euroc-imu CSV [--ground-truth FILE] | "
+               "--hackzurich DIR --session N | --lcm-log FILE [--channel IMU])\n"
+               "       [--set key=value]... [--config FILE] [--print-options]\n"
+               "       [--dump-attitude FILE] [--dump-trace FILE]\n");
+  return 2;
+}
+
+Status parse(int argc, char** argv, Args* a) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string k = argv[i];
+    if (k == "--print-options") {
+      a->print_options = true;
+      continue;
+    }
+    if (i + 1 >= argc) return makeError("missing value after ", k);
+    const std::string v = argv[++i];
+    if (k == "--euroc-imu") a->euroc_imu = v;
+    else if (k == "--ground-truth") a->ground_truth = v;
+    else if (k == "--hackzurich") a->hackzurich = v;
+    else if (k == "--session") a->session = std::atoi(v.c_str());
+    else if (k == "--lcm-log") a->lcm_log = v;
+    else if (k == "--channel") a->channel = v;
+    else if (k == "--dump-attitude") a->dump_attitude = v;
+    else if (k == "--dump-trace") a->dump_trace = v;
+    else if (k == "--config") {
+      if (Status st = loadFields(&a->attitude, v, false); !st.ok()) return st;
+      if (Status st = loadFields(&a->elevator, v, false); !st.ok()) return st;
+    } else if (k == "--set") {
+      if (!setFieldFromAssignment(&a->attitude, v).ok()) {
+        if (Status st = setFieldFromAssignment(&a->elevator, v); !st.ok()) return st;
+      }
+    } else {
+      return makeError("unknown argument ", k);
     }
   }
-  const auto samples = datasets::readEurocImu(imu_csv);
-  if (!samples.ok()) { std::fprintf(stderr, "%s\n", samples.error().message.c_str()); return 1; }
-  imu::AttitudeFilter f(options);
+  if (Status st = a->attitude.validate(); !st.ok()) return st;
+  return a->elevator.validate();
+}
+
+Expected<std::vector<datasets::ImuSample>> readLcmLog(const std::string& file,
+                                                      const std::string& channel) {
+  lcm::LogFile log(file, "r");
+  if (!log.good()) return makeError(file, ": cannot open as an LCM log");
+  std::vector<datasets::ImuSample> out;
+  int64_t bad = 0;
+  for (const lcm::LogEvent* ev = log.readNextEvent(); ev; ev = log.readNextEvent()) {
+    if (ev->channel != channel) continue;
+    imu_t m;
+    if (m.decode(ev->data, 0, ev->datalen) < 0) {
+      ++bad;
+      continue;
+    }
+    const imu::ImuSample s = imu::fromLcm(m);
+    out.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
+  }
+  if (bad > 0) std::fprintf(stderr, "%s: %lld %s messages did not decode\n", file.c_str(),
+                            static_cast<long long>(bad), channel.c_str());
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args args;
+  if (Status st = parse(argc, argv, &args); !st.ok()) {
+    std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", st.error().message.c_str());
+    return usage();
+  }
+  if (args.print_options) {
+    std::printf("%s%s", describeFields(args.attitude).c_str(), describeFields(args.elevator).c_str());
+    return 0;
+  }
+  std::vector<datasets::ImuSample> samples;
+  datasets::HackzurichSession session;
+  if (!args.euroc_imu.empty()) {
+    auto r = datasets::readEurocImu(args.euroc_imu);
+    if (!r.ok()) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); return 1; }
+    samples = std::move(*r);
+  } else if (!args.hackzurich.empty()) {
+    auto r = datasets::readHackzurichSession(args.hackzurich, args.session);
+    if (!r.ok()) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); return 1; }
+    session = std::move(*r);
+    samples = session.imu;
+    std::printf("session %d: %lld accelerometer rows, %lld without a gyro reading near them, "
+                "%zu barometer rows, %zu labelled episodes\n", args.session,
+                static_cast<long long>(session.accelerometer_rows),
+                static_cast<long long>(session.rows_without_gyro), session.barometer.size(),
+                session.episodes.size());
+  } else if (!args.lcm_log.empty()) {
+    auto r = readLcmLog(args.lcm_log, args.channel);
+    if (!r.ok()) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); return 1; }
+    samples = std::move(*r);
+  } else {
+    return usage();
+  }
+  if (samples.empty()) {
+    std::fprintf(stderr, "evermap-imu-elevator-run: no IMU samples\n");
+    return 1;
+  }
+
+  imu::AttitudeFilter filter(args.attitude);
+  elevator::ElevatorTracker tracker(args.elevator);
+  std::vector<elevator::TraceBin> trace;
+  std::vector<elevator::Pulse> pulses;
+  if (!args.dump_trace.empty()) tracker.setTrace(&trace, &pulses);
   std::vector<imu::Attitude> track;
-  for (const auto& s : *samples) {
-    imu::ImuSample x{s.t_ns / 1000 + static_cast<int64_t>(offset_ms * 1000), s.gyro_rad_s, s.accel_m_s2};
-    if (f.add(x)) track.push_back(f.attitude());
+  for (const auto& s : samples) {
+    const imu::ImuSample x{s.t_ns / 1000, s.gyro_rad_s, s.accel_m_s2};
+    const bool used = filter.add(x);
+    const imu::Attitude att = filter.initialized() ? filter.attitude() : imu::Attitude{};
+    if (used) track.push_back(att);
+    tracker.add(x, used ? &att : nullptr);
   }
-  if (!dump.empty()) {
-    std::ofstream out(dump);
-    for (const auto& a : track) out << a.utime << ' ' << a.roll_rad << ' ' << a.pitch_rad << ' ' << a.covariance(0,0) << ' ' << a.covariance(1,1) << ' ' << int(a.accel_trusted) << '\n';
-  }
-  if (!gt_file.empty()) {
-    const auto gt = datasets::readEurocGroundTruth(gt_file);
+  std::printf("attitude: %s\n          gate: %s\n", filter.counts().summary().c_str(),
+              filter.gateCounts().summary().c_str());
+  std::printf("elevator: %s\n          gate: %s\n", tracker.counts().summary().c_str(),
+              tracker.gateCounts().summary().c_str());
+
+  if (!args.ground_truth.empty()) {
+    const auto gt = datasets::readEurocGroundTruth(args.ground_truth);
     if (!gt.ok()) { std::fprintf(stderr, "%s\n", gt.error().message.c_str()); return 1; }
     imu::AttitudeCompareOptions c;
     c.max_offset_s = 0.06;
-    std::printf("raw: %s\n", imu::compareAttitude(track, *gt, c).summary().c_str());
+    std::printf("attitude error, IMU frame, as is:         %s\n",
+                imu::compareAttitude(track, *gt, c).summary().c_str());
+    c.level_body = true;
+    std::printf("attitude error, level body, as is:        %s\n",
+                imu::compareAttitude(track, *gt, c).summary().c_str());
     c.align_gravity = true;
-    std::printf("world: %s\n", imu::compareAttitude(track, *gt, c).summary().c_str());
+    std::printf("attitude error, level body, world up fit: %s\n",
+                imu::compareAttitude(track, *gt, c).summary().c_str());
     c.align_body = true;
-    std::printf("world+body: %s\n", imu::compareAttitude(track, *gt, c).summary().c_str());
-    c.align_body = false; c.align_gravity = false; c.level_body = true;
-    std::printf("level raw: %s\n", imu::compareAttitude(track, *gt, c).summary().c_str());
-    c.align_gravity = true;
-    std::printf("level world: %s\n", imu::compareAttitude(track, *gt, c).summary().c_str());
-    c.align_body = true;
-    std::printf("level world+body: %s\n", imu::compareAttitude(track, *gt, c).summary().c_str());
+    std::printf("attitude error, level body, world+body:   %s\n",
+                imu::compareAttitude(track, *gt, c).summary().c_str());
   }
-  std::printf("%s\n%s\nstill start %d bias %g %g %g\n", f.counts().summary().c_str(), f.gateCounts().summary().c_str(), int(f.counts().still_start), f.gyroBias()[0], f.gyroBias()[1], f.gyroBias()[2]);
+
+  const int64_t origin = samples.front().t_ns / 1000;
+  const auto rows = tools::ridesWithReference(tracker.rides(), session.barometer, session.episodes);
+  std::printf("\nrides (times from the first sample, disp = elevator, baro = barometer):\n%s",
+              tools::formatRideTable(rows, origin).c_str());
+  std::printf("floors: %s\n", tracker.floors().describe().c_str());
+  for (const auto& a : tracker.abandoned()) {
+    std::printf("abandoned ride start at %.1f s (given up at %.1f s): %s\n",
+                1e-6 * static_cast<double>(a.start_utime - origin),
+                1e-6 * static_cast<double>(a.abandon_utime - origin), a.reason.c_str());
+  }
+  for (const auto& e : session.episodes) {
+    std::printf("episode %-30s %8.1f .. %8.1f s\n", e.label.c_str(),
+                1e-9 * static_cast<double>(e.start_ns) - 1e-6 * static_cast<double>(origin),
+                1e-9 * static_cast<double>(e.end_ns) - 1e-6 * static_cast<double>(origin));
+  }
+
+  if (!args.dump_attitude.empty()) {
+    std::ofstream out(args.dump_attitude);
+    for (const auto& a : track) {
+      out << a.utime << ' ' << a.roll_rad << ' ' << a.pitch_rad << ' ' << a.covariance(0, 0)
+          << ' ' << a.covariance(1, 1) << ' ' << int(a.accel_trusted) << '\n';
+    }
+  }
+  if (!args.dump_trace.empty()) {
+    std::ofstream out(args.dump_trace);
+    for (const auto& b : trace) {
+      out << b.utime << ' ' << b.accel_m_s2 << ' ' << b.motion_std_m_s2 << ' ' << int(b.valid)
+          << ' ' << int(b.riding) << ' ' << b.gravity_m_s2 << '\n';
+    }
+    std::ofstream pout(args.dump_trace + ".pulses");
+    for (const auto& p : pulses) {
+      pout << tracker.binUtime(p.firstBin()) << ' ' << tracker.binUtime(p.lastBin()) << ' '
+           << p.amplitude_m_s2 << ' ' << p.residual_m_s2 << ' ' << p.snr << ' ' << p.delta_v_m_s
+           << '\n';
+    }
+  }
+  return 0;
 }
