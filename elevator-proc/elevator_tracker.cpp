@@ -124,6 +124,7 @@ void ElevatorTracker::closeBin(std::vector<FloorEvent>* events) {
       gravity_seeded_ = true;
     }
     b.raw = raw;
+    b.gravity = gravity_;
     b.accel = raw - gravity_;
     b.valid = true;
   }
@@ -160,10 +161,9 @@ void ElevatorTracker::processBin(int64_t index, const Bin& in, std::vector<Floor
   // seen by the median (after a walk into the cabin there are few calm cells) would
   // otherwise become the new zero, and the cruise after it a false stop pulse.
   pending_bins_ = pulse_filter_.pending() ? pending_bins_ + 1 : 0;
-  if (starts_.empty() &&
-      pending_bins_ * options_.pulse.bin_s <= options_.max_gravity_freeze_s) {
-    updateGravity(index);
-  }
+  const bool frozen = pending_bins_ > 0 &&
+                      pending_bins_ * options_.pulse.bin_s <= options_.max_gravity_freeze_s;
+  if (starts_.empty() && !frozen) updateGravity(index);
   if (trace_) {
     trace_->push_back({binUtime(index), b.accel, b.motion, gravity_, b.valid, !starts_.empty()});
   }
@@ -242,7 +242,14 @@ bool ElevatorTracker::tryFinish(const Pulse& q, std::vector<FloorEvent>* events)
     const double dv_stop = q.delta_v_m_s - fit.bias * (2.0 / 3.0) * q.width_bins * dt;
     if ((dv_start > 0) == (dv_stop > 0)) continue;
     const double ratio = std::abs(dv_stop) / std::max(std::abs(dv_start), 1e-6);
-    if (ratio < 1.0 / options_.max_pulse_ratio || ratio > options_.max_pulse_ratio) continue;
+    if (q.strict) {
+      if (ratio < 1.0 / options_.max_pulse_ratio || ratio > options_.max_pulse_ratio) continue;
+    } else if (std::abs(fit.raw_end_velocity) > options_.max_loose_closure * std::abs(dv_start)) {
+      // A stop mixed with the rider's own motion (turning to the door) has a poorly
+      // measured velocity change of its own; instead, the velocity integrated over the
+      // whole ride must come back near zero.
+      continue;
+    }
     const double score = std::abs(std::log(ratio)) + std::abs(fit.bias) / options_.max_bias_m_s2;
     if (!best || score < best_score) {
       best = &p;
@@ -275,14 +282,18 @@ bool ElevatorTracker::fitRide(const Pulse& start, const Pulse& stop, RideFit* fi
   const int n = static_cast<int>(last - first + 1);
   std::vector<double> a(n, 0.0);
   std::vector<double> motion;
+  const Bin* first_bin = bin(first);
+  if (!first_bin) return false;
+  const double reference = first_bin->gravity + start.baseline_m_s2;
   // Missing cells are bridged linearly between their valid neighbours.
   int prev_valid = -1;
   for (int i = 0; i < n; ++i) {
     const Bin* b = bin(first + i);
     if (!b) return false;
     if (!b->valid) continue;
-    // Against the level the start pulse stood on (the cabin at rest).
-    a[i] = b->accel - start.baseline_m_s2;
+    // One reference for the whole ride (the gravity reference may have moved within it;
+    // a constant is what the zero-velocity constraint removes).
+    a[i] = b->raw - reference;
     motion.push_back(b->motion);
     if (prev_valid >= 0 && i - prev_valid > 1) {
       for (int j = prev_valid + 1; j < i; ++j) {
@@ -297,6 +308,7 @@ bool ElevatorTracker::fitRide(const Pulse& start, const Pulse& stop, RideFit* fi
   // Zero velocity at both ends: the constant bias b with sum(a - b) dt = 0.
   double bias = 0;
   for (double x : a) bias += x / n;
+  fit->raw_end_velocity = bias * n * options_.pulse.bin_s;
   double v = 0, d = 0, peak = 0;
   for (int i = 0; i < n; ++i) {
     v += (a[i] - bias) * dt;

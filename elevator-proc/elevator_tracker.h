@@ -60,8 +60,11 @@ struct ElevatorTrackerOptions {
   double max_walking_in_ride_s = 3.0;
   // Velocity change of the start pulse, and of the ride, at least this (m/s).
   double min_ride_speed_m_s = 0.4;
-  // |delta_v(stop)| / |delta_v(start)| must lie in [1/r, r].
+  // |delta_v(stop)| / |delta_v(start)| must lie in [1/r, r] (strict stop pulses).
   double max_pulse_ratio = 2.0;
+  // A loose stop pulse (see PulseFilterOptions) instead needs the velocity integrated over
+  // the ride, before the zero-velocity correction, within this fraction of delta_v(start).
+  double max_loose_closure = 0.6;
   double max_ride_s = 90.0;
   double min_displacement_m = 1.0;
   // The bias the zero-velocity constraint removes must be smaller than this.
@@ -104,6 +107,7 @@ struct ElevatorTrackerOptions {
     f("max_walking_in_ride_s", max_walking_in_ride_s, "s");
     f("min_ride_speed_m_s", min_ride_speed_m_s, "m/s");
     f("max_pulse_ratio", max_pulse_ratio, "");
+    f("max_loose_closure", max_loose_closure, "");
     f("max_ride_s", max_ride_s, "s");
     f("min_displacement_m", min_displacement_m, "m");
     f("max_bias_m_s2", max_bias_m_s2, "m/s^2");
@@ -192,9 +196,11 @@ class ElevatorTracker {
  private:
   struct RideFit {
     double displacement = 0, bias = 0, peak_speed = 0, sigma = 0;
+    double raw_end_velocity = 0;  // before the zero-velocity correction
   };
   struct Bin {
     double raw = 0;    // vertical specific force
+    double gravity = 0;  // the reference when the cell was closed
     double accel = 0;  // vertical, gravity removed
     double motion = 0;
     bool valid = false;
