@@ -267,13 +267,44 @@ bool ElevatorTracker::tryFinish(const Pulse& q, std::vector<FloorEvent>* events)
 bool ElevatorTracker::startable(const Pulse& p) const {
   if (!p.strict || std::abs(p.delta_v_m_s) < options_.min_ride_speed_m_s) return false;
   const int lead = static_cast<int>(std::lround(options_.lead_in_s / options_.pulse.bin_s));
-  int busy = 0;
+  int busy = 0, n_pre = 0;
+  double pre = 0;
   for (int k = 1; k <= lead; ++k) {
     const Bin* b = bin(p.firstBin() - k);
     if (!b) return false;  // not enough history to know the rider stood still
     if (!b->valid || b->motion > options_.lead_in_max_std_m_s2) ++busy;
+    if (b->valid) {
+      pre += b->accel;
+      ++n_pre;
+    }
   }
-  return busy <= options_.lead_in_max_busy_fraction * lead;
+  if (busy > options_.lead_in_max_busy_fraction * lead) return false;
+  // Measured from the level before it rather than from the gravity reference (which may be
+  // stale after the phone turned): a constant c adds sum(h)/sum(h^2) c = 4/3 c to a Hann fit.
+  if (n_pre > 0) {
+    const double relative = p.amplitude_m_s2 - (4.0 / 3.0) * pre / n_pre;
+    if (relative * p.amplitude_m_s2 <= 0 ||
+        std::abs(relative) < options_.pulse.min_amplitude_m_s2) {
+      return false;
+    }
+  }
+  // A pulse returns to the level it left (the cruise is unaccelerated); a step does not (the
+  // phone turned to another face, where the accelerometer reads another g). The stop of a
+  // ride with no cruise comes right after and goes the other way, which this allows.
+  int n_post = 0;
+  double post = 0;
+  for (int k = 1; k <= lead; ++k) {
+    const Bin* b = bin(p.lastBin() + k);
+    if (b && b->valid) {
+      post += b->accel;
+      ++n_post;
+    }
+  }
+  if (n_pre > 0 && n_post > 0) {
+    const double step = (post / n_post - pre / n_pre) * (p.amplitude_m_s2 > 0 ? 1.0 : -1.0);
+    if (step > options_.max_step_fraction * std::abs(p.amplitude_m_s2)) return false;
+  }
+  return true;
 }
 
 bool ElevatorTracker::fitRide(const Pulse& start, const Pulse& stop, RideFit* fit) const {

@@ -55,6 +55,9 @@ struct ElevatorTrackerOptions {
   double lead_in_s = 1.5;
   double lead_in_max_std_m_s2 = 0.7;
   double lead_in_max_busy_fraction = 0.5;
+  // The level after a start pulse (over lead_in_s) may differ from the level before it by
+  // at most this fraction of the pulse amplitude in the pulse's direction (else: a step).
+  double max_step_fraction = 0.5;
   // "Walking": motion above this for longer than max_walking_in_ride_s ends a ride attempt.
   double walking_std_m_s2 = 1.0;
   double max_walking_in_ride_s = 3.0;
@@ -102,6 +105,7 @@ struct ElevatorTrackerOptions {
     f("calm_std_m_s2", calm_std_m_s2, "m/s^2");
     f("lead_in_s", lead_in_s, "s");
     f("lead_in_max_std_m_s2", lead_in_max_std_m_s2, "m/s^2");
+    f("max_step_fraction", max_step_fraction, "of the pulse amplitude");
     f("lead_in_max_busy_fraction", lead_in_max_busy_fraction, "");
     f("walking_std_m_s2", walking_std_m_s2, "m/s^2");
     f("max_walking_in_ride_s", max_walking_in_ride_s, "s");
