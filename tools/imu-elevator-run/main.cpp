@@ -25,7 +25,7 @@
 #include "imu-proc/attitude_evaluation.h"
 #include "imu-proc/attitude_filter.h"
 #include "imu-proc/lcm_convert.h"
-#include "ride_report.h"
+#include "elevator-proc/ride_report.h"
 
 namespace {
 
@@ -179,9 +179,9 @@ int main(int argc, char** argv) {
   }
 
   const int64_t origin = samples.front().t_ns / 1000;
-  const auto rows = tools::ridesWithReference(tracker.rides(), session.barometer, session.episodes);
+  const auto rows = elevator::ridesWithReference(tracker.rides(), session.barometer, session.episodes);
   std::printf("\nrides (times from the first sample, disp = elevator, baro = barometer):\n%s",
-              tools::formatRideTable(rows, origin).c_str());
+              elevator::formatRideTable(rows, origin).c_str());
   std::printf("floors: %s\n", tracker.floors().describe().c_str());
   for (const auto& a : tracker.abandoned()) {
     std::printf("abandoned ride start at %.1f s (given up at %.1f s): %s\n",

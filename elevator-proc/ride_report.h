@@ -8,10 +8,10 @@
 #include "core/datasets/hackzurich.h"
 #include "elevator-proc/elevator_tracker.h"
 
-namespace evermap::tools {
+namespace evermap::elevator {
 
 struct RideRow {
-  elevator::Ride ride;
+  Ride ride;
   bool has_baro = false;
   double baro_change_m = 0;
   std::string episode;  // label of the episode holding the ride, "-" when none
@@ -22,11 +22,11 @@ struct RideRow {
 bool baroChange(const std::vector<datasets::BarometerSample>& baro, int64_t start_utime,
                 int64_t end_utime, double* change_m);
 
-std::vector<RideRow> ridesWithReference(const std::vector<elevator::Ride>& rides,
+std::vector<RideRow> ridesWithReference(const std::vector<Ride>& rides,
                                         const std::vector<datasets::BarometerSample>& baro,
                                         const std::vector<datasets::LabelledEpisode>& episodes);
 
 // Fixed-width text table, one ride a line.
 std::string formatRideTable(const std::vector<RideRow>& rows, int64_t time_origin_utime);
 
-}  // namespace evermap::tools
+}  // namespace evermap::elevator

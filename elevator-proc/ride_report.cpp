@@ -1,10 +1,10 @@
-#include "ride_report.h"
+#include "elevator-proc/ride_report.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
-namespace evermap::tools {
+namespace evermap::elevator {
 
 namespace {
 bool medianAltitude(const std::vector<datasets::BarometerSample>& baro, int64_t from_ns,
@@ -30,11 +30,11 @@ bool baroChange(const std::vector<datasets::BarometerSample>& baro, int64_t star
   return true;
 }
 
-std::vector<RideRow> ridesWithReference(const std::vector<elevator::Ride>& rides,
+std::vector<RideRow> ridesWithReference(const std::vector<Ride>& rides,
                                         const std::vector<datasets::BarometerSample>& baro,
                                         const std::vector<datasets::LabelledEpisode>& episodes) {
   std::vector<RideRow> rows;
-  for (const auto& r : rides) {
+  for (const Ride& r : rides) {
     RideRow row;
     row.ride = r;
     row.has_baro = baroChange(baro, r.start_utime, r.end_utime, &row.baro_change_m);
@@ -70,4 +70,4 @@ std::string formatRideTable(const std::vector<RideRow>& rows, int64_t origin) {
   return out;
 }
 
-}  // namespace evermap::tools
+}  // namespace evermap::elevator
