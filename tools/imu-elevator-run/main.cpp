@@ -6,25 +6,26 @@
 //   evermap-imu-elevator-run --euroc-imu mav0/imu0/data.csv [--ground-truth gt.txt]
 //   evermap-imu-elevator-run --hackzurich DIR --session N
 //   evermap-imu-elevator-run --lcm-log FILE [--channel IMU]
+//   evermap-imu-elevator-run --synthetic N [--rate HZ]   (a building run with N rides)
 // Options: --set key=value (attitude or elevator option), --config FILE, --print-options,
-//          --dump-attitude FILE, --dump-trace FILE (the elevator's 0.1 s grid).
+//          --dump-attitude FILE, --dump-trace FILE (the elevator's 0.1 s grid),
+//          --write-lcm-log FILE (the IMU samples read, as an LCM log for lcm-logplayer).
 
 #include <cstdio>
 #include <fstream>
 #include <string>
 #include <vector>
 
-#include <evermap/imu_t.hpp>
-#include <lcm/lcm-cpp.hpp>
-
 #include "core/common/option_fields.h"
 #include "core/datasets/euroc.h"
 #include "core/datasets/hackzurich.h"
 #include "core/messages/channels.h"
 #include "elevator-proc/elevator_tracker.h"
+#include "elevator-proc/offline_run.h"
+#include "elevator-proc/ride_simulator.h"
 #include "imu-proc/attitude_evaluation.h"
 #include "imu-proc/attitude_filter.h"
-#include "imu-proc/lcm_convert.h"
+#include "imu-proc/imu_log.h"
 #include "elevator-proc/ride_report.h"
 
 namespace {
@@ -33,7 +34,9 @@ using namespace evermap;
 
 struct Args {
   std::string euroc_imu, ground_truth, hackzurich, lcm_log, channel = channels::kImu;
-  std::string dump_attitude, dump_trace;
+  std::string dump_attitude, dump_trace, write_lcm_log;
+  int synthetic_rides = 0;
+  double rate_hz = 100.0;
   int session = 1;
   bool print_options = false;
   imu::AttitudeFilterOptions attitude;
@@ -43,9 +46,10 @@ struct Args {
 int usage() {
   std::fprintf(stderr,
                "usage: evermap-imu-elevator-run (--euroc-imu CSV [--ground-truth FILE] | "
-               "--hackzurich DIR --session N | --lcm-log FILE [--channel IMU])\n"
+               "--hackzurich DIR --session N | --lcm-log FILE [--channel IMU] |\n"
+               "        --synthetic N [--rate HZ])\n"
                "       [--set key=value]... [--config FILE] [--print-options]\n"
-               "       [--dump-attitude FILE] [--dump-trace FILE]\n");
+               "       [--dump-attitude FILE] [--dump-trace FILE] [--write-lcm-log FILE]\n");
   return 2;
 }
 
@@ -66,6 +70,9 @@ Status parse(int argc, char** argv, Args* a) {
     else if (k == "--channel") a->channel = v;
     else if (k == "--dump-attitude") a->dump_attitude = v;
     else if (k == "--dump-trace") a->dump_trace = v;
+    else if (k == "--write-lcm-log") a->write_lcm_log = v;
+    else if (k == "--synthetic") a->synthetic_rides = std::atoi(v.c_str());
+    else if (k == "--rate") a->rate_hz = std::atof(v.c_str());
     else if (k == "--config") {
       if (Status st = loadFields(&a->attitude, v, false); !st.ok()) return st;
       if (Status st = loadFields(&a->elevator, v, false); !st.ok()) return st;
@@ -79,27 +86,6 @@ Status parse(int argc, char** argv, Args* a) {
   }
   if (Status st = a->attitude.validate(); !st.ok()) return st;
   return a->elevator.validate();
-}
-
-Expected<std::vector<datasets::ImuSample>> readLcmLog(const std::string& file,
-                                                      const std::string& channel) {
-  lcm::LogFile log(file, "r");
-  if (!log.good()) return makeError(file, ": cannot open as an LCM log");
-  std::vector<datasets::ImuSample> out;
-  int64_t bad = 0;
-  for (const lcm::LogEvent* ev = log.readNextEvent(); ev; ev = log.readNextEvent()) {
-    if (ev->channel != channel) continue;
-    imu_t m;
-    if (m.decode(ev->data, 0, ev->datalen) < 0) {
-      ++bad;
-      continue;
-    }
-    const imu::ImuSample s = imu::fromLcm(m);
-    out.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
-  }
-  if (bad > 0) std::fprintf(stderr, "%s: %lld %s messages did not decode\n", file.c_str(),
-                            static_cast<long long>(bad), channel.c_str());
-  return out;
 }
 
 }  // namespace
@@ -116,6 +102,7 @@ int main(int argc, char** argv) {
   }
   std::vector<datasets::ImuSample> samples;
   datasets::HackzurichSession session;
+  elevator::SimulatedRun truth;
   if (!args.euroc_imu.empty()) {
     auto r = datasets::readEurocImu(args.euroc_imu);
     if (!r.ok()) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); return 1; }
@@ -131,9 +118,18 @@ int main(int argc, char** argv) {
                 static_cast<long long>(session.rows_without_gyro), session.barometer.size(),
                 session.episodes.size());
   } else if (!args.lcm_log.empty()) {
-    auto r = readLcmLog(args.lcm_log, args.channel);
+    auto r = imu::readImuLog(args.lcm_log, args.channel);
     if (!r.ok()) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); return 1; }
-    samples = std::move(*r);
+    for (const auto& s : r->samples) samples.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
+    std::printf("%s: %zu %s messages, %lld undecodable\n", args.lcm_log.c_str(),
+                r->samples.size(), args.channel.c_str(), static_cast<long long>(r->undecodable));
+  } else if (args.synthetic_rides > 0) {
+    elevator::RideSimulatorOptions o;
+    o.rate_hz = args.rate_hz;
+    truth = elevator::simulateRun(o, elevator::randomScript(o, args.synthetic_rides, 5));
+    for (const auto& s : truth.samples) samples.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
+    std::printf("synthetic building: %zu rides, %zu samples at %.0f Hz\n", truth.rides.size(),
+                samples.size(), o.rate_hz);
   } else {
     return usage();
   }
@@ -142,23 +138,24 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  imu::AttitudeFilter filter(args.attitude);
-  elevator::ElevatorTracker tracker(args.elevator);
+  std::vector<imu::ImuSample> imu_samples;
+  for (const auto& s : samples) imu_samples.push_back({s.t_ns / 1000, s.gyro_rad_s, s.accel_m_s2});
+  if (!args.write_lcm_log.empty()) {
+    if (Status st = imu::writeImuLog(args.write_lcm_log, args.channel, imu_samples); !st.ok()) {
+      std::fprintf(stderr, "%s\n", st.error().message.c_str());
+      return 1;
+    }
+    std::printf("wrote %zu IMU samples to %s\n", imu_samples.size(), args.write_lcm_log.c_str());
+  }
   std::vector<elevator::TraceBin> trace;
   std::vector<elevator::Pulse> pulses;
-  if (!args.dump_trace.empty()) tracker.setTrace(&trace, &pulses);
-  std::vector<imu::Attitude> track;
-  for (const auto& s : samples) {
-    const imu::ImuSample x{s.t_ns / 1000, s.gyro_rad_s, s.accel_m_s2};
-    const bool used = filter.add(x);
-    const imu::Attitude att = filter.initialized() ? filter.attitude() : imu::Attitude{};
-    if (used) track.push_back(att);
-    tracker.add(x, used ? &att : nullptr);
-  }
-  std::printf("attitude: %s\n          gate: %s\n", filter.counts().summary().c_str(),
-              filter.gateCounts().summary().c_str());
-  std::printf("elevator: %s\n          gate: %s\n", tracker.counts().summary().c_str(),
-              tracker.gateCounts().summary().c_str());
+  const bool tracing = !args.dump_trace.empty();
+  const elevator::OfflineRun run =
+      elevator::runImuElevator(imu_samples, args.attitude, args.elevator, true,
+                               tracing ? &trace : nullptr, tracing ? &pulses : nullptr);
+  const std::vector<imu::Attitude>& track = run.attitudes;
+  std::printf("attitude: %s\nelevator: %s\n    gate: %s\n", run.attitude_counts.summary().c_str(),
+              run.counts.summary().c_str(), run.gate.summary().c_str());
 
   if (!args.ground_truth.empty()) {
     const auto gt = datasets::readEurocGroundTruth(args.ground_truth);
@@ -179,11 +176,17 @@ int main(int argc, char** argv) {
   }
 
   const int64_t origin = samples.front().t_ns / 1000;
-  const auto rows = elevator::ridesWithReference(tracker.rides(), session.barometer, session.episodes);
+  const auto rows = elevator::ridesWithReference(run.rides, session.barometer, session.episodes);
   std::printf("\nrides (times from the first sample, disp = elevator, baro = barometer):\n%s",
               elevator::formatRideTable(rows, origin).c_str());
-  std::printf("floors: %s\n", tracker.floors().describe().c_str());
-  for (const auto& a : tracker.abandoned()) {
+  std::printf("floors:");
+  for (size_t i = 0; i < run.floor_heights.size(); ++i) std::printf(" %zu: %.2f m", i, run.floor_heights[i]);
+  std::printf("\n");
+  for (const auto& r : truth.rides) {
+    std::printf("true ride %.1f..%.1f s  floor %d -> %d  %+.2f m\n", r.start_s - origin * 1e-6,
+                r.end_s - origin * 1e-6, r.from_floor, r.to_floor, r.displacement_m);
+  }
+  for (const auto& a : run.abandoned) {
     std::printf("abandoned ride start at %.1f s (given up at %.1f s): %s\n",
                 1e-6 * static_cast<double>(a.start_utime - origin),
                 1e-6 * static_cast<double>(a.abandon_utime - origin), a.reason.c_str());
@@ -209,7 +212,7 @@ int main(int argc, char** argv) {
     }
     std::ofstream pout(args.dump_trace + ".pulses");
     for (const auto& p : pulses) {
-      pout << tracker.binUtime(p.firstBin()) << ' ' << tracker.binUtime(p.lastBin()) << ' '
+      pout << p.firstBin() * 100000 << ' ' << p.lastBin() * 100000 << ' '
            << p.amplitude_m_s2 << ' ' << p.residual_m_s2 << ' ' << p.snr << ' ' << p.delta_v_m_s
            << '\n';
     }
