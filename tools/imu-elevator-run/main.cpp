@@ -9,12 +9,16 @@
 //   evermap-imu-elevator-run --synthetic N [--rate HZ]   (a building run with N rides)
 // Options: --set key=value (attitude or elevator option), --config FILE, --print-options,
 //          --dump-attitude FILE, --dump-trace FILE (the elevator's 0.1 s grid),
-//          --write-lcm-log FILE (the IMU samples read, as an LCM log for lcm-logplayer).
+//          --write-lcm-log FILE (the IMU samples read, as an LCM log for lcm-logplayer),
+//          --print-floor-log FILE (only print the FLOOR messages of an LCM log).
 
 #include <cstdio>
 #include <fstream>
 #include <string>
 #include <vector>
+
+#include <evermap/floor_t.hpp>
+#include <lcm/lcm-cpp.hpp>
 
 #include "core/common/option_fields.h"
 #include "core/datasets/euroc.h"
@@ -34,7 +38,7 @@ using namespace evermap;
 
 struct Args {
   std::string euroc_imu, ground_truth, hackzurich, lcm_log, channel = channels::kImu;
-  std::string dump_attitude, dump_trace, write_lcm_log;
+  std::string dump_attitude, dump_trace, write_lcm_log, floor_log;
   int synthetic_rides = 0;
   double rate_hz = 100.0;
   int session = 1;
@@ -71,6 +75,7 @@ Status parse(int argc, char** argv, Args* a) {
     else if (k == "--dump-attitude") a->dump_attitude = v;
     else if (k == "--dump-trace") a->dump_trace = v;
     else if (k == "--write-lcm-log") a->write_lcm_log = v;
+    else if (k == "--print-floor-log") a->floor_log = v;
     else if (k == "--synthetic") a->synthetic_rides = std::atoi(v.c_str());
     else if (k == "--rate") a->rate_hz = std::atof(v.c_str());
     else if (k == "--config") {
@@ -88,6 +93,25 @@ Status parse(int argc, char** argv, Args* a) {
   return a->elevator.validate();
 }
 
+// The FLOOR messages in an LCM log (what elevator-proc published), one a line.
+int printFloorLog(const std::string& file) {
+  lcm::LogFile log(file, "r");
+  if (!log.good()) {
+    std::fprintf(stderr, "%s: cannot open as an LCM log\n", file.c_str());
+    return 1;
+  }
+  for (const lcm::LogEvent* ev = log.readNextEvent(); ev; ev = log.readNextEvent()) {
+    if (ev->channel != channels::kFloor) continue;
+    floor_t m;
+    if (m.decode(ev->data, 0, ev->datalen) < 0) continue;
+    std::printf("FLOOR utime %lld event %s floor %d height %.2f sigma %.2f in_elevator %d new %d\n",
+                static_cast<long long>(m.utime),
+                m.event == floor_t::EVENT_RIDE_START ? "start" : "end", m.floor_index, m.height_m,
+                m.height_sigma_m, m.in_elevator, m.new_floor);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -96,6 +120,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", st.error().message.c_str());
     return usage();
   }
+  if (!args.floor_log.empty()) return printFloorLog(args.floor_log);
   if (args.print_options) {
     std::printf("%s%s", describeFields(args.attitude).c_str(), describeFields(args.elevator).c_str());
     return 0;
