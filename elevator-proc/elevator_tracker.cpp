@@ -32,6 +32,9 @@ Status ElevatorTrackerOptions::validate() const {
   if (!(min_displacement_m >= 0)) return makeError("min_displacement_m must be >= 0");
   if (!(max_bias_m_s2 > 0)) return makeError("max_bias_m_s2 must be > 0");
   if (!(scale_sigma_fraction >= 0)) return makeError("scale_sigma_fraction must be >= 0");
+  if (!(max_fill_s >= 0 && max_fill_s <= max_gap_in_ride_s)) {
+    return makeError("need 0 <= max_fill_s <= max_gap_in_ride_s");
+  }
   if (!(max_gap_in_ride_s >= pulse.bin_s)) return makeError("max_gap_in_ride_s must be >= pulse_bin_s");
   if (!(max_gravity_freeze_s >= 0)) return makeError("max_gravity_freeze_s must be >= 0");
   if (!(max_attitude_age_s > 0)) return makeError("max_attitude_age_s must be > 0");
@@ -41,10 +44,11 @@ Status ElevatorTrackerOptions::validate() const {
 std::string ElevatorCounts::summary() const {
   char buf[256];
   std::snprintf(buf, sizeof buf,
-                "samples used %lld, without attitude %lld, bins %lld (empty %lld), pulses %lld, "
+                "samples used %lld, without attitude %lld, bins %lld (empty %lld, filled %lld), pulses %lld, "
                 "rides %lld, abandoned %lld",
                 static_cast<long long>(samples_used), static_cast<long long>(no_attitude),
                 static_cast<long long>(bins), static_cast<long long>(empty_bins),
+                static_cast<long long>(filled_bins),
                 static_cast<long long>(pulses), static_cast<long long>(rides),
                 static_cast<long long>(abandoned));
   return buf;
@@ -91,15 +95,21 @@ std::vector<FloorEvent> ElevatorTracker::add(const imu::ImuSample& sample,
   if (open_index_ >= 0 && index != open_index_) {
     closeBin(&events);
     const int64_t missing = index - open_index_ - 1;
+    const int64_t max_fill = static_cast<int64_t>(options_.max_fill_s / options_.pulse.bin_s);
     const int64_t max_missing =
         static_cast<int64_t>(options_.max_gap_in_ride_s / options_.pulse.bin_s);
-    if (missing > max_missing) {
+    if (missing <= max_fill) {
+      // Filled when the next cell closes, by interpolation (a 10 Hz phone with jittered
+      // time stamps leaves every fourth cell of the grid empty).
+      fill_pending_ = missing;
+    } else if (missing <= max_missing) {
+      for (int64_t k = open_index_ + 1; k < index; ++k) processBin(k, Bin{}, &events);
+    } else {
       // A long gap: nothing across it can be integrated. Start the grid again.
       if (!starts_.empty()) abandon(open_index_, "gap in the data", &events);
       pulse_filter_.reset();
       history_.clear();
-    } else {
-      for (int64_t k = open_index_ + 1; k < index; ++k) processBin(k, Bin{}, &events);
+      have_last_closed_ = false;
     }
   }
   if (open_index_ != index) {
@@ -127,6 +137,23 @@ void ElevatorTracker::closeBin(std::vector<FloorEvent>* events) {
     b.gravity = gravity_;
     b.accel = raw - gravity_;
     b.valid = true;
+    if (fill_pending_ > 0 && have_last_closed_) {
+      for (int64_t j = 1; j <= fill_pending_; ++j) {
+        Bin f = b;
+        f.raw = last_closed_raw_ + (raw - last_closed_raw_) * static_cast<double>(j) /
+                                       static_cast<double>(fill_pending_ + 1);
+        f.accel = f.raw - gravity_;
+        ++counts_.filled_bins;
+        processBin(open_index_ - fill_pending_ - 1 + j, f, events);
+      }
+    } else {
+      for (int64_t j = 1; j <= fill_pending_; ++j) {
+        processBin(open_index_ - fill_pending_ - 1 + j, Bin{}, events);
+      }
+    }
+    fill_pending_ = 0;
+    last_closed_raw_ = raw;
+    have_last_closed_ = true;
   }
   processBin(open_index_, b, events);
 }

@@ -75,7 +75,10 @@ struct ElevatorTrackerOptions {
   // Relative scale uncertainty of the displacement (accelerometer scale, g error), for
   // height_sigma_m, added to the random-walk term.
   double scale_sigma_fraction = 0.05;
-  // A gap longer than this between samples abandons a ride (shorter gaps are bridged).
+  // Grid cells without samples: runs up to max_fill_s are filled by interpolation; longer
+  // ones are left empty (the matched filter tolerates a few); a gap longer than
+  // max_gap_in_ride_s abandons a ride and restarts the grid.
+  double max_fill_s = 0.5;
   double max_gap_in_ride_s = 1.0;
   // Attitude older (or newer) than this relative to the IMU sample is not used.
   double max_attitude_age_s = 0.5;
@@ -116,6 +119,7 @@ struct ElevatorTrackerOptions {
     f("min_displacement_m", min_displacement_m, "m");
     f("max_bias_m_s2", max_bias_m_s2, "m/s^2");
     f("scale_sigma_fraction", scale_sigma_fraction, "");
+    f("max_fill_s", max_fill_s, "s");
     f("max_gap_in_ride_s", max_gap_in_ride_s, "s");
     f("max_attitude_age_s", max_attitude_age_s, "s");
     gate.forEachField(f);
@@ -158,7 +162,8 @@ struct ElevatorCounts {
   int64_t samples_used = 0;
   int64_t no_attitude = 0;      // samples without an attitude close enough in time
   int64_t bins = 0;
-  int64_t empty_bins = 0;       // grid cells with no sample (gaps, low rates)
+  int64_t empty_bins = 0;       // grid cells with no sample left empty (gaps)
+  int64_t filled_bins = 0;      // grid cells with no sample filled by interpolation
   int64_t pulses = 0;
   int64_t rides = 0;
   int64_t abandoned = 0;
@@ -242,6 +247,9 @@ class ElevatorTracker {
   bool gravity_seeded_ = false;
   std::vector<double> scratch_;
   int64_t pending_bins_ = 0;
+  int64_t fill_pending_ = 0;       // empty cells before the open one, filled when it closes
+  double last_closed_raw_ = 0;
+  bool have_last_closed_ = false;
 
   // Open start candidates (start pulses not yet matched by a stop), in time order. A ride is
   // under way while there is one; the first pulse that completes one of them ends it.
