@@ -45,6 +45,9 @@ struct AttitudeFilterOptions {
   // phone at 10 Hz swung at 5 rad/s loses degrees per step to aliasing; this widens the
   // covariance while the body turns, so gravity pulls the tilt back afterwards.
   double gyro_scale_sigma = 0.03;
+  // Multiplies the trapezoidal integration error estimate |w''| dt^3 / 12 taken as noise
+  // (sampled rates hide the motion between samples; > 1 is cautious).
+  double interpolation_error_scale = 3.0;
   // Linear acceleration treated as noise on the measured specific force, m/s^2/sqrt(Hz).
   // Larger: trusts the gyro longer (smoother, slower to correct).
   double linear_accel_density = 0.3;
@@ -96,6 +99,7 @@ struct AttitudeFilterOptions {
     f("gyro_noise_density", gyro_noise_density, "rad/s/sqrt(Hz)");
     f("gyro_bias_walk_density", gyro_bias_walk_density, "rad/s^2/sqrt(Hz)");
     f("gyro_scale_sigma", gyro_scale_sigma, "of each increment");
+    f("interpolation_error_scale", interpolation_error_scale, "");
     f("linear_accel_density", linear_accel_density, "m/s^2/sqrt(Hz)");
     f("velocity_prior_sigma_m_s", velocity_prior_sigma_m_s, "m/s");
     f("velocity_prior_period_s", velocity_prior_period_s, "s");
@@ -183,6 +187,7 @@ class AttitudeFilter {
   double untrusted_for_s_ = 0;
   double rejected_for_s_ = 0;
   Eigen::Vector3d last_gyro_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d prev_gyro_ = Eigen::Vector3d::Zero();
   bool last_trusted_ = false;
   std::vector<ImuSample> startup_;  // samples of the start-up window
 };
