@@ -38,7 +38,6 @@ std::vector<RideRow> ridesWithReference(const std::vector<Ride>& rides,
     RideRow row;
     row.ride = r;
     row.has_baro = baroChange(baro, r.start_utime, r.end_utime, &row.baro_change_m);
-    row.episode = "-";
     for (const auto& e : episodes) {
       if (r.start_utime * 1000 < e.end_ns && r.end_utime * 1000 > e.start_ns) row.episode = e.label;
     }

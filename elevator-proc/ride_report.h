@@ -14,7 +14,7 @@ struct RideRow {
   Ride ride;
   bool has_baro = false;
   double baro_change_m = 0;
-  std::string episode;  // label of the episode holding the ride, "-" when none
+  std::string episode = "-";  // label of the episode holding the ride, "-" when none
 };
 
 // Barometric altitude change over a ride: the median altitude over [end + 3 s, end + 9 s]
