@@ -12,6 +12,7 @@
 //          --write-lcm-log FILE (the IMU samples read, as an LCM log for lcm-logplayer),
 //          --print-floor-log FILE (only print the FLOOR messages of an LCM log).
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <string>
@@ -237,7 +238,8 @@ int main(int argc, char** argv) {
     }
     std::ofstream pout(args.dump_trace + ".pulses");
     for (const auto& p : pulses) {
-      pout << p.firstBin() * 100000 << ' ' << p.lastBin() * 100000 << ' '
+      const int64_t bin_us = static_cast<int64_t>(std::llround(args.elevator.pulse.bin_s * 1e6));
+      pout << p.firstBin() * bin_us << ' ' << p.lastBin() * bin_us << ' '
            << p.amplitude_m_s2 << ' ' << p.residual_m_s2 << ' ' << p.snr << ' ' << p.delta_v_m_s
            << '\n';
     }
