@@ -9,11 +9,14 @@
 //       b = mean(a) over the ride, v(t) = sum(a - b) dt, d = sum(v) dt)
 //   -> FloorTable: nearest floor within a threshold, else a new floor.
 //
-// A ride starts only from a start pulse with a calm lead-in (standing in the cabin), must
-// end with a stop pulse of the opposite sign carrying a similar velocity change, and is
-// abandoned on sustained walking, a long gap, or when it runs too long. Stairs, walking and
-// sitting down leave pulse residuals far above the threshold; an escalator's vertical speed
-// change happens while stepping on, and is below min_ride_speed besides.
+// A ride starts only from a strict start pulse with a calm lead-in (standing in the cabin),
+// measured from the lead-in's level (not a step of the accelerometer's g when a phone turns);
+// it ends with a pulse of the opposite sign carrying a similar velocity change (or, for a
+// stop mixed with the rider's own motion, one that brings the integrated velocity back near
+// zero); it is abandoned on sustained walking, a long gap, or when it runs too long. Several
+// start candidates may be open at once; a stop completes the one it fits best. Stairs,
+// walking and sitting down leave pulse residuals far above the limits; an escalator's
+// vertical speed changes while stepping on, and stays below min_ride_speed besides.
 //
 // Time comes only from the samples' time stamps. Not thread-safe; one instance per stream.
 
@@ -37,8 +40,8 @@ struct ElevatorTrackerOptions {
   // Gravity reference (the accelerometer's own g, which also moves by a few 0.1 m/s^2 when
   // a phone changes face: per-axis bias): the median of the vertical specific force over the
   // calm cells of the last gravity_window_s outside rides; needs gravity_min_calm_s of them.
-  // Pulses are measured against their own local baseline (PulseFilter), so this reference
-  // only has to be roughly right.
+  // Start pulses are measured from their lead-in level and each ride is integrated against
+  // one reference, so this only has to be roughly right.
   double gravity_window_s = 30.0;
   double gravity_min_calm_s = 8.0;
   // The reference is frozen while a pulse candidate is pending, at most this long.
