@@ -11,6 +11,11 @@
 // largest among all overlapping windows of every width (non-maximum suppression). Walking,
 // stairs and sitting down leave residuals of 1-5 m/s^2 and never pass; a rider standing
 // in the cabin (hand or pocket) leaves 0.05-0.2.
+//
+// With flank_s > 0 each template is preceded by that many zeros and a baseline c is fitted
+// with A (a ~ c + A h). On the phone data that cost more stops (people walk out at once,
+// short rides have no cruise) than it saved, so by default the caller's zero is the
+// baseline and the tracker checks a start against its lead-in level instead.
 
 #include <cstdint>
 #include <deque>
@@ -35,7 +40,7 @@ struct PulseFilterOptions {
   double min_snr_loose = 3.0;
   double noise_floor_m_s2 = 0.03;    // below the sensor's own noise, snr is not meaningful
   double min_snr = 8.0;
-  // Flank of zeros before the template, s (where the baseline is seen).
+  // Flank of zeros before the template, s (0: no baseline fit, see above).
   double flank_s = 0.0;
   // Windows holding more missing bins than this fraction are not evaluated.
   double max_missing_fraction = 0.2;
