@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # imu-proc and elevator-proc as real processes over LCM (in a private network namespace):
 # a synthetic building run is played from an LCM log into IMU; imu-proc publishes ATTITUDE,
-# elevator-proc FLOOR; the FLOOR messages must report the same rides, on the same floors,
-# as the offline runner finds in the same samples.
+# elevator-proc FLOOR; ATTITUDE must come at >= 10 Hz, and the FLOOR messages must report
+# the same rides, on the same floors, as the offline runner finds in the same samples.
 #   imu_elevator_lcm.sh BUILD_DIR SOURCE_DIR
 set -euo pipefail
 build=$1
@@ -39,6 +39,9 @@ ends=$(grep 'event end' "$tmp/floor.txt" | awk '{print $7}' | paste -sd' ')
 echo "offline rides: $(paste -sd' ' "$tmp/offline_floors.txt")"
 echo "FLOOR messages: $starts starts; ends on floors: $ends"
 tail -1 "$tmp/elevator-proc.log"
+grep ATTITUDE "$tmp/floor.txt"
+rate=$(grep ATTITUDE "$tmp/floor.txt" | sed -E 's/.*: ([0-9.]+) Hz.*/\1/')
+if awk -v r="$rate" 'BEGIN { exit !(r < 10) }'; then echo "FAIL: ATTITUDE at $rate Hz"; exit 1; fi
 if [ "$starts" -ne "$n_offline" ]; then echo "FAIL: ride starts"; cat "$tmp/floor.txt"; exit 1; fi
 expected=$(awk -F'->' '{print $2}' "$tmp/offline_floors.txt" | paste -sd' ')
 if [ "$ends" != "$expected" ]; then echo "FAIL: ride ends on floors '$ends', offline '$expected'"; exit 1; fi

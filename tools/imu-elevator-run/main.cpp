@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include <evermap/attitude_t.hpp>
 #include <evermap/floor_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
@@ -101,7 +102,16 @@ int printFloorLog(const std::string& file) {
     std::fprintf(stderr, "%s: cannot open as an LCM log\n", file.c_str());
     return 1;
   }
+  int64_t attitudes = 0, first = 0, last = 0, untrusted = 0;
   for (const lcm::LogEvent* ev = log.readNextEvent(); ev; ev = log.readNextEvent()) {
+    if (ev->channel == channels::kAttitude) {
+      attitude_t a;
+      if (a.decode(ev->data, 0, ev->datalen) < 0) continue;
+      if (attitudes++ == 0) first = a.utime;
+      last = a.utime;
+      untrusted += a.accel_trusted ? 0 : 1;
+      continue;
+    }
     if (ev->channel != channels::kFloor) continue;
     floor_t m;
     if (m.decode(ev->data, 0, ev->datalen) < 0) continue;
@@ -110,6 +120,11 @@ int printFloorLog(const std::string& file) {
                 m.event == floor_t::EVENT_RIDE_START ? "start" : "end", m.floor_index, m.height_m,
                 m.height_sigma_m, m.in_elevator, m.new_floor);
   }
+  const double span_s = 1e-6 * static_cast<double>(last - first);
+  std::printf("ATTITUDE %lld messages over %.1f s of data: %.1f Hz, %lld with accel untrusted\n",
+              static_cast<long long>(attitudes), span_s,
+              span_s > 0 ? static_cast<double>(attitudes - 1) / span_s : 0.0,
+              static_cast<long long>(untrusted));
   return 0;
 }
 
