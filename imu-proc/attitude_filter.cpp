@@ -95,6 +95,7 @@ void AttitudeFilter::initialize(const ImuSample& s) {
   smoothed_horizontal_.setZero();
   untrusted_for_s_ = 0;
   rejected_for_s_ = 0;
+  steady_but_rejected_ = false;
   // The first sample may be taken in motion: then its tilt is only known to max_tilt_sigma.
   const bool plausible =
       std::abs(s.accel_m_s2.norm() - options_.gravity_m_s2) <= options_.untrusted_accel_error_m_s2;
@@ -181,7 +182,15 @@ bool AttitudeFilter::add(const ImuSample& s) {
       applyVelocityPrior();
     }
   }
-  if (accelTrusted(s.accel_m_s2, dt)) {
+  const bool trusted = accelTrusted(s.accel_m_s2, dt);
+  if (steady_but_rejected_) {
+    ++counts_.recoveries;
+    ImuSample level = s;
+    level.accel_m_s2 = smoothed_accel_;
+    initialize(level);
+    return true;
+  }
+  if (trusted) {
     last_trusted_ = true;
     // Per-sample variance of white noise with density q sampled every dt: q^2 / dt.
     const double var_dir = options_.linear_accel_density * options_.linear_accel_density / dt /
@@ -313,6 +322,11 @@ bool AttitudeFilter::accelTrusted(const Eigen::Vector3d& accel, double dt) {
                        jerk <= options_.untrusted_jerk_m_s3 &&
                        smoothed_horizontal_.norm() <= horizontal_limit;
   untrusted_for_s_ = trusted ? 0.0 : untrusted_for_s_ + dt;
+  // Gravity steady (|f| near g, low jerk) yet "accelerating sideways" for this long: the
+  // estimate's tilt is what is wrong (a gyro glitch, say), not the body's motion.
+  steady_but_rejected_ = !trusted && untrusted_for_s_ > options_.max_untrusted_s &&
+                         error <= options_.untrusted_accel_error_m_s2 &&
+                         jerk <= options_.untrusted_jerk_m_s3;
   return trusted || untrusted_for_s_ > options_.max_untrusted_s;
 }
 

@@ -70,8 +70,9 @@ struct AttitudeFilterOptions {
   double untrusted_horizontal_accel_m_s2 = 1.5;
   // Time constant of the smoothing used for the three tests above.
   double trust_smoothing_s = 0.05;
-  // After this long without a trusted sample, the tests are waived (the gate still applies):
-  // a tilt estimate gone wrong would otherwise call every sample "accelerating" for ever.
+  // After this long without a trusted sample, the tests are waived (the innovation gate
+  // still applies), and if the accelerometer is steady meanwhile the tilt is restarted from
+  // it: a tilt estimate gone wrong would otherwise call every sample "accelerating" for ever.
   double max_untrusted_s = 10.0;
   // Updates whose innovation has a Mahalanobis distance^2 above this are rejected (chi^2 with
   // 2 degrees of freedom: 13.8 is p = 0.001).
@@ -134,7 +135,8 @@ struct AttitudeFilterCounts {
   int64_t untrusted = 0;         // samples where gravity was not observable
   int64_t innovation_rejected = 0;
   int64_t resets = 0;            // re-initialisations after a gap
-  int64_t recoveries = 0;        // re-initialisations after max_rejected_s of rejections
+  int64_t recoveries = 0;        // tilt restarted from gravity (max_rejected_s of gate
+                                 // rejections, or max_untrusted_s of steady "acceleration")
   int64_t velocity_resets = 0;   // velocity prior rejected: integrated velocity restarted
   bool still_start = false;      // the start-up window was still: gyro bias from it
   std::string summary() const;
@@ -186,6 +188,7 @@ class AttitudeFilter {
   Eigen::Vector2d smoothed_horizontal_ = Eigen::Vector2d::Zero();  // world, m/s^2
   double untrusted_for_s_ = 0;
   double rejected_for_s_ = 0;
+  bool steady_but_rejected_ = false;
   Eigen::Vector3d last_gyro_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d prev_gyro_ = Eigen::Vector3d::Zero();
   bool last_trusted_ = false;

@@ -216,6 +216,40 @@ TEST(AttitudeFilter, JitteredTimeStampsAtTenHertzAreTracked) {
   EXPECT_LT(worst, 0.5 * kDeg);
 }
 
+TEST(AttitudeFilter, AGyroGlitchIsRecoveredFromGravity) {
+  AttitudeFilter f;
+  int64_t t = 0;
+  for (int i = 0; i < 2000; ++i, t += 5000) f.add(still(t, 0.1, -0.1));
+  // 0.5 s of a false 2 rad/s roll rate (a glitching gyro): the integration says 57 deg.
+  for (int i = 0; i < 100; ++i, t += 5000) {
+    ImuSample s = still(t, 0.1, -0.1);
+    s.gyro_rad_s.x() = 2.0;
+    f.add(s);
+  }
+  // At rest again. The filter's covariance does not know about the glitch, so gravity first
+  // looks like a 57 deg sideways acceleration (untrusted, up to max_untrusted_s = 10 s), then
+  // is rejected by the innovation gate (max_rejected_s = 2 s), then restarts the tilt.
+  for (int i = 0; i < 3000; ++i, t += 5000) f.add(still(t, 0.1, -0.1));
+  EXPECT_NEAR(f.attitude().roll_rad, 0.1, 0.5 * kDeg);
+  EXPECT_NEAR(f.attitude().pitch_rad, -0.1, 0.5 * kDeg);
+  EXPECT_EQ(f.counts().recoveries, 1);
+}
+
+TEST(AttitudeFilter, TheVelocityPriorKeepsTrackingASwayingBody) {
+  AttitudeFilterOptions o;
+  o.velocity_prior_sigma_m_s = 1.0;
+  AttitudeFilter f(o);
+  SwayingBody body;
+  double worst = 0;
+  for (const ImuSample& s : body.samples(100.0, 90.0, 0.05, 3)) {
+    if (!f.add(s)) continue;
+    const double t = 1e-6 * static_cast<double>(s.utime);
+    if (t > 30.0) worst = std::max(worst, tiltError(f.attitude(), body.attitude(t)));
+  }
+  EXPECT_LT(worst, 0.5 * kDeg);
+  EXPECT_EQ(f.counts().velocity_resets, 0);
+}
+
 // EuRoC V1_01 (MAV, 145 s, ADIS16448 at 200 Hz). Two references:
 //  - OpenVINS' re-processed ground truth (vicon2gt: gravity-aligned world, IMU frame
 //    calibrated), compared as is;
