@@ -18,7 +18,7 @@ Expected<ImuLog> readImuLog(const std::string& file, const std::string& channel)
   ImuLog out;
   for (const lcm::LogEvent* ev = log.readNextEvent(); ev; ev = log.readNextEvent()) {
     if (ev->channel != channel) continue;
-    imu_t m;
+    imu_t m{};
     if (m.decode(ev->data, 0, ev->datalen) < 0) {
       ++out.undecodable;
       continue;

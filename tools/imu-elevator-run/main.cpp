@@ -105,7 +105,7 @@ int printFloorLog(const std::string& file) {
   int64_t attitudes = 0, first = 0, last = 0, untrusted = 0;
   for (const lcm::LogEvent* ev = log.readNextEvent(); ev; ev = log.readNextEvent()) {
     if (ev->channel == channels::kAttitude) {
-      attitude_t a;
+      attitude_t a{};
       if (a.decode(ev->data, 0, ev->datalen) < 0) continue;
       if (attitudes++ == 0) first = a.utime;
       last = a.utime;
@@ -113,7 +113,7 @@ int printFloorLog(const std::string& file) {
       continue;
     }
     if (ev->channel != channels::kFloor) continue;
-    floor_t m;
+    floor_t m{};
     if (m.decode(ev->data, 0, ev->datalen) < 0) continue;
     std::printf("FLOOR utime %lld event %s floor %d height %.2f sigma %.2f in_elevator %d new %d\n",
                 static_cast<long long>(m.utime),
