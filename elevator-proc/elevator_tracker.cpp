@@ -1,0 +1,439 @@
+#include "elevator-proc/elevator_tracker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+namespace evermap::elevator {
+
+Status ElevatorTrackerOptions::validate() const {
+  if (Status st = pulse.validate(); !st.ok()) return st;
+  if (Status st = floors.validate(); !st.ok()) return st;
+  if (Status st = gate.validate(); !st.ok()) return st;
+  if (!(gravity_window_s > 0 && gravity_min_calm_s > 0 && gravity_min_calm_s <= gravity_window_s)) {
+    return makeError("need 0 < gravity_min_calm_s <= gravity_window_s");
+  }
+  if (!(initial_gravity_m_s2 > 0)) return makeError("initial_gravity_m_s2 must be > 0");
+  if (!(motion_window_s >= 2 * pulse.bin_s)) {
+    return makeError("motion_window_s must be at least two bins");
+  }
+  if (!(calm_std_m_s2 > 0 && walking_std_m_s2 > calm_std_m_s2)) {
+    return makeError("need 0 < calm_std_m_s2 < walking_std_m_s2");
+  }
+  if (!(lead_in_s >= 0)) return makeError("lead_in_s must be >= 0");
+  if (!(lead_in_max_busy_fraction >= 0 && lead_in_max_busy_fraction <= 1)) {
+    return makeError("lead_in_max_busy_fraction must be in [0, 1]");
+  }
+  if (!(max_walking_in_ride_s > 0)) return makeError("max_walking_in_ride_s must be > 0");
+  if (!(min_ride_speed_m_s > 0)) return makeError("min_ride_speed_m_s must be > 0");
+  if (!(max_pulse_ratio >= 1)) return makeError("max_pulse_ratio must be >= 1");
+  if (!(max_ride_s > 0)) return makeError("max_ride_s must be > 0");
+  if (!(min_displacement_m >= 0)) return makeError("min_displacement_m must be >= 0");
+  if (!(max_bias_m_s2 > 0)) return makeError("max_bias_m_s2 must be > 0");
+  if (!(scale_sigma_fraction >= 0)) return makeError("scale_sigma_fraction must be >= 0");
+  if (!(max_fill_s >= 0 && max_fill_s <= max_gap_in_ride_s)) {
+    return makeError("need 0 <= max_fill_s <= max_gap_in_ride_s");
+  }
+  if (!(max_gap_in_ride_s >= pulse.bin_s)) return makeError("max_gap_in_ride_s must be >= pulse_bin_s");
+  if (!(max_gravity_freeze_s >= 0)) return makeError("max_gravity_freeze_s must be >= 0");
+  if (!(max_attitude_age_s > 0)) return makeError("max_attitude_age_s must be > 0");
+  return Ok{};
+}
+
+std::string ElevatorCounts::summary() const {
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "samples used %lld, without attitude %lld, bins %lld (empty %lld, filled %lld), pulses %lld, "
+                "rides %lld, abandoned %lld",
+                static_cast<long long>(samples_used), static_cast<long long>(no_attitude),
+                static_cast<long long>(bins), static_cast<long long>(empty_bins),
+                static_cast<long long>(filled_bins),
+                static_cast<long long>(pulses), static_cast<long long>(rides),
+                static_cast<long long>(abandoned));
+  return buf;
+}
+
+namespace {
+const ElevatorTrackerOptions& checked(const ElevatorTrackerOptions& o) {
+  if (const Status st = o.validate(); !st.ok()) {
+    std::fprintf(stderr, "evermap::elevator::ElevatorTracker: %s\n", st.error().message.c_str());
+    std::abort();  // broken contract: options are validated where they are read
+  }
+  return o;
+}
+}  // namespace
+
+ElevatorTracker::ElevatorTracker(const ElevatorTrackerOptions& options)
+    : options_(checked(options)),
+      gate_(options.gate),
+      pulse_filter_(options.pulse),
+      floors_(options.floors),
+      bin_us_(static_cast<int64_t>(std::llround(options.pulse.bin_s * 1e6))),
+      gravity_(options.initial_gravity_m_s2) {}
+
+int64_t ElevatorTracker::binUtime(int64_t index) const { return index * bin_us_ + bin_us_ / 2; }
+
+const ElevatorTracker::Bin* ElevatorTracker::bin(int64_t index) const {
+  if (index < history_first_ || index >= history_first_ + static_cast<int64_t>(history_.size())) {
+    return nullptr;
+  }
+  return &history_[static_cast<size_t>(index - history_first_)];
+}
+
+std::vector<FloorEvent> ElevatorTracker::add(const imu::ImuSample& sample,
+                                             const imu::Attitude* attitude) {
+  std::vector<FloorEvent> events;
+  double dt = 0;
+  if (gate_.check(sample, &dt) == imu::GateVerdict::kDrop) return events;
+  if (!attitude || std::abs(attitude->utime - sample.utime) >
+                       static_cast<int64_t>(options_.max_attitude_age_s * 1e6)) {
+    ++counts_.no_attitude;
+    return events;
+  }
+  const int64_t index = sample.utime / bin_us_;
+  if (open_index_ >= 0 && index != open_index_) {
+    closeBin(&events);
+    const int64_t missing = index - open_index_ - 1;
+    const int64_t max_fill = static_cast<int64_t>(options_.max_fill_s / options_.pulse.bin_s);
+    const int64_t max_missing =
+        static_cast<int64_t>(options_.max_gap_in_ride_s / options_.pulse.bin_s);
+    if (missing <= max_fill) {
+      // Filled when the next cell closes, by interpolation (a 10 Hz phone with jittered
+      // time stamps leaves every fourth cell of the grid empty).
+      fill_pending_ = missing;
+    } else if (missing <= max_missing) {
+      for (int64_t k = open_index_ + 1; k < index; ++k) processBin(k, Bin{}, &events);
+    } else {
+      // A long gap: nothing across it can be integrated. Start the grid again.
+      if (!starts_.empty()) abandon(open_index_, "gap in the data", &events);
+      pulse_filter_.reset();
+      history_.clear();
+      have_last_closed_ = false;
+    }
+  }
+  if (open_index_ != index) {
+    open_index_ = index;
+    open_sum_ = 0;
+    open_count_ = 0;
+  }
+  // Vertical specific force: f projected on "up" in the body frame.
+  const Eigen::Vector3d up = imu::upFromRollPitch(attitude->roll_rad, attitude->pitch_rad);
+  open_sum_ += up.dot(sample.accel_m_s2);
+  ++open_count_;
+  ++counts_.samples_used;
+  return events;
+}
+
+void ElevatorTracker::closeBin(std::vector<FloorEvent>* events) {
+  Bin b;
+  if (open_count_ > 0) {
+    const double raw = open_sum_ / open_count_;
+    if (!gravity_seeded_) {
+      gravity_ = raw;
+      gravity_seeded_ = true;
+    }
+    b.raw = raw;
+    b.gravity = gravity_;
+    b.accel = raw - gravity_;
+    b.valid = true;
+    if (fill_pending_ > 0 && have_last_closed_) {
+      for (int64_t j = 1; j <= fill_pending_; ++j) {
+        Bin f = b;
+        f.raw = last_closed_raw_ + (raw - last_closed_raw_) * static_cast<double>(j) /
+                                       static_cast<double>(fill_pending_ + 1);
+        f.accel = f.raw - gravity_;
+        ++counts_.filled_bins;
+        processBin(open_index_ - fill_pending_ - 1 + j, f, events);
+      }
+    } else {
+      for (int64_t j = 1; j <= fill_pending_; ++j) {
+        processBin(open_index_ - fill_pending_ - 1 + j, Bin{}, events);
+      }
+    }
+    fill_pending_ = 0;
+    last_closed_raw_ = raw;
+    have_last_closed_ = true;
+  }
+  processBin(open_index_, b, events);
+}
+
+void ElevatorTracker::processBin(int64_t index, const Bin& in, std::vector<FloorEvent>* events) {
+  Bin b = in;
+  if (history_.empty()) history_first_ = index;
+  // Motion: standard deviation of a over the last motion_window_s (valid bins).
+  const int window = static_cast<int>(std::lround(options_.motion_window_s / options_.pulse.bin_s));
+  double sum = b.valid ? b.accel : 0, sum2 = b.valid ? b.accel * b.accel : 0;
+  int n = b.valid ? 1 : 0;
+  for (int k = 1; k < window; ++k) {
+    const Bin* p = bin(index - k);
+    if (p && p->valid) {
+      sum += p->accel;
+      sum2 += p->accel * p->accel;
+      ++n;
+    }
+  }
+  b.motion = n >= 2 ? std::sqrt(std::max(0.0, sum2 / n - (sum / n) * (sum / n))) : 0.0;
+  history_.push_back(b);
+  ++counts_.bins;
+  if (!b.valid) ++counts_.empty_bins;
+  const size_t keep = static_cast<size_t>(
+      (options_.max_ride_s + options_.lead_in_s + 4 * options_.pulse.widths_s.back() + 2.0) /
+      options_.pulse.bin_s);
+  while (history_.size() > keep) {
+    history_.pop_front();
+    ++history_first_;
+  }
+  // The reference is frozen during rides and while a pulse may be under way: a start pulse
+  // seen by the median (after a walk into the cabin there are few calm cells) would
+  // otherwise become the new zero, and the cruise after it a false stop pulse.
+  pending_bins_ = pulse_filter_.pending() ? pending_bins_ + 1 : 0;
+  const bool frozen = pending_bins_ > 0 &&
+                      pending_bins_ * options_.pulse.bin_s <= options_.max_gravity_freeze_s;
+  if (starts_.empty() && !frozen) updateGravity(index);
+  if (trace_) {
+    trace_->push_back({binUtime(index), b.accel, b.motion, gravity_, b.valid, !starts_.empty()});
+  }
+
+  for (const Pulse& p : pulse_filter_.add(index, b.accel, b.valid)) onPulse(p, events);
+  if (starts_.empty()) return;
+
+  // Checks on a cell old enough that every pulse ending before it is final: people walk out
+  // right after the stop pulse, and that must not end the ride it completes.
+  const int64_t checked = index - pulse_filter_.longestWidthBins() - 1;
+  if (checked > starts_.back().lastBin()) {
+    const Bin* c = bin(checked);
+    walking_bins_ = (c && c->valid && c->motion > options_.walking_std_m_s2) ? walking_bins_ + 1 : 0;
+    if (walking_bins_ * options_.pulse.bin_s > options_.max_walking_in_ride_s) {
+      abandon(index, "walking", events);
+      return;
+    }
+  }
+  // Start candidates older than the longest ride expire.
+  const int64_t max_bins = static_cast<int64_t>(options_.max_ride_s / options_.pulse.bin_s);
+  if (index - starts_.back().firstBin() > max_bins) {
+    abandon(index, "no stop pulse within max_ride_s", events);
+    return;
+  }
+  std::erase_if(starts_, [&](const Pulse& p) { return index - p.firstBin() > max_bins; });
+}
+
+void ElevatorTracker::updateGravity(int64_t index) {
+  const int window = static_cast<int>(options_.gravity_window_s / options_.pulse.bin_s);
+  scratch_.clear();
+  for (int k = 0; k < window; ++k) {
+    const Bin* b = bin(index - k);
+    if (!b) break;
+    if (b->valid && b->motion < options_.calm_std_m_s2) scratch_.push_back(b->raw);
+  }
+  if (scratch_.size() * options_.pulse.bin_s < options_.gravity_min_calm_s) return;
+  std::nth_element(scratch_.begin(), scratch_.begin() + scratch_.size() / 2, scratch_.end());
+  gravity_ = scratch_[scratch_.size() / 2];
+}
+
+void ElevatorTracker::onPulse(const Pulse& q, std::vector<FloorEvent>* events) {
+  ++counts_.pulses;
+  if (pulse_trace_) pulse_trace_->push_back(q);
+  if (!starts_.empty() && tryFinish(q, events)) return;
+  // The stop pulse of a finished ride is no start.
+  if (q.firstBin() <= last_ride_end_bin_ || !startable(q)) return;
+  if (starts_.empty()) {
+    walking_bins_ = 0;
+    FloorEvent e;
+    e.utime = binUtime(q.firstBin());
+    e.kind = FloorEvent::Kind::kRideStart;
+    e.floor_index = -1;
+    e.height_m = floors_.currentHeight();
+    e.in_elevator = true;
+    events->push_back(e);
+  }
+  starts_.push_back(q);
+}
+
+bool ElevatorTracker::tryFinish(const Pulse& q, std::vector<FloorEvent>* events) {
+  // The open start of opposite sign that this stop completes best (velocity changes
+  // alike once the ride's level is removed, small bias).
+  const Pulse* best = nullptr;
+  RideFit best_fit;
+  double best_score = 0;
+  for (const Pulse& p : starts_) {
+    if ((p.amplitude_m_s2 > 0) == (q.amplitude_m_s2 > 0)) continue;
+    if (q.firstBin() <= p.lastBin() - p.width_bins / 4) continue;
+    RideFit fit;
+    if (!fitRide(p, q, &fit)) continue;
+    // The bias the zero-velocity constraint found is the error of the zero level; it added
+    // bias * sum(h) / sum(h^2) = 4/3 bias to each Hann amplitude, bias * (2/3) width dt to
+    // each velocity change.
+    const double dt = options_.pulse.bin_s;
+    const double dv_start = p.delta_v_m_s - fit.bias * (2.0 / 3.0) * p.width_bins * dt;
+    const double dv_stop = q.delta_v_m_s - fit.bias * (2.0 / 3.0) * q.width_bins * dt;
+    if ((dv_start > 0) == (dv_stop > 0)) continue;
+    const double ratio = std::abs(dv_stop) / std::max(std::abs(dv_start), 1e-6);
+    if (q.strict) {
+      if (ratio < 1.0 / options_.max_pulse_ratio || ratio > options_.max_pulse_ratio) continue;
+    } else if (std::abs(fit.raw_end_velocity) > options_.max_loose_closure * std::abs(dv_start)) {
+      // A stop mixed with the rider's own motion (turning to the door) has a poorly
+      // measured velocity change of its own; instead, the velocity integrated over the
+      // whole ride must come back near zero.
+      continue;
+    }
+    const double score = std::abs(std::log(ratio)) + std::abs(fit.bias) / options_.max_bias_m_s2;
+    if (!best || score < best_score) {
+      best = &p;
+      best_fit = fit;
+      best_score = score;
+    }
+  }
+  if (!best) return false;
+  const Pulse start = *best;
+  finishRide(start, q, best_fit, events);
+  last_ride_end_bin_ = q.lastBin();
+  return true;
+}
+
+bool ElevatorTracker::startable(const Pulse& p) const {
+  if (!p.strict || std::abs(p.delta_v_m_s) < options_.min_ride_speed_m_s) return false;
+  const int lead = static_cast<int>(std::lround(options_.lead_in_s / options_.pulse.bin_s));
+  int busy = 0, n_pre = 0;
+  double pre = 0;
+  for (int k = 1; k <= lead; ++k) {
+    const Bin* b = bin(p.firstBin() - k);
+    if (!b) return false;  // not enough history to know the rider stood still
+    if (!b->valid || b->motion > options_.lead_in_max_std_m_s2) ++busy;
+    if (b->valid) {
+      pre += b->accel;
+      ++n_pre;
+    }
+  }
+  if (busy > options_.lead_in_max_busy_fraction * lead) return false;
+  // Measured from the level before it rather than from the gravity reference (which may be
+  // stale after the phone turned): a constant c adds sum(h)/sum(h^2) c = 4/3 c to a Hann fit.
+  if (n_pre > 0) {
+    const double relative = p.amplitude_m_s2 - (4.0 / 3.0) * pre / n_pre;
+    if (relative * p.amplitude_m_s2 <= 0 ||
+        std::abs(relative) < options_.pulse.min_amplitude_m_s2) {
+      return false;
+    }
+  }
+  // A pulse returns to the level it left (the cruise is unaccelerated); a step does not (the
+  // phone turned to another face, where the accelerometer reads another g). The stop of a
+  // ride with no cruise comes right after and goes the other way, which this allows.
+  int n_post = 0;
+  double post = 0;
+  for (int k = 1; k <= lead; ++k) {
+    const Bin* b = bin(p.lastBin() + k);
+    if (b && b->valid) {
+      post += b->accel;
+      ++n_post;
+    }
+  }
+  if (n_pre > 0 && n_post > 0) {
+    const double step = (post / n_post - pre / n_pre) * (p.amplitude_m_s2 > 0 ? 1.0 : -1.0);
+    if (step > options_.max_step_fraction * std::abs(p.amplitude_m_s2)) return false;
+  }
+  return true;
+}
+
+bool ElevatorTracker::fitRide(const Pulse& start, const Pulse& stop, RideFit* fit) const {
+  const int64_t first = start.firstBin();
+  const int64_t last = stop.lastBin();
+  const int n = static_cast<int>(last - first + 1);
+  std::vector<double> a(n, 0.0);
+  std::vector<double> motion;
+  const Bin* first_bin = bin(first);
+  if (!first_bin) return false;
+  const double reference = first_bin->gravity + start.baseline_m_s2;
+  // Missing cells are bridged linearly between their valid neighbours.
+  int prev_valid = -1;
+  for (int i = 0; i < n; ++i) {
+    const Bin* b = bin(first + i);
+    if (!b) return false;
+    if (!b->valid) continue;
+    // One reference for the whole ride (the gravity reference may have moved within it;
+    // a constant is what the zero-velocity constraint removes).
+    a[i] = b->raw - reference;
+    motion.push_back(b->motion);
+    if (prev_valid >= 0 && i - prev_valid > 1) {
+      for (int j = prev_valid + 1; j < i; ++j) {
+        const double f = static_cast<double>(j - prev_valid) / (i - prev_valid);
+        a[j] = (1 - f) * a[prev_valid] + f * a[i];
+      }
+    }
+    prev_valid = i;
+  }
+  if (motion.empty()) return false;
+  const double dt = options_.pulse.bin_s;
+  // Zero velocity at both ends: the constant bias b with sum(a - b) dt = 0.
+  double bias = 0;
+  for (double x : a) bias += x / n;
+  fit->raw_end_velocity = bias * n * options_.pulse.bin_s;
+  double v = 0, d = 0, peak = 0;
+  for (int i = 0; i < n; ++i) {
+    v += (a[i] - bias) * dt;
+    d += v * dt;
+    peak = std::max(peak, std::abs(v));
+  }
+  const bool direction_ok = (d > 0) == (start.amplitude_m_s2 > 0);
+  if (std::abs(bias) > options_.max_bias_m_s2 || peak < options_.min_ride_speed_m_s ||
+      std::abs(d) < options_.min_displacement_m || !direction_ok) {
+    return false;
+  }
+  // Height variance: white acceleration noise through a velocity Brownian bridge,
+  // Var(integral of the bridge over T) = q T^3 / 12, plus a relative scale error.
+  std::nth_element(motion.begin(), motion.begin() + motion.size() / 2, motion.end());
+  const double sigma_a = motion[motion.size() / 2];
+  const double T = n * dt;
+  fit->displacement = d;
+  fit->bias = bias;
+  fit->peak_speed = peak;
+  fit->sigma = std::sqrt(sigma_a * sigma_a * dt * T * T * T / 12.0 +
+                         std::pow(options_.scale_sigma_fraction * d, 2));
+  return true;
+}
+
+void ElevatorTracker::finishRide(const Pulse& start, const Pulse& stop, const RideFit& fit,
+                                 std::vector<FloorEvent>* events) {
+  Ride r;
+  r.start_utime = binUtime(start.firstBin()) - bin_us_ / 2;
+  r.end_utime = binUtime(stop.lastBin()) + bin_us_ / 2;
+  r.displacement_m = fit.displacement;
+  r.sigma_m = fit.sigma;
+  r.peak_speed_m_s = fit.peak_speed;
+  r.start_accel_m_s2 = start.amplitude_m_s2;
+  r.stop_accel_m_s2 = stop.amplitude_m_s2;
+  r.bias_m_s2 = fit.bias;
+  r.from_floor = floors_.current();
+  const FloorAssignment to = floors_.arrive(fit.displacement);
+  r.to_floor = to.index;
+  r.new_floor = to.is_new;
+  rides_.push_back(r);
+  ++counts_.rides;
+  starts_.clear();  // every open start lies before this stop
+  FloorEvent e;
+  e.utime = r.end_utime;
+  e.kind = FloorEvent::Kind::kRideEnd;
+  e.floor_index = to.index;
+  e.height_m = to.height_m;
+  e.height_sigma_m = r.sigma_m;
+  e.in_elevator = false;
+  e.new_floor = to.is_new;
+  events->push_back(e);
+}
+
+void ElevatorTracker::abandon(int64_t now_index, const std::string& reason,
+                              std::vector<FloorEvent>* events) {
+  const int64_t first = starts_.empty() ? now_index : starts_.front().firstBin();
+  abandoned_.push_back({binUtime(first), binUtime(now_index), reason});
+  ++counts_.abandoned;
+  starts_.clear();
+  // Still on the floor we left: say so, so a listener does not wait for an end.
+  FloorEvent e;
+  e.utime = binUtime(now_index);
+  e.kind = FloorEvent::Kind::kRideEnd;
+  e.floor_index = floors_.current();
+  e.height_m = floors_.currentHeight();
+  e.in_elevator = false;
+  events->push_back(e);
+}
+
+}  // namespace evermap::elevator

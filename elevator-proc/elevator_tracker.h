@@ -1,0 +1,267 @@
+#pragma once
+// Elevator rides and floors from the accelerometer (paper section IV-F, DESIGN.md section 6).
+//
+//   IMU sample + attitude -> vertical acceleration a = up(roll, pitch) . f - g_local
+//   -> averaged on a 0.1 s grid (any input rate from 10 Hz to 1 kHz)
+//   -> matched filter (PulseFilter) -> start pulse ... opposite stop pulse
+//   -> displacement: a integrated twice between them with the velocity zero at both ends
+//      (the constant accelerometer bias b that makes v(end) = 0 is removed first:
+//       b = mean(a) over the ride, v(t) = sum(a - b) dt, d = sum(v) dt)
+//   -> FloorTable: nearest floor within a threshold, else a new floor.
+//
+// A ride starts only from a strict start pulse with a calm lead-in (standing in the cabin),
+// measured from the lead-in's level (not a step of the accelerometer's g when a phone turns);
+// it ends with a pulse of the opposite sign carrying a similar velocity change (or, for a
+// stop mixed with the rider's own motion, one that brings the integrated velocity back near
+// zero); it is abandoned on sustained walking, a long gap, or when it runs too long. Several
+// start candidates may be open at once; a stop completes the one it fits best. Stairs,
+// walking and sitting down leave pulse residuals far above the limits; an escalator's
+// vertical speed changes while stepping on, and stays below min_ride_speed besides.
+//
+// Time comes only from the samples' time stamps. Not thread-safe; one instance per stream.
+
+#include <cstdint>
+#include <deque>
+#include <string>
+#include <vector>
+
+#include "core/common/expected.h"
+#include "elevator-proc/floor_table.h"
+#include "elevator-proc/pulse_filter.h"
+#include "imu-proc/attitude_filter.h"
+#include "imu-proc/sample_gate.h"
+
+namespace evermap::elevator {
+
+struct ElevatorTrackerOptions {
+  PulseFilterOptions pulse;
+  FloorTableOptions floors;
+  imu::SampleGateOptions gate;
+  // Gravity reference (the accelerometer's own g, which also moves by a few 0.1 m/s^2 when
+  // a phone changes face: per-axis bias): the median of the vertical specific force over the
+  // calm cells of the last gravity_window_s outside rides; needs gravity_min_calm_s of them.
+  // Start pulses are measured from their lead-in level and each ride is integrated against
+  // one reference, so this only has to be roughly right.
+  double gravity_window_s = 30.0;
+  double gravity_min_calm_s = 8.0;
+  // The reference is frozen while a pulse candidate is pending, at most this long.
+  double max_gravity_freeze_s = 10.0;
+  double initial_gravity_m_s2 = 9.80665;
+  // Motion measure: standard deviation of a over this window.
+  double motion_window_s = 1.0;
+  // "Calm": standing still, hand-held or in a pocket (walking is 1-5 m/s^2).
+  double calm_std_m_s2 = 0.35;
+  // A start pulse needs this much lead-in before it (the doors close before a ride starts)
+  // with motion below lead_in_max_std_m_s2 over all but lead_in_max_busy_fraction of it.
+  // (A rider with the phone in a pocket shifts weight just before the start: this is
+  // looser than "calm".)
+  double lead_in_s = 1.5;
+  double lead_in_max_std_m_s2 = 0.7;
+  double lead_in_max_busy_fraction = 0.5;
+  // The level after a start pulse (over lead_in_s) may differ from the level before it by
+  // at most this fraction of the pulse amplitude in the pulse's direction (else: a step).
+  double max_step_fraction = 0.5;
+  // "Walking": motion above this for longer than max_walking_in_ride_s ends a ride attempt.
+  double walking_std_m_s2 = 1.0;
+  double max_walking_in_ride_s = 3.0;
+  // Velocity change of the start pulse, and of the ride, at least this (m/s).
+  double min_ride_speed_m_s = 0.4;
+  // |delta_v(stop)| / |delta_v(start)| must lie in [1/r, r] (strict stop pulses).
+  double max_pulse_ratio = 2.0;
+  // A loose stop pulse (see PulseFilterOptions) instead needs the velocity integrated over
+  // the ride, before the zero-velocity correction, within this fraction of delta_v(start).
+  double max_loose_closure = 0.6;
+  double max_ride_s = 90.0;
+  double min_displacement_m = 1.0;
+  // The bias the zero-velocity constraint removes must be smaller than this.
+  double max_bias_m_s2 = 0.2;
+  // Relative scale uncertainty of the displacement (accelerometer scale, g error), for
+  // height_sigma_m, added to the random-walk term.
+  double scale_sigma_fraction = 0.05;
+  // Grid cells without samples: runs up to max_fill_s are filled by interpolation; longer
+  // ones are left empty (the matched filter tolerates a few); a gap longer than
+  // max_gap_in_ride_s abandons a ride and restarts the grid.
+  double max_fill_s = 0.5;
+  double max_gap_in_ride_s = 1.0;
+  // Attitude older (or newer) than this relative to the IMU sample is not used.
+  double max_attitude_age_s = 0.5;
+
+  Status validate() const;
+  template <typename F>
+  void forEachField(F&& f) {  // see core/common/option_fields.h
+    f("pulse_bin_s", pulse.bin_s, "s");
+    f("pulse_min_amplitude_m_s2", pulse.min_amplitude_m_s2, "m/s^2");
+    f("pulse_max_amplitude_m_s2", pulse.max_amplitude_m_s2, "m/s^2");
+    f("pulse_max_residual_m_s2", pulse.max_residual_m_s2, "m/s^2");
+    f("pulse_max_residual_ratio", pulse.max_residual_ratio, "");
+    f("pulse_max_residual_loose_m_s2", pulse.max_residual_loose_m_s2, "m/s^2");
+    f("pulse_max_residual_ratio_loose", pulse.max_residual_ratio_loose, "");
+    f("pulse_min_snr_loose", pulse.min_snr_loose, "");
+    f("pulse_noise_floor_m_s2", pulse.noise_floor_m_s2, "m/s^2");
+    f("pulse_min_snr", pulse.min_snr, "");
+    f("pulse_flank_s", pulse.flank_s, "s");
+    f("pulse_max_missing_fraction", pulse.max_missing_fraction, "");
+    f("floor_match_threshold_m", floors.match_threshold_m, "m");
+    f("floor_refine_weight", floors.refine_weight, "");
+    f("gravity_window_s", gravity_window_s, "s");
+    f("gravity_min_calm_s", gravity_min_calm_s, "s");
+    f("max_gravity_freeze_s", max_gravity_freeze_s, "s");
+    f("initial_gravity_m_s2", initial_gravity_m_s2, "m/s^2");
+    f("motion_window_s", motion_window_s, "s");
+    f("calm_std_m_s2", calm_std_m_s2, "m/s^2");
+    f("lead_in_s", lead_in_s, "s");
+    f("lead_in_max_std_m_s2", lead_in_max_std_m_s2, "m/s^2");
+    f("max_step_fraction", max_step_fraction, "of the pulse amplitude");
+    f("lead_in_max_busy_fraction", lead_in_max_busy_fraction, "");
+    f("walking_std_m_s2", walking_std_m_s2, "m/s^2");
+    f("max_walking_in_ride_s", max_walking_in_ride_s, "s");
+    f("min_ride_speed_m_s", min_ride_speed_m_s, "m/s");
+    f("max_pulse_ratio", max_pulse_ratio, "");
+    f("max_loose_closure", max_loose_closure, "");
+    f("max_ride_s", max_ride_s, "s");
+    f("min_displacement_m", min_displacement_m, "m");
+    f("max_bias_m_s2", max_bias_m_s2, "m/s^2");
+    f("scale_sigma_fraction", scale_sigma_fraction, "");
+    f("max_fill_s", max_fill_s, "s");
+    f("max_gap_in_ride_s", max_gap_in_ride_s, "s");
+    f("max_attitude_age_s", max_attitude_age_s, "s");
+    gate.forEachField(f);
+  }
+};
+
+// What elevator-proc publishes on FLOOR (evermap::floor_t).
+struct FloorEvent {
+  enum class Kind { kRideStart, kRideEnd };
+  int64_t utime = 0;
+  Kind kind = Kind::kRideStart;
+  int floor_index = -1;   // -1 while riding
+  double height_m = 0;    // current floor (end) or the floor left (start)
+  double height_sigma_m = 0;
+  bool in_elevator = false;
+  bool new_floor = false;
+};
+
+struct Ride {
+  int64_t start_utime = 0;  // start of the start pulse
+  int64_t end_utime = 0;    // end of the stop pulse
+  double displacement_m = 0;  // up positive
+  double sigma_m = 0;
+  double peak_speed_m_s = 0;
+  double start_accel_m_s2 = 0;  // amplitudes of the two pulses
+  double stop_accel_m_s2 = 0;
+  double bias_m_s2 = 0;         // removed by the zero-velocity constraint
+  int from_floor = 0;
+  int to_floor = 0;
+  bool new_floor = false;
+};
+
+struct AbandonedRide {
+  int64_t start_utime = 0;
+  int64_t abandon_utime = 0;
+  std::string reason;
+};
+
+struct ElevatorCounts {
+  int64_t samples_used = 0;
+  int64_t no_attitude = 0;      // samples without an attitude close enough in time
+  int64_t bins = 0;
+  int64_t empty_bins = 0;       // grid cells with no sample left empty (gaps)
+  int64_t filled_bins = 0;      // grid cells with no sample filled by interpolation
+  int64_t pulses = 0;
+  int64_t rides = 0;
+  int64_t abandoned = 0;
+  std::string summary() const;
+};
+
+// One grid cell, for plotting and debugging (see ElevatorTracker::setTrace).
+struct TraceBin {
+  int64_t utime = 0;
+  double accel_m_s2 = 0;
+  double motion_std_m_s2 = 0;
+  double gravity_m_s2 = 0;  // the reference subtracted
+  bool valid = false;
+  bool riding = false;
+};
+
+class ElevatorTracker {
+ public:
+  // Contract: options.validate() is ok (checked; aborts otherwise).
+  explicit ElevatorTracker(const ElevatorTrackerOptions& options = {});
+
+  // One IMU sample and the attitude at (about) its time, or nullptr when none is known.
+  // Returns the FLOOR events this sample completed (most samples: none).
+  std::vector<FloorEvent> add(const imu::ImuSample& sample, const imu::Attitude* attitude);
+
+  const std::vector<Ride>& rides() const { return rides_; }
+  const std::vector<AbandonedRide>& abandoned() const { return abandoned_; }
+  const FloorTable& floors() const { return floors_; }
+  bool riding() const { return !starts_.empty(); }
+  const ElevatorCounts& counts() const { return counts_; }
+  const imu::SampleGateCounts& gateCounts() const { return gate_.counts(); }
+  // Appends every finished grid cell to *trace and every pulse to *pulses (nullptr: off).
+  void setTrace(std::vector<TraceBin>* trace, std::vector<Pulse>* pulses = nullptr) {
+    trace_ = trace;
+    pulse_trace_ = pulses;
+  }
+  int64_t binUtime(int64_t index) const;
+
+ private:
+  struct RideFit {
+    double displacement = 0, bias = 0, peak_speed = 0, sigma = 0;
+    double raw_end_velocity = 0;  // before the zero-velocity correction
+  };
+  struct Bin {
+    double raw = 0;    // vertical specific force
+    double gravity = 0;  // the reference when the cell was closed
+    double accel = 0;  // vertical, gravity removed
+    double motion = 0;
+    bool valid = false;
+  };
+
+  void closeBin(std::vector<FloorEvent>* events);
+  void updateGravity(int64_t index);
+  void processBin(int64_t index, const Bin& bin, std::vector<FloorEvent>* events);
+  void onPulse(const Pulse& q, std::vector<FloorEvent>* events);
+  bool tryFinish(const Pulse& stop, std::vector<FloorEvent>* events);
+  bool startable(const Pulse& p) const;
+  // The zero-velocity integration from start to stop and its checks; false when it fails.
+  bool fitRide(const Pulse& start, const Pulse& stop, RideFit* fit) const;
+  void finishRide(const Pulse& start, const Pulse& stop, const RideFit& fit,
+                  std::vector<FloorEvent>* events);
+  void abandon(int64_t now_index, const std::string& reason, std::vector<FloorEvent>* events);
+  const Bin* bin(int64_t index) const;
+
+  ElevatorTrackerOptions options_;
+  imu::SampleGate gate_;
+  PulseFilter pulse_filter_;
+  FloorTable floors_;
+  ElevatorCounts counts_;
+  std::vector<TraceBin>* trace_ = nullptr;
+  std::vector<Pulse>* pulse_trace_ = nullptr;
+
+  // The grid: the cell being filled and the history of closed cells.
+  int64_t bin_us_ = 100000;
+  int64_t open_index_ = -1;
+  double open_sum_ = 0;
+  int open_count_ = 0;
+  std::deque<Bin> history_;
+  int64_t history_first_ = 0;  // grid index of history_.front()
+  double gravity_ = 9.80665;
+  bool gravity_seeded_ = false;
+  std::vector<double> scratch_;
+  int64_t pending_bins_ = 0;
+  int64_t fill_pending_ = 0;       // empty cells before the open one, filled when it closes
+  double last_closed_raw_ = 0;
+  bool have_last_closed_ = false;
+
+  // Open start candidates (start pulses not yet matched by a stop), in time order. A ride is
+  // under way while there is one; the first pulse that completes one of them ends it.
+  std::vector<Pulse> starts_;
+  int64_t last_ride_end_bin_ = -1;
+  int64_t walking_bins_ = 0;
+
+  std::vector<Ride> rides_;
+  std::vector<AbandonedRide> abandoned_;
+};
+
+}  // namespace evermap::elevator

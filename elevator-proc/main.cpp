@@ -1,0 +1,142 @@
+// evermap-elevator-proc: IMU + ATTITUDE -> FLOOR at the start and end of elevator rides.
+// Only options, LCM and the loop; the detector is evermap::elevator::ElevatorTracker.
+//
+// Threading: LCM handlers run on this thread, in handle(); nothing else touches the tracker.
+
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <deque>
+#include <string>
+
+#include <evermap/attitude_t.hpp>
+#include <evermap/floor_t.hpp>
+#include <evermap/imu_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+
+#include "core/common/option_fields.h"
+#include "core/messages/channels.h"
+#include "elevator-proc/elevator_tracker.h"
+#include "elevator-proc/lcm_convert.h"
+#include "imu-proc/lcm_convert.h"
+
+namespace {
+
+volatile std::sig_atomic_t g_stop = 0;  // the one thing a signal handler may touch
+void onSignal(int) { g_stop = 1; }
+
+// IMU samples wait (briefly) for the ATTITUDE of their time stamp: imu-proc publishes
+// ATTITUDE after it has seen the IMU sample, so the attitude arrives a little later.
+class Node {
+ public:
+  Node(lcm::LCM* lcm, const evermap::elevator::ElevatorTrackerOptions& options)
+      : lcm_(lcm), tracker_(options) {}
+
+  void onImu(const lcm::ReceiveBuffer*, const std::string&, const evermap::imu_t* msg) {
+    pending_.push_back(evermap::imu::fromLcm(*msg));
+    // Never hold more than ~2 s at 1 kHz: without ATTITUDE, samples go through unmatched
+    // (and are counted by the tracker as "without attitude").
+    while (pending_.size() > 2000) flushFront(nullptr);
+  }
+
+  void onAttitude(const lcm::ReceiveBuffer*, const std::string&,
+                  const evermap::attitude_t* msg) {
+    const evermap::imu::Attitude att = evermap::imu::fromLcm(*msg);
+    if (!std::isfinite(att.roll_rad) || !std::isfinite(att.pitch_rad)) {
+      ++bad_attitudes_;
+      return;
+    }
+    latest_ = att;
+    have_attitude_ = true;
+    // Every sample up to this attitude's time uses it (it is at most one IMU period newer
+    // than the ones imu-proc decimated away).
+    while (!pending_.empty() && pending_.front().utime <= att.utime) flushFront(&latest_);
+  }
+
+  const evermap::elevator::ElevatorTracker& tracker() const { return tracker_; }
+  int64_t badAttitudes() const { return bad_attitudes_; }
+
+ private:
+  void flushFront(const evermap::imu::Attitude* att) {
+    const evermap::imu::ImuSample s = pending_.front();
+    pending_.pop_front();
+    if (!att && have_attitude_) att = &latest_;
+    for (const auto& e : tracker_.add(s, att)) {
+      const evermap::floor_t out = evermap::elevator::toLcm(e);
+      lcm_->publish(evermap::channels::kFloor, &out);
+      std::fprintf(stderr, "evermap-elevator-proc: %s floor %d height %.2f m (+-%.2f)%s\n",
+                   out.event == evermap::floor_t::EVENT_RIDE_START ? "ride start" : "ride end",
+                   out.floor_index, out.height_m, out.height_sigma_m,
+                   out.new_floor ? " new floor" : "");
+    }
+  }
+
+  lcm::LCM* lcm_;
+  evermap::elevator::ElevatorTracker tracker_;
+  std::deque<evermap::imu::ImuSample> pending_;
+  evermap::imu::Attitude latest_;
+  bool have_attitude_ = false;
+  int64_t bad_attitudes_ = 0;
+};
+
+void usage() {
+  std::printf(
+      "usage: evermap-elevator-proc [--lcm-url URL] [--config FILE] [--set key=value]... "
+      "[--print-options]\nSubscribes IMU and ATTITUDE, publishes FLOOR.\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace evermap;
+  elevator::ElevatorTrackerOptions options;
+  std::string url;
+  bool print = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool has_value = i + 1 < argc;
+    Status st = Ok{};
+    if (a == "--lcm-url" && has_value) {
+      url = argv[++i];
+    } else if (a == "--config" && has_value) {
+      st = loadFields(&options, argv[++i], false);
+    } else if (a == "--set" && has_value) {
+      st = setFieldFromAssignment(&options, argv[++i]);
+    } else if (a == "--print-options") {
+      print = true;
+    } else {
+      usage();
+      return a == "--help" || a == "-h" ? 0 : 2;
+    }
+    if (!st.ok()) {
+      std::fprintf(stderr, "evermap-elevator-proc: %s\n", st.error().message.c_str());
+      return 2;
+    }
+  }
+  if (const Status st = options.validate(); !st.ok()) {
+    std::fprintf(stderr, "evermap-elevator-proc: %s\n", st.error().message.c_str());
+    return 2;
+  }
+  if (print) {
+    std::printf("%s", describeFields(options).c_str());
+    return 0;
+  }
+  lcm::LCM lcm(url);
+  if (!lcm.good()) {
+    std::fprintf(stderr, "evermap-elevator-proc: cannot open LCM \"%s\"\n", url.c_str());
+    return 1;
+  }
+  Node node(&lcm, options);
+  lcm.subscribe(channels::kImu, &Node::onImu, &node);
+  lcm.subscribe(channels::kAttitude, &Node::onAttitude, &node);
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
+  while (!g_stop) {
+    if (lcm.handleTimeout(200) < 0) break;
+  }
+  std::fprintf(stderr, "evermap-elevator-proc: %s; gate: %s; bad attitudes %lld\n",
+               node.tracker().counts().summary().c_str(),
+               node.tracker().gateCounts().summary().c_str(),
+               static_cast<long long>(node.badAttitudes()));
+  return 0;
+}

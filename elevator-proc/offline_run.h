@@ -1,0 +1,30 @@
+#pragma once
+// The two filters chained in one process, as the offline runner, the tests and benchmarks
+// use them: each IMU sample goes through the attitude filter, then with the attitude it
+// produced into the elevator tracker. Deterministic: same samples, same result.
+
+#include <vector>
+
+#include "elevator-proc/elevator_tracker.h"
+#include "imu-proc/attitude_filter.h"
+
+namespace evermap::elevator {
+
+struct OfflineRun {
+  std::vector<Ride> rides;
+  std::vector<AbandonedRide> abandoned;
+  std::vector<FloorEvent> events;
+  std::vector<double> floor_heights;
+  ElevatorCounts counts;
+  imu::SampleGateCounts gate;
+  imu::AttitudeFilterCounts attitude_counts;
+  std::vector<imu::Attitude> attitudes;  // only when keep_attitudes
+};
+
+OfflineRun runImuElevator(const std::vector<imu::ImuSample>& samples,
+                          const imu::AttitudeFilterOptions& attitude_options,
+                          const ElevatorTrackerOptions& elevator_options,
+                          bool keep_attitudes = false, std::vector<TraceBin>* trace = nullptr,
+                          std::vector<Pulse>* pulses = nullptr);
+
+}  // namespace evermap::elevator

@@ -1,0 +1,130 @@
+// The elevator tracker on real phone data: HackZurich 2016 sessions 1 and 2 (iPhone,
+// 10 Hz, in a hand or a pocket; ../shared/data/elevator-imu-baro-hackzurich). The labelled
+// episodes say what was done, not when each ride happened; the rides below were read off the
+// barometer (its altitude moving faster than 0.35 m/s inside an episode; unix seconds, the
+// pressure altitude lags the motion by 2-4 s). The barometer also gives each ride's height.
+//
+// Asserted: every labelled ride is found once, its displacement within 1.5 m or 20 % of the
+// barometric change (whichever is larger); inside the episodes no other ride is reported;
+// during the stairs segment no ride starts; a ride reported outside the episodes (people
+// took elevators between the labelled episodes too) must be confirmed by the barometer.
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/datasets/hackzurich.h"
+#include "elevator-proc/offline_run.h"
+#include "elevator-proc/ride_report.h"
+#include "test_data.h"
+
+namespace evermap::elevator {
+namespace {
+
+struct LabelledRide {
+  double baro_start_s, baro_end_s;  // unix time
+};
+
+struct SessionTruth {
+  int session;
+  std::vector<LabelledRide> rides;
+  std::vector<std::pair<double, double>> stairs;  // unix time windows with no ride
+};
+
+const std::vector<SessionTruth>& truths() {
+  static const std::vector<SessionTruth> t = {
+      {1,
+       {{1474103777.1, 1474103789.8},    // getting_in_and_out: up 15.5 m
+        {1474103851.5, 1474103857.1},    //   down 6.2 m
+        {1474103917.5, 1474103920.3},    //   down 3.2 m
+        {1474104290.9, 1474104299.3}},   // walk_and_ride: down 10 m
+       {}},
+      {2,
+       {{1474121118.7, 1474121122.9},    // elevator_up_and_stairs_down: up 3.3 m (a stop)
+        {1474121132.7, 1474121138.3},    //   up 5.7 m
+        {1474122869.5, 1474122877.9},    // riding_the_elevator_is_fun: up 9.6 m
+        {1474122897.6, 1474122901.8},    //   up 3.0 m
+        {1474122915.8, 1474122921.5},    //   up 6.0 m
+        {1474122935.5, 1474122945.3},    //   down 12.1 m
+        {1474122966.4, 1474122972.0},    //   up 5.8 m
+        {1474122987.4, 1474122993.0},    //   down 5.9 m
+        {1474123005.7, 1474123012.7}},   //   down 6.7 m
+       {{1474121160.0, 1474121215.0}}},  // walking the stairs down, 10 m
+  };
+  return t;
+}
+
+double unixSeconds(int64_t utime) { return 1e-6 * static_cast<double>(utime); }
+
+class ElevatorHackzurich : public ::testing::TestWithParam<int> {};
+
+TEST_P(ElevatorHackzurich, EveryLabelledRideIsFoundWithTheBarometricHeight) {
+  EVERMAP_REQUIRE_DATA(dir, "elevator-imu-baro-hackzurich");
+  const SessionTruth& truth = truths()[GetParam()];
+  const auto session = datasets::readHackzurichSession(dir, truth.session);
+  ASSERT_TRUE(session.ok()) << session.error().message;
+  ASSERT_EQ(session->episodes.size(), 2u);
+  std::vector<imu::ImuSample> samples;
+  for (const auto& s : session->imu) samples.push_back({s.t_ns / 1000, s.gyro_rad_s, s.accel_m_s2});
+  const OfflineRun run = runImuElevator(samples, {}, {});
+  const std::vector<RideRow> rows =
+      ridesWithReference(run.rides, session->barometer, session->episodes);
+  std::printf("session %d (%s)\n%s", truth.session, run.counts.summary().c_str(),
+              formatRideTable(rows, samples.front().utime).c_str());
+  for (const auto& a : run.abandoned) {
+    std::printf("  abandoned start at unix %.1f: %s\n", unixSeconds(a.start_utime), a.reason.c_str());
+  }
+
+  auto inEpisode = [&](double t0, double t1) {
+    for (const auto& e : session->episodes) {
+      if (t0 < 1e-9 * e.end_ns && t1 > 1e-9 * e.start_ns) return true;
+    }
+    return false;
+  };
+  std::vector<int> hits(rows.size(), 0);
+  for (const LabelledRide& l : truth.rides) {
+    int found = 0;
+    for (size_t i = 0; i < rows.size(); ++i) {
+      const double s = unixSeconds(rows[i].ride.start_utime), e = unixSeconds(rows[i].ride.end_utime);
+      if (s < l.baro_end_s + 2.0 && e > l.baro_start_s - 8.0) {
+        ++found;
+        ++hits[i];
+        ASSERT_TRUE(rows[i].has_baro);
+        const double tolerance = std::max(1.5, 0.2 * std::abs(rows[i].baro_change_m));
+        EXPECT_NEAR(rows[i].ride.displacement_m, rows[i].baro_change_m, tolerance)
+            << "ride at unix " << s;
+      }
+    }
+    EXPECT_EQ(found, 1) << "labelled ride at unix " << l.baro_start_s;
+  }
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const double s = unixSeconds(rows[i].ride.start_utime), e = unixSeconds(rows[i].ride.end_utime);
+    if (hits[i] > 0) continue;
+    EXPECT_FALSE(inEpisode(s, e)) << "unlabelled ride inside an episode at unix " << s;
+    // Outside the episodes: a real (unlabelled) ride, or an error.
+    ASSERT_TRUE(rows[i].has_baro) << "ride at unix " << s << " has no barometer to confirm it";
+    const double tolerance = std::max(1.5, 0.2 * std::abs(rows[i].baro_change_m));
+    EXPECT_NEAR(rows[i].ride.displacement_m, rows[i].baro_change_m, tolerance)
+        << "ride outside the episodes at unix " << s << " not confirmed by the barometer";
+    EXPECT_GT(std::abs(rows[i].baro_change_m), 2.0);
+  }
+  for (const auto& [a, b] : truth.stairs) {
+    for (const FloorEvent& ev : run.events) {
+      EXPECT_FALSE(unixSeconds(ev.utime) > a && unixSeconds(ev.utime) < b)
+          << "floor event on the stairs at unix " << unixSeconds(ev.utime);
+    }
+  }
+  // No ride attempt inside a labelled episode other than the rides themselves.
+  for (const auto& ab : run.abandoned) {
+    EXPECT_FALSE(inEpisode(unixSeconds(ab.start_utime), unixSeconds(ab.abandon_utime)))
+        << "abandoned ride start inside an episode at unix " << unixSeconds(ab.start_utime);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Sessions, ElevatorHackzurich, ::testing::Values(0, 1));
+
+}  // namespace
+}  // namespace evermap::elevator

@@ -1,0 +1,238 @@
+// Units of elevator-proc: the floor table, the matched filter, and the tracker fed broken
+// data (NaN, saturation, repeated and out-of-order time stamps, gaps), which it must drop
+// and count without losing the rides.
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "elevator-proc/floor_table.h"
+#include "elevator-proc/offline_run.h"
+#include "elevator-proc/pulse_filter.h"
+#include "elevator-proc/ride_simulator.h"
+
+namespace evermap::elevator {
+namespace {
+
+TEST(FloorTable, ArrivalNearAKnownFloorIsThatFloorElseANewOne) {
+  FloorTable t;  // threshold 1.5 m
+  EXPECT_EQ(t.current(), 0);
+  FloorAssignment a = t.arrive(3.6);
+  EXPECT_TRUE(a.is_new);
+  EXPECT_EQ(a.index, 1);
+  a = t.arrive(3.4);  // 7.0 m
+  EXPECT_TRUE(a.is_new);
+  EXPECT_EQ(a.index, 2);
+  a = t.arrive(-6.2);  // 0.8 m: floor 0 within 1.5 m
+  EXPECT_FALSE(a.is_new);
+  EXPECT_EQ(a.index, 0);
+  EXPECT_NEAR(a.distance_m, 0.8, 1e-12);
+  a = t.arrive(7.5);  // 7.5: floor 2 (7.0)
+  EXPECT_EQ(a.index, 2);
+  EXPECT_DOUBLE_EQ(t.currentHeight(), 7.0);  // the first visit fixes a floor's height
+  a = t.arrive(-12.0);  // -5.0: a basement, new, index 3 (discovery order, not height)
+  EXPECT_TRUE(a.is_new);
+  EXPECT_EQ(a.index, 3);
+  EXPECT_EQ(t.heights().size(), 4u);
+}
+
+TEST(FloorTable, RefineWeightAveragesArrivals) {
+  FloorTableOptions o;
+  o.refine_weight = 0.5;
+  FloorTable t(o);
+  t.arrive(4.0);
+  t.arrive(-4.0);
+  const FloorAssignment a = t.arrive(4.4);
+  EXPECT_EQ(a.index, 1);
+  EXPECT_NEAR(a.height_m, 4.2, 1e-12);
+}
+
+// Feeds a whole signal, returns the pulses.
+std::vector<Pulse> runFilter(PulseFilter* f, const std::vector<double>& a) {
+  std::vector<Pulse> out;
+  for (size_t i = 0; i < a.size(); ++i) {
+    for (const Pulse& p : f->add(static_cast<int64_t>(i), a[i], true)) out.push_back(p);
+  }
+  return out;
+}
+
+TEST(PulseFilter, AHannPulseInNoiseIsFoundWithItsAmplitudeAndPlace) {
+  std::mt19937 rng(1);
+  std::normal_distribution<double> n(0.0, 0.05);
+  std::vector<double> a(400);
+  for (auto& x : a) x = n(rng);
+  // Amplitude -0.6 m/s^2, 3 s wide, centred at cell 200.
+  for (int i = 0; i < 30; ++i) {
+    a[185 + i] += -0.6 * (0.5 - 0.5 * std::cos(2 * std::numbers::pi * (i + 0.5) / 30));
+  }
+  PulseFilter f(PulseFilterOptions{});
+  const std::vector<Pulse> pulses = runFilter(&f, a);
+  ASSERT_EQ(pulses.size(), 1u);
+  EXPECT_NEAR(pulses[0].amplitude_m_s2, -0.6, 0.1);
+  EXPECT_NEAR(static_cast<double>(pulses[0].center_bin), 200.0, 3.0);
+  EXPECT_TRUE(pulses[0].strict);
+  // Velocity change of a Hann: A * width / 2.
+  EXPECT_NEAR(pulses[0].delta_v_m_s, -0.6 * 3.0 / 2.0, 0.25);
+}
+
+TEST(PulseFilter, WalkingGivesNoPulse) {
+  std::vector<double> a(600);
+  for (size_t i = 0; i < a.size(); ++i) {
+    a[i] = 2.5 * std::cos(2 * std::numbers::pi * 1.9 * 0.1 * static_cast<double>(i)) +
+           0.8 * std::sin(0.37 * static_cast<double>(i));
+  }
+  PulseFilter f(PulseFilterOptions{});
+  EXPECT_TRUE(runFilter(&f, a).empty());
+}
+
+TEST(PulseFilterOptions, BadValuesAreNamed) {
+  PulseFilterOptions o;
+  o.widths_s = {2.0, 1.0};
+  EXPECT_FALSE(o.validate().ok());
+  EXPECT_NE(o.validate().error().message.find("widths_s"), std::string::npos);
+  ElevatorTrackerOptions t;
+  t.calm_std_m_s2 = 2.0;  // above walking
+  EXPECT_FALSE(t.validate().ok());
+}
+
+SimulatedRun fourRides(double rate_hz) {
+  RideSimulatorOptions o;
+  o.rate_hz = rate_hz;
+  using K = SimSegment::Kind;
+  return simulateRun(o, {{K::kWalk, 8, 0}, {K::kElevator, 0, 5}, {K::kWalk, 8, 0},
+                         {K::kElevator, 0, 2}, {K::kWalk, 8, 0}, {K::kElevator, 0, 9},
+                         {K::kWalk, 8, 0}, {K::kElevator, 0, 0}, {K::kWalk, 8, 0}});
+}
+
+void expectRidesMatch(const SimulatedRun& truth, const OfflineRun& run) {
+  ASSERT_EQ(run.rides.size(), truth.rides.size());
+  for (size_t i = 0; i < truth.rides.size(); ++i) {
+    EXPECT_NEAR(run.rides[i].displacement_m, truth.rides[i].displacement_m, 0.6) << "ride " << i;
+  }
+  EXPECT_EQ(run.rides.back().to_floor, 0);  // back on the start floor
+}
+
+TEST(ElevatorTracker, BrokenSamplesAreDroppedAndCountedAndRidesStillFound) {
+  const SimulatedRun truth = fourRides(100.0);
+  std::vector<imu::ImuSample> s = truth.samples;
+  int nan = 0, saturated = 0, repeated = 0, out_of_order = 0;
+  // From the end backwards, so that insertions do not move the places still to visit; far
+  // apart, so that each breakage is judged against good neighbours.
+  const size_t stride = (s.size() - 400) / 100;
+  for (int k = 0; k < 100; ++k) {
+    const size_t i = s.size() - 200 - static_cast<size_t>(k) * stride;
+    switch (k % 4) {
+      case 0:  // NaN in one axis
+        s[i].accel_m_s2.y() = std::numeric_limits<double>::quiet_NaN();
+        ++nan;
+        break;
+      case 1:  // a clipped accelerometer
+        s[i].accel_m_s2.z() = 16 * 9.80665;
+        ++saturated;
+        break;
+      case 2: {  // the same time stamp again
+        imu::ImuSample d = s[i];
+        d.utime = s[i - 1].utime;
+        s.insert(s.begin() + static_cast<long>(i), d);
+        ++repeated;
+        break;
+      }
+      case 3: {  // a late sample from the past
+        imu::ImuSample d = s[i - 50];
+        s.insert(s.begin() + static_cast<long>(i), d);
+        ++out_of_order;
+        break;
+      }
+    }
+  }
+  const OfflineRun run = runImuElevator(s, {}, {});
+  expectRidesMatch(truth, run);
+  EXPECT_EQ(run.gate.non_finite, nan);
+  EXPECT_EQ(run.gate.saturated, saturated);
+  EXPECT_EQ(run.gate.repeated_time, repeated);
+  EXPECT_EQ(run.gate.out_of_order, out_of_order);
+}
+
+TEST(ElevatorTracker, ShortGapsAreBridgedAndALongGapLosesOnlyItsRide) {
+  const SimulatedRun truth = fourRides(50.0);
+  // Short gaps (0.3 s) everywhere: bridged.
+  std::vector<imu::ImuSample> s;
+  for (size_t i = 0; i < truth.samples.size(); ++i) {
+    if (i % 500 < 15) continue;
+    s.push_back(truth.samples[i]);
+  }
+  OfflineRun run = runImuElevator(s, {}, {});
+  expectRidesMatch(truth, run);
+  EXPECT_GT(run.counts.filled_bins, 0);
+  // A 4 s gap in the middle of the second ride: that ride is given up, the others found.
+  const TrueRide& second = truth.rides[1];
+  const double mid = 0.5 * (second.start_s + second.end_s);
+  s.clear();
+  for (const auto& x : truth.samples) {
+    const double t = 1e-6 * static_cast<double>(x.utime);
+    if (t > mid - 2.0 && t < mid + 2.0) continue;
+    s.push_back(x);
+  }
+  run = runImuElevator(s, {}, {});
+  EXPECT_EQ(run.gate.gaps, 1);
+  ASSERT_EQ(run.rides.size(), truth.rides.size() - 1);
+  // Whether or not the start of the broken ride had been reported, every start reported has
+  // its end (an abandoned ride ends on the floor it left).
+  int open = 0;
+  for (const FloorEvent& e : run.events) {
+    open += e.kind == FloorEvent::Kind::kRideStart ? 1 : -1;
+    EXPECT_TRUE(open == 0 || open == 1);
+  }
+  EXPECT_EQ(open, 0);
+}
+
+TEST(ElevatorTracker, JitteredTenHertzStreamFindsEveryRide) {
+  RideSimulatorOptions o;
+  o.rate_hz = 10.0;
+  o.time_jitter_s = 0.03;  // a phone's time stamps
+  using K = SimSegment::Kind;
+  const SimulatedRun truth = simulateRun(
+      o, {{K::kWalk, 8, 0}, {K::kElevator, 0, 4}, {K::kWalk, 8, 0}, {K::kElevator, 0, 1}});
+  const OfflineRun run = runImuElevator(truth.samples, {}, {});
+  ASSERT_EQ(run.rides.size(), 2u);
+  EXPECT_NEAR(run.rides[0].displacement_m, truth.rides[0].displacement_m, 0.8);
+  EXPECT_NEAR(run.rides[1].displacement_m, truth.rides[1].displacement_m, 0.8);
+}
+
+TEST(ElevatorTracker, StairsEscalatorsSittingAndStandingAreNoRides) {
+  RideSimulatorOptions o;
+  using K = SimSegment::Kind;
+  const SimulatedRun truth = simulateRun(
+      o, {{K::kWalk, 10, 0}, {K::kStairs, 0, 1}, {K::kWalk, 6, 0}, {K::kStairs, 0, 2},
+          {K::kStand, 30, 0}, {K::kSitDown, 0, 0}, {K::kEscalator, 0, 3}, {K::kWalk, 5, 0},
+          {K::kEscalator, 0, 1}, {K::kStairs, 0, 0}, {K::kWalk, 10, 0}});
+  const OfflineRun run = runImuElevator(truth.samples, {}, {});
+  EXPECT_TRUE(run.rides.empty());
+  EXPECT_TRUE(run.events.empty()) << run.events.size() << " FLOOR events";
+}
+
+TEST(ElevatorTracker, APhoneTurningToAnotherFaceStartsNoRide) {
+  // Per-axis accelerometer biases make |f| differ by 0.3 m/s^2 between faces: turning
+  // the phone is a step of the vertical specific force, not a pulse.
+  RideSimulatorOptions o;
+  o.accel_bias_m_s2 = {0.3, -0.25, 0.2};
+  using K = SimSegment::Kind;
+  SimulatedRun truth = simulateRun(o, {{K::kStand, 30, 0}});
+  // Half way, turn the phone over about x (the samples after see gravity on -z).
+  const size_t half = truth.samples.size() / 2;
+  for (size_t i = half; i < truth.samples.size(); ++i) {
+    auto& s = truth.samples[i];
+    const Eigen::Vector3d unbiased = s.accel_m_s2 - o.accel_bias_m_s2;
+    s.accel_m_s2 = Eigen::Vector3d(unbiased.x(), -unbiased.y(), -unbiased.z()) + o.accel_bias_m_s2;
+    s.gyro_rad_s = Eigen::Vector3d(s.gyro_rad_s.x(), -s.gyro_rad_s.y(), -s.gyro_rad_s.z());
+  }
+  const OfflineRun run = runImuElevator(truth.samples, {}, {});
+  EXPECT_TRUE(run.rides.empty());
+  EXPECT_TRUE(run.events.empty());
+}
+
+}  // namespace
+}  // namespace evermap::elevator

@@ -1,0 +1,263 @@
+// evermap-imu-elevator-run: the offline runner of imu-proc and elevator-proc. Runs the
+// attitude filter and the elevator tracker over a recording, deterministically and as fast
+// as the CPU allows, and prints the attitude error (with ground truth) and the per-ride
+// table (with a barometer).
+//
+//   evermap-imu-elevator-run --euroc-imu mav0/imu0/data.csv [--ground-truth gt.txt]
+//   evermap-imu-elevator-run --hackzurich DIR --session N
+//   evermap-imu-elevator-run --lcm-log FILE [--channel IMU]
+//   evermap-imu-elevator-run --synthetic N [--rate HZ]   (a building run with N rides)
+// Options: --set key=value (attitude or elevator option), --config FILE, --print-options,
+//          --dump-attitude FILE, --dump-trace FILE (the elevator's 0.1 s grid),
+//          --write-lcm-log FILE (the IMU samples read, as an LCM log for lcm-logplayer),
+//          --print-floor-log FILE (only print the FLOOR messages of an LCM log).
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <evermap/attitude_t.hpp>
+#include <evermap/floor_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+
+#include "core/common/option_fields.h"
+#include "core/datasets/euroc.h"
+#include "core/datasets/hackzurich.h"
+#include "core/messages/channels.h"
+#include "elevator-proc/elevator_tracker.h"
+#include "elevator-proc/offline_run.h"
+#include "elevator-proc/ride_simulator.h"
+#include "imu-proc/attitude_evaluation.h"
+#include "imu-proc/attitude_filter.h"
+#include "imu-proc/imu_log.h"
+#include "elevator-proc/ride_report.h"
+
+namespace {
+
+using namespace evermap;
+
+struct Args {
+  std::string euroc_imu, ground_truth, hackzurich, lcm_log, channel = channels::kImu;
+  std::string dump_attitude, dump_trace, write_lcm_log, floor_log;
+  int synthetic_rides = 0;
+  double rate_hz = 100.0;
+  int session = 1;
+  bool print_options = false;
+  imu::AttitudeFilterOptions attitude;
+  elevator::ElevatorTrackerOptions elevator;
+};
+
+int usage() {
+  std::fprintf(stderr,
+               "usage: evermap-imu-elevator-run (--euroc-imu CSV [--ground-truth FILE] | "
+               "--hackzurich DIR --session N | --lcm-log FILE [--channel IMU] |\n"
+               "        --synthetic N [--rate HZ])\n"
+               "       [--set key=value]... [--config FILE] [--print-options]\n"
+               "       [--dump-attitude FILE] [--dump-trace FILE] [--write-lcm-log FILE]\n");
+  return 2;
+}
+
+Status parse(int argc, char** argv, Args* a) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string k = argv[i];
+    if (k == "--print-options") {
+      a->print_options = true;
+      continue;
+    }
+    if (i + 1 >= argc) return makeError("missing value after ", k);
+    const std::string v = argv[++i];
+    if (k == "--euroc-imu") a->euroc_imu = v;
+    else if (k == "--ground-truth") a->ground_truth = v;
+    else if (k == "--hackzurich") a->hackzurich = v;
+    else if (k == "--session") a->session = std::atoi(v.c_str());
+    else if (k == "--lcm-log") a->lcm_log = v;
+    else if (k == "--channel") a->channel = v;
+    else if (k == "--dump-attitude") a->dump_attitude = v;
+    else if (k == "--dump-trace") a->dump_trace = v;
+    else if (k == "--write-lcm-log") a->write_lcm_log = v;
+    else if (k == "--print-floor-log") a->floor_log = v;
+    else if (k == "--synthetic") a->synthetic_rides = std::atoi(v.c_str());
+    else if (k == "--rate") a->rate_hz = std::atof(v.c_str());
+    else if (k == "--config") {
+      if (Status st = loadFields(&a->attitude, v, false); !st.ok()) return st;
+      if (Status st = loadFields(&a->elevator, v, false); !st.ok()) return st;
+    } else if (k == "--set") {
+      if (!setFieldFromAssignment(&a->attitude, v).ok()) {
+        if (Status st = setFieldFromAssignment(&a->elevator, v); !st.ok()) return st;
+      }
+    } else {
+      return makeError("unknown argument ", k);
+    }
+  }
+  if (Status st = a->attitude.validate(); !st.ok()) return st;
+  return a->elevator.validate();
+}
+
+// The FLOOR messages in an LCM log (what elevator-proc published), one a line.
+int printFloorLog(const std::string& file) {
+  lcm::LogFile log(file, "r");
+  if (!log.good()) {
+    std::fprintf(stderr, "%s: cannot open as an LCM log\n", file.c_str());
+    return 1;
+  }
+  int64_t attitudes = 0, first = 0, last = 0, untrusted = 0;
+  for (const lcm::LogEvent* ev = log.readNextEvent(); ev; ev = log.readNextEvent()) {
+    if (ev->channel == channels::kAttitude) {
+      attitude_t a{};
+      if (a.decode(ev->data, 0, ev->datalen) < 0) continue;
+      if (attitudes++ == 0) first = a.utime;
+      last = a.utime;
+      untrusted += a.accel_trusted ? 0 : 1;
+      continue;
+    }
+    if (ev->channel != channels::kFloor) continue;
+    floor_t m{};
+    if (m.decode(ev->data, 0, ev->datalen) < 0) continue;
+    std::printf("FLOOR utime %lld event %s floor %d height %.2f sigma %.2f in_elevator %d new %d\n",
+                static_cast<long long>(m.utime),
+                m.event == floor_t::EVENT_RIDE_START ? "start" : "end", m.floor_index, m.height_m,
+                m.height_sigma_m, m.in_elevator, m.new_floor);
+  }
+  const double span_s = 1e-6 * static_cast<double>(last - first);
+  std::printf("ATTITUDE %lld messages over %.1f s of data: %.1f Hz, %lld with accel untrusted\n",
+              static_cast<long long>(attitudes), span_s,
+              span_s > 0 ? static_cast<double>(attitudes - 1) / span_s : 0.0,
+              static_cast<long long>(untrusted));
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args args;
+  if (Status st = parse(argc, argv, &args); !st.ok()) {
+    std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", st.error().message.c_str());
+    return usage();
+  }
+  if (!args.floor_log.empty()) return printFloorLog(args.floor_log);
+  if (args.print_options) {
+    std::printf("%s%s", describeFields(args.attitude).c_str(), describeFields(args.elevator).c_str());
+    return 0;
+  }
+  std::vector<datasets::ImuSample> samples;
+  datasets::HackzurichSession session;
+  elevator::SimulatedRun truth;
+  if (!args.euroc_imu.empty()) {
+    auto r = datasets::readEurocImu(args.euroc_imu);
+    if (!r.ok()) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); return 1; }
+    samples = std::move(*r);
+  } else if (!args.hackzurich.empty()) {
+    auto r = datasets::readHackzurichSession(args.hackzurich, args.session);
+    if (!r.ok()) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); return 1; }
+    session = std::move(*r);
+    samples = session.imu;
+    std::printf("session %d: %lld accelerometer rows, %lld without a gyro reading near them, "
+                "%zu barometer rows, %zu labelled episodes\n", args.session,
+                static_cast<long long>(session.accelerometer_rows),
+                static_cast<long long>(session.rows_without_gyro), session.barometer.size(),
+                session.episodes.size());
+  } else if (!args.lcm_log.empty()) {
+    auto r = imu::readImuLog(args.lcm_log, args.channel);
+    if (!r.ok()) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); return 1; }
+    for (const auto& s : r->samples) samples.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
+    std::printf("%s: %zu %s messages, %lld undecodable\n", args.lcm_log.c_str(),
+                r->samples.size(), args.channel.c_str(), static_cast<long long>(r->undecodable));
+  } else if (args.synthetic_rides > 0) {
+    elevator::RideSimulatorOptions o;
+    o.rate_hz = args.rate_hz;
+    truth = elevator::simulateRun(o, elevator::randomScript(o, args.synthetic_rides, 5));
+    for (const auto& s : truth.samples) samples.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
+    std::printf("synthetic building: %zu rides, %zu samples at %.0f Hz\n", truth.rides.size(),
+                samples.size(), o.rate_hz);
+  } else {
+    return usage();
+  }
+  if (samples.empty()) {
+    std::fprintf(stderr, "evermap-imu-elevator-run: no IMU samples\n");
+    return 1;
+  }
+
+  std::vector<imu::ImuSample> imu_samples;
+  for (const auto& s : samples) imu_samples.push_back({s.t_ns / 1000, s.gyro_rad_s, s.accel_m_s2});
+  if (!args.write_lcm_log.empty()) {
+    if (Status st = imu::writeImuLog(args.write_lcm_log, args.channel, imu_samples); !st.ok()) {
+      std::fprintf(stderr, "%s\n", st.error().message.c_str());
+      return 1;
+    }
+    std::printf("wrote %zu IMU samples to %s\n", imu_samples.size(), args.write_lcm_log.c_str());
+  }
+  std::vector<elevator::TraceBin> trace;
+  std::vector<elevator::Pulse> pulses;
+  const bool tracing = !args.dump_trace.empty();
+  const elevator::OfflineRun run =
+      elevator::runImuElevator(imu_samples, args.attitude, args.elevator, true,
+                               tracing ? &trace : nullptr, tracing ? &pulses : nullptr);
+  const std::vector<imu::Attitude>& track = run.attitudes;
+  std::printf("attitude: %s\nelevator: %s\n    gate: %s\n", run.attitude_counts.summary().c_str(),
+              run.counts.summary().c_str(), run.gate.summary().c_str());
+
+  if (!args.ground_truth.empty()) {
+    const auto gt = datasets::readEurocGroundTruth(args.ground_truth);
+    if (!gt.ok()) { std::fprintf(stderr, "%s\n", gt.error().message.c_str()); return 1; }
+    imu::AttitudeCompareOptions c;
+    c.max_offset_s = 0.06;
+    std::printf("attitude error, IMU frame, as is:         %s\n",
+                imu::compareAttitude(track, *gt, c).summary().c_str());
+    c.level_body = true;
+    std::printf("attitude error, level body, as is:        %s\n",
+                imu::compareAttitude(track, *gt, c).summary().c_str());
+    c.align_gravity = true;
+    std::printf("attitude error, level body, world up fit: %s\n",
+                imu::compareAttitude(track, *gt, c).summary().c_str());
+    c.align_body = true;
+    std::printf("attitude error, level body, world+body:   %s\n",
+                imu::compareAttitude(track, *gt, c).summary().c_str());
+  }
+
+  const int64_t origin = samples.front().t_ns / 1000;
+  const auto rows = elevator::ridesWithReference(run.rides, session.barometer, session.episodes);
+  std::printf("\nrides (times from the first sample, disp = elevator, baro = barometer):\n%s",
+              elevator::formatRideTable(rows, origin).c_str());
+  std::printf("floors:");
+  for (size_t i = 0; i < run.floor_heights.size(); ++i) std::printf(" %zu: %.2f m", i, run.floor_heights[i]);
+  std::printf("\n");
+  for (const auto& r : truth.rides) {
+    std::printf("true ride %.1f..%.1f s  floor %d -> %d  %+.2f m\n", r.start_s - origin * 1e-6,
+                r.end_s - origin * 1e-6, r.from_floor, r.to_floor, r.displacement_m);
+  }
+  for (const auto& a : run.abandoned) {
+    std::printf("abandoned ride start at %.1f s (given up at %.1f s): %s\n",
+                1e-6 * static_cast<double>(a.start_utime - origin),
+                1e-6 * static_cast<double>(a.abandon_utime - origin), a.reason.c_str());
+  }
+  for (const auto& e : session.episodes) {
+    std::printf("episode %-30s %8.1f .. %8.1f s\n", e.label.c_str(),
+                1e-9 * static_cast<double>(e.start_ns) - 1e-6 * static_cast<double>(origin),
+                1e-9 * static_cast<double>(e.end_ns) - 1e-6 * static_cast<double>(origin));
+  }
+
+  if (!args.dump_attitude.empty()) {
+    std::ofstream out(args.dump_attitude);
+    for (const auto& a : track) {
+      out << a.utime << ' ' << a.roll_rad << ' ' << a.pitch_rad << ' ' << a.covariance(0, 0)
+          << ' ' << a.covariance(1, 1) << ' ' << int(a.accel_trusted) << '\n';
+    }
+  }
+  if (!args.dump_trace.empty()) {
+    std::ofstream out(args.dump_trace);
+    for (const auto& b : trace) {
+      out << b.utime << ' ' << b.accel_m_s2 << ' ' << b.motion_std_m_s2 << ' ' << int(b.valid)
+          << ' ' << int(b.riding) << ' ' << b.gravity_m_s2 << '\n';
+    }
+    std::ofstream pout(args.dump_trace + ".pulses");
+    for (const auto& p : pulses) {
+      const int64_t bin_us = static_cast<int64_t>(std::llround(args.elevator.pulse.bin_s * 1e6));
+      pout << p.firstBin() * bin_us << ' ' << p.lastBin() * bin_us << ' '
+           << p.amplitude_m_s2 << ' ' << p.residual_m_s2 << ' ' << p.snr << ' ' << p.delta_v_m_s
+           << '\n';
+    }
+  }
+  return 0;
+}
