@@ -36,6 +36,9 @@ function(evermap_lcmtypes)
   add_dependencies(${A_TARGET} ${A_TARGET}_gen)
   target_include_directories(${A_TARGET} INTERFACE ${cpp_dir})
   target_link_libraries(${A_TARGET} INTERFACE evermap_lcm)
+  # lcm-gen's C++ decodes doubles by reading them through int64_t pointers (type punning):
+  # with strict aliasing, GCC at -O2/-O3 may keep stale values in a decoded message.
+  target_compile_options(${A_TARGET} INTERFACE -fno-strict-aliasing)
 
   if(EVERMAP_BUILD_JAVA)
     set(classes_dir ${CMAKE_CURRENT_BINARY_DIR}/classes)
