@@ -65,9 +65,13 @@ struct OdometryOptions {
   core::RegistrationOptions registration = defaultRegistration();
   bool estimate_rotation = true;  // initial rotation from the top pyramid level
   core::RotationEstimateOptions rotation;
-  // The reference keyframe is replaced when a frame registers with fewer inliers (FOVIS's
-  // ref-frame-change-threshold).
+  // The reference keyframe is replaced when a frame registers with fewer inliers than
+  // keyframe_inlier_threshold (FOVIS's ref-frame-change-threshold), or fewer than
+  // keyframe_inlier_fraction of the inliers of the first frame registered against it: in a
+  // rich scene the motions to a far-away reference are the least accurate (patches deform),
+  // and the one at the change is the one that is chained.
   int keyframe_inlier_threshold = 150;
+  double keyframe_inlier_fraction = 0.5;
   // Consecutive failures against the reference before it is replaced.
   int max_failed_frames = 2;
   // ORB descriptors of keyframes (for loop closure); off saves their cost.
@@ -139,6 +143,8 @@ class StereoOdometry {
   // The last known motion from the reference to the previous frame (the prediction).
   core::SE3d ref_T_prev_;
   int failures_ = 0;
+  // Inliers of the first frame registered against the reference (0: none yet).
+  int first_inliers_ = 0;
 };
 
 }  // namespace evermap::vo

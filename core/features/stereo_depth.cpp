@@ -107,8 +107,9 @@ float StereoDepth::disparity(const ImagePyramid& left, const ImagePyramid& right
   }
   const int area = (2 * r + 1) * (2 * r + 1);
   if (cost[best] > options_.max_mean_abs_diff * area) return kNaN;
+  // Ties (repeated texture, a flat image: best == second == 0) are ambiguous too.
   if (second != std::numeric_limits<int>::max() &&
-      cost[best] > options_.uniqueness_ratio * second) {
+      cost[best] >= options_.uniqueness_ratio * second) {
     return kNaN;
   }
   float d = static_cast<float>(dmax - best);

@@ -24,10 +24,12 @@ int popcountAnd(const uint64_t* a, const uint64_t* b, int words) {
 
 std::vector<int> maxConsistentClique(const std::vector<Eigen::Vector3d>& points_a,
                                      const std::vector<Eigen::Vector3d>& points_b,
+                                     const std::vector<double>& depth_sigma_m,
                                      const CliqueOptions& options) {
-  if (points_a.size() != points_b.size()) {
-    std::fprintf(stderr, "evermap: maxConsistentClique: %zu points against %zu\n",
-                 points_a.size(), points_b.size());
+  if (points_a.size() != points_b.size() ||
+      (!depth_sigma_m.empty() && depth_sigma_m.size() != points_a.size())) {
+    std::fprintf(stderr, "evermap: maxConsistentClique: %zu points against %zu (%zu sigmas)\n",
+                 points_a.size(), points_b.size(), depth_sigma_m.size());
     std::abort();
   }
   const int n = static_cast<int>(points_a.size());
@@ -45,7 +47,7 @@ std::vector<int> maxConsistentClique(const std::vector<Eigen::Vector3d>& points_
   float* bx = az + n;
   float* by = bx + n;
   float* bz = by + n;
-  float* zmax = bz + n;
+  float* var = bz + n;  // (sigmas * s_k)²
   for (int i = 0; i < n; ++i) {
     const Eigen::Vector3d& a = points_a[static_cast<size_t>(i)];
     const Eigen::Vector3d& b = points_b[static_cast<size_t>(i)];
@@ -55,18 +57,19 @@ std::vector<int> maxConsistentClique(const std::vector<Eigen::Vector3d>& points_
     bx[i] = static_cast<float>(b.x());
     by[i] = static_cast<float>(b.y());
     bz[i] = static_cast<float>(b.z());
-    zmax[i] = static_cast<float>(std::max(a.z(), b.z()));
+    const double sk =
+        depth_sigma_m.empty() ? 0.0 : options.sigmas * depth_sigma_m[static_cast<size_t>(i)];
+    var[i] = static_cast<float>(sk * sk);
   }
   std::vector<float> change(static_cast<size_t>(n)), threshold(static_cast<size_t>(n));
   const float t0 = static_cast<float>(options.threshold_m);
-  const float tz = static_cast<float>(options.threshold_per_depth);
   for (int i = 0; i < n; ++i) {
     for (int j = i + 1; j < n; ++j) {
       const float dax = ax[i] - ax[j], day = ay[i] - ay[j], daz = az[i] - az[j];
       const float dbx = bx[i] - bx[j], dby = by[i] - by[j], dbz = bz[i] - bz[j];
       change[static_cast<size_t>(j)] = std::abs(std::sqrt(dax * dax + day * day + daz * daz) -
                                                 std::sqrt(dbx * dbx + dby * dby + dbz * dbz));
-      threshold[static_cast<size_t>(j)] = t0 + tz * std::max(zmax[i], zmax[j]);
+      threshold[static_cast<size_t>(j)] = t0 + std::sqrt(var[i] + var[j]);
     }
     uint64_t* ri = row(i);
     for (int j = i + 1; j < n; ++j) {

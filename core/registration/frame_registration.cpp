@@ -1,5 +1,6 @@
 #include "core/registration/frame_registration.h"
 
+#include <cmath>
 #include <sstream>
 
 namespace evermap::core {
@@ -19,9 +20,10 @@ const char* toString(RegistrationStatus status) {
 Status RegistrationOptions::validate() const {
   if (Status s = matching.validate(); !s) return s;
   if (Status s = motion.validate(); !s) return s;
-  if (!(clique.threshold_m > 0.0) || !(clique.threshold_per_depth >= 0.0)) {
+  if (!(clique.threshold_m > 0.0) || !(clique.sigmas >= 0.0) || !(disparity_sigma_px >= 0.0)) {
     return makeError("registration: clique threshold ", clique.threshold_m, " m + ",
-                     clique.threshold_per_depth, " per metre of depth must be positive");
+                     clique.sigmas, " sigmas of ", disparity_sigma_px,
+                     " px disparity noise: need a positive threshold, non-negative noise");
   }
   if (min_features < 3) {
     return makeError("registration: min_features ", min_features, " must be >= 3");
@@ -51,13 +53,20 @@ RegistrationSummary registerMatches(const StereoCamera& camera_a, const StereoCa
     return s;
   }
   std::vector<Eigen::Vector3d> pa, pb;
+  std::vector<double> sigma;
   pa.reserve(matches.size());
   pb.reserve(matches.size());
+  sigma.reserve(matches.size());
+  // Depth noise of a stereo point: σ_z = z² σ_d / (fx b) (first order of z = fx b / d).
+  auto depthSigma = [&](const StereoCamera& c, double z) {
+    return z * z * options.disparity_sigma_px / (c.fx() * c.baselineM());
+  };
   for (const Correspondence& m : matches) {
     pa.push_back(m.p_a);
     pb.push_back(m.p_b);
+    sigma.push_back(std::hypot(depthSigma(camera_a, m.p_a.z()), depthSigma(camera_b, m.p_b.z())));
   }
-  const std::vector<int> clique = maxConsistentClique(pa, pb, options.clique);
+  const std::vector<int> clique = maxConsistentClique(pa, pb, sigma, options.clique);
   s.num_clique = static_cast<int>(clique.size());
   if (s.num_clique < options.min_inliers) {
     s.status = RegistrationStatus::kInsufficientInliers;

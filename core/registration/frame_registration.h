@@ -38,6 +38,8 @@ const char* toString(RegistrationStatus status);
 struct RegistrationOptions {
   DescriptorMatchOptions matching;
   CliqueOptions clique;
+  // Disparity noise (pixels) behind the depth uncertainty the clique allows for.
+  double disparity_sigma_px = 0.2;
   MotionOptions motion;
   // Fewest features with depth (and descriptors, for registerFrames) in each frame.
   int min_features = 20;
