@@ -25,11 +25,12 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: evermap-vo-proc [--lcm-url URL] [--queue N] [--no-descriptors]\n"
-    "                       [--keyframe-inliers N] [--print-options]\n"
+    "                       [--keyframe-inliers N] [--ready-file PATH] [--print-options]\n"
     "  --lcm-url URL          LCM provider (default: $LCM_DEFAULT_URL or LCM's default)\n"
     "  --queue N              frames waiting at most (default 2); older ones are dropped\n"
     "  --no-descriptors       keyframes without ORB descriptors (faster; no loop closure)\n"
     "  --keyframe-inliers N   new keyframe below N inliers (default 150)\n"
+    "  --ready-file PATH      create PATH once subscribed (for scripts)\n"
     "  --print-options        print the odometry options and exit\n";
 
 std::atomic<bool> g_stop{false};
@@ -68,6 +69,7 @@ int main(int argc, char** argv) {
   size_t queue_size = 2;
   evermap::vo::PipelineOptions options;
   bool print_options = false;
+  std::string ready_file;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--lcm-url" && i + 1 < argc) {
@@ -78,6 +80,8 @@ int main(int argc, char** argv) {
       options.odometry.keyframe_descriptors = false;
     } else if (a == "--keyframe-inliers" && i + 1 < argc) {
       options.odometry.keyframe_inlier_threshold = std::atoi(argv[++i]);
+    } else if (a == "--ready-file" && i + 1 < argc) {
+      ready_file = argv[++i];
     } else if (a == "--print-options") {
       print_options = true;
     } else if (a == "-h" || a == "--help") {
@@ -111,6 +115,10 @@ int main(int argc, char** argv) {
   Receiver receiver(&queue, &shared);
   lcm.subscribe(evermap::channels::kStereo, &Receiver::onStereo, &receiver);
   lcm.subscribe(evermap::channels::kStereoCalib, &Receiver::onCalibration, &receiver);
+
+  if (!ready_file.empty()) {
+    if (std::FILE* f = std::fopen(ready_file.c_str(), "w")) std::fclose(f);
+  }
 
   std::thread worker([&] {
     while (auto bytes = queue.pop()) {
