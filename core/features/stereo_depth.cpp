@@ -1,7 +1,5 @@
 #include "core/features/stereo_depth.h"
 
-#include <emmintrin.h>
-
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -15,20 +13,27 @@ namespace {
 
 constexpr int kMaxDisparity = 512;
 
-// cost[k] += |l - right[k]| for k in [0, n): the SAD accumulation of one window pixel over
-// all candidate disparities at once (16 at a time).
-inline void accumulateAbsDiff(uint8_t l, const uint8_t* right, int n, uint16_t* cost) {
-  const __m128i lv = _mm_set1_epi8(static_cast<char>(l));
-  const __m128i zero = _mm_setzero_si128();
-  int k = 0;
-  for (; k + 16 <= n; k += 16) {
-    const __m128i rv = _mm_loadu_si128(reinterpret_cast<const __m128i*>(right + k));
-    const __m128i ad = _mm_or_si128(_mm_subs_epu8(lv, rv), _mm_subs_epu8(rv, lv));
-    __m128i* c = reinterpret_cast<__m128i*>(cost + k);
-    _mm_storeu_si128(c, _mm_add_epi16(_mm_loadu_si128(c), _mm_unpacklo_epi8(ad, zero)));
-    _mm_storeu_si128(c + 1, _mm_add_epi16(_mm_loadu_si128(c + 1), _mm_unpackhi_epi8(ad, zero)));
+// The SAD of the (2r+1)^2 window around (u, v) of L against R at every disparity d in
+// [0, dmax]: cost[j] is the cost at d = dmax - j (right x = u - dmax + j, increasing), so the
+// inner loop runs over contiguous right pixels and vectorises. Compiled for AVX2 and for the
+// baseline, chosen at load time.
+__attribute__((target_clones("avx2", "default")))
+void sadCurve(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int dmax,
+              uint16_t* cost) {
+  const int n = dmax + 1;
+  for (int j = 0; j < n; ++j) cost[j] = 0;
+  for (int dy = -r; dy <= r; ++dy) {
+    const uint8_t* lrow = L.ptr<uint8_t>(v + dy) + u;
+    const uint8_t* rrow = R.ptr<uint8_t>(v + dy) + (u - dmax);
+    for (int dx = -r; dx <= r; ++dx) {
+      const uint8_t l = lrow[dx];
+      const uint8_t* right = rrow + dx;
+      for (int j = 0; j < n; ++j) {
+        const uint8_t x = right[j];
+        cost[j] = static_cast<uint16_t>(cost[j] + (l > x ? l - x : x - l));
+      }
+    }
   }
-  for (; k < n; ++k) cost[k] = static_cast<uint16_t>(cost[k] + std::abs(l - right[k]));
 }
 
 }  // namespace
@@ -90,13 +95,8 @@ float StereoDepth::disparity(const ImagePyramid& left, const ImagePyramid& right
   const int dmax = std::min(static_cast<int>(options_.max_disparity_px / scale), u - r - 1);
   if (dmax < 3) return kNaN;
   const int n = dmax + 1;
-  // cost[j] is the SAD at disparity d = dmax - j (right x = u - dmax + j, increasing).
-  alignas(16) uint16_t cost[kMaxDisparity + 16] = {};
-  for (int dy = -r; dy <= r; ++dy) {
-    const uint8_t* lrow = L.ptr<uint8_t>(v + dy);
-    const uint8_t* rrow = R.ptr<uint8_t>(v + dy) + (u - dmax);
-    for (int dx = -r; dx <= r; ++dx) accumulateAbsDiff(lrow[u + dx], rrow + dx, n, cost);
-  }
+  alignas(32) uint16_t cost[kMaxDisparity + 16];
+  sadCurve(L, R, u, v, r, dmax, cost);
   int best = 0;
   for (int j = 1; j < n; ++j) {
     if (cost[j] < cost[best]) best = j;
@@ -117,6 +117,7 @@ float StereoDepth::disparity(const ImagePyramid& left, const ImagePyramid& right
     PatchAlignmentOptions align;
     align.radius_px = r;
     align.x_only = true;
+    align.max_iterations = 5;  // one unknown: converges in two or three
     align.max_shift_px = options_.max_refinement_px;
     const auto x = alignPatch(L, u, v, R, Eigen::Vector2f(static_cast<float>(u) - d,
                                                           static_cast<float>(v)), align);

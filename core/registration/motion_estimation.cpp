@@ -40,14 +40,25 @@ const char* toString(MotionStatus status) {
   return "?";
 }
 
-bool bidirectionalResidual(const StereoCamera& camera_a, const StereoCamera& camera_b,
-                           const Correspondence& m, const SE3d& a_T_b,
-                           Eigen::Matrix<double, 4, 1>* r, Eigen::Matrix<double, 4, 6>* J) {
-  const Mat3 R = a_T_b.rotationMatrix();
+namespace {
+
+// a_T_b and its inverse as matrices, computed once per evaluation of all the matches.
+struct PoseMatrices {
+  explicit PoseMatrices(const SE3d& a_T_b)
+      : R(a_T_b.rotationMatrix()), t(a_T_b.translation()), Rt(R.transpose()), t_inv(-Rt * t) {}
+  Mat3 R;
+  Vec3 t;
+  Mat3 Rt;
+  Vec3 t_inv;
+};
+
+bool residual(const StereoCamera& camera_a, const StereoCamera& camera_b,
+              const Correspondence& m, const PoseMatrices& T, Eigen::Matrix<double, 4, 1>* r,
+              Eigen::Matrix<double, 4, 6>* J) {
   // Into a: q_a = T exp(δ) p_b ≈ T p_b + R (υ + ω × p_b): dq_a/dδ = R [I, -[p_b]x].
-  const Vec3 q_a = a_T_b * m.p_b;
+  const Vec3 q_a = T.R * m.p_b + T.t;
   // Into b: q_b = exp(-δ) T⁻¹ p_a ≈ q_b - υ - ω × q_b: dq_b/dδ = [-I, [q_b]x].
-  const Vec3 q_b = a_T_b.inverse() * m.p_a;
+  const Vec3 q_b = T.Rt * m.p_a + T.t_inv;
   Mat3 Ja, Jb;
   const auto uvd_a = camera_a.project(q_a, J ? &Ja : nullptr);
   const auto uvd_b = camera_b.project(q_b, J ? &Jb : nullptr);
@@ -56,14 +67,22 @@ bool bidirectionalResidual(const StereoCamera& camera_a, const StereoCamera& cam
   r->tail<2>() = uvd_b->head<2>() - m.uv_b;
   if (J) {
     Eigen::Matrix<double, 3, 6> dqa, dqb;
-    dqa.leftCols<3>() = R;
-    dqa.rightCols<3>() = -R * hat(m.p_b);
+    dqa.leftCols<3>() = T.R;
+    dqa.rightCols<3>() = -T.R * hat(m.p_b);
     dqb.leftCols<3>() = -Mat3::Identity();
     dqb.rightCols<3>() = hat(q_b);
     J->topRows<2>() = Ja.topRows<2>() * dqa;
     J->bottomRows<2>() = Jb.topRows<2>() * dqb;
   }
   return true;
+}
+
+}  // namespace
+
+bool bidirectionalResidual(const StereoCamera& camera_a, const StereoCamera& camera_b,
+                           const Correspondence& m, const SE3d& a_T_b,
+                           Eigen::Matrix<double, 4, 1>* r, Eigen::Matrix<double, 4, 6>* J) {
+  return residual(camera_a, camera_b, m, PoseMatrices(a_T_b), r, J);
 }
 
 Eigen::Vector2d reprojectionErrors(const StereoCamera& camera_a, const StereoCamera& camera_b,
@@ -90,9 +109,10 @@ struct Problem {
     if (g) g->setZero();
     Eigen::Matrix<double, 4, 1> r;
     Eigen::Matrix<double, 4, 6> J;
+    const PoseMatrices P(T);
     for (int i : active) {
-      if (!bidirectionalResidual(camera_a, camera_b, matches[static_cast<size_t>(i)], T, &r,
-                                 H ? &J : nullptr)) {
+      if (!residual(camera_a, camera_b, matches[static_cast<size_t>(i)], P, &r,
+                    H ? &J : nullptr)) {
         continue;
       }
       cost += r.squaredNorm();
@@ -124,7 +144,9 @@ struct Problem {
           *T = candidate;
           lambda = std::max(lambda * 0.1, 1e-9);
           improved = true;
-          const bool converged = delta.norm() < 1e-9 || cost - c < 1e-12 * (cost + 1e-12);
+          // Converged: the step is far below any precision the data has (1e-7 m or rad), or
+          // the cost no longer moves.
+          const bool converged = delta.norm() < 1e-7 || cost - c < 1e-9 * (cost + 1e-12);
           cost = evaluate(*T, active, &H, &g);
           if (converged) return it + 1;
         } else {

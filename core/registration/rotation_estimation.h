@@ -25,6 +25,8 @@ struct RotationEstimateOptions {
   double max_angle_rad = 0.6;
   // Pixels of the level left out around the border (gradients, warp).
   int border_px = 2;
+  // Pixels whose gradient |gx| + |gy| (gray levels per pixel) is below this are left out.
+  float min_gradient = 3.0f;
 };
 
 // b_R_a for two images of the same pyramid level `level` of cameras with the intrinsics of
