@@ -99,7 +99,9 @@ TEST(FastDetector, BucketsHoldAtMostTheirShareAndCornersAvoidTheBorder) {
   for (const auto& [bucket, n] : count) EXPECT_LE(n, o.max_per_bucket);
   // Strongest first within a level.
   for (size_t i = 1; i < k.size(); ++i) {
-    if (k[i].level == k[i - 1].level) EXPECT_LE(k[i].score, k[i - 1].score);
+    if (k[i].level == k[i - 1].level) {
+      EXPECT_LE(k[i].score, k[i - 1].score);
+    }
   }
 }
 
