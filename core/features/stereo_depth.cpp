@@ -1,0 +1,132 @@
+#include "core/features/stereo_depth.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+
+#include "core/features/patch_alignment.h"
+
+namespace evermap::core {
+
+namespace {
+
+constexpr int kMaxDisparity = 512;
+
+// The SAD of the (2r+1)^2 window around (u, v) of L against R at every disparity d in
+// [0, dmax]: cost[j] is the cost at d = dmax - j (right x = u - dmax + j, increasing), so the
+// inner loop runs over contiguous right pixels and vectorises. Compiled for AVX2 and for the
+// baseline, chosen at load time.
+__attribute__((target_clones("avx2", "default")))
+void sadCurve(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int dmax,
+              uint16_t* cost) {
+  const int n = dmax + 1;
+  for (int j = 0; j < n; ++j) cost[j] = 0;
+  for (int dy = -r; dy <= r; ++dy) {
+    const uint8_t* lrow = L.ptr<uint8_t>(v + dy) + u;
+    const uint8_t* rrow = R.ptr<uint8_t>(v + dy) + (u - dmax);
+    for (int dx = -r; dx <= r; ++dx) {
+      const uint8_t l = lrow[dx];
+      const uint8_t* right = rrow + dx;
+      for (int j = 0; j < n; ++j) {
+        const uint8_t x = right[j];
+        cost[j] = static_cast<uint16_t>(cost[j] + (l > x ? l - x : x - l));
+      }
+    }
+  }
+}
+
+}  // namespace
+
+Status StereoDepth::Options::validate() const {
+  if (window_radius_px < 1 || window_radius_px > 6) {
+    return makeError("stereo depth: window_radius_px ", window_radius_px, " is not in [1, 6]");
+  }
+  if (max_disparity_px < 4 || max_disparity_px > kMaxDisparity) {
+    return makeError("stereo depth: max_disparity_px ", max_disparity_px, " is not in [4, ",
+                     kMaxDisparity, "]");
+  }
+  if (!(min_disparity_px >= 0.0 && min_disparity_px < max_disparity_px)) {
+    return makeError("stereo depth: min_disparity_px ", min_disparity_px,
+                     " is not in [0, max_disparity_px)");
+  }
+  if (!(max_mean_abs_diff > 0.0 && max_mean_abs_diff <= 255.0)) {
+    return makeError("stereo depth: max_mean_abs_diff ", max_mean_abs_diff,
+                     " is not in (0, 255]");
+  }
+  if (!(uniqueness_ratio > 0.0 && uniqueness_ratio <= 1.0)) {
+    return makeError("stereo depth: uniqueness_ratio ", uniqueness_ratio, " is not in (0, 1]");
+  }
+  if (!(max_refinement_px > 0.0)) {
+    return makeError("stereo depth: max_refinement_px ", max_refinement_px, " must be positive");
+  }
+  return Ok{};
+}
+
+StereoDepth::StereoDepth(const Options& options) : options_(options) {
+  if (Status s = options.validate(); !s) {
+    std::fprintf(stderr, "evermap: StereoDepth: %s\n", s.error().message.c_str());
+    std::abort();
+  }
+}
+
+std::vector<float> StereoDepth::compute(const ImagePyramid& left, const ImagePyramid& right,
+                                        const std::vector<Keypoint>& keypoints) const {
+  std::vector<float> out(keypoints.size());
+  for (size_t i = 0; i < keypoints.size(); ++i) out[i] = disparity(left, right, keypoints[i]);
+  return out;
+}
+
+float StereoDepth::disparity(const ImagePyramid& left, const ImagePyramid& right,
+                             const Keypoint& k) const {
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  if (k.level >= left.numLevels() || k.level >= right.numLevels()) return kNaN;
+  const cv::Mat& L = left.level(k.level);
+  const cv::Mat& R = right.level(k.level);
+  const int r = options_.window_radius_px;
+  const int u = static_cast<int>(std::lround(k.u)), v = static_cast<int>(std::lround(k.v));
+  // One more pixel than the window for the refinement's gradient.
+  if (u - r - 1 < 0 || v - r - 1 < 0 || u + r + 1 >= L.cols || v + r + 1 >= L.rows ||
+      R.size() != L.size()) {
+    return kNaN;
+  }
+  const float scale = ImagePyramid::scale(k.level);
+  // Disparities [0, dmax]: the right window at u - d must stay inside the image.
+  const int dmax = std::min(static_cast<int>(options_.max_disparity_px / scale), u - r - 1);
+  if (dmax < 3) return kNaN;
+  const int n = dmax + 1;
+  alignas(32) uint16_t cost[kMaxDisparity + 16];
+  sadCurve(L, R, u, v, r, dmax, cost);
+  int best = 0;
+  for (int j = 1; j < n; ++j) {
+    if (cost[j] < cost[best]) best = j;
+  }
+  int second = std::numeric_limits<int>::max();
+  for (int j = 0; j < n; ++j) {
+    if (std::abs(j - best) > 1) second = std::min(second, static_cast<int>(cost[j]));
+  }
+  const int area = (2 * r + 1) * (2 * r + 1);
+  if (cost[best] > options_.max_mean_abs_diff * area) return kNaN;
+  // Ties (repeated texture, a flat image: best == second == 0) are ambiguous too.
+  if (second != std::numeric_limits<int>::max() &&
+      cost[best] >= options_.uniqueness_ratio * second) {
+    return kNaN;
+  }
+  float d = static_cast<float>(dmax - best);
+  if (options_.subpixel) {
+    PatchAlignmentOptions align;
+    align.radius_px = r;
+    align.x_only = true;
+    align.max_iterations = 5;  // one unknown: converges in two or three
+    align.max_shift_px = options_.max_refinement_px;
+    const auto x = alignPatch(L, u, v, R, Eigen::Vector2f(static_cast<float>(u) - d,
+                                                          static_cast<float>(v)), align);
+    if (!x) return kNaN;
+    d = static_cast<float>(u) - x->x();
+  }
+  d *= scale;
+  if (!(d >= options_.min_disparity_px)) return kNaN;
+  return d;
+}
+
+}  // namespace evermap::core

@@ -1,0 +1,70 @@
+#include "core/features/stereo_features.h"
+
+#include <cmath>
+
+namespace evermap::core {
+
+Status StereoFeatureExtractor::Options::validate() const {
+  if (feature_levels < 1 || feature_levels > 6) {
+    return makeError("stereo features: feature_levels ", feature_levels, " is not in [1, 6]");
+  }
+  if (pyramid_levels < feature_levels || pyramid_levels > 8) {
+    return makeError("stereo features: pyramid_levels ", pyramid_levels,
+                     " is not in [feature_levels, 8]");
+  }
+  if (fast.border_px < kPatchRadius + 1) {
+    return makeError("stereo features: fast.border_px ", fast.border_px,
+                     " leaves no room for the 9x9 patch (need >= ", kPatchRadius + 1, ")");
+  }
+  if (Status s = fast.validate(); !s) return s;
+  return stereo.validate();
+}
+
+Expected<StereoFeatureExtractor> StereoFeatureExtractor::create(const Options& options) {
+  if (Status s = options.validate(); !s) return s.error();
+  return StereoFeatureExtractor(options);
+}
+
+Status checkStereoImage(const StereoCamera& camera, const cv::Mat& image, const char* what) {
+  if (image.empty()) return makeError(what, ": empty image");
+  if (image.type() != CV_8UC1) return makeError(what, ": not an 8-bit gray image");
+  if (image.cols != camera.width() || image.rows != camera.height()) {
+    return makeError(what, ": ", image.cols, "x", image.rows, " but the camera is ",
+                     camera.width(), "x", camera.height());
+  }
+  return Ok{};
+}
+
+Status StereoFeatureExtractor::extract(const StereoCamera& camera, int64_t utime,
+                                       const cv::Mat& left, const cv::Mat& right,
+                                       FeatureFrame* frame) {
+  if (Status s = checkStereoImage(camera, left, "left image"); !s) return s;
+  if (Status s = checkStereoImage(camera, right, "right image"); !s) return s;
+  frame->utime = utime;
+  frame->features.clear();
+  frame->num_corners = 0;
+  if (Status s = frame->left.build(left, options_.pyramid_levels); !s) return s;
+  if (Status s = right_.build(right, options_.feature_levels); !s) return s;
+
+  const std::vector<Keypoint> corners = detector_.detect(frame->left, options_.feature_levels);
+  frame->num_corners = static_cast<int>(corners.size());
+  frame->features.reserve(corners.size());
+  for (const Keypoint& k : corners) {
+    const float d = depth_.disparity(frame->left, right_, k);
+    if (!std::isfinite(d)) continue;
+    const float s = ImagePyramid::scale(k.level);
+    StereoFeature f;
+    f.keypoint = k;
+    f.uv = Eigen::Vector2f(k.u * s, k.v * s);
+    f.disparity = d;
+    const auto p = camera.backProject(Eigen::Vector3d(f.uv.x(), f.uv.y(), d));
+    if (!p) continue;
+    f.point = *p;
+    f.patch = patchDescriptor(frame->left.level(k.level), static_cast<int>(k.u),
+                              static_cast<int>(k.v));
+    frame->features.push_back(f);
+  }
+  return Ok{};
+}
+
+}  // namespace evermap::core

@@ -1,0 +1,103 @@
+#include "core/messages/keyframe_convert.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+namespace evermap::messages {
+
+evermap::keyframe_t toMsg(const core::StereoCamera& camera,
+                          const core::KeyframeFeatures& features) {
+  evermap::keyframe_t msg;
+  msg.utime = features.utime;
+  msg.fx = camera.fx();
+  msg.fy = camera.fy();
+  msg.cx = camera.cx();
+  msg.cy = camera.cy();
+  msg.baseline_m = camera.baselineM();
+  const size_t n = features.size();
+  msg.num_features = static_cast<int32_t>(n);
+  msg.keypoints.resize(n);
+  msg.points.resize(n);
+  msg.disparity.resize(n);
+  msg.level.resize(n);
+  msg.descriptors.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    msg.keypoints[i] = {features.keypoints[i].x(), features.keypoints[i].y()};
+    msg.points[i] = {features.points[i].x(), features.points[i].y(), features.points[i].z()};
+    msg.disparity[i] = features.disparity[i];
+    msg.level[i] = features.levels[i];
+    msg.descriptors[i].assign(features.descriptors[i].begin(), features.descriptors[i].end());
+  }
+  return msg;
+}
+
+Expected<KeyframeMsgContents> fromMsg(const evermap::keyframe_t& msg) {
+  const std::string who = "keyframe_t " + std::to_string(msg.utime);
+  if (msg.num_features < 0) return makeError(who, ": num_features ", msg.num_features);
+  const auto n = static_cast<size_t>(msg.num_features);
+  if (msg.keypoints.size() != n || msg.points.size() != n || msg.disparity.size() != n ||
+      msg.level.size() != n || msg.descriptors.size() != n) {
+    return makeError(who, ": array lengths differ from num_features ", n);
+  }
+  core::KeyframeFeatures f;
+  f.utime = msg.utime;
+  f.keypoints.resize(n);
+  f.points.resize(n);
+  f.disparity = msg.disparity;
+  f.levels = msg.level;
+  f.descriptors.resize(n);
+  double max_u = 0.0, max_v = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    if (msg.keypoints[i].size() != 2 || msg.points[i].size() != 3 ||
+        msg.descriptors[i].size() != 32) {
+      return makeError(who, ": feature ", i, " has malformed inner arrays");
+    }
+    f.keypoints[i] = Eigen::Vector2f(msg.keypoints[i][0], msg.keypoints[i][1]);
+    f.points[i] = Eigen::Vector3f(msg.points[i][0], msg.points[i][1], msg.points[i][2]);
+    std::copy(msg.descriptors[i].begin(), msg.descriptors[i].end(), f.descriptors[i].begin());
+    if (f.keypoints[i].allFinite()) {
+      max_u = std::max(max_u, static_cast<double>(f.keypoints[i].x()));
+      max_v = std::max(max_v, static_cast<double>(f.keypoints[i].y()));
+    }
+  }
+  if (Status s = f.validate(); !s) return makeError("keyframe_t: ", s.error().message);
+  for (size_t i = 0; i < n; ++i) {
+    if (f.keypoints[i].x() < 0.0f || f.keypoints[i].y() < 0.0f) {
+      return makeError(who, ": keypoint ", i, " has negative pixel coordinates");
+    }
+  }
+  if (!(std::isfinite(msg.cx) && std::isfinite(msg.cy) && msg.cx > 0.0 && msg.cy > 0.0 &&
+        msg.cx < 1e6 && msg.cy < 1e6 && max_u < 1e6 && max_v < 1e6)) {
+    return makeError(who, ": principal point (", msg.cx, ", ", msg.cy, ") is not valid");
+  }
+  const int width = static_cast<int>(std::ceil(std::max(2.0 * msg.cx, max_u + 1.0)));
+  const int height = static_cast<int>(std::ceil(std::max(2.0 * msg.cy, max_v + 1.0)));
+  auto camera = core::StereoCamera::create(msg.fx, msg.fy, msg.cx, msg.cy, msg.baseline_m,
+                                           width, height);
+  if (!camera) return makeError(who, ": ", camera.error().message);
+  return KeyframeMsgContents{*camera, std::move(f)};
+}
+
+namespace detail {
+
+template <>
+Status checkArrayLengths<evermap::keyframe_t>(const evermap::keyframe_t*, const void* data,
+                                              int64_t size) {
+  // hash (8), utime (8), fx fy cx cy baseline (40), num_features (4), then per feature
+  // keypoints 2x4, points 3x4, disparity 4, level 1, descriptor 32 bytes.
+  constexpr int64_t kHeader = 8 + 8 + 40 + 4;
+  constexpr int64_t kPerFeature = 8 + 12 + 4 + 1 + 32;
+  if (size < kHeader) return makeError("truncated header (", size, " bytes)");
+  const auto* b = static_cast<const uint8_t*>(data) + kHeader - 4;
+  const int32_t n = static_cast<int32_t>((uint32_t{b[0]} << 24) | (uint32_t{b[1]} << 16) |
+                                         (uint32_t{b[2]} << 8) | uint32_t{b[3]});
+  if (n < 0) return makeError("num_features ", n, " is negative");
+  if (kHeader + kPerFeature * static_cast<int64_t>(n) > size) {
+    return makeError("num_features ", n, " needs more than the ", size, " bytes received");
+  }
+  return Ok{};
+}
+
+}  // namespace detail
+}  // namespace evermap::messages

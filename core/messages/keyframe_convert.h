@@ -1,0 +1,39 @@
+#pragma once
+// Conversions between core::KeyframeFeatures (with its rectified camera) and the LCM message
+// keyframe_t (channel KEYFRAME), validated as convert.h does for the other types.
+//
+// keyframe_t carries fx, fy, cx, cy and the baseline but not the image size; the camera of a
+// received keyframe is given the smallest size that holds its principal point at the centre
+// and every keypoint (registration does not use the size).
+
+#include <cstdint>
+
+#include <evermap/keyframe_t.hpp>
+
+#include "core/camera/stereo_camera.h"
+#include "core/common/expected.h"
+#include "core/messages/convert.h"
+#include "core/registration/keyframe_features.h"
+
+namespace evermap::messages {
+
+struct KeyframeMsgContents {
+  core::StereoCamera camera;
+  core::KeyframeFeatures features;
+};
+
+evermap::keyframe_t toMsg(const core::StereoCamera& camera,
+                          const core::KeyframeFeatures& features);
+// Errors name the field: non-finite or non-positive intrinsics, inconsistent lengths, a
+// feature that is not finite, a non-positive disparity or depth, a negative level.
+Expected<KeyframeMsgContents> fromMsg(const evermap::keyframe_t& msg);
+
+namespace detail {
+// decodeLcm<keyframe_t>: the claimed feature count must fit the bytes before the generated
+// decoder allocates for it.
+template <>
+Status checkArrayLengths<evermap::keyframe_t>(const evermap::keyframe_t*, const void* data,
+                                              int64_t size);
+}  // namespace detail
+
+}  // namespace evermap::messages

@@ -1,0 +1,123 @@
+#include "core/registration/clique_inliers.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+
+namespace evermap::core {
+
+namespace {
+
+// popcount of a AND b over `words` 64-bit words. The clique search is mostly this; compiled
+// twice (with the POPCNT instruction, and portable) and chosen at load time.
+__attribute__((target_clones("popcnt", "default")))
+int popcountAnd(const uint64_t* a, const uint64_t* b, int words) {
+  int d = 0;
+  for (int w = 0; w < words; ++w) d += __builtin_popcountll(a[w] & b[w]);
+  return d;
+}
+
+// Row by row, the pairs (i, j > i) whose distance changes less than their threshold: the n²/2
+// distance computations, compiled for AVX2 and for the baseline.
+__attribute__((target_clones("avx2", "default")))
+void fillAdjacency(int n, int words, const float* ax, const float* ay, const float* az,
+                   const float* bx, const float* by, const float* bz, const float* var, float t0,
+                   float* change, float* threshold, uint64_t* adj) {
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      const float dax = ax[i] - ax[j], day = ay[i] - ay[j], daz = az[i] - az[j];
+      const float dbx = bx[i] - bx[j], dby = by[i] - by[j], dbz = bz[i] - bz[j];
+      change[j] = std::abs(std::sqrt(dax * dax + day * day + daz * daz) -
+                           std::sqrt(dbx * dbx + dby * dby + dbz * dbz));
+      threshold[j] = t0 + std::sqrt(var[i] + var[j]);
+    }
+    uint64_t* ri = adj + static_cast<size_t>(i) * words;
+    for (int j = i + 1; j < n; ++j) {
+      if (change[j] < threshold[j]) {
+        ri[j >> 6] |= uint64_t{1} << (j & 63);
+        adj[static_cast<size_t>(j) * words + (i >> 6)] |= uint64_t{1} << (i & 63);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<int> maxConsistentClique(const std::vector<Eigen::Vector3d>& points_a,
+                                     const std::vector<Eigen::Vector3d>& points_b,
+                                     const std::vector<double>& depth_sigma_m,
+                                     const CliqueOptions& options) {
+  if (points_a.size() != points_b.size() ||
+      (!depth_sigma_m.empty() && depth_sigma_m.size() != points_a.size())) {
+    std::fprintf(stderr, "evermap: maxConsistentClique: %zu points against %zu (%zu sigmas)\n",
+                 points_a.size(), points_b.size(), depth_sigma_m.size());
+    std::abort();
+  }
+  const int n = static_cast<int>(points_a.size());
+  if (n == 0) return {};
+  const int words = (n + 63) / 64;
+  // Row i of the adjacency matrix as a bit set.
+  std::vector<uint64_t> adj(static_cast<size_t>(n) * words, 0);
+  auto row = [&](int i) { return adj.data() + static_cast<size_t>(i) * words; };
+  // Coordinates as float arrays, so the distance loop below vectorises (a few hundred
+  // matches: n²/2 pairs is the bulk of the work).
+  std::vector<float> c(static_cast<size_t>(7) * n);
+  float* ax = c.data();
+  float* ay = ax + n;
+  float* az = ay + n;
+  float* bx = az + n;
+  float* by = bx + n;
+  float* bz = by + n;
+  float* var = bz + n;  // (sigmas * s_k)²
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d& a = points_a[static_cast<size_t>(i)];
+    const Eigen::Vector3d& b = points_b[static_cast<size_t>(i)];
+    ax[i] = static_cast<float>(a.x());
+    ay[i] = static_cast<float>(a.y());
+    az[i] = static_cast<float>(a.z());
+    bx[i] = static_cast<float>(b.x());
+    by[i] = static_cast<float>(b.y());
+    bz[i] = static_cast<float>(b.z());
+    const double sk =
+        depth_sigma_m.empty() ? 0.0 : options.sigmas * depth_sigma_m[static_cast<size_t>(i)];
+    var[i] = static_cast<float>(sk * sk);
+  }
+  std::vector<float> change(static_cast<size_t>(n)), threshold(static_cast<size_t>(n));
+  fillAdjacency(n, words, ax, ay, az, bx, by, bz, var, static_cast<float>(options.threshold_m),
+                change.data(), threshold.data(), adj.data());
+  // Seed: the vertex of highest degree.
+  int seed = 0, seed_degree = -1;
+  for (int i = 0; i < n; ++i) {
+    const int d = popcountAnd(row(i), row(i), words);
+    if (d > seed_degree) {
+      seed = i;
+      seed_degree = d;
+    }
+  }
+  std::vector<int> clique = {seed};
+  std::vector<uint64_t> candidates(row(seed), row(seed) + words);
+  for (;;) {
+    int best = -1, best_degree = -1;
+    for (int w = 0; w < words; ++w) {
+      for (uint64_t bits = candidates[static_cast<size_t>(w)]; bits; bits &= bits - 1) {
+        const int i = w * 64 + std::countr_zero(bits);
+        const int d = popcountAnd(row(i), candidates.data(), words);
+        if (d > best_degree) {
+          best = i;
+          best_degree = d;
+        }
+      }
+    }
+    if (best < 0) break;
+    clique.push_back(best);
+    const uint64_t* r = row(best);
+    for (int w = 0; w < words; ++w) candidates[static_cast<size_t>(w)] &= r[w];
+  }
+  std::sort(clique.begin(), clique.end());
+  return clique;
+}
+
+}  // namespace evermap::core

@@ -1,0 +1,148 @@
+#include "core/registration/frame_registration.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace evermap::core {
+
+const char* toString(RegistrationStatus status) {
+  switch (status) {
+    case RegistrationStatus::kOk: return "ok";
+    case RegistrationStatus::kInsufficientFeatures: return "insufficient features";
+    case RegistrationStatus::kInsufficientInliers: return "insufficient inliers";
+    case RegistrationStatus::kOptimizationFailure: return "optimization failure";
+    case RegistrationStatus::kReprojectionError: return "reprojection error";
+    case RegistrationStatus::kBadInput: return "bad input";
+  }
+  return "?";
+}
+
+Status RegistrationOptions::validate() const {
+  if (Status s = matching.validate(); !s) return s;
+  if (Status s = motion.validate(); !s) return s;
+  if (!(clique.threshold_m > 0.0) || !(clique.sigmas >= 0.0) || !(disparity_sigma_px >= 0.0)) {
+    return makeError("registration: clique threshold ", clique.threshold_m, " m + ",
+                     clique.sigmas, " sigmas of ", disparity_sigma_px,
+                     " px disparity noise: need a positive threshold, non-negative noise");
+  }
+  if (min_features < 3) {
+    return makeError("registration: min_features ", min_features, " must be >= 3");
+  }
+  if (min_inliers < motion.min_inliers) {
+    return makeError("registration: min_inliers ", min_inliers,
+                     " is below motion.min_inliers ", motion.min_inliers);
+  }
+  return Ok{};
+}
+
+RegistrationSummary registerMatches(const StereoCamera& camera_a, const StereoCamera& camera_b,
+                                    const std::vector<Correspondence>& matches,
+                                    const std::vector<std::pair<int, int>>& ids,
+                                    const SE3d& initial, const RegistrationOptions& options) {
+  RegistrationSummary s;
+  s.num_matches = static_cast<int>(matches.size());
+  if (Status v = options.validate(); !v) {
+    s.status = RegistrationStatus::kBadInput;
+    s.message = v.error().message;
+    return s;
+  }
+  if (ids.size() != matches.size()) {
+    s.status = RegistrationStatus::kBadInput;
+    s.message = makeError("registration: ", matches.size(), " matches but ", ids.size(),
+                          " index pairs").message;
+    return s;
+  }
+  std::vector<Eigen::Vector3d> pa, pb;
+  std::vector<double> sigma;
+  pa.reserve(matches.size());
+  pb.reserve(matches.size());
+  sigma.reserve(matches.size());
+  // Depth noise of a stereo point: σ_z = z² σ_d / (fx b) (first order of z = fx b / d).
+  auto depthSigma = [&](const StereoCamera& c, double z) {
+    return z * z * options.disparity_sigma_px / (c.fx() * c.baselineM());
+  };
+  for (const Correspondence& m : matches) {
+    pa.push_back(m.p_a);
+    pb.push_back(m.p_b);
+    sigma.push_back(std::hypot(depthSigma(camera_a, m.p_a.z()), depthSigma(camera_b, m.p_b.z())));
+  }
+  const std::vector<int> clique = maxConsistentClique(pa, pb, sigma, options.clique);
+  s.num_clique = static_cast<int>(clique.size());
+  if (s.num_clique < options.min_inliers) {
+    s.status = RegistrationStatus::kInsufficientInliers;
+    s.message = makeError(s.num_matches, " matches, ", s.num_clique,
+                          " consistent (clique), need ", options.min_inliers).message;
+    return s;
+  }
+  const MotionEstimate motion =
+      estimateMotion(camera_a, camera_b, matches, clique, initial, options.motion);
+  s.a_T_b = motion.a_T_b;
+  s.covariance = motion.covariance;
+  s.num_inliers = static_cast<int>(motion.inliers.size());
+  s.mean_reprojection_px = motion.mean_reprojection_px;
+  s.inliers.reserve(motion.inliers.size());
+  for (int i : motion.inliers) s.inliers.push_back(ids[static_cast<size_t>(i)]);
+  std::ostringstream msg;
+  msg << s.num_matches << " matches, " << s.num_clique << " in the clique, " << s.num_inliers
+      << " inliers, mean reprojection error " << s.mean_reprojection_px << " px";
+  switch (motion.status) {
+    case MotionStatus::kOk:
+      if (s.num_inliers < options.min_inliers) {
+        s.status = RegistrationStatus::kInsufficientInliers;
+        msg << " (need " << options.min_inliers << " inliers)";
+      } else {
+        s.status = RegistrationStatus::kOk;
+      }
+      break;
+    case MotionStatus::kInsufficientInliers:
+      s.status = RegistrationStatus::kInsufficientInliers;
+      msg << ": " << motion.message;
+      break;
+    case MotionStatus::kOptimizationFailure:
+      s.status = RegistrationStatus::kOptimizationFailure;
+      msg << ": " << motion.message;
+      break;
+    case MotionStatus::kReprojectionError:
+      s.status = RegistrationStatus::kReprojectionError;
+      msg << ": " << motion.message;
+      break;
+  }
+  s.message = msg.str();
+  return s;
+}
+
+RegistrationSummary registerFrames(const StereoCamera& camera_a, const KeyframeFeatures& a,
+                                   const StereoCamera& camera_b, const KeyframeFeatures& b,
+                                   const RegistrationOptions& options) {
+  RegistrationSummary s;
+  s.num_features_a = static_cast<int>(a.size());
+  s.num_features_b = static_cast<int>(b.size());
+  for (const Status& v : {options.validate(), a.validate(), b.validate()}) {
+    if (!v) {
+      s.status = RegistrationStatus::kBadInput;
+      s.message = v.error().message;
+      return s;
+    }
+  }
+  if (s.num_features_a < options.min_features || s.num_features_b < options.min_features) {
+    s.status = RegistrationStatus::kInsufficientFeatures;
+    s.message = makeError("keyframes have ", s.num_features_a, " and ", s.num_features_b,
+                          " features, need ", options.min_features).message;
+    return s;
+  }
+  const std::vector<std::pair<int, int>> ids =
+      matchDescriptors(a.descriptors, b.descriptors, options.matching);
+  std::vector<Correspondence> matches;
+  matches.reserve(ids.size());
+  for (const auto& [i, j] : ids) {
+    const auto ii = static_cast<size_t>(i), jj = static_cast<size_t>(j);
+    matches.push_back({a.keypoints[ii].cast<double>(), a.points[ii].cast<double>(),
+                       b.keypoints[jj].cast<double>(), b.points[jj].cast<double>()});
+  }
+  RegistrationSummary r = registerMatches(camera_a, camera_b, matches, ids, SE3d(), options);
+  r.num_features_a = s.num_features_a;
+  r.num_features_b = s.num_features_b;
+  return r;
+}
+
+}  // namespace evermap::core

@@ -1,0 +1,252 @@
+#include "core/registration/motion_estimation.h"
+
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Dense>
+
+#include "core/eval/alignment.h"
+
+namespace evermap::core {
+
+Status MotionOptions::validate() const {
+  if (max_iterations < 1) {
+    return makeError("motion: max_iterations ", max_iterations, " must be positive");
+  }
+  if (!(inlier_max_reprojection_px > 0.0)) {
+    return makeError("motion: inlier_max_reprojection_px ", inlier_max_reprojection_px,
+                     " must be positive");
+  }
+  if (!(max_mean_reprojection_px > 0.0)) {
+    return makeError("motion: max_mean_reprojection_px ", max_mean_reprojection_px,
+                     " must be positive");
+  }
+  if (min_inliers < 3) {
+    return makeError("motion: min_inliers ", min_inliers, " must be >= 3 (6 unknowns)");
+  }
+  if (!(pixel_sigma_px > 0.0)) {
+    return makeError("motion: pixel_sigma_px ", pixel_sigma_px, " must be positive");
+  }
+  return Ok{};
+}
+
+const char* toString(MotionStatus status) {
+  switch (status) {
+    case MotionStatus::kOk: return "ok";
+    case MotionStatus::kInsufficientInliers: return "insufficient inliers";
+    case MotionStatus::kOptimizationFailure: return "optimization failure";
+    case MotionStatus::kReprojectionError: return "reprojection error";
+  }
+  return "?";
+}
+
+namespace {
+
+// a_T_b and its inverse as matrices, computed once per evaluation of all the matches.
+struct PoseMatrices {
+  explicit PoseMatrices(const SE3d& a_T_b)
+      : R(a_T_b.rotationMatrix()), t(a_T_b.translation()), Rt(R.transpose()), t_inv(-Rt * t) {}
+  Mat3 R;
+  Vec3 t;
+  Mat3 Rt;
+  Vec3 t_inv;
+};
+
+bool residual(const StereoCamera& camera_a, const StereoCamera& camera_b,
+              const Correspondence& m, const PoseMatrices& T, Eigen::Matrix<double, 4, 1>* r,
+              Eigen::Matrix<double, 4, 6>* J) {
+  // Into a: q_a = T exp(δ) p_b ≈ T p_b + R (υ + ω × p_b): dq_a/dδ = R [I, -[p_b]x].
+  const Vec3 q_a = T.R * m.p_b + T.t;
+  // Into b: q_b = exp(-δ) T⁻¹ p_a ≈ q_b - υ - ω × q_b: dq_b/dδ = [-I, [q_b]x].
+  const Vec3 q_b = T.Rt * m.p_a + T.t_inv;
+  Mat3 Ja, Jb;
+  const auto uvd_a = camera_a.project(q_a, J ? &Ja : nullptr);
+  const auto uvd_b = camera_b.project(q_b, J ? &Jb : nullptr);
+  if (!uvd_a || !uvd_b) return false;
+  r->head<2>() = uvd_a->head<2>() - m.uv_a;
+  r->tail<2>() = uvd_b->head<2>() - m.uv_b;
+  if (J) {
+    Eigen::Matrix<double, 3, 6> dqa, dqb;
+    dqa.leftCols<3>() = T.R;
+    dqa.rightCols<3>() = -T.R * hat(m.p_b);
+    dqb.leftCols<3>() = -Mat3::Identity();
+    dqb.rightCols<3>() = hat(q_b);
+    J->topRows<2>() = Ja.topRows<2>() * dqa;
+    J->bottomRows<2>() = Jb.topRows<2>() * dqb;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool bidirectionalResidual(const StereoCamera& camera_a, const StereoCamera& camera_b,
+                           const Correspondence& m, const SE3d& a_T_b,
+                           Eigen::Matrix<double, 4, 1>* r, Eigen::Matrix<double, 4, 6>* J) {
+  return residual(camera_a, camera_b, m, PoseMatrices(a_T_b), r, J);
+}
+
+Eigen::Vector2d reprojectionErrors(const StereoCamera& camera_a, const StereoCamera& camera_b,
+                                   const Correspondence& m, const SE3d& a_T_b) {
+  Eigen::Matrix<double, 4, 1> r;
+  if (!bidirectionalResidual(camera_a, camera_b, m, a_T_b, &r, nullptr)) {
+    return Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  }
+  return Eigen::Vector2d(r.head<2>().norm(), r.tail<2>().norm());
+}
+
+namespace {
+
+struct Problem {
+  const StereoCamera& camera_a;
+  const StereoCamera& camera_b;
+  const std::vector<Correspondence>& matches;
+
+  // Sum of squared residuals over `active`, and optionally H = JᵀJ, g = Jᵀr. Points behind a
+  // camera contribute nothing (they are rejected as outliers afterwards).
+  double evaluate(const SE3d& T, const std::vector<int>& active, Mat6* H, Vec6* g) const {
+    double cost = 0.0;
+    if (H) H->setZero();
+    if (g) g->setZero();
+    Eigen::Matrix<double, 4, 1> r;
+    Eigen::Matrix<double, 4, 6> J;
+    const PoseMatrices P(T);
+    for (int i : active) {
+      if (!residual(camera_a, camera_b, matches[static_cast<size_t>(i)], P, &r,
+                    H ? &J : nullptr)) {
+        continue;
+      }
+      cost += r.squaredNorm();
+      if (H) {
+        H->noalias() += J.transpose() * J;
+        g->noalias() += J.transpose() * r;
+      }
+    }
+    return cost;
+  }
+
+  // Levenberg-Marquardt from T; returns the iterations used, or -1 on a numerical failure.
+  int solve(SE3d* T, const std::vector<int>& active, int max_iterations) const {
+    double lambda = 1e-4;
+    Mat6 H;
+    Vec6 g;
+    double cost = evaluate(*T, active, &H, &g);
+    int it = 0;
+    for (; it < max_iterations; ++it) {
+      bool improved = false;
+      for (int tries = 0; tries < 10 && !improved; ++tries) {
+        Mat6 A = H;
+        A.diagonal() += lambda * (H.diagonal().array() + 1e-9).matrix();
+        const Vec6 delta = A.ldlt().solve(-g);
+        if (!delta.allFinite()) return -1;
+        const SE3d candidate = *T * SE3d::exp(delta);
+        const double c = evaluate(candidate, active, nullptr, nullptr);
+        if (std::isfinite(c) && c <= cost) {
+          *T = candidate;
+          lambda = std::max(lambda * 0.1, 1e-9);
+          improved = true;
+          // Converged: the step is far below any precision the data has (1e-7 m or rad), or
+          // the cost no longer moves.
+          const bool converged = delta.norm() < 1e-7 || cost - c < 1e-9 * (cost + 1e-12);
+          cost = evaluate(*T, active, &H, &g);
+          if (converged) return it + 1;
+        } else {
+          lambda *= 10.0;
+        }
+      }
+      if (!improved) break;  // a minimum within numerical precision
+    }
+    return it;
+  }
+};
+
+}  // namespace
+
+MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& camera_b,
+                              const std::vector<Correspondence>& matches,
+                              const std::vector<int>& candidates, const SE3d& initial,
+                              const MotionOptions& options) {
+  MotionEstimate out;
+  const int n_min = options.min_inliers;
+  if (static_cast<int>(candidates.size()) < n_min) {
+    out.status = MotionStatus::kInsufficientInliers;
+    out.message = makeError(candidates.size(), " candidate matches, need ", n_min).message;
+    return out;
+  }
+  SE3d T = initial;
+  if (!options.use_initial_guess) {
+    std::vector<Vec3> src, dst;  // a_T_b maps p_b onto p_a
+    src.reserve(candidates.size());
+    dst.reserve(candidates.size());
+    for (int i : candidates) {
+      src.push_back(matches[static_cast<size_t>(i)].p_b);
+      dst.push_back(matches[static_cast<size_t>(i)].p_a);
+    }
+    if (const auto a = eval::umeyama(src, dst, /*with_scale=*/false); a.ok()) {
+      T = a->gt_S_est.rigid;
+    }
+  }
+  const Problem problem{camera_a, camera_b, matches};
+  std::vector<int> active = candidates;
+  int iterations = problem.solve(&T, active, options.max_iterations);
+  if (iterations >= 0) {
+    // Outlier rejection (FOVIS): drop matches beyond the error bound and solve again.
+    std::vector<int> kept;
+    kept.reserve(active.size());
+    for (int i : active) {
+      const Eigen::Vector2d e =
+          reprojectionErrors(camera_a, camera_b, matches[static_cast<size_t>(i)], T);
+      if (e.maxCoeff() <= options.inlier_max_reprojection_px) kept.push_back(i);
+    }
+    active.swap(kept);
+    if (static_cast<int>(active.size()) < n_min) {
+      out.status = MotionStatus::kInsufficientInliers;
+      out.message = makeError(active.size(), " of ", candidates.size(),
+                              " matches within ", options.inlier_max_reprojection_px,
+                              " px after the first solve, need ", n_min).message;
+      out.a_T_b = T;
+      out.inliers = active;
+      return out;
+    }
+    const int more = problem.solve(&T, active, options.max_iterations);
+    iterations = more < 0 ? -1 : iterations + more;
+  }
+  out.iterations = std::max(iterations, 0);
+  out.a_T_b = T;
+  out.inliers = active;
+  Mat6 H;
+  Vec6 g;
+  const double cost = problem.evaluate(T, active, &H, &g);
+  if (iterations < 0 || !std::isfinite(cost) || !T.translation().allFinite()) {
+    out.status = MotionStatus::kOptimizationFailure;
+    out.message = "the motion estimate did not stay finite";
+    return out;
+  }
+  double sum_error = 0.0;
+  for (int i : active) {
+    const Eigen::Vector2d e =
+        reprojectionErrors(camera_a, camera_b, matches[static_cast<size_t>(i)], T);
+    sum_error += e.sum();
+  }
+  out.mean_reprojection_px = sum_error / (2.0 * static_cast<double>(active.size()));
+  Eigen::FullPivLU<Mat6> lu(H);
+  if (!lu.isInvertible() || !H.allFinite()) {
+    out.status = MotionStatus::kOptimizationFailure;
+    out.message = "the motion is not determined by the inliers (singular normal equations)";
+    return out;
+  }
+  // Residual variance per pixel coordinate: 4 residuals per match, 6 unknowns.
+  const double dof = std::max(4.0 * static_cast<double>(active.size()) - 6.0, 1.0);
+  const double sigma2 = std::max(cost / dof, options.pixel_sigma_px * options.pixel_sigma_px);
+  const Mat6 Hinv = lu.inverse();
+  out.covariance = 2.0 * sigma2 * 0.5 * (Hinv + Hinv.transpose());
+  if (out.mean_reprojection_px > options.max_mean_reprojection_px) {
+    out.status = MotionStatus::kReprojectionError;
+    out.message = makeError("mean reprojection error ", out.mean_reprojection_px,
+                            " px exceeds ", options.max_mean_reprojection_px, " px").message;
+    return out;
+  }
+  out.status = MotionStatus::kOk;
+  return out;
+}
+
+}  // namespace evermap::core

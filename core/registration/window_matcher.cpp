@@ -1,0 +1,102 @@
+#include "core/registration/window_matcher.h"
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <numeric>
+
+#include "core/features/patch_alignment.h"
+
+namespace evermap::core {
+
+Status WindowMatchOptions::validate() const {
+  if (search_radius_px < 1) {
+    return makeError("window matching: search_radius_px ", search_radius_px,
+                     " must be positive");
+  }
+  if (!(max_mean_abs_diff > 0.0 && max_mean_abs_diff <= 255.0)) {
+    return makeError("window matching: max_mean_abs_diff ", max_mean_abs_diff,
+                     " is not in (0, 255]");
+  }
+  if (!(max_refinement_px > 0.0)) {
+    return makeError("window matching: max_refinement_px ", max_refinement_px,
+                     " must be positive");
+  }
+  return Ok{};
+}
+
+std::vector<WindowMatch> matchInWindow(const StereoCamera& camera, const FeatureFrame& ref,
+                                       const FeatureFrame& cur, const SE3d& cur_T_ref,
+                                       const WindowMatchOptions& options) {
+  const auto& rf = ref.features;
+  const auto& cf = cur.features;
+  // Current features sorted by (level, v): the candidates of a window are a contiguous run
+  // of rows of one level.
+  std::vector<int> order(cf.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    const Keypoint& ka = cf[static_cast<size_t>(a)].keypoint;
+    const Keypoint& kb = cf[static_cast<size_t>(b)].keypoint;
+    return ka.level != kb.level ? ka.level < kb.level : ka.v < kb.v;
+  });
+  const int max_sad = static_cast<int>(options.max_mean_abs_diff * kPatchBytes);
+  std::vector<int> best_cur(rf.size(), -1);
+  std::vector<int> best_ref(cf.size(), -1), best_ref_sad(cf.size(), INT_MAX);
+  const float radius = static_cast<float>(options.search_radius_px);
+  const Mat3 R = cur_T_ref.rotationMatrix();
+  const Vec3 t = cur_T_ref.translation();
+  for (size_t i = 0; i < rf.size(); ++i) {
+    const StereoFeature& f = rf[i];
+    const auto uvd = camera.project(R * f.point + t);
+    if (!uvd) continue;
+    const int level = f.keypoint.level;
+    const float s = ImagePyramid::scale(level);
+    const float pu = static_cast<float>(uvd->x()) / s, pv = static_cast<float>(uvd->y()) / s;
+    // First current feature of this level with v >= pv - radius.
+    auto first = std::lower_bound(order.begin(), order.end(), 0, [&](int idx, int) {
+      const Keypoint& k = cf[static_cast<size_t>(idx)].keypoint;
+      return k.level != level ? k.level < level : k.v < pv - radius;
+    });
+    int best = -1, best_sad = max_sad + 1;
+    for (auto it = first; it != order.end(); ++it) {
+      const StereoFeature& c = cf[static_cast<size_t>(*it)];
+      if (c.keypoint.level != level || c.keypoint.v > pv + radius) break;
+      if (std::abs(c.keypoint.u - pu) > radius) continue;
+      const int sad = patchSad(f.patch, c.patch);
+      if (sad < best_sad) {
+        best_sad = sad;
+        best = *it;
+      }
+      if (sad < best_ref_sad[static_cast<size_t>(*it)]) {
+        best_ref_sad[static_cast<size_t>(*it)] = sad;
+        best_ref[static_cast<size_t>(*it)] = static_cast<int>(i);
+      }
+    }
+    best_cur[i] = best;
+  }
+
+  std::vector<WindowMatch> out;
+  PatchAlignmentOptions align;
+  align.radius_px = kPatchRadius;
+  align.max_shift_px = options.max_refinement_px;
+  for (size_t i = 0; i < rf.size(); ++i) {
+    const int j = best_cur[i];
+    if (j < 0) continue;
+    if (options.mutual && best_ref[static_cast<size_t>(j)] != static_cast<int>(i)) continue;
+    const StereoFeature& f = rf[i];
+    const StereoFeature& c = cf[static_cast<size_t>(j)];
+    WindowMatch m{static_cast<int>(i), j, c.uv};
+    if (options.subpixel) {
+      const int level = f.keypoint.level;
+      const auto p = alignPatch(ref.left.level(level), static_cast<int>(f.keypoint.u),
+                                static_cast<int>(f.keypoint.v), cur.left.level(level),
+                                Eigen::Vector2f(c.keypoint.u, c.keypoint.v), align);
+      if (!p) continue;
+      m.uv = *p * ImagePyramid::scale(level);
+    }
+    out.push_back(m);
+  }
+  return out;
+}
+
+}  // namespace evermap::core

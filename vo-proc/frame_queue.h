@@ -1,0 +1,90 @@
+#pragma once
+// A bounded first-in first-out queue between the thread that receives frames and the one that
+// processes them. When it is full, push() drops the *oldest* element and counts it: a visual
+// odometry process that falls behind should work on the newest images, not on a growing
+// backlog (DESIGN.md: "drops the oldest frames (bounded queue) and counts them").
+//
+// Thread-safe: any number of producers and consumers.
+
+#include <condition_variable>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <deque>
+#include <mutex>
+#include <optional>
+#include <utility>
+
+namespace evermap::vo {
+
+template <typename T>
+class BoundedQueue {
+ public:
+  // Contract: capacity >= 1 (checked, aborts otherwise).
+  explicit BoundedQueue(size_t capacity) : capacity_(capacity) {
+    if (capacity == 0) {
+      std::fputs("evermap: BoundedQueue capacity must be positive\n", stderr);
+      std::abort();
+    }
+  }
+
+  // Appends; when full, the oldest element is dropped first. Returns false (and drops the
+  // element) after close().
+  bool push(T value) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (closed_) return false;
+      if (items_.size() >= capacity_) {
+        items_.pop_front();
+        ++dropped_;
+      }
+      items_.push_back(std::move(value));
+      ++pushed_;
+    }
+    ready_.notify_one();
+    return true;
+  }
+
+  // Waits for an element; nullopt once the queue is closed and empty.
+  std::optional<T> pop() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    ready_.wait(lock, [this] { return closed_ || !items_.empty(); });
+    if (items_.empty()) return std::nullopt;
+    T value = std::move(items_.front());
+    items_.pop_front();
+    return value;
+  }
+
+  // Wakes every waiting pop(); elements already queued can still be popped.
+  void close() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      closed_ = true;
+    }
+    ready_.notify_all();
+  }
+
+  size_t size() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return items_.size();
+  }
+  int64_t dropped() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return dropped_;
+  }
+  int64_t pushed() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return pushed_;
+  }
+
+ private:
+  const size_t capacity_;
+  mutable std::mutex mutex_;
+  std::condition_variable ready_;
+  std::deque<T> items_;
+  bool closed_ = false;
+  int64_t dropped_ = 0;
+  int64_t pushed_ = 0;
+};
+
+}  // namespace evermap::vo

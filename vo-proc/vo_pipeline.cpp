@@ -1,0 +1,167 @@
+#include "vo-proc/vo_pipeline.h"
+
+#include <sstream>
+
+#include "core/messages/convert.h"
+#include "core/messages/keyframe_convert.h"
+
+namespace evermap::vo {
+
+Status PipelineOptions::validate() const {
+  if (Status s = odometry.validate(); !s) return s;
+  return rectifier.validate();
+}
+
+std::string PipelineStats::report() const {
+  std::ostringstream s;
+  s << frames << " frames:";
+  for (int i = 0; i < static_cast<int>(by_status.size()); ++i) {
+    if (by_status[static_cast<size_t>(i)] == 0) continue;
+    s << " " << toString(static_cast<VoStatus>(i)) << " " << by_status[static_cast<size_t>(i)]
+      << ",";
+  }
+  s << " keyframes " << keyframes << ", calibrations " << calibrations << " (refused "
+    << calibrations_refused << "), undecodable messages " << undecodable;
+  return s.str();
+}
+
+Expected<VoPipeline> VoPipeline::create(const PipelineOptions& options) {
+  if (Status s = options.validate(); !s) return s.error();
+  return VoPipeline(options);
+}
+
+namespace {
+
+// Whether two calibrations are the same (utime aside): compared by their encoded messages.
+bool sameCalibration(const core::StereoCalibration& a, const core::StereoCalibration& b) {
+  auto bytes = [](const core::StereoCalibration& c) {
+    const evermap::stereo_calib_t m = messages::toMsg(c, 0);
+    std::vector<uint8_t> out(static_cast<size_t>(m.getEncodedSize()));
+    m.encode(out.data(), 0, static_cast<int>(out.size()));
+    return out;
+  };
+  return bytes(a) == bytes(b);
+}
+
+}  // namespace
+
+Status VoPipeline::handleCalibration(const evermap::stereo_calib_t& msg) {
+  // A refused calibration leaves no camera: better no odometry than odometry with the wrong
+  // geometry.
+  auto refuse = [this](const std::string& why) -> Status {
+    ++stats_.calibrations_refused;
+    calibration_.reset();
+    rectifier_.reset();
+    odometry_.reset();
+    no_camera_reason_ = "calibration refused: " + why;
+    return Error{no_camera_reason_};
+  };
+  auto calibration = messages::fromMsg(msg);
+  if (!calibration) return refuse(calibration.error().message);
+  if (calibration_ && odometry_ && sameCalibration(*calibration_, *calibration)) return Ok{};
+  std::optional<core::StereoRectifier> rectifier;
+  Expected<core::StereoCamera> camera = Error{"no camera"};
+  core::SE3d body_T_cam;
+  if (calibration->rectified) {
+    camera = core::rectifiedStereoCamera(*calibration);
+    body_T_cam = calibration->left.body_T_cam;
+  } else {
+    auto r = core::StereoRectifier::create(*calibration, options_.rectifier);
+    if (!r) return refuse(r.error().message);
+    rectifier.emplace(std::move(*r));
+    camera = rectifier->camera();
+    body_T_cam = rectifier->rectifiedCalibration().left.body_T_cam;
+  }
+  if (!camera) return refuse(camera.error().message);
+  auto odometry = StereoOdometry::create(*camera, options_.odometry);
+  if (!odometry) return refuse(odometry.error().message);
+  body_T_cam_ = body_T_cam;
+  calibration_ = *calibration;
+  rectifier_ = std::move(rectifier);
+  odometry_.emplace(std::move(*odometry));
+  ++stats_.calibrations;
+  return Ok{};
+}
+
+Status VoPipeline::handleCalibrationBytes(const void* data, int64_t size) {
+  auto msg = messages::decodeLcm<evermap::stereo_calib_t>(data, size, "STEREO_CALIB");
+  if (!msg) {
+    ++stats_.undecodable;
+    return msg.error();
+  }
+  return handleCalibration(*msg);
+}
+
+evermap::vo_delta_t toMsg(const FrameResult& r) {
+  evermap::vo_delta_t m;
+  m.utime = r.utime;
+  m.ref_utime = r.ref_utime;
+  m.status = static_cast<int8_t>(r.status);
+  m.keyframe_changed = r.keyframe_changed ? 1 : 0;
+  const core::Vec3& t = r.ref_T_cur.translation();
+  const Eigen::Quaterniond& q = r.ref_T_cur.quaternion();
+  m.translation[0] = t.x();
+  m.translation[1] = t.y();
+  m.translation[2] = t.z();
+  m.orientation[0] = q.w();
+  m.orientation[1] = q.x();
+  m.orientation[2] = q.y();
+  m.orientation[3] = q.z();
+  for (int i = 0; i < 6; ++i) {
+    for (int j = 0; j < 6; ++j) m.covariance[i * 6 + j] = r.covariance(i, j);
+  }
+  m.num_features = r.num_features;
+  m.num_matches = r.num_matches;
+  m.num_inliers = r.num_inliers;
+  return m;
+}
+
+PipelineOutput VoPipeline::finish(const FrameResult& result) {
+  PipelineOutput out;
+  out.result = result;
+  out.delta = toMsg(result);
+  ++stats_.frames;
+  ++stats_.by_status[static_cast<size_t>(result.status)];
+  if (result.keyframe) {
+    out.keyframe = messages::toMsg(odometry_->camera(), *result.keyframe);
+    ++stats_.keyframes;
+  }
+  return out;
+}
+
+PipelineOutput VoPipeline::badInput(int64_t utime, const std::string& why) {
+  FrameResult r;
+  r.utime = utime;
+  r.ref_utime = utime;
+  r.status = VoStatus::kBadInput;
+  r.message = why;
+  return finish(r);
+}
+
+PipelineOutput VoPipeline::handleStereo(const evermap::stereo_image_t& msg) {
+  if (!odometry_) return badInput(msg.utime, no_camera_reason_);
+  auto frame = messages::fromMsg(msg);
+  if (!frame) return badInput(msg.utime, "STEREO: " + frame.error().message);
+  if (frame->rectified != calibration_->rectified) {
+    return badInput(msg.utime, frame->rectified
+                                   ? "STEREO: a rectified pair but the calibration is raw"
+                                   : "STEREO: a raw pair but the calibration is rectified");
+  }
+  if (rectifier_) {
+    auto rect = rectifier_->rectify(frame->left, frame->right);
+    if (!rect) return badInput(msg.utime, "STEREO: " + rect.error().message);
+    return finish(odometry_->process(msg.utime, rect->left, rect->right));
+  }
+  return finish(odometry_->process(msg.utime, frame->left, frame->right));
+}
+
+Expected<PipelineOutput> VoPipeline::handleStereoBytes(const void* data, int64_t size) {
+  auto msg = messages::decodeLcm<evermap::stereo_image_t>(data, size, "STEREO");
+  if (!msg) {
+    ++stats_.undecodable;
+    return msg.error();
+  }
+  return handleStereo(*msg);
+}
+
+}  // namespace evermap::vo

@@ -1,0 +1,98 @@
+#pragma once
+// What vo-proc does with its messages, without LCM transport (so the offline runner and the
+// tests run the very same code): STEREO_CALIB sets up the camera (raw calibrations are
+// rectified with core::StereoRectifier), each STEREO pair is decoded, rectified when raw and
+// given to StereoOdometry; the result becomes one vo_delta_t and, when the frame is a new
+// keyframe, one keyframe_t.
+//
+// Every frame that can be decoded gets a vo_delta_t, bad ones with STATUS_BAD_INPUT (and a
+// one-line reason): no valid calibration yet (e.g. NaN intrinsics), images of the wrong size,
+// an image that does not decode, a raw pair announced as rectified or the reverse.
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include <evermap/keyframe_t.hpp>
+#include <evermap/stereo_calib_t.hpp>
+#include <evermap/stereo_image_t.hpp>
+#include <evermap/vo_delta_t.hpp>
+
+#include "core/camera/calibration.h"
+#include "core/camera/stereo_rectifier.h"
+#include "core/common/expected.h"
+#include "vo-proc/stereo_odometry.h"
+
+namespace evermap::vo {
+
+struct PipelineOptions {
+  OdometryOptions odometry;
+  core::StereoRectifier::Options rectifier;
+
+  Status validate() const;
+};
+
+struct PipelineOutput {
+  evermap::vo_delta_t delta;
+  std::optional<evermap::keyframe_t> keyframe;
+  FrameResult result;  // the details (message, counts)
+};
+
+// Counts since the start, per status and of what was refused.
+struct PipelineStats {
+  int64_t frames = 0;
+  std::array<int64_t, 7> by_status{};  // indexed by VoStatus
+  int64_t keyframes = 0;
+  int64_t calibrations = 0;           // accepted
+  int64_t calibrations_refused = 0;
+  int64_t undecodable = 0;            // messages that could not be decoded at all
+
+  std::string report() const;
+};
+
+class VoPipeline {
+ public:
+  // Refuses invalid options.
+  static Expected<VoPipeline> create(const PipelineOptions& options);
+
+  // A calibration message. The same calibration again changes nothing; a different valid one
+  // restarts odometry with the new camera; an invalid one is refused (the error names the
+  // field) and leaves the pipeline without a camera, so frames get STATUS_BAD_INPUT until a
+  // valid one arrives.
+  Status handleCalibration(const evermap::stereo_calib_t& msg);
+  // The same from the bytes of an LCM event.
+  Status handleCalibrationBytes(const void* data, int64_t size);
+
+  // One stereo pair.
+  PipelineOutput handleStereo(const evermap::stereo_image_t& msg);
+  // From the bytes of an LCM event; an error (nothing to publish) when they do not decode.
+  Expected<PipelineOutput> handleStereoBytes(const void* data, int64_t size);
+
+  bool hasCamera() const { return odometry_.has_value(); }
+  // The rectified camera; precondition hasCamera().
+  const core::StereoCamera& camera() const { return odometry_->camera(); }
+  // body_T_cam of the rectified left camera (the frame VO poses are in); identity without a
+  // camera.
+  const core::SE3d& bodyTCamera() const { return body_T_cam_; }
+  const PipelineStats& stats() const { return stats_; }
+  const PipelineOptions& options() const { return options_; }
+
+ private:
+  explicit VoPipeline(const PipelineOptions& options) : options_(options) {}
+  PipelineOutput badInput(int64_t utime, const std::string& why);
+  PipelineOutput finish(const FrameResult& result);
+
+  PipelineOptions options_;
+  std::optional<core::StereoCalibration> calibration_;  // as received
+  std::optional<core::StereoRectifier> rectifier_;      // raw calibrations only
+  std::optional<StereoOdometry> odometry_;
+  std::string no_camera_reason_ = "no calibration received yet (STEREO_CALIB)";
+  core::SE3d body_T_cam_;
+  PipelineStats stats_;
+};
+
+// The vo_delta_t of a result.
+evermap::vo_delta_t toMsg(const FrameResult& result);
+
+}  // namespace evermap::vo
