@@ -179,5 +179,23 @@ TEST(Umeyama, NoAlignmentIsTheIdentity) {
   EXPECT_FALSE(alignTrajectories({}, {}, AlignmentMode::kNone).ok());
 }
 
+TEST(FirstPoseAlignment, PutsTheFirstEstimateOnTheFirstGroundTruthPose) {
+  const auto gt = posesOf(testing::syntheticTrajectory(20));
+  core::Vec6 xi;
+  xi << 3.0, -1.0, 0.5, 0.2, -0.1, 1.3;
+  const core::SE3d est_T_gt = core::SE3d::exp(xi);
+  std::vector<core::SE3d> est;
+  for (const auto& p : gt) est.push_back(est_T_gt * p);
+  const auto a = alignTrajectories(gt, est, AlignmentMode::kFirstPose);
+  ASSERT_TRUE(a.ok()) << a.error().message;
+  EXPECT_EQ(a->mode, AlignmentMode::kFirstPose);
+  EXPECT_TRUE(a->gt_S_est.rigid.matrix().isApprox(est_T_gt.inverse().matrix(), 1e-12));
+  for (size_t i = 0; i < gt.size(); ++i) {
+    EXPECT_TRUE((a->gt_S_est * est[i]).matrix().isApprox(gt[i].matrix(), 1e-9)) << i;
+  }
+  EXPECT_EQ(*parseAlignmentMode("first"), AlignmentMode::kFirstPose);
+  EXPECT_STREQ(toString(AlignmentMode::kFirstPose), "first");
+}
+
 }  // namespace
 }  // namespace evermap::eval

@@ -9,6 +9,7 @@ const char* toString(AlignmentMode mode) {
     case AlignmentMode::kNone: return "none";
     case AlignmentMode::kSE3: return "se3";
     case AlignmentMode::kSim3: return "sim3";
+    case AlignmentMode::kFirstPose: return "first";
   }
   return "?";
 }
@@ -17,7 +18,8 @@ Expected<AlignmentMode> parseAlignmentMode(std::string_view name) {
   if (name == "none") return AlignmentMode::kNone;
   if (name == "se3") return AlignmentMode::kSE3;
   if (name == "sim3") return AlignmentMode::kSim3;
-  return makeError("unknown alignment \"", std::string(name), "\" (expected se3, sim3 or none)");
+  if (name == "first") return AlignmentMode::kFirstPose;
+  return makeError("unknown alignment \"", std::string(name), "\" (expected se3, sim3, first or none)");
 }
 
 Expected<AlignmentResult> umeyama(const std::vector<core::Vec3>& src,
@@ -91,6 +93,14 @@ Expected<AlignmentResult> alignTrajectories(const std::vector<core::SE3d>& gt,
     if (gt.empty()) return makeError("alignment: no matched poses");
     AlignmentResult out;
     out.pairs = gt.size();
+    return out;
+  }
+  if (mode == AlignmentMode::kFirstPose) {
+    if (gt.empty()) return makeError("alignment: no matched poses");
+    AlignmentResult out;
+    out.mode = mode;
+    out.pairs = gt.size();
+    out.gt_S_est.rigid = gt.front() * est.front().inverse();
     return out;
   }
   std::vector<core::Vec3> src;

@@ -18,9 +18,12 @@
 
 namespace evermap::eval {
 
-enum class AlignmentMode { kNone, kSE3, kSim3 };
+// kFirstPose: the rigid transform that puts the first estimated pose on the first ground-truth
+// pose (as evo's --align_origin) — the meaningful choice when the motion is too small or too
+// straight for Umeyama to determine a rotation (e.g. a hovering vehicle).
+enum class AlignmentMode { kNone, kSE3, kSim3, kFirstPose };
 
-// "none", "se3", "sim3".
+// "none", "se3", "sim3", "first".
 const char* toString(AlignmentMode mode);
 Expected<AlignmentMode> parseAlignmentMode(std::string_view name);
 
