@@ -1,0 +1,300 @@
+#include "core/solver/graph_io.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include "core/solver/factor.h"
+
+namespace evermap::solver {
+namespace {
+
+// Splits on whitespace; numbers parsed with strtod so that "nan"/"inf" are caught later.
+std::vector<std::string> tokens(const std::string& line) {
+  std::vector<std::string> out;
+  std::istringstream in(line);
+  std::string t;
+  while (in >> t) out.push_back(t);
+  return out;
+}
+
+bool toDouble(const std::string& s, double* v) {
+  char* end = nullptr;
+  errno = 0;
+  *v = std::strtod(s.c_str(), &end);
+  return end && *end == '\0' && end != s.c_str();
+}
+
+bool toKey(const std::string& s, Key* k) {
+  char* end = nullptr;
+  errno = 0;
+  const long long v = std::strtoll(s.c_str(), &end, 10);
+  if (!end || *end != '\0' || end == s.c_str() || errno == ERANGE) return false;
+  *k = v;
+  return true;
+}
+
+struct LineParser {
+  const std::string& where;  // "file:line"
+  const std::vector<std::string>& t;
+
+  // Checks the count of fields after the tag, accepting any of `counts`.
+  Status expectFields(std::initializer_list<size_t> counts) const {
+    for (size_t c : counts) {
+      if (t.size() == c + 1) return Ok{};
+    }
+    std::string want;
+    for (size_t c : counts) want += (want.empty() ? "" : " or ") + std::to_string(c);
+    return makeError(where, ": ", t[0], " expects ", want, " fields, got ", t.size() - 1);
+  }
+  Status keyAt(size_t i, Key* k) const {
+    if (!toKey(t[i], k)) return makeError(where, ": field ", i, " ('", t[i], "') is not an integer id");
+    return Ok{};
+  }
+  Status numbers(size_t first, size_t count, double* out) const {
+    for (size_t i = 0; i < count; ++i) {
+      if (!toDouble(t[first + i], &out[i])) {
+        return makeError(where, ": field ", first + i, " ('", t[first + i], "') is not a number");
+      }
+      if (!std::isfinite(out[i])) {
+        return makeError(where, ": field ", first + i, " is not finite (", t[first + i], ")");
+      }
+    }
+    return Ok{};
+  }
+};
+
+// Upper-triangular n×n from n(n+1)/2 row-major entries.
+Eigen::MatrixXd upperFromRowMajor(const double* v, int n, bool symmetric) {
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n, n);
+  int k = 0;
+  for (int r = 0; r < n; ++r) {
+    for (int c = r; c < n; ++c) {
+      M(r, c) = v[k++];
+      if (symmetric) M(c, r) = M(r, c);
+    }
+  }
+  return M;
+}
+
+GraphFormat sniff(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::string line;
+  bool saw_edge2_or_3 = false;
+  while (std::getline(in, line)) {
+    const auto t = tokens(line);
+    if (t.empty() || t[0][0] == '#') continue;
+    const std::string& tag = t[0];
+    if (tag.rfind("VERTEX_SE", 0) == 0 || tag.rfind("EDGE_SE", 0) == 0) return GraphFormat::kG2o;
+    if (tag == "VERTEX2" || tag == "VERTEX3") return GraphFormat::kToro;
+    if (tag == "ODOMETRY") return GraphFormat::kIsam;
+    if (tag == "EDGE2" || tag == "EDGE3") saw_edge2_or_3 = true;
+  }
+  if (path.extension() == ".graph") return GraphFormat::kToro;
+  return saw_edge2_or_3 ? GraphFormat::kIsam : GraphFormat::kG2o;
+}
+
+Status addVertex(GraphFile* g, const GraphVertex& v, std::map<Key, int>* seen,
+                 const std::string& where) {
+  if (seen->count(v.id)) return makeError(where, ": vertex ", v.id, " defined twice");
+  (*seen)[v.id] = static_cast<int>(g->vertices.size());
+  g->vertices.push_back(v);
+  return Ok{};
+}
+
+}  // namespace
+
+Expected<GraphFormat> parseGraphFormat(const std::string& text) {
+  if (text == "auto") return GraphFormat::kAuto;
+  if (text == "g2o") return GraphFormat::kG2o;
+  if (text == "toro") return GraphFormat::kToro;
+  if (text == "isam") return GraphFormat::kIsam;
+  return makeError("format '", text, "': expected auto, g2o, toro or isam");
+}
+
+const char* graphFormatName(GraphFormat f) {
+  switch (f) {
+    case GraphFormat::kAuto:
+      return "auto";
+    case GraphFormat::kG2o:
+      return "g2o";
+    case GraphFormat::kToro:
+      return "toro";
+    case GraphFormat::kIsam:
+      return "isam";
+  }
+  return "?";
+}
+
+int GraphFile::skippedLines() const {
+  int n = 0;
+  for (const auto& [tag, count] : skipped_tags) n += count;
+  return n;
+}
+
+Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat format) {
+  std::ifstream in(path);
+  if (!in) return makeError(path.string(), ": cannot open");
+  GraphFile g;
+  g.path = path.string();
+  g.format = format == GraphFormat::kAuto ? sniff(path) : format;
+  bool dim_known = false;
+  auto setDim = [&](int d, const std::string& where) -> Status {
+    if (dim_known && g.dimension != d) {
+      return makeError(where, ": mixes 2-D and 3-D poses");
+    }
+    g.dimension = d;
+    dim_known = true;
+    return Ok{};
+  };
+  std::map<Key, int> seen;
+  std::string line;
+  int line_no = 0;
+  double v[40];
+  while (std::getline(in, line)) {
+    ++line_no;
+    const auto t = tokens(line);
+    if (t.empty() || t[0][0] == '#') continue;
+    const std::string where = path.string() + ":" + std::to_string(line_no);
+    const LineParser p{where, t};
+    const std::string& tag = t[0];
+    Status st = Ok{};
+#define EVERMAP_TRY(expr)             \
+  if (auto s_ = (expr); !s_.ok()) {   \
+    return s_.error();                \
+  }
+    if (g.format == GraphFormat::kG2o && tag == "VERTEX_SE2") {
+      GraphVertex vx;
+      EVERMAP_TRY(setDim(2, where));
+      EVERMAP_TRY(p.expectFields({4}));
+      EVERMAP_TRY(p.keyAt(1, &vx.id));
+      EVERMAP_TRY(p.numbers(2, 3, v));
+      vx.pose = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
+      EVERMAP_TRY(addVertex(&g, vx, &seen, where));
+    } else if (g.format == GraphFormat::kG2o && tag == "VERTEX_SE3:QUAT") {
+      GraphVertex vx;
+      EVERMAP_TRY(setDim(3, where));
+      EVERMAP_TRY(p.expectFields({8}));
+      EVERMAP_TRY(p.keyAt(1, &vx.id));
+      EVERMAP_TRY(p.numbers(2, 7, v));
+      const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
+      if (q.norm() < 1e-6) return makeError(where, ": quaternion has zero norm");
+      vx.pose = PoseValue::spatial(core::SE3d(q, core::Vec3(v[0], v[1], v[2])));
+      EVERMAP_TRY(addVertex(&g, vx, &seen, where));
+    } else if (g.format == GraphFormat::kG2o && tag == "EDGE_SE2") {
+      GraphEdge e;
+      EVERMAP_TRY(setDim(2, where));
+      EVERMAP_TRY(p.expectFields({11}));
+      EVERMAP_TRY(p.keyAt(1, &e.from));
+      EVERMAP_TRY(p.keyAt(2, &e.to));
+      EVERMAP_TRY(p.numbers(3, 9, v));
+      e.measurement = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
+      auto W = sqrtInformationFromInformation(upperFromRowMajor(v + 3, 3, true), where);
+      if (!W.ok()) return W.error();
+      e.sqrt_information = *W;
+      e.line = line_no;
+      g.edges.push_back(std::move(e));
+    } else if (g.format == GraphFormat::kG2o && tag == "EDGE_SE3:QUAT") {
+      GraphEdge e;
+      EVERMAP_TRY(setDim(3, where));
+      EVERMAP_TRY(p.expectFields({30}));
+      EVERMAP_TRY(p.keyAt(1, &e.from));
+      EVERMAP_TRY(p.keyAt(2, &e.to));
+      EVERMAP_TRY(p.numbers(3, 28, v));
+      const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
+      if (q.norm() < 1e-6) return makeError(where, ": quaternion has zero norm");
+      e.measurement = PoseValue::spatial(core::SE3d(q, core::Vec3(v[0], v[1], v[2])));
+      auto W = sqrtInformationFromInformation(upperFromRowMajor(v + 7, 6, true), where);
+      if (!W.ok()) return W.error();
+      e.sqrt_information = *W;
+      e.line = line_no;
+      g.edges.push_back(std::move(e));
+    } else if (g.format == GraphFormat::kG2o && tag == "FIX") {
+      for (size_t i = 1; i < t.size(); ++i) {
+        Key k;
+        EVERMAP_TRY(p.keyAt(i, &k));
+        g.fixed.push_back(k);
+      }
+    } else if (g.format == GraphFormat::kToro && tag == "VERTEX2") {
+      GraphVertex vx;
+      EVERMAP_TRY(setDim(2, where));
+      EVERMAP_TRY(p.expectFields({4}));
+      EVERMAP_TRY(p.keyAt(1, &vx.id));
+      EVERMAP_TRY(p.numbers(2, 3, v));
+      vx.pose = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
+      EVERMAP_TRY(addVertex(&g, vx, &seen, where));
+    } else if (g.format == GraphFormat::kToro && tag == "EDGE2") {
+      GraphEdge e;
+      EVERMAP_TRY(setDim(2, where));
+      EVERMAP_TRY(p.expectFields({11}));
+      EVERMAP_TRY(p.keyAt(1, &e.from));
+      EVERMAP_TRY(p.keyAt(2, &e.to));
+      EVERMAP_TRY(p.numbers(3, 9, v));
+      e.measurement = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
+      // TORO: Ixx Ixy Iyy Iθθ Ixθ Iyθ.
+      Eigen::Matrix3d I;
+      I << v[3], v[4], v[7],
+           v[4], v[5], v[8],
+           v[7], v[8], v[6];
+      auto W = sqrtInformationFromInformation(I, where);
+      if (!W.ok()) return W.error();
+      e.sqrt_information = *W;
+      e.line = line_no;
+      g.edges.push_back(std::move(e));
+    } else if (g.format == GraphFormat::kIsam && (tag == "ODOMETRY" || tag == "EDGE2")) {
+      GraphEdge e;
+      EVERMAP_TRY(setDim(2, where));
+      EVERMAP_TRY(p.expectFields({11}));
+      EVERMAP_TRY(p.keyAt(1, &e.from));
+      EVERMAP_TRY(p.keyAt(2, &e.to));
+      EVERMAP_TRY(p.numbers(3, 9, v));
+      e.measurement = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
+      auto W = checkSqrtInformation(upperFromRowMajor(v + 3, 3, false), where);
+      if (!W.ok()) return W.error();
+      e.sqrt_information = *W;
+      e.line = line_no;
+      g.edges.push_back(std::move(e));
+    } else if (g.format == GraphFormat::kIsam && tag == "EDGE3") {
+      GraphEdge e;
+      EVERMAP_TRY(setDim(3, where));
+      EVERMAP_TRY(p.expectFields({8, 29}));
+      EVERMAP_TRY(p.keyAt(1, &e.from));
+      EVERMAP_TRY(p.keyAt(2, &e.to));
+      EVERMAP_TRY(p.numbers(3, t.size() - 3, v));
+      // File angles: roll, pitch, yaw (iSAM Loader); R = Rz(yaw) Ry(pitch) Rx(roll).
+      core::SE3d z(core::SO3d::fromRollPitchYaw(v[3], v[4], v[5]), core::Vec3(v[0], v[1], v[2]));
+      Eigen::MatrixXd S = Eigen::MatrixXd::Identity(6, 6);
+      if (t.size() == 30) {
+        const double* s = v + 6;  // s11 s12 ... s16 s22 ... s66
+        S = upperFromRowMajor(s, 6, false);
+        // Rotation rows in (yaw, pitch, roll) order, as iSAM's Loader builds them.
+        const double s44 = S(3, 3), s45 = S(3, 4), s46 = S(3, 5);
+        const double s55 = S(4, 4), s56 = S(4, 5), s66 = S(5, 5);
+        S(3, 3) = s66; S(3, 4) = s56; S(3, 5) = s46;
+        S(4, 4) = s55; S(4, 5) = s45;
+        S(5, 5) = s44;
+      }
+      auto W = checkSqrtInformation(S, where);
+      if (!W.ok()) return W.error();
+      if (e.from > e.to) {
+        // iSAM keeps the square root and inverts the measurement (Loader::parse_line).
+        std::swap(e.from, e.to);
+        z = z.inverse();
+      }
+      e.measurement = PoseValue::spatial(z);
+      e.sqrt_information = *W;
+      e.line = line_no;
+      g.edges.push_back(std::move(e));
+    } else {
+      ++g.skipped_tags[tag];
+    }
+#undef EVERMAP_TRY
+    (void)st;
+  }
+  if (in.bad()) return makeError(path.string(), ": read error");
+  return g;
+}
+
+}  // namespace evermap::solver

@@ -1,0 +1,69 @@
+#pragma once
+// Pose-graph files: g2o (2-D and 3-D), TORO (2-D) and the iSAM text format; g2o writer.
+//
+//  g2o   VERTEX_SE2 id x y θ              EDGE_SE2 i j x y θ  I11 I12 I13 I22 I23 I33
+//        VERTEX_SE3:QUAT id x y z qx qy qz qw
+//        EDGE_SE3:QUAT i j x y z qx qy qz qw  I (21 upper-triangular entries, row by row)
+//        FIX id                           (information, not square root; (t, q.xyz) order)
+//  TORO  VERTEX2 id x y θ                 EDGE2 i j x y θ  Ixx Ixy Iyy Iθθ Ixθ Iyθ
+//  iSAM  ODOMETRY|EDGE2 i j x y θ  sxx sxy sxθ syy syθ sθθ   (square-root information)
+//        EDGE3 i j x y z roll pitch yaw  s11 ... s66 (21 upper-triangular entries)
+//        iSAM 1.6's Loader reads the angles of EDGE3 as roll, pitch, yaw (the first angle
+//        is roll), stores them as (yaw, pitch, roll) and reverses the lower-right 3x3 of the
+//        square root accordingly; we do exactly the same, so the costs are iSAM's.
+// Every edge measures pose j in the frame of pose i (i_T_j). Lines that are blank or start
+// with '#' are ignored; lines with another tag are skipped and counted. A malformed line, a
+// value that is not finite, or an information matrix that is not positive definite is an
+// error naming file:line.
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/common/expected.h"
+#include "core/solver/values.h"
+
+namespace evermap::solver {
+
+enum class GraphFormat { kAuto, kG2o, kToro, kIsam };
+Expected<GraphFormat> parseGraphFormat(const std::string& text);  // auto, g2o, toro, isam
+const char* graphFormatName(GraphFormat f);
+
+struct GraphVertex {
+  Key id = 0;
+  PoseValue pose;
+};
+
+struct GraphEdge {
+  Key from = 0;
+  Key to = 0;
+  PoseValue measurement;            // from_T_to
+  Eigen::MatrixXd sqrt_information;  // upper triangular, in the format's residual order
+  int line = 0;                      // 1-based line in the file
+  Eigen::MatrixXd information() const { return sqrt_information.transpose() * sqrt_information; }
+};
+
+struct GraphFile {
+  std::string path;
+  GraphFormat format = GraphFormat::kG2o;
+  int dimension = 2;  // 2 or 3
+  std::vector<GraphVertex> vertices;  // file order
+  std::vector<GraphEdge> edges;       // file order
+  std::vector<Key> fixed;             // g2o FIX
+  std::map<std::string, int> skipped_tags;
+  int skippedLines() const;
+};
+
+// Reads a file; kAuto decides by content (g2o tags; VERTEX2 or a .graph name → TORO;
+// ODOMETRY or EDGE2/EDGE3 without vertices → iSAM).
+Expected<GraphFile> readGraphFile(const std::filesystem::path& path,
+                                  GraphFormat format = GraphFormat::kAuto);
+
+// Writes vertices (poses from `values`, keyed as in the file) and edges in g2o format, to a
+// temporary name in the same folder, then renamed. Edge information is WᵀW of each edge.
+Status writeG2o(const std::filesystem::path& path, const GraphFile& graph, const Values& values);
+
+}  // namespace evermap::solver

@@ -1,0 +1,182 @@
+#include "core/solver/graph_problem.h"
+
+#include <cmath>
+#include <map>
+
+#include "core/solver/pose_factors.h"
+
+namespace evermap::solver {
+
+Expected<Objective> parseObjective(const std::string& text) {
+  if (text == "native") return Objective::kNative;
+  if (text == "sesync" || text == "chordal") return Objective::kSeSync;
+  return makeError("objective '", text, "': expected native or sesync");
+}
+
+SeSyncWeights seSyncWeights(const GraphEdge& edge, int dimension) {
+  const Eigen::MatrixXd I = edge.information();
+  SeSyncWeights w;
+  const int d = dimension;
+  const Eigen::MatrixXd Itt = I.topLeftCorner(d, d);
+  w.tau = d / Itt.inverse().trace();
+  if (d == 2) {
+    w.kappa = I(2, 2);
+  } else {
+    const Eigen::Matrix3d IRR = I.bottomRightCorner<3, 3>();
+    w.kappa = 3.0 / (2.0 * IRR.inverse().trace());
+  }
+  return w;
+}
+
+double seSyncCost(const GraphFile& graph, const Values& values) {
+  double f = 0.0;
+  for (const GraphEdge& e : graph.edges) {
+    const SeSyncWeights w = seSyncWeights(e, graph.dimension);
+    const PoseValue& a = values[e.from];
+    const PoseValue& b = values[e.to];
+    if (graph.dimension == 2) {
+      const core::Mat2 Ra = a.se2.rotationMatrix();
+      const core::Mat2 Rz = e.measurement.se2.rotationMatrix();
+      f += w.kappa * (b.se2.rotationMatrix() - Ra * Rz).squaredNorm();
+      f += w.tau * (b.se2.translation() - a.se2.translation() - Ra * e.measurement.se2.translation())
+                       .squaredNorm();
+    } else {
+      const core::Mat3 Ra = a.se3.rotationMatrix();
+      const core::Mat3 Rz = e.measurement.se3.rotationMatrix();
+      f += w.kappa * (b.se3.rotationMatrix() - Ra * Rz).squaredNorm();
+      f += w.tau * (b.se3.translation() - a.se3.translation() - Ra * e.measurement.se3.translation())
+                       .squaredNorm();
+    }
+  }
+  return f;
+}
+
+FactorPtr makeEdgeFactor(const GraphFile& graph, const GraphEdge& e, Objective objective) {
+  if (objective == Objective::kSeSync) {
+    const SeSyncWeights w = seSyncWeights(e, graph.dimension);
+    if (graph.dimension == 2) {
+      return std::make_shared<ChordalRelativePose2Factor>(e.from, e.to, e.measurement.se2, w.kappa,
+                                                          w.tau);
+    }
+    return std::make_shared<ChordalRelativePose3Factor>(e.from, e.to, e.measurement.se3, w.kappa,
+                                                        w.tau);
+  }
+  const bool isam = graph.format == GraphFormat::kIsam;
+  if (graph.dimension == 2) {
+    return std::make_shared<RelativePose2Factor>(
+        e.from, e.to, e.measurement.se2, e.sqrt_information,
+        isam ? RelativePose2Factor::Convention::kIsam : RelativePose2Factor::Convention::kG2o);
+  }
+  return std::make_shared<RelativePose3Factor>(
+      e.from, e.to, e.measurement.se3, e.sqrt_information,
+      isam ? RelativePose3Factor::Convention::kIsamEuler : RelativePose3Factor::Convention::kG2o);
+}
+
+FactorPtr makeAnchorFactor(Key key, int dimension, double sqrt_information) {
+  if (dimension == 2) {
+    return std::make_shared<PosePrior2Factor>(
+        key, core::SE2d(), sqrt_information * Eigen::MatrixXd::Identity(3, 3));
+  }
+  return std::make_shared<PosePrior3Factor>(key, core::SE3d(),
+                                            sqrt_information * Eigen::MatrixXd::Identity(6, 6));
+}
+
+bool isOdometryEdge(const GraphEdge& e) { return e.to - e.from == 1 || e.from - e.to == 1; }
+
+Key firstPoseId(const GraphFile& graph) {
+  if (!graph.vertices.empty()) return graph.vertices.front().id;
+  if (!graph.edges.empty()) return graph.edges.front().from;
+  return 0;
+}
+
+namespace {
+
+PoseValue identityPose(int dimension) {
+  return dimension == 2 ? PoseValue::planar(core::SE2d()) : PoseValue::spatial(core::SE3d());
+}
+
+PoseValue compose(const PoseValue& a, const PoseValue& b) {
+  if (a.kind == PoseKind::kSE2) return PoseValue::planar(a.se2 * b.se2);
+  return PoseValue::spatial(a.se3 * b.se3);
+}
+
+PoseValue inversePose(const PoseValue& a) {
+  if (a.kind == PoseKind::kSE2) return PoseValue::planar(a.se2.inverse());
+  return PoseValue::spatial(a.se3.inverse());
+}
+
+}  // namespace
+
+Expected<Values> odometryInitialization(const GraphFile& graph) {
+  std::map<Key, PoseValue> pose;
+  pose[firstPoseId(graph)] = identityPose(graph.dimension);
+  std::vector<Key> order = {firstPoseId(graph)};
+  // File order, like iSAM; repeated passes catch edges that arrive before their anchor.
+  bool progress = true;
+  while (progress) {
+    progress = false;
+    for (const GraphEdge& e : graph.edges) {
+      const bool has_from = pose.count(e.from) != 0;
+      const bool has_to = pose.count(e.to) != 0;
+      if (has_from && !has_to) {
+        pose[e.to] = compose(pose[e.from], e.measurement);
+        order.push_back(e.to);
+        progress = true;
+      } else if (!has_from && has_to) {
+        pose[e.from] = compose(pose[e.to], inversePose(e.measurement));
+        order.push_back(e.from);
+        progress = true;
+      }
+    }
+  }
+  for (const GraphEdge& e : graph.edges) {
+    if (!pose.count(e.from) || !pose.count(e.to)) {
+      return makeError(graph.path, ":", e.line, ": edge ", e.from, "-", e.to,
+                       " is not connected to pose ", firstPoseId(graph));
+    }
+  }
+  for (const GraphVertex& v : graph.vertices) {
+    if (!pose.count(v.id)) {
+      return makeError(graph.path, ": vertex ", v.id, " has no path of edges to pose ",
+                       firstPoseId(graph));
+    }
+  }
+  Values values;
+  for (Key k : order) values.add(k, pose[k]);
+  return values;
+}
+
+Expected<Values> fileInitialization(const GraphFile& graph) {
+  Values values;
+  for (const GraphVertex& v : graph.vertices) values.add(v.id, v.pose);
+  for (const GraphEdge& e : graph.edges) {
+    if (!values.contains(e.from) || !values.contains(e.to)) {
+      return makeError(graph.path, ":", e.line, ": edge refers to a pose without a VERTEX line");
+    }
+  }
+  if (values.size() == 0) return makeError(graph.path, ": has no VERTEX lines");
+  return values;
+}
+
+Expected<PoseGraph> buildPoseGraph(const GraphFile& graph, const Values& initial,
+                                   const BuildOptions& options) {
+  PoseGraph g;
+  for (int i = 0; i < initial.size(); ++i) {
+    if (auto st = g.addVariable(initial.keyAt(i), initial.at(i)); !st.ok()) return st.error();
+  }
+  if (options.anchor) {
+    auto id = g.addFactor(makeAnchorFactor(firstPoseId(graph), graph.dimension));
+    if (!id.ok()) return id.error();
+  }
+  for (const GraphEdge& e : graph.edges) {
+    FactorPtr f = makeEdgeFactor(graph, e, options.objective);
+    if (options.kernel.active() && (options.robust_odometry || !isOdometryEdge(e))) {
+      f->setKernel(options.kernel);
+    }
+    auto id = g.addFactor(std::move(f));
+    if (!id.ok()) return makeError(graph.path, ":", e.line, ": ", id.error().message);
+  }
+  return g;
+}
+
+}  // namespace evermap::solver

@@ -1,0 +1,72 @@
+#pragma once
+// From a pose-graph file to factors, initial values and the SE-Sync cost.
+//
+// Objectives:
+//   kNative  — each format's own residual: iSAM's for iSAM files (so the weighted SSE is
+//              iSAM's), g2o's (z⁻¹ a⁻¹ b with (t, q.xyz)) for g2o and TORO files.
+//   kSeSync  — SE-Sync's isotropic chordal cost f (Rosen et al., IJRR 2019, eq. 13), with
+//              κ, τ from each edge's information matrix:
+//                2-D: τ = 2 / tr((I_tt)⁻¹), κ = I_θθ
+//                3-D: τ = 3 / tr((I_tt)⁻¹), κ = 3 / (2 tr((I_RR)⁻¹))
+//              f = Σ κ ‖R_j − R_i R̃_ij‖²_F + τ ‖t_j − t_i − R_i t̃_ij‖² (no ½). Only a solver
+//              that minimises f itself reaches SE-Sync's certified optimum f*.
+//
+// Initialisation:
+//   odometry — iSAM's: edges in file order, the first pose at the origin, each new pose
+//              composed from an initialised neighbour (forward or reverse).
+//   chordal  — rotations by the chordal relaxation (unconstrained linear least squares on
+//              the rotation matrices, projected onto SO(d); Martinec & Pajdla 2007,
+//              Carlone et al. ICRA 2015), then translations by linear least squares with
+//              the rotations fixed. First pose anchored at the origin.
+
+#include <vector>
+
+#include "core/common/expected.h"
+#include "core/solver/factor.h"
+#include "core/solver/graph_io.h"
+#include "core/solver/pose_graph.h"
+
+namespace evermap::solver {
+
+enum class Objective { kNative, kSeSync };
+Expected<Objective> parseObjective(const std::string& text);  // "native", "sesync"
+
+struct SeSyncWeights {
+  double kappa = 0.0;
+  double tau = 0.0;
+};
+SeSyncWeights seSyncWeights(const GraphEdge& edge, int dimension);
+
+// SE-Sync's cost f of `values` over the file's edges (keys as in the file).
+double seSyncCost(const GraphFile& graph, const Values& values);
+
+// The factor of one edge under an objective.
+FactorPtr makeEdgeFactor(const GraphFile& graph, const GraphEdge& edge, Objective objective);
+// iSAM's anchor: a prior at the origin with square-root information 100·I on `key`.
+FactorPtr makeAnchorFactor(Key key, int dimension, double sqrt_information = 100.0);
+
+// "Odometry" edges connect consecutive ids (|j − i| = 1); the rest are loop closures.
+bool isOdometryEdge(const GraphEdge& edge);
+
+// The id of the first pose (the first vertex, else the first edge's `from`).
+Key firstPoseId(const GraphFile& graph);
+
+Expected<Values> odometryInitialization(const GraphFile& graph);
+Expected<Values> chordalInitialization(const GraphFile& graph);
+// The file's own VERTEX lines; errors when an edge refers to a pose without one.
+Expected<Values> fileInitialization(const GraphFile& graph);
+
+struct BuildOptions {
+  Objective objective = Objective::kNative;
+  // Applied to loop-closure edges (and odometry edges too when robust_odometry).
+  RobustKernel kernel;
+  bool robust_odometry = false;
+  // Anchor the first pose with iSAM's prior (square-root information 100·I).
+  bool anchor = true;
+};
+
+// A PoseGraph with `initial` values and one factor per edge (plus the anchor).
+Expected<PoseGraph> buildPoseGraph(const GraphFile& graph, const Values& initial,
+                                   const BuildOptions& options);
+
+}  // namespace evermap::solver

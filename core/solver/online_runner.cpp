@@ -1,0 +1,68 @@
+#include "core/solver/online_runner.h"
+
+#include <set>
+
+namespace evermap::solver {
+
+OnlineRunner::OnlineRunner(const GraphFile& graph, const OnlineOptions& options)
+    : graph_(graph), options_(options), solver_(options.solver) {
+  std::set<Key> known = {firstPoseId(graph)};
+  steps_.push_back(Step{firstPoseId(graph), -1, {}});
+  for (int e = 0; e < static_cast<int>(graph.edges.size()); ++e) {
+    const GraphEdge& edge = graph.edges[e];
+    const bool has_from = known.count(edge.from) != 0;
+    const bool has_to = known.count(edge.to) != 0;
+    if (!has_from || !has_to) {
+      // An edge between two unknown poses cannot be placed online; it joins the step of
+      // the pose it introduces first and is initialised from the other end later.
+      const Key fresh = has_from ? edge.to : edge.from;
+      steps_.push_back(Step{fresh, e, {}});
+      known.insert(fresh);
+      if (!has_from && !has_to) {
+        steps_.push_back(Step{edge.to, e, {}});
+        known.insert(edge.to);
+      }
+    }
+    steps_.back().edges.push_back(e);
+  }
+}
+
+Expected<UpdateResult> OnlineRunner::step() {
+  const Step& s = steps_[next_];
+  UpdateRequest request;
+  const int d = graph_.dimension;
+  PoseValue init = d == 2 ? PoseValue::planar(core::SE2d()) : PoseValue::spatial(core::SE3d());
+  if (s.init_edge >= 0) {
+    const GraphEdge& e = graph_.edges[s.init_edge];
+    const bool forward = e.to == s.new_pose;
+    const Key base_key = forward ? e.from : e.to;
+    if (solver_.graph().values().contains(base_key)) {
+      const PoseValue base = solver_.estimate(base_key);
+      if (d == 2) {
+        init = PoseValue::planar(forward ? base.se2 * e.measurement.se2
+                                         : base.se2 * e.measurement.se2.inverse());
+      } else {
+        init = PoseValue::spatial(forward ? base.se3 * e.measurement.se3
+                                          : base.se3 * e.measurement.se3.inverse());
+      }
+    }
+  }
+  request.new_variables.emplace_back(s.new_pose, init);
+  if (next_ == 0 && options_.build.anchor) {
+    request.new_factors.push_back(makeAnchorFactor(s.new_pose, d));
+  }
+  for (int e : s.edges) {
+    const GraphEdge& edge = graph_.edges[e];
+    FactorPtr f = makeEdgeFactor(graph_, edge, options_.build.objective);
+    if (options_.build.kernel.active() && (options_.build.robust_odometry || !isOdometryEdge(edge))) {
+      f->setKernel(options_.build.kernel);
+    }
+    request.new_factors.push_back(std::move(f));
+  }
+  ++next_;
+  auto r = solver_.update(request);
+  if (!r.ok()) return makeError(graph_.path, ": step ", next_ - 1, ": ", r.error().message);
+  return r;
+}
+
+}  // namespace evermap::solver

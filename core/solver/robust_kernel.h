@@ -1,0 +1,44 @@
+#pragma once
+// Robust kernels ρ(s) applied to a factor's squared whitened residual s = ‖W r‖².
+//
+// The cost of a factor is ρ(s) (no ½; ρ(s) = s without a kernel). The solver minimises it by
+// iteratively reweighted least squares: at each linearisation the whitened residual and
+// Jacobian are scaled by √ρ'(s) (the convention of GTSAM's noiseModel::Robust).
+// Note: the original iSAM applies its pseudo-Huber function to each whitened component
+// separately; we apply every kernel to the factor's whole squared error, so that a factor
+// is an inlier or an outlier as a unit.
+//
+//  pseudo-Huber (b):  ρ = 2b²(√(1 + s/b²) − 1)            Hartley & Zisserman (2004) A6.8
+//  Cauchy (b):        ρ = b² log(1 + s/b²)                 ibid.
+//  DCS (Φ, default 20): IRLS weight m², m = min(1, 2Φ/(Φ + s)), and the matching cost
+//                     ρ = s for s ≤ Φ, else 3Φ − 4Φ²/(Φ + s) (the integral of m², bounded by 3Φ)
+//                     Agarwal et al., "Robust map optimization using dynamic covariance
+//                     scaling", ICRA 2013: switchable constraints with the switch eliminated
+//                     in closed form. (g2o reports m² s as the cost, which is not the
+//                     integral of its weight; we keep cost and weight consistent.)
+
+#include <string>
+
+#include "core/common/expected.h"
+
+namespace evermap::solver {
+
+enum class KernelType { kNone, kPseudoHuber, kCauchy, kDcs };
+
+struct RobustKernel {
+  KernelType type = KernelType::kNone;
+  // b for pseudo-Huber and Cauchy (in whitened units, i.e. standard deviations), Φ for DCS.
+  double parameter = 1.0;
+
+  bool active() const { return type != KernelType::kNone; }
+  // ρ(s).
+  double cost(double s) const;
+  // ρ'(s), the IRLS weight.
+  double weight(double s) const;
+  std::string name() const;
+};
+
+// "none", "pseudo-huber", "cauchy", "dcs", with an optional ":<parameter>" suffix.
+Expected<RobustKernel> parseRobustKernel(const std::string& text);
+
+}  // namespace evermap::solver

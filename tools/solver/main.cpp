@@ -1,0 +1,260 @@
+// evermap-solver: batch or incremental (iSAM) optimisation of a pose-graph file.
+// Parses options, runs core/solver, prints χ², weighted SSE and SE-Sync's f; see
+// docs/solver.md.
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "core/solver/batch_solver.h"
+#include "core/solver/graph_io.h"
+#include "core/solver/graph_problem.h"
+#include "core/solver/marginals.h"
+#include "core/solver/online_runner.h"
+#include "core/solver/outliers.h"
+#include "core/solver/process_tuning.h"
+#include "core/solver/trajectory_error.h"
+#include "options.h"
+
+namespace {
+
+using namespace evermap;
+using namespace evermap::solver;
+using evermap::solver_tool::Init;
+using evermap::solver_tool::ToolOptions;
+
+double cpuSeconds() {
+  timespec t;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return t.tv_sec + 1e-9 * t.tv_nsec;
+}
+
+double wallSeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+int fail(const std::string& message) {
+  std::fprintf(stderr, "evermap-solver: %s\n", message.c_str());
+  return 1;
+}
+
+Expected<Values> initialValues(const GraphFile& g, const ToolOptions& o) {
+  Init init = o.init;
+  if (init == Init::kAuto) {
+    // SE-Sync's cost is minimised from the chordal relaxation (its own initialisation);
+    // otherwise the file's vertices when it has them, else odometry chaining as iSAM.
+    if (o.objective == Objective::kSeSync) init = Init::kChordal;
+    else if (!g.vertices.empty()) init = Init::kFile;
+    else init = Init::kOdometry;
+  }
+  switch (init) {
+    case Init::kFile:
+      return fileInitialization(g);
+    case Init::kChordal:
+      return chordalInitialization(g);
+    default:
+      return odometryInitialization(g);
+  }
+}
+
+void printResult(const GraphFile& g, const PoseGraph& graph, const Values& estimate) {
+  const Cost c = graph.cost(estimate);
+  const int64_t dof = c.residual_dim - estimate.totalDim();
+  std::printf("final chi2 (robust cost)     %.10g\n", c.robust);
+  std::printf("weighted SSE (no 1/2)        %.10g\n", c.weighted_sse);
+  std::printf("normalized chi2              %.6g  (SSE / %lld)\n",
+              dof > 0 ? c.weighted_sse / dof : 0.0, static_cast<long long>(dof));
+  std::printf("SE-Sync cost f               %.10g\n", seSyncCost(g, estimate));
+}
+
+Status writeStats(const std::string& path, const std::vector<std::string>& lines) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp);
+    if (!out) return makeError(tmp, ": cannot open for writing");
+    out << "# step wall_s cpu_s batch rows_modified rows_solved nnz_R poses factors"
+        << " [normalized_chi2]\n";
+    for (const auto& l : lines) out << l << '\n';
+    if (!out) return makeError(tmp, ": write failed");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) return makeError(path, ": cannot rename: ", ec.message());
+  return Ok{};
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  tuneProcessForSolver();
+  auto parsed = solver_tool::parseArguments(argc, argv);
+  if (!parsed.ok()) {
+    if (parsed.error().message == "help") {
+      std::printf("%s", solver_tool::usage().c_str());
+      return 0;
+    }
+    std::fprintf(stderr, "evermap-solver: %s\n%s", parsed.error().message.c_str(),
+                 solver_tool::usage().c_str());
+    return 2;
+  }
+  const ToolOptions& o = *parsed;
+  auto file = readGraphFile(o.input, o.format);
+  if (!file.ok()) return fail(file.error().message);
+  GraphFile g = std::move(*file);
+  std::printf("%s: %s, %d-D, %zu vertices, %zu edges", g.path.c_str(), graphFormatName(g.format),
+              g.dimension, g.vertices.size(), g.edges.size());
+  if (g.skippedLines() > 0) {
+    std::printf(", skipped:");
+    for (const auto& [tag, n] : g.skipped_tags) std::printf(" %s x%d", tag.c_str(), n);
+  }
+  std::printf("\n");
+  if (o.outliers > 0) {
+    g = addFalseLoopClosures(g, OutlierOptions{o.outliers, o.seed});
+    std::printf("added %d random false loop closures (seed %u)\n", o.outliers, o.seed);
+  }
+  BuildOptions build;
+  build.objective = o.objective;
+  build.kernel = o.kernel;
+  build.robust_odometry = o.robust_odometry;
+
+  const double wall0 = wallSeconds();
+  const double cpu0 = cpuSeconds();
+  Values estimate;
+  std::unique_ptr<PoseGraph> graph;
+  if (o.batch) {
+    auto init = initialValues(g, o);
+    if (!init.ok()) return fail(init.error().message);
+    auto built = buildPoseGraph(g, *init, build);
+    if (!built.ok()) return fail(built.error().message);
+    graph = std::make_unique<PoseGraph>(std::move(*built));
+    std::printf("initial chi2 %.10g, SE-Sync f %.10g\n", graph->cost().robust,
+                seSyncCost(g, graph->values()));
+    BatchOptions bo;
+    bo.method = o.method;
+    bo.max_iterations = o.max_iterations;
+    bo.relative_cost_tolerance = o.relative_tolerance;
+    bo.verbose = o.verbose;
+    const BatchSummary s = solveBatch(*graph, bo);
+    const double wall = wallSeconds() - wall0;
+    const double cpu = cpuSeconds() - cpu0;
+    std::printf("batch %s: %s (%d iterations, %d factorizations, nnz(L) %lld)\n",
+                methodName(o.method), s.message.c_str(), s.iterations, s.factorizations,
+                static_cast<long long>(s.factor_nnz));
+    std::printf("time: %.3f s wall, %.3f s cpu (initialisation included)\n", wall, cpu);
+    if (!s.ok()) return fail(s.message);
+    estimate = graph->values();
+  } else {
+    OnlineOptions oo;
+    oo.solver.method = o.method;
+    oo.solver.batch_every = o.batch_every;
+    oo.solver.wildfire_threshold = o.wildfire;
+    oo.build = build;
+    OnlineRunner runner(g, oo);
+    std::vector<double> step_wall;
+    std::vector<std::string> lines;
+    int batches = 0;
+    int rejected = 0;
+    while (!runner.done()) {
+      const double w = wallSeconds();
+      const double c = cpuSeconds();
+      auto r = runner.step();
+      const double dw = wallSeconds() - w;
+      const double dc = cpuSeconds() - c;
+      if (!r.ok()) return fail(r.error().message);
+      step_wall.push_back(dw);
+      batches += r->batch;
+      rejected += !r->step_accepted;
+      if (!o.stats.empty()) {
+        const auto& s = runner.solver();
+        std::ostringstream line;
+        line << runner.nextStep() - 1 << ' ' << dw << ' ' << dc << ' ' << r->batch << ' '
+             << r->rows_modified << ' ' << r->rows_solved << ' ' << s.nnz() << ' '
+             << s.graph().values().size() << ' ' << s.graph().numActiveFactors();
+        if (o.stats_chi2) {
+          const Cost cost = s.cost();
+          const int64_t dof = cost.residual_dim - s.graph().values().totalDim();
+          line << ' ' << (dof > 0 ? cost.weighted_sse / dof : 0.0);
+        }
+        lines.push_back(line.str());
+      }
+    }
+    const double steps_wall = wallSeconds() - wall0;
+    const double wf = wallSeconds();
+    BatchSummary final_summary;
+    if (o.final_converge) {
+      BatchOptions bo;
+      bo.method = o.method == Method::kDogLeg ? Method::kDogLeg : Method::kGaussNewton;
+      bo.max_iterations = o.max_iterations;
+      bo.relative_cost_tolerance = o.relative_tolerance;
+      final_summary = runner.solver().optimize(bo);
+      if (!final_summary.ok()) return fail(final_summary.message);
+    } else if (auto st = runner.finish(); !st.ok()) {
+      return fail(st.error().message);
+    }
+    const double final_wall = wallSeconds() - wf;
+    const double wall = wallSeconds() - wall0;
+    const double cpu = cpuSeconds() - cpu0;
+    std::printf("incremental %s: %d steps, batch every %d (%d batch steps), wildfire %g%s\n",
+                methodName(o.method), runner.numSteps(), o.batch_every, batches, o.wildfire,
+                o.method == Method::kDogLeg ? (", " + std::to_string(rejected) + " rejected steps").c_str() : "");
+    std::printf("time: %.3f s wall (steps %.3f s, final %s %.3f s), %.3f s cpu\n", wall,
+                steps_wall, o.final_converge ? "optimisation" : "batch step", final_wall, cpu);
+    std::printf("per step: median %.3f ms, p99 %.3f ms, max %.3f ms; nnz(R) %lld\n",
+                1e3 * percentile(step_wall, 0.5), 1e3 * percentile(step_wall, 0.99),
+                1e3 * percentile(step_wall, 1.0), static_cast<long long>(runner.solver().nnz()));
+    if (!o.stats.empty()) {
+      if (auto st = writeStats(o.stats, lines); !st.ok()) return fail(st.error().message);
+    }
+    estimate = runner.solver().estimate();
+    graph = std::make_unique<PoseGraph>(runner.solver().graph());
+  }
+  rusage ru;
+  getrusage(RUSAGE_SELF, &ru);
+  std::printf("peak memory %.1f MB\n", ru.ru_maxrss / 1024.0);
+  printResult(g, *graph, estimate);
+
+  if (!o.ground_truth.empty()) {
+    auto gt = readGraphFile(o.ground_truth);
+    if (!gt.ok()) return fail(gt.error().message);
+    auto truth = gt->vertices.empty() ? odometryInitialization(*gt) : fileInitialization(*gt);
+    if (!truth.ok()) return fail(truth.error().message);
+    auto ate = absoluteTrajectoryError(estimate, *truth);
+    if (!ate.ok()) return fail(ate.error().message);
+    std::printf("ATE vs %s: RMSE %.4f m, max %.4f m over %d poses\n", o.ground_truth.c_str(),
+                ate->rmse_m, ate->max_m, ate->matched);
+  }
+  if (!o.marginals.empty()) {
+    std::vector<Key> keys;
+    std::stringstream ss(o.marginals);
+    std::string item;
+    while (std::getline(ss, item, ',')) keys.push_back(std::atoll(item.c_str()));
+    PoseGraph at_estimate = *graph;
+    at_estimate.mutableValues() = estimate;
+    auto m = Marginals::compute(at_estimate);
+    if (!m.ok()) return fail(m.error().message);
+    auto S = m->joint(keys);
+    if (!S.ok()) return fail(S.error().message);
+    std::printf("joint marginal covariance of %s ((υ, ω) per pose, own frame):\n",
+                o.marginals.c_str());
+    for (int r = 0; r < S->rows(); ++r) {
+      for (int c = 0; c < S->cols(); ++c) std::printf(" % .6e", (*S)(r, c));
+      std::printf("\n");
+    }
+  }
+  if (!o.output.empty()) {
+    if (auto st = writeG2o(o.output, g, estimate); !st.ok()) return fail(st.error().message);
+    std::printf("wrote %s\n", o.output.c_str());
+  }
+  return 0;
+}

@@ -1,0 +1,44 @@
+#pragma once
+// Command-line options of evermap-solver (see usage() and docs/solver.md).
+
+#include <string>
+
+#include "core/common/expected.h"
+#include "core/solver/batch_solver.h"
+#include "core/solver/graph_io.h"
+#include "core/solver/graph_problem.h"
+#include "core/solver/robust_kernel.h"
+
+namespace evermap::solver_tool {
+
+enum class Init { kAuto, kOdometry, kChordal, kFile };
+
+struct ToolOptions {
+  std::string input;
+  solver::GraphFormat format = solver::GraphFormat::kAuto;
+  solver::Objective objective = solver::Objective::kNative;
+  bool batch = false;  // default: incremental in file order, like iSAM
+  solver::Method method = solver::Method::kGaussNewton;
+  Init init = Init::kAuto;
+  solver::RobustKernel kernel;
+  bool robust_odometry = false;
+  int batch_every = 100;
+  double wildfire = 1e-9;
+  int max_iterations = 100;
+  double relative_tolerance = 1e-10;
+  bool final_converge = false;  // incremental: iterate the final batch step to convergence
+  int outliers = 0;
+  unsigned seed = 1;
+  std::string ground_truth;
+  std::string output;   // g2o
+  std::string stats;    // per-step statistics
+  bool stats_chi2 = false;
+  std::string marginals;  // comma-separated keys
+  bool verbose = false;
+};
+
+std::string usage();
+// Errors name the offending argument.
+Expected<ToolOptions> parseArguments(int argc, char** argv);
+
+}  // namespace evermap::solver_tool
