@@ -7,6 +7,7 @@
 
 #include <Eigen/Cholesky>
 
+#include "core/solver/marginals.h"
 #include "core/solver/pose_factors.h"
 
 namespace evermap::mapper {
@@ -36,6 +37,7 @@ Status MapperOptions::validate() const {
   if (!(step_interval_s >= 0.0)) return Error{"mapper.step_interval_s: must be >= 0"};
   if (!(request_timeout_s > 0.0)) return Error{"mapper.request_timeout_s: must be > 0"};
   if (!(consistency_gate > 0.0)) return Error{"mapper.consistency_gate: must be > 0"};
+  if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
   if (!(recent_exclusion_s >= 0.0)) return Error{"mapper.recent_exclusion_s: must be >= 0"};
   if (!(covariance_floor >= 0.0)) return Error{"mapper.covariance_floor: must be >= 0"};
   if (!(origin_sigma_m > 0.0) || !(origin_sigma_rad > 0.0))
@@ -51,7 +53,7 @@ std::string MapperStats::text() const {
     << rejected_inconsistent << "\nrequests_node " << requests_node << "\nrequests_global "
     << requests_global << "\nregistrations_ok " << registrations_ok << "\nloop_closures "
     << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept
-    << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\n";
+    << "\nrejected_map_gate " << rejected_map_gate << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\n";
   return s.str();
 }
 
@@ -108,8 +110,11 @@ Status Mapper::onFloor(const floor_t& msg) {
   }
   last_floor_utime_ = msg.utime;
   if (msg.event == floor_t::EVENT_RIDE_START) return Ok{};
-  if (have_floor_ && msg.event == floor_t::EVENT_RIDE_END)
-    tracker_.addHeight(msg.height_m - floor_height_m_, std::max(msg.height_sigma_m, 0.01));
+  if (have_floor_ && msg.event == floor_t::EVENT_RIDE_END && active_ >= 0) {
+    // The ride's vertical displacement, as far as odometry has not seen it already (VO may
+    // track through the cab; wheels never do): the estimate is moved to the measured height.
+    tracker_.addHeight(msg.height_m - pose().mean.translation().z(), std::max(msg.height_sigma_m, 0.01));
+  }
   floor_ = msg.floor_index;
   floor_height_m_ = msg.height_m;
   have_floor_ = true;
@@ -176,6 +181,10 @@ void Mapper::addConstraint(int64_t from, int64_t to, const core::UncertainPose& 
   auto factor = std::make_shared<solver::RelativePose3Factor>(
       pair->i, pair->j, pair->i_T_j.mean, sqrtInformation(pair->i_T_j.covariance, o_.covariance_floor),
       solver::RelativePose3Factor::Convention::kLog);
+  // Loop closures can be false matches that no other measurement of their pair contradicts
+  // yet: a robust kernel lets the rest of the graph outvote them.
+  if (kind == ConstraintKind::kLoop) loop_pairs_.insert(key);
+  if (loop_pairs_.count(key) && o_.loop_kernel.active()) factor->setKernel(o_.loop_kernel);
   // A merge within one update replaces the factor still waiting in the request.
   for (size_t k = 0; k < pending_pairs_.size(); ++k) {
     if (pending_pairs_[k] == key) {
@@ -377,6 +386,12 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
   }
   *registered = true;
   if (b == f.active) {
+    // A registration that contradicts the tracked Δ is not trusted with it (a false match).
+    if (o_.map_gate > 0 && ConstraintSet::mahalanobis2(f.delta_at_keyframe, b_T_q) > o_.map_gate) {
+      ++stats_.rejected_map_gate;
+      *registered = false;
+      return;
+    }
     // Entropy test of section III-B.3: keep the better-determined estimate of Δ.
     if (relocalize_ || f.delta_at_keyframe.covariance.determinant() > b_T_q.covariance.determinant()) {
       tracker_.reset(core::compound(b_T_q, *q_T_now));
@@ -387,10 +402,15 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     }
     return;
   }
+  const core::UncertainPose a_T_b = core::compound(f.delta_at_keyframe, core::invert(b_T_q));
+  if (!consistentWithMap(f.active, b, a_T_b)) {
+    ++stats_.rejected_map_gate;
+    *registered = false;
+    return;
+  }
   const size_t rejected_before = constraints_.rejected();
   // The chain active → keyframe → b, compounded (eq. 6-7): a constraint between existing nodes.
-  addConstraint(f.active, b, core::compound(f.delta_at_keyframe, core::invert(b_T_q)), ConstraintKind::kLoop,
-                f.keyframe_utime);
+  addConstraint(f.active, b, a_T_b, ConstraintKind::kLoop, f.keyframe_utime);
   if (constraints_.rejected() != static_cast<int64_t>(rejected_before)) {
     *registered = false;  // an inconsistent closure: neither the map nor Δ trusts it
     return;
@@ -400,6 +420,25 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
   tracker_.reset(core::compound(b_T_q, *q_T_now));
   // Δ now reuses the registration the constraint holds: re-localise at the next chance.
   relocalize_ = true;
+}
+
+bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b) {
+  if (!(o_.map_gate > 0)) return true;
+  // The map's own estimate of a_T_b with its marginal covariance (the joint marginal of a and
+  // b through the relative-pose Jacobians), against the measured chain.
+  const auto t0 = Clock::now();
+  const solver::Marginals marginals = solver::Marginals::fromSolver(solver_);
+  const std::vector<solver::Key> keys{a, b};
+  auto joint = marginals.joint(keys);
+  stats_.timing.registration_s += secondsSince(t0);
+  if (!joint) return true;  // no marginal: nothing to test against
+  core::Mat6 Ja, Jb;
+  core::UncertainPose predicted;
+  predicted.mean = core::between(nodePose(a), nodePose(b), &Ja, &Jb);
+  Eigen::Matrix<double, 6, 12> J;
+  J << Ja, Jb;
+  predicted.covariance = J * (*joint) * J.transpose();
+  return ConstraintSet::mahalanobis2(predicted, a_T_b) <= o_.map_gate;
 }
 
 void Mapper::finishStep(bool registered) {

@@ -26,6 +26,7 @@
 #include <deque>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -65,6 +66,13 @@ struct MapperOptions {
   // Partial factors: IMU roll/pitch and floor heights on each node.
   bool attitude_factors = true;
   bool height_factors = true;
+  // Robust kernel on factors of pairs that hold a loop closure (DCS, Agarwal et al. 2013).
+  solver::RobustKernel loop_kernel{solver::KernelType::kDcs, 20.0};
+  // χ² gate (6 dof) of a registration against what the map already says: a closure's a_T_b
+  // against the map estimate with its marginal covariance, an active-node registration
+  // against Δ. Catches false matches the per-pair test cannot see (a pair's first
+  // constraint). 0 disables; 22.46 = 99.9 %.
+  double map_gate = 22.46;
   TrackerOptions tracker;
   solver::IncrementalOptions solver;
 
@@ -100,6 +108,7 @@ struct MapperStats {
   int64_t loop_closures = 0;      // constraints to another existing node
   int64_t delta_replaced = 0;     // active-node registrations that replaced Δ
   int64_t delta_kept = 0;         // ... that lost the det(Σ) test
+  int64_t rejected_map_gate = 0;  // registrations that contradicted the map or Δ
   int64_t timeouts = 0;
   int64_t dropped = 0;            // malformed, stale or out-of-order messages
   MapperTiming timing;
@@ -159,6 +168,7 @@ class Mapper {
   int64_t addNode(int64_t keyframe_utime, const core::UncertainPose& active_T_node);
   void addConstraint(int64_t from, int64_t to, const core::UncertainPose& from_T_to,
                      ConstraintKind kind, int64_t utime);
+  bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b);
   void flushSolver();
   void rebuildCells();
   core::PlanarCell cellOf(const core::SE3d& world_T_body, int floor) const;
@@ -177,6 +187,7 @@ class Mapper {
   // priors) and its slot in new_factors.
   std::vector<std::pair<int64_t, int64_t>> pending_pairs_;
   std::vector<size_t> pending_factor_slot_;
+  std::set<std::pair<int64_t, int64_t>> loop_pairs_;
 
   std::vector<MapperNode> nodes_;
   std::unordered_map<core::PlanarCell, std::vector<int64_t>, core::PlanarCellHash> cells_;
