@@ -117,6 +117,7 @@ Status Mapper::onFloor(const floor_t& msg) {
   }
   floor_ = msg.floor_index;
   floor_height_m_ = msg.height_m;
+  if (floor_ >= 0) floors_.emplace(floor_, msg.height_m);
   have_floor_ = true;
   return Ok{};
 }

@@ -140,6 +140,8 @@ class Mapper {
   const Tracker& tracker() const { return tracker_; }
   const MapperStats& stats() const { return stats_; }
   int floor() const { return floor_; }
+  // Floor index -> height (metres), as the FLOOR messages reported them.
+  const std::map<int, double>& floors() const { return floors_; }
 
   // The tracked pose at every step: (utime, node, node_T_body). With the final node
   // estimates this gives the trajectory both modes are compared on.
@@ -195,6 +197,7 @@ class Mapper {
   bool relocalize_ = false;  // after a loop closure: the next registration to b replaces Δ
   int floor_ = 0;
   double floor_height_m_ = 0.0;
+  std::map<int, double> floors_;
   bool have_floor_ = false;
   std::optional<attitude_t> attitude_;
   int64_t last_step_utime_ = -1;

@@ -4,11 +4,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <numbers>
 
 #include "core/sim/registration_oracle.h"
+#include "tests/scratch_dir.h"
 #include "mapper-proc/constraint_set.h"
+#include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
 #include "mapper-proc/offline_run.h"
 #include "mapper-proc/tracker.h"
@@ -293,6 +296,55 @@ TEST(Mapper, DropsMalformedAndStaleMessagesAndCountsThem) {
   EXPECT_FALSE(m.onFloor(f));
   EXPECT_EQ(m.stats().dropped, 3);
   EXPECT_EQ(m.stats().nodes, 0);
+}
+
+TEST(MapStore, SavesOneTransactionPerUpdateAndReloadsEveryNodeAndEdge) {
+  evermap::testing::ScratchDir dir;
+  const auto file = dir.path() / "map.db";
+  ScriptedDrive drive(scriptedOptions());
+  {
+    auto store = MapStore::open(file);
+    ASSERT_TRUE(store) << store.error().message;
+    lap(drive);
+    ASSERT_TRUE(store->save(drive.mapper(), 0, 0));
+    lap(drive);
+    ASSERT_TRUE(store->save(drive.mapper(), 0, 0));
+  }
+  // Reopened: nothing is stored twice, and a further update appends.
+  auto store = MapStore::open(file);
+  ASSERT_TRUE(store) << store.error().message;
+  ASSERT_TRUE(store->save(drive.mapper(), 0, 0));
+  ASSERT_TRUE(store->integrityCheck());
+  auto snap = store->load();
+  ASSERT_TRUE(snap) << snap.error().message;
+  const Mapper& m = drive.mapper();
+  ASSERT_EQ(snap->nodes.size(), m.nodes().size());
+  ASSERT_EQ(snap->edges.size(), m.constraints().all().size());
+  ASSERT_EQ(snap->sessions.size(), 1u);
+  ASSERT_EQ(snap->floors.size(), 1u);
+  for (const StoredNode& n : snap->nodes) {
+    EXPECT_LT((n.world_T_body.inverse() * m.nodePose(n.node.id)).log().norm(), 1e-12);
+    EXPECT_EQ(n.node.keyframe_utime, m.nodes()[n.node.id].keyframe_utime);
+  }
+  for (const StoredEdge& e : snap->edges) {
+    const Constraint& c = m.constraints().all()[e.edge_id];
+    EXPECT_EQ(e.constraint.from, c.from);
+    EXPECT_EQ(e.constraint.to, c.to);
+    EXPECT_EQ(e.constraint.accepted, c.accepted);
+    EXPECT_LT((e.constraint.from_T_to.covariance - c.from_T_to.covariance).norm(), 1e-15);
+  }
+}
+
+TEST(MapStore, RejectsAFileThatIsNotAMapStore) {
+  evermap::testing::ScratchDir dir;
+  const auto file = dir.path() / "junk.db";
+  {
+    std::ofstream out(file);
+    out << "this is not sqlite";
+  }
+  auto store = MapStore::open(file);
+  ASSERT_FALSE(store);
+  EXPECT_NE(store.error().message.find("junk.db"), std::string::npos);
 }
 
 sim::SimOptions shortPatrol() {
