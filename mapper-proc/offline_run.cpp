@@ -1,8 +1,11 @@
 #include "mapper-proc/offline_run.h"
 
 #include <algorithm>
+#include <chrono>
+#include <functional>
 #include <deque>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include <evermap/attitude_t.hpp>
@@ -16,6 +19,7 @@
 #include "core/messages/convert.h"
 #include "core/sim/registration_oracle.h"
 #include "core/sim/run.h"
+#include "mapper-proc/map_store.h"
 
 namespace evermap::mapper {
 namespace {
@@ -45,7 +49,9 @@ class Broker final : public sim::MessageSink {
       deliver(messages::decodeLcm<floor_t>(data.data(), size, channel));
     }
     pump();
+    if (after_update_) after_update_();
   }
+  void setAfterUpdate(std::function<void()> f) { after_update_ = std::move(f); }
 
   // Called by the simulator's observer when a keyframe's truth is known.
   void keyframeKnown(int64_t utime) {
@@ -103,6 +109,7 @@ class Broker final : public sim::MessageSink {
   int64_t messages_ = 0;
   int64_t decode_errors_ = 0;
   int64_t false_matches_ = 0;
+  std::function<void()> after_update_;
 };
 
 // Ground truth at `utime`: linear in position between the samples around it, rotation of
@@ -128,11 +135,13 @@ std::string OfflineRunSummary::text() const {
     << "\nate_median_m " << ate_median_m << "\ntime_tracking_s " << stats.timing.tracking_s
     << "\ntime_registration_s " << stats.timing.registration_s << "\ntime_partition_s "
     << stats.timing.partition_s << "\ntime_solver_s " << stats.timing.solver_s
-    << "\nupdate_median_ms " << update_median_ms << "\nupdate_p99_ms " << update_p99_ms << "\n";
+    << "\nupdate_median_ms " << update_median_ms << "\nupdate_p99_ms " << update_p99_ms << "\nstore_transactions " << store_transactions
+    << "\ntime_store_s " << store_s << "\n";
   return s.str();
 }
 
-Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, MapperOptions options) {
+Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, MapperOptions options,
+                                       const std::filesystem::path& store_file) {
   if (Status s = options.validate(); !s) return s.error();
   auto plan = sim::RunPlan::create(sim_options);
   if (!plan) return plan.error();
@@ -141,6 +150,25 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   sim::RegistrationOracle oracle(sim_options.oracle, plan->oracleSeed());
   Broker broker(mapper, oracle);
   std::map<int64_t, core::SE3d> truth;
+  std::optional<MapStore> store;
+  int64_t stored_nodes = 0, stored_constraints = 0, transactions = 0;
+  double store_s = 0.0;
+  Status store_status = Ok{};
+  if (!store_file.empty()) {
+    auto s = MapStore::open(store_file);
+    if (!s) return s.error();
+    store = std::move(*s);
+    broker.setAfterUpdate([&] {
+      const MapperStats& st = mapper.stats();
+      if (!store_status || (st.nodes == stored_nodes && st.constraints == stored_constraints)) return;
+      const auto t0 = std::chrono::steady_clock::now();
+      store_status = store->save(mapper, 0, 0);
+      store_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      stored_nodes = st.nodes;
+      stored_constraints = st.constraints;
+      ++transactions;
+    });
+  }
   sim::SessionObservers observers;
   observers.on_keyframe = [&](const sim::KeyframeTruth& k) {
     oracle.addKeyframe(k);
@@ -149,7 +177,10 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   observers.on_ground_truth = [&](int64_t utime, const sim::BodyState& b) { truth[utime] = b.world_T_body; };
   const sim::RunSummary run = sim::generateRun(*plan, [&](int) -> sim::MessageSink& { return broker; }, observers);
 
+  if (!store_status) return store_status.error();
   OfflineRunSummary out;
+  out.store_transactions = transactions;
+  out.store_s = store_s;
   out.stats = mapper.stats();
   out.nodes = static_cast<int64_t>(mapper.nodes().size());
   out.factors = mapper.stats().factors;

@@ -7,6 +7,7 @@
 // to the oracle likewise. Deterministic: same options, same result.
 
 #include <cstdint>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -31,10 +32,15 @@ struct OfflineRunSummary {
   double distance_m = 0.0;
   double update_median_ms = 0.0;
   double update_p99_ms = 0.0;
+  int64_t store_transactions = 0;  // with a map store: one per update that changed the graph
+  double store_s = 0.0;            // wall time spent writing them
   std::string text() const;
 };
 
-// Simulates `sim` and maps it. Errors: invalid options, or too few step poses for an ATE.
-Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim, MapperOptions mapper);
+// Simulates `sim` and maps it; with a non-empty `store_file`, the map store is written after
+// every update that changed the graph. Errors: invalid options, the store, or too few step
+// poses for an ATE.
+Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim, MapperOptions mapper,
+                                       const std::filesystem::path& store_file = {});
 
 }  // namespace evermap::mapper

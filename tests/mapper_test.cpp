@@ -365,7 +365,8 @@ TEST(ReducedGraph, HasFarFewerNodesThanTheFullGraphWithComparableAccuracy) {
   MapperOptions reduced_options;
   MapperOptions full_options;
   full_options.full_graph = true;
-  auto reduced = runOffline(shortPatrol(), reduced_options);
+  evermap::testing::ScratchDir dir;
+  auto reduced = runOffline(shortPatrol(), reduced_options, dir.path() / "map.db");
   auto full = runOffline(shortPatrol(), full_options);
   ASSERT_TRUE(reduced) << reduced.error().message;
   ASSERT_TRUE(full) << full.error().message;
@@ -378,6 +379,14 @@ TEST(ReducedGraph, HasFarFewerNodesThanTheFullGraphWithComparableAccuracy) {
   EXPECT_LT(reduced->ate_rmse_m, 0.5);
   EXPECT_LT(full->ate_rmse_m, 0.5);
   EXPECT_LT(reduced->ate_rmse_m, 2.5 * full->ate_rmse_m);
+  // The map store holds the final map: every node and every constraint.
+  auto store = MapStore::open(dir.path() / "map.db");
+  ASSERT_TRUE(store);
+  auto snap = store->load();
+  ASSERT_TRUE(snap);
+  EXPECT_EQ(static_cast<int64_t>(snap->nodes.size()), reduced->nodes);
+  EXPECT_EQ(static_cast<int64_t>(snap->edges.size()), reduced->constraints);
+  EXPECT_GT(reduced->store_transactions, reduced->nodes);
 }
 
 }  // namespace

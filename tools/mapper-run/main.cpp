@@ -16,13 +16,14 @@ constexpr const char* kUsage =
     "usage: evermap-mapper-run --config SIM.conf [--mode reduced|full|both] [--hours H]\n"
     "  --config SIM.conf  measurement-level simulation settings (config/sim-*.conf)\n"
     "  --mode M           reduced (default), full (a node per step) or both, side by side\n"
-    "  --hours H          override patrol.total_hours\n";
+    "  --hours H          override patrol.total_hours\n"
+    "  --store MAP.db     write the map store (reduced graph only), one transaction per update\n";
 
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace evermap;
-  std::string config, mode = "reduced";
+  std::string config, mode = "reduced", store;
   double hours = -1.0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -37,6 +38,8 @@ int main(int argc, char** argv) {
     const std::string v = argv[++i];
     if (a == "--config") {
       config = v;
+    } else if (a == "--store") {
+      store = v;
     } else if (a == "--mode" && (v == "reduced" || v == "full" || v == "both")) {
       mode = v;
     } else if (a == "--hours") {
@@ -70,7 +73,7 @@ int main(int argc, char** argv) {
     if ((full && mode == "reduced") || (!full && mode == "full")) continue;
     mapper::MapperOptions options;
     options.full_graph = full;
-    auto summary = mapper::runOffline(*sim, options);
+    auto summary = mapper::runOffline(*sim, options, full ? std::string() : store);
     if (!summary) {
       std::fprintf(stderr, "evermap-mapper-run: %s\n", summary.error().message.c_str());
       return 1;
