@@ -53,7 +53,7 @@ std::string MapperStats::text() const {
     << rejected_inconsistent << "\nrequests_node " << requests_node << "\nrequests_global "
     << requests_global << "\nregistrations_ok " << registrations_ok << "\nloop_closures "
     << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept
-    << "\nrejected_map_gate " << rejected_map_gate << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\n";
+    << "\nrejected_map_gate " << rejected_map_gate << "\nrelocalizations " << relocalizations << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\n";
   return s.str();
 }
 
@@ -110,6 +110,12 @@ Status Mapper::onFloor(const floor_t& msg) {
   }
   last_floor_utime_ = msg.utime;
   if (msg.event == floor_t::EVENT_RIDE_START) return Ok{};
+  if (msg.event == floor_t::EVENT_NONE && have_floor_ && active_ >= 0) {
+    // A new session starts (the operator sets the floor): where the robot is relative to the
+    // map is unknown until a global registration re-localises it (DESIGN.md section 3).
+    lost_ = true;
+    ++session_;
+  }
   if (have_floor_ && msg.event == floor_t::EVENT_RIDE_END && active_ >= 0) {
     // The ride's vertical displacement, as far as odometry has not seen it already (VO may
     // track through the cab; wheels never do): the estimate is moved to the measured height.
@@ -299,7 +305,7 @@ void Mapper::step(int64_t keyframe_utime) {
   InFlight f;
   f.keyframe_utime = keyframe_utime;
   f.sent_utime = keyframe_utime;
-  if (o_.full_graph) {
+  if (o_.full_graph && !lost_) {
     // The baseline: a node at every step, chained by the tracked motion.
     addNode(keyframe_utime, tracker_.delta());
     tracker_.reset(core::UncertainPose{});
@@ -317,7 +323,7 @@ void Mapper::step(int64_t keyframe_utime) {
     target = nodeInCell(cell, keyframe_utime);
     if (!target) target = active_;
   }
-  if (target) sendRequest(register_request_t::MODE_NODE, *target);
+  if (target && !lost_) sendRequest(register_request_t::MODE_NODE, *target);
   else sendRequest(register_request_t::MODE_GLOBAL, -1);
 }
 
@@ -375,6 +381,16 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
   const auto q_T_now = tracker_.sinceKeyframe(f.keyframe_utime);
   if (!q_T_now) {
     ++stats_.dropped;
+    return;
+  }
+  if (lost_) {
+    *registered = true;
+    // Re-localisation: b becomes active, no constraint (Δ had no meaning before it).
+    active_ = b;
+    tracker_.reset(core::compound(b_T_q, *q_T_now));
+    lost_ = false;
+    relocalize_ = false;
+    ++stats_.relocalizations;
     return;
   }
   if (o_.full_graph) {
@@ -446,6 +462,11 @@ void Mapper::finishStep(bool registered) {
   const InFlight f = *in_flight_;
   in_flight_.reset();
   const auto t0 = Clock::now();
+  if (lost_) {
+    // Not re-localised yet: neither a node nor a step pose from a meaningless Δ.
+    stats_.timing.partition_s += secondsSince(t0);
+    return;
+  }
   if (!registered && !o_.full_graph) {
     const core::SE3d world_T_body = nodePose(f.active) * f.delta_at_keyframe.mean;
     if (!nodeInCell(cellOf(world_T_body, floor_), f.keyframe_utime)) {

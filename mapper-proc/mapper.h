@@ -109,6 +109,7 @@ struct MapperStats {
   int64_t delta_replaced = 0;     // active-node registrations that replaced Δ
   int64_t delta_kept = 0;         // ... that lost the det(Σ) test
   int64_t rejected_map_gate = 0;  // registrations that contradicted the map or Δ
+  int64_t relocalizations = 0;   // a new session tied to the map by a global registration
   int64_t timeouts = 0;
   int64_t dropped = 0;            // malformed, stale or out-of-order messages
   MapperTiming timing;
@@ -194,7 +195,8 @@ class Mapper {
   std::vector<MapperNode> nodes_;
   std::unordered_map<core::PlanarCell, std::vector<int64_t>, core::PlanarCellHash> cells_;
   int64_t active_ = -1;
-  bool relocalize_ = false;  // after a loop closure: the next registration to b replaces Δ
+  bool relocalize_ = false;
+  bool lost_ = false;        // a new session that no global registration has placed yet  // after a loop closure: the next registration to b replaces Δ
   int floor_ = 0;
   double floor_height_m_ = 0.0;
   std::map<int, double> floors_;
