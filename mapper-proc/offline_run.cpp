@@ -129,7 +129,9 @@ core::SE3d truthAt(const std::map<int64_t, core::SE3d>& gt, int64_t utime) {
 
 std::string OfflineRunSummary::text() const {
   std::ostringstream s;
-  s << stats.text() << "messages " << messages << "\ndecode_errors " << decode_errors
+  s << stats.text() << "nodes_by_session";
+  for (int64_t n : nodes_by_session) s << " " << n;
+  s << "\nmessages " << messages << "\ndecode_errors " << decode_errors
     << "\nfalse_matches " << false_matches << "\nsimulated_s " << duration_s << "\ndistance_m "
     << distance_m << "\nstep_poses " << step_poses << "\nate_rmse_m " << ate_rmse_m
     << "\nate_median_m " << ate_median_m << "\ntime_tracking_s " << stats.timing.tracking_s
@@ -183,6 +185,10 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   out.store_s = store_s;
   out.stats = mapper.stats();
   out.nodes = static_cast<int64_t>(mapper.nodes().size());
+  for (const MapperNode& n : mapper.nodes()) {
+    if (n.session >= static_cast<int>(out.nodes_by_session.size())) out.nodes_by_session.resize(n.session + 1, 0);
+    ++out.nodes_by_session[n.session];
+  }
   out.factors = mapper.stats().factors;
   out.constraints = static_cast<int64_t>(mapper.constraints().all().size());
   out.messages = broker.messages();

@@ -20,6 +20,7 @@ namespace evermap::mapper {
 struct OfflineRunSummary {
   MapperStats stats;
   int64_t nodes = 0;
+  std::vector<int64_t> nodes_by_session;
   int64_t factors = 0;         // pair factors in the solver
   int64_t constraints = 0;     // every constraint kept
   int64_t messages = 0;        // simulator messages delivered
