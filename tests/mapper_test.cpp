@@ -146,7 +146,8 @@ TEST(ConstraintSet, AgreeingConstraintsMergeAndInconsistentOnesAreRejected) {
 // that answers from the truth within 1.5 m.
 class ScriptedDrive {
  public:
-  explicit ScriptedDrive(MapperOptions o) : mapper_(o) {
+  explicit ScriptedDrive(MapperOptions o, double registration_variance = 1e-4)
+      : mapper_(o), registration_variance_(registration_variance) {
     floor_t f{};
     f.floor_index = 0;
     EXPECT_TRUE(mapper_.onFloor(f));
@@ -214,7 +215,7 @@ class ScriptedDrive {
           res.orientation[1] = qq.x();
           res.orientation[2] = qq.y();
           res.orientation[3] = qq.z();
-          for (int i = 0; i < 6; ++i) res.covariance[7 * i] = 1e-4;
+          for (int i = 0; i < 6; ++i) res.covariance[7 * i] = registration_variance_;
         }
         EXPECT_TRUE(mapper_.onRegisterResult(res));
       }
@@ -222,6 +223,7 @@ class ScriptedDrive {
   }
 
   Mapper mapper_;
+  double registration_variance_;
   SE3d pose_;
   int64_t utime_ = 0;
   std::map<int64_t, SE3d> truth_;
@@ -273,13 +275,19 @@ TEST(FullGraph, AddsANodeAtEveryStepThroughTheSameCode) {
 }
 
 TEST(ReducedGraph, ActiveNodeRegistrationReplacesDeltaOnlyWhenItIsMoreCertain) {
-  ScriptedDrive drive(scriptedOptions());
-  lap(drive);
-  // Every step re-registers against the active (or cell) node; with VO covariance per frame
-  // 1e-6 against 1e-4 for a registration, Δ wins right after a node and loses later.
-  const auto& s = drive.mapper().stats();
-  EXPECT_GT(s.delta_kept + s.delta_replaced, 0);
-  EXPECT_GT(s.delta_kept, 0);
+  // Registrations far more certain than VO (variance 1e-12 against 1e-6 per frame): every
+  // registration to the active node wins the det(Σ) test.
+  ScriptedDrive sharp(scriptedOptions(), 1e-12);
+  lap(sharp);
+  const auto& a = sharp.mapper().stats();
+  EXPECT_GT(a.delta_replaced, 10);
+  // Registrations far less certain (variance 1): Δ is kept, except for the one forced
+  // re-localisation after each loop closure.
+  ScriptedDrive blurred(scriptedOptions(), 1.0);
+  lap(blurred);
+  const auto& b = blurred.mapper().stats();
+  EXPECT_GT(b.delta_kept, 10);
+  EXPECT_LE(b.delta_replaced, b.loop_closures);
 }
 
 TEST(Mapper, DropsMalformedAndStaleMessagesAndCountsThem) {
