@@ -1,0 +1,61 @@
+#include "mapper-proc/constraint_set.h"
+
+#include <Eigen/Cholesky>
+
+namespace evermap::mapper {
+
+double ConstraintSet::mahalanobis2(const core::UncertainPose& m, const core::UncertainPose& z) {
+  const core::Vec6 e = (m.mean.inverse() * z.mean).log();
+  const core::Mat6 S = m.covariance + z.covariance;
+  Eigen::LDLT<core::Mat6> ldlt(S);
+  if (ldlt.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
+  return e.dot(ldlt.solve(e));
+}
+
+ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pair** pair, double* d2_out) {
+  Constraint c = constraint;
+  if (c.from > c.to) {
+    c.from_T_to = core::invert(c.from_T_to);
+    std::swap(c.from, c.to);
+  }
+  const auto key = std::make_pair(c.from, c.to);
+  auto it = pairs_.find(key);
+  if (it == pairs_.end()) {
+    c.accepted = true;
+    all_.push_back(c);
+    Pair p;
+    p.i = c.from;
+    p.j = c.to;
+    p.i_T_j = c.from_T_to;
+    p.members.push_back(all_.size() - 1);
+    it = pairs_.emplace(key, p).first;
+    if (pair) *pair = &it->second;
+    if (d2_out) *d2_out = 0.0;
+    return Outcome::kNewPair;
+  }
+  Pair& p = it->second;
+  const double d2 = mahalanobis2(p.i_T_j, c.from_T_to);
+  if (d2_out) *d2_out = d2;
+  if (pair) *pair = &p;
+  if (!(d2 <= gate_)) {
+    c.accepted = false;
+    all_.push_back(c);
+    p.members.push_back(all_.size() - 1);
+    ++p.rejected;
+    ++rejected_;
+    return Outcome::kRejected;
+  }
+  const core::Vec6 e = (p.i_T_j.mean.inverse() * c.from_T_to.mean).log();
+  const core::Mat6 S = p.i_T_j.covariance + c.from_T_to.covariance;
+  const core::Mat6 K = S.transpose().ldlt().solve(p.i_T_j.covariance.transpose()).transpose();
+  p.i_T_j.mean = p.i_T_j.mean * core::SE3d::exp(K * e);
+  const core::Mat6 fused = (core::Mat6::Identity() - K) * p.i_T_j.covariance;
+  p.i_T_j.covariance = 0.5 * (fused + fused.transpose());
+  c.accepted = true;
+  all_.push_back(c);
+  p.members.push_back(all_.size() - 1);
+  ++merged_;
+  return Outcome::kMerged;
+}
+
+}  // namespace evermap::mapper

@@ -1,0 +1,66 @@
+#pragma once
+// Every constraint between pairs of nodes, kept (paper section III-B.3; DESIGN.md section 3):
+// several measurements of one pair are tested against each other and merged into the one
+// factor the solver sees only when they agree; one that disagrees is rejected and counted.
+//
+// A pair (i, j) is stored with i < j as i_T_j. A new measurement z (covariance Σz) is tested
+// against the pair's merged estimate m (Σm) by the Mahalanobis distance of
+//   e = log(m⁻¹ z),  d² = eᵀ (Σm + Σz)⁻¹ e,
+// both covariances in the tangent space at j (right perturbations). d² ≤ gate: merged by the
+// information-weighted update on the manifold, K = Σm (Σm + Σz)⁻¹, m ← m exp(K e),
+// Σm ← (I − K) Σm (a Kalman update with the measurement of the state itself).
+
+#include <cstdint>
+#include <map>
+#include <utility>
+#include <vector>
+
+#include "core/geometry/se3.h"
+
+namespace evermap::mapper {
+
+enum class ConstraintKind : uint8_t { kOdometry = 0, kLoop = 1 };
+
+struct Constraint {
+  int64_t from = 0;
+  int64_t to = 0;
+  core::UncertainPose from_T_to;
+  int64_t utime = 0;
+  ConstraintKind kind = ConstraintKind::kOdometry;
+  bool accepted = false;  // merged into its pair's factor
+};
+
+class ConstraintSet {
+ public:
+  enum class Outcome { kNewPair, kMerged, kRejected };
+  struct Pair {
+    int64_t i = 0;
+    int64_t j = 0;
+    core::UncertainPose i_T_j;      // merged
+    std::vector<size_t> members;    // indices into all()
+    int64_t rejected = 0;
+  };
+
+  // gate: the χ² bound on d² (6 degrees of freedom).
+  explicit ConstraintSet(double gate) : gate_(gate) {}
+
+  // Adds and classifies a constraint; `pair` (when given) receives the pair it belongs to.
+  Outcome add(const Constraint& constraint, const Pair** pair = nullptr, double* d2 = nullptr);
+
+  const std::vector<Constraint>& all() const { return all_; }
+  const std::map<std::pair<int64_t, int64_t>, Pair>& pairs() const { return pairs_; }
+  int64_t merged() const { return merged_; }
+  int64_t rejected() const { return rejected_; }
+
+  // Mahalanobis d² of z against m as above.
+  static double mahalanobis2(const core::UncertainPose& m, const core::UncertainPose& z);
+
+ private:
+  double gate_;
+  std::vector<Constraint> all_;
+  std::map<std::pair<int64_t, int64_t>, Pair> pairs_;
+  int64_t merged_ = 0;
+  int64_t rejected_ = 0;
+};
+
+}  // namespace evermap::mapper

@@ -1,0 +1,212 @@
+#include "mapper-proc/map_store.h"
+
+#include <cstring>
+#include <string>
+
+namespace evermap::mapper {
+namespace {
+
+std::vector<double> poseBlob(const core::SE3d& p) {
+  const auto& q = p.quaternion();
+  return {p.translation().x(), p.translation().y(), p.translation().z(), q.w(), q.x(), q.y(), q.z()};
+}
+
+Expected<core::SE3d> poseFromBlob(const void* data, int bytes, const std::string& what) {
+  if (bytes != 7 * static_cast<int>(sizeof(double))) return makeError(what, ": pose blob of ", bytes, " bytes");
+  double v[7];
+  std::memcpy(v, data, sizeof v);
+  const Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
+  if (!std::isfinite(q.norm()) || std::abs(q.norm() - 1.0) > 1e-6) return makeError(what, ": quaternion is not unit");
+  return core::SE3d(q.normalized(), core::Vec3(v[0], v[1], v[2]));
+}
+
+// Finalises a statement on every path.
+struct Statement {
+  sqlite3_stmt* s = nullptr;
+  ~Statement() { sqlite3_finalize(s); }
+};
+
+}  // namespace
+
+Expected<MapStore> MapStore::open(const std::filesystem::path& file) {
+  sqlite3* db = nullptr;
+  if (sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) != SQLITE_OK) {
+    std::string msg = db ? sqlite3_errmsg(db) : "out of memory";
+    sqlite3_close(db);
+    return makeError(file.string(), ": cannot open map store (", msg, ")");
+  }
+  MapStore store(db, file);
+  const char* schema =
+      "PRAGMA journal_mode=WAL;"
+      "PRAGMA synchronous=NORMAL;"
+      "CREATE TABLE IF NOT EXISTS map_sessions (session_id INTEGER PRIMARY KEY, start_utime INTEGER NOT NULL);"
+      "CREATE TABLE IF NOT EXISTS map_floors (floor_index INTEGER PRIMARY KEY, height_m REAL NOT NULL);"
+      "CREATE TABLE IF NOT EXISTS map_nodes (node_id INTEGER PRIMARY KEY, session_id INTEGER NOT NULL,"
+      " floor INTEGER NOT NULL, keyframe_utime INTEGER NOT NULL, pose BLOB NOT NULL);"
+      "CREATE TABLE IF NOT EXISTS map_edges (edge_id INTEGER PRIMARY KEY, from_node INTEGER NOT NULL,"
+      " to_node INTEGER NOT NULL, kind INTEGER NOT NULL, accepted INTEGER NOT NULL, utime INTEGER NOT NULL,"
+      " pose BLOB NOT NULL, covariance BLOB NOT NULL);";
+  if (Status s = store.exec(schema); !s) return s.error();
+  Statement st;
+  if (sqlite3_prepare_v2(db, "SELECT COALESCE(MAX(edge_id), -1) FROM map_edges", -1, &st.s, nullptr) != SQLITE_OK ||
+      sqlite3_step(st.s) != SQLITE_ROW)
+    return makeError(file.string(), ": not a map store (", sqlite3_errmsg(db), ")");
+  store.edges_stored_ = sqlite3_column_int64(st.s, 0);
+  return store;
+}
+
+MapStore::MapStore(MapStore&& o) noexcept : db_(o.db_), file_(std::move(o.file_)), edges_stored_(o.edges_stored_) {
+  o.db_ = nullptr;
+}
+MapStore& MapStore::operator=(MapStore&& o) noexcept {
+  if (this != &o) {
+    sqlite3_close(db_);
+    db_ = std::exchange(o.db_, nullptr);
+    file_ = std::move(o.file_);
+    edges_stored_ = o.edges_stored_;
+  }
+  return *this;
+}
+MapStore::~MapStore() { sqlite3_close(db_); }
+
+Status MapStore::exec(const char* sql) const {
+  char* err = nullptr;
+  if (sqlite3_exec(db_, sql, nullptr, nullptr, &err) != SQLITE_OK) {
+    std::string m = err ? err : "unknown error";
+    sqlite3_free(err);
+    return makeError(file_.string(), ": ", m);
+  }
+  return Ok{};
+}
+
+Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_utime) {
+  if (Status s = exec("BEGIN IMMEDIATE"); !s) return s;
+  auto fail = [&](const char* what) -> Status {
+    const std::string m = sqlite3_errmsg(db_);
+    (void)exec("ROLLBACK");
+    return makeError(file_.string(), ": ", what, ": ", m);
+  };
+  Statement ses, flo, nod, edg;
+  if (sqlite3_prepare_v2(db_, "INSERT OR IGNORE INTO map_sessions VALUES (?1, ?2)", -1, &ses.s, nullptr) ||
+      sqlite3_prepare_v2(db_, "INSERT OR REPLACE INTO map_floors VALUES (?1, ?2)", -1, &flo.s, nullptr) ||
+      sqlite3_prepare_v2(db_, "INSERT OR REPLACE INTO map_nodes VALUES (?1, ?2, ?3, ?4, ?5)", -1, &nod.s, nullptr) ||
+      sqlite3_prepare_v2(db_, "INSERT INTO map_edges VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)", -1, &edg.s, nullptr))
+    return fail("prepare");
+  sqlite3_bind_int(ses.s, 1, session);
+  sqlite3_bind_int64(ses.s, 2, session_start_utime);
+  if (sqlite3_step(ses.s) != SQLITE_DONE) return fail("sessions");
+  for (const auto& [index, height] : mapper.floors()) {
+    sqlite3_reset(flo.s);
+    sqlite3_bind_int(flo.s, 1, index);
+    sqlite3_bind_double(flo.s, 2, height);
+    if (sqlite3_step(flo.s) != SQLITE_DONE) return fail("floors");
+  }
+  for (const MapperNode& n : mapper.nodes()) {
+    const std::vector<double> pose = poseBlob(mapper.nodePose(n.id));
+    sqlite3_reset(nod.s);
+    sqlite3_bind_int64(nod.s, 1, n.id);
+    sqlite3_bind_int(nod.s, 2, n.session);
+    sqlite3_bind_int(nod.s, 3, n.floor);
+    sqlite3_bind_int64(nod.s, 4, n.keyframe_utime);
+    sqlite3_bind_blob(nod.s, 5, pose.data(), static_cast<int>(pose.size() * sizeof(double)), SQLITE_TRANSIENT);
+    if (sqlite3_step(nod.s) != SQLITE_DONE) return fail("nodes");
+  }
+  const auto& all = mapper.constraints().all();
+  for (int64_t id = edges_stored_ + 1; id < static_cast<int64_t>(all.size()); ++id) {
+    const Constraint& c = all[id];
+    const std::vector<double> pose = poseBlob(c.from_T_to.mean);
+    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov = c.from_T_to.covariance;
+    sqlite3_reset(edg.s);
+    sqlite3_bind_int64(edg.s, 1, id);
+    sqlite3_bind_int64(edg.s, 2, c.from);
+    sqlite3_bind_int64(edg.s, 3, c.to);
+    sqlite3_bind_int(edg.s, 4, static_cast<int>(c.kind));
+    sqlite3_bind_int(edg.s, 5, c.accepted ? 1 : 0);
+    sqlite3_bind_int64(edg.s, 6, c.utime);
+    sqlite3_bind_blob(edg.s, 7, pose.data(), static_cast<int>(pose.size() * sizeof(double)), SQLITE_TRANSIENT);
+    sqlite3_bind_blob(edg.s, 8, cov.data(), 36 * sizeof(double), SQLITE_TRANSIENT);
+    if (sqlite3_step(edg.s) != SQLITE_DONE) return fail("edges");
+  }
+  if (Status s = exec("COMMIT"); !s) {
+    (void)exec("ROLLBACK");
+    return s;
+  }
+  edges_stored_ = static_cast<int64_t>(all.size()) - 1;
+  return Ok{};
+}
+
+Expected<MapSnapshot> MapStore::load() const {
+  MapSnapshot out;
+  const std::string name = file_.string();
+  {
+    Statement st;
+    if (sqlite3_prepare_v2(db_, "SELECT session_id, start_utime FROM map_sessions ORDER BY session_id", -1, &st.s, nullptr))
+      return makeError(name, ": ", sqlite3_errmsg(db_));
+    while (sqlite3_step(st.s) == SQLITE_ROW)
+      out.sessions.emplace_back(sqlite3_column_int(st.s, 0), sqlite3_column_int64(st.s, 1));
+  }
+  {
+    Statement st;
+    if (sqlite3_prepare_v2(db_, "SELECT floor_index, height_m FROM map_floors ORDER BY floor_index", -1, &st.s, nullptr))
+      return makeError(name, ": ", sqlite3_errmsg(db_));
+    while (sqlite3_step(st.s) == SQLITE_ROW)
+      out.floors.emplace_back(sqlite3_column_int(st.s, 0), sqlite3_column_double(st.s, 1));
+  }
+  {
+    Statement st;
+    if (sqlite3_prepare_v2(db_, "SELECT node_id, session_id, floor, keyframe_utime, pose FROM map_nodes ORDER BY node_id",
+                           -1, &st.s, nullptr))
+      return makeError(name, ": ", sqlite3_errmsg(db_));
+    while (sqlite3_step(st.s) == SQLITE_ROW) {
+      StoredNode n;
+      n.node = MapperNode{sqlite3_column_int64(st.s, 0), sqlite3_column_int64(st.s, 3), sqlite3_column_int(st.s, 2),
+                          sqlite3_column_int(st.s, 1)};
+      auto pose = poseFromBlob(sqlite3_column_blob(st.s, 4), sqlite3_column_bytes(st.s, 4),
+                               name + ": node " + std::to_string(n.node.id));
+      if (!pose) return pose.error();
+      n.world_T_body = *pose;
+      out.nodes.push_back(n);
+    }
+  }
+  {
+    Statement st;
+    if (sqlite3_prepare_v2(db_,
+                           "SELECT edge_id, from_node, to_node, kind, accepted, utime, pose, covariance FROM map_edges"
+                           " ORDER BY edge_id",
+                           -1, &st.s, nullptr))
+      return makeError(name, ": ", sqlite3_errmsg(db_));
+    while (sqlite3_step(st.s) == SQLITE_ROW) {
+      StoredEdge e;
+      e.edge_id = sqlite3_column_int64(st.s, 0);
+      const std::string what = name + ": edge " + std::to_string(e.edge_id);
+      e.constraint.from = sqlite3_column_int64(st.s, 1);
+      e.constraint.to = sqlite3_column_int64(st.s, 2);
+      const int kind = sqlite3_column_int(st.s, 3);
+      if (kind != 0 && kind != 1) return makeError(what, ": kind ", kind);
+      e.constraint.kind = static_cast<ConstraintKind>(kind);
+      e.constraint.accepted = sqlite3_column_int(st.s, 4) != 0;
+      e.constraint.utime = sqlite3_column_int64(st.s, 5);
+      auto pose = poseFromBlob(sqlite3_column_blob(st.s, 6), sqlite3_column_bytes(st.s, 6), what);
+      if (!pose) return pose.error();
+      e.constraint.from_T_to.mean = *pose;
+      if (sqlite3_column_bytes(st.s, 7) != 36 * static_cast<int>(sizeof(double)))
+        return makeError(what, ": covariance blob of ", sqlite3_column_bytes(st.s, 7), " bytes");
+      Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov;
+      std::memcpy(cov.data(), sqlite3_column_blob(st.s, 7), 36 * sizeof(double));
+      e.constraint.from_T_to.covariance = cov;
+      out.edges.push_back(e);
+    }
+  }
+  return out;
+}
+
+Status MapStore::integrityCheck() const {
+  Statement st;
+  if (sqlite3_prepare_v2(db_, "PRAGMA integrity_check", -1, &st.s, nullptr) || sqlite3_step(st.s) != SQLITE_ROW)
+    return makeError(file_.string(), ": integrity_check failed to run");
+  const char* r = reinterpret_cast<const char*>(sqlite3_column_text(st.s, 0));
+  if (!r || std::string(r) != "ok") return makeError(file_.string(), ": integrity_check: ", r ? r : "(null)");
+  return Ok{};
+}
+
+}  // namespace evermap::mapper

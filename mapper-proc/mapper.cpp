@@ -1,0 +1,486 @@
+#include "mapper-proc/mapper.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include <Eigen/Cholesky>
+
+#include "core/solver/marginals.h"
+#include "core/solver/pose_factors.h"
+
+namespace evermap::mapper {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+int64_t micros(double s) { return static_cast<int64_t>(std::llround(s * 1e6)); }
+
+Eigen::MatrixXd sqrtInformation(const core::Mat6& covariance, double floor) {
+  const core::Mat6 c = covariance + floor * core::Mat6::Identity();
+  // Upper-triangular W with WᵀW = Σ⁻¹: the transposed Cholesky factor of the information.
+  const core::Mat6 info = c.ldlt().solve(core::Mat6::Identity());
+  const core::Mat6 sym = 0.5 * (info + info.transpose());
+  Eigen::LLT<core::Mat6> llt(sym);
+  return Eigen::MatrixXd(llt.matrixU());
+}
+
+}  // namespace
+
+Status MapperOptions::validate() const {
+  if (!(cell_size_m > 0.0)) return Error{"mapper.cell_size_m: must be > 0"};
+  if (heading_bins < 1) return Error{"mapper.heading_bins: must be >= 1"};
+  if (!(step_interval_s >= 0.0)) return Error{"mapper.step_interval_s: must be >= 0"};
+  if (!(request_timeout_s > 0.0)) return Error{"mapper.request_timeout_s: must be > 0"};
+  if (!(consistency_gate > 0.0)) return Error{"mapper.consistency_gate: must be > 0"};
+  if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
+  if (!(recent_exclusion_s >= 0.0)) return Error{"mapper.recent_exclusion_s: must be >= 0"};
+  if (!(covariance_floor >= 0.0)) return Error{"mapper.covariance_floor: must be >= 0"};
+  if (!(origin_sigma_m > 0.0) || !(origin_sigma_rad > 0.0))
+    return Error{"mapper.origin_sigma: must be > 0"};
+  if (auto s = tracker.validate(); !s) return s;
+  return solver.validate();
+}
+
+std::string MapperStats::text() const {
+  std::ostringstream s;
+  s << "steps " << steps << "\nnodes " << nodes << "\nconstraints " << constraints
+    << "\nfactors " << factors << "\nmerged " << merged << "\nrejected_inconsistent "
+    << rejected_inconsistent << "\nrequests_node " << requests_node << "\nrequests_global "
+    << requests_global << "\nregistrations_ok " << registrations_ok << "\nloop_closures "
+    << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept
+    << "\nrejected_map_gate " << rejected_map_gate << "\nrelocalizations " << relocalizations << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\n";
+  return s.str();
+}
+
+Mapper::Mapper(const MapperOptions& options, int session)
+    : o_(options),
+      session_(session),
+      grid_{options.cell_size_m, options.heading_bins},
+      tracker_(options.tracker),
+      constraints_(options.consistency_gate),
+      solver_(options.solver) {}
+
+Status Mapper::onVo(const vo_delta_t& msg) {
+  const auto t0 = Clock::now();
+  const Status s = tracker_.addVo(msg);
+  stats_.timing.tracking_s += secondsSince(t0);
+  if (!s) {
+    ++stats_.dropped;
+    return s;
+  }
+  checkTimeout(msg.utime);
+  if (msg.keyframe_changed && (msg.status == vo_delta_t::STATUS_OK || msg.ref_utime == msg.utime) &&
+      !in_flight_ && (last_step_utime_ < 0 || msg.utime - last_step_utime_ >= micros(o_.step_interval_s)))
+    step(msg.utime);
+  return Ok{};
+}
+
+Status Mapper::onWheel(const wheel_odom_t& msg) {
+  const auto t0 = Clock::now();
+  const Status s = tracker_.addWheel(msg);
+  stats_.timing.tracking_s += secondsSince(t0);
+  if (!s) ++stats_.dropped;
+  return s;
+}
+
+Status Mapper::onAttitude(const attitude_t& msg) {
+  const bool finite = std::isfinite(msg.roll_rad) && std::isfinite(msg.pitch_rad) &&
+                      std::isfinite(msg.covariance[0]) && std::isfinite(msg.covariance[1]) &&
+                      std::isfinite(msg.covariance[2]) && std::isfinite(msg.covariance[3]);
+  if (!finite || msg.utime <= last_attitude_utime_ || !(msg.covariance[0] > 0.0) ||
+      !(msg.covariance[3] > 0.0)) {
+    ++stats_.dropped;
+    return makeError("ATTITUDE ", msg.utime, ": not finite, out of order or no variance");
+  }
+  last_attitude_utime_ = msg.utime;
+  if (msg.accel_trusted) attitude_ = msg;
+  return Ok{};
+}
+
+Status Mapper::onFloor(const floor_t& msg) {
+  if (!std::isfinite(msg.height_m) || !std::isfinite(msg.height_sigma_m) || msg.height_sigma_m < 0 ||
+      msg.utime < last_floor_utime_) {
+    ++stats_.dropped;
+    return makeError("FLOOR ", msg.utime, ": not finite or out of order");
+  }
+  last_floor_utime_ = msg.utime;
+  if (msg.event == floor_t::EVENT_RIDE_START) return Ok{};
+  if (msg.event == floor_t::EVENT_NONE && have_floor_ && active_ >= 0) {
+    // A new session starts (the operator sets the floor): where the robot is relative to the
+    // map is unknown until a global registration re-localises it (DESIGN.md section 3).
+    lost_ = true;
+    ++session_;
+  }
+  if (have_floor_ && msg.event == floor_t::EVENT_RIDE_END && active_ >= 0) {
+    // The ride's vertical displacement, as far as odometry has not seen it already (VO may
+    // track through the cab; wheels never do): the estimate is moved to the measured height.
+    tracker_.addHeight(msg.height_m - pose().mean.translation().z(), std::max(msg.height_sigma_m, 0.01));
+  }
+  floor_ = msg.floor_index;
+  floor_height_m_ = msg.height_m;
+  if (floor_ >= 0) floors_.emplace(floor_, msg.height_m);
+  have_floor_ = true;
+  return Ok{};
+}
+
+std::vector<register_request_t> Mapper::takeRequests() { return std::exchange(requests_, {}); }
+std::vector<node_added_t> Mapper::takeNodesAdded() { return std::exchange(nodes_added_, {}); }
+
+core::SE3d Mapper::nodePose(int64_t id) const { return solver_.estimate(id).se3; }
+
+core::UncertainPose Mapper::pose() const {
+  core::UncertainPose p = tracker_.delta();
+  if (active_ >= 0) p.mean = nodePose(active_) * p.mean;
+  return p;
+}
+
+core::PlanarCell Mapper::cellOf(const core::SE3d& world_T_body, int floor) const {
+  return grid_.cellOf(core::toPlanar(world_T_body), floor);
+}
+
+std::optional<int64_t> Mapper::nodeInCell(const core::PlanarCell& cell, int64_t newest_allowed) const {
+  auto it = cells_.find(cell);
+  if (it == cells_.end()) return std::nullopt;
+  // The most recently added node of the cell (paper section IV-B).
+  for (auto id = it->second.rbegin(); id != it->second.rend(); ++id)
+    if (nodes_[*id].keyframe_utime <= newest_allowed) return *id;
+  return std::nullopt;
+}
+
+void Mapper::rebuildCells() {
+  const auto t0 = Clock::now();
+  cells_.clear();
+  const solver::Values est = solver_.estimate();
+  for (const MapperNode& n : nodes_) cells_[cellOf(est[n.id].se3, n.floor)].push_back(n.id);
+  stats_.timing.partition_s += secondsSince(t0);
+}
+
+void Mapper::addConstraint(int64_t from, int64_t to, const core::UncertainPose& from_T_to,
+                           ConstraintKind kind, int64_t utime) {
+  Constraint c;
+  c.from = from;
+  c.to = to;
+  c.from_T_to = from_T_to;
+  c.kind = kind;
+  c.utime = utime;
+  const ConstraintSet::Pair* pair = nullptr;
+  const auto outcome = constraints_.add(c, &pair);
+  ++stats_.constraints;
+  if (outcome == ConstraintSet::Outcome::kRejected) {
+    ++stats_.rejected_inconsistent;
+    return;
+  }
+  const auto key = std::make_pair(pair->i, pair->j);
+  if (outcome == ConstraintSet::Outcome::kMerged) {
+    ++stats_.merged;
+    // The merged estimate replaces the pair's factor.
+    auto it = pair_factor_.find(key);
+    if (it != pair_factor_.end()) {
+      pending_update_.remove_factors.push_back(it->second);
+      pair_factor_.erase(it);
+    }
+  }
+  auto factor = std::make_shared<solver::RelativePose3Factor>(
+      pair->i, pair->j, pair->i_T_j.mean, sqrtInformation(pair->i_T_j.covariance, o_.covariance_floor),
+      solver::RelativePose3Factor::Convention::kLog);
+  // Loop closures can be false matches that no other measurement of their pair contradicts
+  // yet: a robust kernel lets the rest of the graph outvote them.
+  if (kind == ConstraintKind::kLoop) loop_pairs_.insert(key);
+  if (loop_pairs_.count(key) && o_.loop_kernel.active()) factor->setKernel(o_.loop_kernel);
+  // A merge within one update replaces the factor still waiting in the request.
+  for (size_t k = 0; k < pending_pairs_.size(); ++k) {
+    if (pending_pairs_[k] == key) {
+      pending_update_.new_factors[pending_factor_slot_[k]] = factor;
+      return;
+    }
+  }
+  pending_pairs_.push_back(key);
+  pending_factor_slot_.push_back(pending_update_.new_factors.size());
+  pending_update_.new_factors.push_back(factor);
+}
+
+int64_t Mapper::addNode(int64_t keyframe_utime, const core::UncertainPose& active_T_node) {
+  const int64_t id = static_cast<int64_t>(nodes_.size());
+  core::SE3d world_T_node = active_T_node.mean;
+  if (active_ >= 0) {
+    world_T_node = nodePose(active_) * active_T_node.mean;
+  } else {
+    // The first pose defines the origin (section III-B), at the floor's height.
+    world_T_node = core::SE3d(core::SO3d(), core::Vec3(0, 0, floor_height_m_));
+  }
+  pending_update_.new_variables.emplace_back(id, solver::PoseValue::spatial(world_T_node));
+  if (active_ < 0) {
+    Eigen::MatrixXd W = Eigen::MatrixXd::Zero(6, 6);
+    W.diagonal() << core::Vec3::Constant(1.0 / o_.origin_sigma_m), core::Vec3::Constant(1.0 / o_.origin_sigma_rad);
+    pending_update_.new_factors.push_back(std::make_shared<solver::PosePrior3Factor>(id, world_T_node, W));
+    pending_pairs_.emplace_back(-1, -1);
+    pending_factor_slot_.push_back(pending_update_.new_factors.size() - 1);
+  } else {
+    addConstraint(active_, id, active_T_node, ConstraintKind::kOdometry, keyframe_utime);
+  }
+  if (o_.height_factors && have_floor_) {
+    pending_update_.new_factors.push_back(std::make_shared<solver::HeightFactor>(id, floor_height_m_, 0.02));
+    pending_pairs_.emplace_back(-1, -1);
+    pending_factor_slot_.push_back(pending_update_.new_factors.size() - 1);
+  }
+  if (o_.attitude_factors && attitude_ && keyframe_utime - attitude_->utime <= micros(1.0)) {
+    Eigen::Matrix2d cov;
+    cov << attitude_->covariance[0], attitude_->covariance[1], attitude_->covariance[2], attitude_->covariance[3];
+    const Eigen::Matrix2d info = cov.inverse();
+    Eigen::LLT<Eigen::Matrix2d> llt(0.5 * (info + info.transpose()));
+    if (llt.info() == Eigen::Success) {
+      pending_update_.new_factors.push_back(std::make_shared<solver::RollPitchFactor>(
+          id, attitude_->roll_rad, attitude_->pitch_rad, Eigen::MatrixXd(llt.matrixU())));
+      pending_pairs_.emplace_back(-1, -1);
+      pending_factor_slot_.push_back(pending_update_.new_factors.size() - 1);
+    }
+  }
+  nodes_.push_back(MapperNode{id, keyframe_utime, floor_, session_});
+  node_added_t msg{};
+  msg.utime = keyframe_utime;
+  msg.node_id = id;
+  msg.keyframe_utime = keyframe_utime;
+  msg.floor = floor_;
+  msg.session = session_;
+  nodes_added_.push_back(msg);
+  active_ = id;
+  ++stats_.nodes;
+  return id;
+}
+
+void Mapper::flushSolver() {
+  if (pending_update_.new_variables.empty() && pending_update_.new_factors.empty() &&
+      pending_update_.remove_factors.empty())
+    return;
+  const auto t0 = Clock::now();
+  auto result = solver_.update(pending_update_);
+  const double dt = secondsSince(t0);
+  stats_.timing.solver_s += dt;
+  stats_.timing.update_s.push_back(dt);
+  // Contract: the mapper only builds updates over keys it created, with finite factors.
+  if (!result) {
+    std::fprintf(stderr, "evermap-mapper: solver update failed: %s\n", result.error().message.c_str());
+    std::abort();
+  }
+  for (size_t k = 0; k < pending_pairs_.size(); ++k)
+    if (pending_pairs_[k].first >= 0)
+      pair_factor_[pending_pairs_[k]] = result->new_factor_ids[pending_factor_slot_[k]];
+  pending_update_ = {};
+  pending_pairs_.clear();
+  pending_factor_slot_.clear();
+  stats_.factors = static_cast<int64_t>(pair_factor_.size());
+  rebuildCells();
+}
+
+void Mapper::sendRequest(int8_t mode, int64_t target) {
+  register_request_t r{};
+  r.utime = in_flight_->keyframe_utime;
+  r.request_id = next_request_id_++;
+  r.keyframe_utime = in_flight_->keyframe_utime;
+  r.mode = mode;
+  r.target_node_id = mode == register_request_t::MODE_NODE ? target : -1;
+  r.floor = floor_;
+  r.session = session_;
+  in_flight_->request_id = r.request_id;
+  in_flight_->mode = mode;
+  (mode == register_request_t::MODE_NODE ? stats_.requests_node : stats_.requests_global)++;
+  requests_.push_back(r);
+}
+
+void Mapper::step(int64_t keyframe_utime) {
+  ++stats_.steps;
+  last_step_utime_ = keyframe_utime;
+  if (nodes_.empty()) {
+    addNode(keyframe_utime, core::UncertainPose{});
+    tracker_.reset(tracker_.sinceKeyframe(keyframe_utime).value_or(core::UncertainPose{}));
+    flushSolver();
+    step_poses_.push_back(StepPose{keyframe_utime, active_, core::SE3d()});
+    return;
+  }
+  InFlight f;
+  f.keyframe_utime = keyframe_utime;
+  f.sent_utime = keyframe_utime;
+  if (o_.full_graph && !lost_) {
+    // The baseline: a node at every step, chained by the tracked motion.
+    addNode(keyframe_utime, tracker_.delta());
+    tracker_.reset(core::UncertainPose{});
+    flushSolver();
+  }
+  f.active = active_;
+  f.delta_at_keyframe = tracker_.delta();
+  in_flight_ = f;
+  const core::SE3d world_T_body = nodePose(active_) * f.delta_at_keyframe.mean;
+  const core::PlanarCell cell = cellOf(world_T_body, floor_);
+  std::optional<int64_t> target;
+  if (o_.full_graph) {
+    target = nodeInCell(cell, keyframe_utime - micros(o_.recent_exclusion_s));
+  } else {
+    target = nodeInCell(cell, keyframe_utime);
+    if (!target) target = active_;
+  }
+  if (target && !lost_) sendRequest(register_request_t::MODE_NODE, *target);
+  else sendRequest(register_request_t::MODE_GLOBAL, -1);
+}
+
+void Mapper::checkTimeout(int64_t utime) {
+  if (in_flight_ && utime - in_flight_->sent_utime > micros(o_.request_timeout_s)) {
+    ++stats_.timeouts;
+    finishStep(false);
+  }
+}
+
+Status Mapper::onRegisterResult(const register_result_t& msg) {
+  if (!in_flight_ || msg.request_id != in_flight_->request_id ||
+      msg.keyframe_utime != in_flight_->keyframe_utime) {
+    ++stats_.dropped;
+    return makeError("REGISTER_RESULT ", msg.request_id, ": no such request in flight");
+  }
+  if (msg.status != register_result_t::STATUS_OK) {
+    if (in_flight_->mode == register_request_t::MODE_NODE) {
+      sendRequest(register_request_t::MODE_GLOBAL, -1);  // then the global search
+    } else {
+      finishStep(false);
+    }
+    return Ok{};
+  }
+  const auto t0 = Clock::now();
+  const InFlight f = *in_flight_;
+  bool registered = false;
+  Status status = Ok{};
+  bool finite = std::isfinite(msg.translation[0]) && std::isfinite(msg.translation[1]) &&
+                std::isfinite(msg.translation[2]);
+  for (double q : msg.orientation) finite = finite && std::isfinite(q);
+  auto cov = covarianceFromMessage(msg.covariance, "REGISTER_RESULT");
+  if (!finite || !cov || msg.node_id < 0 || msg.node_id >= static_cast<int64_t>(nodes_.size())) {
+    ++stats_.dropped;
+    status = makeError("REGISTER_RESULT ", msg.request_id, ": malformed pose, covariance or node id");
+  } else {
+    ++stats_.registrations_ok;
+    handleRegistration(msg, f, *cov, &registered);
+  }
+  stats_.timing.registration_s += secondsSince(t0);
+  finishStep(registered);
+  return status;
+}
+
+void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f, const core::Mat6& cam_cov,
+                                bool* registered) {
+  const int64_t b = msg.node_id;
+  const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2], msg.orientation[3]);
+  const core::SE3d cam_T = core::SE3d(q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2]));
+  const core::SE3d& A = o_.tracker.body_T_cam;
+  const core::Mat6 ad = A.adjoint();
+  core::UncertainPose b_T_q;  // registration, body frames (paper eq. 9)
+  b_T_q.mean = A * cam_T * A.inverse();
+  b_T_q.covariance = ad * cam_cov * ad.transpose();
+  const auto q_T_now = tracker_.sinceKeyframe(f.keyframe_utime);
+  if (!q_T_now) {
+    ++stats_.dropped;
+    return;
+  }
+  if (lost_) {
+    *registered = true;
+    // Re-localisation: b becomes active, no constraint (Δ had no meaning before it).
+    active_ = b;
+    tracker_.reset(core::compound(b_T_q, *q_T_now));
+    lost_ = false;
+    relocalize_ = false;
+    ++stats_.relocalizations;
+    return;
+  }
+  if (o_.full_graph) {
+    if (nodes_[b].keyframe_utime > f.keyframe_utime - micros(o_.recent_exclusion_s)) return;
+    addConstraint(f.active, b, core::compound(f.delta_at_keyframe, core::invert(b_T_q)), ConstraintKind::kLoop,
+                  f.keyframe_utime);
+    ++stats_.loop_closures;
+    *registered = true;
+    return;
+  }
+  *registered = true;
+  if (b == f.active) {
+    // A registration that contradicts the tracked Δ is not trusted with it (a false match).
+    if (o_.map_gate > 0 && ConstraintSet::mahalanobis2(f.delta_at_keyframe, b_T_q) > o_.map_gate) {
+      ++stats_.rejected_map_gate;
+      *registered = false;
+      return;
+    }
+    // Entropy test of section III-B.3: keep the better-determined estimate of Δ.
+    if (relocalize_ || f.delta_at_keyframe.covariance.determinant() > b_T_q.covariance.determinant()) {
+      tracker_.reset(core::compound(b_T_q, *q_T_now));
+      relocalize_ = false;
+      ++stats_.delta_replaced;
+    } else {
+      ++stats_.delta_kept;
+    }
+    return;
+  }
+  const core::UncertainPose a_T_b = core::compound(f.delta_at_keyframe, core::invert(b_T_q));
+  if (!consistentWithMap(f.active, b, a_T_b)) {
+    ++stats_.rejected_map_gate;
+    *registered = false;
+    return;
+  }
+  const size_t rejected_before = constraints_.rejected();
+  // The chain active → keyframe → b, compounded (eq. 6-7): a constraint between existing nodes.
+  addConstraint(f.active, b, a_T_b, ConstraintKind::kLoop, f.keyframe_utime);
+  if (constraints_.rejected() != static_cast<int64_t>(rejected_before)) {
+    *registered = false;  // an inconsistent closure: neither the map nor Δ trusts it
+    return;
+  }
+  ++stats_.loop_closures;
+  active_ = b;
+  tracker_.reset(core::compound(b_T_q, *q_T_now));
+  // Δ now reuses the registration the constraint holds: re-localise at the next chance.
+  relocalize_ = true;
+}
+
+bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b) {
+  if (!(o_.map_gate > 0)) return true;
+  // The map's own estimate of a_T_b with its marginal covariance (the joint marginal of a and
+  // b through the relative-pose Jacobians), against the measured chain.
+  const auto t0 = Clock::now();
+  const solver::Marginals marginals = solver::Marginals::fromSolver(solver_);
+  const std::vector<solver::Key> keys{a, b};
+  auto joint = marginals.joint(keys);
+  stats_.timing.registration_s += secondsSince(t0);
+  if (!joint) return true;  // no marginal: nothing to test against
+  core::Mat6 Ja, Jb;
+  core::UncertainPose predicted;
+  predicted.mean = core::between(nodePose(a), nodePose(b), &Ja, &Jb);
+  Eigen::Matrix<double, 6, 12> J;
+  J << Ja, Jb;
+  predicted.covariance = J * (*joint) * J.transpose();
+  return ConstraintSet::mahalanobis2(predicted, a_T_b) <= o_.map_gate;
+}
+
+void Mapper::finishStep(bool registered) {
+  const InFlight f = *in_flight_;
+  in_flight_.reset();
+  const auto t0 = Clock::now();
+  if (lost_) {
+    // Not re-localised yet: neither a node nor a step pose from a meaningless Δ.
+    stats_.timing.partition_s += secondsSince(t0);
+    return;
+  }
+  if (!registered && !o_.full_graph) {
+    const core::SE3d world_T_body = nodePose(f.active) * f.delta_at_keyframe.mean;
+    if (!nodeInCell(cellOf(world_T_body, floor_), f.keyframe_utime)) {
+      // A new place (eq. 8): the node at the keyframe, then Δ restarts from it.
+      addNode(f.keyframe_utime, f.delta_at_keyframe);
+      tracker_.reset(tracker_.sinceKeyframe(f.keyframe_utime).value_or(core::UncertainPose{}));
+      relocalize_ = false;
+    }
+  }
+  stats_.timing.partition_s += secondsSince(t0);
+  flushSolver();
+  const auto q_T_now = tracker_.sinceKeyframe(f.keyframe_utime);
+  const core::SE3d node_T_q = tracker_.delta().mean * (q_T_now ? q_T_now->mean.inverse() : core::SE3d());
+  step_poses_.push_back(StepPose{f.keyframe_utime, active_, node_T_q});
+}
+
+}  // namespace evermap::mapper

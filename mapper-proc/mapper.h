@@ -1,0 +1,216 @@
+#pragma once
+// The reduced pose graph mapper: Algorithm 1 of the paper (section III), and the full pose
+// graph baseline through the same code (DESIGN.md section 3).
+//
+// Driven by messages and their time stamps only. At a VO keyframe, at most once every
+// step_interval_s of message time, the mapper takes a *step* of Algorithm 1:
+//   1. register the keyframe against the node of the current partition cell (the closest
+//      node; the active node when the cell is empty) — MODE_NODE;
+//   2. if that fails, a global appearance search on the current floor — MODE_GLOBAL;
+//   3. a registration to the active node replaces Δ when det(Σ_t^a) > det(Σ_t^b) (or
+//      always, right after a loop closure: the re-localisation of section III-B.3); one to
+//      another node b adds the constraint a_T_b = Δ_q ⊕ ⊖(b_T_q) between existing nodes and
+//      makes b active with Δ = b_T_q ⊕ q_T_now;
+//   4. with no registration, a node is added if the estimate x_a ⊕ Δ falls in a
+//      (floor, x, y, heading) cell with no node (eq. 8); it becomes active, Δ restarts.
+// Full pose graph mode adds a node at every step before step 1, registers against nodes
+// other than the recent ones, and never switches the active node.
+//
+// Requests go out through requests(); the answer comes back through onRegisterResult(),
+// at once (offline runner) or later (LCM). One step is in flight at a time; keyframes
+// arriving meanwhile are tracked but take no step. A step whose answer does not come within
+// request_timeout_s of message time is closed as "no registration".
+
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <evermap/attitude_t.hpp>
+#include <evermap/floor_t.hpp>
+#include <evermap/node_added_t.hpp>
+#include <evermap/register_request_t.hpp>
+#include <evermap/register_result_t.hpp>
+
+#include "core/geometry/se2.h"
+#include "core/solver/incremental_solver.h"
+#include "mapper-proc/constraint_set.h"
+#include "mapper-proc/tracker.h"
+
+namespace evermap::mapper {
+
+struct MapperOptions {
+  // false: the reduced pose graph; true: a node at every step (the paper's baseline).
+  bool full_graph = false;
+  // Partition of each floor (paper section IV-B): cell edge in metres, heading sectors.
+  double cell_size_m = 1.0;
+  int heading_bins = 8;
+  // Steps at VO keyframes at most this often, seconds of message time (loopclose-proc's 2 Hz).
+  double step_interval_s = 0.5;
+  // An unanswered registration closes after this long, seconds of message time.
+  double request_timeout_s = 5.0;
+  // χ² gate (6 dof) for constraints of one pair to be merged; 16.81 = 99 %.
+  double consistency_gate = 16.81;
+  // Full graph: nodes added within this many seconds before the step are not loop targets.
+  double recent_exclusion_s = 20.0;
+  // Added to every constraint covariance's diagonal before inversion (m², rad²).
+  double covariance_floor = 1e-10;
+  // Prior on the first node: standard deviations, metres and radians.
+  double origin_sigma_m = 1e-3;
+  double origin_sigma_rad = 1e-3;
+  // Partial factors: IMU roll/pitch and floor heights on each node.
+  bool attitude_factors = true;
+  bool height_factors = true;
+  // Robust kernel on factors of pairs that hold a loop closure (DCS, Agarwal et al. 2013).
+  solver::RobustKernel loop_kernel{solver::KernelType::kDcs, 20.0};
+  // χ² gate (6 dof) of a registration against what the map already says: a closure's a_T_b
+  // against the map estimate with its marginal covariance, an active-node registration
+  // against Δ. Catches false matches the per-pair test cannot see (a pair's first
+  // constraint). 0 disables; 22.46 = 99.9 %.
+  double map_gate = 22.46;
+  TrackerOptions tracker;
+  solver::IncrementalOptions solver;
+
+  Status validate() const;
+};
+
+struct MapperNode {
+  int64_t id = 0;
+  int64_t keyframe_utime = 0;
+  int floor = 0;
+  int session = 0;
+};
+
+// Per-component time (wall clock, measurement only: never an input to the algorithm).
+struct MapperTiming {
+  double tracking_s = 0.0;
+  double registration_s = 0.0;   // handling results: constraints, Δ replacement
+  double partition_s = 0.0;      // cell index rebuild and new-place tests
+  double solver_s = 0.0;
+  std::vector<double> update_s;  // solver time of each step that changed the graph
+};
+
+struct MapperStats {
+  int64_t steps = 0;
+  int64_t nodes = 0;
+  int64_t constraints = 0;        // every constraint made (kept in the constraint set)
+  int64_t factors = 0;            // pair factors the solver holds
+  int64_t merged = 0;
+  int64_t rejected_inconsistent = 0;
+  int64_t requests_node = 0;
+  int64_t requests_global = 0;
+  int64_t registrations_ok = 0;
+  int64_t loop_closures = 0;      // constraints to another existing node
+  int64_t delta_replaced = 0;     // active-node registrations that replaced Δ
+  int64_t delta_kept = 0;         // ... that lost the det(Σ) test
+  int64_t rejected_map_gate = 0;  // registrations that contradicted the map or Δ
+  int64_t relocalizations = 0;   // a new session tied to the map by a global registration
+  int64_t timeouts = 0;
+  int64_t dropped = 0;            // malformed, stale or out-of-order messages
+  MapperTiming timing;
+  std::string text() const;
+};
+
+class Mapper {
+ public:
+  explicit Mapper(const MapperOptions& options, int session = 0);
+
+  // Inputs. Each returns an error for a message it drops (also counted).
+  Status onVo(const vo_delta_t& msg);
+  Status onWheel(const wheel_odom_t& msg);
+  Status onAttitude(const attitude_t& msg);
+  Status onFloor(const floor_t& msg);
+  Status onRegisterResult(const register_result_t& msg);
+
+  // Outputs produced since the last call.
+  std::vector<register_request_t> takeRequests();
+  std::vector<node_added_t> takeNodesAdded();
+
+  // The current estimate: world_T_body now.
+  core::UncertainPose pose() const;
+  core::SE3d nodePose(int64_t id) const;
+  const std::vector<MapperNode>& nodes() const { return nodes_; }
+  int64_t activeNode() const { return active_; }
+  const ConstraintSet& constraints() const { return constraints_; }
+  const solver::IncrementalSolver& solver() const { return solver_; }
+  const Tracker& tracker() const { return tracker_; }
+  const MapperStats& stats() const { return stats_; }
+  int floor() const { return floor_; }
+  // Floor index -> height (metres), as the FLOOR messages reported them.
+  const std::map<int, double>& floors() const { return floors_; }
+
+  // The tracked pose at every step: (utime, node, node_T_body). With the final node
+  // estimates this gives the trajectory both modes are compared on.
+  struct StepPose {
+    int64_t utime;
+    int64_t node;
+    core::SE3d node_T_body;
+  };
+  const std::vector<StepPose>& stepPoses() const { return step_poses_; }
+
+ private:
+  struct InFlight {
+    int64_t request_id = 0;
+    int64_t keyframe_utime = 0;
+    int64_t sent_utime = 0;
+    int8_t mode = 0;
+    int64_t active = -1;
+    core::UncertainPose delta_at_keyframe;  // active_T_keyframe
+  };
+
+  void step(int64_t keyframe_utime);
+  void sendRequest(int8_t mode, int64_t target);
+  void finishStep(bool registered);
+  void handleRegistration(const register_result_t& msg, const InFlight& f, const core::Mat6& cam_cov,
+                          bool* registered);
+  int64_t addNode(int64_t keyframe_utime, const core::UncertainPose& active_T_node);
+  void addConstraint(int64_t from, int64_t to, const core::UncertainPose& from_T_to,
+                     ConstraintKind kind, int64_t utime);
+  bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b);
+  void flushSolver();
+  void rebuildCells();
+  core::PlanarCell cellOf(const core::SE3d& world_T_body, int floor) const;
+  std::optional<int64_t> nodeInCell(const core::PlanarCell& cell, int64_t newest_allowed) const;
+  void checkTimeout(int64_t utime);
+
+  MapperOptions o_;
+  int session_;
+  core::PlanarGrid grid_;
+  Tracker tracker_;
+  ConstraintSet constraints_;
+  solver::IncrementalSolver solver_;
+  solver::UpdateRequest pending_update_;
+  std::map<std::pair<int64_t, int64_t>, solver::FactorId> pair_factor_;
+  // For each factor of pending_update_ that stands for a node pair: the pair ((-1, -1) for
+  // priors) and its slot in new_factors.
+  std::vector<std::pair<int64_t, int64_t>> pending_pairs_;
+  std::vector<size_t> pending_factor_slot_;
+  std::set<std::pair<int64_t, int64_t>> loop_pairs_;
+
+  std::vector<MapperNode> nodes_;
+  std::unordered_map<core::PlanarCell, std::vector<int64_t>, core::PlanarCellHash> cells_;
+  int64_t active_ = -1;
+  bool relocalize_ = false;
+  bool lost_ = false;        // a new session that no global registration has placed yet  // after a loop closure: the next registration to b replaces Δ
+  int floor_ = 0;
+  double floor_height_m_ = 0.0;
+  std::map<int, double> floors_;
+  bool have_floor_ = false;
+  std::optional<attitude_t> attitude_;
+  int64_t last_step_utime_ = -1;
+  int64_t last_floor_utime_ = -1;
+  int64_t last_attitude_utime_ = -1;
+  int64_t next_request_id_ = 1;
+  std::optional<InFlight> in_flight_;
+  std::vector<register_request_t> requests_;
+  std::vector<node_added_t> nodes_added_;
+  std::vector<StepPose> step_poses_;
+  MapperStats stats_;
+};
+
+}  // namespace evermap::mapper

@@ -1,0 +1,99 @@
+#pragma once
+// Tracking of Δ_t^a, the pose of the robot's body relative to the active node, with its
+// covariance (paper section III-B.1, eq. 5-7).
+//
+// Visual odometry arrives as ref_T_cur of the camera against its reference keyframe; the
+// keyframe chain is compounded into Δ at every keyframe change (eq. 6-7), and the frames in
+// between ride on top as a pending offset. When VO fails, the last good frame is committed
+// and wheel odometry increments are compounded instead until VO restarts with a new keyframe.
+// Everything is expressed in the body frame: a camera motion D becomes
+// body_T_cam D cam_T_body, covariance Ad(body_T_cam) Σ Ad(body_T_cam)ᵀ (right perturbations).
+//
+// A bounded history of the committed increments lets the mapper compound q_T_now, the motion
+// since a recent keyframe q, when a registration of q comes back.
+
+#include <cstdint>
+#include <deque>
+#include <optional>
+
+#include <evermap/vo_delta_t.hpp>
+#include <evermap/wheel_odom_t.hpp>
+
+#include "core/common/expected.h"
+#include "core/geometry/se3.h"
+
+namespace evermap::mapper {
+
+using core::Mat6;
+using core::SE3d;
+using core::UncertainPose;
+
+struct TrackerOptions {
+  SE3d body_T_cam;  // left camera on the body
+  // Wheel odometry is planar: per increment, the unobserved height, roll and pitch get these
+  // standard deviations (metres, radians) so that Δ's covariance stays positive definite.
+  double wheel_offplane_sigma_m = 0.001;
+  double wheel_offplane_sigma_rad = 0.001;
+  // Committed increments kept for registrations that come back late, seconds of message time.
+  double history_s = 30.0;
+
+  Status validate() const;
+};
+
+struct TrackerCounts {
+  int64_t vo_applied = 0;
+  int64_t vo_failed = 0;       // frames with a failure status
+  int64_t wheel_applied = 0;   // increments compounded while VO was down
+  int64_t dropped = 0;         // malformed, non-finite, out of order or unknown reference
+};
+
+class Tracker {
+ public:
+  explicit Tracker(const TrackerOptions& options);
+
+  // Each returns an error (and counts a drop) for a message it cannot apply.
+  Status addVo(const vo_delta_t& msg);
+  Status addWheel(const wheel_odom_t& msg);
+
+  // Δ_t^a: active_T_body now.
+  UncertainPose delta() const;
+  // Re-initialises Δ (new active node, or a registration replacing it).
+  void reset(const UncertainPose& active_T_body);
+  // Adds a known vertical displacement (an elevator ride), metres, with its standard deviation.
+  void addHeight(double dz_m, double sigma_m);
+
+  // The motion since the keyframe at `utime` (keyframe_T_body now), compounded from the
+  // increments after it; empty when that keyframe is not in the history.
+  std::optional<UncertainPose> sinceKeyframe(int64_t keyframe_utime) const;
+
+  bool voTracking() const { return vo_mode_; }
+  int64_t lastUtime() const { return last_utime_; }
+  const TrackerCounts& counts() const { return counts_; }
+
+ private:
+  struct Increment {
+    int64_t utime;        // end of the increment (a keyframe's utime in VO mode)
+    UncertainPose pose;   // previous commit point _T_ this one
+  };
+  UncertainPose toBody(const SE3d& cam_motion, const Mat6& cam_covariance) const;
+  void commit(int64_t utime, const UncertainPose& increment);
+
+  TrackerOptions o_;
+  Mat6 ad_body_T_cam_;
+  UncertainPose base_;      // active_T_(last commit point)
+  UncertainPose pending_;   // (last commit point)_T_body, from VO frames since the keyframe
+  bool vo_mode_ = false;
+  int64_t ref_utime_ = -1;  // VO's current reference keyframe
+  int64_t last_vo_utime_ = -1;
+  int64_t last_wheel_utime_ = -1;
+  int64_t vo_lost_utime_ = -1;
+  int64_t last_utime_ = -1;
+  std::deque<Increment> history_;
+  TrackerCounts counts_;
+};
+
+// Covariance from a row-major 6x6 message field; an error when non-finite or not symmetric
+// positive semi-definite (within rounding).
+Expected<Mat6> covarianceFromMessage(const double* row_major, const char* what);
+
+}  // namespace evermap::mapper

@@ -1,0 +1,401 @@
+// mapper-proc: the tracker (eq. 6-7), the constraint set, Algorithm 1 on a scripted drive, and
+// the reduced against the full pose graph on a simulated run.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <numbers>
+
+#include "core/sim/registration_oracle.h"
+#include "tests/scratch_dir.h"
+#include "mapper-proc/constraint_set.h"
+#include "mapper-proc/map_store.h"
+#include "mapper-proc/mapper.h"
+#include "mapper-proc/offline_run.h"
+#include "mapper-proc/tracker.h"
+
+namespace evermap::mapper {
+namespace {
+
+using core::Mat6;
+using core::SE3d;
+using core::UncertainPose;
+using core::Vec3;
+using core::Vec6;
+
+SE3d planar(double x, double y, double yaw) {
+  return SE3d(core::SO3d::exp(Vec3(0, 0, yaw)), Vec3(x, y, 0));
+}
+
+vo_delta_t voMsg(int64_t utime, int64_t ref, const SE3d& ref_T_cur, double sigma, bool keyframe) {
+  vo_delta_t m{};
+  m.utime = utime;
+  m.ref_utime = ref;
+  m.status = vo_delta_t::STATUS_OK;
+  m.keyframe_changed = keyframe ? 1 : 0;
+  for (int i = 0; i < 3; ++i) m.translation[i] = ref_T_cur.translation()[i];
+  const auto& q = ref_T_cur.quaternion();
+  m.orientation[0] = q.w();
+  m.orientation[1] = q.x();
+  m.orientation[2] = q.y();
+  m.orientation[3] = q.z();
+  for (int i = 0; i < 6; ++i) m.covariance[7 * i] = sigma * sigma;
+  return m;
+}
+
+vo_delta_t voRestart(int64_t utime) {
+  vo_delta_t m = voMsg(utime, utime, SE3d(), 0.0, true);
+  m.status = vo_delta_t::STATUS_NO_DATA;
+  return m;
+}
+
+TEST(Tracker, CompoundsTheKeyframeChainByEquationsSixAndSeven) {
+  Tracker t(TrackerOptions{});
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  const SE3d step = planar(0.1, 0.0, 0.05);
+  UncertainPose expected;
+  UncertainPose inc{step, Mat6::Identity() * 1e-4};
+  for (int k = 1; k <= 10; ++k) {
+    ASSERT_TRUE(t.addVo(voMsg(k * 100000, (k - 1) * 100000, step, 1e-2, true)));
+    expected = core::compound(expected, inc);
+  }
+  const UncertainPose d = t.delta();
+  EXPECT_LT((d.mean.inverse() * expected.mean).log().norm(), 1e-12);
+  EXPECT_LT((d.covariance - expected.covariance).norm(), 1e-15);
+  // Uncertainty grows along the chain.
+  EXPECT_GT(d.covariance.determinant(), std::pow(1e-4, 6));
+  // The motion since keyframe 4 is the last six increments.
+  const auto since = t.sinceKeyframe(400000);
+  ASSERT_TRUE(since.has_value());
+  SE3d six;
+  for (int k = 0; k < 6; ++k) six = six * step;
+  EXPECT_LT((since->mean.inverse() * six).log().norm(), 1e-12);
+  EXPECT_FALSE(t.sinceKeyframe(450000).has_value());
+}
+
+TEST(Tracker, FallsBackToWheelOdometryWhenVoFails) {
+  Tracker t(TrackerOptions{});
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, true)));
+  vo_delta_t fail = voMsg(200000, 100000, SE3d(), 0, false);
+  fail.status = vo_delta_t::STATUS_INSUFFICIENT_FEATURES;
+  ASSERT_TRUE(t.addVo(fail));
+  EXPECT_FALSE(t.voTracking());
+  for (int k = 3; k <= 7; ++k) {
+    wheel_odom_t w{};
+    w.prev_utime = (k - 1) * 100000;
+    w.utime = k * 100000;
+    w.delta_x_m = 0.2;
+    w.covariance[0] = w.covariance[4] = w.covariance[8] = 1e-4;
+    ASSERT_TRUE(t.addWheel(w));
+  }
+  EXPECT_EQ(t.counts().wheel_applied, 5);
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.1 + 5 * 0.2, 1e-12);
+  // VO restarts: wheel odometry is no longer used.
+  ASSERT_TRUE(t.addVo(voRestart(800000)));
+  wheel_odom_t w{};
+  w.prev_utime = 800000;
+  w.utime = 900000;
+  w.delta_x_m = 5.0;
+  ASSERT_TRUE(t.addWheel(w));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 1.1, 1e-12);
+}
+
+TEST(Tracker, DropsOutOfOrderAndMalformedMessages) {
+  Tracker t(TrackerOptions{});
+  ASSERT_TRUE(t.addVo(voRestart(100)));
+  EXPECT_FALSE(t.addVo(voRestart(50)));
+  vo_delta_t bad = voMsg(200, 100, SE3d(), 1e-3, true);
+  bad.translation[0] = std::nan("");
+  EXPECT_FALSE(t.addVo(bad));
+  vo_delta_t unknown_ref = voMsg(300, 77, SE3d(), 1e-3, true);
+  EXPECT_FALSE(t.addVo(unknown_ref));
+  EXPECT_EQ(t.counts().dropped, 3);
+  EXPECT_LT(t.delta().mean.log().norm(), 1e-15);
+}
+
+TEST(ConstraintSet, AgreeingConstraintsMergeAndInconsistentOnesAreRejected) {
+  ConstraintSet set(16.81);
+  Constraint c;
+  c.from = 3;
+  c.to = 5;
+  c.from_T_to = UncertainPose{planar(1.0, 0, 0), Mat6::Identity() * 0.01};
+  EXPECT_EQ(set.add(c), ConstraintSet::Outcome::kNewPair);
+  // The same pair measured the other way round, slightly differently: merged.
+  Constraint d = c;
+  std::swap(d.from, d.to);
+  d.from_T_to = core::invert(UncertainPose{planar(1.05, 0, 0), Mat6::Identity() * 0.01});
+  EXPECT_EQ(set.add(d), ConstraintSet::Outcome::kMerged);
+  const auto& pair = set.pairs().at({3, 5});
+  EXPECT_NEAR(pair.i_T_j.mean.translation().x(), 1.025, 1e-3);
+  EXPECT_NEAR(pair.i_T_j.covariance(0, 0), 0.005, 1e-4);
+  // Three metres off: rejected, counted, kept.
+  Constraint e = c;
+  e.from_T_to.mean = planar(4.0, 0, 0);
+  EXPECT_EQ(set.add(e), ConstraintSet::Outcome::kRejected);
+  EXPECT_EQ(set.rejected(), 1);
+  EXPECT_EQ(set.merged(), 1);
+  EXPECT_EQ(set.all().size(), 3u);
+  EXPECT_FALSE(set.all().back().accepted);
+  EXPECT_EQ(set.pairs().at({3, 5}).members.size(), 3u);
+}
+
+// A scripted drive along a corridor and back, twice, with exact VO and a registration oracle
+// that answers from the truth within 1.5 m.
+class ScriptedDrive {
+ public:
+  explicit ScriptedDrive(MapperOptions o, double registration_variance = 1e-4)
+      : mapper_(o), registration_variance_(registration_variance) {
+    floor_t f{};
+    f.floor_index = 0;
+    EXPECT_TRUE(mapper_.onFloor(f));
+  }
+
+  // Drives to `goal` in steps of 0.1 m / 0.1 s, keeping the heading of travel.
+  void driveTo(double x, double yaw) {
+    for (;;) {
+      const double dx = x - pose_.translation().x();
+      const double dyaw = core::wrapAngle(yaw - yawOf(pose_));
+      if (std::abs(dx) < 1e-9 && std::abs(dyaw) < 1e-9) return;
+      SE3d next = pose_;
+      if (std::abs(dyaw) > 1e-9) {
+        next = pose_ * planar(0, 0, std::clamp(dyaw, -0.3, 0.3));
+      } else {
+        next = SE3d(pose_.so3(), pose_.translation() + Vec3(std::clamp(dx, -0.1, 0.1), 0, 0));
+      }
+      frame(next);
+    }
+  }
+  Mapper& mapper() { return mapper_; }
+
+ private:
+  static double yawOf(const SE3d& p) { return core::toPlanar(p).theta(); }
+  void frame(const SE3d& next) {
+    utime_ += 100000;
+    if (truth_.empty()) {
+      EXPECT_TRUE(mapper_.onVo(voRestart(utime_)));
+    } else {
+      EXPECT_TRUE(mapper_.onVo(voMsg(utime_, utime_ - 100000, pose_.inverse() * next, 1e-3, true)));
+    }
+    pose_ = next;
+    truth_[utime_] = next;
+    answer();
+  }
+  void answer() {
+    for (int guard = 0; guard < 4; ++guard) {
+      for (const auto& n : mapper_.takeNodesAdded()) node_truth_[n.node_id] = truth_.at(n.keyframe_utime);
+      const auto requests = mapper_.takeRequests();
+      if (requests.empty()) return;
+      for (const auto& r : requests) {
+        register_result_t res{};
+        res.request_id = r.request_id;
+        res.keyframe_utime = r.keyframe_utime;
+        res.status = register_result_t::STATUS_NO_CANDIDATE;
+        const SE3d& q = truth_.at(r.keyframe_utime);
+        int64_t best = -1;
+        double best_d = 1.5;
+        for (const auto& [id, p] : node_truth_) {
+          if (r.mode == register_request_t::MODE_NODE && id != r.target_node_id) continue;
+          const double d = (p.translation() - q.translation()).norm() +
+                           std::abs(core::wrapAngle(yawOf(p) - yawOf(q)));
+          if (d < best_d) best_d = d, best = id;
+        }
+        if (best >= 0) {
+          const SE3d rel = node_truth_.at(best).inverse() * q;
+          res = register_result_t{};
+          res.request_id = r.request_id;
+          res.keyframe_utime = r.keyframe_utime;
+          res.status = register_result_t::STATUS_OK;
+          res.node_id = best;
+          for (int i = 0; i < 3; ++i) res.translation[i] = rel.translation()[i];
+          const auto& qq = rel.quaternion();
+          res.orientation[0] = qq.w();
+          res.orientation[1] = qq.x();
+          res.orientation[2] = qq.y();
+          res.orientation[3] = qq.z();
+          for (int i = 0; i < 6; ++i) res.covariance[7 * i] = registration_variance_;
+        }
+        EXPECT_TRUE(mapper_.onRegisterResult(res));
+      }
+    }
+  }
+
+  Mapper mapper_;
+  double registration_variance_;
+  SE3d pose_;
+  int64_t utime_ = 0;
+  std::map<int64_t, SE3d> truth_;
+  std::map<int64_t, SE3d> node_truth_;
+};
+
+MapperOptions scriptedOptions() {
+  MapperOptions o;
+  o.tracker.body_T_cam = SE3d();
+  o.step_interval_s = 0.3;
+  return o;
+}
+
+void lap(ScriptedDrive& drive) {
+  drive.driveTo(8.0, 0.0);
+  drive.driveTo(8.0, std::numbers::pi);
+  drive.driveTo(0.0, std::numbers::pi);
+  drive.driveTo(0.0, 0.0);
+}
+
+TEST(ReducedGraph, RevisitAddsConstraintNotNode) {
+  ScriptedDrive drive(scriptedOptions());
+  lap(drive);
+  const int64_t nodes_after_first = drive.mapper().stats().nodes;
+  const int64_t constraints_after_first = drive.mapper().stats().constraints;
+  const int64_t closures_after_first = drive.mapper().stats().loop_closures;
+  ASSERT_GT(nodes_after_first, 10);
+  lap(drive);
+  lap(drive);
+  EXPECT_EQ(drive.mapper().stats().nodes, nodes_after_first);
+  EXPECT_GT(drive.mapper().stats().constraints, constraints_after_first);
+  EXPECT_GT(drive.mapper().stats().loop_closures, closures_after_first);
+  EXPECT_EQ(drive.mapper().stats().rejected_inconsistent, 0);
+  // Exact measurements: the map is exact. The origin is the first frame, 0.1 m along x.
+  const SE3d end = drive.mapper().pose().mean;
+  EXPECT_LT((end.translation() - Vec3(-0.1, 0, 0)).norm(), 1e-6);
+  EXPECT_LT(core::rotationAngle(end.so3()), 1e-6);
+}
+
+TEST(FullGraph, AddsANodeAtEveryStepThroughTheSameCode) {
+  MapperOptions o = scriptedOptions();
+  o.full_graph = true;
+  ScriptedDrive drive(o);
+  lap(drive);
+  const int64_t first = drive.mapper().stats().nodes;
+  lap(drive);
+  EXPECT_EQ(drive.mapper().stats().nodes, drive.mapper().stats().steps);
+  EXPECT_GT(drive.mapper().stats().nodes, first + 10);
+}
+
+TEST(ReducedGraph, ActiveNodeRegistrationReplacesDeltaOnlyWhenItIsMoreCertain) {
+  // Registrations far more certain than VO (variance 1e-12 against 1e-6 per frame): every
+  // registration to the active node wins the det(Σ) test.
+  ScriptedDrive sharp(scriptedOptions(), 1e-12);
+  lap(sharp);
+  const auto& a = sharp.mapper().stats();
+  EXPECT_GT(a.delta_replaced, 10);
+  // Registrations far less certain (variance 1): Δ is kept, except for the one forced
+  // re-localisation after each loop closure.
+  ScriptedDrive blurred(scriptedOptions(), 1.0);
+  lap(blurred);
+  const auto& b = blurred.mapper().stats();
+  EXPECT_GT(b.delta_kept, 10);
+  EXPECT_LE(b.delta_replaced, b.loop_closures);
+}
+
+TEST(Mapper, DropsMalformedAndStaleMessagesAndCountsThem) {
+  Mapper m(scriptedOptions());
+  register_result_t stale{};
+  stale.request_id = 42;
+  EXPECT_FALSE(m.onRegisterResult(stale));
+  attitude_t a{};
+  a.utime = 10;
+  a.roll_rad = std::nan("");
+  EXPECT_FALSE(m.onAttitude(a));
+  floor_t f{};
+  f.height_m = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(m.onFloor(f));
+  EXPECT_EQ(m.stats().dropped, 3);
+  EXPECT_EQ(m.stats().nodes, 0);
+}
+
+TEST(MapStore, SavesOneTransactionPerUpdateAndReloadsEveryNodeAndEdge) {
+  evermap::testing::ScratchDir dir;
+  const auto file = dir.path() / "map.db";
+  ScriptedDrive drive(scriptedOptions());
+  {
+    auto store = MapStore::open(file);
+    ASSERT_TRUE(store) << store.error().message;
+    lap(drive);
+    ASSERT_TRUE(store->save(drive.mapper(), 0, 0));
+    lap(drive);
+    ASSERT_TRUE(store->save(drive.mapper(), 0, 0));
+  }
+  // Reopened: nothing is stored twice, and a further update appends.
+  auto store = MapStore::open(file);
+  ASSERT_TRUE(store) << store.error().message;
+  ASSERT_TRUE(store->save(drive.mapper(), 0, 0));
+  ASSERT_TRUE(store->integrityCheck());
+  auto snap = store->load();
+  ASSERT_TRUE(snap) << snap.error().message;
+  const Mapper& m = drive.mapper();
+  ASSERT_EQ(snap->nodes.size(), m.nodes().size());
+  ASSERT_EQ(snap->edges.size(), m.constraints().all().size());
+  ASSERT_EQ(snap->sessions.size(), 1u);
+  ASSERT_EQ(snap->floors.size(), 1u);
+  for (const StoredNode& n : snap->nodes) {
+    EXPECT_LT((n.world_T_body.inverse() * m.nodePose(n.node.id)).log().norm(), 1e-12);
+    EXPECT_EQ(n.node.keyframe_utime, m.nodes()[n.node.id].keyframe_utime);
+  }
+  for (const StoredEdge& e : snap->edges) {
+    const Constraint& c = m.constraints().all()[e.edge_id];
+    EXPECT_EQ(e.constraint.from, c.from);
+    EXPECT_EQ(e.constraint.to, c.to);
+    EXPECT_EQ(e.constraint.accepted, c.accepted);
+    EXPECT_LT((e.constraint.from_T_to.covariance - c.from_T_to.covariance).norm(), 1e-15);
+  }
+}
+
+TEST(MapStore, RejectsAFileThatIsNotAMapStore) {
+  evermap::testing::ScratchDir dir;
+  const auto file = dir.path() / "junk.db";
+  {
+    std::ofstream out(file);
+    out << "this is not sqlite";
+  }
+  auto store = MapStore::open(file);
+  ASSERT_FALSE(store);
+  EXPECT_NE(store.error().message.find("junk.db"), std::string::npos);
+}
+
+sim::SimOptions shortPatrol() {
+  sim::SimOptions o;
+  o.seed = 7;
+  o.building.floors = 3;
+  o.building.main_floor = 1;
+  o.building.main_cross_corridors = 4;
+  o.building.max_cross_corridors = 4;
+  o.patrol.sessions = 1;
+  o.patrol.total_hours = 0.05;
+  o.patrol.span_days = 1;
+  o.patrol.explore_sessions = 1;
+  return o;
+}
+
+TEST(ReducedGraph, HasFarFewerNodesThanTheFullGraphWithComparableAccuracy) {
+  MapperOptions reduced_options;
+  MapperOptions full_options;
+  full_options.full_graph = true;
+  evermap::testing::ScratchDir dir;
+  auto reduced = runOffline(shortPatrol(), reduced_options, dir.path() / "map.db");
+  auto full = runOffline(shortPatrol(), full_options);
+  ASSERT_TRUE(reduced) << reduced.error().message;
+  ASSERT_TRUE(full) << full.error().message;
+  EXPECT_EQ(reduced->step_poses, full->step_poses);
+  EXPECT_LT(reduced->nodes * 5, full->nodes);
+  EXPECT_GT(reduced->stats.loop_closures, 10);
+  EXPECT_EQ(reduced->decode_errors, 0);
+  EXPECT_EQ(reduced->stats.dropped, 0);
+  // Comparable accuracy: a few decimetres over ~300 m, and within 2.5x of the full graph.
+  EXPECT_LT(reduced->ate_rmse_m, 0.5);
+  EXPECT_LT(full->ate_rmse_m, 0.5);
+  EXPECT_LT(reduced->ate_rmse_m, 2.5 * full->ate_rmse_m);
+  // The map store holds the final map: every node and every constraint.
+  auto store = MapStore::open(dir.path() / "map.db");
+  ASSERT_TRUE(store);
+  auto snap = store->load();
+  ASSERT_TRUE(snap);
+  EXPECT_EQ(static_cast<int64_t>(snap->nodes.size()), reduced->nodes);
+  EXPECT_EQ(static_cast<int64_t>(snap->edges.size()), reduced->constraints);
+  EXPECT_GT(reduced->store_transactions, reduced->nodes);
+}
+
+}  // namespace
+}  // namespace evermap::mapper
