@@ -13,6 +13,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "core/bow/vocabulary_io.h"
+#include "loopclose-proc/core_registration.h"
 #include "loopclose-proc/loop_closer.h"
 #include "loopclose-proc/server.h"
 
@@ -28,8 +29,12 @@ constexpr const char* kUsage =
     "  --lcm-url URL    LCM provider (default: LCM's default, $LCM_DEFAULT_URL)\n"
     "  --rate HZ        answers per second of data time (default 2)\n";
 
-// The frame registration: the pluggable part (registration.h).
-std::unique_ptr<FrameRegistration> makeRegistration() { return std::make_unique<NoRegistration>(); }
+// The frame registration: the pluggable part (registration.h); core/registration's by default.
+std::unique_ptr<FrameRegistration> makeRegistration() {
+  auto r = CoreRegistration::create(core::RegistrationOptions{});
+  if (!r) return nullptr;
+  return std::make_unique<CoreRegistration>(std::move(*r));
+}
 
 }  // namespace
 
@@ -84,6 +89,10 @@ int main(int argc, char** argv) {
     store = std::move(*s);
   }
   const std::unique_ptr<FrameRegistration> registration = makeRegistration();
+  if (!registration) {
+    std::fprintf(stderr, "evermap-loopclose-proc: invalid default registration options\n");
+    return 1;
+  }
   auto loop_closer = LoopCloser::create(*vocabulary, *registration, options, std::move(store));
   if (!loop_closer) {
     std::fprintf(stderr, "evermap-loopclose-proc: %s\n", loop_closer.error().message.c_str());

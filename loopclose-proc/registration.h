@@ -1,9 +1,9 @@
 #pragma once
 // The frame registration loopclose-proc calls: the pluggable part. The real one — brute-force
 // Hamming matching with mutual check, maximum-clique inliers, 6-DOF refinement by bidirectional
-// reprojection error, covariance (paper section IV-D) — lives in core/ and is written on the
-// `vo` branch; an adapter implementing this interface slots it in (main.cpp's
-// makeRegistration()). Tests use their own implementations.
+// reprojection error, covariance (paper section IV-D) — lives in core/registration; the
+// adapter CoreRegistration (core_registration.h) implements this interface with it and is
+// main.cpp's default. Tests may use their own implementations.
 
 #include <string>
 
@@ -34,14 +34,13 @@ class FrameRegistration {
 
 namespace evermap::loopclose {
 
-// What loopclose-proc uses until the `vo` branch's registration is slotted in: every
-// registration fails with a reason that says so. (Appearance search, node bookkeeping, the
-// map store and the request protocol all work; no constraint is produced.)
+// Registration switched off: every registration fails with a reason that says so (appearance
+// search, node bookkeeping, the map store and the request protocol still work).
 class NoRegistration final : public FrameRegistration {
  public:
   RegistrationOutcome registerFrames(const Keyframe&, const Keyframe&) override {
     RegistrationOutcome o;
-    o.reason = "no frame registration in this build (core registration not merged yet)";
+    o.reason = "frame registration is switched off (NoRegistration)";
     return o;
   }
   std::string describe() const override { return "none (every registration fails)"; }

@@ -18,6 +18,7 @@
 #include "core/features/orb_descriptor.h"
 #include "core/messages/convert.h"
 #include "core/registration/frame_registration.h"
+#include "euroc_loop_pairs.h"
 #include "test_data.h"
 #include "vo-proc/vo_pipeline.h"
 #include "vo-proc/vo_trajectory.h"
@@ -28,12 +29,7 @@ namespace {
 namespace fs = std::filesystem;
 using core::SE3d;
 
-core::StereoCalibration eurocCalibration(const fs::path& dir) {
-  auto c = datasets::readEurocStereoCalibration(dir / "mav0/cam0/sensor.yaml",
-                                                dir / "mav0/cam1/sensor.yaml");
-  EXPECT_TRUE(c.ok()) << c.error().message;
-  return *c;
-}
+using testing::eurocCalibration;
 
 TEST(VoEuroc, TracksEveryFrameOfTheExcerptAndBarelyMoves) {
   EVERMAP_REQUIRE_DATA(dir, "euroc-v101-micro");
@@ -82,68 +78,17 @@ TEST(VoEuroc, TracksEveryFrameOfTheExcerptAndBarelyMoves) {
   EXPECT_EQ(pipeline->stats().by_status[static_cast<size_t>(VoStatus::kOk)], 94);
 }
 
-// The four images of lcd_pairs: their time stamps (SOURCE.txt).
-constexpr int64_t kPairStampNs[4] = {1403715386762142976, 1403715288312143104,
-                                     1403715400762142976, 1403715400262142976};
-
-struct LoopPairs {
-  std::optional<core::StereoRectifier> rectifier;
-  std::vector<core::KeyframeFeatures> keyframes;
-  std::map<int64_t, SE3d> world_T_body;  // vicon2gt ground truth at the image stamps
-};
-
-LoopPairs loadLoopPairs(const fs::path& dir) {
-  LoopPairs p;
-  auto r = core::StereoRectifier::create(eurocCalibration(dir));
-  EXPECT_TRUE(r.ok());
-  p.rectifier.emplace(std::move(*r));
-  const core::StereoCamera& cam = p.rectifier->camera();
-  OdometryOptions o;
-  auto extractor = core::StereoFeatureExtractor::create(o.features);
-  core::OrbExtractor orb(core::OrbExtractor::Options{});
-  for (int i = 0; i < 4; ++i) {
-    const fs::path pairs = dir / "lcd_pairs";
-    const cv::Mat l = cv::imread((pairs / ("left_img_" + std::to_string(i) + ".png")).string(),
-                                 cv::IMREAD_GRAYSCALE);
-    const cv::Mat rr = cv::imread((pairs / ("right_img_" + std::to_string(i) + ".png")).string(),
-                                  cv::IMREAD_GRAYSCALE);
-    auto rect = p.rectifier->rectify(l, rr);
-    EXPECT_TRUE(rect.ok()) << rect.error().message;
-    core::FeatureFrame frame;
-    // As odometry would have seen them: a few frames settle the adaptive FAST threshold.
-    for (int k = 0; k < 5; ++k) {
-      EXPECT_TRUE(extractor->extract(cam, i, rect->left, rect->right, &frame).ok());
-    }
-    p.keyframes.push_back(core::makeKeyframeFeatures(frame, orb));
-  }
-  // OpenVINS' vicon2gt re-processing of the EuRoC ground truth (groundtruth_openvins/
-  // V1_01_easy.csv), which has rows at exactly the camera stamps.
-  auto gt = datasets::readEurocGroundTruth(dir / "groundtruth_openvins/V1_01_easy.csv",
-                                           datasets::PoseFileLayout::kEurocCsv);
-  EXPECT_TRUE(gt.ok());
-  for (const auto& s : *gt) {
-    for (int64_t t : kPairStampNs) {
-      if (s.t_ns == t) p.world_T_body[t] = s.world_T_body;
-    }
-  }
-  EXPECT_EQ(p.world_T_body.size(), 4u);
-  return p;
-}
-
 TEST(RegistrationEuroc, LoopPairsRegisterWithinFiveCentimetresAndOneDegree) {
   EVERMAP_REQUIRE_DATA(dir, "euroc-v101-micro");
-  const LoopPairs p = loadLoopPairs(dir);
+  const testing::LoopPairs p = testing::loadLoopPairs(dir);
   ASSERT_EQ(p.keyframes.size(), 4u);
   const core::StereoCamera& cam = p.rectifier->camera();
-  // Poses of the rectified left camera: world_T_cam = world_T_body * body_T_rect0.
-  const SE3d body_T_cam = p.rectifier->rectifiedCalibration().left.body_T_cam;
   for (const auto& [a, b] : {std::pair{0, 1}, std::pair{2, 3}}) {
     const core::RegistrationSummary s = core::registerFrames(
         cam, p.keyframes[static_cast<size_t>(a)], cam, p.keyframes[static_cast<size_t>(b)],
         core::RegistrationOptions{});
     ASSERT_TRUE(s.ok()) << "pair (" << a << ", " << b << "): " << s.message;
-    const SE3d truth = (p.world_T_body.at(kPairStampNs[a]) * body_T_cam).inverse() *
-                       (p.world_T_body.at(kPairStampNs[b]) * body_T_cam);
+    const SE3d truth = p.truth(a, b);
     const SE3d err = truth.inverse() * s.a_T_b;
     const double deg = core::rotationAngle(err.so3()) * 180.0 / M_PI;
     std::printf("pair (%d, %d): %s; truth %.3f m %.1f deg; error %.4f m %.3f deg\n", a, b,

@@ -1,0 +1,47 @@
+#include "loopclose-proc/core_registration.h"
+
+#include "core/messages/keyframe_convert.h"
+
+namespace evermap::loopclose {
+
+Expected<CoreRegistration> CoreRegistration::create(const core::RegistrationOptions& options) {
+  if (Status s = options.validate(); !s) {
+    return makeError("registration options: ", s.error().message);
+  }
+  return CoreRegistration(options);
+}
+
+RegistrationOutcome CoreRegistration::registerFrames(const Keyframe& target,
+                                                     const Keyframe& query) {
+  RegistrationOutcome o;
+  // Through keyframe_t: core's converter checks what core's registration relies on (positive
+  // disparity and depth, levels), which loopclose's own validation does not.
+  auto a = messages::fromMsg(toMsg(target));
+  if (!a) {
+    o.reason = "node keyframe: " + a.error().message;
+    return o;
+  }
+  auto b = messages::fromMsg(toMsg(query));
+  if (!b) {
+    o.reason = "query keyframe: " + b.error().message;
+    return o;
+  }
+  const core::RegistrationSummary s =
+      core::registerFrames(a->camera, a->features, b->camera, b->features, options_);
+  o.inliers = s.num_inliers;
+  if (!s.ok()) {
+    o.reason = std::string(core::toString(s.status)) + ": " + s.message;
+    return o;
+  }
+  o.ok = true;
+  o.target_T_query = s.a_T_b;
+  o.covariance = s.covariance;
+  return o;
+}
+
+std::string CoreRegistration::describe() const {
+  return "core registration (descriptor matching, clique inliers, reprojection refinement), "
+         "min " + std::to_string(options_.min_inliers) + " inliers";
+}
+
+}  // namespace evermap::loopclose
