@@ -165,6 +165,23 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
   if (auto s_ = (expr); !s_.ok()) {   \
     return s_.error();                \
   }
+    // Every 2-D edge line is "TAG from to dx dy dθ" and six information numbers whose layout
+    // depends on the format; `sqrtInfo` turns those six into the square-root information.
+    auto planarEdge = [&](auto sqrtInfo) -> Status {
+      GraphEdge e;
+      EVERMAP_TRY(setDim(2, where));
+      EVERMAP_TRY(p.expectFields({11}));
+      EVERMAP_TRY(p.keyAt(1, &e.from));
+      EVERMAP_TRY(p.keyAt(2, &e.to));
+      EVERMAP_TRY(p.numbers(3, 9, v));
+      e.measurement = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
+      auto W = sqrtInfo(v + 3);
+      if (!W.ok()) return W.error();
+      e.sqrt_information = *W;
+      e.line = line_no;
+      g.edges.push_back(std::move(e));
+      return Ok{};
+    };
     if (g.format == GraphFormat::kG2o && tag == "VERTEX_SE2") {
       GraphVertex vx;
       EVERMAP_TRY(setDim(2, where));
@@ -184,18 +201,9 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
       vx.pose = PoseValue::spatial(core::SE3d(q, core::Vec3(v[0], v[1], v[2])));
       EVERMAP_TRY(addVertex(&g, vx, &seen, where));
     } else if (g.format == GraphFormat::kG2o && tag == "EDGE_SE2") {
-      GraphEdge e;
-      EVERMAP_TRY(setDim(2, where));
-      EVERMAP_TRY(p.expectFields({11}));
-      EVERMAP_TRY(p.keyAt(1, &e.from));
-      EVERMAP_TRY(p.keyAt(2, &e.to));
-      EVERMAP_TRY(p.numbers(3, 9, v));
-      e.measurement = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
-      auto W = sqrtInformationFromInformation(upperFromRowMajor(v + 3, 3, true), where);
-      if (!W.ok()) return W.error();
-      e.sqrt_information = *W;
-      e.line = line_no;
-      g.edges.push_back(std::move(e));
+      EVERMAP_TRY(planarEdge([&](const double* info) {
+        return sqrtInformationFromInformation(upperFromRowMajor(info, 3, true), where);
+      }));
     } else if (g.format == GraphFormat::kG2o && tag == "EDGE_SE3:QUAT") {
       GraphEdge e;
       EVERMAP_TRY(setDim(3, where));
@@ -226,36 +234,18 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
       vx.pose = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
       EVERMAP_TRY(addVertex(&g, vx, &seen, where));
     } else if (g.format == GraphFormat::kToro && tag == "EDGE2") {
-      GraphEdge e;
-      EVERMAP_TRY(setDim(2, where));
-      EVERMAP_TRY(p.expectFields({11}));
-      EVERMAP_TRY(p.keyAt(1, &e.from));
-      EVERMAP_TRY(p.keyAt(2, &e.to));
-      EVERMAP_TRY(p.numbers(3, 9, v));
-      e.measurement = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
-      // TORO: Ixx Ixy Iyy Iθθ Ixθ Iyθ.
-      Eigen::Matrix3d I;
-      I << v[3], v[4], v[7],
-           v[4], v[5], v[8],
-           v[7], v[8], v[6];
-      auto W = sqrtInformationFromInformation(I, where);
-      if (!W.ok()) return W.error();
-      e.sqrt_information = *W;
-      e.line = line_no;
-      g.edges.push_back(std::move(e));
+      EVERMAP_TRY(planarEdge([&](const double* info) {
+        // TORO: Ixx Ixy Iyy Iθθ Ixθ Iyθ.
+        Eigen::Matrix3d I;
+        I << info[0], info[1], info[4],
+             info[1], info[2], info[5],
+             info[4], info[5], info[3];
+        return sqrtInformationFromInformation(I, where);
+      }));
     } else if (g.format == GraphFormat::kIsam && (tag == "ODOMETRY" || tag == "EDGE2")) {
-      GraphEdge e;
-      EVERMAP_TRY(setDim(2, where));
-      EVERMAP_TRY(p.expectFields({11}));
-      EVERMAP_TRY(p.keyAt(1, &e.from));
-      EVERMAP_TRY(p.keyAt(2, &e.to));
-      EVERMAP_TRY(p.numbers(3, 9, v));
-      e.measurement = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
-      auto W = checkSqrtInformation(upperFromRowMajor(v + 3, 3, false), where);
-      if (!W.ok()) return W.error();
-      e.sqrt_information = *W;
-      e.line = line_no;
-      g.edges.push_back(std::move(e));
+      EVERMAP_TRY(planarEdge([&](const double* sqrt_info) {
+        return checkSqrtInformation(upperFromRowMajor(sqrt_info, 3, false), where);
+      }));
     } else if (g.format == GraphFormat::kIsam && tag == "EDGE3") {
       GraphEdge e;
       EVERMAP_TRY(setDim(3, where));
