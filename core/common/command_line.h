@@ -1,0 +1,77 @@
+#pragma once
+// The command line of an evermap program: options declared once with their help text, parsed
+// into the caller's variables, with the usage text generated from the same declarations.
+//
+//   CommandLine cli("evermap-map-render", "Draws a map store with its floors stacked.");
+//   std::string store;  double z_gap_m = 4.0;  bool quiet = false;
+//   cli.value("--store", &store, "MAP.db", "the map store to draw", /*required=*/true);
+//   cli.value("--z-gap", &z_gap_m, "M", "vertical distance drawn between floors, metres");
+//   cli.flag("--quiet", &quiet, "print nothing");
+//   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+//
+// Conventions shared by every tool: `--name value` (or `--name=value`), `--help` prints the
+// usage on stdout and exits 0, and a bad command line is one line on stderr naming the
+// option, followed by the usage, exit status 2.
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/common/expected.h"
+
+namespace evermap {
+
+class CommandLine {
+ public:
+  CommandLine(std::string program, std::string summary);
+
+  // A string, number or boolean option that takes a value. Numbers must parse completely
+  // and be finite. `required` options must be given.
+  void value(std::string name, std::string* out, std::string metavar, std::string help,
+             bool required = false);
+  void value(std::string name, double* out, std::string metavar, std::string help,
+             bool required = false);
+  void value(std::string name, int* out, std::string metavar, std::string help,
+             bool required = false);
+  void value(std::string name, int64_t* out, std::string metavar, std::string help,
+             bool required = false);
+  // A value checked by the caller: `set` returns an error message for a bad value.
+  void value(std::string name, std::function<Status(const std::string&)> set,
+             std::string metavar, std::string help, bool required = false);
+  // An option without a value; sets `*out` to true.
+  void flag(std::string name, bool* out, std::string help);
+  // Words that are not options go here (in order); without this, they are errors.
+  void positional(std::vector<std::string>* out, std::string metavar, std::string help);
+
+  // Parses argv[1..]. Errors are one line naming the option.
+  enum class Outcome { kRun, kHelp };
+  Expected<Outcome> parse(int argc, const char* const* argv);
+
+  // parse() with the conventions above: returns -1 to run, or the exit status to return
+  // from main (0 after --help, 2 after an error, both already printed).
+  int parseOrExit(int argc, const char* const* argv);
+
+  std::string usage() const;
+  const std::string& program() const { return program_; }
+
+ private:
+  struct Option {
+    std::string name;
+    std::string metavar;  // empty for flags
+    std::string help;
+    bool required = false;
+    bool seen = false;
+    std::function<Status(const std::string&)> set;
+  };
+  Option& add(std::string name, std::string metavar, std::string help, bool required);
+
+  std::string program_;
+  std::string summary_;
+  std::vector<Option> options_;
+  std::vector<std::string>* positional_ = nullptr;
+  std::string positional_metavar_;
+  std::string positional_help_;
+};
+
+}  // namespace evermap

@@ -1,0 +1,122 @@
+#include "core/common/command_line.h"
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+namespace evermap {
+namespace {
+
+struct Args {
+  std::vector<const char*> argv{"prog"};
+  Args(std::initializer_list<const char*> words) { argv.insert(argv.end(), words); }
+  int argc() const { return static_cast<int>(argv.size()); }
+  const char* const* data() const { return argv.data(); }
+};
+
+struct Fixture {
+  std::string store;
+  double gap = 4.0;
+  int count = 3;
+  int64_t utime = 0;
+  bool quiet = false;
+  std::vector<std::string> files;
+  CommandLine cli{"prog", "Does things."};
+  Fixture() {
+    cli.value("--store", &store, "FILE", "the store", /*required=*/true);
+    cli.value("--gap", &gap, "M", "gap in metres");
+    cli.value("--count", &count, "N", "how many");
+    cli.value("--utime", &utime, "US", "a time");
+    cli.flag("--quiet", &quiet, "print nothing");
+  }
+};
+
+TEST(CommandLine, ParsesValuesFlagsAndInlineValues) {
+  Fixture f;
+  const Args a{"--store", "map.db", "--gap=2.5", "--count", "7", "--utime", "-12", "--quiet"};
+  const auto outcome = f.cli.parse(a.argc(), a.data());
+  ASSERT_TRUE(outcome.ok()) << outcome.error().message;
+  EXPECT_EQ(*outcome, CommandLine::Outcome::kRun);
+  EXPECT_EQ(f.store, "map.db");
+  EXPECT_DOUBLE_EQ(f.gap, 2.5);
+  EXPECT_EQ(f.count, 7);
+  EXPECT_EQ(f.utime, -12);
+  EXPECT_TRUE(f.quiet);
+}
+
+TEST(CommandLine, KeepsDefaultsOfOptionsNotGiven) {
+  Fixture f;
+  const Args a{"--store", "m"};
+  ASSERT_TRUE(f.cli.parse(a.argc(), a.data()).ok());
+  EXPECT_DOUBLE_EQ(f.gap, 4.0);
+  EXPECT_EQ(f.count, 3);
+  EXPECT_FALSE(f.quiet);
+}
+
+TEST(CommandLine, ErrorsNameTheOption) {
+  struct Case {
+    Args args;
+    const char* expected;
+  };
+  const std::vector<Case> cases = {
+      {Args{"--gap", "1"}, "--store is required"},
+      {Args{"--store", "m", "--bogus", "1"}, "unknown option --bogus"},
+      {Args{"--store"}, "--store needs a value"},
+      {Args{"--store", "m", "--gap", "nan"}, "bad --gap"},
+      {Args{"--store", "m", "--gap", "1x"}, "bad --gap"},
+      {Args{"--store", "m", "--count", "2.5"}, "bad --count"},
+      {Args{"--store", "m", "--quiet=yes"}, "--quiet takes no value"},
+      {Args{"--store", "m", "stray"}, "unexpected argument \"stray\""},
+  };
+  for (const Case& c : cases) {
+    Fixture f;
+    const auto outcome = f.cli.parse(c.args.argc(), c.args.data());
+    ASSERT_FALSE(outcome.ok()) << c.expected;
+    EXPECT_NE(outcome.error().message.find(c.expected), std::string::npos)
+        << outcome.error().message;
+  }
+}
+
+TEST(CommandLine, HelpWinsAndUsageListsEveryOption) {
+  Fixture f;
+  const Args a{"--help"};
+  const auto outcome = f.cli.parse(a.argc(), a.data());
+  ASSERT_TRUE(outcome.ok());
+  EXPECT_EQ(*outcome, CommandLine::Outcome::kHelp);
+  const std::string usage = f.cli.usage();
+  EXPECT_NE(usage.find("usage: prog --store FILE [--gap M]"), std::string::npos) << usage;
+  for (const char* name : {"--count N", "--utime US", "--quiet", "Does things."}) {
+    EXPECT_NE(usage.find(name), std::string::npos) << name;
+  }
+}
+
+TEST(CommandLine, CollectsPositionalWordsWhenAsked) {
+  Fixture f;
+  f.cli.positional(&f.files, "FILE...", "inputs");
+  const Args a{"a.txt", "--store", "m", "b.txt"};
+  ASSERT_TRUE(f.cli.parse(a.argc(), a.data()).ok());
+  EXPECT_EQ(f.files, (std::vector<std::string>{"a.txt", "b.txt"}));
+}
+
+TEST(CommandLine, CustomSetterRejectsWithItsMessage) {
+  CommandLine cli("prog", "");
+  std::string mode = "reduced";
+  cli.value(
+      "--mode",
+      [&](const std::string& v) -> Status {
+        if (v != "reduced" && v != "full") return makeError("\"", v, "\" is not reduced or full");
+        mode = v;
+        return Ok{};
+      },
+      "M", "graph mode");
+  const Args bad{"--mode", "half"};
+  const auto outcome = cli.parse(bad.argc(), bad.data());
+  ASSERT_FALSE(outcome.ok());
+  EXPECT_EQ(outcome.error().message, "bad --mode: \"half\" is not reduced or full");
+  const Args good{"--mode", "full"};
+  ASSERT_TRUE(cli.parse(good.argc(), good.data()).ok());
+  EXPECT_EQ(mode, "full");
+}
+
+}  // namespace
+}  // namespace evermap
