@@ -131,6 +131,18 @@ void Canvas::rect(const Eigen::Vector2d& top_left, const Eigen::Vector2d& size, 
   items_.push_back(std::move(it));
 }
 
+void Canvas::polygon(std::vector<Eigen::Vector2d> points_px, Rgb stroke, double stroke_px,
+                     Rgb fill) {
+  Item it;
+  it.kind = Item::kPolygon;
+  it.points = std::move(points_px);
+  it.stroke = stroke;
+  it.fill = fill;
+  it.filled = true;
+  it.width_px = stroke_px;
+  items_.push_back(std::move(it));
+}
+
 void Canvas::text(const Eigen::Vector2d& at, std::string s, double size_px, Rgb color,
                   TextAnchor anchor) {
   Item it;
@@ -162,6 +174,17 @@ Expected<std::string> Canvas::encodePng() const {
           pts.reserve(it.points.size());
           for (const auto& p : it.points) pts.push_back(px(p));
           cv::polylines(img, pts, false, bgr(it.stroke), strokeFor(it.width_px), cv::LINE_AA);
+        }
+        break;
+      }
+      case Item::kPolygon: {
+        std::vector<cv::Point> pts;
+        pts.reserve(it.points.size());
+        for (const auto& p : it.points) pts.push_back(px(p));
+        if (pts.size() < 3) break;
+        cv::fillPoly(img, std::vector<std::vector<cv::Point>>{pts}, bgr(it.fill), cv::LINE_AA);
+        if (it.width_px > 0) {
+          cv::polylines(img, pts, true, bgr(it.stroke), strokeFor(it.width_px), cv::LINE_AA);
         }
         break;
       }
@@ -205,6 +228,17 @@ std::string Canvas::encodeSvg() const {
              num(it.width_px) + "\" stroke-linejoin=\"round\" stroke-linecap=\"round\"";
         if (it.dashed) s += " stroke-dasharray=\"6,4\"";
         s += " points=\"";
+        for (size_t i = 0; i < it.points.size(); ++i) {
+          if (i > 0) s += ' ';
+          s += num(it.points[i].x()) + "," + num(it.points[i].y());
+        }
+        s += "\"/>\n";
+        break;
+      }
+      case Item::kPolygon: {
+        s += "<polygon fill=\"" + svgColor(it.fill) + "\" stroke=\"" +
+             (it.width_px > 0 ? svgColor(it.stroke) : std::string("none")) +
+             "\" stroke-width=\"" + num(it.width_px) + "\" stroke-linejoin=\"round\" points=\"";
         for (size_t i = 0; i < it.points.size(); ++i) {
           if (i > 0) s += ' ';
           s += num(it.points[i].x()) + "," + num(it.points[i].y());

@@ -38,6 +38,8 @@ class Canvas {
   // Axis-aligned rectangle; `fill` is used only when `filled`.
   void rect(const Eigen::Vector2d& top_left, const Eigen::Vector2d& size, Rgb stroke,
             double stroke_px, bool filled = false, Rgb fill = {255, 255, 255});
+  // A closed polygon filled with `fill` and outlined with `stroke` (none when stroke_px is 0).
+  void polygon(std::vector<Eigen::Vector2d> points_px, Rgb stroke, double stroke_px, Rgb fill);
   // Text whose baseline passes through `at`; `size_px` is the height of a capital letter.
   void text(const Eigen::Vector2d& at, std::string s, double size_px, Rgb color,
             TextAnchor anchor = TextAnchor::kStart);
@@ -54,7 +56,7 @@ class Canvas {
 
  private:
   struct Item {
-    enum Kind { kPolyline, kCircle, kRect, kText } kind = kPolyline;
+    enum Kind { kPolyline, kCircle, kRect, kText, kPolygon } kind = kPolyline;
     std::vector<Eigen::Vector2d> points;  // polyline points; circle/rect/text: [0] position
     Eigen::Vector2d size = Eigen::Vector2d::Zero();  // rect size
     Rgb stroke;
