@@ -7,22 +7,6 @@
 #include <utility>
 
 namespace evermap {
-namespace {
-
-template <typename Int>
-Status parseInteger(const std::string& text, Int* out) {
-  Int v{};
-  const char* end = text.data() + text.size();
-  const auto [ptr, ec] = std::from_chars(text.data(), end, v);
-  if (text.empty() || ec != std::errc() || ptr != end) {
-    return makeError("\"", text, "\" is not an integer");
-  }
-  *out = v;
-  return Ok{};
-}
-
-}  // namespace
-
 CommandLine::CommandLine(std::string program, std::string summary)
     : program_(std::move(program)), summary_(std::move(summary)) {}
 
@@ -68,18 +52,6 @@ void CommandLine::value(std::string name, double* out, std::string metavar, std:
     *out = d;
     return Ok{};
   };
-}
-
-void CommandLine::value(std::string name, int* out, std::string metavar, std::string help,
-                        bool required) {
-  add(std::move(name), std::move(metavar), std::move(help), required).set =
-      [out](const std::string& v) { return parseInteger(v, out); };
-}
-
-void CommandLine::value(std::string name, int64_t* out, std::string metavar, std::string help,
-                        bool required) {
-  add(std::move(name), std::move(metavar), std::move(help), required).set =
-      [out](const std::string& v) { return parseInteger(v, out); };
 }
 
 void CommandLine::value(std::string name, std::function<Status(const std::string&)> set,

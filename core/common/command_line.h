@@ -13,9 +13,12 @@
 // usage on stdout and exits 0, and a bad command line is one line on stderr naming the
 // option, followed by the usage, exit status 2.
 
+#include <charconv>
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "core/common/expected.h"
@@ -32,10 +35,13 @@ class CommandLine {
              bool required = false);
   void value(std::string name, double* out, std::string metavar, std::string help,
              bool required = false);
-  void value(std::string name, int* out, std::string metavar, std::string help,
-             bool required = false);
-  void value(std::string name, int64_t* out, std::string metavar, std::string help,
-             bool required = false);
+  template <typename Int>
+    requires(std::is_integral_v<Int> && !std::is_same_v<Int, bool>)
+  void value(std::string name, Int* out, std::string metavar, std::string help,
+             bool required = false) {
+    add(std::move(name), std::move(metavar), std::move(help), required).set =
+        [out](const std::string& v) { return parseInteger(v, out); };
+  }
   // A value checked by the caller: `set` returns an error message for a bad value.
   void value(std::string name, std::function<Status(const std::string&)> set,
              std::string metavar, std::string help, bool required = false);
@@ -64,6 +70,18 @@ class CommandLine {
     bool seen = false;
     std::function<Status(const std::string&)> set;
   };
+  // Whole text, in range (unsigned types refuse a minus sign).
+  template <typename Int>
+  static Status parseInteger(const std::string& text, Int* out) {
+    Int v{};
+    const char* end = text.data() + text.size();
+    const auto [ptr, ec] = std::from_chars(text.data(), end, v);
+    if (text.empty() || ec != std::errc() || ptr != end) {
+      return makeError("\"", text, "\" is not an integer in range");
+    }
+    *out = v;
+    return Ok{};
+  }
   Option& add(std::string name, std::string metavar, std::string help, bool required);
 
   std::string program_;

@@ -7,58 +7,37 @@
 // Exits 0 when every logged message arrived intact, 1 otherwise, 2 on bad usage or input.
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <string>
 
+#include "core/common/command_line.h"
 #include "core/messages/log_compare.h"
 #include "core/messages/type_registry.h"
-
-namespace {
-
-void usage() {
-  std::fprintf(stderr,
-               "usage: evermap-lcm-check --log FILE [--ready-file PATH] [--idle-timeout-s S] "
-               "[--lcm-url URL]\n       evermap-lcm-check --list-types\n");
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   std::string log;
   std::string ready_file;
   std::string url;
   double idle_timeout_s = 10.0;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "evermap-lcm-check: %s needs a value\n", a.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (a == "--log") {
-      log = next();
-    } else if (a == "--ready-file") {
-      ready_file = next();
-    } else if (a == "--lcm-url") {
-      url = next();
-    } else if (a == "--idle-timeout-s") {
-      idle_timeout_s = std::atof(next().c_str());
-    } else if (a == "--list-types") {
-      for (const auto& t : evermap::messages::allTypes()) {
-        std::printf("%s %lld\n", t.name.c_str(), static_cast<long long>(t.fingerprint));
-      }
-      return 0;
-    } else {
-      usage();
-      return 2;
+  bool list_types = false;
+  evermap::CommandLine cli("evermap-lcm-check",
+                           "Checks that what arrives on LCM is exactly the content of a log.");
+  cli.value("--log", &log, "FILE", "the LCM log being replayed");
+  cli.value("--ready-file", &ready_file, "PATH", "written once subscribed");
+  cli.value("--idle-timeout-s", &idle_timeout_s, "S", "stop after S seconds of silence (10)");
+  cli.value("--lcm-url", &url, "URL", "LCM provider (default: LCM_DEFAULT_URL)");
+  cli.flag("--list-types", &list_types, "print the known message types and fingerprints");
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  if (list_types) {
+    for (const auto& t : evermap::messages::allTypes()) {
+      std::printf("%s %lld\n", t.name.c_str(), static_cast<long long>(t.fingerprint));
     }
+    return 0;
   }
   if (log.empty() || idle_timeout_s <= 0.0) {
-    usage();
+    std::fprintf(stderr, "evermap-lcm-check: --log and a positive --idle-timeout-s are needed\n%s",
+                 cli.usage().c_str());
     return 2;
   }
   auto comparator = evermap::messages::LogComparator::fromLog(log);

@@ -4,7 +4,6 @@
 // chosen thresholds. Exit status: 0 done, 1 bad input (the message names it), 2 bad command
 // line.
 
-#include <charconv>
 #include <cstdio>
 #include <cstdlib>
 #include <optional>
@@ -15,37 +14,14 @@
 #include "core/bow/loop_evaluation.h"
 #include "core/bow/vocabulary_io.h"
 #include "core/common/atomic_write.h"
+#include "core/common/command_line.h"
 
 namespace {
 
 using namespace evermap;
 using namespace evermap::bow;
 
-constexpr const char* kUsage =
-    "usage: evermap-place-eval --images DIR --gt MATRIX.bmp (--vocab FILE | --train-default DIR)\n"
-    "  --vocab FILE           evermap (.evoc) or DBoW2/DBoW3 (.yml.gz) vocabulary\n"
-    "  --train-default DIR    train the default vocabulary from the shared data under DIR\n"
-    "                         (k=10, L=5, 1000 ORB features per image)\n"
-    "  --exclude-recent N     most recent images not searched (default 10)\n"
-    "  --candidates N         candidates per query for the geometric check (default 5)\n"
-    "  --min-inliers N        epipolar RANSAC inliers to accept (default 30)\n"
-    "  --raw-threshold S      operating threshold of the raw score (default 0.10)\n"
-    "  --geo-threshold S      operating threshold of the score after the check (default 0)\n"
-    "  --features N           ORB features per image (default 1000)\n"
-    "  --direct-depth N       direct-index depth for guided matching (default 2)\n"
-    "  --ratio R              ratio test of guided matching (default 0.8; 1 = off)\n"
-    "  --max-distance N       largest Hamming distance of a match (default 64)\n"
-    "  --ransac-px P          epipolar RANSAC threshold, pixels (default 2)\n"
-    "  --csv FILE             write every query's candidates as CSV\n"
-    "  --full-curve           print every point of the curves, not a summary\n";
-
-template <typename T>
-bool parseNumber(const std::string& s, T* out) {
-  auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), *out);
-  return ec == std::errc() && p == s.data() + s.size();
-}
-
-struct CommandLine {
+struct Command {
   std::string images, gt, vocab, train_root, csv;
   bool full_curve = false;
   SequenceOptions options;
@@ -53,66 +29,45 @@ struct CommandLine {
   double geo_threshold = kDefaultGeometricThreshold;
 };
 
-std::optional<CommandLine> parse(int argc, char** argv) {
-  CommandLine c;
-  auto fail = [](const std::string& why) {
-    std::fprintf(stderr, "evermap-place-eval: %s\n%s", why.c_str(), kUsage);
-    return std::nullopt;
+// Returns -1 to run, or main's exit status.
+int parse(int argc, char** argv, Command* c) {
+  CommandLine cli("evermap-place-eval",
+                  "Loop-detection precision-recall over an image sequence with a loop matrix.");
+  cli.value("--images", &c->images, "DIR", "the image sequence", /*required=*/true);
+  cli.value("--gt", &c->gt, "MATRIX.bmp", "loop ground-truth matrix", /*required=*/true);
+  cli.value("--vocab", &c->vocab, "FILE", "evermap (.evoc) or DBoW2/DBoW3 (.yml.gz) vocabulary");
+  cli.value("--train-default", &c->train_root, "DIR",
+            "train the default vocabulary from the shared data under DIR (k=10, L=5)");
+  cli.value("--exclude-recent", &c->options.exclude_recent, "N",
+            "most recent images not searched (10)");
+  cli.value("--candidates", &c->options.candidates, "N",
+            "candidates per query for the geometric check (5)");
+  cli.value("--min-inliers", &c->options.geometry.min_inliers, "N",
+            "epipolar RANSAC inliers to accept (30)");
+  cli.value("--raw-threshold", &c->raw_threshold, "S", "operating threshold of the raw score (0.10)");
+  cli.value("--geo-threshold", &c->geo_threshold, "S",
+            "operating threshold of the score after the check (0)");
+  cli.value("--features", &c->options.orb.max_features, "N", "ORB features per image (1000)");
+  cli.value("--direct-depth", &c->options.direct_index_depth, "N",
+            "direct-index depth for guided matching (2)");
+  cli.value("--ratio", &c->options.geometry.matching.ratio, "R",
+            "ratio test of guided matching (0.8; 1 = off)");
+  cli.value("--max-distance", &c->options.geometry.matching.max_distance, "N",
+            "largest Hamming distance of a match (64)");
+  cli.value("--ransac-px", &c->options.geometry.ransac_threshold_px, "P",
+            "epipolar RANSAC threshold, pixels (2)");
+  cli.value("--csv", &c->csv, "FILE", "write every query's candidates as CSV");
+  cli.flag("--full-curve", &c->full_curve, "print every point of the curves, not a summary");
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  auto fail = [&](const std::string& why) {
+    std::fprintf(stderr, "evermap-place-eval: %s\n%s", why.c_str(), cli.usage().c_str());
+    return 2;
   };
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") {
-      std::fputs(kUsage, stdout);
-      std::exit(0);
-    }
-    if (a == "--full-curve") {
-      c.full_curve = true;
-      continue;
-    }
-    if (i + 1 >= argc) return fail(a + " needs a value");
-    const std::string v = argv[++i];
-    bool ok = true;
-    if (a == "--images") {
-      c.images = v;
-    } else if (a == "--gt") {
-      c.gt = v;
-    } else if (a == "--vocab") {
-      c.vocab = v;
-    } else if (a == "--train-default") {
-      c.train_root = v;
-    } else if (a == "--csv") {
-      c.csv = v;
-    } else if (a == "--exclude-recent") {
-      ok = parseNumber(v, &c.options.exclude_recent);
-    } else if (a == "--candidates") {
-      ok = parseNumber(v, &c.options.candidates);
-    } else if (a == "--min-inliers") {
-      ok = parseNumber(v, &c.options.geometry.min_inliers);
-    } else if (a == "--raw-threshold") {
-      ok = parseNumber(v, &c.raw_threshold);
-    } else if (a == "--geo-threshold") {
-      ok = parseNumber(v, &c.geo_threshold);
-    } else if (a == "--direct-depth") {
-      ok = parseNumber(v, &c.options.direct_index_depth);
-    } else if (a == "--ratio") {
-      ok = parseNumber(v, &c.options.geometry.matching.ratio);
-    } else if (a == "--max-distance") {
-      ok = parseNumber(v, &c.options.geometry.matching.max_distance);
-    } else if (a == "--ransac-px") {
-      ok = parseNumber(v, &c.options.geometry.ransac_threshold_px);
-    } else if (a == "--features") {
-      ok = parseNumber(v, &c.options.orb.max_features);
-    } else {
-      return fail("unknown option " + a);
-    }
-    if (!ok) return fail("bad value for " + a + ": " + v);
-  }
-  if (c.images.empty() || c.gt.empty()) return fail("--images and --gt are required");
-  if (c.vocab.empty() == c.train_root.empty()) {
+  if (c->vocab.empty() == c->train_root.empty()) {
     return fail("give exactly one of --vocab and --train-default");
   }
-  if (std::string why = c.options.validate(); !why.empty()) return fail(why);
-  return c;
+  if (std::string why = c->options.validate(); !why.empty()) return fail(why);
+  return -1;
 }
 
 const char* name(Decision d) { return d == Decision::kRawScore ? "raw score" : "score + epipolar"; }
@@ -142,8 +97,9 @@ void printCurve(const PrCurve& curve, bool full) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const auto cmd = parse(argc, argv);
-  if (!cmd) return 2;
+  Command command;
+  if (const int code = parse(argc, argv, &command); code >= 0) return code;
+  const Command* cmd = &command;
   auto fail = [](const std::string& m) {
     std::fprintf(stderr, "evermap-place-eval: %s\n", m.c_str());
     return 1;
