@@ -4,7 +4,6 @@
 
 #include <csignal>
 #include <cstdio>
-#include <cstdlib>
 #include <ctime>
 #include <memory>
 #include <optional>
@@ -13,6 +12,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "core/bow/vocabulary_io.h"
+#include "core/common/command_line.h"
 #include "loopclose-proc/core_registration.h"
 #include "loopclose-proc/loop_closer.h"
 #include "loopclose-proc/server.h"
@@ -21,13 +21,6 @@ namespace {
 
 using namespace evermap;
 using namespace evermap::loopclose;
-
-constexpr const char* kUsage =
-    "usage: evermap-loopclose-proc --vocab FILE [--store MAP.db] [--lcm-url URL] [--rate HZ]\n"
-    "  --vocab FILE     vocabulary: evermap .evoc (evermap-vocab-train) or DBoW2/DBoW3 .yml.gz\n"
-    "  --store MAP.db   SQLite map store: nodes and keyframes are reloaded and persisted\n"
-    "  --lcm-url URL    LCM provider (default: LCM's default, $LCM_DEFAULT_URL)\n"
-    "  --rate HZ        answers per second of data time (default 2)\n";
 
 // The frame registration: the pluggable part (registration.h); core/registration's by default.
 std::unique_ptr<FrameRegistration> makeRegistration() {
@@ -41,39 +34,15 @@ std::unique_ptr<FrameRegistration> makeRegistration() {
 int main(int argc, char** argv) {
   std::string vocab_file, store_file, url;
   LoopCloserOptions options;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    }
-    if (i + 1 >= argc) {
-      std::fprintf(stderr, "evermap-loopclose-proc: %s needs a value\n%s", a.c_str(), kUsage);
-      return 2;
-    }
-    const std::string v = argv[++i];
-    if (a == "--vocab") {
-      vocab_file = v;
-    } else if (a == "--store") {
-      store_file = v;
-    } else if (a == "--lcm-url") {
-      url = v;
-    } else if (a == "--rate") {
-      char* end = nullptr;
-      options.max_rate_hz = std::strtod(v.c_str(), &end);
-      if (end == v.c_str() || *end) {
-        std::fprintf(stderr, "evermap-loopclose-proc: bad --rate %s\n", v.c_str());
-        return 2;
-      }
-    } else {
-      std::fprintf(stderr, "evermap-loopclose-proc: unknown option %s\n%s", a.c_str(), kUsage);
-      return 2;
-    }
-  }
-  if (vocab_file.empty()) {
-    std::fprintf(stderr, "evermap-loopclose-proc: --vocab is required\n%s", kUsage);
-    return 2;
-  }
+  CommandLine cli("evermap-loopclose-proc",
+                  "The loop-closure service: place recognition and frame registration on LCM.");
+  cli.value("--vocab", &vocab_file, "FILE",
+            "vocabulary: evermap .evoc (evermap-vocab-train) or DBoW2/DBoW3 .yml.gz", true);
+  cli.value("--store", &store_file, "MAP.db",
+            "SQLite map store: nodes and keyframes are reloaded and persisted");
+  cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
+  cli.value("--rate", &options.max_rate_hz, "HZ", "answers per second of data time (2)");
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   auto vocabulary = bow::loadAnyVocabulary(vocab_file);
   if (!vocabulary) {
     std::fprintf(stderr, "evermap-loopclose-proc: %s\n", vocabulary.error().message.c_str());
