@@ -18,6 +18,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <string>
 
+#include "core/common/command_line.h"
 #include "core/deputy/config.h"
 #include "core/deputy/deputy_node.h"
 #include "core/deputy/script_runner.h"
@@ -26,18 +27,6 @@
 namespace {
 
 using namespace evermap::deputy;
-
-void usage() {
-  std::fprintf(stderr,
-               "usage: evermap-deputy CONFIG --log-dir DIR [--host NAME] [--script NAME | "
-               "--start-all]\n"
-               "                      [--exit-after-script] [--lcm-url URL] [--no-output] "
-               "[--quiet]\n"
-               "                      [--backoff-initial-ms MS] [--backoff-max-ms MS] "
-               "[--stable-after-s S]\n"
-               "                      [--max-log-mb MB]\n"
-               "       evermap-deputy CONFIG --check\n");
-}
 
 void printConfig(const Config& config, const std::string& host) {
   const auto mine = config.commandsForHost(host);
@@ -69,45 +58,34 @@ int main(int argc, char** argv) {
   bool publish_output = true;
   BackoffOptions backoff;
   double max_log_mb = -1.0;  // default of SupervisorOptions
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "evermap-deputy: %s needs a value\n", a.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    auto number = [&]() {
-      const std::string v = next();
-      char* end = nullptr;
-      const double d = std::strtod(v.c_str(), &end);
-      if (end == v.c_str() || *end != '\0') {
-        std::fprintf(stderr, "evermap-deputy: %s: not a number: %s\n", a.c_str(), v.c_str());
-        std::exit(2);
-      }
-      return d;
-    };
-    if (a == "--log-dir") log_dir = next();
-    else if (a == "--host") host = next();
-    else if (a == "--script") script = next();
-    else if (a == "--lcm-url") lcm_url = next();
-    else if (a == "--start-all") start_all = true;
-    else if (a == "--exit-after-script") exit_after_script = true;
-    else if (a == "--check") check = true;
-    else if (a == "--quiet") quiet = true;
-    else if (a == "--no-output") publish_output = false;
-    else if (a == "--backoff-initial-ms") backoff.initial_delay_ms = number();
-    else if (a == "--backoff-max-ms") backoff.max_delay_ms = number();
-    else if (a == "--stable-after-s") backoff.stable_after_s = number();
-    else if (a == "--max-log-mb") max_log_mb = number();
-    else if (a == "-h" || a == "--help") { usage(); return 0; }
-    else if (!a.empty() && a[0] != '-' && config_path.empty()) config_path = a;
-    else { usage(); return 2; }
-  }
-  if (config_path.empty() || (!check && log_dir.empty()) || (start_all && !script.empty()) ||
+  bool no_output = false;
+  std::vector<std::string> positional;
+  evermap::CommandLine cli("evermap-deputy",
+                           "Spawns and watches the processes of a bot-procman config (CONFIG).");
+  cli.positional(&positional, "CONFIG", "the process configuration (config/*.pmd)");
+  cli.value("--log-dir", &log_dir, "DIR", "one output log per process (needed unless --check)");
+  cli.value("--host", &host, "NAME", "this deputy's host name (default: the machine's)");
+  cli.value("--script", &script, "NAME", "run this script of the config");
+  cli.flag("--start-all", &start_all, "start every command at once");
+  cli.flag("--exit-after-script", &exit_after_script, "stop everything when the script ends");
+  cli.value("--lcm-url", &lcm_url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
+  cli.flag("--no-output", &no_output, "do not publish output lines on LCM");
+  cli.flag("--quiet", &quiet, "print less");
+  cli.value("--backoff-initial-ms", &backoff.initial_delay_ms, "MS", "first restart delay");
+  cli.value("--backoff-max-ms", &backoff.max_delay_ms, "MS", "longest restart delay");
+  cli.value("--stable-after-s", &backoff.stable_after_s, "S",
+            "running this long resets the back-off");
+  cli.value("--max-log-mb", &max_log_mb, "MB", "rotate a process log beyond this size");
+  cli.flag("--check", &check, "parse CONFIG, print it and exit");
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  publish_output = !no_output;
+  if (positional.size() == 1) config_path = positional.front();
+  if (positional.size() != 1 || (!check && log_dir.empty()) || (start_all && !script.empty()) ||
       (exit_after_script && script.empty())) {
-    usage();
+    std::fprintf(stderr,
+                 "evermap-deputy: one CONFIG, --log-dir unless --check, --start-all or --script, "
+                 "--exit-after-script only with --script\n%s",
+                 cli.usage().c_str());
     return 2;
   }
   if (host.empty()) host = machineName();
