@@ -232,3 +232,19 @@ TEST(Evaluation, JsonIsWrittenThroughATemporaryFile) {
 
 }  // namespace
 }  // namespace evermap::eval
+
+namespace evermap::eval {
+namespace {
+
+TEST(Evaluation, FigureShowsOnlyTheGroundTruthTheEstimateCovers) {
+  const Trajectory gt = testing::syntheticTrajectory(200, 1000000000LL, "gt.txt");
+  Trajectory est{"est.txt", {gt.poses.begin() + 50, gt.poses.begin() + 120}};
+  const auto r = evaluate(gt, est, {});
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->gt_positions.size(), 70u);
+  EXPECT_EQ(r->est_positions_aligned.size(), 70u);
+  EXPECT_NEAR((r->gt_positions.front() - gt.poses[50].world_T_body.translation()).norm(), 0.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace evermap::eval

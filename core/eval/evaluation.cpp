@@ -64,8 +64,12 @@ Expected<EvaluationReport> evaluate(const Trajectory& gt, const Trajectory& est,
     r.drift = std::move(drift.value());
   }
 
-  r.gt_positions.reserve(gt.size());
-  for (const StampedPose& p : gt.poses) r.gt_positions.push_back(p.world_T_body.translation());
+  // The ground truth over the time the estimate covers: a VO run over a part of a long
+  // sequence is drawn against that part only.
+  const int64_t t_first = m.t_ns.front(), t_last = m.t_ns.back();
+  for (const StampedPose& p : gt.poses) {
+    if (p.t_ns >= t_first && p.t_ns <= t_last) r.gt_positions.push_back(p.world_T_body.translation());
+  }
   r.est_positions_aligned.reserve(est.size());
   for (const StampedPose& p : est.poses) {
     r.est_positions_aligned.push_back(alignment->gt_S_est * p.world_T_body.translation());

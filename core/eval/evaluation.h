@@ -48,8 +48,8 @@ struct EvaluationReport {
   RpeSummary rpe;
   std::optional<KittiDriftSummary> drift;
 
-  // Positions for a figure: the whole ground truth, and the whole estimate moved by the
-  // alignment into the ground-truth frame.
+  // Positions for a figure: the ground truth between the first and the last matched pose,
+  // and the whole estimate moved by the alignment into the ground-truth frame.
   std::vector<core::Vec3> gt_positions;
   std::vector<core::Vec3> est_positions_aligned;
 };
