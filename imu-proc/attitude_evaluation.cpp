@@ -25,6 +25,36 @@ std::string AttitudeErrorSummary::summary() const {
   return buf;
 }
 
+Eigen::Vector3d meanSpecificForce(const std::vector<datasets::ImuSample>& imu, int64_t t0_ns,
+                                  double window_s) {
+  const int64_t t1_ns = t0_ns + static_cast<int64_t>(window_s * 1e9);
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  int n = 0;
+  for (const datasets::ImuSample& s : imu) {
+    if (s.t_ns < t0_ns || s.t_ns >= t1_ns || !s.accel_m_s2.allFinite()) continue;
+    sum += s.accel_m_s2;
+    ++n;
+  }
+  return n > 0 ? Eigen::Vector3d(sum / n) : Eigen::Vector3d::Zero();
+}
+
+double referenceTiltAtRest(const std::vector<datasets::ImuSample>& imu,
+                           const std::vector<datasets::StampedPose>& ground_truth, int64_t t0_ns,
+                           double window_s) {
+  const int64_t t1_ns = t0_ns + static_cast<int64_t>(window_s * 1e9);
+  if (ground_truth.empty() || ground_truth.front().t_ns > t0_ns || ground_truth.back().t_ns < t1_ns) {
+    return -1.0;
+  }
+  const Eigen::Vector3d f = meanSpecificForce(imu, t0_ns, window_s);
+  if (f.squaredNorm() == 0) return -1.0;
+  const int64_t mid = t0_ns + (t1_ns - t0_ns) / 2;
+  const auto it = std::lower_bound(
+      ground_truth.begin(), ground_truth.end(), mid,
+      [](const datasets::StampedPose& p, int64_t t) { return p.t_ns < t; });
+  const Eigen::Vector3d up_world = it->world_T_body.so3() * f.normalized();
+  return std::acos(std::clamp(up_world.z(), -1.0, 1.0));
+}
+
 AttitudeErrorSummary compareAttitude(const std::vector<Attitude>& estimates,
                                      const std::vector<datasets::StampedPose>& ground_truth,
                                      const AttitudeCompareOptions& options) {
@@ -81,7 +111,11 @@ AttitudeErrorSummary compareAttitude(const std::vector<Attitude>& estimates,
   }
   // The level frame: level_R_imu takes the mean reference up (IMU frame) to +z.
   Eigen::Matrix3d level_R_imu = Eigen::Matrix3d::Identity();
-  if (options.level_body && !pairs.empty()) {
+  if (options.vehicle_up_imu.squaredNorm() > 0) {
+    level_R_imu = Eigen::Quaterniond::FromTwoVectors(options.vehicle_up_imu.normalized(),
+                                                     Eigen::Vector3d::UnitZ())
+                      .toRotationMatrix();
+  } else if (options.level_body && !pairs.empty()) {
     Eigen::Vector3d mean_up = Eigen::Vector3d::Zero();
     for (const auto& pr : pairs) mean_up += refUp(pr.second);
     level_R_imu =

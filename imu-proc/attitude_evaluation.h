@@ -47,7 +47,26 @@ struct AttitudeCompareOptions {
   // (EuRoC: x up, pitch -67 deg) has an Euler roll that amplifies tilt errors by
   // 1 / cos(pitch); the level frame reports them as they are.
   bool level_body = false;
+  // Roll and pitch of the vehicle frame instead: the IMU frame turned by the smallest
+  // rotation that takes vehicle_up_imu (the up direction in IMU coordinates while the
+  // vehicle stands level, e.g. meanSpecificForce over a still start) to +z. Taken from the
+  // IMU alone, not from the reference. Zero: not used.
+  Eigen::Vector3d vehicle_up_imu = Eigen::Vector3d::Zero();
 };
+// Mean accelerometer reading over [t0, t0 + window_s) from the first sample at or after t0_ns
+// (the specific force of a still body points up); zero when no sample falls in the window.
+Eigen::Vector3d meanSpecificForce(const std::vector<datasets::ImuSample>& imu, int64_t t0_ns,
+                                  double window_s);
+
+// Is the reference's world z vertical? The angle between its world z and gravity as the
+// accelerometer measures it while the body stands still: the mean specific force over
+// [t0, t0 + window_s), turned into the world by the reference orientation in the middle of
+// the window. Includes the accelerometer's bias (0.1 m/s^2 is 0.6 deg). Negative when the
+// reference does not cover the window.
+double referenceTiltAtRest(const std::vector<datasets::ImuSample>& imu,
+                           const std::vector<datasets::StampedPose>& ground_truth, int64_t t0_ns,
+                           double window_s);
+
 AttitudeErrorSummary compareAttitude(const std::vector<Attitude>& estimates,
                                      const std::vector<datasets::StampedPose>& ground_truth,
                                      const AttitudeCompareOptions& options = {});

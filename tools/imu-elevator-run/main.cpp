@@ -7,6 +7,8 @@
 //   evermap-imu-elevator-run --hackzurich DIR --session N
 //   evermap-imu-elevator-run --lcm-log FILE [--channel IMU]
 //   evermap-imu-elevator-run --synthetic N [--rate HZ]   (a building run with N rides)
+//   evermap-imu-elevator-run --sim-config config/sim-paper-scale.conf [--sim-set key=value]...
+//          [--sim-sessions N]   (the measurement-level simulator's IMU: rides on the right floor?)
 // Options: --set key=value (attitude or elevator option), --config FILE, --print-options,
 //          --dump-attitude FILE, --dump-trace FILE (the elevator's 0.1 s grid),
 //          --write-lcm-log FILE (the IMU samples read, as an LCM log for lcm-logplayer),
@@ -22,6 +24,7 @@
 #include <evermap/floor_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
+#include "core/common/key_value_file.h"
 #include "core/common/option_fields.h"
 #include "core/datasets/euroc.h"
 #include "core/datasets/hackzurich.h"
@@ -29,6 +32,7 @@
 #include "elevator-proc/elevator_tracker.h"
 #include "elevator-proc/offline_run.h"
 #include "elevator-proc/ride_simulator.h"
+#include "elevator-proc/sim_floor_check.h"
 #include "imu-proc/attitude_evaluation.h"
 #include "imu-proc/attitude_filter.h"
 #include "imu-proc/imu_log.h"
@@ -42,6 +46,9 @@ struct Args {
   std::string euroc_imu, ground_truth, hackzurich, lcm_log, channel = channels::kImu;
   std::string dump_attitude, dump_trace, write_lcm_log, floor_log;
   int synthetic_rides = 0;
+  std::string sim_config;
+  std::vector<std::string> sim_sets;
+  int sim_sessions = 0;
   double rate_hz = 100.0;
   int session = 1;
   bool print_options = false;
@@ -53,7 +60,8 @@ int usage() {
   std::fprintf(stderr,
                "usage: evermap-imu-elevator-run (--euroc-imu CSV [--ground-truth FILE] | "
                "--hackzurich DIR --session N | --lcm-log FILE [--channel IMU] |\n"
-               "        --synthetic N [--rate HZ])\n"
+               "        --synthetic N [--rate HZ] |\n"
+               "        --sim-config FILE [--sim-set key=value]... [--sim-sessions N])\n"
                "       [--set key=value]... [--config FILE] [--print-options]\n"
                "       [--dump-attitude FILE] [--dump-trace FILE] [--write-lcm-log FILE]\n");
   return 2;
@@ -79,6 +87,9 @@ Status parse(int argc, char** argv, Args* a) {
     else if (k == "--write-lcm-log") a->write_lcm_log = v;
     else if (k == "--print-floor-log") a->floor_log = v;
     else if (k == "--synthetic") a->synthetic_rides = std::atoi(v.c_str());
+    else if (k == "--sim-config") a->sim_config = v;
+    else if (k == "--sim-set") a->sim_sets.push_back(v);
+    else if (k == "--sim-sessions") a->sim_sessions = std::atoi(v.c_str());
     else if (k == "--rate") a->rate_hz = std::atof(v.c_str());
     else if (k == "--config") {
       if (Status st = loadFields(&a->attitude, v, false); !st.ok()) return st;
@@ -128,6 +139,31 @@ int printFloorLog(const std::string& file) {
   return 0;
 }
 
+// The simulator's raw IMU through both filters: does every ride end on the right floor?
+int runSimulatorCheck(const Args& args) {
+  auto file = KeyValueFile::load(args.sim_config);
+  if (!file.ok()) { std::fprintf(stderr, "%s\n", file.error().message.c_str()); return 1; }
+  for (const std::string& kv : args.sim_sets) {
+    if (Status st = file->set(kv, "--sim-set"); !st.ok()) {
+      std::fprintf(stderr, "%s\n", st.error().message.c_str());
+      return 1;
+    }
+  }
+  auto options = sim::loadSimOptions(*file);
+  if (!options.ok()) { std::fprintf(stderr, "%s\n", options.error().message.c_str()); return 1; }
+  std::printf("simulator: %s, IMU at %.0f Hz, %.1f s around each ride\n", args.sim_config.c_str(),
+              options->sensors.imu.rate_hz, options->sensors.imu.margin_s);
+  auto check = elevator::checkSimulatedFloors(*options, args.attitude, args.elevator, args.sim_sessions);
+  if (!check.ok()) { std::fprintf(stderr, "%s\n", check.error().message.c_str()); return 1; }
+  std::printf("%s%s\nelevator: %s\nfloor table:", check->table().c_str(), check->summary().c_str(),
+              check->counts.summary().c_str());
+  for (size_t i = 0; i < check->table_heights.size(); ++i) {
+    std::printf(" %zu: %.2f m", i, check->table_heights[i]);
+  }
+  std::printf("\n");
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -141,6 +177,7 @@ int main(int argc, char** argv) {
     std::printf("%s%s", describeFields(args.attitude).c_str(), describeFields(args.elevator).c_str());
     return 0;
   }
+  if (!args.sim_config.empty()) return runSimulatorCheck(args);
   std::vector<datasets::ImuSample> samples;
   datasets::HackzurichSession session;
   elevator::SimulatedRun truth;
@@ -201,18 +238,39 @@ int main(int argc, char** argv) {
   if (!args.ground_truth.empty()) {
     const auto gt = datasets::readEurocGroundTruth(args.ground_truth);
     if (!gt.ok()) { std::fprintf(stderr, "%s\n", gt.error().message.c_str()); return 1; }
+    if (gt->empty()) { std::fprintf(stderr, "%s: no poses\n", args.ground_truth.c_str()); return 1; }
+    // The body stands still for the filter's start-up window (it says so: still_start) and,
+    // on EuRoC, a few seconds more: the reference's world z is checked against gravity over
+    // the first 2 s both cover.
+    const int64_t rest_t0 = std::max(samples.front().t_ns, gt->front().t_ns);
+    const double world_tilt = imu::referenceTiltAtRest(samples, *gt, rest_t0, 2.0);
+    std::printf("reference world z vs gravity measured at rest (2 s from the start of both): %.2f deg\n",
+                world_tilt * 180.0 / M_PI);
     imu::AttitudeCompareOptions c;
     c.max_offset_s = 0.06;
-    std::printf("attitude error, IMU frame, as is:         %s\n",
+    std::printf("attitude error, IMU frame (its own Euler angles): %s\n",
                 imu::compareAttitude(track, *gt, c).summary().c_str());
+    if (run.attitude_counts.still_start) {
+      // The vehicle frame: the IMU turned by its mounting tilt, read off the accelerometer
+      // during the still start-up window (the vehicle stands level on the ground).
+      c.vehicle_up_imu = imu::meanSpecificForce(samples, samples.front().t_ns, args.attitude.init_window_s);
+      const imu::AttitudeErrorSummary v = imu::compareAttitude(track, *gt, c);
+      std::printf("attitude error, vehicle frame (IMU turned by its mounting tilt at rest, %.1f deg): %s\n",
+                  std::acos(c.vehicle_up_imu.normalized().z()) * 180.0 / M_PI, v.summary().c_str());
+      std::printf("EuRoC roll/pitch figure (vehicle frame): roll RMS %.2f deg, pitch RMS %.2f deg\n",
+                  v.roll_rms_rad * 180.0 / M_PI, v.pitch_rms_rad * 180.0 / M_PI);
+      c.vehicle_up_imu.setZero();
+    } else {
+      std::printf("attitude error, vehicle frame: not available (the start was not still)\n");
+    }
     c.level_body = true;
-    std::printf("attitude error, level body, as is:        %s\n",
+    std::printf("attitude error, level body (mean reference up):  %s\n",
                 imu::compareAttitude(track, *gt, c).summary().c_str());
     c.align_gravity = true;
-    std::printf("attitude error, level body, world up fit: %s\n",
+    std::printf("attitude error, level body, world up fit:        %s\n",
                 imu::compareAttitude(track, *gt, c).summary().c_str());
     c.align_body = true;
-    std::printf("attitude error, level body, world+body:   %s\n",
+    std::printf("attitude error, level body, world+body fit:      %s\n",
                 imu::compareAttitude(track, *gt, c).summary().c_str());
   }
 
