@@ -118,7 +118,7 @@ void LcmNode::afterMessage(int64_t utime, bool publish_pose) {
   last_utime_ = std::max(last_utime_, utime);
   for (const auto& r : m_.takeRequests()) lcm_.publish(channels::kRegisterRequest, &r);
   for (const auto& n : m_.takeNodesAdded()) lcm_.publish(channels::kNodeAdded, &n);
-  if (publish_pose && m_.activeNode() >= 0) {
+  if (publish_pose && m_.activeNode() >= 0 && !m_.lost()) {
     const int session = m_.nodes().empty() ? -1 : m_.nodes().back().session;
     const pose_t p = messages::toMsg(utime, m_.pose(), m_.floor(), session);
     lcm_.publish(channels::kPose, &p);

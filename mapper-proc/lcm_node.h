@@ -1,7 +1,8 @@
 #pragma once
 // The mapper on LCM (DESIGN.md section 1): subscribes to VO_DELTA, WHEEL_ODOM, ATTITUDE,
 // FLOOR and REGISTER_RESULT, feeds the Mapper, publishes its REGISTER_REQUEST and NODE_ADDED,
-// POSE at every VO frame (and wheel increment while VO is down), MAP_GRAPH when the graph
+// POSE at every VO frame (and wheel increment while VO is down; not while a new session is
+// still lost), MAP_GRAPH when the graph
 // changed and MAPPER_STATS, and writes the map store after every update that changed the graph.
 //
 // Every subscription has an unbounded queue (LCM 1.3.1 drops beyond 30 otherwise; docs/lcm.md):
