@@ -1,102 +1,80 @@
 // evermap-mapper-proc: the reduced pose graph mapper on LCM (DESIGN.md section 1). Parses
-// options, wires LCM and runs the loop; the logic is Mapper. Publishes REGISTER_REQUEST,
-// NODE_ADDED and POSE. Exit status: 0 on SIGINT/SIGTERM, 1 LCM failure, 2 bad command line.
+// options, opens the map store, wires LCM (LcmNode) and runs the loop; the logic is Mapper.
+// Exit status: 0 on SIGINT/SIGTERM, 1 LCM or map store failure, 2 bad command line.
 
 #include <csignal>
 #include <cstdio>
 #include <ctime>
+#include <optional>
 #include <string>
 
 #include <lcm/lcm-cpp.hpp>
 
-#include "core/messages/channels.h"
-#include "core/messages/convert.h"
+#include "core/common/command_line.h"
 #include "core/sim/sensors.h"
+#include "mapper-proc/lcm_node.h"
+#include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
 
-namespace {
-
-using namespace evermap;
-
-constexpr const char* kUsage =
-    "usage: evermap-mapper-proc [--full-graph] [--lcm-url URL]\n"
-    "  --full-graph   a node at every step (the paper's baseline) instead of the reduced graph\n"
-    "  --lcm-url URL  LCM provider (default: LCM's default, $LCM_DEFAULT_URL)\n";
-
-class Wiring {
- public:
-  Wiring(lcm::LCM& lcm, mapper::Mapper& m) : lcm_(lcm), m_(m) {
-    for (auto* s : {lcm_.subscribe(channels::kVoDelta, &Wiring::on<vo_delta_t>, this),
-                    lcm_.subscribe(channels::kWheelOdom, &Wiring::on<wheel_odom_t>, this),
-                    lcm_.subscribe(channels::kAttitude, &Wiring::on<attitude_t>, this),
-                    lcm_.subscribe(channels::kFloor, &Wiring::on<floor_t>, this),
-                    lcm_.subscribe(channels::kRegisterResult, &Wiring::on<register_result_t>, this)})
-      s->setQueueCapacity(0);  // every odometry message counts (docs/lcm.md)
-  }
-  int64_t dropped() const { return dropped_; }
-
- private:
-  template <typename Msg>
-  void on(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-    auto msg = messages::decodeLcm<Msg>(rbuf->data, rbuf->data_size, channel);
-    if (!msg) {
-      ++dropped_;
-      std::fprintf(stderr, "evermap-mapper-proc: %s\n", msg.error().message.c_str());
-      return;
-    }
-    Status s = apply(*msg);
-    if (!s) std::fprintf(stderr, "evermap-mapper-proc: %s\n", s.error().message.c_str());
-    for (const auto& r : m_.takeRequests()) lcm_.publish(channels::kRegisterRequest, &r);
-    for (const auto& n : m_.takeNodesAdded()) lcm_.publish(channels::kNodeAdded, &n);
-    if constexpr (std::is_same_v<Msg, vo_delta_t>) {
-      if (m_.activeNode() >= 0) {
-        const pose_t p = messages::toMsg(msg->utime, m_.pose(), m_.floor(), 0);
-        lcm_.publish(channels::kPose, &p);
-      }
-    }
-  }
-  Status apply(const vo_delta_t& m) { return m_.onVo(m); }
-  Status apply(const wheel_odom_t& m) { return m_.onWheel(m); }
-  Status apply(const attitude_t& m) { return m_.onAttitude(m); }
-  Status apply(const floor_t& m) { return m_.onFloor(m); }
-  Status apply(const register_result_t& m) { return m_.onRegisterResult(m); }
-
-  lcm::LCM& lcm_;
-  mapper::Mapper& m_;
-  int64_t dropped_ = 0;
-};
-
-}  // namespace
-
 int main(int argc, char** argv) {
+  using namespace evermap;
   mapper::MapperOptions options;
+  // The camera mounting of the measurement-level simulator (docs/simulators.md).
   options.tracker.body_T_cam = sim::CameraOptions{}.bodyTCam();
-  std::string url;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    } else if (a == "--full-graph") {
-      options.full_graph = true;
-    } else if (a == "--lcm-url" && i + 1 < argc) {
-      url = argv[++i];
-    } else {
-      std::fprintf(stderr, "evermap-mapper-proc: bad option %s\n%s", a.c_str(), kUsage);
+  mapper::LcmNodeOptions node_options;
+  std::string url, store_file;
+  bool full_graph = false, quiet = false;
+  CommandLine cli("evermap-mapper-proc",
+                  "The reduced pose graph mapper on LCM: VO_DELTA, WHEEL_ODOM, ATTITUDE, FLOOR and\n"
+                  "REGISTER_RESULT in; REGISTER_REQUEST, NODE_ADDED, POSE, MAP_GRAPH, MAPPER_STATS out.");
+  cli.flag("--full-graph", &full_graph, "a node at every step (the paper's baseline) instead of the reduced graph");
+  cli.value("--store", &store_file, "MAP.db", "write the map store (SQLite) after every update that changes the graph");
+  cli.value("--graph-period-s", &node_options.graph_period_s, "S",
+            "MAP_GRAPH after a change at most every S seconds of message time (default 1)");
+  cli.value("--stats-period-s", &node_options.stats_period_s, "S",
+            "MAPPER_STATS every S seconds of message time (default 1)");
+  cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
+  cli.flag("--quiet", &quiet, "no summary on exit");
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  options.full_graph = full_graph;
+  for (Status s : {options.validate(), node_options.validate()}) {
+    if (!s) {
+      std::fprintf(stderr, "evermap-mapper-proc: %s\n", s.error().message.c_str());
       return 2;
     }
   }
-  if (Status s = options.validate(); !s) {
-    std::fprintf(stderr, "evermap-mapper-proc: %s\n", s.error().message.c_str());
-    return 2;
+
+  std::optional<mapper::MapStore> store;
+  if (!store_file.empty()) {
+    auto opened = mapper::MapStore::open(store_file);
+    if (!opened) {
+      std::fprintf(stderr, "evermap-mapper-proc: %s\n", opened.error().message.c_str());
+      return 1;
+    }
+    auto held = opened->load();
+    if (!held) {
+      std::fprintf(stderr, "evermap-mapper-proc: %s\n", held.error().message.c_str());
+      return 1;
+    }
+    // The Mapper cannot be loaded from a snapshot yet (issue 7): writing a new map over a
+    // stored one would mix two maps under the same node ids.
+    if (!held->nodes.empty()) {
+      std::fprintf(stderr,
+                   "evermap-mapper-proc: %s holds a map of %zu nodes; resuming a stored map is not "
+                   "supported yet: remove it or pass another --store\n",
+                   store_file.c_str(), held->nodes.size());
+      return 1;
+    }
+    store = std::move(*opened);
   }
+
   lcm::LCM lcm(url);
   if (!lcm.good()) {
-    std::fprintf(stderr, "evermap-mapper-proc: cannot start LCM\n");
+    std::fprintf(stderr, "evermap-mapper-proc: cannot start LCM (url \"%s\")\n", url.c_str());
     return 1;
   }
   mapper::Mapper m(options);
-  Wiring wiring(lcm, m);
+  mapper::LcmNode node(lcm, m, node_options, store ? &*store : nullptr);
   // SIGINT/SIGTERM are blocked and polled between LCM waits: no handler, no global flag.
   sigset_t stop;
   sigemptyset(&stop);
@@ -104,13 +82,19 @@ int main(int argc, char** argv) {
   sigaddset(&stop, SIGTERM);
   sigprocmask(SIG_BLOCK, &stop, nullptr);
   const timespec no_wait{0, 0};
+  int status = 0;
   while (sigtimedwait(&stop, nullptr, &no_wait) < 0) {
-    if (lcm.handleTimeout(200) < 0) {
+    const int handled = lcm.handleTimeout(200);
+    if (handled < 0) {
       std::fprintf(stderr, "evermap-mapper-proc: LCM failed\n");
-      return 1;
+      status = 1;
+      break;
     }
+    // Idle: whatever changed since the last MAP_GRAPH goes out now (the end of a replay).
+    if (handled == 0) node.flush();
   }
-  std::printf("mapper-proc: %s%lld undecodable messages\n", m.stats().text().c_str(),
-              static_cast<long long>(wiring.dropped()));
-  return 0;
+  node.flush();
+  if (!node.storeStatus()) status = 1;
+  if (!quiet) std::printf("evermap-mapper-proc: %s", node.summary().c_str());
+  return status;
 }

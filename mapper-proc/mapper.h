@@ -136,6 +136,8 @@ class Mapper {
   core::SE3d nodePose(int64_t id) const;
   const std::vector<MapperNode>& nodes() const { return nodes_; }
   int64_t activeNode() const { return active_; }
+  // A new session not yet placed on the map by a global registration: pose() means nothing.
+  bool lost() const { return lost_; }
   const ConstraintSet& constraints() const { return constraints_; }
   const solver::IncrementalSolver& solver() const { return solver_; }
   const Tracker& tracker() const { return tracker_; }

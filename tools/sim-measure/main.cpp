@@ -8,9 +8,10 @@
 //   evermap-sim-measure --config FILE --serve [--lcm-url URL] [--speed X]
 //       publish the run on LCM (X times real time within a session; 0: as fast as possible)
 //       and answer REGISTER_REQUEST from NODE_ADDED, standing in for loopclose-proc
-//   evermap-sim-measure --config FILE --oracle [--lcm-url URL] [--idle-exit-s S]
+//   evermap-sim-measure --config FILE --oracle [--lcm-url URL] [--idle-exit-s S] [--map STORE]
 //       only answer registration requests, for an lcm-logplayer replay of a written run
-//       (pass the run's run.sim.txt as the config: the keyframe truth is regenerated from it)
+//       (pass the run's run.sim.txt as the config: the keyframe truth is regenerated from it);
+//       --map: first learn the nodes the mapper's store already holds (a restarted oracle)
 //   evermap-sim-measure --config FILE --print-config
 //
 // Exit status: 0 done, 1 failed while running, 2 bad usage or configuration.
@@ -49,6 +50,7 @@ struct Args {
   std::string out;
   std::string mode;  // out, stats, serve, oracle, print
   std::string lcm_url;
+  std::string map;  // --oracle: the map store to read known nodes from
   double speed = 0.0;
   double idle_exit_s = 0.0;
   bool load = true;
@@ -58,7 +60,7 @@ void usage() {
   std::fprintf(stderr,
                "usage: evermap-sim-measure --config FILE [--set key=value]... "
                "(--out DIR | --stats [--no-load] | --serve [--lcm-url URL] [--speed X] |\n"
-               "       --oracle [--lcm-url URL] [--idle-exit-s S] | --print-config)\n");
+               "       --oracle [--lcm-url URL] [--idle-exit-s S] [--map STORE] | --print-config)\n");
 }
 
 bool parseArgs(int argc, char** argv, Args* a) {
@@ -86,6 +88,8 @@ bool parseArgs(int argc, char** argv, Args* a) {
       a->load = false;
     } else if (s == "--lcm-url") {
       if (!value(&a->lcm_url)) return false;
+    } else if (s == "--map") {
+      if (!value(&a->map)) return false;
     } else if (s == "--speed") {
       if (!value(&v)) return false;
       a->speed = std::atof(v.c_str());
@@ -226,9 +230,18 @@ int runOracle(const RunPlan& plan, const Args& args) {
   observers.on_keyframe = [&](const KeyframeTruth& k) { oracle.addKeyframe(k); };
   evermap::sim::NullSink null;
   (void)evermap::sim::generateRun(plan, [&](int) -> evermap::sim::MessageSink& { return null; }, observers);
+  int64_t stored_nodes = 0;
+  if (!args.map.empty()) {
+    auto told = evermap::sim::loadStoredNodes(oracle, args.map);
+    if (!told) {
+      std::fprintf(stderr, "evermap-sim-measure: %s\n", told.error().message.c_str());
+      return 1;
+    }
+    stored_nodes = *told;
+  }
   evermap::sim::OracleServer server(lcm, oracle);
-  std::printf("evermap-sim-measure: oracle ready, %lld keyframes known\n",
-              static_cast<long long>(oracle.summary().keyframes));
+  std::printf("evermap-sim-measure: oracle ready, %lld keyframes known, %lld nodes from the map store\n",
+              static_cast<long long>(oracle.summary().keyframes), static_cast<long long>(stored_nodes));
   std::fflush(stdout);
   auto last = Clock::now();
   int64_t seen = 0;

@@ -1,0 +1,223 @@
+#include "mapper-proc/lcm_node.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <set>
+#include <sstream>
+
+#include <evermap/attitude_t.hpp>
+#include <evermap/floor_t.hpp>
+#include <evermap/register_result_t.hpp>
+#include <evermap/vo_delta_t.hpp>
+#include <evermap/wheel_odom_t.hpp>
+
+#include "core/messages/channels.h"
+#include "core/messages/convert.h"
+
+namespace evermap::mapper {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+int64_t micros(double s) { return static_cast<int64_t>(std::llround(s * 1e6)); }
+
+void putPose(const core::SE3d& p, double* translation, double* orientation) {
+  for (int k = 0; k < 3; ++k) translation[k] = p.translation()[k];
+  const auto& q = p.quaternion();
+  orientation[0] = q.w();
+  orientation[1] = q.x();
+  orientation[2] = q.y();
+  orientation[3] = q.z();
+}
+
+}  // namespace
+
+Status LcmNodeOptions::validate() const {
+  if (!(graph_period_s >= 0.0) || !std::isfinite(graph_period_s))
+    return makeError("graph_period_s: must be a finite number >= 0, got ", graph_period_s);
+  if (!(stats_period_s >= 0.0) || !std::isfinite(stats_period_s))
+    return makeError("stats_period_s: must be a finite number >= 0, got ", stats_period_s);
+  return Ok{};
+}
+
+map_graph_t graphMessage(const Mapper& mapper, int64_t utime) {
+  map_graph_t g{};
+  g.utime = utime;
+  for (const MapperNode& n : mapper.nodes()) {
+    map_node_t m{};
+    m.node_id = n.id;
+    m.keyframe_utime = n.keyframe_utime;
+    putPose(mapper.nodePose(n.id), m.position, m.orientation);
+    m.floor = n.floor;
+    m.session = n.session;
+    g.nodes.push_back(m);
+  }
+  const auto& all = mapper.constraints().all();
+  for (const auto& [key, pair] : mapper.constraints().pairs()) {
+    map_edge_t e{};
+    e.from_node = pair.i;
+    e.to_node = pair.j;
+    e.type = map_edge_t::TYPE_ODOMETRY;
+    for (size_t k : pair.members) {
+      if (!all[k].accepted) continue;
+      ++e.num_measurements;
+      if (all[k].kind == ConstraintKind::kLoop) e.type = map_edge_t::TYPE_LOOP;
+    }
+    putPose(pair.i_T_j.mean, e.translation, e.orientation);
+    g.edges.push_back(e);
+  }
+  for (const auto& [index, height] : mapper.floors()) g.floors.push_back(map_floor_t{index, height});
+  g.num_nodes = static_cast<int32_t>(g.nodes.size());
+  g.num_edges = static_cast<int32_t>(g.edges.size());
+  g.num_floors = static_cast<int32_t>(g.floors.size());
+  return g;
+}
+
+LcmNode::LcmNode(lcm::LCM& lcm, Mapper& mapper, const LcmNodeOptions& options, MapStore* store)
+    : lcm_(lcm), m_(mapper), o_(options), store_(store), timing_at_stats_(mapper.stats().timing) {
+  for (auto* s : {lcm_.subscribe(channels::kVoDelta, &LcmNode::on<vo_delta_t>, this),
+                  lcm_.subscribe(channels::kWheelOdom, &LcmNode::on<wheel_odom_t>, this),
+                  lcm_.subscribe(channels::kAttitude, &LcmNode::on<attitude_t>, this),
+                  lcm_.subscribe(channels::kFloor, &LcmNode::on<floor_t>, this),
+                  lcm_.subscribe(channels::kRegisterResult, &LcmNode::on<register_result_t>, this)})
+    s->setQueueCapacity(0);  // every message counts (docs/lcm.md)
+}
+
+namespace {
+Status apply(Mapper& m, const vo_delta_t& msg) { return m.onVo(msg); }
+Status apply(Mapper& m, const wheel_odom_t& msg) { return m.onWheel(msg); }
+Status apply(Mapper& m, const attitude_t& msg) { return m.onAttitude(msg); }
+Status apply(Mapper& m, const floor_t& msg) { return m.onFloor(msg); }
+Status apply(Mapper& m, const register_result_t& msg) { return m.onRegisterResult(msg); }
+}  // namespace
+
+template <typename Msg>
+void LcmNode::on(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+  ++counts_.received[channel];
+  auto msg = messages::decodeLcm<Msg>(rbuf->data, rbuf->data_size, channel);
+  if (!msg) {
+    ++counts_.undecodable;
+    std::fprintf(stderr, "evermap-mapper-proc: dropped: %s\n", msg.error().message.c_str());
+    return;
+  }
+  if (Status s = apply(m_, *msg); !s) {
+    // The mapper counted it too; the first few are worth a line each, not thousands.
+    if (++counts_.refused <= 20) std::fprintf(stderr, "evermap-mapper-proc: dropped: %s\n", s.error().message.c_str());
+    return;
+  }
+  bool pose = false;
+  if constexpr (std::is_same_v<Msg, vo_delta_t>) pose = true;
+  if constexpr (std::is_same_v<Msg, wheel_odom_t>) pose = !m_.tracker().voTracking();
+  // Results carry the query keyframe's time; only sensor messages move message time on.
+  afterMessage(std::is_same_v<Msg, register_result_t> ? last_utime_ : msg->utime, pose);
+}
+
+void LcmNode::afterMessage(int64_t utime, bool publish_pose) {
+  const auto t0 = Clock::now();
+  last_utime_ = std::max(last_utime_, utime);
+  for (const auto& r : m_.takeRequests()) lcm_.publish(channels::kRegisterRequest, &r);
+  for (const auto& n : m_.takeNodesAdded()) lcm_.publish(channels::kNodeAdded, &n);
+  if (publish_pose && m_.activeNode() >= 0 && !m_.lost()) {
+    const int session = m_.nodes().empty() ? -1 : m_.nodes().back().session;
+    const pose_t p = messages::toMsg(utime, m_.pose(), m_.floor(), session);
+    lcm_.publish(channels::kPose, &p);
+    ++counts_.poses;
+  }
+  extra_.publish_s += secondsSince(t0);
+  save();
+  if (last_graph_utime_ < 0 || last_utime_ - last_graph_utime_ >= micros(o_.graph_period_s)) publishGraph();
+  if (last_stats_utime_ < 0 || last_utime_ - last_stats_utime_ >= micros(o_.stats_period_s)) publishStats();
+}
+
+void LcmNode::save() {
+  const MapperStats& st = m_.stats();
+  if (!store_ || !store_status_ || m_.nodes().empty()) return;
+  if (st.nodes == stored_nodes_ && st.constraints == stored_constraints_ &&
+      st.timing.update_s.size() == stored_updates_)
+    return;
+  const auto t0 = Clock::now();
+  // The session of the newest node, started at that session's first node.
+  const int session = m_.nodes().back().session;
+  int64_t start = m_.nodes().back().keyframe_utime;
+  for (auto it = m_.nodes().rbegin(); it != m_.nodes().rend() && it->session == session; ++it)
+    start = it->keyframe_utime;
+  store_status_ = store_->save(m_, session, start);
+  if (!store_status_)
+    std::fprintf(stderr, "evermap-mapper-proc: map store: %s (no more writes)\n", store_status_.error().message.c_str());
+  stored_nodes_ = st.nodes;
+  stored_constraints_ = st.constraints;
+  stored_updates_ = st.timing.update_s.size();
+  ++counts_.store_transactions;
+  extra_.store_s += secondsSince(t0);
+}
+
+void LcmNode::publishGraph() {
+  const MapperStats& st = m_.stats();
+  if (st.nodes == graph_nodes_ && st.constraints == graph_constraints_ && st.timing.update_s.size() == graph_updates_)
+    return;
+  const auto t0 = Clock::now();
+  const map_graph_t g = graphMessage(m_, last_utime_);
+  lcm_.publish(channels::kMapGraph, &g);
+  graph_nodes_ = st.nodes;
+  graph_constraints_ = st.constraints;
+  graph_updates_ = st.timing.update_s.size();
+  last_graph_utime_ = last_utime_;
+  ++counts_.graphs;
+  extra_.publish_s += secondsSince(t0);
+}
+
+void LcmNode::publishStats() {
+  const MapperStats& st = m_.stats();
+  const MapperTiming& t = st.timing;
+  mapper_stats_t s{};
+  s.utime = last_utime_;
+  s.num_nodes = static_cast<int32_t>(m_.nodes().size());
+  s.num_edges = static_cast<int32_t>(m_.constraints().pairs().size());
+  s.num_floors = static_cast<int32_t>(m_.floors().size());
+  std::set<int> sessions;
+  for (const MapperNode& n : m_.nodes()) sessions.insert(n.session);
+  s.num_sessions = static_cast<int32_t>(sessions.size());
+  s.num_constraints = st.constraints;
+  s.num_rejected = st.rejected_inconsistent + st.rejected_map_gate;
+  // The mapper's count covers what it refused; undecodable messages never reached it.
+  s.num_dropped_messages = st.dropped + counts_.undecodable;
+  const std::pair<const char*, double> components[] = {
+      {"tracking", t.tracking_s - timing_at_stats_.tracking_s},
+      {"registration", t.registration_s - timing_at_stats_.registration_s},
+      {"partition", t.partition_s - timing_at_stats_.partition_s},
+      {"solver", t.solver_s - timing_at_stats_.solver_s},
+      {"store", extra_.store_s},
+      {"publish", extra_.publish_s},
+      // The solver time of the newest update alone (the paper's Fig. 7 quantity).
+      {"solver_last_update", t.update_s.empty() ? 0.0 : t.update_s.back()},
+  };
+  for (const auto& [name, seconds] : components) {
+    s.component_names.emplace_back(name);
+    s.component_ms.push_back(1e3 * seconds);
+  }
+  s.num_components = static_cast<int32_t>(s.component_names.size());
+  lcm_.publish(channels::kMapperStats, &s);
+  timing_at_stats_ = MapperTiming{t.tracking_s, t.registration_s, t.partition_s, t.solver_s, {}};
+  extra_ = ComponentTimes{};
+  last_stats_utime_ = last_utime_;
+  ++counts_.stats;
+}
+
+void LcmNode::flush() {
+  save();
+  publishGraph();
+  publishStats();
+}
+
+std::string LcmNode::summary() const {
+  std::ostringstream s;
+  s << m_.stats().text();
+  for (const auto& [channel, n] : counts_.received) s << "received_" << channel << " " << n << "\n";
+  s << "undecodable " << counts_.undecodable << "\nrefused " << counts_.refused << "\nposes_published "
+    << counts_.poses << "\ngraphs_published " << counts_.graphs << "\nstats_published " << counts_.stats
+    << "\nstore_transactions " << counts_.store_transactions << "\n";
+  return s.str();
+}
+
+}  // namespace evermap::mapper

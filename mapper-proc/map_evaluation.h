@@ -1,0 +1,94 @@
+#pragma once
+// End-of-run evaluation of a map against the ground truth of a simulated run (DESIGN.md
+// section 10): the map comes from the last MAP_GRAPH of a recorded LCM log (what the live
+// pipeline published) or from a map store (what the offline runner or mapper-proc wrote); the
+// truth from the run folder evermap-sim-measure --out wrote (session-NN.tum, run.sim.txt).
+//
+// Node ATE: each node's world_T_body against the true body pose at its keyframe's time,
+// SE(3)-aligned (Umeyama; the map's origin is its first node, the truth's the building's).
+// Floors: each node's floor label against the floor whose height is nearest the true height,
+// and the map's floor table against the building's. POSE ATE (log only): the live estimates
+// the mapper published, against the truth at their times, SE(3)-aligned as one trajectory.
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <evermap/map_graph_t.hpp>
+#include <evermap/mapper_stats_t.hpp>
+
+#include "core/common/expected.h"
+#include "core/geometry/se3.h"
+
+namespace evermap::mapper {
+
+struct EvalNode {
+  int64_t id = 0;
+  int64_t keyframe_utime = 0;
+  core::SE3d world_T_body;
+  int floor = 0;
+  int session = 0;
+};
+
+// What is evaluated: nodes, how many edges (loop edges among them), the floor table.
+struct EvalMap {
+  std::vector<EvalNode> nodes;
+  int64_t edges = 0;
+  int64_t loop_edges = 0;
+  std::map<int, double> floors;  // index -> height, metres
+};
+
+// The map of a MAP_GRAPH message; an error for a non-unit quaternion or a non-finite value.
+Expected<EvalMap> mapFromGraph(const map_graph_t& graph);
+// The map a store holds (edges: node pairs with at least one accepted constraint).
+Expected<EvalMap> mapFromStore(const std::filesystem::path& store);
+
+// What a recorded log of the live pipeline holds for the evaluation.
+struct RecordedRun {
+  EvalMap map;                       // from the last MAP_GRAPH
+  bool have_stats = false;
+  mapper_stats_t stats{};            // the last MAPPER_STATS
+  std::vector<std::pair<int64_t, core::SE3d>> poses;  // POSE (utime, world_T_body)
+  int64_t graphs = 0;
+  int64_t undecodable = 0;
+};
+// Reads an LCM log (lcm-logger's format); an error names the file, or says no MAP_GRAPH is in it.
+Expected<RecordedRun> readRecordedRun(const std::filesystem::path& log);
+
+// The truth of a simulated run: body poses of every session, the floor table, sessions.
+struct RunTruth {
+  std::map<int64_t, core::SE3d> world_T_body;  // by utime, 10 Hz
+  std::map<int, double> floors;                // index -> height, metres
+  int sessions = 0;
+  // The true pose at `utime`, interpolated in position between the samples around it (nearer
+  // sample's rotation); false when no sample lies within 0.25 s on both sides.
+  bool at(int64_t utime, core::SE3d* world_T_body) const;
+  int floorAt(double z_m) const;  // the floor of nearest height
+};
+// Reads DIR/session-*.tum and DIR/run.sim.txt; errors name the file.
+Expected<RunTruth> readRunTruth(const std::filesystem::path& run_folder);
+
+struct MapEvaluation {
+  int64_t nodes = 0;
+  int64_t nodes_with_truth = 0;
+  int64_t edges = 0;
+  int64_t loop_edges = 0;
+  int floors = 0;
+  int floors_right = 0;          // of the map's floor table, within 0.25 m of the building's
+  int64_t nodes_floor_right = 0; // floor label = the true floor
+  int sessions = 0;              // distinct sessions among the nodes
+  int sessions_truth = 0;
+  double ate_rmse_m = 0.0, ate_median_m = 0.0, ate_max_m = 0.0;
+  int64_t poses = 0;             // POSE messages with truth
+  double pose_ate_rmse_m = 0.0, pose_ate_median_m = 0.0;
+  std::string text() const;
+  std::string json() const;
+};
+
+// `poses` may be empty (no POSE figures). An error when fewer than 3 nodes have truth.
+Expected<MapEvaluation> evaluateMap(const EvalMap& map, const RunTruth& truth,
+                                    const std::vector<std::pair<int64_t, core::SE3d>>& poses = {});
+
+}  // namespace evermap::mapper

@@ -1,0 +1,123 @@
+#!/usr/bin/env bash
+# The live multi-process pipeline in the LCM sandbox (docs/pipeline.md): a short simulated
+# 3-floor, 2-session run is written, evermap-deputy runs config/pipeline-oracle.pmd
+# (mapper-proc + the registration oracle) while lcm-logplayer replays the run at
+# EVERMAP_PIPELINE_SPEED (default 20x) and lcm-logger records what the mapper publishes.
+# Mid-replay the oracle is killed with SIGKILL; the deputy must restart it (seen through
+# evermap-deputy-ctl), the restarted oracle must learn the nodes from the mapper's store, and
+# the run must finish. Then: every odometry message of the log reached the mapper, nothing
+# was undecodable, and the final MAP_GRAPH is checked against ground truth with
+# evermap-pipeline-eval (ATE limit: see docs/pipeline.md). Prints the replay's real-time factor.
+set -euo pipefail
+build="$1"; src="$2"
+if [ "${EVERMAP_LCM_SANDBOX:-}" != "1" ]; then
+  exec "$src/scripts/lcm-sandbox" bash "$0" "$@"
+fi
+speed="${EVERMAP_PIPELINE_SPEED:-20}"
+# Node ATE limit, metres: the offline runner's node ATE on this run is 0.116 m; live runs
+# measured 0.06-0.17 m at 20x-400x, with and without the kill (registrations lost while the
+# oracle is down, answers later than offline; docs/pipeline.md). 0.4 m is 3.5x the offline
+# figure; a broken map (floors mixed up, a false match accepted, a lost session) is metres off.
+max_ate="${EVERMAP_PIPELINE_MAX_ATE:-0.4}"
+bin="$build/bin"
+ctl="$bin/evermap-deputy-ctl"
+tmp="$(mktemp -d)"
+dpid=""; lpid=""
+cleanup() {
+  [ -n "$dpid" ] && kill -TERM "$dpid" 2>/dev/null && sleep 2 && kill -KILL "$dpid" 2>/dev/null || true
+  [ -n "$lpid" ] && kill -KILL "$lpid" 2>/dev/null || true
+  rm -rf "$tmp"
+}
+trap cleanup EXIT
+fail() {
+  echo "FAIL: $*"
+  for f in "$tmp"/logs/*.log "$tmp/deputy.err"; do [ -f "$f" ] && { echo "--- $f"; tail -30 "$f"; }; done
+  exit 1
+}
+
+# 1. A short run: 3 floors, 2 sessions, about 15 simulated minutes (45 s at 20x).
+"$bin/evermap-sim-measure" --config "$src/config/sim-small.conf" --set patrol.total_hours=0.06 \
+  --out "$tmp/run" > "$tmp/sim.txt" || fail "simulator"
+sim_s="$(awk -F'[ =]+' '/^meta.session\./ { for (i = 1; i < NF; i++) { if ($i == "start_utime") s = $(i+1);
+          if ($i == "end_utime") e = $(i+1) } t += (e - s) / 1e6 } END { printf "%.1f", t }' "$tmp/run/run.sim.txt")"
+meta() { awk -F' = ' -v k="meta.messages.$1" '$1 == k { print $2 }' "$tmp/run/run.sim.txt"; }
+echo "run: $sim_s simulated s, $(ls "$tmp"/run/*.lcmlog | wc -l) session logs"
+
+# 2. Record what the mapper publishes, then run the pipeline under the deputy.
+lcm-logger -q -f -c 'MAP_GRAPH|MAPPER_STATS|POSE' "$tmp/mapper.lcmlog" &
+lpid=$!
+(cd "$src" && EVERMAP_BIN="$bin" EVERMAP_RUN="$tmp/run" EVERMAP_MAP="$tmp/map.db" EVERMAP_SPEED="$speed" \
+  EVERMAP_GRAPH_PERIOD_S=5 exec "$bin/evermap-deputy" config/pipeline-oracle.pmd --log-dir "$tmp/logs" \
+  --host sandbox --script replay --exit-after-script --quiet 2> "$tmp/deputy.err") &
+dpid=$!
+
+# Columns of `status --tsv`: 2 NAME 4 STATE 6 PID 9 RESTARTS 10 LAST_EXIT.
+status() { "$ctl" --host sandbox --timeout-s 30 status --tsv > "$tmp/status.tsv" 2>/dev/null; }
+field() { awk -F'\t' -v n="$1" -v c="$2" 'NR > 1 && $2 == n { print $c }' "$tmp/status.tsv"; }
+wait_until() {  # SECONDS COMMAND...: polls the status until COMMAND succeeds
+  local end=$((SECONDS + $1)); shift
+  while [ "$SECONDS" -lt "$end" ]; do
+    status && "$@" && return 0
+    sleep 0.2
+  done
+  return 1
+}
+playing() { [ "$(field player 4)" = running ]; }
+wait_until 60 playing || fail "the player did not start"
+
+# 3. A third into the replay, SIGKILL the oracle; the deputy restarts it. (EVERMAP_PIPELINE_KILL=0
+# skips this, to measure the replay speed the pipeline keeps up with.)
+kill_oracle="${EVERMAP_PIPELINE_KILL:-1}"
+if [ "$kill_oracle" = 1 ]; then
+sleep "$(awk -v s="$sim_s" -v x="$speed" 'BEGIN { printf "%.1f", s / x / 3 }')"
+status
+pid="$(field sim-oracle 6)"
+[ -n "$pid" ] && [ "$pid" -gt 0 ] || fail "no pid for sim-oracle"
+playing || fail "the replay ended before the kill (raise the speed's divisor)"
+kill -KILL "$pid"
+restarted() {
+  [ "$(field sim-oracle 4)" = running ] && [ "$(field sim-oracle 6)" != "$pid" ] &&
+    [ "$(field sim-oracle 9)" -ge 1 ] && [ "$(field sim-oracle 10)" = "-9" ]
+}
+wait_until 30 restarted || fail "sim-oracle was not restarted after SIGKILL"
+echo "sim-oracle: pid $pid killed, restarted as $(field sim-oracle 6)"
+fi
+
+# 4. The run finishes: the script stops the pipeline after the replay, the deputy exits 0.
+rc=0
+wait "$dpid" || rc=$?
+dpid=""
+[ "$rc" -eq 0 ] || fail "deputy exited with $rc"
+sleep 0.5
+kill -INT "$lpid"; wait "$lpid" || true; lpid=""
+
+logs="$tmp/logs"
+if [ "$kill_oracle" = 1 ]; then
+  grep -q "ended: killed by signal 9" "$logs/sim-oracle.log" || fail "sim-oracle.log lacks the kill"
+  # The restarted oracle knew the nodes announced before it started.
+  told="$(grep -o 'keyframes known, [0-9]* nodes from the map store' "$logs/sim-oracle.log" | tail -1 | awk '{ print $3 }')"
+  [ -n "$told" ] && [ "$told" -gt 0 ] || fail "the restarted oracle read no nodes from the map store"
+  echo "restarted oracle: $told nodes read from the map store"
+fi
+# The mapper ran once, start to end, and saw every odometry message of the log.
+[ "$(grep -c 'started pid' "$logs/mapper-proc.log")" -eq 1 ] || fail "mapper-proc was restarted"
+for ch in VO_DELTA WHEEL_ODOM ATTITUDE FLOOR; do
+  got="$(awk -v k="received_$ch" '$1 == k { print $2 }' "$logs/mapper-proc.log")"
+  [ "$got" = "$(meta "$ch")" ] || fail "$ch: mapper received ${got:-0} of $(meta "$ch")"
+done
+grep -q '^undecodable 0$' "$logs/mapper-proc.log" || fail "undecodable messages reached the mapper"
+sed -n 's/^\(steps\|nodes\|loop_closures\|timeouts\|dropped\|store_transactions\) /mapper \1 /p' "$logs/mapper-proc.log"
+player_s="$(grep -o 'ended: exit code 0 after [0-9.]* s' "$logs/player.log" | awk '{ print $6 }')"
+[ -n "$player_s" ] || fail "the player did not finish cleanly"
+echo "replay: $sim_s simulated s in $player_s s at -s $speed: real-time factor $(awk -v a="$sim_s" -v b="$player_s" 'BEGIN { printf "%.1f", a / b }')"
+
+# 5. The final map against ground truth.
+"$bin/evermap-pipeline-eval" --run "$tmp/run" --log "$tmp/mapper.lcmlog" --max-ate "$max_ate" > "$tmp/eval.txt" \
+  || { cat "$tmp/eval.txt"; fail "evaluation"; }
+cat "$tmp/eval.txt"
+nodes="$(awk '$1 == "nodes" { print $2 }' "$tmp/eval.txt")"
+[ "$nodes" -ge 30 ] || fail "only $nodes nodes"
+grep -q '^floors 3 (3 at' "$tmp/eval.txt" || fail "the map does not hold the 3 floors at their heights"
+grep -q '^sessions 2 (run: 2)' "$tmp/eval.txt" || fail "the map does not hold both sessions"
+[ "$kill_oracle" = 1 ] && echo "OK: the pipeline finished after an oracle SIGKILL and restart; map within $max_ate m ATE" \
+  || echo "OK: the pipeline finished; map within $max_ate m ATE"

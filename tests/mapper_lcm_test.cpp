@@ -1,0 +1,251 @@
+// mapper-proc's LCM adapter in one process over memq://: a simulated run is published message
+// by message, the registration oracle answers on the same LCM, and what the mapper publishes
+// (REGISTER_REQUEST, NODE_ADDED, POSE, MAP_GRAPH, MAPPER_STATS) and stores is checked. Garbage,
+// out-of-order and non-finite messages slipped into the stream are dropped and counted, and
+// the map comes out exactly as without them.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <evermap/attitude_t.hpp>
+#include <evermap/map_graph_t.hpp>
+#include <evermap/mapper_stats_t.hpp>
+#include <evermap/node_added_t.hpp>
+#include <evermap/pose_t.hpp>
+#include <evermap/register_result_t.hpp>
+
+#include "core/eval/alignment.h"
+#include "core/eval/metrics.h"
+#include "core/messages/channels.h"
+#include "core/sim/oracle_server.h"
+#include "core/sim/run.h"
+#include "mapper-proc/lcm_node.h"
+#include "mapper-proc/map_store.h"
+#include "tests/scratch_dir.h"
+
+namespace evermap::mapper {
+namespace {
+
+// One session of ~3 simulated minutes on the 3-floor building.
+sim::SimOptions shortRun() {
+  sim::SimOptions o;
+  o.seed = 5;
+  o.building.floors = 3;
+  o.building.main_floor = 1;
+  o.building.main_cross_corridors = 4;
+  o.building.max_cross_corridors = 4;
+  o.patrol.sessions = 1;
+  o.patrol.total_hours = 0.04;
+  o.patrol.span_days = 1;
+  o.patrol.explore_sessions = 1;
+  return o;
+}
+
+struct Listener {
+  std::vector<pose_t> poses;
+  std::vector<map_graph_t> graphs;
+  std::vector<mapper_stats_t> stats;
+  std::vector<node_added_t> nodes;
+  int64_t requests = 0;
+  void onPose(const lcm::ReceiveBuffer*, const std::string&, const pose_t* m) { poses.push_back(*m); }
+  void onGraph(const lcm::ReceiveBuffer*, const std::string&, const map_graph_t* m) { graphs.push_back(*m); }
+  void onStats(const lcm::ReceiveBuffer*, const std::string&, const mapper_stats_t* m) { stats.push_back(*m); }
+  void onNode(const lcm::ReceiveBuffer*, const std::string&, const node_added_t* m) { nodes.push_back(*m); }
+  void onRequest(const lcm::ReceiveBuffer*, const std::string&) { ++requests; }
+};
+
+struct LiveRun {
+  Listener heard;
+  std::vector<MapperNode> nodes;
+  std::map<int64_t, core::SE3d> truth_world_T_cam;  // by keyframe utime
+  MapperStats stats;
+  LcmNodeCounts counts;
+  int64_t stored_nodes = 0;
+  int64_t stored_edges = 0;
+};
+
+// Publishes the run on memq:// to the mapper and the oracle; with `inject`, slips bad
+// messages in after the 2000th message. Returns what the mapper did.
+LiveRun runLive(bool inject, const std::filesystem::path& store_file, int* injected = nullptr) {
+  LiveRun out;
+  const sim::SimOptions sim_options = shortRun();
+  auto plan = sim::RunPlan::create(sim_options);
+  EXPECT_TRUE(plan) << plan.error().message;
+  // The oracle knows every keyframe's truth up front, as evermap-sim-measure --oracle does.
+  sim::OracleOptions oracle_options = sim_options.oracle;
+  oracle_options.keyframe_window_s = 0.0;
+  sim::RegistrationOracle oracle(oracle_options, plan->oracleSeed());
+  sim::VectorSink log;
+  sim::SessionObservers observers;
+  observers.on_keyframe = [&](const sim::KeyframeTruth& k) {
+    oracle.addKeyframe(k);
+    out.truth_world_T_cam[k.utime] = k.world_T_cam;
+  };
+  (void)sim::generateRun(*plan, [&](int) -> sim::MessageSink& { return log; }, observers);
+
+  lcm::LCM lcm("memq://");
+  EXPECT_TRUE(lcm.good());
+  sim::OracleServer server(lcm, oracle);
+  MapperOptions options;
+  options.tracker.body_T_cam = sim_options.sensors.camera.bodyTCam();
+  Mapper mapper(options);
+  auto store = MapStore::open(store_file);
+  EXPECT_TRUE(store);
+  LcmNodeOptions node_options;
+  node_options.graph_period_s = 5.0;
+  LcmNode node(lcm, mapper, node_options, &*store);
+  Listener& h = out.heard;
+  lcm.subscribe(channels::kPose, &Listener::onPose, &h);
+  lcm.subscribe(channels::kMapGraph, &Listener::onGraph, &h);
+  lcm.subscribe(channels::kMapperStats, &Listener::onStats, &h);
+  lcm.subscribe(channels::kNodeAdded, &Listener::onNode, &h);
+  lcm.subscribe(channels::kRegisterRequest, &Listener::onRequest, &h);
+
+  auto drain = [&] {
+    while (lcm.handleTimeout(0) > 0) {
+    }
+  };
+  int count = 0;
+  std::map<std::string, std::vector<uint8_t>> earlier;  // first message of each channel
+  for (const auto& m : log.messages) {
+    earlier.emplace(m.channel, m.data);
+    lcm.publish(m.channel, m.data.data(), static_cast<unsigned>(m.data.size()));
+    drain();
+    if (inject && ++count == 2000) {
+      const uint8_t garbage[5] = {1, 2, 3, 4, 5};
+      lcm.publish(channels::kVoDelta, garbage, sizeof garbage);           // undecodable
+      for (const char* c : {channels::kWheelOdom, channels::kAttitude, channels::kVoDelta}) {
+        const auto& old = earlier.at(c);                                   // out of order
+        lcm.publish(c, old.data(), static_cast<unsigned>(old.size()));
+      }
+      attitude_t nan{};                                                    // not finite
+      nan.utime = m.utime + 1;
+      nan.roll_rad = std::nan("");
+      nan.covariance[0] = nan.covariance[3] = 1e-4;
+      lcm.publish(channels::kAttitude, &nan);
+      register_result_t stray{};                                           // no such request
+      stray.request_id = 999999;
+      stray.status = register_result_t::STATUS_OK;
+      lcm.publish(channels::kRegisterResult, &stray);
+      *injected = 6;
+      drain();
+    }
+  }
+  node.flush();
+  drain();
+  out.nodes = mapper.nodes();
+  out.stats = mapper.stats();
+  out.counts = node.counts();
+  auto snap = store->load();
+  EXPECT_TRUE(snap);
+  out.stored_nodes = static_cast<int64_t>(snap->nodes.size());
+  out.stored_edges = static_cast<int64_t>(snap->edges.size());
+  return out;
+}
+
+TEST(MapperLcm, PublishesPoseGraphAndStatsAndStoresTheMapItBuilds) {
+  evermap::testing::ScratchDir dir;
+  const LiveRun r = runLive(false, dir.path() / "map.db");
+  const Listener& h = r.heard;
+  ASSERT_GT(r.nodes.size(), 20u);
+  EXPECT_GT(r.stats.loop_closures, 0);
+  EXPECT_EQ(r.stats.dropped, 0);
+  EXPECT_EQ(r.counts.undecodable, 0);
+  // Every node announced, every step asked about, a pose per VO frame once mapping began.
+  EXPECT_EQ(h.nodes.size(), r.nodes.size());
+  EXPECT_EQ(h.requests, r.stats.requests_node + r.stats.requests_global);
+  EXPECT_GT(h.poses.size(), 1000u);
+  ASSERT_FALSE(h.graphs.empty());
+  ASSERT_FALSE(h.stats.empty());
+
+  // The last MAP_GRAPH is the final map: its nodes, one edge per node pair, its floors.
+  const map_graph_t& g = h.graphs.back();
+  ASSERT_EQ(g.num_nodes, static_cast<int32_t>(r.nodes.size()));
+  EXPECT_EQ(g.num_edges, r.stats.factors);
+  EXPECT_GE(g.num_edges, g.num_nodes - 1);
+  EXPECT_EQ(g.num_floors, 3);
+  int loops = 0;
+  for (const auto& e : g.edges) {
+    EXPECT_LT(e.from_node, e.to_node);
+    EXPECT_GE(e.num_measurements, 1);
+    loops += e.type == map_edge_t::TYPE_LOOP;
+  }
+  EXPECT_GT(loops, 0);
+  // Graphs go out at most every 5 s of message time, and only after a change.
+  for (size_t k = 1; k + 1 < h.graphs.size(); ++k) EXPECT_GE(h.graphs[k].utime - h.graphs[k - 1].utime, 5000000);
+
+  // The map is right: node poses against the keyframes' truth (world_T_body), SE(3)-aligned.
+  const core::SE3d cam_T_body = shortRun().sensors.camera.bodyTCam().inverse();
+  std::vector<core::SE3d> gt, est;
+  for (const auto& n : g.nodes) {
+    gt.push_back(r.truth_world_T_cam.at(n.keyframe_utime) * cam_T_body);
+    const Eigen::Quaterniond q(n.orientation[0], n.orientation[1], n.orientation[2], n.orientation[3]);
+    est.push_back(core::SE3d(q.normalized(), core::Vec3(n.position[0], n.position[1], n.position[2])));
+  }
+  auto aligned = eval::alignTrajectories(gt, est, eval::AlignmentMode::kSE3);
+  ASSERT_TRUE(aligned);
+  for (auto& e : est) e = aligned->gt_S_est * e;
+  auto ate = eval::computeAte(gt, est);
+  ASSERT_TRUE(ate);
+  EXPECT_LT(ate->translation_m.rmse, 0.5);
+
+  // MAPPER_STATS: counts of the final map and the per-component times.
+  const mapper_stats_t& s = h.stats.back();
+  EXPECT_EQ(s.num_nodes, g.num_nodes);
+  EXPECT_EQ(s.num_edges, g.num_edges);
+  EXPECT_EQ(s.num_floors, 3);
+  EXPECT_EQ(s.num_sessions, 1);
+  EXPECT_EQ(s.num_constraints, r.stats.constraints);
+  EXPECT_EQ(s.num_dropped_messages, 0);
+  ASSERT_EQ(s.num_components, 7);
+  EXPECT_EQ(s.component_names[3], "solver");
+  for (double ms : s.component_ms) EXPECT_GE(ms, 0.0);
+
+  // The store holds the final map: every node and every constraint.
+  EXPECT_EQ(r.stored_nodes, g.num_nodes);
+  EXPECT_EQ(r.stored_edges, r.stats.constraints);
+}
+
+TEST(MapperLcm, DropsAndCountsMalformedAndOutOfOrderMessagesWithoutApplyingThem) {
+  evermap::testing::ScratchDir dir;
+  const LiveRun clean = runLive(false, dir.path() / "clean.db");
+  int injected = 0;
+  const LiveRun dirty = runLive(true, dir.path() / "dirty.db", &injected);
+  ASSERT_EQ(injected, 6);
+  EXPECT_EQ(dirty.counts.undecodable, 1);
+  EXPECT_EQ(dirty.counts.refused, 5);
+  EXPECT_EQ(dirty.stats.dropped, clean.stats.dropped + 5);
+  ASSERT_FALSE(dirty.heard.stats.empty());
+  EXPECT_EQ(dirty.heard.stats.back().num_dropped_messages, 6);
+  // Nothing of it reached the map: the same graph, node for node.
+  ASSERT_FALSE(clean.heard.graphs.empty());
+  ASSERT_FALSE(dirty.heard.graphs.empty());
+  const map_graph_t& a = clean.heard.graphs.back();
+  const map_graph_t& b = dirty.heard.graphs.back();
+  ASSERT_EQ(a.num_nodes, b.num_nodes);
+  ASSERT_EQ(a.num_edges, b.num_edges);
+  for (int i = 0; i < a.num_nodes; ++i) {
+    EXPECT_EQ(a.nodes[i].keyframe_utime, b.nodes[i].keyframe_utime);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(a.nodes[i].position[k], b.nodes[i].position[k]);
+  }
+}
+
+TEST(MapperLcm, RefusesBadPublishingPeriods) {
+  LcmNodeOptions o;
+  o.graph_period_s = -1.0;
+  const Status s = o.validate();
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.error().message.find("graph_period_s"), std::string::npos);
+  o.graph_period_s = 1.0;
+  o.stats_period_s = std::nan("");
+  EXPECT_FALSE(o.validate());
+}
+
+}  // namespace
+}  // namespace evermap::mapper

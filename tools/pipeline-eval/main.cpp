@@ -1,0 +1,68 @@
+// evermap-pipeline-eval: the end-of-run evaluation of a map against the ground truth of a
+// simulated run (mapper-proc/map_evaluation.h): node ATE, edges, floors, sessions, and from a
+// recorded log also the live POSE ATE and the last MAPPER_STATS.
+// Exit status: 0 done (and within --max-ate), 1 bad input or ATE over --max-ate, 2 bad usage.
+
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include "core/common/command_line.h"
+#include "mapper-proc/map_evaluation.h"
+
+int main(int argc, char** argv) {
+  using namespace evermap;
+  std::string run, log, store, json;
+  double max_ate_m = 0.0;
+  CommandLine cli("evermap-pipeline-eval",
+                  "Compares a map with the ground truth of a simulated run (evermap-sim-measure --out).");
+  cli.value("--run", &run, "DIR", "the run folder: session-NN.tum and run.sim.txt", true);
+  cli.value("--log", &log, "LOG", "an LCM log recorded from the pipeline (last MAP_GRAPH, POSE, MAPPER_STATS)");
+  cli.value("--store", &store, "MAP.db", "a map store instead of a log");
+  cli.value("--max-ate", &max_ate_m, "M", "exit 1 when the node ATE rmse exceeds M metres (0: no limit)");
+  cli.value("--json", &json, "OUT.json", "also write the figures as JSON");
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  if (log.empty() == store.empty()) {
+    std::fprintf(stderr, "evermap-pipeline-eval: give exactly one of --log and --store\n%s", cli.usage().c_str());
+    return 2;
+  }
+  auto fail = [](const Error& e) {
+    std::fprintf(stderr, "evermap-pipeline-eval: %s\n", e.message.c_str());
+    return 1;
+  };
+  auto truth = mapper::readRunTruth(run);
+  if (!truth) return fail(truth.error());
+  mapper::RecordedRun recorded;
+  if (!log.empty()) {
+    auto r = mapper::readRecordedRun(log);
+    if (!r) return fail(r.error());
+    recorded = std::move(*r);
+  } else {
+    auto m = mapper::mapFromStore(store);
+    if (!m) return fail(m.error());
+    recorded.map = std::move(*m);
+  }
+  auto e = mapper::evaluateMap(recorded.map, *truth, recorded.poses);
+  if (!e) return fail(e.error());
+  std::printf("%s", e->text().c_str());
+  if (!log.empty()) {
+    std::printf("map_graphs_in_log %lld\nundecodable_in_log %lld\n", static_cast<long long>(recorded.graphs),
+                static_cast<long long>(recorded.undecodable));
+    if (recorded.have_stats) {
+      const auto& s = recorded.stats;
+      std::printf("stats_constraints %lld\nstats_rejected %lld\nstats_dropped_messages %lld\n",
+                  static_cast<long long>(s.num_constraints), static_cast<long long>(s.num_rejected),
+                  static_cast<long long>(s.num_dropped_messages));
+    }
+  }
+  if (!json.empty()) {
+    std::ofstream out(json);
+    out << e->json();
+    if (!out) return fail(Error{json + ": cannot write"});
+  }
+  if (max_ate_m > 0.0 && e->ate_rmse_m > max_ate_m) {
+    std::fprintf(stderr, "evermap-pipeline-eval: node ATE rmse %.3f m exceeds %.3f m\n", e->ate_rmse_m, max_ate_m);
+    return 1;
+  }
+  return 0;
+}
