@@ -74,6 +74,8 @@ class LcmNode {
   const LcmNodeCounts& counts() const { return counts_; }
   // The first store error, if any (the node stops writing after it).
   const Status& storeStatus() const { return store_status_; }
+  // The newest message time received, µs (-1 before the first message).
+  int64_t lastUtime() const { return last_utime_; }
   // A one-line-per-figure summary for the end of a run.
   std::string summary() const;
 

@@ -2,6 +2,7 @@
 // options, opens the map store, wires LCM (LcmNode) and runs the loop; the logic is Mapper.
 // Exit status: 0 on SIGINT/SIGTERM, 1 LCM or map store failure, 2 bad command line.
 
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <ctime>
@@ -35,6 +36,10 @@ int main(int argc, char** argv) {
             "MAPPER_STATS every S seconds of message time (default 1)");
   cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.flag("--quiet", &quiet, "no summary on exit");
+  double progress_s = 0.0;
+  cli.value("--progress-s", &progress_s, "S",
+            "print a progress line (message time, nodes, constraints, drops) every S s of wall "
+            "time while messages arrive (0: none)");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   options.full_graph = full_graph;
   for (Status s : {options.validate(), node_options.validate()}) {
@@ -83,6 +88,14 @@ int main(int argc, char** argv) {
   sigprocmask(SIG_BLOCK, &stop, nullptr);
   const timespec no_wait{0, 0};
   int status = 0;
+  // Progress is for the person watching, so it runs on the wall clock; the map never sees it.
+  using Clock = std::chrono::steady_clock;
+  const auto started = Clock::now();
+  auto next_progress = started;
+  // Data time mapped so far; a jump of an hour or more (the gap between
+  // sessions) is not counted.
+  int64_t previous_utime = -1;
+  double data_s = 0.0;
   while (sigtimedwait(&stop, nullptr, &no_wait) < 0) {
     const int handled = lcm.handleTimeout(200);
     if (handled < 0) {
@@ -92,6 +105,23 @@ int main(int argc, char** argv) {
     }
     // Idle: whatever changed since the last MAP_GRAPH goes out now (the end of a replay).
     if (handled == 0) node.flush();
+    if (progress_s > 0.0 && node.lastUtime() >= 0 && Clock::now() >= next_progress) {
+      const int64_t now_utime = node.lastUtime();
+      if (previous_utime >= 0 && now_utime > previous_utime) {
+        const double step_s = 1e-6 * static_cast<double>(now_utime - previous_utime);
+        if (step_s < 3600.0) data_s += step_s;
+      }
+      previous_utime = now_utime;
+      next_progress = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                         std::chrono::duration<double>(progress_s));
+      std::printf("progress: wall %.0f s, data %.0f s, session %d, nodes %zu, "
+                  "constraints %zu, dropped %lld\n",
+                  std::chrono::duration<double>(Clock::now() - started).count(), data_s,
+                  m.nodes().empty() ? 0 : m.nodes().back().session,
+                  m.nodes().size(), m.constraints().all().size(),
+                  static_cast<long long>(node.counts().dropped()));
+      std::fflush(stdout);
+    }
   }
   node.flush();
   if (!node.storeStatus()) status = 1;

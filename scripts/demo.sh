@@ -1,42 +1,109 @@
 #!/usr/bin/env bash
-# The main job, from a fresh machine: set up, build, turn the real EuRoC excerpt into an LCM
-# log, replay it with lcm-logplayer inside the LCM sandbox and print what was received; run
-# stereo VO over the log and evaluate it against the ground truth (plot in OUT_DIR); train a
-# vocabulary and measure loop detection on the RTAB-Map samples.
-# (Later issues grow this into the full multi-process SLAM demo.)
-#   scripts/demo.sh [EUROC_DIR]      (BUILD_DIR=build, OUT_DIR=out by default)
+# The main job, from a fresh machine: set up and build, then
+#  1. the multi-process pipeline on a simulated 3-floor, multi-session run: evermap-sim-measure
+#     writes the session logs; inside the LCM sandbox the deputy starts mapper-proc and the
+#     registration oracle, lcm-logplayer replays the sessions and lcm-logger records what the
+#     mapper publishes; then the map is evaluated against the ground truth and drawn:
+#     floors stacked (Fig. 1), trajectory against ground truth (Fig. 4), nodes and update time
+#     against time for the reduced and the full pose graph (Fig. 7); a summary is printed;
+#  2. the real EuRoC excerpt: converted to an LCM log, replayed and checked, stereo VO over it
+#     evaluated against the ground truth, and loop detection on the RTAB-Map samples.
+#
+#   scripts/demo.sh [RUN_DIR]   RUN_DIR: a run written by `evermap-sim-measure --out`
+#                               (default: one made from config/sim-small.conf)
+# Environment: BUILD_DIR (build), OUT_DIR (out), EVERMAP_DATA (../shared/data),
+#   EVERMAP_SIM_CONFIG (config/sim-small.conf), EVERMAP_SPEED (replay speed, 20).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
 out="${OUT_DIR:-$root/out}"
 data="${EVERMAP_DATA:-$root/../shared/data}"
-euroc="${1:-$data/euroc-v101-micro}"
-[ -d "$euroc/mav0" ] || { echo "demo: $euroc/mav0 not found (give the EuRoC folder or set EVERMAP_DATA)" >&2; exit 2; }
+sim_config="${EVERMAP_SIM_CONFIG:-$root/config/sim-small.conf}"
+speed="${EVERMAP_SPEED:-20}"
+run="${1:-}"
 
 bash "$root/scripts/setup.sh"
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build "$build" -j2
-
 mkdir -p "$out"
-gt=()
-[ -f "$euroc/groundtruth_openvins/V1_01_easy.csv" ] && gt=(--gt "$euroc/groundtruth_openvins/V1_01_easy.csv")
-echo "== converting $euroc"
-"$build/bin/evermap-euroc2lcm" "$euroc" "$out/euroc.lcmlog" "${gt[@]}"
-echo "== replaying $out/euroc.lcmlog with lcm-logplayer (4x) in the LCM sandbox"
-BUILD_DIR="$build" "$root/scripts/replay-check.sh" "$out/euroc.lcmlog" 4
+bin="$build/bin"
 
-echo "== stereo VO over the log (evermap-vo-run), evaluated against the ground truth"
-"$build/bin/evermap-vo-run" "$out/euroc.lcmlog" "$out/euroc_vo.tum" --body --stats "$out/euroc_vo.csv"
-if [ ${#gt[@]} -gt 0 ]; then
-  # The vehicle barely moves in the excerpt: align on the first pose, not by Umeyama.
-  "$build/bin/evermap-eval" --gt "${gt[1]}" --est "$out/euroc_vo.tum" --align first \
-    --plot "$out/euroc_vo.png" --json "$out/euroc_vo.json"
+# ---------------------------------------------------------------------------------------------
+echo "== 1. the pipeline on a simulated multi-floor, multi-session run"
+if [ -z "$run" ]; then
+  run="$out/sim-run"
+  rm -rf "$run"
+  "$bin/evermap-sim-measure" --config "$sim_config" --out "$run" | tail -n 3
 fi
+[ -f "$run/run.sim.txt" ] || { echo "demo: $run/run.sim.txt not found (a run of evermap-sim-measure --out)" >&2; exit 2; }
 
-if [ -d "$data/rtabmap-lcd-samples" ]; then
-  echo "== place recognition: vocabulary from real images, loop detection on the RTAB-Map samples"
-  "$build/bin/evermap-vocab-train" --out "$out/default.evoc" --default-data "$data"
-  "$build/bin/evermap-place-eval" --vocab "$out/default.evoc" \
-    --images "$data/rtabmap-lcd-samples/samples" --gt "$data/rtabmap-lcd-samples/samples_GT.bmp"
+rm -f "$out/map.db" "$out/map.db-wal" "$out/map.db-shm" "$out/mapper.lcmlog"
+rm -rf "$out/deputy-logs"
+echo "   replaying $(ls "$run"/session-*.lcmlog | wc -l) session log(s) at ${speed}x; mapper-proc and the oracle under evermap-deputy"
+start_s=$(date +%s.%N)
+EVERMAP_BIN="$bin" EVERMAP_RUN="$run" EVERMAP_MAP="$out/map.db" EVERMAP_SPEED="$speed" \
+EVERMAP_MAPPER_FLAGS="--progress-s 5" OUT="$out" \
+  "$root/scripts/lcm-sandbox" bash -c '
+    set -e
+    lcm-logger -q -f -c "MAP_GRAPH|MAPPER_STATS|POSE" "$OUT/mapper.lcmlog" & logger=$!
+    # Progress: the mapper prints a line every 5 s into its deputy log.
+    ( while sleep 5; do
+        tail -n 1 "$OUT/deputy-logs/mapper-proc.log" 2>/dev/null | grep "^progress" | sed "s/^/   /" || true
+      done ) & watcher=$!
+    "$EVERMAP_BIN/evermap-deputy" "'"$root"'/config/pipeline-oracle.pmd" --log-dir "$OUT/deputy-logs" \
+        --script replay --exit-after-script --quiet
+    kill $watcher 2>/dev/null || true
+    kill -INT $logger; wait $logger || true'
+end_s=$(date +%s.%N)
+
+echo "== the map against the ground truth"
+"$bin/evermap-pipeline-eval" --run "$run" --log "$out/mapper.lcmlog" --json "$out/map_eval.json" \
+  --poses-tum "$out/live_poses.tum" | tee "$out/map_eval.txt"
+cat "$run"/session-*.tum | grep -v '^#' > "$out/ground_truth.tum"
+
+echo "== figures"
+"$bin/evermap-map-render" --store "$out/map.db" --gt "$out/ground_truth.tum" \
+  --title "reduced pose graph, floors stacked (cf. paper Fig. 1)" --out "$out/fig1_map_floors.png"
+"$bin/evermap-eval" --gt "$out/ground_truth.tum" --est "$out/live_poses.tum" --max-dt 0.06 \
+  --plot "$out/fig4_trajectory.png" --json "$out/fig4_trajectory.json" | grep -E "ATE|pairs" || true
+# Fig. 7 needs the full pose graph beside the reduced one: the offline runner maps the same run
+# both ways in one process and draws nodes and update time against time.
+"$bin/evermap-mapper-run" --config "$run/run.sim.txt" --mode both --out "$out/fig7" | tail -n 12
+
+# ---------------------------------------------------------------------------------------------
+sim_s=$(awk '/^#/ {next} {t=$1; if (n++ == 0 || t - last > 3600) {if (n > 1) total += last - first; first = t} last = t} END {total += last - first; printf "%.0f", total}' "$out/ground_truth.tum")
+wall_s=$(awk -v a="$start_s" -v b="$end_s" 'BEGIN {printf "%.1f", b - a}')
+echo "== summary (simulated run $run)"
+grep -E '^(nodes|edges|floors|sessions|node_ate_rmse_m|node_ate_median_m|pose_ate_median_m|stats_rejected|stats_dropped_messages) ' "$out/map_eval.txt" |
+  awk '{k = $1; $1 = ""; printf "   %-24s%s\n", k, $0}'
+echo "   simulated time           ${sim_s} s"
+echo "   pipeline wall time       ${wall_s} s (replay at ${speed}x, with start-up and shut-down)"
+awk -v s="$sim_s" -v w="$wall_s" 'BEGIN {printf "   real-time factor         %.1fx\n", s / w}'
+echo "   figures                  $out/fig1_map_floors.png $out/fig4_trajectory.png $out/fig7/"
+
+# ---------------------------------------------------------------------------------------------
+euroc="$data/euroc-v101-micro"
+if [ -d "$euroc/mav0" ]; then
+  echo "== 2. the real EuRoC excerpt"
+  gt=()
+  [ -f "$euroc/groundtruth_openvins/V1_01_easy.csv" ] && gt=(--gt "$euroc/groundtruth_openvins/V1_01_easy.csv")
+  "$bin/evermap-euroc2lcm" "$euroc" "$out/euroc.lcmlog" "${gt[@]}"
+  echo "   replaying $out/euroc.lcmlog with lcm-logplayer (4x) in the LCM sandbox"
+  BUILD_DIR="$build" "$root/scripts/replay-check.sh" "$out/euroc.lcmlog" 4 | tail -n 3
+  echo "   stereo VO over the log (evermap-vo-run), evaluated against the ground truth"
+  "$bin/evermap-vo-run" "$out/euroc.lcmlog" "$out/euroc_vo.tum" --body --stats "$out/euroc_vo.csv"
+  if [ ${#gt[@]} -gt 0 ]; then
+    # The vehicle barely moves in the excerpt: align on the first pose, not by Umeyama.
+    "$bin/evermap-eval" --gt "${gt[1]}" --est "$out/euroc_vo.tum" --align first \
+      --plot "$out/euroc_vo.png" --json "$out/euroc_vo.json"
+  fi
+  if [ -d "$data/rtabmap-lcd-samples" ]; then
+    echo "   place recognition: vocabulary from real images, loop detection on the RTAB-Map samples"
+    "$bin/evermap-vocab-train" --out "$out/default.evoc" --default-data "$data" | tail -n 1
+    "$bin/evermap-place-eval" --vocab "$out/default.evoc" \
+      --images "$data/rtabmap-lcd-samples/samples" --gt "$data/rtabmap-lcd-samples/samples_GT.bmp"
+  fi
+else
+  echo "== 2. skipped: no EuRoC excerpt at $euroc (set EVERMAP_DATA)"
 fi
 echo "== done: outputs in $out"

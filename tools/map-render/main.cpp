@@ -3,6 +3,7 @@
 // optionally the ground truth, aligned to the map through the nodes' keyframe times.
 // Exit status: 0 ok, 1 bad input, 2 bad command line.
 
+#include <algorithm>
 #include <cstdio>
 #include <map>
 #include <string>
@@ -55,19 +56,24 @@ int main(int argc, char** argv) {
     figure.nodes.push_back({n.world_T_body.translation(), n.node.floor, n.node.session});
     nodes_by_time.poses.push_back({n.node.keyframe_utime * 1000, n.world_T_body});
   }
-  size_t rejected = 0;
+  // One edge per node pair (the merged factor); a loop closure when any constraint of the
+  // pair is one.
+  size_t rejected = 0, constraints = 0;
+  std::map<std::pair<size_t, size_t>, bool> pairs;
   for (const mapper::StoredEdge& e : snapshot->edges) {
     if (!e.constraint.accepted) {
       ++rejected;
       continue;
     }
+    ++constraints;
     const auto a = index_of.find(e.constraint.from), b = index_of.find(e.constraint.to);
     if (a == index_of.end() || b == index_of.end()) {
       return fail(store_file + ": edge " + std::to_string(e.edge_id) + " refers to a missing node");
     }
-    figure.edges.push_back(
-        {a->second, b->second, e.constraint.kind == mapper::ConstraintKind::kLoop});
+    const auto key = std::minmax(a->second, b->second);
+    pairs[key] = pairs[key] || e.constraint.kind == mapper::ConstraintKind::kLoop;
   }
+  for (const auto& [key, loop] : pairs) figure.edges.push_back({key.first, key.second, loop});
 
   if (!gt_file.empty()) {
     auto gt = eval::readTum(gt_file);
@@ -91,8 +97,9 @@ int main(int argc, char** argv) {
   auto canvas = eval::drawMapFigure(figure, options, &summary);
   if (!canvas) return fail(store_file + ": " + canvas.error().message);
   std::snprintf(subtitle, sizeof subtitle,
-                "%zu nodes, %zu edges (%zu loop closures, %zu rejected), %zu floors, %zu sessions",
-                figure.nodes.size(), figure.edges.size(), summary.loop_closures, rejected,
+                "%zu nodes, %zu edges (%zu with loop closures; %zu constraints, %zu rejected), "
+                "%zu floors, %zu sessions",
+                figure.nodes.size(), figure.edges.size(), summary.loop_closures, constraints, rejected,
                 summary.floors, summary.sessions);
   options.subtitle = subtitle;
   canvas = eval::drawMapFigure(figure, options);

@@ -4,10 +4,11 @@
 // Exit status: 0 done (and within --max-ate), 1 bad input or ATE over --max-ate, 2 bad usage.
 
 #include <cstdio>
-#include <fstream>
 #include <string>
 
+#include "core/common/atomic_write.h"
 #include "core/common/command_line.h"
+#include "core/eval/trajectory.h"
 #include "mapper-proc/map_evaluation.h"
 
 int main(int argc, char** argv) {
@@ -21,6 +22,9 @@ int main(int argc, char** argv) {
   cli.value("--store", &store, "MAP.db", "a map store instead of a log");
   cli.value("--max-ate", &max_ate_m, "M", "exit 1 when the node ATE rmse exceeds M metres (0: no limit)");
   cli.value("--json", &json, "OUT.json", "also write the figures as JSON");
+  std::string poses_tum;
+  cli.value("--poses-tum", &poses_tum, "OUT.tum",
+            "write the live POSE trajectory of --log as TUM (for evermap-eval and its plot)");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (log.empty() == store.empty()) {
     std::fprintf(stderr, "evermap-pipeline-eval: give exactly one of --log and --store\n%s", cli.usage().c_str());
@@ -56,9 +60,22 @@ int main(int argc, char** argv) {
     }
   }
   if (!json.empty()) {
-    std::ofstream out(json);
-    out << e->json();
-    if (!out) return fail(Error{json + ": cannot write"});
+    if (Status s = writeFileAtomically(json, e->json()); !s) return fail(s.error());
+  }
+  if (!poses_tum.empty()) {
+    if (recorded.poses.empty()) return fail(Error{log.empty() ? "--poses-tum needs --log" : log + ": no POSE message"});
+    eval::Trajectory trajectory;
+    trajectory.source = log;
+    // POSE goes out after a VO frame and after a wheel increment, which may share a stamp:
+    // the later message is the newer estimate.
+    for (const auto& [utime, world_T_body] : recorded.poses) {
+      if (!trajectory.poses.empty() && trajectory.poses.back().t_ns >= utime * 1000) {
+        if (trajectory.poses.back().t_ns == utime * 1000) trajectory.poses.back().world_T_body = world_T_body;
+        continue;
+      }
+      trajectory.poses.push_back({utime * 1000, world_T_body});
+    }
+    if (Status s = eval::writeTum(trajectory, poses_tum); !s) return fail(s.error());
   }
   if (max_ate_m > 0.0 && e->ate_rmse_m > max_ate_m) {
     std::fprintf(stderr, "evermap-pipeline-eval: node ATE rmse %.3f m exceeds %.3f m\n", e->ate_rmse_m, max_ate_m);
