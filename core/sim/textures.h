@@ -1,0 +1,99 @@
+#pragma once
+// Gray 8-bit textures for the image-level simulator: procedural patterns (noise, bricks, tiles,
+// wood, terrazzo, blocks, stripes of text) and photographs used as posters, each with a mip
+// pyramid so distant and grazing surfaces are sampled from a pre-filtered level instead of
+// aliasing (Williams 1983, "Pyramidal parametrics").
+//
+// Procedural textures are square, power-of-two sized and seamless (they repeat with period
+// size() in both directions): a long wall tiles them. Posters are sampled inside their own
+// rectangle only, so their aspect is free; they are stored square (resampled) and the poster
+// rectangle on the wall restores the photograph's aspect.
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/common/expected.h"
+#include "core/sim/random.h"
+
+namespace evermap::sim {
+
+class Texture {
+ public:
+  // `base` is size x size gray levels, row-major; size a power of two >= 4.
+  Texture(int size, std::vector<uint8_t> base);
+
+  int size() const { return size_; }
+  int levels() const { return static_cast<int>(levels_.size()); }
+  const uint8_t* level(int l) const { return levels_[l].data(); }
+  // Bilinear sample at texel coordinates (u, v) of level 0 (texel centres at integer + 0.5),
+  // from mip level `level` (clamped to the pyramid), wrapping around the edges. Gray 0..255.
+  int sample(float u, float v, int level) const {
+    level = level < 0 ? 0 : (level >= levels() ? levels() - 1 : level);
+    const int s = size_ >> level, mask = s - 1;
+    const float scale = scale_[static_cast<size_t>(level)];
+    // Fixed point, 8 fractional bits; the offset keeps the value positive before the shift.
+    const int32_t fu = static_cast<int32_t>(u * scale - 128.0f) + (1 << 28);
+    const int32_t fv = static_cast<int32_t>(v * scale - 128.0f) + (1 << 28);
+    const int x0 = (fu >> 8) & mask, y0 = (fv >> 8) & mask;
+    const int x1 = (x0 + 1) & mask, y1 = (y0 + 1) & mask;
+    const int ax = fu & 255, ay = fv & 255;
+    const uint8_t* p = levels_[static_cast<size_t>(level)].data();
+    const uint8_t* r0 = p + y0 * s;
+    const uint8_t* r1 = p + y1 * s;
+    const int top = r0[x0] * 256 + (r0[x1] - r0[x0]) * ax;
+    const int bottom = r1[x0] * 256 + (r1[x1] - r1[x0]) * ax;
+    return (top * 256 + (bottom - top) * ay + (1 << 15)) >> 16;
+  }
+
+ private:
+  int size_;
+  std::vector<std::vector<uint8_t>> levels_;  // levels_[l] is (size >> l)^2
+  std::vector<float> scale_;                   // 256 / 2^l: level-0 texels to level-l fixed point
+};
+
+enum class Pattern { kNoise, kBricks, kTiles, kWood, kTerrazzo, kBlocks, kText, kBrushed };
+const char* patternName(Pattern p);
+inline constexpr int kPatternCount = 8;
+
+// A seamless procedural texture of size x size texels.
+Texture makePattern(Pattern pattern, int size, Random& rng);
+
+// A smooth, nearly uniform texture (a featureless wall: low-frequency shading only, amplitude
+// `contrast` gray levels around `mean`).
+Texture makeBlank(int size, int mean, double contrast, Random& rng);
+
+// The textures a world is painted with: procedural ones, then posters.
+struct TextureLibrary {
+  std::vector<Texture> textures;
+  std::vector<int> wall;      // indices of textures suited to walls
+  std::vector<int> floor;     // ... to floors
+  std::vector<int> ceiling;   // ... to ceilings
+  std::vector<int> posters;   // photographs
+  std::vector<int> people;    // passers-by (clothes-like patterns)
+  int blank = -1;             // the featureless texture
+  int cab = -1;               // elevator cab walls
+};
+
+struct TextureOptions {
+  int size = 256;                 // texels per side of procedural textures (power of two)
+  int variants = 3;               // procedural textures drawn per pattern
+  int poster_size = 256;          // texels per side of a stored poster
+  int max_posters = 40;           // photographs loaded at most
+  Status validate() const;
+};
+
+// Procedural textures from `rng`, plus up to max_posters photographs (*.jpg, *.png, any size,
+// converted to gray) from `poster_folder` when it is not empty. A folder that does not exist
+// or holds no readable image is an error naming it; callers fall back to procedural posters
+// by passing an empty folder.
+Expected<TextureLibrary> makeTextureLibrary(const TextureOptions& options,
+                                            const std::filesystem::path& poster_folder,
+                                            Random& rng);
+
+// The folder of photographs used as posters: $EVERMAP_DATA (else `default_root`) joined with
+// rtabmap-lcd-samples/samples; empty when it does not exist.
+std::filesystem::path defaultPosterFolder(const std::filesystem::path& default_root);
+
+}  // namespace evermap::sim
