@@ -166,18 +166,20 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
         p_scale = static_cast<float>(tex[p.texture].size()) / (p.s1 - p.s0);
       }
       float depth_below_ceiling = z_top;
-      for (int v = v_top; v < v_bot; ++v, depth_below_ceiling += step) {
-        int value;
-        if (v >= p_top && v < p_bot) {
-          const float height = static_cast<float>(floor.ceiling_z - floor.floor_z);
-          value = tex[p.texture].sample((static_cast<float>(s) - p.s0) * p_scale,
-                                        (p.z1 - (height - depth_below_ceiling)) * p_scale,
-                                        mipLevel(lod + std::log2(p_scale)));
-        } else {
-          value = wt.sample(tu, depth_below_ceiling * w.inv_texel + w.z_offset, level);
+      const int gain = w.gain_q8;
+      const float z_offset = w.z_offset, inv_texel = w.inv_texel;
+      int v = v_top;
+      for (; v < p_top; ++v, depth_below_ceiling += step) put(u, v, wt.sample(tu, depth_below_ceiling * inv_texel + z_offset, level), gain);
+      if (p_top < p_bot) {
+        const float height = static_cast<float>(floor.ceiling_z - floor.floor_z);
+        const Texture& pt = tex[p.texture];
+        const int p_level = mipLevel(lod + std::log2(p_scale));
+        const float pu = (static_cast<float>(s) - p.s0) * p_scale;
+        for (; v < p_bot; ++v, depth_below_ceiling += step) {
+          put(u, v, pt.sample(pu, (p.z1 - (height - depth_below_ceiling)) * p_scale, p_level), gain);
         }
-        put(u, v, value, w.gain_q8);
       }
+      for (; v < v_bot; ++v, depth_below_ceiling += step) put(u, v, wt.sample(tu, depth_below_ceiling * inv_texel + z_offset, level), gain);
     }
     col_dx[static_cast<size_t>(u)] = dx;
     col_dy[static_cast<size_t>(u)] = dy;

@@ -1,6 +1,7 @@
 #include "core/sim/textures.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdlib>
 #include <numbers>
@@ -219,7 +220,17 @@ Texture::Texture(int size, std::vector<uint8_t> base) : size_(size) {
     }
     levels_.push_back(std::move(next));
   }
-  for (size_t l = 0; l < levels_.size(); ++l) scale_.push_back(256.0f / static_cast<float>(1 << l));
+  makeViews();
+}
+
+void Texture::makeViews() {
+  view_.clear();
+  for (size_t l = 0; l < levels_.size(); ++l) {
+    const int side = size_ >> l;
+    view_.push_back(Level{levels_[l].data(), side - 1, std::countr_zero(static_cast<unsigned>(side)),
+                          256.0f / static_cast<float>(1 << l)});
+  }
+  last_ = static_cast<int>(view_.size()) - 1;
 }
 
 const char* patternName(Pattern p) {

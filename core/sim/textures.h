@@ -30,27 +30,47 @@ class Texture {
   // Bilinear sample at texel coordinates (u, v) of level 0 (texel centres at integer + 0.5),
   // from mip level `level` (clamped to the pyramid), wrapping around the edges. Gray 0..255.
   int sample(float u, float v, int level) const {
-    level = level < 0 ? 0 : (level >= levels() ? levels() - 1 : level);
-    const int s = size_ >> level, mask = s - 1;
-    const float scale = scale_[static_cast<size_t>(level)];
+    const Level& L = view_[static_cast<size_t>(level < 0 ? 0 : (level > last_ ? last_ : level))];
     // Fixed point, 8 fractional bits; the offset keeps the value positive before the shift.
-    const int32_t fu = static_cast<int32_t>(u * scale - 128.0f) + (1 << 28);
-    const int32_t fv = static_cast<int32_t>(v * scale - 128.0f) + (1 << 28);
-    const int x0 = (fu >> 8) & mask, y0 = (fv >> 8) & mask;
-    const int x1 = (x0 + 1) & mask, y1 = (y0 + 1) & mask;
+    const int32_t fu = static_cast<int32_t>(u * L.scale - 128.0f) + (1 << 28);
+    const int32_t fv = static_cast<int32_t>(v * L.scale - 128.0f) + (1 << 28);
+    const int x0 = (fu >> 8) & L.mask, y0 = (fv >> 8) & L.mask;
+    const int x1 = (x0 + 1) & L.mask, y1 = (y0 + 1) & L.mask;
     const int ax = fu & 255, ay = fv & 255;
-    const uint8_t* p = levels_[static_cast<size_t>(level)].data();
-    const uint8_t* r0 = p + y0 * s;
-    const uint8_t* r1 = p + y1 * s;
+    const uint8_t* r0 = L.texels + (y0 << L.shift);
+    const uint8_t* r1 = L.texels + (y1 << L.shift);
     const int top = r0[x0] * 256 + (r0[x1] - r0[x0]) * ax;
     const int bottom = r1[x0] * 256 + (r1[x1] - r1[x0]) * ax;
     return (top * 256 + (bottom - top) * ay + (1 << 15)) >> 16;
   }
 
+  Texture(const Texture& other) : size_(other.size_), levels_(other.levels_) { makeViews(); }
+  Texture(Texture&& other) noexcept : size_(other.size_), levels_(std::move(other.levels_)) { makeViews(); }
+  Texture& operator=(const Texture& other) {
+    size_ = other.size_;
+    levels_ = other.levels_;
+    makeViews();
+    return *this;
+  }
+  Texture& operator=(Texture&& other) noexcept {
+    size_ = other.size_;
+    levels_ = std::move(other.levels_);
+    makeViews();
+    return *this;
+  }
+
  private:
   int size_;
+  struct Level {
+    const uint8_t* texels;  // into levels_
+    int mask;               // side - 1
+    int shift;              // log2(side)
+    float scale;            // 256 / 2^l: level-0 texels to level-l fixed point
+  };
+  void makeViews();
   std::vector<std::vector<uint8_t>> levels_;  // levels_[l] is (size >> l)^2
-  std::vector<float> scale_;                   // 256 / 2^l: level-0 texels to level-l fixed point
+  std::vector<Level> view_;
+  int last_ = 0;
 };
 
 enum class Pattern { kNoise, kBricks, kTiles, kWood, kTerrazzo, kBlocks, kText, kBrushed };
