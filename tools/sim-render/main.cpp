@@ -7,6 +7,9 @@
 //       render without writing; print the figures and the render rate
 //   evermap-sim-render --config FILE --publish [--lcm-url URL] [--speed X]
 //       publish on LCM, X times real time (default 1; 0: as fast as possible)
+//   evermap-sim-render --config FILE --snapshots DIR [--every S]
+//       write the left image every S seconds (default 10) as DIR/left-<seconds>.png, with what
+//       the camera faces in the name (dark, blank, passerby, cab)
 //   evermap-sim-render --config FILE --print-config
 //
 // Exit status: 0 done, 1 failed while running, 2 bad usage or configuration.
@@ -20,6 +23,7 @@
 #include <vector>
 
 #include <lcm/lcm-cpp.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "core/common/key_value_file.h"
 #include "core/eval/trajectory.h"
@@ -42,12 +46,15 @@ struct Args {
   bool stats = false;
   bool publish = false;
   bool print = false;
+  std::string snapshots;
+  double every_s = 10.0;
 };
 
 void usage() {
   std::fprintf(stderr,
                "usage: evermap-sim-render --config FILE [--set key=value]... [--seed N]\n"
-               "       (--out LOG [--stats] | --stats | --publish [--lcm-url URL] [--speed X] | --print-config)\n");
+               "       (--out LOG [--stats] | --stats | --publish [--lcm-url URL] [--speed X] |\n"
+               "        --snapshots DIR [--every S] | --print-config)\n");
 }
 
 bool parseArgs(int argc, char** argv, Args* a) {
@@ -73,6 +80,12 @@ bool parseArgs(int argc, char** argv, Args* a) {
       a->stats = true;
     } else if (s == "--publish") {
       a->publish = true;
+    } else if (s == "--snapshots") {
+      if (!value(&a->snapshots)) return false;
+    } else if (s == "--every") {
+      if (!value(&v)) return false;
+      a->every_s = std::atof(v.c_str());
+      if (!(a->every_s > 0.0)) return false;
     } else if (s == "--print-config") {
       a->print = true;
     } else if (s == "--lcm-url") {
@@ -87,7 +100,8 @@ bool parseArgs(int argc, char** argv, Args* a) {
       return false;
     }
   }
-  const int modes = (a->out.empty() ? 0 : 1) + (a->publish ? 1 : 0) + (a->print ? 1 : 0);
+  const int modes = (a->out.empty() ? 0 : 1) + (a->publish ? 1 : 0) + (a->print ? 1 : 0) +
+                    (a->snapshots.empty() ? 0 : 1);
   return !a->config.empty() && (modes == 1 || (modes == 0 && a->stats));
 }
 
@@ -165,6 +179,24 @@ int main(int argc, char** argv) {
   if (!sim) {
     std::fprintf(stderr, "evermap-sim-render: %s\n", sim.error().message.c_str());
     return 2;
+  }
+  if (!args.snapshots.empty()) {
+    std::error_code ec;
+    fs::create_directories(args.snapshots, ec);
+    cv::Mat left, right;
+    for (int64_t t = (*sim)->startUtime(); t <= (*sim)->endUtime(); t += static_cast<int64_t>(args.every_s * 1e6)) {
+      const auto f = (*sim)->renderPair(t, &left, &right);
+      char name[128];
+      std::snprintf(name, sizeof name, "left-%06.1f%s%s%s%s.png", 1e-6 * static_cast<double>(t - (*sim)->startUtime()),
+                    f.dark_room ? "-dark" : "", f.blank_zone ? "-blank" : "", f.passerby ? "-passerby" : "",
+                    f.closed_cab ? "-cab" : "");
+      const fs::path file = fs::path(args.snapshots) / name;
+      if (!cv::imwrite(file.string(), left)) {
+        std::fprintf(stderr, "evermap-sim-render: %s: cannot write\n", file.c_str());
+        return 1;
+      }
+    }
+    return 0;
   }
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
