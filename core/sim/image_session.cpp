@@ -265,6 +265,7 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
       summary.frames_blank_zone += f.blank_zone;
       summary.frames_passerby += f.passerby;
       summary.frames_closed_cab += f.closed_cab;
+      summary.frame_facts.emplace_back(t, f);
       const auto t1 = WallClock::now();
       auto msg = messages::toMsg(messages::StereoFrame{t, true, left, right}, o.render.encoding);
       if (!msg) return msg.error();

@@ -52,6 +52,7 @@ struct ImageSessionSummary {
   int64_t frames = 0, frames_dark_room = 0, frames_blank_zone = 0, frames_passerby = 0,
           frames_closed_cab = 0;
   std::map<std::string, ChannelCount> channels;
+  std::vector<std::pair<int64_t, FrameFacts>> frame_facts;  // per stereo frame, by utime
   double render_s = 0.0;     // wall time spent rendering (a measurement, not an input)
   double encode_s = 0.0;     // wall time spent encoding images
 

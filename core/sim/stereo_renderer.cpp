@@ -169,7 +169,8 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
       const int gain = w.gain_q8;
       const float z_offset = w.z_offset, inv_texel = w.inv_texel;
       int v = v_top;
-      for (; v < p_top; ++v, depth_below_ceiling += step) put(u, v, wt.sample(tu, depth_below_ceiling * inv_texel + z_offset, level), gain);
+      const Texture::Column column(wt, tu, level);
+      for (; v < p_top; ++v, depth_below_ceiling += step) put(u, v, column(depth_below_ceiling * inv_texel + z_offset), gain);
       if (p_top < p_bot) {
         const float height = static_cast<float>(floor.ceiling_z - floor.floor_z);
         const Texture& pt = tex[p.texture];
@@ -179,7 +180,7 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
           put(u, v, pt.sample(pu, (p.z1 - (height - depth_below_ceiling)) * p_scale, p_level), gain);
         }
       }
-      for (; v < v_bot; ++v, depth_below_ceiling += step) put(u, v, wt.sample(tu, depth_below_ceiling * inv_texel + z_offset, level), gain);
+      for (; v < v_bot; ++v, depth_below_ceiling += step) put(u, v, column(depth_below_ceiling * inv_texel + z_offset), gain);
     }
     col_dx[static_cast<size_t>(u)] = dx;
     col_dy[static_cast<size_t>(u)] = dy;

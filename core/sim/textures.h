@@ -21,6 +21,13 @@ namespace evermap::sim {
 
 class Texture {
  public:
+  struct Level {
+    const uint8_t* texels;  // the level's texels
+    int mask;               // side - 1
+    int shift;              // log2(side)
+    float scale;            // 256 / 2^l: level-0 texels to level-l fixed point
+  };
+
   // `base` is size x size gray levels, row-major; size a power of two >= 4.
   Texture(int size, std::vector<uint8_t> base);
 
@@ -44,6 +51,33 @@ class Texture {
     return (top * 256 + (bottom - top) * ay + (1 << 15)) >> 16;
   }
 
+  // Samples along one texture column u at one level (a wall seen by a level camera): the
+  // horizontal interpolation is done once. Same values as sample(u, v, level).
+  class Column {
+   public:
+    Column(const Texture& t, float u, int level) {
+      L_ = t.view_[static_cast<size_t>(level < 0 ? 0 : (level > t.last_ ? t.last_ : level))];
+      const int32_t fu = static_cast<int32_t>(u * L_.scale - 128.0f) + (1 << 28);
+      x0_ = (fu >> 8) & L_.mask;
+      x1_ = (x0_ + 1) & L_.mask;
+      ax_ = fu & 255;
+    }
+    int operator()(float v) const {
+      const int32_t fv = static_cast<int32_t>(v * L_.scale - 128.0f) + (1 << 28);
+      const int y0 = (fv >> 8) & L_.mask, y1 = (y0 + 1) & L_.mask, ay = fv & 255;
+      const uint8_t* r0 = L_.texels + (y0 << L_.shift);
+      const uint8_t* r1 = L_.texels + (y1 << L_.shift);
+      const int top = r0[x0_] * 256 + (r0[x1_] - r0[x0_]) * ax_;
+      const int bottom = r1[x0_] * 256 + (r1[x1_] - r1[x0_]) * ax_;
+      return (top * 256 + (bottom - top) * ay + (1 << 15)) >> 16;
+    }
+
+   private:
+    Level L_;
+    int x0_, x1_, ax_;
+    friend class Texture;
+  };
+
   Texture(const Texture& other) : size_(other.size_), levels_(other.levels_) { makeViews(); }
   Texture(Texture&& other) noexcept : size_(other.size_), levels_(std::move(other.levels_)) { makeViews(); }
   Texture& operator=(const Texture& other) {
@@ -61,12 +95,6 @@ class Texture {
 
  private:
   int size_;
-  struct Level {
-    const uint8_t* texels;  // into levels_
-    int mask;               // side - 1
-    int shift;              // log2(side)
-    float scale;            // 256 / 2^l: level-0 texels to level-l fixed point
-  };
   void makeViews();
   std::vector<std::vector<uint8_t>> levels_;  // levels_[l] is (size >> l)^2
   std::vector<Level> view_;

@@ -11,6 +11,8 @@
 //       write the left image every S seconds (default 10) as DIR/left-<seconds>.png, with what
 //       the camera faces in the name (dark, blank, passerby, cab)
 //   evermap-sim-render --config FILE --print-config
+// With --facts FILE.csv (--out, --stats, --publish): what each stereo frame faces, one line per
+// frame (utime, floor, dark_room, blank_zone, passerby, closed_cab), for judging VO per segment.
 //
 // Exit status: 0 done, 1 failed while running, 2 bad usage or configuration.
 #include <atomic>
@@ -25,6 +27,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "core/common/atomic_write.h"
 #include "core/common/key_value_file.h"
 #include "core/eval/trajectory.h"
 #include "core/sim/image_session.h"
@@ -48,6 +51,7 @@ struct Args {
   bool print = false;
   std::string snapshots;
   double every_s = 10.0;
+  std::string facts;
 };
 
 void usage() {
@@ -82,6 +86,8 @@ bool parseArgs(int argc, char** argv, Args* a) {
       a->publish = true;
     } else if (s == "--snapshots") {
       if (!value(&a->snapshots)) return false;
+    } else if (s == "--facts") {
+      if (!value(&a->facts)) return false;
     } else if (s == "--every") {
       if (!value(&v)) return false;
       a->every_s = std::atof(v.c_str());
@@ -226,5 +232,16 @@ int main(int argc, char** argv) {
     return 1;
   }
   if (args.stats || !args.out.empty()) std::fputs(summary->text().c_str(), stdout);
+  if (!args.facts.empty()) {
+    std::string text = "utime,floor,dark_room,blank_zone,passerby,closed_cab\n";
+    for (const auto& [t, f] : summary->frame_facts) {
+      text += std::to_string(t) + "," + std::to_string(f.floor) + "," + std::to_string(f.dark_room) + "," +
+              std::to_string(f.blank_zone) + "," + std::to_string(f.passerby) + "," + std::to_string(f.closed_cab) + "\n";
+    }
+    if (auto s = evermap::writeFileAtomically(args.facts, text); !s) {
+      std::fprintf(stderr, "evermap-sim-render: %s\n", s.error().message.c_str());
+      return 1;
+    }
+  }
   return g_stop ? 1 : 0;
 }
