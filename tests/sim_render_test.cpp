@@ -344,6 +344,47 @@ TEST(ImageSession, LogRoundTripsThroughTheExistingReaders) {
   fs::remove(log);
 }
 
+TEST(ImageSession, ElevatorRideShowsTheClosedCabAndChangesFloor) {
+  auto sim = makeSimulator(smallConfig());
+  ASSERT_FALSE(sim->session().rides.empty());
+  const ElevatorRide ride = sim->session().rides.front();
+  cv::Mat left, right;
+  const FrameFacts before = sim->renderPair(ride.start_utime - 10'000'000, &left, &right);
+  const FrameFacts during = sim->renderPair((ride.start_utime + ride.end_utime) / 2, &left, &right);
+  const FrameFacts after = sim->renderPair(ride.end_utime + 10'000'000, &left, &right);
+  EXPECT_TRUE(during.closed_cab);
+  EXPECT_FALSE(before.closed_cab && after.closed_cab);
+  EXPECT_EQ(before.floor, ride.floor_from);
+  EXPECT_EQ(after.floor, ride.floor_to);
+  EXPECT_NE(ride.floor_from, ride.floor_to);
+}
+
+TEST(ImageSession, LightingChangesBetweenSessions) {
+  LightingOptions o;
+  o.gain_jitter = 0.3;
+  o.offset_jitter_gray = 10.0;
+  o.gamma_jitter = 0.2;
+  const Lighting s0 = o.forSession(0, 7), s1 = o.forSession(1, 7), s2 = o.forSession(2, 7);
+  EXPECT_EQ(s0.gain, 1.0);
+  EXPECT_EQ(s0.gamma, 1.0);
+  EXPECT_NE(s1.gain, s2.gain);
+  for (const Lighting& l : {s1, s2}) {
+    EXPECT_NEAR(l.gain, 1.0, 0.3);
+    EXPECT_NEAR(l.offset_gray, 0.0, 10.0);
+    EXPECT_NEAR(l.gamma, 1.0, 0.2);
+  }
+  // The same view, brighter or darker by the session's response.
+  const TextureLibrary lib = testTextures();
+  const PinholeCamera cam{160, 120, 110.0, 110.0, 80.0, 60.0};
+  ImageRenderer renderer(lib, cam, 0.0, 3);
+  const RenderFloor floor = roomFloor(lib, 4.0, false, false);
+  cv::Mat base, dim;
+  renderer.render(floor, 0.0, cameraAt(0, 0, 0.3), {}, &base);
+  renderer.setLighting(Lighting{0.5, 0.0, 1.0});
+  renderer.render(floor, 0.0, cameraAt(0, 0, 0.3), {}, &dim);
+  EXPECT_NEAR(cv::mean(dim)[0], 0.5 * cv::mean(base)[0], 1.0);
+}
+
 TEST(ImageSession, PostersComeFromTheRealPhotographs) {
   EVERMAP_REQUIRE_DATA(data, "rtabmap-lcd-samples");
   Random rng(1);
