@@ -272,7 +272,14 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
       summary.encode_s += secondsSince(t1);
       writeMessage(sink, channels::kStereo, *msg);
       stereo.advance();
-      if (progress && !progress(static_cast<double>(t - start) / total)) break;
+      if (progress && !progress(static_cast<double>(t - start) / total)) {
+        // Stopped early: the figures cover what was written.
+        summary.duration_s = static_cast<double>(t - start) * 1e-6;
+        summary.distance_m = traj.at(t).odometer_m - traj.at(start).odometer_m;
+        summary.rides = 0;
+        for (const ElevatorRide& r : session_.rides) summary.rides += r.start_utime < t ? 1 : 0;
+        break;
+      }
     }
   }
   std::sort(floors.begin(), floors.end());
