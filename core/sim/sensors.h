@@ -137,6 +137,7 @@ class Intervals {
             Random& rng);
   bool contains(int64_t utime) const;
   size_t size() const { return spans_.size(); }
+  const std::vector<std::pair<int64_t, int64_t>>& spans() const { return spans_; }
 
  private:
   std::vector<std::pair<int64_t, int64_t>> spans_;

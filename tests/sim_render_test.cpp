@@ -1,0 +1,415 @@
+// The image-level simulator: geometry of the rendered stereo pairs, failure switches, sensors
+// and the LCM log it writes.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+
+#include <unistd.h>
+
+#include <lcm/lcm-cpp.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/camera/calibration.h"
+#include "core/messages/channels.h"
+#include "core/messages/convert.h"
+#include "core/sim/image_session.h"
+#include "core/sim/render_world.h"
+#include "core/sim/stereo_renderer.h"
+#include "tests/test_data.h"
+
+namespace evermap::sim {
+namespace {
+
+namespace fs = std::filesystem;
+
+TextureLibrary testTextures() {
+  Random rng(5);
+  TextureOptions o;
+  o.variants = 1;
+  auto lib = makeTextureLibrary(o, {}, rng);
+  EXPECT_TRUE(lib) << lib.error().message;
+  return std::move(*lib);
+}
+
+// One square room of side 2 * half_m around the origin, floor at z = 0.
+RenderFloor roomFloor(const TextureLibrary& lib, double half_m, bool dark, bool blank) {
+  FloorSpec spec;
+  Region r;
+  r.boxes.push_back(Box{Vec2(-half_m, -half_m), Vec2(half_m, half_m)});
+  r.dark = dark;
+  spec.regions.push_back(r);
+  if (blank) spec.blank_centres.push_back(Vec2::Zero());
+  WorldOptions o;
+  o.poster_probability = 0.0;
+  o.blank_radius_m = 3.0 * half_m;
+  // One texture per wall: the seams between wall pieces are point-sampled edges (aliased by
+  // up to half a pixel), not what this geometry test is about.
+  o.piece_min_m = o.piece_max_m = 4.0 * half_m;
+  Random rng(11);
+  auto floor = buildRenderFloor(spec, o, lib, rng);
+  EXPECT_TRUE(floor) << floor.error().message;
+  return std::move(*floor);
+}
+
+// A camera at (x, y, 1.2) with heading `yaw` (camera z along the heading, y down), the body
+// rolled and pitched by (roll, pitch).
+core::SE3d cameraAt(double x, double y, double yaw, double roll = 0.0, double pitch = 0.0) {
+  const CameraOptions mount;  // x forward, y left, z up -> camera axes
+  core::SE3d body(core::SO3d::exp(Vec3(0, 0, yaw)) * core::SO3d::exp(Vec3(roll, pitch, 0)), Vec3(x, y, 0.0));
+  core::SE3d body_T_cam = mount.bodyTCam();
+  body_T_cam = core::SE3d(body_T_cam.so3(), Vec3(0, 0, 1.2));
+  return body * body_T_cam;
+}
+
+// Bilinear sample of a gray image.
+double at(const cv::Mat& im, double x, int y) {
+  const int x0 = static_cast<int>(std::floor(x));
+  const double a = x - x0;
+  return (1 - a) * im.at<uint8_t>(y, x0) + a * im.at<uint8_t>(y, x0 + 1);
+}
+
+constexpr int kPatch = 8;  // half size of the matched patch
+
+// Disparity at left pixel (u, v): the best integer shift by SSD along the row, refined by
+// Gauss-Newton on the bilinear right image (Lucas-Kanade in one dimension). NaN when it does
+// not converge.
+double matchDisparity(const cv::Mat& left, const cv::Mat& right, int u, int v, int max_d, double slope) {
+  auto cost = [&](double d) {
+    double s = 0.0;
+    for (int dy = -kPatch; dy <= kPatch; ++dy) {
+      for (int dx = -kPatch; dx <= kPatch; ++dx) {
+        const double e = left.at<uint8_t>(v + dy, u + dx) - at(right, u + dx - d - slope * dx, v + dy);
+        s += e * e;
+      }
+    }
+    return s;
+  };
+  int best = 1;
+  for (int d = 1; d <= max_d && u - d - kPatch - 1 >= 0; ++d) {
+    if (cost(d) < cost(best)) best = d;
+  }
+  // On a slanted wall the disparity changes across the patch by `slope` per pixel (from the
+  // plane, the stereo model's prediction of the patch's shape); d at the centre is measured:
+  // right pixel x = u + dx - (d + slope dx).
+  double d = best;
+  for (int it = 0; it < 50; ++it) {
+    double num = 0.0, den = 0.0;
+    for (int dy = -kPatch; dy <= kPatch; ++dy) {
+      for (int dx = -kPatch; dx <= kPatch; ++dx) {
+        const double x = u + dx - d - slope * dx;
+        const double g = 0.5 * (at(right, x + 1, v + dy) - at(right, x - 1, v + dy));
+        num += g * (left.at<uint8_t>(v + dy, u + dx) - at(right, x, v + dy));
+        den += g * g;
+      }
+    }
+    if (!(den > 0)) return std::nan("");
+    const double step = -num / den;
+    d += std::clamp(step, -0.5, 0.5);
+    if (std::abs(step) < 1e-3) return d;
+  }
+  return std::nan("");
+}
+
+// Mean absolute horizontal gradient over the patch: texture that fixes the disparity.
+double horizontalTexture(const cv::Mat& im, int u, int v) {
+  double s = 0.0;
+  for (int dy = -kPatch; dy <= kPatch; ++dy) {
+    for (int dx = -kPatch; dx <= kPatch; ++dx) s += std::abs(im.at<uint8_t>(v + dy, u + dx + 1) - im.at<uint8_t>(v + dy, u + dx - 1));
+  }
+  return s / ((2 * kPatch + 1) * (2 * kPatch + 1));
+}
+
+TEST(SimRender, RenderedPointAppearsWhereTheStereoModelSays) {
+  const TextureLibrary lib = testTextures();
+  const RenderFloor floor = roomFloor(lib, 10.0, false, false);
+  const PinholeCamera cam{640, 480, 450.0, 450.0, 320.0, 240.0};
+  const double baseline = 0.12;
+  auto stereo = core::StereoCamera::create(cam.fx, cam.fy, cam.cx, cam.cy, baseline, cam.width, cam.height);
+  ASSERT_TRUE(stereo);
+  ImageRenderer renderer(lib, cam, 0.0, 1);
+  // Facing the wall x = 10 square on (depth 2.5 m), turned by 20 degrees (a slanted wall), and
+  // rolled and pitched as on a rough floor (the image is then resampled from a level view).
+  for (const auto& [yaw, tilt] : {std::pair{0.0, 0.0}, std::pair{20.0 * std::numbers::pi / 180.0, 0.0},
+                                  std::pair{0.2, 0.006}}) {
+    const core::SE3d world_T_left = cameraAt(7.5, 0.5, yaw, tilt, -0.7 * tilt);
+    const core::SE3d world_T_right = world_T_left * core::SE3d(core::SO3d(), Vec3(baseline, 0, 0));
+    cv::Mat left, right;
+    renderer.render(floor, 0.0, world_T_left, {}, &left);
+    renderer.render(floor, 0.0, world_T_right, {}, &right);
+    int checked = 0, unmatched = 0;
+    std::vector<double> ratios;
+    for (int v = 100; v <= 380; v += 20) {
+      for (int u = 100; u <= 540; u += 20) {
+        // The 3-D point seen at (u, v): the ray through the pixel meets the wall x = 10.
+        const Vec3 ray_cam((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);
+        const Vec3 ray_world = world_T_left.so3() * ray_cam;
+        const Vec3 c = world_T_left.translation();
+        const double t = (10.0 - c.x()) / ray_world.x();
+        const Vec3 p_world = c + t * ray_world;
+        if (std::abs(p_world.y()) > 9.5 || p_world.z() < 0.2 || p_world.z() > 2.6) continue;
+        if (horizontalTexture(left, u, v) < 6.0) continue;  // too little texture to match
+        const auto uvd = stereo->project(world_T_left.inverse() * p_world);
+        ASSERT_TRUE(uvd);
+        EXPECT_NEAR((*uvd)[0], u, 1e-6);
+        // The disparity one pixel to each side, for the slope across the patch.
+        auto disparityAt = [&](double uu) {
+          const Vec3 r = world_T_left.so3() * Vec3((uu - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);
+          return (*stereo->project(world_T_left.inverse() * (c + (10.0 - c.x()) / r.x() * r)))[2];
+        };
+        const double slope = 0.5 * (disparityAt(u + 1) - disparityAt(u - 1));
+        const double d = matchDisparity(left, right, u, v, 40, slope);
+        if (!std::isfinite(d)) {
+          ++unmatched;
+          continue;
+        }
+        const double depth = stereo->depthFromDisparity(d);
+        const double truth = (world_T_left.inverse() * p_world).z();
+        ratios.push_back(depth / truth);
+        // A level camera renders each pixel exactly; a tilted one is resampled from a level
+        // view (bilinear), which moves single patches by up to ~0.3 px.
+        EXPECT_NEAR(depth / truth, 1.0, tilt == 0.0 ? 0.01 : 0.025)
+            << "pixel " << u << "," << v << " yaw " << yaw << ": disparity " << d << " vs " << (*uvd)[2];
+        ++checked;
+      }
+    }
+    EXPECT_GE(checked, 40) << "yaw " << yaw;
+    std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+    EXPECT_NEAR(ratios[ratios.size() / 2], 1.0, 0.005) << "median, yaw " << yaw;
+    EXPECT_LE(unmatched, checked / 10) << "yaw " << yaw;
+  }
+}
+
+TEST(SimRender, LightsOffGiveADarkImage) {
+  const TextureLibrary lib = testTextures();
+  const PinholeCamera cam{320, 240, 225.0, 225.0, 160.0, 120.0};
+  ImageRenderer renderer(lib, cam, 2.0, 3);
+  cv::Mat lit, dark;
+  renderer.render(roomFloor(lib, 4.0, false, false), 0.0, cameraAt(0, 0, 0.3), {}, &lit);
+  renderer.render(roomFloor(lib, 4.0, true, false), 0.0, cameraAt(0, 0, 0.3), {}, &dark);
+  EXPECT_GT(cv::mean(lit)[0], 60.0);
+  EXPECT_LT(cv::mean(dark)[0], 15.0);
+}
+
+TEST(SimRender, FeaturelessZoneGivesAFlatImage) {
+  const TextureLibrary lib = testTextures();
+  const PinholeCamera cam{320, 240, 225.0, 225.0, 160.0, 120.0};
+  ImageRenderer renderer(lib, cam, 0.0, 3);
+  cv::Mat textured, blank;
+  renderer.render(roomFloor(lib, 4.0, false, false), 0.0, cameraAt(0, 0, 0.3), {}, &textured);
+  renderer.render(roomFloor(lib, 4.0, false, true), 0.0, cameraAt(0, 0, 0.3), {}, &blank);
+  cv::Mat gx_t, gx_b;
+  cv::Scalar m, sd_t, sd_b;
+  cv::Laplacian(textured, gx_t, CV_32F);
+  cv::Laplacian(blank, gx_b, CV_32F);
+  cv::meanStdDev(gx_t, m, sd_t);
+  cv::meanStdDev(gx_b, m, sd_b);
+  EXPECT_GT(sd_t[0], 10.0);
+  EXPECT_LT(sd_b[0], 2.0);  // only the texture's gentle shading and the room's corners
+}
+
+TEST(SimRender, PasserByCoversMostOfTheView) {
+  const TextureLibrary lib = testTextures();
+  const PinholeCamera cam{320, 240, 225.0, 225.0, 160.0, 120.0};
+  ImageRenderer renderer(lib, cam, 0.0, 3);
+  const RenderFloor floor = roomFloor(lib, 6.0, false, false);
+  cv::Mat free, blocked;
+  renderer.render(floor, 0.0, cameraAt(0, 0, 0), {}, &free);
+  Occluder person;
+  person.centre = Vec2(0.8, 0.0);
+  person.normal = Vec2(-1, 0);
+  person.width_m = 1.0;
+  person.texture = lib.people.front();
+  renderer.render(floor, 0.0, cameraAt(0, 0, 0), std::vector<Occluder>{person}, &blocked);
+  const double changed = cv::countNonZero(free != blocked) / static_cast<double>(free.total());
+  EXPECT_GT(changed, 0.6);
+}
+
+// A 3-floor building whose session starts with an elevator trip soon.
+std::string smallConfig() {
+  return "seed = 3\n"
+         "building.floors = 3\nbuilding.main_floor = 1\nbuilding.main_cross_corridors = 3\n"
+         "building.max_cross_corridors = 3\nbuilding.main_long_corridors = 1\n"
+         "patrol.sessions = 1\npatrol.total_hours = 0.1\npatrol.other_floor_probability = 0.5\n"
+         "camera.cx = 32\ncamera.cy = 24\ncamera.fx = 40\ncamera.fy = 40\n"
+         "render.width = 64\nrender.height = 48\nrender.rate_hz = 2\nrender.posters = none\n"
+         "imu.rate_hz = 200\nimu.accel_sigma_mps2 = 0\nimu.gyro_sigma_radps = 0\n"
+         "imu.accel_bias_sigma_mps2 = 0\nground_truth.rate_hz = 20\nvo.passerby_rate_per_hour = 0\n";
+}
+
+std::unique_ptr<ImageSimulator> makeSimulator(const std::string& text,
+                                              const std::vector<std::string>& overrides = {}) {
+  auto file = KeyValueFile::parse(text, "test.conf");
+  EXPECT_TRUE(file);
+  for (const std::string& o : overrides) EXPECT_TRUE(file->set(o, "test"));
+  auto options = loadImageSimOptions(*file);
+  EXPECT_TRUE(options) << options.error().message;
+  auto sim = ImageSimulator::create(*options);
+  EXPECT_TRUE(sim) << sim.error().message;
+  return std::move(*sim);
+}
+
+TEST(ImageSession, NoiseFreeImuIntegratesToGroundTruthVelocityAndHeight) {
+  auto probe = makeSimulator(smallConfig());
+  ASSERT_FALSE(probe->session().rides.empty());
+  const ElevatorRide ride = probe->session().rides.front();
+  const double until_s = static_cast<double>(ride.end_utime + 10'000'000 - probe->startUtime()) * 1e-6;
+  auto sim = makeSimulator(smallConfig(), {"render.max_duration_s = " + std::to_string(until_s)});
+  VectorSink sink;
+  auto summary = sim->run(sink);
+  ASSERT_TRUE(summary) << summary.error().message;
+  EXPECT_GE(summary->rides, 1);
+  // Strapdown integration with the true attitude from t0 = 20 s before the ride.
+  const Trajectory& traj = *sim->session().trajectory;
+  const int64_t t0 = std::max(sim->startUtime(), ride.start_utime - 20'000'000);
+  const BodyState s0 = traj.at(t0);
+  Vec3 v = s0.velocity_world;
+  double z = s0.world_T_body.translation().z();
+  int64_t prev = -1;
+  Vec3 a_prev = Vec3::Zero();
+  double max_dv = 0.0, max_dz = 0.0, max_climb = 0.0;
+  for (const auto& m : sink.messages) {
+    if (m.channel != channels::kImu || m.utime < t0) continue;
+    auto imu = messages::decodeLcm<imu_t>(m.data.data(), static_cast<int64_t>(m.data.size()), "IMU");
+    ASSERT_TRUE(imu);
+    const BodyState s = traj.at(m.utime);
+    const Vec3 f(imu->linear_acceleration[0], imu->linear_acceleration[1], imu->linear_acceleration[2]);
+    const Vec3 a = s.world_T_body.so3() * f - Vec3(0, 0, sim->options().sim.sensors.imu.gravity_mps2);
+    if (prev >= 0) {
+      const double dt = static_cast<double>(m.utime - prev) * 1e-6;
+      const Vec3 v_next = v + 0.5 * dt * (a + a_prev);
+      z += 0.5 * dt * (v.z() + v_next.z());
+      v = v_next;
+    }
+    prev = m.utime;
+    a_prev = a;
+    max_dv = std::max(max_dv, (v - s.velocity_world).norm());
+    max_dz = std::max(max_dz, std::abs(z - s.world_T_body.translation().z()));
+    max_climb = std::max(max_climb, std::abs(s.world_T_body.translation().z() - s0.world_T_body.translation().z()));
+  }
+  EXPECT_GT(max_climb, 2.0);  // the ride is in the window
+  EXPECT_LT(max_dv, 0.02);
+  EXPECT_LT(max_dz, 0.05);
+}
+
+TEST(ImageSession, LogRoundTripsThroughTheExistingReaders) {
+  auto sim = makeSimulator(smallConfig(), {"render.max_duration_s = 3", "render.rate_hz = 10"});
+  const fs::path log = fs::temp_directory_path() / ("sim_render_test_" + std::to_string(::getpid()) + ".lcmlog");
+  auto summary = writeImageSessionLog(*sim, log);
+  ASSERT_TRUE(summary) << summary.error().message;
+  EXPECT_EQ(summary->frames, 31);
+  lcm::LogFile file(log.string(), "r");
+  ASSERT_TRUE(file.good());
+  std::map<std::string, int> seen;
+  int64_t last = 0;
+  while (const lcm::LogEvent* e = file.readNextEvent()) {
+    ++seen[e->channel];
+    EXPECT_GE(e->timestamp, last);
+    last = e->timestamp;
+    if (e->channel == channels::kStereoCalib) {
+      EXPECT_EQ(seen.size(), 1u) << "STEREO_CALIB comes first";
+      auto m = messages::decodeLcm<stereo_calib_t>(e->data, e->datalen, e->channel);
+      ASSERT_TRUE(m);
+      auto calib = messages::fromMsg(*m);
+      ASSERT_TRUE(calib) << calib.error().message;
+      auto cam = core::rectifiedStereoCamera(*calib);
+      ASSERT_TRUE(cam) << cam.error().message;
+      EXPECT_NEAR(cam->baselineM(), 0.12, 1e-9);
+    } else if (e->channel == channels::kStereo) {
+      auto m = messages::decodeLcm<stereo_image_t>(e->data, e->datalen, e->channel);
+      ASSERT_TRUE(m);
+      auto frame = messages::fromMsg(*m);
+      ASSERT_TRUE(frame) << frame.error().message;
+      EXPECT_TRUE(frame->rectified);
+      EXPECT_EQ(frame->left.cols, 64);
+      EXPECT_EQ(frame->right.rows, 48);
+    } else if (e->channel == channels::kGroundTruth) {
+      auto m = messages::decodeLcm<pose_t>(e->data, e->datalen, e->channel);
+      ASSERT_TRUE(m);
+      EXPECT_TRUE(messages::fromMsg(*m));
+      EXPECT_EQ(m->session, 0);
+    } else if (e->channel == channels::kImu) {
+      auto m = messages::decodeLcm<imu_t>(e->data, e->datalen, e->channel);
+      ASSERT_TRUE(m);
+      EXPECT_TRUE(messages::fromMsg(*m));
+    }
+  }
+  EXPECT_EQ(seen[channels::kStereoCalib], 1);
+  EXPECT_EQ(seen[channels::kStereo], 31);
+  EXPECT_EQ(seen[channels::kImu], 601);
+  EXPECT_EQ(seen[channels::kGroundTruth], 61);
+  EXPECT_EQ(seen[channels::kWheelOdom], 30);
+  fs::remove(log);
+}
+
+TEST(ImageSession, ElevatorRideShowsTheClosedCabAndChangesFloor) {
+  auto sim = makeSimulator(smallConfig());
+  ASSERT_FALSE(sim->session().rides.empty());
+  const ElevatorRide ride = sim->session().rides.front();
+  cv::Mat left, right;
+  const FrameFacts before = sim->renderPair(ride.start_utime - 10'000'000, &left, &right);
+  const FrameFacts during = sim->renderPair((ride.start_utime + ride.end_utime) / 2, &left, &right);
+  const FrameFacts after = sim->renderPair(ride.end_utime + 10'000'000, &left, &right);
+  EXPECT_TRUE(during.closed_cab);
+  EXPECT_FALSE(before.closed_cab && after.closed_cab);
+  EXPECT_EQ(before.floor, ride.floor_from);
+  EXPECT_EQ(after.floor, ride.floor_to);
+  EXPECT_NE(ride.floor_from, ride.floor_to);
+}
+
+TEST(ImageSession, LightingChangesBetweenSessions) {
+  LightingOptions o;
+  o.gain_jitter = 0.3;
+  o.offset_jitter_gray = 10.0;
+  o.gamma_jitter = 0.2;
+  const Lighting s0 = o.forSession(0, 7), s1 = o.forSession(1, 7), s2 = o.forSession(2, 7);
+  EXPECT_EQ(s0.gain, 1.0);
+  EXPECT_EQ(s0.gamma, 1.0);
+  EXPECT_NE(s1.gain, s2.gain);
+  for (const Lighting& l : {s1, s2}) {
+    EXPECT_NEAR(l.gain, 1.0, 0.3);
+    EXPECT_NEAR(l.offset_gray, 0.0, 10.0);
+    EXPECT_NEAR(l.gamma, 1.0, 0.2);
+  }
+  // The same view, brighter or darker by the session's response.
+  const TextureLibrary lib = testTextures();
+  const PinholeCamera cam{160, 120, 110.0, 110.0, 80.0, 60.0};
+  ImageRenderer renderer(lib, cam, 0.0, 3);
+  const RenderFloor floor = roomFloor(lib, 4.0, false, false);
+  cv::Mat base, dim;
+  renderer.render(floor, 0.0, cameraAt(0, 0, 0.3), {}, &base);
+  renderer.setLighting(Lighting{0.5, 0.0, 1.0});
+  renderer.render(floor, 0.0, cameraAt(0, 0, 0.3), {}, &dim);
+  EXPECT_NEAR(cv::mean(dim)[0], 0.5 * cv::mean(base)[0], 1.0);
+}
+
+TEST(ImageSession, PostersComeFromTheRealPhotographs) {
+  EVERMAP_REQUIRE_DATA(data, "rtabmap-lcd-samples");
+  Random rng(1);
+  auto lib = makeTextureLibrary(TextureOptions{}, data / "samples", rng);
+  ASSERT_TRUE(lib) << lib.error().message;
+  EXPECT_EQ(lib->posters.size(), 40u);
+}
+
+TEST(ImageSimOptions, BadConfigGivesAOneLineError) {
+  for (const std::string bad : {"render.width = -3", "render.colour = 1", "render.encoding = jpeg",
+                                "lighting.gamma = 0", "camera.cx = 900", "building.floors = 0"}) {
+    auto file = KeyValueFile::parse(smallConfig(), "bad.conf");
+    ASSERT_TRUE(file);
+    ASSERT_TRUE(file->set(bad, "bad.conf:99"));
+    auto options = loadImageSimOptions(*file);
+    ASSERT_FALSE(options) << bad;
+    const std::string& m = options.error().message;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+    EXPECT_EQ(m.rfind("bad.conf:99: ", 0), 0u) << m;
+  }
+  Random rng(1);
+  auto lib = makeTextureLibrary(TextureOptions{}, "/nonexistent/posters", rng);
+  ASSERT_FALSE(lib);
+  EXPECT_NE(lib.error().message.find("/nonexistent/posters"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace evermap::sim
