@@ -9,6 +9,7 @@
 
 #include "core/solver/marginals.h"
 #include "core/solver/pose_factors.h"
+#include "mapper-proc/map_store.h"
 
 namespace evermap::mapper {
 namespace {
@@ -53,7 +54,9 @@ std::string MapperStats::text() const {
     << rejected_inconsistent << "\nrequests_node " << requests_node << "\nrequests_global "
     << requests_global << "\nregistrations_ok " << registrations_ok << "\nloop_closures "
     << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept
-    << "\nrejected_map_gate " << rejected_map_gate << "\nrelocalizations " << relocalizations << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\n";
+    << "\nrejected_map_gate " << rejected_map_gate << "\nrelocalizations " << relocalizations
+    << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrestored_nodes " << restored_nodes
+    << "\nrestored_constraints " << restored_constraints << "\n";
   return s.str();
 }
 
@@ -92,10 +95,12 @@ Status Mapper::onAttitude(const attitude_t& msg) {
   const bool finite = std::isfinite(msg.roll_rad) && std::isfinite(msg.pitch_rad) &&
                       std::isfinite(msg.covariance[0]) && std::isfinite(msg.covariance[1]) &&
                       std::isfinite(msg.covariance[2]) && std::isfinite(msg.covariance[3]);
+  const double det = msg.covariance[0] * msg.covariance[3] - msg.covariance[1] * msg.covariance[2];
   if (!finite || msg.utime <= last_attitude_utime_ || !(msg.covariance[0] > 0.0) ||
-      !(msg.covariance[3] > 0.0)) {
+      !(msg.covariance[3] > 0.0) || !(det > 0.0) ||
+      std::abs(msg.covariance[1] - msg.covariance[2]) > 1e-9 * std::max(msg.covariance[0], msg.covariance[3])) {
     ++stats_.dropped;
-    return makeError("ATTITUDE ", msg.utime, ": not finite, out of order or no variance");
+    return makeError("ATTITUDE ", msg.utime, ": not finite, out of order or not a covariance");
   }
   last_attitude_utime_ = msg.utime;
   if (msg.accel_trusted) attitude_ = msg;
@@ -262,6 +267,7 @@ void Mapper::flushSolver() {
   const double dt = secondsSince(t0);
   stats_.timing.solver_s += dt;
   stats_.timing.update_s.push_back(dt);
+  stats_.timing.update_utime.push_back(last_step_utime_);
   // Contract: the mapper only builds updates over keys it created, with finite factors.
   if (!result) {
     std::fprintf(stderr, "evermap-mapper: solver update failed: %s\n", result.error().message.c_str());
@@ -293,13 +299,16 @@ void Mapper::sendRequest(int8_t mode, int64_t target) {
 }
 
 void Mapper::step(int64_t keyframe_utime) {
+  const auto t0 = Clock::now();
   ++stats_.steps;
   last_step_utime_ = keyframe_utime;
+  step_cost_s_ = 0.0;
   if (nodes_.empty()) {
     addNode(keyframe_utime, core::UncertainPose{});
     tracker_.reset(tracker_.sinceKeyframe(keyframe_utime).value_or(core::UncertainPose{}));
     flushSolver();
-    step_poses_.push_back(StepPose{keyframe_utime, active_, core::SE3d()});
+    step_poses_.push_back(StepPose{keyframe_utime, active_, core::SE3d(), session_});
+    stats_.timing.step_cost.push_back({keyframe_utime, secondsSince(t0)});
     return;
   }
   InFlight f;
@@ -325,10 +334,12 @@ void Mapper::step(int64_t keyframe_utime) {
   }
   if (target && !lost_) sendRequest(register_request_t::MODE_NODE, *target);
   else sendRequest(register_request_t::MODE_GLOBAL, -1);
+  step_cost_s_ += secondsSince(t0);
 }
 
 void Mapper::checkTimeout(int64_t utime) {
   if (in_flight_ && utime - in_flight_->sent_utime > micros(o_.request_timeout_s)) {
+    // A late result for the closed step is dropped as "no such request in flight".
     ++stats_.timeouts;
     finishStep(false);
   }
@@ -340,23 +351,27 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
     ++stats_.dropped;
     return makeError("REGISTER_RESULT ", msg.request_id, ": no such request in flight");
   }
+  const auto t0 = Clock::now();
   if (msg.status != register_result_t::STATUS_OK) {
     if (in_flight_->mode == register_request_t::MODE_NODE) {
       sendRequest(register_request_t::MODE_GLOBAL, -1);  // then the global search
+      step_cost_s_ += secondsSince(t0);
     } else {
+      step_cost_s_ += secondsSince(t0);
       finishStep(false);
     }
     return Ok{};
   }
-  const auto t0 = Clock::now();
   const InFlight f = *in_flight_;
   bool registered = false;
   Status status = Ok{};
   bool finite = std::isfinite(msg.translation[0]) && std::isfinite(msg.translation[1]) &&
                 std::isfinite(msg.translation[2]);
   for (double q : msg.orientation) finite = finite && std::isfinite(q);
+  const double q_norm = Eigen::Vector4d(msg.orientation[0], msg.orientation[1], msg.orientation[2], msg.orientation[3]).norm();
   auto cov = covarianceFromMessage(msg.covariance, "REGISTER_RESULT");
-  if (!finite || !cov || msg.node_id < 0 || msg.node_id >= static_cast<int64_t>(nodes_.size())) {
+  if (!finite || std::abs(q_norm - 1.0) > 1e-3 || !cov || msg.node_id < 0 ||
+      msg.node_id >= static_cast<int64_t>(nodes_.size())) {
     ++stats_.dropped;
     status = makeError("REGISTER_RESULT ", msg.request_id, ": malformed pose, covariance or node id");
   } else {
@@ -364,6 +379,7 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
     handleRegistration(msg, f, *cov, &registered);
   }
   stats_.timing.registration_s += secondsSince(t0);
+  step_cost_s_ += secondsSince(t0);
   finishStep(registered);
   return status;
 }
@@ -465,6 +481,7 @@ void Mapper::finishStep(bool registered) {
   if (lost_) {
     // Not re-localised yet: neither a node nor a step pose from a meaningless Δ.
     stats_.timing.partition_s += secondsSince(t0);
+    stats_.timing.step_cost.push_back({f.keyframe_utime, step_cost_s_ + secondsSince(t0)});
     return;
   }
   if (!registered && !o_.full_graph) {
@@ -480,7 +497,61 @@ void Mapper::finishStep(bool registered) {
   flushSolver();
   const auto q_T_now = tracker_.sinceKeyframe(f.keyframe_utime);
   const core::SE3d node_T_q = tracker_.delta().mean * (q_T_now ? q_T_now->mean.inverse() : core::SE3d());
-  step_poses_.push_back(StepPose{f.keyframe_utime, active_, node_T_q});
+  step_poses_.push_back(StepPose{f.keyframe_utime, active_, node_T_q, session_});
+  stats_.timing.step_cost.push_back({f.keyframe_utime, step_cost_s_ + secondsSince(t0)});
+}
+
+Status Mapper::restore(const MapSnapshot& map) {
+  if (!nodes_.empty() || have_floor_) return Error{"mapper: restore: the mapper already holds a map"};
+  std::map<int, double> floors(map.floors.begin(), map.floors.end());
+  int max_session = -1;
+  for (const auto& [session, start] : map.sessions) max_session = std::max(max_session, session);
+  for (size_t k = 0; k < map.nodes.size(); ++k) {
+    const StoredNode& n = map.nodes[k];
+    if (n.node.id != static_cast<int64_t>(k))
+      return makeError("mapper: restore: node ", n.node.id, " where node ", k, " was expected");
+    max_session = std::max(max_session, n.node.session);
+    pending_update_.new_variables.emplace_back(n.node.id, solver::PoseValue::spatial(n.world_T_body));
+    if (k == 0) {
+      // The origin stays where the first session put it.
+      Eigen::MatrixXd W = Eigen::MatrixXd::Zero(6, 6);
+      W.diagonal() << core::Vec3::Constant(1.0 / o_.origin_sigma_m), core::Vec3::Constant(1.0 / o_.origin_sigma_rad);
+      pending_update_.new_factors.push_back(std::make_shared<solver::PosePrior3Factor>(0, n.world_T_body, W));
+      pending_pairs_.emplace_back(-1, -1);
+      pending_factor_slot_.push_back(pending_update_.new_factors.size() - 1);
+    }
+    const auto height = floors.find(n.node.floor);
+    if (o_.height_factors && height != floors.end()) {
+      pending_update_.new_factors.push_back(std::make_shared<solver::HeightFactor>(n.node.id, height->second, 0.02));
+      pending_pairs_.emplace_back(-1, -1);
+      pending_factor_slot_.push_back(pending_update_.new_factors.size() - 1);
+    }
+    nodes_.push_back(n.node);
+  }
+  const auto n_nodes = static_cast<int64_t>(nodes_.size());
+  for (size_t k = 0; k < map.edges.size(); ++k) {
+    const Constraint& c = map.edges[k].constraint;
+    if (map.edges[k].edge_id != static_cast<int64_t>(k) || c.from < 0 || c.to < 0 || c.from >= n_nodes ||
+        c.to >= n_nodes || c.from == c.to) {
+      nodes_.clear();
+      pending_update_ = {};
+      return makeError("mapper: restore: edge ", map.edges[k].edge_id, " (", c.from, " -> ", c.to,
+                       ") is out of order or names an unknown node");
+    }
+    addConstraint(c.from, c.to, c.from_T_to, c.kind, c.utime);
+  }
+  if (nodes_.empty()) return Ok{};
+  floors_ = floors;
+  flushSolver();
+  const int64_t factors = stats_.factors;
+  stats_ = MapperStats{};
+  stats_.factors = factors;
+  stats_.restored_nodes = n_nodes;
+  stats_.restored_constraints = static_cast<int64_t>(map.edges.size());
+  session_ = max_session + 1;
+  active_ = n_nodes - 1;
+  lost_ = true;  // where the robot is on this map is unknown until a global registration
+  return Ok{};
 }
 
 }  // namespace evermap::mapper

@@ -44,6 +44,8 @@
 
 namespace evermap::mapper {
 
+struct MapSnapshot;  // map_store.h
+
 struct MapperOptions {
   // false: the reduced pose graph; true: a node at every step (the paper's baseline).
   bool full_graph = false;
@@ -93,6 +95,14 @@ struct MapperTiming {
   double partition_s = 0.0;      // cell index rebuild and new-place tests
   double solver_s = 0.0;
   std::vector<double> update_s;  // solver time of each step that changed the graph
+  std::vector<int64_t> update_utime;  // message time of each update_s entry
+  // Wall time of the mapper's work for each step (request, result handling, new node,
+  // solver update), at the step's keyframe time: the "mapper update" of the paper's Fig. 7.
+  struct StepCost {
+    int64_t utime;
+    double s;
+  };
+  std::vector<StepCost> step_cost;
 };
 
 struct MapperStats {
@@ -112,6 +122,8 @@ struct MapperStats {
   int64_t relocalizations = 0;   // a new session tied to the map by a global registration
   int64_t timeouts = 0;
   int64_t dropped = 0;            // malformed, stale or out-of-order messages
+  int64_t restored_nodes = 0;     // loaded from a map store by restore()
+  int64_t restored_constraints = 0;
   MapperTiming timing;
   std::string text() const;
 };
@@ -119,6 +131,15 @@ struct MapperStats {
 class Mapper {
  public:
   explicit Mapper(const MapperOptions& options, int session = 0);
+
+  // Continues a stored map (map_store.h) before any message: its floors, its nodes at their
+  // stored estimates, and every stored constraint replayed through the constraint set in
+  // stored order (merges and rejections come out as they did), then one solver batch. The
+  // origin prior goes on node 0 and height factors on every node; roll/pitch factors are not
+  // stored. The mapper is then in a new session (one past the highest stored) and lost: only
+  // global registrations until one places it on the map. Errors: a mapper that already has
+  // nodes, node or edge ids that are not 0..n-1 in order, an edge naming an unknown node.
+  Status restore(const MapSnapshot& map);
 
   // Inputs. Each returns an error for a message it drops (also counted).
   Status onVo(const vo_delta_t& msg);
@@ -141,6 +162,8 @@ class Mapper {
   const Tracker& tracker() const { return tracker_; }
   const MapperStats& stats() const { return stats_; }
   int floor() const { return floor_; }
+  int session() const { return session_; }
+  bool lost() const { return lost_; }
   // Floor index -> height (metres), as the FLOOR messages reported them.
   const std::map<int, double>& floors() const { return floors_; }
 
@@ -150,6 +173,7 @@ class Mapper {
     int64_t utime;
     int64_t node;
     core::SE3d node_T_body;
+    int session;
   };
   const std::vector<StepPose>& stepPoses() const { return step_poses_; }
 
@@ -195,8 +219,9 @@ class Mapper {
   std::vector<MapperNode> nodes_;
   std::unordered_map<core::PlanarCell, std::vector<int64_t>, core::PlanarCellHash> cells_;
   int64_t active_ = -1;
-  bool relocalize_ = false;
-  bool lost_ = false;        // a new session that no global registration has placed yet  // after a loop closure: the next registration to b replaces Δ
+  bool relocalize_ = false;  // after a loop closure: the next registration to b replaces Δ
+  bool lost_ = false;        // a new session that no global registration has placed yet
+  double step_cost_s_ = 0.0;  // wall time of the step in progress so far
   int floor_ = 0;
   double floor_height_m_ = 0.0;
   std::map<int, double> floors_;
