@@ -224,6 +224,8 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
       resume_utime = std::max(resume_utime, n.node.keyframe_utime);
       node_truth.push_back(NodeTruth{core::SE3d(), -1, n.node.session, false});
     }
+    // Every update stored happened at or before its newest keyframe: resume after it.
+    for (const StoredEdge& e : snapshot->edges) resume_utime = std::max(resume_utime, e.constraint.utime);
     std::sort(stored.begin(), stored.end(),
               [](const node_added_t& a, const node_added_t& b) { return a.keyframe_utime < b.keyframe_utime; });
     stored_for_oracle.assign(stored.begin(), stored.end());

@@ -7,7 +7,7 @@
 // to the oracle likewise. Deterministic: same options, same result.
 //
 // Continuing a map: with a store that holds nodes, the mapper restores it (Mapper::restore)
-// and the run resumes after the newest stored node. Sessions before the mapped range and
+// and the run resumes after the newest keyframe the store mentions (of a node or an edge). Sessions before the mapped range and
 // messages before that point are still simulated for the oracle, which learns the stored
 // nodes' keyframes from them, but reach the mapper only as FLOOR messages (the floor the
 // robot is on). A run killed at any moment is thereby resumed by running it again.

@@ -9,24 +9,30 @@ build="$1"; src="$2"
 tool="$build/bin/evermap-mapper-run"
 tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
 store="$tmp/map.db"
-# One session of ~11 simulated minutes on the small building.
-args=(--config "$src/config/sim-small.conf" --set patrol.sessions=1 --set patrol.total_hours=0.15
+# One session of about an hour of simulated time on the small building (~3 s of CPU).
+args=(--config "$src/config/sim-small.conf" --set patrol.sessions=1 --set patrol.total_hours=1.0
       --store "$store" --progress)
 fail() { echo "mapper_sigkill: $*"; exit 1; }
 field() { awk -v k="$2" '{for (i = 1; i < NF; ++i) if ($i == k) print $(i + 1)}' <<< "$1"; }
 
 RANDOM=20261121  # the kill moments are the same on every run of the test
 stored_nodes=0
-stored_utime=0
+stored_utime=0  # the newest keyframe the store mentions before each run
 kills=0
 for k in $(seq 1 20); do
-  delay_ms=$(( 30 + RANDOM % 600 ))
+  delay_ms=$(( 30 + RANDOM % 500 ))
   "$tool" "${args[@]}" > "$tmp/run$k.txt" 2> "$tmp/err$k.txt" &
   pid=$!
   sleep "$(printf '%d.%03d' $(( delay_ms / 1000 )) $(( delay_ms % 1000 )))"
   if kill -KILL "$pid" 2> /dev/null; then kills=$((kills + 1)); fi
   wait "$pid" 2> /dev/null || true
 
+  if [ ! -e "$store" ]; then
+    # Killed before the store was created: nothing can have been committed.
+    ! grep -q '^committed' "$tmp/run$k.txt" || fail "kill $k: commits reported, no store"
+    echo "kill $k after ${delay_ms} ms: no store yet"
+    continue
+  fi
   check=$("$tool" --check-store "$store") || fail "kill $k after ${delay_ms} ms: store check failed"
   if command -v sqlite3 > /dev/null; then
     [ "$(sqlite3 "$store" 'PRAGMA integrity_check')" = ok ] || fail "kill $k: sqlite3 integrity_check"
@@ -42,8 +48,8 @@ for k in $(seq 1 20); do
     # Resumed: the map grew from the stored one, after the point it had reached.
     [ "$(field "$first" nodes)" -ge "$stored_nodes" ] || fail "kill $k: the run did not resume the map ($first)"
     [ "$(field "$first" utime)" -gt "$stored_utime" ] || fail "kill $k: the run went back in time ($first)"
-    stored_utime=$(field "$last" utime)
   fi
+  stored_utime=$(field "$check" updated_utime)
   [ "$nodes" -ge "$stored_nodes" ] || fail "kill $k: the store lost nodes ($nodes < $stored_nodes)"
   stored_nodes=$nodes
   echo "kill $k after ${delay_ms} ms: $check"
@@ -54,5 +60,6 @@ done
 # The rest of the session, to its end.
 "$tool" "${args[@]}" > "$tmp/final.txt"
 grep -q "^restored_nodes $stored_nodes\$" "$tmp/final.txt" || fail "the last run did not restore $stored_nodes nodes"
+grep -q "^relocalizations [1-9]" "$tmp/final.txt" || fail "the last run was never re-localised on the map"
 "$tool" --check-store "$store"
 echo "mapper_sigkill: $kills kills, $stored_nodes nodes stored before the last run"

@@ -36,7 +36,8 @@ constexpr const char* kUsage =
     "  --max-wall-s S     stop mapping after S seconds of wall time (per mode); the figures\n"
     "                     cover the operating time reached\n"
     "   or: evermap-mapper-run --check-store MAP.db\n"
-    "  PRAGMA integrity_check of a map store, then 'store ok nodes N edges E sessions S'\n";
+    "  PRAGMA integrity_check of a map store, then 'store ok nodes N edges E sessions S\n"
+    "  updated_utime U' (U: the newest keyframe of a stored node or edge; a run resumes after it)\n";
 
 using evermap::eval::ChartSeries;
 using evermap::mapper::OfflineRunSummary;
@@ -74,8 +75,11 @@ int checkStore(const std::string& file) {
     std::fprintf(stderr, "evermap-mapper-run: %s\n", snap.error().message.c_str());
     return 1;
   }
-  std::printf("store ok nodes %zu edges %zu sessions %zu\n", snap->nodes.size(), snap->edges.size(),
-              snap->sessions.size());
+  long long updated = -1;  // the newest keyframe an update stored (a node's or an edge's)
+  for (const auto& n : snap->nodes) updated = std::max<long long>(updated, n.node.keyframe_utime);
+  for (const auto& e : snap->edges) updated = std::max<long long>(updated, e.constraint.utime);
+  std::printf("store ok nodes %zu edges %zu sessions %zu updated_utime %lld\n", snap->nodes.size(),
+              snap->edges.size(), snap->sessions.size(), updated);
   return 0;
 }
 
