@@ -55,7 +55,7 @@ std::string MapperStats::text() const {
     << requests_global << "\nregistrations_ok " << registrations_ok << "\nloop_closures "
     << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept
     << "\nrejected_map_gate " << rejected_map_gate << "\nrelocalizations " << relocalizations
-    << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrestored_nodes " << restored_nodes
+    << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrelocalization_disagreements " << relocalization_disagreements << "\nrestored_nodes " << restored_nodes
     << "\nrestored_constraints " << restored_constraints << "\n";
   return s.str();
 }
@@ -119,6 +119,7 @@ Status Mapper::onFloor(const floor_t& msg) {
     // A new session starts (the operator sets the floor): where the robot is relative to the
     // map is unknown until a global registration re-localises it (DESIGN.md section 3).
     lost_ = true;
+    relocalization_candidate_.reset();
     ++session_;
   }
   if (have_floor_ && msg.event == floor_t::EVENT_RIDE_END && active_ >= 0) {
@@ -400,6 +401,14 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     return;
   }
   if (lost_) {
+    // One global match may be a false one, and nothing in the map could contradict a wrong
+    // placement of the whole session afterwards: the session is placed only when two
+    // registrations, chained by odometry, agree on where it is.
+    if (!confirmsRelocalization(b, b_T_q, f.keyframe_utime)) {
+      relocalization_candidate_ = RelocalizationCandidate{b, b_T_q, f.keyframe_utime};
+      return;
+    }
+    relocalization_candidate_.reset();
     *registered = true;
     // Re-localisation: b becomes active, no constraint (Δ had no meaning before it).
     active_ = b;
@@ -453,6 +462,26 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
   tracker_.reset(core::compound(b_T_q, *q_T_now));
   // Δ now reuses the registration the constraint holds: re-localise at the next chance.
   relocalize_ = true;
+}
+
+bool Mapper::confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime) {
+  if (!relocalization_candidate_) return false;
+  const RelocalizationCandidate c = *relocalization_candidate_;
+  const auto c_T_now = tracker_.sinceKeyframe(c.keyframe_utime);
+  const auto q_T_now = tracker_.sinceKeyframe(keyframe_utime);
+  if (!c_T_now || !q_T_now) return false;  // too old: the newer one becomes the candidate
+  // The two placements chained: c.node_T_b = c.node_T_kc ⊕ kc_T_q ⊕ ⊖(b_T_q) (eq. 6-7; the
+  // odometry covariance is counted twice where the two chains share increments: a looser gate).
+  const core::UncertainPose kc_T_q = core::compound(*c_T_now, core::invert(*q_T_now));
+  const core::UncertainPose measured = core::compound(core::compound(c.node_T_keyframe, kc_T_q), core::invert(b_T_q));
+  bool agree = false;
+  if (c.node == b) {
+    agree = !(o_.map_gate > 0) || ConstraintSet::mahalanobis2(core::UncertainPose{}, measured) <= o_.map_gate;
+  } else {
+    agree = consistentWithMap(c.node, b, measured);
+  }
+  if (!agree) ++stats_.relocalization_disagreements;
+  return agree;
 }
 
 bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b) {

@@ -120,6 +120,7 @@ struct MapperStats {
   int64_t delta_kept = 0;         // ... that lost the det(Σ) test
   int64_t rejected_map_gate = 0;  // registrations that contradicted the map or Δ
   int64_t relocalizations = 0;   // a new session tied to the map by a global registration
+  int64_t relocalization_disagreements = 0;  // a lost session's registrations that disagreed
   int64_t timeouts = 0;
   int64_t dropped = 0;            // malformed, stale or out-of-order messages
   int64_t restored_nodes = 0;     // loaded from a map store by restore()
@@ -196,6 +197,7 @@ class Mapper {
   void addConstraint(int64_t from, int64_t to, const core::UncertainPose& from_T_to,
                      ConstraintKind kind, int64_t utime);
   bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b);
+  bool confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime);
   void flushSolver();
   void rebuildCells();
   core::PlanarCell cellOf(const core::SE3d& world_T_body, int floor) const;
@@ -222,6 +224,13 @@ class Mapper {
   bool relocalize_ = false;  // after a loop closure: the next registration to b replaces Δ
   bool lost_ = false;        // a new session that no global registration has placed yet
   double step_cost_s_ = 0.0;  // wall time of the step in progress so far
+  // While lost: the last registration to the map, waiting for a second one that agrees.
+  struct RelocalizationCandidate {
+    int64_t node;
+    core::UncertainPose node_T_keyframe;
+    int64_t keyframe_utime;
+  };
+  std::optional<RelocalizationCandidate> relocalization_candidate_;
   int floor_ = 0;
   double floor_height_m_ = 0.0;
   std::map<int, double> floors_;
