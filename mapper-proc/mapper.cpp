@@ -182,32 +182,52 @@ void Mapper::addConstraint(int64_t from, int64_t to, const core::UncertainPose& 
     return;
   }
   const auto key = std::make_pair(pair->i, pair->j);
+  // An agreeing constraint joins its pair as a factor of its own: the product of the pair's
+  // Gaussians is the information-weighted merge, and adding it is an incremental update.
+  // Replacing the pair's factor by the merged one needs a factor removal, i.e. a batch step
+  // whose cost grows with the map; that consolidation waits for the solver's scheduled batch
+  // steps (flushSolver), so merges cost what any new constraint costs.
+  const Constraint& stored = constraints_.all().back();  // i_T_j, as the set keeps it
+  const core::UncertainPose& measurement = outcome == ConstraintSet::Outcome::kMerged ? stored.from_T_to : pair->i_T_j;
   if (outcome == ConstraintSet::Outcome::kMerged) {
     ++stats_.merged;
-    // The merged estimate replaces the pair's factor.
-    auto it = pair_factor_.find(key);
-    if (it != pair_factor_.end()) {
-      pending_update_.remove_factors.push_back(it->second);
-      pair_factor_.erase(it);
-    }
+    to_consolidate_.insert(key);
   }
   auto factor = std::make_shared<solver::RelativePose3Factor>(
-      pair->i, pair->j, pair->i_T_j.mean, sqrtInformation(pair->i_T_j.covariance, o_.covariance_floor),
+      pair->i, pair->j, measurement.mean, sqrtInformation(measurement.covariance, o_.covariance_floor),
       solver::RelativePose3Factor::Convention::kLog);
   // Loop closures can be false matches that no other measurement of their pair contradicts
   // yet: a robust kernel lets the rest of the graph outvote them.
   if (kind == ConstraintKind::kLoop) loop_pairs_.insert(key);
   if (loop_pairs_.count(key) && o_.loop_kernel.active()) factor->setKernel(o_.loop_kernel);
-  // A merge within one update replaces the factor still waiting in the request.
-  for (size_t k = 0; k < pending_pairs_.size(); ++k) {
-    if (pending_pairs_[k] == key) {
-      pending_update_.new_factors[pending_factor_slot_[k]] = factor;
-      return;
-    }
-  }
   pending_pairs_.push_back(key);
   pending_factor_slot_.push_back(pending_update_.new_factors.size());
   pending_update_.new_factors.push_back(factor);
+}
+
+void Mapper::consolidatePairs() {
+  // Pairs with several factors, none of them still waiting in this update: their factors
+  // are replaced by the one merged constraint of the set (paper section III-B.3: redundant
+  // constraints combined once they agree).
+  std::set<std::pair<int64_t, int64_t>> waiting(pending_pairs_.begin(), pending_pairs_.end());
+  for (auto it = to_consolidate_.begin(); it != to_consolidate_.end();) {
+    auto factors = pair_factor_.find(*it);
+    if (waiting.count(*it) || factors == pair_factor_.end()) {
+      ++it;
+      continue;
+    }
+    const ConstraintSet::Pair& pair = constraints_.pairs().at(*it);
+    for (solver::FactorId id : factors->second) pending_update_.remove_factors.push_back(id);
+    pair_factor_.erase(factors);
+    auto factor = std::make_shared<solver::RelativePose3Factor>(
+        pair.i, pair.j, pair.i_T_j.mean, sqrtInformation(pair.i_T_j.covariance, o_.covariance_floor),
+        solver::RelativePose3Factor::Convention::kLog);
+    if (loop_pairs_.count(*it) && o_.loop_kernel.active()) factor->setKernel(o_.loop_kernel);
+    pending_pairs_.push_back(*it);
+    pending_factor_slot_.push_back(pending_update_.new_factors.size());
+    pending_update_.new_factors.push_back(factor);
+    it = to_consolidate_.erase(it);
+  }
 }
 
 int64_t Mapper::addNode(int64_t keyframe_utime, const core::UncertainPose& active_T_node) {
@@ -264,6 +284,11 @@ void Mapper::flushSolver() {
       pending_update_.remove_factors.empty())
     return;
   const auto t0 = Clock::now();
+  // The solver batch-steps every batch_every-th update anyway (its update counter starts at
+  // 0): the moment to consolidate merged pairs at no extra cost.
+  const int every = o_.solver.batch_every;
+  if (every > 0 && solver_updates_ % every == 0 && !to_consolidate_.empty()) consolidatePairs();
+  ++solver_updates_;
   auto result = solver_.update(pending_update_);
   const double dt = secondsSince(t0);
   stats_.timing.solver_s += dt;
@@ -276,7 +301,7 @@ void Mapper::flushSolver() {
   }
   for (size_t k = 0; k < pending_pairs_.size(); ++k)
     if (pending_pairs_[k].first >= 0)
-      pair_factor_[pending_pairs_[k]] = result->new_factor_ids[pending_factor_slot_[k]];
+      pair_factor_[pending_pairs_[k]].push_back(result->new_factor_ids[pending_factor_slot_[k]]);
   pending_update_ = {};
   pending_pairs_.clear();
   pending_factor_slot_.clear();

@@ -109,7 +109,7 @@ struct MapperStats {
   int64_t steps = 0;
   int64_t nodes = 0;
   int64_t constraints = 0;        // every constraint made (kept in the constraint set)
-  int64_t factors = 0;            // pair factors the solver holds
+  int64_t factors = 0;            // node pairs the solver holds factors for
   int64_t merged = 0;
   int64_t rejected_inconsistent = 0;
   int64_t requests_node = 0;
@@ -199,6 +199,7 @@ class Mapper {
   bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b);
   bool confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime);
   void flushSolver();
+  void consolidatePairs();
   void rebuildCells();
   core::PlanarCell cellOf(const core::SE3d& world_T_body, int floor) const;
   std::optional<int64_t> nodeInCell(const core::PlanarCell& cell, int64_t newest_allowed) const;
@@ -211,7 +212,11 @@ class Mapper {
   ConstraintSet constraints_;
   solver::IncrementalSolver solver_;
   solver::UpdateRequest pending_update_;
-  std::map<std::pair<int64_t, int64_t>, solver::FactorId> pair_factor_;
+  // The solver's factors of each node pair: one, or one per agreeing constraint until the
+  // pair is consolidated into its merged constraint (flushSolver at a scheduled batch step).
+  std::map<std::pair<int64_t, int64_t>, std::vector<solver::FactorId>> pair_factor_;
+  std::set<std::pair<int64_t, int64_t>> to_consolidate_;
+  int64_t solver_updates_ = 0;
   // For each factor of pending_update_ that stands for a node pair: the pair ((-1, -1) for
   // priors) and its slot in new_factors.
   std::vector<std::pair<int64_t, int64_t>> pending_pairs_;
