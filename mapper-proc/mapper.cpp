@@ -302,11 +302,25 @@ void Mapper::flushSolver() {
   for (size_t k = 0; k < pending_pairs_.size(); ++k)
     if (pending_pairs_[k].first >= 0)
       pair_factor_[pending_pairs_[k]].push_back(result->new_factor_ids[pending_factor_slot_[k]]);
+  std::vector<int64_t> added;
+  for (const auto& [key, value] : pending_update_.new_variables) added.push_back(key);
   pending_update_ = {};
   pending_pairs_.clear();
   pending_factor_slot_.clear();
   stats_.factors = static_cast<int64_t>(pair_factor_.size());
-  rebuildCells();
+  if (result->batch) {
+    // The partition index and the marginals follow the estimate at batch steps; in between
+    // only new nodes join the index (cells are 1 m: the shift of old nodes between two
+    // batch steps, after a loop closure, moves few of them across a cell edge) and the
+    // marginals stay those of the last batch (conservative: adding factors only shrinks
+    // the marginals of existing variables). Both would otherwise cost O(nodes) per update.
+    rebuildCells();
+    marginals_.reset();
+  } else {
+    const auto t1 = Clock::now();
+    for (int64_t id : added) cells_[cellOf(nodePose(id), nodes_[id].floor)].push_back(id);
+    stats_.timing.partition_s += secondsSince(t1);
+  }
 }
 
 void Mapper::sendRequest(int8_t mode, int64_t target) {
@@ -514,9 +528,14 @@ bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& 
   // The map's own estimate of a_T_b with its marginal covariance (the joint marginal of a and
   // b through the relative-pose Jacobians), against the measured chain.
   const auto t0 = Clock::now();
-  const solver::Marginals marginals = solver::Marginals::fromSolver(solver_);
   const std::vector<solver::Key> keys{a, b};
-  auto joint = marginals.joint(keys);
+  if (!marginals_) marginals_ = solver::Marginals::fromSolver(solver_);
+  auto joint = marginals_->joint(keys);
+  if (!joint) {
+    // A node newer than the cached factor.
+    marginals_ = solver::Marginals::fromSolver(solver_);
+    joint = marginals_->joint(keys);
+  }
   stats_.timing.registration_s += secondsSince(t0);
   if (!joint) return true;  // no marginal: nothing to test against
   core::Mat6 Ja, Jb;

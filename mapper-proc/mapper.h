@@ -39,6 +39,7 @@
 
 #include "core/geometry/se2.h"
 #include "core/solver/incremental_solver.h"
+#include "core/solver/marginals.h"
 #include "mapper-proc/constraint_set.h"
 #include "mapper-proc/tracker.h"
 
@@ -217,6 +218,9 @@ class Mapper {
   std::map<std::pair<int64_t, int64_t>, std::vector<solver::FactorId>> pair_factor_;
   std::set<std::pair<int64_t, int64_t>> to_consolidate_;
   int64_t solver_updates_ = 0;
+  // Marginals from the factor of the last batch step (or of a later update, when a node newer
+  // than that was asked for); reset at each batch step.
+  std::optional<solver::Marginals> marginals_;
   // For each factor of pending_update_ that stands for a node pair: the pair ((-1, -1) for
   // priors) and its slot in new_factors.
   std::vector<std::pair<int64_t, int64_t>> pending_pairs_;

@@ -165,6 +165,9 @@ std::string OfflineRunSummary::text() const {
     << "\ntime_registration_s " << stats.timing.registration_s << "\ntime_partition_s "
     << stats.timing.partition_s << "\ntime_solver_s " << stats.timing.solver_s
     << "\nupdate_median_ms " << update_median_ms << "\nupdate_p99_ms " << update_p99_ms
+    << "\nstep_median_ms " << step_median_ms << "\nstep_p99_ms " << step_p99_ms << "\nstep_p99_first_hour_ms "
+    << step_p99_first_hour_ms << "\nstep_p99_last_hour_ms " << step_p99_last_hour_ms << "\nnodes_4h_before_end "
+    << nodes_4h_before_end
     << "\nstore_transactions " << store_transactions << "\ntime_store_s " << store_s
     << "\noperating_h " << operating_s / 3600.0 << "\nstopped_early " << (stopped_early ? 1 : 0)
     << "\nwall_s " << wall_s << "\n";
@@ -258,8 +261,12 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     return operating_before_s + (session_start < 0 ? 0.0 : 1e-6 * static_cast<double>(utime - session_start));
   };
   int64_t messages_seen = 0;
+  std::vector<std::pair<int64_t, double>> session_offsets;  // (start utime, operating time then)
   broker.setAfterMessage([&](int64_t utime) {
-    if (session_start < 0) session_start = utime;
+    if (session_start < 0) {
+      session_start = utime;
+      session_offsets.emplace_back(utime, operating_before_s);
+    }
     timeline.sample(operating(utime), utime, current_session);
     if (run.max_wall_s > 0 && ++messages_seen % 1000 == 0 &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count() > run.max_wall_s) {
@@ -365,7 +372,27 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   for (double s : mapper.stats().timing.update_s) ms.push_back(1e3 * s);
   out.update_median_ms = percentile(ms, 0.5);
   out.update_p99_ms = percentile(ms, 0.99);
+  {
+    std::vector<double> all, first_hour, last_hour;
+    for (const auto& c : mapper.stats().timing.step_cost) {
+      auto it = std::upper_bound(session_offsets.begin(), session_offsets.end(), std::make_pair(c.utime, 1e300));
+      if (it == session_offsets.begin()) continue;
+      --it;
+      const double t = it->second + 1e-6 * static_cast<double>(c.utime - it->first);
+      all.push_back(1e3 * c.s);
+      if (t < 3600.0) first_hour.push_back(1e3 * c.s);
+      if (t >= operating_reached_s - 3600.0) last_hour.push_back(1e3 * c.s);
+    }
+    out.step_median_ms = percentile(all, 0.5);
+    out.step_p99_ms = percentile(all, 0.99);
+    out.step_p99_first_hour_ms = percentile(first_hour, 0.99);
+    out.step_p99_last_hour_ms = percentile(last_hour, 0.99);
+  }
   out.timeline = timeline.take();
+  for (const TimelineRow& r : out.timeline) {
+    if (r.operating_s > operating_reached_s - 4 * 3600.0) break;
+    out.nodes_4h_before_end = r.nodes;
+  }
 
   std::vector<core::SE3d> gt, est;
   for (const auto& p : mapper.stepPoses()) {

@@ -94,8 +94,15 @@ struct OfflineRunSummary {
   double ate_median_m = 0.0;
   double duration_s = 0.0;     // simulated time, mapped sessions
   double distance_m = 0.0;
-  double update_median_ms = 0.0;
+  double update_median_ms = 0.0;  // solver updates
   double update_p99_ms = 0.0;
+  // Mapper work per step (MapperTiming::step_cost): over the run, its first and its last hour
+  // of operating time (the "update p99, last hour against first").
+  double step_median_ms = 0.0;
+  double step_p99_ms = 0.0;
+  double step_p99_first_hour_ms = 0.0;
+  double step_p99_last_hour_ms = 0.0;
+  int64_t nodes_4h_before_end = 0;  // graph size 4 h of operating time before the end
   int64_t store_transactions = 0;  // with a map store: one per update that changed the graph
   double store_s = 0.0;            // wall time spent writing them
   std::vector<TimelineRow> timeline;
@@ -114,5 +121,7 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim, MapperOptions
 
 // The timeline as CSV with a header line, written through a temporary file and a rename.
 Status writeTimelineCsv(const std::filesystem::path& file, const std::vector<TimelineRow>& rows);
+// Reads what writeTimelineCsv wrote. Errors name the file and line.
+Expected<std::vector<TimelineRow>> readTimelineCsv(const std::filesystem::path& file);
 
 }  // namespace evermap::mapper

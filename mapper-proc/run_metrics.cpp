@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -34,6 +35,32 @@ Status writeTimelineCsv(const std::filesystem::path& file, const std::vector<Tim
   std::filesystem::rename(tmp, file, ec);
   if (ec) return makeError(file.string(), ": ", ec.message());
   return Ok{};
+}
+
+Expected<std::vector<TimelineRow>> readTimelineCsv(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  if (!in) return makeError(file.string(), ": cannot open");
+  std::string line;
+  std::vector<TimelineRow> rows;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (n == 1) continue;  // header
+    TimelineRow r;
+    double hours = 0.0;
+    long long utime = 0, nodes = 0, factors = 0, steps = 0;
+    int session = 0;
+    if (std::sscanf(line.c_str(), "%lf,%lld,%d,%lld,%lld,%lld,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &hours, &utime, &session,
+                    &nodes, &factors, &steps, &r.tracking_s, &r.registration_s, &r.partition_s, &r.solver_s,
+                    &r.step_median_ms, &r.step_p99_ms, &r.step_max_ms) != 13)
+      return makeError(file.string(), ":", n, ": not a timeline row");
+    r.operating_s = 3600.0 * hours;
+    r.utime = utime;
+    r.session = session;
+    r.nodes = nodes;
+    r.factors = factors;
+    r.steps = steps;
+    rows.push_back(r);
+  }
+  return rows;
 }
 
 std::vector<int64_t> inMappedArea(const std::vector<NodeTruth>& nodes, const std::vector<NodeTruth>& queries,

@@ -35,6 +35,9 @@ constexpr const char* kUsage =
     "  --out DIR          timelines, summaries and the Fig. 4 / Fig. 7 plots (SVG) into DIR\n"
     "  --max-wall-s S     stop mapping after S seconds of wall time (per mode); the figures\n"
     "                     cover the operating time reached\n"
+    "   or: evermap-mapper-run --replot DIR\n"
+    "  the Fig. 7 plots again from DIR/timeline-reduced.csv and DIR/timeline-full.csv (either may\n"
+    "  be missing): runs of the two modes made separately, drawn side by side\n"
     "   or: evermap-mapper-run --check-store MAP.db\n"
     "  PRAGMA integrity_check of a map store, then 'store ok nodes N edges E sessions S\n"
     "  updated_utime U' (U: the newest keyframe of a stored node or edge; a run resumes after it)\n";
@@ -198,6 +201,25 @@ int main(int argc, char** argv) {
       sets.push_back(v);
     } else if (a == "--check-store") {
       return checkStore(v);
+    } else if (a == "--replot") {
+      std::map<std::string, OfflineRunSummary> runs;
+      for (const char* m : {"reduced", "full"}) {
+        const auto f = std::filesystem::path(v) / (std::string("timeline-") + m + ".csv");
+        if (!std::filesystem::exists(f)) continue;
+        auto rows = mapper::readTimelineCsv(f);
+        if (!rows) {
+          std::fprintf(stderr, "evermap-mapper-run: %s\n", rows.error().message.c_str());
+          return 1;
+        }
+        runs[m].timeline = std::move(*rows);
+        if (!runs[m].timeline.empty()) runs[m].nodes = runs[m].timeline.back().nodes;
+      }
+      if (runs.empty()) {
+        std::fprintf(stderr, "evermap-mapper-run: %s: no timeline-reduced.csv or timeline-full.csv\n", v.c_str());
+        return 1;
+      }
+      writePlots(v, runs);
+      return 0;
     } else if (a == "--store") {
       store = v;
     } else if (a == "--timeline") {
