@@ -60,6 +60,10 @@ done
 # The rest of the session, to its end.
 "$tool" "${args[@]}" > "$tmp/final.txt"
 grep -q "^restored_nodes $stored_nodes\$" "$tmp/final.txt" || fail "the last run did not restore $stored_nodes nodes"
-grep -q "^relocalizations [1-9]" "$tmp/final.txt" || fail "the last run was never re-localised on the map"
+# Re-localising takes two agreeing registrations: required when the rest was long enough.
+steps=$(awk '$1 == "steps" {print $2}' "$tmp/final.txt")
+if [ "$steps" -ge 20 ]; then
+  grep -q "^relocalizations [1-9]" "$tmp/final.txt" || fail "the last run ($steps steps) was never re-localised"
+fi
 "$tool" --check-store "$store"
 echo "mapper_sigkill: $kills kills, $stored_nodes nodes stored before the last run"

@@ -106,7 +106,7 @@ void writePlots(const std::filesystem::path& dir, const std::map<std::string, Of
       top.title = "Fig. 4: " + mode + " pose graph, trajectory against ground truth (all floors, top view)";
       top.subtitle = sub;
       top.plane = evermap::eval::PlotPlane::kXY;
-      report("plot", evermap::eval::writeTopView(dir / ("fig4-" + mode + ".svg"), s.trajectory_gt,
+      report("plot", evermap::eval::writeTopView(dir / ("fig4-" + mode + ".png"), s.trajectory_gt,
                                                  s.trajectory_est, top));
       // Floors stacked: an oblique view (u = x + 0.5 y, v = 0.35 y + 3 z) as in the paper's figure.
       auto oblique = [](const std::vector<evermap::core::Vec3>& pts) {
