@@ -56,20 +56,6 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "evermap-mapper-proc: %s\n", opened.error().message.c_str());
       return 1;
     }
-    auto held = opened->load();
-    if (!held) {
-      std::fprintf(stderr, "evermap-mapper-proc: %s\n", held.error().message.c_str());
-      return 1;
-    }
-    // The Mapper cannot be loaded from a snapshot yet (issue 7): writing a new map over a
-    // stored one would mix two maps under the same node ids.
-    if (!held->nodes.empty()) {
-      std::fprintf(stderr,
-                   "evermap-mapper-proc: %s holds a map of %zu nodes; resuming a stored map is not "
-                   "supported yet: remove it or pass another --store\n",
-                   store_file.c_str(), held->nodes.size());
-      return 1;
-    }
     store = std::move(*opened);
   }
 
@@ -79,6 +65,25 @@ int main(int argc, char** argv) {
     return 1;
   }
   mapper::Mapper m(options);
+  // A store that holds a map (a restart after a crash, or a new session over a saved map):
+  // the mapper continues it, lost until a global registration places it on the map.
+  if (store) {
+    auto held = store->load();
+    if (!held) {
+      std::fprintf(stderr, "evermap-mapper-proc: %s\n", held.error().message.c_str());
+      return 1;
+    }
+    if (!held->nodes.empty()) {
+      if (Status r = m.restore(*held); !r) {
+        std::fprintf(stderr, "evermap-mapper-proc: %s: %s\n", store_file.c_str(),
+                     r.error().message.c_str());
+        return 1;
+      }
+      std::printf("evermap-mapper-proc: continuing %s: %zu nodes, %zu constraints restored\n",
+                  store_file.c_str(), m.nodes().size(), m.constraints().all().size());
+      std::fflush(stdout);
+    }
+  }
   mapper::LcmNode node(lcm, m, node_options, store ? &*store : nullptr);
   // SIGINT/SIGTERM are blocked and polled between LCM waits: no handler, no global flag.
   sigset_t stop;
@@ -117,7 +122,7 @@ int main(int argc, char** argv) {
       std::printf("progress: wall %.0f s, data %.0f s, session %d, nodes %zu, "
                   "constraints %zu, dropped %lld\n",
                   std::chrono::duration<double>(Clock::now() - started).count(), data_s,
-                  m.nodes().empty() ? 0 : m.nodes().back().session,
+                  m.session(),
                   m.nodes().size(), m.constraints().all().size(),
                   static_cast<long long>(node.counts().dropped()));
       std::fflush(stdout);

@@ -9,6 +9,7 @@
 
 #include "core/solver/marginals.h"
 #include "core/solver/pose_factors.h"
+#include "mapper-proc/map_store.h"
 
 namespace evermap::mapper {
 namespace {
@@ -53,7 +54,9 @@ std::string MapperStats::text() const {
     << rejected_inconsistent << "\nrequests_node " << requests_node << "\nrequests_global "
     << requests_global << "\nregistrations_ok " << registrations_ok << "\nloop_closures "
     << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept
-    << "\nrejected_map_gate " << rejected_map_gate << "\nrelocalizations " << relocalizations << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\n";
+    << "\nrejected_map_gate " << rejected_map_gate << "\nrelocalizations " << relocalizations
+    << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrelocalization_disagreements " << relocalization_disagreements << "\nrestored_nodes " << restored_nodes
+    << "\nrestored_constraints " << restored_constraints << "\n";
   return s.str();
 }
 
@@ -92,10 +95,12 @@ Status Mapper::onAttitude(const attitude_t& msg) {
   const bool finite = std::isfinite(msg.roll_rad) && std::isfinite(msg.pitch_rad) &&
                       std::isfinite(msg.covariance[0]) && std::isfinite(msg.covariance[1]) &&
                       std::isfinite(msg.covariance[2]) && std::isfinite(msg.covariance[3]);
+  const double det = msg.covariance[0] * msg.covariance[3] - msg.covariance[1] * msg.covariance[2];
   if (!finite || msg.utime <= last_attitude_utime_ || !(msg.covariance[0] > 0.0) ||
-      !(msg.covariance[3] > 0.0)) {
+      !(msg.covariance[3] > 0.0) || !(det > 0.0) ||
+      std::abs(msg.covariance[1] - msg.covariance[2]) > 1e-9 * std::max(msg.covariance[0], msg.covariance[3])) {
     ++stats_.dropped;
-    return makeError("ATTITUDE ", msg.utime, ": not finite, out of order or no variance");
+    return makeError("ATTITUDE ", msg.utime, ": not finite, out of order or not a covariance");
   }
   last_attitude_utime_ = msg.utime;
   if (msg.accel_trusted) attitude_ = msg;
@@ -114,6 +119,7 @@ Status Mapper::onFloor(const floor_t& msg) {
     // A new session starts (the operator sets the floor): where the robot is relative to the
     // map is unknown until a global registration re-localises it (DESIGN.md section 3).
     lost_ = true;
+    relocalization_candidate_.reset();
     ++session_;
   }
   if (have_floor_ && msg.event == floor_t::EVENT_RIDE_END && active_ >= 0) {
@@ -176,32 +182,52 @@ void Mapper::addConstraint(int64_t from, int64_t to, const core::UncertainPose& 
     return;
   }
   const auto key = std::make_pair(pair->i, pair->j);
+  // An agreeing constraint joins its pair as a factor of its own: the product of the pair's
+  // Gaussians is the information-weighted merge, and adding it is an incremental update.
+  // Replacing the pair's factor by the merged one needs a factor removal, i.e. a batch step
+  // whose cost grows with the map; that consolidation waits for the solver's scheduled batch
+  // steps (flushSolver), so merges cost what any new constraint costs.
+  const Constraint& stored = constraints_.all().back();  // i_T_j, as the set keeps it
+  const core::UncertainPose& measurement = outcome == ConstraintSet::Outcome::kMerged ? stored.from_T_to : pair->i_T_j;
   if (outcome == ConstraintSet::Outcome::kMerged) {
     ++stats_.merged;
-    // The merged estimate replaces the pair's factor.
-    auto it = pair_factor_.find(key);
-    if (it != pair_factor_.end()) {
-      pending_update_.remove_factors.push_back(it->second);
-      pair_factor_.erase(it);
-    }
+    to_consolidate_.insert(key);
   }
   auto factor = std::make_shared<solver::RelativePose3Factor>(
-      pair->i, pair->j, pair->i_T_j.mean, sqrtInformation(pair->i_T_j.covariance, o_.covariance_floor),
+      pair->i, pair->j, measurement.mean, sqrtInformation(measurement.covariance, o_.covariance_floor),
       solver::RelativePose3Factor::Convention::kLog);
   // Loop closures can be false matches that no other measurement of their pair contradicts
   // yet: a robust kernel lets the rest of the graph outvote them.
   if (kind == ConstraintKind::kLoop) loop_pairs_.insert(key);
   if (loop_pairs_.count(key) && o_.loop_kernel.active()) factor->setKernel(o_.loop_kernel);
-  // A merge within one update replaces the factor still waiting in the request.
-  for (size_t k = 0; k < pending_pairs_.size(); ++k) {
-    if (pending_pairs_[k] == key) {
-      pending_update_.new_factors[pending_factor_slot_[k]] = factor;
-      return;
-    }
-  }
   pending_pairs_.push_back(key);
   pending_factor_slot_.push_back(pending_update_.new_factors.size());
   pending_update_.new_factors.push_back(factor);
+}
+
+void Mapper::consolidatePairs() {
+  // Pairs with several factors, none of them still waiting in this update: their factors
+  // are replaced by the one merged constraint of the set (paper section III-B.3: redundant
+  // constraints combined once they agree).
+  std::set<std::pair<int64_t, int64_t>> waiting(pending_pairs_.begin(), pending_pairs_.end());
+  for (auto it = to_consolidate_.begin(); it != to_consolidate_.end();) {
+    auto factors = pair_factor_.find(*it);
+    if (waiting.count(*it) || factors == pair_factor_.end()) {
+      ++it;
+      continue;
+    }
+    const ConstraintSet::Pair& pair = constraints_.pairs().at(*it);
+    for (solver::FactorId id : factors->second) pending_update_.remove_factors.push_back(id);
+    pair_factor_.erase(factors);
+    auto factor = std::make_shared<solver::RelativePose3Factor>(
+        pair.i, pair.j, pair.i_T_j.mean, sqrtInformation(pair.i_T_j.covariance, o_.covariance_floor),
+        solver::RelativePose3Factor::Convention::kLog);
+    if (loop_pairs_.count(*it) && o_.loop_kernel.active()) factor->setKernel(o_.loop_kernel);
+    pending_pairs_.push_back(*it);
+    pending_factor_slot_.push_back(pending_update_.new_factors.size());
+    pending_update_.new_factors.push_back(factor);
+    it = to_consolidate_.erase(it);
+  }
 }
 
 int64_t Mapper::addNode(int64_t keyframe_utime, const core::UncertainPose& active_T_node) {
@@ -258,10 +284,16 @@ void Mapper::flushSolver() {
       pending_update_.remove_factors.empty())
     return;
   const auto t0 = Clock::now();
+  // The solver batch-steps every batch_every-th update anyway (its update counter starts at
+  // 0): the moment to consolidate merged pairs at no extra cost.
+  const int every = o_.solver.batch_every;
+  if (every > 0 && solver_updates_ % every == 0 && !to_consolidate_.empty()) consolidatePairs();
+  ++solver_updates_;
   auto result = solver_.update(pending_update_);
   const double dt = secondsSince(t0);
   stats_.timing.solver_s += dt;
   stats_.timing.update_s.push_back(dt);
+  stats_.timing.update_utime.push_back(last_step_utime_);
   // Contract: the mapper only builds updates over keys it created, with finite factors.
   if (!result) {
     std::fprintf(stderr, "evermap-mapper: solver update failed: %s\n", result.error().message.c_str());
@@ -269,12 +301,26 @@ void Mapper::flushSolver() {
   }
   for (size_t k = 0; k < pending_pairs_.size(); ++k)
     if (pending_pairs_[k].first >= 0)
-      pair_factor_[pending_pairs_[k]] = result->new_factor_ids[pending_factor_slot_[k]];
+      pair_factor_[pending_pairs_[k]].push_back(result->new_factor_ids[pending_factor_slot_[k]]);
+  std::vector<int64_t> added;
+  for (const auto& [key, value] : pending_update_.new_variables) added.push_back(key);
   pending_update_ = {};
   pending_pairs_.clear();
   pending_factor_slot_.clear();
   stats_.factors = static_cast<int64_t>(pair_factor_.size());
-  rebuildCells();
+  if (result->batch) {
+    // The partition index and the marginals follow the estimate at batch steps; in between
+    // only new nodes join the index (cells are 1 m: the shift of old nodes between two
+    // batch steps, after a loop closure, moves few of them across a cell edge) and the
+    // marginals stay those of the last batch (conservative: adding factors only shrinks
+    // the marginals of existing variables). Both would otherwise cost O(nodes) per update.
+    rebuildCells();
+    marginals_.reset();
+  } else {
+    const auto t1 = Clock::now();
+    for (int64_t id : added) cells_[cellOf(nodePose(id), nodes_[id].floor)].push_back(id);
+    stats_.timing.partition_s += secondsSince(t1);
+  }
 }
 
 void Mapper::sendRequest(int8_t mode, int64_t target) {
@@ -293,13 +339,16 @@ void Mapper::sendRequest(int8_t mode, int64_t target) {
 }
 
 void Mapper::step(int64_t keyframe_utime) {
+  const auto t0 = Clock::now();
   ++stats_.steps;
   last_step_utime_ = keyframe_utime;
+  step_cost_s_ = 0.0;
   if (nodes_.empty()) {
     addNode(keyframe_utime, core::UncertainPose{});
     tracker_.reset(tracker_.sinceKeyframe(keyframe_utime).value_or(core::UncertainPose{}));
     flushSolver();
-    step_poses_.push_back(StepPose{keyframe_utime, active_, core::SE3d()});
+    step_poses_.push_back(StepPose{keyframe_utime, active_, core::SE3d(), session_});
+    stats_.timing.step_cost.push_back({keyframe_utime, secondsSince(t0)});
     return;
   }
   InFlight f;
@@ -325,10 +374,12 @@ void Mapper::step(int64_t keyframe_utime) {
   }
   if (target && !lost_) sendRequest(register_request_t::MODE_NODE, *target);
   else sendRequest(register_request_t::MODE_GLOBAL, -1);
+  step_cost_s_ += secondsSince(t0);
 }
 
 void Mapper::checkTimeout(int64_t utime) {
   if (in_flight_ && utime - in_flight_->sent_utime > micros(o_.request_timeout_s)) {
+    // A late result for the closed step is dropped as "no such request in flight".
     ++stats_.timeouts;
     finishStep(false);
   }
@@ -340,23 +391,27 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
     ++stats_.dropped;
     return makeError("REGISTER_RESULT ", msg.request_id, ": no such request in flight");
   }
+  const auto t0 = Clock::now();
   if (msg.status != register_result_t::STATUS_OK) {
     if (in_flight_->mode == register_request_t::MODE_NODE) {
       sendRequest(register_request_t::MODE_GLOBAL, -1);  // then the global search
+      step_cost_s_ += secondsSince(t0);
     } else {
+      step_cost_s_ += secondsSince(t0);
       finishStep(false);
     }
     return Ok{};
   }
-  const auto t0 = Clock::now();
   const InFlight f = *in_flight_;
   bool registered = false;
   Status status = Ok{};
   bool finite = std::isfinite(msg.translation[0]) && std::isfinite(msg.translation[1]) &&
                 std::isfinite(msg.translation[2]);
   for (double q : msg.orientation) finite = finite && std::isfinite(q);
+  const double q_norm = Eigen::Vector4d(msg.orientation[0], msg.orientation[1], msg.orientation[2], msg.orientation[3]).norm();
   auto cov = covarianceFromMessage(msg.covariance, "REGISTER_RESULT");
-  if (!finite || !cov || msg.node_id < 0 || msg.node_id >= static_cast<int64_t>(nodes_.size())) {
+  if (!finite || std::abs(q_norm - 1.0) > 1e-3 || !cov || msg.node_id < 0 ||
+      msg.node_id >= static_cast<int64_t>(nodes_.size())) {
     ++stats_.dropped;
     status = makeError("REGISTER_RESULT ", msg.request_id, ": malformed pose, covariance or node id");
   } else {
@@ -364,6 +419,7 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
     handleRegistration(msg, f, *cov, &registered);
   }
   stats_.timing.registration_s += secondsSince(t0);
+  step_cost_s_ += secondsSince(t0);
   finishStep(registered);
   return status;
 }
@@ -384,6 +440,14 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     return;
   }
   if (lost_) {
+    // One global match may be a false one, and nothing in the map could contradict a wrong
+    // placement of the whole session afterwards: the session is placed only when two
+    // registrations, chained by odometry, agree on where it is.
+    if (!confirmsRelocalization(b, b_T_q, f.keyframe_utime)) {
+      relocalization_candidate_ = RelocalizationCandidate{b, b_T_q, f.keyframe_utime};
+      return;
+    }
+    relocalization_candidate_.reset();
     *registered = true;
     // Re-localisation: b becomes active, no constraint (Δ had no meaning before it).
     active_ = b;
@@ -439,14 +503,39 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
   relocalize_ = true;
 }
 
+bool Mapper::confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime) {
+  if (!relocalization_candidate_) return false;
+  const RelocalizationCandidate c = *relocalization_candidate_;
+  const auto c_T_now = tracker_.sinceKeyframe(c.keyframe_utime);
+  const auto q_T_now = tracker_.sinceKeyframe(keyframe_utime);
+  if (!c_T_now || !q_T_now) return false;  // too old: the newer one becomes the candidate
+  // The two placements chained: c.node_T_b = c.node_T_kc ⊕ kc_T_q ⊕ ⊖(b_T_q) (eq. 6-7; the
+  // odometry covariance is counted twice where the two chains share increments: a looser gate).
+  const core::UncertainPose kc_T_q = core::compound(*c_T_now, core::invert(*q_T_now));
+  const core::UncertainPose measured = core::compound(core::compound(c.node_T_keyframe, kc_T_q), core::invert(b_T_q));
+  bool agree = false;
+  if (c.node == b) {
+    agree = !(o_.map_gate > 0) || ConstraintSet::mahalanobis2(core::UncertainPose{}, measured) <= o_.map_gate;
+  } else {
+    agree = consistentWithMap(c.node, b, measured);
+  }
+  if (!agree) ++stats_.relocalization_disagreements;
+  return agree;
+}
+
 bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b) {
   if (!(o_.map_gate > 0)) return true;
   // The map's own estimate of a_T_b with its marginal covariance (the joint marginal of a and
   // b through the relative-pose Jacobians), against the measured chain.
   const auto t0 = Clock::now();
-  const solver::Marginals marginals = solver::Marginals::fromSolver(solver_);
   const std::vector<solver::Key> keys{a, b};
-  auto joint = marginals.joint(keys);
+  if (!marginals_) marginals_ = solver::Marginals::fromSolver(solver_);
+  auto joint = marginals_->joint(keys);
+  if (!joint) {
+    // A node newer than the cached factor.
+    marginals_ = solver::Marginals::fromSolver(solver_);
+    joint = marginals_->joint(keys);
+  }
   stats_.timing.registration_s += secondsSince(t0);
   if (!joint) return true;  // no marginal: nothing to test against
   core::Mat6 Ja, Jb;
@@ -465,6 +554,7 @@ void Mapper::finishStep(bool registered) {
   if (lost_) {
     // Not re-localised yet: neither a node nor a step pose from a meaningless Δ.
     stats_.timing.partition_s += secondsSince(t0);
+    stats_.timing.step_cost.push_back({f.keyframe_utime, step_cost_s_ + secondsSince(t0)});
     return;
   }
   if (!registered && !o_.full_graph) {
@@ -480,7 +570,61 @@ void Mapper::finishStep(bool registered) {
   flushSolver();
   const auto q_T_now = tracker_.sinceKeyframe(f.keyframe_utime);
   const core::SE3d node_T_q = tracker_.delta().mean * (q_T_now ? q_T_now->mean.inverse() : core::SE3d());
-  step_poses_.push_back(StepPose{f.keyframe_utime, active_, node_T_q});
+  step_poses_.push_back(StepPose{f.keyframe_utime, active_, node_T_q, session_});
+  stats_.timing.step_cost.push_back({f.keyframe_utime, step_cost_s_ + secondsSince(t0)});
+}
+
+Status Mapper::restore(const MapSnapshot& map) {
+  if (!nodes_.empty() || have_floor_) return Error{"mapper: restore: the mapper already holds a map"};
+  std::map<int, double> floors(map.floors.begin(), map.floors.end());
+  int max_session = -1;
+  for (const auto& [session, start] : map.sessions) max_session = std::max(max_session, session);
+  for (size_t k = 0; k < map.nodes.size(); ++k) {
+    const StoredNode& n = map.nodes[k];
+    if (n.node.id != static_cast<int64_t>(k))
+      return makeError("mapper: restore: node ", n.node.id, " where node ", k, " was expected");
+    max_session = std::max(max_session, n.node.session);
+    pending_update_.new_variables.emplace_back(n.node.id, solver::PoseValue::spatial(n.world_T_body));
+    if (k == 0) {
+      // The origin stays where the first session put it.
+      Eigen::MatrixXd W = Eigen::MatrixXd::Zero(6, 6);
+      W.diagonal() << core::Vec3::Constant(1.0 / o_.origin_sigma_m), core::Vec3::Constant(1.0 / o_.origin_sigma_rad);
+      pending_update_.new_factors.push_back(std::make_shared<solver::PosePrior3Factor>(0, n.world_T_body, W));
+      pending_pairs_.emplace_back(-1, -1);
+      pending_factor_slot_.push_back(pending_update_.new_factors.size() - 1);
+    }
+    const auto height = floors.find(n.node.floor);
+    if (o_.height_factors && height != floors.end()) {
+      pending_update_.new_factors.push_back(std::make_shared<solver::HeightFactor>(n.node.id, height->second, 0.02));
+      pending_pairs_.emplace_back(-1, -1);
+      pending_factor_slot_.push_back(pending_update_.new_factors.size() - 1);
+    }
+    nodes_.push_back(n.node);
+  }
+  const auto n_nodes = static_cast<int64_t>(nodes_.size());
+  for (size_t k = 0; k < map.edges.size(); ++k) {
+    const Constraint& c = map.edges[k].constraint;
+    if (map.edges[k].edge_id != static_cast<int64_t>(k) || c.from < 0 || c.to < 0 || c.from >= n_nodes ||
+        c.to >= n_nodes || c.from == c.to) {
+      nodes_.clear();
+      pending_update_ = {};
+      return makeError("mapper: restore: edge ", map.edges[k].edge_id, " (", c.from, " -> ", c.to,
+                       ") is out of order or names an unknown node");
+    }
+    addConstraint(c.from, c.to, c.from_T_to, c.kind, c.utime);
+  }
+  if (nodes_.empty()) return Ok{};
+  floors_ = floors;
+  flushSolver();
+  const int64_t factors = stats_.factors;
+  stats_ = MapperStats{};
+  stats_.factors = factors;
+  stats_.restored_nodes = n_nodes;
+  stats_.restored_constraints = static_cast<int64_t>(map.edges.size());
+  session_ = max_session + 1;
+  active_ = n_nodes - 1;
+  lost_ = true;  // where the robot is on this map is unknown until a global registration
+  return Ok{};
 }
 
 }  // namespace evermap::mapper

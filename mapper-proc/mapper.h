@@ -39,10 +39,13 @@
 
 #include "core/geometry/se2.h"
 #include "core/solver/incremental_solver.h"
+#include "core/solver/marginals.h"
 #include "mapper-proc/constraint_set.h"
 #include "mapper-proc/tracker.h"
 
 namespace evermap::mapper {
+
+struct MapSnapshot;  // map_store.h
 
 struct MapperOptions {
   // false: the reduced pose graph; true: a node at every step (the paper's baseline).
@@ -93,13 +96,21 @@ struct MapperTiming {
   double partition_s = 0.0;      // cell index rebuild and new-place tests
   double solver_s = 0.0;
   std::vector<double> update_s;  // solver time of each step that changed the graph
+  std::vector<int64_t> update_utime;  // message time of each update_s entry
+  // Wall time of the mapper's work for each step (request, result handling, new node,
+  // solver update), at the step's keyframe time: the "mapper update" of the paper's Fig. 7.
+  struct StepCost {
+    int64_t utime;
+    double s;
+  };
+  std::vector<StepCost> step_cost;
 };
 
 struct MapperStats {
   int64_t steps = 0;
   int64_t nodes = 0;
   int64_t constraints = 0;        // every constraint made (kept in the constraint set)
-  int64_t factors = 0;            // pair factors the solver holds
+  int64_t factors = 0;            // node pairs the solver holds factors for
   int64_t merged = 0;
   int64_t rejected_inconsistent = 0;
   int64_t requests_node = 0;
@@ -110,8 +121,11 @@ struct MapperStats {
   int64_t delta_kept = 0;         // ... that lost the det(Σ) test
   int64_t rejected_map_gate = 0;  // registrations that contradicted the map or Δ
   int64_t relocalizations = 0;   // a new session tied to the map by a global registration
+  int64_t relocalization_disagreements = 0;  // a lost session's registrations that disagreed
   int64_t timeouts = 0;
   int64_t dropped = 0;            // malformed, stale or out-of-order messages
+  int64_t restored_nodes = 0;     // loaded from a map store by restore()
+  int64_t restored_constraints = 0;
   MapperTiming timing;
   std::string text() const;
 };
@@ -119,6 +133,15 @@ struct MapperStats {
 class Mapper {
  public:
   explicit Mapper(const MapperOptions& options, int session = 0);
+
+  // Continues a stored map (map_store.h) before any message: its floors, its nodes at their
+  // stored estimates, and every stored constraint replayed through the constraint set in
+  // stored order (merges and rejections come out as they did), then one solver batch. The
+  // origin prior goes on node 0 and height factors on every node; roll/pitch factors are not
+  // stored. The mapper is then in a new session (one past the highest stored) and lost: only
+  // global registrations until one places it on the map. Errors: a mapper that already has
+  // nodes, node or edge ids that are not 0..n-1 in order, an edge naming an unknown node.
+  Status restore(const MapSnapshot& map);
 
   // Inputs. Each returns an error for a message it drops (also counted).
   Status onVo(const vo_delta_t& msg);
@@ -143,6 +166,7 @@ class Mapper {
   const Tracker& tracker() const { return tracker_; }
   const MapperStats& stats() const { return stats_; }
   int floor() const { return floor_; }
+  int session() const { return session_; }
   // Floor index -> height (metres), as the FLOOR messages reported them.
   const std::map<int, double>& floors() const { return floors_; }
 
@@ -152,6 +176,7 @@ class Mapper {
     int64_t utime;
     int64_t node;
     core::SE3d node_T_body;
+    int session;
   };
   const std::vector<StepPose>& stepPoses() const { return step_poses_; }
 
@@ -174,7 +199,9 @@ class Mapper {
   void addConstraint(int64_t from, int64_t to, const core::UncertainPose& from_T_to,
                      ConstraintKind kind, int64_t utime);
   bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b);
+  bool confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime);
   void flushSolver();
+  void consolidatePairs();
   void rebuildCells();
   core::PlanarCell cellOf(const core::SE3d& world_T_body, int floor) const;
   std::optional<int64_t> nodeInCell(const core::PlanarCell& cell, int64_t newest_allowed) const;
@@ -187,7 +214,14 @@ class Mapper {
   ConstraintSet constraints_;
   solver::IncrementalSolver solver_;
   solver::UpdateRequest pending_update_;
-  std::map<std::pair<int64_t, int64_t>, solver::FactorId> pair_factor_;
+  // The solver's factors of each node pair: one, or one per agreeing constraint until the
+  // pair is consolidated into its merged constraint (flushSolver at a scheduled batch step).
+  std::map<std::pair<int64_t, int64_t>, std::vector<solver::FactorId>> pair_factor_;
+  std::set<std::pair<int64_t, int64_t>> to_consolidate_;
+  int64_t solver_updates_ = 0;
+  // Marginals from the factor of the last batch step (or of a later update, when a node newer
+  // than that was asked for); reset at each batch step.
+  std::optional<solver::Marginals> marginals_;
   // For each factor of pending_update_ that stands for a node pair: the pair ((-1, -1) for
   // priors) and its slot in new_factors.
   std::vector<std::pair<int64_t, int64_t>> pending_pairs_;
@@ -197,8 +231,16 @@ class Mapper {
   std::vector<MapperNode> nodes_;
   std::unordered_map<core::PlanarCell, std::vector<int64_t>, core::PlanarCellHash> cells_;
   int64_t active_ = -1;
-  bool relocalize_ = false;
-  bool lost_ = false;        // a new session that no global registration has placed yet  // after a loop closure: the next registration to b replaces Δ
+  bool relocalize_ = false;  // after a loop closure: the next registration to b replaces Δ
+  bool lost_ = false;        // a new session that no global registration has placed yet
+  double step_cost_s_ = 0.0;  // wall time of the step in progress so far
+  // While lost: the last registration to the map, waiting for a second one that agrees.
+  struct RelocalizationCandidate {
+    int64_t node;
+    core::UncertainPose node_T_keyframe;
+    int64_t keyframe_utime;
+  };
+  std::optional<RelocalizationCandidate> relocalization_candidate_;
   int floor_ = 0;
   double floor_height_m_ = 0.0;
   std::map<int, double> floors_;

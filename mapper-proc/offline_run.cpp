@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <fstream>
+#include <climits>
+#include <tuple>
 #include <functional>
 #include <deque>
 #include <map>
@@ -19,24 +23,24 @@
 #include "core/messages/convert.h"
 #include "core/sim/registration_oracle.h"
 #include "core/sim/run.h"
+#include "core/sim/session_generator.h"
 #include "mapper-proc/map_store.h"
+#include "mapper-proc/run_metrics.h"
 
 namespace evermap::mapper {
 namespace {
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size() - 1) + 0.5));
-  return v[k];
-}
-
-// Feeds decoded messages to the mapper and brokers its requests with the oracle.
+// Feeds decoded messages to the mapper and brokers its requests with the oracle. Messages
+// before `resume_utime` (a restored map) reach the mapper only when they are FLOOR messages;
+// with `deliver` off none do (sessions simulated only for the oracle).
 class Broker final : public sim::MessageSink {
  public:
   Broker(Mapper& mapper, sim::RegistrationOracle& oracle) : mapper_(mapper), oracle_(oracle) {}
 
   void write(const std::string& channel, int64_t utime, const std::vector<uint8_t>& data) override {
+    if (!deliver_) return;
+    const bool floor = channel == channels::kFloor;
+    if (utime <= resume_utime_ && !floor) return;
     ++messages_;
     const int64_t size = static_cast<int64_t>(data.size());
     if (channel == channels::kVoDelta) {
@@ -45,13 +49,16 @@ class Broker final : public sim::MessageSink {
       deliver(messages::decodeLcm<wheel_odom_t>(data.data(), size, channel));
     } else if (channel == channels::kAttitude) {
       deliver(messages::decodeLcm<attitude_t>(data.data(), size, channel));
-    } else if (channel == channels::kFloor) {
+    } else if (floor) {
       deliver(messages::decodeLcm<floor_t>(data.data(), size, channel));
     }
     pump();
-    if (after_update_) after_update_();
+    if (after_message_) after_message_(utime);
   }
-  void setAfterUpdate(std::function<void()> f) { after_update_ = std::move(f); }
+  void setAfterMessage(std::function<void(int64_t)> f) { after_message_ = std::move(f); }
+  void setOnNode(std::function<void(const node_added_t&)> f) { on_node_ = std::move(f); }
+  void setDeliver(bool deliver) { deliver_ = deliver; }
+  void setResumeUtime(int64_t utime) { resume_utime_ = utime; }
 
   // Called by the simulator's observer when a keyframe's truth is known.
   void keyframeKnown(int64_t utime) {
@@ -86,6 +93,7 @@ class Broker final : public sim::MessageSink {
       bool progressed = false;
       while (!nodes_.empty() && nodes_.front().keyframe_utime <= known_keyframe_) {
         oracle_.addNode(nodes_.front());
+        if (on_node_) on_node_(nodes_.front());
         nodes_.pop_front();
         progressed = true;
       }
@@ -109,7 +117,10 @@ class Broker final : public sim::MessageSink {
   int64_t messages_ = 0;
   int64_t decode_errors_ = 0;
   int64_t false_matches_ = 0;
-  std::function<void()> after_update_;
+  bool deliver_ = true;
+  int64_t resume_utime_ = -1;
+  std::function<void(int64_t)> after_message_;
+  std::function<void(const node_added_t&)> on_node_;
 };
 
 // Ground truth at `utime`: linear in position between the samples around it, rotation of
@@ -125,29 +136,66 @@ core::SE3d truthAt(const std::map<int64_t, core::SE3d>& gt, int64_t utime) {
   return core::SE3d(a < 0.5 ? lo->second.so3() : hi->second.so3(), t);
 }
 
+
 }  // namespace
+
+Status OfflineRunOptions::validate() const {
+  if (first_session < 0) return Error{"run.first_session: must be >= 0"};
+  if (last_session >= 0 && last_session < first_session) return Error{"run.last_session: must be >= first_session"};
+  if (!(timeline_interval_s >= 0.0)) return Error{"run.timeline_interval_s: must be >= 0"};
+  if (!(revisit_radius_m > 0.0) || !(revisit_angle_rad > 0.0)) return Error{"run.revisit_*: must be > 0"};
+  if (!(max_wall_s >= 0.0)) return Error{"run.max_wall_s: must be >= 0"};
+  return Ok{};
+}
 
 std::string OfflineRunSummary::text() const {
   std::ostringstream s;
   s << stats.text() << "nodes_by_session";
   for (int64_t n : nodes_by_session) s << " " << n;
+  s << "\nnodes_in_mapped_area_by_session";
+  for (int64_t n : nodes_in_mapped_area_by_session) s << " " << n;
+  s << "\nsteps_by_session";
+  for (int64_t n : steps_by_session) s << " " << n;
+  s << "\nsteps_in_mapped_area_by_session";
+  for (int64_t n : steps_in_mapped_area_by_session) s << " " << n;
   s << "\nmessages " << messages << "\ndecode_errors " << decode_errors
     << "\nfalse_matches " << false_matches << "\nsimulated_s " << duration_s << "\ndistance_m "
     << distance_m << "\nstep_poses " << step_poses << "\nate_rmse_m " << ate_rmse_m
     << "\nate_median_m " << ate_median_m << "\ntime_tracking_s " << stats.timing.tracking_s
     << "\ntime_registration_s " << stats.timing.registration_s << "\ntime_partition_s "
     << stats.timing.partition_s << "\ntime_solver_s " << stats.timing.solver_s
-    << "\nupdate_median_ms " << update_median_ms << "\nupdate_p99_ms " << update_p99_ms << "\nstore_transactions " << store_transactions
-    << "\ntime_store_s " << store_s << "\n";
+    << "\nupdate_median_ms " << update_median_ms << "\nupdate_p99_ms " << update_p99_ms
+    << "\nstep_median_ms " << step_median_ms << "\nstep_p99_ms " << step_p99_ms << "\nstep_p99_first_hour_ms "
+    << step_p99_first_hour_ms << "\nstep_p99_last_hour_ms " << step_p99_last_hour_ms << "\nnodes_4h_before_end "
+    << nodes_4h_before_end
+    << "\nstore_transactions " << store_transactions << "\ntime_store_s " << store_s
+    << "\noperating_h " << operating_s / 3600.0 << "\nstopped_early " << (stopped_early ? 1 : 0)
+    << "\nwall_s " << wall_s << "\n";
   return s.str();
 }
 
+
 Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, MapperOptions options,
                                        const std::filesystem::path& store_file) {
+  OfflineRunOptions run;
+  run.store_file = store_file;
+  return runOffline(sim_options, std::move(options), run);
+}
+
+Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, MapperOptions options,
+                                       const OfflineRunOptions& run) {
   if (Status s = options.validate(); !s) return s.error();
+  if (Status s = run.validate(); !s) return s.error();
+  const auto wall_start = std::chrono::steady_clock::now();
+  bool stopped_early = false;
   auto plan = sim::RunPlan::create(sim_options);
   if (!plan) return plan.error();
-  options.tracker.body_T_cam = sim_options.sensors.camera.bodyTCam();
+  const int last_session = run.last_session < 0 ? plan->sessions() - 1 : std::min(run.last_session, plan->sessions() - 1);
+  if (run.first_session > last_session)
+    return makeError("offline run: sessions ", run.first_session, "-", last_session, ": the run has ",
+                     plan->sessions());
+  const core::SE3d body_T_cam = sim_options.sensors.camera.bodyTCam();
+  options.tracker.body_T_cam = body_T_cam;
   Mapper mapper(options);
   sim::RegistrationOracle oracle(sim_options.oracle, plan->oracleSeed());
   Broker broker(mapper, oracle);
@@ -156,50 +204,195 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   int64_t stored_nodes = 0, stored_constraints = 0, transactions = 0;
   double store_s = 0.0;
   Status store_status = Ok{};
-  if (!store_file.empty()) {
-    auto s = MapStore::open(store_file);
+
+  // A stored map: restored, its nodes told to the oracle as their keyframes come by.
+  std::deque<node_added_t> stored_for_oracle;
+  std::vector<NodeTruth> node_truth;
+  int64_t resume_utime = -1;
+  if (!run.store_file.empty()) {
+    auto s = MapStore::open(run.store_file);
     if (!s) return s.error();
     store = std::move(*s);
-    broker.setAfterUpdate([&] {
-      const MapperStats& st = mapper.stats();
-      if (!store_status || (st.nodes == stored_nodes && st.constraints == stored_constraints)) return;
-      const auto t0 = std::chrono::steady_clock::now();
-      store_status = store->save(mapper, 0, 0);
-      store_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      stored_nodes = st.nodes;
-      stored_constraints = st.constraints;
-      ++transactions;
-    });
+    auto snapshot = store->load();
+    if (!snapshot) return snapshot.error();
+    if (Status r = mapper.restore(*snapshot); !r) return makeError(run.store_file.string(), ": ", r.error().message);
+    std::vector<node_added_t> stored;
+    for (const StoredNode& n : snapshot->nodes) {
+      node_added_t m{};
+      m.utime = m.keyframe_utime = n.node.keyframe_utime;
+      m.node_id = n.node.id;
+      m.floor = n.node.floor;
+      m.session = n.node.session;
+      stored.push_back(m);
+      resume_utime = std::max(resume_utime, n.node.keyframe_utime);
+      node_truth.push_back(NodeTruth{core::SE3d(), -1, n.node.session, false});
+    }
+    // Every update stored happened at or before its newest keyframe: resume after it.
+    for (const StoredEdge& e : snapshot->edges) resume_utime = std::max(resume_utime, e.constraint.utime);
+    std::sort(stored.begin(), stored.end(),
+              [](const node_added_t& a, const node_added_t& b) { return a.keyframe_utime < b.keyframe_utime; });
+    stored_for_oracle.assign(stored.begin(), stored.end());
+    stored_nodes = static_cast<int64_t>(mapper.nodes().size());
+    stored_constraints = static_cast<int64_t>(mapper.constraints().all().size());
   }
+  broker.setResumeUtime(resume_utime);
+
+  std::vector<std::pair<int64_t, int>> step_floor;  // (keyframe utime, true floor), mapped part
+  // Recent keyframe truths, for the true pose of each new node.
+  std::deque<sim::KeyframeTruth> recent;
+  broker.setOnNode([&](const node_added_t& n) {
+    if (n.node_id >= static_cast<int64_t>(node_truth.size())) node_truth.resize(n.node_id + 1);
+    NodeTruth& t = node_truth[n.node_id];
+    t.session = n.session;
+    auto it = std::lower_bound(recent.begin(), recent.end(), n.keyframe_utime,
+                               [](const sim::KeyframeTruth& k, int64_t u) { return k.utime < u; });
+    if (it != recent.end() && it->utime == n.keyframe_utime) {
+      t.world_T_body = it->world_T_cam * body_T_cam.inverse();
+      t.floor = it->floor;
+      t.known = true;
+    }
+  });
+
+  TimelineRecorder timeline(mapper, run.timeline_interval_s);
+  double operating_before_s = 0.0;  // mapped sessions finished
+  int64_t session_start = -1;
+  int current_session = 0;
+  auto operating = [&](int64_t utime) {
+    return operating_before_s + (session_start < 0 ? 0.0 : 1e-6 * static_cast<double>(utime - session_start));
+  };
+  int64_t messages_seen = 0;
+  std::vector<std::pair<int64_t, double>> session_offsets;  // (start utime, operating time then)
+  broker.setAfterMessage([&](int64_t utime) {
+    if (session_start < 0) {
+      session_start = utime;
+      session_offsets.emplace_back(utime, operating_before_s);
+    }
+    timeline.sample(operating(utime), utime, current_session);
+    if (run.max_wall_s > 0 && ++messages_seen % 1000 == 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count() > run.max_wall_s) {
+      stopped_early = true;
+      broker.setDeliver(false);
+    }
+    if (!store) return;
+    const auto nodes = static_cast<int64_t>(mapper.nodes().size());
+    const auto constraints = static_cast<int64_t>(mapper.constraints().all().size());
+    if (!store_status || (nodes == stored_nodes && constraints == stored_constraints)) return;
+    const auto t0 = std::chrono::steady_clock::now();
+    store_status = store->save(mapper, mapper.session(), session_start);
+    store_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    stored_nodes = nodes;
+    stored_constraints = constraints;
+    ++transactions;
+    if (store_status && run.on_commit) run.on_commit(StoreCommit{nodes, constraints, utime});
+  });
+
   sim::SessionObservers observers;
   observers.on_keyframe = [&](const sim::KeyframeTruth& k) {
     oracle.addKeyframe(k);
+    if (k.utime > resume_utime && current_session >= run.first_session) step_floor.emplace_back(k.utime, k.floor);
+    recent.push_back(k);
+    while (recent.size() > 2 && recent.front().utime < k.utime - 120'000'000) recent.pop_front();
+    while (!stored_for_oracle.empty() && stored_for_oracle.front().keyframe_utime <= k.utime) {
+      const node_added_t& n = stored_for_oracle.front();
+      oracle.addNode(n);
+      if (n.keyframe_utime == k.utime) {
+        node_truth[n.node_id] = NodeTruth{k.world_T_cam * body_T_cam.inverse(), k.floor, n.session, true};
+      }
+      stored_for_oracle.pop_front();
+    }
     broker.keyframeKnown(k.utime);
   };
-  observers.on_ground_truth = [&](int64_t utime, const sim::BodyState& b) { truth[utime] = b.world_T_body; };
-  const sim::RunSummary run = sim::generateRun(*plan, [&](int) -> sim::MessageSink& { return broker; }, observers);
+  observers.on_ground_truth = [&](int64_t utime, const sim::BodyState& b) {
+    if (utime > resume_utime && current_session >= run.first_session) truth[utime] = b.world_T_body;
+  };
+  sim::RunSummary summary_run;
+  // Sessions before the mapped ones are simulated only when a stored map needs their keyframes.
+  const int first_generated = stored_for_oracle.empty() ? run.first_session : 0;
+  double operating_reached_s = 0.0;
+  for (int i = first_generated; i <= last_session; ++i) {
+    if (!store_status || stopped_early) break;
+    current_session = i;
+    const bool mapped = i >= run.first_session;
+    broker.setDeliver(mapped);
+    session_start = -1;
+    const sim::SessionSummary ss = sim::generateSession(plan->building(), plan->session(i), sim_options.sensors,
+                                                        sim_options.seed, broker, observers);
+    if (mapped) {
+      summary_run.sessions.push_back(ss);
+      operating_reached_s = operating(stopped_early ? mapper.tracker().lastUtime() : ss.end_utime);
+      if (session_start >= 0) operating_before_s = operating(ss.end_utime);
+    }
+  }
+  timeline.sample(operating_reached_s, mapper.tracker().lastUtime(), current_session, true);
 
   if (!store_status) return store_status.error();
   OfflineRunSummary out;
+  out.stopped_early = stopped_early;
+  out.operating_s = operating_reached_s;
   out.store_transactions = transactions;
   out.store_s = store_s;
   out.stats = mapper.stats();
+  out.restored_nodes = mapper.stats().restored_nodes;
   out.nodes = static_cast<int64_t>(mapper.nodes().size());
   for (const MapperNode& n : mapper.nodes()) {
     if (n.session >= static_cast<int>(out.nodes_by_session.size())) out.nodes_by_session.resize(n.session + 1, 0);
     ++out.nodes_by_session[n.session];
+  }
+  node_truth.resize(mapper.nodes().size());
+  out.nodes_in_mapped_area_by_session =
+      inMappedArea(node_truth, node_truth, run.revisit_radius_m, run.revisit_angle_rad);
+  out.nodes_in_mapped_area_by_session.resize(out.nodes_by_session.size(), 0);
+  {
+    // Where the robot was at each step, against the same nodes: how much of each session
+    // went through areas mapped before it.
+    std::vector<NodeTruth> steps;
+    for (const auto& p : mapper.stepPoses()) {
+      if (truth.empty()) break;
+      NodeTruth t{truthAt(truth, p.utime), -1, p.session, false};
+      auto it = std::lower_bound(step_floor.begin(), step_floor.end(), std::make_pair(p.utime, INT_MIN));
+      if (it != step_floor.end() && it->first == p.utime) {
+        t.floor = it->second;
+        t.known = true;
+      }
+      steps.push_back(t);
+      if (p.session >= static_cast<int>(out.steps_by_session.size())) out.steps_by_session.resize(p.session + 1, 0);
+      ++out.steps_by_session[p.session];
+    }
+    out.steps_in_mapped_area_by_session = inMappedArea(node_truth, steps, run.revisit_radius_m, run.revisit_angle_rad);
+    out.steps_in_mapped_area_by_session.resize(out.steps_by_session.size(), 0);
   }
   out.factors = mapper.stats().factors;
   out.constraints = static_cast<int64_t>(mapper.constraints().all().size());
   out.messages = broker.messages();
   out.decode_errors = broker.decodeErrors();
   out.false_matches = broker.falseMatches();
-  out.duration_s = run.durationS();
-  out.distance_m = run.distanceM();
+  out.duration_s = summary_run.durationS();
+  out.distance_m = summary_run.distanceM();
   std::vector<double> ms;
   for (double s : mapper.stats().timing.update_s) ms.push_back(1e3 * s);
   out.update_median_ms = percentile(ms, 0.5);
   out.update_p99_ms = percentile(ms, 0.99);
+  {
+    std::vector<double> all, first_hour, last_hour;
+    for (const auto& c : mapper.stats().timing.step_cost) {
+      auto it = std::upper_bound(session_offsets.begin(), session_offsets.end(), std::make_pair(c.utime, 1e300));
+      if (it == session_offsets.begin()) continue;
+      --it;
+      const double t = it->second + 1e-6 * static_cast<double>(c.utime - it->first);
+      all.push_back(1e3 * c.s);
+      if (t < 3600.0) first_hour.push_back(1e3 * c.s);
+      if (t >= operating_reached_s - 3600.0) last_hour.push_back(1e3 * c.s);
+    }
+    out.step_median_ms = percentile(all, 0.5);
+    out.step_p99_ms = percentile(all, 0.99);
+    out.step_p99_first_hour_ms = percentile(first_hour, 0.99);
+    out.step_p99_last_hour_ms = percentile(last_hour, 0.99);
+  }
+  out.timeline = timeline.take();
+  for (const TimelineRow& r : out.timeline) {
+    if (r.operating_s > operating_reached_s - 4 * 3600.0) break;
+    out.nodes_4h_before_end = r.nodes;
+  }
 
   std::vector<core::SE3d> gt, est;
   for (const auto& p : mapper.stepPoses()) {
@@ -208,6 +401,8 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     est.push_back(mapper.nodePose(p.node) * p.node_T_body);
   }
   out.step_poses = static_cast<int64_t>(est.size());
+  out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  if (est.size() < 3) return out;  // too little mapped (a run resumed at its very end)
   auto aligned = eval::alignTrajectories(gt, est, eval::AlignmentMode::kSE3);
   if (!aligned) return makeError("offline run: ATE: ", aligned.error().message);
   for (auto& e : est) e = aligned->gt_S_est * e;
@@ -215,6 +410,15 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   if (!ate) return makeError("offline run: ATE: ", ate.error().message);
   out.ate_rmse_m = ate->translation_m.rmse;
   out.ate_median_m = ate->translation_m.median;
+  for (size_t k = 0; k < gt.size(); ++k) {
+    out.trajectory_gt.push_back(gt[k].translation());
+    out.trajectory_est.push_back(est[k].translation());
+  }
+  for (const MapperNode& n : mapper.nodes()) {
+    if (n.id >= static_cast<int64_t>(node_truth.size()) || !node_truth[n.id].known) continue;
+    out.nodes_gt.push_back(node_truth[n.id].world_T_body.translation());
+    out.nodes_est.push_back((aligned->gt_S_est * mapper.nodePose(n.id)).translation());
+  }
   return out;
 }
 

@@ -5,22 +5,85 @@
 // each REGISTER_REQUEST is answered by the oracle as soon as the oracle knows the query
 // keyframe (its KEYFRAME message follows the VO_DELTA that made it), each NODE_ADDED is told
 // to the oracle likewise. Deterministic: same options, same result.
+//
+// Continuing a map: with a store that holds nodes, the mapper restores it (Mapper::restore)
+// and the run resumes after the newest keyframe the store mentions (of a node or an edge). Sessions before the mapped range and
+// messages before that point are still simulated for the oracle, which learns the stored
+// nodes' keyframes from them, but reach the mapper only as FLOOR messages (the floor the
+// robot is on). A run killed at any moment is thereby resumed by running it again.
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "core/common/expected.h"
+#include "core/geometry/se3.h"
 #include "core/sim/sim_options.h"
 #include "mapper-proc/mapper.h"
 
 namespace evermap::mapper {
 
+// One row of the timeline: the state after `operating_s` of simulated operation (session
+// durations summed; the months between sessions do not count, as in the paper's Fig. 7).
+struct TimelineRow {
+  double operating_s = 0.0;
+  int64_t utime = 0;
+  int session = 0;
+  int64_t nodes = 0;          // in the graph, restored ones included
+  int64_t factors = 0;
+  int64_t steps = 0;          // in this window
+  double tracking_s = 0.0;    // wall time in this window, per component
+  double registration_s = 0.0;
+  double partition_s = 0.0;
+  double solver_s = 0.0;
+  double step_median_ms = 0.0;  // mapper work per step in this window (MapperTiming::step_cost)
+  double step_p99_ms = 0.0;
+  double step_max_ms = 0.0;
+};
+
+// After every map store transaction.
+struct StoreCommit {
+  int64_t nodes = 0;  // committed in the file
+  int64_t edges = 0;
+  int64_t utime = 0;  // message time of the update
+};
+
+struct OfflineRunOptions {
+  std::filesystem::path store_file;  // empty: no map store
+  // The sessions of the simulated run that are mapped, inclusive; -1: to the last.
+  int first_session = 0;
+  int last_session = -1;
+  // Timeline rows every this many seconds of operation (0: none).
+  double timeline_interval_s = 60.0;
+  // A node counts as "in a mapped area" when a node of an earlier session lies within this
+  // distance and heading difference of it, both at their true poses.
+  double revisit_radius_m = 1.0;
+  double revisit_angle_rad = 0.3927;  // π/8: half a heading sector of the partition
+  std::function<void(const StoreCommit&)> on_commit;
+  // > 0: stop mapping after this much wall time (the rest of the run is not simulated); the
+  // summary then covers the operating time reached. For graphs that outgrow the machine.
+  double max_wall_s = 0.0;
+
+  Status validate() const;
+};
+
 struct OfflineRunSummary {
   MapperStats stats;
   int64_t nodes = 0;
   std::vector<int64_t> nodes_by_session;
+  // Nodes of each session placed where an earlier session (restored ones included) had a
+  // node (OfflineRunOptions::revisit_*), at their true poses.
+  std::vector<int64_t> nodes_in_mapped_area_by_session;
+  // Step poses of each session, and those where an earlier session had a node (same test):
+  // how much of the session revisited mapped areas.
+  std::vector<int64_t> steps_by_session;
+  std::vector<int64_t> steps_in_mapped_area_by_session;
+  int64_t restored_nodes = 0;
+  bool stopped_early = false;   // OfflineRunOptions::max_wall_s reached
+  double operating_s = 0.0;     // operating time mapped
+  double wall_s = 0.0;          // wall time of the whole run
   int64_t factors = 0;         // pair factors in the solver
   int64_t constraints = 0;     // every constraint kept
   int64_t messages = 0;        // simulator messages delivered
@@ -29,19 +92,36 @@ struct OfflineRunSummary {
   int64_t step_poses = 0;
   double ate_rmse_m = 0.0;     // step poses with the final node estimates, SE(3)-aligned
   double ate_median_m = 0.0;
-  double duration_s = 0.0;     // simulated time
+  double duration_s = 0.0;     // simulated time, mapped sessions
   double distance_m = 0.0;
-  double update_median_ms = 0.0;
+  double update_median_ms = 0.0;  // solver updates
   double update_p99_ms = 0.0;
+  // Mapper work per step (MapperTiming::step_cost): over the run, its first and its last hour
+  // of operating time (the "update p99, last hour against first").
+  double step_median_ms = 0.0;
+  double step_p99_ms = 0.0;
+  double step_p99_first_hour_ms = 0.0;
+  double step_p99_last_hour_ms = 0.0;
+  int64_t nodes_4h_before_end = 0;  // graph size 4 h of operating time before the end
   int64_t store_transactions = 0;  // with a map store: one per update that changed the graph
   double store_s = 0.0;            // wall time spent writing them
+  std::vector<TimelineRow> timeline;
+  // For plots: the step poses (ground truth and aligned estimate) and the nodes (ground
+  // truth of their keyframes' body poses and aligned estimates), world frame, metres.
+  std::vector<core::Vec3> trajectory_gt, trajectory_est, nodes_gt, nodes_est;
   std::string text() const;
 };
 
-// Simulates `sim` and maps it; with a non-empty `store_file`, the map store is written after
-// every update that changed the graph. Errors: invalid options, the store, or too few step
-// poses for an ATE.
+// Simulates `sim` and maps it. Errors: invalid options, the store, or too few step poses for
+// an ATE.
+Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim, MapperOptions mapper,
+                                       const OfflineRunOptions& run);
 Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim, MapperOptions mapper,
                                        const std::filesystem::path& store_file = {});
+
+// The timeline as CSV with a header line, written through a temporary file and a rename.
+Status writeTimelineCsv(const std::filesystem::path& file, const std::vector<TimelineRow>& rows);
+// Reads what writeTimelineCsv wrote. Errors name the file and line.
+Expected<std::vector<TimelineRow>> readTimelineCsv(const std::filesystem::path& file);
 
 }  // namespace evermap::mapper

@@ -62,10 +62,36 @@ Status Tracker::addVo(const vo_delta_t& msg) {
     ++counts_.dropped;
     return Error("VO_DELTA " + std::to_string(msg.utime) + ": out of order");
   }
+  const bool restart = msg.keyframe_changed && msg.ref_utime == msg.utime;
+  const bool failed = msg.status != vo_delta_t::STATUS_OK && !restart;
+  // A frame's pose and covariance are checked before anything, its time stamp included, is
+  // taken from it: a malformed message leaves the tracker as it was.
+  Expected<Mat6> cov = Mat6::Zero().eval();
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  if (!failed && !restart) {
+    if (!vo_mode_ || msg.ref_utime != ref_utime_) {
+      ++counts_.dropped;
+      return Error("VO_DELTA " + std::to_string(msg.utime) + ": unknown reference keyframe " +
+                   std::to_string(msg.ref_utime));
+    }
+    if (!finiteArray(msg.translation, 3) || !finiteArray(msg.orientation, 4)) {
+      ++counts_.dropped;
+      return Error("VO_DELTA " + std::to_string(msg.utime) + ": pose is not finite");
+    }
+    q = Eigen::Quaterniond(msg.orientation[0], msg.orientation[1], msg.orientation[2], msg.orientation[3]);
+    if (std::abs(q.norm() - 1.0) > 1e-3) {
+      ++counts_.dropped;
+      return Error("VO_DELTA " + std::to_string(msg.utime) + ": quaternion is not unit");
+    }
+    cov = covarianceFromMessage(msg.covariance, "VO_DELTA");
+    if (!cov) {
+      ++counts_.dropped;
+      return makeError("VO_DELTA ", msg.utime, ": ", cov.error().message);
+    }
+  }
   last_vo_utime_ = msg.utime;
   last_utime_ = std::max(last_utime_, msg.utime);
-  const bool restart = msg.keyframe_changed && msg.ref_utime == msg.utime;
-  if (msg.status != vo_delta_t::STATUS_OK && !restart) {
+  if (failed) {
     ++counts_.vo_failed;
     if (vo_mode_) {
       // The last good frame becomes the commit point wheel odometry continues from.
@@ -86,25 +112,6 @@ Status Tracker::addVo(const vo_delta_t& msg) {
     ++counts_.vo_applied;
     return Ok{};
   }
-  if (!vo_mode_ || msg.ref_utime != ref_utime_) {
-    ++counts_.dropped;
-    return Error("VO_DELTA " + std::to_string(msg.utime) + ": unknown reference keyframe " +
-                 std::to_string(msg.ref_utime));
-  }
-  if (!finiteArray(msg.translation, 3) || !finiteArray(msg.orientation, 4)) {
-    ++counts_.dropped;
-    return Error("VO_DELTA " + std::to_string(msg.utime) + ": pose is not finite");
-  }
-  const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2], msg.orientation[3]);
-  if (std::abs(q.norm() - 1.0) > 1e-3) {
-    ++counts_.dropped;
-    return Error("VO_DELTA " + std::to_string(msg.utime) + ": quaternion is not unit");
-  }
-  auto cov = covarianceFromMessage(msg.covariance, "VO_DELTA");
-  if (!cov) {
-    ++counts_.dropped;
-    return cov.error();
-  }
   pending_ = toBody(SE3d(q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2])),
                     *cov);
   ++counts_.vo_applied;
@@ -121,12 +128,22 @@ Status Tracker::addWheel(const wheel_odom_t& msg) {
     ++counts_.dropped;
     return Error("WHEEL_ODOM " + std::to_string(msg.utime) + ": out of order");
   }
-  last_wheel_utime_ = msg.utime;
   if (!std::isfinite(msg.delta_x_m) || !std::isfinite(msg.delta_y_m) ||
       !std::isfinite(msg.delta_theta_rad) || !finiteArray(msg.covariance, 9)) {
     ++counts_.dropped;
     return Error("WHEEL_ODOM " + std::to_string(msg.utime) + ": not finite");
   }
+  Eigen::Matrix3d c3;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) c3(r, k) = msg.covariance[3 * r + k];
+  const double scale = std::max(1e-12, c3.diagonal().cwiseAbs().maxCoeff());
+  if ((c3 - c3.transpose()).cwiseAbs().maxCoeff() > 1e-9 * scale ||
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(0.5 * (c3 + c3.transpose())).eigenvalues().minCoeff() <
+          -1e-9 * scale) {
+    ++counts_.dropped;
+    return Error("WHEEL_ODOM " + std::to_string(msg.utime) + ": covariance is not symmetric positive semi-definite");
+  }
+  last_wheel_utime_ = msg.utime;
   // Used only while VO is down, for the increments that end after VO was lost.
   if (vo_mode_ || msg.utime <= vo_lost_utime_) return Ok{};
   last_utime_ = std::max(last_utime_, msg.utime);

@@ -6,6 +6,7 @@
 #     mapper publishes; then the map is evaluated against the ground truth and drawn:
 #     floors stacked (Fig. 1), trajectory against ground truth (Fig. 4), nodes and update time
 #     against time for the reduced and the full pose graph (Fig. 7); a summary is printed;
+#     then 40 s of the image-level simulator's rendered stereo through visual odometry;
 #  2. the real EuRoC excerpt: converted to an LCM log, replayed and checked, stereo VO over it
 #     evaluated against the ground truth, and loop detection on the RTAB-Map samples.
 #
@@ -68,7 +69,23 @@ echo "== figures"
   --plot "$out/fig4_trajectory.png" --json "$out/fig4_trajectory.json" | grep -E "ATE|pairs" || true
 # Fig. 7 needs the full pose graph beside the reduced one: the offline runner maps the same run
 # both ways in one process and draws nodes and update time against time.
-"$bin/evermap-mapper-run" --config "$run/run.sim.txt" --mode both --out "$out/fig7" | tail -n 12
+mkdir -p "$out/fig7"
+"$bin/evermap-mapper-run" --config "$run/run.sim.txt" --mode both --out "$out/fig7" > "$out/fig7/run.txt" 2>&1 ||
+  { cat "$out/fig7/run.txt"; exit 1; }
+for mode in reduced full; do
+  awk -v m="$mode" '/^(nodes|ate_rmse_m|update_median_ms|update_p99_ms) / {v[$1] = $2}
+    END {printf "   offline, %-8s graph: %5d nodes, ATE %.3f m, solver update median %.2f ms, p99 %.2f ms\n",
+         m, v["nodes"], v["ate_rmse_m"], v["update_median_ms"], v["update_p99_ms"]}' "$out/fig7/summary-$mode.txt"
+done
+
+# ---------------------------------------------------------------------------------------------
+echo "== image level: 40 s of rendered stereo (evermap-sim-render), stereo VO over it, evaluated"
+"$bin/evermap-sim-render" --config "$root/config/sim-image-vo200.conf" --set render.max_duration_s=40 \
+  --out "$out/sim-image.lcmlog" | tail -n 1
+"$bin/evermap-vo-run" --body "$out/sim-image.lcmlog" "$out/sim_image_vo.tum" | tail -n 2
+"$bin/evermap-eval" --gt "$out/sim-image.gt.tum" --est "$out/sim_image_vo.tum" \
+  --plot "$out/sim_image_vo.png" --json "$out/sim_image_vo.json" | grep -A2 "^ATE"
+rm -f "$out/sim-image.lcmlog"  # 300 MB of PNG frames; made again in 20 s
 
 # ---------------------------------------------------------------------------------------------
 sim_s=$(awk '/^#/ {next} {t=$1; if (n++ == 0 || t - last > 3600) {if (n > 1) total += last - first; first = t} last = t} END {total += last - first; printf "%.0f", total}' "$out/ground_truth.tum")
@@ -79,7 +96,8 @@ grep -E '^(nodes|edges|floors|sessions|node_ate_rmse_m|node_ate_median_m|pose_at
 echo "   simulated time           ${sim_s} s"
 echo "   pipeline wall time       ${wall_s} s (replay at ${speed}x, with start-up and shut-down)"
 awk -v s="$sim_s" -v w="$wall_s" 'BEGIN {printf "   real-time factor         %.1fx\n", s / w}'
-echo "   figures                  $out/fig1_map_floors.png $out/fig4_trajectory.png $out/fig7/"
+echo "   figures                  $out/fig1_map_floors.png $out/fig4_trajectory.png"
+echo "                            $out/fig7/fig7-nodes.svg $out/fig7/fig7-update.svg $out/fig7/fig7-components.svg"
 
 # ---------------------------------------------------------------------------------------------
 euroc="$data/euroc-v101-micro"

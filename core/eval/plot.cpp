@@ -204,4 +204,72 @@ Status writeTopView(const std::filesystem::path& file, const std::vector<core::V
   return canvas->save(file);
 }
 
+Status LineChartOptions::validate() const {
+  if (width_px < 200 || width_px > 16384 || height_px < 150 || height_px > 16384)
+    return makeError("chart: image size ", width_px, "x", height_px, " px is outside [200x150, 16384x16384]");
+  return Ok{};
+}
+
+Expected<Canvas> drawLineChart(const std::vector<ChartSeries>& series, const LineChartOptions& options) {
+  if (Status s = options.validate(); !s) return s.error();
+  if (series.empty()) return makeError("chart: nothing to draw (no series)");
+  Vector2d lo(std::numeric_limits<double>::infinity(), 0.0);
+  Vector2d hi(-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity());
+  for (const ChartSeries& s : series) {
+    if (s.points.empty()) return makeError("chart: series '", s.label, "' has no points");
+    for (const Vector2d& p : s.points) {
+      if (!p.allFinite()) return makeError("chart: series '", s.label, "' has a non-finite point");
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+  }
+  if (!(hi.x() > lo.x())) hi.x() = lo.x() + 1.0;
+  if (!(hi.y() > lo.y())) hi.y() = lo.y() + 1.0;
+  hi.y() += 0.05 * (hi.y() - lo.y());
+  const double W = options.width_px, H = options.height_px;
+  const double x0 = 80, y0 = 100, w = W - x0 - 24, h = H - y0 - 56;
+  auto px = [&](const Vector2d& p) {
+    return Vector2d(x0 + (p.x() - lo.x()) / (hi.x() - lo.x()) * w, y0 + h - (p.y() - lo.y()) / (hi.y() - lo.y()) * h);
+  };
+  Canvas c(options.width_px, options.height_px);
+  const double xs = niceStep((hi.x() - lo.x()) / 8.0), ys = niceStep((hi.y() - lo.y()) / 6.0);
+  for (double x = std::ceil(lo.x() / xs) * xs; x <= hi.x() + 1e-9 * xs; x += xs) {
+    const double u = px({x, lo.y()}).x();
+    c.line({u, y0}, {u, y0 + h}, kGridColor, 1);
+    c.text({u, y0 + h + 18}, tickText(x, xs), 10, kTextColor, TextAnchor::kMiddle);
+  }
+  for (double y = std::ceil(lo.y() / ys) * ys; y <= hi.y() + 1e-9 * ys; y += ys) {
+    const double v = px({lo.x(), y}).y();
+    c.line({x0, v}, {x0 + w, v}, kGridColor, 1);
+    c.text({x0 - 6, v + 5}, tickText(y, ys), 10, kTextColor, TextAnchor::kEnd);
+  }
+  c.rect({x0, y0}, {w, h}, kFrameColor, 1);
+  c.text({x0 + 0.5 * w, H - 14}, options.x_label, 12, kTextColor, TextAnchor::kMiddle);
+  c.text({x0 - 6, y0 - 8}, options.y_label, 12, kTextColor, TextAnchor::kStart);
+  if (!options.title.empty()) c.text({0.5 * W, 26}, options.title, 14, kTextColor, TextAnchor::kMiddle);
+  if (!options.subtitle.empty()) c.text({0.5 * W, 48}, options.subtitle, 11, kTextColor, TextAnchor::kMiddle);
+  double lx = x0 + 160;
+  const double ly = y0 - 22;
+  for (const ChartSeries& s : series) {
+    std::vector<Vector2d> pts;
+    for (const Vector2d& p : s.points) {
+      const Vector2d q = px(p);
+      if (pts.empty() || (q - pts.back()).squaredNorm() >= 0.25) pts.push_back(q);
+    }
+    if (pts.size() == 1) pts.push_back(pts.front());
+    c.polyline(pts, s.color, 1.8, s.dashed);
+    c.line({lx, ly}, {lx + 28, ly}, s.color, 2.5);
+    c.text({lx + 34, ly + 5}, s.label, 11, kTextColor);
+    lx += 34 + Canvas::textWidthPx(s.label, 11) + 24;
+  }
+  return c;
+}
+
+Status writeLineChart(const std::filesystem::path& file, const std::vector<ChartSeries>& series,
+                      const LineChartOptions& options) {
+  auto canvas = drawLineChart(series, options);
+  if (!canvas) return makeError(file.string(), ": ", canvas.error().message);
+  return canvas->save(file);
+}
+
 }  // namespace evermap::eval

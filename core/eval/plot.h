@@ -44,4 +44,30 @@ Expected<Canvas> drawTopView(const std::vector<core::Vec3>& gt, const std::vecto
 Status writeTopView(const std::filesystem::path& file, const std::vector<core::Vec3>& gt,
                     const std::vector<core::Vec3>& est, const TopViewOptions& options);
 
+// A line chart: y against x for several series, with linear axes from the data's range
+// (y from 0 unless a value is negative), grid, tick labels and a legend.
+struct ChartSeries {
+  std::string label;
+  std::vector<Eigen::Vector2d> points;  // (x, y), drawn in order
+  Rgb color{31, 119, 180};
+  bool dashed = false;
+};
+
+struct LineChartOptions {
+  std::string title;
+  std::string subtitle;
+  std::string x_label;
+  std::string y_label;
+  int width_px = 1000;
+  int height_px = 600;
+
+  Status validate() const;
+};
+
+// Errors: no series, a series without points, a non-finite point, bad options.
+Expected<Canvas> drawLineChart(const std::vector<ChartSeries>& series, const LineChartOptions& options);
+// drawLineChart + Canvas::save. The error names the file.
+Status writeLineChart(const std::filesystem::path& file, const std::vector<ChartSeries>& series,
+                      const LineChartOptions& options);
+
 }  // namespace evermap::eval

@@ -1,35 +1,194 @@
 // evermap-mapper-run: the offline runner. Simulates a measurement-level run (a sim config as
 // evermap-sim-measure reads it), maps it with the reduced pose graph, the full pose graph or
 // both in one process with the registration oracle, and prints nodes, constraints, ATE and
-// per-component timing. Exit status: 0 ok, 1 bad input, 2 bad command line.
+// per-component timing. With --store it continues the map the file holds (docs/mapper.md).
+// Exit status: 0 ok, 1 bad input, 2 bad command line.
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
+#include <map>
 #include <string>
+#include <vector>
 
 #include "core/common/key_value_file.h"
+#include "core/eval/plot.h"
+#include "mapper-proc/map_store.h"
 #include "mapper-proc/offline_run.h"
 
 namespace {
 
 constexpr const char* kUsage =
-    "usage: evermap-mapper-run --config SIM.conf [--mode reduced|full|both] [--hours H]\n"
+    "usage: evermap-mapper-run --config SIM.conf [--set key=value]... [--mode reduced|full|both]\n"
+    "                          [--hours H] [--sessions A-B] [--store MAP.db] [--progress]\n"
+    "                          [--timeline FILE.csv] [--out DIR] [--max-wall-s S]\n"
     "  --config SIM.conf  measurement-level simulation settings (config/sim-*.conf)\n"
+    "  --set key=value    override one setting of the config (e.g. oracle.false_match_rate_node=0.05)\n"
     "  --mode M           reduced (default), full (a node per step) or both, side by side\n"
     "  --hours H          override patrol.total_hours\n"
-    "  --store MAP.db     write the map store (reduced graph only), one transaction per update\n";
+    "  --sessions A-B     map only sessions A..B of the run (0-based, inclusive)\n"
+    "  --store MAP.db     the map store (reduced graph only): a map it holds is continued, each\n"
+    "                     update is one transaction\n"
+    "  --progress         print 'committed nodes N edges E utime U' after each store transaction\n"
+    "  --timeline FILE    per-minute timeline CSV (nodes, per-component time, step cost)\n"
+    "  --out DIR          timelines, summaries and the Fig. 4 / Fig. 7 plots (SVG) into DIR\n"
+    "  --max-wall-s S     stop mapping after S seconds of wall time (per mode); the figures\n"
+    "                     cover the operating time reached\n"
+    "   or: evermap-mapper-run --replot DIR\n"
+    "  the Fig. 7 plots again from DIR/timeline-reduced.csv and DIR/timeline-full.csv (either may\n"
+    "  be missing): runs of the two modes made separately, drawn side by side\n"
+    "   or: evermap-mapper-run --check-store MAP.db\n"
+    "  PRAGMA integrity_check of a map store, then 'store ok nodes N edges E sessions S\n"
+    "  updated_utime U' (U: the newest keyframe of a stored node or edge; a run resumes after it)\n";
+
+using evermap::eval::ChartSeries;
+using evermap::mapper::OfflineRunSummary;
+
+bool parseSessions(const std::string& v, int* a, int* b) {
+  char* end = nullptr;
+  *a = static_cast<int>(std::strtol(v.c_str(), &end, 10));
+  if (end == v.c_str() || *a < 0) return false;
+  if (*end == 0) {
+    *b = *a;
+    return true;
+  }
+  if (*end != '-') return false;
+  const char* rest = end + 1;
+  *b = static_cast<int>(std::strtol(rest, &end, 10));
+  return end != rest && *end == 0 && *b >= *a;
+}
+
+int checkStore(const std::string& file) {
+  if (!std::filesystem::exists(file)) {
+    std::fprintf(stderr, "evermap-mapper-run: %s: no such file\n", file.c_str());
+    return 1;
+  }
+  auto store = evermap::mapper::MapStore::open(file);
+  if (!store) {
+    std::fprintf(stderr, "evermap-mapper-run: %s\n", store.error().message.c_str());
+    return 1;
+  }
+  if (auto s = store->integrityCheck(); !s) {
+    std::fprintf(stderr, "evermap-mapper-run: %s\n", s.error().message.c_str());
+    return 1;
+  }
+  auto snap = store->load();
+  if (!snap) {
+    std::fprintf(stderr, "evermap-mapper-run: %s\n", snap.error().message.c_str());
+    return 1;
+  }
+  long long updated = -1;  // the newest keyframe an update stored (a node's or an edge's)
+  for (const auto& n : snap->nodes) updated = std::max<long long>(updated, n.node.keyframe_utime);
+  for (const auto& e : snap->edges) updated = std::max<long long>(updated, e.constraint.utime);
+  std::printf("store ok nodes %zu edges %zu sessions %zu updated_utime %lld\n", snap->nodes.size(),
+              snap->edges.size(), snap->sessions.size(), updated);
+  return 0;
+}
+
+void report(const char* what, const evermap::Status& s) {
+  if (!s) std::fprintf(stderr, "evermap-mapper-run: %s: %s\n", what, s.error().message.c_str());
+}
+
+// The paper's Fig. 4 (estimate against ground truth, top view) and Fig. 7 (nodes and mapper
+// time against operating time), from the runs made.
+void writePlots(const std::filesystem::path& dir, const std::map<std::string, OfflineRunSummary>& runs) {
+  using evermap::eval::LineChartOptions;
+  using evermap::eval::Rgb;
+  const std::map<std::string, Rgb> color = {{"reduced", {214, 39, 40}}, {"full", {31, 119, 180}}};
+  std::vector<ChartSeries> nodes, step99, step50, parts;
+  for (const auto& [mode, s] : runs) {
+    char sub[200];
+    std::snprintf(sub, sizeof sub, "%s pose graph: %lld nodes, ATE rmse %.3f m, median %.3f m", mode.c_str(),
+                  static_cast<long long>(s.nodes), s.ate_rmse_m, s.ate_median_m);
+    if (!s.trajectory_gt.empty()) {
+      evermap::eval::TopViewOptions top;
+      top.title = "Fig. 4: " + mode + " pose graph, trajectory against ground truth (all floors, top view)";
+      top.subtitle = sub;
+      top.plane = evermap::eval::PlotPlane::kXY;
+      report("plot", evermap::eval::writeTopView(dir / ("fig4-" + mode + ".png"), s.trajectory_gt,
+                                                 s.trajectory_est, top));
+      // Floors stacked: an oblique view (u = x + 0.5 y, v = 0.35 y + 3 z) as in the paper's figure.
+      auto oblique = [](const std::vector<evermap::core::Vec3>& pts) {
+        std::vector<evermap::core::Vec3> out;
+        for (const auto& p : pts) out.emplace_back(p.x() + 0.5 * p.y(), 0.35 * p.y() + 3.0 * p.z(), 0.0);
+        return out;
+      };
+      top.title = "Fig. 4: " + mode + " pose graph, map nodes against ground truth, floors stacked (oblique)";
+      top.gt_label = "nodes, ground truth";
+      top.est_label = "nodes, estimate";
+      if (!s.nodes_gt.empty())
+        report("plot", evermap::eval::writeTopView(dir / ("fig4-" + mode + "-floors.svg"), oblique(s.nodes_gt),
+                                                   oblique(s.nodes_est), top));
+    }
+    ChartSeries n{mode + " nodes", {}, color.at(mode), false};
+    ChartSeries p99{mode + " p99", {}, color.at(mode), false};
+    ChartSeries p50{mode + " median", {}, color.at(mode), true};
+    ChartSeries tr{mode + " tracking", {}, color.at(mode), true};
+    ChartSeries rg{mode + " registration+partition", {}, color.at(mode), true};
+    ChartSeries so{mode + " solver", {}, color.at(mode), false};
+    double prev_h = 0.0;
+    for (const auto& r : s.timeline) {
+      const double hours = r.operating_s / 3600.0;
+      n.points.emplace_back(hours, static_cast<double>(r.nodes));
+      const double window_s = std::max(1.0, 3600.0 * (hours - prev_h));
+      prev_h = hours;
+      if (r.steps == 0) continue;
+      p99.points.emplace_back(hours, r.step_p99_ms);
+      p50.points.emplace_back(hours, r.step_median_ms);
+      // Milliseconds of mapper work per second of operation.
+      tr.points.emplace_back(hours, 1e3 * r.tracking_s / window_s);
+      rg.points.emplace_back(hours, 1e3 * (r.registration_s + r.partition_s) / window_s);
+      so.points.emplace_back(hours, 1e3 * r.solver_s / window_s);
+    }
+    rg.color = {static_cast<uint8_t>(color.at(mode).r / 2), static_cast<uint8_t>(color.at(mode).g / 2),
+                static_cast<uint8_t>(color.at(mode).b / 2)};
+    if (!n.points.empty()) nodes.push_back(n);
+    if (!p99.points.empty()) {
+      step99.push_back(p99);
+      step50.push_back(p50);
+      parts.push_back(tr);
+      parts.push_back(rg);
+      parts.push_back(so);
+    }
+  }
+  LineChartOptions o;
+  o.x_label = "operating time [h]";
+  if (!nodes.empty()) {
+    o.title = "Fig. 7 (bottom): nodes in the graph against operating time";
+    o.y_label = "nodes";
+    report("plot", evermap::eval::writeLineChart(dir / "fig7-nodes.svg", nodes, o));
+  }
+  if (!step99.empty()) {
+    o.title = "Fig. 7: mapper time per step (request, result handling, new node, solver), per minute";
+    o.y_label = "ms per step";
+    std::vector<ChartSeries> both = step99;
+    both.insert(both.end(), step50.begin(), step50.end());
+    report("plot", evermap::eval::writeLineChart(dir / "fig7-update.svg", both, o));
+    o.title = "Fig. 7 (top): mapper time per component, per minute of operation";
+    o.y_label = "ms per s";
+    report("plot", evermap::eval::writeLineChart(dir / "fig7-components.svg", parts, o));
+  }
+}
 
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace evermap;
-  std::string config, mode = "reduced", store;
-  double hours = -1.0;
+  std::string config, mode = "reduced", store, timeline, out;
+  std::vector<std::string> sets;
+  double hours = -1.0, max_wall_s = 0.0;
+  bool progress = false;
+  int first = 0, last = -1;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") {
       std::fputs(kUsage, stdout);
       return 0;
+    }
+    if (a == "--progress") {
+      progress = true;
+      continue;
     }
     if (i + 1 >= argc) {
       std::fprintf(stderr, "evermap-mapper-run: %s needs a value\n%s", a.c_str(), kUsage);
@@ -38,10 +197,45 @@ int main(int argc, char** argv) {
     const std::string v = argv[++i];
     if (a == "--config") {
       config = v;
+    } else if (a == "--set") {
+      sets.push_back(v);
+    } else if (a == "--check-store") {
+      return checkStore(v);
+    } else if (a == "--replot") {
+      std::map<std::string, OfflineRunSummary> runs;
+      for (const char* m : {"reduced", "full"}) {
+        const auto f = std::filesystem::path(v) / (std::string("timeline-") + m + ".csv");
+        if (!std::filesystem::exists(f)) continue;
+        auto rows = mapper::readTimelineCsv(f);
+        if (!rows) {
+          std::fprintf(stderr, "evermap-mapper-run: %s\n", rows.error().message.c_str());
+          return 1;
+        }
+        runs[m].timeline = std::move(*rows);
+        if (!runs[m].timeline.empty()) runs[m].nodes = runs[m].timeline.back().nodes;
+      }
+      if (runs.empty()) {
+        std::fprintf(stderr, "evermap-mapper-run: %s: no timeline-reduced.csv or timeline-full.csv\n", v.c_str());
+        return 1;
+      }
+      writePlots(v, runs);
+      return 0;
     } else if (a == "--store") {
       store = v;
+    } else if (a == "--timeline") {
+      timeline = v;
+    } else if (a == "--out") {
+      out = v;
+    } else if (a == "--sessions" && parseSessions(v, &first, &last)) {
     } else if (a == "--mode" && (v == "reduced" || v == "full" || v == "both")) {
       mode = v;
+    } else if (a == "--max-wall-s") {
+      char* end = nullptr;
+      max_wall_s = std::strtod(v.c_str(), &end);
+      if (end == v.c_str() || *end || !(max_wall_s > 0)) {
+        std::fprintf(stderr, "evermap-mapper-run: bad --max-wall-s %s\n", v.c_str());
+        return 2;
+      }
     } else if (a == "--hours") {
       char* end = nullptr;
       hours = std::strtod(v.c_str(), &end);
@@ -58,10 +252,20 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-mapper-run: --config is required\n%s", kUsage);
     return 2;
   }
+  if (!timeline.empty() && mode == "both") {
+    std::fprintf(stderr, "evermap-mapper-run: --timeline takes one mode; use --out DIR for both\n");
+    return 2;
+  }
   auto file = KeyValueFile::load(config);
   if (!file) {
     std::fprintf(stderr, "evermap-mapper-run: %s\n", file.error().message.c_str());
     return 1;
+  }
+  for (const std::string& s : sets) {
+    if (auto st = file->set(s, "--set " + s); !st) {
+      std::fprintf(stderr, "evermap-mapper-run: %s\n", st.error().message.c_str());
+      return 2;
+    }
   }
   auto sim = sim::loadSimOptions(*file);
   if (!sim) {
@@ -69,17 +273,57 @@ int main(int argc, char** argv) {
     return 1;
   }
   if (hours > 0) sim->patrol.total_hours = hours;
+  if (!out.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(out, ec);
+    if (ec) {
+      std::fprintf(stderr, "evermap-mapper-run: %s: %s\n", out.c_str(), ec.message().c_str());
+      return 1;
+    }
+  }
+  std::map<std::string, OfflineRunSummary> runs;
   for (const bool full : {false, true}) {
     if ((full && mode == "reduced") || (!full && mode == "full")) continue;
+    const std::string name = full ? "full" : "reduced";
     mapper::MapperOptions options;
     options.full_graph = full;
-    auto summary = mapper::runOffline(*sim, options, full ? std::string() : store);
+    mapper::OfflineRunOptions run;
+    run.first_session = first;
+    run.last_session = last;
+    run.max_wall_s = max_wall_s;
+    if (!full) run.store_file = store;
+    if (progress) {
+      run.on_commit = [](const mapper::StoreCommit& c) {
+        std::printf("committed nodes %lld edges %lld utime %lld\n", static_cast<long long>(c.nodes),
+                    static_cast<long long>(c.edges), static_cast<long long>(c.utime));
+        std::fflush(stdout);
+      };
+    }
+    auto summary = mapper::runOffline(*sim, options, run);
     if (!summary) {
       std::fprintf(stderr, "evermap-mapper-run: %s\n", summary.error().message.c_str());
       return 1;
     }
-    std::printf("== %s pose graph\n%s", full ? "full" : "reduced", summary->text().c_str());
+    std::printf("== %s pose graph\n%s", name.c_str(), summary->text().c_str());
     std::fflush(stdout);
+    std::vector<std::filesystem::path> csv;
+    if (!timeline.empty()) csv.emplace_back(timeline);
+    if (!out.empty()) {
+      csv.push_back(std::filesystem::path(out) / ("timeline-" + name + ".csv"));
+      std::FILE* f = std::fopen((std::filesystem::path(out) / ("summary-" + name + ".txt")).c_str(), "w");
+      if (f) {
+        std::fputs(summary->text().c_str(), f);
+        std::fclose(f);
+      }
+    }
+    for (const auto& f : csv) {
+      if (Status s = mapper::writeTimelineCsv(f, summary->timeline); !s) {
+        std::fprintf(stderr, "evermap-mapper-run: %s\n", s.error().message.c_str());
+        return 1;
+      }
+    }
+    runs.emplace(name, std::move(*summary));
   }
+  if (!out.empty()) writePlots(out, runs);
   return 0;
 }

@@ -1,0 +1,107 @@
+#include "mapper-proc/run_metrics.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <tuple>
+
+namespace evermap::mapper {
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size() - 1) + 0.5));
+  return v[k];
+}
+
+Status writeTimelineCsv(const std::filesystem::path& file, const std::vector<TimelineRow>& rows) {
+  std::ostringstream s;
+  s << "operating_h,utime,session,nodes,factors,steps,tracking_s,registration_s,partition_s,solver_s,"
+       "step_median_ms,step_p99_ms,step_max_ms\n";
+  for (const TimelineRow& r : rows)
+    s << r.operating_s / 3600.0 << ',' << r.utime << ',' << r.session << ',' << r.nodes << ',' << r.factors << ','
+      << r.steps << ',' << r.tracking_s << ',' << r.registration_s << ',' << r.partition_s << ',' << r.solver_s
+      << ',' << r.step_median_ms << ',' << r.step_p99_ms << ',' << r.step_max_ms << '\n';
+  const std::filesystem::path tmp = file.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << s.str();
+    if (!out.flush()) return makeError(file.string(), ": cannot write the timeline");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, file, ec);
+  if (ec) return makeError(file.string(), ": ", ec.message());
+  return Ok{};
+}
+
+Expected<std::vector<TimelineRow>> readTimelineCsv(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  if (!in) return makeError(file.string(), ": cannot open");
+  std::string line;
+  std::vector<TimelineRow> rows;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (n == 1) continue;  // header
+    TimelineRow r;
+    double hours = 0.0;
+    long long utime = 0, nodes = 0, factors = 0, steps = 0;
+    int session = 0;
+    if (std::sscanf(line.c_str(), "%lf,%lld,%d,%lld,%lld,%lld,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &hours, &utime, &session,
+                    &nodes, &factors, &steps, &r.tracking_s, &r.registration_s, &r.partition_s, &r.solver_s,
+                    &r.step_median_ms, &r.step_p99_ms, &r.step_max_ms) != 13)
+      return makeError(file.string(), ":", n, ": not a timeline row");
+    r.operating_s = 3600.0 * hours;
+    r.utime = utime;
+    r.session = session;
+    r.nodes = nodes;
+    r.factors = factors;
+    r.steps = steps;
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+std::vector<int64_t> inMappedArea(const std::vector<NodeTruth>& nodes, const std::vector<NodeTruth>& queries,
+                                  double radius_m, double angle_rad) {
+  std::vector<int64_t> by_session;
+  // Nodes on a grid of radius-sized cells: neighbours lie in the 3x3 block around a cell.
+  std::map<std::tuple<int, int64_t, int64_t>, std::vector<size_t>> grid;
+  auto key = [&](const NodeTruth& n, int64_t dx, int64_t dy) {
+    const core::Vec3& p = n.world_T_body.translation();
+    return std::make_tuple(n.floor, static_cast<int64_t>(std::floor(p.x() / radius_m)) + dx,
+                           static_cast<int64_t>(std::floor(p.y() / radius_m)) + dy);
+  };
+  auto yaw = [](const core::SE3d& p) {
+    const core::Mat3 R = p.so3().matrix();
+    return std::atan2(R(1, 0), R(0, 0));
+  };
+  for (size_t i = 0; i < nodes.size(); ++i)
+    if (nodes[i].known) grid[key(nodes[i], 0, 0)].push_back(i);
+  for (const NodeTruth& q : queries) {
+    if (q.session >= static_cast<int>(by_session.size())) by_session.resize(q.session + 1, 0);
+    if (!q.known) continue;
+    bool covered = false;
+    for (int64_t dx = -1; dx <= 1 && !covered; ++dx) {
+      for (int64_t dy = -1; dy <= 1 && !covered; ++dy) {
+        auto it = grid.find(key(q, dx, dy));
+        if (it == grid.end()) continue;
+        for (size_t j : it->second) {
+          const NodeTruth& m = nodes[j];
+          if (m.session >= q.session) continue;
+          const double d = (m.world_T_body.translation() - q.world_T_body.translation()).head<2>().norm();
+          const double a = std::abs(std::remainder(yaw(m.world_T_body) - yaw(q.world_T_body), 2 * M_PI));
+          if (d <= radius_m && a <= angle_rad) {
+            covered = true;
+            break;
+          }
+        }
+      }
+    }
+    if (covered) ++by_session[q.session];
+  }
+  return by_session;
+}
+
+}  // namespace evermap::mapper

@@ -1,0 +1,294 @@
+// mapper-proc: continuing a stored map (Mapper::restore, the offline runner over a map
+// store), and input validation at the Mapper API: malformed or out-of-order messages are
+// dropped, counted and never applied.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "tests/scratch_dir.h"
+#include "mapper-proc/map_store.h"
+#include "mapper-proc/mapper.h"
+#include "mapper-proc/offline_run.h"
+
+namespace evermap::mapper {
+namespace {
+
+using core::SE3d;
+using core::Vec3;
+
+// Two sessions over a three-floor building; the second starts at home, where the first
+// mapped, and reaches the whole main floor.
+sim::SimOptions twoSessions() {
+  sim::SimOptions o;
+  o.seed = 7;
+  o.building.floors = 3;
+  o.building.main_floor = 1;
+  o.building.main_cross_corridors = 4;
+  o.building.max_cross_corridors = 4;
+  o.patrol.sessions = 2;
+  o.patrol.total_hours = 0.1;
+  o.patrol.span_days = 2;
+  o.patrol.explore_sessions = 1;
+  return o;
+}
+
+TEST(MapperRestore, ASecondSessionContinuesTheStoredMapAndAddsNodesOnlyWhereItIsNew) {
+  evermap::testing::ScratchDir dir;
+  OfflineRunOptions run;
+  run.store_file = dir.path() / "map.db";
+  run.first_session = run.last_session = 0;
+  auto first = runOffline(twoSessions(), MapperOptions{}, run);
+  ASSERT_TRUE(first) << first.error().message;
+  ASSERT_GT(first->nodes, 20);
+
+  run.first_session = run.last_session = 1;
+  auto second = runOffline(twoSessions(), MapperOptions{}, run);
+  ASSERT_TRUE(second) << second.error().message;
+  EXPECT_EQ(second->restored_nodes, first->nodes);
+  // Lost at the start, placed on the map by a global registration.
+  EXPECT_GE(second->stats.relocalizations, 1);
+  EXPECT_GT(second->stats.loop_closures, 10);
+  ASSERT_EQ(second->nodes_by_session.size(), 2u);
+  EXPECT_EQ(second->nodes_by_session[0], first->nodes);
+  const int64_t added = second->nodes_by_session[1];
+  // No node where session 1 already had one (within 1 m and π/8), beyond 5 % of the new ones.
+  EXPECT_LE(second->nodes_in_mapped_area_by_session[1] * 20, std::max<int64_t>(added, 1));
+  EXPECT_LT(second->ate_rmse_m, 0.5);
+  EXPECT_EQ(second->stats.dropped, 0);
+
+  // The file holds both sessions' nodes and every constraint, and passes the integrity check.
+  auto store = MapStore::open(run.store_file);
+  ASSERT_TRUE(store) << store.error().message;
+  ASSERT_TRUE(store->integrityCheck());
+  auto snap = store->load();
+  ASSERT_TRUE(snap) << snap.error().message;
+  EXPECT_EQ(static_cast<int64_t>(snap->nodes.size()), second->nodes);
+  EXPECT_EQ(static_cast<int64_t>(snap->edges.size()), second->constraints);
+}
+
+TEST(MapperRestore, ReplaysEveryStoredConstraintIntoTheSameMergedPairs) {
+  evermap::testing::ScratchDir dir;
+  OfflineRunOptions run;
+  run.store_file = dir.path() / "map.db";
+  run.last_session = 0;
+  auto first = runOffline(twoSessions(), MapperOptions{}, run);
+  ASSERT_TRUE(first) << first.error().message;
+  auto store = MapStore::open(run.store_file);
+  ASSERT_TRUE(store);
+  auto snap = store->load();
+  ASSERT_TRUE(snap);
+
+  Mapper m{MapperOptions{}};
+  ASSERT_TRUE(m.restore(*snap));
+  EXPECT_TRUE(m.lost());
+  EXPECT_EQ(m.session(), 1);
+  ASSERT_EQ(m.nodes().size(), snap->nodes.size());
+  ASSERT_EQ(m.constraints().all().size(), snap->edges.size());
+  // The same merge and rejection decisions as when the constraints were made.
+  for (const StoredEdge& e : snap->edges) EXPECT_EQ(m.constraints().all()[e.edge_id].accepted, e.constraint.accepted);
+  EXPECT_EQ(m.constraints().merged(), first->stats.merged);
+  EXPECT_EQ(m.constraints().rejected(), first->stats.rejected_inconsistent);
+  EXPECT_EQ(m.stats().factors, first->factors);
+  // Re-solved without the roll/pitch factors (not stored): the nodes stay where they were.
+  double worst = 0.0;
+  for (const StoredNode& n : snap->nodes)
+    worst = std::max(worst, (m.nodePose(n.node.id).translation() - n.world_T_body.translation()).norm());
+  EXPECT_LT(worst, 0.05);
+  // A second restore, or one into a mapper that has a map, is refused.
+  EXPECT_FALSE(m.restore(*snap));
+}
+
+TEST(MapperRestore, RefusesAMapWhoseEdgesNameUnknownNodes) {
+  MapSnapshot snap;
+  StoredNode n;
+  n.node.id = 0;
+  snap.nodes.push_back(n);
+  StoredEdge e;
+  e.constraint.from = 0;
+  e.constraint.to = 5;
+  e.constraint.from_T_to.covariance = core::Mat6::Identity() * 1e-4;
+  snap.edges.push_back(e);
+  Mapper m{MapperOptions{}};
+  const Status s = m.restore(snap);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.error().message.find("edge 0"), std::string::npos);
+  EXPECT_TRUE(m.nodes().empty());
+
+  MapSnapshot gap;
+  n.node.id = 3;
+  gap.nodes.push_back(n);
+  EXPECT_FALSE(Mapper{MapperOptions{}}.restore(gap));
+}
+
+// ---- input validation ---------------------------------------------------------------------
+
+vo_delta_t vo(int64_t utime, int64_t ref, double dx, bool keyframe) {
+  vo_delta_t m{};
+  m.utime = utime;
+  m.ref_utime = ref;
+  m.status = vo_delta_t::STATUS_OK;
+  m.keyframe_changed = keyframe ? 1 : 0;
+  m.translation[0] = dx;
+  m.orientation[0] = 1.0;
+  for (int i = 0; i < 6; ++i) m.covariance[7 * i] = 1e-6;
+  return m;
+}
+
+// A mapper with a first node, tracking VO, and one step in flight; expects its state to stay
+// exactly as it is across messages that must be dropped.
+class MapperInput : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    floor_t f{};
+    f.utime = 1;
+    ASSERT_TRUE(m_.onFloor(f));
+    vo_delta_t start = vo(1'000'000, 1'000'000, 0, true);
+    start.status = vo_delta_t::STATUS_NO_DATA;  // the first frame: a reference keyframe
+    ASSERT_TRUE(m_.onVo(start));
+    ASSERT_TRUE(m_.onVo(vo(2'000'000, 1'000'000, 0.3, true)));  // a step: one request
+    ASSERT_TRUE(m_.onVo(vo(2'100'000, 2'000'000, 0.05, false)));
+    requests_ = m_.takeRequests();
+    ASSERT_EQ(requests_.size(), 1u);
+  }
+  void expectUnchanged(int64_t dropped) {
+    EXPECT_EQ(m_.stats().dropped, dropped);
+    EXPECT_EQ(m_.nodes().size(), 1u);
+    EXPECT_EQ(m_.stats().steps, 2);
+    const auto d = m_.tracker().delta();
+    EXPECT_LT((d.mean.translation() - Vec3(0.35, 0, 0)).norm(), 1e-12);
+    EXPECT_TRUE(d.covariance.allFinite());
+    EXPECT_EQ(m_.tracker().lastUtime(), 2'100'000);
+    EXPECT_TRUE(m_.takeRequests().empty());
+  }
+  Mapper m_{MapperOptions{}};
+  std::vector<register_request_t> requests_;
+};
+
+TEST_F(MapperInput, DropsMalformedVoWithoutApplyingIt) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  vo_delta_t m = vo(2'200'000, 2'000'000, nan, false);
+  EXPECT_FALSE(m_.onVo(m));  // NaN in the delta
+  m = vo(2'200'000, 2'000'000, 0.1, false);
+  m.orientation[2] = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(m_.onVo(m));
+  m = vo(2'200'000, 2'000'000, 0.1, false);
+  m.orientation[0] = 0.5;  // not a unit quaternion
+  EXPECT_FALSE(m_.onVo(m));
+  m = vo(2'200'000, 2'000'000, 0.1, false);
+  m.covariance[0] = -1.0;  // not positive semi-definite
+  EXPECT_FALSE(m_.onVo(m));
+  m = vo(2'200'000, 2'000'000, 0.1, false);
+  m.covariance[1] = 1e-3;  // not symmetric
+  EXPECT_FALSE(m_.onVo(m));
+  m = vo(2'200'000, 2'000'000, 0.1, false);
+  m.covariance[14] = nan;
+  EXPECT_FALSE(m_.onVo(m));
+  EXPECT_FALSE(m_.onVo(vo(2'050'000, 2'000'000, 0.1, false)));  // older than the last frame
+  EXPECT_FALSE(m_.onVo(vo(2'100'000, 2'000'000, 0.1, false)));  // the same time again
+  EXPECT_FALSE(m_.onVo(vo(2'200'000, 1'500'000, 0.1, false)));  // an unknown reference
+  expectUnchanged(9);
+  // A malformed frame did not move the clock: the next good frame applies.
+  ASSERT_TRUE(m_.onVo(vo(2'200'000, 2'000'000, 0.1, false)));
+  EXPECT_LT((m_.tracker().delta().mean.translation() - Vec3(0.4, 0, 0)).norm(), 1e-12);
+}
+
+TEST_F(MapperInput, DropsMalformedWheelAttitudeAndFloorMessages) {
+  wheel_odom_t w{};
+  w.utime = 2'000'000;
+  w.prev_utime = 1'900'000;
+  w.delta_x_m = 0.1;
+  w.covariance[0] = w.covariance[4] = w.covariance[8] = 1e-4;
+  ASSERT_TRUE(m_.onWheel(w));  // VO is tracking: accepted, not compounded
+  wheel_odom_t bad = w;
+  bad.utime = 1'950'000;  // out of order
+  EXPECT_FALSE(m_.onWheel(bad));
+  bad = w;
+  bad.utime = 2'100'000;
+  bad.delta_theta_rad = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(m_.onWheel(bad));
+  bad.delta_theta_rad = 0.0;
+  bad.covariance[4] = -1.0;
+  EXPECT_FALSE(m_.onWheel(bad));
+  bad.covariance[4] = 1e-4;
+  bad.prev_utime = 2'200'000;  // an increment that ends before it starts
+  EXPECT_FALSE(m_.onWheel(bad));
+
+  attitude_t a{};
+  a.utime = 2'000'000;
+  a.covariance[0] = a.covariance[3] = 1e-4;
+  a.accel_trusted = 1;
+  ASSERT_TRUE(m_.onAttitude(a));
+  attitude_t b = a;
+  EXPECT_FALSE(m_.onAttitude(b));  // not newer
+  b.utime = 2'100'000;
+  b.covariance[1] = b.covariance[2] = 1.0;  // not positive definite
+  EXPECT_FALSE(m_.onAttitude(b));
+  b.covariance[1] = b.covariance[2] = 0.0;
+  b.pitch_rad = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(m_.onAttitude(b));
+
+  floor_t f{};
+  f.utime = 0;  // before the first FLOOR
+  EXPECT_FALSE(m_.onFloor(f));
+  f.utime = 2'000'000;
+  f.height_sigma_m = -1.0;
+  EXPECT_FALSE(m_.onFloor(f));
+  f.height_sigma_m = 0.0;
+  f.height_m = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(m_.onFloor(f));
+  expectUnchanged(10);
+  EXPECT_EQ(m_.floors().size(), 1u);
+  EXPECT_EQ(m_.floors().at(0), 0.0);
+}
+
+TEST_F(MapperInput, DropsRegistrationResultsThatAreStaleOrMalformed) {
+  const register_request_t& r = requests_.front();
+  register_result_t ok{};
+  ok.utime = r.utime;
+  ok.request_id = r.request_id;
+  ok.keyframe_utime = r.keyframe_utime;
+  ok.status = register_result_t::STATUS_OK;
+  ok.node_id = 0;
+  ok.orientation[0] = 1.0;
+  for (int i = 0; i < 6; ++i) ok.covariance[7 * i] = 1e-4;
+
+  register_result_t stale = ok;
+  stale.request_id = r.request_id + 7;  // no such request
+  EXPECT_FALSE(m_.onRegisterResult(stale));
+  stale = ok;
+  stale.keyframe_utime = r.keyframe_utime - 1;  // the right id for another keyframe
+  EXPECT_FALSE(m_.onRegisterResult(stale));
+  expectUnchanged(2);
+
+  // A malformed answer to the request in flight: dropped, the step closes unregistered (the
+  // new place gets its node from Δ, not from the answer).
+  register_result_t bad = ok;
+  bad.translation[1] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(m_.onRegisterResult(bad));
+  EXPECT_EQ(m_.stats().dropped, 3);
+  EXPECT_EQ(m_.stats().registrations_ok, 0);
+  EXPECT_EQ(m_.stats().loop_closures + m_.stats().delta_replaced + m_.stats().delta_kept, 0);
+  // The same answer once more: nothing in flight any more.
+  EXPECT_FALSE(m_.onRegisterResult(ok));
+  EXPECT_EQ(m_.stats().dropped, 4);
+}
+
+TEST_F(MapperInput, DropsAnAnswerWithAZeroQuaternionOrABadCovariance) {
+  const register_request_t& r = requests_.front();
+  register_result_t bad{};
+  bad.utime = r.utime;
+  bad.request_id = r.request_id;
+  bad.keyframe_utime = r.keyframe_utime;
+  bad.status = register_result_t::STATUS_OK;
+  bad.node_id = 0;  // quaternion all zero
+  for (int i = 0; i < 6; ++i) bad.covariance[7 * i] = 1e-4;
+  EXPECT_FALSE(m_.onRegisterResult(bad));
+  EXPECT_EQ(m_.stats().registrations_ok, 0);
+  EXPECT_EQ(m_.stats().dropped, 1);
+  EXPECT_TRUE(m_.tracker().delta().mean.translation().allFinite());
+}
+
+}  // namespace
+}  // namespace evermap::mapper
