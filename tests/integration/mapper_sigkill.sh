@@ -9,8 +9,9 @@ build="$1"; src="$2"
 tool="$build/bin/evermap-mapper-run"
 tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
 store="$tmp/map.db"
-# One session of about an hour of simulated time on the small building (~3 s of CPU).
-args=(--config "$src/config/sim-small.conf" --set patrol.sessions=1 --set patrol.total_hours=1.0
+# One session of about three hours of simulated time on the small building (~6 s of CPU), so
+# that 20 kills at 30-530 ms after each start fall before its end.
+args=(--config "$src/config/sim-small.conf" --set patrol.sessions=1 --set patrol.total_hours=3.0
       --store "$store" --progress)
 fail() { echo "mapper_sigkill: $*"; exit 1; }
 field() { awk -v k="$2" '{for (i = 1; i < NF; ++i) if ($i == k) print $(i + 1)}' <<< "$1"; }
