@@ -27,6 +27,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
 #include "core/sim/oracle_server.h"
 #include "core/sim/registration_oracle.h"
@@ -56,52 +57,60 @@ struct Args {
   bool load = true;
 };
 
-void usage() {
-  std::fprintf(stderr,
-               "usage: evermap-sim-measure --config FILE [--set key=value]... "
-               "(--out DIR | --stats [--no-load] | --serve [--lcm-url URL] [--speed X] |\n"
-               "       --oracle [--lcm-url URL] [--idle-exit-s S] [--map STORE] | --print-config)\n");
-}
-
-bool parseArgs(int argc, char** argv, Args* a) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string s = argv[i];
-    auto value = [&](std::string* out) {
-      if (i + 1 >= argc) return false;
-      *out = argv[++i];
-      return true;
+// Returns -1 to run, or main's exit status (usage printed).
+int parseArgs(int argc, char** argv, Args* a) {
+  evermap::CommandLine cli("evermap-sim-measure",
+                           "The measurement-level simulator; one of --out, --stats, --serve, "
+                           "--oracle, --print-config.");
+  auto mode = [a](const char* m) {
+    return [a, m](const std::string&) -> evermap::Status {
+      if (!a->mode.empty() && a->mode != m) {
+        return evermap::makeError("only one of --out, --stats, --serve, --oracle, --print-config");
+      }
+      a->mode = m;
+      return evermap::Ok{};
     };
-    std::string v;
-    if (s == "--config") {
-      if (!value(&a->config)) return false;
-    } else if (s == "--set") {
-      if (!value(&v)) return false;
-      a->sets.push_back(v);
-    } else if (s == "--out") {
-      if (!value(&a->out)) return false;
-      a->mode = "out";
-    } else if (s == "--stats" || s == "--serve" || s == "--oracle") {
-      a->mode = s.substr(2);
-    } else if (s == "--print-config") {
-      a->mode = "print";
-    } else if (s == "--no-load") {
-      a->load = false;
-    } else if (s == "--lcm-url") {
-      if (!value(&a->lcm_url)) return false;
-    } else if (s == "--map") {
-      if (!value(&a->map)) return false;
-    } else if (s == "--speed") {
-      if (!value(&v)) return false;
-      a->speed = std::atof(v.c_str());
-    } else if (s == "--idle-exit-s") {
-      if (!value(&v)) return false;
-      a->idle_exit_s = std::atof(v.c_str());
-    } else {
-      std::fprintf(stderr, "evermap-sim-measure: unknown argument '%s'\n", s.c_str());
-      return false;
+  };
+  cli.value("--config", &a->config, "FILE", "simulation settings (config/sim-*.conf)", true);
+  cli.value(
+      "--set",
+      [a](const std::string& v) -> evermap::Status {
+        a->sets.push_back(v);
+        return evermap::Ok{};
+      },
+      "KEY=VALUE", "override one setting (repeatable)");
+  cli.value(
+      "--out",
+      [a, m = mode("out")](const std::string& v) -> evermap::Status {
+        a->out = v;
+        return m(v);
+      },
+      "DIR", "write an LCM log per session, TUM ground truth and run.sim.txt into DIR");
+  bool stats = false, serve = false, oracle = false, print = false, no_load = false;
+  cli.flag("--stats", &stats, "generate without writing; print figures and timings");
+  cli.flag("--no-load", &no_load, "--stats without the synthetic registration load");
+  cli.flag("--serve", &serve, "publish the run on LCM and answer registrations");
+  cli.flag("--oracle", &oracle, "only answer registrations (for a replay of a written run)");
+  cli.flag("--print-config", &print, "print every setting and exit");
+  cli.value("--lcm-url", &a->lcm_url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
+  cli.value("--map", &a->map, "STORE", "--oracle: first learn the nodes the map store holds");
+  cli.value("--speed", &a->speed, "X", "--serve: times real time (0: as fast as possible)");
+  cli.value("--idle-exit-s", &a->idle_exit_s, "S", "--oracle: exit after S s without requests");
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  a->load = !no_load;
+  for (auto [on, m] : {std::pair{stats, "stats"}, {serve, "serve"}, {oracle, "oracle"}, {print, "print"}}) {
+    if (!on) continue;
+    if (const auto s = mode(m)(""); !s) {
+      std::fprintf(stderr, "evermap-sim-measure: %s\n%s", s.error().message.c_str(), cli.usage().c_str());
+      return 2;
     }
   }
-  return !a->config.empty() && !a->mode.empty() && a->speed >= 0.0 && a->idle_exit_s >= 0.0;
+  if (a->mode.empty() || a->speed < 0.0 || a->idle_exit_s < 0.0) {
+    std::fprintf(stderr, "evermap-sim-measure: give one mode, and --speed / --idle-exit-s >= 0\n%s",
+                 cli.usage().c_str());
+    return 2;
+  }
+  return -1;
 }
 
 double seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
@@ -261,10 +270,7 @@ int runOracle(const RunPlan& plan, const Args& args) {
 
 int main(int argc, char** argv) {
   Args args;
-  if (!parseArgs(argc, argv, &args)) {
-    usage();
-    return 2;
-  }
+  if (const int code = parseArgs(argc, argv, &args); code >= 0) return code;
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   auto file = evermap::KeyValueFile::load(args.config);

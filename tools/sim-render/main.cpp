@@ -28,6 +28,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/common/atomic_write.h"
+#include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
 #include "core/eval/trajectory.h"
 #include "core/sim/image_session.h"
@@ -54,61 +55,46 @@ struct Args {
   std::string facts;
 };
 
-void usage() {
-  std::fprintf(stderr,
-               "usage: evermap-sim-render --config FILE [--set key=value]... [--seed N]\n"
-               "       (--out LOG [--stats] | --stats | --publish [--lcm-url URL] [--speed X] |\n"
-               "        --snapshots DIR [--every S] | --print-config)\n");
-}
-
-bool parseArgs(int argc, char** argv, Args* a) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string s = argv[i];
-    auto value = [&](std::string* out) {
-      if (i + 1 >= argc) return false;
-      *out = argv[++i];
-      return true;
-    };
-    std::string v;
-    if (s == "--config") {
-      if (!value(&a->config)) return false;
-    } else if (s == "--set") {
-      if (!value(&v)) return false;
-      a->sets.push_back(v);
-    } else if (s == "--seed") {
-      if (!value(&v)) return false;
-      a->sets.push_back("seed = " + v);
-    } else if (s == "--out") {
-      if (!value(&a->out)) return false;
-    } else if (s == "--stats") {
-      a->stats = true;
-    } else if (s == "--publish") {
-      a->publish = true;
-    } else if (s == "--snapshots") {
-      if (!value(&a->snapshots)) return false;
-    } else if (s == "--facts") {
-      if (!value(&a->facts)) return false;
-    } else if (s == "--every") {
-      if (!value(&v)) return false;
-      a->every_s = std::atof(v.c_str());
-      if (!(a->every_s > 0.0)) return false;
-    } else if (s == "--print-config") {
-      a->print = true;
-    } else if (s == "--lcm-url") {
-      if (!value(&a->lcm_url)) return false;
-    } else if (s == "--speed") {
-      if (!value(&v)) return false;
-      char* end = nullptr;
-      a->speed = std::strtod(v.c_str(), &end);
-      if (end == v.c_str() || *end != '\0' || !(a->speed >= 0.0)) return false;
-    } else {
-      std::fprintf(stderr, "evermap-sim-render: unknown argument '%s'\n", s.c_str());
-      return false;
-    }
-  }
+// Returns -1 to run, or main's exit status (usage printed).
+int parseArgs(int argc, char** argv, Args* a) {
+  evermap::CommandLine cli("evermap-sim-render",
+                           "The image-level simulator; one of --out (with or without --stats), "
+                           "--stats, --publish, --snapshots, --print-config.");
+  cli.value("--config", &a->config, "FILE", "simulation settings (config/sim-image-*.conf)", true);
+  cli.value(
+      "--set",
+      [a](const std::string& v) -> evermap::Status {
+        a->sets.push_back(v);
+        return evermap::Ok{};
+      },
+      "KEY=VALUE", "override one setting (repeatable)");
+  cli.value(
+      "--seed",
+      [a](const std::string& v) -> evermap::Status {
+        a->sets.push_back("seed = " + v);
+        return evermap::Ok{};
+      },
+      "N", "the run's seed (same as --set seed=N)");
+  cli.value("--out", &a->out, "LOG", "write the session as an LCM log (ground truth beside it)");
+  cli.flag("--stats", &a->stats, "print figures and timings");
+  cli.flag("--publish", &a->publish, "publish on LCM instead of writing");
+  cli.value("--lcm-url", &a->lcm_url, "URL", "--publish: LCM provider");
+  cli.value("--speed", &a->speed, "X", "--publish: times real time (0: as fast as it renders)");
+  cli.value("--snapshots", &a->snapshots, "DIR", "write left images tagged with the failure in view");
+  cli.value("--every", &a->every_s, "S", "--snapshots: one every S seconds (10)");
+  cli.value("--facts", &a->facts, "F.csv", "per-frame facts (failure in view) as CSV");
+  cli.flag("--print-config", &a->print, "print every setting and exit");
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   const int modes = (a->out.empty() ? 0 : 1) + (a->publish ? 1 : 0) + (a->print ? 1 : 0) +
                     (a->snapshots.empty() ? 0 : 1);
-  return !a->config.empty() && (modes == 1 || (modes == 0 && a->stats));
+  if (!(modes == 1 || (modes == 0 && a->stats)) || !(a->speed >= 0.0) || !(a->every_s > 0.0)) {
+    std::fprintf(stderr,
+                 "evermap-sim-render: give one of --out, --publish, --snapshots, --print-config "
+                 "(or --stats alone); --speed >= 0, --every > 0\n%s",
+                 cli.usage().c_str());
+    return 2;
+  }
+  return -1;
 }
 
 // Publishes every message on LCM, paced to `speed` times the data's own clock.
@@ -157,10 +143,7 @@ evermap::Status writeGroundTruth(const ImageSimulator& sim, const fs::path& file
 
 int main(int argc, char** argv) {
   Args args;
-  if (!parseArgs(argc, argv, &args)) {
-    usage();
-    return 2;
-  }
+  if (const int code = parseArgs(argc, argv, &args); code >= 0) return code;
   auto file = evermap::KeyValueFile::load(args.config);
   if (!file) {
     std::fprintf(stderr, "evermap-sim-render: %s\n", file.error().message.c_str());
