@@ -9,40 +9,12 @@
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
 #include "core/sim/run_output.h"
+#include "core/sim/streams.h"
 
 namespace evermap::sim {
 namespace {
 
 using WallClock = std::chrono::steady_clock;
-
-// Stream numbers (see image_session.h).
-enum Stream : uint64_t {
-  kWheelNoise = 3000,
-  kImuNoise = 5000,
-  kPassersBy = 7000,
-  kSlips = 8000,
-  kRenderNoise = 10000,
-  kTextures = 10100,
-  kPainting = 10200,
-  kPasserbyLook = 10400,
-};
-
-Random streamFor(uint64_t seed, Stream s, int session) {
-  return Random::derive(seed, static_cast<uint64_t>(s) + static_cast<uint64_t>(session));
-}
-
-// Ticks start + round(k * period), k = first, first + 1, ...
-class Ticks {
- public:
-  Ticks(int64_t start, double rate_hz, int64_t first = 0) : start_(start), period_us_(1e6 / rate_hz), k_(first) {}
-  int64_t next() const { return start_ + std::llround(static_cast<double>(k_) * period_us_); }
-  void advance() { ++k_; }
-
- private:
-  int64_t start_;
-  double period_us_;
-  int64_t k_;
-};
 
 double secondsSince(WallClock::time_point t) {
   return std::chrono::duration<double>(WallClock::now() - t).count();
@@ -81,21 +53,21 @@ Expected<std::unique_ptr<ImageSimulator>> ImageSimulator::create(const ImageSimO
   std::unique_ptr<ImageSimulator> sim(new ImageSimulator(o, std::move(*plan)));
   const int index = o.render.session;
   sim->session_ = sim->plan_.session(index);
-  Random texture_rng = Random::derive(o.sim.seed, kTextures);
+  Random texture_rng = Random::derive(o.sim.seed, static_cast<uint64_t>(Stream::kTextures));
   auto textures = makeTextureLibrary(o.render.textures, o.posterFolder(), texture_rng);
   if (!textures) return textures.error();
   sim->textures_ = std::make_unique<TextureLibrary>(std::move(*textures));
-  Random paint_rng = Random::derive(o.sim.seed, kPainting);
+  Random paint_rng = Random::derive(o.sim.seed, static_cast<uint64_t>(Stream::kPainting));
   auto world = buildRenderWorld(sim->plan_.building(), o.sim.building, o.render.world, *sim->textures_, paint_rng);
   if (!world) return world.error();
   sim->world_ = std::move(*world);
   const Trajectory& traj = *sim->session_.trajectory;
-  Random passer_rng = streamFor(o.sim.seed, kPassersBy, index);
+  Random passer_rng = streamFor(o.sim.seed, Stream::kPassersBy, index);
   const VoOptions& vo = o.sim.sensors.vo;
   sim->passers_ = Intervals(traj.startUtime(), traj.endUtime(), vo.passerby_rate_per_hour,
                             vo.passerby_min_s, vo.passerby_max_s, passer_rng);
   sim->renderer_ = std::make_unique<ImageRenderer>(*sim->textures_, o.camera(), o.render.noise_sigma_gray,
-                                                   mixSeed(o.sim.seed, kRenderNoise + index));
+                                                   mixSeed(o.sim.seed, static_cast<uint64_t>(Stream::kRenderNoise) + index));
   sim->renderer_->setLighting(o.lighting.forSession(index, o.sim.seed));
   return sim;
 }
@@ -157,7 +129,7 @@ std::vector<Occluder> ImageSimulator::passersBy(int64_t utime) const {
     const auto [b, e] = spans[i];
     if (utime < b || utime >= e) continue;
     // The look of this passer-by: its own stream, so it does not depend on the frame rate.
-    Random rng = Random::derive(options_.sim.seed, kPasserbyLook + static_cast<uint64_t>(i) * 7919 +
+    Random rng = Random::derive(options_.sim.seed, static_cast<uint64_t>(Stream::kPasserbyLook) + static_cast<uint64_t>(i) * 7919 +
                                                        static_cast<uint64_t>(options_.render.session));
     const PasserbyOptions& p = options_.passerby;
     const double distance = rng.uniform(p.distance_min_m, p.distance_max_m);
@@ -221,16 +193,16 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
     if (r.start_utime < end) ++summary.rides;
   }
 
-  Random slip_rng = streamFor(o.sim.seed, kSlips, index);
+  Random slip_rng = streamFor(o.sim.seed, Stream::kSlips, index);
   Intervals slips(start, traj.endUtime(), so.wheel.slip_rate_per_hour, so.wheel.slip_min_s, so.wheel.slip_max_s, slip_rng);
-  WheelModel wheel(so.wheel, std::move(slips), streamFor(o.sim.seed, kWheelNoise, index));
-  Random imu_rng = streamFor(o.sim.seed, kImuNoise, index);
+  WheelModel wheel(so.wheel, std::move(slips), streamFor(o.sim.seed, Stream::kWheelNoise, index));
+  Random imu_rng = streamFor(o.sim.seed, Stream::kImuNoise, index);
   const Vec3 imu_bias(so.imu.accel_bias_sigma_mps2 * imu_rng.normal(), so.imu.accel_bias_sigma_mps2 * imu_rng.normal(),
                       so.imu.accel_bias_sigma_mps2 * imu_rng.normal());
 
   const core::StereoCalibration calib = calibration();
   writeMessage(sink, channels::kStereoCalib, messages::toMsg(calib, start));
-  Ticks imu(start, so.imu.rate_hz), gt(start, so.ground_truth_rate_hz), wheel_ticks(start, so.wheel.rate_hz, 1),
+  TickClock imu(start, so.imu.rate_hz), gt(start, so.ground_truth_rate_hz), wheel_ticks(start, so.wheel.rate_hz, 1),
       stereo(start, o.render.rate_hz);
   constexpr int64_t kNever = INT64_MAX;
   int64_t wheel_prev_utime = start;

@@ -8,46 +8,13 @@
 
 #include "core/messages/channels.h"
 #include "core/sim/sim_message_conversions.h"
+#include "core/sim/streams.h"
 
 namespace evermap::sim {
 namespace {
 
 constexpr int64_t kNever = std::numeric_limits<int64_t>::max();
 
-// Stream seeds: one per purpose and session (see random.h).
-enum Stream : uint64_t {
-  kVoNoise = 2000,
-  kWheelNoise = 3000,
-  kAttitudeNoise = 4000,
-  kImuNoise = 5000,
-  kFloorNoise = 6000,
-  kPassersBy = 7000,
-  kSlips = 8000,
-};
-
-Random streamFor(uint64_t seed, Stream s, int session) {
-  return Random::derive(seed, static_cast<uint64_t>(s) + static_cast<uint64_t>(session));
-}
-
-// Ticks start + round(k * period) for k = 0, 1, ...
-class Clock {
- public:
-  Clock(int64_t start, double rate_hz, int64_t first_k = 0)
-      : start_(start), period_us_(1e6 / rate_hz), k_(first_k) {}
-  int64_t next() const { return start_ + std::llround(static_cast<double>(k_) * period_us_); }
-  void advance() { ++k_; }
-  // Moves to the first tick at or after t.
-  void skipTo(int64_t t) {
-    const auto k = static_cast<int64_t>(std::ceil(static_cast<double>(t - start_) / period_us_));
-    if (k > k_) k_ = k;
-    while (next() < t) ++k_;
-  }
-
- private:
-  int64_t start_;
-  double period_us_;
-  int64_t k_;
-};
 
 // IMU ticks, only inside [ride start - margin, ride end + margin] windows.
 class ImuSchedule {
@@ -81,7 +48,7 @@ class ImuSchedule {
       ++w_;
     }
   }
-  Clock clock_;
+  TickClock clock_;
   std::vector<std::pair<int64_t, int64_t>> windows_;
   size_t w_ = 0;
 };
@@ -130,10 +97,10 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
   const int session = plan.index;
   const SE3d body_T_cam = o.camera.bodyTCam();
 
-  Random passer_rng = streamFor(seed, kPassersBy, session);
+  Random passer_rng = streamFor(seed, Stream::kPassersBy, session);
   const Intervals passers(start, end, o.vo.passerby_rate_per_hour, o.vo.passerby_min_s,
                           o.vo.passerby_max_s, passer_rng);
-  Random slip_rng = streamFor(seed, kSlips, session);
+  Random slip_rng = streamFor(seed, Stream::kSlips, session);
   Intervals slips(start, end, o.wheel.slip_rate_per_hour, o.wheel.slip_min_s, o.wheel.slip_max_s, slip_rng);
   SessionSummary summary;
   summary.session = session;
@@ -145,21 +112,21 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
   summary.passerby_events = static_cast<int64_t>(passers.size());
   summary.slip_events = static_cast<int64_t>(slips.size());
 
-  VoModel vo(o.vo, body_T_cam, streamFor(seed, kVoNoise, session));
-  WheelModel wheel(o.wheel, std::move(slips), streamFor(seed, kWheelNoise, session));
-  Random attitude_rng = streamFor(seed, kAttitudeNoise, session);
-  Random imu_rng = streamFor(seed, kImuNoise, session);
-  Random floor_rng = streamFor(seed, kFloorNoise, session);
+  VoModel vo(o.vo, body_T_cam, streamFor(seed, Stream::kVoNoise, session));
+  WheelModel wheel(o.wheel, std::move(slips), streamFor(seed, Stream::kWheelNoise, session));
+  Random attitude_rng = streamFor(seed, Stream::kAttitudeNoise, session);
+  Random imu_rng = streamFor(seed, Stream::kImuNoise, session);
+  Random floor_rng = streamFor(seed, Stream::kFloorNoise, session);
   const Vec3 imu_bias(o.imu.accel_bias_sigma_mps2 * imu_rng.normal(),
                       o.imu.accel_bias_sigma_mps2 * imu_rng.normal(),
                       o.imu.accel_bias_sigma_mps2 * imu_rng.normal());
   const std::vector<floor_t> floors = floorEvents(building, plan, o.floor, floor_rng);
 
-  Clock gt_clock(start, o.ground_truth_rate_hz);
+  TickClock gt_clock(start, o.ground_truth_rate_hz);
   ImuSchedule imu_clock(plan, o.imu, start, end);
-  Clock wheel_clock(start, o.wheel.rate_hz, 1);
-  Clock attitude_clock(start, o.attitude.rate_hz);
-  Clock vo_clock(start, o.vo.rate_hz);
+  TickClock wheel_clock(start, o.wheel.rate_hz, 1);
+  TickClock attitude_clock(start, o.attitude.rate_hz);
+  TickClock vo_clock(start, o.vo.rate_hz);
   size_t floor_next = 0;
   int64_t wheel_prev_utime = start;
   BodyState wheel_prev = traj.at(start);
