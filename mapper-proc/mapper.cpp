@@ -37,6 +37,7 @@ Status MapperOptions::validate() const {
   if (heading_bins < 1) return Error{"mapper.heading_bins: must be >= 1"};
   if (!(step_interval_s >= 0.0)) return Error{"mapper.step_interval_s: must be >= 0"};
   if (!(request_timeout_s > 0.0)) return Error{"mapper.request_timeout_s: must be > 0"};
+  if (!(session_gap_s > 0.0)) return Error{"mapper.session_gap_s: must be > 0"};
   if (!(consistency_gate > 0.0)) return Error{"mapper.consistency_gate: must be > 0"};
   if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
   if (!(recent_exclusion_s >= 0.0)) return Error{"mapper.recent_exclusion_s: must be >= 0"};
@@ -77,10 +78,24 @@ Status Mapper::onVo(const vo_delta_t& msg) {
     return s;
   }
   checkTimeout(msg.utime);
+  if (last_vo_utime_ >= 0 && msg.utime - last_vo_utime_ > micros(o_.session_gap_s)) startSession(msg.utime);
+  last_vo_utime_ = msg.utime;
   if (msg.keyframe_changed && (msg.status == vo_delta_t::STATUS_OK || msg.ref_utime == msg.utime) &&
       !in_flight_ && (last_step_utime_ < 0 || msg.utime - last_step_utime_ >= micros(o_.step_interval_s)))
     step(msg.utime);
   return Ok{};
+}
+
+void Mapper::startSession(int64_t utime) {
+  if (!have_floor_ || active_ < 0) return;  // nothing mapped yet: the first session goes on
+  // The FLOOR message and the VO gap both announce a session: one session per gap.
+  if (lost_ && session_start_utime_ >= 0 && std::abs(utime - session_start_utime_) < micros(o_.session_gap_s)) return;
+  // Where the robot is relative to the map is unknown until a global registration
+  // re-localises it (DESIGN.md section 3).
+  lost_ = true;
+  relocalization_candidate_.reset();
+  ++session_;
+  session_start_utime_ = utime;
 }
 
 Status Mapper::onWheel(const wheel_odom_t& msg) {
@@ -115,13 +130,7 @@ Status Mapper::onFloor(const floor_t& msg) {
   }
   last_floor_utime_ = msg.utime;
   if (msg.event == floor_t::EVENT_RIDE_START) return Ok{};
-  if (msg.event == floor_t::EVENT_NONE && have_floor_ && active_ >= 0) {
-    // A new session starts (the operator sets the floor): where the robot is relative to the
-    // map is unknown until a global registration re-localises it (DESIGN.md section 3).
-    lost_ = true;
-    relocalization_candidate_.reset();
-    ++session_;
-  }
+  if (msg.event == floor_t::EVENT_NONE) startSession(msg.utime);
   if (have_floor_ && msg.event == floor_t::EVENT_RIDE_END && active_ >= 0) {
     // The ride's vertical displacement, as far as odometry has not seen it already (VO may
     // track through the cab; wheels never do): the estimate is moved to the measured height.

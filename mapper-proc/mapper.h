@@ -57,6 +57,10 @@ struct MapperOptions {
   double step_interval_s = 0.5;
   // An unanswered registration closes after this long, seconds of message time.
   double request_timeout_s = 5.0;
+  // A gap this long between VO messages starts a new session, as the FLOOR message that
+  // opens one does: over UDP that single message can be lost, and a session mapped as the
+  // continuation of the previous one would be placed wherever the last one ended.
+  double session_gap_s = 600.0;
   // χ² gate (6 dof) for constraints of one pair to be merged; 16.81 = 99 %.
   double consistency_gate = 16.81;
   // Full graph: nodes added within this many seconds before the step are not loop targets.
@@ -206,6 +210,8 @@ class Mapper {
   core::PlanarCell cellOf(const core::SE3d& world_T_body, int floor) const;
   std::optional<int64_t> nodeInCell(const core::PlanarCell& cell, int64_t newest_allowed) const;
   void checkTimeout(int64_t utime);
+  // A new session (FLOOR with EVENT_NONE, or a gap in VO time): lost until re-localised.
+  void startSession(int64_t utime);
 
   MapperOptions o_;
   int session_;
@@ -248,6 +254,8 @@ class Mapper {
   std::optional<attitude_t> attitude_;
   int64_t last_step_utime_ = -1;
   int64_t last_floor_utime_ = -1;
+  int64_t last_vo_utime_ = -1;
+  int64_t session_start_utime_ = -1;  // utime of the message that started the session
   int64_t last_attitude_utime_ = -1;
   int64_t next_request_id_ = 1;
   std::optional<InFlight> in_flight_;

@@ -169,6 +169,21 @@ class ScriptedDrive {
     }
   }
   Mapper& mapper() { return mapper_; }
+  // The robot is off for `seconds` and starts again where it stopped, VO from a new
+  // keyframe; the new session's FLOOR message arrives only when `announce`.
+  void newSession(double seconds, bool announce) {
+    utime_ += static_cast<int64_t>(seconds * 1e6);
+    if (announce) {
+      floor_t f{};
+      f.utime = utime_;
+      f.floor_index = 0;
+      EXPECT_TRUE(mapper_.onFloor(f));
+    }
+    utime_ += 100000;
+    EXPECT_TRUE(mapper_.onVo(voRestart(utime_)));
+    truth_[utime_] = pose_;
+    answer();
+  }
 
  private:
   static double yawOf(const SE3d& p) { return core::toPlanar(p).theta(); }
@@ -288,6 +303,23 @@ TEST(ReducedGraph, ActiveNodeRegistrationReplacesDeltaOnlyWhenItIsMoreCertain) {
   const auto& b = blurred.mapper().stats();
   EXPECT_GT(b.delta_kept, 10);
   EXPECT_LE(b.delta_replaced, b.loop_closures);
+}
+
+TEST(Mapper, ALongGapInVoStartsOneSessionEvenWhenItsFloorMessageIsLost) {
+  for (const bool announce : {true, false}) {
+    ScriptedDrive drive(scriptedOptions());
+    lap(drive);
+    ASSERT_EQ(drive.mapper().session(), 0);
+    const int64_t nodes = drive.mapper().stats().nodes;
+    drive.newSession(3600.0, announce);
+    EXPECT_EQ(drive.mapper().session(), 1) << "FLOOR sent: " << announce;
+    EXPECT_TRUE(drive.mapper().lost());
+    lap(drive);
+    // Re-localised by global registrations, the second session maps nothing new.
+    EXPECT_FALSE(drive.mapper().lost()) << "FLOOR sent: " << announce;
+    EXPECT_EQ(drive.mapper().session(), 1);
+    EXPECT_EQ(drive.mapper().stats().nodes, nodes);
+  }
 }
 
 TEST(Mapper, DropsMalformedAndStaleMessagesAndCountsThem) {
