@@ -66,7 +66,7 @@ echo "== figures"
 "$bin/evermap-map-render" --store "$out/map.db" --gt "$out/ground_truth.tum" \
   --title "reduced pose graph, floors stacked (cf. paper Fig. 1)" --out "$out/fig1_map_floors.png"
 "$bin/evermap-eval" --gt "$out/ground_truth.tum" --est "$out/live_poses.tum" --max-dt 0.06 \
-  --plot "$out/fig4_trajectory.png" --json "$out/fig4_trajectory.json" | grep -E "ATE|pairs" || true
+  --plot "$out/fig4_trajectory.png" --json "$out/fig4_trajectory.json" | grep -A1 "^ATE" || true
 # Fig. 7 needs the full pose graph beside the reduced one: the offline runner maps the same run
 # both ways in one process and draws nodes and update time against time.
 mkdir -p "$out/fig7"
