@@ -86,6 +86,19 @@ TEST(SimConfig, MetaKeysAreIgnoredAndOverridesReplaceValues) {
   EXPECT_EQ(o->sensors.vo.rate_hz, 15.0);
 }
 
+TEST(SimConfig, SetAllAppliesEveryOverrideAndNamesTheBadOne) {
+  auto file = KeyValueFile::parse("seed = 4\n", "x.conf");
+  ASSERT_TRUE(file.ok());
+  ASSERT_TRUE(file->setAll({"seed=6", "vo.rate_hz = 12"}, "--set").ok());
+  auto o = loadSimOptions(*file);
+  ASSERT_TRUE(o.ok()) << o.error().message;
+  EXPECT_EQ(o->seed, 6u);
+  EXPECT_EQ(o->sensors.vo.rate_hz, 12.0);
+  const Status bad = file->setAll({"seed=7", "novalue"}, "--sim-set");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("--sim-set novalue"), std::string::npos) << bad.error().message;
+}
+
 TEST(SimConfig, PrintedConfigurationReadsBackIdentically) {
   SimOptions o;
   o.seed = 123456789012345ull;

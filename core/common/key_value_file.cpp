@@ -169,4 +169,11 @@ Status KeyValueReader::finish(const std::string& ignored_prefix) const {
   return Ok{};
 }
 
+Status KeyValueFile::setAll(const std::vector<std::string>& assignments, const std::string& option) {
+  for (const std::string& a : assignments) {
+    if (Status s = set(a, option + " " + a); !s) return s;
+  }
+  return Ok{};
+}
+
 }  // namespace evermap

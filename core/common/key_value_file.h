@@ -28,6 +28,9 @@ class KeyValueFile {
 
   // Adds or replaces one `key = value` assignment (command-line overrides); `origin` names it.
   Status set(const std::string& assignment, const std::string& origin);
+  // set() for each of a program's repeated `option key=value` arguments, in order; the
+  // origin of each is "option key=value". Stops at the first bad one.
+  Status setAll(const std::vector<std::string>& assignments, const std::string& option);
 
   const Entry* find(const std::string& key) const;
   const std::vector<Entry>& entries() const { return entries_; }

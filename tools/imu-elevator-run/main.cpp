@@ -143,11 +143,9 @@ int printFloorLog(const std::string& file) {
 int runSimulatorCheck(const Args& args) {
   auto file = KeyValueFile::load(args.sim_config);
   if (!file.ok()) { std::fprintf(stderr, "%s\n", file.error().message.c_str()); return 1; }
-  for (const std::string& kv : args.sim_sets) {
-    if (Status st = file->set(kv, "--sim-set"); !st.ok()) {
-      std::fprintf(stderr, "%s\n", st.error().message.c_str());
-      return 1;
-    }
+  if (Status st = file->setAll(args.sim_sets, "--sim-set"); !st.ok()) {
+    std::fprintf(stderr, "%s\n", st.error().message.c_str());
+    return 1;
   }
   auto options = sim::loadSimOptions(*file);
   if (!options.ok()) { std::fprintf(stderr, "%s\n", options.error().message.c_str()); return 1; }

@@ -261,11 +261,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-mapper-run: %s\n", file.error().message.c_str());
     return 1;
   }
-  for (const std::string& s : sets) {
-    if (auto st = file->set(s, "--set " + s); !st) {
-      std::fprintf(stderr, "evermap-mapper-run: %s\n", st.error().message.c_str());
-      return 2;
-    }
+  if (auto st = file->setAll(sets, "--set"); !st) {
+    std::fprintf(stderr, "evermap-mapper-run: %s\n", st.error().message.c_str());
+    return 2;
   }
   auto sim = sim::loadSimOptions(*file);
   if (!sim) {

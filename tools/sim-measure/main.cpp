@@ -278,11 +278,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-sim-measure: %s\n", file.error().message.c_str());
     return 2;
   }
-  for (const std::string& s : args.sets) {
-    if (auto st = file->set(s, "--set " + s); !st) {
-      std::fprintf(stderr, "evermap-sim-measure: %s\n", st.error().message.c_str());
-      return 2;
-    }
+  if (auto st = file->setAll(args.sets, "--set"); !st) {
+    std::fprintf(stderr, "evermap-sim-measure: %s\n", st.error().message.c_str());
+    return 2;
   }
   auto options = evermap::sim::loadSimOptions(*file);
   if (!options) {
