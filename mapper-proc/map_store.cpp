@@ -45,7 +45,9 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file) {
       " floor INTEGER NOT NULL, keyframe_utime INTEGER NOT NULL, pose BLOB NOT NULL);"
       "CREATE TABLE IF NOT EXISTS map_edges (edge_id INTEGER PRIMARY KEY, from_node INTEGER NOT NULL,"
       " to_node INTEGER NOT NULL, kind INTEGER NOT NULL, accepted INTEGER NOT NULL, utime INTEGER NOT NULL,"
-      " pose BLOB NOT NULL, covariance BLOB NOT NULL);";
+      " pose BLOB NOT NULL, covariance BLOB NOT NULL);"
+      "CREATE TABLE IF NOT EXISTS map_attitude (node_id INTEGER PRIMARY KEY, roll_rad REAL NOT NULL,"
+      " pitch_rad REAL NOT NULL, covariance BLOB NOT NULL);";
   if (Status s = store.exec(schema); !s) return s.error();
   Statement st;
   if (sqlite3_prepare_v2(db, "SELECT COALESCE(MAX(edge_id), -1) FROM map_edges", -1, &st.s, nullptr) != SQLITE_OK ||
@@ -86,11 +88,12 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     (void)exec("ROLLBACK");
     return makeError(file_.string(), ": ", what, ": ", m);
   };
-  Statement ses, flo, nod, edg;
+  Statement ses, flo, nod, edg, att;
   if (sqlite3_prepare_v2(db_, "INSERT OR IGNORE INTO map_sessions VALUES (?1, ?2)", -1, &ses.s, nullptr) ||
       sqlite3_prepare_v2(db_, "INSERT OR REPLACE INTO map_floors VALUES (?1, ?2)", -1, &flo.s, nullptr) ||
       sqlite3_prepare_v2(db_, "INSERT OR REPLACE INTO map_nodes VALUES (?1, ?2, ?3, ?4, ?5)", -1, &nod.s, nullptr) ||
-      sqlite3_prepare_v2(db_, "INSERT INTO map_edges VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)", -1, &edg.s, nullptr))
+      sqlite3_prepare_v2(db_, "INSERT INTO map_edges VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)", -1, &edg.s, nullptr) ||
+      sqlite3_prepare_v2(db_, "INSERT OR IGNORE INTO map_attitude VALUES (?1, ?2, ?3, ?4)", -1, &att.s, nullptr))
     return fail("prepare");
   sqlite3_bind_int(ses.s, 1, session);
   sqlite3_bind_int64(ses.s, 2, session_start_utime);
@@ -110,6 +113,14 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     sqlite3_bind_int64(nod.s, 4, n.keyframe_utime);
     sqlite3_bind_blob(nod.s, 5, pose.data(), static_cast<int>(pose.size() * sizeof(double)), SQLITE_TRANSIENT);
     if (sqlite3_step(nod.s) != SQLITE_DONE) return fail("nodes");
+    if (!n.attitude) continue;  // an attitude never changes: stored once
+    const Eigen::Matrix<double, 2, 2, Eigen::RowMajor> cov = n.attitude->covariance;
+    sqlite3_reset(att.s);
+    sqlite3_bind_int64(att.s, 1, n.id);
+    sqlite3_bind_double(att.s, 2, n.attitude->roll_rad);
+    sqlite3_bind_double(att.s, 3, n.attitude->pitch_rad);
+    sqlite3_bind_blob(att.s, 4, cov.data(), 4 * sizeof(double), SQLITE_TRANSIENT);
+    if (sqlite3_step(att.s) != SQLITE_DONE) return fail("attitude");
   }
   const auto& all = mapper.constraints().all();
   for (int64_t id = edges_stored_ + 1; id < static_cast<int64_t>(all.size()); ++id) {
@@ -160,12 +171,33 @@ Expected<MapSnapshot> MapStore::load() const {
     while (sqlite3_step(st.s) == SQLITE_ROW) {
       StoredNode n;
       n.node = MapperNode{sqlite3_column_int64(st.s, 0), sqlite3_column_int64(st.s, 3), sqlite3_column_int(st.s, 2),
-                          sqlite3_column_int(st.s, 1)};
+                          sqlite3_column_int(st.s, 1), std::nullopt};
       auto pose = poseFromBlob(sqlite3_column_blob(st.s, 4), sqlite3_column_bytes(st.s, 4),
                                name + ": node " + std::to_string(n.node.id));
       if (!pose) return pose.error();
       n.world_T_body = *pose;
       out.nodes.push_back(n);
+    }
+  }
+  {
+    Statement st;
+    if (sqlite3_prepare_v2(db_, "SELECT node_id, roll_rad, pitch_rad, covariance FROM map_attitude ORDER BY node_id", -1,
+                           &st.s, nullptr))
+      return makeError(name, ": ", sqlite3_errmsg(db_));
+    while (sqlite3_step(st.s) == SQLITE_ROW) {
+      const int64_t id = sqlite3_column_int64(st.s, 0);
+      const std::string what = name + ": attitude of node " + std::to_string(id);
+      if (id < 0 || id >= static_cast<int64_t>(out.nodes.size()) || out.nodes[static_cast<size_t>(id)].node.id != id)
+        return makeError(what, ": no such node");
+      if (sqlite3_column_bytes(st.s, 3) != 4 * static_cast<int>(sizeof(double)))
+        return makeError(what, ": covariance blob of ", sqlite3_column_bytes(st.s, 3), " bytes");
+      NodeAttitude a;
+      a.roll_rad = sqlite3_column_double(st.s, 1);
+      a.pitch_rad = sqlite3_column_double(st.s, 2);
+      Eigen::Matrix<double, 2, 2, Eigen::RowMajor> cov;
+      std::memcpy(cov.data(), sqlite3_column_blob(st.s, 3), 4 * sizeof(double));
+      a.covariance = cov;
+      out.nodes[static_cast<size_t>(id)].node.attitude = a;
     }
   }
   {

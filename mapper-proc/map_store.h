@@ -13,6 +13,9 @@
 //                              accepted INTEGER NOT NULL, utime INTEGER NOT NULL,
 //                              pose BLOB NOT NULL,         -- from_T_to, as above
 //                              covariance BLOB NOT NULL);  -- 36 f64, row-major, (υ, ω)
+//   CREATE TABLE map_attitude (node_id INTEGER PRIMARY KEY, roll_rad REAL NOT NULL,
+//                              pitch_rad REAL NOT NULL,
+//                              covariance BLOB NOT NULL);  -- 4 f64, row-major, (roll, pitch)
 //
 // Every constraint is an edge (accepted or rejected, DESIGN.md section 3); node poses are
 // the latest estimates and are rewritten in the transaction of each update.

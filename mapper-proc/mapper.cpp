@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <sstream>
+#include <utility>
 
 #include <Eigen/Cholesky>
 
@@ -55,7 +56,7 @@ std::string MapperStats::text() const {
     << rejected_inconsistent << "\nrequests_node " << requests_node << "\nrequests_global "
     << requests_global << "\nregistrations_ok " << registrations_ok << "\nloop_closures "
     << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept
-    << "\nrejected_map_gate " << rejected_map_gate << "\nrelocalizations " << relocalizations
+    << "\nrejected_map_gate " << rejected_map_gate << "\ngate_recoveries " << gate_recoveries << "\nrelocalizations " << relocalizations
     << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrelocalization_disagreements " << relocalization_disagreements << "\nrestored_nodes " << restored_nodes
     << "\nrestored_constraints " << restored_constraints << "\n";
   return s.str();
@@ -94,6 +95,7 @@ void Mapper::startSession(int64_t utime) {
   // re-localises it (DESIGN.md section 3).
   lost_ = true;
   relocalization_candidate_.reset();
+  rejected_candidate_.reset();
   ++session_;
   session_start_utime_ = utime;
 }
@@ -263,19 +265,16 @@ int64_t Mapper::addNode(int64_t keyframe_utime, const core::UncertainPose& activ
     pending_pairs_.emplace_back(-1, -1);
     pending_factor_slot_.push_back(pending_update_.new_factors.size() - 1);
   }
+  MapperNode node{id, keyframe_utime, floor_, session_, std::nullopt};
   if (o_.attitude_factors && attitude_ && keyframe_utime - attitude_->utime <= micros(1.0)) {
-    Eigen::Matrix2d cov;
-    cov << attitude_->covariance[0], attitude_->covariance[1], attitude_->covariance[2], attitude_->covariance[3];
-    const Eigen::Matrix2d info = cov.inverse();
-    Eigen::LLT<Eigen::Matrix2d> llt(0.5 * (info + info.transpose()));
-    if (llt.info() == Eigen::Success) {
-      pending_update_.new_factors.push_back(std::make_shared<solver::RollPitchFactor>(
-          id, attitude_->roll_rad, attitude_->pitch_rad, Eigen::MatrixXd(llt.matrixU())));
-      pending_pairs_.emplace_back(-1, -1);
-      pending_factor_slot_.push_back(pending_update_.new_factors.size() - 1);
-    }
+    NodeAttitude a;
+    a.roll_rad = attitude_->roll_rad;
+    a.pitch_rad = attitude_->pitch_rad;
+    a.covariance << attitude_->covariance[0], attitude_->covariance[1], attitude_->covariance[2],
+        attitude_->covariance[3];
+    if (addAttitudeFactor(id, a)) node.attitude = a;
   }
-  nodes_.push_back(MapperNode{id, keyframe_utime, floor_, session_});
+  nodes_.push_back(node);
   node_added_t msg{};
   msg.utime = keyframe_utime;
   msg.node_id = id;
@@ -286,6 +285,17 @@ int64_t Mapper::addNode(int64_t keyframe_utime, const core::UncertainPose& activ
   active_ = id;
   ++stats_.nodes;
   return id;
+}
+
+bool Mapper::addAttitudeFactor(int64_t id, const NodeAttitude& a) {
+  const Eigen::Matrix2d info = a.covariance.inverse();
+  Eigen::LLT<Eigen::Matrix2d> llt(0.5 * (info + info.transpose()));
+  if (!a.covariance.allFinite() || llt.info() != Eigen::Success) return false;
+  pending_update_.new_factors.push_back(
+      std::make_shared<solver::RollPitchFactor>(id, a.roll_rad, a.pitch_rad, Eigen::MatrixXd(llt.matrixU())));
+  pending_pairs_.emplace_back(-1, -1);
+  pending_factor_slot_.push_back(pending_update_.new_factors.size() - 1);
+  return true;
 }
 
 void Mapper::flushSolver() {
@@ -452,7 +462,7 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     // One global match may be a false one, and nothing in the map could contradict a wrong
     // placement of the whole session afterwards: the session is placed only when two
     // registrations, chained by odometry, agree on where it is.
-    if (!confirmsRelocalization(b, b_T_q, f.keyframe_utime)) {
+    if (!confirmsRelocalization(b, b_T_q, f.keyframe_utime, relocalization_candidate_)) {
       relocalization_candidate_ = RelocalizationCandidate{b, b_T_q, f.keyframe_utime};
       return;
     }
@@ -476,12 +486,18 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
   }
   *registered = true;
   if (b == f.active) {
-    // A registration that contradicts the tracked Δ is not trusted with it (a false match).
+    // A registration that contradicts the tracked Δ is not trusted with it (a false match),
+    // unless a second one confirms it: then Δ is what was wrong, and it is replaced.
     if (o_.map_gate > 0 && ConstraintSet::mahalanobis2(f.delta_at_keyframe, b_T_q) > o_.map_gate) {
-      ++stats_.rejected_map_gate;
-      *registered = false;
-      return;
+      if (!confirmsRejected(b, b_T_q, f.keyframe_utime)) {
+        ++stats_.rejected_map_gate;
+        gate_rejected_ = true;
+        *registered = false;
+        return;
+      }
+      relocalize_ = true;
     }
+    rejected_candidate_.reset();
     // Entropy test of section III-B.3: keep the better-determined estimate of Δ.
     if (relocalize_ || f.delta_at_keyframe.covariance.determinant() > b_T_q.covariance.determinant()) {
       tracker_.reset(core::compound(b_T_q, *q_T_now));
@@ -493,11 +509,13 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     return;
   }
   const core::UncertainPose a_T_b = core::compound(f.delta_at_keyframe, core::invert(b_T_q));
-  if (!consistentWithMap(f.active, b, a_T_b)) {
+  if (!consistentWithMap(f.active, b, a_T_b) && !confirmsRejected(b, b_T_q, f.keyframe_utime)) {
     ++stats_.rejected_map_gate;
+    gate_rejected_ = true;
     *registered = false;
     return;
   }
+  rejected_candidate_.reset();
   const size_t rejected_before = constraints_.rejected();
   // The chain active → keyframe → b, compounded (eq. 6-7): a constraint between existing nodes.
   addConstraint(f.active, b, a_T_b, ConstraintKind::kLoop, f.keyframe_utime);
@@ -512,9 +530,27 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
   relocalize_ = true;
 }
 
-bool Mapper::confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime) {
-  if (!relocalization_candidate_) return false;
-  const RelocalizationCandidate c = *relocalization_candidate_;
+bool Mapper::confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime) {
+  // A registration the gate rejects says either that it is a false match or that the map's
+  // idea of where the robot is (Δ, or the chain of nodes made since the last closure) went
+  // wrong, e.g. after a VO failure longer than its covariance admits. Two rejected
+  // registrations that agree with each other through odometry tell the two apart: false
+  // matches do not agree. Without this a wrong chain rejects every later closure, and the
+  // mapper adds nodes over mapped places until the session ends.
+  const bool agree = confirmsRelocalization(b, b_T_q, keyframe_utime, rejected_candidate_);
+  if (agree) {
+    ++stats_.gate_recoveries;
+    rejected_candidate_.reset();
+  } else {
+    rejected_candidate_ = RelocalizationCandidate{b, b_T_q, keyframe_utime};
+  }
+  return agree;
+}
+
+bool Mapper::confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime,
+                                    const std::optional<RelocalizationCandidate>& candidate) {
+  if (!candidate) return false;
+  const RelocalizationCandidate c = *candidate;
   const auto c_T_now = tracker_.sinceKeyframe(c.keyframe_utime);
   const auto q_T_now = tracker_.sinceKeyframe(keyframe_utime);
   if (!c_T_now || !q_T_now) return false;  // too old: the newer one becomes the candidate
@@ -559,6 +595,7 @@ bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& 
 void Mapper::finishStep(bool registered) {
   const InFlight f = *in_flight_;
   in_flight_.reset();
+  const bool gate_rejected = std::exchange(gate_rejected_, false);
   const auto t0 = Clock::now();
   if (lost_) {
     // Not re-localised yet: neither a node nor a step pose from a meaningless Δ.
@@ -566,7 +603,9 @@ void Mapper::finishStep(bool registered) {
     stats_.timing.step_cost.push_back({f.keyframe_utime, step_cost_s_ + secondsSince(t0)});
     return;
   }
-  if (!registered && !o_.full_graph) {
+  // A registration the gate rejected still says a node is near (or it is a false match, and
+  // the next step adds the node): no new node at this step.
+  if (!registered && !gate_rejected && !o_.full_graph) {
     const core::SE3d world_T_body = nodePose(f.active) * f.delta_at_keyframe.mean;
     if (!nodeInCell(cellOf(world_T_body, floor_), f.keyframe_utime)) {
       // A new place (eq. 8): the node at the keyframe, then Δ restarts from it.
@@ -608,7 +647,9 @@ Status Mapper::restore(const MapSnapshot& map) {
       pending_pairs_.emplace_back(-1, -1);
       pending_factor_slot_.push_back(pending_update_.new_factors.size() - 1);
     }
-    nodes_.push_back(n.node);
+    MapperNode node = n.node;
+    if (node.attitude && !(o_.attitude_factors && addAttitudeFactor(node.id, *node.attitude))) node.attitude.reset();
+    nodes_.push_back(node);
   }
   const auto n_nodes = static_cast<int64_t>(nodes_.size());
   for (size_t k = 0; k < map.edges.size(); ++k) {

@@ -13,6 +13,9 @@
 //      makes b active with Δ = b_T_q ⊕ q_T_now;
 //   4. with no registration, a node is added if the estimate x_a ⊕ Δ falls in a
 //      (floor, x, y, heading) cell with no node (eq. 8); it becomes active, Δ restarts.
+// A registration that contradicts the map or Δ beyond map_gate is rejected (a false match),
+// and its step adds no node; when the next rejected one agrees with it through odometry,
+// both were right and the map or Δ was wrong: it is accepted after all (gate_recoveries).
 // Full pose graph mode adds a node at every step before step 1, registers against nodes
 // other than the recent ones, and never switches the active node.
 //
@@ -30,6 +33,8 @@
 #include <string>
 #include <unordered_map>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include <evermap/attitude_t.hpp>
 #include <evermap/floor_t.hpp>
@@ -86,11 +91,19 @@ struct MapperOptions {
   Status validate() const;
 };
 
+// The IMU's roll and pitch at a node's keyframe (imu-proc's ATTITUDE): its partial factor.
+struct NodeAttitude {
+  double roll_rad = 0.0;
+  double pitch_rad = 0.0;
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();  // rad², (roll, pitch)
+};
+
 struct MapperNode {
   int64_t id = 0;
   int64_t keyframe_utime = 0;
   int floor = 0;
   int session = 0;
+  std::optional<NodeAttitude> attitude;  // when the node has a roll/pitch factor
 };
 
 // Per-component time (wall clock, measurement only: never an input to the algorithm).
@@ -124,6 +137,7 @@ struct MapperStats {
   int64_t delta_replaced = 0;     // active-node registrations that replaced Δ
   int64_t delta_kept = 0;         // ... that lost the det(Σ) test
   int64_t rejected_map_gate = 0;  // registrations that contradicted the map or Δ
+  int64_t gate_recoveries = 0;    // ... accepted after all: a second one agreed with them
   int64_t relocalizations = 0;   // a new session tied to the map by a global registration
   int64_t relocalization_disagreements = 0;  // a lost session's registrations that disagreed
   int64_t timeouts = 0;
@@ -141,8 +155,8 @@ class Mapper {
   // Continues a stored map (map_store.h) before any message: its floors, its nodes at their
   // stored estimates, and every stored constraint replayed through the constraint set in
   // stored order (merges and rejections come out as they did), then one solver batch. The
-  // origin prior goes on node 0 and height factors on every node; roll/pitch factors are not
-  // stored. The mapper is then in a new session (one past the highest stored) and lost: only
+  // origin prior goes on node 0, height factors on every node and the stored roll/pitch
+  // factors on their nodes. The mapper is then in a new session (one past the highest stored) and lost: only
   // global registrations until one places it on the map. Errors: a mapper that already has
   // nodes, node or edge ids that are not 0..n-1 in order, an edge naming an unknown node.
   Status restore(const MapSnapshot& map);
@@ -200,10 +214,19 @@ class Mapper {
   void handleRegistration(const register_result_t& msg, const InFlight& f, const core::Mat6& cam_cov,
                           bool* registered);
   int64_t addNode(int64_t keyframe_utime, const core::UncertainPose& active_T_node);
+  // The partial factor of IMU roll and pitch on a node (false: a covariance it cannot use).
+  bool addAttitudeFactor(int64_t id, const NodeAttitude& attitude);
   void addConstraint(int64_t from, int64_t to, const core::UncertainPose& from_T_to,
                      ConstraintKind kind, int64_t utime);
   bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b);
-  bool confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime);
+  struct RelocalizationCandidate;
+  // Whether the registration b_T_q of the keyframe agrees, chained by odometry, with an
+  // earlier one (candidate) on where the robot is.
+  bool confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime,
+                              const std::optional<RelocalizationCandidate>& candidate);
+  // A registration the map gate rejects: true when it confirms the previous rejected one
+  // (then both were right and the map or Δ was wrong); otherwise it becomes the candidate.
+  bool confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime);
   void flushSolver();
   void consolidatePairs();
   void rebuildCells();
@@ -247,6 +270,9 @@ class Mapper {
     int64_t keyframe_utime;
   };
   std::optional<RelocalizationCandidate> relocalization_candidate_;
+  // The last registration the map gate rejected, waiting for a second one that agrees.
+  std::optional<RelocalizationCandidate> rejected_candidate_;
+  bool gate_rejected_ = false;  // the step in flight had a registration the gate rejected
   int floor_ = 0;
   double floor_height_m_ = 0.0;
   std::map<int, double> floors_;

@@ -168,6 +168,17 @@ class ScriptedDrive {
       frame(next);
     }
   }
+  // The robot slides `dx` metres along x without VO seeing it (a wheel slip VO missed, a
+  // kidnapping): VO reports no motion, with its usual confidence.
+  void slip(double dx) {
+    utime_ += 100000;
+    const SE3d next(pose_.so3(), pose_.translation() + Vec3(dx, 0, 0));
+    EXPECT_TRUE(mapper_.onVo(voMsg(utime_, utime_ - 100000, SE3d(), 1e-3, true)));
+    pose_ = next;
+    truth_[utime_] = next;
+    answer();
+  }
+  const SE3d& truePose() const { return pose_; }
   Mapper& mapper() { return mapper_; }
   // The robot is off for `seconds` and starts again where it stopped, VO from a new
   // keyframe; the new session's FLOOR message arrives only when `announce`.
@@ -303,6 +314,28 @@ TEST(ReducedGraph, ActiveNodeRegistrationReplacesDeltaOnlyWhenItIsMoreCertain) {
   const auto& b = blurred.mapper().stats();
   EXPECT_GT(b.delta_kept, 10);
   EXPECT_LE(b.delta_replaced, b.loop_closures);
+}
+
+TEST(ReducedGraph, RecoversWhenTwoRegistrationsAgreeAgainstAWrongDelta) {
+  // A mapped corridor, then an unseen 0.6 m slip: Δ (confident, wrong) contradicts every
+  // registration. The first is rejected as a possible false match; the second agrees with it
+  // through odometry, so Δ is what was wrong. Without that the mapper would reject every
+  // later registration and add nodes over the mapped corridor.
+  ScriptedDrive drive(scriptedOptions(), 1e-6);
+  lap(drive);
+  drive.driveTo(3.0, 0.0);
+  const size_t nodes_before = drive.mapper().nodes().size();
+  drive.slip(0.6);
+  drive.driveTo(8.0, 0.0);
+  drive.driveTo(8.0, std::numbers::pi);
+  drive.driveTo(0.0, std::numbers::pi);
+  const auto& s = drive.mapper().stats();
+  EXPECT_GE(s.rejected_map_gate, 1);
+  EXPECT_GE(s.gate_recoveries, 1);
+  EXPECT_LE(drive.mapper().nodes().size(), nodes_before + 1);
+  // The map's origin is the first frame, 0.1 m along x.
+  const SE3d estimate = drive.mapper().pose().mean;
+  EXPECT_LT((estimate.translation() - (drive.truePose().translation() - Vec3(0.1, 0, 0))).norm(), 0.05);
 }
 
 TEST(Mapper, ALongGapInVoStartsOneSessionEvenWhenItsFloorMessageIsLost) {

@@ -4,9 +4,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
+#include <tuple>
 
 #include "core/sim/building.h"
 #include "core/sim/motion.h"
+#include "core/sim/run.h"
 #include "sim_test_support.h"
 
 namespace evermap::sim {
@@ -117,6 +120,42 @@ TEST(SimMotion, SessionsMoveContinuouslyAlongPassages) {
   }
   EXPECT_NEAR(driven, s.distance_m, 0.01 * s.distance_m);
   EXPECT_GT(s.rides.size(), 0u);
+}
+
+TEST(SimMotion, ExplorationToursDriveEveryPassageBothWays) {
+  SimOptions o = testing::smallRun(31);
+  o.patrol.explore_tours = true;
+  o.patrol.explore_sessions = 2;
+  const auto plan = RunPlan::create(o);
+  ASSERT_TRUE(plan.ok());
+  const Building& b = plan->building();
+  // Directed passages driven in the exploration sessions, per floor, as place pairs.
+  std::set<std::tuple<int, int, int>> driven;
+  auto placeAt = [&](int floor, const Vec2& p) {
+    const Floor& f = b.floors[floor];
+    for (size_t i = 0; i < f.places.size(); ++i)
+      if ((f.places[i].xy - p).norm() < 1e-9) return static_cast<int>(i);
+    return -1;
+  };
+  for (int k = 0; k < o.patrol.explore_sessions; ++k) {
+    const SessionPlan s = plan->session(k);
+    const auto& segments = dynamic_cast<const SegmentTrajectory&>(*s.trajectory).segments();
+    for (const Segment& g : segments) {
+      if (g.kind == Segment::Kind::kDrive) driven.emplace(g.floor, placeAt(g.floor, g.from), placeAt(g.floor, g.to));
+    }
+  }
+  // Every passage between places other than the cab, on every floor, both ways.
+  int passages = 0;
+  for (const Floor& f : b.floors) {
+    for (size_t i = 0; i < f.places.size(); ++i) {
+      for (const Passage& e : f.passages[i]) {
+        if (static_cast<int>(i) == f.cab_place || e.to == f.cab_place) continue;
+        ++passages;
+        EXPECT_TRUE(driven.count({f.index, static_cast<int>(i), e.to})) << "floor " << f.index << ": " << i << " -> " << e.to;
+      }
+    }
+  }
+  EXPECT_GT(passages, 20);
 }
 
 TEST(SimMotion, SameSeedPlansTheSameBuildingAndSessions) {

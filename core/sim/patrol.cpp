@@ -52,9 +52,45 @@ class SessionBuilder {
   }
 
   // Drives along the shortest path to `goal` on the current floor.
-  void driveTo(int goal) {
+  void driveTo(int goal) { drivePath(b_.floors[floor_].shortestPath(place_, goal)); }
+
+  // Drives every passage between places of `allowed` (on the current floor, reachable from
+  // here) once in each direction and comes back: Hierholzer's algorithm on the doubled
+  // passage graph, whose in- and out-degrees are equal at every place, so the circuit exists.
+  // The next passage out of a place is drawn at random among those not driven yet.
+  void explore(const std::vector<int>& allowed) {
     const Floor& f = b_.floors[floor_];
-    const std::vector<int> path = f.shortestPath(place_, goal);
+    std::vector<char> in(f.places.size(), 0);
+    for (int p : allowed) in[static_cast<size_t>(p)] = 1;
+    if (!in[static_cast<size_t>(place_)]) return;
+    std::vector<std::vector<int>> out(f.places.size());
+    for (size_t p = 0; p < f.places.size(); ++p) {
+      if (!in[p]) continue;
+      for (const Passage& q : f.passages[p]) {
+        if (in[static_cast<size_t>(q.to)]) out[p].push_back(q.to);
+      }
+      for (size_t k = out[p].size(); k > 1; --k) std::swap(out[p][k - 1], out[p][rng_.index(static_cast<int64_t>(k))]);
+    }
+    std::vector<size_t> next(f.places.size(), 0);
+    std::vector<int> stack{place_}, circuit;
+    while (!stack.empty()) {
+      const auto v = static_cast<size_t>(stack.back());
+      if (next[v] < out[v].size()) {
+        stack.push_back(out[v][next[v]++]);
+      } else {
+        circuit.push_back(stack.back());
+        stack.pop_back();
+      }
+    }
+    std::reverse(circuit.begin(), circuit.end());
+    drivePath(circuit);
+  }
+
+  // Drives from place to place along `path` (consecutive places joined by a passage),
+  // turning in place at each.
+  void drivePath(const std::vector<int>& path) {
+    if (path.empty()) return;
+    const Floor& f = b_.floors[floor_];
     const double speed = p_.drive_speed_mps * rng_.uniform(0.85, 1.15);
     for (size_t i = 1; i < path.size(); ++i) {
       const Vec2 from = f.places[path[i - 1]].xy;
@@ -72,7 +108,7 @@ class SessionBuilder {
       xy_ = to;
       odometer_ += length;
     }
-    place_ = goal;
+    place_ = path.back();
   }
 
   void elevatorTrip(int target) {
@@ -279,8 +315,10 @@ std::vector<SessionSlot> scheduleSessions(const Building& building, const Patrol
     if (static_cast<int>(f) != building.main_floor) others.push_back(static_cast<int>(f));
   }
   for (size_t k = others.size(); k > 1; --k) std::swap(others[k - 1], others[rng.index(static_cast<int64_t>(k))]);
+  // With exploration tours the first visits fall in the exploration sessions.
+  const int spread = p.explore_tours ? std::min(p.sessions, p.explore_sessions) : p.sessions;
   for (size_t k = 0; k < others.size(); ++k) {
-    const int session = p.sessions == 1 ? 0 : 1 + static_cast<int>(k % (p.sessions - 1));
+    const int session = spread <= 1 ? 0 : 1 + static_cast<int>(k % (spread - 1));
     slots[session].must_visit.push_back(others[k]);
   }
   return slots;
@@ -292,6 +330,7 @@ SessionPlan planSession(const Building& b, const PatrolOptions& p, const Elevato
   s.start(b.main_floor, b.home_place, rng.uniform(-kPi, kPi));
   s.wait(2.0, false);  // the sensors settle before the robot moves
   const std::vector<int> explored = exploredPlaces(b, p, index);
+  if (p.explore_tours && index < p.explore_sessions) s.explore(explored);
   std::vector<int> must = slot.must_visit;
   const double deadline = slot.duration_s;
   // Floors this session must visit are visited even if that overruns the nominal length.
@@ -304,9 +343,11 @@ SessionPlan planSession(const Building& b, const PatrolOptions& p, const Elevato
       continue;
     }
     int target;
+    bool first_visit = false;
     if (!must.empty()) {
       target = must.front();
       must.erase(must.begin());
+      first_visit = p.explore_tours;
     } else {
       do {
         target = static_cast<int>(rng.index(static_cast<int64_t>(b.floors.size())));
@@ -314,7 +355,8 @@ SessionPlan planSession(const Building& b, const PatrolOptions& p, const Elevato
     }
     s.elevatorTrip(target);
     // A visit lasts its patrol even past the deadline: the robot does not abandon a floor.
-    s.patrol(goalPlaces(b.floors[target]), goals, s.now() + deadline);
+    if (first_visit) s.explore(goalPlaces(b.floors[target]));
+    else s.patrol(goalPlaces(b.floors[target]), goals, s.now() + deadline);
     s.elevatorTrip(b.main_floor);
   }
   s.driveTo(b.home_place);

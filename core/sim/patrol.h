@@ -8,6 +8,12 @@
 // places, pausing at goals). Early sessions only reach the part of the main floor nearest to
 // home, a growing share each session, so the map keeps growing for a while as in the paper's
 // Fig. 7. Each other floor is visited at least once over the run; more visits happen at random.
+// With explore_tours, the building is explored in the first explore_sessions sessions the way
+// a robot is driven around a new building: each of those sessions starts with a tour of the
+// part of the main floor open to it, and each other floor's first visit (scheduled in
+// sessions 1 .. explore_sessions - 1) is a tour of that floor; a tour drives every passage
+// once in each direction (an Euler circuit of the doubled passage graph), so every place has
+// been seen from both ways along every corridor before the later patrols.
 // An elevator trip: wait at the lobby, drive into the cab, turn to face the door, wait for the
 // door, ride (sometimes with an intermediate stop: the robot does not choose where the cab
 // stops, section IV-F), wait, drive out.
@@ -38,6 +44,7 @@ struct PatrolOptions {
   int goals_max = 8;
   double other_floor_probability = 0.08;  // per patrol, beyond the visits that cover every floor
   int explore_sessions = 4;            // the whole main floor is reachable from this session on
+  bool explore_tours = false;          // tours of the main floor and first visits (see above)
   double roughness_rad = 0.005;        // amplitude of floor-induced roll and pitch
 
   Status validate() const;

@@ -46,6 +46,7 @@ void visitOptions(Options& o, Visitor&& v) {
   v("patrol.goals_max", &p.goals_max);
   v("patrol.other_floor_probability", &p.other_floor_probability);
   v("patrol.explore_sessions", &p.explore_sessions);
+  v("patrol.explore_tours", &p.explore_tours);
   v("patrol.roughness_rad", &p.roughness_rad);
   auto& e = o.elevator;
   v("elevator.accel_min_mps2", &e.accel_min_mps2);
