@@ -2,57 +2,34 @@
 // process, deterministically (vo-proc/offline_runner.h). Writes the trajectory in TUM format
 // and per-frame statistics as CSV.
 #include <cstdio>
-#include <cstdlib>
 #include <string>
 #include <vector>
 
+#include "core/common/command_line.h"
 #include "vo-proc/offline_runner.h"
-
-namespace {
-
-constexpr const char* kUsage =
-    "usage: evermap-vo-run [options] LOG TRAJECTORY.tum\n"
-    "  LOG                 LCM log with STEREO_CALIB and STEREO (evermap-euroc2lcm output)\n"
-    "  TRAJECTORY.tum      poses of the frames VO tracked, TUM format\n"
-    "  --body              body (IMU) frame poses instead of the left camera's\n"
-    "  --stats FILE.csv    per-frame statistics\n"
-    "  --output-log FILE   the VO_DELTA and KEYFRAME messages, as an LCM log\n"
-    "  --max-frames N      stop after N stereo frames\n"
-    "  --keyframe-inliers N  new keyframe below N inliers (default 150)\n"
-    "  --no-descriptors    no ORB descriptors at keyframes\n";
-
-}  // namespace
 
 int main(int argc, char** argv) {
   evermap::vo::OfflineOptions options;
-  std::string stats;
+  std::string stats, output_log;
   std::vector<std::string> positional;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--body") {
-      options.body_frame = true;
-    } else if (a == "--stats" && i + 1 < argc) {
-      stats = argv[++i];
-    } else if (a == "--output-log" && i + 1 < argc) {
-      options.output_log = argv[++i];
-    } else if (a == "--max-frames" && i + 1 < argc) {
-      options.max_frames = std::atoll(argv[++i]);
-    } else if (a == "--keyframe-inliers" && i + 1 < argc) {
-      options.pipeline.odometry.keyframe_inlier_threshold = std::atoi(argv[++i]);
-    } else if (a == "--no-descriptors") {
-      options.pipeline.odometry.keyframe_descriptors = false;
-    } else if (a == "-h" || a == "--help") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "evermap-vo-run: unknown option %s\n%s", a.c_str(), kUsage);
-      return 2;
-    } else {
-      positional.push_back(a);
-    }
-  }
+  bool no_descriptors = false;
+  evermap::CommandLine cli("evermap-vo-run",
+                           "Visual odometry over an LCM log, in one process; writes the trajectory (TUM).");
+  cli.positional(&positional, "LOG TRAJECTORY.tum",
+                 "the LCM log with STEREO_CALIB and STEREO (evermap-euroc2lcm output); the TUM file of the tracked frames");
+  cli.flag("--body", &options.body_frame, "body (IMU) frame poses instead of the left camera's");
+  cli.value("--stats", &stats, "FILE.csv", "per-frame statistics");
+  cli.value("--output-log", &output_log, "FILE", "the VO_DELTA and KEYFRAME messages, as an LCM log");
+  cli.value("--max-frames", &options.max_frames, "N", "stop after N stereo frames");
+  cli.value("--keyframe-inliers", &options.pipeline.odometry.keyframe_inlier_threshold, "N",
+            "new keyframe below N inliers (default 150)");
+  cli.flag("--no-descriptors", &no_descriptors, "no ORB descriptors at keyframes");
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  if (no_descriptors) options.pipeline.odometry.keyframe_descriptors = false;
+  options.output_log = output_log;
   if (positional.size() != 2) {
-    std::fputs(kUsage, stderr);
+    std::fprintf(stderr, "evermap-vo-run: expected LOG and TRAJECTORY.tum, got %zu words (--help)\n",
+                 positional.size());
     return 2;
   }
   const auto summary = evermap::vo::runOffline(positional[0], options);
