@@ -3,14 +3,15 @@
 // none), prints ATE, RPE and optionally the KITTI drift, and writes JSON and a top-view plot.
 // Exit status: 0 done, 1 bad input (the message names it), 2 bad command line.
 
-#include <charconv>
+#include <cmath>
 #include <cstdio>
-#include <cstring>
+#include <limits>
 #include <optional>
 #include <string>
 
-#include "core/eval/evaluation.h"
+#include "core/common/command_line.h"
 #include "core/common/number_text.h"
+#include "core/eval/evaluation.h"
 #include "core/eval/plot.h"
 #include "core/eval/report.h"
 
@@ -19,98 +20,74 @@ namespace {
 using namespace evermap;
 using namespace evermap::eval;
 
-constexpr const char* kUsage =
-    "usage: evermap-eval --gt FILE --est FILE [options]\n"
-    "  --gt-format, --est-format tum|kitti|euroc   (default: guessed from extension/content)\n"
-    "  --gt-times FILE, --est-times FILE   stamps for a KITTI pose file (default: line index,\n"
-    "                                      in seconds)\n"
-    "  --align se3|sim3|first|none   Umeyama alignment of the estimate (default se3); first:\n"
-    "                          put the first estimated pose on the first ground-truth pose\n"
-    "  --max-dt S              largest stamp difference of a pair, seconds (default 0.02)\n"
-    "  --rpe-frames N | --rpe-distance M   RPE step (default 1 frame)\n"
-    "  --kitti-drift           KITTI devkit drift over 100..800 m segments\n"
-    "  --json OUT.json         write the figures as JSON\n"
-    "  --plot OUT.png|OUT.svg  top view of ground truth and aligned estimate\n"
-    "  --plot-plane auto|xy|xz|yz   plane of the top view (default auto)\n";
-
-struct CommandLine {
+struct Arguments {
   std::string gt, est, gt_times, est_times, json, plot;
   std::optional<TrajectoryFormat> gt_format, est_format;
   PlotPlane plane = PlotPlane::kAuto;
   EvaluationOptions options;
 };
 
-bool parseDouble(const std::string& s, double* out) {
-  auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), *out);
-  return ec == std::errc() && p == s.data() + s.size();
-}
-
-bool parseInt(const std::string& s, int* out) {
-  auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), *out);
-  return ec == std::errc() && p == s.data() + s.size();
-}
-
-// Parses argv; on a usage error prints it and returns nullopt.
-std::optional<CommandLine> parse(int argc, char** argv) {
-  CommandLine c;
-  bool rpe_frames = false, rpe_distance = false;
-  auto fail = [](const std::string& why) {
-    std::fprintf(stderr, "evermap-eval: %s\n%s", why.c_str(), kUsage);
-    return std::nullopt;
-  };
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") {
-      std::fputs(kUsage, stdout);
-      std::exit(0);
-    }
-    if (a == "--kitti-drift") {
-      c.options.kitti_drift = true;
-      continue;
-    }
-    if (i + 1 >= argc) return fail(a + " needs a value");
-    const std::string v = argv[++i];
-    if (a == "--gt") {
-      c.gt = v;
-    } else if (a == "--est") {
-      c.est = v;
-    } else if (a == "--gt-times") {
-      c.gt_times = v;
-    } else if (a == "--est-times") {
-      c.est_times = v;
-    } else if (a == "--json") {
-      c.json = v;
-    } else if (a == "--plot") {
-      c.plot = v;
-    } else if (a == "--gt-format" || a == "--est-format") {
+// Parses argv: -1 to run, or the exit status (0 after --help, 2 after a bad command line).
+int parse(int argc, char** argv, Arguments* c) {
+  evermap::CommandLine cli("evermap-eval",
+                           "Compares an estimated trajectory with ground truth: ATE, RPE, KITTI drift.");
+  auto format = [](std::optional<TrajectoryFormat>* out) {
+    return [out](const std::string& v) -> Status {
       auto f = parseTrajectoryFormat(v);
-      if (!f) return fail(f.error().message);
-      (a == "--gt-format" ? c.gt_format : c.est_format) = *f;
-    } else if (a == "--align") {
-      auto m = parseAlignmentMode(v);
-      if (!m) return fail(m.error().message);
-      c.options.alignment = *m;
-    } else if (a == "--plot-plane") {
-      auto p = parsePlotPlane(v);
-      if (!p) return fail(p.error().message);
-      c.plane = *p;
-    } else if (a == "--max-dt") {
-      if (!parseDouble(v, &c.options.association.max_dt_s)) return fail("bad --max-dt " + v);
-    } else if (a == "--rpe-frames") {
-      if (!parseInt(v, &c.options.rpe.delta_frames)) return fail("bad --rpe-frames " + v);
-      rpe_frames = true;
-    } else if (a == "--rpe-distance") {
-      if (!parseDouble(v, &c.options.rpe.delta_distance_m)) return fail("bad --rpe-distance " + v);
-      c.options.rpe.delta_frames = 0;
-      rpe_distance = true;
-    } else {
-      return fail("unknown option " + a);
-    }
+      if (!f) return f.error();
+      *out = *f;
+      return Ok{};
+    };
+  };
+  cli.value("--gt", &c->gt, "FILE", "ground truth (TUM, KITTI or EuRoC)", true);
+  cli.value("--est", &c->est, "FILE", "the estimate (TUM, KITTI or EuRoC)", true);
+  cli.value("--gt-format", format(&c->gt_format), "tum|kitti|euroc", "default: guessed from extension/content");
+  cli.value("--est-format", format(&c->est_format), "tum|kitti|euroc", "default: guessed from extension/content");
+  cli.value("--gt-times", &c->gt_times, "FILE", "stamps for a KITTI pose file (default: line index, in seconds)");
+  cli.value("--est-times", &c->est_times, "FILE", "the same for the estimate");
+  cli.value(
+      "--align",
+      [c](const std::string& v) -> Status {
+        auto m = parseAlignmentMode(v);
+        if (!m) return m.error();
+        c->options.alignment = *m;
+        return Ok{};
+      },
+      "se3|sim3|first|none",
+      "Umeyama alignment of the estimate (default se3); first: the first estimated pose on the first ground-truth pose");
+  cli.value("--max-dt", &c->options.association.max_dt_s, "S", "largest stamp difference of a pair, seconds (default 0.02)");
+  // Not given: the sentinels (the command line refuses NaN, and no one types INT_MIN frames).
+  int rpe_frames = std::numeric_limits<int>::min();
+  double rpe_distance = std::numeric_limits<double>::quiet_NaN();
+  cli.value("--rpe-frames", &rpe_frames, "N", "RPE step in frames (default 1)");
+  cli.value("--rpe-distance", &rpe_distance, "M", "RPE step in metres");
+  cli.flag("--kitti-drift", &c->options.kitti_drift, "KITTI devkit drift over 100..800 m segments");
+  cli.value("--json", &c->json, "OUT.json", "write the figures as JSON");
+  cli.value("--plot", &c->plot, "OUT.png|OUT.svg", "top view of ground truth and aligned estimate");
+  cli.value(
+      "--plot-plane",
+      [c](const std::string& v) -> Status {
+        auto p = parsePlotPlane(v);
+        if (!p) return p.error();
+        c->plane = *p;
+        return Ok{};
+      },
+      "auto|xy|xz|yz", "plane of the top view (default auto)");
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  const bool by_frames = rpe_frames != std::numeric_limits<int>::min(), by_distance = !std::isnan(rpe_distance);
+  if (by_frames) c->options.rpe.delta_frames = rpe_frames;
+  if (by_distance) {
+    c->options.rpe.delta_frames = 0;
+    c->options.rpe.delta_distance_m = rpe_distance;
   }
-  if (c.gt.empty() || c.est.empty()) return fail("--gt and --est are required");
-  if (rpe_frames && rpe_distance) return fail("give --rpe-frames or --rpe-distance, not both");
-  if (Status s = c.options.validate(); !s) return fail(s.error().message);
-  return c;
+  std::string bad;
+  if (by_frames && by_distance) bad = "give --rpe-frames or --rpe-distance, not both";
+  if (Status s = c->options.validate(); bad.empty() && !s) bad = s.error().message;
+  if (!bad.empty()) {
+    std::fprintf(stderr, "evermap-eval: %s (--help)\n", bad.c_str());
+    return 2;
+  }
+  return -1;
 }
 
 Expected<Trajectory> load(const std::string& file, std::optional<TrajectoryFormat> format,
@@ -131,8 +108,9 @@ Expected<Trajectory> load(const std::string& file, std::optional<TrajectoryForma
 }  // namespace
 
 int main(int argc, char** argv) {
-  const auto cl = parse(argc, argv);
-  if (!cl) return 2;
+  Arguments args;
+  if (const int code = parse(argc, argv, &args); code >= 0) return code;
+  const Arguments* cl = &args;
   std::string gt_format, est_format;
   const auto gt = load(cl->gt, cl->gt_format, cl->gt_times, &gt_format);
   if (!gt) {
