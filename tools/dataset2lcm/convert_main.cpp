@@ -1,0 +1,62 @@
+#include "tools/dataset2lcm/convert_main.h"
+
+#include <chrono>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "core/common/command_line.h"
+#include "core/datasets/to_lcm.h"
+
+namespace evermap::datasets {
+
+int convertMain(Dataset dataset, int argc, char** argv) {
+  const bool euroc = dataset == Dataset::kEuroc;
+  const std::string program = euroc ? "evermap-euroc2lcm" : "evermap-kitti2lcm";
+  CommandLine cli(program, euroc ? "Converts an EuRoC ASL folder to an LCM log."
+                                 : "Converts a KITTI odometry sequence to an LCM log.");
+  std::vector<std::string> positional;
+  bool raw = false;
+  std::string ground_truth;
+  cli.positional(&positional, euroc ? "ASL_FOLDER OUTPUT.lcmlog" : "SEQUENCE_FOLDER OUTPUT.lcmlog",
+                 euroc ? "the folder holding mav0/ (cam0, cam1, imu0, sensor.yaml files), and the log to write"
+                       : "a KITTI odometry sequence (image_0/, image_1/, calib.txt, times.txt), and the log to write");
+  cli.flag("--raw", &raw, "store images as raw gray8 instead of PNG");
+  if (euroc) {
+    cli.value("--gt", &ground_truth, "FILE",
+              "ground truth (EuRoC csv or TUM txt) when mav0/state_groundtruth_estimate0/data.csv is absent");
+  } else {
+    cli.value("--poses", &ground_truth, "FILE",
+              "ground-truth poses (KITTI format); default SEQUENCE_FOLDER/poses.txt when present");
+  }
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  if (positional.size() != 2) {
+    std::fprintf(stderr, "%s: expected the input folder and OUTPUT.lcmlog, got %zu words (--help)\n",
+                 program.c_str(), positional.size());
+    return 2;
+  }
+  const auto encoding = raw ? messages::ImageEncoding::kGray8 : messages::ImageEncoding::kPng;
+  const auto start = std::chrono::steady_clock::now();  // for the report only
+  Expected<ConversionSummary> summary = Error{""};
+  if (euroc) {
+    EurocToLcmOptions options;
+    options.encoding = encoding;
+    options.ground_truth = ground_truth;
+    summary = convertEurocToLcm(positional[0], positional[1], options);
+  } else {
+    KittiToLcmOptions options;
+    options.encoding = encoding;
+    options.poses = ground_truth;
+    summary = convertKittiToLcm(positional[0], positional[1], options);
+  }
+  if (!summary) {
+    std::fprintf(stderr, "%s: %s\n", program.c_str(), summary.error().message.c_str());
+    return 1;
+  }
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::printf("wrote %s (images: %s)\n%sconverted in %.1f s\n", positional[1].c_str(), messages::toString(encoding),
+              summary->report().c_str(), s);
+  return 0;
+}
+
+}  // namespace evermap::datasets
