@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <string>
@@ -27,33 +28,28 @@ struct Arguments {
   EvaluationOptions options;
 };
 
+// An option value read by `parse` (text -> Expected<T>) into *out.
+template <typename T, typename Parse>
+std::function<Status(const std::string&)> parsedInto(T* out, Parse parse) {
+  return [out, parse](const std::string& v) -> Status {
+    auto x = parse(v);
+    if (!x) return x.error();
+    *out = *x;
+    return Ok{};
+  };
+}
+
 // Parses argv: -1 to run, or the exit status (0 after --help, 2 after a bad command line).
 int parse(int argc, char** argv, Arguments* c) {
   evermap::CommandLine cli("evermap-eval",
                            "Compares an estimated trajectory with ground truth: ATE, RPE, KITTI drift.");
-  auto format = [](std::optional<TrajectoryFormat>* out) {
-    return [out](const std::string& v) -> Status {
-      auto f = parseTrajectoryFormat(v);
-      if (!f) return f.error();
-      *out = *f;
-      return Ok{};
-    };
-  };
   cli.value("--gt", &c->gt, "FILE", "ground truth (TUM, KITTI or EuRoC)", true);
   cli.value("--est", &c->est, "FILE", "the estimate (TUM, KITTI or EuRoC)", true);
-  cli.value("--gt-format", format(&c->gt_format), "tum|kitti|euroc", "default: guessed from extension/content");
-  cli.value("--est-format", format(&c->est_format), "tum|kitti|euroc", "default: guessed from extension/content");
+  cli.value("--gt-format", parsedInto(&c->gt_format, parseTrajectoryFormat), "tum|kitti|euroc", "default: guessed from extension/content");
+  cli.value("--est-format", parsedInto(&c->est_format, parseTrajectoryFormat), "tum|kitti|euroc", "default: guessed from extension/content");
   cli.value("--gt-times", &c->gt_times, "FILE", "stamps for a KITTI pose file (default: line index, in seconds)");
   cli.value("--est-times", &c->est_times, "FILE", "the same for the estimate");
-  cli.value(
-      "--align",
-      [c](const std::string& v) -> Status {
-        auto m = parseAlignmentMode(v);
-        if (!m) return m.error();
-        c->options.alignment = *m;
-        return Ok{};
-      },
-      "se3|sim3|first|none",
+  cli.value("--align", parsedInto(&c->options.alignment, parseAlignmentMode), "se3|sim3|first|none",
       "Umeyama alignment of the estimate (default se3); first: the first estimated pose on the first ground-truth pose");
   cli.value("--max-dt", &c->options.association.max_dt_s, "S", "largest stamp difference of a pair, seconds (default 0.02)");
   // Not given: the sentinels (the command line refuses NaN, and no one types INT_MIN frames).
@@ -64,14 +60,7 @@ int parse(int argc, char** argv, Arguments* c) {
   cli.flag("--kitti-drift", &c->options.kitti_drift, "KITTI devkit drift over 100..800 m segments");
   cli.value("--json", &c->json, "OUT.json", "write the figures as JSON");
   cli.value("--plot", &c->plot, "OUT.png|OUT.svg", "top view of ground truth and aligned estimate");
-  cli.value(
-      "--plot-plane",
-      [c](const std::string& v) -> Status {
-        auto p = parsePlotPlane(v);
-        if (!p) return p.error();
-        c->plane = *p;
-        return Ok{};
-      },
+  cli.value("--plot-plane", parsedInto(&c->plane, parsePlotPlane),
       "auto|xy|xz|yz", "plane of the top view (default auto)");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   const bool by_frames = rpe_frames != std::numeric_limits<int>::min(), by_distance = !std::isnan(rpe_distance);
