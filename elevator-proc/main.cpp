@@ -4,7 +4,6 @@
 // Threading: LCM handlers run on this thread, in handle(); nothing else touches the tracker.
 
 #include <cmath>
-#include <csignal>
 #include <cstdio>
 #include <deque>
 #include <string>
@@ -15,15 +14,13 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "core/common/option_fields.h"
+#include "core/common/stop_signals.h"
 #include "core/messages/channels.h"
 #include "elevator-proc/elevator_tracker.h"
 #include "elevator-proc/lcm_convert.h"
 #include "imu-proc/lcm_convert.h"
 
 namespace {
-
-volatile std::sig_atomic_t g_stop = 0;  // the one thing a signal handler may touch
-void onSignal(int) { g_stop = 1; }
 
 // IMU samples wait (briefly) for the ATTITUDE of their time stamp: imu-proc publishes
 // ATTITUDE after it has seen the IMU sample, so the attitude arrives a little later.
@@ -129,9 +126,8 @@ int main(int argc, char** argv) {
   Node node(&lcm, options);
   lcm.subscribe(channels::kImu, &Node::onImu, &node);
   lcm.subscribe(channels::kAttitude, &Node::onAttitude, &node);
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
-  while (!g_stop) {
+  StopSignals stop;  // SIGINT/SIGTERM, polled between LCM waits
+  while (!stop.requested()) {
     if (lcm.handleTimeout(200) < 0) break;
   }
   std::fprintf(stderr, "evermap-elevator-proc: %s; gate: %s; bad attitudes %lld\n",

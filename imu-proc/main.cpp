@@ -1,7 +1,6 @@
 // evermap-imu-proc: IMU -> ATTITUDE (roll, pitch, covariance). Only options, LCM and the loop;
 // the filter is evermap::imu::AttitudeFilter.
 
-#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -11,14 +10,12 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "core/common/option_fields.h"
+#include "core/common/stop_signals.h"
 #include "core/messages/channels.h"
 #include "imu-proc/attitude_filter.h"
 #include "imu-proc/lcm_convert.h"
 
 namespace {
-
-volatile std::sig_atomic_t g_stop = 0;  // the one thing a signal handler may touch
-void onSignal(int) { g_stop = 1; }
 
 struct ProcOptions {
   double publish_rate_hz = 50.0;
@@ -110,9 +107,8 @@ int main(int argc, char** argv) {
                     static_cast<int64_t>(1e6 / proc.publish_rate_hz)};
   lcm.subscribe(channels::kImu, &Publisher::onImu, &handler);
 
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
-  while (!g_stop) {
+  StopSignals stop;  // SIGINT/SIGTERM, polled between LCM waits
+  while (!stop.requested()) {
     if (lcm.handleTimeout(200) < 0) break;
   }
   std::fprintf(stderr, "evermap-imu-proc: %s; %s\n", handler.filter.gateCounts().summary().c_str(),

@@ -2,9 +2,7 @@
 // the vocabulary, opens the map store, wires LCM and runs the loop; the logic is LoopCloser.
 // Exit status: 0 on SIGINT/SIGTERM, 1 bad input (vocabulary, store), 2 bad command line.
 
-#include <csignal>
 #include <cstdio>
-#include <ctime>
 #include <memory>
 #include <optional>
 #include <string>
@@ -13,6 +11,7 @@
 
 #include "core/bow/vocabulary_io.h"
 #include "core/common/command_line.h"
+#include "core/common/stop_signals.h"
 #include "loopclose-proc/core_registration.h"
 #include "loopclose-proc/loop_closer.h"
 #include "loopclose-proc/server.h"
@@ -79,14 +78,8 @@ int main(int argc, char** argv) {
               registration->describe().c_str());
   std::fflush(stdout);
 
-  // SIGINT/SIGTERM are blocked and polled between LCM waits: no handler, no global flag.
-  sigset_t stop;
-  sigemptyset(&stop);
-  sigaddset(&stop, SIGINT);
-  sigaddset(&stop, SIGTERM);
-  sigprocmask(SIG_BLOCK, &stop, nullptr);
-  const timespec no_wait{0, 0};
-  while (sigtimedwait(&stop, nullptr, &no_wait) < 0) {
+  evermap::StopSignals stop;  // SIGINT/SIGTERM, polled between LCM waits
+  while (!stop.requested()) {
     if (lcm.handleTimeout(200) < 0) {
       std::fprintf(stderr, "evermap-loopclose-proc: LCM failed\n");
       break;

@@ -3,15 +3,14 @@
 // Exit status: 0 on SIGINT/SIGTERM, 1 LCM or map store failure, 2 bad command line.
 
 #include <chrono>
-#include <csignal>
 #include <cstdio>
-#include <ctime>
 #include <optional>
 #include <string>
 
 #include <lcm/lcm-cpp.hpp>
 
 #include "core/common/command_line.h"
+#include "core/common/stop_signals.h"
 #include "core/sim/sensors.h"
 #include "mapper-proc/lcm_node.h"
 #include "mapper-proc/map_store.h"
@@ -85,13 +84,7 @@ int main(int argc, char** argv) {
     }
   }
   mapper::LcmNode node(lcm, m, node_options, store ? &*store : nullptr);
-  // SIGINT/SIGTERM are blocked and polled between LCM waits: no handler, no global flag.
-  sigset_t stop;
-  sigemptyset(&stop);
-  sigaddset(&stop, SIGINT);
-  sigaddset(&stop, SIGTERM);
-  sigprocmask(SIG_BLOCK, &stop, nullptr);
-  const timespec no_wait{0, 0};
+  StopSignals stop;  // SIGINT/SIGTERM, polled between LCM waits
   int status = 0;
   // Progress is for the person watching, so it runs on the wall clock; the map never sees it.
   using Clock = std::chrono::steady_clock;
@@ -101,7 +94,7 @@ int main(int argc, char** argv) {
   // sessions) is not counted.
   int64_t previous_utime = -1;
   double data_s = 0.0;
-  while (sigtimedwait(&stop, nullptr, &no_wait) < 0) {
+  while (!stop.requested()) {
     const int handled = lcm.handleTimeout(200);
     if (handled < 0) {
       std::fprintf(stderr, "evermap-mapper-proc: LCM failed\n");

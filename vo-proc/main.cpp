@@ -5,8 +5,6 @@
 // (dropping the oldest when the worker falls behind) and keeps the latest calibration; the
 // worker thread decodes, runs odometry and publishes (lcm::LCM::publish is thread-safe).
 #include <algorithm>
-#include <atomic>
-#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <mutex>
@@ -17,6 +15,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "core/common/stop_signals.h"
 #include "core/messages/channels.h"
 #include "vo-proc/frame_queue.h"
 #include "vo-proc/vo_pipeline.h"
@@ -32,9 +31,6 @@ constexpr const char* kUsage =
     "  --keyframe-inliers N   new keyframe below N inliers (default 150)\n"
     "  --ready-file PATH      create PATH once subscribed (for scripts)\n"
     "  --print-options        print the odometry options and exit\n";
-
-std::atomic<bool> g_stop{false};
-void onSignal(int) { g_stop = true; }
 
 using Bytes = std::vector<uint8_t>;
 
@@ -107,8 +103,7 @@ int main(int argc, char** argv) {
                  url.empty() ? "default URL" : url.c_str());
     return 1;
   }
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
+  evermap::StopSignals stop;  // SIGINT/SIGTERM; blocked before the worker starts, so it inherits that
 
   evermap::vo::BoundedQueue<Bytes> queue(queue_size);
   Shared shared;
@@ -149,7 +144,7 @@ int main(int argc, char** argv) {
     }
   });
 
-  while (!g_stop) lcm.handleTimeout(200);
+  while (!stop.requested()) lcm.handleTimeout(200);
   queue.close();
   worker.join();
   std::fprintf(stderr, "evermap-vo-proc: %s; %lld frames dropped behind (queue %zu)\n",

@@ -15,9 +15,7 @@
 //   evermap-sim-measure --config FILE --print-config
 //
 // Exit status: 0 done, 1 failed while running, 2 bad usage or configuration.
-#include <atomic>
 #include <chrono>
-#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -29,6 +27,7 @@
 
 #include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
+#include "core/common/stop_signals.h"
 #include "core/sim/oracle_server.h"
 #include "core/sim/registration_oracle.h"
 #include "core/sim/request_load.h"
@@ -41,9 +40,6 @@ using evermap::sim::KeyframeTruth;
 using evermap::sim::RunPlan;
 using Clock = std::chrono::steady_clock;
 
-// Set by SIGINT/SIGTERM; a signal handler can only reach static storage.
-std::atomic<bool> g_stop{false};
-void onSignal(int) { g_stop = true; }
 
 struct Args {
   std::string config;
@@ -172,17 +168,17 @@ int runOut(const RunPlan& plan, const std::string& folder) {
 // Publishes every message on LCM; between messages, answers what arrived.
 class LcmSink final : public evermap::sim::MessageSink {
  public:
-  LcmSink(lcm::LCM& lcm, double speed) : lcm_(lcm), speed_(speed) {}
+  LcmSink(lcm::LCM& lcm, double speed, evermap::StopSignals& stop) : lcm_(lcm), speed_(speed), stop_(stop) {}
   void startSession() { first_utime_ = -1; }
   void write(const std::string& channel, int64_t utime, const std::vector<uint8_t>& data) override {
-    if (g_stop) return;
+    if (stop_.requested()) return;
     if (speed_ > 0.0) {
       if (first_utime_ < 0) {
         first_utime_ = utime;
         wall_start_ = Clock::now();
       }
       const auto due = wall_start_ + std::chrono::microseconds(static_cast<int64_t>((utime - first_utime_) / speed_));
-      while (Clock::now() < due && !g_stop) lcm_.handleTimeout(1);
+      while (Clock::now() < due && !stop_.requested()) lcm_.handleTimeout(1);
     }
     lcm_.publish(channel, data.data(), static_cast<unsigned int>(data.size()));
     while (lcm_.handleTimeout(0) > 0) {
@@ -192,11 +188,12 @@ class LcmSink final : public evermap::sim::MessageSink {
  private:
   lcm::LCM& lcm_;
   double speed_;
+  evermap::StopSignals& stop_;
   int64_t first_utime_ = -1;
   Clock::time_point wall_start_;
 };
 
-int runServe(const RunPlan& plan, const Args& args) {
+int runServe(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) {
   lcm::LCM lcm(args.lcm_url);
   if (!lcm.good()) {
     std::fprintf(stderr, "evermap-sim-measure: cannot start LCM (url \"%s\")\n", args.lcm_url.c_str());
@@ -204,7 +201,7 @@ int runServe(const RunPlan& plan, const Args& args) {
   }
   evermap::sim::RegistrationOracle oracle(plan.options().oracle, plan.oracleSeed());
   evermap::sim::OracleServer server(lcm, oracle);
-  LcmSink sink(lcm, args.speed);
+  LcmSink sink(lcm, args.speed, stop);
   evermap::sim::SessionObservers observers;
   observers.on_keyframe = [&](const KeyframeTruth& k) { oracle.addKeyframe(k); };
   const auto summary = evermap::sim::generateRun(
@@ -218,15 +215,15 @@ int runServe(const RunPlan& plan, const Args& args) {
       observers);
   // Late requests for the last keyframes.
   const auto end = Clock::now() + std::chrono::seconds(2);
-  while (Clock::now() < end && !g_stop) lcm.handleTimeout(50);
+  while (Clock::now() < end && !stop.requested()) lcm.handleTimeout(50);
   std::printf("%s", summary.text().c_str());
   std::printf("%s", oracle.summary().text().c_str());
   std::printf("answered %lld requests, dropped %lld messages\n", static_cast<long long>(server.answered()),
               static_cast<long long>(server.dropped()));
-  return g_stop ? 1 : 0;
+  return stop.requested() ? 1 : 0;
 }
 
-int runOracle(const RunPlan& plan, const Args& args) {
+int runOracle(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) {
   lcm::LCM lcm(args.lcm_url);
   if (!lcm.good()) {
     std::fprintf(stderr, "evermap-sim-measure: cannot start LCM (url \"%s\")\n", args.lcm_url.c_str());
@@ -254,7 +251,7 @@ int runOracle(const RunPlan& plan, const Args& args) {
   std::fflush(stdout);
   auto last = Clock::now();
   int64_t seen = 0;
-  while (!g_stop) {
+  while (!stop.requested()) {
     lcm.handleTimeout(100);
     if (server.answered() != seen) {
       seen = server.answered();
@@ -271,8 +268,7 @@ int runOracle(const RunPlan& plan, const Args& args) {
 int main(int argc, char** argv) {
   Args args;
   if (const int code = parseArgs(argc, argv, &args); code >= 0) return code;
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
+  evermap::StopSignals stop;  // SIGINT/SIGTERM end a serve or oracle run
   auto file = evermap::KeyValueFile::load(args.config);
   if (!file) {
     std::fprintf(stderr, "evermap-sim-measure: %s\n", file.error().message.c_str());
@@ -298,6 +294,6 @@ int main(int argc, char** argv) {
   }
   if (args.mode == "stats") return runStats(*plan, args.load);
   if (args.mode == "out") return runOut(*plan, args.out);
-  if (args.mode == "serve") return runServe(*plan, args);
-  return runOracle(*plan, args);
+  if (args.mode == "serve") return runServe(*plan, args, stop);
+  return runOracle(*plan, args, stop);
 }

@@ -15,9 +15,7 @@
 // frame (utime, floor, dark_room, blank_zone, passerby, closed_cab), for judging VO per segment.
 //
 // Exit status: 0 done, 1 failed while running, 2 bad usage or configuration.
-#include <atomic>
 #include <chrono>
-#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -30,6 +28,7 @@
 #include "core/common/atomic_write.h"
 #include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
+#include "core/common/stop_signals.h"
 #include "core/eval/trajectory.h"
 #include "core/sim/image_session.h"
 
@@ -38,8 +37,6 @@ namespace {
 namespace fs = std::filesystem;
 using evermap::sim::ImageSimulator;
 
-std::atomic<bool> g_stop{false};  // set by SIGINT/SIGTERM (a handler reaches static storage only)
-void onSignal(int) { g_stop = true; }
 
 struct Args {
   std::string config;
@@ -185,9 +182,8 @@ int main(int argc, char** argv) {
     }
     return 0;
   }
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
-  auto keep_going = [](double) { return !g_stop.load(); };
+  evermap::StopSignals stop;  // SIGINT/SIGTERM end a render early
+  auto keep_going = [&stop](double) { return !stop.requested(); };
   evermap::Expected<evermap::sim::ImageSessionSummary> summary = evermap::makeError("nothing run");
   if (!args.out.empty()) {
     summary = evermap::sim::writeImageSessionLog(**sim, args.out, keep_going);
@@ -224,5 +220,5 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
-  return g_stop ? 1 : 0;
+  return stop.requested() ? 1 : 0;
 }
