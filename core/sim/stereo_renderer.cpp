@@ -1,5 +1,7 @@
 #include "core/sim/stereo_renderer.h"
 
+#include "core/sim/render_kernels.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -35,7 +37,7 @@ Status Lighting::validate() const {
 
 ImageRenderer::ImageRenderer(const TextureLibrary& textures, const PinholeCamera& camera,
                              double noise_sigma_gray, uint64_t noise_seed)
-    : textures_(textures), camera_(camera), rng_(noise_seed) {
+    : textures_(textures), camera_(camera), rng_(noise_seed), avx2_(kernels::cpuHasAvx2()) {
   noise_.resize(kNoiseTable + static_cast<size_t>(camera.width));
   for (int16_t& n : noise_) {
     n = static_cast<int16_t>(std::lround(noise_sigma_gray > 0.0 ? noise_sigma_gray * rng_.normal() : 0.0));
@@ -53,7 +55,7 @@ void ImageRenderer::setLighting(const Lighting& l) {
   for (int i = 0; i < 1024; ++i) {
     const double x = i / 255.0;
     const double y = 255.0 * l.gain * std::pow(x, l.gamma) + l.offset_gray;
-    response_[static_cast<size_t>(i)] = static_cast<uint8_t>(std::clamp(std::lround(y), 0L, 255L));
+    response_[static_cast<size_t>(i)] = static_cast<int32_t>(std::clamp(std::lround(y), 0L, 255L));
   }
 }
 
@@ -264,37 +266,36 @@ void ImageRenderer::render(const RenderFloor& floor, double z_shift, const core:
   Kl(0, 2) += kLevelMargin;
   Kl(1, 2) += kLevelMargin;
   const core::Mat3 M = Kl * world_R_level.transpose() * R * K.inverse();
-  const float max_u = static_cast<float>(level_w_ - 1) - 1e-3f, max_v = static_cast<float>(level_h_ - 1) - 1e-3f;
-  const uint16_t* level = level_.data();
-  const int LW = level_w_;
-  const uint8_t* response = response_.data();
+  kernels::WarpRow warp;
+  warp.level = level_.data();
+  warp.level_w = level_w_;
+  warp.max_u = static_cast<float>(level_w_ - 1) - 1e-3f;
+  warp.max_v = static_cast<float>(level_h_ - 1) - 1e-3f;
+  warp.response = response_.data();
+  // The homography's denominator changes by ~1e-5 per pixel: exact every kBlock pixels,
+  // linear in between (error far below 1e-3 pixel).
+  constexpr int kBlock = 16;
+  warp.block = kBlock;
+  const int blocks = (W + kBlock - 1) / kBlock;
+  thread_local std::vector<float> lu0, lv0, dlu, dlv;
+  lu0.resize(static_cast<size_t>(blocks));
+  lv0.resize(static_cast<size_t>(blocks));
+  dlu.resize(static_cast<size_t>(blocks));
+  dlv.resize(static_cast<size_t>(blocks));
   for (int v = 0; v < H; ++v) {
     const core::Vec3 h = M * core::Vec3(0.0, v, 1.0);
-    uint8_t* row = out->ptr<uint8_t>(v);
-    const int16_t* noise = noise_.data() + rng_.index(kNoiseTable);
-    // The homography's denominator changes by ~1e-5 per pixel: exact every kBlock pixels,
-    // linear in between (error far below 1e-3 pixel).
-    constexpr int kBlock = 16;
-    float lu = 0.0f, lv = 0.0f, dlu = 0.0f, dlv = 0.0f;
-    for (int u = 0; u < W; ++u, lu += dlu, lv += dlv) {
-      if (u % kBlock == 0) {
-        const core::Vec3 a = h + u * M.col(0), b = h + (u + kBlock) * M.col(0);
-        lu = static_cast<float>(a.x() / a.z());
-        lv = static_cast<float>(a.y() / a.z());
-        dlu = static_cast<float>((b.x() / b.z() - a.x() / a.z()) / kBlock);
-        dlv = static_cast<float>((b.y() / b.z() - a.y() / a.z()) / kBlock);
-      }
-      const float cu = lu < 0.0f ? 0.0f : (lu > max_u ? max_u : lu);
-      const float cv = lv < 0.0f ? 0.0f : (lv > max_v ? max_v : lv);
-      const int fu = static_cast<int>(cu * 256.0f), fv = static_cast<int>(cv * 256.0f);
-      const int x0 = fu >> 8, y0 = fv >> 8, ax = fu & 255, ay = fv & 255;
-      const uint16_t* p = level + static_cast<size_t>(y0) * LW + x0;
-      const int top = p[0] * 256 + (p[1] - p[0]) * ax;
-      const int bottom = p[LW] * 256 + (p[LW + 1] - p[LW]) * ax;
-      const int light = (top * 256 + (bottom - top) * ay + (1 << 15)) >> 16;
-      const int g = response[light] + noise[u];
-      row[u] = static_cast<uint8_t>(g < 0 ? 0 : (g > 255 ? 255 : g));
+    core::Vec3 a = h;
+    for (int b = 0; b < blocks; ++b) {
+      const core::Vec3 next = h + (b + 1) * kBlock * M.col(0);
+      lu0[static_cast<size_t>(b)] = static_cast<float>(a.x() / a.z());
+      lv0[static_cast<size_t>(b)] = static_cast<float>(a.y() / a.z());
+      dlu[static_cast<size_t>(b)] = static_cast<float>((next.x() / next.z() - a.x() / a.z()) / kBlock);
+      dlv[static_cast<size_t>(b)] = static_cast<float>((next.y() / next.z() - a.y() / a.z()) / kBlock);
+      a = next;
     }
+    const int16_t* noise = noise_.data() + rng_.index(kNoiseTable);
+    (avx2_ ? kernels::warpRowAvx2 : kernels::warpRow)(warp, lu0.data(), lv0.data(), dlu.data(), dlv.data(), noise,
+                                                       W, out->ptr<uint8_t>(v));
   }
 }
 

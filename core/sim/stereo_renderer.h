@@ -79,11 +79,12 @@ class ImageRenderer {
   const TextureLibrary& textures_;
   PinholeCamera camera_;
   Random rng_;
+  bool avx2_;  // the CPU has AVX2: use the AVX2 kernels (render_kernels.h)
   void renderLevel(const RenderFloor& floor, double z_shift, const core::Vec3& centre,
                    const core::Vec2& heading, std::span<const Occluder> occluders);
 
   std::vector<int16_t> noise_;      // Gaussian samples, read from a random offset per row
-  std::vector<uint8_t> response_;   // light (0..1023) -> gray, the session's camera response
+  std::vector<int32_t> response_;   // light (0..1023) -> gray, the session's camera response
   int level_w_ = 0, level_h_ = 0;
   std::vector<uint16_t> level_;     // the level image: light 0..1023, row-major
   std::vector<float> depth_;        // per level column: forward distance of the nearest wall
