@@ -3,10 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
 #include "core/sim/random.h"
+#include "core/sim/render_world.h"
+#include "core/sim/textures.h"
 #include "core/sim/render_kernels.h"
 
 namespace evermap::sim::kernels {
@@ -73,6 +76,77 @@ TEST(RenderKernels, WarpAtPixelCentresReadsTheLevelPixel) {
     for (int u = 0; u < width; ++u) {
       const int expected = std::clamp(c.response[c.level[5 * 64 + u + 3]] + c.noise[u], 0, 255);
       ASSERT_EQ(out[u], expected) << "u " << u << (avx2 ? " (AVX2)" : "");
+    }
+  }
+}
+
+// Three rooms side by side (the middle one dark) and a featureless zone over the third.
+RenderFloor threeRooms(const TextureLibrary& lib) {
+  FloorSpec spec;
+  for (int k = 0; k < 3; ++k) {
+    Region r;
+    r.boxes.push_back(Box{Vec2(4.0 * k, 0.0), Vec2(4.0 * k + 3.9, 6.0)});
+    r.dark = k == 1;
+    spec.regions.push_back(r);
+  }
+  spec.blank_centres.push_back(Vec2(10.0, 3.0));
+  WorldOptions o;
+  o.blank_radius_m = 1.5;
+  Random rng(7);
+  auto floor = buildRenderFloor(spec, o, lib, rng);
+  EXPECT_TRUE(floor) << floor.error().message;
+  return std::move(*floor);
+}
+
+TEST(RenderKernels, SurfaceRowAvx2MatchesPortableBitForBit) {
+  if (!cpuHasAvx2()) GTEST_SKIP() << "this CPU has no AVX2";
+  Random rng(5);
+  TextureOptions to;
+  to.variants = 1;
+  auto lib = makeTextureLibrary(to, {}, rng);
+  ASSERT_TRUE(lib) << lib.error().message;
+  const RenderFloor floor = threeRooms(*lib);
+  std::vector<const Texture*> texture_of_cell(256);
+  std::vector<int> gain_of_cell(256);
+  for (int cell = 0; cell < 256; ++cell) {
+    texture_of_cell[static_cast<size_t>(cell)] = &lib->textures[static_cast<size_t>(cell % lib->textures.size())];
+    gain_of_cell[static_cast<size_t>(cell)] = 200 + 450 * (cell % 4);  // up to 1550: bright texels clip at 1023
+  }
+  for (const int width : {664, 29}) {
+    std::vector<float> dx(width), dy(width), lod(width);
+    std::vector<int> limit(width);
+    for (int trial = 0; trial < 200; ++trial) {
+      // A camera anywhere over (and around) the floor looking along a random heading; rows
+      // from under the feet to far away cross cells, regions and mip levels.
+      const double heading = 2.0 * 3.14159265 * rng.uniform(), fov = rng.uniform(0.2, 1.5);
+      for (int u = 0; u < width; ++u) {
+        const double x = fov * (u - 0.5 * width) / width;
+        dx[u] = static_cast<float>(std::cos(heading) + x * std::sin(heading));
+        dy[u] = static_cast<float>(std::sin(heading) - x * std::cos(heading));
+        lod[u] = static_cast<float>(0.75 * std::log2(1.0 + x * x));
+        limit[u] = static_cast<int>(rng.index(40));
+      }
+      SurfaceRow row;
+      row.v = 20;
+      row.down = trial % 2 == 0;
+      row.t = static_cast<float>(std::exp(rng.uniform(-1.0, 3.0)));
+      row.inv_texel = 80.0f;
+      row.lod_row = static_cast<float>(rng.uniform(-2.0, 6.0));
+      row.cx = static_cast<float>(rng.uniform(-2.0, 14.0));
+      row.cy = static_cast<float>(rng.uniform(-2.0, 8.0));
+      row.col_dx = dx.data();
+      row.col_dy = dy.data();
+      row.col_lod = lod.data();
+      row.col_limit = limit.data();
+      row.floor = &floor;
+      row.texture_of_cell = texture_of_cell.data();
+      row.gain_of_cell = gain_of_cell.data();
+      std::vector<uint16_t> portable(width);
+      for (uint16_t& p : portable) p = static_cast<uint16_t>(rng.index(1024));  // what the walls drew
+      std::vector<uint16_t> avx2 = portable;
+      surfaceRow(row, width, portable.data());
+      surfaceRowAvx2(row, width, avx2.data());
+      ASSERT_EQ(portable, avx2) << "width " << width << ", trial " << trial;
     }
   }
 }

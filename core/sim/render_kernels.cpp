@@ -24,6 +24,18 @@ inline uint8_t warpPixel(const WarpRow& w, float lu, float lv, int noise) {
   return static_cast<uint8_t>(g < 0 ? 0 : (g > 255 ? 255 : g));
 }
 
+inline int mipLevel(float lod) { return lod <= 0.0f ? 0 : static_cast<int>(lod + 0.25f); }
+
+inline bool surfaceDrawn(const SurfaceRow& r, int u) { return r.down ? r.v >= r.col_limit[u] : r.v < r.col_limit[u]; }
+
+inline uint16_t surfacePixel(const SurfaceRow& r, int u) {
+  const float px = r.cx + r.t * r.col_dx[u], py = r.cy + r.t * r.col_dy[u];
+  const uint8_t cell = r.floor->cellAt(px, py);
+  const int value = r.texture_of_cell[cell]->sample(px * r.inv_texel, py * r.inv_texel, mipLevel(r.lod_row + r.col_lod[u]));
+  const int light = (value * r.gain_of_cell[cell]) >> 8;
+  return static_cast<uint16_t>(light > 1023 ? 1023 : light);
+}
+
 }  // namespace
 
 bool cpuHasAvx2() {
@@ -82,6 +94,88 @@ __attribute__((target("avx2"))) void warpRowAvx2(const WarpRow& w, const float* 
       const auto kf = static_cast<float>(u - start);
       out[u] = warpPixel(w, lu0[b] + kf * dlu[b], lv0[b] + kf * dlv[b], noise[u]);
     }
+  }
+}
+
+void surfaceRow(const SurfaceRow& r, int width, uint16_t* out) {
+  for (int u = 0; u < width; ++u) {
+    if (surfaceDrawn(r, u)) out[u] = surfacePixel(r, u);
+  }
+}
+
+__attribute__((target("avx2"))) void surfaceRowAvx2(const SurfaceRow& r, int width, uint16_t* out) {
+  const RenderFloor& f = *r.floor;
+  const __m256 t = _mm256_set1_ps(r.t), cx = _mm256_set1_ps(r.cx), cy = _mm256_set1_ps(r.cy);
+  const __m256 gx0 = _mm256_set1_ps(f.grid_x0), gy0 = _mm256_set1_ps(f.grid_y0), inv_cell = _mm256_set1_ps(f.inv_cell);
+  const __m256 inv_texel = _mm256_set1_ps(r.inv_texel), lod_row = _mm256_set1_ps(r.lod_row);
+  const __m256 quarter = _mm256_set1_ps(0.25f), zero_ps = _mm256_setzero_ps(), offset = _mm256_set1_ps(128.0f);
+  const __m256i zero = _mm256_setzero_si256(), gw = _mm256_set1_epi32(f.grid_w);
+  const __m256i max_i = _mm256_set1_epi32(f.grid_w - 1), max_j = _mm256_set1_epi32(f.grid_h - 1);
+  const __m256i low8 = _mm256_set1_epi32(255), positive = _mm256_set1_epi32(1 << 28), one = _mm256_set1_epi32(1);
+  const __m256i half = _mm256_set1_epi32(1 << 15), max_light = _mm256_set1_epi32(1023);
+  // Drawn: down v >= limit, i.e. v + 1 > limit; up: limit > v.
+  const __m256i v_cmp = _mm256_set1_epi32(r.down ? r.v + 1 : r.v);
+  const auto* grid = reinterpret_cast<const int*>(f.grid.data());
+  int u = 0;
+  for (; u + 8 <= width; u += 8) {
+    const __m256i limit = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(r.col_limit + u));
+    const __m256i drawn = r.down ? _mm256_cmpgt_epi32(v_cmp, limit) : _mm256_cmpgt_epi32(limit, v_cmp);
+    const int drawn_bits = _mm256_movemask_ps(_mm256_castsi256_ps(drawn));
+    if (drawn_bits == 0) continue;
+    const __m256 px = _mm256_add_ps(cx, _mm256_mul_ps(t, _mm256_loadu_ps(r.col_dx + u)));
+    const __m256 py = _mm256_add_ps(cy, _mm256_mul_ps(t, _mm256_loadu_ps(r.col_dy + u)));
+    // RenderFloor::cellAt, clamped to the grid.
+    __m256i i = _mm256_cvttps_epi32(_mm256_mul_ps(_mm256_sub_ps(px, gx0), inv_cell));
+    __m256i j = _mm256_cvttps_epi32(_mm256_mul_ps(_mm256_sub_ps(py, gy0), inv_cell));
+    i = _mm256_min_epi32(_mm256_max_epi32(i, zero), max_i);
+    j = _mm256_min_epi32(_mm256_max_epi32(j, zero), max_j);
+    const __m256i cell = _mm256_and_si256(_mm256_i32gather_epi32(grid, _mm256_add_epi32(_mm256_mullo_epi32(j, gw), i), 1), low8);
+    const __m256 lod = _mm256_add_ps(lod_row, _mm256_loadu_ps(r.col_lod + u));
+    const __m256i level = _mm256_andnot_si256(_mm256_castps_si256(_mm256_cmp_ps(lod, zero_ps, _CMP_LE_OQ)),
+                                              _mm256_cvttps_epi32(_mm256_add_ps(lod, quarter)));
+    alignas(32) int cells[8], levels[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(cells), cell);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(levels), level);
+    const int first = __builtin_ctz(static_cast<unsigned>(drawn_bits));
+    const __m256i same = _mm256_and_si256(_mm256_cmpeq_epi32(cell, _mm256_set1_epi32(cells[first])),
+                                          _mm256_cmpeq_epi32(level, _mm256_set1_epi32(levels[first])));
+    if ((_mm256_movemask_ps(_mm256_castsi256_ps(same)) & drawn_bits) != drawn_bits) {
+      // The drawn pixels span two cells or mip levels: one by one.
+      for (int k = 0; k < 8; ++k) {
+        if (drawn_bits >> k & 1) out[u + k] = surfacePixel(r, u + k);
+      }
+      continue;
+    }
+    // Texture::sample at one level for all eight.
+    const Texture::Level& L = r.texture_of_cell[cells[first]]->levelView(levels[first]);
+    const __m256 scale = _mm256_set1_ps(L.scale);
+    const __m256i mask = _mm256_set1_epi32(L.mask);
+    const __m256i fu = _mm256_add_epi32(_mm256_cvttps_epi32(_mm256_sub_ps(_mm256_mul_ps(_mm256_mul_ps(px, inv_texel), scale), offset)), positive);
+    const __m256i fv = _mm256_add_epi32(_mm256_cvttps_epi32(_mm256_sub_ps(_mm256_mul_ps(_mm256_mul_ps(py, inv_texel), scale), offset)), positive);
+    const __m256i x0 = _mm256_and_si256(_mm256_srai_epi32(fu, 8), mask), x1 = _mm256_and_si256(_mm256_add_epi32(x0, one), mask);
+    const __m256i y0 = _mm256_and_si256(_mm256_srai_epi32(fv, 8), mask), y1 = _mm256_and_si256(_mm256_add_epi32(y0, one), mask);
+    const __m128i shift = _mm_cvtsi32_si128(L.shift);
+    const __m256i r0 = _mm256_sll_epi32(y0, shift), r1 = _mm256_sll_epi32(y1, shift);
+    const auto* texels = reinterpret_cast<const int*>(L.texels);
+    const __m256i p00 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x0), 1), low8);
+    const __m256i p01 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x1), 1), low8);
+    const __m256i p10 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x0), 1), low8);
+    const __m256i p11 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x1), 1), low8);
+    const __m256i ax = _mm256_and_si256(fu, low8), ay = _mm256_and_si256(fv, low8);
+    const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8), _mm256_mullo_epi32(_mm256_sub_epi32(p01, p00), ax));
+    const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8), _mm256_mullo_epi32(_mm256_sub_epi32(p11, p10), ax));
+    const __m256i value = _mm256_srai_epi32(
+        _mm256_add_epi32(_mm256_add_epi32(_mm256_slli_epi32(top, 8), _mm256_mullo_epi32(_mm256_sub_epi32(bottom, top), ay)), half), 16);
+    const __m256i light = _mm256_min_epi32(
+        _mm256_srai_epi32(_mm256_mullo_epi32(value, _mm256_set1_epi32(r.gain_of_cell[cells[first]])), 8), max_light);
+    // Eight 16-bit results (and drawn masks) in the low half, in order.
+    const __m128i fresh = _mm256_castsi256_si128(_mm256_permute4x64_epi64(_mm256_packus_epi32(light, light), 0x08));
+    const __m128i keep = _mm256_castsi256_si128(_mm256_permute4x64_epi64(_mm256_packs_epi32(drawn, drawn), 0x08));
+    auto* dst = reinterpret_cast<__m128i*>(out + u);
+    _mm_storeu_si128(dst, _mm_blendv_epi8(_mm_loadu_si128(dst), fresh, keep));
+  }
+  for (; u < width; ++u) {
+    if (surfaceDrawn(r, u)) out[u] = surfacePixel(r, u);
   }
 }
 

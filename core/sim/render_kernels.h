@@ -7,6 +7,9 @@
 
 #include <cstdint>
 
+#include "core/sim/render_world.h"
+#include "core/sim/textures.h"
+
 namespace evermap::sim::kernels {
 
 // True when the CPU running this has AVX2 (the AVX2 kernels may be called).
@@ -29,5 +32,27 @@ void warpRow(const WarpRow& w, const float* lu0, const float* lv0, const float* 
              const int16_t* noise, int width, uint8_t* out);
 void warpRowAvx2(const WarpRow& w, const float* lu0, const float* lv0, const float* dlu, const float* dlv,
                  const int16_t* noise, int width, uint8_t* out);
+
+// One row v of the floor (v below the horizon) or the ceiling seen by the level camera
+// (renderLevel's floor pass). Pixel u shows the floor point c + t (dx[u], dy[u]) unless a wall
+// covers it; its texture and brightness come from the grid cell of that point, its mip level
+// from lod_row + col_lod[u]. Writes light = texel * gain / 256 (at most 1023).
+struct SurfaceRow {
+  int v = 0;
+  bool down = true;               // floor (true) or ceiling
+  float t = 0;                    // horizontal distance of the row's points, metres
+  float inv_texel = 1;            // texels per metre
+  float lod_row = 0;              // the row's part of the mip level
+  float cx = 0, cy = 0;           // camera centre, world x y
+  const float* col_dx = nullptr;  // per column: horizontal ray direction, world x y
+  const float* col_dy = nullptr;
+  const float* col_lod = nullptr;    // per column: the column's part of the mip level
+  const int* col_limit = nullptr;    // per column: first floor row (down), else last ceiling row + 1
+  const RenderFloor* floor = nullptr;
+  const Texture* const* texture_of_cell = nullptr;  // per grid cell value (256)
+  const int* gain_of_cell = nullptr;                // per grid cell value, brightness * 256
+};
+void surfaceRow(const SurfaceRow& r, int width, uint16_t* out);
+void surfaceRowAvx2(const SurfaceRow& r, int width, uint16_t* out);
 
 }  // namespace evermap::sim::kernels

@@ -190,33 +190,34 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
     col_bot[static_cast<size_t>(u)] = v_bot;
   }
   // Ceiling above the walls and floor below them, row by row (one depth per row).
-  struct Surface {
-    const Texture* floor;
-    const Texture* ceiling;
-    int gain_q8;
-  };
-  Surface by_cell[256];
+  const Texture* floor_of_cell[256];
+  const Texture* ceiling_of_cell[256];
+  int gain_of_cell[256];
   for (int cell = 0; cell < 256; ++cell) {
     const int label = cell & 0x7f;
     const Region& r = floor.regions[static_cast<size_t>(label > 0 && label <= static_cast<int>(floor.regions.size()) ? label - 1 : 0)];
     const bool featureless = (cell & 0x80) != 0;
-    by_cell[cell] = {featureless ? &blank : &tex[r.floor_texture], featureless ? &blank : &tex[r.ceiling_texture],
-                     floor.floor_gain_q8[r.dark ? 1 : 0]};
+    floor_of_cell[cell] = featureless ? &blank : &tex[r.floor_texture];
+    ceiling_of_cell[cell] = featureless ? &blank : &tex[r.ceiling_texture];
+    gain_of_cell[cell] = floor.floor_gain_q8[r.dark ? 1 : 0];
   }
+  kernels::SurfaceRow row;
+  row.cx = c2x;
+  row.cy = c2y;
+  row.col_dx = col_dx.data();
+  row.col_dy = col_dy.data();
+  row.col_lod = col_lod.data();
+  row.floor = &floor;
+  row.gain_of_cell = gain_of_cell;
   for (int v = 0; v < H; ++v) {
-    const bool down = v > cyl;
-    const float tv = row_t[static_cast<size_t>(v)];
-    const float inv_texel = down ? floor.floor_inv_texel : floor.ceiling_inv_texel;
-    const float lod_row = row_lod[static_cast<size_t>(v)] + (down ? floor_log : ceiling_log);
-    uint16_t* out = level_.data() + static_cast<size_t>(v) * W;
-    for (int u = 0; u < W; ++u) {
-      if (down ? v < col_bot[static_cast<size_t>(u)] : v >= col_top[static_cast<size_t>(u)]) continue;
-      const float px = c2x + tv * col_dx[static_cast<size_t>(u)], py = c2y + tv * col_dy[static_cast<size_t>(u)];
-      const Surface& sf = by_cell[floor.cellAt(px, py)];
-      const Texture& t_used = down ? *sf.floor : *sf.ceiling;
-      const int light = (t_used.sample(px * inv_texel, py * inv_texel, mipLevel(lod_row + col_lod[static_cast<size_t>(u)])) * sf.gain_q8) >> 8;
-      out[u] = static_cast<uint16_t>(light > 1023 ? 1023 : light);
-    }
+    row.v = v;
+    row.down = v > cyl;
+    row.t = row_t[static_cast<size_t>(v)];
+    row.inv_texel = row.down ? floor.floor_inv_texel : floor.ceiling_inv_texel;
+    row.lod_row = row_lod[static_cast<size_t>(v)] + (row.down ? floor_log : ceiling_log);
+    row.col_limit = row.down ? col_bot.data() : col_top.data();
+    row.texture_of_cell = row.down ? floor_of_cell : ceiling_of_cell;
+    (avx2_ ? kernels::surfaceRowAvx2 : kernels::surfaceRow)(row, W, level_.data() + static_cast<size_t>(v) * W);
   }
   // Passers-by in front of whatever is behind them.
   for (int u = 0; u < W; ++u) {
