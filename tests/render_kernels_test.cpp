@@ -151,5 +151,64 @@ TEST(RenderKernels, SurfaceRowAvx2MatchesPortableBitForBit) {
   }
 }
 
+TEST(RenderKernels, WallSpanAvx2MatchesPortableBitForBit) {
+  if (!cpuHasAvx2()) GTEST_SKIP() << "this CPU has no AVX2";
+  Random rng(6);
+  TextureOptions to;
+  to.variants = 1;
+  auto lib = makeTextureLibrary(to, {}, rng);
+  ASSERT_TRUE(lib) << lib.error().message;
+  const int stride = 7, rows = 300;
+  for (int trial = 0; trial < 300; ++trial) {
+    const Texture& texture = lib->textures[static_cast<size_t>(rng.index(static_cast<int64_t>(lib->textures.size())))];
+    // Every fifth column sits on the texture's last texel column (its neighbour wraps to 0).
+    const float tu = trial % 5 == 0 ? static_cast<float>(texture.size()) - 0.2f : static_cast<float>(rng.uniform(-500.0, 500.0));
+    const Texture::Column column(texture, tu, static_cast<int>(rng.index(5)) - 1);
+    WallSpan span;
+    span.column = &column;
+    span.gain = static_cast<int>(rng.integer(10, 1500));
+    span.v_top = static_cast<int>(rng.index(40));
+    span.d_top = static_cast<float>(rng.uniform(0.0, 1.0));
+    span.step = static_cast<float>(std::exp(rng.uniform(-8.0, -2.0)));
+    span.poster = trial % 3 == 0;
+    span.scale_z = static_cast<float>(rng.uniform(20.0, 300.0));
+    span.offset_z = static_cast<float>(rng.uniform(-100.0, 100.0));
+    span.height = 2.8f;
+    const int v0 = span.v_top + static_cast<int>(rng.index(30)), v1 = v0 + static_cast<int>(rng.index(rows - 70));
+    std::vector<uint16_t> portable(static_cast<size_t>(rows) * stride);
+    for (uint16_t& p : portable) p = static_cast<uint16_t>(rng.index(1024));
+    std::vector<uint16_t> avx2 = portable;
+    wallSpan(span, v0, v1, portable.data() + 3, stride);
+    wallSpanAvx2(span, v0, v1, avx2.data() + 3, stride);
+    ASSERT_EQ(portable, avx2) << "trial " << trial;
+  }
+}
+
+TEST(RenderKernels, WallSpanSamplesTheTextureColumn) {
+  Random rng(8);
+  TextureOptions to;
+  to.variants = 1;
+  auto lib = makeTextureLibrary(to, {}, rng);
+  ASSERT_TRUE(lib) << lib.error().message;
+  const Texture& texture = lib->textures[0];
+  const Texture::Column column(texture, 17.3f, 1);
+  WallSpan span;
+  span.column = &column;
+  span.v_top = 5;
+  span.d_top = 0.25f;
+  span.step = 0.004f;
+  span.scale_z = 100.0f;
+  span.offset_z = 3.0f;
+  std::vector<uint16_t> out(100, 0);
+  for (const bool avx2 : {false, true}) {
+    if (avx2 && !cpuHasAvx2()) continue;
+    (avx2 ? wallSpanAvx2 : wallSpan)(span, 10, 90, out.data(), 1);
+    for (int v = 10; v < 90; ++v) {
+      const float d = 0.25f + static_cast<float>(v - 5) * 0.004f;
+      ASSERT_EQ(out[v], texture.sample(17.3f, d * 100.0f + 3.0f, 1)) << "v " << v << (avx2 ? " (AVX2)" : "");
+    }
+  }
+}
+
 }  // namespace
 }  // namespace evermap::sim::kernels

@@ -36,6 +36,11 @@ inline uint16_t surfacePixel(const SurfaceRow& r, int u) {
   return static_cast<uint16_t>(light > 1023 ? 1023 : light);
 }
 
+inline float wallRow(const WallSpan& w, int v) {
+  const float d = w.d_top + static_cast<float>(v - w.v_top) * w.step;
+  return w.poster ? (w.offset_z - (w.height - d)) * w.scale_z : d * w.scale_z + w.offset_z;
+}
+
 }  // namespace
 
 bool cpuHasAvx2() {
@@ -177,6 +182,64 @@ __attribute__((target("avx2"))) void surfaceRowAvx2(const SurfaceRow& r, int wid
   for (; u < width; ++u) {
     if (surfaceDrawn(r, u)) out[u] = surfacePixel(r, u);
   }
+}
+
+void wallSpan(const WallSpan& w, int v0, int v1, uint16_t* out, int stride) {
+  for (int v = v0; v < v1; ++v) {
+    const int light = ((*w.column)(wallRow(w, v)) * w.gain) >> 8;
+    out[static_cast<ptrdiff_t>(v) * stride] = static_cast<uint16_t>(light > 1023 ? 1023 : light);
+  }
+}
+
+__attribute__((target("avx2"))) void wallSpanAvx2(const WallSpan& w, int v0, int v1, uint16_t* out, int stride) {
+  const Texture::Column& c = *w.column;
+  const Texture::Level& L = c.level();
+  const __m256 d_top = _mm256_set1_ps(w.d_top), step = _mm256_set1_ps(w.step), scale_z = _mm256_set1_ps(w.scale_z);
+  const __m256 offset_z = _mm256_set1_ps(w.offset_z), height = _mm256_set1_ps(w.height);
+  const __m256 scale = _mm256_set1_ps(L.scale), offset = _mm256_set1_ps(128.0f);
+  const __m256i k0 = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), mask = _mm256_set1_epi32(L.mask);
+  const __m256i x0 = _mm256_set1_epi32(c.x0()), x1 = _mm256_set1_epi32(c.x1()), ax = _mm256_set1_epi32(c.ax());
+  const __m256i low8 = _mm256_set1_epi32(255), positive = _mm256_set1_epi32(1 << 28), one = _mm256_set1_epi32(1);
+  const __m256i half = _mm256_set1_epi32(1 << 15), max_light = _mm256_set1_epi32(1023), gain = _mm256_set1_epi32(w.gain);
+  const __m128i shift = _mm_cvtsi32_si128(L.shift);
+  const auto* texels = reinterpret_cast<const int*>(L.texels);
+  // Unless the column wraps around the texture's edge, one 32-bit gather reads both texels.
+  const bool adjacent = c.x1() == c.x0() + 1;
+  int v = v0;
+  for (; v + 8 <= v1; v += 8) {
+    const __m256 k = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(v - w.v_top), k0));
+    const __m256 d = _mm256_add_ps(d_top, _mm256_mul_ps(k, step));
+    const __m256 row = w.poster ? _mm256_mul_ps(_mm256_sub_ps(offset_z, _mm256_sub_ps(height, d)), scale_z)
+                                : _mm256_add_ps(_mm256_mul_ps(d, scale_z), offset_z);
+    const __m256i fv = _mm256_add_epi32(_mm256_cvttps_epi32(_mm256_sub_ps(_mm256_mul_ps(row, scale), offset)), positive);
+    const __m256i y0 = _mm256_and_si256(_mm256_srai_epi32(fv, 8), mask), y1 = _mm256_and_si256(_mm256_add_epi32(y0, one), mask);
+    const __m256i r0 = _mm256_sll_epi32(y0, shift), r1 = _mm256_sll_epi32(y1, shift);
+    __m256i p00, p01, p10, p11;
+    if (adjacent) {
+      const __m256i g0 = _mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x0), 1);
+      const __m256i g1 = _mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x0), 1);
+      p00 = _mm256_and_si256(g0, low8);
+      p01 = _mm256_and_si256(_mm256_srli_epi32(g0, 8), low8);
+      p10 = _mm256_and_si256(g1, low8);
+      p11 = _mm256_and_si256(_mm256_srli_epi32(g1, 8), low8);
+    } else {
+      p00 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x0), 1), low8);
+      p01 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x1), 1), low8);
+      p10 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x0), 1), low8);
+      p11 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x1), 1), low8);
+    }
+    const __m256i ay = _mm256_and_si256(fv, low8);
+    const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8), _mm256_mullo_epi32(_mm256_sub_epi32(p01, p00), ax));
+    const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8), _mm256_mullo_epi32(_mm256_sub_epi32(p11, p10), ax));
+    const __m256i value = _mm256_srai_epi32(
+        _mm256_add_epi32(_mm256_add_epi32(_mm256_slli_epi32(top, 8), _mm256_mullo_epi32(_mm256_sub_epi32(bottom, top), ay)), half), 16);
+    const __m256i light = _mm256_min_epi32(_mm256_srai_epi32(_mm256_mullo_epi32(value, gain), 8), max_light);
+    alignas(32) int32_t lights[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(lights), light);
+    uint16_t* o = out + static_cast<ptrdiff_t>(v) * stride;
+    for (int i = 0; i < 8; ++i, o += stride) *o = static_cast<uint16_t>(lights[i]);
+  }
+  wallSpan(w, v, v1, out, stride);
 }
 
 }  // namespace evermap::sim::kernels

@@ -55,4 +55,20 @@ struct SurfaceRow {
 void surfaceRow(const SurfaceRow& r, int width, uint16_t* out);
 void surfaceRowAvx2(const SurfaceRow& r, int width, uint16_t* out);
 
+// Rows [v0, v1) of one column of the level image showing a wall (or a poster on it): a level
+// camera sees one texture column there (renderLevel's wall pass). Row v is at depth
+// d(v) = d_top + (v - v_top) step below the ceiling (float multiply then add), its texture row
+// is d(v) * scale_z + offset_z on a wall, (offset_z - (height - d(v))) * scale_z on a poster.
+// Writes light = texel * gain / 256 (at most 1023) to out[v * stride].
+struct WallSpan {
+  const Texture::Column* column = nullptr;
+  int gain = 256;
+  int v_top = 0;
+  float d_top = 0, step = 0;  // metres below the ceiling at v_top, and per row
+  bool poster = false;
+  float scale_z = 1, offset_z = 0, height = 0;
+};
+void wallSpan(const WallSpan& w, int v0, int v1, uint16_t* out, int stride);
+void wallSpanAvx2(const WallSpan& w, int v0, int v1, uint16_t* out, int stride);
+
 }  // namespace evermap::sim::kernels

@@ -167,22 +167,30 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
         p_bot = std::clamp(static_cast<int>(std::floor(cyl + fy * (below - p.z0) / t)) + 1, p_top, v_bot);
         p_scale = static_cast<float>(tex[p.texture].size()) / (p.s1 - p.s0);
       }
-      float depth_below_ceiling = z_top;
-      const int gain = w.gain_q8;
-      const float z_offset = w.z_offset, inv_texel = w.inv_texel;
-      int v = v_top;
       const Texture::Column column(wt, tu, level);
-      for (; v < p_top; ++v, depth_below_ceiling += step) put(u, v, column(depth_below_ceiling * inv_texel + z_offset), gain);
+      kernels::WallSpan span;
+      span.column = &column;
+      span.gain = w.gain_q8;
+      span.v_top = v_top;
+      span.d_top = z_top;
+      span.step = step;
+      span.scale_z = w.inv_texel;
+      span.offset_z = w.z_offset;
+      const auto wall_span = avx2_ ? kernels::wallSpanAvx2 : kernels::wallSpan;
+      uint16_t* out = level_.data() + u;
+      wall_span(span, v_top, p_top, out, W);
       if (p_top < p_bot) {
-        const float height = static_cast<float>(floor.ceiling_z - floor.floor_z);
-        const Texture& pt = tex[p.texture];
-        const int p_level = mipLevel(lod + std::log2(p_scale));
-        const float pu = (static_cast<float>(s) - p.s0) * p_scale;
-        for (; v < p_bot; ++v, depth_below_ceiling += step) {
-          put(u, v, pt.sample(pu, (p.z1 - (height - depth_below_ceiling)) * p_scale, p_level), gain);
-        }
+        const Texture::Column poster(tex[p.texture], (static_cast<float>(s) - p.s0) * p_scale,
+                                     mipLevel(lod + std::log2(p_scale)));
+        kernels::WallSpan on_poster = span;
+        on_poster.column = &poster;
+        on_poster.poster = true;
+        on_poster.scale_z = p_scale;
+        on_poster.offset_z = p.z1;
+        on_poster.height = static_cast<float>(floor.ceiling_z - floor.floor_z);
+        wall_span(on_poster, p_top, p_bot, out, W);
       }
-      for (; v < v_bot; ++v, depth_below_ceiling += step) put(u, v, column(depth_below_ceiling * inv_texel + z_offset), gain);
+      wall_span(span, p_bot, v_bot, out, W);
     }
     col_dx[static_cast<size_t>(u)] = dx;
     col_dy[static_cast<size_t>(u)] = dy;

@@ -80,10 +80,14 @@ class Texture {
       return (top * 256 + (bottom - top) * ay + (1 << 15)) >> 16;
     }
 
+    const Level& level() const { return L_; }
+    int x0() const { return x0_; }  // the two texel columns interpolated, and the weight of x1
+    int x1() const { return x1_; }
+    int ax() const { return ax_; }
+
    private:
     Level L_;
     int x0_, x1_, ax_;
-    friend class Texture;
   };
 
   Texture(const Texture& other) : size_(other.size_), levels_(other.levels_) { makeViews(); }
