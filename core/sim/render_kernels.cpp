@@ -41,6 +41,14 @@ inline float wallRow(const WallSpan& w, int v) {
   return w.poster ? (w.offset_z - (w.height - d)) * w.scale_z : d * w.scale_z + w.offset_z;
 }
 
+// The 32-bit pixel pairs (q[o], q[o + 1]) for lane offsets o = 2 lane + odd in [0, 16).
+__attribute__((target("avx2"))) inline __m256i pixelPairs(const uint16_t* q, __m256i lane, __m256i odd) {
+  const __m256i even_pairs = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(q));
+  const __m256i odd_pairs = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(q + 1));
+  return _mm256_blendv_epi8(_mm256_permutevar8x32_epi32(even_pairs, lane), _mm256_permutevar8x32_epi32(odd_pairs, lane),
+                            odd);
+}
+
 }  // namespace
 
 bool cpuHasAvx2() {
@@ -66,6 +74,7 @@ __attribute__((target("avx2"))) void warpRowAvx2(const WarpRow& w, const float* 
   const __m256 fixed = _mm256_set1_ps(256.0f);
   const __m256i lw = _mm256_set1_epi32(w.level_w), low8 = _mm256_set1_epi32(255), low16 = _mm256_set1_epi32(0xffff);
   const __m256i half = _mm256_set1_epi32(1 << 15), order = _mm256_setr_epi32(0, 4, 0, 4, 0, 4, 0, 4);
+  const __m256i one = _mm256_set1_epi32(1), minus_one = _mm256_set1_epi32(-1), sixteen = _mm256_set1_epi32(16);
   const auto* level = reinterpret_cast<const int*>(w.level);
   const __m256 k0 = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
   for (int b = 0, u = 0; u < width; ++b) {
@@ -77,10 +86,27 @@ __attribute__((target("avx2"))) void warpRowAvx2(const WarpRow& w, const float* 
       const __m256 lu = _mm256_add_ps(a_u, _mm256_mul_ps(kf, d_u)), lv = _mm256_add_ps(a_v, _mm256_mul_ps(kf, d_v));
       const __m256i fu = _mm256_cvttps_epi32(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(lu, zero), max_u), fixed));
       const __m256i fv = _mm256_cvttps_epi32(_mm256_mul_ps(_mm256_min_ps(_mm256_max_ps(lv, zero), max_v), fixed));
-      const __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_srli_epi32(fv, 8), lw), _mm256_srli_epi32(fu, 8));
-      // One 32-bit gather reads two neighbouring 16-bit level pixels.
-      const __m256i g0 = _mm256_i32gather_epi32(level, idx, 2);
-      const __m256i g1 = _mm256_i32gather_epi32(level, _mm256_add_epi32(idx, lw), 2);
+      const __m256i x0 = _mm256_srli_epi32(fu, 8), y0 = _mm256_srli_epi32(fv, 8);
+      // (g0, g1): the pixel pairs (x0, x0 + 1) of rows y0 and y0 + 1, as 32-bit lanes.
+      __m256i g0, g1;
+      const int first_x = _mm256_cvtsi256_si32(x0), first_y = _mm256_cvtsi256_si32(y0);
+      const __m256i off = _mm256_sub_epi32(x0, _mm256_set1_epi32(first_x));
+      const __m256i near = _mm256_and_si256(_mm256_cmpeq_epi32(y0, _mm256_set1_epi32(first_y)),
+                                            _mm256_and_si256(_mm256_cmpgt_epi32(off, minus_one), _mm256_cmpgt_epi32(sixteen, off)));
+      if (first_x + 17 <= w.level_w && _mm256_movemask_ps(_mm256_castsi256_ps(near)) == 0xff) {
+        // A nearly level row: all eight within 16 pixels of one level row. Pairs at even
+        // offsets are the 32-bit lanes of a load at first_x, odd ones of a load at first_x + 1.
+        const uint16_t* p = w.level + static_cast<ptrdiff_t>(first_y) * w.level_w + first_x;
+        const __m256i lane = _mm256_srli_epi32(off, 1);
+        const __m256i odd = _mm256_cmpeq_epi32(_mm256_and_si256(off, one), one);
+        g0 = pixelPairs(p, lane, odd);
+        g1 = pixelPairs(p + w.level_w, lane, odd);
+      } else {
+        // One 32-bit gather reads two neighbouring 16-bit level pixels.
+        const __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(y0, lw), x0);
+        g0 = _mm256_i32gather_epi32(level, idx, 2);
+        g1 = _mm256_i32gather_epi32(level, _mm256_add_epi32(idx, lw), 2);
+      }
       const __m256i ax = _mm256_and_si256(fu, low8), ay = _mm256_and_si256(fv, low8);
       const __m256i p00 = _mm256_and_si256(g0, low16), p01 = _mm256_srli_epi32(g0, 16);
       const __m256i p10 = _mm256_and_si256(g1, low16), p11 = _mm256_srli_epi32(g1, 16);
