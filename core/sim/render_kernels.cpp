@@ -188,10 +188,21 @@ __attribute__((target("avx2"))) void surfaceRowAvx2(const SurfaceRow& r, int wid
     const __m128i shift = _mm_cvtsi32_si128(L.shift);
     const __m256i r0 = _mm256_sll_epi32(y0, shift), r1 = _mm256_sll_epi32(y1, shift);
     const auto* texels = reinterpret_cast<const int*>(L.texels);
-    const __m256i p00 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x0), 1), low8);
-    const __m256i p01 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x1), 1), low8);
-    const __m256i p10 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x0), 1), low8);
-    const __m256i p11 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x1), 1), low8);
+    __m256i p00, p01, p10, p11;
+    if (_mm256_testz_si256(_mm256_cmpeq_epi32(x0, mask), _mm256_cmpeq_epi32(x0, mask))) {
+      // No lane wraps around the texture's edge (x1 = x0 + 1): one gather reads both texels.
+      const __m256i g0 = _mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x0), 1);
+      const __m256i g1 = _mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x0), 1);
+      p00 = _mm256_and_si256(g0, low8);
+      p01 = _mm256_and_si256(_mm256_srli_epi32(g0, 8), low8);
+      p10 = _mm256_and_si256(g1, low8);
+      p11 = _mm256_and_si256(_mm256_srli_epi32(g1, 8), low8);
+    } else {
+      p00 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x0), 1), low8);
+      p01 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x1), 1), low8);
+      p10 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x0), 1), low8);
+      p11 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x1), 1), low8);
+    }
     const __m256i ax = _mm256_and_si256(fu, low8), ay = _mm256_and_si256(fv, low8);
     const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8), _mm256_mullo_epi32(_mm256_sub_epi32(p01, p00), ax));
     const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8), _mm256_mullo_epi32(_mm256_sub_epi32(p11, p10), ax));
