@@ -13,7 +13,10 @@
 //     walls keep their detail).
 //  2. The real camera differs from the level one by a rotation about the same centre, so its
 //     image is the level image resampled through the homography K R K⁻¹ (exact for a pure
-//     rotation; bilinear interpolation).
+//     rotation; bilinear interpolation). The homography is evaluated exactly every 16 pixels
+//     of a row and linearly in between (its denominator changes by ~1e-5 per pixel).
+// The per-pixel loops (wall columns, floor and ceiling rows, the warp) are render_kernels.h:
+// AVX2 when the CPU has it, else portable C++, with bit-identical images either way.
 // Pixel (u, v) is the ray through the pixel centre, OpenCV's convention: u = fx x/z + cx.
 //
 // Output intensity: texture * light, then the session's camera response (gain, offset, gamma),
