@@ -8,6 +8,9 @@ namespace evermap::sim::kernels {
 namespace {
 
 // Bilinear interpolation with 8-bit weights, rounded: the same formula as Texture::sample.
+// (The AVX2 kernels multiply a texel difference, |d| < 2^15, by a weight 0..255 with
+// _mm256_madd_epi16: the low halves' product plus the high halves' (sign bits times 0) is
+// exactly d * weight.)
 inline int bilinear(int p00, int p01, int p10, int p11, int ax, int ay) {
   const int top = p00 * 256 + (p01 - p00) * ax;
   const int bottom = p10 * 256 + (p11 - p10) * ax;
@@ -110,8 +113,8 @@ __attribute__((target("avx2"))) void warpRowAvx2(const WarpRow& w, const float* 
       const __m256i ax = _mm256_and_si256(fu, low8), ay = _mm256_and_si256(fv, low8);
       const __m256i p00 = _mm256_and_si256(g0, low16), p01 = _mm256_srli_epi32(g0, 16);
       const __m256i p10 = _mm256_and_si256(g1, low16), p11 = _mm256_srli_epi32(g1, 16);
-      const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8), _mm256_mullo_epi32(_mm256_sub_epi32(p01, p00), ax));
-      const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8), _mm256_mullo_epi32(_mm256_sub_epi32(p11, p10), ax));
+      const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8), _mm256_madd_epi16(_mm256_sub_epi32(p01, p00), ax));
+      const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8), _mm256_madd_epi16(_mm256_sub_epi32(p11, p10), ax));
       const __m256i light = _mm256_srai_epi32(
           _mm256_add_epi32(_mm256_add_epi32(_mm256_slli_epi32(top, 8), _mm256_mullo_epi32(_mm256_sub_epi32(bottom, top), ay)), half), 16);
       const __m256i gray = _mm256_add_epi32(_mm256_i32gather_epi32(w.response, light, 4),
@@ -204,8 +207,8 @@ __attribute__((target("avx2"))) void surfaceRowAvx2(const SurfaceRow& r, int wid
       p11 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x1), 1), low8);
     }
     const __m256i ax = _mm256_and_si256(fu, low8), ay = _mm256_and_si256(fv, low8);
-    const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8), _mm256_mullo_epi32(_mm256_sub_epi32(p01, p00), ax));
-    const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8), _mm256_mullo_epi32(_mm256_sub_epi32(p11, p10), ax));
+    const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8), _mm256_madd_epi16(_mm256_sub_epi32(p01, p00), ax));
+    const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8), _mm256_madd_epi16(_mm256_sub_epi32(p11, p10), ax));
     const __m256i value = _mm256_srai_epi32(
         _mm256_add_epi32(_mm256_add_epi32(_mm256_slli_epi32(top, 8), _mm256_mullo_epi32(_mm256_sub_epi32(bottom, top), ay)), half), 16);
     const __m256i light = _mm256_min_epi32(
@@ -266,8 +269,8 @@ __attribute__((target("avx2"))) void wallSpanAvx2(const WallSpan& w, int v0, int
       p11 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x1), 1), low8);
     }
     const __m256i ay = _mm256_and_si256(fv, low8);
-    const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8), _mm256_mullo_epi32(_mm256_sub_epi32(p01, p00), ax));
-    const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8), _mm256_mullo_epi32(_mm256_sub_epi32(p11, p10), ax));
+    const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8), _mm256_madd_epi16(_mm256_sub_epi32(p01, p00), ax));
+    const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8), _mm256_madd_epi16(_mm256_sub_epi32(p11, p10), ax));
     const __m256i value = _mm256_srai_epi32(
         _mm256_add_epi32(_mm256_add_epi32(_mm256_slli_epi32(top, 8), _mm256_mullo_epi32(_mm256_sub_epi32(bottom, top), ay)), half), 16);
     const __m256i light = _mm256_min_epi32(_mm256_srai_epi32(_mm256_mullo_epi32(value, gain), 8), max_light);
