@@ -146,7 +146,7 @@ Expected<RenderFloor> buildRenderFloor(const FloorSpec& spec, const WorldOptions
   f.inv_cell = static_cast<float>(1.0 / cell);
   f.grid_w = w;
   f.grid_h = h;
-  f.grid.assign(static_cast<size_t>(w) * h, 0);
+  f.grid.assign(static_cast<size_t>(w) * h + kGatherPadBytes, 0);
   auto centre = [&](int i, int j) { return Vec2(x0 + (i + 0.5) * cell, y0 + (j + 0.5) * cell); };
   for (size_t r = 0; r < spec.regions.size(); ++r) {
     for (const Box& b : spec.regions[r].boxes) {

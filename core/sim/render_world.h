@@ -92,7 +92,8 @@ struct RenderFloor {
   float floor_z = 0, ceiling_z = 0;
   std::vector<Wall> walls;
   std::vector<Region> regions;
-  // Grid: label 0 solid, r + 1 region r; bit 7 set: featureless zone.
+  // Grid: label 0 solid, r + 1 region r; bit 7 set: featureless zone. Row-major, grid_w x
+  // grid_h, then kGatherPadBytes spare bytes.
   float grid_x0 = 0, grid_y0 = 0, inv_cell = 20.0f;
   int grid_w = 0, grid_h = 0;
   std::vector<uint8_t> grid;

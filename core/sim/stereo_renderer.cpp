@@ -1,5 +1,7 @@
 #include "core/sim/stereo_renderer.h"
 
+#include "core/sim/render_kernels.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -35,7 +37,7 @@ Status Lighting::validate() const {
 
 ImageRenderer::ImageRenderer(const TextureLibrary& textures, const PinholeCamera& camera,
                              double noise_sigma_gray, uint64_t noise_seed)
-    : textures_(textures), camera_(camera), rng_(noise_seed) {
+    : textures_(textures), camera_(camera), rng_(noise_seed), avx2_(kernels::cpuHasAvx2()) {
   noise_.resize(kNoiseTable + static_cast<size_t>(camera.width));
   for (int16_t& n : noise_) {
     n = static_cast<int16_t>(std::lround(noise_sigma_gray > 0.0 ? noise_sigma_gray * rng_.normal() : 0.0));
@@ -53,7 +55,7 @@ void ImageRenderer::setLighting(const Lighting& l) {
   for (int i = 0; i < 1024; ++i) {
     const double x = i / 255.0;
     const double y = 255.0 * l.gain * std::pow(x, l.gamma) + l.offset_gray;
-    response_[static_cast<size_t>(i)] = static_cast<uint8_t>(std::clamp(std::lround(y), 0L, 255L));
+    response_[static_cast<size_t>(i)] = static_cast<int32_t>(std::clamp(std::lround(y), 0L, 255L));
   }
 }
 
@@ -165,22 +167,30 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
         p_bot = std::clamp(static_cast<int>(std::floor(cyl + fy * (below - p.z0) / t)) + 1, p_top, v_bot);
         p_scale = static_cast<float>(tex[p.texture].size()) / (p.s1 - p.s0);
       }
-      float depth_below_ceiling = z_top;
-      const int gain = w.gain_q8;
-      const float z_offset = w.z_offset, inv_texel = w.inv_texel;
-      int v = v_top;
       const Texture::Column column(wt, tu, level);
-      for (; v < p_top; ++v, depth_below_ceiling += step) put(u, v, column(depth_below_ceiling * inv_texel + z_offset), gain);
+      kernels::WallSpan span;
+      span.column = &column;
+      span.gain = w.gain_q8;
+      span.v_top = v_top;
+      span.d_top = z_top;
+      span.step = step;
+      span.scale_z = w.inv_texel;
+      span.offset_z = w.z_offset;
+      const auto wall_span = avx2_ ? kernels::wallSpanAvx2 : kernels::wallSpan;
+      uint16_t* out = level_.data() + u;
+      wall_span(span, v_top, p_top, out, W);
       if (p_top < p_bot) {
-        const float height = static_cast<float>(floor.ceiling_z - floor.floor_z);
-        const Texture& pt = tex[p.texture];
-        const int p_level = mipLevel(lod + std::log2(p_scale));
-        const float pu = (static_cast<float>(s) - p.s0) * p_scale;
-        for (; v < p_bot; ++v, depth_below_ceiling += step) {
-          put(u, v, pt.sample(pu, (p.z1 - (height - depth_below_ceiling)) * p_scale, p_level), gain);
-        }
+        const Texture::Column poster(tex[p.texture], (static_cast<float>(s) - p.s0) * p_scale,
+                                     mipLevel(lod + std::log2(p_scale)));
+        kernels::WallSpan on_poster = span;
+        on_poster.column = &poster;
+        on_poster.poster = true;
+        on_poster.scale_z = p_scale;
+        on_poster.offset_z = p.z1;
+        on_poster.height = static_cast<float>(floor.ceiling_z - floor.floor_z);
+        wall_span(on_poster, p_top, p_bot, out, W);
       }
-      for (; v < v_bot; ++v, depth_below_ceiling += step) put(u, v, column(depth_below_ceiling * inv_texel + z_offset), gain);
+      wall_span(span, p_bot, v_bot, out, W);
     }
     col_dx[static_cast<size_t>(u)] = dx;
     col_dy[static_cast<size_t>(u)] = dy;
@@ -188,33 +198,34 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
     col_bot[static_cast<size_t>(u)] = v_bot;
   }
   // Ceiling above the walls and floor below them, row by row (one depth per row).
-  struct Surface {
-    const Texture* floor;
-    const Texture* ceiling;
-    int gain_q8;
-  };
-  Surface by_cell[256];
+  const Texture* floor_of_cell[256];
+  const Texture* ceiling_of_cell[256];
+  int gain_of_cell[256];
   for (int cell = 0; cell < 256; ++cell) {
     const int label = cell & 0x7f;
     const Region& r = floor.regions[static_cast<size_t>(label > 0 && label <= static_cast<int>(floor.regions.size()) ? label - 1 : 0)];
     const bool featureless = (cell & 0x80) != 0;
-    by_cell[cell] = {featureless ? &blank : &tex[r.floor_texture], featureless ? &blank : &tex[r.ceiling_texture],
-                     floor.floor_gain_q8[r.dark ? 1 : 0]};
+    floor_of_cell[cell] = featureless ? &blank : &tex[r.floor_texture];
+    ceiling_of_cell[cell] = featureless ? &blank : &tex[r.ceiling_texture];
+    gain_of_cell[cell] = floor.floor_gain_q8[r.dark ? 1 : 0];
   }
+  kernels::SurfaceRow row;
+  row.cx = c2x;
+  row.cy = c2y;
+  row.col_dx = col_dx.data();
+  row.col_dy = col_dy.data();
+  row.col_lod = col_lod.data();
+  row.floor = &floor;
+  row.gain_of_cell = gain_of_cell;
   for (int v = 0; v < H; ++v) {
-    const bool down = v > cyl;
-    const float tv = row_t[static_cast<size_t>(v)];
-    const float inv_texel = down ? floor.floor_inv_texel : floor.ceiling_inv_texel;
-    const float lod_row = row_lod[static_cast<size_t>(v)] + (down ? floor_log : ceiling_log);
-    uint16_t* out = level_.data() + static_cast<size_t>(v) * W;
-    for (int u = 0; u < W; ++u) {
-      if (down ? v < col_bot[static_cast<size_t>(u)] : v >= col_top[static_cast<size_t>(u)]) continue;
-      const float px = c2x + tv * col_dx[static_cast<size_t>(u)], py = c2y + tv * col_dy[static_cast<size_t>(u)];
-      const Surface& sf = by_cell[floor.cellAt(px, py)];
-      const Texture& t_used = down ? *sf.floor : *sf.ceiling;
-      const int light = (t_used.sample(px * inv_texel, py * inv_texel, mipLevel(lod_row + col_lod[static_cast<size_t>(u)])) * sf.gain_q8) >> 8;
-      out[u] = static_cast<uint16_t>(light > 1023 ? 1023 : light);
-    }
+    row.v = v;
+    row.down = v > cyl;
+    row.t = row_t[static_cast<size_t>(v)];
+    row.inv_texel = row.down ? floor.floor_inv_texel : floor.ceiling_inv_texel;
+    row.lod_row = row_lod[static_cast<size_t>(v)] + (row.down ? floor_log : ceiling_log);
+    row.col_limit = row.down ? col_bot.data() : col_top.data();
+    row.texture_of_cell = row.down ? floor_of_cell : ceiling_of_cell;
+    (avx2_ ? kernels::surfaceRowAvx2 : kernels::surfaceRow)(row, W, level_.data() + static_cast<size_t>(v) * W);
   }
   // Passers-by in front of whatever is behind them.
   for (int u = 0; u < W; ++u) {
@@ -264,37 +275,36 @@ void ImageRenderer::render(const RenderFloor& floor, double z_shift, const core:
   Kl(0, 2) += kLevelMargin;
   Kl(1, 2) += kLevelMargin;
   const core::Mat3 M = Kl * world_R_level.transpose() * R * K.inverse();
-  const float max_u = static_cast<float>(level_w_ - 1) - 1e-3f, max_v = static_cast<float>(level_h_ - 1) - 1e-3f;
-  const uint16_t* level = level_.data();
-  const int LW = level_w_;
-  const uint8_t* response = response_.data();
+  kernels::WarpRow warp;
+  warp.level = level_.data();
+  warp.level_w = level_w_;
+  warp.max_u = static_cast<float>(level_w_ - 1) - 1e-3f;
+  warp.max_v = static_cast<float>(level_h_ - 1) - 1e-3f;
+  warp.response = response_.data();
+  // The homography's denominator changes by ~1e-5 per pixel: exact every kBlock pixels,
+  // linear in between (error far below 1e-3 pixel).
+  constexpr int kBlock = 16;
+  warp.block = kBlock;
+  const int blocks = (W + kBlock - 1) / kBlock;
+  thread_local std::vector<float> lu0, lv0, dlu, dlv;
+  lu0.resize(static_cast<size_t>(blocks));
+  lv0.resize(static_cast<size_t>(blocks));
+  dlu.resize(static_cast<size_t>(blocks));
+  dlv.resize(static_cast<size_t>(blocks));
   for (int v = 0; v < H; ++v) {
     const core::Vec3 h = M * core::Vec3(0.0, v, 1.0);
-    uint8_t* row = out->ptr<uint8_t>(v);
-    const int16_t* noise = noise_.data() + rng_.index(kNoiseTable);
-    // The homography's denominator changes by ~1e-5 per pixel: exact every kBlock pixels,
-    // linear in between (error far below 1e-3 pixel).
-    constexpr int kBlock = 16;
-    float lu = 0.0f, lv = 0.0f, dlu = 0.0f, dlv = 0.0f;
-    for (int u = 0; u < W; ++u, lu += dlu, lv += dlv) {
-      if (u % kBlock == 0) {
-        const core::Vec3 a = h + u * M.col(0), b = h + (u + kBlock) * M.col(0);
-        lu = static_cast<float>(a.x() / a.z());
-        lv = static_cast<float>(a.y() / a.z());
-        dlu = static_cast<float>((b.x() / b.z() - a.x() / a.z()) / kBlock);
-        dlv = static_cast<float>((b.y() / b.z() - a.y() / a.z()) / kBlock);
-      }
-      const float cu = lu < 0.0f ? 0.0f : (lu > max_u ? max_u : lu);
-      const float cv = lv < 0.0f ? 0.0f : (lv > max_v ? max_v : lv);
-      const int fu = static_cast<int>(cu * 256.0f), fv = static_cast<int>(cv * 256.0f);
-      const int x0 = fu >> 8, y0 = fv >> 8, ax = fu & 255, ay = fv & 255;
-      const uint16_t* p = level + static_cast<size_t>(y0) * LW + x0;
-      const int top = p[0] * 256 + (p[1] - p[0]) * ax;
-      const int bottom = p[LW] * 256 + (p[LW + 1] - p[LW]) * ax;
-      const int light = (top * 256 + (bottom - top) * ay + (1 << 15)) >> 16;
-      const int g = response[light] + noise[u];
-      row[u] = static_cast<uint8_t>(g < 0 ? 0 : (g > 255 ? 255 : g));
+    core::Vec3 a = h;
+    for (int b = 0; b < blocks; ++b) {
+      const core::Vec3 next = h + (b + 1) * kBlock * M.col(0);
+      lu0[static_cast<size_t>(b)] = static_cast<float>(a.x() / a.z());
+      lv0[static_cast<size_t>(b)] = static_cast<float>(a.y() / a.z());
+      dlu[static_cast<size_t>(b)] = static_cast<float>((next.x() / next.z() - a.x() / a.z()) / kBlock);
+      dlv[static_cast<size_t>(b)] = static_cast<float>((next.y() / next.z() - a.y() / a.z()) / kBlock);
+      a = next;
     }
+    const int16_t* noise = noise_.data() + rng_.index(kNoiseTable);
+    (avx2_ ? kernels::warpRowAvx2 : kernels::warpRow)(warp, lu0.data(), lv0.data(), dlu.data(), dlv.data(), noise,
+                                                       W, out->ptr<uint8_t>(v));
   }
 }
 

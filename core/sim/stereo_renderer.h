@@ -13,7 +13,10 @@
 //     walls keep their detail).
 //  2. The real camera differs from the level one by a rotation about the same centre, so its
 //     image is the level image resampled through the homography K R K⁻¹ (exact for a pure
-//     rotation; bilinear interpolation).
+//     rotation; bilinear interpolation). The homography is evaluated exactly every 16 pixels
+//     of a row and linearly in between (its denominator changes by ~1e-5 per pixel).
+// The per-pixel loops (wall columns, floor and ceiling rows, the warp) are render_kernels.h:
+// AVX2 when the CPU has it, else portable C++, with bit-identical images either way.
 // Pixel (u, v) is the ray through the pixel centre, OpenCV's convention: u = fx x/z + cx.
 //
 // Output intensity: texture * light, then the session's camera response (gain, offset, gamma),
@@ -79,11 +82,12 @@ class ImageRenderer {
   const TextureLibrary& textures_;
   PinholeCamera camera_;
   Random rng_;
+  bool avx2_;  // the CPU has AVX2: use the AVX2 kernels (render_kernels.h)
   void renderLevel(const RenderFloor& floor, double z_shift, const core::Vec3& centre,
                    const core::Vec2& heading, std::span<const Occluder> occluders);
 
   std::vector<int16_t> noise_;      // Gaussian samples, read from a random offset per row
-  std::vector<uint8_t> response_;   // light (0..1023) -> gray, the session's camera response
+  std::vector<int32_t> response_;   // light (0..1023) -> gray, the session's camera response
   int level_w_ = 0, level_h_ = 0;
   std::vector<uint16_t> level_;     // the level image: light 0..1023, row-major
   std::vector<float> depth_;        // per level column: forward distance of the nearest wall

@@ -220,6 +220,7 @@ Texture::Texture(int size, std::vector<uint8_t> base) : size_(size) {
     }
     levels_.push_back(std::move(next));
   }
+  for (std::vector<uint8_t>& level : levels_) level.resize(level.size() + kGatherPadBytes, 0);
   makeViews();
 }
 

@@ -19,6 +19,10 @@
 
 namespace evermap::sim {
 
+// Byte arrays read by 32-bit gathers (render_kernels.h: a gather of byte i reads bytes i..i+3)
+// end with this many spare bytes.
+inline constexpr int kGatherPadBytes = 3;
+
 class Texture {
  public:
   struct Level {
@@ -34,10 +38,14 @@ class Texture {
   int size() const { return size_; }
   int levels() const { return static_cast<int>(levels_.size()); }
   const uint8_t* level(int l) const { return levels_[l].data(); }
+  // Mip level `level`, clamped to the pyramid.
+  const Level& levelView(int level) const {
+    return view_[static_cast<size_t>(level < 0 ? 0 : (level > last_ ? last_ : level))];
+  }
   // Bilinear sample at texel coordinates (u, v) of level 0 (texel centres at integer + 0.5),
   // from mip level `level` (clamped to the pyramid), wrapping around the edges. Gray 0..255.
   int sample(float u, float v, int level) const {
-    const Level& L = view_[static_cast<size_t>(level < 0 ? 0 : (level > last_ ? last_ : level))];
+    const Level& L = levelView(level);
     // Fixed point, 8 fractional bits; the offset keeps the value positive before the shift.
     const int32_t fu = static_cast<int32_t>(u * L.scale - 128.0f) + (1 << 28);
     const int32_t fv = static_cast<int32_t>(v * L.scale - 128.0f) + (1 << 28);
@@ -72,10 +80,14 @@ class Texture {
       return (top * 256 + (bottom - top) * ay + (1 << 15)) >> 16;
     }
 
+    const Level& level() const { return L_; }
+    int x0() const { return x0_; }  // the two texel columns interpolated, and the weight of x1
+    int x1() const { return x1_; }
+    int ax() const { return ax_; }
+
    private:
     Level L_;
     int x0_, x1_, ax_;
-    friend class Texture;
   };
 
   Texture(const Texture& other) : size_(other.size_), levels_(other.levels_) { makeViews(); }
@@ -96,7 +108,7 @@ class Texture {
  private:
   int size_;
   void makeViews();
-  std::vector<std::vector<uint8_t>> levels_;  // levels_[l] is (size >> l)^2
+  std::vector<std::vector<uint8_t>> levels_;  // levels_[l] is (size >> l)^2 + kGatherPadBytes
   std::vector<Level> view_;
   int last_ = 0;
 };
