@@ -198,7 +198,11 @@ void LcmNode::publishStats() {
   }
   s.num_components = static_cast<int32_t>(s.component_names.size());
   lcm_.publish(channels::kMapperStats, &s);
-  timing_at_stats_ = MapperTiming{t.tracking_s, t.registration_s, t.partition_s, t.solver_s, {}};
+  timing_at_stats_ = MapperTiming{};
+  timing_at_stats_.tracking_s = t.tracking_s;
+  timing_at_stats_.registration_s = t.registration_s;
+  timing_at_stats_.partition_s = t.partition_s;
+  timing_at_stats_.solver_s = t.solver_s;
   extra_ = ComponentTimes{};
   last_stats_utime_ = last_utime_;
   ++counts_.stats;

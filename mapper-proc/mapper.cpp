@@ -1,8 +1,10 @@
 #include "mapper-proc/mapper.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <sstream>
 #include <utility>
 
@@ -18,6 +20,14 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// CPU time of the calling thread: a step's work without the time other threads and processes
+// held the core (measurement only, like the wall clock above).
+double threadCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
 int64_t micros(double s) { return static_cast<int64_t>(std::llround(s * 1e6)); }
@@ -43,6 +53,7 @@ Status MapperOptions::validate() const {
   if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
   if (!(recent_exclusion_s >= 0.0)) return Error{"mapper.recent_exclusion_s: must be >= 0"};
   if (!(covariance_floor >= 0.0)) return Error{"mapper.covariance_floor: must be >= 0"};
+  if (cell_refresh_per_step < 1) return Error{"mapper.cell_refresh_per_step: must be >= 1"};
   if (!(origin_sigma_m > 0.0) || !(origin_sigma_rad > 0.0))
     return Error{"mapper.origin_sigma: must be > 0"};
   if (auto s = tracker.validate(); !s) return s;
@@ -172,8 +183,36 @@ std::optional<int64_t> Mapper::nodeInCell(const core::PlanarCell& cell, int64_t 
 void Mapper::rebuildCells() {
   const auto t0 = Clock::now();
   cells_.clear();
+  node_cell_.clear();
   const solver::Values est = solver_.estimate();
-  for (const MapperNode& n : nodes_) cells_[cellOf(est[n.id].se3, n.floor)].push_back(n.id);
+  for (const MapperNode& n : nodes_) fileInCell(n.id, cellOf(est[n.id].se3, n.floor));
+  refresh_next_ = SIZE_MAX;
+  stats_.timing.partition_s += secondsSince(t0);
+}
+
+void Mapper::fileInCell(int64_t id, const core::PlanarCell& cell) {
+  const auto k = static_cast<size_t>(id);
+  if (k < node_cell_.size()) {
+    if (node_cell_[k] == cell) return;
+    auto& old = cells_[node_cell_[k]];
+    old.erase(std::find(old.begin(), old.end(), id));
+    node_cell_[k] = cell;
+  } else {
+    node_cell_.push_back(cell);  // nodes are filed first in id order
+  }
+  auto& ids = cells_[cell];
+  ids.insert(std::lower_bound(ids.begin(), ids.end(), id), id);
+}
+
+void Mapper::refreshCells() {
+  if (refresh_next_ >= nodes_.size()) return;
+  const auto t0 = Clock::now();
+  const size_t end = std::min(nodes_.size(), refresh_next_ + static_cast<size_t>(o_.cell_refresh_per_step));
+  for (; refresh_next_ < end; ++refresh_next_) {
+    const MapperNode& n = nodes_[refresh_next_];
+    fileInCell(n.id, cellOf(nodePose(n.id), n.floor));
+  }
+  if (refresh_next_ >= nodes_.size()) refresh_next_ = SIZE_MAX;
   stats_.timing.partition_s += secondsSince(t0);
 }
 
@@ -299,6 +338,7 @@ bool Mapper::addAttitudeFactor(int64_t id, const NodeAttitude& a) {
 }
 
 void Mapper::flushSolver() {
+  refreshCells();
   if (pending_update_.new_variables.empty() && pending_update_.new_factors.empty() &&
       pending_update_.remove_factors.empty())
     return;
@@ -309,15 +349,29 @@ void Mapper::flushSolver() {
   if (every > 0 && solver_updates_ % every == 0 && !to_consolidate_.empty()) consolidatePairs();
   ++solver_updates_;
   auto result = solver_.update(pending_update_);
-  const double dt = secondsSince(t0);
-  stats_.timing.solver_s += dt;
-  stats_.timing.update_s.push_back(dt);
-  stats_.timing.update_utime.push_back(last_step_utime_);
+  double dt = secondsSince(t0);
   // Contract: the mapper only builds updates over keys it created, with finite factors.
   if (!result) {
     std::fprintf(stderr, "evermap-mapper: solver update failed: %s\n", result.error().message.c_str());
     std::abort();
   }
+  if (result->batch_started) batch_start_utime_ = last_step_utime_;
+  if (result->batch_swapped) {
+    // The worker had the message time since the start to finish; in operation the step
+    // waits only for what it needed beyond that. The offline runner's own wait (message
+    // time compressed ~2000x) is counted apart, and the worker's time too.
+    const double given_s = 1e-6 * static_cast<double>(last_step_utime_ - batch_start_utime_);
+    const double wait_in_operation_s = std::max(0.0, result->batch_compute_s - given_s);
+    dt += wait_in_operation_s - result->batch_wait_s;
+    step_cost_s_ += wait_in_operation_s - result->batch_wait_s;
+    step_cpu_s_ += wait_in_operation_s;  // a blocked thread uses no CPU
+    ++stats_.timing.background_batches;
+    stats_.timing.background_batch_s += result->batch_compute_s;
+    stats_.timing.background_wait_s += result->batch_wait_s;
+  }
+  stats_.timing.solver_s += dt;
+  stats_.timing.update_s.push_back(dt);
+  stats_.timing.update_utime.push_back(last_step_utime_);
   for (size_t k = 0; k < pending_pairs_.size(); ++k)
     if (pending_pairs_[k].first >= 0)
       pair_factor_[pending_pairs_[k]].push_back(result->new_factor_ids[pending_factor_slot_[k]]);
@@ -327,19 +381,17 @@ void Mapper::flushSolver() {
   pending_pairs_.clear();
   pending_factor_slot_.clear();
   stats_.factors = static_cast<int64_t>(pair_factor_.size());
-  if (result->batch) {
-    // The partition index and the marginals follow the estimate at batch steps; in between
-    // only new nodes join the index (cells are 1 m: the shift of old nodes between two
-    // batch steps, after a loop closure, moves few of them across a cell edge) and the
-    // marginals stay those of the last batch (conservative: adding factors only shrinks
-    // the marginals of existing variables). Both would otherwise cost O(nodes) per update.
-    rebuildCells();
-    marginals_.reset();
-  } else {
-    const auto t1 = Clock::now();
-    for (int64_t id : added) cells_[cellOf(nodePose(id), nodes_[id].floor)].push_back(id);
-    stats_.timing.partition_s += secondsSince(t1);
-  }
+  // The partition index follows the estimate after batch steps; in between only new nodes
+  // join the index (cells are 1 m: the shift of old nodes between two batch steps, after a
+  // loop closure, moves few of them across a cell edge). A rebuild at every update would
+  // cost O(nodes) each time. After a background batch the old nodes are re-filed over the
+  // next steps, cell_refresh_per_step at a time; a synchronous batch step (the first update,
+  // a restored map, a removal outside the schedule) rebuilds at once.
+  const auto t1 = Clock::now();
+  for (int64_t id : added) fileInCell(id, cellOf(nodePose(id), nodes_[id].floor));
+  stats_.timing.partition_s += secondsSince(t1);
+  if (result->batch) rebuildCells();
+  if (result->batch_swapped) refresh_next_ = 0;
 }
 
 void Mapper::sendRequest(int8_t mode, int64_t target) {
@@ -359,15 +411,17 @@ void Mapper::sendRequest(int8_t mode, int64_t target) {
 
 void Mapper::step(int64_t keyframe_utime) {
   const auto t0 = Clock::now();
+  const double c0 = threadCpuSeconds();
   ++stats_.steps;
   last_step_utime_ = keyframe_utime;
   step_cost_s_ = 0.0;
+  step_cpu_s_ = 0.0;
   if (nodes_.empty()) {
     addNode(keyframe_utime, core::UncertainPose{});
     tracker_.reset(tracker_.sinceKeyframe(keyframe_utime).value_or(core::UncertainPose{}));
     flushSolver();
     step_poses_.push_back(StepPose{keyframe_utime, active_, core::SE3d(), session_});
-    stats_.timing.step_cost.push_back({keyframe_utime, secondsSince(t0)});
+    stats_.timing.step_cost.push_back({keyframe_utime, secondsSince(t0), threadCpuSeconds() - c0});
     return;
   }
   InFlight f;
@@ -394,6 +448,7 @@ void Mapper::step(int64_t keyframe_utime) {
   if (target && !lost_) sendRequest(register_request_t::MODE_NODE, *target);
   else sendRequest(register_request_t::MODE_GLOBAL, -1);
   step_cost_s_ += secondsSince(t0);
+  step_cpu_s_ += threadCpuSeconds() - c0;
 }
 
 void Mapper::checkTimeout(int64_t utime) {
@@ -411,12 +466,15 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
     return makeError("REGISTER_RESULT ", msg.request_id, ": no such request in flight");
   }
   const auto t0 = Clock::now();
+  const double c0 = threadCpuSeconds();
   if (msg.status != register_result_t::STATUS_OK) {
     if (in_flight_->mode == register_request_t::MODE_NODE) {
       sendRequest(register_request_t::MODE_GLOBAL, -1);  // then the global search
       step_cost_s_ += secondsSince(t0);
+      step_cpu_s_ += threadCpuSeconds() - c0;
     } else {
       step_cost_s_ += secondsSince(t0);
+      step_cpu_s_ += threadCpuSeconds() - c0;
       finishStep(false);
     }
     return Ok{};
@@ -439,6 +497,7 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
   }
   stats_.timing.registration_s += secondsSince(t0);
   step_cost_s_ += secondsSince(t0);
+  step_cpu_s_ += threadCpuSeconds() - c0;
   finishStep(registered);
   return status;
 }
@@ -573,14 +632,10 @@ bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& 
   // The map's own estimate of a_T_b with its marginal covariance (the joint marginal of a and
   // b through the relative-pose Jacobians), against the measured chain.
   const auto t0 = Clock::now();
+  // From the solver's current factor by path solves (no copy of R): the work follows the
+  // two nodes' elimination-tree paths, not the size of the map.
   const std::vector<solver::Key> keys{a, b};
-  if (!marginals_) marginals_ = solver::Marginals::fromSolver(solver_);
-  auto joint = marginals_->joint(keys);
-  if (!joint) {
-    // A node newer than the cached factor.
-    marginals_ = solver::Marginals::fromSolver(solver_);
-    joint = marginals_->joint(keys);
-  }
+  auto joint = solver::Marginals::jointOf(solver_, keys);
   stats_.timing.registration_s += secondsSince(t0);
   if (!joint) return true;  // no marginal: nothing to test against
   core::Mat6 Ja, Jb;
@@ -597,10 +652,11 @@ void Mapper::finishStep(bool registered) {
   in_flight_.reset();
   const bool gate_rejected = std::exchange(gate_rejected_, false);
   const auto t0 = Clock::now();
+  const double c0 = threadCpuSeconds();
   if (lost_) {
     // Not re-localised yet: neither a node nor a step pose from a meaningless Δ.
     stats_.timing.partition_s += secondsSince(t0);
-    stats_.timing.step_cost.push_back({f.keyframe_utime, step_cost_s_ + secondsSince(t0)});
+    stats_.timing.step_cost.push_back({f.keyframe_utime, step_cost_s_ + secondsSince(t0), step_cpu_s_ + threadCpuSeconds() - c0});
     return;
   }
   // A registration the gate rejected still says a node is near (or it is a false match, and
@@ -619,7 +675,7 @@ void Mapper::finishStep(bool registered) {
   const auto q_T_now = tracker_.sinceKeyframe(f.keyframe_utime);
   const core::SE3d node_T_q = tracker_.delta().mean * (q_T_now ? q_T_now->mean.inverse() : core::SE3d());
   step_poses_.push_back(StepPose{f.keyframe_utime, active_, node_T_q, session_});
-  stats_.timing.step_cost.push_back({f.keyframe_utime, step_cost_s_ + secondsSince(t0)});
+  stats_.timing.step_cost.push_back({f.keyframe_utime, step_cost_s_ + secondsSince(t0), step_cpu_s_ + threadCpuSeconds() - c0});
 }
 
 Status Mapper::restore(const MapSnapshot& map) {

@@ -52,6 +52,18 @@ namespace evermap::mapper {
 
 struct MapSnapshot;  // map_store.h
 
+// The mapper's solver: iSAM's schedule (GN, a batch step every 100 updates) with the two
+// changes that keep a step's cost from growing with the map (docs/mapper.md, "Step cost"):
+// partial back substitution (a change under 1 mm / 1 mrad stops propagating: iSAM2's
+// wildfire, at GTSAM's default threshold) and the scheduled batch steps computed in the background, swapped in 10 updates
+// (at least 5 s of message time at 2 Hz steps) after they start.
+inline solver::IncrementalOptions mapperSolverOptions() {
+  solver::IncrementalOptions o;
+  o.wildfire_threshold = 1e-3;
+  o.background_batch_lag = 10;
+  return o;
+}
+
 struct MapperOptions {
   // false: the reduced pose graph; true: a node at every step (the paper's baseline).
   bool full_graph = false;
@@ -85,8 +97,11 @@ struct MapperOptions {
   // against Δ. Catches false matches the per-pair test cannot see (a pair's first
   // constraint). 0 disables; 22.46 = 99.9 %.
   double map_gate = 22.46;
+  // After a background batch step is swapped in, the partition index is refreshed for this
+  // many nodes per step (a whole rebuild at once costs O(nodes) in one step).
+  int cell_refresh_per_step = 200;
   TrackerOptions tracker;
-  solver::IncrementalOptions solver;
+  solver::IncrementalOptions solver = mapperSolverOptions();
 
   Status validate() const;
 };
@@ -114,11 +129,20 @@ struct MapperTiming {
   double solver_s = 0.0;
   std::vector<double> update_s;  // solver time of each step that changed the graph
   std::vector<int64_t> update_utime;  // message time of each update_s entry
+  // Background batch steps (IncrementalOptions::background_batch_lag): how many were swapped
+  // in, the worker's time on them (work done off the steps, on another core), and how long
+  // the swapping steps waited for the worker — in the offline runner, where message time
+  // runs ~2000x faster than in operation; step cost counts only the wait operation would see
+  // (the worker's time beyond the message time between start and swap).
+  int64_t background_batches = 0;
+  double background_batch_s = 0.0;
+  double background_wait_s = 0.0;
   // Wall time of the mapper's work for each step (request, result handling, new node,
   // solver update), at the step's keyframe time: the "mapper update" of the paper's Fig. 7.
   struct StepCost {
     int64_t utime;
     double s;
+    double cpu_s = 0.0;  // the same work as the step thread's CPU time (no preemption)
   };
   std::vector<StepCost> step_cost;
 };
@@ -230,6 +254,9 @@ class Mapper {
   void flushSolver();
   void consolidatePairs();
   void rebuildCells();
+  // Re-files up to cell_refresh_per_step nodes whose cell moved with the estimate.
+  void refreshCells();
+  void fileInCell(int64_t id, const core::PlanarCell& cell);
   core::PlanarCell cellOf(const core::SE3d& world_T_body, int floor) const;
   std::optional<int64_t> nodeInCell(const core::PlanarCell& cell, int64_t newest_allowed) const;
   void checkTimeout(int64_t utime);
@@ -248,9 +275,6 @@ class Mapper {
   std::map<std::pair<int64_t, int64_t>, std::vector<solver::FactorId>> pair_factor_;
   std::set<std::pair<int64_t, int64_t>> to_consolidate_;
   int64_t solver_updates_ = 0;
-  // Marginals from the factor of the last batch step (or of a later update, when a node newer
-  // than that was asked for); reset at each batch step.
-  std::optional<solver::Marginals> marginals_;
   // For each factor of pending_update_ that stands for a node pair: the pair ((-1, -1) for
   // priors) and its slot in new_factors.
   std::vector<std::pair<int64_t, int64_t>> pending_pairs_;
@@ -258,11 +282,16 @@ class Mapper {
   std::set<std::pair<int64_t, int64_t>> loop_pairs_;
 
   std::vector<MapperNode> nodes_;
+  // Nodes of each cell, ascending ids; node_cell_[id] is the cell node id is filed under.
   std::unordered_map<core::PlanarCell, std::vector<int64_t>, core::PlanarCellHash> cells_;
+  std::vector<core::PlanarCell> node_cell_;
+  size_t refresh_next_ = SIZE_MAX;   // next node to re-file after a swap; SIZE_MAX: none
+  int64_t batch_start_utime_ = -1;   // message time of the step that started a background batch
   int64_t active_ = -1;
   bool relocalize_ = false;  // after a loop closure: the next registration to b replaces Δ
   bool lost_ = false;        // a new session that no global registration has placed yet
   double step_cost_s_ = 0.0;  // wall time of the step in progress so far
+  double step_cpu_s_ = 0.0;   // ... and CPU time of the mapper's thread
   // While lost: the last registration to the map, waiting for a second one that agrees.
   struct RelocalizationCandidate {
     int64_t node;

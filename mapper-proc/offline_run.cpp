@@ -164,9 +164,13 @@ std::string OfflineRunSummary::text() const {
     << "\nate_median_m " << ate_median_m << "\ntime_tracking_s " << stats.timing.tracking_s
     << "\ntime_registration_s " << stats.timing.registration_s << "\ntime_partition_s "
     << stats.timing.partition_s << "\ntime_solver_s " << stats.timing.solver_s
+    << "\nbackground_batches " << stats.timing.background_batches << "\ntime_background_batch_s "
+    << stats.timing.background_batch_s << "\ntime_background_wait_offline_s " << stats.timing.background_wait_s
     << "\nupdate_median_ms " << update_median_ms << "\nupdate_p99_ms " << update_p99_ms
     << "\nstep_median_ms " << step_median_ms << "\nstep_p99_ms " << step_p99_ms << "\nstep_p99_first_hour_ms "
-    << step_p99_first_hour_ms << "\nstep_p99_last_hour_ms " << step_p99_last_hour_ms << "\nnodes_4h_before_end "
+    << step_p99_first_hour_ms << "\nstep_p99_last_hour_ms " << step_p99_last_hour_ms
+    << "\nstep_cpu_p99_first_hour_ms " << step_cpu_p99_first_hour_ms << "\nstep_cpu_p99_last_hour_ms "
+    << step_cpu_p99_last_hour_ms << "\nnodes_4h_before_end "
     << nodes_4h_before_end
     << "\nstore_transactions " << store_transactions << "\ntime_store_s " << store_s
     << "\noperating_h " << operating_s / 3600.0 << "\nstopped_early " << (stopped_early ? 1 : 0)
@@ -373,7 +377,7 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   out.update_median_ms = percentile(ms, 0.5);
   out.update_p99_ms = percentile(ms, 0.99);
   {
-    std::vector<double> all, first_hour, last_hour;
+    std::vector<double> all, first_hour, last_hour, first_hour_cpu, last_hour_cpu;
     for (const auto& c : mapper.stats().timing.step_cost) {
       auto it = std::upper_bound(session_offsets.begin(), session_offsets.end(), std::make_pair(c.utime, 1e300));
       if (it == session_offsets.begin()) continue;
@@ -382,11 +386,15 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
       all.push_back(1e3 * c.s);
       if (t < 3600.0) first_hour.push_back(1e3 * c.s);
       if (t >= operating_reached_s - 3600.0) last_hour.push_back(1e3 * c.s);
+      if (t < 3600.0) first_hour_cpu.push_back(1e3 * c.cpu_s);
+      if (t >= operating_reached_s - 3600.0) last_hour_cpu.push_back(1e3 * c.cpu_s);
     }
     out.step_median_ms = percentile(all, 0.5);
     out.step_p99_ms = percentile(all, 0.99);
     out.step_p99_first_hour_ms = percentile(first_hour, 0.99);
     out.step_p99_last_hour_ms = percentile(last_hour, 0.99);
+    out.step_cpu_p99_first_hour_ms = percentile(first_hour_cpu, 0.99);
+    out.step_cpu_p99_last_hour_ms = percentile(last_hour_cpu, 0.99);
   }
   out.timeline = timeline.take();
   for (const TimelineRow& r : out.timeline) {

@@ -30,34 +30,40 @@ Expected<Marginals> Marginals::compute(const PoseGraph& graph) {
   return m;
 }
 
-Expected<Marginals::Path> Marginals::pathSolve(Key key) const {
-  const auto it = position_of_key_.find(key);
-  if (it == position_of_key_.end()) return makeError("marginals: unknown variable ", key);
-  const int k = it->second;
-  const int dk = R_.dimAt(k);
+Expected<Eigen::MatrixXd> Marginals::jointOf(const IncrementalSolver& solver, std::span<const Key> keys) {
+  std::vector<int> positions;
+  for (Key k : keys) {
+    const int v = solver.graph().values().indexOf(k);
+    if (v < 0) return makeError("marginals: unknown variable ", k);
+    positions.push_back(solver.positionOf(v));
+  }
+  return jointAt(solver.squareRoot(), positions);
+}
+
+Expected<Marginals::Path> Marginals::pathSolve(const SquareRootFactor& R, int k) {
+  const int dk = R.dimAt(k);
   // Forward substitution Rᵀ Y = E_k: rows of Y are produced in increasing position order,
   // and each only feeds positions further up the same path.
   Path pending;
-  pending[k] = Eigen::MatrixXd::Identity(dk, dk);
+  pending[k] = Block::Identity(dk, dk);
   Path Y;
   while (!pending.empty()) {
     auto node = pending.begin();
     const int p = node->first;
-    Eigen::MatrixXd y = std::move(node->second);
+    const Block y = node->second;
     pending.erase(node);
-    const auto& row = R_.row(p);
+    const auto& row = R.row(p);
     if (!row.initialized) return makeError("marginals: variable at position ", p, " has no factor");
     const int d = row.dim;
     // y_p = R_ppᵀ⁻¹ acc_p (lower-triangular solve).
-    const Eigen::MatrixXd Rpp = row.A.leftCols(d);
-    Eigen::MatrixXd yp = Rpp.transpose().triangularView<Eigen::Lower>().solve(y);
+    const Block Rpp = row.A.block(0, 0, d, d);
+    const Block yp = Rpp.transpose().triangularView<Eigen::Lower>().solve(y);
     for (size_t c = 1; c < row.cols.size(); ++c) {
       const int w = row.offsets[c + 1] - row.offsets[c];
-      Eigen::MatrixXd contrib = row.A.middleCols(row.offsets[c], w).transpose() * yp;
-      auto [slot, inserted] = pending.try_emplace(row.cols[c], Eigen::MatrixXd::Zero(w, dk));
-      slot->second -= contrib;
+      auto [slot, inserted] = pending.try_emplace(row.cols[c], Block::Zero(w, dk));
+      slot->second.noalias() -= row.A.block(0, row.offsets[c], d, w).transpose() * yp;
     }
-    Y.emplace(p, std::move(yp));
+    Y.emplace(p, yp);
   }
   return Y;
 }
@@ -68,10 +74,20 @@ Expected<Eigen::MatrixXd> Marginals::marginal(Key key) const {
 }
 
 Expected<Eigen::MatrixXd> Marginals::joint(std::span<const Key> keys) const {
+  std::vector<int> positions;
+  for (Key k : keys) {
+    const auto it = position_of_key_.find(k);
+    if (it == position_of_key_.end()) return makeError("marginals: unknown variable ", k);
+    positions.push_back(it->second);
+  }
+  return jointAt(R_, positions);
+}
+
+Expected<Eigen::MatrixXd> Marginals::jointAt(const SquareRootFactor& R, std::span<const int> positions) {
   std::vector<Path> paths;
   std::vector<int> offsets = {0};
-  for (Key k : keys) {
-    auto y = pathSolve(k);
+  for (int k : positions) {
+    auto y = pathSolve(R, k);
     if (!y.ok()) return y.error();
     offsets.push_back(offsets.back() + static_cast<int>(y->begin()->second.cols()));
     paths.push_back(std::move(*y));
@@ -79,8 +95,7 @@ Expected<Eigen::MatrixXd> Marginals::joint(std::span<const Key> keys) const {
   Eigen::MatrixXd S = Eigen::MatrixXd::Zero(offsets.back(), offsets.back());
   for (size_t a = 0; a < paths.size(); ++a) {
     for (size_t b = a; b < paths.size(); ++b) {
-      Eigen::MatrixXd block = Eigen::MatrixXd::Zero(offsets[a + 1] - offsets[a],
-                                                    offsets[b + 1] - offsets[b]);
+      Block block = Block::Zero(offsets[a + 1] - offsets[a], offsets[b + 1] - offsets[b]);
       for (const auto& [p, ya] : paths[a]) {
         const auto yb = paths[b].find(p);
         if (yb != paths[b].end()) block.noalias() += ya.transpose() * yb->second;

@@ -24,8 +24,12 @@ namespace evermap::solver {
 
 class Marginals {
  public:
-  // From the incremental solver's current factor (linearised at its θ).
+  // From the incremental solver's current factor (linearised at its θ): a copy of R, O(nnz).
   static Marginals fromSolver(const IncrementalSolver& solver);
+  // The joint covariance of `keys` straight from the solver's current factor, without the
+  // copy: the work is the path solves alone (the elimination-tree paths of the keys to the
+  // root), not the size of R. For callers that ask a few marginals between updates.
+  static Expected<Eigen::MatrixXd> jointOf(const IncrementalSolver& solver, std::span<const Key> keys);
   // Linearises the graph at its values and factors it (CHOLMOD), for batch results.
   static Expected<Marginals> compute(const PoseGraph& graph);
 
@@ -35,8 +39,12 @@ class Marginals {
   Expected<Eigen::MatrixXd> joint(std::span<const Key> keys) const;
 
  private:
-  using Path = std::map<int, Eigen::MatrixXd>;  // position -> rows of Y at that position
-  Expected<Path> pathSolve(Key key) const;
+  // Blocks of at most 6 × 6 (SquareRootFactor::kMaxBlockDim) live on the stack.
+  using Block = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, SquareRootFactor::kMaxBlockDim,
+                              SquareRootFactor::kMaxBlockDim>;
+  using Path = std::map<int, Block>;  // position -> rows of Y at that position
+  static Expected<Path> pathSolve(const SquareRootFactor& R, int position);
+  static Expected<Eigen::MatrixXd> jointAt(const SquareRootFactor& R, std::span<const int> positions);
 
   SquareRootFactor R_;
   std::map<Key, int> position_of_key_;

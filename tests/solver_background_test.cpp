@@ -1,0 +1,230 @@
+// The incremental solver's background batch steps (IncrementalOptions::background_batch_lag)
+// and the marginals read straight from its factor (Marginals::jointOf).
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <random>
+#include <thread>
+
+#include <Eigen/Dense>
+
+#include "core/solver/batch_solver.h"
+#include "core/solver/graph_problem.h"
+#include "core/solver/incremental_solver.h"
+#include "core/solver/marginals.h"
+#include "core/solver/normal_equations.h"
+#include "core/solver/pose_factors.h"
+
+namespace evermap::solver {
+namespace {
+
+using core::SE3d;
+
+// A 3-D path with odometry and a loop closure to the pose 6 back at every other pose.
+struct Path {
+  std::vector<PoseValue> truth;
+  std::vector<std::tuple<int, int, SE3d>> edges;  // from, to, measurement
+};
+
+Path spatialPath(int n, double noise, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> nd(0.0, noise);
+  Path s;
+  SE3d p;
+  for (int i = 0; i < n; ++i) {
+    s.truth.push_back(PoseValue::spatial(p));
+    Eigen::Matrix<double, 6, 1> step;
+    step << 1.0, 0.1, 0.05, 0.05, 0.1, (i % 4 == 3) ? 1.2 : 0.1;
+    p = p * SE3d::exp(step);
+  }
+  auto measure = [&](int a, int b) {
+    Eigen::Matrix<double, 6, 1> e;
+    for (int k = 0; k < 6; ++k) e[k] = nd(rng);
+    return SE3d(s.truth[a].se3.inverse() * s.truth[b].se3 * SE3d::exp(e));
+  };
+  for (int i = 1; i < n; ++i) {
+    s.edges.emplace_back(i - 1, i, measure(i - 1, i));
+    if (i >= 6 && i % 2 == 0) s.edges.emplace_back(i - 6, i, measure(i - 6, i));
+  }
+  return s;
+}
+
+FactorPtr edge(int a, int b, const SE3d& z) {
+  return std::make_shared<RelativePose3Factor>(a, b, z, 10.0 * Eigen::MatrixXd::Identity(6, 6));
+}
+
+// The request that adds pose i (chained from the estimate of i - 1) and its factors.
+UpdateRequest poseRequest(const Path& s, const IncrementalSolver& inc, int i) {
+  UpdateRequest r;
+  if (i == 0) {
+    r.new_variables.emplace_back(0, s.truth[0]);
+    r.new_factors.push_back(makeAnchorFactor(0, 3));
+    return r;
+  }
+  for (const auto& [a, b, z] : s.edges) {
+    if (b != i) continue;
+    if (a == i - 1) r.new_variables.emplace_back(i, PoseValue::spatial(inc.estimate(a).se3 * z));
+    r.new_factors.push_back(edge(a, b, z));
+  }
+  return r;
+}
+
+// The largest difference between the solver's estimate and one dense Gauss-Newton step from
+// its linearisation point over all its active factors: zero when R, d hold exactly those
+// factors linearised at θ.
+double differenceFromDenseStep(const IncrementalSolver& inc) {
+  const PoseGraph& g = inc.graph();
+  const BlockPattern pat = buildPattern(g);
+  std::vector<double> H(pat.nnz());
+  Eigen::VectorXd rhs;
+  assembleNormalEquations(g, g.values(), pat, H.data(), &rhs);
+  const int n = pat.scalarSize();
+  Eigen::MatrixXd Hd(n, n);
+  for (int c = 0; c < n; ++c) {
+    Eigen::VectorXd e = Eigen::VectorXd::Zero(n);
+    e[c] = 1.0;
+    Eigen::VectorXd col = Eigen::VectorXd::Zero(n);
+    pat.multiplyAdd(H.data(), e, &col);
+    Hd.col(c) = col;
+  }
+  Values expected = g.values();
+  expected.retractAll(Hd.ldlt().solve(rhs));
+  const Values got = inc.estimate();
+  double worst = 0.0;
+  for (int v = 0; v < got.size(); ++v) {
+    worst = std::max(worst, (expected.at(v).se3.inverse() * got.at(v).se3).log().cwiseAbs().maxCoeff());
+  }
+  return worst;
+}
+
+IncrementalOptions backgroundOptions(int lag) {
+  IncrementalOptions o;
+  o.batch_every = 8;
+  o.background_batch_lag = lag;
+  return o;
+}
+
+TEST(IncrementalSolverBackground, SwapsTheBatchInAtTheScheduledUpdateWithEveryFactorSinceRelinearised) {
+  const Path s = spatialPath(40, 0.02, 3);
+  IncrementalSolver inc(backgroundOptions(3));
+  int started = 0, swapped = 0;
+  for (int i = 0; i < 40; ++i) {
+    auto r = inc.update(poseRequest(s, inc, i));
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    // Update k (1-based) is scheduled when (k - 1) % 8 == 0; the first one is synchronous.
+    const int k = i + 1;
+    EXPECT_EQ(r->batch, k == 1) << "update " << k;
+    EXPECT_EQ(r->batch_started, k > 1 && (k - 1) % 8 == 0) << "update " << k;
+    EXPECT_EQ(r->batch_swapped, k > 4 && (k - 4) % 8 == 0) << "update " << k;
+    started += r->batch_started;
+    swapped += r->batch_swapped;
+    if (r->batch_swapped) {
+      // R now holds the snapshot's factors at its estimate plus the later ones at θ.
+      EXPECT_LT(differenceFromDenseStep(inc), 1e-8) << "update " << k;
+      EXPECT_GE(r->batch_compute_s, 0.0);
+    }
+  }
+  EXPECT_EQ(started, 4);
+  EXPECT_EQ(swapped, 4);
+}
+
+TEST(IncrementalSolverBackground, GivesTheSameEstimatesWhateverTheWorkerSpeed) {
+  // The swap point is an update count: two runs agree to the last bit, and a run whose worker
+  // is always done before the swap (it waits right after each start) agrees with them too.
+  const Path s = spatialPath(40, 0.02, 5);
+  std::vector<Values> runs;
+  for (int run = 0; run < 3; ++run) {
+    IncrementalSolver inc(backgroundOptions(2));
+    for (int i = 0; i < 40; ++i) {
+      auto r = inc.update(poseRequest(s, inc, i));
+      ASSERT_TRUE(r.ok());
+      if (run == 2 && r->batch_started) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    runs.push_back(inc.estimate());
+  }
+  for (int run = 1; run < 3; ++run) {
+    for (int v = 0; v < runs[0].size(); ++v) {
+      EXPECT_EQ(runs[run].at(v).se3.translation(), runs[0].at(v).se3.translation()) << "run " << run;
+    }
+  }
+}
+
+TEST(IncrementalSolverBackground, ReachesTheSameOptimumAsSynchronousBatchSteps) {
+  const Path s = spatialPath(60, 0.03, 7);
+  double sse[2] = {0.0, 0.0};
+  for (int lag : {0, 3}) {
+    IncrementalSolver inc(backgroundOptions(lag));
+    for (int i = 0; i < 60; ++i) ASSERT_TRUE(inc.update(poseRequest(s, inc, i)).ok());
+    for (int k = 0; k < 3; ++k) ASSERT_TRUE(inc.batchStep().ok());
+    sse[lag > 0] = inc.cost().weighted_sse;
+  }
+  EXPECT_NEAR(sse[1], sse[0], 1e-6 * sse[0]);
+}
+
+TEST(IncrementalSolverBackground, AReplacementFactorStandsInForTheRemovedOneAfterTheSwap) {
+  // At a scheduled update the caller replaces the factor of a pair by another over the same
+  // variables (the mapper's consolidation of merged constraints): after the swap, R holds the
+  // replacement and not the removed factor.
+  const Path s = spatialPath(30, 0.02, 9);
+  IncrementalSolver inc(backgroundOptions(3));
+  std::vector<FactorId> ids;
+  for (int i = 0; i < 16; ++i) {
+    auto r = inc.update(poseRequest(s, inc, i));
+    ASSERT_TRUE(r.ok());
+    ids.insert(ids.end(), r->new_factor_ids.begin(), r->new_factor_ids.end());
+  }
+  // Update 17 is scheduled: remove the 3 → 4 odometry factor, add a different one.
+  UpdateRequest replace = poseRequest(s, inc, 16);
+  const FactorId odometry_3_4 = ids[1 + 3 + 0];  // anchor, 0→1, 1→2, 2→3, then 3→4
+  ASSERT_EQ(inc.graph().variablesOf(odometry_3_4)[0], 3);
+  ASSERT_EQ(inc.graph().variablesOf(odometry_3_4)[1], 4);
+  replace.remove_factors.push_back(odometry_3_4);
+  replace.new_factors.push_back(edge(3, 4, std::get<2>(s.edges[3]) * SE3d::exp(Eigen::Matrix<double, 6, 1>::Constant(0.01))));
+  auto r = inc.update(replace);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_TRUE(r->batch_started);
+  EXPECT_FALSE(r->batch);
+  bool swapped = false;
+  for (int i = 17; i < 21; ++i) {
+    auto u = inc.update(poseRequest(s, inc, i));
+    ASSERT_TRUE(u.ok());
+    if (u->batch_swapped) {
+      swapped = true;
+      EXPECT_LT(differenceFromDenseStep(inc), 1e-8);
+    }
+  }
+  EXPECT_TRUE(swapped);
+}
+
+TEST(IncrementalSolverBackground, RejectsOptionsItCannotHonour) {
+  IncrementalOptions o = backgroundOptions(3);
+  EXPECT_TRUE(o.validate().ok());
+  o.method = Method::kDogLeg;
+  EXPECT_FALSE(o.validate().ok());
+  o = backgroundOptions(8);
+  EXPECT_FALSE(o.validate().ok()) << "the lag must end before the next scheduled batch";
+  o = backgroundOptions(-1);
+  EXPECT_FALSE(o.validate().ok());
+}
+
+TEST(Marginals, JointOfTheSolverEqualsTheJointOfACopyOfItsFactor) {
+  // After incremental updates (no batch step since): the path solves on the live factor.
+  const Path s = spatialPath(30, 0.02, 11);
+  IncrementalOptions o;
+  o.batch_every = 0;
+  IncrementalSolver inc(o);
+  for (int i = 0; i < 30; ++i) ASSERT_TRUE(inc.update(poseRequest(s, inc, i)).ok());
+  const std::vector<Key> keys = {4, 27};
+  auto live = Marginals::jointOf(inc, keys);
+  auto copied = Marginals::fromSolver(inc).joint(keys);
+  ASSERT_TRUE(live.ok());
+  ASSERT_TRUE(copied.ok());
+  EXPECT_TRUE(live->isApprox(*copied, 1e-12));
+  EXPECT_GT(live->diagonal().minCoeff(), 0.0);
+  const std::vector<Key> unknown = {4, 99};
+  EXPECT_FALSE(Marginals::jointOf(inc, unknown).ok());
+}
+
+}  // namespace
+}  // namespace evermap::solver
