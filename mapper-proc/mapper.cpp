@@ -242,6 +242,14 @@ void Mapper::addConstraint(int64_t from, int64_t to, const core::UncertainPose& 
   if (outcome == ConstraintSet::Outcome::kMerged) {
     ++stats_.merged;
     to_consolidate_.insert(key);
+    // A pair the solver already holds a factor of: the merge refines it, and waits for the
+    // next consolidation instead of an incremental update now (on a map that has stopped
+    // growing most constraints are such refinements, and each update's cost grows with the
+    // elimination path of the pair).
+    if (o_.defer_merges && pair_factor_.count(key)) {
+      ++deferred_merges_;
+      return;
+    }
   }
   auto factor = std::make_shared<solver::RelativePose3Factor>(
       pair->i, pair->j, measurement.mean, sqrtInformation(measurement.covariance, o_.covariance_floor),
@@ -339,14 +347,24 @@ bool Mapper::addAttitudeFactor(int64_t id, const NodeAttitude& a) {
 
 void Mapper::flushSolver() {
   refreshCells();
+  // Deferred merges wait for the scheduled consolidation, which comes with solver updates; a
+  // map that no longer changes otherwise consolidates after batch_every of them.
+  const int every = o_.solver.batch_every;
+  if (every > 0 && deferred_merges_ >= every && pending_update_.new_factors.empty() &&
+      pending_update_.new_variables.empty()) {
+    consolidatePairs();
+    deferred_merges_ = 0;
+  }
   if (pending_update_.new_variables.empty() && pending_update_.new_factors.empty() &&
       pending_update_.remove_factors.empty())
     return;
   const auto t0 = Clock::now();
   // The solver batch-steps every batch_every-th update anyway (its update counter starts at
   // 0): the moment to consolidate merged pairs at no extra cost.
-  const int every = o_.solver.batch_every;
-  if (every > 0 && solver_updates_ % every == 0 && !to_consolidate_.empty()) consolidatePairs();
+  if (every > 0 && solver_updates_ % every == 0 && !to_consolidate_.empty()) {
+    consolidatePairs();
+    deferred_merges_ = 0;
+  }
   ++solver_updates_;
   auto result = solver_.update(pending_update_);
   double dt = secondsSince(t0);
@@ -568,7 +586,10 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     return;
   }
   const core::UncertainPose a_T_b = core::compound(f.delta_at_keyframe, core::invert(b_T_q));
-  if (!consistentWithMap(f.active, b, a_T_b) && !confirmsRejected(b, b_T_q, f.keyframe_utime)) {
+  // A pair that already holds constraints tests a new one against them (constraint_set.h);
+  // the map gate is for a pair's first constraint, which nothing else can contradict.
+  const bool known_pair = constraints_.pairs().count({std::min(f.active, b), std::max(f.active, b)}) > 0;
+  if (!known_pair && !consistentWithMap(f.active, b, a_T_b) && !confirmsRejected(b, b_T_q, f.keyframe_utime)) {
     ++stats_.rejected_map_gate;
     gate_rejected_ = true;
     *registered = false;

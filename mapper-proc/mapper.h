@@ -97,6 +97,10 @@ struct MapperOptions {
   // against Δ. Catches false matches the per-pair test cannot see (a pair's first
   // constraint). 0 disables; 22.46 = 99.9 %.
   double map_gate = 22.46;
+  // A constraint that merges into a pair the solver already has a factor of enters the
+  // solver at the next consolidation (with the scheduled batch steps) instead of as an
+  // incremental update of its own.
+  bool defer_merges = true;
   // After a background batch step is swapped in, the partition index is refreshed for this
   // many nodes per step (a whole rebuild at once costs O(nodes) in one step).
   int cell_refresh_per_step = 200;
@@ -274,6 +278,7 @@ class Mapper {
   // pair is consolidated into its merged constraint (flushSolver at a scheduled batch step).
   std::map<std::pair<int64_t, int64_t>, std::vector<solver::FactorId>> pair_factor_;
   std::set<std::pair<int64_t, int64_t>> to_consolidate_;
+  int64_t deferred_merges_ = 0;  // merges waiting for consolidation without a factor of their own
   int64_t solver_updates_ = 0;
   // For each factor of pending_update_ that stands for a node pair: the pair ((-1, -1) for
   // priors) and its slot in new_factors.
