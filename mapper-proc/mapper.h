@@ -73,13 +73,20 @@ struct MapperOptions {
   // Partial factors: IMU roll/pitch and floor heights on each node.
   bool attitude_factors = true;
   bool height_factors = true;
-  // Robust kernel on factors of pairs that hold a loop closure (DCS, Agarwal et al. 2013).
+  // Robust kernel (DCS, Agarwal et al. 2013) on a loop closure that opens its node pair and
+  // that the map gate did not test (full graph mode, map_gate = 0): its only guard against a
+  // false match.
   solver::RobustKernel loop_kernel{solver::KernelType::kDcs, 20.0};
   // χ² gate (6 dof) of a registration against what the map already says: a closure's a_T_b
   // against the map estimate with its marginal covariance, an active-node registration
   // against Δ. Catches false matches the per-pair test cannot see (a pair's first
   // constraint). 0 disables; 22.46 = 99.9 %.
   double map_gate = 22.46;
+  // A registration to the active node and the tracked Δ are two independent estimates of
+  // the same pose: true fuses them (information-weighted, the recursive estimate of eq. 5);
+  // false keeps the one with the smaller det(Σ) (the paper's entropy test, III-B.3), which
+  // throws the other away. After a loop closure the registration always replaces Δ.
+  bool fuse_active_registration = true;
   TrackerOptions tracker;
   solver::IncrementalOptions solver;
 
@@ -123,6 +130,7 @@ struct MapperStats {
   int64_t loop_closures = 0;      // constraints to another existing node
   int64_t delta_replaced = 0;     // active-node registrations that replaced Δ
   int64_t delta_kept = 0;         // ... that lost the det(Σ) test
+  int64_t delta_fused = 0;        // ... fused with Δ (fuse_active_registration)
   int64_t rejected_map_gate = 0;  // registrations that contradicted the map or Δ
   int64_t relocalizations = 0;   // a new session tied to the map by a global registration
   int64_t relocalization_disagreements = 0;  // a lost session's registrations that disagreed
@@ -200,8 +208,9 @@ class Mapper {
   void handleRegistration(const register_result_t& msg, const InFlight& f, const core::Mat6& cam_cov,
                           bool* registered);
   int64_t addNode(int64_t keyframe_utime, const core::UncertainPose& active_T_node);
+  // vetted: a loop closure the map gate has tested against the map (no robust kernel).
   void addConstraint(int64_t from, int64_t to, const core::UncertainPose& from_T_to,
-                     ConstraintKind kind, int64_t utime);
+                     ConstraintKind kind, int64_t utime, bool vetted = false);
   bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b);
   bool confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime);
   void flushSolver();
@@ -232,7 +241,6 @@ class Mapper {
   // priors) and its slot in new_factors.
   std::vector<std::pair<int64_t, int64_t>> pending_pairs_;
   std::vector<size_t> pending_factor_slot_;
-  std::set<std::pair<int64_t, int64_t>> loop_pairs_;
 
   std::vector<MapperNode> nodes_;
   std::unordered_map<core::PlanarCell, std::vector<int64_t>, core::PlanarCellHash> cells_;
