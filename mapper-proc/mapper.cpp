@@ -222,9 +222,9 @@ void Mapper::addConstraint(int64_t from, int64_t to, const core::UncertainPose& 
   // the closure down to a few percent and the loop stays open: 0.20 m against 0.13 m ATE at
   // paper scale, sessions 0-3. A constraint that agreed with its pair's earlier ones
   // (χ² test above), and the pair's merged factor (consolidatePairs), have consensus.
-  if (kind == ConstraintKind::kLoop && !vetted && outcome == ConstraintSet::Outcome::kNewPair &&
-      o_.loop_kernel.active())
-    factor->setKernel(o_.loop_kernel);
+  const solver::RobustKernel& kernel = vetted ? o_.vetted_loop_kernel : o_.loop_kernel;
+  if (kind == ConstraintKind::kLoop && outcome == ConstraintSet::Outcome::kNewPair && kernel.active())
+    factor->setKernel(kernel);
   pending_pairs_.push_back(key);
   pending_factor_slot_.push_back(pending_update_.new_factors.size());
   pending_update_.new_factors.push_back(factor);

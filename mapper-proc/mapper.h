@@ -77,6 +77,8 @@ struct MapperOptions {
   // that the map gate did not test (full graph mode, map_gate = 0): its only guard against a
   // false match.
   solver::RobustKernel loop_kernel{solver::KernelType::kDcs, 20.0};
+  // The kernel on a closure that passed the map gate (none: see Mapper::addConstraint).
+  solver::RobustKernel vetted_loop_kernel{solver::KernelType::kNone, 20.0};
   // χ² gate (6 dof) of a registration against what the map already says: a closure's a_T_b
   // against the map estimate with its marginal covariance, an active-node registration
   // against Δ. Catches false matches the per-pair test cannot see (a pair's first
