@@ -321,8 +321,10 @@ TEST(ReducedGraph, ActiveNodeRegistrationReplacesDeltaOnlyWhenItIsMoreCertain) {
 }
 
 TEST(ReducedGraph, ActiveNodeRegistrationIsFusedWithDeltaExceptToReLocalise) {
+  MapperOptions o = scriptedOptions();
+  o.fuse_active_registration = true;
   for (const double variance : {1e-12, 1e-4, 1.0}) {
-    ScriptedDrive drive(scriptedOptions(), variance);
+    ScriptedDrive drive(o, variance);
     lap(drive);
     lap(drive);
     const auto& s = drive.mapper().stats();
