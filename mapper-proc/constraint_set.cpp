@@ -12,6 +12,17 @@ double ConstraintSet::mahalanobis2(const core::UncertainPose& m, const core::Unc
   return e.dot(ldlt.solve(e));
 }
 
+core::UncertainPose ConstraintSet::fuse(const core::UncertainPose& m, const core::UncertainPose& z) {
+  const core::Vec6 e = (m.mean.inverse() * z.mean).log();
+  const core::Mat6 S = m.covariance + z.covariance;
+  const core::Mat6 K = S.transpose().ldlt().solve(m.covariance.transpose()).transpose();
+  core::UncertainPose out;
+  out.mean = m.mean * core::SE3d::exp(K * e);
+  const core::Mat6 fused = (core::Mat6::Identity() - K) * m.covariance;
+  out.covariance = 0.5 * (fused + fused.transpose());
+  return out;
+}
+
 ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pair** pair, double* d2_out) {
   Constraint c = constraint;
   if (c.from > c.to) {
@@ -45,12 +56,7 @@ ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pa
     ++rejected_;
     return Outcome::kRejected;
   }
-  const core::Vec6 e = (p.i_T_j.mean.inverse() * c.from_T_to.mean).log();
-  const core::Mat6 S = p.i_T_j.covariance + c.from_T_to.covariance;
-  const core::Mat6 K = S.transpose().ldlt().solve(p.i_T_j.covariance.transpose()).transpose();
-  p.i_T_j.mean = p.i_T_j.mean * core::SE3d::exp(K * e);
-  const core::Mat6 fused = (core::Mat6::Identity() - K) * p.i_T_j.covariance;
-  p.i_T_j.covariance = 0.5 * (fused + fused.transpose());
+  p.i_T_j = fuse(p.i_T_j, c.from_T_to);
   c.accepted = true;
   all_.push_back(c);
   p.members.push_back(all_.size() - 1);

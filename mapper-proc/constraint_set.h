@@ -54,6 +54,9 @@ class ConstraintSet {
 
   // Mahalanobis d² of z against m as above.
   static double mahalanobis2(const core::UncertainPose& m, const core::UncertainPose& z);
+  // The information-weighted update of m by z, two independent estimates of one pose, as
+  // above (also the tracker's fusion of Δ with a registration to the active node).
+  static core::UncertainPose fuse(const core::UncertainPose& m, const core::UncertainPose& z);
 
  private:
   double gate_;

@@ -90,8 +90,12 @@ struct MapperOptions {
   // Partial factors: IMU roll/pitch and floor heights on each node.
   bool attitude_factors = true;
   bool height_factors = true;
-  // Robust kernel on factors of pairs that hold a loop closure (DCS, Agarwal et al. 2013).
+  // Robust kernel (DCS, Agarwal et al. 2013) on a loop closure that opens its node pair and
+  // that the map gate did not test (full graph mode, map_gate = 0): its only guard against a
+  // false match.
   solver::RobustKernel loop_kernel{solver::KernelType::kDcs, 20.0};
+  // The kernel on a closure that passed the map gate (none: see Mapper::addConstraint).
+  solver::RobustKernel vetted_loop_kernel{solver::KernelType::kNone, 20.0};
   // χ² gate (6 dof) of a registration against what the map already says: a closure's a_T_b
   // against the map estimate with its marginal covariance, an active-node registration
   // against Δ. Catches false matches the per-pair test cannot see (a pair's first
@@ -104,6 +108,16 @@ struct MapperOptions {
   // After a background batch step is swapped in, the partition index is refreshed for this
   // many nodes per step (a whole rebuild at once costs O(nodes) in one step).
   int cell_refresh_per_step = 200;
+  // A registration to the active node and the tracked Δ are two independent estimates of
+  // the same pose: true fuses them (information-weighted, the recursive estimate of eq. 5);
+  // false keeps the one with the smaller det(Σ) (the paper's entropy test, III-B.3), which
+  // throws the other away. After a loop closure the registration always replaces Δ.
+  // Off by default: fusion is the more accurate (paper scale, sessions 0-3: 0.130 against
+  // 0.182 m ATE) but a false match that passes the Δ gate is fused in, Δ's covariance
+  // shrinks around the wrong value, and the gate then rejects every true registration after
+  // it (tests/mapper_lcm_test.cpp: 0.68 m against 0.14 m). It needs a way back first (e.g.
+  // re-localising when two registrations agree with each other and not with Δ).
+  bool fuse_active_registration = true;
   TrackerOptions tracker;
   solver::IncrementalOptions solver = mapperSolverOptions();
 
@@ -164,6 +178,7 @@ struct MapperStats {
   int64_t loop_closures = 0;      // constraints to another existing node
   int64_t delta_replaced = 0;     // active-node registrations that replaced Δ
   int64_t delta_kept = 0;         // ... that lost the det(Σ) test
+  int64_t delta_fused = 0;        // ... fused with Δ (fuse_active_registration)
   int64_t rejected_map_gate = 0;  // registrations that contradicted the map or Δ
   int64_t gate_recoveries = 0;    // ... accepted after all: a second one agreed with them
   int64_t relocalizations = 0;   // a new session tied to the map by a global registration
@@ -244,8 +259,9 @@ class Mapper {
   int64_t addNode(int64_t keyframe_utime, const core::UncertainPose& active_T_node);
   // The partial factor of IMU roll and pitch on a node (false: a covariance it cannot use).
   bool addAttitudeFactor(int64_t id, const NodeAttitude& attitude);
+  // vetted: a loop closure the map gate has tested against the map (no robust kernel).
   void addConstraint(int64_t from, int64_t to, const core::UncertainPose& from_T_to,
-                     ConstraintKind kind, int64_t utime);
+                     ConstraintKind kind, int64_t utime, bool vetted = false);
   bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b);
   struct RelocalizationCandidate;
   // Whether the registration b_T_q of the keyframe agrees, chained by odometry, with an
@@ -284,7 +300,6 @@ class Mapper {
   // priors) and its slot in new_factors.
   std::vector<std::pair<int64_t, int64_t>> pending_pairs_;
   std::vector<size_t> pending_factor_slot_;
-  std::set<std::pair<int64_t, int64_t>> loop_pairs_;
 
   std::vector<MapperNode> nodes_;
   // Nodes of each cell, ascending ids; node_cell_[id] is the cell node id is filed under.

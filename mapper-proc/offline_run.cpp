@@ -421,11 +421,18 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   for (size_t k = 0; k < gt.size(); ++k) {
     out.trajectory_gt.push_back(gt[k].translation());
     out.trajectory_est.push_back(est[k].translation());
+    const Mapper::StepPose& p = mapper.stepPoses()[k];
+    auto fl = std::lower_bound(step_floor.begin(), step_floor.end(), std::make_pair(p.utime, INT_MIN));
+    const int floor = fl != step_floor.end() && fl->first == p.utime ? fl->second : -1;
+    out.step_errors.push_back({p.utime, p.session, p.node, floor, (gt[k].translation() - est[k].translation()).norm()});
   }
   for (const MapperNode& n : mapper.nodes()) {
     if (n.id >= static_cast<int64_t>(node_truth.size()) || !node_truth[n.id].known) continue;
     out.nodes_gt.push_back(node_truth[n.id].world_T_body.translation());
     out.nodes_est.push_back((aligned->gt_S_est * mapper.nodePose(n.id)).translation());
+    out.node_errors.push_back(
+        {n.id, n.session, n.floor, n.keyframe_utime, (out.nodes_gt.back() - out.nodes_est.back()).norm(),
+         node_truth[n.id].world_T_body});
   }
   return out;
 }

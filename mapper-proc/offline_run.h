@@ -113,6 +113,25 @@ struct OfflineRunSummary {
   // For plots: the step poses (ground truth and aligned estimate) and the nodes (ground
   // truth of their keyframes' body poses and aligned estimates), world frame, metres.
   std::vector<core::Vec3> trajectory_gt, trajectory_est, nodes_gt, nodes_est;
+  // Where the error is: each step pose and each node (true keyframe pose known) with its
+  // translation error after the ATE's alignment (writeErrorsCsv).
+  struct StepError {
+    int64_t utime = 0;
+    int session = 0;
+    int64_t node = 0;      // the node the step pose hangs on
+    int true_floor = -1;   // -1: unknown
+    double error_m = 0.0;
+  };
+  struct NodeError {
+    int64_t id = 0;
+    int session = 0;
+    int floor = 0;         // as the mapper assigned it
+    int64_t keyframe_utime = 0;
+    double error_m = 0.0;
+    core::SE3d world_T_body_true;  // the true body pose at the node's keyframe
+  };
+  std::vector<StepError> step_errors;
+  std::vector<NodeError> node_errors;
   std::string text() const;
 };
 
@@ -125,6 +144,10 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim, MapperOptions
 
 // The timeline as CSV with a header line, written through a temporary file and a rename.
 Status writeTimelineCsv(const std::filesystem::path& file, const std::vector<TimelineRow>& rows);
+// The per-step and per-node errors as two CSV files with header lines (steps_file,
+// nodes_file), each written through a temporary file and a rename.
+Status writeErrorsCsv(const std::filesystem::path& steps_file, const std::filesystem::path& nodes_file,
+                      const OfflineRunSummary& summary);
 // Reads what writeTimelineCsv wrote. Errors name the file and line.
 Expected<std::vector<TimelineRow>> readTimelineCsv(const std::filesystem::path& file);
 

@@ -1,5 +1,7 @@
 #include "mapper-proc/run_metrics.h"
 
+#include "core/common/atomic_write.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -35,6 +37,31 @@ Status writeTimelineCsv(const std::filesystem::path& file, const std::vector<Tim
   std::filesystem::rename(tmp, file, ec);
   if (ec) return makeError(file.string(), ": ", ec.message());
   return Ok{};
+}
+
+Status writeErrorsCsv(const std::filesystem::path& steps_file, const std::filesystem::path& nodes_file,
+                      const OfflineRunSummary& summary) {
+  std::ostringstream steps;
+  steps << "utime,session,node,true_floor,error_m,true_x,true_y,true_z,est_x,est_y,est_z\n";
+  steps.precision(10);
+  for (size_t k = 0; k < summary.step_errors.size(); ++k) {
+    const auto& e = summary.step_errors[k];
+    const core::Vec3& t = summary.trajectory_gt[k];
+    const core::Vec3& x = summary.trajectory_est[k];
+    steps << e.utime << ',' << e.session << ',' << e.node << ',' << e.true_floor << ',' << e.error_m << ',' << t.x()
+          << ',' << t.y() << ',' << t.z() << ',' << x.x() << ',' << x.y() << ',' << x.z() << '\n';
+  }
+  if (Status s = writeFileAtomically(steps_file, steps.str()); !s) return s;
+  std::ostringstream nodes;
+  nodes << "node,session,floor,keyframe_utime,error_m,true_x,true_y,true_z,true_qw,true_qx,true_qy,true_qz\n";
+  nodes.precision(10);
+  for (const auto& e : summary.node_errors) {
+    const core::Vec3& t = e.world_T_body_true.translation();
+    const Eigen::Quaterniond& q = e.world_T_body_true.quaternion();
+    nodes << e.id << ',' << e.session << ',' << e.floor << ',' << e.keyframe_utime << ',' << e.error_m << ',' << t.x()
+          << ',' << t.y() << ',' << t.z() << ',' << q.w() << ',' << q.x() << ',' << q.y() << ',' << q.z() << '\n';
+  }
+  return writeFileAtomically(nodes_file, nodes.str());
 }
 
 Expected<std::vector<TimelineRow>> readTimelineCsv(const std::filesystem::path& file) {

@@ -180,6 +180,17 @@ class ScriptedDrive {
   }
   const SE3d& truePose() const { return pose_; }
   Mapper& mapper() { return mapper_; }
+  // An elevator ride that ends where it started, on floor `index`, whose height estimate says
+  // `height_m` with standard deviation `sigma_m`.
+  void rideEnd(int index, double height_m, double sigma_m) {
+    floor_t f{};
+    f.utime = utime_;
+    f.floor_index = index;
+    f.height_m = height_m;
+    f.height_sigma_m = sigma_m;
+    f.event = floor_t::EVENT_RIDE_END;
+    EXPECT_TRUE(mapper_.onFloor(f));
+  }
   // The robot is off for `seconds` and starts again where it stopped, VO from a new
   // keyframe; the new session's FLOOR message arrives only when `announce`.
   void newSession(double seconds, bool announce) {
@@ -301,15 +312,19 @@ TEST(FullGraph, AddsANodeAtEveryStepThroughTheSameCode) {
 }
 
 TEST(ReducedGraph, ActiveNodeRegistrationReplacesDeltaOnlyWhenItIsMoreCertain) {
+  // The paper's entropy test instead of the fusion.
+  MapperOptions o = scriptedOptions();
+  o.fuse_active_registration = false;
   // Registrations far more certain than VO (variance 1e-12 against 1e-6 per frame): every
   // registration to the active node wins the det(Σ) test.
-  ScriptedDrive sharp(scriptedOptions(), 1e-12);
+  ScriptedDrive sharp(o, 1e-12);
   lap(sharp);
   const auto& a = sharp.mapper().stats();
   EXPECT_GT(a.delta_replaced, 10);
+  EXPECT_EQ(a.delta_fused, 0);
   // Registrations far less certain (variance 1): Δ is kept, except for the one forced
   // re-localisation after each loop closure.
-  ScriptedDrive blurred(scriptedOptions(), 1.0);
+  ScriptedDrive blurred(o, 1.0);
   lap(blurred);
   const auto& b = blurred.mapper().stats();
   EXPECT_GT(b.delta_kept, 10);
@@ -336,6 +351,51 @@ TEST(ReducedGraph, RecoversWhenTwoRegistrationsAgreeAgainstAWrongDelta) {
   // The map's origin is the first frame, 0.1 m along x.
   const SE3d estimate = drive.mapper().pose().mean;
   EXPECT_LT((estimate.translation() - (drive.truePose().translation() - Vec3(0.1, 0, 0))).norm(), 0.05);
+}
+
+TEST(ReducedGraph, ActiveNodeRegistrationIsFusedWithDeltaExceptToReLocalise) {
+  MapperOptions o = scriptedOptions();
+  o.fuse_active_registration = true;
+  for (const double variance : {1e-12, 1e-4, 1.0}) {
+    ScriptedDrive drive(o, variance);
+    lap(drive);
+    lap(drive);
+    const auto& s = drive.mapper().stats();
+    EXPECT_GT(s.delta_fused, 10) << variance;
+    EXPECT_EQ(s.delta_kept, 0) << variance;
+    // Replaced only by the re-localisation that follows a loop closure.
+    EXPECT_LE(s.delta_replaced, s.loop_closures) << variance;
+    // Exact measurements fused stay exact, whatever their weights.
+    const SE3d end = drive.mapper().pose().mean;
+    EXPECT_LT((end.translation() - Vec3(-0.1, 0, 0)).norm(), 1e-6) << variance;
+    EXPECT_LT(core::rotationAngle(end.so3()), 1e-6) << variance;
+  }
+}
+
+TEST(ConstraintSet, FusesTwoEstimatesByTheirInformation) {
+  const Mat6 cov = Mat6::Identity() * 1e-2;
+  const UncertainPose a{planar(0.0, 0.0, 0.0), cov};
+  const UncertainPose b{planar(0.2, 0.0, 0.0), cov};
+  const UncertainPose ab = ConstraintSet::fuse(a, b);
+  EXPECT_LT((ab.mean.translation() - Vec3(0.1, 0, 0)).norm(), 1e-12);
+  EXPECT_LT((ab.covariance - 0.5 * cov).norm(), 1e-12);
+  // Four times the variance: a fifth of the weight.
+  const UncertainPose c = ConstraintSet::fuse(a, UncertainPose{b.mean, 4.0 * cov});
+  EXPECT_NEAR(c.mean.translation().x(), 0.04, 1e-12);
+  EXPECT_LT((c.covariance - 0.8 * cov).norm(), 1e-12);
+}
+
+TEST(ReducedGraph, NodesOfAFloorAreHeldAtTheFloorsFirstHeightNotAtEachRidesEstimate) {
+  ScriptedDrive drive(scriptedOptions());
+  lap(drive);
+  // Back on floor 0 from a ride whose estimate is 0.5 m off, with σ = 1 m.
+  drive.rideEnd(0, 0.5, 1.0);
+  const size_t before = drive.mapper().nodes().size();
+  drive.driveTo(20.0, 0.0);
+  ASSERT_GT(drive.mapper().nodes().size(), before + 5);
+  EXPECT_EQ(drive.mapper().floors().at(0), 0.0);
+  for (size_t id = before; id < drive.mapper().nodes().size(); ++id)
+    EXPECT_LT(std::abs(drive.mapper().nodePose(static_cast<int64_t>(id)).translation().z()), 0.01) << id;
 }
 
 TEST(Mapper, ALongGapInVoStartsOneSessionEvenWhenItsFloorMessageIsLost) {

@@ -32,7 +32,8 @@ constexpr const char* kUsage =
     "                     update is one transaction\n"
     "  --progress         print 'committed nodes N edges E utime U' after each store transaction\n"
     "  --timeline FILE    per-minute timeline CSV (nodes, per-component time, step cost)\n"
-    "  --out DIR          timelines, summaries and the Fig. 4 / Fig. 7 plots (SVG) into DIR\n"
+    "  --out DIR          timelines, summaries, per-step and per-node errors (steps-M.csv,\n"
+    "                     nodes-M.csv) and the Fig. 4 / Fig. 7 plots (SVG) into DIR\n"
     "  --max-wall-s S     stop mapping after S seconds of wall time (per mode); the figures\n"
     "                     cover the operating time reached\n"
     "   or: evermap-mapper-run --replot DIR\n"
@@ -312,6 +313,14 @@ int main(int argc, char** argv) {
       if (f) {
         std::fputs(summary->text().c_str(), f);
         std::fclose(f);
+      }
+    }
+    if (!out.empty()) {
+      const std::filesystem::path dir(out);
+      if (Status s = mapper::writeErrorsCsv(dir / ("steps-" + name + ".csv"), dir / ("nodes-" + name + ".csv"), *summary);
+          !s) {
+        std::fprintf(stderr, "evermap-mapper-run: %s\n", s.error().message.c_str());
+        return 1;
       }
     }
     for (const auto& f : csv) {
