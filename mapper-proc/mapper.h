@@ -112,11 +112,9 @@ struct MapperOptions {
   // the same pose: true fuses them (information-weighted, the recursive estimate of eq. 5);
   // false keeps the one with the smaller det(Σ) (the paper's entropy test, III-B.3), which
   // throws the other away. After a loop closure the registration always replaces Δ.
-  // Off by default: fusion is the more accurate (paper scale, sessions 0-3: 0.130 against
-  // 0.182 m ATE) but a false match that passes the Δ gate is fused in, Δ's covariance
-  // shrinks around the wrong value, and the gate then rejects every true registration after
-  // it (tests/mapper_lcm_test.cpp: 0.68 m against 0.14 m). It needs a way back first (e.g.
-  // re-localising when two registrations agree with each other and not with Δ).
+  // A false match that passes the Δ gate is fused in and shrinks Δ's covariance around the
+  // wrong value; the gate recovery (two rejected registrations that agree replace Δ) is the
+  // way back, without which the gate would reject every true registration after it.
   bool fuse_active_registration = true;
   TrackerOptions tracker;
   solver::IncrementalOptions solver = mapperSolverOptions();
