@@ -15,47 +15,19 @@
 #include "core/solver/marginals.h"
 #include "core/solver/normal_equations.h"
 #include "core/solver/pose_factors.h"
+#include "solver_scenarios.h"
 
 namespace evermap::solver {
 namespace {
 
 using core::SE3d;
 
-// A 3-D path with odometry and a loop closure to the pose 6 back at every other pose.
-struct Path {
-  std::vector<PoseValue> truth;
-  std::vector<std::tuple<int, int, SE3d>> edges;  // from, to, measurement
-};
-
-Path spatialPath(int n, double noise, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> nd(0.0, noise);
-  Path s;
-  SE3d p;
-  for (int i = 0; i < n; ++i) {
-    s.truth.push_back(PoseValue::spatial(p));
-    Eigen::Matrix<double, 6, 1> step;
-    step << 1.0, 0.1, 0.05, 0.05, 0.1, (i % 4 == 3) ? 1.2 : 0.1;
-    p = p * SE3d::exp(step);
-  }
-  auto measure = [&](int a, int b) {
-    Eigen::Matrix<double, 6, 1> e;
-    for (int k = 0; k < 6; ++k) e[k] = nd(rng);
-    return SE3d(s.truth[a].se3.inverse() * s.truth[b].se3 * SE3d::exp(e));
-  };
-  for (int i = 1; i < n; ++i) {
-    s.edges.emplace_back(i - 1, i, measure(i - 1, i));
-    if (i >= 6 && i % 2 == 0) s.edges.emplace_back(i - 6, i, measure(i - 6, i));
-  }
-  return s;
-}
-
-FactorPtr edge(int a, int b, const SE3d& z) {
-  return std::make_shared<RelativePose3Factor>(a, b, z, 10.0 * Eigen::MatrixXd::Identity(6, 6));
-}
+using testing::Scenario;
+using testing::edgeFactor;
+using testing::spatialScenario;
 
 // The request that adds pose i (chained from the estimate of i - 1) and its factors.
-UpdateRequest poseRequest(const Path& s, const IncrementalSolver& inc, int i) {
+UpdateRequest poseRequest(const Scenario& s, const IncrementalSolver& inc, int i) {
   UpdateRequest r;
   if (i == 0) {
     r.new_variables.emplace_back(0, s.truth[0]);
@@ -64,8 +36,8 @@ UpdateRequest poseRequest(const Path& s, const IncrementalSolver& inc, int i) {
   }
   for (const auto& [a, b, z] : s.edges) {
     if (b != i) continue;
-    if (a == i - 1) r.new_variables.emplace_back(i, PoseValue::spatial(inc.estimate(a).se3 * z));
-    r.new_factors.push_back(edge(a, b, z));
+    if (a == i - 1) r.new_variables.emplace_back(i, PoseValue::spatial(inc.estimate(a).se3 * z.se3));
+    r.new_factors.push_back(edgeFactor(a, b, z));
   }
   return r;
 }
@@ -106,7 +78,7 @@ IncrementalOptions backgroundOptions(int lag) {
 }
 
 TEST(IncrementalSolverBackground, SwapsTheBatchInAtTheScheduledUpdateWithEveryFactorSinceRelinearised) {
-  const Path s = spatialPath(40, 0.02, 3);
+  const Scenario s = spatialScenario(40, 0.02, 3);
   IncrementalSolver inc(backgroundOptions(3));
   int started = 0, swapped = 0;
   for (int i = 0; i < 40; ++i) {
@@ -132,7 +104,7 @@ TEST(IncrementalSolverBackground, SwapsTheBatchInAtTheScheduledUpdateWithEveryFa
 TEST(IncrementalSolverBackground, GivesTheSameEstimatesWhateverTheWorkerSpeed) {
   // The swap point is an update count: two runs agree to the last bit, and a run whose worker
   // is always done before the swap (it waits right after each start) agrees with them too.
-  const Path s = spatialPath(40, 0.02, 5);
+  const Scenario s = spatialScenario(40, 0.02, 5);
   std::vector<Values> runs;
   for (int run = 0; run < 3; ++run) {
     IncrementalSolver inc(backgroundOptions(2));
@@ -151,7 +123,7 @@ TEST(IncrementalSolverBackground, GivesTheSameEstimatesWhateverTheWorkerSpeed) {
 }
 
 TEST(IncrementalSolverBackground, ReachesTheSameOptimumAsSynchronousBatchSteps) {
-  const Path s = spatialPath(60, 0.03, 7);
+  const Scenario s = spatialScenario(60, 0.03, 7);
   double sse[2] = {0.0, 0.0};
   for (int lag : {0, 3}) {
     IncrementalSolver inc(backgroundOptions(lag));
@@ -166,7 +138,7 @@ TEST(IncrementalSolverBackground, AReplacementFactorStandsInForTheRemovedOneAfte
   // At a scheduled update the caller replaces the factor of a pair by another over the same
   // variables (the mapper's consolidation of merged constraints): after the swap, R holds the
   // replacement and not the removed factor.
-  const Path s = spatialPath(30, 0.02, 9);
+  const Scenario s = spatialScenario(30, 0.02, 9);
   IncrementalSolver inc(backgroundOptions(3));
   std::vector<FactorId> ids;
   for (int i = 0; i < 16; ++i) {
@@ -180,7 +152,8 @@ TEST(IncrementalSolverBackground, AReplacementFactorStandsInForTheRemovedOneAfte
   ASSERT_EQ(inc.graph().variablesOf(odometry_3_4)[0], 3);
   ASSERT_EQ(inc.graph().variablesOf(odometry_3_4)[1], 4);
   replace.remove_factors.push_back(odometry_3_4);
-  replace.new_factors.push_back(edge(3, 4, std::get<2>(s.edges[3]) * SE3d::exp(Eigen::Matrix<double, 6, 1>::Constant(0.01))));
+  replace.new_factors.push_back(edgeFactor(
+      3, 4, PoseValue::spatial(std::get<2>(s.edges[3]).se3 * SE3d::exp(Eigen::Matrix<double, 6, 1>::Constant(0.01)))));
   auto r = inc.update(replace);
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_TRUE(r->batch_started);
@@ -210,7 +183,7 @@ TEST(IncrementalSolverBackground, RejectsOptionsItCannotHonour) {
 
 TEST(Marginals, JointOfTheSolverEqualsTheJointOfACopyOfItsFactor) {
   // After incremental updates (no batch step since): the path solves on the live factor.
-  const Path s = spatialPath(30, 0.02, 11);
+  const Scenario s = spatialScenario(30, 0.02, 11);
   IncrementalOptions o;
   o.batch_every = 0;
   IncrementalSolver inc(o);

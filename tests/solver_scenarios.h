@@ -1,0 +1,75 @@
+#pragma once
+// Small pose graphs with known answers for the solver tests: a planar path of squares and a
+// 3-D helix-like path, with odometry and loop closures measured from the truth with optional
+// noise, and the factor of one measurement.
+
+#include <random>
+#include <tuple>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/geometry/se2.h"
+#include "core/geometry/se3.h"
+#include "core/solver/pose_factors.h"
+#include "core/solver/values.h"
+
+namespace evermap::solver::testing {
+
+using core::SE2d;
+using core::SE3d;
+
+// A closed square path of n poses per side with loop closures every `loop_every` poses,
+// measured from the truth with optional noise.
+struct Scenario {
+  std::vector<PoseValue> truth;
+  std::vector<std::tuple<int, int, PoseValue>> edges;  // from, to, measurement
+};
+
+inline Scenario planarScenario(int n, double noise, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> nd(0.0, noise);
+  Scenario s;
+  SE2d p;
+  for (int i = 0; i < n; ++i) {
+    s.truth.push_back(PoseValue::planar(p));
+    p = p * SE2d(1.0, 0.0, (i % 5 == 4) ? 1.5707963267948966 : 0.05);
+  }
+  auto measure = [&](int a, int b) {
+    const SE2d z = s.truth[a].se2.inverse() * s.truth[b].se2;
+    return PoseValue::planar(SE2d(z.x() + nd(rng), z.y() + nd(rng), z.theta() + nd(rng)));
+  };
+  for (int i = 1; i < n; ++i) s.edges.emplace_back(i - 1, i, measure(i - 1, i));
+  for (int i = 7; i < n; i += 3) s.edges.emplace_back(i - 7, i, measure(i - 7, i));
+  return s;
+}
+
+inline Scenario spatialScenario(int n, double noise, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> nd(0.0, noise);
+  Scenario s;
+  SE3d p;
+  for (int i = 0; i < n; ++i) {
+    s.truth.push_back(PoseValue::spatial(p));
+    Eigen::Matrix<double, 6, 1> step;
+    step << 1.0, 0.1, 0.05, 0.05, 0.1, (i % 4 == 3) ? 1.2 : 0.1;
+    p = p * SE3d::exp(step);
+  }
+  auto measure = [&](int a, int b) {
+    Eigen::Matrix<double, 6, 1> e;
+    for (int k = 0; k < 6; ++k) e[k] = nd(rng);
+    return PoseValue::spatial(s.truth[a].se3.inverse() * s.truth[b].se3 * SE3d::exp(e));
+  };
+  for (int i = 1; i < n; ++i) s.edges.emplace_back(i - 1, i, measure(i - 1, i));
+  for (int i = 6; i < n; i += 2) s.edges.emplace_back(i - 6, i, measure(i - 6, i));
+  return s;
+}
+
+inline FactorPtr edgeFactor(int a, int b, const PoseValue& z) {
+  if (z.kind == PoseKind::kSE2) {
+    return std::make_shared<RelativePose2Factor>(a, b, z.se2, 10.0 * Eigen::MatrixXd::Identity(3, 3));
+  }
+  return std::make_shared<RelativePose3Factor>(a, b, z.se3, 10.0 * Eigen::MatrixXd::Identity(6, 6));
+}
+
+}  // namespace evermap::solver::testing
