@@ -47,19 +47,8 @@ UpdateRequest poseRequest(const Scenario& s, const IncrementalSolver& inc, int i
 // factors linearised at θ.
 double differenceFromDenseStep(const IncrementalSolver& inc) {
   const PoseGraph& g = inc.graph();
-  const BlockPattern pat = buildPattern(g);
-  std::vector<double> H(pat.nnz());
   Eigen::VectorXd rhs;
-  assembleNormalEquations(g, g.values(), pat, H.data(), &rhs);
-  const int n = pat.scalarSize();
-  Eigen::MatrixXd Hd(n, n);
-  for (int c = 0; c < n; ++c) {
-    Eigen::VectorXd e = Eigen::VectorXd::Zero(n);
-    e[c] = 1.0;
-    Eigen::VectorXd col = Eigen::VectorXd::Zero(n);
-    pat.multiplyAdd(H.data(), e, &col);
-    Hd.col(c) = col;
-  }
+  const Eigen::MatrixXd Hd = testing::denseHessian(g, &rhs);
   Values expected = g.values();
   expected.retractAll(Hd.ldlt().solve(rhs));
   const Values got = inc.estimate();

@@ -381,19 +381,8 @@ TEST(Marginals, EqualTheBlocksOfTheDenseInverse) {
     PoseGraph g = buildGraph(spatial ? spatialScenario(15, 0.02, 3) : planarScenario(25, 0.02, 3));
     ASSERT_TRUE(solveBatch(g, BatchOptions{}).ok());
     const BlockPattern pat = buildPattern(g);
-    std::vector<double> H(pat.nnz());
     Eigen::VectorXd rhs;
-    assembleNormalEquations(g, g.values(), pat, H.data(), &rhs);
-    const int n = pat.scalarSize();
-    Eigen::MatrixXd Hd(n, n);
-    for (int c = 0; c < n; ++c) {
-      Eigen::VectorXd e = Eigen::VectorXd::Zero(n);
-      e[c] = 1.0;
-      Eigen::VectorXd col = Eigen::VectorXd::Zero(n);
-      pat.multiplyAdd(H.data(), e, &col);
-      Hd.col(c) = col;
-    }
-    const Eigen::MatrixXd cov = Hd.inverse();
+    const Eigen::MatrixXd cov = testing::denseHessian(g, &rhs).inverse();
     auto m = Marginals::compute(g);
     ASSERT_TRUE(m.ok());
     const std::vector<Key> keys = {3, 11, 7};

@@ -11,7 +11,9 @@
 
 #include "core/geometry/se2.h"
 #include "core/geometry/se3.h"
+#include "core/solver/normal_equations.h"
 #include "core/solver/pose_factors.h"
+#include "core/solver/pose_graph.h"
 #include "core/solver/values.h"
 
 namespace evermap::solver::testing {
@@ -70,6 +72,24 @@ inline FactorPtr edgeFactor(int a, int b, const PoseValue& z) {
     return std::make_shared<RelativePose2Factor>(a, b, z.se2, 10.0 * Eigen::MatrixXd::Identity(3, 3));
   }
   return std::make_shared<RelativePose3Factor>(a, b, z.se3, 10.0 * Eigen::MatrixXd::Identity(6, 6));
+}
+
+// The Gauss-Newton system of the graph at its values, dense: H (n x n) and the right-hand
+// side, for checks against a dense inverse or solve.
+inline Eigen::MatrixXd denseHessian(const PoseGraph& g, Eigen::VectorXd* rhs) {
+  const BlockPattern pat = buildPattern(g);
+  std::vector<double> H(pat.nnz());
+  assembleNormalEquations(g, g.values(), pat, H.data(), rhs);
+  const int n = pat.scalarSize();
+  Eigen::MatrixXd Hd(n, n);
+  for (int c = 0; c < n; ++c) {
+    Eigen::VectorXd e = Eigen::VectorXd::Zero(n);
+    e[c] = 1.0;
+    Eigen::VectorXd col = Eigen::VectorXd::Zero(n);
+    pat.multiplyAdd(H.data(), e, &col);
+    Hd.col(c) = col;
+  }
+  return Hd;
 }
 
 }  // namespace evermap::solver::testing
