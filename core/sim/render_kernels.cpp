@@ -54,6 +54,27 @@ __attribute__((target("avx2"))) inline __m256i pixelPairs(const uint16_t* q, __m
 
 }  // namespace
 
+// The four texels of 8 bilinear samples (rows r0, r1 as offsets, columns x0, x1), each in the
+// low byte of its lane. `adjacent` (no lane wraps: x1 = x0 + 1): one 32-bit gather per row
+// reads both columns.
+__attribute__((target("avx2"))) inline void gatherTexels(const int* texels, __m256i r0, __m256i r1, __m256i x0,
+                                                         __m256i x1, bool adjacent, __m256i low8, __m256i* p00,
+                                                         __m256i* p01, __m256i* p10, __m256i* p11) {
+  if (adjacent) {
+    const __m256i g0 = _mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x0), 1);
+    const __m256i g1 = _mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x0), 1);
+    *p00 = _mm256_and_si256(g0, low8);
+    *p01 = _mm256_and_si256(_mm256_srli_epi32(g0, 8), low8);
+    *p10 = _mm256_and_si256(g1, low8);
+    *p11 = _mm256_and_si256(_mm256_srli_epi32(g1, 8), low8);
+  } else {
+    *p00 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x0), 1), low8);
+    *p01 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x1), 1), low8);
+    *p10 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x0), 1), low8);
+    *p11 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x1), 1), low8);
+  }
+}
+
 bool cpuHasAvx2() {
   __builtin_cpu_init();
   return __builtin_cpu_supports("avx2");
@@ -192,20 +213,9 @@ __attribute__((target("avx2"))) void surfaceRowAvx2(const SurfaceRow& r, int wid
     const __m256i r0 = _mm256_sll_epi32(y0, shift), r1 = _mm256_sll_epi32(y1, shift);
     const auto* texels = reinterpret_cast<const int*>(L.texels);
     __m256i p00, p01, p10, p11;
-    if (_mm256_testz_si256(_mm256_cmpeq_epi32(x0, mask), _mm256_cmpeq_epi32(x0, mask))) {
-      // No lane wraps around the texture's edge (x1 = x0 + 1): one gather reads both texels.
-      const __m256i g0 = _mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x0), 1);
-      const __m256i g1 = _mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x0), 1);
-      p00 = _mm256_and_si256(g0, low8);
-      p01 = _mm256_and_si256(_mm256_srli_epi32(g0, 8), low8);
-      p10 = _mm256_and_si256(g1, low8);
-      p11 = _mm256_and_si256(_mm256_srli_epi32(g1, 8), low8);
-    } else {
-      p00 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x0), 1), low8);
-      p01 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x1), 1), low8);
-      p10 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x0), 1), low8);
-      p11 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x1), 1), low8);
-    }
+    // No lane wraps around the texture's edge when no x0 is the last column.
+    const bool adjacent = _mm256_testz_si256(_mm256_cmpeq_epi32(x0, mask), _mm256_cmpeq_epi32(x0, mask));
+    gatherTexels(texels, r0, r1, x0, x1, adjacent, low8, &p00, &p01, &p10, &p11);
     const __m256i ax = _mm256_and_si256(fu, low8), ay = _mm256_and_si256(fv, low8);
     const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8), _mm256_madd_epi16(_mm256_sub_epi32(p01, p00), ax));
     const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8), _mm256_madd_epi16(_mm256_sub_epi32(p11, p10), ax));
@@ -255,19 +265,7 @@ __attribute__((target("avx2"))) void wallSpanAvx2(const WallSpan& w, int v0, int
     const __m256i y0 = _mm256_and_si256(_mm256_srai_epi32(fv, 8), mask), y1 = _mm256_and_si256(_mm256_add_epi32(y0, one), mask);
     const __m256i r0 = _mm256_sll_epi32(y0, shift), r1 = _mm256_sll_epi32(y1, shift);
     __m256i p00, p01, p10, p11;
-    if (adjacent) {
-      const __m256i g0 = _mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x0), 1);
-      const __m256i g1 = _mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x0), 1);
-      p00 = _mm256_and_si256(g0, low8);
-      p01 = _mm256_and_si256(_mm256_srli_epi32(g0, 8), low8);
-      p10 = _mm256_and_si256(g1, low8);
-      p11 = _mm256_and_si256(_mm256_srli_epi32(g1, 8), low8);
-    } else {
-      p00 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x0), 1), low8);
-      p01 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r0, x1), 1), low8);
-      p10 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x0), 1), low8);
-      p11 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x1), 1), low8);
-    }
+    gatherTexels(texels, r0, r1, x0, x1, adjacent, low8, &p00, &p01, &p10, &p11);
     const __m256i ay = _mm256_and_si256(fv, low8);
     const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8), _mm256_madd_epi16(_mm256_sub_epi32(p01, p00), ax));
     const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8), _mm256_madd_epi16(_mm256_sub_epi32(p11, p10), ax));
