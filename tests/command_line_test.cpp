@@ -98,6 +98,15 @@ TEST(CommandLine, CollectsPositionalWordsWhenAsked) {
   EXPECT_EQ(f.files, (std::vector<std::string>{"a.txt", "b.txt"}));
 }
 
+TEST(CommandLine, RepeatedOptionCollectsEveryValueInOrder) {
+  CommandLine cli("t", "test");
+  std::vector<std::string> sets;
+  cli.repeated("--set", &sets, "KEY=VALUE", "one setting");
+  const Args a{"--set", "a=1", "--set=b=2", "--set", "c = 3"};
+  ASSERT_TRUE(cli.parse(a.argc(), a.data()).ok());
+  EXPECT_EQ(sets, (std::vector<std::string>{"a=1", "b=2", "c = 3"}));
+}
+
 TEST(CommandLine, CustomSetterRejectsWithItsMessage) {
   CommandLine cli("prog", "");
   std::string mode = "reduced";

@@ -54,6 +54,14 @@ void CommandLine::value(std::string name, double* out, std::string metavar, std:
   };
 }
 
+void CommandLine::repeated(std::string name, std::vector<std::string>* out, std::string metavar,
+                           std::string help) {
+  add(std::move(name), std::move(metavar), std::move(help), false).set = [out](const std::string& v) -> Status {
+    out->push_back(v);
+    return Ok{};
+  };
+}
+
 void CommandLine::value(std::string name, std::function<Status(const std::string&)> set,
                         std::string metavar, std::string help, bool required) {
   add(std::move(name), std::move(metavar), std::move(help), required).set = std::move(set);

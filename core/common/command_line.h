@@ -45,6 +45,8 @@ class CommandLine {
   // A value checked by the caller: `set` returns an error message for a bad value.
   void value(std::string name, std::function<Status(const std::string&)> set,
              std::string metavar, std::string help, bool required = false);
+  // An option that may be given several times: each value is appended to `*out`.
+  void repeated(std::string name, std::vector<std::string>* out, std::string metavar, std::string help);
   // An option without a value; sets `*out` to true.
   void flag(std::string name, bool* out, std::string help);
   // Words that are not options go here (in order); without this, they are errors.

@@ -68,13 +68,7 @@ int parseArgs(int argc, char** argv, Args* a) {
     };
   };
   cli.value("--config", &a->config, "FILE", "simulation settings (config/sim-*.conf)", true);
-  cli.value(
-      "--set",
-      [a](const std::string& v) -> evermap::Status {
-        a->sets.push_back(v);
-        return evermap::Ok{};
-      },
-      "KEY=VALUE", "override one setting (repeatable)");
+  cli.repeated("--set", &a->sets, "KEY=VALUE", "override one setting (repeatable)");
   cli.value(
       "--out",
       [a, m = mode("out")](const std::string& v) -> evermap::Status {

@@ -58,13 +58,7 @@ int parseArgs(int argc, char** argv, Args* a) {
                            "The image-level simulator; one of --out (with or without --stats), "
                            "--stats, --publish, --snapshots, --print-config.");
   cli.value("--config", &a->config, "FILE", "simulation settings (config/sim-image-*.conf)", true);
-  cli.value(
-      "--set",
-      [a](const std::string& v) -> evermap::Status {
-        a->sets.push_back(v);
-        return evermap::Ok{};
-      },
-      "KEY=VALUE", "override one setting (repeatable)");
+  cli.repeated("--set", &a->sets, "KEY=VALUE", "override one setting (repeatable)");
   cli.value(
       "--seed",
       [a](const std::string& v) -> evermap::Status {
