@@ -10,17 +10,13 @@
 #include "core/sim/run_output.h"
 #include "mapper-proc/map_evaluation.h"
 #include "tests/scratch_dir.h"
+#include "tests/sim_test_support.h"
 
 namespace evermap::mapper {
 namespace {
 
 sim::SimOptions threeFloors() {
-  sim::SimOptions o;
-  o.seed = 3;
-  o.building.floors = 3;
-  o.building.main_floor = 1;
-  o.building.main_cross_corridors = 4;
-  o.building.max_cross_corridors = 4;
+  sim::SimOptions o = sim::testing::smallBuilding(3);
   o.patrol.sessions = 1;
   o.patrol.total_hours = 0.03;
   o.patrol.span_days = 1;

@@ -28,18 +28,14 @@
 #include "mapper-proc/lcm_node.h"
 #include "mapper-proc/map_store.h"
 #include "tests/scratch_dir.h"
+#include "tests/sim_test_support.h"
 
 namespace evermap::mapper {
 namespace {
 
 // One session of ~3 simulated minutes on the 3-floor building.
 sim::SimOptions shortRun() {
-  sim::SimOptions o;
-  o.seed = 5;
-  o.building.floors = 3;
-  o.building.main_floor = 1;
-  o.building.main_cross_corridors = 4;
-  o.building.max_cross_corridors = 4;
+  sim::SimOptions o = sim::testing::smallBuilding(5);
   o.patrol.sessions = 1;
   o.patrol.total_hours = 0.04;
   o.patrol.span_days = 1;

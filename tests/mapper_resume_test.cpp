@@ -11,6 +11,7 @@
 #include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
 #include "mapper-proc/offline_run.h"
+#include "tests/sim_test_support.h"
 
 namespace evermap::mapper {
 namespace {
@@ -21,12 +22,7 @@ using core::Vec3;
 // Two sessions over a three-floor building; the second starts at home, where the first
 // mapped, and reaches the whole main floor.
 sim::SimOptions twoSessions() {
-  sim::SimOptions o;
-  o.seed = 7;
-  o.building.floors = 3;
-  o.building.main_floor = 1;
-  o.building.main_cross_corridors = 4;
-  o.building.max_cross_corridors = 4;
+  sim::SimOptions o = sim::testing::smallBuilding(7);
   o.patrol.sessions = 2;
   o.patrol.total_hours = 0.1;
   o.patrol.span_days = 2;

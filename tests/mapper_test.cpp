@@ -15,6 +15,7 @@
 #include "mapper-proc/mapper.h"
 #include "mapper-proc/offline_run.h"
 #include "mapper-proc/tracker.h"
+#include "tests/sim_test_support.h"
 
 namespace evermap::mapper {
 namespace {
@@ -481,12 +482,7 @@ TEST(MapStore, RejectsAFileThatIsNotAMapStore) {
 }
 
 sim::SimOptions shortPatrol() {
-  sim::SimOptions o;
-  o.seed = 7;
-  o.building.floors = 3;
-  o.building.main_floor = 1;
-  o.building.main_cross_corridors = 4;
-  o.building.max_cross_corridors = 4;
+  sim::SimOptions o = sim::testing::smallBuilding(7);
   o.patrol.sessions = 1;
   o.patrol.total_hours = 0.05;
   o.patrol.span_days = 1;

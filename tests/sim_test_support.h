@@ -12,14 +12,21 @@
 
 namespace evermap::sim::testing {
 
-// 3 floors, 2 sessions, about 8 minutes of patrol in all; every floor is visited.
-inline SimOptions smallRun(uint64_t seed = 11) {
+// The small building of the simulator and mapper tests: 3 floors, the main one in the middle,
+// 4 cross corridors on each; the patrol is left at its defaults.
+inline SimOptions smallBuilding(uint64_t seed) {
   SimOptions o;
   o.seed = seed;
   o.building.floors = 3;
   o.building.main_floor = 1;
   o.building.main_cross_corridors = 4;
   o.building.max_cross_corridors = 4;
+  return o;
+}
+
+// 3 floors, 2 sessions, about 8 minutes of patrol in all; every floor is visited.
+inline SimOptions smallRun(uint64_t seed = 11) {
+  SimOptions o = smallBuilding(seed);
   o.patrol.sessions = 2;
   o.patrol.total_hours = 0.12;
   o.patrol.span_days = 3;
