@@ -165,6 +165,19 @@ class MapperInput : public ::testing::Test {
     EXPECT_EQ(m_.tracker().lastUtime(), 2'100'000);
     EXPECT_TRUE(m_.takeRequests().empty());
   }
+  // A well-formed successful answer to the request in flight: node 0, identity pose.
+  register_result_t okAnswer() const {
+    const register_request_t& r = requests_.front();
+    register_result_t ok{};
+    ok.utime = r.utime;
+    ok.request_id = r.request_id;
+    ok.keyframe_utime = r.keyframe_utime;
+    ok.status = register_result_t::STATUS_OK;
+    ok.node_id = 0;
+    ok.orientation[0] = 1.0;
+    for (int i = 0; i < 6; ++i) ok.covariance[7 * i] = 1e-4;
+    return ok;
+  }
   Mapper m_{MapperOptions{}};
   std::vector<register_request_t> requests_;
 };
@@ -248,14 +261,7 @@ TEST_F(MapperInput, DropsMalformedWheelAttitudeAndFloorMessages) {
 
 TEST_F(MapperInput, DropsRegistrationResultsThatAreStaleOrMalformed) {
   const register_request_t& r = requests_.front();
-  register_result_t ok{};
-  ok.utime = r.utime;
-  ok.request_id = r.request_id;
-  ok.keyframe_utime = r.keyframe_utime;
-  ok.status = register_result_t::STATUS_OK;
-  ok.node_id = 0;
-  ok.orientation[0] = 1.0;
-  for (int i = 0; i < 6; ++i) ok.covariance[7 * i] = 1e-4;
+  const register_result_t ok = okAnswer();
 
   register_result_t stale = ok;
   stale.request_id = r.request_id + 7;  // no such request
@@ -272,21 +278,15 @@ TEST_F(MapperInput, DropsRegistrationResultsThatAreStaleOrMalformed) {
   EXPECT_FALSE(m_.onRegisterResult(bad));
   EXPECT_EQ(m_.stats().dropped, 3);
   EXPECT_EQ(m_.stats().registrations_ok, 0);
-  EXPECT_EQ(m_.stats().loop_closures + m_.stats().delta_replaced + m_.stats().delta_kept, 0);
+  EXPECT_EQ(m_.stats().loop_closures + m_.stats().delta_replaced + m_.stats().delta_kept + m_.stats().delta_fused, 0);
   // The same answer once more: nothing in flight any more.
   EXPECT_FALSE(m_.onRegisterResult(ok));
   EXPECT_EQ(m_.stats().dropped, 4);
 }
 
 TEST_F(MapperInput, DropsAnAnswerWithAZeroQuaternionOrABadCovariance) {
-  const register_request_t& r = requests_.front();
-  register_result_t bad{};
-  bad.utime = r.utime;
-  bad.request_id = r.request_id;
-  bad.keyframe_utime = r.keyframe_utime;
-  bad.status = register_result_t::STATUS_OK;
-  bad.node_id = 0;  // quaternion all zero
-  for (int i = 0; i < 6; ++i) bad.covariance[7 * i] = 1e-4;
+  register_result_t bad = okAnswer();
+  bad.orientation[0] = 0.0;  // quaternion all zero
   EXPECT_FALSE(m_.onRegisterResult(bad));
   EXPECT_EQ(m_.stats().registrations_ok, 0);
   EXPECT_EQ(m_.stats().dropped, 1);
