@@ -362,24 +362,20 @@ bool Mapper::addAttitudeFactor(int64_t id, const NodeAttitude& a) {
 
 void Mapper::flushSolver() {
   refreshCells();
-  // Deferred merges wait for the scheduled consolidation, which comes with solver updates; a
-  // map that no longer changes otherwise consolidates after batch_every of them.
-  const int every = o_.solver.batch_every;
-  if (every > 0 && deferred_merges_ >= every && pending_update_.new_factors.empty() &&
-      pending_update_.new_variables.empty()) {
-    consolidatePairs();
-    deferred_merges_ = 0;
-  }
-  if (pending_update_.new_variables.empty() && pending_update_.new_factors.empty() &&
-      pending_update_.remove_factors.empty())
-    return;
+  // Merged pairs are consolidated (their factors replaced by the one merged constraint) at the
+  // solver's scheduled batch steps: it batch-steps every batch_every-th update anyway (its
+  // update counter starts at 0), so the removals cost nothing extra. A map that no longer
+  // changes has few updates: there, batch_every deferred merges trigger the consolidation.
   const auto t0 = Clock::now();
-  // The solver batch-steps every batch_every-th update anyway (its update counter starts at
-  // 0): the moment to consolidate merged pairs at no extra cost.
-  if (every > 0 && solver_updates_ % every == 0 && !to_consolidate_.empty()) {
+  const int every = o_.solver.batch_every;
+  const bool changes = !pending_update_.new_variables.empty() || !pending_update_.new_factors.empty();
+  const bool scheduled = every > 0 && changes && solver_updates_ % every == 0;
+  const bool idle = every > 0 && !changes && deferred_merges_ >= every;
+  if ((scheduled || idle) && !to_consolidate_.empty()) {
     consolidatePairs();
     deferred_merges_ = 0;
   }
+  if (!changes && pending_update_.remove_factors.empty()) return;
   ++solver_updates_;
   auto result = solver_.update(pending_update_);
   double dt = secondsSince(t0);
