@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <lcm/lcm-cpp.hpp>
 
@@ -15,6 +16,7 @@
 #include "mapper-proc/lcm_node.h"
 #include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
+#include "mapper-proc/mapper_config.h"
 
 int main(int argc, char** argv) {
   using namespace evermap;
@@ -28,6 +30,10 @@ int main(int argc, char** argv) {
                   "The reduced pose graph mapper on LCM: VO_DELTA, WHEEL_ODOM, ATTITUDE, FLOOR and\n"
                   "REGISTER_RESULT in; REGISTER_REQUEST, NODE_ADDED, POSE, MAP_GRAPH, MAPPER_STATS out.");
   cli.flag("--full-graph", &full_graph, "a node at every step (the paper's baseline) instead of the reduced graph");
+  std::string config;
+  std::vector<std::string> sets;
+  cli.value("--config", &config, "MAPPER.conf", "the mapper's options as mapper.* settings (docs/mapper.md)");
+  cli.repeated("--set", &sets, "mapper.KEY=VALUE", "override one mapper.* setting (after --config)");
   cli.value("--store", &store_file, "MAP.db", "write the map store (SQLite) after every update that changes the graph");
   cli.value("--graph-period-s", &node_options.graph_period_s, "S",
             "MAP_GRAPH after a change at most every S seconds of message time (default 1)");
@@ -41,6 +47,19 @@ int main(int argc, char** argv) {
             "time while messages arrive (0: none)");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   options.full_graph = full_graph;
+  auto settings = config.empty() ? KeyValueFile::parse("", "--set") : KeyValueFile::load(config);
+  if (!settings) {
+    std::fprintf(stderr, "evermap-mapper-proc: %s\n", settings.error().message.c_str());
+    return 2;
+  }
+  if (Status s = settings->setAll(sets, "--set"); !s) {
+    std::fprintf(stderr, "evermap-mapper-proc: %s\n", s.error().message.c_str());
+    return 2;
+  }
+  if (Status s = mapper::readMapperOptions(*settings, &options); !s) {
+    std::fprintf(stderr, "evermap-mapper-proc: %s\n", s.error().message.c_str());
+    return 2;
+  }
   for (Status s : {options.validate(), node_options.validate()}) {
     if (!s) {
       std::fprintf(stderr, "evermap-mapper-proc: %s\n", s.error().message.c_str());

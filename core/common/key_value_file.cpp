@@ -84,6 +84,22 @@ Status KeyValueFile::set(const std::string& assignment, const std::string& origi
   return Ok{};
 }
 
+KeyValueFile KeyValueFile::extract(const std::string& prefix) {
+  KeyValueFile out;
+  out.name_ = name_;
+  out.folder_ = folder_;
+  std::vector<Entry> kept;
+  for (Entry& e : entries_) {
+    if (e.key.size() > prefix.size() && e.key.compare(0, prefix.size(), prefix) == 0) {
+      out.entries_.push_back(std::move(e));
+    } else {
+      kept.push_back(std::move(e));
+    }
+  }
+  entries_ = std::move(kept);
+  return out;
+}
+
 const KeyValueFile::Entry* KeyValueFile::find(const std::string& key) const {
   for (const Entry& e : entries_) {
     if (e.key == key) return &e;

@@ -32,6 +32,12 @@ class KeyValueFile {
   // origin of each is "option key=value". Stops at the first bad one.
   Status setAll(const std::vector<std::string>& assignments, const std::string& option);
 
+  // Moves the assignments whose key starts with `prefix` out of this file into a file of
+  // their own (same name and folder, keys unchanged): one file holds the settings of two
+  // parts of a program, each read and checked for unknown keys on its own ("mapper.map_gate"
+  // beside the simulator's keys).
+  KeyValueFile extract(const std::string& prefix);
+
   const Entry* find(const std::string& key) const;
   const std::vector<Entry>& entries() const { return entries_; }
   const std::string& name() const { return name_; }

@@ -15,6 +15,7 @@
 #include "core/common/key_value_file.h"
 #include "core/eval/plot.h"
 #include "mapper-proc/map_store.h"
+#include "mapper-proc/mapper_config.h"
 #include "mapper-proc/offline_run.h"
 
 namespace {
@@ -24,7 +25,8 @@ constexpr const char* kUsage =
     "                          [--hours H] [--sessions A-B] [--store MAP.db] [--progress]\n"
     "                          [--timeline FILE.csv] [--out DIR] [--max-wall-s S]\n"
     "  --config SIM.conf  measurement-level simulation settings (config/sim-*.conf)\n"
-    "  --set key=value    override one setting of the config (e.g. oracle.false_match_rate_node=0.05)\n"
+    "  --set key=value    override one setting of the config (e.g. oracle.false_match_rate_node=0.05);\n"
+    "                     mapper.* keys set the mapper's options (docs/mapper.md, e.g. mapper.map_gate=0)\n"
     "  --mode M           reduced (default), full (a node per step) or both, side by side\n"
     "  --hours H          override patrol.total_hours\n"
     "  --sessions A-B     map only sessions A..B of the run (0-based, inclusive)\n"
@@ -266,6 +268,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-mapper-run: %s\n", st.error().message.c_str());
     return 2;
   }
+  const KeyValueFile mapper_keys = file->extract("mapper.");
   auto sim = sim::loadSimOptions(*file);
   if (!sim) {
     std::fprintf(stderr, "evermap-mapper-run: %s\n", sim.error().message.c_str());
@@ -286,6 +289,10 @@ int main(int argc, char** argv) {
     const std::string name = full ? "full" : "reduced";
     mapper::MapperOptions options;
     options.full_graph = full;
+    if (Status s = mapper::readMapperOptions(mapper_keys, &options); !s) {
+      std::fprintf(stderr, "evermap-mapper-run: %s\n", s.error().message.c_str());
+      return 1;
+    }
     mapper::OfflineRunOptions run;
     run.first_session = first;
     run.last_session = last;

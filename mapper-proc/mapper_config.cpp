@@ -1,0 +1,60 @@
+#include "mapper-proc/mapper_config.h"
+
+#include <string>
+#include <tuple>
+
+#include "core/solver/batch_solver.h"
+
+namespace evermap::mapper {
+
+Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
+  KeyValueReader reader(file);
+  reader.read("mapper.cell_size_m", &o->cell_size_m);
+  reader.read("mapper.heading_bins", &o->heading_bins);
+  reader.read("mapper.step_interval_s", &o->step_interval_s);
+  reader.read("mapper.request_timeout_s", &o->request_timeout_s);
+  reader.read("mapper.session_gap_s", &o->session_gap_s);
+  reader.read("mapper.consistency_gate", &o->consistency_gate);
+  reader.read("mapper.recent_exclusion_s", &o->recent_exclusion_s);
+  reader.read("mapper.covariance_floor", &o->covariance_floor);
+  reader.read("mapper.origin_sigma_m", &o->origin_sigma_m);
+  reader.read("mapper.origin_sigma_rad", &o->origin_sigma_rad);
+  reader.read("mapper.attitude_factors", &o->attitude_factors);
+  reader.read("mapper.height_factors", &o->height_factors);
+  reader.read("mapper.map_gate", &o->map_gate);
+  reader.read("mapper.defer_merges", &o->defer_merges);
+  reader.read("mapper.cell_refresh_per_step", &o->cell_refresh_per_step);
+  reader.read("mapper.fuse_active_registration", &o->fuse_active_registration);
+  reader.read("mapper.tracker.wheel_offplane_sigma_m", &o->tracker.wheel_offplane_sigma_m);
+  reader.read("mapper.tracker.wheel_offplane_sigma_rad", &o->tracker.wheel_offplane_sigma_rad);
+  reader.read("mapper.tracker.history_s", &o->tracker.history_s);
+  std::string method;
+  reader.read("mapper.solver.method", &method);
+  reader.read("mapper.solver.batch_every", &o->solver.batch_every);
+  reader.read("mapper.solver.wildfire_threshold", &o->solver.wildfire_threshold);
+  reader.read("mapper.solver.initial_trust_radius", &o->solver.initial_trust_radius);
+  reader.read("mapper.solver.recent_last", &o->solver.recent_last);
+  reader.read("mapper.solver.background_batch_lag", &o->solver.background_batch_lag);
+  std::string loop_kernel, vetted_loop_kernel;
+  reader.read("mapper.loop_kernel", &loop_kernel);
+  reader.read("mapper.vetted_loop_kernel", &vetted_loop_kernel);
+  if (auto s = reader.finish(); !s) return s;
+  for (auto [key, text, kernel] : {std::tuple{"mapper.loop_kernel", &loop_kernel, &o->loop_kernel},
+                                   std::tuple{"mapper.vetted_loop_kernel", &vetted_loop_kernel, &o->vetted_loop_kernel}}) {
+    if (text->empty()) continue;
+    auto k = solver::parseRobustKernel(*text);
+    if (!k) return makeError(reader.where(key), ": ", key, ": ", k.error().message);
+    *kernel = *k;
+  }
+  if (!method.empty()) {
+    auto m = solver::parseMethod(method);
+    if (!m || *m == solver::Method::kLevenbergMarquardt)
+      return makeError(reader.where("mapper.solver.method"), ": mapper.solver.method: expected 'gn' or 'dogleg', got '", method,
+                       "'");
+    o->solver.method = *m;
+  }
+  if (auto s = o->validate(); !s) return makeError(file.name(), ": ", s.error().message);
+  return Ok{};
+}
+
+}  // namespace evermap::mapper

@@ -1,0 +1,84 @@
+// Mapper options from `mapper.*` settings (mapper-proc/mapper_config.h) and the split of one
+// settings file between the simulator and the mapper (KeyValueFile::extract).
+#include <gtest/gtest.h>
+
+#include "core/common/key_value_file.h"
+#include "core/sim/sim_options.h"
+#include "mapper-proc/mapper_config.h"
+
+namespace evermap::mapper {
+namespace {
+
+KeyValueFile parse(const std::string& text) {
+  auto file = KeyValueFile::parse(text, "x.conf");
+  EXPECT_TRUE(file) << file.error().message;
+  return *file;
+}
+
+TEST(MapperConfig, ReadsEveryKindOfSettingAndKeepsTheDefaultsOfTheRest) {
+  const KeyValueFile file = parse(
+      "mapper.map_gate = 0\n"
+      "mapper.fuse_active_registration = false\n"
+      "mapper.heading_bins = 16\n"
+      "mapper.loop_kernel = cauchy:2\n"
+      "mapper.vetted_loop_kernel = dcs\n"
+      "mapper.solver.batch_every = 50\n"
+      "mapper.solver.method = dogleg\n"
+      "mapper.solver.background_batch_lag = 0\n"
+      "mapper.tracker.history_s = 60\n");
+  MapperOptions o;
+  const Status read = readMapperOptions(file, &o);
+  ASSERT_TRUE(read) << read.error().message;
+  EXPECT_EQ(o.map_gate, 0.0);
+  EXPECT_FALSE(o.fuse_active_registration);
+  EXPECT_EQ(o.heading_bins, 16);
+  EXPECT_EQ(o.loop_kernel.type, solver::KernelType::kCauchy);
+  EXPECT_EQ(o.loop_kernel.parameter, 2.0);
+  EXPECT_EQ(o.vetted_loop_kernel.type, solver::KernelType::kDcs);
+  EXPECT_EQ(o.solver.batch_every, 50);
+  EXPECT_EQ(o.solver.method, solver::Method::kDogLeg);
+  EXPECT_EQ(o.solver.background_batch_lag, 0);
+  EXPECT_EQ(o.tracker.history_s, 60.0);
+  const MapperOptions defaults;
+  EXPECT_EQ(o.cell_size_m, defaults.cell_size_m);
+  EXPECT_EQ(o.consistency_gate, defaults.consistency_gate);
+  EXPECT_EQ(o.solver.wildfire_threshold, defaults.solver.wildfire_threshold);
+}
+
+TEST(MapperConfig, ErrorsNameTheKeyAndWhereItWasSet) {
+  struct Case {
+    std::string text;
+    std::string expected;
+  };
+  for (const Case& c : {Case{"mapper.map_gat = 3\n", "x.conf:1: unknown key 'mapper.map_gat'"},
+                        Case{"\nmapper.heading_bins = many\n", "x.conf:2"},
+                        Case{"mapper.loop_kernel = tukey\n", "mapper.loop_kernel"},
+                        Case{"mapper.solver.method = lm\n", "mapper.solver.method"},
+                        Case{"mapper.map_gate = -1\n", "mapper.map_gate"}}) {
+    MapperOptions o;
+    const Status s = readMapperOptions(parse(c.text), &o);
+    ASSERT_FALSE(s) << c.text;
+    EXPECT_NE(s.error().message.find(c.expected), std::string::npos) << s.error().message;
+  }
+}
+
+TEST(MapperConfig, OneFileHoldsTheSimulatorsAndTheMappersSettings) {
+  KeyValueFile file = parse("seed = 7\nmapper.map_gate = 10\noracle.false_match_rate_node = 0.05\n");
+  ASSERT_TRUE(file.set("mapper.cell_size_m=2", "--set mapper.cell_size_m=2"));
+  const KeyValueFile mapper_keys = file.extract("mapper.");
+  EXPECT_EQ(mapper_keys.entries().size(), 2u);
+  EXPECT_EQ(file.entries().size(), 2u);
+  EXPECT_EQ(file.find("mapper.map_gate"), nullptr);
+  auto sim = sim::loadSimOptions(file);  // no unknown mapper.* keys left for the simulator
+  ASSERT_TRUE(sim) << sim.error().message;
+  EXPECT_EQ(sim->seed, 7u);
+  MapperOptions o;
+  ASSERT_TRUE(readMapperOptions(mapper_keys, &o));
+  EXPECT_EQ(o.map_gate, 10.0);
+  EXPECT_EQ(o.cell_size_m, 2.0);
+  // An override keeps its origin for messages.
+  EXPECT_EQ(mapper_keys.find("mapper.cell_size_m")->origin, "--set mapper.cell_size_m=2");
+}
+
+}  // namespace
+}  // namespace evermap::mapper
