@@ -121,6 +121,7 @@ struct OfflineRunSummary {
     int64_t node = 0;      // the node the step pose hangs on
     int true_floor = -1;   // -1: unknown
     double error_m = 0.0;
+    double yaw_error_deg = 0.0;  // estimated minus true heading, (-180, 180]
   };
   struct NodeError {
     int64_t id = 0;

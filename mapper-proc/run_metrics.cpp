@@ -42,14 +42,14 @@ Status writeTimelineCsv(const std::filesystem::path& file, const std::vector<Tim
 Status writeErrorsCsv(const std::filesystem::path& steps_file, const std::filesystem::path& nodes_file,
                       const OfflineRunSummary& summary) {
   std::ostringstream steps;
-  steps << "utime,session,node,true_floor,error_m,true_x,true_y,true_z,est_x,est_y,est_z\n";
+  steps << "utime,session,node,true_floor,error_m,true_x,true_y,true_z,est_x,est_y,est_z,yaw_error_deg\n";
   steps.precision(10);
   for (size_t k = 0; k < summary.step_errors.size(); ++k) {
     const auto& e = summary.step_errors[k];
     const core::Vec3& t = summary.trajectory_gt[k];
     const core::Vec3& x = summary.trajectory_est[k];
     steps << e.utime << ',' << e.session << ',' << e.node << ',' << e.true_floor << ',' << e.error_m << ',' << t.x()
-          << ',' << t.y() << ',' << t.z() << ',' << x.x() << ',' << x.y() << ',' << x.z() << '\n';
+          << ',' << t.y() << ',' << t.z() << ',' << x.x() << ',' << x.y() << ',' << x.z() << ',' << e.yaw_error_deg << '\n';
   }
   if (Status s = writeFileAtomically(steps_file, steps.str()); !s) return s;
   std::ostringstream nodes;
