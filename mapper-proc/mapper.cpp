@@ -609,13 +609,23 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
   // A pair that already holds constraints tests a new one against them (constraint_set.h);
   // the map gate is for a pair's first constraint, which nothing else can contradict.
   const bool known_pair = constraints_.pairs().count({std::min(f.active, b), std::max(f.active, b)}) > 0;
-  if (!known_pair && !consistentWithMap(f.active, b, a_T_b) && !confirmsRejected(b, b_T_q, f.keyframe_utime)) {
+  const bool contradicts_map = !known_pair && !consistentWithMap(f.active, b, a_T_b);
+  if (contradicts_map && !confirmsRejected(b, b_T_q, f.keyframe_utime)) {
     ++stats_.rejected_map_gate;
     gate_rejected_ = true;
     *registered = false;
     return;
   }
   rejected_candidate_.reset();
+  if (contradicts_map) {
+    // Gate recovery: two registrations agree that the robot is at b, against the map and Δ.
+    // The closure a → b would carry Δ's error into the map: b becomes active, no constraint
+    // (as a new session is placed on the map).
+    active_ = b;
+    tracker_.reset(core::compound(b_T_q, *q_T_now));
+    relocalize_ = false;
+    return;
+  }
   const size_t rejected_before = constraints_.rejected();
   // The chain active → keyframe → b, compounded (eq. 6-7): a constraint between existing nodes.
   addConstraint(f.active, b, a_T_b, ConstraintKind::kLoop, f.keyframe_utime, o_.map_gate > 0);

@@ -180,6 +180,8 @@ class ScriptedDrive {
     answer();
   }
   const SE3d& truePose() const { return pose_; }
+  // The true body pose at a node's keyframe.
+  const SE3d& nodeTruth(int64_t id) const { return node_truth_.at(id); }
   Mapper& mapper() { return mapper_; }
   // An elevator ride that ends where it started, on floor `index`, whose height estimate says
   // `height_m` with standard deviation `sigma_m`.
@@ -350,6 +352,26 @@ TEST(ReducedGraph, RecoversWhenTwoRegistrationsAgreeAgainstAWrongDelta) {
   EXPECT_GE(s.gate_recoveries, 1);
   EXPECT_LE(drive.mapper().nodes().size(), nodes_before + 1);
   // The map's origin is the first frame, 0.1 m along x.
+  const SE3d estimate = drive.mapper().pose().mean;
+  EXPECT_LT((estimate.translation() - (drive.truePose().translation() - Vec3(0.1, 0, 0))).norm(), 0.05);
+}
+
+TEST(ReducedGraph, AGateRecoveryToAnotherNodeAddsNoClosureFromTheWrongDelta) {
+  // A 2 m slip VO does not see: the active node's cell has nothing to register to, the global
+  // search finds the node 2 m on. The map gate rejects a_T_b (Δ says 0 m, the map 2 m), and the
+  // second registration agrees with the first: the recovery. A closure a → b from Δ would pull
+  // the corridor 2 m together; the robot is placed at b instead.
+  ScriptedDrive drive(scriptedOptions(), 1e-6);
+  lap(drive);
+  drive.driveTo(3.0, 0.0);
+  drive.slip(2.0);
+  drive.driveTo(8.0, 0.0);
+  EXPECT_GE(drive.mapper().stats().gate_recoveries, 1);
+  for (const auto& c : drive.mapper().constraints().all()) {
+    if (!c.accepted || c.kind != ConstraintKind::kLoop) continue;
+    const SE3d truth = drive.nodeTruth(c.from).inverse() * drive.nodeTruth(c.to);
+    EXPECT_LT((c.from_T_to.mean.translation() - truth.translation()).norm(), 0.05) << c.from << " -> " << c.to;
+  }
   const SE3d estimate = drive.mapper().pose().mean;
   EXPECT_LT((estimate.translation() - (drive.truePose().translation() - Vec3(0.1, 0, 0))).norm(), 0.05);
 }
