@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
 #include "core/eval/plot.h"
 #include "mapper-proc/map_store.h"
@@ -19,31 +20,6 @@
 #include "mapper-proc/offline_run.h"
 
 namespace {
-
-constexpr const char* kUsage =
-    "usage: evermap-mapper-run --config SIM.conf [--set key=value]... [--mode reduced|full|both]\n"
-    "                          [--hours H] [--sessions A-B] [--store MAP.db] [--progress]\n"
-    "                          [--timeline FILE.csv] [--out DIR] [--max-wall-s S]\n"
-    "  --config SIM.conf  measurement-level simulation settings (config/sim-*.conf)\n"
-    "  --set key=value    override one setting of the config (e.g. oracle.false_match_rate_node=0.05);\n"
-    "                     mapper.* keys set the mapper's options (docs/mapper.md, e.g. mapper.map_gate=0)\n"
-    "  --mode M           reduced (default), full (a node per step) or both, side by side\n"
-    "  --hours H          override patrol.total_hours\n"
-    "  --sessions A-B     map only sessions A..B of the run (0-based, inclusive)\n"
-    "  --store MAP.db     the map store (reduced graph only): a map it holds is continued, each\n"
-    "                     update is one transaction\n"
-    "  --progress         print 'committed nodes N edges E utime U' after each store transaction\n"
-    "  --timeline FILE    per-minute timeline CSV (nodes, per-component time, step cost)\n"
-    "  --out DIR          timelines, summaries, per-step and per-node errors (steps-M.csv,\n"
-    "                     nodes-M.csv) and the Fig. 4 / Fig. 7 plots (SVG) into DIR\n"
-    "  --max-wall-s S     stop mapping after S seconds of wall time (per mode); the figures\n"
-    "                     cover the operating time reached\n"
-    "   or: evermap-mapper-run --replot DIR\n"
-    "  the Fig. 7 plots again from DIR/timeline-reduced.csv and DIR/timeline-full.csv (either may\n"
-    "  be missing): runs of the two modes made separately, drawn side by side\n"
-    "   or: evermap-mapper-run --check-store MAP.db\n"
-    "  PRAGMA integrity_check of a map store, then 'store ok nodes N edges E sessions S\n"
-    "  updated_utime U' (U: the newest keyframe of a stored node or edge; a run resumes after it)\n";
 
 using evermap::eval::ChartSeries;
 using evermap::mapper::OfflineRunSummary;
@@ -178,81 +154,82 @@ void writePlots(const std::filesystem::path& dir, const std::map<std::string, Of
 
 int main(int argc, char** argv) {
   using namespace evermap;
-  std::string config, mode = "reduced", store, timeline, out;
+  std::string config, mode = "reduced", store, timeline, out, replot, check_store;
   std::vector<std::string> sets;
   double hours = -1.0, max_wall_s = 0.0;
   bool progress = false;
   int first = 0, last = -1;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    }
-    if (a == "--progress") {
-      progress = true;
-      continue;
-    }
-    if (i + 1 >= argc) {
-      std::fprintf(stderr, "evermap-mapper-run: %s needs a value\n%s", a.c_str(), kUsage);
-      return 2;
-    }
-    const std::string v = argv[++i];
-    if (a == "--config") {
-      config = v;
-    } else if (a == "--set") {
-      sets.push_back(v);
-    } else if (a == "--check-store") {
-      return checkStore(v);
-    } else if (a == "--replot") {
-      std::map<std::string, OfflineRunSummary> runs;
-      for (const char* m : {"reduced", "full"}) {
-        const auto f = std::filesystem::path(v) / (std::string("timeline-") + m + ".csv");
-        if (!std::filesystem::exists(f)) continue;
-        auto rows = mapper::readTimelineCsv(f);
-        if (!rows) {
-          std::fprintf(stderr, "evermap-mapper-run: %s\n", rows.error().message.c_str());
-          return 1;
-        }
-        runs[m].timeline = std::move(*rows);
-        if (!runs[m].timeline.empty()) runs[m].nodes = runs[m].timeline.back().nodes;
-      }
-      if (runs.empty()) {
-        std::fprintf(stderr, "evermap-mapper-run: %s: no timeline-reduced.csv or timeline-full.csv\n", v.c_str());
+  CommandLine cli("evermap-mapper-run",
+                  "Simulates a measurement-level run and maps it with the reduced pose graph, the full\n"
+                  "pose graph or both, with the registration oracle, in one process (docs/mapper.md).\n"
+                  "Also: --replot DIR, --check-store MAP.db.");
+  cli.value("--config", &config, "SIM.conf", "measurement-level simulation settings (config/sim-*.conf)");
+  cli.repeated("--set", &sets, "key=value",
+               "override one setting of the config (e.g. oracle.false_match_rate_node=0.05); mapper.* keys "
+               "set the mapper's options (e.g. mapper.map_gate=0)");
+  cli.value(
+      "--mode",
+      [&](const std::string& v) -> Status {
+        if (v != "reduced" && v != "full" && v != "both") return Error{"expected reduced, full or both"};
+        mode = v;
+        return Ok{};
+      },
+      "M", "reduced (default), full (a node per step) or both, side by side");
+  cli.value("--hours", &hours, "H", "override patrol.total_hours");
+  cli.value(
+      "--sessions",
+      [&](const std::string& v) -> Status {
+        if (!parseSessions(v, &first, &last)) return Error{"expected A or A-B, 0 <= A <= B"};
+        return Ok{};
+      },
+      "A-B", "map only sessions A..B of the run (0-based, inclusive)");
+  cli.value("--store", &store, "MAP.db",
+            "the map store (reduced graph only): a map it holds is continued, each update is one transaction");
+  cli.flag("--progress", &progress, "print 'committed nodes N edges E utime U' after each store transaction");
+  cli.value("--timeline", &timeline, "FILE.csv", "per-minute timeline CSV (nodes, per-component time, step cost)");
+  cli.value("--out", &out, "DIR",
+            "timelines, summaries, per-step and per-node errors (steps-M.csv, nodes-M.csv) and the Fig. 4 / "
+            "Fig. 7 plots into DIR");
+  cli.value("--max-wall-s", &max_wall_s, "S",
+            "stop mapping after S seconds of wall time (per mode); the figures cover the operating time reached");
+  cli.value("--replot", &replot, "DIR",
+            "instead of a run: the Fig. 7 plots again from DIR/timeline-reduced.csv and DIR/timeline-full.csv "
+            "(either may be missing), runs of the two modes made separately, drawn side by side");
+  cli.value("--check-store", &check_store, "MAP.db",
+            "instead of a run: PRAGMA integrity_check of a map store, then 'store ok nodes N edges E sessions S "
+            "updated_utime U' (U: the newest keyframe of a stored node or edge; a run resumes after it)");
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  if (!check_store.empty()) return checkStore(check_store);
+  if (!replot.empty()) {
+    std::map<std::string, OfflineRunSummary> runs;
+    for (const char* m : {"reduced", "full"}) {
+      const auto f = std::filesystem::path(replot) / (std::string("timeline-") + m + ".csv");
+      if (!std::filesystem::exists(f)) continue;
+      auto rows = mapper::readTimelineCsv(f);
+      if (!rows) {
+        std::fprintf(stderr, "evermap-mapper-run: %s\n", rows.error().message.c_str());
         return 1;
       }
-      writePlots(v, runs);
-      return 0;
-    } else if (a == "--store") {
-      store = v;
-    } else if (a == "--timeline") {
-      timeline = v;
-    } else if (a == "--out") {
-      out = v;
-    } else if (a == "--sessions" && parseSessions(v, &first, &last)) {
-    } else if (a == "--mode" && (v == "reduced" || v == "full" || v == "both")) {
-      mode = v;
-    } else if (a == "--max-wall-s") {
-      char* end = nullptr;
-      max_wall_s = std::strtod(v.c_str(), &end);
-      if (end == v.c_str() || *end || !(max_wall_s > 0)) {
-        std::fprintf(stderr, "evermap-mapper-run: bad --max-wall-s %s\n", v.c_str());
-        return 2;
-      }
-    } else if (a == "--hours") {
-      char* end = nullptr;
-      hours = std::strtod(v.c_str(), &end);
-      if (end == v.c_str() || *end || !(hours > 0)) {
-        std::fprintf(stderr, "evermap-mapper-run: bad --hours %s\n", v.c_str());
-        return 2;
-      }
-    } else {
-      std::fprintf(stderr, "evermap-mapper-run: bad option %s %s\n%s", a.c_str(), v.c_str(), kUsage);
-      return 2;
+      runs[m].timeline = std::move(*rows);
+      if (!runs[m].timeline.empty()) runs[m].nodes = runs[m].timeline.back().nodes;
     }
+    if (runs.empty()) {
+      std::fprintf(stderr, "evermap-mapper-run: %s: no timeline-reduced.csv or timeline-full.csv\n", replot.c_str());
+      return 1;
+    }
+    writePlots(replot, runs);
+    return 0;
   }
   if (config.empty()) {
-    std::fprintf(stderr, "evermap-mapper-run: --config is required\n%s", kUsage);
+    std::fprintf(stderr, "evermap-mapper-run: --config is required\n%s", cli.usage().c_str());
+    return 2;
+  }
+  if (hours != -1.0 && !(hours > 0)) {
+    std::fprintf(stderr, "evermap-mapper-run: --hours: must be > 0\n");
+    return 2;
+  }
+  if (max_wall_s < 0) {
+    std::fprintf(stderr, "evermap-mapper-run: --max-wall-s: must be >= 0\n");
     return 2;
   }
   if (!timeline.empty() && mode == "both") {
