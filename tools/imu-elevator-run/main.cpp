@@ -24,6 +24,7 @@
 #include <evermap/floor_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
+#include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
 #include "core/common/option_fields.h"
 #include "core/datasets/euroc.h"
@@ -56,54 +57,53 @@ struct Args {
   elevator::ElevatorTrackerOptions elevator;
 };
 
-int usage() {
-  std::fprintf(stderr,
-               "usage: evermap-imu-elevator-run (--euroc-imu CSV [--ground-truth FILE] | "
-               "--hackzurich DIR --session N | --lcm-log FILE [--channel IMU] |\n"
-               "        --synthetic N [--rate HZ] |\n"
-               "        --sim-config FILE [--sim-set key=value]... [--sim-sessions N])\n"
-               "       [--set key=value]... [--config FILE] [--print-options]\n"
-               "       [--dump-attitude FILE] [--dump-trace FILE] [--write-lcm-log FILE]\n");
-  return 2;
-}
-
-Status parse(int argc, char** argv, Args* a) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string k = argv[i];
-    if (k == "--print-options") {
-      a->print_options = true;
-      continue;
-    }
-    if (i + 1 >= argc) return makeError("missing value after ", k);
-    const std::string v = argv[++i];
-    if (k == "--euroc-imu") a->euroc_imu = v;
-    else if (k == "--ground-truth") a->ground_truth = v;
-    else if (k == "--hackzurich") a->hackzurich = v;
-    else if (k == "--session") a->session = std::atoi(v.c_str());
-    else if (k == "--lcm-log") a->lcm_log = v;
-    else if (k == "--channel") a->channel = v;
-    else if (k == "--dump-attitude") a->dump_attitude = v;
-    else if (k == "--dump-trace") a->dump_trace = v;
-    else if (k == "--write-lcm-log") a->write_lcm_log = v;
-    else if (k == "--print-floor-log") a->floor_log = v;
-    else if (k == "--synthetic") a->synthetic_rides = std::atoi(v.c_str());
-    else if (k == "--sim-config") a->sim_config = v;
-    else if (k == "--sim-set") a->sim_sets.push_back(v);
-    else if (k == "--sim-sessions") a->sim_sessions = std::atoi(v.c_str());
-    else if (k == "--rate") a->rate_hz = std::atof(v.c_str());
-    else if (k == "--config") {
-      if (Status st = loadFields(&a->attitude, v, false); !st.ok()) return st;
-      if (Status st = loadFields(&a->elevator, v, false); !st.ok()) return st;
-    } else if (k == "--set") {
-      if (!setFieldFromAssignment(&a->attitude, v).ok()) {
-        if (Status st = setFieldFromAssignment(&a->elevator, v); !st.ok()) return st;
-      }
-    } else {
-      return makeError("unknown argument ", k);
-    }
+// The command line; -1 to run, else the exit status (usage and errors already printed).
+int parse(int argc, char** argv, Args* a) {
+  CommandLine cli("evermap-imu-elevator-run",
+                  "imu-proc's attitude filter and elevator-proc's tracker over a recording, offline. One input:\n"
+                  "--euroc-imu, --hackzurich, --lcm-log, --synthetic or --sim-config (docs/imu-elevator.md).");
+  std::string config;
+  std::vector<std::string> sets;
+  cli.value("--euroc-imu", &a->euroc_imu, "CSV", "EuRoC mav0/imu0/data.csv");
+  cli.value("--ground-truth", &a->ground_truth, "FILE", "EuRoC ground truth: the attitude error");
+  cli.value("--hackzurich", &a->hackzurich, "DIR", "the phone recordings (with --session)");
+  cli.value("--session", &a->session, "N", "HackZurich session number (default 1)");
+  cli.value("--lcm-log", &a->lcm_log, "FILE", "IMU messages of an LCM log");
+  cli.value("--channel", &a->channel, "IMU", "the IMU channel of --lcm-log and --write-lcm-log");
+  cli.value("--synthetic", &a->synthetic_rides, "N", "a synthetic building run with N rides");
+  cli.value("--rate", &a->rate_hz, "HZ", "IMU rate of --synthetic (default 100)");
+  cli.value("--sim-config", &a->sim_config, "FILE",
+            "the measurement-level simulator's IMU: does every ride end on the right floor?");
+  cli.repeated("--sim-set", &a->sim_sets, "key=value", "override one simulator setting");
+  cli.value("--sim-sessions", &a->sim_sessions, "N", "only the first N sessions of --sim-config (0: all)");
+  cli.value("--config", &config, "FILE", "attitude and elevator options (key = value)");
+  cli.repeated("--set", &sets, "key=value", "one attitude or elevator option (after --config)");
+  cli.flag("--print-options", &a->print_options, "print every option with its value and exit");
+  cli.value("--dump-attitude", &a->dump_attitude, "FILE", "the attitude track, one estimate a line");
+  cli.value("--dump-trace", &a->dump_trace, "FILE", "the elevator's 0.1 s grid");
+  cli.value("--write-lcm-log", &a->write_lcm_log, "FILE", "the IMU samples read, as an LCM log for lcm-logplayer");
+  cli.value("--print-floor-log", &a->floor_log, "FILE", "only print the FLOOR and ATTITUDE summary of an LCM log");
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  Status st = Ok{};
+  if (!config.empty()) {
+    st = loadFields(&a->attitude, config, false);
+    if (st.ok()) st = loadFields(&a->elevator, config, false);
   }
-  if (Status st = a->attitude.validate(); !st.ok()) return st;
-  return a->elevator.validate();
+  for (const std::string& v : sets) {
+    if (!st.ok()) break;
+    if (!setFieldFromAssignment(&a->attitude, v).ok()) st = setFieldFromAssignment(&a->elevator, v);
+  }
+  if (st.ok()) st = a->attitude.validate();
+  if (st.ok()) st = a->elevator.validate();
+  if (!st.ok()) {
+    std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", st.error().message.c_str());
+    return 2;
+  }
+  if (a->synthetic_rides < 0 || !(a->rate_hz > 0) || a->sim_sessions < 0) {
+    std::fprintf(stderr, "evermap-imu-elevator-run: --synthetic, --rate and --sim-sessions must be positive\n");
+    return 2;
+  }
+  return -1;
 }
 
 // The FLOOR messages in an LCM log (what elevator-proc published), one a line.
@@ -166,10 +166,7 @@ int runSimulatorCheck(const Args& args) {
 
 int main(int argc, char** argv) {
   Args args;
-  if (Status st = parse(argc, argv, &args); !st.ok()) {
-    std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", st.error().message.c_str());
-    return usage();
-  }
+  if (const int code = parse(argc, argv, &args); code >= 0) return code;
   if (!args.floor_log.empty()) return printFloorLog(args.floor_log);
   if (args.print_options) {
     std::printf("%s%s", describeFields(args.attitude).c_str(), describeFields(args.elevator).c_str());
@@ -207,7 +204,9 @@ int main(int argc, char** argv) {
     std::printf("synthetic building: %zu rides, %zu samples at %.0f Hz\n", truth.rides.size(),
                 samples.size(), o.rate_hz);
   } else {
-    return usage();
+    std::fprintf(stderr, "evermap-imu-elevator-run: no input: give --euroc-imu, --hackzurich, --lcm-log, "
+                         "--synthetic or --sim-config (--help)\n");
+    return 2;
   }
   if (samples.empty()) {
     std::fprintf(stderr, "evermap-imu-elevator-run: no IMU samples\n");
