@@ -48,12 +48,11 @@ int main(int argc, char** argv) {
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   options.full_graph = full_graph;
   auto settings = config.empty() ? KeyValueFile::parse("", "--set") : KeyValueFile::load(config);
+  if (settings) {
+    if (Status s = settings->setAll(sets, "--set"); !s) settings = s.error();
+  }
   if (!settings) {
     std::fprintf(stderr, "evermap-mapper-proc: %s\n", settings.error().message.c_str());
-    return 2;
-  }
-  if (Status s = settings->setAll(sets, "--set"); !s) {
-    std::fprintf(stderr, "evermap-mapper-proc: %s\n", s.error().message.c_str());
     return 2;
   }
   if (Status s = mapper::readMapperOptions(*settings, &options); !s) {

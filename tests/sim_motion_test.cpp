@@ -73,7 +73,9 @@ TEST(SimBuilding, FloorsAreWalkableAndTheShaftLinesUp) {
       EXPECT_LT(f.roomAt(f.places[f.lobby].xy), 0);
     }
     for (const Place& p : f.places) {
-      if (p.kind == PlaceKind::kJunction) EXPECT_LT(f.roomAt(p.xy), 0) << "a room covers a corridor";
+      if (p.kind == PlaceKind::kJunction) {
+        EXPECT_LT(f.roomAt(p.xy), 0) << "a room covers a corridor";
+      }
     }
   }
   EXPECT_NEAR(b.floors[o.main_floor].footprint.max.x() - b.floors[o.main_floor].footprint.min.x(),
@@ -114,7 +116,9 @@ TEST(SimMotion, SessionsMoveContinuouslyAlongPassages) {
         }
       }
       EXPECT_LT(nearest, 1e-6) << "off the walkable passages";
-      if (cur.in_cab) EXPECT_TRUE(f.cab.contains(p));
+      if (cur.in_cab) {
+        EXPECT_TRUE(f.cab.contains(p));
+      }
     }
     prev = cur;
   }

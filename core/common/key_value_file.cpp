@@ -185,6 +185,14 @@ Status KeyValueReader::finish(const std::string& ignored_prefix) const {
   return Ok{};
 }
 
+Expected<KeyValueFile> KeyValueFile::load(const std::filesystem::path& path, const std::vector<std::string>& overrides,
+                                          const std::string& option) {
+  auto file = load(path);
+  if (!file) return file;
+  if (Status s = file->setAll(overrides, option); !s) return s.error();
+  return file;
+}
+
 Status KeyValueFile::setAll(const std::vector<std::string>& assignments, const std::string& option) {
   for (const std::string& a : assignments) {
     if (Status s = set(a, option + " " + a); !s) return s;

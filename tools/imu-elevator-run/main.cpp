@@ -141,12 +141,8 @@ int printFloorLog(const std::string& file) {
 
 // The simulator's raw IMU through both filters: does every ride end on the right floor?
 int runSimulatorCheck(const Args& args) {
-  auto file = KeyValueFile::load(args.sim_config);
+  auto file = KeyValueFile::load(args.sim_config, args.sim_sets, "--sim-set");
   if (!file.ok()) { std::fprintf(stderr, "%s\n", file.error().message.c_str()); return 1; }
-  if (Status st = file->setAll(args.sim_sets, "--sim-set"); !st.ok()) {
-    std::fprintf(stderr, "%s\n", st.error().message.c_str());
-    return 1;
-  }
   auto options = sim::loadSimOptions(*file);
   if (!options.ok()) { std::fprintf(stderr, "%s\n", options.error().message.c_str()); return 1; }
   std::printf("simulator: %s, IMU at %.0f Hz, %.1f s around each ride\n", args.sim_config.c_str(),

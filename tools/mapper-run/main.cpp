@@ -236,14 +236,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-mapper-run: --timeline takes one mode; use --out DIR for both\n");
     return 2;
   }
-  auto file = KeyValueFile::load(config);
+  auto file = KeyValueFile::load(config, sets, "--set");
   if (!file) {
     std::fprintf(stderr, "evermap-mapper-run: %s\n", file.error().message.c_str());
     return 1;
-  }
-  if (auto st = file->setAll(sets, "--set"); !st) {
-    std::fprintf(stderr, "evermap-mapper-run: %s\n", st.error().message.c_str());
-    return 2;
   }
   const KeyValueFile mapper_keys = file->extract("mapper.");
   auto sim = sim::loadSimOptions(*file);

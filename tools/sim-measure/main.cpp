@@ -263,13 +263,9 @@ int main(int argc, char** argv) {
   Args args;
   if (const int code = parseArgs(argc, argv, &args); code >= 0) return code;
   evermap::StopSignals stop;  // SIGINT/SIGTERM end a serve or oracle run
-  auto file = evermap::KeyValueFile::load(args.config);
+  auto file = evermap::KeyValueFile::load(args.config, args.sets, "--set");
   if (!file) {
     std::fprintf(stderr, "evermap-sim-measure: %s\n", file.error().message.c_str());
-    return 2;
-  }
-  if (auto st = file->setAll(args.sets, "--set"); !st) {
-    std::fprintf(stderr, "evermap-sim-measure: %s\n", st.error().message.c_str());
     return 2;
   }
   auto options = evermap::sim::loadSimOptions(*file);

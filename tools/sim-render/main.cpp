@@ -135,13 +135,9 @@ evermap::Status writeGroundTruth(const ImageSimulator& sim, const fs::path& file
 int main(int argc, char** argv) {
   Args args;
   if (const int code = parseArgs(argc, argv, &args); code >= 0) return code;
-  auto file = evermap::KeyValueFile::load(args.config);
+  auto file = evermap::KeyValueFile::load(args.config, args.sets, "--set");
   if (!file) {
     std::fprintf(stderr, "evermap-sim-render: %s\n", file.error().message.c_str());
-    return 2;
-  }
-  if (auto st = file->setAll(args.sets, "--set"); !st) {
-    std::fprintf(stderr, "evermap-sim-render: %s\n", st.error().message.c_str());
     return 2;
   }
   auto options = evermap::sim::loadImageSimOptions(*file);
