@@ -14,8 +14,9 @@
 
 namespace evermap::mapper {
 
-// Reads every key of `file` (all must be mapper.* keys) into `options` (missing keys keep their values) and validates the
-// result. Errors name the file and line of the bad value, or the unknown key.
+// Reads every key of `file` (all must be mapper.* keys) into `options` (missing keys keep
+// their values) and validates the result. Errors name the file and line of the bad value, or
+// the unknown key.
 Status readMapperOptions(const KeyValueFile& file, MapperOptions* options);
 
 }  // namespace evermap::mapper

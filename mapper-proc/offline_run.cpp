@@ -18,6 +18,7 @@
 #include <evermap/wheel_odom_t.hpp>
 
 #include "core/eval/alignment.h"
+#include "core/geometry/se2.h"
 #include "core/eval/metrics.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
@@ -424,9 +425,8 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     const Mapper::StepPose& p = mapper.stepPoses()[k];
     auto fl = std::lower_bound(step_floor.begin(), step_floor.end(), std::make_pair(p.utime, INT_MIN));
     const int floor = fl != step_floor.end() && fl->first == p.utime ? fl->second : -1;
-    const core::Mat3 dR = gt[k].so3().matrix().transpose() * est[k].so3().matrix();
     out.step_errors.push_back({p.utime, p.session, p.node, floor, (gt[k].translation() - est[k].translation()).norm(),
-                               std::atan2(dR(1, 0), dR(0, 0)) * 180.0 / M_PI});
+                               core::toPlanar(gt[k].inverse() * est[k]).theta() * 180.0 / M_PI});
   }
   for (const MapperNode& n : mapper.nodes()) {
     if (n.id >= static_cast<int64_t>(node_truth.size()) || !node_truth[n.id].known) continue;

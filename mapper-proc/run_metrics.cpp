@@ -1,6 +1,7 @@
 #include "mapper-proc/run_metrics.h"
 
 #include "core/common/atomic_write.h"
+#include "core/geometry/se2.h"
 
 #include <algorithm>
 #include <cmath>
@@ -100,10 +101,6 @@ std::vector<int64_t> inMappedArea(const std::vector<NodeTruth>& nodes, const std
     return std::make_tuple(n.floor, static_cast<int64_t>(std::floor(p.x() / radius_m)) + dx,
                            static_cast<int64_t>(std::floor(p.y() / radius_m)) + dy);
   };
-  auto yaw = [](const core::SE3d& p) {
-    const core::Mat3 R = p.so3().matrix();
-    return std::atan2(R(1, 0), R(0, 0));
-  };
   for (size_t i = 0; i < nodes.size(); ++i)
     if (nodes[i].known) grid[key(nodes[i], 0, 0)].push_back(i);
   for (const NodeTruth& q : queries) {
@@ -118,7 +115,7 @@ std::vector<int64_t> inMappedArea(const std::vector<NodeTruth>& nodes, const std
           const NodeTruth& m = nodes[j];
           if (m.session >= q.session) continue;
           const double d = (m.world_T_body.translation() - q.world_T_body.translation()).head<2>().norm();
-          const double a = std::abs(std::remainder(yaw(m.world_T_body) - yaw(q.world_T_body), 2 * M_PI));
+          const double a = std::abs(std::remainder(core::toPlanar(m.world_T_body).theta() - core::toPlanar(q.world_T_body).theta(), 2 * M_PI));
           if (d <= radius_m && a <= angle_rad) {
             covered = true;
             break;

@@ -100,7 +100,7 @@ int parse(int argc, char** argv, Args* a) {
     return 2;
   }
   if (a->synthetic_rides < 0 || !(a->rate_hz > 0) || a->sim_sessions < 0) {
-    std::fprintf(stderr, "evermap-imu-elevator-run: --synthetic, --rate and --sim-sessions must be positive\n");
+    std::fprintf(stderr, "evermap-imu-elevator-run: --synthetic and --sim-sessions must be >= 0, --rate > 0\n");
     return 2;
   }
   return -1;

@@ -241,7 +241,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-mapper-run: %s\n", file.error().message.c_str());
     return 1;
   }
-  const KeyValueFile mapper_keys = file->extract("mapper.");
+  mapper::MapperOptions mapper_options;
+  if (Status s = mapper::readMapperOptions(file->extract("mapper."), &mapper_options); !s) {
+    std::fprintf(stderr, "evermap-mapper-run: %s\n", s.error().message.c_str());
+    return 1;
+  }
   auto sim = sim::loadSimOptions(*file);
   if (!sim) {
     std::fprintf(stderr, "evermap-mapper-run: %s\n", sim.error().message.c_str());
@@ -260,12 +264,8 @@ int main(int argc, char** argv) {
   for (const bool full : {false, true}) {
     if ((full && mode == "reduced") || (!full && mode == "full")) continue;
     const std::string name = full ? "full" : "reduced";
-    mapper::MapperOptions options;
+    mapper::MapperOptions options = mapper_options;
     options.full_graph = full;
-    if (Status s = mapper::readMapperOptions(mapper_keys, &options); !s) {
-      std::fprintf(stderr, "evermap-mapper-run: %s\n", s.error().message.c_str());
-      return 1;
-    }
     mapper::OfflineRunOptions run;
     run.first_session = first;
     run.last_session = last;
