@@ -82,6 +82,15 @@ LcmNode::LcmNode(lcm::LCM& lcm, Mapper& mapper, const LcmNodeOptions& options, M
                   lcm_.subscribe(channels::kFloor, &LcmNode::on<floor_t>, this),
                   lcm_.subscribe(channels::kRegisterResult, &LcmNode::on<register_result_t>, this)})
     s->setQueueCapacity(0);  // every message counts (docs/lcm.md)
+  lcm_.subscribe(channels::kStereoCalib, &LcmNode::onCalibration, this)->setQueueCapacity(0);
+}
+
+void LcmNode::onCalibration(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+  ++counts_.received[channel];
+  if (Status s = calibration_.handle(rbuf->data, rbuf->data_size, m_); !s) {
+    if (calibration_.counts().undecodable + calibration_.counts().refused <= 20)
+      std::fprintf(stderr, "evermap-mapper-proc: dropped: %s\n", s.error().message.c_str());
+  }
 }
 
 namespace {
@@ -100,6 +109,15 @@ void LcmNode::on(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
     ++counts_.undecodable;
     std::fprintf(stderr, "evermap-mapper-proc: dropped: %s\n", msg.error().message.c_str());
     return;
+  }
+  if constexpr (std::is_same_v<Msg, vo_delta_t>) {
+    if (!calibration_.haveCamera()) {
+      // The deltas are camera motions: without the mounting they cannot be used.
+      if (++counts_.no_calibration <= 5 || counts_.no_calibration % 1000 == 0)
+        std::fprintf(stderr, "evermap-mapper-proc: dropped: VO_DELTA %lld: no STEREO_CALIB received yet (%lld so far)\n",
+                     static_cast<long long>(msg->utime), static_cast<long long>(counts_.no_calibration));
+      return;
+    }
   }
   if (Status s = apply(m_, *msg); !s) {
     // The mapper counted it too; the first few are worth a line each, not thousands.
@@ -181,7 +199,8 @@ void LcmNode::publishStats() {
   s.num_constraints = st.constraints;
   s.num_rejected = st.rejected_inconsistent + st.rejected_map_gate;
   // The mapper's count covers what it refused; undecodable messages never reached it.
-  s.num_dropped_messages = st.dropped + counts_.undecodable;
+  s.num_dropped_messages = st.dropped + counts_.undecodable + counts_.no_calibration +
+                           calibration_.counts().undecodable + calibration_.counts().refused;
   const std::pair<const char*, double> components[] = {
       {"tracking", t.tracking_s - timing_at_stats_.tracking_s},
       {"registration", t.registration_s - timing_at_stats_.registration_s},
@@ -219,7 +238,9 @@ std::string LcmNode::summary() const {
   s << m_.stats().text();
   for (const auto& [channel, n] : counts_.received) s << "received_" << channel << " " << n << "\n";
   s << "undecodable " << counts_.undecodable << "\nrefused " << counts_.refused << "\nposes_published "
-    << counts_.poses << "\ngraphs_published " << counts_.graphs << "\nstats_published " << counts_.stats
+    << counts_.poses << "\nvo_before_calibration " << counts_.no_calibration << "\ncalibrations_refused "
+    << calibration_.counts().refused << "\ncamera_changes " << calibration_.counts().camera_changes
+    << "\ngraphs_published " << counts_.graphs << "\nstats_published " << counts_.stats
     << "\nstore_transactions " << counts_.store_transactions << "\n";
   return s.str();
 }

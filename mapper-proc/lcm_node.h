@@ -1,6 +1,6 @@
 #pragma once
-// The mapper on LCM (DESIGN.md section 1): subscribes to VO_DELTA, WHEEL_ODOM, ATTITUDE,
-// FLOOR and REGISTER_RESULT, feeds the Mapper, publishes its REGISTER_REQUEST and NODE_ADDED,
+// The mapper on LCM (DESIGN.md section 1): subscribes to STEREO_CALIB, VO_DELTA, WHEEL_ODOM,
+// ATTITUDE, FLOOR and REGISTER_RESULT, feeds the Mapper, publishes its REGISTER_REQUEST and NODE_ADDED,
 // POSE at every VO frame (and wheel increment while VO is down; not while a new session is
 // still lost), MAP_GRAPH when the graph
 // changed and MAPPER_STATS, and writes the map store after every update that changed the graph.
@@ -10,6 +10,9 @@
 // or that the mapper refuses (malformed, non-finite, out of order, an answer to no request) is
 // dropped and counted; MAPPER_STATS carries the count.
 //
+// STEREO_CALIB is latched (calibration_latch.h): VO_DELTA is refused, counted, until the first
+// valid one has arrived; wheel odometry tracks meanwhile. Sources repeat it every second.
+//
 // Publishing rates are in message time (the latest utime received), so a replay at any speed
 // produces the same MAP_GRAPH sequence: MAP_GRAPH at most every graph_period_s and only after a
 // change, MAPPER_STATS every stats_period_s. flush() publishes both at once (idle, exit).
@@ -18,6 +21,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <vector>
 
 #include <lcm/lcm-cpp.hpp>
 
@@ -25,6 +29,7 @@
 #include <evermap/mapper_stats_t.hpp>
 
 #include "core/common/expected.h"
+#include "mapper-proc/calibration_latch.h"
 #include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
 
@@ -53,11 +58,14 @@ struct LcmNodeCounts {
   std::map<std::string, int64_t> received;  // per channel, decodable or not
   int64_t undecodable = 0;
   int64_t refused = 0;             // decoded, but the mapper dropped it (its own count)
+  int64_t no_calibration = 0;      // VO_DELTA before the first valid STEREO_CALIB
+  int64_t calibrations_refused = 0;  // STEREO_CALIB that decoded but did not validate
+  int64_t camera_changes = 0;      // distinct valid calibrations applied
   int64_t poses = 0;               // POSE published
   int64_t graphs = 0;              // MAP_GRAPH published
   int64_t stats = 0;               // MAPPER_STATS published
   int64_t store_transactions = 0;
-  int64_t dropped() const { return undecodable + refused; }
+  int64_t dropped() const { return undecodable + refused + no_calibration + calibrations_refused; }
 };
 
 // MAP_GRAPH of the mapper's current state: every node with its estimate, one edge per node
@@ -72,6 +80,7 @@ class LcmNode {
   // Publishes MAP_GRAPH (if the graph changed since the last one) and MAPPER_STATS now.
   void flush();
   const LcmNodeCounts& counts() const { return counts_; }
+  const CalibrationLatch& calibration() const { return calibration_; }
   // The first store error, if any (the node stops writing after it).
   const Status& storeStatus() const { return store_status_; }
   // The newest message time received, µs (-1 before the first message).
@@ -82,6 +91,7 @@ class LcmNode {
  private:
   template <typename Msg>
   void on(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
+  void onCalibration(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
   void afterMessage(int64_t utime, bool publish_pose);
   void publishGraph();
   void publishStats();
@@ -93,6 +103,7 @@ class LcmNode {
   MapStore* store_;
   Status store_status_ = Ok{};
   LcmNodeCounts counts_;
+  CalibrationLatch calibration_;
   int64_t last_utime_ = -1;
   int64_t last_graph_utime_ = -1;
   int64_t last_stats_utime_ = -1;

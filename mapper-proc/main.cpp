@@ -12,7 +12,6 @@
 
 #include "core/common/command_line.h"
 #include "core/common/stop_signals.h"
-#include "core/sim/sensors.h"
 #include "mapper-proc/lcm_node.h"
 #include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
@@ -20,15 +19,14 @@
 
 int main(int argc, char** argv) {
   using namespace evermap;
+  // The camera mounting comes from STEREO_CALIB (LcmNode).
   mapper::MapperOptions options;
-  // The camera mounting of the measurement-level simulator (docs/simulators.md).
-  options.tracker.body_T_cam = sim::CameraOptions{}.bodyTCam();
   mapper::LcmNodeOptions node_options;
   std::string url, store_file;
   bool full_graph = false, quiet = false;
   CommandLine cli("evermap-mapper-proc",
-                  "The reduced pose graph mapper on LCM: VO_DELTA, WHEEL_ODOM, ATTITUDE, FLOOR and\n"
-                  "REGISTER_RESULT in; REGISTER_REQUEST, NODE_ADDED, POSE, MAP_GRAPH, MAPPER_STATS out.");
+                  "The reduced pose graph mapper on LCM: STEREO_CALIB, VO_DELTA, WHEEL_ODOM, ATTITUDE,\n"
+                  "FLOOR and REGISTER_RESULT in; REGISTER_REQUEST, NODE_ADDED, POSE, MAP_GRAPH, MAPPER_STATS out.");
   cli.flag("--full-graph", &full_graph, "a node at every step (the paper's baseline) instead of the reduced graph");
   std::string config;
   std::vector<std::string> sets;

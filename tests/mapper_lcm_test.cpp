@@ -20,7 +20,9 @@
 #include <evermap/pose_t.hpp>
 #include <evermap/register_result_t.hpp>
 
+#include "core/camera/calibration.h"
 #include "core/eval/alignment.h"
+#include "core/messages/convert.h"
 #include "core/eval/metrics.h"
 #include "core/messages/channels.h"
 #include "core/sim/oracle_server.h"
@@ -230,6 +232,50 @@ TEST(MapperLcm, DropsAndCountsMalformedAndOutOfOrderMessagesWithoutApplyingThem)
     EXPECT_EQ(a.nodes[i].keyframe_utime, b.nodes[i].keyframe_utime);
     for (int k = 0; k < 3; ++k) EXPECT_EQ(a.nodes[i].position[k], b.nodes[i].position[k]);
   }
+}
+
+TEST(MapperLcm, TakesTheCameraFromStereoCalibAndRefusesVoBeforeIt) {
+  // The contract of docs/contracts.md: STEREO_CALIB is latched, repeated copies change
+  // nothing, a bad one leaves the camera in use, and VO deltas wait for the first one.
+  lcm::LCM lcm("memq://");
+  ASSERT_TRUE(lcm.good());
+  Mapper mapper(MapperOptions{});
+  LcmNode node(lcm, mapper, LcmNodeOptions{});
+  auto drain = [&] {
+    while (lcm.handleTimeout(0) > 0) {
+    }
+  };
+  vo_delta_t first{};
+  first.utime = first.ref_utime = 1'000'000;
+  first.status = vo_delta_t::STATUS_NO_DATA;
+  first.keyframe_changed = 1;
+  first.orientation[0] = 1.0;
+  lcm.publish(channels::kVoDelta, &first);
+  drain();
+  EXPECT_EQ(node.counts().no_calibration, 1);
+  EXPECT_TRUE(mapper.nodes().empty());
+
+  const core::SE3d body_T_cam = sim::CameraOptions{}.bodyTCam();
+  const core::StereoCalibration calib = sim::CameraOptions{}.stereoCalibration(752, 480);
+  for (int64_t t : {1'100'000, 2'100'000}) {  // the source repeats it every second
+    const stereo_calib_t msg = messages::toMsg(calib, t);
+    lcm.publish(channels::kStereoCalib, &msg);
+  }
+  drain();
+  EXPECT_EQ(node.calibration().counts().camera_changes, 1);
+  EXPECT_LT((mapper.tracker().bodyTCamera().inverse() * body_T_cam).log().norm(), 1e-12);
+  stereo_calib_t bad = messages::toMsg(calib, 3'100'000);
+  bad.left.fx = std::nan("");
+  lcm.publish(channels::kStereoCalib, &bad);
+  drain();
+  EXPECT_EQ(node.calibration().counts().refused, 1);
+  EXPECT_LT((mapper.tracker().bodyTCamera().inverse() * body_T_cam).log().norm(), 1e-12);
+
+  first.utime = first.ref_utime = 3'200'000;
+  lcm.publish(channels::kVoDelta, &first);
+  drain();
+  EXPECT_EQ(node.counts().no_calibration, 1);
+  EXPECT_EQ(mapper.nodes().size(), 1u);
 }
 
 TEST(MapperLcm, RefusesBadPublishingPeriods) {

@@ -132,4 +132,15 @@ Eigen::Vector2d StereoRectifier::rectifyPoint(Side side, const Eigen::Vector2d& 
   return Eigen::Vector2d(out[0].x, out[0].y);
 }
 
+Expected<SE3d> rectifiedLeftBodyTCamera(const StereoCalibration& calibration,
+                                        const StereoRectifier::Options& options) {
+  if (calibration.rectified) {
+    if (Status s = calibration.validate(); !s) return s.error();
+    return calibration.left.body_T_cam;
+  }
+  auto rectifier = StereoRectifier::create(calibration, options);
+  if (!rectifier) return rectifier.error();
+  return rectifier->rectifiedCalibration().left.body_T_cam;
+}
+
 }  // namespace evermap::core

@@ -74,4 +74,9 @@ class StereoRectifier {
   std::array<cv::Mat, 2> map1_, map2_;
 };
 
+// body_T_cam of the left camera the images are (or, raw, will be) rectified to: the frame VO
+// motions are expressed in. Errors: an invalid calibration, one that does not rectify.
+Expected<SE3d> rectifiedLeftBodyTCamera(const StereoCalibration& calibration,
+                                        const StereoRectifier::Options& options = {});
+
 }  // namespace evermap::core

@@ -113,11 +113,9 @@ Expected<ConversionSummary> convertEurocToLcm(const fs::path& asl_folder, const 
   auto writer = messages::LogWriter::open(output);
   if (!writer) return writer.error();
   const messages::ImageEncoding enc = options.encoding;
-  if (Status s = writer->write(channels::kStereoCalib, events.front().utime,
-                               messages::toMsg(*calibration, events.front().utime));
-      !s) {
+  channels::CalibrationRepeat calib_repeat;
+  if (Status s = detail::writeCalibrationIfDue(*writer, calib_repeat, *calibration, events.front().utime); !s)
     return s.error();
-  }
   for (const PendingEvent& e : events) {
     Status s = Ok{};
     switch (e.kind) {
@@ -143,7 +141,8 @@ Expected<ConversionSummary> convertEurocToLcm(const fs::path& asl_folder, const 
           }
           *slot = std::move(*image);
         }
-        s = writer->write(channels::kStereo, e.utime, msg);
+        s = detail::writeCalibrationIfDue(*writer, calib_repeat, *calibration, e.utime);
+        if (s) s = writer->write(channels::kStereo, e.utime, msg);
         break;
       }
     }

@@ -85,11 +85,9 @@ Expected<ConversionSummary> convertKittiToLcm(const fs::path& sequence, const fs
 
   auto writer = messages::LogWriter::open(output);
   if (!writer) return writer.error();
-  if (Status s = writer->write(channels::kStereoCalib, events.front().utime,
-                               messages::toMsg(*calibration, events.front().utime));
-      !s) {
+  channels::CalibrationRepeat calib_repeat;
+  if (Status s = detail::writeCalibrationIfDue(*writer, calib_repeat, *calibration, events.front().utime); !s)
     return s.error();
-  }
   for (const PendingEvent& e : events) {
     Status s = Ok{};
     if (e.kind == EventKind::kGroundTruth) {
@@ -110,7 +108,8 @@ Expected<ConversionSummary> convertKittiToLcm(const fs::path& sequence, const fs
         }
         *slot = std::move(*image);
       }
-      s = writer->write(channels::kStereo, e.utime, msg);
+      s = detail::writeCalibrationIfDue(*writer, calib_repeat, *calibration, e.utime);
+      if (s) s = writer->write(channels::kStereo, e.utime, msg);
     }
     if (!s) return s.error();
   }

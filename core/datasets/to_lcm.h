@@ -3,7 +3,9 @@
 // the channels of core/messages/channels.h, every event in time order, so that the whole
 // system (or lcm-logplayer) replays a data set as if the sensors were live.
 //
-//   STEREO_CALIB  stereo_calib_t, once, first (utime = the earliest stamp of the log)
+//   STEREO_CALIB  stereo_calib_t, first (utime = the earliest stamp of the log), and again
+//                 before the first pair of every channels::kCalibrationPeriodS (state, not
+//                 an event: docs/contracts.md)
 //   STEREO        stereo_image_t per synchronised pair (EuRoC: raw, rectified = 0;
 //                 KITTI: rectified = 1), PNG-compressed or raw gray8
 //   IMU           imu_t per row of imu0/data.csv (EuRoC only)

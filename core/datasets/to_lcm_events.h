@@ -5,6 +5,11 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/camera/calibration.h"
+#include "core/messages/channels.h"
+#include "core/messages/convert.h"
+#include "core/messages/log_writer.h"
+
 namespace evermap::datasets::detail {
 
 // The order of events with equal utime (to_lcm.h): IMU, ground truth, images.
@@ -21,6 +26,14 @@ inline void sortByTime(std::vector<PendingEvent>* events) {
                    [](const PendingEvent& a, const PendingEvent& b) {
                      return a.utime != b.utime ? a.utime < b.utime : a.kind < b.kind;
                    });
+}
+
+// STEREO_CALIB at `utime` when the repeat is due (channels::CalibrationRepeat): called at the
+// log's first stamp and before every stereo pair.
+inline Status writeCalibrationIfDue(messages::LogWriter& writer, channels::CalibrationRepeat& repeat,
+                                    const core::StereoCalibration& calibration, int64_t utime) {
+  if (!repeat.due(utime)) return Ok{};
+  return writer.write(channels::kStereoCalib, utime, messages::toMsg(calibration, utime));
 }
 
 }  // namespace evermap::datasets::detail

@@ -1,6 +1,8 @@
 #pragma once
 // LCM channel names used by evermap (DESIGN.md section 1). One place, so a rename is one edit.
 
+#include <cstdint>
+
 namespace evermap::channels {
 
 inline constexpr const char* kStereo = "STEREO";              // stereo_image_t
@@ -21,5 +23,23 @@ inline constexpr const char* kMapperStats = "MAPPER_STATS";   // mapper_stats_t
 inline constexpr const char* kDeputyStatus = "DEPUTY_STATUS"; // deputy_status_t
 inline constexpr const char* kDeputyOrder = "DEPUTY_ORDER";   // deputy_order_t
 inline constexpr const char* kDeputyOutput = "DEPUTY_OUTPUT"; // deputy_output_t
+
+// Calibration is state, not an event (docs/contracts.md): every source of STEREO sends
+// STEREO_CALIB before its first frame and again before the first frame of every period, so a
+// process that starts or restarts mid-stream has the camera within one period.
+inline constexpr double kCalibrationPeriodS = 1.0;
+
+// Whether a source repeats its STEREO_CALIB before the frame at `utime`.
+class CalibrationRepeat {
+ public:
+  bool due(int64_t utime) {
+    if (next_utime_ >= 0 && utime < next_utime_) return false;
+    next_utime_ = utime + static_cast<int64_t>(kCalibrationPeriodS * 1e6);
+    return true;
+  }
+
+ private:
+  int64_t next_utime_ = -1;
+};
 
 }  // namespace evermap::channels

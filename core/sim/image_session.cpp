@@ -81,22 +81,7 @@ int64_t ImageSimulator::endUtime() const {
 }
 
 core::StereoCalibration ImageSimulator::calibration() const {
-  const CameraOptions& c = options_.sim.sensors.camera;
-  core::StereoCalibration calib;
-  calib.rectified = true;
-  core::CameraCalibration left;
-  left.width = options_.render.width;
-  left.height = options_.render.height;
-  left.fx = c.fx;
-  left.fy = c.fy;
-  left.cx = c.cx;
-  left.cy = c.cy;
-  left.body_T_cam = c.bodyTCam();
-  core::CameraCalibration right = left;
-  right.body_T_cam = left.body_T_cam * core::SE3d(core::SO3d(), Vec3(c.baseline_m, 0.0, 0.0));
-  calib.left = left;
-  calib.right = right;
-  return calib;
+  return options_.sim.sensors.camera.stereoCalibration(options_.render.width, options_.render.height);
 }
 
 FrameFacts ImageSimulator::facts(int64_t utime, const BodyState& state) const {
@@ -201,7 +186,7 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
                       so.imu.accel_bias_sigma_mps2 * imu_rng.normal());
 
   const core::StereoCalibration calib = calibration();
-  writeMessage(sink, channels::kStereoCalib, messages::toMsg(calib, start));
+  channels::CalibrationRepeat calib_repeat;
   TickClock imu(start, so.imu.rate_hz), gt(start, so.ground_truth_rate_hz), wheel_ticks(start, so.wheel.rate_hz, 1),
       stereo(start, o.render.rate_hz);
   constexpr int64_t kNever = INT64_MAX;
@@ -238,6 +223,7 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
       summary.frames_passerby += f.passerby;
       summary.frames_closed_cab += f.closed_cab;
       summary.frame_facts.emplace_back(t, f);
+      if (calib_repeat.due(t)) writeMessage(sink, channels::kStereoCalib, messages::toMsg(calib, t));
       const auto t1 = WallClock::now();
       auto msg = messages::toMsg(messages::StereoFrame{t, true, left, right}, o.render.encoding);
       if (!msg) return msg.error();

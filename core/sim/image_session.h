@@ -2,7 +2,8 @@
 // One image-level session (DESIGN.md section 8): the robot patrols the building of the
 // measurement-level simulator (same building, patrol plan and elevator rides for the same seed
 // and keys), and this produces what its sensors would publish, in time order:
-//   STEREO_CALIB  stereo_calib_t once, first (rectified pinholes, body_T_cam of camera.*)
+//   STEREO_CALIB  stereo_calib_t before the first pair and again every second (rectified
+//                 pinholes, body_T_cam of camera.*; docs/contracts.md)
 //   IMU           imu_t at imu.rate_hz for the whole session (measureImu: gravity, accelerometer
 //                 bias per session, white noise)
 //   GROUND_TRUTH  pose_t world_T_body at ground_truth.rate_hz (floor and session set)

@@ -47,6 +47,24 @@ SE3d CameraOptions::bodyTCam() const {
   return SE3d(core::SO3d::fromMatrix(R), Vec3(forward_m, 0.0, height_m));
 }
 
+core::StereoCalibration CameraOptions::stereoCalibration(int width, int height) const {
+  core::StereoCalibration calib;
+  calib.rectified = true;
+  core::CameraCalibration left;
+  left.width = width;
+  left.height = height;
+  left.fx = fx;
+  left.fy = fy;
+  left.cx = cx;
+  left.cy = cy;
+  left.body_T_cam = bodyTCam();
+  core::CameraCalibration right = left;
+  right.body_T_cam = left.body_T_cam * SE3d(core::SO3d(), Vec3(baseline_m, 0.0, 0.0));
+  calib.left = left;
+  calib.right = right;
+  return calib;
+}
+
 Status CameraOptions::validate() const {
   for (double v : {height_m, forward_m}) {
     if (!std::isfinite(v)) return makeError("height_m: camera offsets must be finite");

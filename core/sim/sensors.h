@@ -14,6 +14,7 @@
 #include <evermap/vo_delta_t.hpp>
 #include <evermap/wheel_odom_t.hpp>
 
+#include "core/camera/calibration.h"
 #include "core/common/expected.h"
 #include "core/sim/building.h"
 #include "core/sim/motion.h"
@@ -34,6 +35,9 @@ struct CameraOptions {
   double baseline_m = 0.12;
 
   SE3d bodyTCam() const;
+  // The rectified stereo calibration of this head for images of width x height (the
+  // measurement-level simulator, which renders none, uses 2 cx x 2 cy).
+  core::StereoCalibration stereoCalibration(int width, int height) const;
   Status validate() const;
 };
 

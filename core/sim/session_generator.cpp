@@ -7,6 +7,7 @@
 #include <evermap/pose_t.hpp>
 
 #include "core/messages/channels.h"
+#include "core/messages/convert.h"
 #include "core/sim/sim_message_conversions.h"
 #include "core/sim/streams.h"
 
@@ -96,6 +97,10 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
   const int64_t end = traj.endUtime();
   const int session = plan.index;
   const SE3d body_T_cam = o.camera.bodyTCam();
+  // The camera the VO deltas are of (DESIGN.md: calibration is state, repeated).
+  const core::StereoCalibration calibration = o.camera.stereoCalibration(
+      static_cast<int>(std::lround(2.0 * o.camera.cx)), static_cast<int>(std::lround(2.0 * o.camera.cy)));
+  channels::CalibrationRepeat calib_repeat;
 
   Random passer_rng = streamFor(seed, Stream::kPassersBy, session);
   const Intervals passers(start, end, o.vo.passerby_rate_per_hour, o.vo.passerby_min_s,
@@ -187,6 +192,7 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
         const BodyState s = traj.at(t);
         const int8_t condition = visualCondition(building, s, body_T_cam, o.vo, passers, t);
         const vo_delta_t m = vo.frame(t, s, condition);
+        if (calib_repeat.due(t)) writeMessage(sink, channels::kStereoCalib, messages::toMsg(calibration, t));
         writeMessage(sink, channels::kVoDelta, m);
         ++summary.vo_frames;
         ++summary.vo_status[static_cast<size_t>(m.status)];
