@@ -49,6 +49,7 @@ Status MapperOptions::validate() const {
   if (!(step_interval_s >= 0.0)) return Error{"mapper.step_interval_s: must be >= 0"};
   if (!(request_timeout_s > 0.0)) return Error{"mapper.request_timeout_s: must be > 0"};
   if (!(session_gap_s > 0.0)) return Error{"mapper.session_gap_s: must be > 0"};
+  if (!(recovery_quiet_s >= 0.0)) return Error{"mapper.recovery_quiet_s: must be >= 0"};
   if (!(consistency_gate > 0.0)) return Error{"mapper.consistency_gate: must be > 0"};
   if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
   if (!(recent_exclusion_s >= 0.0)) return Error{"mapper.recent_exclusion_s: must be >= 0"};
@@ -60,6 +61,31 @@ Status MapperOptions::validate() const {
   return solver.validate();
 }
 
+void MapperStats::addCounters(const MapperStats& o) {
+  steps += o.steps;
+  nodes += o.nodes;
+  constraints += o.constraints;
+  factors += o.factors;
+  merged += o.merged;
+  rejected_inconsistent += o.rejected_inconsistent;
+  requests_node += o.requests_node;
+  requests_global += o.requests_global;
+  registrations_ok += o.registrations_ok;
+  loop_closures += o.loop_closures;
+  delta_replaced += o.delta_replaced;
+  delta_kept += o.delta_kept;
+  delta_fused += o.delta_fused;
+  rejected_map_gate += o.rejected_map_gate;
+  rejected_floor += o.rejected_floor;
+  gate_recoveries += o.gate_recoveries;
+  relocalizations += o.relocalizations;
+  relocalization_disagreements += o.relocalization_disagreements;
+  timeouts += o.timeouts;
+  dropped += o.dropped;
+  restored_nodes += o.restored_nodes;
+  restored_constraints += o.restored_constraints;
+}
+
 std::string MapperStats::text() const {
   std::ostringstream s;
   s << "steps " << steps << "\nnodes " << nodes << "\nconstraints " << constraints
@@ -67,7 +93,7 @@ std::string MapperStats::text() const {
     << rejected_inconsistent << "\nrequests_node " << requests_node << "\nrequests_global "
     << requests_global << "\nregistrations_ok " << registrations_ok << "\nloop_closures "
     << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept << "\ndelta_fused " << delta_fused
-    << "\nrejected_map_gate " << rejected_map_gate << "\ngate_recoveries " << gate_recoveries << "\nrelocalizations " << relocalizations
+    << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor " << rejected_floor << "\ngate_recoveries " << gate_recoveries << "\nrelocalizations " << relocalizations
     << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrelocalization_disagreements " << relocalization_disagreements << "\nrestored_nodes " << restored_nodes
     << "\nrestored_constraints " << restored_constraints << "\n";
   return s.str();
@@ -92,8 +118,8 @@ Status Mapper::onVo(const vo_delta_t& msg) {
   checkTimeout(msg.utime);
   if (last_vo_utime_ >= 0 && msg.utime - last_vo_utime_ > micros(o_.session_gap_s)) startSession(msg.utime);
   last_vo_utime_ = msg.utime;
-  if (msg.keyframe_changed && (msg.status == vo_delta_t::STATUS_OK || msg.ref_utime == msg.utime) &&
-      !in_flight_ && (last_step_utime_ < 0 || msg.utime - last_step_utime_ >= micros(o_.step_interval_s)))
+  // A step at a keyframe the tracker now chains from (a chain break's new reference too).
+  if (msg.keyframe_changed && tracker_.referenceUtime() == msg.utime && !in_flight_ && !in_elevator_ && (last_step_utime_ < 0 || msg.utime - last_step_utime_ >= micros(o_.step_interval_s)))
     step(msg.utime);
   return Ok{};
 }
@@ -142,8 +168,20 @@ Status Mapper::onFloor(const floor_t& msg) {
     return makeError("FLOOR ", msg.utime, ": not finite or out of order");
   }
   last_floor_utime_ = msg.utime;
-  if (msg.event == floor_t::EVENT_RIDE_START) return Ok{};
+  if (msg.event == floor_t::EVENT_RIDE_START) {
+    // The floor left, at the height the ride starts from: elevator-proc announces no floor
+    // before the first ride, so this is where the start floor enters the table.
+    if (floor_ >= 0) {
+      floor_height_m_ = floors_.emplace(floor_, msg.height_m).first->second;
+      have_floor_ = true;  // so the ride's end moves the estimate to the new floor's height
+    }
+    // The cab is a place that moves: no step (no node, no registration) until the ride ends.
+    in_elevator_ = true;
+    return Ok{};
+  }
+  in_elevator_ = false;
   if (msg.event == floor_t::EVENT_NONE) startSession(msg.utime);
+  if (msg.event == floor_t::EVENT_RIDE_END) ++rides_;
   if (have_floor_ && msg.event == floor_t::EVENT_RIDE_END && active_ >= 0) {
     // The ride's vertical displacement, as far as odometry has not seen it already (VO may
     // track through the cab; wheels never do): the estimate is moved to the measured height.
@@ -472,7 +510,9 @@ void Mapper::step(int64_t keyframe_utime) {
     target = nodeInCell(cell, keyframe_utime - micros(o_.recent_exclusion_s));
   } else {
     target = nodeInCell(cell, keyframe_utime);
-    if (!target) target = active_;
+    // The active node, unless a ride left it on another floor (the cab it was made in looks
+    // the same on every floor).
+    if (!target && nodes_[static_cast<size_t>(active_)].floor == floor_) target = active_;
   }
   if (target && !lost_) sendRequest(register_request_t::MODE_NODE, *target);
   else sendRequest(register_request_t::MODE_GLOBAL, -1);
@@ -509,6 +549,16 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
     return Ok{};
   }
   const InFlight f = *in_flight_;
+  if (msg.node_id >= 0 && msg.node_id < static_cast<int64_t>(nodes_.size()) &&
+      nodes_[static_cast<size_t>(msg.node_id)].floor != floor_) {
+    // A place on another floor: the elevator cab, or a floor that looks like this one.
+    ++stats_.rejected_floor;
+    stats_.timing.registration_s += secondsSince(t0);
+    step_cost_s_ += secondsSince(t0);
+    step_cpu_s_ += threadCpuSeconds() - c0;
+    finishStep(false);
+    return Ok{};
+  }
   bool registered = false;
   Status status = Ok{};
   bool finite = std::isfinite(msg.translation[0]) && std::isfinite(msg.translation[1]) &&
@@ -536,7 +586,7 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
   const int64_t b = msg.node_id;
   const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2], msg.orientation[3]);
   const core::SE3d cam_T = core::SE3d(q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2]));
-  const core::SE3d& A = o_.tracker.body_T_cam;
+  const core::SE3d& A = tracker_.bodyTCamera();  // STEREO_CALIB's, once it came
   const core::Mat6 ad = A.adjoint();
   core::UncertainPose b_T_q;  // registration, body frames (paper eq. 9)
   b_T_q.mean = A * cam_T * A.inverse();
@@ -647,7 +697,10 @@ bool Mapper::confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64
   // registrations that agree with each other through odometry tell the two apart: false
   // matches do not agree. Without this a wrong chain rejects every later closure, and the
   // mapper adds nodes over mapped places until the session ends.
-  const bool agree = confirmsRelocalization(b, b_T_q, keyframe_utime, rejected_candidate_);
+  // Repeated texture (floor tiles) makes false matches that agree with each other: a Δ that
+  // registrations keep confirming, with no gap bridged since, is not overridden by them.
+  const bool agree =
+      recoveryAllowed(keyframe_utime) && confirmsRelocalization(b, b_T_q, keyframe_utime, rejected_candidate_);
   if (agree) {
     ++stats_.gate_recoveries;
     rejected_candidate_.reset();
@@ -698,9 +751,25 @@ bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& 
   return ConstraintSet::mahalanobis2(predicted, a_T_b) <= o_.map_gate;
 }
 
+int64_t Mapper::bridges() const {
+  const TrackerCounts& c = tracker_.counts();
+  return c.wheel_applied + c.restarts + c.reanchored + c.relinks_refused + rides_;
+}
+
+bool Mapper::recoveryAllowed(int64_t keyframe_utime) const {
+  // Odometry bridged a gap since the last registration that confirmed it, or registrations
+  // have stopped confirming it for recovery_quiet_s.
+  return last_confirmed_utime_ < 0 || bridges() != bridges_at_confirmation_ ||
+         keyframe_utime - last_confirmed_utime_ >= micros(o_.recovery_quiet_s);
+}
+
 void Mapper::finishStep(bool registered) {
   const InFlight f = *in_flight_;
   in_flight_.reset();
+  if (registered) {
+    last_confirmed_utime_ = f.keyframe_utime;
+    bridges_at_confirmation_ = bridges();
+  }
   const bool gate_rejected = std::exchange(gate_rejected_, false);
   const auto t0 = Clock::now();
   const double c0 = threadCpuSeconds();

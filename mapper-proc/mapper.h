@@ -16,6 +16,8 @@
 // A registration that contradicts the map or Δ beyond map_gate is rejected (a false match),
 // and its step adds no node; when the next rejected one agrees with it through odometry,
 // both were right and the map or Δ was wrong: it is accepted after all (gate_recoveries).
+// No step is taken during an elevator ride (FLOOR ride start to ride end: the cab moves with
+// the robot), and a registration to a node of another floor than the current one is refused.
 // Full pose graph mode adds a node at every step before step 1, registers against nodes
 // other than the recent ones, and never switches the active node.
 //
@@ -116,6 +118,12 @@ struct MapperOptions {
   // wrong value; the gate recovery (two rejected registrations that agree replace Δ) is the
   // way back, without which the gate would reject every true registration after it.
   bool fuse_active_registration = true;
+  // A gate recovery overrides Δ only when odometry bridged a gap (wheel odometry, a VO
+  // restart, an elevator ride) since the last registration that confirmed it, or when none
+  // has confirmed it for this long (seconds of message time): repeated texture makes false
+  // matches that agree with each other, and a Δ that registrations keep confirming is not the
+  // one that is wrong.
+  double recovery_quiet_s = 3.0;
   TrackerOptions tracker;
   solver::IncrementalOptions solver = mapperSolverOptions();
 
@@ -178,6 +186,7 @@ struct MapperStats {
   int64_t delta_kept = 0;         // ... that lost the det(Σ) test
   int64_t delta_fused = 0;        // ... fused with Δ (fuse_active_registration)
   int64_t rejected_map_gate = 0;  // registrations that contradicted the map or Δ
+  int64_t rejected_floor = 0;     // registrations to a node of another floor
   int64_t gate_recoveries = 0;    // ... accepted after all: a second one agreed with them
   int64_t relocalizations = 0;   // a new session tied to the map by a global registration
   int64_t relocalization_disagreements = 0;  // a lost session's registrations that disagreed
@@ -187,6 +196,8 @@ struct MapperStats {
   int64_t restored_constraints = 0;
   MapperTiming timing;
   std::string text() const;
+  // Adds the counters of another mapper's stats (sessions mapped by successive mappers).
+  void addCounters(const MapperStats& other);
 };
 
 class Mapper {
@@ -201,6 +212,10 @@ class Mapper {
   // global registrations until one places it on the map. Errors: a mapper that already has
   // nodes, node or edge ids that are not 0..n-1 in order, an edge naming an unknown node.
   Status restore(const MapSnapshot& map);
+
+  // The left camera's mounting (rectified body_T_cam of STEREO_CALIB, calibration_latch.h):
+  // VO deltas are camera motions. Until it is set, options.tracker.body_T_cam holds.
+  void setCameraMounting(const core::SE3d& body_T_cam) { tracker_.setBodyTCamera(body_T_cam); }
 
   // Inputs. Each returns an error for a message it drops (also counted).
   Status onVo(const vo_delta_t& msg);
@@ -269,6 +284,10 @@ class Mapper {
   // A registration the map gate rejects: true when it confirms the previous rejected one
   // (then both were right and the map or Δ was wrong); otherwise it becomes the candidate.
   bool confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime);
+  // Gaps odometry bridged so far (tracker counts and rides), and whether a gate recovery may
+  // override Δ now (MapperOptions::recovery_quiet_s).
+  int64_t bridges() const;
+  bool recoveryAllowed(int64_t keyframe_utime) const;
   void flushSolver();
   void consolidatePairs();
   void rebuildCells();
@@ -324,6 +343,10 @@ class Mapper {
   double floor_height_m_ = 0.0;
   std::map<int, double> floors_;
   bool have_floor_ = false;
+  bool in_elevator_ = false;  // between a ride's start and end: no steps
+  int64_t rides_ = 0;         // ride ends seen
+  int64_t last_confirmed_utime_ = -1;   // keyframe of the last accepted registration
+  int64_t bridges_at_confirmation_ = 0;  // bridges() then
   std::optional<attitude_t> attitude_;
   int64_t last_step_utime_ = -1;
   int64_t last_floor_utime_ = -1;

@@ -25,9 +25,13 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.defer_merges", &o->defer_merges);
   reader.read("mapper.cell_refresh_per_step", &o->cell_refresh_per_step);
   reader.read("mapper.fuse_active_registration", &o->fuse_active_registration);
+  reader.read("mapper.recovery_quiet_s", &o->recovery_quiet_s);
   reader.read("mapper.tracker.wheel_offplane_sigma_m", &o->tracker.wheel_offplane_sigma_m);
   reader.read("mapper.tracker.wheel_offplane_sigma_rad", &o->tracker.wheel_offplane_sigma_rad);
   reader.read("mapper.tracker.history_s", &o->tracker.history_s);
+  reader.read("mapper.tracker.vo_timeout_s", &o->tracker.vo_timeout_s);
+  reader.read("mapper.tracker.wheel_buffer_s", &o->tracker.wheel_buffer_s);
+  reader.read("mapper.tracker.relink_gate", &o->tracker.relink_gate);
   std::string method;
   reader.read("mapper.solver.method", &method);
   reader.read("mapper.solver.batch_every", &o->solver.batch_every);

@@ -4,8 +4,19 @@
 //
 // Visual odometry arrives as ref_T_cur of the camera against its reference keyframe; the
 // keyframe chain is compounded into Δ at every keyframe change (eq. 6-7), and the frames in
-// between ride on top as a pending offset. When VO fails, the last good frame is committed
-// and wheel odometry increments are compounded instead until VO restarts with a new keyframe.
+// between ride on top as a pending offset. When VO fails, or is silent for vo_timeout_s
+// (vo-proc killed, messages lost), the last good frame is committed and wheel odometry
+// increments from that frame on are compounded instead (a few seconds of them are kept for
+// that) until VO is back. The VO_DELTA contract (docs/contracts.md) and what the tracker does:
+//  - status OK, the known reference: the motion rides on the reference's commit point. After
+//    a gap in which VO failed but kept its reference, the wheel increments since that
+//    reference are taken back and VO's motion replaces them (relinked), unless the two
+//    disagree (relink_gate): then the frame is reanchored as below.
+//  - status OK, a reference the tracker does not know (a lost keyframe change, a restarted
+//    vo-proc): the frame is placed where wheel odometry put the body and the chain continues
+//    from there (reanchored). Never refused: an unknown reference must not freeze the map.
+//  - keyframe_changed with a status other than OK (NO_DATA: VO's first frame; a failure: the
+//    chain breaks): this frame is the new reference, at the current estimate.
 // Everything is expressed in the body frame: a camera motion D becomes
 // body_T_cam D cam_T_body, covariance Ad(body_T_cam) Σ Ad(body_T_cam)ᵀ (right perturbations).
 //
@@ -36,6 +47,15 @@ struct TrackerOptions {
   double wheel_offplane_sigma_rad = 0.001;
   // Committed increments kept for registrations that come back late, seconds of message time.
   double history_s = 30.0;
+  // VO silent this long (seconds of message time, seen from WHEEL_ODOM): wheel odometry
+  // takes over from the last VO frame.
+  double vo_timeout_s = 0.5;
+  // Wheel increments kept while VO tracks, to bridge from the last good VO frame when VO
+  // fails (its failure message comes after wheel messages it covers); seconds.
+  double wheel_buffer_s = 5.0;
+  // χ²(3) gate (x, y, yaw) of VO's motion over a failure gap against the wheels' before VO's
+  // replaces it (relink); 16.27 = 99.9 %.
+  double relink_gate = 16.27;
 
   Status validate() const;
 };
@@ -44,7 +64,12 @@ struct TrackerCounts {
   int64_t vo_applied = 0;
   int64_t vo_failed = 0;       // frames with a failure status
   int64_t wheel_applied = 0;   // increments compounded while VO was down
-  int64_t dropped = 0;         // malformed, non-finite, out of order or unknown reference
+  int64_t dropped = 0;         // malformed, non-finite or out of order
+  int64_t restarts = 0;        // VO restarted from a new reference (first frame, chain break)
+  int64_t relinked = 0;        // VO back on its kept reference after failing: wheel undone
+  int64_t relinks_refused = 0; // ... whose motion contradicted the wheels: reanchored instead
+  int64_t reanchored = 0;      // VO on a reference the tracker did not know
+  int64_t vo_timeouts = 0;     // VO silent for vo_timeout_s: wheel odometry took over
 };
 
 class Tracker {
@@ -57,6 +82,10 @@ class Tracker {
 
   // Δ_t^a: active_T_body now.
   UncertainPose delta() const;
+  // The left (rectified) camera on the body, from STEREO_CALIB: VO deltas after this call
+  // are taken through it.
+  void setBodyTCamera(const SE3d& body_T_cam);
+  const SE3d& bodyTCamera() const { return o_.body_T_cam; }
   // Re-initialises Δ (new active node, or a registration replacing it).
   void reset(const UncertainPose& active_T_body);
   // Adds a known vertical displacement (an elevator ride), metres, with its standard deviation.
@@ -67,6 +96,8 @@ class Tracker {
   std::optional<UncertainPose> sinceKeyframe(int64_t keyframe_utime) const;
 
   bool voTracking() const { return vo_mode_; }
+  // VO's reference keyframe (utime) while VO tracks; -1 otherwise.
+  int64_t referenceUtime() const { return vo_mode_ ? ref_utime_ : -1; }
   int64_t lastUtime() const { return last_utime_; }
   const TrackerCounts& counts() const { return counts_; }
 
@@ -77,6 +108,12 @@ class Tracker {
   };
   UncertainPose toBody(const SE3d& cam_motion, const Mat6& cam_covariance) const;
   void commit(int64_t utime, const UncertainPose& increment);
+  // Leaves VO mode at the last good VO frame (lost_utime) and compounds the buffered wheel
+  // increments that end after it.
+  void enterWheelMode(int64_t lost_utime);
+  // Puts an OK frame against reference `ref_utime` that VO mode does not continue onto Δ.
+  void rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t utime);
+  void applyWheel(const wheel_odom_t& msg);
 
   TrackerOptions o_;
   Mat6 ad_body_T_cam_;
@@ -89,6 +126,7 @@ class Tracker {
   int64_t vo_lost_utime_ = -1;
   int64_t last_utime_ = -1;
   std::deque<Increment> history_;
+  std::deque<wheel_odom_t> recent_wheel_;  // while VO tracks (wheel_buffer_s)
   TrackerCounts counts_;
 };
 

@@ -111,10 +111,141 @@ TEST(Tracker, DropsOutOfOrderAndMalformedMessages) {
   vo_delta_t bad = voMsg(200, 100, SE3d(), 1e-3, true);
   bad.translation[0] = std::nan("");
   EXPECT_FALSE(t.addVo(bad));
-  vo_delta_t unknown_ref = voMsg(300, 77, SE3d(), 1e-3, true);
-  EXPECT_FALSE(t.addVo(unknown_ref));
+  vo_delta_t future_ref = voMsg(300, 400, planar(1, 0, 0), 1e-3, false);
+  EXPECT_FALSE(t.addVo(future_ref));
   EXPECT_EQ(t.counts().dropped, 3);
   EXPECT_LT(t.delta().mean.log().norm(), 1e-15);
+}
+
+wheel_odom_t wheelMsg(int64_t prev, int64_t utime, double dx, double variance = 1e-4) {
+  wheel_odom_t w{};
+  w.prev_utime = prev;
+  w.utime = utime;
+  w.delta_x_m = dx;
+  w.covariance[0] = w.covariance[4] = w.covariance[8] = variance;
+  return w;
+}
+
+TEST(Tracker, AChainBreakStartsANewReferenceAndTheFramesAfterItAreUsed) {
+  // vo-proc's chain break: a failed frame becomes the reference (keyframe_changed, its own
+  // utime). Wheel odometry covers the failed frames; VO continues from the new reference.
+  Tracker t(TrackerOptions{});
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, false)));
+  ASSERT_TRUE(t.addWheel(wheelMsg(100000, 200000, 0.1)));
+  vo_delta_t fail = voMsg(200000, 0, SE3d(), 0, false);
+  fail.status = vo_delta_t::STATUS_INSUFFICIENT_INLIERS;
+  ASSERT_TRUE(t.addVo(fail));
+  EXPECT_FALSE(t.voTracking());
+  ASSERT_TRUE(t.addWheel(wheelMsg(200000, 300000, 0.1)));
+  vo_delta_t brk = voMsg(300000, 300000, SE3d(), 0, true);
+  brk.status = vo_delta_t::STATUS_INSUFFICIENT_INLIERS;
+  ASSERT_TRUE(t.addVo(brk));
+  EXPECT_TRUE(t.voTracking());
+  EXPECT_EQ(t.referenceUtime(), 300000);
+  ASSERT_TRUE(t.addVo(voMsg(400000, 300000, planar(0.1, 0, 0), 1e-3, true)));
+  ASSERT_TRUE(t.addVo(voMsg(500000, 400000, planar(0.1, 0, 0), 1e-3, false)));
+  // 0.1 VO + 0.2 wheel (the increment before the failure message included) + 0.2 VO.
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.5, 1e-12);
+  EXPECT_EQ(t.counts().dropped, 0);
+  EXPECT_EQ(t.counts().restarts, 2);
+  // An older vo-proc stamped the break with the old reference: a restart all the same.
+  vo_delta_t old_style = voMsg(600000, 400000, SE3d(), 0, true);
+  old_style.status = vo_delta_t::STATUS_INSUFFICIENT_INLIERS;
+  ASSERT_TRUE(t.addVo(old_style));
+  EXPECT_EQ(t.referenceUtime(), 600000);
+  ASSERT_TRUE(t.addVo(voMsg(700000, 600000, planar(0.1, 0, 0), 1e-3, false)));
+  EXPECT_EQ(t.counts().dropped, 0);
+}
+
+TEST(Tracker, VoBackOnItsKeptReferenceReplacesTheWheelOdometryOfTheGap) {
+  // A passer-by: VO fails twice, keeps its reference and registers against it again. Its
+  // motion from the reference replaces the (less precise) wheel odometry of the gap.
+  Tracker t(TrackerOptions{});
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, true)));
+  ASSERT_TRUE(t.addVo(voMsg(200000, 100000, planar(0.1, 0, 0), 1e-3, false)));
+  for (int k = 3; k <= 4; ++k) {
+    vo_delta_t fail = voMsg(k * 100000, 100000, SE3d(), 0, false);
+    fail.status = vo_delta_t::STATUS_INSUFFICIENT_INLIERS;
+    ASSERT_TRUE(t.addVo(fail));
+    ASSERT_TRUE(t.addWheel(wheelMsg((k - 1) * 100000, k * 100000, 0.2, 1e-2)));  // σ 0.1 m
+  }
+  EXPECT_FALSE(t.voTracking());
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.2 + 0.4, 1e-12);
+  const UncertainPose before = t.delta();
+  ASSERT_TRUE(t.addVo(voMsg(500000, 100000, planar(0.4, 0, 0), 1e-3, false)));
+  EXPECT_TRUE(t.voTracking());
+  EXPECT_EQ(t.counts().relinked, 1);
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.1 + 0.4, 1e-12);
+  // The covariance does not shrink below what it was: the wheel's share stays (conservative).
+  EXPECT_GE(t.delta().covariance(0, 0), before.covariance(0, 0));
+  // The chain goes on: a keyframe change and a frame after it.
+  ASSERT_TRUE(t.addVo(voMsg(600000, 100000, planar(0.5, 0, 0), 1e-3, true)));
+  ASSERT_TRUE(t.addVo(voMsg(700000, 600000, planar(0.1, 0, 0), 1e-3, false)));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.7, 1e-12);
+  const auto since = t.sinceKeyframe(100000);
+  ASSERT_TRUE(since.has_value());
+  EXPECT_NEAR(since->mean.translation().x(), 0.6, 1e-12);
+  EXPECT_EQ(t.counts().dropped, 0);
+}
+
+TEST(Tracker, VoBackOnItsKeptReferenceIsNotBelievedWhenTheWheelsContradictIt) {
+  // After a long gap VO registers against its old reference with a motion 0.6 m short of
+  // what precise wheels measured (a repeated floor texture): the wheels' estimate stays.
+  Tracker t(TrackerOptions{});
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, true)));
+  vo_delta_t fail = voMsg(200000, 100000, SE3d(), 0, false);
+  fail.status = vo_delta_t::STATUS_INSUFFICIENT_FEATURES;
+  ASSERT_TRUE(t.addVo(fail));
+  for (int k = 2; k <= 11; ++k) ASSERT_TRUE(t.addWheel(wheelMsg((k - 1) * 100000, k * 100000, 0.1, 1e-6)));
+  ASSERT_TRUE(t.addVo(voMsg(1200000, 100000, planar(0.4, 0, 0), 1e-4, false)));
+  EXPECT_EQ(t.counts().relinks_refused, 1);
+  EXPECT_EQ(t.counts().relinked, 0);
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.1 + 1.0, 1e-9);
+  // And the frames after it move on from there.
+  ASSERT_TRUE(t.addVo(voMsg(1300000, 100000, planar(0.5, 0, 0), 1e-4, false)));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 1.2, 1e-9);
+}
+
+TEST(Tracker, AFrameOnAnUnknownReferenceIsReanchoredWhereWheelOdometryPutsTheBody) {
+  // The keyframe change was lost (or vo-proc restarted without a first frame): the frames
+  // name a reference the tracker never saw. They are used, not refused: the first one sits
+  // where the estimate is, the next ones move on from it.
+  Tracker t(TrackerOptions{});
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, false)));
+  ASSERT_TRUE(t.addVo(voMsg(300000, 250000, planar(0.05, 0, 0), 1e-3, false)));
+  EXPECT_EQ(t.counts().reanchored, 1);
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.1, 1e-12);
+  ASSERT_TRUE(t.addVo(voMsg(400000, 250000, planar(0.25, 0, 0), 1e-3, true)));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.3, 1e-12);
+  ASSERT_TRUE(t.addVo(voMsg(500000, 400000, planar(0.1, 0, 0), 1e-3, false)));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.4, 1e-12);
+  EXPECT_EQ(t.counts().dropped, 0);
+  // The motion since the first keyframe still compounds to Δ.
+  const auto since = t.sinceKeyframe(0);
+  ASSERT_TRUE(since.has_value());
+  EXPECT_NEAR(since->mean.translation().x(), 0.4, 1e-12);
+}
+
+TEST(Tracker, SilentVoHandsOverToWheelOdometryFromItsLastFrame) {
+  // vo-proc killed: no failure message, just silence. After vo_timeout_s of wheel messages
+  // the wheel increments since the last VO frame are compounded; a restarted vo-proc's first
+  // frame starts from there.
+  TrackerOptions o;
+  o.vo_timeout_s = 0.5;
+  Tracker t(o);
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, false)));
+  for (int k = 2; k <= 10; ++k) ASSERT_TRUE(t.addWheel(wheelMsg((k - 1) * 100000, k * 100000, 0.1)));
+  EXPECT_FALSE(t.voTracking());
+  EXPECT_EQ(t.counts().vo_timeouts, 1);
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.1 + 0.9, 1e-12);
+  ASSERT_TRUE(t.addVo(voRestart(1000000)));
+  ASSERT_TRUE(t.addVo(voMsg(1100000, 1000000, planar(0.1, 0, 0), 1e-3, false)));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 1.1, 1e-12);
 }
 
 TEST(ConstraintSet, AgreeingConstraintsMergeAndInconsistentOnesAreRejected) {
@@ -301,6 +432,40 @@ TEST(ReducedGraph, RevisitAddsConstraintNotNode) {
   const SE3d end = drive.mapper().pose().mean;
   EXPECT_LT((end.translation() - Vec3(-0.1, 0, 0)).norm(), 1e-6);
   EXPECT_LT(core::rotationAngle(end.so3()), 1e-6);
+}
+
+TEST(ReducedGraph, AnElevatorRideMovesTheEstimateToTheNewFloorAndTakesNoStepInTheCab) {
+  // elevator-proc announces no floor before the first ride: its start names the height of
+  // the floor left. Keyframes in the cab take no step (the cab is a place that moves), and
+  // the ride's end moves the estimate to the new floor's height.
+  Mapper m(scriptedOptions());
+  ASSERT_TRUE(m.onVo(voRestart(0)));
+  ASSERT_EQ(m.nodes().size(), 1u);
+  floor_t start{};
+  start.utime = 1'000'000;
+  start.floor_index = -1;
+  start.height_m = 0.0;
+  start.height_sigma_m = 0.05;
+  start.in_elevator = 1;
+  start.event = floor_t::EVENT_RIDE_START;
+  ASSERT_TRUE(m.onFloor(start));
+  const int64_t steps = m.stats().steps;
+  for (int k = 1; k <= 5; ++k)
+    ASSERT_TRUE(m.onVo(voMsg(1'000'000 + k * 600'000, k == 1 ? 0 : 1'000'000 + (k - 1) * 600'000, SE3d(), 1e-3, true)));
+  EXPECT_EQ(m.stats().steps, steps);
+  floor_t end = start;
+  end.utime = 5'000'000;
+  end.floor_index = 1;
+  end.height_m = -4.7;
+  end.in_elevator = 0;
+  end.event = floor_t::EVENT_RIDE_END;
+  end.new_floor = 1;
+  ASSERT_TRUE(m.onFloor(end));
+  EXPECT_NEAR(m.pose().mean.translation().z(), -4.7, 1e-6);
+  EXPECT_EQ(m.floor(), 1);
+  ASSERT_EQ(m.floors().size(), 2u);
+  EXPECT_EQ(m.floors().at(0), 0.0);
+  EXPECT_EQ(m.floors().at(1), -4.7);
 }
 
 TEST(FullGraph, AddsANodeAtEveryStepThroughTheSameCode) {

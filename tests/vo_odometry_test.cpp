@@ -238,5 +238,31 @@ TEST(StereoOdometry, AnOccludedViewKeepsTheReferenceForAFewFrames) {
   EXPECT_EQ(res.ref_utime, 1);
 }
 
+TEST(StereoOdometry, AChainBreakMakesTheFailedFrameItsOwnReference) {
+  // More failures in a row than max_failed_frames: the frame becomes the reference with no
+  // motion to it. Its VO_DELTA says so the way a first frame does (ref_utime = utime), so a
+  // consumer restarts there instead of waiting for a motion against the old reference.
+  EVERMAP_REQUIRE_ROOM();
+  cv::RNG rng(6);
+  StereoOdometry vo = makeOdometry();
+  cv::Mat l, r;
+  room().render(vo.camera(), SE3d(), &l, &r, &rng);
+  ASSERT_EQ(vo.process(1, l, r).status, VoStatus::kNoData);
+  const SE3d away(core::SO3d::exp(Vec3(0.0, M_PI, 0.0)), Vec3::Zero());
+  const int breaks_at = vo.options().max_failed_frames + 2;
+  for (int64_t t = 2; t <= breaks_at; ++t) {
+    room().render(vo.camera(), away, &l, &r, &rng);
+    const FrameResult res = vo.process(t, l, r);
+    ASSERT_FALSE(res.ok());
+    ASSERT_NE(res.status, VoStatus::kInsufficientFeatures) << "the view must have features";
+    EXPECT_EQ(res.keyframe_changed, t == breaks_at) << t;
+    EXPECT_EQ(res.ref_utime, t == breaks_at ? t : 1) << t;
+  }
+  room().render(vo.camera(), away * SE3d(core::SO3d(), Vec3(0.01, 0.0, 0.0)), &l, &r, &rng);
+  const FrameResult next = vo.process(breaks_at + 1, l, r);
+  EXPECT_TRUE(next.ok()) << next.message;
+  EXPECT_EQ(next.ref_utime, breaks_at);
+}
+
 }  // namespace
 }  // namespace evermap::vo

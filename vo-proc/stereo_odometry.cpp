@@ -40,6 +40,7 @@ core::RegistrationOptions OdometryOptions::defaultRegistration() {
   o.motion.min_inliers = 10;
   o.min_features = 30;
   o.min_inliers = 15;
+  o.ambiguity_ratio = 0.0;  // the window search around the prediction does not alias
   return o;
 }
 
@@ -170,6 +171,19 @@ FrameResult StereoOdometry::process(int64_t utime, const cv::Mat& left, const cv
     return r;
   }
 
+  if (failures_ > options_.max_failed_frames) {
+    // The reference is stale: the prediction (the motion before the failures) no longer says
+    // where to look, and a window search from a wrong prediction in a repeated texture (floor
+    // tiles) finds a wrong motion with many inliers. The chain restarts here, as at a first
+    // frame; the mapper bridges the gap.
+    r.status = VoStatus::kNoData;
+    r.message = makeError("the reference is stale after ", failures_,
+                          " failed frames: this frame becomes the reference").message;
+    r.ref_utime = utime;
+    makeCurrentTheReference(&r);
+    return r;
+  }
+
   // Match the reference into this frame and register (a = reference, b = current).
   const std::vector<core::WindowMatch> window =
       core::matchInWindow(camera_, *ref_, *cur_, ref_T_pred.inverse(), options_.matching);
@@ -209,7 +223,10 @@ FrameResult StereoOdometry::process(int64_t utime, const cv::Mat& left, const cv
   ++failures_;
   ref_T_prev_ = ref_T_pred;
   if (failures_ > options_.max_failed_frames) {
+    // The chain breaks: like a first frame, the new reference is its own reference (the
+    // VO_DELTA contract, docs/contracts.md); the motion to it is unknown.
     r.message += "; the reference is replaced by this frame";
+    r.ref_utime = utime;
     makeCurrentTheReference(&r);
   }
   return r;

@@ -17,12 +17,16 @@
 // Failures never throw and never abort: each frame gets a status (values of vo_delta_t).
 //  - kBadInput: an image is empty, not gray or not the camera's size. Nothing changes.
 //  - kInsufficientFeatures: too few features with depth (dark, blank wall). The frame is
-//    never made a reference.
+//    never made a reference. The first usable frame after more than max_failed_frames
+//    failures becomes the reference without a registration (kNoData, the chain restarts):
+//    after a gap the predicted motion is stale, and a search from it aliases on repeated
+//    texture.
 //  - kInsufficientInliers / kOptimizationFailure / kReprojectionError: the frame does not
 //    register to the reference (occlusion, fast motion). The reference is kept for up to
 //    max_failed_frames failures in a row (a passer-by); after that the next frame with enough
-//    features becomes the reference (keyframe_changed), which breaks the chain of motions:
-//    the mapper bridges the gap (wheel odometry), VO restarts from there.
+//    features becomes the reference (keyframe_changed, ref_utime = its own utime), which
+//    breaks the chain of motions: the mapper bridges the gap (wheel odometry), VO restarts
+//    from there.
 //
 // Not thread-safe; one instance per camera stream.
 
