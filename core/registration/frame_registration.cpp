@@ -1,7 +1,10 @@
 #include "core/registration/frame_registration.h"
 
 #include <cmath>
+#include <numbers>
 #include <sstream>
+
+#include <Eigen/Geometry>
 
 namespace evermap::core {
 
@@ -28,11 +31,61 @@ Status RegistrationOptions::validate() const {
   if (min_features < 3) {
     return makeError("registration: min_features ", min_features, " must be >= 3");
   }
+  if (!(ambiguity_ratio >= 0.0) || !(ambiguity_translation_m > 0.0) || !(ambiguity_rotation_deg > 0.0)) {
+    return makeError("registration: ambiguity_ratio ", ambiguity_ratio, " must be >= 0, its thresholds > 0");
+  }
   if (min_inliers < motion.min_inliers) {
     return makeError("registration: min_inliers ", min_inliers,
                      " is below motion.min_inliers ", motion.min_inliers);
   }
   return Ok{};
+}
+
+namespace {
+
+// The rigid motion a_T_b of matched 3-D points (least squares, Umeyama without scale).
+SE3d rigidFit(const std::vector<Eigen::Vector3d>& pa, const std::vector<Eigen::Vector3d>& pb,
+              const std::vector<int>& members) {
+  Eigen::Matrix3Xd src(3, static_cast<Eigen::Index>(members.size())), dst(3, src.cols());
+  for (size_t k = 0; k < members.size(); ++k) {
+    src.col(static_cast<Eigen::Index>(k)) = pb[static_cast<size_t>(members[k])];
+    dst.col(static_cast<Eigen::Index>(k)) = pa[static_cast<size_t>(members[k])];
+  }
+  const Eigen::Matrix4d T = Eigen::umeyama(src, dst, false);
+  return SE3d(SO3d::fromMatrix(T.topLeftCorner<3, 3>()), T.topRightCorner<3, 1>());
+}
+
+}  // namespace
+
+std::optional<std::string> ambiguity(const std::vector<Eigen::Vector3d>& pa, const std::vector<Eigen::Vector3d>& pb,
+                                     const std::vector<double>& depth_sigma_m, const std::vector<int>& clique,
+                                     const RegistrationOptions& options) {
+  std::vector<bool> used(pa.size(), false);
+  for (int i : clique) used[static_cast<size_t>(i)] = true;
+  std::vector<int> rest;
+  for (size_t i = 0; i < pa.size(); ++i)
+    if (!used[i]) rest.push_back(static_cast<int>(i));
+  const double needed = std::max<double>(options.min_inliers, options.ambiguity_ratio * static_cast<double>(clique.size()));
+  if (static_cast<double>(rest.size()) < needed) return std::nullopt;
+  std::vector<Eigen::Vector3d> ra, rb;
+  std::vector<double> rs;
+  for (int i : rest) {
+    ra.push_back(pa[static_cast<size_t>(i)]);
+    rb.push_back(pb[static_cast<size_t>(i)]);
+    if (!depth_sigma_m.empty()) rs.push_back(depth_sigma_m[static_cast<size_t>(i)]);
+  }
+  std::vector<int> second = maxConsistentClique(ra, rb, rs, options.clique);
+  if (static_cast<double>(second.size()) < needed) return std::nullopt;
+  const SE3d first_T = rigidFit(pa, pb, clique);
+  const SE3d second_T = rigidFit(ra, rb, second);
+  const SE3d d = first_T.inverse() * second_T;
+  const double dt = d.translation().norm();
+  const double dr = rotationAngle(d.so3()) * 180.0 / std::numbers::pi;
+  if (dt <= options.ambiguity_translation_m && dr <= options.ambiguity_rotation_deg) return std::nullopt;
+  std::ostringstream why;
+  why << "a second consistent set of " << second.size() << " matches moves " << dt << " m, " << dr
+      << " deg differently (repeated structure)";
+  return why.str();
 }
 
 RegistrationSummary registerMatches(const StereoCamera& camera_a, const StereoCamera& camera_b,
@@ -73,6 +126,13 @@ RegistrationSummary registerMatches(const StereoCamera& camera_a, const StereoCa
     s.message = makeError(s.num_matches, " matches, ", s.num_clique,
                           " consistent (clique), need ", options.min_inliers).message;
     return s;
+  }
+  if (options.ambiguity_ratio > 0.0) {
+    if (auto why = ambiguity(pa, pb, sigma, clique, options)) {
+      s.status = RegistrationStatus::kInsufficientInliers;
+      s.message = makeError(s.num_matches, " matches, ", s.num_clique, " in the clique: ambiguous, ", *why).message;
+      return s;
+    }
   }
   const MotionEstimate motion =
       estimateMotion(camera_a, camera_b, matches, clique, initial, options.motion);

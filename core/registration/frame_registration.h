@@ -10,6 +10,7 @@
 // otherwise (visual odometry matches patches in a predicted window).
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -45,6 +46,14 @@ struct RegistrationOptions {
   int min_features = 20;
   // Fewest inliers for the registration to be accepted (the acceptance threshold).
   int min_inliers = 20;
+  // Repeated structure (floor tiles, identical doors): when the matches outside the clique
+  // hold a second consistent set of at least this fraction of the clique's size (and
+  // min_inliers) whose rigid motion differs by more than ambiguity_translation_m or
+  // ambiguity_rotation_deg, the scene registers two ways and the answer is refused as
+  // ambiguous. 0 disables (visual odometry, whose window search is not fooled that way).
+  double ambiguity_ratio = 0.5;
+  double ambiguity_translation_m = 0.3;
+  double ambiguity_rotation_deg = 5.0;
 
   Status validate() const;
 };
@@ -64,6 +73,14 @@ struct RegistrationSummary {
 
   bool ok() const { return status == RegistrationStatus::kOk; }
 };
+
+// Why the matches register two ways (RegistrationOptions::ambiguity_ratio): a second clique
+// among the matches outside `clique`, as large as the ratio asks, whose rigid motion differs
+// from the clique's; nothing when there is none. Points and sigmas as maxConsistentClique.
+std::optional<std::string> ambiguity(const std::vector<Eigen::Vector3d>& points_a,
+                                     const std::vector<Eigen::Vector3d>& points_b,
+                                     const std::vector<double>& depth_sigma_m, const std::vector<int>& clique,
+                                     const RegistrationOptions& options);
 
 // Registers keyframe b against keyframe a: a_T_b. The cameras are the rectified rigs the
 // keyframes were taken with (normally the same).
