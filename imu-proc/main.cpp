@@ -12,8 +12,7 @@
 #include "core/common/option_fields.h"
 #include "core/common/stop_signals.h"
 #include "core/messages/channels.h"
-#include "imu-proc/attitude_filter.h"
-#include "imu-proc/lcm_convert.h"
+#include "imu-proc/attitude_stream.h"
 
 namespace {
 
@@ -25,23 +24,12 @@ struct ProcOptions {
   }
 };
 
-// LCM 1.3 subscribes member functions: the handler owns the filter and the decimation state.
+// LCM 1.3 subscribes member functions: the handler owns the stream.
 struct Publisher {
   lcm::LCM* lcm;
-  evermap::imu::AttitudeFilter filter;
-  int64_t period_us;
-  int64_t last_published = 0;
-  bool published_any = false;
-
+  evermap::imu::AttitudeStream stream;
   void onImu(const lcm::ReceiveBuffer*, const std::string&, const evermap::imu_t* msg) {
-    if (!filter.add(evermap::imu::fromLcm(*msg)) || !filter.initialized()) return;
-    const evermap::imu::Attitude att = filter.attitude();
-    // Decimate; the 1 ms slack lets a 10.0 Hz input through at 10 Hz despite jitter.
-    if (published_any && att.utime - last_published < period_us - 1000) return;
-    published_any = true;
-    last_published = att.utime;
-    const evermap::attitude_t out = evermap::imu::toLcm(att);
-    lcm->publish(evermap::channels::kAttitude, &out);
+    if (auto out = stream.add(*msg)) lcm->publish(evermap::channels::kAttitude, &*out);
   }
 };
 
@@ -103,15 +91,14 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-imu-proc: cannot open LCM \"%s\"\n", url.c_str());
     return 1;
   }
-  Publisher handler{&lcm, imu::AttitudeFilter(options),
-                    static_cast<int64_t>(1e6 / proc.publish_rate_hz)};
+  Publisher handler{&lcm, imu::AttitudeStream(options, proc.publish_rate_hz)};
   lcm.subscribe(channels::kImu, &Publisher::onImu, &handler);
 
   StopSignals stop;  // SIGINT/SIGTERM, polled between LCM waits
   while (!stop.requested()) {
     if (lcm.handleTimeout(200) < 0) break;
   }
-  std::fprintf(stderr, "evermap-imu-proc: %s; %s\n", handler.filter.gateCounts().summary().c_str(),
-               handler.filter.counts().summary().c_str());
+  std::fprintf(stderr, "evermap-imu-proc: %s; %s\n", handler.stream.filter().gateCounts().summary().c_str(),
+               handler.stream.filter().counts().summary().c_str());
   return 0;
 }

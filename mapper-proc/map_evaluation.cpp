@@ -49,7 +49,13 @@ Expected<EvalMap> mapFromGraph(const map_graph_t& g) {
     m.nodes.push_back(EvalNode{n.node_id, n.keyframe_utime, *pose, n.floor, n.session});
   }
   m.edges = static_cast<int64_t>(g.edges.size());
-  for (const map_edge_t& e : g.edges) m.loop_edges += e.type == map_edge_t::TYPE_LOOP;
+  for (const map_edge_t& e : g.edges) {
+    if (e.type != map_edge_t::TYPE_LOOP) continue;
+    ++m.loop_edges;
+    auto pose = poseOf(e.translation, e.orientation, "MAP_GRAPH edge " + std::to_string(e.from_node));
+    if (!pose) return pose.error();
+    m.loops.push_back(EvalLoop{e.from_node, e.to_node, *pose});
+  }
   for (const map_floor_t& f : g.floors) {
     if (!std::isfinite(f.height_m)) return makeError("MAP_GRAPH floor ", f.index, ": height is not finite");
     m.floors[f.index] = f.height_m;
@@ -177,6 +183,47 @@ Expected<RunTruth> readRunTruth(const std::filesystem::path& folder) {
   return truth;
 }
 
+Expected<RunTruth> truthFromSamples(const std::map<int64_t, core::SE3d>& poses,
+                                    const std::map<int64_t, std::pair<int, int>>& floor_session) {
+  if (poses.size() < 2) return makeError("ground truth: ", poses.size(), " GROUND_TRUTH samples (2 needed)");
+  RunTruth truth;
+  truth.world_T_body = poses;
+  std::map<int, std::vector<double>> heights;
+  std::set<int> sessions;
+  for (const auto& [utime, fs] : floor_session) {
+    auto it = poses.find(utime);
+    if (fs.first >= 0 && it != poses.end()) heights[fs.first].push_back(it->second.translation().z());
+    if (fs.second >= 0) sessions.insert(fs.second);
+  }
+  for (auto& [floor, z] : heights) {
+    std::nth_element(z.begin(), z.begin() + static_cast<long>(z.size() / 2), z.end());
+    truth.floors[floor] = z[z.size() / 2];
+  }
+  truth.sessions = static_cast<int>(sessions.size());
+  return truth;
+}
+
+Expected<RunTruth> readLogTruth(const std::vector<std::filesystem::path>& logs) {
+  std::map<int64_t, core::SE3d> poses;
+  std::map<int64_t, std::pair<int, int>> floor_session;
+  for (const auto& file : logs) {
+    lcm::LogFile log(file.string(), "r");
+    if (!log.good()) return makeError(file.string(), ": cannot open the LCM log");
+    while (const lcm::LogEvent* e = log.readNextEvent()) {
+      if (e->channel != channels::kGroundTruth) continue;
+      auto m = messages::decodeLcm<pose_t>(e->data, e->datalen, e->channel);
+      if (!m) return makeError(file.string(), ": ", m.error().message);
+      auto pose = poseOf(m->position, m->orientation, "GROUND_TRUTH " + std::to_string(m->utime));
+      if (!pose) return makeError(file.string(), ": ", pose.error().message);
+      poses[m->utime] = *pose;
+      floor_session[m->utime] = {m->floor, m->session};
+    }
+  }
+  auto truth = truthFromSamples(poses, floor_session);
+  if (!truth) return makeError(logs.empty() ? std::string("no log") : logs.front().string(), ": ", truth.error().message);
+  return truth;
+}
+
 Expected<MapEvaluation> evaluateMap(const EvalMap& map, const RunTruth& truth,
                                     const std::vector<std::pair<int64_t, core::SE3d>>& poses) {
   MapEvaluation e;
@@ -201,6 +248,27 @@ Expected<MapEvaluation> evaluateMap(const EvalMap& map, const RunTruth& truth,
   }
   e.sessions = static_cast<int>(sessions.size());
   e.nodes_with_truth = static_cast<int64_t>(gt.size());
+  // Floor labels up to a relabelling: each label to the true floor most of its nodes are on.
+  std::map<int, std::map<int, int64_t>> label_votes;
+  std::map<int64_t, core::SE3d> node_truth;
+  for (const EvalNode& n : map.nodes) {
+    core::SE3d t;
+    if (!truth.at(n.keyframe_utime, &t)) continue;
+    node_truth[n.id] = t;
+    ++label_votes[n.floor][truth.floorAt(t.translation().z())];
+  }
+  for (const auto& [label, votes] : label_votes) {
+    int64_t best = 0;
+    for (const auto& [floor, count] : votes) best = std::max(best, count);
+    e.nodes_floor_consistent += best;
+  }
+  for (const EvalLoop& l : map.loops) {
+    auto a = node_truth.find(l.from), b = node_truth.find(l.to);
+    if (a == node_truth.end() || b == node_truth.end()) continue;
+    ++e.loops_with_truth;
+    const core::SE3d err = (a->second.inverse() * b->second).inverse() * l.from_T_to;
+    if (err.translation().norm() > 0.5 || core::rotationAngle(err.so3()) > 5.0 * M_PI / 180.0) ++e.false_loops;
+  }
   if (gt.size() < 3) return makeError("map evaluation: only ", gt.size(), " nodes have ground truth (3 needed)");
   auto ate = alignedAte(gt, est);
   if (!ate) return makeError("map evaluation: node ATE: ", ate.error().message);
@@ -231,6 +299,8 @@ std::string MapEvaluation::text() const {
     << "edges " << edges << " (" << loop_edges << " holding loop closures)\n"
     << "floors " << floors << " (" << floors_right << " at the building's height)\n"
     << "nodes_on_true_floor " << nodes_floor_right << "\n"
+    << "nodes_on_consistent_floor " << nodes_floor_consistent << "\n"
+    << "loop_edges_false " << false_loops << " (of " << loops_with_truth << " with truth)\n"
     << "sessions " << sessions << " (run: " << sessions_truth << ")\n"
     << "node_ate_rmse_m " << ate_rmse_m << "\nnode_ate_median_m " << ate_median_m << "\nnode_ate_max_m "
     << ate_max_m << "\n";
@@ -244,7 +314,8 @@ std::string MapEvaluation::json() const {
   std::ostringstream s;
   s << "{\"nodes\": " << nodes << ", \"nodes_with_truth\": " << nodes_with_truth << ", \"edges\": " << edges
     << ", \"loop_edges\": " << loop_edges << ", \"floors\": " << floors << ", \"floors_right\": " << floors_right
-    << ", \"nodes_on_true_floor\": " << nodes_floor_right << ", \"sessions\": " << sessions
+    << ", \"nodes_on_true_floor\": " << nodes_floor_right << ", \"nodes_on_consistent_floor\": "
+    << nodes_floor_consistent << ", \"loop_edges_false\": " << false_loops << ", \"sessions\": " << sessions
     << ", \"sessions_truth\": " << sessions_truth << ", \"node_ate_rmse_m\": " << ate_rmse_m
     << ", \"node_ate_median_m\": " << ate_median_m << ", \"node_ate_max_m\": " << ate_max_m
     << ", \"poses\": " << poses << ", \"pose_ate_rmse_m\": " << pose_ate_rmse_m

@@ -32,11 +32,18 @@ struct EvalNode {
   int session = 0;
 };
 
+// A node pair holding a loop closure: the merged relative pose (MAP_GRAPH edges only).
+struct EvalLoop {
+  int64_t from = 0, to = 0;
+  core::SE3d from_T_to;
+};
+
 // What is evaluated: nodes, how many edges (loop edges among them), the floor table.
 struct EvalMap {
   std::vector<EvalNode> nodes;
   int64_t edges = 0;
   int64_t loop_edges = 0;
+  std::vector<EvalLoop> loops;  // from MAP_GRAPH (a store lists constraints, not pairs)
   std::map<int, double> floors;  // index -> height, metres
 };
 
@@ -69,6 +76,13 @@ struct RunTruth {
 };
 // Reads DIR/session-*.tum and DIR/run.sim.txt; errors name the file.
 Expected<RunTruth> readRunTruth(const std::filesystem::path& run_folder);
+// The truth of GROUND_TRUTH samples (world_T_body by utime, with the pose_t floor and
+// session): floors at the median height of their samples, sessions counted. Errors: fewer
+// than 2 samples.
+Expected<RunTruth> truthFromSamples(const std::map<int64_t, core::SE3d>& poses,
+                                    const std::map<int64_t, std::pair<int, int>>& floor_session);
+// The GROUND_TRUTH of LCM logs (the image-level simulator's, a converted data set's).
+Expected<RunTruth> readLogTruth(const std::vector<std::filesystem::path>& logs);
 
 struct MapEvaluation {
   int64_t nodes = 0;
@@ -78,6 +92,12 @@ struct MapEvaluation {
   int floors = 0;
   int floors_right = 0;          // of the map's floor table, within 0.25 m of the building's
   int64_t nodes_floor_right = 0; // floor label = the true floor
+  // Floor labels are the map's own (elevator-proc numbers floors from the session's start):
+  // nodes whose label maps to their true floor under the one label -> floor assignment that
+  // most nodes agree with; and how many labels that assignment has.
+  int64_t nodes_floor_consistent = 0;
+  int64_t loops_with_truth = 0;  // loop edges whose nodes have truth
+  int64_t false_loops = 0;       // ... off the truth by > 0.5 m or > 5 degrees
   int sessions = 0;              // distinct sessions among the nodes
   int sessions_truth = 0;
   double ate_rmse_m = 0.0, ate_median_m = 0.0, ate_max_m = 0.0;

@@ -4,7 +4,9 @@
 // Exit status: 0 done (and within --max-ate), 1 bad input or ATE over --max-ate, 2 bad usage.
 
 #include <cstdio>
+#include <filesystem>
 #include <string>
+#include <vector>
 
 #include "core/common/atomic_write.h"
 #include "core/common/command_line.h"
@@ -16,8 +18,11 @@ int main(int argc, char** argv) {
   std::string run, log, store, json;
   double max_ate_m = 0.0;
   CommandLine cli("evermap-pipeline-eval",
-                  "Compares a map with the ground truth of a simulated run (evermap-sim-measure --out).");
-  cli.value("--run", &run, "DIR", "the run folder: session-NN.tum and run.sim.txt", true);
+                  "Compares a map with the ground truth of a run (evermap-sim-measure --out, or logs with GROUND_TRUTH).");
+  cli.value("--run", &run, "DIR", "the run folder of evermap-sim-measure: session-NN.tum and run.sim.txt");
+  std::vector<std::string> truth_logs;
+  cli.repeated("--truth-log", &truth_logs, "LOG",
+               "instead of --run: LCM logs with GROUND_TRUTH (evermap-sim-render, the data-set converters)");
   cli.value("--log", &log, "LOG", "an LCM log recorded from the pipeline (last MAP_GRAPH, POSE, MAPPER_STATS)");
   cli.value("--store", &store, "MAP.db", "a map store instead of a log");
   cli.value("--max-ate", &max_ate_m, "M", "exit 1 when the node ATE rmse exceeds M metres (0: no limit)");
@@ -34,7 +39,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-pipeline-eval: %s\n", e.message.c_str());
     return 1;
   };
-  auto truth = mapper::readRunTruth(run);
+  if (run.empty() == truth_logs.empty()) {
+    std::fprintf(stderr, "evermap-pipeline-eval: give exactly one of --run and --truth-log\n%s", cli.usage().c_str());
+    return 2;
+  }
+  std::vector<std::filesystem::path> truth_files(truth_logs.begin(), truth_logs.end());
+  auto truth = run.empty() ? mapper::readLogTruth(truth_files) : mapper::readRunTruth(run);
   if (!truth) return fail(truth.error());
   mapper::RecordedRun recorded;
   if (!log.empty()) {

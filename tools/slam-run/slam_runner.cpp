@@ -1,0 +1,389 @@
+#include "tools/slam-run/slam_runner.h"
+
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <set>
+#include <sstream>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <evermap/imu_t.hpp>
+#include <evermap/pose_t.hpp>
+#include <evermap/wheel_odom_t.hpp>
+
+#include "core/geometry/se2.h"
+#include "core/messages/channels.h"
+#include "core/messages/convert.h"
+#include "elevator-proc/lcm_convert.h"
+#include "imu-proc/lcm_convert.h"
+#include "mapper-proc/lcm_node.h"
+
+namespace evermap::slam {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+core::SE3d poseOf(const pose_t& m) {
+  const Eigen::Quaterniond q(m.orientation[0], m.orientation[1], m.orientation[2], m.orientation[3]);
+  return core::SE3d(q.normalized(), core::Vec3(m.position[0], m.position[1], m.position[2]));
+}
+
+int64_t peakRssKb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_maxrss;
+}
+
+}  // namespace
+
+Status SlamRunOptions::validate() const {
+  if (Status s = vo.validate(); !s) return s;
+  if (Status s = attitude.validate(); !s) return s;
+  if (!(attitude_rate_hz > 0.0)) return Error("attitude_rate_hz: must be > 0");
+  if (Status s = loopclose.validate(); !s) return s;
+  if (Status s = registration.validate(); !s) return s;
+  if (Status s = mapper.validate(); !s) return s;
+  if (store.empty()) return Error("a map store is needed (sessions restore the map from it)");
+  if (!(false_closure_m > 0.0) || !(false_closure_deg > 0.0)) return Error("false closure thresholds must be > 0");
+  if (!(max_session_s >= 0.0)) return Error("max_session_s: must be >= 0");
+  return Ok{};
+}
+
+SlamRunner::SlamRunner(const bow::Vocabulary& vocabulary, const SlamRunOptions& options)
+    : vocabulary_(vocabulary), options_(options) {}
+SlamRunner::~SlamRunner() = default;
+
+Expected<std::unique_ptr<SlamRunner>> SlamRunner::create(const bow::Vocabulary& vocabulary,
+                                                         const SlamRunOptions& options) {
+  if (Status s = options.validate(); !s) return s.error();
+  std::unique_ptr<SlamRunner> r(new SlamRunner(vocabulary, options));
+  auto registration = loopclose::CoreRegistration::create(options.registration);
+  if (!registration) return registration.error();
+  r->registration_ = std::make_unique<loopclose::CoreRegistration>(std::move(*registration));
+  auto store = mapper::MapStore::open(options.store);
+  if (!store) return store.error();
+  r->store_ = std::move(*store);
+  // The loop closer's places live in memory for the whole run (loopclose-proc would reload
+  // the same from its place store after a restart).
+  auto closer = loopclose::LoopCloser::create(vocabulary, *r->registration_, options.loopclose, std::nullopt);
+  if (!closer) return closer.error();
+  r->loop_closer_ = std::move(*closer);
+  return r;
+}
+
+void SlamRunner::inputError(const std::string& what) {
+  ++summary_.input_errors;
+  if (summary_.errors.size() < 20) summary_.errors.push_back(what);
+}
+
+Status SlamRunner::startMapper(int session) {
+  if (mapper_) {
+    if (Status s = store_->save(*mapper_, mapper_->session(), session_start_utime_); !s) return s;
+  }
+  auto held = store_->load();
+  if (!held) return held.error();
+  auto m = std::make_unique<mapper::Mapper>(options_.mapper, session);
+  if (!held->nodes.empty()) {
+    if (Status s = m->restore(*held); !s) return makeError(options_.store.string(), ": ", s.error().message);
+  }
+  if (mapper_) {  // the run's totals
+    mapper_before_.addCounters(mapper_->stats());
+    addTrackerCounts(mapper_->tracker().counts());
+  }
+  mapper_ = std::move(m);
+  calibration_ = mapper::CalibrationLatch{};
+  return Ok{};
+}
+
+void SlamRunner::addTrackerCounts(const mapper::TrackerCounts& c) {
+  mapper::TrackerCounts& t = summary_.tracker;
+  t.vo_applied += c.vo_applied;
+  t.vo_failed += c.vo_failed;
+  t.wheel_applied += c.wheel_applied;
+  t.dropped += c.dropped;
+  t.restarts += c.restarts;
+  t.relinked += c.relinked;
+  t.relinks_refused += c.relinks_refused;
+  t.reanchored += c.reanchored;
+  t.vo_timeouts += c.vo_timeouts;
+}
+
+void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
+  while (true) {
+    auto nodes = mapper_->takeNodesAdded();
+    auto requests = mapper_->takeRequests();
+    if (nodes.empty() && requests.empty()) return;
+    for (const node_added_t& n : nodes) {
+      const auto t0 = Clock::now();
+      if (Status s = loop_closer_->addNode(n); !s) inputError("NODE_ADDED: " + s.error().message);
+      *loopclose_s += since(t0);
+    }
+    for (const register_request_t& r : requests) {
+      auto t0 = Clock::now();
+      const register_result_t answer = loop_closer_->answer(r);
+      *loopclose_s += since(t0);
+      ++requests_answered_;
+      RegistrationRow row;
+      row.query_utime = r.keyframe_utime;
+      row.mode = r.mode;
+      row.status = answer.status;
+      row.inliers = answer.num_inliers;
+      row.score = answer.score;
+      if (answer.status == register_result_t::STATUS_OK) {
+        ++answers_ok_;
+        row.node = answer.node_id;
+        if (answer.node_id >= 0 && answer.node_id < static_cast<int64_t>(mapper_->nodes().size()))
+          row.node_keyframe_utime = mapper_->nodes()[static_cast<size_t>(answer.node_id)].keyframe_utime;
+        const Eigen::Quaterniond q(answer.orientation[0], answer.orientation[1], answer.orientation[2],
+                                   answer.orientation[3]);
+        const core::SE3d& A = mapper_->tracker().bodyTCamera();
+        row.b_T_q = A * core::SE3d(q.normalized(), core::Vec3(answer.translation[0], answer.translation[1],
+                                                              answer.translation[2])) * A.inverse();
+      }
+      registrations_.push_back(row);
+      t0 = Clock::now();
+      if (Status s = mapper_->onRegisterResult(answer); !s) inputError("REGISTER_RESULT: " + s.error().message);
+      *mapper_s += since(t0);
+    }
+  }
+}
+
+Status SlamRunner::runSession(const std::filesystem::path& log_file) {
+  lcm::LogFile log(log_file.string(), "r");
+  if (!log.good()) return makeError(log_file.string(), ": cannot open the LCM log");
+  const int session = sessions_++;
+  if (Status s = startMapper(session); !s) return s;
+  auto vo = vo::VoPipeline::create(options_.vo);
+  if (!vo) return vo.error();
+  imu::AttitudeStream attitude(options_.attitude, options_.attitude_rate_hz);
+  elevator::ElevatorTracker elevator(options_.elevator);
+  std::optional<imu::Attitude> latest_attitude;
+
+  SessionSummary ss;
+  ss.log = log_file.string();
+  ss.session = session;
+  const int64_t nodes_before = static_cast<int64_t>(mapper_->nodes().size());
+  const bool starts_lost = mapper_->lost() || !mapper_->nodes().empty();
+  int64_t first_utime = -1, last_utime = -1;
+  session_start_utime_ = -1;
+  ComponentTimes& t = summary_.times;
+  auto t_read = Clock::now();
+  while (const lcm::LogEvent* e = log.readNextEvent()) {
+    const std::string& channel = e->channel;
+    const void* data = e->data;
+    const auto size = static_cast<int64_t>(e->datalen);
+    if (first_utime < 0) first_utime = e->timestamp;
+    last_utime = std::max(last_utime, e->timestamp);
+    if (options_.max_session_s > 0.0 && e->timestamp - first_utime > static_cast<int64_t>(options_.max_session_s * 1e6))
+      break;
+    t.decode_s += since(t_read);
+    double loopclose_s = 0.0, mapper_s = 0.0;
+    if (channel == channels::kStereoCalib) {
+      auto t0 = Clock::now();
+      if (Status s = vo->handleCalibrationBytes(data, size); !s) inputError("vo: " + s.error().message);
+      t.vo_s += since(t0);
+      t0 = Clock::now();
+      if (Status s = calibration_.handle(data, size, *mapper_); !s) inputError("mapper: " + s.error().message);
+      mapper_s += since(t0);
+    } else if (channel == channels::kStereo) {
+      auto t0 = Clock::now();
+      auto out = vo->handleStereoBytes(data, size);
+      const double vo_s = since(t0);
+      t.vo_s += vo_s;
+      if (!out) {
+        inputError("STEREO: " + out.error().message);
+      } else {
+        ++ss.stereo_frames;
+        if (session_start_utime_ < 0) session_start_utime_ = out->delta.utime;
+        if (out->result.ok()) ++ss.vo_ok;
+        if (out->keyframe) {
+          ++ss.keyframes;
+          t0 = Clock::now();
+          if (Status s = loop_closer_->addKeyframe(*out->keyframe); !s) inputError("KEYFRAME: " + s.error().message);
+          loopclose_s += since(t0);
+        }
+        t0 = Clock::now();
+        if (!calibration_.haveCamera()) {
+          inputError("VO_DELTA before STEREO_CALIB");
+        } else if (Status s = mapper_->onVo(out->delta); !s) {
+          inputError("VO_DELTA: " + s.error().message);
+        }
+        mapper_s += since(t0);
+        exchange(&loopclose_s, &mapper_s);
+        if (mapper_->activeNode() >= 0 && !mapper_->lost())
+          summary_.trajectory.emplace_back(out->delta.utime, mapper_->pose().mean);
+        if (starts_lost && ss.relocalised_after_s < 0 && !mapper_->lost() && mapper_->activeNode() >= 0)
+          ss.relocalised_after_s = 1e-6 * static_cast<double>(out->delta.utime - session_start_utime_);
+        frames_.push_back(FrameRow{out->delta.utime, session, out->delta.status, out->delta.num_inliers, 1e3 * vo_s,
+                                   1e3 * loopclose_s, 1e3 * mapper_s,
+                                   static_cast<int64_t>(mapper_->nodes().size())});
+      }
+    } else if (channel == channels::kImu) {
+      auto msg = messages::decodeLcm<imu_t>(data, size, channel);
+      if (!msg) {
+        inputError(msg.error().message);
+      } else {
+        auto t0 = Clock::now();
+        std::optional<attitude_t> att = attitude.add(*msg);
+        if (att) latest_attitude = imu::fromLcm(*att);
+        const auto events = elevator.add(imu::fromLcm(*msg), latest_attitude ? &*latest_attitude : nullptr);
+        t.imu_s += since(t0);
+        t0 = Clock::now();
+        if (att) {
+          if (Status s = mapper_->onAttitude(*att); !s) inputError("ATTITUDE: " + s.error().message);
+        }
+        for (const auto& ev : events) {
+          ++ss.floor_events;
+          if (Status s = mapper_->onFloor(elevator::toLcm(ev)); !s) inputError("FLOOR: " + s.error().message);
+        }
+        mapper_s += since(t0);
+      }
+    } else if (channel == channels::kWheelOdom) {
+      auto msg = messages::decodeLcm<wheel_odom_t>(data, size, channel);
+      const auto t0 = Clock::now();
+      if (!msg) {
+        inputError(msg.error().message);
+      } else if (Status s = mapper_->onWheel(*msg); !s) {
+        inputError("WHEEL_ODOM: " + s.error().message);
+      }
+      mapper_s += since(t0);
+    } else if (channel == channels::kGroundTruth) {
+      auto msg = messages::decodeLcm<pose_t>(data, size, channel);
+      if (msg) {
+        truth_[msg->utime] = poseOf(*msg);
+        truth_floor_[msg->utime] = {msg->floor, msg->session};
+      }
+    }
+    exchange(&loopclose_s, &mapper_s);
+    t.loopclose_s += loopclose_s;
+    t.mapper_s += mapper_s;
+    t_read = Clock::now();
+  }
+  t.decode_s += since(t_read);
+  if (first_utime < 0) return makeError(log_file.string(), ": no event in the log");
+  ss.duration_s = 1e-6 * static_cast<double>(last_utime - first_utime);
+  ss.nodes_added = static_cast<int64_t>(mapper_->nodes().size()) - nodes_before;
+  summary_.data_s += ss.duration_s;
+  const vo::PipelineStats& vs = vo->stats();
+  summary_.vo.frames += vs.frames;
+  for (size_t i = 0; i < vs.by_status.size(); ++i) summary_.vo.by_status[i] += vs.by_status[i];
+  summary_.vo.keyframes += vs.keyframes;
+  summary_.vo.calibrations += vs.calibrations;
+  summary_.vo.calibrations_refused += vs.calibrations_refused;
+  summary_.vo.undecodable += vs.undecodable;
+  summary_.sessions.push_back(ss);
+  return store_->save(*mapper_, mapper_->session(), session_start_utime_ >= 0 ? session_start_utime_ : first_utime);
+}
+
+Expected<SlamRunSummary> SlamRunner::finish() {
+  if (!mapper_) return Error("no session was run");
+  if (Status s = store_->save(*mapper_, mapper_->session(), session_start_utime_); !s) return s.error();
+  SlamRunSummary& out = summary_;
+  const mapper::Mapper& m = *mapper_;
+  out.mapper = m.stats();
+  out.mapper.addCounters(mapper_before_);
+  addTrackerCounts(m.tracker().counts());
+  out.loopclose = loop_closer_->stats();
+  out.nodes = static_cast<int64_t>(m.nodes().size());
+  out.edges = static_cast<int64_t>(m.constraints().pairs().size());
+  out.floors = static_cast<int64_t>(m.floors().size());
+  out.loop_proposals = requests_answered_;
+  out.verified = answers_ok_;
+  out.rejected = out.mapper.rejected_map_gate + out.mapper.rejected_inconsistent;
+  out.accepted_closures = 0;
+  for (const auto& c : m.constraints().all())
+    if (c.accepted && c.kind == mapper::ConstraintKind::kLoop) ++out.accepted_closures;
+  out.peak_rss_kb = peakRssKb();
+
+  auto truth = mapper::truthFromSamples(truth_, truth_floor_);
+  if (truth) {
+    // Accepted closures against the truth at their nodes' keyframes.
+    std::map<int64_t, core::SE3d> node_truth;
+    for (const mapper::MapperNode& n : m.nodes()) {
+      core::SE3d p;
+      if (truth->at(n.keyframe_utime, &p)) node_truth[n.id] = p;
+    }
+    out.false_closures = 0;
+    for (const auto& c : m.constraints().all()) {
+      if (!c.accepted || c.kind != mapper::ConstraintKind::kLoop) continue;
+      auto a = node_truth.find(c.from), bb = node_truth.find(c.to);
+      if (a == node_truth.end() || bb == node_truth.end()) continue;
+      ++out.closures_with_truth;
+      const core::SE3d err = (a->second.inverse() * bb->second).inverse() * c.from_T_to.mean;
+      if (err.translation().norm() > options_.false_closure_m ||
+          core::rotationAngle(err.so3()) * 180.0 / std::numbers::pi > options_.false_closure_deg)
+        ++out.false_closures;
+    }
+    for (RegistrationRow& row : registrations_) {
+      core::SE3d b, q;
+      if (row.node < 0 || !truth->at(row.node_keyframe_utime, &b) || !truth->at(row.query_utime, &q)) continue;
+      const core::SE3d err = (b.inverse() * q).inverse() * row.b_T_q;
+      row.error_m = err.translation().norm();
+      row.error_deg = core::rotationAngle(err.so3()) * 180.0 / std::numbers::pi;
+    }
+    // New nodes of a session where an earlier session had one (true poses; 1 m, π/8).
+    for (SessionSummary& ss : out.sessions) ss.nodes_in_mapped_area = 0;
+    for (const mapper::MapperNode& n : m.nodes()) {
+      auto it = node_truth.find(n.id);
+      if (it == node_truth.end()) continue;
+      const core::SE2d p = core::toPlanar(it->second);
+      for (const mapper::MapperNode& o : m.nodes()) {
+        if (o.session >= n.session) continue;
+        auto jt = node_truth.find(o.id);
+        if (jt == node_truth.end()) continue;
+        const core::SE2d q = core::toPlanar(jt->second);
+        const double dyaw = std::remainder(p.theta() - q.theta(), 2.0 * std::numbers::pi);
+        if ((p.translation() - q.translation()).norm() <= 1.0 && std::abs(dyaw) <= std::numbers::pi / 8 &&
+            std::abs(it->second.translation().z() - jt->second.translation().z()) < 1.0) {
+          for (SessionSummary& ss : out.sessions)
+            if (ss.session == n.session) ++ss.nodes_in_mapped_area;
+          break;
+        }
+      }
+    }
+    auto map = mapper::mapFromGraph(mapper::graphMessage(m, 0));
+    if (!map) return map.error();
+    auto e = mapper::evaluateMap(*map, *truth, out.trajectory);
+    if (e) out.evaluation = *e;
+    else out.errors.push_back("evaluation: " + e.error().message);
+  }
+  return out;
+}
+
+std::string SlamRunSummary::text() const {
+  std::ostringstream s;
+  s << "sessions " << sessions.size() << "\ndata_s " << data_s << "\nwall_s " << wall_s << "\nrealtime_factor "
+    << (wall_s > 0 ? data_s / wall_s : 0.0) << "\npeak_rss_mb " << peak_rss_kb / 1024 << "\n";
+  for (const SessionSummary& ss : sessions) {
+    s << "session." << ss.session << " log " << ss.log << " duration_s " << ss.duration_s << " frames "
+      << ss.stereo_frames << " vo_ok " << ss.vo_ok << " keyframes " << ss.keyframes << " floor_events "
+      << ss.floor_events << " nodes_added " << ss.nodes_added << " nodes_in_mapped_area " << ss.nodes_in_mapped_area
+      << " relocalised_after_s " << ss.relocalised_after_s << "\n";
+  }
+  s << "nodes " << nodes << "\nedges " << edges << "\nfloors " << floors << "\nloop_proposals " << loop_proposals
+    << " (node " << mapper.requests_node << ", global " << mapper.requests_global << ")\nverified " << verified
+    << "\naccepted_closures " << accepted_closures << "\nrejected " << rejected << " (map gate "
+    << mapper.rejected_map_gate << ", other floor " << mapper.rejected_floor << ", inconsistent " << mapper.rejected_inconsistent << ", recovered "
+    << mapper.gate_recoveries << ")\nrelocalizations " << mapper.relocalizations << "\n";
+  if (false_closures >= 0)
+    s << "false_closures " << false_closures << " (of " << closures_with_truth << " with truth)\n";
+  s << "vo " << vo.report() << "\ntracker vo_applied " << tracker.vo_applied << ", vo_failed " << tracker.vo_failed
+    << ", wheel_applied " << tracker.wheel_applied << ", restarts " << tracker.restarts << ", relinked "
+    << tracker.relinked << ", relinks_refused " << tracker.relinks_refused << ", reanchored " << tracker.reanchored
+    << ", vo_timeouts " << tracker.vo_timeouts << ", dropped " << tracker.dropped << "\nloopclose " << loopclose.text()
+    << "\n";
+  if (evaluation) s << evaluation->text();
+  const double n = std::max<double>(1.0, static_cast<double>(vo.frames));
+  s << "ms_per_frame decode " << 1e3 * times.decode_s / n << " vo " << 1e3 * times.vo_s / n << " imu "
+    << 1e3 * times.imu_s / n << " loopclose " << 1e3 * times.loopclose_s / n << " mapper "
+    << 1e3 * times.mapper_s / n << "\ninput_errors " << input_errors << "\n";
+  for (const std::string& e : errors) s << "error " << e << "\n";
+  return s.str();
+}
+
+}  // namespace evermap::slam
