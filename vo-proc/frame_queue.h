@@ -4,6 +4,9 @@
 // odometry process that falls behind should work on the newest images, not on a growing
 // backlog (DESIGN.md: "drops the oldest frames (bounded queue) and counts them").
 //
+// With Full::kWait instead, push() waits for room: an offline reader that runs ahead of its
+// consumer by at most `capacity` elements and loses none (evermap-slam-run).
+//
 // Thread-safe: any number of producers and consumers.
 
 #include <condition_variable>
@@ -20,8 +23,11 @@ namespace evermap::vo {
 template <typename T>
 class BoundedQueue {
  public:
+  enum class Full { kDropOldest, kWait };
+
   // Contract: capacity >= 1 (checked, aborts otherwise).
-  explicit BoundedQueue(size_t capacity) : capacity_(capacity) {
+  explicit BoundedQueue(size_t capacity, Full when_full = Full::kDropOldest)
+      : capacity_(capacity), when_full_(when_full) {
     if (capacity == 0) {
       std::fputs("evermap: BoundedQueue capacity must be positive\n", stderr);
       std::abort();
@@ -32,7 +38,9 @@ class BoundedQueue {
   // element) after close().
   bool push(T value) {
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      std::unique_lock<std::mutex> lock(mutex_);
+      if (when_full_ == Full::kWait)
+        room_.wait(lock, [this] { return closed_ || items_.size() < capacity_; });
       if (closed_) return false;
       if (items_.size() >= capacity_) {
         items_.pop_front();
@@ -52,6 +60,8 @@ class BoundedQueue {
     if (items_.empty()) return std::nullopt;
     T value = std::move(items_.front());
     items_.pop_front();
+    lock.unlock();
+    room_.notify_one();
     return value;
   }
 
@@ -62,6 +72,7 @@ class BoundedQueue {
       closed_ = true;
     }
     ready_.notify_all();
+    room_.notify_all();
   }
 
   size_t size() const {
@@ -79,8 +90,10 @@ class BoundedQueue {
 
  private:
   const size_t capacity_;
+  const Full when_full_;
   mutable std::mutex mutex_;
   std::condition_variable ready_;
+  std::condition_variable room_;  // Full::kWait: an element was popped
   std::deque<T> items_;
   bool closed_ = false;
   int64_t dropped_ = 0;

@@ -140,19 +140,23 @@ PipelineOutput VoPipeline::badInput(int64_t utime, const std::string& why) {
 
 PipelineOutput VoPipeline::handleStereo(const evermap::stereo_image_t& msg) {
   if (!odometry_) return badInput(msg.utime, no_camera_reason_);
-  auto frame = messages::fromMsg(msg);
-  if (!frame) return badInput(msg.utime, "STEREO: " + frame.error().message);
+  return handleFrame(msg.utime, messages::fromMsg(msg));
+}
+
+PipelineOutput VoPipeline::handleFrame(int64_t utime, const Expected<messages::StereoFrame>& frame) {
+  if (!odometry_) return badInput(utime, no_camera_reason_);
+  if (!frame) return badInput(utime, "STEREO: " + frame.error().message);
   if (frame->rectified != calibration_->rectified) {
-    return badInput(msg.utime, frame->rectified
-                                   ? "STEREO: a rectified pair but the calibration is raw"
-                                   : "STEREO: a raw pair but the calibration is rectified");
+    return badInput(utime, frame->rectified
+                               ? "STEREO: a rectified pair but the calibration is raw"
+                               : "STEREO: a raw pair but the calibration is rectified");
   }
   if (rectifier_) {
     auto rect = rectifier_->rectify(frame->left, frame->right);
-    if (!rect) return badInput(msg.utime, "STEREO: " + rect.error().message);
-    return finish(odometry_->process(msg.utime, rect->left, rect->right));
+    if (!rect) return badInput(utime, "STEREO: " + rect.error().message);
+    return finish(odometry_->process(utime, rect->left, rect->right));
   }
-  return finish(odometry_->process(msg.utime, frame->left, frame->right));
+  return finish(odometry_->process(utime, frame->left, frame->right));
 }
 
 Expected<PipelineOutput> VoPipeline::handleStereoBytes(const void* data, int64_t size) {

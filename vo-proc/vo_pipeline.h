@@ -22,6 +22,7 @@
 #include "core/camera/calibration.h"
 #include "core/camera/stereo_rectifier.h"
 #include "core/common/expected.h"
+#include "core/messages/convert.h"
 #include "vo-proc/stereo_odometry.h"
 
 namespace evermap::vo {
@@ -66,6 +67,9 @@ class VoPipeline {
 
   // One stereo pair.
   PipelineOutput handleStereo(const evermap::stereo_image_t& msg);
+  // The same, with the images already decoded (messages::fromMsg of the message at `utime`,
+  // or its error): decoding can run ahead on another thread.
+  PipelineOutput handleFrame(int64_t utime, const Expected<messages::StereoFrame>& frame);
   // From the bytes of an LCM event; an error (nothing to publish) when they do not decode.
   Expected<PipelineOutput> handleStereoBytes(const void* data, int64_t size);
 
