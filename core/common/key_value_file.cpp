@@ -1,5 +1,6 @@
 #include "core/common/key_value_file.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -174,12 +175,15 @@ std::string KeyValueReader::where(const std::string& key) const {
   return e ? e->origin : file_.name() + " (default value)";
 }
 
-Status KeyValueReader::finish(const std::string& ignored_prefix) const {
+Status KeyValueReader::finish(const std::vector<std::string>& ignored_prefixes) const {
   if (!first_error_.empty()) return Error{first_error_};
   const auto& entries = file_.entries();
   for (size_t i = 0; i < entries.size(); ++i) {
     if (used_[i]) continue;
-    if (!ignored_prefix.empty() && entries[i].key.rfind(ignored_prefix, 0) == 0) continue;
+    const std::string& key = entries[i].key;
+    if (std::any_of(ignored_prefixes.begin(), ignored_prefixes.end(),
+                    [&](const std::string& p) { return !p.empty() && key.rfind(p, 0) == 0; }))
+      continue;
     return makeError(entries[i].origin, ": unknown key '", entries[i].key, "'");
   }
   return Ok{};

@@ -69,8 +69,8 @@ class KeyValueReader {
   // "file.conf:12" for a key that was read from the file, else "file.conf (default value)".
   std::string where(const std::string& key) const;
   // The first error, else an error for the first key no read() asked for. Keys starting with
-  // `ignored_prefix` (when not empty) are accepted unread.
-  Status finish(const std::string& ignored_prefix = "") const;
+  // one of `ignored_prefixes` are accepted unread.
+  Status finish(const std::vector<std::string>& ignored_prefixes = {}) const;
 
  private:
   template <typename T>

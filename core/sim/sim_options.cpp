@@ -192,7 +192,9 @@ Expected<SimOptions> loadSimOptions(const KeyValueFile& file) {
     return makeError(reader.where("mode"), ": mode: expected 'building' or 'trajectory', got '", mode, "'");
   }
   visitOptions(o, [&](const char* key, auto* field) { reader.read(key, field); });
-  if (auto s = reader.finish("meta."); !s) return s.error();
+  // meta.*: what the simulator wrote about a run; mapper.*: the mapper's options, which a
+  // run's config may carry (evermap-mapper-run reads them, KeyValueFile::extract).
+  if (auto s = reader.finish({"meta.", "mapper."}); !s) return s.error();
   // An empty string would make the trajectory file the config folder itself.
   if (!o.trajectory.file.empty() && std::filesystem::path(o.trajectory.file).is_relative()) {
     o.trajectory.file = (file.folder() / o.trajectory.file).lexically_normal().string();
