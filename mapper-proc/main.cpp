@@ -44,6 +44,10 @@ int main(int argc, char** argv) {
             "print a progress line (message time, nodes, constraints, drops) every S s of wall "
             "time while messages arrive (0: none)");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  // SIGINT/SIGTERM blocked, then polled between LCM waits: before any thread starts (restoring
+  // a stored map runs a solver batch, whose background worker would otherwise take the signal
+  // and die of it, with no summary and no last flush).
+  StopSignals stop;
   options.full_graph = full_graph;
   auto settings = config.empty() ? KeyValueFile::parse("", "--set") : KeyValueFile::load(config);
   if (settings) {
@@ -100,7 +104,6 @@ int main(int argc, char** argv) {
     }
   }
   mapper::LcmNode node(lcm, m, node_options, store ? &*store : nullptr);
-  StopSignals stop;  // SIGINT/SIGTERM, polled between LCM waits
   int status = 0;
   // Progress is for the person watching, so it runs on the wall clock; the map never sees it.
   using Clock = std::chrono::steady_clock;

@@ -71,6 +71,7 @@ kill -INT "$lpid"; wait "$lpid" || true; lpid=""
 logs="$tmp/logs"
 for p in vo-proc imu-proc elevator-proc mapper-proc loopclose-proc; do
   [ "$(grep -c 'started pid' "$logs/$p.log")" -eq 1 ] || fail "$p was restarted"
+  grep -q "ended: exit code 0 after" "$logs/$p.log" || fail "$p did not stop cleanly on SIGTERM"
 done
 grep -q "calibrations 1 (refused 0)" "$logs/vo-proc.log" || fail "vo-proc did not take the calibration once"
 grep -q "no calibration received yet" "$logs/vo-proc.log" && fail "vo-proc refused frames for want of a calibration"
