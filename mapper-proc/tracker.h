@@ -70,6 +70,19 @@ struct TrackerCounts {
   int64_t relinks_refused = 0; // ... whose motion contradicted the wheels: reanchored instead
   int64_t reanchored = 0;      // VO on a reference the tracker did not know
   int64_t vo_timeouts = 0;     // VO silent for vo_timeout_s: wheel odometry took over
+
+  // Adds another tracker's counts (sessions tracked by successive trackers).
+  void add(const TrackerCounts& o) {
+    vo_applied += o.vo_applied;
+    vo_failed += o.vo_failed;
+    wheel_applied += o.wheel_applied;
+    dropped += o.dropped;
+    restarts += o.restarts;
+    relinked += o.relinked;
+    relinks_refused += o.relinks_refused;
+    reanchored += o.reanchored;
+    vo_timeouts += o.vo_timeouts;
+  }
 };
 
 class Tracker {

@@ -59,7 +59,7 @@ if [ -d "$data/kitti07-mono-160" ]; then
         "$EVERMAP_BIN/evermap-deputy" "'"$root"'/config/pipeline-log.pmd" --log-dir "$OUT/deputy-logs-s$S" \
             --script go --exit-after-script --quiet
         kill -INT $logger; wait $logger || true'
-    grep -hE "^(nodes|loop_closures|relocalizations|vo_before_calibration) " "$vis/deputy-logs-s$s/mapper-proc.log" |
+    { grep -hE "^(nodes|loop_closures|relocalizations|vo_before_calibration) " "$vis/deputy-logs-s$s/mapper-proc.log" || true; } |
       tr '\n' ' ' | sed 's/^/   mapper: /'; echo
   done
   echo "== the live map (last MAP_GRAPH) against the ground truth of the logs"

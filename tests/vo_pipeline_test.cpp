@@ -204,6 +204,30 @@ TEST(BoundedQueue, DropsTheOldestWhenFullAndCountsThem) {
   EXPECT_FALSE(q.push(7));
 }
 
+TEST(BoundedQueue, InWaitModeAProducerAheadOfItsConsumerLosesNothing) {
+  // evermap-slam-run's reader: it waits for room instead of dropping.
+  BoundedQueue<int> q(2, BoundedQueue<int>::Full::kWait);
+  std::thread producer([&] {
+    for (int i = 0; i < 1000; ++i) ASSERT_TRUE(q.push(i));
+    q.close();
+  });
+  std::vector<int> got;
+  while (auto v = q.pop()) {
+    EXPECT_LE(q.size(), 2u);
+    got.push_back(*v);
+  }
+  producer.join();
+  ASSERT_EQ(got.size(), 1000u);
+  for (int i = 0; i < 1000; ++i) EXPECT_EQ(got[static_cast<size_t>(i)], i);
+  EXPECT_EQ(q.dropped(), 0);
+  // A producer waiting on a full queue is released by close().
+  BoundedQueue<int> full(1, BoundedQueue<int>::Full::kWait);
+  ASSERT_TRUE(full.push(1));
+  std::thread blocked([&] { EXPECT_FALSE(full.push(2)); });
+  full.close();
+  blocked.join();
+}
+
 evermap::vo_delta_t delta(int64_t utime, int64_t ref, int8_t status, bool changed,
                           const Vec3& t = Vec3::Zero()) {
   FrameResult r;

@@ -95,24 +95,11 @@ Status SlamRunner::startMapper(int session) {
   }
   if (mapper_) {  // the run's totals
     mapper_before_.addCounters(mapper_->stats());
-    addTrackerCounts(mapper_->tracker().counts());
+    summary_.tracker.add(mapper_->tracker().counts());
   }
   mapper_ = std::move(m);
   calibration_ = mapper::CalibrationLatch{};
   return Ok{};
-}
-
-void SlamRunner::addTrackerCounts(const mapper::TrackerCounts& c) {
-  mapper::TrackerCounts& t = summary_.tracker;
-  t.vo_applied += c.vo_applied;
-  t.vo_failed += c.vo_failed;
-  t.wheel_applied += c.wheel_applied;
-  t.dropped += c.dropped;
-  t.restarts += c.restarts;
-  t.relinked += c.relinked;
-  t.relinks_refused += c.relinks_refused;
-  t.reanchored += c.reanchored;
-  t.vo_timeouts += c.vo_timeouts;
 }
 
 void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
@@ -163,8 +150,9 @@ struct ReadEvent {
   std::string channel;
   int64_t timestamp = 0;
   std::vector<uint8_t> data;
-  std::optional<stereo_image_t> stereo;                 // STEREO that decoded as LCM
-  std::optional<Expected<messages::StereoFrame>> frame;  // ... and its images
+  // STEREO that decoded as LCM: its images, decoded, and its utime.
+  std::optional<Expected<messages::StereoFrame>> frame;
+  int64_t stereo_utime = 0;
   double decode_s = 0.0;
 };
 
@@ -196,11 +184,8 @@ class LogReader {
         auto msg = messages::decodeLcm<stereo_image_t>(e->data, e->datalen, r.channel);
         if (msg) {
           r.frame = messages::fromMsg(*msg);
-          r.stereo = std::move(*msg);
-          // The decoded images are what is used.
-          r.stereo->left.data.clear();
-          r.stereo->right.data.clear();
-          r.data.clear();
+          r.stereo_utime = msg->utime;
+          r.data.clear();  // the decoded images are what is used
         }
       }
       r.decode_s = since(t0);
@@ -258,7 +243,7 @@ Status SlamRunner::runSession(const std::filesystem::path& log_file) {
       auto t0 = Clock::now();
       // Decoded ahead by the reader; what did not decode as LCM fails here as in vo-proc.
       Expected<vo::PipelineOutput> out =
-          e->frame ? Expected<vo::PipelineOutput>(vo->handleFrame(e->stereo->utime, *e->frame))
+          e->frame ? Expected<vo::PipelineOutput>(vo->handleFrame(e->stereo_utime, *e->frame))
                    : vo->handleStereoBytes(data, size);
       const double vo_s = since(t0);
       t.vo_s += vo_s;
@@ -354,7 +339,7 @@ Expected<SlamRunSummary> SlamRunner::finish() {
   const mapper::Mapper& m = *mapper_;
   out.mapper = m.stats();
   out.mapper.addCounters(mapper_before_);
-  addTrackerCounts(m.tracker().counts());
+  out.tracker.add(m.tracker().counts());
   out.loopclose = loop_closer_->stats();
   out.nodes = static_cast<int64_t>(m.nodes().size());
   out.edges = static_cast<int64_t>(m.constraints().pairs().size());

@@ -159,7 +159,6 @@ class SlamRunner {
   // until neither side has anything more.
   void exchange(double* loopclose_s, double* mapper_s);
   void inputError(const std::string& what);
-  void addTrackerCounts(const mapper::TrackerCounts& counts);
 
   const bow::Vocabulary& vocabulary_;
   SlamRunOptions options_;
