@@ -213,9 +213,9 @@ Expected<RunTruth> readLogTruth(const std::vector<std::filesystem::path>& logs) 
       if (e->channel != channels::kGroundTruth) continue;
       auto m = messages::decodeLcm<pose_t>(e->data, e->datalen, e->channel);
       if (!m) return makeError(file.string(), ": ", m.error().message);
-      auto pose = poseOf(m->position, m->orientation, "GROUND_TRUTH " + std::to_string(m->utime));
+      auto pose = messages::fromMsg(*m);
       if (!pose) return makeError(file.string(), ": ", pose.error().message);
-      poses[m->utime] = *pose;
+      poses[m->utime] = pose->mean;
       floor_session[m->utime] = {m->floor, m->session};
     }
   }

@@ -30,11 +30,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-core::SE3d poseOf(const pose_t& m) {
-  const Eigen::Quaterniond q(m.orientation[0], m.orientation[1], m.orientation[2], m.orientation[3]);
-  return core::SE3d(q.normalized(), core::Vec3(m.position[0], m.position[1], m.position[2]));
-}
-
 int64_t peakRssKb() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
@@ -306,8 +301,11 @@ Status SlamRunner::runSession(const std::filesystem::path& log_file) {
       mapper_s += since(t0);
     } else if (channel == channels::kGroundTruth) {
       auto msg = messages::decodeLcm<pose_t>(data, size, channel);
-      if (msg) {
-        truth_[msg->utime] = poseOf(*msg);
+      auto pose = msg ? messages::fromMsg(*msg) : Expected<core::UncertainPose>(msg.error());
+      if (!pose) {
+        inputError("GROUND_TRUTH: " + pose.error().message);
+      } else {
+        truth_[msg->utime] = pose->mean;
         truth_floor_[msg->utime] = {msg->floor, msg->session};
       }
     }
