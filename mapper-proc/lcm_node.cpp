@@ -242,6 +242,10 @@ std::string LcmNode::summary() const {
     << calibration_.counts().refused << "\ncamera_changes " << calibration_.counts().camera_changes
     << "\ngraphs_published " << counts_.graphs << "\nstats_published " << counts_.stats
     << "\nstore_transactions " << counts_.store_transactions << "\n";
+  const TrackerCounts& t = m_.tracker().counts();
+  s << "vo_applied " << t.vo_applied << "\nvo_failed " << t.vo_failed << "\nwheel_applied " << t.wheel_applied
+    << "\nvo_restarts " << t.restarts << "\nrelinked " << t.relinked << "\nrelinks_refused " << t.relinks_refused
+    << "\nreanchored " << t.reanchored << "\nvo_timeouts " << t.vo_timeouts << "\n";
   return s.str();
 }
 

@@ -1,6 +1,7 @@
 #include "mapper-proc/map_store.h"
 
 #include <cstring>
+#include <set>
 #include <string>
 
 namespace evermap::mapper {
@@ -28,14 +29,16 @@ struct Statement {
 
 }  // namespace
 
-Expected<MapStore> MapStore::open(const std::filesystem::path& file) {
+Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapStoreOptions& options) {
+  if (options.fold_after < 0 || options.fold_after == 1)
+    return makeError(file.string(), ": fold_after must be 0 (never) or >= 2");
   sqlite3* db = nullptr;
   if (sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) != SQLITE_OK) {
     std::string msg = db ? sqlite3_errmsg(db) : "out of memory";
     sqlite3_close(db);
     return makeError(file.string(), ": cannot open map store (", msg, ")");
   }
-  MapStore store(db, file);
+  MapStore store(db, file, options);
   const char* schema =
       "PRAGMA journal_mode=WAL;"
       "PRAGMA synchronous=NORMAL;"
@@ -47,17 +50,22 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file) {
       " to_node INTEGER NOT NULL, kind INTEGER NOT NULL, accepted INTEGER NOT NULL, utime INTEGER NOT NULL,"
       " pose BLOB NOT NULL, covariance BLOB NOT NULL);"
       "CREATE TABLE IF NOT EXISTS map_attitude (node_id INTEGER PRIMARY KEY, roll_rad REAL NOT NULL,"
-      " pitch_rad REAL NOT NULL, covariance BLOB NOT NULL);";
+      " pitch_rad REAL NOT NULL, covariance BLOB NOT NULL);"
+      "CREATE TABLE IF NOT EXISTS map_folds (edge_id INTEGER PRIMARY KEY, members INTEGER NOT NULL,"
+      " rejected INTEGER NOT NULL, first_utime INTEGER NOT NULL);"
+      "CREATE INDEX IF NOT EXISTS map_edges_pair ON map_edges (from_node, to_node);"
+      "CREATE TABLE IF NOT EXISTS map_saved (session_id INTEGER PRIMARY KEY, constraints INTEGER NOT NULL);";
   if (Status s = store.exec(schema); !s) return s.error();
   Statement st;
   if (sqlite3_prepare_v2(db, "SELECT COALESCE(MAX(edge_id), -1) FROM map_edges", -1, &st.s, nullptr) != SQLITE_OK ||
       sqlite3_step(st.s) != SQLITE_ROW)
     return makeError(file.string(), ": not a map store (", sqlite3_errmsg(db), ")");
-  store.edges_stored_ = sqlite3_column_int64(st.s, 0);
+  store.last_edge_id_ = sqlite3_column_int64(st.s, 0);
   return store;
 }
 
-MapStore::MapStore(MapStore&& o) noexcept : db_(o.db_), file_(std::move(o.file_)), edges_stored_(o.edges_stored_) {
+MapStore::MapStore(MapStore&& o) noexcept
+    : db_(o.db_), file_(std::move(o.file_)), options_(o.options_), last_edge_id_(o.last_edge_id_) {
   o.db_ = nullptr;
 }
 MapStore& MapStore::operator=(MapStore&& o) noexcept {
@@ -65,7 +73,8 @@ MapStore& MapStore::operator=(MapStore&& o) noexcept {
     sqlite3_close(db_);
     db_ = std::exchange(o.db_, nullptr);
     file_ = std::move(o.file_);
-    edges_stored_ = o.edges_stored_;
+    options_ = o.options_;
+    last_edge_id_ = o.last_edge_id_;
   }
   return *this;
 }
@@ -122,9 +131,19 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     sqlite3_bind_blob(att.s, 4, cov.data(), 4 * sizeof(double), SQLITE_TRANSIENT);
     if (sqlite3_step(att.s) != SQLITE_DONE) return fail("attitude");
   }
+  // This session's mapper's constraints from the first one not stored yet; the restored ones
+  // (stats().restored_constraints) came from this file.
   const auto& all = mapper.constraints().all();
-  for (int64_t id = edges_stored_ + 1; id < static_cast<int64_t>(all.size()); ++id) {
-    const Constraint& c = all[id];
+  auto saved =
+      queryInt("SELECT COALESCE(MAX(constraints), -1) FROM map_saved WHERE session_id = ?1", mapper.firstSession());
+  if (!saved) return fail("map_saved");
+  const int64_t first_new = *saved >= 0 ? *saved : mapper.stats().restored_constraints;
+  const int64_t last_edge_before = last_edge_id_;
+  std::set<std::pair<int64_t, int64_t>> touched;
+  for (int64_t k = first_new; k < static_cast<int64_t>(all.size()); ++k) {
+    const Constraint& c = all[static_cast<size_t>(k)];
+    const int64_t id = ++last_edge_id_;
+    touched.emplace(std::min(c.from, c.to), std::max(c.from, c.to));
     const std::vector<double> pose = poseBlob(c.from_T_to.mean);
     Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov = c.from_T_to.covariance;
     sqlite3_reset(edg.s);
@@ -136,13 +155,117 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     sqlite3_bind_int64(edg.s, 6, c.utime);
     sqlite3_bind_blob(edg.s, 7, pose.data(), static_cast<int>(pose.size() * sizeof(double)), SQLITE_TRANSIENT);
     sqlite3_bind_blob(edg.s, 8, cov.data(), 36 * sizeof(double), SQLITE_TRANSIENT);
-    if (sqlite3_step(edg.s) != SQLITE_DONE) return fail("edges");
+    if (sqlite3_step(edg.s) != SQLITE_DONE) {
+      last_edge_id_ = last_edge_before;
+      return fail("edges");
+    }
+  }
+  {
+    Statement sv;
+    if (sqlite3_prepare_v2(db_, "INSERT OR REPLACE INTO map_saved VALUES (?1, ?2)", -1, &sv.s, nullptr)) {
+      last_edge_id_ = last_edge_before;
+      return fail("prepare");
+    }
+    sqlite3_bind_int64(sv.s, 1, mapper.firstSession());
+    sqlite3_bind_int64(sv.s, 2, static_cast<int64_t>(all.size()));
+    if (sqlite3_step(sv.s) != SQLITE_DONE) {
+      last_edge_id_ = last_edge_before;
+      return fail("map_saved");
+    }
+  }
+  if (options_.fold_after > 0) {
+    for (const auto& [i, j] : touched) {
+      if (Status s = foldPair(mapper, i, j); !s) {
+        (void)exec("ROLLBACK");
+        last_edge_id_ = last_edge_before;
+        return s;
+      }
+    }
   }
   if (Status s = exec("COMMIT"); !s) {
     (void)exec("ROLLBACK");
+    last_edge_id_ = last_edge_before;
     return s;
   }
-  edges_stored_ = static_cast<int64_t>(all.size()) - 1;
+  return Ok{};
+}
+
+Expected<int64_t> MapStore::queryInt(const char* sql, int64_t a, int64_t b) const {
+  Statement st;
+  if (sqlite3_prepare_v2(db_, sql, -1, &st.s, nullptr) != SQLITE_OK)
+    return makeError(file_.string(), ": ", sqlite3_errmsg(db_));
+  sqlite3_bind_int64(st.s, 1, a);
+  if (sqlite3_bind_parameter_count(st.s) >= 2) sqlite3_bind_int64(st.s, 2, b);
+  if (sqlite3_step(st.s) != SQLITE_ROW) return makeError(file_.string(), ": ", sqlite3_errmsg(db_));
+  return sqlite3_column_int64(st.s, 0);
+}
+
+Status MapStore::foldPair(const Mapper& mapper, int64_t i, int64_t j) {
+  const auto pair = mapper.constraints().pairs().find({i, j});
+  if (pair == mapper.constraints().pairs().end()) return Ok{};
+  auto rows = queryInt("SELECT COUNT(*) FROM map_edges WHERE from_node = ?1 AND to_node = ?2", i, j);
+  if (!rows) return rows.error();
+  if (*rows < options_.fold_after) return Ok{};
+  // What the rows stand for: folds count their members, single rows count one.
+  const char* count_sql =
+      "SELECT COALESCE(SUM(CASE WHEN f.edge_id IS NULL THEN e.accepted ELSE f.members END), 0),"
+      " COALESCE(SUM(CASE WHEN f.edge_id IS NULL THEN 1 - e.accepted ELSE f.rejected END), 0),"
+      " MIN(COALESCE(f.first_utime, e.utime)), MAX(e.utime)"
+      " FROM map_edges e LEFT JOIN map_folds f ON f.edge_id = e.edge_id WHERE e.from_node = ?1 AND e.to_node = ?2";
+  int64_t members = 0, rejected = 0, first_utime = 0, last_utime = 0, kind = 0;
+  {
+    Statement st;
+    if (sqlite3_prepare_v2(db_, count_sql, -1, &st.s, nullptr) != SQLITE_OK)
+      return makeError(file_.string(), ": fold: ", sqlite3_errmsg(db_));
+    sqlite3_bind_int64(st.s, 1, i);
+    sqlite3_bind_int64(st.s, 2, j);
+    if (sqlite3_step(st.s) != SQLITE_ROW) return makeError(file_.string(), ": fold: ", sqlite3_errmsg(db_));
+    members = sqlite3_column_int64(st.s, 0);
+    rejected = sqlite3_column_int64(st.s, 1);
+    first_utime = sqlite3_column_int64(st.s, 2);
+    last_utime = sqlite3_column_int64(st.s, 3);
+  }
+  // The pair's kind is its first constraint's (an odometry pair stays one when loops confirm it).
+  auto first_kind = queryInt("SELECT kind FROM map_edges WHERE from_node = ?1 AND to_node = ?2 ORDER BY edge_id LIMIT 1", i, j);
+  if (!first_kind) return first_kind.error();
+  kind = *first_kind;
+  {
+    Statement del_folds, del_edges;
+    if (sqlite3_prepare_v2(db_,
+                           "DELETE FROM map_folds WHERE edge_id IN"
+                           " (SELECT edge_id FROM map_edges WHERE from_node = ?1 AND to_node = ?2)",
+                           -1, &del_folds.s, nullptr) ||
+        sqlite3_prepare_v2(db_, "DELETE FROM map_edges WHERE from_node = ?1 AND to_node = ?2", -1, &del_edges.s, nullptr))
+      return makeError(file_.string(), ": fold: ", sqlite3_errmsg(db_));
+    for (sqlite3_stmt* st : {del_folds.s, del_edges.s}) {
+      sqlite3_bind_int64(st, 1, i);
+      sqlite3_bind_int64(st, 2, j);
+      if (sqlite3_step(st) != SQLITE_DONE) return makeError(file_.string(), ": fold: ", sqlite3_errmsg(db_));
+    }
+  }
+  // The merged estimate as one accepted row, newest of the pair (later constraints of the pair
+  // get larger ids: a restore adds them after it, as they were added after it here).
+  const core::UncertainPose& merged = pair->second.i_T_j;
+  const std::vector<double> pose = poseBlob(merged.mean);
+  const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov = merged.covariance;
+  const int64_t id = ++last_edge_id_;
+  Statement edg, fold;
+  if (sqlite3_prepare_v2(db_, "INSERT INTO map_edges VALUES (?1, ?2, ?3, ?4, 1, ?5, ?6, ?7)", -1, &edg.s, nullptr) ||
+      sqlite3_prepare_v2(db_, "INSERT INTO map_folds VALUES (?1, ?2, ?3, ?4)", -1, &fold.s, nullptr))
+    return makeError(file_.string(), ": fold: ", sqlite3_errmsg(db_));
+  sqlite3_bind_int64(edg.s, 1, id);
+  sqlite3_bind_int64(edg.s, 2, i);
+  sqlite3_bind_int64(edg.s, 3, j);
+  sqlite3_bind_int64(edg.s, 4, kind);
+  sqlite3_bind_int64(edg.s, 5, last_utime);
+  sqlite3_bind_blob(edg.s, 6, pose.data(), static_cast<int>(pose.size() * sizeof(double)), SQLITE_TRANSIENT);
+  sqlite3_bind_blob(edg.s, 7, cov.data(), 36 * sizeof(double), SQLITE_TRANSIENT);
+  sqlite3_bind_int64(fold.s, 1, id);
+  sqlite3_bind_int64(fold.s, 2, members);
+  sqlite3_bind_int64(fold.s, 3, rejected);
+  sqlite3_bind_int64(fold.s, 4, first_utime);
+  if (sqlite3_step(edg.s) != SQLITE_DONE || sqlite3_step(fold.s) != SQLITE_DONE)
+    return makeError(file_.string(), ": fold: ", sqlite3_errmsg(db_));
   return Ok{};
 }
 
@@ -203,8 +326,9 @@ Expected<MapSnapshot> MapStore::load() const {
   {
     Statement st;
     if (sqlite3_prepare_v2(db_,
-                           "SELECT edge_id, from_node, to_node, kind, accepted, utime, pose, covariance FROM map_edges"
-                           " ORDER BY edge_id",
+                           "SELECT e.edge_id, e.from_node, e.to_node, e.kind, e.accepted, e.utime, e.pose, e.covariance,"
+                           " COALESCE(f.members, 0), COALESCE(f.rejected, 0)"
+                           " FROM map_edges e LEFT JOIN map_folds f ON f.edge_id = e.edge_id ORDER BY e.edge_id",
                            -1, &st.s, nullptr))
       return makeError(name, ": ", sqlite3_errmsg(db_));
     while (sqlite3_step(st.s) == SQLITE_ROW) {
@@ -226,6 +350,8 @@ Expected<MapSnapshot> MapStore::load() const {
       Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov;
       std::memcpy(cov.data(), sqlite3_column_blob(st.s, 7), 36 * sizeof(double));
       e.constraint.from_T_to.covariance = cov;
+      e.folded = sqlite3_column_int64(st.s, 8);
+      e.folded_rejected = sqlite3_column_int64(st.s, 9);
       out.edges.push_back(e);
     }
   }

@@ -16,9 +16,24 @@
 //   CREATE TABLE map_attitude (node_id INTEGER PRIMARY KEY, roll_rad REAL NOT NULL,
 //                              pitch_rad REAL NOT NULL,
 //                              covariance BLOB NOT NULL);  -- 4 f64, row-major, (roll, pitch)
+//   CREATE TABLE map_folds    (edge_id INTEGER PRIMARY KEY, members INTEGER NOT NULL,
+//                              rejected INTEGER NOT NULL, first_utime INTEGER NOT NULL);
+//   CREATE TABLE map_saved    (session_id INTEGER PRIMARY KEY,   -- the mapper that started
+//                              constraints INTEGER NOT NULL);    -- it: how many of its
+//                                                                -- constraints are stored
 //
-// Every constraint is an edge (accepted or rejected, DESIGN.md section 3); node poses are
-// the latest estimates and are rewritten in the transaction of each update.
+// Every constraint is an edge (accepted or rejected, DESIGN.md section 3) until its pair is
+// folded; node poses are the latest estimates and are rewritten in each update's transaction.
+//
+// Folding (paper section I: the graph, and so the store, grows with the area, not with the
+// time): once a pair of nodes holds `fold_after` rows, the transaction that adds the last one
+// replaces them by one row, the pair's merged estimate (ConstraintSet::Pair::i_T_j, the
+// information-weighted fusion of its accepted constraints), with a map_folds row saying how
+// many accepted and rejected constraints it stands for and since when. A restored mapper adds
+// it as the pair's first constraint, so the pair's factor and the gate for its next
+// constraints are what they were. A fold is undone as a whole: deleting its row removes the
+// pair's evidence (the next visit registers the pair anew); the single constraints folded
+// into it are not kept.
 
 #include <sqlite3.h>
 
@@ -39,8 +54,15 @@ struct StoredNode {
 };
 
 struct StoredEdge {
-  int64_t edge_id = 0;
+  int64_t edge_id = 0;      // increasing in the order the constraints were made
   Constraint constraint;
+  int64_t folded = 0;       // > 0: a fold of this many accepted constraints (map_folds)
+  int64_t folded_rejected = 0;
+};
+
+struct MapStoreOptions {
+  // A pair's rows are folded into one when they reach this many (0: never fold).
+  int fold_after = 3;
 };
 
 struct MapSnapshot {
@@ -48,33 +70,49 @@ struct MapSnapshot {
   std::vector<std::pair<int, double>> floors;     // (floor index, height m)
   std::vector<StoredNode> nodes;                  // by id
   std::vector<StoredEdge> edges;                  // by id
+
+  // How many constraints the edges stand for (a fold counts its members, accepted and
+  // rejected): every constraint ever made, folded or not.
+  int64_t constraintsRepresented() const {
+    int64_t n = 0;
+    for (const StoredEdge& e : edges) n += e.folded > 0 ? e.folded + e.folded_rejected : 1;
+    return n;
+  }
 };
 
 class MapStore {
  public:
   // Opens (creating if needed) the file, switches it to WAL and creates the tables. Errors
   // name the file.
-  static Expected<MapStore> open(const std::filesystem::path& file);
+  static Expected<MapStore> open(const std::filesystem::path& file, const MapStoreOptions& options = {});
   MapStore(MapStore&& other) noexcept;
   MapStore& operator=(MapStore&& other) noexcept;
   MapStore(const MapStore&) = delete;
   MapStore& operator=(const MapStore&) = delete;
   ~MapStore();
 
-  // One transaction: the session row, the floors, every node (inserted or its pose updated)
-  // and the edges not stored yet (edge ids are indices into the constraint set).
+  // One transaction: the session row, the floors, every node (inserted or its pose updated),
+  // the constraints of this mapper not stored yet (map_saved), and the folds they
+  // complete.
   Status save(const Mapper& mapper, int session, int64_t session_start_utime);
   Expected<MapSnapshot> load() const;
+  // Rows of map_edges (a fold is one).
+  Expected<int64_t> edgeRows() const { return queryInt("SELECT COUNT(*) FROM map_edges"); }
   // PRAGMA integrity_check == "ok".
   Status integrityCheck() const;
 
  private:
-  explicit MapStore(sqlite3* db, std::filesystem::path file) : db_(db), file_(std::move(file)) {}
+  explicit MapStore(sqlite3* db, std::filesystem::path file, const MapStoreOptions& options)
+      : db_(db), file_(std::move(file)), options_(options) {}
   Status exec(const char* sql) const;
+  Expected<int64_t> queryInt(const char* sql, int64_t a = 0, int64_t b = 0) const;
+  // Folds the pair's rows into one when there are fold_after of them (inside save()).
+  Status foldPair(const Mapper& mapper, int64_t i, int64_t j);
 
   sqlite3* db_ = nullptr;
   std::filesystem::path file_;
-  int64_t edges_stored_ = -1;  // highest edge id in the file, read at open
+  MapStoreOptions options_;
+  int64_t last_edge_id_ = -1;  // highest edge id in the file
 };
 
 }  // namespace evermap::mapper

@@ -50,6 +50,8 @@ Status MapperOptions::validate() const {
   if (!(request_timeout_s > 0.0)) return Error{"mapper.request_timeout_s: must be > 0"};
   if (!(session_gap_s > 0.0)) return Error{"mapper.session_gap_s: must be > 0"};
   if (!(recovery_quiet_s >= 0.0)) return Error{"mapper.recovery_quiet_s: must be >= 0"};
+  if (!(recovery_slack_m >= 0.0)) return Error{"mapper.recovery_slack_m: must be >= 0"};
+  if (!(recovery_drift_fraction >= 0.0)) return Error{"mapper.recovery_drift_fraction: must be >= 0"};
   if (!(consistency_gate > 0.0)) return Error{"mapper.consistency_gate: must be > 0"};
   if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
   if (!(recent_exclusion_s >= 0.0)) return Error{"mapper.recent_exclusion_s: must be >= 0"};
@@ -78,6 +80,7 @@ void MapperStats::addCounters(const MapperStats& o) {
   rejected_map_gate += o.rejected_map_gate;
   rejected_floor += o.rejected_floor;
   gate_recoveries += o.gate_recoveries;
+  recoveries_too_far += o.recoveries_too_far;
   relocalizations += o.relocalizations;
   relocalization_disagreements += o.relocalization_disagreements;
   timeouts += o.timeouts;
@@ -93,7 +96,7 @@ std::string MapperStats::text() const {
     << rejected_inconsistent << "\nrequests_node " << requests_node << "\nrequests_global "
     << requests_global << "\nregistrations_ok " << registrations_ok << "\nloop_closures "
     << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept << "\ndelta_fused " << delta_fused
-    << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor " << rejected_floor << "\ngate_recoveries " << gate_recoveries << "\nrelocalizations " << relocalizations
+    << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor " << rejected_floor << "\ngate_recoveries " << gate_recoveries << "\nrecoveries_too_far " << recoveries_too_far << "\nrelocalizations " << relocalizations
     << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrelocalization_disagreements " << relocalization_disagreements << "\nrestored_nodes " << restored_nodes
     << "\nrestored_constraints " << restored_constraints << "\n";
   return s.str();
@@ -102,6 +105,7 @@ std::string MapperStats::text() const {
 Mapper::Mapper(const MapperOptions& options, int session)
     : o_(options),
       session_(session),
+      first_session_(session),
       grid_{options.cell_size_m, options.heading_bins},
       tracker_(options.tracker),
       constraints_(options.consistency_gate),
@@ -627,7 +631,7 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     // A registration that contradicts the tracked Δ is not trusted with it (a false match),
     // unless a second one confirms it: then Δ is what was wrong, and it is replaced.
     if (o_.map_gate > 0 && ConstraintSet::mahalanobis2(f.delta_at_keyframe, b_T_q) > o_.map_gate) {
-      if (!confirmsRejected(b, b_T_q, f.keyframe_utime)) {
+      if (!confirmsRejected(b, b_T_q, f.keyframe_utime, jumpM(f.active, f.delta_at_keyframe, b, b_T_q))) {
         ++stats_.rejected_map_gate;
         gate_rejected_ = true;
         *registered = false;
@@ -660,7 +664,7 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
   // the map gate is for a pair's first constraint, which nothing else can contradict.
   const bool known_pair = constraints_.pairs().count({std::min(f.active, b), std::max(f.active, b)}) > 0;
   const bool contradicts_map = !known_pair && !consistentWithMap(f.active, b, a_T_b);
-  if (contradicts_map && !confirmsRejected(b, b_T_q, f.keyframe_utime)) {
+  if (contradicts_map && !confirmsRejected(b, b_T_q, f.keyframe_utime, jumpM(f.active, f.delta_at_keyframe, b, b_T_q))) {
     ++stats_.rejected_map_gate;
     gate_rejected_ = true;
     *registered = false;
@@ -690,7 +694,11 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
   relocalize_ = true;
 }
 
-bool Mapper::confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime) {
+double Mapper::jumpM(int64_t a, const core::UncertainPose& a_T_q, int64_t b, const core::UncertainPose& b_T_q) const {
+  return ((nodePose(a) * a_T_q.mean).translation() - (nodePose(b) * b_T_q.mean).translation()).norm();
+}
+
+bool Mapper::confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime, double jump_m) {
   // A registration the gate rejects says either that it is a false match or that the map's
   // idea of where the robot is (Δ, or the chain of nodes made since the last closure) went
   // wrong, e.g. after a VO failure longer than its covariance admits. Two rejected
@@ -699,8 +707,15 @@ bool Mapper::confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64
   // mapper adds nodes over mapped places until the session ends.
   // Repeated texture (floor tiles) makes false matches that agree with each other: a Δ that
   // registrations keep confirming, with no gap bridged since, is not overridden by them.
-  const bool agree =
+  bool agree =
       recoveryAllowed(keyframe_utime) && confirmsRelocalization(b, b_T_q, keyframe_utime, rejected_candidate_);
+  // Agreeing registrations one texture period away: not a drift odometry could have made.
+  const double drift_m =
+      o_.recovery_slack_m + o_.recovery_drift_fraction * (tracker_.odometerM() - odometer_at_confirmation_);
+  if (agree && jump_m > drift_m) {
+    ++stats_.recoveries_too_far;
+    agree = false;
+  }
   if (agree) {
     ++stats_.gate_recoveries;
     rejected_candidate_.reset();
@@ -769,6 +784,7 @@ void Mapper::finishStep(bool registered) {
   if (registered) {
     last_confirmed_utime_ = f.keyframe_utime;
     bridges_at_confirmation_ = bridges();
+    odometer_at_confirmation_ = tracker_.odometerM();
   }
   const bool gate_rejected = std::exchange(gate_rejected_, false);
   const auto t0 = Clock::now();
@@ -830,7 +846,8 @@ Status Mapper::restore(const MapSnapshot& map) {
   const auto n_nodes = static_cast<int64_t>(nodes_.size());
   for (size_t k = 0; k < map.edges.size(); ++k) {
     const Constraint& c = map.edges[k].constraint;
-    if (map.edges[k].edge_id != static_cast<int64_t>(k) || c.from < 0 || c.to < 0 || c.from >= n_nodes ||
+    // In the order they were made (a fold comes before its pair's later constraints).
+    if ((k > 0 && map.edges[k].edge_id <= map.edges[k - 1].edge_id) || c.from < 0 || c.to < 0 || c.from >= n_nodes ||
         c.to >= n_nodes || c.from == c.to) {
       nodes_.clear();
       pending_update_ = {};
@@ -849,6 +866,7 @@ Status Mapper::restore(const MapSnapshot& map) {
   stats_.restored_nodes = n_nodes;
   stats_.restored_constraints = static_cast<int64_t>(map.edges.size());
   session_ = max_session + 1;
+  first_session_ = session_;
   active_ = n_nodes - 1;
   lost_ = true;  // where the robot is on this map is unknown until a global registration
   return Ok{};

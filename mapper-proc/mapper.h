@@ -124,6 +124,14 @@ struct MapperOptions {
   // matches that agree with each other, and a Δ that registrations keep confirming is not the
   // one that is wrong.
   double recovery_quiet_s = 3.0;
+  // ... and only when the jump it makes (how far the registrations put the robot from where
+  // the map and Δ put it) is one odometry could have made since the last confirmed
+  // registration: at most recovery_slack_m + recovery_drift_fraction × the distance travelled
+  // since (Tracker::odometerM). A repeated texture (a floor pattern of period 12 m) makes
+  // registrations that agree with each other on a place one period away; odometry does not
+  // drift by a period in a few metres.
+  double recovery_slack_m = 3.0;
+  double recovery_drift_fraction = 0.15;
   TrackerOptions tracker;
   solver::IncrementalOptions solver = mapperSolverOptions();
 
@@ -188,6 +196,7 @@ struct MapperStats {
   int64_t rejected_map_gate = 0;  // registrations that contradicted the map or Δ
   int64_t rejected_floor = 0;     // registrations to a node of another floor
   int64_t gate_recoveries = 0;    // ... accepted after all: a second one agreed with them
+  int64_t recoveries_too_far = 0; // ... not: their jump was more than odometry could drift
   int64_t relocalizations = 0;   // a new session tied to the map by a global registration
   int64_t relocalization_disagreements = 0;  // a lost session's registrations that disagreed
   int64_t timeouts = 0;
@@ -241,6 +250,9 @@ class Mapper {
   const MapperStats& stats() const { return stats_; }
   int floor() const { return floor_; }
   int session() const { return session_; }
+  // The session this mapper started with (constructed or restored): later sessions it maps
+  // (a gap in VO) are numbered after it. Names the mapper in the map store (map_saved).
+  int firstSession() const { return first_session_; }
   // Floor index -> height (metres), as the FLOOR messages reported them.
   const std::map<int, double>& floors() const { return floors_; }
 
@@ -282,8 +294,11 @@ class Mapper {
   bool confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime,
                               const std::optional<RelocalizationCandidate>& candidate);
   // A registration the map gate rejects: true when it confirms the previous rejected one
-  // (then both were right and the map or Δ was wrong); otherwise it becomes the candidate.
-  bool confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime);
+  // (then both were right and the map or Δ was wrong) and its jump_m is a drift odometry could
+  // have made (MapperOptions::recovery_slack_m); otherwise it becomes the candidate.
+  bool confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime, double jump_m);
+  // How far apart the map puts the keyframe q through a (Δ = a_T_q) and through b (b_T_q).
+  double jumpM(int64_t a, const core::UncertainPose& a_T_q, int64_t b, const core::UncertainPose& b_T_q) const;
   // Gaps odometry bridged so far (tracker counts and rides), and whether a gate recovery may
   // override Δ now (MapperOptions::recovery_quiet_s).
   int64_t bridges() const;
@@ -302,6 +317,7 @@ class Mapper {
 
   MapperOptions o_;
   int session_;
+  int first_session_;
   core::PlanarGrid grid_;
   Tracker tracker_;
   ConstraintSet constraints_;
@@ -347,6 +363,7 @@ class Mapper {
   int64_t rides_ = 0;         // ride ends seen
   int64_t last_confirmed_utime_ = -1;   // keyframe of the last accepted registration
   int64_t bridges_at_confirmation_ = 0;  // bridges() then
+  double odometer_at_confirmation_ = 0.0;  // tracker_.odometerM() then
   std::optional<attitude_t> attitude_;
   int64_t last_step_utime_ = -1;
   int64_t last_floor_utime_ = -1;

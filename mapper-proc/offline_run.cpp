@@ -288,7 +288,11 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     stored_nodes = nodes;
     stored_constraints = constraints;
     ++transactions;
-    if (store_status && run.on_commit) run.on_commit(StoreCommit{nodes, constraints, utime});
+    if (store_status && run.on_commit) {
+      auto rows = store->edgeRows();
+      if (!rows) store_status = rows.error();
+      else run.on_commit(StoreCommit{nodes, constraints, *rows, utime});
+    }
   });
 
   sim::SessionObservers observers;

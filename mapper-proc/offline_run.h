@@ -46,8 +46,9 @@ struct TimelineRow {
 // After every map store transaction.
 struct StoreCommit {
   int64_t nodes = 0;  // committed in the file
-  int64_t edges = 0;
-  int64_t utime = 0;  // message time of the update
+  int64_t edges = 0;       // the mapper's constraints
+  int64_t edge_rows = 0;   // rows of map_edges (constraints, folded ones as one)
+  int64_t utime = 0;       // message time of the update
 };
 
 struct OfflineRunOptions {

@@ -75,6 +75,7 @@ UncertainPose Tracker::toBody(const SE3d& cam_motion, const Mat6& cam_covariance
 
 void Tracker::commit(int64_t utime, const UncertainPose& increment) {
   base_ = core::compound(base_, increment);  // eq. (6)-(7)
+  path_odometer_m_ += increment.mean.translation().norm();
   history_.push_back(Increment{utime, increment});
   const int64_t window = static_cast<int64_t>(o_.history_s * 1e6);
   while (!history_.empty() && history_.front().utime < utime - window) history_.pop_front();
@@ -223,6 +224,7 @@ Status Tracker::addWheel(const wheel_odom_t& msg) {
     return Error("WHEEL_ODOM " + std::to_string(msg.utime) + ": covariance is not symmetric positive semi-definite");
   }
   last_wheel_utime_ = msg.utime;
+  wheel_odometer_m_ += std::hypot(msg.delta_x_m, msg.delta_y_m);
   if (vo_mode_) {
     // Kept to bridge a VO failure from its last good frame on.
     recent_wheel_.push_back(msg);

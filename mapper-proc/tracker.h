@@ -112,6 +112,9 @@ class Tracker {
   // VO's reference keyframe (utime) while VO tracks; -1 otherwise.
   int64_t referenceUtime() const { return vo_mode_ ? ref_utime_ : -1; }
   int64_t lastUtime() const { return last_utime_; }
+  // Distance travelled, metres: the wheels' (every WHEEL_ODOM accepted, whichever mode), or
+  // without wheel odometry the path of the increments compounded into Δ.
+  double odometerM() const { return last_wheel_utime_ >= 0 ? wheel_odometer_m_ : path_odometer_m_; }
   const TrackerCounts& counts() const { return counts_; }
 
  private:
@@ -138,6 +141,8 @@ class Tracker {
   int64_t last_wheel_utime_ = -1;
   int64_t vo_lost_utime_ = -1;
   int64_t last_utime_ = -1;
+  double wheel_odometer_m_ = 0.0;
+  double path_odometer_m_ = 0.0;
   std::deque<Increment> history_;
   std::deque<wheel_odom_t> recent_wheel_;  // while VO tracks (wheel_buffer_s)
   TrackerCounts counts_;

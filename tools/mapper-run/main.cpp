@@ -185,7 +185,7 @@ int main(int argc, char** argv) {
       "A-B", "map only sessions A..B of the run (0-based, inclusive)");
   cli.value("--store", &store, "MAP.db",
             "the map store (reduced graph only): a map it holds is continued, each update is one transaction");
-  cli.flag("--progress", &progress, "print 'committed nodes N edges E utime U' after each store transaction");
+  cli.flag("--progress", &progress, "print 'committed nodes N edges E rows R utime U' after each store transaction (E constraints, R rows of map_edges)");
   cli.value("--timeline", &timeline, "FILE.csv", "per-minute timeline CSV (nodes, per-component time, step cost)");
   cli.value("--out", &out, "DIR",
             "timelines, summaries, per-step and per-node errors (steps-M.csv, nodes-M.csv) and the Fig. 4 / "
@@ -273,8 +273,9 @@ int main(int argc, char** argv) {
     if (!full) run.store_file = store;
     if (progress) {
       run.on_commit = [](const mapper::StoreCommit& c) {
-        std::printf("committed nodes %lld edges %lld utime %lld\n", static_cast<long long>(c.nodes),
-                    static_cast<long long>(c.edges), static_cast<long long>(c.utime));
+        std::printf("committed nodes %lld edges %lld rows %lld utime %lld\n", static_cast<long long>(c.nodes),
+                    static_cast<long long>(c.edges), static_cast<long long>(c.edge_rows),
+                    static_cast<long long>(c.utime));
         std::fflush(stdout);
       };
     }

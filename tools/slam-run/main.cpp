@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -14,34 +15,129 @@
 #include "core/common/atomic_write.h"
 #include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
+#include "core/eval/alignment.h"
+#include "core/eval/plot.h"
 #include "core/eval/trajectory.h"
+#include "core/sim/image_sim_options.h"
 #include "mapper-proc/mapper_config.h"
 #include "tools/slam-run/slam_runner.h"
+
+namespace {
+
+void report(const evermap::Status& s) {
+  if (!s) std::fprintf(stderr, "evermap-slam-run: plot: %s\n", s.error().message.c_str());
+}
+
+// The paper's Fig. 4 (the map's nodes against the ground truth: top view, and floors stacked)
+// and Fig. 7 (nodes, and time per component, against operating time), from this run.
+void writeFigures(const std::filesystem::path& dir, const evermap::slam::SlamRunSummary& summary,
+                  const std::vector<evermap::slam::SlamRunner::FrameRow>& frames, bool full_graph) {
+  using namespace evermap;
+  const std::string graph = full_graph ? "full" : "reduced";
+  if (summary.node_positions.size() >= 3) {
+    std::vector<core::Vec3> gt, est;
+    for (const auto& [g, e] : summary.node_positions) {
+      gt.push_back(g);
+      est.push_back(e);
+    }
+    if (auto a = eval::umeyama(est, gt, false)) {
+      for (core::Vec3& p : est) p = a->gt_S_est * p;
+      eval::TopViewOptions top;
+      top.title = "Fig. 4: " + graph + " pose graph from pixels (evermap-slam-run), map nodes against ground truth";
+      char sub[200];
+      std::snprintf(sub, sizeof sub, "%zu nodes, %zu sessions, node ATE rmse %.3f m", gt.size(), summary.sessions.size(),
+                    summary.evaluation ? summary.evaluation->ate_rmse_m : -1.0);
+      top.subtitle = sub;
+      top.gt_label = "nodes, ground truth";
+      top.est_label = "nodes, estimate";
+      top.plane = eval::PlotPlane::kXY;
+      report(eval::writeTopView(dir / "fig4-nodes.png", gt, est, top));
+      // Floors stacked: an oblique view (u = x + 0.5 y, v = 0.35 y + 3 z) as in the paper's figure.
+      auto oblique = [](std::vector<core::Vec3> pts) {
+        for (core::Vec3& p : pts) p = core::Vec3(p.x() + 0.5 * p.y(), 0.35 * p.y() + 3.0 * p.z(), 0.0);
+        return pts;
+      };
+      top.title = "Fig. 4: " + graph + " pose graph from pixels, floors stacked (oblique)";
+      report(eval::writeTopView(dir / "fig4-floors.svg", oblique(gt), oblique(est), top));
+    }
+  }
+  if (frames.empty()) return;
+  // Per minute of operation: nodes at its end, and milliseconds of work per second.
+  eval::ChartSeries nodes{"nodes", {}, {214, 39, 40}, false};
+  eval::ChartSeries vo{"VO (rectify, features, odometry, descriptors)", {}, {31, 119, 180}, false};
+  eval::ChartSeries lc{"loop closing (BoW query, registration)", {}, {44, 160, 44}, false};
+  eval::ChartSeries mp{"mapper (tracking, steps, solver, store)", {}, {214, 39, 40}, false};
+  size_t i = 0;
+  while (i < frames.size()) {
+    const int minute = static_cast<int>(frames[i].run_s / 60.0);
+    double vo_ms = 0, lc_ms = 0, mp_ms = 0;
+    int64_t n = 0;
+    for (; i < frames.size() && static_cast<int>(frames[i].run_s / 60.0) == minute; ++i) {
+      vo_ms += frames[i].vo_ms;
+      lc_ms += frames[i].loopclose_ms;
+      mp_ms += frames[i].mapper_ms;
+      n = frames[i].nodes;
+    }
+    const double h = (minute + 1) / 60.0;
+    nodes.points.emplace_back(h, static_cast<double>(n));
+    vo.points.emplace_back(h, vo_ms / 60.0);
+    lc.points.emplace_back(h, lc_ms / 60.0);
+    mp.points.emplace_back(h, mp_ms / 60.0);
+  }
+  eval::LineChartOptions o;
+  o.x_label = "operating time [h] (sessions end to end)";
+  o.title = "Fig. 7 (bottom): nodes in the " + graph + " graph against operating time, from pixels";
+  o.y_label = "nodes";
+  report(eval::writeLineChart(dir / "fig7-nodes.svg", {nodes}, o));
+  o.title = "Fig. 7 (top): time per component, per minute of operation, from pixels";
+  o.y_label = "ms per s";
+  report(eval::writeLineChart(dir / "fig7-components.svg", {vo, lc, mp}, o));
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace evermap;
   slam::SlamRunOptions options;
   std::string vocab_file, out_dir, config;
-  std::vector<std::string> logs, sets;
+  std::vector<std::string> logs, sets, render_sets;
+  std::string render_config;
+  int render_sessions = -1;
   bool full_graph = false;
   CommandLine cli("evermap-slam-run",
                   "The visual SLAM system in one process: LCM logs (one per session) in, a map out.");
   cli.value("--vocab", &vocab_file, "FILE", "vocabulary (evermap-vocab-train .evoc, or DBoW2/3 .yml.gz)", true);
   cli.value("--out", &out_dir, "DIR",
-            "output folder: map.db, trajectory.tum, frames.csv, registrations.csv, summary.txt (created; an existing map.db is "
+            "output folder: map.db, trajectory.tum, frames.csv, registrations.csv, summary.txt, fig4-nodes.png, fig4-floors.svg, fig7-*.svg "
+            "(created; an existing map.db is "
             "continued as a stored map)",
             true);
   cli.flag("--full-graph", &full_graph, "a node at every step (the paper's baseline) instead of the reduced graph");
   cli.value("--config", &config, "MAPPER.conf", "mapper.* settings (docs/mapper.md)");
   cli.repeated("--set", &sets, "mapper.KEY=VALUE", "override one mapper.* setting");
   cli.value("--max-session-s", &options.max_session_s, "S", "map at most S seconds of each log (0: all)");
+  cli.value("--render", &render_config, "SIM-IMAGE.conf",
+            "render the image-level simulator's sessions on the fly instead of reading logs (config/sim-image-*.conf)");
+  cli.repeated("--render-set", &render_sets, "KEY=VALUE", "override one setting of the --render file");
+  cli.value("--sessions", &render_sessions, "N", "with --render: sessions 0 .. N-1 (default: patrol.sessions)");
   cli.positional(&logs, "LOG...", "LCM logs, mapped as successive sessions");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   auto fail = [](const std::string& what, int code) {
     std::fprintf(stderr, "evermap-slam-run: %s\n", what.c_str());
     return code;
   };
-  if (logs.empty()) return fail("no log given\n" + cli.usage(), 2);
+  if (logs.empty() == render_config.empty()) return fail("give either LCM logs or --render\n" + cli.usage(), 2);
+  std::optional<sim::ImageSimOptions> render;
+  if (!render_config.empty()) {
+    auto file = KeyValueFile::load(render_config, render_sets, "--render-set");
+    if (!file) return fail(file.error().message, 2);
+    auto o = sim::loadImageSimOptions(*file);
+    if (!o) return fail(o.error().message, 2);
+    if (render_sessions < 0) render_sessions = o->sim.patrol.sessions;
+    if (render_sessions < 1 || render_sessions > o->sim.patrol.sessions)
+      return fail("--sessions: must be 1 .. patrol.sessions (" + std::to_string(o->sim.patrol.sessions) + ")", 2);
+    render = *o;
+  }
   auto settings = config.empty() ? KeyValueFile::parse("", "--set") : KeyValueFile::load(config);
   if (settings) {
     if (Status s = settings->setAll(sets, "--set"); !s) settings = s.error();
@@ -64,6 +160,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-slam-run: session %s\n", log.c_str());
     if (Status s = (*runner)->runSession(log); !s) return fail(s.error().message, 1);
   }
+  for (int i = 0; render && i < render_sessions; ++i) {
+    std::fprintf(stderr, "evermap-slam-run: rendering session %d\n", i);
+    render->render.session = i;
+    if (Status s = (*runner)->renderSession(*render); !s) return fail(s.error().message, 1);
+  }
   auto summary = (*runner)->finish();
   if (!summary) return fail(summary.error().message, 1);
   summary->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -73,9 +174,9 @@ int main(int argc, char** argv) {
   if (Status s = eval::writeTum(trajectory, out / "trajectory.tum"); !s && !trajectory.poses.empty())
     return fail(s.error().message, 1);
   std::ostringstream csv;
-  csv << "utime,session,vo_status,inliers,vo_ms,loopclose_ms,mapper_ms,nodes\n";
+  csv << "utime,session,run_s,vo_status,inliers,vo_ms,loopclose_ms,mapper_ms,nodes\n";
   for (const auto& f : (*runner)->frames())
-    csv << f.utime << "," << f.session << "," << f.vo_status << "," << f.inliers << "," << f.vo_ms << ","
+    csv << f.utime << "," << f.session << "," << f.run_s << "," << f.vo_status << "," << f.inliers << "," << f.vo_ms << ","
         << f.loopclose_ms << "," << f.mapper_ms << "," << f.nodes << "\n";
   if (Status s = writeFileAtomically(out / "frames.csv", csv.str()); !s) return fail(s.error().message, 1);
   std::ostringstream reg;
@@ -84,6 +185,7 @@ int main(int argc, char** argv) {
     reg << r.query_utime << "," << r.mode << "," << r.status << "," << r.node << "," << r.node_keyframe_utime << ","
         << r.inliers << "," << r.score << "," << r.error_m << "," << r.error_deg << "\n";
   if (Status s = writeFileAtomically(out / "registrations.csv", reg.str()); !s) return fail(s.error().message, 1);
+  writeFigures(out, *summary, (*runner)->frames(), full_graph);
   const std::string text = summary->text();
   if (Status s = writeFileAtomically(out / "summary.txt", text); !s) return fail(s.error().message, 1);
   std::printf("%s", text.c_str());

@@ -8,6 +8,7 @@
 #include <numbers>
 #include <set>
 #include <sstream>
+#include <functional>
 #include <thread>
 
 #include <lcm/lcm-cpp.hpp>
@@ -19,6 +20,8 @@
 #include "core/geometry/se2.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
+#include "core/sim/image_session.h"
+#include "core/sim/message_sink.h"
 #include "elevator-proc/lcm_convert.h"
 #include "imu-proc/lcm_convert.h"
 #include "mapper-proc/lcm_node.h"
@@ -137,10 +140,10 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
   }
 }
 
-namespace {
+namespace detail {
 
-// One log event, read (and for STEREO, decoded: LCM and PNG) by the reader thread ahead of
-// the pipeline, which then spends its time on the algorithms.
+// One event, read from a log or rendered (and for STEREO, decoded: LCM and PNG) by the
+// producer thread ahead of the pipeline, which then spends its time on the algorithms.
 struct ReadEvent {
   std::string channel;
   int64_t timestamp = 0;
@@ -151,54 +154,111 @@ struct ReadEvent {
   double decode_s = 0.0;
 };
 
-// Reads a log on its own thread, at most `ahead` events in front of the consumer (512: about
-// 25 frames of a 20 Hz stereo log with 200 Hz IMU, ~30 MB of decoded images).
-class LogReader {
- public:
-  explicit LogReader(const std::filesystem::path& file, size_t ahead = 512)
-      : log_(file.string(), "r"), queue_(ahead, vo::BoundedQueue<ReadEvent>::Full::kWait) {
-    if (log_.good()) thread_ = std::thread([this] { run(); });
+ReadEvent makeEvent(const std::string& channel, int64_t timestamp, const uint8_t* p, size_t size) {
+  const auto t0 = Clock::now();
+  ReadEvent r;
+  r.channel = channel;
+  r.timestamp = timestamp;
+  r.data.assign(p, p + size);
+  if (r.channel == channels::kStereo) {
+    auto msg = messages::decodeLcm<stereo_image_t>(p, static_cast<int64_t>(size), r.channel);
+    if (msg) {
+      r.frame = messages::fromMsg(*msg);
+      r.stereo_utime = msg->utime;
+      r.data.clear();  // the decoded images are what is used
+    }
   }
-  ~LogReader() {
+  r.decode_s = since(t0);
+  return r;
+}
+
+// A session's events, produced on their own thread at most `ahead` events in front of the
+// consumer (512: about 25 frames of a 20 Hz stereo session with 200 Hz IMU, ~30 MB of decoded
+// images). The producer is an LCM log or the image-level simulator rendering on the fly.
+class EventStream {
+ public:
+  using Producer = std::function<Status(EventStream&)>;
+  explicit EventStream(Producer produce, size_t ahead = 512)
+      : queue_(ahead, vo::BoundedQueue<ReadEvent>::Full::kWait) {
+    thread_ = std::thread([this, produce = std::move(produce)] {
+      status_ = produce(*this);
+      queue_.close();
+    });
+  }
+  ~EventStream() {
     queue_.close();
     if (thread_.joinable()) thread_.join();
   }
-  bool good() { return log_.good(); }
+  // False once the consumer has stopped (the producer should stop too).
+  bool push(ReadEvent e) { return queue_.push(std::move(e)); }
   std::optional<ReadEvent> next() { return queue_.pop(); }
-
- private:
-  void run() {
-    while (const lcm::LogEvent* e = log_.readNextEvent()) {
-      const auto t0 = Clock::now();
-      ReadEvent r;
-      r.channel = e->channel;
-      r.timestamp = e->timestamp;
-      const auto* p = static_cast<const uint8_t*>(e->data);
-      r.data.assign(p, p + e->datalen);
-      if (r.channel == channels::kStereo) {
-        auto msg = messages::decodeLcm<stereo_image_t>(e->data, e->datalen, r.channel);
-        if (msg) {
-          r.frame = messages::fromMsg(*msg);
-          r.stereo_utime = msg->utime;
-          r.data.clear();  // the decoded images are what is used
-        }
-      }
-      r.decode_s = since(t0);
-      if (!queue_.push(std::move(r))) return;
-    }
+  // The producer's outcome, once next() has returned nullopt.
+  Status finish() {
     queue_.close();
+    if (thread_.joinable()) thread_.join();
+    return status_;
   }
 
-  lcm::LogFile log_;
+ private:
   vo::BoundedQueue<ReadEvent> queue_;
+  Status status_ = Ok{};
   std::thread thread_;
+};
+
+}  // namespace detail
+
+using detail::EventStream;
+using detail::ReadEvent;
+using detail::makeEvent;
+
+namespace {
+
+// Rendered messages into the stream.
+class StreamSink final : public sim::MessageSink {
+ public:
+  explicit StreamSink(EventStream& stream) : stream_(stream) {}
+  void write(const std::string& channel, int64_t utime, const std::vector<uint8_t>& data) override {
+    if (!stream_.push(makeEvent(channel, utime, data.data(), data.size()))) stopped_ = true;
+  }
+  bool stopped() const { return stopped_; }
+
+ private:
+  EventStream& stream_;
+  bool stopped_ = false;
 };
 
 }  // namespace
 
 Status SlamRunner::runSession(const std::filesystem::path& log_file) {
-  LogReader log(log_file);
-  if (!log.good()) return makeError(log_file.string(), ": cannot open the LCM log");
+  auto log = std::make_shared<lcm::LogFile>(log_file.string(), "r");
+  if (!log->good()) return makeError(log_file.string(), ": cannot open the LCM log");
+  EventStream events([log](EventStream& out) -> Status {
+    while (const lcm::LogEvent* e = log->readNextEvent()) {
+      if (!out.push(makeEvent(e->channel, e->timestamp, static_cast<const uint8_t*>(e->data),
+                              static_cast<size_t>(e->datalen))))
+        break;
+    }
+    return Ok{};
+  });
+  return mapSession(events, log_file.string());
+}
+
+Status SlamRunner::renderSession(const sim::ImageSimOptions& options) {
+  sim::ImageSimOptions o = options;
+  o.render.encoding = messages::ImageEncoding::kGray8;  // nothing to compress: no disk
+  auto simulator = sim::ImageSimulator::create(o);
+  if (!simulator) return simulator.error();
+  std::shared_ptr<sim::ImageSimulator> sim = std::move(*simulator);
+  EventStream events([sim](EventStream& out) -> Status {
+    StreamSink sink(out);
+    auto summary = sim->run(sink, [&sink](double) { return !sink.stopped(); });
+    if (!summary) return summary.error();
+    return Ok{};
+  });
+  return mapSession(events, "rendered session " + std::to_string(o.render.session));
+}
+
+Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name) {
   const int session = sessions_++;
   if (Status s = startMapper(session); !s) return s;
   auto vo = vo::VoPipeline::create(options_.vo);
@@ -208,7 +268,7 @@ Status SlamRunner::runSession(const std::filesystem::path& log_file) {
   std::optional<imu::Attitude> latest_attitude;
 
   SessionSummary ss;
-  ss.log = log_file.string();
+  ss.log = name;
   ss.session = session;
   const int64_t nodes_before = static_cast<int64_t>(mapper_->nodes().size());
   const bool starts_lost = mapper_->lost() || !mapper_->nodes().empty();
@@ -266,7 +326,8 @@ Status SlamRunner::runSession(const std::filesystem::path& log_file) {
           summary_.trajectory.emplace_back(out->delta.utime, mapper_->pose().mean);
         if (starts_lost && ss.relocalised_after_s < 0 && !mapper_->lost() && mapper_->activeNode() >= 0)
           ss.relocalised_after_s = 1e-6 * static_cast<double>(out->delta.utime - session_start_utime_);
-        frames_.push_back(FrameRow{out->delta.utime, session, out->delta.status, out->delta.num_inliers, 1e3 * vo_s,
+        const double run_s = summary_.data_s + 1e-6 * static_cast<double>(out->delta.utime - session_start_utime_);
+        frames_.push_back(FrameRow{out->delta.utime, session, run_s, out->delta.status, out->delta.num_inliers, 1e3 * vo_s,
                                    1e3 * loopclose_s, 1e3 * mapper_s,
                                    static_cast<int64_t>(mapper_->nodes().size())});
       }
@@ -315,7 +376,8 @@ Status SlamRunner::runSession(const std::filesystem::path& log_file) {
     t_read = Clock::now();
   }
   t.wait_s += since(t_read);
-  if (first_utime < 0) return makeError(log_file.string(), ": no event in the log");
+  if (Status s = log.finish(); !s) return makeError(name, ": ", s.error().message);
+  if (first_utime < 0) return makeError(name, ": no event");
   ss.duration_s = 1e-6 * static_cast<double>(last_utime - first_utime);
   ss.nodes_added = static_cast<int64_t>(mapper_->nodes().size()) - nodes_before;
   summary_.data_s += ss.duration_s;
@@ -326,8 +388,17 @@ Status SlamRunner::runSession(const std::filesystem::path& log_file) {
   summary_.vo.calibrations += vs.calibrations;
   summary_.vo.calibrations_refused += vs.calibrations_refused;
   summary_.vo.undecodable += vs.undecodable;
+  if (Status s = store_->save(*mapper_, mapper_->session(), session_start_utime_ >= 0 ? session_start_utime_ : first_utime);
+      !s)
+    return s;
+  for (const char* suffix : {"", "-wal"}) {
+    std::error_code ec;
+    const auto bytes = std::filesystem::file_size(options_.store.string() + suffix, ec);
+    if (!ec) ss.store_bytes += static_cast<int64_t>(bytes);
+  }
+  if (auto held = store_->load()) ss.store_edge_rows = static_cast<int64_t>(held->edges.size());
   summary_.sessions.push_back(ss);
-  return store_->save(*mapper_, mapper_->session(), session_start_utime_ >= 0 ? session_start_utime_ : first_utime);
+  return Ok{};
 }
 
 Expected<SlamRunSummary> SlamRunner::finish() {
@@ -349,6 +420,26 @@ Expected<SlamRunSummary> SlamRunner::finish() {
   for (const auto& c : m.constraints().all())
     if (c.accepted && c.kind == mapper::ConstraintKind::kLoop) ++out.accepted_closures;
   out.peak_rss_kb = peakRssKb();
+  out.hours.clear();
+  for (size_t i = 0; i < frames_.size();) {
+    HourFigures h;
+    h.hour = static_cast<int>(frames_[i].run_s / 3600.0);
+    std::vector<double> mapper_ms, loopclose_ms;
+    for (; i < frames_.size() && static_cast<int>(frames_[i].run_s / 3600.0) == h.hour; ++i) {
+      mapper_ms.push_back(frames_[i].mapper_ms);
+      loopclose_ms.push_back(frames_[i].loopclose_ms);
+      h.nodes_at_end = frames_[i].nodes;
+    }
+    h.frames = static_cast<int64_t>(mapper_ms.size());
+    auto p99 = [](std::vector<double>& v) {
+      const size_t k = std::min(v.size() - 1, static_cast<size_t>(0.99 * static_cast<double>(v.size())));
+      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+      return v[k];
+    };
+    h.mapper_p99_ms = p99(mapper_ms);
+    h.loopclose_p99_ms = p99(loopclose_ms);
+    out.hours.push_back(h);
+  }
 
   auto truth = mapper::truthFromSamples(truth_, truth_floor_);
   if (truth) {
@@ -358,6 +449,8 @@ Expected<SlamRunSummary> SlamRunner::finish() {
       core::SE3d p;
       if (truth->at(n.keyframe_utime, &p)) node_truth[n.id] = p;
     }
+    for (const auto& [id, p] : node_truth)
+      out.node_positions.emplace_back(p.translation(), m.nodePose(id).translation());
     out.false_closures = 0;
     for (const auto& c : m.constraints().all()) {
       if (!c.accepted || c.kind != mapper::ConstraintKind::kLoop) continue;
@@ -413,13 +506,17 @@ std::string SlamRunSummary::text() const {
     s << "session." << ss.session << " log " << ss.log << " duration_s " << ss.duration_s << " frames "
       << ss.stereo_frames << " vo_ok " << ss.vo_ok << " keyframes " << ss.keyframes << " floor_events "
       << ss.floor_events << " nodes_added " << ss.nodes_added << " nodes_in_mapped_area " << ss.nodes_in_mapped_area
-      << " relocalised_after_s " << ss.relocalised_after_s << "\n";
+      << " relocalised_after_s " << ss.relocalised_after_s << " store_bytes " << ss.store_bytes << " store_edge_rows "
+      << ss.store_edge_rows << "\n";
   }
+  for (const HourFigures& h : hours)
+    s << "hour." << h.hour << " frames " << h.frames << " nodes_at_end " << h.nodes_at_end << " mapper_p99_ms "
+      << h.mapper_p99_ms << " loopclose_p99_ms " << h.loopclose_p99_ms << "\n";
   s << "nodes " << nodes << "\nedges " << edges << "\nfloors " << floors << "\nloop_proposals " << loop_proposals
     << " (node " << mapper.requests_node << ", global " << mapper.requests_global << ")\nverified " << verified
     << "\naccepted_closures " << accepted_closures << "\nrejected " << rejected << " (map gate "
     << mapper.rejected_map_gate << ", other floor " << mapper.rejected_floor << ", inconsistent " << mapper.rejected_inconsistent << ", recovered "
-    << mapper.gate_recoveries << ")\nrelocalizations " << mapper.relocalizations << "\n";
+    << mapper.gate_recoveries << ", too far to recover " << mapper.recoveries_too_far << ")\nrelocalizations " << mapper.relocalizations << "\n";
   if (false_closures >= 0)
     s << "false_closures " << false_closures << " (of " << closures_with_truth << " with truth)\n";
   s << "vo " << vo.report() << "\ntracker vo_applied " << tracker.vo_applied << ", vo_failed " << tracker.vo_failed

@@ -30,6 +30,7 @@
 #include "core/bow/vocabulary.h"
 #include "core/common/expected.h"
 #include "core/geometry/se3.h"
+#include "core/sim/image_sim_options.h"
 #include "elevator-proc/elevator_tracker.h"
 #include "imu-proc/attitude_stream.h"
 #include "loopclose-proc/core_registration.h"
@@ -41,6 +42,10 @@
 #include "vo-proc/vo_pipeline.h"
 
 namespace evermap::slam {
+
+namespace detail {
+class EventStream;
+}
 
 struct SlamRunOptions {
   vo::PipelineOptions vo;
@@ -83,10 +88,23 @@ struct SessionSummary {
   // tied it to the map (relocalisation); -1: never, or the first session.
   double relocalised_after_s = -1.0;
   int64_t nodes_in_mapped_area = 0;  // new nodes within 1 m / π/8 of an earlier session's node
+  // The map store after the session: file bytes (with its WAL) and rows.
+  int64_t store_bytes = 0;
+  int64_t store_edge_rows = 0;
+};
+
+// One hour of run time (sessions end to end): growth and per-frame cost (DESIGN.md section 9).
+struct HourFigures {
+  int hour = 0;
+  int64_t nodes_at_end = 0;
+  int64_t frames = 0;
+  double mapper_p99_ms = 0.0;     // per stereo frame: tracking, steps, solver, store
+  double loopclose_p99_ms = 0.0;  // per stereo frame: keyframe, appearance query, registration
 };
 
 struct SlamRunSummary {
   std::vector<SessionSummary> sessions;
+  std::vector<HourFigures> hours;
   mapper::MapperStats mapper;
   loopclose::LoopCloserStats loopclose;
   vo::PipelineStats vo;
@@ -106,6 +124,8 @@ struct SlamRunSummary {
   double wall_s = 0.0;
   int64_t peak_rss_kb = 0;
   std::vector<std::pair<int64_t, core::SE3d>> trajectory;  // live pose after each VO frame
+  // Nodes with ground truth: (true position, estimated position), for the Fig. 4 plot.
+  std::vector<std::pair<core::Vec3, core::Vec3>> node_positions;
   std::vector<std::string> errors;  // first few input errors (one line each)
   int64_t input_errors = 0;
 
@@ -120,6 +140,9 @@ class SlamRunner {
 
   // Maps one log as the next session. Errors: the log cannot be read, the store fails.
   Status runSession(const std::filesystem::path& log);
+  // Renders one session of the image-level simulator (options.render.session) and maps it as
+  // the next session, frame by frame as it is rendered (no log on disk: runs of hours).
+  Status renderSession(const sim::ImageSimOptions& options);
   // Saves the store, evaluates against the ground truth seen in the logs (if any).
   Expected<SlamRunSummary> finish();
 
@@ -127,6 +150,7 @@ class SlamRunner {
   struct FrameRow {
     int64_t utime = 0;
     int session = 0;
+    double run_s = 0.0;  // data time since the run's first session started (sessions end to end)
     int vo_status = 0;
     int inliers = 0;
     double vo_ms = 0.0;
@@ -153,8 +177,8 @@ class SlamRunner {
 
  private:
   SlamRunner(const bow::Vocabulary& vocabulary, const SlamRunOptions& options);
-  class Session;
   Status startMapper(int session);
+  Status mapSession(detail::EventStream& events, const std::string& name);
   // Hands the mapper's requests to the loop closer and its answers back, and new nodes to it,
   // until neither side has anything more.
   void exchange(double* loopclose_s, double* mapper_s);
