@@ -34,11 +34,11 @@ void writeFigures(const std::filesystem::path& dir, const evermap::slam::SlamRun
                   const std::vector<evermap::slam::SlamRunner::FrameRow>& frames, bool full_graph) {
   using namespace evermap;
   const std::string graph = full_graph ? "full" : "reduced";
-  if (summary.node_positions.size() >= 3) {
+  if (summary.node_rows.size() >= 3) {
     std::vector<core::Vec3> gt, est;
-    for (const auto& [g, e] : summary.node_positions) {
-      gt.push_back(g);
-      est.push_back(e);
+    for (const auto& n : summary.node_rows) {
+      gt.push_back(n.truth);
+      est.push_back(n.estimate);
     }
     if (auto a = eval::umeyama(est, gt, false)) {
       for (core::Vec3& p : est) p = a->gt_S_est * p;
@@ -108,7 +108,7 @@ int main(int argc, char** argv) {
                   "The visual SLAM system in one process: LCM logs (one per session) in, a map out.");
   cli.value("--vocab", &vocab_file, "FILE", "vocabulary (evermap-vocab-train .evoc, or DBoW2/3 .yml.gz)", true);
   cli.value("--out", &out_dir, "DIR",
-            "output folder: map.db, trajectory.tum, frames.csv, registrations.csv, summary.txt, fig4-nodes.png, fig4-floors.svg, fig7-*.svg "
+            "output folder: map.db, trajectory.tum, frames.csv, registrations.csv, nodes.csv, summary.txt, fig4-nodes.png, fig4-floors.svg, fig7-*.svg "
             "(created; an existing map.db is "
             "continued as a stored map)",
             true);
@@ -180,11 +180,20 @@ int main(int argc, char** argv) {
         << f.loopclose_ms << "," << f.mapper_ms << "," << f.nodes << "\n";
   if (Status s = writeFileAtomically(out / "frames.csv", csv.str()); !s) return fail(s.error().message, 1);
   std::ostringstream reg;
-  reg << "query_utime,mode,status,node,node_keyframe_utime,inliers,score,error_m,error_deg\n";
+  reg << "query_utime,mode,status,node,node_keyframe_utime,inliers,score,error_m,error_deg,outcome\n";
   for (const auto& r : (*runner)->registrations())
     reg << r.query_utime << "," << r.mode << "," << r.status << "," << r.node << "," << r.node_keyframe_utime << ","
-        << r.inliers << "," << r.score << "," << r.error_m << "," << r.error_deg << "\n";
+        << r.inliers << "," << r.score << "," << r.error_m << "," << r.error_deg << "," << r.outcome << "\n";
   if (Status s = writeFileAtomically(out / "registrations.csv", reg.str()); !s) return fail(s.error().message, 1);
+  std::ostringstream nodes_csv;
+  nodes_csv << "node,session,floor,true_floor,keyframe_utime,x,y,z,true_x,true_y,true_z\n";
+  for (const auto& n : summary->node_rows)
+    nodes_csv << n.id << "," << n.session << "," << n.floor << "," << n.true_floor << "," << n.keyframe_utime << ","
+              << n.estimate.x() << "," << n.estimate.y() << "," << n.estimate.z() << "," << n.truth.x() << ","
+              << n.truth.y() << "," << n.truth.z() << "\n";
+  if (!summary->node_rows.empty()) {
+    if (Status s = writeFileAtomically(out / "nodes.csv", nodes_csv.str()); !s) return fail(s.error().message, 1);
+  }
   writeFigures(out, *summary, (*runner)->frames(), full_graph);
   const std::string text = summary->text();
   if (Status s = writeFileAtomically(out / "summary.txt", text); !s) return fail(s.error().message, 1);

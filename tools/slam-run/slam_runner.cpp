@@ -134,8 +134,21 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
       }
       registrations_.push_back(row);
       t0 = Clock::now();
+      const mapper::MapperStats before = mapper_->stats();
       if (Status s = mapper_->onRegisterResult(answer); !s) inputError("REGISTER_RESULT: " + s.error().message);
       *mapper_s += since(t0);
+      const mapper::MapperStats& after = mapper_->stats();
+      RegistrationRow& done = registrations_.back();
+      done.outcome = after.loop_closures > before.loop_closures         ? "closure"
+                     : after.relocalizations > before.relocalizations   ? "relocalised"
+                     : after.gate_recoveries > before.gate_recoveries   ? "recovered"
+                     : after.delta_fused + after.delta_replaced + after.delta_kept >
+                               before.delta_fused + before.delta_replaced + before.delta_kept
+                         ? "active"
+                     : after.rejected_map_gate > before.rejected_map_gate         ? "gate"
+                     : after.rejected_inconsistent > before.rejected_inconsistent ? "inconsistent"
+                     : after.rejected_floor > before.rejected_floor               ? "floor"
+                                                                                  : "none";
     }
   }
 }
@@ -449,8 +462,14 @@ Expected<SlamRunSummary> SlamRunner::finish() {
       core::SE3d p;
       if (truth->at(n.keyframe_utime, &p)) node_truth[n.id] = p;
     }
-    for (const auto& [id, p] : node_truth)
-      out.node_positions.emplace_back(p.translation(), m.nodePose(id).translation());
+    for (const auto& [id, p] : node_truth) {
+      const mapper::MapperNode& n = m.nodes()[static_cast<size_t>(id)];
+      SlamRunSummary::NodeRow row{id, n.session, n.floor, -1, n.keyframe_utime, p.translation(),
+                                  m.nodePose(id).translation()};
+      auto f = truth_floor_.lower_bound(n.keyframe_utime);
+      if (f != truth_floor_.end()) row.true_floor = f->second.first;
+      out.node_rows.push_back(row);
+    }
     out.false_closures = 0;
     for (const auto& c : m.constraints().all()) {
       if (!c.accepted || c.kind != mapper::ConstraintKind::kLoop) continue;

@@ -124,8 +124,16 @@ struct SlamRunSummary {
   double wall_s = 0.0;
   int64_t peak_rss_kb = 0;
   std::vector<std::pair<int64_t, core::SE3d>> trajectory;  // live pose after each VO frame
-  // Nodes with ground truth: (true position, estimated position), for the Fig. 4 plot.
-  std::vector<std::pair<core::Vec3, core::Vec3>> node_positions;
+  // Nodes with ground truth (nodes.csv, the Fig. 4 plot).
+  struct NodeRow {
+    int64_t id = 0;
+    int session = 0;
+    int floor = 0;        // the map's floor label
+    int true_floor = -1;  // the ground truth's floor at the node's keyframe
+    int64_t keyframe_utime = 0;
+    core::Vec3 truth, estimate;
+  };
+  std::vector<NodeRow> node_rows;
   std::vector<std::string> errors;  // first few input errors (one line each)
   int64_t input_errors = 0;
 
@@ -172,6 +180,10 @@ class SlamRunner {
     double score = 0.0;
     core::SE3d b_T_q;  // body frames
     double error_m = -1.0, error_deg = -1.0;  // -1: no truth
+    // What the mapper did with it: closure, relocalised, recovered, active (fused with or
+    // replacing Δ, or kept Δ), gate (refused by the map gate), inconsistent, floor (another
+    // floor's node), none (not registered, or a candidate waiting for a second one).
+    std::string outcome;
   };
   const std::vector<RegistrationRow>& registrations() const { return registrations_; }
 
