@@ -25,6 +25,7 @@
 #include "elevator-proc/lcm_convert.h"
 #include "imu-proc/lcm_convert.h"
 #include "mapper-proc/lcm_node.h"
+#include "mapper-proc/run_metrics.h"
 #include "vo-proc/frame_queue.h"
 
 namespace evermap::slam {
@@ -444,13 +445,8 @@ Expected<SlamRunSummary> SlamRunner::finish() {
       h.nodes_at_end = frames_[i].nodes;
     }
     h.frames = static_cast<int64_t>(mapper_ms.size());
-    auto p99 = [](std::vector<double>& v) {
-      const size_t k = std::min(v.size() - 1, static_cast<size_t>(0.99 * static_cast<double>(v.size())));
-      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-      return v[k];
-    };
-    h.mapper_p99_ms = p99(mapper_ms);
-    h.loopclose_p99_ms = p99(loopclose_ms);
+    h.mapper_p99_ms = mapper::percentile(std::move(mapper_ms), 0.99);
+    h.loopclose_p99_ms = mapper::percentile(std::move(loopclose_ms), 0.99);
     out.hours.push_back(h);
   }
 
