@@ -3,12 +3,13 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <set>
 #include <sstream>
-#include <functional>
 #include <thread>
 
 #include <lcm/lcm-cpp.hpp>
@@ -101,6 +102,25 @@ Status SlamRunner::startMapper(int session) {
   return Ok{};
 }
 
+namespace {
+
+// The mapper's counters that say what it did with a registration answer, in the order they
+// are told apart (counters only: MapperStats also holds the growing per-step timings).
+using OutcomeCounters = std::array<int64_t, 7>;
+OutcomeCounters outcomeCounters(const mapper::MapperStats& s) {
+  return {s.loop_closures,     s.relocalizations,       s.gate_recoveries, s.delta_fused + s.delta_replaced + s.delta_kept,
+          s.rejected_map_gate, s.rejected_inconsistent, s.rejected_floor};
+}
+const char* outcomeOf(const OutcomeCounters& before, const OutcomeCounters& after) {
+  static constexpr const char* kNames[] = {"closure", "relocalised", "recovered", "active",
+                                           "gate",    "inconsistent", "floor"};
+  for (size_t i = 0; i < before.size(); ++i)
+    if (after[i] > before[i]) return kNames[i];
+  return "none";
+}
+
+}  // namespace
+
 void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
   while (true) {
     auto nodes = mapper_->takeNodesAdded();
@@ -135,21 +155,10 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
       }
       registrations_.push_back(row);
       t0 = Clock::now();
-      const mapper::MapperStats before = mapper_->stats();
+      const OutcomeCounters before = outcomeCounters(mapper_->stats());
       if (Status s = mapper_->onRegisterResult(answer); !s) inputError("REGISTER_RESULT: " + s.error().message);
       *mapper_s += since(t0);
-      const mapper::MapperStats& after = mapper_->stats();
-      RegistrationRow& done = registrations_.back();
-      done.outcome = after.loop_closures > before.loop_closures         ? "closure"
-                     : after.relocalizations > before.relocalizations   ? "relocalised"
-                     : after.gate_recoveries > before.gate_recoveries   ? "recovered"
-                     : after.delta_fused + after.delta_replaced + after.delta_kept >
-                               before.delta_fused + before.delta_replaced + before.delta_kept
-                         ? "active"
-                     : after.rejected_map_gate > before.rejected_map_gate         ? "gate"
-                     : after.rejected_inconsistent > before.rejected_inconsistent ? "inconsistent"
-                     : after.rejected_floor > before.rejected_floor               ? "floor"
-                                                                                  : "none";
+      registrations_.back().outcome = outcomeOf(before, outcomeCounters(mapper_->stats()));
     }
   }
 }
@@ -410,7 +419,7 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
     const auto bytes = std::filesystem::file_size(options_.store.string() + suffix, ec);
     if (!ec) ss.store_bytes += static_cast<int64_t>(bytes);
   }
-  if (auto held = store_->load()) ss.store_edge_rows = static_cast<int64_t>(held->edges.size());
+  if (auto rows = store_->edgeRows()) ss.store_edge_rows = *rows;
   summary_.sessions.push_back(ss);
   return Ok{};
 }
