@@ -29,7 +29,7 @@ inline imu_t toLcm(const ImuSample& s) {
 }
 
 inline attitude_t toLcm(const Attitude& a) {
-  attitude_t m;
+  attitude_t m{};
   m.utime = a.utime;
   m.roll_rad = a.roll_rad;
   m.pitch_rad = a.pitch_rad;

@@ -1,4 +1,4 @@
-// evermap-imu-proc: IMU -> ATTITUDE (roll, pitch, covariance). Only options, LCM and the loop;
+// evermap-imu-proc: IMU -> ATTITUDE (roll, pitch, covariance, the gyro's heading). Only options, LCM and the loop;
 // the filter is evermap::imu::AttitudeFilter.
 
 #include <cstdio>
@@ -45,6 +45,7 @@ void usage() {
 int main(int argc, char** argv) {
   using namespace evermap;
   imu::AttitudeFilterOptions options;
+  imu::HeadingOptions heading;
   ProcOptions proc;
   std::string url;
   bool print = false;
@@ -57,10 +58,12 @@ int main(int argc, char** argv) {
     } else if (a == "--config" && has_value) {
       const char* file = argv[++i];
       st = loadFields(&options, file, false);
+      if (st.ok()) st = loadFields(&heading, file, false);
       if (st.ok()) st = loadFields(&proc, file, false);
     } else if (a == "--set" && has_value) {
       const std::string kv = argv[++i];
       st = setFieldFromAssignment(&options, kv);
+      if (!st.ok()) st = setFieldFromAssignment(&heading, kv);
       if (!st.ok()) st = setFieldFromAssignment(&proc, kv);
     } else if (a == "--print-options") {
       print = true;
@@ -73,16 +76,19 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (const Status st = options.validate(); !st.ok()) {
-    std::fprintf(stderr, "evermap-imu-proc: %s\n", st.error().message.c_str());
-    return 2;
+  for (const Status& st : {options.validate(), heading.validate()}) {
+    if (!st.ok()) {
+      std::fprintf(stderr, "evermap-imu-proc: %s\n", st.error().message.c_str());
+      return 2;
+    }
   }
   if (!(proc.publish_rate_hz > 0)) {
     std::fprintf(stderr, "evermap-imu-proc: publish_rate_hz must be > 0\n");
     return 2;
   }
   if (print) {
-    std::printf("%s%s", describeFields(options).c_str(), describeFields(proc).c_str());
+    std::printf("%s%s%s", describeFields(options).c_str(), describeFields(heading).c_str(),
+                describeFields(proc).c_str());
     return 0;
   }
 
@@ -91,7 +97,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-imu-proc: cannot open LCM \"%s\"\n", url.c_str());
     return 1;
   }
-  Publisher handler{&lcm, imu::AttitudeStream(options, proc.publish_rate_hz)};
+  Publisher handler{&lcm, imu::AttitudeStream(options, proc.publish_rate_hz, heading)};
   lcm.subscribe(channels::kImu, &Publisher::onImu, &handler);
 
   StopSignals stop;  // SIGINT/SIGTERM, polled between LCM waits

@@ -162,7 +162,7 @@ Status Mapper::onAttitude(const attitude_t& msg) {
   }
   last_attitude_utime_ = msg.utime;
   if (msg.accel_trusted) attitude_ = msg;
-  return Ok{};
+  return tracker_.addHeading(msg);
 }
 
 Status Mapper::onFloor(const floor_t& msg) {

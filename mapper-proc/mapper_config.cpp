@@ -34,6 +34,10 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.tracker.vo_timeout_s", &o->tracker.vo_timeout_s);
   reader.read("mapper.tracker.wheel_buffer_s", &o->tracker.wheel_buffer_s);
   reader.read("mapper.tracker.relink_gate", &o->tracker.relink_gate);
+  reader.read("mapper.tracker.gyro_heading", &o->tracker.gyro_heading);
+  reader.read("mapper.tracker.gyro_noise_density", &o->tracker.gyro_noise_density);
+  reader.read("mapper.tracker.gyro_bias_correlation_s", &o->tracker.gyro_bias_correlation_s);
+  reader.read("mapper.tracker.heading_extrapolation_s", &o->tracker.heading_extrapolation_s);
   std::string method;
   reader.read("mapper.solver.method", &method);
   reader.read("mapper.solver.batch_every", &o->solver.batch_every);

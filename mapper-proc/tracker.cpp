@@ -1,9 +1,13 @@
 #include "mapper-proc/tracker.h"
 
+#include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <string>
 
 #include <Eigen/Eigenvalues>
+
+#include "core/geometry/se2.h"
 
 namespace evermap::mapper {
 namespace {
@@ -25,6 +29,12 @@ Status TrackerOptions::validate() const {
   if (!(vo_timeout_s > 0.0)) return Error("tracker.vo_timeout_s: must be > 0");
   if (!(relink_gate > 0.0)) return Error("tracker.relink_gate: must be > 0");
   if (!(wheel_buffer_s >= 0.0)) return Error("tracker.wheel_buffer_s: must be >= 0");
+  if (!(gyro_noise_density > 0.0 && std::isfinite(gyro_noise_density)))
+    return Error("tracker.gyro_noise_density: must be > 0");
+  if (!(gyro_bias_correlation_s > 0.0 && std::isfinite(gyro_bias_correlation_s)))
+    return Error("tracker.gyro_bias_correlation_s: must be > 0");
+  if (!(heading_extrapolation_s >= 0.0 && std::isfinite(heading_extrapolation_s)))
+    return Error("tracker.heading_extrapolation_s: must be >= 0");
   return Ok{};
 }
 
@@ -119,8 +129,15 @@ Status Tracker::addVo(const vo_delta_t& msg) {
   last_utime_ = std::max(last_utime_, msg.utime);
   if (restart) {
     // A new reference keyframe at the current estimate.
-    if (vo_mode_) commit(msg.utime, pending_);
-    else commit(msg.utime, UncertainPose{});
+    if (vo_mode_) {
+      commit(msg.utime, pending_);
+    } else {
+      // Wheel odometry last reached the body at its last message, up to a wheel period
+      // before this frame: the rest of the way is extrapolated (in a turn in place a tenth of
+      // a second is degrees), its yaw from the gyro.
+      extrapolateWheel(msg.utime);
+      commit(msg.utime, UncertainPose{});
+    }
     pending_ = UncertainPose{};
     vo_mode_ = true;
     ref_utime_ = msg.utime;
@@ -142,11 +159,28 @@ Status Tracker::addVo(const vo_delta_t& msg) {
   pending_ = ref_T_body;
   ++counts_.vo_applied;
   if (msg.keyframe_changed) {
-    commit(msg.utime, pending_);
+    commit(msg.utime, withGyroYaw(msg.ref_utime, msg.utime, pending_));
     pending_ = UncertainPose{};
     ref_utime_ = msg.utime;
   }
   return Ok{};
+}
+
+UncertainPose Tracker::withGyroYaw(int64_t t0, int64_t t1, const UncertainPose& increment) {
+  const auto gyro = o_.gyro_heading ? gyroYaw(t0, t1) : std::nullopt;
+  if (!gyro) return increment;
+  // An EKF update on the right tangent (υ, ω) of the increment: the gyro measures its yaw,
+  // H = ∂yaw/∂ξ = e_ωz (the body is level to the IMU's accuracy).
+  const double s = increment.covariance(5, 5) + gyro->second;
+  if (!(s > 0.0)) return increment;
+  const double innovation =
+      std::remainder(gyro->first - core::toPlanar(increment.mean).theta(), 2.0 * std::numbers::pi);
+  const core::Vec6 k = increment.covariance.col(5) / s;
+  UncertainPose out;
+  out.mean = increment.mean * SE3d::exp(k * innovation);
+  out.covariance = symmetric(increment.covariance - k * increment.covariance.row(5));
+  ++counts_.gyro_turns;
+  return out;
 }
 
 void Tracker::enterWheelMode(int64_t lost_utime) {
@@ -157,7 +191,7 @@ void Tracker::enterWheelMode(int64_t lost_utime) {
   std::deque<wheel_odom_t> buffered;
   buffered.swap(recent_wheel_);
   for (const wheel_odom_t& w : buffered)
-    if (w.utime > lost_utime) applyWheel(w);
+    if (w.utime > lost_utime) applyWheel(w, lost_utime);
 }
 
 void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t utime) {
@@ -165,6 +199,11 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
     // VO moved on to a reference whose keyframe change never arrived: commit what is known.
     commit(utime, pending_);
     pending_ = UncertainPose{};
+  } else {
+    // Wheel odometry reached the body at its last message, up to a wheel period before this
+    // frame: brought to the frame's time, so that the two are compared (and the frame placed)
+    // over the same interval. In a turn a wheel period is degrees.
+    extrapolateWheel(utime);
   }
   // Back on the reference VO kept through its failures: the reference's commit point is in
   // the history; the increments after it (wheel odometry) are taken back, VO replaces them.
@@ -239,20 +278,103 @@ Status Tracker::addWheel(const wheel_odom_t& msg) {
   }
   // Used only while VO is down, for the increments that end after VO was lost.
   if (msg.utime <= vo_lost_utime_) return Ok{};
-  applyWheel(msg);
+  applyWheel(msg, vo_lost_utime_);
   return Ok{};
 }
 
-void Tracker::applyWheel(const wheel_odom_t& msg) {
+void Tracker::extrapolateWheel(int64_t utime) {
+  if (!last_wheel_ || utime <= last_wheel_->utime || last_wheel_->utime <= last_wheel_->prev_utime) return;
+  const wheel_odom_t& w = *last_wheel_;
+  const double f = static_cast<double>(utime - w.utime) / static_cast<double>(w.utime - w.prev_utime);
+  if (f > 2.0) return;  // the wheels are silent: nothing to extrapolate from
+  wheel_odom_t x = w;
+  x.prev_utime = w.utime;
+  x.utime = utime;
+  x.delta_x_m *= f;
+  x.delta_y_m *= f;
+  x.delta_theta_rad *= f;
+  // Variance of an extrapolation: the increment's own, scaled, and as much again for the
+  // change of speed it cannot see.
+  for (double& c : x.covariance) c *= 2.0 * f;
+  applyWheel(x, x.prev_utime);
+}
+
+Status Tracker::addHeading(const attitude_t& msg) {
+  if (!msg.heading_valid || !o_.gyro_heading) return Ok{};
+  if (!std::isfinite(msg.heading_rad) || !std::isfinite(msg.heading_rate_sigma_rad_s) ||
+      msg.heading_rate_sigma_rad_s < 0.0) {
+    ++counts_.dropped;
+    return makeError("ATTITUDE ", msg.utime, ": heading not finite");
+  }
+  if (!headings_.empty() && msg.utime <= headings_.back().utime) {
+    ++counts_.dropped;
+    return makeError("ATTITUDE ", msg.utime, ": heading out of order");
+  }
+  // A gap (imu-proc restarted, messages lost) or a jump no body turns by: the headings
+  // before it belong to another integration, and nothing bridges the gap.
+  if (!headings_.empty()) {
+    const double dt = static_cast<double>(msg.utime - headings_.back().utime) * 1e-6;
+    if (dt > 0.5 || std::abs(msg.heading_rad - headings_.back().heading_rad) > 10.0 * dt + 0.1)
+      headings_.clear();
+  }
+  headings_.push_back(HeadingSample{msg.utime, msg.heading_rad, msg.heading_rate_sigma_rad_s});
+  const auto keep = static_cast<int64_t>((o_.wheel_buffer_s + 5.0) * 1e6);
+  while (headings_.front().utime < msg.utime - keep) headings_.pop_front();
+  return Ok{};
+}
+
+std::optional<std::pair<double, double>> Tracker::gyroYaw(int64_t t0, int64_t t1) const {
+  if (headings_.size() < 2 || t0 < headings_.front().utime) return std::nullopt;
+  const auto extrapolation = static_cast<int64_t>(o_.heading_extrapolation_s * 1e6);
+  if (t1 > headings_.back().utime + extrapolation) return std::nullopt;
+  auto at = [&](int64_t t) {
+    // The samples around t (the last two past the end: extrapolated at their rate).
+    auto b = std::lower_bound(headings_.begin(), headings_.end(), t,
+                              [](const HeadingSample& h, int64_t u) { return h.utime < u; });
+    if (b == headings_.end()) --b;
+    if (b == headings_.begin()) ++b;
+    const HeadingSample& p = *std::prev(b);
+    const double f = static_cast<double>(t - p.utime) / static_cast<double>(b->utime - p.utime);
+    return p.heading_rad + f * (b->heading_rad - p.heading_rad);
+  };
+  const double dt = static_cast<double>(t1 - t0) * 1e-6;
+  const double sb = headings_.back().rate_sigma;
+  return std::make_pair(at(t1) - at(t0),
+                        sb * sb * dt * o_.gyro_bias_correlation_s + o_.gyro_noise_density * o_.gyro_noise_density * dt);
+}
+
+void Tracker::applyWheel(const wheel_odom_t& msg, int64_t from_utime) {
   last_utime_ = std::max(last_utime_, msg.utime);
+  last_wheel_ = msg;
+  Eigen::Vector3d x(msg.delta_x_m, msg.delta_y_m, msg.delta_theta_rad);
+  Eigen::Matrix3d P;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) P(r, c) = msg.covariance[3 * r + c];
+  // An increment that starts before from_utime (VO's last good frame: VO covered that part):
+  // only its share after it, at constant rate.
+  const int64_t start = std::max(msg.prev_utime, from_utime);
+  if (start > msg.prev_utime && msg.utime > msg.prev_utime) {
+    const double f = static_cast<double>(msg.utime - start) / static_cast<double>(msg.utime - msg.prev_utime);
+    x *= f;
+    P *= f;
+  }
+  const auto gyro = o_.gyro_heading ? gyroYaw(start, msg.utime) : std::nullopt;
+  if (gyro && P(2, 2) + gyro->second > 0.0) {
+    // The gyro's yaw as a measurement of θ (H = e_θ): a Kalman update of (x, y, θ), so a
+    // correlation between the wheels' θ and their translation carries the correction over.
+    const double innovation = std::remainder(gyro->first - x[2], 2.0 * std::numbers::pi);
+    const Eigen::Vector3d k = P.col(2) / (P(2, 2) + gyro->second);
+    x += k * innovation;
+    P -= k * P.row(2);
+    ++counts_.gyro_turns;
+  }
   UncertainPose inc;
-  inc.mean = SE3d(core::SO3d::exp(core::Vec3(0, 0, msg.delta_theta_rad)),
-                  core::Vec3(msg.delta_x_m, msg.delta_y_m, 0.0));
+  inc.mean = SE3d(core::SO3d::exp(core::Vec3(0, 0, x[2])), core::Vec3(x[0], x[1], 0.0));
   // (x, y, θ) map to tangent entries (υx, υy, ωz) = 0, 1, 5; the planar SSC covariance equals
   // the right-perturbation one to first order for increments this small.
   const int idx[3] = {0, 1, 5};
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) inc.covariance(idx[r], idx[c]) = msg.covariance[3 * r + c];
+    for (int c = 0; c < 3; ++c) inc.covariance(idx[r], idx[c]) = P(r, c);
   const double sm = o_.wheel_offplane_sigma_m, sr = o_.wheel_offplane_sigma_rad;
   inc.covariance(2, 2) += sm * sm;
   inc.covariance(3, 3) += sr * sr;

@@ -20,6 +20,12 @@
 // Everything is expressed in the body frame: a camera motion D becomes
 // body_T_cam D cam_T_body, covariance Ad(body_T_cam) Σ Ad(body_T_cam)ᵀ (right perturbations).
 //
+// While wheel odometry carries Δ, the gyro turns it: each wheel increment's yaw is fused
+// (information-weighted, a Kalman update on θ) with the heading change imu-proc's ATTITUDE
+// reports over the same interval (heading_rad, interpolated), whose variance comes from the
+// bias uncertainty it reports. Wheels measure rotation badly (slip, turning in place in the
+// elevator cab); the gyro's yaw is what keeps a floor's heading through a blind stretch.
+//
 // A bounded history of the committed increments lets the mapper compound q_T_now, the motion
 // since a recent keyframe q, when a registration of q comes back.
 
@@ -27,6 +33,7 @@
 #include <deque>
 #include <optional>
 
+#include <evermap/attitude_t.hpp>
 #include <evermap/vo_delta_t.hpp>
 #include <evermap/wheel_odom_t.hpp>
 
@@ -56,6 +63,16 @@ struct TrackerOptions {
   // χ²(3) gate (x, y, yaw) of VO's motion over a failure gap against the wheels' before VO's
   // replaces it (relink); 16.27 = 99.9 %.
   double relink_gate = 16.27;
+  // The gyro's heading (ATTITUDE heading_rad) fused into wheel increments' yaw.
+  bool gyro_heading = true;
+  // Gyro white noise, rad/s/sqrt(Hz), and how long the reported bias error stays the same,
+  // seconds: increments are compounded as independent, so each gets the share
+  // σ_b² dt T of a bias error σ_b that is in fact common to T seconds of them.
+  double gyro_noise_density = 1e-3;
+  double gyro_bias_correlation_s = 10.0;
+  // A wheel increment ending this far past the newest ATTITUDE uses the heading extrapolated
+  // at its last rate (imu-proc's messages lag the wheels' a little), seconds.
+  double heading_extrapolation_s = 0.1;
 
   Status validate() const;
 };
@@ -70,6 +87,8 @@ struct TrackerCounts {
   int64_t relinks_refused = 0; // ... whose motion contradicted the wheels: reanchored instead
   int64_t reanchored = 0;      // VO on a reference the tracker did not know
   int64_t vo_timeouts = 0;     // VO silent for vo_timeout_s: wheel odometry took over
+  int64_t gyro_turns = 0;      // wheel increments and VO keyframe steps whose yaw was fused
+                               // with the gyro's
 
   // Adds another tracker's counts (sessions tracked by successive trackers).
   void add(const TrackerCounts& o) {
@@ -82,6 +101,7 @@ struct TrackerCounts {
     relinks_refused += o.relinks_refused;
     reanchored += o.reanchored;
     vo_timeouts += o.vo_timeouts;
+    gyro_turns += o.gyro_turns;
   }
 };
 
@@ -92,6 +112,8 @@ class Tracker {
   // Each returns an error (and counts a drop) for a message it cannot apply.
   Status addVo(const vo_delta_t& msg);
   Status addWheel(const wheel_odom_t& msg);
+  // The gyro's heading from ATTITUDE (messages without heading_valid are ignored).
+  Status addHeading(const attitude_t& msg);
 
   // Δ_t^a: active_T_body now.
   UncertainPose delta() const;
@@ -129,7 +151,23 @@ class Tracker {
   void enterWheelMode(int64_t lost_utime);
   // Puts an OK frame against reference `ref_utime` that VO mode does not continue onto Δ.
   void rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t utime);
-  void applyWheel(const wheel_odom_t& msg);
+  // Compounds a wheel increment, or its share after from_utime when it starts before.
+  void applyWheel(const wheel_odom_t& msg, int64_t from_utime);
+  // Wheel odometry from its last increment to `utime` at that increment's rate (a VO restart
+  // between two wheel messages).
+  void extrapolateWheel(int64_t utime);
+  std::optional<wheel_odom_t> last_wheel_;  // the last increment applied
+  // The gyro's heading change over [t0, t1] and its variance; empty when the headings kept
+  // do not cover the interval.
+  std::optional<std::pair<double, double>> gyroYaw(int64_t t0, int64_t t1) const;
+  // A VO increment over [t0, t1] with the gyro's yaw over the same interval fused in.
+  UncertainPose withGyroYaw(int64_t t0, int64_t t1, const UncertainPose& increment);
+  struct HeadingSample {
+    int64_t utime;
+    double heading_rad;
+    double rate_sigma;
+  };
+  std::deque<HeadingSample> headings_;
 
   TrackerOptions o_;
   Mat6 ad_body_T_cam_;

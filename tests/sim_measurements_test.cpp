@@ -337,5 +337,29 @@ TEST(SimMeasurements, MessagesAreInTimeOrderAndCarryTheirChannelsTypes) {
   }
 }
 
+
+TEST(SimMeasurements, TheGyroReadsASessionBiasOfItsOwnStream) {
+  // A session's gyro bias: drawn per session from its own stream (no other noise changes),
+  // and what a still gyro reads.
+  ImuOptions o;
+  o.gyro_sigma_radps = 0.0;
+  const Vec3 b0 = gyroBias(o, 5, 0), b1 = gyroBias(o, 5, 1);
+  EXPECT_EQ(b0, gyroBias(o, 5, 0));
+  EXPECT_NE(b0, b1);
+  EXPECT_GT(b0.norm(), 0.0);
+  EXPECT_LT(b0.cwiseAbs().maxCoeff(), 5.0 * o.gyro_bias_sigma_radps);
+  SimOptions sim = smallRun();
+  const RunPlan run = makeRun(sim);
+  const Captured c = capture(run, 1);
+  const Trajectory& traj = *c.plan.trajectory;
+  Random rng(1);
+  // A still moment: before the first ride (the robot stands in the cab).
+  ASSERT_FALSE(c.plan.rides.empty());
+  const imu_t m = measureImu(c.plan.rides.front().start_utime - 500000, traj, o, Vec3::Zero(), b0, rng);
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(m.angular_velocity[i], b0[i], 1e-9);
+  o.gyro_bias_sigma_radps = 0.0;
+  EXPECT_EQ(gyroBias(o, 5, 0), Vec3::Zero());
+}
+
 }  // namespace
 }  // namespace evermap::sim

@@ -235,7 +235,7 @@ std::string smallConfig() {
          "patrol.sessions = 1\npatrol.total_hours = 0.1\npatrol.other_floor_probability = 0.5\n"
          "camera.cx = 32\ncamera.cy = 24\ncamera.fx = 40\ncamera.fy = 40\n"
          "render.width = 64\nrender.height = 48\nrender.rate_hz = 2\nrender.posters = none\n"
-         "imu.rate_hz = 200\nimu.accel_sigma_mps2 = 0\nimu.gyro_sigma_radps = 0\n"
+         "imu.rate_hz = 200\nimu.accel_sigma_mps2 = 0\nimu.gyro_sigma_radps = 0\nimu.gyro_bias_sigma_radps = 0\n"
          "imu.accel_bias_sigma_mps2 = 0\nground_truth.rate_hz = 20\nvo.passerby_rate_per_hour = 0\n";
 }
 

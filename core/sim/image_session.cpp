@@ -184,6 +184,7 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
   Random imu_rng = streamFor(o.sim.seed, Stream::kImuNoise, index);
   const Vec3 imu_bias(so.imu.accel_bias_sigma_mps2 * imu_rng.normal(), so.imu.accel_bias_sigma_mps2 * imu_rng.normal(),
                       so.imu.accel_bias_sigma_mps2 * imu_rng.normal());
+  const Vec3 gyro_bias = gyroBias(so.imu, o.sim.seed, index);
 
   const core::StereoCalibration calib = calibration();
   channels::CalibrationRepeat calib_repeat;
@@ -199,7 +200,7 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
     const int64_t t = std::min({t_imu, gt.next(), wheel_ticks.next(), stereo.next()});
     if (t > end) break;
     if (t == t_imu) {
-      writeMessage(sink, channels::kImu, measureImu(t, traj, so.imu, imu_bias, imu_rng));
+      writeMessage(sink, channels::kImu, measureImu(t, traj, so.imu, imu_bias, gyro_bias, imu_rng));
       imu.advance();
     } else if (t == gt.next()) {
       const BodyState s = traj.at(t);

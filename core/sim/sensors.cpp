@@ -6,6 +6,7 @@
 #include <string>
 
 #include "core/geometry/se2.h"
+#include "core/sim/streams.h"
 
 namespace evermap::sim {
 namespace {
@@ -121,7 +122,7 @@ Status FloorOptions::validate() const {
 Status ImuOptions::validate() const {
   if (auto s = positive(rate_hz, "rate_hz"); !s) return s;
   if (auto s = nonNegative({margin_s}, "margin_s"); !s) return s;
-  if (auto s = nonNegative({accel_sigma_mps2, gyro_sigma_radps, accel_bias_sigma_mps2}, "accel_sigma_mps2"); !s) {
+  if (auto s = nonNegative({accel_sigma_mps2, gyro_sigma_radps, gyro_bias_sigma_radps, accel_bias_sigma_mps2}, "accel_sigma_mps2"); !s) {
     return s;
   }
   return positive(gravity_mps2, "gravity_mps2");
@@ -309,8 +310,14 @@ std::vector<floor_t> floorEvents(const Building& building, const SessionPlan& pl
   return out;
 }
 
+Vec3 gyroBias(const ImuOptions& o, uint64_t seed, int session) {
+  Random rng = streamFor(seed, Stream::kGyroBias, session);
+  const double s = o.gyro_bias_sigma_radps;
+  return Vec3(s * rng.normal(), s * rng.normal(), s * rng.normal());
+}
+
 imu_t measureImu(int64_t utime, const Trajectory& trajectory, const ImuOptions& o, const Vec3& bias,
-                 Random& rng) {
+                 const Vec3& gyro_bias, Random& rng) {
   const BodyState s = trajectory.at(utime);
   const core::SO3d& R = s.world_T_body.so3();
   const Vec3 f = R.inverse() * (s.acceleration_world + Vec3(0.0, 0.0, o.gravity_mps2));
@@ -328,7 +335,7 @@ imu_t measureImu(int64_t utime, const Trajectory& trajectory, const ImuOptions& 
   m.utime = utime;
   for (int i = 0; i < 3; ++i) {
     m.linear_acceleration[i] = f[i] + bias[i] + (o.accel_sigma_mps2 > 0.0 ? o.accel_sigma_mps2 * rng.normal() : 0.0);
-    m.angular_velocity[i] = w[i] + (o.gyro_sigma_radps > 0.0 ? o.gyro_sigma_radps * rng.normal() : 0.0);
+    m.angular_velocity[i] = w[i] + gyro_bias[i] + (o.gyro_sigma_radps > 0.0 ? o.gyro_sigma_radps * rng.normal() : 0.0);
   }
   return m;
 }

@@ -120,13 +120,15 @@ struct FloorOptions {
 
 // Raw IMU samples, only around elevator rides (from margin_s before a ride starts to margin_s
 // after it ends), for testing the elevator detector. Specific force in the body frame plus a
-// per-session bias and white noise; angular velocity plus white noise.
+// per-session bias and white noise; angular velocity plus a per-session bias (a MEMS gyro's
+// turn-on bias, gyro_bias_sigma_radps per axis) and white noise.
 struct ImuOptions {
   bool enabled = true;
   double rate_hz = 50.0;
   double margin_s = 3.0;
   double accel_sigma_mps2 = 0.02;
   double gyro_sigma_radps = 0.002;
+  double gyro_bias_sigma_radps = 0.003;
   double accel_bias_sigma_mps2 = 0.02;
   double gravity_mps2 = 9.80665;
 
@@ -184,8 +186,13 @@ attitude_t measureAttitude(int64_t utime, const BodyState& state, const Attitude
 std::vector<floor_t> floorEvents(const Building& building, const SessionPlan& plan,
                                  const FloorOptions& options, Random& rng);
 
-// IMU sample; `bias` is the session's accelerometer bias.
+// IMU sample; `bias` is the session's accelerometer bias, `gyro_bias` its gyro bias
+// (gyroBias()).
 imu_t measureImu(int64_t utime, const Trajectory& trajectory, const ImuOptions& o,
-                 const Vec3& bias, Random& rng);
+                 const Vec3& bias, const Vec3& gyro_bias, Random& rng);
+
+// The gyro bias of one session: gyro_bias_sigma_radps per axis, from its own random stream
+// (so that it changes no other noise of the session).
+Vec3 gyroBias(const ImuOptions& o, uint64_t seed, int session);
 
 }  // namespace evermap::sim

@@ -125,6 +125,7 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
   const Vec3 imu_bias(o.imu.accel_bias_sigma_mps2 * imu_rng.normal(),
                       o.imu.accel_bias_sigma_mps2 * imu_rng.normal(),
                       o.imu.accel_bias_sigma_mps2 * imu_rng.normal());
+  const Vec3 gyro_bias = gyroBias(o.imu, seed, session);
   const std::vector<floor_t> floors = floorEvents(building, plan, o.floor, floor_rng);
 
   TickClock gt_clock(start, o.ground_truth_rate_hz);
@@ -169,7 +170,7 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
         break;
       }
       case kImu:
-        writeMessage(sink, channels::kImu, measureImu(t, traj, o.imu, imu_bias, imu_rng));
+        writeMessage(sink, channels::kImu, measureImu(t, traj, o.imu, imu_bias, gyro_bias, imu_rng));
         imu_clock.advance();
         break;
       case kWheel: {

@@ -106,6 +106,7 @@ void visitOptions(Options& o, Visitor&& v) {
   v("imu.margin_s", &s.imu.margin_s);
   v("imu.accel_sigma_mps2", &s.imu.accel_sigma_mps2);
   v("imu.gyro_sigma_radps", &s.imu.gyro_sigma_radps);
+  v("imu.gyro_bias_sigma_radps", &s.imu.gyro_bias_sigma_radps);
   v("imu.accel_bias_sigma_mps2", &s.imu.accel_bias_sigma_mps2);
   v("imu.gravity_mps2", &s.imu.gravity_mps2);
   v("ground_truth.rate_hz", &s.ground_truth_rate_hz);

@@ -24,6 +24,7 @@ enum class Stream : uint64_t {
   kTextures = 10100,
   kPainting = 10200,
   kPasserbyLook = 10400,
+  kGyroBias = 11000,
 };
 
 inline Random streamFor(uint64_t seed, Stream s, int session) {

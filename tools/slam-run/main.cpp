@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <numbers>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -186,11 +187,12 @@ int main(int argc, char** argv) {
         << r.inliers << "," << r.score << "," << r.error_m << "," << r.error_deg << "," << r.outcome << "\n";
   if (Status s = writeFileAtomically(out / "registrations.csv", reg.str()); !s) return fail(s.error().message, 1);
   std::ostringstream nodes_csv;
-  nodes_csv << "node,session,floor,true_floor,keyframe_utime,x,y,z,true_x,true_y,true_z\n";
+  nodes_csv << "node,session,floor,true_floor,keyframe_utime,x,y,z,true_x,true_y,true_z,yaw_deg,true_yaw_deg\n";
   for (const auto& n : summary->node_rows)
     nodes_csv << n.id << "," << n.session << "," << n.floor << "," << n.true_floor << "," << n.keyframe_utime << ","
               << n.estimate.x() << "," << n.estimate.y() << "," << n.estimate.z() << "," << n.truth.x() << ","
-              << n.truth.y() << "," << n.truth.z() << "\n";
+              << n.truth.y() << "," << n.truth.z() << "," << n.yaw_rad * 180.0 / std::numbers::pi << ","
+              << n.true_yaw_rad * 180.0 / std::numbers::pi << "\n";
   if (!summary->node_rows.empty()) {
     if (Status s = writeFileAtomically(out / "nodes.csv", nodes_csv.str()); !s) return fail(s.error().message, 1);
   }

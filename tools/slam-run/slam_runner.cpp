@@ -469,8 +469,9 @@ Expected<SlamRunSummary> SlamRunner::finish() {
     }
     for (const auto& [id, p] : node_truth) {
       const mapper::MapperNode& n = m.nodes()[static_cast<size_t>(id)];
+      const core::SE3d est = m.nodePose(id);
       SlamRunSummary::NodeRow row{id, n.session, n.floor, -1, n.keyframe_utime, p.translation(),
-                                  m.nodePose(id).translation()};
+                                  est.translation(), core::toPlanar(p).theta(), core::toPlanar(est).theta()};
       auto f = truth_floor_.lower_bound(n.keyframe_utime);
       if (f != truth_floor_.end()) row.true_floor = f->second.first;
       out.node_rows.push_back(row);
@@ -546,7 +547,7 @@ std::string SlamRunSummary::text() const {
   s << "vo " << vo.report() << "\ntracker vo_applied " << tracker.vo_applied << ", vo_failed " << tracker.vo_failed
     << ", wheel_applied " << tracker.wheel_applied << ", restarts " << tracker.restarts << ", relinked "
     << tracker.relinked << ", relinks_refused " << tracker.relinks_refused << ", reanchored " << tracker.reanchored
-    << ", vo_timeouts " << tracker.vo_timeouts << ", dropped " << tracker.dropped << "\nloopclose " << loopclose.text()
+    << ", vo_timeouts " << tracker.vo_timeouts << ", gyro_turns " << tracker.gyro_turns << ", dropped " << tracker.dropped << "\nloopclose " << loopclose.text()
     << "\n";
   if (evaluation) s << evaluation->text();
   const double n = std::max<double>(1.0, static_cast<double>(vo.frames));

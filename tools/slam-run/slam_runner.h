@@ -132,6 +132,7 @@ struct SlamRunSummary {
     int true_floor = -1;  // the ground truth's floor at the node's keyframe
     int64_t keyframe_utime = 0;
     core::Vec3 truth, estimate;
+    double true_yaw_rad = 0.0, yaw_rad = 0.0;  // heading of the body, truth and map
   };
   std::vector<NodeRow> node_rows;
   std::vector<std::string> errors;  // first few input errors (one line each)

@@ -1,0 +1,163 @@
+// evermap::mapper::Tracker with the gyro's heading (ATTITUDE heading_rad): wheel increments'
+// yaw fused with the gyro's while VO is down.
+
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "core/geometry/se2.h"
+#include "mapper-proc/tracker.h"
+
+namespace evermap::mapper {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+wheel_odom_t wheel(int64_t prev, int64_t utime, double dx, double dtheta, double theta_var) {
+  wheel_odom_t w{};
+  w.prev_utime = prev;
+  w.utime = utime;
+  w.delta_x_m = dx;
+  w.delta_theta_rad = dtheta;
+  w.covariance[0] = w.covariance[4] = 1e-4;
+  w.covariance[8] = theta_var;
+  return w;
+}
+
+attitude_t heading(int64_t utime, double heading_rad, double rate_sigma = 1e-4) {
+  attitude_t a{};
+  a.utime = utime;
+  a.covariance[0] = a.covariance[3] = 1e-6;
+  a.accel_trusted = 1;
+  a.heading_rad = heading_rad;
+  a.heading_rate_sigma_rad_s = rate_sigma;
+  a.heading_valid = 1;
+  return a;
+}
+
+double yawOf(const Tracker& t) { return core::toPlanar(t.delta().mean).theta(); }
+
+// Wheels with no VO at all: the robot turns 90 degrees in place over 2 s, the wheels say 80.
+// ATTITUDE at 50 Hz carries the true turn.
+void turnInPlace(Tracker* t, bool with_gyro) {
+  const double true_rate = (std::numbers::pi / 2) / 2.0;  // rad/s
+  int64_t att = 0;
+  for (int k = 1; k <= 20; ++k) {
+    const int64_t t0 = (k - 1) * 100000, t1 = k * 100000;
+    for (; with_gyro && att <= t1; att += 20000) ASSERT_TRUE(t->addHeading(heading(att, true_rate * att * 1e-6)));
+    ASSERT_TRUE(t->addWheel(wheel(t0, t1, 0.0, 0.8 * true_rate * 0.1, std::pow(0.02 * true_rate * 0.1, 2))));
+  }
+}
+
+TEST(TrackerHeading, TheGyroTurnsTheBodyWhereTheWheelsSlip) {
+  Tracker with(TrackerOptions{}), without(TrackerOptions{});
+  turnInPlace(&with, true);
+  turnInPlace(&without, false);
+  EXPECT_NEAR(yawOf(without), 0.8 * std::numbers::pi / 2, 1e-9);
+  // Information-weighted per increment: the wheels' σθ = 0.02 x 0.0785 rad against the gyro's
+  // σ² = (1e-4)² x 0.1 x 10 + (1e-3)² x 0.1: 96 % of the weight on the gyro; 18 degrees of
+  // wheel error become 0.75.
+  const double wheel_var = std::pow(0.02 * (std::numbers::pi / 4) * 0.1, 2), gyro_var = 1e-8 * 0.1 * 10 + 1e-6 * 0.1;
+  const double w = wheel_var / (wheel_var + gyro_var);
+  EXPECT_NEAR(yawOf(with), std::numbers::pi / 2 * (0.8 + 0.2 * w), 1e-6);
+  EXPECT_NEAR(yawOf(with), std::numbers::pi / 2, 1.0 * kDeg);
+  EXPECT_EQ(with.counts().gyro_turns, 20);
+  EXPECT_EQ(without.counts().gyro_turns, 0);
+  // The fused yaw is more certain than the wheels' alone.
+  EXPECT_LT(with.delta().covariance(5, 5), without.delta().covariance(5, 5));
+}
+
+TEST(TrackerHeading, AnUncertainGyroBiasLeavesTheWheelsTheirWeight) {
+  // Before any still window the gyro's bias is known to 0.02 rad/s: over 0.1 s increments
+  // that is σ² = 0.02² x 0.1 x 10 = 4e-4 rad² each, against the wheels' 1e-6: the wheels win.
+  Tracker t(TrackerOptions{});
+  int64_t att = 0;
+  for (int k = 1; k <= 10; ++k) {
+    for (; att <= k * 100000; att += 20000) ASSERT_TRUE(t.addHeading(heading(att, 0.5 * att * 1e-6, 0.02)));
+    ASSERT_TRUE(t.addWheel(wheel((k - 1) * 100000, k * 100000, 0.1, 0.0, 1e-6)));
+  }
+  EXPECT_LT(std::abs(yawOf(t)), 0.02);  // the gyro says 0.5 rad
+  EXPECT_EQ(t.counts().gyro_turns, 10);
+}
+
+TEST(TrackerHeading, HeadingsThatDoNotCoverAnIncrementAreNotUsed) {
+  Tracker t(TrackerOptions{});
+  // Headings stop at 0.2 s; an increment ending at 1.0 s is beyond the extrapolation.
+  for (int64_t a = 0; a <= 200000; a += 20000) ASSERT_TRUE(t.addHeading(heading(a, 1.0 * a * 1e-6)));
+  ASSERT_TRUE(t.addWheel(wheel(900000, 1000000, 0.1, 0.01, 1e-4)));
+  EXPECT_EQ(t.counts().gyro_turns, 0);
+  EXPECT_NEAR(yawOf(t), 0.01, 1e-12);
+}
+
+TEST(TrackerHeading, ARestartedImuProcBreaksTheHeadingInsteadOfJumping) {
+  // imu-proc restarted: its heading starts again from 0 after a gap. No increment spanning
+  // the restart may take the jump as a turn.
+  Tracker t(TrackerOptions{});
+  for (int64_t a = 0; a <= 1000000; a += 20000) ASSERT_TRUE(t.addHeading(heading(a, 2.0)));
+  for (int64_t a = 1600000; a <= 2200000; a += 20000) ASSERT_TRUE(t.addHeading(heading(a, 0.0)));
+  ASSERT_TRUE(t.addWheel(wheel(900000, 1700000, 0.1, 0.0, 1e-4)));
+  EXPECT_NEAR(yawOf(t), 0.0, 1e-12);
+  EXPECT_EQ(t.counts().gyro_turns, 0);
+  // After the restart the new headings are used.
+  ASSERT_TRUE(t.addWheel(wheel(1800000, 1900000, 0.1, 0.0, 1e-4)));
+  EXPECT_EQ(t.counts().gyro_turns, 1);
+}
+
+TEST(TrackerHeading, MalformedHeadingsAreDroppedAndCounted) {
+  Tracker t(TrackerOptions{});
+  attitude_t bad = heading(0, std::nan(""));
+  EXPECT_FALSE(t.addHeading(bad));
+  ASSERT_TRUE(t.addHeading(heading(20000, 0.0)));
+  EXPECT_FALSE(t.addHeading(heading(10000, 0.0)));  // out of order
+  attitude_t none = heading(30000, 5.0);
+  none.heading_valid = 0;
+  EXPECT_TRUE(t.addHeading(none));  // no heading in it: nothing to use, nothing wrong
+  EXPECT_EQ(t.counts().dropped, 2);
+}
+
+
+TEST(TrackerHeading, AVoRestartBetweenWheelMessagesIsPlacedWhereTheBodyIsThen) {
+  // Turning in place at 0.8 rad/s on wheels; VO restarts 50 ms after the last wheel message.
+  // The reference goes where the body is at the restart: the gyro's yaw over those 50 ms.
+  Tracker t(TrackerOptions{});
+  const double rate = 0.8;
+  for (int64_t a = 0; a <= 600000; a += 20000) ASSERT_TRUE(t.addHeading(heading(a, rate * a * 1e-6)));
+  for (int k = 1; k <= 5; ++k)
+    ASSERT_TRUE(t.addWheel(wheel((k - 1) * 100000, k * 100000, 0.0, rate * 0.1, 1e-4)));
+  vo_delta_t restart{};
+  restart.utime = 550000;
+  restart.ref_utime = 550000;
+  restart.status = vo_delta_t::STATUS_NO_DATA;
+  restart.keyframe_changed = 1;
+  ASSERT_TRUE(t.addVo(restart));
+  EXPECT_NEAR(yawOf(t), rate * 0.55, 1e-3);
+}
+
+TEST(TrackerHeading, AWheelIncrementThatStartsBeforeVoWasLostCountsOnlyItsShareAfter) {
+  // VO's last good frame at 150 ms; the wheel increment [100, 200] ms is half VO's already.
+  Tracker t(TrackerOptions{});
+  vo_delta_t first{};
+  first.utime = first.ref_utime = 0;
+  first.status = vo_delta_t::STATUS_NO_DATA;
+  first.keyframe_changed = 1;
+  ASSERT_TRUE(t.addVo(first));
+  vo_delta_t good{};
+  good.utime = 150000;
+  good.ref_utime = 0;
+  good.status = vo_delta_t::STATUS_OK;
+  good.translation[0] = 0.15;
+  good.orientation[0] = 1.0;
+  for (int i = 0; i < 6; ++i) good.covariance[7 * i] = 1e-6;
+  ASSERT_TRUE(t.addVo(good));
+  ASSERT_TRUE(t.addWheel(wheel(100000, 200000, 0.1, 0.0, 1e-4)));
+  vo_delta_t fail = good;
+  fail.utime = 200000;
+  fail.status = vo_delta_t::STATUS_INSUFFICIENT_FEATURES;
+  ASSERT_TRUE(t.addVo(fail));
+  // 0.15 by VO, then the wheels' 0.05 after 150 ms (the camera sits on the body's axis here).
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.2, 1e-9);
+}
+
+}  // namespace
+}  // namespace evermap::mapper
