@@ -52,6 +52,7 @@ Status MapperOptions::validate() const {
   if (!(recovery_quiet_s >= 0.0)) return Error{"mapper.recovery_quiet_s: must be >= 0"};
   if (!(recovery_slack_m >= 0.0)) return Error{"mapper.recovery_slack_m: must be >= 0"};
   if (!(recovery_drift_fraction >= 0.0)) return Error{"mapper.recovery_drift_fraction: must be >= 0"};
+  if (!(floor_match_m > 0.0)) return Error{"mapper.floor_match_m: must be > 0"};
   if (!(consistency_gate > 0.0)) return Error{"mapper.consistency_gate: must be > 0"};
   if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
   if (!(recent_exclusion_s >= 0.0)) return Error{"mapper.recent_exclusion_s: must be >= 0"};
@@ -191,7 +192,9 @@ Status Mapper::onFloor(const floor_t& msg) {
     // track through the cab; wheels never do): the estimate is moved to the measured height.
     tracker_.addHeight(msg.height_m - pose().mean.translation().z(), std::max(msg.height_sigma_m, 0.01));
   }
-  floor_ = msg.floor_index;
+  // elevator-proc numbers floors from where it started (a restarted one, a new session,
+  // calls a floor the map already has "new"): the label comes from the map's table by height.
+  floor_ = msg.event == floor_t::EVENT_RIDE_END ? floorAtHeight(msg.floor_index, msg.height_m) : msg.floor_index;
   floor_height_m_ = msg.height_m;
   if (floor_ >= 0) {
     // A floor has one height: the first one reported for it, as restore() reads it back. Each
@@ -203,6 +206,20 @@ Status Mapper::onFloor(const floor_t& msg) {
   }
   have_floor_ = true;
   return Ok{};
+}
+
+int Mapper::floorAtHeight(int reported, double height_m) const {
+  int best = -1;
+  double best_d = o_.floor_match_m;
+  for (const auto& [label, h] : floors_) {
+    if (std::abs(h - height_m) <= best_d) {
+      best = label;
+      best_d = std::abs(h - height_m);
+    }
+  }
+  if (best >= 0) return best;
+  if (reported < 0 || !floors_.contains(reported)) return reported;
+  return floors_.rbegin()->first + 1;
 }
 
 std::vector<register_request_t> Mapper::takeRequests() { return std::exchange(requests_, {}); }

@@ -132,6 +132,9 @@ struct MapperOptions {
   // drift by a period in a few metres.
   double recovery_slack_m = 3.0;
   double recovery_drift_fraction = 0.15;
+  // A ride's end is on the map's floor whose height is within this of the ride's measured
+  // height (the map's label, whatever a restarted elevator-proc numbers it), metres.
+  double floor_match_m = 1.0;
   TrackerOptions tracker;
   solver::IncrementalOptions solver = mapperSolverOptions();
 
@@ -314,6 +317,10 @@ class Mapper {
   void checkTimeout(int64_t utime);
   // A new session (FLOOR with EVENT_NONE, or a gap in VO time): lost until re-localised.
   void startSession(int64_t utime);
+  // The map's label for the floor a ride ended on at height_m (FLOOR's reported label):
+  // the floor of the map's table at that height, else the reported label if the map has no
+  // floor by it, else a new label.
+  int floorAtHeight(int reported, double height_m) const;
 
   MapperOptions o_;
   int session_;

@@ -476,6 +476,50 @@ TEST(ReducedGraph, AnElevatorRideMovesTheEstimateToTheNewFloorAndTakesNoStepInTh
   EXPECT_EQ(m.floors().at(1), -4.7);
 }
 
+TEST(ReducedGraph, ARideEndsOnTheMapsFloorAtItsHeightWhateverElevatorProcCallsIt) {
+  // A map with floors 0 (0 m) and 1 (-4.7 m). A new session's elevator-proc starts its own
+  // table on floor 0 and calls the first floor it rides to "floor 1" wherever it is: up at
+  // +4.7 m that is a floor the map does not have (a new label, 2); down at -4.6 m it is the
+  // map's floor 1.
+  for (const double ride_m : {4.7, -4.6}) {
+    Mapper m(scriptedOptions());
+    ASSERT_TRUE(m.onVo(voRestart(0)));
+    floor_t start{};
+    start.utime = 1'000'000;
+    start.floor_index = -1;
+    start.height_sigma_m = 0.05;
+    start.in_elevator = 1;
+    start.event = floor_t::EVENT_RIDE_START;
+    ASSERT_TRUE(m.onFloor(start));
+    floor_t end = start;
+    end.utime = 5'000'000;
+    end.floor_index = 1;
+    end.height_m = -4.7;
+    end.in_elevator = 0;
+    end.event = floor_t::EVENT_RIDE_END;
+    ASSERT_TRUE(m.onFloor(end));
+    ASSERT_EQ(m.floor(), 1);
+    // Back to floor 0, then the new session's ride, labelled 1 by its elevator-proc.
+    start.utime = 6'000'000;
+    start.height_m = -4.7;
+    ASSERT_TRUE(m.onFloor(start));
+    end.utime = 9'000'000;
+    end.floor_index = 0;
+    end.height_m = 0.05;
+    ASSERT_TRUE(m.onFloor(end));
+    ASSERT_EQ(m.floor(), 0);
+    start.utime = 10'000'000;
+    start.height_m = 0.0;
+    ASSERT_TRUE(m.onFloor(start));
+    end.utime = 14'000'000;
+    end.floor_index = 1;
+    end.height_m = ride_m;
+    end.new_floor = 1;
+    ASSERT_TRUE(m.onFloor(end));
+    EXPECT_EQ(m.floor(), ride_m > 0 ? 2 : 1) << ride_m;
+  }
+}
+
 TEST(FullGraph, AddsANodeAtEveryStepThroughTheSameCode) {
   MapperOptions o = scriptedOptions();
   o.full_graph = true;
