@@ -41,8 +41,8 @@ struct MotionOptions {
   int max_iterations = 15;
   // After the first solve, matches with a larger error (pixels, either image) are outliers.
   double inlier_max_reprojection_px = 2.0;
-  // When the first solve leaves a median error above inlier_max_reprojection_px / 4.45, the
-  // outlier bound starts at 3 robust sigmas (4.45 x the median error), at least halves per
+  // When the first solve leaves fewer than half the matches (or min_inliers) within
+  // inlier_max_reprojection_px, the outlier bound starts at 3 robust sigmas (4.45 x the median error), at least halves per
   // solve and is inlier_max_reprojection_px after at most this many solves (0: FOVIS's single
   // rejection).
   int max_rejection_rounds = 4;
