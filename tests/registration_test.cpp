@@ -159,6 +159,7 @@ TEST(MotionEstimation, GrossOutliersThatPullTheFirstSolveOffAreShedOverSeveralRo
   for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
   MotionOptions options;
   options.inlier_max_reprojection_px = 1.0;
+  options.max_rejection_rounds = 4;
   const MotionEstimate e = estimateMotion(cam, cam, matches, all, SE3d(), options);
   ASSERT_TRUE(e.ok()) << e.message;
   const SE3d err = kMotion.inverse() * e.a_T_b;

@@ -247,13 +247,11 @@ MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& 
   std::vector<int> active = candidates;
   int iterations = problem.solve(&T, active, options.max_iterations);
   // Outlier rejection (FOVIS): drop matches beyond the error bound and solve again. When the
-  // first solve is pulled off by gross outliers so far that fewer than half the matches (or
-  // min_inliers) are within the bound (a clique that admits far points with wrong depths),
-  // the bound starts at a robust multiple of the median error (1.4826 median = σ of
+  // first solve is pulled off by gross outliers (a clique that admits far points with wrong
+  // depths), the bound starts at a robust multiple of the median error (1.4826 median = σ of
   // a normal distribution), at least halves per solve and reaches
   // inlier_max_reprojection_px after at most max_rejection_rounds solves.
   double previous_bound = std::numeric_limits<double>::infinity();
-  bool graduated = false;
   for (int round = 0; iterations >= 0; ++round) {
     std::vector<double> worst;
     worst.reserve(active.size());
@@ -265,13 +263,7 @@ MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& 
     // At most half the previous bound: a fit pulled off so far that the median itself is an
     // outlier's error would otherwise keep the same bound.
     const double robust = std::min(3.0 * 1.4826 * sorted[sorted.size() / 2], 0.5 * previous_bound);
-    // Most matches within the bound already (the fit is not pulled off): FOVIS's single
-    // rejection.
-    const auto within = std::count_if(worst.begin(), worst.end(), [&](double e) {
-      return e <= options.inlier_max_reprojection_px;
-    });
-    if (round == 0) graduated = 2 * within < static_cast<long>(worst.size()) || within < n_min;
-    const double bound = round >= options.max_rejection_rounds || !graduated
+    const double bound = round >= options.max_rejection_rounds
                              ? options.inlier_max_reprojection_px
                              : std::max(options.inlier_max_reprojection_px, robust);
     previous_bound = bound;

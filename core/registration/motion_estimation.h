@@ -41,11 +41,12 @@ struct MotionOptions {
   int max_iterations = 15;
   // After the first solve, matches with a larger error (pixels, either image) are outliers.
   double inlier_max_reprojection_px = 2.0;
-  // When the first solve leaves fewer than half the matches (or min_inliers) within
-  // inlier_max_reprojection_px, the outlier bound starts at 3 robust sigmas (4.45 x the median error), at least halves per
-  // solve and is inlier_max_reprojection_px after at most this many solves (0: FOVIS's single
-  // rejection).
-  int max_rejection_rounds = 4;
+  // Graduated rejection: the outlier bound starts at 3 robust sigmas of the first solve's
+  // errors (4.45 x their median) when that is above inlier_max_reprojection_px, at least
+  // halves per solve and is inlier_max_reprojection_px after at most this many solves; a
+  // first solve pulled off by gross outliers then sheds them instead of failing.
+  // 0: FOVIS's single rejection.
+  int max_rejection_rounds = 0;
   // The final mean error (pixels, both directions) may not exceed this.
   double max_mean_reprojection_px = 1.5;
   // Fewest inliers a motion is estimated from.
