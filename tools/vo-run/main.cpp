@@ -22,7 +22,7 @@ int main(int argc, char** argv) {
   cli.value("--output-log", &output_log, "FILE", "the VO_DELTA and KEYFRAME messages, as an LCM log");
   cli.value("--max-frames", &options.max_frames, "N", "stop after N stereo frames");
   cli.value("--keyframe-inliers", &options.pipeline.odometry.keyframe_inlier_threshold, "N",
-            "new keyframe below N inliers (default 150)");
+            "new reference below N inliers (default 150; a keyframe only after --keyframe-distance/--keyframe-angle)");
   auto& odo = options.pipeline.odometry;
   cli.value("--keyframe-distance", &odo.keyframe_min_translation_m, "M",
             "a new reference is a map keyframe after M metres (or --keyframe-angle)");
