@@ -7,6 +7,8 @@
 //    EuRoC input).
 //  - BM_FeatureExtraction: pyramid, FAST, stereo depth, patches of one frame.
 //  - BM_RegisterKeyframes: registerFrames() of two keyframes (what loop closure pays).
+//  - BM_VoKittiClip: the real KITTI clip with ~1 m between frames: frames tracked, inliers,
+//    median/p90/p99 ms per frame (thread CPU, PNG decoding excluded), end drift, ATE, RPE.
 // Without the data set the benchmarks are skipped with a message.
 #include <benchmark/benchmark.h>
 
@@ -14,6 +16,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <vector>
@@ -25,6 +28,7 @@
 #include "core/datasets/euroc.h"
 #include "core/datasets/euroc_calibration.h"
 #include "core/registration/frame_registration.h"
+#include "vo-proc/sequence_run.h"
 #include "vo-proc/stereo_odometry.h"
 
 namespace {
@@ -184,6 +188,48 @@ void BM_RegisterKeyframes(benchmark::State& state) {
   state.counters["inliers"] = s.num_inliers;
 }
 BENCHMARK(BM_RegisterKeyframes)->Unit(benchmark::kMillisecond);
+
+// The whole kitti-stereo-clip (51 rectified 1241x376 pairs, ~1 m apart, a turn) per
+// iteration, straight from its folder: inliers, time per frame (thread CPU) and the error at
+// the end against KITTI's ground truth (vo-proc/sequence_run.h).
+void BM_VoKittiClip(benchmark::State& state) {
+  const char* env = std::getenv("EVERMAP_DATA");
+  const fs::path dir =
+      (env && *env ? fs::path(env) : fs::path(EVERMAP_DATA_DEFAULT)) / "kitti-stereo-clip";
+  if (!fs::exists(dir)) {
+    state.SkipWithError(("KITTI clip not found under " + dir.string()).c_str());
+    return;
+  }
+  cv::setNumThreads(1);
+  vo::SequenceRunOptions options;
+  options.sequence.rate_hz = 10.0;
+  Expected<vo::SequenceRun> run = Error{""};
+  for (auto _ : state) {
+    run = vo::runKittiSequence(dir, options);
+    if (!run) {
+      state.SkipWithError(run.error().message.c_str());
+      return;
+    }
+  }
+  int tracked = 0;
+  for (const vo::FrameResult& f : run->frames) {
+    tracked += (f.ok() && !f.bridged) || f.status == vo::VoStatus::kNoData ? 1 : 0;
+  }
+  state.counters["frames"] = static_cast<double>(run->frames.size());
+  state.counters["tracked"] = tracked;
+  state.counters["keyframes"] = run->keyframes;
+  state.counters["inliers"] = run->mean_inliers;
+  state.counters["median_ms"] = run->median_ms;
+  state.counters["p90_ms"] = run->p90_ms;
+  state.counters["p99_ms"] = run->p99_ms;
+  state.counters["end_pct"] = run->end_error_percent;
+  state.counters["end_deg"] = run->end_rotation_deg;
+  state.counters["ate_m"] = run->ate_rmse_m;
+  state.counters["rpe_pct"] = run->rpe_percent;
+  state.counters["rpe_deg"] = run->rpe_deg;
+  std::printf("%s\n", run->report().c_str());
+}
+BENCHMARK(BM_VoKittiClip)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 }  // namespace
 

@@ -362,11 +362,56 @@ TEST(KittiToLcm, MissingFramesAreSkippedAndCountedAndPoseCountsMustAgree) {
   EXPECT_EQ(summary->messages.at(channels::kGroundTruth), 10);
 
   KittiToLcmOptions options;
-  options.poses = dir / "poses.txt";  // 160 poses for 10 frames
+  options.sequence.poses = dir / "poses.txt";  // 160 poses for 10 frames
   const auto r = convertKittiToLcm(seq, out_dir / "b.lcmlog", options);
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().message.find("160 poses but"), std::string::npos) << r.error().message;
   EXPECT_FALSE(fs::exists(out_dir / "b.lcmlog"));
+}
+
+TEST(KittiToLcm, TheStereoClipConvertsInItsOwnLayoutWithAFrameRate) {
+  EVERMAP_REQUIRE_DATA(dir, "kitti-stereo-clip");  // image_l/, image_r/, unlabelled calib.txt
+  const ScratchDir scratch;
+  const fs::path log = scratch.path() / "clip.lcmlog";
+  KittiToLcmOptions options;
+  options.sequence.rate_hz = 10.0;
+  const auto summary = convertKittiToLcm(dir, log, options);
+  ASSERT_TRUE(summary.ok()) << summary.error().message;
+  EXPECT_EQ(summary->messages.at(channels::kStereo), 51);
+  EXPECT_EQ(summary->messages.at(channels::kGroundTruth), 51);
+  int frame = 0;
+  for (const Event& e : readLog(log)) {
+    if (e.channel != channels::kStereo) continue;
+    const auto f = fromMsg(decode<evermap::stereo_image_t>(e));
+    ASSERT_TRUE(f.ok()) << f.error().message;
+    EXPECT_EQ(f->utime, frame * 100000) << "frame " << frame << " at 10 Hz";
+    if (frame == 7) {
+      EXPECT_TRUE(samePixels(f->left, dir / "image_l" / "000007.png"));
+      EXPECT_TRUE(samePixels(f->right, dir / "image_r" / "000007.png"));
+    }
+    ++frame;
+  }
+  EXPECT_EQ(frame, 51);
+}
+
+TEST(KittiToLcm, WithoutTimesOrARateOrWithAMissingFolderTheErrorSaysWhatToGive) {
+  EVERMAP_REQUIRE_DATA(dir, "kitti-stereo-clip");
+  const ScratchDir scratch;
+  auto r = convertKittiToLcm(dir, scratch.path() / "a.lcmlog", {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("times.txt: no such file; give the frame rate instead (--rate HZ)"),
+            std::string::npos) << r.error().message;
+  KittiToLcmOptions options;
+  options.sequence.rate_hz = -1.0;
+  r = convertKittiToLcm(dir, scratch.path() / "b.lcmlog", options);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("frame rate -1 Hz"), std::string::npos) << r.error().message;
+  options.sequence.rate_hz = 10.0;
+  options.sequence.right_folder = "image_x";
+  r = convertKittiToLcm(dir, scratch.path() / "c.lcmlog", options);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("image_x: no right images"), std::string::npos) << r.error().message;
+  EXPECT_TRUE(fs::is_empty(scratch.path()));
 }
 
 TEST(LogWriter, OnlyACommittedLogAppearsUnderItsName) {

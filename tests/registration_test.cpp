@@ -57,14 +57,35 @@ TEST(CliqueInliers, FindsTheRigidSubsetAmongOutliers) {
     a.push_back(Vec3(any(rng), any(rng), 4.0 + any(rng)));
     b.push_back(Vec3(any(rng), any(rng), 4.0 + any(rng)));
   }
-  const std::vector<int> clique = maxConsistentClique(a, b, {}, CliqueOptions{});
+  const std::vector<int> clique = maxConsistentClique(a, b, {}, {}, CliqueOptions{});
   // Every true match, and at most a stray outlier that happens to fit.
   int inliers = 0;
   for (int i : clique) inliers += i < 80 ? 1 : 0;
   EXPECT_EQ(inliers, 80);
   EXPECT_LE(clique.size(), 82u);
   EXPECT_TRUE(std::is_sorted(clique.begin(), clique.end()));
-  EXPECT_TRUE(maxConsistentClique({}, {}, {}, CliqueOptions{}).empty());
+  EXPECT_TRUE(maxConsistentClique({}, {}, {}, {}, CliqueOptions{}).empty());
+}
+
+TEST(CliqueInliers, DepthNoiseIsAllowedForAlongTheRaysOnly) {
+  // Far stereo points: depth sigma 0.5 m at 30 m. A depth error (along the ray) of a pair
+  // seen one behind the other changes its distance by the full error; the same pair seen side
+  // by side keeps its distance, so there a 0.5 m change is not noise but a wrong match.
+  CliqueOptions options;  // 0.1 m + 3 sigmas
+  const std::vector<double> s = {0.5, 0.5};
+  auto consistent = [&](const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+    return maxConsistentClique(a, b, s, s, options).size() == 2;
+  };
+  // One behind the other, on the optical axis: 1 sigma of depth error is consistent.
+  EXPECT_TRUE(consistent({Vec3(0, 0, 20), Vec3(0, 0, 30)}, {Vec3(0, 0, 20), Vec3(0, 0, 30.5)}));
+  // Side by side at 30 m: the same 0.5 m change, across the rays, is not.
+  EXPECT_FALSE(consistent({Vec3(-2, 0, 30), Vec3(2, 0, 30)}, {Vec3(-2, 0, 30), Vec3(2.5, 0, 30)}));
+  // ... while a 0.5 m depth error of one of them, which moves it along its own ray, is.
+  const Vec3 moved = Vec3(2, 0, 30) * (30.5 / 30.0);
+  EXPECT_TRUE(consistent({Vec3(-2, 0, 30), Vec3(2, 0, 30)}, {Vec3(-2, 0, 30), moved}));
+  // Without sigmas: FOVIS's fixed threshold refuses the depth error too.
+  EXPECT_EQ(maxConsistentClique({Vec3(0, 0, 20), Vec3(0, 0, 30)}, {Vec3(0, 0, 20), Vec3(0, 0, 30.5)},
+                                {}, {}, options).size(), 1u);
 }
 
 TEST(MotionEstimation, JacobianMatchesNumericalDerivatives) {
@@ -116,6 +137,74 @@ TEST(MotionEstimation, RecoversTheMotionAndRejectsOutliers) {
   std::vector<int> idx(20);
   for (int i = 0; i < 20; ++i) idx[static_cast<size_t>(i)] = i;
   EXPECT_FALSE(estimateMotion(cam, cam, same, idx, SE3d(), MotionOptions{}).ok());
+}
+
+TEST(MotionEstimation, GrossOutliersThatPullTheFirstSolveOffAreShedOverSeveralRounds) {
+  // A fifth of the candidates 30-60 px off (a clique that admitted far points with wrong
+  // depths): the first least-squares solve leaves most true matches beyond the 1 px bound,
+  // so FOVIS's single rejection keeps too few; the graduated bound (a robust multiple of the
+  // median error, shrinking to 1 px) recovers the motion.
+  std::mt19937 rng(5);
+  const StereoCamera cam = camera();
+  std::vector<Correspondence> matches;
+  for (const Vec3& p : pointsSeenByBoth(kMotion, 120, &rng)) {
+    matches.push_back(measure(kMotion, p, 0.2, &rng));
+  }
+  std::uniform_real_distribution<double> off(30.0, 60.0);
+  for (int i = 0; i < 30; ++i) {
+    matches[static_cast<size_t>(i)].uv_b += Eigen::Vector2d(off(rng), -off(rng));
+    matches[static_cast<size_t>(i)].uv_a += Eigen::Vector2d(-off(rng), off(rng));
+  }
+  std::vector<int> all(matches.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  MotionOptions options;
+  options.inlier_max_reprojection_px = 1.0;
+  options.max_rejection_rounds = 4;
+  const MotionEstimate e = estimateMotion(cam, cam, matches, all, SE3d(), options);
+  ASSERT_TRUE(e.ok()) << e.message;
+  const SE3d err = kMotion.inverse() * e.a_T_b;
+  EXPECT_LT(err.translation().norm(), 0.01);
+  for (int i : e.inliers) EXPECT_GE(i, 30);
+  EXPECT_GE(e.inliers.size(), 80u);
+  options.max_rejection_rounds = 0;
+  const MotionEstimate single = estimateMotion(cam, cam, matches, all, SE3d(), options);
+  EXPECT_FALSE(single.ok()) << "the case no longer needs the graduated bound";
+}
+
+TEST(MotionEstimation, WhiteningForDepthNoiseKeepsFarPointsWithinTheBound) {
+  // Far points (20-60 m at 0.11 m baseline: ~1-2.5 px disparity) with 0.3 px disparity noise,
+  // under a 1 m forward motion: their depth errors move their reprojections by pixels along
+  // the epipolar direction. Unwhitened, most fall beyond a 1 px bound; whitened for that
+  // noise, the motion is estimated from most of them and no worse.
+  std::mt19937 rng(6);
+  const StereoCamera cam = camera();
+  const SE3d forward(SO3d::exp(Vec3(0.0, 0.01, 0.0)), Vec3(0.05, 0.0, 1.0));
+  std::uniform_real_distribution<double> u(40.0, 712.0), v(40.0, 440.0), z(20.0, 60.0);
+  std::vector<Correspondence> matches;
+  while (matches.size() < 150) {
+    const Vec3 p_a = *cam.backProject(Vec3(u(rng), v(rng), cam.disparityFromDepth(z(rng))));
+    const auto uvd_b = cam.project(forward.inverse() * p_a);
+    if (!uvd_b || !cam.inImage(uvd_b->x(), uvd_b->y())) continue;
+    std::normal_distribution<double> px(0.0, 0.1), disp(0.0, 0.3);
+    const Vec3 a = *cam.project(p_a) + Vec3(px(rng), px(rng), disp(rng));
+    const Vec3 b = *uvd_b + Vec3(px(rng), px(rng), disp(rng));
+    const auto pa = cam.backProject(a), pb = cam.backProject(b);
+    if (!pa || !pb || a.z() <= 0.2 || b.z() <= 0.2) continue;
+    matches.push_back({a.head<2>(), *pa, b.head<2>(), *pb});
+  }
+  std::vector<int> all(matches.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  MotionOptions options;
+  options.inlier_max_reprojection_px = 1.0;
+  options.max_mean_reprojection_px = 10.0;
+  options.use_initial_guess = true;
+  const MotionEstimate plain = estimateMotion(cam, cam, matches, all, forward, options);
+  options.disparity_sigma_px = 0.3;
+  const MotionEstimate whitened = estimateMotion(cam, cam, matches, all, forward, options);
+  ASSERT_TRUE(whitened.ok()) << whitened.message;
+  std::printf("inliers: %zu unwhitened, %zu whitened\n", plain.inliers.size(), whitened.inliers.size());
+  EXPECT_GT(whitened.inliers.size(), 2 * plain.inliers.size());
+  EXPECT_LT(rotationAngle((forward.inverse() * whitened.a_T_b).so3()), 0.002);
 }
 
 TEST(MotionEstimation, CovarianceMatchesTheSpreadOfTheEstimates) {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Eigenvalues>
@@ -262,6 +263,87 @@ TEST(StereoOdometry, AChainBreakMakesTheFailedFrameItsOwnReference) {
   const FrameResult next = vo.process(breaks_at + 1, l, r);
   EXPECT_TRUE(next.ok()) << next.message;
   EXPECT_EQ(next.ref_utime, breaks_at);
+}
+
+TEST(StereoOdometry, AGapAfterTrackingIsBridgedByTheMotionPriorWithAnInflatedCovariance) {
+  // Moving along the loop (4.7 cm, 1.8 deg per frame), the lights go off for more frames than
+  // max_failed_frames: the first lit frame is placed by the constant-velocity prior, its
+  // covariance covering the prior's error, and the chain goes on from it without a break.
+  EVERMAP_REQUIRE_ROOM();
+  cv::RNG rng(7);
+  StereoOdometry vo = makeOdometry();
+  const std::vector<SE3d> poses = testing::loopTrajectory(200);
+  VoTrajectory chain;
+  cv::Mat l, r;
+  std::optional<SE3d> pose;
+  auto frame = [&](size_t k, double brightness) {
+    room().render(vo.camera(), poses[k], &l, &r, &rng, brightness, false);
+    const FrameResult res = vo.process(static_cast<int64_t>(k + 1) * 50000, l, r);
+    pose = chain.add(toMsg(res));
+    return res;
+  };
+  for (size_t k = 0; k < 6; ++k) ASSERT_TRUE(frame(k, 1.0).ok() || k == 0);
+  const int dark = vo.options().max_failed_frames + 1;
+  for (int j = 0; j < dark; ++j) {
+    EXPECT_EQ(frame(6 + static_cast<size_t>(j), 0.02).status, VoStatus::kInsufficientFeatures);
+  }
+  const size_t lit = 6 + static_cast<size_t>(dark);
+  const FrameResult bridged = frame(lit, 1.0);
+  ASSERT_TRUE(bridged.ok()) << bridged.message;
+  EXPECT_TRUE(bridged.bridged);
+  EXPECT_TRUE(bridged.keyframe_changed);
+  EXPECT_NE(bridged.ref_utime, bridged.utime);  // a motion from the old reference, not a restart
+  EXPECT_EQ(bridged.failure_kind, "stale reference");
+  ASSERT_TRUE(pose.has_value());
+  // The prior's error (the truth against the bridged pose) is within 3 sigma of its
+  // covariance, per axis of the translation.
+  const SE3d error = (poses.front().inverse() * poses[lit]).inverse() * *pose;
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_LT(std::abs(error.translation()(i)), 3.0 * std::sqrt(bridged.covariance(i, i)))
+        << "axis " << i;
+  }
+  EXPECT_GT(bridged.covariance(0, 0), 4 * 0.05 * 0.05);  // inflated over the dark frames
+  // Tracking goes on from the bridged frame, with no break in the chain.
+  for (size_t k = lit + 1; k < lit + 6; ++k) {
+    const FrameResult res = frame(k, 1.0);
+    EXPECT_TRUE(res.ok() && !res.bridged) << "frame " << k << ": " << res.message;
+  }
+  EXPECT_EQ(chain.breaks(), 0);
+}
+
+TEST(StereoOdometry, AFrameThatNoLongerMatchesTheReferenceRegistersThroughThePreviousFrame) {
+  // The reference is kept as long as possible (keyframe threshold at the acceptance
+  // threshold) while the camera turns at 3.6 deg per frame: when the view has left the
+  // reference, the frame is registered to the last frame that did register, the motion
+  // chained, and no frame fails. Without the retry, frames fail there.
+  EVERMAP_REQUIRE_ROOM();
+  const std::vector<SE3d> poses = testing::loopTrajectory(100);
+  auto run = [&](bool retry, int* via_previous) {
+    OdometryOptions o;
+    o.keyframe_inlier_threshold = o.registration.min_inliers;
+    o.keyframe_inlier_fraction = 0.0;
+    o.retry_previous_frame = retry;
+    o.bridge_breaks = false;
+    StereoOdometry vo = makeOdometry(o);
+    cv::RNG rng(8);
+    cv::Mat l, r;
+    int failed = 0;
+    *via_previous = 0;
+    for (size_t k = 0; k < 40; ++k) {
+      room().render(vo.camera(), poses[k], &l, &r, &rng);
+      const FrameResult res = vo.process(static_cast<int64_t>(k + 1) * 50000, l, r);
+      if (k > 0 && !res.ok()) ++failed;
+      if (res.via_previous) ++*via_previous;
+    }
+    return failed;
+  };
+  int via_without = 0, via_with = 0;
+  const int failed_without = run(false, &via_without);
+  const int failed_with = run(true, &via_with);
+  EXPECT_EQ(via_without, 0);
+  EXPECT_GT(via_with, 0);
+  EXPECT_EQ(failed_with, 0);
+  EXPECT_GT(failed_without, 0);
 }
 
 }  // namespace

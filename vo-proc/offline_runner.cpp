@@ -16,8 +16,6 @@
 
 namespace evermap::vo {
 
-namespace {
-
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
@@ -25,14 +23,48 @@ double percentile(std::vector<double> v, double q) {
   return v[i];
 }
 
-}  // namespace
+std::map<std::string, int> OfflineSummary::failuresByKind() const {
+  std::map<std::string, int> n;
+  for (const FrameStats& f : frames) {
+    if (f.failure_kind.empty()) continue;
+    ++n[(f.bridged ? "bridged after " : std::string(toString(f.status)) + ": ") + f.failure_kind];
+  }
+  return n;
+}
 
 std::string OfflineSummary::report() const {
   std::ostringstream s;
+  int bridged = 0, via_previous = 0;
+  for (const FrameStats& f : frames) {
+    bridged += f.bridged ? 1 : 0;
+    via_previous += f.via_previous ? 1 : 0;
+  }
   s << stats.report() << "\n"
     << trajectory.size() << " poses, path length " << trajectory.pathLengthM() << " m, "
-    << breaks << " chain breaks\n"
-    << "per frame: median " << median_ms << " ms, p99 " << p99_ms << " ms";
+    << breaks << " chain breaks, " << bridged << " frames bridged by the motion prior, "
+    << via_previous << " registered through the previous frame\n";
+  const auto kinds = failuresByKind();
+  if (kinds.empty()) {
+    s << "failures: none\n";
+  } else {
+    s << "failures by kind:";
+    for (const auto& [kind, n] : kinds) s << " " << kind << " " << n << ";";
+    s << "\n";
+  }
+  s << "per frame: median " << median_ms << " ms, p90 " << p90_ms << " ms, p99 " << p99_ms
+    << " ms";
+  return s.str();
+}
+
+std::string OfflineSummary::verboseReport() const {
+  std::ostringstream s;
+  for (size_t k = 0; k < frames.size(); ++k) {
+    const FrameStats& f = frames[k];
+    if (f.status == VoStatus::kOk && !f.bridged && !f.via_previous) continue;
+    s << "frame " << k << " (" << f.utime << "): " << (f.bridged ? "bridged" : toString(f.status));
+    if (!f.failure_kind.empty()) s << " [" << f.failure_kind << "]";
+    s << ": " << f.message << "\n";
+  }
   return s.str();
 }
 
@@ -91,6 +123,9 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
     f.mean_reprojection_px = r.mean_reprojection_px;
     f.delta_translation_m = r.ok() ? r.ref_T_cur.translation().norm() : 0.0;
     f.process_ms = ms;
+    f.bridged = r.bridged;
+    f.via_previous = r.via_previous;
+    f.failure_kind = r.failure_kind;
     f.message = r.message;
     summary.frames.push_back(f);
     if (auto cam0_T_cam = chain.add(out->delta)) {
@@ -116,6 +151,7 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
   summary.stats = pipeline->stats();
   summary.breaks = chain.breaks();
   summary.median_ms = percentile(times, 0.5);
+  summary.p90_ms = percentile(times, 0.9);
   summary.p99_ms = percentile(times, 0.99);
   return summary;
 }
@@ -124,7 +160,7 @@ Status writeFrameStatsCsv(const std::vector<FrameStats>& frames,
                           const std::filesystem::path& file) {
   std::ostringstream s;
   s << "utime,status,keyframe_changed,corners,features,matches,inliers,mean_reprojection_px,"
-       "delta_translation_m,process_ms,message\n";
+       "delta_translation_m,process_ms,bridged,failure_kind,message\n";
   for (const FrameStats& f : frames) {
     std::string message = f.message;
     std::replace(message.begin(), message.end(), ',', ';');
@@ -134,7 +170,8 @@ Status writeFrameStatsCsv(const std::vector<FrameStats>& frames,
                   f.delta_translation_m, f.process_ms);
     s << f.utime << "," << toString(f.status) << "," << (f.keyframe_changed ? 1 : 0) << ","
       << f.num_corners << "," << f.num_features << "," << f.num_matches << ","
-      << f.num_inliers << "," << numbers << "," << message << "\n";
+      << f.num_inliers << "," << numbers << "," << (f.bridged ? 1 : 0) << "," << f.failure_kind
+      << "," << message << "\n";
   }
   return writeFileAtomically(file, s.str());
 }

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,9 @@ struct FrameStats {
   double mean_reprojection_px = 0.0;
   double delta_translation_m = 0.0;  // |ref_T_cur translation|
   double process_ms = 0.0;           // wall time of the frame (a measurement, not an input)
+  bool bridged = false;              // kOk by the motion prior (FrameResult::bridged)
+  bool via_previous = false;         // kOk through the previous frame
+  std::string failure_kind;          // FrameResult::failure_kind
   std::string message;
 };
 
@@ -46,15 +50,26 @@ struct OfflineSummary {
   PipelineStats stats;
   int breaks = 0;               // chain breaks bridged (vo_trajectory.h)
   double median_ms = 0.0;
+  double p90_ms = 0.0;
   double p99_ms = 0.0;
 
+  // Frames that did not register, counted by FrameResult::failure_kind (bridged frames by
+  // the kind of failure that made the bridge needed).
+  std::map<std::string, int> failuresByKind() const;
+  // The counts, path, breaks, failures by kind and time per frame (median, p90, p99).
   std::string report() const;
+  // One line per frame that is not a plain kOk: "frame N (utime): status: message".
+  std::string verboseReport() const;
 };
 
 // Errors: the log cannot be opened, or the options are invalid. Frames that fail are in the
 // summary, not errors.
 Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
                                     const OfflineOptions& options);
+
+// The q-quantile (0..1) of `v`, the element at index floor(q n) of the sorted list; 0 for an
+// empty list.
+double percentile(std::vector<double> v, double q);
 
 // Per-frame statistics as CSV (a header line, one line per frame), written atomically.
 Status writeFrameStatsCsv(const std::vector<FrameStats>& frames,

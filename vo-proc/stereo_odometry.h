@@ -9,10 +9,17 @@
 //              matching against the *reference keyframe* in a predicted window
 //              inliers by maximum clique, motion by bidirectional reprojection error,
 //              covariance                                  (core/registration/...)
-//   keyframes: the reference is kept while it yields at least keyframe_inlier_threshold
-//              inliers, so drift does not grow while the camera hovers; below that, the
-//              current frame becomes the reference (and a keyframe for the map, with ORB
-//              descriptors).
+//   reference: the frame VO matches against is kept while it yields at least
+//              keyframe_inlier_threshold inliers, so drift does not grow while the camera
+//              hovers; below that, the current frame becomes the reference.
+//   keyframes: a new reference is a keyframe for the map (a KEYFRAME with ORB descriptors,
+//              keyframe_changed, the ref_utime of the VO_DELTAs after it) only when the
+//              camera has moved keyframe_min_translation_m or turned keyframe_min_rotation_rad
+//              since the last keyframe, or when the chain restarts or is bridged. Between
+//              keyframes a frame's motion is given from the last keyframe, chained through the
+//              references in between with first-order compounding of the covariances
+//              (core::compound). The keyframe policy is thus not the inlier threshold, and ORB
+//              descriptors are computed for keyframes only.
 //
 // Failures never throw and never abort: each frame gets a status (values of vo_delta_t).
 //  - kBadInput: an image is empty, not gray or not the camera's size. Nothing changes.
@@ -22,11 +29,21 @@
 //    after a gap the predicted motion is stale, and a search from it aliases on repeated
 //    texture.
 //  - kInsufficientInliers / kOptimizationFailure / kReprojectionError: the frame does not
-//    register to the reference (occlusion, fast motion). The reference is kept for up to
+//    register to the reference (occlusion, fast motion), nor, retried, to the last frame
+//    that registered (when that is not the reference: a motion through it is chained to the
+//    reference and the frame becomes the reference). The reference is kept for up to
 //    max_failed_frames failures in a row (a passer-by); after that the next frame with enough
-//    features becomes the reference (keyframe_changed, ref_utime = its own utime), which
-//    breaks the chain of motions: the mapper bridges the gap (wheel odometry), VO restarts
-//    from there.
+//    features becomes the reference. With bridge_breaks (the default) its motion is the
+//    motion prior (constant velocity, the rotation measured on the top pyramid level) with
+//    a covariance inflated per predicted frame (BridgeOptions), status kOk and `bridged`
+//    set: the chain goes on with an honest uncertainty instead of a gap. Without it (or with
+//    no motion known yet) the chain breaks (keyframe_changed, ref_utime = its own utime):
+//    the mapper bridges the gap (wheel odometry), VO restarts from there.
+//
+// The motion prior: the last frame-to-frame motion (constant velocity), its rotation replaced
+// by the rotation measured on the top pyramid level when there is one. It places the search
+// windows of the next frame; at ~1 m between frames (a car at 10 Hz) a rotation-only
+// prediction leaves near features tens of pixels from where they are.
 //
 // Not thread-safe; one instance per camera stream.
 
@@ -76,8 +93,27 @@ struct OdometryOptions {
   // and the one at the change is the one that is chained.
   int keyframe_inlier_threshold = 150;
   double keyframe_inlier_fraction = 0.5;
+  // A new reference is a map keyframe when the camera has moved at least this far or turned
+  // at least this much since the last keyframe (0 and 0: every reference is a keyframe).
+  double keyframe_min_translation_m = 0.2;
+  double keyframe_min_rotation_rad = 0.087;  // 5 degrees
   // Consecutive failures against the reference before it is replaced.
   int max_failed_frames = 2;
+  // Predict the motion since the previous frame as the last frame-to-frame motion (constant
+  // velocity); off: rotation only (FOVIS).
+  bool constant_velocity = true;
+  // A frame that fails against the reference is registered to the last frame that
+  // registered (when that is not the reference).
+  bool retry_previous_frame = true;
+  // Bridge a chain break with the motion prior (see the class comment).
+  bool bridge_breaks = true;
+  // Standard deviations of the motion prior, per predicted frame (variances add up over the
+  // frames of a gap): a floor plus a fraction of the predicted motion itself.
+  struct BridgeOptions {
+    double translation_sigma_m = 0.05;
+    double rotation_sigma_rad = 0.02;
+    double velocity_fraction = 0.3;  // of the predicted translation and rotation
+  } bridge;
   // ORB descriptors of keyframes (for loop closure); off saves their cost.
   bool keyframe_descriptors = true;
   core::OrbExtractor::Options orb;
@@ -91,11 +127,12 @@ struct OdometryOptions {
 
 struct FrameResult {
   int64_t utime = 0;
-  int64_t ref_utime = 0;  // the reference the motion is relative to
+  int64_t ref_utime = 0;  // the keyframe the motion is relative to
   VoStatus status = VoStatus::kBadInput;
   std::string message;    // one line; why, when status is not kOk
-  bool keyframe_changed = false;  // this frame is now the reference
-  core::SE3d ref_T_cur;           // valid when status is kOk (identity for kNoData)
+  bool keyframe_changed = false;  // this frame is now the reference keyframe
+  // From the keyframe ref_utime to this frame: valid when status is kOk (identity for kNoData).
+  core::SE3d ref_T_cur;
   core::Mat6 covariance = core::Mat6::Zero();  // right tangent (υ, ω) at ref_T_cur
   int num_corners = 0;   // FAST corners detected
   int num_features = 0;  // with a depth
@@ -104,6 +141,15 @@ struct FrameResult {
   double mean_reprojection_px = 0.0;
   // The keyframe features (ORB) when keyframe_changed and keyframe_descriptors.
   std::optional<core::KeyframeFeatures> keyframe;
+  // kOk by the motion prior, not by a registration (a bridged break; covariance inflated).
+  bool bridged = false;
+  // kOk through the last registered frame after failing against the reference.
+  bool via_previous = false;
+  // Why, for a frame that did not register, in a few fixed words (for counting by kind):
+  // "too few features", "too few consistent matches", "too few inliers after outlier
+  // rejection", "reprojection error", "optimization failure", "stale reference",
+  // "bad input"; with `bridged`, why the bridge was needed. Empty otherwise.
+  std::string failure_kind;
 
   bool ok() const { return status == VoStatus::kOk; }
 };
@@ -133,19 +179,45 @@ class StereoOdometry {
   StereoOdometry(const core::StereoCamera& camera, const OdometryOptions& options,
                  core::StereoFeatureExtractor extractor);
 
-  void makeCurrentTheReference(FrameResult* result);
+  // The current frame becomes the reference; a keyframe too when `keyframe`, else kf_T_cur
+  // (the motion from the last keyframe to it) is kept for chaining.
+  void makeCurrentTheReference(FrameResult* result, bool keyframe = true,
+                               const core::UncertainPose& kf_T_cur = {});
+  // Whether a new reference at kf_T_cur from the last keyframe is a keyframe.
+  bool farEnoughForAKeyframe(const core::SE3d& kf_T_cur) const;
+  // Matches `from` into the current frame in windows around the prediction from_T_pred
+  // (from_T_cur) and registers: a = from, b = current.
+  core::RegistrationSummary registerTo(const core::FeatureFrame& from, const core::SE3d& from_T_pred) const;
+  // The motion prior's covariance over `frames` predicted frames of `prev_T_cur`.
+  core::Mat6 priorCovariance(const core::SE3d& prev_T_cur, int frames) const;
+  // Bridges the break at the current frame by ref_T_pred (see the class comment).
+  void bridge(const core::SE3d& ref_T_pred, FrameResult* result);
 
   core::StereoCamera camera_;
   OdometryOptions options_;
   core::StereoFeatureExtractor extractor_;
   core::OrbExtractor orb_;
-  // Buffers swapped, never copied: the reference, the current frame.
-  std::unique_ptr<core::FeatureFrame> ref_, cur_;
+  // Buffers swapped, never copied: the reference, the last frame that registered to it, the
+  // current frame.
+  std::unique_ptr<core::FeatureFrame> ref_, prev_, cur_;
   bool has_ref_ = false;
+  bool has_prev_ = false;  // prev_ holds a frame registered after the reference
+  // The last frame-to-frame motion (the constant-velocity prediction).
+  core::SE3d prev_T_cur_motion_;
+  bool has_motion_ = false;
   // The previous frame's top pyramid level, for the rotation estimate.
   cv::Mat prev_top_;
-  // The last known motion from the reference to the previous frame (the prediction).
+  // The last keyframe and the motion from it to the reference (identity when the reference
+  // is the keyframe).
+  int64_t kf_utime_ = 0;
+  core::UncertainPose kf_T_ref_;
+  // The motion from the reference to the previous frame, measured or predicted.
   core::SE3d ref_T_prev_;
+  // The motion from the reference to prev_ (the last registered frame) with its covariance,
+  // and the frames since then.
+  core::SE3d ref_T_good_;
+  core::Mat6 ref_T_good_cov_ = core::Mat6::Zero();
+  int frames_since_good_ = 0;
   int failures_ = 0;
   // Inliers of the first frame registered against the reference (0: none yet).
   int first_inliers_ = 0;

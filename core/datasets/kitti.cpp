@@ -1,6 +1,9 @@
 #include "core/datasets/kitti.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <initializer_list>
 #include <fstream>
 #include <string>
 
@@ -8,6 +11,8 @@
 
 namespace evermap::datasets {
 namespace {
+
+namespace fs = std::filesystem;
 
 bool blank(const std::string& line) {
   return line.find_first_not_of(" \t\r") == std::string::npos;
@@ -139,6 +144,124 @@ Expected<std::vector<core::SE3d>> readKittiPoses(const std::filesystem::path& fi
     out.emplace_back(core::SO3d::fromMatrix(R), core::Vec3(T.col(3)));
   }
   return out;
+}
+
+namespace {
+
+std::string frameName(size_t i) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%06zu.png", i);
+  return buf;
+}
+
+// The image folder the options name, else the first of `defaults` that exists; empty when
+// none does.
+fs::path imageFolder(const fs::path& folder, const fs::path& chosen,
+                     std::initializer_list<const char*> defaults) {
+  if (!chosen.empty()) return chosen.is_absolute() ? chosen : folder / chosen;
+  for (const char* name : defaults) {
+    if (fs::is_directory(folder / name)) return folder / name;
+  }
+  return {};
+}
+
+// Frame numbers 0 .. the highest NNNNNN.png of `dir`, at `rate_hz`.
+Expected<std::vector<int64_t>> timesFromRate(const fs::path& dir, double rate_hz) {
+  long long highest = -1;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const std::string name = entry.path().filename().string();
+    if (name.size() != 10 || name.substr(6) != ".png") continue;
+    if (name.find_first_not_of("0123456789") != 6) continue;
+    highest = std::max(highest, std::stoll(name.substr(0, 6)));
+  }
+  if (highest < 0) return makeError(dir.string(), ": no NNNNNN.png image");
+  std::vector<int64_t> times;
+  for (long long i = 0; i <= highest; ++i) {
+    times.push_back(std::llround(static_cast<double>(i) * 1e9 / rate_hz));
+  }
+  return times;
+}
+
+}  // namespace
+
+Status KittiSequenceOptions::validate() const {
+  if (!poses.empty() && !fs::is_regular_file(poses)) {
+    return makeError(poses.string(), ": poses file not found");
+  }
+  if (!(rate_hz >= 0.0 && rate_hz <= 1e6)) {
+    return makeError("frame rate ", rate_hz, " Hz is not in [0, 1e6] (0: use times.txt)");
+  }
+  return Ok{};
+}
+
+fs::path KittiSequence::leftImage(size_t frame) const { return left_dir / frameName(frame); }
+fs::path KittiSequence::rightImage(size_t frame) const { return right_dir / frameName(frame); }
+
+Expected<KittiSequence> readKittiSequence(const fs::path& folder,
+                                          const KittiSequenceOptions& options) {
+  if (Status s = options.validate(); !s) return s.error();
+  KittiSequence q;
+  q.folder = folder;
+  q.left_dir = imageFolder(folder, options.left_folder, {"image_0", "image_l"});
+  if (q.left_dir.empty() || !fs::is_directory(q.left_dir)) {
+    if (!options.left_folder.empty()) {
+      return makeError(q.left_dir.string(), ": no left images (no such folder)");
+    }
+    return makeError((folder / "image_0").string(),
+                     ": no left images (neither image_0/ nor image_l/: not a KITTI odometry "
+                     "sequence?)");
+  }
+  q.right_dir = imageFolder(folder, options.right_folder, {"image_1", "image_r"});
+  if (q.right_dir.empty() || !fs::is_directory(q.right_dir)) {
+    if (!options.right_folder.empty()) {
+      return makeError(q.right_dir.string(), ": no right images (no such folder)");
+    }
+    const bool kitti = q.left_dir.filename() == "image_0";
+    return makeError((folder / (kitti ? "image_1" : "image_r")).string(),
+                     ": no right images: stereo needs ",
+                     kitti ? "image_0 and image_1" : "image_l and image_r",
+                     " (this folder is monocular)");
+  }
+  q.calib_file = folder / "calib.txt";
+  auto projections = readKittiCalib(q.calib_file);
+  if (!projections) return projections.error();
+  q.projections = *projections;
+  const fs::path times_file = folder / "times.txt";
+  Expected<std::vector<int64_t>> times = Error{""};
+  if (options.rate_hz > 0.0) {
+    times = timesFromRate(q.left_dir, options.rate_hz);
+  } else if (!fs::exists(times_file)) {
+    return makeError(times_file.string(),
+                     ": no such file; give the frame rate instead (--rate HZ)");
+  } else {
+    times = readKittiTimes(times_file);
+  }
+  if (!times) return times.error();
+  q.times_ns = std::move(*times);
+
+  q.poses_file = options.poses;
+  if (q.poses_file.empty() && fs::is_regular_file(folder / "poses.txt")) {
+    q.poses_file = folder / "poses.txt";
+  }
+  if (!q.poses_file.empty()) {
+    auto p = readKittiPoses(q.poses_file);
+    if (!p) return p.error();
+    if (p->size() != q.times_ns.size()) {
+      return makeError(q.poses_file.string(), ": ", p->size(), " poses but ",
+                       options.rate_hz > 0.0 ? q.left_dir.string() : times_file.string(),
+                       " has ", q.times_ns.size(), " frames");
+    }
+    q.poses = std::move(*p);
+  }
+  for (size_t i = 0; i < q.times_ns.size(); ++i) {
+    if (fs::exists(q.leftImage(i)) && fs::exists(q.rightImage(i))) {
+      q.frames.push_back(i);
+    } else {
+      ++q.skipped_missing_image;
+    }
+  }
+  if (q.frames.empty()) return makeError(folder.string(), ": no frame with both images");
+  return q;
 }
 
 }  // namespace evermap::datasets

@@ -30,11 +30,6 @@ Status EurocToLcmOptions::validate() const {
   return Ok{};
 }
 
-Status KittiToLcmOptions::validate() const {
-  if (!poses.empty() && !std::filesystem::is_regular_file(poses)) {
-    return makeError(poses.string(), ": poses file not found");
-  }
-  return Ok{};
-}
+Status KittiToLcmOptions::validate() const { return sequence.validate(); }
 
 }  // namespace evermap::datasets

@@ -20,6 +20,7 @@
 #include <string>
 
 #include "core/common/expected.h"
+#include "core/datasets/kitti.h"
 #include "core/messages/convert.h"
 
 namespace evermap::datasets {
@@ -56,15 +57,15 @@ Expected<ConversionSummary> convertEurocToLcm(const std::filesystem::path& asl_f
 
 struct KittiToLcmOptions {
   messages::ImageEncoding encoding = messages::ImageEncoding::kPng;
-  // Ground-truth poses (KITTI format, one line per frame). Empty: <sequence>/poses.txt when it
-  // exists, else no ground truth.
-  std::filesystem::path poses;
+  // Folders, frame rate, ground truth (core/datasets/kitti.h).
+  KittiSequenceOptions sequence;
 
   Status validate() const;
 };
 
-// `sequence` holds image_0/, image_1/, calib.txt and times.txt. Refuses a folder without
-// image_1 (a monocular copy) and a poses file whose length differs from times.txt.
+// `sequence` as readKittiSequence() takes it (kitti.h): image folders, calib.txt (labelled or
+// not), times.txt or a rate, poses.txt when present. Its errors, and an image whose size
+// differs from the first one's.
 Expected<ConversionSummary> convertKittiToLcm(const std::filesystem::path& sequence,
                                               const std::filesystem::path& output,
                                               const KittiToLcmOptions& options);

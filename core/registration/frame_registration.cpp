@@ -58,8 +58,8 @@ SE3d rigidFit(const std::vector<Eigen::Vector3d>& pa, const std::vector<Eigen::V
 }  // namespace
 
 std::optional<std::string> ambiguity(const std::vector<Eigen::Vector3d>& pa, const std::vector<Eigen::Vector3d>& pb,
-                                     const std::vector<double>& depth_sigma_m, const std::vector<int>& clique,
-                                     const RegistrationOptions& options) {
+                                     const std::vector<double>& sigma_a, const std::vector<double>& sigma_b,
+                                     const std::vector<int>& clique, const RegistrationOptions& options) {
   std::vector<bool> used(pa.size(), false);
   for (int i : clique) used[static_cast<size_t>(i)] = true;
   std::vector<int> rest;
@@ -68,13 +68,17 @@ std::optional<std::string> ambiguity(const std::vector<Eigen::Vector3d>& pa, con
   const double needed = std::max<double>(options.min_inliers, options.ambiguity_ratio * static_cast<double>(clique.size()));
   if (static_cast<double>(rest.size()) < needed) return std::nullopt;
   std::vector<Eigen::Vector3d> ra, rb;
-  std::vector<double> rs;
+  std::vector<double> rsa, rsb;
   for (int i : rest) {
-    ra.push_back(pa[static_cast<size_t>(i)]);
-    rb.push_back(pb[static_cast<size_t>(i)]);
-    if (!depth_sigma_m.empty()) rs.push_back(depth_sigma_m[static_cast<size_t>(i)]);
+    const auto k = static_cast<size_t>(i);
+    ra.push_back(pa[k]);
+    rb.push_back(pb[k]);
+    if (!sigma_a.empty()) {
+      rsa.push_back(sigma_a[k]);
+      rsb.push_back(sigma_b[k]);
+    }
   }
-  std::vector<int> second = maxConsistentClique(ra, rb, rs, options.clique);
+  std::vector<int> second = maxConsistentClique(ra, rb, rsa, rsb, options.clique);
   if (static_cast<double>(second.size()) < needed) return std::nullopt;
   const SE3d first_T = rigidFit(pa, pb, clique);
   const SE3d second_T = rigidFit(ra, rb, second);
@@ -106,10 +110,9 @@ RegistrationSummary registerMatches(const StereoCamera& camera_a, const StereoCa
     return s;
   }
   std::vector<Eigen::Vector3d> pa, pb;
-  std::vector<double> sigma;
+  std::vector<double> sigma_a, sigma_b;
   pa.reserve(matches.size());
   pb.reserve(matches.size());
-  sigma.reserve(matches.size());
   // Depth noise of a stereo point: σ_z = z² σ_d / (fx b) (first order of z = fx b / d).
   auto depthSigma = [&](const StereoCamera& c, double z) {
     return z * z * options.disparity_sigma_px / (c.fx() * c.baselineM());
@@ -117,9 +120,12 @@ RegistrationSummary registerMatches(const StereoCamera& camera_a, const StereoCa
   for (const Correspondence& m : matches) {
     pa.push_back(m.p_a);
     pb.push_back(m.p_b);
-    sigma.push_back(std::hypot(depthSigma(camera_a, m.p_a.z()), depthSigma(camera_b, m.p_b.z())));
+    if (options.disparity_sigma_px > 0.0) {
+      sigma_a.push_back(depthSigma(camera_a, m.p_a.z()));
+      sigma_b.push_back(depthSigma(camera_b, m.p_b.z()));
+    }
   }
-  const std::vector<int> clique = maxConsistentClique(pa, pb, sigma, options.clique);
+  const std::vector<int> clique = maxConsistentClique(pa, pb, sigma_a, sigma_b, options.clique);
   s.num_clique = static_cast<int>(clique.size());
   if (s.num_clique < options.min_inliers) {
     s.status = RegistrationStatus::kInsufficientInliers;
@@ -128,7 +134,7 @@ RegistrationSummary registerMatches(const StereoCamera& camera_a, const StereoCa
     return s;
   }
   if (options.ambiguity_ratio > 0.0) {
-    if (auto why = ambiguity(pa, pb, sigma, clique, options)) {
+    if (auto why = ambiguity(pa, pb, sigma_a, sigma_b, clique, options)) {
       s.status = RegistrationStatus::kInsufficientInliers;
       s.message = makeError(s.num_matches, " matches, ", s.num_clique, " in the clique: ambiguous, ", *why).message;
       return s;

@@ -39,7 +39,8 @@ const char* toString(RegistrationStatus status);
 struct RegistrationOptions {
   DescriptorMatchOptions matching;
   CliqueOptions clique;
-  // Disparity noise (pixels) behind the depth uncertainty the clique allows for.
+  // Disparity noise (pixels) behind the depth uncertainty the clique allows for
+  // (clique_inliers.h); 0: the fixed threshold only.
   double disparity_sigma_px = 0.2;
   MotionOptions motion;
   // Fewest features with depth (and descriptors, for registerFrames) in each frame.
@@ -79,7 +80,9 @@ struct RegistrationSummary {
 // from the clique's; nothing when there is none. Points and sigmas as maxConsistentClique.
 std::optional<std::string> ambiguity(const std::vector<Eigen::Vector3d>& points_a,
                                      const std::vector<Eigen::Vector3d>& points_b,
-                                     const std::vector<double>& depth_sigma_m, const std::vector<int>& clique,
+                                     const std::vector<double>& depth_sigma_a_m,
+                                     const std::vector<double>& depth_sigma_b_m,
+                                     const std::vector<int>& clique,
                                      const RegistrationOptions& options);
 
 // Registers keyframe b against keyframe a: a_T_b. The cameras are the rectified rigs the

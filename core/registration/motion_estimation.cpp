@@ -1,5 +1,7 @@
 #include "core/registration/motion_estimation.h"
 
+#include <algorithm>
+
 #include <cmath>
 #include <limits>
 
@@ -20,6 +22,9 @@ Status MotionOptions::validate() const {
   if (!(max_mean_reprojection_px > 0.0)) {
     return makeError("motion: max_mean_reprojection_px ", max_mean_reprojection_px,
                      " must be positive");
+  }
+  if (max_rejection_rounds < 0) {
+    return makeError("motion: max_rejection_rounds ", max_rejection_rounds, " is negative");
   }
   if (min_inliers < 3) {
     return makeError("motion: min_inliers ", min_inliers, " must be >= 3 (6 unknowns)");
@@ -52,9 +57,10 @@ struct PoseMatrices {
   Vec3 t_inv;
 };
 
+// Ja_out, Jb_out: the projection Jacobians at the two reprojected points (with J).
 bool residual(const StereoCamera& camera_a, const StereoCamera& camera_b,
               const Correspondence& m, const PoseMatrices& T, Eigen::Matrix<double, 4, 1>* r,
-              Eigen::Matrix<double, 4, 6>* J) {
+              Eigen::Matrix<double, 4, 6>* J, Mat3* Ja_out = nullptr, Mat3* Jb_out = nullptr) {
   // Into a: q_a = T exp(δ) p_b ≈ T p_b + R (υ + ω × p_b): dq_a/dδ = R [I, -[p_b]x].
   const Vec3 q_a = T.R * m.p_b + T.t;
   // Into b: q_b = exp(-δ) T⁻¹ p_a ≈ q_b - υ - ω × q_b: dq_b/dδ = [-I, [q_b]x].
@@ -73,6 +79,8 @@ bool residual(const StereoCamera& camera_a, const StereoCamera& camera_b,
     dqb.rightCols<3>() = hat(q_b);
     J->topRows<2>() = Ja.topRows<2>() * dqa;
     J->bottomRows<2>() = Jb.topRows<2>() * dqb;
+    if (Ja_out) *Ja_out = Ja;
+    if (Jb_out) *Jb_out = Jb;
   }
   return true;
 }
@@ -96,10 +104,62 @@ Eigen::Vector2d reprojectionErrors(const StereoCamera& camera_a, const StereoCam
 
 namespace {
 
+// Whitens one residual of a match for the depth noise of the points they reproject
+// (MotionOptions::disparity_sigma_px): a stereo point's depth error moves it along its ray,
+// δp = p δz / z with σ_z = z² σ_d / (f b), which moves its reprojection along g = J_π p σ_z / z.
+// The residual's covariance σ² I + g gᵀ has the inverse square root
+// (1/σ) (I - c ĝ ĝᵀ), c = 1 - 1 / sqrt(1 + |g|² / σ²); applied times σ, the residual stays in
+// pixels where the depth does not matter (rotation, points near the epipole) and is scaled
+// down along the epipolar direction where it does (far points under translation).
+void whitenAlong(const Eigen::Vector2d& g, double sigma_px, Eigen::Ref<Eigen::Matrix<double, 2, 1>> r,
+                 Eigen::Ref<Eigen::Matrix<double, 2, 6>> J) {
+  const double g2 = g.squaredNorm();
+  if (!(g2 > 1e-12)) return;
+  const double c = 1.0 - 1.0 / std::sqrt(1.0 + g2 / (sigma_px * sigma_px));
+  const Eigen::Matrix2d W = Eigen::Matrix2d::Identity() - (c / g2) * g * g.transpose();
+  r = W * r;
+  J = W * J;
+}
+
 struct Problem {
   const StereoCamera& camera_a;
   const StereoCamera& camera_b;
   const std::vector<Correspondence>& matches;
+  double disparity_sigma_px = 0.0;  // 0: no whitening
+  double pixel_sigma_px = 0.3;
+
+  double depthSigma(const StereoCamera& c, double z) const {
+    return z * z * disparity_sigma_px / (c.fx() * c.baselineM());
+  }
+
+  // The residuals of one match (whitened for depth noise) and their Jacobian; false when a
+  // point falls behind a camera.
+  bool whitenedResidual(const Correspondence& m, const PoseMatrices& P,
+                        Eigen::Matrix<double, 4, 1>* r, Eigen::Matrix<double, 4, 6>* J) const {
+    Mat3 Ja, Jb;
+    if (!residual(camera_a, camera_b, m, P, r, J, &Ja, &Jb)) return false;
+    if (disparity_sigma_px > 0.0) {
+      // The reprojection into a moves with the depth of p_b (δq_a = R p_b δz / z), the one
+      // into b with the depth of p_a (δq_b = Rᵀ p_a δz / z).
+      const Eigen::Vector2d ga =
+          Ja.topRows<2>() * (P.R * m.p_b) * (depthSigma(camera_b, m.p_b.z()) / m.p_b.z());
+      const Eigen::Vector2d gb =
+          Jb.topRows<2>() * (P.Rt * m.p_a) * (depthSigma(camera_a, m.p_a.z()) / m.p_a.z());
+      whitenAlong(ga, pixel_sigma_px, r->head<2>(), J->topRows<2>());
+      whitenAlong(gb, pixel_sigma_px, r->tail<2>(), J->bottomRows<2>());
+    }
+    return true;
+  }
+
+  // The errors (pixels, whitened) of one match in image a and image b; +inf behind a camera.
+  Eigen::Vector2d errors(const SE3d& T, int i) const {
+    Eigen::Matrix<double, 4, 1> r;
+    Eigen::Matrix<double, 4, 6> J;
+    if (!whitenedResidual(matches[static_cast<size_t>(i)], PoseMatrices(T), &r, &J)) {
+      return Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+    }
+    return Eigen::Vector2d(r.head<2>().norm(), r.tail<2>().norm());
+  }
 
   // Sum of squared residuals over `active`, and optionally H = JᵀJ, g = Jᵀr. Points behind a
   // camera contribute nothing (they are rejected as outliers afterwards).
@@ -111,10 +171,7 @@ struct Problem {
     Eigen::Matrix<double, 4, 6> J;
     const PoseMatrices P(T);
     for (int i : active) {
-      if (!residual(camera_a, camera_b, matches[static_cast<size_t>(i)], P, &r,
-                    H ? &J : nullptr)) {
-        continue;
-      }
+      if (!whitenedResidual(matches[static_cast<size_t>(i)], P, &r, &J)) continue;
       cost += r.squaredNorm();
       if (H) {
         H->noalias() += J.transpose() * J;
@@ -185,30 +242,48 @@ MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& 
       T = a->gt_S_est.rigid;
     }
   }
-  const Problem problem{camera_a, camera_b, matches};
+  const Problem problem{camera_a, camera_b, matches, options.disparity_sigma_px,
+                        options.pixel_sigma_px};
   std::vector<int> active = candidates;
   int iterations = problem.solve(&T, active, options.max_iterations);
-  if (iterations >= 0) {
-    // Outlier rejection (FOVIS): drop matches beyond the error bound and solve again.
+  // Outlier rejection (FOVIS): drop matches beyond the error bound and solve again. When the
+  // first solve is pulled off by gross outliers (a clique that admits far points with wrong
+  // depths), the bound starts at a robust multiple of the median error (1.4826 median = σ of
+  // a normal distribution), at least halves per solve and reaches
+  // inlier_max_reprojection_px after at most max_rejection_rounds solves.
+  double previous_bound = std::numeric_limits<double>::infinity();
+  for (int round = 0; iterations >= 0; ++round) {
+    std::vector<double> worst;
+    worst.reserve(active.size());
+    for (int i : active) {
+      worst.push_back(problem.errors(T, i).maxCoeff());
+    }
+    std::vector<double> sorted = worst;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+    // At most half the previous bound: a fit pulled off so far that the median itself is an
+    // outlier's error would otherwise keep the same bound.
+    const double robust = std::min(3.0 * 1.4826 * sorted[sorted.size() / 2], 0.5 * previous_bound);
+    const double bound = round >= options.max_rejection_rounds
+                             ? options.inlier_max_reprojection_px
+                             : std::max(options.inlier_max_reprojection_px, robust);
+    previous_bound = bound;
     std::vector<int> kept;
     kept.reserve(active.size());
-    for (int i : active) {
-      const Eigen::Vector2d e =
-          reprojectionErrors(camera_a, camera_b, matches[static_cast<size_t>(i)], T);
-      if (e.maxCoeff() <= options.inlier_max_reprojection_px) kept.push_back(i);
+    for (size_t k = 0; k < active.size(); ++k) {
+      if (worst[k] <= bound) kept.push_back(active[k]);
     }
     active.swap(kept);
     if (static_cast<int>(active.size()) < n_min) {
       out.status = MotionStatus::kInsufficientInliers;
-      out.message = makeError(active.size(), " of ", candidates.size(),
-                              " matches within ", options.inlier_max_reprojection_px,
-                              " px after the first solve, need ", n_min).message;
+      out.message = makeError(active.size(), " of ", candidates.size(), " matches within ",
+                              bound, " px after ", round + 1, " solves, need ", n_min).message;
       out.a_T_b = T;
       out.inliers = active;
       return out;
     }
     const int more = problem.solve(&T, active, options.max_iterations);
     iterations = more < 0 ? -1 : iterations + more;
+    if (bound <= options.inlier_max_reprojection_px) break;
   }
   out.iterations = std::max(iterations, 0);
   out.a_T_b = T;
@@ -223,9 +298,7 @@ MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& 
   }
   double sum_error = 0.0;
   for (int i : active) {
-    const Eigen::Vector2d e =
-        reprojectionErrors(camera_a, camera_b, matches[static_cast<size_t>(i)], T);
-    sum_error += e.sum();
+    sum_error += problem.errors(T, i).sum();
   }
   out.mean_reprojection_px = sum_error / (2.0 * static_cast<double>(active.size()));
   Eigen::FullPivLU<Mat6> lu(H);

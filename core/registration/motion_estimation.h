@@ -9,8 +9,9 @@
 //       E(T) = Σ ||π_a(T p_b) - x_a||² + ||π_b(T⁻¹ p_a) - x_b||²,   T = a_T_b,
 //     with right perturbations T exp(δ), δ = (υ, ω);
 //  3. matches whose error in either image exceeds inlier_max_reprojection_px are dropped and
-//     step 2 is repeated; the result is refused when too few remain or their mean error is
-//     too large.
+//     step 2 is repeated (a first solve pulled off by gross outliers: the bound starts at a
+//     robust multiple of the median error and shrinks over a few solves); the result is
+//     refused when too few remain or their mean error is too large.
 // Covariance: Σ = 2 σ² H⁻¹ with H = JᵀJ of the final problem (pixels, right tangent (υ, ω)
 // at a_T_b), σ the larger of the residual RMS and pixel_sigma_px; the factor 2 undoes the
 // double counting of the two directions, which reuse the same measurements.
@@ -40,12 +41,24 @@ struct MotionOptions {
   int max_iterations = 15;
   // After the first solve, matches with a larger error (pixels, either image) are outliers.
   double inlier_max_reprojection_px = 2.0;
+  // Graduated rejection: the outlier bound starts at 3 robust sigmas of the first solve's
+  // errors (4.45 x their median) when that is above inlier_max_reprojection_px, at least
+  // halves per solve and is inlier_max_reprojection_px after at most this many solves; a
+  // first solve pulled off by gross outliers then sheds them instead of failing.
+  // 0: FOVIS's single rejection.
+  int max_rejection_rounds = 0;
   // The final mean error (pixels, both directions) may not exceed this.
   double max_mean_reprojection_px = 1.5;
   // Fewest inliers a motion is estimated from.
   int min_inliers = 10;
-  // Lower bound of the pixel noise used for the covariance (pixels).
+  // Lower bound of the pixel noise used for the covariance (pixels); also the pixel noise
+  // the depth noise is weighed against.
   double pixel_sigma_px = 0.3;
+  // Disparity noise (pixels) of the stereo points: each residual is whitened for the depth
+  // noise of the point it reprojects, which moves the reprojection along the epipolar
+  // direction (far points under translation); errors and the outlier bound are then in
+  // whitened pixels. 0: the points are taken as exact (FOVIS).
+  double disparity_sigma_px = 0.0;
   // Use the caller's initial motion instead of the closed-form start (it is also the
   // fallback when the points are degenerate for the closed form).
   bool use_initial_guess = false;

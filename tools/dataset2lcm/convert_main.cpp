@@ -17,10 +17,11 @@ int convertMain(Dataset dataset, int argc, char** argv) {
                                  : "Converts a KITTI odometry sequence to an LCM log.");
   std::vector<std::string> positional;
   bool raw = false;
-  std::string ground_truth;
+  std::string ground_truth, left, right;
+  KittiToLcmOptions kitti;
   cli.positional(&positional, euroc ? "ASL_FOLDER OUTPUT.lcmlog" : "SEQUENCE_FOLDER OUTPUT.lcmlog",
                  euroc ? "the folder holding mav0/ (cam0, cam1, imu0, sensor.yaml files), and the log to write"
-                       : "a KITTI odometry sequence (image_0/, image_1/, calib.txt, times.txt), and the log to write");
+                       : "a KITTI odometry sequence (image_0/ or image_l/, image_1/ or image_r/, calib.txt, times.txt or --rate), and the log to write");
   cli.flag("--raw", &raw, "store images as raw gray8 instead of PNG");
   if (euroc) {
     cli.value("--gt", &ground_truth, "FILE",
@@ -28,6 +29,10 @@ int convertMain(Dataset dataset, int argc, char** argv) {
   } else {
     cli.value("--poses", &ground_truth, "FILE",
               "ground-truth poses (KITTI format); default SEQUENCE_FOLDER/poses.txt when present");
+    cli.value("--rate", &kitti.sequence.rate_hz, "HZ",
+              "frame i at i/HZ s instead of times.txt (for copies without it; KITTI: about 10)");
+    cli.value("--left", &left, "DIR", "left images (default image_0/, else image_l/)");
+    cli.value("--right", &right, "DIR", "right images (default image_1/, else image_r/)");
   }
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (positional.size() != 2) {
@@ -44,10 +49,11 @@ int convertMain(Dataset dataset, int argc, char** argv) {
     options.ground_truth = ground_truth;
     summary = convertEurocToLcm(positional[0], positional[1], options);
   } else {
-    KittiToLcmOptions options;
-    options.encoding = encoding;
-    options.poses = ground_truth;
-    summary = convertKittiToLcm(positional[0], positional[1], options);
+    kitti.encoding = encoding;
+    kitti.sequence.poses = ground_truth;
+    kitti.sequence.left_folder = left;
+    kitti.sequence.right_folder = right;
+    summary = convertKittiToLcm(positional[0], positional[1], kitti);
   }
   if (!summary) {
     std::fprintf(stderr, "%s: %s\n", program.c_str(), summary.error().message.c_str());

@@ -12,7 +12,7 @@ int main(int argc, char** argv) {
   evermap::vo::OfflineOptions options;
   std::string stats, output_log;
   std::vector<std::string> positional;
-  bool no_descriptors = false;
+  bool no_descriptors = false, verbose = false, no_motion_prior = false;
   evermap::CommandLine cli("evermap-vo-run",
                            "Visual odometry over an LCM log, in one process; writes the trajectory (TUM).");
   cli.positional(&positional, "LOG TRAJECTORY.tum",
@@ -22,10 +22,25 @@ int main(int argc, char** argv) {
   cli.value("--output-log", &output_log, "FILE", "the VO_DELTA and KEYFRAME messages, as an LCM log");
   cli.value("--max-frames", &options.max_frames, "N", "stop after N stereo frames");
   cli.value("--keyframe-inliers", &options.pipeline.odometry.keyframe_inlier_threshold, "N",
-            "new keyframe below N inliers (default 150)");
+            "new reference below N inliers (default 150; a keyframe only after --keyframe-distance/--keyframe-angle)");
+  auto& odo = options.pipeline.odometry;
+  cli.value("--keyframe-distance", &odo.keyframe_min_translation_m, "M",
+            "a new reference is a map keyframe after M metres (or --keyframe-angle)");
+  cli.value("--keyframe-angle", &odo.keyframe_min_rotation_rad, "RAD",
+            "... or after turning RAD radians since the last keyframe");
+  cli.value("--disparity-sigma", &odo.registration.disparity_sigma_px, "PX",
+            "disparity noise the clique allows for along the rays (0: fixed threshold)");
+  cli.value("--motion-disparity-sigma", &odo.registration.motion.disparity_sigma_px, "PX",
+            "disparity noise the motion estimate whitens its residuals for (0: points exact)");
+  cli.value("--clique-threshold", &odo.registration.clique.threshold_m, "M",
+            "change of a pairwise distance always consistent");
+  cli.value("--search-radius", &odo.matching.search_radius_px, "PX", "window half-size at a feature's level");
+  cli.flag("--no-motion-prior", &no_motion_prior, "predict the rotation only (FOVIS), not a constant velocity");
   cli.flag("--no-descriptors", &no_descriptors, "no ORB descriptors at keyframes");
+  cli.flag("--verbose", &verbose, "one line per frame that failed, was bridged or retried, with its reason");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (no_descriptors) options.pipeline.odometry.keyframe_descriptors = false;
+  if (no_motion_prior) options.pipeline.odometry.constant_velocity = false;
   options.output_log = output_log;
   if (positional.size() != 2) {
     std::fprintf(stderr, "evermap-vo-run: expected LOG and TRAJECTORY.tum, got %zu words (--help)\n",
@@ -37,6 +52,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-vo-run: %s\n", summary.error().message.c_str());
     return 1;
   }
+  if (verbose) std::printf("%s", summary->verboseReport().c_str());
   if (summary->trajectory.empty()) {
     std::fprintf(stderr, "evermap-vo-run: no frame was tracked\n%s\n",
                  summary->report().c_str());
