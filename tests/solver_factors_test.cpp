@@ -153,6 +153,43 @@ TEST(SolverFactors, RobustKernelWeightIsTheDerivativeOfTheCost) {
   }
 }
 
+TEST(SolverFactors, GncSurrogateWeightIsItsDerivativeAndItTendsToTruncatedLeastSquares) {
+  for (double mu : {0.01, 0.3, 1.0, 20.0}) {
+    RobustKernel k{KernelType::kGncTls, 9.0, mu};
+    for (double s : {0.1, 1.0, 5.0, 9.5, 30.0, 200.0, 5000.0}) {
+      const double h = 1e-6 * s;
+      const double numeric = (k.cost(s + h) - k.cost(s - h)) / (2 * h);
+      EXPECT_NEAR(k.weight(s), numeric, 1e-5) << "mu " << mu << " at " << s;
+      EXPECT_GE(k.weight(s), 0.0);
+      EXPECT_LE(k.weight(s), 1.0);
+    }
+  }
+  // Large μ: min(s, c̄²) away from the threshold. Small μ: in the residual r = √s the
+  // surrogate is r² near zero, then 2c̄√(μ(μ+1)) r − μ(c̄² + r²), whose curvature −2μ
+  // vanishes as μ → 0 (ℓ1-like: the paper's convex limit).
+  const RobustKernel tls{KernelType::kGncTls, 9.0, 1e6};
+  EXPECT_NEAR(tls.cost(4.0), 4.0, 1e-9);
+  EXPECT_NEAR(tls.cost(40.0), 9.0, 1e-9);
+  const RobustKernel convex{KernelType::kGncTls, 9.0, 1e-4};
+  for (double r = 0.01; r < 300.0; r *= 1.3) {
+    const double h = 1e-3 * r;
+    const double second = convex.cost((r + h) * (r + h)) - 2.0 * convex.cost(r * r) +
+                          convex.cost((r - h) * (r - h));
+    EXPECT_GE(second / (h * h), -2.0 * 1e-4 - 1e-6) << "curvature below −2μ at r = " << r;
+    EXPECT_LE(convex.cost(r * r), r * r + 1e-12);
+  }
+  EXPECT_GT(convex.weight(1000.0), 0.0);
+  const RobustKernel beyond{KernelType::kGncTls, 9.0, 1.0};
+  EXPECT_EQ(beyond.weight(1000.0), 0.0) << "beyond c̄²(μ+1)/μ the weight is zero";
+}
+
+TEST(SolverFactors, ChiSquareQuantileMatchesTables) {
+  // 0.99 quantiles: 11.345 (3 dof), 16.812 (6), 26.217 (12).
+  EXPECT_NEAR(chiSquareQuantile(3, 0.99), 11.345, 0.1);
+  EXPECT_NEAR(chiSquareQuantile(6, 0.99), 16.812, 0.1);
+  EXPECT_NEAR(chiSquareQuantile(12, 0.99), 26.217, 0.1);
+}
+
 TEST(SolverFactors, DcsIsQuadraticUpToPhiAndBoundedBeyond) {
   const RobustKernel k{KernelType::kDcs, 5.0};
   EXPECT_DOUBLE_EQ(k.cost(4.0), 4.0);
@@ -166,6 +203,10 @@ TEST(SolverFactors, ParsesKernelNamesAndRejectsBadOnes) {
   ASSERT_TRUE(k.ok());
   EXPECT_EQ(k->type, KernelType::kCauchy);
   EXPECT_DOUBLE_EQ(k->parameter, 2.5);
+  auto gnc = parseRobustKernel("gnc");
+  ASSERT_TRUE(gnc.ok());
+  EXPECT_EQ(gnc->type, KernelType::kGncTls);
+  EXPECT_EQ(gnc->parameter, 0.0) << "threshold chosen per factor dimension";
   EXPECT_FALSE(parseRobustKernel("tukey").ok());
   EXPECT_FALSE(parseRobustKernel("dcs:-1").ok());
   EXPECT_FALSE(parseRobustKernel("dcs:abc").ok());

@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 
 #include "core/solver/batch_solver.h"
+#include "core/solver/gnc.h"
 #include "core/solver/graph_io.h"
 #include "core/solver/graph_problem.h"
 #include "core/solver/incremental_solver.h"
@@ -161,6 +162,88 @@ TEST(BatchSolver, AllMethodsReachTheSameMinimumOnANoisyGraph) {
   EXPECT_GT(costs[0], 1.0);
   EXPECT_NEAR(costs[1], costs[0], 1e-6 * costs[0]);
   EXPECT_NEAR(costs[2], costs[0], 1e-6 * costs[0]);
+}
+
+TEST(BatchSolver, ReportsNotConvergedWhenTheIterationBudgetRunsOut) {
+  for (Method m : {Method::kGaussNewton, Method::kLevenbergMarquardt, Method::kDogLeg}) {
+    PoseGraph g = buildGraph(spatialScenario(40, 0.05, 2));
+    BatchOptions o;
+    o.method = m;
+    o.max_iterations = 1;
+    const BatchSummary one = solveBatch(g, o);
+    EXPECT_TRUE(one.ok()) << one.message;
+    EXPECT_EQ(one.termination, Termination::kMaxIterations) << methodName(m);
+    EXPECT_FALSE(one.converged());
+    EXPECT_NE(one.message.find("NOT converged"), std::string::npos) << one.message;
+    // The default budget lets the same problem converge from where it stopped.
+    const BatchSummary rest = solveBatch(g, BatchOptions{.method = m});
+    EXPECT_TRUE(rest.converged()) << rest.message;
+    EXPECT_LT(rest.final_cost, one.final_cost);
+  }
+}
+
+TEST(BatchSolver, StartedAtAMinimumStopsOnTheGradientWithoutIterating) {
+  // Noise-free measurements at the true poses: the gradient is zero to rounding.
+  Scenario s = planarScenario(40, 0.0, 1);
+  PoseGraph g = buildGraph(s);
+  for (int i = 0; i < g.values().size(); ++i) g.mutableValues().at(i) = s.truth[g.values().keyAt(i)];
+  BatchOptions o;
+  o.gradient_tolerance = 1e-9;
+  const BatchSummary sum = solveBatch(g, o);
+  EXPECT_EQ(sum.termination, Termination::kSmallGradient) << sum.message;
+  EXPECT_EQ(sum.iterations, 0);
+  EXPECT_LE(sum.final_gradient_max, 1e-9);
+  // A perturbed start is not at a minimum: the gradient test must not fire before a step.
+  double d[3] = {0.1, 0.0, 0.02};
+  g.mutableValues().at(5) = retract(g.values().at(5), d);
+  const BatchSummary moved = solveBatch(g, o);
+  EXPECT_GT(moved.iterations, 0);
+  EXPECT_TRUE(moved.converged()) << moved.message;
+}
+
+TEST(Gnc, RejectsGrossFalseLoopClosuresThatLeastSquaresAbsorbs) {
+  Scenario s = planarScenario(60, 0.01, 4);
+  std::mt19937 rng(9);
+  std::uniform_int_distribution<int> pose(0, 59);
+  std::vector<std::tuple<int, int, PoseValue>> wrong;
+  while (wrong.size() < 6) {
+    const int a = pose(rng);
+    const int b = pose(rng);
+    if (std::abs(a - b) < 2) continue;
+    wrong.emplace_back(std::min(a, b), std::max(a, b), PoseValue::planar(SE2d(3.0, -2.0, 1.0)));
+  }
+  auto solve = [&](bool with_outliers, const RobustKernel& k) {
+    PoseGraph g = buildGraph(s);
+    if (with_outliers) {
+      for (const auto& [a, b, z] : wrong) {
+        FactorPtr f = edgeFactor(a, b, z);
+        f->setKernel(kernelForFactor(k, f->dim()));
+        EXPECT_TRUE(g.addFactor(f).ok());
+      }
+    }
+    // Every loop closure is a candidate, true ones included.
+    for (FactorId id = 1; id < g.numFactorSlots(); ++id) {
+      if (g.variablesOf(id).size() == 2 && std::abs(g.variablesOf(id)[0] - g.variablesOf(id)[1]) > 1) {
+        g.factorPtr(id)->setKernel(kernelForFactor(k, 3));
+      }
+    }
+    GncOptions o;
+    o.final_stage.verbose = std::getenv("EVERMAP_GNC_VERBOSE") != nullptr;
+    const GncSummary sum = solveGnc(g, o);
+    EXPECT_TRUE(sum.batch.converged()) << sum.batch.message;
+    return std::make_pair(maxPoseError(g.values(), s.truth), sum);
+  };
+  const RobustKernel gnc = *parseRobustKernel("gnc");
+  const auto [clean_error, clean] = solve(false, gnc);
+  const auto [error, sum] = solve(true, gnc);
+  EXPECT_EQ(sum.rejected, 6) << "of " << sum.candidates;
+  EXPECT_GT(sum.stages, 1);
+  EXPECT_NEAR(error, clean_error, 1e-6);
+  // Plain least squares is pulled away by the same closures.
+  PoseGraph plain = buildGraph(s);
+  for (const auto& [a, b, z] : wrong) ASSERT_TRUE(plain.addFactor(edgeFactor(a, b, z)).ok());
+  ASSERT_TRUE(solveBatch(plain, BatchOptions{}).ok());
+  EXPECT_GT(maxPoseError(plain.values(), s.truth), 10.0 * clean_error);
 }
 
 TEST(BatchSolver, FailsWithAMessageWhenTheGaugeIsFree) {

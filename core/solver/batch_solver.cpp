@@ -33,11 +33,13 @@ Expected<Method> parseMethod(const std::string& text) {
 const char* terminationName(Termination t) {
   switch (t) {
     case Termination::kConverged:
-      return "converged";
+      return "converged (relative decrease)";
+    case Termination::kSmallGradient:
+      return "converged (gradient)";
     case Termination::kSmallStep:
-      return "small step";
+      return "converged (small step)";
     case Termination::kMaxIterations:
-      return "max iterations";
+      return "NOT converged: iteration budget exhausted";
     case Termination::kFailure:
       return "failure";
   }
@@ -50,6 +52,9 @@ Status BatchOptions::validate() const {
     return makeError("BatchOptions: relative_cost_tolerance must be >= 0");
   }
   if (!(step_tolerance >= 0.0)) return makeError("BatchOptions: step_tolerance must be >= 0");
+  if (!(gradient_tolerance >= 0.0)) {
+    return makeError("BatchOptions: gradient_tolerance must be >= 0");
+  }
   if (!(lm_initial_lambda > 0.0) || !(lm_lambda_factor > 1.0)) {
     return makeError("BatchOptions: LM needs lambda > 0 and lambda factor > 1");
   }
@@ -113,8 +118,8 @@ BatchSummary solveBatch(PoseGraph& graph, const BatchOptions& options) {
     return 2.0 * h.dot(g) - h.dot(Hh);
   };
 
+  bool converged = false;
   for (int it = 0; it < options.max_iterations; ++it) {
-    summary.iterations = it + 1;
     Eigen::VectorXd step;
     if (options.method == Method::kLevenbergMarquardt) {
       const auto& cp = pattern.colPtr();
@@ -124,6 +129,7 @@ BatchSummary solveBatch(PoseGraph& graph, const BatchOptions& options) {
       if (auto st = chol.factorize(diag); !st.ok()) {
         lambda *= options.lm_lambda_factor;
         ++summary.factorizations;
+        summary.iterations = it + 1;
         continue;
       }
     } else if (need_factorization) {
@@ -134,6 +140,14 @@ BatchSummary solveBatch(PoseGraph& graph, const BatchOptions& options) {
       }
     }
     ++summary.factorizations;
+    // g is the gradient at x whenever x changed (assembled with the normal equations); the
+    // test comes after the factorisation so that a singular system is still reported.
+    if (need_factorization && g.lpNorm<Eigen::Infinity>() <= options.gradient_tolerance) {
+      summary.termination = Termination::kSmallGradient;
+      converged = true;
+      break;
+    }
+    summary.iterations = it + 1;
     need_factorization = false;
     const Eigen::VectorXd h_gn = chol.solve(g);
     step = h_gn;
@@ -188,15 +202,25 @@ BatchSummary solveBatch(PoseGraph& graph, const BatchOptions& options) {
     const double old_cost = cost.robust;
     cost = assembleNormalEquations(graph, x, pattern, chol.values(), &g);
     need_factorization = true;
+    summary.last_relative_decrease =
+        old_cost > 0.0 ? std::abs(old_cost - cost.robust) / old_cost : 0.0;
     if (std::abs(old_cost - cost.robust) <= options.relative_cost_tolerance * old_cost) {
       summary.termination = Termination::kConverged;
+      converged = true;
       break;
     }
     if (step_max < options.step_tolerance) {
       summary.termination = Termination::kSmallStep;
+      converged = true;
       break;
     }
   }
+  // The budget ran out; the last iteration's step may still have met a test at its end.
+  if (!converged && summary.termination == Termination::kMaxIterations &&
+      need_factorization && g.lpNorm<Eigen::Infinity>() <= options.gradient_tolerance) {
+    summary.termination = Termination::kSmallGradient;
+  }
+  summary.final_gradient_max = g.lpNorm<Eigen::Infinity>();
   graph.mutableValues() = x;
   const Cost final_cost = graph.cost();
   summary.final_cost = final_cost.robust;

@@ -8,6 +8,7 @@
 // Tingleff, "Methods for non-linear least squares problems" (2004), section 3.3, as iSAM's
 // Optimizer does. Levenberg-Marquardt: Marquardt's scaling (H + λ diag H).
 
+#include <limits>
 #include <string>
 
 #include "core/common/expected.h"
@@ -21,10 +22,17 @@ Expected<Method> parseMethod(const std::string& text);  // "gn", "lm", "dogleg"
 
 struct BatchOptions {
   Method method = Method::kGaussNewton;
-  // Stop after this many iterations (linearisations).
-  int max_iterations = 100;
+  // The budget: stop after this many iterations (linearisations, rejected LM/dog-leg
+  // steps included) and report Termination::kMaxIterations — not converged. 1000 lets every
+  // public benchmark file present converge, including SE-Sync's chordal cost, on which
+  // Gauss-Newton converges only linearly (docs/solver.md lists the counts).
+  int max_iterations = 1000;
   // Converged when an accepted step lowers the cost by less than this fraction of it.
   double relative_cost_tolerance = 1e-10;
+  // Converged when the largest entry of the gradient Jᵀ W ρ' W r of the (robust) cost at the
+  // current estimate is at most this (cost units per metre / radian), checked before every
+  // iteration, so a start at a minimum takes no iteration. Ceres's gradient_tolerance.
+  double gradient_tolerance = 1e-10;
   // Converged when the step's largest entry (metres / radians) is below this.
   double step_tolerance = 1e-10;
   // Levenberg-Marquardt: initial λ and its factor on failure (divided on success).
@@ -40,8 +48,10 @@ struct BatchOptions {
 
 enum class Termination {
   kConverged,      // relative cost decrease below tolerance
+  kSmallGradient,  // gradient below tolerance
   kSmallStep,      // step below tolerance
-  kMaxIterations,  // iteration limit reached (estimate is the best found)
+  kMaxIterations,  // iteration budget exhausted before a convergence test held: NOT converged
+                   // (the estimate is the best found)
   kFailure,        // linear system singular or not positive definite
 };
 const char* terminationName(Termination t);
@@ -55,7 +65,17 @@ struct BatchSummary {
   double final_cost = 0.0;    // robust cost Σρ at the end
   double final_weighted_sse = 0.0;
   int64_t factor_nnz = 0;     // non-zeros of the last Cholesky factor
+  // At the end: ‖g‖∞ of the gradient at the final estimate, and |Δcost|/cost of the last
+  // accepted step (NaN when no step was accepted).
+  double final_gradient_max = 0.0;
+  double last_relative_decrease = std::numeric_limits<double>::quiet_NaN();
+  // False only on a failure (no usable estimate). Not the same as converged().
   bool ok() const { return termination != Termination::kFailure; }
+  // One of the convergence tests held (relative decrease, gradient or step).
+  bool converged() const {
+    return termination == Termination::kConverged || termination == Termination::kSmallGradient ||
+           termination == Termination::kSmallStep;
+  }
 };
 
 // Powell's dog-leg step inside radius Δ from the Gauss-Newton step h_gn and the Cauchy step

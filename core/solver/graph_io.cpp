@@ -1,10 +1,13 @@
 #include "core/solver/graph_io.h"
 
 #include <cerrno>
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+
+#include <Eigen/Eigenvalues>
 
 #include "core/solver/factor.h"
 
@@ -96,6 +99,28 @@ GraphFormat sniff(const std::filesystem::path& path) {
   return saw_edge2_or_3 ? GraphFormat::kIsam : GraphFormat::kG2o;
 }
 
+// An information matrix from a file: its square root when positive definite, else (when
+// finite and symmetric) kept as read for resolveIndefiniteInformation.
+Status setInformation(const Eigen::MatrixXd& I, const std::string& where, GraphEdge* e) {
+  auto W = sqrtInformationFromInformation(I, where);
+  if (W.ok()) {
+    e->sqrt_information = *W;
+    return Ok{};
+  }
+  const double scale = I.allFinite() ? I.cwiseAbs().maxCoeff() : 0.0;
+  if (!I.allFinite() || (I - I.transpose()).cwiseAbs().maxCoeff() > 1e-9 * (1.0 + scale)) {
+    return W.error();
+  }
+  e->indefinite_information = 0.5 * (I + I.transpose());
+  return Ok{};
+}
+
+double smallestEigenvalue(const Eigen::MatrixXd& I) {
+  return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(I, Eigen::EigenvaluesOnly)
+      .eigenvalues()
+      .minCoeff();
+}
+
 Status addVertex(GraphFile* g, const GraphVertex& v, std::map<Key, int>* seen,
                  const std::string& where) {
   if (seen->count(v.id)) return makeError(where, ": vertex ", v.id, " defined twice");
@@ -126,6 +151,62 @@ const char* graphFormatName(GraphFormat f) {
       return "isam";
   }
   return "?";
+}
+
+Expected<IndefiniteInformation> parseIndefiniteInformation(const std::string& text) {
+  if (text == "refuse") return IndefiniteInformation::kRefuse;
+  if (text == "blocks") return IndefiniteInformation::kBlocks;
+  if (text == "nearest" || text == "nearest-pd") return IndefiniteInformation::kNearest;
+  return makeError("indefinite information rule '", text, "': expected refuse, blocks or nearest");
+}
+
+Eigen::MatrixXd nearestPositiveDefinite(const Eigen::MatrixXd& information,
+                                        double relative_floor) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(information);
+  Eigen::VectorXd lambda = eig.eigenvalues();
+  const double floor = relative_floor * lambda.maxCoeff();
+  for (int i = 0; i < lambda.size(); ++i) lambda[i] = std::max(lambda[i], floor);
+  const Eigen::MatrixXd& V = eig.eigenvectors();
+  const Eigen::MatrixXd out = V * lambda.asDiagonal() * V.transpose();
+  return 0.5 * (out + out.transpose());
+}
+
+Expected<int> resolveIndefiniteInformation(GraphFile* g, IndefiniteInformation rule) {
+  int changed = 0;
+  const int d = g->dimension;
+  for (GraphEdge& e : g->edges) {
+    if (e.positiveDefinite()) continue;
+    const Eigen::MatrixXd& I = e.indefinite_information;
+    const std::string where = g->path + ":" + std::to_string(e.line) + ": edge " +
+                              std::to_string(e.from) + "-" + std::to_string(e.to);
+    Eigen::MatrixXd repaired;
+    switch (rule) {
+      case IndefiniteInformation::kRefuse:
+        return makeError(where, ": information matrix is not positive definite (smallest "
+                         "eigenvalue ", smallestEigenvalue(I), "); --indefinite-information "
+                         "blocks|nearest repairs it, --objective sesync uses only its blocks");
+      case IndefiniteInformation::kBlocks: {
+        const int nt = d;                     // translation rows
+        const int nr = I.rows() - d;          // rotation rows
+        repaired = Eigen::MatrixXd::Zero(I.rows(), I.cols());
+        repaired.topLeftCorner(nt, nt) = I.topLeftCorner(nt, nt);
+        repaired.bottomRightCorner(nr, nr) = I.bottomRightCorner(nr, nr);
+        break;
+      }
+      case IndefiniteInformation::kNearest:
+        if (!(I.diagonal().maxCoeff() > 0.0)) {
+          return makeError(where, ": information matrix has no positive eigenvalue");
+        }
+        repaired = nearestPositiveDefinite(I);
+        break;
+    }
+    auto W = sqrtInformationFromInformation(repaired, where);
+    if (!W.ok()) return W.error();
+    e.sqrt_information = *W;
+    e.indefinite_information.resize(0, 0);
+    ++changed;
+  }
+  return changed;
 }
 
 int GraphFile::skippedLines() const {
@@ -167,7 +248,7 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
   }
     // Every 2-D edge line is "TAG from to dx dy dθ" and six information numbers whose layout
     // depends on the format; `sqrtInfo` turns those six into the square-root information.
-    auto planarEdge = [&](auto sqrtInfo) -> Status {
+    auto planarEdge = [&](auto sqrtInfo, bool from_information) -> Status {
       GraphEdge e;
       EVERMAP_TRY(setDim(2, where));
       EVERMAP_TRY(p.expectFields({11}));
@@ -177,7 +258,11 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
       e.measurement = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
       auto W = sqrtInfo(v + 3);
       if (!W.ok()) return W.error();
-      e.sqrt_information = *W;
+      if (from_information) {
+        EVERMAP_TRY(setInformation(*W, where, &e));
+      } else {
+        e.sqrt_information = *W;
+      }
       e.line = line_no;
       g.edges.push_back(std::move(e));
       return Ok{};
@@ -201,9 +286,9 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
       vx.pose = PoseValue::spatial(core::SE3d(q, core::Vec3(v[0], v[1], v[2])));
       EVERMAP_TRY(addVertex(&g, vx, &seen, where));
     } else if (g.format == GraphFormat::kG2o && tag == "EDGE_SE2") {
-      EVERMAP_TRY(planarEdge([&](const double* info) {
-        return sqrtInformationFromInformation(upperFromRowMajor(info, 3, true), where);
-      }));
+      EVERMAP_TRY(planarEdge([&](const double* info) -> Expected<Eigen::MatrixXd> {
+        return upperFromRowMajor(info, 3, true);
+      }, true));
     } else if (g.format == GraphFormat::kG2o && tag == "EDGE_SE3:QUAT") {
       GraphEdge e;
       EVERMAP_TRY(setDim(3, where));
@@ -214,9 +299,7 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
       const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
       if (q.norm() < 1e-6) return makeError(where, ": quaternion has zero norm");
       e.measurement = PoseValue::spatial(core::SE3d(q, core::Vec3(v[0], v[1], v[2])));
-      auto W = sqrtInformationFromInformation(upperFromRowMajor(v + 7, 6, true), where);
-      if (!W.ok()) return W.error();
-      e.sqrt_information = *W;
+      EVERMAP_TRY(setInformation(upperFromRowMajor(v + 7, 6, true), where, &e));
       e.line = line_no;
       g.edges.push_back(std::move(e));
     } else if (g.format == GraphFormat::kG2o && tag == "FIX") {
@@ -234,18 +317,18 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
       vx.pose = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
       EVERMAP_TRY(addVertex(&g, vx, &seen, where));
     } else if (g.format == GraphFormat::kToro && tag == "EDGE2") {
-      EVERMAP_TRY(planarEdge([&](const double* info) {
+      EVERMAP_TRY(planarEdge([&](const double* info) -> Expected<Eigen::MatrixXd> {
         // TORO: Ixx Ixy Iyy Iθθ Ixθ Iyθ.
-        Eigen::Matrix3d I;
+        Eigen::MatrixXd I(3, 3);
         I << info[0], info[1], info[4],
              info[1], info[2], info[5],
              info[4], info[5], info[3];
-        return sqrtInformationFromInformation(I, where);
-      }));
+        return I;
+      }, true));
     } else if (g.format == GraphFormat::kIsam && (tag == "ODOMETRY" || tag == "EDGE2")) {
       EVERMAP_TRY(planarEdge([&](const double* sqrt_info) {
         return checkSqrtInformation(upperFromRowMajor(sqrt_info, 3, false), where);
-      }));
+      }, false));
     } else if (g.format == GraphFormat::kIsam && tag == "EDGE3") {
       GraphEdge e;
       EVERMAP_TRY(setDim(3, where));

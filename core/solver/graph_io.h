@@ -13,8 +13,21 @@
 //        square root accordingly; we do exactly the same, so the costs are iSAM's.
 // Every edge measures pose j in the frame of pose i (i_T_j). Lines that are blank or start
 // with '#' are ignored; lines with another tag are skipped and counted. A malformed line, a
-// value that is not finite, or an information matrix that is not positive definite is an
-// error naming file:line.
+// value that is not finite or an information matrix that is not symmetric is an error naming
+// file:line.
+//
+// Indefinite information matrices (SE-Sync's cubicle.g2o has 5,021 of 16,869: full 6x6
+// matrices that are not positive definite although their translation and rotation blocks
+// are) are read and kept as they are (GraphEdge::indefinite_information, no square root).
+// What happens to them is the caller's rule, applied to the whole file before factors are
+// made (resolveIndefiniteInformation; docs/solver.md):
+//   refuse  — an error naming file:line, the edge and the smallest eigenvalue (default);
+//   blocks  — keep the translation and rotation blocks, drop their coupling (what SE-Sync's
+//             cost uses anyway); refused when a block itself is not positive definite;
+//   nearest — the nearest positive-definite matrix: eigenvalues raised to ε·λ_max
+//             (ε = 1e-6), eigenvectors kept (Higham 1988, "Computing a nearest symmetric
+//             positive semidefinite matrix", with a floor so the result is invertible).
+// SE-Sync's objective needs only the blocks, so it uses them directly whatever the rule.
 
 #include <filesystem>
 #include <map>
@@ -41,9 +54,16 @@ struct GraphEdge {
   Key from = 0;
   Key to = 0;
   PoseValue measurement;            // from_T_to
-  Eigen::MatrixXd sqrt_information;  // upper triangular, in the format's residual order
+  // Upper triangular, in the format's residual order; empty when the file's information
+  // matrix is not positive definite (then indefinite_information holds it).
+  Eigen::MatrixXd sqrt_information;
+  Eigen::MatrixXd indefinite_information;  // symmetric, as read; empty unless indefinite
   int line = 0;                      // 1-based line in the file
-  Eigen::MatrixXd information() const { return sqrt_information.transpose() * sqrt_information; }
+  bool positiveDefinite() const { return sqrt_information.size() > 0; }
+  Eigen::MatrixXd information() const {
+    return positiveDefinite() ? Eigen::MatrixXd(sqrt_information.transpose() * sqrt_information)
+                              : indefinite_information;
+  }
 };
 
 struct GraphFile {
@@ -61,6 +81,18 @@ struct GraphFile {
 // ODOMETRY or EDGE2/EDGE3 without vertices → iSAM).
 Expected<GraphFile> readGraphFile(const std::filesystem::path& path,
                                   GraphFormat format = GraphFormat::kAuto);
+
+enum class IndefiniteInformation { kRefuse, kBlocks, kNearest };
+Expected<IndefiniteInformation> parseIndefiniteInformation(const std::string& text);
+
+// The nearest symmetric matrix to `information` (symmetric) whose eigenvalues are at least
+// relative_floor · λ_max (λ_max > 0 required).
+Eigen::MatrixXd nearestPositiveDefinite(const Eigen::MatrixXd& information,
+                                        double relative_floor = 1e-6);
+
+// Applies `rule` to every edge without a square root (see above); returns how many edges it
+// changed. kRefuse errors on the first such edge, naming it.
+Expected<int> resolveIndefiniteInformation(GraphFile* graph, IndefiniteInformation rule);
 
 // Writes vertices (poses from `values`, keyed as in the file) and edges in g2o format, to a
 // temporary name in the same folder, then renamed. Edge information is WᵀW of each edge.

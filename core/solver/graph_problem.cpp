@@ -3,6 +3,8 @@
 #include <cmath>
 #include <map>
 
+#include <Eigen/Cholesky>
+
 #include "core/solver/pose_factors.h"
 
 namespace evermap::solver {
@@ -26,6 +28,34 @@ SeSyncWeights seSyncWeights(const GraphEdge& edge, int dimension) {
     w.kappa = 3.0 / (2.0 * IRR.inverse().trace());
   }
   return w;
+}
+
+Status checkInformation(const GraphFile& graph, Objective objective) {
+  for (const GraphEdge& e : graph.edges) {
+    const auto where = [&] {
+      return graph.path + ":" + std::to_string(e.line) + ": edge " + std::to_string(e.from) + "-" +
+             std::to_string(e.to);
+    };
+    if (objective == Objective::kNative) {
+      if (!e.positiveDefinite()) {
+        return makeError(where(), ": information matrix is not positive definite; "
+                         "--indefinite-information blocks|nearest repairs it, --objective "
+                         "sesync uses only its translation and rotation blocks");
+      }
+      continue;
+    }
+    const Eigen::MatrixXd I = e.information();
+    const int d = graph.dimension;
+    const int nr = static_cast<int>(I.rows()) - d;
+    const auto pd = [](const Eigen::MatrixXd& B) {
+      return Eigen::LLT<Eigen::MatrixXd>(B).info() == Eigen::Success;
+    };
+    if (!pd(I.topLeftCorner(d, d)) || !pd(I.bottomRightCorner(nr, nr))) {
+      return makeError(where(), ": the translation or rotation block of the information "
+                       "matrix is not positive definite (SE-Sync's weights need both)");
+    }
+  }
+  return Ok{};
 }
 
 double seSyncCost(const GraphFile& graph, const Values& values) {
@@ -70,6 +100,14 @@ FactorPtr makeEdgeFactor(const GraphFile& graph, const GraphEdge& e, Objective o
   return std::make_shared<RelativePose3Factor>(
       e.from, e.to, e.measurement.se3, e.sqrt_information,
       isam ? RelativePose3Factor::Convention::kIsamEuler : RelativePose3Factor::Convention::kG2o);
+}
+
+RobustKernel kernelForFactor(const RobustKernel& kernel, int dim) {
+  RobustKernel k = kernel;
+  if (k.type == KernelType::kGncTls && !(k.parameter > 0.0)) {
+    k.parameter = chiSquareQuantile(dim, 0.99);
+  }
+  return k;
 }
 
 FactorPtr makeAnchorFactor(Key key, int dimension, double sqrt_information) {
@@ -168,10 +206,11 @@ Expected<PoseGraph> buildPoseGraph(const GraphFile& graph, const Values& initial
     auto id = g.addFactor(makeAnchorFactor(firstPoseId(graph), graph.dimension));
     if (!id.ok()) return id.error();
   }
+  if (auto st = checkInformation(graph, options.objective); !st.ok()) return st.error();
   for (const GraphEdge& e : graph.edges) {
     FactorPtr f = makeEdgeFactor(graph, e, options.objective);
     if (options.kernel.active() && (options.robust_odometry || !isOdometryEdge(e))) {
-      f->setKernel(options.kernel);
+      f->setKernel(kernelForFactor(options.kernel, f->dim()));
     }
     auto id = g.addFactor(std::move(f));
     if (!id.ok()) return makeError(graph.path, ":", e.line, ": ", id.error().message);

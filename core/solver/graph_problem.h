@@ -37,11 +37,18 @@ struct SeSyncWeights {
 };
 SeSyncWeights seSyncWeights(const GraphEdge& edge, int dimension);
 
+// Whether every edge can make a factor under `objective`: kNative needs a positive-definite
+// information matrix (see resolveIndefiniteInformation), kSeSync positive-definite
+// translation and rotation blocks (finite τ, κ > 0). The error names file:line and the edge.
+Status checkInformation(const GraphFile& graph, Objective objective);
+
 // SE-Sync's cost f of `values` over the file's edges (keys as in the file).
 double seSyncCost(const GraphFile& graph, const Values& values);
 
-// The factor of one edge under an objective.
+// The factor of one edge under an objective. Contract: checkInformation holds for the edge.
 FactorPtr makeEdgeFactor(const GraphFile& graph, const GraphEdge& edge, Objective objective);
+// `kernel` for a factor of residual dimension `dim` (GNC-TLS without c̄²: χ²(dim, 0.99)).
+RobustKernel kernelForFactor(const RobustKernel& kernel, int dim);
 // iSAM's anchor: a prior at the origin with square-root information 100·I on `key`.
 FactorPtr makeAnchorFactor(Key key, int dimension, double sqrt_information = 100.0);
 

@@ -53,9 +53,13 @@ Expected<UpdateResult> OnlineRunner::step() {
   }
   for (int e : s.edges) {
     const GraphEdge& edge = graph_.edges[e];
+    if (options_.build.objective == Objective::kNative && !edge.positiveDefinite()) {
+      return makeError(graph_.path, ":", edge.line, ": information matrix is not positive "
+                       "definite (see resolveIndefiniteInformation)");
+    }
     FactorPtr f = makeEdgeFactor(graph_, edge, options_.build.objective);
     if (options_.build.kernel.active() && (options_.build.robust_odometry || !isOdometryEdge(edge))) {
-      f->setKernel(options_.build.kernel);
+      f->setKernel(kernelForFactor(options_.build.kernel, f->dim()));
     }
     request.new_factors.push_back(std::move(f));
   }

@@ -16,6 +16,15 @@
 //                     scaling", ICRA 2013: switchable constraints with the switch eliminated
 //                     in closed form. (g2o reports m² s as the cost, which is not the
 //                     integral of its weight; we keep cost and weight consistent.)
+//  GNC-TLS (c̄², μ):   the graduated non-convexity surrogate of the truncated least squares
+//                     cost min(s, c̄²) (Yang, Antonante, Tzoumas & Carlone, "Graduated
+//                     Non-Convexity for Robust Spatial Perception", RA-L 2020, eq. (10)):
+//                       ρ = s                                  for s ≤ c̄² μ/(μ+1)
+//                       ρ = 2c̄ √(μ(μ+1)s) − μ(c̄² + s)          in between
+//                       ρ = c̄²                                 for s ≥ c̄² (μ+1)/μ
+//                     weight ρ' = c̄ √(μ(μ+1)/s) − μ in between (1 and 0 outside). In √s it
+//                     is convex in the limit μ → 0 (the middle piece is ℓ1-like, curvature
+//                     −2μ) and TLS as μ → ∞; solveGnc (core/solver/gnc.h) raises μ.
 
 #include <string>
 
@@ -23,12 +32,16 @@
 
 namespace evermap::solver {
 
-enum class KernelType { kNone, kPseudoHuber, kCauchy, kDcs };
+enum class KernelType { kNone, kPseudoHuber, kCauchy, kDcs, kGncTls };
 
 struct RobustKernel {
   KernelType type = KernelType::kNone;
-  // b for pseudo-Huber and Cauchy (in whitened units, i.e. standard deviations), Φ for DCS.
+  // b for pseudo-Huber and Cauchy (in whitened units, i.e. standard deviations), Φ for DCS,
+  // c̄² for GNC-TLS (in units of s; 0 = the 0.99 quantile of χ² with the factor's dimension,
+  // filled in when the factor is built).
   double parameter = 1.0;
+  // GNC-TLS only: the continuation parameter μ > 0.
+  double gnc_mu = 1.0;
 
   bool active() const { return type != KernelType::kNone; }
   // ρ(s).
@@ -38,7 +51,11 @@ struct RobustKernel {
   std::string name() const;
 };
 
-// "none", "pseudo-huber", "cauchy", "dcs", with an optional ":<parameter>" suffix.
+// "none", "pseudo-huber", "cauchy", "dcs", "gnc", with an optional ":<parameter>" suffix.
 Expected<RobustKernel> parseRobustKernel(const std::string& text);
+
+// The p-quantile of the χ² distribution with k degrees of freedom (Wilson & Hilferty 1931
+// approximation, within 1 % for k ≥ 3 at p = 0.99).
+double chiSquareQuantile(int k, double p);
 
 }  // namespace evermap::solver

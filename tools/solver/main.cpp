@@ -13,6 +13,7 @@
 
 #include "core/solver/batch_solver.h"
 #include "core/solver/graph_io.h"
+#include "core/solver/gnc.h"
 #include "core/solver/graph_problem.h"
 #include "core/solver/marginals.h"
 #include "core/solver/online_runner.h"
@@ -62,14 +63,41 @@ Expected<Values> initialValues(const GraphFile& g, const ToolOptions& o) {
   }
 }
 
-void printResult(const GraphFile& g, const PoseGraph& graph, const Values& estimate) {
-  const Cost c = graph.cost(estimate);
-  const int64_t dof = c.residual_dim - estimate.totalDim();
-  std::printf("final chi2 (robust cost)     %.10g\n", c.robust);
-  std::printf("weighted SSE (no 1/2)        %.10g\n", c.weighted_sse);
-  std::printf("normalized chi2              %.6g  (SSE / %lld)\n",
-              dof > 0 ? c.weighted_sse / dof : 0.0, static_cast<long long>(dof));
-  std::printf("SE-Sync cost f               %.10g\n", seSyncCost(g, estimate));
+// The costs of the final estimate. The anchor prior (factor 0, iSAM's 100·I on the first
+// pose, which fixes the gauge) is not part of the file, so the χ², SSE and f lines sum the
+// file's edges only and the anchor term is printed on its own line.
+void printResult(const GraphFile& g, const PoseGraph& graph, const Values& estimate,
+                 Objective objective) {
+  Cost edges;
+  Cost anchor;
+  for (FactorId id = 0; id < graph.numFactorSlots(); ++id) {
+    if (!graph.isActive(id)) continue;
+    const Cost c = graph.cost(estimate, id);
+    Cost& sum = id == 0 ? anchor : edges;
+    sum.robust += c.robust;
+    sum.weighted_sse += c.weighted_sse;
+    sum.residual_dim += c.residual_dim;
+  }
+  const int64_t dof = edges.residual_dim - (estimate.totalDim() - estimate.at(0).dim());
+  std::printf("final chi2 of the edges (robust cost, sum rho)   %.10g\n", edges.robust);
+  std::printf("weighted SSE of the edges (no 1/2)               %.10g\n", edges.weighted_sse);
+  std::printf("normalized chi2                                  %.6g  (SSE / %lld dof)\n",
+              dof > 0 ? edges.weighted_sse / dof : 0.0, static_cast<long long>(dof));
+  std::printf("anchor prior on pose %lld (not in the file)        %.3g\n",
+              static_cast<long long>(firstPoseId(g)), anchor.weighted_sse);
+  std::printf("SE-Sync cost f of the edges                      %.10g%s\n", seSyncCost(g, estimate),
+              objective == Objective::kSeSync ? "  (the minimised objective)"
+                                              : "  (not the minimised objective: see --objective)");
+}
+
+BatchOptions batchOptions(const ToolOptions& o, Method method) {
+  BatchOptions bo;
+  bo.method = method;
+  bo.max_iterations = o.max_iterations;
+  bo.relative_cost_tolerance = o.relative_tolerance;
+  bo.gradient_tolerance = o.gradient_tolerance;
+  bo.verbose = o.verbose;
+  return bo;
 }
 
 Status writeStats(const std::string& path, const std::vector<std::string>& lines) {
@@ -118,11 +146,27 @@ int main(int argc, char** argv) {
     std::printf(", skipped:");
     for (const auto& [tag, n] : g.skipped_tags) std::printf(" %s x%d", tag.c_str(), n);
   }
+  int indefinite = 0;
+  for (const GraphEdge& e : g.edges) indefinite += !e.positiveDefinite();
+  if (indefinite > 0) std::printf(", %d with an indefinite information matrix", indefinite);
   std::printf("\n");
   if (g.edges.empty()) return fail(g.path + ": no edges read (wrong --format?)");
+  if (indefinite > 0 && o.objective == Objective::kNative) {
+    auto changed = resolveIndefiniteInformation(&g, o.indefinite);
+    if (!changed.ok()) return fail(changed.error().message);
+    std::printf("%d information matrices replaced (--indefinite-information %s)\n", *changed,
+                o.indefinite == IndefiniteInformation::kBlocks ? "blocks" : "nearest");
+  }
+  if (auto st = checkInformation(g, o.objective); !st.ok()) return fail(st.error().message);
   if (o.outliers > 0) {
-    g = addFalseLoopClosures(g, OutlierOptions{o.outliers, o.seed});
-    std::printf("added %d random false loop closures (seed %u)\n", o.outliers, o.seed);
+    OutlierOptions oo;
+    oo.count = o.outliers;
+    oo.seed = o.seed;
+    oo.mode = o.outlier_mode;
+    const size_t before = g.edges.size();
+    g = addFalseLoopClosures(g, oo);
+    std::printf("added %zu false loop closures, mode %s (seed %u)\n", g.edges.size() - before,
+                outlierModeName(o.outlier_mode), o.seed);
   }
   BuildOptions build;
   build.objective = o.objective;
@@ -133,20 +177,27 @@ int main(int argc, char** argv) {
   const double cpu0 = cpuSeconds();
   Values estimate;
   std::unique_ptr<PoseGraph> graph;
+  BatchSummary summary;
   if (o.batch) {
     auto init = initialValues(g, o);
     if (!init.ok()) return fail(init.error().message);
     auto built = buildPoseGraph(g, *init, build);
     if (!built.ok()) return fail(built.error().message);
     graph = std::make_unique<PoseGraph>(std::move(*built));
-    std::printf("initial chi2 %.10g, SE-Sync f %.10g\n", graph->cost().robust,
+    std::printf("initial robust cost (edges + anchor) %.10g, SE-Sync f %.10g\n", graph->cost().robust,
                 seSyncCost(g, graph->values()));
-    BatchOptions bo;
-    bo.method = o.method;
-    bo.max_iterations = o.max_iterations;
-    bo.relative_cost_tolerance = o.relative_tolerance;
-    bo.verbose = o.verbose;
-    const BatchSummary s = solveBatch(*graph, bo);
+    BatchSummary s;
+    if (o.kernel.type == KernelType::kGncTls) {
+      GncOptions go;
+      go.final_stage = batchOptions(o, o.method);
+      const GncSummary gs = solveGnc(*graph, go);
+      std::printf("gnc: %d stages, final mu %.3g, %d of %d loop closures rejected (weight < 0.5)\n",
+                  gs.stages, gs.final_mu, gs.rejected, gs.candidates);
+      s = gs.batch;
+    } else {
+      s = solveBatch(*graph, batchOptions(o, o.method));
+    }
+    summary = s;
     const double wall = wallSeconds() - wall0;
     const double cpu = cpuSeconds() - cpu0;
     std::printf("batch %s: %s (%d iterations, %d factorizations, nnz(L) %lld)\n",
@@ -192,25 +243,20 @@ int main(int argc, char** argv) {
     }
     const double steps_wall = wallSeconds() - wall0;
     const double wf = wallSeconds();
-    BatchSummary final_summary;
-    if (o.final_converge) {
-      BatchOptions bo;
-      bo.method = o.method == Method::kDogLeg ? Method::kDogLeg : Method::kGaussNewton;
-      bo.max_iterations = o.max_iterations;
-      bo.relative_cost_tolerance = o.relative_tolerance;
-      final_summary = runner.solver().optimize(bo);
-      if (!final_summary.ok()) return fail(final_summary.message);
-    } else if (auto st = runner.finish(); !st.ok()) {
-      return fail(st.error().message);
-    }
+    // The final phase: batch iterations from the incremental estimate until a convergence
+    // test holds or the budget runs out (--max-iterations 1 is iSAM's one final batch step).
+    summary = runner.solver().optimize(
+        batchOptions(o, o.method == Method::kDogLeg ? Method::kDogLeg : Method::kGaussNewton));
+    if (!summary.ok()) return fail(summary.message);
     const double final_wall = wallSeconds() - wf;
     const double wall = wallSeconds() - wall0;
     const double cpu = cpuSeconds() - cpu0;
     std::printf("incremental %s: %d steps, batch every %d (%d batch steps), wildfire %g%s\n",
                 methodName(o.method), runner.numSteps(), o.batch_every, batches, o.wildfire,
                 o.method == Method::kDogLeg ? (", " + std::to_string(rejected) + " rejected steps").c_str() : "");
-    std::printf("time: %.3f s wall (steps %.3f s, final %s %.3f s), %.3f s cpu\n", wall,
-                steps_wall, o.final_converge ? "optimisation" : "batch step", final_wall, cpu);
+    std::printf("time: %.3f s wall (steps %.3f s, final batch iterations %.3f s), %.3f s cpu\n",
+                wall, steps_wall, final_wall, cpu);
+    std::printf("final batch iterations: %s\n", summary.message.c_str());
     std::printf("per step: median %.3f ms, p99 %.3f ms, max %.3f ms; nnz(R) %lld\n",
                 1e3 * percentile(step_wall, 0.5), 1e3 * percentile(step_wall, 0.99),
                 1e3 * percentile(step_wall, 1.0), static_cast<long long>(runner.solver().nnz()));
@@ -223,7 +269,7 @@ int main(int argc, char** argv) {
   rusage ru;
   getrusage(RUSAGE_SELF, &ru);
   std::printf("peak memory %.1f MB\n", ru.ru_maxrss / 1024.0);
-  printResult(g, *graph, estimate);
+  printResult(g, *graph, estimate, o.objective);
 
   if (!o.ground_truth.empty()) {
     auto gt = readGraphFile(o.ground_truth);
@@ -257,5 +303,10 @@ int main(int argc, char** argv) {
     if (auto st = writeG2o(o.output, g, estimate); !st.ok()) return fail(st.error().message);
     std::printf("wrote %s\n", o.output.c_str());
   }
-  return 0;
+  // Printed last so that scripts and readers see it: converged, or the budget ran out.
+  std::printf("status: %s after %d iterations (last relative decrease %.3g, max |gradient| %.3g)\n",
+              summary.converged() ? terminationName(summary.termination)
+                                  : "NOT CONVERGED, iteration budget exhausted",
+              summary.iterations, summary.last_relative_decrease, summary.final_gradient_max);
+  return summary.converged() ? 0 : 3;
 }

@@ -10,20 +10,36 @@ Optimises a pose graph (g2o 2-D/3-D, TORO 2-D, iSAM text) like iSAM's command li
   --format auto|g2o|toro|isam   input format (default auto: by content)
   --objective native|sesync     native: the format's own residual (iSAM's or g2o's χ²);
                                 sesync: SE-Sync's chordal cost f (reaches f*)
+  --indefinite-information refuse|blocks|nearest
+                                an information matrix that is not positive definite:
+                                refuse (default; names the edge), blocks (translation and
+                                rotation blocks without their coupling) or nearest (nearest
+                                positive definite, eigenvalues >= 1e-6 lambda_max); ignored
+                                by --objective sesync, which uses only the blocks
   --batch                       batch optimisation (default: incremental in file order)
   --method gn|lm|dogleg         Gauss-Newton (default), Levenberg-Marquardt (batch only),
                                 Powell's dog leg (incremental: RISE)
   --init auto|odometry|chordal|file   batch initial values (auto: chordal for sesync,
                                 else the file's vertices if present, else odometry)
-  --robust none|pseudo-huber[:b]|cauchy[:b]|dcs[:phi]   kernel on loop closures
+  --robust none|pseudo-huber[:b]|cauchy[:b]|dcs[:phi]|gnc[:c2]   kernel on loop closures
+                                (gnc: graduated non-convexity to truncated least squares,
+                                c2 default chi2(dim, 0.99); batch only)
   --robust-odometry             apply the kernel to odometry edges too
   --batch-every N               incremental: batch relinearisation every N steps (100)
   --wildfire T                  incremental: partial back-substitution threshold (1e-9)
-  --final-converge              incremental: finish with batch iterations to convergence
-                                (default: one final batch step, as iSAM)
-  --max-iterations N            batch iterations (100)
-  --tolerance R                 batch: stop when the cost drops by less than R·cost (1e-10)
-  --outliers N --seed S         add N random false loop closures (seed S)
+  --max-iterations N            budget of batch iterations (1000): batch mode, and the
+                                final phase of an incremental run, which iterates batch
+                                steps from the incremental estimate to convergence
+                                (--max-iterations 1: iSAM's single final batch step)
+  --tolerance R                 converged when a step lowers the cost by less than R·cost
+                                (1e-10)
+  --gradient-tolerance G        converged when max |gradient| <= G (1e-10)
+  Exit status: 0 converged, 3 budget exhausted before convergence (the status line, printed
+  last, says which test held or that none did), 1 failure, 2 bad arguments.
+  --outliers N --seed S         add N false loop closures (seed S)
+  --outlier-mode random|local|group   Vertigo's protocols: random pose pairs, pairs at most
+                                20 poses apart, or groups of 10 mutually consistent false
+                                closures between two stretches (default random)
   --ground-truth FILE           noise-free graph (iSAM groundtruth/ or g2o with vertices):
                                 print the absolute trajectory error
   --output FILE.g2o             write the final estimate (and the edges) as g2o
@@ -68,6 +84,16 @@ Expected<ToolOptions> parseArguments(int argc, char** argv) {
       auto f = solver::parseObjective(*v);
       if (!f.ok()) return f.error();
       o.objective = *f;
+    } else if (a == "--indefinite-information") {
+      EVERMAP_VALUE(v);
+      auto r = solver::parseIndefiniteInformation(*v);
+      if (!r.ok()) return r.error();
+      o.indefinite = *r;
+    } else if (a == "--outlier-mode") {
+      EVERMAP_VALUE(v);
+      auto m = solver::parseOutlierMode(*v);
+      if (!m.ok()) return m.error();
+      o.outlier_mode = *m;
     } else if (a == "--batch") {
       o.batch = true;
     } else if (a == "--method") {
@@ -101,14 +127,16 @@ Expected<ToolOptions> parseArguments(int argc, char** argv) {
       if (a == "--max-iterations") o.max_iterations = static_cast<int>(*n);
       if (a == "--outliers") o.outliers = static_cast<int>(*n);
       if (a == "--seed") o.seed = static_cast<unsigned>(*n);
-    } else if (a == "--wildfire" || a == "--tolerance") {
+    } else if (a == "--wildfire" || a == "--tolerance" || a == "--gradient-tolerance") {
       EVERMAP_VALUE(v);
       auto n = number(a, v->c_str());
       if (!n.ok()) return n.error();
       if (*n < 0) return makeError(a, ": must be >= 0");
-      (a == "--wildfire" ? o.wildfire : o.relative_tolerance) = *n;
+      (a == "--wildfire"    ? o.wildfire
+       : a == "--tolerance" ? o.relative_tolerance
+                            : o.gradient_tolerance) = *n;
     } else if (a == "--final-converge") {
-      o.final_converge = true;
+      // Kept for old command lines: iterating to convergence is now the default.
     } else if (a == "--ground-truth") {
       EVERMAP_VALUE(v);
       o.ground_truth = *v;
@@ -135,6 +163,11 @@ Expected<ToolOptions> parseArguments(int argc, char** argv) {
 #undef EVERMAP_VALUE
   }
   if (o.input.empty()) return makeError("no input file");
+  if (o.max_iterations < 1) return makeError("--max-iterations: must be >= 1");
+  if (!o.batch && o.kernel.type == solver::KernelType::kGncTls) {
+    return makeError("--robust gnc: graduated non-convexity re-solves the whole problem per "
+                     "stage and has no incremental mode; add --batch");
+  }
   if (!o.batch && o.method == solver::Method::kLevenbergMarquardt) {
     return makeError("--method lm: Levenberg-Marquardt has no incremental mode; add --batch");
   }

@@ -7,6 +7,7 @@
 #include "core/solver/batch_solver.h"
 #include "core/solver/graph_io.h"
 #include "core/solver/graph_problem.h"
+#include "core/solver/outliers.h"
 #include "core/solver/robust_kernel.h"
 
 namespace evermap::solver_tool {
@@ -17,6 +18,8 @@ struct ToolOptions {
   std::string input;
   solver::GraphFormat format = solver::GraphFormat::kAuto;
   solver::Objective objective = solver::Objective::kNative;
+  // Edges whose information matrix is not positive definite (native objective only).
+  solver::IndefiniteInformation indefinite = solver::IndefiniteInformation::kRefuse;
   bool batch = false;  // default: incremental in file order, like iSAM
   solver::Method method = solver::Method::kGaussNewton;
   Init init = Init::kAuto;
@@ -24,10 +27,12 @@ struct ToolOptions {
   bool robust_odometry = false;
   int batch_every = 100;
   double wildfire = 1e-9;
-  int max_iterations = 100;
-  double relative_tolerance = 1e-10;
-  bool final_converge = false;  // incremental: iterate the final batch step to convergence
+  // Budget of batch iterations (batch mode, and the final phase of an incremental run).
+  int max_iterations = solver::BatchOptions{}.max_iterations;
+  double relative_tolerance = solver::BatchOptions{}.relative_cost_tolerance;
+  double gradient_tolerance = solver::BatchOptions{}.gradient_tolerance;
   int outliers = 0;
+  solver::OutlierMode outlier_mode = solver::OutlierMode::kRandom;
   unsigned seed = 1;
   std::string ground_truth;
   std::string output;   // g2o
