@@ -187,6 +187,11 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     last_edge_id_ = last_edge_before;
     return s;
   }
+  // Copy the committed pages into the file and empty the log, so the store on disk is the
+  // map and not the history of its transactions (SQLite's automatic checkpoint keeps the
+  // log's size, up to 4 MB here). A reader holding the log makes it a no-op until the next
+  // save (SQLITE_BUSY): the commit above stands either way.
+  (void)sqlite3_wal_checkpoint_v2(db_, nullptr, SQLITE_CHECKPOINT_TRUNCATE, nullptr, nullptr);
   return Ok{};
 }
 

@@ -785,7 +785,7 @@ bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& 
 
 int64_t Mapper::bridges() const {
   const TrackerCounts& c = tracker_.counts();
-  return c.wheel_applied + c.restarts + c.reanchored + c.relinks_refused + rides_;
+  return c.wheel_applied + c.restarts + c.reanchored + c.relinks_refused + c.relinks_weaker + rides_;
 }
 
 bool Mapper::recoveryAllowed(int64_t keyframe_utime) const {

@@ -67,6 +67,15 @@ static bool agreesInPlane(const UncertainPose& a, const UncertainPose& b, double
   return r.dot(c.ldlt().solve(r)) <= gate;
 }
 
+// Determinant of the (x, y, yaw) block: how uncertain a motion is in the plane.
+static double planarDeterminant(const Mat6& c) {
+  const int idx[3] = {0, 1, 5};
+  Eigen::Matrix3d b;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) b(i, j) = c(idx[i], idx[j]);
+  return b.determinant();
+}
+
 Tracker::Tracker(const TrackerOptions& options)
     : o_(options), ad_body_T_cam_(options.body_T_cam.adjoint()) {}
 
@@ -159,7 +168,8 @@ Status Tracker::addVo(const vo_delta_t& msg) {
   pending_ = ref_T_body;
   ++counts_.vo_applied;
   if (msg.keyframe_changed) {
-    commit(msg.utime, withGyroYaw(msg.ref_utime, msg.utime, pending_));
+    commit(msg.utime, msg.ref_utime == reanchored_ref_utime_ ? pending_
+                                                             : withGyroYaw(msg.ref_utime, msg.utime, pending_));
     pending_ = UncertainPose{};
     ref_utime_ = msg.utime;
   }
@@ -220,6 +230,13 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
       // texture); the frame goes where the wheels put it instead.
       ++counts_.relinks_refused;
       at = history_.end();
+    } else if (at != history_.end() && std::next(at) != history_.end() &&
+               planarDeterminant(ref_T_body.covariance) > planarDeterminant(wheel.covariance)) {
+      // VO's motion over the gap is less certain than the wheels' (and the gyro's): VO
+      // predicted it (a break bridged by its motion prior, contracts.md), it did not measure
+      // it. The wheels keep the gap; the frame goes where they put it.
+      ++counts_.relinks_weaker;
+      at = history_.end();
     }
     if (at != history_.end()) {
       SE3d undo;
@@ -238,6 +255,7 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
   commit(utime, UncertainPose{ref_T_body.mean.inverse(), Mat6::Zero()});
   vo_mode_ = true;
   ref_utime_ = ref_utime;
+  reanchored_ref_utime_ = ref_utime;
   recent_wheel_.clear();
   ++counts_.reanchored;
 }

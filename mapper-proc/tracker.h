@@ -85,6 +85,8 @@ struct TrackerCounts {
   int64_t restarts = 0;        // VO restarted from a new reference (first frame, chain break)
   int64_t relinked = 0;        // VO back on its kept reference after failing: wheel undone
   int64_t relinks_refused = 0; // ... whose motion contradicted the wheels: reanchored instead
+  int64_t relinks_weaker = 0;  // ... whose motion was less certain than the wheels' over the
+                               // gap (VO's motion prior bridging a break): reanchored instead
   int64_t reanchored = 0;      // VO on a reference the tracker did not know
   int64_t vo_timeouts = 0;     // VO silent for vo_timeout_s: wheel odometry took over
   int64_t gyro_turns = 0;      // wheel increments and VO keyframe steps whose yaw was fused
@@ -99,6 +101,7 @@ struct TrackerCounts {
     restarts += o.restarts;
     relinked += o.relinked;
     relinks_refused += o.relinks_refused;
+    relinks_weaker += o.relinks_weaker;
     reanchored += o.reanchored;
     vo_timeouts += o.vo_timeouts;
     gyro_turns += o.gyro_turns;
@@ -175,6 +178,10 @@ class Tracker {
   UncertainPose pending_;   // (last commit point)_T_body, from VO frames since the keyframe
   bool vo_mode_ = false;
   int64_t ref_utime_ = -1;  // VO's current reference keyframe
+  // A reference placed by reanchoring (where the estimate has the body at a frame, through
+  // VO's motion to it): the gyro's yaw over an increment from it would count that motion's
+  // error once more, so those increments are not fused with the gyro.
+  int64_t reanchored_ref_utime_ = -1;
   int64_t last_vo_utime_ = -1;
   int64_t last_wheel_utime_ = -1;
   int64_t vo_lost_utime_ = -1;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <numbers>
@@ -211,6 +212,29 @@ TEST(Tracker, VoBackOnItsKeptReferenceIsNotBelievedWhenTheWheelsContradictIt) {
   // And the frames after it move on from there.
   ASSERT_TRUE(t.addVo(voMsg(1300000, 100000, planar(0.5, 0, 0), 1e-4, false)));
   EXPECT_NEAR(t.delta().mean.translation().x(), 1.3, 1e-9);
+}
+
+TEST(Tracker, AMotionVoPredictedOverTheGapDoesNotReplaceTheWheels) {
+  // VO bridges a break with its motion prior (contracts.md): back on its old reference with a
+  // motion it predicted, 0.1 m and 3 degrees off what precise wheels measured, and a
+  // covariance of decimetres. That agrees with the wheels within its uncertainty, but it is
+  // the weaker of the two: the wheels keep the gap, and the chain goes on from there.
+  Tracker t(TrackerOptions{});
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, true)));
+  vo_delta_t fail = voMsg(200000, 100000, SE3d(), 0, false);
+  fail.status = vo_delta_t::STATUS_INSUFFICIENT_FEATURES;
+  ASSERT_TRUE(t.addVo(fail));
+  for (int k = 2; k <= 11; ++k) ASSERT_TRUE(t.addWheel(wheelMsg((k - 1) * 100000, k * 100000, 0.1, 1e-6)));
+  ASSERT_TRUE(t.addVo(voMsg(1200000, 100000, planar(1.0, 0, 0.05), 0.3, true)));
+  EXPECT_EQ(t.counts().relinks_weaker, 1);
+  EXPECT_EQ(t.counts().relinks_refused, 0);
+  EXPECT_EQ(t.counts().relinked, 0);
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.1 + 1.0 + 0.1, 1e-9);
+  EXPECT_NEAR(core::toPlanar(t.delta().mean).theta(), 0.0, 1e-9);
+  ASSERT_TRUE(t.addVo(voMsg(1300000, 1200000, planar(0.1, 0, 0), 1e-3, false)));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 1.3, 1e-9);
+  EXPECT_EQ(t.counts().dropped, 0);
 }
 
 TEST(Tracker, AFrameOnAnUnknownReferenceIsReanchoredWhereWheelOdometryPutsTheBody) {
@@ -719,6 +743,10 @@ TEST(MapStore, SavesOneTransactionPerUpdateAndReloadsEveryNodeAndEdge) {
   ASSERT_TRUE(store) << store.error().message;
   ASSERT_TRUE(store->save(drive.mapper(), 0, 0));
   ASSERT_TRUE(store->integrityCheck());
+  // Each save ends with a checkpoint: the map is in the file, the write-ahead log is empty.
+  std::error_code ec;
+  const auto wal_bytes = std::filesystem::file_size(file.string() + "-wal", ec);
+  EXPECT_TRUE(ec || wal_bytes == 0) << wal_bytes << " bytes left in the log";
   auto snap = store->load();
   ASSERT_TRUE(snap) << snap.error().message;
   const Mapper& m = drive.mapper();
