@@ -118,7 +118,7 @@ std::vector<FloorEvent> ElevatorTracker::add(const imu::ImuSample& sample,
     } else {
       // A long gap: nothing across it can be integrated. Pulses pending before it are final
       // (a stop just before the gap still ends its ride); then start the grid again.
-      for (const Pulse& p : pulse_filter_.flush()) onPulse(p, &events, false);
+      for (const Pulse& p : pulse_filter_.flush()) onPulse(p, &events);
       if (!starts_.empty()) abandon(open_index_, "gap in the data", &events);
       pulse_filter_.reset();
       history_.clear();
@@ -144,7 +144,7 @@ std::vector<FloorEvent> ElevatorTracker::finish() {
     closeBin(&events);
     open_index_ = -1;
   }
-  for (const Pulse& p : pulse_filter_.flush()) onPulse(p, &events, false);
+  for (const Pulse& p : pulse_filter_.flush()) onPulse(p, &events);
   if (!starts_.empty()) {
     const int64_t last = history_.empty() ? 0 : history_first_ + static_cast<int64_t>(history_.size()) - 1;
     abandon(last, "end of the data before a stop", &events);
@@ -273,12 +273,12 @@ void ElevatorTracker::updateGravity(int64_t index) {
   calm_reference_ = true;
 }
 
-void ElevatorTracker::onPulse(const Pulse& q, std::vector<FloorEvent>* events, bool allow_start) {
+void ElevatorTracker::onPulse(const Pulse& q, std::vector<FloorEvent>* events) {
   ++counts_.pulses;
   if (pulse_trace_) pulse_trace_->push_back(q);
   if (!starts_.empty() && tryFinish(q, events)) return;
   // The stop pulse of a finished ride is no start.
-  if (!allow_start || q.firstBin() <= last_ride_end_bin_ || !startable(q)) return;
+  if (q.firstBin() <= last_ride_end_bin_ || !startable(q)) return;
   if (starts_.empty()) {
     walking_bins_ = 0;
     FloorEvent e;

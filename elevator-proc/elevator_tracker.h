@@ -274,8 +274,7 @@ class ElevatorTracker {
   void closeBin(std::vector<FloorEvent>* events);
   void updateGravity(int64_t index);
   void processBin(int64_t index, const Bin& bin, std::vector<FloorEvent>* events);
-  // allow_start = false for pulses flushed at a gap or the end (nothing can follow them).
-  void onPulse(const Pulse& q, std::vector<FloorEvent>* events, bool allow_start = true);
+  void onPulse(const Pulse& q, std::vector<FloorEvent>* events);
   // The sanity checks of a fitted ride: empty when it passes, else the reason.
   std::string sanity(const RideFit& fit) const;
   bool tryFinish(const Pulse& stop, std::vector<FloorEvent>* events);
