@@ -15,6 +15,17 @@ Status ElevatorTrackerOptions::validate() const {
     return makeError("need 0 < gravity_min_calm_s <= gravity_window_s");
   }
   if (!(initial_gravity_m_s2 > 0)) return makeError("initial_gravity_m_s2 must be > 0");
+  if (!(gravity_provisional_calm_s > 0 && gravity_provisional_calm_s <= gravity_min_calm_s)) {
+    return makeError("need 0 < gravity_provisional_calm_s <= gravity_min_calm_s");
+  }
+  if (!(gravity_nominal_m_s2 > 0 && max_gravity_error_m_s2 > 0)) {
+    return makeError("gravity_nominal_m_s2 and max_gravity_error_m_s2 must be > 0");
+  }
+  if (!(max_cruise_velocity_spread_fraction > 0 && max_cruise_velocity_spread_m_s >= 0 &&
+        max_reverse_velocity_fraction >= 0 && min_profile_fill >= 0 && min_profile_fill <= 1)) {
+    return makeError("ride sanity limits: need spread fraction > 0, spread, reverse >= 0, "
+                     "0 <= min_profile_fill <= 1");
+  }
   if (!(motion_window_s >= 2 * pulse.bin_s)) {
     return makeError("motion_window_s must be at least two bins");
   }
@@ -45,12 +56,12 @@ std::string ElevatorCounts::summary() const {
   char buf[256];
   std::snprintf(buf, sizeof buf,
                 "samples used %lld, without attitude %lld, bins %lld (empty %lld, filled %lld), pulses %lld, "
-                "rides %lld, abandoned %lld",
+                "rides %lld, abandoned %lld, rejected %lld",
                 static_cast<long long>(samples_used), static_cast<long long>(no_attitude),
                 static_cast<long long>(bins), static_cast<long long>(empty_bins),
                 static_cast<long long>(filled_bins),
                 static_cast<long long>(pulses), static_cast<long long>(rides),
-                static_cast<long long>(abandoned));
+                static_cast<long long>(abandoned), static_cast<long long>(rejected));
   return buf;
 }
 
@@ -105,7 +116,9 @@ std::vector<FloorEvent> ElevatorTracker::add(const imu::ImuSample& sample,
     } else if (missing <= max_missing) {
       for (int64_t k = open_index_ + 1; k < index; ++k) processBin(k, Bin{}, &events);
     } else {
-      // A long gap: nothing across it can be integrated. Start the grid again.
+      // A long gap: nothing across it can be integrated. Pulses pending before it are final
+      // (a stop just before the gap still ends its ride); then start the grid again.
+      for (const Pulse& p : pulse_filter_.flush()) onPulse(p, &events);
       if (!starts_.empty()) abandon(open_index_, "gap in the data", &events);
       pulse_filter_.reset();
       history_.clear();
@@ -123,6 +136,26 @@ std::vector<FloorEvent> ElevatorTracker::add(const imu::ImuSample& sample,
   ++open_count_;
   ++counts_.samples_used;
   return events;
+}
+
+std::vector<FloorEvent> ElevatorTracker::finish() {
+  std::vector<FloorEvent> events;
+  if (open_index_ >= 0) {
+    closeBin(&events);
+    open_index_ = -1;
+  }
+  for (const Pulse& p : pulse_filter_.flush()) onPulse(p, &events);
+  if (!starts_.empty()) {
+    const int64_t last = history_.empty() ? 0 : history_first_ + static_cast<int64_t>(history_.size()) - 1;
+    abandon(last, "end of the data before a stop", &events);
+  }
+  history_.clear();
+  have_last_closed_ = false;
+  return events;
+}
+
+bool ElevatorTracker::gravityPlausible() const {
+  return std::abs(gravity_ - options_.gravity_nominal_m_s2) <= options_.max_gravity_error_m_s2;
 }
 
 void ElevatorTracker::closeBin(std::vector<FloorEvent>* events) {
@@ -190,7 +223,9 @@ void ElevatorTracker::processBin(int64_t index, const Bin& in, std::vector<Floor
   pending_bins_ = pulse_filter_.pending() ? pending_bins_ + 1 : 0;
   const bool frozen = pending_bins_ > 0 &&
                       pending_bins_ * options_.pulse.bin_s <= options_.max_gravity_freeze_s;
-  if (starts_.empty() && !frozen) updateGravity(index);
+  // Until a reference from calm cells exists there is nothing worth freezing (the first
+  // cell's value, taken while a phone is put down, can be 2 m/s^2 off).
+  if (starts_.empty() && (!frozen || !calm_reference_)) updateGravity(index);
   if (trace_) {
     trace_->push_back({binUtime(index), b.accel, b.motion, gravity_, b.valid, !starts_.empty()});
   }
@@ -226,9 +261,16 @@ void ElevatorTracker::updateGravity(int64_t index) {
     if (!b) break;
     if (b->valid && b->motion < options_.calm_std_m_s2) scratch_.push_back(b->raw);
   }
-  if (scratch_.size() * options_.pulse.bin_s < options_.gravity_min_calm_s) return;
+  const double calm_s = static_cast<double>(scratch_.size()) * options_.pulse.bin_s;
+  if (calm_s + 1e-9 >= options_.gravity_min_calm_s) {
+    gravity_established_ = true;
+  } else if (gravity_established_ || calm_s + 1e-9 < options_.gravity_provisional_calm_s) {
+    // Too little calm: keep the reference (an established one, or the first cell's).
+    return;
+  }
   std::nth_element(scratch_.begin(), scratch_.begin() + scratch_.size() / 2, scratch_.end());
   gravity_ = scratch_[scratch_.size() / 2];
+  calm_reference_ = true;
 }
 
 void ElevatorTracker::onPulse(const Pulse& q, std::vector<FloorEvent>* events) {
@@ -262,11 +304,11 @@ bool ElevatorTracker::tryFinish(const Pulse& q, std::vector<FloorEvent>* events)
     RideFit fit;
     if (!fitRide(p, q, &fit)) continue;
     // The bias the zero-velocity constraint found is the error of the zero level; it added
-    // bias * sum(h) / sum(h^2) = 4/3 bias to each Hann amplitude, bias * (2/3) width dt to
-    // each velocity change.
+    // bias sum(h) / sum(h^2) to each amplitude (4/3 bias for a Hann), bias sum(h)^2 /
+    // sum(h^2) dt to each velocity change (2/3 width dt for a Hann).
     const double dt = options_.pulse.bin_s;
-    const double dv_start = p.delta_v_m_s - fit.bias * (2.0 / 3.0) * p.width_bins * dt;
-    const double dv_stop = q.delta_v_m_s - fit.bias * (2.0 / 3.0) * q.width_bins * dt;
+    const double dv_start = p.delta_v_m_s - fit.bias * p.shape_sum * p.shape_sum / p.shape_energy * dt;
+    const double dv_stop = q.delta_v_m_s - fit.bias * q.shape_sum * q.shape_sum / q.shape_energy * dt;
     if ((dv_start > 0) == (dv_stop > 0)) continue;
     const double ratio = std::abs(dv_stop) / std::max(std::abs(dv_start), 1e-6);
     if (q.strict) {
@@ -286,6 +328,26 @@ bool ElevatorTracker::tryFinish(const Pulse& q, std::vector<FloorEvent>* events)
   }
   if (!best) return false;
   const Pulse start = *best;
+  if (const std::string why = sanity(best_fit); !why.empty()) {
+    RejectedRide r;
+    r.start_utime = binUtime(start.firstBin()) - bin_us_ / 2;
+    r.end_utime = binUtime(q.lastBin()) + bin_us_ / 2;
+    r.displacement_m = best_fit.displacement;
+    r.peak_speed_m_s = best_fit.peak_speed;
+    r.reason = why;
+    rejected_.push_back(r);
+    ++counts_.rejected;
+    starts_.clear();
+    // Still on the floor left, as for an abandoned start: a listener does not wait.
+    FloorEvent e;
+    e.utime = r.end_utime;
+    e.kind = FloorEvent::Kind::kRideEnd;
+    e.floor_index = floors_.current();
+    e.height_m = floors_.currentHeight();
+    events->push_back(e);
+    last_ride_end_bin_ = q.lastBin();
+    return true;
+  }
   finishRide(start, q, best_fit, events);
   last_ride_end_bin_ = q.lastBin();
   return true;
@@ -307,9 +369,10 @@ bool ElevatorTracker::startable(const Pulse& p) const {
   }
   if (busy > options_.lead_in_max_busy_fraction * lead) return false;
   // Measured from the level before it rather than from the gravity reference (which may be
-  // stale after the phone turned): a constant c adds sum(h)/sum(h^2) c = 4/3 c to a Hann fit.
+  // stale after the phone turned): a constant c adds sum(h)/sum(h^2) c to the fit (4/3 c
+  // for a Hann).
   if (n_pre > 0) {
-    const double relative = p.amplitude_m_s2 - (4.0 / 3.0) * pre / n_pre;
+    const double relative = p.amplitude_m_s2 - p.shape_sum / p.shape_energy * pre / n_pre;
     if (relative * p.amplitude_m_s2 <= 0 ||
         std::abs(relative) < options_.pulse.min_amplitude_m_s2) {
       return false;
@@ -368,11 +431,29 @@ bool ElevatorTracker::fitRide(const Pulse& start, const Pulse& stop, RideFit* fi
   for (double x : a) bias += x / n;
   fit->raw_end_velocity = bias * n * options_.pulse.bin_s;
   double v = 0, d = 0, peak = 0;
+  const double sign = start.amplitude_m_s2 > 0 ? 1.0 : -1.0;
+  std::vector<double> velocity(n);
   for (int i = 0; i < n; ++i) {
     v += (a[i] - bias) * dt;
     d += v * dt;
     peak = std::max(peak, std::abs(v));
+    velocity[i] = v;
   }
+  // The cruise: after the start pulse, before the stop pulse.
+  const int cruise_first = static_cast<int>(start.lastBin() + 1 - first);
+  const int cruise_last = static_cast<int>(stop.firstBin() - 1 - first);
+  fit->cruise_spread = 0;
+  if (cruise_last >= cruise_first) {
+    double mean = 0;
+    for (int i = cruise_first; i <= cruise_last; ++i) mean += velocity[i];
+    mean /= cruise_last - cruise_first + 1;
+    for (int i = cruise_first; i <= cruise_last; ++i) {
+      fit->cruise_spread = std::max(fit->cruise_spread, std::abs(velocity[i] - mean));
+    }
+  }
+  fit->reverse = 0;
+  for (double x : velocity) fit->reverse = std::max(fit->reverse, -sign * x);
+  fit->duration = n * dt;
   const bool direction_ok = (d > 0) == (start.amplitude_m_s2 > 0);
   if (std::abs(bias) > options_.max_bias_m_s2 || peak < options_.min_ride_speed_m_s ||
       std::abs(d) < options_.min_displacement_m || !direction_ok) {
@@ -389,6 +470,43 @@ bool ElevatorTracker::fitRide(const Pulse& start, const Pulse& stop, RideFit* fi
   fit->sigma = std::sqrt(sigma_a * sigma_a * dt * T * T * T / 12.0 +
                          std::pow(options_.scale_sigma_fraction * d, 2));
   return true;
+}
+
+std::string ElevatorTracker::sanity(const RideFit& fit) const {
+  char buf[200];
+  if (!gravityPlausible()) {
+    std::snprintf(buf, sizeof buf,
+                  "the accelerometer does not measure gravity (reference %.2f m/s^2, expected %.2f): "
+                  "a gravity-removed stream? elevator-proc needs the specific force",
+                  gravity_, options_.gravity_nominal_m_s2);
+    return buf;
+  }
+  const double spread_limit = options_.max_cruise_velocity_spread_m_s +
+                              options_.max_cruise_velocity_spread_fraction * fit.peak_speed;
+  if (fit.cruise_spread > spread_limit) {
+    std::snprintf(buf, sizeof buf, "velocity not steady between the pulses (%.2f m/s off its mean, limit %.2f)",
+                  fit.cruise_spread, spread_limit);
+    return buf;
+  }
+  if (fit.reverse > options_.max_reverse_velocity_fraction * fit.peak_speed) {
+    std::snprintf(buf, sizeof buf, "velocity reverses (%.2f m/s against the ride, peak %.2f)", fit.reverse,
+                  fit.peak_speed);
+    return buf;
+  }
+  const double fill = std::abs(fit.displacement) / std::max(fit.peak_speed * fit.duration, 1e-9);
+  if (fill < options_.min_profile_fill) {
+    std::snprintf(buf, sizeof buf,
+                  "displacement %.2f m inconsistent with the velocity profile (%.2f of peak %.2f m/s x %.1f s)",
+                  fit.displacement, fill, fit.peak_speed, fit.duration);
+    return buf;
+  }
+  const FloorAssignment to = floors_.peek(fit.displacement);
+  if (!to.is_new && to.index == floors_.current()) {
+    std::snprintf(buf, sizeof buf, "displacement %.2f m reaches no other floor (the floor left is nearest)",
+                  fit.displacement);
+    return buf;
+  }
+  return {};
 }
 
 void ElevatorTracker::finishRide(const Pulse& start, const Pulse& stop, const RideFit& fit,

@@ -44,6 +44,15 @@ struct ElevatorTrackerOptions {
   // one reference, so this only has to be roughly right.
   double gravity_window_s = 30.0;
   double gravity_min_calm_s = 8.0;
+  // Until gravity_min_calm_s of calm cells have been seen (a short recording, a phone put
+  // down just before the doors close), the median of at least this much calm is used; before
+  // that, no ride can start anyway (a start needs a calm lead-in).
+  double gravity_provisional_calm_s = 1.0;
+  // A reference farther than this from gravity_nominal_m_s2 is not gravity: the input is
+  // not specific force (e.g. Android's gravity-removed "linear acceleration"); every ride is
+  // then rejected with that reason. (Phones read g a few % off: 10.3 is seen.)
+  double gravity_nominal_m_s2 = 9.80665;
+  double max_gravity_error_m_s2 = 2.0;
   // The reference is frozen while a pulse candidate is pending, at most this long.
   double max_gravity_freeze_s = 10.0;
   double initial_gravity_m_s2 = 9.80665;
@@ -71,10 +80,25 @@ struct ElevatorTrackerOptions {
   // A loose stop pulse (see PulseFilterOptions) instead needs the velocity integrated over
   // the ride, before the zero-velocity correction, within this fraction of delta_v(start).
   double max_loose_closure = 0.6;
-  double max_ride_s = 90.0;
+  // 80 floors at 4 m/s is ~80 s of cruise; 20 floors at 0.5 m/s ~140 s.
+  double max_ride_s = 180.0;
   double min_displacement_m = 1.0;
   // The bias the zero-velocity constraint removes must be smaller than this.
   double max_bias_m_s2 = 0.2;
+  // Sanity checks on a ride (else it is reported as rejected, with the reason):
+  // - in the cruise (between the two pulses) the velocity stays within this fraction of the
+  //   peak speed (plus max_cruise_velocity_spread_m_s) of its mean: a cabin does not speed up
+  //   or slow down between its phases;
+  double max_cruise_velocity_spread_fraction = 0.3;
+  double max_cruise_velocity_spread_m_s = 0.3;
+  // - the velocity never runs against the ride's direction by more than this fraction of
+  //   the peak speed;
+  double max_reverse_velocity_fraction = 0.2;
+  // - |displacement| >= this fraction of peak speed x duration (a profile of two pulses with
+  //   no cruise gives 1/2);
+  double min_profile_fill = 0.35;
+  // - the ride arrives on another floor of the table (more than floor_match_threshold_m, half
+  //   a storey, away from the floor left).
   // Relative scale uncertainty of the displacement (accelerometer scale, g error), for
   // height_sigma_m, added to the random-walk term.
   double scale_sigma_fraction = 0.05;
@@ -90,6 +114,7 @@ struct ElevatorTrackerOptions {
   template <typename F>
   void forEachField(F&& f) {  // see core/common/option_fields.h
     f("pulse_bin_s", pulse.bin_s, "s");
+    f("pulse_plateau_min_width_s", pulse.plateau_min_width_s, "s");
     f("pulse_min_amplitude_m_s2", pulse.min_amplitude_m_s2, "m/s^2");
     f("pulse_max_amplitude_m_s2", pulse.max_amplitude_m_s2, "m/s^2");
     f("pulse_max_residual_m_s2", pulse.max_residual_m_s2, "m/s^2");
@@ -105,6 +130,9 @@ struct ElevatorTrackerOptions {
     f("floor_refine_weight", floors.refine_weight, "");
     f("gravity_window_s", gravity_window_s, "s");
     f("gravity_min_calm_s", gravity_min_calm_s, "s");
+    f("gravity_provisional_calm_s", gravity_provisional_calm_s, "s");
+    f("gravity_nominal_m_s2", gravity_nominal_m_s2, "m/s^2");
+    f("max_gravity_error_m_s2", max_gravity_error_m_s2, "m/s^2");
     f("max_gravity_freeze_s", max_gravity_freeze_s, "s");
     f("initial_gravity_m_s2", initial_gravity_m_s2, "m/s^2");
     f("motion_window_s", motion_window_s, "s");
@@ -121,6 +149,10 @@ struct ElevatorTrackerOptions {
     f("max_ride_s", max_ride_s, "s");
     f("min_displacement_m", min_displacement_m, "m");
     f("max_bias_m_s2", max_bias_m_s2, "m/s^2");
+    f("max_cruise_velocity_spread_fraction", max_cruise_velocity_spread_fraction, "of the peak speed");
+    f("max_cruise_velocity_spread_m_s", max_cruise_velocity_spread_m_s, "m/s");
+    f("max_reverse_velocity_fraction", max_reverse_velocity_fraction, "of the peak speed");
+    f("min_profile_fill", min_profile_fill, "of peak speed x duration");
     f("scale_sigma_fraction", scale_sigma_fraction, "");
     f("max_fill_s", max_fill_s, "s");
     f("max_gap_in_ride_s", max_gap_in_ride_s, "s");
@@ -155,6 +187,16 @@ struct Ride {
   bool new_floor = false;
 };
 
+// A start and stop pair that made a ride by the pulses but failed a sanity check: never
+// reported as a ride (the FLOOR end says the floor left), listed here with the reason.
+struct RejectedRide {
+  int64_t start_utime = 0;
+  int64_t end_utime = 0;
+  double displacement_m = 0;
+  double peak_speed_m_s = 0;
+  std::string reason;
+};
+
 struct AbandonedRide {
   int64_t start_utime = 0;
   int64_t abandon_utime = 0;
@@ -170,6 +212,7 @@ struct ElevatorCounts {
   int64_t pulses = 0;
   int64_t rides = 0;
   int64_t abandoned = 0;
+  int64_t rejected = 0;
   std::string summary() const;
 };
 
@@ -194,6 +237,13 @@ class ElevatorTracker {
 
   const std::vector<Ride>& rides() const { return rides_; }
   const std::vector<AbandonedRide>& abandoned() const { return abandoned_; }
+  const std::vector<RejectedRide>& rejected() const { return rejected_; }
+  // The end of the data: pulses still waiting to become final are decided now (a stop in
+  // the last seconds completes its ride), and a ride still open is abandoned.
+  std::vector<FloorEvent> finish();
+  // The gravity reference now, and whether it is plausible for specific force.
+  double gravityReference() const { return gravity_; }
+  bool gravityPlausible() const;
   const FloorTable& floors() const { return floors_; }
   bool riding() const { return !starts_.empty(); }
   const ElevatorCounts& counts() const { return counts_; }
@@ -209,6 +259,9 @@ class ElevatorTracker {
   struct RideFit {
     double displacement = 0, bias = 0, peak_speed = 0, sigma = 0;
     double raw_end_velocity = 0;  // before the zero-velocity correction
+    double cruise_spread = 0;     // max |v - mean| between the pulses
+    double reverse = 0;           // largest velocity against the ride's direction
+    double duration = 0;
   };
   struct Bin {
     double raw = 0;    // vertical specific force
@@ -222,6 +275,8 @@ class ElevatorTracker {
   void updateGravity(int64_t index);
   void processBin(int64_t index, const Bin& bin, std::vector<FloorEvent>* events);
   void onPulse(const Pulse& q, std::vector<FloorEvent>* events);
+  // The sanity checks of a fitted ride: empty when it passes, else the reason.
+  std::string sanity(const RideFit& fit) const;
   bool tryFinish(const Pulse& stop, std::vector<FloorEvent>* events);
   bool startable(const Pulse& p) const;
   // The zero-velocity integration from start to stop and its checks; false when it fails.
@@ -262,6 +317,9 @@ class ElevatorTracker {
 
   std::vector<Ride> rides_;
   std::vector<AbandonedRide> abandoned_;
+  std::vector<RejectedRide> rejected_;
+  bool gravity_established_ = false;  // gravity_min_calm_s of calm seen
+  bool calm_reference_ = false;       // the reference is a median of calm cells
 };
 
 }  // namespace evermap::elevator

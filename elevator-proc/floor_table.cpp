@@ -21,6 +21,11 @@ FloorTable::FloorTable(const FloorTableOptions& options) : options_(options) {
   }
 }
 
+FloorAssignment FloorTable::peek(double displacement_m) const {
+  FloorTable copy = *this;
+  return copy.arrive(displacement_m);
+}
+
 FloorAssignment FloorTable::arrive(double displacement_m) {
   const double target = heights_[current_] + displacement_m;
   int best = -1;

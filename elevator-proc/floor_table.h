@@ -37,6 +37,8 @@ class FloorTable {
   // The floor a ride that moved displacement_m from the current floor arrives at; it
   // becomes the current floor.
   FloorAssignment arrive(double displacement_m);
+  // What arrive() would return, without changing the table.
+  FloorAssignment peek(double displacement_m) const;
 
   int current() const { return current_; }
   double currentHeight() const { return heights_[current_]; }

@@ -16,7 +16,11 @@ OfflineRun runImuElevator(const std::vector<imu::ImuSample>& samples,
     if (used && keep_attitudes) out.attitudes.push_back(att);
     for (FloorEvent& e : tracker.add(s, used ? &att : nullptr)) out.events.push_back(e);
   }
+  for (FloorEvent& e : tracker.finish()) out.events.push_back(e);
   out.rides = tracker.rides();
+  out.rejected = tracker.rejected();
+  out.gravity_m_s2 = tracker.gravityReference();
+  out.gravity_plausible = tracker.gravityPlausible();
   out.abandoned = tracker.abandoned();
   out.floor_heights = tracker.floors().heights();
   out.counts = tracker.counts();

@@ -1,7 +1,9 @@
 #pragma once
 // The two filters chained in one process, as the offline runner, the tests and benchmarks
 // use them: each IMU sample goes through the attitude filter, then with the attitude it
-// produced into the elevator tracker. Deterministic: same samples, same result.
+// produced into the elevator tracker. Deterministic: same samples, same result. At the end of
+// the samples the tracker is finished (ElevatorTracker::finish: a stop in the last seconds
+// still ends its ride).
 
 #include <vector>
 
@@ -13,6 +15,9 @@ namespace evermap::elevator {
 struct OfflineRun {
   std::vector<Ride> rides;
   std::vector<AbandonedRide> abandoned;
+  std::vector<RejectedRide> rejected;
+  double gravity_m_s2 = 0;  // the tracker's reference at the end
+  bool gravity_plausible = true;
   std::vector<FloorEvent> events;
   std::vector<double> floor_heights;
   ElevatorCounts counts;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <numbers>
 
 namespace evermap::elevator {
@@ -16,6 +17,10 @@ Status PulseFilterOptions::validate() const {
     if (i > 0 && !(widths_s[i] > widths_s[i - 1])) {
       return makeError("pulse widths_s must increase");
     }
+  }
+  if (plateau_fractions.empty()) return makeError("pulse plateau_fractions must not be empty");
+  for (double f : plateau_fractions) {
+    if (!(f >= 0 && f < 1)) return makeError("pulse plateau_fractions must be in [0, 1)");
   }
   if (!(min_amplitude_m_s2 > 0 && max_amplitude_m_s2 > min_amplitude_m_s2)) {
     return makeError("pulse amplitudes: need 0 < min < max");
@@ -46,12 +51,37 @@ PulseFilter::PulseFilter(const PulseFilterOptions& options) : options_(options) 
   for (double w : options_.widths_s) {
     const int n = static_cast<int>(std::lround(w / options_.bin_s));
     widths_.push_back(n);
-    std::vector<double> h(n);
-    for (int i = 0; i < n; ++i) {
-      h[i] = 0.5 - 0.5 * std::cos(2.0 * std::numbers::pi * (i + 0.5) / n);
+    for (double p : options_.plateau_fractions) {
+      if (p > 0 && w < options_.plateau_min_width_s - 1e-9) continue;
+      Template t;
+      t.width = n;
+      t.plateau_fraction = p;
+      t.h = shape(n, p);
+      for (double x : t.h) {
+        t.sum += x;
+        t.energy += x * x;
+      }
+      templates_.push_back(std::move(t));
     }
-    hann_.push_back(std::move(h));
   }
+}
+
+std::vector<double> PulseFilter::shape(int n, double plateau_fraction) {
+  // Tukey window: half-cosine ramps over (1 - p) n / 2 bins at each end, flat in between.
+  std::vector<double> h(n);
+  const double ramp = 0.5 * (1.0 - plateau_fraction) * n;
+  for (int i = 0; i < n; ++i) {
+    const double x = i + 0.5;
+    const double edge = std::min(x, n - x);  // distance from the nearer end, bins
+    h[i] = edge >= ramp ? 1.0 : 0.5 - 0.5 * std::cos(std::numbers::pi * edge / ramp);
+  }
+  return h;
+}
+
+std::vector<Pulse> PulseFilter::flush() {
+  std::vector<Pulse> out = finalize(std::numeric_limits<int64_t>::max());
+  reset();
+  return out;
 }
 
 void PulseFilter::reset() {
@@ -75,15 +105,47 @@ std::vector<Pulse> PulseFilter::add(int64_t index, double accel_m_s2, bool valid
 
   // A candidate is final once no window that could overlap it is still to come: every
   // later window starts after index - longest + 1.
+  return finalize(index - longestWidthBins());
+}
+
+namespace {
+// Overlapping by more than a quarter of the shorter window: the same event. (Less is
+// allowed: a ride with no cruise has its two pulses back to back.)
+bool sameEvent(const Pulse& p, const Pulse& q) {
+  const int64_t common =
+      std::min(p.lastBin(), q.lastBin()) - std::max(p.firstBin(), q.firstBin()) + 1;
+  return common > std::min(p.width_bins, q.width_bins) / 4;
+}
+}  // namespace
+
+std::vector<Pulse> PulseFilter::finalize(int64_t horizon) {
   std::vector<Pulse> out;
-  const int64_t horizon = index - longestWidthBins();
+  bool any = false;
+  for (const Pulse& p : pending_) any = any || p.lastBin() < horizon;
+  if (!any) return out;
+  // Non-maximum suppression over every candidate known, in order of snr (greedy, as in
+  // object detection): a candidate is kept when no kept one of higher snr is the same event.
+  // Suppressing on arrival instead loses a pulse whose suppressor is itself suppressed later.
+  std::vector<const Pulse*> order;
+  for (const Pulse& p : pending_) order.push_back(&p);
+  std::stable_sort(order.begin(), order.end(),
+                   [](const Pulse* a, const Pulse* b) { return a->snr > b->snr; });
+  std::vector<const Pulse*> kept;
+  for (const Pulse* p : order) {
+    bool suppressed = false;
+    for (const Pulse* k : kept) suppressed = suppressed || sameEvent(*p, *k);
+    if (!suppressed) kept.push_back(p);
+  }
+  for (const Pulse* k : kept) {
+    if (k->lastBin() < horizon) out.push_back(*k);
+  }
+  // What remains pending: candidates still open that are not the same event as a final one.
   std::vector<Pulse> keep_pending;
   for (const Pulse& p : pending_) {
-    if (p.lastBin() >= horizon) {
-      keep_pending.push_back(p);
-      continue;
-    }
-    out.push_back(p);
+    if (p.lastBin() < horizon) continue;
+    bool taken = false;
+    for (const Pulse& f : out) taken = taken || sameEvent(p, f);
+    if (!taken) keep_pending.push_back(p);
   }
   pending_ = std::move(keep_pending);
   std::sort(out.begin(), out.end(),
@@ -93,11 +155,11 @@ std::vector<Pulse> PulseFilter::add(int64_t index, double accel_m_s2, bool valid
 
 void PulseFilter::evaluate(int64_t end_index) {
   const int available = static_cast<int>(values_.size());
-  for (size_t w = 0; w < widths_.size(); ++w) {
-    const int n = widths_[w];
+  for (const Template& t : templates_) {
+    const int n = t.width;
     const int total = n + flank_;
     if (available < total) break;
-    const std::vector<double>& h = hann_[w];
+    const std::vector<double>& h = t.h;
     const int offset = available - total;
     // Sums over the valid cells of the padded window (h = 0 on the flanks).
     int m = 0;
@@ -136,9 +198,11 @@ void PulseFilter::evaluate(int64_t end_index) {
         e <= options_.max_residual_m_s2 && e <= options_.max_residual_ratio * std::abs(A);
     const double snr = std::abs(A) * std::sqrt(det / s1) / std::max(e, options_.noise_floor_m_s2);
     if (snr < (strict ? options_.min_snr : options_.min_snr_loose)) continue;
-    double hsum = 0;
-    for (double x : h) hsum += x;
+    const double hsum = t.sum;
     Pulse p;
+    p.plateau_fraction = t.plateau_fraction;
+    p.shape_sum = t.sum;
+    p.shape_energy = t.energy;
     p.width_bins = n;
     p.center_bin = end_index - n + 1 + n / 2;
     p.amplitude_m_s2 = A;
@@ -147,24 +211,7 @@ void PulseFilter::evaluate(int64_t end_index) {
     p.snr = snr;
     p.strict = strict;
     p.delta_v_m_s = A * hsum * options_.bin_s;
-    // Non-maximum suppression against the pending candidates it overlaps.
-    bool dominated = false;
-    std::vector<Pulse> survivors;
-    for (const Pulse& q : pending_) {
-      // Overlapping by more than a quarter of the shorter window: the same event. (Less is
-      // allowed: a ride with no cruise has its two pulses back to back.)
-      const int64_t common = std::min(p.lastBin(), q.lastBin()) -
-                             std::max(p.firstBin(), q.firstBin()) + 1;
-      const bool overlap = common > std::min(p.width_bins, q.width_bins) / 4;
-      if (!overlap) {
-        survivors.push_back(q);
-      } else if (q.snr >= p.snr) {
-        dominated = true;
-        survivors.push_back(q);
-      }
-    }
-    if (!dominated) survivors.push_back(p);
-    pending_ = std::move(survivors);
+    pending_.push_back(p);
   }
 }
 

@@ -105,6 +105,7 @@ struct Generator {
     const Eigen::Vector3d w = first ? Eigen::Vector3d::Zero()
                                     : Eigen::Vector3d((last_R.inverse() * R).log() / dt);
     s.gyro_rad_s = w + o.gyro_bias_rad_s + o.gyro_noise_rad_s * noise3();
+    if (!o.gyroscope) s.gyro_rad_s.setZero();
     s.accel_m_s2 = R.inverse() * (a_w + Eigen::Vector3d(0, 0, kG)) + o.accel_bias_m_s2 +
                    o.accel_noise_m_s2 * noise3();
     run.samples.push_back(s);
@@ -171,8 +172,14 @@ struct Generator {
     r.from_floor = floor;
     r.to_floor = to_floor;
     r.displacement_m = distance;
-    for (double e = 0; e < p.duration(); e += dt) {
-      emit(Eigen::Vector3d(0, 0, p.accel(e)), 1.0 * kDeg, 0, 0);
+    // Each sample carries the mean acceleration over its interval (midpoint rule on 16
+    // sub-steps), so the samples integrate to the profile's velocity and the cabin comes to
+    // rest: sampling the profile at instants would leave up to a_max dt of velocity at 10 Hz.
+    const int steps = static_cast<int>(std::ceil(p.duration() / dt));
+    for (int k = 0; k < steps; ++k) {
+      double mean = 0;
+      for (int i = 0; i < 16; ++i) mean += p.accel((k + (i + 0.5) / 16.0) * dt) / 16.0;
+      emit(Eigen::Vector3d(0, 0, mean), 1.0 * kDeg, 0, 0);
     }
     r.end_s = t;
     run.rides.push_back(r);
@@ -183,7 +190,7 @@ struct Generator {
   }
   void stairs(int to_floor) {
     const double distance = floorHeight(o, to_floor) - floorHeight(o, floor);
-    const double vz_target = distance > 0 ? 0.25 : -0.3;
+    const double vz_target = distance > 0 ? o.stairs_up_speed_m_s : -o.stairs_down_speed_m_s;
     const double begin = t;
     walk(std::abs(distance / vz_target) + 1.0, vz_target, 3.5);
     walk(1.5, 0.0, 2.5);
@@ -194,7 +201,7 @@ struct Generator {
   }
   void escalator(int to_floor) {
     const double distance = floorHeight(o, to_floor) - floorHeight(o, floor);
-    const double vz_target = distance > 0 ? 0.3 : -0.3;
+    const double vz_target = distance > 0 ? o.escalator_speed_m_s : -o.escalator_speed_m_s;
     const double begin = t;
     walk(3.0);
     walk(1.0, vz_target);  // stepping on while the step carries you

@@ -20,7 +20,7 @@ namespace evermap::elevator {
 struct RideSimulatorOptions {
   double rate_hz = 100.0;
   int floors = 10;
-  double floor_height_m = 3.6;        // floors above the lobby
+  double floor_height_m = 3.6;        // floors above the lobby (storey)
   double lobby_height_m = 4.5;        // floor 0 to floor 1
   double accel_noise_m_s2 = 0.05;     // white, per sample, each axis
   double gyro_noise_rad_s = 0.005;
@@ -30,6 +30,12 @@ struct RideSimulatorOptions {
   double min_ride_accel_m_s2 = 0.5, max_ride_accel_m_s2 = 1.0;
   double min_ride_speed_m_s = 1.0, max_ride_speed_m_s = 2.0;
   double ride_jerk_m_s3 = 1.0;
+  // false: an IMU without a gyroscope (every gyro reading 0, as the readers give it).
+  bool gyroscope = true;
+  // Vertical speed of escalators (a common one: 0.5 m/s along a 30 deg incline is 0.25 m/s
+  // vertical; 0.5 m/s vertical is a fast one) and of walking up or down the stairs.
+  double escalator_speed_m_s = 0.3;
+  double stairs_up_speed_m_s = 0.25, stairs_down_speed_m_s = 0.3;
   double time_jitter_s = 0.0;  // uniform +- on each time stamp
   uint32_t seed = 1;
 };

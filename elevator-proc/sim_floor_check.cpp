@@ -136,6 +136,7 @@ Expected<SimFloorCheck> checkSimulatedFloors(const sim::SimOptions& options,
     }
     ++out.sessions;
   }
+  tracker.finish();
   if (feed.undecodable > 0) return Error{"simulator: undecodable IMU messages"};
 
   // Table floor -> simulated floor, fixed when the table floor is first reached.

@@ -37,6 +37,10 @@ Eigen::Vector3d upFromRollPitch(double roll_rad, double pitch_rad) {
 Status AttitudeFilterOptions::validate() const {
   if (!(gravity_m_s2 > 0)) return makeError("gravity_m_s2 must be > 0");
   if (!(gyro_noise_density > 0)) return makeError("gyro_noise_density must be > 0");
+  if (gyroscope_mode < -1 || gyroscope_mode > 1) {
+    return makeError("gyroscope_mode must be -1 (auto), 0 (accelerometer only) or 1 (use it)");
+  }
+  if (!(accel_only_tilt_rate_density > 0)) return makeError("accel_only_tilt_rate_density must be > 0");
   if (!(gyro_scale_sigma >= 0)) return makeError("gyro_scale_sigma must be >= 0");
   if (!(interpolation_error_scale >= 0)) return makeError("interpolation_error_scale must be >= 0");
   if (!(max_rejected_s > 0)) return makeError("max_rejected_s must be > 0");
@@ -68,9 +72,10 @@ Status AttitudeFilterOptions::validate() const {
 }
 
 std::string AttitudeFilterCounts::summary() const {
-  char buf[200];
-  std::snprintf(buf, sizeof buf, "updates %lld, untrusted %lld, innovation rejected %lld, resets %lld, recoveries %lld, "
+  char buf[260];
+  std::snprintf(buf, sizeof buf, "%s; updates %lld, untrusted %lld, innovation rejected %lld, resets %lld, recoveries %lld, "
                 "velocity resets %lld",
+                accel_only ? "mode accelerometer only (no gyroscope)" : "mode gyroscope + accelerometer",
                 static_cast<long long>(updates), static_cast<long long>(untrusted),
                 static_cast<long long>(innovation_rejected), static_cast<long long>(resets),
                 static_cast<long long>(recoveries), static_cast<long long>(velocity_resets));
@@ -107,7 +112,7 @@ void AttitudeFilter::initialize(const ImuSample& s) {
                                           Eigen::Matrix3d::Identity();
   P_.setZero();
   P_.block<2, 2>(kTilt, kTilt) = tilt_var * Eigen::Matrix2d::Identity();
-  P_.block<3, 3>(kBias, kBias) = P_bias;
+  P_.block<3, 3>(kBias, kBias) = counts_.accel_only ? Eigen::Matrix3d::Zero() : P_bias;
   // Whatever the body does, it moves at about walking speed at most (the velocity prior).
   velocity_.setZero();
   P_.block<2, 2>(kVel, kVel) = std::pow(options_.velocity_prior_sigma_m_s, 2) *
@@ -128,6 +133,9 @@ void AttitudeFilter::finishStartup() {
     f[h] += startup_[i].accel_m_s2;
     w[h] += startup_[i].gyro_rad_s;
   }
+  bool gyro_all_zero = true;
+  for (const ImuSample& s : startup_) gyro_all_zero = gyro_all_zero && s.gyro_rad_s.isZero(0.0);
+  counts_.accel_only = options_.gyroscope_mode == 0 || (options_.gyroscope_mode < 0 && gyro_all_zero);
   ImuSample mean = startup_.back();
   mean.accel_m_s2 = (f[0] + f[1]) / static_cast<double>(n);
   initialize(mean);
@@ -142,7 +150,12 @@ void AttitudeFilter::finishStartup() {
     counts_.still_start = rate_change <= options_.still_gyro_spread_rad_s &&
                           tilt_change <= options_.still_tilt_change_rad;
   }
-  if (counts_.still_start) {
+  if (counts_.accel_only) {
+    // No gyroscope: no bias to estimate, and none coupled into the tilt.
+    bias_.setZero();
+    P_.block<3, kN>(kBias, 0).setZero();
+    P_.block<kN, 3>(0, kBias).setZero();
+  } else if (counts_.still_start) {
     bias_ = 0.5 * (w[0] + w[1]);
     // The two half means differ by about sqrt(2) times the error of their average's
     // components; floor it at the random walk over the window.
@@ -258,6 +271,22 @@ void AttitudeFilter::applyVelocityPrior() {
 }
 
 void AttitudeFilter::propagate(const ImuSample& s, double dt) {
+  if (counts_.accel_only) {
+    // Tilt as a random walk; the bias block stays 0 (F = I, no noise there).
+    MatN Q = MatN::Zero();
+    Q.block<2, 2>(kTilt, kTilt) = options_.accel_only_tilt_rate_density *
+                                  options_.accel_only_tilt_rate_density * dt *
+                                  Eigen::Matrix2d::Identity();
+    if (options_.velocity_prior_sigma_m_s > 0) {
+      const Eigen::Vector3d f_world = world_R_body_ * s.accel_m_s2;
+      velocity_ += f_world.head<2>() * dt;
+      Q.block<2, 2>(kVel, kVel) = options_.accel_noise_density * options_.accel_noise_density *
+                                  dt * Eigen::Matrix2d::Identity();
+    }
+    P_ += Q;
+    capTiltVariance();
+    return;
+  }
   // Trapezoidal rate over the interval. Its error is about |w''| dt^3 / 12, with w'' from
   // the second difference of the readings: negligible at 200 Hz, a degree per step for a
   // phone swung at 10 Hz, where it widens the covariance so gravity takes over afterwards.
@@ -293,6 +322,10 @@ void AttitudeFilter::propagate(const ImuSample& s, double dt) {
       options_.accel_noise_density * options_.accel_noise_density * dt * Eigen::Matrix2d::Identity();
   P_ = F * P_ * F.transpose() + Q;
   P_ = 0.5 * (P_ + P_.transpose());
+  capTiltVariance();
+}
+
+void AttitudeFilter::capTiltVariance() {
   const double cap = options_.max_tilt_sigma_rad * options_.max_tilt_sigma_rad;
   for (int i = kTilt; i < kTilt + 2; ++i) {
     if (P_(i, i) > cap) {

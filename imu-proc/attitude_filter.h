@@ -22,6 +22,14 @@
 //
 // Roll and pitch: R = Rz(yaw) Ry(pitch) Rx(roll) (SO3d::fromRollPitchYaw), so
 //   u = R^T e_z = (-sin(pitch), sin(roll) cos(pitch), cos(roll) cos(pitch)).
+//
+// Accelerometer-only mode (no gyroscope: gyroscope_mode = 0, or auto-detected when every
+// gyro reading of the start-up window is exactly 0 on all axes). The gyro bias is not a
+// state and the rotation is not propagated; the tilt is a random walk with density
+// accel_only_tilt_rate_density, so the filter becomes a low-pass of the gravity direction
+// with a time constant of about linear_accel_density / (g * accel_only_tilt_rate_density)
+// (0.3 / (9.8 * 0.1) = 0.3 s by default). The vertical specific force up . f that elevator-proc
+// uses depends on a tilt error e only as cos(e) = 1 - e^2/2, so a lagging tilt costs little.
 
 #include <cstdint>
 #include <string>
@@ -40,6 +48,11 @@ struct AttitudeFilterOptions {
   // Gyro white noise (rad/s/sqrt(Hz)) and bias random walk (rad/s^2/sqrt(Hz)). The defaults
   // are a few times a MEMS data sheet (ADIS16448: 2e-4, 2e-5): unmodelled scale errors too.
   double gyro_noise_density = 1e-3;
+  // -1: auto (a gyroscope that reads exactly 0 on every axis over the whole start-up window
+  // is taken as absent), 0: accelerometer only (the gyro readings are ignored), 1: use it.
+  int gyroscope_mode = -1;
+  // Accelerometer-only mode: the random walk of the body's tilt, rad/s/sqrt(Hz).
+  double accel_only_tilt_rate_density = 0.1;
   double gyro_bias_walk_density = 1e-4;
   // Gyro scale-factor and integration error, as a fraction of each rotation increment: a
   // phone at 10 Hz swung at 5 rad/s loses degrees per step to aliasing; this widens the
@@ -98,6 +111,8 @@ struct AttitudeFilterOptions {
   void forEachField(F&& f) {  // see core/common/option_fields.h
     f("gravity_m_s2", gravity_m_s2, "m/s^2");
     f("gyro_noise_density", gyro_noise_density, "rad/s/sqrt(Hz)");
+    f("gyroscope_mode", gyroscope_mode, "-1 auto, 0 accelerometer only, 1 use the gyroscope");
+    f("accel_only_tilt_rate_density", accel_only_tilt_rate_density, "rad/s/sqrt(Hz), accelerometer-only mode");
     f("gyro_bias_walk_density", gyro_bias_walk_density, "rad/s^2/sqrt(Hz)");
     f("gyro_scale_sigma", gyro_scale_sigma, "of each increment");
     f("interpolation_error_scale", interpolation_error_scale, "");
@@ -139,6 +154,7 @@ struct AttitudeFilterCounts {
                                  // rejections, or max_untrusted_s of steady "acceleration")
   int64_t velocity_resets = 0;   // velocity prior rejected: integrated velocity restarted
   bool still_start = false;      // the start-up window was still: gyro bias from it
+  bool accel_only = false;       // no gyroscope (gyroscope_mode 0, or auto and none seen)
   std::string summary() const;
 };
 
@@ -155,6 +171,8 @@ class AttitudeFilter {
   bool add(const ImuSample& sample);
 
   bool initialized() const { return initialized_; }
+  // True once the start-up window decided there is no gyroscope (or gyroscope_mode = 0).
+  bool accelOnly() const { return counts_.accel_only; }
   // Contract: initialized().
   Attitude attitude() const;
   const Eigen::Vector3d& gyroBias() const { return bias_; }
@@ -165,6 +183,7 @@ class AttitudeFilter {
   void initialize(const ImuSample& s);
   void finishStartup();
   void propagate(const ImuSample& s, double dt);
+  void capTiltVariance();
   void applyVelocityPrior();
   // One Kalman update; false (and no change) when the innovation fails the chi^2 gate.
   template <int M>

@@ -28,8 +28,16 @@ struct ProcOptions {
 struct Publisher {
   lcm::LCM* lcm;
   evermap::imu::AttitudeStream stream;
+  bool announced = false;
   void onImu(const lcm::ReceiveBuffer*, const std::string&, const evermap::imu_t* msg) {
     if (auto out = stream.add(*msg)) lcm->publish(evermap::channels::kAttitude, &*out);
+    if (!announced && stream.filter().initialized()) {
+      // Once, when the start-up window has decided (gyroscope_mode -1: auto).
+      announced = true;
+      std::fprintf(stderr, "evermap-imu-proc: %s\n",
+                   stream.filter().accelOnly() ? "mode accelerometer only (no gyroscope)"
+                                               : "mode gyroscope + accelerometer");
+    }
   }
 };
 

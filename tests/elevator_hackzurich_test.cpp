@@ -4,7 +4,8 @@
 // barometer (its altitude moving faster than 0.35 m/s inside an episode; unix seconds, the
 // pressure altitude lags the motion by 2-4 s). The barometer also gives each ride's height.
 //
-// Asserted: every labelled ride is found once, its displacement within 1.5 m or 20 % of the
+// Asserted, with the gyroscope and with it zeroed (accelerometer-only mode): every labelled
+// ride is found once, its displacement within 1.5 m or 20 % of the
 // barometric change (whichever is larger); inside the episodes no other ride is reported;
 // during the stairs segment no floor event at all.
 //
@@ -21,6 +22,7 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -71,20 +73,27 @@ double unixSeconds(int64_t utime) { return 1e-6 * static_cast<double>(utime); }
 // Barometric altitude speed that stairs do not reach (m/s).
 constexpr double kElevatorRate = 0.7;
 
-class ElevatorHackzurich : public ::testing::TestWithParam<int> {};
+// (session index, gyroscope zeroed): the same rides must be found accelerometer-only.
+class ElevatorHackzurich : public ::testing::TestWithParam<std::tuple<int, bool>> {};
 
 TEST_P(ElevatorHackzurich, EveryLabelledRideIsFoundWithTheBarometricHeight) {
   EVERMAP_REQUIRE_DATA(dir, "elevator-imu-baro-hackzurich");
-  const SessionTruth& truth = truths()[GetParam()];
+  const SessionTruth& truth = truths()[std::get<0>(GetParam())];
+  const bool zero_gyro = std::get<1>(GetParam());
   const auto session = datasets::readHackzurichSession(dir, truth.session);
   ASSERT_TRUE(session.ok()) << session.error().message;
   ASSERT_EQ(session->episodes.size(), 2u);
   std::vector<imu::ImuSample> samples;
-  for (const auto& s : session->imu) samples.push_back({s.t_ns / 1000, s.gyro_rad_s, s.accel_m_s2});
+  for (const auto& s : session->imu) {
+    samples.push_back({s.t_ns / 1000, zero_gyro ? Eigen::Vector3d::Zero() : s.gyro_rad_s, s.accel_m_s2});
+  }
   const OfflineRun run = runImuElevator(samples, {}, {});
   const std::vector<RideRow> rows =
       ridesWithReference(run.rides, session->barometer, session->episodes);
-  std::printf("session %d (%s)\n%s", truth.session, run.counts.summary().c_str(),
+  EXPECT_EQ(run.attitude_counts.accel_only, zero_gyro);
+  EXPECT_TRUE(run.rejected.empty());
+  std::printf("session %d%s (%s)\n%s", truth.session, zero_gyro ? ", gyroscope zeroed" : "",
+              run.counts.summary().c_str(),
               formatRideTable(rows, samples.front().utime).c_str());
   for (const auto& a : run.abandoned) {
     std::printf("  abandoned start at unix %.1f: %s\n", unixSeconds(a.start_utime), a.reason.c_str());
@@ -147,7 +156,8 @@ TEST_P(ElevatorHackzurich, EveryLabelledRideIsFoundWithTheBarometricHeight) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Sessions, ElevatorHackzurich, ::testing::Values(0, 1));
+INSTANTIATE_TEST_SUITE_P(Sessions, ElevatorHackzurich,
+                         ::testing::Combine(::testing::Values(0, 1), ::testing::Bool()));
 
 }  // namespace
 }  // namespace evermap::elevator

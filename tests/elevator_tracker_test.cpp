@@ -214,6 +214,46 @@ TEST(ElevatorTracker, StairsEscalatorsSittingAndStandingAreNoRides) {
   EXPECT_TRUE(run.events.empty()) << run.events.size() << " FLOOR events";
 }
 
+// A ride that fails a sanity check is reported as rejected with its reason, never as a ride,
+// and the FLOOR end says the floor left. Here: a floor table whose match threshold (4 m) is
+// more than a storey (3.6 m), so a one-floor ride arrives back on the floor it left.
+TEST(ElevatorTracker, ARideReachingNoOtherFloorIsRejectedWithTheReason) {
+  RideSimulatorOptions o;
+  o.rate_hz = 50.0;
+  using K = SimSegment::Kind;
+  const SimulatedRun truth =
+      simulateRun(o, {{K::kWalk, 8, 0}, {K::kElevator, 0, 1}, {K::kWalk, 8, 0}, {K::kElevator, 0, 2}});
+  ElevatorTrackerOptions e;
+  e.floors.match_threshold_m = 4.0;
+  const OfflineRun run = runImuElevator(truth.samples, {}, e);
+  // 0 -> 1 (4.5 m, a new floor), then 1 -> 2 (3.6 m: floor 1 is nearest): rejected.
+  ASSERT_EQ(run.rides.size(), 1u);
+  ASSERT_EQ(run.rejected.size(), 1u);
+  EXPECT_NE(run.rejected[0].reason.find("reaches no other floor"), std::string::npos) << run.rejected[0].reason;
+  EXPECT_NEAR(run.rejected[0].displacement_m, 3.6, 0.4);
+  EXPECT_EQ(run.counts.rejected, 1);
+  ASSERT_FALSE(run.events.empty());
+  const FloorEvent& last = run.events.back();
+  EXPECT_EQ(last.kind, FloorEvent::Kind::kRideEnd);
+  EXPECT_EQ(last.floor_index, 1);
+  EXPECT_FALSE(last.in_elevator);
+}
+
+// The stop of a ride in the last seconds of the data (before the longest template has passed)
+// still ends the ride when the data ends.
+TEST(ElevatorTracker, ARideStoppingJustBeforeTheEndOfTheDataIsFound) {
+  RideSimulatorOptions o;
+  o.rate_hz = 50.0;
+  using K = SimSegment::Kind;
+  SimulatedRun truth = simulateRun(o, {{K::kWalk, 8, 0}, {K::kElevator, 0, 3}});
+  // simulateRun stands 10 s at the end; keep 1 s after the cab stops.
+  const double end = truth.rides.back().end_s + 1.0;
+  std::erase_if(truth.samples, [&](const imu::ImuSample& s) { return 1e-6 * static_cast<double>(s.utime) > end; });
+  const OfflineRun run = runImuElevator(truth.samples, {}, {});
+  ASSERT_EQ(run.rides.size(), 1u);
+  EXPECT_NEAR(run.rides[0].displacement_m, truth.rides[0].displacement_m, 0.3);
+}
+
 TEST(ElevatorTracker, APhoneTurningToAnotherFaceStartsNoRide) {
   // Per-axis accelerometer biases make |f| differ by 0.3 m/s^2 between faces: turning
   // the phone is a step of the vertical specific force, not a pulse.

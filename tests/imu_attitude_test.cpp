@@ -2,6 +2,7 @@
 // 1 kHz, bad samples dropped and counted, untrusted accelerometer flagged, and the EuRoC
 // V1_01 accuracy figure.
 
+#include <cstdio>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -69,8 +70,16 @@ double tiltError(const Attitude& a, const core::SO3d& truth) {
   return std::acos(std::clamp(up_true.dot(upFromRollPitch(a.roll_rad, a.pitch_rad)), -1.0, 1.0));
 }
 
+// An ideal gyroscope at rest reads exactly 0 on every axis, which the filter's auto mode takes
+// as "no gyroscope" (accelerometer only): tests of the gyro path say that they have one.
+AttitudeFilterOptions withGyro() {
+  AttitudeFilterOptions o;
+  o.gyroscope_mode = 1;
+  return o;
+}
+
 TEST(AttitudeFilter, StaticTiltIsRecoveredFromGravity) {
-  AttitudeFilter f;
+  AttitudeFilter f(withGyro());
   for (int i = 0; i < 2000; ++i) f.add(still(i * 5000, 0.3, -0.2));
   ASSERT_TRUE(f.initialized());
   const Attitude a = f.attitude();
@@ -116,8 +125,52 @@ TEST_P(AttitudeFilterRate, SwayingBodyIsTrackedWithinHalfADegree) {
 
 INSTANTIATE_TEST_SUITE_P(Rates, AttitudeFilterRate, ::testing::Values(10.0, 100.0, 1000.0));
 
+// Without a gyroscope (every reading 0: what the readers give when there is none) the filter
+// says so and follows the gravity direction with a lag: a body tilting by +-6 deg at up to
+// 0.07 rad/s (a phone in a pocket in a moving cabin) is tracked within 2 deg.
+TEST(AttitudeFilter, WithoutAGyroscopeTheTiltFollowsGravity) {
+  for (double rate : {10.0, 50.0, 1000.0}) {
+    SwayingBody body;
+    body.roll_amp = 0.1;
+    body.pitch_amp = 0.08;
+    AttitudeFilter f;
+    double worst = 0;
+    for (ImuSample s : body.samples(rate, 60.0, 0.05, 3)) {
+      s.gyro_rad_s.setZero();
+      if (!f.add(s)) continue;
+      const double t = 1e-6 * static_cast<double>(s.utime);
+      if (t > 5.0) worst = std::max(worst, tiltError(f.attitude(), body.attitude(t)));
+    }
+    EXPECT_TRUE(f.accelOnly()) << rate << " Hz";
+    EXPECT_NE(f.counts().summary().find("accelerometer only"), std::string::npos);
+    EXPECT_LT(worst, 2.0 * kDeg) << rate << " Hz";
+    std::printf("accelerometer only, %.0f Hz: worst tilt error %.2f deg\n", rate, worst / kDeg);
+  }
+}
+
+// gyroscope_mode = 0 ignores a gyroscope that is there (and glitches: 2 rad/s for 0.5 s).
+TEST(AttitudeFilter, AccelerometerOnlyModeIgnoresTheGyroscope) {
+  AttitudeFilterOptions o;
+  o.gyroscope_mode = 0;
+  AttitudeFilter f(o);
+  int64_t t = 0;
+  for (int i = 0; i < 400; ++i, t += 5000) {
+    ImuSample s = still(t, 0.1, -0.1);
+    s.gyro_rad_s = Eigen::Vector3d(0.01, 0.02, -0.01);
+    f.add(s);
+  }
+  EXPECT_TRUE(f.accelOnly());
+  for (int i = 0; i < 100; ++i, t += 5000) {
+    ImuSample s = still(t, 0.1, -0.1);
+    s.gyro_rad_s.x() = 2.0;
+    f.add(s);
+  }
+  EXPECT_NEAR(f.attitude().roll_rad, 0.1, 1e-3);
+  EXPECT_NEAR(f.attitude().pitch_rad, -0.1, 1e-3);
+}
+
 TEST(AttitudeFilter, StrongLinearAccelerationIsUntrustedAndWidensTheCovariance) {
-  AttitudeFilter f;
+  AttitudeFilter f(withGyro());
   int64_t t = 0;
   for (int i = 0; i < 24000; ++i, t += 5000) f.add(still(t, 0.1, 0.2));
   const Attitude before = f.attitude();
@@ -217,7 +270,7 @@ TEST(AttitudeFilter, JitteredTimeStampsAtTenHertzAreTracked) {
 }
 
 TEST(AttitudeFilter, AGyroGlitchIsRecoveredFromGravity) {
-  AttitudeFilter f;
+  AttitudeFilter f(withGyro());
   int64_t t = 0;
   for (int i = 0; i < 2000; ++i, t += 5000) f.add(still(t, 0.1, -0.1));
   // 0.5 s of a false 2 rad/s roll rate (a glitching gyro): the integration says 57 deg.

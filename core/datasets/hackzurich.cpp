@@ -131,8 +131,13 @@ Expected<HackzurichSession> readHackzurichSession(const std::filesystem::path& d
   if (Status st = readCsv(dir / (prefix + "accelerometer.csv"), 3, collect(&accel)); !st.ok()) {
     return st.error();
   }
-  if (Status st = readCsv(dir / (prefix + "gyrometer.csv"), 3, collect(&gyro)); !st.ok()) {
-    return st.error();
+  // Without a gyrometer file the session is accelerometer-only: every accelerometer row is
+  // kept, with a zero gyro (which the attitude filter's auto mode takes as "no gyroscope").
+  s.has_gyroscope = std::filesystem::exists(dir / (prefix + "gyrometer.csv"));
+  if (s.has_gyroscope) {
+    if (Status st = readCsv(dir / (prefix + "gyrometer.csv"), 3, collect(&gyro)); !st.ok()) {
+      return st.error();
+    }
   }
   Status st = readCsv(dir / (prefix + "barometer.csv"), 2,
                       [&s](int64_t t, const std::vector<double>& v) {
@@ -156,6 +161,8 @@ Expected<HackzurichSession> readHackzurichSession(const std::filesystem::path& d
       w = (1 - f) * before->v + f * after->v;
     } else if (before || after) {
       w = (before ? before : after)->v;
+    } else if (!s.has_gyroscope) {
+      w.setZero();
     } else {
       ++s.rows_without_gyro;
       continue;

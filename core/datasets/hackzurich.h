@@ -7,7 +7,9 @@
 // (-1 on z lying face up), i.e. the NEGATIVE specific force; they are returned as specific
 // force in m/s^2 (+g up at rest). Gyro rows are rad/s in the same device frame. The two
 // sensors have their own time stamps; each accelerometer row gets the gyro reading
-// interpolated at its time, and rows with no gyro reading near them are left out (counted).
+// interpolated at its time, and rows with no gyro reading near them are left out (counted,
+// and printed by evermap-imu-elevator-run). A session without a gyrometer file is read as
+// accelerometer-only: every row, with a zero gyro.
 
 #include <cstdint>
 #include <filesystem>
@@ -38,6 +40,7 @@ struct HackzurichSession {
   std::vector<LabelledEpisode> episodes;
   int64_t accelerometer_rows = 0;
   int64_t rows_without_gyro = 0;
+  bool has_gyroscope = true;  // false: no gyrometer file, imu[].gyro_rad_s are 0
 };
 
 // Reads session `session` (1, 2, ...) from dir. max_gyro_offset_s: how far from an

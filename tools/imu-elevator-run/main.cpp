@@ -5,11 +5,13 @@
 //
 //   evermap-imu-elevator-run --euroc-imu mav0/imu0/data.csv [--ground-truth gt.txt]
 //   evermap-imu-elevator-run --hackzurich DIR --session N
+//   evermap-imu-elevator-run --science-journal FILE.csv   (Android Science Journal export)
 //   evermap-imu-elevator-run --lcm-log FILE [--channel IMU]
 //   evermap-imu-elevator-run --synthetic N [--rate HZ]   (a building run with N rides)
 //   evermap-imu-elevator-run --sim-config config/sim-paper-scale.conf [--sim-set key=value]...
 //          [--sim-sessions N]   (the measurement-level simulator's IMU: rides on the right floor?)
 // Options: --set key=value (attitude or elevator option), --config FILE, --print-options,
+//          --zero-gyro (every gyro reading set to 0: the accelerometer-only control),
 //          --dump-attitude FILE, --dump-trace FILE (the elevator's 0.1 s grid),
 //          --write-lcm-log FILE (the IMU samples read, as an LCM log for lcm-logplayer),
 //          --print-floor-log FILE (only print the FLOOR messages of an LCM log).
@@ -29,6 +31,7 @@
 #include "core/common/option_fields.h"
 #include "core/datasets/euroc.h"
 #include "core/datasets/hackzurich.h"
+#include "core/datasets/science_journal.h"
 #include "core/messages/channels.h"
 #include "elevator-proc/elevator_tracker.h"
 #include "elevator-proc/offline_run.h"
@@ -44,7 +47,8 @@ namespace {
 using namespace evermap;
 
 struct Args {
-  std::string euroc_imu, ground_truth, hackzurich, lcm_log, channel = channels::kImu;
+  std::string euroc_imu, ground_truth, hackzurich, science_journal, lcm_log, channel = channels::kImu;
+  bool zero_gyro = false;
   std::string dump_attitude, dump_trace, write_lcm_log, floor_log;
   int synthetic_rides = 0;
   std::string sim_config;
@@ -61,13 +65,17 @@ struct Args {
 int parse(int argc, char** argv, Args* a) {
   CommandLine cli("evermap-imu-elevator-run",
                   "imu-proc's attitude filter and elevator-proc's tracker over a recording, offline. One input:\n"
-                  "--euroc-imu, --hackzurich, --lcm-log, --synthetic or --sim-config (docs/imu-elevator.md).");
+                  "--euroc-imu, --hackzurich, --science-journal, --lcm-log, --synthetic or --sim-config\n"
+                  "(docs/imu-elevator.md).");
   std::string config;
   std::vector<std::string> sets;
   cli.value("--euroc-imu", &a->euroc_imu, "CSV", "EuRoC mav0/imu0/data.csv");
   cli.value("--ground-truth", &a->ground_truth, "FILE", "EuRoC ground truth: the attitude error");
   cli.value("--hackzurich", &a->hackzurich, "DIR", "the phone recordings (with --session)");
   cli.value("--session", &a->session, "N", "HackZurich session number (default 1)");
+  cli.value("--science-journal", &a->science_journal, "CSV",
+            "an Android Science Journal accelerometer export (relative_time, AccX, AccY, AccZ; sparse rows)");
+  cli.flag("--zero-gyro", &a->zero_gyro, "set every gyro reading to 0 (the accelerometer-only control)");
   cli.value("--lcm-log", &a->lcm_log, "FILE", "IMU messages of an LCM log");
   cli.value("--channel", &a->channel, "IMU", "the IMU channel of --lcm-log and --write-lcm-log");
   cli.value("--synthetic", &a->synthetic_rides, "N", "a synthetic building run with N rides");
@@ -186,6 +194,11 @@ int main(int argc, char** argv) {
                 static_cast<long long>(session.accelerometer_rows),
                 static_cast<long long>(session.rows_without_gyro), session.barometer.size(),
                 session.episodes.size());
+  } else if (!args.science_journal.empty()) {
+    auto r = datasets::readScienceJournalCsv(args.science_journal);
+    if (!r.ok()) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); return 1; }
+    std::printf("%s: %s\n", args.science_journal.c_str(), r->summary().c_str());
+    samples = std::move(r->imu);
   } else if (!args.lcm_log.empty()) {
     auto r = imu::readImuLog(args.lcm_log, args.channel);
     if (!r.ok()) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); return 1; }
@@ -210,7 +223,9 @@ int main(int argc, char** argv) {
   }
 
   std::vector<imu::ImuSample> imu_samples;
-  for (const auto& s : samples) imu_samples.push_back({s.t_ns / 1000, s.gyro_rad_s, s.accel_m_s2});
+  for (const auto& s : samples) {
+    imu_samples.push_back({s.t_ns / 1000, args.zero_gyro ? Eigen::Vector3d::Zero() : s.gyro_rad_s, s.accel_m_s2});
+  }
   if (!args.write_lcm_log.empty()) {
     if (Status st = imu::writeImuLog(args.write_lcm_log, args.channel, imu_samples); !st.ok()) {
       std::fprintf(stderr, "%s\n", st.error().message.c_str());
@@ -227,6 +242,8 @@ int main(int argc, char** argv) {
   const std::vector<imu::Attitude>& track = run.attitudes;
   std::printf("attitude: %s\nelevator: %s\n    gate: %s\n", run.attitude_counts.summary().c_str(),
               run.counts.summary().c_str(), run.gate.summary().c_str());
+  std::printf("gravity reference at the end: %.3f m/s^2%s\n", run.gravity_m_s2,
+              run.gravity_plausible ? "" : "  NOT GRAVITY: is the input gravity-removed? every ride is rejected");
 
   if (!args.ground_truth.empty()) {
     const auto gt = datasets::readEurocGroundTruth(args.ground_truth);
@@ -277,6 +294,11 @@ int main(int argc, char** argv) {
   for (const auto& r : truth.rides) {
     std::printf("true ride %.1f..%.1f s  floor %d -> %d  %+.2f m\n", r.start_s - origin * 1e-6,
                 r.end_s - origin * 1e-6, r.from_floor, r.to_floor, r.displacement_m);
+  }
+  for (const auto& r : run.rejected) {
+    std::printf("rejected ride %.1f..%.1f s (%+.2f m, peak %.2f m/s): %s\n",
+                1e-6 * static_cast<double>(r.start_utime - origin), 1e-6 * static_cast<double>(r.end_utime - origin),
+                r.displacement_m, r.peak_speed_m_s, r.reason.c_str());
   }
   for (const auto& a : run.abandoned) {
     std::printf("abandoned ride start at %.1f s (given up at %.1f s): %s\n",
