@@ -193,16 +193,22 @@ TEST(Tracker, VoBackOnItsKeptReferenceReplacesTheWheelOdometryOfTheGap) {
   EXPECT_EQ(t.counts().dropped, 0);
 }
 
-TEST(Tracker, VoBackOnItsKeptReferenceIsNotBelievedWhenTheWheelsContradictIt) {
-  // After a long gap VO registers against its old reference with a motion 0.6 m short of
-  // what precise wheels measured (a repeated floor texture): the wheels' estimate stays.
-  Tracker t(TrackerOptions{});
+// VO on keyframe 0.1 s, blind from 0.2 s (a dark room) while precise wheels (σ 1 mm per
+// 0.1 s) drive 1 m/s until 1.1 s.
+void loseVoOverAMetreOfWheels(Tracker& t) {
   ASSERT_TRUE(t.addVo(voRestart(0)));
   ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, true)));
   vo_delta_t fail = voMsg(200000, 100000, SE3d(), 0, false);
   fail.status = vo_delta_t::STATUS_INSUFFICIENT_FEATURES;
   ASSERT_TRUE(t.addVo(fail));
   for (int k = 2; k <= 11; ++k) ASSERT_TRUE(t.addWheel(wheelMsg((k - 1) * 100000, k * 100000, 0.1, 1e-6)));
+}
+
+TEST(Tracker, VoBackOnItsKeptReferenceIsNotBelievedWhenTheWheelsContradictIt) {
+  // After a long gap VO registers against its old reference with a motion 0.6 m short of
+  // what precise wheels measured (a repeated floor texture): the wheels' estimate stays.
+  Tracker t(TrackerOptions{});
+  ASSERT_NO_FATAL_FAILURE(loseVoOverAMetreOfWheels(t));
   ASSERT_TRUE(t.addVo(voMsg(1200000, 100000, planar(0.4, 0, 0), 1e-4, false)));
   EXPECT_EQ(t.counts().relinks_refused, 1);
   EXPECT_EQ(t.counts().relinked, 0);
@@ -220,12 +226,7 @@ TEST(Tracker, AMotionVoPredictedOverTheGapDoesNotReplaceTheWheels) {
   // covariance of decimetres. That agrees with the wheels within its uncertainty, but it is
   // the weaker of the two: the wheels keep the gap, and the chain goes on from there.
   Tracker t(TrackerOptions{});
-  ASSERT_TRUE(t.addVo(voRestart(0)));
-  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, true)));
-  vo_delta_t fail = voMsg(200000, 100000, SE3d(), 0, false);
-  fail.status = vo_delta_t::STATUS_INSUFFICIENT_FEATURES;
-  ASSERT_TRUE(t.addVo(fail));
-  for (int k = 2; k <= 11; ++k) ASSERT_TRUE(t.addWheel(wheelMsg((k - 1) * 100000, k * 100000, 0.1, 1e-6)));
+  ASSERT_NO_FATAL_FAILURE(loseVoOverAMetreOfWheels(t));
   ASSERT_TRUE(t.addVo(voMsg(1200000, 100000, planar(1.0, 0, 0.05), 0.3, true)));
   EXPECT_EQ(t.counts().relinks_weaker, 1);
   EXPECT_EQ(t.counts().relinks_refused, 0);

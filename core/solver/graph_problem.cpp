@@ -133,16 +133,6 @@ PoseValue identityPose(int dimension) {
   return dimension == 2 ? PoseValue::planar(core::SE2d()) : PoseValue::spatial(core::SE3d());
 }
 
-PoseValue compose(const PoseValue& a, const PoseValue& b) {
-  if (a.kind == PoseKind::kSE2) return PoseValue::planar(a.se2 * b.se2);
-  return PoseValue::spatial(a.se3 * b.se3);
-}
-
-PoseValue inversePose(const PoseValue& a) {
-  if (a.kind == PoseKind::kSE2) return PoseValue::planar(a.se2.inverse());
-  return PoseValue::spatial(a.se3.inverse());
-}
-
 }  // namespace
 
 Expected<Values> odometryInitialization(const GraphFile& graph) {
@@ -161,7 +151,7 @@ Expected<Values> odometryInitialization(const GraphFile& graph) {
         order.push_back(e.to);
         progress = true;
       } else if (!has_from && has_to) {
-        pose[e.from] = compose(pose[e.to], inversePose(e.measurement));
+        pose[e.from] = compose(pose[e.to], inverse(e.measurement));
         order.push_back(e.from);
         progress = true;
       }

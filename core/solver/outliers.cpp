@@ -32,16 +32,6 @@ bool isSyntheticOutlier(const GraphEdge& edge) { return edge.line == 0; }
 
 namespace {
 
-PoseValue composed(const PoseValue& a, const PoseValue& b) {
-  if (a.kind == PoseKind::kSE2) return PoseValue::planar(a.se2 * b.se2);
-  return PoseValue::spatial(a.se3 * b.se3);
-}
-
-PoseValue inverted(const PoseValue& a) {
-  if (a.kind == PoseKind::kSE2) return PoseValue::planar(a.se2.inverse());
-  return PoseValue::spatial(a.se3.inverse());
-}
-
 class Generator {
  public:
   Generator(const GraphFile& graph, const OutlierOptions& o) : g_(graph), o_(o), rng_(o.seed) {
@@ -51,7 +41,7 @@ class Generator {
         if (intro_.emplace(k, e).second) poses_.push_back(k);
       }
       if (edge.to == edge.from + 1) odometry_.emplace(edge.from, edge.measurement);
-      if (edge.from == edge.to + 1) odometry_.emplace(edge.to, inverted(edge.measurement));
+      if (edge.from == edge.to + 1) odometry_.emplace(edge.to, inverse(edge.measurement));
       if (!isOdometryEdge(edge)) loops_.push_back(e);
     }
     if (loops_.empty()) {
@@ -122,7 +112,7 @@ class Generator {
     for (int k = 0; k < n; ++k) {
       const auto it = odometry_.find(a + k);
       if (it == odometry_.end()) return std::nullopt;
-      T = composed(T, it->second);
+      T = compose(T, it->second);
     }
     return T;
   }
@@ -141,7 +131,7 @@ class Generator {
       const auto a_T_ak = chain(a, k);
       const auto b_T_bk = chain(b, k);
       if (!a_T_ak || !b_T_bk) return;
-      members.push_back(edge(a + k, b + k, composed(composed(inverted(*a_T_ak), T), *b_T_bk)));
+      members.push_back(edge(a + k, b + k, compose(compose(inverse(*a_T_ak), T), *b_T_bk)));
     }
     for (GraphEdge& e : members) push(out, std::move(e));
   }

@@ -5,6 +5,16 @@
 
 namespace evermap::solver {
 
+PoseValue compose(const PoseValue& a, const PoseValue& b) {
+  if (a.kind == PoseKind::kSE2) return PoseValue::planar(a.se2 * b.se2);
+  return PoseValue::spatial(a.se3 * b.se3);
+}
+
+PoseValue inverse(const PoseValue& a) {
+  if (a.kind == PoseKind::kSE2) return PoseValue::planar(a.se2.inverse());
+  return PoseValue::spatial(a.se3.inverse());
+}
+
 PoseValue retract(const PoseValue& x, const double* delta) {
   PoseValue out = x;
   if (x.kind == PoseKind::kSE2) {

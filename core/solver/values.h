@@ -48,6 +48,9 @@ struct PoseValue {
 
 // x ⊞ δ with δ of x.dim() entries (see the file comment).
 PoseValue retract(const PoseValue& x, const double* delta);
+// a · b and a⁻¹, of b's kind as a's (contract: a and b are of one kind).
+PoseValue compose(const PoseValue& a, const PoseValue& b);
+PoseValue inverse(const PoseValue& a);
 
 // A dense set of variables: index i in [0, size()) for each key, in insertion order.
 class Values {
