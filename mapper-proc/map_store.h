@@ -1,6 +1,6 @@
 #pragma once
 // The mapper's part of the map store (DESIGN.md section 7): one SQLite file per map, WAL,
-// one transaction per update, so a process killed at any moment leaves the last committed
+// one transaction per update (then a checkpoint that empties the log), so a process killed at any moment leaves the last committed
 // map loadable. Other components keep their own tables in the same file; these are:
 //
 //   CREATE TABLE map_sessions (session_id INTEGER PRIMARY KEY, start_utime INTEGER NOT NULL);
