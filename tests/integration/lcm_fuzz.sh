@@ -91,5 +91,5 @@ pids=()
 grep -h ": input: " "$tmp"/*.log | sed 's/^/  /'
 grep -E "^(received_[A-Z_]+|undecodable|time_refused|handler_failed|refused) " "$tmp/mapper-proc.log" \
   | tr '\n' ' ' | sed 's/^/  evermap-mapper-proc: /; s/$/\n/'
-grep -h "LCM fragment" "$tmp"/*.log | head -3 | sed 's/^/  /'
+awk '/LCM fragment/ && n++ < 3 { print "  " $0 }' "$tmp"/*.log  # (head would break the pipe)
 echo "PASS"
