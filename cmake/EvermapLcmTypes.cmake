@@ -20,6 +20,17 @@ function(evermap_lcmtypes)
     COMMAND ${LCM_GEN} --cpp --cpp-hpath ${cpp_dir} ${abs_files}
     DEPENDS ${abs_files}
     COMMENT "lcm-gen --cpp: ${A_TARGET}")
+  # <evermap/wire_layout.hpp>: the wire layout of every type, for the generic length check
+  # before decoding (core/messages/wire_check.h).
+  find_package(Python3 REQUIRED COMPONENTS Interpreter)
+  set(layout_hpp ${cpp_dir}/evermap/wire_layout.hpp)
+  set(layout_py ${PROJECT_SOURCE_DIR}/cmake/lcm_wire_layout.py)
+  add_custom_command(
+    OUTPUT ${layout_hpp}
+    COMMAND ${CMAKE_COMMAND} -E make_directory ${cpp_dir}/evermap
+    COMMAND ${Python3_EXECUTABLE} ${layout_py} ${layout_hpp} ${abs_files}
+    DEPENDS ${abs_files} ${layout_py}
+    COMMENT "lcm wire layout: ${A_TARGET}")
   # <evermap/all_types.hpp>: every type, and an X-macro over them, so tools can decode any
   # message by its fingerprint (as lcm-spy does).
   set(all_hpp ${cpp_dir}/evermap/all_types.hpp)
@@ -31,7 +42,7 @@ function(evermap_lcmtypes)
     string(APPEND xmacro " \\\n  X(${type})")
   endforeach()
   file(GENERATE OUTPUT ${all_hpp} CONTENT "${content}\n${xmacro}\n")
-  add_custom_target(${A_TARGET}_gen DEPENDS ${headers})
+  add_custom_target(${A_TARGET}_gen DEPENDS ${headers} ${layout_hpp})
   add_library(${A_TARGET} INTERFACE)
   add_dependencies(${A_TARGET} ${A_TARGET}_gen)
   target_include_directories(${A_TARGET} INTERFACE ${cpp_dir})

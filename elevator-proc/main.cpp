@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <deque>
 #include <string>
 
@@ -16,6 +17,7 @@
 #include "core/common/option_fields.h"
 #include "core/common/stop_signals.h"
 #include "core/messages/channels.h"
+#include "core/messages/inbox.h"
 #include "elevator-proc/elevator_tracker.h"
 #include "elevator-proc/lcm_convert.h"
 #include "imu-proc/lcm_convert.h"
@@ -29,25 +31,25 @@ class Node {
   Node(lcm::LCM* lcm, const evermap::elevator::ElevatorTrackerOptions& options)
       : lcm_(lcm), tracker_(options) {}
 
-  void onImu(const lcm::ReceiveBuffer*, const std::string&, const evermap::imu_t* msg) {
-    pending_.push_back(evermap::imu::fromLcm(*msg));
+  void onImu(const evermap::imu_t& msg) {
+    pending_.push_back(evermap::imu::fromLcm(msg));
     // Never hold more than ~2 s at 1 kHz: without ATTITUDE, samples go through unmatched
     // (and are counted by the tracker as "without attitude").
     while (pending_.size() > 2000) flushFront(nullptr);
   }
 
-  void onAttitude(const lcm::ReceiveBuffer*, const std::string&,
-                  const evermap::attitude_t* msg) {
-    const evermap::imu::Attitude att = evermap::imu::fromLcm(*msg);
+  evermap::Status onAttitude(const evermap::attitude_t& msg) {
+    const evermap::imu::Attitude att = evermap::imu::fromLcm(msg);
     if (!std::isfinite(att.roll_rad) || !std::isfinite(att.pitch_rad)) {
       ++bad_attitudes_;
-      return;
+      return evermap::makeError("ATTITUDE ", msg.utime, ": non-finite roll or pitch");
     }
     latest_ = att;
     have_attitude_ = true;
     // Every sample up to this attitude's time uses it (it is at most one IMU period newer
     // than the ones imu-proc decimated away).
     while (!pending_.empty() && pending_.front().utime <= att.utime) flushFront(&latest_);
+    return evermap::Ok{};
   }
 
   const evermap::elevator::ElevatorTracker& tracker() const { return tracker_; }
@@ -79,7 +81,7 @@ class Node {
 void usage() {
   std::printf(
       "usage: evermap-elevator-proc [--lcm-url URL] [--config FILE] [--set key=value]... "
-      "[--print-options]\nSubscribes IMU and ATTITUDE, publishes FLOOR.\n");
+      "[--time-window-s S] [--print-options]\nSubscribes IMU and ATTITUDE, publishes FLOOR.\n");
 }
 
 }  // namespace
@@ -88,6 +90,7 @@ int main(int argc, char** argv) {
   using namespace evermap;
   elevator::ElevatorTrackerOptions options;
   std::string url;
+  double time_window_s = 120.0;  // core/messages/inbox.h, TimeGuardOptions
   bool print = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -99,6 +102,12 @@ int main(int argc, char** argv) {
       st = loadFields(&options, argv[++i], false);
     } else if (a == "--set" && has_value) {
       st = setFieldFromAssignment(&options, argv[++i]);
+    } else if (a == "--time-window-s" && has_value) {
+      char* end = nullptr;
+      time_window_s = std::strtod(argv[++i], &end);
+      if (end == argv[i] || *end != '\0' || !std::isfinite(time_window_s) || time_window_s < 0) {
+        st = makeError("--time-window-s: expected a finite number >= 0, got \"", argv[i], "\"");
+      }
     } else if (a == "--print-options") {
       print = true;
     } else {
@@ -124,12 +133,20 @@ int main(int argc, char** argv) {
     return 1;
   }
   Node node(&lcm, options);
-  lcm.subscribe(channels::kImu, &Node::onImu, &node);
-  lcm.subscribe(channels::kAttitude, &Node::onAttitude, &node);
+  messages::Inbox::Options input;
+  input.process = "evermap-elevator-proc";
+  input.queue_capacity = 2000;  // 2 s of IMU at 1 kHz
+  input.time.window_s = time_window_s;
+  messages::Inbox inbox(lcm, input);
+  inbox.subscribe<imu_t>(channels::kImu, [&node](const imu_t& m) { node.onImu(m); });
+  inbox.subscribe<attitude_t>(channels::kAttitude,
+                              [&node](const attitude_t& m) { return node.onAttitude(m); });
   StopSignals stop;  // SIGINT/SIGTERM, polled between LCM waits
   while (!stop.requested()) {
     if (lcm.handleTimeout(200) < 0) break;
+    inbox.publishStatsEvery(1.0);
   }
+  std::fprintf(stderr, "evermap-elevator-proc: input: %s\n", inbox.summary().c_str());
   std::fprintf(stderr, "evermap-elevator-proc: %s; gate: %s; bad attitudes %lld\n",
                node.tracker().counts().summary().c_str(),
                node.tracker().gateCounts().summary().c_str(),

@@ -1,3 +1,4 @@
+#include "core/messages/convert.h"
 #include "elevator-proc/sim_floor_check.h"
 
 #include <algorithm>
@@ -24,12 +25,12 @@ class ImuFeed final : public sim::MessageSink {
   ImuFeed(imu::AttitudeFilter& filter, ElevatorTracker& tracker) : filter_(filter), tracker_(tracker) {}
   void write(const std::string& channel, int64_t, const std::vector<uint8_t>& data) override {
     if (channel != channels::kImu) return;
-    imu_t m;
-    if (m.decode(data.data(), 0, static_cast<int>(data.size())) < 0) {
+    auto m = messages::decodeLcm<imu_t>(data.data(), static_cast<int64_t>(data.size()), channel);
+    if (!m) {
       ++undecodable;
       return;
     }
-    const imu::ImuSample s = imu::fromLcm(m);
+    const imu::ImuSample s = imu::fromLcm(*m);
     ++samples;
     const bool used = filter_.add(s);
     const imu::Attitude att = filter_.initialized() ? filter_.attitude() : imu::Attitude{};

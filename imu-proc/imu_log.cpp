@@ -1,3 +1,4 @@
+#include "core/messages/convert.h"
 #include "imu-proc/imu_log.h"
 
 #include <cstdio>
@@ -18,12 +19,12 @@ Expected<ImuLog> readImuLog(const std::string& file, const std::string& channel)
   ImuLog out;
   for (const lcm::LogEvent* ev = log.readNextEvent(); ev; ev = log.readNextEvent()) {
     if (ev->channel != channel) continue;
-    imu_t m{};
-    if (m.decode(ev->data, 0, ev->datalen) < 0) {
+    auto m = messages::decodeLcm<imu_t>(ev->data, ev->datalen, channel);
+    if (!m) {
       ++out.undecodable;
       continue;
     }
-    out.samples.push_back(fromLcm(m));
+    out.samples.push_back(fromLcm(*m));
   }
   return out;
 }

@@ -1,6 +1,7 @@
 // evermap-imu-proc: IMU -> ATTITUDE (roll, pitch, covariance, the gyro's heading). Only options, LCM and the loop;
 // the filter is evermap::imu::AttitudeFilter.
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -12,25 +13,29 @@
 #include "core/common/option_fields.h"
 #include "core/common/stop_signals.h"
 #include "core/messages/channels.h"
+#include "core/messages/inbox.h"
 #include "imu-proc/attitude_stream.h"
 
 namespace {
 
 struct ProcOptions {
   double publish_rate_hz = 50.0;
+  double time_window_s = 120.0;
   template <typename F>
   void forEachField(F&& f) {
     f("publish_rate_hz", publish_rate_hz, "Hz (at most the IMU rate)");
+    f("time_window_s", time_window_s,
+      "s: an IMU sample stamped further from the stream's clock waits for confirmation (0: off)");
   }
 };
 
-// LCM 1.3 subscribes member functions: the handler owns the stream.
+// The handler owns the stream.
 struct Publisher {
   lcm::LCM* lcm;
   evermap::imu::AttitudeStream stream;
   bool announced = false;
-  void onImu(const lcm::ReceiveBuffer*, const std::string&, const evermap::imu_t* msg) {
-    if (auto out = stream.add(*msg)) lcm->publish(evermap::channels::kAttitude, &*out);
+  void onImu(const evermap::imu_t& msg) {
+    if (auto out = stream.add(msg)) lcm->publish(evermap::channels::kAttitude, &*out);
     if (!announced && stream.filter().initialized()) {
       // Once, when the start-up window has decided (gyroscope_mode -1: auto).
       announced = true;
@@ -90,8 +95,12 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (!(proc.publish_rate_hz > 0)) {
-    std::fprintf(stderr, "evermap-imu-proc: publish_rate_hz must be > 0\n");
+  if (!(proc.publish_rate_hz > 0) || !std::isfinite(proc.publish_rate_hz)) {
+    std::fprintf(stderr, "evermap-imu-proc: publish_rate_hz must be a finite number > 0\n");
+    return 2;
+  }
+  if (!(proc.time_window_s >= 0) || !std::isfinite(proc.time_window_s)) {
+    std::fprintf(stderr, "evermap-imu-proc: time_window_s must be a finite number >= 0\n");
     return 2;
   }
   if (print) {
@@ -106,12 +115,19 @@ int main(int argc, char** argv) {
     return 1;
   }
   Publisher handler{&lcm, imu::AttitudeStream(options, proc.publish_rate_hz, heading)};
-  lcm.subscribe(channels::kImu, &Publisher::onImu, &handler);
+  messages::Inbox::Options input;
+  input.process = "evermap-imu-proc";
+  input.queue_capacity = 2000;  // 2 s at 1 kHz
+  input.time.window_s = proc.time_window_s;
+  messages::Inbox inbox(lcm, input);
+  inbox.subscribe<imu_t>(channels::kImu, [&handler](const imu_t& m) { handler.onImu(m); });
 
   StopSignals stop;  // SIGINT/SIGTERM, polled between LCM waits
   while (!stop.requested()) {
     if (lcm.handleTimeout(200) < 0) break;
+    inbox.publishStatsEvery(1.0);
   }
+  std::fprintf(stderr, "evermap-imu-proc: input: %s\n", inbox.summary().c_str());
   std::fprintf(stderr, "evermap-imu-proc: %s; %s\n", handler.stream.filter().gateCounts().summary().c_str(),
                handler.stream.filter().counts().summary().c_str());
   return 0;

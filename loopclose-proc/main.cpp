@@ -84,7 +84,9 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "evermap-loopclose-proc: LCM failed\n");
       break;
     }
+    server.inbox().publishStatsEvery(1.0);
   }
+  std::printf("loopclose-proc: input: %s\n", server.inbox().summary().c_str());
   std::printf("loopclose-proc: %s; %lld messages dropped, %lld results published\n",
               (*loop_closer)->stats().text().c_str(), static_cast<long long>(server.dropped()),
               static_cast<long long>(server.published()));

@@ -7,52 +7,35 @@
 
 namespace evermap::loopclose {
 
-LoopCloseServer::LoopCloseServer(lcm::LCM& lcm, LoopCloser& loop_closer)
-    : lcm_(lcm), loop_closer_(loop_closer) {
-  subscriptions_.push_back(lcm_.subscribe(channels::kKeyframe, &LoopCloseServer::onKeyframe, this));
-  subscriptions_.push_back(
-      lcm_.subscribe(channels::kNodeAdded, &LoopCloseServer::onNodeAdded, this));
-  subscriptions_.push_back(
-      lcm_.subscribe(channels::kRegisterRequest, &LoopCloseServer::onRequest, this));
+LoopCloseServer::LoopCloseServer(lcm::LCM& lcm, LoopCloser& loop_closer,
+                                 messages::Inbox::Options input)
+    : lcm_(lcm), loop_closer_(loop_closer), inbox_(lcm, std::move(input)) {
+  inbox_.subscribe<evermap::keyframe_t>(channels::kKeyframe, [this](const evermap::keyframe_t& m) {
+    Status s = loop_closer_.addKeyframe(m);
+    publishDue();
+    return s;
+  });
+  inbox_.subscribe<evermap::node_added_t>(channels::kNodeAdded, [this](const evermap::node_added_t& m) {
+    Status s = loop_closer_.addNode(m);
+    publishDue();
+    return s;
+  });
+  // An undecodable request has no id to answer to: the Inbox only counts it. Invalid content
+  // is answered (STATUS_MALFORMED) by poll().
+  inbox_.subscribe<evermap::register_request_t>(
+      channels::kRegisterRequest, [this](const evermap::register_request_t& m) {
+        loop_closer_.submit(m);
+        publishDue();
+      });
 }
 
-LoopCloseServer::~LoopCloseServer() {
-  for (lcm::Subscription* s : subscriptions_) lcm_.unsubscribe(s);
-}
-
-void LoopCloseServer::drop(const std::string& why) {
-  ++dropped_;
-  std::fprintf(stderr, "loopclose-proc: dropped: %s\n", why.c_str());
-}
+int64_t LoopCloseServer::dropped() const { return inbox_.total().dropped(); }
 
 void LoopCloseServer::publishDue() {
   for (const evermap::register_result_t& r : loop_closer_.poll()) {
     lcm_.publish(channels::kRegisterResult, &r);
     ++published_;
   }
-}
-
-void LoopCloseServer::onKeyframe(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
-  auto m = messages::decodeLcm<evermap::keyframe_t>(buffer->data, buffer->data_size, channel);
-  if (!m) return drop(m.error().message);
-  if (Status s = loop_closer_.addKeyframe(*m); !s) drop(channel + ": " + s.error().message);
-  publishDue();
-}
-
-void LoopCloseServer::onNodeAdded(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
-  auto m = messages::decodeLcm<evermap::node_added_t>(buffer->data, buffer->data_size, channel);
-  if (!m) return drop(m.error().message);
-  if (Status s = loop_closer_.addNode(*m); !s) drop(channel + ": " + s.error().message);
-  publishDue();
-}
-
-void LoopCloseServer::onRequest(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
-  auto m =
-      messages::decodeLcm<evermap::register_request_t>(buffer->data, buffer->data_size, channel);
-  // An undecodable request has no id to answer to: it can only be counted.
-  if (!m) return drop(m.error().message);
-  loop_closer_.submit(*m);  // invalid content is answered (STATUS_MALFORMED) by poll()
-  publishDue();
 }
 
 }  // namespace evermap::loopclose

@@ -38,6 +38,7 @@ Status LcmNodeOptions::validate() const {
     return makeError("graph_period_s: must be a finite number >= 0, got ", graph_period_s);
   if (!(stats_period_s >= 0.0) || !std::isfinite(stats_period_s))
     return makeError("stats_period_s: must be a finite number >= 0, got ", stats_period_s);
+  if (Status s = input.validate(); !s) return makeError("input: ", s.error().message);
   return Ok{};
 }
 
@@ -75,22 +76,36 @@ map_graph_t graphMessage(const Mapper& mapper, int64_t utime) {
 }
 
 LcmNode::LcmNode(lcm::LCM& lcm, Mapper& mapper, const LcmNodeOptions& options, MapStore* store)
-    : lcm_(lcm), m_(mapper), o_(options), store_(store), timing_at_stats_(mapper.stats().timing) {
-  for (auto* s : {lcm_.subscribe(channels::kVoDelta, &LcmNode::on<vo_delta_t>, this),
-                  lcm_.subscribe(channels::kWheelOdom, &LcmNode::on<wheel_odom_t>, this),
-                  lcm_.subscribe(channels::kAttitude, &LcmNode::on<attitude_t>, this),
-                  lcm_.subscribe(channels::kFloor, &LcmNode::on<floor_t>, this),
-                  lcm_.subscribe(channels::kRegisterResult, &LcmNode::on<register_result_t>, this)})
-    s->setQueueCapacity(0);  // every message counts (docs/lcm.md)
-  lcm_.subscribe(channels::kStereoCalib, &LcmNode::onCalibration, this)->setQueueCapacity(0);
+    : lcm_(lcm),
+      m_(mapper),
+      o_(options),
+      store_(store),
+      timing_at_stats_(mapper.stats().timing),
+      inbox_(lcm, options.input) {
+  auto on = [this](const auto& msg) { return this->on(msg); };
+  inbox_.subscribe<vo_delta_t>(channels::kVoDelta, on);
+  inbox_.subscribe<wheel_odom_t>(channels::kWheelOdom, on);
+  inbox_.subscribe<attitude_t>(channels::kAttitude, on);
+  inbox_.subscribe<floor_t>(channels::kFloor, on);
+  inbox_.subscribe<register_result_t>(channels::kRegisterResult, on);
+  inbox_.subscribeBytes<stereo_calib_t>(
+      channels::kStereoCalib, [this](const void* data, int64_t size) { return onCalibration(data, size); });
 }
 
-void LcmNode::onCalibration(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-  ++counts_.received[channel];
-  if (Status s = calibration_.handle(rbuf->data, rbuf->data_size, m_); !s) {
-    if (calibration_.counts().undecodable + calibration_.counts().refused <= 20)
-      std::fprintf(stderr, "evermap-mapper-proc: dropped: %s\n", s.error().message.c_str());
+LcmNodeCounts LcmNode::counts() const {
+  LcmNodeCounts c = counts_;
+  for (const auto& [channel, k] : inbox_.counts()) {
+    c.received[channel] = k.received;
+    c.undecodable += k.malformed;
+    c.time_refused += k.time_refused;
+    c.failed += k.failed;
   }
+  // The latch counts its own refusals; the Inbox counted them as refused too.
+  return c;
+}
+
+Status LcmNode::onCalibration(const void* data, int64_t size) {
+  return calibration_.handle(data, size, m_);
 }
 
 namespace {
@@ -102,33 +117,25 @@ Status apply(Mapper& m, const register_result_t& msg) { return m.onRegisterResul
 }  // namespace
 
 template <typename Msg>
-void LcmNode::on(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-  ++counts_.received[channel];
-  auto msg = messages::decodeLcm<Msg>(rbuf->data, rbuf->data_size, channel);
-  if (!msg) {
-    ++counts_.undecodable;
-    std::fprintf(stderr, "evermap-mapper-proc: dropped: %s\n", msg.error().message.c_str());
-    return;
-  }
+Status LcmNode::on(const Msg& msg) {
   if constexpr (std::is_same_v<Msg, vo_delta_t>) {
     if (!calibration_.haveCamera()) {
       // The deltas are camera motions: without the mounting they cannot be used.
-      if (++counts_.no_calibration <= 5 || counts_.no_calibration % 1000 == 0)
-        std::fprintf(stderr, "evermap-mapper-proc: dropped: VO_DELTA %lld: no STEREO_CALIB received yet (%lld so far)\n",
-                     static_cast<long long>(msg->utime), static_cast<long long>(counts_.no_calibration));
-      return;
+      ++counts_.no_calibration;
+      return makeError("VO_DELTA ", msg.utime, ": no STEREO_CALIB received yet (",
+                       counts_.no_calibration, " so far)");
     }
   }
-  if (Status s = apply(m_, *msg); !s) {
-    // The mapper counted it too; the first few are worth a line each, not thousands.
-    if (++counts_.refused <= 20) std::fprintf(stderr, "evermap-mapper-proc: dropped: %s\n", s.error().message.c_str());
-    return;
+  if (Status s = apply(m_, msg); !s) {
+    ++counts_.refused;  // the mapper counted it too
+    return s;
   }
   bool pose = false;
   if constexpr (std::is_same_v<Msg, vo_delta_t>) pose = true;
   if constexpr (std::is_same_v<Msg, wheel_odom_t>) pose = !m_.tracker().voTracking();
   // Results carry the query keyframe's time; only sensor messages move message time on.
-  afterMessage(std::is_same_v<Msg, register_result_t> ? last_utime_ : msg->utime, pose);
+  afterMessage(std::is_same_v<Msg, register_result_t> ? last_utime_ : msg.utime, pose);
+  return Ok{};
 }
 
 void LcmNode::afterMessage(int64_t utime, bool publish_pose) {
@@ -199,8 +206,10 @@ void LcmNode::publishStats() {
   s.num_constraints = st.constraints;
   s.num_rejected = st.rejected_inconsistent + st.rejected_map_gate;
   // The mapper's count covers what it refused; undecodable messages never reached it.
-  s.num_dropped_messages = st.dropped + counts_.undecodable + counts_.no_calibration +
-                           calibration_.counts().undecodable + calibration_.counts().refused;
+  const messages::ChannelCounts in = inbox_.total();
+  s.num_dropped_messages = st.dropped + in.malformed + in.time_refused + in.failed +
+                           counts_.no_calibration + calibration_.counts().undecodable +
+                           calibration_.counts().refused;
   const std::pair<const char*, double> components[] = {
       {"tracking", t.tracking_s - timing_at_stats_.tracking_s},
       {"registration", t.registration_s - timing_at_stats_.registration_s},
@@ -217,6 +226,8 @@ void LcmNode::publishStats() {
   }
   s.num_components = static_cast<int32_t>(s.component_names.size());
   lcm_.publish(channels::kMapperStats, &s);
+  const input_stats_t input = inbox_.statsMessage(last_utime_);
+  lcm_.publish(channels::kInputStats, &input);
   timing_at_stats_ = MapperTiming{};
   timing_at_stats_.tracking_s = t.tracking_s;
   timing_at_stats_.registration_s = t.registration_s;
@@ -236,8 +247,10 @@ void LcmNode::flush() {
 std::string LcmNode::summary() const {
   std::ostringstream s;
   s << m_.stats().text();
-  for (const auto& [channel, n] : counts_.received) s << "received_" << channel << " " << n << "\n";
-  s << "undecodable " << counts_.undecodable << "\nrefused " << counts_.refused << "\nposes_published "
+  const LcmNodeCounts c = counts();
+  for (const auto& [channel, n] : c.received) s << "received_" << channel << " " << n << "\n";
+  s << "undecodable " << c.undecodable << "\ntime_refused " << c.time_refused << "\nhandler_failed "
+    << c.failed << "\nrefused " << c.refused << "\nposes_published "
     << counts_.poses << "\nvo_before_calibration " << counts_.no_calibration << "\ncalibrations_refused "
     << calibration_.counts().refused << "\ncamera_changes " << calibration_.counts().camera_changes
     << "\ngraphs_published " << counts_.graphs << "\nstats_published " << counts_.stats

@@ -5,10 +5,12 @@
 // still lost), MAP_GRAPH when the graph
 // changed and MAPPER_STATS, and writes the map store after every update that changed the graph.
 //
-// Every subscription has an unbounded queue (LCM 1.3.1 drops beyond 30 otherwise; docs/lcm.md):
-// the mapper must see every odometry message and every answer. A message that does not decode
-// or that the mapper refuses (malformed, non-finite, out of order, an answer to no request) is
-// dropped and counted; MAPPER_STATS carries the count.
+// Input goes through a messages::Inbox (core/messages/inbox.h): one decoding path, a bounded
+// queue per subscription (large: the mapper must see every odometry message and every answer,
+// and bounded: a flood must not take the memory; docs/lcm.md), the message time guard (one
+// message stamped 2^62 must not become "now"), exceptions caught. A message that does not
+// decode, that the guard or the mapper refuses (malformed, non-finite, out of order, an answer
+// to no request) is dropped and counted; MAPPER_STATS and INPUT_STATS carry the counts.
 //
 // STEREO_CALIB is latched (calibration_latch.h): VO_DELTA is refused, counted, until the first
 // valid one has arrived; wheel odometry tracks meanwhile. Sources repeat it every second.
@@ -29,6 +31,7 @@
 #include <evermap/mapper_stats_t.hpp>
 
 #include "core/common/expected.h"
+#include "core/messages/inbox.h"
 #include "mapper-proc/calibration_latch.h"
 #include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
@@ -40,7 +43,15 @@ struct LcmNodeOptions {
   double graph_period_s = 1.0;
   // MAPPER_STATS this often; seconds of message time.
   double stats_period_s = 1.0;
+  // The input boundary: queue capacity per subscription, time guard.
+  messages::Inbox::Options input = defaultInput();
 
+  static messages::Inbox::Options defaultInput() {
+    messages::Inbox::Options o;
+    o.process = "evermap-mapper-proc";
+    o.queue_capacity = 10000;  // ~50 s of input at 200 msg/s; a 20x replay's 2.5 s
+    return o;
+  }
   Status validate() const;
 };
 
@@ -57,6 +68,8 @@ struct ComponentTimes {
 struct LcmNodeCounts {
   std::map<std::string, int64_t> received;  // per channel, decodable or not
   int64_t undecodable = 0;
+  int64_t time_refused = 0;        // stamped far from the stream's clock (Inbox time guard)
+  int64_t failed = 0;              // a handler threw (caught at the boundary)
   int64_t refused = 0;             // decoded, but the mapper dropped it (its own count)
   int64_t no_calibration = 0;      // VO_DELTA before the first valid STEREO_CALIB
   int64_t calibrations_refused = 0;  // STEREO_CALIB that decoded but did not validate
@@ -65,7 +78,9 @@ struct LcmNodeCounts {
   int64_t graphs = 0;              // MAP_GRAPH published
   int64_t stats = 0;               // MAPPER_STATS published
   int64_t store_transactions = 0;
-  int64_t dropped() const { return undecodable + refused + no_calibration + calibrations_refused; }
+  int64_t dropped() const {
+    return undecodable + time_refused + failed + refused + no_calibration + calibrations_refused;
+  }
 };
 
 // MAP_GRAPH of the mapper's current state: every node with its estimate, one edge per node
@@ -79,7 +94,8 @@ class LcmNode {
 
   // Publishes MAP_GRAPH (if the graph changed since the last one) and MAPPER_STATS now.
   void flush();
-  const LcmNodeCounts& counts() const { return counts_; }
+  LcmNodeCounts counts() const;
+  const messages::Inbox& inbox() const { return inbox_; }
   const CalibrationLatch& calibration() const { return calibration_; }
   // The first store error, if any (the node stops writing after it).
   const Status& storeStatus() const { return store_status_; }
@@ -90,8 +106,8 @@ class LcmNode {
 
  private:
   template <typename Msg>
-  void on(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
-  void onCalibration(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
+  Status on(const Msg& msg);
+  Status onCalibration(const void* data, int64_t size);
   void afterMessage(int64_t utime, bool publish_pose);
   void publishGraph();
   void publishStats();
@@ -114,6 +130,7 @@ class LcmNode {
   size_t stored_updates_ = 0;
   MapperTiming timing_at_stats_;
   ComponentTimes extra_;  // store and publish, since the last MAPPER_STATS
+  messages::Inbox inbox_;  // last: its handlers use the members above
 };
 
 }  // namespace evermap::mapper

@@ -37,6 +37,11 @@ int main(int argc, char** argv) {
             "MAP_GRAPH after a change at most every S seconds of message time (default 1)");
   cli.value("--stats-period-s", &node_options.stats_period_s, "S",
             "MAPPER_STATS every S seconds of message time (default 1)");
+  cli.value("--time-window-s", &node_options.input.time.window_s, "S",
+            "refuse a message stamped more than S s from the stream's clock until others confirm "
+            "the jump (default 120; 0: off; core/messages/inbox.h)");
+  cli.value("--queue", &node_options.input.queue_capacity, "N",
+            "messages LCM may queue per subscription (default 10000)");
   cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.flag("--quiet", &quiet, "no summary on exit");
   double progress_s = 0.0;

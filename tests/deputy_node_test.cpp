@@ -2,6 +2,8 @@
 // client's start/stop/restart, and scripts.
 #include <gtest/gtest.h>
 
+#include <random>
+
 #include <lcm/lcm-cpp.hpp>
 
 #include <evermap/deputy_output_t.hpp>
@@ -151,6 +153,38 @@ TEST_F(DeputyNodeTest, MalformedOrdersAreCountedAndIgnored) {
   lcm_.publish(channels::kDeputyOrder, &o);
   ASSERT_TRUE(spinUntil([&] { return node_->counters().orders_malformed == 1; }));
   EXPECT_EQ(supervisor_->status("sleeper")->state, ProcessState::kStopped);
+}
+
+TEST_F(DeputyNodeTest, OrdersOf24To49BytesAreCountedAndTheDeputyKeepsSupervising) {
+  // Issue 17: a 24-49-byte DEPUTY_ORDER with the right type hash made the deputy abort (the
+  // generated decoder threw std::length_error / bad_alloc on a string length of 0 or one
+  // beyond the buffer), and its children ran on unsupervised. Now each is one counted line.
+  makeDeputy({command("sleeper", "sleep 1000")});
+  const uint64_t hash = static_cast<uint64_t>(deputy_order_t::getHash());
+  std::mt19937 rng(17);
+  int64_t sent = 0;
+  for (int size = 24; size <= 49; ++size) {
+    for (int fill : {0x00, 0xff, 0x7f, -1}) {
+      std::vector<uint8_t> b(static_cast<size_t>(size));
+      for (int k = 0; k < 8; ++k) b[k] = static_cast<uint8_t>(hash >> (56 - 8 * k));
+      for (int k = 8; k < size; ++k) b[k] = static_cast<uint8_t>(fill < 0 ? rng() : fill);
+      lcm_.publish(channels::kDeputyOrder, b.data(), static_cast<unsigned>(size));
+      ++sent;
+      ASSERT_TRUE(spinUntil([&] {
+        return node_->inbox().counts().at(channels::kDeputyOrder).received == sent;
+      }));
+    }
+  }
+  const DeputyNode::Counters c = node_->counters();
+  EXPECT_EQ(c.handler_failed, 0);
+  EXPECT_EQ(c.orders_malformed + c.orders_for_others + c.orders_applied, sent);
+  EXPECT_GE(c.orders_malformed, 26 * 3);  // the constant fills never decode
+  // Still in charge: an order starts the process.
+  order("robot", "sleeper", true);
+  ASSERT_TRUE(spinUntil([&] {
+    const auto* p = listener_.latest("sleeper");
+    return p && p->state == kRunning && p->pid != 0;
+  }));
 }
 
 TEST_F(DeputyNodeTest, PublishesOutputLines) {

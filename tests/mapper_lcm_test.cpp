@@ -68,9 +68,16 @@ struct LiveRun {
   int64_t stored_edges = 0;
 };
 
-// Publishes the run on memq:// to the mapper and the oracle; with `inject`, slips bad
-// messages in after the 2000th message. Returns what the mapper did.
-LiveRun runLive(bool inject, const std::filesystem::path& store_file, int* injected = nullptr) {
+enum class Inject {
+  kNothing,
+  kBad,      // garbage, out-of-order, non-finite and stray messages after the 2000th
+  kFarTime,  // well-formed copies stamped 2^62 first and after the 2000th (issue 17)
+};
+
+// Publishes the run on memq:// to the mapper and the oracle, with what `inject` says slipped
+// in. Returns what the mapper did.
+LiveRun runLive(Inject what, const std::filesystem::path& store_file, int* injected = nullptr) {
+  const bool inject = what == Inject::kBad;
   LiveRun out;
   const sim::SimOptions sim_options = shortRun();
   auto plan = sim::RunPlan::create(sim_options);
@@ -111,8 +118,26 @@ LiveRun runLive(bool inject, const std::filesystem::path& store_file, int* injec
   };
   int count = 0;
   std::map<std::string, std::vector<uint8_t>> earlier;  // first message of each channel
+  auto publishFarCopies = [&] {
+    // A copy of the first message of each sensor channel, re-stamped 2^62 (utime is the first
+    // field after the 8-byte hash, big-endian).
+    for (const char* c : {channels::kVoDelta, channels::kWheelOdom, channels::kAttitude, channels::kFloor}) {
+      for (const auto& m : log.messages) {
+        if (m.channel != c) continue;
+        std::vector<uint8_t> b = m.data;
+        const uint64_t far = uint64_t{1} << 62;
+        for (int k = 0; k < 8; ++k) b[8 + k] = static_cast<uint8_t>(far >> (56 - 8 * k));
+        lcm.publish(c, b.data(), static_cast<unsigned>(b.size()));
+        if (injected) ++*injected;
+        break;
+      }
+    }
+    drain();
+  };
+  if (what == Inject::kFarTime) publishFarCopies();
   for (const auto& m : log.messages) {
     earlier.emplace(m.channel, m.data);
+    if (what == Inject::kFarTime && ++count == 2000) publishFarCopies();
     lcm.publish(m.channel, m.data.data(), static_cast<unsigned>(m.data.size()));
     drain();
     if (inject && ++count == 2000) {
@@ -128,6 +153,7 @@ LiveRun runLive(bool inject, const std::filesystem::path& store_file, int* injec
       nan.covariance[0] = nan.covariance[3] = 1e-4;
       lcm.publish(channels::kAttitude, &nan);
       register_result_t stray{};                                           // no such request
+      stray.utime = m.utime;
       stray.request_id = 999999;
       stray.status = register_result_t::STATUS_OK;
       lcm.publish(channels::kRegisterResult, &stray);
@@ -149,7 +175,7 @@ LiveRun runLive(bool inject, const std::filesystem::path& store_file, int* injec
 
 TEST(MapperLcm, PublishesPoseGraphAndStatsAndStoresTheMapItBuilds) {
   evermap::testing::ScratchDir dir;
-  const LiveRun r = runLive(false, dir.path() / "map.db");
+  const LiveRun r = runLive(Inject::kNothing, dir.path() / "map.db");
   const Listener& h = r.heard;
   ASSERT_GT(r.nodes.size(), 20u);
   EXPECT_GT(r.stats.loop_closures, 0);
@@ -212,9 +238,9 @@ TEST(MapperLcm, PublishesPoseGraphAndStatsAndStoresTheMapItBuilds) {
 
 TEST(MapperLcm, DropsAndCountsMalformedAndOutOfOrderMessagesWithoutApplyingThem) {
   evermap::testing::ScratchDir dir;
-  const LiveRun clean = runLive(false, dir.path() / "clean.db");
+  const LiveRun clean = runLive(Inject::kNothing, dir.path() / "clean.db");
   int injected = 0;
-  const LiveRun dirty = runLive(true, dir.path() / "dirty.db", &injected);
+  const LiveRun dirty = runLive(Inject::kBad, dir.path() / "dirty.db", &injected);
   ASSERT_EQ(injected, 6);
   EXPECT_EQ(dirty.counts.undecodable, 1);
   EXPECT_EQ(dirty.counts.refused, 5);
@@ -234,13 +260,45 @@ TEST(MapperLcm, DropsAndCountsMalformedAndOutOfOrderMessagesWithoutApplyingThem)
   }
 }
 
+TEST(MapperLcm, AMessageStampedTwoToThe62IsRefusedAndTheMapIsTheCleanRunsOne) {
+  // Issue 17: one well-formed VO_DELTA / WHEEL_ODOM / ATTITUDE / FLOOR stamped 2^62, before the
+  // stream and again in the middle of it, used to become the mapper's "now" (0 nodes from VO,
+  // wrong floors, every attitude refused after it). The time guard holds them, no other
+  // message confirms them, they are refused and counted; the map is the clean run's.
+  evermap::testing::ScratchDir dir;
+  const LiveRun clean = runLive(Inject::kNothing, dir.path() / "clean.db");
+  int injected = 0;
+  const LiveRun far = runLive(Inject::kFarTime, dir.path() / "far.db", &injected);
+  ASSERT_EQ(injected, 8);
+  EXPECT_EQ(far.counts.time_refused, 8);
+  EXPECT_EQ(far.counts.undecodable, 0);
+  EXPECT_EQ(far.stats.dropped, clean.stats.dropped);
+  ASSERT_FALSE(far.heard.stats.empty());
+  EXPECT_EQ(far.heard.stats.back().num_dropped_messages, 8);
+  ASSERT_FALSE(clean.heard.graphs.empty());
+  ASSERT_FALSE(far.heard.graphs.empty());
+  const map_graph_t& a = clean.heard.graphs.back();
+  const map_graph_t& b = far.heard.graphs.back();
+  ASSERT_EQ(a.num_nodes, b.num_nodes);
+  ASSERT_EQ(a.num_edges, b.num_edges);
+  ASSERT_EQ(a.num_floors, b.num_floors);
+  for (int i = 0; i < a.num_nodes; ++i) {
+    EXPECT_EQ(a.nodes[i].keyframe_utime, b.nodes[i].keyframe_utime);
+    EXPECT_EQ(a.nodes[i].floor, b.nodes[i].floor);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(a.nodes[i].position[k], b.nodes[i].position[k]);
+  }
+  EXPECT_EQ(a.utime, b.utime);  // the mapper's clock never left the stream's
+}
+
 TEST(MapperLcm, TakesTheCameraFromStereoCalibAndRefusesVoBeforeIt) {
   // The contract of docs/contracts.md: STEREO_CALIB is latched, repeated copies change
   // nothing, a bad one leaves the camera in use, and VO deltas wait for the first one.
   lcm::LCM lcm("memq://");
   ASSERT_TRUE(lcm.good());
   Mapper mapper(MapperOptions{});
-  LcmNode node(lcm, mapper, LcmNodeOptions{});
+  LcmNodeOptions node_options;
+  node_options.input.time.confirm_count = 1;  // single messages here, not a stream to guard
+  LcmNode node(lcm, mapper, node_options);
   auto drain = [&] {
     while (lcm.handleTimeout(0) > 0) {
     }

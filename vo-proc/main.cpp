@@ -5,6 +5,7 @@
 // (dropping the oldest when the worker falls behind) and keeps the latest calibration; the
 // worker thread decodes, runs odometry and publishes (lcm::LCM::publish is thread-safe).
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <mutex>
@@ -17,6 +18,7 @@
 
 #include "core/common/stop_signals.h"
 #include "core/messages/channels.h"
+#include "core/messages/inbox.h"
 #include "vo-proc/frame_queue.h"
 #include "vo-proc/vo_pipeline.h"
 
@@ -26,7 +28,9 @@ constexpr const char* kUsage =
     "usage: evermap-vo-proc [--lcm-url URL] [--queue N] [--no-descriptors]\n"
     "                       [--keyframe-inliers N] [--ready-file PATH] [--print-options]\n"
     "  --lcm-url URL          LCM provider (default: $LCM_DEFAULT_URL or LCM's default)\n"
-    "  --queue N              frames waiting at most (default 2); older ones are dropped\n"
+    "  --queue N              frames waiting at most, 1..1000 (default 2); older ones are dropped\n"
+    "  --time-window-s S      a frame stamped more than S s from the stream's clock waits for\n"
+    "                         confirmation (default 120; 0: off)\n"
     "  --no-descriptors       keyframes without ORB descriptors (faster; no loop closure)\n"
     "  --keyframe-inliers N   new keyframe below N inliers (default 150)\n"
     "  --ready-file PATH      create PATH once subscribed (for scripts)\n"
@@ -39,18 +43,22 @@ struct Shared {
   std::optional<Bytes> calibration;  // the latest STEREO_CALIB, not yet applied
 };
 
+// The bytes come through a messages::Inbox: checked along their type's wire layout and by the
+// time guard before they are queued; the worker decodes them (decodeLcm) and validates.
 class Receiver {
  public:
   Receiver(evermap::vo::BoundedQueue<Bytes>* queue, Shared* shared)
       : queue_(queue), shared_(shared) {}
-  void onStereo(const lcm::ReceiveBuffer* rbuf, const std::string&) {
-    const auto* p = static_cast<const uint8_t*>(rbuf->data);
-    queue_->push(Bytes(p, p + rbuf->data_size));
+  evermap::Status onStereo(const void* data, int64_t size) {
+    const auto* p = static_cast<const uint8_t*>(data);
+    queue_->push(Bytes(p, p + size));
+    return evermap::Ok{};
   }
-  void onCalibration(const lcm::ReceiveBuffer* rbuf, const std::string&) {
-    const auto* p = static_cast<const uint8_t*>(rbuf->data);
+  evermap::Status onCalibration(const void* data, int64_t size) {
+    const auto* p = static_cast<const uint8_t*>(data);
     std::lock_guard<std::mutex> lock(shared_->mutex);
-    shared_->calibration = Bytes(p, p + rbuf->data_size);
+    shared_->calibration = Bytes(p, p + size);
+    return evermap::Ok{};
   }
 
  private:
@@ -63,6 +71,7 @@ class Receiver {
 int main(int argc, char** argv) {
   std::string url;
   size_t queue_size = 2;
+  double time_window_s = 120.0;  // core/messages/inbox.h, TimeGuardOptions
   evermap::vo::PipelineOptions options;
   bool print_options = false;
   std::string ready_file;
@@ -71,7 +80,22 @@ int main(int argc, char** argv) {
     if (a == "--lcm-url" && i + 1 < argc) {
       url = argv[++i];
     } else if (a == "--queue" && i + 1 < argc) {
-      queue_size = static_cast<size_t>(std::max(1, std::atoi(argv[++i])));
+      const char* v = argv[++i];
+      char* end = nullptr;
+      const long n = std::strtol(v, &end, 10);
+      if (end == v || *end != '\0' || n < 1 || n > 1000) {
+        std::fprintf(stderr, "evermap-vo-proc: --queue: expected an integer in [1, 1000], got \"%s\"\n", v);
+        return 2;
+      }
+      queue_size = static_cast<size_t>(n);
+    } else if (a == "--time-window-s" && i + 1 < argc) {
+      const char* v = argv[++i];
+      char* end = nullptr;
+      time_window_s = std::strtod(v, &end);
+      if (end == v || *end != '\0' || !std::isfinite(time_window_s) || time_window_s < 0) {
+        std::fprintf(stderr, "evermap-vo-proc: --time-window-s: expected a finite number >= 0, got \"%s\"\n", v);
+        return 2;
+      }
     } else if (a == "--no-descriptors") {
       options.odometry.keyframe_descriptors = false;
     } else if (a == "--keyframe-inliers" && i + 1 < argc) {
@@ -108,14 +132,24 @@ int main(int argc, char** argv) {
   evermap::vo::BoundedQueue<Bytes> queue(queue_size);
   Shared shared;
   Receiver receiver(&queue, &shared);
-  lcm.subscribe(evermap::channels::kStereo, &Receiver::onStereo, &receiver);
-  lcm.subscribe(evermap::channels::kStereoCalib, &Receiver::onCalibration, &receiver);
+  evermap::messages::Inbox::Options input;
+  input.process = "evermap-vo-proc";
+  // Frames wait in the worker's queue (--queue); LCM's own holds a few more (~600 kB each).
+  input.queue_capacity = 4;
+  input.time.window_s = time_window_s;
+  evermap::messages::Inbox inbox(lcm, input);
+  inbox.subscribeBytes<evermap::stereo_image_t>(
+      evermap::channels::kStereo, [&](const void* d, int64_t n) { return receiver.onStereo(d, n); });
+  inbox.subscribeBytes<evermap::stereo_calib_t>(
+      evermap::channels::kStereoCalib,
+      [&](const void* d, int64_t n) { return receiver.onCalibration(d, n); }, 8);
 
   if (!ready_file.empty()) {
     if (std::FILE* f = std::fopen(ready_file.c_str(), "w")) std::fclose(f);
   }
 
   std::thread worker([&] {
+    int64_t bad_frames = 0;
     while (auto bytes = queue.pop()) {
       std::optional<Bytes> calibration;
       {
@@ -134,17 +168,26 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "evermap-vo-proc: dropped: %s\n", out.error().message.c_str());
         continue;
       }
-      if (out->result.status != evermap::vo::VoStatus::kOk) {
-        std::fprintf(stderr, "evermap-vo-proc: %lld %s: %s\n",
+      // Bad input is counted in the pipeline's stats; a flood of it gets 20 lines, then one in 1000.
+      const bool bad = out->result.status == evermap::vo::VoStatus::kBadInput;
+      if (bad) ++bad_frames;
+      if (out->result.status != evermap::vo::VoStatus::kOk &&
+          (!bad || bad_frames <= 20 || bad_frames % 1000 == 0)) {
+        std::fprintf(stderr, "evermap-vo-proc: %lld %s: %s%s\n",
                      static_cast<long long>(out->result.utime),
-                     evermap::vo::toString(out->result.status), out->result.message.c_str());
+                     evermap::vo::toString(out->result.status), out->result.message.c_str(),
+                     bad && bad_frames > 20 ? (" (" + std::to_string(bad_frames) + " bad frames)").c_str() : "");
       }
       lcm.publish(evermap::channels::kVoDelta, &out->delta);
       if (out->keyframe) lcm.publish(evermap::channels::kKeyframe, &*out->keyframe);
     }
   });
 
-  while (!stop.requested()) lcm.handleTimeout(200);
+  while (!stop.requested()) {
+    lcm.handleTimeout(200);
+    inbox.publishStatsEvery(1.0);
+  }
+  std::fprintf(stderr, "evermap-vo-proc: input: %s\n", inbox.summary().c_str());
   queue.close();
   worker.join();
   std::fprintf(stderr, "evermap-vo-proc: %s; %lld frames dropped behind (queue %zu)\n",

@@ -140,6 +140,16 @@ PipelineOutput VoPipeline::badInput(int64_t utime, const std::string& why) {
 
 PipelineOutput VoPipeline::handleStereo(const evermap::stereo_image_t& msg) {
   if (!odometry_) return badInput(msg.utime, no_camera_reason_);
+  // Before decoding: a PNG may claim up to kMaxImageSide^2 pixels (268 MB) in a few bytes;
+  // only the calibrated camera's size is worth decompressing.
+  const core::CameraCalibration& cam = calibration_->left;
+  for (const evermap::image_t* im : {&msg.left, &msg.right}) {
+    if (im->width != cam.width || im->height != cam.height) {
+      return badInput(msg.utime, "STEREO: a " + std::to_string(im->width) + "x" +
+                                     std::to_string(im->height) + " image, the calibration is " +
+                                     std::to_string(cam.width) + "x" + std::to_string(cam.height));
+    }
+  }
   return handleFrame(msg.utime, messages::fromMsg(msg));
 }
 

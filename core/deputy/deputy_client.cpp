@@ -136,16 +136,20 @@ Status DeputyClientOptions::validate() const {
 }
 
 DeputyClient::DeputyClient(lcm::LCM& lcm, DeputyClientOptions options)
-    : lcm_(lcm), options_(std::move(options)) {
-  subscription_ = lcm_.subscribe(channels::kDeputyStatus, &DeputyClient::onStatus, this);
+    : lcm_(lcm), options_(std::move(options)), inbox_(lcm, [] {
+        messages::Inbox::Options o;
+        o.process = "evermap-deputy-ctl";
+        o.time.window_s = 0.0;
+        return o;
+      }()) {
+  inbox_.subscribe<deputy_status_t>(channels::kDeputyStatus,
+                                    [this](const deputy_status_t& s) { onStatus(s); });
 }
 
-DeputyClient::~DeputyClient() {
-  if (subscription_) lcm_.unsubscribe(subscription_);
-}
+DeputyClient::~DeputyClient() = default;
 
-void DeputyClient::onStatus(const lcm::ReceiveBuffer*, const std::string&,
-                            const deputy_status_t* status) {
+void DeputyClient::onStatus(const deputy_status_t& s) {
+  const deputy_status_t* status = &s;
   if (!options_.host.empty() && status->host != options_.host) return;
   if (status->num_procs < 0 || status->procs.size() != static_cast<size_t>(status->num_procs)) {
     return;

@@ -20,6 +20,7 @@
 #include <evermap/deputy_status_t.hpp>
 
 #include "core/common/expected.h"
+#include "core/messages/inbox.h"
 
 namespace evermap::deputy {
 
@@ -83,8 +84,7 @@ class DeputyClient {
   const std::map<std::string, deputy_status_t>& latest() const { return latest_; }
 
  private:
-  void onStatus(const lcm::ReceiveBuffer* rbuf, const std::string& channel,
-                const deputy_status_t* status);
+  void onStatus(const deputy_status_t& status);
   void pumpOnce();
   std::vector<deputy_status_t> latestList() const;
   const deputy_proc_t* find(const ProcRef& ref) const;
@@ -93,10 +93,10 @@ class DeputyClient {
 
   lcm::LCM& lcm_;
   DeputyClientOptions options_;
-  lcm::Subscription* subscription_ = nullptr;
   std::function<void()> pump_;
   std::map<std::string, deputy_status_t> latest_;         // by host
   std::map<std::string, Clock::time_point> received_at_;  // by host
+  messages::Inbox inbox_;  // DEPUTY_STATUS (wall-clock stamps: no time guard)
 };
 
 }  // namespace evermap::deputy

@@ -48,8 +48,18 @@ Supervisor::Clock::duration secondsToDuration(double s) {
 }  // namespace
 
 DeputyNode::DeputyNode(lcm::LCM& lcm, Supervisor& supervisor, DeputyNodeOptions options)
-    : lcm_(lcm), supervisor_(supervisor), options_(std::move(options)), throttle_(options_.output) {
-  subscription_ = lcm_.subscribe(channels::kDeputyOrder, &DeputyNode::onOrder, this);
+    : lcm_(lcm),
+      supervisor_(supervisor),
+      options_(std::move(options)),
+      throttle_(options_.output),
+      inbox_(lcm, [] {
+        messages::Inbox::Options o;
+        o.process = "evermap-deputy";
+        o.time.window_s = 0.0;
+        return o;
+      }()) {
+  inbox_.subscribe<deputy_order_t>(channels::kDeputyOrder,
+                                   [this](const deputy_order_t& o) { return onOrder(o); });
   supervisor_.setLineSink([this](const std::string& name, const std::string& line,
                                  bool from_deputy) { onLine(name, line, from_deputy); });
   next_status_ = Clock::now();  // the first status goes out at once
@@ -57,7 +67,6 @@ DeputyNode::DeputyNode(lcm::LCM& lcm, Supervisor& supervisor, DeputyNodeOptions 
 
 DeputyNode::~DeputyNode() {
   supervisor_.setLineSink(nullptr);
-  if (subscription_) lcm_.unsubscribe(subscription_);
 }
 
 void DeputyNode::runScript(ScriptRunner runner) {
@@ -67,21 +76,22 @@ void DeputyNode::runScript(ScriptRunner runner) {
   });
 }
 
-void DeputyNode::onOrder(const lcm::ReceiveBuffer*, const std::string&,
-                         const deputy_order_t* order) {
+Status DeputyNode::onOrder(const deputy_order_t& o) {
+  const deputy_order_t* order = &o;
   if (!order->host.empty() && order->host != options_.host) {
     ++counters_.orders_for_others;
-    return;
+    return Ok{};
   }
   const size_t n = static_cast<size_t>(std::max(0, order->num_procs));
   if (order->num_procs < 0 || order->names.size() != n || order->desired_running.size() != n) {
     ++counters_.orders_malformed;
-    return;
+    return makeError("order of ", order->num_procs, " processes with ", order->names.size(),
+                     " names and ", order->desired_running.size(), " states");
   }
   for (const int8_t d : order->desired_running) {
     if (d != 0 && d != 1) {
       ++counters_.orders_malformed;
-      return;
+      return makeError("desired_running ", static_cast<int>(d), " is neither 0 nor 1");
     }
   }
   ++counters_.orders_applied;
@@ -96,6 +106,15 @@ void DeputyNode::onOrder(const lcm::ReceiveBuffer*, const std::string&,
       std::fprintf(stderr, "evermap-deputy: order: %s\n", s.error().message.c_str());
     }
   }
+  return Ok{};
+}
+
+DeputyNode::Counters DeputyNode::counters() const {
+  Counters c = counters_;
+  const messages::ChannelCounts in = inbox_.total();
+  c.orders_malformed += in.malformed;  // the content refusals are counted by onOrder already
+  c.handler_failed = in.failed;
+  return c;
 }
 
 void DeputyNode::onLine(const std::string& name, const std::string& line, bool from_deputy) {

@@ -13,6 +13,8 @@
 #include <chrono>
 #include <cstdint>
 #include <lcm/lcm-cpp.hpp>
+
+#include "core/messages/inbox.h"
 #include <optional>
 #include <string>
 
@@ -48,7 +50,8 @@ class DeputyNode {
     int64_t orders_applied = 0;      // orders addressed to this deputy
     int64_t orders_for_others = 0;   // addressed to another host
     int64_t unknown_names = 0;       // names in our orders we do not supervise
-    int64_t orders_malformed = 0;    // array lengths or values out of range
+    int64_t orders_malformed = 0;    // did not decode, or values out of range
+    int64_t handler_failed = 0;      // an order's handling threw (caught at the boundary)
     int64_t status_published = 0;
     int64_t output_published = 0;
   };
@@ -71,12 +74,12 @@ class DeputyNode {
   void flushOutput();
   // The status message as it would be published now.
   deputy_status_t makeStatus() const;
-  const Counters& counters() const { return counters_; }
+  Counters counters() const;
+  const messages::Inbox& inbox() const { return inbox_; }
   int64_t outputLinesDropped() const { return throttle_.droppedLines(); }
 
  private:
-  void onOrder(const lcm::ReceiveBuffer* rbuf, const std::string& channel,
-               const deputy_order_t* order);
+  Status onOrder(const deputy_order_t& order);
   void onLine(const std::string& name, const std::string& line, bool from_deputy);
   std::string stateSignature() const;
   void publishOutput(bool all);
@@ -84,7 +87,6 @@ class DeputyNode {
   lcm::LCM& lcm_;
   Supervisor& supervisor_;
   DeputyNodeOptions options_;
-  lcm::Subscription* subscription_ = nullptr;
   OutputThrottle throttle_;
   std::optional<ScriptRunner> script_;
   Clock::time_point next_status_{};
@@ -92,6 +94,10 @@ class DeputyNode {
   std::string last_signature_;
   bool change_pending_ = false;  // a state changed too soon after the last status
   Counters counters_;
+  // DEPUTY_ORDER through the one decoding path (a 24-byte order with a string length of 0 made
+  // the deputy abort: its children ran on unsupervised). Orders carry the sender's wall clock:
+  // no time guard.
+  messages::Inbox inbox_;
 };
 
 // Microseconds since the epoch (message utime of the deputy's own messages).

@@ -23,6 +23,7 @@ inline constexpr const char* kMapperStats = "MAPPER_STATS";   // mapper_stats_t
 inline constexpr const char* kDeputyStatus = "DEPUTY_STATUS"; // deputy_status_t
 inline constexpr const char* kDeputyOrder = "DEPUTY_ORDER";   // deputy_order_t
 inline constexpr const char* kDeputyOutput = "DEPUTY_OUTPUT"; // deputy_output_t
+inline constexpr const char* kInputStats = "INPUT_STATS";     // input_stats_t
 
 // Calibration is state, not an event (docs/contracts.md): every source of STEREO sends
 // STEREO_CALIB before its first frame and again before the first frame of every period, so a

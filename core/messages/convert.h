@@ -29,6 +29,7 @@
 #include "core/common/expected.h"
 #include "core/datasets/euroc.h"
 #include "core/geometry/se3.h"
+#include "core/messages/wire_check.h"
 
 namespace evermap::messages {
 
@@ -88,43 +89,33 @@ evermap::pose_t toMsg(int64_t utime, const core::UncertainPose& pose, int32_t fl
 Expected<core::UncertainPose> fromMsg(const evermap::pose_t& msg);
 
 // ---- Bytes off the wire ----
-namespace detail {
-// The decoders lcm-gen writes resize an array to the length the message claims before they
-// check that the bytes are there: a corrupt length of an image would make a receiver zero
-// up to 2 GB. For the message types with large byte arrays, the claimed lengths are checked
-// against the buffer first; other types go straight to the decoder.
-Status checkArrayLengths(const evermap::image_t*, const void* data, int64_t size);
-Status checkArrayLengths(const evermap::stereo_image_t*, const void* data, int64_t size);
-template <typename Msg>
-Status checkArrayLengths(const Msg*, const void*, int64_t) {
-  return Ok{};
-}
-}  // namespace detail
-
-// Decodes an LCM message of type Msg; errors (wrong type hash, truncation, trailing bytes,
-// absurd array lengths) name `what` (normally the channel).
+// Decodes an LCM message of type Msg, the one decoding path of every receiver: the buffer is
+// first walked along Msg's wire layout (checkWire, generated for every type: the type hash,
+// every array and string length against the bytes present), so lcm-gen's decoder never
+// allocates for a length that is not there; an exception from it is caught all the same.
+// Errors (wrong type, truncation, trailing bytes, absurd lengths) are one line naming `what`
+// (normally the channel) and the member.
 template <typename Msg>
 Expected<Msg> decodeLcm(const void* data, int64_t size, const std::string& what) {
   if (data == nullptr || size < 0 || size > INT_MAX) {
     return makeError(what, ": ", size, " bytes is not a valid ", Msg::getTypeName());
   }
-  if (Status s = detail::checkArrayLengths(static_cast<const Msg*>(nullptr), data, size); !s) {
-    return makeError(what, ": malformed ", Msg::getTypeName(), ": ", s.error().message);
+  const Expected<int64_t> used = checkWire<Msg>(data, size);
+  if (!used) {
+    return makeError(what, ": not a valid ", Msg::getTypeName(), " (", used.error().message, ")");
+  }
+  if (*used != size) {
+    return makeError(what, ": ", Msg::getTypeName(), " of ", *used, " bytes followed by ",
+                     size - *used, " unexpected bytes");
   }
   Msg msg;
-  int used = -1;
   try {
-    used = msg.decode(data, 0, static_cast<int>(size));
-  } catch (const std::exception& e) {  // a negative or huge array length: bad_alloc, length_error
+    if (msg.decode(data, 0, static_cast<int>(size)) != size) {
+      return makeError(what, ": not a valid ", Msg::getTypeName(), " (", size,
+                       " bytes the layout accepts and the decoder does not)");
+    }
+  } catch (const std::exception& e) {
     return makeError(what, ": malformed ", Msg::getTypeName(), " (", e.what(), ")");
-  }
-  if (used < 0) {
-    return makeError(what, ": not a valid ", Msg::getTypeName(),
-                     " (wrong type or truncated, ", size, " bytes)");
-  }
-  if (used != size) {
-    return makeError(what, ": ", Msg::getTypeName(), " of ", used, " bytes followed by ",
-                     size - used, " unexpected bytes");
   }
   return msg;
 }

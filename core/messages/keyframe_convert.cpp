@@ -79,25 +79,4 @@ Expected<KeyframeMsgContents> fromMsg(const evermap::keyframe_t& msg) {
   return KeyframeMsgContents{*camera, std::move(f)};
 }
 
-namespace detail {
-
-template <>
-Status checkArrayLengths<evermap::keyframe_t>(const evermap::keyframe_t*, const void* data,
-                                              int64_t size) {
-  // hash (8), utime (8), fx fy cx cy baseline (40), num_features (4), then per feature
-  // keypoints 2x4, points 3x4, disparity 4, level 1, descriptor 32 bytes.
-  constexpr int64_t kHeader = 8 + 8 + 40 + 4;
-  constexpr int64_t kPerFeature = 8 + 12 + 4 + 1 + 32;
-  if (size < kHeader) return makeError("truncated header (", size, " bytes)");
-  const auto* b = static_cast<const uint8_t*>(data) + kHeader - 4;
-  const int32_t n = static_cast<int32_t>((uint32_t{b[0]} << 24) | (uint32_t{b[1]} << 16) |
-                                         (uint32_t{b[2]} << 8) | uint32_t{b[3]});
-  if (n < 0) return makeError("num_features ", n, " is negative");
-  if (kHeader + kPerFeature * static_cast<int64_t>(n) > size) {
-    return makeError("num_features ", n, " needs more than the ", size, " bytes received");
-  }
-  return Ok{};
-}
-
-}  // namespace detail
 }  // namespace evermap::messages

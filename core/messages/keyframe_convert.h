@@ -28,12 +28,4 @@ evermap::keyframe_t toMsg(const core::StereoCamera& camera,
 // feature that is not finite, a non-positive disparity or depth, a negative level.
 Expected<KeyframeMsgContents> fromMsg(const evermap::keyframe_t& msg);
 
-namespace detail {
-// decodeLcm<keyframe_t>: the claimed feature count must fit the bytes before the generated
-// decoder allocates for it.
-template <>
-Status checkArrayLengths<evermap::keyframe_t>(const evermap::keyframe_t*, const void* data,
-                                              int64_t size);
-}  // namespace detail
-
 }  // namespace evermap::messages

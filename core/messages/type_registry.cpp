@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <evermap/all_types.hpp>
 
+#include "core/messages/convert.h"
+
 namespace evermap::messages {
 namespace {
 
@@ -13,9 +15,7 @@ struct Entry {
 
 template <typename T>
 bool decodeAs(const void* data, size_t size) {
-  T msg;
-  const int used = msg.decode(data, 0, static_cast<int>(size));
-  return used >= 0 && static_cast<size_t>(used) == size;
+  return decodeLcm<T>(data, static_cast<int64_t>(size), T::getTypeName()).ok();
 }
 
 const std::vector<Entry>& entries() {

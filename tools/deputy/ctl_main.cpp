@@ -21,6 +21,7 @@
 
 #include "core/deputy/deputy_client.h"
 #include "core/messages/channels.h"
+#include "core/messages/inbox.h"
 
 namespace {
 
@@ -60,7 +61,7 @@ int fail(const evermap::Error& e) {
 
 struct OutputPrinter {
   std::set<std::string> names;
-  void onOutput(const lcm::ReceiveBuffer*, const std::string&, const evermap::deputy_output_t* m) {
+  void onOutput(const evermap::deputy_output_t* m) {
     if (!names.empty() && !names.count(m->name)) return;
     size_t start = 0;
     while (start < m->text.size()) {
@@ -112,7 +113,13 @@ int main(int argc, char** argv) {
   if (command == "output") {
     OutputPrinter printer;
     printer.names.insert(args.begin(), args.end());
-    lcm.subscribe(evermap::channels::kDeputyOutput, &OutputPrinter::onOutput, &printer);
+    evermap::messages::Inbox::Options input;
+    input.process = "evermap-deputy-ctl";
+    input.time.window_s = 0.0;  // the deputy's wall clock
+    evermap::messages::Inbox inbox(lcm, input);
+    inbox.subscribe<evermap::deputy_output_t>(
+        evermap::channels::kDeputyOutput,
+        [&printer](const evermap::deputy_output_t& m) { printer.onOutput(&m); });
     while (lcm.handle() == 0) {
     }
     return 1;

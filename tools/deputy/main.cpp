@@ -189,5 +189,6 @@ int main(int argc, char** argv) {
                "%lld output lines not sent (rate limit)\n",
                restarts, static_cast<long long>(c.orders_applied),
                static_cast<long long>(node.outputLinesDropped()));
+  std::fprintf(stderr, "evermap-deputy: input: %s\n", node.inbox().summary().c_str());
   return 0;
 }

@@ -26,6 +26,7 @@
 #include <evermap/floor_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
+#include "core/messages/convert.h"
 #include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
 #include "core/common/option_fields.h"
@@ -124,16 +125,18 @@ int printFloorLog(const std::string& file) {
   int64_t attitudes = 0, first = 0, last = 0, untrusted = 0;
   for (const lcm::LogEvent* ev = log.readNextEvent(); ev; ev = log.readNextEvent()) {
     if (ev->channel == channels::kAttitude) {
-      attitude_t a{};
-      if (a.decode(ev->data, 0, ev->datalen) < 0) continue;
+      auto decoded = messages::decodeLcm<attitude_t>(ev->data, ev->datalen, ev->channel);
+      if (!decoded) continue;
+      const attitude_t& a = *decoded;
       if (attitudes++ == 0) first = a.utime;
       last = a.utime;
       untrusted += a.accel_trusted ? 0 : 1;
       continue;
     }
     if (ev->channel != channels::kFloor) continue;
-    floor_t m{};
-    if (m.decode(ev->data, 0, ev->datalen) < 0) continue;
+    auto decoded = messages::decodeLcm<floor_t>(ev->data, ev->datalen, ev->channel);
+    if (!decoded) continue;
+    const floor_t& m = *decoded;
     std::printf("FLOOR utime %lld event %s floor %d height %.2f sigma %.2f in_elevator %d new %d\n",
                 static_cast<long long>(m.utime),
                 m.event == floor_t::EVENT_RIDE_START ? "start" : "end", m.floor_index, m.height_m,

