@@ -17,29 +17,10 @@
 namespace evermap::messages {
 namespace {
 
-void put32(std::vector<uint8_t>& b, size_t at, uint32_t v) {
-  for (int k = 0; k < 4; ++k) b[at + k] = static_cast<uint8_t>(v >> (24 - 8 * k));
-}
-
-// An LCM 1.3.1 fragment: "LC03", seqno, msg_size, fragment_offset, fragment_no, count, then
-// (first fragment only) the channel and its NUL, then `payload` bytes.
+// A fragment of message 7 on `channel` (lcmFragmentPacket).
 std::vector<uint8_t> fragment(uint32_t msg_size, uint32_t offset, uint16_t no, uint16_t count,
                               size_t payload, const std::string& channel = "IMU") {
-  std::vector<uint8_t> b(20);
-  put32(b, 0, 0x4c433033);
-  put32(b, 4, 7);
-  put32(b, 8, msg_size);
-  put32(b, 12, offset);
-  b[16] = static_cast<uint8_t>(no >> 8);
-  b[17] = static_cast<uint8_t>(no);
-  b[18] = static_cast<uint8_t>(count >> 8);
-  b[19] = static_cast<uint8_t>(count);
-  if (no == 0) {
-    b.insert(b.end(), channel.begin(), channel.end());
-    b.push_back(0);
-  }
-  b.resize(b.size() + payload, 0xab);
-  return b;
+  return lcmFragmentPacket(7, msg_size, offset, no, count, channel, payload);
 }
 
 TEST(LcmReceiveGuard, TheTwoPacketsOfIssue17AreRefusedAndHonestFragmentsPass) {

@@ -112,15 +112,8 @@ void Inbox::guard(Entry& e, const void* data, int64_t size, int64_t utime) {
   }
   const auto* b = static_cast<const uint8_t*>(data);
   held_.push_back(Held{&e, utime, passed_, std::vector<uint8_t>(b, b + size)});
-  if (static_cast<int>(held_.size()) > o_.time.max_held) {
-    Held old = std::move(held_.front());
-    held_.pop_front();
-    ChannelCounts& c = counts_[old.entry->channel];
-    ++c.time_refused;
-    log(old.entry->channel, c.time_refused,
-        old.entry->channel + ": refused utime " + std::to_string(old.utime) +
-            ": far from the stream's clock and not confirmed (too many held)");
-  }
+  if (static_cast<int>(held_.size()) > o_.time.max_held)
+    refuseOldestHeld("far from the stream's clock and not confirmed (too many held)");
   // Do `confirm_count` held messages agree with this one? Then the clock moves to them.
   // Distinct stamps: copies of one message (the same stamp sent again) confirm nothing.
   std::vector<size_t> agree;
@@ -159,16 +152,17 @@ void Inbox::guard(Entry& e, const void* data, int64_t size, int64_t utime) {
 }
 
 void Inbox::expireHeld() {
-  while (!held_.empty() && passed_ - held_.front().passed_at > o_.time.expire_count) {
-    Held old = std::move(held_.front());
-    held_.pop_front();
-    ChannelCounts& c = counts_[old.entry->channel];
-    ++c.time_refused;
-    log(old.entry->channel, c.time_refused,
-        old.entry->channel + ": refused utime " + std::to_string(old.utime) +
-            ": more than the time window from the stream's clock " +
-            std::to_string(clock_utime_));
-  }
+  while (!held_.empty() && passed_ - held_.front().passed_at > o_.time.expire_count)
+    refuseOldestHeld("more than the time window from the stream's clock " + std::to_string(clock_utime_));
+}
+
+void Inbox::refuseOldestHeld(const std::string& why) {
+  Held old = std::move(held_.front());
+  held_.pop_front();
+  ChannelCounts& c = counts_[old.entry->channel];
+  ++c.time_refused;
+  log(old.entry->channel, c.time_refused,
+      old.entry->channel + ": refused utime " + std::to_string(old.utime) + ": " + why);
 }
 
 void Inbox::deliver(Entry& e, const void* data, int64_t size, int64_t utime) {

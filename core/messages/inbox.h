@@ -161,6 +161,8 @@ class Inbox {
   void deliver(Entry& entry, const void* data, int64_t size, int64_t utime);
   void guard(Entry& entry, const void* data, int64_t size, int64_t utime);
   void expireHeld();
+  // Refuses the oldest held message (counted, one line ending in `why`).
+  void refuseOldestHeld(const std::string& why);
   void log(const std::string& channel, int64_t count, const std::string& line);
 
   lcm::LCM& lcm_;

@@ -55,6 +55,31 @@ int64_t lcmPacketsRefused() { return refusedCount().load(); }
 
 bool lcmReceiveGuardLinked() { return true; }
 
+std::vector<uint8_t> lcmFragmentPacket(uint32_t seqno, uint32_t msg_size, uint32_t offset,
+                                       uint16_t fragment_no, uint16_t fragment_count,
+                                       const std::string& channel, size_t payload, uint8_t fill) {
+  std::vector<uint8_t> b;
+  const auto put32 = [&b](uint32_t v) {
+    for (int k = 0; k < 4; ++k) b.push_back(static_cast<uint8_t>(v >> (24 - 8 * k)));
+  };
+  const auto put16 = [&b](uint16_t v) {
+    b.push_back(static_cast<uint8_t>(v >> 8));
+    b.push_back(static_cast<uint8_t>(v));
+  };
+  put32(0x4c433033);
+  put32(seqno);
+  put32(msg_size);
+  put32(offset);
+  put16(fragment_no);
+  put16(fragment_count);
+  if (fragment_no == 0) {
+    b.insert(b.end(), channel.begin(), channel.end());
+    b.push_back(0);
+  }
+  b.resize(b.size() + payload, fill);
+  return b;
+}
+
 }  // namespace evermap::messages
 
 // Interposes the C library's recvmsg() for the whole process (the executable's definition

@@ -14,6 +14,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
+#include <vector>
 
 namespace evermap::messages {
 
@@ -26,5 +28,13 @@ int64_t lcmPacketsRefused();
 
 // True: the guard is linked into this executable (calling it makes sure it is).
 bool lcmReceiveGuardLinked();
+
+// One LCM 1.3.1 fragment as sent on the wire: "LC03", seqno, msg_size, fragment_offset,
+// fragment_no, fragment count (big-endian), the channel and its NUL in the first fragment
+// only, then `payload` bytes of `fill`. Any header, consistent or not (tests, the fuzzer).
+std::vector<uint8_t> lcmFragmentPacket(uint32_t seqno, uint32_t msg_size, uint32_t offset,
+                                       uint16_t fragment_no, uint16_t fragment_count,
+                                       const std::string& channel, size_t payload,
+                                       uint8_t fill = 0xab);
 
 }  // namespace evermap::messages

