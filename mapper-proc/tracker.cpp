@@ -52,28 +52,23 @@ Expected<Mat6> covarianceFromMessage(const double* row_major, const char* what) 
   return symmetric(c);
 }
 
-// Whether two estimates of one motion agree in the plane (x, y, yaw of the right tangent):
-// χ²(3) of their difference under the sum of their covariances.
-static bool agreesInPlane(const UncertainPose& a, const UncertainPose& b, double gate) {
-  const core::Vec6 d = (a.mean.inverse() * b.mean).log();
-  const int idx[3] = {0, 1, 5};
-  Eigen::Vector3d r;
-  Eigen::Matrix3d c;
-  for (int i = 0; i < 3; ++i) {
-    r[i] = d[idx[i]];
-    for (int j = 0; j < 3; ++j) c(i, j) = a.covariance(idx[i], idx[j]) + b.covariance(idx[i], idx[j]);
-  }
-  c += Eigen::Matrix3d::Identity() * 1e-12;
-  return r.dot(c.ldlt().solve(r)) <= gate;
-}
-
-// Determinant of the (x, y, yaw) block: how uncertain a motion is in the plane.
-static double planarDeterminant(const Mat6& c) {
+// The (x, y, yaw) block of a covariance on the right tangent (υ, ω): the motion in the plane.
+static Eigen::Matrix3d planarBlock(const Mat6& c) {
   const int idx[3] = {0, 1, 5};
   Eigen::Matrix3d b;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) b(i, j) = c(idx[i], idx[j]);
-  return b.determinant();
+  return b;
+}
+
+// Whether two estimates of one motion agree in the plane (x, y, yaw of the right tangent):
+// χ²(3) of their difference under the sum of their covariances.
+static bool agreesInPlane(const UncertainPose& a, const UncertainPose& b, double gate) {
+  const core::Vec6 d = (a.mean.inverse() * b.mean).log();
+  const Eigen::Vector3d r(d[0], d[1], d[5]);
+  const Eigen::Matrix3d c =
+      planarBlock(a.covariance) + planarBlock(b.covariance) + Eigen::Matrix3d::Identity() * 1e-12;
+  return r.dot(c.ldlt().solve(r)) <= gate;
 }
 
 Tracker::Tracker(const TrackerOptions& options)
@@ -231,7 +226,7 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
       ++counts_.relinks_refused;
       at = history_.end();
     } else if (at != history_.end() && std::next(at) != history_.end() &&
-               planarDeterminant(ref_T_body.covariance) > planarDeterminant(wheel.covariance)) {
+               planarBlock(ref_T_body.covariance).determinant() > planarBlock(wheel.covariance).determinant()) {
       // VO's motion over the gap is less certain than the wheels' (and the gyro's): VO
       // predicted it (a break bridged by its motion prior, contracts.md), it did not measure
       // it. The wheels keep the gap; the frame goes where they put it.

@@ -236,6 +236,18 @@ TEST(MapperLcm, PublishesPoseGraphAndStatsAndStoresTheMapItBuilds) {
   EXPECT_EQ(r.stored_edges, r.stats.constraints);
 }
 
+// The same map, node for node: counts, and each node's keyframe, floor and position.
+void expectSameGraph(const map_graph_t& a, const map_graph_t& b) {
+  ASSERT_EQ(a.num_nodes, b.num_nodes);
+  ASSERT_EQ(a.num_edges, b.num_edges);
+  ASSERT_EQ(a.num_floors, b.num_floors);
+  for (int i = 0; i < a.num_nodes; ++i) {
+    EXPECT_EQ(a.nodes[i].keyframe_utime, b.nodes[i].keyframe_utime);
+    EXPECT_EQ(a.nodes[i].floor, b.nodes[i].floor);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(a.nodes[i].position[k], b.nodes[i].position[k]);
+  }
+}
+
 TEST(MapperLcm, DropsAndCountsMalformedAndOutOfOrderMessagesWithoutApplyingThem) {
   evermap::testing::ScratchDir dir;
   const LiveRun clean = runLive(Inject::kNothing, dir.path() / "clean.db");
@@ -250,14 +262,7 @@ TEST(MapperLcm, DropsAndCountsMalformedAndOutOfOrderMessagesWithoutApplyingThem)
   // Nothing of it reached the map: the same graph, node for node.
   ASSERT_FALSE(clean.heard.graphs.empty());
   ASSERT_FALSE(dirty.heard.graphs.empty());
-  const map_graph_t& a = clean.heard.graphs.back();
-  const map_graph_t& b = dirty.heard.graphs.back();
-  ASSERT_EQ(a.num_nodes, b.num_nodes);
-  ASSERT_EQ(a.num_edges, b.num_edges);
-  for (int i = 0; i < a.num_nodes; ++i) {
-    EXPECT_EQ(a.nodes[i].keyframe_utime, b.nodes[i].keyframe_utime);
-    for (int k = 0; k < 3; ++k) EXPECT_EQ(a.nodes[i].position[k], b.nodes[i].position[k]);
-  }
+  expectSameGraph(clean.heard.graphs.back(), dirty.heard.graphs.back());
 }
 
 TEST(MapperLcm, AMessageStampedTwoToThe62IsRefusedAndTheMapIsTheCleanRunsOne) {
@@ -279,14 +284,7 @@ TEST(MapperLcm, AMessageStampedTwoToThe62IsRefusedAndTheMapIsTheCleanRunsOne) {
   ASSERT_FALSE(far.heard.graphs.empty());
   const map_graph_t& a = clean.heard.graphs.back();
   const map_graph_t& b = far.heard.graphs.back();
-  ASSERT_EQ(a.num_nodes, b.num_nodes);
-  ASSERT_EQ(a.num_edges, b.num_edges);
-  ASSERT_EQ(a.num_floors, b.num_floors);
-  for (int i = 0; i < a.num_nodes; ++i) {
-    EXPECT_EQ(a.nodes[i].keyframe_utime, b.nodes[i].keyframe_utime);
-    EXPECT_EQ(a.nodes[i].floor, b.nodes[i].floor);
-    for (int k = 0; k < 3; ++k) EXPECT_EQ(a.nodes[i].position[k], b.nodes[i].position[k]);
-  }
+  ASSERT_NO_FATAL_FAILURE(expectSameGraph(a, b));
   EXPECT_EQ(a.utime, b.utime);  // the mapper's clock never left the stream's
 }
 
