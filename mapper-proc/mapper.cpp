@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <limits>
+#include <numbers>
 #include <sstream>
 #include <utility>
 
@@ -46,6 +48,10 @@ Eigen::MatrixXd sqrtInformation(const core::Mat6& covariance, double floor) {
 Status MapperOptions::validate() const {
   if (!(cell_size_m > 0.0)) return Error{"mapper.cell_size_m: must be > 0"};
   if (heading_bins < 1) return Error{"mapper.heading_bins: must be >= 1"};
+  if (!(overlap_radius_cells >= 0.0 && overlap_radius_cells <= 1.0))
+    return Error{"mapper.overlap_radius_cells: must be in [0, 1]"};
+  if (!(overlap_heading_sectors >= 0.0 && overlap_heading_sectors <= 1.0))
+    return Error{"mapper.overlap_heading_sectors: must be in [0, 1]"};
   if (!(step_interval_s >= 0.0)) return Error{"mapper.step_interval_s: must be >= 0"};
   if (!(request_timeout_s > 0.0)) return Error{"mapper.request_timeout_s: must be > 0"};
   if (!(session_gap_s > 0.0)) return Error{"mapper.session_gap_s: must be > 0"};
@@ -55,6 +61,8 @@ Status MapperOptions::validate() const {
   if (!(floor_match_m > 0.0)) return Error{"mapper.floor_match_m: must be > 0"};
   if (!(consistency_gate > 0.0)) return Error{"mapper.consistency_gate: must be > 0"};
   if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
+  if (!(min_closure_information >= 0.0) || !std::isfinite(min_closure_information))
+    return Error{"mapper.min_closure_information: must be a finite number >= 0"};
   if (!(recent_exclusion_s >= 0.0)) return Error{"mapper.recent_exclusion_s: must be >= 0"};
   if (!(covariance_floor >= 0.0)) return Error{"mapper.covariance_floor: must be >= 0"};
   if (cell_refresh_per_step < 1) return Error{"mapper.cell_refresh_per_step: must be >= 1"};
@@ -80,6 +88,7 @@ void MapperStats::addCounters(const MapperStats& o) {
   delta_fused += o.delta_fused;
   rejected_map_gate += o.rejected_map_gate;
   rejected_floor += o.rejected_floor;
+  closures_uninformative += o.closures_uninformative;
   gate_recoveries += o.gate_recoveries;
   recoveries_too_far += o.recoveries_too_far;
   relocalizations += o.relocalizations;
@@ -97,7 +106,7 @@ std::string MapperStats::text() const {
     << rejected_inconsistent << "\nrequests_node " << requests_node << "\nrequests_global "
     << requests_global << "\nregistrations_ok " << registrations_ok << "\nloop_closures "
     << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept << "\ndelta_fused " << delta_fused
-    << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor " << rejected_floor << "\ngate_recoveries " << gate_recoveries << "\nrecoveries_too_far " << recoveries_too_far << "\nrelocalizations " << relocalizations
+    << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor " << rejected_floor << "\nclosures_uninformative " << closures_uninformative << "\ngate_recoveries " << gate_recoveries << "\nrecoveries_too_far " << recoveries_too_far << "\nrelocalizations " << relocalizations
     << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrelocalization_disagreements " << relocalization_disagreements << "\nrestored_nodes " << restored_nodes
     << "\nrestored_constraints " << restored_constraints << "\n";
   return s.str();
@@ -244,6 +253,40 @@ std::optional<int64_t> Mapper::nodeInCell(const core::PlanarCell& cell, int64_t 
   for (auto id = it->second.rbegin(); id != it->second.rend(); ++id)
     if (nodes_[*id].keyframe_utime <= newest_allowed) return *id;
   return std::nullopt;
+}
+
+std::optional<int64_t> Mapper::overlappingNode(const core::SE3d& world_T_body, int floor,
+                                               int64_t newest_allowed) const {
+  const double radius_m = o_.overlap_radius_cells * o_.cell_size_m;
+  const double heading_rad = o_.overlap_heading_sectors * 2.0 * std::numbers::pi / o_.heading_bins;
+  if (!(radius_m > 0.0) || !(heading_rad > 0.0)) return std::nullopt;
+  const core::SE2d p = core::toPlanar(world_T_body);
+  const core::PlanarCell c = grid_.cellOf(p, floor);
+  std::optional<int64_t> best;
+  double best_score = 2.0;
+  // The overlap is at most a cell and a sector wide: the neighbours hold every candidate.
+  for (int dx = -1; dx <= 1; ++dx) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dh = -1; dh <= 1; ++dh) {
+        if (dh != 0 && o_.heading_bins < 3 && (dh < 0 || o_.heading_bins == 1)) continue;  // each sector once
+        core::PlanarCell n{floor, c.ix + dx, c.iy + dy, (c.iheading + dh + o_.heading_bins) % o_.heading_bins};
+        auto it = cells_.find(n);
+        if (it == cells_.end()) continue;
+        for (int64_t id : it->second) {
+          if (nodes_[static_cast<size_t>(id)].keyframe_utime > newest_allowed) continue;
+          const core::SE2d q = core::toPlanar(nodePose(id));
+          const double d = std::hypot(q.x() - p.x(), q.y() - p.y()) / radius_m;
+          const double a = std::abs(std::remainder(q.theta() - p.theta(), 2.0 * std::numbers::pi)) / heading_rad;
+          if (d > 1.0 || a > 1.0) continue;
+          if (d + a < best_score) {
+            best_score = d + a;
+            best = id;
+          }
+        }
+      }
+    }
+  }
+  return best;
 }
 
 void Mapper::rebuildCells() {
@@ -531,6 +574,7 @@ void Mapper::step(int64_t keyframe_utime) {
     target = nodeInCell(cell, keyframe_utime - micros(o_.recent_exclusion_s));
   } else {
     target = nodeInCell(cell, keyframe_utime);
+    if (!target) target = overlappingNode(world_T_body, floor_, keyframe_utime);
     // The active node, unless a ride left it on another floor (the cab it was made in looks
     // the same on every floor).
     if (!target && nodes_[static_cast<size_t>(active_)].floor == floor_) target = active_;
@@ -680,7 +724,8 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
   // A pair that already holds constraints tests a new one against them (constraint_set.h);
   // the map gate is for a pair's first constraint, which nothing else can contradict.
   const bool known_pair = constraints_.pairs().count({std::min(f.active, b), std::max(f.active, b)}) > 0;
-  const bool contradicts_map = !known_pair && !consistentWithMap(f.active, b, a_T_b);
+  double information = std::numeric_limits<double>::infinity();
+  const bool contradicts_map = !known_pair && !consistentWithMap(f.active, b, a_T_b, &information);
   if (contradicts_map && !confirmsRejected(b, b_T_q, f.keyframe_utime, jumpM(f.active, f.delta_at_keyframe, b, b_T_q))) {
     ++stats_.rejected_map_gate;
     gate_rejected_ = true;
@@ -692,6 +737,15 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     // Gate recovery: two registrations agree that the robot is at b, against the map and Δ.
     // The closure a → b would carry Δ's error into the map: b becomes active, no constraint
     // (as a new session is placed on the map).
+    active_ = b;
+    tracker_.reset(core::compound(b_T_q, *q_T_now));
+    relocalize_ = false;
+    return;
+  }
+  if (!known_pair && information < o_.min_closure_information) {
+    // The map already holds what this closure says about the pair: re-localised on b, no
+    // factor (MapperOptions::min_closure_information).
+    ++stats_.closures_uninformative;
     active_ = b;
     tracker_.reset(core::compound(b_T_q, *q_T_now));
     relocalize_ = false;
@@ -763,7 +817,8 @@ bool Mapper::confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q,
   return agree;
 }
 
-bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b) {
+bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b, double* information) {
+  if (information) *information = std::numeric_limits<double>::infinity();
   if (!(o_.map_gate > 0)) return true;
   // The map's own estimate of a_T_b with its marginal covariance (the joint marginal of a and
   // b through the relative-pose Jacobians), against the measured chain.
@@ -780,6 +835,17 @@ bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& 
   Eigen::Matrix<double, 6, 12> J;
   J << Ja, Jb;
   predicted.covariance = J * (*joint) * J.transpose();
+  if (information) {
+    // ½ ln det(Σ_map + Σ_z) / det(Σ_z) from Cholesky factors (both positive definite).
+    const Eigen::LLT<core::Mat6> sum(predicted.covariance + a_T_b.covariance);
+    const Eigen::LLT<core::Mat6> z(a_T_b.covariance);
+    if (sum.info() == Eigen::Success && z.info() == Eigen::Success) {
+      double half_log_ratio = 0.0;
+      for (int k = 0; k < 6; ++k)
+        half_log_ratio += std::log(sum.matrixLLT()(k, k)) - std::log(z.matrixLLT()(k, k));
+      *information = half_log_ratio;
+    }
+  }
   return ConstraintSet::mahalanobis2(predicted, a_T_b) <= o_.map_gate;
 }
 
@@ -816,7 +882,8 @@ void Mapper::finishStep(bool registered) {
   // the next step adds the node): no new node at this step.
   if (!registered && !gate_rejected && !o_.full_graph) {
     const core::SE3d world_T_body = nodePose(f.active) * f.delta_at_keyframe.mean;
-    if (!nodeInCell(cellOf(world_T_body, floor_), f.keyframe_utime)) {
+    if (!nodeInCell(cellOf(world_T_body, floor_), f.keyframe_utime) &&
+        !overlappingNode(world_T_body, floor_, f.keyframe_utime)) {
       // A new place (eq. 8): the node at the keyframe, then Δ restarts from it.
       addNode(f.keyframe_utime, f.delta_at_keyframe);
       tracker_.reset(tracker_.sinceKeyframe(f.keyframe_utime).value_or(core::UncertainPose{}));

@@ -72,6 +72,14 @@ struct MapperOptions {
   // Partition of each floor (paper section IV-B): cell edge in metres, heading sectors.
   double cell_size_m = 1.0;
   int heading_bins = 8;
+  // Overlapping poses (the introspection the paper's conclusion proposes): a node whose
+  // estimate lies within overlap_radius_cells × cell_size_m and overlap_heading_sectors × a
+  // heading sector of the step's estimate shows the same place even when a cell edge (x, y
+  // or a sector's) lies between them. When the estimate's own cell is empty the step
+  // registers against the closest such node, and no node is added while one overlaps
+  // (docs/mapper.md, "A year"). 0: the cells alone (eq. 8). At most 1 (a cell, a sector).
+  double overlap_radius_cells = 1.0;
+  double overlap_heading_sectors = 1.0;
   // Steps at VO keyframes at most this often, seconds of message time (loopclose-proc's 2 Hz).
   double step_interval_s = 0.5;
   // An unanswered registration closes after this long, seconds of message time.
@@ -103,6 +111,14 @@ struct MapperOptions {
   // against Δ. Catches false matches the per-pair test cannot see (a pair's first
   // constraint). 0 disables; 22.46 = 99.9 %.
   double map_gate = 22.46;
+  // A loop closure that would open a new node pair is added only when it tells the map
+  // something: its mutual information with the map's estimate of the pair,
+  //   I = ½ ln det(Σ_map + Σ_z) / det(Σ_z)  (nats; Ila, Porta & Andrade-Cetto 2010),
+  // is at least this. Below, the map already ties the two nodes as well as the registration
+  // would: b becomes active (the robot is re-localised on it), and no factor is added, so
+  // factors grow with the nodes, not with the visits. 0: every closure (the paper). Needs
+  // the map gate (its marginal).
+  double min_closure_information = 0.0;
   // A constraint that merges into a pair the solver already has a factor of enters the
   // solver at the next consolidation (with the scheduled batch steps) instead of as an
   // incremental update of its own.
@@ -198,6 +214,7 @@ struct MapperStats {
   int64_t delta_fused = 0;        // ... fused with Δ (fuse_active_registration)
   int64_t rejected_map_gate = 0;  // registrations that contradicted the map or Δ
   int64_t rejected_floor = 0;     // registrations to a node of another floor
+  int64_t closures_uninformative = 0;  // new pairs below min_closure_information: no factor
   int64_t gate_recoveries = 0;    // ... accepted after all: a second one agreed with them
   int64_t recoveries_too_far = 0; // ... not: their jump was more than odometry could drift
   int64_t relocalizations = 0;   // a new session tied to the map by a global registration
@@ -290,7 +307,9 @@ class Mapper {
   // vetted: a loop closure the map gate has tested against the map (no robust kernel).
   void addConstraint(int64_t from, int64_t to, const core::UncertainPose& from_T_to,
                      ConstraintKind kind, int64_t utime, bool vetted = false);
-  bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b);
+  // information (when given): the closure's mutual information with the map, nats
+  // (MapperOptions::min_closure_information); infinity without a marginal.
+  bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b, double* information = nullptr);
   struct RelocalizationCandidate;
   // Whether the registration b_T_q of the keyframe agrees, chained by odometry, with an
   // earlier one (candidate) on where the robot is.
@@ -314,6 +333,9 @@ class Mapper {
   void fileInCell(int64_t id, const core::PlanarCell& cell);
   core::PlanarCell cellOf(const core::SE3d& world_T_body, int floor) const;
   std::optional<int64_t> nodeInCell(const core::PlanarCell& cell, int64_t newest_allowed) const;
+  // The node closest to world_T_body within the overlap (MapperOptions::overlap_radius_cells and
+  // overlap_heading_sectors), searched in the neighbouring cells and sectors, on the floor.
+  std::optional<int64_t> overlappingNode(const core::SE3d& world_T_body, int floor, int64_t newest_allowed) const;
   void checkTimeout(int64_t utime);
   // A new session (FLOOR with EVENT_NONE, or a gap in VO time): lost until re-localised.
   void startSession(int64_t utime);

@@ -11,6 +11,8 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   KeyValueReader reader(file);
   reader.read("mapper.cell_size_m", &o->cell_size_m);
   reader.read("mapper.heading_bins", &o->heading_bins);
+  reader.read("mapper.overlap_radius_cells", &o->overlap_radius_cells);
+  reader.read("mapper.overlap_heading_sectors", &o->overlap_heading_sectors);
   reader.read("mapper.step_interval_s", &o->step_interval_s);
   reader.read("mapper.request_timeout_s", &o->request_timeout_s);
   reader.read("mapper.session_gap_s", &o->session_gap_s);
@@ -22,6 +24,7 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.attitude_factors", &o->attitude_factors);
   reader.read("mapper.height_factors", &o->height_factors);
   reader.read("mapper.map_gate", &o->map_gate);
+  reader.read("mapper.min_closure_information", &o->min_closure_information);
   reader.read("mapper.defer_merges", &o->defer_merges);
   reader.read("mapper.cell_refresh_per_step", &o->cell_refresh_per_step);
   reader.read("mapper.fuse_active_registration", &o->fuse_active_registration);

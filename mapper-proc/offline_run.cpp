@@ -155,6 +155,10 @@ std::string OfflineRunSummary::text() const {
   for (int64_t n : nodes_by_session) s << " " << n;
   s << "\nnodes_in_mapped_area_by_session";
   for (int64_t n : nodes_in_mapped_area_by_session) s << " " << n;
+  s << "\nnodes_new_heading_by_session";
+  for (int64_t n : nodes_new_heading_by_session) s << " " << n;
+  s << "\nnodes_new_place_by_session";
+  for (int64_t n : nodes_new_place_by_session) s << " " << n;
   s << "\nsteps_by_session";
   for (int64_t n : steps_by_session) s << " " << n;
   s << "\nsteps_in_mapped_area_by_session";
@@ -259,6 +263,18 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   });
 
   TimelineRecorder timeline(mapper, run.timeline_interval_s);
+  if (store) {
+    timeline.setStoreProbe([&](TimelineRow* r) {
+      if (auto rows = store->edgeRows()) r->store_rows = *rows;
+      std::error_code ec;
+      int64_t bytes = 0;
+      for (const char* suffix : {"", "-wal"}) {
+        const auto n = std::filesystem::file_size(run.store_file.string() + suffix, ec);
+        if (!ec) bytes += static_cast<int64_t>(n);
+      }
+      r->store_bytes = bytes;
+    });
+  }
   double operating_before_s = 0.0;  // mapped sessions finished
   int64_t session_start = -1;
   int current_session = 0;
@@ -348,9 +364,18 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     ++out.nodes_by_session[n.session];
   }
   node_truth.resize(mapper.nodes().size());
-  out.nodes_in_mapped_area_by_session =
-      inMappedArea(node_truth, node_truth, run.revisit_radius_m, run.revisit_angle_rad);
-  out.nodes_in_mapped_area_by_session.resize(out.nodes_by_session.size(), 0);
+  {
+    const std::vector<PlaceCause> causes = placeCauses(node_truth, node_truth, run.revisit_radius_m, run.revisit_angle_rad);
+    for (auto* v : {&out.nodes_in_mapped_area_by_session, &out.nodes_new_heading_by_session, &out.nodes_new_place_by_session})
+      v->assign(out.nodes_by_session.size(), 0);
+    for (size_t k = 0; k < causes.size(); ++k) {
+      const auto s = static_cast<size_t>(mapper.nodes()[k].session);
+      if (s >= out.nodes_by_session.size()) continue;
+      if (causes[k] == PlaceCause::kMapped) ++out.nodes_in_mapped_area_by_session[s];
+      if (causes[k] == PlaceCause::kNewHeading) ++out.nodes_new_heading_by_session[s];
+      if (causes[k] == PlaceCause::kNewPlace) ++out.nodes_new_place_by_session[s];
+    }
+  }
   {
     // Where the robot was at each step, against the same nodes: how much of each session
     // went through areas mapped before it.

@@ -41,6 +41,10 @@ struct TimelineRow {
   double step_median_ms = 0.0;  // mapper work per step in this window (MapperTiming::step_cost)
   double step_p99_ms = 0.0;
   double step_max_ms = 0.0;
+  // With a map store (OfflineRunOptions::store_file), else -1: rows of map_edges, and the
+  // file's bytes (database and write-ahead log).
+  int64_t store_rows = -1;
+  int64_t store_bytes = -1;
 };
 
 // After every map store transaction.
@@ -77,6 +81,10 @@ struct OfflineRunSummary {
   // Nodes of each session placed where an earlier session (restored ones included) had a
   // node (OfflineRunOptions::revisit_*), at their true poses.
   std::vector<int64_t> nodes_in_mapped_area_by_session;
+  // The other causes of a session's new nodes (run_metrics.h, PlaceCause; same test): a
+  // mapped place seen at a new heading, and a place no earlier session had a node near.
+  std::vector<int64_t> nodes_new_heading_by_session;
+  std::vector<int64_t> nodes_new_place_by_session;
   // Step poses of each session, and those where an earlier session had a node (same test):
   // how much of the session revisited mapped areas.
   std::vector<int64_t> steps_by_session;

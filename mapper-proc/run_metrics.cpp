@@ -23,11 +23,12 @@ double percentile(std::vector<double> v, double p) {
 Status writeTimelineCsv(const std::filesystem::path& file, const std::vector<TimelineRow>& rows) {
   std::ostringstream s;
   s << "operating_h,utime,session,nodes,factors,steps,tracking_s,registration_s,partition_s,solver_s,"
-       "step_median_ms,step_p99_ms,step_max_ms\n";
+       "step_median_ms,step_p99_ms,step_max_ms,store_rows,store_bytes\n";
   for (const TimelineRow& r : rows)
     s << r.operating_s / 3600.0 << ',' << r.utime << ',' << r.session << ',' << r.nodes << ',' << r.factors << ','
       << r.steps << ',' << r.tracking_s << ',' << r.registration_s << ',' << r.partition_s << ',' << r.solver_s
-      << ',' << r.step_median_ms << ',' << r.step_p99_ms << ',' << r.step_max_ms << '\n';
+      << ',' << r.step_median_ms << ',' << r.step_p99_ms << ',' << r.step_max_ms << ',' << r.store_rows << ','
+      << r.store_bytes << '\n';
   const std::filesystem::path tmp = file.string() + ".tmp";
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
@@ -74,12 +75,15 @@ Expected<std::vector<TimelineRow>> readTimelineCsv(const std::filesystem::path& 
     if (n == 1) continue;  // header
     TimelineRow r;
     double hours = 0.0;
-    long long utime = 0, nodes = 0, factors = 0, steps = 0;
+    long long utime = 0, nodes = 0, factors = 0, steps = 0, store_rows = -1, store_bytes = -1;
     int session = 0;
-    if (std::sscanf(line.c_str(), "%lf,%lld,%d,%lld,%lld,%lld,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &hours, &utime, &session,
-                    &nodes, &factors, &steps, &r.tracking_s, &r.registration_s, &r.partition_s, &r.solver_s,
-                    &r.step_median_ms, &r.step_p99_ms, &r.step_max_ms) != 13)
-      return makeError(file.string(), ":", n, ": not a timeline row");
+    // 13 columns, or 15 with the store's (timelines written before those were added: 13).
+    const int fields = std::sscanf(line.c_str(), "%lf,%lld,%d,%lld,%lld,%lld,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lld,%lld", &hours, &utime,
+                                   &session, &nodes, &factors, &steps, &r.tracking_s, &r.registration_s, &r.partition_s,
+                                   &r.solver_s, &r.step_median_ms, &r.step_p99_ms, &r.step_max_ms, &store_rows, &store_bytes);
+    if (fields != 13 && fields != 15) return makeError(file.string(), ":", n, ": not a timeline row");
+    r.store_rows = store_rows;
+    r.store_bytes = store_bytes;
     r.operating_s = 3600.0 * hours;
     r.utime = utime;
     r.session = session;
@@ -91,9 +95,10 @@ Expected<std::vector<TimelineRow>> readTimelineCsv(const std::filesystem::path& 
   return rows;
 }
 
-std::vector<int64_t> inMappedArea(const std::vector<NodeTruth>& nodes, const std::vector<NodeTruth>& queries,
-                                  double radius_m, double angle_rad) {
-  std::vector<int64_t> by_session;
+std::vector<PlaceCause> placeCauses(const std::vector<NodeTruth>& nodes, const std::vector<NodeTruth>& queries,
+                                    double radius_m, double angle_rad) {
+  std::vector<PlaceCause> causes;
+  causes.reserve(queries.size());
   // Nodes on a grid of radius-sized cells: neighbours lie in the 3x3 block around a cell.
   std::map<std::tuple<int, int64_t, int64_t>, std::vector<size_t>> grid;
   auto key = [&](const NodeTruth& n, int64_t dx, int64_t dy) {
@@ -104,26 +109,42 @@ std::vector<int64_t> inMappedArea(const std::vector<NodeTruth>& nodes, const std
   for (size_t i = 0; i < nodes.size(); ++i)
     if (nodes[i].known) grid[key(nodes[i], 0, 0)].push_back(i);
   for (const NodeTruth& q : queries) {
-    if (q.session >= static_cast<int>(by_session.size())) by_session.resize(q.session + 1, 0);
-    if (!q.known) continue;
-    bool covered = false;
-    for (int64_t dx = -1; dx <= 1 && !covered; ++dx) {
-      for (int64_t dy = -1; dy <= 1 && !covered; ++dy) {
+    if (!q.known) {
+      causes.push_back(PlaceCause::kUnknown);
+      continue;
+    }
+    PlaceCause cause = PlaceCause::kNewPlace;
+    for (int64_t dx = -1; dx <= 1 && cause != PlaceCause::kMapped; ++dx) {
+      for (int64_t dy = -1; dy <= 1 && cause != PlaceCause::kMapped; ++dy) {
         auto it = grid.find(key(q, dx, dy));
         if (it == grid.end()) continue;
         for (size_t j : it->second) {
           const NodeTruth& m = nodes[j];
           if (m.session >= q.session) continue;
           const double d = (m.world_T_body.translation() - q.world_T_body.translation()).head<2>().norm();
+          if (d > radius_m) continue;
+          cause = PlaceCause::kNewHeading;
           const double a = std::abs(std::remainder(core::toPlanar(m.world_T_body).theta() - core::toPlanar(q.world_T_body).theta(), 2 * M_PI));
-          if (d <= radius_m && a <= angle_rad) {
-            covered = true;
+          if (a <= angle_rad) {
+            cause = PlaceCause::kMapped;
             break;
           }
         }
       }
     }
-    if (covered) ++by_session[q.session];
+    causes.push_back(cause);
+  }
+  return causes;
+}
+
+std::vector<int64_t> inMappedArea(const std::vector<NodeTruth>& nodes, const std::vector<NodeTruth>& queries,
+                                  double radius_m, double angle_rad) {
+  std::vector<int64_t> by_session;
+  const std::vector<PlaceCause> causes = placeCauses(nodes, queries, radius_m, angle_rad);
+  for (size_t k = 0; k < queries.size(); ++k) {
+    const NodeTruth& q = queries[k];
+    if (q.session >= static_cast<int>(by_session.size())) by_session.resize(q.session + 1, 0);
+    if (causes[k] == PlaceCause::kMapped) ++by_session[q.session];
   }
   return by_session;
 }

@@ -4,6 +4,7 @@
 // area" test (did a session add nodes where an earlier one had mapped?).
 
 #include <filesystem>
+#include <functional>
 #include <vector>
 
 #include "core/common/expected.h"
@@ -20,6 +21,8 @@ double percentile(std::vector<double> v, double p);
 class TimelineRecorder {
  public:
   TimelineRecorder(const Mapper& mapper, double interval_s) : mapper_(mapper), interval_s_(interval_s) {}
+  // Fills a row's store columns (TimelineRow::store_rows, store_bytes) when it is taken.
+  void setStoreProbe(std::function<void(TimelineRow*)> probe) { store_probe_ = std::move(probe); }
 
   void sample(double operating_s, int64_t utime, int session, bool force = false) {
     if (!(interval_s_ > 0.0) || (!force && operating_s < next_s_)) return;
@@ -43,6 +46,7 @@ class TimelineRecorder {
     r.step_p99_ms = percentile(ms, 0.99);
     r.step_max_ms = ms.empty() ? 0.0 : *std::max_element(ms.begin(), ms.end());
     steps_seen_ = t.step_cost.size();
+    if (store_probe_) store_probe_(&r);
     last_ = r;
     last_.tracking_s = t.tracking_s;
     last_.registration_s = t.registration_s;
@@ -59,6 +63,7 @@ class TimelineRecorder {
   size_t steps_seen_ = 0;
   TimelineRow last_;
   std::vector<TimelineRow> rows_;
+  std::function<void(TimelineRow*)> store_probe_;
 };
 
 // True pose and floor of a node (or a step pose)'s keyframe, and the count of nodes placed where an earlier
@@ -74,6 +79,17 @@ struct NodeTruth {
 // (same true floor, within radius_m and angle_rad), all at their true poses.
 std::vector<int64_t> inMappedArea(const std::vector<NodeTruth>& nodes, const std::vector<NodeTruth>& queries,
                                   double radius_m, double angle_rad);
+
+// Where each query lies against the nodes of earlier sessions (same true floor, true poses):
+// the cause a new node has (issue 22's accounting of late nodes).
+enum class PlaceCause : uint8_t {
+  kNewPlace = 0,    // no earlier node within radius_m
+  kNewHeading = 1,  // earlier nodes within radius_m, none within angle_rad of its heading
+  kMapped = 2,      // an earlier node within radius_m and angle_rad: a duplicate
+  kUnknown = 3,     // no true pose
+};
+std::vector<PlaceCause> placeCauses(const std::vector<NodeTruth>& nodes, const std::vector<NodeTruth>& queries,
+                                    double radius_m, double angle_rad);
 
 
 }  // namespace evermap::mapper

@@ -20,6 +20,8 @@ TEST(MapperConfig, ReadsEveryKindOfSettingAndKeepsTheDefaultsOfTheRest) {
       "mapper.map_gate = 0\n"
       "mapper.fuse_active_registration = false\n"
       "mapper.heading_bins = 16\n"
+      "mapper.overlap_heading_sectors = 0.5\n"
+      "mapper.min_closure_information = 2\n"
       "mapper.loop_kernel = cauchy:2\n"
       "mapper.vetted_loop_kernel = dcs\n"
       "mapper.solver.batch_every = 50\n"
@@ -32,6 +34,8 @@ TEST(MapperConfig, ReadsEveryKindOfSettingAndKeepsTheDefaultsOfTheRest) {
   EXPECT_EQ(o.map_gate, 0.0);
   EXPECT_FALSE(o.fuse_active_registration);
   EXPECT_EQ(o.heading_bins, 16);
+  EXPECT_EQ(o.overlap_heading_sectors, 0.5);
+  EXPECT_EQ(o.min_closure_information, 2.0);
   EXPECT_EQ(o.loop_kernel.type, solver::KernelType::kCauchy);
   EXPECT_EQ(o.loop_kernel.parameter, 2.0);
   EXPECT_EQ(o.vetted_loop_kernel.type, solver::KernelType::kDcs);
