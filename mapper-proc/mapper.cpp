@@ -614,7 +614,7 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
     return Ok{};
   }
   const InFlight f = *in_flight_;
-  if (msg.node_id >= 0 && msg.node_id < static_cast<int64_t>(nodes_.size()) &&
+  if (msg.node_id >= 0 && msg.node_id < static_cast<int64_t>(nodes_.size()) && floor_ >= 0 &&
       nodes_[static_cast<size_t>(msg.node_id)].floor != floor_) {
     // A place on another floor: the elevator cab, or a floor that looks like this one.
     ++stats_.rejected_floor;
@@ -671,6 +671,13 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     }
     relocalization_candidate_.reset();
     *registered = true;
+    if (floor_ < 0) {
+      // A restarted mapper that no FLOOR message has told its floor: the map's node says it.
+      floor_ = nodes_[static_cast<size_t>(b)].floor;
+      const auto height = floors_.find(floor_);
+      floor_height_m_ = height != floors_.end() ? height->second : nodePose(b).translation().z();
+      have_floor_ = true;
+    }
     // Re-localisation: b becomes active, no constraint (Δ had no meaning before it).
     active_ = b;
     tracker_.reset(core::compound(b_T_q, *q_T_now));
@@ -953,6 +960,9 @@ Status Mapper::restore(const MapSnapshot& map) {
   first_session_ = session_;
   active_ = n_nodes - 1;
   lost_ = true;  // where the robot is on this map is unknown until a global registration
+  // ... and so is its floor, unless a FLOOR message says it (a session's start, a ride's
+  // end): a mapper-proc restarted mid-session gets none, and searches every floor.
+  floor_ = -1;
   return Ok{};
 }
 

@@ -238,7 +238,9 @@ class Mapper {
   // stored order (merges and rejections come out as they did), then one solver batch. The
   // origin prior goes on node 0, height factors on every node and the stored roll/pitch
   // factors on their nodes. The mapper is then in a new session (one past the highest stored) and lost: only
-  // global registrations until one places it on the map. Errors: a mapper that already has
+  // global registrations until one places it on the map. Its floor is unknown (floor() -1)
+  // until a FLOOR message or that re-localisation tells it: the global searches cover every
+  // floor meanwhile (a mapper-proc restarted mid-session on an upper floor). Errors: a mapper that already has
   // nodes, node or edge ids that are not 0..n-1 in order, an edge naming an unknown node.
   Status restore(const MapSnapshot& map);
 

@@ -41,7 +41,7 @@ class Broker final : public sim::MessageSink {
   void write(const std::string& channel, int64_t utime, const std::vector<uint8_t>& data) override {
     if (!deliver_) return;
     const bool floor = channel == channels::kFloor;
-    if (utime <= resume_utime_ && !floor) return;
+    if (utime <= resume_utime_ && (!floor || !floors_before_resume_)) return;
     ++messages_;
     const int64_t size = static_cast<int64_t>(data.size());
     if (channel == channels::kVoDelta) {
@@ -59,7 +59,10 @@ class Broker final : public sim::MessageSink {
   void setAfterMessage(std::function<void(int64_t)> f) { after_message_ = std::move(f); }
   void setOnNode(std::function<void(const node_added_t&)> f) { on_node_ = std::move(f); }
   void setDeliver(bool deliver) { deliver_ = deliver; }
-  void setResumeUtime(int64_t utime) { resume_utime_ = utime; }
+  void setResumeUtime(int64_t utime, bool floors_before) {
+    resume_utime_ = utime;
+    floors_before_resume_ = floors_before;
+  }
 
   // Called by the simulator's observer when a keyframe's truth is known.
   void keyframeKnown(int64_t utime) {
@@ -120,6 +123,7 @@ class Broker final : public sim::MessageSink {
   int64_t false_matches_ = 0;
   bool deliver_ = true;
   int64_t resume_utime_ = -1;
+  bool floors_before_resume_ = true;
   std::function<void(int64_t)> after_message_;
   std::function<void(const node_added_t&)> on_node_;
 };
@@ -146,6 +150,7 @@ Status OfflineRunOptions::validate() const {
   if (!(timeline_interval_s >= 0.0)) return Error{"run.timeline_interval_s: must be >= 0"};
   if (!(revisit_radius_m > 0.0) || !(revisit_angle_rad > 0.0)) return Error{"run.revisit_*: must be > 0"};
   if (!(max_wall_s >= 0.0)) return Error{"run.max_wall_s: must be >= 0"};
+  if (!(stop_after_s >= 0.0)) return Error{"run.stop_after_s: must be >= 0"};
   return Ok{};
 }
 
@@ -244,7 +249,7 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     stored_nodes = static_cast<int64_t>(mapper.nodes().size());
     stored_constraints = static_cast<int64_t>(mapper.constraints().all().size());
   }
-  broker.setResumeUtime(resume_utime);
+  broker.setResumeUtime(resume_utime, run.floors_before_resume);
 
   std::vector<std::pair<int64_t, int>> step_floor;  // (keyframe utime, true floor), mapped part
   // Recent keyframe truths, for the true pose of each new node.
@@ -289,6 +294,10 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
       session_offsets.emplace_back(utime, operating_before_s);
     }
     timeline.sample(operating(utime), utime, current_session);
+    if (run.stop_after_s > 0 && !stopped_early && operating(utime) >= run.stop_after_s) {
+      stopped_early = true;
+      broker.setDeliver(false);
+    }
     if (run.max_wall_s > 0 && ++messages_seen % 1000 == 0 &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count() > run.max_wall_s) {
       stopped_early = true;
@@ -353,6 +362,7 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   if (!store_status) return store_status.error();
   OfflineRunSummary out;
   out.stopped_early = stopped_early;
+  out.final_floor = mapper.floor();
   out.operating_s = operating_reached_s;
   out.store_transactions = transactions;
   out.store_s = store_s;

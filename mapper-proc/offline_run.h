@@ -70,6 +70,13 @@ struct OfflineRunOptions {
   // > 0: stop mapping after this much wall time (the rest of the run is not simulated); the
   // summary then covers the operating time reached. For graphs that outgrow the machine.
   double max_wall_s = 0.0;
+  // > 0: stop mapping after this much operating time of the mapped sessions (message time:
+  // deterministic), as a process killed then would.
+  double stop_after_s = 0.0;
+  // With a stored map: the FLOOR messages before the resume point reach the restored mapper,
+  // as a log replayed from the session's start would bring them; false: none do, as for a
+  // mapper-proc restarted live (it learns its floor from the map when it relocalises).
+  bool floors_before_resume = true;
 
   Status validate() const;
 };
@@ -90,7 +97,8 @@ struct OfflineRunSummary {
   std::vector<int64_t> steps_by_session;
   std::vector<int64_t> steps_in_mapped_area_by_session;
   int64_t restored_nodes = 0;
-  bool stopped_early = false;   // OfflineRunOptions::max_wall_s reached
+  bool stopped_early = false;   // OfflineRunOptions::max_wall_s or stop_after_s reached
+  int final_floor = -1;         // the mapper's floor at the end (-1: not known)
   double operating_s = 0.0;     // operating time mapped
   double wall_s = 0.0;          // wall time of the whole run
   int64_t factors = 0;         // pair factors in the solver

@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <filesystem>
 
 #include "tests/scratch_dir.h"
 #include "mapper-proc/map_store.h"
@@ -65,6 +67,39 @@ TEST(MapperRestore, ASecondSessionContinuesTheStoredMapAndAddsNodesOnlyWhereItIs
   // (The second mapper restored the first session's rows, folds as one constraint each.)
   EXPECT_EQ(snap->constraintsRepresented(),
             first->constraints + second->constraints - second->stats.restored_constraints);
+}
+
+// mapper-proc killed mid-session on an upper floor and restarted live: no FLOOR message tells
+// the new process where it is (elevator-proc announces rides only). It relocalises against
+// its store, learns its floor from the map, and the map keeps growing.
+TEST(MapperRestore, AMapperRestartedMidSessionOnAnUpperFloorRelocalisesAndKeepsMapping) {
+  evermap::testing::ScratchDir dir;
+  OfflineRunOptions run;
+  run.store_file = dir.path() / "map.db";
+  run.first_session = run.last_session = 0;
+  // The first stop (20 s apart) where the exploration tour (about 300 s) is on a floor other
+  // than 0 (what a mapper that no FLOOR message has told its floor would take).
+  std::optional<OfflineRunSummary> killed;
+  for (double stop_s = 60.0; stop_s <= 240.0 && !killed; stop_s += 20.0) {
+    std::filesystem::remove(run.store_file);
+    run.stop_after_s = stop_s;
+    auto first = runOffline(twoSessions(), MapperOptions{}, run);
+    ASSERT_TRUE(first) << first.error().message;
+    ASSERT_TRUE(first->stopped_early);
+    if (first->final_floor > 0) killed = *first;
+  }
+  ASSERT_TRUE(killed) << "the session never left its first floor";
+
+  run.stop_after_s = 0.0;
+  run.floors_before_resume = false;  // a live restart: the log is not replayed to it
+  auto resumed = runOffline(twoSessions(), MapperOptions{}, run);
+  ASSERT_TRUE(resumed) << resumed.error().message;
+  EXPECT_EQ(resumed->restored_nodes, killed->nodes);
+  EXPECT_GE(resumed->stats.relocalizations, 1);
+  EXPECT_GT(resumed->stats.loop_closures, 0);
+  EXPECT_GT(resumed->nodes, killed->nodes + 20);  // mapping went on
+  EXPECT_EQ(resumed->final_floor, killed->final_floor);
+  EXPECT_LT(resumed->ate_rmse_m, 0.5);
 }
 
 TEST(MapperRestore, ReplaysEveryStoredConstraintIntoTheSameMergedPairs) {
