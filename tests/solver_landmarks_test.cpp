@@ -347,21 +347,13 @@ void expectSolvedWithinNoise(const sim::LandmarkGraph& lg, double max_pose_m, do
 }
 
 TEST(SolverLandmarks, CityTreesLikeProblemConvergesToTheTruthWithinNoiseBatchAndIncremental) {
-  sim::LandmarkGraphOptions o;
-  o.poses = 1000;
-  o.landmarks = 100;
   // Loose bounds in metres as a sanity check (1000 steps with 0.01 rad heading noise drift
   // by metres without the landmarks); the χ² test above is the real one.
-  expectSolvedWithinNoise(sim::cityTreesLike(o), 2.0, 1.0);
+  expectSolvedWithinNoise(sim::cityTreesLike(sim::cityTreesOptions(1000)), 2.0, 1.0);
 }
 
 TEST(SolverLandmarks, TorusPointsLikeProblemConvergesToTheTruthWithinNoiseBatchAndIncremental) {
-  sim::LandmarkGraphOptions o;
-  o.poses = 1000;
-  o.landmarks = 200;
-  o.odometry_sigma_m = 0.02;
-  o.odometry_sigma_rad = 0.005;
-  expectSolvedWithinNoise(sim::torusPointsLike(o), 2.5, 1.5);
+  expectSolvedWithinNoise(sim::torusPointsLike(sim::torusPointsOptions(1000)), 2.5, 1.5);
 }
 
 TEST(SolverLandmarks, G2oWriterRoundTripsLandmarksWithTheSameCost) {

@@ -46,6 +46,24 @@ struct IdMap {
 
 }  // namespace
 
+LandmarkGraphOptions cityTreesOptions(int poses, uint64_t seed) {
+  LandmarkGraphOptions o;
+  o.poses = poses;
+  o.landmarks = poses / 10;
+  o.seed = seed;
+  return o;
+}
+
+LandmarkGraphOptions torusPointsOptions(int poses, uint64_t seed) {
+  LandmarkGraphOptions o;
+  o.poses = poses;
+  o.landmarks = poses / 5;
+  o.odometry_sigma_m = 0.02;
+  o.odometry_sigma_rad = 0.005;
+  o.seed = seed;
+  return o;
+}
+
 LandmarkGraph cityTreesLike(const LandmarkGraphOptions& o) {
   Random motion = Random::derive(o.seed, 1);
   Random place = Random::derive(o.seed, 2);

@@ -43,6 +43,11 @@ struct LandmarkGraph {
   int observed_landmarks = 0;
 };
 
+// The settings of the bench, the tests and docs/solver.md: cityTrees-like with poses / 10
+// landmarks; torusPoints-like with poses / 5 landmarks and odometry σ 0.02 m / 0.005 rad.
+LandmarkGraphOptions cityTreesOptions(int poses, uint64_t seed = 1);
+LandmarkGraphOptions torusPointsOptions(int poses, uint64_t seed = 1);
+
 // 2-D: a walk on a 1 m grid (turns of ±90° at random, kept inside a square sized to the
 // number of poses), landmarks uniform over the square.
 LandmarkGraph cityTreesLike(const LandmarkGraphOptions& options);
