@@ -48,8 +48,8 @@ TEST(GraphIo, ReadsG2o2dVerticesEdgesAndCountsUnknownTags) {
              "VERTEX_SE2 1 1.0 0.1 0.2\n"
              "\n"
              "EDGE_SE2 0 1 1.0 0.0 0.1 100 0 0 100 0 400\n"
-             "VERTEX_XY 7 1 2\n"
-             "VERTEX_XY 8 1 2\n"
+             "VERTEX_SE2_UNKNOWN 7 1 2\n"
+             "VERTEX_SE2_UNKNOWN 8 1 2\n"
              "FIX 0\n");
   auto g = readGraphFile(f.path());
   ASSERT_TRUE(g.ok()) << g.error().message;
@@ -57,7 +57,7 @@ TEST(GraphIo, ReadsG2o2dVerticesEdgesAndCountsUnknownTags) {
   EXPECT_EQ(g->dimension, 2);
   ASSERT_EQ(g->vertices.size(), 2u);
   ASSERT_EQ(g->edges.size(), 1u);
-  EXPECT_EQ(g->skipped_tags.at("VERTEX_XY"), 2);
+  EXPECT_EQ(g->skipped_tags.at("VERTEX_SE2_UNKNOWN"), 2);
   EXPECT_EQ(g->skippedLines(), 2);
   EXPECT_EQ(g->fixed, std::vector<Key>{0});
   EXPECT_EQ(g->edges[0].line, 5);

@@ -1,6 +1,7 @@
 // evermap-solver as a process: the status line printed last and the exit status tell whether
 // the optimisation converged (0) or ran out of its iteration budget (3); an indefinite
-// information matrix is refused naming the edge unless a rule is chosen.
+// information matrix is refused naming the edge unless a rule is chosen; landmark lines are
+// solved, not dropped, and a malformed one is a one-line error naming file:line.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -12,6 +13,8 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+
+#include "core/sim/landmark_graphs.h"
 
 namespace {
 
@@ -92,6 +95,46 @@ TEST(SolverTool, RefusesAnIndefiniteInformationMatrixUnlessARuleIsChosen) {
   const ToolRun sesync = run("--batch --objective sesync " + g.string());
   EXPECT_EQ(sesync.exit_status, 0) << sesync.output;
   fs::remove(g);
+}
+
+double numberAfter(const std::string& text, const std::string& label) {
+  const size_t at = text.find(label);
+  if (at == std::string::npos) return -1.0;
+  return std::stod(text.substr(at + label.size()));
+}
+
+TEST(SolverTool, SolvesIsamLandmarkLinesInsteadOfDroppingThem) {
+  ASSERT_TRUE(fs::exists(kSolver)) << kSolver << " not built";
+  evermap::sim::LandmarkGraphOptions o;
+  o.poses = 300;
+  o.landmarks = 40;
+  const auto lg = evermap::sim::cityTreesLike(o);
+  const fs::path path = fs::temp_directory_path() /
+                        ("evermap_solver_tool_" + std::to_string(::getpid()) + "_trees.txt");
+  std::ofstream(path) << lg.isam_text;
+  const ToolRun batch = run("--batch " + path.string());
+  const ToolRun inc = run(path.string());
+  for (const ToolRun* r : {&batch, &inc}) {
+    EXPECT_EQ(r->exit_status, 0) << r->output;
+    EXPECT_EQ(r->output.find("skipped"), std::string::npos) << r->output;
+    EXPECT_NE(r->output.find(std::to_string(lg.observed_landmarks) + " landmarks, " +
+                             std::to_string(lg.observations) + " landmark observations"),
+              std::string::npos)
+        << r->output;
+  }
+  const std::string label = "weighted SSE of the edges and landmarks (no 1/2)";
+  const double sse_batch = numberAfter(batch.output, label);
+  const double sse_inc = numberAfter(inc.output, label);
+  EXPECT_GT(sse_batch, 1.0);  // noisy data: not the pose chain alone (≈ 0)
+  EXPECT_NEAR(sse_inc, sse_batch, 1e-6 * sse_batch);
+
+  std::ofstream(path) << "ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 0 2.5 -1 5 0.5\n";
+  const ToolRun bad = run(path.string());
+  EXPECT_EQ(bad.exit_status, 1);
+  EXPECT_EQ(bad.output.rfind("evermap-solver: " + path.string() + ":2: LANDMARK expects 7 fields, got 6", 0), 0u)
+      << bad.output;
+  EXPECT_EQ(bad.output.find('\n'), bad.output.size() - 1) << "one line: " << bad.output;
+  fs::remove(path);
 }
 
 }  // namespace

@@ -24,7 +24,7 @@ core::Mat3 projectToSO3(const core::Mat3& M) {
 
 Expected<Values> chordalInitialization(const GraphFile& graph) {
   // Reachability and a key order come from the odometry chain.
-  auto odo = odometryInitialization(graph);
+  auto odo = odometryPoseInitialization(graph);
   if (!odo.ok()) return odo.error();
   const Values& chain = *odo;
   const int d = graph.dimension;
@@ -40,6 +40,7 @@ Expected<Values> chordalInitialization(const GraphFile& graph) {
   Values out;
   if (n == 0) {
     out.add(anchor, chain[anchor]);
+    if (auto st = addLandmarkInitialization(graph, false, &out); !st.ok()) return st.error();
     return out;
   }
   struct E {
@@ -149,6 +150,7 @@ Expected<Values> chordalInitialization(const GraphFile& graph) {
       out.add(key, PoseValue::spatial(core::SE3d(core::SO3d::fromMatrix(R[v]), t)));
     }
   }
+  if (auto st = addLandmarkInitialization(graph, false, &out); !st.ok()) return st.error();
   return out;
 }
 

@@ -1,4 +1,5 @@
 // g2o writer (declared in core/solver/graph_io.h).
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
@@ -46,8 +47,29 @@ Status writeG2o(const std::filesystem::path& path, const GraphFile& graph, const
     std::ofstream out(tmp);
     if (!out) return makeError(tmp.string(), ": cannot open for writing");
     out << std::setprecision(17);
+    // One sensor-offset parameter per id read, and an identity one for observations
+    // without (iSAM's POINT3), under the first free id.
+    int identity_param = 0;
+    for (const auto& [id, offset] : graph.sensor_offsets) {
+      identity_param = std::max(identity_param, id + 1);
+      out << "PARAMS_SE3OFFSET " << id << ' ';
+      writePose(out, PoseValue::spatial(offset));
+      out << '\n';
+    }
+    bool need_identity = false;
+    for (const GraphObservation& o : graph.observations) need_identity |= o.offset_param < 0;
+    if (graph.dimension == 3 && need_identity) {
+      out << "PARAMS_SE3OFFSET " << identity_param << " 0 0 0 0 0 0 1\n";
+    }
     for (int i = 0; i < values.size(); ++i) {
       const PoseValue& p = values.at(i);
+      if (p.isPoint()) {
+        out << (p.kind == PoseKind::kPoint2 ? "VERTEX_XY " : "VERTEX_TRACKXYZ ") << values.keyAt(i)
+            << ' ' << p.point.x() << ' ' << p.point.y();
+        if (p.kind == PoseKind::kPoint3) out << ' ' << p.point.z();
+        out << '\n';
+        continue;
+      }
       out << (p.kind == PoseKind::kSE2 ? "VERTEX_SE2 " : "VERTEX_SE3:QUAT ") << values.keyAt(i)
           << ' ';
       writePose(out, p);
@@ -58,6 +80,18 @@ Status writeG2o(const std::filesystem::path& path, const GraphFile& graph, const
       out << (planar ? "EDGE_SE2 " : "EDGE_SE3:QUAT ") << e.from << ' ' << e.to << ' ';
       writePose(out, e.measurement);
       const Eigen::MatrixXd I = g2oInformation(graph, e);
+      for (int r = 0; r < I.rows(); ++r) {
+        for (int c = r; c < I.cols(); ++c) out << ' ' << I(r, c);
+      }
+      out << '\n';
+    }
+    for (const GraphObservation& o : graph.observations) {
+      const bool planar = graph.dimension == 2;
+      out << (planar ? "EDGE_SE2_XY " : "EDGE_SE3_TRACKXYZ ") << o.pose << ' ' << o.landmark << ' ';
+      if (!planar) out << (o.offset_param >= 0 ? o.offset_param : identity_param) << ' ';
+      out << o.measured.x() << ' ' << o.measured.y();
+      if (!planar) out << ' ' << o.measured.z();
+      const Eigen::MatrixXd I = o.sqrt_information.transpose() * o.sqrt_information;
       for (int r = 0; r < I.rows(); ++r) {
         for (int c = r; c < I.cols(); ++c) out << ' ' << I(r, c);
       }

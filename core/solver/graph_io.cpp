@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include <Eigen/Eigenvalues>
@@ -90,7 +91,11 @@ GraphFormat sniff(const std::filesystem::path& path) {
     const auto t = tokens(line);
     if (t.empty() || t[0][0] == '#') continue;
     const std::string& tag = t[0];
-    if (tag.rfind("VERTEX_SE", 0) == 0 || tag.rfind("EDGE_SE", 0) == 0) return GraphFormat::kG2o;
+    if (tag.rfind("VERTEX_SE", 0) == 0 || tag.rfind("EDGE_SE", 0) == 0 || tag == "VERTEX_XY" ||
+        tag == "VERTEX_TRACKXYZ" || tag == "PARAMS_SE3OFFSET") {
+      return GraphFormat::kG2o;
+    }
+    if (tag == "LANDMARK" || tag == "POINT3") return GraphFormat::kIsam;
     if (tag == "VERTEX2" || tag == "VERTEX3") return GraphFormat::kToro;
     if (tag == "ODOMETRY") return GraphFormat::kIsam;
     if (tag == "EDGE2" || tag == "EDGE3") saw_edge2_or_3 = true;
@@ -209,6 +214,13 @@ Expected<int> resolveIndefiniteInformation(GraphFile* g, IndefiniteInformation r
   return changed;
 }
 
+int GraphFile::numLandmarks() const {
+  std::set<Key> ids;
+  for (const GraphLandmark& l : landmarks) ids.insert(l.id);
+  for (const GraphObservation& o : observations) ids.insert(o.landmark);
+  return static_cast<int>(ids.size());
+}
+
 int GraphFile::skippedLines() const {
   int n = 0;
   for (const auto& [tag, count] : skipped_tags) n += count;
@@ -231,6 +243,7 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
     return Ok{};
   };
   std::map<Key, int> seen;
+  std::set<Key> landmark_vertices;
   std::string line;
   int line_no = 0;
   double v[40];
@@ -360,6 +373,71 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
       e.sqrt_information = *W;
       e.line = line_no;
       g.edges.push_back(std::move(e));
+    } else if (g.format == GraphFormat::kG2o && (tag == "VERTEX_XY" || tag == "VERTEX_TRACKXYZ")) {
+      const int d = tag == "VERTEX_XY" ? 2 : 3;
+      GraphLandmark l;
+      EVERMAP_TRY(setDim(d, where));
+      EVERMAP_TRY(p.expectFields({static_cast<size_t>(d + 1)}));
+      EVERMAP_TRY(p.keyAt(1, &l.id));
+      EVERMAP_TRY(p.numbers(2, d, v));
+      if (seen.count(l.id) || !landmark_vertices.insert(l.id).second) {
+        return makeError(where, ": vertex ", l.id, " defined twice");
+      }
+      l.position = d == 2 ? PoseValue::point2(core::Vec2(v[0], v[1]))
+                          : PoseValue::point3(core::Vec3(v[0], v[1], v[2]));
+      g.landmarks.push_back(l);
+    } else if (g.format == GraphFormat::kG2o && tag == "PARAMS_SE3OFFSET") {
+      Key id;
+      EVERMAP_TRY(p.expectFields({8}));
+      EVERMAP_TRY(p.keyAt(1, &id));
+      EVERMAP_TRY(p.numbers(2, 7, v));
+      const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
+      if (q.norm() < 1e-6) return makeError(where, ": quaternion has zero norm");
+      g.sensor_offsets[static_cast<int>(id)] = core::SE3d(q, core::Vec3(v[0], v[1], v[2]));
+    } else if ((g.format == GraphFormat::kG2o && (tag == "EDGE_SE2_XY" || tag == "EDGE_SE3_TRACKXYZ")) ||
+               (g.format == GraphFormat::kIsam && (tag == "LANDMARK" || tag == "POINT3"))) {
+      const bool isam = g.format == GraphFormat::kIsam;
+      const int d = (tag == "EDGE_SE2_XY" || tag == "LANDMARK") ? 2 : 3;
+      const size_t tri = d == 2 ? 3 : 6;        // upper-triangle entries
+      const size_t param = tag == "EDGE_SE3_TRACKXYZ" ? 1 : 0;
+      GraphObservation o;
+      EVERMAP_TRY(setDim(d, where));
+      if (tag == "POINT3") {
+        EVERMAP_TRY(p.expectFields({5, 11}));
+      } else {
+        EVERMAP_TRY(p.expectFields({2 + param + d + tri}));
+      }
+      EVERMAP_TRY(p.keyAt(1, &o.pose));
+      EVERMAP_TRY(p.keyAt(2, &o.landmark));
+      if (isam) o.landmark = isamLandmarkKey(o.landmark);
+      if (param) {
+        Key id;
+        EVERMAP_TRY(p.keyAt(3, &id));
+        const auto it = g.sensor_offsets.find(static_cast<int>(id));
+        if (it == g.sensor_offsets.end()) {
+          return makeError(where, ": ", tag, " uses parameter ", id,
+                           " without a PARAMS_SE3OFFSET line before it");
+        }
+        o.offset_param = static_cast<int>(id);
+        o.pose_T_sensor = it->second;
+      }
+      const size_t first = 3 + param;
+      EVERMAP_TRY(p.numbers(first, t.size() - first, v));
+      for (int k = 0; k < d; ++k) o.measured[k] = v[k];
+      if (t.size() - first == static_cast<size_t>(d)) {
+        o.sqrt_information = Eigen::MatrixXd::Identity(d, d);  // iSAM's POINT3 without numbers
+      } else if (isam) {
+        auto W = checkSqrtInformation(upperFromRowMajor(v + d, d, false), where);
+        if (!W.ok()) return W.error();
+        o.sqrt_information = *W;
+      } else {
+        auto W = sqrtInformationFromInformation(upperFromRowMajor(v + d, d, true), where);
+        if (!W.ok()) return W.error();
+        o.sqrt_information = *W;
+      }
+      o.line = line_no;
+      o.edges_before = static_cast<int>(g.edges.size());
+      g.observations.push_back(std::move(o));
     } else {
       ++g.skipped_tags[tag];
     }
@@ -367,6 +445,17 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
     (void)st;
   }
   if (in.bad()) return makeError(path.string(), ": read error");
+  for (Key id : landmark_vertices) {
+    if (seen.count(id)) return makeError(path.string(), ": vertex ", id, " is both a pose and a landmark");
+  }
+  if (g.format == GraphFormat::kIsam && !g.observations.empty()) {
+    for (const GraphEdge& e : g.edges) {
+      if (std::max(e.from, e.to) >= kIsamLandmarkKeyBase) {
+        return makeError(path.string(), ":", e.line, ": pose id ", std::max(e.from, e.to),
+                         " collides with the landmark keys (from ", kIsamLandmarkKeyBase, ")");
+      }
+    }
+  }
   return g;
 }
 

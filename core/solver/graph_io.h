@@ -11,6 +11,18 @@
 //        iSAM 1.6's Loader reads the angles of EDGE3 as roll, pitch, yaw (the first angle
 //        is roll), stores them as (yaw, pitch, roll) and reverses the lower-right 3x3 of the
 //        square root accordingly; we do exactly the same, so the costs are iSAM's.
+// Point landmarks (2-D and 3-D): a pose observes a point in its own frame.
+//  iSAM  LANDMARK i j x y  sxx sxy syy        (pose i, landmark j; square-root information)
+//        POINT3 i j x y z [s11 s12 s13 s22 s23 s33]   (no numbers: identity, as iSAM)
+//        iSAM numbers landmarks apart from poses: landmark j gets the key
+//        kIsamLandmarkKeyBase + j (isamLandmarkKey). iSAM 1.6/1.7's Loader has no other
+//        landmark lines (no POINT2D / POINT3D), nor have we.
+//  g2o   VERTEX_XY id x y                     EDGE_SE2_XY i j x y  I11 I12 I22
+//        VERTEX_TRACKXYZ id x y z             EDGE_SE3_TRACKXYZ i j param x y z  I (6 entries)
+//        PARAMS_SE3OFFSET param x y z qx qy qz qw  (the sensor's pose in the robot's frame)
+//        (information, upper triangle row by row; one id space for poses and landmarks)
+// A landmark line whose pose or point is of the wrong dimension, whose parameter is unknown
+// or whose numbers are malformed is an error naming file:line.
 // Every edge measures pose j in the frame of pose i (i_T_j). Lines that are blank or start
 // with '#' are ignored; lines with another tag are skipped and counted. A malformed line, a
 // value that is not finite or an information matrix that is not symmetric is an error naming
@@ -66,15 +78,43 @@ struct GraphEdge {
   }
 };
 
+// iSAM's landmark ids live apart from its pose ids; the solver has one key space.
+inline constexpr Key kIsamLandmarkKeyBase = 1'000'000'000;
+inline Key isamLandmarkKey(Key landmark_id) { return kIsamLandmarkKeyBase + landmark_id; }
+
+// A landmark with a position in the file (g2o VERTEX_XY / VERTEX_TRACKXYZ).
+struct GraphLandmark {
+  Key id = 0;
+  PoseValue position;  // kPoint2 or kPoint3, world frame
+};
+
+// A pose observing a landmark: the point in the pose's frame (2-D: z of `measured` is 0).
+struct GraphObservation {
+  Key pose = 0;
+  Key landmark = 0;
+  core::Vec3 measured = core::Vec3::Zero();
+  Eigen::MatrixXd sqrt_information;  // upper triangular, 2x2 or 3x3
+  core::SE3d pose_T_sensor;          // g2o's PARAMS_SE3OFFSET (3-D), else identity
+  int offset_param = -1;             // g2o parameter id, -1 when none
+  int line = 0;
+  // Edges (pose-pose) that came before this line in the file: the online order.
+  int edges_before = 0;
+};
+
 struct GraphFile {
   std::string path;
   GraphFormat format = GraphFormat::kG2o;
   int dimension = 2;  // 2 or 3
   std::vector<GraphVertex> vertices;  // file order
   std::vector<GraphEdge> edges;       // file order
+  std::vector<GraphLandmark> landmarks;        // file order (g2o only)
+  std::vector<GraphObservation> observations;  // file order
+  std::map<int, core::SE3d> sensor_offsets;    // g2o PARAMS_SE3OFFSET
   std::vector<Key> fixed;             // g2o FIX
   std::map<std::string, int> skipped_tags;
   int skippedLines() const;
+  // Distinct landmarks observed or defined.
+  int numLandmarks() const;
 };
 
 // Reads a file; kAuto decides by content (g2o tags; VERTEX2 or a .graph name → TORO;
@@ -94,8 +134,9 @@ Eigen::MatrixXd nearestPositiveDefinite(const Eigen::MatrixXd& information,
 // changed. kRefuse errors on the first such edge, naming it.
 Expected<int> resolveIndefiniteInformation(GraphFile* graph, IndefiniteInformation rule);
 
-// Writes vertices (poses from `values`, keyed as in the file) and edges in g2o format, to a
-// temporary name in the same folder, then renamed. Edge information is WᵀW of each edge.
+// Writes vertices (poses and landmarks from `values`, keyed as in the solver) and edges and
+// observations in g2o format, to a temporary name in the same folder, then renamed. Edge
+// information is WᵀW of each edge (landmark residuals are the same in iSAM and g2o).
 Status writeG2o(const std::filesystem::path& path, const GraphFile& graph, const Values& values);
 
 }  // namespace evermap::solver

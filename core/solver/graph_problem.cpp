@@ -5,6 +5,7 @@
 
 #include <Eigen/Cholesky>
 
+#include "core/solver/landmark_factors.h"
 #include "core/solver/pose_factors.h"
 
 namespace evermap::solver {
@@ -31,6 +32,10 @@ SeSyncWeights seSyncWeights(const GraphEdge& edge, int dimension) {
 }
 
 Status checkInformation(const GraphFile& graph, Objective objective) {
+  if (objective == Objective::kSeSync && !graph.observations.empty()) {
+    return makeError(graph.path, ":", graph.observations.front().line, ": SE-Sync's objective "
+                     "has no landmark term; use --objective native for files with landmarks");
+  }
   for (const GraphEdge& e : graph.edges) {
     const auto where = [&] {
       return graph.path + ":" + std::to_string(e.line) + ": edge " + std::to_string(e.from) + "-" +
@@ -135,7 +140,49 @@ PoseValue identityPose(int dimension) {
 
 }  // namespace
 
+FactorPtr makeObservationFactor(const GraphFile& graph, const GraphObservation& o) {
+  if (graph.dimension == 2) {
+    return std::make_shared<PosePoint2Factor>(o.pose, o.landmark, o.measured.head<2>(),
+                                              o.sqrt_information);
+  }
+  return std::make_shared<PosePoint3Factor>(o.pose, o.landmark, o.measured, o.sqrt_information,
+                                            o.pose_T_sensor);
+}
+
+Status addLandmarkInitialization(const GraphFile& graph, bool file_positions, Values* values) {
+  if (file_positions) {
+    for (const GraphLandmark& l : graph.landmarks) {
+      if (values->contains(l.id)) return makeError(graph.path, ": vertex ", l.id, " is both a pose and a landmark");
+      values->add(l.id, l.position);
+    }
+  }
+  for (const GraphObservation& o : graph.observations) {
+    const int p = values->indexOf(o.pose);
+    if (p < 0 || values->at(p).isPoint()) {
+      return makeError(graph.path, ":", o.line, ": landmark ", o.landmark, " observed from ",
+                       p < 0 ? "pose " : "landmark ", o.pose,
+                       p < 0 ? ", which no edge connects to the first pose" : " (not a pose)");
+    }
+    const int l = values->indexOf(o.landmark);
+    if (l >= 0) {
+      if (!values->at(l).isPoint()) {
+        return makeError(graph.path, ":", o.line, ": landmark id ", o.landmark, " is a pose");
+      }
+      continue;
+    }
+    values->add(o.landmark, observationInitialValue(values->at(p), o.measured, o.pose_T_sensor));
+  }
+  return Ok{};
+}
+
 Expected<Values> odometryInitialization(const GraphFile& graph) {
+  auto values = odometryPoseInitialization(graph);
+  if (!values.ok()) return values;
+  if (auto st = addLandmarkInitialization(graph, false, &*values); !st.ok()) return st.error();
+  return values;
+}
+
+Expected<Values> odometryPoseInitialization(const GraphFile& graph) {
   std::map<Key, PoseValue> pose;
   pose[firstPoseId(graph)] = identityPose(graph.dimension);
   std::vector<Key> order = {firstPoseId(graph)};
@@ -183,6 +230,7 @@ Expected<Values> fileInitialization(const GraphFile& graph) {
     }
   }
   if (values.size() == 0) return makeError(graph.path, ": has no VERTEX lines");
+  if (auto st = addLandmarkInitialization(graph, true, &values); !st.ok()) return st.error();
   return values;
 }
 
@@ -204,6 +252,14 @@ Expected<PoseGraph> buildPoseGraph(const GraphFile& graph, const Values& initial
     }
     auto id = g.addFactor(std::move(f));
     if (!id.ok()) return makeError(graph.path, ":", e.line, ": ", id.error().message);
+  }
+  for (const GraphObservation& o : graph.observations) {
+    FactorPtr f = makeObservationFactor(graph, o);
+    if (options.kernel.active() && options.robust_odometry) {
+      f->setKernel(kernelForFactor(options.kernel, f->dim()));
+    }
+    auto id = g.addFactor(std::move(f));
+    if (!id.ok()) return makeError(graph.path, ":", o.line, ": ", id.error().message);
   }
   return g;
 }

@@ -18,6 +18,11 @@
 //              the rotation matrices, projected onto SO(d); Martinec & Pajdla 2007,
 //              Carlone et al. ICRA 2015), then translations by linear least squares with
 //              the rotations fixed. First pose anchored at the origin.
+//   landmarks — after the poses, in every initialisation: each landmark from its first
+//              observation in file order, pose ⊕ measurement (iSAM's and g2o's rule); with
+//              the file's initialisation a g2o VERTEX_XY / VERTEX_TRACKXYZ position first.
+// Landmark observations are factors of their own kind (core/solver/landmark_factors.h); the
+// SE-Sync objective has no landmark term, so it refuses a file with landmarks.
 
 #include <vector>
 
@@ -59,6 +64,13 @@ bool isOdometryEdge(const GraphEdge& edge);
 Key firstPoseId(const GraphFile& graph);
 
 Expected<Values> odometryInitialization(const GraphFile& graph);
+// The odometry chain's poses only (no landmarks).
+Expected<Values> odometryPoseInitialization(const GraphFile& graph);
+// Appends every landmark not yet in `values` (see above); errors, naming file:line, when an
+// observation's pose has no value or its landmark key holds a pose.
+Status addLandmarkInitialization(const GraphFile& graph, bool file_positions, Values* values);
+// The factor of one landmark observation (iSAM's and g2o's residual, which agree).
+FactorPtr makeObservationFactor(const GraphFile& graph, const GraphObservation& observation);
 Expected<Values> chordalInitialization(const GraphFile& graph);
 // The file's own VERTEX lines; errors when an edge refers to a pose without one.
 Expected<Values> fileInitialization(const GraphFile& graph);
@@ -72,7 +84,8 @@ struct BuildOptions {
   bool anchor = true;
 };
 
-// A PoseGraph with `initial` values and one factor per edge (plus the anchor).
+// A PoseGraph with `initial` values and one factor per edge and per landmark observation
+// (plus the anchor). The kernel goes on observations only with robust_odometry (all factors).
 Expected<PoseGraph> buildPoseGraph(const GraphFile& graph, const Values& initial,
                                    const BuildOptions& options);
 

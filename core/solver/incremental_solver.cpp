@@ -324,11 +324,7 @@ Status IncrementalSolver::moveLinearizationPoint() {
         theta.at(v) = p;
         continue;
       }
-      const bool finite =
-          p.kind == PoseKind::kSE2
-              ? p.se2.vector().allFinite()
-              : (p.se3.translation().allFinite() && p.se3.quaternion().coeffs().allFinite());
-      if (!finite) {
+      if (!allFinite(p)) {
         return makeError("the estimate diverged (variable ", theta.keyAt(v),
                          " is not finite); try --method dogleg or a robust kernel");
       }

@@ -2,7 +2,10 @@
 // Feeds a pose-graph file to the incremental solver in file order, one step per new pose,
 // as iSAM's command line does: a step adds the new pose (initialised by composing the
 // current estimate of its neighbour with the measurement — odometry chaining) and every
-// edge up to the next new pose. Timing is the caller's business (no clock in here).
+// edge up to the next new pose. Landmark observations join the step in which their line
+// comes (the observing pose must exist by then); a landmark first seen is added in that step,
+// initialised as the observing pose's current estimate ⊕ the measurement (iSAM's rule).
+// Timing is the caller's business (no clock in here).
 
 #include <vector>
 
@@ -37,6 +40,8 @@ class OnlineRunner {
     Key new_pose = 0;
     int init_edge = -1;  // edge that initialises the new pose (-1: the first pose)
     std::vector<int> edges;
+    std::vector<int> observations;   // indices into graph.observations
+    std::vector<int> new_landmarks;  // observations that introduce their landmark
   };
   const GraphFile& graph_;
   OnlineOptions options_;

@@ -155,12 +155,17 @@ GraphFile addFalseLoopClosures(const GraphFile& graph, const OutlierOptions& opt
                    [](const auto& x, const auto& y) { return x.first < y.first; });
   out.edges.clear();
   size_t next = 0;
+  // new_index[e]: where file edge e lands, so landmark observations keep their place.
+  std::vector<int> new_index(graph.edges.size() + 1);
   for (int e = 0; e < static_cast<int>(graph.edges.size()); ++e) {
+    new_index[e] = static_cast<int>(out.edges.size());
     out.edges.push_back(graph.edges[e]);
     while (next < inserts.size() && inserts[next].first == e) {
       out.edges.push_back(inserts[next++].second);
     }
   }
+  new_index[graph.edges.size()] = static_cast<int>(out.edges.size());
+  for (GraphObservation& o : out.observations) o.edges_before = new_index[o.edges_before];
   return out;
 }
 

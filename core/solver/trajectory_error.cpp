@@ -19,7 +19,7 @@ Expected<TrajectoryError> absoluteTrajectoryError(const Values& estimate, const 
   std::vector<Eigen::Vector3d> g;
   for (int i = 0; i < estimate.size(); ++i) {
     const int j = truth.indexOf(estimate.keyAt(i));
-    if (j < 0) continue;
+    if (j < 0 || estimate.at(i).isPoint() || truth.at(j).isPoint()) continue;  // poses only
     e.push_back(position(estimate.at(i)));
     g.push_back(position(truth.at(j)));
   }

@@ -65,7 +65,8 @@ Expected<Values> initialValues(const GraphFile& g, const ToolOptions& o) {
 
 // The costs of the final estimate. The anchor prior (factor 0, iSAM's 100·I on the first
 // pose, which fixes the gauge) is not part of the file, so the χ², SSE and f lines sum the
-// file's edges only and the anchor term is printed on its own line.
+// file's edges and landmark observations only and the anchor term is printed on its own
+// line (f is SE-Sync's cost of the pose edges alone).
 void printResult(const GraphFile& g, const PoseGraph& graph, const Values& estimate,
                  Objective objective) {
   Cost edges;
@@ -79,8 +80,9 @@ void printResult(const GraphFile& g, const PoseGraph& graph, const Values& estim
     sum.residual_dim += c.residual_dim;
   }
   const int64_t dof = edges.residual_dim - (estimate.totalDim() - estimate.at(0).dim());
-  std::printf("final chi2 of the edges (robust cost, sum rho)   %.10g\n", edges.robust);
-  std::printf("weighted SSE of the edges (no 1/2)               %.10g\n", edges.weighted_sse);
+  const char* what = g.observations.empty() ? "edges" : "edges and landmarks";
+  std::printf("final chi2 of the %s (robust cost, sum rho)   %.10g\n", what, edges.robust);
+  std::printf("weighted SSE of the %s (no 1/2)               %.10g\n", what, edges.weighted_sse);
   std::printf("normalized chi2                                  %.6g  (SSE / %lld dof)\n",
               dof > 0 ? edges.weighted_sse / dof : 0.0, static_cast<long long>(dof));
   std::printf("anchor prior on pose %lld (not in the file)        %.3g\n",
@@ -142,6 +144,10 @@ int main(int argc, char** argv) {
   GraphFile g = std::move(*file);
   std::printf("%s: %s, %d-D, %zu vertices, %zu edges", g.path.c_str(), graphFormatName(g.format),
               g.dimension, g.vertices.size(), g.edges.size());
+  if (!g.observations.empty() || !g.landmarks.empty()) {
+    std::printf(", %d landmarks, %zu landmark observations", g.numLandmarks(),
+                g.observations.size());
+  }
   if (g.skippedLines() > 0) {
     std::printf(", skipped:");
     for (const auto& [tag, n] : g.skipped_tags) std::printf(" %s x%d", tag.c_str(), n);
