@@ -221,8 +221,11 @@ Status ViewerState::onStats(const mapper_stats_t& msg) {
   board_.post(Topic::kStats, j.take());
 
   // The history keeps one MAPPER_STATS in history_stride_; when full, every other point goes
-  // and the stride doubles, so the plot covers the whole run in bounded memory.
-  if (history_seen_++ % history_stride_ == 0) {
+  // and the stride doubles, so the plot covers the whole run in bounded memory. A mapper with
+  // no message yet says utime -1, and a stamp older than the last point (a log replayed again)
+  // would fold the plot back: neither is a point.
+  const bool in_order = msg.utime > 0 && (history_.empty() || msg.utime >= history_.back().utime);
+  if (in_order && history_seen_++ % history_stride_ == 0) {
     HistoryPoint p{msg.utime, msg.num_nodes, {}};
     for (size_t k = 0; k < msg.component_names.size() && k < 16; ++k)
       p.component_ms.emplace_back(clip(msg.component_names[k], 40), msg.component_ms[k]);

@@ -23,6 +23,7 @@ struct WebServer::Client {
   int last_topic = -1;
   Board::Text text;   // being sent
   size_t offset = 0;  // bytes of `text` sent
+  int credit = 0;     // texts it may still be sent before it acknowledges one
   std::vector<unsigned char> buffer;  // LWS_PRE + one fragment
 };
 
@@ -48,6 +49,7 @@ Status WebServerOptions::validate() const {
   if (max_clients < 1) return makeError("max_clients: must be >= 1, got ", max_clients);
   if (fragment_bytes < 1024) return makeError("fragment_bytes: must be >= 1024, got ", fragment_bytes);
   if (stall_timeout_s < 1) return makeError("stall_timeout_s: must be >= 1, got ", stall_timeout_s);
+  if (max_in_flight < 1) return makeError("max_in_flight: must be >= 1, got ", max_in_flight);
   if (!std::filesystem::is_regular_file(web_dir / "index.html"))
     return makeError("web_dir: ", web_dir.string(), " holds no index.html");
   return Ok{};
@@ -136,6 +138,7 @@ int WebServer::onEvent(lws* wsi, int reason, void* user, void* in, size_t len) {
     case LWS_CALLBACK_ESTABLISHED:
       new (c) Client();
       c->buffer.resize(LWS_PRE + static_cast<size_t>(o_.fragment_bytes));
+      c->credit = o_.max_in_flight;
       ++clients_;
       ++connections_;
       lws_callback_on_writable(wsi);
@@ -151,7 +154,13 @@ int WebServer::onEvent(lws* wsi, int reason, void* user, void* in, size_t len) {
       lws_callback_on_writable_all_protocol(context_, &tables_->protocols[1]);
       return 0;
     case LWS_CALLBACK_RECEIVE:
-      return 0;  // ignored: the page has nothing to say
+      // Any message from the page acknowledges one text (its content does not matter; a page
+      // cannot earn more than max_in_flight).
+      if (lws_is_final_fragment(wsi) && c->credit < o_.max_in_flight) {
+        ++c->credit;
+        lws_callback_on_writable(wsi);
+      }
+      return 0;
     default:
       return 0;
   }
@@ -159,12 +168,14 @@ int WebServer::onEvent(lws* wsi, int reason, void* user, void* in, size_t len) {
 
 int WebServer::write(lws* wsi, Client& c) {
   if (!c.text) {
+    if (c.credit <= 0) return 0;  // woken again by the page's acknowledgement
     auto item = board_.next(&c.seen, c.last_topic);
     if (!item) return 0;  // up to date: woken again by notify()
     c.last_topic = static_cast<int>(item->topic);
     versions_skipped_ += static_cast<int64_t>(item->skipped);
     c.text = std::move(item->text);
     c.offset = 0;
+    --c.credit;
     if (!c.text || c.text->empty()) {
       c.text.reset();
       lws_callback_on_writable(wsi);

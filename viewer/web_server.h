@@ -7,7 +7,8 @@
 // newest of each; then each newer version when the client can take it. A text is sent in
 // fragments of Options::fragment_bytes, one per writable callback, so a 10 MB map never
 // makes the server queue 10 MB per client; a slow client skips versions (counted), a client
-// that does not read for Options::stall_timeout_s while a text is half sent is closed. The
+// that does not read for Options::stall_timeout_s while a text is half sent is closed, a page
+// that has not acknowledged Options::max_in_flight texts gets no more until it does. The
 // LCM side never waits for a client: it posts on the board and calls notify().
 //
 // Threading: run() is the server's loop, on its own thread; notify(), stop() and counts()
@@ -43,6 +44,11 @@ struct WebServerOptions {
   int fragment_bytes = 64 * 1024;
   // A client that takes no bytes for this long while a text is half sent is closed, seconds.
   int stall_timeout_s = 20;
+  // Texts a client may have unacknowledged: the page acknowledges each text it has handled,
+  // so a browser whose page is busy (a slow machine, a large map) holds at most this many
+  // in its queue and skips to the newest when it is ready, instead of falling minutes behind
+  // (a browser reads its socket eagerly: TCP alone would not slow the server down).
+  int max_in_flight = 4;
 
   Status validate() const;
 };

@@ -22,6 +22,7 @@ const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'evermap-chromium-'));
 const chrome = spawn(opt.chromium, [
   '--headless', '--no-sandbox', '--remote-debugging-pipe', '--no-first-run', '--no-default-browser-check',
   '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--window-size=1400,900',
+  '--disable-background-timer-throttling', '--disable-renderer-backgrounding', '--disable-backgrounding-occluded-windows',
   `--user-data-dir=${profile}`, 'about:blank'], { stdio: ['ignore', 'ignore', 'pipe', 'pipe', 'pipe'] });
 let chromeLog = '';
 chrome.stdio[2].on('data', (d) => { chromeLog = (chromeLog + d).slice(-4000); });

@@ -9,6 +9,9 @@ const SESSION_COLOURS = [0x5fb3ff, 0x7ddc6f, 0xe36bd8, 0xf2d64b, 0x59e0c8, 0xb48
                          0xc0c0c0, 0x3fd17f, 0xffa0e0];
 const TRAIL = 600;           // poses kept in the trail
 const NEW_CLOSURE_MS = 6000; // how long a new closure stays highlighted
+// The trail is broken where the pose jumps (a new session starts at its own origin; a
+// re-localisation moves the robot) rather than drawn as a line across the map.
+const TRAIL_BREAK_M = 5;
 
 export class MapScene {
   constructor(container) {
@@ -23,6 +26,9 @@ export class MapScene {
     this.camera.position.set(-40, -60, 50);
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
     this.controls.enableDamping = true;
+    // Drawn only when something changed (a message, the mouse): a still map costs no CPU.
+    this.dirty = true;
+    this.controls.addEventListener('change', () => { this.dirty = true; });
     this.exaggeration = 5;
     this.floorFilter = null;  // null: every floor; else the floor index shown from the top
     this.follow = false;
@@ -44,7 +50,7 @@ export class MapScene {
       new THREE.LineBasicMaterial({ color: 0xff7a33 }));
     this.fresh = new THREE.LineSegments(new THREE.BufferGeometry(),
       new THREE.LineBasicMaterial({ color: 0xffff40 }));
-    this.trailLine = new THREE.Line(new THREE.BufferGeometry(),
+    this.trailLine = new THREE.LineSegments(new THREE.BufferGeometry(),
       new THREE.LineBasicMaterial({ color: 0x40e0ff }));
     this.floors = new THREE.Group();
     this.robot = new THREE.Mesh(new THREE.ConeGeometry(0.6, 1.8, 12),
@@ -60,13 +66,14 @@ export class MapScene {
   }
 
   resize() {
+    this.dirty = true;
     const w = Math.max(1, this.container.clientWidth), h = Math.max(1, this.container.clientHeight);
     this.renderer.setSize(w, h, false);
     this.camera.aspect = w / h;
     this.camera.updateProjectionMatrix();
   }
 
-  setExaggeration(v) { this.exaggeration = v; this.rebuild(); this.rebuildTrail(); }
+  setExaggeration(v) { this.exaggeration = v; this.rebuild(); this.rebuildTrail(); this.dirty = true; }
 
   // The map as the viewer sent it ("graph" text, docs/viewer.md).
   setGraph(g) {
@@ -117,6 +124,7 @@ export class MapScene {
     setPositions(this.loops.geometry, loop);
     this.rebuildFresh();
     this.rebuildFloors();
+    this.dirty = true;
   }
 
   rebuildFresh() {
@@ -132,6 +140,7 @@ export class MapScene {
     }
     setPositions(this.fresh.geometry, pos);
     this.freshCount = this.newLoops.length;
+    this.dirty = true;
   }
 
   // A grid at each floor's height, over the floor's nodes.
@@ -182,7 +191,7 @@ export class MapScene {
 
   setPose(p) {
     this.pose = p;
-    this.trail.push([p.xyz[0], p.xyz[1], p.xyz[2]]);
+    this.trail.push([p.xyz[0], p.xyz[1], p.xyz[2], p.session]);
     if (this.trail.length > TRAIL) this.trail.splice(0, this.trail.length - TRAIL);
     this.robot.visible = true;
     this.robot.position.set(p.xyz[0], p.xyz[1], this.z(p.xyz[2]));
@@ -190,11 +199,16 @@ export class MapScene {
     const q = new THREE.Quaternion(p.q[1], p.q[2], p.q[3], p.q[0]);
     this.robot.quaternion.copy(q).multiply(new THREE.Quaternion().setFromAxisAngle(new THREE.Vector3(0, 0, 1), -Math.PI / 2));
     this.trailDirty = true;
+    this.dirty = true;
   }
 
   rebuildTrail() {
     const pos = [];
-    for (const t of this.trail) pos.push(t[0], t[1], this.z(t[2]));
+    for (let k = 1; k < this.trail.length; ++k) {
+      const a = this.trail[k - 1], b = this.trail[k];
+      if (a[3] !== b[3] || Math.hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]) > TRAIL_BREAK_M) continue;
+      pos.push(a[0], a[1], this.z(a[2]), b[0], b[1], this.z(b[2]));
+    }
     setPositions(this.trailLine.geometry, pos);
     if (this.pose) this.robot.position.set(this.pose.xyz[0], this.pose.xyz[1], this.z(this.pose.xyz[2]));
   }
@@ -208,7 +222,9 @@ export class MapScene {
       this.controls.target.add(shift);
       this.camera.position.add(shift);
     }
-    this.controls.update();
+    this.controls.update();  // damping: emits 'change' while the view still moves
+    if (!this.dirty) return;
+    this.dirty = false;
     this.renderer.render(this.scene, this.camera);
     ++this.framesDrawn;
     if (this.onDrawn) this.onDrawn();

@@ -123,6 +123,8 @@ const handlers = {
     const img = new Image();
     img.onload = () => {
       const c = $('image');
+      c.hidden = false;
+      $('image-none').hidden = true;
       c.width = img.width; c.height = img.height;
       const ctx = c.getContext('2d');
       ctx.drawImage(img, 0, 0);
@@ -158,7 +160,13 @@ function connect() {
     let m;
     try { m = JSON.parse(e.data); } catch (err) { console.warn('not JSON', err); return; }
     const h = handlers[m.type];
-    if (h) h(m);
+    try {
+      if (h) h(m);
+    } finally {
+      // One acknowledgement per text handled: the viewer sends at most a few unacknowledged
+      // texts, so a busy page gets the newest state when it is ready, not a backlog.
+      if (ws.readyState === WebSocket.OPEN) ws.send('a');
+    }
   };
 }
 
