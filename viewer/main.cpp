@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
                   "REGISTER_RESULT, DEPUTY_STATUS, VO_DELTA, KEYFRAME and STEREO in (read-only: it\n"
                   "publishes nothing), HTTP and a WebSocket stream out. Open http://BIND:PORT/.");
   cli.value("--bind", &web.bind, "ADDR", "address to listen on (default 127.0.0.1: this machine only)");
-  cli.value("--port", &web.port, "N", "TCP port (default 8080)");
+  cli.value("--port", &web.port, "N", "TCP port (default 8080; 0: any free port, printed)");
   cli.value("--store", &store_file, "MAP.db", "show this map store (SQLite) instead of listening to LCM");
   cli.value("--web-dir", &web_dir, "DIR", "the page's files (default: found next to the program or in the source tree)");
   cli.value("--max-clients", &web.max_clients, "N", "browser connections served at once (default 64)");
@@ -92,7 +92,7 @@ int main(int argc, char** argv) {
     return status;
   };
 
-  std::printf("evermap-viewer: serving http://%s:%d/ (page from %s)\n", web.bind.c_str(), web.port,
+  std::printf("evermap-viewer: serving http://%s:%d/ (page from %s)\n", web.bind.c_str(), (*server)->port(),
               web.web_dir.c_str());
   std::fflush(stdout);
 

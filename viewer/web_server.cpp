@@ -204,6 +204,11 @@ int WebServer::write(lws* wsi, Client& c) {
   return 0;
 }
 
+int WebServer::port() const {
+  lws_vhost* vhost = lws_get_vhost_by_name(context_, "default");
+  return vhost ? lws_get_vhost_listen_port(vhost) : -1;
+}
+
 WebServerCounts WebServer::counts() const {
   WebServerCounts c;
   c.clients = clients_.load();

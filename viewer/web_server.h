@@ -34,7 +34,7 @@ struct WebServerOptions {
   // Address to listen on: 127.0.0.1 by default, the page is for this machine (use 0.0.0.0 to
   // share it on a trusted network).
   std::string bind = "127.0.0.1";
-  int port = 8080;
+  int port = 8080;  // 0: any free port (port() says which)
   // The page (index.html, viewer.js, ...) and three.js's package folder (node_modules/three).
   std::filesystem::path web_dir;
   std::filesystem::path three_dir;
@@ -75,6 +75,8 @@ class WebServer {
   void stop();
   // The board changed: clients that are up to date are woken to take the news.
   void notify();
+  // The port listened on (the one chosen by the system when Options::port is 0).
+  int port() const;
   WebServerCounts counts() const;
   // counts() as JSON members for the page's "viewer" text.
   std::string countsJson() const;

@@ -88,11 +88,16 @@ const handlers = {
   },
   history(h) {
     if (h.utime.length === 0) return;
-    const t0 = h.utime[0];
-    const hours = h.utime.map((u) => (u - t0) / 3.6e9);
-    drawPlot($('plot-nodes'), [{ label: 'nodes', x: hours, y: h.nodes }], 'message time, h', 'nodes');
-    const series = Object.entries(h.components).map(([name, ms]) => ({ label: name, x: hours, y: ms }));
-    drawPlot($('plot-components'), series, 'message time, h', 'ms');
+    // Data time in minutes: a step of an hour or more (the gap between two sessions) counts
+    // as nothing, as in the mapper's progress lines.
+    const minutes = [0];
+    for (let k = 1; k < h.utime.length; ++k) {
+      const step = h.utime[k] - h.utime[k - 1];
+      minutes.push(minutes[k - 1] + (step > 0 && step < 3.6e9 ? step / 6e7 : 0));
+    }
+    drawPlot($('plot-nodes'), [{ label: 'nodes', x: minutes, y: h.nodes }], 'data time, min', 'nodes');
+    const series = Object.entries(h.components).map(([name, ms]) => ({ label: name, x: minutes, y: ms }));
+    drawPlot($('plot-components'), series, 'data time, min', 'ms');
   },
   register(r) {
     setText('count-reg-ok', r.ok);
@@ -176,7 +181,7 @@ $('exaggeration').addEventListener('input', (e) => {
   if (state.scene) state.scene.setExaggeration(v);
 });
 $('follow').addEventListener('change', (e) => { if (state.scene) state.scene.follow = e.target.checked; });
-drawPlot($('plot-nodes'), [], 'message time, h', 'nodes');
-drawPlot($('plot-components'), [], 'message time, h', 'ms');
+drawPlot($('plot-nodes'), [], 'data time, min', 'nodes');
+drawPlot($('plot-components'), [], 'data time, min', 'ms');
 connect();
 startScene();
