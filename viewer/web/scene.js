@@ -17,6 +17,16 @@ export class MapScene {
   constructor(container) {
     this.container = container;
     this.renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+    // Software WebGL (SwiftShader, llvmpipe: a machine or a browser test without a GPU) draws a
+    // frame in tens to hundreds of milliseconds of CPU: no antialiasing and at most 4 frames a
+    // second there, so the page keeps up with the stream.
+    this.software = /swiftshader|llvmpipe|software/i.test(rendererName(this.renderer));
+    if (this.software) {
+      this.renderer.dispose();
+      this.renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
+    }
+    this.minFrameMs = this.software ? 250 : 0;
+    this.lastFrame = 0;
     this.renderer.setPixelRatio(window.devicePixelRatio || 1);
     this.renderer.setClearColor(0x101317);
     container.appendChild(this.renderer.domElement);
@@ -224,11 +234,20 @@ export class MapScene {
     }
     this.controls.update();  // damping: emits 'change' while the view still moves
     if (!this.dirty) return;
+    const now = performance.now();
+    if (now - this.lastFrame < this.minFrameMs) return;
+    this.lastFrame = now;
     this.dirty = false;
     this.renderer.render(this.scene, this.camera);
     ++this.framesDrawn;
     if (this.onDrawn) this.onDrawn();
   }
+}
+
+function rendererName(renderer) {
+  const gl = renderer.getContext();
+  const info = gl.getExtension('WEBGL_debug_renderer_info');
+  return String(gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
 }
 
 function setPositions(geometry, positions, colours) {
