@@ -73,6 +73,13 @@ class RawClient {
     return head.rfind("HTTP/1.1 101", 0) == 0;
   }
 
+  // A masked text frame (client to server), up to 125 bytes.
+  void sendText(const std::string& text) {
+    std::string frame = {static_cast<char>(0x81), static_cast<char>(0x80 | text.size()), 1, 2, 3, 4};
+    for (size_t k = 0; k < text.size(); ++k) frame += static_cast<char>(text[k] ^ (1 + k % 4));
+    ::send(fd_, frame.data(), frame.size(), MSG_NOSIGNAL);
+  }
+
   // The next complete text message (fragments joined); acknowledges it as the page does.
   bool nextText(std::string* text) {
     text->clear();
@@ -209,6 +216,16 @@ TEST(ViewerWebServer, ServesTheNewestStateWhileFiftyClientsNeverReadAndAHundredT
   EXPECT_LT(poses_s, 5.0);              // (0.1 s on an idle machine: no wait on any client)
   // One map text shared by every client, one fragment buffered each: far below 50 copies.
   EXPECT_LT(rss_after - rss_before, 300 * 1024);
+
+  // A command from the page (the --log slider) reaches the main loop; acknowledgements do not.
+  reader.sendText("seek 1234");
+  std::vector<std::string> commands;
+  for (int k = 0; k < 100 && commands.empty(); ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    commands = (*server)->takeCommands();
+  }
+  ASSERT_EQ(commands.size(), 1u);
+  EXPECT_EQ(commands[0], "seek 1234");
 
   (*server)->stop();
   serving.join();

@@ -14,6 +14,7 @@ const char* topicName(Topic t) {
     case Topic::kVo: return "vo";
     case Topic::kImage: return "image";
     case Topic::kViewer: return "viewer";
+    case Topic::kLog: return "log";
     case Topic::kCount: break;
   }
   return "?";

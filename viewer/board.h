@@ -29,6 +29,7 @@ enum class Topic : int {
   kVo,          // VO_DELTA status
   kImage,       // the left image of STEREO, decimated, with the KEYFRAME features
   kViewer,      // the viewer's own counts (received, dropped, clients)
+  kLog,         // --log: the log's span, the position, playing or not
   kCount
 };
 inline constexpr int kTopicCount = static_cast<int>(Topic::kCount);

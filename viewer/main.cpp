@@ -6,7 +6,10 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <algorithm>
 #include <filesystem>
+#include <optional>
+#include <set>
 #include <string>
 #include <system_error>
 #include <thread>
@@ -14,10 +17,14 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "core/messages/channels.h"
+
 #include "core/common/command_line.h"
 #include "core/common/stop_signals.h"
 #include "viewer/board.h"
+#include "viewer/json_writer.h"
 #include "viewer/lcm_listener.h"
+#include "viewer/log_player.h"
 #include "viewer/store_graph.h"
 #include "viewer/viewer_state.h"
 #include "viewer/web_server.h"
@@ -41,13 +48,85 @@ fs::path findWebDir(const std::string& given) {
   return candidates.back();
 }
 
+// The --log loop: plays the log at `speed` from its start, follows the page's commands
+// ("seek UTIME", "play", "pause"); a seek back starts the viewer's state afresh.
+int playLog(evermap::viewer::LogPlayer& player, lcm::LCM& lcm,
+            std::optional<evermap::viewer::LcmListener>& listener,
+            const evermap::viewer::LcmListenerOptions& listen, evermap::viewer::Board& board,
+            evermap::viewer::WebServer& server, evermap::StopSignals& stop, const std::string& file,
+            double speed) {
+  using namespace evermap;
+  using Clock = std::chrono::steady_clock;
+  auto send = [&lcm](const std::string& channel, const void* data, size_t size) {
+    lcm.publish(channel, data, static_cast<unsigned>(size));
+    while (lcm.handleTimeout(0) > 0) {
+    }
+  };
+  int64_t t = player.startUtime();
+  bool playing = true;
+  auto last = Clock::now();
+  auto next_counts = last;
+  std::string last_text;
+  while (!stop.requested()) {
+    for (const std::string& command : server.takeCommands()) {
+      if (command == "play") {
+        playing = true;
+        if (t >= player.endUtime()) {  // play again from the start
+          listener.reset();
+          listener.emplace(lcm, board, listen);
+          player.rewind();
+          t = player.startUtime();
+        }
+      } else if (command == "pause") {
+        playing = false;
+      } else if (command.rfind("seek ", 0) == 0) {
+        char* end = nullptr;
+        const long long target = std::strtoll(command.c_str() + 5, &end, 10);
+        if (end == command.c_str() + 5 || *end != '\0') continue;  // not a number: ignored
+        t = std::clamp<int64_t>(target, player.startUtime(), player.endUtime());
+        if (t < player.position()) {
+          listener.reset();
+          listener.emplace(lcm, board, listen);
+          player.rewind();
+        }
+      }
+    }
+    const auto now = Clock::now();
+    if (playing)
+      t += static_cast<int64_t>(speed * 1e6 * std::chrono::duration<double>(now - last).count());
+    last = now;
+    if (t >= player.endUtime()) {
+      t = player.endUtime();
+      playing = false;
+    }
+    player.playTo(t, send);
+    viewer::JsonWriter j;
+    j.beginObject().key("type").value("log").key("file").value(file);
+    j.key("start").value(player.startUtime()).key("end").value(player.endUtime());
+    j.key("t").value(t).key("playing").value(playing).key("speed").value(speed, 2).endObject();
+    std::string text = j.take();
+    if (text != last_text) {
+      board.post(viewer::Topic::kLog, text);
+      last_text = std::move(text);
+    }
+    if (now >= next_counts) {
+      listener->postCounts(server.countsJson());
+      next_counts = now + std::chrono::seconds(1);
+    }
+    server.notify();
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace evermap;
   viewer::WebServerOptions web;
   viewer::LcmListenerOptions listen;
-  std::string url, store_file, web_dir;
+  std::string url, store_file, log_file, web_dir;
+  double log_speed = 1.0;
   bool quiet = false;
   CommandLine cli("evermap-viewer",
                   "Serves a page that shows the map as it is built: MAP_GRAPH, POSE, FLOOR, MAPPER_STATS,\n"
@@ -56,6 +135,9 @@ int main(int argc, char** argv) {
   cli.value("--bind", &web.bind, "ADDR", "address to listen on (default 127.0.0.1: this machine only)");
   cli.value("--port", &web.port, "N", "TCP port (default 8080; 0: any free port, printed)");
   cli.value("--store", &store_file, "MAP.db", "show this map store (SQLite) instead of listening to LCM");
+  cli.value("--log", &log_file, "FILE.lcmlog",
+            "play this LCM log instead of listening to LCM, with a time slider on the page");
+  cli.value("--speed", &log_speed, "X", "--log: playing speed, x real time (default 1)");
   cli.value("--web-dir", &web_dir, "DIR", "the page's files (default: found next to the program or in the source tree)");
   cli.value("--max-clients", &web.max_clients, "N", "browser connections served at once (default 64)");
   cli.value("--image-period-s", &listen.image_period_s, "S", "wall seconds between two camera images sent (default 0.5)");
@@ -71,6 +153,14 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-viewer: three.js is not installed in %s (run scripts/setup.sh): "
                  "the page has no 3-D view\n", web.three_dir.c_str());
     web.three_dir.clear();
+  }
+  if (!store_file.empty() && !log_file.empty()) {
+    std::fprintf(stderr, "evermap-viewer: --store and --log: one or the other\n");
+    return 2;
+  }
+  if (!(log_speed > 0.0)) {
+    std::fprintf(stderr, "evermap-viewer: --speed: must be > 0, got %g\n", log_speed);
+    return 2;
   }
   for (Status s : {web.validate(), listen.validate()}) {
     if (!s) {
@@ -129,15 +219,38 @@ int main(int argc, char** argv) {
     return finish(0);
   }
 
+  // --log: the log is played into an in-process LCM, read by the same listener.
+  std::optional<viewer::LogPlayer> player;
+  if (!log_file.empty()) {
+    const std::set<std::string> channels_shown = {
+        channels::kMapGraph, channels::kPose, channels::kFloor, channels::kMapperStats,
+        channels::kRegisterResult, channels::kDeputyStatus, channels::kVoDelta};
+    auto opened = viewer::LogPlayer::open(log_file, channels_shown);
+    if (!opened) {
+      std::fprintf(stderr, "evermap-viewer: %s\n", opened.error().message.c_str());
+      return finish(1);
+    }
+    player = std::move(*opened);
+    url = "memq://";
+    std::printf("evermap-viewer: %s: %zu events over %.1f s\n", log_file.c_str(), player->events(),
+                1e-6 * static_cast<double>(player->endUtime() - player->startUtime()));
+    std::fflush(stdout);
+  }
   lcm::LCM lcm(url);
   if (!lcm.good()) {
     std::fprintf(stderr, "evermap-viewer: cannot start LCM (url \"%s\")\n", url.c_str());
     return finish(1);
   }
-  viewer::LcmListener listener(lcm, board, listen);
+  std::optional<viewer::LcmListener> listener_slot;
+  listener_slot.emplace(lcm, board, listen);
   int status = 0;
   using Clock = std::chrono::steady_clock;
   auto next_counts = Clock::now();
+  if (player) {
+    status = playLog(*player, lcm, listener_slot, listen, board, **server, stop, log_file, log_speed);
+    return finish(status);
+  }
+  viewer::LcmListener& listener = *listener_slot;
   while (!stop.requested()) {
     // Short waits: the clients are woken at most every 20 ms however fast messages come.
     const int handled = lcm.handleTimeout(20);

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 #include <new>
+#include <utility>
 #include <vector>
 
 #include "viewer/json_writer.h"
@@ -154,11 +155,16 @@ int WebServer::onEvent(lws* wsi, int reason, void* user, void* in, size_t len) {
       lws_callback_on_writable_all_protocol(context_, &tables_->protocols[1]);
       return 0;
     case LWS_CALLBACK_RECEIVE:
-      // Any message from the page acknowledges one text (its content does not matter; a page
-      // cannot earn more than max_in_flight).
-      if (lws_is_final_fragment(wsi) && c->credit < o_.max_in_flight) {
-        ++c->credit;
+      // A one-byte message acknowledges one text (a page cannot earn more than max_in_flight);
+      // a short one is a command for the main loop; anything else is ignored.
+      if (!lws_is_first_fragment(wsi) || !lws_is_final_fragment(wsi)) return 0;
+      if (len == 1) {
+        if (c->credit < o_.max_in_flight) ++c->credit;
         lws_callback_on_writable(wsi);
+      } else if (len > 1 && len <= 64) {
+        std::lock_guard lock(commands_mutex_);
+        if (commands_.size() >= 16) commands_.erase(commands_.begin());
+        commands_.emplace_back(static_cast<const char*>(in), len);
       }
       return 0;
     default:
@@ -202,6 +208,11 @@ int WebServer::write(lws* wsi, Client& c) {
   }
   lws_callback_on_writable(wsi);
   return 0;
+}
+
+std::vector<std::string> WebServer::takeCommands() {
+  std::lock_guard lock(commands_mutex_);
+  return std::exchange(commands_, {});
 }
 
 int WebServer::port() const {

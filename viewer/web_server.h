@@ -18,7 +18,9 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <vector>
 
 #include "core/common/expected.h"
 #include "viewer/board.h"
@@ -80,6 +82,9 @@ class WebServer {
   WebServerCounts counts() const;
   // counts() as JSON members for the page's "viewer" text.
   std::string countsJson() const;
+  // What pages asked since the last call ("seek UTIME", "play", "pause": the --log slider),
+  // oldest first; at most 16 are kept. Any thread.
+  std::vector<std::string> takeCommands();
 
   // libwebsockets' callback (internal).
   int onEvent(lws* wsi, int reason, void* user, void* in, size_t len);
@@ -99,6 +104,8 @@ class WebServer {
   // Counts written by the server thread, read by any.
   std::atomic<int64_t> clients_{0}, connections_{0}, refused_{0}, texts_sent_{0}, bytes_sent_{0},
       versions_skipped_{0};
+  std::mutex commands_mutex_;
+  std::vector<std::string> commands_;
   std::unique_ptr<ServerTables> tables_;  // stable addresses: lws keeps pointers to them
 };
 

@@ -197,6 +197,14 @@ export class MapScene {
     this.controls.update();
   }
 
+  // The log was sought back: what the page remembers of later times goes.
+  restart() {
+    this.trail = [];
+    this.knownLoops = null;
+    this.newLoops = [];
+    this.trailDirty = true;
+  }
+
   showFloor(index) { this.floorFilter = index; this.rebuild(); this.fit(); }
 
   setPose(p) {

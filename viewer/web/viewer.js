@@ -145,6 +145,17 @@ const handlers = {
     };
     img.src = 'data:image/jpeg;base64,' + m.jpeg;
   },
+  // --log: the slider follows the position unless the user holds it.
+  log(l) {
+    $('log-controls').hidden = false;
+    setText('source', 'log ' + l.file);
+    if (state.log && l.t < state.log.t && state.scene) state.scene.restart();
+    state.log = l;
+    const span = Math.max(1, l.end - l.start);
+    if (!state.sliding) $('log-slider').value = String(Math.round(1000 * (l.t - l.start) / span));
+    setText('log-time', ((l.t - l.start) / 1e6).toFixed(1) + ' / ' + (span / 1e6).toFixed(1) + ' s');
+    setText('log-play', l.playing ? 'pause' : 'play');
+  },
   viewer(v) {
     setText('count-viewer-dropped', v.dropped);
     const s = v.server || {};
@@ -154,8 +165,12 @@ const handlers = {
 };
 
 // ---- The stream ----
+function command(text) {
+  if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(text);
+}
+
 function connect() {
-  const ws = new WebSocket((location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/', 'evermap');
+  const ws = state.ws = new WebSocket((location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/', 'evermap');
   ws.onopen = () => { const c = $('connection'); c.textContent = 'live'; c.className = 'good'; };
   ws.onclose = () => {
     const c = $('connection'); c.textContent = 'disconnected, retrying'; c.className = 'bad';
@@ -180,6 +195,14 @@ $('exaggeration').addEventListener('input', (e) => {
   setText('exaggeration-value', String(v));
   if (state.scene) state.scene.setExaggeration(v);
 });
+$('log-slider').addEventListener('input', () => { state.sliding = true; });
+$('log-slider').addEventListener('change', (e) => {
+  state.sliding = false;
+  if (!state.log) return;
+  const t = state.log.start + Math.round(Number(e.target.value) / 1000 * (state.log.end - state.log.start));
+  command('seek ' + t);
+});
+$('log-play').addEventListener('click', () => command(state.log && state.log.playing ? 'pause' : 'play'));
 $('follow').addEventListener('change', (e) => { if (state.scene) state.scene.follow = e.target.checked; });
 drawPlot($('plot-nodes'), [], 'data time, min', 'nodes');
 drawPlot($('plot-components'), [], 'data time, min', 'ms');
