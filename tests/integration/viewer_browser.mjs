@@ -1,8 +1,11 @@
 // Drives headless Chromium over the DevTools protocol (on a pipe: --remote-debugging-pipe, no
 // port, no WebSocket client needed) for tests/integration/viewer_browser.sh:
 //   node viewer_browser.mjs --chromium PATH --url URL --expect-file FILE --screenshot PNG [--timeout-s S]
+//                           [--seek FRACTION]
 // Loads the page, then polls it until FILE exists and holds a node count N and the page shows
-// N nodes (#count-nodes), has drawn that graph and at least one 3-D frame. Any script error
+// N nodes (#count-nodes), has drawn that graph and at least one 3-D frame. With --seek (a page
+// of `evermap-viewer --log`), it then moves the time slider to FRACTION of the log and waits
+// until the page shows fewer nodes than N and its slider is there. Any script error
 // (an exception, console.error, an error logged by the browser, the page's own data-errors)
 // fails. Saves a screenshot. Prints one line of figures; exit status 0 on success.
 import { spawn } from 'node:child_process';
@@ -97,12 +100,36 @@ try {
     if (page.errors > 0) break;
     if (expected !== null && page.nodes === expected && page.drawn === expected && page.frames > 0) break;
   }
+  let seekFigures = '';
+  if (opt.seek !== undefined && expected !== null && page.nodes === expected && page.errors === 0) {
+    const value = Math.round(Number(opt.seek) * 1000);
+    await send('Runtime.evaluate', {
+      expression: `(() => { const s = document.getElementById('log-slider'); s.value = '${value}';
+                           s.dispatchEvent(new Event('change')); })()`,
+    }, sessionId);
+    const seekStart = Date.now();
+    let after = null;
+    while (Date.now() - seekStart < 30000) {
+      await sleep(250);
+      after = (await send('Runtime.evaluate', {
+        returnByValue: true,
+        expression: `({ nodes: Number(document.getElementById('count-nodes').textContent),
+                        slider: Number(document.getElementById('log-slider').value),
+                        errors: Number(document.documentElement.dataset.errors || 0) })`,
+      }, sessionId)).result.value;
+      if (after.errors > 0 || (after.nodes < Number(expected) && Math.abs(after.slider - value) <= 20)) break;
+    }
+    seekFigures = `; after the seek to ${opt.seek}: ${after?.nodes} nodes, slider ${after?.slider}/1000`;
+    if (!(after && after.nodes < Number(expected) && Math.abs(after.slider - value) <= 20))
+      errors.push(`the seek to ${opt.seek} did not take the page back${seekFigures}`);
+    page.errors = after ? after.errors : page.errors;
+  }
   await sleep(500);  // one more frame of the final map for the screenshot
   const shot = await send('Page.captureScreenshot', { format: 'png' }, sessionId);
   fs.writeFileSync(opt.screenshot, Buffer.from(shot.data, 'base64'));
   const figures = `page shows ${page?.nodes} nodes (expected ${expected}), drawn ${page?.drawn}, ${page?.frames} frames, ` +
-    `${page?.connection}, load ${page?.loadMs} ms, map latency ${page?.latency}; screenshot ${opt.screenshot}`;
-  if (page?.errors > 0) errors.push('page: ' + page.pageErrors);
+    `${page?.connection}, load ${page?.loadMs} ms, map latency ${page?.latency}${seekFigures}; screenshot ${opt.screenshot}`;
+  if (page?.errors > 0) errors.push('page: ' + (page.pageErrors || 'data-errors > 0'));
   if (errors.length > 0) await finish(1, `viewer_browser: FAIL: script errors: ${errors.join(' || ')}; ${figures}`);
   if (expected === null) await finish(1, `viewer_browser: FAIL: no node count to expect in ${opt.expectFile}; ${figures}`);
   if (page.nodes !== expected || page.drawn !== expected || !(page.frames > 0))

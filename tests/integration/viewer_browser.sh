@@ -7,7 +7,9 @@
 # mapper's last MAP_GRAPH, have drawn that map in 3-D, and have had no script error. The
 # screenshot is kept (EVERMAP_VIEWER_SCREENSHOT, default BUILD/viewer-browser.png). Then
 # hostile messages on every channel the viewer reads (evermap-lcm-fuzz): it must stay up,
-# count them, and stop cleanly on SIGTERM.
+# count them, and stop cleanly on SIGTERM. Last, what the mapper published (recorded by
+# lcm-logger) is played by `evermap-viewer --log` at 10x: the page must reach the same count,
+# and after its time slider is moved to 30 % show fewer nodes (a seek back).
 # Without chromium, node or three.js (scripts/setup.sh installs them) the test is skipped
 # (exit 77), and fails when CI=true.
 set -euo pipefail
@@ -30,9 +32,9 @@ screenshot="${EVERMAP_VIEWER_SCREENSHOT:-$build/viewer-browser.png}"
 speed="${EVERMAP_VIEWER_SPEED:-20}"
 port=8080  # the sandbox's own network: nothing else listens here
 tmp="$(mktemp -d)"
-vpid=""; dpid=""; bpid=""
+vpid=""; dpid=""; bpid=""; lpid=""
 cleanup() {
-  for p in "$bpid" "$dpid" "$vpid"; do [ -n "$p" ] && kill -KILL "$p" 2>/dev/null || true; done
+  for p in "$bpid" "$dpid" "$vpid" "$lpid"; do [ -n "$p" ] && kill -KILL "$p" 2>/dev/null || true; done
   rm -rf "$tmp"
 }
 trap cleanup EXIT
@@ -53,6 +55,8 @@ fail() {
 vpid=$!
 for _ in $(seq 100); do grep -q '^evermap-viewer: serving' "$tmp/viewer.log" && break; sleep 0.1; done
 grep -q '^evermap-viewer: serving' "$tmp/viewer.log" || fail "the viewer did not start"
+lcm-logger -q -f -c 'MAP_GRAPH|MAPPER_STATS|POSE|FLOOR|REGISTER_RESULT|DEPUTY_STATUS' "$tmp/mapper.lcmlog" > /dev/null &
+lpid=$!
 (cd "$src" && EVERMAP_BIN="$bin" EVERMAP_RUN="$tmp/run" EVERMAP_MAP="$tmp/map.db" EVERMAP_SPEED="$speed" \
   exec "$bin/evermap-deputy" config/pipeline-oracle.pmd --log-dir "$tmp/logs" --host sandbox \
   --script replay --exit-after-script --quiet 2> "$tmp/deputy.err") &
@@ -72,6 +76,8 @@ nodes="$(awk '$1 == "nodes" { n = $2 } END { print n }' "$tmp/logs/mapper-proc.l
 [ -n "$nodes" ] && [ "$nodes" -gt 0 ] || fail "the mapper reported no nodes"
 echo "$nodes" > "$tmp/expected"
 rc=0; wait "$bpid" || rc=$?; bpid=""
+sleep 0.5
+kill -INT "$lpid"; wait "$lpid" || true; lpid=""
 cat "$tmp/browser.log"
 [ "$rc" -eq 0 ] || fail "the browser check failed"
 kill -0 "$vpid" 2>/dev/null || fail "the viewer died during the replay"
@@ -91,3 +97,16 @@ malformed="$(grep -o '[0-9]* malformed' "$tmp/viewer.log" | awk '{ s += $1 } END
 echo "viewer: mapper nodes $nodes shown; fuzz: $(cat "$tmp/fuzz.txt"); $malformed malformed messages counted, viewer alive"
 grep -E '^(graphs|last_graph_nodes|images_sent|connections|texts_sent|versions_skipped) ' "$tmp/viewer.log" | tr '\n' ' '
 echo
+
+# 6. The recorded log with the time slider.
+"$bin/evermap-viewer" --log "$tmp/mapper.lcmlog" --speed 10 --port "$port" > "$tmp/viewer-log.log" 2>&1 &
+vpid=$!
+for _ in $(seq 100); do grep -q '^evermap-viewer: serving' "$tmp/viewer-log.log" && break; sleep 0.1; done
+grep -q '^evermap-viewer: serving' "$tmp/viewer-log.log" || fail "the viewer did not start on the log"
+node "$src/tests/integration/viewer_browser.mjs" --chromium "$chromium" --url "http://127.0.0.1:$port/" \
+  --expect-file "$tmp/expected" --screenshot "$tmp/log.png" --timeout-s 240 --seek 0.3 > "$tmp/browser.log" 2>&1 \
+  || { cat "$tmp/browser.log"; fail "the browser check of --log failed"; }
+sed 's/^viewer_browser: /viewer_browser --log: /' "$tmp/browser.log"
+kill -TERM "$vpid"
+rc=0; wait "$vpid" || rc=$?; vpid=""
+[ "$rc" -eq 0 ] || fail "the viewer (--log) exited with $rc after SIGTERM"
