@@ -55,7 +55,7 @@ fail() {
 vpid=$!
 for _ in $(seq 100); do grep -q '^evermap-viewer: serving' "$tmp/viewer.log" && break; sleep 0.1; done
 grep -q '^evermap-viewer: serving' "$tmp/viewer.log" || fail "the viewer did not start"
-lcm-logger -q -f -c 'MAP_GRAPH|MAPPER_STATS|POSE|FLOOR|REGISTER_RESULT|DEPUTY_STATUS' "$tmp/mapper.lcmlog" > /dev/null &
+lcm-logger -q -f -c 'MAP_GRAPH|MAPPER_STATS|POSE|FLOOR|REGISTER_RESULT|DEPUTY_STATUS' "$tmp/mapper.lcmlog" > /dev/null 2>&1 &
 lpid=$!
 (cd "$src" && EVERMAP_BIN="$bin" EVERMAP_RUN="$tmp/run" EVERMAP_MAP="$tmp/map.db" EVERMAP_SPEED="$speed" \
   exec "$bin/evermap-deputy" config/pipeline-oracle.pmd --log-dir "$tmp/logs" --host sandbox \
@@ -82,6 +82,10 @@ cat "$tmp/browser.log"
 [ "$rc" -eq 0 ] || fail "the browser check failed"
 kill -0 "$vpid" 2>/dev/null || fail "the viewer died during the replay"
 
+# The viewer's cost over the replay (measured, not asserted): CPU seconds and peak RSS.
+read -r vut vst < <(awk '{ print $14, $15 }' "/proc/$vpid/stat")
+viewer_cost="CPU $(awk -v u="$vut" -v s="$vst" -v hz="$(getconf CLK_TCK)" 'BEGIN { printf "%.1f", (u + s) / hz }') s, peak RSS $(awk '/^VmHWM/ { printf "%.0f", $2 / 1024 }' "/proc/$vpid/status") MB over the ${speed}x replay"
+
 # 5. Hostile input on every channel the viewer reads.
 channels="MAP_GRAPH,POSE,FLOOR,MAPPER_STATS,REGISTER_RESULT,DEPUTY_STATUS,VO_DELTA,KEYFRAME,STEREO"
 "$bin/evermap-lcm-fuzz" --channels "$channels" --fragment-attack > /dev/null || fail "fragment attack"
@@ -94,6 +98,7 @@ rc=0; wait "$vpid" || rc=$?; vpid=""
 [ "$rc" -eq 0 ] || fail "the viewer exited with $rc after SIGTERM"
 malformed="$(grep -o '[0-9]* malformed' "$tmp/viewer.log" | awk '{ s += $1 } END { print s + 0 }')"
 [ "$malformed" -gt 0 ] || fail "the viewer counted no malformed message"
+echo "viewer: $viewer_cost"
 echo "viewer: mapper nodes $nodes shown; fuzz: $(cat "$tmp/fuzz.txt"); $malformed malformed messages counted, viewer alive"
 grep -E '^(graphs|last_graph_nodes|images_sent|connections|texts_sent|versions_skipped) ' "$tmp/viewer.log" | tr '\n' ' '
 echo
