@@ -37,3 +37,17 @@ if(EVERMAP_BUILD_JAVA)
     set(EVERMAP_BUILD_JAVA OFF)
   endif()
 endif()
+
+# libwebsockets (Debian's libwebsockets-dev 4.1): the viewer's HTTP and WebSocket server, through
+# the package's CMake file (target websockets_shared). Without it the viewer is not built (a
+# warning), so a tree set up before the viewer existed still builds everything else;
+# scripts/setup.sh installs it.
+find_package(libwebsockets CONFIG QUIET)
+if(libwebsockets_FOUND AND TARGET websockets_shared)
+  add_library(evermap_websockets INTERFACE)
+  target_link_libraries(evermap_websockets INTERFACE websockets_shared)
+  set(EVERMAP_HAVE_WEBSOCKETS ON)
+else()
+  message(WARNING "libwebsockets not found (run scripts/setup.sh): evermap-viewer is not built")
+  set(EVERMAP_HAVE_WEBSOCKETS OFF)
+endif()

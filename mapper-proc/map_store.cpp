@@ -33,7 +33,8 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapSt
   if (options.fold_after < 0 || options.fold_after == 1)
     return makeError(file.string(), ": fold_after must be 0 (never) or >= 2");
   sqlite3* db = nullptr;
-  if (sqlite3_open_v2(file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) != SQLITE_OK) {
+  const int flags = options.read_only ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE;
+  if (sqlite3_open_v2(file.c_str(), &db, flags, nullptr) != SQLITE_OK) {
     std::string msg = db ? sqlite3_errmsg(db) : "out of memory";
     sqlite3_close(db);
     return makeError(file.string(), ": cannot open map store (", msg, ")");
@@ -55,7 +56,9 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapSt
       " rejected INTEGER NOT NULL, first_utime INTEGER NOT NULL);"
       "CREATE INDEX IF NOT EXISTS map_edges_pair ON map_edges (from_node, to_node);"
       "CREATE TABLE IF NOT EXISTS map_saved (session_id INTEGER PRIMARY KEY, constraints INTEGER NOT NULL);";
-  if (Status s = store.exec(schema); !s) return s.error();
+  if (!options.read_only) {
+    if (Status s = store.exec(schema); !s) return s.error();
+  }
   Statement st;
   if (sqlite3_prepare_v2(db, "SELECT COALESCE(MAX(edge_id), -1) FROM map_edges", -1, &st.s, nullptr) != SQLITE_OK ||
       sqlite3_step(st.s) != SQLITE_ROW)
@@ -91,6 +94,7 @@ Status MapStore::exec(const char* sql) const {
 }
 
 Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_utime) {
+  if (options_.read_only) return makeError(file_.string(), ": opened read-only, not saved");
   if (Status s = exec("BEGIN IMMEDIATE"); !s) return s;
   auto fail = [&](const char* what) -> Status {
     const std::string m = sqlite3_errmsg(db_);

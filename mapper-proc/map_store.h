@@ -63,6 +63,9 @@ struct StoredEdge {
 struct MapStoreOptions {
   // A pair's rows are folded into one when they reach this many (0: never fold).
   int fold_after = 3;
+  // Open an existing store to read it only (a viewer): no file is created, the schema is not
+  // touched and save() refuses.
+  bool read_only = false;
 };
 
 struct MapSnapshot {

@@ -172,3 +172,8 @@ else
   echo "== 2. skipped: no EuRoC excerpt at $euroc (set EVERMAP_DATA)"
 fi
 echo "== done: outputs in $out"
+if [ -x "$bin/evermap-viewer" ]; then
+  # The replays above ran in the LCM sandbox, out of a browser's reach: the viewer shows the
+  # stored map afterwards (live: run it beside the pipeline, docs/viewer.md).
+  echo "   to see the map in a browser: $bin/evermap-viewer --store $out/map.db, then open http://127.0.0.1:8080/"
+fi

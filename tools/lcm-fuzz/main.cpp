@@ -61,6 +61,10 @@ const std::map<std::string, std::function<Bytes()>>& channelTypes() {
       {channels::kRegisterResult, encodeDefault<register_result_t>},
       {channels::kDeputyOrder, encodeDefault<deputy_order_t>},
       {channels::kDeputyStatus, encodeDefault<deputy_status_t>},
+      // The mapper's outputs: evermap-viewer's inputs.
+      {channels::kPose, encodeDefault<pose_t>},
+      {channels::kMapGraph, encodeDefault<map_graph_t>},
+      {channels::kMapperStats, encodeDefault<mapper_stats_t>},
   };
   return m;
 }

@@ -1,0 +1,140 @@
+// Drives headless Chromium over the DevTools protocol (on a pipe: --remote-debugging-pipe, no
+// port, no WebSocket client needed) for tests/integration/viewer_browser.sh:
+//   node viewer_browser.mjs --chromium PATH --url URL --expect-file FILE --screenshot PNG [--timeout-s S]
+//                           [--seek FRACTION]
+// Loads the page, then polls it until FILE exists and holds a node count N and the page shows
+// N nodes (#count-nodes), has drawn that graph and at least one 3-D frame. With --seek (a page
+// of `evermap-viewer --log`), it then moves the time slider to FRACTION of the log and waits
+// until the page shows fewer nodes than N and its slider is there. Any script error
+// (an exception, console.error, an error logged by the browser, the page's own data-errors)
+// fails. Saves a screenshot. Prints one line of figures; exit status 0 on success.
+import { spawn } from 'node:child_process';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+
+const opt = { timeoutS: 120 };
+for (let k = 2; k + 1 < process.argv.length; k += 2) {
+  const name = process.argv[k].replace(/^--/, '').replace(/-(.)/g, (_, c) => c.toUpperCase());
+  opt[name] = process.argv[k + 1];
+}
+for (const need of ['chromium', 'url', 'expectFile', 'screenshot'])
+  if (!opt[need]) { console.error(`viewer_browser: --${need} is needed`); process.exit(2); }
+
+const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'evermap-chromium-'));
+const chrome = spawn(opt.chromium, [
+  '--headless', '--no-sandbox', '--remote-debugging-pipe', '--no-first-run', '--no-default-browser-check',
+  '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--window-size=1400,900',
+  '--disable-background-timer-throttling', '--disable-renderer-backgrounding', '--disable-backgrounding-occluded-windows',
+  `--user-data-dir=${profile}`, 'about:blank'], { stdio: ['ignore', 'ignore', 'pipe', 'pipe', 'pipe'] });
+let chromeLog = '';
+chrome.stdio[2].on('data', (d) => { chromeLog = (chromeLog + d).slice(-4000); });
+
+const errors = [];
+let nextId = 1;
+const pending = new Map();
+const send = (method, params = {}, sessionId) => new Promise((resolve, reject) => {
+  const id = nextId++;
+  pending.set(id, { resolve, reject, method });
+  chrome.stdio[3].write(JSON.stringify({ id, method, params, ...(sessionId ? { sessionId } : {}) }) + '\0');
+});
+let buffer = '';
+chrome.stdio[4].on('data', (chunk) => {
+  buffer += chunk.toString('utf8');
+  let end;
+  while ((end = buffer.indexOf('\0')) >= 0) {
+    const msg = JSON.parse(buffer.slice(0, end));
+    buffer = buffer.slice(end + 1);
+    if (msg.id !== undefined && pending.has(msg.id)) {
+      const p = pending.get(msg.id);
+      pending.delete(msg.id);
+      if (msg.error) p.reject(new Error(`${p.method}: ${msg.error.message}`)); else p.resolve(msg.result);
+    } else if (msg.method === 'Runtime.exceptionThrown') {
+      const d = msg.params.exceptionDetails;
+      errors.push('exception: ' + (d.exception?.description || d.text));
+    } else if (msg.method === 'Runtime.consoleAPICalled' && msg.params.type === 'error') {
+      errors.push('console.error: ' + msg.params.args.map((a) => a.value ?? a.description).join(' '));
+    } else if (msg.method === 'Log.entryAdded' && msg.params.entry.level === 'error') {
+      errors.push('browser: ' + msg.params.entry.text + (msg.params.entry.url ? ' ' + msg.params.entry.url : ''));
+    }
+  }
+});
+
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+let finished = false;
+async function finish(code, line) {
+  if (finished) return;
+  finished = true;
+  console.log(line);
+  try { await Promise.race([send('Browser.close'), sleep(3000)]); } catch (e) { /* closing anyway */ }
+  chrome.kill('SIGKILL');
+  fs.rmSync(profile, { recursive: true, force: true });
+  process.exit(code);
+}
+chrome.on('exit', (code) => {
+  if (!finished) finish(1, `viewer_browser: FAIL: chromium exited (${code}) early: ${chromeLog.split('\n').slice(-5).join(' | ')}`);
+});
+
+try {
+  const { targetId } = await send('Target.createTarget', { url: 'about:blank' });
+  const { sessionId } = await send('Target.attachToTarget', { targetId, flatten: true });
+  for (const domain of ['Runtime', 'Page', 'Log']) await send(`${domain}.enable`, {}, sessionId);
+  await send('Page.navigate', { url: opt.url }, sessionId);
+  const start = Date.now();
+  let page = null, expected = null;
+  while (Date.now() - start < Number(opt.timeoutS) * 1000) {
+    await sleep(250);
+    if (expected === null && fs.existsSync(opt.expectFile)) {
+      const text = fs.readFileSync(opt.expectFile, 'utf8').trim();
+      if (text !== '') expected = text;
+    }
+    const r = await send('Runtime.evaluate', {
+      returnByValue: true,
+      expression: `(() => { const d = document.documentElement.dataset, n = performance.getEntriesByType('navigation')[0];
+        return { nodes: document.getElementById('count-nodes')?.textContent, drawn: d.graphNodes, frames: Number(d.frames || 0),
+                 errors: Number(d.errors || 0), pageErrors: (window.evermapErrors || []).join(' | '),
+                 connection: document.getElementById('connection')?.textContent,
+                 loadMs: n ? Math.round(n.loadEventEnd) : -1, latency: document.getElementById('latency')?.textContent }; })()`,
+    }, sessionId);
+    page = r.result.value;
+    if (page.errors > 0) break;
+    if (expected !== null && page.nodes === expected && page.drawn === expected && page.frames > 0) break;
+  }
+  let seekFigures = '';
+  if (opt.seek !== undefined && expected !== null && page.nodes === expected && page.errors === 0) {
+    const value = Math.round(Number(opt.seek) * 1000);
+    await send('Runtime.evaluate', {
+      expression: `(() => { const s = document.getElementById('log-slider'); s.value = '${value}';
+                           s.dispatchEvent(new Event('change')); })()`,
+    }, sessionId);
+    const seekStart = Date.now();
+    let after = null;
+    while (Date.now() - seekStart < 30000) {
+      await sleep(250);
+      after = (await send('Runtime.evaluate', {
+        returnByValue: true,
+        expression: `({ nodes: Number(document.getElementById('count-nodes').textContent),
+                        slider: Number(document.getElementById('log-slider').value),
+                        errors: Number(document.documentElement.dataset.errors || 0) })`,
+      }, sessionId)).result.value;
+      if (after.errors > 0 || (after.nodes < Number(expected) && Math.abs(after.slider - value) <= 20)) break;
+    }
+    seekFigures = `; after the seek to ${opt.seek}: ${after?.nodes} nodes, slider ${after?.slider}/1000`;
+    if (!(after && after.nodes < Number(expected) && Math.abs(after.slider - value) <= 20))
+      errors.push(`the seek to ${opt.seek} did not take the page back${seekFigures}`);
+    page.errors = after ? after.errors : page.errors;
+  }
+  await sleep(500);  // one more frame of the final map for the screenshot
+  const shot = await send('Page.captureScreenshot', { format: 'png' }, sessionId);
+  fs.writeFileSync(opt.screenshot, Buffer.from(shot.data, 'base64'));
+  const figures = `page shows ${page?.nodes} nodes (expected ${expected}), drawn ${page?.drawn}, ${page?.frames} frames, ` +
+    `${page?.connection}, load ${page?.loadMs} ms, map latency ${page?.latency}${seekFigures}; screenshot ${opt.screenshot}`;
+  if (page?.errors > 0) errors.push('page: ' + (page.pageErrors || 'data-errors > 0'));
+  if (errors.length > 0) await finish(1, `viewer_browser: FAIL: script errors: ${errors.join(' || ')}; ${figures}`);
+  if (expected === null) await finish(1, `viewer_browser: FAIL: no node count to expect in ${opt.expectFile}; ${figures}`);
+  if (page.nodes !== expected || page.drawn !== expected || !(page.frames > 0))
+    await finish(1, `viewer_browser: FAIL: ${figures}`);
+  await finish(0, `viewer_browser: ${figures}`);
+} catch (e) {
+  await finish(1, `viewer_browser: FAIL: ${e.message}`);
+}

@@ -1,0 +1,65 @@
+#pragma once
+// `evermap-viewer --log file.lcmlog`: the viewer's channels of an LCM log, held in memory and
+// played into an in-process LCM (memq://) that the LcmListener reads, so a log goes through
+// the same checked decoding path as live messages. The page's time slider seeks; a seek back
+// restarts the viewer's state and replays up to the new time, sending of the skipped stretch
+// only what the page shows (the last MAP_GRAPH, the last `trail_poses` POSEs, every other
+// message: they feed counts and plots).
+//
+// Time is the log's event timestamp (when lcm-logger received the message), microseconds, as
+// lcm-logplayer plays it. STEREO and KEYFRAME are not kept (images would not fit in memory).
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "core/common/expected.h"
+
+namespace evermap::viewer {
+
+struct LogPlayerOptions {
+  // Most bytes of messages kept from the log; a larger log is refused (an error naming it).
+  int64_t max_bytes = int64_t{1} << 30;
+  // POSEs sent when a seek skips a stretch (the page's trail).
+  int trail_poses = 600;
+
+  Status validate() const;
+};
+
+class LogPlayer {
+ public:
+  // Reads the events of `channels` from `file`. Errors: no such file, not an LCM log, too big.
+  static Expected<LogPlayer> open(const std::filesystem::path& file, const std::set<std::string>& channels,
+                                  const LogPlayerOptions& options = {});
+
+  int64_t startUtime() const { return events_.empty() ? 0 : events_.front().timestamp; }
+  int64_t endUtime() const { return events_.empty() ? 0 : events_.back().timestamp; }
+  size_t events() const { return events_.size(); }
+  // Timestamp of the last event sent (startUtime() - 1 before any).
+  int64_t position() const { return position_; }
+
+  // Hands `send` the events after position() up to `utime` (inclusive), in order, thinned as
+  // the header says; returns how many it sent.
+  using Send = std::function<void(const std::string& channel, const void* data, size_t size)>;
+  int64_t playTo(int64_t utime, const Send& send);
+  // Back to before the first event (the caller restarts the state it feeds).
+  void rewind() { next_ = 0; position_ = startUtime() - 1; }
+
+ private:
+  struct Event {
+    int64_t timestamp;
+    std::string channel;
+    std::vector<uint8_t> data;
+  };
+  std::vector<Event> events_;
+  size_t next_ = 0;
+  int64_t position_ = -1;
+  LogPlayerOptions o_;
+};
+
+}  // namespace evermap::viewer

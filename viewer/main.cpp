@@ -1,0 +1,280 @@
+// evermap-viewer: watch the map being built, in a browser (issue 21, docs/viewer.md). Parses
+// options, finds the page's files, starts the web server on its thread and runs the LCM loop
+// (LcmListener); or, with --store, shows a stored map without LCM.
+// Exit status: 0 on SIGINT/SIGTERM, 1 LCM, store or listening failure, 2 bad command line.
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <algorithm>
+#include <filesystem>
+#include <optional>
+#include <set>
+#include <string>
+#include <system_error>
+#include <thread>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "core/messages/channels.h"
+
+#include "core/common/command_line.h"
+#include "core/common/stop_signals.h"
+#include "viewer/board.h"
+#include "viewer/json_writer.h"
+#include "viewer/lcm_listener.h"
+#include "viewer/log_player.h"
+#include "viewer/store_graph.h"
+#include "viewer/viewer_state.h"
+#include "viewer/web_server.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// The page's folder: --web-dir, else $EVERMAP_VIEWER_WEB, else next to the program
+// (../share/evermap/viewer/web for an installed tree), else the source tree it was built from.
+fs::path findWebDir(const std::string& given) {
+  std::vector<fs::path> candidates;
+  if (!given.empty()) return given;
+  if (const char* env = std::getenv("EVERMAP_VIEWER_WEB"); env && *env) candidates.emplace_back(env);
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) candidates.push_back(exe.parent_path() / ".." / "share" / "evermap" / "viewer" / "web");
+  candidates.emplace_back(EVERMAP_VIEWER_SOURCE_WEB_DIR);
+  for (const fs::path& p : candidates)
+    if (fs::is_regular_file(p / "index.html", ec)) return p;
+  return candidates.back();
+}
+
+// The --log loop: plays the log at `speed` from its start, follows the page's commands
+// ("seek UTIME", "play", "pause"); a seek back starts the viewer's state afresh.
+int playLog(evermap::viewer::LogPlayer& player, lcm::LCM& lcm,
+            std::optional<evermap::viewer::LcmListener>& listener,
+            const evermap::viewer::LcmListenerOptions& listen, evermap::viewer::Board& board,
+            evermap::viewer::WebServer& server, evermap::StopSignals& stop, const std::string& file,
+            double speed) {
+  using namespace evermap;
+  using Clock = std::chrono::steady_clock;
+  auto send = [&lcm](const std::string& channel, const void* data, size_t size) {
+    lcm.publish(channel, data, static_cast<unsigned>(size));
+    while (lcm.handleTimeout(0) > 0) {
+    }
+  };
+  int64_t t = player.startUtime();
+  bool playing = true;
+  auto last = Clock::now();
+  auto next_counts = last;
+  std::string last_text;
+  while (!stop.requested()) {
+    for (const std::string& command : server.takeCommands()) {
+      if (command == "play") {
+        playing = true;
+        if (t >= player.endUtime()) {  // play again from the start
+          listener.reset();
+          listener.emplace(lcm, board, listen);
+          player.rewind();
+          t = player.startUtime();
+        }
+      } else if (command == "pause") {
+        playing = false;
+      } else if (command.rfind("seek ", 0) == 0) {
+        char* end = nullptr;
+        const long long target = std::strtoll(command.c_str() + 5, &end, 10);
+        if (end == command.c_str() + 5 || *end != '\0') continue;  // not a number: ignored
+        t = std::clamp<int64_t>(target, player.startUtime(), player.endUtime());
+        if (t < player.position()) {
+          listener.reset();
+          listener.emplace(lcm, board, listen);
+          player.rewind();
+        }
+      }
+    }
+    const auto now = Clock::now();
+    if (playing)
+      t += static_cast<int64_t>(speed * 1e6 * std::chrono::duration<double>(now - last).count());
+    last = now;
+    if (t >= player.endUtime()) {
+      t = player.endUtime();
+      playing = false;
+    }
+    player.playTo(t, send);
+    viewer::JsonWriter j;
+    j.beginObject().key("type").value("log").key("file").value(file);
+    j.key("start").value(player.startUtime()).key("end").value(player.endUtime());
+    j.key("t").value(t).key("playing").value(playing).key("speed").value(speed, 2).endObject();
+    std::string text = j.take();
+    if (text != last_text) {
+      board.post(viewer::Topic::kLog, text);
+      last_text = std::move(text);
+    }
+    if (now >= next_counts) {
+      listener->postCounts(server.countsJson());
+      next_counts = now + std::chrono::seconds(1);
+    }
+    server.notify();
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace evermap;
+  viewer::WebServerOptions web;
+  viewer::LcmListenerOptions listen;
+  std::string url, store_file, log_file, web_dir;
+  double log_speed = 1.0;
+  bool quiet = false;
+  CommandLine cli("evermap-viewer",
+                  "Serves a page that shows the map as it is built: MAP_GRAPH, POSE, FLOOR, MAPPER_STATS,\n"
+                  "REGISTER_RESULT, DEPUTY_STATUS, VO_DELTA, KEYFRAME and STEREO in (read-only: it\n"
+                  "publishes nothing), HTTP and a WebSocket stream out. Open http://BIND:PORT/.");
+  cli.value("--bind", &web.bind, "ADDR", "address to listen on (default 127.0.0.1: this machine only)");
+  cli.value("--port", &web.port, "N", "TCP port (default 8080; 0: any free port, printed)");
+  cli.value("--store", &store_file, "MAP.db", "show this map store (SQLite) instead of listening to LCM");
+  cli.value("--log", &log_file, "FILE.lcmlog",
+            "play this LCM log instead of listening to LCM, with a time slider on the page");
+  cli.value("--speed", &log_speed, "X", "--log: playing speed, x real time (default 1)");
+  cli.value("--web-dir", &web_dir, "DIR", "the page's files (default: found next to the program or in the source tree)");
+  cli.value("--max-clients", &web.max_clients, "N", "browser connections served at once (default 64)");
+  cli.value("--image-period-s", &listen.image_period_s, "S", "wall seconds between two camera images sent (default 0.5)");
+  cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
+  cli.flag("--quiet", &quiet, "no summary on exit");
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  // Signals blocked before any thread starts, then polled (the server thread inherits it).
+  StopSignals stop;
+
+  web.web_dir = findWebDir(web_dir);
+  web.three_dir = web.web_dir / "node_modules" / "three";
+  if (!fs::is_regular_file(web.three_dir / "build" / "three.module.js")) {
+    std::fprintf(stderr, "evermap-viewer: three.js is not installed in %s (run scripts/setup.sh): "
+                 "the page has no 3-D view\n", web.three_dir.c_str());
+    web.three_dir.clear();
+  }
+  if (!store_file.empty() && !log_file.empty()) {
+    std::fprintf(stderr, "evermap-viewer: --store and --log: one or the other\n");
+    return 2;
+  }
+  if (!(log_speed > 0.0)) {
+    std::fprintf(stderr, "evermap-viewer: --speed: must be > 0, got %g\n", log_speed);
+    return 2;
+  }
+  for (Status s : {web.validate(), listen.validate()}) {
+    if (!s) {
+      std::fprintf(stderr, "evermap-viewer: %s\n", s.error().message.c_str());
+      return 2;
+    }
+  }
+
+  viewer::Board board;
+  auto server = viewer::WebServer::start(board, web);
+  if (!server) {
+    std::fprintf(stderr, "evermap-viewer: %s\n", server.error().message.c_str());
+    return 1;
+  }
+  std::thread serving([&] { (*server)->run(); });
+  auto finish = [&](int status) {
+    (*server)->stop();
+    serving.join();
+    return status;
+  };
+
+  std::printf("evermap-viewer: serving http://%s:%d/ (page from %s)\n", web.bind.c_str(), (*server)->port(),
+              web.web_dir.c_str());
+  std::fflush(stdout);
+
+  if (!store_file.empty()) {
+    // Offline: the stored map, once; the server shows it until stopped.
+    auto stored = viewer::loadStoredGraph(store_file);
+    if (!stored) {
+      std::fprintf(stderr, "evermap-viewer: %s\n", stored.error().message.c_str());
+      return finish(1);
+    }
+    viewer::ViewerState state(board, listen.state);
+    if (Status s = state.onGraph(stored->graph, store_file); !s) {
+      std::fprintf(stderr, "evermap-viewer: %s: %s\n", store_file.c_str(), s.error().message.c_str());
+      return finish(1);
+    }
+    const viewer::GraphSummary& g = state.lastGraph();
+    // The counts the mapper would publish for this map (MAPPER_STATS), for the page's table.
+    mapper_stats_t stats{};
+    stats.utime = stored->graph.utime;
+    stats.num_nodes = static_cast<int32_t>(g.nodes);
+    stats.num_edges = static_cast<int32_t>(g.edges);
+    stats.num_floors = static_cast<int32_t>(g.floors);
+    stats.num_sessions = static_cast<int32_t>(g.sessions);
+    stats.num_rejected = stored->rejected;
+    (void)state.onStats(stats);
+    std::printf("evermap-viewer: %s: %lld nodes, %lld edges (%lld loop closures), %lld floors, "
+                "%lld sessions, %lld rejected constraints\n",
+                store_file.c_str(), static_cast<long long>(g.nodes), static_cast<long long>(g.edges),
+                static_cast<long long>(g.closures), static_cast<long long>(g.floors),
+                static_cast<long long>(g.sessions), static_cast<long long>(stored->rejected));
+    std::fflush(stdout);
+    (*server)->notify();
+    while (!stop.requested()) std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    return finish(0);
+  }
+
+  // --log: the log is played into an in-process LCM, read by the same listener.
+  std::optional<viewer::LogPlayer> player;
+  if (!log_file.empty()) {
+    const std::set<std::string> channels_shown = {
+        channels::kMapGraph, channels::kPose, channels::kFloor, channels::kMapperStats,
+        channels::kRegisterResult, channels::kDeputyStatus, channels::kVoDelta};
+    auto opened = viewer::LogPlayer::open(log_file, channels_shown);
+    if (!opened) {
+      std::fprintf(stderr, "evermap-viewer: %s\n", opened.error().message.c_str());
+      return finish(1);
+    }
+    player = std::move(*opened);
+    url = "memq://";
+    std::printf("evermap-viewer: %s: %zu events over %.1f s\n", log_file.c_str(), player->events(),
+                1e-6 * static_cast<double>(player->endUtime() - player->startUtime()));
+    std::fflush(stdout);
+  }
+  lcm::LCM lcm(url);
+  if (!lcm.good()) {
+    std::fprintf(stderr, "evermap-viewer: cannot start LCM (url \"%s\")\n", url.c_str());
+    return finish(1);
+  }
+  std::optional<viewer::LcmListener> listener_slot;
+  listener_slot.emplace(lcm, board, listen);
+  int status = 0;
+  using Clock = std::chrono::steady_clock;
+  auto next_counts = Clock::now();
+  if (player) {
+    status = playLog(*player, lcm, listener_slot, listen, board, **server, stop, log_file, log_speed);
+    return finish(status);
+  }
+  viewer::LcmListener& listener = *listener_slot;
+  while (!stop.requested()) {
+    // Short waits: the clients are woken at most every 20 ms however fast messages come.
+    const int handled = lcm.handleTimeout(20);
+    if (handled < 0) {
+      std::fprintf(stderr, "evermap-viewer: LCM failed\n");
+      status = 1;
+      break;
+    }
+    if (Clock::now() >= next_counts) {
+      listener.postCounts((*server)->countsJson());
+      next_counts = Clock::now() + std::chrono::seconds(1);
+    }
+    (*server)->notify();
+  }
+  status = finish(status);
+  if (!quiet) {
+    const viewer::WebServerCounts c = (*server)->counts();
+    std::printf("evermap-viewer: %s\ngraphs %lld\nlast_graph_nodes %lld\nimages_sent %lld\n"
+                "connections %lld\nrefused_connections %lld\ntexts_sent %lld\nversions_skipped %lld\n",
+                listener.inbox().summary().c_str(), static_cast<long long>(listener.state().graphs()),
+                static_cast<long long>(listener.state().lastGraph().nodes),
+                static_cast<long long>(listener.imagesSent()), static_cast<long long>(c.connections),
+                static_cast<long long>(c.refused), static_cast<long long>(c.texts_sent),
+                static_cast<long long>(c.versions_skipped));
+  }
+  return status;
+}

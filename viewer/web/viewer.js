@@ -1,0 +1,210 @@
+// The page of evermap-viewer: one WebSocket (subprotocol "evermap") carrying JSON texts, one
+// per topic ({"type": "graph" | "pose" | "floor" | "stats" | "history" | "register" |
+// "deputy" | "vo" | "image" | "viewer", ...}; docs/viewer.md). The 3-D view is loaded on its
+// own (scene.js, three.js), so the counts and plots work even where WebGL does not.
+import { drawPlot } from './plots.js';
+
+const $ = (id) => document.getElementById(id);
+const state = { graph: null, stats: null, register: null, scene: null, graphsDrawn: 0 };
+
+function setText(id, v) { const el = $(id); if (el) el.textContent = v; }
+const fmtInt = (v) => (v === null || v === undefined) ? '-' : String(v);
+const fmtTime = (utime) => new Date(utime / 1000).toISOString().replace('T', ' ').slice(0, 19);
+
+// ---- The 3-D view ----
+async function startScene() {
+  try {
+    const { MapScene } = await import('./scene.js');
+    state.scene = new MapScene($('scene'));
+    state.scene.onDrawn = () => { document.documentElement.dataset.frames = String(state.scene.framesDrawn); };
+    if (state.graph) showGraphInScene(state.graph);
+  } catch (e) {
+    setText('scene-message', '3-D view unavailable: ' + e.message + ' (three.js installed by scripts/setup.sh; WebGL needed)');
+    console.warn('3-D view unavailable', e);
+  }
+}
+
+function showGraphInScene(g) {
+  if (!state.scene) return;
+  state.scene.setGraph(g);
+  $('scene-message').hidden = g.nodes.id.length > 0;
+  // Buttons: the 3-D view and a top view per floor.
+  const box = $('floor-buttons');
+  const floors = [...new Set(g.floors.map((f) => f.index))].sort((a, b) => a - b);
+  const have = [...box.querySelectorAll('button')].map((b) => b.dataset.floor).join(',');
+  const want = ['all', ...floors.map(String)].join(',');
+  if (have !== want) {
+    box.innerHTML = '';
+    for (const f of ['all', ...floors]) {
+      const b = document.createElement('button');
+      b.dataset.floor = String(f);
+      b.textContent = f === 'all' ? '3-D' : 'floor ' + f;
+      const current = state.scene.floorFilter === null ? 'all' : String(state.scene.floorFilter);
+      if (String(f) === current) b.classList.add('active');
+      b.onclick = () => {
+        for (const o of box.querySelectorAll('button')) o.classList.toggle('active', o === b);
+        state.scene.showFloor(f === 'all' ? null : f);
+      };
+      box.appendChild(b);
+    }
+  }
+}
+
+// ---- Topics ----
+const handlers = {
+  graph(g) {
+    state.graph = g;
+    const c = g.counts;
+    setText('count-nodes', c.nodes);
+    setText('count-edges', c.edges);
+    setText('count-floors', c.floors);
+    setText('count-sessions', c.sessions);
+    setText('count-closures', c.closures);
+    if (g.source !== 'live') setText('source', 'map store ' + g.source);
+    else if (g.utime) setText('clock', 'map at ' + fmtTime(g.utime));
+    showGraphInScene(g);
+    // Latency from the viewer's text to this frame's drawing (same machine, same clock).
+    requestAnimationFrame(() => {
+      if (g.source === 'live') setText('latency', (Date.now() - g.built_ms) + ' ms for ' + c.nodes + ' nodes');
+      ++state.graphsDrawn;
+      document.documentElement.dataset.graphNodes = String(c.nodes);
+      document.documentElement.dataset.graphsDrawn = String(state.graphsDrawn);
+    });
+  },
+  pose(p) {
+    const s = p.sigma_xy_m === null ? '' : ' ±' + p.sigma_xy_m.toFixed(2) + ' m';
+    setText('pose', p.xyz.map((v) => v.toFixed(2)).join(', ') + ' m' + s + ' (session ' + p.session + ')');
+    if (state.scene) state.scene.setPose(p);
+  },
+  floor(f) {
+    setText('floor', (f.floor_index < 0 ? 'unknown' : f.floor_index) + ' at ' + f.height_m.toFixed(1) + ' m' +
+      (f.in_elevator ? ', in the elevator' : '') + (f.new_floor ? ' (new)' : ''));
+  },
+  stats(s) {
+    state.stats = s;
+    setText('count-rejected', s.rejected);
+    setText('count-dropped', s.dropped);
+    if (!state.graph) { setText('count-floors', s.floors); setText('count-sessions', s.sessions); }
+  },
+  history(h) {
+    if (h.utime.length === 0) return;
+    // Data time in minutes: a step of an hour or more (the gap between two sessions) counts
+    // as nothing, as in the mapper's progress lines.
+    const minutes = [0];
+    for (let k = 1; k < h.utime.length; ++k) {
+      const step = h.utime[k] - h.utime[k - 1];
+      minutes.push(minutes[k - 1] + (step > 0 && step < 3.6e9 ? step / 6e7 : 0));
+    }
+    drawPlot($('plot-nodes'), [{ label: 'nodes', x: minutes, y: h.nodes }], 'data time, min', 'nodes');
+    const series = Object.entries(h.components).map(([name, ms]) => ({ label: name, x: minutes, y: ms }));
+    drawPlot($('plot-components'), series, 'data time, min', 'ms');
+  },
+  register(r) {
+    setText('count-reg-ok', r.ok);
+    setText('count-reg-failed', r.failed);
+    const l = r.last;
+    setText('register', l.status + (l.status === 'ok' ? ' to node ' + l.node_id + ', ' + l.inliers + ' inliers' : (l.reason ? ': ' + l.reason : '')));
+  },
+  deputy(d) {
+    const body = $('deputy').querySelector('tbody');
+    body.innerHTML = '';
+    for (const h of d.hosts) for (const p of h.procs) {
+      const tr = document.createElement('tr');
+      const cells = [h.host, p.name, p.state, p.pid || '-', p.restarts, p.cpu_percent === null ? '-' : p.cpu_percent.toFixed(0),
+                     (p.rss_bytes / 1048576).toFixed(0)];
+      cells.forEach((v, k) => {
+        const td = document.createElement('td');
+        td.textContent = String(v);
+        if (k === 2) td.className = p.state;
+        tr.appendChild(td);
+      });
+      body.appendChild(tr);
+    }
+  },
+  vo(v) {
+    setText('vo', v.status + ': ' + v.inliers + ' inliers of ' + v.matches + ' matches, ' + v.features + ' features');
+  },
+  image(m) {
+    const img = new Image();
+    img.onload = () => {
+      const c = $('image');
+      c.hidden = false;
+      $('image-none').hidden = true;
+      c.width = img.width; c.height = img.height;
+      const ctx = c.getContext('2d');
+      ctx.drawImage(img, 0, 0);
+      // The newest keyframe's features, when it is this frame or close to it (1 s).
+      if (m.features_utime >= 0 && Math.abs(m.utime - m.features_utime) < 1e6) {
+        ctx.strokeStyle = '#5f5';
+        for (let k = 0; k + 1 < m.features.length; k += 2) {
+          ctx.beginPath();
+          ctx.arc(m.features[k] * m.scale, m.features[k + 1] * m.scale, 2, 0, 2 * Math.PI);
+          ctx.stroke();
+        }
+      }
+    };
+    img.src = 'data:image/jpeg;base64,' + m.jpeg;
+  },
+  // --log: the slider follows the position unless the user holds it.
+  log(l) {
+    $('log-controls').hidden = false;
+    setText('source', 'log ' + l.file);
+    if (state.log && l.t < state.log.t && state.scene) state.scene.restart();
+    state.log = l;
+    const span = Math.max(1, l.end - l.start);
+    if (!state.sliding) $('log-slider').value = String(Math.round(1000 * (l.t - l.start) / span));
+    setText('log-time', ((l.t - l.start) / 1e6).toFixed(1) + ' / ' + (span / 1e6).toFixed(1) + ' s');
+    setText('log-play', l.playing ? 'pause' : 'play');
+  },
+  viewer(v) {
+    setText('count-viewer-dropped', v.dropped);
+    const s = v.server || {};
+    setText('viewer-counts', 'viewer: ' + v.received + ' messages received, ' + v.dropped + ' dropped; ' +
+      (s.clients ?? '-') + ' browsers, ' + (s.versions_skipped ?? 0) + ' updates skipped for slow browsers');
+  },
+};
+
+// ---- The stream ----
+function command(text) {
+  if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(text);
+}
+
+function connect() {
+  const ws = state.ws = new WebSocket((location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/', 'evermap');
+  ws.onopen = () => { const c = $('connection'); c.textContent = 'live'; c.className = 'good'; };
+  ws.onclose = () => {
+    const c = $('connection'); c.textContent = 'disconnected, retrying'; c.className = 'bad';
+    setTimeout(connect, 1000);
+  };
+  ws.onmessage = (e) => {
+    let m;
+    try { m = JSON.parse(e.data); } catch (err) { console.warn('not JSON', err); return; }
+    const h = handlers[m.type];
+    try {
+      if (h) h(m);
+    } finally {
+      // One acknowledgement per text handled: the viewer sends at most a few unacknowledged
+      // texts, so a busy page gets the newest state when it is ready, not a backlog.
+      if (ws.readyState === WebSocket.OPEN) ws.send('a');
+    }
+  };
+}
+
+$('exaggeration').addEventListener('input', (e) => {
+  const v = Number(e.target.value);
+  setText('exaggeration-value', String(v));
+  if (state.scene) state.scene.setExaggeration(v);
+});
+$('log-slider').addEventListener('input', () => { state.sliding = true; });
+$('log-slider').addEventListener('change', (e) => {
+  state.sliding = false;
+  if (!state.log) return;
+  const t = state.log.start + Math.round(Number(e.target.value) / 1000 * (state.log.end - state.log.start));
+  command('seek ' + t);
+});
+$('log-play').addEventListener('click', () => command(state.log && state.log.playing ? 'pause' : 'play'));
+$('follow').addEventListener('change', (e) => { if (state.scene) state.scene.follow = e.target.checked; });
+drawPlot($('plot-nodes'), [], 'data time, min', 'nodes');
+drawPlot($('plot-components'), [], 'data time, min', 'ms');
+connect();
+startScene();
