@@ -68,7 +68,8 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapSt
 }
 
 MapStore::MapStore(MapStore&& o) noexcept
-    : db_(o.db_), file_(std::move(o.file_)), options_(o.options_), last_edge_id_(o.last_edge_id_) {
+    : db_(o.db_), file_(std::move(o.file_)), options_(o.options_), last_edge_id_(o.last_edge_id_),
+      stored_poses_(std::move(o.stored_poses_)) {
   o.db_ = nullptr;
 }
 MapStore& MapStore::operator=(MapStore&& o) noexcept {
@@ -78,6 +79,7 @@ MapStore& MapStore::operator=(MapStore&& o) noexcept {
     file_ = std::move(o.file_);
     options_ = o.options_;
     last_edge_id_ = o.last_edge_id_;
+    stored_poses_ = std::move(o.stored_poses_);
   }
   return *this;
 }
@@ -117,8 +119,17 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     sqlite3_bind_double(flo.s, 2, height);
     if (sqlite3_step(flo.s) != SQLITE_DONE) return fail("floors");
   }
+  // Only the rows that changed: new nodes, and poses the solver moved since the last save
+  // (most do not move at a step: the incremental solver's back substitution stops where the
+  // change does). Nothing is cached across a failed transaction (see the end).
+  std::vector<std::vector<double>> written = stored_poses_;
   for (const MapperNode& n : mapper.nodes()) {
-    const std::vector<double> pose = poseBlob(mapper.nodePose(n.id));
+    std::vector<double> pose = poseBlob(mapper.nodePose(n.id));
+    const auto k = static_cast<size_t>(n.id);
+    const bool is_new = k >= written.size();
+    if (!is_new && written[k] == pose) continue;
+    if (is_new) written.resize(k + 1);
+    written[k] = pose;
     sqlite3_reset(nod.s);
     sqlite3_bind_int64(nod.s, 1, n.id);
     sqlite3_bind_int(nod.s, 2, n.session);
@@ -126,7 +137,7 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     sqlite3_bind_int64(nod.s, 4, n.keyframe_utime);
     sqlite3_bind_blob(nod.s, 5, pose.data(), static_cast<int>(pose.size() * sizeof(double)), SQLITE_TRANSIENT);
     if (sqlite3_step(nod.s) != SQLITE_DONE) return fail("nodes");
-    if (!n.attitude) continue;  // an attitude never changes: stored once
+    if (!n.attitude || !is_new) continue;  // an attitude never changes: stored once
     const Eigen::Matrix<double, 2, 2, Eigen::RowMajor> cov = n.attitude->covariance;
     sqlite3_reset(att.s);
     sqlite3_bind_int64(att.s, 1, n.id);
@@ -191,6 +202,7 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     last_edge_id_ = last_edge_before;
     return s;
   }
+  stored_poses_ = std::move(written);
   // Copy the committed pages into the file and empty the log, so the store on disk is the
   // map and not the history of its transactions (SQLite's automatic checkpoint keeps the
   // log's size, up to 4 MB here). A reader holding the log makes it a no-op until the next

@@ -23,7 +23,7 @@
 //                                                                -- constraints are stored
 //
 // Every constraint is an edge (accepted or rejected, DESIGN.md section 3) until its pair is
-// folded; node poses are the latest estimates and are rewritten in each update's transaction.
+// folded; node poses are the latest estimates, rewritten in an update's transaction when they moved.
 //
 // Folding (paper section I: the graph, and so the store, grows with the area, not with the
 // time): once a pair of nodes holds `fold_after` rows, the transaction that adds the last one
@@ -94,7 +94,8 @@ class MapStore {
   MapStore& operator=(const MapStore&) = delete;
   ~MapStore();
 
-  // One transaction: the session row, the floors, every node (inserted or its pose updated),
+  // One transaction: the session row, the floors, every node new or moved since the last save
+  // (inserted or its pose updated),
   // the constraints of this mapper not stored yet (map_saved), and the folds they
   // complete.
   Status save(const Mapper& mapper, int session, int64_t session_start_utime);
@@ -116,6 +117,9 @@ class MapStore {
   std::filesystem::path file_;
   MapStoreOptions options_;
   int64_t last_edge_id_ = -1;  // highest edge id in the file
+  // Each node's pose as this object last committed it (poseBlob), by id: save() writes the
+  // rows that changed.
+  std::vector<std::vector<double>> stored_poses_;
 };
 
 }  // namespace evermap::mapper

@@ -151,6 +151,7 @@ Status OfflineRunOptions::validate() const {
   if (!(revisit_radius_m > 0.0) || !(revisit_angle_rad > 0.0)) return Error{"run.revisit_*: must be > 0"};
   if (!(max_wall_s >= 0.0)) return Error{"run.max_wall_s: must be >= 0"};
   if (!(stop_after_s >= 0.0)) return Error{"run.stop_after_s: must be >= 0"};
+  if (!(store_period_s >= 0.0)) return Error{"run.store_period_s: must be >= 0"};
   return Ok{};
 }
 
@@ -288,6 +289,23 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   };
   int64_t messages_seen = 0;
   std::vector<std::pair<int64_t, double>> session_offsets;  // (start utime, operating time then)
+  double next_store_s = 0.0;  // OfflineRunOptions::store_period_s
+  auto saveStore = [&](int64_t utime) {
+    const auto nodes = static_cast<int64_t>(mapper.nodes().size());
+    const auto constraints = static_cast<int64_t>(mapper.constraints().all().size());
+    if (!store_status || (nodes == stored_nodes && constraints == stored_constraints)) return;
+    const auto t0 = std::chrono::steady_clock::now();
+    store_status = store->save(mapper, mapper.session(), session_start);
+    store_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    stored_nodes = nodes;
+    stored_constraints = constraints;
+    ++transactions;
+    if (store_status && run.on_commit) {
+      auto rows = store->edgeRows();
+      if (!rows) store_status = rows.error();
+      else run.on_commit(StoreCommit{nodes, constraints, *rows, utime});
+    }
+  };
   broker.setAfterMessage([&](int64_t utime) {
     if (session_start < 0) {
       session_start = utime;
@@ -304,20 +322,11 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
       broker.setDeliver(false);
     }
     if (!store) return;
-    const auto nodes = static_cast<int64_t>(mapper.nodes().size());
-    const auto constraints = static_cast<int64_t>(mapper.constraints().all().size());
-    if (!store_status || (nodes == stored_nodes && constraints == stored_constraints)) return;
-    const auto t0 = std::chrono::steady_clock::now();
-    store_status = store->save(mapper, mapper.session(), session_start);
-    store_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    stored_nodes = nodes;
-    stored_constraints = constraints;
-    ++transactions;
-    if (store_status && run.on_commit) {
-      auto rows = store->edgeRows();
-      if (!rows) store_status = rows.error();
-      else run.on_commit(StoreCommit{nodes, constraints, *rows, utime});
+    if (run.store_period_s > 0) {
+      if (operating(utime) < next_store_s) return;
+      next_store_s = operating(utime) + run.store_period_s;
     }
+    saveStore(utime);
   });
 
   sim::SessionObservers observers;
@@ -357,6 +366,7 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
       if (session_start >= 0) operating_before_s = operating(ss.end_utime);
     }
   }
+  if (store && run.store_period_s > 0) saveStore(mapper.tracker().lastUtime());  // what the last period left
   timeline.sample(operating_reached_s, mapper.tracker().lastUtime(), current_session, true);
 
   if (!store_status) return store_status.error();

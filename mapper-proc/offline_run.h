@@ -57,6 +57,10 @@ struct StoreCommit {
 
 struct OfflineRunOptions {
   std::filesystem::path store_file;  // empty: no map store
+  // 0: a transaction after every message that changed the map (as mapper-proc); > 0: at most
+  // one per this many seconds of operating time, and one at the end (long runs, where the
+  // store's fsyncs would take most of the wall time).
+  double store_period_s = 0.0;
   // The sessions of the simulated run that are mapped, inclusive; -1: to the last.
   int first_session = 0;
   int last_session = -1;

@@ -156,7 +156,7 @@ int main(int argc, char** argv) {
   using namespace evermap;
   std::string config, mode = "reduced", store, timeline, out, replot, check_store;
   std::vector<std::string> sets;
-  double hours = -1.0, max_wall_s = 0.0;
+  double hours = -1.0, max_wall_s = 0.0, store_period_s = 0.0;
   bool progress = false;
   int first = 0, last = -1;
   CommandLine cli("evermap-mapper-run",
@@ -185,6 +185,8 @@ int main(int argc, char** argv) {
       "A-B", "map only sessions A..B of the run (0-based, inclusive)");
   cli.value("--store", &store, "MAP.db",
             "the map store (reduced graph only): a map it holds is continued, each update is one transaction");
+  cli.value("--store-period-s", &store_period_s, "S",
+            "at most one store transaction per S seconds of operating time, and one at the end (0: each update)");
   cli.flag("--progress", &progress, "print 'committed nodes N edges E rows R utime U' after each store transaction (E constraints, R rows of map_edges)");
   cli.value("--timeline", &timeline, "FILE.csv", "per-minute timeline CSV (nodes, per-component time, step cost)");
   cli.value("--out", &out, "DIR",
@@ -226,6 +228,10 @@ int main(int argc, char** argv) {
   }
   if (hours != -1.0 && !(hours > 0)) {
     std::fprintf(stderr, "evermap-mapper-run: --hours: must be > 0\n");
+    return 2;
+  }
+  if (!(store_period_s >= 0)) {
+    std::fprintf(stderr, "evermap-mapper-run: --store-period-s: must be >= 0\n");
     return 2;
   }
   if (max_wall_s < 0) {
@@ -270,6 +276,7 @@ int main(int argc, char** argv) {
     run.first_session = first;
     run.last_session = last;
     run.max_wall_s = max_wall_s;
+    run.store_period_s = store_period_s;
     if (!full) run.store_file = store;
     if (progress) {
       run.on_commit = [](const mapper::StoreCommit& c) {
