@@ -99,7 +99,7 @@ int main(int argc, char** argv) {
     if (a == "--lcm-url" && has_value) {
       url = argv[++i];
     } else if (a == "--config" && has_value) {
-      st = loadFields(&options, argv[++i], false);
+      st = loadFields(argv[++i], &options);
     } else if (a == "--set" && has_value) {
       st = setFieldFromAssignment(&options, argv[++i]);
     } else if (a == "--time-window-s" && has_value) {

@@ -8,16 +8,17 @@
 #include <evermap/imu_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
+#include "core/messages/log_reader.h"
 #include "imu-proc/lcm_convert.h"
 
 namespace evermap::imu {
 
 Expected<ImuLog> readImuLog(const std::string& file, const std::string& channel) {
-  if (!std::filesystem::exists(file)) return makeError(file, ": no such file");
-  lcm::LogFile log(file, "r");
-  if (!log.good()) return makeError(file, ": cannot open as an LCM log");
+  auto opened = messages::LogReader::open(file);
+  if (!opened) return opened.error();
+  messages::LogReader& log = *opened;
   ImuLog out;
-  for (const lcm::LogEvent* ev = log.readNextEvent(); ev; ev = log.readNextEvent()) {
+  while (const messages::LogReader::Event* ev = log.next()) {
     if (ev->channel != channel) continue;
     auto m = messages::decodeLcm<imu_t>(ev->data, ev->datalen, channel);
     if (!m) {
@@ -26,6 +27,7 @@ Expected<ImuLog> readImuLog(const std::string& file, const std::string& channel)
     }
     out.samples.push_back(fromLcm(*m));
   }
+  if (Status s = log.status(); !s) return s.error();  // cut mid-event or damaged
   return out;
 }
 
@@ -47,7 +49,11 @@ Status writeImuLog(const std::string& file, const std::string& channel,
       ev.channel = channel;
       ev.datalen = static_cast<int32_t>(buf.size());
       ev.data = buf.data();
-      if (log.writeEvent(&ev) != 0) return makeError(tmp, ": write failed");
+      if (log.writeEvent(&ev) != 0) {
+        std::error_code ec;
+        std::filesystem::remove(tmp, ec);
+        return makeError(tmp, ": write failed");
+      }
     }
   }
   std::error_code ec;

@@ -69,15 +69,9 @@ int main(int argc, char** argv) {
     if (a == "--lcm-url" && has_value) {
       url = argv[++i];
     } else if (a == "--config" && has_value) {
-      const char* file = argv[++i];
-      st = loadFields(&options, file, false);
-      if (st.ok()) st = loadFields(&heading, file, false);
-      if (st.ok()) st = loadFields(&proc, file, false);
+      st = loadFields(argv[++i], &options, &heading, &proc);
     } else if (a == "--set" && has_value) {
-      const std::string kv = argv[++i];
-      st = setFieldFromAssignment(&options, kv);
-      if (!st.ok()) st = setFieldFromAssignment(&heading, kv);
-      if (!st.ok()) st = setFieldFromAssignment(&proc, kv);
+      st = setFieldFromAssignment(argv[++i], &options, &heading, &proc);
     } else if (a == "--print-options") {
       print = true;
     } else {

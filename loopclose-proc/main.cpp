@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
   cli.value("--store", &store_file, "MAP.db",
             "SQLite map store: nodes and keyframes are reloaded and persisted");
   cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
-  cli.value("--rate", &options.max_rate_hz, "HZ", "answers per second of data time (2)");
+  cli.value("--rate", &options.max_rate_hz, "HZ", "answers per second of data time (2)").positive();
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   auto vocabulary = bow::loadAnyVocabulary(vocab_file);
   if (!vocabulary) {

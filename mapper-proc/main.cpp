@@ -34,20 +34,20 @@ int main(int argc, char** argv) {
   cli.repeated("--set", &sets, "mapper.KEY=VALUE", "override one mapper.* setting (after --config)");
   cli.value("--store", &store_file, "MAP.db", "write the map store (SQLite) after every update that changes the graph");
   cli.value("--graph-period-s", &node_options.graph_period_s, "S",
-            "MAP_GRAPH after a change at most every S seconds of message time (default 1)");
+            "MAP_GRAPH after a change at most every S seconds of message time (default 1)").min(0);
   cli.value("--stats-period-s", &node_options.stats_period_s, "S",
-            "MAPPER_STATS every S seconds of message time (default 1)");
+            "MAPPER_STATS every S seconds of message time (default 1)").min(0);
   cli.value("--time-window-s", &node_options.input.time.window_s, "S",
             "refuse a message stamped more than S s from the stream's clock until others confirm "
-            "the jump (default 120; 0: off; core/messages/inbox.h)");
+            "the jump (default 120; 0: off; core/messages/inbox.h)").min(0);
   cli.value("--queue", &node_options.input.queue_capacity, "N",
-            "messages LCM may queue per subscription (default 10000)");
+            "messages LCM may queue per subscription (default 10000)").min(1).max(1000000);
   cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.flag("--quiet", &quiet, "no summary on exit");
   double progress_s = 0.0;
   cli.value("--progress-s", &progress_s, "S",
             "print a progress line (message time, nodes, constraints, drops) every S s of wall "
-            "time while messages arrive (0: none)");
+            "time while messages arrive (0: none)").min(0);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   // SIGINT/SIGTERM blocked, then polled between LCM waits: before any thread starts (restoring
   // a stored map runs a solver batch, whose background worker would otherwise take the signal

@@ -7,14 +7,13 @@
 #include <set>
 #include <sstream>
 
-#include <lcm/lcm-cpp.hpp>
-
 #include "core/common/key_value_file.h"
 #include "core/eval/alignment.h"
 #include "core/eval/metrics.h"
 #include "core/eval/trajectory.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
+#include "core/messages/log_reader.h"
 #include "mapper-proc/map_store.h"
 
 namespace evermap::mapper {
@@ -86,12 +85,12 @@ Expected<EvalMap> mapFromStore(const std::filesystem::path& file) {
 }
 
 Expected<RecordedRun> readRecordedRun(const std::filesystem::path& file) {
-  if (!std::filesystem::exists(file)) return makeError(file.string(), ": no such log");
-  lcm::LogFile log(file.string(), "r");
-  if (!log.good()) return makeError(file.string(), ": cannot read LCM log");
+  auto opened = messages::LogReader::open(file);
+  if (!opened) return opened.error();
+  messages::LogReader& log = *opened;
   RecordedRun r;
   std::optional<map_graph_t> last_graph;
-  while (const lcm::LogEvent* ev = log.readNextEvent()) {
+  while (const messages::LogReader::Event* ev = log.next()) {
     const std::string channel = ev->channel;
     if (channel == channels::kMapGraph) {
       auto g = messages::decodeLcm<map_graph_t>(ev->data, ev->datalen, channel);
@@ -119,6 +118,8 @@ Expected<RecordedRun> readRecordedRun(const std::filesystem::path& file) {
       r.poses.emplace_back(p->utime, pose->mean);
     }
   }
+  // Cut mid-event: the last MAP_GRAPH read is not the run's last map.
+  if (Status s = log.status(); !s) return s.error();
   if (!last_graph) return makeError(file.string(), ": no MAP_GRAPH message in the log");
   auto map = mapFromGraph(*last_graph);
   if (!map) return makeError(file.string(), ": ", map.error().message);
@@ -207,9 +208,10 @@ Expected<RunTruth> readLogTruth(const std::vector<std::filesystem::path>& logs) 
   std::map<int64_t, core::SE3d> poses;
   std::map<int64_t, std::pair<int, int>> floor_session;
   for (const auto& file : logs) {
-    lcm::LogFile log(file.string(), "r");
-    if (!log.good()) return makeError(file.string(), ": cannot open the LCM log");
-    while (const lcm::LogEvent* e = log.readNextEvent()) {
+    auto opened = messages::LogReader::open(file);
+    if (!opened) return opened.error();
+    messages::LogReader& log = *opened;
+    while (const messages::LogReader::Event* e = log.next()) {
       if (e->channel != channels::kGroundTruth) continue;
       auto m = messages::decodeLcm<pose_t>(e->data, e->datalen, e->channel);
       if (!m) return makeError(file.string(), ": ", m.error().message);
@@ -218,6 +220,7 @@ Expected<RunTruth> readLogTruth(const std::vector<std::filesystem::path>& logs) 
       poses[m->utime] = pose->mean;
       floor_session[m->utime] = {m->floor, m->session};
     }
+    if (Status s = log.status(); !s) return s.error();
   }
   auto truth = truthFromSamples(poses, floor_session);
   if (!truth) return makeError(logs.empty() ? std::string("no log") : logs.front().string(), ": ", truth.error().message);

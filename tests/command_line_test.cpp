@@ -24,9 +24,9 @@ struct Fixture {
   CommandLine cli{"prog", "Does things."};
   Fixture() {
     cli.value("--store", &store, "FILE", "the store", /*required=*/true);
-    cli.value("--gap", &gap, "M", "gap in metres");
-    cli.value("--count", &count, "N", "how many");
-    cli.value("--utime", &utime, "US", "a time");
+    cli.value("--gap", &gap, "M", "gap in metres").any();
+    cli.value("--count", &count, "N", "how many").any();
+    cli.value("--utime", &utime, "US", "a time").any();
     cli.flag("--quiet", &quiet, "print nothing");
   }
 };
@@ -74,6 +74,43 @@ TEST(CommandLine, ErrorsNameTheOption) {
     ASSERT_FALSE(outcome.ok()) << c.expected;
     EXPECT_NE(outcome.error().message.find(c.expected), std::string::npos)
         << outcome.error().message;
+  }
+}
+
+// Issue 17: vo-proc turned --queue -5 into 1. A range is declared with the option and a value
+// outside it is refused, naming the option and the bound; the target keeps its default.
+TEST(CommandLine, ANumberOutsideItsRangeIsRefusedNamingTheOptionAndTheBound) {
+  int queue = 2;
+  double rate_hz = 10.0, fraction = 0.5;
+  CommandLine cli("prog", "");
+  cli.value("--queue", &queue, "N", "queue").min(1).max(1000);
+  cli.value("--rate", &rate_hz, "HZ", "rate").positive();
+  cli.value("--fraction", &fraction, "F", "fraction").min(0).max(1);
+  struct Case {
+    Args args;
+    const char* expected;  // nullptr: accepted
+  };
+  const std::vector<Case> cases = {
+      {Args{"--queue", "-5"}, "bad --queue: -5 is below the minimum 1"},
+      {Args{"--queue", "1001"}, "bad --queue: 1001 is above the maximum 1000"},
+      {Args{"--queue", "99999999999999999999"}, "bad --queue: \"99999999999999999999\" is not an integer in range"},
+      {Args{"--rate", "0"}, "bad --rate: 0 is not above 0"},
+      {Args{"--rate", "-1e-300"}, "bad --rate"},
+      {Args{"--rate", "inf"}, "bad --rate: \"inf\" is not a finite number"},
+      {Args{"--fraction", "1.0000001"}, "bad --fraction: 1.0000001 is above the maximum 1"},
+      {Args{"--queue", "1", "--queue", "1000", "--rate", "1e-9", "--fraction", "0"}, nullptr},
+  };
+  for (const Case& c : cases) {
+    queue = 2;
+    const auto outcome = cli.parse(c.args.argc(), c.args.data());
+    if (!c.expected) {
+      EXPECT_TRUE(outcome.ok()) << outcome.error().message;
+      EXPECT_EQ(queue, 1000);
+      continue;
+    }
+    ASSERT_FALSE(outcome.ok()) << c.expected;
+    EXPECT_NE(outcome.error().message.find(c.expected), std::string::npos) << outcome.error().message;
+    EXPECT_EQ(queue, 2) << "a refused value must not be stored";
   }
 }
 

@@ -12,6 +12,15 @@
 #include <string>
 #include <vector>
 
+#include <lcm/lcm-cpp.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <thread>
+
+
 #include "core/messages/lcm_receive_guard.h"
 
 namespace evermap::messages {
@@ -76,6 +85,53 @@ TEST(LcmReceiveGuard, TheInterposedRecvmsgTurnsABadFragmentIntoAnEmptyDatagram) 
   EXPECT_EQ(receive(), static_cast<ssize_t>(good.size()));
   close(fds[0]);
   close(fds[1]);
+}
+
+}  // namespace
+}  // namespace evermap::messages
+
+namespace evermap::messages {
+namespace {
+
+// LCM 1.3.1 drops what does not fit a subscription's queue without a counter; the
+// interposed lcm_try_enqueue_message() counts each drop per channel. Only the udpm://
+// provider drops (memq:// does not limit, file:// waits for the reader), so this runs over
+// loopback multicast inside scripts/lcm-sandbox (integration.lcm_queue_drops) and is skipped
+// outside it: 200 messages into a queue of 2 that nobody drains meanwhile, then drained;
+// every message is either handled or counted.
+TEST(LcmQueueDrops, MessagesBeyondASubscriptionsQueueCapacityAreCounted) {
+  const char* sandbox = std::getenv("EVERMAP_LCM_SANDBOX");
+  if (sandbox == nullptr || std::string(sandbox) != "1") {
+    GTEST_SKIP() << "needs udpm:// inside scripts/lcm-sandbox (integration.lcm_queue_drops)";
+  }
+  constexpr int kMessages = 200;
+  const std::string channel = "QUEUE_DROP_TEST";
+  const int64_t before = lcmQueueDropped(channel);
+  int handled = 0;
+  lcm::LCM lcm;
+  ASSERT_TRUE(lcm.good());
+  lcm::Subscription* sub = lcm.subscribeFunction(
+      channel, +[](const lcm::ReceiveBuffer*, const std::string&, int* n) { ++*n; }, &handled);
+  sub->setQueueCapacity(2);
+  const uint8_t byte = 7;
+  for (int i = 0; i < kMessages; ++i) lcm.publish(channel, &byte, 1);
+  const auto seen = [&] { return handled + (lcmQueueDropped(channel) - before); };
+  // LCM's receive thread takes them off the socket while nobody handles (bounded wait: a
+  // failure, never a hang), then the queue is drained.
+  for (int k = 0; k < 500 && seen() < kMessages; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    if (k >= 100) lcm.handleTimeout(10);
+  }
+  while (lcm.handleTimeout(100) > 0) {
+  }
+  lcm.unsubscribe(sub);
+  const int64_t dropped = lcmQueueDropped(channel) - before;
+  std::printf("%d of %d messages handled, %lld counted as dropped by LCM's queue\n", handled,
+              kMessages, static_cast<long long>(dropped));
+  EXPECT_EQ(handled + dropped, kMessages) << handled << " handled, " << dropped << " dropped";
+  EXPECT_GT(dropped, 0) << "a queue of 2 left undrained must overflow";
+  EXPECT_LT(handled, kMessages);
+  EXPECT_EQ(lcmQueueDropped("NO_SUCH_CHANNEL"), 0);
 }
 
 }  // namespace

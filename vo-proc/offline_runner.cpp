@@ -6,11 +6,10 @@
 #include <memory>
 #include <sstream>
 
-#include <lcm/lcm-cpp.hpp>
-
 #include "core/common/atomic_write.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
+#include "core/messages/log_reader.h"
 #include "core/messages/log_writer.h"
 #include "vo-proc/vo_trajectory.h"
 
@@ -72,11 +71,9 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
                                     const OfflineOptions& options) {
   auto pipeline = VoPipeline::create(options.pipeline);
   if (!pipeline) return pipeline.error();
-  if (!std::filesystem::is_regular_file(log)) {
-    return makeError(log.string(), ": no such log file");
-  }
-  lcm::LogFile file(log.string(), "r");
-  if (!file.good()) return makeError(log.string(), ": cannot open as an LCM log");
+  auto opened = messages::LogReader::open(log);
+  if (!opened) return opened.error();
+  messages::LogReader& file = *opened;
   std::optional<messages::LogWriter> writer;
   if (!options.output_log.empty()) {
     auto w = messages::LogWriter::open(options.output_log);
@@ -89,7 +86,7 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
   VoTrajectory chain;
   std::vector<double> times;
   int64_t frames = 0;
-  while (const lcm::LogEvent* event = file.readNextEvent()) {
+  while (const messages::LogReader::Event* event = file.next()) {
     const std::string& channel = event->channel;
     if (channel == channels::kStereoCalib) {
       if (Status s = pipeline->handleCalibrationBytes(event->data, event->datalen); !s) {
@@ -145,6 +142,9 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
       }
     }
   }
+  // A log cut mid-event (or damaged) gives a trajectory of part of the data: an error, and
+  // the output log is not committed.
+  if (Status s = file.status(); !s) return s.error();
   if (writer) {
     if (Status s = writer->commit(); !s) return s.error();
   }

@@ -40,18 +40,45 @@ void CommandLine::value(std::string name, std::string* out, std::string metavar,
   };
 }
 
-void CommandLine::value(std::string name, double* out, std::string metavar, std::string help,
-                        bool required) {
+CommandLine::Range& CommandLine::Range::min(double lo) {
+  limits_->lo = lo;
+  limits_->lo_open = false;
+  return *this;
+}
+CommandLine::Range& CommandLine::Range::max(double hi) {
+  limits_->hi = hi;
+  return *this;
+}
+CommandLine::Range& CommandLine::Range::positive() {
+  limits_->lo = 0.0;
+  limits_->lo_open = true;
+  return *this;
+}
+
+Status CommandLine::Range::check(double v) const {
+  const Limits& l = *limits_;
+  const std::string text = numberText(v, 10);
+  if (l.lo_open && !(v > l.lo)) return makeError(text, " is not above ", numberText(l.lo, 10));
+  if (!l.lo_open && v < l.lo) return makeError(text, " is below the minimum ", numberText(l.lo, 10));
+  if (v > l.hi) return makeError(text, " is above the maximum ", numberText(l.hi, 10));
+  return Ok{};
+}
+
+CommandLine::Range CommandLine::value(std::string name, double* out, std::string metavar,
+                                      std::string help, bool required) {
+  auto limits = std::make_shared<Range::Limits>();
   add(std::move(name), std::move(metavar), std::move(help), required).set =
-      [out](const std::string& v) -> Status {
+      [out, limits](const std::string& v) -> Status {
     char* end = nullptr;
     const double d = std::strtod(v.c_str(), &end);
     if (v.empty() || *end != '\0' || !std::isfinite(d)) {
       return makeError("\"", v, "\" is not a finite number");
     }
+    if (Status s = Range(limits).check(d); !s) return s;
     *out = d;
     return Ok{};
   };
+  return Range(limits);
 }
 
 void CommandLine::repeated(std::string name, std::vector<std::string>* out, std::string metavar,

@@ -16,6 +16,7 @@
 #include <charconv>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -27,20 +28,54 @@ namespace evermap {
 
 class CommandLine {
  public:
+  // The range of a numeric option, checked when the option is parsed: a value outside it is
+  // a bad command line naming the option and the range ("bad --queue: -5 is below 1"). Every
+  // numeric value() returns one, [[nodiscard]], so an option declared without its range
+  // warns at compile time: say .min(), .max(), .positive() or, where every number means
+  // something (a seed, an angle), .any().
+  class Range {
+   public:
+    Range& min(double lo);  // value >= lo
+    Range& max(double hi);  // value <= hi
+    Range& positive();      // value > 0
+    Range& any() { return *this; }
+    // Ok, or why `v` is outside.
+    Status check(double v) const;
+
+   private:
+    friend class CommandLine;
+    struct Limits {
+      double lo = -1e308, hi = 1e308;
+      bool lo_open = false;
+    };
+    explicit Range(std::shared_ptr<Limits> limits) : limits_(std::move(limits)) {}
+    std::shared_ptr<Limits> limits_;
+  };
+
   CommandLine(std::string program, std::string summary);
 
-  // A string, number or boolean option that takes a value. Numbers must parse completely
-  // and be finite. `required` options must be given.
+  // A string, number or boolean option that takes a value. Numbers must parse completely,
+  // be finite and lie in their Range. `required` options must be given.
   void value(std::string name, std::string* out, std::string metavar, std::string help,
              bool required = false);
-  void value(std::string name, double* out, std::string metavar, std::string help,
-             bool required = false);
+  [[nodiscard("give the option its range: .min(), .max(), .positive() or .any()")]]
+  Range value(std::string name, double* out, std::string metavar, std::string help,
+              bool required = false);
   template <typename Int>
     requires(std::is_integral_v<Int> && !std::is_same_v<Int, bool>)
-  void value(std::string name, Int* out, std::string metavar, std::string help,
-             bool required = false) {
+  [[nodiscard("give the option its range: .min(), .max(), .positive() or .any()")]]
+  Range value(std::string name, Int* out, std::string metavar, std::string help,
+              bool required = false) {
+    auto limits = std::make_shared<Range::Limits>();
     add(std::move(name), std::move(metavar), std::move(help), required).set =
-        [out](const std::string& v) { return parseInteger(v, out); };
+        [out, limits](const std::string& v) -> Status {
+      Int n{};
+      if (Status s = parseInteger(v, &n); !s) return s;
+      if (Status s = Range(limits).check(static_cast<double>(n)); !s) return s;
+      *out = n;
+      return Ok{};
+    };
+    return Range(limits);
   }
   // A value checked by the caller: `set` returns an error message for a bad value.
   void value(std::string name, std::function<Status(const std::string&)> set,

@@ -10,6 +10,7 @@
 // Config files hold the same "name = value" lines; '#' starts a comment.
 
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -68,10 +69,12 @@ Status setField(Options* options, const std::string& key, const std::string& val
       if (v == "1" || v == "true") { field = true; parsed = true; }
       if (v == "0" || v == "false") { field = false; parsed = true; }
     } else if constexpr (std::is_floating_point_v<T>) {
+      // Finite only: "inf" and "nan" parse as numbers but are never a valid setting (a
+      // rate of inf, a threshold of nan that every comparison fails).
       try {
         size_t used = 0;
         const double d = std::stod(v, &used);
-        if (used == v.size()) { field = static_cast<T>(d); parsed = true; }
+        if (used == v.size() && std::isfinite(d)) { field = static_cast<T>(d); parsed = true; }
       } catch (...) {
       }
     } else {
@@ -81,23 +84,51 @@ Status setField(Options* options, const std::string& key, const std::string& val
     }
   });
   if (!found) return makeError("unknown option \"", key, "\"");
-  if (!parsed) return makeError("option ", key, ": bad value \"", value, "\"");
+  if (!parsed) {
+    const bool number = v == "inf" || v == "-inf" || v == "nan" || v.find("e999") != std::string::npos;
+    return makeError("option ", key, ": bad value \"", v, "\"", number ? " (not a finite number)" : "");
+  }
   return Ok{};
 }
 
-// Splits "key=value" (as given on a command line) and sets it.
-template <typename Options>
-Status setFieldFromAssignment(Options* options, const std::string& assignment) {
-  const auto eq = assignment.find('=');
-  if (eq == std::string::npos) return makeError("expected key=value, got \"", assignment, "\"");
-  return setField(options, option_fields_detail::trim(assignment.substr(0, eq)),
-                  assignment.substr(eq + 1));
+// Sets `key` in the first of `options` that has a field of that name: one program's settings
+// spread over several Options structs (imu-proc's filter, heading and process options). A
+// key none of them has is "unknown option"; a bad value is an error naming key and value.
+template <typename... Options>
+Status setFieldOfAny(const std::string& key, const std::string& value, Options*... options) {
+  Status result = makeError("unknown option \"", key, "\"");
+  bool done = false;
+  auto attempt = [&](auto* o) {
+    if (done) return;
+    Status st = setField(o, key, value);
+    if (st.ok() || st.error().message.rfind("unknown option", 0) != 0) {
+      result = std::move(st);
+      done = true;
+    }
+  };
+  (attempt(options), ...);
+  return result;
 }
 
-// Reads "key = value" lines from a file; keys not in this Options are errors only when
-// strict (a config file may hold the options of several components).
+// Splits "key=value" (as given on a command line, --set) and sets it in the first of
+// `options` that has the key.
+template <typename... Options>
+Status setFieldFromAssignment(const std::string& assignment, Options*... options) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos) return makeError("expected key=value, got \"", assignment, "\"");
+  return setFieldOfAny(option_fields_detail::trim(assignment.substr(0, eq)),
+                       assignment.substr(eq + 1), options...);
+}
 template <typename Options>
-Status loadFields(Options* options, const std::filesystem::path& file, bool strict) {
+Status setFieldFromAssignment(Options* options, const std::string& assignment) {
+  return setFieldFromAssignment(assignment, options);
+}
+
+// Reads "key = value" lines from a file (--config) into `options`, with exactly the rules of
+// --set: every key must belong to one of them (a misspelt key is an error, never a silent
+// default) and every number must be finite. Errors name the file and line.
+template <typename... Options>
+Status loadFields(const std::filesystem::path& file, Options*... options) {
   std::ifstream in(file);
   if (!in) return makeError(file.string(), ": cannot open");
   std::string line;
@@ -110,13 +141,11 @@ Status loadFields(Options* options, const std::filesystem::path& file, bool stri
       return makeError(file.string(), ":", n, ": expected \"key = value\"");
     }
     const std::string key = option_fields_detail::trim(body.substr(0, eq));
-    const Status st = setField(options, key, body.substr(eq + 1));
-    if (!st.ok()) {
-      const bool unknown = st.error().message.rfind("unknown option", 0) == 0;
-      if (unknown && !strict) continue;
+    if (Status st = setFieldOfAny(key, body.substr(eq + 1), options...); !st.ok()) {
       return makeError(file.string(), ":", n, ": ", st.error().message);
     }
   }
+  if (in.bad()) return makeError(file.string(), ": read error");
   return Ok{};
 }
 

@@ -221,6 +221,10 @@ std::string Inbox::summary() const {
          std::to_string(c.malformed) + " malformed, " + std::to_string(c.time_refused) +
          " time-refused, " + std::to_string(c.refused) + " refused, " +
          std::to_string(c.failed) + " failed";
+    // LCM's own queue (lcm_receive_guard.h): what never reached receive().
+    if (const int64_t lost = lcmQueueDropped(channel); lost > 0) {
+      s += ", " + std::to_string(lost) + " dropped by LCM's full queue";
+    }
   }
   if (!held_.empty()) s += "; " + std::to_string(held_.size()) + " held";
   if (lcmPacketsRefused() > 0) {

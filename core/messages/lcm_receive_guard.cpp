@@ -9,6 +9,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <map>
+#include <mutex>
+#include <string_view>
 
 namespace evermap::messages {
 namespace {
@@ -29,7 +32,25 @@ std::atomic<int64_t>& refusedCount() {
   return n;
 }
 
+// LCM's queue drops per channel: written by LCM's receive thread (or the publisher, for
+// memq), read by the Inbox's thread.
+struct QueueDrops {
+  std::mutex mutex;
+  std::map<std::string, int64_t, std::less<>> by_channel;
+};
+QueueDrops& queueDrops() {
+  static QueueDrops d;
+  return d;
+}
+
 }  // namespace
+
+int64_t lcmQueueDropped(const std::string& channel) {
+  QueueDrops& d = queueDrops();
+  std::lock_guard<std::mutex> lock(d.mutex);
+  const auto it = d.by_channel.find(channel);
+  return it == d.by_channel.end() ? 0 : it->second;
+}
 
 bool lcmPacketIsSafe(const void* data, size_t size) {
   const auto* p = static_cast<const uint8_t*>(data);
@@ -105,4 +126,30 @@ extern "C" ssize_t recvmsg(int fd, struct msghdr* msg, int flags) {
                  static_cast<long long>(refused));
   }
   return 0;  // LCM discards a datagram shorter than its header
+}
+
+// Interposes liblcm's lcm_try_enqueue_message() (exported, and called through the PLT by
+// lcm_udpm.c, lcm_memq.c and the other providers; lcm.c of 1.3.1): it returns 0 when no
+// subscription of the channel has room, and the provider then discards the message. The
+// real function runs unchanged; each 0 is counted for the channel.
+extern "C" int lcm_try_enqueue_message(void* lcm, const char* channel) {
+  using TryEnqueue = int (*)(void*, const char*);
+  static const TryEnqueue real = [] {
+    auto f = reinterpret_cast<TryEnqueue>(dlsym(RTLD_NEXT, "lcm_try_enqueue_message"));
+    if (f == nullptr) {  // a broken contract: liblcm without the function LCM 1.3.1 exports
+      std::fprintf(stderr, "evermap: liblcm's lcm_try_enqueue_message() not found: %s\n", dlerror());
+      std::abort();
+    }
+    return f;
+  }();
+  const int kept = real(lcm, channel);
+  if (kept == 0 && channel != nullptr) {
+    auto& d = evermap::messages::queueDrops();
+    std::lock_guard<std::mutex> lock(d.mutex);
+    const std::string_view name(channel);
+    auto it = d.by_channel.find(name);
+    if (it == d.by_channel.end()) it = d.by_channel.emplace(std::string(name), 0).first;
+    ++it->second;
+  }
+  return kept;
 }

@@ -26,6 +26,14 @@ bool lcmPacketIsSafe(const void* data, size_t size);
 // Packets the guard turned into empty datagrams since the process started.
 int64_t lcmPacketsRefused();
 
+// Messages LCM 1.3.1 discarded on `channel` because every subscription's queue was full
+// (lcm_subscription_set_queue_capacity), since the process started; 0 for a channel never
+// seen. LCM has no counter for them: the executable also interposes liblcm's exported
+// lcm_try_enqueue_message(), which every provider (udpm, memq, ...) calls once per received
+// message to ask whether any subscription has room, and counts each "no". Process-wide, per
+// channel name (all lcm_t instances of the process together).
+int64_t lcmQueueDropped(const std::string& channel);
+
 // True: the guard is linked into this executable (calling it makes sure it is).
 bool lcmReceiveGuardLinked();
 

@@ -1,21 +1,20 @@
 #include "core/messages/log_compare.h"
 
 #include <cstring>
-#include <lcm/lcm-cpp.hpp>
 #include <sstream>
 
+#include "core/messages/log_reader.h"
 #include "core/messages/type_registry.h"
 
 namespace evermap::messages {
 
 Expected<LogComparator> LogComparator::fromLog(const std::filesystem::path& log) {
-  if (!std::filesystem::exists(log)) return makeError(log.string(), ": no such log file");
-  lcm::LogFile file(log.string(), "r");
-  if (!file.good()) return makeError(log.string(), ": cannot open as an LCM log");
+  auto opened = LogReader::open(log);
+  if (!opened) return opened.error();
+  LogReader& file = *opened;
   LogComparator c;
-  while (const lcm::LogEvent* ev = file.readNextEvent()) {
-    if (ev->datalen < 0) return makeError(log.string(), ": event ", ev->eventnum, " has a negative length");
-    const auto* p = static_cast<const uint8_t*>(ev->data);
+  while (const LogReader::Event* ev = file.next()) {
+    const uint8_t* p = ev->data;
     c.expected_[ev->channel].emplace_back(p, p + ev->datalen);
     ChannelReport& r = c.reports_[ev->channel];
     ++r.expected;
@@ -25,6 +24,7 @@ Expected<LogComparator> LogComparator::fromLog(const std::filesystem::path& log)
     }
     ++c.expected_total_;
   }
+  if (Status s = file.status(); !s) return s.error();
   if (c.expected_total_ == 0) return makeError(log.string(), ": log holds no events");
   return c;
 }

@@ -30,7 +30,7 @@ int convertMain(Dataset dataset, int argc, char** argv) {
     cli.value("--poses", &ground_truth, "FILE",
               "ground-truth poses (KITTI format); default SEQUENCE_FOLDER/poses.txt when present");
     cli.value("--rate", &kitti.sequence.rate_hz, "HZ",
-              "frame i at i/HZ s instead of times.txt (for copies without it; KITTI: about 10)");
+              "frame i at i/HZ s instead of times.txt (for copies without it; KITTI: about 10)").positive().max(10000);
     cli.value("--left", &left, "DIR", "left images (default image_0/, else image_l/)");
     cli.value("--right", &right, "DIR", "right images (default image_1/, else image_r/)");
   }

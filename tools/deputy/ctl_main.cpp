@@ -10,6 +10,7 @@
 //
 // Exits 0 on success, 1 when no deputy answers, a target is unknown or an order is not
 // acknowledged in time, 2 on bad usage.
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <lcm/lcm-cpp.hpp>
@@ -93,7 +94,15 @@ int main(int argc, char** argv) {
     };
     if (a == "--lcm-url") lcm_url = next();
     else if (a == "--host") options.host = next();
-    else if (a == "--timeout-s") options.timeout_s = std::atof(next().c_str());
+    else if (a == "--timeout-s") {
+      const std::string v = next();
+      char* end = nullptr;
+      options.timeout_s = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end != '\0' || !std::isfinite(options.timeout_s) || !(options.timeout_s > 0)) {
+        std::fprintf(stderr, "evermap-deputy-ctl: bad --timeout-s: \"%s\" is not a finite number > 0\n", v.c_str());
+        return 2;
+      }
+    }
     else if (a == "--tsv") tsv = true;
     else if (a == "-h" || a == "--help") { usage(); return 0; }
     else rest.push_back(a);

@@ -71,11 +71,11 @@ int main(int argc, char** argv) {
   cli.value("--lcm-url", &lcm_url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.flag("--no-output", &no_output, "do not publish output lines on LCM");
   cli.flag("--quiet", &quiet, "print less");
-  cli.value("--backoff-initial-ms", &backoff.initial_delay_ms, "MS", "first restart delay");
-  cli.value("--backoff-max-ms", &backoff.max_delay_ms, "MS", "longest restart delay");
+  cli.value("--backoff-initial-ms", &backoff.initial_delay_ms, "MS", "first restart delay").min(0);
+  cli.value("--backoff-max-ms", &backoff.max_delay_ms, "MS", "longest restart delay").min(0);
   cli.value("--stable-after-s", &backoff.stable_after_s, "S",
-            "running this long resets the back-off");
-  cli.value("--max-log-mb", &max_log_mb, "MB", "rotate a process log beyond this size");
+            "running this long resets the back-off").min(0);
+  cli.value("--max-log-mb", &max_log_mb, "MB", "rotate a process log beyond this size").positive();
   cli.flag("--check", &check, "parse CONFIG, print it and exit");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   publish_output = !no_output;

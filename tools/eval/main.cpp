@@ -51,12 +51,12 @@ int parse(int argc, char** argv, Arguments* c) {
   cli.value("--est-times", &c->est_times, "FILE", "the same for the estimate");
   cli.value("--align", parsedInto(&c->options.alignment, parseAlignmentMode), "se3|sim3|first|none",
       "Umeyama alignment of the estimate (default se3); first: the first estimated pose on the first ground-truth pose");
-  cli.value("--max-dt", &c->options.association.max_dt_s, "S", "largest stamp difference of a pair, seconds (default 0.02)");
+  cli.value("--max-dt", &c->options.association.max_dt_s, "S", "largest stamp difference of a pair, seconds (default 0.02)").positive();
   // Not given: the sentinels (the command line refuses NaN, and no one types INT_MIN frames).
   int rpe_frames = std::numeric_limits<int>::min();
   double rpe_distance = std::numeric_limits<double>::quiet_NaN();
-  cli.value("--rpe-frames", &rpe_frames, "N", "RPE step in frames (default 1)");
-  cli.value("--rpe-distance", &rpe_distance, "M", "RPE step in metres");
+  cli.value("--rpe-frames", &rpe_frames, "N", "RPE step in frames (default 1)").min(1);
+  cli.value("--rpe-distance", &rpe_distance, "M", "RPE step in metres").positive();
   cli.flag("--kitti-drift", &c->options.kitti_drift, "KITTI devkit drift over 100..800 m segments");
   cli.value("--json", &c->json, "OUT.json", "write the figures as JSON");
   cli.value("--plot", &c->plot, "OUT.png|OUT.svg", "top view of ground truth and aligned estimate");

@@ -19,6 +19,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "core/messages/convert.h"
+#include "core/common/atomic_write.h"
 #include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
 #include "core/common/option_fields.h"
@@ -34,6 +36,7 @@
 #include "core/datasets/hackzurich.h"
 #include "core/datasets/science_journal.h"
 #include "core/messages/channels.h"
+#include "core/messages/log_reader.h"
 #include "elevator-proc/elevator_tracker.h"
 #include "elevator-proc/offline_run.h"
 #include "elevator-proc/ride_simulator.h"
@@ -73,18 +76,18 @@ int parse(int argc, char** argv, Args* a) {
   cli.value("--euroc-imu", &a->euroc_imu, "CSV", "EuRoC mav0/imu0/data.csv");
   cli.value("--ground-truth", &a->ground_truth, "FILE", "EuRoC ground truth: the attitude error");
   cli.value("--hackzurich", &a->hackzurich, "DIR", "the phone recordings (with --session)");
-  cli.value("--session", &a->session, "N", "HackZurich session number (default 1)");
+  cli.value("--session", &a->session, "N", "HackZurich session number (default 1)").min(1);
   cli.value("--science-journal", &a->science_journal, "CSV",
             "an Android Science Journal accelerometer export (relative_time, AccX, AccY, AccZ; sparse rows)");
   cli.flag("--zero-gyro", &a->zero_gyro, "set every gyro reading to 0 (the accelerometer-only control)");
   cli.value("--lcm-log", &a->lcm_log, "FILE", "IMU messages of an LCM log");
   cli.value("--channel", &a->channel, "IMU", "the IMU channel of --lcm-log and --write-lcm-log");
-  cli.value("--synthetic", &a->synthetic_rides, "N", "a synthetic building run with N rides");
-  cli.value("--rate", &a->rate_hz, "HZ", "IMU rate of --synthetic (default 100)");
+  cli.value("--synthetic", &a->synthetic_rides, "N", "a synthetic building run with N rides").min(0);
+  cli.value("--rate", &a->rate_hz, "HZ", "IMU rate of --synthetic (default 100)").positive().max(100000);
   cli.value("--sim-config", &a->sim_config, "FILE",
             "the measurement-level simulator's IMU: does every ride end on the right floor?");
   cli.repeated("--sim-set", &a->sim_sets, "key=value", "override one simulator setting");
-  cli.value("--sim-sessions", &a->sim_sessions, "N", "only the first N sessions of --sim-config (0: all)");
+  cli.value("--sim-sessions", &a->sim_sessions, "N", "only the first N sessions of --sim-config (0: all)").min(0);
   cli.value("--config", &config, "FILE", "attitude and elevator options (key = value)");
   cli.repeated("--set", &sets, "key=value", "one attitude or elevator option (after --config)");
   cli.flag("--print-options", &a->print_options, "print every option with its value and exit");
@@ -94,13 +97,10 @@ int parse(int argc, char** argv, Args* a) {
   cli.value("--print-floor-log", &a->floor_log, "FILE", "only print the FLOOR and ATTITUDE summary of an LCM log");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   Status st = Ok{};
-  if (!config.empty()) {
-    st = loadFields(&a->attitude, config, false);
-    if (st.ok()) st = loadFields(&a->elevator, config, false);
-  }
+  if (!config.empty()) st = loadFields(config, &a->attitude, &a->elevator);
   for (const std::string& v : sets) {
     if (!st.ok()) break;
-    if (!setFieldFromAssignment(&a->attitude, v).ok()) st = setFieldFromAssignment(&a->elevator, v);
+    st = setFieldFromAssignment(v, &a->attitude, &a->elevator);
   }
   if (st.ok()) st = a->attitude.validate();
   if (st.ok()) st = a->elevator.validate();
@@ -117,13 +117,9 @@ int parse(int argc, char** argv, Args* a) {
 
 // The FLOOR messages in an LCM log (what elevator-proc published), one a line.
 int printFloorLog(const std::string& file) {
-  lcm::LogFile log(file, "r");
-  if (!log.good()) {
-    std::fprintf(stderr, "%s: cannot open as an LCM log\n", file.c_str());
-    return 1;
-  }
+  messages::LogReader log(file);
   int64_t attitudes = 0, first = 0, last = 0, untrusted = 0;
-  for (const lcm::LogEvent* ev = log.readNextEvent(); ev; ev = log.readNextEvent()) {
+  while (const messages::LogReader::Event* ev = log.next()) {
     if (ev->channel == channels::kAttitude) {
       auto decoded = messages::decodeLcm<attitude_t>(ev->data, ev->datalen, ev->channel);
       if (!decoded) continue;
@@ -141,6 +137,10 @@ int printFloorLog(const std::string& file) {
                 static_cast<long long>(m.utime),
                 m.event == floor_t::EVENT_RIDE_START ? "start" : "end", m.floor_index, m.height_m,
                 m.height_sigma_m, m.in_elevator, m.new_floor);
+  }
+  if (Status s = log.status(); !s) {  // cut mid-event: the summary would be of part of it
+    std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", s.error().message.c_str());
+    return 1;
   }
   const double span_s = 1e-6 * static_cast<double>(last - first);
   std::printf("ATTITUDE %lld messages over %.1f s of data: %.1f Hz, %lld with accel untrusted\n",
@@ -204,7 +204,7 @@ int main(int argc, char** argv) {
     samples = std::move(r->imu);
   } else if (!args.lcm_log.empty()) {
     auto r = imu::readImuLog(args.lcm_log, args.channel);
-    if (!r.ok()) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); return 1; }
+    if (!r.ok()) { std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", r.error().message.c_str()); return 1; }
     for (const auto& s : r->samples) samples.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
     std::printf("%s: %zu %s messages, %lld undecodable\n", args.lcm_log.c_str(),
                 r->samples.size(), args.channel.c_str(), static_cast<long long>(r->undecodable));
@@ -314,26 +314,36 @@ int main(int argc, char** argv) {
                 1e-9 * static_cast<double>(e.end_ns) - 1e-6 * static_cast<double>(origin));
   }
 
+  // Written whole or not at all (temporary file + rename): never a half file on failure.
+  auto write = [](const std::string& file, const std::string& text) {
+    if (Status s = writeFileAtomically(file, text); !s) {
+      std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", s.error().message.c_str());
+      return false;
+    }
+    return true;
+  };
   if (!args.dump_attitude.empty()) {
-    std::ofstream out(args.dump_attitude);
+    std::ostringstream out;
     for (const auto& a : track) {
       out << a.utime << ' ' << a.roll_rad << ' ' << a.pitch_rad << ' ' << a.covariance(0, 0)
           << ' ' << a.covariance(1, 1) << ' ' << int(a.accel_trusted) << '\n';
     }
+    if (!write(args.dump_attitude, out.str())) return 1;
   }
   if (!args.dump_trace.empty()) {
-    std::ofstream out(args.dump_trace);
+    std::ostringstream out;
     for (const auto& b : trace) {
       out << b.utime << ' ' << b.accel_m_s2 << ' ' << b.motion_std_m_s2 << ' ' << int(b.valid)
           << ' ' << int(b.riding) << ' ' << b.gravity_m_s2 << '\n';
     }
-    std::ofstream pout(args.dump_trace + ".pulses");
+    std::ostringstream pout;
     for (const auto& p : pulses) {
       const int64_t bin_us = static_cast<int64_t>(std::llround(args.elevator.pulse.bin_s * 1e6));
       pout << p.firstBin() * bin_us << ' ' << p.lastBin() * bin_us << ' '
            << p.amplitude_m_s2 << ' ' << p.residual_m_s2 << ' ' << p.snr << ' ' << p.delta_v_m_s
            << '\n';
     }
+    if (!write(args.dump_trace, out.str()) || !write(args.dump_trace + ".pulses", pout.str())) return 1;
   }
   return 0;
 }

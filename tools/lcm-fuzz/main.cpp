@@ -30,6 +30,7 @@
 #include "core/common/command_line.h"
 #include "core/messages/channels.h"
 #include "core/messages/lcm_receive_guard.h"
+#include "core/messages/log_reader.h"
 #include "core/messages/mutate.h"
 
 namespace {
@@ -129,9 +130,9 @@ int main(int argc, char** argv) {
   CommandLine cli("evermap-lcm-fuzz",
                   "Hostile messages on evermap's input channels (inside scripts/lcm-sandbox only).");
   cli.value("--channels", &channel_text, "A,B,...", "the channels to fuzz", /*required=*/true);
-  cli.value("--count", &count, "N", "messages per channel (default 1000)");
-  cli.value("--seed", &seed, "S", "random seed (default 1): the same seed sends the same bytes");
-  cli.value("--rate-hz", &rate_hz, "HZ", "messages per second over all channels (default 2000; 0: as fast as possible)");
+  cli.value("--count", &count, "N", "messages per channel (default 1000)").min(0).max(1e9);
+  cli.value("--seed", &seed, "S", "random seed (default 1): the same seed sends the same bytes").any();
+  cli.value("--rate-hz", &rate_hz, "HZ", "messages per second over all channels (default 2000; 0: as fast as possible)").min(0);
   cli.value("--log", &log_file, "LOG", "mutate the first message of each channel in this LCM log");
   cli.flag("--fragment-attack", &fragment_attack,
            "send the 2-packet LCM 1.3.1 fragment overflow on each channel instead");
@@ -154,18 +155,17 @@ int main(int argc, char** argv) {
   std::map<std::string, Bytes> seeds;
   for (const std::string& c : channel_list) seeds[c] = channelTypes().at(c)();
   if (!log_file.empty()) {
-    lcm::LogFile log(log_file, "r");
-    if (!log.good()) {
-      std::fprintf(stderr, "evermap-lcm-fuzz: %s: cannot open as an LCM log\n", log_file.c_str());
-      return 2;
-    }
+    evermap::messages::LogReader log(log_file);
     std::map<std::string, bool> taken;
-    for (const lcm::LogEvent* ev = log.readNextEvent(); ev; ev = log.readNextEvent()) {
+    while (const evermap::messages::LogReader::Event* ev = log.next()) {
       if (seeds.count(ev->channel) && !taken[ev->channel]) {
-        const auto* p = static_cast<const uint8_t*>(ev->data);
-        seeds[ev->channel] = Bytes(p, p + ev->datalen);
+        seeds[ev->channel] = Bytes(ev->data, ev->data + ev->datalen);
         taken[ev->channel] = true;
       }
+    }
+    if (evermap::Status s = log.status(); !s) {
+      std::fprintf(stderr, "evermap-lcm-fuzz: %s\n", s.error().message.c_str());
+      return 2;
     }
   }
   lcm::LCM lcm;

@@ -35,11 +35,11 @@ int main(int argc, char** argv) {
   cli.value("--out", &out_file, "FIG", "the figure to write, .png or .svg", true);
   cli.value("--gt", &gt_file, "GT.tum", "ground truth (TUM) drawn under the map, aligned by time");
   cli.value("--title", &title, "TEXT", "the figure's title");
-  cli.value("--azimuth", &options.azimuth_deg, "DEG", "turn of the horizontal plane (-30)");
+  cli.value("--azimuth", &options.azimuth_deg, "DEG", "turn of the horizontal plane (-30)").min(-360).max(360);
   cli.value("--floor-spacing", &options.floor_spacing, "F",
-            "floor spacing as a fraction of the map's extent (0.35)");
-  cli.value("--width", &options.width_px, "PX", "image width (1200)");
-  cli.value("--height", &options.height_px, "PX", "image height (1000)");
+            "floor spacing as a fraction of the map's extent (0.35)").min(0).max(10);
+  cli.value("--width", &options.width_px, "PX", "image width (1200)").min(16).max(20000);
+  cli.value("--height", &options.height_px, "PX", "image height (1000)").min(16).max(20000);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
 
   auto store = mapper::MapStore::open(store_file);

@@ -175,7 +175,7 @@ int main(int argc, char** argv) {
         return Ok{};
       },
       "M", "reduced (default), full (a node per step) or both, side by side");
-  cli.value("--hours", &hours, "H", "override patrol.total_hours");
+  cli.value("--hours", &hours, "H", "override patrol.total_hours").positive();
   cli.value(
       "--sessions",
       [&](const std::string& v) -> Status {
@@ -193,7 +193,7 @@ int main(int argc, char** argv) {
             "timelines, summaries, per-step and per-node errors (steps-M.csv, nodes-M.csv) and the Fig. 4 / "
             "Fig. 7 plots into DIR");
   cli.value("--max-wall-s", &max_wall_s, "S",
-            "stop mapping after S seconds of wall time (per mode); the figures cover the operating time reached");
+            "stop mapping after S seconds of wall time (per mode); the figures cover the operating time reached").min(0);
   cli.value("--replot", &replot, "DIR",
             "instead of a run: the Fig. 7 plots again from DIR/timeline-reduced.csv and DIR/timeline-full.csv "
             "(either may be missing), runs of the two modes made separately, drawn side by side");

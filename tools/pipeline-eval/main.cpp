@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
                "instead of --run: LCM logs with GROUND_TRUTH (evermap-sim-render, the data-set converters)");
   cli.value("--log", &log, "LOG", "an LCM log recorded from the pipeline (last MAP_GRAPH, POSE, MAPPER_STATS)");
   cli.value("--store", &store, "MAP.db", "a map store instead of a log");
-  cli.value("--max-ate", &max_ate_m, "M", "exit 1 when the node ATE rmse exceeds M metres (0: no limit)");
+  cli.value("--max-ate", &max_ate_m, "M", "exit 1 when the node ATE rmse exceeds M metres (0: no limit)").min(0);
   cli.value("--json", &json, "OUT.json", "also write the figures as JSON");
   std::string poses_tum;
   cli.value("--poses-tum", &poses_tum, "OUT.tum",

@@ -39,23 +39,23 @@ int parse(int argc, char** argv, Command* c) {
   cli.value("--train-default", &c->train_root, "DIR",
             "train the default vocabulary from the shared data under DIR (k=10, L=5)");
   cli.value("--exclude-recent", &c->options.exclude_recent, "N",
-            "most recent images not searched (10)");
+            "most recent images not searched (10)").min(0);
   cli.value("--candidates", &c->options.candidates, "N",
-            "candidates per query for the geometric check (5)");
+            "candidates per query for the geometric check (5)").min(1);
   cli.value("--min-inliers", &c->options.geometry.min_inliers, "N",
-            "epipolar RANSAC inliers to accept (30)");
-  cli.value("--raw-threshold", &c->raw_threshold, "S", "operating threshold of the raw score (0.10)");
+            "epipolar RANSAC inliers to accept (30)").min(0);
+  cli.value("--raw-threshold", &c->raw_threshold, "S", "operating threshold of the raw score (0.10)").min(0);
   cli.value("--geo-threshold", &c->geo_threshold, "S",
-            "operating threshold of the score after the check (0)");
-  cli.value("--features", &c->options.orb.max_features, "N", "ORB features per image (1000)");
+            "operating threshold of the score after the check (0)").min(0);
+  cli.value("--features", &c->options.orb.max_features, "N", "ORB features per image (1000)").min(1).max(100000);
   cli.value("--direct-depth", &c->options.direct_index_depth, "N",
-            "direct-index depth for guided matching (2)");
+            "direct-index depth for guided matching (2)").min(0);
   cli.value("--ratio", &c->options.geometry.matching.ratio, "R",
-            "ratio test of guided matching (0.8; 1 = off)");
+            "ratio test of guided matching (0.8; 1 = off)").positive().max(1);
   cli.value("--max-distance", &c->options.geometry.matching.max_distance, "N",
-            "largest Hamming distance of a match (64)");
+            "largest Hamming distance of a match (64)").min(0).max(256);
   cli.value("--ransac-px", &c->options.geometry.ransac_threshold_px, "P",
-            "epipolar RANSAC threshold, pixels (2)");
+            "epipolar RANSAC threshold, pixels (2)").positive();
   cli.value("--csv", &c->csv, "FILE", "write every query's candidates as CSV");
   cli.flag("--full-curve", &c->full_curve, "print every point of the curves, not a summary");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;

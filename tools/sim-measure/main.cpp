@@ -84,8 +84,8 @@ int parseArgs(int argc, char** argv, Args* a) {
   cli.flag("--print-config", &print, "print every setting and exit");
   cli.value("--lcm-url", &a->lcm_url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.value("--map", &a->map, "STORE", "--oracle: first learn the nodes the map store holds");
-  cli.value("--speed", &a->speed, "X", "--serve: times real time (0: as fast as possible)");
-  cli.value("--idle-exit-s", &a->idle_exit_s, "S", "--oracle: exit after S s without requests");
+  cli.value("--speed", &a->speed, "X", "--serve: times real time (0: as fast as possible)").min(0);
+  cli.value("--idle-exit-s", &a->idle_exit_s, "S", "--oracle: exit after S s without requests").min(0);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   a->load = !no_load;
   for (auto [on, m] : {std::pair{stats, "stats"}, {serve, "serve"}, {oracle, "oracle"}, {print, "print"}}) {

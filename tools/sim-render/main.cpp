@@ -70,9 +70,9 @@ int parseArgs(int argc, char** argv, Args* a) {
   cli.flag("--stats", &a->stats, "print figures and timings");
   cli.flag("--publish", &a->publish, "publish on LCM instead of writing");
   cli.value("--lcm-url", &a->lcm_url, "URL", "--publish: LCM provider");
-  cli.value("--speed", &a->speed, "X", "--publish: times real time (0: as fast as it renders)");
+  cli.value("--speed", &a->speed, "X", "--publish: times real time (0: as fast as it renders)").min(0);
   cli.value("--snapshots", &a->snapshots, "DIR", "write left images tagged with the failure in view");
-  cli.value("--every", &a->every_s, "S", "--snapshots: one every S seconds (10)");
+  cli.value("--every", &a->every_s, "S", "--snapshots: one every S seconds (10)").positive();
   cli.value("--facts", &a->facts, "F.csv", "per-frame facts (failure in view) as CSV");
   cli.flag("--print-config", &a->print, "print every setting and exit");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;

@@ -19,6 +19,7 @@
 #include "core/eval/alignment.h"
 #include "core/eval/plot.h"
 #include "core/eval/trajectory.h"
+#include "core/messages/log_reader.h"
 #include "core/sim/image_sim_options.h"
 #include "mapper-proc/mapper_config.h"
 #include "tools/slam-run/slam_runner.h"
@@ -116,11 +117,11 @@ int main(int argc, char** argv) {
   cli.flag("--full-graph", &full_graph, "a node at every step (the paper's baseline) instead of the reduced graph");
   cli.value("--config", &config, "MAPPER.conf", "mapper.* settings (docs/mapper.md)");
   cli.repeated("--set", &sets, "mapper.KEY=VALUE", "override one mapper.* setting");
-  cli.value("--max-session-s", &options.max_session_s, "S", "map at most S seconds of each log (0: all)");
+  cli.value("--max-session-s", &options.max_session_s, "S", "map at most S seconds of each log (0: all)").min(0);
   cli.value("--render", &render_config, "SIM-IMAGE.conf",
             "render the image-level simulator's sessions on the fly instead of reading logs (config/sim-image-*.conf)");
   cli.repeated("--render-set", &render_sets, "KEY=VALUE", "override one setting of the --render file");
-  cli.value("--sessions", &render_sessions, "N", "with --render: sessions 0 .. N-1 (default: patrol.sessions)");
+  cli.value("--sessions", &render_sessions, "N", "with --render: sessions 0 .. N-1 (default: patrol.sessions)").min(1);
   cli.positional(&logs, "LOG...", "LCM logs, mapped as successive sessions");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   auto fail = [](const std::string& what, int code) {
@@ -146,6 +147,11 @@ int main(int argc, char** argv) {
   if (!settings) return fail(settings.error().message, 2);
   if (Status s = mapper::readMapperOptions(*settings, &options.mapper); !s) return fail(s.error().message, 2);
   options.mapper.full_graph = full_graph;
+  // Every log whole before anything is created: a log cut mid-event is one line and no
+  // output folder, not a map of part of the data.
+  for (const std::string& log : logs) {
+    if (auto events = messages::LogReader::check(log); !events) return fail(events.error().message, 1);
+  }
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);
   if (ec) return fail(out_dir + ": cannot create (" + ec.message() + ")", 1);

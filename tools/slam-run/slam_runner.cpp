@@ -12,8 +12,6 @@
 #include <sstream>
 #include <thread>
 
-#include <lcm/lcm-cpp.hpp>
-
 #include <evermap/imu_t.hpp>
 #include <evermap/pose_t.hpp>
 #include <evermap/wheel_odom_t.hpp>
@@ -21,6 +19,7 @@
 #include "core/geometry/se2.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
+#include "core/messages/log_reader.h"
 #include "core/sim/image_session.h"
 #include "core/sim/message_sink.h"
 #include "elevator-proc/lcm_convert.h"
@@ -253,15 +252,15 @@ class StreamSink final : public sim::MessageSink {
 }  // namespace
 
 Status SlamRunner::runSession(const std::filesystem::path& log_file) {
-  auto log = std::make_shared<lcm::LogFile>(log_file.string(), "r");
-  if (!log->good()) return makeError(log_file.string(), ": cannot open the LCM log");
+  auto opened = messages::LogReader::open(log_file);
+  if (!opened) return opened.error();
+  auto log = std::make_shared<messages::LogReader>(std::move(*opened));
   EventStream events([log](EventStream& out) -> Status {
-    while (const lcm::LogEvent* e = log->readNextEvent()) {
-      if (!out.push(makeEvent(e->channel, e->timestamp, static_cast<const uint8_t*>(e->data),
-                              static_cast<size_t>(e->datalen))))
-        break;
+    while (const messages::LogReader::Event* e = log->next()) {
+      if (!out.push(makeEvent(e->channel, e->timestamp, e->data, static_cast<size_t>(e->datalen))))
+        return Ok{};  // the consumer stopped (--max-session-s): what follows is not used
     }
-    return Ok{};
+    return log->status();  // a log cut mid-event or damaged: the map would be of part of it
   });
   return mapSession(events, log_file.string());
 }
@@ -299,14 +298,17 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
   session_start_utime_ = -1;
   ComponentTimes& t = summary_.times;
   auto t_read = Clock::now();
+  bool cut_short = false;
   while (std::optional<ReadEvent> e = log.next()) {
     const std::string& channel = e->channel;
     const void* data = e->data.data();
     const auto size = static_cast<int64_t>(e->data.size());
     if (first_utime < 0) first_utime = e->timestamp;
     last_utime = std::max(last_utime, e->timestamp);
-    if (options_.max_session_s > 0.0 && e->timestamp - first_utime > static_cast<int64_t>(options_.max_session_s * 1e6))
+    if (options_.max_session_s > 0.0 && e->timestamp - first_utime > static_cast<int64_t>(options_.max_session_s * 1e6)) {
+      cut_short = true;  // damage the reader found further on does not concern this map
       break;
+    }
     t.decode_s += e->decode_s;
     t.wait_s += since(t_read);
     double loopclose_s = 0.0, mapper_s = 0.0;
@@ -399,7 +401,11 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
     t_read = Clock::now();
   }
   t.wait_s += since(t_read);
-  if (Status s = log.finish(); !s) return makeError(name, ": ", s.error().message);
+  if (Status s = log.finish(); !s && !cut_short) {
+    // The reader's message names the log already.
+    if (s.error().message.rfind(name, 0) == 0) return s;
+    return makeError(name, ": ", s.error().message);
+  }
   if (first_utime < 0) return makeError(name, ": no event");
   ss.duration_s = 1e-6 * static_cast<double>(last_utime - first_utime);
   ss.nodes_added = static_cast<int64_t>(mapper_->nodes().size()) - nodes_before;

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/common/atomic_write.h"
 #include "core/solver/batch_solver.h"
 #include "core/solver/graph_io.h"
 #include "core/solver/gnc.h"
@@ -103,19 +104,11 @@ BatchOptions batchOptions(const ToolOptions& o, Method method) {
 }
 
 Status writeStats(const std::string& path, const std::vector<std::string>& lines) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp);
-    if (!out) return makeError(tmp, ": cannot open for writing");
-    out << "# step wall_s cpu_s batch rows_modified rows_solved nnz_R poses factors"
-        << " [normalized_chi2]\n";
-    for (const auto& l : lines) out << l << '\n';
-    if (!out) return makeError(tmp, ": write failed");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) return makeError(path, ": cannot rename: ", ec.message());
-  return Ok{};
+  std::ostringstream out;
+  out << "# step wall_s cpu_s batch rows_modified rows_solved nnz_R poses factors"
+      << " [normalized_chi2]\n";
+  for (const auto& l : lines) out << l << '\n';
+  return writeFileAtomically(path, out.str());  // whole or not at all
 }
 
 double percentile(std::vector<double> v, double q) {

@@ -1,5 +1,6 @@
 #include "options.h"
 
+#include <cmath>
 #include <cstdlib>
 
 namespace evermap::solver_tool {
@@ -55,7 +56,9 @@ namespace {
 Expected<double> number(const std::string& flag, const char* text) {
   char* end = nullptr;
   const double v = std::strtod(text, &end);
-  if (!text[0] || *end != '\0') return makeError(flag, ": '", text, "' is not a number");
+  if (!text[0] || *end != '\0' || !std::isfinite(v)) {
+    return makeError(flag, ": '", text, "' is not a finite number");
+  }
   return v;
 }
 
@@ -120,8 +123,10 @@ Expected<ToolOptions> parseArguments(int argc, char** argv) {
       EVERMAP_VALUE(v);
       auto n = number(a, v->c_str());
       if (!n.ok()) return n.error();
-      if (*n < 0 || *n != static_cast<long long>(*n)) {
-        return makeError(a, ": expected a non-negative integer, got '", *v, "'");
+      // Stored in an int (a seed in an unsigned): larger values would not convert.
+      const double most = a == "--seed" ? 4294967295.0 : 2147483647.0;
+      if (*n < 0 || *n > most || *n != static_cast<long long>(*n)) {
+        return makeError(a, ": expected an integer in [0, ", static_cast<long long>(most), "], got '", *v, "'");
       }
       if (a == "--batch-every") o.batch_every = static_cast<int>(*n);
       if (a == "--max-iterations") o.max_iterations = static_cast<int>(*n);

@@ -20,21 +20,21 @@ int main(int argc, char** argv) {
   cli.flag("--body", &options.body_frame, "body (IMU) frame poses instead of the left camera's");
   cli.value("--stats", &stats, "FILE.csv", "per-frame statistics");
   cli.value("--output-log", &output_log, "FILE", "the VO_DELTA and KEYFRAME messages, as an LCM log");
-  cli.value("--max-frames", &options.max_frames, "N", "stop after N stereo frames");
+  cli.value("--max-frames", &options.max_frames, "N", "stop after N stereo frames").min(1);
   cli.value("--keyframe-inliers", &options.pipeline.odometry.keyframe_inlier_threshold, "N",
-            "new reference below N inliers (default 150; a keyframe only after --keyframe-distance/--keyframe-angle)");
+            "new reference below N inliers (default 150; a keyframe only after --keyframe-distance/--keyframe-angle)").min(0);
   auto& odo = options.pipeline.odometry;
   cli.value("--keyframe-distance", &odo.keyframe_min_translation_m, "M",
-            "a new reference is a map keyframe after M metres (or --keyframe-angle)");
+            "a new reference is a map keyframe after M metres (or --keyframe-angle)").min(0);
   cli.value("--keyframe-angle", &odo.keyframe_min_rotation_rad, "RAD",
-            "... or after turning RAD radians since the last keyframe");
+            "... or after turning RAD radians since the last keyframe").min(0).max(3.15);
   cli.value("--disparity-sigma", &odo.registration.disparity_sigma_px, "PX",
-            "disparity noise the clique allows for along the rays (0: fixed threshold)");
+            "disparity noise the clique allows for along the rays (0: fixed threshold)").min(0);
   cli.value("--motion-disparity-sigma", &odo.registration.motion.disparity_sigma_px, "PX",
-            "disparity noise the motion estimate whitens its residuals for (0: points exact)");
+            "disparity noise the motion estimate whitens its residuals for (0: points exact)").min(0);
   cli.value("--clique-threshold", &odo.registration.clique.threshold_m, "M",
-            "change of a pairwise distance always consistent");
-  cli.value("--search-radius", &odo.matching.search_radius_px, "PX", "window half-size at a feature's level");
+            "change of a pairwise distance always consistent").positive();
+  cli.value("--search-radius", &odo.matching.search_radius_px, "PX", "window half-size at a feature's level").positive();
   cli.flag("--no-motion-prior", &no_motion_prior, "predict the rotation only (FOVIS), not a constant velocity");
   cli.flag("--no-descriptors", &no_descriptors, "no ORB descriptors at keyframes");
   cli.flag("--verbose", &verbose, "one line per frame that failed, was bridged or retried, with its reason");

@@ -40,14 +40,14 @@ int parse(int argc, char** argv, Command* c) {
       "DIR",
       "add the default training folders under DIR (KITTI 07 and 01, EuRoC V1_01 cam0, "
       "slambook2 TUM frames)");
-  cli.value("--k", &c->options.tree.branching, "N", "branching factor (10)");
-  cli.value("--levels", &c->options.tree.levels, "N", "depth L (5)");
+  cli.value("--k", &c->options.tree.branching, "N", "branching factor (10)").min(2).max(1000);
+  cli.value("--levels", &c->options.tree.levels, "N", "depth L (5)").min(1).max(10);
   cli.value("--iterations", &c->options.tree.max_iterations, "N",
-            "k-majority iterations per node (10)");
-  cli.value("--seed", &c->options.tree.seed, "N", "k-means++ seed (1)");
-  cli.value("--features", &c->options.orb.max_features, "N", "ORB features per image (1000)");
+            "k-majority iterations per node (10)").min(1).max(1000);
+  cli.value("--seed", &c->options.tree.seed, "N", "k-means++ seed (1)").any();
+  cli.value("--features", &c->options.orb.max_features, "N", "ORB features per image (1000)").min(1).max(100000);
   cli.value("--image-step", &c->options.image_step, "N",
-            "use every N-th image of each folder (1)");
+            "use every N-th image of each folder (1)").min(1);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   c->folders.insert(c->folders.end(), folders.begin(), folders.end());
   auto fail = [&](const std::string& why) {
