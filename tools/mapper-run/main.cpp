@@ -186,7 +186,8 @@ int main(int argc, char** argv) {
   cli.value("--store", &store, "MAP.db",
             "the map store (reduced graph only): a map it holds is continued, each update is one transaction");
   cli.value("--store-period-s", &store_period_s, "S",
-            "at most one store transaction per S seconds of operating time, and one at the end (0: each update)");
+            "at most one store transaction per S seconds of operating time, and one at the end (0: each update)")
+      .min(0);
   cli.flag("--progress", &progress, "print 'committed nodes N edges E rows R utime U' after each store transaction (E constraints, R rows of map_edges)");
   cli.value("--timeline", &timeline, "FILE.csv", "per-minute timeline CSV (nodes, per-component time, step cost)");
   cli.value("--out", &out, "DIR",
@@ -228,10 +229,6 @@ int main(int argc, char** argv) {
   }
   if (hours != -1.0 && !(hours > 0)) {
     std::fprintf(stderr, "evermap-mapper-run: --hours: must be > 0\n");
-    return 2;
-  }
-  if (!(store_period_s >= 0)) {
-    std::fprintf(stderr, "evermap-mapper-run: --store-period-s: must be >= 0\n");
     return 2;
   }
   if (max_wall_s < 0) {
