@@ -14,6 +14,7 @@
 //                 session -1); KITTI: body = camera 0
 //   RGBD          rgbd_image_t per associated color/depth pair (TUM RGB-D), the calibration
 //                 inside; gray PNG + 16-bit PNG depth, or raw gray8 + raw uint16
+//   RGBD_CALIB    rgbd_calib_t, first and before the first frame of every period (TUM RGB-D)
 //   ACCEL         accel_t per row of accelerometer.txt (TUM RGB-D)
 //   GROUND_TRUTH  TUM RGB-D: world_T_body, body = the color camera
 // Events with the same utime are written IMU, GROUND_TRUTH, STEREO: a consumer has the

@@ -12,6 +12,7 @@
 #include "core/messages/rgbd_convert.h"
 
 #include <evermap/accel_t.hpp>
+#include <evermap/rgbd_calib_t.hpp>
 
 namespace evermap::datasets {
 namespace {
@@ -89,6 +90,16 @@ Expected<ConversionSummary> convertTumRgbdToLcm(const fs::path& folder, const fs
 
   auto writer = messages::LogWriter::open(output);
   if (!writer) return writer.error();
+  // RGBD_CALIB first and before the first frame of every period, as STEREO_CALIB.
+  channels::CalibrationRepeat calib_repeat;
+  auto writeCalibrationIfDue = [&](int64_t utime) -> Status {
+    if (!calib_repeat.due(utime)) return Ok{};
+    evermap::rgbd_calib_t msg;
+    msg.utime = utime;
+    msg.camera = messages::toMsg(*camera);
+    return writer->write(channels::kRgbdCalib, utime, msg);
+  };
+  if (Status s = writeCalibrationIfDue(events.front().utime); !s) return s.error();
   for (const PendingEvent& e : events) {
     Status s = Ok{};
     if (e.kind == EventKind::kImu) {
@@ -123,7 +134,8 @@ Expected<ConversionSummary> convertTumRgbdToLcm(const fs::path& folder, const fs
       f.depth = std::move(*depth);
       auto msg = messages::toMsg(f, options.encoding);
       if (!msg) return makeError(color_file.string(), ": ", msg.error().message);
-      s = writer->write(channels::kRgbd, e.utime, *msg);
+      s = writeCalibrationIfDue(e.utime);
+      if (s) s = writer->write(channels::kRgbd, e.utime, *msg);
     }
     if (!s) return s.error();
   }

@@ -51,6 +51,7 @@ const std::map<std::string, std::function<Bytes()>>& channelTypes() {
       {channels::kStereo, encodeDefault<stereo_image_t>},
       {channels::kStereoCalib, encodeDefault<stereo_calib_t>},
       {channels::kRgbd, encodeDefault<rgbd_image_t>},
+      {channels::kRgbdCalib, encodeDefault<rgbd_calib_t>},
       {channels::kAccel, encodeDefault<accel_t>},
       {channels::kImu, encodeDefault<imu_t>},
       {channels::kWheelOdom, encodeDefault<wheel_odom_t>},
