@@ -1,5 +1,5 @@
 #pragma once
-// STEREO_CALIB for the mapper (docs/contracts.md): calibration is state, latched. The mapper
+// STEREO_CALIB (or RGBD_CALIB) for the mapper (docs/contracts.md): calibration is state, latched. The mapper
 // takes the rectified left camera's body_T_cam from it, since VO deltas are camera motions;
 // until the first valid one, VO_DELTA cannot be used (the caller refuses it, counted). Sources
 // repeat the message every second: the same bytes, time stamp aside, change nothing. A
@@ -25,6 +25,9 @@ class CalibrationLatch {
   // One STEREO_CALIB event's bytes; a new valid calibration goes to `mapper`. An error (one
   // line, naming the message) for one that is refused.
   Status handle(const void* data, int64_t size, Mapper& mapper);
+  // The same for one RGBD_CALIB event (an RGB-D camera: body_T_cam of its camera). The latch
+  // holds one camera, whichever kind sent it last.
+  Status handleRgbd(const void* data, int64_t size, Mapper& mapper);
   bool haveCamera() const { return have_camera_; }
   const CalibrationLatchCounts& counts() const { return counts_; }
 

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include <evermap/attitude_t.hpp>
+#include <evermap/rgbd_calib_t.hpp>
 #include <evermap/floor_t.hpp>
 #include <evermap/register_result_t.hpp>
 #include <evermap/vo_delta_t.hpp>
@@ -90,6 +91,9 @@ LcmNode::LcmNode(lcm::LCM& lcm, Mapper& mapper, const LcmNodeOptions& options, M
   inbox_.subscribe<register_result_t>(channels::kRegisterResult, on);
   inbox_.subscribeBytes<stereo_calib_t>(
       channels::kStereoCalib, [this](const void* data, int64_t size) { return onCalibration(data, size); });
+  inbox_.subscribeBytes<rgbd_calib_t>(channels::kRgbdCalib, [this](const void* data, int64_t size) {
+    return calibration_.handleRgbd(data, size, m_);
+  });
 }
 
 LcmNodeCounts LcmNode::counts() const {

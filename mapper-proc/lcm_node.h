@@ -1,5 +1,5 @@
 #pragma once
-// The mapper on LCM (DESIGN.md section 1): subscribes to STEREO_CALIB, VO_DELTA, WHEEL_ODOM,
+// The mapper on LCM (DESIGN.md section 1): subscribes to STEREO_CALIB (or RGBD_CALIB), VO_DELTA, WHEEL_ODOM,
 // ATTITUDE, FLOOR and REGISTER_RESULT, feeds the Mapper, publishes its REGISTER_REQUEST and NODE_ADDED,
 // POSE at every VO frame (and wheel increment while VO is down; not while a new session is
 // still lost), MAP_GRAPH when the graph

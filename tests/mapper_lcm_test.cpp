@@ -19,6 +19,7 @@
 #include <evermap/node_added_t.hpp>
 #include <evermap/pose_t.hpp>
 #include <evermap/register_result_t.hpp>
+#include <evermap/rgbd_calib_t.hpp>
 
 #include "core/camera/calibration.h"
 #include "core/eval/alignment.h"
@@ -331,6 +332,48 @@ TEST(MapperLcm, TakesTheCameraFromStereoCalibAndRefusesVoBeforeIt) {
   lcm.publish(channels::kVoDelta, &first);
   drain();
   EXPECT_EQ(node.counts().no_calibration, 1);
+  EXPECT_EQ(mapper.nodes().size(), 1u);
+}
+
+TEST(MapperLcm, TakesTheCameraFromRgbdCalibToo) {
+  // An RGB-D camera (docs/rgbd.md): the mounting comes from RGBD_CALIB, latched the same way.
+  lcm::LCM lcm("memq://");
+  ASSERT_TRUE(lcm.good());
+  Mapper mapper(MapperOptions{});
+  LcmNodeOptions node_options;
+  node_options.input.time.confirm_count = 1;
+  LcmNode node(lcm, mapper, node_options);
+  auto drain = [&] {
+    while (lcm.handleTimeout(0) > 0) {
+    }
+  };
+  core::CameraCalibration camera = sim::CameraOptions{}.stereoCalibration(640, 480).left;
+  const core::SE3d body_T_cam = camera.body_T_cam;
+  ASSERT_GT(body_T_cam.log().norm(), 1e-3);  // not the identity, so the test can fail
+  for (int64_t t : {1'000'000, 2'000'000}) {
+    rgbd_calib_t msg;
+    msg.utime = t;
+    msg.camera = messages::toMsg(camera);
+    lcm.publish(channels::kRgbdCalib, &msg);
+  }
+  drain();
+  EXPECT_EQ(node.calibration().counts().camera_changes, 1);
+  EXPECT_LT((mapper.tracker().bodyTCamera().inverse() * body_T_cam).log().norm(), 1e-12);
+  rgbd_calib_t bad;
+  bad.utime = 3'000'000;
+  bad.camera = messages::toMsg(camera);
+  bad.camera.fx = -1.0;
+  lcm.publish(channels::kRgbdCalib, &bad);
+  drain();
+  EXPECT_EQ(node.calibration().counts().refused, 1);
+  vo_delta_t first{};
+  first.utime = first.ref_utime = 3'100'000;
+  first.status = vo_delta_t::STATUS_NO_DATA;
+  first.keyframe_changed = 1;
+  first.orientation[0] = 1.0;
+  lcm.publish(channels::kVoDelta, &first);
+  drain();
+  EXPECT_EQ(node.counts().no_calibration, 0);
   EXPECT_EQ(mapper.nodes().size(), 1u);
 }
 

@@ -1,7 +1,8 @@
-// evermap-vo-proc: stereo visual odometry on LCM. Subscribes to STEREO_CALIB and STEREO,
-// publishes VO_DELTA per frame and KEYFRAME per new keyframe (vo-proc/vo_pipeline.h).
+// evermap-vo-proc: visual odometry on LCM. Subscribes to STEREO_CALIB and STEREO (a stereo
+// rig) and RGBD (an RGB-D camera, its calibration inside), publishes VO_DELTA per frame and
+// KEYFRAME per new keyframe (vo-proc/vo_pipeline.h); the outputs do not say which camera.
 //
-// Threads: the LCM thread only copies each received STEREO event into a bounded queue
+// Threads: the LCM thread only copies each received STEREO or RGBD event into a bounded queue
 // (dropping the oldest when the worker falls behind) and keeps the latest calibration; the
 // worker thread decodes, runs odometry and publishes (lcm::LCM::publish is thread-safe).
 #include <algorithm>
@@ -38,6 +39,11 @@ constexpr const char* kUsage =
 
 using Bytes = std::vector<uint8_t>;
 
+struct QueuedFrame {
+  bool rgbd = false;  // RGBD, else STEREO
+  Bytes bytes;
+};
+
 struct Shared {
   std::mutex mutex;
   std::optional<Bytes> calibration;  // the latest STEREO_CALIB, not yet applied
@@ -47,11 +53,11 @@ struct Shared {
 // time guard before they are queued; the worker decodes them (decodeLcm) and validates.
 class Receiver {
  public:
-  Receiver(evermap::vo::BoundedQueue<Bytes>* queue, Shared* shared)
+  Receiver(evermap::vo::BoundedQueue<QueuedFrame>* queue, Shared* shared)
       : queue_(queue), shared_(shared) {}
-  evermap::Status onStereo(const void* data, int64_t size) {
+  evermap::Status onFrame(bool rgbd, const void* data, int64_t size) {
     const auto* p = static_cast<const uint8_t*>(data);
-    queue_->push(Bytes(p, p + size));
+    queue_->push(QueuedFrame{rgbd, Bytes(p, p + size)});
     return evermap::Ok{};
   }
   evermap::Status onCalibration(const void* data, int64_t size) {
@@ -62,7 +68,7 @@ class Receiver {
   }
 
  private:
-  evermap::vo::BoundedQueue<Bytes>* queue_;
+  evermap::vo::BoundedQueue<QueuedFrame>* queue_;
   Shared* shared_;
 };
 
@@ -129,7 +135,7 @@ int main(int argc, char** argv) {
   }
   evermap::StopSignals stop;  // SIGINT/SIGTERM; blocked before the worker starts, so it inherits that
 
-  evermap::vo::BoundedQueue<Bytes> queue(queue_size);
+  evermap::vo::BoundedQueue<QueuedFrame> queue(queue_size);
   Shared shared;
   Receiver receiver(&queue, &shared);
   evermap::messages::Inbox::Options input;
@@ -139,7 +145,9 @@ int main(int argc, char** argv) {
   input.time.window_s = time_window_s;
   evermap::messages::Inbox inbox(lcm, input);
   inbox.subscribeBytes<evermap::stereo_image_t>(
-      evermap::channels::kStereo, [&](const void* d, int64_t n) { return receiver.onStereo(d, n); });
+      evermap::channels::kStereo, [&](const void* d, int64_t n) { return receiver.onFrame(false, d, n); });
+  inbox.subscribeBytes<evermap::rgbd_image_t>(
+      evermap::channels::kRgbd, [&](const void* d, int64_t n) { return receiver.onFrame(true, d, n); });
   inbox.subscribeBytes<evermap::stereo_calib_t>(
       evermap::channels::kStereoCalib,
       [&](const void* d, int64_t n) { return receiver.onCalibration(d, n); }, 8);
@@ -150,7 +158,7 @@ int main(int argc, char** argv) {
 
   std::thread worker([&] {
     int64_t bad_frames = 0;
-    while (auto bytes = queue.pop()) {
+    while (auto frame = queue.pop()) {
       std::optional<Bytes> calibration;
       {
         std::lock_guard<std::mutex> lock(shared.mutex);
@@ -163,7 +171,10 @@ int main(int argc, char** argv) {
           std::fprintf(stderr, "evermap-vo-proc: %s\n", s.error().message.c_str());
         }
       }
-      auto out = pipeline->handleStereoBytes(bytes->data(), static_cast<int64_t>(bytes->size()));
+      const Bytes& bytes = frame->bytes;
+      auto out = frame->rgbd
+                     ? pipeline->handleRgbdBytes(bytes.data(), static_cast<int64_t>(bytes.size()))
+                     : pipeline->handleStereoBytes(bytes.data(), static_cast<int64_t>(bytes.size()));
       if (!out) {
         std::fprintf(stderr, "evermap-vo-proc: dropped: %s\n", out.error().message.c_str());
         continue;

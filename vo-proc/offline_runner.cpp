@@ -94,11 +94,13 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
       }
       continue;
     }
-    if (channel != channels::kStereo) continue;
+    const bool rgbd = channel == channels::kRgbd;
+    if (channel != channels::kStereo && !rgbd) continue;
     if (options.max_frames >= 0 && frames >= options.max_frames) break;
     ++frames;
     const auto start = std::chrono::steady_clock::now();
-    auto out = pipeline->handleStereoBytes(event->data, event->datalen);
+    auto out = rgbd ? pipeline->handleRgbdBytes(event->data, event->datalen)
+                    : pipeline->handleStereoBytes(event->data, event->datalen);
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
             .count();

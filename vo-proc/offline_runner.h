@@ -2,7 +2,8 @@
 // Visual odometry over a recorded LCM log in one process (DESIGN.md section 1, "tools/: the
 // offline runner"): every STEREO_CALIB and STEREO event, in log order, goes through the same
 // VoPipeline as vo-proc, with no queue and no dropping, so the same log always gives the same
-// result. Produces the trajectory (camera or body frame, TUM-ready), per-frame statistics and,
+// result. RGBD frames (an RGB-D camera, its calibration inside) are processed the same way.
+// Produces the trajectory (camera or body frame, TUM-ready), per-frame statistics and,
 // optionally, a log of the VO_DELTA and KEYFRAME messages vo-proc would have published.
 
 #include <cstdint>
@@ -23,7 +24,7 @@ struct OfflineOptions {
   // rectified left camera: body0_T_body = B * cam0_T_cam * B⁻¹. For comparing with EuRoC
   // ground truth (which is of the body).
   bool body_frame = false;
-  int64_t max_frames = -1;  // stop after this many STEREO events; -1: all
+  int64_t max_frames = -1;  // stop after this many STEREO or RGBD events; -1: all
   std::filesystem::path output_log;  // empty: none
 };
 

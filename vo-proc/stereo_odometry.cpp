@@ -237,6 +237,19 @@ const char* failureKind(const core::RegistrationSummary& reg, int min_inliers) {
 }  // namespace
 
 FrameResult StereoOdometry::process(int64_t utime, const cv::Mat& left, const cv::Mat& right) {
+  return track(utime, [&] { return extractor_.extract(camera_, utime, left, right, cur_.get()); },
+               nullptr);
+}
+
+FrameResult StereoOdometry::processRgbd(int64_t utime, const cv::Mat& gray, const cv::Mat& depth,
+                                        double depth_scale_m) {
+  return track(utime, [&] {
+    return extractor_.extractRgbd(camera_, utime, gray, depth, depth_scale_m, cur_.get());
+  }, &depth);
+}
+
+FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& extract,
+                                  const cv::Mat* depth) {
   FrameResult r;
   r.utime = utime;
   r.ref_utime = has_ref_ ? kf_utime_ : utime;
@@ -246,7 +259,7 @@ FrameResult StereoOdometry::process(int64_t utime, const cv::Mat& left, const cv
     r.message = makeError("frame ", utime, " is not after its reference ", ref_->utime).message;
     return r;
   }
-  if (Status s = extractor_.extract(camera_, utime, left, right, cur_.get()); !s) {
+  if (Status s = extract(); !s) {
     r.status = VoStatus::kBadInput;
     r.failure_kind = "bad input";
     r.message = s.error().message;
@@ -275,6 +288,9 @@ FrameResult StereoOdometry::process(int64_t utime, const cv::Mat& left, const cv
     r.message = makeError(r.num_features, " features with depth (", r.num_corners,
                           " corners at FAST threshold ", fastThreshold(), "), need ",
                           options_.registration.min_features).message;
+    if (depth != nullptr && !depth->empty() && cv::countNonZero(*depth) == 0) {
+      r.message += ": the depth image is all zero (no pixel has a depth)";
+    }
     if (has_ref_) {
       ++failures_;
       ref_T_prev_ = ref_T_pred;

@@ -45,9 +45,14 @@
 // windows of the next frame; at ~1 m between frames (a car at 10 Hz) a rotation-only
 // prediction leaves near features tens of pixels from where they are.
 //
+// RGB-D frames (processRgbd) go through the same steps with the camera's equivalent stereo rig
+// (core/camera/rgbd_camera.h): only the depth of a feature comes from the depth image instead
+// of the right image; VO_DELTA and KEYFRAME do not say which camera made them.
+//
 // Not thread-safe; one instance per camera stream.
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -166,6 +171,12 @@ class StereoOdometry {
 
   // One rectified stereo pair (CV_8UC1, the camera's size), in time order.
   FrameResult process(int64_t utime, const cv::Mat& left, const cv::Mat& right);
+  // One RGB-D frame, undistorted to camera() (RgbdCamera::undistort: the gray image CV_8UC1,
+  // depth CV_16UC1 in units of depth_scale_m, 0 = none), in time order; camera() must be the
+  // RGB-D camera's equivalent stereo rig. A depth image with no valid pixel is a frame with
+  // too few features (kInsufficientFeatures), and its message says so.
+  FrameResult processRgbd(int64_t utime, const cv::Mat& gray, const cv::Mat& depth,
+                          double depth_scale_m);
 
   // Forgets the reference: the next usable frame starts anew (kNoData).
   void reset();
@@ -179,6 +190,9 @@ class StereoOdometry {
   StereoOdometry(const core::StereoCamera& camera, const OdometryOptions& options,
                  core::StereoFeatureExtractor extractor);
 
+  // Everything after the features: `extract` fills cur_; `depth` (RGB-D only) explains a
+  // frame without features.
+  FrameResult track(int64_t utime, const std::function<Status()>& extract, const cv::Mat* depth);
   // The current frame becomes the reference; a keyframe too when `keyframe`, else kf_T_cur
   // (the motion from the last keyframe to it) is kept for chaining.
   void makeCurrentTheReference(FrameResult* result, bool keyframe = true,

@@ -9,6 +9,11 @@ namespace evermap::vo {
 
 Status PipelineOptions::validate() const {
   if (Status s = odometry.validate(); !s) return s;
+  if (Status s = rgbd.validate(); !s) return s;
+  if (!(rgbd_inlier_max_reprojection_px > 0.0) || !(rgbd_max_mean_reprojection_px > 0.0)) {
+    return makeError("vo pipeline: rgbd reprojection thresholds ", rgbd_inlier_max_reprojection_px,
+                     " px and ", rgbd_max_mean_reprojection_px, " px must be positive");
+  }
   return rectifier.validate();
 }
 
@@ -53,6 +58,7 @@ Status VoPipeline::handleCalibration(const evermap::stereo_calib_t& msg) {
     calibration_.reset();
     rectifier_.reset();
     odometry_.reset();
+    rgbd_.reset();
     no_camera_reason_ = "calibration refused: " + why;
     return Error{no_camera_reason_};
   };
@@ -76,6 +82,7 @@ Status VoPipeline::handleCalibration(const evermap::stereo_calib_t& msg) {
   auto odometry = StereoOdometry::create(*camera, options_.odometry);
   if (!odometry) return refuse(odometry.error().message);
   body_T_cam_ = body_T_cam;
+  rgbd_.reset();
   calibration_ = *calibration;
   rectifier_ = std::move(rectifier);
   odometry_.emplace(std::move(*odometry));
@@ -140,6 +147,7 @@ PipelineOutput VoPipeline::badInput(int64_t utime, const std::string& why) {
 
 PipelineOutput VoPipeline::handleStereo(const evermap::stereo_image_t& msg) {
   if (!odometry_) return badInput(msg.utime, no_camera_reason_);
+  if (!calibration_) return badInput(msg.utime, "STEREO: the camera is RGB-D (from RGBD frames), no stereo calibration");
   // Before decoding: a PNG may claim up to kMaxImageSide^2 pixels (268 MB) in a few bytes;
   // only the calibrated camera's size is worth decompressing.
   const core::CameraCalibration& cam = calibration_->left;
@@ -156,6 +164,7 @@ PipelineOutput VoPipeline::handleStereo(const evermap::stereo_image_t& msg) {
 PipelineOutput VoPipeline::handleFrame(int64_t utime, const Expected<messages::StereoFrame>& frame) {
   if (!odometry_) return badInput(utime, no_camera_reason_);
   if (!frame) return badInput(utime, "STEREO: " + frame.error().message);
+  if (!calibration_) return badInput(utime, "STEREO: the camera is RGB-D (from RGBD frames), no stereo calibration");
   if (frame->rectified != calibration_->rectified) {
     return badInput(utime, frame->rectified
                                ? "STEREO: a rectified pair but the calibration is raw"
@@ -176,6 +185,70 @@ Expected<PipelineOutput> VoPipeline::handleStereoBytes(const void* data, int64_t
     return msg.error();
   }
   return handleStereo(*msg);
+}
+
+PipelineOutput VoPipeline::handleRgbd(const evermap::rgbd_image_t& msg) {
+  return handleRgbdFrame(msg.utime, messages::fromMsg(msg));
+}
+
+namespace {
+
+bool sameCamera(const core::CameraCalibration& a, const core::CameraCalibration& b) {
+  auto bytes = [](const core::CameraCalibration& c) {
+    const evermap::camera_calib_t m = messages::toMsg(c);
+    std::vector<uint8_t> out(static_cast<size_t>(m.getEncodedSize()));
+    m.encode(out.data(), 0, static_cast<int>(out.size()));
+    return out;
+  };
+  return bytes(a) == bytes(b);
+}
+
+}  // namespace
+
+PipelineOutput VoPipeline::handleRgbdFrame(int64_t utime,
+                                           const Expected<messages::RgbdFrame>& frame) {
+  if (!frame) return badInput(utime, "RGBD: " + frame.error().message);
+  if (!rgbd_ || !odometry_ || !sameCamera(rgbd_->calibration(), frame->camera)) {
+    // A new camera (the first frame, or another calibration): odometry restarts with it.
+    calibration_.reset();
+    rectifier_.reset();
+    odometry_.reset();
+    rgbd_.reset();
+    auto camera = core::RgbdCamera::create(frame->camera, options_.rgbd);
+    if (!camera) {
+      ++stats_.calibrations_refused;
+      no_camera_reason_ = "RGBD calibration refused: " + camera.error().message;
+      return badInput(utime, no_camera_reason_);
+    }
+    OdometryOptions odometry_options = options_.odometry;
+    odometry_options.registration.motion.inlier_max_reprojection_px =
+        options_.rgbd_inlier_max_reprojection_px;
+    odometry_options.registration.motion.max_mean_reprojection_px =
+        options_.rgbd_max_mean_reprojection_px;
+    auto odometry = StereoOdometry::create(camera->stereo(), odometry_options);
+    if (!odometry) {
+      ++stats_.calibrations_refused;
+      no_camera_reason_ = "RGBD calibration refused: " + odometry.error().message;
+      return badInput(utime, no_camera_reason_);
+    }
+    body_T_cam_ = frame->camera.body_T_cam;
+    rgbd_.emplace(std::move(*camera));
+    odometry_.emplace(std::move(*odometry));
+    ++stats_.calibrations;
+  }
+  if (Status s = rgbd_->undistort(frame->gray, frame->depth, &rgbd_gray_, &rgbd_depth_); !s) {
+    return badInput(utime, "RGBD: " + s.error().message);
+  }
+  return finish(odometry_->processRgbd(utime, rgbd_gray_, rgbd_depth_, frame->depth_scale_m));
+}
+
+Expected<PipelineOutput> VoPipeline::handleRgbdBytes(const void* data, int64_t size) {
+  auto msg = messages::decodeLcm<evermap::rgbd_image_t>(data, size, "RGBD");
+  if (!msg) {
+    ++stats_.undecodable;
+    return msg.error();
+  }
+  return handleRgbd(*msg);
 }
 
 }  // namespace evermap::vo

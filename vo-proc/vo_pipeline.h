@@ -5,9 +5,16 @@
 // given to StereoOdometry; the result becomes one vo_delta_t and, when the frame is a new
 // keyframe, one keyframe_t.
 //
+// RGBD frames carry their calibration: the first one, and any whose camera differs from the
+// current one, sets up (or restarts) odometry with the camera's equivalent stereo rig
+// (core/camera/rgbd_camera.h); the images are undistorted and given to
+// StereoOdometry::processRgbd. A stereo calibration replaces an RGB-D camera and the reverse.
+//
 // Every frame that can be decoded gets a vo_delta_t, bad ones with STATUS_BAD_INPUT (and a
 // one-line reason): no valid calibration yet (e.g. NaN intrinsics), images of the wrong size,
-// an image that does not decode, a raw pair announced as rectified or the reverse.
+// an image that does not decode, a raw pair announced as rectified or the reverse; for RGBD,
+// a depth of the wrong size or type, an invalid depth scale or calibration, a depth stamp too
+// far from the image's (messages/rgbd_convert.h).
 
 #include <array>
 #include <cstdint>
@@ -15,14 +22,17 @@
 #include <string>
 
 #include <evermap/keyframe_t.hpp>
+#include <evermap/rgbd_image_t.hpp>
 #include <evermap/stereo_calib_t.hpp>
 #include <evermap/stereo_image_t.hpp>
 #include <evermap/vo_delta_t.hpp>
 
 #include "core/camera/calibration.h"
+#include "core/camera/rgbd_camera.h"
 #include "core/camera/stereo_rectifier.h"
 #include "core/common/expected.h"
 #include "core/messages/convert.h"
+#include "core/messages/rgbd_convert.h"
 #include "vo-proc/stereo_odometry.h"
 
 namespace evermap::vo {
@@ -30,6 +40,14 @@ namespace evermap::vo {
 struct PipelineOptions {
   OdometryOptions odometry;
   core::StereoRectifier::Options rectifier;
+  core::RgbdCamera::Options rgbd;  // the depth noise model of RGB-D cameras
+  // With an RGB-D camera, the motion estimate's inlier and acceptance thresholds (they replace
+  // odometry.registration.motion's 1 px and 1.5 px): the Kinect's color camera has a rolling
+  // shutter, its frames blur at the rotation rates of hand-held motion, and the registered
+  // depth is off by a pixel at edges. On the TUM excerpt (docs/rgbd.md) 1 px left 10 of 150
+  // frames unregistered and doubled the ATE; 2 px left 4.
+  double rgbd_inlier_max_reprojection_px = 2.0;
+  double rgbd_max_mean_reprojection_px = 2.0;
 
   Status validate() const;
 };
@@ -73,6 +91,15 @@ class VoPipeline {
   // From the bytes of an LCM event; an error (nothing to publish) when they do not decode.
   Expected<PipelineOutput> handleStereoBytes(const void* data, int64_t size);
 
+  // One RGB-D frame (its calibration inside).
+  PipelineOutput handleRgbd(const evermap::rgbd_image_t& msg);
+  // The same, decoded (messages::fromMsg of the message at `utime`, or its error).
+  PipelineOutput handleRgbdFrame(int64_t utime, const Expected<messages::RgbdFrame>& frame);
+  // From the bytes of an LCM event; an error (nothing to publish) when they do not decode.
+  Expected<PipelineOutput> handleRgbdBytes(const void* data, int64_t size);
+  // The RGB-D camera, when the current camera is one.
+  const std::optional<core::RgbdCamera>& rgbdCamera() const { return rgbd_; }
+
   bool hasCamera() const { return odometry_.has_value(); }
   // The rectified camera; precondition hasCamera().
   const core::StereoCamera& camera() const { return odometry_->camera(); }
@@ -91,6 +118,8 @@ class VoPipeline {
   std::optional<core::StereoCalibration> calibration_;  // as received
   std::optional<core::StereoRectifier> rectifier_;      // raw calibrations only
   std::optional<StereoOdometry> odometry_;
+  std::optional<core::RgbdCamera> rgbd_;                // RGB-D mode only
+  cv::Mat rgbd_gray_, rgbd_depth_;                      // undistorted buffers
   std::string no_camera_reason_ = "no calibration received yet (STEREO_CALIB)";
   core::SE3d body_T_cam_;
   PipelineStats stats_;

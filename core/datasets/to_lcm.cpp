@@ -1,5 +1,6 @@
 #include "core/datasets/to_lcm.h"
 
+#include <cmath>
 #include <cstdio>
 
 namespace evermap::datasets {
@@ -31,5 +32,15 @@ Status EurocToLcmOptions::validate() const {
 }
 
 Status KittiToLcmOptions::validate() const { return sequence.validate(); }
+
+Status TumToLcmOptions::validate() const {
+  if (!calibration.empty()) {
+    if (auto c = tumCalibration(calibration); !c) return c.error();
+  }
+  if (!(depth_scale_m > 0.0) || !std::isfinite(depth_scale_m)) {
+    return makeError("TUM RGB-D: depth_scale_m ", depth_scale_m, " is not positive and finite");
+  }
+  return sequence.validate();
+}
 
 }  // namespace evermap::datasets

@@ -1,5 +1,6 @@
 #pragma once
-// Data-set converters: an EuRoC ASL folder or a KITTI odometry sequence to one LCM log with
+// Data-set converters: an EuRoC ASL folder, a KITTI odometry sequence or a TUM RGB-D sequence
+// to one LCM log with
 // the channels of core/messages/channels.h, every event in time order, so that the whole
 // system (or lcm-logplayer) replays a data set as if the sensors were live.
 //
@@ -11,6 +12,11 @@
 //   IMU           imu_t per row of imu0/data.csv (EuRoC only)
 //   GROUND_TRUTH  pose_t world_T_body per ground-truth row (zero covariance, floor and
 //                 session -1); KITTI: body = camera 0
+//   RGBD          rgbd_image_t per associated color/depth pair (TUM RGB-D), the calibration
+//                 inside; gray PNG + 16-bit PNG depth, or raw gray8 + raw uint16
+//   RGBD_CALIB    rgbd_calib_t, first and before the first frame of every period (TUM RGB-D)
+//   ACCEL         accel_t per row of accelerometer.txt (TUM RGB-D)
+//   GROUND_TRUTH  TUM RGB-D: world_T_body, body = the color camera
 // Events with the same utime are written IMU, GROUND_TRUTH, STEREO: a consumer has the
 // inertial data up to an image before the image.
 
@@ -21,6 +27,7 @@
 
 #include "core/common/expected.h"
 #include "core/datasets/kitti.h"
+#include "core/datasets/tum_rgbd.h"
 #include "core/messages/convert.h"
 
 namespace evermap::datasets {
@@ -69,5 +76,25 @@ struct KittiToLcmOptions {
 Expected<ConversionSummary> convertKittiToLcm(const std::filesystem::path& sequence,
                                               const std::filesystem::path& output,
                                               const KittiToLcmOptions& options);
+
+struct TumToLcmOptions {
+  messages::ImageEncoding encoding = messages::ImageEncoding::kPng;
+  // One of tumCalibration()'s names; empty: tumCalibrationNameFor(the folder).
+  std::string calibration;
+  TumRgbdOptions sequence;  // the association limit
+  double depth_scale_m = 1.0 / 5000.0;  // TUM's depth unit
+
+  Status validate() const;
+};
+
+// A TUM RGB-D folder (tum_rgbd.h) to a log: every associated pair one RGBD message (stamped
+// with the color image; its depth stamp inside), ground truth and accelerometer when present.
+// Color images are converted to gray (OpenCV's 0.299 R + 0.587 G + 0.114 B), gray ones taken
+// as they are. Errors name the file: an image that does not decode, a depth image that is
+// not 16-bit one-channel or not of the calibration's size. Unassociated color images are
+// counted (skipped_unpaired), not errors.
+Expected<ConversionSummary> convertTumRgbdToLcm(const std::filesystem::path& sequence,
+                                                const std::filesystem::path& output,
+                                                const TumToLcmOptions& options);
 
 }  // namespace evermap::datasets

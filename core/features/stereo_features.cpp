@@ -17,6 +17,7 @@ Status StereoFeatureExtractor::Options::validate() const {
                      " leaves no room for the 9x9 patch (need >= ", kPatchRadius + 1, ")");
   }
   if (Status s = fast.validate(); !s) return s;
+  if (Status s = rgbd.validate(); !s) return s;
   return stereo.validate();
 }
 
@@ -35,22 +36,20 @@ Status checkStereoImage(const StereoCamera& camera, const cv::Mat& image, const 
   return Ok{};
 }
 
-Status StereoFeatureExtractor::extract(const StereoCamera& camera, int64_t utime,
-                                       const cv::Mat& left, const cv::Mat& right,
-                                       FeatureFrame* frame) {
-  if (Status s = checkStereoImage(camera, left, "left image"); !s) return s;
-  if (Status s = checkStereoImage(camera, right, "right image"); !s) return s;
+template <typename Disparity>
+Status StereoFeatureExtractor::extractWith(const StereoCamera& camera, int64_t utime,
+                                           const cv::Mat& left, FeatureFrame* frame,
+                                           Disparity disparity) {
   frame->utime = utime;
   frame->features.clear();
   frame->num_corners = 0;
   if (Status s = frame->left.build(left, options_.pyramid_levels); !s) return s;
-  if (Status s = right_.build(right, options_.feature_levels); !s) return s;
 
   const std::vector<Keypoint> corners = detector_.detect(frame->left, options_.feature_levels);
   frame->num_corners = static_cast<int>(corners.size());
   frame->features.reserve(corners.size());
   for (const Keypoint& k : corners) {
-    const float d = depth_.disparity(frame->left, right_, k);
+    const float d = disparity(k);
     if (!std::isfinite(d)) continue;
     const float s = ImagePyramid::scale(k.level);
     StereoFeature f;
@@ -65,6 +64,37 @@ Status StereoFeatureExtractor::extract(const StereoCamera& camera, int64_t utime
     frame->features.push_back(f);
   }
   return Ok{};
+}
+
+Status StereoFeatureExtractor::extract(const StereoCamera& camera, int64_t utime,
+                                       const cv::Mat& left, const cv::Mat& right,
+                                       FeatureFrame* frame) {
+  if (Status s = checkStereoImage(camera, left, "left image"); !s) return s;
+  if (Status s = checkStereoImage(camera, right, "right image"); !s) return s;
+  if (Status s = right_.build(right, options_.feature_levels); !s) return s;
+  return extractWith(camera, utime, left, frame, [&](const Keypoint& k) {
+    return depth_.disparity(frame->left, right_, k);
+  });
+}
+
+Status StereoFeatureExtractor::extractRgbd(const StereoCamera& camera, int64_t utime,
+                                           const cv::Mat& gray, const cv::Mat& depth,
+                                           double depth_scale_m, FeatureFrame* frame) {
+  if (Status s = checkStereoImage(camera, gray, "gray image"); !s) return s;
+  if (depth.empty() || depth.type() != CV_16UC1) {
+    return makeError("depth image: ", depth.empty() ? "empty" : "not 16-bit one-channel");
+  }
+  if (depth.cols != camera.width() || depth.rows != camera.height()) {
+    return makeError("depth image: ", depth.cols, "x", depth.rows, " but the camera is ",
+                     camera.width(), "x", camera.height());
+  }
+  if (!(depth_scale_m > 0.0) || !std::isfinite(depth_scale_m)) {
+    return makeError("depth image: scale ", depth_scale_m, " m is not positive and finite");
+  }
+  return extractWith(camera, utime, gray, frame, [&](const Keypoint& k) {
+    const float s = ImagePyramid::scale(k.level);
+    return rgbd_depth_.disparity(camera, depth, depth_scale_m, k.u * s, k.v * s);
+  });
 }
 
 }  // namespace evermap::core

@@ -5,6 +5,9 @@
 // image, and the 3-D point and 9x9 patch descriptor of every corner that has a depth.
 // Corners without a reliable depth are counted and dropped: frame registration needs a 3-D
 // point on both sides of a match.
+// The same for an RGB-D frame (extractRgbd): the depth of each corner is read from the depth
+// image (rgbd_depth.h) instead of matched in a right image, and becomes the disparity of the
+// camera's equivalent stereo rig (core/camera/rgbd_camera.h); everything else is identical.
 
 #include <cstdint>
 #include <string>
@@ -18,6 +21,7 @@
 #include "core/features/fast_detector.h"
 #include "core/features/image_pyramid.h"
 #include "core/features/patch_descriptor.h"
+#include "core/features/rgbd_depth.h"
 #include "core/features/stereo_depth.h"
 
 namespace evermap::core {
@@ -44,6 +48,7 @@ class StereoFeatureExtractor {
     int pyramid_levels = 4;  // >= feature_levels; the top one serves rotation estimation
     FastDetector::Options fast;
     StereoDepth::Options stereo;
+    RgbdDepth::Options rgbd;  // RGB-D frames only
 
     Status validate() const;
   };
@@ -56,16 +61,28 @@ class StereoFeatureExtractor {
   Status extract(const StereoCamera& camera, int64_t utime, const cv::Mat& left,
                  const cv::Mat& right, FeatureFrame* frame);
 
+  // An RGB-D frame: `gray` (CV_8UC1) and `depth` (CV_16UC1, metres = value · depth_scale_m),
+  // both undistorted to `camera` (RgbdCamera::undistort) and of its size. Errors as extract().
+  Status extractRgbd(const StereoCamera& camera, int64_t utime, const cv::Mat& gray,
+                     const cv::Mat& depth, double depth_scale_m, FeatureFrame* frame);
+
   const FastDetector& detector() const { return detector_; }
   const Options& options() const { return options_; }
 
  private:
   explicit StereoFeatureExtractor(const Options& options)
-      : options_(options), detector_(options.fast), depth_(options.stereo) {}
+      : options_(options), detector_(options.fast), depth_(options.stereo), rgbd_depth_(options.rgbd) {}
+
+  // Pyramid, corners and, for each corner with a depth (`disparity` of its level-0 position,
+  // NaN for none), the feature.
+  template <typename Disparity>
+  Status extractWith(const StereoCamera& camera, int64_t utime, const cv::Mat& left,
+                     FeatureFrame* frame, Disparity disparity);
 
   Options options_;
   FastDetector detector_;
   StereoDepth depth_;
+  RgbdDepth rgbd_depth_;
   ImagePyramid right_;
 };
 

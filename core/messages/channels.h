@@ -7,6 +7,9 @@ namespace evermap::channels {
 
 inline constexpr const char* kStereo = "STEREO";              // stereo_image_t
 inline constexpr const char* kStereoCalib = "STEREO_CALIB";   // stereo_calib_t
+inline constexpr const char* kRgbd = "RGBD";                  // rgbd_image_t (calibration inside)
+inline constexpr const char* kRgbdCalib = "RGBD_CALIB";       // rgbd_calib_t (for the mapper)
+inline constexpr const char* kAccel = "ACCEL";                // accel_t (no gyroscope: Kinect)
 inline constexpr const char* kImu = "IMU";                    // imu_t
 inline constexpr const char* kWheelOdom = "WHEEL_ODOM";       // wheel_odom_t
 inline constexpr const char* kGroundTruth = "GROUND_TRUTH";   // pose_t

@@ -51,6 +51,9 @@ const std::map<std::string, std::function<Bytes()>>& channelTypes() {
   static const std::map<std::string, std::function<Bytes()>> m = {
       {channels::kStereo, encodeDefault<stereo_image_t>},
       {channels::kStereoCalib, encodeDefault<stereo_calib_t>},
+      {channels::kRgbd, encodeDefault<rgbd_image_t>},
+      {channels::kRgbdCalib, encodeDefault<rgbd_calib_t>},
+      {channels::kAccel, encodeDefault<accel_t>},
       {channels::kImu, encodeDefault<imu_t>},
       {channels::kWheelOdom, encodeDefault<wheel_odom_t>},
       {channels::kVoDelta, encodeDefault<vo_delta_t>},

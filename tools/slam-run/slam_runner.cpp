@@ -13,6 +13,7 @@
 #include <thread>
 
 #include <evermap/imu_t.hpp>
+#include <evermap/rgbd_image_t.hpp>
 #include <evermap/pose_t.hpp>
 #include <evermap/wheel_odom_t.hpp>
 
@@ -20,6 +21,7 @@
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
 #include "core/messages/log_reader.h"
+#include "core/messages/rgbd_convert.h"
 #include "core/sim/image_session.h"
 #include "core/sim/message_sink.h"
 #include "elevator-proc/lcm_convert.h"
@@ -172,6 +174,8 @@ struct ReadEvent {
   std::vector<uint8_t> data;
   // STEREO that decoded as LCM: its images, decoded, and its utime.
   std::optional<Expected<messages::StereoFrame>> frame;
+  // RGBD that decoded as LCM: its images, decoded (utime in stereo_utime).
+  std::optional<Expected<messages::RgbdFrame>> rgbd_frame;
   int64_t stereo_utime = 0;
   double decode_s = 0.0;
 };
@@ -188,6 +192,13 @@ ReadEvent makeEvent(const std::string& channel, int64_t timestamp, const uint8_t
       r.frame = messages::fromMsg(*msg);
       r.stereo_utime = msg->utime;
       r.data.clear();  // the decoded images are what is used
+    }
+  } else if (r.channel == channels::kRgbd) {
+    auto msg = messages::decodeLcm<rgbd_image_t>(p, static_cast<int64_t>(size), r.channel);
+    if (msg) {
+      r.rgbd_frame = messages::fromMsg(*msg);
+      r.stereo_utime = msg->utime;
+      r.data.clear();
     }
   }
   r.decode_s = since(t0);
@@ -319,16 +330,24 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
       t0 = Clock::now();
       if (Status s = calibration_.handle(data, size, *mapper_); !s) inputError("mapper: " + s.error().message);
       mapper_s += since(t0);
-    } else if (channel == channels::kStereo) {
+    } else if (channel == channels::kRgbdCalib) {
+      // An RGB-D camera: vo-proc takes the calibration from the frames, the mapper from here.
+      auto t0 = Clock::now();
+      if (Status s = calibration_.handleRgbd(data, size, *mapper_); !s) inputError("mapper: " + s.error().message);
+      mapper_s += since(t0);
+    } else if (channel == channels::kStereo || channel == channels::kRgbd) {
       auto t0 = Clock::now();
       // Decoded ahead by the reader; what did not decode as LCM fails here as in vo-proc.
+      const bool rgbd = channel == channels::kRgbd;
       Expected<vo::PipelineOutput> out =
-          e->frame ? Expected<vo::PipelineOutput>(vo->handleFrame(e->stereo_utime, *e->frame))
-                   : vo->handleStereoBytes(data, size);
+          rgbd ? (e->rgbd_frame ? Expected<vo::PipelineOutput>(vo->handleRgbdFrame(e->stereo_utime, *e->rgbd_frame))
+                                : vo->handleRgbdBytes(data, size))
+          : e->frame ? Expected<vo::PipelineOutput>(vo->handleFrame(e->stereo_utime, *e->frame))
+                     : vo->handleStereoBytes(data, size);
       const double vo_s = since(t0);
       t.vo_s += vo_s;
       if (!out) {
-        inputError("STEREO: " + out.error().message);
+        inputError(std::string(channel) + ": " + out.error().message);
       } else {
         ++ss.stereo_frames;
         if (session_start_utime_ < 0) session_start_utime_ = out->delta.utime;
@@ -341,7 +360,7 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
         }
         t0 = Clock::now();
         if (!calibration_.haveCamera()) {
-          inputError("VO_DELTA before STEREO_CALIB");
+          inputError("VO_DELTA before STEREO_CALIB or RGBD_CALIB");
         } else if (Status s = mapper_->onVo(out->delta); !s) {
           inputError("VO_DELTA: " + s.error().message);
         }

@@ -16,7 +16,7 @@ int main(int argc, char** argv) {
   evermap::CommandLine cli("evermap-vo-run",
                            "Visual odometry over an LCM log, in one process; writes the trajectory (TUM).");
   cli.positional(&positional, "LOG TRAJECTORY.tum",
-                 "the LCM log with STEREO_CALIB and STEREO (evermap-euroc2lcm output); the TUM file of the tracked frames");
+                 "the LCM log with STEREO_CALIB and STEREO (evermap-euroc2lcm output) or RGBD (evermap-tum2lcm); the TUM file of the tracked frames");
   cli.flag("--body", &options.body_frame, "body (IMU) frame poses instead of the left camera's");
   cli.value("--stats", &stats, "FILE.csv", "per-frame statistics");
   cli.value("--output-log", &output_log, "FILE", "the VO_DELTA and KEYFRAME messages, as an LCM log");
@@ -32,6 +32,19 @@ int main(int argc, char** argv) {
             "disparity noise the clique allows for along the rays (0: fixed threshold)").min(0);
   cli.value("--motion-disparity-sigma", &odo.registration.motion.disparity_sigma_px, "PX",
             "disparity noise the motion estimate whitens its residuals for (0: points exact)").min(0);
+  cli.value("--inlier-px", &odo.registration.motion.inlier_max_reprojection_px, "PX",
+            "stereo: largest reprojection error of an inlier of the motion estimate (default 1)").positive();
+  cli.value("--max-mean-px", &odo.registration.motion.max_mean_reprojection_px, "PX",
+            "stereo: largest mean reprojection error of an accepted motion (default 1.5)").positive();
+  cli.value("--rgbd-inlier-px", &options.pipeline.rgbd_inlier_max_reprojection_px, "PX",
+            "RGB-D: the same (default 2)").positive();
+  cli.value("--rgbd-max-mean-px", &options.pipeline.rgbd_max_mean_reprojection_px, "PX",
+            "RGB-D: the same (default 2)").positive();
+  cli.value("--depth-spread", &odo.features.rgbd.max_relative_spread, "FRACTION",
+            "RGB-D: refuse a corner whose 5x5 depths spread by more than FRACTION of its depth (default 0.05)")
+      .positive();
+  cli.value("--depth-noise", &options.pipeline.rgbd.depth_noise_per_m2, "K",
+            "RGB-D: depth noise sigma_z = K z^2 (default 1.425e-3, Khoshelham & Elberink 2012)").positive();
   cli.value("--clique-threshold", &odo.registration.clique.threshold_m, "M",
             "change of a pairwise distance always consistent").positive();
   cli.value("--search-radius", &odo.matching.search_radius_px, "PX", "window half-size at a feature's level").positive();
