@@ -15,6 +15,7 @@
 
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
+#include "core/messages/pose_fields.h"
 
 namespace evermap::mapper {
 namespace {
@@ -23,14 +24,7 @@ using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 int64_t micros(double s) { return static_cast<int64_t>(std::llround(s * 1e6)); }
 
-void putPose(const core::SE3d& p, double* translation, double* orientation) {
-  for (int k = 0; k < 3; ++k) translation[k] = p.translation()[k];
-  const auto& q = p.quaternion();
-  orientation[0] = q.w();
-  orientation[1] = q.x();
-  orientation[2] = q.y();
-  orientation[3] = q.z();
-}
+using messages::putPose;
 
 }  // namespace
 

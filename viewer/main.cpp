@@ -133,14 +133,14 @@ int main(int argc, char** argv) {
                   "REGISTER_RESULT, DEPUTY_STATUS, VO_DELTA, KEYFRAME and STEREO in (read-only: it\n"
                   "publishes nothing), HTTP and a WebSocket stream out. Open http://BIND:PORT/.");
   cli.value("--bind", &web.bind, "ADDR", "address to listen on (default 127.0.0.1: this machine only)");
-  cli.value("--port", &web.port, "N", "TCP port (default 8080; 0: any free port, printed)");
+  cli.value("--port", &web.port, "N", "TCP port (default 8080; 0: any free port, printed)").min(0).max(65535);
   cli.value("--store", &store_file, "MAP.db", "show this map store (SQLite) instead of listening to LCM");
   cli.value("--log", &log_file, "FILE.lcmlog",
             "play this LCM log instead of listening to LCM, with a time slider on the page");
-  cli.value("--speed", &log_speed, "X", "--log: playing speed, x real time (default 1)");
+  cli.value("--speed", &log_speed, "X", "--log: playing speed, x real time (default 1)").positive();
   cli.value("--web-dir", &web_dir, "DIR", "the page's files (default: found next to the program or in the source tree)");
-  cli.value("--max-clients", &web.max_clients, "N", "browser connections served at once (default 64)");
-  cli.value("--image-period-s", &listen.image_period_s, "S", "wall seconds between two camera images sent (default 0.5)");
+  cli.value("--max-clients", &web.max_clients, "N", "browser connections served at once (default 64)").min(1);
+  cli.value("--image-period-s", &listen.image_period_s, "S", "wall seconds between two camera images sent (default 0.5)").min(0);
   cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.flag("--quiet", &quiet, "no summary on exit");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;

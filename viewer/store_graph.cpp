@@ -4,17 +4,10 @@
 #include <system_error>
 #include <utility>
 
+#include "core/messages/pose_fields.h"
+
 namespace evermap::viewer {
-namespace {
-void putPose(const core::SE3d& p, double* translation, double* orientation) {
-  for (int k = 0; k < 3; ++k) translation[k] = p.translation()[k];
-  const auto& q = p.quaternion();
-  orientation[0] = q.w();
-  orientation[1] = q.x();
-  orientation[2] = q.y();
-  orientation[3] = q.z();
-}
-}  // namespace
+using messages::putPose;
 
 StoredGraph graphFromSnapshot(const mapper::MapSnapshot& snapshot) {
   StoredGraph out;

@@ -9,6 +9,8 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "core/messages/pose_fields.h"
+
 namespace evermap::messages {
 namespace {
 
@@ -316,13 +318,7 @@ evermap::pose_t toMsg(int64_t utime, const core::UncertainPose& pose, int32_t fl
                       int32_t session) {
   evermap::pose_t msg;
   msg.utime = utime;
-  const core::Vec3& t = pose.mean.translation();
-  const Eigen::Quaterniond& q = pose.mean.quaternion();
-  for (int i = 0; i < 3; ++i) msg.position[i] = t[i];
-  msg.orientation[0] = q.w();
-  msg.orientation[1] = q.x();
-  msg.orientation[2] = q.y();
-  msg.orientation[3] = q.z();
+  putPose(pose.mean, msg.position, msg.orientation);
   for (int r = 0; r < 6; ++r) {
     for (int k = 0; k < 6; ++k) msg.covariance[6 * r + k] = pose.covariance(r, k);
   }

@@ -32,7 +32,8 @@ int convertMain(Dataset dataset, int argc, char** argv) {
     cli.value("--camera", &tum_options.calibration, "NAME",
               "freiburg1, freiburg2, freiburg3 or ros-default (TUM's published intrinsics); default from the folder name (freiburgN or frN), else ros-default");
     cli.value("--max-difference", &tum_options.sequence.max_difference_s, "S",
-              "color/depth association limit, seconds (TUM associate.py: 0.02)");
+              "color/depth association limit, seconds (TUM associate.py: 0.02)")
+        .positive();
   } else if (euroc) {
     cli.value("--gt", &ground_truth, "FILE",
               "ground truth (EuRoC csv or TUM txt) when mav0/state_groundtruth_estimate0/data.csv is absent");

@@ -1,0 +1,18 @@
+#pragma once
+// A pose into the translation[3] and orientation[4] (w, x, y, z) fields that pose-carrying
+// messages have (pose_t, map_graph_t's nodes and edges).
+
+#include "core/geometry/se3.h"
+
+namespace evermap::messages {
+
+inline void putPose(const core::SE3d& pose, double* translation, double* orientation) {
+  for (int k = 0; k < 3; ++k) translation[k] = pose.translation()[k];
+  const Eigen::Quaterniond& q = pose.quaternion();
+  orientation[0] = q.w();
+  orientation[1] = q.x();
+  orientation[2] = q.y();
+  orientation[3] = q.z();
+}
+
+}  // namespace evermap::messages
