@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <optional>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -272,12 +273,16 @@ Expected<MapEvaluation> evaluateMap(const EvalMap& map, const RunTruth& truth,
     const core::SE3d err = (a->second.inverse() * b->second).inverse() * l.from_T_to;
     if (err.translation().norm() > 0.5 || core::rotationAngle(err.so3()) > 5.0 * M_PI / 180.0) ++e.false_loops;
   }
-  if (gt.size() < 3) return makeError("map evaluation: only ", gt.size(), " nodes have ground truth (3 needed)");
-  auto ate = alignedAte(gt, est);
-  if (!ate) return makeError("map evaluation: node ATE: ", ate.error().message);
-  e.ate_rmse_m = ate->rmse;
-  e.ate_median_m = ate->median;
-  e.ate_max_m = ate->max;
+  // Node ATE needs 3 nodes with ground truth for the alignment; a smaller map (a camera that
+  // turned in place) has the rest of its evaluation, and NaN there (printed "n/a").
+  e.ate_rmse_m = e.ate_median_m = e.ate_max_m = std::numeric_limits<double>::quiet_NaN();
+  if (gt.size() >= 3) {
+    auto ate = alignedAte(gt, est);
+    if (!ate) return makeError("map evaluation: node ATE: ", ate.error().message);
+    e.ate_rmse_m = ate->rmse;
+    e.ate_median_m = ate->median;
+    e.ate_max_m = ate->max;
+  }
   gt.clear();
   est.clear();
   for (const auto& [utime, pose] : poses) {
@@ -296,6 +301,16 @@ Expected<MapEvaluation> evaluateMap(const EvalMap& map, const RunTruth& truth,
   return e;
 }
 
+namespace {
+// A number for JSON: null for NaN (node ATE of a map with fewer than 3 nodes).
+std::string jsonNumber(double v) {
+  if (std::isnan(v)) return "null";
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+}  // namespace
+
 std::string MapEvaluation::text() const {
   std::ostringstream s;
   s << "nodes " << nodes << " (" << nodes_with_truth << " with ground truth)\n"
@@ -304,9 +319,12 @@ std::string MapEvaluation::text() const {
     << "nodes_on_true_floor " << nodes_floor_right << "\n"
     << "nodes_on_consistent_floor " << nodes_floor_consistent << "\n"
     << "loop_edges_false " << false_loops << " (of " << loops_with_truth << " with truth)\n"
-    << "sessions " << sessions << " (run: " << sessions_truth << ")\n"
-    << "node_ate_rmse_m " << ate_rmse_m << "\nnode_ate_median_m " << ate_median_m << "\nnode_ate_max_m "
-    << ate_max_m << "\n";
+    << "sessions " << sessions << " (run: " << sessions_truth << ")\n";
+  if (std::isnan(ate_rmse_m))
+    s << "node_ate_rmse_m n/a (" << nodes_with_truth << " nodes with ground truth, 3 needed)\n";
+  else
+    s << "node_ate_rmse_m " << ate_rmse_m << "\nnode_ate_median_m " << ate_median_m << "\nnode_ate_max_m " << ate_max_m
+      << "\n";
   if (poses > 0)
     s << "poses " << poses << "\npose_ate_rmse_m " << pose_ate_rmse_m << "\npose_ate_median_m " << pose_ate_median_m
       << "\n";
@@ -319,8 +337,8 @@ std::string MapEvaluation::json() const {
     << ", \"loop_edges\": " << loop_edges << ", \"floors\": " << floors << ", \"floors_right\": " << floors_right
     << ", \"nodes_on_true_floor\": " << nodes_floor_right << ", \"nodes_on_consistent_floor\": "
     << nodes_floor_consistent << ", \"loop_edges_false\": " << false_loops << ", \"sessions\": " << sessions
-    << ", \"sessions_truth\": " << sessions_truth << ", \"node_ate_rmse_m\": " << ate_rmse_m
-    << ", \"node_ate_median_m\": " << ate_median_m << ", \"node_ate_max_m\": " << ate_max_m
+    << ", \"sessions_truth\": " << sessions_truth << ", \"node_ate_rmse_m\": " << jsonNumber(ate_rmse_m)
+    << ", \"node_ate_median_m\": " << jsonNumber(ate_median_m) << ", \"node_ate_max_m\": " << jsonNumber(ate_max_m)
     << ", \"poses\": " << poses << ", \"pose_ate_rmse_m\": " << pose_ate_rmse_m
     << ", \"pose_ate_median_m\": " << pose_ate_median_m << "}\n";
   return s.str();

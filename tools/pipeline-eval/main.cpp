@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
     }
     if (Status s = eval::writeTum(trajectory, poses_tum); !s) return fail(s.error());
   }
-  if (max_ate_m > 0.0 && e->ate_rmse_m > max_ate_m) {
+  if (max_ate_m > 0.0 && !(e->ate_rmse_m <= max_ate_m)) {  // NaN (no node ATE) fails too
     std::fprintf(stderr, "evermap-pipeline-eval: node ATE rmse %.3f m exceeds %.3f m\n", e->ate_rmse_m, max_ate_m);
     return 1;
   }
