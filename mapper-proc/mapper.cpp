@@ -182,6 +182,7 @@ Status Mapper::onFloor(const floor_t& msg) {
     return makeError("FLOOR ", msg.utime, ": not finite or out of order");
   }
   last_floor_utime_ = msg.utime;
+  floor_confirmed_ = true;
   if (msg.event == floor_t::EVENT_RIDE_START) {
     // The floor left, at the height the ride starts from: elevator-proc announces no floor
     // before the first ride, so this is where the start floor enters the table.
@@ -533,6 +534,9 @@ void Mapper::sendRequest(int8_t mode, int64_t target) {
   r.mode = mode;
   r.target_node_id = mode == register_request_t::MODE_NODE ? target : -1;
   r.floor = floor_;
+  // A restored mapper's floor is a guess (its newest node's) until a FLOOR message or a
+  // relocalisation confirms it: one global search in four covers every floor.
+  if (!floor_confirmed_ && mode == register_request_t::MODE_GLOBAL && ++unconfirmed_searches_ % 4 == 0) r.floor = -1;
   r.session = session_;
   in_flight_->request_id = r.request_id;
   in_flight_->mode = mode;
@@ -614,7 +618,7 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
     return Ok{};
   }
   const InFlight f = *in_flight_;
-  if (msg.node_id >= 0 && msg.node_id < static_cast<int64_t>(nodes_.size()) && floor_ >= 0 &&
+  if (msg.node_id >= 0 && msg.node_id < static_cast<int64_t>(nodes_.size()) && floor_confirmed_ &&
       nodes_[static_cast<size_t>(msg.node_id)].floor != floor_) {
     // A place on another floor: the elevator cab, or a floor that looks like this one.
     ++stats_.rejected_floor;
@@ -671,12 +675,13 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     }
     relocalization_candidate_.reset();
     *registered = true;
-    if (floor_ < 0) {
+    if (!floor_confirmed_) {
       // A restarted mapper that no FLOOR message has told its floor: the map's node says it.
       floor_ = nodes_[static_cast<size_t>(b)].floor;
       const auto height = floors_.find(floor_);
       floor_height_m_ = height != floors_.end() ? height->second : nodePose(b).translation().z();
       have_floor_ = true;
+      floor_confirmed_ = true;
     }
     // Re-localisation: b becomes active, no constraint (Δ had no meaning before it).
     active_ = b;
@@ -961,8 +966,14 @@ Status Mapper::restore(const MapSnapshot& map) {
   active_ = n_nodes - 1;
   lost_ = true;  // where the robot is on this map is unknown until a global registration
   // ... and so is its floor, unless a FLOOR message says it (a session's start, a ride's
-  // end): a mapper-proc restarted mid-session gets none, and searches every floor.
-  floor_ = -1;
+  // end): a mapper-proc restarted mid-session gets none. The guess is the floor of the newest
+  // node (where the robot was when the map was saved); every fourth global search covers
+  // every floor, and the relocalisation's node confirms it (sendRequest).
+  int64_t newest = 0;
+  for (const MapperNode& n : nodes_)
+    if (n.keyframe_utime >= nodes_[static_cast<size_t>(newest)].keyframe_utime) newest = n.id;
+  floor_ = nodes_[static_cast<size_t>(newest)].floor;
+  floor_confirmed_ = false;
   return Ok{};
 }
 

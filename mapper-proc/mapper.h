@@ -238,9 +238,10 @@ class Mapper {
   // stored order (merges and rejections come out as they did), then one solver batch. The
   // origin prior goes on node 0, height factors on every node and the stored roll/pitch
   // factors on their nodes. The mapper is then in a new session (one past the highest stored) and lost: only
-  // global registrations until one places it on the map. Its floor is unknown (floor() -1)
-  // until a FLOOR message or that re-localisation tells it: the global searches cover every
-  // floor meanwhile (a mapper-proc restarted mid-session on an upper floor). Errors: a mapper that already has
+  // global registrations until one places it on the map. Its floor is a guess (the newest
+  // node's) until a FLOOR message or that re-localisation confirms it: meanwhile one global
+  // search in four covers every floor, and a registration on any floor may place it (a
+  // mapper-proc restarted mid-session, on another floor than the one its last session began on). Errors: a mapper that already has
   // nodes, node or edge ids that are not 0..n-1 in order, an edge naming an unknown node.
   Status restore(const MapSnapshot& map);
 
@@ -387,6 +388,8 @@ class Mapper {
   std::optional<RelocalizationCandidate> rejected_candidate_;
   bool gate_rejected_ = false;  // the step in flight had a registration the gate rejected
   int floor_ = 0;
+  bool floor_confirmed_ = true;     // false: a restored map's guess (restore(), sendRequest)
+  int64_t unconfirmed_searches_ = 0;
   double floor_height_m_ = 0.0;
   std::map<int, double> floors_;
   bool have_floor_ = false;
