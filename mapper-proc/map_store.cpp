@@ -121,15 +121,13 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
   }
   // Only the rows that changed: new nodes, and poses the solver moved since the last save
   // (most do not move at a step: the incremental solver's back substitution stops where the
-  // change does). Nothing is cached across a failed transaction (see the end).
-  std::vector<std::vector<double>> written = stored_poses_;
+  // change does). The cache takes them only once the transaction commits (see the end).
+  std::vector<std::pair<size_t, std::vector<double>>> written;
   for (const MapperNode& n : mapper.nodes()) {
     std::vector<double> pose = poseBlob(mapper.nodePose(n.id));
     const auto k = static_cast<size_t>(n.id);
-    const bool is_new = k >= written.size();
-    if (!is_new && written[k] == pose) continue;
-    if (is_new) written.resize(k + 1);
-    written[k] = pose;
+    const bool is_new = k >= stored_poses_.size();
+    if (!is_new && stored_poses_[k] == pose) continue;
     sqlite3_reset(nod.s);
     sqlite3_bind_int64(nod.s, 1, n.id);
     sqlite3_bind_int(nod.s, 2, n.session);
@@ -137,6 +135,7 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     sqlite3_bind_int64(nod.s, 4, n.keyframe_utime);
     sqlite3_bind_blob(nod.s, 5, pose.data(), static_cast<int>(pose.size() * sizeof(double)), SQLITE_TRANSIENT);
     if (sqlite3_step(nod.s) != SQLITE_DONE) return fail("nodes");
+    written.emplace_back(k, std::move(pose));
     if (!n.attitude || !is_new) continue;  // an attitude never changes: stored once
     const Eigen::Matrix<double, 2, 2, Eigen::RowMajor> cov = n.attitude->covariance;
     sqlite3_reset(att.s);
@@ -202,7 +201,10 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     last_edge_id_ = last_edge_before;
     return s;
   }
-  stored_poses_ = std::move(written);
+  for (auto& [k, pose] : written) {
+    if (k >= stored_poses_.size()) stored_poses_.resize(k + 1);
+    stored_poses_[k] = std::move(pose);
+  }
   // Copy the committed pages into the file and empty the log, so the store on disk is the
   // map and not the history of its transactions (SQLite's automatic checkpoint keeps the
   // log's size, up to 4 MB here). A reader holding the log makes it a no-op until the next
