@@ -52,6 +52,7 @@ Status MapperOptions::validate() const {
     return Error{"mapper.overlap_radius_cells: must be in [0, 1]"};
   if (!(overlap_heading_sectors >= 0.0 && overlap_heading_sectors <= 1.0))
     return Error{"mapper.overlap_heading_sectors: must be in [0, 1]"};
+  if (relocalization_checks < 0) return Error{"mapper.relocalization_checks: must be >= 0"};
   if (!(step_interval_s >= 0.0)) return Error{"mapper.step_interval_s: must be >= 0"};
   if (!(request_timeout_s > 0.0)) return Error{"mapper.request_timeout_s: must be > 0"};
   if (!(session_gap_s > 0.0)) return Error{"mapper.session_gap_s: must be > 0"};
@@ -535,8 +536,9 @@ void Mapper::sendRequest(int8_t mode, int64_t target) {
   r.target_node_id = mode == register_request_t::MODE_NODE ? target : -1;
   r.floor = floor_;
   // A restored mapper's floor is a guess (its newest node's) until a FLOOR message or a
-  // relocalisation confirms it: one global search in four covers every floor.
-  if (!floor_confirmed_ && mode == register_request_t::MODE_GLOBAL && ++unconfirmed_searches_ % 4 == 0) r.floor = -1;
+  // relocalisation confirms it: every other global search, the first included, covers every
+  // floor (a session may begin on any floor; a restarted mapper is likely on the guessed one).
+  if (!floor_confirmed_ && mode == register_request_t::MODE_GLOBAL && ++unconfirmed_searches_ % 2 == 1) r.floor = -1;
   r.session = session_;
   in_flight_->request_id = r.request_id;
   in_flight_->mode = mode;
@@ -583,7 +585,8 @@ void Mapper::step(int64_t keyframe_utime) {
     // the same on every floor).
     if (!target && nodes_[static_cast<size_t>(active_)].floor == floor_) target = active_;
   }
-  if (target && !lost_) sendRequest(register_request_t::MODE_NODE, *target);
+  if (lost_) target = relocalizationCheck(keyframe_utime);
+  if (target) sendRequest(register_request_t::MODE_NODE, *target);
   else sendRequest(register_request_t::MODE_GLOBAL, -1);
   step_cost_s_ += secondsSince(t0);
   step_cpu_s_ += threadCpuSeconds() - c0;
@@ -808,6 +811,26 @@ bool Mapper::confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64
   return agree;
 }
 
+std::optional<int64_t> Mapper::relocalizationCheck(int64_t keyframe_utime) {
+  // A lost robot's candidate placement is checked where it predicts the robot is now: a
+  // node-mode request to the node of that place (the candidate's own node when none is
+  // there), while the robot is still near it, instead of waiting for a second global search
+  // to find the same place by appearance (a session that starts where an earlier one
+  // started passes one place of the map in its first seconds). Two checks at most, then
+  // global searches again (a false candidate cannot hold the search).
+  if (!relocalization_candidate_ || relocalization_candidate_->verifications >= o_.relocalization_checks)
+    return std::nullopt;
+  RelocalizationCandidate& c = *relocalization_candidate_;
+  const auto c_T_now = tracker_.sinceKeyframe(c.keyframe_utime);
+  if (!c_T_now || c.node < 0 || c.node >= static_cast<int64_t>(nodes_.size())) return std::nullopt;
+  ++c.verifications;
+  const int floor = nodes_[static_cast<size_t>(c.node)].floor;
+  const core::SE3d world_T_body = nodePose(c.node) * c.node_T_keyframe.mean * c_T_now->mean;
+  std::optional<int64_t> target = nodeInCell(cellOf(world_T_body, floor), keyframe_utime);
+  if (!target) target = overlappingNode(world_T_body, floor, keyframe_utime);
+  return target ? target : std::optional<int64_t>(c.node);
+}
+
 bool Mapper::confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime,
                                     const std::optional<RelocalizationCandidate>& candidate) {
   if (!candidate) return false;
@@ -967,7 +990,7 @@ Status Mapper::restore(const MapSnapshot& map) {
   lost_ = true;  // where the robot is on this map is unknown until a global registration
   // ... and so is its floor, unless a FLOOR message says it (a session's start, a ride's
   // end): a mapper-proc restarted mid-session gets none. The guess is the floor of the newest
-  // node (where the robot was when the map was saved); every fourth global search covers
+  // node (where the robot was when the map was saved); every other global search covers
   // every floor, and the relocalisation's node confirms it (sendRequest).
   int64_t newest = 0;
   for (const MapperNode& n : nodes_)

@@ -80,6 +80,10 @@ struct MapperOptions {
   // (docs/mapper.md, "A year"). 0: the cells alone (eq. 8). At most 1 (a cell, a sector).
   double overlap_radius_cells = 1.0;
   double overlap_heading_sectors = 1.0;
+  // While lost, a registration that places the robot (a candidate, waiting for a second one
+  // that agrees) is checked by up to this many node-mode requests to the node where it says
+  // the robot is now, before global searches resume. 0: global searches only.
+  int relocalization_checks = 2;
   // Steps at VO keyframes at most this often, seconds of message time (loopclose-proc's 2 Hz).
   double step_interval_s = 0.5;
   // An unanswered registration closes after this long, seconds of message time.
@@ -239,8 +243,8 @@ class Mapper {
   // origin prior goes on node 0, height factors on every node and the stored roll/pitch
   // factors on their nodes. The mapper is then in a new session (one past the highest stored) and lost: only
   // global registrations until one places it on the map. Its floor is a guess (the newest
-  // node's) until a FLOOR message or that re-localisation confirms it: meanwhile one global
-  // search in four covers every floor, and a registration on any floor may place it (a
+  // node's) until a FLOOR message or that re-localisation confirms it: meanwhile every other
+  // global search (the first included) covers every floor, and a registration on any floor may place it (a
   // mapper-proc restarted mid-session, on another floor than the one its last session began on). Errors: a mapper that already has
   // nodes, node or edge ids that are not 0..n-1 in order, an edge naming an unknown node.
   Status restore(const MapSnapshot& map);
@@ -316,6 +320,8 @@ class Mapper {
   struct RelocalizationCandidate;
   // Whether the registration b_T_q of the keyframe agrees, chained by odometry, with an
   // earlier one (candidate) on where the robot is.
+  // While lost with a candidate placement: the node to check it against (step), if any.
+  std::optional<int64_t> relocalizationCheck(int64_t keyframe_utime);
   bool confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime,
                               const std::optional<RelocalizationCandidate>& candidate);
   // A registration the map gate rejects: true when it confirms the previous rejected one
@@ -382,6 +388,7 @@ class Mapper {
     int64_t node;
     core::UncertainPose node_T_keyframe;
     int64_t keyframe_utime;
+    int verifications = 0;  // node-mode requests sent to check it (step)
   };
   std::optional<RelocalizationCandidate> relocalization_candidate_;
   // The last registration the map gate rejected, waiting for a second one that agrees.

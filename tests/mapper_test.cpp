@@ -331,6 +331,9 @@ class ScriptedDrive {
   }
   // Registrations fail from now on (a dark corridor), until blind(false).
   void blind(bool on) { blind_ = on; }
+  // Only the next `n` global searches find a place (by appearance); later ones find none,
+  // node-mode requests still register (-1: every search finds one).
+  void globalSearchesFind(int n) { global_finds_ = n; }
   // Steps `dy` metres sideways (along y), heading kept, VO seeing it.
   void sidestep(double dy) { frame(SE3d(pose_.so3(), pose_.translation() + Vec3(0, dy, 0))); }
   // The robot slides `dx` metres along x without VO seeing it (a wheel slip VO missed, a
@@ -403,6 +406,12 @@ class ScriptedDrive {
         const SE3d q = SE3d(core::SO3d(), Vec3(alias_dx_, 0, 0)) * truth_.at(r.keyframe_utime);
         int64_t best = -1;
         double best_d = 1.5;
+        const bool global = r.mode == register_request_t::MODE_GLOBAL;
+        if (global && global_finds_ == 0) {
+          EXPECT_TRUE(mapper_.onRegisterResult(res));
+          continue;
+        }
+        if (global && global_finds_ > 0) --global_finds_;
         for (const auto& [id, p] : node_truth_) {
           if (blind_) break;
           if (r.mode == register_request_t::MODE_NODE && id != r.target_node_id) continue;
@@ -434,6 +443,7 @@ class ScriptedDrive {
   double registration_variance_;
   double alias_dx_ = 0.0;
   bool blind_ = false;
+  int global_finds_ = -1;
   SE3d pose_;
   int64_t utime_ = 0;
   std::map<int64_t, SE3d> truth_;
@@ -770,6 +780,33 @@ TEST(Mapper, ALongGapInVoStartsOneSessionEvenWhenItsFloorMessageIsLost) {
     EXPECT_FALSE(drive.mapper().lost()) << "FLOOR sent: " << announce;
     EXPECT_EQ(drive.mapper().session(), 1);
     EXPECT_EQ(drive.mapper().stats().nodes, nodes);
+  }
+}
+
+// A session starts where the map has a place, but the global search finds it (by
+// appearance) only once, in the first seconds: the candidate placement is checked by a
+// node-mode request where it says the robot is, and the session is placed on the map;
+// waiting for a second global match, it stays lost.
+TEST(Mapper, ALostRobotChecksItsCandidatePlacementAgainstTheNodeWhereItPredictsItIs) {
+  for (const int checks : {2, 0}) {
+    MapperOptions o = scriptedOptions();
+    o.relocalization_checks = checks;
+    ScriptedDrive drive(o);
+    lap(drive);
+    const int64_t nodes = drive.mapper().stats().nodes;
+    drive.globalSearchesFind(1);
+    drive.newSession(3600.0, true);
+    lap(drive);
+    if (checks > 0) {
+      EXPECT_FALSE(drive.mapper().lost());
+      EXPECT_EQ(drive.mapper().stats().relocalizations, 1);
+      // Placed on the lap it mapped: not a second copy of it (a step whose cell is empty
+      // may still add one, its global search finding nothing).
+      EXPECT_LE(drive.mapper().stats().nodes, nodes + 2);
+    } else {
+      EXPECT_TRUE(drive.mapper().lost());
+      EXPECT_EQ(drive.mapper().stats().relocalizations, 0);
+    }
   }
 }
 
