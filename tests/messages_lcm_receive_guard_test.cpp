@@ -21,7 +21,9 @@
 #include <thread>
 
 
+#include "core/messages/inbox.h"
 #include "core/messages/lcm_receive_guard.h"
+#include <evermap/imu_t.hpp>
 
 namespace evermap::messages {
 namespace {
@@ -132,6 +134,12 @@ TEST(LcmQueueDrops, MessagesBeyondASubscriptionsQueueCapacityAreCounted) {
   EXPECT_GT(dropped, 0) << "a queue of 2 left undrained must overflow";
   EXPECT_LT(handled, kMessages);
   EXPECT_EQ(lcmQueueDropped("NO_SUCH_CHANNEL"), 0);
+  // The process's INPUT_STATS carry them, per channel.
+  Inbox inbox(lcm, Inbox::Options{});
+  inbox.subscribe<evermap::imu_t>(channel, [](const evermap::imu_t&) {});
+  const evermap::input_stats_t stats = inbox.statsMessage(0);
+  ASSERT_EQ(stats.num_channels, 1);
+  EXPECT_EQ(stats.queue_dropped[0], lcmQueueDropped(channel));
 }
 
 }  // namespace

@@ -245,6 +245,7 @@ evermap::input_stats_t Inbox::statsMessage(int64_t utime) const {
     m.time_refused.push_back(c.time_refused);
     m.refused.push_back(c.refused);
     m.failed.push_back(c.failed);
+    m.queue_dropped.push_back(lcmQueueDropped(channel));
   }
   m.num_channels = static_cast<int32_t>(m.channels.size());
   m.held = static_cast<int64_t>(held_.size());
