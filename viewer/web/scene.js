@@ -48,6 +48,7 @@ export class MapScene {
     this.trail = [];
     this.pose = null;
     this.framesDrawn = 0;
+    this.drawnGraph = null;  // the graph the last frame drew (for the page's timings)
     this.fitted = false;
 
     this.group = new THREE.Group();
@@ -246,9 +247,14 @@ export class MapScene {
     if (now - this.lastFrame < this.minFrameMs) return;
     this.lastFrame = now;
     this.dirty = false;
+    const renderStart = performance.timeOrigin + now;
     this.renderer.render(this.scene, this.camera);
     ++this.framesDrawn;
     if (this.onDrawn) this.onDrawn();
+    if (this.graph !== null && this.graph !== this.drawnGraph) {
+      this.drawnGraph = this.graph;
+      if (this.onGraphDrawn) this.onGraphDrawn(this.graph, renderStart, performance.timeOrigin + performance.now());
+    }
   }
 }
 
