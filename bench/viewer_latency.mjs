@@ -91,7 +91,8 @@ try {
   const r = await send('Runtime.evaluate', {
     returnByValue: true,
     expression: `(() => { const s = window.evermapStats || {};
-      return { graphs: s.graphs || [], firstMapMs: s.firstMapMs, frames: s.frames, errors: (window.evermapErrors || []).join(' | ') }; })()`,
+      return { graphs: s.graphs || [], firstMapMs: s.firstMapMs, frames: s.frames, errors: (window.evermapErrors || []).join(' | '),
+               image: !document.getElementById('image').hidden }; })()`,
   }, sessionId);
   const s = r.result.value;
   if (opt.screenshot) {
@@ -114,7 +115,8 @@ try {
     `parse ${fmt(col((g) => g.parse_ms))}, scene ${fmt(col((g) => g.scene_ms))}, ` +
     `wait ${fmt(col((g) => g.render_start_ms - g.received_ms - g.parse_ms - g.scene_ms))}, ` +
     `render ${fmt(col((g) => g.render_end_ms - g.render_start_ms))}, ` +
-    `to next frame ${fmt(col((g) => g.next_frame_ms - g.render_end_ms))}]; frames ${s.frames}`;
+    `to next frame ${fmt(col((g) => g.next_frame_ms - g.render_end_ms))}]; frames ${s.frames}; ` +
+    `camera image ${s.image ? 'shown' : 'none'}`;
   if (opt.json) fs.writeFileSync(opt.json, JSON.stringify(s));
   if (errors.length > 0 || s.errors) await finish(1, `viewer_latency: FAIL: ${[...errors, s.errors].join(' || ')}; ${line}`);
   if (all.length === 0) await finish(1, `viewer_latency: FAIL: no map reached the page; ${line}`);

@@ -84,7 +84,7 @@ if [ -n "$log" ]; then
     node "$src/bench/viewer_latency.mjs" --chromium "$chromium" --url "http://127.0.0.1:$port/" \
       --duration-s "$replay_s" --label "log ${speed}x" --screenshot "$work/log-${speed}x.png" > "$work/replay.txt" || true
     load="$(grep -o 'load (first map drawn) [0-9-]* ms' "$work/replay.txt" || echo 'load -')"
-    echo "viewer_latency log ${speed}x: $(sed -n 's/^evermap-viewer: .*: \([0-9]* events over [0-9.]* s\)$/\1/p' "$work/viewer.log"); " \
+    echo "viewer_latency log ${speed}x: $(sed -n 's/^evermap-viewer: .*: \([0-9]* events over [0-9.]* s\) .*/\1/p' "$work/viewer.log"); " \
       "viewer CPU $(awk -v b="$(viewer_cpu_s)" -v s="$replay_s" 'BEGIN { printf "%.0f", 100 * b / s }') % of a core" \
       "over ${replay_s} s, peak RSS $(viewer_peak_mb) MB; page $load"
     stop_viewer
