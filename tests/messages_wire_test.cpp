@@ -197,6 +197,21 @@ TEST(WireCheck, ForeignAndTruncatedBytesAreRefusedNamingTheType) {
   EXPECT_FALSE(decodeLcm<evermap::imu_t>(imu.data(), static_cast<int64_t>(imu.size()) - 1, "IMU").ok());
 }
 
+TEST(WireCheck, ATruncatedArrayOfStructsIsRefusedNamingTheElementAndTheMember) {
+  // The path is spelled only on failure (issue 21: a string per member made a 56,000-node
+  // MAP_GRAPH cost a million allocations); it must still name the element.
+  const auto g = encode(richGraph());
+  // hash(8) utime(8) num_nodes(4), then 80 bytes a node: id(8) keyframe_utime(8) ...
+  const int64_t size = 8 + 8 + 4 + 2 * 80 + 10;
+  const auto used = checkWire<evermap::map_graph_t>(g.data(), size);
+  ASSERT_FALSE(used.ok());
+  EXPECT_NE(used.error().message.find("map_graph_t.nodes[2].keyframe_utime: 8 bytes needed, 2 left"),
+            std::string::npos)
+      << used.error().message;
+  // The same buffer whole: accepted (nothing of the failed walk is left behind).
+  EXPECT_TRUE(checkWire<evermap::map_graph_t>(g.data(), static_cast<int64_t>(g.size())).ok());
+}
+
 TEST(WireCheck, FuzzedKeyframeNodeAddedAndRegisterRequestNeverCrashTheDecoder) {
   std::mt19937_64 rng(2017);
   int accepted = 0;

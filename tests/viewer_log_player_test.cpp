@@ -5,6 +5,7 @@
 
 #include <map>
 #include <string>
+#include <vector>
 
 #include <lcm/lcm-cpp.hpp>
 
@@ -32,7 +33,8 @@ void writeLog(const std::filesystem::path& file) {
     put("POSE", t);
     if (t % 1000 == 0) put("MAP_GRAPH", t);
     if (t % 500 == 0) put("MAPPER_STATS", t);
-    put("STEREO", t);  // not a channel the player keeps here
+    if (t % 250 == 0) put("KEYFRAME", t);
+    put("STEREO", t);  // kept only when asked for, one per image period
   }
 }
 
@@ -70,6 +72,55 @@ TEST(ViewerLogPlayer, ASkippedStretchSendsTheLastMapAndTheTrailAndEverythingElse
   player->playTo(1000, count);
   EXPECT_EQ(sent["POSE"], 1);
   EXPECT_EQ(sent["MAP_GRAPH"], 1);
+}
+
+TEST(ViewerLogPlayer, CameraImagesAreKeptOnePerPeriodEachWithTheNewestKeyframeBeforeIt) {
+  testing::ScratchDir dir;
+  const auto file = dir.path() / "run.lcmlog";
+  writeLog(file);
+  LogPlayerOptions o;
+  o.image_period_us = 1000;
+  auto player = LogPlayer::open(file, {"POSE", "STEREO", "KEYFRAME"}, o);
+  ASSERT_TRUE(player) << player.error().message;
+  EXPECT_EQ(player->images(), 10);  // 1000, 2000, ..., 10000
+  std::vector<std::string> images;
+  auto collect = [&](const std::string& channel, const void* data, size_t size) {
+    if (channel != "POSE") images.emplace_back(static_cast<const char*>(data), size);
+  };
+  for (int64_t t = 1000; t <= 10000; t += 10) player->playTo(t, collect);
+  ASSERT_EQ(images.size(), 20u);
+  EXPECT_EQ(images[0], "KEYFRAME1000");
+  EXPECT_EQ(images[1], "STEREO1000");
+  EXPECT_EQ(images[18], "KEYFRAME10000");
+  EXPECT_EQ(images[19], "STEREO10000");
+  // A stretch played at once sends its last image and keyframe only.
+  player->rewind();
+  images.clear();
+  player->playTo(10000, collect);
+  EXPECT_EQ(images, (std::vector<std::string>{"KEYFRAME10000", "STEREO10000"}));
+}
+
+TEST(ViewerLogPlayer, ImagesBeyondTheirBudgetAreThinnedNotRefused) {
+  testing::ScratchDir dir;
+  const auto file = dir.path() / "run.lcmlog";
+  writeLog(file);
+  LogPlayerOptions o;
+  o.image_period_us = 1000;
+  o.max_image_bytes = 100;  // about four images with their keyframes ("KEYFRAME1000STEREO1000")
+  auto player = LogPlayer::open(file, {"STEREO", "KEYFRAME"}, o);
+  ASSERT_TRUE(player) << player.error().message;
+  EXPECT_GE(player->images(), 2);
+  EXPECT_LE(player->images(), 4);
+  EXPECT_GT(player->imagePeriodUs(), 1000);
+  int64_t bytes = 0;
+  player->rewind();
+  for (int64_t t = 1000; t <= 10000; t += 10)
+    player->playTo(t, [&](const std::string&, const void*, size_t size) { bytes += static_cast<int64_t>(size); });
+  EXPECT_LE(bytes, 100);
+  // Without KEYFRAME asked for, images come alone.
+  auto alone = LogPlayer::open(file, {"STEREO"}, o);
+  ASSERT_TRUE(alone);
+  EXPECT_EQ(alone->events(), static_cast<size_t>(alone->images()));
 }
 
 TEST(ViewerLogPlayer, AMissingLogIsAnErrorNamingIt) {

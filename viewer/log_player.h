@@ -7,7 +7,9 @@
 // message: they feed counts and plots).
 //
 // Time is the log's event timestamp (when lcm-logger received the message), microseconds, as
-// lcm-logplayer plays it. STEREO and KEYFRAME are not kept (images would not fit in memory).
+// lcm-logplayer plays it. Camera images would not fit in memory: of STEREO (when asked for) one
+// per `image_period_us` of log time is kept, with the newest KEYFRAME before it (the features
+// the page draws on it), within `max_image_bytes`; KEYFRAMEs are kept with an image only.
 
 #include <cstdint>
 #include <filesystem>
@@ -27,6 +29,11 @@ struct LogPlayerOptions {
   int64_t max_bytes = int64_t{1} << 30;
   // POSEs sent when a seek skips a stretch (the page's trail).
   int trail_poses = 600;
+  // Log time between two STEREO messages kept (the page shows one camera image at a time).
+  int64_t image_period_us = 1'000'000;
+  // Most bytes of kept STEREO and KEYFRAME messages: beyond it every other kept image goes and
+  // the period doubles (a long log keeps fewer images, never fails for them).
+  int64_t max_image_bytes = int64_t{256} << 20;
 
   Status validate() const;
 };
@@ -43,8 +50,12 @@ class LogPlayer {
   // Timestamp of the last event sent (startUtime() - 1 before any).
   int64_t position() const { return position_; }
 
+  // STEREO messages kept, and the period between them after any thinning (microseconds).
+  int64_t images() const { return images_; }
+  int64_t imagePeriodUs() const { return image_period_us_; }
+
   // Hands `send` the events after position() up to `utime` (inclusive), in order, thinned as
-  // the header says; returns how many it sent.
+  // the header says (of a stretch, only its last image and keyframe); returns how many it sent.
   using Send = std::function<void(const std::string& channel, const void* data, size_t size)>;
   int64_t playTo(int64_t utime, const Send& send);
   // Back to before the first event (the caller restarts the state it feeds).
@@ -59,6 +70,8 @@ class LogPlayer {
   std::vector<Event> events_;
   size_t next_ = 0;
   int64_t position_ = -1;
+  int64_t images_ = 0;
+  int64_t image_period_us_ = 0;
   LogPlayerOptions o_;
 };
 

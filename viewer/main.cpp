@@ -224,7 +224,8 @@ int main(int argc, char** argv) {
   if (!log_file.empty()) {
     const std::set<std::string> channels_shown = {
         channels::kMapGraph, channels::kPose, channels::kFloor, channels::kMapperStats,
-        channels::kRegisterResult, channels::kDeputyStatus, channels::kVoDelta};
+        channels::kRegisterResult, channels::kDeputyStatus, channels::kVoDelta, channels::kStereo,
+        channels::kKeyframe};
     auto opened = viewer::LogPlayer::open(log_file, channels_shown);
     if (!opened) {
       std::fprintf(stderr, "evermap-viewer: %s\n", opened.error().message.c_str());
@@ -232,8 +233,10 @@ int main(int argc, char** argv) {
     }
     player = std::move(*opened);
     url = "memq://";
-    std::printf("evermap-viewer: %s: %zu events over %.1f s\n", log_file.c_str(), player->events(),
-                1e-6 * static_cast<double>(player->endUtime() - player->startUtime()));
+    std::printf("evermap-viewer: %s: %zu events over %.1f s (%lld camera images, one per %.1f s)\n",
+                log_file.c_str(), player->events(),
+                1e-6 * static_cast<double>(player->endUtime() - player->startUtime()),
+                static_cast<long long>(player->images()), 1e-6 * static_cast<double>(player->imagePeriodUs()));
     std::fflush(stdout);
   }
   lcm::LCM lcm(url);

@@ -1,6 +1,7 @@
 #include "core/messages/wire_check.h"
 
 #include <string>
+#include <vector>
 
 namespace evermap::messages {
 namespace {
@@ -17,15 +18,18 @@ int64_t readInteger(const uint8_t* p, int bytes) {
 
 class Walker {
  public:
-  Walker(const uint8_t* buf, int64_t size) : buf_(buf), size_(size) {}
+  Walker(const uint8_t* buf, int64_t size, const char* root) : buf_(buf), size_(size), root_(root) {}
 
   // Walks one struct starting at pos_; false with error_ set when the buffer cannot hold it.
-  bool walk(int type, const std::string& path) {
+  // The member's path ("map_graph_t.nodes[12].position") is spelled only for an error: a
+  // string per member made a 56,000-node MAP_GRAPH cost a million allocations.
+  bool walk(int type) {
     const wire::Type& t = wire::kTypes[type];
     int64_t values[64] = {};  // integer members read so far (dimensions refer to them)
     for (int i = 0; i < t.num_members; ++i) {
       const wire::Member& m = t.members[i];
-      const std::string name = path + "." + m.name;
+      trail_.push_back({m.name, -1});
+      const NameOnError name;
       // The element count. A length read from the message must not exceed the bytes left:
       // the decoder allocates it (the outer vectors) before reading, and any element of an
       // honest array takes at least one byte. Then, unless some dimension is zero, the count
@@ -52,7 +56,8 @@ class Walker {
       }
       if (m.kind == Kind::kStruct) {
         for (int64_t e = 0; e < count; ++e) {
-          if (!walk(m.type, m.num_dims ? name + "[" + std::to_string(e) + "]" : name)) return false;
+          if (m.num_dims) trail_.back().index = e;
+          if (!walk(m.type)) return false;
         }
       } else if (m.kind == Kind::kString) {
         for (int64_t e = 0; e < count; ++e) {
@@ -73,13 +78,26 @@ class Walker {
         }
         pos_ += bytes;
       }
+      trail_.pop_back();
     }
     return true;
   }
 
+  // Stands for the current member's path in fail()'s arguments.
+  struct NameOnError {};
+  std::string path() const {
+    std::string s = root_;
+    for (const Step& step : trail_) {
+      s += '.';
+      s += step.name;
+      if (step.index >= 0) s += "[" + std::to_string(step.index) + "]";
+    }
+    return s;
+  }
+
   template <typename... Args>
-  bool fail(Args&&... args) {
-    error_ = makeError(std::forward<Args>(args)...);
+  bool fail(NameOnError, Args&&... args) {
+    error_ = makeError(path(), std::forward<Args>(args)...);
     return false;
   }
 
@@ -88,8 +106,14 @@ class Walker {
   Error error_;
 
  private:
+  struct Step {
+    const char* name;
+    int64_t index;  // the element of an array of structs; -1: none
+  };
   const uint8_t* buf_;
   int64_t size_;
+  const char* root_;
+  std::vector<Step> trail_;  // the members being walked, outermost first
 };
 
 }  // namespace
@@ -97,11 +121,11 @@ class Walker {
 Expected<int64_t> checkWire(int type, int64_t hash, const void* data, int64_t size) {
   const char* name = wire::kTypes[type].name;
   if (data == nullptr || size < 8) return makeError(name, ": ", size, " bytes hold no type hash");
-  Walker w(static_cast<const uint8_t*>(data), size);
+  Walker w(static_cast<const uint8_t*>(data), size, name);
   const int64_t got = readInteger(static_cast<const uint8_t*>(data), 8);
   if (got != hash) return makeError("not a ", name, " (type hash ", got, ", expected ", hash, ")");
   w.pos_ = 8;
-  if (!w.walk(type, name)) return w.error_;
+  if (!w.walk(type)) return w.error_;
   return w.pos_;
 }
 

@@ -7,6 +7,7 @@ import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
 const SESSION_COLOURS = [0x5fb3ff, 0x7ddc6f, 0xe36bd8, 0xf2d64b, 0x59e0c8, 0xb48cff, 0xff5f7a,
                          0xc0c0c0, 0x3fd17f, 0xffa0e0];
+const SESSION_RGB = SESSION_COLOURS.map((hex) => { const c = new THREE.Color(hex); return [c.r, c.g, c.b]; });
 const TRAIL = 600;           // poses kept in the trail
 const NEW_CLOSURE_MS = 6000; // how long a new closure stays highlighted
 // The trail is broken where the pose jumps (a new session starts at its own origin; a
@@ -48,6 +49,7 @@ export class MapScene {
     this.trail = [];
     this.pose = null;
     this.framesDrawn = 0;
+    this.drawnGraph = null;  // the graph the last frame drew (for the page's timings)
     this.fitted = false;
 
     this.group = new THREE.Group();
@@ -68,6 +70,7 @@ export class MapScene {
     this.robot.visible = false;
     for (const o of [this.floors, this.odometry, this.loops, this.fresh, this.nodes, this.trailLine, this.robot])
       this.group.add(o);
+    for (const o of [this.nodes, this.odometry, this.loops]) o.frustumCulled = false;
 
     new ResizeObserver(() => this.resize()).observe(container);
     this.resize();
@@ -107,34 +110,55 @@ export class MapScene {
 
   z(v) { return v * this.exaggeration; }
 
+  // Typed arrays written in place into the geometries' buffers (grown when too small): a
+  // 56,000-node map is rebuilt without a JavaScript array of a million numbers.
   rebuild() {
     const g = this.graph;
     if (!g) return;
     const n = g.nodes.id.length, xyz = g.nodes.xyz, fl = g.nodes.floor, se = g.nodes.session;
-    const keep = (i) => this.floorFilter === null || fl[i] === this.floorFilter;
-    const pos = [], col = [], c = new THREE.Color();
-    this.index = new Map();
+    const all = this.floorFilter === null;
+    const pos = vertexBuffer(this.nodes.geometry, 'position', n);
+    const col = vertexBuffer(this.nodes.geometry, 'color', n);
+    const ex = this.exaggeration;
+    let v = 0;
     for (let i = 0; i < n; ++i) {
-      this.index.set(g.nodes.id[i], i);
-      if (!keep(i)) continue;
-      pos.push(xyz[3 * i], xyz[3 * i + 1], this.z(xyz[3 * i + 2]));
-      c.setHex(SESSION_COLOURS[((se[i] % SESSION_COLOURS.length) + SESSION_COLOURS.length) % SESSION_COLOURS.length]);
-      col.push(c.r, c.g, c.b);
+      if (!all && fl[i] !== this.floorFilter) continue;
+      pos[3 * v] = xyz[3 * i]; pos[3 * v + 1] = xyz[3 * i + 1]; pos[3 * v + 2] = xyz[3 * i + 2] * ex;
+      const rgb = SESSION_RGB[((se[i] % SESSION_RGB.length) + SESSION_RGB.length) % SESSION_RGB.length];
+      col[3 * v] = rgb[0]; col[3 * v + 1] = rgb[1]; col[3 * v + 2] = rgb[2];
+      ++v;
     }
-    setPositions(this.nodes.geometry, pos, col);
-    const odo = [], loop = [];
-    const e = g.edges;
-    for (let k = 0; k < e.a.length; ++k) {
+    vertexCount(this.nodes.geometry, v);
+    this.index = null;  // node id -> position, made when a new closure needs it
+    const e = g.edges, m = e.a.length;
+    let loops = 0;
+    for (let k = 0; k < m; ++k) if (e.kind[k] === 1) ++loops;
+    const odo = vertexBuffer(this.odometry.geometry, 'position', 2 * (m - loops));
+    const loop = vertexBuffer(this.loops.geometry, 'position', 2 * loops);
+    let no = 0, nl = 0;
+    for (let k = 0; k < m; ++k) {
       const a = e.a[k], b = e.b[k];
-      if (!keep(a) || !keep(b)) continue;
-      const out = e.kind[k] === 1 ? loop : odo;
-      out.push(xyz[3 * a], xyz[3 * a + 1], this.z(xyz[3 * a + 2]), xyz[3 * b], xyz[3 * b + 1], this.z(xyz[3 * b + 2]));
+      if (!all && (fl[a] !== this.floorFilter || fl[b] !== this.floorFilter)) continue;
+      const isLoop = e.kind[k] === 1;
+      const out = isLoop ? loop : odo;
+      const o = isLoop ? 6 * nl++ : 6 * no++;
+      out[o] = xyz[3 * a]; out[o + 1] = xyz[3 * a + 1]; out[o + 2] = xyz[3 * a + 2] * ex;
+      out[o + 3] = xyz[3 * b]; out[o + 4] = xyz[3 * b + 1]; out[o + 5] = xyz[3 * b + 2] * ex;
     }
-    setPositions(this.odometry.geometry, odo);
-    setPositions(this.loops.geometry, loop);
+    vertexCount(this.odometry.geometry, 2 * no);
+    vertexCount(this.loops.geometry, 2 * nl);
     this.rebuildFresh();
     this.rebuildFloors();
     this.dirty = true;
+  }
+
+  nodeIndex() {
+    if (!this.index) {
+      this.index = new Map();
+      const id = this.graph.nodes.id;
+      for (let i = 0; i < id.length; ++i) this.index.set(id[i], i);
+    }
+    return this.index;
   }
 
   rebuildFresh() {
@@ -142,8 +166,9 @@ export class MapScene {
     const now = performance.now();
     this.newLoops = this.newLoops.filter((l) => l.until > now);
     const pos = [];
+    const index = g && this.newLoops.length > 0 ? this.nodeIndex() : null;
     if (g) for (const l of this.newLoops) {
-      const a = this.index.get(l.a), b = this.index.get(l.b);
+      const a = index.get(l.a), b = index.get(l.b);
       if (a === undefined || b === undefined) continue;
       const xyz = g.nodes.xyz;
       pos.push(xyz[3 * a], xyz[3 * a + 1], this.z(xyz[3 * a + 2]) + 0.05, xyz[3 * b], xyz[3 * b + 1], this.z(xyz[3 * b + 2]) + 0.05);
@@ -246,9 +271,14 @@ export class MapScene {
     if (now - this.lastFrame < this.minFrameMs) return;
     this.lastFrame = now;
     this.dirty = false;
+    const renderStart = performance.timeOrigin + now;
     this.renderer.render(this.scene, this.camera);
     ++this.framesDrawn;
     if (this.onDrawn) this.onDrawn();
+    if (this.graph !== null && this.graph !== this.drawnGraph) {
+      this.drawnGraph = this.graph;
+      if (this.onGraphDrawn) this.onGraphDrawn(this.graph, renderStart, performance.timeOrigin + performance.now());
+    }
   }
 }
 
@@ -256,6 +286,32 @@ function rendererName(renderer) {
   const gl = renderer.getContext();
   const info = gl.getExtension('WEBGL_debug_renderer_info');
   return String(gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
+}
+
+// The array of `geometry`'s attribute `name` (3 floats a vertex), with room for `vertices`:
+// the buffer is reused while it is big enough (sent again to the GPU in place), else replaced
+// by one half as big again. Objects drawn from these buffers are not frustum-culled (their
+// bounding spheres would count stale vertices past the draw range).
+function vertexBuffer(geometry, name, vertices) {
+  let attr = geometry.getAttribute(name);
+  if (!attr || attr.array.length < 3 * vertices) {
+    attr = new THREE.BufferAttribute(new Float32Array(3 * Math.max(16, Math.ceil(vertices * 1.5))), 3);
+    attr.setUsage(THREE.DynamicDrawUsage);
+    geometry.setAttribute(name, attr);
+  }
+  attr.needsUpdate = true;
+  return attr.array;
+}
+
+function vertexCount(geometry, vertices) {
+  geometry.setDrawRange(0, vertices);
+  // Only the used part goes to the GPU.
+  for (const name of ['position', 'color']) {
+    const attr = geometry.getAttribute(name);
+    if (!attr) continue;
+    attr.clearUpdateRanges();
+    attr.addUpdateRange(0, 3 * vertices);
+  }
 }
 
 function setPositions(geometry, positions, colours) {

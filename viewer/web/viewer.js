@@ -6,6 +6,13 @@ import { drawPlot } from './plots.js';
 
 const $ = (id) => document.getElementById(id);
 const state = { graph: null, stats: null, register: null, scene: null, graphsDrawn: 0 };
+// Timings for bench/viewer_latency.sh (and anyone curious, from the console): per map, when it
+// was built by the viewer, received, parsed, put in the scene and drawn, on the wall clock
+// (ms since 1970; the viewer and the publisher on the same machine use the same clock).
+// `firstMapMs`: from navigation start to the first frame with a map in it (page load time).
+const STATS_KEEP = 2000;
+const stats = window.evermapStats = { graphs: [], firstMapMs: null, frames: 0 };
+const wallNow = () => performance.timeOrigin + performance.now();
 
 function setText(id, v) { const el = $(id); if (el) el.textContent = v; }
 const fmtInt = (v) => (v === null || v === undefined) ? '-' : String(v);
@@ -16,7 +23,19 @@ async function startScene() {
   try {
     const { MapScene } = await import('./scene.js');
     state.scene = new MapScene($('scene'));
-    state.scene.onDrawn = () => { document.documentElement.dataset.frames = String(state.scene.framesDrawn); };
+    state.scene.onDrawn = () => {
+      stats.frames = state.scene.framesDrawn;
+      document.documentElement.dataset.frames = String(state.scene.framesDrawn);
+    };
+    // The first frame that drew a map: its timings are completed at the next animation frame
+    // (the drawn frame was handed to the compositor by then).
+    state.scene.onGraphDrawn = (g, renderStart, renderEnd) => {
+      const r = g.evermapTimes;
+      if (!r) return;
+      r.render_start_ms = renderStart; r.render_end_ms = renderEnd;
+      requestAnimationFrame(() => { r.next_frame_ms = wallNow(); });
+      if (stats.firstMapMs === null && g.nodes.id.length > 0) stats.firstMapMs = performance.now();
+    };
     if (state.graph) showGraphInScene(state.graph);
   } catch (e) {
     setText('scene-message', '3-D view unavailable: ' + e.message + ' (three.js installed by scripts/setup.sh; WebGL needed)');
@@ -26,7 +45,9 @@ async function startScene() {
 
 function showGraphInScene(g) {
   if (!state.scene) return;
+  const t0 = wallNow();
   state.scene.setGraph(g);
+  if (g.evermapTimes && g.evermapTimes.scene_ms === undefined) g.evermapTimes.scene_ms = wallNow() - t0;
   $('scene-message').hidden = g.nodes.id.length > 0;
   // Buttons: the 3-D view and a top view per floor.
   const box = $('floor-buttons');
@@ -178,7 +199,14 @@ function connect() {
   };
   ws.onmessage = (e) => {
     let m;
+    const received = wallNow();
     try { m = JSON.parse(e.data); } catch (err) { console.warn('not JSON', err); return; }
+    if (m.type === 'graph') {
+      m.evermapTimes = { utime: m.utime, nodes: m.nodes.id.length, bytes: e.data.length, built_ms: m.built_ms,
+                         received_ms: received, parse_ms: wallNow() - received };
+      stats.graphs.push(m.evermapTimes);
+      if (stats.graphs.length > STATS_KEEP) stats.graphs.splice(0, stats.graphs.length - STATS_KEEP);
+    }
     const h = handlers[m.type];
     try {
       if (h) h(m);
