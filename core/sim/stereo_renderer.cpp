@@ -327,11 +327,14 @@ void ImageRenderer::warpDepth(const core::Mat3& M, cv::Mat* depth) const {
   const int W = camera_.width, H = camera_.height, LW = level_w_;
   depth->create(H, W, CV_32FC1);
   const double max_u = level_w_ - 1 - 1e-6, max_v = level_h_ - 1 - 1e-6;
+  const core::Vec3 step = M.col(0);
   for (int v = 0; v < H; ++v) {
     float* out = depth->ptr<float>(v);
+    const core::Vec3 h0 = M * core::Vec3(0.0, v, 1.0);
     for (int u = 0; u < W; ++u) {
-      const core::Vec3 h = M * core::Vec3(u, v, 1.0);
-      const double lu = std::clamp(h.x() / h.z(), 0.0, max_u), lv = std::clamp(h.y() / h.z(), 0.0, max_v);
+      const double hx = h0.x() + u * step.x(), hy = h0.y() + u * step.y(), hz = h0.z() + u * step.z();
+      const double inv = 1.0 / hz;
+      const double lu = std::clamp(hx * inv, 0.0, max_u), lv = std::clamp(hy * inv, 0.0, max_v);
       const int u0 = static_cast<int>(lu), v0 = static_cast<int>(lv);
       const double a = lu - u0, b = lv - v0;
       const float* p = level_depth_.data() + static_cast<size_t>(v0) * LW + u0;
@@ -343,7 +346,7 @@ void ImageRenderer::warpDepth(const core::Mat3& M, cv::Mat* depth) const {
       } else {  // a depth edge: the nearest level pixel
         z_level = p[(b < 0.5 ? 0 : LW) + (a < 0.5 ? 0 : 1)];
       }
-      out[u] = static_cast<float>(z_level / h.z());
+      out[u] = static_cast<float>(z_level * inv);
     }
   }
 }
