@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <numbers>
 
 #include <unistd.h>
@@ -12,9 +13,12 @@
 #include <lcm/lcm-cpp.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <evermap/rgbd_calib_t.hpp>
+
 #include "core/camera/calibration.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
+#include "core/messages/rgbd_convert.h"
 #include "core/sim/image_session.h"
 #include "core/sim/render_world.h"
 #include "core/sim/stereo_renderer.h"
@@ -227,6 +231,94 @@ TEST(SimRender, PasserByCoversMostOfTheView) {
   EXPECT_GT(changed, 0.6);
 }
 
+// The surface seen through pixel (u, v), by casting its ray against the square room of
+// roomFloor (walls at ±half_m, floor at floor_z, ceiling at ceiling_z) and an optional
+// passer-by: its depth along the camera's z axis and which surface it is (0-5 the room's
+// planes, 6 the passer-by).
+struct Hit {
+  double depth = std::numeric_limits<double>::infinity();
+  int surface = -1;
+};
+Hit rayCast(const PinholeCamera& cam, const core::SE3d& world_T_cam, double half_m, double floor_z, double ceiling_z,
+            const Occluder* person, double u, double v) {
+  const Vec3 d = world_T_cam.so3() * Vec3((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);  // z_cam = 1
+  const Vec3 c = world_T_cam.translation();
+  Hit best;
+  int id = 0;
+  for (const auto& [axis, value] : {std::pair{0, half_m}, std::pair{0, -half_m}, std::pair{1, half_m},
+                                    std::pair{1, -half_m}, std::pair{2, floor_z}, std::pair{2, ceiling_z}}) {
+    const double t = std::abs(d[axis]) < 1e-12 ? -1.0 : (value - c[axis]) / d[axis];
+    if (t > 0.0 && t < best.depth) best = Hit{t, id};
+    ++id;
+  }
+  if (person) {
+    const Vec2 n = person->normal;
+    const double den = n.x() * d.x() + n.y() * d.y();
+    const double t = ((person->centre.x() - c.x()) * n.x() + (person->centre.y() - c.y()) * n.y()) / den;
+    const Vec3 p = c + t * d;
+    const double side = (p.x() - person->centre.x()) * -n.y() + (p.y() - person->centre.y()) * n.x();
+    if (t > 0.0 && t < best.depth && std::abs(side) <= 0.5 * person->width_m && p.z() >= floor_z &&
+        p.z() <= floor_z + person->height_m) {
+      best = Hit{t, 6};
+    }
+  }
+  return best;
+}
+
+TEST(SimRender, RenderedDepthIsTheRayCastDepth) {
+  const TextureLibrary lib = testTextures();
+  const PinholeCamera cam{320, 240, 225.0, 225.0, 160.0, 120.0};
+  ImageRenderer renderer(lib, cam, 0.0, 3);
+  const double half = 3.0;
+  const RenderFloor floor = roomFloor(lib, half, false, false);
+  Occluder person;
+  person.centre = Vec2(0.2, 0.3);
+  person.normal = Vec2(-1, 0);
+  person.width_m = 0.8;
+  person.texture = lib.people.front();
+  // Level and square-on, then turned, rolled and pitched as the robot on a rough floor.
+  for (const auto& [world_T_cam, with_person] :
+       {std::pair{cameraAt(-1.0, 0.0, 0.0), true}, std::pair{cameraAt(-1.0, 0.5, 0.6, 0.01, -0.015), false},
+        std::pair{cameraAt(0.5, -1.0, 2.2, -0.012, 0.008), false}}) {
+    cv::Mat gray, depth;
+    const std::vector<Occluder> occluders = with_person ? std::vector<Occluder>{person} : std::vector<Occluder>{};
+    renderer.render(floor, 0.0, world_T_cam, occluders, &gray, &depth);
+    ASSERT_EQ(depth.type(), CV_32FC1);
+    ASSERT_EQ(depth.size(), gray.size());
+    std::vector<double> errors;
+    int seams = 0, seams_off = 0, jumps = 0;
+    for (int v = 0; v < cam.height; ++v) {
+      for (int u = 0; u < cam.width; ++u) {
+        const Occluder* p = with_person ? &person : nullptr;
+        const Hit truth = rayCast(cam, world_T_cam, half, floor.floor_z, floor.ceiling_z, p, u, v);
+        // Where two surfaces meet within a pixel (corners of the room, the passer-by's
+        // outline), the rendered depth is either side's or between them.
+        bool seam = false, jump = false;
+        for (const auto& [du, dv] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+          const Hit n = rayCast(cam, world_T_cam, half, floor.floor_z, floor.ceiling_z, p, u + du, v + dv);
+          seam = seam || n.surface != truth.surface;
+          jump = jump || std::abs(n.depth - truth.depth) > 0.1 * truth.depth;
+        }
+        const double rel = std::abs(depth.at<float>(v, u) - truth.depth) / truth.depth;
+        if (jump) {
+          ++jumps;
+        } else if (seam) {
+          ++seams;
+          seams_off += rel > 0.03;
+        } else {
+          errors.push_back(rel);
+        }
+      }
+    }
+    std::sort(errors.begin(), errors.end());
+    EXPECT_EQ(jumps > 0, with_person);
+    EXPECT_GT(seams, 100);
+    EXPECT_EQ(seams_off, 0) << "corner pixels more than 3 % off the ray cast";
+    EXPECT_LT(errors[errors.size() / 2], 1e-4);  // median: float precision
+    EXPECT_LT(errors.back(), 1e-3) << "inside a surface: bilinear in inverse depth is exact";
+  }
+}
+
 // A 3-floor building whose session starts with an elevator trip soon.
 std::string smallConfig() {
   return "seed = 3\n"
@@ -397,9 +489,97 @@ TEST(ImageSession, PostersComeFromTheRealPhotographs) {
   EXPECT_EQ(lib->posters.size(), 40u);
 }
 
+TEST(ImageSession, RgbdModeWritesRgbdFramesWhoseDepthIsTheRayCastWithinTheKinectModel) {
+  auto sim = makeSimulator(smallConfig(), {"render.max_duration_s = 3", "render.rate_hz = 10", "render.camera = rgbd",
+                                           "render.width = 320", "render.height = 240", "camera.fx = 225",
+                                           "camera.fy = 225", "camera.cx = 160", "camera.cy = 120"});
+  const DepthSensorOptions& d = sim->options().render.depth;
+  // The frames: depth within the noise model where the truth is in range and not at an edge,
+  // none beyond the range, holes along depth edges.
+  int64_t checked = 0, beyond = 0, beyond_valid = 0, edge_pixels = 0, edge_holes = 0;
+  double chi2 = 0.0;
+  for (int64_t t = sim->startUtime(); t <= sim->endUtime(); t += 500'000) {
+    cv::Mat gray, depth, truth;
+    sim->renderRgbd(t, &gray, &depth, &truth);
+    ASSERT_EQ(depth.type(), CV_16UC1);
+    ASSERT_EQ(depth.size(), gray.size());
+    for (int v = 1; v + 1 < depth.rows; ++v) {
+      for (int u = 1; u + 1 < depth.cols; ++u) {
+        const double z = truth.at<float>(v, u);
+        const uint16_t m = depth.at<uint16_t>(v, u);
+        double spread = 0.0;
+        for (const auto& [du, dv] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+          spread = std::max(spread, std::abs(truth.at<float>(v + dv, u + du) - z) / z);
+        }
+        if (spread > 0.2) {
+          ++edge_pixels;
+          edge_holes += m == 0;
+          continue;
+        }
+        const double sigma = d.noise_coefficient * z * z;
+        if (z > d.max_range_m + 5 * sigma) {
+          ++beyond;
+          beyond_valid += m != 0;
+        } else if (m != 0) {
+          const double e = (m * d.unit_m - z) / sigma;
+          chi2 += e * e;
+          ++checked;
+          EXPECT_LT(std::abs(e), 6.0) << "pixel " << u << "," << v << " truth " << z;
+        }
+      }
+    }
+  }
+  ASSERT_GT(checked, 10000);
+  EXPECT_NEAR(chi2 / static_cast<double>(checked), 1.0, 0.1);  // σ_z = 1.425e-3 z²
+  EXPECT_GT(beyond, 1000);  // corridors are longer than the Kinect's range
+  EXPECT_EQ(beyond_valid, 0);
+  ASSERT_GT(edge_pixels, 100);
+  EXPECT_EQ(edge_holes, edge_pixels);
+
+  // The log: RGBD_CALIB and RGBD in place of STEREO_CALIB and STEREO, readable by the RGB-D readers.
+  const fs::path log = fs::temp_directory_path() / ("sim_render_rgbd_test_" + std::to_string(::getpid()) + ".lcmlog");
+  auto summary = writeImageSessionLog(*sim, log);
+  ASSERT_TRUE(summary) << summary.error().message;
+  lcm::LogFile file(log.string(), "r");
+  ASSERT_TRUE(file.good());
+  std::map<std::string, int> seen;
+  int64_t last_calibration = -1;
+  while (const lcm::LogEvent* e = file.readNextEvent()) {
+    ++seen[e->channel];
+    if (e->channel == channels::kRgbdCalib) {
+      last_calibration = e->timestamp;
+      auto m = messages::decodeLcm<rgbd_calib_t>(e->data, e->datalen, e->channel);
+      ASSERT_TRUE(m);
+      auto camera = messages::fromMsg(m->camera);
+      ASSERT_TRUE(camera) << camera.error().message;
+      EXPECT_NEAR(camera->fx, 225.0, 1e-12);
+    } else if (e->channel == channels::kRgbd) {
+      ASSERT_GE(last_calibration, 0) << "a frame before RGBD_CALIB";
+      auto m = messages::decodeLcm<rgbd_image_t>(e->data, e->datalen, e->channel);
+      ASSERT_TRUE(m);
+      auto frame = messages::fromMsg(*m);
+      ASSERT_TRUE(frame) << frame.error().message;
+      EXPECT_EQ(frame->depth_utime, frame->utime);
+      EXPECT_EQ(frame->depth_scale_m, d.unit_m);
+      EXPECT_EQ(frame->depth.cols, 320);
+      EXPECT_GT(cv::countNonZero(frame->depth), 0);
+    }
+  }
+  EXPECT_EQ(seen[channels::kRgbd], 31);
+  EXPECT_EQ(seen[channels::kRgbdCalib], 4);
+  EXPECT_EQ(seen[channels::kStereo], 0);
+  EXPECT_EQ(seen[channels::kStereoCalib], 0);
+  EXPECT_EQ(seen[channels::kImu], 601);
+  EXPECT_EQ(seen[channels::kGroundTruth], 61);
+  EXPECT_EQ(seen[channels::kWheelOdom], 30);
+  fs::remove(log);
+}
+
 TEST(ImageSimOptions, BadConfigGivesAOneLineError) {
   for (const std::string bad : {"render.width = -3", "render.colour = 1", "render.encoding = jpeg",
-                                "lighting.gamma = 0", "camera.cx = 900", "building.floors = 0"}) {
+                                "lighting.gamma = 0", "camera.cx = 900", "building.floors = 0",
+                                "render.camera = mono", "rgbd.max_range_m = -1", "rgbd.unit_m = 0.00001",
+                                "rgbd.edge_hole_px = 40", "rgbd.dropout_fraction = 1.5"}) {
     auto file = KeyValueFile::parse(smallConfig(), "bad.conf");
     ASSERT_TRUE(file);
     ASSERT_TRUE(file->set(bad, "bad.conf:99"));

@@ -8,6 +8,9 @@
 
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
+#include "core/messages/rgbd_convert.h"
+
+#include <evermap/rgbd_calib_t.hpp>
 #include "core/sim/run_output.h"
 #include "core/sim/streams.h"
 
@@ -27,7 +30,7 @@ std::string ImageSessionSummary::text() const {
   out << "session " << session << ": " << duration_s << " s, " << distance_m << " m, " << rides
       << " elevator rides, floors";
   for (int f : floors_visited) out << " " << f;
-  out << "\nstereo frames: " << frames << " (dark room " << frames_dark_room << ", featureless "
+  out << "\ncamera frames: " << frames << " (dark room " << frames_dark_room << ", featureless "
       << frames_blank_zone << ", passers-by " << frames_passerby << ", closed cab "
       << frames_closed_cab << ")\n";
   int64_t bytes = 0;
@@ -38,7 +41,7 @@ std::string ImageSessionSummary::text() const {
   out << "total: " << bytes << " bytes of messages\n";
   if (frames > 0) {
     out << "render: " << render_s << " s (" << frames / std::max(render_s, 1e-9)
-        << " stereo pairs/s), encode: " << encode_s << " s\n";
+        << " frames/s), encode: " << encode_s << " s\n";
   }
   return out.str();
 }
@@ -69,6 +72,8 @@ Expected<std::unique_ptr<ImageSimulator>> ImageSimulator::create(const ImageSimO
   sim->renderer_ = std::make_unique<ImageRenderer>(*sim->textures_, o.camera(), o.render.noise_sigma_gray,
                                                    mixSeed(o.sim.seed, static_cast<uint64_t>(Stream::kRenderNoise) + index));
   sim->renderer_->setLighting(o.lighting.forSession(index, o.sim.seed));
+  sim->depth_sensor_ = std::make_unique<DepthSensor>(
+      o.render.depth, o.sim.sensors.camera.fx, mixSeed(o.sim.seed, static_cast<uint64_t>(Stream::kDepthNoise) + index));
   return sim;
 }
 
@@ -162,6 +167,19 @@ FrameFacts ImageSimulator::renderPair(int64_t utime, cv::Mat* left, cv::Mat* rig
   return f;
 }
 
+FrameFacts ImageSimulator::renderRgbd(int64_t utime, cv::Mat* gray, cv::Mat* depth, cv::Mat* truth) {
+  const BodyState state = session_.trajectory->at(utime);
+  const FrameFacts f = facts(utime, state);
+  const SE3d world_T_cam = state.world_T_body * options_.sim.sensors.camera.bodyTCam();
+  const std::vector<Occluder> occluders = passersBy(utime);
+  const RenderFloor& floor = f.closed_cab ? world_.closed_cab : world_.floors[static_cast<size_t>(f.floor)];
+  const double z_shift = f.closed_cab ? state.world_T_body.translation().z() : 0.0;
+  cv::Mat& exact = truth ? *truth : depth_truth_;
+  renderer_->render(floor, z_shift, world_T_cam, occluders, gray, &exact);
+  depth_sensor_->measure(exact, depth);
+  return f;
+}
+
 Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::function<bool(double)>& progress) {
   const ImageSimOptions& o = options_;
   const SensorOptions& so = o.sim.sensors;
@@ -194,7 +212,8 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
   int64_t wheel_prev_utime = start;
   BodyState wheel_prev = traj.at(start);
   const double total = static_cast<double>(std::max<int64_t>(1, end - start));
-  cv::Mat left, right;
+  const bool rgbd = o.render.camera == CameraMode::kRgbd;
+  cv::Mat left, right, depth;
   while (true) {
     const int64_t t_imu = so.imu.enabled ? imu.next() : kNever;
     const int64_t t = std::min({t_imu, gt.next(), wheel_ticks.next(), stereo.next()});
@@ -216,7 +235,7 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
       wheel_ticks.advance();
     } else {
       const auto t0 = WallClock::now();
-      const FrameFacts f = renderPair(t, &left, &right);
+      const FrameFacts f = rgbd ? renderRgbd(t, &left, &depth) : renderPair(t, &left, &right);
       summary.render_s += secondsSince(t0);
       ++summary.frames;
       summary.frames_dark_room += f.dark_room;
@@ -224,12 +243,32 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
       summary.frames_passerby += f.passerby;
       summary.frames_closed_cab += f.closed_cab;
       summary.frame_facts.emplace_back(t, f);
-      if (calib_repeat.due(t)) writeMessage(sink, channels::kStereoCalib, messages::toMsg(calib, t));
-      const auto t1 = WallClock::now();
-      auto msg = messages::toMsg(messages::StereoFrame{t, true, left, right}, o.render.encoding);
-      if (!msg) return msg.error();
-      summary.encode_s += secondsSince(t1);
-      writeMessage(sink, channels::kStereo, *msg);
+      if (rgbd) {
+        if (calib_repeat.due(t)) {
+          evermap::rgbd_calib_t c;
+          c.utime = t;
+          c.camera = messages::toMsg(calib.left);
+          writeMessage(sink, channels::kRgbdCalib, c);
+        }
+        const auto t1 = WallClock::now();
+        messages::RgbdFrame frame;
+        frame.utime = frame.depth_utime = t;
+        frame.gray = left;
+        frame.depth = depth;
+        frame.depth_scale_m = o.render.depth.unit_m;
+        frame.camera = calib.left;
+        auto msg = messages::toMsg(frame, o.render.encoding);
+        if (!msg) return msg.error();
+        summary.encode_s += secondsSince(t1);
+        writeMessage(sink, channels::kRgbd, *msg);
+      } else {
+        if (calib_repeat.due(t)) writeMessage(sink, channels::kStereoCalib, messages::toMsg(calib, t));
+        const auto t1 = WallClock::now();
+        auto msg = messages::toMsg(messages::StereoFrame{t, true, left, right}, o.render.encoding);
+        if (!msg) return msg.error();
+        summary.encode_s += secondsSince(t1);
+        writeMessage(sink, channels::kStereo, *msg);
+      }
       stereo.advance();
       if (progress && !progress(static_cast<double>(t - start) / total)) {
         // Stopped early: the figures cover what was written.

@@ -9,11 +9,14 @@
 //   GROUND_TRUTH  pose_t world_T_body at ground_truth.rate_hz (floor and session set)
 //   WHEEL_ODOM    wheel_odom_t at wheel.rate_hz (WheelModel: noise and slips)
 //   STEREO        stereo_image_t at render.rate_hz, rectified, rendered (stereo_renderer.h)
+// With render.camera = rgbd, RGBD_CALIB (rgbd_calib_t: the left camera, same repeat) and RGBD
+// (rgbd_image_t: the left camera's gray image and a Kinect-like depth image from the same ray
+// cast, depth_sensor.h) take the places of STEREO_CALIB and STEREO; the rest is unchanged.
 // Ties at one instant go out in that order. Random streams derive from the run's seed with the
 // stream numbers of session_generator.cpp for what both simulators share (wheel 3000, IMU
 // 5000, passers-by 7000, slips 8000, + session), so passers-by and slips happen at the same
 // times in both; 10000 + session renders the sensor noise, 10100 the textures, 10200 the
-// painting of the walls.
+// painting of the walls, 10500 + session the depth sensor.
 
 #include <cstdint>
 #include <functional>
@@ -26,6 +29,7 @@
 
 #include "core/camera/calibration.h"
 #include "core/common/expected.h"
+#include "core/sim/depth_sensor.h"
 #include "core/sim/image_sim_options.h"
 #include "core/sim/message_sink.h"
 #include "core/sim/render_world.h"
@@ -75,6 +79,10 @@ class ImageSimulator {
 
   // The stereo pair at `utime` (startUtime() <= utime <= endUtime()).
   FrameFacts renderPair(int64_t utime, cv::Mat* left, cv::Mat* right);
+  // The RGB-D frame at `utime`: the left camera's gray image, its depth measured by the depth
+  // sensor (CV_16UC1 in rgbd.unit_m, 0 = none) and, if `truth` is given, the exact depth
+  // (CV_32FC1, metres). Consecutive calls draw the sensor's noise from one stream.
+  FrameFacts renderRgbd(int64_t utime, cv::Mat* gray, cv::Mat* depth, cv::Mat* truth = nullptr);
 
   // Writes the session into `sink`. `progress` (if set) is called after every stereo frame
   // with the fraction done; returning false stops early (the summary covers what was written).
@@ -93,6 +101,8 @@ class ImageSimulator {
   RenderWorld world_;
   Intervals passers_;
   std::unique_ptr<ImageRenderer> renderer_;
+  std::unique_ptr<DepthSensor> depth_sensor_;
+  cv::Mat depth_truth_;
 };
 
 // Writes the session as an LCM log at `output` (temporary file, renamed when complete).

@@ -10,7 +10,7 @@ namespace {
 namespace fs = std::filesystem;
 
 // Prefixes of the keys this file reads; every other key goes to loadSimOptions.
-constexpr const char* kOwnPrefixes[] = {"render.", "world.", "texture.", "lighting.", "passerby."};
+constexpr const char* kOwnPrefixes[] = {"render.", "world.", "texture.", "lighting.", "passerby.", "rgbd."};
 
 bool ownKey(const std::string& key) {
   for (const char* p : kOwnPrefixes) {
@@ -51,6 +51,15 @@ void visitOwn(Options& o, Visitor&& v) {
   v("texture.variants", &r.textures.variants);
   v("texture.poster_size", &r.textures.poster_size);
   v("texture.max_posters", &r.textures.max_posters);
+  auto& d = r.depth;
+  v("rgbd.min_range_m", &d.min_range_m);
+  v("rgbd.max_range_m", &d.max_range_m);
+  v("rgbd.noise_coefficient", &d.noise_coefficient);
+  v("rgbd.unit_m", &d.unit_m);
+  v("rgbd.edge_jump_fraction", &d.edge_jump_fraction);
+  v("rgbd.edge_hole_px", &d.edge_hole_px);
+  v("rgbd.shadow_baseline_m", &d.shadow_baseline_m);
+  v("rgbd.dropout_fraction", &d.dropout_fraction);
   auto& l = o.lighting;
   v("lighting.gain", &l.base.gain);
   v("lighting.offset_gray", &l.base.offset_gray);
@@ -89,6 +98,7 @@ Status RenderSimOptions::validate() const {
   if (!(door_margin_s >= 0.0)) return makeError("render.door_margin_s: must be >= 0");
   if (Status s = world.validate(); !s) return makeError("world.", s.error().message);
   if (Status s = textures.validate(); !s) return makeError("texture.", s.error().message);
+  if (Status s = depth.validate(); !s) return makeError("rgbd.", s.error().message);
   return Ok{};
 }
 
@@ -150,6 +160,7 @@ std::string ImageSimOptions::toConfigText() const {
   std::ostringstream out;
   out << sim.toConfigText();
   out << "render.encoding = " << messages::toString(render.encoding) << "\n";
+  out << "render.camera = " << (render.camera == CameraMode::kRgbd ? "rgbd" : "stereo") << "\n";
   ImageSimOptions copy = *this;
   visitOwn(copy, [&](const char* key, auto* field) { out << key << " = " << format(*field) << "\n"; });
   return out.str();
@@ -176,6 +187,14 @@ Expected<ImageSimOptions> loadImageSimOptions(const KeyValueFile& file) {
   } else if (encoding != "png") {
     return makeError(reader.where("render.encoding"), ": render.encoding: expected 'png' or 'gray8', got '",
                      encoding, "'");
+  }
+  std::string camera = "stereo";
+  reader.read("render.camera", &camera);
+  if (camera == "rgbd") {
+    o.render.camera = CameraMode::kRgbd;
+  } else if (camera != "stereo") {
+    return makeError(reader.where("render.camera"), ": render.camera: expected 'stereo' or 'rgbd', got '", camera,
+                     "'");
   }
   visitOwn(o, [&](const char* key, auto* field) { reader.read(key, field); });
   if (Status s = reader.finish(); !s) return s.error();

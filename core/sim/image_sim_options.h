@@ -6,7 +6,8 @@
 //     simulator writes IMU for the whole session at imu.rate_hz; imu.margin_s is unused),
 //     ground_truth.rate_hz, vo.passerby_* (when passers-by walk through the view; the other
 //     vo.* and oracle.* keys are accepted and unused: VO runs on the images);
-//   - its own keys, below: render.*, world.*, lighting.*, passerby.*.
+//   - its own keys, below: render.*, world.*, lighting.*, passerby.*, rgbd.* (the depth
+//     sensor of render.camera = rgbd: depth_sensor.h's DepthSensorOptions, same names).
 // Failure switches: building.dark_room_fraction (lights off), building.blank_wall_fraction with
 // world.blank_radius_m (featureless walls, floor and ceiling around those junctions),
 // vo.passerby_rate_per_hour (passers-by), lighting.* (per session camera response), the
@@ -18,6 +19,7 @@
 
 #include "core/common/key_value_file.h"
 #include "core/messages/convert.h"
+#include "core/sim/depth_sensor.h"
 #include "core/sim/render_world.h"
 #include "core/sim/sim_options.h"
 #include "core/sim/stereo_renderer.h"
@@ -25,7 +27,13 @@
 
 namespace evermap::sim {
 
+// What the robot's camera is: the rectified stereo pair of camera.* (STEREO, STEREO_CALIB), or
+// an RGB-D camera (RGBD, RGBD_CALIB): the left camera's gray image and a Kinect-like depth
+// image registered to it (rgbd.*, depth_sensor.h); camera.baseline_m is then unused.
+enum class CameraMode { kStereo, kRgbd };
+
 struct RenderSimOptions {
+  CameraMode camera = CameraMode::kStereo;  // render.camera = stereo | rgbd
   int width = 752;                 // pixels (camera.cx, camera.cy must lie inside)
   int height = 480;
   double rate_hz = 20.0;           // stereo pairs per second
@@ -37,6 +45,7 @@ struct RenderSimOptions {
   double door_margin_s = 2.0;      // the cab door is closed from this long before a ride to after
   WorldOptions world;
   TextureOptions textures;
+  DepthSensorOptions depth;        // rgbd.*, read in both modes, used in rgbd
 
   Status validate() const;
 };

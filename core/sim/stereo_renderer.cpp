@@ -60,7 +60,7 @@ void ImageRenderer::setLighting(const Lighting& l) {
 }
 
 void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const core::Vec3& c,
-                                const core::Vec2& hf, std::span<const Occluder> occluders) {
+                                const core::Vec2& hf, std::span<const Occluder> occluders, bool with_depth) {
   const int W = level_w_, H = level_h_;
   const double fx = camera_.fx, fy = camera_.fy;
   const double cxl = camera_.cx + kLevelMargin, cyl = camera_.cy + kLevelMargin;
@@ -227,6 +227,17 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
     row.texture_of_cell = row.down ? floor_of_cell : ceiling_of_cell;
     (avx2_ ? kernels::surfaceRowAvx2 : kernels::surfaceRow)(row, W, level_.data() + static_cast<size_t>(v) * W);
   }
+  if (with_depth) {  // wall rows at the column's depth, floor and ceiling rows at the row's
+    level_depth_.resize(static_cast<size_t>(W) * H);
+    for (int v = 0; v < H; ++v) {
+      float* d = level_depth_.data() + static_cast<size_t>(v) * W;
+      const float row = row_t[static_cast<size_t>(v)];
+      for (int u = 0; u < W; ++u) {
+        const bool wall = v >= col_top[static_cast<size_t>(u)] && v < col_bot[static_cast<size_t>(u)];
+        d[u] = wall ? depth_[static_cast<size_t>(u)] : row;
+      }
+    }
+  }
   // Passers-by in front of whatever is behind them.
   for (int u = 0; u < W; ++u) {
     const double x = xOf(u);
@@ -249,12 +260,15 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
       const int level = mipLevel(static_cast<float>(std::log2(to / fx * inv_texel)));
       float tv = static_cast<float>((o.height_m - below + to * (o_top - cyl) / fy) * inv_texel);
       for (int v = o_top; v < o_bot; ++v, tv += step) put(u, v, ot.sample(tu, tv, level), 200);
+      if (with_depth) {
+        for (int v = o_top; v < o_bot; ++v) level_depth_[static_cast<size_t>(v) * W + u] = static_cast<float>(to);
+      }
     }
   }
 }
 
 void ImageRenderer::render(const RenderFloor& floor, double z_shift, const core::SE3d& world_T_cam,
-                           std::span<const Occluder> occluders, cv::Mat* out) {
+                           std::span<const Occluder> occluders, cv::Mat* out, cv::Mat* depth) {
   const int W = camera_.width, H = camera_.height;
   out->create(H, W, CV_8UC1);
   const core::Mat3 R = world_T_cam.so3().matrix();
@@ -262,7 +276,7 @@ void ImageRenderer::render(const RenderFloor& floor, double z_shift, const core:
   core::Vec2 hf(R(0, 2), R(1, 2));
   if (hf.norm() < 1e-6) hf = core::Vec2(R(0, 1), R(1, 1));  // looking straight up or down
   hf.normalize();
-  renderLevel(floor, z_shift, c, hf, occluders);
+  renderLevel(floor, z_shift, c, hf, occluders, depth != nullptr);
 
   // Real pixel -> level pixel: Kl * level_R_cam * K^-1 (the rotation about the common centre).
   core::Mat3 world_R_level;
@@ -305,6 +319,35 @@ void ImageRenderer::render(const RenderFloor& floor, double z_shift, const core:
     const int16_t* noise = noise_.data() + rng_.index(kNoiseTable);
     (avx2_ ? kernels::warpRowAvx2 : kernels::warpRow)(warp, lu0.data(), lv0.data(), dlu.data(), dlv.data(), noise,
                                                        W, out->ptr<uint8_t>(v));
+  }
+  if (depth) warpDepth(M, depth);
+}
+
+void ImageRenderer::warpDepth(const core::Mat3& M, cv::Mat* depth) const {
+  const int W = camera_.width, H = camera_.height, LW = level_w_;
+  depth->create(H, W, CV_32FC1);
+  const double max_u = level_w_ - 1 - 1e-6, max_v = level_h_ - 1 - 1e-6;
+  const core::Vec3 step = M.col(0);
+  for (int v = 0; v < H; ++v) {
+    float* out = depth->ptr<float>(v);
+    const core::Vec3 h0 = M * core::Vec3(0.0, v, 1.0);
+    for (int u = 0; u < W; ++u) {
+      const double hx = h0.x() + u * step.x(), hy = h0.y() + u * step.y(), hz = h0.z() + u * step.z();
+      const double inv = 1.0 / hz;
+      const double lu = std::clamp(hx * inv, 0.0, max_u), lv = std::clamp(hy * inv, 0.0, max_v);
+      const int u0 = static_cast<int>(lu), v0 = static_cast<int>(lv);
+      const double a = lu - u0, b = lv - v0;
+      const float* p = level_depth_.data() + static_cast<size_t>(v0) * LW + u0;
+      const float z00 = p[0], z01 = p[1], z10 = p[LW], z11 = p[LW + 1];
+      const float lo = std::min({z00, z01, z10, z11}), hi = std::max({z00, z01, z10, z11});
+      double z_level;
+      if (hi <= lo * 1.1f) {  // one surface (grazing floors change by up to ~5 % a pixel): bilinear in 1/z
+        z_level = 1.0 / ((1 - b) * ((1 - a) / z00 + a / z01) + b * ((1 - a) / z10 + a / z11));
+      } else {  // a depth edge: the nearest level pixel
+        z_level = p[(b < 0.5 ? 0 : LW) + (a < 0.5 ? 0 : 1)];
+      }
+      out[u] = static_cast<float>(z_level * inv);
+    }
   }
 }
 

@@ -21,6 +21,15 @@
 //
 // Output intensity: texture * light, then the session's camera response (gain, offset, gamma),
 // then Gaussian sensor noise, clamped to 0..255.
+//
+// Depth (the RGB-D mode, depth_sensor.h adds the sensor's errors): the same ray cast gives the
+// level camera's depth at each level pixel (a wall column's forward distance, a floor or
+// ceiling row's, a passer-by's). A real pixel's depth along its camera's z axis is the level
+// depth at its level position divided by the z of its rotated ray (the homography's
+// denominator): z_cam = z_level / (level_R_cam K⁻¹ p)_z. The level depth is interpolated
+// bilinearly in inverse depth (exact inside a plane, where 1/z is affine in the pixel) when
+// the four level pixels around agree within 10 % (a floor far ahead changes by a few % a
+// pixel), else taken from the nearest one, so depth edges stay sharp.
 
 #include <cstdint>
 #include <span>
@@ -72,9 +81,10 @@ class ImageRenderer {
   void setLighting(const Lighting& lighting);
   // Renders the view of a camera at world_T_cam (camera z forward, x right, y down) inside
   // `floor`, whose heights are shifted by z_shift (the closed elevator cab moves). `out`
-  // becomes CV_8UC1 of the camera's size.
+  // becomes CV_8UC1 of the camera's size. `depth` (optional) becomes CV_32FC1 of the same
+  // size: the exact depth of each pixel along the camera's z axis, metres (see above).
   void render(const RenderFloor& floor, double z_shift, const core::SE3d& world_T_cam,
-              std::span<const Occluder> occluders, cv::Mat* out);
+              std::span<const Occluder> occluders, cv::Mat* out, cv::Mat* depth = nullptr);
 
   const PinholeCamera& camera() const { return camera_; }
 
@@ -84,7 +94,9 @@ class ImageRenderer {
   Random rng_;
   bool avx2_;  // the CPU has AVX2: use the AVX2 kernels (render_kernels.h)
   void renderLevel(const RenderFloor& floor, double z_shift, const core::Vec3& centre,
-                   const core::Vec2& heading, std::span<const Occluder> occluders);
+                   const core::Vec2& heading, std::span<const Occluder> occluders, bool with_depth);
+
+  void warpDepth(const core::Mat3& M, cv::Mat* depth) const;
 
   std::vector<int16_t> noise_;      // Gaussian samples, read from a random offset per row
   std::vector<int32_t> response_;   // light (0..1023) -> gray, the session's camera response
@@ -92,6 +104,7 @@ class ImageRenderer {
   std::vector<uint16_t> level_;     // the level image: light 0..1023, row-major
   std::vector<float> depth_;        // per level column: forward distance of the nearest wall
   std::vector<int> nearest_;        // per level column: that wall, -1 none
+  std::vector<float> level_depth_;  // with depth: the level image's depth, row-major, metres
 };
 
 }  // namespace evermap::sim

@@ -24,6 +24,7 @@ enum class Stream : uint64_t {
   kTextures = 10100,
   kPainting = 10200,
   kPasserbyLook = 10400,
+  kDepthNoise = 10500,
   kGyroBias = 11000,
 };
 

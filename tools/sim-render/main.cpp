@@ -2,14 +2,15 @@
 //
 //   evermap-sim-render --config FILE [--set key=value]... [--seed N] --out LOG [--stats]
 //       render one session into an LCM log (STEREO_CALIB, STEREO, IMU, WHEEL_ODOM,
-//       GROUND_TRUTH) and its ground truth in TUM format beside it (LOG minus .lcmlog + .gt.tum)
+//       GROUND_TRUTH; RGBD_CALIB and RGBD instead of the first two with render.camera = rgbd) and its ground truth in TUM format beside it (LOG minus .lcmlog + .gt.tum)
 //   evermap-sim-render --config FILE [--set key=value]... --stats
 //       render without writing; print the figures and the render rate
 //   evermap-sim-render --config FILE --publish [--lcm-url URL] [--speed X]
 //       publish on LCM, X times real time (default 1; 0: as fast as possible)
 //   evermap-sim-render --config FILE --snapshots DIR [--every S]
 //       write the left image every S seconds (default 10) as DIR/left-<seconds>.png, with what
-//       the camera faces in the name (dark, blank, passerby, cab)
+//       the camera faces in the name (dark, blank, passerby, cab); with render.camera = rgbd
+//       also the measured depth as DIR/depth-<seconds>.png (16-bit, in rgbd.unit_m)
 //   evermap-sim-render --config FILE --print-config
 // With --facts FILE.csv (--out, --stats, --publish): what each stereo frame faces, one line per
 // frame (utime, floor, dark_room, blank_zone, passerby, closed_cab), for judging VO per segment.
@@ -157,15 +158,19 @@ int main(int argc, char** argv) {
   if (!args.snapshots.empty()) {
     std::error_code ec;
     fs::create_directories(args.snapshots, ec);
-    cv::Mat left, right;
+    cv::Mat left, right, depth;
+    const bool rgbd = options->render.camera == evermap::sim::CameraMode::kRgbd;
     for (int64_t t = (*sim)->startUtime(); t <= (*sim)->endUtime(); t += static_cast<int64_t>(args.every_s * 1e6)) {
-      const auto f = (*sim)->renderPair(t, &left, &right);
+      const auto f = rgbd ? (*sim)->renderRgbd(t, &left, &depth) : (*sim)->renderPair(t, &left, &right);
       char name[128];
       std::snprintf(name, sizeof name, "left-%06.1f%s%s%s%s.png", 1e-6 * static_cast<double>(t - (*sim)->startUtime()),
                     f.dark_room ? "-dark" : "", f.blank_zone ? "-blank" : "", f.passerby ? "-passerby" : "",
                     f.closed_cab ? "-cab" : "");
       const fs::path file = fs::path(args.snapshots) / name;
-      if (!cv::imwrite(file.string(), left)) {
+      std::string depth_name = name;
+      depth_name.replace(0, 4, "depth");
+      if (!cv::imwrite(file.string(), left) ||
+          (rgbd && !cv::imwrite((fs::path(args.snapshots) / depth_name).string(), depth))) {
         std::fprintf(stderr, "evermap-sim-render: %s: cannot write\n", file.c_str());
         return 1;
       }
