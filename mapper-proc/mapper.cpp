@@ -574,18 +574,17 @@ void Mapper::step(int64_t keyframe_utime) {
   f.delta_at_keyframe = tracker_.delta();
   in_flight_ = f;
   const core::SE3d world_T_body = nodePose(active_) * f.delta_at_keyframe.mean;
-  const core::PlanarCell cell = cellOf(world_T_body, floor_);
   std::optional<int64_t> target;
-  if (o_.full_graph) {
-    target = nodeInCell(cell, keyframe_utime - micros(o_.recent_exclusion_s));
+  if (lost_) {
+    target = relocalizationCheck(keyframe_utime);
+  } else if (o_.full_graph) {
+    target = nodeInCell(cellOf(world_T_body, floor_), keyframe_utime - micros(o_.recent_exclusion_s));
   } else {
-    target = nodeInCell(cell, keyframe_utime);
-    if (!target) target = overlappingNode(world_T_body, floor_, keyframe_utime);
+    target = nodeAt(world_T_body, floor_, keyframe_utime);
     // The active node, unless a ride left it on another floor (the cab it was made in looks
     // the same on every floor).
     if (!target && nodes_[static_cast<size_t>(active_)].floor == floor_) target = active_;
   }
-  if (lost_) target = relocalizationCheck(keyframe_utime);
   if (target) sendRequest(register_request_t::MODE_NODE, *target);
   else sendRequest(register_request_t::MODE_GLOBAL, -1);
   step_cost_s_ += secondsSince(t0);
@@ -826,9 +825,13 @@ std::optional<int64_t> Mapper::relocalizationCheck(int64_t keyframe_utime) {
   ++c.verifications;
   const int floor = nodes_[static_cast<size_t>(c.node)].floor;
   const core::SE3d world_T_body = nodePose(c.node) * c.node_T_keyframe.mean * c_T_now->mean;
-  std::optional<int64_t> target = nodeInCell(cellOf(world_T_body, floor), keyframe_utime);
-  if (!target) target = overlappingNode(world_T_body, floor, keyframe_utime);
+  const std::optional<int64_t> target = nodeAt(world_T_body, floor, keyframe_utime);
   return target ? target : std::optional<int64_t>(c.node);
+}
+
+std::optional<int64_t> Mapper::nodeAt(const core::SE3d& world_T_body, int floor, int64_t newest_allowed) const {
+  if (auto id = nodeInCell(cellOf(world_T_body, floor), newest_allowed)) return id;
+  return overlappingNode(world_T_body, floor, newest_allowed);
 }
 
 bool Mapper::confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime,
@@ -917,8 +920,7 @@ void Mapper::finishStep(bool registered) {
   // the next step adds the node): no new node at this step.
   if (!registered && !gate_rejected && !o_.full_graph) {
     const core::SE3d world_T_body = nodePose(f.active) * f.delta_at_keyframe.mean;
-    if (!nodeInCell(cellOf(world_T_body, floor_), f.keyframe_utime) &&
-        !overlappingNode(world_T_body, floor_, f.keyframe_utime)) {
+    if (!nodeAt(world_T_body, floor_, f.keyframe_utime)) {
       // A new place (eq. 8): the node at the keyframe, then Δ restarts from it.
       addNode(f.keyframe_utime, f.delta_at_keyframe);
       tracker_.reset(tracker_.sinceKeyframe(f.keyframe_utime).value_or(core::UncertainPose{}));

@@ -345,6 +345,8 @@ class Mapper {
   // The node closest to world_T_body within the overlap (MapperOptions::overlap_radius_cells and
   // overlap_heading_sectors), searched in the neighbouring cells and sectors, on the floor.
   std::optional<int64_t> overlappingNode(const core::SE3d& world_T_body, int floor, int64_t newest_allowed) const;
+  // The node of the place world_T_body is in: its cell's, else the one overlapping it.
+  std::optional<int64_t> nodeAt(const core::SE3d& world_T_body, int floor, int64_t newest_allowed) const;
   void checkTimeout(int64_t utime);
   // A new session (FLOOR with EVENT_NONE, or a gap in VO time): lost until re-localised.
   void startSession(int64_t utime);
