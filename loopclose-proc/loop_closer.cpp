@@ -14,6 +14,7 @@ Status LoopCloserOptions::validate() const {
     return makeError("max_rate_hz must be finite and > 0");
   }
   if (max_request_age_us <= 0) return makeError("max_request_age_us must be > 0");
+  if (keyframe_wait_us < 0) return makeError("keyframe_wait_us must be >= 0");
   if (max_pending_requests < 1) return makeError("max_pending_requests must be >= 1");
   if (recent_keyframes < 1) return makeError("recent_keyframes must be >= 1");
   if (node_keyframe_cache < 1) return makeError("node_keyframe_cache must be >= 1");
@@ -92,6 +93,12 @@ const Keyframe* LoopCloser::recentKeyframe(int64_t utime) const {
     if ((*it)->utime == utime) return it->get();
   }
   return nullptr;
+}
+
+bool LoopCloser::knowsKeyframe(int64_t utime) const {
+  if (recentKeyframe(utime)) return true;
+  return std::any_of(nodes_.begin(), nodes_.end(),
+                     [utime](const auto& n) { return n.second.keyframe_utime == utime; });
 }
 
 Status LoopCloser::addNode(const evermap::node_added_t& msg) {
@@ -223,6 +230,10 @@ std::vector<register_result_t> LoopCloser::poll() {
     for (auto it = pending_.begin(); it != pending_.end(); ++it) {
       if (it->utime >= newest->utime) newest = it;
     }
+    // Its keyframe may still be on its way: wait for it (the slot stays free) a little.
+    if (!knowsKeyframe(newest->keyframe_utime) &&
+        now_utime_ - newest->utime < options_.keyframe_wait_us)
+      return out;
     const register_request_t request = *newest;
     pending_.erase(newest);
     out.push_back(answer(request));

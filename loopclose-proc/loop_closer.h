@@ -41,6 +41,10 @@ struct LoopCloserOptions {
   double max_rate_hz = 2.0;
   // Requests older than this behind the newest data time are stale, microseconds.
   int64_t max_request_age_us = 2'000'000;
+  // A request for a keyframe not received yet waits this long (data time) for it, µs: vo-proc
+  // sends KEYFRAME right after the frame's VO_DELTA, but the mapper's request on that
+  // VO_DELTA is small and a keyframe is tens of fragments, so the request often comes first.
+  int64_t keyframe_wait_us = 500'000;
   // Requests waiting at most; beyond, the oldest is answered stale.
   size_t max_pending_requests = 8;
   // Recent keyframes kept in memory for NODE_ADDED and queries.
@@ -86,6 +90,9 @@ class LoopCloser {
   Status addNode(const evermap::node_added_t& msg);
   // REGISTER_REQUEST: queued; answered by poll().
   void submit(const evermap::register_request_t& request);
+  // Data time from a stream that asks nothing (VO_DELTA, 20-30 Hz): answers fall due, and
+  // requests go stale, between the keyframes and requests that otherwise set the clock.
+  void advanceClock(int64_t utime);
   // The answers due now: stale requests, and at most one answer per 1/max_rate_hz of data time
   // (the newest pending request).
   std::vector<evermap::register_result_t> poll();
@@ -104,8 +111,8 @@ class LoopCloser {
   };
   LoopCloser(const bow::Vocabulary& vocabulary, FrameRegistration& registration,
              const LoopCloserOptions& options, std::optional<bow::PlaceStore> store);
-  void advanceClock(int64_t utime);
   const Keyframe* recentKeyframe(int64_t utime) const;
+  bool knowsKeyframe(int64_t utime) const;  // a recent one, or a node's
   // The keyframe of a node: memory, else the store (then cached). Null with a reason.
   std::shared_ptr<const Keyframe> nodeKeyframe(int64_t node_id, std::string* why);
   evermap::register_result_t failure(const evermap::register_request_t& request, int8_t status,

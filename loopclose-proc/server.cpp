@@ -2,6 +2,8 @@
 
 #include <cstdio>
 
+#include <evermap/vo_delta_t.hpp>
+
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
 
@@ -27,6 +29,14 @@ LoopCloseServer::LoopCloseServer(lcm::LCM& lcm, LoopCloser& loop_closer,
         loop_closer_.submit(m);
         publishDue();
       });
+  // The clock: keyframes and requests come about once a second, and the time guard holds
+  // messages until three distinct stamps agree, so a clock set by them alone held a session's
+  // first request for three seconds of data (the robot had left the place it showed by the
+  // time the answer came). VO frames come at 20-30 Hz.
+  inbox_.subscribe<evermap::vo_delta_t>(channels::kVoDelta, [this](const evermap::vo_delta_t& m) {
+    loop_closer_.advanceClock(m.utime);
+    publishDue();
+  });
 }
 
 int64_t LoopCloseServer::dropped() const { return inbox_.total().dropped(); }

@@ -12,6 +12,8 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include <evermap/vo_delta_t.hpp>
+
 #include "bow_synthetic.h"
 #include "core/bow/vocabulary_training.h"
 #include "core/messages/channels.h"
@@ -291,6 +293,35 @@ TEST_F(LoopCloserTest, AnswersAtMostTwoPerSecondNewestFirstAndDropsStaleOnes) {
   EXPECT_EQ(lc->pending(), 0u);
 }
 
+// Live, the mapper's request (sent on the frame's VO_DELTA) often overtakes the frame's
+// KEYFRAME (tens of UDP fragments): it waits for it, for keyframe_wait_us of data time.
+TEST_F(LoopCloserTest, ARequestThatOvertookItsKeyframeWaitsForIt) {
+  auto lc = make();
+  addMap(*lc);
+  const int64_t t = 100 * kSecond;
+  lc->advanceClock(t);
+  lc->submit(request(1, t, t, kGlobal));
+  EXPECT_TRUE(lc->poll().empty());  // not answered "unknown keyframe"
+  lc->advanceClock(t + 50'000);
+  EXPECT_TRUE(lc->poll().empty());
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(2, t)).ok());
+  auto out = lc->poll();
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].request_id, 1);
+  EXPECT_EQ(out[0].status, kOk) << out[0].reason;
+  EXPECT_EQ(out[0].node_id, 3);
+  // A keyframe that never comes: answered unknown once the wait is over, not before.
+  const int64_t t2 = t + 2 * kSecond;
+  lc->submit(request(2, t2, t2, kGlobal));
+  lc->advanceClock(t2 + 400'000);
+  EXPECT_TRUE(lc->poll().empty());
+  lc->advanceClock(t2 + 500'000);
+  out = lc->poll();
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].request_id, 2);
+  EXPECT_EQ(out[0].status, kUnknownKeyframe);
+}
+
 TEST_F(LoopCloserTest, AFullQueueDropsTheOldestRequest) {
   LoopCloserOptions o;
   o.max_pending_requests = 2;
@@ -383,6 +414,55 @@ TEST_F(LoopCloserTest, ServesRequestsOverLcm) {
   EXPECT_EQ(results[0].node_id, 2);
   EXPECT_EQ(server.dropped(), 3);
   EXPECT_EQ(server.published(), 1);
+}
+
+// Live, a session's first request must not wait for the time guard's clock: keyframes and
+// requests come about once a second and the guard wants three distinct stamps that agree.
+// VO_DELTA (20-30 Hz) starts the clock within three frames.
+TEST_F(LoopCloserTest, TheMotionStreamStartsTheClockSoTheFirstRequestIsAnsweredAtOnce) {
+  for (bool with_vo : {false, true}) {
+    SCOPED_TRACE(with_vo ? "with VO_DELTA" : "without VO_DELTA");
+    lcm::LCM lcm("memq://");
+    ASSERT_TRUE(lcm.good());
+    auto lc = make();
+    addMap(*lc);
+    LoopCloseServer server(lcm, *lc);
+    std::vector<register_result_t> results;
+    struct Collector {
+      std::vector<register_result_t>* out;
+      void on(const lcm::ReceiveBuffer*, const std::string&, const register_result_t* r) {
+        out->push_back(*r);
+      }
+    } collector{&results};
+    lcm.subscribe(channels::kRegisterResult, &Collector::on, &collector);
+    auto deliver = [&]() {
+      while (lcm.handleTimeout(0) > 0) {
+      }
+    };
+    const int64_t t = 100 * kSecond;  // far from the clock addMap left: the guard holds
+    const evermap::keyframe_t k = world_.keyframe(1, t);
+    lcm.publish(channels::kKeyframe, &k);
+    const register_request_t req = request(7, t, t, kGlobal, -1, 0);
+    lcm.publish(channels::kRegisterRequest, &req);
+    for (int f = 1; with_vo && f <= 3; ++f) {  // 50 ms apart: one keyframe interval is not over
+      evermap::vo_delta_t d{};
+      d.utime = t + f * 50'000;
+      d.ref_utime = t;
+      d.orientation[0] = 1.0;
+      lcm.publish(channels::kVoDelta, &d);
+    }
+    deliver();
+    if (!with_vo) {
+      // Keyframe and request alone (one stamp): the guard holds them, nothing is answered.
+      EXPECT_TRUE(results.empty());
+      continue;
+    }
+    ASSERT_EQ(results.size(), 1u);
+    EXPECT_EQ(results[0].request_id, 7);
+    EXPECT_EQ(results[0].status, kOk) << results[0].reason;
+    EXPECT_EQ(results[0].node_id, 2);
+    EXPECT_EQ(server.dropped(), 0);
+  }
 }
 
 }  // namespace
