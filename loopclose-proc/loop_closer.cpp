@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <utility>
 
 namespace evermap::loopclose {
 
@@ -27,11 +28,11 @@ Status LoopCloserOptions::validate() const {
 std::string LoopCloserStats::text() const {
   char line[320];
   std::snprintf(line, sizeof(line),
-                "keyframes %lld (%lld rejected), nodes %lld (%lld rejected), requests %lld, "
+                "keyframes %lld (%lld rejected), nodes %lld (%lld rejected, %lld waited for their keyframe), requests %lld, "
                 "answered %lld: ok %lld, failed %lld, stale %lld; store errors %lld",
                 static_cast<long long>(keyframes), static_cast<long long>(keyframes_rejected),
                 static_cast<long long>(nodes), static_cast<long long>(nodes_rejected),
-                static_cast<long long>(requests), static_cast<long long>(answered),
+                static_cast<long long>(nodes_waited), static_cast<long long>(requests), static_cast<long long>(answered),
                 static_cast<long long>(ok), static_cast<long long>(failed),
                 static_cast<long long>(stale), static_cast<long long>(store_errors));
   return line;
@@ -66,7 +67,21 @@ Expected<std::unique_ptr<LoopCloser>> LoopCloser::create(const bow::Vocabulary& 
   return lc;
 }
 
-void LoopCloser::advanceClock(int64_t utime) { now_utime_ = std::max(now_utime_, utime); }
+void LoopCloser::advanceClock(int64_t utime) {
+  now_utime_ = std::max(now_utime_, utime);
+  while (!waiting_nodes_.empty() && now_utime_ - waiting_nodes_.front().utime >= options_.keyframe_wait_us) {
+    const evermap::node_added_t& n = waiting_nodes_.front();
+    ++stats_.nodes_rejected;
+    char line[200];
+    std::snprintf(line, sizeof(line), "node %lld: its keyframe %lld did not come within %.1f s",
+                  static_cast<long long>(n.node_id), static_cast<long long>(n.keyframe_utime),
+                  1e-6 * static_cast<double>(options_.keyframe_wait_us));
+    node_errors_.emplace_back(line);
+    waiting_nodes_.pop_front();
+  }
+}
+
+std::vector<std::string> LoopCloser::takeNodeErrors() { return std::exchange(node_errors_, {}); }
 
 Status LoopCloser::addKeyframe(const evermap::keyframe_t& msg) {
   auto k = fromMsg(msg);
@@ -85,7 +100,18 @@ Status LoopCloser::addKeyframe(const evermap::keyframe_t& msg) {
     recent_.push_back(shared);
   }
   while (recent_.size() > options_.recent_keyframes) recent_.pop_front();
-  return Ok{};
+  // Nodes that came before this keyframe.
+  Status status = Ok{};
+  for (auto it = waiting_nodes_.begin(); it != waiting_nodes_.end();) {
+    if (it->keyframe_utime != msg.utime) {
+      ++it;
+      continue;
+    }
+    const evermap::node_added_t n = *it;
+    it = waiting_nodes_.erase(it);
+    if (Status s = addNode(n); !s && status) status = s;
+  }
+  return status;
 }
 
 const Keyframe* LoopCloser::recentKeyframe(int64_t utime) const {
@@ -117,6 +143,11 @@ Status LoopCloser::addNode(const evermap::node_added_t& msg) {
       auto k = fromMsg(**stored);
       if (k) keyframe = std::make_shared<const Keyframe>(std::move(*k));
     }
+  }
+  if (!keyframe && now_utime_ - msg.utime < options_.keyframe_wait_us) {
+    waiting_nodes_.push_back(msg);
+    ++stats_.nodes_waited;
+    return Ok{};
   }
   if (!keyframe) {
     ++stats_.nodes_rejected;

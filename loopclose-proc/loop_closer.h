@@ -66,6 +66,7 @@ struct LoopCloserStats {
   int64_t keyframes_rejected = 0;      // failed validation
   int64_t nodes = 0;
   int64_t nodes_rejected = 0;          // unknown keyframe, duplicate id, store failure
+  int64_t nodes_waited = 0;            // came before their keyframe and waited for it
   int64_t requests = 0;
   int64_t answered = 0;                // all answers, stale ones included
   int64_t stale = 0;
@@ -86,8 +87,13 @@ class LoopCloser {
 
   // KEYFRAME: validated and cached. An error names the keyframe (it is dropped and counted).
   Status addKeyframe(const evermap::keyframe_t& msg);
-  // NODE_ADDED: the node's keyframe must be among the recent ones (or already stored).
+  // NODE_ADDED: the node's keyframe must be among the recent ones (or already stored). One
+  // that came before its keyframe (the mapper's first node is made on the frame's VO_DELTA)
+  // waits for it up to keyframe_wait_us of data time, and is added when it comes.
   Status addNode(const evermap::node_added_t& msg);
+  // The nodes whose keyframe did not come in time (rejected, counted in nodes_rejected): one
+  // line each, naming the node and its keyframe. Taken once.
+  std::vector<std::string> takeNodeErrors();
   // REGISTER_REQUEST: queued; answered by poll().
   void submit(const evermap::register_request_t& request);
   // Data time from a stream that asks nothing (VO_DELTA, 20-30 Hz): answers fall due, and
@@ -137,6 +143,8 @@ class LoopCloser {
   std::list<int64_t> lru_;  // node ids, most recently used first
   std::vector<evermap::register_result_t> ready_;  // stale answers made by submit()
   std::deque<evermap::register_request_t> pending_;  // arrival order
+  std::deque<evermap::node_added_t> waiting_nodes_;   // NODE_ADDED before its KEYFRAME
+  std::vector<std::string> node_errors_;
   int64_t now_utime_ = 0;
   std::optional<int64_t> last_answer_utime_;
   LoopCloserStats stats_;

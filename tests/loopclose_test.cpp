@@ -322,6 +322,39 @@ TEST_F(LoopCloserTest, ARequestThatOvertookItsKeyframeWaitsForIt) {
   EXPECT_EQ(out[0].status, kUnknownKeyframe);
 }
 
+// The mapper makes its first node on the first keyframe's VO_DELTA: its NODE_ADDED (small)
+// can come before the KEYFRAME (tens of fragments). Rejected, that place was never in the
+// database, and a later session starting there could not be placed. It waits instead.
+TEST_F(LoopCloserTest, ANodeThatCameBeforeItsKeyframeWaitsForIt) {
+  auto lc = make();
+  const int64_t t = 100 * kSecond;
+  lc->advanceClock(t);
+  ASSERT_TRUE(lc->addNode(node(1, t, 0)).ok());
+  EXPECT_EQ(lc->numNodes(), 0u);
+  EXPECT_EQ(lc->stats().nodes_waited, 1);
+  lc->advanceClock(t + 100'000);
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(0, t)).ok());
+  EXPECT_EQ(lc->numNodes(), 1u);
+  EXPECT_EQ(lc->stats().nodes, 1);
+  EXPECT_TRUE(lc->takeNodeErrors().empty());
+  // Found by a later query of the same place.
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(0, t + 20 * kSecond)).ok());
+  const register_result_t r = lc->answer(request(1, t + 20 * kSecond, t + 20 * kSecond, kGlobal));
+  EXPECT_EQ(r.status, kOk) << r.reason;
+  EXPECT_EQ(r.node_id, 1);
+  // A keyframe that never comes: rejected once the wait is over, with a line naming the node.
+  const int64_t t2 = t + 30 * kSecond;
+  ASSERT_TRUE(lc->addNode(node(2, t2, 0)).ok());
+  lc->advanceClock(t2 + 400'000);
+  EXPECT_TRUE(lc->takeNodeErrors().empty());
+  lc->advanceClock(t2 + 500'000);
+  const std::vector<std::string> errors = lc->takeNodeErrors();
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_NE(errors[0].find("node 2"), std::string::npos) << errors[0];
+  EXPECT_EQ(lc->stats().nodes_rejected, 1);
+  EXPECT_EQ(lc->numNodes(), 1u);
+}
+
 TEST_F(LoopCloserTest, AFullQueueDropsTheOldestRequest) {
   LoopCloserOptions o;
   o.max_pending_requests = 2;
