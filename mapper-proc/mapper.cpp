@@ -94,6 +94,7 @@ void MapperStats::addCounters(const MapperStats& o) {
   recoveries_too_far += o.recoveries_too_far;
   relocalizations += o.relocalizations;
   relocalization_disagreements += o.relocalization_disagreements;
+  relocalization_same_frame_checks += o.relocalization_same_frame_checks;
   timeouts += o.timeouts;
   dropped += o.dropped;
   restored_nodes += o.restored_nodes;
@@ -108,7 +109,7 @@ std::string MapperStats::text() const {
     << requests_global << "\nregistrations_ok " << registrations_ok << "\nloop_closures "
     << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept << "\ndelta_fused " << delta_fused
     << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor " << rejected_floor << "\nclosures_uninformative " << closures_uninformative << "\ngate_recoveries " << gate_recoveries << "\nrecoveries_too_far " << recoveries_too_far << "\nrelocalizations " << relocalizations
-    << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrelocalization_disagreements " << relocalization_disagreements << "\nrestored_nodes " << restored_nodes
+    << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrelocalization_disagreements " << relocalization_disagreements << "\nrelocalization_same_frame_checks " << relocalization_same_frame_checks << "\nrestored_nodes " << restored_nodes
     << "\nrestored_constraints " << restored_constraints << "\n";
   return s.str();
 }
@@ -608,7 +609,7 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
   const auto t0 = Clock::now();
   const double c0 = threadCpuSeconds();
   if (msg.status != register_result_t::STATUS_OK) {
-    if (in_flight_->mode == register_request_t::MODE_NODE) {
+    if (in_flight_->mode == register_request_t::MODE_NODE && !in_flight_->same_frame_check) {
       sendRequest(register_request_t::MODE_GLOBAL, -1);  // then the global search
       step_cost_s_ += secondsSince(t0);
       step_cpu_s_ += threadCpuSeconds() - c0;
@@ -644,6 +645,18 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
   } else {
     ++stats_.registrations_ok;
     handleRegistration(msg, f, *cov, &registered);
+    if (same_frame_target_) {
+      // The new candidate checked at once, on the same keyframe, against a node linked to its
+      // node: the step stays open for that answer (once per keyframe).
+      in_flight_->same_frame_check = true;
+      sendRequest(register_request_t::MODE_NODE, *same_frame_target_);
+      same_frame_target_.reset();
+      ++stats_.relocalization_same_frame_checks;
+      stats_.timing.registration_s += secondsSince(t0);
+      step_cost_s_ += secondsSince(t0);
+      step_cpu_s_ += threadCpuSeconds() - c0;
+      return status;
+    }
   }
   stats_.timing.registration_s += secondsSince(t0);
   step_cost_s_ += secondsSince(t0);
@@ -673,6 +686,11 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     // registrations, chained by odometry, agree on where it is.
     if (!confirmsRelocalization(b, b_T_q, f.keyframe_utime, relocalization_candidate_)) {
       relocalization_candidate_ = RelocalizationCandidate{b, b_T_q, f.keyframe_utime};
+      // The check that needs no motion: the same keyframe against a node the map links to b,
+      // where that placement says it is seen. Without it the first check waited for the next
+      // keyframe, which a robot starting slowly makes seconds later, often past the place.
+      if (!f.same_frame_check && o_.relocalization_checks > 0)
+        same_frame_target_ = linkedNeighbour(b, nodePose(b) * b_T_q.mean);
       return;
     }
     relocalization_candidate_.reset();
@@ -827,6 +845,28 @@ std::optional<int64_t> Mapper::relocalizationCheck(int64_t keyframe_utime) {
   const core::SE3d world_T_body = nodePose(c.node) * c.node_T_keyframe.mean * c_T_now->mean;
   const std::optional<int64_t> target = nodeAt(world_T_body, floor, keyframe_utime);
   return target ? target : std::optional<int64_t>(c.node);
+}
+
+std::optional<int64_t> Mapper::linkedNeighbour(int64_t node, const core::SE3d& world_T_body) const {
+  const double heading_rad = o_.overlap_heading_sectors * 2.0 * std::numbers::pi / o_.heading_bins;
+  const core::SE2d p = core::toPlanar(world_T_body);
+  std::optional<int64_t> best;
+  double best_m = std::numeric_limits<double>::infinity();
+  for (const auto& [key, pair] : constraints_.pairs()) {
+    if (key.first != node && key.second != node) continue;
+    const int64_t other = key.first == node ? key.second : key.first;
+    if (other < 0 || other >= static_cast<int64_t>(nodes_.size()) ||
+        nodes_[static_cast<size_t>(other)].floor != nodes_[static_cast<size_t>(node)].floor)
+      continue;
+    const core::SE2d q = core::toPlanar(nodePose(other));
+    if (std::abs(std::remainder(q.theta() - p.theta(), 2.0 * std::numbers::pi)) > heading_rad) continue;
+    const double d = std::hypot(q.x() - p.x(), q.y() - p.y());
+    if (d < best_m) {
+      best_m = d;
+      best = other;
+    }
+  }
+  return best;
 }
 
 std::optional<int64_t> Mapper::nodeAt(const core::SE3d& world_T_body, int floor, int64_t newest_allowed) const {

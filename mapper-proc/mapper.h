@@ -223,6 +223,7 @@ struct MapperStats {
   int64_t recoveries_too_far = 0; // ... not: their jump was more than odometry could drift
   int64_t relocalizations = 0;   // a new session tied to the map by a global registration
   int64_t relocalization_disagreements = 0;  // a lost session's registrations that disagreed
+  int64_t relocalization_same_frame_checks = 0;  // candidates checked on their own keyframe
   int64_t timeouts = 0;
   int64_t dropped = 0;            // malformed, stale or out-of-order messages
   int64_t restored_nodes = 0;     // loaded from a map store by restore()
@@ -301,6 +302,7 @@ class Mapper {
     int8_t mode = 0;
     int64_t active = -1;
     core::UncertainPose delta_at_keyframe;  // active_T_keyframe
+    bool same_frame_check = false;  // a lost robot's candidate checked on its own keyframe
   };
 
   void step(int64_t keyframe_utime);
@@ -322,6 +324,9 @@ class Mapper {
   // earlier one (candidate) on where the robot is.
   // While lost with a candidate placement: the node to check it against (step), if any.
   std::optional<int64_t> relocalizationCheck(int64_t keyframe_utime);
+  // A node the map links to `node` (a constraint between them) whose view overlaps the
+  // placement world_T_body (within overlap_heading_sectors of its heading), the nearest.
+  std::optional<int64_t> linkedNeighbour(int64_t node, const core::SE3d& world_T_body) const;
   bool confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime,
                               const std::optional<RelocalizationCandidate>& candidate);
   // A registration the map gate rejects: true when it confirms the previous rejected one
@@ -393,6 +398,7 @@ class Mapper {
     int verifications = 0;  // node-mode requests sent to check it (step)
   };
   std::optional<RelocalizationCandidate> relocalization_candidate_;
+  std::optional<int64_t> same_frame_target_;  // set by handleRegistration, sent by onRegisterResult
   // The last registration the map gate rejected, waiting for a second one that agrees.
   std::optional<RelocalizationCandidate> rejected_candidate_;
   bool gate_rejected_ = false;  // the step in flight had a registration the gate rejected

@@ -810,6 +810,26 @@ TEST(Mapper, ALostRobotChecksItsCandidatePlacementAgainstTheNodeWhereItPredictsI
   }
 }
 
+// The check that needs no motion: the candidate's own keyframe registered against a node the
+// map links to the candidate's node. A session that starts on a mapped place is placed at its
+// first keyframe, before it moves (the checks at later keyframes came too late live: a robot
+// starting slowly makes its next keyframe seconds later, past the place).
+TEST(Mapper, ALostRobotChecksItsCandidateOnTheSameKeyframeAgainstALinkedNode) {
+  ScriptedDrive drive(scriptedOptions());
+  lap(drive);
+  // Between nodes 0 (x = 0.1 m) and 1 (1.6 m): the oracle registers to either (< 1.5 m).
+  drive.driveTo(0.8, 0.0);
+  drive.newSession(3600.0, true);
+  EXPECT_FALSE(drive.mapper().lost());
+  EXPECT_EQ(drive.mapper().stats().relocalizations, 1);
+  EXPECT_EQ(drive.mapper().stats().relocalization_same_frame_checks, 1);
+  EXPECT_EQ(drive.mapper().stats().relocalization_disagreements, 0);
+  // Placed where it is: the next lap adds no copy of the corridor.
+  const int64_t nodes = drive.mapper().stats().nodes;
+  lap(drive);
+  EXPECT_LE(drive.mapper().stats().nodes, nodes + 2);
+}
+
 TEST(Mapper, DropsMalformedAndStaleMessagesAndCountsThem) {
   Mapper m(scriptedOptions());
   register_result_t stale{};
