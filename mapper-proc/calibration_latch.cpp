@@ -11,23 +11,23 @@
 
 namespace evermap::mapper {
 
-Status CalibrationLatch::handle(const void* data, int64_t size, Mapper& mapper) {
+template <typename Msg, typename Mounting>
+Status CalibrationLatch::latch(const void* data, int64_t size, const char* channel, Mapper& mapper,
+                              Mounting mounting) {
   const auto* p = static_cast<const uint8_t*>(data);
   std::vector<uint8_t> bytes(p, p + std::max<int64_t>(0, size));
   // The LCM fingerprint (8 bytes) and utime (8 bytes) lead the encoding.
   if (bytes.size() >= 16) std::fill(bytes.begin(), bytes.begin() + 16, 0);
   if (have_camera_ && bytes == last_) return Ok{};
-  auto msg = messages::decodeLcm<stereo_calib_t>(data, size, channels::kStereoCalib);
+  auto msg = messages::decodeLcm<Msg>(data, size, channel);
   if (!msg) {
     ++counts_.undecodable;
     return msg.error();
   }
-  auto calibration = messages::fromMsg(*msg);
-  Expected<core::SE3d> body_T_cam =
-      calibration ? core::rectifiedLeftBodyTCamera(*calibration) : Expected<core::SE3d>(calibration.error());
+  const Expected<core::SE3d> body_T_cam = mounting(*msg);
   if (!body_T_cam) {
     ++counts_.refused;
-    return makeError("STEREO_CALIB ", msg->utime, ": ", body_T_cam.error().message);
+    return makeError(channel, " ", msg->utime, ": ", body_T_cam.error().message);
   }
   mapper.setCameraMounting(*body_T_cam);
   have_camera_ = true;
@@ -36,26 +36,22 @@ Status CalibrationLatch::handle(const void* data, int64_t size, Mapper& mapper) 
   return Ok{};
 }
 
+Status CalibrationLatch::handle(const void* data, int64_t size, Mapper& mapper) {
+  return latch<stereo_calib_t>(data, size, channels::kStereoCalib, mapper,
+                               [](const stereo_calib_t& msg) -> Expected<core::SE3d> {
+                                 auto calibration = messages::fromMsg(msg);
+                                 if (!calibration) return calibration.error();
+                                 return core::rectifiedLeftBodyTCamera(*calibration);
+                               });
+}
+
 Status CalibrationLatch::handleRgbd(const void* data, int64_t size, Mapper& mapper) {
-  const auto* p = static_cast<const uint8_t*>(data);
-  std::vector<uint8_t> bytes(p, p + std::max<int64_t>(0, size));
-  if (bytes.size() >= 16) std::fill(bytes.begin(), bytes.begin() + 16, 0);
-  if (have_camera_ && bytes == last_) return Ok{};
-  auto msg = messages::decodeLcm<rgbd_calib_t>(data, size, channels::kRgbdCalib);
-  if (!msg) {
-    ++counts_.undecodable;
-    return msg.error();
-  }
-  auto camera = messages::fromMsg(msg->camera);
-  if (!camera) {
-    ++counts_.refused;
-    return makeError("RGBD_CALIB ", msg->utime, ": ", camera.error().message);
-  }
-  mapper.setCameraMounting(camera->body_T_cam);
-  have_camera_ = true;
-  last_ = std::move(bytes);
-  ++counts_.camera_changes;
-  return Ok{};
+  return latch<rgbd_calib_t>(data, size, channels::kRgbdCalib, mapper,
+                             [](const rgbd_calib_t& msg) -> Expected<core::SE3d> {
+                               auto camera = messages::fromMsg(msg.camera);
+                               if (!camera) return camera.error();
+                               return camera->body_T_cam;
+                             });
 }
 
 }  // namespace evermap::mapper

@@ -32,6 +32,10 @@ class CalibrationLatch {
   const CalibrationLatchCounts& counts() const { return counts_; }
 
  private:
+  // Both: the repeat test, decoding, `mounting` (the message → body_T_cam), the counts.
+  template <typename Msg, typename Mounting>
+  Status latch(const void* data, int64_t size, const char* channel, Mapper& mapper, Mounting mounting);
+
   bool have_camera_ = false;
   std::vector<uint8_t> last_;  // the last applied message, hash and utime zeroed
   CalibrationLatchCounts counts_;
