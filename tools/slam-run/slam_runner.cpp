@@ -564,7 +564,8 @@ std::string SlamRunSummary::text() const {
       << h.mapper_p99_ms << " loopclose_p99_ms " << h.loopclose_p99_ms << "\n";
   s << "nodes " << nodes << "\nedges " << edges << "\nfloors " << floors << "\nloop_proposals " << loop_proposals
     << " (node " << mapper.requests_node << ", global " << mapper.requests_global << ")\nverified " << verified
-    << "\naccepted_closures " << accepted_closures << "\nrejected " << rejected << " (map gate "
+    << "\naccepted_closures " << accepted_closures << " (in the final map's constraints: a folded pair counts as its first; "
+    << mapper.loop_closures << " made over the run)\nrejected " << rejected << " (map gate "
     << mapper.rejected_map_gate << ", other floor " << mapper.rejected_floor << ", inconsistent " << mapper.rejected_inconsistent << ", recovered "
     << mapper.gate_recoveries << ", too far to recover " << mapper.recoveries_too_far << ")\nrelocalizations " << mapper.relocalizations << "\n";
   if (false_closures >= 0)
