@@ -41,6 +41,9 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapSt
   }
   MapStore store(db, file, options);
   const char* schema =
+      // Before the first table: a new store gives the pages a fold or a moved pose freed back
+      // to the file system after each save (an older store keeps its mode; VACUUM converts it).
+      "PRAGMA auto_vacuum=INCREMENTAL;"
       "PRAGMA journal_mode=WAL;"
       "PRAGMA synchronous=NORMAL;"
       "CREATE TABLE IF NOT EXISTS map_sessions (session_id INTEGER PRIMARY KEY, start_utime INTEGER NOT NULL);"
@@ -205,6 +208,8 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     if (k >= stored_poses_.size()) stored_poses_.resize(k + 1);
     stored_poses_[k] = std::move(pose);
   }
+  // Free pages (folded rows, rewritten poses) leave the file, so its size is the map's.
+  (void)exec("PRAGMA incremental_vacuum");
   // Copy the committed pages into the file and empty the log, so the store on disk is the
   // map and not the history of its transactions (SQLite's automatic checkpoint keeps the
   // log's size, up to 4 MB here). A reader holding the log makes it a no-op until the next
