@@ -1,6 +1,6 @@
 // Headless Chromium on evermap-viewer's page for bench/viewer_latency.sh: loads the page, waits
 // --duration-s, then reads the page's window.evermapStats (viewer/web/viewer.js) and prints
-// figures. Driven over the DevTools protocol on a pipe, as tests/integration/viewer_browser.mjs.
+// figures. Driven over the DevTools protocol on a pipe (tests/integration/chromium_cdp.mjs).
 //   node viewer_latency.mjs --chromium PATH --url URL --duration-s S [--label TEXT] [--screenshot PNG]
 // Prints one line of figures:
 //   - load: navigation start to the first frame with a map drawn (needs a map on the stream);
@@ -11,68 +11,12 @@
 //     draws at most 4 frames a second with software WebGL), render;
 //   - the update rate: maps drawn per second, and maps received but superseded before drawing.
 // No assertion on time: exit status 0 unless the page failed or drew no map.
-import { spawn } from 'node:child_process';
 import fs from 'node:fs';
-import os from 'node:os';
-import path from 'node:path';
 
-const opt = { durationS: 30, label: '' };
-for (let k = 2; k + 1 < process.argv.length; k += 2) {
-  const name = process.argv[k].replace(/^--/, '').replace(/-(.)/g, (_, c) => c.toUpperCase());
-  opt[name] = process.argv[k + 1];
-}
-for (const need of ['chromium', 'url'])
-  if (!opt[need]) { console.error(`viewer_latency: --${need} is needed`); process.exit(2); }
+import { launchChromium, openPage, parseOptions, sleep } from '../tests/integration/chromium_cdp.mjs';
 
-const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'evermap-chromium-'));
-const chrome = spawn(opt.chromium, [
-  '--headless', '--no-sandbox', '--remote-debugging-pipe', '--no-first-run', '--no-default-browser-check',
-  '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--window-size=1400,900',
-  '--disable-background-timer-throttling', '--disable-renderer-backgrounding', '--disable-backgrounding-occluded-windows',
-  `--user-data-dir=${profile}`, 'about:blank'], { stdio: ['ignore', 'ignore', 'pipe', 'pipe', 'pipe'] });
-let chromeLog = '';
-chrome.stdio[2].on('data', (d) => { chromeLog = (chromeLog + d).slice(-4000); });
-
-const errors = [];
-let nextId = 1;
-const pending = new Map();
-const send = (method, params = {}, sessionId) => new Promise((resolve, reject) => {
-  const id = nextId++;
-  pending.set(id, { resolve, reject, method });
-  chrome.stdio[3].write(JSON.stringify({ id, method, params, ...(sessionId ? { sessionId } : {}) }) + '\0');
-});
-let buffer = '';
-chrome.stdio[4].on('data', (chunk) => {
-  buffer += chunk.toString('utf8');
-  let end;
-  while ((end = buffer.indexOf('\0')) >= 0) {
-    const msg = JSON.parse(buffer.slice(0, end));
-    buffer = buffer.slice(end + 1);
-    if (msg.id !== undefined && pending.has(msg.id)) {
-      const p = pending.get(msg.id);
-      pending.delete(msg.id);
-      if (msg.error) p.reject(new Error(`${p.method}: ${msg.error.message}`)); else p.resolve(msg.result);
-    } else if (msg.method === 'Runtime.exceptionThrown') {
-      const d = msg.params.exceptionDetails;
-      errors.push('exception: ' + (d.exception?.description || d.text));
-    }
-  }
-});
-
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-let finished = false;
-async function finish(code, line) {
-  if (finished) return;
-  finished = true;
-  console.log(line);
-  try { await Promise.race([send('Browser.close'), sleep(3000)]); } catch (e) { /* closing anyway */ }
-  chrome.kill('SIGKILL');
-  fs.rmSync(profile, { recursive: true, force: true });
-  process.exit(code);
-}
-chrome.on('exit', (code) => {
-  if (!finished) finish(1, `viewer_latency: FAIL: chromium exited (${code}) early: ${chromeLog.split('\n').slice(-5).join(' | ')}`);
-});
+const opt = parseOptions('viewer_latency', { durationS: 30, label: '' }, ['chromium', 'url']);
+const { send, errors, finish } = launchChromium('viewer_latency', opt.chromium);
 
 function quantile(values, q) {
   if (values.length === 0) return NaN;
@@ -83,9 +27,7 @@ function quantile(values, q) {
 const fmt = (values) => `${quantile(values, 0.5).toFixed(0)}/${quantile(values, 0.9).toFixed(0)}`;
 
 try {
-  const { targetId } = await send('Target.createTarget', { url: 'about:blank' });
-  const { sessionId } = await send('Target.attachToTarget', { targetId, flatten: true });
-  await send('Runtime.enable', {}, sessionId);
+  const sessionId = await openPage(send, ['Runtime', 'Page']);
   await send('Page.navigate', { url: opt.url }, sessionId);
   await sleep(Number(opt.durationS) * 1000);
   const r = await send('Runtime.evaluate', {

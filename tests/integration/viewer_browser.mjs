@@ -1,5 +1,4 @@
-// Drives headless Chromium over the DevTools protocol (on a pipe: --remote-debugging-pipe, no
-// port, no WebSocket client needed) for tests/integration/viewer_browser.sh:
+// Drives headless Chromium (chromium_cdp.mjs) for tests/integration/viewer_browser.sh:
 //   node viewer_browser.mjs --chromium PATH --url URL --expect-file FILE --screenshot PNG [--timeout-s S]
 //                           [--seek FRACTION]
 // Loads the page, then polls it until FILE exists and holds a node count N and the page shows
@@ -8,77 +7,15 @@
 // until the page shows fewer nodes than N and its slider is there. Any script error
 // (an exception, console.error, an error logged by the browser, the page's own data-errors)
 // fails. Saves a screenshot. Prints one line of figures; exit status 0 on success.
-import { spawn } from 'node:child_process';
 import fs from 'node:fs';
-import os from 'node:os';
-import path from 'node:path';
 
-const opt = { timeoutS: 120 };
-for (let k = 2; k + 1 < process.argv.length; k += 2) {
-  const name = process.argv[k].replace(/^--/, '').replace(/-(.)/g, (_, c) => c.toUpperCase());
-  opt[name] = process.argv[k + 1];
-}
-for (const need of ['chromium', 'url', 'expectFile', 'screenshot'])
-  if (!opt[need]) { console.error(`viewer_browser: --${need} is needed`); process.exit(2); }
+import { launchChromium, openPage, parseOptions, sleep } from './chromium_cdp.mjs';
 
-const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'evermap-chromium-'));
-const chrome = spawn(opt.chromium, [
-  '--headless', '--no-sandbox', '--remote-debugging-pipe', '--no-first-run', '--no-default-browser-check',
-  '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--window-size=1400,900',
-  '--disable-background-timer-throttling', '--disable-renderer-backgrounding', '--disable-backgrounding-occluded-windows',
-  `--user-data-dir=${profile}`, 'about:blank'], { stdio: ['ignore', 'ignore', 'pipe', 'pipe', 'pipe'] });
-let chromeLog = '';
-chrome.stdio[2].on('data', (d) => { chromeLog = (chromeLog + d).slice(-4000); });
-
-const errors = [];
-let nextId = 1;
-const pending = new Map();
-const send = (method, params = {}, sessionId) => new Promise((resolve, reject) => {
-  const id = nextId++;
-  pending.set(id, { resolve, reject, method });
-  chrome.stdio[3].write(JSON.stringify({ id, method, params, ...(sessionId ? { sessionId } : {}) }) + '\0');
-});
-let buffer = '';
-chrome.stdio[4].on('data', (chunk) => {
-  buffer += chunk.toString('utf8');
-  let end;
-  while ((end = buffer.indexOf('\0')) >= 0) {
-    const msg = JSON.parse(buffer.slice(0, end));
-    buffer = buffer.slice(end + 1);
-    if (msg.id !== undefined && pending.has(msg.id)) {
-      const p = pending.get(msg.id);
-      pending.delete(msg.id);
-      if (msg.error) p.reject(new Error(`${p.method}: ${msg.error.message}`)); else p.resolve(msg.result);
-    } else if (msg.method === 'Runtime.exceptionThrown') {
-      const d = msg.params.exceptionDetails;
-      errors.push('exception: ' + (d.exception?.description || d.text));
-    } else if (msg.method === 'Runtime.consoleAPICalled' && msg.params.type === 'error') {
-      errors.push('console.error: ' + msg.params.args.map((a) => a.value ?? a.description).join(' '));
-    } else if (msg.method === 'Log.entryAdded' && msg.params.entry.level === 'error') {
-      errors.push('browser: ' + msg.params.entry.text + (msg.params.entry.url ? ' ' + msg.params.entry.url : ''));
-    }
-  }
-});
-
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-let finished = false;
-async function finish(code, line) {
-  if (finished) return;
-  finished = true;
-  console.log(line);
-  try { await Promise.race([send('Browser.close'), sleep(3000)]); } catch (e) { /* closing anyway */ }
-  chrome.kill('SIGKILL');
-  fs.rmSync(profile, { recursive: true, force: true });
-  process.exit(code);
-}
-chrome.on('exit', (code) => {
-  if (!finished) finish(1, `viewer_browser: FAIL: chromium exited (${code}) early: ${chromeLog.split('\n').slice(-5).join(' | ')}`);
-});
+const opt = parseOptions('viewer_browser', { timeoutS: 120 }, ['chromium', 'url', 'expectFile', 'screenshot']);
+const { send, errors, finish } = launchChromium('viewer_browser', opt.chromium);
 
 try {
-  const { targetId } = await send('Target.createTarget', { url: 'about:blank' });
-  const { sessionId } = await send('Target.attachToTarget', { targetId, flatten: true });
-  for (const domain of ['Runtime', 'Page', 'Log']) await send(`${domain}.enable`, {}, sessionId);
+  const sessionId = await openPage(send);
   await send('Page.navigate', { url: opt.url }, sessionId);
   const start = Date.now();
   let page = null, expected = null;
