@@ -183,6 +183,40 @@ TEST(StereoDepth, RecoversTheSubPixelDisparityOfAShiftedImage) {
   EXPECT_LT(err[err.size() * 95 / 100], 0.3f);
 }
 
+TEST(StereoDepth, AddsTheRigsDisparityOffsetToEveryDisparity) {
+  // A right image 1.4 px further right than its calibration says (cx_right - cx_left = 1.4):
+  // measured 11.3 - 1.4 = 9.9 px, corrected back to 11.3 by the offset, at every level.
+  const cv::Mat left = texture(400, 200, 6);
+  const double d = 11.3, offset = 1.4;
+  cv::Mat right;
+  const cv::Mat M = (cv::Mat_<double>(2, 3) << 1, 0, d - offset, 0, 1, 0);
+  cv::warpAffine(left, right, M, left.size(), cv::INTER_CUBIC | cv::WARP_INVERSE_MAP);
+  ImagePyramid pl, pr;
+  ASSERT_TRUE(pl.build(left, 2).ok());
+  ASSERT_TRUE(pr.build(right, 2).ok());
+  StereoDepth::Options options;
+  options.disparity_offset_px = offset;
+  const StereoDepth corrected(options), plain(StereoDepth::Options{});
+  std::vector<float> err, uncorrected;
+  for (int l = 0; l < 2; ++l) {
+    for (int v = 20; v < pl.level(l).rows - 20; v += 15) {
+      for (int u = 60; u < pl.level(l).cols - 20; u += 15) {
+        const Keypoint k{float(u), float(v), 0, int8_t(l)};
+        const float got = corrected.disparity(pl, pr, k), raw = plain.disparity(pl, pr, k);
+        if (std::isfinite(got)) err.push_back(std::abs(got - static_cast<float>(d)));
+        if (std::isfinite(raw)) uncorrected.push_back(raw);
+      }
+    }
+  }
+  ASSERT_GT(err.size(), 100u);
+  std::sort(err.begin(), err.end());
+  EXPECT_LT(err[err.size() / 2], 0.05f);
+  std::sort(uncorrected.begin(), uncorrected.end());
+  EXPECT_NEAR(uncorrected[uncorrected.size() / 2], d - offset, 0.05);
+  options.disparity_offset_px = 40.0;
+  EXPECT_FALSE(options.validate().ok());
+}
+
 TEST(StereoDepth, GivesNoDepthOnRepeatedTextureOrFlatImages) {
   // Vertical stripes of period 8 px: every disparity d + 8k matches as well as d.
   cv::Mat stripes(100, 300, CV_8UC1);

@@ -4,7 +4,15 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <optional>
+#include <vector>
 
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/datasets/kitti.h"
+#include "core/features/orb_descriptor.h"
+#include "core/features/stereo_features.h"
+#include "core/registration/disparity_offset.h"
 #include "test_data.h"
 #include "vo-proc/sequence_run.h"
 
@@ -17,13 +25,10 @@ SequenceRunOptions clipOptions() {
   return o;
 }
 
-// The drift bar of issue 16 (2 % of the distance) is not asserted: on this clip the chained
-// path is 7 % longer than the ground truth's (Sim(3) scale 0.93), as FOVIS's is 11 % (issue
-// 16), while the shape is right (Sim(3)-aligned ATE 0.19 m). The stereo depths agree with
-// OpenCV's SGBM within 0.1 px at every depth, and adding 1 px to every disparity brings the
-// end error to 0.7 % and 0.9 deg: the clip's images look rectified with a principal point (or
-// crop) about 1 px off calib.txt's, which SOURCE.txt leaves open ("not identified further").
-// What is asserted: every frame registered, inliers of FOVIS's order, rotation within 2 deg,
+// With calib.txt as it is, the chained path is 7.6 % longer than the ground truth's, as FOVIS's
+// is 11 % (issue 16): the clip's images carry a disparity offset of about +0.8 px against
+// calib.txt (next test; docs/vo.md "The KITTI clip's calibration"). What is asserted here, with
+// calib.txt as given: every frame registered, inliers of FOVIS's order, rotation within 2 deg,
 // translation within FOVIS's 10 % on the same frames.
 TEST(VoKitti, TracksEveryFrameOfTheStereoClipWithFovisInliersAndRotationWithinTwoDegrees) {
   EVERMAP_REQUIRE_DATA(dir, "kitti-stereo-clip");
@@ -48,6 +53,53 @@ TEST(VoKitti, TracksEveryFrameOfTheStereoClipWithFovisInliersAndRotationWithinTw
   EXPECT_LE(run->end_error_percent, 10.0);
   // Inliers of FOVIS's order (164 per frame on this clip; 26.6 before issue 16).
   EXPECT_GE(run->mean_inliers, 100.0);
+}
+
+// The clip's disparity offset from its own images (consecutive frames registered by ORB, no
+// ground truth; core/registration/disparity_offset.h), then odometry with it: issue 16's bar.
+TEST(VoKitti, WithTheDisparityOffsetOfItsOwnImagesTheClipDriftsLessThanTwoPercent) {
+  EVERMAP_REQUIRE_DATA(dir, "kitti-stereo-clip");
+  const auto seq = datasets::readKittiSequence(dir, clipOptions().sequence);
+  ASSERT_TRUE(seq.ok()) << seq.error().message;
+  const auto& P = seq->projections;
+  auto extractor = core::StereoFeatureExtractor::create(core::StereoFeatureExtractor::Options{});
+  ASSERT_TRUE(extractor.ok());
+  core::OrbExtractor orb{core::OrbExtractor::Options{}};
+  std::vector<core::StereoMatchPair> pairs;
+  core::KeyframeFeatures previous;
+  std::optional<core::StereoCamera> camera;
+  for (size_t k = 0; k < seq->frames.size(); ++k) {
+    const cv::Mat left = cv::imread(seq->leftImage(seq->frames[k]).string(), cv::IMREAD_GRAYSCALE);
+    const cv::Mat right = cv::imread(seq->rightImage(seq->frames[k]).string(), cv::IMREAD_GRAYSCALE);
+    if (!camera) {
+      camera = *core::StereoCamera::create(P.P0(0, 0), P.P0(1, 1), P.P0(0, 2), P.P0(1, 2),
+                                           -P.P1(0, 3) / P.P1(0, 0), left.cols, left.rows);
+    }
+    core::FeatureFrame frame;
+    ASSERT_TRUE(extractor->extract(*camera, static_cast<int64_t>(k), left, right, &frame).ok());
+    core::KeyframeFeatures kf = core::makeKeyframeFeatures(frame, orb);
+    if (k > 0) {
+      pairs.push_back(core::matchPair(
+          previous, kf, core::registerFrames(*camera, previous, *camera, kf, core::RegistrationOptions{})));
+    }
+    previous = std::move(kf);
+  }
+  const auto offset = core::estimateDisparityOffset(*camera, pairs, core::DisparityOffsetOptions{});
+  ASSERT_TRUE(offset.ok()) << offset.error().message;
+  std::printf("%s\n", offset->message.c_str());
+  EXPECT_GT(offset->pairs, 35);
+  EXPECT_NEAR(offset->offset_px, 0.8, 0.2);  // calib.txt as given: 0 would be consistent
+
+  SequenceRunOptions o = clipOptions();
+  o.odometry.features.stereo.disparity_offset_px = offset->offset_px;
+  const auto run = runKittiSequence(dir, o);
+  ASSERT_TRUE(run.ok()) << run.error().message;
+  std::printf("%s\n", run->report().c_str());
+  int failed = 0;
+  for (const FrameResult& f : run->frames) failed += !f.ok() || f.bridged;
+  EXPECT_EQ(failed, 1);  // the first frame (no data)
+  EXPECT_LE(run->end_error_percent, 2.0);
+  EXPECT_LE(run->end_rotation_deg, 2.0);
 }
 
 TEST(VoKitti, WithoutTheMotionPriorAndTheDepthAwareCliqueFewerMatchesAreConsistent) {

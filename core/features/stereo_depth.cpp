@@ -57,6 +57,9 @@ Status StereoDepth::Options::validate() const {
   if (!(uniqueness_ratio > 0.0 && uniqueness_ratio <= 1.0)) {
     return makeError("stereo depth: uniqueness_ratio ", uniqueness_ratio, " is not in (0, 1]");
   }
+  if (!(std::abs(disparity_offset_px) <= 16.0)) {
+    return makeError("stereo depth: disparity_offset_px ", disparity_offset_px, " is not in [-16, 16]");
+  }
   if (!(max_refinement_px > 0.0)) {
     return makeError("stereo depth: max_refinement_px ", max_refinement_px, " must be positive");
   }
@@ -124,7 +127,7 @@ float StereoDepth::disparity(const ImagePyramid& left, const ImagePyramid& right
     if (!x) return kNaN;
     d = static_cast<float>(u) - x->x();
   }
-  d *= scale;
+  d = d * scale + static_cast<float>(options_.disparity_offset_px);
   if (!(d >= options_.min_disparity_px)) return kNaN;
   return d;
 }

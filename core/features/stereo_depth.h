@@ -11,7 +11,7 @@
 //     than a wrong one.
 //  3. Sub-pixel: Lucas-Kanade along the row (core/features/patch_alignment.h), started at the
 //     integer match; a refinement that moves more than max_refinement_px is rejected.
-// The disparity is returned in level-0 pixels: d0 = d_level * 2^level.
+// The disparity is returned in level-0 pixels: d0 = d_level * 2^level + disparity_offset_px.
 
 #include <string>
 #include <vector>
@@ -32,6 +32,11 @@ class StereoDepth {
     double uniqueness_ratio = 0.9;     // best <= ratio * second best (outside +-1 px)
     bool subpixel = true;
     double max_refinement_px = 1.0;    // level pixels
+    // Added to every level-0 disparity: the rig's disparity offset, cx_right - cx_left of the
+    // images where the calibration says the two are equal (Middlebury's "doffs" with the
+    // opposite sign; core/registration/disparity_offset.h estimates it from the images).
+    // 0 for a consistent calibration.
+    double disparity_offset_px = 0.0;
 
     Status validate() const;
   };

@@ -3,6 +3,7 @@
 // none), prints ATE, RPE and optionally the KITTI drift, and writes JSON and a top-view plot.
 // Exit status: 0 done, 1 bad input (the message names it), 2 bad command line.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -12,6 +13,7 @@
 
 #include "core/common/command_line.h"
 #include "core/common/number_text.h"
+#include "core/eval/association.h"
 #include "core/eval/evaluation.h"
 #include "core/eval/plot.h"
 #include "core/eval/report.h"
@@ -23,6 +25,7 @@ using namespace evermap::eval;
 
 struct Arguments {
   std::string gt, est, gt_times, est_times, json, plot;
+  bool steps = false;
   std::optional<TrajectoryFormat> gt_format, est_format;
   PlotPlane plane = PlotPlane::kAuto;
   EvaluationOptions options;
@@ -57,6 +60,9 @@ int parse(int argc, char** argv, Arguments* c) {
   double rpe_distance = std::numeric_limits<double>::quiet_NaN();
   cli.value("--rpe-frames", &rpe_frames, "N", "RPE step in frames (default 1)").min(1);
   cli.value("--rpe-distance", &rpe_distance, "M", "RPE step in metres").positive();
+  cli.flag("--steps", &c->steps,
+           "per-step translation ratio |est step| / |gt step| (median, p10, p90) and the end error relative to the first pose, "
+           "% of the ground-truth path and degrees: a scale error shows in the ratio");
   cli.flag("--kitti-drift", &c->options.kitti_drift, "KITTI devkit drift over 100..800 m segments");
   cli.value("--json", &c->json, "OUT.json", "write the figures as JSON");
   cli.value("--plot", &c->plot, "OUT.png|OUT.svg", "top view of ground truth and aligned estimate");
@@ -94,6 +100,29 @@ Expected<Trajectory> load(const std::string& file, std::optional<TrajectoryForma
   return readTrajectory(file, *format, times);
 }
 
+// --steps: per-step length ratio and end error, both independent of any alignment.
+void printSteps(const Trajectory& gt, const Trajectory& est, const AssociationOptions& options) {
+  const auto a = associate(gt, est, options);
+  if (!a || a->size() < 2) return;
+  std::vector<double> ratio;
+  double gt_path = 0.0;
+  for (size_t k = 1; k < a->size(); ++k) {
+    const double g = (a->gt[k - 1].inverse() * a->gt[k]).translation().norm();
+    const double e = (a->est[k - 1].inverse() * a->est[k]).translation().norm();
+    gt_path += g;
+    if (g > 0.05) ratio.push_back(e / g);  // steps of a few centimetres say nothing about scale
+  }
+  const size_t n = a->size() - 1;
+  const core::SE3d gt_rel = a->gt[0].inverse() * a->gt[n], est_rel = a->est[0].inverse() * a->est[n];
+  const core::SE3d err = gt_rel.inverse() * est_rel;
+  std::sort(ratio.begin(), ratio.end());
+  auto q = [&ratio](double f) { return ratio.empty() ? std::nan("") : ratio[static_cast<size_t>(f * (ratio.size() - 1) + 0.5)]; };
+  std::printf("steps (%zu of %zu longer than 5 cm)\n  length ratio est/gt  median %.4f   p10 %.4f   p90 %.4f\n",
+              ratio.size(), n, q(0.5), q(0.1), q(0.9));
+  std::printf("  end error from the first pose: %.3f m = %.2f %% of %.2f m, %.2f deg\n", err.translation().norm(),
+              100.0 * err.translation().norm() / gt_path, gt_path, err.so3().log().norm() * 180.0 / M_PI);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -119,6 +148,7 @@ int main(int argc, char** argv) {
   report->gt_format = gt_format;
   report->est_format = est_format;
   std::fputs(formatText(*report).c_str(), stdout);
+  if (cl->steps) printSteps(*gt, *est, cl->options.association);
 
   if (!cl->json.empty()) {
     if (Status s = writeJson(*report, cl->json); !s) {

@@ -45,6 +45,9 @@ int main(int argc, char** argv) {
       .positive();
   cli.value("--depth-noise", &options.pipeline.rgbd.depth_noise_per_m2, "K",
             "RGB-D: depth noise sigma_z = K z^2 (default 1.425e-3, Khoshelham & Elberink 2012)").positive();
+  cli.value("--disparity-offset", &odo.features.stereo.disparity_offset_px, "PX",
+            "stereo: added to every disparity, the rig's cx_right - cx_left where the calibration has them equal "
+            "(evermap-stereo-check --self-offset estimates it; default 0)").min(-16).max(16);
   cli.value("--clique-threshold", &odo.registration.clique.threshold_m, "M",
             "change of a pairwise distance always consistent").positive();
   cli.value("--search-radius", &odo.matching.search_radius_px, "PX", "window half-size at a feature's level").positive();

@@ -1,0 +1,73 @@
+#pragma once
+// The disparity offset of a rectified stereo rig, estimated from its own images: the constant
+// delta such that true disparity = measured + delta, i.e. d = fx b / z + (cx_left - cx_right)
+// with delta = cx_right - cx_left of the images against a calibration that says they are equal
+// (Middlebury's "doffs"; a crop or principal point of the right image that differs from the
+// calibration's).
+//
+// Why it is observable without ground truth: a wrong offset maps each frame's stereo points
+// through a projective transformation (z' = fx b / (fx b / z - delta): far points move most),
+// and no rigid motion maps one distorted frame onto the next unless the scene's depths are all
+// alike; a wrong baseline only scales the points and is not observable this way.
+//
+// Method: for each candidate offset on a grid, the motion of every registered pair of frames is
+// re-estimated (Gauss-Newton from the registration's, both directions: b's points projected
+// into a and a's into b, residuals in u, v and d, Huber); the offset of least total cost wins,
+// refined by a parabola through its neighbours. The pairs' inliers are chosen by the caller
+// (e.g. registerFrames at offset 0), which biases the estimate towards 0 if at all.
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/camera/stereo_camera.h"
+#include "core/common/expected.h"
+#include "core/geometry/se3.h"
+#include "core/registration/frame_registration.h"
+#include "core/registration/keyframe_features.h"
+
+namespace evermap::core {
+
+// The inliers of two registered stereo frames: measured (u, v, d) in level-0 pixels, in a and
+// in b (same index = same point), and the registration's a_T_b as the start of each solve.
+struct StereoMatchPair {
+  std::vector<Eigen::Vector3d> uvd_a, uvd_b;
+  SE3d a_T_b;
+};
+
+// The inliers of registerFrames(camera, a, camera, b) as a pair (empty unless it succeeded).
+StereoMatchPair matchPair(const KeyframeFeatures& a, const KeyframeFeatures& b,
+                          const RegistrationSummary& registration);
+
+struct DisparityOffsetOptions {
+  // The grid of candidate offsets (pixels). A candidate under which some disparity would be
+  // <= 0 is skipped.
+  double min_offset_px = -2.0;
+  double max_offset_px = 3.0;
+  double step_px = 0.1;
+  // Measurement noise the residuals are divided by (pixels), and the Huber threshold (sigmas).
+  double sigma_uv_px = 0.5;
+  double sigma_d_px = 0.3;
+  double huber_sigmas = 2.0;
+  int gauss_newton_iterations = 8;
+
+  Status validate() const;
+};
+
+struct DisparityOffsetSummary {
+  double offset_px = 0.0;  // true disparity = measured + offset_px
+  int pairs = 0;
+  int matches = 0;
+  std::vector<std::pair<double, double>> curve;  // (offset px, total robust cost)
+  std::string message;
+};
+
+// Errors: invalid options, no pair with matches, no candidate offset that every disparity
+// allows, or a minimum at an end of the grid (widen it).
+Expected<DisparityOffsetSummary> estimateDisparityOffset(const StereoCamera& camera,
+                                                         const std::vector<StereoMatchPair>& pairs,
+                                                         const DisparityOffsetOptions& options);
+
+}  // namespace evermap::core
