@@ -22,6 +22,7 @@
 #include "loopclose-proc/loop_closer.h"
 #include "loopclose-proc/server.h"
 #include "test_data.h"
+#include "tests/register_results.h"
 
 namespace evermap::loopclose {
 namespace {
@@ -99,18 +100,9 @@ TEST(LoopCloseEuroc, TheServiceRegistersTheRealLoopPairsWithinFiveCentimetresAnd
   lcm::LCM lcm("memq://");
   ASSERT_TRUE(lcm.good());
   LoopCloseServer server(lcm, **lc);
-  std::vector<register_result_t> results;
-  struct Collector {
-    std::vector<register_result_t>* out;
-    void on(const lcm::ReceiveBuffer*, const std::string&, const register_result_t* r) {
-      out->push_back(*r);
-    }
-  } collector{&results};
-  lcm.subscribe(channels::kRegisterResult, &Collector::on, &collector);
-  auto deliver = [&]() {
-    while (lcm.handleTimeout(0) > 0) {
-    }
-  };
+  evermap::testing::RegisterResults collected(lcm);
+  std::vector<register_result_t>& results = collected.results;
+  auto deliver = [&]() { collected.deliver(); };
   // Keyframe utimes are ids here: the four images are stills from far apart in V1_01, so they
   // are given the order of Kimera's test — the match images are in the map, the queries come
   // back later (appearance search never proposes places newer than, or within 10 s of, the

@@ -19,6 +19,7 @@
 #include "core/messages/channels.h"
 #include "loopclose-proc/loop_closer.h"
 #include "loopclose-proc/server.h"
+#include "tests/register_results.h"
 
 namespace evermap::loopclose {
 namespace {
@@ -410,18 +411,9 @@ TEST_F(LoopCloserTest, ServesRequestsOverLcm) {
   ASSERT_TRUE(lcm.good());
   auto lc = make();
   LoopCloseServer server(lcm, *lc);
-  std::vector<register_result_t> results;
-  struct Collector {
-    std::vector<register_result_t>* out;
-    void on(const lcm::ReceiveBuffer*, const std::string&, const register_result_t* r) {
-      out->push_back(*r);
-    }
-  } collector{&results};
-  lcm.subscribe(channels::kRegisterResult, &Collector::on, &collector);
-  auto deliver = [&]() {
-    while (lcm.handleTimeout(0) > 0) {
-    }
-  };
+  evermap::testing::RegisterResults collected(lcm);
+  std::vector<register_result_t>& results = collected.results;
+  auto deliver = [&]() { collected.deliver(); };
   for (int p = 0; p < 3; ++p) {
     const evermap::keyframe_t k = world_.keyframe(p, (p + 1) * kSecond);
     lcm.publish(channels::kKeyframe, &k);
@@ -460,18 +452,9 @@ TEST_F(LoopCloserTest, TheMotionStreamStartsTheClockSoTheFirstRequestIsAnsweredA
     auto lc = make();
     addMap(*lc);
     LoopCloseServer server(lcm, *lc);
-    std::vector<register_result_t> results;
-    struct Collector {
-      std::vector<register_result_t>* out;
-      void on(const lcm::ReceiveBuffer*, const std::string&, const register_result_t* r) {
-        out->push_back(*r);
-      }
-    } collector{&results};
-    lcm.subscribe(channels::kRegisterResult, &Collector::on, &collector);
-    auto deliver = [&]() {
-      while (lcm.handleTimeout(0) > 0) {
-      }
-    };
+    evermap::testing::RegisterResults collected(lcm);
+    std::vector<register_result_t>& results = collected.results;
+    auto deliver = [&]() { collected.deliver(); };
     const int64_t t = 100 * kSecond;  // far from the clock addMap left: the guard holds
     const evermap::keyframe_t k = world_.keyframe(1, t);
     lcm.publish(channels::kKeyframe, &k);
