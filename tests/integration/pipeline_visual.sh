@@ -41,7 +41,7 @@ cleanup() {
 trap cleanup EXIT
 fail() {
   echo "FAIL: $*"
-  for f in "$tmp"/logs/*.log "$tmp/deputy.err"; do [ -f "$f" ] && { echo "--- $f"; tail -25 "$f"; }; done
+  for f in "$tmp"/logs/*.log "$tmp"/logs1/*.log "$tmp"/logs*.err; do [ -f "$f" ] && { echo "--- $f"; tail -25 "$f"; }; done
   exit 1
 }
 value() { awk -v k="$1" '$1 == k { print $2; exit }' "$2"; }
@@ -54,14 +54,22 @@ value() { awk -v k="$1" '$1 == k { print $2; exit }' "$2"; }
 frames="$(awk '/^STEREO:/ { print $2 }' "$tmp/render.txt")"
 echo "session: $duration s, $frames stereo pairs"
 
+# The five processes under the deputy on LOG replayed at 1x, into the map and place stores of
+# $tmp, their logs in LOG_DIR, the deputy's errors in LOG_DIR.err; lcm-logger records CHANNELS
+# into RECORD. In the background: $dpid, $lpid.
+start_pipeline() {  # LOG LOG_DIR RECORD CHANNELS
+  lcm-logger -q -f -c "$4" "$3" &
+  lpid=$!
+  (cd "$src" && EVERMAP_BIN="$bin" EVERMAP_LOG="$1" EVERMAP_MAP="$tmp/map.db" \
+    EVERMAP_VOCAB="$tmp/default.evoc" EVERMAP_PLACES="$tmp/places.db" EVERMAP_SPEED=1 \
+    exec "$bin/evermap-deputy" config/pipeline-log.pmd --log-dir "$2" --host sandbox --script go \
+    --exit-after-script --quiet 2> "$2.err") &
+  dpid=$!
+}
+stop_logger() { sleep 0.5; kill -INT "$lpid"; wait "$lpid" || true; lpid=""; }
+
 # 2. The five processes under the deputy, the log replayed at 1x.
-lcm-logger -q -f -c 'MAP_GRAPH|MAPPER_STATS|POSE' "$tmp/mapper.lcmlog" &
-lpid=$!
-(cd "$src" && EVERMAP_BIN="$bin" EVERMAP_LOG="$tmp/s0.lcmlog" EVERMAP_MAP="$tmp/map.db" \
-  EVERMAP_VOCAB="$tmp/default.evoc" EVERMAP_PLACES="$tmp/places.db" EVERMAP_SPEED=1 \
-  exec "$bin/evermap-deputy" config/pipeline-log.pmd --log-dir "$tmp/logs" --host sandbox --script go \
-  --exit-after-script --quiet 2> "$tmp/deputy.err") &
-dpid=$!
+start_pipeline "$tmp/s0.lcmlog" "$tmp/logs" "$tmp/mapper.lcmlog" 'MAP_GRAPH|MAPPER_STATS|POSE'
 # vo-proc killed mid-run (SIGKILL: no goodbye), on the lower floor after the ride: the deputy
 # respawns it, the mapper bridges the gap with wheel odometry and VO's new reference, and the
 # map goes on growing.
@@ -73,8 +81,7 @@ wait "$dpid" || rc=$?
 wait "$killer" || true
 dpid=""
 [ "$rc" -eq 0 ] || fail "deputy exited with $rc"
-sleep 0.5
-kill -INT "$lpid"; wait "$lpid" || true; lpid=""
+stop_logger
 
 # 3. Every process ran once, start to end; the contracts held.
 logs="$tmp/logs"
@@ -143,19 +150,12 @@ echo "session 0: the five processes mapped $duration s of rendered stereo live: 
 duration1="${EVERMAP_VISUAL_SESSION1_S:-45}"
 "$bin/evermap-sim-render" --config "$src/config/sim-image-3floor.conf" --set render.session=1 \
   --set render.max_duration_s="$duration1" --out "$tmp/s1.lcmlog" > "$tmp/render1.txt" || fail "sim-render session 1"
-lcm-logger -q -f -c 'MAP_GRAPH|MAPPER_STATS|POSE|REGISTER_.*' "$tmp/mapper1.lcmlog" &
-lpid=$!
-(cd "$src" && EVERMAP_BIN="$bin" EVERMAP_LOG="$tmp/s1.lcmlog" EVERMAP_MAP="$tmp/map.db" \
-  EVERMAP_VOCAB="$tmp/default.evoc" EVERMAP_PLACES="$tmp/places.db" EVERMAP_SPEED=1 \
-  exec "$bin/evermap-deputy" config/pipeline-log.pmd --log-dir "$tmp/logs1" --host sandbox --script go \
-  --exit-after-script --quiet 2> "$tmp/deputy1.err") &
-dpid=$!
+start_pipeline "$tmp/s1.lcmlog" "$tmp/logs1" "$tmp/mapper1.lcmlog" 'MAP_GRAPH|MAPPER_STATS|POSE|REGISTER_.*'
 rc=0
 wait "$dpid" || rc=$?
 dpid=""
 [ "$rc" -eq 0 ] || fail "deputy exited with $rc (session 1)"
-sleep 0.5
-kill -INT "$lpid"; wait "$lpid" || true; lpid=""
+stop_logger
 relocalised="$(value relocalizations "$tmp/logs1/mapper-proc.log")"
 [ "${relocalised:-0}" -ge 1 ] || { tail -30 "$tmp/logs1/mapper-proc.log"; fail "session 1 was not relocalised live in session 0's map"; }
 "$bin/evermap-pipeline-eval" --truth-log "$tmp/s0.lcmlog" --truth-log "$tmp/s1.lcmlog" --log "$tmp/mapper1.lcmlog" \
