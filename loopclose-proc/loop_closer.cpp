@@ -100,18 +100,21 @@ Status LoopCloser::addKeyframe(const evermap::keyframe_t& msg) {
     recent_.push_back(shared);
   }
   while (recent_.size() > options_.recent_keyframes) recent_.pop_front();
-  // Nodes that came before this keyframe.
-  Status status = Ok{};
+  // Nodes that came before this keyframe, taken out first (addNode may queue again). Their
+  // errors are theirs, not the keyframe's (it is kept): reported by takeNodeErrors().
+  std::vector<evermap::node_added_t> released;
   for (auto it = waiting_nodes_.begin(); it != waiting_nodes_.end();) {
-    if (it->keyframe_utime != msg.utime) {
+    if (it->keyframe_utime == msg.utime) {
+      released.push_back(*it);
+      it = waiting_nodes_.erase(it);
+    } else {
       ++it;
-      continue;
     }
-    const evermap::node_added_t n = *it;
-    it = waiting_nodes_.erase(it);
-    if (Status s = addNode(n); !s && status) status = s;
   }
-  return status;
+  for (const evermap::node_added_t& n : released) {
+    if (Status s = addNode(n); !s) node_errors_.push_back(s.error().message);
+  }
+  return Ok{};
 }
 
 const Keyframe* LoopCloser::recentKeyframe(int64_t utime) const {
@@ -145,6 +148,12 @@ Status LoopCloser::addNode(const evermap::node_added_t& msg) {
     }
   }
   if (!keyframe && now_utime_ - msg.utime < options_.keyframe_wait_us) {
+    const bool already = std::any_of(waiting_nodes_.begin(), waiting_nodes_.end(),
+                                     [&](const auto& n) { return n.node_id == msg.node_id; });
+    if (already) {
+      ++stats_.nodes_rejected;
+      return makeError("node ", msg.node_id, ": already waiting for its keyframe");
+    }
     waiting_nodes_.push_back(msg);
     ++stats_.nodes_waited;
     return Ok{};

@@ -91,8 +91,8 @@ class LoopCloser {
   // that came before its keyframe (the mapper's first node is made on the frame's VO_DELTA)
   // waits for it up to keyframe_wait_us of data time, and is added when it comes.
   Status addNode(const evermap::node_added_t& msg);
-  // The nodes whose keyframe did not come in time (rejected, counted in nodes_rejected): one
-  // line each, naming the node and its keyframe. Taken once.
+  // The waiting nodes whose keyframe did not come in time, or that failed when it came
+  // (rejected, counted in nodes_rejected): one line each, naming the node. Taken once.
   std::vector<std::string> takeNodeErrors();
   // REGISTER_REQUEST: queued; answered by poll().
   void submit(const evermap::register_request_t& request);

@@ -346,13 +346,14 @@ TEST_F(LoopCloserTest, ANodeThatCameBeforeItsKeyframeWaitsForIt) {
   // A keyframe that never comes: rejected once the wait is over, with a line naming the node.
   const int64_t t2 = t + 30 * kSecond;
   ASSERT_TRUE(lc->addNode(node(2, t2, 0)).ok());
+  EXPECT_FALSE(lc->addNode(node(2, t2, 0)).ok());  // the same node again: not queued twice
   lc->advanceClock(t2 + 400'000);
   EXPECT_TRUE(lc->takeNodeErrors().empty());
   lc->advanceClock(t2 + 500'000);
   const std::vector<std::string> errors = lc->takeNodeErrors();
   ASSERT_EQ(errors.size(), 1u);
   EXPECT_NE(errors[0].find("node 2"), std::string::npos) << errors[0];
-  EXPECT_EQ(lc->stats().nodes_rejected, 1);
+  EXPECT_EQ(lc->stats().nodes_rejected, 2);
   EXPECT_EQ(lc->numNodes(), 1u);
 }
 

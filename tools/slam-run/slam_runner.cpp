@@ -130,6 +130,7 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
     for (const node_added_t& n : nodes) {
       const auto t0 = Clock::now();
       if (Status s = loop_closer_->addNode(n); !s) inputError("NODE_ADDED: " + s.error().message);
+      for (const std::string& why : loop_closer_->takeNodeErrors()) inputError("NODE_ADDED: " + why);
       *loopclose_s += since(t0);
     }
     for (const register_request_t& r : requests) {
