@@ -124,10 +124,15 @@ const Keyframe* LoopCloser::recentKeyframe(int64_t utime) const {
   return nullptr;
 }
 
+std::optional<int64_t> LoopCloser::nodeOfKeyframe(int64_t utime) const {
+  for (const auto& [id, node] : nodes_) {
+    if (node.keyframe_utime == utime) return id;
+  }
+  return std::nullopt;
+}
+
 bool LoopCloser::knowsKeyframe(int64_t utime) const {
-  if (recentKeyframe(utime)) return true;
-  return std::any_of(nodes_.begin(), nodes_.end(),
-                     [utime](const auto& n) { return n.second.keyframe_utime == utime; });
+  return recentKeyframe(utime) != nullptr || nodeOfKeyframe(utime).has_value();
 }
 
 Status LoopCloser::addNode(const evermap::node_added_t& msg) {
@@ -362,13 +367,10 @@ register_result_t LoopCloser::answer(const register_request_t& request) {
   std::shared_ptr<const Keyframe> query_holder;
   const Keyframe* query = recentKeyframe(request.keyframe_utime);
   if (!query) {
-    for (const auto& [id, node] : nodes_) {
-      if (node.keyframe_utime == request.keyframe_utime) {
-        std::string ignored;
-        query_holder = nodeKeyframe(id, &ignored);
-        query = query_holder.get();
-        break;
-      }
+    if (const std::optional<int64_t> id = nodeOfKeyframe(request.keyframe_utime)) {
+      std::string ignored;
+      query_holder = nodeKeyframe(*id, &ignored);
+      query = query_holder.get();
     }
   }
   if (!query) {

@@ -118,6 +118,7 @@ class LoopCloser {
   LoopCloser(const bow::Vocabulary& vocabulary, FrameRegistration& registration,
              const LoopCloserOptions& options, std::optional<bow::PlaceStore> store);
   const Keyframe* recentKeyframe(int64_t utime) const;
+  std::optional<int64_t> nodeOfKeyframe(int64_t utime) const;  // the node it describes, if any
   bool knowsKeyframe(int64_t utime) const;  // a recent one, or a node's
   // The keyframe of a node: memory, else the store (then cached). Null with a reason.
   std::shared_ptr<const Keyframe> nodeKeyframe(int64_t node_id, std::string* why);

@@ -42,7 +42,8 @@ LoopCloseServer::LoopCloseServer(lcm::LCM& lcm, LoopCloser& loop_closer,
 int64_t LoopCloseServer::dropped() const { return inbox_.total().dropped(); }
 
 void LoopCloseServer::publishDue() {
-  for (const std::string& why : loop_closer_.takeNodeErrors()) inbox_.countRefused(channels::kNodeAdded, std::string(channels::kNodeAdded) + ": " + why);
+  for (const std::string& why : loop_closer_.takeNodeErrors())
+    inbox_.countRefused(channels::kNodeAdded, std::string(channels::kNodeAdded) + ": " + why);
   for (const evermap::register_result_t& r : loop_closer_.poll()) {
     lcm_.publish(channels::kRegisterResult, &r);
     ++published_;

@@ -258,10 +258,18 @@ std::optional<int64_t> Mapper::nodeInCell(const core::PlanarCell& cell, int64_t 
   return std::nullopt;
 }
 
+double Mapper::overlapHeadingRad() const {
+  return o_.overlap_heading_sectors * 2.0 * std::numbers::pi / o_.heading_bins;
+}
+
+double Mapper::headingApartRad(const core::SE2d& a, const core::SE2d& b) {
+  return std::abs(std::remainder(a.theta() - b.theta(), 2.0 * std::numbers::pi));
+}
+
 std::optional<int64_t> Mapper::overlappingNode(const core::SE3d& world_T_body, int floor,
                                                int64_t newest_allowed) const {
   const double radius_m = o_.overlap_radius_cells * o_.cell_size_m;
-  const double heading_rad = o_.overlap_heading_sectors * 2.0 * std::numbers::pi / o_.heading_bins;
+  const double heading_rad = overlapHeadingRad();
   if (!(radius_m > 0.0) || !(heading_rad > 0.0)) return std::nullopt;
   const core::SE2d p = core::toPlanar(world_T_body);
   const core::PlanarCell c = grid_.cellOf(p, floor);
@@ -279,7 +287,7 @@ std::optional<int64_t> Mapper::overlappingNode(const core::SE3d& world_T_body, i
           if (nodes_[static_cast<size_t>(id)].keyframe_utime > newest_allowed) continue;
           const core::SE2d q = core::toPlanar(nodePose(id));
           const double d = std::hypot(q.x() - p.x(), q.y() - p.y()) / radius_m;
-          const double a = std::abs(std::remainder(q.theta() - p.theta(), 2.0 * std::numbers::pi)) / heading_rad;
+          const double a = headingApartRad(q, p) / heading_rad;
           if (d > 1.0 || a > 1.0) continue;
           if (d + a < best_score) {
             best_score = d + a;
@@ -632,6 +640,7 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
     return Ok{};
   }
   bool registered = false;
+  std::optional<int64_t> same_frame_target;
   Status status = Ok{};
   bool finite = std::isfinite(msg.translation[0]) && std::isfinite(msg.translation[1]) &&
                 std::isfinite(msg.translation[2]);
@@ -644,29 +653,24 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
     status = makeError("REGISTER_RESULT ", msg.request_id, ": malformed pose, covariance or node id");
   } else {
     ++stats_.registrations_ok;
-    handleRegistration(msg, f, *cov, &registered);
-    if (same_frame_target_) {
+    same_frame_target = handleRegistration(msg, f, *cov, &registered);
+    if (same_frame_target) {
       // The new candidate checked at once, on the same keyframe, against a node linked to its
       // node: the step stays open for that answer (once per keyframe).
       in_flight_->same_frame_check = true;
-      sendRequest(register_request_t::MODE_NODE, *same_frame_target_);
-      same_frame_target_.reset();
+      sendRequest(register_request_t::MODE_NODE, *same_frame_target);
       ++stats_.relocalization_same_frame_checks;
-      stats_.timing.registration_s += secondsSince(t0);
-      step_cost_s_ += secondsSince(t0);
-      step_cpu_s_ += threadCpuSeconds() - c0;
-      return status;
     }
   }
   stats_.timing.registration_s += secondsSince(t0);
   step_cost_s_ += secondsSince(t0);
   step_cpu_s_ += threadCpuSeconds() - c0;
-  finishStep(registered);
+  if (!same_frame_target) finishStep(registered);
   return status;
 }
 
-void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f, const core::Mat6& cam_cov,
-                                bool* registered) {
+std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
+                                                  const core::Mat6& cam_cov, bool* registered) {
   const int64_t b = msg.node_id;
   const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2], msg.orientation[3]);
   const core::SE3d cam_T = core::SE3d(q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2]));
@@ -678,7 +682,7 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
   const auto q_T_now = tracker_.sinceKeyframe(f.keyframe_utime);
   if (!q_T_now) {
     ++stats_.dropped;
-    return;
+    return std::nullopt;
   }
   if (lost_) {
     // One global match may be a false one, and nothing in the map could contradict a wrong
@@ -690,8 +694,8 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
       // where that placement says it is seen. Without it the first check waited for the next
       // keyframe, which a robot starting slowly makes seconds later, often past the place.
       if (!f.same_frame_check && o_.relocalization_checks > 0)
-        same_frame_target_ = linkedNeighbour(b, nodePose(b) * b_T_q.mean);
-      return;
+        return linkedNeighbour(b, nodePose(b) * b_T_q.mean);
+      return std::nullopt;
     }
     relocalization_candidate_.reset();
     *registered = true;
@@ -709,15 +713,15 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     lost_ = false;
     relocalize_ = false;
     ++stats_.relocalizations;
-    return;
+    return std::nullopt;
   }
   if (o_.full_graph) {
-    if (nodes_[b].keyframe_utime > f.keyframe_utime - micros(o_.recent_exclusion_s)) return;
+    if (nodes_[b].keyframe_utime > f.keyframe_utime - micros(o_.recent_exclusion_s)) return std::nullopt;
     addConstraint(f.active, b, core::compound(f.delta_at_keyframe, core::invert(b_T_q)), ConstraintKind::kLoop,
                   f.keyframe_utime);
     ++stats_.loop_closures;
     *registered = true;
-    return;
+    return std::nullopt;
   }
   *registered = true;
   if (b == f.active) {
@@ -728,7 +732,7 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
         ++stats_.rejected_map_gate;
         gate_rejected_ = true;
         *registered = false;
-        return;
+        return std::nullopt;
       }
       relocalize_ = true;
     }
@@ -740,7 +744,7 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
       // registration has the smaller det(Σ), and the graph drifts faster than VO alone.
       tracker_.reset(core::compound(ConstraintSet::fuse(f.delta_at_keyframe, b_T_q), *q_T_now));
       ++stats_.delta_fused;
-      return;
+      return std::nullopt;
     }
     // Entropy test of section III-B.3: keep the better-determined estimate of Δ.
     if (relocalize_ || f.delta_at_keyframe.covariance.determinant() > b_T_q.covariance.determinant()) {
@@ -750,7 +754,7 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     } else {
       ++stats_.delta_kept;
     }
-    return;
+    return std::nullopt;
   }
   const core::UncertainPose a_T_b = core::compound(f.delta_at_keyframe, core::invert(b_T_q));
   // A pair that already holds constraints tests a new one against them (constraint_set.h);
@@ -762,7 +766,7 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     ++stats_.rejected_map_gate;
     gate_rejected_ = true;
     *registered = false;
-    return;
+    return std::nullopt;
   }
   rejected_candidate_.reset();
   if (contradicts_map) {
@@ -772,7 +776,7 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     active_ = b;
     tracker_.reset(core::compound(b_T_q, *q_T_now));
     relocalize_ = false;
-    return;
+    return std::nullopt;
   }
   if (!known_pair && information < o_.min_closure_information) {
     // The map already holds what this closure says about the pair: re-localised on b, no
@@ -781,20 +785,21 @@ void Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
     active_ = b;
     tracker_.reset(core::compound(b_T_q, *q_T_now));
     relocalize_ = false;
-    return;
+    return std::nullopt;
   }
   const size_t rejected_before = constraints_.rejected();
   // The chain active → keyframe → b, compounded (eq. 6-7): a constraint between existing nodes.
   addConstraint(f.active, b, a_T_b, ConstraintKind::kLoop, f.keyframe_utime, o_.map_gate > 0);
   if (constraints_.rejected() != static_cast<int64_t>(rejected_before)) {
     *registered = false;  // an inconsistent closure: neither the map nor Δ trusts it
-    return;
+    return std::nullopt;
   }
   ++stats_.loop_closures;
   active_ = b;
   tracker_.reset(core::compound(b_T_q, *q_T_now));
   // Δ now reuses the registration the constraint holds: re-localise at the next chance.
   relocalize_ = true;
+  return std::nullopt;
 }
 
 double Mapper::jumpM(int64_t a, const core::UncertainPose& a_T_q, int64_t b, const core::UncertainPose& b_T_q) const {
@@ -848,7 +853,7 @@ std::optional<int64_t> Mapper::relocalizationCheck(int64_t keyframe_utime) {
 }
 
 std::optional<int64_t> Mapper::linkedNeighbour(int64_t node, const core::SE3d& world_T_body) const {
-  const double heading_rad = o_.overlap_heading_sectors * 2.0 * std::numbers::pi / o_.heading_bins;
+  const double heading_rad = overlapHeadingRad();
   const core::SE2d p = core::toPlanar(world_T_body);
   std::optional<int64_t> best;
   double best_m = std::numeric_limits<double>::infinity();
@@ -859,7 +864,7 @@ std::optional<int64_t> Mapper::linkedNeighbour(int64_t node, const core::SE3d& w
         nodes_[static_cast<size_t>(other)].floor != nodes_[static_cast<size_t>(node)].floor)
       continue;
     const core::SE2d q = core::toPlanar(nodePose(other));
-    if (std::abs(std::remainder(q.theta() - p.theta(), 2.0 * std::numbers::pi)) > heading_rad) continue;
+    if (headingApartRad(q, p) > heading_rad) continue;
     const double d = std::hypot(q.x() - p.x(), q.y() - p.y());
     if (d < best_m) {
       best_m = d;

@@ -308,8 +308,10 @@ class Mapper {
   void step(int64_t keyframe_utime);
   void sendRequest(int8_t mode, int64_t target);
   void finishStep(bool registered);
-  void handleRegistration(const register_result_t& msg, const InFlight& f, const core::Mat6& cam_cov,
-                          bool* registered);
+  // Returns the node to register the same keyframe against next, if any: a lost robot's new
+  // candidate checked at once against a node linked to its node (the step stays open).
+  std::optional<int64_t> handleRegistration(const register_result_t& msg, const InFlight& f,
+                                            const core::Mat6& cam_cov, bool* registered);
   int64_t addNode(int64_t keyframe_utime, const core::UncertainPose& active_T_node);
   // The partial factor of IMU roll and pitch on a node (false: a covariance it cannot use).
   bool addAttitudeFactor(int64_t id, const NodeAttitude& attitude);
@@ -320,13 +322,13 @@ class Mapper {
   // (MapperOptions::min_closure_information); infinity without a marginal.
   bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b, double* information = nullptr);
   struct RelocalizationCandidate;
-  // Whether the registration b_T_q of the keyframe agrees, chained by odometry, with an
-  // earlier one (candidate) on where the robot is.
   // While lost with a candidate placement: the node to check it against (step), if any.
   std::optional<int64_t> relocalizationCheck(int64_t keyframe_utime);
   // A node the map links to `node` (a constraint between them) whose view overlaps the
   // placement world_T_body (within overlap_heading_sectors of its heading), the nearest.
   std::optional<int64_t> linkedNeighbour(int64_t node, const core::SE3d& world_T_body) const;
+  // Whether the registration b_T_q of the keyframe agrees, chained by odometry, with an
+  // earlier one (candidate) on where the robot is.
   bool confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime,
                               const std::optional<RelocalizationCandidate>& candidate);
   // A registration the map gate rejects: true when it confirms the previous rejected one
@@ -350,6 +352,10 @@ class Mapper {
   // The node closest to world_T_body within the overlap (MapperOptions::overlap_radius_cells and
   // overlap_heading_sectors), searched in the neighbouring cells and sectors, on the floor.
   std::optional<int64_t> overlappingNode(const core::SE3d& world_T_body, int floor, int64_t newest_allowed) const;
+  // The overlap's heading tolerance (overlap_heading_sectors of a sector), and how far apart
+  // two headings are (radians, in [0, π]).
+  double overlapHeadingRad() const;
+  static double headingApartRad(const core::SE2d& a, const core::SE2d& b);
   // The node of the place world_T_body is in: its cell's, else the one overlapping it.
   std::optional<int64_t> nodeAt(const core::SE3d& world_T_body, int floor, int64_t newest_allowed) const;
   void checkTimeout(int64_t utime);
@@ -398,7 +404,6 @@ class Mapper {
     int verifications = 0;  // node-mode requests sent to check it (step)
   };
   std::optional<RelocalizationCandidate> relocalization_candidate_;
-  std::optional<int64_t> same_frame_target_;  // set by handleRegistration, sent by onRegisterResult
   // The last registration the map gate rejected, waiting for a second one that agrees.
   std::optional<RelocalizationCandidate> rejected_candidate_;
   bool gate_rejected_ = false;  // the step in flight had a registration the gate rejected
