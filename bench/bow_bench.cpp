@@ -24,9 +24,9 @@
 #include <ctime>
 #include <optional>
 
-#include "core/bow/image_training.h"
-#include "core/bow/kmajority.h"
 #include "core/bow/place_database.h"
+#include "tools/vocab-train/image_training.h"
+#include "tools/vocab-train/kmajority.h"
 
 namespace {
 

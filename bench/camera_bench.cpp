@@ -12,8 +12,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/camera/stereo_rectifier.h"
-#include "core/datasets/euroc_calibration.h"
 #include "core/messages/convert.h"
+#include "tools/datasets/euroc_calibration.h"
 
 namespace {
 

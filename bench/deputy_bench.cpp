@@ -7,10 +7,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "core/deputy/child_process.h"
-#include "core/deputy/config.h"
-#include "core/deputy/output_throttle.h"
-#include "core/deputy/proc_stats.h"
+#include "tools/deputy/child_process.h"
+#include "tools/deputy/config.h"
+#include "tools/deputy/output_throttle.h"
+#include "tools/deputy/proc_stats.h"
 
 namespace {
 

@@ -1,12 +1,12 @@
-// core/eval speed on the real files: reading, association, Umeyama, the whole evaluation,
+// tools/eval speed on the real files: reading, association, Umeyama, the whole evaluation,
 // KITTI drift on the longest sequence, and the top-view figure.
 #include <benchmark/benchmark.h>
 
 #include <cstdlib>
 #include <filesystem>
 
-#include "core/eval/evaluation.h"
-#include "core/eval/plot.h"
+#include "tools/eval/evaluation.h"
+#include "tools/eval/plot.h"
 
 namespace {
 

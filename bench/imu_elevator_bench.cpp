@@ -1,11 +1,11 @@
 // Throughput of imu-proc's attitude filter and elevator-proc's tracker, per IMU sample, on a
-// synthetic building run (elevator-proc/ride_simulator.h) at 200 Hz and on the EuRoC IMU.
+// synthetic building run (tools/imu-elevator-run/ride_simulator.h) at 200 Hz and on the EuRoC IMU.
 
 #include <benchmark/benchmark.h>
 
 #include "elevator-proc/elevator_tracker.h"
-#include "elevator-proc/ride_simulator.h"
 #include "imu-proc/attitude_filter.h"
+#include "tools/imu-elevator-run/ride_simulator.h"
 
 namespace {
 

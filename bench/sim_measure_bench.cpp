@@ -4,9 +4,9 @@
 // come from `evermap-sim-measure --config config/sim-paper-scale.conf --stats` (docs/simulators.md).
 #include <benchmark/benchmark.h>
 
-#include "core/sim/message_sink.h"
-#include "core/sim/registration_oracle.h"
-#include "core/sim/run.h"
+#include "tools/sim/message_sink.h"
+#include "tools/sim/registration_oracle.h"
+#include "tools/sim/run.h"
 
 namespace {
 

@@ -8,7 +8,7 @@
 
 #include "core/common/key_value_file.h"
 #include "core/messages/convert.h"
-#include "core/sim/image_session.h"
+#include "tools/sim/image_session.h"
 
 namespace {
 

@@ -28,12 +28,12 @@
 #include <string>
 #include <vector>
 
-#include "core/sim/landmark_graphs.h"
 #include "core/solver/batch_solver.h"
 #include "core/solver/graph_problem.h"
 #include "core/solver/online_runner.h"
 #include "core/solver/process_tuning.h"
 #include "core/solver/square_root_factor.h"
+#include "tools/sim/landmark_graphs.h"
 
 namespace {
 
@@ -182,7 +182,7 @@ void BM_AddRowsChainWithLoop(benchmark::State& state) {
 }
 BENCHMARK(BM_AddRowsChainWithLoop)->Arg(100)->Arg(1000);
 
-// Landmark problems (core/sim/landmark_graphs.h): iSAM's cityTrees10000 and
+// Landmark problems (tools/sim/landmark_graphs.h): iSAM's cityTrees10000 and
 // torus2000Points are not in the shared data, so generated stand-ins of the same kind,
 // read through the iSAM reader once, outside the timed loop.
 GraphFile landmarkProblem(bool spatial, int poses) {

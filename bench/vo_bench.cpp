@@ -25,10 +25,10 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/camera/stereo_rectifier.h"
-#include "core/datasets/euroc.h"
-#include "core/datasets/euroc_calibration.h"
 #include "core/registration/frame_registration.h"
-#include "vo-proc/sequence_run.h"
+#include "tools/datasets/euroc.h"
+#include "tools/datasets/euroc_calibration.h"
+#include "tools/vo-run/sequence_run.h"
 #include "vo-proc/stereo_odometry.h"
 
 namespace {
@@ -191,7 +191,7 @@ BENCHMARK(BM_RegisterKeyframes)->Unit(benchmark::kMillisecond);
 
 // The whole kitti-stereo-clip (51 rectified 1241x376 pairs, ~1 m apart, a turn) per
 // iteration, straight from its folder: inliers, time per frame (thread CPU) and the error at
-// the end against KITTI's ground truth (vo-proc/sequence_run.h).
+// the end against KITTI's ground truth (tools/vo-run/sequence_run.h).
 void BM_VoKittiClip(benchmark::State& state) {
   const char* env = std::getenv("EVERMAP_DATA");
   const fs::path dir =

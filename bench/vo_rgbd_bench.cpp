@@ -21,8 +21,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/camera/rgbd_camera.h"
-#include "core/datasets/tum_rgbd.h"
 #include "core/features/stereo_features.h"
+#include "tools/datasets/tum_rgbd.h"
 #include "vo-proc/vo_pipeline.h"
 
 namespace {

@@ -16,13 +16,10 @@
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
 #include "core/messages/pose_fields.h"
+#include "mapper-proc/step_clock.h"
 
 namespace evermap::mapper {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-int64_t micros(double s) { return static_cast<int64_t>(std::llround(s * 1e6)); }
 
 using messages::putPose;
 

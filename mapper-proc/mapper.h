@@ -26,14 +26,10 @@
 // arriving meanwhile are tracked but take no step. A step whose answer does not come within
 // request_timeout_s of message time is closed as "no registration".
 
-#include <chrono>
 #include <cstdint>
-#include <deque>
 #include <map>
 #include <optional>
-#include <set>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
@@ -44,10 +40,11 @@
 #include <evermap/register_request_t.hpp>
 #include <evermap/register_result_t.hpp>
 
-#include "core/geometry/se2.h"
 #include "core/solver/incremental_solver.h"
-#include "core/solver/marginals.h"
 #include "mapper-proc/constraint_set.h"
+#include "mapper-proc/map_node.h"
+#include "mapper-proc/partition_index.h"
+#include "mapper-proc/solver_schedule.h"
 #include "mapper-proc/tracker.h"
 
 namespace evermap::mapper {
@@ -161,21 +158,6 @@ struct MapperOptions {
   Status validate() const;
 };
 
-// The IMU's roll and pitch at a node's keyframe (imu-proc's ATTITUDE): its partial factor.
-struct NodeAttitude {
-  double roll_rad = 0.0;
-  double pitch_rad = 0.0;
-  Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();  // rad², (roll, pitch)
-};
-
-struct MapperNode {
-  int64_t id = 0;
-  int64_t keyframe_utime = 0;
-  int floor = 0;
-  int session = 0;
-  std::optional<NodeAttitude> attitude;  // when the node has a roll/pitch factor
-};
-
 // Per-component time (wall clock, measurement only: never an input to the algorithm).
 struct MapperTiming {
   double tracking_s = 0.0;
@@ -273,7 +255,7 @@ class Mapper {
   // A new session not yet placed on the map by a global registration: pose() means nothing.
   bool lost() const { return lost_; }
   const ConstraintSet& constraints() const { return constraints_; }
-  const solver::IncrementalSolver& solver() const { return solver_; }
+  const solver::IncrementalSolver& solver() const { return schedule_.solver(); }
   const Tracker& tracker() const { return tracker_; }
   const MapperStats& stats() const { return stats_; }
   int floor() const { return floor_; }
@@ -305,13 +287,29 @@ class Mapper {
     bool same_frame_check = false;  // a lost robot's candidate checked on its own keyframe
   };
 
+  // Algorithm 1's step (mapper.cpp): the request at a keyframe, and the step's end once its
+  // answer is in (a new node at a new place, the solver update).
   void step(int64_t keyframe_utime);
-  void sendRequest(int8_t mode, int64_t target);
   void finishStep(bool registered);
+
+  // The registration protocol (mapper_registration.cpp).
+  void sendRequest(int8_t mode, int64_t target);
+  void checkTimeout(int64_t utime);
   // Returns the node to register the same keyframe against next, if any: a lost robot's new
   // candidate checked at once against a node linked to its node (the step stays open).
   std::optional<int64_t> handleRegistration(const register_result_t& msg, const InFlight& f,
                                             const core::Mat6& cam_cov, bool* registered);
+  // What a registration b_T_q of the keyframe does: places a lost session (two that agree;
+  // returns the same-keyframe check's node, if any), refines Δ (b is the active node), or
+  // closes a loop to b.
+  std::optional<int64_t> relocalize(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
+                                    const core::UncertainPose& q_T_now, bool* registered);
+  void registerToActive(const InFlight& f, const core::UncertainPose& b_T_q, const core::UncertainPose& q_T_now,
+                        bool* registered);
+  void closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q, const core::UncertainPose& q_T_now,
+                 bool* registered);
+
+  // The graph (mapper.cpp): nodes, factors and constraints, sent to the solver once per step.
   int64_t addNode(int64_t keyframe_utime, const core::UncertainPose& active_T_node);
   // The partial factor of IMU roll and pitch on a node (false: a covariance it cannot use).
   bool addAttitudeFactor(int64_t id, const NodeAttitude& attitude);
@@ -341,24 +339,10 @@ class Mapper {
   // override Δ now (MapperOptions::recovery_quiet_s).
   int64_t bridges() const;
   bool recoveryAllowed(int64_t keyframe_utime) const;
+  // The step's changes to the solver (solver_schedule.h), and the partition index after them.
   void flushSolver();
-  void consolidatePairs();
-  void rebuildCells();
-  // Re-files up to cell_refresh_per_step nodes whose cell moved with the estimate.
-  void refreshCells();
-  void fileInCell(int64_t id, const core::PlanarCell& cell);
-  core::PlanarCell cellOf(const core::SE3d& world_T_body, int floor) const;
-  std::optional<int64_t> nodeInCell(const core::PlanarCell& cell, int64_t newest_allowed) const;
-  // The node closest to world_T_body within the overlap (MapperOptions::overlap_radius_cells and
-  // overlap_heading_sectors), searched in the neighbouring cells and sectors, on the floor.
-  std::optional<int64_t> overlappingNode(const core::SE3d& world_T_body, int floor, int64_t newest_allowed) const;
-  // The overlap's heading tolerance (overlap_heading_sectors of a sector), and how far apart
-  // two headings are (radians, in [0, π]).
-  double overlapHeadingRad() const;
-  static double headingApartRad(const core::SE2d& a, const core::SE2d& b);
-  // The node of the place world_T_body is in: its cell's, else the one overlapping it.
+  // The node of the place world_T_body is in (partition_index.h).
   std::optional<int64_t> nodeAt(const core::SE3d& world_T_body, int floor, int64_t newest_allowed) const;
-  void checkTimeout(int64_t utime);
   // A new session (FLOOR with EVENT_NONE, or a gap in VO time): lost until re-localised.
   void startSession(int64_t utime);
   // The map's label for the floor a ride ended on at height_m (FLOOR's reported label):
@@ -369,28 +353,11 @@ class Mapper {
   MapperOptions o_;
   int session_;
   int first_session_;
-  core::PlanarGrid grid_;
+  PartitionIndex partition_;
   Tracker tracker_;
   ConstraintSet constraints_;
-  solver::IncrementalSolver solver_;
-  solver::UpdateRequest pending_update_;
-  // The solver's factors of each node pair: one, or one per agreeing constraint until the
-  // pair is consolidated into its merged constraint (flushSolver at a scheduled batch step).
-  std::map<std::pair<int64_t, int64_t>, std::vector<solver::FactorId>> pair_factor_;
-  std::set<std::pair<int64_t, int64_t>> to_consolidate_;
-  int64_t deferred_merges_ = 0;  // merges waiting for consolidation without a factor of their own
-  int64_t solver_updates_ = 0;
-  // For each factor of pending_update_ that stands for a node pair: the pair ((-1, -1) for
-  // priors) and its slot in new_factors.
-  std::vector<std::pair<int64_t, int64_t>> pending_pairs_;
-  std::vector<size_t> pending_factor_slot_;
-
+  SolverSchedule schedule_;
   std::vector<MapperNode> nodes_;
-  // Nodes of each cell, ascending ids; node_cell_[id] is the cell node id is filed under.
-  std::unordered_map<core::PlanarCell, std::vector<int64_t>, core::PlanarCellHash> cells_;
-  std::vector<core::PlanarCell> node_cell_;
-  size_t refresh_next_ = SIZE_MAX;   // next node to re-file after a swap; SIZE_MAX: none
-  int64_t batch_start_utime_ = -1;   // message time of the step that started a background batch
   int64_t active_ = -1;
   bool relocalize_ = false;  // after a loop closure: the next registration to b replaces Δ
   bool lost_ = false;        // a new session that no global registration has placed yet

@@ -1,4 +1,4 @@
-// core/bow/image_features: natural file order, folder listing and ORB extraction with its
+// tools/vocab-train/image_features: natural file order, folder listing and ORB extraction with its
 // error cases.
 #include <gtest/gtest.h>
 
@@ -6,8 +6,8 @@
 
 #include <fstream>
 
-#include "core/bow/image_features.h"
 #include "test_data.h"
+#include "tools/vocab-train/image_features.h"
 
 namespace evermap::bow {
 namespace {

@@ -1,13 +1,13 @@
-// core/bow/loop_evaluation and epipolar_check: the loop ground truth of RTAB-Map's samples is
+// tools/place-eval/loop_evaluation and epipolar_check: the loop ground truth of RTAB-Map's samples is
 // read in the right orientation, precision and recall follow their definitions, and the whole
 // detector — default vocabulary trained from the shared images at test time — reaches
 // precision 100 % with recall >= 70 % on the 84 samples.
 #include <gtest/gtest.h>
 
-#include "core/bow/image_training.h"
-#include "core/bow/loop_evaluation.h"
 #include "core/bow/vocabulary_io.h"
 #include "test_data.h"
+#include "tools/place-eval/loop_evaluation.h"
+#include "tools/vocab-train/image_training.h"
 
 namespace evermap::bow {
 namespace {

@@ -4,8 +4,8 @@
 
 #include <algorithm>
 
-#include "core/bow/kmajority.h"
 #include "core/bow/place_database.h"
+#include "tools/vocab-train/kmajority.h"
 
 namespace evermap::bow {
 namespace {

@@ -4,7 +4,7 @@
 #include <vector>
 
 #include "core/bow/descriptor.h"
-#include "core/bow/kmajority.h"
+#include "tools/vocab-train/kmajority.h"
 
 namespace evermap::bow::testing {
 

@@ -7,10 +7,10 @@
 #include <sstream>
 
 #include "bow_synthetic.h"
-#include "core/bow/image_features.h"
 #include "core/bow/vocabulary_io.h"
-#include "core/bow/vocabulary_training.h"
 #include "test_data.h"
+#include "tools/vocab-train/image_features.h"
+#include "tools/vocab-train/vocabulary_training.h"
 
 namespace evermap::bow {
 namespace {

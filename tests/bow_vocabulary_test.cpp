@@ -7,9 +7,9 @@
 #include <numeric>
 
 #include "bow_synthetic.h"
-#include "core/bow/kmajority.h"
 #include "core/bow/vocabulary.h"
-#include "core/bow/vocabulary_training.h"
+#include "tools/vocab-train/kmajority.h"
+#include "tools/vocab-train/vocabulary_training.h"
 
 namespace evermap::bow {
 namespace {

@@ -10,9 +10,9 @@
 #include <string>
 
 #include "core/camera/calibration.h"
-#include "core/datasets/euroc_calibration.h"
 #include "scratch_dir.h"
 #include "test_data.h"
+#include "tools/datasets/euroc_calibration.h"
 
 namespace evermap::core {
 namespace {

@@ -15,9 +15,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/camera/stereo_rectifier.h"
-#include "core/datasets/euroc.h"
-#include "core/datasets/euroc_calibration.h"
 #include "test_data.h"
+#include "tools/datasets/euroc.h"
+#include "tools/datasets/euroc_calibration.h"
 
 namespace evermap::core {
 namespace {

@@ -1,12 +1,12 @@
-// core/datasets/euroc: the readers against the real EuRoC excerpt and against broken files.
+// tools/datasets/euroc: the readers against the real EuRoC excerpt and against broken files.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <fstream>
 
-#include "core/datasets/euroc.h"
 #include "scratch_dir.h"
 #include "test_data.h"
+#include "tools/datasets/euroc.h"
 
 namespace evermap::datasets {
 namespace {

@@ -8,9 +8,9 @@
 
 #include <gtest/gtest.h>
 
-#include "core/datasets/hackzurich.h"
-#include "imu-proc/imu_log.h"
 #include "test_data.h"
+#include "tools/datasets/hackzurich.h"
+#include "tools/imu-elevator-run/imu_log.h"
 
 namespace evermap {
 namespace {

@@ -1,4 +1,4 @@
-// core/datasets/kitti: calib.txt in both forms, times and poses, against the real files and
+// tools/datasets/kitti: calib.txt in both forms, times and poses, against the real files and
 // broken ones.
 #include <gtest/gtest.h>
 
@@ -6,9 +6,9 @@
 #include <fstream>
 #include <string>
 
-#include "core/datasets/kitti.h"
 #include "scratch_dir.h"
 #include "test_data.h"
+#include "tools/datasets/kitti.h"
 
 namespace evermap::datasets {
 namespace {

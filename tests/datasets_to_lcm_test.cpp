@@ -1,4 +1,4 @@
-// core/datasets/to_lcm and core/messages/log_writer: convert the real EuRoC excerpt and a
+// tools/datasets/to_lcm and tools/lcmlog/log_writer: convert the real EuRoC excerpt and a
 // KITTI stereo folder built from real frames, read the logs back with lcm::LogFile, and check
 // counts, order, pixels and values against the files on disk; refusals leave nothing behind.
 #include <gtest/gtest.h>
@@ -12,15 +12,15 @@
 #include <lcm/lcm-cpp.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "core/datasets/euroc.h"
-#include "core/datasets/euroc_calibration.h"
-#include "core/datasets/kitti.h"
-#include "core/datasets/to_lcm.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
-#include "core/messages/log_writer.h"
 #include "scratch_dir.h"
 #include "test_data.h"
+#include "tools/datasets/euroc.h"
+#include "tools/datasets/euroc_calibration.h"
+#include "tools/datasets/kitti.h"
+#include "tools/datasets/to_lcm.h"
+#include "tools/lcmlog/log_writer.h"
 
 namespace evermap::datasets {
 namespace {

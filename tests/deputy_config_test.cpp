@@ -4,8 +4,8 @@
 
 #include <fstream>
 
-#include "core/deputy/config.h"
 #include "scratch_dir.h"
+#include "tools/deputy/config.h"
 
 namespace evermap::deputy {
 namespace {

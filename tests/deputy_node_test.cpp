@@ -9,11 +9,11 @@
 #include <evermap/deputy_output_t.hpp>
 #include <evermap/deputy_proc_t.hpp>
 
-#include "core/deputy/deputy_client.h"
-#include "core/deputy/deputy_node.h"
 #include "core/messages/channels.h"
 #include "deputy_test_util.h"
 #include "scratch_dir.h"
+#include "tools/deputy/deputy_client.h"
+#include "tools/deputy/deputy_node.h"
 
 namespace evermap::deputy {
 namespace {

@@ -6,10 +6,10 @@
 
 #include <fstream>
 
-#include "core/deputy/backoff.h"
-#include "core/deputy/child_process.h"
-#include "core/deputy/output_throttle.h"
-#include "core/deputy/proc_stats.h"
+#include "tools/deputy/backoff.h"
+#include "tools/deputy/child_process.h"
+#include "tools/deputy/output_throttle.h"
+#include "tools/deputy/proc_stats.h"
 
 namespace evermap::deputy {
 namespace {

@@ -7,9 +7,9 @@
 
 #include <fstream>
 
-#include "core/deputy/supervisor.h"
 #include "deputy_test_util.h"
 #include "scratch_dir.h"
+#include "tools/deputy/supervisor.h"
 
 namespace evermap::deputy {
 namespace {

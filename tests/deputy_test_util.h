@@ -14,7 +14,7 @@
 #include <string>
 #include <thread>
 
-#include "core/deputy/supervisor.h"
+#include "tools/deputy/supervisor.h"
 
 namespace evermap::deputy::testing {
 

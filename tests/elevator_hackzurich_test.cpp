@@ -27,10 +27,10 @@
 
 #include <gtest/gtest.h>
 
-#include "core/datasets/hackzurich.h"
-#include "elevator-proc/offline_run.h"
-#include "elevator-proc/ride_report.h"
 #include "test_data.h"
+#include "tools/datasets/hackzurich.h"
+#include "tools/imu-elevator-run/offline_run.h"
+#include "tools/imu-elevator-run/ride_report.h"
 
 namespace evermap::elevator {
 namespace {

@@ -1,4 +1,4 @@
-// imu-proc and elevator-proc on the measurement-level simulator's raw IMU (core/sim): the
+// imu-proc and elevator-proc on the measurement-level simulator's raw IMU (tools/sim): the
 // robot patrols a 10-floor building and rides the elevator to every floor; every ride must
 // end on the right floor (issue 8), with the floor table built up as the rides happen.
 //
@@ -11,7 +11,7 @@
 
 #include <gtest/gtest.h>
 
-#include "elevator-proc/sim_floor_check.h"
+#include "tools/imu-elevator-run/sim_floor_check.h"
 
 namespace evermap::elevator {
 namespace {

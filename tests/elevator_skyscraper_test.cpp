@@ -15,9 +15,9 @@
 
 #include <gtest/gtest.h>
 
-#include "core/datasets/science_journal.h"
-#include "elevator-proc/offline_run.h"
 #include "test_data.h"
+#include "tools/datasets/science_journal.h"
+#include "tools/imu-elevator-run/offline_run.h"
 
 namespace evermap::elevator {
 namespace {

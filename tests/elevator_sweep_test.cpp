@@ -1,5 +1,5 @@
 // The elevators that exist (issue 18), swept on the synthetic generator
-// (elevator-proc/ride_simulator.h): office lifts (0.5-1.6 m/s) to high-rise lifts (2.5-10 m/s),
+// (tools/imu-elevator-run/ride_simulator.h): office lifts (0.5-1.6 m/s) to high-rise lifts (2.5-10 m/s),
 // rides of 1 to 80 floors, jerk-limited profiles of 0.3-1.5 m/s^2 with jerks of 0.5-1.5 m/s^3
 // (acceleration phases of 1-10 s), IMU rates of 10 Hz to 1 kHz, with and without a gyroscope,
 // accelerometer noise of 1-3 times a phone sensor's density and biases up to 0.2 m/s^2. Every ride must be found once with its
@@ -25,8 +25,8 @@
 
 #include <gtest/gtest.h>
 
-#include "elevator-proc/offline_run.h"
-#include "elevator-proc/ride_simulator.h"
+#include "tools/imu-elevator-run/offline_run.h"
+#include "tools/imu-elevator-run/ride_simulator.h"
 
 namespace evermap::elevator {
 namespace {

@@ -1,4 +1,4 @@
-// The elevator tracker on synthetic building runs (elevator-proc/ride_simulator.h): every
+// The elevator tracker on synthetic building runs (tools/imu-elevator-run/ride_simulator.h): every
 // ride ends on the right floor, nothing is reported while walking, sitting down, on the
 // stairs or an escalator, at 10 Hz to 1 kHz, and with broken samples mixed in.
 
@@ -10,8 +10,8 @@
 
 #include <gtest/gtest.h>
 
-#include "elevator-proc/offline_run.h"
-#include "elevator-proc/ride_simulator.h"
+#include "tools/imu-elevator-run/offline_run.h"
+#include "tools/imu-elevator-run/ride_simulator.h"
 
 namespace evermap::elevator {
 namespace {

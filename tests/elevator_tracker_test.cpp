@@ -10,9 +10,9 @@
 #include <gtest/gtest.h>
 
 #include "elevator-proc/floor_table.h"
-#include "elevator-proc/offline_run.h"
 #include "elevator-proc/pulse_filter.h"
-#include "elevator-proc/ride_simulator.h"
+#include "tools/imu-elevator-run/offline_run.h"
+#include "tools/imu-elevator-run/ride_simulator.h"
 
 namespace evermap::elevator {
 namespace {

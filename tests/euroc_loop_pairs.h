@@ -15,10 +15,10 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/camera/stereo_rectifier.h"
-#include "core/datasets/euroc.h"
-#include "core/datasets/euroc_calibration.h"
 #include "core/features/orb_descriptor.h"
 #include "core/registration/keyframe_features.h"
+#include "tools/datasets/euroc.h"
+#include "tools/datasets/euroc_calibration.h"
 #include "vo-proc/stereo_odometry.h"
 
 namespace evermap::testing {

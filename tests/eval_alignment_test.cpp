@@ -1,13 +1,13 @@
-// core/eval/alignment: Umeyama SE(3)/Sim(3) recovers known transforms exactly, agrees with
+// tools/eval/alignment: Umeyama SE(3)/Sim(3) recovers known transforms exactly, agrees with
 // Eigen::umeyama on noisy data, never returns a reflection, and reports degenerate input.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
 #include <random>
 
-#include "core/eval/alignment.h"
-#include "core/eval/metrics.h"
 #include "eval_synthetic.h"
+#include "tools/eval/alignment.h"
+#include "tools/eval/metrics.h"
 
 namespace evermap::eval {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/eval/map_figure.h"
+#include "tools/eval/map_figure.h"
 
 #include <gtest/gtest.h>
 

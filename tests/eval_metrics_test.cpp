@@ -1,11 +1,11 @@
-// core/eval/metrics and kitti_drift: ATE, RPE and KITTI drift against hand-computed answers.
+// tools/eval/metrics and kitti_drift: ATE, RPE and KITTI drift against hand-computed answers.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
 
-#include "core/eval/kitti_drift.h"
-#include "core/eval/metrics.h"
+#include "tools/eval/kitti_drift.h"
+#include "tools/eval/metrics.h"
 
 namespace evermap::eval {
 namespace {

@@ -1,4 +1,4 @@
-// core/eval/plot and canvas: the top view keeps equal scale, picks the horizontal plane,
+// tools/eval/plot and canvas: the top view keeps equal scale, picks the horizontal plane,
 // writes PNG and SVG through a temporary file, and rejects what it cannot draw.
 #include <gtest/gtest.h>
 
@@ -6,8 +6,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
-#include "core/eval/plot.h"
 #include "scratch_dir.h"
+#include "tools/eval/plot.h"
 
 namespace evermap::eval {
 namespace {

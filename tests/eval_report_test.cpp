@@ -1,4 +1,4 @@
-// core/eval/evaluation and report: the whole pipeline on synthetic and real trajectories, and
+// tools/eval/evaluation and report: the whole pipeline on synthetic and real trajectories, and
 // the JSON it writes parsed back by a strict reader.
 #include <gtest/gtest.h>
 
@@ -7,10 +7,10 @@
 #include <map>
 #include <sstream>
 
-#include "core/eval/report.h"
-#include "scratch_dir.h"
 #include "eval_synthetic.h"
+#include "scratch_dir.h"
 #include "test_data.h"
+#include "tools/eval/report.h"
 
 namespace evermap::eval {
 namespace {

@@ -1,11 +1,11 @@
 #pragma once
-// Synthetic trajectories for the core/eval tests: a 3-D curve with turning orientations, so
+// Synthetic trajectories for the tools/eval tests: a 3-D curve with turning orientations, so
 // that every alignment and metric has something non-degenerate to find.
 
 #include <cmath>
 #include <string>
 
-#include "core/eval/trajectory.h"
+#include "tools/eval/trajectory.h"
 
 namespace evermap::eval::testing {
 

@@ -1,14 +1,14 @@
-// core/eval/trajectory and association: the readers on small hand-written files and on the
+// tools/eval/trajectory and association: the readers on small hand-written files and on the
 // real KITTI and EuRoC files, the TUM writer, format guessing and time-stamp association.
 #include <gtest/gtest.h>
 
 #include <fstream>
 
-#include "core/eval/association.h"
-#include "core/eval/trajectory.h"
-#include "scratch_dir.h"
 #include "eval_synthetic.h"
+#include "scratch_dir.h"
 #include "test_data.h"
+#include "tools/eval/association.h"
+#include "tools/eval/trajectory.h"
 
 namespace evermap::eval {
 namespace {

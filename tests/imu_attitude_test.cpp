@@ -11,10 +11,10 @@
 
 #include <gtest/gtest.h>
 
-#include "core/datasets/euroc.h"
-#include "imu-proc/attitude_evaluation.h"
 #include "imu-proc/attitude_filter.h"
 #include "test_data.h"
+#include "tools/datasets/euroc.h"
+#include "tools/imu-elevator-run/attitude_evaluation.h"
 
 namespace evermap::imu {
 namespace {

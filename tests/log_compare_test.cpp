@@ -7,8 +7,8 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "core/messages/channels.h"
-#include "core/messages/log_compare.h"
-#include "core/messages/type_registry.h"
+#include "tools/lcmlog/log_compare.h"
+#include "tools/lcmlog/type_registry.h"
 
 namespace evermap::messages {
 namespace {

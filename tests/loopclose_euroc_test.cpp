@@ -14,7 +14,6 @@
 
 #include <lcm/lcm-cpp.hpp>
 
-#include "core/bow/vocabulary_training.h"
 #include "core/messages/channels.h"
 #include "core/messages/keyframe_convert.h"
 #include "euroc_loop_pairs.h"
@@ -23,6 +22,7 @@
 #include "loopclose-proc/server.h"
 #include "test_data.h"
 #include "tests/register_results.h"
+#include "tools/vocab-train/vocabulary_training.h"
 
 namespace evermap::loopclose {
 namespace {

@@ -15,11 +15,11 @@
 #include <evermap/vo_delta_t.hpp>
 
 #include "bow_synthetic.h"
-#include "core/bow/vocabulary_training.h"
 #include "core/messages/channels.h"
 #include "loopclose-proc/loop_closer.h"
 #include "loopclose-proc/server.h"
 #include "tests/register_results.h"
+#include "tools/vocab-train/vocabulary_training.h"
 
 namespace evermap::loopclose {
 namespace {

@@ -1,4 +1,4 @@
-// The end-of-run map evaluation (mapper-proc/map_evaluation.h) on a written simulated run:
+// The end-of-run map evaluation (tools/pipeline-eval/map_evaluation.h) on a written simulated run:
 // a map made of the true poses, moved rigidly, scores zero; a displaced node shows up in the
 // ATE; floors and sessions are counted against the sidecar; bad inputs name the file.
 #include <gtest/gtest.h>
@@ -6,11 +6,11 @@
 #include <cmath>
 #include <fstream>
 
-#include "core/sim/run.h"
-#include "core/sim/run_output.h"
-#include "mapper-proc/map_evaluation.h"
 #include "tests/scratch_dir.h"
 #include "tests/sim_test_support.h"
+#include "tools/pipeline-eval/map_evaluation.h"
+#include "tools/sim/run.h"
+#include "tools/sim/run_output.h"
 
 namespace evermap::mapper {
 namespace {

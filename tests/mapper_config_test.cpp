@@ -3,8 +3,8 @@
 #include <gtest/gtest.h>
 
 #include "core/common/key_value_file.h"
-#include "core/sim/sim_options.h"
 #include "mapper-proc/mapper_config.h"
+#include "tools/sim/sim_options.h"
 
 namespace evermap::mapper {
 namespace {

@@ -22,16 +22,16 @@
 #include <evermap/rgbd_calib_t.hpp>
 
 #include "core/camera/calibration.h"
-#include "core/eval/alignment.h"
-#include "core/messages/convert.h"
-#include "core/eval/metrics.h"
 #include "core/messages/channels.h"
-#include "core/sim/oracle_server.h"
-#include "core/sim/run.h"
+#include "core/messages/convert.h"
 #include "mapper-proc/lcm_node.h"
 #include "mapper-proc/map_store.h"
 #include "tests/scratch_dir.h"
 #include "tests/sim_test_support.h"
+#include "tools/eval/alignment.h"
+#include "tools/eval/metrics.h"
+#include "tools/sim/oracle_server.h"
+#include "tools/sim/run.h"
 
 namespace evermap::mapper {
 namespace {

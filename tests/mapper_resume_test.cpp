@@ -9,11 +9,11 @@
 #include <optional>
 #include <filesystem>
 
-#include "tests/scratch_dir.h"
 #include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
-#include "mapper-proc/offline_run.h"
+#include "tests/scratch_dir.h"
 #include "tests/sim_test_support.h"
+#include "tools/mapper-run/offline_run.h"
 
 namespace evermap::mapper {
 namespace {

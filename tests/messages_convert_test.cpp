@@ -13,6 +13,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/messages/convert.h"
+#include "tools/datasets/euroc.h"
 #include "scratch_dir.h"
 
 namespace evermap::messages {

@@ -1,6 +1,6 @@
 // LogReader: every event of an intact log, and one line for a log cut or damaged anywhere.
 
-#include "core/messages/log_reader.h"
+#include "tools/lcmlog/log_reader.h"
 
 #include <gtest/gtest.h>
 
@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "core/messages/log_writer.h"
 #include "scratch_dir.h"
+#include "tools/lcmlog/log_writer.h"
 
 namespace evermap::messages {
 namespace {

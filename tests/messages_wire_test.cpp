@@ -13,8 +13,8 @@
 
 #include "core/messages/convert.h"
 #include "core/messages/keyframe_convert.h"
-#include "core/messages/mutate.h"
 #include "core/messages/wire_check.h"
+#include "tools/lcmlog/mutate.h"
 
 namespace evermap::messages {
 namespace {
@@ -84,7 +84,7 @@ evermap::map_graph_t richGraph() {
   return g;
 }
 
-// Mutates `original` `trials` times (core/messages/mutate.h) and decodes each: never a throw,
+// Mutates `original` `trials` times (tools/lcmlog/mutate.h) and decodes each: never a throw,
 // and whatever the layout accepts, the decoder decodes to the same size.
 template <typename Msg>
 void fuzz(const std::vector<uint8_t>& original, int trials, std::mt19937_64& rng, int* accepted) {

@@ -7,10 +7,10 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/sim/random.h"
-#include "core/sim/render_world.h"
-#include "core/sim/textures.h"
-#include "core/sim/render_kernels.h"
+#include "tools/sim/random.h"
+#include "tools/sim/render_kernels.h"
+#include "tools/sim/render_world.h"
+#include "tools/sim/textures.h"
 
 namespace evermap::sim::kernels {
 namespace {

@@ -11,12 +11,12 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/camera/rgbd_camera.h"
-#include "core/datasets/to_lcm.h"
-#include "core/datasets/tum_rgbd.h"
 #include "core/features/rgbd_depth.h"
 #include "core/messages/channels.h"
 #include "core/messages/rgbd_convert.h"
 #include "scratch_dir.h"
+#include "tools/datasets/to_lcm.h"
+#include "tools/datasets/tum_rgbd.h"
 #include "vo-proc/vo_pipeline.h"
 
 namespace evermap {

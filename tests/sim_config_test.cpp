@@ -6,8 +6,8 @@
 #include <fstream>
 
 #include "core/common/key_value_file.h"
-#include "core/sim/run.h"
 #include "test_data.h"
+#include "tools/sim/run.h"
 
 namespace evermap::sim {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "core/sim/depth_sensor.h"
+#include "tools/sim/depth_sensor.h"
 
 namespace evermap::sim {
 namespace {

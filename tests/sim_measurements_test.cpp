@@ -14,9 +14,9 @@
 #include <evermap/wheel_odom_t.hpp>
 
 #include "core/messages/channels.h"
-#include "core/sim/sim_message_conversions.h"
 #include "sim_test_support.h"
 #include "test_data.h"
+#include "tools/sim/sim_message_conversions.h"
 
 namespace evermap::sim {
 namespace {

@@ -7,10 +7,10 @@
 #include <set>
 #include <tuple>
 
-#include "core/sim/building.h"
-#include "core/sim/motion.h"
-#include "core/sim/run.h"
 #include "sim_test_support.h"
+#include "tools/sim/building.h"
+#include "tools/sim/motion.h"
+#include "tools/sim/run.h"
 
 namespace evermap::sim {
 namespace {

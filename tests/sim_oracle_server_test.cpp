@@ -7,7 +7,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "core/messages/channels.h"
-#include "core/sim/oracle_server.h"
+#include "tools/sim/oracle_server.h"
 
 namespace evermap::sim {
 namespace {

@@ -4,10 +4,10 @@
 
 #include <cmath>
 
-#include "core/sim/registration_oracle.h"
-#include "core/sim/request_load.h"
-#include "core/sim/sim_message_conversions.h"
 #include "sim_test_support.h"
+#include "tools/sim/registration_oracle.h"
+#include "tools/sim/request_load.h"
+#include "tools/sim/sim_message_conversions.h"
 
 namespace evermap::sim {
 namespace {

@@ -19,10 +19,10 @@
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
 #include "core/messages/rgbd_convert.h"
-#include "core/sim/image_session.h"
-#include "core/sim/render_world.h"
-#include "core/sim/stereo_renderer.h"
 #include "tests/test_data.h"
+#include "tools/sim/image_session.h"
+#include "tools/sim/render_world.h"
+#include "tools/sim/stereo_renderer.h"
 
 namespace evermap::sim {
 namespace {

@@ -14,8 +14,8 @@
 
 #include "core/common/key_value_file.h"
 #include "core/messages/channels.h"
-#include "core/sim/run_output.h"
 #include "sim_test_support.h"
+#include "tools/sim/run_output.h"
 
 namespace evermap::sim {
 namespace {

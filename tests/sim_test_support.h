@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "core/sim/message_sink.h"
-#include "core/sim/run.h"
+#include "tools/sim/message_sink.h"
+#include "tools/sim/run.h"
 
 namespace evermap::sim::testing {
 

@@ -11,13 +11,13 @@
 #include <fstream>
 #include <random>
 
-#include "core/sim/landmark_graphs.h"
 #include "core/solver/batch_solver.h"
 #include "core/solver/graph_io.h"
 #include "core/solver/graph_problem.h"
 #include "core/solver/landmark_factors.h"
 #include "core/solver/online_runner.h"
 #include "core/solver/outliers.h"
+#include "tools/sim/landmark_graphs.h"
 
 namespace evermap::solver {
 namespace {

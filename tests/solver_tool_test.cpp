@@ -14,7 +14,7 @@
 #include <sstream>
 #include <string>
 
-#include "core/sim/landmark_graphs.h"
+#include "tools/sim/landmark_graphs.h"
 
 namespace {
 

@@ -13,15 +13,15 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/camera/stereo_rectifier.h"
-#include "core/datasets/euroc.h"
-#include "core/datasets/euroc_calibration.h"
 #include "core/features/orb_descriptor.h"
 #include "core/messages/convert.h"
 #include "core/registration/frame_registration.h"
 #include "euroc_loop_pairs.h"
 #include "test_data.h"
+#include "tools/datasets/euroc.h"
+#include "tools/datasets/euroc_calibration.h"
+#include "tools/vo-run/vo_trajectory.h"
 #include "vo-proc/vo_pipeline.h"
-#include "vo-proc/vo_trajectory.h"
 
 namespace evermap::vo {
 namespace {

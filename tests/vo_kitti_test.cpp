@@ -1,6 +1,6 @@
 // vo-proc StereoOdometry on real KITTI stereo with large inter-frame motion (issue 16): the
 // kitti-stereo-clip data set, 51 rectified pairs about 1 m apart (a car at 10 m/s, 10 Hz)
-// through a turn, read straight from its folder (vo-proc/sequence_run.h).
+// through a turn, read straight from its folder (tools/vo-run/sequence_run.h).
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -9,12 +9,12 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "core/datasets/kitti.h"
 #include "core/features/orb_descriptor.h"
 #include "core/features/stereo_features.h"
-#include "core/registration/disparity_offset.h"
 #include "test_data.h"
-#include "vo-proc/sequence_run.h"
+#include "tools/datasets/kitti.h"
+#include "tools/stereo-check/disparity_offset.h"
+#include "tools/vo-run/sequence_run.h"
 
 namespace evermap::vo {
 namespace {
@@ -56,7 +56,7 @@ TEST(VoKitti, TracksEveryFrameOfTheStereoClipWithFovisInliersAndRotationWithinTw
 }
 
 // The clip's disparity offset from its own images (consecutive frames registered by ORB, no
-// ground truth; core/registration/disparity_offset.h), then odometry with it: issue 16's bar.
+// ground truth; tools/stereo-check/disparity_offset.h), then odometry with it: issue 16's bar.
 TEST(VoKitti, WithTheDisparityOffsetOfItsOwnImagesTheClipDriftsLessThanTwoPercent) {
   EVERMAP_REQUIRE_DATA(dir, "kitti-stereo-clip");
   const auto seq = datasets::readKittiSequence(dir, clipOptions().sequence);

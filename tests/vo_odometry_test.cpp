@@ -10,9 +10,9 @@
 #include <Eigen/Eigenvalues>
 
 #include "test_data.h"
+#include "tools/vo-run/vo_trajectory.h"
 #include "vo-proc/stereo_odometry.h"
 #include "vo-proc/vo_pipeline.h"
-#include "vo-proc/vo_trajectory.h"
 #include "vo_synthetic.h"
 
 namespace evermap::vo {

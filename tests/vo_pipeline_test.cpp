@@ -10,9 +10,9 @@
 #include "core/messages/convert.h"
 #include "core/messages/keyframe_convert.h"
 #include "test_data.h"
+#include "tools/vo-run/vo_trajectory.h"
 #include "vo-proc/frame_queue.h"
 #include "vo-proc/vo_pipeline.h"
-#include "vo-proc/vo_trajectory.h"
 #include "vo_synthetic.h"
 
 namespace evermap::vo {

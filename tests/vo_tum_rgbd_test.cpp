@@ -17,15 +17,15 @@
 
 #include <lcm/lcm-cpp.hpp>
 
-#include "core/datasets/to_lcm.h"
-#include "core/eval/evaluation.h"
-#include "core/eval/trajectory.h"
 #include "core/messages/channels.h"
 #include "core/messages/keyframe_convert.h"
 #include "core/registration/frame_registration.h"
 #include "scratch_dir.h"
 #include "test_data.h"
-#include "vo-proc/offline_runner.h"
+#include "tools/datasets/to_lcm.h"
+#include "tools/eval/evaluation.h"
+#include "tools/eval/trajectory.h"
+#include "tools/vo-run/offline_runner.h"
 
 namespace evermap::vo {
 namespace {

@@ -34,7 +34,7 @@ class StereoDepth {
     double max_refinement_px = 1.0;    // level pixels
     // Added to every level-0 disparity: the rig's disparity offset, cx_right - cx_left of the
     // images where the calibration says the two are equal (Middlebury's "doffs" with the
-    // opposite sign; core/registration/disparity_offset.h estimates it from the images).
+    // opposite sign; tools/stereo-check/disparity_offset.h estimates it from the images).
     // 0 for a consistent calibration.
     double disparity_offset_px = 0.0;
 

@@ -291,7 +291,7 @@ Expected<core::StereoCalibration> fromMsg(const evermap::stereo_calib_t& msg) {
   return c;
 }
 
-evermap::imu_t toMsg(const datasets::ImuSample& s) {
+evermap::imu_t toMsg(const ImuSample& s) {
   evermap::imu_t msg;
   msg.utime = utimeFromNs(s.t_ns);
   for (int i = 0; i < 3; ++i) {
@@ -301,11 +301,11 @@ evermap::imu_t toMsg(const datasets::ImuSample& s) {
   return msg;
 }
 
-Expected<datasets::ImuSample> fromMsg(const evermap::imu_t& msg) {
+Expected<ImuSample> fromMsg(const evermap::imu_t& msg) {
   if (!finite(msg.angular_velocity, 3) || !finite(msg.linear_acceleration, 3)) {
     return makeError("imu_t at utime ", msg.utime, ": non-finite value");
   }
-  datasets::ImuSample s;
+  ImuSample s;
   s.t_ns = nsFromUtime(msg.utime);
   s.gyro_rad_s = Eigen::Vector3d(msg.angular_velocity[0], msg.angular_velocity[1],
                                  msg.angular_velocity[2]);

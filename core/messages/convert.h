@@ -27,8 +27,8 @@
 
 #include "core/camera/calibration.h"
 #include "core/common/expected.h"
-#include "core/datasets/euroc.h"
 #include "core/geometry/se3.h"
+#include "core/messages/imu_sample.h"
 #include "core/messages/wire_check.h"
 
 namespace evermap::messages {
@@ -77,9 +77,9 @@ evermap::stereo_calib_t toMsg(const core::StereoCalibration& calibration, int64_
 Expected<core::StereoCalibration> fromMsg(const evermap::stereo_calib_t& msg);
 
 // ---- IMU ----
-evermap::imu_t toMsg(const datasets::ImuSample& sample);
+evermap::imu_t toMsg(const ImuSample& sample);
 // t_ns = utime * 1000.
-Expected<datasets::ImuSample> fromMsg(const evermap::imu_t& msg);
+Expected<ImuSample> fromMsg(const evermap::imu_t& msg);
 
 // ---- Poses ----
 evermap::pose_t toMsg(int64_t utime, const core::UncertainPose& pose, int32_t floor = -1,

@@ -7,7 +7,7 @@
 
 #include <Eigen/Dense>
 
-#include "core/eval/alignment.h"
+#include "core/geometry/umeyama.h"
 
 namespace evermap::core {
 
@@ -238,8 +238,8 @@ MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& 
       src.push_back(matches[static_cast<size_t>(i)].p_b);
       dst.push_back(matches[static_cast<size_t>(i)].p_a);
     }
-    if (const auto a = eval::umeyama(src, dst, /*with_scale=*/false); a.ok()) {
-      T = a->gt_S_est.rigid;
+    if (const auto a = core::umeyama(src, dst, /*with_scale=*/false); a.ok()) {
+      T = a->dst_S_src.rigid;
     }
   }
   const Problem problem{camera_a, camera_b, matches, options.disparity_sigma_px,

@@ -2,7 +2,7 @@
 // 6-DOF motion between two stereo frames from matched features with 3-D points, as FOVIS
 // estimates it (Huang et al. 2011, section 3.6):
 //  1. a closed-form start from the 3-D points alone (absolute orientation: Umeyama 1991 /
-//     Horn 1987, core/eval/alignment.h), unless the caller's guess is kept;
+//     Horn 1987, core/geometry/umeyama.h), unless the caller's guess is kept;
 //  2. Gauss-Newton (Levenberg-Marquardt damped) on the *bidirectional* reprojection error:
 //     every match contributes the reprojection of its frame-b point into image a and of its
 //     frame-a point into image b,

@@ -20,9 +20,9 @@
 
 #include <evermap/deputy_output_t.hpp>
 
-#include "core/deputy/deputy_client.h"
 #include "core/messages/channels.h"
 #include "core/messages/inbox.h"
+#include "tools/deputy/deputy_client.h"
 
 namespace {
 

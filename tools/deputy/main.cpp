@@ -19,10 +19,10 @@
 #include <string>
 
 #include "core/common/command_line.h"
-#include "core/deputy/config.h"
-#include "core/deputy/deputy_node.h"
-#include "core/deputy/script_runner.h"
-#include "core/deputy/supervisor.h"
+#include "tools/deputy/config.h"
+#include "tools/deputy/deputy_node.h"
+#include "tools/deputy/script_runner.h"
+#include "tools/deputy/supervisor.h"
 
 namespace {
 

@@ -13,10 +13,10 @@
 
 #include "core/common/command_line.h"
 #include "core/common/number_text.h"
-#include "core/eval/association.h"
-#include "core/eval/evaluation.h"
-#include "core/eval/plot.h"
-#include "core/eval/report.h"
+#include "tools/eval/association.h"
+#include "tools/eval/evaluation.h"
+#include "tools/eval/plot.h"
+#include "tools/eval/report.h"
 
 namespace {
 

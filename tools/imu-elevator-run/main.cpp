@@ -27,24 +27,24 @@
 #include <evermap/floor_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
-#include "core/messages/convert.h"
 #include "core/common/atomic_write.h"
 #include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
 #include "core/common/option_fields.h"
-#include "core/datasets/euroc.h"
-#include "core/datasets/hackzurich.h"
-#include "core/datasets/science_journal.h"
 #include "core/messages/channels.h"
-#include "core/messages/log_reader.h"
+#include "core/messages/convert.h"
 #include "elevator-proc/elevator_tracker.h"
-#include "elevator-proc/offline_run.h"
-#include "elevator-proc/ride_simulator.h"
-#include "elevator-proc/sim_floor_check.h"
-#include "imu-proc/attitude_evaluation.h"
 #include "imu-proc/attitude_filter.h"
-#include "imu-proc/imu_log.h"
-#include "elevator-proc/ride_report.h"
+#include "tools/datasets/euroc.h"
+#include "tools/datasets/hackzurich.h"
+#include "tools/datasets/science_journal.h"
+#include "tools/imu-elevator-run/attitude_evaluation.h"
+#include "tools/imu-elevator-run/imu_log.h"
+#include "tools/imu-elevator-run/offline_run.h"
+#include "tools/imu-elevator-run/ride_report.h"
+#include "tools/imu-elevator-run/ride_simulator.h"
+#include "tools/imu-elevator-run/sim_floor_check.h"
+#include "tools/lcmlog/log_reader.h"
 
 namespace {
 

@@ -12,8 +12,8 @@
 #include <string>
 
 #include "core/common/command_line.h"
-#include "core/messages/log_compare.h"
-#include "core/messages/type_registry.h"
+#include "tools/lcmlog/log_compare.h"
+#include "tools/lcmlog/type_registry.h"
 
 int main(int argc, char** argv) {
   std::string log;

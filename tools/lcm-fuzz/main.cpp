@@ -2,7 +2,7 @@
 // multicast group would (issue 17), to test that no packet kills a process. Run it inside
 // scripts/lcm-sandbox only (it publishes on LCM_DEFAULT_URL).
 //
-// Per channel, `--count` messages: mutations (core/messages/mutate.h) of a message of the
+// Per channel, `--count` messages: mutations (tools/lcmlog/mutate.h) of a message of the
 // channel's type (the first one on that channel in `--log`, else a default-constructed one).
 // `--fragment-attack` instead sends the two UDP packets that overflow LCM 1.3.1's fragment
 // check (fragment_offset = 0xffffff00) to the group of LCM_DEFAULT_URL.
@@ -30,8 +30,8 @@
 #include "core/common/command_line.h"
 #include "core/messages/channels.h"
 #include "core/messages/lcm_receive_guard.h"
-#include "core/messages/log_reader.h"
-#include "core/messages/mutate.h"
+#include "tools/lcmlog/log_reader.h"
+#include "tools/lcmlog/mutate.h"
 
 namespace {
 

@@ -9,11 +9,11 @@
 #include <string>
 
 #include "core/common/command_line.h"
-#include "core/eval/alignment.h"
-#include "core/eval/association.h"
-#include "core/eval/map_figure.h"
-#include "core/eval/trajectory.h"
 #include "mapper-proc/map_store.h"
+#include "tools/eval/alignment.h"
+#include "tools/eval/association.h"
+#include "tools/eval/map_figure.h"
+#include "tools/eval/trajectory.h"
 
 namespace {
 

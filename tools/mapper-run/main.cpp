@@ -14,10 +14,10 @@
 
 #include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
-#include "core/eval/plot.h"
 #include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper_config.h"
-#include "mapper-proc/offline_run.h"
+#include "tools/eval/plot.h"
+#include "tools/mapper-run/offline_run.h"
 
 namespace {
 

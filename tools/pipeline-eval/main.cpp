@@ -1,5 +1,5 @@
 // evermap-pipeline-eval: the end-of-run evaluation of a map against the ground truth of a
-// simulated run (mapper-proc/map_evaluation.h): node ATE, edges, floors, sessions, and from a
+// simulated run (tools/pipeline-eval/map_evaluation.h): node ATE, edges, floors, sessions, and from a
 // recorded log also the live POSE ATE and the last MAPPER_STATS.
 // Exit status: 0 done (and within --max-ate), 1 bad input or ATE over --max-ate, 2 bad usage.
 
@@ -10,8 +10,8 @@
 
 #include "core/common/atomic_write.h"
 #include "core/common/command_line.h"
-#include "core/eval/trajectory.h"
-#include "mapper-proc/map_evaluation.h"
+#include "tools/eval/trajectory.h"
+#include "tools/pipeline-eval/map_evaluation.h"
 
 int main(int argc, char** argv) {
   using namespace evermap;

@@ -1,4 +1,4 @@
-// evermap-place-eval: runs the bag-of-words loop detector (core/bow/loop_evaluation.h) over a
+// evermap-place-eval: runs the bag-of-words loop detector (tools/place-eval/loop_evaluation.h) over a
 // monocular image sequence with a loop ground-truth matrix and prints the precision-recall
 // curve of the raw scores and of the scores after the epipolar check, and the figures at the
 // chosen thresholds. Exit status: 0 done, 1 bad input (the message names it), 2 bad command
@@ -10,11 +10,11 @@
 #include <string>
 #include <vector>
 
-#include "core/bow/image_training.h"
-#include "core/bow/loop_evaluation.h"
 #include "core/bow/vocabulary_io.h"
 #include "core/common/atomic_write.h"
 #include "core/common/command_line.h"
+#include "tools/place-eval/loop_evaluation.h"
+#include "tools/vocab-train/image_training.h"
 
 namespace {
 

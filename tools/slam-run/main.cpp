@@ -16,12 +16,12 @@
 #include "core/common/atomic_write.h"
 #include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
-#include "core/eval/alignment.h"
-#include "core/eval/plot.h"
-#include "core/eval/trajectory.h"
-#include "core/messages/log_reader.h"
-#include "core/sim/image_sim_options.h"
 #include "mapper-proc/mapper_config.h"
+#include "tools/eval/alignment.h"
+#include "tools/eval/plot.h"
+#include "tools/eval/trajectory.h"
+#include "tools/lcmlog/log_reader.h"
+#include "tools/sim/image_sim_options.h"
 #include "tools/slam-run/slam_runner.h"
 
 namespace {
@@ -32,8 +32,8 @@ void report(const evermap::Status& s) {
 
 // The paper's Fig. 4 (the map's nodes against the ground truth: top view, and floors stacked)
 // and Fig. 7 (nodes, and time per component, against operating time), from this run.
-void writeFigures(const std::filesystem::path& dir, const evermap::slam::SlamRunSummary& summary,
-                  const std::vector<evermap::slam::SlamRunner::FrameRow>& frames, bool full_graph) {
+void writeFigures(const std::filesystem::path& dir, const evermap::slam_run::SlamRunSummary& summary,
+                  const std::vector<evermap::slam_run::SlamRunner::FrameRow>& frames, bool full_graph) {
   using namespace evermap;
   const std::string graph = full_graph ? "full" : "reduced";
   if (summary.node_rows.size() >= 3) {
@@ -100,7 +100,7 @@ void writeFigures(const std::filesystem::path& dir, const evermap::slam::SlamRun
 
 int main(int argc, char** argv) {
   using namespace evermap;
-  slam::SlamRunOptions options;
+  slam_run::SlamRunOptions options;
   std::string vocab_file, out_dir, config;
   std::vector<std::string> logs, sets, render_sets;
   std::string render_config;
@@ -161,7 +161,7 @@ int main(int argc, char** argv) {
   const auto t0 = std::chrono::steady_clock::now();
   auto vocabulary = bow::loadAnyVocabulary(vocab_file);
   if (!vocabulary) return fail(vocabulary.error().message, 1);
-  auto runner = slam::SlamRunner::create(*vocabulary, options);
+  auto runner = slam_run::SlamRunner::create(*vocabulary, options);
   if (!runner) return fail(runner.error().message, 1);
   for (const std::string& log : logs) {
     std::fprintf(stderr, "evermap-slam-run: session %s\n", log.c_str());

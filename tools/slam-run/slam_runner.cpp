@@ -20,17 +20,17 @@
 #include "core/geometry/se2.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
-#include "core/messages/log_reader.h"
 #include "core/messages/rgbd_convert.h"
-#include "core/sim/image_session.h"
-#include "core/sim/message_sink.h"
 #include "elevator-proc/lcm_convert.h"
 #include "imu-proc/lcm_convert.h"
 #include "mapper-proc/lcm_node.h"
-#include "mapper-proc/run_metrics.h"
+#include "tools/lcmlog/log_reader.h"
+#include "tools/mapper-run/run_metrics.h"
+#include "tools/sim/image_session.h"
+#include "tools/sim/message_sink.h"
 #include "vo-proc/frame_queue.h"
 
-namespace evermap::slam {
+namespace evermap::slam_run {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -586,4 +586,4 @@ std::string SlamRunSummary::text() const {
   return s.str();
 }
 
-}  // namespace evermap::slam
+}  // namespace evermap::slam_run

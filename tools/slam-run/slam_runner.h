@@ -30,18 +30,18 @@
 #include "core/bow/vocabulary.h"
 #include "core/common/expected.h"
 #include "core/geometry/se3.h"
-#include "core/sim/image_sim_options.h"
 #include "elevator-proc/elevator_tracker.h"
 #include "imu-proc/attitude_stream.h"
 #include "loopclose-proc/core_registration.h"
 #include "loopclose-proc/loop_closer.h"
 #include "mapper-proc/calibration_latch.h"
-#include "mapper-proc/map_evaluation.h"
 #include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
+#include "tools/pipeline-eval/map_evaluation.h"
+#include "tools/sim/image_sim_options.h"
 #include "vo-proc/vo_pipeline.h"
 
-namespace evermap::slam {
+namespace evermap::slam_run {
 
 namespace detail {
 class EventStream;
@@ -217,4 +217,4 @@ class SlamRunner {
   bool relocalised_ = false;
 };
 
-}  // namespace evermap::slam
+}  // namespace evermap::slam_run

@@ -1,12 +1,12 @@
 // evermap-landmark-graph: writes a generated landmark problem in iSAM's text format
-// (core/sim/landmark_graphs.h), the stand-in for iSAM's cityTrees10000 / torus2000Points,
+// (tools/sim/landmark_graphs.h), the stand-in for iSAM's cityTrees10000 / torus2000Points,
 // which are not in the shared data. Only parses options; see docs/solver.md.
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <string>
 
-#include "core/sim/landmark_graphs.h"
+#include "tools/sim/landmark_graphs.h"
 
 int main(int argc, char** argv) {
   namespace sim = evermap::sim;

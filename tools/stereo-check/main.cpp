@@ -25,15 +25,15 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/common/command_line.h"
-#include "core/datasets/kitti.h"
 #include "core/features/image_pyramid.h"
+#include "core/features/orb_descriptor.h"
 #include "core/features/patch_alignment.h"
 #include "core/features/stereo_depth.h"
-#include "core/features/orb_descriptor.h"
 #include "core/features/stereo_features.h"
-#include "core/registration/disparity_offset.h"
 #include "core/registration/frame_registration.h"
 #include "core/registration/keyframe_features.h"
+#include "tools/datasets/kitti.h"
+#include "tools/stereo-check/disparity_offset.h"
 
 namespace {
 

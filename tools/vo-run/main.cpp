@@ -1,12 +1,12 @@
 // evermap-vo-run: visual odometry over an LCM log (e.g. from evermap-euroc2lcm), in one
-// process, deterministically (vo-proc/offline_runner.h). Writes the trajectory in TUM format
+// process, deterministically (tools/vo-run/offline_runner.h). Writes the trajectory in TUM format
 // and per-frame statistics as CSV.
 #include <cstdio>
 #include <string>
 #include <vector>
 
 #include "core/common/command_line.h"
-#include "vo-proc/offline_runner.h"
+#include "tools/vo-run/offline_runner.h"
 
 int main(int argc, char** argv) {
   evermap::vo::OfflineOptions options;

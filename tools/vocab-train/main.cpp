@@ -1,5 +1,5 @@
 // evermap-vocab-train: trains a vocabulary tree (core/bow) from folders of images and writes it
-// in evermap's vocabulary format. Features are OpenCV ORB for now (core/bow/image_features.h).
+// in evermap's vocabulary format. Features are OpenCV ORB for now (tools/vocab-train/image_features.h).
 // Exit status: 0 done, 1 bad input (the message names it), 2 bad command line.
 
 #include <chrono>
@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "core/bow/image_training.h"
-#include "core/common/command_line.h"
 #include "core/bow/vocabulary_io.h"
+#include "core/common/command_line.h"
+#include "tools/vocab-train/image_training.h"
 
 namespace {
 

@@ -1,0 +1,41 @@
+#pragma once
+// Messages for the mapper tests: planar poses and VO deltas as vo-proc sends them.
+
+#include <cstdint>
+
+#include <evermap/vo_delta_t.hpp>
+
+#include "core/geometry/se3.h"
+#include "core/messages/pose_fields.h"
+
+namespace evermap::mapper::testing {
+
+// The names the mapper tests write (`using namespace testing;` in each).
+using core::Mat6;
+using core::SE3d;
+using core::UncertainPose;
+using core::Vec3;
+using core::Vec6;
+
+inline SE3d planar(double x, double y, double yaw) {
+  return SE3d(core::SO3d::exp(Vec3(0, 0, yaw)), Vec3(x, y, 0));
+}
+
+inline vo_delta_t voMsg(int64_t utime, int64_t ref, const SE3d& ref_T_cur, double sigma, bool keyframe) {
+  vo_delta_t m{};
+  m.utime = utime;
+  m.ref_utime = ref;
+  m.status = vo_delta_t::STATUS_OK;
+  m.keyframe_changed = keyframe ? 1 : 0;
+  messages::putPose(ref_T_cur, m.translation, m.orientation);
+  for (int i = 0; i < 6; ++i) m.covariance[7 * i] = sigma * sigma;
+  return m;
+}
+
+inline vo_delta_t voRestart(int64_t utime) {
+  vo_delta_t m = voMsg(utime, utime, SE3d(), 0.0, true);
+  m.status = vo_delta_t::STATUS_NO_DATA;
+  return m;
+}
+
+}  // namespace evermap::mapper::testing

@@ -1,0 +1,282 @@
+// mapper-proc: the tracker (eq. 6-7) and the constraint set.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "core/geometry/se2.h"
+#include "mapper-proc/constraint_set.h"
+#include "mapper-proc/tracker.h"
+#include "tests/mapper_messages.h"
+
+namespace evermap::mapper {
+namespace {
+
+using namespace testing;  // tests/mapper_messages.h
+
+TEST(Tracker, CompoundsTheKeyframeChainByEquationsSixAndSeven) {
+  Tracker t(TrackerOptions{});
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  const SE3d step = planar(0.1, 0.0, 0.05);
+  UncertainPose expected;
+  UncertainPose inc{step, Mat6::Identity() * 1e-4};
+  for (int k = 1; k <= 10; ++k) {
+    ASSERT_TRUE(t.addVo(voMsg(k * 100000, (k - 1) * 100000, step, 1e-2, true)));
+    expected = core::compound(expected, inc);
+  }
+  const UncertainPose d = t.delta();
+  EXPECT_LT((d.mean.inverse() * expected.mean).log().norm(), 1e-12);
+  EXPECT_LT((d.covariance - expected.covariance).norm(), 1e-15);
+  // Uncertainty grows along the chain.
+  EXPECT_GT(d.covariance.determinant(), std::pow(1e-4, 6));
+  // The motion since keyframe 4 is the last six increments.
+  const auto since = t.sinceKeyframe(400000);
+  ASSERT_TRUE(since.has_value());
+  SE3d six;
+  for (int k = 0; k < 6; ++k) six = six * step;
+  EXPECT_LT((since->mean.inverse() * six).log().norm(), 1e-12);
+  EXPECT_FALSE(t.sinceKeyframe(450000).has_value());
+}
+
+TEST(Tracker, FallsBackToWheelOdometryWhenVoFails) {
+  Tracker t(TrackerOptions{});
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, true)));
+  vo_delta_t fail = voMsg(200000, 100000, SE3d(), 0, false);
+  fail.status = vo_delta_t::STATUS_INSUFFICIENT_FEATURES;
+  ASSERT_TRUE(t.addVo(fail));
+  EXPECT_FALSE(t.voTracking());
+  for (int k = 3; k <= 7; ++k) {
+    wheel_odom_t w{};
+    w.prev_utime = (k - 1) * 100000;
+    w.utime = k * 100000;
+    w.delta_x_m = 0.2;
+    w.covariance[0] = w.covariance[4] = w.covariance[8] = 1e-4;
+    ASSERT_TRUE(t.addWheel(w));
+  }
+  EXPECT_EQ(t.counts().wheel_applied, 5);
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.1 + 5 * 0.2, 1e-12);
+  // VO restarts a wheel period after the last wheel message: the reference is placed where
+  // the wheels' last rate (2 m/s) has the body then. After it, wheel odometry is no longer used.
+  ASSERT_TRUE(t.addVo(voRestart(800000)));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 1.1 + 0.2, 1e-12);
+  wheel_odom_t w{};
+  w.prev_utime = 800000;
+  w.utime = 900000;
+  w.delta_x_m = 5.0;
+  ASSERT_TRUE(t.addWheel(w));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 1.3, 1e-12);
+}
+
+TEST(Tracker, DropsOutOfOrderAndMalformedMessages) {
+  Tracker t(TrackerOptions{});
+  ASSERT_TRUE(t.addVo(voRestart(100)));
+  EXPECT_FALSE(t.addVo(voRestart(50)));
+  vo_delta_t bad = voMsg(200, 100, SE3d(), 1e-3, true);
+  bad.translation[0] = std::nan("");
+  EXPECT_FALSE(t.addVo(bad));
+  vo_delta_t future_ref = voMsg(300, 400, planar(1, 0, 0), 1e-3, false);
+  EXPECT_FALSE(t.addVo(future_ref));
+  EXPECT_EQ(t.counts().dropped, 3);
+  EXPECT_LT(t.delta().mean.log().norm(), 1e-15);
+}
+
+wheel_odom_t wheelMsg(int64_t prev, int64_t utime, double dx, double variance = 1e-4) {
+  wheel_odom_t w{};
+  w.prev_utime = prev;
+  w.utime = utime;
+  w.delta_x_m = dx;
+  w.covariance[0] = w.covariance[4] = w.covariance[8] = variance;
+  return w;
+}
+
+TEST(Tracker, AChainBreakStartsANewReferenceAndTheFramesAfterItAreUsed) {
+  // vo-proc's chain break: a failed frame becomes the reference (keyframe_changed, its own
+  // utime). Wheel odometry covers the failed frames; VO continues from the new reference.
+  Tracker t(TrackerOptions{});
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, false)));
+  ASSERT_TRUE(t.addWheel(wheelMsg(100000, 200000, 0.1)));
+  vo_delta_t fail = voMsg(200000, 0, SE3d(), 0, false);
+  fail.status = vo_delta_t::STATUS_INSUFFICIENT_INLIERS;
+  ASSERT_TRUE(t.addVo(fail));
+  EXPECT_FALSE(t.voTracking());
+  ASSERT_TRUE(t.addWheel(wheelMsg(200000, 300000, 0.1)));
+  vo_delta_t brk = voMsg(300000, 300000, SE3d(), 0, true);
+  brk.status = vo_delta_t::STATUS_INSUFFICIENT_INLIERS;
+  ASSERT_TRUE(t.addVo(brk));
+  EXPECT_TRUE(t.voTracking());
+  EXPECT_EQ(t.referenceUtime(), 300000);
+  ASSERT_TRUE(t.addVo(voMsg(400000, 300000, planar(0.1, 0, 0), 1e-3, true)));
+  ASSERT_TRUE(t.addVo(voMsg(500000, 400000, planar(0.1, 0, 0), 1e-3, false)));
+  // 0.1 VO + 0.2 wheel (the increment before the failure message included) + 0.2 VO.
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.5, 1e-12);
+  EXPECT_EQ(t.counts().dropped, 0);
+  EXPECT_EQ(t.counts().restarts, 2);
+  // An older vo-proc stamped the break with the old reference: a restart all the same.
+  vo_delta_t old_style = voMsg(600000, 400000, SE3d(), 0, true);
+  old_style.status = vo_delta_t::STATUS_INSUFFICIENT_INLIERS;
+  ASSERT_TRUE(t.addVo(old_style));
+  EXPECT_EQ(t.referenceUtime(), 600000);
+  ASSERT_TRUE(t.addVo(voMsg(700000, 600000, planar(0.1, 0, 0), 1e-3, false)));
+  EXPECT_EQ(t.counts().dropped, 0);
+}
+
+TEST(Tracker, VoBackOnItsKeptReferenceReplacesTheWheelOdometryOfTheGap) {
+  // A passer-by: VO fails twice, keeps its reference and registers against it again. Its
+  // motion from the reference replaces the (less precise) wheel odometry of the gap.
+  Tracker t(TrackerOptions{});
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, true)));
+  ASSERT_TRUE(t.addVo(voMsg(200000, 100000, planar(0.1, 0, 0), 1e-3, false)));
+  for (int k = 3; k <= 4; ++k) {
+    vo_delta_t fail = voMsg(k * 100000, 100000, SE3d(), 0, false);
+    fail.status = vo_delta_t::STATUS_INSUFFICIENT_INLIERS;
+    ASSERT_TRUE(t.addVo(fail));
+    ASSERT_TRUE(t.addWheel(wheelMsg((k - 1) * 100000, k * 100000, 0.2, 1e-2)));  // σ 0.1 m
+  }
+  EXPECT_FALSE(t.voTracking());
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.2 + 0.4, 1e-12);
+  const UncertainPose before = t.delta();
+  ASSERT_TRUE(t.addVo(voMsg(500000, 100000, planar(0.4, 0, 0), 1e-3, false)));
+  EXPECT_TRUE(t.voTracking());
+  EXPECT_EQ(t.counts().relinked, 1);
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.1 + 0.4, 1e-12);
+  // The covariance does not shrink below what it was: the wheel's share stays (conservative).
+  EXPECT_GE(t.delta().covariance(0, 0), before.covariance(0, 0));
+  // The chain goes on: a keyframe change and a frame after it.
+  ASSERT_TRUE(t.addVo(voMsg(600000, 100000, planar(0.5, 0, 0), 1e-3, true)));
+  ASSERT_TRUE(t.addVo(voMsg(700000, 600000, planar(0.1, 0, 0), 1e-3, false)));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.7, 1e-12);
+  const auto since = t.sinceKeyframe(100000);
+  ASSERT_TRUE(since.has_value());
+  EXPECT_NEAR(since->mean.translation().x(), 0.6, 1e-12);
+  EXPECT_EQ(t.counts().dropped, 0);
+}
+
+// VO on keyframe 0.1 s, blind from 0.2 s (a dark room) while precise wheels (σ 1 mm per
+// 0.1 s) drive 1 m/s until 1.1 s.
+void loseVoOverAMetreOfWheels(Tracker& t) {
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, true)));
+  vo_delta_t fail = voMsg(200000, 100000, SE3d(), 0, false);
+  fail.status = vo_delta_t::STATUS_INSUFFICIENT_FEATURES;
+  ASSERT_TRUE(t.addVo(fail));
+  for (int k = 2; k <= 11; ++k) ASSERT_TRUE(t.addWheel(wheelMsg((k - 1) * 100000, k * 100000, 0.1, 1e-6)));
+}
+
+TEST(Tracker, VoBackOnItsKeptReferenceIsNotBelievedWhenTheWheelsContradictIt) {
+  // After a long gap VO registers against its old reference with a motion 0.6 m short of
+  // what precise wheels measured (a repeated floor texture): the wheels' estimate stays.
+  Tracker t(TrackerOptions{});
+  ASSERT_NO_FATAL_FAILURE(loseVoOverAMetreOfWheels(t));
+  ASSERT_TRUE(t.addVo(voMsg(1200000, 100000, planar(0.4, 0, 0), 1e-4, false)));
+  EXPECT_EQ(t.counts().relinks_refused, 1);
+  EXPECT_EQ(t.counts().relinked, 0);
+  // The wheels reached 1.1 s; the frame at 1.2 s goes where their last rate (1 m/s) has the
+  // body then.
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.1 + 1.0 + 0.1, 1e-9);
+  // And the frames after it move on from there.
+  ASSERT_TRUE(t.addVo(voMsg(1300000, 100000, planar(0.5, 0, 0), 1e-4, false)));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 1.3, 1e-9);
+}
+
+TEST(Tracker, AMotionVoPredictedOverTheGapDoesNotReplaceTheWheels) {
+  // VO bridges a break with its motion prior (contracts.md): back on its old reference with a
+  // motion it predicted, 0.1 m and 3 degrees off what precise wheels measured, and a
+  // covariance of decimetres. That agrees with the wheels within its uncertainty, but it is
+  // the weaker of the two: the wheels keep the gap, and the chain goes on from there.
+  Tracker t(TrackerOptions{});
+  ASSERT_NO_FATAL_FAILURE(loseVoOverAMetreOfWheels(t));
+  ASSERT_TRUE(t.addVo(voMsg(1200000, 100000, planar(1.0, 0, 0.05), 0.3, true)));
+  EXPECT_EQ(t.counts().relinks_weaker, 1);
+  EXPECT_EQ(t.counts().relinks_refused, 0);
+  EXPECT_EQ(t.counts().relinked, 0);
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.1 + 1.0 + 0.1, 1e-9);
+  EXPECT_NEAR(core::toPlanar(t.delta().mean).theta(), 0.0, 1e-9);
+  ASSERT_TRUE(t.addVo(voMsg(1300000, 1200000, planar(0.1, 0, 0), 1e-3, false)));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 1.3, 1e-9);
+  EXPECT_EQ(t.counts().dropped, 0);
+}
+
+TEST(Tracker, AFrameOnAnUnknownReferenceIsReanchoredWhereWheelOdometryPutsTheBody) {
+  // The keyframe change was lost (or vo-proc restarted without a first frame): the frames
+  // name a reference the tracker never saw. They are used, not refused: the first one sits
+  // where the estimate is, the next ones move on from it.
+  Tracker t(TrackerOptions{});
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, false)));
+  ASSERT_TRUE(t.addVo(voMsg(300000, 250000, planar(0.05, 0, 0), 1e-3, false)));
+  EXPECT_EQ(t.counts().reanchored, 1);
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.1, 1e-12);
+  ASSERT_TRUE(t.addVo(voMsg(400000, 250000, planar(0.25, 0, 0), 1e-3, true)));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.3, 1e-12);
+  ASSERT_TRUE(t.addVo(voMsg(500000, 400000, planar(0.1, 0, 0), 1e-3, false)));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.4, 1e-12);
+  EXPECT_EQ(t.counts().dropped, 0);
+  // The motion since the first keyframe still compounds to Δ.
+  const auto since = t.sinceKeyframe(0);
+  ASSERT_TRUE(since.has_value());
+  EXPECT_NEAR(since->mean.translation().x(), 0.4, 1e-12);
+}
+
+TEST(Tracker, SilentVoHandsOverToWheelOdometryFromItsLastFrame) {
+  // vo-proc killed: no failure message, just silence. After vo_timeout_s of wheel messages
+  // the wheel increments since the last VO frame are compounded; a restarted vo-proc's first
+  // frame starts from there.
+  TrackerOptions o;
+  o.vo_timeout_s = 0.5;
+  Tracker t(o);
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, false)));
+  for (int k = 2; k <= 10; ++k) ASSERT_TRUE(t.addWheel(wheelMsg((k - 1) * 100000, k * 100000, 0.1)));
+  EXPECT_FALSE(t.voTracking());
+  EXPECT_EQ(t.counts().vo_timeouts, 1);
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.1 + 0.9, 1e-12);
+  ASSERT_TRUE(t.addVo(voRestart(1000000)));
+  ASSERT_TRUE(t.addVo(voMsg(1100000, 1000000, planar(0.1, 0, 0), 1e-3, false)));
+  EXPECT_NEAR(t.delta().mean.translation().x(), 1.1, 1e-12);
+}
+
+TEST(ConstraintSet, AgreeingConstraintsMergeAndInconsistentOnesAreRejected) {
+  ConstraintSet set(16.81);
+  Constraint c;
+  c.from = 3;
+  c.to = 5;
+  c.from_T_to = UncertainPose{planar(1.0, 0, 0), Mat6::Identity() * 0.01};
+  EXPECT_EQ(set.add(c), ConstraintSet::Outcome::kNewPair);
+  // The same pair measured the other way round, slightly differently: merged.
+  Constraint d = c;
+  std::swap(d.from, d.to);
+  d.from_T_to = core::invert(UncertainPose{planar(1.05, 0, 0), Mat6::Identity() * 0.01});
+  EXPECT_EQ(set.add(d), ConstraintSet::Outcome::kMerged);
+  const auto& pair = set.pairs().at({3, 5});
+  EXPECT_NEAR(pair.i_T_j.mean.translation().x(), 1.025, 1e-3);
+  EXPECT_NEAR(pair.i_T_j.covariance(0, 0), 0.005, 1e-4);
+  // Three metres off: rejected, counted, kept.
+  Constraint e = c;
+  e.from_T_to.mean = planar(4.0, 0, 0);
+  EXPECT_EQ(set.add(e), ConstraintSet::Outcome::kRejected);
+  EXPECT_EQ(set.rejected(), 1);
+  EXPECT_EQ(set.merged(), 1);
+  EXPECT_EQ(set.all().size(), 3u);
+  EXPECT_FALSE(set.all().back().accepted);
+  EXPECT_EQ(set.pairs().at({3, 5}).members.size(), 3u);
+}
+
+TEST(ConstraintSet, FusesTwoEstimatesByTheirInformation) {
+  const Mat6 cov = Mat6::Identity() * 1e-2;
+  const UncertainPose a{planar(0.0, 0.0, 0.0), cov};
+  const UncertainPose b{planar(0.2, 0.0, 0.0), cov};
+  const UncertainPose ab = ConstraintSet::fuse(a, b);
+  EXPECT_LT((ab.mean.translation() - Vec3(0.1, 0, 0)).norm(), 1e-12);
+  EXPECT_LT((ab.covariance - 0.5 * cov).norm(), 1e-12);
+  // Four times the variance: a fifth of the weight.
+  const UncertainPose c = ConstraintSet::fuse(a, UncertainPose{b.mean, 4.0 * cov});
+  EXPECT_NEAR(c.mean.translation().x(), 0.04, 1e-12);
+  EXPECT_LT((c.covariance - 0.8 * cov).norm(), 1e-12);
+}
+
+}  // namespace
+}  // namespace evermap::mapper

@@ -1,0 +1,173 @@
+#pragma once
+// A scripted drive for the mapper tests: along a corridor and back with exact VO, each
+// request answered by a registration oracle from the truth.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numbers>
+
+#include "mapper-proc/mapper.h"
+#include "tests/mapper_messages.h"
+
+namespace evermap::mapper::testing {
+
+// A scripted drive along a corridor and back, twice, with exact VO and a registration oracle
+// that answers from the truth within 1.5 m.
+class ScriptedDrive {
+ public:
+  explicit ScriptedDrive(MapperOptions o, double registration_variance = 1e-4)
+      : mapper_(o), registration_variance_(registration_variance) {
+    floor_t f{};
+    f.floor_index = 0;
+    EXPECT_TRUE(mapper_.onFloor(f));
+  }
+
+  // Drives to `goal` in steps of 0.1 m / 0.1 s, keeping the heading of travel.
+  void driveTo(double x, double yaw) {
+    for (;;) {
+      const double dx = x - pose_.translation().x();
+      const double dyaw = core::wrapAngle(yaw - yawOf(pose_));
+      if (std::abs(dx) < 1e-9 && std::abs(dyaw) < 1e-9) return;
+      SE3d next = pose_;
+      if (std::abs(dyaw) > 1e-9) {
+        next = pose_ * planar(0, 0, std::clamp(dyaw, -0.3, 0.3));
+      } else {
+        next = SE3d(pose_.so3(), pose_.translation() + Vec3(std::clamp(dx, -0.1, 0.1), 0, 0));
+      }
+      frame(next);
+    }
+  }
+  // Registrations fail from now on (a dark corridor), until blind(false).
+  void blind(bool on) { blind_ = on; }
+  // Only the next `n` global searches find a place (by appearance); later ones find none,
+  // node-mode requests still register (-1: every search finds one).
+  void globalSearchesFind(int n) { global_finds_ = n; }
+  // Steps `dy` metres sideways (along y), heading kept, VO seeing it.
+  void sidestep(double dy) { frame(SE3d(pose_.so3(), pose_.translation() + Vec3(0, dy, 0))); }
+  // The robot slides `dx` metres along x without VO seeing it (a wheel slip VO missed, a
+  // kidnapping): VO reports no motion, with its usual confidence.
+  void slip(double dx) {
+    utime_ += 100000;
+    const SE3d next(pose_.so3(), pose_.translation() + Vec3(dx, 0, 0));
+    EXPECT_TRUE(mapper_.onVo(voMsg(utime_, utime_ - 100000, SE3d(), 1e-3, true)));
+    pose_ = next;
+    truth_[utime_] = next;
+    answer();
+  }
+  const SE3d& truePose() const { return pose_; }
+  // A repeated texture: from now on registrations see the robot `dx` metres further along x
+  // than it is (0: the truth again).
+  void aliasBy(double dx) { alias_dx_ = dx; }
+  // The true body pose at a node's keyframe.
+  const SE3d& nodeTruth(int64_t id) const { return node_truth_.at(id); }
+  Mapper& mapper() { return mapper_; }
+  // An elevator ride that ends where it started, on floor `index`, whose height estimate says
+  // `height_m` with standard deviation `sigma_m`.
+  void rideEnd(int index, double height_m, double sigma_m) {
+    floor_t f{};
+    f.utime = utime_;
+    f.floor_index = index;
+    f.height_m = height_m;
+    f.height_sigma_m = sigma_m;
+    f.event = floor_t::EVENT_RIDE_END;
+    EXPECT_TRUE(mapper_.onFloor(f));
+  }
+  // The robot is off for `seconds` and starts again where it stopped, VO from a new
+  // keyframe; the new session's FLOOR message arrives only when `announce`.
+  void newSession(double seconds, bool announce) {
+    utime_ += static_cast<int64_t>(seconds * 1e6);
+    if (announce) {
+      floor_t f{};
+      f.utime = utime_;
+      f.floor_index = 0;
+      EXPECT_TRUE(mapper_.onFloor(f));
+    }
+    utime_ += 100000;
+    EXPECT_TRUE(mapper_.onVo(voRestart(utime_)));
+    truth_[utime_] = pose_;
+    answer();
+  }
+
+ private:
+  static double yawOf(const SE3d& p) { return core::toPlanar(p).theta(); }
+  void frame(const SE3d& next) {
+    utime_ += 100000;
+    if (truth_.empty()) {
+      EXPECT_TRUE(mapper_.onVo(voRestart(utime_)));
+    } else {
+      EXPECT_TRUE(mapper_.onVo(voMsg(utime_, utime_ - 100000, pose_.inverse() * next, 1e-3, true)));
+    }
+    pose_ = next;
+    truth_[utime_] = next;
+    answer();
+  }
+  void answer() {
+    for (int guard = 0; guard < 4; ++guard) {
+      for (const auto& n : mapper_.takeNodesAdded()) node_truth_[n.node_id] = truth_.at(n.keyframe_utime);
+      const auto requests = mapper_.takeRequests();
+      if (requests.empty()) return;
+      for (const auto& r : requests) {
+        register_result_t res{};
+        res.request_id = r.request_id;
+        res.keyframe_utime = r.keyframe_utime;
+        res.status = register_result_t::STATUS_NO_CANDIDATE;
+        const SE3d q = SE3d(core::SO3d(), Vec3(alias_dx_, 0, 0)) * truth_.at(r.keyframe_utime);
+        int64_t best = -1;
+        double best_d = 1.5;
+        const bool global = r.mode == register_request_t::MODE_GLOBAL;
+        if (global && global_finds_ == 0) {
+          EXPECT_TRUE(mapper_.onRegisterResult(res));
+          continue;
+        }
+        if (global && global_finds_ > 0) --global_finds_;
+        for (const auto& [id, p] : node_truth_) {
+          if (blind_) break;
+          if (r.mode == register_request_t::MODE_NODE && id != r.target_node_id) continue;
+          const double d = (p.translation() - q.translation()).norm() +
+                           std::abs(core::wrapAngle(yawOf(p) - yawOf(q)));
+          if (d < best_d) best_d = d, best = id;
+        }
+        if (best >= 0) {
+          const SE3d rel = node_truth_.at(best).inverse() * q;
+          res = register_result_t{};
+          res.request_id = r.request_id;
+          res.keyframe_utime = r.keyframe_utime;
+          res.status = register_result_t::STATUS_OK;
+          res.node_id = best;
+          messages::putPose(rel, res.translation, res.orientation);
+          for (int i = 0; i < 6; ++i) res.covariance[7 * i] = registration_variance_;
+        }
+        EXPECT_TRUE(mapper_.onRegisterResult(res));
+      }
+    }
+  }
+
+  Mapper mapper_;
+  double registration_variance_;
+  double alias_dx_ = 0.0;
+  bool blind_ = false;
+  int global_finds_ = -1;
+  SE3d pose_;
+  int64_t utime_ = 0;
+  std::map<int64_t, SE3d> truth_;
+  std::map<int64_t, SE3d> node_truth_;
+};
+
+inline MapperOptions scriptedOptions() {
+  MapperOptions o;
+  o.tracker.body_T_cam = SE3d();
+  o.step_interval_s = 0.3;
+  return o;
+}
+
+inline void lap(ScriptedDrive& drive) {
+  drive.driveTo(8.0, 0.0);
+  drive.driveTo(8.0, std::numbers::pi);
+  drive.driveTo(0.0, std::numbers::pi);
+  drive.driveTo(0.0, 0.0);
+}
+
+}  // namespace evermap::mapper::testing

@@ -1,4 +1,0 @@
-// evermap-euroc2lcm: an EuRoC ASL folder to an LCM log (core/datasets/to_lcm.h).
-#include "tools/dataset2lcm/convert_main.h"
-
-int main(int argc, char** argv) { return evermap::datasets::convertMain(evermap::datasets::Dataset::kEuroc, argc, argv); }

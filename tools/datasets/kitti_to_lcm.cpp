@@ -1,0 +1,84 @@
+// KITTI odometry sequence -> LCM log (to_lcm.h).
+#include <string>
+#include <vector>
+
+#include "core/messages/channels.h"
+#include "tools/datasets/kitti.h"
+#include "tools/datasets/to_lcm.h"
+#include "tools/datasets/to_lcm_events.h"
+#include "tools/lcmlog/log_writer.h"
+
+namespace evermap::datasets {
+namespace {
+
+namespace fs = std::filesystem;
+using detail::EventKind;
+using detail::PendingEvent;
+
+}  // namespace
+
+Expected<ConversionSummary> convertKittiToLcm(const fs::path& sequence, const fs::path& output,
+                                              const KittiToLcmOptions& options) {
+  if (Status s = options.validate(); !s) return s.error();
+  auto seq = readKittiSequence(sequence, options.sequence);
+  if (!seq) return seq.error();
+  ConversionSummary summary;
+  summary.skipped_missing_image = seq->skipped_missing_image;
+  if (!seq->poses.empty()) summary.ground_truth = seq->poses_file.string();
+  const std::vector<int64_t>& times = seq->times_ns;
+  const std::vector<core::SE3d>& poses = seq->poses;
+  const std::vector<size_t>& frames = seq->frames;
+  // The image size comes from the first frame.
+  auto first = messages::imageMsgFromFile(seq->leftImage(frames.front()), 0,
+                                          messages::ImageEncoding::kGray8);  // for its size
+  if (!first) return first.error();
+  auto calibration = kittiStereoCalibration(seq->projections, first->width, first->height,
+                                            seq->calib_file.string());
+  if (!calibration) return calibration.error();
+
+  std::vector<PendingEvent> events;
+  for (size_t i = 0; i < poses.size(); ++i) {
+    events.push_back({messages::utimeFromNs(times[i]), EventKind::kGroundTruth, i});
+  }
+  for (size_t i : frames) {
+    events.push_back({messages::utimeFromNs(times[i]), EventKind::kStereo, i});
+  }
+  detail::sortByTime(&events);
+
+  auto writer = messages::LogWriter::open(output);
+  if (!writer) return writer.error();
+  channels::CalibrationRepeat calib_repeat;
+  if (Status s = detail::writeCalibrationIfDue(*writer, calib_repeat, *calibration, events.front().utime); !s)
+    return s.error();
+  for (const PendingEvent& e : events) {
+    Status s = Ok{};
+    if (e.kind == EventKind::kGroundTruth) {
+      s = writer->write(channels::kGroundTruth, e.utime,
+                        messages::toMsg(e.utime, core::UncertainPose{poses[e.index]}));
+    } else {
+      evermap::stereo_image_t msg;
+      msg.utime = e.utime;
+      msg.rectified = 1;
+      for (auto [file, slot] : {std::pair{seq->leftImage(e.index), &msg.left},
+                                std::pair{seq->rightImage(e.index), &msg.right}}) {
+        auto image = messages::imageMsgFromFile(file, e.utime, options.encoding);
+        if (!image) return image.error();
+        if (image->width != calibration->left.width || image->height != calibration->left.height) {
+          return makeError(file.string(), ": image is ", image->width, "x", image->height,
+                           ", the sequence's first image is ", calibration->left.width, "x",
+                           calibration->left.height);
+        }
+        *slot = std::move(*image);
+      }
+      s = detail::writeCalibrationIfDue(*writer, calib_repeat, *calibration, e.utime);
+      if (s) s = writer->write(channels::kStereo, e.utime, msg);
+    }
+    if (!s) return s.error();
+  }
+  summary.messages = writer->counts();
+  summary.bytes = writer->bytes();
+  if (Status s = writer->commit(); !s) return s.error();
+  return summary;
+}
+
+}  // namespace evermap::datasets

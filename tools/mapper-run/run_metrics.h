@@ -1,0 +1,95 @@
+#pragma once
+// Measurements of an offline run that are not the mapper's own: the timeline (nodes and
+// per-component mapper time against operating time, the paper's Fig. 7) and the "mapped
+// area" test (did a session add nodes where an earlier one had mapped?).
+
+#include <filesystem>
+#include <functional>
+#include <vector>
+
+#include "core/common/expected.h"
+#include "core/geometry/se3.h"
+#include "mapper-proc/mapper.h"
+#include "tools/mapper-run/offline_run.h"
+
+namespace evermap::mapper {
+
+// The p-quantile (0..1) of v by nearest rank; 0 for an empty v.
+double percentile(std::vector<double> v, double p);
+
+// Per-component wall time and step costs of the mapper between two timeline rows.
+class TimelineRecorder {
+ public:
+  TimelineRecorder(const Mapper& mapper, double interval_s) : mapper_(mapper), interval_s_(interval_s) {}
+  // Fills a row's store columns (TimelineRow::store_rows, store_bytes) when it is taken.
+  void setStoreProbe(std::function<void(TimelineRow*)> probe) { store_probe_ = std::move(probe); }
+
+  void sample(double operating_s, int64_t utime, int session, bool force = false) {
+    if (!(interval_s_ > 0.0) || (!force && operating_s < next_s_)) return;
+    next_s_ = (std::floor(operating_s / interval_s_) + 1.0) * interval_s_;
+    const MapperStats& st = mapper_.stats();
+    const MapperTiming& t = st.timing;
+    TimelineRow r;
+    r.operating_s = operating_s;
+    r.utime = utime;
+    r.session = session;
+    r.nodes = static_cast<int64_t>(mapper_.nodes().size());
+    r.factors = st.factors;
+    r.tracking_s = t.tracking_s - last_.tracking_s;
+    r.registration_s = t.registration_s - last_.registration_s;
+    r.partition_s = t.partition_s - last_.partition_s;
+    r.solver_s = t.solver_s - last_.solver_s;
+    std::vector<double> ms;
+    for (size_t k = steps_seen_; k < t.step_cost.size(); ++k) ms.push_back(1e3 * t.step_cost[k].s);
+    r.steps = static_cast<int64_t>(ms.size());
+    r.step_median_ms = percentile(ms, 0.5);
+    r.step_p99_ms = percentile(ms, 0.99);
+    r.step_max_ms = ms.empty() ? 0.0 : *std::max_element(ms.begin(), ms.end());
+    steps_seen_ = t.step_cost.size();
+    if (store_probe_) store_probe_(&r);
+    last_ = r;
+    last_.tracking_s = t.tracking_s;
+    last_.registration_s = t.registration_s;
+    last_.partition_s = t.partition_s;
+    last_.solver_s = t.solver_s;
+    rows_.push_back(r);
+  }
+  std::vector<TimelineRow> take() { return std::move(rows_); }
+
+ private:
+  const Mapper& mapper_;
+  double interval_s_;
+  double next_s_ = 0.0;
+  size_t steps_seen_ = 0;
+  TimelineRow last_;
+  std::vector<TimelineRow> rows_;
+  std::function<void(TimelineRow*)> store_probe_;
+};
+
+// True pose and floor of a node (or a step pose)'s keyframe, and the count of nodes placed where an earlier
+// session already had one.
+struct NodeTruth {
+  core::SE3d world_T_body;
+  int floor = -1;
+  int session = 0;
+  bool known = false;
+};
+
+// For each session: how many of `queries` lie where an earlier session had a node of `nodes`
+// (same true floor, within radius_m and angle_rad), all at their true poses.
+std::vector<int64_t> inMappedArea(const std::vector<NodeTruth>& nodes, const std::vector<NodeTruth>& queries,
+                                  double radius_m, double angle_rad);
+
+// Where each query lies against the nodes of earlier sessions (same true floor, true poses):
+// the cause a new node has (issue 22's accounting of late nodes).
+enum class PlaceCause : uint8_t {
+  kNewPlace = 0,    // no earlier node within radius_m
+  kNewHeading = 1,  // earlier nodes within radius_m, none within angle_rad of its heading
+  kMapped = 2,      // an earlier node within radius_m and angle_rad: a duplicate
+  kUnknown = 3,     // no true pose
+};
+std::vector<PlaceCause> placeCauses(const std::vector<NodeTruth>& nodes, const std::vector<NodeTruth>& queries,
+                                    double radius_m, double angle_rad);
+
+
+}  // namespace evermap::mapper

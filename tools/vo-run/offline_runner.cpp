@@ -1,0 +1,181 @@
+#include "tools/vo-run/offline_runner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <sstream>
+
+#include "core/common/atomic_write.h"
+#include "core/messages/channels.h"
+#include "core/messages/convert.h"
+#include "tools/lcmlog/log_reader.h"
+#include "tools/lcmlog/log_writer.h"
+#include "tools/vo-run/vo_trajectory.h"
+
+namespace evermap::vo {
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
+  return v[i];
+}
+
+std::map<std::string, int> OfflineSummary::failuresByKind() const {
+  std::map<std::string, int> n;
+  for (const FrameStats& f : frames) {
+    if (f.failure_kind.empty()) continue;
+    ++n[(f.bridged ? "bridged after " : std::string(toString(f.status)) + ": ") + f.failure_kind];
+  }
+  return n;
+}
+
+std::string OfflineSummary::report() const {
+  std::ostringstream s;
+  int bridged = 0, via_previous = 0;
+  for (const FrameStats& f : frames) {
+    bridged += f.bridged ? 1 : 0;
+    via_previous += f.via_previous ? 1 : 0;
+  }
+  s << stats.report() << "\n"
+    << trajectory.size() << " poses, path length " << trajectory.pathLengthM() << " m, "
+    << breaks << " chain breaks, " << bridged << " frames bridged by the motion prior, "
+    << via_previous << " registered through the previous frame\n";
+  const auto kinds = failuresByKind();
+  if (kinds.empty()) {
+    s << "failures: none\n";
+  } else {
+    s << "failures by kind:";
+    for (const auto& [kind, n] : kinds) s << " " << kind << " " << n << ";";
+    s << "\n";
+  }
+  s << "per frame: median " << median_ms << " ms, p90 " << p90_ms << " ms, p99 " << p99_ms
+    << " ms";
+  return s.str();
+}
+
+std::string OfflineSummary::verboseReport() const {
+  std::ostringstream s;
+  for (size_t k = 0; k < frames.size(); ++k) {
+    const FrameStats& f = frames[k];
+    if (f.status == VoStatus::kOk && !f.bridged && !f.via_previous) continue;
+    s << "frame " << k << " (" << f.utime << "): " << (f.bridged ? "bridged" : toString(f.status));
+    if (!f.failure_kind.empty()) s << " [" << f.failure_kind << "]";
+    s << ": " << f.message << "\n";
+  }
+  return s.str();
+}
+
+Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
+                                    const OfflineOptions& options) {
+  auto pipeline = VoPipeline::create(options.pipeline);
+  if (!pipeline) return pipeline.error();
+  auto opened = messages::LogReader::open(log);
+  if (!opened) return opened.error();
+  messages::LogReader& file = *opened;
+  std::optional<messages::LogWriter> writer;
+  if (!options.output_log.empty()) {
+    auto w = messages::LogWriter::open(options.output_log);
+    if (!w) return w.error();
+    writer.emplace(std::move(*w));
+  }
+
+  OfflineSummary summary;
+  summary.trajectory.source = log.string() + " (visual odometry)";
+  VoTrajectory chain;
+  std::vector<double> times;
+  int64_t frames = 0;
+  while (const messages::LogReader::Event* event = file.next()) {
+    const std::string& channel = event->channel;
+    if (channel == channels::kStereoCalib) {
+      if (Status s = pipeline->handleCalibrationBytes(event->data, event->datalen); !s) {
+        std::fprintf(stderr, "vo: %s\n", s.error().message.c_str());
+      }
+      continue;
+    }
+    const bool rgbd = channel == channels::kRgbd;
+    if (channel != channels::kStereo && !rgbd) continue;
+    if (options.max_frames >= 0 && frames >= options.max_frames) break;
+    ++frames;
+    const auto start = std::chrono::steady_clock::now();
+    auto out = rgbd ? pipeline->handleRgbdBytes(event->data, event->datalen)
+                    : pipeline->handleStereoBytes(event->data, event->datalen);
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+            .count();
+    if (!out) {
+      std::fprintf(stderr, "vo: event %lld: %s\n", static_cast<long long>(event->eventnum),
+                   out.error().message.c_str());
+      continue;
+    }
+    const FrameResult& r = out->result;
+    times.push_back(ms);
+    FrameStats f;
+    f.utime = r.utime;
+    f.status = r.status;
+    f.keyframe_changed = r.keyframe_changed;
+    f.num_corners = r.num_corners;
+    f.num_features = r.num_features;
+    f.num_matches = r.num_matches;
+    f.num_inliers = r.num_inliers;
+    f.mean_reprojection_px = r.mean_reprojection_px;
+    f.delta_translation_m = r.ok() ? r.ref_T_cur.translation().norm() : 0.0;
+    f.process_ms = ms;
+    f.bridged = r.bridged;
+    f.via_previous = r.via_previous;
+    f.failure_kind = r.failure_kind;
+    f.message = r.message;
+    summary.frames.push_back(f);
+    if (auto cam0_T_cam = chain.add(out->delta)) {
+      core::SE3d pose = *cam0_T_cam;
+      if (options.body_frame) {
+        const core::SE3d& B = pipeline->bodyTCamera();
+        pose = B * pose * B.inverse();
+      }
+      summary.trajectory.poses.push_back({messages::nsFromUtime(r.utime), pose});
+    }
+    if (writer) {
+      if (Status s = writer->write(channels::kVoDelta, r.utime, out->delta); !s) return s.error();
+      if (out->keyframe) {
+        if (Status s = writer->write(channels::kKeyframe, r.utime, *out->keyframe); !s) {
+          return s.error();
+        }
+      }
+    }
+  }
+  // A log cut mid-event (or damaged) gives a trajectory of part of the data: an error, and
+  // the output log is not committed.
+  if (Status s = file.status(); !s) return s.error();
+  if (writer) {
+    if (Status s = writer->commit(); !s) return s.error();
+  }
+  summary.stats = pipeline->stats();
+  summary.breaks = chain.breaks();
+  summary.median_ms = percentile(times, 0.5);
+  summary.p90_ms = percentile(times, 0.9);
+  summary.p99_ms = percentile(times, 0.99);
+  return summary;
+}
+
+Status writeFrameStatsCsv(const std::vector<FrameStats>& frames,
+                          const std::filesystem::path& file) {
+  std::ostringstream s;
+  s << "utime,status,keyframe_changed,corners,features,matches,inliers,mean_reprojection_px,"
+       "delta_translation_m,process_ms,bridged,failure_kind,message\n";
+  for (const FrameStats& f : frames) {
+    std::string message = f.message;
+    std::replace(message.begin(), message.end(), ',', ';');
+    std::replace(message.begin(), message.end(), '\n', ' ');
+    char numbers[160];
+    std::snprintf(numbers, sizeof(numbers), "%.4f,%.6f,%.3f", f.mean_reprojection_px,
+                  f.delta_translation_m, f.process_ms);
+    s << f.utime << "," << toString(f.status) << "," << (f.keyframe_changed ? 1 : 0) << ","
+      << f.num_corners << "," << f.num_features << "," << f.num_matches << ","
+      << f.num_inliers << "," << numbers << "," << (f.bridged ? 1 : 0) << "," << f.failure_kind
+      << "," << message << "\n";
+  }
+  return writeFileAtomically(file, s.str());
+}
+
+}  // namespace evermap::vo

@@ -1,0 +1,79 @@
+#pragma once
+// Visual odometry over a recorded LCM log in one process (DESIGN.md section 1, "tools/: the
+// offline runner"): every STEREO_CALIB and STEREO event, in log order, goes through the same
+// VoPipeline as vo-proc, with no queue and no dropping, so the same log always gives the same
+// result. RGBD frames (an RGB-D camera, its calibration inside) are processed the same way.
+// Produces the trajectory (camera or body frame, TUM-ready), per-frame statistics and,
+// optionally, a log of the VO_DELTA and KEYFRAME messages vo-proc would have published.
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/common/expected.h"
+#include "tools/eval/trajectory.h"
+#include "vo-proc/vo_pipeline.h"
+
+namespace evermap::vo {
+
+struct OfflineOptions {
+  PipelineOptions pipeline;
+  // Poses of the body (IMU) frame, via body_T_cam of the calibration, instead of the
+  // rectified left camera: body0_T_body = B * cam0_T_cam * B⁻¹. For comparing with EuRoC
+  // ground truth (which is of the body).
+  bool body_frame = false;
+  int64_t max_frames = -1;  // stop after this many STEREO or RGBD events; -1: all
+  std::filesystem::path output_log;  // empty: none
+};
+
+struct FrameStats {
+  int64_t utime = 0;
+  VoStatus status = VoStatus::kBadInput;
+  bool keyframe_changed = false;
+  int num_corners = 0;
+  int num_features = 0;
+  int num_matches = 0;
+  int num_inliers = 0;
+  double mean_reprojection_px = 0.0;
+  double delta_translation_m = 0.0;  // |ref_T_cur translation|
+  double process_ms = 0.0;           // wall time of the frame (a measurement, not an input)
+  bool bridged = false;              // kOk by the motion prior (FrameResult::bridged)
+  bool via_previous = false;         // kOk through the previous frame
+  std::string failure_kind;          // FrameResult::failure_kind
+  std::string message;
+};
+
+struct OfflineSummary {
+  eval::Trajectory trajectory;  // frames with a pose
+  std::vector<FrameStats> frames;
+  PipelineStats stats;
+  int breaks = 0;               // chain breaks bridged (vo_trajectory.h)
+  double median_ms = 0.0;
+  double p90_ms = 0.0;
+  double p99_ms = 0.0;
+
+  // Frames that did not register, counted by FrameResult::failure_kind (bridged frames by
+  // the kind of failure that made the bridge needed).
+  std::map<std::string, int> failuresByKind() const;
+  // The counts, path, breaks, failures by kind and time per frame (median, p90, p99).
+  std::string report() const;
+  // One line per frame that is not a plain kOk: "frame N (utime): status: message".
+  std::string verboseReport() const;
+};
+
+// Errors: the log cannot be opened, or the options are invalid. Frames that fail are in the
+// summary, not errors.
+Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
+                                    const OfflineOptions& options);
+
+// The q-quantile (0..1) of `v`, the element at index floor(q n) of the sorted list; 0 for an
+// empty list.
+double percentile(std::vector<double> v, double q);
+
+// Per-frame statistics as CSV (a header line, one line per frame), written atomically.
+Status writeFrameStatsCsv(const std::vector<FrameStats>& frames,
+                          const std::filesystem::path& file);
+
+}  // namespace evermap::vo
