@@ -424,13 +424,21 @@ void Mapper::flushSolver() {
 
 Status Mapper::restore(const MapSnapshot& map) {
   if (!nodes_.empty() || have_floor_) return Error{"mapper: restore: the mapper already holds a map"};
+  // A map that fails half-way leaves the mapper as it was: empty.
+  const auto abandon = [this](Error why) -> Status {
+    nodes_.clear();
+    schedule_.discard();
+    constraints_ = ConstraintSet(o_.consistency_gate);
+    stats_ = MapperStats{};
+    return why;
+  };
   std::map<int, double> floors(map.floors.begin(), map.floors.end());
   int max_session = -1;
   for (const auto& [session, start] : map.sessions) max_session = std::max(max_session, session);
   for (size_t k = 0; k < map.nodes.size(); ++k) {
     const StoredNode& n = map.nodes[k];
     if (n.node.id != static_cast<int64_t>(k))
-      return makeError("mapper: restore: node ", n.node.id, " where node ", k, " was expected");
+      return abandon(makeError("mapper: restore: node ", n.node.id, " where node ", k, " was expected"));
     max_session = std::max(max_session, n.node.session);
     schedule_.addVariable(n.node.id, n.world_T_body);
     if (k == 0) {
@@ -453,10 +461,8 @@ Status Mapper::restore(const MapSnapshot& map) {
     // In the order they were made (a fold comes before its pair's later constraints).
     if ((k > 0 && map.edges[k].edge_id <= map.edges[k - 1].edge_id) || c.from < 0 || c.to < 0 || c.from >= n_nodes ||
         c.to >= n_nodes || c.from == c.to) {
-      nodes_.clear();
-      schedule_.discard();
-      return makeError("mapper: restore: edge ", map.edges[k].edge_id, " (", c.from, " -> ", c.to,
-                       ") is out of order or names an unknown node");
+      return abandon(makeError("mapper: restore: edge ", map.edges[k].edge_id, " (", c.from, " -> ", c.to,
+                               ") is out of order or names an unknown node"));
     }
     // As the live mapper added it: closures of the reduced graph passed the map gate.
     addConstraint(c.from, c.to, c.from_T_to, c.kind, c.utime, o_.map_gate > 0 && !o_.full_graph);
@@ -484,6 +490,5 @@ Status Mapper::restore(const MapSnapshot& map) {
   floor_confirmed_ = false;
   return Ok{};
 }
-
 
 }  // namespace evermap::mapper

@@ -21,7 +21,7 @@
 // Full pose graph mode adds a node at every step before step 1, registers against nodes
 // other than the recent ones, and never switches the active node.
 //
-// Requests go out through requests(); the answer comes back through onRegisterResult(),
+// Requests go out through takeRequests(); the answer comes back through onRegisterResult(),
 // at once (offline runner) or later (LCM). One step is in flight at a time; keyframes
 // arriving meanwhile are tracked but take no step. A step whose answer does not come within
 // request_timeout_s of message time is closed as "no registration".
@@ -302,20 +302,22 @@ class Mapper {
   // What a registration b_T_q of the keyframe does: places a lost session (two that agree;
   // returns the same-keyframe check's node, if any), refines Δ (b is the active node), or
   // closes a loop to b.
-  std::optional<int64_t> relocalize(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
-                                    const core::UncertainPose& q_T_now, bool* registered);
+  std::optional<int64_t> placeLostSession(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
+                                          const core::UncertainPose& q_T_now, bool* registered);
   void registerToActive(const InFlight& f, const core::UncertainPose& b_T_q, const core::UncertainPose& q_T_now,
                         bool* registered);
   void closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q, const core::UncertainPose& q_T_now,
                  bool* registered);
 
-  // The graph (mapper.cpp): nodes, factors and constraints, sent to the solver once per step.
+  // The graph (mapper.cpp): nodes, factors and constraints, gathered for the solver's next
+  // update (flushSolver: the step's end; a full-graph step's node before its request too).
   int64_t addNode(int64_t keyframe_utime, const core::UncertainPose& active_T_node);
   // The partial factor of IMU roll and pitch on a node (false: a covariance it cannot use).
   bool addAttitudeFactor(int64_t id, const NodeAttitude& attitude);
   // vetted: a loop closure the map gate has tested against the map (no robust kernel).
   void addConstraint(int64_t from, int64_t to, const core::UncertainPose& from_T_to,
                      ConstraintKind kind, int64_t utime, bool vetted = false);
+  // The registration protocol's tests against the map and odometry (mapper_registration.cpp).
   // information (when given): the closure's mutual information with the map, nats
   // (MapperOptions::min_closure_information); infinity without a marginal.
   bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b, double* information = nullptr);

@@ -120,7 +120,7 @@ std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, 
     ++stats_.dropped;
     return std::nullopt;
   }
-  if (lost_) return relocalize(f, b, b_T_q, *q_T_now, registered);
+  if (lost_) return placeLostSession(f, b, b_T_q, *q_T_now, registered);
   if (o_.full_graph) {
     if (nodes_[b].keyframe_utime > f.keyframe_utime - micros(o_.recent_exclusion_s)) return std::nullopt;
     addConstraint(f.active, b, core::compound(f.delta_at_keyframe, core::invert(b_T_q)), ConstraintKind::kLoop,
@@ -138,8 +138,8 @@ std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, 
   return std::nullopt;
 }
 
-std::optional<int64_t> Mapper::relocalize(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
-                                          const core::UncertainPose& q_T_now, bool* registered) {
+std::optional<int64_t> Mapper::placeLostSession(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
+                                                const core::UncertainPose& q_T_now, bool* registered) {
   // One global match may be a false one, and nothing in the map could contradict a wrong
   // placement of the whole session afterwards: the session is placed only when two
   // registrations, chained by odometry, agree on where it is.
@@ -388,6 +388,5 @@ bool Mapper::recoveryAllowed(int64_t keyframe_utime) const {
   return last_confirmed_utime_ < 0 || bridges() != bridges_at_confirmation_ ||
          keyframe_utime - last_confirmed_utime_ >= micros(o_.recovery_quiet_s);
 }
-
 
 }  // namespace evermap::mapper

@@ -130,6 +130,8 @@ void SolverSchedule::discard() {
   pending_update_ = {};
   pending_pairs_.clear();
   pending_factor_slot_.clear();
+  to_consolidate_.clear();
+  deferred_merges_ = 0;
 }
 
 }  // namespace evermap::mapper

@@ -1,6 +1,6 @@
 #pragma once
-// When the mapper's changes reach the solver: Algorithm 1's "update the solution", once per
-// step, through iSAM's schedule (an incremental update; every batch_every-th a batch step,
+// When the mapper's changes reach the solver: Algorithm 1's "update the solution", at the end
+// of each step (and of a restore), through iSAM's schedule (an incremental update; every batch_every-th a batch step,
 // computed in the background and swapped in later, MapperOptions::solver).
 //
 // A step's new nodes and factors are gathered and sent as one update (flush). A constraint
@@ -12,8 +12,8 @@
 
 #include <cstdint>
 #include <map>
-#include <optional>
 #include <memory>
+#include <optional>
 #include <set>
 #include <utility>
 #include <vector>
@@ -65,7 +65,8 @@ class SolverSchedule {
   // Sends what the step gathered (consolidating merged pairs at scheduled batch steps);
   // nothing to send: no update. step_utime is the message time of the step.
   std::optional<Flush> flush(int64_t step_utime, const ConstraintSet& constraints);
-  // Drops what was gathered and not sent (a restore that failed half-way).
+  // Drops what was gathered and not sent, merges waiting for consolidation included (a
+  // restore that failed half-way).
   void discard();
 
  private:

@@ -1,6 +1,7 @@
 #pragma once
 // Time in the mapper. Message time (utime, microseconds) drives every decision; the wall clock
-// and the thread's CPU clock only measure what a step costs (MapperTiming), never an input.
+// and the thread's CPU clock only measure what work costs (MapperTiming, LcmNode's publishing
+// and store times), never an input.
 
 #include <chrono>
 #include <cmath>

@@ -32,14 +32,16 @@ struct Similarity {
 struct UmeyamaFit {
   Similarity dst_S_src;
   size_t pairs = 0;
-  // False when the source points are (nearly) collinear: the rotation about that line is then
-  // not determined (Umeyama's rank condition, after eq. 40), and the fit is one of many.
+  // False when the cross-covariance has rank < 2 (the points (nearly) collinear): the rotation
+  // about that line is then not determined (Umeyama, after eq. 40), the fit is one of many.
   bool rotation_unique = true;
 };
 
 // Least-squares dst ≈ s R src + t over corresponding points. `with_scale` false fixes s = 1.
 // Errors: sizes differ, fewer than 3 pairs, non-finite points, or (with scale) all source
-// points equal.
+// points equal. Their words are the evaluation's ("alignment: ... estimated ... ground-truth
+// positions"), whose messages they were before this moved to core/; registration only tests
+// ok().
 Expected<UmeyamaFit> umeyama(const std::vector<Vec3>& src, const std::vector<Vec3>& dst,
                              bool with_scale);
 

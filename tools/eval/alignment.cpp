@@ -1,7 +1,5 @@
 #include "tools/eval/alignment.h"
 
-#include <Eigen/SVD>
-
 namespace evermap::eval {
 
 const char* toString(AlignmentMode mode) {
