@@ -25,6 +25,7 @@
 #include <optional>
 
 #include "core/bow/place_database.h"
+#include "core/common/clocks.h"
 #include "tools/vocab-train/image_training.h"
 #include "tools/vocab-train/kmajority.h"
 
@@ -143,24 +144,16 @@ const Setup& setup() {
   return s;
 }
 
-// CPU time of this thread, microseconds: on a machine shared with other jobs the wall-clock
-// figures include time the thread waited for a core; this one does not.
-double threadCpuUs() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return 1e6 * static_cast<double>(t.tv_sec) + 1e-3 * static_cast<double>(t.tv_nsec);
-}
-
 // Wall-clock and CPU times of individually timed calls.
 struct Timings {
   std::vector<double> wall_us, cpu_us;
   template <typename F>
   void time(F&& f) {
-    const double c0 = threadCpuUs();
+    const double c0 = 1e6 * threadCpuSeconds();
     const auto t0 = Clock::now();
     f();
     wall_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
-    cpu_us.push_back(threadCpuUs() - c0);
+    cpu_us.push_back(1e6 * threadCpuSeconds() - c0);
   }
   void report(benchmark::State& state) {
     if (wall_us.empty()) return;

@@ -25,6 +25,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/camera/stereo_rectifier.h"
+#include "core/common/clocks.h"
 #include "core/registration/frame_registration.h"
 #include "tools/datasets/euroc.h"
 #include "tools/datasets/euroc_calibration.h"
@@ -79,14 +80,6 @@ const Inputs& inputs() {
   return in;
 }
 
-// CPU time of this thread (ms): on a shared machine the wall clock also counts the time the
-// thread waited for a core; one thread's CPU time is what a frame costs.
-double threadCpuMs() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
-}
-
 double peakRssMb() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
@@ -123,7 +116,7 @@ void runVo(benchmark::State& state, bool rectify) {
       k = 0;
       vo->reset();
     }
-    const double start = threadCpuMs();
+    const double start = 1e3 * threadCpuSeconds();
     vo::FrameResult r;
     if (rectify) {
       auto pair = in.rectifier->rectify(in.raw_left[k], in.raw_right[k]);
@@ -131,7 +124,7 @@ void runVo(benchmark::State& state, bool rectify) {
     } else {
       r = vo->process(utime += 50000, in.left[k], in.right[k]);
     }
-    const double t = threadCpuMs() - start;
+    const double t = 1e3 * threadCpuSeconds() - start;
     state.SetIterationTime(t / 1000.0);
     ms.push_back(t);
     if (r.status != vo::VoStatus::kOk && r.status != vo::VoStatus::kNoData) ++failures;

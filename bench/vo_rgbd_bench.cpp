@@ -21,6 +21,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/camera/rgbd_camera.h"
+#include "core/common/clocks.h"
 #include "core/features/stereo_features.h"
 #include "tools/datasets/tum_rgbd.h"
 #include "vo-proc/vo_pipeline.h"
@@ -62,12 +63,6 @@ const Inputs& inputs() {
   return in;
 }
 
-double threadCpuMs() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
-}
-
 void report(benchmark::State& state, std::vector<double> ms) {
   std::sort(ms.begin(), ms.end());
   state.counters["median_ms"] = ms[ms.size() / 2];
@@ -91,9 +86,9 @@ void BM_RgbdVoFrame(benchmark::State& state) {
       pipeline.emplace(std::move(*p));
     }
     const messages::RgbdFrame& f = in.frames[k];
-    const double start = threadCpuMs();
+    const double start = 1e3 * threadCpuSeconds();
     const vo::PipelineOutput out = pipeline->handleRgbdFrame(f.utime, f);
-    const double t = threadCpuMs() - start;
+    const double t = 1e3 * threadCpuSeconds() - start;
     state.SetIterationTime(t / 1000.0);
     ms.push_back(t);
     if (out.result.status != vo::VoStatus::kOk && out.result.status != vo::VoStatus::kNoData) {

@@ -13,10 +13,10 @@
 #include <evermap/vo_delta_t.hpp>
 #include <evermap/wheel_odom_t.hpp>
 
+#include "core/common/clocks.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
 #include "core/messages/pose_fields.h"
-#include "mapper-proc/step_clock.h"
 
 namespace evermap::mapper {
 namespace {
@@ -134,7 +134,7 @@ Status LcmNode::on(const Msg& msg) {
 }
 
 void LcmNode::afterMessage(int64_t utime, bool publish_pose) {
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   last_utime_ = std::max(last_utime_, utime);
   for (const auto& r : m_.takeRequests()) lcm_.publish(channels::kRegisterRequest, &r);
   for (const auto& n : m_.takeNodesAdded()) lcm_.publish(channels::kNodeAdded, &n);
@@ -156,7 +156,7 @@ void LcmNode::save() {
   if (st.nodes == stored_nodes_ && st.constraints == stored_constraints_ &&
       st.timing.update_s.size() == stored_updates_)
     return;
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   // The session of the newest node, started at that session's first node.
   const int session = m_.nodes().back().session;
   int64_t start = m_.nodes().back().keyframe_utime;
@@ -176,7 +176,7 @@ void LcmNode::publishGraph() {
   const MapperStats& st = m_.stats();
   if (st.nodes == graph_nodes_ && st.constraints == graph_constraints_ && st.timing.update_s.size() == graph_updates_)
     return;
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   const map_graph_t g = graphMessage(m_, last_utime_);
   lcm_.publish(channels::kMapGraph, &g);
   graph_nodes_ = st.nodes;

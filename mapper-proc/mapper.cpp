@@ -7,9 +7,9 @@
 
 #include <Eigen/Cholesky>
 
+#include "core/common/clocks.h"
 #include "core/solver/pose_factors.h"
 #include "mapper-proc/map_store.h"
-#include "mapper-proc/step_clock.h"
 
 namespace evermap::mapper {
 
@@ -93,7 +93,7 @@ Mapper::Mapper(const MapperOptions& options, int session)
       schedule_(options.solver, options.defer_merges, options.covariance_floor) {}
 
 Status Mapper::onVo(const vo_delta_t& msg) {
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   const Status s = tracker_.addVo(msg);
   stats_.timing.tracking_s += secondsSince(t0);
   if (!s) {
@@ -123,7 +123,7 @@ void Mapper::startSession(int64_t utime) {
 }
 
 Status Mapper::onWheel(const wheel_odom_t& msg) {
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   const Status s = tracker_.addWheel(msg);
   stats_.timing.tracking_s += secondsSince(t0);
   if (!s) ++stats_.dropped;
@@ -219,7 +219,7 @@ std::optional<int64_t> Mapper::nodeAt(const core::SE3d& world_T_body, int floor,
 }
 
 void Mapper::step(int64_t keyframe_utime) {
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   const double c0 = threadCpuSeconds();
   ++stats_.steps;
   last_step_utime_ = keyframe_utime;
@@ -273,7 +273,7 @@ void Mapper::finishStep(bool registered) {
     odometer_at_confirmation_ = tracker_.odometerM();
   }
   const bool gate_rejected = std::exchange(gate_rejected_, false);
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   const double c0 = threadCpuSeconds();
   if (lost_) {
     // Not re-localised yet: neither a node nor a step pose from a meaningless Δ.
@@ -396,7 +396,7 @@ void Mapper::addConstraint(int64_t from, int64_t to, const core::UncertainPose& 
 }
 
 void Mapper::flushSolver() {
-  const auto t_refresh = Clock::now();
+  const auto t_refresh = SteadyClock::now();
   if (partition_.refresh(nodes_, schedule_.solver())) stats_.timing.partition_s += secondsSince(t_refresh);
   const std::optional<SolverSchedule::Flush> flush = schedule_.flush(last_step_utime_, constraints_);
   if (!flush) return;
@@ -415,7 +415,7 @@ void Mapper::flushSolver() {
   // join the index (partition_index.h). A synchronous batch step (the first update, a
   // restored map, a removal outside the schedule) re-files every node at once; after a
   // background batch the old nodes are re-filed over the next steps.
-  const auto t1 = Clock::now();
+  const auto t1 = SteadyClock::now();
   for (int64_t id : flush->added) partition_.file(id, partition_.cellOf(nodePose(id), nodes_[id].floor));
   if (flush->batch) partition_.rebuild(nodes_, schedule_.solver().estimate());
   if (flush->batch_swapped) partition_.startRefresh();

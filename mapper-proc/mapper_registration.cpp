@@ -12,8 +12,8 @@
 
 #include <Eigen/Cholesky>
 
+#include "core/common/clocks.h"
 #include "core/solver/marginals.h"
-#include "mapper-proc/step_clock.h"
 
 namespace evermap::mapper {
 
@@ -50,7 +50,7 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
     ++stats_.dropped;
     return makeError("REGISTER_RESULT ", msg.request_id, ": no such request in flight");
   }
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   const double c0 = threadCpuSeconds();
   if (msg.status != register_result_t::STATUS_OK) {
     if (in_flight_->mode == register_request_t::MODE_NODE && !in_flight_->same_frame_check) {
@@ -350,7 +350,7 @@ bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& 
   if (!(o_.map_gate > 0)) return true;
   // The map's own estimate of a_T_b with its marginal covariance (the joint marginal of a and
   // b through the relative-pose Jacobians), against the measured chain.
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   // From the solver's current factor by path solves (no copy of R): the work follows the
   // two nodes' elimination-tree paths, not the size of the map.
   const std::vector<solver::Key> keys{a, b};

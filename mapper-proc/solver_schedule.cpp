@@ -6,7 +6,7 @@
 
 #include <Eigen/Cholesky>
 
-#include "mapper-proc/step_clock.h"
+#include "core/common/clocks.h"
 
 namespace evermap::mapper {
 namespace {
@@ -84,7 +84,7 @@ void SolverSchedule::consolidatePairs(const ConstraintSet& constraints) {
 std::optional<SolverSchedule::Flush> SolverSchedule::flush(int64_t step_utime, const ConstraintSet& constraints) {
   // Merged pairs are consolidated at the solver's scheduled batch steps: it batch-steps every
   // batch_every-th update anyway (its update counter starts at 0).
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   const int every = batch_every_;
   const bool changes = !pending_update_.new_variables.empty() || !pending_update_.new_factors.empty();
   const bool scheduled = every > 0 && changes && solver_updates_ % every == 0;

@@ -10,16 +10,13 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include "core/common/clocks.h"
 #include "core/solver/normal_equations.h"
 #include "core/solver/ordering.h"
 
 namespace evermap::solver {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 
 }  // namespace
 
@@ -184,7 +181,7 @@ void IncrementalSolver::startBackgroundBatch(const std::vector<FactorId>& remove
 }
 
 Status IncrementalSolver::swapInBackgroundBatch(UpdateResult* result) {
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   Expected<Refactored> out = job_->result.get();
   result->batch_wait_s = secondsSince(t0);
   const int factor_slots = job_->factor_slots;
@@ -336,7 +333,7 @@ Status IncrementalSolver::moveLinearizationPoint() {
 
 Expected<IncrementalSolver::Refactored> IncrementalSolver::refactor(const PoseGraph& graph, int recent_last,
                                                                     SparseCholesky* chol) {
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   Refactored out;
   const BlockPattern pattern = buildPattern(graph);
   std::vector<int> recent;

@@ -6,6 +6,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "core/common/clocks.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
 #include "core/messages/rgbd_convert.h"
@@ -17,11 +18,6 @@
 namespace evermap::sim {
 namespace {
 
-using WallClock = std::chrono::steady_clock;
-
-double secondsSince(WallClock::time_point t) {
-  return std::chrono::duration<double>(WallClock::now() - t).count();
-}
 
 }  // namespace
 
@@ -234,7 +230,7 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
       wheel_prev = s;
       wheel_ticks.advance();
     } else {
-      const auto t0 = WallClock::now();
+      const auto t0 = SteadyClock::now();
       const FrameFacts f = rgbd ? renderRgbd(t, &left, &depth) : renderPair(t, &left, &right);
       summary.render_s += secondsSince(t0);
       ++summary.frames;
@@ -250,7 +246,7 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
           c.camera = messages::toMsg(calib.left);
           writeMessage(sink, channels::kRgbdCalib, c);
         }
-        const auto t1 = WallClock::now();
+        const auto t1 = SteadyClock::now();
         messages::RgbdFrame frame;
         frame.utime = frame.depth_utime = t;
         frame.gray = left;
@@ -263,7 +259,7 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
         writeMessage(sink, channels::kRgbd, *msg);
       } else {
         if (calib_repeat.due(t)) writeMessage(sink, channels::kStereoCalib, messages::toMsg(calib, t));
-        const auto t1 = WallClock::now();
+        const auto t1 = SteadyClock::now();
         auto msg = messages::toMsg(messages::StereoFrame{t, true, left, right}, o.render.encoding);
         if (!msg) return msg.error();
         summary.encode_s += secondsSince(t1);

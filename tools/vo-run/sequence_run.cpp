@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/camera/calibration.h"
+#include "core/common/clocks.h"
 #include "tools/eval/alignment.h"
 #include "tools/eval/metrics.h"
 #include "tools/vo-run/offline_runner.h"
@@ -19,12 +20,6 @@
 namespace evermap::vo {
 
 namespace {
-
-double threadCpuMs() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
-}
 
 constexpr double kDeg = 180.0 / std::numbers::pi;
 
@@ -76,9 +71,9 @@ Expected<SequenceRun> runKittiSequence(const std::filesystem::path& folder,
     if (right.empty()) return makeError(seq->rightImage(i).string(), ": cannot read");
     // +1: a sequence at rate R starts at utime 0, which is a valid first stamp.
     const int64_t utime = seq->times_ns[i] / 1000 + 1;
-    const double start = threadCpuMs();
+    const double start = 1e3 * threadCpuSeconds();
     FrameResult r = vo->process(utime, left, right);
-    run.cpu_ms.push_back(threadCpuMs() - start);
+    run.cpu_ms.push_back(1e3 * threadCpuSeconds() - start);
     if (r.keyframe_changed) ++run.keyframes;
     if (r.ok()) inliers.push_back(r.num_inliers);
     if (auto pose = chain.add(toMsg(r))) {
