@@ -141,6 +141,11 @@ Status LoopCloser::addNode(const evermap::node_added_t& msg) {
     ++stats_.nodes_rejected;
     return makeError("node ", msg.node_id, ": already known");
   }
+  if (std::any_of(waiting_nodes_.begin(), waiting_nodes_.end(),
+                  [&](const auto& n) { return n.node_id == msg.node_id; })) {
+    ++stats_.nodes_rejected;
+    return makeError("node ", msg.node_id, ": already waiting for its keyframe");
+  }
   std::shared_ptr<const Keyframe> keyframe;
   for (const auto& r : recent_) {
     if (r->utime == msg.keyframe_utime) keyframe = r;
@@ -153,12 +158,6 @@ Status LoopCloser::addNode(const evermap::node_added_t& msg) {
     }
   }
   if (!keyframe && now_utime_ - msg.utime < options_.keyframe_wait_us) {
-    const bool already = std::any_of(waiting_nodes_.begin(), waiting_nodes_.end(),
-                                     [&](const auto& n) { return n.node_id == msg.node_id; });
-    if (already) {
-      ++stats_.nodes_rejected;
-      return makeError("node ", msg.node_id, ": already waiting for its keyframe");
-    }
     waiting_nodes_.push_back(msg);
     ++stats_.nodes_waited;
     return Ok{};

@@ -15,7 +15,6 @@
 //     the plane's horizon (c), a baseline error does not.
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <cstdio>
 #include <random>
 #include <string>
@@ -101,14 +100,13 @@ bool sadSearch(const cv::Mat& L, const cv::Mat& R, int u, int v, int dmin, int d
 
 struct PlaneFit {
   double a = 0, b = 0, c = 0;  // d = a (u - cx) + b (v - cy) + c
-  int inliers = 0, points = 0;
+  int inliers = 0;
   double rms_px = 0;
 };
 
 // RANSAC (three points) then least squares on the points within `tol_px`.
 PlaneFit fitDisparityPlane(const std::vector<cv::Point3d>& uvd, double tol_px, uint32_t seed) {
   PlaneFit best;
-  best.points = static_cast<int>(uvd.size());
   if (uvd.size() < 20) return best;
   std::mt19937 rng(seed);
   std::uniform_int_distribution<size_t> pick(0, uvd.size() - 1);
@@ -210,12 +208,11 @@ int main(int argc, char** argv) {
                 -p.p1_03 / p.fx, same ? "identical" : "differs");
   }
 
-  const double cx_l = cx, cy_l = cy;
   evermap::core::StereoDepth::Options depth_options;
   depth_options.max_disparity_px = 160;
   const evermap::core::StereoDepth depth(depth_options);
   std::vector<double> dy_all, dy_left, dy_mid, dy_right, dy_top, dy_bottom, d_all;
-  std::vector<double> heights, offsets, horizon_c;
+  std::vector<double> heights, offsets;
   int frames_used = 0;
   std::printf("\nper frame (every %d-th): road plane d = a (u - cx) + b (v - cy) + c, height B / |(a, b, c/f)|%s\n",
               step, seq->poses.empty() ? "" : "; offset: ground truth's positions ahead on the plane");
@@ -252,19 +249,19 @@ int main(int argc, char** argv) {
       dy_all.push_back(dy);
       d_all.push_back(disp);
       (u < L.cols / 3 ? dy_left : u < 2 * L.cols / 3 ? dy_mid : dy_right).push_back(dy);
-      (v < cy_l ? dy_top : dy_bottom).push_back(dy);
+      (v < cy ? dy_top : dy_bottom).push_back(dy);
     }
 
     // 3. Road plane from the pipeline's stereo depth on a grid below the horizon.
     std::vector<cv::Point3d> uvd;
-    for (int v = static_cast<int>(cy_l + road_margin_px); v < L.rows - 8; v += 4) {
-      for (int u = static_cast<int>(cx_l - road_half_width * L.cols); u <= cx_l + road_half_width * L.cols;
+    for (int v = static_cast<int>(cy + road_margin_px); v < L.rows - 8; v += 4) {
+      for (int u = static_cast<int>(cx - road_half_width * L.cols); u <= cx + road_half_width * L.cols;
            u += 6) {
         evermap::core::Keypoint kp;
         kp.u = static_cast<float>(u);
         kp.v = static_cast<float>(v);
         const float d = depth.disparity(pl, pr, kp);
-        if (std::isfinite(d)) uvd.emplace_back(u - cx_l, v - cy_l, d + offset_px);
+        if (std::isfinite(d)) uvd.emplace_back(u - cx, v - cy, d + offset_px);
       }
     }
     const PlaneFit fit = fitDisparityPlane(uvd, 0.5, 7u + static_cast<uint32_t>(frame));
@@ -287,7 +284,6 @@ int main(int argc, char** argv) {
         offsets.push_back(delta);
       }
     }
-    horizon_c.push_back(fit.c);
     std::printf("%6zu %8.3f %8.5f %8.5f %7.2f %6d %8.3f %8.3f %9.2f\n", frame, median(dy_frame), fit.a, fit.b,
                 fit.c, fit.inliers, fit.rms_px, h, delta);
   }
