@@ -25,6 +25,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "core/common/clocks.h"
 #include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
 #include "core/common/stop_signals.h"
@@ -38,7 +39,8 @@ namespace {
 
 using evermap::sim::KeyframeTruth;
 using evermap::sim::RunPlan;
-using Clock = std::chrono::steady_clock;
+using Clock = evermap::SteadyClock;
+using evermap::secondsSince;
 
 
 struct Args {
@@ -103,7 +105,6 @@ int parseArgs(int argc, char** argv, Args* a) {
   return -1;
 }
 
-double seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
 double cpuSeconds() {
   timespec t{};
   clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
@@ -121,7 +122,7 @@ int runStats(const RunPlan& plan, bool load) {
       const auto t0 = Clock::now();
       const double c0 = cpuSeconds();
       requests.onKeyframe(k);
-      oracle_s += seconds(t0);
+      oracle_s += secondsSince(t0);
       oracle_cpu_s += cpuSeconds() - c0;
     };
   }
@@ -130,7 +131,7 @@ int runStats(const RunPlan& plan, bool load) {
   const double cpu0 = cpuSeconds();
   const auto summary = evermap::sim::generateRun(plan, [&](int) -> evermap::sim::MessageSink& { return null; },
                                                  observers);
-  const double wall = seconds(t0);
+  const double wall = secondsSince(t0);
   std::printf("%s", summary.text().c_str());
   std::printf("generation + encoding       %.2f s wall, %.2f s CPU\n", wall - oracle_s,
               cpuSeconds() - cpu0 - oracle_cpu_s);
@@ -154,7 +155,7 @@ int runOut(const RunPlan& plan, const std::string& folder) {
     return 1;
   }
   std::printf("%s", written->summary.text().c_str());
-  std::printf("generation + writing        %.2f s wall, %.2f s CPU\n", seconds(t0), cpuSeconds() - cpu0);
+  std::printf("generation + writing        %.2f s wall, %.2f s CPU\n", secondsSince(t0), cpuSeconds() - cpu0);
   std::printf("wrote %zu log(s) and %s\n", written->logs.size(), written->sidecar.string().c_str());
   return 0;
 }
@@ -251,7 +252,7 @@ int runOracle(const RunPlan& plan, const Args& args, evermap::StopSignals& stop)
       seen = server.answered();
       last = Clock::now();
     }
-    if (args.idle_exit_s > 0.0 && seconds(last) > args.idle_exit_s) break;
+    if (args.idle_exit_s > 0.0 && secondsSince(last) > args.idle_exit_s) break;
   }
   std::printf("%s", oracle.summary().text().c_str());
   return 0;

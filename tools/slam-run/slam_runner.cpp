@@ -17,6 +17,7 @@
 #include <evermap/pose_t.hpp>
 #include <evermap/wheel_odom_t.hpp>
 
+#include "core/common/clocks.h"
 #include "core/geometry/se2.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
@@ -33,8 +34,6 @@
 namespace evermap::slam_run {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 int64_t peakRssKb() {
   rusage u{};
@@ -124,19 +123,21 @@ const char* outcomeOf(const OutcomeCounters& before, const OutcomeCounters& afte
 
 void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
   while (true) {
+    // Errors of nodes that waited for their keyframe come out of addKeyframe, addNode and
+    // answer (the clock moving on): drained at every pass, the last (empty) one included.
+    for (const std::string& why : loop_closer_->takeNodeErrors()) inputError("NODE_ADDED: " + why);
     auto nodes = mapper_->takeNodesAdded();
     auto requests = mapper_->takeRequests();
     if (nodes.empty() && requests.empty()) return;
     for (const node_added_t& n : nodes) {
-      const auto t0 = Clock::now();
+      const auto t0 = SteadyClock::now();
       if (Status s = loop_closer_->addNode(n); !s) inputError("NODE_ADDED: " + s.error().message);
-      for (const std::string& why : loop_closer_->takeNodeErrors()) inputError("NODE_ADDED: " + why);
-      *loopclose_s += since(t0);
+      *loopclose_s += secondsSince(t0);
     }
     for (const register_request_t& r : requests) {
-      auto t0 = Clock::now();
+      auto t0 = SteadyClock::now();
       const register_result_t answer = loop_closer_->answer(r);
-      *loopclose_s += since(t0);
+      *loopclose_s += secondsSince(t0);
       ++requests_answered_;
       RegistrationRow row;
       row.query_utime = r.keyframe_utime;
@@ -156,10 +157,10 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
                                                               answer.translation[2])) * A.inverse();
       }
       registrations_.push_back(row);
-      t0 = Clock::now();
+      t0 = SteadyClock::now();
       const OutcomeCounters before = outcomeCounters(mapper_->stats());
       if (Status s = mapper_->onRegisterResult(answer); !s) inputError("REGISTER_RESULT: " + s.error().message);
-      *mapper_s += since(t0);
+      *mapper_s += secondsSince(t0);
       registrations_.back().outcome = outcomeOf(before, outcomeCounters(mapper_->stats()));
     }
   }
@@ -182,7 +183,7 @@ struct ReadEvent {
 };
 
 ReadEvent makeEvent(const std::string& channel, int64_t timestamp, const uint8_t* p, size_t size) {
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   ReadEvent r;
   r.channel = channel;
   r.timestamp = timestamp;
@@ -202,7 +203,7 @@ ReadEvent makeEvent(const std::string& channel, int64_t timestamp, const uint8_t
       r.data.clear();
     }
   }
-  r.decode_s = since(t0);
+  r.decode_s = secondsSince(t0);
   return r;
 }
 
@@ -309,7 +310,7 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
   int64_t first_utime = -1, last_utime = -1;
   session_start_utime_ = -1;
   ComponentTimes& t = summary_.times;
-  auto t_read = Clock::now();
+  auto t_read = SteadyClock::now();
   bool cut_short = false;
   while (std::optional<ReadEvent> e = log.next()) {
     const std::string& channel = e->channel;
@@ -322,22 +323,22 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
       break;
     }
     t.decode_s += e->decode_s;
-    t.wait_s += since(t_read);
+    t.wait_s += secondsSince(t_read);
     double loopclose_s = 0.0, mapper_s = 0.0;
     if (channel == channels::kStereoCalib) {
-      auto t0 = Clock::now();
+      auto t0 = SteadyClock::now();
       if (Status s = vo->handleCalibrationBytes(data, size); !s) inputError("vo: " + s.error().message);
-      t.vo_s += since(t0);
-      t0 = Clock::now();
+      t.vo_s += secondsSince(t0);
+      t0 = SteadyClock::now();
       if (Status s = calibration_.handle(data, size, *mapper_); !s) inputError("mapper: " + s.error().message);
-      mapper_s += since(t0);
+      mapper_s += secondsSince(t0);
     } else if (channel == channels::kRgbdCalib) {
       // An RGB-D camera: vo-proc takes the calibration from the frames, the mapper from here.
-      auto t0 = Clock::now();
+      auto t0 = SteadyClock::now();
       if (Status s = calibration_.handleRgbd(data, size, *mapper_); !s) inputError("mapper: " + s.error().message);
-      mapper_s += since(t0);
+      mapper_s += secondsSince(t0);
     } else if (channel == channels::kStereo || channel == channels::kRgbd) {
-      auto t0 = Clock::now();
+      auto t0 = SteadyClock::now();
       // Decoded ahead by the reader; what did not decode as LCM fails here as in vo-proc.
       const bool rgbd = channel == channels::kRgbd;
       Expected<vo::PipelineOutput> out =
@@ -345,7 +346,7 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
                                 : vo->handleRgbdBytes(data, size))
           : e->frame ? Expected<vo::PipelineOutput>(vo->handleFrame(e->stereo_utime, *e->frame))
                      : vo->handleStereoBytes(data, size);
-      const double vo_s = since(t0);
+      const double vo_s = secondsSince(t0);
       t.vo_s += vo_s;
       if (!out) {
         inputError(std::string(channel) + ": " + out.error().message);
@@ -355,17 +356,17 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
         if (out->result.ok()) ++ss.vo_ok;
         if (out->keyframe) {
           ++ss.keyframes;
-          t0 = Clock::now();
+          t0 = SteadyClock::now();
           if (Status s = loop_closer_->addKeyframe(*out->keyframe); !s) inputError("KEYFRAME: " + s.error().message);
-          loopclose_s += since(t0);
+          loopclose_s += secondsSince(t0);
         }
-        t0 = Clock::now();
+        t0 = SteadyClock::now();
         if (!calibration_.haveCamera()) {
           inputError("VO_DELTA before STEREO_CALIB or RGBD_CALIB");
         } else if (Status s = mapper_->onVo(out->delta); !s) {
           inputError("VO_DELTA: " + s.error().message);
         }
-        mapper_s += since(t0);
+        mapper_s += secondsSince(t0);
         exchange(&loopclose_s, &mapper_s);
         if (mapper_->activeNode() >= 0 && !mapper_->lost())
           summary_.trajectory.emplace_back(out->delta.utime, mapper_->pose().mean);
@@ -381,12 +382,12 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
       if (!msg) {
         inputError(msg.error().message);
       } else {
-        auto t0 = Clock::now();
+        auto t0 = SteadyClock::now();
         std::optional<attitude_t> att = attitude.add(*msg);
         if (att) latest_attitude = imu::fromLcm(*att);
         const auto events = elevator.add(imu::fromLcm(*msg), latest_attitude ? &*latest_attitude : nullptr);
-        t.imu_s += since(t0);
-        t0 = Clock::now();
+        t.imu_s += secondsSince(t0);
+        t0 = SteadyClock::now();
         if (att) {
           if (Status s = mapper_->onAttitude(*att); !s) inputError("ATTITUDE: " + s.error().message);
         }
@@ -394,17 +395,17 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
           ++ss.floor_events;
           if (Status s = mapper_->onFloor(elevator::toLcm(ev)); !s) inputError("FLOOR: " + s.error().message);
         }
-        mapper_s += since(t0);
+        mapper_s += secondsSince(t0);
       }
     } else if (channel == channels::kWheelOdom) {
       auto msg = messages::decodeLcm<wheel_odom_t>(data, size, channel);
-      const auto t0 = Clock::now();
+      const auto t0 = SteadyClock::now();
       if (!msg) {
         inputError(msg.error().message);
       } else if (Status s = mapper_->onWheel(*msg); !s) {
         inputError("WHEEL_ODOM: " + s.error().message);
       }
-      mapper_s += since(t0);
+      mapper_s += secondsSince(t0);
     } else if (channel == channels::kGroundTruth) {
       auto msg = messages::decodeLcm<pose_t>(data, size, channel);
       auto pose = msg ? messages::fromMsg(*msg) : Expected<core::UncertainPose>(msg.error());
@@ -418,9 +419,9 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
     exchange(&loopclose_s, &mapper_s);
     t.loopclose_s += loopclose_s;
     t.mapper_s += mapper_s;
-    t_read = Clock::now();
+    t_read = SteadyClock::now();
   }
-  t.wait_s += since(t_read);
+  t.wait_s += secondsSince(t_read);
   if (Status s = log.finish(); !s && !cut_short) {
     // The reader's message names the log already.
     if (s.error().message.rfind(name, 0) == 0) return s;
