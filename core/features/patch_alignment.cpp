@@ -65,15 +65,28 @@ std::optional<Eigen::Vector2f> alignPatch(const cv::Mat& a, int ua, int va, cons
     const float w00 = (1 - ax) * (1 - ay), w01 = ax * (1 - ay), w10 = (1 - ax) * ay,
                 w11 = ax * ay;
     float sx = 0, sy = 0, s1 = 0;
-    for (int dy = -r, i = 0; dy <= r; ++dy) {
-      const uint8_t* r0 = b.ptr<uint8_t>(y0 + dy) + x0;
-      const uint8_t* r1 = b.ptr<uint8_t>(y0 + dy + 1) + x0;
-      for (int dx = -r; dx <= r; ++dx, ++i) {
-        const float s = w00 * r0[dx] + w01 * r0[dx + 1] + w10 * r1[dx] + w11 * r1[dx + 1];
-        const float e = s - t[i] - offset;
-        sx += gx[i] * e;
-        sy += gy[i] * e;
-        s1 += e;
+    if (options.x_only) {
+      // The row stays the template's (ay = 0, so w10 = w11 = 0) and gy = 0: half the work of
+      // the 2-D case below, with the same sums.
+      for (int dy = -r, i = 0; dy <= r; ++dy) {
+        const uint8_t* r0 = b.ptr<uint8_t>(y0 + dy) + x0;
+        for (int dx = -r; dx <= r; ++dx, ++i) {
+          const float e = w00 * r0[dx] + w01 * r0[dx + 1] - t[i] - offset;
+          sx += gx[i] * e;
+          s1 += e;
+        }
+      }
+    } else {
+      for (int dy = -r, i = 0; dy <= r; ++dy) {
+        const uint8_t* r0 = b.ptr<uint8_t>(y0 + dy) + x0;
+        const uint8_t* r1 = b.ptr<uint8_t>(y0 + dy + 1) + x0;
+        for (int dx = -r; dx <= r; ++dx, ++i) {
+          const float s = w00 * r0[dx] + w01 * r0[dx + 1] + w10 * r1[dx] + w11 * r1[dx + 1];
+          const float e = s - t[i] - offset;
+          sx += gx[i] * e;
+          sy += gy[i] * e;
+          s1 += e;
+        }
       }
     }
     const Eigen::Vector3d delta = Hinv * Eigen::Vector3d(sx, sy, s1);

@@ -1,8 +1,10 @@
 #include "core/features/stereo_depth.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 
 #include "core/features/patch_alignment.h"
@@ -17,22 +19,49 @@ constexpr int kMaxDisparity = 512;
 // [0, dmax]: cost[j] is the cost at d = dmax - j (right x = u - dmax + j, increasing), so the
 // inner loop runs over contiguous right pixels and vectorises. Compiled for AVX2 and for the
 // baseline, chosen at load time.
+// cost[j], j = 0..dmax: the SAD of the (2r+1)^2 window of L at (u, v) against R at
+// (u - dmax + j, v). Computed in blocks of 16 disparities whose sums stay in one vector
+// register over the whole window (the last block overlaps the one before instead of reading
+// past the search range); a range shorter than a block is summed window pixel by pixel.
 __attribute__((target_clones("avx2", "default")))
 void sadCurve(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int dmax,
               uint16_t* cost) {
+  constexpr int kBlock = 16;
   const int n = dmax + 1;
-  for (int j = 0; j < n; ++j) cost[j] = 0;
-  for (int dy = -r; dy <= r; ++dy) {
-    const uint8_t* lrow = L.ptr<uint8_t>(v + dy) + u;
-    const uint8_t* rrow = R.ptr<uint8_t>(v + dy) + (u - dmax);
-    for (int dx = -r; dx <= r; ++dx) {
-      const uint8_t l = lrow[dx];
-      const uint8_t* right = rrow + dx;
-      for (int j = 0; j < n; ++j) {
-        const uint8_t x = right[j];
-        cost[j] = static_cast<uint16_t>(cost[j] + (l > x ? l - x : x - l));
+  if (n < kBlock) {
+    for (int j = 0; j < n; ++j) cost[j] = 0;
+    for (int dy = -r; dy <= r; ++dy) {
+      const uint8_t* lrow = L.ptr<uint8_t>(v + dy) + u;
+      const uint8_t* rrow = R.ptr<uint8_t>(v + dy) + (u - dmax);
+      for (int dx = -r; dx <= r; ++dx) {
+        const uint8_t l = lrow[dx];
+        for (int j = 0; j < n; ++j) {
+          const uint8_t x = rrow[dx + j];
+          cost[j] = static_cast<uint16_t>(cost[j] + (l > x ? l - x : x - l));
+        }
       }
     }
+    return;
+  }
+  // GCC vector extensions: 16 lanes, one AVX2 register (two SSE2 ones by default).
+  using U8x16 = uint8_t __attribute__((vector_size(16)));
+  using U16x16 = uint16_t __attribute__((vector_size(32)));
+  for (int j0 = 0;; j0 += kBlock) {
+    const int start = std::min(j0, n - kBlock);
+    U16x16 acc = {};
+    for (int dy = -r; dy <= r; ++dy) {
+      const uint8_t* lrow = L.ptr<uint8_t>(v + dy) + u;
+      const uint8_t* rrow = R.ptr<uint8_t>(v + dy) + (u - dmax) + start;
+      for (int dx = -r; dx <= r; ++dx) {
+        const U8x16 l = U8x16{} + lrow[dx];
+        U8x16 x;
+        std::memcpy(&x, rrow + dx, sizeof x);
+        const U8x16 diff = (l > x ? l : x) - (l > x ? x : l);  // |l - x|: pmaxub - pminub
+        acc += __builtin_convertvector(diff, U16x16);
+      }
+    }
+    std::memcpy(cost + start, &acc, sizeof acc);
+    if (start + kBlock >= n) break;
   }
 }
 

@@ -24,9 +24,12 @@ int popcountAnd(const uint64_t* a, const uint64_t* b, int words) {
 // distance computations, compiled for AVX2 and for the baseline. w[k] = sigmas * s_k / z_k of
 // each point (0: the fixed threshold).
 __attribute__((target_clones("avx2", "default")))
-void fillAdjacency(int n, int words, const float* ax, const float* ay, const float* az,
-                   const float* bx, const float* by, const float* bz, const float* wa,
-                   const float* wb, float t0, float* change, float* threshold, uint64_t* adj) {
+void fillAdjacency(int n, int words, const float* __restrict ax, const float* __restrict ay,
+                   const float* __restrict az, const float* __restrict bx,
+                   const float* __restrict by, const float* __restrict bz,
+                   const float* __restrict wa, const float* __restrict wb, float t0,
+                   float* __restrict change, float* __restrict threshold,
+                   uint64_t* __restrict adj) {
   for (int i = 0; i < n; ++i) {
     for (int j = i + 1; j < n; ++j) {
       const float dax = ax[i] - ax[j], day = ay[i] - ay[j], daz = az[i] - az[j];
