@@ -20,7 +20,7 @@ namespace evermap::core {
 
 struct RotationEstimateOptions {
   int max_iterations = 15;
-  double converged_rad = 1e-5;
+  double converged_rad = 1e-4;
   // A result turning more than this between two frames is refused (radians).
   double max_angle_rad = 0.6;
   // Pixels of the level left out around the border (gradients, warp).
