@@ -39,7 +39,7 @@ WarpCase randomWarpCase(Random& rng, int level_w, int level_h, int width) {
 }
 
 TEST(RenderKernels, WarpAvx2MatchesPortableBitForBit) {
-  if (!cpuHasAvx2()) GTEST_SKIP() << "this CPU has no AVX2";
+  if (!core::cpuHasAvx2()) GTEST_SKIP() << "this CPU has no AVX2";
   Random rng(3);
   for (const int width : {640, 752, 37, 8, 5}) {
     WarpCase c = randomWarpCase(rng, width + 24, 60, width);
@@ -70,7 +70,7 @@ TEST(RenderKernels, WarpAtPixelCentresReadsTheLevelPixel) {
   std::vector<float> lu0 = {3.0f, 19.0f, 35.0f}, lv0 = {5.0f, 5.0f, 5.0f}, dlu = {1, 1, 1}, dlv = {0, 0, 0};
   std::vector<uint8_t> out(width);
   for (const bool avx2 : {false, true}) {
-    if (avx2 && !cpuHasAvx2()) continue;
+    if (avx2 && !core::cpuHasAvx2()) continue;
     (avx2 ? warpRowAvx2 : warpRow)(c.row, lu0.data(), lv0.data(), dlu.data(), dlv.data(), c.noise.data(), width,
                                    out.data());
     for (int u = 0; u < width; ++u) {
@@ -99,7 +99,7 @@ RenderFloor threeRooms(const TextureLibrary& lib) {
 }
 
 TEST(RenderKernels, SurfaceRowAvx2MatchesPortableBitForBit) {
-  if (!cpuHasAvx2()) GTEST_SKIP() << "this CPU has no AVX2";
+  if (!core::cpuHasAvx2()) GTEST_SKIP() << "this CPU has no AVX2";
   Random rng(5);
   TextureOptions to;
   to.variants = 1;
@@ -152,7 +152,7 @@ TEST(RenderKernels, SurfaceRowAvx2MatchesPortableBitForBit) {
 }
 
 TEST(RenderKernels, WallSpanAvx2MatchesPortableBitForBit) {
-  if (!cpuHasAvx2()) GTEST_SKIP() << "this CPU has no AVX2";
+  if (!core::cpuHasAvx2()) GTEST_SKIP() << "this CPU has no AVX2";
   Random rng(6);
   TextureOptions to;
   to.variants = 1;
@@ -201,7 +201,7 @@ TEST(RenderKernels, WallSpanSamplesTheTextureColumn) {
   span.offset_z = 3.0f;
   std::vector<uint16_t> out(100, 0);
   for (const bool avx2 : {false, true}) {
-    if (avx2 && !cpuHasAvx2()) continue;
+    if (avx2 && !core::cpuHasAvx2()) continue;
     (avx2 ? wallSpanAvx2 : wallSpan)(span, 10, 90, out.data(), 1);
     for (int v = 10; v < 90; ++v) {
       const float d = 0.25f + static_cast<float>(v - 5) * 0.004f;

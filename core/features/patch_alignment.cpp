@@ -6,6 +6,8 @@
 
 #include <Eigen/Dense>  // Matrix3d::inverse
 
+#include "core/common/cpu.h"
+
 namespace evermap::core {
 
 namespace {
@@ -29,11 +31,6 @@ struct Template {
 // The AVX2 path: patches up to 16 pixels wide (radius 7) whose rows of 8 or 16 pixels, plus
 // one, lie inside the image; the scalar path below does the rest, and all of it on a CPU
 // without AVX2. The two differ only in the order of the float sums.
-bool haveAvx2() {
-  static const bool yes = __builtin_cpu_supports("avx2");
-  return yes;
-}
-
 int vectorsPerRow(int side) { return side <= 8 ? 1 : 2; }
 
 // 8 pixels from p as floats.
@@ -173,7 +170,7 @@ std::optional<Eigen::Vector2f> alignPatch(const cv::Mat& a, int ua, int va, cons
   }
   const int side = 2 * r + 1;
   const int n = side * side;
-  const bool avx2 = side <= 16 && haveAvx2();
+  const bool avx2 = side <= 16 && cpuHasAvx2();
   // A vector row reads 8 or 16 pixels and the one after them.
   const int row_reach = 8 * vectorsPerRow(side) + 1;
   Template tp;

@@ -7,6 +7,9 @@
 #include <cstring>
 #include <limits>
 
+#include <immintrin.h>
+
+#include "core/common/cpu.h"
 #include "core/features/patch_alignment.h"
 
 namespace evermap::core {
@@ -15,17 +18,15 @@ namespace {
 
 constexpr int kMaxDisparity = 512;
 
-// The SAD of the (2r+1)^2 window around (u, v) of L against R at every disparity d in
-// [0, dmax]: cost[j] is the cost at d = dmax - j (right x = u - dmax + j, increasing), so the
-// inner loop runs over contiguous right pixels and vectorises. Compiled for AVX2 and for the
-// baseline, chosen at load time.
 // cost[j], j = 0..dmax: the SAD of the (2r+1)^2 window of L at (u, v) against R at
-// (u - dmax + j, v). Computed in blocks of 16 disparities whose sums stay in one vector
-// register over the whole window (the last block overlaps the one before instead of reading
-// past the search range); a range shorter than a block is summed window pixel by pixel.
-__attribute__((target_clones("avx2", "default")))
-void sadCurve(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int dmax,
-              uint16_t* cost) {
+// (u - dmax + j, v), i.e. at disparity dmax - j: the inner loops run over contiguous right
+// pixels. Computed in blocks of disparities whose sums stay in vector registers over the whole
+// window; the last block overlaps the one before instead of reading past the search range.
+// Exact integer sums: the AVX2 path and the portable one give the same costs.
+
+// Blocks of 16 (GCC vector extensions: two SSE2 registers); shorter ranges pixel by pixel.
+void sadCurvePortable(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int dmax,
+                      uint16_t* cost) {
   constexpr int kBlock = 16;
   const int n = dmax + 1;
   if (n < kBlock) {
@@ -43,7 +44,6 @@ void sadCurve(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int dmax,
     }
     return;
   }
-  // GCC vector extensions: 16 lanes, one AVX2 register (two SSE2 ones by default).
   using U8x16 = uint8_t __attribute__((vector_size(16)));
   using U16x16 = uint16_t __attribute__((vector_size(32)));
   for (int j0 = 0;; j0 += kBlock) {
@@ -62,6 +62,45 @@ void sadCurve(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int dmax,
     }
     std::memcpy(cost + start, &acc, sizeof acc);
     if (start + kBlock >= n) break;
+  }
+}
+
+// Blocks of 32 disparities: |l - x| of 32 bytes in one register, widened to two 16-lane sums
+// by unpacking with zero (within 128-bit halves; put in order when stored).
+__attribute__((target("avx2")))
+void sadCurveAvx2(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int dmax,
+                  uint16_t* cost) {
+  constexpr int kBlock = 32;
+  const int n = dmax + 1;
+  const __m256i zero = _mm256_setzero_si256();
+  for (int j0 = 0;; j0 += kBlock) {
+    const int start = std::min(j0, n - kBlock);
+    __m256i lo = zero, hi = zero;
+    for (int dy = -r; dy <= r; ++dy) {
+      const uint8_t* lrow = L.ptr<uint8_t>(v + dy) + u;
+      const uint8_t* rrow = R.ptr<uint8_t>(v + dy) + (u - dmax) + start;
+      for (int dx = -r; dx <= r; ++dx) {
+        const __m256i l = _mm256_set1_epi8(static_cast<char>(lrow[dx]));
+        const __m256i x = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(rrow + dx));
+        const __m256i diff = _mm256_sub_epi8(_mm256_max_epu8(l, x), _mm256_min_epu8(l, x));
+        lo = _mm256_add_epi16(lo, _mm256_unpacklo_epi8(diff, zero));  // j 0-7, 16-23
+        hi = _mm256_add_epi16(hi, _mm256_unpackhi_epi8(diff, zero));  // j 8-15, 24-31
+      }
+    }
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(cost + start),
+                        _mm256_permute2x128_si256(lo, hi, 0x20));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(cost + start + 16),
+                        _mm256_permute2x128_si256(lo, hi, 0x31));
+    if (start + kBlock >= n) break;
+  }
+}
+
+void sadCurve(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int dmax,
+              uint16_t* cost) {
+  if (dmax + 1 >= 32 && cpuHasAvx2()) {
+    sadCurveAvx2(L, R, u, v, r, dmax, cost);
+  } else {
+    sadCurvePortable(L, R, u, v, r, dmax, cost);
   }
 }
 

@@ -3,16 +3,22 @@
 #include <cmath>
 #include <vector>
 
+#include <immintrin.h>
+
 #include <Eigen/Dense>
+
+#include "core/common/cpu.h"
 
 namespace evermap::core {
 
 namespace {
 
-struct TemplatePixel {
-  float ray_x, ray_y;            // normalised coordinates of the pixel of image a
-  float value;
-  Eigen::Matrix<float, 4, 1> sd; // steepest descent: ∇I_a · ∂W/∂ω, and 1 for the offset
+// The template pixels of image a, one array per quantity (8 at a time on AVX2).
+struct TemplatePixels {
+  std::vector<float> ray_x, ray_y;  // normalised coordinates of the pixel of image a
+  std::vector<float> value;
+  std::vector<float> sd[4];         // steepest descent: ∇I_a · ∂W/∂ω, and 1 for the offset
+  size_t size() const { return value.size(); }
 };
 
 inline bool sampleBilinear(const cv::Mat& image, float x, float y, float* out) {
@@ -24,6 +30,134 @@ inline bool sampleBilinear(const cv::Mat& image, float x, float y, float* out) {
   const uint8_t* r1 = image.ptr<uint8_t>(y0 + 1) + x0;
   *out = (1 - ay) * ((1 - ax) * r0[0] + ax * r0[1]) + ay * ((1 - ax) * r1[0] + ax * r1[1]);
   return true;
+}
+
+// The warp of one iteration: pixel ray (x, y, 1) turned by Rm, projected with the level's
+// intrinsics.
+struct Warp {
+  Eigen::Matrix3f Rm;
+  float fx, fy, cx, cy, offset;
+};
+
+// One template pixel: adds its steepest-descent image times its error to g; false when it
+// falls behind the camera or outside image b.
+inline bool accumulate(const TemplatePixels& t, size_t i, const Warp& w, const cv::Mat& image_b,
+                       Eigen::Vector4f* g) {
+  const Eigen::Vector3f q = w.Rm.col(0) * t.ray_x[i] + w.Rm.col(1) * t.ray_y[i] + w.Rm.col(2);
+  if (q.z() <= 1e-3f) return false;
+  const float iz = 1.0f / q.z();
+  float value;
+  if (!sampleBilinear(image_b, w.fx * q.x() * iz + w.cx, w.fy * q.y() * iz + w.cy, &value)) {
+    return false;
+  }
+  const float e = value - t.value[i] - w.offset;
+  for (int k = 0; k < 4; ++k) (*g)(k) += t.sd[k][i] * e;
+  return true;
+}
+
+int accumulateScalar(const TemplatePixels& t, const Warp& w, const cv::Mat& image_b,
+                     Eigen::Vector4f* g) {
+  int used = 0;
+  for (size_t i = 0; i < t.size(); ++i) used += accumulate(t, i, w, image_b, g) ? 1 : 0;
+  return used;
+}
+
+// The same, 8 pixels at a time: the four neighbours of a sample come from two 32-bit gathers
+// (bytes x0 - 1 .. x0 + 2 of rows y0 and y0 + 1). Samples whose gather would leave the image
+// row (x0 = 0 or x0 + 2 = cols) and the last pixels take the scalar path.
+__attribute__((target("avx2")))
+int accumulateAvx2(const TemplatePixels& t, const Warp& w, const cv::Mat& image_b,
+                   Eigen::Vector4f* g) {
+  const size_t n = t.size();
+  const size_t n8 = n / 8 * 8;
+  const auto* base = reinterpret_cast<const int*>(image_b.ptr<uint8_t>(0));
+  const int step = static_cast<int>(image_b.step[0]);
+  const __m256 r00 = _mm256_set1_ps(w.Rm(0, 0)), r01 = _mm256_set1_ps(w.Rm(0, 1)),
+               r02 = _mm256_set1_ps(w.Rm(0, 2)), r10 = _mm256_set1_ps(w.Rm(1, 0)),
+               r11 = _mm256_set1_ps(w.Rm(1, 1)), r12 = _mm256_set1_ps(w.Rm(1, 2)),
+               r20 = _mm256_set1_ps(w.Rm(2, 0)), r21 = _mm256_set1_ps(w.Rm(2, 1)),
+               r22 = _mm256_set1_ps(w.Rm(2, 2));
+  const __m256 fx = _mm256_set1_ps(w.fx), fy = _mm256_set1_ps(w.fy);
+  const __m256 cx = _mm256_set1_ps(w.cx), cy = _mm256_set1_ps(w.cy);
+  const __m256 offset = _mm256_set1_ps(w.offset), one = _mm256_set1_ps(1.0f);
+  const __m256 min_z = _mm256_set1_ps(1e-3f);
+  const __m256i zero_i = _mm256_setzero_si256(), one_i = _mm256_set1_epi32(1);
+  const __m256i cols_minus_2 = _mm256_set1_epi32(image_b.cols - 2);
+  const __m256i cols_minus_1 = _mm256_set1_epi32(image_b.cols - 1);
+  const __m256i rows_minus_1 = _mm256_set1_epi32(image_b.rows - 1);
+  const __m256i steps = _mm256_set1_epi32(step), byte = _mm256_set1_epi32(0xff);
+  __m256 g0 = _mm256_setzero_ps(), g1 = g0, g2 = g0, g3 = g0;
+  int used = 0;
+  Eigen::Vector4f g_scalar = Eigen::Vector4f::Zero();
+  for (size_t i = 0; i < n8; i += 8) {
+    const __m256 rx = _mm256_loadu_ps(t.ray_x.data() + i);
+    const __m256 ry = _mm256_loadu_ps(t.ray_y.data() + i);
+    const __m256 qx = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r00, rx), _mm256_mul_ps(r01, ry)), r02);
+    const __m256 qy = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r10, rx), _mm256_mul_ps(r11, ry)), r12);
+    const __m256 qz = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r20, rx), _mm256_mul_ps(r21, ry)), r22);
+    const __m256 front = _mm256_cmp_ps(qz, min_z, _CMP_GT_OQ);
+    const __m256 iz = _mm256_div_ps(one, qz);
+    const __m256 u = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(fx, qx), iz), cx);
+    const __m256 v = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(fy, qy), iz), cy);
+    const __m256 fu = _mm256_floor_ps(u), fv = _mm256_floor_ps(v);
+    const __m256i x0 = _mm256_cvttps_epi32(fu), y0 = _mm256_cvttps_epi32(fv);
+    // Inside for the scalar rule (x0 >= 0, x0 + 1 < cols, same for rows) and for the gathers
+    // (also x0 >= 1, x0 + 2 < cols). Lanes behind the camera have garbage x0, y0: masked.
+    const __m256i rows_in = _mm256_andnot_si256(
+        _mm256_or_si256(_mm256_cmpgt_epi32(zero_i, y0), _mm256_cmpgt_epi32(y0, _mm256_sub_epi32(rows_minus_1, one_i))),
+        _mm256_castps_si256(front));
+    const __m256i inside = _mm256_andnot_si256(
+        _mm256_or_si256(_mm256_cmpgt_epi32(zero_i, x0),
+                        _mm256_cmpgt_epi32(x0, _mm256_sub_epi32(cols_minus_1, one_i))),
+        rows_in);
+    const __m256i gatherable = _mm256_andnot_si256(
+        _mm256_or_si256(_mm256_cmpgt_epi32(one_i, x0),
+                        _mm256_cmpgt_epi32(x0, _mm256_sub_epi32(cols_minus_2, one_i))),
+        inside);
+    const int inside_bits = _mm256_movemask_ps(_mm256_castsi256_ps(inside));
+    const int gather_bits = _mm256_movemask_ps(_mm256_castsi256_ps(gatherable));
+    if (inside_bits != gather_bits) {  // a sample on the first or last column
+      for (int l = 0; l < 8; ++l) {
+        if ((inside_bits & ~gather_bits) >> l & 1) {
+          used += accumulate(t, i + static_cast<size_t>(l), w, image_b, &g_scalar) ? 1 : 0;
+        }
+      }
+    }
+    if (gather_bits == 0) continue;
+    used += __builtin_popcount(static_cast<unsigned>(gather_bits));
+    const __m256i index = _mm256_add_epi32(_mm256_mullo_epi32(y0, steps), _mm256_sub_epi32(x0, one_i));
+    const __m256i w0 = _mm256_mask_i32gather_epi32(zero_i, base, index, gatherable, 1);
+    const __m256i w1 =
+        _mm256_mask_i32gather_epi32(zero_i, base, _mm256_add_epi32(index, steps), gatherable, 1);
+    const __m256 p00 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(w0, 8), byte));
+    const __m256 p01 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(w0, 16), byte));
+    const __m256 p10 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(w1, 8), byte));
+    const __m256 p11 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(w1, 16), byte));
+    const __m256 ax = _mm256_sub_ps(u, fu), ay = _mm256_sub_ps(v, fv);
+    const __m256 bx = _mm256_sub_ps(one, ax), by = _mm256_sub_ps(one, ay);
+    const __m256 value = _mm256_add_ps(
+        _mm256_mul_ps(by, _mm256_add_ps(_mm256_mul_ps(bx, p00), _mm256_mul_ps(ax, p01))),
+        _mm256_mul_ps(ay, _mm256_add_ps(_mm256_mul_ps(bx, p10), _mm256_mul_ps(ax, p11))));
+    const __m256 e = _mm256_and_ps(
+        _mm256_sub_ps(_mm256_sub_ps(value, _mm256_loadu_ps(t.value.data() + i)), offset),
+        _mm256_castsi256_ps(gatherable));
+    g0 = _mm256_add_ps(g0, _mm256_mul_ps(_mm256_loadu_ps(t.sd[0].data() + i), e));
+    g1 = _mm256_add_ps(g1, _mm256_mul_ps(_mm256_loadu_ps(t.sd[1].data() + i), e));
+    g2 = _mm256_add_ps(g2, _mm256_mul_ps(_mm256_loadu_ps(t.sd[2].data() + i), e));
+    g3 = _mm256_add_ps(g3, _mm256_mul_ps(_mm256_loadu_ps(t.sd[3].data() + i), e));
+  }
+  for (size_t i = n8; i < n; ++i) used += accumulate(t, i, w, image_b, &g_scalar) ? 1 : 0;
+  alignas(32) float s[4][8];
+  _mm256_store_ps(s[0], g0);
+  _mm256_store_ps(s[1], g1);
+  _mm256_store_ps(s[2], g2);
+  _mm256_store_ps(s[3], g3);
+  for (int k = 0; k < 4; ++k) {
+    float sum = g_scalar(k);
+    for (int l = 0; l < 8; ++l) sum += s[k][l];
+    (*g)(k) += sum;
+  }
+  return used;
 }
 
 }  // namespace
@@ -40,11 +174,7 @@ std::optional<SO3d> estimateRotation(const cv::Mat& image_a, const cv::Mat& imag
   const double cx = camera.cx() * s, cy = camera.cy() * s;
   const int b = std::max(options.border_px, 1);
 
-  // Template pixels with a gradient: ∂(u, v)/∂ω of the rotated ray at ω = 0, for the
-  // normalised point (a, b) (first order of exp(ω) r ≈ r + ω × r, then the projection):
-  //   ∂u/∂ω = fx (-a b, 1 + a², -b),   ∂v/∂ω = fy (-(1 + b²), a b, a).
-  std::vector<TemplatePixel> pixels;
-  pixels.reserve(static_cast<size_t>(image_a.cols * image_a.rows));
+  TemplatePixels pixels;
   Eigen::Matrix4d H = Eigen::Matrix4d::Zero();
   for (int y = b; y < image_a.rows - b; ++y) {
     const uint8_t* row = image_a.ptr<uint8_t>(y);
@@ -53,20 +183,18 @@ std::optional<SO3d> estimateRotation(const cv::Mat& image_a, const cv::Mat& imag
     for (int x = b; x < image_a.cols - b; ++x) {
       const float gx = 0.5f * (static_cast<float>(row[x + 1]) - row[x - 1]);
       const float gy = 0.5f * (static_cast<float>(down[x]) - up[x]);
-      // Flat pixels carry no information; the threshold also halves the work on typical
-      // images (the estimate only has to be good to a few pixels of level 0).
       if (std::abs(gx) + std::abs(gy) < options.min_gradient) continue;
       const double na = (x - cx) / fx, nb = (y - cy) / fy;
       const Eigen::Vector3d du(-na * nb, 1.0 + na * na, -nb);
       const Eigen::Vector3d dv(-(1.0 + nb * nb), na * nb, na);
-      TemplatePixel p;
-      p.ray_x = static_cast<float>(na);
-      p.ray_y = static_cast<float>(nb);
-      p.value = row[x];
-      p.sd.head<3>() = (gx * fx * du + gy * fy * dv).cast<float>();
-      p.sd(3) = 1.0f;
-      H += p.sd.cast<double>() * p.sd.cast<double>().transpose();
-      pixels.push_back(p);
+      Eigen::Vector4f sd;
+      sd.head<3>() = (gx * fx * du + gy * fy * dv).cast<float>();
+      sd(3) = 1.0f;
+      H += sd.cast<double>() * sd.cast<double>().transpose();
+      pixels.ray_x.push_back(static_cast<float>(na));
+      pixels.ray_y.push_back(static_cast<float>(nb));
+      pixels.value.push_back(row[x]);
+      for (int k = 0; k < 4; ++k) pixels.sd[k].push_back(sd(k));
     }
   }
   if (pixels.size() < 100) return std::nullopt;
@@ -75,29 +203,18 @@ std::optional<SO3d> estimateRotation(const cv::Mat& image_a, const cv::Mat& imag
     return std::nullopt;
   }
 
+  const bool avx2 = cpuHasAvx2();
   SO3d R;  // b_R_a
   double offset = 0.0;
   for (int it = 0; it < options.max_iterations; ++it) {
-    const Eigen::Matrix3f Rm = R.matrix().cast<float>();
-    // Accumulated in float per pixel, in double per iteration.
+    const Warp warp{R.matrix().cast<float>(), static_cast<float>(fx), static_cast<float>(fy),
+                    static_cast<float>(cx), static_cast<float>(cy), static_cast<float>(offset)};
     Eigen::Vector4f g = Eigen::Vector4f::Zero();
-    int used = 0;
-    const float fo = static_cast<float>(offset);
-    for (const TemplatePixel& p : pixels) {
-      const Eigen::Vector3f q = Rm.col(0) * p.ray_x + Rm.col(1) * p.ray_y + Rm.col(2);
-      if (q.z() <= 1e-3f) continue;
-      const float iz = 1.0f / q.z();
-      const float u = static_cast<float>(fx) * q.x() * iz + static_cast<float>(cx);
-      const float v = static_cast<float>(fy) * q.y() * iz + static_cast<float>(cy);
-      float value;
-      if (!sampleBilinear(image_b, u, v, &value)) continue;
-      g += p.sd * (value - p.value - fo);
-      ++used;
-    }
+    const int used = avx2 ? accumulateAvx2(pixels, warp, image_b, &g)
+                          : accumulateScalar(pixels, warp, image_b, &g);
     if (used < static_cast<int>(pixels.size() / 4)) return std::nullopt;
     const Eigen::Vector4d delta = ldlt.solve(g.cast<double>());
     if (!delta.allFinite()) return std::nullopt;
-    // Inverse composition: the template side moved by exp(δω), so R ← R exp(-δω).
     R = R * SO3d::exp(-delta.head<3>());
     offset += delta(3);
     if (rotationAngle(R) > options.max_angle_rad) return std::nullopt;

@@ -75,11 +75,6 @@ __attribute__((target("avx2"))) inline void gatherTexels(const int* texels, __m2
   }
 }
 
-bool cpuHasAvx2() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2");
-}
-
 void warpRow(const WarpRow& w, const float* lu0, const float* lv0, const float* dlu, const float* dlv,
              const int16_t* noise, int width, uint8_t* out) {
   for (int b = 0, u = 0; u < width; ++b) {

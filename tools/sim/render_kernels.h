@@ -3,17 +3,15 @@
 // C++ and AVX2 (8 pixels at a time, gathers for the texel reads). Both do the same integer and
 // IEEE float operations in the same order (multiply then add, never fused), so they give
 // bit-identical images; the AVX2 one is chosen at run time when the CPU has it
-// (cpuHasAvx2), and the build stays plain x86-64.
+// (core::cpuHasAvx2, core/common/cpu.h), and the build stays plain x86-64.
 
 #include <cstdint>
 
+#include "core/common/cpu.h"
 #include "tools/sim/render_world.h"
 #include "tools/sim/textures.h"
 
 namespace evermap::sim::kernels {
-
-// True when the CPU running this has AVX2 (the AVX2 kernels may be called).
-bool cpuHasAvx2();
 
 // One output row of the warp from the level image into the real camera (render()'s step 2).
 // The level pixel of output pixel u = b * block + k (0 <= k < block) is (lu0[b] + k dlu[b],

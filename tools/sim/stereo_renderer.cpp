@@ -37,7 +37,7 @@ Status Lighting::validate() const {
 
 ImageRenderer::ImageRenderer(const TextureLibrary& textures, const PinholeCamera& camera,
                              double noise_sigma_gray, uint64_t noise_seed)
-    : textures_(textures), camera_(camera), rng_(noise_seed), avx2_(kernels::cpuHasAvx2()) {
+    : textures_(textures), camera_(camera), rng_(noise_seed), avx2_(core::cpuHasAvx2()) {
   noise_.resize(kNoiseTable + static_cast<size_t>(camera.width));
   for (int16_t& n : noise_) {
     n = static_cast<int16_t>(std::lround(noise_sigma_gray > 0.0 ? noise_sigma_gray * rng_.normal() : 0.0));
