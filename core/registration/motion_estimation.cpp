@@ -60,8 +60,8 @@ struct PoseMatrices {
 using Mat23 = Eigen::Matrix<double, 2, 3>;
 
 // The pixel of a point in front of a camera and, when J is not null, its Jacobian: the first
-// two rows of StereoCamera::project, inline (the residuals below are the hot loop of the motion
-// estimate and need neither the disparity nor its row).
+// two rows of StereoCamera::project, inline and with the same arithmetic (the residuals below
+// are the motion estimate's hot loop and need neither the disparity nor its row).
 inline bool projectPixel(const StereoCamera& c, const Vec3& p, Eigen::Vector2d* uv, Mat23* J) {
   if (!p.allFinite() || !(p.z() > 0.0)) return false;
   const double iz = 1.0 / p.z();
@@ -73,22 +73,27 @@ inline bool projectPixel(const StereoCamera& c, const Vec3& p, Eigen::Vector2d* 
   return true;
 }
 
-// J (4x6, optional): d r / d δ.
+// J (4x6, optional): d r / d δ. Ja_out, Jb_out (optional): the projection Jacobians at the two
+// reprojected points.
 inline bool residual(const StereoCamera& camera_a, const StereoCamera& camera_b,
                      const Correspondence& m, const PoseMatrices& T,
-                     Eigen::Matrix<double, 4, 1>* r, Eigen::Matrix<double, 4, 6>* J) {
+                     Eigen::Matrix<double, 4, 1>* r, Eigen::Matrix<double, 4, 6>* J,
+                     Mat23* Ja_out = nullptr, Mat23* Jb_out = nullptr) {
   // Into a: q_a = T exp(δ) p_b ≈ T p_b + R (υ + ω × p_b): dq_a/dδ = R [I, -[p_b]x].
   const Vec3 q_a = T.R * m.p_b + T.t;
   // Into b: q_b = exp(-δ) T⁻¹ p_a ≈ q_b - υ - ω × q_b: dq_b/dδ = [-I, [q_b]x].
   const Vec3 q_b = T.Rt * m.p_a + T.t_inv;
   Mat23 Ja, Jb;
+  const bool jacobians = J || Ja_out || Jb_out;
   Eigen::Vector2d uv_a, uv_b;
-  if (!projectPixel(camera_a, q_a, &uv_a, J ? &Ja : nullptr) ||
-      !projectPixel(camera_b, q_b, &uv_b, J ? &Jb : nullptr)) {
+  if (!projectPixel(camera_a, q_a, &uv_a, jacobians ? &Ja : nullptr) ||
+      !projectPixel(camera_b, q_b, &uv_b, jacobians ? &Jb : nullptr)) {
     return false;
   }
   r->head<2>() = uv_a - m.uv_a;
   r->tail<2>() = uv_b - m.uv_b;
+  if (Ja_out) *Ja_out = Ja;
+  if (Jb_out) *Jb_out = Jb;
   if (J) {
     Eigen::Matrix<double, 3, 6> dqa, dqb;
     dqa.leftCols<3>() = T.R;
@@ -120,25 +125,24 @@ Eigen::Vector2d reprojectionErrors(const StereoCamera& camera_a, const StereoCam
 
 namespace {
 
-// Whitening of the residuals of a match for the depth noise of the points they reproject
+// Whitens one residual of a match for the depth noise of the points they reproject
 // (MotionOptions::disparity_sigma_px): a stereo point's depth error moves it along its ray,
 // δp = p δz / z with σ_z = z² σ_d / (f b), which moves its reprojection along g = J_π p σ_z / z.
 // The residual's covariance σ² I + g gᵀ has the inverse square root
 // (1/σ) (I - c ĝ ĝᵀ), c = 1 - 1 / sqrt(1 + |g|² / σ²); applied times σ, the residual stays in
 // pixels where the depth does not matter (rotation, points near the epipole) and is scaled
 // down along the epipolar direction where it does (far points under translation).
-Eigen::Matrix2d whiteningAlong(const Eigen::Vector2d& g, double sigma_px) {
+// The whitening depends on the pose; the Jacobian holds it fixed. J (rows `row`, `row` + 1)
+// may be null: the cost alone.
+void whitenAlong(const Eigen::Vector2d& g, double sigma_px, Eigen::Ref<Eigen::Matrix<double, 2, 1>> r,
+                 Eigen::Matrix<double, 4, 6>* J, int row) {
   const double g2 = g.squaredNorm();
-  if (!(g2 > 1e-12)) return Eigen::Matrix2d::Identity();
+  if (!(g2 > 1e-12)) return;
   const double c = 1.0 - 1.0 / std::sqrt(1.0 + g2 / (sigma_px * sigma_px));
-  return Eigen::Matrix2d::Identity() - (c / g2) * g * g.transpose();
+  const Eigen::Matrix2d W = Eigen::Matrix2d::Identity() - (c / g2) * g * g.transpose();
+  r = W * r;
+  if (J) J->middleRows<2>(row) = W * J->middleRows<2>(row);
 }
-
-// The whitening of a match's residual in image a and in image b.
-struct Whitening {
-  Eigen::Matrix2d a = Eigen::Matrix2d::Identity();
-  Eigen::Matrix2d b = Eigen::Matrix2d::Identity();
-};
 
 struct Problem {
   const StereoCamera& camera_a;
@@ -151,65 +155,34 @@ struct Problem {
     return z * z * disparity_sigma_px / (c.fx() * c.baselineM());
   }
 
-  // The whitening of match m at the pose P (identity without depth noise or behind a camera).
-  Whitening whiteningAt(const Correspondence& m, const PoseMatrices& P) const {
-    Whitening w;
-    if (!(disparity_sigma_px > 0.0)) return w;
-    const Vec3 q_a = P.R * m.p_b + P.t;
-    const Vec3 q_b = P.Rt * m.p_a + P.t_inv;
-    Eigen::Vector2d uv;
+  // The residuals of one match (whitened for depth noise) and, when J is not null, their
+  // Jacobian; false when a point falls behind a camera.
+  bool whitenedResidual(const Correspondence& m, const PoseMatrices& P,
+                        Eigen::Matrix<double, 4, 1>* r, Eigen::Matrix<double, 4, 6>* J) const {
+    if (!(disparity_sigma_px > 0.0)) return residual(camera_a, camera_b, m, P, r, J);
     Mat23 Ja, Jb;
-    if (!projectPixel(camera_a, q_a, &uv, &Ja) || !projectPixel(camera_b, q_b, &uv, &Jb)) {
-      return w;
-    }
+    if (!residual(camera_a, camera_b, m, P, r, J, &Ja, &Jb)) return false;
     // The reprojection into a moves with the depth of p_b (δq_a = R p_b δz / z), the one into
     // b with the depth of p_a (δq_b = Rᵀ p_a δz / z).
-    w.a = whiteningAlong(Ja * (P.R * m.p_b) * (depthSigma(camera_b, m.p_b.z()) / m.p_b.z()),
-                         pixel_sigma_px);
-    w.b = whiteningAlong(Jb * (P.Rt * m.p_a) * (depthSigma(camera_a, m.p_a.z()) / m.p_a.z()),
-                         pixel_sigma_px);
-    return w;
-  }
-
-  // The whitening of every match of `active` at T, indexed by match (one solve holds it fixed).
-  void whitenAt(const SE3d& T, const std::vector<int>& active, std::vector<Whitening>* w) const {
-    w->resize(matches.size());
-    const PoseMatrices P(T);
-    for (int i : active) {
-      (*w)[static_cast<size_t>(i)] = whiteningAt(matches[static_cast<size_t>(i)], P);
-    }
-  }
-
-  // The residuals of one match whitened by w and, when J is not null, their Jacobian (w held
-  // fixed); false when a point falls behind a camera.
-  bool whitenedResidual(const Correspondence& m, const PoseMatrices& P, const Whitening& w,
-                        Eigen::Matrix<double, 4, 1>* r, Eigen::Matrix<double, 4, 6>* J) const {
-    if (!residual(camera_a, camera_b, m, P, r, J)) return false;
-    if (!(disparity_sigma_px > 0.0)) return true;
-    r->head<2>() = w.a * r->head<2>();
-    r->tail<2>() = w.b * r->tail<2>();
-    if (J) {
-      J->topRows<2>() = w.a * J->topRows<2>();
-      J->bottomRows<2>() = w.b * J->bottomRows<2>();
-    }
+    const Eigen::Vector2d ga = Ja * (P.R * m.p_b) * (depthSigma(camera_b, m.p_b.z()) / m.p_b.z());
+    const Eigen::Vector2d gb = Jb * (P.Rt * m.p_a) * (depthSigma(camera_a, m.p_a.z()) / m.p_a.z());
+    whitenAlong(ga, pixel_sigma_px, r->head<2>(), J, 0);
+    whitenAlong(gb, pixel_sigma_px, r->tail<2>(), J, 2);
     return true;
   }
 
-  // The errors (pixels, whitened at T) of one match in image a and image b; +inf behind a
-  // camera.
+  // The errors (pixels, whitened) of one match in image a and image b; +inf behind a camera.
   Eigen::Vector2d errors(const PoseMatrices& P, int i) const {
-    const Correspondence& m = matches[static_cast<size_t>(i)];
     Eigen::Matrix<double, 4, 1> r;
-    if (!whitenedResidual(m, P, whiteningAt(m, P), &r, nullptr)) {
+    if (!whitenedResidual(matches[static_cast<size_t>(i)], P, &r, nullptr)) {
       return Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
     }
     return Eigen::Vector2d(r.head<2>().norm(), r.tail<2>().norm());
   }
 
-  // Sum of squared residuals over `active` whitened by w, and optionally H = JᵀJ, g = Jᵀr.
-  // Points behind a camera contribute nothing (they are rejected as outliers afterwards).
-  double evaluate(const SE3d& T, const std::vector<int>& active,
-                  const std::vector<Whitening>& w, Mat6* H, Vec6* g) const {
+  // Sum of squared residuals over `active`, and optionally H = JᵀJ, g = Jᵀr. Points behind a
+  // camera contribute nothing (they are rejected as outliers afterwards).
+  double evaluate(const SE3d& T, const std::vector<int>& active, Mat6* H, Vec6* g) const {
     double cost = 0.0;
     if (H) H->setZero();
     if (g) g->setZero();
@@ -217,8 +190,7 @@ struct Problem {
     Eigen::Matrix<double, 4, 6> J;
     const PoseMatrices P(T);
     for (int i : active) {
-      const auto k = static_cast<size_t>(i);
-      if (!whitenedResidual(matches[k], P, w[k], &r, H ? &J : nullptr)) continue;
+      if (!whitenedResidual(matches[static_cast<size_t>(i)], P, &r, H ? &J : nullptr)) continue;
       cost += r.squaredNorm();
       if (H) {
         H->noalias() += J.transpose() * J;
@@ -229,17 +201,11 @@ struct Problem {
   }
 
   // Levenberg-Marquardt from T; returns the iterations used, or -1 on a numerical failure.
-  // The whitening is computed at T and held for the solve (iteratively reweighted least
-  // squares): the cost minimised is then the sum of squares its Gauss-Newton steps model.
-  // (With the whitening recomputed at every step, the steps ignore its derivative, and near
-  // the minimum most of them raised the cost and were retried up to ten times.)
   int solve(SE3d* T, const std::vector<int>& active, int max_iterations) const {
-    std::vector<Whitening> w;
-    whitenAt(*T, active, &w);
     double lambda = 1e-4;
     Mat6 H;
     Vec6 g;
-    double cost = evaluate(*T, active, w, &H, &g);
+    double cost = evaluate(*T, active, &H, &g);
     int it = 0;
     for (; it < max_iterations; ++it) {
       bool improved = false;
@@ -249,7 +215,7 @@ struct Problem {
         const Vec6 delta = A.ldlt().solve(-g);
         if (!delta.allFinite()) return -1;
         const SE3d candidate = *T * SE3d::exp(delta);
-        const double c = evaluate(candidate, active, w, nullptr, nullptr);
+        const double c = evaluate(candidate, active, nullptr, nullptr);
         if (std::isfinite(c) && c <= cost) {
           *T = candidate;
           lambda = std::max(lambda * 0.1, 1e-9);
@@ -257,7 +223,7 @@ struct Problem {
           // Converged: the step is far below any precision the data has (1e-7 m or rad), or
           // the cost no longer moves.
           const bool converged = delta.norm() < 1e-7 || cost - c < 1e-9 * (cost + 1e-12);
-          cost = evaluate(*T, active, w, &H, &g);
+          cost = evaluate(*T, active, &H, &g);
           if (converged) return it + 1;
         } else {
           lambda *= 10.0;
@@ -344,9 +310,7 @@ MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& 
   out.inliers = active;
   Mat6 H;
   Vec6 g;
-  std::vector<Whitening> w;
-  problem.whitenAt(T, active, &w);
-  const double cost = problem.evaluate(T, active, w, &H, &g);
+  const double cost = problem.evaluate(T, active, &H, &g);
   if (iterations < 0 || !std::isfinite(cost) || !T.translation().allFinite()) {
     out.status = MotionStatus::kOptimizationFailure;
     out.message = "the motion estimate did not stay finite";

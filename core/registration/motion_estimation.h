@@ -57,8 +57,7 @@ struct MotionOptions {
   // Disparity noise (pixels) of the stereo points: each residual is whitened for the depth
   // noise of the point it reprojects, which moves the reprojection along the epipolar
   // direction (far points under translation); errors and the outlier bound are then in
-  // whitened pixels. The whitening is computed at the start of each solve and held during
-  // it (iteratively reweighted). 0: the points are taken as exact (FOVIS).
+  // whitened pixels. 0: the points are taken as exact (FOVIS).
   double disparity_sigma_px = 0.0;
   // Use the caller's initial motion instead of the closed-form start (it is also the
   // fallback when the points are degenerate for the closed form).
