@@ -95,6 +95,14 @@ void sadCurveAvx2(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int d
   }
 }
 
+// The lowest of cost[begin, end) (0xffff for an empty range); vectorised by the compiler.
+__attribute__((target_clones("avx2", "default")))
+uint16_t minCost(const uint16_t* cost, int begin, int end) {
+  uint16_t lowest = 0xffff;
+  for (int j = begin; j < end; ++j) lowest = std::min(lowest, cost[j]);
+  return lowest;
+}
+
 void sadCurve(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int dmax,
               uint16_t* cost) {
   if (dmax + 1 >= 32 && cpuHasAvx2()) {
@@ -168,13 +176,13 @@ float StereoDepth::disparity(const ImagePyramid& left, const ImagePyramid& right
   const int n = dmax + 1;
   alignas(32) uint16_t cost[kMaxDisparity + 16];
   sadCurve(L, R, u, v, r, dmax, cost);
+  // The first lowest cost, and the lowest outside it +-1 (none when the range is that short).
+  const uint16_t lowest = minCost(cost, 0, n);
   int best = 0;
-  for (int j = 1; j < n; ++j) {
-    if (cost[j] < cost[best]) best = j;
-  }
+  while (cost[best] != lowest) ++best;
   int second = std::numeric_limits<int>::max();
-  for (int j = 0; j < n; ++j) {
-    if (std::abs(j - best) > 1) second = std::min(second, static_cast<int>(cost[j]));
+  if (best >= 2 || best + 2 < n) {
+    second = std::min(minCost(cost, 0, best - 1), minCost(cost, best + 2, n));
   }
   const int area = (2 * r + 1) * (2 * r + 1);
   if (cost[best] > options_.max_mean_abs_diff * area) return kNaN;
