@@ -5,14 +5,6 @@
 
 namespace evermap::core {
 
-Mat3 hat(const Vec3& w) {
-  Mat3 W;
-  W << 0.0, -w.z(), w.y(),
-       w.z(), 0.0, -w.x(),
-       -w.y(), w.x(), 0.0;
-  return W;
-}
-
 Vec3 vee(const Mat3& W) { return Vec3(W(2, 1), W(0, 2), W(1, 0)); }
 
 SO3d::SO3d(const Eigen::Quaterniond& q) : q_(q.normalized()) {}

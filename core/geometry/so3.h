@@ -17,7 +17,13 @@ using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
 
 // The skew-symmetric matrix with hat(a) * b == a.cross(b).
-Mat3 hat(const Vec3& w);
+inline Mat3 hat(const Vec3& w) {
+  Mat3 W;
+  W << 0.0, -w.z(), w.y(),
+       w.z(), 0.0, -w.x(),
+       -w.y(), w.x(), 0.0;
+  return W;
+}
 // Inverse of hat for a skew-symmetric matrix.
 Vec3 vee(const Mat3& W);
 

@@ -151,21 +151,36 @@ struct Problem {
   double disparity_sigma_px = 0.0;  // 0: no whitening
   double pixel_sigma_px = 0.3;
 
+  // Per match (with whitening): σ_z / z of p_a and of p_b, σ_z = z² σ_d / (f b).
+  std::vector<Eigen::Vector2d> depth_sigma_over_z;
+
   double depthSigma(const StereoCamera& c, double z) const {
     return z * z * disparity_sigma_px / (c.fx() * c.baselineM());
   }
 
+  void precompute() {
+    if (!(disparity_sigma_px > 0.0)) return;
+    depth_sigma_over_z.resize(matches.size());
+    for (size_t k = 0; k < matches.size(); ++k) {
+      const Correspondence& m = matches[k];
+      depth_sigma_over_z[k] = Eigen::Vector2d(depthSigma(camera_a, m.p_a.z()) / m.p_a.z(),
+                                              depthSigma(camera_b, m.p_b.z()) / m.p_b.z());
+    }
+  }
+
   // The residuals of one match (whitened for depth noise) and, when J is not null, their
   // Jacobian; false when a point falls behind a camera.
-  bool whitenedResidual(const Correspondence& m, const PoseMatrices& P,
-                        Eigen::Matrix<double, 4, 1>* r, Eigen::Matrix<double, 4, 6>* J) const {
+  bool whitenedResidual(int i, const PoseMatrices& P, Eigen::Matrix<double, 4, 1>* r,
+                        Eigen::Matrix<double, 4, 6>* J) const {
+    const Correspondence& m = matches[static_cast<size_t>(i)];
     if (!(disparity_sigma_px > 0.0)) return residual(camera_a, camera_b, m, P, r, J);
     Mat23 Ja, Jb;
     if (!residual(camera_a, camera_b, m, P, r, J, &Ja, &Jb)) return false;
     // The reprojection into a moves with the depth of p_b (δq_a = R p_b δz / z), the one into
     // b with the depth of p_a (δq_b = Rᵀ p_a δz / z).
-    const Eigen::Vector2d ga = Ja * (P.R * m.p_b) * (depthSigma(camera_b, m.p_b.z()) / m.p_b.z());
-    const Eigen::Vector2d gb = Jb * (P.Rt * m.p_a) * (depthSigma(camera_a, m.p_a.z()) / m.p_a.z());
+    const Eigen::Vector2d& k = depth_sigma_over_z[static_cast<size_t>(i)];
+    const Eigen::Vector2d ga = Ja * (P.R * m.p_b) * k.y();
+    const Eigen::Vector2d gb = Jb * (P.Rt * m.p_a) * k.x();
     whitenAlong(ga, pixel_sigma_px, r->head<2>(), J, 0);
     whitenAlong(gb, pixel_sigma_px, r->tail<2>(), J, 2);
     return true;
@@ -174,7 +189,7 @@ struct Problem {
   // The errors (pixels, whitened) of one match in image a and image b; +inf behind a camera.
   Eigen::Vector2d errors(const PoseMatrices& P, int i) const {
     Eigen::Matrix<double, 4, 1> r;
-    if (!whitenedResidual(matches[static_cast<size_t>(i)], P, &r, nullptr)) {
+    if (!whitenedResidual(i, P, &r, nullptr)) {
       return Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
     }
     return Eigen::Vector2d(r.head<2>().norm(), r.tail<2>().norm());
@@ -190,7 +205,7 @@ struct Problem {
     Eigen::Matrix<double, 4, 6> J;
     const PoseMatrices P(T);
     for (int i : active) {
-      if (!whitenedResidual(matches[static_cast<size_t>(i)], P, &r, H ? &J : nullptr)) continue;
+      if (!whitenedResidual(i, P, &r, H ? &J : nullptr)) continue;
       cost += r.squaredNorm();
       if (H) {
         H->noalias() += J.transpose() * J;
@@ -261,8 +276,9 @@ MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& 
       T = a->dst_S_src.rigid;
     }
   }
-  const Problem problem{camera_a, camera_b, matches, options.disparity_sigma_px,
-                        options.pixel_sigma_px};
+  Problem problem{camera_a, camera_b, matches, options.disparity_sigma_px,
+                  options.pixel_sigma_px, {}};
+  problem.precompute();
   std::vector<int> active = candidates;
   int iterations = problem.solve(&T, active, options.max_iterations);
   // Outlier rejection (FOVIS): drop matches beyond the error bound and solve again. When the
