@@ -35,11 +35,12 @@ cv::Mat shifted(const cv::Mat& a, double dx, double dy) {
   return b;
 }
 
-// Runs f with the AVX2 paths allowed, then without; restores the setting.
+// Runs f with the AVX2 paths allowed, then without; restores the setting it found.
 template <typename F>
 auto bothPaths(F f) {
   struct Restore {
-    ~Restore() { avx2Allowed() = true; }
+    bool previous = avx2Allowed();
+    ~Restore() { avx2Allowed() = previous; }
   } restore;
   avx2Allowed() = true;
   auto vectorised = f();
@@ -50,38 +51,72 @@ auto bothPaths(F f) {
 
 bool skipWithoutAvx2() { return !cpuHasAvx2(); }
 
+// The right image of a fronto-parallel scene whose disparity grows from 2 px at the left to
+// about 60 px at the right: the best disparity falls in every block of the curve.
+cv::Mat rightWithVaryingDisparity(const cv::Mat& left) {
+  cv::Mat map_x(left.size(), CV_32FC1), map_y(left.size(), CV_32FC1);
+  for (int v = 0; v < left.rows; ++v) {
+    for (int u = 0; u < left.cols; ++u) {
+      const float d = 2.0f + 58.0f * static_cast<float>(u) / static_cast<float>(left.cols);
+      map_x.at<float>(v, u) = static_cast<float>(u) + d;  // right(u) = left(u + d)
+      map_y.at<float>(v, u) = static_cast<float>(v);
+    }
+  }
+  cv::Mat right;
+  cv::remap(left, right, map_x, map_y, cv::INTER_CUBIC, cv::BORDER_REFLECT);
+  return right;
+}
+
 TEST(SimdPaths, StereoDisparitiesAgreeOnEveryCornerUpToTheRightBorder) {
   if (skipWithoutAvx2()) GTEST_SKIP() << "this CPU has no AVX2: only the portable path exists";
   const cv::Mat left = texture(331, 120, 3, 1.5);
-  const cv::Mat right = shifted(left, 17.4, 0.0);
-  ImagePyramid pl, pr;
-  ASSERT_TRUE(pl.build(left, 3).ok());
-  ASSERT_TRUE(pr.build(right, 3).ok());
-  // Search ranges below and above a 32-disparity block at every level, up to the border.
-  for (int max_disparity : {20, 40, 128}) {
-    StereoDepth::Options o;
-    o.max_disparity_px = max_disparity;
-    const StereoDepth depth(o);
-    const auto [vectorised, portable] = bothPaths([&] {
-      std::vector<float> d;
-      for (int l = 0; l < 3; ++l) {
-        for (int v = 5; v < pl.level(l).rows - 5; v += 3) {
-          for (int u = 4; u < pl.level(l).cols - 4; u += 1) {
-            d.push_back(depth.disparity(pl, pr, Keypoint{float(u), float(v), 0, int8_t(l)}));
+  ImagePyramid pl_shift, pr_shift, pl_vary, pr_vary;
+  ASSERT_TRUE(pl_shift.build(left, 3).ok());
+  ASSERT_TRUE(pr_shift.build(shifted(left, 17.4, 0.0), 3).ok());
+  ASSERT_TRUE(pl_vary.build(left, 3).ok());
+  ASSERT_TRUE(pr_vary.build(rightWithVaryingDisparity(left), 3).ok());
+  struct Pair {
+    const ImagePyramid* left;
+    const ImagePyramid* right;
+  };
+  // Search ranges shorter than one 32-disparity block (portable on both sides), exactly one,
+  // a block and one, and several, at every level, up to the image border. Without the
+  // sub-pixel step the disparity is the integer minimum of the SAD curve: the curves' integer
+  // costs must agree exactly for every corner to get the same one.
+  for (const Pair& pair : {Pair{&pl_shift, &pr_shift}, Pair{&pl_vary, &pr_vary}}) {
+    for (int max_disparity : {20, 31, 32, 40, 64, 128}) {
+      for (bool subpixel : {false, true}) {
+        StereoDepth::Options o;
+        o.max_disparity_px = max_disparity;
+        o.subpixel = subpixel;
+        const StereoDepth depth(o);
+        const auto [vectorised, portable] = bothPaths([&] {
+          std::vector<float> d;
+          for (int l = 0; l < 3; ++l) {
+            for (int v = 5; v < pair.left->level(l).rows - 5; v += 3) {
+              for (int u = 4; u < pair.left->level(l).cols - 4; u += 1) {
+                d.push_back(depth.disparity(*pair.left, *pair.right,
+                                            Keypoint{float(u), float(v), 0, int8_t(l)}));
+              }
+            }
+          }
+          return d;
+        });
+        ASSERT_EQ(vectorised.size(), portable.size());
+        int found = 0;
+        for (size_t i = 0; i < vectorised.size(); ++i) {
+          ASSERT_EQ(std::isfinite(vectorised[i]), std::isfinite(portable[i])) << i;
+          if (!std::isfinite(vectorised[i])) continue;
+          ++found;
+          if (subpixel) {
+            EXPECT_NEAR(vectorised[i], portable[i], 1e-3f) << i;
+          } else {
+            EXPECT_EQ(vectorised[i], portable[i]) << i;
           }
         }
+        EXPECT_GT(found, 500) << "max disparity " << max_disparity;
       }
-      return d;
-    });
-    ASSERT_EQ(vectorised.size(), portable.size());
-    int found = 0;
-    for (size_t i = 0; i < vectorised.size(); ++i) {
-      ASSERT_EQ(std::isfinite(vectorised[i]), std::isfinite(portable[i])) << i;
-      if (!std::isfinite(vectorised[i])) continue;
-      ++found;
-      EXPECT_NEAR(vectorised[i], portable[i], 1e-3f) << i;
     }
-    EXPECT_GT(found, 1000) << "max disparity " << max_disparity;
   }
 }
 
@@ -89,7 +124,7 @@ TEST(SimdPaths, PatchAlignmentAgreesInOneAndTwoDimensionsAndAtTheBorders) {
   if (skipWithoutAvx2()) GTEST_SKIP() << "this CPU has no AVX2: only the portable path exists";
   const cv::Mat a = texture(120, 90, 4, 1.5);
   const cv::Mat b = shifted(a, 0.37, -0.61);
-  for (int radius : {2, 3, 4, 7, 8}) {
+  for (int radius : {1, 2, 3, 4, 5, 6, 7, 8}) {
     for (bool x_only : {false, true}) {
       PatchAlignmentOptions o;
       o.radius_px = radius;
@@ -99,6 +134,8 @@ TEST(SimdPaths, PatchAlignmentAgreesInOneAndTwoDimensionsAndAtTheBorders) {
         for (int v = 0; v < a.rows; v += 7) {
           for (int u = 0; u < a.cols; ++u) {  // every column: the right border included
             out.push_back(alignPatch(a, u, v, b, Eigen::Vector2f(u, v), o));
+            // A start between rows: the 1-D case keeps it, and must weigh the next row too.
+            out.push_back(alignPatch(a, u, v, b, Eigen::Vector2f(u, v - 0.61f), o));
           }
         }
         return out;
@@ -119,14 +156,25 @@ TEST(SimdPaths, RotationPriorAgrees) {
   if (skipWithoutAvx2()) GTEST_SKIP() << "this CPU has no AVX2: only the portable path exists";
   const cv::Mat a = texture(155, 47, 5, 2.0);
   const StereoCamera camera = *StereoCamera::create(718.856, 718.856, 607.19, 185.22, 0.537, 1241, 376);
-  // Turned and shifted so that samples fall on the first and last columns too.
-  const cv::Mat b = shifted(a, 3.6, -1.2);
-  const auto [vectorised, portable] =
-      bothPaths([&] { return estimateRotation(a, b, camera, 3, RotationEstimateOptions{}); });
-  ASSERT_TRUE(vectorised.has_value());
-  ASSERT_TRUE(portable.has_value());
-  EXPECT_LT(rotationAngle(vectorised->inverse() * *portable), 1e-5);
-  EXPECT_GT(rotationAngle(*vectorised), 0.01);  // it did turn
+  // Turned and shifted both ways, so that samples fall on the first and the last columns.
+  for (double dx : {3.6, -3.6}) {
+    const cv::Mat b = shifted(a, dx, -1.2);
+    const auto [vectorised, portable] =
+        bothPaths([&] { return estimateRotation(a, b, camera, 3, RotationEstimateOptions{}); });
+    ASSERT_TRUE(vectorised.has_value()) << dx;
+    ASSERT_TRUE(portable.has_value()) << dx;
+    EXPECT_LT(rotationAngle(vectorised->inverse() * *portable), 1e-5) << dx;
+    EXPECT_GT(rotationAngle(*vectorised), 0.01) << dx;  // it did turn
+  }
+}
+
+TEST(SimdPaths, BothPathsRestoresTheSettingItFound) {
+  avx2Allowed() = false;
+  bothPaths([] { return 0; });
+  EXPECT_FALSE(avx2Allowed());
+  avx2Allowed() = true;
+  bothPaths([] { return 0; });
+  EXPECT_TRUE(avx2Allowed());
 }
 
 }  // namespace

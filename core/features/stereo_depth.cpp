@@ -1,6 +1,7 @@
 #include "core/features/stereo_depth.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -72,6 +73,7 @@ void sadCurveAvx2(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int d
                   uint16_t* cost) {
   constexpr int kBlock = 32;
   const int n = dmax + 1;
+  assert(n >= kBlock && "a curve shorter than one block takes the portable path");
   const __m256i zero = _mm256_setzero_si256();
   for (int j0 = 0;; j0 += kBlock) {
     const int start = std::min(j0, n - kBlock);

@@ -1,6 +1,8 @@
 #include "core/registration/rotation_estimation.h"
 
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <vector>
 
 #include <immintrin.h>
@@ -203,7 +205,9 @@ std::optional<SO3d> estimateRotation(const cv::Mat& image_a, const cv::Mat& imag
     return std::nullopt;
   }
 
-  const bool avx2 = cpuHasAvx2();
+  // The gathers index the image with 32-bit byte offsets.
+  const bool avx2 = cpuHasAvx2() && static_cast<int64_t>(image_b.rows) * image_b.step[0] <
+                                        static_cast<int64_t>(std::numeric_limits<int>::max());
   SO3d R;  // b_R_a
   double offset = 0.0;
   for (int it = 0; it < options.max_iterations; ++it) {
