@@ -35,6 +35,7 @@ Status MapperOptions::validate() const {
     return Error{"mapper.warm_restart_speed_m_s: must be a finite number > 0"};
   if (!(warm_restart_turn_rad_s > 0.0) || !std::isfinite(warm_restart_turn_rad_s))
     return Error{"mapper.warm_restart_turn_rad_s: must be a finite number > 0"};
+  if (!(warm_restart_node_sigma_m >= 0.0)) return Error{"mapper.warm_restart_node_sigma_m: must be >= 0"};
   if (!(consistency_gate > 0.0)) return Error{"mapper.consistency_gate: must be > 0"};
   if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
   if (!(min_closure_information >= 0.0) || !std::isfinite(min_closure_information))
@@ -307,7 +308,11 @@ void Mapper::finishStep(bool registered) {
   }
   // A registration the gate rejected still says a node is near (or it is a false match, and
   // the next step adds the node): no new node at this step.
-  if (!registered && !gate_rejected && !o_.full_graph) {
+  // A warm restart's unconfirmed pose places a node only while it is known to a cell or so.
+  const double sigma_m =
+      std::sqrt(std::max(f.delta_at_keyframe.covariance(0, 0), f.delta_at_keyframe.covariance(1, 1)));
+  const bool placeable = !resumed_ || sigma_m <= o_.warm_restart_node_sigma_m;
+  if (!registered && !gate_rejected && !o_.full_graph && placeable) {
     const core::SE3d world_T_body = nodePose(f.active) * f.delta_at_keyframe.mean;
     if (!nodeAt(world_T_body, floor_, f.keyframe_utime)) {
       // A new place (eq. 8): the node at the keyframe, then Δ restarts from it.
@@ -320,7 +325,8 @@ void Mapper::finishStep(bool registered) {
   flushSolver();
   const auto q_T_now = tracker_.sinceKeyframe(f.keyframe_utime);
   const core::SE3d node_T_q = tracker_.delta().mean * (q_T_now ? q_T_now->mean.inverse() : core::SE3d());
-  step_poses_.push_back(StepPose{f.keyframe_utime, active_, node_T_q, session_});
+  // A warm restart's unconfirmed pose is the held one, metres off: no step pose (as no POSE).
+  if (!resumed_) step_poses_.push_back(StepPose{f.keyframe_utime, active_, node_T_q, session_});
   stats_.timing.step_cost.push_back({f.keyframe_utime, step_cost_s_ + secondsSince(t0), step_cpu_s_ + threadCpuSeconds() - c0});
 }
 

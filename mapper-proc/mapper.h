@@ -179,6 +179,14 @@ struct MapperOptions {
   // between straight legs (heading σ capped at π: beyond, the heading is simply unknown).
   double warm_restart_speed_m_s = 1.5;
   double warm_restart_turn_rad_s = 0.5;
+  // Until the resumed placement is confirmed, a node is added only while Δ's position
+  // standard deviation (the larger of x and y) is at most this, metres: a node is placed in
+  // the cell its estimate falls in, and a place chosen metres off is a node nothing may
+  // correct (the chain made from it floats on the inflated edge until a closure ties it to
+  // the map, if one ever does). 1.5 m: a restart at 1x (0.3 s, plus up to a step, 0.5 s, since
+  // the state was saved) adds nodes at once; a 20x replay's 10 s gap (σ 15 m) waits for the
+  // confirmation.
+  double warm_restart_node_sigma_m = 1.5;
   TrackerOptions tracker;
   solver::IncrementalOptions solver = mapperSolverOptions();
 

@@ -157,7 +157,7 @@ int main(int argc, char** argv) {
   using namespace evermap;
   std::string config, mode = "reduced", store, timeline, out, replot, check_store;
   std::vector<std::string> sets;
-  double hours = -1.0, max_wall_s = 0.0, store_period_s = 0.0, restart_gap_s = 0.0;
+  double hours = -1.0, max_wall_s = 0.0, store_period_s = 0.0, restart_gap_s = 0.0, stop_after_s = 0.0;
   bool progress = false;
   int first = 0, last = -1;
   CommandLine cli("evermap-mapper-run",
@@ -192,6 +192,9 @@ int main(int argc, char** argv) {
   cli.value("--restart-gap-s", &restart_gap_s, "S",
             "continuing a store: skip the messages of S s after its newest state, as a restart loses them (default 0)")
       .min(0).max(3600);
+  cli.value("--stop-after-s", &stop_after_s, "S",
+            "stop mapping after S s of operating time of this run, as a process killed then (0: to the end)")
+      .min(0);
   cli.flag("--progress", &progress, "print 'committed nodes N edges E rows R utime U' after each store transaction (E constraints, R rows of map_edges)");
   cli.value("--timeline", &timeline, "FILE.csv", "per-minute timeline CSV (nodes, per-component time, step cost)");
   cli.value("--out", &out, "DIR",
@@ -279,6 +282,7 @@ int main(int argc, char** argv) {
     run.max_wall_s = max_wall_s;
     run.store_period_s = store_period_s;
     run.restart_gap_s = restart_gap_s;
+    run.stop_after_s = stop_after_s;
     if (!full) run.store_file = store;
     if (progress) {
       run.on_commit = [](const mapper::StoreCommit& c) {
