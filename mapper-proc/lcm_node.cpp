@@ -135,10 +135,23 @@ Status LcmNode::on(const Msg& msg) {
 
 void LcmNode::afterMessage(int64_t utime, bool publish_pose) {
   const auto t0 = SteadyClock::now();
+  if (!restart_reported_ && m_.restartGapS()) {
+    // One line per start from a stored state (a killed process prints no summary).
+    restart_reported_ = true;
+    if (*m_.restartGapS() < 0.0)
+      std::printf("evermap-mapper-proc: lost restart: no usable tracking state (none stored, or a ride or session since)\n");
+    else
+      std::printf("evermap-mapper-proc: %s restart: %.2f s of message time since the saved tracking state\n",
+                  m_.stats().warm_restarts > 0 ? "warm" : "lost", *m_.restartGapS());
+    std::fflush(stdout);
+  }
   last_utime_ = std::max(last_utime_, utime);
   for (const auto& r : m_.takeRequests()) lcm_.publish(channels::kRegisterRequest, &r);
   for (const auto& n : m_.takeNodesAdded()) lcm_.publish(channels::kNodeAdded, &n);
-  if (publish_pose && m_.activeNode() >= 0 && !m_.lost()) {
+  // Not while lost, nor while a warm restart's placement is unconfirmed: that pose is the
+  // saved one, metres off by what the robot drove during the restart (its covariance says so,
+  // but a consumer of POSE should not have to judge it).
+  if (publish_pose && m_.activeNode() >= 0 && !m_.lost() && !m_.resumedUnconfirmed()) {
     const int session = m_.nodes().empty() ? -1 : m_.nodes().back().session;
     const pose_t p = messages::toMsg(utime, m_.pose(), m_.floor(), session);
     lcm_.publish(channels::kPose, &p);
@@ -154,8 +167,21 @@ void LcmNode::save() {
   const MapperStats& st = m_.stats();
   if (!store_ || !store_status_ || m_.nodes().empty()) return;
   if (st.nodes == stored_nodes_ && st.constraints == stored_constraints_ &&
-      st.timing.update_s.size() == stored_updates_)
+      st.timing.update_s.size() == stored_updates_) {
+    // The graph as stored, the robot moved on: the tracking state alone, once per step
+    // (2 Hz of message time), so a restart resumes from at most a step ago.
+    if (st.steps == tracked_steps_) return;
+    tracked_steps_ = st.steps;
+    const auto t0 = SteadyClock::now();
+    if (Status s = store_->saveTracking(m_); !s) {
+      // Not the map: a failure here costs a warm restart at most; the next save retries.
+      ++counts_.tracking_failures;
+    }
+    ++counts_.tracking_transactions;
+    extra_.store_s += secondsSince(t0);
     return;
+  }
+  tracked_steps_ = st.steps;
   const auto t0 = SteadyClock::now();
   // The session of the newest node, started at that session's first node.
   const int session = m_.nodes().back().session;
@@ -249,7 +275,8 @@ std::string LcmNode::summary() const {
     << counts_.poses << "\nvo_before_calibration " << counts_.no_calibration << "\ncalibrations_refused "
     << calibration_.counts().refused << "\ncamera_changes " << calibration_.counts().camera_changes
     << "\ngraphs_published " << counts_.graphs << "\nstats_published " << counts_.stats
-    << "\nstore_transactions " << counts_.store_transactions << "\n";
+    << "\nstore_transactions " << counts_.store_transactions << "\ntracking_transactions "
+    << counts_.tracking_transactions << "\ntracking_failures " << counts_.tracking_failures << "\n";
   const TrackerCounts& t = m_.tracker().counts();
   s << "vo_applied " << t.vo_applied << "\nvo_failed " << t.vo_failed << "\nwheel_applied " << t.wheel_applied
     << "\nvo_restarts " << t.restarts << "\nrelinked " << t.relinked << "\nrelinks_refused " << t.relinks_refused << "\nrelinks_weaker " << t.relinks_weaker

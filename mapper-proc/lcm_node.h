@@ -78,6 +78,8 @@ struct LcmNodeCounts {
   int64_t graphs = 0;              // MAP_GRAPH published
   int64_t stats = 0;               // MAPPER_STATS published
   int64_t store_transactions = 0;
+  int64_t tracking_transactions = 0;  // the tracking state alone, between store transactions
+  int64_t tracking_failures = 0;
   int64_t dropped() const {
     return undecodable + time_refused + failed + refused + no_calibration + calibrations_refused;
   }
@@ -128,6 +130,8 @@ class LcmNode {
   size_t graph_updates_ = 0;
   int64_t stored_nodes_ = 0, stored_constraints_ = 0;
   size_t stored_updates_ = 0;
+  int64_t tracked_steps_ = 0;
+  bool restart_reported_ = false;
   MapperTiming timing_at_stats_;
   ComponentTimes extra_;  // store and publish, since the last MAPPER_STATS
   messages::Inbox inbox_;  // last: its handlers use the members above

@@ -21,6 +21,9 @@ Expected<core::SE3d> poseFromBlob(const void* data, int bytes, const std::string
   return core::SE3d(q.normalized(), core::Vec3(v[0], v[1], v[2]));
 }
 
+// PRAGMA user_version of the schema this code writes (map_store.h: 0 before map_tracking).
+constexpr int64_t kMapStoreSchemaVersion = 1;
+
 // Finalises a statement on every path.
 struct Statement {
   sqlite3_stmt* s = nullptr;
@@ -58,9 +61,22 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapSt
       "CREATE TABLE IF NOT EXISTS map_folds (edge_id INTEGER PRIMARY KEY, members INTEGER NOT NULL,"
       " rejected INTEGER NOT NULL, first_utime INTEGER NOT NULL);"
       "CREATE INDEX IF NOT EXISTS map_edges_pair ON map_edges (from_node, to_node);"
-      "CREATE TABLE IF NOT EXISTS map_saved (session_id INTEGER PRIMARY KEY, constraints INTEGER NOT NULL);";
+      "CREATE TABLE IF NOT EXISTS map_saved (session_id INTEGER PRIMARY KEY, constraints INTEGER NOT NULL);"
+      // Version 1: the tracking state (a version-0 store is migrated by this line).
+      "CREATE TABLE IF NOT EXISTS map_tracking (id INTEGER PRIMARY KEY CHECK (id = 0), utime INTEGER NOT NULL,"
+      " session_id INTEGER NOT NULL, session_start_utime INTEGER NOT NULL, active_node INTEGER NOT NULL,"
+      " floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL, pose BLOB NOT NULL, covariance BLOB NOT NULL);";
+  auto version = store.queryInt("PRAGMA user_version");
+  if (!version) return version.error();
+  if (*version > kMapStoreSchemaVersion)
+    return makeError(file.string(), ": map store schema version ", *version, ", newer than this program's ",
+                     kMapStoreSchemaVersion);
   if (!options.read_only) {
     if (Status s = store.exec(schema); !s) return s.error();
+    if (*version < kMapStoreSchemaVersion) {
+      const std::string set = "PRAGMA user_version=" + std::to_string(kMapStoreSchemaVersion);
+      if (Status s = store.exec(set.c_str()); !s) return s.error();
+    }
   }
   Statement st;
   if (sqlite3_prepare_v2(db, "SELECT COALESCE(MAX(edge_id), -1) FROM map_edges", -1, &st.s, nullptr) != SQLITE_OK ||
@@ -190,6 +206,11 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
       return fail("map_saved");
     }
   }
+  if (Status s = writeTracking(mapper); !s) {
+    (void)exec("ROLLBACK");
+    last_edge_id_ = last_edge_before;
+    return s;
+  }
   if (options_.fold_after > 0) {
     for (const auto& [i, j] : touched) {
       if (Status s = foldPair(mapper, i, j); !s) {
@@ -215,6 +236,48 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
   // log's size, up to 4 MB here). A reader holding the log makes it a no-op until the next
   // save (SQLITE_BUSY): the commit above stands either way.
   (void)sqlite3_wal_checkpoint_v2(db_, nullptr, SQLITE_CHECKPOINT_TRUNCATE, nullptr, nullptr);
+  return Ok{};
+}
+
+Status MapStore::writeTracking(const Mapper& mapper) {
+  const std::optional<TrackingState> t = mapper.trackingState();
+  if (!t) return exec("DELETE FROM map_tracking");
+  Statement st;
+  if (sqlite3_prepare_v2(db_, "INSERT OR REPLACE INTO map_tracking VALUES (0, ?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)", -1,
+                         &st.s, nullptr))
+    return makeError(file_.string(), ": tracking: ", sqlite3_errmsg(db_));
+  const std::vector<double> pose = poseBlob(t->active_T_body.mean);
+  const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov = t->active_T_body.covariance;
+  sqlite3_bind_int64(st.s, 1, t->utime);
+  sqlite3_bind_int(st.s, 2, t->session);
+  sqlite3_bind_int64(st.s, 3, t->session_start_utime);
+  sqlite3_bind_int64(st.s, 4, t->active_node);
+  sqlite3_bind_int(st.s, 5, t->floor);
+  sqlite3_bind_int(st.s, 6, t->in_elevator ? 1 : 0);
+  sqlite3_bind_blob(st.s, 7, pose.data(), static_cast<int>(pose.size() * sizeof(double)), SQLITE_TRANSIENT);
+  sqlite3_bind_blob(st.s, 8, cov.data(), 36 * sizeof(double), SQLITE_TRANSIENT);
+  if (sqlite3_step(st.s) != SQLITE_DONE) return makeError(file_.string(), ": tracking: ", sqlite3_errmsg(db_));
+  return Ok{};
+}
+
+Status MapStore::saveTracking(const Mapper& mapper) {
+  if (options_.read_only) return makeError(file_.string(), ": opened read-only, not saved");
+  const std::optional<TrackingState> t = mapper.trackingState();
+  // The row must name a node of this file (the node is saved with the map first).
+  if (t) {
+    auto held = queryInt("SELECT COUNT(*) FROM map_nodes WHERE node_id = ?1", t->active_node);
+    if (!held) return held.error();
+    if (*held == 0) return makeError(file_.string(), ": tracking state names node ", t->active_node, ", not stored yet");
+  }
+  if (Status s = exec("BEGIN IMMEDIATE"); !s) return s;
+  if (Status s = writeTracking(mapper); !s) {
+    (void)exec("ROLLBACK");
+    return s;
+  }
+  if (Status s = exec("COMMIT"); !s) {
+    (void)exec("ROLLBACK");
+    return s;
+  }
   return Ok{};
 }
 
@@ -381,6 +444,42 @@ Expected<MapSnapshot> MapStore::load() const {
       e.folded = sqlite3_column_int64(st.s, 8);
       e.folded_rejected = sqlite3_column_int64(st.s, 9);
       out.edges.push_back(e);
+    }
+  }
+  {
+    auto saved = queryInt("SELECT COALESCE(MAX(session_id), -1) FROM map_saved");
+    if (!saved) return saved.error();
+    out.max_saved_mapper = static_cast<int>(*saved);
+  }
+  // A version-0 store opened read-only has no map_tracking: no state.
+  auto has_tracking = queryInt("SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = 'map_tracking'");
+  if (!has_tracking) return has_tracking.error();
+  if (*has_tracking > 0) {
+    Statement st;
+    if (sqlite3_prepare_v2(db_,
+                           "SELECT utime, session_id, session_start_utime, active_node, floor, in_elevator, pose,"
+                           " covariance FROM map_tracking WHERE id = 0",
+                           -1, &st.s, nullptr))
+      return makeError(name, ": ", sqlite3_errmsg(db_));
+    if (sqlite3_step(st.s) == SQLITE_ROW) {
+      const std::string what = name + ": tracking state";
+      TrackingState t;
+      t.utime = sqlite3_column_int64(st.s, 0);
+      t.session = sqlite3_column_int(st.s, 1);
+      t.session_start_utime = sqlite3_column_int64(st.s, 2);
+      t.active_node = sqlite3_column_int64(st.s, 3);
+      t.floor = sqlite3_column_int(st.s, 4);
+      t.in_elevator = sqlite3_column_int(st.s, 5) != 0;
+      auto pose = poseFromBlob(sqlite3_column_blob(st.s, 6), sqlite3_column_bytes(st.s, 6), what);
+      if (!pose) return pose.error();
+      t.active_T_body.mean = *pose;
+      if (sqlite3_column_bytes(st.s, 7) != 36 * static_cast<int>(sizeof(double)))
+        return makeError(what, ": covariance blob of ", sqlite3_column_bytes(st.s, 7), " bytes");
+      Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov;
+      std::memcpy(cov.data(), sqlite3_column_blob(st.s, 7), 36 * sizeof(double));
+      if (!cov.allFinite()) return makeError(what, ": covariance is not finite");
+      t.active_T_body.covariance = cov;
+      out.tracking = t;
     }
   }
   return out;

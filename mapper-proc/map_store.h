@@ -21,6 +21,21 @@
 //   CREATE TABLE map_saved    (session_id INTEGER PRIMARY KEY,   -- the mapper that started
 //                              constraints INTEGER NOT NULL);    -- it: how many of its
 //                                                                -- constraints are stored
+//   CREATE TABLE map_tracking (id INTEGER PRIMARY KEY CHECK (id = 0),  -- one row, or none
+//                              utime INTEGER NOT NULL, session_id INTEGER NOT NULL,
+//                              session_start_utime INTEGER NOT NULL, active_node INTEGER NOT NULL,
+//                              floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL,
+//                              pose BLOB NOT NULL,         -- active_T_body, as above
+//                              covariance BLOB NOT NULL);  -- 36 f64, row-major, (υ, ω)
+//
+// The tracking state (Mapper::trackingState: the node tracked against, Δ, floor, session,
+// message time) is written in every save's transaction with the map it refers to, and on its
+// own by saveTracking() between them; no row while the mapper is lost. A restarted mapper
+// resumes from it (MapperOptions::warm_restart_max_gap_s).
+//
+// Schema versions (PRAGMA user_version): 0, stores made before map_tracking (they open and
+// are migrated by creating it: a store without a row restarts lost, as before); 1, this one.
+// A store of a newer version is refused (its rows may mean what this code does not know).
 //
 // Every constraint is an edge (accepted or rejected, DESIGN.md section 3) until its pair is
 // folded; node poses are the latest estimates, rewritten in an update's transaction when they moved.
@@ -39,6 +54,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <vector>
 
 #include "core/common/expected.h"
@@ -74,6 +90,8 @@ struct MapSnapshot {
   std::vector<std::pair<int, double>> floors;     // (floor index, height m)
   std::vector<StoredNode> nodes;                  // by id
   std::vector<StoredEdge> edges;                  // by id
+  std::optional<TrackingState> tracking;          // map_tracking's row, if any
+  int max_saved_mapper = -1;                      // highest session_id of map_saved
 
   // How many constraints the edges stand for (a fold counts its members, accepted and
   // rejected): every constraint ever made, folded or not.
@@ -99,10 +117,16 @@ class MapStore {
   // (inserted or its pose updated),
   // the constraints of this mapper not stored yet (map_saved), and the folds they
   // complete.
+  // And the mapper's tracking state (map_tracking), in the same transaction.
   Status save(const Mapper& mapper, int session, int64_t session_start_utime);
+  // The tracking state alone, one small transaction (between saves: the robot moves on
+  // between graph updates). Refused when the state names a node this store does not hold.
+  Status saveTracking(const Mapper& mapper);
   Expected<MapSnapshot> load() const;
   // Rows of map_edges (a fold is one).
   Expected<int64_t> edgeRows() const { return queryInt("SELECT COUNT(*) FROM map_edges"); }
+  // PRAGMA user_version: the schema's version (above).
+  Expected<int64_t> schemaVersion() const { return queryInt("PRAGMA user_version"); }
   // PRAGMA integrity_check == "ok".
   Status integrityCheck() const;
 
@@ -113,6 +137,8 @@ class MapStore {
   Expected<int64_t> queryInt(const char* sql, int64_t a = 0, int64_t b = 0) const;
   // Folds the pair's rows into one when there are fold_after of them (inside save()).
   Status foldPair(const Mapper& mapper, int64_t i, int64_t j);
+  // Replaces map_tracking's row by the mapper's state (or deletes it), inside a transaction.
+  Status writeTracking(const Mapper& mapper);
 
   sqlite3* db_ = nullptr;
   std::filesystem::path file_;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <sstream>
 #include <utility>
 
@@ -28,6 +29,13 @@ Status MapperOptions::validate() const {
   if (!(recovery_slack_m >= 0.0)) return Error{"mapper.recovery_slack_m: must be >= 0"};
   if (!(recovery_drift_fraction >= 0.0)) return Error{"mapper.recovery_drift_fraction: must be >= 0"};
   if (!(floor_match_m > 0.0)) return Error{"mapper.floor_match_m: must be > 0"};
+  if (!(warm_restart_max_gap_s >= 0.0) || !std::isfinite(warm_restart_max_gap_s))
+    return Error{"mapper.warm_restart_max_gap_s: must be a finite number >= 0"};
+  if (!(warm_restart_speed_m_s > 0.0) || !std::isfinite(warm_restart_speed_m_s))
+    return Error{"mapper.warm_restart_speed_m_s: must be a finite number > 0"};
+  if (!(warm_restart_turn_rad_s > 0.0) || !std::isfinite(warm_restart_turn_rad_s))
+    return Error{"mapper.warm_restart_turn_rad_s: must be a finite number > 0"};
+  if (!(warm_restart_node_sigma_m >= 0.0)) return Error{"mapper.warm_restart_node_sigma_m: must be >= 0"};
   if (!(consistency_gate > 0.0)) return Error{"mapper.consistency_gate: must be > 0"};
   if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
   if (!(min_closure_information >= 0.0) || !std::isfinite(min_closure_information))
@@ -67,6 +75,10 @@ void MapperStats::addCounters(const MapperStats& o) {
   dropped += o.dropped;
   restored_nodes += o.restored_nodes;
   restored_constraints += o.restored_constraints;
+  warm_restarts += o.warm_restarts;
+  lost_restarts += o.lost_restarts;
+  warm_confirmations += o.warm_confirmations;
+  warm_rejections += o.warm_rejections;
 }
 
 std::string MapperStats::text() const {
@@ -78,7 +90,9 @@ std::string MapperStats::text() const {
     << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept << "\ndelta_fused " << delta_fused
     << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor " << rejected_floor << "\nclosures_uninformative " << closures_uninformative << "\ngate_recoveries " << gate_recoveries << "\nrecoveries_too_far " << recoveries_too_far << "\nrelocalizations " << relocalizations
     << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrelocalization_disagreements " << relocalization_disagreements << "\nrelocalization_same_frame_checks " << relocalization_same_frame_checks << "\nrestored_nodes " << restored_nodes
-    << "\nrestored_constraints " << restored_constraints << "\n";
+    << "\nrestored_constraints " << restored_constraints << "\nwarm_restarts " << warm_restarts
+    << "\nlost_restarts " << lost_restarts << "\nwarm_confirmations " << warm_confirmations
+    << "\nwarm_rejections " << warm_rejections << "\n";
   return s.str();
 }
 
@@ -100,6 +114,7 @@ Status Mapper::onVo(const vo_delta_t& msg) {
     ++stats_.dropped;
     return s;
   }
+  if (saved_tracking_) decideRestart(msg.utime);
   checkTimeout(msg.utime);
   if (last_vo_utime_ >= 0 && msg.utime - last_vo_utime_ > micros(o_.session_gap_s)) startSession(msg.utime);
   last_vo_utime_ = msg.utime;
@@ -153,6 +168,14 @@ Status Mapper::onFloor(const floor_t& msg) {
     return makeError("FLOOR ", msg.utime, ": not finite or out of order");
   }
   last_floor_utime_ = msg.utime;
+  // A ride or a session announced after the saved tracking state: the state's floor or
+  // session is no longer the robot's (older FLOOR messages, a log replayed from its start,
+  // are what the state already holds).
+  if (saved_tracking_ && msg.utime > saved_tracking_->utime) {
+    saved_tracking_.reset();
+    ++stats_.lost_restarts;
+    restart_gap_s_ = -1.0;
+  }
   floor_confirmed_ = true;
   if (msg.event == floor_t::EVENT_RIDE_START) {
     // The floor left, at the height the ride starts from: elevator-proc announces no floor
@@ -249,6 +272,8 @@ void Mapper::step(int64_t keyframe_utime) {
   std::optional<int64_t> target;
   if (lost_) {
     target = relocalizationCheck(keyframe_utime);
+  } else if (resumed_ && (target = relocalizationCheck(keyframe_utime))) {
+    // A warm restart's candidate placement, checked where it predicts the robot is.
   } else if (o_.full_graph) {
     target = partition_.nodeInCell(partition_.cellOf(world_T_body, floor_),
                                    keyframe_utime - micros(o_.recent_exclusion_s), nodes_);
@@ -283,7 +308,11 @@ void Mapper::finishStep(bool registered) {
   }
   // A registration the gate rejected still says a node is near (or it is a false match, and
   // the next step adds the node): no new node at this step.
-  if (!registered && !gate_rejected && !o_.full_graph) {
+  // A warm restart's unconfirmed pose places a node only while it is known to a cell or so.
+  const double sigma_m =
+      std::sqrt(std::max(f.delta_at_keyframe.covariance(0, 0), f.delta_at_keyframe.covariance(1, 1)));
+  const bool placeable = !resumed_ || sigma_m <= o_.warm_restart_node_sigma_m;
+  if (!registered && !gate_rejected && !o_.full_graph && placeable) {
     const core::SE3d world_T_body = nodePose(f.active) * f.delta_at_keyframe.mean;
     if (!nodeAt(world_T_body, floor_, f.keyframe_utime)) {
       // A new place (eq. 8): the node at the keyframe, then Δ restarts from it.
@@ -296,7 +325,8 @@ void Mapper::finishStep(bool registered) {
   flushSolver();
   const auto q_T_now = tracker_.sinceKeyframe(f.keyframe_utime);
   const core::SE3d node_T_q = tracker_.delta().mean * (q_T_now ? q_T_now->mean.inverse() : core::SE3d());
-  step_poses_.push_back(StepPose{f.keyframe_utime, active_, node_T_q, session_});
+  // A warm restart's unconfirmed pose is the held one, metres off: no step pose (as no POSE).
+  if (!resumed_) step_poses_.push_back(StepPose{f.keyframe_utime, active_, node_T_q, session_});
   stats_.timing.step_cost.push_back({f.keyframe_utime, step_cost_s_ + secondsSince(t0), step_cpu_s_ + threadCpuSeconds() - c0});
 }
 
@@ -435,6 +465,9 @@ Status Mapper::restore(const MapSnapshot& map) {
   std::map<int, double> floors(map.floors.begin(), map.floors.end());
   int max_session = -1;
   for (const auto& [session, start] : map.sessions) max_session = std::max(max_session, session);
+  // Mappers are named in map_saved by their first session; a warm-restarted one continues an
+  // older session and adds none, so the next name is past the names as well.
+  max_session = std::max(max_session, map.max_saved_mapper);
   for (size_t k = 0; k < map.nodes.size(); ++k) {
     const StoredNode& n = map.nodes[k];
     if (n.node.id != static_cast<int64_t>(k))
@@ -488,7 +521,71 @@ Status Mapper::restore(const MapSnapshot& map) {
     if (n.keyframe_utime >= nodes_[static_cast<size_t>(newest)].keyframe_utime) newest = n.id;
   floor_ = nodes_[static_cast<size_t>(newest)].floor;
   floor_confirmed_ = false;
+  resume_first_new_node_ = n_nodes;
+  // A saved tracking state is usable only when it names a stored node and is not older than
+  // the newest one (the state is written in every transaction that writes nodes, so an
+  // older one is not this map's last state).
+  saved_tracking_.reset();
+  if (map.tracking && map.tracking->active_node >= 0 && map.tracking->active_node < n_nodes &&
+      map.tracking->utime >= nodes_[static_cast<size_t>(newest)].keyframe_utime) {
+    saved_tracking_ = map.tracking;
+  } else {
+    ++stats_.lost_restarts;
+    restart_gap_s_ = -1.0;
+  }
   return Ok{};
+}
+
+void Mapper::decideRestart(int64_t utime) {
+  const TrackingState s = *saved_tracking_;
+  saved_tracking_.reset();
+  const double gap_s = 1e-6 * static_cast<double>(utime - s.utime);
+  restart_gap_s_ = gap_s;
+  if (s.in_elevator || !(gap_s >= 0.0) || gap_s > o_.warm_restart_max_gap_s || o_.full_graph) {
+    ++stats_.lost_restarts;
+    return;
+  }
+  // Where the robot was at s.utime, in its session, on its floor; nothing tracked it for
+  // gap_s: the covariance grows by what it may have driven and turned meanwhile (linear in
+  // the gap: a bounded speed). Height, roll and pitch stay (a floor, a level body).
+  core::UncertainPose delta = s.active_T_body;
+  const double sigma_m = o_.warm_restart_speed_m_s * gap_s;
+  const double sigma_rad = std::min(o_.warm_restart_turn_rad_s * gap_s, std::numbers::pi);
+  core::Vec6 grow;
+  grow << sigma_m * sigma_m, sigma_m * sigma_m, 0.0025 * gap_s, 1e-4 * gap_s, 1e-4 * gap_s, sigma_rad * sigma_rad;
+  delta.covariance += grow.asDiagonal();
+  active_ = s.active_node;
+  session_ = s.session;
+  session_start_utime_ = s.session_start_utime;
+  floor_ = s.floor;
+  floor_confirmed_ = true;
+  const auto height = floors_.find(floor_);
+  if (height != floors_.end()) {
+    floor_height_m_ = height->second;
+    have_floor_ = true;
+  }
+  // The first VO frame after the restart is placed where this estimate has the body (its
+  // reference is unknown to the new tracker: reanchored), so no motion is applied twice.
+  tracker_.reset(delta);
+  lost_ = false;
+  resumed_ = true;
+  relocalize_ = false;
+  relocalization_candidate_.reset();
+  rejected_candidate_.reset();
+  ++stats_.warm_restarts;
+}
+
+std::optional<TrackingState> Mapper::trackingState() const {
+  if (lost_ || active_ < 0 || nodes_.empty() || tracker_.lastUtime() < 0) return std::nullopt;
+  TrackingState s;
+  s.utime = tracker_.lastUtime();
+  s.session = session_;
+  s.session_start_utime = session_start_utime_;
+  s.active_node = active_;
+  s.floor = floor_;
+  s.in_elevator = in_elevator_;
+  s.active_T_body = tracker_.delta();
+  return s;
 }
 
 }  // namespace evermap::mapper

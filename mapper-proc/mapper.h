@@ -51,6 +51,18 @@ namespace evermap::mapper {
 
 struct MapSnapshot;  // map_store.h
 
+// What a mapper tracks, saved with the map (map_store.h, table map_tracking) so that a
+// restarted mapper can resume where the killed one was (MapperOptions::warm_restart_*).
+struct TrackingState {
+  int64_t utime = 0;             // message time of the pose: the tracker's newest input
+  int session = 0;
+  int64_t session_start_utime = -1;
+  int64_t active_node = -1;      // the node tracked against
+  int floor = 0;
+  bool in_elevator = false;      // between a ride's start and end (no warm restart from it)
+  core::UncertainPose active_T_body;  // Δ at utime, with its covariance
+};
+
 // The mapper's solver: iSAM's schedule (GN, a batch step every 100 updates) with the two
 // changes that keep a step's cost from growing with the map (docs/mapper.md, "Step cost"):
 // partial back substitution (a change under 1 mm / 1 mrad stops propagating: iSAM2's
@@ -152,6 +164,29 @@ struct MapperOptions {
   // A ride's end is on the map's floor whose height is within this of the ride's measured
   // height (the map's label, whatever a restarted elevator-proc numbers it), metres.
   double floor_match_m = 1.0;
+  // Warm restart (docs/mapper.md, "Restarts"): a mapper restored from a store that holds its
+  // tracking state (TrackingState) resumes tracking from the saved node instead of starting
+  // lost, when the first VO_DELTA after the restart is at most this many seconds of message
+  // time after the saved state. 0: never (every restart starts lost). 10 s: a restart under
+  // the deputy takes 0.3 s of wall time, i.e. 6 s of message time in a 20x replay; beyond
+  // 10 s the inflated pose (below, 15 m and a full turn) no longer says where the robot is.
+  double warm_restart_max_gap_s = 10.0;
+  // How far the robot may have gone while nothing was tracked: the saved pose's standard
+  // deviation grows by this much per second of the gap, linearly (a displacement bounded by
+  // a speed, not a random walk). 1.5 m/s: over twice the simulated robot's cruise (0.55 m/s
+  // ±15 %) and above a walking pace, so the true displacement lies within 1σ; 0.5 rad/s: the
+  // mean turn rate over seconds of a robot that turns in place at 0.8 rad/s (the simulator's)
+  // between straight legs (heading σ capped at π: beyond, the heading is simply unknown).
+  double warm_restart_speed_m_s = 1.5;
+  double warm_restart_turn_rad_s = 0.5;
+  // Until the resumed placement is confirmed, a node is added only while Δ's position
+  // standard deviation (the larger of x and y) is at most this, metres: a node is placed in
+  // the cell its estimate falls in, and a place chosen metres off is a node nothing may
+  // correct (the chain made from it floats on the inflated edge until a closure ties it to
+  // the map, if one ever does). 1.5 m: a restart at 1x (0.3 s, plus up to a step, 0.5 s, since
+  // the state was saved) adds nodes at once; a 20x replay's 10 s gap (σ 15 m) waits for the
+  // confirmation.
+  double warm_restart_node_sigma_m = 1.5;
   TrackerOptions tracker;
   solver::IncrementalOptions solver = mapperSolverOptions();
 
@@ -210,6 +245,14 @@ struct MapperStats {
   int64_t dropped = 0;            // malformed, stale or out-of-order messages
   int64_t restored_nodes = 0;     // loaded from a map store by restore()
   int64_t restored_constraints = 0;
+  // A restored map's start: tracking resumed from the stored state (warm), or lost (no state,
+  // a state too old for warm_restart_max_gap_s, or a ride or a new session announced since).
+  int64_t warm_restarts = 0;
+  int64_t lost_restarts = 0;
+  // After a warm restart: the placement confirmed by two agreeing registrations to the
+  // restored map (consistent with the inflated pose), and registrations that contradicted it.
+  int64_t warm_confirmations = 0;
+  int64_t warm_rejections = 0;
   MapperTiming timing;
   std::string text() const;
   // Adds the counters of another mapper's stats (sessions mapped by successive mappers).
@@ -230,7 +273,23 @@ class Mapper {
   // global search (the first included) covers every floor, and a registration on any floor may place it (a
   // mapper-proc restarted mid-session, on another floor than the one its last session began on). Errors: a mapper that already has
   // nodes, node or edge ids that are not 0..n-1 in order, an edge naming an unknown node.
+  // With map.tracking (a state saved by a mapper that tracked), the start is decided at the
+  // first VO_DELTA: if it comes at most warm_restart_max_gap_s after the state and no FLOOR
+  // message newer than the state announced a ride or a session, tracking resumes from the
+  // state's node in its session and floor, Δ's covariance grown by the gap
+  // (warm_restart_speed_m_s, warm_restart_turn_rad_s); else the start is lost, as above.
+  // Until two agreeing registrations to the restored map confirm the resumed placement, a
+  // registration to a restored node makes no closure (it is a candidate, checked against the
+  // inflated pose), and POSE is withheld (resumedUnconfirmed()); nodes are added as usual,
+  // the first one linked to the state's node by Δ's inflated covariance.
   Status restore(const MapSnapshot& map);
+  // The state to save with the map; empty while lost or before the first node.
+  std::optional<TrackingState> trackingState() const;
+  // A warm restart whose placement on the restored map no registration has confirmed yet.
+  bool resumedUnconfirmed() const { return resumed_; }
+  // The gap between the saved tracking state and the first VO_DELTA after restore(), seconds,
+  // once decided (negative: no saved state usable).
+  std::optional<double> restartGapS() const { return restart_gap_s_; }
 
   // The left camera's mounting (rectified body_T_cam of STEREO_CALIB, calibration_latch.h):
   // VO deltas are camera motions. Until it is set, options.tracker.body_T_cam holds.
@@ -352,6 +411,12 @@ class Mapper {
   // floor by it, else a new label.
   int floorAtHeight(int reported, double height_m) const;
 
+  // The warm-restart decision at the first VO_DELTA after restore() (mapper.cpp).
+  void decideRestart(int64_t utime);
+  // A registration to a restored node while resumedUnconfirmed() (mapper_registration.cpp).
+  std::optional<int64_t> confirmResumed(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
+                                        const core::UncertainPose& q_T_now, bool* registered);
+
   MapperOptions o_;
   int session_;
   int first_session_;
@@ -395,6 +460,10 @@ class Mapper {
   int64_t last_attitude_utime_ = -1;
   int64_t next_request_id_ = 1;
   std::optional<InFlight> in_flight_;
+  std::optional<TrackingState> saved_tracking_;  // restore()'s, until decideRestart()
+  bool resumed_ = false;            // warm restart, placement not confirmed yet
+  std::optional<double> restart_gap_s_;
+  int64_t resume_first_new_node_ = 0;  // nodes from this id on were made after the restart
   std::vector<register_request_t> requests_;
   std::vector<node_added_t> nodes_added_;
   std::vector<StepPose> step_poses_;

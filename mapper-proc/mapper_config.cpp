@@ -33,6 +33,10 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.recovery_slack_m", &o->recovery_slack_m);
   reader.read("mapper.recovery_drift_fraction", &o->recovery_drift_fraction);
   reader.read("mapper.floor_match_m", &o->floor_match_m);
+  reader.read("mapper.warm_restart_max_gap_s", &o->warm_restart_max_gap_s);
+  reader.read("mapper.warm_restart_speed_m_s", &o->warm_restart_speed_m_s);
+  reader.read("mapper.warm_restart_turn_rad_s", &o->warm_restart_turn_rad_s);
+  reader.read("mapper.warm_restart_node_sigma_m", &o->warm_restart_node_sigma_m);
   reader.read("mapper.tracker.wheel_offplane_sigma_m", &o->tracker.wheel_offplane_sigma_m);
   reader.read("mapper.tracker.wheel_offplane_sigma_rad", &o->tracker.wheel_offplane_sigma_rad);
   reader.read("mapper.tracker.history_s", &o->tracker.history_s);

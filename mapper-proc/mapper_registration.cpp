@@ -121,6 +121,7 @@ std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, 
     return std::nullopt;
   }
   if (lost_) return placeLostSession(f, b, b_T_q, *q_T_now, registered);
+  if (resumed_ && b < resume_first_new_node_) return confirmResumed(f, b, b_T_q, *q_T_now, registered);
   if (o_.full_graph) {
     if (nodes_[b].keyframe_utime > f.keyframe_utime - micros(o_.recent_exclusion_s)) return std::nullopt;
     addConstraint(f.active, b, core::compound(f.delta_at_keyframe, core::invert(b_T_q)), ConstraintKind::kLoop,
@@ -168,6 +169,46 @@ std::optional<int64_t> Mapper::placeLostSession(const InFlight& f, int64_t b, co
   lost_ = false;
   relocalize_ = false;
   ++stats_.relocalizations;
+  return std::nullopt;
+}
+
+std::optional<int64_t> Mapper::confirmResumed(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
+                                              const core::UncertainPose& q_T_now, bool* registered) {
+  // A warm restart's Δ (or the first node made from it) is the saved pose with the gap's
+  // uncertainty: a closure from it would carry the unknown motion of the gap into the map as
+  // a measurement (a false loop edge, metres off), and one registration inside so wide a
+  // prior is no better evidence than a lost robot's first. So, as for a lost session: the
+  // registration must fit the inflated pose (the map gate, with Δ's covariance in the chain
+  // a_T_b) and a second one must agree with it through odometry; then the robot is placed.
+  const core::UncertainPose a_T_b = core::compound(f.delta_at_keyframe, core::invert(b_T_q));
+  const bool fits = b == f.active ? !(o_.map_gate > 0) || ConstraintSet::mahalanobis2(f.delta_at_keyframe, b_T_q) <= o_.map_gate
+                                  : consistentWithMap(f.active, b, a_T_b);
+  *registered = false;
+  gate_rejected_ = true;  // a place of the map is near (or a false match): no node at this step
+  if (!fits) {
+    ++stats_.warm_rejections;
+    return std::nullopt;
+  }
+  if (!confirmsRelocalization(b, b_T_q, f.keyframe_utime, relocalization_candidate_)) {
+    relocalization_candidate_ = RelocalizationCandidate{b, b_T_q, f.keyframe_utime};
+    if (!f.same_frame_check && o_.relocalization_checks > 0) return linkedNeighbour(b, nodePose(b) * b_T_q.mean);
+    return std::nullopt;
+  }
+  relocalization_candidate_.reset();
+  resumed_ = false;
+  gate_rejected_ = false;
+  *registered = true;
+  ++stats_.warm_confirmations;
+  if (f.active >= resume_first_new_node_ && b != f.active) {
+    // Nodes made since the restart hang on the saved node by the inflated edge: this closure,
+    // measured from one of them (Δ since that node is odometry), ties them to the map.
+    closeLoop(f, b, b_T_q, q_T_now, registered);
+    return std::nullopt;
+  }
+  // Still on the saved node: placed on b, no constraint (Δ held the gap).
+  active_ = b;
+  tracker_.reset(core::compound(b_T_q, q_T_now));
+  relocalize_ = false;
   return std::nullopt;
 }
 

@@ -7,8 +7,10 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <numbers>
 
+#include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
 #include "tests/mapper_messages.h"
 
@@ -19,10 +21,10 @@ namespace evermap::mapper::testing {
 class ScriptedDrive {
  public:
   explicit ScriptedDrive(MapperOptions o, double registration_variance = 1e-4)
-      : mapper_(o), registration_variance_(registration_variance) {
+      : mapper_(std::make_unique<Mapper>(o)), registration_variance_(registration_variance) {
     floor_t f{};
     f.floor_index = 0;
-    EXPECT_TRUE(mapper_.onFloor(f));
+    EXPECT_TRUE(mapper_->onFloor(f));
   }
 
   // Drives to `goal` in steps of 0.1 m / 0.1 s, keeping the heading of travel.
@@ -52,7 +54,7 @@ class ScriptedDrive {
   void slip(double dx) {
     utime_ += 100000;
     const SE3d next(pose_.so3(), pose_.translation() + Vec3(dx, 0, 0));
-    EXPECT_TRUE(mapper_.onVo(voMsg(utime_, utime_ - 100000, SE3d(), 1e-3, true)));
+    EXPECT_TRUE(mapper_->onVo(voMsg(utime_, utime_ - 100000, SE3d(), 1e-3, true)));
     pose_ = next;
     truth_[utime_] = next;
     answer();
@@ -63,7 +65,23 @@ class ScriptedDrive {
   void aliasBy(double dx) { alias_dx_ = dx; }
   // The true body pose at a node's keyframe.
   const SE3d& nodeTruth(int64_t id) const { return node_truth_.at(id); }
-  Mapper& mapper() { return mapper_; }
+  Mapper& mapper() { return *mapper_; }
+  // mapper-proc killed and restarted from its store: a new mapper with options `o` restores
+  // `map`, and nothing reaches it for `gap_s` seconds, in which the robot moves `moved_dx`
+  // metres along its heading. Then VO goes on from a reference the new mapper never saw.
+  Status restart(const MapSnapshot& map, const MapperOptions& o, double gap_s, double moved_dx = 0.0) {
+    mapper_ = std::make_unique<Mapper>(o);
+    if (Status s = mapper_->restore(map); !s) return s;
+    utime_ += static_cast<int64_t>(gap_s * 1e6);
+    pose_ = pose_ * planar(moved_dx, 0, 0);
+    utime_ += 100000;
+    // The robot stood still over this frame: VO's motion from its (unknown) reference.
+    const Status s = mapper_->onVo(voMsg(utime_, utime_ - 100000, SE3d(), 1e-3, true));
+    truth_[utime_] = pose_;
+    answer();
+    return s;
+  }
+  int64_t utime() const { return utime_; }
   // An elevator ride that ends where it started, on floor `index`, whose height estimate says
   // `height_m` with standard deviation `sigma_m`.
   void rideEnd(int index, double height_m, double sigma_m) {
@@ -73,7 +91,7 @@ class ScriptedDrive {
     f.height_m = height_m;
     f.height_sigma_m = sigma_m;
     f.event = floor_t::EVENT_RIDE_END;
-    EXPECT_TRUE(mapper_.onFloor(f));
+    EXPECT_TRUE(mapper_->onFloor(f));
   }
   // The robot is off for `seconds` and starts again where it stopped, VO from a new
   // keyframe; the new session's FLOOR message arrives only when `announce`.
@@ -83,10 +101,10 @@ class ScriptedDrive {
       floor_t f{};
       f.utime = utime_;
       f.floor_index = 0;
-      EXPECT_TRUE(mapper_.onFloor(f));
+      EXPECT_TRUE(mapper_->onFloor(f));
     }
     utime_ += 100000;
-    EXPECT_TRUE(mapper_.onVo(voRestart(utime_)));
+    EXPECT_TRUE(mapper_->onVo(voRestart(utime_)));
     truth_[utime_] = pose_;
     answer();
   }
@@ -96,9 +114,9 @@ class ScriptedDrive {
   void frame(const SE3d& next) {
     utime_ += 100000;
     if (truth_.empty()) {
-      EXPECT_TRUE(mapper_.onVo(voRestart(utime_)));
+      EXPECT_TRUE(mapper_->onVo(voRestart(utime_)));
     } else {
-      EXPECT_TRUE(mapper_.onVo(voMsg(utime_, utime_ - 100000, pose_.inverse() * next, 1e-3, true)));
+      EXPECT_TRUE(mapper_->onVo(voMsg(utime_, utime_ - 100000, pose_.inverse() * next, 1e-3, true)));
     }
     pose_ = next;
     truth_[utime_] = next;
@@ -106,8 +124,8 @@ class ScriptedDrive {
   }
   void answer() {
     for (int guard = 0; guard < 4; ++guard) {
-      for (const auto& n : mapper_.takeNodesAdded()) node_truth_[n.node_id] = truth_.at(n.keyframe_utime);
-      const auto requests = mapper_.takeRequests();
+      for (const auto& n : mapper_->takeNodesAdded()) node_truth_[n.node_id] = truth_.at(n.keyframe_utime);
+      const auto requests = mapper_->takeRequests();
       if (requests.empty()) return;
       for (const auto& r : requests) {
         register_result_t res{};
@@ -119,7 +137,7 @@ class ScriptedDrive {
         double best_d = 1.5;
         const bool global = r.mode == register_request_t::MODE_GLOBAL;
         if (global && global_finds_ == 0) {
-          EXPECT_TRUE(mapper_.onRegisterResult(res));
+          EXPECT_TRUE(mapper_->onRegisterResult(res));
           continue;
         }
         if (global && global_finds_ > 0) --global_finds_;
@@ -140,12 +158,12 @@ class ScriptedDrive {
           messages::putPose(rel, res.translation, res.orientation);
           for (int i = 0; i < 6; ++i) res.covariance[7 * i] = registration_variance_;
         }
-        EXPECT_TRUE(mapper_.onRegisterResult(res));
+        EXPECT_TRUE(mapper_->onRegisterResult(res));
       }
     }
   }
 
-  Mapper mapper_;
+  std::unique_ptr<Mapper> mapper_;
   double registration_variance_;
   double alias_dx_ = 0.0;
   bool blind_ = false;

@@ -60,8 +60,9 @@ int checkStore(const std::string& file) {
   long long updated = -1;  // the newest keyframe an update stored (a node's or an edge's)
   for (const auto& n : snap->nodes) updated = std::max<long long>(updated, n.node.keyframe_utime);
   for (const auto& e : snap->edges) updated = std::max<long long>(updated, e.constraint.utime);
-  std::printf("store ok nodes %zu edges %zu sessions %zu updated_utime %lld\n", snap->nodes.size(),
-              snap->edges.size(), snap->sessions.size(), updated);
+  std::printf("store ok nodes %zu edges %zu sessions %zu updated_utime %lld tracking_utime %lld\n", snap->nodes.size(),
+              snap->edges.size(), snap->sessions.size(), updated,
+              snap->tracking ? static_cast<long long>(snap->tracking->utime) : -1LL);
   return 0;
 }
 
@@ -156,7 +157,7 @@ int main(int argc, char** argv) {
   using namespace evermap;
   std::string config, mode = "reduced", store, timeline, out, replot, check_store;
   std::vector<std::string> sets;
-  double hours = -1.0, max_wall_s = 0.0, store_period_s = 0.0;
+  double hours = -1.0, max_wall_s = 0.0, store_period_s = 0.0, restart_gap_s = 0.0, stop_after_s = 0.0;
   bool progress = false;
   int first = 0, last = -1;
   CommandLine cli("evermap-mapper-run",
@@ -187,6 +188,12 @@ int main(int argc, char** argv) {
             "the map store (reduced graph only): a map it holds is continued, each update is one transaction");
   cli.value("--store-period-s", &store_period_s, "S",
             "at most one store transaction per S seconds of operating time, and one at the end (0: each update)")
+      .min(0);
+  cli.value("--restart-gap-s", &restart_gap_s, "S",
+            "continuing a store: skip the messages of S s after its newest state, as a restart loses them (default 0)")
+      .min(0).max(3600);
+  cli.value("--stop-after-s", &stop_after_s, "S",
+            "stop mapping after S s of operating time of this run, as a process killed then (0: to the end)")
       .min(0);
   cli.flag("--progress", &progress, "print 'committed nodes N edges E rows R utime U' after each store transaction (E constraints, R rows of map_edges)");
   cli.value("--timeline", &timeline, "FILE.csv", "per-minute timeline CSV (nodes, per-component time, step cost)");
@@ -274,6 +281,8 @@ int main(int argc, char** argv) {
     run.last_session = last;
     run.max_wall_s = max_wall_s;
     run.store_period_s = store_period_s;
+    run.restart_gap_s = restart_gap_s;
+    run.stop_after_s = stop_after_s;
     if (!full) run.store_file = store;
     if (progress) {
       run.on_commit = [](const mapper::StoreCommit& c) {

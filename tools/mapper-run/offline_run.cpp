@@ -152,6 +152,7 @@ Status OfflineRunOptions::validate() const {
   if (!(max_wall_s >= 0.0)) return Error{"run.max_wall_s: must be >= 0"};
   if (!(stop_after_s >= 0.0)) return Error{"run.stop_after_s: must be >= 0"};
   if (!(store_period_s >= 0.0)) return Error{"run.store_period_s: must be >= 0"};
+  if (!(restart_gap_s >= 0.0) || !std::isfinite(restart_gap_s)) return Error{"run.restart_gap_s: must be >= 0"};
   return Ok{};
 }
 
@@ -244,6 +245,9 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     }
     // Every update stored happened at or before its newest keyframe: resume after it.
     for (const StoredEdge& e : snapshot->edges) resume_utime = std::max(resume_utime, e.constraint.utime);
+    // ... and after the saved tracking state; a live restart loses the messages of its gap.
+    if (snapshot->tracking) resume_utime = std::max(resume_utime, snapshot->tracking->utime);
+    if (resume_utime >= 0) resume_utime += static_cast<int64_t>(std::llround(run.restart_gap_s * 1e6));
     std::sort(stored.begin(), stored.end(),
               [](const node_added_t& a, const node_added_t& b) { return a.keyframe_utime < b.keyframe_utime; });
     stored_for_oracle.assign(stored.begin(), stored.end());
@@ -290,10 +294,20 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   int64_t messages_seen = 0;
   std::vector<std::pair<int64_t, double>> session_offsets;  // (start utime, operating time then)
   double next_store_s = 0.0;  // OfflineRunOptions::store_period_s
+  int64_t tracked_steps = 0;
   auto saveStore = [&](int64_t utime) {
     const auto nodes = static_cast<int64_t>(mapper.nodes().size());
     const auto constraints = static_cast<int64_t>(mapper.constraints().all().size());
-    if (!store_status || (nodes == stored_nodes && constraints == stored_constraints)) return;
+    if (!store_status) return;
+    if (nodes == stored_nodes && constraints == stored_constraints) {
+      // The tracking state alone, once per step, as mapper-proc (a failure costs a warm
+      // restart at most).
+      if (mapper.stats().steps == tracked_steps) return;
+      tracked_steps = mapper.stats().steps;
+      (void)store->saveTracking(mapper);
+      return;
+    }
+    tracked_steps = mapper.stats().steps;
     const auto t0 = std::chrono::steady_clock::now();
     store_status = store->save(mapper, mapper.session(), session_start);
     store_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

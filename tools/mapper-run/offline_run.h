@@ -81,6 +81,10 @@ struct OfflineRunOptions {
   // as a log replayed from the session's start would bring them; false: none do, as for a
   // mapper-proc restarted live (it learns its floor from the map when it relocalises).
   bool floors_before_resume = true;
+  // With a stored map: the messages of this many seconds after the resume point (the newest
+  // keyframe or tracking state the store holds) do not reach the mapper, as those sent while
+  // mapper-proc restarts do not (MapperOptions::warm_restart_max_gap_s).
+  double restart_gap_s = 0.0;
 
   Status validate() const;
 };
