@@ -57,6 +57,8 @@ TEST(SimdPaths, StereoDisparitiesAgreeOnEveryCornerUpToTheRightBorder) {
   ImagePyramid pl, pr;
   ASSERT_TRUE(pl.build(left, 3).ok());
   ASSERT_TRUE(pr.build(right, 3).ok());
+  const StereoCamera camera = *StereoCamera::create(300.0, 300.0, left.cols / 2.0,
+                                                    left.rows / 2.0, 0.1, left.cols, left.rows);
   // Search ranges below and above a 32-disparity block at every level, up to the border.
   for (int max_disparity : {20, 40, 128}) {
     StereoDepth::Options o;
@@ -67,7 +69,7 @@ TEST(SimdPaths, StereoDisparitiesAgreeOnEveryCornerUpToTheRightBorder) {
       for (int l = 0; l < 3; ++l) {
         for (int v = 5; v < pl.level(l).rows - 5; v += 3) {
           for (int u = 4; u < pl.level(l).cols - 4; u += 1) {
-            d.push_back(depth.disparity(pl, pr, Keypoint{float(u), float(v), 0, int8_t(l)}));
+            d.push_back(depth.disparity(camera, pl, pr, Keypoint{float(u), float(v), 0, int8_t(l)}));
           }
         }
       }

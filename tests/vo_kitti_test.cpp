@@ -90,8 +90,10 @@ TEST(VoKitti, WithTheDisparityOffsetOfItsOwnImagesTheClipDriftsLessThanTwoPercen
   EXPECT_GT(offset->pairs, 35);
   EXPECT_NEAR(offset->offset_px, 0.8, 0.2);  // calib.txt as given: 0 would be consistent
 
+  // The offset becomes the calibration's (right cx = left cx + offset), as
+  // evermap-kitti2lcm --disparity-offset writes it into STEREO_CALIB.
   SequenceRunOptions o = clipOptions();
-  o.odometry.features.stereo.disparity_offset_px = offset->offset_px;
+  o.disparity_offset_px = offset->offset_px;
   const auto run = runKittiSequence(dir, o);
   ASSERT_TRUE(run.ok()) << run.error().message;
   std::printf("%s\n", run->report().c_str());
