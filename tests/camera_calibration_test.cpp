@@ -2,6 +2,7 @@
 // correctly, and every inconsistent calibration is refused with a message naming the input.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -121,6 +122,13 @@ TEST(StereoCalibration, RectifiedPairsMustBeUndistortedAlignedAndShareIntrinsics
   s.right.fx = 401.0;
   expectRefused(s.validate(), "marked rectified but the intrinsics differ");
   s = rectifiedPair(0.5);
+  s.right.fy = 399.0;
+  expectRefused(s.validate(), "marked rectified but the intrinsics differ");
+  s = rectifiedPair(0.5);
+  s.right.cy = 240.8;
+  expectRefused(s.validate(), "marked rectified but the intrinsics differ: left fx fy cy = 400 400 240, right 400 400 240.8");
+  EXPECT_FALSE(rectifiedStereoCamera(s).ok());
+  s = rectifiedPair(0.5);
   s.right.body_T_cam = SE3d(SO3d::exp(Vec3(0.0, 0.01, 0.0)), Vec3(0.5, 0.0, 0.0));
   expectRefused(s.validate(), "marked rectified but the cameras are rotated");
   s = rectifiedPair(0.5);
@@ -129,6 +137,47 @@ TEST(StereoCalibration, RectifiedPairsMustBeUndistortedAlignedAndShareIntrinsics
   s = rectifiedPair(0.5);
   s.rectified = false;
   EXPECT_FALSE(rectifiedStereoCamera(s).ok());
+}
+
+TEST(StereoCalibration, ARectifiedPairsDifferingCxIsItsDisparityOffset) {
+  StereoCalibration s = rectifiedPair(0.537);
+  s.right.cx = 320.8;
+  ASSERT_TRUE(s.validate().ok()) << s.validate().error().message;
+  const auto cam = rectifiedStereoCamera(s);
+  ASSERT_TRUE(cam.ok()) << cam.error().message;
+  EXPECT_EQ(cam->disparityOffsetPx(), 320.8 - 320.0);
+  EXPECT_EQ(cam->cx(), 320.0);  // the left camera's: pixels are in the left image
+  s.right.cx = 319.5;
+  EXPECT_EQ(rectifiedStereoCamera(s)->disparityOffsetPx(), -0.5);
+  EXPECT_EQ(rectifiedStereoCamera(rectifiedPair(0.537))->disparityOffsetPx(), 0.0);
+}
+
+TEST(StereoCalibration, ADisparityOffsetBeyondAQuarterOfTheWidthIsRefused) {
+  StereoCalibration s = rectifiedPair(0.5);
+  s.right.cx = 320.0 + 160.0;  // 640 / 4: the largest accepted
+  EXPECT_TRUE(rectifiedStereoCamera(s).ok());
+  s.right.cx = 320.0 + 160.5;
+  expectRefused(s.validate("rig"), "rig: marked rectified but the principal points differ by right cx - left cx = 160.5 px, beyond a quarter of the 640 px width");
+  EXPECT_FALSE(rectifiedStereoCamera(s).ok());
+  s.right.cx = 100.0;
+  expectRefused(s.validate(), "right cx - left cx = -220 px");
+}
+
+TEST(StereoCalibration, WithDisparityOffsetSetsTheRightCameraOfARectifiedPairOnly) {
+  const StereoCalibration s = rectifiedPair(0.537);
+  const auto with = withDisparityOffset(s, 0.8);
+  ASSERT_TRUE(with.ok()) << with.error().message;
+  EXPECT_EQ(with->right.cx, 320.0 + 0.8);
+  EXPECT_EQ(with->left.cx, 320.0);
+  EXPECT_NEAR(rectifiedStereoCamera(*with)->disparityOffsetPx(), 0.8, 1e-12);
+  // Replaced, not added; 0 gives the calibration back unchanged.
+  EXPECT_EQ(withDisparityOffset(*with, 0.3)->right.cx, 320.0 + 0.3);
+  EXPECT_EQ(withDisparityOffset(*with, 0.0)->right.cx, 320.0);
+  expectRefused(withDisparityOffset(s, 200.0).error(), "beyond a quarter of the 640 px width");
+  expectRefused(withDisparityOffset(s, std::nan("")).error(), "disparity offset nan px");
+  StereoCalibration raw = s;
+  raw.rectified = false;
+  expectRefused(withDisparityOffset(raw, 0.8).error(), "the stereo calibration is not rectified");
 }
 
 // ---- EuRoC sensor.yaml ----

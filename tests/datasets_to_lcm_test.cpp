@@ -369,6 +369,38 @@ TEST(KittiToLcm, MissingFramesAreSkippedAndCountedAndPoseCountsMustAgree) {
   EXPECT_FALSE(fs::exists(out_dir / "b.lcmlog"));
 }
 
+TEST(KittiToLcm, ADisparityOffsetIsWrittenAsTheRightCamerasCxOfEveryCalibration) {
+  EVERMAP_REQUIRE_DATA(dir, "kitti07-mono-160");
+  const ScratchDir scratch;
+  const fs::path out_dir = scratch.path();
+  const fs::path seq = kittiStereoFolder(dir, out_dir / "07", 3);
+  KittiToLcmOptions options;
+  options.encoding = messages::ImageEncoding::kGray8;
+  options.disparity_offset_px = 0.8;
+  const auto summary = convertKittiToLcm(seq, out_dir / "a.lcmlog", options);
+  ASSERT_TRUE(summary.ok()) << summary.error().message;
+  int calibrations = 0;
+  for (const Event& e : readLog(out_dir / "a.lcmlog")) {
+    if (e.channel != channels::kStereoCalib) continue;
+    ++calibrations;
+    const auto calib = fromMsg(decode<evermap::stereo_calib_t>(e));
+    ASSERT_TRUE(calib.ok()) << calib.error().message;
+    EXPECT_EQ(calib->left.cx, 601.8873);  // calib.txt's, for both cameras
+    EXPECT_EQ(calib->right.cx, 601.8873 + 0.8);
+    const auto cam = core::rectifiedStereoCamera(*calib);
+    ASSERT_TRUE(cam.ok()) << cam.error().message;
+    EXPECT_NEAR(cam->disparityOffsetPx(), 0.8, 1e-12);
+  }
+  EXPECT_GE(calibrations, 1);
+
+  options.disparity_offset_px = 400.0;  // beyond a quarter of the 1226 px width
+  const auto r = convertKittiToLcm(seq, out_dir / "b.lcmlog", options);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("calib.txt with the disparity offset 400 px"), std::string::npos)
+      << r.error().message;
+  EXPECT_FALSE(fs::exists(out_dir / "b.lcmlog"));
+}
+
 TEST(KittiToLcm, TheStereoClipConvertsInItsOwnLayoutWithAFrameRate) {
   EVERMAP_REQUIRE_DATA(dir, "kitti-stereo-clip");  // image_l/, image_r/, unlabelled calib.txt
   const ScratchDir scratch;

@@ -254,6 +254,34 @@ TEST(CalibrationMsg, RoundTripsEveryField) {
   }
 }
 
+TEST(CalibrationMsg, ARectifiedPairKeepsItsDisparityOffsetThroughTheWire) {
+  // KITTI's clip as evermap-kitti2lcm --disparity-offset 0.8 writes it: the offset is the right
+  // camera's cx, so STEREO_CALIB carries it without a field of its own.
+  core::StereoCalibration s;
+  s.rectified = true;
+  for (core::CameraCalibration* c : {&s.left, &s.right}) {
+    c->width = 1241;
+    c->height = 376;
+    c->fx = c->fy = 718.856;
+    c->cx = 607.1928;
+    c->cy = 185.2157;
+  }
+  s.right.body_T_cam = core::SE3d(core::SO3d(), core::Vec3(0.537, 0.0, 0.0));
+  const auto with = core::withDisparityOffset(s, 0.8);
+  ASSERT_TRUE(with.ok()) << with.error().message;
+  const auto back = fromMsg(throughWire(toMsg(*with, 5)));
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_TRUE(back->rectified);
+  EXPECT_EQ(back->right.cx, with->right.cx);
+  const auto cam = core::rectifiedStereoCamera(*back);
+  ASSERT_TRUE(cam.ok()) << cam.error().message;
+  EXPECT_NEAR(cam->disparityOffsetPx(), 0.8, 1e-12);
+  EXPECT_EQ(static_cast<float>(cam->disparityOffsetPx()), 0.8f);  // what StereoDepth adds
+  EXPECT_EQ(cam->cx(), 607.1928);
+  // Without the offset the message is what it was before the offset existed.
+  EXPECT_EQ(core::rectifiedStereoCamera(*fromMsg(throughWire(toMsg(s, 5))))->disparityOffsetPx(), 0.0);
+}
+
 TEST(CalibrationMsg, MalformedCalibrationsAreRefused) {
   core::StereoCalibration s;
   s.left = eurocLeft();

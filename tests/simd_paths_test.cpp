@@ -75,6 +75,8 @@ TEST(SimdPaths, StereoDisparitiesAgreeOnEveryCornerUpToTheRightBorder) {
   ASSERT_TRUE(pr_shift.build(shifted(left, 17.4, 0.0), 3).ok());
   ASSERT_TRUE(pl_vary.build(left, 3).ok());
   ASSERT_TRUE(pr_vary.build(rightWithVaryingDisparity(left), 3).ok());
+  const StereoCamera camera = *StereoCamera::create(300.0, 300.0, left.cols / 2.0,
+                                                    left.rows / 2.0, 0.1, left.cols, left.rows);
   struct Pair {
     const ImagePyramid* left;
     const ImagePyramid* right;
@@ -95,7 +97,7 @@ TEST(SimdPaths, StereoDisparitiesAgreeOnEveryCornerUpToTheRightBorder) {
           for (int l = 0; l < 3; ++l) {
             for (int v = 5; v < pair.left->level(l).rows - 5; v += 3) {
               for (int u = 4; u < pair.left->level(l).cols - 4; u += 1) {
-                d.push_back(depth.disparity(*pair.left, *pair.right,
+                d.push_back(depth.disparity(camera, *pair.left, *pair.right,
                                             Keypoint{float(u), float(v), 0, int8_t(l)}));
               }
             }

@@ -11,9 +11,12 @@
 
 #include "core/features/orb_descriptor.h"
 #include "core/features/stereo_features.h"
+#include "scratch_dir.h"
 #include "test_data.h"
+#include "tools/datasets/to_lcm.h"
 #include "tools/datasets/kitti.h"
 #include "tools/stereo-check/disparity_offset.h"
+#include "tools/vo-run/offline_runner.h"
 #include "tools/vo-run/sequence_run.h"
 
 namespace evermap::vo {
@@ -90,8 +93,10 @@ TEST(VoKitti, WithTheDisparityOffsetOfItsOwnImagesTheClipDriftsLessThanTwoPercen
   EXPECT_GT(offset->pairs, 35);
   EXPECT_NEAR(offset->offset_px, 0.8, 0.2);  // calib.txt as given: 0 would be consistent
 
+  // The offset becomes the calibration's (right cx = left cx + offset), as
+  // evermap-kitti2lcm --disparity-offset writes it into STEREO_CALIB.
   SequenceRunOptions o = clipOptions();
-  o.odometry.features.stereo.disparity_offset_px = offset->offset_px;
+  o.disparity_offset_px = offset->offset_px;
   const auto run = runKittiSequence(dir, o);
   ASSERT_TRUE(run.ok()) << run.error().message;
   std::printf("%s\n", run->report().c_str());
@@ -100,6 +105,66 @@ TEST(VoKitti, WithTheDisparityOffsetOfItsOwnImagesTheClipDriftsLessThanTwoPercen
   EXPECT_EQ(failed, 1);  // the first frame (no data)
   EXPECT_LE(run->end_error_percent, 2.0);
   EXPECT_LE(run->end_rotation_deg, 2.0);
+}
+
+// The path a user takes through the pipeline (issue 16): evermap-kitti2lcm --disparity-offset
+// 0.8 writes the offset into STEREO_CALIB (the right camera's cx), and the offline runner (vo-proc's
+// VoPipeline) corrects the clip with no option of its own: the same poses as the folder run with
+// that calibration, and the same as evermap-vo-run --disparity-offset 0.8 over a log without it.
+TEST(VoKitti, ALogWhoseCalibrationCarriesTheDisparityOffsetIsCorrectedWithoutAnOption) {
+  EVERMAP_REQUIRE_DATA(dir, "kitti-stereo-clip");
+  const testing::ScratchDir scratch;
+  datasets::KittiToLcmOptions convert;
+  convert.encoding = messages::ImageEncoding::kGray8;
+  convert.sequence.rate_hz = 10.0;
+  const auto plain_log = scratch.path() / "clip.lcmlog";
+  ASSERT_TRUE(datasets::convertKittiToLcm(dir, plain_log, convert).ok());
+  convert.disparity_offset_px = 0.8;
+  const auto offset_log = scratch.path() / "clip_offset.lcmlog";
+  const auto converted = datasets::convertKittiToLcm(dir, offset_log, convert);
+  ASSERT_TRUE(converted.ok()) << converted.error().message;
+
+  const auto corrected = runOffline(offset_log, OfflineOptions{});
+  ASSERT_TRUE(corrected.ok()) << corrected.error().message;
+  OfflineOptions override_offset;
+  override_offset.disparity_offset_px = 0.8;
+  const auto overridden = runOffline(plain_log, override_offset);
+  ASSERT_TRUE(overridden.ok()) << overridden.error().message;
+  override_offset.disparity_offset_px = 0.0;  // the override also takes an offset away
+  const auto uncorrected = runOffline(offset_log, override_offset);
+  ASSERT_TRUE(uncorrected.ok()) << uncorrected.error().message;
+  const auto as_given = runOffline(plain_log, OfflineOptions{});
+  ASSERT_TRUE(as_given.ok()) << as_given.error().message;
+
+  SequenceRunOptions o = clipOptions();
+  o.disparity_offset_px = 0.8;
+  const auto folder = runKittiSequence(dir, o);
+  ASSERT_TRUE(folder.ok()) << folder.error().message;
+  std::printf("folder run with the offset in calib: %s\n", folder->report().c_str());
+
+  // End error against the ground truth of the last frame (both start at the identity).
+  auto endErrorPercent = [&](const OfflineSummary& s) {
+    EXPECT_EQ(s.trajectory.size(), folder->gt.size());
+    const core::SE3d& est = s.trajectory.poses.back().world_T_body;
+    return 100.0 * (est.translation() - folder->gt.back().translation()).norm() /
+           folder->path_length_m;
+  };
+  const double e_corrected = endErrorPercent(*corrected);
+  std::printf("end error: log with the offset %.2f %%, override of a plain log %.2f %%, "
+              "offset taken away %.2f %%, plain log %.2f %%\n",
+              e_corrected, endErrorPercent(*overridden), endErrorPercent(*uncorrected),
+              endErrorPercent(*as_given));
+  EXPECT_LE(e_corrected, 2.0);
+  EXPECT_NEAR(e_corrected, folder->end_error_percent, 0.01);
+  EXPECT_GT(endErrorPercent(*as_given), 5.0);
+  // The override and the calibration are one path: the same poses to the bit.
+  for (const auto& [a, b] : {std::pair{&*corrected, &*overridden}, std::pair{&*as_given, &*uncorrected}}) {
+    ASSERT_EQ(a->trajectory.size(), b->trajectory.size());
+    for (size_t i = 0; i < a->trajectory.size(); ++i) {
+      EXPECT_EQ(a->trajectory.poses[i].world_T_body.matrix(), b->trajectory.poses[i].world_T_body.matrix())
+          << "pose " << i;
+    }
+  }
 }
 
 TEST(VoKitti, WithoutTheMotionPriorAndTheDepthAwareCliqueFewerMatchesAreConsistent) {

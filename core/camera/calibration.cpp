@@ -81,12 +81,18 @@ Status StereoCalibration::validate(const std::string& what) const {
       right.distortion_model != DistortionModel::kNone) {
     return makeError(what, ": marked rectified but a camera has a distortion model");
   }
-  if (!same(left.fx, right.fx) || !same(left.fy, right.fy) || !same(left.cx, right.cx) ||
-      !same(left.cy, right.cy)) {
-    return makeError(what, ": marked rectified but the intrinsics differ: left fx fy cx cy = ",
-                     num(left.fx), " ", num(left.fy), " ", num(left.cx), " ", num(left.cy),
-                     ", right ", num(right.fx), " ", num(right.fy), " ", num(right.cx), " ",
-                     num(right.cy));
+  // cx may differ: the disparity offset (StereoCamera); fx, fy and cy may not, or rows and
+  // scales would differ between the images.
+  if (!same(left.fx, right.fx) || !same(left.fy, right.fy) || !same(left.cy, right.cy)) {
+    return makeError(what, ": marked rectified but the intrinsics differ: left fx fy cy = ",
+                     num(left.fx), " ", num(left.fy), " ", num(left.cy), ", right ",
+                     num(right.fx), " ", num(right.fy), " ", num(right.cy));
+  }
+  const double offset = right.cx - left.cx;
+  if (!(std::abs(offset) <= left.width / 4.0)) {
+    return makeError(what, ": marked rectified but the principal points differ by right cx - "
+                           "left cx = ", num(offset), " px, beyond a quarter of the ", left.width,
+                     " px width (left cx ", num(left.cx), ", right cx ", num(right.cx), ")");
   }
   if (rotationAngle(r_T_l.so3()) > 1e-6) {
     return makeError(what, ": marked rectified but the cameras are rotated by ",
@@ -113,7 +119,19 @@ Expected<StereoCamera> rectifiedStereoCamera(const StereoCalibration& c) {
   if (Status s = c.validate(); !s) return s.error();
   return StereoCamera::create(c.left.fx, c.left.fy, c.left.cx, c.left.cy,
                               -c.right_T_left().translation().x(), c.left.width,
-                              c.left.height);
+                              c.left.height, c.right.cx - c.left.cx);
+}
+
+Expected<StereoCalibration> withDisparityOffset(const StereoCalibration& c, double offset_px) {
+  if (!c.rectified) {
+    return makeError("disparity offset ", num(offset_px), " px: the stereo calibration is not "
+                     "rectified (a raw pair's rectification sets the rectified principal points)");
+  }
+  if (!std::isfinite(offset_px)) return makeError("disparity offset ", num(offset_px), " px");
+  StereoCalibration out = c;
+  out.right.cx = c.left.cx + offset_px;
+  if (Status s = out.validate(); !s) return s.error();
+  return out;
 }
 
 }  // namespace evermap::core

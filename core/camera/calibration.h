@@ -39,8 +39,10 @@ struct CameraCalibration {
 };
 
 struct StereoCalibration {
-  // true: both cameras are the rectified pinholes of the images (no distortion, same
-  // intrinsics, right camera translated along +x of the left only).
+  // true: both cameras are the rectified pinholes of the images (no distortion, same fx, fy,
+  // cy, right camera translated along +x of the left only). Their cx may differ, by at most a
+  // quarter of the width: right.cx - left.cx is the rig's disparity offset
+  // (StereoCamera::disparityOffsetPx; KITTI's clip: +0.8 px, docs/vo.md).
   bool rectified = false;
   CameraCalibration left;
   CameraCalibration right;
@@ -52,8 +54,17 @@ struct StereoCalibration {
   Status validate(const std::string& what = "stereo calibration") const;
 };
 
-// The StereoCamera of a calibration whose images are already rectified (rectified == true);
-// an error when the calibration is invalid or not rectified.
+// The StereoCamera of a calibration whose images are already rectified (rectified == true),
+// its disparity offset right.cx - left.cx; an error when the calibration is invalid or not
+// rectified.
 Expected<StereoCamera> rectifiedStereoCamera(const StereoCalibration& calibration);
+
+// The same rectified calibration with the right camera's cx = left.cx + offset_px: how a
+// disparity offset measured on the images (evermap-stereo-check --self-offset) becomes part of
+// the calibration (evermap-kitti2lcm --disparity-offset). An error when the calibration is not
+// rectified (a raw pair's rectification decides the rectified cx itself) or the result is
+// invalid (the offset beyond a quarter of the width).
+Expected<StereoCalibration> withDisparityOffset(const StereoCalibration& calibration,
+                                                double offset_px);
 
 }  // namespace evermap::core

@@ -19,7 +19,8 @@ std::string num(double v) {
 }  // namespace
 
 Expected<StereoCamera> StereoCamera::create(double fx, double fy, double cx, double cy,
-                                            double baseline_m, int width, int height) {
+                                            double baseline_m, int width, int height,
+                                            double disparity_offset_px) {
   StereoCamera c;
   c.fx_ = fx;
   c.fy_ = fy;
@@ -28,6 +29,7 @@ Expected<StereoCamera> StereoCamera::create(double fx, double fy, double cx, dou
   c.baseline_m_ = baseline_m;
   c.width_ = width;
   c.height_ = height;
+  c.disparity_offset_px_ = disparity_offset_px;
   if (Status s = c.validate(); !s) return s.error();
   return c;
 }
@@ -51,6 +53,13 @@ Status StereoCamera::validate() const {
         cy_ < height_)) {
     return makeError(who, "principal point (", num(cx_), ", ", num(cy_), ") is outside the ",
                      width_, "x", height_, " image");
+  }
+  // A quarter of the width is far beyond any rectification error (KITTI's clip: 0.8 px of
+  // 1241) and still refuses a right camera's cx given in another image's coordinates.
+  if (!(std::isfinite(disparity_offset_px_) && std::abs(disparity_offset_px_) <= width_ / 4.0)) {
+    return makeError(who, "disparity offset cx_right - cx_left = ", num(disparity_offset_px_),
+                     " px is not finite or beyond a quarter of the ", width_,
+                     " px width (a rectified pair's principal points differ by little)");
   }
   return Ok{};
 }
@@ -116,9 +125,13 @@ StereoCamera::Mat3 StereoCamera::backProjectionCovariance(const Vec3& uvd, doubl
 }
 
 std::string StereoCamera::describe() const {
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "fx=%.3f fy=%.3f cx=%.3f cy=%.3f baseline=%.4fm %dx%d", fx_,
-                fy_, cx_, cy_, baseline_m_, width_, height_);
+  char buf[200];
+  const int n = std::snprintf(buf, sizeof buf, "fx=%.3f fy=%.3f cx=%.3f cy=%.3f baseline=%.4fm %dx%d",
+                              fx_, fy_, cx_, cy_, baseline_m_, width_, height_);
+  if (disparity_offset_px_ != 0.0 && n > 0 && static_cast<size_t>(n) < sizeof buf) {
+    std::snprintf(buf + n, sizeof buf - static_cast<size_t>(n), " disparity_offset=%+.3fpx",
+                  disparity_offset_px_);
+  }
   return buf;
 }
 

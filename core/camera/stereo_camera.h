@@ -2,13 +2,20 @@
 // A rectified stereo pair of pinhole cameras: the model every evermap component measures with.
 //
 // Invariant (checked by validate()/create()): fx, fy > 0 and finite; baseline_m > 0 and finite;
-// width, height > 0; the principal point (cx, cy) lies inside the image [0, width) x [0, height).
-// Both cameras share fx, fy, cx, cy and the image size; the right camera sits at +baseline_m
-// along the x axis of the left camera frame, with the same orientation (rectified images: the
-// epipolar lines are image rows). Points are in the left camera frame (x right, y down,
-// z forward), metres; pixels (u, v) are in the left image, u along rows.
+// width, height > 0; the principal point (cx, cy) lies inside the image [0, width) x [0, height);
+// |disparity_offset_px| <= width / 4 and finite.
+// Both cameras share fx, fy, cy and the image size; the right camera sits at +baseline_m along
+// the x axis of the left camera frame, with the same orientation (rectified images: the
+// epipolar lines are image rows). The right camera's principal point is at
+// cx_right = cx + disparity_offset_px (0 for most rigs; KITTI's clip: +0.8 px, docs/vo.md).
+// Points are in the left camera frame (x right, y down, z forward), metres; pixels (u, v) are
+// in the left image, u along rows.
 //
-//   u = fx x / z + cx,   v = fy y / z + cy,   d = u_left - u_right = fx b / z.
+//   u = fx x / z + cx,   v = fy y / z + cy,   d = fx b / z,
+//   d = d_measured + disparity_offset_px,  d_measured = u_left - u_right (in the images).
+//
+// Every disparity this class takes or returns is d, the one that gives the depth; only a
+// matcher that compares the two images (StereoDepth) sees d_measured and adds the offset.
 //
 // Back-projection and its first-order covariance Σ_p = J Σ_uvd Jᵀ, J = ∂p/∂(u, v, d): the 3-D
 // Gaussian error model of Matthies & Shafer, "Error modeling in stereo navigation", IEEE J.
@@ -29,8 +36,10 @@ class StereoCamera {
   using Mat3 = Eigen::Matrix3d;
 
   // Refuses an inconsistent model with an error naming the field and its value.
+  // disparity_offset_px = cx_right - cx_left of the rectified images (see above).
   static Expected<StereoCamera> create(double fx, double fy, double cx, double cy,
-                                       double baseline_m, int width, int height);
+                                       double baseline_m, int width, int height,
+                                       double disparity_offset_px = 0.0);
 
   double fx() const { return fx_; }
   double fy() const { return fy_; }
@@ -39,6 +48,9 @@ class StereoCamera {
   double baselineM() const { return baseline_m_; }
   int width() const { return width_; }
   int height() const { return height_; }
+  // cx_right - cx_left (pixels): added to a disparity measured between the images to give the
+  // disparity of the model, d = d_measured + offset.
+  double disparityOffsetPx() const { return disparity_offset_px_; }
 
   // (u, v, d) of a point in the left camera frame; nullopt when it is not in front of the
   // camera (z <= 0 or not finite). J (optional) = d(u, v, d)/d(x, y, z).
@@ -63,14 +75,15 @@ class StereoCamera {
     return u >= 0.0 && v >= 0.0 && u < width_ && v < height_;
   }
 
-  // "fx=458.6 fy=457.3 cx=367.2 cy=248.4 b=0.110m 752x480".
+  // "fx=458.600 fy=457.300 cx=367.200 cy=248.400 baseline=0.1100m 752x480", then
+  // " disparity_offset=+0.800px" when the offset is not 0.
   std::string describe() const;
 
  private:
   StereoCamera() = default;
   Status validate() const;
 
-  double fx_ = 0.0, fy_ = 0.0, cx_ = 0.0, cy_ = 0.0, baseline_m_ = 0.0;
+  double fx_ = 0.0, fy_ = 0.0, cx_ = 0.0, cy_ = 0.0, baseline_m_ = 0.0, disparity_offset_px_ = 0.0;
   int width_ = 0, height_ = 0;
 };
 

@@ -135,9 +135,6 @@ Status StereoDepth::Options::validate() const {
   if (!(uniqueness_ratio > 0.0 && uniqueness_ratio <= 1.0)) {
     return makeError("stereo depth: uniqueness_ratio ", uniqueness_ratio, " is not in (0, 1]");
   }
-  if (!(std::abs(disparity_offset_px) <= 16.0)) {
-    return makeError("stereo depth: disparity_offset_px ", disparity_offset_px, " is not in [-16, 16]");
-  }
   if (!(max_refinement_px > 0.0)) {
     return makeError("stereo depth: max_refinement_px ", max_refinement_px, " must be positive");
   }
@@ -151,15 +148,18 @@ StereoDepth::StereoDepth(const Options& options) : options_(options) {
   }
 }
 
-std::vector<float> StereoDepth::compute(const ImagePyramid& left, const ImagePyramid& right,
+std::vector<float> StereoDepth::compute(const StereoCamera& camera, const ImagePyramid& left,
+                                        const ImagePyramid& right,
                                         const std::vector<Keypoint>& keypoints) const {
   std::vector<float> out(keypoints.size());
-  for (size_t i = 0; i < keypoints.size(); ++i) out[i] = disparity(left, right, keypoints[i]);
+  for (size_t i = 0; i < keypoints.size(); ++i) {
+    out[i] = disparity(camera, left, right, keypoints[i]);
+  }
   return out;
 }
 
-float StereoDepth::disparity(const ImagePyramid& left, const ImagePyramid& right,
-                             const Keypoint& k) const {
+float StereoDepth::disparity(const StereoCamera& camera, const ImagePyramid& left,
+                             const ImagePyramid& right, const Keypoint& k) const {
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   if (k.level >= left.numLevels() || k.level >= right.numLevels()) return kNaN;
   const cv::Mat& L = left.level(k.level);
@@ -205,7 +205,8 @@ float StereoDepth::disparity(const ImagePyramid& left, const ImagePyramid& right
     if (!x) return kNaN;
     d = static_cast<float>(u) - x->x();
   }
-  d = d * scale + static_cast<float>(options_.disparity_offset_px);
+  // Measured between the images -> the model's (stereo_camera.h): d = d_measured + offset.
+  d = d * scale + static_cast<float>(camera.disparityOffsetPx());
   if (!(d >= options_.min_disparity_px)) return kNaN;
   return d;
 }

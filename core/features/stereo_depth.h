@@ -11,11 +11,15 @@
 //     than a wrong one.
 //  3. Sub-pixel: Lucas-Kanade along the row (core/features/patch_alignment.h), started at the
 //     integer match; a refinement that moves more than max_refinement_px is rejected.
-// The disparity is returned in level-0 pixels: d0 = d_level * 2^level + disparity_offset_px.
+// The disparity is returned in level-0 pixels, as the camera model's:
+// d0 = d_level * 2^level + camera.disparityOffsetPx() (cx_right - cx_left of the rectified
+// images, core/camera/stereo_camera.h; 0 for most rigs). The camera is the only source of the
+// offset: a calibration that carries it (STEREO_CALIB's right cx) corrects every depth.
 
 #include <string>
 #include <vector>
 
+#include "core/camera/stereo_camera.h"
 #include "core/common/expected.h"
 #include "core/features/fast_detector.h"
 #include "core/features/image_pyramid.h"
@@ -32,11 +36,6 @@ class StereoDepth {
     double uniqueness_ratio = 0.9;     // best <= ratio * second best (outside +-1 px)
     bool subpixel = true;
     double max_refinement_px = 1.0;    // level pixels
-    // Added to every level-0 disparity: the rig's disparity offset, cx_right - cx_left of the
-    // images where the calibration says the two are equal (Middlebury's "doffs" with the
-    // opposite sign; tools/stereo-check/disparity_offset.h estimates it from the images).
-    // 0 for a consistent calibration.
-    double disparity_offset_px = 0.0;
 
     Status validate() const;
   };
@@ -45,13 +44,15 @@ class StereoDepth {
   explicit StereoDepth(const Options& options);
 
   // Level-0 disparity (pixels) of every keypoint of `left` in `right` (pyramids of the same
-  // size with at least as many levels as the keypoints use); NaN when there is no reliable
-  // match.
-  std::vector<float> compute(const ImagePyramid& left, const ImagePyramid& right,
+  // size with at least as many levels as the keypoints use), corrected by the camera's
+  // disparity offset; NaN when there is no reliable match.
+  std::vector<float> compute(const StereoCamera& camera, const ImagePyramid& left,
+                             const ImagePyramid& right,
                              const std::vector<Keypoint>& keypoints) const;
 
   // The same for one keypoint.
-  float disparity(const ImagePyramid& left, const ImagePyramid& right, const Keypoint& k) const;
+  float disparity(const StereoCamera& camera, const ImagePyramid& left,
+                  const ImagePyramid& right, const Keypoint& k) const;
 
   const Options& options() const { return options_; }
 

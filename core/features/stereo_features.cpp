@@ -73,7 +73,7 @@ Status StereoFeatureExtractor::extract(const StereoCamera& camera, int64_t utime
   if (Status s = checkStereoImage(camera, right, "right image"); !s) return s;
   if (Status s = right_.build(right, options_.feature_levels); !s) return s;
   return extractWith(camera, utime, left, frame, [&](const Keypoint& k) {
-    return depth_.disparity(frame->left, right_, k);
+    return depth_.disparity(camera, frame->left, right_, k);
   });
 }
 

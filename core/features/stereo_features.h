@@ -29,7 +29,7 @@ namespace evermap::core {
 struct StereoFeature {
   Keypoint keypoint;       // pixels of its level (integer: a FAST corner)
   Eigen::Vector2f uv;      // the same corner in level-0 pixels
-  float disparity = 0.0f;  // level-0 pixels, > 0
+  float disparity = 0.0f;  // level-0 pixels, > 0: the camera model's (its offset applied)
   Eigen::Vector3d point;   // left camera frame, metres
   PatchDescriptor patch;   // at its level
 };

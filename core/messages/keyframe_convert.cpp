@@ -8,6 +8,10 @@ namespace evermap::messages {
 
 evermap::keyframe_t toMsg(const core::StereoCamera& camera,
                           const core::KeyframeFeatures& features) {
+  // The camera's disparity offset (right cx - left cx) does not travel: the message carries
+  // disparities and points already corrected by it (StereoDepth adds it when it measures), and
+  // a receiver never matches left against right again, so its camera is the offset-free model
+  // with the same depths (fromMsg below: offset 0). keyframe_t stays as it is.
   evermap::keyframe_t msg;
   msg.utime = features.utime;
   msg.fx = camera.fx();

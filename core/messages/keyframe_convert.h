@@ -5,6 +5,9 @@
 // keyframe_t carries fx, fy, cx, cy and the baseline but not the image size; the camera of a
 // received keyframe is given the smallest size that holds its principal point at the centre
 // and every keypoint (registration does not use the size).
+// Nor does it carry the camera's disparity offset (right cx - left cx, StereoCamera): its
+// disparities and points are the model's, corrected by the offset when they were measured, so
+// the received camera has offset 0 and gives the same depths (keyframe_convert.cpp).
 
 #include <cstdint>
 

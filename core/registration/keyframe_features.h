@@ -19,7 +19,7 @@ struct KeyframeFeatures {
   int64_t utime = 0;
   std::vector<Eigen::Vector2f> keypoints;  // level-0 pixels (u, v)
   std::vector<Eigen::Vector3f> points;     // left camera frame, metres
-  std::vector<float> disparity;            // level-0 pixels, > 0
+  std::vector<float> disparity;            // level-0 pixels, > 0; the model's (offset applied)
   std::vector<int8_t> levels;              // pyramid level of detection, >= 0
   std::vector<OrbDescriptor> descriptors;
 

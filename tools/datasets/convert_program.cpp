@@ -44,6 +44,10 @@ int convertMain(Dataset dataset, int argc, char** argv) {
               "frame i at i/HZ s instead of times.txt (for copies without it; KITTI: about 10)").positive().max(10000);
     cli.value("--left", &left, "DIR", "left images (default image_0/, else image_l/)");
     cli.value("--right", &right, "DIR", "right images (default image_1/, else image_r/)");
+    cli.value("--disparity-offset", &kitti.disparity_offset_px, "PX",
+              "the images' disparity offset against calib.txt, written into STEREO_CALIB as the right camera's "
+              "cx = left cx + PX (kitti-stereo-clip: 0.8, from evermap-stereo-check --self-offset; default 0)")
+        .min(-1000).max(1000);
   }
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (positional.size() != 2) {

@@ -32,9 +32,14 @@ Expected<ConversionSummary> convertKittiToLcm(const fs::path& sequence, const fs
   auto first = messages::imageMsgFromFile(seq->leftImage(frames.front()), 0,
                                           messages::ImageEncoding::kGray8);  // for its size
   if (!first) return first.error();
-  auto calibration = kittiStereoCalibration(seq->projections, first->width, first->height,
-                                            seq->calib_file.string());
-  if (!calibration) return calibration.error();
+  auto from_file = kittiStereoCalibration(seq->projections, first->width, first->height,
+                                          seq->calib_file.string());
+  if (!from_file) return from_file.error();
+  auto calibration = core::withDisparityOffset(*from_file, options.disparity_offset_px);
+  if (!calibration) {
+    return makeError(seq->calib_file.string(), " with the disparity offset ",
+                     options.disparity_offset_px, " px: ", calibration.error().message);
+  }
 
   std::vector<PendingEvent> events;
   for (size_t i = 0; i < poses.size(); ++i) {

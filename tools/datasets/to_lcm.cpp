@@ -31,7 +31,12 @@ Status EurocToLcmOptions::validate() const {
   return Ok{};
 }
 
-Status KittiToLcmOptions::validate() const { return sequence.validate(); }
+Status KittiToLcmOptions::validate() const {
+  if (!std::isfinite(disparity_offset_px)) {
+    return makeError("KITTI: disparity_offset_px ", disparity_offset_px, " is not finite");
+  }
+  return sequence.validate();
+}
 
 Status TumToLcmOptions::validate() const {
   if (!calibration.empty()) {

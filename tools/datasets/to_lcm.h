@@ -66,6 +66,11 @@ struct KittiToLcmOptions {
   messages::ImageEncoding encoding = messages::ImageEncoding::kPng;
   // Folders, frame rate, ground truth (tools/datasets/kitti.h).
   KittiSequenceOptions sequence;
+  // The images' disparity offset (pixels) against calib.txt, written into STEREO_CALIB as the
+  // right camera's cx = left cx + disparity_offset_px (core::withDisparityOffset), so that every
+  // receiver of the log corrects its depths (d = measured + offset). kitti-stereo-clip: +0.8
+  // (evermap-stereo-check --self-offset, docs/vo.md). At most a quarter of the image width.
+  double disparity_offset_px = 0.0;
 
   Status validate() const;
 };

@@ -15,6 +15,8 @@
 // into a and a's into b, residuals in u, v and d, Huber); the offset of least total cost wins,
 // refined by a parabola through its neighbours. The pairs' inliers are chosen by the caller
 // (e.g. registerFrames at offset 0), which biases the estimate towards 0 if at all.
+// "Measured" is what the features carry: with a camera that has a disparity offset of its own
+// (StereoCamera::disparityOffsetPx, applied by StereoDepth), the estimate is what is left over.
 
 #include <string>
 #include <utility>

@@ -252,7 +252,13 @@ int main(int argc, char** argv) {
       (v < cy ? dy_top : dy_bottom).push_back(dy);
     }
 
-    // 3. Road plane from the pipeline's stereo depth on a grid below the horizon.
+    // 3. Road plane from the pipeline's stereo depth on a grid below the horizon: disparities
+    // as measured (calib.txt's camera, offset 0), the hypothesis added here.
+    const auto measuring = evermap::core::StereoCamera::create(f, fy, cx, cy, B, L.cols, L.rows);
+    if (!measuring) {
+      std::fprintf(stderr, "evermap-stereo-check: %s\n", measuring.error().message.c_str());
+      return 1;
+    }
     std::vector<cv::Point3d> uvd;
     for (int v = static_cast<int>(cy + road_margin_px); v < L.rows - 8; v += 4) {
       for (int u = static_cast<int>(cx - road_half_width * L.cols); u <= cx + road_half_width * L.cols;
@@ -260,7 +266,7 @@ int main(int argc, char** argv) {
         evermap::core::Keypoint kp;
         kp.u = static_cast<float>(u);
         kp.v = static_cast<float>(v);
-        const float d = depth.disparity(pl, pr, kp);
+        const float d = depth.disparity(*measuring, pl, pr, kp);
         if (std::isfinite(d)) uvd.emplace_back(u - cx, v - cy, d + offset_px);
       }
     }

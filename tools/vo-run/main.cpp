@@ -1,6 +1,7 @@
 // evermap-vo-run: visual odometry over an LCM log (e.g. from evermap-euroc2lcm), in one
 // process, deterministically (tools/vo-run/offline_runner.h). Writes the trajectory in TUM format
 // and per-frame statistics as CSV.
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -45,9 +46,11 @@ int main(int argc, char** argv) {
       .positive();
   cli.value("--depth-noise", &options.pipeline.rgbd.depth_noise_per_m2, "K",
             "RGB-D: depth noise sigma_z = K z^2 (default 1.425e-3, Khoshelham & Elberink 2012)").positive();
-  cli.value("--disparity-offset", &odo.features.stereo.disparity_offset_px, "PX",
-            "stereo: added to every disparity, the rig's cx_right - cx_left where the calibration has them equal "
-            "(evermap-stereo-check --self-offset estimates it; default 0)").min(-16).max(16);
+  double disparity_offset_px = std::nan("");
+  cli.value("--disparity-offset", &disparity_offset_px, "PX",
+            "stereo: replaces the calibration's disparity offset (right cx - left cx of a rectified STEREO_CALIB, "
+            "added to every measured disparity; evermap-stereo-check --self-offset estimates it; default: the log's, "
+            "which evermap-kitti2lcm --disparity-offset writes)").min(-1000).max(1000);
   cli.value("--clique-threshold", &odo.registration.clique.threshold_m, "M",
             "change of a pairwise distance always consistent").positive();
   cli.value("--search-radius", &odo.matching.search_radius_px, "PX", "window half-size at a feature's level").positive();
@@ -55,6 +58,7 @@ int main(int argc, char** argv) {
   cli.flag("--no-descriptors", &no_descriptors, "no ORB descriptors at keyframes");
   cli.flag("--verbose", &verbose, "one line per frame that failed, was bridged or retried, with its reason");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  if (!std::isnan(disparity_offset_px)) options.disparity_offset_px = disparity_offset_px;
   if (no_descriptors) options.pipeline.odometry.keyframe_descriptors = false;
   if (no_motion_prior) options.pipeline.odometry.constant_velocity = false;
   options.output_log = output_log;

@@ -67,6 +67,22 @@ std::string OfflineSummary::verboseReport() const {
   return s.str();
 }
 
+namespace {
+
+// A STEREO_CALIB event with its disparity offset replaced (OfflineOptions::disparity_offset_px).
+Expected<evermap::stereo_calib_t> overrideDisparityOffset(const void* data, int64_t size,
+                                                          double offset_px) {
+  auto msg = messages::decodeLcm<evermap::stereo_calib_t>(data, size, "STEREO_CALIB");
+  if (!msg) return msg.error();
+  auto calibration = messages::fromMsg(*msg);
+  if (!calibration) return calibration.error();
+  auto offset = core::withDisparityOffset(*calibration, offset_px);
+  if (!offset) return makeError("--disparity-offset: ", offset.error().message);
+  return messages::toMsg(*offset, msg->utime);
+}
+
+}  // namespace
+
 Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
                                     const OfflineOptions& options) {
   auto pipeline = VoPipeline::create(options.pipeline);
@@ -89,9 +105,15 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
   while (const messages::LogReader::Event* event = file.next()) {
     const std::string& channel = event->channel;
     if (channel == channels::kStereoCalib) {
-      if (Status s = pipeline->handleCalibrationBytes(event->data, event->datalen); !s) {
-        std::fprintf(stderr, "vo: %s\n", s.error().message.c_str());
+      Status s = Ok{};
+      if (options.disparity_offset_px) {
+        auto msg = overrideDisparityOffset(event->data, event->datalen, *options.disparity_offset_px);
+        if (!msg) return msg.error();
+        s = pipeline->handleCalibration(*msg);
+      } else {
+        s = pipeline->handleCalibrationBytes(event->data, event->datalen);
       }
+      if (!s) std::fprintf(stderr, "vo: %s\n", s.error().message.c_str());
       continue;
     }
     const bool rgbd = channel == channels::kRgbd;

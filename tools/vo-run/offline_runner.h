@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,11 @@ struct OfflineOptions {
   bool body_frame = false;
   int64_t max_frames = -1;  // stop after this many STEREO or RGBD events; -1: all
   std::filesystem::path output_log;  // empty: none
+  // Replaces the disparity offset of every rectified STEREO_CALIB of the log (its right cx
+  // becomes left cx + this, core::withDisparityOffset) before the pipeline sees it
+  // (evermap-vo-run --disparity-offset). Unset: the log's calibration as it is. A raw
+  // calibration with it set is an error: its rectification decides the principal points.
+  std::optional<double> disparity_offset_px;
 };
 
 struct FrameStats {

@@ -52,8 +52,10 @@ Expected<SequenceRun> runKittiSequence(const std::filesystem::path& folder,
   if (seq->poses.empty()) return makeError(folder.string(), ": no ground truth (poses.txt)");
   const cv::Mat first = cv::imread(seq->leftImage(seq->frames.front()).string(), cv::IMREAD_GRAYSCALE);
   if (first.empty()) return makeError(seq->leftImage(seq->frames.front()).string(), ": cannot read");
-  auto calibration = datasets::kittiStereoCalibration(seq->projections, first.cols, first.rows,
-                                                      seq->calib_file.string());
+  auto from_file = datasets::kittiStereoCalibration(seq->projections, first.cols, first.rows,
+                                                    seq->calib_file.string());
+  if (!from_file) return from_file.error();
+  auto calibration = core::withDisparityOffset(*from_file, options.disparity_offset_px);
   if (!calibration) return calibration.error();
   auto camera = core::rectifiedStereoCamera(*calibration);
   if (!camera) return camera.error();

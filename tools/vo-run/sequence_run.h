@@ -31,6 +31,9 @@ namespace evermap::vo {
 struct SequenceRunOptions {
   OdometryOptions odometry;
   datasets::KittiSequenceOptions sequence;
+  // The images' disparity offset against calib.txt (pixels), made part of the calibration as
+  // evermap-kitti2lcm --disparity-offset does (right cx = left cx + offset); 0: calib.txt's.
+  double disparity_offset_px = 0.0;
   int max_frames = -1;  // -1: all
 
   Status validate() const;
