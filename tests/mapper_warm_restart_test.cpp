@@ -36,6 +36,15 @@ MapSnapshot drivenAndSaved(ScriptedDrive& drive, const std::filesystem::path& fi
 
 // Every accepted loop closure against the truth at its nodes: how many are more than 0.3 m or
 // 3° off (what evermap-pipeline-eval counts as false, with a tighter bound).
+// Back home facing the other way (new places), then out again along the mapped corridor,
+// where registrations to the restored map can place the robot.
+void homeAndOutAlongTheMappedCorridor(ScriptedDrive& drive) {
+  drive.driveTo(14.0, M_PI);
+  drive.driveTo(0.0, M_PI);
+  drive.driveTo(0.0, 0.0);
+  drive.driveTo(8.0, 0.0);
+}
+
 int falseLoops(ScriptedDrive& drive) {
   int n = 0;
   for (const Constraint& c : drive.mapper().constraints().all()) {
@@ -85,10 +94,7 @@ TEST(MapperWarmRestart, ARestartWithinTheGapResumesTrackingAndAddsNodesAtOnceWit
   // along the mapped corridor: two registrations to the restored map confirm the placement;
   // no loop closure is false.
   drive.blind(false);
-  drive.driveTo(14.0, M_PI);
-  drive.driveTo(0.0, M_PI);
-  drive.driveTo(0.0, 0.0);
-  drive.driveTo(8.0, 0.0);
+  homeAndOutAlongTheMappedCorridor(drive);
   EXPECT_GE(m.stats().warm_confirmations, 1);
   EXPECT_FALSE(m.resumedUnconfirmed());
   EXPECT_GT(m.stats().loop_closures, 3);
@@ -136,10 +142,7 @@ TEST(MapperWarmRestart, ARestartBeyondTheGapStartsLost) {
   drive.driveTo(14.0, 0.0);
   EXPECT_EQ(m.nodes().size(), map.nodes.size());  // lost: no node until re-localised
   drive.blind(false);
-  drive.driveTo(14.0, M_PI);
-  drive.driveTo(0.0, M_PI);
-  drive.driveTo(0.0, 0.0);
-  drive.driveTo(8.0, 0.0);
+  homeAndOutAlongTheMappedCorridor(drive);
   EXPECT_GE(m.stats().relocalizations, 1);
 }
 
