@@ -1,5 +1,7 @@
 #include "mapper-proc/tracker.h"
 
+#include <sstream>
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -35,7 +37,27 @@ Status TrackerOptions::validate() const {
     return Error("tracker.gyro_bias_correlation_s: must be > 0");
   if (!(heading_extrapolation_s >= 0.0 && std::isfinite(heading_extrapolation_s)))
     return Error("tracker.heading_extrapolation_s: must be >= 0");
+  if (!(max_speed_m_s > 0.0 && std::isfinite(max_speed_m_s)))
+    return Error("tracker.max_speed_m_s: must be a finite number > 0");
+  if (!(max_turn_rad_s > 0.0 && std::isfinite(max_turn_rad_s)))
+    return Error("tracker.max_turn_rad_s: must be a finite number > 0");
   return Ok{};
+}
+
+// "" when a motion of `distance_m` and `angle_rad` over [from_utime, to_utime] is within the
+// options' rates, else why not.
+std::string Tracker::implausibleMotion(double distance_m, double angle_rad, int64_t from_utime,
+                                       int64_t to_utime) const {
+  const double span_s = std::max(1e-3, 1e-6 * static_cast<double>(to_utime - from_utime));
+  std::ostringstream why;
+  if (distance_m > o_.max_speed_m_s * span_s) {
+    why << distance_m << " m in " << span_s << " s is faster than tracker.max_speed_m_s "
+        << o_.max_speed_m_s;
+  } else if (angle_rad > o_.max_turn_rad_s * span_s) {
+    why << angle_rad << " rad in " << span_s << " s turns faster than tracker.max_turn_rad_s "
+        << o_.max_turn_rad_s;
+  }
+  return why.str();
 }
 
 Expected<Mat6> covarianceFromMessage(const double* row_major, const char* what) {
@@ -126,6 +148,14 @@ Status Tracker::addVo(const vo_delta_t& msg) {
     if (!cov) {
       ++counts_.dropped;
       return makeError("VO_DELTA ", msg.utime, ": ", cov.error().message);
+    }
+    const std::string implausible =
+        implausibleMotion(Eigen::Vector3d(msg.translation[0], msg.translation[1], msg.translation[2]).norm(),
+                          Eigen::AngleAxisd(q.normalized()).angle(), msg.ref_utime, msg.utime);
+    if (!implausible.empty()) {
+      ++counts_.dropped;
+      ++counts_.implausible;
+      return makeError("VO_DELTA ", msg.utime, ": ", implausible);
     }
   }
   const int64_t previous_vo_utime = last_vo_utime_;
@@ -274,6 +304,13 @@ Status Tracker::addWheel(const wheel_odom_t& msg) {
           -1e-9 * scale) {
     ++counts_.dropped;
     return Error("WHEEL_ODOM " + std::to_string(msg.utime) + ": covariance is not symmetric positive semi-definite");
+  }
+  if (const std::string implausible = implausibleMotion(std::hypot(msg.delta_x_m, msg.delta_y_m),
+                                                       std::abs(msg.delta_theta_rad), msg.prev_utime, msg.utime);
+      !implausible.empty()) {
+    ++counts_.dropped;
+    ++counts_.implausible;
+    return makeError("WHEEL_ODOM ", msg.utime, ": ", implausible);
   }
   last_wheel_utime_ = msg.utime;
   wheel_odometer_m_ += std::hypot(msg.delta_x_m, msg.delta_y_m);

@@ -32,6 +32,7 @@
 #include <cstdint>
 #include <deque>
 #include <optional>
+#include <string>
 
 #include <evermap/attitude_t.hpp>
 #include <evermap/vo_delta_t.hpp>
@@ -73,6 +74,13 @@ struct TrackerOptions {
   // A wheel increment ending this far past the newest ATTITUDE uses the heading extrapolated
   // at its last rate (imu-proc's messages lag the wheels' a little), seconds.
   double heading_extrapolation_s = 0.1;
+  // Plausibility of an odometry message's content (issue 17): a VO_DELTA or WHEEL_ODOM whose
+  // motion implies more than these rates over its time span is refused and counted, as a
+  // malformed one is. Physics bounds, not noise gates: 50 m/s is above any ground robot or
+  // car in our data (KITTI: up to ~15 m/s), 20 rad/s above a hand-held camera's turns; spans
+  // shorter than 1 ms count as 1 ms.
+  double max_speed_m_s = 50.0;
+  double max_turn_rad_s = 20.0;
 
   Status validate() const;
 };
@@ -81,7 +89,8 @@ struct TrackerCounts {
   int64_t vo_applied = 0;
   int64_t vo_failed = 0;       // frames with a failure status
   int64_t wheel_applied = 0;   // increments compounded while VO was down
-  int64_t dropped = 0;         // malformed, non-finite or out of order
+  int64_t dropped = 0;         // malformed, non-finite, out of order or implausible
+  int64_t implausible = 0;     // ... of which motion beyond max_speed_m_s / max_turn_rad_s
   int64_t restarts = 0;        // VO restarted from a new reference (first frame, chain break)
   int64_t relinked = 0;        // VO back on its kept reference after failing: wheel undone
   int64_t relinks_refused = 0; // ... whose motion contradicted the wheels: reanchored instead
@@ -98,6 +107,7 @@ struct TrackerCounts {
     vo_failed += o.vo_failed;
     wheel_applied += o.wheel_applied;
     dropped += o.dropped;
+    implausible += o.implausible;
     restarts += o.restarts;
     relinked += o.relinked;
     relinks_refused += o.relinks_refused;
@@ -143,6 +153,8 @@ class Tracker {
   const TrackerCounts& counts() const { return counts_; }
 
  private:
+  std::string implausibleMotion(double distance_m, double angle_rad, int64_t from_utime,
+                                int64_t to_utime) const;
   struct Increment {
     int64_t utime;        // end of the increment (a keyframe's utime in VO mode)
     UncertainPose pose;   // previous commit point _T_ this one

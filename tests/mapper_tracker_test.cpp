@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
+#include <string>
 #include <numbers>
 
 #include "core/geometry/se2.h"
@@ -64,7 +66,7 @@ TEST(Tracker, FallsBackToWheelOdometryWhenVoFails) {
   wheel_odom_t w{};
   w.prev_utime = 800000;
   w.utime = 900000;
-  w.delta_x_m = 5.0;
+  w.delta_x_m = 3.0;
   ASSERT_TRUE(t.addWheel(w));
   EXPECT_NEAR(t.delta().mean.translation().x(), 1.3, 1e-12);
 }
@@ -89,6 +91,57 @@ wheel_odom_t wheelMsg(int64_t prev, int64_t utime, double dx, double variance = 
   w.delta_x_m = dx;
   w.covariance[0] = w.covariance[4] = w.covariance[8] = variance;
   return w;
+}
+
+TEST(Tracker, RefusesOdometryFasterThanPhysicsAllowsAndKeepsItsEstimate) {
+  TrackerOptions o;
+  o.max_speed_m_s = 10.0;
+  o.max_turn_rad_s = 5.0;
+  Tracker t(o);
+  ASSERT_TRUE(t.addVo(voRestart(0)));
+  ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.9, 0, 0.4), 1e-3, false)));  // 9 m/s, 4 rad/s
+  const SE3d before = t.delta().mean;
+  // Motion since the reference, 0.2 s before: 2.1 m, 10.5 m/s.
+  const Status fast = t.addVo(voMsg(200000, 0, planar(2.1, 0, 0), 1e-3, false));
+  ASSERT_FALSE(fast);
+  EXPECT_NE(fast.error().message.find("tracker.max_speed_m_s"), std::string::npos) << fast.error().message;
+  // 1.1 rad in 0.2 s: 5.5 rad/s.
+  const Status turn = t.addVo(voMsg(200000, 0, planar(0.1, 0, 1.1), 1e-3, false));
+  ASSERT_FALSE(turn);
+  EXPECT_NE(turn.error().message.find("tracker.max_turn_rad_s"), std::string::npos) << turn.error().message;
+  // The hostile message's 1e9 m over the whole span since the reference.
+  EXPECT_FALSE(t.addVo(voMsg(300000, 0, planar(1e9, 0, 0), 1e-3, false)));
+  EXPECT_EQ(t.counts().implausible, 3);
+  EXPECT_EQ(t.counts().dropped, 3);
+  EXPECT_LT((t.delta().mean.inverse() * before).log().norm(), 1e-15);
+  // A plausible frame after them is used.
+  ASSERT_TRUE(t.addVo(voMsg(300000, 0, planar(1.5, 0, 0.5), 1e-3, false)));  // 5 m/s over 0.3 s
+  EXPECT_NEAR(t.delta().mean.translation().x(), 1.5, 1e-12);
+
+  // Wheel odometry, while VO is down: 2 m in 0.1 s is refused, a zero-length span counts as
+  // 1 ms.
+  vo_delta_t fail = voMsg(400000, 300000, SE3d(), 0, false);
+  fail.status = vo_delta_t::STATUS_INSUFFICIENT_FEATURES;
+  ASSERT_TRUE(t.addVo(fail));
+  ASSERT_FALSE(t.voTracking());
+  const Eigen::Vector3d at = t.delta().mean.translation();
+  EXPECT_FALSE(t.addWheel(wheelMsg(400000, 500000, 2.0)));
+  EXPECT_FALSE(t.addWheel(wheelMsg(500000, 500000, 0.5)));
+  ASSERT_TRUE(t.addWheel(wheelMsg(400000, 500000, 0.5)));
+  EXPECT_EQ(t.counts().implausible, 5);
+  EXPECT_NEAR((t.delta().mean.translation() - at).norm(), 0.5, 1e-9);  // forward, turned
+}
+
+TEST(TrackerOptions, RefusesNonPositiveOrNonFiniteMotionBounds) {
+  TrackerOptions o;
+  EXPECT_TRUE(o.validate());
+  o.max_speed_m_s = 0.0;
+  EXPECT_FALSE(o.validate());
+  o.max_speed_m_s = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(o.validate());
+  o = TrackerOptions{};
+  o.max_turn_rad_s = std::nan("");
+  EXPECT_FALSE(o.validate());
 }
 
 TEST(Tracker, AChainBreakStartsANewReferenceAndTheFramesAfterItAreUsed) {
