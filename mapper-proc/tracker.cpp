@@ -1,10 +1,9 @@
 #include "mapper-proc/tracker.h"
 
-#include <sstream>
-
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <sstream>
 #include <string>
 
 #include <Eigen/Eigenvalues>
