@@ -15,7 +15,7 @@ namespace {
 constexpr int kMaxRadius = 8;
 constexpr int kMaxSide = 2 * kMaxRadius + 1;
 constexpr int kStride = 24;  // floats per template row: kMaxSide rounded up to whole vectors
-static_assert(kStride % 8 == 0 && kStride >= 16 + 1, "rows are summed in whole 8-float vectors");
+static_assert(kStride % 8 == 0 && kStride >= 16, "template rows are read as one or two 8-float vectors");
 
 // The template of a, its gradient and a lane mask, one patch row per kStride floats; lanes
 // past the patch side are 0 (gradient, mask), so a row can be summed in whole 8-float vectors.
@@ -210,8 +210,8 @@ std::optional<Eigen::Vector2f> alignPatch(const cv::Mat& a, int ua, int va, cons
     const float ax = p.x() - fx, ay = p.y() - fy;
     const float w00 = (1 - ax) * (1 - ay), w01 = ax * (1 - ay), w10 = (1 - ax) * ay,
                 w11 = ax * ay;
-    // In the 1-D case p.y() keeps the start's row: the next row's weights are 0 only when
-    // that row is a whole number.
+    // The next row's weights are 0 only when p.y() is a whole number; in the 1-D case p.y()
+    // stays the start's, which need not be.
     const bool vertical = ay != 0.0f;
     const Eigen::Vector3d sums =
         avx2 && x0 - r + row_reach <= b.cols
