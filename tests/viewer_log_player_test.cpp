@@ -129,5 +129,27 @@ TEST(ViewerLogPlayer, AMissingLogIsAnErrorNamingIt) {
   EXPECT_NE(player.error().message.find("/nonexistent/run.lcmlog"), std::string::npos);
 }
 
+TEST(ViewerLogPlayer, ThePagesCommandsAreParsedAndAnythingElseIsNothing) {
+  using Kind = LogCommand::Kind;
+  ASSERT_TRUE(parseLogCommand("play"));
+  EXPECT_EQ(parseLogCommand("play")->kind, Kind::kPlay);
+  EXPECT_EQ(parseLogCommand("pause")->kind, Kind::kPause);
+  const auto seek = parseLogCommand("seek 1700000000123456");
+  ASSERT_TRUE(seek);
+  EXPECT_EQ(seek->kind, Kind::kSeek);
+  EXPECT_EQ(seek->utime, 1700000000123456);
+  const auto speed = parseLogCommand("speed 2.5");
+  ASSERT_TRUE(speed);
+  EXPECT_EQ(speed->kind, Kind::kSpeed);
+  EXPECT_DOUBLE_EQ(speed->speed, 2.5);
+  EXPECT_DOUBLE_EQ(parseLogCommand("speed 1000")->speed, kMaxLogSpeed);
+  EXPECT_DOUBLE_EQ(parseLogCommand("speed 0.01")->speed, kMinLogSpeed);
+  // The page is untrusted: partial numbers, non-finite or out-of-range speeds, other words.
+  for (const char* text : {"", "a", "Play", "play ", "seek", "seek ", "seek 12x", "seek x12", "seek 1e3",
+                           "seek 99999999999999999999", "speed", "speed ", "speed 0", "speed -1", "speed 0.001",
+                           "speed 1001", "speed inf", "speed nan", "speed 2 ", "speed 2x", "speeds 2", "stop"})
+    EXPECT_FALSE(parseLogCommand(text)) << "'" << text << "'";
+}
+
 }  // namespace
 }  // namespace evermap::viewer

@@ -1,12 +1,39 @@
 #include "viewer/log_player.h"
 
 #include <algorithm>
+#include <charconv>
+#include <cmath>
 #include <optional>
 #include <system_error>
 
 #include "core/messages/channels.h"
 
 namespace evermap::viewer {
+
+std::optional<LogCommand> parseLogCommand(std::string_view text) {
+  // A number that fills `s` whole.
+  auto whole = [](std::string_view s, auto& value) {
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), value);
+    return !s.empty() && ec == std::errc{} && end == s.data() + s.size();
+  };
+  LogCommand c;
+  if (text == "play") {
+    c.kind = LogCommand::Kind::kPlay;
+  } else if (text == "pause") {
+    c.kind = LogCommand::Kind::kPause;
+  } else if (text.rfind("seek ", 0) == 0) {
+    c.kind = LogCommand::Kind::kSeek;
+    if (!whole(text.substr(5), c.utime)) return std::nullopt;
+  } else if (text.rfind("speed ", 0) == 0) {
+    c.kind = LogCommand::Kind::kSpeed;
+    if (!whole(text.substr(6), c.speed) || !std::isfinite(c.speed) || c.speed < kMinLogSpeed ||
+        c.speed > kMaxLogSpeed)
+      return std::nullopt;
+  } else {
+    return std::nullopt;
+  }
+  return c;
+}
 
 Status LogPlayerOptions::validate() const {
   if (max_bytes < 1) return makeError("max_bytes: must be >= 1, got ", max_bytes);

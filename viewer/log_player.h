@@ -15,7 +15,9 @@
 #include <filesystem>
 #include <functional>
 #include <set>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <lcm/lcm-cpp.hpp>
@@ -37,6 +39,22 @@ struct LogPlayerOptions {
 
   Status validate() const;
 };
+
+// Playing speeds the page may ask for, x real time (the command line's --speed as well).
+inline constexpr double kMinLogSpeed = 0.01;
+inline constexpr double kMaxLogSpeed = 1000.0;
+
+// One of the page's commands to the log player: "play", "pause", "seek UTIME" (a log time,
+// microseconds) or "speed X" (x real time, within [kMinLogSpeed, kMaxLogSpeed]).
+struct LogCommand {
+  enum class Kind { kPlay, kPause, kSeek, kSpeed };
+  Kind kind = Kind::kPlay;
+  int64_t utime = 0;   // kSeek
+  double speed = 1.0;  // kSpeed
+};
+// The command `text` says, or nothing when it says none of the above (the page's text is
+// untrusted: a number that does not parse whole, is not finite or is out of range is nothing).
+std::optional<LogCommand> parseLogCommand(std::string_view text);
 
 class LogPlayer {
  public:

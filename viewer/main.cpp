@@ -49,7 +49,7 @@ fs::path findWebDir(const std::string& given) {
 }
 
 // The --log loop: plays the log at `speed` from its start, follows the page's commands
-// ("seek UTIME", "play", "pause"); a seek back starts the viewer's state afresh.
+// ("seek UTIME", "play", "pause", "speed X"); a seek back starts the viewer's state afresh.
 int playLog(evermap::viewer::LogPlayer& player, lcm::LCM& lcm,
             std::optional<evermap::viewer::LcmListener>& listener,
             const evermap::viewer::LcmListenerOptions& listen, evermap::viewer::Board& board,
@@ -68,27 +68,33 @@ int playLog(evermap::viewer::LogPlayer& player, lcm::LCM& lcm,
   auto next_counts = last;
   std::string last_text;
   while (!stop.requested()) {
-    for (const std::string& command : server.takeCommands()) {
-      if (command == "play") {
-        playing = true;
-        if (t >= player.endUtime()) {  // play again from the start
-          listener.reset();
-          listener.emplace(lcm, board, listen);
-          player.rewind();
-          t = player.startUtime();
-        }
-      } else if (command == "pause") {
-        playing = false;
-      } else if (command.rfind("seek ", 0) == 0) {
-        char* end = nullptr;
-        const long long target = std::strtoll(command.c_str() + 5, &end, 10);
-        if (end == command.c_str() + 5 || *end != '\0') continue;  // not a number: ignored
-        t = std::clamp<int64_t>(target, player.startUtime(), player.endUtime());
-        if (t < player.position()) {
-          listener.reset();
-          listener.emplace(lcm, board, listen);
-          player.rewind();
-        }
+    for (const std::string& text : server.takeCommands()) {
+      const std::optional<viewer::LogCommand> command = viewer::parseLogCommand(text);
+      if (!command) continue;  // not a command: ignored
+      switch (command->kind) {
+        case viewer::LogCommand::Kind::kPlay:
+          playing = true;
+          if (t >= player.endUtime()) {  // play again from the start
+            listener.reset();
+            listener.emplace(lcm, board, listen);
+            player.rewind();
+            t = player.startUtime();
+          }
+          break;
+        case viewer::LogCommand::Kind::kPause:
+          playing = false;
+          break;
+        case viewer::LogCommand::Kind::kSeek:
+          t = std::clamp<int64_t>(command->utime, player.startUtime(), player.endUtime());
+          if (t < player.position()) {
+            listener.reset();
+            listener.emplace(lcm, board, listen);
+            player.rewind();
+          }
+          break;
+        case viewer::LogCommand::Kind::kSpeed:
+          speed = command->speed;
+          break;
       }
     }
     const auto now = Clock::now();
@@ -137,7 +143,9 @@ int main(int argc, char** argv) {
   cli.value("--store", &store_file, "MAP.db", "show this map store (SQLite) instead of listening to LCM");
   cli.value("--log", &log_file, "FILE.lcmlog",
             "play this LCM log instead of listening to LCM, with a time slider on the page");
-  cli.value("--speed", &log_speed, "X", "--log: playing speed, x real time (default 1)").positive();
+  cli.value("--speed", &log_speed, "X", "--log: playing speed, x real time (default 1; 0.01-1000, also set on the page)")
+      .min(viewer::kMinLogSpeed)
+      .max(viewer::kMaxLogSpeed);
   cli.value("--web-dir", &web_dir, "DIR", "the page's files (default: found next to the program or in the source tree)");
   cli.value("--max-clients", &web.max_clients, "N", "browser connections served at once (default 64)").min(1);
   cli.value("--image-period-s", &listen.image_period_s, "S", "wall seconds between two camera images sent (default 0.5)").min(0);
@@ -156,10 +164,6 @@ int main(int argc, char** argv) {
   }
   if (!store_file.empty() && !log_file.empty()) {
     std::fprintf(stderr, "evermap-viewer: --store and --log: one or the other\n");
-    return 2;
-  }
-  if (!(log_speed > 0.0)) {
-    std::fprintf(stderr, "evermap-viewer: --speed: must be > 0, got %g\n", log_speed);
     return 2;
   }
   for (Status s : {web.validate(), listen.validate()}) {

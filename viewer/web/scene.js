@@ -1,7 +1,7 @@
 // The 3-D map (three.js): floors stacked with the vertical axis exaggerated as in the paper's
 // Fig. 1, nodes coloured by session, odometry and loop-closure edges told apart, newly
 // accepted closures highlighted, the robot's pose and its recent trail. Orbit, pan and zoom
-// with the mouse (OrbitControls); a top view per floor.
+// with the mouse (OrbitControls); a top view per floor; a click on a node selects it.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
@@ -40,6 +40,9 @@ export class MapScene {
     // Drawn only when something changed (a message, the mouse): a still map costs no CPU.
     this.dirty = true;
     this.controls.addEventListener('change', () => { this.dirty = true; });
+    // The view follows the map's extent as it grows until the user first moves it.
+    this.userMoved = false;
+    this.controls.addEventListener('start', () => { this.userMoved = true; });
     this.exaggeration = 5;
     this.floorFilter = null;  // null: every floor; else the floor index shown from the top
     this.follow = false;
@@ -68,7 +71,13 @@ export class MapScene {
     this.robot = new THREE.Mesh(new THREE.ConeGeometry(0.6, 1.8, 12),
       new THREE.MeshBasicMaterial({ color: 0x40e0ff }));
     this.robot.visible = false;
-    for (const o of [this.floors, this.odometry, this.loops, this.fresh, this.nodes, this.trailLine, this.robot])
+    // The selected node (a click on it): its id, and a white point drawn over it.
+    this.selectedId = null;
+    this.marker = new THREE.Points(new THREE.BufferGeometry(),
+      new THREE.PointsMaterial({ size: 11, sizeAttenuation: false, color: 0xffffff, depthTest: false }));
+    this.marker.renderOrder = 1;
+    this.marker.visible = false;
+    for (const o of [this.floors, this.odometry, this.loops, this.fresh, this.nodes, this.trailLine, this.robot, this.marker])
       this.group.add(o);
     for (const o of [this.nodes, this.odometry, this.loops]) o.frustumCulled = false;
 
@@ -105,7 +114,7 @@ export class MapScene {
     this.knownLoops = loops;
     this.graph = g;
     this.rebuild();
-    if (!this.fitted && id.length > 0) { this.fit(); this.fitted = true; }
+    if (id.length > 0 && (!this.fitted || (!this.userMoved && !this.fitsInView()))) { this.fit(); this.fitted = true; }
   }
 
   z(v) { return v * this.exaggeration; }
@@ -147,6 +156,7 @@ export class MapScene {
     }
     vertexCount(this.odometry.geometry, 2 * no);
     vertexCount(this.loops.geometry, 2 * nl);
+    this.rebuildMarker();
     this.rebuildFresh();
     this.rebuildFloors();
     this.dirty = true;
@@ -159,6 +169,71 @@ export class MapScene {
       for (let i = 0; i < id.length; ++i) this.index.set(id[i], i);
     }
     return this.index;
+  }
+
+  // The index in the graph of the node with id `id`, or -1.
+  indexOf(id) {
+    if (!this.graph || id === null) return -1;
+    const i = this.nodeIndex().get(id);
+    return i === undefined ? -1 : i;
+  }
+
+  // Selects the node with id `id` (null: none); the page shows its details.
+  select(id) {
+    this.selectedId = id;
+    this.rebuildMarker();
+  }
+
+  rebuildMarker() {
+    const i = this.indexOf(this.selectedId);
+    const shown = i >= 0 && (this.floorFilter === null || this.graph.nodes.floor[i] === this.floorFilter);
+    this.marker.visible = shown;
+    if (shown) {
+      const xyz = this.graph.nodes.xyz;
+      setPositions(this.marker.geometry, [xyz[3 * i], xyz[3 * i + 1], this.z(xyz[3 * i + 2])]);
+    }
+    this.dirty = true;
+  }
+
+  // Where node `i` of the graph is drawn, in the page's (client) pixels, or null when it is
+  // behind the camera. Picking projects the nodes itself: a ray test against points would
+  // need bounding volumes the reused buffers do not keep (vertexBuffer below).
+  screenOfIndex(i, rect = this.renderer.domElement.getBoundingClientRect(), m = this.viewProjection()) {
+    const xyz = this.graph.nodes.xyz, e = m.elements;
+    const x = xyz[3 * i], y = xyz[3 * i + 1], z = xyz[3 * i + 2] * this.exaggeration;
+    const w = e[3] * x + e[7] * y + e[11] * z + e[15];
+    if (!(w > 0)) return null;
+    const nx = (e[0] * x + e[4] * y + e[8] * z + e[12]) / w;
+    const ny = (e[1] * x + e[5] * y + e[9] * z + e[13]) / w;
+    return { x: rect.left + (nx + 1) / 2 * rect.width, y: rect.top + (1 - ny) / 2 * rect.height };
+  }
+
+  screenOf(id) {
+    const i = this.indexOf(id);
+    return i < 0 ? null : this.screenOfIndex(i);
+  }
+
+  viewProjection() {
+    this.camera.updateMatrixWorld();
+    return new THREE.Matrix4().multiplyMatrices(this.camera.projectionMatrix, this.camera.matrixWorldInverse);
+  }
+
+  // The id of the shown node drawn nearest the client pixel (x, y), within `radius` pixels;
+  // null when there is none.
+  pick(x, y, radius = 8) {
+    const g = this.graph;
+    if (!g) return null;
+    const rect = this.renderer.domElement.getBoundingClientRect();
+    const m = this.viewProjection();
+    let best = null, bestD2 = radius * radius;
+    for (let i = 0; i < g.nodes.id.length; ++i) {
+      if (this.floorFilter !== null && g.nodes.floor[i] !== this.floorFilter) continue;
+      const p = this.screenOfIndex(i, rect, m);
+      if (!p) continue;
+      const d2 = (p.x - x) ** 2 + (p.y - y) ** 2;
+      if (d2 <= bestD2) { bestD2 = d2; best = g.nodes.id[i]; }
+    }
+    return best;
   }
 
   rebuildFresh() {
@@ -207,9 +282,18 @@ export class MapScene {
     return box.isEmpty() ? null : box;
   }
 
+  // Whether the shown nodes lie within the extent the view was last fitted to (5 % slack).
+  fitsInView() {
+    const box = this.bounds();
+    if (!box || !this.fittedBox) return false;
+    const slack = 0.05 * Math.max(this.fittedBox.getSize(new THREE.Vector3()).length(), 1);
+    return this.fittedBox.clone().expandByScalar(slack).containsBox(box);
+  }
+
   fit() {
     const box = this.bounds();
     if (!box) return;
+    this.fittedBox = box.clone();
     const centre = box.getCenter(new THREE.Vector3());
     const size = Math.max(box.max.x - box.min.x, box.max.y - box.min.y, box.max.z - box.min.z, 10);
     this.controls.target.copy(centre);

@@ -23,6 +23,7 @@ async function startScene() {
   try {
     const { MapScene } = await import('./scene.js');
     state.scene = new MapScene($('scene'));
+    window.evermapScene = state.scene;  // for the browser test and the console
     state.scene.onDrawn = () => {
       stats.frames = state.scene.framesDrawn;
       document.documentElement.dataset.frames = String(state.scene.framesDrawn);
@@ -36,6 +37,17 @@ async function startScene() {
       requestAnimationFrame(() => { r.next_frame_ms = wallNow(); });
       if (stats.firstMapMs === null && g.nodes.id.length > 0) stats.firstMapMs = performance.now();
     };
+    // A click (a press and release that did not drag the view) selects the node under it.
+    const canvas = state.scene.renderer.domElement;
+    let down = null;
+    canvas.addEventListener('pointerdown', (e) => { down = { x: e.clientX, y: e.clientY }; });
+    canvas.addEventListener('pointerup', (e) => {
+      if (down && Math.hypot(e.clientX - down.x, e.clientY - down.y) < 5) {
+        state.scene.select(state.scene.pick(e.clientX, e.clientY));
+        showNodeDetails();
+      }
+      down = null;
+    });
     if (state.graph) showGraphInScene(state.graph);
   } catch (e) {
     setText('scene-message', '3-D view unavailable: ' + e.message + ' (three.js installed by scripts/setup.sh; WebGL needed)');
@@ -71,6 +83,41 @@ function showGraphInScene(g) {
   }
 }
 
+// The selected node's details (a click on a node in the 3-D view), from the newest map.
+const EDGE_KINDS = ['odometry', 'loop', 'elevator', 'prior'];
+function showNodeDetails() {
+  const box = $('node-details');
+  const g = state.graph, id = state.scene ? state.scene.selectedId : null;
+  const i = state.scene ? state.scene.indexOf(id) : -1;
+  if (!g || i < 0) { box.hidden = true; box.dataset.node = ''; return; }
+  const count = EDGE_KINDS.map(() => 0);
+  const linked = [];
+  const e = g.edges;
+  for (let k = 0; k < e.a.length; ++k) {
+    if (e.a[k] !== i && e.b[k] !== i) continue;
+    if (count[e.kind[k]] !== undefined) ++count[e.kind[k]];
+    if (e.kind[k] === 1) linked.push(g.nodes.id[e.a[k] === i ? e.b[k] : e.a[k]]);
+  }
+  const xyz = g.nodes.xyz;
+  const edges = EDGE_KINDS.map((name, k) => count[k] + ' ' + name).filter((t) => !t.startsWith('0 ')).join(', ');
+  box.hidden = false;
+  box.dataset.node = String(id);
+  box.innerHTML = '';
+  const close = document.createElement('span');
+  close.className = 'close';
+  close.textContent = '\u00d7';
+  close.onclick = () => { state.scene.select(null); showNodeDetails(); };
+  box.appendChild(close);
+  const lines = [
+    'node ' + id + ': session ' + g.nodes.session[i] + ', floor ' + g.nodes.floor[i],
+    'at ' + [xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]].map((v) => v.toFixed(2)).join(', ') + ' m',
+    'made ' + fmtTime(g.nodes.utime[i]) + ' (data time)',
+    'edges: ' + (edges || 'none') + (linked.length ? '; loop closures to ' + linked.slice(0, 12).join(', ') +
+      (linked.length > 12 ? ' and ' + (linked.length - 12) + ' more' : '') : ''),
+  ];
+  for (const t of lines) { const d = document.createElement('div'); d.textContent = t; box.appendChild(d); }
+}
+
 // ---- Topics ----
 const handlers = {
   graph(g) {
@@ -84,6 +131,7 @@ const handlers = {
     if (g.source !== 'live') setText('source', 'map store ' + g.source);
     else if (g.utime) setText('clock', 'map at ' + fmtTime(g.utime));
     showGraphInScene(g);
+    if (state.scene && state.scene.selectedId !== null) showNodeDetails();
     // Latency from the viewer's text to this frame's drawing (same machine, same clock).
     requestAnimationFrame(() => {
       if (g.source === 'live') setText('latency', (Date.now() - g.built_ms) + ' ms for ' + c.nodes + ' nodes');
@@ -171,11 +219,17 @@ const handlers = {
     $('log-controls').hidden = false;
     setText('source', 'log ' + l.file);
     if (state.log && l.t < state.log.t && state.scene) state.scene.restart();
-    state.log = l;
+    state.log = window.evermapLog = l;  // (the browser test reads the speed the viewer plays at)
     const span = Math.max(1, l.end - l.start);
     if (!state.sliding) $('log-slider').value = String(Math.round(1000 * (l.t - l.start) / span));
     setText('log-time', ((l.t - l.start) / 1e6).toFixed(1) + ' / ' + (span / 1e6).toFixed(1) + ' s');
     setText('log-play', l.playing ? 'pause' : 'play');
+    const speed = $('log-speed');
+    if (document.activeElement !== speed) {
+      const v = String(Number(l.speed));
+      if (![...speed.options].some((o) => o.value === v)) speed.add(new Option(v, v));
+      speed.value = v;
+    }
   },
   viewer(v) {
     setText('count-viewer-dropped', v.dropped);
@@ -231,6 +285,7 @@ $('log-slider').addEventListener('change', (e) => {
   command('seek ' + t);
 });
 $('log-play').addEventListener('click', () => command(state.log && state.log.playing ? 'pause' : 'play'));
+$('log-speed').addEventListener('change', (e) => command('speed ' + e.target.value));
 $('follow').addEventListener('change', (e) => { if (state.scene) state.scene.follow = e.target.checked; });
 drawPlot($('plot-nodes'), [], 'data time, min', 'nodes');
 drawPlot($('plot-components'), [], 'data time, min', 'ms');
