@@ -86,7 +86,7 @@ class PlaceDatabase {
   };
   // Inverted index of one floor: the postings of each word present on it, in insertion
   // order. Sparse, so its memory grows with the postings, not with floors x vocabulary size:
-  // a dense array of num_words lists per floor cost 24 bytes x num_words (1.56 MB with the
+  // a dense array of num_words lists per floor cost 24 bytes x num_words (1.5 MB with the
   // 65,140-word default vocabulary) for every floor label ever inserted, which is how fuzzed
   // NODE_ADDED with random floors grew loopclose-proc from 28 to 210 MB (issue 17).
   struct FloorIndex {
