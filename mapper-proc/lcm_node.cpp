@@ -254,7 +254,7 @@ void LcmNode::publishStats() {
       {"warm_confirmations", st.warm_confirmations},
       {"warm_rejections", st.warm_rejections},
       {"implausible_motion", m_.tracker().counts().implausible},
-      {"implausible_floor", st.implausible_floors},
+      {"implausible_floors", st.implausible_floors},
   };
   for (const auto& [name, value] : counters) {
     s.counter_names.emplace_back(name);

@@ -242,7 +242,7 @@ TEST(MapperLcm, PublishesPoseGraphAndStatsAndStoresTheMapItBuilds) {
   ASSERT_EQ(s.num_counters, 6);
   ASSERT_EQ(s.counter_names.size(), s.counter_values.size());
   EXPECT_EQ(s.counter_names[0], "warm_restarts");
-  EXPECT_EQ(s.counter_names[5], "implausible_floor");
+  EXPECT_EQ(s.counter_names[5], "implausible_floors");
   for (int64_t v : s.counter_values) EXPECT_EQ(v, 0);
 
   // The store holds the final map: every node, and every constraint (some folded).
@@ -277,7 +277,7 @@ TEST(MapperLcm, DropsAndCountsMalformedAndOutOfOrderMessagesWithoutApplyingThem)
   // The floor refusal is in MAPPER_STATS' named counters too.
   const mapper_stats_t& s = dirty.heard.stats.back();
   ASSERT_EQ(s.counter_names.size(), s.counter_values.size());
-  const auto at = std::find(s.counter_names.begin(), s.counter_names.end(), "implausible_floor");
+  const auto at = std::find(s.counter_names.begin(), s.counter_names.end(), "implausible_floors");
   ASSERT_NE(at, s.counter_names.end());
   EXPECT_EQ(s.counter_values[static_cast<size_t>(at - s.counter_names.begin())], 1);
   // Nothing of it reached the map: the same graph, node for node.

@@ -135,7 +135,7 @@ TEST(ViewerState, TheStatsTextCarriesTheMappersNamedCounters) {
   ViewerState state(board, ViewerStateOptions{});
   mapper_stats_t s{};
   s.utime = 1000000;
-  s.counter_names = {"warm_restarts", "implausible_floor"};
+  s.counter_names = {"warm_restarts", "implausible_floors"};
   s.counter_values = {2, 7};
   s.num_counters = 2;
   ASSERT_TRUE(state.onStats(s));
@@ -143,7 +143,7 @@ TEST(ViewerState, TheStatsTextCarriesTheMappersNamedCounters) {
   std::string stats;
   while (auto item = board.next(&seen, -1))
     if (item->topic == Topic::kStats) stats = *item->text;
-  EXPECT_NE(stats.find("\"counters\":[[\"warm_restarts\",2],[\"implausible_floor\",7]]"), std::string::npos)
+  EXPECT_NE(stats.find("\"counters\":[[\"warm_restarts\",2],[\"implausible_floors\",7]]"), std::string::npos)
       << stats;
   // Names and values that do not pair up are refused.
   s.counter_values = {2};
