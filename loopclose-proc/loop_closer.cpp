@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <sstream>
 #include <utility>
 
 namespace evermap::loopclose {
@@ -19,6 +20,9 @@ Status LoopCloserOptions::validate() const {
   if (max_pending_requests < 1) return makeError("max_pending_requests must be >= 1");
   if (recent_keyframes < 1) return makeError("recent_keyframes must be >= 1");
   if (node_keyframe_cache < 1) return makeError("node_keyframe_cache must be >= 1");
+  if (max_places < 1) return makeError("max_places must be >= 1");
+  if (max_waiting_nodes < 1) return makeError("max_waiting_nodes must be >= 1");
+  if (max_floor < 0) return makeError("max_floor must be >= 0");
   if (global_candidates < 1) return makeError("global_candidates must be >= 1");
   if (!std::isfinite(min_candidate_score)) return makeError("min_candidate_score must be finite");
   if (exclude_recent_us < 0) return makeError("exclude_recent_us must be >= 0");
@@ -26,12 +30,14 @@ Status LoopCloserOptions::validate() const {
 }
 
 std::string LoopCloserStats::text() const {
-  char line[320];
+  char line[400];
   std::snprintf(line, sizeof(line),
-                "keyframes %lld (%lld rejected), nodes %lld (%lld rejected, %lld waited for their keyframe), requests %lld, "
+                "keyframes %lld (%lld rejected), nodes %lld (%lld rejected: %lld implausible, %lld over capacity; "
+                "%lld waited for their keyframe), requests %lld, "
                 "answered %lld: ok %lld, failed %lld, stale %lld; store errors %lld",
                 static_cast<long long>(keyframes), static_cast<long long>(keyframes_rejected),
                 static_cast<long long>(nodes), static_cast<long long>(nodes_rejected),
+                static_cast<long long>(nodes_implausible), static_cast<long long>(nodes_over_capacity),
                 static_cast<long long>(nodes_waited), static_cast<long long>(requests), static_cast<long long>(answered),
                 static_cast<long long>(ok), static_cast<long long>(failed),
                 static_cast<long long>(stale), static_cast<long long>(store_errors));
@@ -69,15 +75,20 @@ Expected<std::unique_ptr<LoopCloser>> LoopCloser::create(const bow::Vocabulary& 
 
 void LoopCloser::advanceClock(int64_t utime) {
   now_utime_ = std::max(now_utime_, utime);
-  while (!waiting_nodes_.empty() && now_utime_ - waiting_nodes_.front().utime >= options_.keyframe_wait_us) {
-    const evermap::node_added_t& n = waiting_nodes_.front();
+  // Any waiting node whose time is up, not only the oldest to arrive: one stamped ahead of the
+  // others would otherwise hold every later one behind it.
+  for (auto it = waiting_nodes_.begin(); it != waiting_nodes_.end();) {
+    if (now_utime_ - it->utime < options_.keyframe_wait_us) {
+      ++it;
+      continue;
+    }
     ++stats_.nodes_rejected;
     char line[200];
     std::snprintf(line, sizeof(line), "node %lld: its keyframe %lld did not come within %.1f s",
-                  static_cast<long long>(n.node_id), static_cast<long long>(n.keyframe_utime),
+                  static_cast<long long>(it->node_id), static_cast<long long>(it->keyframe_utime),
                   1e-6 * static_cast<double>(options_.keyframe_wait_us));
     node_errors_.emplace_back(line);
-    waiting_nodes_.pop_front();
+    it = waiting_nodes_.erase(it);
   }
 }
 
@@ -135,7 +146,33 @@ bool LoopCloser::knowsKeyframe(int64_t utime) const {
   return recentKeyframe(utime) != nullptr || nodeOfKeyframe(utime).has_value();
 }
 
+std::string LoopCloser::implausibleNode(const evermap::node_added_t& msg) const {
+  std::ostringstream why;
+  if (msg.node_id < 0) {
+    why << "node id " << msg.node_id << " is negative";
+  } else if (msg.session < 0) {
+    why << "session " << msg.session << " is negative";
+  } else if (msg.floor < -1 || msg.floor > options_.max_floor) {
+    why << "floor " << msg.floor << " is outside [-1, max_floor " << options_.max_floor << "]";
+  } else if (msg.keyframe_utime < 0 || msg.keyframe_utime > msg.utime) {
+    // The mapper makes a node on its keyframe's frame, never before it.
+    why << "keyframe " << msg.keyframe_utime << " is negative or after the node's stamp " << msg.utime;
+  }
+  return why.str();
+}
+
 Status LoopCloser::addNode(const evermap::node_added_t& msg) {
+  if (const std::string why = implausibleNode(msg); !why.empty()) {
+    ++stats_.nodes_rejected;
+    ++stats_.nodes_implausible;
+    return makeError("node ", msg.node_id, ": ", why);
+  }
+  if (places_.size() >= options_.max_places) {
+    ++stats_.nodes_rejected;
+    ++stats_.nodes_over_capacity;
+    return makeError("node ", msg.node_id, ": the map holds max_places = ", options_.max_places,
+                     " places");
+  }
   advanceClock(msg.utime);
   if (nodes_.count(msg.node_id)) {
     ++stats_.nodes_rejected;
@@ -158,6 +195,12 @@ Status LoopCloser::addNode(const evermap::node_added_t& msg) {
     }
   }
   if (!keyframe && now_utime_ - msg.utime < options_.keyframe_wait_us) {
+    if (waiting_nodes_.size() >= options_.max_waiting_nodes) {
+      ++stats_.nodes_rejected;
+      ++stats_.nodes_over_capacity;
+      return makeError("node ", msg.node_id, ": max_waiting_nodes = ", options_.max_waiting_nodes,
+                       " nodes already wait for their keyframe");
+    }
     waiting_nodes_.push_back(msg);
     ++stats_.nodes_waited;
     return Ok{};

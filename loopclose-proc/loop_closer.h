@@ -50,8 +50,19 @@ struct LoopCloserOptions {
   // Recent keyframes kept in memory for NODE_ADDED and queries.
   size_t recent_keyframes = 64;
   // Node keyframes kept decoded in memory when a map store holds the rest (with no store every
-  // node keyframe stays in memory).
+  // node keyframe stays in memory, up to max_places).
   size_t node_keyframe_cache = 256;
+  // Places (map nodes) held at most: a NODE_ADDED beyond is refused and counted. What bounds
+  // the map's memory by design (each place holds its bag-of-words vector, and without a store
+  // its keyframe): 20,000 is 7x the paper-scale map (2,728 nodes on 10 floors).
+  size_t max_places = 20000;
+  // NODE_ADDED waiting for their keyframe at most; beyond, a new one is refused and counted.
+  // The mapper makes a node or two per second and a keyframe is late by a fraction of one.
+  size_t max_waiting_nodes = 32;
+  // Plausibility of NODE_ADDED content: a node's floor label is in [-1, max_floor] (the
+  // mapper labels floors 0, 1, ... in the order it finds them, -1 after a ride to a height
+  // it could not label; the tallest building has 163 floors).
+  int32_t max_floor = 999;
   // Appearance search: candidates tried, lowest score considered, and how recent a place may
   // be (places whose keyframe is within this of the query are not loop closures), µs.
   int global_candidates = 3;
@@ -65,7 +76,9 @@ struct LoopCloserStats {
   int64_t keyframes = 0;
   int64_t keyframes_rejected = 0;      // failed validation
   int64_t nodes = 0;
-  int64_t nodes_rejected = 0;          // unknown keyframe, duplicate id, store failure
+  int64_t nodes_rejected = 0;          // unknown keyframe, duplicate id, store failure, and:
+  int64_t nodes_implausible = 0;       // ... content no mapper sends (ids, floor, stamps)
+  int64_t nodes_over_capacity = 0;     // ... max_places or max_waiting_nodes reached
   int64_t nodes_waited = 0;            // came before their keyframe and waited for it
   int64_t requests = 0;
   int64_t answered = 0;                // all answers, stale ones included
@@ -89,7 +102,9 @@ class LoopCloser {
   Status addKeyframe(const evermap::keyframe_t& msg);
   // NODE_ADDED: the node's keyframe must be among the recent ones (or already stored). One
   // that came before its keyframe (the mapper's first node is made on the frame's VO_DELTA)
-  // waits for it up to keyframe_wait_us of data time, and is added when it comes.
+  // waits for it up to keyframe_wait_us of data time, and is added when it comes. Refused
+  // (counted, the state left as it was): content no mapper sends (implausibleNode), a map of
+  // max_places places, max_waiting_nodes nodes already waiting.
   Status addNode(const evermap::node_added_t& msg);
   // The waiting nodes whose keyframe did not come in time, or that failed when it came
   // (rejected, counted in nodes_rejected): one line each, naming the node. Taken once.
@@ -117,6 +132,8 @@ class LoopCloser {
   };
   LoopCloser(const bow::Vocabulary& vocabulary, FrameRegistration& registration,
              const LoopCloserOptions& options, std::optional<bow::PlaceStore> store);
+  // "" when `msg` could come from a mapper, else why not.
+  std::string implausibleNode(const evermap::node_added_t& msg) const;
   const Keyframe* recentKeyframe(int64_t utime) const;
   std::optional<int64_t> nodeOfKeyframe(int64_t utime) const;  // the node it describes, if any
   bool knowsKeyframe(int64_t utime) const;  // a recent one, or a node's

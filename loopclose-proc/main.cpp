@@ -41,6 +41,9 @@ int main(int argc, char** argv) {
             "SQLite map store: nodes and keyframes are reloaded and persisted");
   cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.value("--rate", &options.max_rate_hz, "HZ", "answers per second of data time (2)").positive();
+  cli.value("--max-places", &options.max_places, "N",
+            "places held at most; NODE_ADDED beyond are refused and counted (20000)")
+      .min(1);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   auto vocabulary = bow::loadAnyVocabulary(vocab_file);
   if (!vocabulary) {

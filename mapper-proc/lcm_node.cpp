@@ -246,6 +246,21 @@ void LcmNode::publishStats() {
     s.component_ms.push_back(1e3 * seconds);
   }
   s.num_components = static_cast<int32_t>(s.component_names.size());
+  // Counts that were only in the log and the --stats summary (docs/mapper.md, "Warm
+  // restart"; the plausibility gates of issue 17).
+  const std::pair<const char*, int64_t> counters[] = {
+      {"warm_restarts", st.warm_restarts},
+      {"lost_restarts", st.lost_restarts},
+      {"warm_confirmations", st.warm_confirmations},
+      {"warm_rejections", st.warm_rejections},
+      {"implausible_motion", m_.tracker().counts().implausible},
+      {"implausible_floors", st.implausible_floors},
+  };
+  for (const auto& [name, value] : counters) {
+    s.counter_names.emplace_back(name);
+    s.counter_values.push_back(value);
+  }
+  s.num_counters = static_cast<int32_t>(s.counter_names.size());
   lcm_.publish(channels::kMapperStats, &s);
   const input_stats_t input = inbox_.statsMessage(last_utime_);
   lcm_.publish(channels::kInputStats, &input);

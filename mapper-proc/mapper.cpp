@@ -45,6 +45,7 @@ Status MapperOptions::validate() const {
   if (cell_refresh_per_step < 1) return Error{"mapper.cell_refresh_per_step: must be >= 1"};
   if (!(origin_sigma_m > 0.0) || !(origin_sigma_rad > 0.0))
     return Error{"mapper.origin_sigma: must be > 0"};
+  if (auto s = floor_gate.validate(); !s) return s;
   if (auto s = tracker.validate(); !s) return s;
   return solver.validate();
 }
@@ -71,6 +72,7 @@ void MapperStats::addCounters(const MapperStats& o) {
   relocalizations += o.relocalizations;
   relocalization_disagreements += o.relocalization_disagreements;
   relocalization_same_frame_checks += o.relocalization_same_frame_checks;
+  implausible_floors += o.implausible_floors;
   timeouts += o.timeouts;
   dropped += o.dropped;
   restored_nodes += o.restored_nodes;
@@ -90,6 +92,7 @@ std::string MapperStats::text() const {
     << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept << "\ndelta_fused " << delta_fused
     << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor " << rejected_floor << "\nclosures_uninformative " << closures_uninformative << "\ngate_recoveries " << gate_recoveries << "\nrecoveries_too_far " << recoveries_too_far << "\nrelocalizations " << relocalizations
     << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrelocalization_disagreements " << relocalization_disagreements << "\nrelocalization_same_frame_checks " << relocalization_same_frame_checks << "\nrestored_nodes " << restored_nodes
+    << "\nimplausible_floors " << implausible_floors
     << "\nrestored_constraints " << restored_constraints << "\nwarm_restarts " << warm_restarts
     << "\nlost_restarts " << lost_restarts << "\nwarm_confirmations " << warm_confirmations
     << "\nwarm_rejections " << warm_rejections << "\n";
@@ -167,6 +170,12 @@ Status Mapper::onFloor(const floor_t& msg) {
     ++stats_.dropped;
     return makeError("FLOOR ", msg.utime, ": not finite or out of order");
   }
+  if (const std::string implausible = floor_gate_.check(msg); !implausible.empty()) {
+    ++stats_.dropped;
+    ++stats_.implausible_floors;
+    return makeError("FLOOR ", msg.utime, ": ", implausible);
+  }
+  floor_gate_.accept(msg);
   last_floor_utime_ = msg.utime;
   // A ride or a session announced after the saved tracking state: the state's floor or
   // session is no longer the robot's (older FLOOR messages, a log replayed from its start,

@@ -42,6 +42,7 @@
 
 #include "core/solver/incremental_solver.h"
 #include "mapper-proc/constraint_set.h"
+#include "mapper-proc/floor_gate.h"
 #include "mapper-proc/map_node.h"
 #include "mapper-proc/partition_index.h"
 #include "mapper-proc/solver_schedule.h"
@@ -187,6 +188,9 @@ struct MapperOptions {
   // the state was saved) adds nodes at once; a 20x replay's 10 s gap (σ 15 m) waits for the
   // confirmation.
   double warm_restart_node_sigma_m = 1.5;
+  // Plausibility of FLOOR content (floor_gate.h): heights and vertical speeds no elevator
+  // makes are refused and counted (implausible_floors).
+  FloorGateOptions floor_gate;
   TrackerOptions tracker;
   solver::IncrementalOptions solver = mapperSolverOptions();
 
@@ -241,6 +245,7 @@ struct MapperStats {
   int64_t relocalizations = 0;   // a new session tied to the map by a global registration
   int64_t relocalization_disagreements = 0;  // a lost session's registrations that disagreed
   int64_t relocalization_same_frame_checks = 0;  // candidates checked on their own keyframe
+  int64_t implausible_floors = 0;  // FLOOR refused by the floor gate (in dropped too)
   int64_t timeouts = 0;
   int64_t dropped = 0;            // malformed, stale or out-of-order messages
   int64_t restored_nodes = 0;     // loaded from a map store by restore()
@@ -455,6 +460,7 @@ class Mapper {
   std::optional<attitude_t> attitude_;
   int64_t last_step_utime_ = -1;
   int64_t last_floor_utime_ = -1;
+  FloorGate floor_gate_{o_.floor_gate};
   int64_t last_vo_utime_ = -1;
   int64_t session_start_utime_ = -1;  // utime of the message that started the session
   int64_t last_attitude_utime_ = -1;

@@ -143,6 +143,36 @@ TEST(PlaceDatabase, TopKMinScoreTiesAndNormalisedScore) {
   EXPECT_DOUBLE_EQ(r->back().normalized_score, 0.0);
 }
 
+TEST(PlaceDatabase, EachFloorCostsItsPostingsNotTheWholeVocabulary) {
+  // issue 17: places on 400 floors of a 1,000,000-word vocabulary. A dense index per floor
+  // held 400 x 1,000,000 empty lists (9.6 GB); the sparse one holds a list per (floor, word)
+  // posted, and still answers per floor and over every floor.
+  constexpr uint32_t kWords = 1'000'000;
+  PlaceDatabase db(kWords, 1);
+  SplitMix64 rng(4);
+  std::vector<BowVector> bows;
+  for (int32_t floor = 0; floor < 400; ++floor) {
+    bows.push_back(randomBow(rng, kWords, 5));
+    ASSERT_TRUE(db.insert(place(floor, floor, floor, bows.back())).ok());
+  }
+  EXPECT_EQ(db.numPostingLists(), db.numPostings());  // 5 random words of 10^6: all distinct
+  EXPECT_LE(db.numPostings(), 2000u);
+  PlaceQuery q;
+  q.floor = 123;
+  auto on_floor = db.query(bows[123], q);
+  ASSERT_TRUE(on_floor.ok());
+  ASSERT_EQ(on_floor->size(), 1u);
+  EXPECT_EQ(on_floor->front().id, 123);
+  EXPECT_NEAR(on_floor->front().score, 1.0, 1e-6);
+  q.floor = 124;
+  EXPECT_TRUE(db.query(bows[123], q)->empty());
+  q.floor.reset();
+  auto any = db.query(bows[7], q);
+  ASSERT_TRUE(any.ok());
+  ASSERT_FALSE(any->empty());
+  EXPECT_EQ(any->front().id, 7);
+}
+
 TEST(PlaceDatabase, BadInsertionsAndQueriesAreErrorsNotCrashes) {
   PlaceDatabase db(10, 1);
   ASSERT_TRUE(db.insert(place(1, 0, 0, {{1, 1.0f}})).ok());

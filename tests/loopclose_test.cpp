@@ -357,6 +357,104 @@ TEST_F(LoopCloserTest, ANodeThatCameBeforeItsKeyframeWaitsForIt) {
   EXPECT_EQ(lc->numNodes(), 1u);
 }
 
+TEST_F(LoopCloserTest, NodesNoMapperWouldSendAreRefusedAndLeaveTheMapAndTheClockAsTheyWere) {
+  auto lc = make();
+  addMap(*lc);
+  const int64_t t = 60 * kSecond;
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(2, t)).ok());
+  const int64_t now = lc->now();
+  struct Case {
+    evermap::node_added_t msg;
+    const char* named;
+  };
+  evermap::node_added_t negative_id = node(-4, t, 0);
+  evermap::node_added_t high_floor = node(20, t, 1000);
+  evermap::node_added_t negative_floor = node(21, t, -2);  // -1: a floor the mapper could not label
+  evermap::node_added_t negative_session = node(22, t, 0);
+  negative_session.session = -1;
+  evermap::node_added_t before_keyframe = node(23, t, 0);
+  before_keyframe.utime = t - 1;  // a node is made on its keyframe's frame, never before
+  evermap::node_added_t far_ahead = node(24, t, 0);
+  far_ahead.utime = t + 30 * kSecond;  // would move the clock if it were looked at first
+  far_ahead.keyframe_utime = t + 40 * kSecond;
+  for (const Case& c : {Case{negative_id, "node id -4"}, Case{high_floor, "max_floor 999"},
+                        Case{negative_floor, "floor -2"}, Case{negative_session, "session -1"},
+                        Case{before_keyframe, "after the node's stamp"},
+                        Case{far_ahead, "after the node's stamp"}}) {
+    const Status s = lc->addNode(c.msg);
+    ASSERT_FALSE(s.ok()) << c.named;
+    EXPECT_NE(s.error().message.find(c.named), std::string::npos) << s.error().message;
+  }
+  EXPECT_EQ(lc->stats().nodes_implausible, 6);
+  EXPECT_EQ(lc->stats().nodes_rejected, 6);
+  EXPECT_EQ(lc->numNodes(), static_cast<size_t>(kPlaces));
+  EXPECT_EQ(lc->stats().nodes_waited, 0);
+  EXPECT_EQ(lc->now(), now);
+  // The same keyframe as a plausible node: added.
+  ASSERT_TRUE(lc->addNode(node(20, t, 999)).ok());
+  EXPECT_EQ(lc->numNodes(), static_cast<size_t>(kPlaces) + 1);
+}
+
+TEST_F(LoopCloserTest, TheMapHoldsAtMostMaxPlacesAndAtMostMaxWaitingNodesWait) {
+  LoopCloserOptions o;
+  o.max_places = 5;
+  o.max_waiting_nodes = 2;
+  auto lc = make(o);
+  const int64_t t0 = 100 * kSecond;
+  for (int p = 0; p < 5; ++p) {
+    ASSERT_TRUE(lc->addKeyframe(world_.keyframe(p, t0 + p)).ok());
+    ASSERT_TRUE(lc->addNode(node(p + 1, t0 + p, 0)).ok());
+  }
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(5, t0 + 5)).ok());
+  const Status full = lc->addNode(node(6, t0 + 5, 0));
+  ASSERT_FALSE(full.ok());
+  EXPECT_NE(full.error().message.find("max_places = 5"), std::string::npos) << full.error().message;
+  EXPECT_EQ(lc->numNodes(), 5u);
+  EXPECT_EQ(lc->stats().nodes_over_capacity, 1);
+  // The places held still answer.
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(1, t0 + 6)).ok());
+  const register_result_t r = lc->answer(request(1, t0 + 6, t0 + 6, kNode, 2));
+  EXPECT_EQ(r.status, kOk) << r.reason;
+
+  LoopCloserOptions w;
+  w.max_waiting_nodes = 2;
+  auto waiting = make(w);
+  const int64_t t = 200 * kSecond;
+  waiting->advanceClock(t);
+  ASSERT_TRUE(waiting->addNode(node(1, t + 1, 0)).ok());
+  ASSERT_TRUE(waiting->addNode(node(2, t + 2, 0)).ok());
+  const Status third = waiting->addNode(node(3, t + 3, 0));
+  ASSERT_FALSE(third.ok());
+  EXPECT_NE(third.error().message.find("max_waiting_nodes = 2"), std::string::npos) << third.error().message;
+  EXPECT_EQ(waiting->stats().nodes_waited, 2);
+  EXPECT_EQ(waiting->stats().nodes_over_capacity, 1);
+  // The two that wait are added when their keyframes come.
+  ASSERT_TRUE(waiting->addKeyframe(world_.keyframe(0, t + 1)).ok());
+  ASSERT_TRUE(waiting->addKeyframe(world_.keyframe(1, t + 2)).ok());
+  EXPECT_EQ(waiting->numNodes(), 2u);
+  LoopCloserOptions bad;
+  bad.max_places = 0;
+  EXPECT_FALSE(bad.validate().ok());
+  bad = LoopCloserOptions{};
+  bad.max_waiting_nodes = 0;
+  EXPECT_FALSE(bad.validate().ok());
+}
+
+TEST_F(LoopCloserTest, AWaitingNodeStampedAheadDoesNotHoldTheOthersBehindIt) {
+  auto lc = make();
+  const int64_t t = 100 * kSecond;
+  lc->advanceClock(t);
+  ASSERT_TRUE(lc->addNode(node(1, t + 400'000, 0)).ok());  // arrived first, stamped ahead
+  ASSERT_TRUE(lc->addNode(node(2, t, 0)).ok());
+  lc->advanceClock(t + 500'000);  // node 2's wait is over, node 1's is not
+  const std::vector<std::string> errors = lc->takeNodeErrors();
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_NE(errors[0].find("node 2"), std::string::npos) << errors[0];
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(0, t + 400'000)).ok());
+  EXPECT_EQ(lc->numNodes(), 1u);
+  EXPECT_TRUE(lc->takeNodeErrors().empty());
+}
+
 TEST_F(LoopCloserTest, AFullQueueDropsTheOldestRequest) {
   LoopCloserOptions o;
   o.max_pending_requests = 2;

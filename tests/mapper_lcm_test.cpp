@@ -5,6 +5,7 @@
 // the map comes out exactly as without them.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -14,6 +15,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include <evermap/attitude_t.hpp>
+#include <evermap/floor_t.hpp>
 #include <evermap/map_graph_t.hpp>
 #include <evermap/mapper_stats_t.hpp>
 #include <evermap/node_added_t.hpp>
@@ -158,7 +160,12 @@ LiveRun runLive(Inject what, const std::filesystem::path& store_file, int* injec
       stray.request_id = 999999;
       stray.status = register_result_t::STATUS_OK;
       lcm.publish(channels::kRegisterResult, &stray);
-      *injected = 6;
+      floor_t high{};                                                      // implausible
+      high.utime = m.utime + 1;
+      high.height_m = 5000.0;  // 5 km above the start floor: beyond floor_gate.max_height_m
+      high.event = floor_t::EVENT_RIDE_END;
+      lcm.publish(channels::kFloor, &high);
+      *injected = 7;
       drain();
     }
   }
@@ -231,6 +238,12 @@ TEST(MapperLcm, PublishesPoseGraphAndStatsAndStoresTheMapItBuilds) {
   ASSERT_EQ(s.num_components, 7);
   EXPECT_EQ(s.component_names[3], "solver");
   for (double ms : s.component_ms) EXPECT_GE(ms, 0.0);
+  // The named counters (nothing restarted, nothing implausible in a clean run).
+  ASSERT_EQ(s.num_counters, 6);
+  ASSERT_EQ(s.counter_names.size(), s.counter_values.size());
+  EXPECT_EQ(s.counter_names[0], "warm_restarts");
+  EXPECT_EQ(s.counter_names[5], "implausible_floors");
+  for (int64_t v : s.counter_values) EXPECT_EQ(v, 0);
 
   // The store holds the final map: every node, and every constraint (some folded).
   EXPECT_EQ(r.stored_nodes, g.num_nodes);
@@ -254,12 +267,19 @@ TEST(MapperLcm, DropsAndCountsMalformedAndOutOfOrderMessagesWithoutApplyingThem)
   const LiveRun clean = runLive(Inject::kNothing, dir.path() / "clean.db");
   int injected = 0;
   const LiveRun dirty = runLive(Inject::kBad, dir.path() / "dirty.db", &injected);
-  ASSERT_EQ(injected, 6);
+  ASSERT_EQ(injected, 7);
   EXPECT_EQ(dirty.counts.undecodable, 1);
-  EXPECT_EQ(dirty.counts.refused, 5);
-  EXPECT_EQ(dirty.stats.dropped, clean.stats.dropped + 5);
+  EXPECT_EQ(dirty.counts.refused, 6);
+  EXPECT_EQ(dirty.stats.dropped, clean.stats.dropped + 6);
+  EXPECT_EQ(dirty.stats.implausible_floors, 1);
   ASSERT_FALSE(dirty.heard.stats.empty());
-  EXPECT_EQ(dirty.heard.stats.back().num_dropped_messages, 6);
+  EXPECT_EQ(dirty.heard.stats.back().num_dropped_messages, 7);
+  // The floor refusal is in MAPPER_STATS' named counters too.
+  const mapper_stats_t& s = dirty.heard.stats.back();
+  ASSERT_EQ(s.counter_names.size(), s.counter_values.size());
+  const auto at = std::find(s.counter_names.begin(), s.counter_names.end(), "implausible_floors");
+  ASSERT_NE(at, s.counter_names.end());
+  EXPECT_EQ(s.counter_values[static_cast<size_t>(at - s.counter_names.begin())], 1);
   // Nothing of it reached the map: the same graph, node for node.
   ASSERT_FALSE(clean.heard.graphs.empty());
   ASSERT_FALSE(dirty.heard.graphs.empty());

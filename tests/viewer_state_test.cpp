@@ -130,6 +130,28 @@ TEST(ViewerState, HistoryStaysBoundedOverALongRun) {
   EXPECT_NE(history.find("\"utime\":[1000000,"), std::string::npos);  // still starts at the start
 }
 
+TEST(ViewerState, TheStatsTextCarriesTheMappersNamedCounters) {
+  Board board;
+  ViewerState state(board, ViewerStateOptions{});
+  mapper_stats_t s{};
+  s.utime = 1000000;
+  s.counter_names = {"warm_restarts", "implausible_floors"};
+  s.counter_values = {2, 7};
+  s.num_counters = 2;
+  ASSERT_TRUE(state.onStats(s));
+  Board::Seen seen{};
+  std::string stats;
+  while (auto item = board.next(&seen, -1))
+    if (item->topic == Topic::kStats) stats = *item->text;
+  EXPECT_NE(stats.find("\"counters\":[[\"warm_restarts\",2],[\"implausible_floors\",7]]"), std::string::npos)
+      << stats;
+  // Names and values that do not pair up are refused.
+  s.counter_values = {2};
+  const Status bad = state.onStats(s);
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().message.find("2 counter names for 1 values"), std::string::npos) << bad.error().message;
+}
+
 TEST(ViewerState, DeputiesBeyondTheLimitAreRefused) {
   Board board;
   ViewerStateOptions o;

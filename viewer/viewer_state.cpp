@@ -208,6 +208,9 @@ Status ViewerState::onStats(const mapper_stats_t& msg) {
   if (msg.component_ms.size() != msg.component_names.size())
     return makeError("MAPPER_STATS ", msg.utime, ": ", msg.component_names.size(), " names for ",
                      msg.component_ms.size(), " times");
+  if (msg.counter_values.size() != msg.counter_names.size())
+    return makeError("MAPPER_STATS ", msg.utime, ": ", msg.counter_names.size(), " counter names for ",
+                     msg.counter_values.size(), " values");
   JsonWriter j;
   j.beginObject().key("type").value("stats").key("utime").value(msg.utime);
   j.key("nodes").value(static_cast<int64_t>(msg.num_nodes)).key("edges").value(static_cast<int64_t>(msg.num_edges));
@@ -217,6 +220,10 @@ Status ViewerState::onStats(const mapper_stats_t& msg) {
   j.key("components").beginArray();
   for (size_t k = 0; k < msg.component_names.size(); ++k)
     j.beginArray().value(clip(msg.component_names[k], 40)).value(msg.component_ms[k], 3).endArray();
+  j.endArray();
+  j.key("counters").beginArray();
+  for (size_t k = 0; k < msg.counter_names.size() && k < 32; ++k)
+    j.beginArray().value(clip(msg.counter_names[k], 40)).value(msg.counter_values[k]).endArray();
   j.endArray().endObject();
   board_.post(Topic::kStats, j.take());
 

@@ -35,12 +35,17 @@ Status PlaceDatabase::insert(Place place) {
   }
   const auto index = static_cast<uint32_t>(places_.size());
   FloorIndex& f = floors_[place.floor];
-  if (f.postings.empty()) f.postings.resize(num_words_);
   for (const WordWeight& e : place.bow) f.postings[e.word].push_back({index, e.weight});
   num_postings_ += place.bow.size();
   index_of_id_.emplace(place.id, index);
   places_.push_back(std::move(place));
   return Ok{};
+}
+
+size_t PlaceDatabase::numPostingLists() const {
+  size_t n = 0;
+  for (const auto& [floor, index] : floors_) n += index.postings.size();
+  return n;
 }
 
 const Place* PlaceDatabase::find(int64_t id) const {
@@ -53,7 +58,9 @@ void PlaceDatabase::accumulate(const FloorIndex& index, const BowVector& bow,
   for (const WordWeight& q : bow) {
     // Normalised L1 = sum over common words of min(q_w, p_w) (bow_vector.h). No branch per
     // posting: the places that scored are found by one pass over `score` afterwards.
-    for (const Posting& p : index.postings[q.word]) score[p.place] += std::min(q.weight, p.weight);
+    const auto it = index.postings.find(q.word);
+    if (it == index.postings.end()) continue;
+    for (const Posting& p : it->second) score[p.place] += std::min(q.weight, p.weight);
   }
 }
 

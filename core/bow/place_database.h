@@ -76,15 +76,21 @@ class PlaceDatabase {
   const Place* find(int64_t id) const;
   // Number of postings (place, word) held by the inverted index, over all floors.
   size_t numPostings() const { return num_postings_; }
+  // Number of posting lists (floor, word) the index holds: at most numPostings().
+  size_t numPostingLists() const;
 
  private:
   struct Posting {
     uint32_t place;  // index into places_
     float weight;
   };
-  // Inverted index of one floor: postings_[word], in insertion order.
+  // Inverted index of one floor: the postings of each word present on it, in insertion
+  // order. Sparse, so its memory grows with the postings, not with floors x vocabulary size:
+  // a dense array of num_words lists per floor cost 24 bytes x num_words (1.5 MB with the
+  // 65,140-word default vocabulary) for every floor label ever inserted, which is how fuzzed
+  // NODE_ADDED with random floors grew loopclose-proc from 28 to 210 MB (issue 17).
   struct FloorIndex {
-    std::vector<std::vector<Posting>> postings;
+    std::unordered_map<uint32_t, std::vector<Posting>> postings;
   };
   void accumulate(const FloorIndex& index, const BowVector& bow,
                   std::vector<float>& score) const;

@@ -89,7 +89,9 @@ for i in "${!pids[@]}"; do
 done
 pids=()
 grep -h ": input: " "$tmp"/*.log | sed 's/^/  /'
-grep -E "^(received_[A-Z_]+|undecodable|time_refused|handler_failed|refused) " "$tmp/mapper-proc.log" \
+grep -E "^(received_[A-Z_]+|undecodable|time_refused|handler_failed|refused|implausible_[a-z]+) " "$tmp/mapper-proc.log" \
   | tr '\n' ' ' | sed 's/^/  evermap-mapper-proc: /; s/$/\n/'
+# loopclose-proc's own counts: places taken and NODE_ADDED refused (implausible, over capacity).
+[ -f "$tmp/loopclose-proc.log" ] && grep -h "^loopclose-proc: keyframes" "$tmp/loopclose-proc.log" | sed 's/^/  /'
 awk '/LCM fragment/ && n++ < 3 { print "  " $0 }' "$tmp"/*.log  # (head would break the pipe)
 echo "PASS"

@@ -153,6 +153,8 @@ const handlers = {
     state.stats = s;
     setText('count-rejected', s.rejected);
     setText('count-dropped', s.dropped);
+    // The mapper's named counters (warm restarts, plausibility refusals, ...).
+    setText('mapper-counters', (s.counters || []).map(([name, value]) => name.replace(/_/g, ' ') + ' ' + value).join(', ') || '-');
     if (!state.graph) { setText('count-floors', s.floors); setText('count-sessions', s.sessions); }
   },
   history(h) {
