@@ -36,6 +36,9 @@ try {
                  connection: document.getElementById('connection')?.textContent,
                  loadMs: n ? Math.round(n.loadEventEnd) : -1, latency: document.getElementById('latency')?.textContent }; })()`,
     }, sessionId);
+    // Undefined while the page is between documents (the evaluation ran in a context the
+    // navigation destroyed): polled again.
+    if (r.result.value === undefined) continue;
     page = r.result.value;
     if (page.errors > 0) break;
     if (expected !== null && page.nodes === expected && page.drawn === expected && page.frames > 0) break;
@@ -71,7 +74,7 @@ try {
           expression: `(() => { const d = document.getElementById('node-details');
             return { node: d.dataset.node, hidden: d.hidden, text: d.textContent }; })()`,
         }, sessionId)).result.value;
-        if (shown.node === String(target.id)) break;
+        if (shown?.node === String(target.id)) break;
       }
       clickFigures = `; clicked node ${target.id} (${Math.round(target.room)} px from the next): details ${shown && !shown.hidden ? 'shown' : 'not shown'}`;
       if (!(shown && !shown.hidden && shown.node === String(target.id) && shown.text.includes('node ' + target.id + ':')))
@@ -95,7 +98,7 @@ try {
                         slider: Number(document.getElementById('log-slider').value),
                         errors: Number(document.documentElement.dataset.errors || 0) })`,
       }, sessionId)).result.value;
-      if (after.errors > 0 || (after.nodes < Number(expected) && Math.abs(after.slider - value) <= 20)) break;
+      if (after && (after.errors > 0 || (after.nodes < Number(expected) && Math.abs(after.slider - value) <= 20))) break;
     }
     seekFigures = `; after the seek to ${opt.seek}: ${after?.nodes} nodes, slider ${after?.slider}/1000`;
     if (!(after && after.nodes < Number(expected) && Math.abs(after.slider - value) <= 20))
