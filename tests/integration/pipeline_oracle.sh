@@ -119,8 +119,10 @@ fi
 if [ "$kill_mapper" -gt 0 ]; then
   echo "mapper-proc started $(grep -c 'started pid' "$logs/mapper-proc.log") times;" \
     "relocalisations: $(awk '$1 == "relocalizations" { s += $2 } END { print s + 0 }' "$logs/mapper-proc.log");" \
-    "warm restarts: $(grep -c ': warm restart: ' "$logs/mapper-proc.log"), lost restarts: $(grep -c ': lost restart: ' "$logs/mapper-proc.log")"
-  grep -o '[a-z]* restart: [0-9.]* s of message time' "$logs/mapper-proc.log" | sed 's/^/  /' || true
+    "warm restarts: $(grep -c ': warm restart: ' "$logs/mapper-proc.log")" \
+    "(bridged by odometry: $(grep -c ': warm restart: .*(bridged by odometry' "$logs/mapper-proc.log"))," \
+    "lost restarts: $(grep -c ': lost restart: ' "$logs/mapper-proc.log")"
+  grep -o '[a-z]* restart: [0-9.]* s of message time.*' "$logs/mapper-proc.log" | sed 's/^/  /' || true
 else
 # The mapper ran once, start to end, and saw every odometry message of the log.
 [ "$(grep -c 'started pid' "$logs/mapper-proc.log")" -eq 1 ] || fail "mapper-proc was restarted"
