@@ -30,6 +30,8 @@ dpid=""; lpid=""
 cleanup() {
   [ -n "$dpid" ] && kill -TERM "$dpid" 2>/dev/null && sleep 2 && kill -KILL "$dpid" 2>/dev/null || true
   [ -n "$lpid" ] && kill -KILL "$lpid" 2>/dev/null || true
+  # EVERMAP_PIPELINE_KEEP=DIR: the run, the logs, the store and the recording are kept there.
+  [ -n "${EVERMAP_PIPELINE_KEEP:-}" ] && mkdir -p "$EVERMAP_PIPELINE_KEEP" && cp -r "$tmp"/. "$EVERMAP_PIPELINE_KEEP"/ || true
   rm -rf "$tmp"
 }
 trap cleanup EXIT
