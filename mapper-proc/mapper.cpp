@@ -540,20 +540,22 @@ Status Mapper::restore(const MapSnapshot& map) {
 }
 
 std::optional<core::UncertainPose> Mapper::odometryBridge(const TrackingState& s, const vo_delta_t& msg) {
-  const auto refuse = [this](std::string why) -> std::optional<core::UncertainPose> {
-    restart_note_ = "not bridged: " + why;
+  const auto refuse = [this](const auto&... parts) -> std::optional<core::UncertainPose> {
+    std::ostringstream why;
+    (why << ... << parts);
+    restart_note_ = "not bridged: " + why.str();
     return std::nullopt;
   };
   if (!o_.warm_restart_bridge) return refuse("mapper.warm_restart_bridge is off");
   if (!s.odometry) return refuse("the saved state holds no odometry pose");
-  std::string why;
-  const auto now = messages::odometryPose(msg, &why);
-  if (!now) return refuse("the first VO_DELTA: " + why);
+  std::string malformed;
+  const auto now = messages::odometryPose(msg, &malformed);
+  if (!now) return refuse("the first VO_DELTA: ", malformed);
   const messages::OdometryPose& saved = s.odometry->pose;
-  if (now->epoch != saved.epoch) return refuse(makeError("odometry epoch ", saved.epoch, " then, ", now->epoch, " now").message);
+  if (now->epoch != saved.epoch) return refuse("odometry epoch ", saved.epoch, " then, ", now->epoch, " now");
   const double gap_s = 1e-6 * static_cast<double>(now->utime - saved.utime);
   if (gap_s > o_.warm_restart_bridge_max_gap_s)
-    return refuse(makeError(gap_s, " s > mapper.warm_restart_bridge_max_gap_s").message);
+    return refuse(gap_s, " s > mapper.warm_restart_bridge_max_gap_s");
   const auto cam = messages::odometryBetween(saved, s.odometry->own_covariance, *now);
   if (!cam) return refuse(cam.error().message);
   // saved_T_now of the body; the odometry's frame is the camera's.
@@ -562,11 +564,13 @@ std::optional<core::UncertainPose> Mapper::odometryBridge(const TrackingState& s
   const double angle_rad = core::rotationAngle(body.mean.so3());
   const double span_s = std::max(gap_s, 1e-3);
   if (distance_m > o_.tracker.max_speed_m_s * span_s || angle_rad > o_.tracker.max_turn_rad_s * span_s)
-    return refuse(makeError(distance_m, " m and ", angle_rad, " rad in ", gap_s, " s: implausible").message);
+    return refuse(distance_m, " m and ", angle_rad, " rad in ", gap_s, " s: implausible");
   // The body is level (to the IMU's accuracy): its z is the world's vertical.
   if (std::abs(body.mean.translation().z()) > o_.floor_match_m)
-    return refuse(makeError("a vertical motion of ", body.mean.translation().z(), " m (a ride?)").message);
-  restart_note_ = makeError("bridged by odometry over ", gap_s, " s: ", distance_m, " m, ", angle_rad, " rad").message;
+    return refuse("a vertical motion of ", body.mean.translation().z(), " m (a ride?)");
+  std::ostringstream note;
+  note << "bridged by odometry over " << gap_s << " s: " << distance_m << " m, " << angle_rad << " rad";
+  restart_note_ = note.str();
   return body;
 }
 
@@ -577,6 +581,7 @@ void Mapper::decideRestart(const vo_delta_t& msg) {
   const double gap_s = 1e-6 * static_cast<double>(utime - s.utime);
   restart_gap_s_ = gap_s;
   if (s.in_elevator || !(gap_s >= 0.0) || o_.full_graph || o_.warm_restart_max_gap_s <= 0.0) {
+    restart_note_ = s.in_elevator ? "saved in the elevator cab" : "no warm restart (options, or a state from the future)";
     ++stats_.lost_restarts;
     return;
   }

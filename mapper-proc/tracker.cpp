@@ -206,8 +206,7 @@ Status Tracker::addVo(const vo_delta_t& msg) {
 void Tracker::anchorOdometry(const vo_delta_t& msg, const Mat6& own_covariance) {
   odometry_at_delta_.reset();
   if (msg.odom_epoch == 0) return;
-  std::string why;
-  auto pose = messages::odometryPose(msg, &why);
+  auto pose = messages::odometryPose(msg);
   if (!pose) {
     ++counts_.odometry_refused;
     return;
