@@ -141,8 +141,8 @@ void LcmNode::afterMessage(int64_t utime, bool publish_pose) {
     if (*m_.restartGapS() < 0.0)
       std::printf("evermap-mapper-proc: lost restart: no usable tracking state (none stored, or a ride or session since)\n");
     else
-      std::printf("evermap-mapper-proc: %s restart: %.2f s of message time since the saved tracking state\n",
-                  m_.stats().warm_restarts > 0 ? "warm" : "lost", *m_.restartGapS());
+      std::printf("evermap-mapper-proc: %s restart: %.2f s of message time since the saved tracking state (%s)\n",
+                  m_.stats().warm_restarts > 0 ? "warm" : "lost", *m_.restartGapS(), m_.restartNote().c_str());
     std::fflush(stdout);
   }
   last_utime_ = std::max(last_utime_, utime);
@@ -253,6 +253,7 @@ void LcmNode::publishStats() {
       {"lost_restarts", st.lost_restarts},
       {"warm_confirmations", st.warm_confirmations},
       {"warm_rejections", st.warm_rejections},
+      {"warm_bridged", st.warm_bridged},
       {"implausible_motion", m_.tracker().counts().implausible},
       {"implausible_floors", st.implausible_floors},
   };

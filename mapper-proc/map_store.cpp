@@ -22,7 +22,7 @@ Expected<core::SE3d> poseFromBlob(const void* data, int bytes, const std::string
 }
 
 // PRAGMA user_version of the schema this code writes (map_store.h: 0 before map_tracking).
-constexpr int64_t kMapStoreSchemaVersion = 1;
+constexpr int64_t kMapStoreSchemaVersion = 2;
 
 // Finalises a statement on every path.
 struct Statement {
@@ -62,10 +62,12 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapSt
       " rejected INTEGER NOT NULL, first_utime INTEGER NOT NULL);"
       "CREATE INDEX IF NOT EXISTS map_edges_pair ON map_edges (from_node, to_node);"
       "CREATE TABLE IF NOT EXISTS map_saved (session_id INTEGER PRIMARY KEY, constraints INTEGER NOT NULL);"
-      // Version 1: the tracking state (a version-0 store is migrated by this line).
+      // Version 1: the tracking state (a version-0 store is migrated by this line), version 2 its
+      // odom_* columns (a version-1 store is migrated below).
       "CREATE TABLE IF NOT EXISTS map_tracking (id INTEGER PRIMARY KEY CHECK (id = 0), utime INTEGER NOT NULL,"
       " session_id INTEGER NOT NULL, session_start_utime INTEGER NOT NULL, active_node INTEGER NOT NULL,"
-      " floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL, pose BLOB NOT NULL, covariance BLOB NOT NULL);";
+      " floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL, pose BLOB NOT NULL, covariance BLOB NOT NULL,"
+      " odom_epoch INTEGER, odom_utime INTEGER, odom_pose BLOB, odom_covariance BLOB, odom_own_covariance BLOB);";
   auto version = store.queryInt("PRAGMA user_version");
   if (!version) return version.error();
   if (*version > kMapStoreSchemaVersion)
@@ -73,6 +75,23 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapSt
                      kMapStoreSchemaVersion);
   if (!options.read_only) {
     if (Status s = store.exec(schema); !s) return s.error();
+    auto has_odometry = store.queryInt("SELECT COUNT(*) FROM pragma_table_info('map_tracking') WHERE name = 'odom_epoch'");
+    if (!has_odometry) return has_odometry.error();
+    if (*has_odometry == 0) {
+      // Version 1 -> 2, in one transaction (a kill leaves version 1 whole).
+      const char* migrate =
+          "BEGIN IMMEDIATE;"
+          "ALTER TABLE map_tracking ADD COLUMN odom_epoch INTEGER;"
+          "ALTER TABLE map_tracking ADD COLUMN odom_utime INTEGER;"
+          "ALTER TABLE map_tracking ADD COLUMN odom_pose BLOB;"
+          "ALTER TABLE map_tracking ADD COLUMN odom_covariance BLOB;"
+          "ALTER TABLE map_tracking ADD COLUMN odom_own_covariance BLOB;"
+          "COMMIT;";
+      if (Status s = store.exec(migrate); !s) {
+        (void)store.exec("ROLLBACK");
+        return s.error();
+      }
+    }
     if (*version < kMapStoreSchemaVersion) {
       const std::string set = "PRAGMA user_version=" + std::to_string(kMapStoreSchemaVersion);
       if (Status s = store.exec(set.c_str()); !s) return s.error();
@@ -243,8 +262,11 @@ Status MapStore::writeTracking(const Mapper& mapper) {
   const std::optional<TrackingState> t = mapper.trackingState();
   if (!t) return exec("DELETE FROM map_tracking");
   Statement st;
-  if (sqlite3_prepare_v2(db_, "INSERT OR REPLACE INTO map_tracking VALUES (0, ?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)", -1,
-                         &st.s, nullptr))
+  if (sqlite3_prepare_v2(db_,
+                         "INSERT OR REPLACE INTO map_tracking (id, utime, session_id, session_start_utime, active_node,"
+                         " floor, in_elevator, pose, covariance, odom_epoch, odom_utime, odom_pose, odom_covariance,"
+                         " odom_own_covariance) VALUES (0, ?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13)",
+                         -1, &st.s, nullptr))
     return makeError(file_.string(), ": tracking: ", sqlite3_errmsg(db_));
   const std::vector<double> pose = poseBlob(t->active_T_body.mean);
   const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov = t->active_T_body.covariance;
@@ -256,6 +278,19 @@ Status MapStore::writeTracking(const Mapper& mapper) {
   sqlite3_bind_int(st.s, 6, t->in_elevator ? 1 : 0);
   sqlite3_bind_blob(st.s, 7, pose.data(), static_cast<int>(pose.size() * sizeof(double)), SQLITE_TRANSIENT);
   sqlite3_bind_blob(st.s, 8, cov.data(), 36 * sizeof(double), SQLITE_TRANSIENT);
+  if (t->odometry) {
+    // Unbound parameters are NULL: no odometry pose.
+    const messages::OdometryPose& o = t->odometry->pose;
+    const std::vector<double> odom_pose = poseBlob(o.odom_T_cam.mean);
+    const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> odom_cov = o.odom_T_cam.covariance;
+    const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> own_cov = t->odometry->own_covariance;
+    sqlite3_bind_int64(st.s, 9, o.epoch);
+    sqlite3_bind_int64(st.s, 10, o.utime);
+    sqlite3_bind_blob(st.s, 11, odom_pose.data(), static_cast<int>(odom_pose.size() * sizeof(double)),
+                      SQLITE_TRANSIENT);
+    sqlite3_bind_blob(st.s, 12, odom_cov.data(), 36 * sizeof(double), SQLITE_TRANSIENT);
+    sqlite3_bind_blob(st.s, 13, own_cov.data(), 36 * sizeof(double), SQLITE_TRANSIENT);
+  }
   if (sqlite3_step(st.s) != SQLITE_DONE) return makeError(file_.string(), ": tracking: ", sqlite3_errmsg(db_));
   return Ok{};
 }
@@ -455,12 +490,16 @@ Expected<MapSnapshot> MapStore::load() const {
   auto has_tracking = queryInt("SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = 'map_tracking'");
   if (!has_tracking) return has_tracking.error();
   if (*has_tracking > 0) {
+    // A version-1 store opened read-only has no odom_* columns: no odometry pose.
+    auto has_odometry = queryInt("SELECT COUNT(*) FROM pragma_table_info('map_tracking') WHERE name = 'odom_epoch'");
+    if (!has_odometry) return has_odometry.error();
+    const std::string sql = std::string("SELECT utime, session_id, session_start_utime, active_node, floor, in_elevator,"
+                                        " pose, covariance, ") +
+                            (*has_odometry > 0 ? "odom_epoch, odom_utime, odom_pose, odom_covariance, odom_own_covariance"
+                                               : "NULL, NULL, NULL, NULL, NULL") +
+                            " FROM map_tracking WHERE id = 0";
     Statement st;
-    if (sqlite3_prepare_v2(db_,
-                           "SELECT utime, session_id, session_start_utime, active_node, floor, in_elevator, pose,"
-                           " covariance FROM map_tracking WHERE id = 0",
-                           -1, &st.s, nullptr))
-      return makeError(name, ": ", sqlite3_errmsg(db_));
+    if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &st.s, nullptr)) return makeError(name, ": ", sqlite3_errmsg(db_));
     if (sqlite3_step(st.s) == SQLITE_ROW) {
       const std::string what = name + ": tracking state";
       TrackingState t;
@@ -479,6 +518,23 @@ Expected<MapSnapshot> MapStore::load() const {
       std::memcpy(cov.data(), sqlite3_column_blob(st.s, 7), 36 * sizeof(double));
       if (!cov.allFinite()) return makeError(what, ": covariance is not finite");
       t.active_T_body.covariance = cov;
+      if (sqlite3_column_type(st.s, 8) != SQLITE_NULL) {
+        Tracker::OdometryAnchor a;
+        a.pose.epoch = sqlite3_column_int64(st.s, 8);
+        a.pose.utime = sqlite3_column_int64(st.s, 9);
+        auto odom_pose = poseFromBlob(sqlite3_column_blob(st.s, 10), sqlite3_column_bytes(st.s, 10), what + " odometry");
+        if (!odom_pose) return odom_pose.error();
+        a.pose.odom_T_cam.mean = *odom_pose;
+        for (int col : {11, 12}) {
+          if (sqlite3_column_bytes(st.s, col) != 36 * static_cast<int>(sizeof(double)))
+            return makeError(what, ": odometry covariance blob of ", sqlite3_column_bytes(st.s, col), " bytes");
+          Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c;
+          std::memcpy(c.data(), sqlite3_column_blob(st.s, col), 36 * sizeof(double));
+          if (!c.allFinite()) return makeError(what, ": odometry covariance is not finite");
+          (col == 11 ? a.pose.odom_T_cam.covariance : a.own_covariance) = c;
+        }
+        t.odometry = a;
+      }
       out.tracking = t;
     }
   }

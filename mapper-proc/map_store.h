@@ -26,7 +26,13 @@
 //                              session_start_utime INTEGER NOT NULL, active_node INTEGER NOT NULL,
 //                              floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL,
 //                              pose BLOB NOT NULL,         -- active_T_body, as above
-//                              covariance BLOB NOT NULL);  -- 36 f64, row-major, (υ, ω)
+//                              covariance BLOB NOT NULL,   -- 36 f64, row-major, (υ, ω)
+//                              -- version 2: the odometry pose of Δ's VO frame, or all NULL
+//                              odom_epoch INTEGER, odom_utime INTEGER,
+//                              odom_pose BLOB,             -- odom_T_cam, as above
+//                              odom_covariance BLOB,       -- 36 f64, as above
+//                              odom_own_covariance BLOB);  -- the frame's motion from its
+//                                                          -- keyframe, 36 f64
 //
 // The tracking state (Mapper::trackingState: the node tracked against, Δ, floor, session,
 // message time) is written in every save's transaction with the map it refers to, and on its
@@ -34,7 +40,10 @@
 // resumes from it (MapperOptions::warm_restart_max_gap_s).
 //
 // Schema versions (PRAGMA user_version): 0, stores made before map_tracking (they open and
-// are migrated by creating it: a store without a row restarts lost, as before); 1, this one.
+// are migrated by creating it: a store without a row restarts lost, as before); 1, with
+// map_tracking but not its odom_* columns (migrated by adding them, NULL: the state restarts
+// warm without the odometry bridge); 2, this one. A read-only open reads a version 0 or 1
+// store as it is.
 // A store of a newer version is refused (its rows may mean what this code does not know).
 //
 // Every constraint is an edge (accepted or rejected, DESIGN.md section 3) until its pair is

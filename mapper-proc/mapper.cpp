@@ -36,6 +36,8 @@ Status MapperOptions::validate() const {
   if (!(warm_restart_turn_rad_s > 0.0) || !std::isfinite(warm_restart_turn_rad_s))
     return Error{"mapper.warm_restart_turn_rad_s: must be a finite number > 0"};
   if (!(warm_restart_node_sigma_m >= 0.0)) return Error{"mapper.warm_restart_node_sigma_m: must be >= 0"};
+  if (!(warm_restart_bridge_max_gap_s >= 0.0) || !std::isfinite(warm_restart_bridge_max_gap_s))
+    return Error{"mapper.warm_restart_bridge_max_gap_s: must be a finite number >= 0"};
   if (!(consistency_gate > 0.0)) return Error{"mapper.consistency_gate: must be > 0"};
   if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
   if (!(min_closure_information >= 0.0) || !std::isfinite(min_closure_information))
@@ -81,6 +83,7 @@ void MapperStats::addCounters(const MapperStats& o) {
   lost_restarts += o.lost_restarts;
   warm_confirmations += o.warm_confirmations;
   warm_rejections += o.warm_rejections;
+  warm_bridged += o.warm_bridged;
 }
 
 std::string MapperStats::text() const {
@@ -95,7 +98,7 @@ std::string MapperStats::text() const {
     << "\nimplausible_floors " << implausible_floors
     << "\nrestored_constraints " << restored_constraints << "\nwarm_restarts " << warm_restarts
     << "\nlost_restarts " << lost_restarts << "\nwarm_confirmations " << warm_confirmations
-    << "\nwarm_rejections " << warm_rejections << "\n";
+    << "\nwarm_rejections " << warm_rejections << "\nwarm_bridged " << warm_bridged << "\n";
   return s.str();
 }
 
@@ -117,7 +120,7 @@ Status Mapper::onVo(const vo_delta_t& msg) {
     ++stats_.dropped;
     return s;
   }
-  if (saved_tracking_) decideRestart(msg.utime);
+  if (saved_tracking_) decideRestart(msg);
   checkTimeout(msg.utime);
   if (last_vo_utime_ >= 0 && msg.utime - last_vo_utime_ > micros(o_.session_gap_s)) startSession(msg.utime);
   last_vo_utime_ = msg.utime;
@@ -545,24 +548,72 @@ Status Mapper::restore(const MapSnapshot& map) {
   return Ok{};
 }
 
-void Mapper::decideRestart(int64_t utime) {
+std::optional<core::UncertainPose> Mapper::odometryBridge(const TrackingState& s, const vo_delta_t& msg) {
+  const auto refuse = [this](const auto&... parts) -> std::optional<core::UncertainPose> {
+    std::ostringstream why;
+    (why << ... << parts);
+    restart_note_ = "not bridged: " + why.str();
+    return std::nullopt;
+  };
+  if (!o_.warm_restart_bridge) return refuse("mapper.warm_restart_bridge is off");
+  if (!s.odometry) return refuse("the saved state holds no odometry pose");
+  std::string malformed;
+  const auto now = messages::odometryPose(msg, &malformed);
+  if (!now) return refuse("the first VO_DELTA: ", malformed);
+  const messages::OdometryPose& saved = s.odometry->pose;
+  if (now->epoch != saved.epoch) return refuse("odometry epoch ", saved.epoch, " then, ", now->epoch, " now");
+  const double gap_s = 1e-6 * static_cast<double>(now->utime - saved.utime);
+  if (gap_s > o_.warm_restart_bridge_max_gap_s)
+    return refuse(gap_s, " s > mapper.warm_restart_bridge_max_gap_s");
+  const auto cam = messages::odometryBetween(saved, s.odometry->own_covariance, *now);
+  if (!cam) return refuse(cam.error().message);
+  // saved_T_now of the body; the odometry's frame is the camera's.
+  const core::UncertainPose body = tracker_.toBody(cam->mean, cam->covariance);
+  const double distance_m = body.mean.translation().norm();
+  const double angle_rad = core::rotationAngle(body.mean.so3());
+  const double span_s = std::max(gap_s, 1e-3);
+  if (distance_m > o_.tracker.max_speed_m_s * span_s || angle_rad > o_.tracker.max_turn_rad_s * span_s)
+    return refuse(distance_m, " m and ", angle_rad, " rad in ", gap_s, " s: implausible");
+  // The body is level (to the IMU's accuracy): its z is the world's vertical.
+  if (std::abs(body.mean.translation().z()) > o_.floor_match_m)
+    return refuse("a vertical motion of ", body.mean.translation().z(), " m (a ride?)");
+  std::ostringstream note;
+  note << "bridged by odometry over " << gap_s << " s: " << distance_m << " m, " << angle_rad << " rad";
+  restart_note_ = note.str();
+  return body;
+}
+
+void Mapper::decideRestart(const vo_delta_t& msg) {
+  const int64_t utime = msg.utime;
   const TrackingState s = *saved_tracking_;
   saved_tracking_.reset();
   const double gap_s = 1e-6 * static_cast<double>(utime - s.utime);
   restart_gap_s_ = gap_s;
-  if (s.in_elevator || !(gap_s >= 0.0) || gap_s > o_.warm_restart_max_gap_s || o_.full_graph) {
+  if (s.in_elevator || !(gap_s >= 0.0) || o_.full_graph || o_.warm_restart_max_gap_s <= 0.0) {
+    restart_note_ = s.in_elevator ? "saved in the elevator cab" : "no warm restart (options, or a state from the future)";
     ++stats_.lost_restarts;
     return;
   }
-  // Where the robot was at s.utime, in its session, on its floor; nothing tracked it for
-  // gap_s: the covariance grows by what it may have driven and turned meanwhile (linear in
-  // the gap: a bounded speed). Height, roll and pitch stay (a floor, a level body).
+  // Where the robot was at s.utime, in its session, on its floor. With the odometry frame
+  // the motion over the gap is known (a measurement, as Δ's own increments): tracking goes on.
+  // Without it nothing tracked it for gap_s: the covariance grows by what it may have driven
+  // and turned meanwhile (linear in the gap: a bounded speed); height, roll and pitch stay
+  // (a floor, a level body).
+  const std::optional<core::UncertainPose> bridge = odometryBridge(s, msg);
+  if (!bridge && gap_s > o_.warm_restart_max_gap_s) {
+    ++stats_.lost_restarts;
+    return;
+  }
   core::UncertainPose delta = s.active_T_body;
-  const double sigma_m = o_.warm_restart_speed_m_s * gap_s;
-  const double sigma_rad = std::min(o_.warm_restart_turn_rad_s * gap_s, std::numbers::pi);
-  core::Vec6 grow;
-  grow << sigma_m * sigma_m, sigma_m * sigma_m, 0.0025 * gap_s, 1e-4 * gap_s, 1e-4 * gap_s, sigma_rad * sigma_rad;
-  delta.covariance += grow.asDiagonal();
+  if (bridge) {
+    delta = core::compound(delta, *bridge);
+  } else {
+    const double sigma_m = o_.warm_restart_speed_m_s * gap_s;
+    const double sigma_rad = std::min(o_.warm_restart_turn_rad_s * gap_s, std::numbers::pi);
+    core::Vec6 grow;
+    grow << sigma_m * sigma_m, sigma_m * sigma_m, 0.0025 * gap_s, 1e-4 * gap_s, 1e-4 * gap_s, sigma_rad * sigma_rad;
+    delta.covariance += grow.asDiagonal();
+  }
   active_ = s.active_node;
   session_ = s.session;
   session_start_utime_ = s.session_start_utime;
@@ -577,11 +628,16 @@ void Mapper::decideRestart(int64_t utime) {
   // reference is unknown to the new tracker: reanchored), so no motion is applied twice.
   tracker_.reset(delta);
   lost_ = false;
-  resumed_ = true;
+  // A bridged pose needs no confirmation: the odometry between the two frames is the chain of
+  // VO motions the tracker would have compounded into Δ had it received them, with their
+  // covariance, so registrations are tested against it by the map gate as against any Δ.
+  // The held pose is off by what the robot drove in the gap: confirmed before any closure.
+  resumed_ = !bridge;
   relocalize_ = false;
   relocalization_candidate_.reset();
   rejected_candidate_.reset();
   ++stats_.warm_restarts;
+  if (bridge) ++stats_.warm_bridged;
 }
 
 std::optional<TrackingState> Mapper::trackingState() const {
@@ -594,6 +650,7 @@ std::optional<TrackingState> Mapper::trackingState() const {
   s.floor = floor_;
   s.in_elevator = in_elevator_;
   s.active_T_body = tracker_.delta();
+  s.odometry = tracker_.odometryAtDelta();
   return s;
 }
 

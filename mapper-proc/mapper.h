@@ -62,6 +62,10 @@ struct TrackingState {
   int floor = 0;
   bool in_elevator = false;      // between a ride's start and end (no warm restart from it)
   core::UncertainPose active_T_body;  // Δ at utime, with its covariance
+  // The odometry pose of the VO frame Δ is at (Tracker::odometryAtDelta), when VO tracked
+  // and its sender stamps one: a restart whose first VO_DELTA is of the same epoch bridges
+  // the gap with the odometry's motion (MapperOptions::warm_restart_bridge).
+  std::optional<Tracker::OdometryAnchor> odometry;
 };
 
 // The mapper's solver: iSAM's schedule (GN, a batch step every 100 updates) with the two
@@ -168,7 +172,8 @@ struct MapperOptions {
   // Warm restart (docs/mapper.md, "Restarts"): a mapper restored from a store that holds its
   // tracking state (TrackingState) resumes tracking from the saved node instead of starting
   // lost, when the first VO_DELTA after the restart is at most this many seconds of message
-  // time after the saved state. 0: never (every restart starts lost). 10 s: a restart under
+  // time after the saved state. 0: never (every restart starts lost, the odometry bridge's
+  // too). 10 s: a restart under
   // the deputy takes 0.3 s of wall time, i.e. 6 s of message time in a 20x replay; beyond
   // 10 s the inflated pose (below, 15 m and a full turn) no longer says where the robot is.
   double warm_restart_max_gap_s = 10.0;
@@ -191,6 +196,23 @@ struct MapperOptions {
   // Plausibility of FLOOR content (floor_gate.h): heights and vertical speeds no elevator
   // makes are refused and counted (implausible_floors).
   FloorGateOptions floor_gate;
+  // The odometry bridge (docs/mapper.md, "Warm restart"): when the saved state holds the
+  // odometry pose of its VO frame (VO_DELTA odom_*) and the first VO_DELTA after the restart
+  // carries one of the same epoch (VO's chain went on through the gap), the motion over the
+  // gap is theirs, odom_saved⁻¹ odom_now, with the covariance the tracker would have
+  // compounded from the messages it missed (odometryBetween), and not the inflation above:
+  // tracking goes on as if nothing had been lost (nodes at once, closures through the map
+  // gate, POSE). Refused (the inflation and the confirmation instead) for a motion faster
+  // than tracker.max_speed_m_s / max_turn_rad_s over the gap or with a vertical part beyond
+  // floor_match_m (a ride the mapper did not hear of).
+  bool warm_restart_bridge = true;
+  // The longest gap the bridge crosses, seconds of message time. The odometry's covariance
+  // covers its drift at any length; what the bound is for is what odometry does not see and
+  // the restarted mapper did not hear: a ride whose FLOOR messages came while it was down, in a
+  // cab that VO sees standing still. A ride takes longer (the simulator's cab waits 4 s at
+  // each door, a floor is 3-4 m at 1-2 m/s: 12 s and more door to door), and 20x replays lose
+  // 7-23 s in a restart under the deputy.
+  double warm_restart_bridge_max_gap_s = 30.0;
   TrackerOptions tracker;
   solver::IncrementalOptions solver = mapperSolverOptions();
 
@@ -258,6 +280,9 @@ struct MapperStats {
   // restored map (consistent with the inflated pose), and registrations that contradicted it.
   int64_t warm_confirmations = 0;
   int64_t warm_rejections = 0;
+  // Warm restarts whose gap the odometry bridged (MapperOptions::warm_restart_bridge): no
+  // confirmation needed.
+  int64_t warm_bridged = 0;
   MapperTiming timing;
   std::string text() const;
   // Adds the counters of another mapper's stats (sessions mapped by successive mappers).
@@ -295,6 +320,9 @@ class Mapper {
   // The gap between the saved tracking state and the first VO_DELTA after restore(), seconds,
   // once decided (negative: no saved state usable).
   std::optional<double> restartGapS() const { return restart_gap_s_; }
+  // How the restart was decided, for the log: why a warm restart was or was not bridged by
+  // odometry ("" before the decision and for a restart without a saved state).
+  const std::string& restartNote() const { return restart_note_; }
 
   // The left camera's mounting (rectified body_T_cam of STEREO_CALIB, calibration_latch.h):
   // VO deltas are camera motions. Until it is set, options.tracker.body_T_cam holds.
@@ -417,7 +445,11 @@ class Mapper {
   int floorAtHeight(int reported, double height_m) const;
 
   // The warm-restart decision at the first VO_DELTA after restore() (mapper.cpp).
-  void decideRestart(int64_t utime);
+  void decideRestart(const vo_delta_t& msg);
+  // The motion over a restart's gap from the odometry frame, from the state's VO frame to
+  // msg's (saved_T_now, body frames), when the bridge may cross it; else empty, and
+  // restart_note_ says why.
+  std::optional<core::UncertainPose> odometryBridge(const TrackingState& s, const vo_delta_t& msg);
   // A registration to a restored node while resumedUnconfirmed() (mapper_registration.cpp).
   std::optional<int64_t> confirmResumed(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
                                         const core::UncertainPose& q_T_now, bool* registered);
@@ -469,6 +501,7 @@ class Mapper {
   std::optional<TrackingState> saved_tracking_;  // restore()'s, until decideRestart()
   bool resumed_ = false;            // warm restart, placement not confirmed yet
   std::optional<double> restart_gap_s_;
+  std::string restart_note_;
   int64_t resume_first_new_node_ = 0;  // nodes from this id on were made after the restart
   std::vector<register_request_t> requests_;
   std::vector<node_added_t> nodes_added_;

@@ -178,12 +178,14 @@ Status Tracker::addVo(const vo_delta_t& msg) {
     ++counts_.restarts;
     if (ok) ++counts_.vo_applied;
     else ++counts_.vo_failed;
+    anchorOdometry(msg, Mat6::Zero());
     return Ok{};
   }
   if (!ok) {
     ++counts_.vo_failed;
     // The last good frame becomes the commit point wheel odometry continues from.
     if (vo_mode_) enterWheelMode(previous_vo_utime);
+    odometry_at_delta_.reset();
     return Ok{};
   }
   const UncertainPose ref_T_body =
@@ -191,6 +193,7 @@ Status Tracker::addVo(const vo_delta_t& msg) {
   if (!vo_mode_ || msg.ref_utime != ref_utime_) rejoin(msg.ref_utime, ref_T_body, msg.utime);
   pending_ = ref_T_body;
   ++counts_.vo_applied;
+  anchorOdometry(msg, msg.keyframe_changed ? Mat6::Zero() : *cov);
   if (msg.keyframe_changed) {
     commit(msg.utime, msg.ref_utime == reanchored_ref_utime_ ? pending_
                                                              : withGyroYaw(msg.ref_utime, msg.utime, pending_));
@@ -198,6 +201,17 @@ Status Tracker::addVo(const vo_delta_t& msg) {
     ref_utime_ = msg.utime;
   }
   return Ok{};
+}
+
+void Tracker::anchorOdometry(const vo_delta_t& msg, const Mat6& own_covariance) {
+  odometry_at_delta_.reset();
+  if (msg.odom_epoch == 0) return;
+  auto pose = messages::odometryPose(msg);
+  if (!pose) {
+    ++counts_.odometry_refused;
+    return;
+  }
+  odometry_at_delta_ = OdometryAnchor{*pose, own_covariance};
 }
 
 UncertainPose Tracker::withGyroYaw(int64_t t0, int64_t t1, const UncertainPose& increment) {
@@ -393,6 +407,7 @@ std::optional<std::pair<double, double>> Tracker::gyroYaw(int64_t t0, int64_t t1
 }
 
 void Tracker::applyWheel(const wheel_odom_t& msg, int64_t from_utime) {
+  odometry_at_delta_.reset();  // Δ moves past the last VO frame
   last_utime_ = std::max(last_utime_, msg.utime);
   last_wheel_ = msg;
   Eigen::Vector3d x(msg.delta_x_m, msg.delta_y_m, msg.delta_theta_rad);

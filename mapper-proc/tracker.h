@@ -40,6 +40,7 @@
 
 #include "core/common/expected.h"
 #include "core/geometry/se3.h"
+#include "core/messages/odometry_frame.h"
 
 namespace evermap::mapper {
 
@@ -100,6 +101,8 @@ struct TrackerCounts {
   int64_t vo_timeouts = 0;     // VO silent for vo_timeout_s: wheel odometry took over
   int64_t gyro_turns = 0;      // wheel increments and VO keyframe steps whose yaw was fused
                                // with the gyro's
+  int64_t odometry_refused = 0; // VO_DELTAs whose odometry pose (odom_*) was malformed: the
+                                // frame is used, its pose is not
 
   // Adds another tracker's counts (sessions tracked by successive trackers).
   void add(const TrackerCounts& o) {
@@ -115,6 +118,7 @@ struct TrackerCounts {
     reanchored += o.reanchored;
     vo_timeouts += o.vo_timeouts;
     gyro_turns += o.gyro_turns;
+    odometry_refused += o.odometry_refused;
   }
 };
 
@@ -134,6 +138,8 @@ class Tracker {
   // are taken through it.
   void setBodyTCamera(const SE3d& body_T_cam);
   const SE3d& bodyTCamera() const { return o_.body_T_cam; }
+  // A camera motion D and its covariance as the body's: body_T_cam D cam_T_body.
+  UncertainPose toBody(const SE3d& cam_motion, const Mat6& cam_covariance) const;
   // Re-initialises Δ (new active node, or a registration replacing it).
   void reset(const UncertainPose& active_T_body);
   // Adds a known vertical displacement (an elevator ride), metres, with its standard deviation.
@@ -152,6 +158,18 @@ class Tracker {
   double odometerM() const { return last_wheel_utime_ >= 0 ? wheel_odometer_m_ : path_odometer_m_; }
   const TrackerCounts& counts() const { return counts_; }
 
+  // The odometry pose (VO_DELTA odom_*, camera frames) of the frame Δ is at, and the
+  // covariance of that frame's own motion from its reference keyframe (its VO_DELTA
+  // covariance; zero for a keyframe or a chain restart), for odometryBetween(): set by every
+  // VO frame that carries one and moves Δ to itself, cleared when anything else moves Δ on
+  // (wheel odometry, a failure) or a frame carries none. A resets() or a height keeps it: Δ is
+  // still at that frame.
+  struct OdometryAnchor {
+    messages::OdometryPose pose;
+    Mat6 own_covariance = Mat6::Zero();
+  };
+  const std::optional<OdometryAnchor>& odometryAtDelta() const { return odometry_at_delta_; }
+
  private:
   std::string implausibleMotion(double distance_m, double angle_rad, int64_t from_utime,
                                 int64_t to_utime) const;
@@ -159,7 +177,8 @@ class Tracker {
     int64_t utime;        // end of the increment (a keyframe's utime in VO mode)
     UncertainPose pose;   // previous commit point _T_ this one
   };
-  UncertainPose toBody(const SE3d& cam_motion, const Mat6& cam_covariance) const;
+  // Δ is now at msg's frame: its odometry pose (if any) becomes odometryAtDelta().
+  void anchorOdometry(const vo_delta_t& msg, const Mat6& own_covariance);
   void commit(int64_t utime, const UncertainPose& increment);
   // Leaves VO mode at the last good VO frame (lost_utime) and compounds the buffered wheel
   // increments that end after it.
@@ -202,6 +221,7 @@ class Tracker {
   double path_odometer_m_ = 0.0;
   std::deque<Increment> history_;
   std::deque<wheel_odom_t> recent_wheel_;  // while VO tracks (wheel_buffer_s)
+  std::optional<OdometryAnchor> odometry_at_delta_;
   TrackerCounts counts_;
 };
 

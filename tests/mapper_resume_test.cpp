@@ -109,19 +109,39 @@ TEST(MapperRestore, AMapperRestartedMidSessionOnAnUpperFloorRelocalisesAndKeepsM
   EXPECT_LT(resumed->ate_rmse_m, 0.5);
 
   // The same restart, warm, after the 6 s of messages a 20x replay loses while the deputy
-  // restarts mapper-proc: tracking resumes on the saved floor without a relocalisation; the
-  // pose (σ 9 m) is too uncertain for nodes until two registrations confirm it, which here,
-  // exploring, takes most of the rest of the session (the cold start was luckier: its first
-  // candidate was confirmed at once).
+  // restarts mapper-proc. VO went on through the gap: the odometry frame bridges it, tracking
+  // resumes on the saved floor where the robot is, without a relocalisation or a
+  // confirmation, and mapping goes on at once.
+  const std::filesystem::path inflated_copy = dir.path() / "inflated.db";
+  std::filesystem::copy_file(warm_copy, inflated_copy);
   run.store_file = warm_copy;
   run.restart_gap_s = 6.0;
   auto warm = runOffline(twoSessions(), MapperOptions{}, run);
   ASSERT_TRUE(warm) << warm.error().message;
   EXPECT_EQ(warm->stats.warm_restarts, 1);
+  EXPECT_EQ(warm->stats.warm_bridged, 1) << warm->restart_note;
   EXPECT_EQ(warm->stats.relocalizations, 0);
-  EXPECT_GE(warm->stats.warm_confirmations, 1);
+  EXPECT_EQ(warm->stats.warm_confirmations, 0);
+  EXPECT_GT(warm->nodes, killed->nodes + 20);
   EXPECT_EQ(warm->final_floor, killed->final_floor);
   EXPECT_LT(warm->ate_rmse_m, 0.5);
+
+  // Without the bridge (an odometry source without the frame): the pose (σ 9 m) is too
+  // uncertain for nodes until two registrations confirm it, which here, exploring, takes most
+  // of the rest of the session (the cold start was luckier: its first candidate was confirmed
+  // at once).
+  MapperOptions inflated;
+  inflated.warm_restart_bridge = false;
+  run.store_file = inflated_copy;
+  auto held = runOffline(twoSessions(), inflated, run);
+  ASSERT_TRUE(held) << held.error().message;
+  EXPECT_EQ(held->stats.warm_restarts, 1);
+  EXPECT_EQ(held->stats.warm_bridged, 0);
+  EXPECT_EQ(held->stats.relocalizations, 0);
+  EXPECT_GE(held->stats.warm_confirmations, 1);
+  EXPECT_LT(held->nodes, warm->nodes);
+  EXPECT_EQ(held->final_floor, killed->final_floor);
+  EXPECT_LT(held->ate_rmse_m, 0.5);
 }
 
 TEST(MapperRestore, ReplaysEveryStoredConstraintIntoTheSameMergedPairs) {

@@ -129,6 +129,105 @@ TEST(MapperWarmRestart, APoseTooUncertainForANodesCellWaitsForTheConfirmation) {
   EXPECT_GT(m.nodes().size(), map.nodes.size() + 3);
 }
 
+// A 20x replay's restart (8 s of messages lost) while the robot drives 3 m onto new ground,
+// VO running on: the odometry frame bridges the gap (the same epoch), so the restarted mapper
+// tracks as if nothing had been lost: a node at once where the robot is, every new node where
+// it truly is, POSE at once, and loop closures without waiting for a confirmation.
+TEST(MapperWarmRestart, AGapBridgedByTheOdometryFrameAddsAccurateNodesAtOnce) {
+  evermap::testing::ScratchDir dir;
+  ScriptedDrive drive(scriptedOptions());
+  const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
+  ASSERT_TRUE(map.tracking->odometry);  // the VO frame's odometry pose is saved with the state
+  const auto restored = static_cast<int64_t>(map.nodes.size());
+  drive.blind(true);  // nothing to register against: only the odometry places the robot
+  ASSERT_TRUE(drive.restart(map, scriptedOptions(), 8.0, 3.0, GapOdometry::kSameEpoch));  // now at x = 11
+  const Mapper& m = drive.mapper();
+  EXPECT_EQ(m.stats().warm_restarts, 1);
+  EXPECT_EQ(m.stats().warm_bridged, 1);
+  EXPECT_FALSE(m.lost());
+  EXPECT_FALSE(m.resumedUnconfirmed()) << m.restartNote();
+  EXPECT_NE(m.restartNote().find("bridged"), std::string::npos) << m.restartNote();
+  // The pose is where the robot is, with odometry's covariance (not 12 m of inflation).
+  const SE3d truth_now = drive.nodeTruth(0).inverse() * drive.truePose();
+  const SE3d estimate_now = m.nodePose(0).inverse() * m.pose().mean;
+  EXPECT_LT((estimate_now.translation() - truth_now.translation()).norm(), 0.02);
+  EXPECT_LT(m.pose().covariance(0, 0), 0.1 * 0.1);
+  const int64_t restart_utime = drive.utime();
+  drive.driveTo(16.0, 0.0);
+  ASSERT_GE(static_cast<int64_t>(m.nodes().size()), restored + 5);
+  EXPECT_EQ(m.nodes()[static_cast<size_t>(restored)].keyframe_utime, restart_utime);  // at once
+  for (int64_t id = restored; id < static_cast<int64_t>(m.nodes().size()); ++id) {
+    const SE3d estimate = m.nodePose(0).inverse() * m.nodePose(id);
+    const SE3d truth = drive.nodeTruth(0).inverse() * drive.nodeTruth(id);
+    EXPECT_LT((estimate.translation() - truth.translation()).norm(), 0.05) << "node " << id;
+  }
+  // The first new node hangs on the saved node by the odometry's motion over the gap.
+  const auto pair = m.constraints().pairs().find({map.tracking->active_node, restored});
+  ASSERT_NE(pair, m.constraints().pairs().end());
+  EXPECT_LT(pair->second.i_T_j.covariance(0, 0), 0.1 * 0.1);
+  // Home along the mapped corridor: closures from the bridged pose, none false, and no
+  // confirmation was ever needed.
+  drive.blind(false);
+  homeAndOutAlongTheMappedCorridor(drive);
+  EXPECT_GT(m.stats().loop_closures, 3);
+  EXPECT_EQ(falseLoops(drive), 0);
+  EXPECT_EQ(m.stats().warm_confirmations, 0);
+}
+
+// The same gap, but vo-proc restarted too: its first frame starts a new odometry epoch, the
+// two poses are in different frames, and the restart falls back to the inflated pose, which
+// waits for a confirmation before nodes and closures.
+TEST(MapperWarmRestart, AnOdometryEpochThatChangedInTheGapFallsBackToTheInflatedPose) {
+  evermap::testing::ScratchDir dir;
+  ScriptedDrive drive(scriptedOptions());
+  const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
+  ASSERT_TRUE(map.tracking->odometry);
+  drive.blind(true);
+  ASSERT_TRUE(drive.restart(map, scriptedOptions(), 8.0, 3.0, GapOdometry::kNewEpoch));
+  const Mapper& m = drive.mapper();
+  EXPECT_EQ(m.stats().warm_restarts, 1);
+  EXPECT_EQ(m.stats().warm_bridged, 0);
+  EXPECT_TRUE(m.resumedUnconfirmed());
+  EXPECT_NE(m.restartNote().find("epoch"), std::string::npos) << m.restartNote();
+  EXPECT_GT(m.pose().covariance(0, 0), 10.0 * 10.0);  // 1.5 m/s over the 8 s
+  drive.driveTo(16.0, 0.0);
+  EXPECT_EQ(m.nodes().size(), map.nodes.size());  // σ 12 m: no node's cell is known
+  // Bridged, the same restart would have made them (the test above); off, it does not.
+  MapperOptions off = scriptedOptions();
+  off.warm_restart_bridge = false;
+  ScriptedDrive again(scriptedOptions());
+  const MapSnapshot map2 = drivenAndSaved(again, dir.path() / "map2.db");
+  again.blind(true);
+  ASSERT_TRUE(again.restart(map2, off, 8.0, 3.0, GapOdometry::kSameEpoch));
+  EXPECT_EQ(again.mapper().stats().warm_bridged, 0);
+  EXPECT_TRUE(again.mapper().resumedUnconfirmed());
+}
+
+// A bridge whose motion has a vertical part beyond a floor's tolerance (a ride the restarted
+// mapper did not hear of) or that is longer than warm_restart_bridge_max_gap_s is refused.
+TEST(MapperWarmRestart, TheBridgeIsRefusedBeyondItsGapOrForAVerticalMotion) {
+  evermap::testing::ScratchDir dir;
+  ScriptedDrive drive(scriptedOptions());
+  const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
+  MapperOptions short_bridge = scriptedOptions();
+  short_bridge.warm_restart_bridge_max_gap_s = 5.0;
+  drive.blind(true);
+  ASSERT_TRUE(drive.restart(map, short_bridge, 8.0, 3.0, GapOdometry::kSameEpoch));
+  EXPECT_EQ(drive.mapper().stats().warm_bridged, 0);
+  EXPECT_EQ(drive.mapper().stats().warm_restarts, 1);  // inflated, within warm_restart_max_gap_s
+  EXPECT_NE(drive.mapper().restartNote().find("bridge_max_gap_s"), std::string::npos) << drive.mapper().restartNote();
+  // A saved odometry pose 3 m below the one VO reports now: a ride.
+  ScriptedDrive other(scriptedOptions());
+  const MapSnapshot base = drivenAndSaved(other, dir.path() / "map2.db");
+  MapSnapshot ride = base;
+  ride.tracking->odometry->pose.odom_T_cam.mean =
+      ride.tracking->odometry->pose.odom_T_cam.mean * SE3d(core::SO3d(), Vec3(0, 0, -3.0));
+  other.blind(true);
+  ASSERT_TRUE(other.restart(ride, scriptedOptions(), 2.0, 0.0, GapOdometry::kSameEpoch));
+  EXPECT_EQ(other.mapper().stats().warm_bridged, 0);
+  EXPECT_NE(other.mapper().restartNote().find("vertical"), std::string::npos) << other.mapper().restartNote();
+}
+
 TEST(MapperWarmRestart, ARestartBeyondTheGapStartsLost) {
   evermap::testing::ScratchDir dir;
   ScriptedDrive drive(scriptedOptions());
@@ -263,7 +362,7 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheTrackingStateOpensAndIsMigrated) {
   }
   auto store = MapStore::open(file);
   ASSERT_TRUE(store) << store.error().message;
-  EXPECT_EQ(*store->schemaVersion(), 1);
+  EXPECT_EQ(*store->schemaVersion(), 2);
   auto snap = store->load();
   ASSERT_TRUE(snap);
   EXPECT_FALSE(snap->tracking);
@@ -273,6 +372,60 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheTrackingStateOpensAndIsMigrated) {
   EXPECT_TRUE(m.lost());
   ASSERT_TRUE(store->save(drive.mapper(), 0, 0));
   EXPECT_TRUE(store->load()->tracking);
+  EXPECT_TRUE(store->integrityCheck());
+}
+
+// Stores of schema version 1 (map_tracking without its odom_* columns) open read-only as they
+// are and read-write migrated to version 2; their state restarts warm without the bridge, and
+// the next save stores the odometry pose, which a load gives back as it was saved.
+TEST(MapStore, AStoreOfTheSchemaBeforeTheOdometryPoseIsMigratedAndTheRoundTripKeepsThePose) {
+  evermap::testing::ScratchDir dir;
+  const auto file = dir.path() / "v1.db";
+  ScriptedDrive drive(scriptedOptions());
+  drive.driveTo(4.0, 0.0);
+  {
+    auto store = MapStore::open(file);
+    ASSERT_TRUE(store && store->save(drive.mapper(), 0, 0));
+  }
+  {
+    // Back to what version 1 wrote: map_tracking with its first nine columns.
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(file.c_str(), &db), SQLITE_OK);
+    const char* v1 =
+        "CREATE TABLE t1 AS SELECT id, utime, session_id, session_start_utime, active_node, floor, in_elevator, pose,"
+        " covariance FROM map_tracking; DROP TABLE map_tracking;"
+        "CREATE TABLE map_tracking (id INTEGER PRIMARY KEY CHECK (id = 0), utime INTEGER NOT NULL,"
+        " session_id INTEGER NOT NULL, session_start_utime INTEGER NOT NULL, active_node INTEGER NOT NULL,"
+        " floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL, pose BLOB NOT NULL, covariance BLOB NOT NULL);"
+        "INSERT INTO map_tracking SELECT * FROM t1; DROP TABLE t1; PRAGMA user_version=1;";
+    ASSERT_EQ(sqlite3_exec(db, v1, nullptr, nullptr, nullptr), SQLITE_OK) << sqlite3_errmsg(db);
+    sqlite3_close(db);
+  }
+  {
+    auto ro = MapStore::open(file, MapStoreOptions{2, true});
+    ASSERT_TRUE(ro) << ro.error().message;
+    auto snap = ro->load();
+    ASSERT_TRUE(snap) << snap.error().message;
+    ASSERT_TRUE(snap->tracking);
+    EXPECT_FALSE(snap->tracking->odometry);
+  }
+  auto store = MapStore::open(file);
+  ASSERT_TRUE(store) << store.error().message;
+  EXPECT_EQ(*store->schemaVersion(), 2);
+  auto snap = store->load();
+  ASSERT_TRUE(snap && snap->tracking);
+  EXPECT_FALSE(snap->tracking->odometry);
+  ASSERT_TRUE(store->save(drive.mapper(), 0, 0));
+  const auto saved = drive.mapper().trackingState();
+  ASSERT_TRUE(saved && saved->odometry);
+  auto again = store->load();
+  ASSERT_TRUE(again && again->tracking && again->tracking->odometry);
+  const Tracker::OdometryAnchor& a = *again->tracking->odometry;
+  EXPECT_EQ(a.pose.epoch, saved->odometry->pose.epoch);
+  EXPECT_EQ(a.pose.utime, saved->odometry->pose.utime);
+  EXPECT_LT((a.pose.odom_T_cam.mean.inverse() * saved->odometry->pose.odom_T_cam.mean).log().norm(), 1e-12);
+  EXPECT_EQ(a.pose.odom_T_cam.covariance, saved->odometry->pose.odom_T_cam.covariance);
+  EXPECT_EQ(a.own_covariance, saved->odometry->own_covariance);
   EXPECT_TRUE(store->integrityCheck());
 }
 

@@ -10,11 +10,19 @@
 #include <memory>
 #include <numbers>
 
+#include "core/messages/odometry_frame.h"
 #include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
 #include "tests/mapper_messages.h"
 
 namespace evermap::mapper::testing {
+
+// What a restarted mapper's first VO_DELTA says of the odometry frame (ScriptedDrive::restart).
+enum class GapOdometry {
+  kNone,      // no odometry pose (a sender without one)
+  kSameEpoch, // VO went on through the gap: the same epoch, the gap's motion in it
+  kNewEpoch,  // vo-proc restarted too: its first frame starts a new epoch
+};
 
 // A scripted drive along a corridor and back, twice, with exact VO and a registration oracle
 // that answers from the truth within 1.5 m.
@@ -54,7 +62,7 @@ class ScriptedDrive {
   void slip(double dx) {
     utime_ += 100000;
     const SE3d next(pose_.so3(), pose_.translation() + Vec3(dx, 0, 0));
-    EXPECT_TRUE(mapper_->onVo(voMsg(utime_, utime_ - 100000, SE3d(), 1e-3, true)));
+    EXPECT_TRUE(send(voMsg(utime_, utime_ - 100000, SE3d(), 1e-3, true)));
     pose_ = next;
     truth_[utime_] = next;
     answer();
@@ -68,15 +76,29 @@ class ScriptedDrive {
   Mapper& mapper() { return *mapper_; }
   // mapper-proc killed and restarted from its store: a new mapper with options `o` restores
   // `map`, and nothing reaches it for `gap_s` seconds, in which the robot moves `moved_dx`
-  // metres along its heading. Then VO goes on from a reference the new mapper never saw.
-  Status restart(const MapSnapshot& map, const MapperOptions& o, double gap_s, double moved_dx = 0.0) {
+  // metres along its heading. Then VO goes on from a reference the new mapper never saw; its
+  // odometry pose is as `odometry` says (VO ran through the gap, its frames lost to the mapper).
+  Status restart(const MapSnapshot& map, const MapperOptions& o, double gap_s, double moved_dx = 0.0,
+                 GapOdometry odometry = GapOdometry::kNone) {
     mapper_ = std::make_unique<Mapper>(o);
     if (Status s = mapper_->restore(map); !s) return s;
-    utime_ += static_cast<int64_t>(gap_s * 1e6);
-    pose_ = pose_ * planar(moved_dx, 0, 0);
+    const auto gap = static_cast<int64_t>(gap_s * 1e6);
+    const int64_t frames = std::max<int64_t>(1, gap / 100000);
+    for (int64_t k = 1; k <= frames; ++k) {
+      // VO's frames in the gap, seen by the odometry frame only.
+      const int64_t previous = utime_;
+      utime_ += gap / frames;
+      const SE3d step = planar(moved_dx / static_cast<double>(frames), 0, 0);
+      vo_delta_t m = voMsg(utime_, previous, step, 1e-3, true);
+      odom_.stamp(m);
+      pose_ = pose_ * step;
+    }
     utime_ += 100000;
     // The robot stood still over this frame: VO's motion from its (unknown) reference.
-    const Status s = mapper_->onVo(voMsg(utime_, utime_ - 100000, SE3d(), 1e-3, true));
+    vo_delta_t first = odometry == GapOdometry::kNewEpoch ? voRestart(utime_)
+                                                          : voMsg(utime_, utime_ - 100000, SE3d(), 1e-3, true);
+    if (odometry != GapOdometry::kNone) odom_.stamp(first);
+    const Status s = mapper_->onVo(first);
     truth_[utime_] = pose_;
     answer();
     return s;
@@ -104,19 +126,24 @@ class ScriptedDrive {
       EXPECT_TRUE(mapper_->onFloor(f));
     }
     utime_ += 100000;
-    EXPECT_TRUE(mapper_->onVo(voRestart(utime_)));
+    EXPECT_TRUE(send(voRestart(utime_)));
     truth_[utime_] = pose_;
     answer();
   }
 
  private:
   static double yawOf(const SE3d& p) { return core::toPlanar(p).theta(); }
+  // A VO_DELTA stamped with its odometry pose, as vo-proc sends it.
+  Status send(vo_delta_t m) {
+    odom_.stamp(m);
+    return mapper_->onVo(m);
+  }
   void frame(const SE3d& next) {
     utime_ += 100000;
     if (truth_.empty()) {
-      EXPECT_TRUE(mapper_->onVo(voRestart(utime_)));
+      EXPECT_TRUE(send(voRestart(utime_)));
     } else {
-      EXPECT_TRUE(mapper_->onVo(voMsg(utime_, utime_ - 100000, pose_.inverse() * next, 1e-3, true)));
+      EXPECT_TRUE(send(voMsg(utime_, utime_ - 100000, pose_.inverse() * next, 1e-3, true)));
     }
     pose_ = next;
     truth_[utime_] = next;
@@ -164,6 +191,7 @@ class ScriptedDrive {
   }
 
   std::unique_ptr<Mapper> mapper_;
+  messages::OdometryFrame odom_;  // vo-proc's, which no mapper restart resets
   double registration_variance_;
   double alias_dx_ = 0.0;
   bool blind_ = false;

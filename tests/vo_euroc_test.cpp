@@ -15,6 +15,7 @@
 #include "core/camera/stereo_rectifier.h"
 #include "core/features/orb_descriptor.h"
 #include "core/messages/convert.h"
+#include "core/messages/odometry_frame.h"
 #include "core/registration/frame_registration.h"
 #include "euroc_loop_pairs.h"
 #include "test_data.h"
@@ -42,6 +43,7 @@ TEST(VoEuroc, TracksEveryFrameOfTheExcerptAndBarelyMoves) {
   VoTrajectory chain;
   std::vector<core::Vec3> positions;
   int frames = 0, keyframes = 0;
+  int64_t first_utime = 0;
   for (const auto& e : *images) {
     const std::string name = std::to_string(e.t_ns) + ".png";
     const cv::Mat left = cv::imread((dir / "mav0/cam0/data" / name).string(), cv::IMREAD_GRAYSCALE);
@@ -58,7 +60,16 @@ TEST(VoEuroc, TracksEveryFrameOfTheExcerptAndBarelyMoves) {
       ++keyframes;
       EXPECT_GT(out.keyframe->num_features, 100);
     }
-    if (auto p = chain.add(out.delta)) positions.push_back(p->translation());
+    if (auto p = chain.add(out.delta)) {
+      positions.push_back(p->translation());
+      // The odometry frame (odom_*): one epoch from the first frame, each pose the chain's.
+      const auto odom = messages::odometryPose(out.delta);
+      ASSERT_TRUE(odom) << "frame " << frames;
+      if (frames == 0) first_utime = msg->utime;
+      EXPECT_EQ(odom->epoch, first_utime);
+      EXPECT_LT((odom->odom_T_cam.mean.inverse() * *p).log().norm(), 1e-9) << "frame " << frames;
+      if (frames > 0) EXPECT_GT(odom->odom_T_cam.covariance.trace(), 0.0) << "frame " << frames;
+    }
     ++frames;
   }
   ASSERT_EQ(frames, 95);

@@ -11,6 +11,7 @@
 
 #include "core/features/orb_descriptor.h"
 #include "core/features/stereo_features.h"
+#include "core/messages/odometry_frame.h"
 #include "scratch_dir.h"
 #include "test_data.h"
 #include "tools/datasets/to_lcm.h"
@@ -18,6 +19,8 @@
 #include "tools/stereo-check/disparity_offset.h"
 #include "tools/vo-run/offline_runner.h"
 #include "tools/vo-run/sequence_run.h"
+#include "tools/vo-run/vo_trajectory.h"
+#include "vo-proc/vo_pipeline.h"
 
 namespace evermap::vo {
 namespace {
@@ -56,6 +59,54 @@ TEST(VoKitti, TracksEveryFrameOfTheStereoClipWithFovisInliersAndRotationWithinTw
   EXPECT_LE(run->end_error_percent, 10.0);
   // Inliers of FOVIS's order (164 per frame on this clip; 26.6 before issue 16).
   EXPECT_GE(run->mean_inliers, 100.0);
+}
+
+// The odometry frame vo-proc stamps on its VO_DELTA messages (issue 17), on a real drive of
+// 52 m with a turn: one epoch from the first frame, every frame's pose the keyframe chain's
+// (what evermap-vo-run chains from the deltas), and the motion between two frames far apart
+// with the covariance of the increments between them, compounded one by one.
+TEST(VoKitti, TheOdometryFrameOfTheClipIsItsKeyframeChain) {
+  EVERMAP_REQUIRE_DATA(dir, "kitti-stereo-clip");
+  const auto run = runKittiSequence(dir, clipOptions());
+  ASSERT_TRUE(run.ok()) << run.error().message;
+  messages::OdometryFrame odom;
+  VoTrajectory chain;
+  std::vector<messages::OdometryPose> poses;
+  std::vector<evermap::vo_delta_t> deltas;
+  for (const FrameResult& f : run->frames) {
+    evermap::vo_delta_t m = toMsg(f);
+    odom.stamp(m);
+    const auto chained = chain.add(m);
+    const auto pose = messages::odometryPose(m);
+    ASSERT_EQ(chained.has_value(), pose.has_value()) << "frame " << f.utime;
+    if (!pose) continue;
+    EXPECT_EQ(pose->epoch, run->frames.front().utime);
+    EXPECT_LT((pose->odom_T_cam.mean.inverse() * *chained).log().norm(), 1e-9);
+    poses.push_back(*pose);
+    deltas.push_back(m);
+  }
+  ASSERT_EQ(poses.size(), 51u);
+  // From a keyframe near the start to the last frame: the increments between, one by one.
+  size_t a = 0;
+  for (size_t k = 1; k < deltas.size() && a == 0; ++k)
+    if (deltas[k].keyframe_changed && deltas[k].status == evermap::vo_delta_t::STATUS_OK) a = k;
+  ASSERT_GT(a, 0u);
+  core::UncertainPose expected;
+  for (size_t k = a + 1; k < deltas.size(); ++k) {
+    if (!deltas[k].keyframe_changed && k + 1 != deltas.size()) continue;
+    core::Mat6 c;
+    for (int r = 0; r < 6; ++r)
+      for (int j = 0; j < 6; ++j) c(r, j) = deltas[k].covariance[6 * r + j];
+    const Eigen::Quaterniond q(deltas[k].orientation[0], deltas[k].orientation[1], deltas[k].orientation[2],
+                               deltas[k].orientation[3]);
+    const core::Vec3 t(deltas[k].translation[0], deltas[k].translation[1], deltas[k].translation[2]);
+    expected = core::compound(expected, core::UncertainPose{core::SE3d(q, t), c});
+  }
+  const auto between = messages::odometryBetween(poses[a], core::Mat6::Zero(), poses.back());
+  ASSERT_TRUE(between) << between.error().message;
+  EXPECT_GT(between->mean.translation().norm(), 40.0);
+  EXPECT_LT((between->mean.inverse() * expected.mean).log().norm(), 1e-9);
+  EXPECT_LT((between->covariance - expected.covariance).norm(), 1e-6 * expected.covariance.norm());
 }
 
 // The clip's disparity offset from its own images (consecutive frames registered by ORB, no

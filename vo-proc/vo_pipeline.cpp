@@ -100,7 +100,7 @@ Status VoPipeline::handleCalibrationBytes(const void* data, int64_t size) {
 }
 
 evermap::vo_delta_t toMsg(const FrameResult& r) {
-  evermap::vo_delta_t m;
+  evermap::vo_delta_t m{};
   m.utime = r.utime;
   m.ref_utime = r.ref_utime;
   m.status = static_cast<int8_t>(r.status);
@@ -127,6 +127,7 @@ PipelineOutput VoPipeline::finish(const FrameResult& result) {
   PipelineOutput out;
   out.result = result;
   out.delta = toMsg(result);
+  odometry_frame_.stamp(out.delta);
   ++stats_.frames;
   ++stats_.by_status[static_cast<size_t>(result.status)];
   if (result.keyframe) {

@@ -32,6 +32,7 @@
 #include "core/camera/stereo_rectifier.h"
 #include "core/common/expected.h"
 #include "core/messages/convert.h"
+#include "core/messages/odometry_frame.h"
 #include "core/messages/rgbd_convert.h"
 #include "vo-proc/stereo_odometry.h"
 
@@ -122,6 +123,9 @@ class VoPipeline {
   cv::Mat rgbd_gray_, rgbd_depth_;                      // undistorted buffers
   std::string no_camera_reason_ = "no calibration received yet (STEREO_CALIB)";
   core::SE3d body_T_cam_;
+  // Stamps every VO_DELTA with its pose in the odometry frame (odom_*): a new camera restarts
+  // the chain (NO_DATA), and with it the epoch.
+  messages::OdometryFrame odometry_frame_;
   PipelineStats stats_;
 };
 

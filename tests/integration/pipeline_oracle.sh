@@ -30,6 +30,8 @@ dpid=""; lpid=""
 cleanup() {
   [ -n "$dpid" ] && kill -TERM "$dpid" 2>/dev/null && sleep 2 && kill -KILL "$dpid" 2>/dev/null || true
   [ -n "$lpid" ] && kill -KILL "$lpid" 2>/dev/null || true
+  # EVERMAP_PIPELINE_KEEP=DIR: the run, the logs, the store and the recording are kept there.
+  [ -n "${EVERMAP_PIPELINE_KEEP:-}" ] && mkdir -p "$EVERMAP_PIPELINE_KEEP" && cp -r "$tmp"/. "$EVERMAP_PIPELINE_KEEP"/ || true
   rm -rf "$tmp"
 }
 trap cleanup EXIT
@@ -119,8 +121,10 @@ fi
 if [ "$kill_mapper" -gt 0 ]; then
   echo "mapper-proc started $(grep -c 'started pid' "$logs/mapper-proc.log") times;" \
     "relocalisations: $(awk '$1 == "relocalizations" { s += $2 } END { print s + 0 }' "$logs/mapper-proc.log");" \
-    "warm restarts: $(grep -c ': warm restart: ' "$logs/mapper-proc.log"), lost restarts: $(grep -c ': lost restart: ' "$logs/mapper-proc.log")"
-  grep -o '[a-z]* restart: [0-9.]* s of message time' "$logs/mapper-proc.log" | sed 's/^/  /' || true
+    "warm restarts: $(grep -c ': warm restart: ' "$logs/mapper-proc.log")" \
+    "(bridged by odometry: $(grep -c ': warm restart: .*(bridged by odometry' "$logs/mapper-proc.log"))," \
+    "lost restarts: $(grep -c ': lost restart: ' "$logs/mapper-proc.log")"
+  grep -o '[a-z]* restart: [0-9.]* s of message time.*' "$logs/mapper-proc.log" | sed 's/^/  /' || true
 else
 # The mapper ran once, start to end, and saw every odometry message of the log.
 [ "$(grep -c 'started pid' "$logs/mapper-proc.log")" -eq 1 ] || fail "mapper-proc was restarted"

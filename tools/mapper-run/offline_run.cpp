@@ -158,7 +158,9 @@ Status OfflineRunOptions::validate() const {
 
 std::string OfflineRunSummary::text() const {
   std::ostringstream s;
-  s << stats.text() << "nodes_by_session";
+  s << stats.text();
+  if (!restart_note.empty()) s << "restart_note " << restart_note << "\n";
+  s << "nodes_by_session";
   for (int64_t n : nodes_by_session) s << " " << n;
   s << "\nnodes_in_mapped_area_by_session";
   for (int64_t n : nodes_in_mapped_area_by_session) s << " " << n;
@@ -392,6 +394,7 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   out.store_s = store_s;
   out.stats = mapper.stats();
   out.restored_nodes = mapper.stats().restored_nodes;
+  out.restart_note = mapper.restartNote();
   out.nodes = static_cast<int64_t>(mapper.nodes().size());
   for (const MapperNode& n : mapper.nodes()) {
     if (n.session >= static_cast<int>(out.nodes_by_session.size())) out.nodes_by_session.resize(n.session + 1, 0);

@@ -105,6 +105,7 @@ struct OfflineRunSummary {
   std::vector<int64_t> steps_by_session;
   std::vector<int64_t> steps_in_mapped_area_by_session;
   int64_t restored_nodes = 0;
+  std::string restart_note;     // Mapper::restartNote() of a restored map's start
   bool stopped_early = false;   // OfflineRunOptions::max_wall_s or stop_after_s reached
   int final_floor = -1;         // the mapper's floor at the end (-1: not known)
   double operating_s = 0.0;     // operating time mapped

@@ -154,6 +154,12 @@ VoModel::VoModel(const VoOptions& options, const SE3d& body_T_cam, Random rng)
     : o_(options), body_T_cam_(body_T_cam), rng_(rng) {}
 
 vo_delta_t VoModel::frame(int64_t utime, const BodyState& state, int8_t condition) {
+  vo_delta_t m = measure(utime, state, condition);
+  odometry_frame_.stamp(m);
+  return m;
+}
+
+vo_delta_t VoModel::measure(int64_t utime, const BodyState& state, int8_t condition) {
   vo_delta_t m{};
   m.utime = utime;
   m.orientation[0] = 1.0;

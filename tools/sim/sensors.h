@@ -16,6 +16,7 @@
 
 #include "core/camera/calibration.h"
 #include "core/common/expected.h"
+#include "core/messages/odometry_frame.h"
 #include "tools/sim/building.h"
 #include "tools/sim/motion.h"
 #include "tools/sim/patrol.h"
@@ -159,12 +160,15 @@ class VoModel {
   const SE3d& referenceTruth() const { return world_T_ref_; }
 
  private:
+  // The frame without its odometry pose.
+  vo_delta_t measure(int64_t utime, const BodyState& state, int8_t condition);
   VoOptions o_;
   SE3d body_T_cam_;
   Random rng_;
   bool tracking_ = false;
   int64_t ref_utime_ = 0;
   SE3d world_T_ref_;
+  messages::OdometryFrame odometry_frame_;  // odom_* of every frame, as vo-proc stamps them
 };
 
 class WheelModel {
