@@ -45,6 +45,17 @@ void homeAndOutAlongTheMappedCorridor(ScriptedDrive& drive) {
   drive.driveTo(8.0, 0.0);
 }
 
+// Every node from `first` on lies within 5 cm of the truth, relative to node 0 (the drive's
+// truth starts 0.1 m ahead).
+void expectNodesFromOnWhereTheTruthIs(ScriptedDrive& drive, int64_t first) {
+  const Mapper& m = drive.mapper();
+  for (int64_t id = first; id < static_cast<int64_t>(m.nodes().size()); ++id) {
+    const SE3d estimate = m.nodePose(0).inverse() * m.nodePose(id);
+    const SE3d truth = drive.nodeTruth(0).inverse() * drive.nodeTruth(id);
+    EXPECT_LT((estimate.translation() - truth.translation()).norm(), 0.05) << "node " << id;
+  }
+}
+
 int falseLoops(ScriptedDrive& drive) {
   int n = 0;
   for (const Constraint& c : drive.mapper().constraints().all()) {
@@ -79,12 +90,8 @@ TEST(MapperWarmRestart, ARestartWithinTheGapResumesTrackingAndAddsNodesAtOnceWit
   // The first at the restart's first keyframe (1.3 m past the saved node, a new place).
   EXPECT_EQ(m.nodes()[static_cast<size_t>(first_new)].keyframe_utime, restart_utime);
   // Nothing moved during the gap: the nodes are where they are (the gap's covariance is a
-  // bound, not an error). Relative to node 0 (the drive's truth starts 0.1 m ahead).
-  for (int64_t id = first_new; id < static_cast<int64_t>(m.nodes().size()); ++id) {
-    const SE3d estimate = m.nodePose(0).inverse() * m.nodePose(id);
-    const SE3d truth = drive.nodeTruth(0).inverse() * drive.nodeTruth(id);
-    EXPECT_LT((estimate.translation() - truth.translation()).norm(), 0.05) << "node " << id;
-  }
+  // bound, not an error).
+  expectNodesFromOnWhereTheTruthIs(drive, first_new);
   // The first new node hangs on the saved node by the gap's covariance: 0.75 m in x and y.
   const auto pair = m.constraints().pairs().find({map.tracking->active_node, first_new});
   ASSERT_NE(pair, m.constraints().pairs().end());
@@ -156,11 +163,7 @@ TEST(MapperWarmRestart, AGapBridgedByTheOdometryFrameAddsAccurateNodesAtOnce) {
   drive.driveTo(16.0, 0.0);
   ASSERT_GE(static_cast<int64_t>(m.nodes().size()), restored + 5);
   EXPECT_EQ(m.nodes()[static_cast<size_t>(restored)].keyframe_utime, restart_utime);  // at once
-  for (int64_t id = restored; id < static_cast<int64_t>(m.nodes().size()); ++id) {
-    const SE3d estimate = m.nodePose(0).inverse() * m.nodePose(id);
-    const SE3d truth = drive.nodeTruth(0).inverse() * drive.nodeTruth(id);
-    EXPECT_LT((estimate.translation() - truth.translation()).norm(), 0.05) << "node " << id;
-  }
+  expectNodesFromOnWhereTheTruthIs(drive, restored);
   // The first new node hangs on the saved node by the odometry's motion over the gap.
   const auto pair = m.constraints().pairs().find({map.tracking->active_node, restored});
   ASSERT_NE(pair, m.constraints().pairs().end());
