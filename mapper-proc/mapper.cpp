@@ -571,9 +571,9 @@ std::optional<core::UncertainPose> Mapper::odometryBridge(const TrackingState& s
   const core::UncertainPose body = tracker_.toBody(cam->mean, cam->covariance);
   const double distance_m = body.mean.translation().norm();
   const double angle_rad = core::rotationAngle(body.mean.so3());
-  const double span_s = std::max(gap_s, 1e-3);
-  if (distance_m > o_.tracker.max_speed_m_s * span_s || angle_rad > o_.tracker.max_turn_rad_s * span_s)
-    return refuse(distance_m, " m and ", angle_rad, " rad in ", gap_s, " s: implausible");
+  if (const std::string implausible = tracker_.implausibleMotion(distance_m, angle_rad, saved.utime, now->utime);
+      !implausible.empty())
+    return refuse("implausible: ", implausible);
   // The body is level (to the IMU's accuracy): its z is the world's vertical.
   if (std::abs(body.mean.translation().z()) > o_.floor_match_m)
     return refuse("a vertical motion of ", body.mean.translation().z(), " m (a ride?)");

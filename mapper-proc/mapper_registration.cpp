@@ -13,6 +13,7 @@
 #include <Eigen/Cholesky>
 
 #include "core/common/clocks.h"
+#include "core/messages/pose_fields.h"
 #include "core/solver/marginals.h"
 
 namespace evermap::mapper {
@@ -82,7 +83,7 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
                 std::isfinite(msg.translation[2]);
   for (double q : msg.orientation) finite = finite && std::isfinite(q);
   const double q_norm = Eigen::Vector4d(msg.orientation[0], msg.orientation[1], msg.orientation[2], msg.orientation[3]).norm();
-  auto cov = covarianceFromMessage(msg.covariance, "REGISTER_RESULT");
+  auto cov = messages::covarianceFromMessage(msg.covariance, "REGISTER_RESULT");
   if (!finite || std::abs(q_norm - 1.0) > 1e-3 || !cov || msg.node_id < 0 ||
       msg.node_id >= static_cast<int64_t>(nodes_.size())) {
     ++stats_.dropped;

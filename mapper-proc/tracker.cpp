@@ -9,6 +9,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "core/geometry/se2.h"
+#include "core/messages/pose_fields.h"
 
 namespace evermap::mapper {
 namespace {
@@ -43,8 +44,6 @@ Status TrackerOptions::validate() const {
   return Ok{};
 }
 
-// "" when a motion of `distance_m` and `angle_rad` over [from_utime, to_utime] is within the
-// options' rates, else why not.
 std::string Tracker::implausibleMotion(double distance_m, double angle_rad, int64_t from_utime,
                                        int64_t to_utime) const {
   const double span_s = std::max(1e-3, 1e-6 * static_cast<double>(to_utime - from_utime));
@@ -57,20 +56,6 @@ std::string Tracker::implausibleMotion(double distance_m, double angle_rad, int6
         << o_.max_turn_rad_s;
   }
   return why.str();
-}
-
-Expected<Mat6> covarianceFromMessage(const double* row_major, const char* what) {
-  if (!finiteArray(row_major, 36)) return Error(std::string(what) + ": covariance is not finite");
-  Mat6 c;
-  for (int r = 0; r < 6; ++r)
-    for (int k = 0; k < 6; ++k) c(r, k) = row_major[6 * r + k];
-  const double scale = std::max(1e-12, c.diagonal().cwiseAbs().maxCoeff());
-  if ((c - c.transpose()).cwiseAbs().maxCoeff() > 1e-9 * scale)
-    return Error(std::string(what) + ": covariance is not symmetric");
-  Eigen::SelfAdjointEigenSolver<Mat6> eig(symmetric(c));
-  if (eig.eigenvalues().minCoeff() < -1e-9 * scale)
-    return Error(std::string(what) + ": covariance is not positive semi-definite");
-  return symmetric(c);
 }
 
 // The (x, y, yaw) block of a covariance on the right tangent (υ, ω): the motion in the plane.
@@ -143,7 +128,7 @@ Status Tracker::addVo(const vo_delta_t& msg) {
       ++counts_.dropped;
       return Error("VO_DELTA " + std::to_string(msg.utime) + ": quaternion is not unit");
     }
-    cov = covarianceFromMessage(msg.covariance, "VO_DELTA");
+    cov = messages::covarianceFromMessage(msg.covariance, "VO_DELTA");
     if (!cov) {
       ++counts_.dropped;
       return makeError("VO_DELTA ", msg.utime, ": ", cov.error().message);

@@ -170,9 +170,12 @@ class Tracker {
   };
   const std::optional<OdometryAnchor>& odometryAtDelta() const { return odometry_at_delta_; }
 
- private:
+  // "" when a motion of `distance_m` and `angle_rad` over [from_utime, to_utime] is within
+  // max_speed_m_s and max_turn_rad_s (spans under 1 ms count as 1 ms), else why not.
   std::string implausibleMotion(double distance_m, double angle_rad, int64_t from_utime,
                                 int64_t to_utime) const;
+
+ private:
   struct Increment {
     int64_t utime;        // end of the increment (a keyframe's utime in VO mode)
     UncertainPose pose;   // previous commit point _T_ this one
@@ -224,9 +227,5 @@ class Tracker {
   std::optional<OdometryAnchor> odometry_at_delta_;
   TrackerCounts counts_;
 };
-
-// Covariance from a row-major 6x6 message field; an error when non-finite or not symmetric
-// positive semi-definite (within rounding).
-Expected<Mat6> covarianceFromMessage(const double* row_major, const char* what);
 
 }  // namespace evermap::mapper

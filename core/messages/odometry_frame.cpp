@@ -15,28 +15,12 @@ bool finite(const double* v, int n) {
   return true;
 }
 
-core::Mat6 fromRowMajor(const double* v) {
-  core::Mat6 c;
-  for (int r = 0; r < 6; ++r)
-    for (int k = 0; k < 6; ++k) c(r, k) = v[6 * r + k];
-  return c;
-}
-
 // A pose from translation[3] and orientation[4] (w x y z); empty when not finite or not unit.
 std::optional<core::SE3d> poseOf(const double* t, const double* q) {
   if (!finite(t, 3) || !finite(q, 4)) return std::nullopt;
   const Eigen::Quaterniond rot(q[0], q[1], q[2], q[3]);
   if (std::abs(rot.norm() - 1.0) > 1e-3) return std::nullopt;
   return core::SE3d(rot.normalized(), core::Vec3(t[0], t[1], t[2]));
-}
-
-// Whether c is a covariance (symmetric positive semi-definite, within rounding).
-bool isCovariance(const core::Mat6& c) {
-  if (!c.allFinite()) return false;
-  const double scale = std::max(1e-12, c.diagonal().cwiseAbs().maxCoeff());
-  if ((c - c.transpose()).cwiseAbs().maxCoeff() > 1e-9 * scale) return false;
-  const Eigen::SelfAdjointEigenSolver<core::Mat6> eig(0.5 * (c + c.transpose()));
-  return eig.eigenvalues().minCoeff() >= -1e-9 * scale;
 }
 
 }  // namespace
@@ -49,12 +33,12 @@ std::optional<OdometryPose> odometryPose(const evermap::vo_delta_t& m, std::stri
   if (m.odom_epoch == 0) return fail("no odometry pose");
   const auto pose = poseOf(m.odom_translation, m.odom_orientation);
   if (!pose) return fail("odometry pose not finite or its quaternion not unit");
-  const core::Mat6 c = fromRowMajor(m.odom_covariance);
-  if (!isCovariance(c)) return fail("odometry covariance not symmetric positive semi-definite");
+  const auto c = covarianceFromMessage(m.odom_covariance, "odometry pose");
+  if (!c) return fail("odometry covariance not symmetric positive semi-definite");
   OdometryPose p;
   p.epoch = m.odom_epoch;
   p.utime = m.utime;
-  p.odom_T_cam = core::UncertainPose{*pose, 0.5 * (c + c.transpose())};
+  p.odom_T_cam = core::UncertainPose{*pose, *c};
   return p;
 }
 
@@ -90,9 +74,9 @@ void OdometryFrame::stamp(evermap::vo_delta_t& m) {
     odom_T_cur = odom_T_ref_;
   } else if (ok) {
     const auto ref_T_cur = poseOf(m.translation, m.orientation);
-    const core::Mat6 c = fromRowMajor(m.covariance);
-    if (epoch_ != 0 && m.ref_utime == ref_utime_ && ref_T_cur && isCovariance(c)) {
-      odom_T_cur = core::compound(odom_T_ref_, core::UncertainPose{*ref_T_cur, 0.5 * (c + c.transpose())});
+    const auto c = covarianceFromMessage(m.covariance, "VO_DELTA");
+    if (epoch_ != 0 && m.ref_utime == ref_utime_ && ref_T_cur && c) {
+      odom_T_cur = core::compound(odom_T_ref_, core::UncertainPose{*ref_T_cur, *c});
       if (m.keyframe_changed) {
         odom_T_ref_ = *odom_T_cur;
         ref_utime_ = m.utime;

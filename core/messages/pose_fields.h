@@ -1,7 +1,9 @@
 #pragma once
 // A pose into the translation[3] and orientation[4] (w, x, y, z) fields that pose-carrying
-// messages have (pose_t, map_graph_t's nodes and edges).
+// messages have (pose_t, map_graph_t's nodes and edges), and a 6x6 covariance out of a
+// row-major covariance[36] field (vo_delta_t, register_result_t).
 
+#include "core/common/expected.h"
 #include "core/geometry/se3.h"
 
 namespace evermap::messages {
@@ -14,5 +16,9 @@ inline void putPose(const core::SE3d& pose, double* translation, double* orienta
   orientation[2] = q.y();
   orientation[3] = q.z();
 }
+
+// Covariance from a row-major 6x6 message field, symmetrised; an error naming `what` when it
+// is not finite or not symmetric positive semi-definite (within rounding).
+Expected<core::Mat6> covarianceFromMessage(const double* row_major, const char* what);
 
 }  // namespace evermap::messages
