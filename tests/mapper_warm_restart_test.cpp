@@ -337,6 +337,20 @@ TEST(MapStore, TheTrackingStateSurvivesAKillMidSave) {
   EXPECT_GE(with_state, 3);
 }
 
+// The drive's map saved at `file`, then rewritten by `sql` into what older code wrote.
+void saveAsAnOlderSchema(ScriptedDrive& drive, const std::filesystem::path& file, const char* sql) {
+  {
+    auto store = MapStore::open(file);
+    ASSERT_TRUE(store && store->save(drive.mapper(), 0, 0));
+  }
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(file.c_str(), &db), SQLITE_OK);
+  const int rc = sqlite3_exec(db, sql, nullptr, nullptr, nullptr);
+  const std::string error = sqlite3_errmsg(db);
+  sqlite3_close(db);
+  ASSERT_EQ(rc, SQLITE_OK) << error;
+}
+
 // Stores written before the tracking state (schema version 0: no map_tracking) open, read
 // only and read-write; read-write migrates them; a restart from one starts lost, as before.
 TEST(MapStore, AStoreOfTheSchemaBeforeTheTrackingStateOpensAndIsMigrated) {
@@ -344,17 +358,8 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheTrackingStateOpensAndIsMigrated) {
   const auto file = dir.path() / "old.db";
   ScriptedDrive drive(scriptedOptions());
   drive.driveTo(4.0, 0.0);
-  {
-    auto store = MapStore::open(file);
-    ASSERT_TRUE(store && store->save(drive.mapper(), 0, 0));
-  }
-  {
-    // Back to what the code before this schema wrote: no map_tracking, user_version 0.
-    sqlite3* db = nullptr;
-    ASSERT_EQ(sqlite3_open(file.c_str(), &db), SQLITE_OK);
-    ASSERT_EQ(sqlite3_exec(db, "DROP TABLE map_tracking; PRAGMA user_version=0;", nullptr, nullptr, nullptr), SQLITE_OK);
-    sqlite3_close(db);
-  }
+  // Back to what the code before this schema wrote: no map_tracking, user_version 0.
+  ASSERT_NO_FATAL_FAILURE(saveAsAnOlderSchema(drive, file, "DROP TABLE map_tracking; PRAGMA user_version=0;"));
   {
     auto ro = MapStore::open(file, MapStoreOptions{2, true});
     ASSERT_TRUE(ro) << ro.error().message;
@@ -386,24 +391,15 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheOdometryPoseIsMigratedAndTheRoundTripKe
   const auto file = dir.path() / "v1.db";
   ScriptedDrive drive(scriptedOptions());
   drive.driveTo(4.0, 0.0);
-  {
-    auto store = MapStore::open(file);
-    ASSERT_TRUE(store && store->save(drive.mapper(), 0, 0));
-  }
-  {
-    // Back to what version 1 wrote: map_tracking with its first nine columns.
-    sqlite3* db = nullptr;
-    ASSERT_EQ(sqlite3_open(file.c_str(), &db), SQLITE_OK);
-    const char* v1 =
-        "CREATE TABLE t1 AS SELECT id, utime, session_id, session_start_utime, active_node, floor, in_elevator, pose,"
-        " covariance FROM map_tracking; DROP TABLE map_tracking;"
-        "CREATE TABLE map_tracking (id INTEGER PRIMARY KEY CHECK (id = 0), utime INTEGER NOT NULL,"
-        " session_id INTEGER NOT NULL, session_start_utime INTEGER NOT NULL, active_node INTEGER NOT NULL,"
-        " floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL, pose BLOB NOT NULL, covariance BLOB NOT NULL);"
-        "INSERT INTO map_tracking SELECT * FROM t1; DROP TABLE t1; PRAGMA user_version=1;";
-    ASSERT_EQ(sqlite3_exec(db, v1, nullptr, nullptr, nullptr), SQLITE_OK) << sqlite3_errmsg(db);
-    sqlite3_close(db);
-  }
+  // Back to what version 1 wrote: map_tracking with its first nine columns.
+  ASSERT_NO_FATAL_FAILURE(saveAsAnOlderSchema(
+      drive, file,
+      "CREATE TABLE t1 AS SELECT id, utime, session_id, session_start_utime, active_node, floor, in_elevator, pose,"
+      " covariance FROM map_tracking; DROP TABLE map_tracking;"
+      "CREATE TABLE map_tracking (id INTEGER PRIMARY KEY CHECK (id = 0), utime INTEGER NOT NULL,"
+      " session_id INTEGER NOT NULL, session_start_utime INTEGER NOT NULL, active_node INTEGER NOT NULL,"
+      " floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL, pose BLOB NOT NULL, covariance BLOB NOT NULL);"
+      "INSERT INTO map_tracking SELECT * FROM t1; DROP TABLE t1; PRAGMA user_version=1;"));
   {
     auto ro = MapStore::open(file, MapStoreOptions{2, true});
     ASSERT_TRUE(ro) << ro.error().message;

@@ -35,7 +35,12 @@ export function launchChromium(tool, chromiumPath) {
     '--headless', '--no-sandbox', '--remote-debugging-pipe', '--no-first-run', '--no-default-browser-check',
     '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--window-size=1400,900',
     '--disable-background-timer-throttling', '--disable-renderer-backgrounding', '--disable-backgrounding-occluded-windows',
-    `--user-data-dir=${profile}`, 'about:blank'], { stdio: ['ignore', 'ignore', 'pipe', 'pipe', 'pipe'] });
+    `--user-data-dir=${profile}`, 'about:blank'], { detached: true, stdio: ['ignore', 'ignore', 'pipe', 'pipe', 'pipe'] });
+  // Chromium and its helper processes form their own process group (detached): they are
+  // stopped together, so none is left writing into the profile as it is removed.
+  const killChromium = () => { try { process.kill(-chrome.pid, 'SIGKILL'); } catch (e) { /* gone already */ } };
+  const chromeExited = new Promise((resolve) => chrome.on('exit', resolve));
+  process.on('exit', killChromium);
   let chromeLog = '';
   chrome.stdio[2].on('data', (d) => { chromeLog = (chromeLog + d).slice(-4000); });
 
@@ -75,9 +80,9 @@ export function launchChromium(tool, chromiumPath) {
     finished = true;
     console.log(line);
     try { await Promise.race([send('Browser.close'), sleep(3000)]); } catch (e) { /* closing anyway */ }
-    chrome.kill('SIGKILL');
-    // Chromium's helper processes may still be writing the profile as they die: retried, and
-    // a profile left behind is a warning, not the test's result.
+    killChromium();
+    await Promise.race([chromeExited, sleep(3000)]);
+    // A profile left behind is a warning, not the test's result.
     try {
       fs.rmSync(profile, { recursive: true, force: true, maxRetries: 10, retryDelay: 200 });
     } catch (e) {

@@ -19,6 +19,23 @@ const { send, errors, finish } = launchChromium('viewer_browser', opt.chromium);
 
 try {
   const sessionId = await openPage(send);
+  // The value of `expression` in the page (undefined while the page is between documents).
+  const evaluate = async (expression) =>
+    (await send('Runtime.evaluate', { returnByValue: true, expression }, sessionId)).result.value;
+  // Evaluates `expression` every `periodMs` until `done(value)` or `timeoutMs`: the last value.
+  const waitFor = async (expression, done, timeoutMs, periodMs) => {
+    const start = Date.now();
+    let value = null;
+    while (Date.now() - start < timeoutMs) {
+      await sleep(periodMs);
+      value = await evaluate(expression);
+      if (done(value)) break;
+    }
+    return value;
+  };
+  // Sets the page's control `id` to `value` as a user would (a change event).
+  const setControl = (id, value) => evaluate(`(() => { const s = document.getElementById('${id}'); s.value = '${value}';
+                                                      s.dispatchEvent(new Event('change')); })()`);
   await send('Page.navigate', { url: opt.url }, sessionId);
   const start = Date.now();
   let page = null, expected = null;
@@ -28,18 +45,15 @@ try {
       const text = fs.readFileSync(opt.expectFile, 'utf8').trim();
       if (text !== '') expected = text;
     }
-    const r = await send('Runtime.evaluate', {
-      returnByValue: true,
-      expression: `(() => { const d = document.documentElement.dataset, n = performance.getEntriesByType('navigation')[0];
+    const value = await evaluate(`(() => { const d = document.documentElement.dataset, n = performance.getEntriesByType('navigation')[0];
         return { nodes: document.getElementById('count-nodes')?.textContent, drawn: d.graphNodes, frames: Number(d.frames || 0),
                  errors: Number(d.errors || 0), pageErrors: (window.evermapErrors || []).join(' | '),
                  connection: document.getElementById('connection')?.textContent,
-                 loadMs: n ? Math.round(n.loadEventEnd) : -1, latency: document.getElementById('latency')?.textContent }; })()`,
-    }, sessionId);
+                 loadMs: n ? Math.round(n.loadEventEnd) : -1, latency: document.getElementById('latency')?.textContent }; })()`);
     // Undefined while the page is between documents (the evaluation ran in a context the
     // navigation destroyed): polled again.
-    if (r.result.value === undefined) continue;
-    page = r.result.value;
+    if (value === undefined) continue;
+    page = value;
     if (page.errors > 0) break;
     if (expected !== null && page.nodes === expected && page.drawn === expected && page.frames > 0) break;
   }
@@ -47,9 +61,7 @@ try {
   if (expected !== null && page.nodes === expected && page.errors === 0) {
     // The node to click: on the canvas, the one with the most room around it (so that the
     // nearest node to the pixel is that one, whatever the camera).
-    const target = (await send('Runtime.evaluate', {
-      returnByValue: true,
-      expression: `(() => { const s = window.evermapScene; if (!s || !s.graph) return null;
+    const target = await evaluate(`(() => { const s = window.evermapScene; if (!s || !s.graph) return null;
         const rect = s.renderer.domElement.getBoundingClientRect(), g = s.graph, n = Math.min(g.nodes.id.length, 2000);
         const pts = [];
         for (let i = 0; i < n; ++i) { const p = s.screenOfIndex(i);
@@ -58,24 +70,15 @@ try {
         for (const [i, p] of pts) { let d = Infinity;
           for (const [j, q] of pts) if (j !== i) d = Math.min(d, Math.hypot(p.x - q.x, p.y - q.y));
           if (d > room) { room = d; best = { id: g.nodes.id[i], x: p.x, y: p.y, room: d }; } }
-        return best; })()`,
-    }, sessionId)).result.value;
+        return best; })()`);
     if (!target) {
       errors.push('no node of the map is drawn on the canvas to click');
     } else {
       for (const type of ['mouseMoved', 'mousePressed', 'mouseReleased'])
         await send('Input.dispatchMouseEvent', { type, x: target.x, y: target.y, button: 'left', buttons: type === 'mousePressed' ? 1 : 0, clickCount: 1 }, sessionId);
-      const clickStart = Date.now();
-      let shown = null;
-      while (Date.now() - clickStart < 10000) {
-        await sleep(100);
-        shown = (await send('Runtime.evaluate', {
-          returnByValue: true,
-          expression: `(() => { const d = document.getElementById('node-details');
+      const shown = await waitFor(`(() => { const d = document.getElementById('node-details');
             return { node: d.dataset.node, hidden: d.hidden, text: d.textContent }; })()`,
-        }, sessionId)).result.value;
-        if (shown?.node === String(target.id)) break;
-      }
+        (v) => v?.node === String(target.id), 10000, 100);
       clickFigures = `; clicked node ${target.id} (${Math.round(target.room)} px from the next): details ${shown && !shown.hidden ? 'shown' : 'not shown'}`;
       if (!(shown && !shown.hidden && shown.node === String(target.id) && shown.text.includes('node ' + target.id + ':')))
         errors.push(`a click on node ${target.id} at (${Math.round(target.x)}, ${Math.round(target.y)}) did not show its details: ${JSON.stringify(shown)}`);
@@ -84,37 +87,17 @@ try {
   let seekFigures = '';
   if (opt.seek !== undefined && expected !== null && page.nodes === expected && page.errors === 0) {
     const value = Math.round(Number(opt.seek) * 1000);
-    await send('Runtime.evaluate', {
-      expression: `(() => { const s = document.getElementById('log-slider'); s.value = '${value}';
-                           s.dispatchEvent(new Event('change')); })()`,
-    }, sessionId);
-    const seekStart = Date.now();
-    let after = null;
-    while (Date.now() - seekStart < 30000) {
-      await sleep(250);
-      after = (await send('Runtime.evaluate', {
-        returnByValue: true,
-        expression: `({ nodes: Number(document.getElementById('count-nodes').textContent),
+    await setControl('log-slider', value);
+    const after = await waitFor(`({ nodes: Number(document.getElementById('count-nodes').textContent),
                         slider: Number(document.getElementById('log-slider').value),
                         errors: Number(document.documentElement.dataset.errors || 0) })`,
-      }, sessionId)).result.value;
-      if (after && (after.errors > 0 || (after.nodes < Number(expected) && Math.abs(after.slider - value) <= 20))) break;
-    }
+      (v) => v && (v.errors > 0 || (v.nodes < Number(expected) && Math.abs(v.slider - value) <= 20)), 30000, 250);
     seekFigures = `; after the seek to ${opt.seek}: ${after?.nodes} nodes, slider ${after?.slider}/1000`;
     if (!(after && after.nodes < Number(expected) && Math.abs(after.slider - value) <= 20))
       errors.push(`the seek to ${opt.seek} did not take the page back${seekFigures}`);
     // The speed control: the viewer must play at the speed chosen on the page.
-    await send('Runtime.evaluate', {
-      expression: `(() => { const s = document.getElementById('log-speed'); s.value = '5';
-                           s.dispatchEvent(new Event('change')); })()`,
-    }, sessionId);
-    const speedStart = Date.now();
-    let speed = null;
-    while (Date.now() - speedStart < 10000) {
-      await sleep(200);
-      speed = (await send('Runtime.evaluate', { returnByValue: true, expression: `window.evermapLog?.speed` }, sessionId)).result.value;
-      if (speed === 5) break;
-    }
+    await setControl('log-speed', 5);
+    const speed = await waitFor('window.evermapLog?.speed', (v) => v === 5, 10000, 200);
     seekFigures += `; speed set to 5 on the page, the viewer plays at ${speed}`;
     if (speed !== 5) errors.push(`the page's speed control did not reach the viewer (it plays at ${speed})`);
     page.errors = after ? after.errors : page.errors;
