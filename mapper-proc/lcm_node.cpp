@@ -254,6 +254,7 @@ void LcmNode::publishStats() {
       {"warm_confirmations", st.warm_confirmations},
       {"warm_rejections", st.warm_rejections},
       {"warm_bridged", st.warm_bridged},
+      {"warm_bridged_by_wheels", st.warm_bridged_by_wheels},
       {"implausible_motion", m_.tracker().counts().implausible},
       {"implausible_floors", st.implausible_floors},
   };

@@ -1,8 +1,10 @@
 #include "mapper-proc/map_store.h"
 
+#include <cmath>
 #include <cstring>
 #include <set>
 #include <string>
+#include <utility>
 
 namespace evermap::mapper {
 namespace {
@@ -22,7 +24,15 @@ Expected<core::SE3d> poseFromBlob(const void* data, int bytes, const std::string
 }
 
 // PRAGMA user_version of the schema this code writes (map_store.h: 0 before map_tracking).
-constexpr int64_t kMapStoreSchemaVersion = 2;
+constexpr int64_t kMapStoreSchemaVersion = 3;
+
+// The map_tracking columns each version after 1 added (a store is migrated by adding them).
+constexpr std::pair<const char*, const char*> kTrackingColumnsAdded[] = {
+    // version 2: the VO odometry pose
+    {"odom_epoch", "INTEGER"}, {"odom_utime", "INTEGER"}, {"odom_pose", "BLOB"},
+    {"odom_covariance", "BLOB"}, {"odom_own_covariance", "BLOB"},
+    // version 3: the wheels' odometry pose
+    {"wheel_epoch", "INTEGER"}, {"wheel_utime", "INTEGER"}, {"wheel_pose", "BLOB"}, {"wheel_covariance", "BLOB"}};
 
 // Finalises a statement on every path.
 struct Statement {
@@ -62,12 +72,11 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapSt
       " rejected INTEGER NOT NULL, first_utime INTEGER NOT NULL);"
       "CREATE INDEX IF NOT EXISTS map_edges_pair ON map_edges (from_node, to_node);"
       "CREATE TABLE IF NOT EXISTS map_saved (session_id INTEGER PRIMARY KEY, constraints INTEGER NOT NULL);"
-      // Version 1: the tracking state (a version-0 store is migrated by this line), version 2 its
-      // odom_* columns (a version-1 store is migrated below).
+      // Version 1: the tracking state (a version-0 store is migrated by this line); the columns
+      // of later versions are added below (kTrackingColumnsAdded).
       "CREATE TABLE IF NOT EXISTS map_tracking (id INTEGER PRIMARY KEY CHECK (id = 0), utime INTEGER NOT NULL,"
       " session_id INTEGER NOT NULL, session_start_utime INTEGER NOT NULL, active_node INTEGER NOT NULL,"
-      " floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL, pose BLOB NOT NULL, covariance BLOB NOT NULL,"
-      " odom_epoch INTEGER, odom_utime INTEGER, odom_pose BLOB, odom_covariance BLOB, odom_own_covariance BLOB);";
+      " floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL, pose BLOB NOT NULL, covariance BLOB NOT NULL);";
   auto version = store.queryInt("PRAGMA user_version");
   if (!version) return version.error();
   if (*version > kMapStoreSchemaVersion)
@@ -75,19 +84,18 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapSt
                      kMapStoreSchemaVersion);
   if (!options.read_only) {
     if (Status s = store.exec(schema); !s) return s.error();
-    auto has_odometry = store.queryInt("SELECT COUNT(*) FROM pragma_table_info('map_tracking') WHERE name = 'odom_epoch'");
-    if (!has_odometry) return has_odometry.error();
-    if (*has_odometry == 0) {
-      // Version 1 -> 2, in one transaction (a kill leaves version 1 whole).
-      const char* migrate =
-          "BEGIN IMMEDIATE;"
-          "ALTER TABLE map_tracking ADD COLUMN odom_epoch INTEGER;"
-          "ALTER TABLE map_tracking ADD COLUMN odom_utime INTEGER;"
-          "ALTER TABLE map_tracking ADD COLUMN odom_pose BLOB;"
-          "ALTER TABLE map_tracking ADD COLUMN odom_covariance BLOB;"
-          "ALTER TABLE map_tracking ADD COLUMN odom_own_covariance BLOB;"
-          "COMMIT;";
-      if (Status s = store.exec(migrate); !s) {
+    // The columns of later versions the table lacks, added in one transaction (a kill leaves
+    // the older version whole).
+    std::string migrate;
+    for (const auto& [column, type] : kTrackingColumnsAdded) {
+      const std::string has_sql =
+          std::string("SELECT COUNT(*) FROM pragma_table_info('map_tracking') WHERE name = '") + column + "'";
+      auto has = store.queryInt(has_sql.c_str());
+      if (!has) return has.error();
+      if (*has == 0) migrate += std::string("ALTER TABLE map_tracking ADD COLUMN ") + column + " " + type + ";";
+    }
+    if (!migrate.empty()) {
+      if (Status s = store.exec(("BEGIN IMMEDIATE;" + migrate + "COMMIT;").c_str()); !s) {
         (void)store.exec("ROLLBACK");
         return s.error();
       }
@@ -265,7 +273,8 @@ Status MapStore::writeTracking(const Mapper& mapper) {
   if (sqlite3_prepare_v2(db_,
                          "INSERT OR REPLACE INTO map_tracking (id, utime, session_id, session_start_utime, active_node,"
                          " floor, in_elevator, pose, covariance, odom_epoch, odom_utime, odom_pose, odom_covariance,"
-                         " odom_own_covariance) VALUES (0, ?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13)",
+                         " odom_own_covariance, wheel_epoch, wheel_utime, wheel_pose, wheel_covariance)"
+                         " VALUES (0, ?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17)",
                          -1, &st.s, nullptr))
     return makeError(file_.string(), ": tracking: ", sqlite3_errmsg(db_));
   const std::vector<double> pose = poseBlob(t->active_T_body.mean);
@@ -290,6 +299,15 @@ Status MapStore::writeTracking(const Mapper& mapper) {
                       SQLITE_TRANSIENT);
     sqlite3_bind_blob(st.s, 12, odom_cov.data(), 36 * sizeof(double), SQLITE_TRANSIENT);
     sqlite3_bind_blob(st.s, 13, own_cov.data(), 36 * sizeof(double), SQLITE_TRANSIENT);
+  }
+  if (t->wheel) {
+    const messages::WheelOdometryPose& w = *t->wheel;
+    const double wheel_pose[3] = {w.odom_T_body.x(), w.odom_T_body.y(), w.odom_T_body.theta()};
+    const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> wheel_cov = w.covariance;
+    sqlite3_bind_int64(st.s, 14, w.epoch);
+    sqlite3_bind_int64(st.s, 15, w.utime);
+    sqlite3_bind_blob(st.s, 16, wheel_pose, sizeof(wheel_pose), SQLITE_TRANSIENT);
+    sqlite3_bind_blob(st.s, 17, wheel_cov.data(), 9 * sizeof(double), SQLITE_TRANSIENT);
   }
   if (sqlite3_step(st.s) != SQLITE_DONE) return makeError(file_.string(), ": tracking: ", sqlite3_errmsg(db_));
   return Ok{};
@@ -490,14 +508,16 @@ Expected<MapSnapshot> MapStore::load() const {
   auto has_tracking = queryInt("SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = 'map_tracking'");
   if (!has_tracking) return has_tracking.error();
   if (*has_tracking > 0) {
-    // A version-1 store opened read-only has no odom_* columns: no odometry pose.
-    auto has_odometry = queryInt("SELECT COUNT(*) FROM pragma_table_info('map_tracking') WHERE name = 'odom_epoch'");
-    if (!has_odometry) return has_odometry.error();
-    const std::string sql = std::string("SELECT utime, session_id, session_start_utime, active_node, floor, in_elevator,"
-                                        " pose, covariance, ") +
-                            (*has_odometry > 0 ? "odom_epoch, odom_utime, odom_pose, odom_covariance, odom_own_covariance"
-                                               : "NULL, NULL, NULL, NULL, NULL") +
-                            " FROM map_tracking WHERE id = 0";
+    // An older store opened read-only lacks the later columns: read as NULL (no pose).
+    std::string sql = "SELECT utime, session_id, session_start_utime, active_node, floor, in_elevator, pose, covariance";
+    for (const auto& [column, type] : kTrackingColumnsAdded) {
+      const std::string has_sql =
+          std::string("SELECT COUNT(*) FROM pragma_table_info('map_tracking') WHERE name = '") + column + "'";
+      auto has = queryInt(has_sql.c_str());
+      if (!has) return has.error();
+      sql += *has > 0 ? std::string(", ") + column : std::string(", NULL");
+    }
+    sql += " FROM map_tracking WHERE id = 0";
     Statement st;
     if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &st.s, nullptr)) return makeError(name, ": ", sqlite3_errmsg(db_));
     if (sqlite3_step(st.s) == SQLITE_ROW) {
@@ -534,6 +554,24 @@ Expected<MapSnapshot> MapStore::load() const {
           (col == 11 ? a.pose.odom_T_cam.covariance : a.own_covariance) = c;
         }
         t.odometry = a;
+      }
+      if (sqlite3_column_type(st.s, 13) != SQLITE_NULL) {
+        messages::WheelOdometryPose w;
+        w.epoch = sqlite3_column_int64(st.s, 13);
+        w.utime = sqlite3_column_int64(st.s, 14);
+        double v[3];
+        if (sqlite3_column_bytes(st.s, 15) != static_cast<int>(sizeof(v)) ||
+            sqlite3_column_bytes(st.s, 16) != 9 * static_cast<int>(sizeof(double)))
+          return makeError(what, ": wheel odometry blobs of ", sqlite3_column_bytes(st.s, 15), " and ",
+                           sqlite3_column_bytes(st.s, 16), " bytes");
+        std::memcpy(v, sqlite3_column_blob(st.s, 15), sizeof(v));
+        Eigen::Matrix<double, 3, 3, Eigen::RowMajor> c;
+        std::memcpy(c.data(), sqlite3_column_blob(st.s, 16), 9 * sizeof(double));
+        if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]) || !c.allFinite())
+          return makeError(what, ": wheel odometry pose is not finite");
+        w.odom_T_body = core::SE2d(v[0], v[1], v[2]);
+        w.covariance = c;
+        t.wheel = w;
       }
       out.tracking = t;
     }

@@ -31,8 +31,12 @@
 //                              odom_epoch INTEGER, odom_utime INTEGER,
 //                              odom_pose BLOB,             -- odom_T_cam, as above
 //                              odom_covariance BLOB,       -- 36 f64, as above
-//                              odom_own_covariance BLOB);  -- the frame's motion from its
+//                              odom_own_covariance BLOB,   -- the frame's motion from its
 //                                                          -- keyframe, 36 f64
+//                              -- version 3: the wheels' odometry pose at Δ's time, or NULL
+//                              wheel_epoch INTEGER, wheel_utime INTEGER,
+//                              wheel_pose BLOB,            -- 3 f64: x, y, θ
+//                              wheel_covariance BLOB);     -- 9 f64, row-major (x, y, θ)
 //
 // The tracking state (Mapper::trackingState: the node tracked against, Δ, floor, session,
 // message time) is written in every save's transaction with the map it refers to, and on its
@@ -42,8 +46,9 @@
 // Schema versions (PRAGMA user_version): 0, stores made before map_tracking (they open and
 // are migrated by creating it: a store without a row restarts lost, as before); 1, with
 // map_tracking but not its odom_* columns (migrated by adding them, NULL: the state restarts
-// warm without the odometry bridge); 2, this one. A read-only open reads a version 0 or 1
-// store as it is.
+// warm without the odometry bridge); 2, without the wheel_* columns (migrated by adding them:
+// restarts warm, bridged by VO's odometry frame only); 3, this one. A read-only open reads an
+// older store as it is.
 // A store of a newer version is refused (its rows may mean what this code does not know).
 //
 // Every constraint is an edge (accepted or rejected, DESIGN.md section 3) until its pair is

@@ -38,6 +38,8 @@ Status MapperOptions::validate() const {
   if (!(warm_restart_node_sigma_m >= 0.0)) return Error{"mapper.warm_restart_node_sigma_m: must be >= 0"};
   if (!(warm_restart_bridge_max_gap_s >= 0.0) || !std::isfinite(warm_restart_bridge_max_gap_s))
     return Error{"mapper.warm_restart_bridge_max_gap_s: must be a finite number >= 0"};
+  if (!(warm_restart_wheel_wait_s >= 0.0) || !(warm_restart_wheel_wait_s <= 10.0))
+    return Error{"mapper.warm_restart_wheel_wait_s: must be a number in [0, 10]"};
   if (!(consistency_gate > 0.0)) return Error{"mapper.consistency_gate: must be > 0"};
   if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
   if (!(min_closure_information >= 0.0) || !std::isfinite(min_closure_information))
@@ -84,6 +86,8 @@ void MapperStats::addCounters(const MapperStats& o) {
   warm_confirmations += o.warm_confirmations;
   warm_rejections += o.warm_rejections;
   warm_bridged += o.warm_bridged;
+  warm_bridged_by_wheels += o.warm_bridged_by_wheels;
+  warm_wheel_waits += o.warm_wheel_waits;
 }
 
 std::string MapperStats::text() const {
@@ -98,7 +102,8 @@ std::string MapperStats::text() const {
     << "\nimplausible_floors " << implausible_floors
     << "\nrestored_constraints " << restored_constraints << "\nwarm_restarts " << warm_restarts
     << "\nlost_restarts " << lost_restarts << "\nwarm_confirmations " << warm_confirmations
-    << "\nwarm_rejections " << warm_rejections << "\nwarm_bridged " << warm_bridged << "\n";
+    << "\nwarm_rejections " << warm_rejections << "\nwarm_bridged " << warm_bridged
+    << "\nwarm_bridged_by_wheels " << warm_bridged_by_wheels << "\nwarm_wheel_waits " << warm_wheel_waits << "\n";
   return s.str();
 }
 
@@ -113,6 +118,10 @@ Mapper::Mapper(const MapperOptions& options, int session)
       schedule_(options.solver, options.defer_merges, options.covariance_floor) {}
 
 Status Mapper::onVo(const vo_delta_t& msg) {
+  if (saved_tracking_ && waitForWheels(msg)) {
+    ++stats_.warm_wheel_waits;
+    return Ok{};
+  }
   const auto t0 = SteadyClock::now();
   const Status s = tracker_.addVo(msg);
   stats_.timing.tracking_s += secondsSince(t0);
@@ -541,6 +550,7 @@ Status Mapper::restore(const MapSnapshot& map) {
   if (map.tracking && map.tracking->active_node >= 0 && map.tracking->active_node < n_nodes &&
       map.tracking->utime >= nodes_[static_cast<size_t>(newest)].keyframe_utime) {
     saved_tracking_ = map.tracking;
+    restart_first_vo_utime_ = -1;
   } else {
     ++stats_.lost_restarts;
     restart_gap_s_ = -1.0;
@@ -583,6 +593,47 @@ std::optional<core::UncertainPose> Mapper::odometryBridge(const TrackingState& s
   return body;
 }
 
+std::optional<core::UncertainPose> Mapper::wheelBridge(const TrackingState& s, int64_t utime, std::string& why) const {
+  const auto refuse = [&why](const auto&... parts) -> std::optional<core::UncertainPose> {
+    std::ostringstream w;
+    (w << ... << parts);
+    why = w.str();
+    return std::nullopt;
+  };
+  if (!o_.warm_restart_bridge) return refuse("mapper.warm_restart_bridge is off");
+  if (!s.wheel) return refuse("the saved state holds no wheel odometry pose");
+  const auto now = tracker_.wheelOdometryAt(utime);
+  if (!now) return refuse("no wheel odometry pose at ", utime);
+  if (now->epoch != s.wheel->epoch) return refuse("wheel odometry epoch ", s.wheel->epoch, " then, ", now->epoch, " now");
+  const double gap_s = 1e-6 * static_cast<double>(now->utime - s.wheel->utime);
+  if (gap_s > o_.warm_restart_bridge_max_gap_s) return refuse(gap_s, " s > mapper.warm_restart_bridge_max_gap_s");
+  const auto d = messages::wheelOdometryBetween(*s.wheel, *now);
+  if (!d) return refuse(d.error().message);
+  // The SSC covariance is over (x, y) in the start frame; the right tangent's translation is
+  // in the end frame: rotated by the motion's θ.
+  Eigen::Matrix3d to_right = Eigen::Matrix3d::Identity();
+  to_right.topLeftCorner<2, 2>() = d->a_T_b.rotationMatrix().transpose();
+  const core::UncertainPose body =
+      tracker_.planarMotion(d->a_T_b.vector(), to_right * d->covariance * to_right.transpose());
+  const double distance_m = d->a_T_b.translation().norm();
+  const double angle_rad = std::abs(d->a_T_b.theta());
+  if (const std::string implausible = tracker_.implausibleMotion(distance_m, angle_rad, s.wheel->utime, now->utime);
+      !implausible.empty())
+    return refuse("implausible: ", implausible);
+  return body;
+}
+
+bool Mapper::waitForWheels(const vo_delta_t& msg) {
+  if (o_.warm_restart_wheel_wait_s <= 0.0 || !saved_tracking_->wheel || tracker_.wheelOdometryAt(msg.utime))
+    return false;
+  if (restart_first_vo_utime_ < 0) restart_first_vo_utime_ = msg.utime;
+  if (msg.utime - restart_first_vo_utime_ > micros(o_.warm_restart_wheel_wait_s)) return false;
+  const std::string note = restart_note_;
+  const bool vo_bridges = odometryBridge(*saved_tracking_, msg).has_value();
+  restart_note_ = note;
+  return !vo_bridges;
+}
+
 void Mapper::decideRestart(const vo_delta_t& msg) {
   const int64_t utime = msg.utime;
   const TrackingState s = *saved_tracking_;
@@ -599,7 +650,21 @@ void Mapper::decideRestart(const vo_delta_t& msg) {
   // Without it nothing tracked it for gap_s: the covariance grows by what it may have driven
   // and turned meanwhile (linear in the gap: a bounded speed); height, roll and pitch stay
   // (a floor, a level body).
-  const std::optional<core::UncertainPose> bridge = odometryBridge(s, msg);
+  std::optional<core::UncertainPose> bridge = odometryBridge(s, msg);
+  bool by_wheels = false;
+  if (!bridge) {
+    std::string why;
+    bridge = wheelBridge(s, utime, why);
+    by_wheels = bridge.has_value();
+    std::ostringstream note;
+    if (by_wheels)
+      note << "bridged by wheel odometry over " << 1e-6 * static_cast<double>(utime - s.wheel->utime) << " s: "
+           << bridge->mean.translation().norm() << " m, " << core::rotationAngle(bridge->mean.so3())
+           << " rad (VO " << restart_note_ << ")";
+    else
+      note << restart_note_ << "; wheels: " << why;
+    restart_note_ = note.str();
+  }
   if (!bridge && gap_s > o_.warm_restart_max_gap_s) {
     ++stats_.lost_restarts;
     return;
@@ -638,6 +703,7 @@ void Mapper::decideRestart(const vo_delta_t& msg) {
   rejected_candidate_.reset();
   ++stats_.warm_restarts;
   if (bridge) ++stats_.warm_bridged;
+  if (by_wheels) ++stats_.warm_bridged_by_wheels;
 }
 
 std::optional<TrackingState> Mapper::trackingState() const {
@@ -651,6 +717,7 @@ std::optional<TrackingState> Mapper::trackingState() const {
   s.in_elevator = in_elevator_;
   s.active_T_body = tracker_.delta();
   s.odometry = tracker_.odometryAtDelta();
+  s.wheel = tracker_.wheelOdometryAt(tracker_.deltaUtime());
   return s;
 }
 

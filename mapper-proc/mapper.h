@@ -66,6 +66,10 @@ struct TrackingState {
   // and its sender stamps one: a restart whose first VO_DELTA is of the same epoch bridges
   // the gap with the odometry's motion (MapperOptions::warm_restart_bridge).
   std::optional<Tracker::OdometryAnchor> odometry;
+  // The wheels' odometry pose (WHEEL_ODOM odom_*) at Δ's time, when their sender stamps one:
+  // a restart the VO frame cannot bridge (VO's chain restarted in the gap) is bridged by the
+  // wheels' motion when their epoch went on (MapperOptions::warm_restart_bridge).
+  std::optional<messages::WheelOdometryPose> wheel;
 };
 
 // The mapper's solver: iSAM's schedule (GN, a batch step every 100 updates) with the two
@@ -213,6 +217,10 @@ struct MapperOptions {
   // each door, a floor is 3-4 m at 1-2 m/s: 12 s and more door to door), and 20x replays lose
   // 7-23 s in a restart under the deputy.
   double warm_restart_bridge_max_gap_s = 30.0;
+  // A restart that VO cannot bridge sets VO frames aside for at most this long (seconds of
+  // message time) until a wheel pose at their time has arrived (two WHEEL_ODOM messages:
+  // 0.2 s at 10 Hz), so that the wheels can bridge it. 0: no wait.
+  double warm_restart_wheel_wait_s = 1.0;
   TrackerOptions tracker;
   solver::IncrementalOptions solver = mapperSolverOptions();
 
@@ -281,8 +289,12 @@ struct MapperStats {
   int64_t warm_confirmations = 0;
   int64_t warm_rejections = 0;
   // Warm restarts whose gap the odometry bridged (MapperOptions::warm_restart_bridge): no
-  // confirmation needed.
+  // confirmation needed; of them, those the wheels' odometry bridged (VO's chain had
+  // restarted in the gap), and VO frames set aside after a restart while waiting for the
+  // wheel pose to bridge with (at most warm_restart_wheel_wait_s).
   int64_t warm_bridged = 0;
+  int64_t warm_bridged_by_wheels = 0;
+  int64_t warm_wheel_waits = 0;
   MapperTiming timing;
   std::string text() const;
   // Adds the counters of another mapper's stats (sessions mapped by successive mappers).
@@ -450,6 +462,12 @@ class Mapper {
   // msg's (saved_T_now, body frames), when the bridge may cross it; else empty, and
   // restart_note_ says why.
   std::optional<core::UncertainPose> odometryBridge(const TrackingState& s, const vo_delta_t& msg);
+  // The same from the wheels' odometry frame, to the first VO_DELTA's time `utime`; why not
+  // (if not) in `why`.
+  std::optional<core::UncertainPose> wheelBridge(const TrackingState& s, int64_t utime, std::string& why) const;
+  // Whether the restart decision waits for the wheels: the saved state holds a wheel pose, VO
+  // cannot bridge, no wheel pose at msg's time has arrived yet, and the wait is not over.
+  bool waitForWheels(const vo_delta_t& msg);
   // A registration to a restored node while resumedUnconfirmed() (mapper_registration.cpp).
   std::optional<int64_t> confirmResumed(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
                                         const core::UncertainPose& q_T_now, bool* registered);
@@ -501,6 +519,7 @@ class Mapper {
   std::optional<TrackingState> saved_tracking_;  // restore()'s, until decideRestart()
   bool resumed_ = false;            // warm restart, placement not confirmed yet
   std::optional<double> restart_gap_s_;
+  int64_t restart_first_vo_utime_ = -1;  // the first VO_DELTA after a restart (waitForWheels)
   std::string restart_note_;
   int64_t resume_first_new_node_ = 0;  // nodes from this id on were made after the restart
   std::vector<register_request_t> requests_;

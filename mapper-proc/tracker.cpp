@@ -161,6 +161,7 @@ Status Tracker::addVo(const vo_delta_t& msg) {
     ref_utime_ = msg.utime;
     recent_wheel_.clear();
     ++counts_.restarts;
+    delta_utime_ = msg.utime;
     if (ok) ++counts_.vo_applied;
     else ++counts_.vo_failed;
     anchorOdometry(msg, Mat6::Zero());
@@ -177,6 +178,7 @@ Status Tracker::addVo(const vo_delta_t& msg) {
       toBody(SE3d(q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2])), *cov);
   if (!vo_mode_ || msg.ref_utime != ref_utime_) rejoin(msg.ref_utime, ref_T_body, msg.utime);
   pending_ = ref_T_body;
+  delta_utime_ = msg.utime;
   ++counts_.vo_applied;
   anchorOdometry(msg, msg.keyframe_changed ? Mat6::Zero() : *cov);
   if (msg.keyframe_changed) {
@@ -221,6 +223,7 @@ void Tracker::enterWheelMode(int64_t lost_utime) {
   pending_ = UncertainPose{};
   vo_mode_ = false;
   vo_lost_utime_ = lost_utime;
+  delta_utime_ = lost_utime;
   std::deque<wheel_odom_t> buffered;
   buffered.swap(recent_wheel_);
   for (const wheel_odom_t& w : buffered)
@@ -312,6 +315,7 @@ Status Tracker::addWheel(const wheel_odom_t& msg) {
   }
   last_wheel_utime_ = msg.utime;
   wheel_odometer_m_ += std::hypot(msg.delta_x_m, msg.delta_y_m);
+  keepWheelPose(msg);
   if (vo_mode_) {
     // Kept to bridge a VO failure from its last good frame on.
     recent_wheel_.push_back(msg);
@@ -328,6 +332,32 @@ Status Tracker::addWheel(const wheel_odom_t& msg) {
   if (msg.utime <= vo_lost_utime_) return Ok{};
   applyWheel(msg, vo_lost_utime_);
   return Ok{};
+}
+
+void Tracker::keepWheelPose(const wheel_odom_t& msg) {
+  if (msg.odom_epoch == 0) return;
+  auto pose = messages::wheelOdometryPose(msg);
+  if (!pose) {
+    ++counts_.odometry_refused;
+    return;
+  }
+  if (!wheel_poses_.empty() && wheel_poses_.back().epoch != pose->epoch) wheel_poses_.clear();
+  wheel_poses_.push_back(*pose);
+  while (wheel_poses_.size() > 2 && wheel_poses_.front().utime < msg.utime - 1'000'000) wheel_poses_.pop_front();
+}
+
+UncertainPose Tracker::planarMotion(const Eigen::Vector3d& x, const Eigen::Matrix3d& covariance) const {
+  UncertainPose inc;
+  inc.mean = SE3d(core::SO3d::exp(core::Vec3(0, 0, x[2])), core::Vec3(x[0], x[1], 0.0));
+  const int idx[3] = {0, 1, 5};
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) inc.covariance(idx[r], idx[c]) = covariance(r, c);
+  const double sm = o_.wheel_offplane_sigma_m, sr = o_.wheel_offplane_sigma_rad;
+  inc.covariance(2, 2) += sm * sm;
+  inc.covariance(3, 3) += sr * sr;
+  inc.covariance(4, 4) += sr * sr;
+  inc.covariance = symmetric(inc.covariance);
+  return inc;
 }
 
 void Tracker::extrapolateWheel(int64_t utime) {
@@ -417,19 +447,10 @@ void Tracker::applyWheel(const wheel_odom_t& msg, int64_t from_utime) {
     P -= k * P.row(2);
     ++counts_.gyro_turns;
   }
-  UncertainPose inc;
-  inc.mean = SE3d(core::SO3d::exp(core::Vec3(0, 0, x[2])), core::Vec3(x[0], x[1], 0.0));
-  // (x, y, θ) map to tangent entries (υx, υy, ωz) = 0, 1, 5; the planar SSC covariance equals
-  // the right-perturbation one to first order for increments this small.
-  const int idx[3] = {0, 1, 5};
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) inc.covariance(idx[r], idx[c]) = P(r, c);
-  const double sm = o_.wheel_offplane_sigma_m, sr = o_.wheel_offplane_sigma_rad;
-  inc.covariance(2, 2) += sm * sm;
-  inc.covariance(3, 3) += sr * sr;
-  inc.covariance(4, 4) += sr * sr;
-  inc.covariance = symmetric(inc.covariance);
-  commit(msg.utime, inc);
+  // The planar SSC covariance equals the right-perturbation one to first order for increments
+  // this small.
+  commit(msg.utime, planarMotion(x, P));
+  delta_utime_ = msg.utime;
   ++counts_.wheel_applied;
 }
 

@@ -169,6 +169,16 @@ class Tracker {
     Mat6 own_covariance = Mat6::Zero();
   };
   const std::optional<OdometryAnchor>& odometryAtDelta() const { return odometry_at_delta_; }
+  // The message time Δ is at: its last VO frame, or the last wheel increment compounded.
+  int64_t deltaUtime() const { return delta_utime_; }
+  // The wheels' odometry pose (WHEEL_ODOM odom_*) at `utime`, from the last second of them
+  // (messages::wheelOdometryAt); empty without two of one epoch around it.
+  std::optional<messages::WheelOdometryPose> wheelOdometryAt(int64_t utime) const {
+    return messages::wheelOdometryAt(wheel_poses_, utime);
+  }
+  // A planar motion (x, y, θ) with its covariance over the right tangent's (υx, υy, ωz) as
+  // the body's, the unobserved height, roll and pitch given wheel_offplane_sigma_*.
+  UncertainPose planarMotion(const Eigen::Vector3d& x, const Eigen::Matrix3d& covariance) const;
 
   // "" when a motion of `distance_m` and `angle_rad` over [from_utime, to_utime] is within
   // max_speed_m_s and max_turn_rad_s (spans under 1 ms count as 1 ms), else why not.
@@ -190,6 +200,8 @@ class Tracker {
   void rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t utime);
   // Compounds a wheel increment, or its share after from_utime when it starts before.
   void applyWheel(const wheel_odom_t& msg, int64_t from_utime);
+  // Keeps msg's odometry pose (if any) for wheelOdometryAt().
+  void keepWheelPose(const wheel_odom_t& msg);
   // Wheel odometry from its last increment to `utime` at that increment's rate (a VO restart
   // between two wheel messages).
   void extrapolateWheel(int64_t utime);
@@ -225,6 +237,8 @@ class Tracker {
   std::deque<Increment> history_;
   std::deque<wheel_odom_t> recent_wheel_;  // while VO tracks (wheel_buffer_s)
   std::optional<OdometryAnchor> odometry_at_delta_;
+  int64_t delta_utime_ = -1;
+  std::deque<messages::WheelOdometryPose> wheel_poses_;  // the last second of WHEEL_ODOM odom_*, one epoch
   TrackerCounts counts_;
 };
 

@@ -206,6 +206,86 @@ TEST(MapperWarmRestart, AnOdometryEpochThatChangedInTheGapFallsBackToTheInflated
   EXPECT_TRUE(again.mapper().resumedUnconfirmed());
 }
 
+// The same gap with vo-proc's chain restarted in it (a blank wall, a dark room: the
+// simulated VO starts a new epoch at every failure), but the wheels' odometry went on: the
+// wheels bridge it, and the restarted mapper tracks at once as with VO's bridge.
+TEST(MapperWarmRestart, AGapInWhichVoRestartedItsChainIsBridgedByTheWheels) {
+  evermap::testing::ScratchDir dir;
+  ScriptedDrive drive(scriptedOptions());
+  drive.wheels(true);
+  const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
+  ASSERT_TRUE(map.tracking->wheel);  // the wheels' odometry pose at Δ's time is saved too
+  EXPECT_EQ(map.tracking->wheel->utime, drive.utime());
+  const auto restored = static_cast<int64_t>(map.nodes.size());
+  drive.blind(true);
+  ASSERT_TRUE(drive.restart(map, scriptedOptions(), 8.0, 3.0, GapOdometry::kNewEpoch));
+  const Mapper& m = drive.mapper();
+  EXPECT_EQ(m.stats().warm_restarts, 1);
+  EXPECT_EQ(m.stats().warm_bridged, 1);
+  EXPECT_EQ(m.stats().warm_bridged_by_wheels, 1);
+  EXPECT_FALSE(m.resumedUnconfirmed()) << m.restartNote();
+  EXPECT_NE(m.restartNote().find("wheel"), std::string::npos) << m.restartNote();
+  EXPECT_NE(m.restartNote().find("epoch"), std::string::npos) << m.restartNote();  // why VO could not
+  const SE3d truth_now = drive.nodeTruth(0).inverse() * drive.truePose();
+  const SE3d estimate_now = m.nodePose(0).inverse() * m.pose().mean;
+  EXPECT_LT((estimate_now.translation() - truth_now.translation()).norm(), 0.02);
+  EXPECT_LT(m.pose().covariance(0, 0), 0.1 * 0.1);
+  const int64_t restart_utime = drive.utime();
+  drive.driveTo(16.0, 0.0);
+  ASSERT_GE(static_cast<int64_t>(m.nodes().size()), restored + 5);
+  EXPECT_EQ(m.nodes()[static_cast<size_t>(restored)].keyframe_utime, restart_utime);  // at once
+  expectNodesFromOnWhereTheTruthIs(drive, restored);
+  drive.blind(false);
+  homeAndOutAlongTheMappedCorridor(drive);
+  EXPECT_GT(m.stats().loop_closures, 3);
+  EXPECT_EQ(falseLoops(drive), 0);
+  EXPECT_EQ(m.stats().warm_confirmations, 0);
+}
+
+// The wheels bridge only within their epoch: a wheel driver restarted in the gap leaves the
+// inflated pose and its confirmation. And a restart whose first VO_DELTA comes before any
+// wheel pose at its time sets VO frames aside until one has arrived, then bridges.
+TEST(MapperWarmRestart, TheWheelsBridgeWithinTheirEpochAndAreWaitedForBriefly) {
+  evermap::testing::ScratchDir dir;
+  ScriptedDrive drive(scriptedOptions());
+  drive.wheels(true);
+  const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
+  drive.blind(true);
+  drive.restartWheelDriver();
+  ASSERT_TRUE(drive.restart(map, scriptedOptions(), 8.0, 3.0, GapOdometry::kNewEpoch));
+  EXPECT_EQ(drive.mapper().stats().warm_bridged, 0);
+  EXPECT_TRUE(drive.mapper().resumedUnconfirmed());
+  EXPECT_NE(drive.mapper().restartNote().find("wheel odometry epoch"), std::string::npos) << drive.mapper().restartNote();
+
+  ScriptedDrive late(scriptedOptions());
+  late.wheels(true, /*late=*/true);
+  const MapSnapshot map2 = drivenAndSaved(late, dir.path() / "map2.db");
+  late.blind(true);
+  ASSERT_TRUE(late.restart(map2, scriptedOptions(), 8.0, 3.0, GapOdometry::kNewEpoch));
+  EXPECT_EQ(late.mapper().stats().warm_restarts, 0);  // not decided yet
+  EXPECT_EQ(late.mapper().stats().warm_wheel_waits, 1);
+  late.driveTo(11.5, 0.0);
+  const Mapper& m = late.mapper();
+  EXPECT_EQ(m.stats().warm_bridged_by_wheels, 1) << m.restartNote();
+  EXPECT_LE(m.stats().warm_wheel_waits, 2);  // two wheel poses: 0.2 s at 10 Hz
+  EXPECT_FALSE(m.resumedUnconfirmed());
+  const SE3d truth_now = late.nodeTruth(0).inverse() * late.truePose();
+  const SE3d estimate_now = m.nodePose(0).inverse() * m.pose().mean;
+  EXPECT_LT((estimate_now.translation() - truth_now.translation()).norm(), 0.03);
+  // Without wheel poses the wait ends: after warm_restart_wheel_wait_s the inflation decides.
+  ScriptedDrive silent(scriptedOptions());
+  silent.wheels(true);
+  const MapSnapshot map3 = drivenAndSaved(silent, dir.path() / "map3.db");
+  silent.wheels(false);
+  silent.blind(true);
+  ASSERT_TRUE(silent.restart(map3, scriptedOptions(), 8.0, 3.0, GapOdometry::kNewEpoch));
+  silent.driveTo(13.0, 0.0);
+  EXPECT_EQ(silent.mapper().stats().warm_restarts, 1);
+  EXPECT_EQ(silent.mapper().stats().warm_bridged, 0);
+  EXPECT_EQ(silent.mapper().stats().warm_wheel_waits, 11);  // frames at 0.1 s within 1 s
+  EXPECT_TRUE(silent.mapper().resumedUnconfirmed());
+}
+
 // A bridge whose motion has a vertical part beyond a floor's tolerance (a ride the restarted
 // mapper did not hear of) or that is longer than warm_restart_bridge_max_gap_s is refused.
 TEST(MapperWarmRestart, TheBridgeIsRefusedBeyondItsGapOrForAVerticalMotion) {
@@ -370,7 +450,7 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheTrackingStateOpensAndIsMigrated) {
   }
   auto store = MapStore::open(file);
   ASSERT_TRUE(store) << store.error().message;
-  EXPECT_EQ(*store->schemaVersion(), 2);
+  EXPECT_EQ(*store->schemaVersion(), 3);
   auto snap = store->load();
   ASSERT_TRUE(snap);
   EXPECT_FALSE(snap->tracking);
@@ -384,7 +464,7 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheTrackingStateOpensAndIsMigrated) {
 }
 
 // Stores of schema version 1 (map_tracking without its odom_* columns) open read-only as they
-// are and read-write migrated to version 2; their state restarts warm without the bridge, and
+// are and read-write migrated to the current version; their state restarts warm without the bridge, and
 // the next save stores the odometry pose, which a load gives back as it was saved.
 TEST(MapStore, AStoreOfTheSchemaBeforeTheOdometryPoseIsMigratedAndTheRoundTripKeepsThePose) {
   evermap::testing::ScratchDir dir;
@@ -410,7 +490,7 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheOdometryPoseIsMigratedAndTheRoundTripKe
   }
   auto store = MapStore::open(file);
   ASSERT_TRUE(store) << store.error().message;
-  EXPECT_EQ(*store->schemaVersion(), 2);
+  EXPECT_EQ(*store->schemaVersion(), 3);
   auto snap = store->load();
   ASSERT_TRUE(snap && snap->tracking);
   EXPECT_FALSE(snap->tracking->odometry);
@@ -425,6 +505,44 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheOdometryPoseIsMigratedAndTheRoundTripKe
   EXPECT_LT((a.pose.odom_T_cam.mean.inverse() * saved->odometry->pose.odom_T_cam.mean).log().norm(), 1e-12);
   EXPECT_EQ(a.pose.odom_T_cam.covariance, saved->odometry->pose.odom_T_cam.covariance);
   EXPECT_EQ(a.own_covariance, saved->odometry->own_covariance);
+  EXPECT_TRUE(store->integrityCheck());
+}
+
+// Stores of schema version 2 (map_tracking without its wheel_* columns) open read-only as
+// they are and read-write migrated to version 3; the next save stores the wheels' odometry
+// pose, which a load gives back as it was saved.
+TEST(MapStore, AStoreOfTheSchemaBeforeTheWheelPoseIsMigratedAndTheRoundTripKeepsThePose) {
+  evermap::testing::ScratchDir dir;
+  const auto file = dir.path() / "v2.db";
+  ScriptedDrive drive(scriptedOptions());
+  drive.wheels(true);
+  drive.driveTo(4.0, 0.0);
+  ASSERT_NO_FATAL_FAILURE(saveAsAnOlderSchema(
+      drive, file,
+      "ALTER TABLE map_tracking DROP COLUMN wheel_epoch; ALTER TABLE map_tracking DROP COLUMN wheel_utime;"
+      "ALTER TABLE map_tracking DROP COLUMN wheel_pose; ALTER TABLE map_tracking DROP COLUMN wheel_covariance;"
+      "PRAGMA user_version=2;"));
+  {
+    auto ro = MapStore::open(file, MapStoreOptions{2, true});
+    ASSERT_TRUE(ro) << ro.error().message;
+    auto snap = ro->load();
+    ASSERT_TRUE(snap && snap->tracking) << snap.error().message;
+    EXPECT_TRUE(snap->tracking->odometry);
+    EXPECT_FALSE(snap->tracking->wheel);
+  }
+  auto store = MapStore::open(file);
+  ASSERT_TRUE(store) << store.error().message;
+  EXPECT_EQ(*store->schemaVersion(), 3);
+  ASSERT_TRUE(store->save(drive.mapper(), 0, 0));
+  const auto saved = drive.mapper().trackingState();
+  ASSERT_TRUE(saved && saved->wheel);
+  auto again = store->load();
+  ASSERT_TRUE(again && again->tracking && again->tracking->wheel);
+  const messages::WheelOdometryPose& w = *again->tracking->wheel;
+  EXPECT_EQ(w.epoch, saved->wheel->epoch);
+  EXPECT_EQ(w.utime, saved->wheel->utime);
+  EXPECT_EQ(w.odom_T_body.vector(), saved->wheel->odom_T_body.vector());
+  EXPECT_EQ(w.covariance, saved->wheel->covariance);
   EXPECT_TRUE(store->integrityCheck());
 }
 

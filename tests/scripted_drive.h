@@ -52,6 +52,15 @@ class ScriptedDrive {
   }
   // Registrations fail from now on (a dark corridor), until blind(false).
   void blind(bool on) { blind_ = on; }
+  // From now on every frame's planar motion also reaches the mapper as WHEEL_ODOM (exact,
+  // σ 1 mm / 1 mrad per increment, stamped with the wheels' odometry pose), after the frame's
+  // VO_DELTA; at a restart, before the first VO_DELTA unless `late`.
+  void wheels(bool on, bool late = false) {
+    wheels_ = on;
+    wheels_late_ = late;
+  }
+  // The wheel driver restarts: its next increment starts a new odometry epoch.
+  void restartWheelDriver() { wheel_odom_ = messages::WheelOdometryFrame{}; }
   // Only the next `n` global searches find a place (by appearance); later ones find none,
   // node-mode requests still register (-1: every search finds one).
   void globalSearchesFind(int n) { global_finds_ = n; }
@@ -85,12 +94,13 @@ class ScriptedDrive {
     const auto gap = static_cast<int64_t>(gap_s * 1e6);
     const int64_t frames = std::max<int64_t>(1, gap / 100000);
     for (int64_t k = 1; k <= frames; ++k) {
-      // VO's frames in the gap, seen by the odometry frame only.
+      // VO's frames in the gap, seen by the odometry frames only.
       const int64_t previous = utime_;
       utime_ += gap / frames;
       const SE3d step = planar(moved_dx / static_cast<double>(frames), 0, 0);
       vo_delta_t m = voMsg(utime_, previous, step, 1e-3, true);
       odom_.stamp(m);
+      if (wheels_) (void)wheelMsg(previous, utime_, step);
       pose_ = pose_ * step;
     }
     utime_ += 100000;
@@ -98,7 +108,10 @@ class ScriptedDrive {
     vo_delta_t first = odometry == GapOdometry::kNewEpoch ? voRestart(utime_)
                                                           : voMsg(utime_, utime_ - 100000, SE3d(), 1e-3, true);
     if (odometry != GapOdometry::kNone) odom_.stamp(first);
+    const wheel_odom_t wheel = wheelMsg(utime_ - 100000, utime_, SE3d());
+    if (wheels_ && !wheels_late_) EXPECT_TRUE(mapper_->onWheel(wheel));
     const Status s = mapper_->onVo(first);
+    if (wheels_ && wheels_late_) EXPECT_TRUE(mapper_->onWheel(wheel));
     truth_[utime_] = pose_;
     answer();
     return s;
@@ -138,12 +151,26 @@ class ScriptedDrive {
     odom_.stamp(m);
     return mapper_->onVo(m);
   }
+  // A WHEEL_ODOM increment of the planar part of `motion`, stamped with its odometry pose.
+  wheel_odom_t wheelMsg(int64_t prev_utime, int64_t utime, const SE3d& motion) {
+    const core::SE2d d = core::toPlanar(motion);
+    wheel_odom_t w{};
+    w.prev_utime = prev_utime;
+    w.utime = utime;
+    w.delta_x_m = d.x();
+    w.delta_y_m = d.y();
+    w.delta_theta_rad = d.theta();
+    w.covariance[0] = w.covariance[4] = w.covariance[8] = 1e-6;
+    wheel_odom_.stamp(w);
+    return w;
+  }
   void frame(const SE3d& next) {
     utime_ += 100000;
     if (truth_.empty()) {
       EXPECT_TRUE(send(voRestart(utime_)));
     } else {
       EXPECT_TRUE(send(voMsg(utime_, utime_ - 100000, pose_.inverse() * next, 1e-3, true)));
+      if (wheels_) EXPECT_TRUE(mapper_->onWheel(wheelMsg(utime_ - 100000, utime_, pose_.inverse() * next)));
     }
     pose_ = next;
     truth_[utime_] = next;
@@ -192,6 +219,9 @@ class ScriptedDrive {
 
   std::unique_ptr<Mapper> mapper_;
   messages::OdometryFrame odom_;  // vo-proc's, which no mapper restart resets
+  messages::WheelOdometryFrame wheel_odom_;  // the wheel driver's
+  bool wheels_ = false;
+  bool wheels_late_ = false;
   double registration_variance_;
   double alias_dx_ = 0.0;
   bool blind_ = false;

@@ -29,9 +29,14 @@
 #include <optional>
 #include <string>
 
+#include <deque>
+
+#include <Eigen/Core>
 #include <evermap/vo_delta_t.hpp>
+#include <evermap/wheel_odom_t.hpp>
 
 #include "core/common/expected.h"
+#include "core/geometry/se2.h"
 #include "core/geometry/se3.h"
 
 namespace evermap::messages {
@@ -67,6 +72,47 @@ class OdometryFrame {
   int64_t epoch_ = 0;
   int64_t ref_utime_ = -1;         // the reference keyframe the next frames ride on
   core::UncertainPose odom_T_ref_;
+};
+
+// The wheels' odometry frame (WHEEL_ODOM odom_*): planar, Smith-Self-Cheeseman on (x, y, θ)
+// (core/geometry/se2.h). Compounding b = a ⊕ d gives Σ_b = J1 Σ_a J1ᵀ + J2 Σ_d J2ᵀ, and the
+// J1 of a chain compose (J1 of a → m → b is J1 of a → b: a shear by the displacement), so
+// the covariance of the increments between two poses of one epoch is recovered exactly:
+// Σ_d = J2⁻¹ (Σ_b − J1 Σ_a J1ᵀ) J2⁻ᵀ. The epoch starts at the sender's first increment and
+// again wherever an increment does not begin where the previous one ended (a hole: motion
+// nothing measured).
+struct WheelOdometryPose {
+  int64_t epoch = 0;  // utime the integration started at
+  int64_t utime = 0;
+  core::SE2d odom_T_body;
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // over (x, y, θ) in the odometry frame
+};
+// A planar motion a_T_b and its covariance over (x, y, θ) expressed in a's frame (SSC).
+struct PlanarMotion {
+  core::SE2d a_T_b;
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+};
+
+// The pose `m` carries; empty when it carries none (odom_epoch 0) or its fields are no pose
+// (not finite, a covariance not symmetric positive semi-definite): then `why` says which.
+std::optional<WheelOdometryPose> wheelOdometryPose(const evermap::wheel_odom_t& m, std::string* why = nullptr);
+// The motion between two poses of one epoch, b not before a; an error otherwise.
+Expected<PlanarMotion> wheelOdometryBetween(const WheelOdometryPose& a, const WheelOdometryPose& b);
+// The pose at `utime` from recent poses of one epoch in time order: interpolated at constant
+// rate between the two around it, or past the newest at the rate of the last increment for
+// at most two of its lengths (variance: the share's, and as much again for the change of
+// speed it cannot see). Empty when utime is before the oldest, further past the newest, or
+// fewer than two poses are kept (one pose: only its own time).
+std::optional<WheelOdometryPose> wheelOdometryAt(const std::deque<WheelOdometryPose>& poses, int64_t utime);
+
+// Stamps a WHEEL_ODOM stream with odometry poses (above): one per sender, messages in order.
+class WheelOdometryFrame {
+ public:
+  void stamp(evermap::wheel_odom_t& m);
+  int64_t epoch() const { return pose_.epoch; }
+
+ private:
+  WheelOdometryPose pose_;
 };
 
 }  // namespace evermap::messages

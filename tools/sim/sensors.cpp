@@ -252,6 +252,7 @@ wheel_odom_t WheelModel::increment(int64_t prev_utime, const BodyState& prev, in
   m.covariance[0] = sx * sx;
   m.covariance[4] = sy * sy;
   m.covariance[8] = st * st;
+  odometry_frame_.stamp(m);
   return m;
 }
 

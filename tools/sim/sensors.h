@@ -181,6 +181,7 @@ class WheelModel {
   WheelOptions o_;
   Intervals slips_;
   Random rng_;
+  messages::WheelOdometryFrame odometry_frame_;  // odom_* of every increment, as a wheel driver integrates them
 };
 
 attitude_t measureAttitude(int64_t utime, const BodyState& state, const AttitudeOptions& o,
