@@ -139,7 +139,7 @@ void LcmNode::afterMessage(int64_t utime, bool publish_pose) {
     // One line per start from a stored state (a killed process prints no summary).
     restart_reported_ = true;
     if (*m_.restartGapS() < 0.0)
-      std::printf("evermap-mapper-proc: lost restart: no usable tracking state (none stored, or a ride or session since)\n");
+      std::printf("evermap-mapper-proc: lost restart: no usable tracking state (%s)\n", m_.restartNote().c_str());
     else
       std::printf("evermap-mapper-proc: %s restart: %.2f s of message time since the saved tracking state (%s)\n",
                   m_.stats().warm_restarts > 0 ? "warm" : "lost", *m_.restartGapS(), m_.restartNote().c_str());

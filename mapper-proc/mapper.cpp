@@ -196,6 +196,9 @@ Status Mapper::onFloor(const floor_t& msg) {
     saved_tracking_.reset();
     ++stats_.lost_restarts;
     restart_gap_s_ = -1.0;
+    restart_note_ = msg.event == floor_t::EVENT_RIDE_START || msg.event == floor_t::EVENT_RIDE_END
+                        ? "a ride announced after the saved tracking state"
+                        : "a session announced after the saved tracking state";
   }
   floor_confirmed_ = true;
   if (msg.event == floor_t::EVENT_RIDE_START) {
@@ -554,6 +557,8 @@ Status Mapper::restore(const MapSnapshot& map) {
   } else {
     ++stats_.lost_restarts;
     restart_gap_s_ = -1.0;
+    restart_note_ = !map.tracking ? "no tracking state stored (the mapper was lost, or an older store)"
+                                  : "the stored tracking state is older than the newest node or names none";
   }
   return Ok{};
 }
