@@ -271,7 +271,13 @@ Expected<MapEvaluation> evaluateMap(const EvalMap& map, const RunTruth& truth,
     if (a == node_truth.end() || b == node_truth.end()) continue;
     ++e.loops_with_truth;
     const core::SE3d err = (a->second.inverse() * b->second).inverse() * l.from_T_to;
-    if (err.translation().norm() > 0.5 || core::rotationAngle(err.so3()) > 5.0 * M_PI / 180.0) ++e.false_loops;
+    const double off_m = err.translation().norm(), off_deg = core::rotationAngle(err.so3()) * 180.0 / M_PI;
+    if (off_m > 0.5 || off_deg > 5.0) {
+      ++e.false_loops;
+      std::ostringstream line;
+      line << l.from << "-" << l.to << ": " << off_m << " m, " << off_deg << " deg off the truth";
+      e.false_loop_lines.push_back(line.str());
+    }
   }
   // Node ATE needs 3 nodes with ground truth for the alignment; a smaller map (a camera that
   // turned in place) has the rest of its evaluation, and NaN there (printed "n/a").
@@ -318,8 +324,9 @@ std::string MapEvaluation::text() const {
     << "floors " << floors << " (" << floors_right << " at the building's height)\n"
     << "nodes_on_true_floor " << nodes_floor_right << "\n"
     << "nodes_on_consistent_floor " << nodes_floor_consistent << "\n"
-    << "loop_edges_false " << false_loops << " (of " << loops_with_truth << " with truth)\n"
-    << "sessions " << sessions << " (run: " << sessions_truth << ")\n";
+    << "loop_edges_false " << false_loops << " (of " << loops_with_truth << " with truth)\n";
+  for (const std::string& line : false_loop_lines) s << "false_loop_edge " << line << "\n";
+  s << "sessions " << sessions << " (run: " << sessions_truth << ")\n";
   if (std::isnan(ate_rmse_m))
     s << "node_ate_rmse_m n/a (" << nodes_with_truth << " nodes with ground truth, 3 needed)\n";
   else
