@@ -40,6 +40,10 @@ Status MapperOptions::validate() const {
     return Error{"mapper.warm_restart_bridge_max_gap_s: must be a finite number >= 0"};
   if (!(warm_restart_wheel_wait_s >= 0.0) || !(warm_restart_wheel_wait_s <= 10.0))
     return Error{"mapper.warm_restart_wheel_wait_s: must be a number in [0, 10]"};
+  if (!(warm_restart_elevator_radius_m >= 0.0) || !std::isfinite(warm_restart_elevator_radius_m))
+    return Error{"mapper.warm_restart_elevator_radius_m: must be a finite number >= 0"};
+  if (!(warm_restart_ride_min_s >= 0.0) || !std::isfinite(warm_restart_ride_min_s))
+    return Error{"mapper.warm_restart_ride_min_s: must be a finite number >= 0"};
   if (!(consistency_gate > 0.0)) return Error{"mapper.consistency_gate: must be > 0"};
   if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
   if (!(min_closure_information >= 0.0) || !std::isfinite(min_closure_information))
@@ -88,6 +92,7 @@ void MapperStats::addCounters(const MapperStats& o) {
   warm_bridged += o.warm_bridged;
   warm_bridged_by_wheels += o.warm_bridged_by_wheels;
   warm_wheel_waits += o.warm_wheel_waits;
+  warm_elevator_refusals += o.warm_elevator_refusals;
 }
 
 std::string MapperStats::text() const {
@@ -103,7 +108,8 @@ std::string MapperStats::text() const {
     << "\nrestored_constraints " << restored_constraints << "\nwarm_restarts " << warm_restarts
     << "\nlost_restarts " << lost_restarts << "\nwarm_confirmations " << warm_confirmations
     << "\nwarm_rejections " << warm_rejections << "\nwarm_bridged " << warm_bridged
-    << "\nwarm_bridged_by_wheels " << warm_bridged_by_wheels << "\nwarm_wheel_waits " << warm_wheel_waits << "\n";
+    << "\nwarm_bridged_by_wheels " << warm_bridged_by_wheels << "\nwarm_wheel_waits " << warm_wheel_waits
+    << "\nwarm_elevator_refusals " << warm_elevator_refusals << "\n";
   return s.str();
 }
 
@@ -628,6 +634,21 @@ std::optional<core::UncertainPose> Mapper::wheelBridge(const TrackingState& s, i
   return body;
 }
 
+std::optional<std::pair<int64_t, double>> Mapper::elevatorNear(const core::SE3d& world_T_body) const {
+  std::optional<std::pair<int64_t, double>> best;
+  if (o_.warm_restart_elevator_radius_m <= 0.0) return best;
+  const auto n = static_cast<int64_t>(nodes_.size());
+  for (const Constraint& c : constraints_.all()) {
+    if (c.kind != ConstraintKind::kOdometry || c.from < 0 || c.to < 0 || c.from >= n || c.to >= n) continue;
+    if (nodes_[static_cast<size_t>(c.from)].floor == nodes_[static_cast<size_t>(c.to)].floor) continue;
+    for (const int64_t id : {c.from, c.to}) {
+      const double d = (nodePose(id).translation() - world_T_body.translation()).head<2>().norm();
+      if (d <= o_.warm_restart_elevator_radius_m && (!best || d < best->second)) best = std::pair{id, d};
+    }
+  }
+  return best;
+}
+
 bool Mapper::waitForWheels(const vo_delta_t& msg) {
   if (o_.warm_restart_wheel_wait_s <= 0.0 || !saved_tracking_->wheel || tracker_.wheelOdometryAt(msg.utime))
     return false;
@@ -661,13 +682,29 @@ void Mapper::decideRestart(const vo_delta_t& msg) {
     std::string why;
     bridge = wheelBridge(s, utime, why);
     by_wheels = bridge.has_value();
+    if (!by_wheels) restart_note_ += "; wheels: " + why;
+  }
+  // Near an elevator, a gap long enough to ride may hold a ride neither bridge sees: the
+  // floor is unknown, so the restart is lost (global searches on every floor), not inflated.
+  if (gap_s >= o_.warm_restart_ride_min_s && s.active_node >= 0 && s.active_node < static_cast<int64_t>(nodes_.size())) {
+    const core::SE3d saved = nodePose(s.active_node) * s.active_T_body.mean;
+    auto near = elevatorNear(saved);
+    if (!near && bridge) near = elevatorNear(saved * bridge->mean);
+    if (near) {
+      std::ostringstream note;
+      note << near->second << " m from the elevator at node " << near->first << " over " << gap_s
+           << " s: a ride may lie in the gap (" << (bridge ? "not bridged" : restart_note_) << ")";
+      restart_note_ = note.str();
+      ++stats_.lost_restarts;
+      ++stats_.warm_elevator_refusals;
+      return;
+    }
+  }
+  if (by_wheels) {
     std::ostringstream note;
-    if (by_wheels)
-      note << "bridged by wheel odometry over " << 1e-6 * static_cast<double>(utime - s.wheel->utime) << " s: "
-           << bridge->mean.translation().norm() << " m, " << core::rotationAngle(bridge->mean.so3())
-           << " rad (VO " << restart_note_ << ")";
-    else
-      note << restart_note_ << "; wheels: " << why;
+    note << "bridged by wheel odometry over " << 1e-6 * static_cast<double>(utime - s.wheel->utime) << " s: "
+         << bridge->mean.translation().norm() << " m, " << core::rotationAngle(bridge->mean.so3()) << " rad (VO "
+         << restart_note_ << ")";
     restart_note_ = note.str();
   }
   if (!bridge && gap_s > o_.warm_restart_max_gap_s) {

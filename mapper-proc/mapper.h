@@ -221,6 +221,14 @@ struct MapperOptions {
   // message time) until a wheel pose at their time has arrived (two WHEEL_ODOM messages:
   // 0.2 s at 10 Hz), so that the wheels can bridge it. 0: no wait.
   double warm_restart_wheel_wait_s = 1.0;
+  // A ride the restarted mapper did not hear of (its FLOOR messages came while it was down)
+  // is what neither bridge can see: the wheels are planar, and VO sees a closed cab standing
+  // still. So a gap of at least warm_restart_ride_min_s (to enter a cab, ride and leave it:
+  // two door waits and a floor) that starts or ends within warm_restart_elevator_radius_m
+  // (in x-y) of an elevator the map knows (a node at either end of an odometry constraint
+  // between floors) is not bridged. 0 m: no such guard.
+  double warm_restart_elevator_radius_m = 5.0;
+  double warm_restart_ride_min_s = 8.0;
   TrackerOptions tracker;
   solver::IncrementalOptions solver = mapperSolverOptions();
 
@@ -295,6 +303,8 @@ struct MapperStats {
   int64_t warm_bridged = 0;
   int64_t warm_bridged_by_wheels = 0;
   int64_t warm_wheel_waits = 0;
+  // Restarts near an elevator over a gap a ride fits in: lost, not bridged or inflated.
+  int64_t warm_elevator_refusals = 0;
   MapperTiming timing;
   std::string text() const;
   // Adds the counters of another mapper's stats (sessions mapped by successive mappers).
@@ -468,6 +478,9 @@ class Mapper {
   // Whether the restart decision waits for the wheels: the saved state holds a wheel pose, VO
   // cannot bridge, no wheel pose at msg's time has arrived yet, and the wait is not over.
   bool waitForWheels(const vo_delta_t& msg);
+  // The node at an end of a ride (an odometry constraint between floors) closest in x-y to
+  // `world_T_body` within warm_restart_elevator_radius_m, and its distance; empty if none.
+  std::optional<std::pair<int64_t, double>> elevatorNear(const core::SE3d& world_T_body) const;
   // A registration to a restored node while resumedUnconfirmed() (mapper_registration.cpp).
   std::optional<int64_t> confirmResumed(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
                                         const core::UncertainPose& q_T_now, bool* registered);

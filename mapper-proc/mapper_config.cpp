@@ -42,6 +42,8 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.warm_restart_bridge", &o->warm_restart_bridge);
   reader.read("mapper.warm_restart_bridge_max_gap_s", &o->warm_restart_bridge_max_gap_s);
   reader.read("mapper.warm_restart_wheel_wait_s", &o->warm_restart_wheel_wait_s);
+  reader.read("mapper.warm_restart_elevator_radius_m", &o->warm_restart_elevator_radius_m);
+  reader.read("mapper.warm_restart_ride_min_s", &o->warm_restart_ride_min_s);
   reader.read("mapper.tracker.wheel_offplane_sigma_m", &o->tracker.wheel_offplane_sigma_m);
   reader.read("mapper.tracker.wheel_offplane_sigma_rad", &o->tracker.wheel_offplane_sigma_rad);
   reader.read("mapper.tracker.history_s", &o->tracker.history_s);

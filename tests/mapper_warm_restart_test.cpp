@@ -286,6 +286,46 @@ TEST(MapperWarmRestart, TheWheelsBridgeWithinTheirEpochAndAreWaitedForBriefly) {
   EXPECT_TRUE(silent.mapper().resumedUnconfirmed());
 }
 
+// Near an elevator the map knows, a gap a ride fits in may hold one whose FLOOR messages the
+// restarted mapper never heard, and which neither the wheels (planar) nor VO (a closed cab
+// standing still) can see: the restart is lost and relocalises, on whatever floor, instead of
+// being bridged onto the floor it was saved on. A gap too short for a ride is bridged.
+TEST(MapperWarmRestart, AGapNearAnElevatorLongEnoughForARideIsNotBridged) {
+  evermap::testing::ScratchDir dir;
+  for (const double gap_s : {10.0, 2.0}) {
+    ScriptedDrive drive(scriptedOptions());
+    drive.wheels(true);
+    drive.driveTo(8.0, 0.0);
+    drive.rideEnd(1, 3.0, 0.05);  // up at x = 8, floor 1 mapped to x = 12, down again there
+    drive.driveTo(12.0, 0.0);
+    drive.rideEnd(0, 0.0, 0.05);
+    drive.driveTo(14.0, 0.0);
+    const auto file = dir.path() / ("map" + std::to_string(static_cast<int>(gap_s)) + ".db");
+    MapSnapshot map;
+    {
+      auto store = MapStore::open(file);
+      ASSERT_TRUE(store && store->save(drive.mapper(), drive.mapper().session(), 0));
+      auto snap = store->load();
+      ASSERT_TRUE(snap && snap->tracking);
+      map = *snap;
+    }
+    drive.blind(true);
+    ASSERT_TRUE(drive.restart(map, scriptedOptions(), gap_s, 1.0, GapOdometry::kSameEpoch));
+    const Mapper& m = drive.mapper();
+    if (gap_s >= scriptedOptions().warm_restart_ride_min_s) {
+      EXPECT_EQ(m.stats().warm_elevator_refusals, 1);
+      EXPECT_EQ(m.stats().warm_restarts, 0);
+      EXPECT_EQ(m.stats().lost_restarts, 1);
+      EXPECT_TRUE(m.lost());
+      EXPECT_NE(m.restartNote().find("elevator"), std::string::npos) << m.restartNote();
+    } else {
+      EXPECT_EQ(m.stats().warm_elevator_refusals, 0);
+      EXPECT_EQ(m.stats().warm_bridged, 1) << m.restartNote();
+      EXPECT_FALSE(m.lost());
+    }
+  }
+}
+
 // A bridge whose motion has a vertical part beyond a floor's tolerance (a ride the restarted
 // mapper did not hear of) or that is longer than warm_restart_bridge_max_gap_s is refused.
 TEST(MapperWarmRestart, TheBridgeIsRefusedBeyondItsGapOrForAVerticalMotion) {

@@ -122,7 +122,7 @@ if [ "$kill_mapper" -gt 0 ]; then
   echo "mapper-proc started $(grep -c 'started pid' "$logs/mapper-proc.log") times;" \
     "relocalisations: $(awk '$1 == "relocalizations" { s += $2 } END { print s + 0 }' "$logs/mapper-proc.log");" \
     "warm restarts: $(grep -c ': warm restart: ' "$logs/mapper-proc.log")" \
-    "(bridged by VO's odometry: $(grep -c ': warm restart: .*(bridged by odometry' "$logs/mapper-proc.log"),"
+    "(bridged by VO's odometry: $(grep -c ': warm restart: .*(bridged by odometry' "$logs/mapper-proc.log")," \
     "by the wheels': $(grep -c ': warm restart: .*(bridged by wheel odometry' "$logs/mapper-proc.log"))," \
     "lost restarts: $(grep -c ': lost restart: ' "$logs/mapper-proc.log")"
   grep -o '[a-z]* restart: [0-9.]* s of message time.*' "$logs/mapper-proc.log" | sed 's/^/  /' || true

@@ -242,12 +242,14 @@ Expected<MapEvaluation> evaluateMap(const EvalMap& map, const RunTruth& truth,
   e.sessions_truth = truth.sessions;
   std::set<int> sessions;
   std::vector<core::SE3d> gt, est;
+  std::vector<const EvalNode*> est_nodes;
   for (const EvalNode& n : map.nodes) {
     sessions.insert(n.session);
     core::SE3d t;
     if (!truth.at(n.keyframe_utime, &t)) continue;
     gt.push_back(t);
     est.push_back(n.world_T_body);
+    est_nodes.push_back(&n);
     if (truth.floorAt(t.translation().z()) == n.floor) ++e.nodes_floor_right;
   }
   e.sessions = static_cast<int>(sessions.size());
@@ -288,6 +290,19 @@ Expected<MapEvaluation> evaluateMap(const EvalMap& map, const RunTruth& truth,
     e.ate_rmse_m = ate->rmse;
     e.ate_median_m = ate->median;
     e.ate_max_m = ate->max;
+    // The worst nodes after the same alignment, to find where a map went wrong.
+    if (auto aligned = eval::alignTrajectories(gt, est, eval::AlignmentMode::kSE3)) {
+      std::vector<std::pair<double, const EvalNode*>> off;
+      for (size_t i = 0; i < gt.size(); ++i)
+        off.emplace_back(((aligned->gt_S_est * est[i]).translation() - gt[i].translation()).norm(), est_nodes[i]);
+      std::sort(off.begin(), off.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+      for (size_t i = 0; i < std::min<size_t>(5, off.size()); ++i) {
+        std::ostringstream line;
+        line << off[i].second->id << " (session " << off[i].second->session << ", utime "
+             << off[i].second->keyframe_utime << "): " << off[i].first << " m";
+        e.worst_node_lines.push_back(line.str());
+      }
+    }
   }
   gt.clear();
   est.clear();
@@ -332,6 +347,7 @@ std::string MapEvaluation::text() const {
   else
     s << "node_ate_rmse_m " << ate_rmse_m << "\nnode_ate_median_m " << ate_median_m << "\nnode_ate_max_m " << ate_max_m
       << "\n";
+  for (const std::string& line : worst_node_lines) s << "node_ate_worst " << line << "\n";
   if (poses > 0)
     s << "poses " << poses << "\npose_ate_rmse_m " << pose_ate_rmse_m << "\npose_ate_median_m " << pose_ate_median_m
       << "\n";

@@ -98,6 +98,7 @@ struct MapEvaluation {
   int64_t nodes_floor_consistent = 0;
   int64_t loops_with_truth = 0;  // loop edges whose nodes have truth
   int64_t false_loops = 0;       // ... off the truth by > 0.5 m or > 5 degrees
+  std::vector<std::string> worst_node_lines;  // the 5 nodes furthest off after the alignment
   std::vector<std::string> false_loop_lines;  // each: "A-B: D m, R deg off the truth
   int sessions = 0;              // distinct sessions among the nodes
   int sessions_truth = 0;
