@@ -224,11 +224,12 @@ struct MapperOptions {
   // A ride the restarted mapper did not hear of (its FLOOR messages came while it was down)
   // is what neither bridge can see: the wheels are planar, and VO sees a closed cab standing
   // still. So a gap of at least warm_restart_ride_min_s (to enter a cab, ride and leave it:
-  // two door waits and a floor) that starts or ends within warm_restart_elevator_radius_m
-  // (in x-y) of an elevator the map knows (a node at either end of an odometry constraint
-  // between floors) is not bridged. 0 m: no such guard.
-  double warm_restart_elevator_radius_m = 5.0;
-  double warm_restart_ride_min_s = 8.0;
+  // two door waits of 3-4 s and a floor of 3-4 m at 1-2 m/s) that starts or ends within
+  // warm_restart_elevator_radius_m (in x-y: the cab and its door; the nodes at a ride's ends
+  // lie in the cab) of an elevator the map knows (a node at either end of an odometry
+  // constraint between floors) is not resumed: the restart is lost. 0 m: no such guard.
+  double warm_restart_elevator_radius_m = 3.0;
+  double warm_restart_ride_min_s = 10.0;
   TrackerOptions tracker;
   solver::IncrementalOptions solver = mapperSolverOptions();
 
