@@ -147,8 +147,12 @@ struct MapperOptions {
   // it, so the pairs opened without the test are at most closure_partners × nodes: factors
   // grow with the nodes, not with the visits, while the pairs that tell the map much (a
   // long loop closed after drift) still open. 0: no bound. Needs the map gate (its marginal).
-  int closure_partners = 0;
-  double saturated_closure_information = 0.0;
+  // 3 and 1 nat (docs/mapper.md, "A year": the sweep): a node of a chain takes one loop
+  // partner whatever it says; beyond, a pair opens when det(Σ_map + Σ_z) / det(Σ_z) ≥ e²,
+  // i.e. unless the map already knows the pair better than the registration (its variance
+  // below ~0.4 of the registration's per degree of freedom, geometric mean).
+  int closure_partners = 3;
+  double saturated_closure_information = 1.0;
   // A constraint that merges into a pair the solver already has a factor of enters the
   // solver at the next consolidation (with the scheduled batch steps) instead of as an
   // incremental update of its own.

@@ -132,7 +132,7 @@ MapperOptions withPartners(int partners) {
 }
 
 TEST(ReducedGraph, PairsOfNodesTiedToEnoughOthersOpenOnlyWhenInformativeSoFactorsStopGrowingWithVisits) {
-  ScriptedDrive unbounded(scriptedOptions());
+  ScriptedDrive unbounded(withPartners(0));
   const std::vector<int64_t> all = factorsPerCrossingLoop(&unbounded, 12);
   ScriptedDrive bounded(withPartners(2));
   const std::vector<int64_t> few = factorsPerCrossingLoop(&bounded, 12);
