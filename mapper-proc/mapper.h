@@ -144,9 +144,10 @@ struct MapperOptions {
   // robot is re-localised on b and no factor is added. A node with fewer partners always
   // takes the pair, so a new node, a weakly tied one, or a part of the map that nothing else
   // ties keeps every closure; a pair opened below the bound raises a node's count toward
-  // it, so the pairs opened without the test are at most closure_partners × nodes: factors
-  // grow with the nodes, not with the visits, while the pairs that tell the map much (a
-  // long loop closed after drift) still open. 0: no bound. Needs the map gate (its marginal).
+  // it, so the pairs opened without the test are at most closure_partners × nodes (those
+  // factors grow with the nodes, not with the visits), while the pairs that tell the map
+  // much (a long loop closed after drift) still open. 0: no bound. Needs the map gate (its
+  // marginal; without it every closure opens its pair).
   // 3 and 1 nat (docs/mapper.md, "A year": the sweep): a node of a chain takes one loop
   // partner whatever it says; beyond, a pair opens when det(Σ_map + Σ_z) / det(Σ_z) ≥ e²,
   // i.e. unless the map already knows the pair better than the registration (its variance
