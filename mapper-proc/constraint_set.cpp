@@ -23,6 +23,10 @@ core::UncertainPose ConstraintSet::fuse(const core::UncertainPose& m, const core
   return out;
 }
 
+int ConstraintSet::partners(int64_t node) const {
+  return node >= 0 && static_cast<size_t>(node) < partners_.size() ? partners_[static_cast<size_t>(node)] : 0;
+}
+
 ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pair** pair, double* d2_out) {
   Constraint c = constraint;
   if (c.from > c.to) {
@@ -40,6 +44,11 @@ ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pa
     p.i_T_j = c.from_T_to;
     p.members.push_back(all_.size() - 1);
     it = pairs_.emplace(key, p).first;
+    for (const int64_t node : {c.from, c.to}) {
+      if (node < 0) continue;
+      if (static_cast<size_t>(node) >= partners_.size()) partners_.resize(static_cast<size_t>(node) + 1, 0);
+      ++partners_[static_cast<size_t>(node)];
+    }
     if (pair) *pair = &it->second;
     if (d2_out) *d2_out = 0.0;
     return Outcome::kNewPair;

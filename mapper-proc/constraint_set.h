@@ -49,6 +49,10 @@ class ConstraintSet {
 
   const std::vector<Constraint>& all() const { return all_; }
   const std::map<std::pair<int64_t, int64_t>, Pair>& pairs() const { return pairs_; }
+  // How many pairs `node` belongs to (its partners, odometry and loop alike): what
+  // MapperOptions::closure_partners bounds. Follows from the constraints added, so a map
+  // replayed from its store (Mapper::restore) counts the same.
+  int partners(int64_t node) const;
   int64_t merged() const { return merged_; }
   int64_t rejected() const { return rejected_; }
 
@@ -62,6 +66,7 @@ class ConstraintSet {
   double gate_;
   std::vector<Constraint> all_;
   std::map<std::pair<int64_t, int64_t>, Pair> pairs_;
+  std::vector<int> partners_;  // by node id
   int64_t merged_ = 0;
   int64_t rejected_ = 0;
 };

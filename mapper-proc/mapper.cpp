@@ -48,6 +48,12 @@ Status MapperOptions::validate() const {
   if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
   if (!(min_closure_information >= 0.0) || !std::isfinite(min_closure_information))
     return Error{"mapper.min_closure_information: must be a finite number >= 0"};
+  // 1 would test every new pair (a node has its odometry partner from the start): that is
+  // min_closure_information's rule.
+  if (closure_partners < 0 || closure_partners == 1)
+    return Error{"mapper.closure_partners: must be 0 (no bound) or >= 2"};
+  if (!(saturated_closure_information >= 0.0) || !std::isfinite(saturated_closure_information))
+    return Error{"mapper.saturated_closure_information: must be a finite number >= 0"};
   if (!(recent_exclusion_s >= 0.0)) return Error{"mapper.recent_exclusion_s: must be >= 0"};
   if (!(covariance_floor >= 0.0)) return Error{"mapper.covariance_floor: must be >= 0"};
   if (cell_refresh_per_step < 1) return Error{"mapper.cell_refresh_per_step: must be >= 1"};
@@ -75,6 +81,7 @@ void MapperStats::addCounters(const MapperStats& o) {
   rejected_map_gate += o.rejected_map_gate;
   rejected_floor += o.rejected_floor;
   closures_uninformative += o.closures_uninformative;
+  closures_saturated += o.closures_saturated;
   gate_recoveries += o.gate_recoveries;
   recoveries_too_far += o.recoveries_too_far;
   relocalizations += o.relocalizations;
@@ -102,7 +109,7 @@ std::string MapperStats::text() const {
     << rejected_inconsistent << "\nrequests_node " << requests_node << "\nrequests_global "
     << requests_global << "\nregistrations_ok " << registrations_ok << "\nloop_closures "
     << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept << "\ndelta_fused " << delta_fused
-    << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor " << rejected_floor << "\nclosures_uninformative " << closures_uninformative << "\ngate_recoveries " << gate_recoveries << "\nrecoveries_too_far " << recoveries_too_far << "\nrelocalizations " << relocalizations
+    << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor " << rejected_floor << "\nclosures_uninformative " << closures_uninformative << "\nclosures_saturated " << closures_saturated << "\ngate_recoveries " << gate_recoveries << "\nrecoveries_too_far " << recoveries_too_far << "\nrelocalizations " << relocalizations
     << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrelocalization_disagreements " << relocalization_disagreements << "\nrelocalization_same_frame_checks " << relocalization_same_frame_checks << "\nrestored_nodes " << restored_nodes
     << "\nimplausible_floors " << implausible_floors
     << "\nrestored_constraints " << restored_constraints << "\nwarm_restarts " << warm_restarts

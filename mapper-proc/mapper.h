@@ -141,6 +141,23 @@ struct MapperOptions {
   // factors grow with the nodes, not with the visits. 0: every closure (the paper). Needs
   // the map gate (its marginal).
   double min_closure_information = 0.0;
+  // Partners per node (docs/mapper.md, "A year"): a loop closure that would open a new pair
+  // between two nodes that both already belong to at least closure_partners pairs (of any
+  // kind: a node of a chain has two odometry partners) is added only when its mutual
+  // information with the map (as above) reaches saturated_closure_information; below, the
+  // robot is re-localised on b and no factor is added. A node with fewer partners always
+  // takes the pair, so a new node, a weakly tied one, or a part of the map that nothing else
+  // ties keeps every closure; a pair opened below the bound raises a node's count toward
+  // it, so the pairs opened without the test are at most closure_partners × nodes (those
+  // factors grow with the nodes, not with the visits), while the pairs that tell the map
+  // much (a long loop closed after drift) still open. 0: no bound. Needs the map gate (its
+  // marginal; without it every closure opens its pair).
+  // 3 and 1 nat (docs/mapper.md, "A year": the sweep): a node of a chain takes one loop
+  // partner whatever it says; beyond, a pair opens when det(Σ_map + Σ_z) / det(Σ_z) ≥ e²,
+  // i.e. unless the map already knows the pair better than the registration (its variance
+  // below ~0.4 of the registration's per degree of freedom, geometric mean).
+  int closure_partners = 3;
+  double saturated_closure_information = 1.0;
   // A constraint that merges into a pair the solver already has a factor of enters the
   // solver at the next consolidation (with the scheduled batch steps) instead of as an
   // incremental update of its own.
@@ -279,6 +296,7 @@ struct MapperStats {
   int64_t rejected_map_gate = 0;  // registrations that contradicted the map or Δ
   int64_t rejected_floor = 0;     // registrations to a node of another floor
   int64_t closures_uninformative = 0;  // new pairs below min_closure_information: no factor
+  int64_t closures_saturated = 0;  // new pairs of saturated nodes below their bound: no factor
   int64_t gate_recoveries = 0;    // ... accepted after all: a second one agreed with them
   int64_t recoveries_too_far = 0; // ... not: their jump was more than odometry could drift
   int64_t relocalizations = 0;   // a new session tied to the map by a global registration

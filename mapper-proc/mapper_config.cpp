@@ -26,6 +26,8 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.height_factors", &o->height_factors);
   reader.read("mapper.map_gate", &o->map_gate);
   reader.read("mapper.min_closure_information", &o->min_closure_information);
+  reader.read("mapper.closure_partners", &o->closure_partners);
+  reader.read("mapper.saturated_closure_information", &o->saturated_closure_information);
   reader.read("mapper.defer_merges", &o->defer_merges);
   reader.read("mapper.cell_refresh_per_step", &o->cell_refresh_per_step);
   reader.read("mapper.fuse_active_registration", &o->fuse_active_registration);

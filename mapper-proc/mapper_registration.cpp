@@ -271,10 +271,15 @@ void Mapper::closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& 
     relocalize_ = false;
     return;
   }
-  if (!known_pair && information < o_.min_closure_information) {
+  // A new pair between two nodes that are both tied to as many others as
+  // MapperOptions::closure_partners allows needs saturated_closure_information.
+  const bool saturated = !known_pair && o_.closure_partners > 0 &&
+                         std::min(constraints_.partners(f.active), constraints_.partners(b)) >= o_.closure_partners;
+  const bool uninformative = !known_pair && information < o_.min_closure_information;
+  if (uninformative || (saturated && information < o_.saturated_closure_information)) {
     // The map already holds what this closure says about the pair: re-localised on b, no
-    // factor (MapperOptions::min_closure_information).
-    ++stats_.closures_uninformative;
+    // factor (MapperOptions::min_closure_information, closure_partners).
+    ++(uninformative ? stats_.closures_uninformative : stats_.closures_saturated);
     active_ = b;
     tracker_.reset(core::compound(b_T_q, q_T_now));
     relocalize_ = false;

@@ -22,6 +22,8 @@ TEST(MapperConfig, ReadsEveryKindOfSettingAndKeepsTheDefaultsOfTheRest) {
       "mapper.heading_bins = 16\n"
       "mapper.overlap_heading_sectors = 0.5\n"
       "mapper.min_closure_information = 2\n"
+      "mapper.closure_partners = 5\n"
+      "mapper.saturated_closure_information = 1.5\n"
       "mapper.loop_kernel = cauchy:2\n"
       "mapper.vetted_loop_kernel = dcs\n"
       "mapper.solver.batch_every = 50\n"
@@ -36,6 +38,8 @@ TEST(MapperConfig, ReadsEveryKindOfSettingAndKeepsTheDefaultsOfTheRest) {
   EXPECT_EQ(o.heading_bins, 16);
   EXPECT_EQ(o.overlap_heading_sectors, 0.5);
   EXPECT_EQ(o.min_closure_information, 2.0);
+  EXPECT_EQ(o.closure_partners, 5);
+  EXPECT_EQ(o.saturated_closure_information, 1.5);
   EXPECT_EQ(o.loop_kernel.type, solver::KernelType::kCauchy);
   EXPECT_EQ(o.loop_kernel.parameter, 2.0);
   EXPECT_EQ(o.vetted_loop_kernel.type, solver::KernelType::kDcs);
@@ -58,7 +62,10 @@ TEST(MapperConfig, ErrorsNameTheKeyAndWhereItWasSet) {
                         Case{"\nmapper.heading_bins = many\n", "x.conf:2"},
                         Case{"mapper.loop_kernel = tukey\n", "mapper.loop_kernel"},
                         Case{"mapper.solver.method = lm\n", "mapper.solver.method"},
-                        Case{"mapper.map_gate = -1\n", "mapper.map_gate"}}) {
+                        Case{"mapper.map_gate = -1\n", "mapper.map_gate"},
+                        Case{"mapper.closure_partners = 1\n", "mapper.closure_partners"},
+                        Case{"mapper.saturated_closure_information = -2\n", "mapper.saturated_closure_information"},
+                        Case{"mapper.saturated_closure_information = inf\n", "mapper.saturated_closure_information"}}) {
     MapperOptions o;
     const Status s = readMapperOptions(parse(c.text), &o);
     ASSERT_FALSE(s) << c.text;

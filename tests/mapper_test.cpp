@@ -102,6 +102,154 @@ TEST(ReducedGraph, AClosureTheMapAlreadyHoldsReLocalisesWithoutAFactor) {
   EXPECT_FALSE(bad.validate());
 }
 
+// Two parallel lines 2 m apart (y = 0 and y = 2, facing +x throughout: registrations reach
+// 1.5 m, so each line has its own nodes), mapped by a first loop; then `visits` loops that
+// cross from the first line to the second at a point that moves 0.7 m each time (x = 0.5 ..
+// 6.8 m) and back at x = 8: each crossing closes a loop between nodes of the two lines, and
+// the nodes near the crossings are tied to ever other ones. The factors after each loop.
+std::vector<int64_t> factorsPerCrossingLoop(ScriptedDrive* drive, int visits) {
+  std::vector<int64_t> factors;
+  auto loop = [&](double cross_x) {
+    drive->driveTo(cross_x, 0.0);
+    drive->sidestep(2.0);
+    drive->driveTo(8.0, 0.0);
+    drive->sidestep(-2.0);
+    drive->driveTo(0.0, 0.0);
+    factors.push_back(drive->mapper().stats().factors);
+  };
+  loop(0.0);
+  for (int k = 0; k < visits; ++k) loop(0.5 + 0.7 * (k % 10));
+  return factors;
+}
+
+// The partner bound (MapperOptions::closure_partners) at `partners`, and no saturated pair
+// informative enough to open (no closure tells the map 1000 nats).
+MapperOptions withPartners(int partners) {
+  MapperOptions o = scriptedOptions();
+  o.closure_partners = partners;
+  o.saturated_closure_information = 1e3;
+  return o;
+}
+
+TEST(ReducedGraph, PairsOfNodesTiedToEnoughOthersOpenOnlyWhenInformativeSoFactorsStopGrowingWithVisits) {
+  ScriptedDrive unbounded(withPartners(0));
+  const std::vector<int64_t> all = factorsPerCrossingLoop(&unbounded, 12);
+  ScriptedDrive bounded(withPartners(2));
+  const std::vector<int64_t> few = factorsPerCrossingLoop(&bounded, 12);
+  const MapperStats& u = unbounded.mapper().stats();
+  const MapperStats& b = bounded.mapper().stats();
+  // Every visit closes loops; without the bound each new crossing opens pairs (the factors
+  // grow with the visits), with it the factors stop once the crossings' nodes are tied.
+  EXPECT_EQ(u.closures_saturated, 0);
+  EXPECT_GE(all.back(), all[1] + 3);
+  EXPECT_GT(b.closures_saturated, 0);
+  for (size_t k = 2; k < few.size(); ++k) EXPECT_EQ(few[k], few[1]) << "loop " << k;
+  EXPECT_EQ(b.nodes, u.nodes);
+  EXPECT_GE(b.loop_closures, 5 * static_cast<int64_t>(few.size() - 1));
+  // Every pair opened without the test had a node with fewer partners than the bound.
+  EXPECT_LE(b.factors, 2 * b.nodes);
+  // Re-localised on the nodes all the same: exact measurements, an exact pose.
+  EXPECT_LT((bounded.mapper().pose().mean.translation() - unbounded.mapper().pose().mean.translation()).norm(), 1e-6);
+  // A bound far above any node's partners changes nothing.
+  ScriptedDrive loose(withPartners(50));
+  EXPECT_EQ(factorsPerCrossingLoop(&loose, 12), all);
+  MapperOptions bad = scriptedOptions();
+  bad.closure_partners = 1;  // every pair tested: min_closure_information's rule
+  EXPECT_FALSE(bad.validate());
+  bad = scriptedOptions();
+  bad.saturated_closure_information = -1.0;
+  EXPECT_FALSE(bad.validate());
+}
+
+TEST(ReducedGraph, TheClosureThatTiesANewChainToTheMapOpensWhateverTheBound) {
+  // The first line mapped (its inner nodes have two partners: the bound), then a second line
+  // in the dark (registrations fail): a chain of new nodes held by odometry alone.
+  ScriptedDrive drive(withPartners(2));
+  drive.driveTo(8.0, 0.0);
+  const auto first_chain_node = static_cast<int64_t>(drive.mapper().nodes().size());
+  drive.sidestep(2.0);
+  drive.blind(true);
+  drive.driveTo(3.5, 0.0);
+  const MapperStats dark = drive.mapper().stats();
+  ASSERT_GE(dark.nodes, first_chain_node + 3);
+  // Back on the first line in the light, among its inner nodes: the closure from the chain's
+  // newest node (one partner) ties the chain to the map, whatever the bound says of the
+  // map's node.
+  drive.blind(false);
+  drive.sidestep(-2.0);
+  drive.driveTo(2.5, 0.0);
+  const MapperStats& after = drive.mapper().stats();
+  EXPECT_GT(after.loop_closures, dark.loop_closures);
+  int64_t ties = 0;
+  for (const auto& [key, pair] : drive.mapper().constraints().pairs())
+    ties += key.first < first_chain_node && key.second >= first_chain_node + 1 ? 1 : 0;
+  EXPECT_GE(ties, 1);
+  EXPECT_EQ(after.closures_saturated, 0);
+  // Exact measurements: the chain's nodes, tied, are where the truth is.
+  for (int64_t id = first_chain_node; id < static_cast<int64_t>(drive.mapper().nodes().size()); ++id) {
+    const SE3d estimate = drive.mapper().nodePose(0).inverse() * drive.mapper().nodePose(id);
+    const SE3d truth = drive.nodeTruth(0).inverse() * drive.nodeTruth(id);
+    EXPECT_LT((estimate.translation() - truth.translation()).norm(), 1e-3) << "node " << id;
+  }
+}
+
+// The first line mapped, the second driven in the dark (a chain on odometry alone, tied to
+// the map at both ends), then a crossing from the first line's middle to the chain's middle:
+// a pair of nodes with two partners each (the bound), which the map knows only as well as
+// the chain's odometry (centimetres), and the registration to a millimetre (σ 1 mm: the
+// information of the closure is 5.4 nats). Returns the mapper's counters after it.
+MapperStats crossingToADriftedChain(double saturated_information, int64_t* opened) {
+  MapperOptions o = withPartners(2);
+  o.saturated_closure_information = saturated_information;
+  ScriptedDrive drive(o, 1e-6);
+  drive.driveTo(8.0, 0.0);
+  drive.sidestep(2.0);
+  drive.blind(true);
+  drive.driveTo(0.0, 0.0);
+  drive.blind(false);
+  drive.sidestep(-2.0);
+  drive.driveTo(4.0, 0.0);
+  const int64_t before = drive.mapper().stats().factors;
+  drive.sidestep(2.0);
+  drive.driveTo(4.5, 0.0);
+  *opened = drive.mapper().stats().factors - before;
+  return drive.mapper().stats();
+}
+
+TEST(ReducedGraph, APairOfSaturatedNodesOpensWhenTheClosureTellsTheMapMuch) {
+  int64_t opened = 0;
+  const MapperStats informative = crossingToADriftedChain(4.0, &opened);
+  EXPECT_GE(opened, 1);
+  EXPECT_EQ(informative.closures_saturated, 0);
+  const MapperStats never = crossingToADriftedChain(1e3, &opened);
+  EXPECT_EQ(opened, 0);
+  EXPECT_GE(never.closures_saturated, 1);
+}
+
+TEST(ReducedGraph, AMapReloadedFromItsStoreCountsTheSamePartnersAndKeepsItsFactorsBounded) {
+  evermap::testing::ScratchDir dir;
+  ScriptedDrive drive(withPartners(2));
+  factorsPerCrossingLoop(&drive, 4);
+  auto store = MapStore::open(dir.path() / "map.db");
+  ASSERT_TRUE(store) << store.error().message;
+  ASSERT_TRUE(store->save(drive.mapper(), drive.mapper().session(), 0));
+  auto snap = store->load();
+  ASSERT_TRUE(snap) << snap.error().message;
+  // Replayed (folded rows included) into the same pairs: the same partners for every node.
+  Mapper reloaded(withPartners(2));
+  ASSERT_TRUE(reloaded.restore(*snap));
+  ASSERT_EQ(reloaded.nodes().size(), drive.mapper().nodes().size());
+  for (int64_t id = 0; id < static_cast<int64_t>(reloaded.nodes().size()); ++id)
+    EXPECT_EQ(reloaded.constraints().partners(id), drive.mapper().constraints().partners(id)) << "node " << id;
+  EXPECT_EQ(reloaded.stats().factors, drive.mapper().stats().factors);
+  // The restarted mapper goes on with the bound where the first left off.
+  const int64_t factors_before = drive.mapper().stats().factors;
+  ASSERT_TRUE(drive.restart(*snap, withPartners(2), 0.5));
+  const std::vector<int64_t> after = factorsPerCrossingLoop(&drive, 8);
+  EXPECT_GT(drive.mapper().stats().closures_saturated, 0);
+  EXPECT_EQ(after.back(), factors_before);
+}
+
 TEST(ReducedGraph, AnElevatorRideMovesTheEstimateToTheNewFloorAndTakesNoStepInTheCab) {
   // elevator-proc announces no floor before the first ride: its start names the height of
   // the floor left. Keyframes in the cab take no step (the cab is a place that moves), and
