@@ -67,6 +67,28 @@ int falseLoops(ScriptedDrive& drive) {
   return n;
 }
 
+// After a bridged restart (the robot 3 m on in the gap, blind): the pose is where the robot
+// is with odometry's covariance (not metres of inflation), a node is made at once and every
+// new node where the truth is; then home along the mapped corridor, closures from the
+// bridged pose, none false, and no confirmation was ever needed.
+void expectTrackingGoesOnAsIfNothingWasLost(ScriptedDrive& drive, int64_t restored) {
+  const Mapper& m = drive.mapper();
+  const SE3d truth_now = drive.nodeTruth(0).inverse() * drive.truePose();
+  const SE3d estimate_now = m.nodePose(0).inverse() * m.pose().mean;
+  EXPECT_LT((estimate_now.translation() - truth_now.translation()).norm(), 0.02);
+  EXPECT_LT(m.pose().covariance(0, 0), 0.1 * 0.1);
+  const int64_t restart_utime = drive.utime();
+  drive.driveTo(16.0, 0.0);
+  ASSERT_GE(static_cast<int64_t>(m.nodes().size()), restored + 5);
+  EXPECT_EQ(m.nodes()[static_cast<size_t>(restored)].keyframe_utime, restart_utime);  // at once
+  expectNodesFromOnWhereTheTruthIs(drive, restored);
+  drive.blind(false);
+  homeAndOutAlongTheMappedCorridor(drive);
+  EXPECT_GT(m.stats().loop_closures, 3);
+  EXPECT_EQ(falseLoops(drive), 0);
+  EXPECT_EQ(m.stats().warm_confirmations, 0);
+}
+
 TEST(MapperWarmRestart, ARestartWithinTheGapResumesTrackingAndAddsNodesAtOnceWithoutRelocalising) {
   evermap::testing::ScratchDir dir;
   ScriptedDrive drive(scriptedOptions());
@@ -154,27 +176,11 @@ TEST(MapperWarmRestart, AGapBridgedByTheOdometryFrameAddsAccurateNodesAtOnce) {
   EXPECT_FALSE(m.lost());
   EXPECT_FALSE(m.resumedUnconfirmed()) << m.restartNote();
   EXPECT_NE(m.restartNote().find("bridged"), std::string::npos) << m.restartNote();
-  // The pose is where the robot is, with odometry's covariance (not 12 m of inflation).
-  const SE3d truth_now = drive.nodeTruth(0).inverse() * drive.truePose();
-  const SE3d estimate_now = m.nodePose(0).inverse() * m.pose().mean;
-  EXPECT_LT((estimate_now.translation() - truth_now.translation()).norm(), 0.02);
-  EXPECT_LT(m.pose().covariance(0, 0), 0.1 * 0.1);
-  const int64_t restart_utime = drive.utime();
-  drive.driveTo(16.0, 0.0);
-  ASSERT_GE(static_cast<int64_t>(m.nodes().size()), restored + 5);
-  EXPECT_EQ(m.nodes()[static_cast<size_t>(restored)].keyframe_utime, restart_utime);  // at once
-  expectNodesFromOnWhereTheTruthIs(drive, restored);
+  expectTrackingGoesOnAsIfNothingWasLost(drive, restored);
   // The first new node hangs on the saved node by the odometry's motion over the gap.
   const auto pair = m.constraints().pairs().find({map.tracking->active_node, restored});
   ASSERT_NE(pair, m.constraints().pairs().end());
   EXPECT_LT(pair->second.i_T_j.covariance(0, 0), 0.1 * 0.1);
-  // Home along the mapped corridor: closures from the bridged pose, none false, and no
-  // confirmation was ever needed.
-  drive.blind(false);
-  homeAndOutAlongTheMappedCorridor(drive);
-  EXPECT_GT(m.stats().loop_closures, 3);
-  EXPECT_EQ(falseLoops(drive), 0);
-  EXPECT_EQ(m.stats().warm_confirmations, 0);
 }
 
 // The same gap, but vo-proc restarted too: its first frame starts a new odometry epoch, the
@@ -226,20 +232,7 @@ TEST(MapperWarmRestart, AGapInWhichVoRestartedItsChainIsBridgedByTheWheels) {
   EXPECT_FALSE(m.resumedUnconfirmed()) << m.restartNote();
   EXPECT_NE(m.restartNote().find("wheel"), std::string::npos) << m.restartNote();
   EXPECT_NE(m.restartNote().find("epoch"), std::string::npos) << m.restartNote();  // why VO could not
-  const SE3d truth_now = drive.nodeTruth(0).inverse() * drive.truePose();
-  const SE3d estimate_now = m.nodePose(0).inverse() * m.pose().mean;
-  EXPECT_LT((estimate_now.translation() - truth_now.translation()).norm(), 0.02);
-  EXPECT_LT(m.pose().covariance(0, 0), 0.1 * 0.1);
-  const int64_t restart_utime = drive.utime();
-  drive.driveTo(16.0, 0.0);
-  ASSERT_GE(static_cast<int64_t>(m.nodes().size()), restored + 5);
-  EXPECT_EQ(m.nodes()[static_cast<size_t>(restored)].keyframe_utime, restart_utime);  // at once
-  expectNodesFromOnWhereTheTruthIs(drive, restored);
-  drive.blind(false);
-  homeAndOutAlongTheMappedCorridor(drive);
-  EXPECT_GT(m.stats().loop_closures, 3);
-  EXPECT_EQ(falseLoops(drive), 0);
-  EXPECT_EQ(m.stats().warm_confirmations, 0);
+  expectTrackingGoesOnAsIfNothingWasLost(drive, restored);
 }
 
 // The wheels bridge only within their epoch: a wheel driver restarted in the gap leaves the
