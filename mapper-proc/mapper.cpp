@@ -657,8 +657,13 @@ std::optional<std::pair<int64_t, double>> Mapper::elevatorNear(const core::SE3d&
 }
 
 bool Mapper::waitForWheels(const vo_delta_t& msg) {
-  if (o_.warm_restart_wheel_wait_s <= 0.0 || !saved_tracking_->wheel || tracker_.wheelOdometryAt(msg.utime))
+  if (o_.warm_restart_wheel_wait_s <= 0.0 || !saved_tracking_->wheel || saved_tracking_->in_elevator ||
+      tracker_.wheelOdometryAt(msg.utime))
     return false;
+  // A gap no bridge crosses (a new session's first frame, hours or days after the state):
+  // nothing to wait for, and the frames set aside would be the session's first keyframe,
+  // where the robot stands where it stood before (the relocalisation's best chance).
+  if (1e-6 * static_cast<double>(msg.utime - saved_tracking_->utime) > o_.warm_restart_bridge_max_gap_s) return false;
   if (restart_first_vo_utime_ < 0) restart_first_vo_utime_ = msg.utime;
   if (msg.utime - restart_first_vo_utime_ > micros(o_.warm_restart_wheel_wait_s)) return false;
   const std::string note = restart_note_;

@@ -277,6 +277,14 @@ TEST(MapperWarmRestart, TheWheelsBridgeWithinTheirEpochAndAreWaitedForBriefly) {
   EXPECT_EQ(silent.mapper().stats().warm_bridged, 0);
   EXPECT_EQ(silent.mapper().stats().warm_wheel_waits, 11);  // frames at 0.1 s within 1 s
   EXPECT_TRUE(silent.mapper().resumedUnconfirmed());
+  // A gap no bridge crosses (beyond warm_restart_bridge_max_gap_s: a new session) sets no
+  // frame aside: the session's first keyframe is where a relocalisation has its best chance.
+  ScriptedDrive next(scriptedOptions());
+  next.wheels(true, /*late=*/true);
+  const MapSnapshot map4 = drivenAndSaved(next, dir.path() / "map4.db");
+  ASSERT_TRUE(next.restart(map4, scriptedOptions(), 40.0, 0.0, GapOdometry::kNewEpoch));
+  EXPECT_EQ(next.mapper().stats().warm_wheel_waits, 0);
+  EXPECT_EQ(next.mapper().stats().lost_restarts, 1);
 }
 
 // Near an elevator the map knows, a gap a ride fits in may hold one whose FLOOR messages the
