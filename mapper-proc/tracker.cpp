@@ -296,15 +296,9 @@ Status Tracker::addWheel(const wheel_odom_t& msg) {
     ++counts_.dropped;
     return Error("WHEEL_ODOM " + std::to_string(msg.utime) + ": not finite");
   }
-  Eigen::Matrix3d c3;
-  for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 3; ++k) c3(r, k) = msg.covariance[3 * r + k];
-  const double scale = std::max(1e-12, c3.diagonal().cwiseAbs().maxCoeff());
-  if ((c3 - c3.transpose()).cwiseAbs().maxCoeff() > 1e-9 * scale ||
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(0.5 * (c3 + c3.transpose())).eigenvalues().minCoeff() <
-          -1e-9 * scale) {
+  if (const auto c = messages::planarCovarianceFromMessage(msg.covariance, "WHEEL_ODOM"); !c) {
     ++counts_.dropped;
-    return Error("WHEEL_ODOM " + std::to_string(msg.utime) + ": covariance is not symmetric positive semi-definite");
+    return makeError("WHEEL_ODOM ", msg.utime, ": ", c.error().message);
   }
   if (const std::string implausible = implausibleMotion(std::hypot(msg.delta_x_m, msg.delta_y_m),
                                                        std::abs(msg.delta_theta_rad), msg.prev_utime, msg.utime);

@@ -24,6 +24,15 @@ std::optional<core::SE3d> poseOf(const double* t, const double* q) {
   return core::SE3d(rot.normalized(), core::Vec3(t[0], t[1], t[2]));
 }
 
+// Symmetric, negative eigenvalues (rounding) set to zero.
+template <int N>
+Eigen::Matrix<double, N, N> clippedToPsd(const Eigen::Matrix<double, N, N>& c) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> eig(0.5 * (c + c.transpose()));
+  const Eigen::Matrix<double, N, 1> lambda = eig.eigenvalues().cwiseMax(0.0);
+  const Eigen::Matrix<double, N, N> out = eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
+  return 0.5 * (out + out.transpose());
+}
+
 }  // namespace
 
 std::optional<OdometryPose> odometryPose(const evermap::vo_delta_t& m, std::string* why) {
@@ -52,10 +61,7 @@ Expected<core::UncertainPose> odometryBetween(const OdometryPose& a, const core:
   const core::Mat6 ad = out.mean.inverse().adjoint();  // Ad(b_T_a)
   const core::Mat6 rel = b.odom_T_cam.covariance - ad * a.odom_T_cam.covariance * ad.transpose() +
                          2.0 * ad * a_own_covariance * ad.transpose();
-  Eigen::SelfAdjointEigenSolver<core::Mat6> eig(0.5 * (rel + rel.transpose()));
-  const core::Vec6 lambda = eig.eigenvalues().cwiseMax(0.0);
-  out.covariance = eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
-  out.covariance = 0.5 * (out.covariance + out.covariance.transpose()).eval();
+  out.covariance = clippedToPsd<6>(rel);
   return out;
 }
 
@@ -104,29 +110,6 @@ void OdometryFrame::stamp(evermap::vo_delta_t& m) {
 
 namespace {
 
-// A 3x3 covariance from a row-major field; empty when not finite or not symmetric PSD (to
-// rounding).
-std::optional<Eigen::Matrix3d> planarCovariance(const double* v) {
-  if (!finite(v, 9)) return std::nullopt;
-  Eigen::Matrix3d c;
-  for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 3; ++k) c(r, k) = v[3 * r + k];
-  const double scale = std::max(1e-12, c.diagonal().cwiseAbs().maxCoeff());
-  if ((c - c.transpose()).cwiseAbs().maxCoeff() > 1e-9 * scale) return std::nullopt;
-  if (Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(0.5 * (c + c.transpose())).eigenvalues().minCoeff() <
-      -1e-9 * scale)
-    return std::nullopt;
-  return 0.5 * (c + c.transpose());
-}
-
-// Symmetric, negative eigenvalues (rounding) set to zero.
-Eigen::Matrix3d psd(const Eigen::Matrix3d& c) {
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(0.5 * (c + c.transpose()));
-  const Eigen::Vector3d lambda = eig.eigenvalues().cwiseMax(0.0);
-  const Eigen::Matrix3d out = eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
-  return 0.5 * (out + out.transpose());
-}
-
 // a ⊕ d with Σ = J1 Σ_a J1ᵀ + J2 Σ_d J2ᵀ.
 WheelOdometryPose compound(const WheelOdometryPose& a, const PlanarMotion& d, int64_t utime) {
   Eigen::Matrix3d j1, j2;
@@ -134,7 +117,7 @@ WheelOdometryPose compound(const WheelOdometryPose& a, const PlanarMotion& d, in
   b.epoch = a.epoch;
   b.utime = utime;
   b.odom_T_body = core::compose(a.odom_T_body, d.a_T_b, &j1, &j2);
-  b.covariance = psd(j1 * a.covariance * j1.transpose() + j2 * d.covariance * j2.transpose());
+  b.covariance = clippedToPsd<3>(j1 * a.covariance * j1.transpose() + j2 * d.covariance * j2.transpose());
   return b;
 }
 
@@ -153,7 +136,7 @@ std::optional<WheelOdometryPose> wheelOdometryPose(const evermap::wheel_odom_t& 
   if (m.odom_epoch == 0) return fail("no odometry pose");
   if (!std::isfinite(m.odom_x_m) || !std::isfinite(m.odom_y_m) || !std::isfinite(m.odom_theta_rad))
     return fail("odometry pose not finite");
-  const auto c = planarCovariance(m.odom_covariance);
+  const auto c = planarCovarianceFromMessage(m.odom_covariance, "odometry pose");
   if (!c) return fail("odometry covariance not finite or not symmetric positive semi-definite");
   WheelOdometryPose p;
   p.epoch = m.odom_epoch;
@@ -171,7 +154,7 @@ Expected<PlanarMotion> wheelOdometryBetween(const WheelOdometryPose& a, const Wh
   Eigen::Matrix3d j1, j2;
   (void)core::compose(a.odom_T_body, d.a_T_b, &j1, &j2);
   const Eigen::Matrix3d j2_inv = j2.inverse();  // a rotation block and 1: always invertible
-  d.covariance = psd(j2_inv * (b.covariance - j1 * a.covariance * j1.transpose()) * j2_inv.transpose());
+  d.covariance = clippedToPsd<3>(j2_inv * (b.covariance - j1 * a.covariance * j1.transpose()) * j2_inv.transpose());
   return d;
 }
 
@@ -199,7 +182,7 @@ std::optional<WheelOdometryPose> wheelOdometryAt(const std::deque<WheelOdometryP
 void WheelOdometryFrame::stamp(evermap::wheel_odom_t& m) {
   PlanarMotion d;
   d.a_T_b = core::SE2d(m.delta_x_m, m.delta_y_m, m.delta_theta_rad);
-  const auto c = planarCovariance(m.covariance);
+  const auto c = planarCovarianceFromMessage(m.covariance, "WHEEL_ODOM");
   const bool valid = std::isfinite(m.delta_x_m) && std::isfinite(m.delta_y_m) && std::isfinite(m.delta_theta_rad) &&
                      c && m.prev_utime <= m.utime;
   if (!valid) {

@@ -8,20 +8,36 @@
 
 namespace evermap::messages {
 
-Expected<core::Mat6> covarianceFromMessage(const double* row_major, const char* what) {
-  for (int i = 0; i < 36; ++i)
+namespace {
+
+// An N x N covariance from a row-major field, symmetrised; an error naming `what` when it is
+// not finite or not symmetric positive semi-definite (within rounding).
+template <int N>
+Expected<Eigen::Matrix<double, N, N>> covarianceOf(const double* row_major, const char* what) {
+  using Mat = Eigen::Matrix<double, N, N>;
+  for (int i = 0; i < N * N; ++i)
     if (!std::isfinite(row_major[i])) return Error(std::string(what) + ": covariance is not finite");
-  core::Mat6 c;
-  for (int r = 0; r < 6; ++r)
-    for (int k = 0; k < 6; ++k) c(r, k) = row_major[6 * r + k];
+  Mat c;
+  for (int r = 0; r < N; ++r)
+    for (int k = 0; k < N; ++k) c(r, k) = row_major[N * r + k];
   const double scale = std::max(1e-12, c.diagonal().cwiseAbs().maxCoeff());
   if ((c - c.transpose()).cwiseAbs().maxCoeff() > 1e-9 * scale)
     return Error(std::string(what) + ": covariance is not symmetric");
-  const core::Mat6 symmetric = 0.5 * (c + c.transpose());
-  Eigen::SelfAdjointEigenSolver<core::Mat6> eig(symmetric);
+  const Mat symmetric = 0.5 * (c + c.transpose());
+  Eigen::SelfAdjointEigenSolver<Mat> eig(symmetric);
   if (eig.eigenvalues().minCoeff() < -1e-9 * scale)
     return Error(std::string(what) + ": covariance is not positive semi-definite");
   return symmetric;
+}
+
+}  // namespace
+
+Expected<core::Mat6> covarianceFromMessage(const double* row_major, const char* what) {
+  return covarianceOf<6>(row_major, what);
+}
+
+Expected<Eigen::Matrix3d> planarCovarianceFromMessage(const double* row_major, const char* what) {
+  return covarianceOf<3>(row_major, what);
 }
 
 }  // namespace evermap::messages
