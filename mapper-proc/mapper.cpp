@@ -576,57 +576,56 @@ Status Mapper::restore(const MapSnapshot& map) {
   return Ok{};
 }
 
-std::optional<core::UncertainPose> Mapper::odometryBridge(const TrackingState& s, const vo_delta_t& msg) {
-  const auto refuse = [this](const auto&... parts) -> std::optional<core::UncertainPose> {
-    std::ostringstream why;
-    (why << ... << parts);
-    restart_note_ = "not bridged: " + why.str();
-    return std::nullopt;
-  };
-  if (!o_.warm_restart_bridge) return refuse("mapper.warm_restart_bridge is off");
-  if (!s.odometry) return refuse("the saved state holds no odometry pose");
+namespace {
+
+// No bridge, and `why` (the parts streamed) says why not.
+template <typename... Parts>
+std::optional<core::UncertainPose> noBridge(std::string& why, const Parts&... parts) {
+  std::ostringstream w;
+  (w << ... << parts);
+  why = w.str();
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<core::UncertainPose> Mapper::odometryBridge(const TrackingState& s, const vo_delta_t& msg,
+                                                          std::string& why) const {
+  if (!o_.warm_restart_bridge) return noBridge(why, "mapper.warm_restart_bridge is off");
+  if (!s.odometry) return noBridge(why, "the saved state holds no odometry pose");
   std::string malformed;
   const auto now = messages::odometryPose(msg, &malformed);
-  if (!now) return refuse("the first VO_DELTA: ", malformed);
+  if (!now) return noBridge(why, "the first VO_DELTA: ", malformed);
   const messages::OdometryPose& saved = s.odometry->pose;
-  if (now->epoch != saved.epoch) return refuse("odometry epoch ", saved.epoch, " then, ", now->epoch, " now");
+  if (now->epoch != saved.epoch) return noBridge(why, "odometry epoch ", saved.epoch, " then, ", now->epoch, " now");
   const double gap_s = 1e-6 * static_cast<double>(now->utime - saved.utime);
   if (gap_s > o_.warm_restart_bridge_max_gap_s)
-    return refuse(gap_s, " s > mapper.warm_restart_bridge_max_gap_s");
+    return noBridge(why, gap_s, " s > mapper.warm_restart_bridge_max_gap_s");
   const auto cam = messages::odometryBetween(saved, s.odometry->own_covariance, *now);
-  if (!cam) return refuse(cam.error().message);
+  if (!cam) return noBridge(why, cam.error().message);
   // saved_T_now of the body; the odometry's frame is the camera's.
   const core::UncertainPose body = tracker_.toBody(cam->mean, cam->covariance);
-  const double distance_m = body.mean.translation().norm();
-  const double angle_rad = core::rotationAngle(body.mean.so3());
-  if (const std::string implausible = tracker_.implausibleMotion(distance_m, angle_rad, saved.utime, now->utime);
+  if (const std::string implausible =
+          tracker_.implausibleMotion(body.mean.translation().norm(), core::rotationAngle(body.mean.so3()),
+                                     saved.utime, now->utime);
       !implausible.empty())
-    return refuse("implausible: ", implausible);
+    return noBridge(why, "implausible: ", implausible);
   // The body is level (to the IMU's accuracy): its z is the world's vertical.
   if (std::abs(body.mean.translation().z()) > o_.floor_match_m)
-    return refuse("a vertical motion of ", body.mean.translation().z(), " m (a ride?)");
-  std::ostringstream note;
-  note << "bridged by odometry over " << gap_s << " s: " << distance_m << " m, " << angle_rad << " rad";
-  restart_note_ = note.str();
+    return noBridge(why, "a vertical motion of ", body.mean.translation().z(), " m (a ride?)");
   return body;
 }
 
 std::optional<core::UncertainPose> Mapper::wheelBridge(const TrackingState& s, int64_t utime, std::string& why) const {
-  const auto refuse = [&why](const auto&... parts) -> std::optional<core::UncertainPose> {
-    std::ostringstream w;
-    (w << ... << parts);
-    why = w.str();
-    return std::nullopt;
-  };
-  if (!o_.warm_restart_bridge) return refuse("mapper.warm_restart_bridge is off");
-  if (!s.wheel) return refuse("the saved state holds no wheel odometry pose");
+  if (!o_.warm_restart_bridge) return noBridge(why, "mapper.warm_restart_bridge is off");
+  if (!s.wheel) return noBridge(why, "the saved state holds no wheel odometry pose");
   const auto now = tracker_.wheelOdometryAt(utime);
-  if (!now) return refuse("no wheel odometry pose at ", utime);
-  if (now->epoch != s.wheel->epoch) return refuse("wheel odometry epoch ", s.wheel->epoch, " then, ", now->epoch, " now");
+  if (!now) return noBridge(why, "no wheel odometry pose at ", utime);
+  if (now->epoch != s.wheel->epoch) return noBridge(why, "wheel odometry epoch ", s.wheel->epoch, " then, ", now->epoch, " now");
   const double gap_s = 1e-6 * static_cast<double>(now->utime - s.wheel->utime);
-  if (gap_s > o_.warm_restart_bridge_max_gap_s) return refuse(gap_s, " s > mapper.warm_restart_bridge_max_gap_s");
+  if (gap_s > o_.warm_restart_bridge_max_gap_s) return noBridge(why, gap_s, " s > mapper.warm_restart_bridge_max_gap_s");
   const auto d = messages::wheelOdometryBetween(*s.wheel, *now);
-  if (!d) return refuse(d.error().message);
+  if (!d) return noBridge(why, d.error().message);
   // The SSC covariance is over (x, y) in the start frame; the right tangent's translation is
   // in the end frame: rotated by the motion's θ.
   Eigen::Matrix3d to_right = Eigen::Matrix3d::Identity();
@@ -637,7 +636,7 @@ std::optional<core::UncertainPose> Mapper::wheelBridge(const TrackingState& s, i
   const double angle_rad = std::abs(d->a_T_b.theta());
   if (const std::string implausible = tracker_.implausibleMotion(distance_m, angle_rad, s.wheel->utime, now->utime);
       !implausible.empty())
-    return refuse("implausible: ", implausible);
+    return noBridge(why, "implausible: ", implausible);
   return body;
 }
 
@@ -666,10 +665,8 @@ bool Mapper::waitForWheels(const vo_delta_t& msg) {
   if (1e-6 * static_cast<double>(msg.utime - saved_tracking_->utime) > o_.warm_restart_bridge_max_gap_s) return false;
   if (restart_first_vo_utime_ < 0) restart_first_vo_utime_ = msg.utime;
   if (msg.utime - restart_first_vo_utime_ > micros(o_.warm_restart_wheel_wait_s)) return false;
-  const std::string note = restart_note_;
-  const bool vo_bridges = odometryBridge(*saved_tracking_, msg).has_value();
-  restart_note_ = note;
-  return !vo_bridges;
+  std::string why_not;
+  return !odometryBridge(*saved_tracking_, msg, why_not);
 }
 
 void Mapper::decideRestart(const vo_delta_t& msg) {
@@ -688,14 +685,24 @@ void Mapper::decideRestart(const vo_delta_t& msg) {
   // Without it nothing tracked it for gap_s: the covariance grows by what it may have driven
   // and turned meanwhile (linear in the gap: a bounded speed); height, roll and pitch stay
   // (a floor, a level body).
-  std::optional<core::UncertainPose> bridge = odometryBridge(s, msg);
+  std::string vo_why, wheel_why;
+  std::optional<core::UncertainPose> bridge = odometryBridge(s, msg, vo_why);
   bool by_wheels = false;
   if (!bridge) {
-    std::string why;
-    bridge = wheelBridge(s, utime, why);
+    bridge = wheelBridge(s, utime, wheel_why);
     by_wheels = bridge.has_value();
-    if (!by_wheels) restart_note_ += "; wheels: " + why;
   }
+  std::ostringstream note;
+  if (!bridge) {
+    note << "not bridged: " << vo_why << "; wheels: " << wheel_why;
+  } else {
+    const int64_t from_utime = by_wheels ? s.wheel->utime : s.odometry->pose.utime;
+    note << (by_wheels ? "bridged by wheel odometry over " : "bridged by odometry over ")
+         << 1e-6 * static_cast<double>(utime - from_utime) << " s: " << bridge->mean.translation().norm() << " m, "
+         << core::rotationAngle(bridge->mean.so3()) << " rad";
+    if (by_wheels) note << " (VO not bridged: " << vo_why << ")";
+  }
+  restart_note_ = note.str();
   // Near an elevator, a gap long enough to ride may hold a ride neither bridge sees: the
   // floor is unknown, so the restart is lost (global searches on every floor), not inflated.
   if (gap_s >= o_.warm_restart_ride_min_s && s.active_node >= 0 && s.active_node < static_cast<int64_t>(nodes_.size())) {
@@ -703,21 +710,14 @@ void Mapper::decideRestart(const vo_delta_t& msg) {
     auto near = elevatorNear(saved);
     if (!near && bridge) near = elevatorNear(saved * bridge->mean);
     if (near) {
-      std::ostringstream note;
-      note << near->second << " m from the elevator at node " << near->first << " over " << gap_s
-           << " s: a ride may lie in the gap (" << (bridge ? "not bridged" : restart_note_) << ")";
-      restart_note_ = note.str();
+      std::ostringstream elevator;
+      elevator << near->second << " m from the elevator at node " << near->first << " over " << gap_s
+               << " s: a ride may lie in the gap (" << (bridge ? "not bridged" : restart_note_) << ")";
+      restart_note_ = elevator.str();
       ++stats_.lost_restarts;
       ++stats_.warm_elevator_refusals;
       return;
     }
-  }
-  if (by_wheels) {
-    std::ostringstream note;
-    note << "bridged by wheel odometry over " << 1e-6 * static_cast<double>(utime - s.wheel->utime) << " s: "
-         << bridge->mean.translation().norm() << " m, " << core::rotationAngle(bridge->mean.so3()) << " rad (VO "
-         << restart_note_ << ")";
-    restart_note_ = note.str();
   }
   if (!bridge && gap_s > o_.warm_restart_max_gap_s) {
     ++stats_.lost_restarts;

@@ -488,9 +488,10 @@ class Mapper {
   // The warm-restart decision at the first VO_DELTA after restore() (mapper.cpp).
   void decideRestart(const vo_delta_t& msg);
   // The motion over a restart's gap from the odometry frame, from the state's VO frame to
-  // msg's (saved_T_now, body frames), when the bridge may cross it; else empty, and
-  // restart_note_ says why.
-  std::optional<core::UncertainPose> odometryBridge(const TrackingState& s, const vo_delta_t& msg);
+  // msg's (saved_T_now, body frames), when the bridge may cross it; else empty, and `why`
+  // says why not.
+  std::optional<core::UncertainPose> odometryBridge(const TrackingState& s, const vo_delta_t& msg,
+                                                    std::string& why) const;
   // The same from the wheels' odometry frame, to the first VO_DELTA's time `utime`; why not
   // (if not) in `why`.
   std::optional<core::UncertainPose> wheelBridge(const TrackingState& s, int64_t utime, std::string& why) const;
