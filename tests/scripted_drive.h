@@ -109,9 +109,13 @@ class ScriptedDrive {
                                                           : voMsg(utime_, utime_ - 100000, SE3d(), 1e-3, true);
     if (odometry != GapOdometry::kNone) odom_.stamp(first);
     const wheel_odom_t wheel = wheelMsg(utime_ - 100000, utime_, SE3d());
-    if (wheels_ && !wheels_late_) EXPECT_TRUE(mapper_->onWheel(wheel));
+    if (wheels_ && !wheels_late_) {
+      EXPECT_TRUE(mapper_->onWheel(wheel));
+    }
     const Status s = mapper_->onVo(first);
-    if (wheels_ && wheels_late_) EXPECT_TRUE(mapper_->onWheel(wheel));
+    if (wheels_ && wheels_late_) {
+      EXPECT_TRUE(mapper_->onWheel(wheel));
+    }
     truth_[utime_] = pose_;
     answer();
     return s;
@@ -170,7 +174,9 @@ class ScriptedDrive {
       EXPECT_TRUE(send(voRestart(utime_)));
     } else {
       EXPECT_TRUE(send(voMsg(utime_, utime_ - 100000, pose_.inverse() * next, 1e-3, true)));
-      if (wheels_) EXPECT_TRUE(mapper_->onWheel(wheelMsg(utime_ - 100000, utime_, pose_.inverse() * next)));
+      if (wheels_) {
+        EXPECT_TRUE(mapper_->onWheel(wheelMsg(utime_ - 100000, utime_, pose_.inverse() * next)));
+      }
     }
     pose_ = next;
     truth_[utime_] = next;
