@@ -88,11 +88,9 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapSt
     // the older version whole).
     std::string migrate;
     for (const auto& [column, type] : kTrackingColumnsAdded) {
-      const std::string has_sql =
-          std::string("SELECT COUNT(*) FROM pragma_table_info('map_tracking') WHERE name = '") + column + "'";
-      auto has = store.queryInt(has_sql.c_str());
+      auto has = store.hasTrackingColumn(column);
       if (!has) return has.error();
-      if (*has == 0) migrate += std::string("ALTER TABLE map_tracking ADD COLUMN ") + column + " " + type + ";";
+      if (!*has) migrate += std::string("ALTER TABLE map_tracking ADD COLUMN ") + column + " " + type + ";";
     }
     if (!migrate.empty()) {
       if (Status s = store.exec(("BEGIN IMMEDIATE;" + migrate + "COMMIT;").c_str()); !s) {
@@ -511,11 +509,9 @@ Expected<MapSnapshot> MapStore::load() const {
     // An older store opened read-only lacks the later columns: read as NULL (no pose).
     std::string sql = "SELECT utime, session_id, session_start_utime, active_node, floor, in_elevator, pose, covariance";
     for (const auto& [column, type] : kTrackingColumnsAdded) {
-      const std::string has_sql =
-          std::string("SELECT COUNT(*) FROM pragma_table_info('map_tracking') WHERE name = '") + column + "'";
-      auto has = queryInt(has_sql.c_str());
+      auto has = hasTrackingColumn(column);
       if (!has) return has.error();
-      sql += *has > 0 ? std::string(", ") + column : std::string(", NULL");
+      sql += *has ? std::string(", ") + column : std::string(", NULL");
     }
     sql += " FROM map_tracking WHERE id = 0";
     Statement st;
@@ -577,6 +573,14 @@ Expected<MapSnapshot> MapStore::load() const {
     }
   }
   return out;
+}
+
+Expected<bool> MapStore::hasTrackingColumn(const char* column) const {
+  const std::string sql =
+      std::string("SELECT COUNT(*) FROM pragma_table_info('map_tracking') WHERE name = '") + column + "'";
+  auto count = queryInt(sql.c_str());
+  if (!count) return count.error();
+  return *count > 0;
 }
 
 Status MapStore::integrityCheck() const {

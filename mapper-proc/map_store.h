@@ -149,6 +149,8 @@ class MapStore {
       : db_(db), file_(std::move(file)), options_(options) {}
   Status exec(const char* sql) const;
   Expected<int64_t> queryInt(const char* sql, int64_t a = 0, int64_t b = 0) const;
+  // Whether map_tracking has `column` (a store of an older schema lacks the later ones).
+  Expected<bool> hasTrackingColumn(const char* column) const;
   // Folds the pair's rows into one when there are fold_after of them (inside save()).
   Status foldPair(const Mapper& mapper, int64_t i, int64_t j);
   // Replaces map_tracking's row by the mapper's state (or deletes it), inside a transaction.
