@@ -17,8 +17,8 @@ namespace evermap::mapper {
 Status MapperOptions::validate() const {
   if (!(cell_size_m > 0.0)) return Error{"mapper.cell_size_m: must be > 0"};
   if (heading_bins < 1) return Error{"mapper.heading_bins: must be >= 1"};
-  if (!(overlap_radius_cells >= 0.0 && overlap_radius_cells <= 1.0))
-    return Error{"mapper.overlap_radius_cells: must be in [0, 1]"};
+  if (!(overlap_radius_cells >= 0.0 && overlap_radius_cells <= 3.0))
+    return Error{"mapper.overlap_radius_cells: must be in [0, 3]"};
   if (!(overlap_heading_sectors >= 0.0 && overlap_heading_sectors <= 1.0))
     return Error{"mapper.overlap_heading_sectors: must be in [0, 1]"};
   if (relocalization_checks < 0) return Error{"mapper.relocalization_checks: must be >= 0"};
@@ -335,6 +335,7 @@ void Mapper::finishStep(bool registered) {
     odometer_at_confirmation_ = tracker_.odometerM();
   }
   const bool gate_rejected = std::exchange(gate_rejected_, false);
+  const auto registered_delta = std::exchange(registered_active_T_keyframe_, std::nullopt);
   const auto t0 = SteadyClock::now();
   const double c0 = threadCpuSeconds();
   if (lost_) {
@@ -349,11 +350,14 @@ void Mapper::finishStep(bool registered) {
   const double sigma_m =
       std::sqrt(std::max(f.delta_at_keyframe.covariance(0, 0), f.delta_at_keyframe.covariance(1, 1)));
   const bool placeable = !resumed_ || sigma_m <= o_.warm_restart_node_sigma_m;
-  if (!registered && !gate_rejected && !o_.full_graph && placeable) {
-    const core::SE3d world_T_body = nodePose(f.active) * f.delta_at_keyframe.mean;
+  const bool registered_to_active =
+      o_.node_at_every_new_place && registered && registered_delta && active_ == f.active && !relocalize_;
+  if ((!registered || registered_to_active) && !gate_rejected && !o_.full_graph && placeable) {
+    const core::UncertainPose active_T_keyframe = registered_to_active ? *registered_delta : f.delta_at_keyframe;
+    const core::SE3d world_T_body = nodePose(f.active) * active_T_keyframe.mean;
     if (!nodeAt(world_T_body, floor_, f.keyframe_utime)) {
       // A new place (eq. 8): the node at the keyframe, then Δ restarts from it.
-      addNode(f.keyframe_utime, f.delta_at_keyframe);
+      addNode(f.keyframe_utime, active_T_keyframe);
       tracker_.reset(tracker_.sinceKeyframe(f.keyframe_utime).value_or(core::UncertainPose{}));
       relocalize_ = false;
     }

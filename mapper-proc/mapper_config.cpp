@@ -13,6 +13,7 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.heading_bins", &o->heading_bins);
   reader.read("mapper.overlap_radius_cells", &o->overlap_radius_cells);
   reader.read("mapper.overlap_heading_sectors", &o->overlap_heading_sectors);
+  reader.read("mapper.node_at_every_new_place", &o->node_at_every_new_place);
   reader.read("mapper.relocalization_checks", &o->relocalization_checks);
   reader.read("mapper.step_interval_s", &o->step_interval_s);
   reader.read("mapper.request_timeout_s", &o->request_timeout_s);

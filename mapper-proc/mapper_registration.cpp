@@ -233,7 +233,8 @@ void Mapper::registerToActive(const InFlight& f, const core::UncertainPose& b_T_
     // independent measurements of active_T_keyframe: their information-weighted fusion
     // keeps both. Keeping only one (below) loses, e.g., VO's better heading whenever the
     // registration has the smaller det(Σ), and the graph drifts faster than VO alone.
-    tracker_.reset(core::compound(ConstraintSet::fuse(f.delta_at_keyframe, b_T_q), q_T_now));
+    registered_active_T_keyframe_ = ConstraintSet::fuse(f.delta_at_keyframe, b_T_q);
+    tracker_.reset(core::compound(*registered_active_T_keyframe_, q_T_now));
     ++stats_.delta_fused;
     return;
   }
@@ -242,8 +243,10 @@ void Mapper::registerToActive(const InFlight& f, const core::UncertainPose& b_T_
     tracker_.reset(core::compound(b_T_q, q_T_now));
     relocalize_ = false;
     ++stats_.delta_replaced;
+    registered_active_T_keyframe_ = b_T_q;
   } else {
     ++stats_.delta_kept;
+    registered_active_T_keyframe_ = f.delta_at_keyframe;
   }
 }
 

@@ -42,12 +42,15 @@ std::optional<int64_t> PartitionIndex::overlappingNode(const core::SE3d& world_T
   const core::PlanarCell c = grid_.cellOf(p, floor);
   std::optional<int64_t> best;
   double best_score = 2.0;
-  // The overlap is at most a cell and a sector wide: the neighbours hold every candidate.
-  for (int dx = -1; dx <= 1; ++dx) {
-    for (int dy = -1; dy <= 1; ++dy) {
-      for (int dh = -1; dh <= 1; ++dh) {
-        if (dh != 0 && o_.heading_bins < 3 && (dh < 0 || o_.heading_bins == 1)) continue;  // each sector once
-        core::PlanarCell n{floor, c.ix + dx, c.iy + dy, (c.iheading + dh + o_.heading_bins) % o_.heading_bins};
+  // The cells and sectors the overlap reaches into: every candidate is filed in one of them.
+  const int rings = static_cast<int>(std::ceil(o_.overlap_radius_cells));
+  const int sector_rings = std::min(static_cast<int>(std::ceil(o_.overlap_heading_sectors)), o_.heading_bins / 2);
+  for (int dx = -rings; dx <= rings; ++dx) {
+    for (int dy = -rings; dy <= rings; ++dy) {
+      for (int dh = -sector_rings; dh <= sector_rings; ++dh) {
+        // each sector once: with an even number of sectors the opposite one is reached both ways
+        if (o_.heading_bins % 2 == 0 && sector_rings == o_.heading_bins / 2 && dh == -sector_rings) continue;
+        core::PlanarCell n{floor, c.ix + dx, c.iy + dy, ((c.iheading + dh) % o_.heading_bins + o_.heading_bins) % o_.heading_bins};
         auto it = cells_.find(n);
         if (it == cells_.end()) continue;
         for (int64_t id : it->second) {

@@ -49,19 +49,19 @@ TEST(ReducedGraph, RevisitAddsConstraintNotNode) {
   EXPECT_LT(core::rotationAngle(end.so3()), 1e-6);
 }
 
-// A lap, then the corridor again 0.2 m to the side, where registrations fail (a dark
+// A lap, then the corridor again `offset_m` to the side, where registrations fail (a dark
 // stretch): the map's frame is the first node's, so the first line is at y = 0 and the
-// second across the cell edge there, within the overlap of the first's nodes (about 1.5 m
-// apart). The nodes the dark pass adds.
-int64_t nodesAddedAcrossACellEdge(const MapperOptions& o) {
+// second at y = -offset_m (0.2 m: across the cell edge there, within the overlap of the first's
+// nodes, about 1.5 m apart), to x = end_x. The nodes the dark pass adds.
+int64_t nodesAddedBeside(const MapperOptions& o, double offset_m, double end_x = 8.0) {
   ScriptedDrive drive(o);
   drive.sidestep(0.3);
   lap(drive);
   const int64_t before = drive.mapper().stats().nodes;
-  EXPECT_GT(before, 10);
-  drive.sidestep(-0.2);
+  EXPECT_GT(before, 4);
+  drive.sidestep(-offset_m);
   drive.blind(true);
-  drive.driveTo(8.0, 0.0);
+  drive.driveTo(end_x, 0.0);
   return drive.mapper().stats().nodes - before;
 }
 
@@ -70,15 +70,64 @@ TEST(ReducedGraph, APlaceSeenAcrossACellEdgeAddsNoNodeWhileAnotherOverlapsIt) {
   cells_only.overlap_radius_cells = 0.0;
   cells_only.overlap_heading_sectors = 0.0;
   // Eq. 8 alone: every cell on the new line is empty, a node each.
-  EXPECT_GE(nodesAddedAcrossACellEdge(cells_only), 5);
+  EXPECT_GE(nodesAddedBeside(cells_only, 0.2), 5);
   // With the overlap (the defaults): the nodes 0.5 m away are the same place.
-  EXPECT_EQ(nodesAddedAcrossACellEdge(scriptedOptions()), 0);
+  EXPECT_EQ(nodesAddedBeside(scriptedOptions(), 0.2), 0);
   MapperOptions bad = scriptedOptions();
-  bad.overlap_radius_cells = 2.0;  // more than a cell: the neighbouring cells would not hold it
+  bad.overlap_radius_cells = 3.5;  // registrations do not reach that far
   EXPECT_FALSE(bad.validate());
   bad = scriptedOptions();
   bad.overlap_heading_sectors = 1.5;  // more than a sector
   EXPECT_FALSE(bad.validate());
+}
+
+// The overlap reaches as far as its radius, past the neighbouring cells: a line 1.6 m beside
+// the mapped one (whose nodes are about 2 m apart, to x = 6.3) is 1.6-1.9 m from them up to
+// x = 7, outside a one-cell overlap and inside a two-cell one (the cells two away are searched).
+TEST(ReducedGraph, AnOverlapWiderThanACellFindsTheNodesTwoCellsAway) {
+  MapperOptions one_cell = scriptedOptions();
+  one_cell.overlap_radius_cells = 1.0;
+  EXPECT_GE(nodesAddedBeside(one_cell, 1.6, 7.0), 3);
+  MapperOptions two_cells = scriptedOptions();
+  two_cells.overlap_radius_cells = 2.0;
+  EXPECT_EQ(nodesAddedBeside(two_cells, 1.6, 7.0), 0);
+}
+
+// Algorithm 1 adds a node only at a step with no registration: a first visit that registers to
+// the active node for metres leaves the places in between without a node, and a later visit
+// that fails to register there (a dark stretch, a random failure) adds one, years later.
+// node_at_every_new_place gives every new place its node on the first visit (the step's
+// registration to the active node its constraint): the corridor driven again in the dark adds
+// none. The cells alone (no overlap), so that a place is a cell; the dark pass along the
+// straight only (a turn's steps fall in other heading sectors each time); 5 heading sectors,
+// so that the corridor's heading (0) is inside one and not on the edge between two, and the
+// corridor 0.5 m beside the first node (the map's origin), so that it runs inside a row of
+// cells and not along the edge between two.
+TEST(ReducedGraph, AVisitThatRegistersAllTheWayStillLeavesANodeAtEveryNewPlace) {
+  auto dark_lap_nodes = [](bool every_place, int64_t* first_lap_nodes) {
+    MapperOptions o = scriptedOptions();
+    o.overlap_radius_cells = 0.0;
+    o.overlap_heading_sectors = 0.0;
+    o.heading_bins = 5;
+    o.node_at_every_new_place = every_place;
+    ScriptedDrive drive(o);
+    drive.sidestep(0.0);  // the first node, at the origin
+    drive.sidestep(0.5);
+    lap(drive);
+    *first_lap_nodes = drive.mapper().stats().nodes;
+    drive.blind(true);
+    drive.driveTo(7.5, 0.0);
+    // Exact odometry: the dark pass is where the first one was.
+    EXPECT_LT((drive.mapper().pose().mean.translation() - Vec3(7.5, 0.5, 0)).norm(), 1e-6);
+    return drive.mapper().stats().nodes - *first_lap_nodes;
+  };
+  int64_t sparse = 0;
+  int64_t dense = 0;
+  EXPECT_GE(dark_lap_nodes(false, &sparse), 2);
+  EXPECT_EQ(dark_lap_nodes(true, &dense), 0);
+  // Every cell the first lap passed (8 m each way) has its node.
+  EXPECT_GT(dense, sparse);
+  EXPECT_GE(dense, 16);
 }
 
 TEST(ReducedGraph, AClosureTheMapAlreadyHoldsReLocalisesWithoutAFactor) {
