@@ -5,9 +5,11 @@
 # operation). Prints nodes, factors, the store's edge rows and bytes against operating time
 # (the spirit of the paper's Fig. 7), then the run's summary figures. The mapper's figures,
 # not the visual system's. About 15 min of CPU, 5 GB of memory.
-#   bench/year.sh [BUILD_DIR] [OUT_DIR] [SESSIONS]
+#   bench/year.sh [BUILD_DIR] [OUT_DIR] [SESSIONS] [MAPPER_RUN_OPTION ...]
+# e.g. bench/year.sh build out/year-dense 365 --set mapper.node_at_every_new_place=true
 set -euo pipefail
 build="${1:-build}"; out="${2:-out/year-bench}"; sessions="${3:-365}"
+shift $(( $# < 3 ? $# : 3 ))
 src="$(cd "$(dirname "$0")/.." && pwd)"
 mkdir -p "$out"
 rm -f "$out/map.db" "$out/map.db-wal" "$out/map.db-shm"
@@ -15,7 +17,7 @@ rm -f "$out/map.db" "$out/map.db-wal" "$out/map.db-shm"
 hours="$(awk -v s="$sessions" 'BEGIN { printf "%.1f", 272 * s / 365 }')"
 "$build/bin/evermap-mapper-run" --config "$src/config/sim-paper-scale.conf" \
   --set patrol.sessions="$sessions" --set patrol.total_hours="$hours" --set patrol.span_days=365 \
-  --store "$out/map.db" --store-period-s 60 --out "$out" > "$out/summary.txt"
+  --store "$out/map.db" --store-period-s 60 "$@" --out "$out" > "$out/summary.txt"
 awk -F, 'NR == 1 { next }
   { h = $1; if (!base && h >= 10) { base = 1; n0 = $4; f0 = $5; r0 = $14; b0 = $15 }
     for (i = 1; i <= 5; i++) if (!done[i] && h >= mark[i] + 0) { done[i] = 1; row(h) } last = $0 }
