@@ -168,6 +168,8 @@ std::string OfflineRunSummary::text() const {
   for (int64_t n : nodes_new_heading_by_session) s << " " << n;
   s << "\nnodes_new_place_by_session";
   for (int64_t n : nodes_new_place_by_session) s << " " << n;
+  s << "\nnodes_near_a_view_by_session";
+  for (int64_t n : nodes_near_a_view_by_session) s << " " << n;
   s << "\nsteps_by_session";
   for (int64_t n : steps_by_session) s << " " << n;
   s << "\nsteps_in_mapped_area_by_session";
@@ -403,7 +405,11 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   node_truth.resize(mapper.nodes().size());
   {
     const std::vector<PlaceCause> causes = placeCauses(node_truth, node_truth, run.revisit_radius_m, run.revisit_angle_rad);
-    for (auto* v : {&out.nodes_in_mapped_area_by_session, &out.nodes_new_heading_by_session, &out.nodes_new_place_by_session})
+    // The same test at twice the radius and angle (2 m, 45°: the partition's sector).
+    const std::vector<PlaceCause> near =
+        placeCauses(node_truth, node_truth, 2.0 * run.revisit_radius_m, 2.0 * run.revisit_angle_rad);
+    for (auto* v : {&out.nodes_in_mapped_area_by_session, &out.nodes_new_heading_by_session,
+                    &out.nodes_new_place_by_session, &out.nodes_near_a_view_by_session})
       v->assign(out.nodes_by_session.size(), 0);
     for (size_t k = 0; k < causes.size(); ++k) {
       const auto s = static_cast<size_t>(mapper.nodes()[k].session);
@@ -411,6 +417,7 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
       if (causes[k] == PlaceCause::kMapped) ++out.nodes_in_mapped_area_by_session[s];
       if (causes[k] == PlaceCause::kNewHeading) ++out.nodes_new_heading_by_session[s];
       if (causes[k] == PlaceCause::kNewPlace) ++out.nodes_new_place_by_session[s];
+      if (causes[k] != PlaceCause::kMapped && near[k] == PlaceCause::kMapped) ++out.nodes_near_a_view_by_session[s];
     }
   }
   {

@@ -100,6 +100,11 @@ struct OfflineRunSummary {
   // mapped place seen at a new heading, and a place no earlier session had a node near.
   std::vector<int64_t> nodes_new_heading_by_session;
   std::vector<int64_t> nodes_new_place_by_session;
+  // Of the nodes that are not duplicates: those with an earlier session's node within twice
+  // the radius and the angle (2 m and 45° by default, at their true poses): a place the
+  // earlier sessions passed facing that way without leaving it a node within reach (issue
+  // 22: the late nodes of Algorithm 1, which adds a node only where a registration failed).
+  std::vector<int64_t> nodes_near_a_view_by_session;
   // Step poses of each session, and those where an earlier session had a node (same test):
   // how much of the session revisited mapped areas.
   std::vector<int64_t> steps_by_session;
