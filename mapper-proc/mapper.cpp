@@ -316,6 +316,7 @@ void Mapper::step(int64_t keyframe_utime) {
                                    keyframe_utime - micros(o_.recent_exclusion_s), nodes_);
   } else {
     target = nodeAt(world_T_body, floor_, keyframe_utime);
+    if (target && isSatellite(*target) && !step_failed_) target = active_;
     // The active node, unless a ride left it on another floor (the cab it was made in looks
     // the same on every floor).
     if (!target && nodes_[static_cast<size_t>(active_)].floor == floor_) target = active_;
@@ -324,6 +325,10 @@ void Mapper::step(int64_t keyframe_utime) {
   else sendRequest(register_request_t::MODE_GLOBAL, -1);
   step_cost_s_ += secondsSince(t0);
   step_cpu_s_ += threadCpuSeconds() - c0;
+}
+
+bool Mapper::isSatellite(int64_t node) const {
+  return active_ == satellite_anchor_ && std::find(satellites_.begin(), satellites_.end(), node) != satellites_.end();
 }
 
 void Mapper::finishStep(bool registered) {
@@ -335,6 +340,7 @@ void Mapper::finishStep(bool registered) {
     odometer_at_confirmation_ = tracker_.odometerM();
   }
   const bool gate_rejected = std::exchange(gate_rejected_, false);
+  step_failed_ = !registered;
   const auto registered_delta = std::exchange(registered_active_T_keyframe_, std::nullopt);
   const auto t0 = SteadyClock::now();
   const double c0 = threadCpuSeconds();
@@ -356,10 +362,22 @@ void Mapper::finishStep(bool registered) {
     const core::UncertainPose active_T_keyframe = registered_to_active ? *registered_delta : f.delta_at_keyframe;
     const core::SE3d world_T_body = nodePose(f.active) * active_T_keyframe.mean;
     if (!nodeAt(world_T_body, floor_, f.keyframe_utime)) {
-      // A new place (eq. 8): the node at the keyframe, then Δ restarts from it.
-      addNode(f.keyframe_utime, active_T_keyframe);
-      tracker_.reset(tracker_.sinceKeyframe(f.keyframe_utime).value_or(core::UncertainPose{}));
-      relocalize_ = false;
+      if (registered_to_active) {
+        // A place passed while registered to the active node: its node, hung off the active
+        // node by Δ, which goes on from the active node (the registrations to it keep Δ's
+        // error from growing along a chain of short links).
+        const int64_t anchor = active_;
+        addNode(f.keyframe_utime, active_T_keyframe);
+        if (satellite_anchor_ != anchor) satellites_.clear();
+        satellite_anchor_ = anchor;
+        satellites_.push_back(active_);
+        active_ = anchor;
+      } else {
+        // A new place (eq. 8): the node at the keyframe, then Δ restarts from it.
+        addNode(f.keyframe_utime, active_T_keyframe);
+        tracker_.reset(tracker_.sinceKeyframe(f.keyframe_utime).value_or(core::UncertainPose{}));
+        relocalize_ = false;
+      }
     }
   }
   stats_.timing.partition_s += secondsSince(t0);

@@ -132,6 +132,14 @@ std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, 
     return std::nullopt;
   }
   *registered = true;
+  if (b != f.active && isSatellite(b)) {
+    // A node hung off the active node by Δ (node_at_every_new_place): a closure to it would
+    // count Δ's registrations twice. Re-localised on it instead, no factor.
+    active_ = b;
+    tracker_.reset(core::compound(b_T_q, *q_T_now));
+    relocalize_ = false;
+    return std::nullopt;
+  }
   if (b == f.active) {
     registerToActive(f, b_T_q, *q_T_now, registered);
   } else {

@@ -96,9 +96,9 @@ TEST(ReducedGraph, AnOverlapWiderThanACellFindsTheNodesTwoCellsAway) {
 // Algorithm 1 adds a node only at a step with no registration: a first visit that registers to
 // the active node for metres leaves the places in between without a node, and a later visit
 // that fails to register there (a dark stretch, a random failure) adds one, years later.
-// node_at_every_new_place gives every new place its node on the first visit (the step's
-// registration to the active node its constraint): the corridor driven again in the dark adds
-// none. The cells alone (no overlap), so that a place is a cell; the dark pass along the
+// node_at_every_new_place gives every new place its node on the first visit (a satellite of the
+// active node, its constraint Δ fused with the step's registration): the corridor driven
+// again in the dark adds none. The cells alone (no overlap), so that a place is a cell; the dark pass along the
 // straight only (a turn's steps fall in other heading sectors each time); 5 heading sectors,
 // so that the corridor's heading (0) is inside one and not on the edge between two, and the
 // corridor 0.5 m beside the first node (the map's origin), so that it runs inside a row of
@@ -128,6 +128,34 @@ TEST(ReducedGraph, AVisitThatRegistersAllTheWayStillLeavesANodeAtEveryNewPlace) 
   // Every cell the first lap passed (8 m each way) has its node.
   EXPECT_GT(dense, sparse);
   EXPECT_GE(dense, 16);
+}
+
+// The places passed while the active node answers get their nodes as its satellites: Δ goes
+// on from the active node (no chain of short links), no closure is made to a satellite (its
+// constraint holds Δ's registrations already), and when the active node stops answering the
+// robot goes on from the satellite of its place. Cells of 0.5 m: the scripted registrations
+// reach 1.5 m, so a node answers over several cells.
+TEST(ReducedGraph, PlacesPassedWhileRegisteredHangOffTheNodeRegisteredTo) {
+  MapperOptions o = scriptedOptions();
+  o.cell_size_m = 0.5;
+  o.overlap_radius_cells = 0.0;
+  o.overlap_heading_sectors = 0.0;
+  o.heading_bins = 5;
+  o.node_at_every_new_place = true;
+  ScriptedDrive drive(o);
+  drive.sidestep(0.0);
+  drive.sidestep(0.25);
+  drive.driveTo(7.5, 0.0);
+  const Mapper& m = drive.mapper();
+  // A node in nearly every one of the 15 cells of the 7.5 m (one entered at the step that goes
+  // on from a satellite may be passed before the next step).
+  EXPECT_GE(m.stats().nodes, 13);
+  EXPECT_EQ(m.stats().loop_closures, 0);
+  int most_partners = 0;
+  for (const MapperNode& n : m.nodes()) most_partners = std::max(most_partners, m.constraints().partners(n.id));
+  EXPECT_GE(most_partners, 3);  // a node registered to over metres holds its satellites
+  EXPECT_NE(m.activeNode(), 0);  // ... and the robot went on from them
+  EXPECT_LT((m.pose().mean.translation() - Vec3(7.5, 0.25, 0)).norm(), 1e-6);
 }
 
 TEST(ReducedGraph, AClosureTheMapAlreadyHoldsReLocalisesWithoutAFactor) {
