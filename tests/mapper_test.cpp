@@ -678,6 +678,7 @@ TEST(ReducedGraph, FortySessionsAddAThirdOfTheNodesAfterExplorationWhenEveryNewP
   };
   auto run = [&](bool every_new_place) {
     MapperOptions o;
+    o.overlap_radius_cells = 1.0;
     o.node_at_every_new_place = every_new_place;
     auto summary = runOffline(sim, o);
     EXPECT_TRUE(summary) << summary.error().message;
