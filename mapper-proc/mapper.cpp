@@ -362,19 +362,19 @@ void Mapper::finishStep(bool registered) {
     const core::UncertainPose active_T_keyframe = registered_to_active ? *registered_delta : f.delta_at_keyframe;
     const core::SE3d world_T_body = nodePose(f.active) * active_T_keyframe.mean;
     if (!nodeAt(world_T_body, floor_, f.keyframe_utime)) {
+      // A new place (eq. 8): the node at the keyframe.
+      const int64_t anchor = active_;
+      const int64_t id = addNode(f.keyframe_utime, active_T_keyframe);
       if (registered_to_active) {
-        // A place passed while registered to the active node: its node, hung off the active
-        // node by Δ, which goes on from the active node (the registrations to it keep Δ's
-        // error from growing along a chain of short links).
-        const int64_t anchor = active_;
-        addNode(f.keyframe_utime, active_T_keyframe);
+        // Passed while registered to the active node: the node hangs off it by Δ, which goes
+        // on from it (the registrations to it keep Δ's error from growing along a chain of
+        // short links).
         if (satellite_anchor_ != anchor) satellites_.clear();
         satellite_anchor_ = anchor;
-        satellites_.push_back(active_);
+        satellites_.push_back(id);
         active_ = anchor;
       } else {
-        // A new place (eq. 8): the node at the keyframe, then Δ restarts from it.
-        addNode(f.keyframe_utime, active_T_keyframe);
+        // Δ restarts from the new node.
         tracker_.reset(tracker_.sinceKeyframe(f.keyframe_utime).value_or(core::UncertainPose{}));
         relocalize_ = false;
       }

@@ -98,10 +98,10 @@ struct MapperOptions {
   // to meanwhile (a closure to one would count Δ's registrations twice; a global search that
   // finds one re-localises on it, no factor). When the active node stops answering, the step
   // registers to the satellite of its place, which becomes the active node. Off by default:
-  // on the year run (overlap 2 cells) it stops the node growth (+1.7 to +1.9 % after 10 h
-  // instead of +7 to +8 %) and halves the factors' (+11 to +13 % instead of +21 to +26 %),
-  // with the paper-scale map as large and its node ATE lower, but the year run's node ATE is
-  // higher (0.086 against 0.067 m, mean of 3 seeds).
+  // on the year run (overlap 2 cells, seeds 1-5) it stops the node growth (+1.7 to +2.1 %
+  // after 10 h instead of +6.8 to +8.4 %) and halves the factors' (+11 to +14 % instead of
+  // +21 to +26 %), with the paper-scale map as large and its node ATE lower (mean 0.147
+  // against 0.171 m), but the year run's node ATE is higher (mean 0.079 against 0.068 m).
   bool node_at_every_new_place = false;
   // Partition of each floor (paper section IV-B): cell edge in metres, heading sectors.
   double cell_size_m = 1.0;
