@@ -58,7 +58,9 @@
 // time): once a pair of nodes holds `fold_after` rows, the transaction that adds the last one
 // replaces them by one row, the pair's merged estimate (ConstraintSet::Pair::i_T_j, the
 // information-weighted fusion of its accepted constraints), with a map_folds row saying how
-// many accepted and rejected constraints it stands for and since when. A restored mapper adds
+// many accepted and rejected constraints it stands for and since when. The row keeps the id
+// of the pair's oldest row, and so its place in the file: folds rewrite a pair's row in place,
+// and a map visited again and again keeps its size. A restored mapper adds
 // it as the pair's first constraint, so the pair's factor and the gate for its next
 // constraints are what they were. A fold is undone as a whole: deleting its row removes the
 // pair's evidence (the next visit registers the pair anew); the single constraints folded
