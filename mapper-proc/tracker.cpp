@@ -35,6 +35,8 @@ Status TrackerOptions::validate() const {
     return Error("tracker.gyro_noise_density: must be > 0");
   if (!(gyro_bias_correlation_s > 0.0 && std::isfinite(gyro_bias_correlation_s)))
     return Error("tracker.gyro_bias_correlation_s: must be > 0");
+  if (!(heading_extrapolation_rate_sigma_rad_s >= 0.0 && std::isfinite(heading_extrapolation_rate_sigma_rad_s)))
+    return Error("tracker.heading_extrapolation_rate_sigma_rad_s: must be >= 0");
   if (!(heading_extrapolation_s >= 0.0 && std::isfinite(heading_extrapolation_s)))
     return Error("tracker.heading_extrapolation_s: must be >= 0");
   if (!(max_speed_m_s > 0.0 && std::isfinite(max_speed_m_s)))
@@ -411,8 +413,12 @@ std::optional<std::pair<double, double>> Tracker::gyroYaw(int64_t t0, int64_t t1
   };
   const double dt = static_cast<double>(t1 - t0) * 1e-6;
   const double sb = headings_.back().rate_sigma;
-  return std::make_pair(at(t1) - at(t0),
-                        sb * sb * dt * o_.gyro_bias_correlation_s + o_.gyro_noise_density * o_.gyro_noise_density * dt);
+  // The span past the newest heading, extrapolated (TrackerOptions::heading_extrapolation_rate_sigma_rad_s).
+  const double tau = static_cast<double>(std::max<int64_t>(0, t1 - std::max(t0, headings_.back().utime))) * 1e-6;
+  const double extrapolated = o_.heading_extrapolation_rate_sigma_rad_s * tau;
+  return std::make_pair(at(t1) - at(t0), sb * sb * dt * o_.gyro_bias_correlation_s +
+                                             o_.gyro_noise_density * o_.gyro_noise_density * dt +
+                                             extrapolated * extrapolated);
 }
 
 void Tracker::applyWheel(const wheel_odom_t& msg, int64_t from_utime) {

@@ -75,6 +75,13 @@ struct TrackerOptions {
   // A wheel increment ending this far past the newest ATTITUDE uses the heading extrapolated
   // at its last rate (imu-proc's messages lag the wheels' a little), seconds.
   double heading_extrapolation_s = 0.1;
+  // ... and the extrapolated span τ is good only to the turn rate's change over it: its yaw
+  // gets the variance (heading_extrapolation_rate_sigma_rad_s τ)². A turn that starts or
+  // stops within τ changes the rate by the whole turn rate (robots turn in place at up to
+  // ~1 rad/s; the simulator at 0.8). Without it an extrapolated heading counted as measured:
+  // with ATTITUDE one 10 Hz tick behind the wheels, the rides' yaw errors doubled
+  // (docs/mapper.md, "A year").
+  double heading_extrapolation_rate_sigma_rad_s = 1.0;
   // Plausibility of an odometry message's content (issue 17): a VO_DELTA or WHEEL_ODOM whose
   // motion implies more than these rates over its time span is refused and counted, as a
   // malformed one is. Physics bounds, not noise gates: 50 m/s is above any ground robot or
