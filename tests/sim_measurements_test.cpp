@@ -3,9 +3,13 @@
 // elevator produces the right floor events and IMU signal.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
+#include <numbers>
+#include <vector>
 
+#include <evermap/attitude_t.hpp>
 #include <evermap/floor_t.hpp>
 #include <evermap/imu_t.hpp>
 #include <evermap/keyframe_t.hpp>
@@ -359,6 +363,100 @@ TEST(SimMeasurements, TheGyroReadsASessionBiasOfItsOwnStream) {
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(m.angular_velocity[i], b0[i], 1e-9);
   o.gyro_bias_sigma_radps = 0.0;
   EXPECT_EQ(gyroBias(o, 5, 0), Vec3::Zero());
+}
+
+// The heading change between consecutive ATTITUDE messages against the true yaw change.
+struct HeadingSteps {
+  std::vector<double> measured, turned;
+  std::vector<double> rate_sigma;
+};
+
+HeadingSteps headingSteps(const Captured& c) {
+  HeadingSteps out;
+  const auto msgs = decodeAll<attitude_t>(c.sink, channels::kAttitude);
+  for (size_t k = 1; k < msgs.size(); ++k) {
+    EXPECT_EQ(msgs[k].heading_valid, 1);
+    const double a = c.plan.trajectory->at(msgs[k - 1].utime).world_T_body.so3().rollPitchYaw().z();
+    const double b = c.plan.trajectory->at(msgs[k].utime).world_T_body.so3().rollPitchYaw().z();
+    out.measured.push_back(msgs[k].heading_rad - msgs[k - 1].heading_rad);
+    out.turned.push_back(core::wrapAngle(b - a));
+    out.rate_sigma.push_back(msgs[k].heading_rate_sigma_rad_s);
+  }
+  return out;
+}
+
+TEST(SimMeasurements, TheGyroHeadingTurnsWithTheBodyAndItsScaleErrorIsTheSessions) {
+  SimOptions o = smallRun();
+  removeNoise(o);
+  o.sensors.attitude.heading = true;
+  o.sensors.attitude.heading_noise_density = 0.0;
+  o.sensors.attitude.heading_bias_sigma_rad_s = 0.0;
+  o.sensors.attitude.heading_bias_walk_density = 0.0;
+  o.sensors.attitude.heading_scale_sigma = 0.0;
+  {
+    // Without errors: every message's change is the yaw turned, and over a session the
+    // heading is the yaw unwrapped (it turns by whole turns, never jumps by 2π).
+    const HeadingSteps h = headingSteps(capture(makeRun(o), 1));
+    ASSERT_GT(h.measured.size(), 1000u);
+    double turned = 0.0;
+    for (size_t k = 0; k < h.measured.size(); ++k) {
+      EXPECT_NEAR(h.measured[k], h.turned[k], 1e-9);
+      EXPECT_LT(std::abs(h.measured[k]), 1.0);
+      turned += std::abs(h.turned[k]);
+    }
+    EXPECT_GT(turned, 4.0 * std::numbers::pi);  // the session turns (corners, the cab)
+  }
+  // A scale error alone: one factor for the whole session, another for the next.
+  o.sensors.attitude.heading_scale_sigma = 0.01;
+  std::vector<double> factors;
+  for (int session : {0, 1}) {
+    const HeadingSteps h = headingSteps(capture(makeRun(o), session));
+    double factor = 0.0;
+    for (size_t k = 0; k < h.measured.size(); ++k) {
+      if (std::abs(h.turned[k]) < 0.02) continue;
+      const double f = h.measured[k] / h.turned[k];
+      if (factor == 0.0) factor = f;
+      EXPECT_NEAR(f, factor, 1e-6);
+    }
+    ASSERT_NE(factor, 0.0);
+    EXPECT_LT(std::abs(factor - 1.0), 0.05);
+    factors.push_back(factor);
+  }
+  EXPECT_NE(factors[0], factors[1]);
+}
+
+TEST(SimMeasurements, TheGyroHeadingDriftsByABiasItReportsAndAStopResets) {
+  // The bias alone: the heading drifts at a constant rate while the body moves (no walk), and
+  // the message reports the bias's σ; a stop of heading_still_s (imu-proc's zero-rate update)
+  // draws a new one.
+  SimOptions o = smallRun();
+  removeNoise(o);
+  o.sensors.attitude.heading = true;
+  o.sensors.attitude.heading_noise_density = 0.0;
+  o.sensors.attitude.heading_bias_walk_density = 0.0;
+  o.sensors.attitude.heading_scale_sigma = 0.0;
+  o.sensors.attitude.heading_bias_sigma_rad_s = 0.002;
+  const Captured c = capture(makeRun(o), 1);
+  const HeadingSteps h = headingSteps(c);
+  const double dt = 1.0 / o.sensors.attitude.rate_hz;
+  std::vector<double> rates;
+  for (size_t k = 0; k < h.measured.size(); ++k) {
+    EXPECT_NEAR(h.rate_sigma[k], 0.002, 1e-12);
+    const double rate = (h.measured[k] - h.turned[k]) / dt;
+    if (rates.empty() || std::abs(rate - rates.back()) > 1e-9) rates.push_back(rate);
+  }
+  // Several biases (the session stops: goals, the cab), each within a few σ.
+  EXPECT_GT(rates.size(), 3u);
+  double sum2 = 0.0;
+  for (double r : rates) {
+    EXPECT_LT(std::abs(r), 5 * 0.002);
+    sum2 += r * r;
+  }
+  EXPECT_NEAR(std::sqrt(sum2 / static_cast<double>(rates.size())), 0.002, 0.001);
+  // With a random walk the reported σ grows between stops.
+  o.sensors.attitude.heading_bias_walk_density = 1e-4;
+  const HeadingSteps w = headingSteps(capture(makeRun(o), 1));
+  EXPECT_GT(*std::max_element(w.rate_sigma.begin(), w.rate_sigma.end()), 0.002 * 1.001);
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <numbers>
 #include <string>
 
 #include "core/geometry/se2.h"
@@ -111,7 +112,13 @@ Status WheelOptions::validate() const {
 Status AttitudeOptions::validate() const {
   if (auto s = positive(rate_hz, "rate_hz"); !s) return s;
   if (auto s = nonNegative({sigma_rad}, "sigma_rad"); !s) return s;
-  return positive(untrusted_accel_mps2, "untrusted_accel_mps2");
+  if (auto s = positive(untrusted_accel_mps2, "untrusted_accel_mps2"); !s) return s;
+  if (auto s = nonNegative({heading_noise_density, heading_bias_sigma_rad_s, heading_bias_walk_density,
+                            heading_scale_sigma},
+                           "heading_noise_density");
+      !s)
+    return s;
+  return positive(heading_still_s, "heading_still_s");
 }
 
 Status FloorOptions::validate() const {
@@ -267,6 +274,42 @@ attitude_t measureAttitude(int64_t utime, const BodyState& state, const Attitude
   m.covariance[3] = o.sigma_rad * o.sigma_rad;
   m.accel_trusted = state.acceleration_world.norm() < o.untrusted_accel_mps2 ? 1 : 0;
   return m;
+}
+
+GyroHeadingModel::GyroHeadingModel(const AttitudeOptions& options, Random rng) : o_(options), rng_(rng) {
+  scale_error_ = o_.heading_scale_sigma * rng_.normal();
+  // The robot stood still before its session (it boots standing): one zero-rate update.
+  bias_error_ = o_.heading_bias_sigma_rad_s * rng_.normal();
+  bias_variance_ = o_.heading_bias_sigma_rad_s * o_.heading_bias_sigma_rad_s;
+}
+
+void GyroHeadingModel::fill(int64_t utime, const BodyState& s, attitude_t* m) {
+  const double yaw = s.world_T_body.so3().rollPitchYaw().z();
+  if (last_utime_ >= 0 && utime > last_utime_) {
+    const double dt = 1e-6 * static_cast<double>(utime - last_utime_);
+    const double turned = std::remainder(yaw - last_yaw_, 2.0 * std::numbers::pi);
+    unwrapped_yaw_ += turned;
+    heading_error_ += bias_error_ * dt + scale_error_ * turned + o_.heading_noise_density * std::sqrt(dt) * rng_.normal();
+    const bool still = s.velocity_world.head<2>().norm() < 0.01 && s.acceleration_world.norm() < 0.1 &&
+                       std::abs(turned) < 1e-3 * dt;
+    still_s_ = still ? still_s_ + dt : 0.0;
+    if (still_s_ >= o_.heading_still_s) {
+      bias_error_ = o_.heading_bias_sigma_rad_s * rng_.normal();
+      bias_variance_ = o_.heading_bias_sigma_rad_s * o_.heading_bias_sigma_rad_s;
+      still_s_ = 0.0;
+    } else {
+      const double walk = o_.heading_bias_walk_density * std::sqrt(dt);
+      bias_error_ += walk * rng_.normal();
+      bias_variance_ += walk * walk;
+    }
+  } else if (last_utime_ < 0) {
+    unwrapped_yaw_ = yaw;
+  }
+  last_yaw_ = yaw;
+  last_utime_ = utime;
+  m->heading_rad = unwrapped_yaw_ + heading_error_;
+  m->heading_rate_sigma_rad_s = std::sqrt(bias_variance_);
+  m->heading_valid = 1;
 }
 
 std::vector<floor_t> floorEvents(const Building& building, const SessionPlan& plan,

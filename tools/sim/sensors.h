@@ -99,12 +99,55 @@ struct WheelOptions {
 
 // Roll and pitch from the IMU, noise σ per angle; accel_trusted is 0 while the body
 // accelerates by more than untrusted_accel_mps2 (gravity direction not observable).
+//
+// With heading: the gyro's heading as imu-proc publishes it (ATTITUDE heading_rad and
+// heading_rate_sigma_rad_s; imu-proc/heading_integrator.h), the body's yaw, unwrapped, off by
+//  - the bias imu-proc has not removed: drawn N(0, heading_bias_sigma_rad_s²) whenever the
+//    body has stood still for heading_still_s (imu-proc's zero-rate update: its estimate from
+//    one still window of 1 s is good to the gyro's noise density over √1 s), a random walk
+//    of heading_bias_walk_density in between; the message reports its σ;
+//  - white noise of heading_noise_density, integrated;
+//  - a scale error for the session, N(0, heading_scale_sigma²), times the yaw turned (imu-proc
+//    does not estimate it, nor does the tracker's variance know it: an assumption, 0.2 %, of
+//    a gyro whose scale was calibrated once).
+// Still: level speed below 1 cm/s, acceleration below 0.1 m/s² (imu-proc's still window),
+// not turning. A moving cab at constant speed is still for the gyro.
+// Off by default (docs/mapper.md, "A year": the gyro in the simulator): the tracker fuses a
+// wheel increment with the heading extrapolated to its end when ATTITUDE comes after it, as
+// it does here (the same tick, wheels first), and at 10 Hz that costs more than the gyro
+// gives: the rides' heading errors double.
 struct AttitudeOptions {
   double rate_hz = 10.0;
   double sigma_rad = 0.003;
   double untrusted_accel_mps2 = 0.25;
+  bool heading = false;
+  double heading_noise_density = 1e-3;      // rad/s/√Hz
+  double heading_bias_sigma_rad_s = 1e-3;   // after a zero-rate update
+  double heading_bias_walk_density = 1e-4;  // rad/s²/√Hz
+  double heading_scale_sigma = 0.002;
+  double heading_still_s = 1.0;
 
   Status validate() const;
+};
+
+// The gyro heading of AttitudeOptions for one session, sampled at the attitude's ticks.
+class GyroHeadingModel {
+ public:
+  GyroHeadingModel(const AttitudeOptions& options, Random rng);
+  // Fills m's heading_* at the body state s of time utime (ticks in increasing time).
+  void fill(int64_t utime, const BodyState& s, attitude_t* m);
+
+ private:
+  AttitudeOptions o_;
+  Random rng_;
+  double scale_error_ = 0.0;
+  double bias_error_ = 0.0;     // rad/s
+  double bias_variance_ = 0.0;  // (rad/s)²
+  double heading_error_ = 0.0;  // rad
+  double unwrapped_yaw_ = 0.0;
+  double last_yaw_ = 0.0;
+  int64_t last_utime_ = -1;
+  double still_s_ = 0.0;
 };
 
 // Elevator-proc's output: FLOOR events at ride start and end. The height change of a ride is

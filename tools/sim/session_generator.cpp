@@ -120,6 +120,7 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
   VoModel vo(o.vo, body_T_cam, streamFor(seed, Stream::kVoNoise, session));
   WheelModel wheel(o.wheel, std::move(slips), streamFor(seed, Stream::kWheelNoise, session));
   Random attitude_rng = streamFor(seed, Stream::kAttitudeNoise, session);
+  GyroHeadingModel gyro_heading(o.attitude, streamFor(seed, Stream::kGyroHeading, session));
   Random imu_rng = streamFor(seed, Stream::kImuNoise, session);
   Random floor_rng = streamFor(seed, Stream::kFloorNoise, session);
   const Vec3 imu_bias(o.imu.accel_bias_sigma_mps2 * imu_rng.normal(),
@@ -182,9 +183,14 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
         break;
       }
       case kAttitude:
-        writeMessage(sink, channels::kAttitude, measureAttitude(t, traj.at(t), o.attitude, attitude_rng));
+      {
+        const BodyState s = traj.at(t);
+        attitude_t m = measureAttitude(t, s, o.attitude, attitude_rng);
+        if (o.attitude.heading) gyro_heading.fill(t, s, &m);
+        writeMessage(sink, channels::kAttitude, m);
         attitude_clock.advance();
         break;
+      }
       case kFloor:
         writeMessage(sink, channels::kFloor, floors[floor_next]);
         ++floor_next;

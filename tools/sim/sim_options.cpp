@@ -98,6 +98,12 @@ void visitOptions(Options& o, Visitor&& v) {
   v("attitude.rate_hz", &s.attitude.rate_hz);
   v("attitude.sigma_rad", &s.attitude.sigma_rad);
   v("attitude.untrusted_accel_mps2", &s.attitude.untrusted_accel_mps2);
+  v("attitude.heading", &s.attitude.heading);
+  v("attitude.heading_noise_density", &s.attitude.heading_noise_density);
+  v("attitude.heading_bias_sigma_rad_s", &s.attitude.heading_bias_sigma_rad_s);
+  v("attitude.heading_bias_walk_density", &s.attitude.heading_bias_walk_density);
+  v("attitude.heading_scale_sigma", &s.attitude.heading_scale_sigma);
+  v("attitude.heading_still_s", &s.attitude.heading_still_s);
   v("floor.height_sigma_m", &s.floor.height_sigma_m);
   v("floor.height_sigma_per_m", &s.floor.height_sigma_per_m);
   v("floor.match_threshold_m", &s.floor.match_threshold_m);

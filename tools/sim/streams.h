@@ -26,6 +26,7 @@ enum class Stream : uint64_t {
   kPasserbyLook = 10400,
   kDepthNoise = 10500,
   kGyroBias = 11000,
+  kGyroHeading = 12000,
 };
 
 inline Random streamFor(uint64_t seed, Stream s, int session) {
