@@ -1,5 +1,6 @@
 #include "tools/mapper-run/offline_run.h"
 
+#include <numbers>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -9,6 +10,7 @@
 #include <functional>
 #include <deque>
 #include <map>
+#include <numbers>
 #include <optional>
 #include <sstream>
 
@@ -170,6 +172,12 @@ std::string OfflineRunSummary::text() const {
   for (int64_t n : nodes_new_place_by_session) s << " " << n;
   s << "\nnodes_near_a_view_by_session";
   for (int64_t n : nodes_near_a_view_by_session) s << " " << n;
+  s << "\ninterfloor_pairs " << interfloor_pairs << "\ninterfloor_yaw_rms_deg " << interfloor_yaw_rms_deg
+    << "\ninterfloor_yaw_claimed_deg " << interfloor_yaw_claimed_deg;
+  s << "\npairs_by_session";
+  for (int64_t n : pairs_by_session) s << " " << n;
+  s << "\npairs_between_earlier_nodes_by_session";
+  for (int64_t n : pairs_between_earlier_nodes_by_session) s << " " << n;
   s << "\nsteps_by_session";
   for (int64_t n : steps_by_session) s << " " << n;
   s << "\nsteps_in_mapped_area_by_session";
@@ -438,6 +446,40 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     }
     out.steps_in_mapped_area_by_session = inMappedArea(node_truth, steps, run.revisit_radius_m, run.revisit_angle_rad);
     out.steps_in_mapped_area_by_session.resize(out.steps_by_session.size(), 0);
+  }
+  {
+    // The session a pair was opened in: that of the step at or after its first constraint.
+    const auto& poses = mapper.stepPoses();
+    const size_t sessions = out.nodes_by_session.size();
+    for (auto* v : {&out.pairs_by_session, &out.pairs_between_earlier_nodes_by_session}) v->assign(sessions, 0);
+    double yaw2 = 0.0, claimed2 = 0.0;
+    for (const auto& [key, pair] : mapper.constraints().pairs()) {
+      if (static_cast<size_t>(key.second) < node_truth.size()) {
+        const NodeTruth& a = node_truth[key.first];
+        const NodeTruth& b = node_truth[key.second];
+        if (a.known && b.known && a.floor != b.floor) {
+          const core::SE3d err = (a.world_T_body.inverse() * b.world_T_body).inverse() * pair.i_T_j.mean;
+          const double yaw = err.so3().rollPitchYaw().z();
+          yaw2 += yaw * yaw;
+          claimed2 += pair.i_T_j.covariance(5, 5);
+          ++out.interfloor_pairs;
+        }
+      }
+      const int64_t utime = mapper.constraints().all()[pair.members.front()].utime;
+      auto it = std::lower_bound(poses.begin(), poses.end(), utime,
+                                 [](const Mapper::StepPose& p, int64_t t) { return p.utime < t; });
+      if (it == poses.end()) --it;
+      const auto s = static_cast<size_t>(it->session);
+      if (s >= sessions) continue;
+      ++out.pairs_by_session[s];
+      const int last = std::max(mapper.nodes()[key.first].session, mapper.nodes()[key.second].session);
+      if (last < it->session) ++out.pairs_between_earlier_nodes_by_session[s];
+    }
+    if (out.interfloor_pairs > 0) {
+      const double n = static_cast<double>(out.interfloor_pairs);
+      out.interfloor_yaw_rms_deg = std::sqrt(yaw2 / n) * 180.0 / std::numbers::pi;
+      out.interfloor_yaw_claimed_deg = std::sqrt(claimed2 / n) * 180.0 / std::numbers::pi;
+    }
   }
   out.factors = mapper.stats().factors;
   out.constraints = static_cast<int64_t>(mapper.constraints().all().size());
