@@ -97,13 +97,12 @@ struct MapperOptions {
   // growing, which a chain of short links would not), and its satellites are not registered
   // to meanwhile (a closure to one would count Δ's registrations twice; a global search that
   // finds one re-localises on it, no factor). When the active node stops answering, the step
-  // registers to the satellite of its place, which becomes the active node. On by default
-  // with the overlap at 2 cells (docs/mapper.md, "A year", the fifth pass): on the year run
-  // (seeds 1-10) it stops the node growth (+1.3 to +2.1 % after 10 h instead of +6.6 to
-  // +8.4 %) and halves the factors' (+8 to +14 % instead of +20 to +26 %) at the same node
-  // ATE (mean 0.082 against 0.080 m); at paper scale (seeds 1-8) nodes +0 to +2 %, node ATE
-  // mean 0.163 against 0.164 m. false: Algorithm 1's rule alone.
-  bool node_at_every_new_place = true;
+  // registers to the satellite of its place, which becomes the active node. Off by default:
+  // on the year run (overlap 2 cells, seeds 1-5) it stops the node growth (+1.7 to +2.1 %
+  // after 10 h instead of +6.8 to +8.4 %) and halves the factors' (+11 to +14 % instead of
+  // +21 to +26 %), with the paper-scale map as large and its node ATE lower (mean 0.147
+  // against 0.171 m), but the year run's node ATE is higher (mean 0.079 against 0.068 m).
+  bool node_at_every_new_place = false;
   // Partition of each floor (paper section IV-B): cell edge in metres, heading sectors.
   double cell_size_m = 1.0;
   int heading_bins = 8;
@@ -114,9 +113,8 @@ struct MapperOptions {
   // registers against the closest such node, and no node is added while one overlaps
   // (docs/mapper.md, "A year"). 0: the cells alone (eq. 8). The radius is at most 3 cells
   // (registrations reach a few metres; the cells within it are searched), the heading
-  // tolerance at most a sector. 2 with node_at_every_new_place (whose satellites are 1-2 m
-  // apart; 1 cell, the default before it, was Algorithm 1's).
-  double overlap_radius_cells = 2.0;
+  // tolerance at most a sector.
+  double overlap_radius_cells = 1.0;
   double overlap_heading_sectors = 1.0;
   // While lost, a registration that places the robot (a candidate, waiting for a second one
   // that agrees) is checked by up to this many node-mode requests to the node where it says

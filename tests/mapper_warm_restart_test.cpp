@@ -91,17 +91,13 @@ void expectTrackingGoesOnAsIfNothingWasLost(ScriptedDrive& drive, int64_t restor
 
 TEST(MapperWarmRestart, ARestartWithinTheGapResumesTrackingAndAddsNodesAtOnceWithoutRelocalising) {
   evermap::testing::ScratchDir dir;
-  // Algorithm 1's node rule: the drive out leaves the 1.3 m past its last node without one,
-  // the place the restart's first keyframe adds (with a node at every new place it has one).
-  MapperOptions o = scriptedOptions();
-  o.node_at_every_new_place = false;
-  ScriptedDrive drive(o);
+  ScriptedDrive drive(scriptedOptions());
   const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
   const auto restored = static_cast<int64_t>(map.nodes.size());
   // Half a second of message time lost (mapper-proc restarts in 0.3 s at 1x), and a dark
   // stretch after it: no registration can place the robot, as in an unmapped place.
   drive.blind(true);
-  ASSERT_TRUE(drive.restart(map, o, 0.5));
+  ASSERT_TRUE(drive.restart(map, scriptedOptions(), 0.5));
   EXPECT_EQ(drive.mapper().stats().warm_restarts, 1);
   EXPECT_FALSE(drive.mapper().lost());
   EXPECT_TRUE(drive.mapper().resumedUnconfirmed());

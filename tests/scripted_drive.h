@@ -242,9 +242,6 @@ inline MapperOptions scriptedOptions() {
   MapperOptions o;
   o.tracker.body_T_cam = SE3d();
   o.step_interval_s = 0.3;
-  // The scripted registrations reach 1.5 m: the overlap stays within them (the default's 2
-  // cells would send steps to nodes they cannot register).
-  o.overlap_radius_cells = 1.0;
   return o;
 }
 
