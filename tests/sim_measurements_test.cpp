@@ -385,14 +385,21 @@ HeadingSteps headingSteps(const Captured& c) {
   return out;
 }
 
-TEST(SimMeasurements, TheGyroHeadingTurnsWithTheBodyAndItsScaleErrorIsTheSessions) {
+// A noise-free run whose ATTITUDE carries the gyro's heading with only these errors.
+SimOptions gyroHeadingRun(double bias_sigma_rad_s, double scale_sigma) {
   SimOptions o = smallRun();
   removeNoise(o);
-  o.sensors.attitude.heading = true;
-  o.sensors.attitude.heading_noise_density = 0.0;
-  o.sensors.attitude.heading_bias_sigma_rad_s = 0.0;
-  o.sensors.attitude.heading_bias_walk_density = 0.0;
-  o.sensors.attitude.heading_scale_sigma = 0.0;
+  AttitudeOptions& a = o.sensors.attitude;
+  a.heading = true;
+  a.heading_noise_density = 0.0;
+  a.heading_bias_walk_density = 0.0;
+  a.heading_bias_sigma_rad_s = bias_sigma_rad_s;
+  a.heading_scale_sigma = scale_sigma;
+  return o;
+}
+
+TEST(SimMeasurements, TheGyroHeadingTurnsWithTheBodyAndItsScaleErrorIsTheSessions) {
+  SimOptions o = gyroHeadingRun(0.0, 0.0);
   {
     // Without errors: every message's change is the yaw turned, and over a session the
     // heading is the yaw unwrapped (it turns by whole turns, never jumps by 2π).
@@ -429,13 +436,7 @@ TEST(SimMeasurements, TheGyroHeadingDriftsByABiasItReportsAndAStopResets) {
   // The bias alone: the heading drifts at a constant rate while the body moves (no walk), and
   // the message reports the bias's σ; a stop of heading_still_s (imu-proc's zero-rate update)
   // draws a new one.
-  SimOptions o = smallRun();
-  removeNoise(o);
-  o.sensors.attitude.heading = true;
-  o.sensors.attitude.heading_noise_density = 0.0;
-  o.sensors.attitude.heading_bias_walk_density = 0.0;
-  o.sensors.attitude.heading_scale_sigma = 0.0;
-  o.sensors.attitude.heading_bias_sigma_rad_s = 0.002;
+  SimOptions o = gyroHeadingRun(0.002, 0.0);
   const Captured c = capture(makeRun(o), 1);
   const HeadingSteps h = headingSteps(c);
   const double dt = 1.0 / o.sensors.attitude.rate_hz;
