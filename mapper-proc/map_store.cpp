@@ -348,13 +348,14 @@ Status MapStore::foldPair(const Mapper& mapper, int64_t i, int64_t j) {
   auto rows = queryInt("SELECT COUNT(*) FROM map_edges WHERE from_node = ?1 AND to_node = ?2", i, j);
   if (!rows) return rows.error();
   if (*rows < options_.fold_after) return Ok{};
-  // What the rows stand for: folds count their members, single rows count one.
+  // What the rows stand for: folds count their members, single rows count one; and the
+  // pair's oldest row id.
   const char* count_sql =
       "SELECT COALESCE(SUM(CASE WHEN f.edge_id IS NULL THEN e.accepted ELSE f.members END), 0),"
       " COALESCE(SUM(CASE WHEN f.edge_id IS NULL THEN 1 - e.accepted ELSE f.rejected END), 0),"
-      " MIN(COALESCE(f.first_utime, e.utime)), MAX(e.utime)"
+      " MIN(COALESCE(f.first_utime, e.utime)), MAX(e.utime), MIN(e.edge_id)"
       " FROM map_edges e LEFT JOIN map_folds f ON f.edge_id = e.edge_id WHERE e.from_node = ?1 AND e.to_node = ?2";
-  int64_t members = 0, rejected = 0, first_utime = 0, last_utime = 0, kind = 0;
+  int64_t members = 0, rejected = 0, first_utime = 0, last_utime = 0, oldest_id = 0, kind = 0;
   {
     Statement st;
     if (sqlite3_prepare_v2(db_, count_sql, -1, &st.s, nullptr) != SQLITE_OK)
@@ -366,19 +367,12 @@ Status MapStore::foldPair(const Mapper& mapper, int64_t i, int64_t j) {
     rejected = sqlite3_column_int64(st.s, 1);
     first_utime = sqlite3_column_int64(st.s, 2);
     last_utime = sqlite3_column_int64(st.s, 3);
+    oldest_id = sqlite3_column_int64(st.s, 4);
   }
   // The pair's kind is its first constraint's (an odometry pair stays one when loops confirm it).
   auto first_kind = queryInt("SELECT kind FROM map_edges WHERE from_node = ?1 AND to_node = ?2 ORDER BY edge_id LIMIT 1", i, j);
   if (!first_kind) return first_kind.error();
   kind = *first_kind;
-  // The fold takes the id of the pair's oldest row, and so its place in the file: a row of
-  // the same size goes back where one was deleted, while a new id would append it to the end
-  // and leave the old row's page a hole for good (rowids only grow), so that the file would
-  // grow with every fold, i.e. with the visits (issue 22: +30 % over a simulated year while
-  // its rows grew 15 %). The pair's later constraints get larger ids (last_edge_id_), so a
-  // restore still adds the fold before them.
-  auto oldest = queryInt("SELECT MIN(edge_id) FROM map_edges WHERE from_node = ?1 AND to_node = ?2", i, j);
-  if (!oldest) return oldest.error();
   {
     Statement del_folds, del_edges;
     if (sqlite3_prepare_v2(db_,
@@ -393,11 +387,16 @@ Status MapStore::foldPair(const Mapper& mapper, int64_t i, int64_t j) {
       if (sqlite3_step(st) != SQLITE_DONE) return makeError(file_.string(), ": fold: ", sqlite3_errmsg(db_));
     }
   }
-  // The merged estimate as one accepted row, with the oldest row's id (above).
+  // The merged estimate as one accepted row with the id of the pair's oldest row, and so in
+  // its place in the file: a row of the same size goes back where one was deleted, while a
+  // new id would append it to the end and leave the old row's page a hole for good (rowids
+  // only grow), so that the file would grow with every fold, i.e. with the visits (issue 22:
+  // +30 % over a simulated year while its rows grew 15 %). The pair's later constraints get
+  // larger ids (last_edge_id_), so a restore still adds the fold before them.
   const core::UncertainPose& merged = pair->second.i_T_j;
   const std::vector<double> pose = poseBlob(merged.mean);
   const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov = merged.covariance;
-  const int64_t id = *oldest;
+  const int64_t id = oldest_id;
   Statement edg, fold;
   if (sqlite3_prepare_v2(db_, "INSERT INTO map_edges VALUES (?1, ?2, ?3, ?4, 1, ?5, ?6, ?7)", -1, &edg.s, nullptr) ||
       sqlite3_prepare_v2(db_, "INSERT INTO map_folds VALUES (?1, ?2, ?3, ?4)", -1, &fold.s, nullptr))

@@ -123,16 +123,16 @@ TEST(MapStore, FoldsAPairsConstraintsSoTheStoreGrowsWithTheMapNotWithTheTime) {
   {
     auto unfolded = plain->load();
     ASSERT_TRUE(unfolded);
+    auto pairOf = [](const StoredEdge& e) {
+      return std::make_pair(std::min(e.constraint.from, e.constraint.to), std::max(e.constraint.from, e.constraint.to));
+    };
     std::map<std::pair<int64_t, int64_t>, int64_t> first_id;
-    for (const StoredEdge& e : unfolded->edges) {
-      const auto key = std::make_pair(std::min(e.constraint.from, e.constraint.to), std::max(e.constraint.from, e.constraint.to));
-      first_id.emplace(key, e.edge_id);
-    }
+    for (const StoredEdge& e : unfolded->edges) first_id.emplace(pairOf(e), e.edge_id);
     int folds = 0;
     for (const StoredEdge& e : snap->edges) {
       if (e.folded == 0) continue;
       ++folds;
-      const auto key = std::make_pair(std::min(e.constraint.from, e.constraint.to), std::max(e.constraint.from, e.constraint.to));
+      const auto key = pairOf(e);
       EXPECT_EQ(e.edge_id, first_id.at(key)) << key.first << "-" << key.second;
     }
     EXPECT_GT(folds, 5);

@@ -1,6 +1,5 @@
 #include "tools/mapper-run/offline_run.h"
 
-#include <numbers>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -448,7 +447,8 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     out.steps_in_mapped_area_by_session.resize(out.steps_by_session.size(), 0);
   }
   {
-    // The session a pair was opened in: that of the step at or after its first constraint.
+    // One pass over the node pairs: those between floors against the truth, and the session
+    // each was opened in (that of the step at or after its first constraint).
     const auto& poses = mapper.stepPoses();
     const size_t sessions = out.nodes_by_session.size();
     for (auto* v : {&out.pairs_by_session, &out.pairs_between_earlier_nodes_by_session}) v->assign(sessions, 0);

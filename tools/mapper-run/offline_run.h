@@ -105,16 +105,16 @@ struct OfflineRunSummary {
   // earlier sessions passed facing that way without leaving it a node within reach (issue
   // 22: the late nodes of Algorithm 1, which adds a node only where a registration failed).
   std::vector<int64_t> nodes_near_a_view_by_session;
-  // Node pairs (the solver's factors) opened in each session, by the session of the
-  // constraint that opened them: all, and those between two nodes of earlier sessions (what
-  // a visit adds to a mapped area without adding a node; issue 22: factors that grow with
-  // the visits).
   // Node pairs whose nodes are on different floors (the rides' constraints, at the nodes'
   // true floors) and how far their merged estimates are off in yaw from the truth, rms,
   // against the yaw σ they claim, rms (degrees): what turns a floor against the others.
   int64_t interfloor_pairs = 0;
   double interfloor_yaw_rms_deg = 0.0;
   double interfloor_yaw_claimed_deg = 0.0;
+  // Node pairs (the solver's factors) opened in each session, by the session of the
+  // constraint that opened them: all, and those between two nodes of earlier sessions (what
+  // a visit adds to a mapped area without adding a node; issue 22: factors that grow with
+  // the visits).
   std::vector<int64_t> pairs_by_session;
   std::vector<int64_t> pairs_between_earlier_nodes_by_session;
   // Step poses of each session, and those where an earlier session had a node (same test):

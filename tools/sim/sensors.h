@@ -112,10 +112,11 @@ struct WheelOptions {
 //    a gyro whose scale was calibrated once).
 // Still: level speed below 1 cm/s, acceleration below 0.1 m/s² (imu-proc's still window),
 // not turning. A moving cab at constant speed is still for the gyro.
-// Off by default (docs/mapper.md, "A year": the gyro in the simulator): the tracker fuses a
-// wheel increment with the heading extrapolated to its end when ATTITUDE comes after it, as
-// it does here (the same tick, wheels first), and at 10 Hz that costs more than the gyro
-// gives: the rides' heading errors double.
+// Off by default (docs/mapper.md, "A year": the gyro in the simulator): ATTITUDE comes after
+// the wheels at their shared ticks, so the tracker's gyro yaw over a wheel increment is
+// extrapolated and weighs little (TrackerOptions::heading_extrapolation_rate_sigma_rad_s);
+// on, it leaves the rides' heading as the wheels make it and changes every figure measured
+// without it.
 struct AttitudeOptions {
   double rate_hz = 10.0;
   double sigma_rad = 0.003;

@@ -182,8 +182,7 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
         wheel_clock.advance();
         break;
       }
-      case kAttitude:
-      {
+      case kAttitude: {
         const BodyState s = traj.at(t);
         attitude_t m = measureAttitude(t, s, o.attitude, attitude_rng);
         if (o.attitude.heading) gyro_heading.fill(t, s, &m);
