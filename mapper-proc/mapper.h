@@ -427,6 +427,17 @@ class Mapper {
   };
   const std::vector<StepPose>& stepPoses() const { return step_poses_; }
 
+  // The open step's active node and Δ (active_T_keyframe) its registration will be tested
+  // against, while one is open: what evaluation compares with the truth (evermap-slam-run).
+  struct PendingStep {
+    int64_t active;
+    core::UncertainPose active_T_keyframe;
+  };
+  std::optional<PendingStep> pendingStep() const {
+    if (!in_flight_) return std::nullopt;
+    return PendingStep{in_flight_->active, in_flight_->delta_at_keyframe};
+  }
+
  private:
   struct InFlight {
     int64_t request_id = 0;

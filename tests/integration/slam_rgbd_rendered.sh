@@ -44,4 +44,10 @@ nodes="$(value nodes "$tmp/slam.txt")"
 # chain is metres off).
 ate="$(value node_ate_rmse_m "$tmp/slam.txt")"
 awk -v a="$ate" 'BEGIN { exit !(a < 0.1) }' || fail "node ATE $ate m >= 0.1 m"
+# registrations.csv: each registration with truth has its normalised error against its own
+# covariance (nees) and that of the tracked Δ it was tested against (delta_nees).
+awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next }
+         $col["error_m"] >= 0 && $col["nees"] >= 0 { ++n } $col["delta_nees"] >= 0 { ++d }
+         END { exit !(col["nees"] && col["delta_nees"] && n > 0 && d > 0) }' "$tmp/slam/registrations.csv" ||
+  fail "registrations.csv: no normalised errors"
 echo "slam_rgbd_rendered: OK ($ok of $frames frames tracked, $nodes nodes, node ATE $ate m)"

@@ -187,10 +187,13 @@ int main(int argc, char** argv) {
         << f.loopclose_ms << "," << f.mapper_ms << "," << f.nodes << "\n";
   if (Status s = writeFileAtomically(out / "frames.csv", csv.str()); !s) return fail(s.error().message, 1);
   std::ostringstream reg;
-  reg << "query_utime,mode,status,node,node_keyframe_utime,inliers,score,error_m,error_deg,outcome\n";
+  reg << "query_utime,mode,status,node,node_keyframe_utime,inliers,score,error_m,error_deg,nees,outcome,active,"
+         "delta_error_m,delta_error_deg,delta_nees,requested_node,requested_keyframe_utime\n";
   for (const auto& r : (*runner)->registrations())
     reg << r.query_utime << "," << r.mode << "," << r.status << "," << r.node << "," << r.node_keyframe_utime << ","
-        << r.inliers << "," << r.score << "," << r.error_m << "," << r.error_deg << "," << r.outcome << "\n";
+        << r.inliers << "," << r.score << "," << r.error_m << "," << r.error_deg << "," << r.nees << "," << r.outcome
+        << "," << r.active << "," << r.delta_error_m << "," << r.delta_error_deg << "," << r.delta_nees << ","
+        << r.requested_node << "," << r.requested_keyframe_utime << "\n";
   if (Status s = writeFileAtomically(out / "registrations.csv", reg.str()); !s) return fail(s.error().message, 1);
   std::ostringstream nodes_csv;
   nodes_csv << "node,session,floor,true_floor,keyframe_utime,x,y,z,true_x,true_y,true_z,yaw_deg,true_yaw_deg\n";

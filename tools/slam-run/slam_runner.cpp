@@ -119,6 +119,15 @@ const char* outcomeOf(const OutcomeCounters& before, const OutcomeCounters& afte
   return "none";
 }
 
+// e' Σ⁻¹ e of an estimate's error err = truth⁻¹ · estimate (the mapper's tangent convention,
+// ConstraintSet::mahalanobis2); -1 when Σ cannot be inverted.
+double normalisedError(const core::SE3d& err, const core::Mat6& covariance) {
+  const core::Vec6 e = err.log();
+  Eigen::LDLT<core::Mat6> ldlt(covariance);
+  if (ldlt.info() != Eigen::Success || !covariance.allFinite() || covariance.isZero()) return -1.0;
+  return e.dot(ldlt.solve(e));
+}
+
 }  // namespace
 
 void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
@@ -142,6 +151,11 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
       RegistrationRow row;
       row.query_utime = r.keyframe_utime;
       row.mode = r.mode;
+      if (r.mode == register_request_t::MODE_NODE && r.target_node_id >= 0 &&
+          r.target_node_id < static_cast<int64_t>(mapper_->nodes().size())) {
+        row.requested_node = r.target_node_id;
+        row.requested_keyframe_utime = mapper_->nodes()[static_cast<size_t>(r.target_node_id)].keyframe_utime;
+      }
       row.status = answer.status;
       row.inliers = answer.num_inliers;
       row.score = answer.score;
@@ -155,6 +169,15 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
         const core::SE3d& A = mapper_->tracker().bodyTCamera();
         row.b_T_q = A * core::SE3d(q.normalized(), core::Vec3(answer.translation[0], answer.translation[1],
                                                               answer.translation[2])) * A.inverse();
+        core::Mat6 cam_cov;
+        for (int i = 0; i < 36; ++i) cam_cov(i / 6, i % 6) = answer.covariance[i];
+        row.b_T_q_covariance = A.adjoint() * cam_cov * A.adjoint().transpose();
+      }
+      if (const auto pending = mapper_->pendingStep();
+          pending && pending->active >= 0 && pending->active < static_cast<int64_t>(mapper_->nodes().size())) {
+        row.active = pending->active;
+        row.active_keyframe_utime = mapper_->nodes()[static_cast<size_t>(pending->active)].keyframe_utime;
+        row.active_T_q = pending->active_T_keyframe;
       }
       registrations_.push_back(row);
       t0 = SteadyClock::now();
@@ -520,6 +543,13 @@ Expected<SlamRunSummary> SlamRunner::finish() {
       const core::SE3d err = (b.inverse() * q).inverse() * row.b_T_q;
       row.error_m = err.translation().norm();
       row.error_deg = core::rotationAngle(err.so3()) * 180.0 / std::numbers::pi;
+      row.nees = normalisedError(err, row.b_T_q_covariance);
+      core::SE3d a;
+      if (row.active < 0 || !truth->at(row.active_keyframe_utime, &a)) continue;
+      const core::SE3d delta_err = (a.inverse() * q).inverse() * row.active_T_q.mean;
+      row.delta_error_m = delta_err.translation().norm();
+      row.delta_error_deg = core::rotationAngle(delta_err.so3()) * 180.0 / std::numbers::pi;
+      row.delta_nees = normalisedError(delta_err, row.active_T_q.covariance);
     }
     // New nodes of a session where an earlier session had one (true poses; 1 m, π/8).
     for (SessionSummary& ss : out.sessions) ss.nodes_in_mapped_area = 0;

@@ -175,12 +175,24 @@ class SlamRunner {
     int64_t query_utime = 0;
     int64_t node = -1;
     int64_t node_keyframe_utime = 0;
+    int64_t requested_node = -1;  // the node a MODE_NODE request named, answered or not
+    int64_t requested_keyframe_utime = 0;
     int mode = 0;
     int status = 0;
     int inliers = 0;
     double score = 0.0;
     core::SE3d b_T_q;  // body frames
+    core::Mat6 b_T_q_covariance = core::Mat6::Zero();
     double error_m = -1.0, error_deg = -1.0;  // -1: no truth
+    // The registration's normalised error against the truth, e' Σ⁻¹ e (6 dof: 6 on average
+    // when its covariance is right); -1: no truth.
+    double nees = -1.0;
+    // The tracked Δ (active node to keyframe) the mapper tested it against, and its error and
+    // normalised error against the truth (the active node's keyframe to the query's).
+    int64_t active = -1;
+    int64_t active_keyframe_utime = 0;
+    core::UncertainPose active_T_q;
+    double delta_error_m = -1.0, delta_error_deg = -1.0, delta_nees = -1.0;
     // What the mapper did with it: closure, relocalised, recovered, active (fused with or
     // replacing Δ, or kept Δ), gate (refused by the map gate), inconsistent, floor (another
     // floor's node), none (not registered, or a candidate waiting for a second one).
