@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
 
 #include "sim_test_support.h"
 #include "tools/sim/registration_oracle.h"
@@ -130,6 +133,41 @@ TEST(RegistrationOracle, SuccessFallsWithDistanceAndViewAngleAsModelled) {
   int ok = 0;
   for (int k = 0; k < n; ++k) ok += oracle.answer(request(k, 2, register_request_t::MODE_NODE, 0)).status == kOk;
   EXPECT_NEAR(ok, p * n, 4.0 * std::sqrt(n * p * (1 - p)));
+}
+
+// fitReach (the oracle's model fitted to a registration's successes, evermap-slam-run's
+// summary) gives back the parameters of an oracle whose answers it is fed: requests at
+// random distances and view angles, a success being an answer that registered.
+TEST(RegistrationOracle, TheReachFittedToAnOraclesAnswersIsItsModel) {
+  OracleOptions o;
+  o.false_match_rate_node = 0.0;
+  o.success_probability = 0.9;
+  o.distance_scale_m = 1.3;
+  o.angle_scale_rad = 0.6;
+  RegistrationOracle oracle(o, 5);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> distance(0.0, 4.0), angle(0.0, 1.2);
+  std::vector<ReachSample> samples;
+  for (int k = 0; k < 6000; ++k) {
+    const double d = distance(rng), a = angle(rng);
+    // The node looks along +z from the origin; the query stands d behind it, turned by a.
+    oracle.addKeyframe(camera(2 * k + 1, 0.0, 0.0, 0.0));
+    oracle.addKeyframe(camera(2 * k + 2, -d, 0.0, a));
+    ASSERT_TRUE(oracle.addNode(node(k, 2 * k + 1)));
+    const bool ok = oracle.answer(request(k, 2 * k + 2, register_request_t::MODE_NODE, k)).status == kOk;
+    samples.push_back({d, a, ok});
+  }
+  const ReachFit fit = fitReach(samples, o);
+  std::printf("fit: P %.2f, D %.2f m, A %.2f rad over %lld (beyond the bounds: %lld, %lld ok)\n",
+              fit.success_probability, fit.distance_scale_m, fit.angle_scale_rad,
+              static_cast<long long>(fit.samples), static_cast<long long>(fit.beyond),
+              static_cast<long long>(fit.ok_beyond));
+  EXPECT_NEAR(fit.success_probability, 0.9, 0.05);
+  EXPECT_NEAR(fit.distance_scale_m, 1.3, 0.1);
+  EXPECT_NEAR(fit.angle_scale_rad, 0.6, 0.06);
+  EXPECT_GT(fit.beyond, 0);       // angles over max_view_angle_rad (1 rad)
+  EXPECT_EQ(fit.ok_beyond, 0);    // which the oracle never registers
+  EXPECT_EQ(fit.samples + fit.beyond, 6000);
 }
 
 TEST(RegistrationOracle, ReportedCovarianceMatchesTheNoise) {

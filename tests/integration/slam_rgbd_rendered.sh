@@ -50,4 +50,8 @@ awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) col[$i] = i; next }
          $col["error_m"] >= 0 && $col["nees"] >= 0 { ++n } $col["delta_nees"] >= 0 { ++d }
          END { exit !(col["nees"] && col["delta_nees"] && n > 0 && d > 0) }' "$tmp/slam/registrations.csv" ||
   fail "registrations.csv: no normalised errors"
+# The registration's reach against distance, and the oracle's model fitted to it.
+grep -qE '^registration_reach node_requests [1-9]' "$tmp/slam.txt" || fail "no registration_reach line"
+grep -qE '^registration_reach_fit success_probability [0-9.]+ distance_scale_m [0-9.]+' "$tmp/slam.txt" ||
+  fail "no registration_reach_fit line"
 echo "slam_rgbd_rendered: OK ($ok of $frames frames tracked, $nodes nodes, node ATE $ate m)"

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <sstream>
 
@@ -10,18 +11,69 @@
 namespace evermap::sim {
 namespace {
 
-// Angle between the optical (z) axes of two camera poses.
+void eraseValue(std::vector<size_t>& v, size_t value) {
+  v.erase(std::remove(v.begin(), v.end(), value), v.end());
+}
+
+// Log-likelihood of the samples under p = P exp(-½ (d/D)²) exp(-½ (a/A)²).
+double reachLogLikelihood(const std::vector<ReachSample>& samples, double P, double D, double A) {
+  double ll = 0.0;
+  for (const ReachSample& s : samples) {
+    const double u = s.distance_m / D, v = s.view_angle_rad / A;
+    const double p = std::clamp(P * std::exp(-0.5 * (u * u + v * v)), 1e-9, 1.0 - 1e-9);
+    ll += s.ok ? std::log(p) : std::log1p(-p);
+  }
+  return ll;
+}
+
+}  // namespace
+
 double viewAngle(const SE3d& a, const SE3d& b) {
   const Vec3 za = a.so3() * Vec3::UnitZ();
   const Vec3 zb = b.so3() * Vec3::UnitZ();
   return std::acos(std::clamp(za.dot(zb), -1.0, 1.0));
 }
 
-void eraseValue(std::vector<size_t>& v, size_t value) {
-  v.erase(std::remove(v.begin(), v.end(), value), v.end());
+ReachFit fitReach(const std::vector<ReachSample>& samples, const OracleOptions& bounds) {
+  ReachFit fit;
+  std::vector<ReachSample> within;
+  for (const ReachSample& s : samples) {
+    if (!std::isfinite(s.distance_m) || !std::isfinite(s.view_angle_rad)) continue;
+    if (s.distance_m > bounds.max_distance_m || s.view_angle_rad > bounds.max_view_angle_rad) {
+      ++fit.beyond;
+      fit.ok_beyond += s.ok ? 1 : 0;
+      continue;
+    }
+    within.push_back(s);
+  }
+  fit.samples = static_cast<int64_t>(within.size());
+  if (within.empty()) return fit;
+  // A coarse grid, then a finer one around its best point.
+  struct Grid {
+    double lo, hi, step;
+  };
+  auto search = [&](Grid gp, Grid gd, Grid ga) {
+    for (double P = gp.lo; P <= gp.hi + 1e-9; P += gp.step)
+      for (double D = gd.lo; D <= gd.hi + 1e-9; D += gd.step)
+        for (double A = ga.lo; A <= ga.hi + 1e-9; A += ga.step) {
+          if (P <= 0.0 || P > 1.0 || D <= 0.0 || A <= 0.0) continue;
+          const double ll = reachLogLikelihood(within, P, D, A);
+          if (!(ll <= fit.log_likelihood)) {
+            fit.log_likelihood = ll;
+            fit.success_probability = P;
+            fit.distance_scale_m = D;
+            fit.angle_scale_rad = A;
+          }
+        }
+  };
+  fit.log_likelihood = -std::numeric_limits<double>::infinity();
+  search({0.5, 1.0, 0.05}, {0.2, 4.0, 0.1}, {0.1, 1.5, 0.1});
+  const ReachFit coarse = fit;
+  search({coarse.success_probability - 0.05, coarse.success_probability + 0.05, 0.01},
+         {coarse.distance_scale_m - 0.1, coarse.distance_scale_m + 0.1, 0.02},
+         {coarse.angle_scale_rad - 0.1, coarse.angle_scale_rad + 0.1, 0.02});
+  return fit;
 }
-
-}  // namespace
 
 Status OracleOptions::validate() const {
   if (!(max_distance_m > 0.0)) return makeError("max_distance_m: must be > 0");

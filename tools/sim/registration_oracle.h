@@ -59,6 +59,32 @@ struct OracleOptions {
   Status validate() const;
 };
 
+// Angle between the optical (z) axes of two camera poses (the oracle's a).
+double viewAngle(const SE3d& a, const SE3d& b);
+
+// A registration request against a node, with the truth: the distance and view angle between
+// the two keyframes' camera poses and whether it came back as a true registration.
+struct ReachSample {
+  double distance_m = 0.0;
+  double view_angle_rad = 0.0;
+  bool ok = false;
+};
+// The oracle's success model fitted to what a registration (loopclose-proc's) did: the
+// success_probability, distance_scale_m and angle_scale_rad of the largest likelihood
+// (a grid of 0.05 / 0.1 m / 0.1 rad, then 0.01 / 0.02 m / 0.02 rad around its best), from
+// the samples within the bounds' max_distance_m and max_view_angle_rad (beyond, the model
+// says 0: those are counted apart).
+struct ReachFit {
+  double success_probability = 0.0;
+  double distance_scale_m = 0.0;
+  double angle_scale_rad = 0.0;
+  double log_likelihood = 0.0;
+  int64_t samples = 0;     // fitted
+  int64_t beyond = 0;      // outside the bounds
+  int64_t ok_beyond = 0;   // of which succeeded
+};
+ReachFit fitReach(const std::vector<ReachSample>& samples, const OracleOptions& bounds);
+
 struct OracleSummary {
   int64_t keyframes = 0;
   int64_t nodes = 0;

@@ -551,6 +551,20 @@ Expected<SlamRunSummary> SlamRunner::finish() {
       row.delta_error_deg = core::rotationAngle(delta_err.so3()) * 180.0 / std::numbers::pi;
       row.delta_nees = normalisedError(delta_err, row.active_T_q.covariance);
     }
+    // The registration's reach: every node-mode request on one floor, answered or not.
+    const core::SE3d& body_T_cam = m.tracker().bodyTCamera();
+    for (const RegistrationRow& row : registrations_) {
+      core::SE3d n, q;
+      if (row.requested_node < 0 || !truth->at(row.requested_keyframe_utime, &n) || !truth->at(row.query_utime, &q))
+        continue;
+      if (std::abs(n.translation().z() - q.translation().z()) > 1.0) continue;
+      const bool ok = row.status == register_result_t::STATUS_OK && row.node == row.requested_node &&
+                      row.error_m >= 0.0 && row.error_m <= options_.false_closure_m &&
+                      row.error_deg <= options_.false_closure_deg;
+      out.reach.push_back({(n.translation() - q.translation()).norm(),
+                           sim::viewAngle(n * body_T_cam, q * body_T_cam), ok});
+    }
+    if (!out.reach.empty()) out.reach_fit = sim::fitReach(out.reach, sim::OracleOptions{});
     // New nodes of a session where an earlier session had one (true poses; 1 m, π/8).
     for (SessionSummary& ss : out.sessions) ss.nodes_in_mapped_area = 0;
     for (const mapper::MapperNode& n : m.nodes()) {
@@ -602,6 +616,27 @@ std::string SlamRunSummary::text() const {
     << mapper.gate_recoveries << ", too far to recover " << mapper.recoveries_too_far << ")\nrelocalizations " << mapper.relocalizations << "\n";
   if (false_closures >= 0)
     s << "false_closures " << false_closures << " (of " << closures_with_truth << " with truth)\n";
+  if (reach_fit) {
+    // Node-mode requests by the true distance between the keyframes: registered / asked.
+    constexpr double kEdges[] = {0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 1e9};
+    s << "registration_reach node_requests " << reach.size() << " (same floor, with truth), registered by distance:";
+    for (size_t b = 0; b + 1 < std::size(kEdges); ++b) {
+      int asked = 0, ok = 0;
+      for (const sim::ReachSample& r : reach)
+        if (r.distance_m >= kEdges[b] && r.distance_m < kEdges[b + 1]) {
+          ++asked;
+          ok += r.ok ? 1 : 0;
+        }
+      s << " " << kEdges[b];
+      if (b + 2 < std::size(kEdges)) s << "-" << kEdges[b + 1];
+      else s << "+";
+      s << " m " << ok << "/" << asked;
+    }
+    s << "\nregistration_reach_fit success_probability " << reach_fit->success_probability << " distance_scale_m "
+      << reach_fit->distance_scale_m << " angle_scale_rad " << reach_fit->angle_scale_rad << " (the oracle's p = P exp(-(d/D)^2/2) exp(-(a/A)^2/2) over "
+      << reach_fit->samples << " requests; beyond its bounds " << reach_fit->beyond << ", " << reach_fit->ok_beyond
+      << " registered; its defaults: 0.95, 2, 0.5)\n";
+  }
   s << "vo " << vo.report() << "\ntracker vo_applied " << tracker.vo_applied << ", vo_failed " << tracker.vo_failed
     << ", wheel_applied " << tracker.wheel_applied << ", restarts " << tracker.restarts << ", relinked "
     << tracker.relinked << ", relinks_refused " << tracker.relinks_refused << ", relinks_weaker " << tracker.relinks_weaker << ", reanchored " << tracker.reanchored

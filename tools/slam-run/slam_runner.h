@@ -39,6 +39,7 @@
 #include "mapper-proc/mapper.h"
 #include "tools/pipeline-eval/map_evaluation.h"
 #include "tools/sim/image_sim_options.h"
+#include "tools/sim/registration_oracle.h"
 #include "vo-proc/vo_pipeline.h"
 
 namespace evermap::slam_run {
@@ -135,6 +136,11 @@ struct SlamRunSummary {
     double true_yaw_rad = 0.0, yaw_rad = 0.0;  // heading of the body, truth and map
   };
   std::vector<NodeRow> node_rows;
+  // Node-mode requests with the truth (same floor): distance and view angle between the two
+  // keyframes' cameras and whether a true registration came back; the measurement-level
+  // oracle's success model fitted to them (docs/mapper.md, "A year", sixth pass).
+  std::vector<sim::ReachSample> reach;
+  std::optional<sim::ReachFit> reach_fit;
   std::vector<std::string> errors;  // first few input errors (one line each)
   int64_t input_errors = 0;
 
