@@ -58,7 +58,7 @@ ReachFit fitReach(const std::vector<ReachSample>& samples, const OracleOptions& 
         for (double A = ga.lo; A <= ga.hi + 1e-9; A += ga.step) {
           if (P <= 0.0 || P > 1.0 || D <= 0.0 || A <= 0.0) continue;
           const double ll = reachLogLikelihood(within, P, D, A);
-          if (!(ll <= fit.log_likelihood)) {
+          if (ll > fit.log_likelihood) {
             fit.log_likelihood = ll;
             fit.success_probability = P;
             fit.distance_scale_m = D;

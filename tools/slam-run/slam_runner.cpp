@@ -21,9 +21,11 @@
 #include "core/geometry/se2.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
+#include "core/messages/pose_fields.h"
 #include "core/messages/rgbd_convert.h"
 #include "elevator-proc/lcm_convert.h"
 #include "imu-proc/lcm_convert.h"
+#include "mapper-proc/constraint_set.h"
 #include "mapper-proc/lcm_node.h"
 #include "tools/lcmlog/log_reader.h"
 #include "tools/mapper-run/run_metrics.h"
@@ -119,18 +121,20 @@ const char* outcomeOf(const OutcomeCounters& before, const OutcomeCounters& afte
   return "none";
 }
 
-// e' Σ⁻¹ e of an estimate's error err = truth⁻¹ · estimate (the mapper's tangent convention,
-// ConstraintSet::mahalanobis2); -1 when Σ cannot be inverted.
+// e' Σ⁻¹ e of an estimate's error err = truth⁻¹ · estimate, as the mapper's gates compute it
+// (ConstraintSet::mahalanobis2 against the exact truth); -1 without a covariance.
 double normalisedError(const core::SE3d& err, const core::Mat6& covariance) {
-  const core::Vec6 e = err.log();
-  Eigen::LDLT<core::Mat6> ldlt(covariance);
-  if (ldlt.info() != Eigen::Success || !covariance.allFinite() || covariance.isZero()) return -1.0;
-  return e.dot(ldlt.solve(e));
+  if (!covariance.allFinite() || covariance.isZero()) return -1.0;
+  const double d2 = mapper::ConstraintSet::mahalanobis2(core::UncertainPose{}, {err, covariance});
+  return std::isfinite(d2) ? d2 : -1.0;
 }
 
 }  // namespace
 
 void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
+  // A node id the mapper has made, and its keyframe's time.
+  auto isNode = [&](int64_t id) { return id >= 0 && id < static_cast<int64_t>(mapper_->nodes().size()); };
+  auto keyframeOf = [&](int64_t id) { return mapper_->nodes()[static_cast<size_t>(id)].keyframe_utime; };
   while (true) {
     // Errors of nodes that waited for their keyframe come out of addKeyframe, addNode and
     // answer (the clock moving on): drained at every pass, the last (empty) one included.
@@ -151,10 +155,9 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
       RegistrationRow row;
       row.query_utime = r.keyframe_utime;
       row.mode = r.mode;
-      if (r.mode == register_request_t::MODE_NODE && r.target_node_id >= 0 &&
-          r.target_node_id < static_cast<int64_t>(mapper_->nodes().size())) {
+      if (r.mode == register_request_t::MODE_NODE && isNode(r.target_node_id)) {
         row.requested_node = r.target_node_id;
-        row.requested_keyframe_utime = mapper_->nodes()[static_cast<size_t>(r.target_node_id)].keyframe_utime;
+        row.requested_keyframe_utime = keyframeOf(r.target_node_id);
       }
       row.status = answer.status;
       row.inliers = answer.num_inliers;
@@ -162,21 +165,18 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
       if (answer.status == register_result_t::STATUS_OK) {
         ++answers_ok_;
         row.node = answer.node_id;
-        if (answer.node_id >= 0 && answer.node_id < static_cast<int64_t>(mapper_->nodes().size()))
-          row.node_keyframe_utime = mapper_->nodes()[static_cast<size_t>(answer.node_id)].keyframe_utime;
+        if (isNode(answer.node_id)) row.node_keyframe_utime = keyframeOf(answer.node_id);
         const Eigen::Quaterniond q(answer.orientation[0], answer.orientation[1], answer.orientation[2],
                                    answer.orientation[3]);
         const core::SE3d& A = mapper_->tracker().bodyTCamera();
         row.b_T_q = A * core::SE3d(q.normalized(), core::Vec3(answer.translation[0], answer.translation[1],
                                                               answer.translation[2])) * A.inverse();
-        core::Mat6 cam_cov;
-        for (int i = 0; i < 36; ++i) cam_cov(i / 6, i % 6) = answer.covariance[i];
-        row.b_T_q_covariance = A.adjoint() * cam_cov * A.adjoint().transpose();
+        if (const auto cam_cov = messages::covarianceFromMessage(answer.covariance, "REGISTER_RESULT"))
+          row.b_T_q_covariance = A.adjoint() * *cam_cov * A.adjoint().transpose();
       }
-      if (const auto pending = mapper_->pendingStep();
-          pending && pending->active >= 0 && pending->active < static_cast<int64_t>(mapper_->nodes().size())) {
+      if (const auto pending = mapper_->pendingStep(); pending && isNode(pending->active)) {
         row.active = pending->active;
-        row.active_keyframe_utime = mapper_->nodes()[static_cast<size_t>(pending->active)].keyframe_utime;
+        row.active_keyframe_utime = keyframeOf(pending->active);
         row.active_T_q = pending->active_T_keyframe;
       }
       registrations_.push_back(row);
