@@ -27,17 +27,68 @@ int ConstraintSet::partners(int64_t node) const {
   return node >= 0 && static_cast<size_t>(node) < partners_.size() ? partners_[static_cast<size_t>(node)] : 0;
 }
 
-ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pair** pair, double* d2_out) {
+Constraint ConstraintSet::paired(const Constraint& constraint) const {
   Constraint c = constraint;
+  const auto from = aliases_.find(c.from);
+  if (from != aliases_.end()) {
+    // r_T_f ⊕ f_T_t: a fixed pose on the left leaves the right perturbation at t as it is.
+    c.from_T_to.mean = from->second.into_T_node * c.from_T_to.mean;
+    c.from = from->second.into;
+  }
+  const auto to = aliases_.find(c.to);
+  if (to != aliases_.end()) {
+    // f_T_t ⊕ ⊖r_T_t: f_T_t exp(ξ) r_T_t⁻¹ = f_T_r exp(Ad(r_T_t) ξ).
+    const core::SE3d& r_T_t = to->second.into_T_node;
+    const core::Mat6 ad = r_T_t.adjoint();
+    c.from_T_to.mean = c.from_T_to.mean * r_T_t.inverse();
+    c.from_T_to.covariance = ad * c.from_T_to.covariance * ad.transpose();
+    c.to = to->second.into;
+  }
+  return c;
+}
+
+int64_t ConstraintSet::setAliases(std::map<int64_t, NodeAlias> aliases) {
+  aliases_ = std::move(aliases);
+  std::vector<Constraint> made = std::move(all_);
+  all_.clear();
+  pairs_.clear();
+  partners_.clear();
+  merged_ = 0;
+  rejected_ = 0;
+  for (const Constraint& c : made) add(c);
+  return rejected_;
+}
+
+ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pair** pair, double* d2_out,
+                                          core::UncertainPose* paired_out) {
+  Constraint made = constraint;
+  if (made.from > made.to) {
+    made.from_T_to = core::invert(made.from_T_to);
+    std::swap(made.from, made.to);
+  }
+  Constraint c = aliases_.empty() ? made : paired(made);
+  if (pair) *pair = nullptr;
+  if (c.from == c.to) {
+    // Between a merged node and its node: the merge's own pose is what it measures.
+    const double d2 = mahalanobis2(core::UncertainPose{core::SE3d(), core::Mat6::Zero()}, c.from_T_to);
+    if (d2_out) *d2_out = d2;
+    if (paired_out) *paired_out = c.from_T_to;
+    made.accepted = d2 <= gate_;
+    all_.push_back(made);
+    if (made.accepted) return Outcome::kInternal;
+    ++rejected_;
+    return Outcome::kRejected;
+  }
   if (c.from > c.to) {
     c.from_T_to = core::invert(c.from_T_to);
     std::swap(c.from, c.to);
   }
+  if (paired_out) *paired_out = c.from_T_to;
   const auto key = std::make_pair(c.from, c.to);
   auto it = pairs_.find(key);
   if (it == pairs_.end()) {
-    c.accepted = true;
-    all_.push_back(c);
+    made.accepted = true;
+    all_.push_back(made);
     Pair p;
     p.i = c.from;
     p.j = c.to;
@@ -58,16 +109,16 @@ ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pa
   if (d2_out) *d2_out = d2;
   if (pair) *pair = &p;
   if (!(d2 <= gate_)) {
-    c.accepted = false;
-    all_.push_back(c);
+    made.accepted = false;
+    all_.push_back(made);
     p.members.push_back(all_.size() - 1);
     ++p.rejected;
     ++rejected_;
     return Outcome::kRejected;
   }
   p.i_T_j = fuse(p.i_T_j, c.from_T_to);
-  c.accepted = true;
-  all_.push_back(c);
+  made.accepted = true;
+  all_.push_back(made);
   p.members.push_back(all_.size() - 1);
   ++merged_;
   return Outcome::kMerged;

@@ -345,6 +345,11 @@ Expected<int64_t> MapStore::queryInt(const char* sql, int64_t a, int64_t b) cons
 Status MapStore::foldPair(const Mapper& mapper, int64_t i, int64_t j) {
   const auto pair = mapper.constraints().pairs().find({i, j});
   if (pair == mapper.constraints().pairs().end()) return Ok{};
+  // A pair that holds a merged node's constraints (constraint_set.h) is not this pair of rows
+  // alone: its merged estimate would count those rows twice. Its rows stay as they are.
+  const auto& all = mapper.constraints().all();
+  for (size_t k : pair->second.members)
+    if (all[k].from != i || all[k].to != j) return Ok{};
   auto rows = queryInt("SELECT COUNT(*) FROM map_edges WHERE from_node = ?1 AND to_node = ?2", i, j);
   if (!rows) return rows.error();
   if (*rows < options_.fold_after) return Ok{};

@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <set>
 #include <sstream>
 #include <utility>
 
 #include <Eigen/Cholesky>
 
 #include "core/common/clocks.h"
+#include "core/solver/marginals.h"
 #include "core/solver/pose_factors.h"
 #include "mapper-proc/map_store.h"
 
@@ -21,6 +23,13 @@ Status MapperOptions::validate() const {
     return Error{"mapper.overlap_radius_cells: must be in [0, 3]"};
   if (!(overlap_heading_sectors >= 0.0 && overlap_heading_sectors <= 1.0))
     return Error{"mapper.overlap_heading_sectors: must be in [0, 1]"};
+  if (!(merge_radius_m >= 0.0 && merge_radius_m <= overlap_radius_cells * cell_size_m))
+    return Error{"mapper.merge_radius_m: must be in [0, overlap_radius_cells x cell_size_m]"};
+  if (merge_radius_m > 0.0 && (full_graph || !(map_gate > 0.0)))
+    return Error{"mapper.merge_radius_m: merges need the reduced graph and the map gate"};
+  if (!(merge_heading_sectors > 0.0 && merge_heading_sectors <= overlap_heading_sectors) && merge_radius_m > 0.0)
+    return Error{"mapper.merge_heading_sectors: must be in (0, overlap_heading_sectors]"};
+  if (!(merge_sigma_m > 0.0)) return Error{"mapper.merge_sigma_m: must be > 0"};
   if (relocalization_checks < 0) return Error{"mapper.relocalization_checks: must be >= 0"};
   if (!(step_interval_s >= 0.0)) return Error{"mapper.step_interval_s: must be >= 0"};
   if (!(request_timeout_s > 0.0)) return Error{"mapper.request_timeout_s: must be > 0"};
@@ -70,6 +79,9 @@ void MapperStats::addCounters(const MapperStats& o) {
   constraints += o.constraints;
   factors += o.factors;
   merged += o.merged;
+  node_merges += o.node_merges;
+  merges_refused += o.merges_refused;
+  merges_undone += o.merges_undone;
   rejected_inconsistent += o.rejected_inconsistent;
   requests_node += o.requests_node;
   requests_global += o.requests_global;
@@ -109,7 +121,7 @@ std::string MapperStats::text() const {
     << rejected_inconsistent << "\nrequests_node " << requests_node << "\nrequests_global "
     << requests_global << "\nregistrations_ok " << registrations_ok << "\nloop_closures "
     << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept << "\ndelta_fused " << delta_fused
-    << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor " << rejected_floor << "\nclosures_uninformative " << closures_uninformative << "\nclosures_saturated " << closures_saturated << "\ngate_recoveries " << gate_recoveries << "\nrecoveries_too_far " << recoveries_too_far << "\nrelocalizations " << relocalizations
+    << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor " << rejected_floor << "\nclosures_uninformative " << closures_uninformative << "\nclosures_saturated " << closures_saturated << "\nnode_merges " << node_merges << "\nmerges_refused " << merges_refused << "\nmerges_undone " << merges_undone << "\ngate_recoveries " << gate_recoveries << "\nrecoveries_too_far " << recoveries_too_far << "\nrelocalizations " << relocalizations
     << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrelocalization_disagreements " << relocalization_disagreements << "\nrelocalization_same_frame_checks " << relocalization_same_frame_checks << "\nrestored_nodes " << restored_nodes
     << "\nimplausible_floors " << implausible_floors
     << "\nrestored_constraints " << restored_constraints << "\nwarm_restarts " << warm_restarts
@@ -266,7 +278,13 @@ int Mapper::floorAtHeight(int reported, double height_m) const {
 std::vector<register_request_t> Mapper::takeRequests() { return std::exchange(requests_, {}); }
 std::vector<node_added_t> Mapper::takeNodesAdded() { return std::exchange(nodes_added_, {}); }
 
-core::SE3d Mapper::nodePose(int64_t id) const { return schedule_.pose(id); }
+core::SE3d Mapper::nodePose(int64_t id) const {
+  if (id >= 0 && static_cast<size_t>(id) < nodes_.size()) {
+    const MapperNode& n = nodes_[static_cast<size_t>(id)];
+    if (n.merged_into >= 0) return schedule_.pose(n.merged_into) * n.into_T_node;
+  }
+  return schedule_.pose(id);
+}
 
 core::UncertainPose Mapper::pose() const {
   core::UncertainPose p = tracker_.delta();
@@ -449,20 +467,23 @@ void Mapper::addConstraint(int64_t from, int64_t to, const core::UncertainPose& 
   c.kind = kind;
   c.utime = utime;
   const ConstraintSet::Pair* pair = nullptr;
-  const auto outcome = constraints_.add(c, &pair);
+  core::UncertainPose paired;
+  const auto outcome = constraints_.add(c, &pair, nullptr, &paired);
   ++stats_.constraints;
   if (outcome == ConstraintSet::Outcome::kRejected) {
     ++stats_.rejected_inconsistent;
+    noteMergeContradiction(pair);
     return;
   }
+  if (outcome == ConstraintSet::Outcome::kInternal) return;  // agrees with a merge: no factor
   const auto key = std::make_pair(pair->i, pair->j);
   // An agreeing constraint joins its pair as a factor of its own: the product of the pair's
   // Gaussians is the information-weighted merge, and adding it is an incremental update.
   // Replacing the pair's factor by the merged one needs a factor removal, i.e. a batch step
   // whose cost grows with the map; that consolidation waits for the solver's scheduled batch
   // steps (solver_schedule.h), so merges cost what any new constraint costs.
-  const Constraint& stored = constraints_.all().back();  // i_T_j, as the set keeps it
-  const core::UncertainPose& measurement = outcome == ConstraintSet::Outcome::kMerged ? stored.from_T_to : pair->i_T_j;
+  // i_T_j, as the pair sees it (through the merges).
+  const core::UncertainPose& measurement = outcome == ConstraintSet::Outcome::kMerged ? paired : pair->i_T_j;
   if (outcome == ConstraintSet::Outcome::kMerged) {
     ++stats_.merged;
     if (schedule_.deferMerge(key)) return;  // the pair's factor waits for its consolidation
@@ -488,16 +509,134 @@ void Mapper::flushSolver() {
   const auto t_refresh = SteadyClock::now();
   if (partition_.refresh(nodes_, schedule_.solver())) stats_.timing.partition_s += secondsSince(t_refresh);
   const std::optional<SolverSchedule::Flush> flush = schedule_.flush(last_step_utime_, constraints_);
-  if (!flush) return;
-  if (flush->batch_swapped) {
-    step_cost_s_ += flush->wait_in_operation_s - flush->batch_wait_s;
-    step_cpu_s_ += flush->wait_in_operation_s;  // a blocked thread uses no CPU
-    ++stats_.timing.background_batches;
-    stats_.timing.background_batch_s += flush->batch_compute_s;
-    stats_.timing.background_wait_s += flush->batch_wait_s;
+  if (flush) recordFlush(*flush);
+  for (const auto& m : std::exchange(merge_contradictions_, {})) undoMergesAgainst(m.constraint, m.merged);
+  if (std::exchange(closed_loop_, false)) {
+    if (o_.merge_radius_m > 0.0) mergeChain();
+    chain_start_ = static_cast<int64_t>(nodes_.size());
   }
-  stats_.timing.solver_s += flush->solver_s;
-  stats_.timing.update_s.push_back(flush->solver_s);
+  if (std::exchange(rebuild_graph_, false)) rebuildGraph();
+}
+
+void Mapper::mergeChain() {
+  const auto end = static_cast<int64_t>(nodes_.size());
+  if (chain_start_ <= 0 || chain_start_ >= end) return;
+  // Older than the chain: the map it closed onto.
+  const int64_t before_chain = nodes_[static_cast<size_t>(chain_start_)].keyframe_utime - 1;
+  const double heading_rad = o_.merge_heading_sectors * 2.0 * std::numbers::pi / o_.heading_bins;
+  // Nodes the tracking or a pending decision names stay as they are; so do nodes others are
+  // merged into (a merge names a node of the graph).
+  std::set<int64_t> keep{active_, satellite_anchor_};
+  keep.insert(satellites_.begin(), satellites_.end());
+  if (relocalization_candidate_) keep.insert(relocalization_candidate_->node);
+  if (rejected_candidate_) keep.insert(rejected_candidate_->node);
+  for (const auto& [node, alias] : constraints_.aliases()) keep.insert(alias.into);
+  for (int64_t n = chain_start_; n < end; ++n) {
+    const MapperNode& node = nodes_[static_cast<size_t>(n)];
+    if (node.merged_into >= 0 || keep.count(n) || node.session != session_) continue;
+    const core::SE3d world_T_n = nodePose(n);
+    const auto m = partition_.closestNode(world_T_n, node.floor, before_chain, nodes_, schedule_.solver(),
+                                          o_.merge_radius_m, heading_rad);
+    if (!m) continue;
+    // The map must know them to be one place: the marginal of their relative position.
+    const std::vector<solver::Key> keys{*m, n};
+    const auto joint = solver::Marginals::jointOf(schedule_.solver(), keys);
+    if (!joint) continue;
+    core::Mat6 Jm, Jn;
+    core::between(nodePose(*m), world_T_n, &Jm, &Jn);
+    Eigen::Matrix<double, 6, 12> J;
+    J << Jm, Jn;
+    const core::Mat6 cov = J * (*joint) * J.transpose();
+    if (!(std::sqrt(std::max(cov(0, 0), cov(1, 1))) <= o_.merge_sigma_m)) continue;
+    std::map<int64_t, NodeAlias> aliases = constraints_.aliases();
+    const NodeAlias alias{*m, nodePose(*m).inverse() * world_T_n};
+    aliases[n] = alias;
+    const int64_t rejected = constraints_.rejected();
+    if (constraints_.setAliases(aliases) > rejected) {
+      // Its constraints, re-expressed, contradict what the map holds of the older node.
+      aliases.erase(n);
+      constraints_.setAliases(std::move(aliases));
+      ++stats_.merges_refused;
+      continue;
+    }
+    nodes_[static_cast<size_t>(n)].merged_into = alias.into;
+    nodes_[static_cast<size_t>(n)].into_T_node = alias.into_T_node;
+    keep.insert(*m);
+    --stats_.nodes;
+    ++stats_.node_merges;
+    rebuild_graph_ = true;
+  }
+}
+
+void Mapper::noteMergeContradiction(const ConstraintSet::Pair* pair) {
+  const auto& aliases = constraints_.aliases();
+  if (aliases.empty()) return;
+  const auto& all = constraints_.all();
+  std::set<int64_t> merged;
+  const auto note = [&](const Constraint& c) {
+    for (const int64_t node : {c.from, c.to})
+      if (aliases.count(node)) merged.insert(node);
+  };
+  note(all.back());
+  if (pair)
+    for (size_t k : pair->members) note(all[k]);
+  if (!merged.empty()) merge_contradictions_.push_back({all.size() - 1, {merged.begin(), merged.end()}});
+}
+
+void Mapper::undoMergesAgainst(size_t constraint, const std::vector<int64_t>& merged) {
+  const std::map<int64_t, NodeAlias> before = constraints_.aliases();
+  std::map<int64_t, NodeAlias> aliases = before;
+  for (const int64_t n : merged) aliases.erase(n);
+  if (aliases.size() == before.size()) return;  // undone already
+  constraints_.setAliases(std::move(aliases));
+  if (!constraints_.all()[constraint].accepted) {
+    // Rejected without the merges too: the constraint is what is wrong, not they.
+    constraints_.setAliases(before);
+    return;
+  }
+  takeBack(merged);
+}
+
+void Mapper::takeBack(const std::vector<int64_t>& merged) {
+  for (const int64_t n : merged) {
+    MapperNode& node = nodes_[static_cast<size_t>(n)];
+    if (node.merged_into < 0) continue;
+    undone_poses_[n] = nodePose(n);
+    node.merged_into = -1;
+    ++stats_.nodes;
+    ++stats_.merges_undone;
+  }
+  rebuild_graph_ = true;
+}
+
+void Mapper::rebuildGraph() {
+  const auto t0 = SteadyClock::now();
+  std::vector<std::pair<int64_t, core::SE3d>> variables;
+  for (const MapperNode& n : nodes_) {
+    if (n.merged_into >= 0) continue;
+    const auto undone = undone_poses_.find(n.id);
+    variables.emplace_back(n.id, undone != undone_poses_.end() ? undone->second : schedule_.pose(n.id));
+  }
+  undone_poses_.clear();
+  const SolverSchedule::Flush flush = schedule_.rebuild(variables, constraints_);
+  stats_.timing.solver_s += flush.solver_s;
+  stats_.timing.update_s.push_back(flush.solver_s);
+  stats_.timing.update_utime.push_back(last_step_utime_);
+  stats_.factors = schedule_.factors();
+  partition_.rebuild(nodes_, schedule_.solver().estimate());
+  stats_.timing.partition_s += secondsSince(t0) - flush.solver_s;
+}
+
+void Mapper::recordFlush(const SolverSchedule::Flush& flush) {
+  if (flush.batch_swapped) {
+    step_cost_s_ += flush.wait_in_operation_s - flush.batch_wait_s;
+    step_cpu_s_ += flush.wait_in_operation_s;  // a blocked thread uses no CPU
+    ++stats_.timing.background_batches;
+    stats_.timing.background_batch_s += flush.batch_compute_s;
+    stats_.timing.background_wait_s += flush.batch_wait_s;
+  }
+  stats_.timing.solver_s += flush.solver_s;
+  stats_.timing.update_s.push_back(flush.solver_s);
   stats_.timing.update_utime.push_back(last_step_utime_);
   stats_.factors = schedule_.factors();
   // The partition index follows the estimate after batch steps; in between only new nodes
@@ -505,9 +644,9 @@ void Mapper::flushSolver() {
   // restored map, a removal outside the schedule) re-files every node at once; after a
   // background batch the old nodes are re-filed over the next steps.
   const auto t1 = SteadyClock::now();
-  for (int64_t id : flush->added) partition_.file(id, partition_.cellOf(nodePose(id), nodes_[id].floor));
-  if (flush->batch) partition_.rebuild(nodes_, schedule_.solver().estimate());
-  if (flush->batch_swapped) partition_.startRefresh();
+  for (int64_t id : flush.added) partition_.file(id, partition_.cellOf(nodePose(id), nodes_[id].floor));
+  if (flush.batch) partition_.rebuild(nodes_, schedule_.solver().estimate());
+  if (flush.batch_swapped) partition_.startRefresh();
   stats_.timing.partition_s += secondsSince(t1);
 }
 
@@ -570,6 +709,7 @@ Status Mapper::restore(const MapSnapshot& map) {
   session_ = max_session + 1;
   first_session_ = session_;
   active_ = n_nodes - 1;
+  chain_start_ = n_nodes;  // merges look at the nodes made after the restore
   lost_ = true;  // where the robot is on this map is unknown until a global registration
   // ... and so is its floor, unless a FLOOR message says it (a session's start, a ride's
   // end): a mapper-proc restarted mid-session gets none. The guess is the floor of the newest

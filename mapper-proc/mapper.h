@@ -116,6 +116,20 @@ struct MapperOptions {
   // tolerance at most a sector.
   double overlap_radius_cells = 1.0;
   double overlap_heading_sectors = 1.0;
+  // Merges (issue 22; docs/mapper.md, "Merges"): after a loop closure, each node of the chain
+  // made since the previous closure (in the dark, or while the map could not place it) that
+  // the corrected map puts within merge_radius_m and merge_heading_sectors × a sector of an
+  // older node, with the map's marginal standard deviation of their relative position at
+  // most merge_sigma_m (the larger of x and y), is merged into it: it leaves the graph, its
+  // constraints are re-expressed through its pose in the older node's frame (constraint_set.h),
+  // and a registration to it is one to that node. A merge whose re-expressed constraints
+  // contradict one the map holds is not made; one that a later constraint contradicts (its
+  // pair rejects it, and would accept it without the merge) is undone, the node back in the
+  // graph at its merged pose. 0: no merges. At most the overlap's radius; needs the map gate
+  // (its marginals) and the reduced graph.
+  double merge_radius_m = 0.0;
+  double merge_heading_sectors = 0.5;
+  double merge_sigma_m = 0.25;
   // While lost, a registration that places the robot (a candidate, waiting for a second one
   // that agrees) is checked by up to this many node-mode requests to the node where it says
   // the robot is now, before global searches resume. 0: global searches only.
@@ -315,6 +329,9 @@ struct MapperStats {
   int64_t rejected_floor = 0;     // registrations to a node of another floor
   int64_t closures_uninformative = 0;  // new pairs below min_closure_information: no factor
   int64_t closures_saturated = 0;  // new pairs of saturated nodes below their bound: no factor
+  int64_t node_merges = 0;        // nodes merged into an older one (merge_radius_m)
+  int64_t merges_refused = 0;     // ... not: their constraints contradicted the map's
+  int64_t merges_undone = 0;      // ... undone later: a constraint contradicted the merge
   int64_t gate_recoveries = 0;    // ... accepted after all: a second one agreed with them
   int64_t recoveries_too_far = 0; // ... not: their jump was more than odometry could drift
   int64_t relocalizations = 0;   // a new session tied to the map by a global registration
@@ -401,7 +418,10 @@ class Mapper {
   // The current estimate: world_T_body now.
   core::UncertainPose pose() const;
   core::SE3d nodePose(int64_t id) const;
+  // Every node made, merged ones included (MapperNode::merged_into); ids are indices.
   const std::vector<MapperNode>& nodes() const { return nodes_; }
+  // The nodes of the graph: those not merged into another.
+  int64_t graphNodes() const { return static_cast<int64_t>(nodes_.size() - constraints_.aliases().size()); }
   int64_t activeNode() const { return active_; }
   // A new session not yet placed on the map by a global registration: pose() means nothing.
   bool lost() const { return lost_; }
@@ -503,8 +523,22 @@ class Mapper {
   // override Δ now (MapperOptions::recovery_quiet_s).
   int64_t bridges() const;
   bool recoveryAllowed(int64_t keyframe_utime) const;
-  // The step's changes to the solver (solver_schedule.h), and the partition index after them.
+  // The step's changes to the solver (solver_schedule.h), and the partition index after them;
+  // then the merges and undoes the step calls for (MapperOptions::merge_radius_m).
   void flushSolver();
+  // Merges (mapper.cpp): the chain's nodes that the corrected map puts at an older node's place,
+  // after a loop closure.
+  void mergeChain();
+  // A constraint that its pair (or a merge's own pose) rejected, where a merged node is among
+  // its ends or its pair's: checked at the step's end (undoMergesAgainst).
+  void noteMergeContradiction(const ConstraintSet::Pair* pair);
+  void undoMergesAgainst(size_t constraint, const std::vector<int64_t>& merged);
+  // The merged nodes `nodes` back in the graph at their merged poses (the aliases already
+  // without them); the graph is rebuilt at the step's end.
+  void takeBack(const std::vector<int64_t>& nodes);
+  // The solver and the partition index over the nodes of the graph, after merges or undoes.
+  void rebuildGraph();
+  void recordFlush(const SolverSchedule::Flush& flush);
   // The node of the place world_T_body is in (partition_index.h).
   std::optional<int64_t> nodeAt(const core::SE3d& world_T_body, int floor, int64_t newest_allowed) const;
   // A new session (FLOOR with EVENT_NONE, or a gap in VO time): lost until re-localised.
@@ -566,6 +600,20 @@ class Mapper {
   bool step_failed_ = false;
   std::vector<int64_t> satellites_;
   bool isSatellite(int64_t node) const;
+  // Merges: the first node of the chain made since the last loop closure, a closure in the
+  // step, the registration's own node when it was a merged one (n, n_T_q: a closure's
+  // constraint names it), contradictions to check, undone nodes' poses, and whether the
+  // solver must be rebuilt at the step's end.
+  int64_t chain_start_ = 0;
+  bool closed_loop_ = false;
+  std::optional<std::pair<int64_t, core::UncertainPose>> registered_via_;
+  struct MergeContradiction {
+    size_t constraint;
+    std::vector<int64_t> merged;
+  };
+  std::vector<MergeContradiction> merge_contradictions_;
+  std::map<int64_t, core::SE3d> undone_poses_;
+  bool rebuild_graph_ = false;
   int floor_ = 0;
   bool floor_confirmed_ = true;     // false: a restored map's guess (restore(), sendRequest)
   int64_t unconfirmed_searches_ = 0;

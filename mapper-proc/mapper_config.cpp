@@ -13,6 +13,9 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.heading_bins", &o->heading_bins);
   reader.read("mapper.overlap_radius_cells", &o->overlap_radius_cells);
   reader.read("mapper.overlap_heading_sectors", &o->overlap_heading_sectors);
+  reader.read("mapper.merge_radius_m", &o->merge_radius_m);
+  reader.read("mapper.merge_heading_sectors", &o->merge_heading_sectors);
+  reader.read("mapper.merge_sigma_m", &o->merge_sigma_m);
   reader.read("mapper.node_at_every_new_place", &o->node_at_every_new_place);
   reader.read("mapper.relocalization_checks", &o->relocalization_checks);
   reader.read("mapper.step_interval_s", &o->step_interval_s);

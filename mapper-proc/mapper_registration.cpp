@@ -108,7 +108,7 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
 
 std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
                                                   const core::Mat6& cam_cov, bool* registered) {
-  const int64_t b = msg.node_id;
+  int64_t b = msg.node_id;
   const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2], msg.orientation[3]);
   const core::SE3d cam_T = core::SE3d(q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2]));
   const core::SE3d& A = tracker_.bodyTCamera();  // STEREO_CALIB's, once it came
@@ -116,6 +116,14 @@ std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, 
   core::UncertainPose b_T_q;  // registration, body frames (paper eq. 9)
   b_T_q.mean = A * cam_T * A.inverse();
   b_T_q.covariance = ad * cam_cov * ad.transpose();
+  registered_via_.reset();
+  if (const MapperNode& n = nodes_[static_cast<size_t>(b)]; n.merged_into >= 0) {
+    // A merged node's keyframe is a view of the place of the node it is part of: the
+    // registration is one to that node (a closure's constraint still names the merged one).
+    registered_via_.emplace(b, b_T_q);
+    b_T_q.mean = n.into_T_node * b_T_q.mean;
+    b = n.merged_into;
+  }
   const auto q_T_now = tracker_.sinceKeyframe(f.keyframe_utime);
   if (!q_T_now) {
     ++stats_.dropped;
@@ -208,6 +216,7 @@ std::optional<int64_t> Mapper::confirmResumed(const InFlight& f, int64_t b, cons
   gate_rejected_ = false;
   *registered = true;
   ++stats_.warm_confirmations;
+  closed_loop_ = true;  // the nodes made since the restart are tied to the map now
   if (f.active >= resume_first_new_node_ && b != f.active) {
     // Nodes made since the restart hang on the saved node by the inflated edge: this closure,
     // measured from one of them (Δ since that node is odometry), ties them to the map.
@@ -298,12 +307,20 @@ void Mapper::closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& 
   }
   const size_t rejected_before = constraints_.rejected();
   // The chain active → keyframe → b, compounded (eq. 6-7): a constraint between existing nodes.
-  addConstraint(f.active, b, a_T_b, ConstraintKind::kLoop, f.keyframe_utime, o_.map_gate > 0);
+  if (registered_via_) {
+    // To the merged node the keyframe registered to: a contradiction can then undo the merge.
+    const auto& [n, n_T_q] = *registered_via_;
+    addConstraint(f.active, n, core::compound(f.delta_at_keyframe, core::invert(n_T_q)), ConstraintKind::kLoop,
+                  f.keyframe_utime, o_.map_gate > 0);
+  } else {
+    addConstraint(f.active, b, a_T_b, ConstraintKind::kLoop, f.keyframe_utime, o_.map_gate > 0);
+  }
   if (constraints_.rejected() != static_cast<int64_t>(rejected_before)) {
     *registered = false;  // an inconsistent closure: neither the map nor Δ trusts it
     return;
   }
   ++stats_.loop_closures;
+  closed_loop_ = true;
   active_ = b;
   tracker_.reset(core::compound(b_T_q, q_T_now));
   // Δ now reuses the registration the constraint holds: re-localise at the next chance.

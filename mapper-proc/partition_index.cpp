@@ -35,8 +35,14 @@ std::optional<int64_t> PartitionIndex::overlappingNode(const core::SE3d& world_T
                                                        int64_t newest_allowed,
                                                        const std::vector<MapperNode>& nodes,
                                                        const solver::IncrementalSolver& solver) const {
-  const double radius_m = o_.overlap_radius_cells * o_.cell_size_m;
-  const double heading_rad = overlapHeadingRad();
+  return closestNode(world_T_body, floor, newest_allowed, nodes, solver, o_.overlap_radius_cells * o_.cell_size_m,
+                     overlapHeadingRad());
+}
+
+std::optional<int64_t> PartitionIndex::closestNode(const core::SE3d& world_T_body, int floor, int64_t newest_allowed,
+                                                   const std::vector<MapperNode>& nodes,
+                                                   const solver::IncrementalSolver& solver, double radius_m,
+                                                   double heading_rad) const {
   if (!(radius_m > 0.0) || !(heading_rad > 0.0)) return std::nullopt;
   const core::SE2d p = core::toPlanar(world_T_body);
   const core::PlanarCell c = grid_.cellOf(p, floor);
@@ -81,12 +87,15 @@ void PartitionIndex::file(int64_t id, const core::PlanarCell& cell) {
   const auto k = static_cast<size_t>(id);
   if (k < node_cell_.size()) {
     if (node_cell_[k] == cell) return;
-    auto& old = cells_[node_cell_[k]];
-    old.erase(std::find(old.begin(), old.end(), id));
+    if (!(node_cell_[k] == kUnfiled)) {
+      auto& old = cells_[node_cell_[k]];
+      old.erase(std::find(old.begin(), old.end(), id));
+    }
     node_cell_[k] = cell;
   } else {
     node_cell_.push_back(cell);  // nodes are filed first in id order
   }
+  if (cell == kUnfiled) return;
   auto& ids = cells_[cell];
   ids.insert(std::lower_bound(ids.begin(), ids.end(), id), id);
 }
@@ -94,7 +103,7 @@ void PartitionIndex::file(int64_t id, const core::PlanarCell& cell) {
 void PartitionIndex::rebuild(const std::vector<MapperNode>& nodes, const solver::Values& estimate) {
   cells_.clear();
   node_cell_.clear();
-  for (const MapperNode& n : nodes) file(n.id, cellOf(estimate[n.id].se3, n.floor));
+  for (const MapperNode& n : nodes) file(n.id, n.merged_into >= 0 ? kUnfiled : cellOf(estimate[n.id].se3, n.floor));
   refresh_next_ = SIZE_MAX;
 }
 
@@ -103,7 +112,7 @@ bool PartitionIndex::refresh(const std::vector<MapperNode>& nodes, const solver:
   const size_t end = std::min(nodes.size(), refresh_next_ + static_cast<size_t>(o_.refresh_per_step));
   for (; refresh_next_ < end; ++refresh_next_) {
     const MapperNode& n = nodes[refresh_next_];
-    file(n.id, cellOf(solver.estimate(n.id).se3, n.floor));
+    if (n.merged_into < 0) file(n.id, cellOf(solver.estimate(n.id).se3, n.floor));
   }
   if (refresh_next_ >= nodes.size()) refresh_next_ = SIZE_MAX;
   return true;

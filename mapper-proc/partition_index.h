@@ -12,6 +12,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <unordered_map>
 #include <vector>
@@ -44,6 +45,10 @@ class PartitionIndex {
   std::optional<int64_t> overlappingNode(const core::SE3d& world_T_body, int floor, int64_t newest_allowed,
                                          const std::vector<MapperNode>& nodes,
                                          const solver::IncrementalSolver& solver) const;
+  // The same within radius_m and heading_rad, at most the overlap's (merges).
+  std::optional<int64_t> closestNode(const core::SE3d& world_T_body, int floor, int64_t newest_allowed,
+                                     const std::vector<MapperNode>& nodes, const solver::IncrementalSolver& solver,
+                                     double radius_m, double heading_rad) const;
   // The node of the place world_T_body is in: its cell's, else the one overlapping it.
   std::optional<int64_t> nodeAt(const core::SE3d& world_T_body, int floor, int64_t newest_allowed,
                                 const std::vector<MapperNode>& nodes,
@@ -56,7 +61,9 @@ class PartitionIndex {
 
   // Files node id under cell (moving it there if it was filed elsewhere). Nodes are filed
   // first in id order.
+  // Files node `id` in `cell` (moving it from its old one); kUnfiled: in none (a merged node).
   void file(int64_t id, const core::PlanarCell& cell);
+  static constexpr core::PlanarCell kUnfiled{std::numeric_limits<int>::min(), 0, 0, 0};
   // Every node re-filed at the estimate.
   void rebuild(const std::vector<MapperNode>& nodes, const solver::Values& estimate);
   // After a background batch step: re-file refresh_per_step nodes at each refresh() from now.

@@ -327,6 +327,129 @@ TEST(ReducedGraph, AMapReloadedFromItsStoreCountsTheSamePartnersAndKeepsItsFacto
   EXPECT_EQ(after.back(), factors_before);
 }
 
+// A lap, then the corridor again in the dark with a heading error VO did not see (the robot
+// turned by `slip_rad` unseen, then drove the mapped line): the estimate leaves the line, and
+// beyond a few metres no node overlaps it, so the dark pass adds nodes. The way back registers
+// again and closes onto the lap's nodes, which brings the dark nodes back onto the line.
+struct DarkPass {
+  MapperStats stats;
+  int64_t nodes_before = 0;   // after the lap
+  int64_t nodes_dark = 0;     // ... and after the dark pass
+  double worst_node_error_m = 0.0;  // every node's estimate against its truth, the frame of node 0
+};
+void driveDarkPassBack(ScriptedDrive& drive, double slip_rad, DarkPass* out) {
+  lap(drive);
+  out->nodes_before = drive.mapper().stats().nodes;
+  drive.voSigma(0.01);
+  drive.blind(true);
+  drive.driveTo(0.0, slip_rad);
+  drive.slipBy(planar(0, 0, -slip_rad));
+  drive.driveTo(8.0, 0.0);
+  drive.driveTo(8.0, std::numbers::pi);
+  out->nodes_dark = drive.mapper().stats().nodes;
+  drive.blind(false);
+  drive.driveTo(0.0, std::numbers::pi);
+  drive.driveTo(0.0, 0.0);
+  lap(drive);
+  out->stats = drive.mapper().stats();
+}
+DarkPass darkPassBack(const MapperOptions& o, double slip_rad) {
+  ScriptedDrive drive(o);
+  DarkPass out;
+  driveDarkPassBack(drive, slip_rad, &out);
+  const SE3d origin = drive.nodeTruth(0);
+  for (int64_t id = 0; id < static_cast<int64_t>(drive.mapper().nodes().size()); ++id) {
+    const SE3d truth = origin.inverse() * drive.nodeTruth(id);
+    out.worst_node_error_m = std::max(out.worst_node_error_m,
+                                      (drive.mapper().nodePose(id).translation() - truth.translation()).norm());
+  }
+  return out;
+}
+
+// The nodes of the graph (not merged) as nodes() holds them: what stats().nodes counts.
+int64_t unmergedNodes(const Mapper& m) {
+  int64_t n = 0;
+  for (const MapperNode& node : m.nodes()) n += node.merged_into < 0 ? 1 : 0;
+  return n;
+}
+
+TEST(ReducedGraph, NodesMadeInTheDarkAtMappedPlacesAreMergedOnceAClosureShowsWhereTheyAre) {
+  MapperOptions on = scriptedOptions();
+  on.merge_radius_m = 0.5;
+  const DarkPass without = darkPassBack(scriptedOptions(), 0.15);
+  const DarkPass with = darkPassBack(on, 0.15);
+  // The dark pass leaves the line where no node overlaps it: nodes at mapped places.
+  EXPECT_GE(without.nodes_dark - without.nodes_before, 4);
+  EXPECT_EQ(without.stats.node_merges, 0);
+  EXPECT_EQ(with.nodes_dark, without.nodes_dark);
+  // Once the way back closes onto the lap, those within half a metre of a lap node (and half
+  // a sector of its heading) are merged into it, their constraints with them: fewer nodes and
+  // factors, every node (merged ones at their merged pose) as close to its truth.
+  EXPECT_GE(with.stats.node_merges, 2);
+  EXPECT_EQ(with.stats.merges_undone, 0);
+  EXPECT_EQ(with.stats.nodes, without.stats.nodes - with.stats.node_merges);
+  EXPECT_LT(with.stats.factors, without.stats.factors);
+  EXPECT_LT(with.worst_node_error_m, without.worst_node_error_m + 0.01);
+  EXPECT_LT(with.worst_node_error_m, 0.15);
+}
+
+// The heading VO did not see is larger: the way back's closures contradict one of the merges
+// made after the first (a constraint its pair rejects with the merge and accepts without it),
+// and that merge is undone: its node is back in the graph. No merge that is kept is one a
+// constraint of the map contradicts.
+TEST(ReducedGraph, AMergeThatALaterConstraintContradictsIsUndone) {
+  MapperOptions on = scriptedOptions();
+  on.merge_radius_m = 0.5;
+  ScriptedDrive drive(on);
+  DarkPass pass;
+  driveDarkPassBack(drive, 0.25, &pass);
+  const MapperStats& st = drive.mapper().stats();
+  EXPECT_GE(st.node_merges, 2);
+  EXPECT_GE(st.merges_undone, 1);
+  EXPECT_EQ(st.nodes, unmergedNodes(drive.mapper()));
+  EXPECT_EQ(unmergedNodes(drive.mapper()),
+            static_cast<int64_t>(drive.mapper().nodes().size()) - st.node_merges + st.merges_undone);
+  const ConstraintSet& set = drive.mapper().constraints();
+  for (const auto& [node, alias] : set.aliases()) {
+    EXPECT_LT(drive.mapper().nodes()[static_cast<size_t>(alias.into)].merged_into, 0);
+    ConstraintSet without = set;
+    auto others = set.aliases();
+    others.erase(node);
+    EXPECT_GE(without.setAliases(others), set.rejected()) << "node " << node << "'s merge is contradicted";
+  }
+}
+
+// Merges are not stored: the store holds the constraints as they were made, a restored map
+// every node (merged ones at their merged pose), and a pair holding a merged node's
+// constraints is not folded (its merged estimate would count them twice on restore).
+TEST(ReducedGraph, AMapWithMergesIsStoredAsItsConstraintsWereMadeAndRestoredWhole) {
+  evermap::testing::ScratchDir dir;
+  MapperOptions on = scriptedOptions();
+  on.merge_radius_m = 0.5;
+  ScriptedDrive drive(on);
+  DarkPass pass;
+  driveDarkPassBack(drive, 0.15, &pass);
+  lap(drive);
+  ASSERT_GE(drive.mapper().stats().node_merges, 2);
+  auto store = MapStore::open(dir.path() / "map.db");
+  ASSERT_TRUE(store) << store.error().message;
+  ASSERT_TRUE(store->save(drive.mapper(), drive.mapper().session(), 0));
+  auto snap = store->load();
+  ASSERT_TRUE(snap) << snap.error().message;
+  Mapper reloaded(on);
+  ASSERT_TRUE(reloaded.restore(*snap));
+  ASSERT_EQ(reloaded.nodes().size(), drive.mapper().nodes().size());
+  EXPECT_EQ(reloaded.stats().restored_nodes, static_cast<int64_t>(reloaded.nodes().size()));
+  EXPECT_EQ(unmergedNodes(reloaded), static_cast<int64_t>(reloaded.nodes().size()));
+  EXPECT_EQ(reloaded.constraints().rejected(), drive.mapper().constraints().rejected());
+  // Solved from its constraints without the merges: every node as close to its truth.
+  const SE3d origin = drive.nodeTruth(0);
+  for (int64_t id = 0; id < static_cast<int64_t>(reloaded.nodes().size()); ++id) {
+    const SE3d truth = origin.inverse() * drive.nodeTruth(id);
+    EXPECT_LT((reloaded.nodePose(id).translation() - truth.translation()).norm(), 0.15) << "node " << id;
+  }
+}
+
 TEST(ReducedGraph, AnElevatorRideMovesTheEstimateToTheNewFloorAndTakesNoStepInTheCab) {
   // elevator-proc announces no floor before the first ride: its start names the height of
   // the floor left. Keyframes in the cab take no step (the cab is a place that moves), and

@@ -318,6 +318,75 @@ TEST(ConstraintSet, AgreeingConstraintsMergeAndInconsistentOnesAreRejected) {
   EXPECT_EQ(set.pairs().at({3, 5}).members.size(), 3u);
 }
 
+// Node 2 is the place of node 1, seen 0.3 m aside and 0.3 rad turned. Merged into 1, its
+// constraints are re-expressed through 1_T_2 and join node 1's pairs, where they agree with the
+// constraints made to 1 itself; setting the aliases back to none gives the pairs as they were.
+TEST(ConstraintSet, AMergedNodesConstraintsJoinItsNodesPairsAndComeBackWhenTheMergeIsUndone) {
+  const SE3d w_T[] = {SE3d(), planar(1.0, 0.0, 0.0), planar(1.2, 0.2, 0.3), planar(3.0, 1.0, 1.0)};
+  Mat6 cov = Mat6::Identity() * 1e-3;
+  cov(0, 5) = cov(5, 0) = 5e-4;  // a correlation, so that moving the tangent space shows
+  const auto make = [&](int64_t i, int64_t j) {
+    Constraint c;
+    c.from = i;
+    c.to = j;
+    c.from_T_to = UncertainPose{w_T[i].inverse() * w_T[j], cov};
+    return c;
+  };
+  ConstraintSet set(16.81);
+  for (const auto& [i, j] : std::vector<std::pair<int, int>>{{0, 1}, {1, 3}, {0, 2}, {3, 2}}) set.add(make(i, j));
+  ASSERT_EQ(set.pairs().size(), 4u);
+  const auto before = set.pairs();
+
+  const SE3d one_T_two = w_T[1].inverse() * w_T[2];
+  EXPECT_EQ(set.setAliases({{2, NodeAlias{1, one_T_two}}}), 0);
+  ASSERT_EQ(set.pairs().size(), 2u);
+  EXPECT_EQ(set.pairs().at({0, 1}).members.size(), 2u);
+  EXPECT_EQ(set.pairs().at({1, 3}).members.size(), 2u);
+  EXPECT_EQ(set.merged(), 2);
+  EXPECT_EQ(set.partners(1), 2);
+  EXPECT_EQ(set.partners(2), 0);
+  // Exact constraints: the merged pairs are exact too.
+  EXPECT_LT((set.pairs().at({1, 3}).i_T_j.mean.inverse() * (w_T[1].inverse() * w_T[3])).log().norm(), 1e-12);
+  // The constraints are kept as they were made.
+  EXPECT_EQ(set.all()[2].to, 2);
+  // 3 -> 2 re-expressed as 1_T_3 (the pair's order): its covariance is the one of the made
+  // constraint carried to node 3's tangent space, as a small perturbation of it shows.
+  const Constraint made = make(3, 2);
+  const Constraint paired = set.paired(make(1, 2));
+  EXPECT_EQ(paired.from, 1);
+  EXPECT_EQ(paired.to, 1);  // a constraint of the merge itself
+  const Constraint c32 = set.paired(made);
+  EXPECT_EQ(c32.from, 3);
+  EXPECT_EQ(c32.to, 1);
+  Eigen::Matrix<double, 6, 6> J;
+  for (int k = 0; k < 6; ++k) {
+    Vec6 xi = Vec6::Zero();
+    xi(k) = 1e-6;
+    Constraint moved = made;
+    moved.from_T_to.mean = made.from_T_to.mean * SE3d::exp(xi);
+    J.col(k) = (c32.from_T_to.mean.inverse() * set.paired(moved).from_T_to.mean).log() / 1e-6;
+  }
+  EXPECT_LT((J * cov * J.transpose() - c32.from_T_to.covariance).norm(), 1e-8);
+  // A constraint between the merged node and its node agrees with the merge, or is rejected.
+  EXPECT_EQ(set.add(make(1, 2)), ConstraintSet::Outcome::kInternal);
+  Constraint off = make(1, 2);
+  off.from_T_to.mean = planar(1.0, 0.0, 0.0) * off.from_T_to.mean;
+  EXPECT_EQ(set.add(off), ConstraintSet::Outcome::kRejected);
+
+  // Undone: the pairs as before the merge, the last two constraints as a pair of their own.
+  set.setAliases({});
+  EXPECT_EQ(set.pairs().size(), 5u);
+  for (const auto& [key, pair] : before) {
+    ASSERT_TRUE(set.pairs().count(key));
+    EXPECT_LT((set.pairs().at(key).i_T_j.covariance - pair.i_T_j.covariance).norm(), 1e-15);
+    EXPECT_LT((set.pairs().at(key).i_T_j.mean.inverse() * pair.i_T_j.mean).log().norm(), 1e-15);
+  }
+  EXPECT_EQ(set.pairs().at({1, 2}).rejected, 1);
+
+  // A merge at a wrong pose (1 m off) contradicts the constraints made to node 1.
+  EXPECT_GT(set.setAliases({{2, NodeAlias{1, planar(1.0, 0.0, 0.0) * one_T_two}}}), 1);
+}
+
 TEST(ConstraintSet, FusesTwoEstimatesByTheirInformation) {
   const Mat6 cov = Mat6::Identity() * 1e-2;
   const UncertainPose a{planar(0.0, 0.0, 0.0), cov};

@@ -52,6 +52,8 @@ class ScriptedDrive {
   }
   // Registrations fail from now on (a dark corridor), until blind(false).
   void blind(bool on) { blind_ = on; }
+  // VO's standard deviation per frame (0.1 m), metres and radians (1e-3 by default).
+  void voSigma(double sigma) { vo_sigma_ = sigma; }
   // From now on every frame's planar motion also reaches the mapper as WHEEL_ODOM (exact,
   // σ 1 mm / 1 mrad per increment, stamped with the wheels' odometry pose), after the frame's
   // VO_DELTA; at a restart, before the first VO_DELTA unless `late`.
@@ -68,12 +70,13 @@ class ScriptedDrive {
   void sidestep(double dy) { frame(SE3d(pose_.so3(), pose_.translation() + Vec3(0, dy, 0))); }
   // The robot slides `dx` metres along x without VO seeing it (a wheel slip VO missed, a
   // kidnapping): VO reports no motion, with its usual confidence.
-  void slip(double dx) {
+  void slip(double dx) { slipBy(pose_.inverse() * SE3d(pose_.so3(), pose_.translation() + Vec3(dx, 0, 0))); }
+  // The robot moves by `motion` (body frame) while VO reports standing still: odometry error.
+  void slipBy(const SE3d& motion) {
     utime_ += 100000;
-    const SE3d next(pose_.so3(), pose_.translation() + Vec3(dx, 0, 0));
-    EXPECT_TRUE(send(voMsg(utime_, utime_ - 100000, SE3d(), 1e-3, true)));
-    pose_ = next;
-    truth_[utime_] = next;
+    EXPECT_TRUE(send(voMsg(utime_, utime_ - 100000, SE3d(), vo_sigma_, true)));
+    pose_ = pose_ * motion;
+    truth_[utime_] = pose_;
     answer();
   }
   const SE3d& truePose() const { return pose_; }
@@ -173,7 +176,7 @@ class ScriptedDrive {
     if (truth_.empty()) {
       EXPECT_TRUE(send(voRestart(utime_)));
     } else {
-      EXPECT_TRUE(send(voMsg(utime_, utime_ - 100000, pose_.inverse() * next, 1e-3, true)));
+      EXPECT_TRUE(send(voMsg(utime_, utime_ - 100000, pose_.inverse() * next, vo_sigma_, true)));
       if (wheels_) {
         EXPECT_TRUE(mapper_->onWheel(wheelMsg(utime_ - 100000, utime_, pose_.inverse() * next)));
       }
@@ -230,6 +233,7 @@ class ScriptedDrive {
   bool wheels_late_ = false;
   double registration_variance_;
   double alias_dx_ = 0.0;
+  double vo_sigma_ = 1e-3;
   bool blind_ = false;
   int global_finds_ = -1;
   SE3d pose_;

@@ -404,7 +404,7 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   out.stats = mapper.stats();
   out.restored_nodes = mapper.stats().restored_nodes;
   out.restart_note = mapper.restartNote();
-  out.nodes = static_cast<int64_t>(mapper.nodes().size());
+  out.nodes = mapper.graphNodes();
   for (const MapperNode& n : mapper.nodes()) {
     if (n.session >= static_cast<int>(out.nodes_by_session.size())) out.nodes_by_session.resize(n.session + 1, 0);
     ++out.nodes_by_session[n.session];

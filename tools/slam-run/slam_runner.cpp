@@ -398,7 +398,7 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
         const double run_s = summary_.data_s + 1e-6 * static_cast<double>(out->delta.utime - session_start_utime_);
         frames_.push_back(FrameRow{out->delta.utime, session, run_s, out->delta.status, out->delta.num_inliers, 1e3 * vo_s,
                                    1e3 * loopclose_s, 1e3 * mapper_s,
-                                   static_cast<int64_t>(mapper_->nodes().size())});
+                                   mapper_->graphNodes()});
       }
     } else if (channel == channels::kImu) {
       auto msg = messages::decodeLcm<imu_t>(data, size, channel);
@@ -483,7 +483,7 @@ Expected<SlamRunSummary> SlamRunner::finish() {
   out.mapper.addCounters(mapper_before_);
   out.tracker.add(m.tracker().counts());
   out.loopclose = loop_closer_->stats();
-  out.nodes = static_cast<int64_t>(m.nodes().size());
+  out.nodes = m.graphNodes();
   out.edges = static_cast<int64_t>(m.constraints().pairs().size());
   out.floors = static_cast<int64_t>(m.floors().size());
   out.loop_proposals = requests_answered_;
@@ -613,7 +613,8 @@ std::string SlamRunSummary::text() const {
     << "\naccepted_closures " << accepted_closures << " (in the final map's constraints: a folded pair counts as its first; "
     << mapper.loop_closures << " made over the run)\nrejected " << rejected << " (map gate "
     << mapper.rejected_map_gate << ", other floor " << mapper.rejected_floor << ", inconsistent " << mapper.rejected_inconsistent << ", recovered "
-    << mapper.gate_recoveries << ", too far to recover " << mapper.recoveries_too_far << ")\nrelocalizations " << mapper.relocalizations << "\n";
+    << mapper.gate_recoveries << ", too far to recover " << mapper.recoveries_too_far << ")\nrelocalizations " << mapper.relocalizations
+    << "\nnode_merges " << mapper.node_merges << " (refused " << mapper.merges_refused << ", undone " << mapper.merges_undone << ")\n";
   if (false_closures >= 0)
     s << "false_closures " << false_closures << " (of " << closures_with_truth << " with truth)\n";
   if (reach_fit) {
