@@ -1,5 +1,8 @@
 #include "mapper-proc/constraint_set.h"
 
+#include <algorithm>
+#include <set>
+
 #include <Eigen/Cholesky>
 
 namespace evermap::mapper {
@@ -48,14 +51,53 @@ Constraint ConstraintSet::paired(const Constraint& constraint) const {
 }
 
 int64_t ConstraintSet::setAliases(std::map<int64_t, NodeAlias> aliases) {
+  // The nodes whose pairs change: merged, unmerged or merged elsewhere, and the nodes they
+  // were or are part of. Their pairs (and the constraints of a merge itself among them) are
+  // taken apart and their constraints placed again in the order they were made; a pair's
+  // outcome depends on its own constraints alone, so the rest stand as a full replay would
+  // leave them, and the work follows those nodes' pairs, not the constraints ever made.
+  std::set<int64_t> touched;
+  const auto note = [&touched](const std::map<int64_t, NodeAlias>& a, const std::map<int64_t, NodeAlias>& b) {
+    for (const auto& [node, alias] : a) {
+      const auto other = b.find(node);
+      if (other == b.end() || other->second.into != alias.into ||
+          other->second.into_T_node.matrix() != alias.into_T_node.matrix()) {
+        touched.insert(node);
+        touched.insert(alias.into);
+      }
+    }
+  };
+  note(aliases_, aliases);
+  note(aliases, aliases_);
   aliases_ = std::move(aliases);
-  std::vector<Constraint> made = std::move(all_);
-  all_.clear();
-  pairs_.clear();
-  partners_.clear();
-  merged_ = 0;
-  rejected_ = 0;
-  for (const Constraint& c : made) add(c);
+  std::vector<size_t> again;
+  for (auto it = pairs_.begin(); it != pairs_.end();) {
+    const Pair& p = it->second;
+    if (!touched.count(p.i) && !touched.count(p.j)) {
+      ++it;
+      continue;
+    }
+    for (const size_t k : p.members) {
+      again.push_back(k);
+      if (all_[k].accepted && k != p.members.front()) --merged_;
+    }
+    rejected_ -= p.rejected;
+    for (const int64_t node : {p.i, p.j})
+      if (node >= 0) --partners_[static_cast<size_t>(node)];
+    it = pairs_.erase(it);
+  }
+  for (auto it = internal_.begin(); it != internal_.end();) {
+    const Constraint& c = all_[*it];
+    if (!touched.count(c.from) && !touched.count(c.to)) {
+      ++it;
+      continue;
+    }
+    again.push_back(*it);
+    if (!c.accepted) --rejected_;
+    it = internal_.erase(it);
+  }
+  std::sort(again.begin(), again.end());
+  for (const size_t k : again) place(k, nullptr, nullptr, nullptr);
   return rejected_;
 }
 
@@ -66,6 +108,13 @@ ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pa
     made.from_T_to = core::invert(made.from_T_to);
     std::swap(made.from, made.to);
   }
+  all_.push_back(made);
+  return place(all_.size() - 1, pair, d2_out, paired_out);
+}
+
+ConstraintSet::Outcome ConstraintSet::place(size_t k, const Pair** pair, double* d2_out,
+                                            core::UncertainPose* paired_out) {
+  Constraint& made = all_[k];
   Constraint c = aliases_.empty() ? made : paired(made);
   if (pair) *pair = nullptr;
   if (c.from == c.to) {
@@ -74,7 +123,7 @@ ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pa
     if (d2_out) *d2_out = d2;
     if (paired_out) *paired_out = c.from_T_to;
     made.accepted = d2 <= gate_;
-    all_.push_back(made);
+    internal_.push_back(k);
     if (made.accepted) return Outcome::kInternal;
     ++rejected_;
     return Outcome::kRejected;
@@ -88,12 +137,11 @@ ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pa
   auto it = pairs_.find(key);
   if (it == pairs_.end()) {
     made.accepted = true;
-    all_.push_back(made);
     Pair p;
     p.i = c.from;
     p.j = c.to;
     p.i_T_j = c.from_T_to;
-    p.members.push_back(all_.size() - 1);
+    p.members.push_back(k);
     it = pairs_.emplace(key, p).first;
     for (const int64_t node : {c.from, c.to}) {
       if (node < 0) continue;
@@ -108,18 +156,15 @@ ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pa
   const double d2 = mahalanobis2(p.i_T_j, c.from_T_to);
   if (d2_out) *d2_out = d2;
   if (pair) *pair = &p;
+  p.members.push_back(k);
   if (!(d2 <= gate_)) {
     made.accepted = false;
-    all_.push_back(made);
-    p.members.push_back(all_.size() - 1);
     ++p.rejected;
     ++rejected_;
     return Outcome::kRejected;
   }
   p.i_T_j = fuse(p.i_T_j, c.from_T_to);
   made.accepted = true;
-  all_.push_back(made);
-  p.members.push_back(all_.size() - 1);
   ++merged_;
   return Outcome::kMerged;
 }

@@ -15,8 +15,8 @@
 // and is paired through the aliases: a constraint of n is one of r, re-expressed as
 // r_T_n ⊕ n_T_c (its covariance moved to the tangent space at the new end by Ad(r_T_n) when
 // n is that end). One between n and r is tested against r_T_n itself and makes no pair.
-// Setting the aliases replays every constraint in order, so that undoing a merge gives back
-// the pairs as if it had never been made.
+// Setting the aliases places the constraints of the pairs it changes again, in the order they
+// were made, so that undoing a merge gives back the pairs as if it had never been made.
 
 #include <cstdint>
 #include <map>
@@ -67,7 +67,8 @@ class ConstraintSet {
               core::UncertainPose* paired = nullptr);
 
   // The merged nodes (node -> alias; an alias names a node that is not merged itself), and
-  // every constraint replayed under them. Returns how many the replay rejected.
+  // the constraints placed again as if they had been added under them (those of the pairs of
+  // the nodes whose merge changed). Returns how many constraints the set rejects then.
   int64_t setAliases(std::map<int64_t, NodeAlias> aliases);
   const std::map<int64_t, NodeAlias>& aliases() const { return aliases_; }
   // The constraint c as paired under the aliases (its ends may be equal: kInternal).
@@ -89,8 +90,12 @@ class ConstraintSet {
   static core::UncertainPose fuse(const core::UncertainPose& m, const core::UncertainPose& z);
 
  private:
+  // Pairs all_[k] (kept as made) through the aliases.
+  Outcome place(size_t k, const Pair** pair, double* d2, core::UncertainPose* paired);
+
   double gate_;
   std::map<int64_t, NodeAlias> aliases_;
+  std::vector<size_t> internal_;  // constraints of a merge itself (kInternal or rejected as one)
   std::vector<Constraint> all_;
   std::map<std::pair<int64_t, int64_t>, Pair> pairs_;
   std::vector<int> partners_;  // by node id

@@ -383,6 +383,23 @@ TEST(ConstraintSet, AMergedNodesConstraintsJoinItsNodesPairsAndComeBackWhenTheMe
   }
   EXPECT_EQ(set.pairs().at({1, 2}).rejected, 1);
 
+  // Merged and undone incrementally, the pairs are what adding every constraint under the
+  // merge gives.
+  set.setAliases({{2, NodeAlias{1, one_T_two}}});
+  ConstraintSet fresh(16.81);
+  fresh.setAliases({{2, NodeAlias{1, one_T_two}}});
+  for (const Constraint& c : set.all()) fresh.add(c);
+  ASSERT_EQ(fresh.pairs().size(), set.pairs().size());
+  for (const auto& [key, pair] : fresh.pairs()) {
+    ASSERT_TRUE(set.pairs().count(key));
+    EXPECT_EQ(set.pairs().at(key).members, pair.members);
+    EXPECT_LT((set.pairs().at(key).i_T_j.mean.inverse() * pair.i_T_j.mean).log().norm(), 1e-15);
+  }
+  EXPECT_EQ(fresh.rejected(), set.rejected());
+  EXPECT_EQ(fresh.merged(), set.merged());
+  EXPECT_EQ(fresh.partners(1), set.partners(1));
+  set.setAliases({});
+
   // A merge at a wrong pose (1 m off) contradicts the constraints made to node 1.
   EXPECT_GT(set.setAliases({{2, NodeAlias{1, planar(1.0, 0.0, 0.0) * one_T_two}}}), 1);
 }
