@@ -218,7 +218,7 @@ void LcmNode::publishStats() {
   const MapperTiming& t = st.timing;
   mapper_stats_t s{};
   s.utime = last_utime_;
-  s.num_nodes = static_cast<int32_t>(m_.nodes().size());
+  s.num_nodes = static_cast<int32_t>(m_.graphNodes());  // merged nodes are part of others
   s.num_edges = static_cast<int32_t>(m_.constraints().pairs().size());
   s.num_floors = static_cast<int32_t>(m_.floors().size());
   std::set<int> sessions;
@@ -257,6 +257,9 @@ void LcmNode::publishStats() {
       {"warm_bridged_by_wheels", st.warm_bridged_by_wheels},
       {"implausible_motion", m_.tracker().counts().implausible},
       {"implausible_floors", st.implausible_floors},
+      {"node_merges", st.node_merges},
+      {"merges_refused", st.merges_refused},
+      {"merges_undone", st.merges_undone},
   };
   for (const auto& [name, value] : counters) {
     s.counter_names.emplace_back(name);
