@@ -97,8 +97,13 @@ int64_t ConstraintSet::setAliases(std::map<int64_t, NodeAlias> aliases) {
     it = internal_.erase(it);
   }
   std::sort(again.begin(), again.end());
-  for (const size_t k : again) place(k, nullptr, nullptr, nullptr);
-  return rejected_;
+  int64_t newly_rejected = 0;
+  for (const size_t k : again) {
+    const bool was = all_[k].accepted;
+    place(k, nullptr, nullptr, nullptr);
+    if (was && !all_[k].accepted) ++newly_rejected;
+  }
+  return newly_rejected;
 }
 
 ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pair** pair, double* d2_out,

@@ -68,7 +68,8 @@ class ConstraintSet {
 
   // The merged nodes (node -> alias; an alias names a node that is not merged itself), and
   // the constraints placed again as if they had been added under them (those of the pairs of
-  // the nodes whose merge changed). Returns how many constraints the set rejects then.
+  // the nodes whose merge changed). Returns how many constraints it accepted before and
+  // rejects now.
   int64_t setAliases(std::map<int64_t, NodeAlias> aliases);
   const std::map<int64_t, NodeAlias>& aliases() const { return aliases_; }
   // The constraint c as paired under the aliases (its ends may be equal: kInternal).

@@ -25,8 +25,8 @@ Status MapperOptions::validate() const {
     return Error{"mapper.overlap_heading_sectors: must be in [0, 1]"};
   if (!(merge_radius_m >= 0.0 && merge_radius_m <= overlap_radius_cells * cell_size_m))
     return Error{"mapper.merge_radius_m: must be in [0, overlap_radius_cells x cell_size_m]"};
-  if (merge_radius_m > 0.0 && (full_graph || !(map_gate > 0.0)))
-    return Error{"mapper.merge_radius_m: merges need the reduced graph and the map gate"};
+  if (merge_radius_m > 0.0 && (full_graph || !(map_gate > 0.0) || vetted_loop_kernel.active()))
+    return Error{"mapper.merge_radius_m: merges need the reduced graph, the map gate and no kernel on vetted closures"};
   if (!(merge_heading_sectors > 0.0 && merge_heading_sectors <= overlap_heading_sectors) && merge_radius_m > 0.0)
     return Error{"mapper.merge_heading_sectors: must be in (0, overlap_heading_sectors]"};
   if (!(merge_sigma_m > 0.0)) return Error{"mapper.merge_sigma_m: must be > 0"};
@@ -551,8 +551,7 @@ void Mapper::mergeChain() {
     std::map<int64_t, NodeAlias> aliases = constraints_.aliases();
     const NodeAlias alias{*m, nodePose(*m).inverse() * world_T_n};
     aliases[n] = alias;
-    const int64_t rejected = constraints_.rejected();
-    if (constraints_.setAliases(aliases) > rejected) {
+    if (constraints_.setAliases(aliases) > 0) {
       // Its constraints, re-expressed, contradict what the map holds of the older node.
       aliases.erase(n);
       constraints_.setAliases(std::move(aliases));
@@ -588,9 +587,16 @@ void Mapper::undoMergesAgainst(size_t constraint, const std::vector<int64_t>& me
   std::map<int64_t, NodeAlias> aliases = before;
   for (const int64_t n : merged) aliases.erase(n);
   if (aliases.size() == before.size()) return;  // undone already
-  constraints_.setAliases(std::move(aliases));
-  if (!constraints_.all()[constraint].accepted) {
-    // Rejected without the merges too: the constraint is what is wrong, not they.
+  const int64_t newly_rejected = constraints_.setAliases(std::move(aliases));
+  // Evidence against the merges: without them the constraint agrees with the constraints its
+  // pair already holds (alone in a new pair it would say nothing: a first constraint is
+  // always accepted), and nothing the map accepted is rejected instead.
+  const Constraint c = constraints_.paired(constraints_.all()[constraint]);
+  const auto pair = constraints_.pairs().find({std::min(c.from, c.to), std::max(c.from, c.to)});
+  const bool agrees = constraints_.all()[constraint].accepted && pair != constraints_.pairs().end() &&
+                      pair->second.members.front() != constraint;
+  if (!agrees || newly_rejected > 0) {
+    // The constraint is what is wrong (or nothing tells): the merges are put back.
     constraints_.setAliases(before);
     return;
   }

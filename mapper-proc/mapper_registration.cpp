@@ -111,8 +111,11 @@ std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, 
   int64_t b = msg.node_id;
   const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2], msg.orientation[3]);
   const core::SE3d cam_T = core::SE3d(q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2]));
-  // The registration in body frames (paper eq. 9), by STEREO_CALIB's mounting once it came.
-  core::UncertainPose b_T_q = tracker_.toBody(cam_T, cam_cov);
+  const core::SE3d& A = tracker_.bodyTCamera();  // STEREO_CALIB's, once it came
+  const core::Mat6 ad = A.adjoint();
+  core::UncertainPose b_T_q;  // registration, body frames (paper eq. 9)
+  b_T_q.mean = A * cam_T * A.inverse();
+  b_T_q.covariance = ad * cam_cov * ad.transpose();
   registered_via_.reset();
   if (const MapperNode& n = nodes_[static_cast<size_t>(b)]; n.merged_into >= 0) {
     // A merged node's keyframe is a view of the place of the node it is part of: the
@@ -213,7 +216,6 @@ std::optional<int64_t> Mapper::confirmResumed(const InFlight& f, int64_t b, cons
   gate_rejected_ = false;
   *registered = true;
   ++stats_.warm_confirmations;
-  closed_loop_ = true;  // the nodes made since the restart are tied to the map now
   if (f.active >= resume_first_new_node_ && b != f.active) {
     // Nodes made since the restart hang on the saved node by the inflated edge: this closure,
     // measured from one of them (Δ since that node is odometry), ties them to the map.

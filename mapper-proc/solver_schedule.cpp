@@ -164,7 +164,8 @@ SolverSchedule::Flush SolverSchedule::rebuild(const std::vector<std::pair<int64_
     std::fprintf(stderr, "evermap-mapper: solver rebuild failed: %s\n", result.error().message.c_str());
     std::abort();
   }
-  ++solver_updates_;
+  // The consolidations follow the new solver's batch schedule (its update counter).
+  solver_updates_ = solver_->updates();
   const size_t first_pair = request.new_factors.size() - pairs.size();
   for (size_t k = 0; k < pairs.size(); ++k) pair_factor_[pairs[k]].push_back(result->new_factor_ids[first_pair + k]);
   Flush out;

@@ -66,6 +66,10 @@ class ScriptedDrive {
   // Only the next `n` global searches find a place (by appearance); later ones find none,
   // node-mode requests still register (-1: every search finds one).
   void globalSearchesFind(int n) { global_finds_ = n; }
+  // Node-mode requests are answered as registrations to `node` (when it is within reach),
+  // whatever node they name, as loopclose-proc may answer with a node of the same place; -1:
+  // to the node named.
+  void answerAs(int64_t node) { answer_as_ = node; }
   // Steps `dy` metres sideways (along y), heading kept, VO seeing it.
   void sidestep(double dy) { frame(SE3d(pose_.so3(), pose_.translation() + Vec3(0, dy, 0))); }
   // The robot slides `dx` metres along x without VO seeing it (a wheel slip VO missed, a
@@ -206,7 +210,7 @@ class ScriptedDrive {
         if (global && global_finds_ > 0) --global_finds_;
         for (const auto& [id, p] : node_truth_) {
           if (blind_) break;
-          if (r.mode == register_request_t::MODE_NODE && id != r.target_node_id) continue;
+          if (r.mode == register_request_t::MODE_NODE && id != (answer_as_ >= 0 ? answer_as_ : r.target_node_id)) continue;
           const double d = (p.translation() - q.translation()).norm() +
                            std::abs(core::wrapAngle(yawOf(p) - yawOf(q)));
           if (d < best_d) best_d = d, best = id;
@@ -234,6 +238,7 @@ class ScriptedDrive {
   double registration_variance_;
   double alias_dx_ = 0.0;
   double vo_sigma_ = 1e-3;
+  int64_t answer_as_ = -1;
   bool blind_ = false;
   int global_finds_ = -1;
   SE3d pose_;
