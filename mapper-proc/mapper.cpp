@@ -10,7 +10,6 @@
 #include <Eigen/Cholesky>
 
 #include "core/common/clocks.h"
-#include "core/solver/marginals.h"
 #include "core/solver/pose_factors.h"
 #include "mapper-proc/map_store.h"
 
@@ -539,14 +538,9 @@ void Mapper::mergeChain() {
                                           o_.merge_radius_m, heading_rad);
     if (!m) continue;
     // The map must know them to be one place: the marginal of their relative position.
-    const std::vector<solver::Key> keys{*m, n};
-    const auto joint = solver::Marginals::jointOf(schedule_.solver(), keys);
-    if (!joint) continue;
-    core::Mat6 Jm, Jn;
-    core::between(nodePose(*m), world_T_n, &Jm, &Jn);
-    Eigen::Matrix<double, 6, 12> J;
-    J << Jm, Jn;
-    const core::Mat6 cov = J * (*joint) * J.transpose();
+    const std::optional<core::UncertainPose> m_T_n = mapRelative(*m, n);
+    if (!m_T_n) continue;
+    const core::Mat6& cov = m_T_n->covariance;
     if (!(std::sqrt(std::max(cov(0, 0), cov(1, 1))) <= o_.merge_sigma_m)) continue;
     std::map<int64_t, NodeAlias> aliases = constraints_.aliases();
     const NodeAlias alias{*m, nodePose(*m).inverse() * world_T_n};

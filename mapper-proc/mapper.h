@@ -503,6 +503,9 @@ class Mapper {
   // information (when given): the closure's mutual information with the map, nats
   // (MapperOptions::min_closure_information); infinity without a marginal.
   bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b, double* information = nullptr);
+  // The map's estimate of a_T_b with its marginal covariance (the joint marginal of a and b
+  // through the relative-pose Jacobians); empty when the solver gives no marginal.
+  std::optional<core::UncertainPose> mapRelative(int64_t a, int64_t b) const;
   struct RelocalizationCandidate;
   // While lost with a candidate placement: the node to check it against (step), if any.
   std::optional<int64_t> relocalizationCheck(int64_t keyframe_utime);

@@ -111,11 +111,8 @@ std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, 
   int64_t b = msg.node_id;
   const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2], msg.orientation[3]);
   const core::SE3d cam_T = core::SE3d(q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2]));
-  const core::SE3d& A = tracker_.bodyTCamera();  // STEREO_CALIB's, once it came
-  const core::Mat6 ad = A.adjoint();
-  core::UncertainPose b_T_q;  // registration, body frames (paper eq. 9)
-  b_T_q.mean = A * cam_T * A.inverse();
-  b_T_q.covariance = ad * cam_cov * ad.transpose();
+  // The registration in body frames (paper eq. 9), by STEREO_CALIB's mounting once it came.
+  core::UncertainPose b_T_q = tracker_.registrationToBody(cam_T, cam_cov);
   registered_via_.reset();
   if (const MapperNode& n = nodes_[static_cast<size_t>(b)]; n.merged_into >= 0) {
     // A merged node's keyframe is a view of the place of the node it is part of: the
@@ -419,24 +416,30 @@ bool Mapper::confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q,
   return agree;
 }
 
-bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b, double* information) {
-  if (information) *information = std::numeric_limits<double>::infinity();
-  if (!(o_.map_gate > 0)) return true;
-  // The map's own estimate of a_T_b with its marginal covariance (the joint marginal of a and
-  // b through the relative-pose Jacobians), against the measured chain.
-  const auto t0 = SteadyClock::now();
+std::optional<core::UncertainPose> Mapper::mapRelative(int64_t a, int64_t b) const {
   // From the solver's current factor by path solves (no copy of R): the work follows the
   // two nodes' elimination-tree paths, not the size of the map.
   const std::vector<solver::Key> keys{a, b};
-  auto joint = solver::Marginals::jointOf(schedule_.solver(), keys);
-  stats_.timing.registration_s += secondsSince(t0);
-  if (!joint) return true;  // no marginal: nothing to test against
+  const auto joint = solver::Marginals::jointOf(schedule_.solver(), keys);
+  if (!joint) return std::nullopt;
   core::Mat6 Ja, Jb;
   core::UncertainPose predicted;
   predicted.mean = core::between(nodePose(a), nodePose(b), &Ja, &Jb);
   Eigen::Matrix<double, 6, 12> J;
   J << Ja, Jb;
   predicted.covariance = J * (*joint) * J.transpose();
+  return predicted;
+}
+
+bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b, double* information) {
+  if (information) *information = std::numeric_limits<double>::infinity();
+  if (!(o_.map_gate > 0)) return true;
+  // The map's own estimate of a_T_b with its marginal covariance, against the measured chain.
+  const auto t0 = SteadyClock::now();
+  const std::optional<core::UncertainPose> map = mapRelative(a, b);
+  stats_.timing.registration_s += secondsSince(t0);
+  if (!map) return true;  // no marginal: nothing to test against
+  const core::UncertainPose& predicted = *map;
   if (information) {
     // ½ ln det(Σ_map + Σ_z) / det(Σ_z) from Cholesky factors (both positive definite).
     const Eigen::LLT<core::Mat6> sum(predicted.covariance + a_T_b.covariance);

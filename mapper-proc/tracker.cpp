@@ -87,8 +87,17 @@ void Tracker::setBodyTCamera(const SE3d& body_T_cam) {
   ad_body_T_cam_ = body_T_cam.adjoint();
 }
 
-UncertainPose Tracker::toBody(const SE3d& cam_motion, const Mat6& cam_covariance) const {
+UncertainPose Tracker::registrationToBody(const SE3d& cam_T, const Mat6& cam_covariance) const {
   // X' = A X A⁻¹ and X exp(δ) ↦ X' exp(Ad(A) δ) with A = body_T_cam.
+  UncertainPose p;
+  p.mean = o_.body_T_cam * cam_T * o_.body_T_cam.inverse();
+  p.covariance = ad_body_T_cam_ * cam_covariance * ad_body_T_cam_.transpose();
+  return p;
+}
+
+UncertainPose Tracker::toBody(const SE3d& cam_motion, const Mat6& cam_covariance) const {
+  // As registrationToBody, the product symmetrised as it is formed (storing it first and
+  // symmetrising after rounds differently, and moves the oracle's year run).
   UncertainPose p;
   p.mean = o_.body_T_cam * cam_motion * o_.body_T_cam.inverse();
   p.covariance = symmetric(ad_body_T_cam_ * cam_covariance * ad_body_T_cam_.transpose());

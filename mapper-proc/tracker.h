@@ -145,8 +145,13 @@ class Tracker {
   // are taken through it.
   void setBodyTCamera(const SE3d& body_T_cam);
   const SE3d& bodyTCamera() const { return o_.body_T_cam; }
-  // A camera motion D and its covariance as the body's: body_T_cam D cam_T_body.
+  // A camera motion D and its covariance as the body's: body_T_cam D cam_T_body, the covariance
+  // symmetrised.
   UncertainPose toBody(const SE3d& cam_motion, const Mat6& cam_covariance) const;
+  // The same with the covariance as the product gives it: a registration's (the mapper's and
+  // evermap-slam-run's rows), whose figures were measured so (symmetrising moves the oracle's
+  // year run by rounding).
+  UncertainPose registrationToBody(const SE3d& cam_T, const Mat6& cam_covariance) const;
   // Re-initialises Δ (new active node, or a registration replacing it).
   void reset(const UncertainPose& active_T_body);
   // Adds a known vertical displacement (an elevator ride), metres, with its standard deviation.

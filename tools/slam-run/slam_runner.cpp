@@ -168,11 +168,14 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
         if (isNode(answer.node_id)) row.node_keyframe_utime = keyframeOf(answer.node_id);
         const Eigen::Quaterniond q(answer.orientation[0], answer.orientation[1], answer.orientation[2],
                                    answer.orientation[3]);
-        const core::SE3d& A = mapper_->tracker().bodyTCamera();
-        row.b_T_q = A * core::SE3d(q.normalized(), core::Vec3(answer.translation[0], answer.translation[1],
-                                                              answer.translation[2])) * A.inverse();
-        if (const auto cam_cov = messages::covarianceFromMessage(answer.covariance, "REGISTER_RESULT"))
-          row.b_T_q_covariance = A.adjoint() * *cam_cov * A.adjoint().transpose();
+        const core::SE3d cam_T(q.normalized(), core::Vec3(answer.translation[0], answer.translation[1],
+                                                          answer.translation[2]));
+        // As the mapper reads it; the mean alone when the covariance is unusable.
+        const auto cam_cov = messages::covarianceFromMessage(answer.covariance, "REGISTER_RESULT");
+        const core::UncertainPose body =
+            mapper_->tracker().registrationToBody(cam_T, cam_cov ? *cam_cov : core::Mat6::Zero());
+        row.b_T_q = body.mean;
+        if (cam_cov) row.b_T_q_covariance = body.covariance;
       }
       if (const auto pending = mapper_->pendingStep(); pending && isNode(pending->active)) {
         row.active = pending->active;
