@@ -171,6 +171,8 @@ std::string OfflineRunSummary::text() const {
   for (int64_t n : nodes_new_place_by_session) s << " " << n;
   s << "\nnodes_near_a_view_by_session";
   for (int64_t n : nodes_near_a_view_by_session) s << " " << n;
+  s << "\nviews_by_session";
+  for (int64_t n : views_by_session) s << " " << n;
   s << "\ninterfloor_pairs " << interfloor_pairs << "\ninterfloor_yaw_rms_deg " << interfloor_yaw_rms_deg
     << "\ninterfloor_yaw_claimed_deg " << interfloor_yaw_claimed_deg;
   s << "\npairs_by_session";
@@ -284,6 +286,11 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   });
 
   TimelineRecorder timeline(mapper, run.timeline_interval_s);
+  // The views the keyframes' true poses need at the overlap's reach (a cell when it is off).
+  ViewCover views(std::max(1.0, options.overlap_radius_cells) * options.cell_size_m,
+                  std::max(1.0, options.overlap_heading_sectors) * 2.0 * std::numbers::pi / options.heading_bins);
+  timeline.setViewProbe([&] { return views.views(); });
+  std::vector<int64_t> views_by_session;
   if (store) {
     timeline.setStoreProbe([&](TimelineRow* r) {
       if (auto rows = store->edgeRows()) r->store_rows = *rows;
@@ -357,6 +364,10 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   sim::SessionObservers observers;
   observers.on_keyframe = [&](const sim::KeyframeTruth& k) {
     oracle.addKeyframe(k);
+    if (views.add(k.floor, k.world_T_cam * body_T_cam.inverse())) {
+      if (current_session >= static_cast<int>(views_by_session.size())) views_by_session.resize(current_session + 1, 0);
+      ++views_by_session[current_session];
+    }
     if (k.utime > resume_utime && current_session >= run.first_session) step_floor.emplace_back(k.utime, k.floor);
     recent.push_back(k);
     while (recent.size() > 2 && recent.front().utime < k.utime - 120'000'000) recent.pop_front();
@@ -405,6 +416,7 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   out.restored_nodes = mapper.stats().restored_nodes;
   out.restart_note = mapper.restartNote();
   out.nodes = mapper.graphNodes();
+  out.views_by_session = std::move(views_by_session);
   for (const MapperNode& n : mapper.nodes()) {
     if (n.session >= static_cast<int>(out.nodes_by_session.size())) out.nodes_by_session.resize(n.session + 1, 0);
     ++out.nodes_by_session[n.session];

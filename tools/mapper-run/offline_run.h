@@ -45,6 +45,9 @@ struct TimelineRow {
   // file's bytes (database and write-ahead log).
   int64_t store_rows = -1;
   int64_t store_bytes = -1;
+  // The views the true poses of the mapped keyframes need so far (run_metrics.h, ViewCover),
+  // -1 when not counted.
+  int64_t views = -1;
 };
 
 // After every map store transaction.
@@ -105,6 +108,10 @@ struct OfflineRunSummary {
   // earlier sessions passed facing that way without leaving it a node within reach (issue
   // 22: the late nodes of Algorithm 1, which adds a node only where a registration failed).
   std::vector<int64_t> nodes_near_a_view_by_session;
+  // The new views each session's keyframes met at their true poses (run_metrics.h,
+  // ViewCover, at the overlap's reach): how much of the building a session saw first, which
+  // the map's node growth after exploration is held against.
+  std::vector<int64_t> views_by_session;
   // Node pairs whose nodes are on different floors (the rides' constraints, at the nodes'
   // true floors) and how far their merged estimates are off in yaw from the truth, rms,
   // against the yaw σ they claim, rms (degrees): what turns a floor against the others.

@@ -23,12 +23,12 @@ double percentile(std::vector<double> v, double p) {
 Status writeTimelineCsv(const std::filesystem::path& file, const std::vector<TimelineRow>& rows) {
   std::ostringstream s;
   s << "operating_h,utime,session,nodes,factors,steps,tracking_s,registration_s,partition_s,solver_s,"
-       "step_median_ms,step_p99_ms,step_max_ms,store_rows,store_bytes\n";
+       "step_median_ms,step_p99_ms,step_max_ms,store_rows,store_bytes,views\n";
   for (const TimelineRow& r : rows)
     s << r.operating_s / 3600.0 << ',' << r.utime << ',' << r.session << ',' << r.nodes << ',' << r.factors << ','
       << r.steps << ',' << r.tracking_s << ',' << r.registration_s << ',' << r.partition_s << ',' << r.solver_s
       << ',' << r.step_median_ms << ',' << r.step_p99_ms << ',' << r.step_max_ms << ',' << r.store_rows << ','
-      << r.store_bytes << '\n';
+      << r.store_bytes << ',' << r.views << '\n';
   const std::filesystem::path tmp = file.string() + ".tmp";
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
@@ -75,15 +75,17 @@ Expected<std::vector<TimelineRow>> readTimelineCsv(const std::filesystem::path& 
     if (n == 1) continue;  // header
     TimelineRow r;
     double hours = 0.0;
-    long long utime = 0, nodes = 0, factors = 0, steps = 0, store_rows = -1, store_bytes = -1;
+    long long utime = 0, nodes = 0, factors = 0, steps = 0, store_rows = -1, store_bytes = -1, views = -1;
     int session = 0;
-    // 13 columns, or 15 with the store's (timelines written before those were added: 13).
-    const int fields = std::sscanf(line.c_str(), "%lf,%lld,%d,%lld,%lld,%lld,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lld,%lld", &hours, &utime,
-                                   &session, &nodes, &factors, &steps, &r.tracking_s, &r.registration_s, &r.partition_s,
-                                   &r.solver_s, &r.step_median_ms, &r.step_p99_ms, &r.step_max_ms, &store_rows, &store_bytes);
-    if (fields != 13 && fields != 15) return makeError(file.string(), ":", n, ": not a timeline row");
+    // 16 columns; timelines written before the views were added have 15, before the store's 13.
+    const int fields = std::sscanf(line.c_str(), "%lf,%lld,%d,%lld,%lld,%lld,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lld,%lld,%lld", &hours,
+                                   &utime, &session, &nodes, &factors, &steps, &r.tracking_s, &r.registration_s,
+                                   &r.partition_s, &r.solver_s, &r.step_median_ms, &r.step_p99_ms, &r.step_max_ms,
+                                   &store_rows, &store_bytes, &views);
+    if (fields != 13 && fields != 15 && fields != 16) return makeError(file.string(), ":", n, ": not a timeline row");
     r.store_rows = store_rows;
     r.store_bytes = store_bytes;
+    r.views = views;
     r.operating_s = 3600.0 * hours;
     r.utime = utime;
     r.session = session;
@@ -147,6 +149,28 @@ std::vector<int64_t> inMappedArea(const std::vector<NodeTruth>& nodes, const std
     if (causes[k] == PlaceCause::kMapped) ++by_session[q.session];
   }
   return by_session;
+}
+
+ViewCover::Key ViewCover::key(int floor, double x, double y) const {
+  return {floor, static_cast<int64_t>(std::floor(x / radius_m_)), static_cast<int64_t>(std::floor(y / radius_m_))};
+}
+
+bool ViewCover::add(int floor, const core::SE3d& world_T_body) {
+  const core::SE2d p = core::toPlanar(world_T_body);
+  const auto [f, ix, iy] = key(floor, p.x(), p.y());
+  for (int64_t dx = -1; dx <= 1; ++dx) {
+    for (int64_t dy = -1; dy <= 1; ++dy) {
+      auto it = grid_.find(Key{f, ix + dx, iy + dy});
+      if (it == grid_.end()) continue;
+      for (const core::SE2d& v : it->second) {
+        if (std::hypot(v.x() - p.x(), v.y() - p.y()) > radius_m_) continue;
+        if (std::abs(std::remainder(v.theta() - p.theta(), 2 * M_PI)) <= heading_rad_) return false;
+      }
+    }
+  }
+  grid_[Key{f, ix, iy}].push_back(p);
+  ++views_;
+  return true;
 }
 
 }  // namespace evermap::mapper

@@ -5,6 +5,8 @@
 
 #include <filesystem>
 #include <functional>
+#include <map>
+#include <tuple>
 #include <vector>
 
 #include "core/common/expected.h"
@@ -23,6 +25,8 @@ class TimelineRecorder {
   TimelineRecorder(const Mapper& mapper, double interval_s) : mapper_(mapper), interval_s_(interval_s) {}
   // Fills a row's store columns (TimelineRow::store_rows, store_bytes) when it is taken.
   void setStoreProbe(std::function<void(TimelineRow*)> probe) { store_probe_ = std::move(probe); }
+  // Counts the views of the true poses (TimelineRow::views) when a row is taken.
+  void setViewProbe(std::function<int64_t()> probe) { view_probe_ = std::move(probe); }
 
   void sample(double operating_s, int64_t utime, int session, bool force = false) {
     if (!(interval_s_ > 0.0) || (!force && operating_s < next_s_)) return;
@@ -47,6 +51,7 @@ class TimelineRecorder {
     r.step_max_ms = ms.empty() ? 0.0 : *std::max_element(ms.begin(), ms.end());
     steps_seen_ = t.step_cost.size();
     if (store_probe_) store_probe_(&r);
+    if (view_probe_) r.views = view_probe_();
     last_ = r;
     last_.tracking_s = t.tracking_s;
     last_.registration_s = t.registration_s;
@@ -64,6 +69,7 @@ class TimelineRecorder {
   TimelineRow last_;
   std::vector<TimelineRow> rows_;
   std::function<void(TimelineRow*)> store_probe_;
+  std::function<int64_t()> view_probe_;
 };
 
 // True pose and floor of a node (or a step pose)'s keyframe, and the count of nodes placed where an earlier
@@ -90,6 +96,28 @@ enum class PlaceCause : uint8_t {
 };
 std::vector<PlaceCause> placeCauses(const std::vector<NodeTruth>& nodes, const std::vector<NodeTruth>& queries,
                                     double radius_m, double angle_rad);
+
+
+// The views the robot's true poses need (issue 22): a greedy cover of the poses, in the
+// order given, where a pose is a new view unless an earlier view lies on its floor within
+// radius_m and heading_rad of it (the overlap's reach, MapperOptions::overlap_*). It is
+// what Algorithm 1's node rule would make with perfect estimates and no failed
+// registration, so its growth after exploration is what the map's can be held against:
+// a robot that keeps meeting new views adds nodes however well it maps.
+class ViewCover {
+ public:
+  ViewCover(double radius_m, double heading_rad) : radius_m_(radius_m), heading_rad_(heading_rad) {}
+  // True when world_T_body is a new view.
+  bool add(int floor, const core::SE3d& world_T_body);
+  int64_t views() const { return views_; }
+
+ private:
+  using Key = std::tuple<int, int64_t, int64_t>;
+  Key key(int floor, double x, double y) const;
+  double radius_m_, heading_rad_;
+  int64_t views_ = 0;
+  std::map<Key, std::vector<core::SE2d>> grid_;  // views in radius-sized cells
+};
 
 
 }  // namespace evermap::mapper
