@@ -219,6 +219,14 @@ struct MapperOptions {
   // drift by a period in a few metres.
   double recovery_slack_m = 3.0;
   double recovery_drift_fraction = 0.15;
+  // ... and only when the two registrations are to different nodes: two registrations to
+  // one node share its keyframe's errors (its depths, where its features lie) and can agree
+  // on a placement that is wrong by a degree or more; another node's view is evidence of its own.
+  // Off by default: on the rendered 3-floor sessions (evermap-slam-run, seeds 2-8) it takes
+  // the node ATE of S (node_at_every_new_place, 2-cell overlap) from 0.336 to 0.225 m mean
+  // (seed 2 0.233 -> 0.059, seed 5 0.713 -> 0.136 m) and Algorithm 1's from 0.189 to 0.212 m
+  // (seeds 6 and 7 worse, 0.147 -> 0.205 and 0.154 -> 0.251 m); docs/mapper.md, "A year".
+  bool recovery_needs_two_nodes = false;
   // A ride's end is on the map's floor whose height is within this of the ride's measured
   // height (the map's label, whatever a restarted elevator-proc numbers it), metres.
   double floor_match_m = 1.0;

@@ -36,6 +36,7 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.cell_refresh_per_step", &o->cell_refresh_per_step);
   reader.read("mapper.fuse_active_registration", &o->fuse_active_registration);
   reader.read("mapper.recovery_quiet_s", &o->recovery_quiet_s);
+  reader.read("mapper.recovery_needs_two_nodes", &o->recovery_needs_two_nodes);
   reader.read("mapper.recovery_slack_m", &o->recovery_slack_m);
   reader.read("mapper.recovery_drift_fraction", &o->recovery_drift_fraction);
   reader.read("mapper.floor_match_m", &o->floor_match_m);

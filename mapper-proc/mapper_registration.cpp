@@ -336,8 +336,9 @@ bool Mapper::confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64
   // mapper adds nodes over mapped places until the session ends.
   // Repeated texture (floor tiles) makes false matches that agree with each other: a Δ that
   // registrations keep confirming, with no gap bridged since, is not overridden by them.
-  bool agree =
-      recoveryAllowed(keyframe_utime) && confirmsRelocalization(b, b_T_q, keyframe_utime, rejected_candidate_);
+  const bool another_node = !o_.recovery_needs_two_nodes || (rejected_candidate_ && rejected_candidate_->node != b);
+  bool agree = recoveryAllowed(keyframe_utime) && another_node &&
+               confirmsRelocalization(b, b_T_q, keyframe_utime, rejected_candidate_);
   // Agreeing registrations one texture period away: not a drift odometry could have made.
   const double drift_m =
       o_.recovery_slack_m + o_.recovery_drift_fraction * (tracker_.odometerM() - odometer_at_confirmation_);

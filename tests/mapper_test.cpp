@@ -678,6 +678,38 @@ TEST(ReducedGraph, RegistrationsThatAgreeOnAPlaceOneTexturePeriodAwayDoNotMoveTh
   }
 }
 
+TEST(ReducedGraph, RegistrationsToOneNodeThatShareItsErrorDoNotOverrideDeltaWhenARecoveryNeedsTwoNodes) {
+  // Every registration to one node of a mapped corridor is 0.4 m and 3° off (its keyframe's
+  // error, which they all share): the gate rejects them against Δ, and they agree with each
+  // other. Two registrations to one node are then no proof that Δ is wrong; with
+  // recovery_needs_two_nodes the robot is not moved by them.
+  for (const bool two_nodes : {false, true}) {
+    MapperOptions o = scriptedOptions();
+    o.recovery_needs_two_nodes = two_nodes;
+    o.recovery_quiet_s = 0.0;  // a recovery may override Δ at once, as after a ride
+    ScriptedDrive drive(o, 1e-6);
+    lap(drive);
+    drive.driveTo(2.7, 0.0);  // on the node of 2.6-4 m
+    drive.skewAnswersOf(drive.mapper().activeNode(),
+                        SE3d(core::SO3d::exp(Vec3(0, 0, 0.05)), Vec3(0.0, 0.4, 0.0)));
+    double worst_m = 0.0;
+    for (double x = 2.8; x <= 8.0; x += 0.1) {
+      drive.driveTo(x, 0.0);
+      const SE3d estimate = drive.mapper().pose().mean;
+      worst_m = std::max(worst_m, (estimate.translation() - (drive.truePose().translation() - Vec3(0.1, 0, 0))).norm());
+    }
+    const auto& s = drive.mapper().stats();
+    EXPECT_GE(s.rejected_map_gate, 2) << two_nodes;
+    if (two_nodes) {
+      EXPECT_EQ(s.gate_recoveries, 0);
+      EXPECT_LT(worst_m, 0.05);
+    } else {
+      EXPECT_GE(s.gate_recoveries, 1);
+      EXPECT_GT(worst_m, 0.2);  // what the option prevents
+    }
+  }
+}
+
 TEST(ReducedGraph, AGateRecoveryToAnotherNodeAddsNoClosureFromTheWrongDelta) {
   // A 2 m slip VO does not see: the active node's cell has nothing to register to, the global
   // search finds the node 2 m on. The map gate rejects a_T_b (Δ says 0 m, the map 2 m), and the

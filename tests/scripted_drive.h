@@ -70,6 +70,9 @@ class ScriptedDrive {
   // whatever node they name, as loopclose-proc may answer with a node of the same place; -1:
   // to the node named.
   void answerAs(int64_t node) { answer_as_ = node; }
+  // Every registration to `node` is off by `error` (in the node's frame), as when its
+  // keyframe's depths are wrong: an error all its registrations share.
+  void skewAnswersOf(int64_t node, const SE3d& error) { skewed_[node] = error; }
   // Steps `dy` metres sideways (along y), heading kept, VO seeing it.
   void sidestep(double dy) { frame(SE3d(pose_.so3(), pose_.translation() + Vec3(0, dy, 0))); }
   // The robot slides `dx` metres along x without VO seeing it (a wheel slip VO missed, a
@@ -216,7 +219,8 @@ class ScriptedDrive {
           if (d < best_d) best_d = d, best = id;
         }
         if (best >= 0) {
-          const SE3d rel = node_truth_.at(best).inverse() * q;
+          SE3d rel = node_truth_.at(best).inverse() * q;
+          if (auto it = skewed_.find(best); it != skewed_.end()) rel = it->second * rel;
           res = register_result_t{};
           res.request_id = r.request_id;
           res.keyframe_utime = r.keyframe_utime;
@@ -245,6 +249,7 @@ class ScriptedDrive {
   int64_t utime_ = 0;
   std::map<int64_t, SE3d> truth_;
   std::map<int64_t, SE3d> node_truth_;
+  std::map<int64_t, SE3d> skewed_;
 };
 
 inline MapperOptions scriptedOptions() {
