@@ -225,7 +225,8 @@ struct MapperOptions {
   // Off by default: on the rendered 3-floor sessions (evermap-slam-run, seeds 2-8) it takes
   // the node ATE of S (node_at_every_new_place, 2-cell overlap) from 0.336 to 0.225 m mean
   // (seed 2 0.233 -> 0.059, seed 5 0.713 -> 0.136 m) and Algorithm 1's from 0.189 to 0.212 m
-  // (seeds 6 and 7 worse, 0.147 -> 0.205 and 0.154 -> 0.251 m); docs/mapper.md, "A year".
+  // (seeds 6 and 7 worse, 0.147 -> 0.205 and 0.154 -> 0.251 m: on seed 7 registrations to
+  // one node were right and a Δ that VO had drifted by 0.3-0.4 m was not); docs/mapper.md, "A year".
   bool recovery_needs_two_nodes = false;
   // A ride's end is on the map's floor whose height is within this of the ride's measured
   // height (the map's label, whatever a restarted elevator-proc numbers it), metres.
