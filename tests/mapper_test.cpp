@@ -941,7 +941,7 @@ TEST(ReducedGraph, FortySessionsAddAThirdOfTheNodesAfterExplorationWhenEveryNewP
   // Measured: 75 nodes after 514 (+14.6 %) against 15 after 892 (+1.7 %).
   EXPECT_LT(3 * every_place.later, paper.later);
   EXPECT_GT(paper.later * 20, paper.explored);            // Algorithm 1 alone: over 5 %
-  EXPECT_LT(every_place.later * 40, every_place.explored);  // every new place its node: under 2.5 %
+  EXPECT_LE(every_place.later * 50, every_place.explored);  // every new place its node: at most 2 %
   EXPECT_LT(every_place.ate_rmse_m, 1.5 * paper.ate_rmse_m);
   EXPECT_LT(every_place.ate_rmse_m, 0.15);
 }
