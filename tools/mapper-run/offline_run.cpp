@@ -286,9 +286,10 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   });
 
   TimelineRecorder timeline(mapper, run.timeline_interval_s);
-  // The views the keyframes' true poses need at the overlap's reach (a cell when it is off).
+  // The views the keyframes' true poses need at the overlap's radius (a cell at least) and a
+  // heading sector (the overlap's tolerance by default, and its largest).
   ViewCover views(std::max(1.0, options.overlap_radius_cells) * options.cell_size_m,
-                  std::max(1.0, options.overlap_heading_sectors) * 2.0 * std::numbers::pi / options.heading_bins);
+                  2.0 * std::numbers::pi / options.heading_bins);
   timeline.setViewProbe([&] { return views.views(); });
   std::vector<int64_t> views_by_session;
   if (store) {

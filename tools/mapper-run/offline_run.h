@@ -45,8 +45,8 @@ struct TimelineRow {
   // file's bytes (database and write-ahead log).
   int64_t store_rows = -1;
   int64_t store_bytes = -1;
-  // The views the true poses of the mapped keyframes need so far (run_metrics.h, ViewCover),
-  // -1 when not counted.
+  // The views the true poses of the keyframes so far need (run_metrics.h, ViewCover; those
+  // of sessions a stored map holds included), -1 when not counted.
   int64_t views = -1;
 };
 

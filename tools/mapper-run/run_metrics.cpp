@@ -101,39 +101,29 @@ std::vector<PlaceCause> placeCauses(const std::vector<NodeTruth>& nodes, const s
                                     double radius_m, double angle_rad) {
   std::vector<PlaceCause> causes;
   causes.reserve(queries.size());
-  // Nodes on a grid of radius-sized cells: neighbours lie in the 3x3 block around a cell.
-  std::map<std::tuple<int, int64_t, int64_t>, std::vector<size_t>> grid;
-  auto key = [&](const NodeTruth& n, int64_t dx, int64_t dy) {
-    const core::Vec3& p = n.world_T_body.translation();
-    return std::make_tuple(n.floor, static_cast<int64_t>(std::floor(p.x() / radius_m)) + dx,
-                           static_cast<int64_t>(std::floor(p.y() / radius_m)) + dy);
-  };
-  for (size_t i = 0; i < nodes.size(); ++i)
-    if (nodes[i].known) grid[key(nodes[i], 0, 0)].push_back(i);
+  FloorGrid<size_t> grid(radius_m);
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const core::Vec3& p = nodes[i].world_T_body.translation();
+    if (nodes[i].known) grid.add(nodes[i].floor, p.x(), p.y(), i);
+  }
   for (const NodeTruth& q : queries) {
     if (!q.known) {
       causes.push_back(PlaceCause::kUnknown);
       continue;
     }
     PlaceCause cause = PlaceCause::kNewPlace;
-    for (int64_t dx = -1; dx <= 1 && cause != PlaceCause::kMapped; ++dx) {
-      for (int64_t dy = -1; dy <= 1 && cause != PlaceCause::kMapped; ++dy) {
-        auto it = grid.find(key(q, dx, dy));
-        if (it == grid.end()) continue;
-        for (size_t j : it->second) {
-          const NodeTruth& m = nodes[j];
-          if (m.session >= q.session) continue;
-          const double d = (m.world_T_body.translation() - q.world_T_body.translation()).head<2>().norm();
-          if (d > radius_m) continue;
-          cause = PlaceCause::kNewHeading;
-          const double a = std::abs(std::remainder(core::toPlanar(m.world_T_body).theta() - core::toPlanar(q.world_T_body).theta(), 2 * M_PI));
-          if (a <= angle_rad) {
-            cause = PlaceCause::kMapped;
-            break;
-          }
-        }
-      }
-    }
+    const core::Vec3& p = q.world_T_body.translation();
+    grid.any(q.floor, p.x(), p.y(), [&](size_t j) {
+      const NodeTruth& m = nodes[j];
+      if (m.session >= q.session) return false;
+      const double d = (m.world_T_body.translation() - p).head<2>().norm();
+      if (d > radius_m) return false;
+      cause = PlaceCause::kNewHeading;
+      if (PartitionIndex::headingApartRad(core::toPlanar(m.world_T_body), core::toPlanar(q.world_T_body)) > angle_rad)
+        return false;
+      cause = PlaceCause::kMapped;
+      return true;
+    });
     causes.push_back(cause);
   }
   return causes;
@@ -151,25 +141,14 @@ std::vector<int64_t> inMappedArea(const std::vector<NodeTruth>& nodes, const std
   return by_session;
 }
 
-ViewCover::Key ViewCover::key(int floor, double x, double y) const {
-  return {floor, static_cast<int64_t>(std::floor(x / radius_m_)), static_cast<int64_t>(std::floor(y / radius_m_))};
-}
-
 bool ViewCover::add(int floor, const core::SE3d& world_T_body) {
   const core::SE2d p = core::toPlanar(world_T_body);
-  const auto [f, ix, iy] = key(floor, p.x(), p.y());
-  for (int64_t dx = -1; dx <= 1; ++dx) {
-    for (int64_t dy = -1; dy <= 1; ++dy) {
-      auto it = grid_.find(Key{f, ix + dx, iy + dy});
-      if (it == grid_.end()) continue;
-      for (const core::SE2d& v : it->second) {
-        if (std::hypot(v.x() - p.x(), v.y() - p.y()) > radius_m_) continue;
-        if (std::abs(std::remainder(v.theta() - p.theta(), 2 * M_PI)) <= heading_rad_) return false;
-      }
-    }
-  }
-  grid_[Key{f, ix, iy}].push_back(p);
-  ++views_;
+  const bool seen = views_.any(floor, p.x(), p.y(), [&](const core::SE2d& v) {
+    return std::hypot(v.x() - p.x(), v.y() - p.y()) <= radius_m_ && PartitionIndex::headingApartRad(v, p) <= heading_rad_;
+  });
+  if (seen) return false;
+  views_.add(floor, p.x(), p.y(), p);
+  ++count_;
   return true;
 }
 

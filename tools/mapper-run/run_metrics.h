@@ -3,6 +3,7 @@
 // per-component mapper time against operating time, the paper's Fig. 7) and the "mapped
 // area" test (did a session add nodes where an earlier one had mapped?).
 
+#include <cmath>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -72,6 +73,37 @@ class TimelineRecorder {
   std::function<int64_t()> view_probe_;
 };
 
+// Items filed by floor in square cells of a given size, for the items near a point: anything
+// within one cell's size of it lies in the 3x3 cells around the point's own.
+template <class T>
+class FloorGrid {
+ public:
+  explicit FloorGrid(double cell_m) : cell_m_(cell_m) {}
+  void add(int floor, double x, double y, T item) { cells_[key(floor, x, y, 0, 0)].push_back(std::move(item)); }
+  // Calls near(item) for the items of the cells around (x, y) on `floor`, until it returns
+  // true; whether one did.
+  template <class F>
+  bool any(int floor, double x, double y, F&& near) const {
+    for (int64_t dx = -1; dx <= 1; ++dx) {
+      for (int64_t dy = -1; dy <= 1; ++dy) {
+        auto it = cells_.find(key(floor, x, y, dx, dy));
+        if (it == cells_.end()) continue;
+        for (const T& item : it->second)
+          if (near(item)) return true;
+      }
+    }
+    return false;
+  }
+
+ private:
+  using Key = std::tuple<int, int64_t, int64_t>;
+  Key key(int floor, double x, double y, int64_t dx, int64_t dy) const {
+    return {floor, static_cast<int64_t>(std::floor(x / cell_m_)) + dx, static_cast<int64_t>(std::floor(y / cell_m_)) + dy};
+  }
+  double cell_m_;
+  std::map<Key, std::vector<T>> cells_;
+};
+
 // True pose and floor of a node (or a step pose)'s keyframe, and the count of nodes placed where an earlier
 // session already had one.
 struct NodeTruth {
@@ -106,17 +138,15 @@ std::vector<PlaceCause> placeCauses(const std::vector<NodeTruth>& nodes, const s
 // a robot that keeps meeting new views adds nodes however well it maps.
 class ViewCover {
  public:
-  ViewCover(double radius_m, double heading_rad) : radius_m_(radius_m), heading_rad_(heading_rad) {}
+  ViewCover(double radius_m, double heading_rad) : radius_m_(radius_m), heading_rad_(heading_rad), views_(radius_m) {}
   // True when world_T_body is a new view.
   bool add(int floor, const core::SE3d& world_T_body);
-  int64_t views() const { return views_; }
+  int64_t views() const { return count_; }
 
  private:
-  using Key = std::tuple<int, int64_t, int64_t>;
-  Key key(int floor, double x, double y) const;
   double radius_m_, heading_rad_;
-  int64_t views_ = 0;
-  std::map<Key, std::vector<core::SE2d>> grid_;  // views in radius-sized cells
+  int64_t count_ = 0;
+  FloorGrid<core::SE2d> views_;  // in radius-sized cells
 };
 
 
