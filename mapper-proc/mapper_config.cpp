@@ -60,6 +60,7 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.tracker.gyro_heading", &o->tracker.gyro_heading);
   reader.read("mapper.tracker.gyro_noise_density", &o->tracker.gyro_noise_density);
   reader.read("mapper.tracker.gyro_bias_correlation_s", &o->tracker.gyro_bias_correlation_s);
+  reader.read("mapper.tracker.vo_gyro_gate", &o->tracker.vo_gyro_gate);
   reader.read("mapper.tracker.heading_extrapolation_rate_sigma_rad_s", &o->tracker.heading_extrapolation_rate_sigma_rad_s);
   reader.read("mapper.tracker.heading_extrapolation_s", &o->tracker.heading_extrapolation_s);
   reader.read("mapper.tracker.max_speed_m_s", &o->tracker.max_speed_m_s);

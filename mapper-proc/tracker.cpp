@@ -35,6 +35,8 @@ Status TrackerOptions::validate() const {
     return Error("tracker.gyro_noise_density: must be > 0");
   if (!(gyro_bias_correlation_s > 0.0 && std::isfinite(gyro_bias_correlation_s)))
     return Error("tracker.gyro_bias_correlation_s: must be > 0");
+  if (!(vo_gyro_gate >= 0.0 && std::isfinite(vo_gyro_gate)))
+    return Error("tracker.vo_gyro_gate: must be a finite number >= 0");
   if (!(heading_extrapolation_rate_sigma_rad_s >= 0.0 && std::isfinite(heading_extrapolation_rate_sigma_rad_s)))
     return Error("tracker.heading_extrapolation_rate_sigma_rad_s: must be >= 0");
   if (!(heading_extrapolation_s >= 0.0 && std::isfinite(heading_extrapolation_s)))
@@ -192,6 +194,16 @@ Status Tracker::addVo(const vo_delta_t& msg) {
   delta_utime_ = msg.utime;
   ++counts_.vo_applied;
   anchorOdometry(msg, msg.keyframe_changed ? Mat6::Zero() : *cov);
+  if (msg.keyframe_changed && msg.ref_utime != reanchored_ref_utime_ && gyroContradicts(msg.ref_utime, msg.utime) &&
+      wheelsCover(msg.ref_utime)) {
+    // VO's step contradicts the gyro: the wheels carry Δ from the step's reference; VO's next
+    // frame (on this frame as its reference) is placed where they put the body.
+    ++counts_.vo_contradicted;
+    pending_ = UncertainPose{};
+    enterWheelMode(msg.ref_utime);
+    odometry_at_delta_.reset();
+    return Ok{};
+  }
   if (msg.keyframe_changed) {
     commit(msg.utime, msg.ref_utime == reanchored_ref_utime_ ? pending_
                                                              : withGyroYaw(msg.ref_utime, msg.utime, pending_));
@@ -210,6 +222,20 @@ void Tracker::anchorOdometry(const vo_delta_t& msg, const Mat6& own_covariance) 
     return;
   }
   odometry_at_delta_ = OdometryAnchor{*pose, own_covariance};
+}
+
+bool Tracker::gyroContradicts(int64_t t0, int64_t t1) const {
+  if (!(o_.vo_gyro_gate > 0.0) || !o_.gyro_heading) return false;
+  const auto gyro = gyroYaw(t0, t1);
+  if (!gyro) return false;
+  const double innovation =
+      std::remainder(gyro->first - core::toPlanar(pending_.mean).theta(), 2.0 * std::numbers::pi);
+  const double s = pending_.covariance(5, 5) + gyro->second;
+  return s > 0.0 && innovation * innovation > o_.vo_gyro_gate * s;
+}
+
+bool Tracker::wheelsCover(int64_t utime) const {
+  return !recent_wheel_.empty() && recent_wheel_.front().utime <= utime;
 }
 
 UncertainPose Tracker::withGyroYaw(int64_t t0, int64_t t1, const UncertainPose& increment) {

@@ -8,6 +8,7 @@
 
 #include "core/geometry/se2.h"
 #include "mapper-proc/tracker.h"
+#include "tests/mapper_messages.h"
 
 namespace evermap::mapper {
 namespace {
@@ -175,6 +176,74 @@ TEST(TrackerHeading, AWheelIncrementThatStartsBeforeVoWasLostCountsOnlyItsShareA
   ASSERT_TRUE(t.addVo(fail));
   // 0.15 by VO, then the wheels' 0.05 after 150 ms (the camera sits on the body's axis here).
   EXPECT_NEAR(t.delta().mean.translation().x(), 0.2, 1e-9);
+}
+
+// Straight at 1 m/s for 3 s: ATTITUDE at 50 Hz (no turn), exact wheels at 10 Hz, VO at 10 Hz
+// with a keyframe every third frame, σ 1 mm / 1 mrad. Over the keyframe step [1.2, 1.5] s
+// VO claims a 10° turn and three times the distance (moving texture, a wrong match) with
+// the same confidence. `wheels`: whether WHEEL_ODOM is sent.
+Tracker driveWithAVoGlitch(double vo_gyro_gate, bool wheels) {
+  TrackerOptions o;
+  o.vo_gyro_gate = vo_gyro_gate;
+  Tracker t(o);
+  int64_t att = 0;
+  EXPECT_TRUE(t.addVo(testing::voRestart(0)));
+  int64_t ref = 0;
+  for (int k = 1; k <= 30; ++k) {
+    const int64_t t1 = k * 100000;
+    for (; att <= t1; att += 20000) EXPECT_TRUE(t.addHeading(heading(att, 0.0)));
+    if (wheels) EXPECT_TRUE(t.addWheel(wheel(t1 - 100000, t1, 0.1, 0.0, 1e-6)));
+    const double since_ref = 1e-6 * static_cast<double>(t1 - ref);
+    const bool glitch = ref == 1200000;
+    const SE3d ref_T_cur = glitch ? testing::planar(3.0 * since_ref, 0.0, 10.0 * kDeg * since_ref / 0.3)
+                                  : testing::planar(since_ref, 0.0, 0.0);
+    const bool keyframe = k % 3 == 0;
+    EXPECT_TRUE(t.addVo(testing::voMsg(t1, ref, ref_T_cur, 1e-3, keyframe)));
+    if (keyframe) ref = t1;
+  }
+  return t;
+}
+
+TEST(TrackerHeading, AVoStepTheGyroContradictsIsCarriedByTheWheels) {
+  const Tracker gated = driveWithAVoGlitch(16.0, true);
+  EXPECT_EQ(gated.counts().vo_contradicted, 1);
+  // The wheels carried the step, VO the rest: the body is where it drove.
+  EXPECT_NEAR(gated.delta().mean.translation().x(), 3.0, 1e-6);
+  EXPECT_NEAR(gated.delta().mean.translation().y(), 0.0, 1e-6);
+  EXPECT_NEAR(yawOf(gated), 0.0, 1e-6);
+  // Without the test the gyro's fusion takes part of the turn back, not the distance.
+  const Tracker fused = driveWithAVoGlitch(0.0, true);
+  EXPECT_EQ(fused.counts().vo_contradicted, 0);
+  EXPECT_GT(std::abs(yawOf(fused)), 1.0 * kDeg);
+  EXPECT_GT(fused.delta().mean.translation().x(), 3.5);
+  // Without wheels there is nothing to carry the step: VO's motion stays, its yaw fused.
+  const Tracker no_wheels = driveWithAVoGlitch(16.0, false);
+  EXPECT_EQ(no_wheels.counts().vo_contradicted, 0);
+  EXPECT_NEAR(yawOf(no_wheels), yawOf(fused), 1e-9);
+  TrackerOptions bad;
+  bad.vo_gyro_gate = -1.0;
+  EXPECT_FALSE(bad.validate());
+}
+
+TEST(TrackerHeading, AVoStepThatTurnsWithTheGyroIsKept) {
+  // Turning in place at 0.5 rad/s for 1.5 s, VO and the gyro agreeing; the wheels say half
+  // the turn (slip). No step is contradicted and VO's turn stands.
+  TrackerOptions o;
+  o.vo_gyro_gate = 16.0;
+  Tracker t(o);
+  ASSERT_TRUE(t.addVo(testing::voRestart(0)));
+  int64_t att = 0, ref = 0;
+  for (int k = 1; k <= 15; ++k) {
+    const int64_t t1 = k * 100000;
+    for (; att <= t1; att += 20000) ASSERT_TRUE(t.addHeading(heading(att, 0.5 * att * 1e-6)));
+    ASSERT_TRUE(t.addWheel(wheel(t1 - 100000, t1, 0.0, 0.025, 1e-6)));
+    const bool keyframe = k % 3 == 0;
+    ASSERT_TRUE(t.addVo(testing::voMsg(t1, ref, testing::planar(0, 0, 0.5e-6 * static_cast<double>(t1 - ref)), 1e-3,
+                                       keyframe)));
+    if (keyframe) ref = t1;
+  }
+  EXPECT_EQ(t.counts().vo_contradicted, 0);
+  EXPECT_NEAR(yawOf(t), 0.75, 1e-3);
 }
 
 }  // namespace
