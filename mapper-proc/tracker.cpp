@@ -195,7 +195,7 @@ Status Tracker::addVo(const vo_delta_t& msg) {
   ++counts_.vo_applied;
   anchorOdometry(msg, msg.keyframe_changed ? Mat6::Zero() : *cov);
   if (msg.keyframe_changed && msg.ref_utime != reanchored_ref_utime_ && gyroContradicts(msg.ref_utime, msg.utime) &&
-      wheelsCover(msg.ref_utime)) {
+      wheelsCover(msg.ref_utime, msg.utime)) {
     // VO's step contradicts the gyro: the wheels carry Δ from the step's reference; VO's next
     // frame (on this frame as its reference) is placed where they put the body.
     ++counts_.vo_contradicted;
@@ -234,8 +234,12 @@ bool Tracker::gyroContradicts(int64_t t0, int64_t t1) const {
   return s > 0.0 && innovation * innovation > o_.vo_gyro_gate * s;
 }
 
-bool Tracker::wheelsCover(int64_t utime) const {
-  return !recent_wheel_.empty() && recent_wheel_.front().utime <= utime;
+bool Tracker::wheelsCover(int64_t from_utime, int64_t to_utime) const {
+  if (recent_wheel_.empty() || recent_wheel_.front().utime > from_utime) return false;
+  // ... and reach `to_utime` as extrapolateWheel would: within two periods of the newest
+  // increment (wheels that stopped or lag more would leave Δ frozen at from_utime).
+  const wheel_odom_t& w = recent_wheel_.back();
+  return w.utime > w.prev_utime && to_utime - w.utime <= 2 * (w.utime - w.prev_utime);
 }
 
 UncertainPose Tracker::withGyroYaw(int64_t t0, int64_t t1, const UncertainPose& increment) {

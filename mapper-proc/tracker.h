@@ -74,7 +74,10 @@ struct TrackerOptions {
   // each with its variance: a step beyond it is a VO failure that VO did not report (a turn
   // seen in moving texture, a wrong match of the new keyframe), and with wheel odometry at
   // hand the wheels (with the gyro) carry Δ from the step's reference instead, as after a
-  // reported failure; without it the step keeps VO's motion with the gyro's yaw fused. 0: no
+  // reported failure; without it (no wheels, or wheels that stopped or lag by more than two
+  // of their periods) the step keeps VO's motion with the gyro's yaw fused. A step from a
+  // reanchored reference (the one after a contradiction among them) is neither tested nor
+  // fused: its reference was placed by the wheels, not by VO. 0: no
   // test. 16 (99.99 %): on the rendered 3-floor sessions (evermap-slam-run, seeds 2-8) 0-9
   // steps a run, node ATE mean 0.189 -> 0.164 m, no seed worse (docs/mapper.md, "A year",
   // ninth pass); 9 and 30 measured alike on seeds 4 and 7.
@@ -239,9 +242,9 @@ class Tracker {
   UncertainPose withGyroYaw(int64_t t0, int64_t t1, const UncertainPose& increment);
   // Whether VO's motion pending_ over [t0, t1] has a yaw the gyro's contradicts
   // (TrackerOptions::vo_gyro_gate), and whether the wheel increments kept while VO tracks
-  // reach back to `utime`.
+  // reach back to from_utime and on to to_utime (within two wheel periods).
   bool gyroContradicts(int64_t t0, int64_t t1) const;
-  bool wheelsCover(int64_t utime) const;
+  bool wheelsCover(int64_t from_utime, int64_t to_utime) const;
   struct HeadingSample {
     int64_t utime;
     double heading_rad;

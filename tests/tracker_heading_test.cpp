@@ -181,8 +181,9 @@ TEST(TrackerHeading, AWheelIncrementThatStartsBeforeVoWasLostCountsOnlyItsShareA
 // Straight at 1 m/s for 3 s: ATTITUDE at 50 Hz (no turn), exact wheels at 10 Hz, VO at 10 Hz
 // with a keyframe every third frame, σ 1 mm / 1 mrad. Over the keyframe step [1.2, 1.5] s
 // VO claims a 10° turn and three times the distance (moving texture, a wrong match) with
-// the same confidence. `wheels`: whether WHEEL_ODOM is sent.
-Tracker driveWithAVoGlitch(double vo_gyro_gate, bool wheels) {
+// the same confidence. `wheels`: whether WHEEL_ODOM is sent; `wheels_until_s`: when the
+// wheel driver stops.
+Tracker driveWithAVoGlitch(double vo_gyro_gate, bool wheels, double wheels_until_s = 10.0) {
   TrackerOptions o;
   o.vo_gyro_gate = vo_gyro_gate;
   Tracker t(o);
@@ -192,7 +193,7 @@ Tracker driveWithAVoGlitch(double vo_gyro_gate, bool wheels) {
   for (int k = 1; k <= 30; ++k) {
     const int64_t t1 = k * 100000;
     for (; att <= t1; att += 20000) EXPECT_TRUE(t.addHeading(heading(att, 0.0)));
-    if (wheels) EXPECT_TRUE(t.addWheel(wheel(t1 - 100000, t1, 0.1, 0.0, 1e-6)));
+    if (wheels && t1 <= wheels_until_s * 1e6) EXPECT_TRUE(t.addWheel(wheel(t1 - 100000, t1, 0.1, 0.0, 1e-6)));
     const double since_ref = 1e-6 * static_cast<double>(t1 - ref);
     const bool glitch = ref == 1200000;
     const SE3d ref_T_cur = glitch ? testing::planar(3.0 * since_ref, 0.0, 10.0 * kDeg * since_ref / 0.3)
@@ -220,6 +221,13 @@ TEST(TrackerHeading, AVoStepTheGyroContradictsIsCarriedByTheWheels) {
   const Tracker no_wheels = driveWithAVoGlitch(16.0, false);
   EXPECT_EQ(no_wheels.counts().vo_contradicted, 0);
   EXPECT_NEAR(yawOf(no_wheels), yawOf(fused), 1e-9);
+  // Wheels that stopped at 1.0 s cannot carry the step (their last increments are still
+  // kept): VO's motion stays, its yaw fused, as without the test; no motion is lost.
+  const Tracker stopped = driveWithAVoGlitch(16.0, true, 1.0);
+  const Tracker stopped_fused = driveWithAVoGlitch(0.0, true, 1.0);
+  EXPECT_EQ(stopped.counts().vo_contradicted, 0);
+  EXPECT_NEAR(stopped.delta().mean.translation().x(), stopped_fused.delta().mean.translation().x(), 1e-9);
+  EXPECT_GT(stopped.delta().mean.translation().x(), 3.5);
   TrackerOptions bad;
   bad.vo_gyro_gate = -1.0;
   EXPECT_FALSE(bad.validate());
