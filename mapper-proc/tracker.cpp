@@ -194,7 +194,7 @@ Status Tracker::addVo(const vo_delta_t& msg) {
   delta_utime_ = msg.utime;
   ++counts_.vo_applied;
   anchorOdometry(msg, msg.keyframe_changed ? Mat6::Zero() : *cov);
-  if (msg.keyframe_changed && msg.ref_utime != reanchored_ref_utime_ && gyroContradicts(msg.ref_utime, msg.utime) &&
+  if (msg.keyframe_changed && msg.ref_utime != reanchored_ref_utime_ && gyroContradicts(msg.ref_utime, msg.utime, pending_) &&
       wheelsCover(msg.ref_utime, msg.utime)) {
     // VO's step contradicts the gyro: the wheels carry Δ from the step's reference; VO's next
     // frame (on this frame as its reference) is placed where they put the body.
@@ -224,33 +224,38 @@ void Tracker::anchorOdometry(const vo_delta_t& msg, const Mat6& own_covariance) 
   odometry_at_delta_ = OdometryAnchor{*pose, own_covariance};
 }
 
-bool Tracker::gyroContradicts(int64_t t0, int64_t t1) const {
-  if (!(o_.vo_gyro_gate > 0.0) || !o_.gyro_heading) return false;
-  const auto gyro = gyroYaw(t0, t1);
-  if (!gyro) return false;
-  const double innovation =
-      std::remainder(gyro->first - core::toPlanar(pending_.mean).theta(), 2.0 * std::numbers::pi);
-  const double s = pending_.covariance(5, 5) + gyro->second;
-  return s > 0.0 && innovation * innovation > o_.vo_gyro_gate * s;
+std::optional<std::pair<double, double>> Tracker::gyroInnovation(int64_t t0, int64_t t1,
+                                                                  const UncertainPose& increment) const {
+  const auto gyro = o_.gyro_heading ? gyroYaw(t0, t1) : std::nullopt;
+  if (!gyro) return std::nullopt;
+  const double s = increment.covariance(5, 5) + gyro->second;
+  if (!(s > 0.0)) return std::nullopt;
+  return std::make_pair(std::remainder(gyro->first - core::toPlanar(increment.mean).theta(), 2.0 * std::numbers::pi), s);
+}
+
+bool Tracker::gyroContradicts(int64_t t0, int64_t t1, const UncertainPose& increment) const {
+  if (!(o_.vo_gyro_gate > 0.0)) return false;
+  const auto v = gyroInnovation(t0, t1, increment);
+  return v && v->first * v->first > o_.vo_gyro_gate * v->second;
 }
 
 bool Tracker::wheelsCover(int64_t from_utime, int64_t to_utime) const {
   if (recent_wheel_.empty() || recent_wheel_.front().utime > from_utime) return false;
-  // ... and reach `to_utime` as extrapolateWheel would: within two periods of the newest
-  // increment (wheels that stopped or lag more would leave Δ frozen at from_utime).
-  const wheel_odom_t& w = recent_wheel_.back();
-  return w.utime > w.prev_utime && to_utime - w.utime <= 2 * (w.utime - w.prev_utime);
+  // ... and reach `to_utime` (wheels that stopped or lag more would leave Δ frozen at
+  // from_utime).
+  return reaches(recent_wheel_.back(), to_utime);
+}
+
+bool Tracker::reaches(const wheel_odom_t& w, int64_t utime) {
+  return w.utime > w.prev_utime && utime - w.utime <= 2 * (w.utime - w.prev_utime);
 }
 
 UncertainPose Tracker::withGyroYaw(int64_t t0, int64_t t1, const UncertainPose& increment) {
-  const auto gyro = o_.gyro_heading ? gyroYaw(t0, t1) : std::nullopt;
-  if (!gyro) return increment;
+  const auto v = gyroInnovation(t0, t1, increment);
+  if (!v) return increment;
   // An EKF update on the right tangent (υ, ω) of the increment: the gyro measures its yaw,
   // H = ∂yaw/∂ξ = e_ωz (the body is level to the IMU's accuracy).
-  const double s = increment.covariance(5, 5) + gyro->second;
-  if (!(s > 0.0)) return increment;
-  const double innovation =
-      std::remainder(gyro->first - core::toPlanar(increment.mean).theta(), 2.0 * std::numbers::pi);
+  const auto [innovation, s] = *v;
   const core::Vec6 k = increment.covariance.col(5) / s;
   UncertainPose out;
   out.mean = increment.mean * SE3d::exp(k * innovation);
@@ -396,10 +401,10 @@ UncertainPose Tracker::planarMotion(const Eigen::Vector3d& x, const Eigen::Matri
 }
 
 void Tracker::extrapolateWheel(int64_t utime) {
-  if (!last_wheel_ || utime <= last_wheel_->utime || last_wheel_->utime <= last_wheel_->prev_utime) return;
+  // Wheels silent for more than two of their periods: nothing to extrapolate from.
+  if (!last_wheel_ || utime <= last_wheel_->utime || !reaches(*last_wheel_, utime)) return;
   const wheel_odom_t& w = *last_wheel_;
   const double f = static_cast<double>(utime - w.utime) / static_cast<double>(w.utime - w.prev_utime);
-  if (f > 2.0) return;  // the wheels are silent: nothing to extrapolate from
   wheel_odom_t x = w;
   x.prev_utime = w.utime;
   x.utime = utime;

@@ -240,11 +240,16 @@ class Tracker {
   std::optional<std::pair<double, double>> gyroYaw(int64_t t0, int64_t t1) const;
   // A VO increment over [t0, t1] with the gyro's yaw over the same interval fused in.
   UncertainPose withGyroYaw(int64_t t0, int64_t t1, const UncertainPose& increment);
-  // Whether VO's motion pending_ over [t0, t1] has a yaw the gyro's contradicts
-  // (TrackerOptions::vo_gyro_gate), and whether the wheel increments kept while VO tracks
-  // reach back to from_utime and on to to_utime (within two wheel periods).
-  bool gyroContradicts(int64_t t0, int64_t t1) const;
+  // The gyro's yaw over [t0, t1] against the increment's: (innovation, its variance with the
+  // increment's), empty without a heading; and whether it contradicts the increment
+  // (TrackerOptions::vo_gyro_gate).
+  std::optional<std::pair<double, double>> gyroInnovation(int64_t t0, int64_t t1, const UncertainPose& increment) const;
+  bool gyroContradicts(int64_t t0, int64_t t1, const UncertainPose& increment) const;
+  // Whether the wheel increments kept while VO tracks reach back to from_utime and on to
+  // to_utime; whether increment w reaches `utime` (within two of its periods: beyond, the
+  // wheels are silent, and nothing is extrapolated from them).
   bool wheelsCover(int64_t from_utime, int64_t to_utime) const;
+  static bool reaches(const wheel_odom_t& w, int64_t utime);
   struct HeadingSample {
     int64_t utime;
     double heading_rad;
