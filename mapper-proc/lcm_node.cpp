@@ -300,7 +300,7 @@ std::string LcmNode::summary() const {
   const TrackerCounts& t = m_.tracker().counts();
   s << "vo_applied " << t.vo_applied << "\nvo_failed " << t.vo_failed << "\nwheel_applied " << t.wheel_applied
     << "\nvo_restarts " << t.restarts << "\nrelinked " << t.relinked << "\nrelinks_refused " << t.relinks_refused << "\nrelinks_weaker " << t.relinks_weaker
-    << "\nreanchored " << t.reanchored << "\nvo_timeouts " << t.vo_timeouts << "\ngyro_turns " << t.gyro_turns << "\nvo_contradicted " << t.vo_contradicted
+    << "\nreanchored " << t.reanchored << "\nvo_timeouts " << t.vo_timeouts << "\ngyro_turns " << t.gyro_turns << "\nvo_contradicted " << t.vo_contradicted << "\nheading_waits " << t.heading_waits << "\nheading_waits_expired " << t.heading_waits_expired
     << "\nimplausible_motion " << t.implausible << "\n";
   return s.str();
 }

@@ -142,6 +142,8 @@ Mapper::Mapper(const MapperOptions& options, int session)
       schedule_(options.solver, options.defer_merges, options.covariance_floor) {}
 
 Status Mapper::onVo(const vo_delta_t& msg) {
+  // A keyframe step the tracker held for its heading is taken before VO moves on.
+  takeHeldStep();
   if (saved_tracking_ && waitForWheels(msg)) {
     ++stats_.warm_wheel_waits;
     return Ok{};
@@ -157,10 +159,21 @@ Status Mapper::onVo(const vo_delta_t& msg) {
   checkTimeout(msg.utime);
   if (last_vo_utime_ >= 0 && msg.utime - last_vo_utime_ > micros(o_.session_gap_s)) startSession(msg.utime);
   last_vo_utime_ = msg.utime;
-  // A step at a keyframe the tracker now chains from (a chain break's new reference too).
-  if (msg.keyframe_changed && tracker_.referenceUtime() == msg.utime && !in_flight_ && !in_elevator_ && (last_step_utime_ < 0 || msg.utime - last_step_utime_ >= micros(o_.step_interval_s)))
-    step(msg.utime);
+  if (msg.keyframe_changed) stepAtKeyframe(msg.utime);
   return Ok{};
+}
+
+void Mapper::stepAtKeyframe(int64_t keyframe_utime) {
+  // A step at a keyframe the tracker now chains from (a chain break's new reference too); not
+  // at one it holds for its heading (TrackerOptions::heading_wait_s), which comes here when
+  // the tracker takes it.
+  if (tracker_.referenceUtime() == keyframe_utime && !in_flight_ && !in_elevator_ &&
+      (last_step_utime_ < 0 || keyframe_utime - last_step_utime_ >= micros(o_.step_interval_s)))
+    step(keyframe_utime);
+}
+
+void Mapper::takeHeldStep() {
+  if (const auto keyframe_utime = tracker_.takeHeldStep()) stepAtKeyframe(*keyframe_utime);
 }
 
 void Mapper::startSession(int64_t utime) {
@@ -177,6 +190,7 @@ void Mapper::startSession(int64_t utime) {
 }
 
 Status Mapper::onWheel(const wheel_odom_t& msg) {
+  if (tracker_.heldStepDue(msg.utime)) takeHeldStep();
   const auto t0 = SteadyClock::now();
   const Status s = tracker_.addWheel(msg);
   stats_.timing.tracking_s += secondsSince(t0);
@@ -197,10 +211,13 @@ Status Mapper::onAttitude(const attitude_t& msg) {
   }
   last_attitude_utime_ = msg.utime;
   if (msg.accel_trusted) attitude_ = msg;
-  return tracker_.addHeading(msg);
+  const Status s = tracker_.addHeading(msg);
+  if (tracker_.heldStepCovered()) takeHeldStep();
+  return s;
 }
 
 Status Mapper::onFloor(const floor_t& msg) {
+  takeHeldStep();  // a ride's start stops the steps after it, not one held before it
   if (!std::isfinite(msg.height_m) || !std::isfinite(msg.height_sigma_m) || msg.height_sigma_m < 0 ||
       msg.utime < last_floor_utime_) {
     ++stats_.dropped;

@@ -541,6 +541,10 @@ class Mapper {
   // Merges (mapper.cpp): the chain's nodes that the corrected map puts at an older node's place,
   // after a loop closure.
   void mergeChain();
+  // The step at a keyframe VO moved its reference to (Algorithm 1), when one is due.
+  void stepAtKeyframe(int64_t keyframe_utime);
+  // The keyframe step the tracker held for its heading, taken now, and the mapper's step at it.
+  void takeHeldStep();
   // A constraint that its pair (or a merge's own pose) rejected, where a merged node is among
   // its ends or its pair's: checked at the step's end (undoMergesAgainst).
   void noteMergeContradiction(const ConstraintSet::Pair* pair);

@@ -63,6 +63,7 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.tracker.vo_gyro_gate", &o->tracker.vo_gyro_gate);
   reader.read("mapper.tracker.heading_extrapolation_rate_sigma_rad_s", &o->tracker.heading_extrapolation_rate_sigma_rad_s);
   reader.read("mapper.tracker.heading_extrapolation_s", &o->tracker.heading_extrapolation_s);
+  reader.read("mapper.tracker.heading_wait_s", &o->tracker.heading_wait_s);
   reader.read("mapper.tracker.max_speed_m_s", &o->tracker.max_speed_m_s);
   reader.read("mapper.tracker.max_turn_rad_s", &o->tracker.max_turn_rad_s);
   std::string method;

@@ -39,6 +39,8 @@ Status TrackerOptions::validate() const {
     return Error("tracker.vo_gyro_gate: must be a finite number >= 0");
   if (!(heading_extrapolation_rate_sigma_rad_s >= 0.0 && std::isfinite(heading_extrapolation_rate_sigma_rad_s)))
     return Error("tracker.heading_extrapolation_rate_sigma_rad_s: must be >= 0");
+  if (!(heading_wait_s >= 0.0 && std::isfinite(heading_wait_s)))
+    return Error("tracker.heading_wait_s: must be a finite number >= 0");
   if (!(heading_extrapolation_s >= 0.0 && std::isfinite(heading_extrapolation_s)))
     return Error("tracker.heading_extrapolation_s: must be >= 0");
   if (!(max_speed_m_s > 0.0 && std::isfinite(max_speed_m_s)))
@@ -115,6 +117,8 @@ void Tracker::commit(int64_t utime, const UncertainPose& increment) {
 }
 
 Status Tracker::addVo(const vo_delta_t& msg) {
+  // Time moved on past a held step: it is taken with the headings there are.
+  takeHeldStep();
   if (msg.utime <= last_vo_utime_) {
     ++counts_.dropped;
     return Error("VO_DELTA " + std::to_string(msg.utime) + ": out of order");
@@ -194,23 +198,50 @@ Status Tracker::addVo(const vo_delta_t& msg) {
   delta_utime_ = msg.utime;
   ++counts_.vo_applied;
   anchorOdometry(msg, msg.keyframe_changed ? Mat6::Zero() : *cov);
-  if (msg.keyframe_changed && msg.ref_utime != reanchored_ref_utime_ && gyroContradicts(msg.ref_utime, msg.utime, pending_) &&
-      wheelsCover(msg.ref_utime, msg.utime)) {
+  if (!msg.keyframe_changed) return Ok{};
+  // The gyro's heading that reaches the frame may still be on its way: the step waits for it
+  // (its motion is in Δ already). Not from a reanchored reference, which the gyro does not test.
+  const bool headings_flow = !headings_.empty() && headings_.back().utime >= msg.utime - 1'000'000;
+  if (o_.heading_wait_s > 0.0 && o_.gyro_heading && msg.ref_utime != reanchored_ref_utime_ && headings_flow &&
+      headings_.back().utime < msg.utime) {
+    held_ = HeldStep{msg.ref_utime, msg.utime};
+    ++counts_.heading_waits;
+    return Ok{};
+  }
+  takeStep(msg.ref_utime, msg.utime);
+  return Ok{};
+}
+
+bool Tracker::heldStepDue(int64_t utime) const {
+  return held_ && (heldStepCovered() || utime > held_->utime + static_cast<int64_t>(o_.heading_wait_s * 1e6));
+}
+
+bool Tracker::heldStepCovered() const {
+  return held_ && !headings_.empty() && headings_.back().utime >= held_->utime;
+}
+
+std::optional<int64_t> Tracker::takeHeldStep() {
+  if (!held_) return std::nullopt;
+  const HeldStep h = *held_;
+  held_.reset();
+  if (headings_.empty() || headings_.back().utime < h.utime) ++counts_.heading_waits_expired;
+  takeStep(h.ref_utime, h.utime);
+  return h.utime;
+}
+
+void Tracker::takeStep(int64_t ref_utime, int64_t utime) {
+  if (ref_utime != reanchored_ref_utime_ && gyroContradicts(ref_utime, utime, pending_) && wheelsCover(ref_utime, utime)) {
     // VO's step contradicts the gyro: the wheels carry Δ from the step's reference; VO's next
     // frame (on this frame as its reference) is placed where they put the body.
     ++counts_.vo_contradicted;
     pending_ = UncertainPose{};
-    enterWheelMode(msg.ref_utime);
+    enterWheelMode(ref_utime);
     odometry_at_delta_.reset();
-    return Ok{};
+    return;
   }
-  if (msg.keyframe_changed) {
-    commit(msg.utime, msg.ref_utime == reanchored_ref_utime_ ? pending_
-                                                             : withGyroYaw(msg.ref_utime, msg.utime, pending_));
-    pending_ = UncertainPose{};
-    ref_utime_ = msg.utime;
-  }
-  return Ok{};
+  commit(utime, ref_utime == reanchored_ref_utime_ ? pending_ : withGyroYaw(ref_utime, utime, pending_));
+  pending_ = UncertainPose{};
+  ref_utime_ = utime;
 }
 
 void Tracker::anchorOdometry(const vo_delta_t& msg, const Mat6& own_covariance) {
@@ -353,6 +384,8 @@ Status Tracker::addWheel(const wheel_odom_t& msg) {
     ++counts_.implausible;
     return makeError("WHEEL_ODOM ", msg.utime, ": ", implausible);
   }
+  // A held step waits no longer than heading_wait_s of message time.
+  if (heldStepDue(msg.utime)) takeHeldStep();
   last_wheel_utime_ = msg.utime;
   wheel_odometer_m_ += std::hypot(msg.delta_x_m, msg.delta_y_m);
   keepWheelPose(msg);

@@ -27,7 +27,8 @@
 // elevator cab); the gyro's yaw is what keeps a floor's heading through a blind stretch.
 // A VO keyframe step is fused with the gyro's yaw the same way; one whose yaw the gyro
 // contradicts (TrackerOptions::vo_gyro_gate) is a VO failure VO did not report, and the
-// wheels carry Δ over it.
+// wheels carry Δ over it. A keyframe step the newest heading does not reach waits for it
+// (TrackerOptions::heading_wait_s).
 //
 // A bounded history of the committed increments lets the mapper compound q_T_now, the motion
 // since a recent keyframe q, when a registration of q comes back.
@@ -82,6 +83,17 @@ struct TrackerOptions {
   // steps a run, node ATE mean 0.189 -> 0.164 m, no seed worse (docs/mapper.md, "A year",
   // ninth pass); 9 and 30 measured alike on seeds 4 and 7.
   double vo_gyro_gate = 16.0;
+  // How long a VO keyframe step waits for the gyro's heading to cover it, seconds of message
+  // time. imu-proc's ATTITUDE (50 Hz) lags VO's frames by up to a period; a step taken at
+  // once met a heading extrapolated over that lag, whose variance
+  // (heading_extrapolation_rate_sigma_rad_s × lag)² made the gyro's yaw worth nothing against
+  // VO's: 0.57° at 10 ms, so a 1° turn VO saw in a featureless stretch passed the
+  // vo_gyro_gate and was not fused away (rendered 3-floor seed 3: 73 % of the keyframe steps
+  // met a lag of 3-13 ms). A step the newest heading does not reach is held (its motion is
+  // in Δ, its commit, gyro test and fusion wait) until a heading reaches it, or until a later
+  // VO frame, or a message more than this past it, arrives: then it is taken with what there
+  // is. Only while headings come (the newest within 1 s); 0: never held.
+  double heading_wait_s = 0.1;
   // Gyro white noise, rad/s/sqrt(Hz), and how long the reported bias error stays the same,
   // seconds: increments are compounded as independent, so each gets the share
   // σ_b² dt T of a bias error σ_b that is in fact common to T seconds of them.
@@ -126,6 +138,8 @@ struct TrackerCounts {
   int64_t odometry_refused = 0; // VO_DELTAs whose odometry pose (odom_*) was malformed: the
                                 // frame is used, its pose is not
   int64_t vo_contradicted = 0;  // keyframe steps whose yaw the gyro contradicted (vo_gyro_gate)
+  int64_t heading_waits = 0;    // keyframe steps held for the heading that covers them
+  int64_t heading_waits_expired = 0;  // ... taken before one came (heading_wait_s)
 
   // Adds another tracker's counts (sessions tracked by successive trackers).
   void add(const TrackerCounts& o) {
@@ -143,6 +157,8 @@ struct TrackerCounts {
     gyro_turns += o.gyro_turns;
     odometry_refused += o.odometry_refused;
     vo_contradicted += o.vo_contradicted;
+    heading_waits += o.heading_waits;
+    heading_waits_expired += o.heading_waits_expired;
   }
 };
 
@@ -177,6 +193,19 @@ class Tracker {
   // The motion since the keyframe at `utime` (keyframe_T_body now), compounded from the
   // increments after it; empty when that keyframe is not in the history.
   std::optional<UncertainPose> sinceKeyframe(int64_t keyframe_utime) const;
+
+  // A VO keyframe step held for its heading (TrackerOptions::heading_wait_s): the keyframe's
+  // utime, or -1. Until it is taken, VO's reference is still the one before it.
+  int64_t heldKeyframeUtime() const { return held_ ? held_->utime : -1; }
+  // Whether the held step is to be taken before a message at `utime`: the headings reach it,
+  // or it has waited heading_wait_s.
+  bool heldStepDue(int64_t utime) const;
+  // Whether the headings now reach the held step.
+  bool heldStepCovered() const;
+  // Takes the held step now, with the headings at hand (addVo does so first itself, and
+  // addWheel once the step has waited heading_wait_s); its keyframe's utime, or empty when
+  // none was held. Δ is then at the keyframe.
+  std::optional<int64_t> takeHeldStep();
 
   bool voTracking() const { return vo_mode_; }
   // VO's reference keyframe (utime) while VO tracks; -1 otherwise.
@@ -256,6 +285,14 @@ class Tracker {
     double rate_sigma;
   };
   std::deque<HeadingSample> headings_;
+  // A keyframe step [ref_utime, utime] held for its heading; pending_ holds its motion.
+  struct HeldStep {
+    int64_t ref_utime;
+    int64_t utime;
+  };
+  std::optional<HeldStep> held_;
+  // The keyframe step: the gyro's test and fusion, the commit, the new reference.
+  void takeStep(int64_t ref_utime, int64_t utime);
 
   TrackerOptions o_;
   Mat6 ad_body_T_cam_;

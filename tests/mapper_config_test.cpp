@@ -30,7 +30,8 @@ TEST(MapperConfig, ReadsEveryKindOfSettingAndKeepsTheDefaultsOfTheRest) {
       "mapper.solver.method = dogleg\n"
       "mapper.solver.background_batch_lag = 0\n"
       "mapper.tracker.history_s = 60\n"
-      "mapper.tracker.vo_gyro_gate = 9\n");
+      "mapper.tracker.vo_gyro_gate = 9\n"
+      "mapper.tracker.heading_wait_s = 0.05\n");
   MapperOptions o;
   const Status read = readMapperOptions(file, &o);
   ASSERT_TRUE(read) << read.error().message;
@@ -49,6 +50,7 @@ TEST(MapperConfig, ReadsEveryKindOfSettingAndKeepsTheDefaultsOfTheRest) {
   EXPECT_EQ(o.solver.background_batch_lag, 0);
   EXPECT_EQ(o.tracker.history_s, 60.0);
   EXPECT_EQ(o.tracker.vo_gyro_gate, 9.0);
+  EXPECT_EQ(o.tracker.heading_wait_s, 0.05);
   const MapperOptions defaults;
   EXPECT_EQ(o.cell_size_m, defaults.cell_size_m);
   EXPECT_EQ(o.consistency_gate, defaults.consistency_gate);

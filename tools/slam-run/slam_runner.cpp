@@ -644,7 +644,7 @@ std::string SlamRunSummary::text() const {
   s << "vo " << vo.report() << "\ntracker vo_applied " << tracker.vo_applied << ", vo_failed " << tracker.vo_failed
     << ", wheel_applied " << tracker.wheel_applied << ", restarts " << tracker.restarts << ", relinked "
     << tracker.relinked << ", relinks_refused " << tracker.relinks_refused << ", relinks_weaker " << tracker.relinks_weaker << ", reanchored " << tracker.reanchored
-    << ", vo_timeouts " << tracker.vo_timeouts << ", gyro_turns " << tracker.gyro_turns << ", vo_contradicted " << tracker.vo_contradicted << ", dropped " << tracker.dropped << "\nloopclose " << loopclose.text()
+    << ", vo_timeouts " << tracker.vo_timeouts << ", gyro_turns " << tracker.gyro_turns << ", vo_contradicted " << tracker.vo_contradicted << ", heading_waits " << tracker.heading_waits << " (expired " << tracker.heading_waits_expired << ")" << ", dropped " << tracker.dropped << "\nloopclose " << loopclose.text()
     << "\n";
   if (evaluation) s << evaluation->text();
   const double n = std::max<double>(1.0, static_cast<double>(vo.frames));
