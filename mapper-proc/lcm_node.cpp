@@ -260,6 +260,9 @@ void LcmNode::publishStats() {
       {"node_merges", st.node_merges},
       {"merges_refused", st.merges_refused},
       {"merges_undone", st.merges_undone},
+      {"vo_contradicted", m_.tracker().counts().vo_contradicted},
+      {"heading_waits", m_.tracker().counts().heading_waits},
+      {"heading_waits_expired", m_.tracker().counts().heading_waits_expired},
   };
   for (const auto& [name, value] : counters) {
     s.counter_names.emplace_back(name);

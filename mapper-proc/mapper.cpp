@@ -142,8 +142,9 @@ Mapper::Mapper(const MapperOptions& options, int session)
       schedule_(options.solver, options.defer_merges, options.covariance_floor) {}
 
 Status Mapper::onVo(const vo_delta_t& msg) {
-  // A keyframe step the tracker held for its heading is taken before VO moves on.
-  takeHeldStep();
+  // A keyframe step the tracker held for its heading is taken before VO moves on; after a
+  // session's gap, without the mapper's step (it would belong to the session before).
+  takeHeldStep(msg.utime, last_vo_utime_ >= 0 && msg.utime - last_vo_utime_ > micros(o_.session_gap_s));
   if (saved_tracking_ && waitForWheels(msg)) {
     ++stats_.warm_wheel_waits;
     return Ok{};
@@ -172,8 +173,12 @@ void Mapper::stepAtKeyframe(int64_t keyframe_utime) {
     step(keyframe_utime);
 }
 
-void Mapper::takeHeldStep() {
-  if (const auto keyframe_utime = tracker_.takeHeldStep()) stepAtKeyframe(*keyframe_utime);
+void Mapper::takeHeldStep(int64_t now_utime, bool session_starts) {
+  const auto keyframe_utime = tracker_.takeHeldStep();
+  // Not when a session starts (the step belongs to the one before), nor when its request
+  // would be timed out at once (the streams stopped while it waited).
+  if (keyframe_utime && !session_starts && now_utime - *keyframe_utime <= micros(o_.request_timeout_s))
+    stepAtKeyframe(*keyframe_utime);
 }
 
 void Mapper::startSession(int64_t utime) {
@@ -190,7 +195,7 @@ void Mapper::startSession(int64_t utime) {
 }
 
 Status Mapper::onWheel(const wheel_odom_t& msg) {
-  if (tracker_.heldStepDue(msg.utime)) takeHeldStep();
+  if (tracker_.heldStepDue(msg.utime)) takeHeldStep(msg.utime);
   const auto t0 = SteadyClock::now();
   const Status s = tracker_.addWheel(msg);
   stats_.timing.tracking_s += secondsSince(t0);
@@ -212,12 +217,14 @@ Status Mapper::onAttitude(const attitude_t& msg) {
   last_attitude_utime_ = msg.utime;
   if (msg.accel_trusted) attitude_ = msg;
   const Status s = tracker_.addHeading(msg);
-  if (tracker_.heldStepCovered()) takeHeldStep();
+  if (tracker_.heldStepCovered()) takeHeldStep(msg.utime);
   return s;
 }
 
 Status Mapper::onFloor(const floor_t& msg) {
-  takeHeldStep();  // a ride's start stops the steps after it, not one held before it
+  // A ride's start stops the steps after it, not one held before it; a session's start
+  // (EVENT_NONE) ends the session the held step belongs to: no mapper step then.
+  takeHeldStep(msg.utime, msg.event == floor_t::EVENT_NONE);
   if (!std::isfinite(msg.height_m) || !std::isfinite(msg.height_sigma_m) || msg.height_sigma_m < 0 ||
       msg.utime < last_floor_utime_) {
     ++stats_.dropped;

@@ -543,8 +543,9 @@ class Mapper {
   void mergeChain();
   // The step at a keyframe VO moved its reference to (Algorithm 1), when one is due.
   void stepAtKeyframe(int64_t keyframe_utime);
-  // The keyframe step the tracker held for its heading, taken now, and the mapper's step at it.
-  void takeHeldStep();
+  // The keyframe step the tracker held for its heading, taken now (by a message at now_utime),
+  // and the mapper's step at it unless a session starts or the step is stale.
+  void takeHeldStep(int64_t now_utime, bool session_starts = false);
   // A constraint that its pair (or a merge's own pose) rejected, where a merged node is among
   // its ends or its pair's: checked at the step's end (undoMergesAgainst).
   void noteMergeContradiction(const ConstraintSet::Pair* pair);

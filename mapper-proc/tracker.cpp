@@ -39,8 +39,8 @@ Status TrackerOptions::validate() const {
     return Error("tracker.vo_gyro_gate: must be a finite number >= 0");
   if (!(heading_extrapolation_rate_sigma_rad_s >= 0.0 && std::isfinite(heading_extrapolation_rate_sigma_rad_s)))
     return Error("tracker.heading_extrapolation_rate_sigma_rad_s: must be >= 0");
-  if (!(heading_wait_s >= 0.0 && std::isfinite(heading_wait_s)))
-    return Error("tracker.heading_wait_s: must be a finite number >= 0");
+  if (!(heading_wait_s >= 0.0 && heading_wait_s < vo_timeout_s))
+    return Error("tracker.heading_wait_s: must be >= 0 and below tracker.vo_timeout_s");
   if (!(heading_extrapolation_s >= 0.0 && std::isfinite(heading_extrapolation_s)))
     return Error("tracker.heading_extrapolation_s: must be >= 0");
   if (!(max_speed_m_s > 0.0 && std::isfinite(max_speed_m_s)))
@@ -224,7 +224,9 @@ std::optional<int64_t> Tracker::takeHeldStep() {
   if (!held_) return std::nullopt;
   const HeldStep h = *held_;
   held_.reset();
-  if (headings_.empty() || headings_.back().utime < h.utime) ++counts_.heading_waits_expired;
+  // Expired: no heading reached the frame, or the headings broke (addHeading) and no longer
+  // reach back to the step's reference.
+  if (!gyroYaw(h.ref_utime, h.utime) || headings_.back().utime < h.utime) ++counts_.heading_waits_expired;
   takeStep(h.ref_utime, h.utime);
   return h.utime;
 }

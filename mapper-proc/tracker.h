@@ -91,8 +91,9 @@ struct TrackerOptions {
   // vo_gyro_gate and was not fused away (rendered 3-floor seed 3: 73 % of the keyframe steps
   // met a lag of 3-13 ms). A step the newest heading does not reach is held (its motion is
   // in Δ, its commit, gyro test and fusion wait) until a heading reaches it, or until a later
-  // VO frame, or a message more than this past it, arrives: then it is taken with what there
-  // is. Only while headings come (the newest within 1 s); 0: never held.
+  // VO frame, a FLOOR message (the mapper) or a WHEEL_ODOM more than this past it arrives:
+  // then it is taken with what there is. Only while headings come (the newest within 1 s);
+  // 0: never held. Below vo_timeout_s (the wheels' takeover must find no step held).
   double heading_wait_s = 0.1;
   // Gyro white noise, rad/s/sqrt(Hz), and how long the reported bias error stays the same,
   // seconds: increments are compounded as independent, so each gets the share

@@ -300,6 +300,8 @@ TEST(TrackerHeading, AKeyframeStepWaitsForTheHeadingThatReachesIt) {
   TrackerOptions bad;
   bad.heading_wait_s = -0.1;
   EXPECT_FALSE(bad.validate());
+  bad.heading_wait_s = bad.vo_timeout_s;  // the wheels' takeover would find a step held
+  EXPECT_FALSE(bad.validate());
 }
 
 TEST(TrackerHeading, StepsHeldWhenTheGyroFallsSilentAreTakenWithTheNextFrame) {
@@ -339,6 +341,61 @@ TEST(MapperHeading, TheStepAtAHeldKeyframeIsTakenWhenItsHeadingComes) {
     }
     EXPECT_EQ(m.tracker().referenceUtime(), 2000000);
     EXPECT_EQ(m.stats().steps, 2);
+  }
+}
+
+// A mapper on floor 0 with its first node at 1.0 s and headings up to 1.99 s; the keyframe at
+// 2.0 s held for its heading.
+struct HeldKeyframe {
+  Mapper m{MapperOptions{}};
+  HeldKeyframe() {
+    floor_t f{};
+    f.utime = 1;
+    EXPECT_TRUE(m.onFloor(f));
+    for (int64_t a = 0; a <= 990000; a += 20000) EXPECT_TRUE(m.onAttitude(heading(a, 0.0)));
+    EXPECT_TRUE(m.onVo(testing::voRestart(1000000)));
+    for (int64_t a = 1010000; a <= 1990000; a += 20000) EXPECT_TRUE(m.onAttitude(heading(a, 0.0)));
+    m.takeRequests();
+    EXPECT_TRUE(m.onVo(testing::voMsg(2000000, 1000000, testing::planar(1.0, 0.0, 0.0), 1e-3, true)));
+    EXPECT_EQ(m.tracker().heldKeyframeUtime(), 2000000);
+    EXPECT_TRUE(m.takeRequests().empty());
+  }
+};
+
+TEST(MapperHeading, AHeldStepTheHeadingDoesNotReachIsTakenWithTheWheelsOnce) {
+  // No ATTITUDE after the frame: the first wheel increment more than heading_wait_s past it
+  // takes the step, and the mapper's with it.
+  HeldKeyframe h;
+  ASSERT_TRUE(h.m.onWheel(wheel(1900000, 2000000, 0.1, 0.0, 1e-6)));
+  EXPECT_EQ(h.m.tracker().heldKeyframeUtime(), 2000000);
+  ASSERT_TRUE(h.m.onWheel(wheel(2000000, 2150000, 0.15, 0.0, 1e-6)));
+  EXPECT_EQ(h.m.tracker().heldKeyframeUtime(), -1);
+  const auto requests = h.m.takeRequests();
+  ASSERT_EQ(requests.size(), 1u);
+  EXPECT_EQ(requests.front().keyframe_utime, 2000000);
+  EXPECT_EQ(h.m.tracker().counts().heading_waits_expired, 1);
+}
+
+TEST(MapperHeading, AHeldStepIsNotTakenIntoTheNextSessionNorLate) {
+  // The streams stop with the step held. A session's FLOOR (EVENT_NONE), or a heading that
+  // comes 10 s later (beyond the request timeout), commits the step without the mapper's:
+  // no registration of the old session's keyframe answers for the new one.
+  {
+    HeldKeyframe h;
+    floor_t next{};
+    next.utime = 700000000;
+    next.event = floor_t::EVENT_NONE;
+    ASSERT_TRUE(h.m.onFloor(next));
+    EXPECT_EQ(h.m.tracker().heldKeyframeUtime(), -1);
+    EXPECT_TRUE(h.m.takeRequests().empty());
+    EXPECT_TRUE(h.m.lost());
+  }
+  {
+    HeldKeyframe h;
+    ASSERT_TRUE(h.m.onAttitude(heading(12000000, 0.0)));
+    EXPECT_EQ(h.m.tracker().heldKeyframeUtime(), -1);
+    EXPECT_TRUE(h.m.takeRequests().empty());
+    EXPECT_EQ(h.m.stats().steps, 1);
   }
 }
 
