@@ -144,7 +144,8 @@ Mapper::Mapper(const MapperOptions& options, int session)
 Status Mapper::onVo(const vo_delta_t& msg) {
   // A keyframe step the tracker held for its heading is taken before VO moves on; after a
   // session's gap, without the mapper's step (it would belong to the session before).
-  takeHeldStep(msg.utime, last_vo_utime_ >= 0 && msg.utime - last_vo_utime_ > micros(o_.session_gap_s));
+  const bool session_gap = last_vo_utime_ >= 0 && msg.utime - last_vo_utime_ > micros(o_.session_gap_s);
+  takeHeldStep(msg.utime, session_gap);
   if (saved_tracking_ && waitForWheels(msg)) {
     ++stats_.warm_wheel_waits;
     return Ok{};
@@ -158,7 +159,7 @@ Status Mapper::onVo(const vo_delta_t& msg) {
   }
   if (saved_tracking_) decideRestart(msg);
   checkTimeout(msg.utime);
-  if (last_vo_utime_ >= 0 && msg.utime - last_vo_utime_ > micros(o_.session_gap_s)) startSession(msg.utime);
+  if (session_gap) startSession(msg.utime);
   last_vo_utime_ = msg.utime;
   if (msg.keyframe_changed) stepAtKeyframe(msg.utime);
   return Ok{};

@@ -203,7 +203,7 @@ Status Tracker::addVo(const vo_delta_t& msg) {
   // (its motion is in Δ already). Not from a reanchored reference, which the gyro does not test.
   const bool headings_flow = !headings_.empty() && headings_.back().utime >= msg.utime - 1'000'000;
   if (o_.heading_wait_s > 0.0 && o_.gyro_heading && msg.ref_utime != reanchored_ref_utime_ && headings_flow &&
-      headings_.back().utime < msg.utime) {
+      !headingReaches(msg.utime)) {
     held_ = HeldStep{msg.ref_utime, msg.utime};
     ++counts_.heading_waits;
     return Ok{};
@@ -216,9 +216,9 @@ bool Tracker::heldStepDue(int64_t utime) const {
   return held_ && (heldStepCovered() || utime > held_->utime + static_cast<int64_t>(o_.heading_wait_s * 1e6));
 }
 
-bool Tracker::heldStepCovered() const {
-  return held_ && !headings_.empty() && headings_.back().utime >= held_->utime;
-}
+bool Tracker::headingReaches(int64_t utime) const { return !headings_.empty() && headings_.back().utime >= utime; }
+
+bool Tracker::heldStepCovered() const { return held_ && headingReaches(held_->utime); }
 
 std::optional<int64_t> Tracker::takeHeldStep() {
   if (!held_) return std::nullopt;
@@ -226,7 +226,7 @@ std::optional<int64_t> Tracker::takeHeldStep() {
   held_.reset();
   // Expired: no heading reached the frame, or the headings broke (addHeading) and no longer
   // reach back to the step's reference.
-  if (!gyroYaw(h.ref_utime, h.utime) || headings_.back().utime < h.utime) ++counts_.heading_waits_expired;
+  if (!gyroYaw(h.ref_utime, h.utime) || !headingReaches(h.utime)) ++counts_.heading_waits_expired;
   takeStep(h.ref_utime, h.utime);
   return h.utime;
 }

@@ -286,6 +286,8 @@ class Tracker {
     double rate_sigma;
   };
   std::deque<HeadingSample> headings_;
+  // Whether the newest heading is at or past `utime`.
+  bool headingReaches(int64_t utime) const;
   // A keyframe step [ref_utime, utime] held for its heading; pending_ holds its motion.
   struct HeldStep {
     int64_t ref_utime;
