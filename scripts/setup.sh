@@ -6,7 +6,7 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 
 packages=(
-  build-essential cmake ninja-build ccache pkg-config git
+  build-essential cmake ninja-build ccache pkg-config git clang-format
   liblcm-dev liblcm-bin liblcm-java libjchart2d-java default-jdk-headless
   libeigen3-dev libopencv-dev libsuitesparse-dev libsqlite3-dev sqlite3
   libgtest-dev libgmock-dev libbenchmark-dev
