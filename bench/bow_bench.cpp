@@ -13,7 +13,8 @@
 // first (a sanity check that the synthetic database is not degenerate).
 //
 // Figures: median and p99 over individually timed calls, wall clock (median_us, p99_us) and
-// CPU time of the thread (cpu_median_us, cpu_p99_us), besides Google Benchmark's mean. Set EVERMAP_BOW_PLACES to change the database size.
+// CPU time of the thread (cpu_median_us, cpu_p99_us), besides Google Benchmark's mean. Set
+// EVERMAP_BOW_PLACES to change the database size.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -47,8 +48,7 @@ size_t numPlaces() {
 }
 
 std::vector<Descriptor> perturb(const std::vector<Descriptor>& source,
-                                const std::vector<std::vector<Descriptor>>& pool,
-                                SplitMix64& rng) {
+                                const std::vector<std::vector<Descriptor>>& pool, SplitMix64& rng) {
   std::vector<Descriptor> out;
   out.reserve(source.size());
   for (const Descriptor& d : source) {
@@ -73,9 +73,9 @@ struct Setup {
   std::vector<std::vector<Descriptor>> real;         // per real image
   std::vector<std::vector<Descriptor>> place_descs;  // per synthetic place
   std::vector<BowVector> place_bows;
-  std::vector<BowVector> queries;                    // revisits
-  std::vector<int64_t> query_truth;                  // the place each query revisits
-  double postings_per_query = 0;                     // mean postings a query reads, one floor
+  std::vector<BowVector> queries;                // revisits
+  std::vector<int64_t> query_truth;              // the place each query revisits
+  double postings_per_query = 0;                 // mean postings a query reads, one floor
   std::optional<PlaceDatabase> database;         // 10,000 places, one floor
   std::optional<PlaceDatabase> database_floors;  // the same places over 10 floors
 };

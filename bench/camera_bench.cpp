@@ -107,7 +107,8 @@ BENCHMARK(BM_StereoMsgEncode)
 // What a receiver pays per STEREO message: bytes -> validated message -> two cv::Mat.
 void BM_StereoMsgDecodeAndValidate(benchmark::State& state) {
   const auto enc = static_cast<messages::ImageEncoding>(state.range(0));
-  const auto msg = *messages::toMsg(messages::StereoFrame{1, false, inputs().left, inputs().right}, enc);
+  const auto msg =
+      *messages::toMsg(messages::StereoFrame{1, false, inputs().left, inputs().right}, enc);
   std::vector<uint8_t> bytes(msg.getEncodedSize());
   msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
   for (auto _ : state) {

@@ -71,7 +71,8 @@ void BM_ParsePipelineConfig(benchmark::State& state) {
     text += "}\n";
   }
   text += "script \"go\" {\n";
-  for (int i = 0; i < 20; ++i) text += "  start group \"g" + std::to_string(i) + "\" wait \"running\";\n";
+  for (int i = 0; i < 20; ++i)
+    text += "  start group \"g" + std::to_string(i) + "\" wait \"running\";\n";
   text += "}\n";
   for (auto _ : state) {
     auto c = parseConfig(text, "bench.pmd");

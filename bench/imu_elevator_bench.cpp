@@ -41,7 +41,8 @@ void BM_ElevatorTrackerPerSample(benchmark::State& state) {
   }
   for (auto _ : state) {
     elevator::ElevatorTracker t;
-    for (size_t i = 0; i < samples.size(); ++i) benchmark::DoNotOptimize(t.add(samples[i], &att[i]));
+    for (size_t i = 0; i < samples.size(); ++i)
+      benchmark::DoNotOptimize(t.add(samples[i], &att[i]));
   }
   state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(samples.size()));
 }

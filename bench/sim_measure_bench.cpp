@@ -1,7 +1,8 @@
 // Measurement-level simulator speed: planning and generating one session of a paper-scale run
 // (the settings of config/sim-paper-scale.conf that matter for speed), and the registration
 // oracle answering requests against a map of the paper's size. The full paper-scale figures
-// come from `evermap-sim-measure --config config/sim-paper-scale.conf --stats` (docs/simulators.md).
+// come from `evermap-sim-measure --config config/sim-paper-scale.conf --stats`
+// (docs/simulators.md).
 #include <benchmark/benchmark.h>
 
 #include "tools/sim/message_sink.h"

@@ -17,9 +17,10 @@ using evermap::sim::ImageSimulator;
 std::unique_ptr<ImageSimulator> makeSimulator(int width, int height) {
   const std::string text =
       "seed = 1\nbuilding.floors = 3\nbuilding.main_floor = 1\npatrol.sessions = 1\n"
-      "patrol.total_hours = 0.05\nrender.width = " + std::to_string(width) + "\nrender.height = " +
-      std::to_string(height) + "\ncamera.cx = " + std::to_string(width / 2) + "\ncamera.cy = " +
-      std::to_string(height / 2) + "\n";
+      "patrol.total_hours = 0.05\nrender.width = " +
+      std::to_string(width) + "\nrender.height = " + std::to_string(height) +
+      "\ncamera.cx = " + std::to_string(width / 2) + "\ncamera.cy = " + std::to_string(height / 2) +
+      "\n";
   auto file = evermap::KeyValueFile::parse(text, "bench");
   auto options = evermap::sim::loadImageSimOptions(*file);
   if (!options) {
@@ -38,7 +39,8 @@ std::unique_ptr<ImageSimulator> makeSimulator(int width, int height) {
 
 void BM_RenderStereoPair(benchmark::State& state) {
   auto sim = makeSimulator(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-  const int64_t start = sim->startUtime(), span = std::min<int64_t>(60'000'000, sim->endUtime() - start);
+  const int64_t start = sim->startUtime(),
+                span = std::min<int64_t>(60'000'000, sim->endUtime() - start);
   cv::Mat left, right;
   int64_t k = 0;
   for (auto _ : state) {
@@ -46,10 +48,14 @@ void BM_RenderStereoPair(benchmark::State& state) {
     sim->renderPair(t, &left, &right);
     benchmark::DoNotOptimize(left.data);
   }
-  state.counters["pairs_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()),
-                                                     benchmark::Counter::kIsRate);
+  state.counters["pairs_per_s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_RenderStereoPair)->Args({640, 480})->Args({752, 480})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_RenderStereoPair)
+    ->Args({640, 480})
+    ->Args({752, 480})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_RenderAndEncodePng(benchmark::State& state) {
   auto sim = makeSimulator(640, 480);
@@ -63,8 +69,8 @@ void BM_RenderAndEncodePng(benchmark::State& state) {
                                         evermap::messages::ImageEncoding::kPng);
     benchmark::DoNotOptimize(msg);
   }
-  state.counters["pairs_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()),
-                                                     benchmark::Counter::kIsRate);
+  state.counters["pairs_per_s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_RenderAndEncodePng)->Unit(benchmark::kMillisecond)->UseRealTime();
 

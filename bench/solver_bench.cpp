@@ -156,10 +156,11 @@ int table() {
       ++failures;
       continue;
     }
-    std::printf("%-22s | %7.3f (%7.3f), %6.3f / %6.3f %14s | %7.3f (%7.3f) %6s | %5.1f / %5.1f, %.6g / %.6g (%.6g), %.2f\n",
-                c.file, inc.wall_s, inc.cpu_s, inc.median_ms, inc.p99_ms, "", bat.wall_s,
-                bat.cpu_s, "", inc.peak_mb, bat.peak_mb, inc.sse, bat.sse, c.isam_sse,
-                inc.wall_s / c.isam_incremental_s);
+    std::printf(
+        "%-22s | %7.3f (%7.3f), %6.3f / %6.3f %14s | %7.3f (%7.3f) %6s | %5.1f / %5.1f, %.6g / "
+        "%.6g (%.6g), %.2f\n",
+        c.file, inc.wall_s, inc.cpu_s, inc.median_ms, inc.p99_ms, "", bat.wall_s, bat.cpu_s, "",
+        inc.peak_mb, bat.peak_mb, inc.sse, bat.sse, c.isam_sse, inc.wall_s / c.isam_incremental_s);
     std::fflush(stdout);
   }
   return failures == 0 ? 0 : 1;
@@ -237,10 +238,26 @@ void BM_LandmarksCityTreesBatch(benchmark::State& s) { landmarkBatch(s, false); 
 void BM_LandmarksCityTreesIncremental(benchmark::State& s) { landmarkIncremental(s, false); }
 void BM_LandmarksTorusPointsBatch(benchmark::State& s) { landmarkBatch(s, true); }
 void BM_LandmarksTorusPointsIncremental(benchmark::State& s) { landmarkIncremental(s, true); }
-BENCHMARK(BM_LandmarksCityTreesBatch)->Arg(2000)->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
-BENCHMARK(BM_LandmarksCityTreesIncremental)->Arg(2000)->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
-BENCHMARK(BM_LandmarksTorusPointsBatch)->Arg(2000)->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
-BENCHMARK(BM_LandmarksTorusPointsIncremental)->Arg(2000)->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
+BENCHMARK(BM_LandmarksCityTreesBatch)
+    ->Arg(2000)
+    ->Unit(benchmark::kMillisecond)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true);
+BENCHMARK(BM_LandmarksCityTreesIncremental)
+    ->Arg(2000)
+    ->Unit(benchmark::kMillisecond)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true);
+BENCHMARK(BM_LandmarksTorusPointsBatch)
+    ->Arg(2000)
+    ->Unit(benchmark::kMillisecond)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true);
+BENCHMARK(BM_LandmarksTorusPointsIncremental)
+    ->Arg(2000)
+    ->Unit(benchmark::kMillisecond)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true);
 
 }  // namespace
 

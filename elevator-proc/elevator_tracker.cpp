@@ -23,8 +23,9 @@ Status ElevatorTrackerOptions::validate() const {
   }
   if (!(max_cruise_velocity_spread_fraction > 0 && max_cruise_velocity_spread_m_s >= 0 &&
         max_reverse_velocity_fraction >= 0 && min_profile_fill >= 0 && min_profile_fill <= 1)) {
-    return makeError("ride sanity limits: need spread fraction > 0, spread, reverse >= 0, "
-                     "0 <= min_profile_fill <= 1");
+    return makeError(
+        "ride sanity limits: need spread fraction > 0, spread, reverse >= 0, "
+        "0 <= min_profile_fill <= 1");
   }
   if (!(motion_window_s >= 2 * pulse.bin_s)) {
     return makeError("motion_window_s must be at least two bins");
@@ -46,7 +47,8 @@ Status ElevatorTrackerOptions::validate() const {
   if (!(max_fill_s >= 0 && max_fill_s <= max_gap_in_ride_s)) {
     return makeError("need 0 <= max_fill_s <= max_gap_in_ride_s");
   }
-  if (!(max_gap_in_ride_s >= pulse.bin_s)) return makeError("max_gap_in_ride_s must be >= pulse_bin_s");
+  if (!(max_gap_in_ride_s >= pulse.bin_s))
+    return makeError("max_gap_in_ride_s must be >= pulse_bin_s");
   if (!(max_gravity_freeze_s >= 0)) return makeError("max_gravity_freeze_s must be >= 0");
   if (!(max_attitude_age_s > 0)) return makeError("max_attitude_age_s must be > 0");
   return Ok{};
@@ -54,14 +56,15 @@ Status ElevatorTrackerOptions::validate() const {
 
 std::string ElevatorCounts::summary() const {
   char buf[256];
-  std::snprintf(buf, sizeof buf,
-                "samples used %lld, without attitude %lld, bins %lld (empty %lld, filled %lld), pulses %lld, "
-                "rides %lld, abandoned %lld, rejected %lld",
-                static_cast<long long>(samples_used), static_cast<long long>(no_attitude),
-                static_cast<long long>(bins), static_cast<long long>(empty_bins),
-                static_cast<long long>(filled_bins),
-                static_cast<long long>(pulses), static_cast<long long>(rides),
-                static_cast<long long>(abandoned), static_cast<long long>(rejected));
+  std::snprintf(
+      buf, sizeof buf,
+      "samples used %lld, without attitude %lld, bins %lld (empty %lld, filled %lld), pulses %lld, "
+      "rides %lld, abandoned %lld, rejected %lld",
+      static_cast<long long>(samples_used), static_cast<long long>(no_attitude),
+      static_cast<long long>(bins), static_cast<long long>(empty_bins),
+      static_cast<long long>(filled_bins), static_cast<long long>(pulses),
+      static_cast<long long>(rides), static_cast<long long>(abandoned),
+      static_cast<long long>(rejected));
   return buf;
 }
 
@@ -146,7 +149,8 @@ std::vector<FloorEvent> ElevatorTracker::finish() {
   }
   for (const Pulse& p : pulse_filter_.flush()) onPulse(p, &events);
   if (!starts_.empty()) {
-    const int64_t last = history_.empty() ? 0 : history_first_ + static_cast<int64_t>(history_.size()) - 1;
+    const int64_t last =
+        history_.empty() ? 0 : history_first_ + static_cast<int64_t>(history_.size()) - 1;
     abandon(last, "end of the data before a stop", &events);
   }
   history_.clear();
@@ -221,8 +225,8 @@ void ElevatorTracker::processBin(int64_t index, const Bin& in, std::vector<Floor
   // seen by the median (after a walk into the cabin there are few calm cells) would
   // otherwise become the new zero, and the cruise after it a false stop pulse.
   pending_bins_ = pulse_filter_.pending() ? pending_bins_ + 1 : 0;
-  const bool frozen = pending_bins_ > 0 &&
-                      pending_bins_ * options_.pulse.bin_s <= options_.max_gravity_freeze_s;
+  const bool frozen =
+      pending_bins_ > 0 && pending_bins_ * options_.pulse.bin_s <= options_.max_gravity_freeze_s;
   // Until a reference from calm cells exists there is nothing worth freezing (the first
   // cell's value, taken while a phone is put down, can be 2 m/s^2 off).
   if (starts_.empty() && (!frozen || !calm_reference_)) updateGravity(index);
@@ -238,7 +242,8 @@ void ElevatorTracker::processBin(int64_t index, const Bin& in, std::vector<Floor
   const int64_t checked = index - pulse_filter_.longestWidthBins() - 1;
   if (checked > starts_.back().lastBin()) {
     const Bin* c = bin(checked);
-    walking_bins_ = (c && c->valid && c->motion > options_.walking_std_m_s2) ? walking_bins_ + 1 : 0;
+    walking_bins_ =
+        (c && c->valid && c->motion > options_.walking_std_m_s2) ? walking_bins_ + 1 : 0;
     if (walking_bins_ * options_.pulse.bin_s > options_.max_walking_in_ride_s) {
       abandon(index, "walking", events);
       return;
@@ -307,8 +312,10 @@ bool ElevatorTracker::tryFinish(const Pulse& q, std::vector<FloorEvent>* events)
     // bias sum(h) / sum(h^2) to each amplitude (4/3 bias for a Hann), bias sum(h)^2 /
     // sum(h^2) dt to each velocity change (2/3 width dt for a Hann).
     const double dt = options_.pulse.bin_s;
-    const double dv_start = p.delta_v_m_s - fit.bias * p.shape_sum * p.shape_sum / p.shape_energy * dt;
-    const double dv_stop = q.delta_v_m_s - fit.bias * q.shape_sum * q.shape_sum / q.shape_energy * dt;
+    const double dv_start =
+        p.delta_v_m_s - fit.bias * p.shape_sum * p.shape_sum / p.shape_energy * dt;
+    const double dv_stop =
+        q.delta_v_m_s - fit.bias * q.shape_sum * q.shape_sum / q.shape_energy * dt;
     if ((dv_start > 0) == (dv_stop > 0)) continue;
     const double ratio = std::abs(dv_stop) / std::max(std::abs(dv_start), 1e-6);
     if (q.strict) {
@@ -475,34 +482,38 @@ bool ElevatorTracker::fitRide(const Pulse& start, const Pulse& stop, RideFit* fi
 std::string ElevatorTracker::sanity(const RideFit& fit) const {
   char buf[200];
   if (!gravityPlausible()) {
-    std::snprintf(buf, sizeof buf,
-                  "the accelerometer does not measure gravity (reference %.2f m/s^2, expected %.2f): "
-                  "a gravity-removed stream? elevator-proc needs the specific force",
-                  gravity_, options_.gravity_nominal_m_s2);
+    std::snprintf(
+        buf, sizeof buf,
+        "the accelerometer does not measure gravity (reference %.2f m/s^2, expected %.2f): "
+        "a gravity-removed stream? elevator-proc needs the specific force",
+        gravity_, options_.gravity_nominal_m_s2);
     return buf;
   }
   const double spread_limit = options_.max_cruise_velocity_spread_m_s +
                               options_.max_cruise_velocity_spread_fraction * fit.peak_speed;
   if (fit.cruise_spread > spread_limit) {
-    std::snprintf(buf, sizeof buf, "velocity not steady between the pulses (%.2f m/s off its mean, limit %.2f)",
+    std::snprintf(buf, sizeof buf,
+                  "velocity not steady between the pulses (%.2f m/s off its mean, limit %.2f)",
                   fit.cruise_spread, spread_limit);
     return buf;
   }
   if (fit.reverse > options_.max_reverse_velocity_fraction * fit.peak_speed) {
-    std::snprintf(buf, sizeof buf, "velocity reverses (%.2f m/s against the ride, peak %.2f)", fit.reverse,
-                  fit.peak_speed);
+    std::snprintf(buf, sizeof buf, "velocity reverses (%.2f m/s against the ride, peak %.2f)",
+                  fit.reverse, fit.peak_speed);
     return buf;
   }
   const double fill = std::abs(fit.displacement) / std::max(fit.peak_speed * fit.duration, 1e-9);
   if (fill < options_.min_profile_fill) {
     std::snprintf(buf, sizeof buf,
-                  "displacement %.2f m inconsistent with the velocity profile (%.2f of peak %.2f m/s x %.1f s)",
+                  "displacement %.2f m inconsistent with the velocity profile (%.2f of peak %.2f "
+                  "m/s x %.1f s)",
                   fit.displacement, fill, fit.peak_speed, fit.duration);
     return buf;
   }
   const FloorAssignment to = floors_.peek(fit.displacement);
   if (!to.is_new && to.index == floors_.current()) {
-    std::snprintf(buf, sizeof buf, "displacement %.2f m reaches no other floor (the floor left is nearest)",
+    std::snprintf(buf, sizeof buf,
+                  "displacement %.2f m reaches no other floor (the floor left is nearest)",
                   fit.displacement);
     return buf;
   }

@@ -149,7 +149,8 @@ struct ElevatorTrackerOptions {
     f("max_ride_s", max_ride_s, "s");
     f("min_displacement_m", min_displacement_m, "m");
     f("max_bias_m_s2", max_bias_m_s2, "m/s^2");
-    f("max_cruise_velocity_spread_fraction", max_cruise_velocity_spread_fraction, "of the peak speed");
+    f("max_cruise_velocity_spread_fraction", max_cruise_velocity_spread_fraction,
+      "of the peak speed");
     f("max_cruise_velocity_spread_m_s", max_cruise_velocity_spread_m_s, "m/s");
     f("max_reverse_velocity_fraction", max_reverse_velocity_fraction, "of the peak speed");
     f("min_profile_fill", min_profile_fill, "of peak speed x duration");
@@ -166,22 +167,22 @@ struct FloorEvent {
   enum class Kind { kRideStart, kRideEnd };
   int64_t utime = 0;
   Kind kind = Kind::kRideStart;
-  int floor_index = -1;   // -1 while riding
-  double height_m = 0;    // current floor (end) or the floor left (start)
+  int floor_index = -1;  // -1 while riding
+  double height_m = 0;   // current floor (end) or the floor left (start)
   double height_sigma_m = 0;
   bool in_elevator = false;
   bool new_floor = false;
 };
 
 struct Ride {
-  int64_t start_utime = 0;  // start of the start pulse
-  int64_t end_utime = 0;    // end of the stop pulse
+  int64_t start_utime = 0;    // start of the start pulse
+  int64_t end_utime = 0;      // end of the stop pulse
   double displacement_m = 0;  // up positive
   double sigma_m = 0;
   double peak_speed_m_s = 0;
   double start_accel_m_s2 = 0;  // amplitudes of the two pulses
   double stop_accel_m_s2 = 0;
-  double bias_m_s2 = 0;         // removed by the zero-velocity constraint
+  double bias_m_s2 = 0;  // removed by the zero-velocity constraint
   int from_floor = 0;
   int to_floor = 0;
   bool new_floor = false;
@@ -205,10 +206,10 @@ struct AbandonedRide {
 
 struct ElevatorCounts {
   int64_t samples_used = 0;
-  int64_t no_attitude = 0;      // samples without an attitude close enough in time
+  int64_t no_attitude = 0;  // samples without an attitude close enough in time
   int64_t bins = 0;
-  int64_t empty_bins = 0;       // grid cells with no sample left empty (gaps)
-  int64_t filled_bins = 0;      // grid cells with no sample filled by interpolation
+  int64_t empty_bins = 0;   // grid cells with no sample left empty (gaps)
+  int64_t filled_bins = 0;  // grid cells with no sample filled by interpolation
   int64_t pulses = 0;
   int64_t rides = 0;
   int64_t abandoned = 0;
@@ -264,9 +265,9 @@ class ElevatorTracker {
     double duration = 0;
   };
   struct Bin {
-    double raw = 0;    // vertical specific force
+    double raw = 0;      // vertical specific force
     double gravity = 0;  // the reference when the cell was closed
-    double accel = 0;  // vertical, gravity removed
+    double accel = 0;    // vertical, gravity removed
     double motion = 0;
     bool valid = false;
   };
@@ -305,7 +306,7 @@ class ElevatorTracker {
   bool gravity_seeded_ = false;
   std::vector<double> scratch_;
   int64_t pending_bins_ = 0;
-  int64_t fill_pending_ = 0;       // empty cells before the open one, filled when it closes
+  int64_t fill_pending_ = 0;  // empty cells before the open one, filled when it closes
   double last_closed_raw_ = 0;
   bool have_last_closed_ = false;
 

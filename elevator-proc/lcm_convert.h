@@ -14,8 +14,8 @@ inline floor_t toLcm(const FloorEvent& e) {
   m.height_m = e.height_m;
   m.height_sigma_m = e.height_sigma_m;
   m.in_elevator = e.in_elevator ? 1 : 0;
-  m.event = e.kind == FloorEvent::Kind::kRideStart ? floor_t::EVENT_RIDE_START
-                                                   : floor_t::EVENT_RIDE_END;
+  m.event =
+      e.kind == FloorEvent::Kind::kRideStart ? floor_t::EVENT_RIDE_START : floor_t::EVENT_RIDE_END;
   m.new_floor = e.new_floor ? 1 : 0;
   return m;
 }

@@ -40,16 +40,16 @@ struct PulseFilterOptions {
   // the Hann within the noise, and more templates there make the greedy non-maximum
   // suppression split a stop mixed with the rider's motion into pieces.
   double plateau_min_width_s = 5.0;
-  double min_amplitude_m_s2 = 0.2;   // smaller is not an elevator (or is a slow escalator)
-  double max_amplitude_m_s2 = 2.5;   // larger is a person or a vehicle, not a cabin
-  double max_residual_m_s2 = 0.3;    // rms misfit of the pulse shape within the window
-  double max_residual_ratio = 0.6;   // ... and relative to |A|
+  double min_amplitude_m_s2 = 0.2;  // smaller is not an elevator (or is a slow escalator)
+  double max_amplitude_m_s2 = 2.5;  // larger is a person or a vehicle, not a cabin
+  double max_residual_m_s2 = 0.3;   // rms misfit of the pulse shape within the window
+  double max_residual_ratio = 0.6;  // ... and relative to |A|
   // Looser limits for a pulse that is expected (the stop of a ride under way, often mixed
   // with the rider turning to the door); such pulses have strict = false.
   double max_residual_loose_m_s2 = 0.6;
   double max_residual_ratio_loose = 1.2;
   double min_snr_loose = 3.0;
-  double noise_floor_m_s2 = 0.03;    // below the sensor's own noise, snr is not meaningful
+  double noise_floor_m_s2 = 0.03;  // below the sensor's own noise, snr is not meaningful
   double min_snr = 8.0;
   // Flank of zeros before the template, s (0: no baseline fit, see above).
   double flank_s = 0.0;
@@ -60,13 +60,13 @@ struct PulseFilterOptions {
 };
 
 struct Pulse {
-  int64_t center_bin = 0;  // index on the filter's grid
-  int width_bins = 0;          // the Hann's support (without the flanks)
+  int64_t center_bin = 0;     // index on the filter's grid
+  int width_bins = 0;         // the Hann's support (without the flanks)
   double amplitude_m_s2 = 0;  // A (peak of the fitted Hann)
   double baseline_m_s2 = 0;   // c
   double residual_m_s2 = 0;
   double snr = 0;
-  bool strict = true;         // passed the strict residual limits
+  bool strict = true;  // passed the strict residual limits
   // Velocity change of the pulse: A * sum(h) * bin_s (= A * width / 2 for a Hann).
   double delta_v_m_s = 0;
   double plateau_fraction = 0;  // of the template (0: Hann)
@@ -108,8 +108,8 @@ class PulseFilter {
   std::vector<Pulse> finalize(int64_t horizon);
 
   PulseFilterOptions options_;
-  std::vector<int> widths_;                // bins
-  int flank_ = 0;                          // bins
+  std::vector<int> widths_;  // bins
+  int flank_ = 0;            // bins
   double offset_ = 0;
   struct Template {
     int width = 0;  // bins
@@ -117,11 +117,11 @@ class PulseFilter {
     std::vector<double> h;
     double sum = 0, energy = 0;
   };
-  std::vector<Template> templates_;        // width-major: all shapes of widths_[0], then ...
-  std::deque<double> values_;              // the last longest-width bins
+  std::vector<Template> templates_;  // width-major: all shapes of widths_[0], then ...
+  std::deque<double> values_;        // the last longest-width bins
   std::deque<bool> valid_;
   int64_t last_index_ = -1;
-  std::vector<Pulse> pending_;             // candidates not yet final
+  std::vector<Pulse> pending_;  // candidates not yet final
 };
 
 }  // namespace evermap::elevator

@@ -40,7 +40,8 @@ Status AttitudeFilterOptions::validate() const {
   if (gyroscope_mode < -1 || gyroscope_mode > 1) {
     return makeError("gyroscope_mode must be -1 (auto), 0 (accelerometer only) or 1 (use it)");
   }
-  if (!(accel_only_tilt_rate_density > 0)) return makeError("accel_only_tilt_rate_density must be > 0");
+  if (!(accel_only_tilt_rate_density > 0))
+    return makeError("accel_only_tilt_rate_density must be > 0");
   if (!(gyro_scale_sigma >= 0)) return makeError("gyro_scale_sigma must be >= 0");
   if (!(interpolation_error_scale >= 0)) return makeError("interpolation_error_scale must be >= 0");
   if (!(max_rejected_s > 0)) return makeError("max_rejected_s must be > 0");
@@ -73,12 +74,14 @@ Status AttitudeFilterOptions::validate() const {
 
 std::string AttitudeFilterCounts::summary() const {
   char buf[260];
-  std::snprintf(buf, sizeof buf, "%s; updates %lld, untrusted %lld, innovation rejected %lld, resets %lld, recoveries %lld, "
-                "velocity resets %lld",
-                accel_only ? "mode accelerometer only (no gyroscope)" : "mode gyroscope + accelerometer",
-                static_cast<long long>(updates), static_cast<long long>(untrusted),
-                static_cast<long long>(innovation_rejected), static_cast<long long>(resets),
-                static_cast<long long>(recoveries), static_cast<long long>(velocity_resets));
+  std::snprintf(
+      buf, sizeof buf,
+      "%s; updates %lld, untrusted %lld, innovation rejected %lld, resets %lld, recoveries %lld, "
+      "velocity resets %lld",
+      accel_only ? "mode accelerometer only (no gyroscope)" : "mode gyroscope + accelerometer",
+      static_cast<long long>(updates), static_cast<long long>(untrusted),
+      static_cast<long long>(innovation_rejected), static_cast<long long>(resets),
+      static_cast<long long>(recoveries), static_cast<long long>(velocity_resets));
   return buf;
 }
 
@@ -104,19 +107,19 @@ void AttitudeFilter::initialize(const ImuSample& s) {
   // The first sample may be taken in motion: then its tilt is only known to max_tilt_sigma.
   const bool plausible =
       std::abs(s.accel_m_s2.norm() - options_.gravity_m_s2) <= options_.untrusted_accel_error_m_s2;
-  const double tilt_var = std::pow(
-      plausible ? options_.initial_tilt_sigma_rad : options_.max_tilt_sigma_rad, 2);
-  const Eigen::Matrix3d P_bias = initialized_
-                                    ? Eigen::Matrix3d(P_.block<3, 3>(kBias, kBias))
-                                    : std::pow(options_.initial_gyro_bias_sigma_rad_s, 2) *
-                                          Eigen::Matrix3d::Identity();
+  const double tilt_var =
+      std::pow(plausible ? options_.initial_tilt_sigma_rad : options_.max_tilt_sigma_rad, 2);
+  const Eigen::Matrix3d P_bias =
+      initialized_
+          ? Eigen::Matrix3d(P_.block<3, 3>(kBias, kBias))
+          : std::pow(options_.initial_gyro_bias_sigma_rad_s, 2) * Eigen::Matrix3d::Identity();
   P_.setZero();
   P_.block<2, 2>(kTilt, kTilt) = tilt_var * Eigen::Matrix2d::Identity();
   P_.block<3, 3>(kBias, kBias) = counts_.accel_only ? Eigen::Matrix3d::Zero() : P_bias;
   // Whatever the body does, it moves at about walking speed at most (the velocity prior).
   velocity_.setZero();
-  P_.block<2, 2>(kVel, kVel) = std::pow(options_.velocity_prior_sigma_m_s, 2) *
-                               Eigen::Matrix2d::Identity();
+  P_.block<2, 2>(kVel, kVel) =
+      std::pow(options_.velocity_prior_sigma_m_s, 2) * Eigen::Matrix2d::Identity();
   since_velocity_prior_s_ = 0;
   initialized_ = true;
   last_trusted_ = plausible;
@@ -135,7 +138,8 @@ void AttitudeFilter::finishStartup() {
   }
   bool gyro_all_zero = true;
   for (const ImuSample& s : startup_) gyro_all_zero = gyro_all_zero && s.gyro_rad_s.isZero(0.0);
-  counts_.accel_only = options_.gyroscope_mode == 0 || (options_.gyroscope_mode < 0 && gyro_all_zero);
+  counts_.accel_only =
+      options_.gyroscope_mode == 0 || (options_.gyroscope_mode < 0 && gyro_all_zero);
   ImuSample mean = startup_.back();
   mean.accel_m_s2 = (f[0] + f[1]) / static_cast<double>(n);
   initialize(mean);
@@ -146,7 +150,8 @@ void AttitudeFilter::finishStartup() {
       w[h] /= m;
     }
     const double rate_change = (w[1] - w[0]).norm();
-    const double tilt_change = std::acos(std::clamp(f[0].normalized().dot(f[1].normalized()), -1.0, 1.0));
+    const double tilt_change =
+        std::acos(std::clamp(f[0].normalized().dot(f[1].normalized()), -1.0, 1.0));
     counts_.still_start = rate_change <= options_.still_gyro_spread_rad_s &&
                           tilt_change <= options_.still_tilt_change_rad;
   }
@@ -280,8 +285,8 @@ void AttitudeFilter::propagate(const ImuSample& s, double dt) {
     if (options_.velocity_prior_sigma_m_s > 0) {
       const Eigen::Vector3d f_world = world_R_body_ * s.accel_m_s2;
       velocity_ += f_world.head<2>() * dt;
-      Q.block<2, 2>(kVel, kVel) = options_.accel_noise_density * options_.accel_noise_density *
-                                  dt * Eigen::Matrix2d::Identity();
+      Q.block<2, 2>(kVel, kVel) = options_.accel_noise_density * options_.accel_noise_density * dt *
+                                  Eigen::Matrix2d::Identity();
     }
     P_ += Q;
     capTiltVariance();
@@ -312,14 +317,14 @@ void AttitudeFilter::propagate(const ImuSample& s, double dt) {
   MatN Q = MatN::Zero();
   // R n R^T with isotropic n is isotropic: the tilt noise does not depend on the attitude.
   const double scale_err = options_.gyro_scale_sigma * w.norm() * dt;
-  Q.block<2, 2>(kTilt, kTilt) =
-      (options_.gyro_noise_density * options_.gyro_noise_density * dt + scale_err * scale_err +
-       interp_err * interp_err) *
-      Eigen::Matrix2d::Identity();
-  Q.block<3, 3>(kBias, kBias) = options_.gyro_bias_walk_density *
-                                options_.gyro_bias_walk_density * dt * Eigen::Matrix3d::Identity();
-  if (use_velocity) Q.block<2, 2>(kVel, kVel) =
-      options_.accel_noise_density * options_.accel_noise_density * dt * Eigen::Matrix2d::Identity();
+  Q.block<2, 2>(kTilt, kTilt) = (options_.gyro_noise_density * options_.gyro_noise_density * dt +
+                                 scale_err * scale_err + interp_err * interp_err) *
+                                Eigen::Matrix2d::Identity();
+  Q.block<3, 3>(kBias, kBias) = options_.gyro_bias_walk_density * options_.gyro_bias_walk_density *
+                                dt * Eigen::Matrix3d::Identity();
+  if (use_velocity)
+    Q.block<2, 2>(kVel, kVel) = options_.accel_noise_density * options_.accel_noise_density * dt *
+                                Eigen::Matrix2d::Identity();
   P_ = F * P_ * F.transpose() + Q;
   P_ = 0.5 * (P_ + P_.transpose());
   capTiltVariance();
@@ -348,8 +353,9 @@ bool AttitudeFilter::accelTrusted(const Eigen::Vector3d& accel, double dt) {
   // A tilt error of theta shows as g sin(theta) of "horizontal acceleration": while the
   // filter itself is that unsure, the disagreement is its own error, not the body's motion.
   const double tilt_sigma = std::sqrt(std::max(P_(kTilt, kTilt), P_(kTilt + 1, kTilt + 1)));
-  const double horizontal_limit = std::max(options_.untrusted_horizontal_accel_m_s2,
-                                           3.0 * options_.gravity_m_s2 * std::sin(std::min(tilt_sigma, 0.5)));
+  const double horizontal_limit =
+      std::max(options_.untrusted_horizontal_accel_m_s2,
+               3.0 * options_.gravity_m_s2 * std::sin(std::min(tilt_sigma, 0.5)));
   const bool trusted = error <= options_.untrusted_accel_error_m_s2 &&
                        raw_error <= 2.0 * options_.untrusted_accel_error_m_s2 &&
                        jerk <= options_.untrusted_jerk_m_s3 &&

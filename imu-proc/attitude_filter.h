@@ -112,7 +112,8 @@ struct AttitudeFilterOptions {
     f("gravity_m_s2", gravity_m_s2, "m/s^2");
     f("gyro_noise_density", gyro_noise_density, "rad/s/sqrt(Hz)");
     f("gyroscope_mode", gyroscope_mode, "-1 auto, 0 accelerometer only, 1 use the gyroscope");
-    f("accel_only_tilt_rate_density", accel_only_tilt_rate_density, "rad/s/sqrt(Hz), accelerometer-only mode");
+    f("accel_only_tilt_rate_density", accel_only_tilt_rate_density,
+      "rad/s/sqrt(Hz), accelerometer-only mode");
     f("gyro_bias_walk_density", gyro_bias_walk_density, "rad/s^2/sqrt(Hz)");
     f("gyro_scale_sigma", gyro_scale_sigma, "of each increment");
     f("interpolation_error_scale", interpolation_error_scale, "");
@@ -146,15 +147,15 @@ struct Attitude {
 };
 
 struct AttitudeFilterCounts {
-  int64_t updates = 0;           // accelerometer corrections applied
-  int64_t untrusted = 0;         // samples where gravity was not observable
+  int64_t updates = 0;    // accelerometer corrections applied
+  int64_t untrusted = 0;  // samples where gravity was not observable
   int64_t innovation_rejected = 0;
-  int64_t resets = 0;            // re-initialisations after a gap
-  int64_t recoveries = 0;        // tilt restarted from gravity (max_rejected_s of gate
-                                 // rejections, or max_untrusted_s of steady "acceleration")
-  int64_t velocity_resets = 0;   // velocity prior rejected: integrated velocity restarted
-  bool still_start = false;      // the start-up window was still: gyro bias from it
-  bool accel_only = false;       // no gyroscope (gyroscope_mode 0, or auto and none seen)
+  int64_t resets = 0;           // re-initialisations after a gap
+  int64_t recoveries = 0;       // tilt restarted from gravity (max_rejected_s of gate
+                                // rejections, or max_untrusted_s of steady "acceleration")
+  int64_t velocity_resets = 0;  // velocity prior rejected: integrated velocity restarted
+  bool still_start = false;     // the start-up window was still: gyro bias from it
+  bool accel_only = false;      // no gyroscope (gyroscope_mode 0, or auto and none seen)
   std::string summary() const;
 };
 

@@ -11,10 +11,13 @@ Status HeadingOptions::validate() const {
   if (!positive(noise_density)) return Error("heading.noise_density: must be > 0");
   if (!(std::isfinite(bias_walk_density) && bias_walk_density >= 0.0))
     return Error("heading.bias_walk_density: must be >= 0");
-  if (!positive(initial_bias_sigma_rad_s)) return Error("heading.initial_bias_sigma_rad_s: must be > 0");
+  if (!positive(initial_bias_sigma_rad_s))
+    return Error("heading.initial_bias_sigma_rad_s: must be > 0");
   if (!positive(still_window_s)) return Error("heading.still_window_s: must be > 0");
-  if (!positive(still_gyro_spread_rad_s)) return Error("heading.still_gyro_spread_rad_s: must be > 0");
-  if (!positive(still_accel_spread_m_s2)) return Error("heading.still_accel_spread_m_s2: must be > 0");
+  if (!positive(still_gyro_spread_rad_s))
+    return Error("heading.still_gyro_spread_rad_s: must be > 0");
+  if (!positive(still_accel_spread_m_s2))
+    return Error("heading.still_accel_spread_m_s2: must be > 0");
   if (!positive(still_max_rate_rad_s)) return Error("heading.still_max_rate_rad_s: must be > 0");
   if (!positive(max_gap_s)) return Error("heading.max_gap_s: must be > 0");
   return Ok{};
@@ -69,7 +72,8 @@ void HeadingIntegrator::stillness(const ImuSample& s) {
   const double n = static_cast<double>(window_.size());
   mean_w /= n;
   mean_f /= n;
-  bool still = (mean_w - bias_).norm() <= o_.still_max_rate_rad_s + 3.0 * std::sqrt(3.0 * bias_var_);
+  bool still =
+      (mean_w - bias_).norm() <= o_.still_max_rate_rad_s + 3.0 * std::sqrt(3.0 * bias_var_);
   for (const ImuSample& x : window_) {
     if (!still) break;
     still = (x.gyro_rad_s - mean_w).cwiseAbs().maxCoeff() <= o_.still_gyro_spread_rad_s &&

@@ -93,9 +93,9 @@ class HeadingIntegrator {
   double heading_ = 0.0;
   double rate_ = 0.0;  // yaw rate at the last sample, rad/s
   Eigen::Vector3d bias_ = Eigen::Vector3d::Zero();
-  double bias_var_ = 0.0;  // per axis, rad²/s²
+  double bias_var_ = 0.0;                               // per axis, rad²/s²
   Eigen::Vector3d up_body_ = Eigen::Vector3d::UnitZ();  // world vertical in the body frame
-  std::deque<ImuSample> window_;  // the current still-window candidate
+  std::deque<ImuSample> window_;                        // the current still-window candidate
   HeadingCounts counts_;
 };
 

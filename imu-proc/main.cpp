@@ -1,5 +1,5 @@
-// evermap-imu-proc: IMU -> ATTITUDE (roll, pitch, covariance, the gyro's heading). Only options, LCM and the loop;
-// the filter is evermap::imu::AttitudeFilter.
+// evermap-imu-proc: IMU -> ATTITUDE (roll, pitch, covariance, the gyro's heading). Only options,
+// LCM and the loop; the filter is evermap::imu::AttitudeFilter.
 
 #include <cmath>
 #include <cstdio>
@@ -122,7 +122,8 @@ int main(int argc, char** argv) {
     inbox.publishStatsEvery(1.0);
   }
   std::fprintf(stderr, "evermap-imu-proc: input: %s\n", inbox.summary().c_str());
-  std::fprintf(stderr, "evermap-imu-proc: %s; %s\n", handler.stream.filter().gateCounts().summary().c_str(),
+  std::fprintf(stderr, "evermap-imu-proc: %s; %s\n",
+               handler.stream.filter().gateCounts().summary().c_str(),
                handler.stream.filter().counts().summary().c_str());
   return 0;
 }

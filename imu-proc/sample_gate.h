@@ -45,20 +45,20 @@ struct SampleGateOptions {
 // Counts of what the gate let through and what it dropped, by reason.
 struct SampleGateCounts {
   int64_t accepted = 0;
-  int64_t non_finite = 0;      // NaN or inf in any field
-  int64_t saturated = 0;       // an axis at full scale
-  int64_t repeated_time = 0;   // time stamp equal to (or within min_interval_s of) the last
-  int64_t out_of_order = 0;    // time stamp before the last accepted one
-  int64_t gaps = 0;            // accepted samples that follow a gap > max_interval_s
+  int64_t non_finite = 0;     // NaN or inf in any field
+  int64_t saturated = 0;      // an axis at full scale
+  int64_t repeated_time = 0;  // time stamp equal to (or within min_interval_s of) the last
+  int64_t out_of_order = 0;   // time stamp before the last accepted one
+  int64_t gaps = 0;           // accepted samples that follow a gap > max_interval_s
 
   int64_t dropped() const { return non_finite + saturated + repeated_time + out_of_order; }
   std::string summary() const;
 };
 
 enum class GateVerdict {
-  kAccept,           // use it; dt_s is the interval since the previous accepted sample
-  kAcceptAfterGap,   // use it, but do not integrate across the gap (or this is the first)
-  kDrop,             // unusable; counted
+  kAccept,          // use it; dt_s is the interval since the previous accepted sample
+  kAcceptAfterGap,  // use it, but do not integrate across the gap (or this is the first)
+  kDrop,            // unusable; counted
 };
 
 class SampleGate {

@@ -41,7 +41,8 @@ RegistrationOutcome CoreRegistration::registerFrames(const Keyframe& target,
 
 std::string CoreRegistration::describe() const {
   return "core registration (descriptor matching, clique inliers, reprojection refinement), "
-         "min " + std::to_string(options_.min_inliers) + " inliers";
+         "min " +
+         std::to_string(options_.min_inliers) + " inliers";
 }
 
 }  // namespace evermap::loopclose

@@ -16,7 +16,7 @@
 namespace evermap::loopclose {
 
 struct Keyframe {
-  int64_t utime = 0;  // microseconds: the keyframe's id
+  int64_t utime = 0;                      // microseconds: the keyframe's id
   double fx = 0, fy = 0, cx = 0, cy = 0;  // rectified left camera, pixels
   double baseline_m = 0;
   std::vector<Eigen::Vector2f> keypoints;  // pixels (u, v)

@@ -32,13 +32,15 @@ Status LoopCloserOptions::validate() const {
 std::string LoopCloserStats::text() const {
   char line[400];
   std::snprintf(line, sizeof(line),
-                "keyframes %lld (%lld rejected), nodes %lld (%lld rejected: %lld implausible, %lld over capacity; "
+                "keyframes %lld (%lld rejected), nodes %lld (%lld rejected: %lld implausible, %lld "
+                "over capacity; "
                 "%lld waited for their keyframe), requests %lld, "
                 "answered %lld: ok %lld, failed %lld, stale %lld; store errors %lld",
                 static_cast<long long>(keyframes), static_cast<long long>(keyframes_rejected),
                 static_cast<long long>(nodes), static_cast<long long>(nodes_rejected),
-                static_cast<long long>(nodes_implausible), static_cast<long long>(nodes_over_capacity),
-                static_cast<long long>(nodes_waited), static_cast<long long>(requests), static_cast<long long>(answered),
+                static_cast<long long>(nodes_implausible),
+                static_cast<long long>(nodes_over_capacity), static_cast<long long>(nodes_waited),
+                static_cast<long long>(requests), static_cast<long long>(answered),
                 static_cast<long long>(ok), static_cast<long long>(failed),
                 static_cast<long long>(stale), static_cast<long long>(store_errors));
   return line;
@@ -156,7 +158,8 @@ std::string LoopCloser::implausibleNode(const evermap::node_added_t& msg) const 
     why << "floor " << msg.floor << " is outside [-1, max_floor " << options_.max_floor << "]";
   } else if (msg.keyframe_utime < 0 || msg.keyframe_utime > msg.utime) {
     // The mapper makes a node on its keyframe's frame, never before it.
-    why << "keyframe " << msg.keyframe_utime << " is negative or after the node's stamp " << msg.utime;
+    why << "keyframe " << msg.keyframe_utime << " is negative or after the node's stamp "
+        << msg.utime;
   }
   return why.str();
 }
@@ -207,8 +210,8 @@ Status LoopCloser::addNode(const evermap::node_added_t& msg) {
   }
   if (!keyframe) {
     ++stats_.nodes_rejected;
-    return makeError("node ", msg.node_id, ": keyframe ", msg.keyframe_utime,
-                     " is not among the ", recent_.size(), " recent keyframes");
+    return makeError("node ", msg.node_id, ": keyframe ", msg.keyframe_utime, " is not among the ",
+                     recent_.size(), " recent keyframes");
   }
   bow::Place place{msg.node_id, msg.floor, msg.keyframe_utime,
                    vocabulary_.transform(keyframe->descriptors)};
@@ -235,8 +238,8 @@ Status LoopCloser::addNode(const evermap::node_added_t& msg) {
     }
   }
   if (!persisted) {
-    return makeError("node ", msg.node_id, ": kept in memory but not stored: ",
-                     persisted.error().message);
+    return makeError("node ", msg.node_id,
+                     ": kept in memory but not stored: ", persisted.error().message);
   }
   return Ok{};
 }
@@ -310,8 +313,7 @@ std::vector<register_result_t> LoopCloser::poll() {
     }
   }
   const auto period_us = static_cast<int64_t>(std::llround(1e6 / options_.max_rate_hz));
-  if (!pending_.empty() &&
-      (!last_answer_utime_ || now_utime_ - *last_answer_utime_ >= period_us)) {
+  if (!pending_.empty() && (!last_answer_utime_ || now_utime_ - *last_answer_utime_ >= period_us)) {
     // Newest first; among equal stamps the one that arrived last.
     auto newest = pending_.begin();
     for (auto it = pending_.begin(); it != pending_.end(); ++it) {
@@ -349,8 +351,8 @@ register_result_t LoopCloser::failure(const register_request_t& request, int8_t 
 }
 
 register_result_t LoopCloser::registerAgainst(const register_request_t& request,
-                                              const Keyframe& query, int64_t node_id,
-                                              double score, std::string* why) {
+                                              const Keyframe& query, int64_t node_id, double score,
+                                              std::string* why) {
   std::string missing;
   const std::shared_ptr<const Keyframe> target = nodeKeyframe(node_id, &missing);
   register_result_t r{};
@@ -371,8 +373,7 @@ register_result_t LoopCloser::registerAgainst(const register_request_t& request,
     *why = o.reason.empty() ? "registration failed" : o.reason;
     return r;
   }
-  if (!o.target_T_query.translation().allFinite() || !q.allFinite() ||
-      !o.covariance.allFinite()) {
+  if (!o.target_T_query.translation().allFinite() || !q.allFinite() || !o.covariance.allFinite()) {
     *why = "registration returned a non-finite pose or covariance";
     return r;
   }
@@ -401,9 +402,9 @@ register_result_t LoopCloser::registerAgainst(const register_request_t& request,
 register_result_t LoopCloser::answer(const register_request_t& request) {
   if (request.mode != register_request_t::MODE_NODE &&
       request.mode != register_request_t::MODE_GLOBAL) {
-    return failure(request, register_result_t::STATUS_MALFORMED,
-                   "mode " + std::to_string(request.mode) +
-                       " is neither MODE_NODE (0) nor MODE_GLOBAL (1)");
+    return failure(
+        request, register_result_t::STATUS_MALFORMED,
+        "mode " + std::to_string(request.mode) + " is neither MODE_NODE (0) nor MODE_GLOBAL (1)");
   }
   // The query: a recent keyframe, or the keyframe of a node (an old keyframe asked again).
   std::shared_ptr<const Keyframe> query_holder;

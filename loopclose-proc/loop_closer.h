@@ -74,19 +74,19 @@ struct LoopCloserOptions {
 
 struct LoopCloserStats {
   int64_t keyframes = 0;
-  int64_t keyframes_rejected = 0;      // failed validation
+  int64_t keyframes_rejected = 0;  // failed validation
   int64_t nodes = 0;
-  int64_t nodes_rejected = 0;          // unknown keyframe, duplicate id, store failure, and:
-  int64_t nodes_implausible = 0;       // ... content no mapper sends (ids, floor, stamps)
-  int64_t nodes_over_capacity = 0;     // ... max_places or max_waiting_nodes reached
-  int64_t nodes_waited = 0;            // came before their keyframe and waited for it
+  int64_t nodes_rejected = 0;       // unknown keyframe, duplicate id, store failure, and:
+  int64_t nodes_implausible = 0;    // ... content no mapper sends (ids, floor, stamps)
+  int64_t nodes_over_capacity = 0;  // ... max_places or max_waiting_nodes reached
+  int64_t nodes_waited = 0;         // came before their keyframe and waited for it
   int64_t requests = 0;
-  int64_t answered = 0;                // all answers, stale ones included
+  int64_t answered = 0;  // all answers, stale ones included
   int64_t stale = 0;
   int64_t ok = 0;
-  int64_t failed = 0;                  // answered with a failure status other than stale
+  int64_t failed = 0;  // answered with a failure status other than stale
   int64_t store_errors = 0;
-  std::string text() const;            // one line
+  std::string text() const;  // one line
 };
 
 class LoopCloser {
@@ -136,14 +136,14 @@ class LoopCloser {
   std::string implausibleNode(const evermap::node_added_t& msg) const;
   const Keyframe* recentKeyframe(int64_t utime) const;
   std::optional<int64_t> nodeOfKeyframe(int64_t utime) const;  // the node it describes, if any
-  bool knowsKeyframe(int64_t utime) const;  // a recent one, or a node's
+  bool knowsKeyframe(int64_t utime) const;                     // a recent one, or a node's
   // The keyframe of a node: memory, else the store (then cached). Null with a reason.
   std::shared_ptr<const Keyframe> nodeKeyframe(int64_t node_id, std::string* why);
   evermap::register_result_t failure(const evermap::register_request_t& request, int8_t status,
                                      std::string reason);
   evermap::register_result_t registerAgainst(const evermap::register_request_t& request,
-                                             const Keyframe& query, int64_t node_id,
-                                             double score, std::string* why);
+                                             const Keyframe& query, int64_t node_id, double score,
+                                             std::string* why);
 
   const bow::Vocabulary& vocabulary_;
   FrameRegistration& registration_;
@@ -158,10 +158,10 @@ class LoopCloser {
     std::list<int64_t>::iterator lru_position;
   };
   std::unordered_map<int64_t, Cached> node_keyframes_;
-  std::list<int64_t> lru_;  // node ids, most recently used first
-  std::vector<evermap::register_result_t> ready_;  // stale answers made by submit()
+  std::list<int64_t> lru_;                           // node ids, most recently used first
+  std::vector<evermap::register_result_t> ready_;    // stale answers made by submit()
   std::deque<evermap::register_request_t> pending_;  // arrival order
-  std::deque<evermap::node_added_t> waiting_nodes_;   // NODE_ADDED before its KEYFRAME
+  std::deque<evermap::node_added_t> waiting_nodes_;  // NODE_ADDED before its KEYFRAME
   std::vector<std::string> node_errors_;
   int64_t now_utime_ = 0;
   std::optional<int64_t> last_answer_utime_;

@@ -14,10 +14,10 @@ namespace evermap::loopclose {
 
 struct RegistrationOutcome {
   bool ok = false;
-  core::SE3d target_T_query;                        // camera frames: p_target = T * p_query
-  core::Mat6 covariance = core::Mat6::Identity();   // right tangent, (υ, ω) order
+  core::SE3d target_T_query;                       // camera frames: p_target = T * p_query
+  core::Mat6 covariance = core::Mat6::Identity();  // right tangent, (υ, ω) order
   int inliers = 0;
-  std::string reason;                               // why not, when !ok
+  std::string reason;  // why not, when !ok
 };
 
 class FrameRegistration {

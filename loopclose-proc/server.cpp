@@ -17,18 +17,19 @@ LoopCloseServer::LoopCloseServer(lcm::LCM& lcm, LoopCloser& loop_closer,
     publishDue();
     return s;
   });
-  inbox_.subscribe<evermap::node_added_t>(channels::kNodeAdded, [this](const evermap::node_added_t& m) {
-    Status s = loop_closer_.addNode(m);
-    publishDue();
-    return s;
-  });
+  inbox_.subscribe<evermap::node_added_t>(channels::kNodeAdded,
+                                          [this](const evermap::node_added_t& m) {
+                                            Status s = loop_closer_.addNode(m);
+                                            publishDue();
+                                            return s;
+                                          });
   // An undecodable request has no id to answer to: the Inbox only counts it. Invalid content
   // is answered (STATUS_MALFORMED) by poll().
-  inbox_.subscribe<evermap::register_request_t>(
-      channels::kRegisterRequest, [this](const evermap::register_request_t& m) {
-        loop_closer_.submit(m);
-        publishDue();
-      });
+  inbox_.subscribe<evermap::register_request_t>(channels::kRegisterRequest,
+                                                [this](const evermap::register_request_t& m) {
+                                                  loop_closer_.submit(m);
+                                                  publishDue();
+                                                });
   // The clock: keyframes and requests come about once a second, and the time guard holds
   // messages until three distinct stamps agree, so a clock set by them alone held a session's
   // first request for three seconds of data (the robot had left the place it showed by the

@@ -13,7 +13,7 @@ namespace evermap::mapper {
 
 template <typename Msg, typename Mounting>
 Status CalibrationLatch::latch(const void* data, int64_t size, const char* channel, Mapper& mapper,
-                              Mounting mounting) {
+                               Mounting mounting) {
   const auto* p = static_cast<const uint8_t*>(data);
   std::vector<uint8_t> bytes(p, p + std::max<int64_t>(0, size));
   // The LCM fingerprint (8 bytes) and utime (8 bytes) lead the encoding.

@@ -1,8 +1,8 @@
 #pragma once
-// STEREO_CALIB (or RGBD_CALIB) for the mapper (docs/contracts.md): calibration is state, latched. The mapper
-// takes the rectified left camera's body_T_cam from it, since VO deltas are camera motions;
-// until the first valid one, VO_DELTA cannot be used (the caller refuses it, counted). Sources
-// repeat the message every second: the same bytes, time stamp aside, change nothing. A
+// STEREO_CALIB (or RGBD_CALIB) for the mapper (docs/contracts.md): calibration is state, latched.
+// The mapper takes the rectified left camera's body_T_cam from it, since VO deltas are camera
+// motions; until the first valid one, VO_DELTA cannot be used (the caller refuses it, counted).
+// Sources repeat the message every second: the same bytes, time stamp aside, change nothing. A
 // calibration that does not validate is refused and the camera in use, if any, stays.
 // Used by LcmNode (mapper-proc) and the offline runner of the whole system (evermap-slam-run).
 
@@ -34,7 +34,8 @@ class CalibrationLatch {
  private:
   // Both: the repeat test, decoding, `mounting` (the message → body_T_cam), the counts.
   template <typename Msg, typename Mounting>
-  Status latch(const void* data, int64_t size, const char* channel, Mapper& mapper, Mounting mounting);
+  Status latch(const void* data, int64_t size, const char* channel, Mapper& mapper,
+               Mounting mounting);
 
   bool have_camera_ = false;
   std::vector<uint8_t> last_;  // the last applied message, hash and utime zeroed

@@ -15,7 +15,8 @@ double ConstraintSet::mahalanobis2(const core::UncertainPose& m, const core::Unc
   return e.dot(ldlt.solve(e));
 }
 
-core::UncertainPose ConstraintSet::fuse(const core::UncertainPose& m, const core::UncertainPose& z) {
+core::UncertainPose ConstraintSet::fuse(const core::UncertainPose& m,
+                                        const core::UncertainPose& z) {
   const core::Vec6 e = (m.mean.inverse() * z.mean).log();
   const core::Mat6 S = m.covariance + z.covariance;
   const core::Mat6 K = S.transpose().ldlt().solve(m.covariance.transpose()).transpose();
@@ -27,7 +28,9 @@ core::UncertainPose ConstraintSet::fuse(const core::UncertainPose& m, const core
 }
 
 int ConstraintSet::partners(int64_t node) const {
-  return node >= 0 && static_cast<size_t>(node) < partners_.size() ? partners_[static_cast<size_t>(node)] : 0;
+  return node >= 0 && static_cast<size_t>(node) < partners_.size()
+             ? partners_[static_cast<size_t>(node)]
+             : 0;
 }
 
 Constraint ConstraintSet::paired(const Constraint& constraint) const {
@@ -57,7 +60,8 @@ int64_t ConstraintSet::setAliases(std::map<int64_t, NodeAlias> aliases) {
   // outcome depends on its own constraints alone, so the rest stand as a full replay would
   // leave them, and the work follows those nodes' pairs, not the constraints ever made.
   std::set<int64_t> touched;
-  const auto note = [&touched](const std::map<int64_t, NodeAlias>& a, const std::map<int64_t, NodeAlias>& b) {
+  const auto note = [&touched](const std::map<int64_t, NodeAlias>& a,
+                               const std::map<int64_t, NodeAlias>& b) {
     for (const auto& [node, alias] : a) {
       const auto other = b.find(node);
       if (other == b.end() || other->second.into != alias.into ||
@@ -106,8 +110,8 @@ int64_t ConstraintSet::setAliases(std::map<int64_t, NodeAlias> aliases) {
   return newly_rejected;
 }
 
-ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pair** pair, double* d2_out,
-                                          core::UncertainPose* paired_out) {
+ConstraintSet::Outcome ConstraintSet::add(const Constraint& constraint, const Pair** pair,
+                                          double* d2_out, core::UncertainPose* paired_out) {
   Constraint made = constraint;
   if (made.from > made.to) {
     made.from_T_to = core::invert(made.from_T_to);
@@ -124,7 +128,8 @@ ConstraintSet::Outcome ConstraintSet::place(size_t k, const Pair** pair, double*
   if (pair) *pair = nullptr;
   if (c.from == c.to) {
     // Between a merged node and its node: the merge's own pose is what it measures.
-    const double d2 = mahalanobis2(core::UncertainPose{core::SE3d(), core::Mat6::Zero()}, c.from_T_to);
+    const double d2 =
+        mahalanobis2(core::UncertainPose{core::SE3d(), core::Mat6::Zero()}, c.from_T_to);
     if (d2_out) *d2_out = d2;
     if (paired_out) *paired_out = c.from_T_to;
     made.accepted = d2 <= gate_;
@@ -150,7 +155,8 @@ ConstraintSet::Outcome ConstraintSet::place(size_t k, const Pair** pair, double*
     it = pairs_.emplace(key, p).first;
     for (const int64_t node : {c.from, c.to}) {
       if (node < 0) continue;
-      if (static_cast<size_t>(node) >= partners_.size()) partners_.resize(static_cast<size_t>(node) + 1, 0);
+      if (static_cast<size_t>(node) >= partners_.size())
+        partners_.resize(static_cast<size_t>(node) + 1, 0);
       ++partners_[static_cast<size_t>(node)];
     }
     if (pair) *pair = &it->second;

@@ -52,8 +52,8 @@ class ConstraintSet {
   struct Pair {
     int64_t i = 0;
     int64_t j = 0;
-    core::UncertainPose i_T_j;      // merged
-    std::vector<size_t> members;    // indices into all()
+    core::UncertainPose i_T_j;    // merged
+    std::vector<size_t> members;  // indices into all()
     int64_t rejected = 0;
   };
 

@@ -24,8 +24,9 @@ std::string FloorGate::check(const floor_t& msg) const {
   const double span_s = std::max(1e-3, 1e-6 * static_cast<double>(msg.utime - last_->utime));
   const double change_m = std::abs(msg.height_m - last_->height_m);
   if (change_m > o_.max_vertical_speed_m_s * span_s) {
-    why << "height " << msg.height_m << " m is " << change_m << " m from the last FLOOR's " << last_->height_m
-        << " m in " << span_s << " s, faster than floor_gate.max_vertical_speed_m_s " << o_.max_vertical_speed_m_s;
+    why << "height " << msg.height_m << " m is " << change_m << " m from the last FLOOR's "
+        << last_->height_m << " m in " << span_s
+        << " s, faster than floor_gate.max_vertical_speed_m_s " << o_.max_vertical_speed_m_s;
   }
   return why.str();
 }

@@ -60,7 +60,8 @@ map_graph_t graphMessage(const Mapper& mapper, int64_t utime) {
     putPose(pair.i_T_j.mean, e.translation, e.orientation);
     g.edges.push_back(e);
   }
-  for (const auto& [index, height] : mapper.floors()) g.floors.push_back(map_floor_t{index, height});
+  for (const auto& [index, height] : mapper.floors())
+    g.floors.push_back(map_floor_t{index, height});
   g.num_nodes = static_cast<int32_t>(g.nodes.size());
   g.num_edges = static_cast<int32_t>(g.edges.size());
   g.num_floors = static_cast<int32_t>(g.floors.size());
@@ -81,7 +82,8 @@ LcmNode::LcmNode(lcm::LCM& lcm, Mapper& mapper, const LcmNodeOptions& options, M
   inbox_.subscribe<floor_t>(channels::kFloor, on);
   inbox_.subscribe<register_result_t>(channels::kRegisterResult, on);
   inbox_.subscribeBytes<stereo_calib_t>(
-      channels::kStereoCalib, [this](const void* data, int64_t size) { return onCalibration(data, size); });
+      channels::kStereoCalib,
+      [this](const void* data, int64_t size) { return onCalibration(data, size); });
   inbox_.subscribeBytes<rgbd_calib_t>(channels::kRgbdCalib, [this](const void* data, int64_t size) {
     return calibration_.handleRgbd(data, size, m_);
   });
@@ -139,10 +141,14 @@ void LcmNode::afterMessage(int64_t utime, bool publish_pose) {
     // One line per start from a stored state (a killed process prints no summary).
     restart_reported_ = true;
     if (*m_.restartGapS() < 0.0)
-      std::printf("evermap-mapper-proc: lost restart: no usable tracking state (%s)\n", m_.restartNote().c_str());
+      std::printf("evermap-mapper-proc: lost restart: no usable tracking state (%s)\n",
+                  m_.restartNote().c_str());
     else
-      std::printf("evermap-mapper-proc: %s restart: %.2f s of message time since the saved tracking state (%s)\n",
-                  m_.stats().warm_restarts > 0 ? "warm" : "lost", *m_.restartGapS(), m_.restartNote().c_str());
+      std::printf(
+          "evermap-mapper-proc: %s restart: %.2f s of message time since the saved tracking state "
+          "(%s)\n",
+          m_.stats().warm_restarts > 0 ? "warm" : "lost", *m_.restartGapS(),
+          m_.restartNote().c_str());
     std::fflush(stdout);
   }
   last_utime_ = std::max(last_utime_, utime);
@@ -159,8 +165,10 @@ void LcmNode::afterMessage(int64_t utime, bool publish_pose) {
   }
   extra_.publish_s += secondsSince(t0);
   save();
-  if (last_graph_utime_ < 0 || last_utime_ - last_graph_utime_ >= micros(o_.graph_period_s)) publishGraph();
-  if (last_stats_utime_ < 0 || last_utime_ - last_stats_utime_ >= micros(o_.stats_period_s)) publishStats();
+  if (last_graph_utime_ < 0 || last_utime_ - last_graph_utime_ >= micros(o_.graph_period_s))
+    publishGraph();
+  if (last_stats_utime_ < 0 || last_utime_ - last_stats_utime_ >= micros(o_.stats_period_s))
+    publishStats();
 }
 
 void LcmNode::save() {
@@ -190,7 +198,8 @@ void LcmNode::save() {
     start = it->keyframe_utime;
   store_status_ = store_->save(m_, session, start);
   if (!store_status_)
-    std::fprintf(stderr, "evermap-mapper-proc: map store: %s (no more writes)\n", store_status_.error().message.c_str());
+    std::fprintf(stderr, "evermap-mapper-proc: map store: %s (no more writes)\n",
+                 store_status_.error().message.c_str());
   stored_nodes_ = st.nodes;
   stored_constraints_ = st.constraints;
   stored_updates_ = st.timing.update_s.size();
@@ -200,7 +209,8 @@ void LcmNode::save() {
 
 void LcmNode::publishGraph() {
   const MapperStats& st = m_.stats();
-  if (st.nodes == graph_nodes_ && st.constraints == graph_constraints_ && st.timing.update_s.size() == graph_updates_)
+  if (st.nodes == graph_nodes_ && st.constraints == graph_constraints_ &&
+      st.timing.update_s.size() == graph_updates_)
     return;
   const auto t0 = SteadyClock::now();
   const map_graph_t g = graphMessage(m_, last_utime_);
@@ -294,16 +304,19 @@ std::string LcmNode::summary() const {
   const LcmNodeCounts c = counts();
   for (const auto& [channel, n] : c.received) s << "received_" << channel << " " << n << "\n";
   s << "undecodable " << c.undecodable << "\ntime_refused " << c.time_refused << "\nhandler_failed "
-    << c.failed << "\nrefused " << c.refused << "\nposes_published "
-    << counts_.poses << "\nvo_before_calibration " << counts_.no_calibration << "\ncalibrations_refused "
+    << c.failed << "\nrefused " << c.refused << "\nposes_published " << counts_.poses
+    << "\nvo_before_calibration " << counts_.no_calibration << "\ncalibrations_refused "
     << calibration_.counts().refused << "\ncamera_changes " << calibration_.counts().camera_changes
     << "\ngraphs_published " << counts_.graphs << "\nstats_published " << counts_.stats
     << "\nstore_transactions " << counts_.store_transactions << "\ntracking_transactions "
     << counts_.tracking_transactions << "\ntracking_failures " << counts_.tracking_failures << "\n";
   const TrackerCounts& t = m_.tracker().counts();
-  s << "vo_applied " << t.vo_applied << "\nvo_failed " << t.vo_failed << "\nwheel_applied " << t.wheel_applied
-    << "\nvo_restarts " << t.restarts << "\nrelinked " << t.relinked << "\nrelinks_refused " << t.relinks_refused << "\nrelinks_weaker " << t.relinks_weaker
-    << "\nreanchored " << t.reanchored << "\nvo_timeouts " << t.vo_timeouts << "\ngyro_turns " << t.gyro_turns << "\nvo_contradicted " << t.vo_contradicted << "\nheading_waits " << t.heading_waits << "\nheading_waits_expired " << t.heading_waits_expired
+  s << "vo_applied " << t.vo_applied << "\nvo_failed " << t.vo_failed << "\nwheel_applied "
+    << t.wheel_applied << "\nvo_restarts " << t.restarts << "\nrelinked " << t.relinked
+    << "\nrelinks_refused " << t.relinks_refused << "\nrelinks_weaker " << t.relinks_weaker
+    << "\nreanchored " << t.reanchored << "\nvo_timeouts " << t.vo_timeouts << "\ngyro_turns "
+    << t.gyro_turns << "\nvo_contradicted " << t.vo_contradicted << "\nheading_waits "
+    << t.heading_waits << "\nheading_waits_expired " << t.heading_waits_expired
     << "\nimplausible_motion " << t.implausible << "\n";
   return s.str();
 }

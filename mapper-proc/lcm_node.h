@@ -1,9 +1,9 @@
 #pragma once
-// The mapper on LCM (DESIGN.md section 1): subscribes to STEREO_CALIB (or RGBD_CALIB), VO_DELTA, WHEEL_ODOM,
-// ATTITUDE, FLOOR and REGISTER_RESULT, feeds the Mapper, publishes its REGISTER_REQUEST and NODE_ADDED,
-// POSE at every VO frame (and wheel increment while VO is down; not while a new session is
-// still lost), MAP_GRAPH when the graph
-// changed and MAPPER_STATS, and writes the map store after every update that changed the graph.
+// The mapper on LCM (DESIGN.md section 1): subscribes to STEREO_CALIB (or RGBD_CALIB), VO_DELTA,
+// WHEEL_ODOM, ATTITUDE, FLOOR and REGISTER_RESULT, feeds the Mapper, publishes its REGISTER_REQUEST
+// and NODE_ADDED, POSE at every VO frame (and wheel increment while VO is down; not while a new
+// session is still lost), MAP_GRAPH when the graph changed and MAPPER_STATS, and writes the map
+// store after every update that changed the graph.
 //
 // Input goes through a messages::Inbox (core/messages/inbox.h): one decoding path, a bounded
 // queue per subscription (large: the mapper must see every odometry message and every answer,
@@ -68,15 +68,15 @@ struct ComponentTimes {
 struct LcmNodeCounts {
   std::map<std::string, int64_t> received;  // per channel, decodable or not
   int64_t undecodable = 0;
-  int64_t time_refused = 0;        // stamped far from the stream's clock (Inbox time guard)
-  int64_t failed = 0;              // a handler threw (caught at the boundary)
-  int64_t refused = 0;             // decoded, but the mapper dropped it (its own count)
-  int64_t no_calibration = 0;      // VO_DELTA before the first valid STEREO_CALIB
+  int64_t time_refused = 0;          // stamped far from the stream's clock (Inbox time guard)
+  int64_t failed = 0;                // a handler threw (caught at the boundary)
+  int64_t refused = 0;               // decoded, but the mapper dropped it (its own count)
+  int64_t no_calibration = 0;        // VO_DELTA before the first valid STEREO_CALIB
   int64_t calibrations_refused = 0;  // STEREO_CALIB that decoded but did not validate
-  int64_t camera_changes = 0;      // distinct valid calibrations applied
-  int64_t poses = 0;               // POSE published
-  int64_t graphs = 0;              // MAP_GRAPH published
-  int64_t stats = 0;               // MAPPER_STATS published
+  int64_t camera_changes = 0;        // distinct valid calibrations applied
+  int64_t poses = 0;                 // POSE published
+  int64_t graphs = 0;                // MAP_GRAPH published
+  int64_t stats = 0;                 // MAPPER_STATS published
   int64_t store_transactions = 0;
   int64_t tracking_transactions = 0;  // the tracking state alone, between store transactions
   int64_t tracking_failures = 0;
@@ -133,7 +133,7 @@ class LcmNode {
   int64_t tracked_steps_ = 0;
   bool restart_reported_ = false;
   MapperTiming timing_at_stats_;
-  ComponentTimes extra_;  // store and publish, since the last MAPPER_STATS
+  ComponentTimes extra_;   // store and publish, since the last MAPPER_STATS
   messages::Inbox inbox_;  // last: its handlers use the members above
 };
 

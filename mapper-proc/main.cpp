@@ -24,30 +24,42 @@ int main(int argc, char** argv) {
   mapper::LcmNodeOptions node_options;
   std::string url, store_file;
   bool full_graph = false, quiet = false;
-  CommandLine cli("evermap-mapper-proc",
-                  "The reduced pose graph mapper on LCM: STEREO_CALIB, VO_DELTA, WHEEL_ODOM, ATTITUDE,\n"
-                  "FLOOR and REGISTER_RESULT in; REGISTER_REQUEST, NODE_ADDED, POSE, MAP_GRAPH, MAPPER_STATS out.");
-  cli.flag("--full-graph", &full_graph, "a node at every step (the paper's baseline) instead of the reduced graph");
+  CommandLine cli(
+      "evermap-mapper-proc",
+      "The reduced pose graph mapper on LCM: STEREO_CALIB, VO_DELTA, WHEEL_ODOM, ATTITUDE,\n"
+      "FLOOR and REGISTER_RESULT in; REGISTER_REQUEST, NODE_ADDED, POSE, MAP_GRAPH, MAPPER_STATS "
+      "out.");
+  cli.flag("--full-graph", &full_graph,
+           "a node at every step (the paper's baseline) instead of the reduced graph");
   std::string config;
   std::vector<std::string> sets;
-  cli.value("--config", &config, "MAPPER.conf", "the mapper's options as mapper.* settings (docs/mapper.md)");
-  cli.repeated("--set", &sets, "mapper.KEY=VALUE", "override one mapper.* setting (after --config)");
-  cli.value("--store", &store_file, "MAP.db", "write the map store (SQLite) after every update that changes the graph");
+  cli.value("--config", &config, "MAPPER.conf",
+            "the mapper's options as mapper.* settings (docs/mapper.md)");
+  cli.repeated("--set", &sets, "mapper.KEY=VALUE",
+               "override one mapper.* setting (after --config)");
+  cli.value("--store", &store_file, "MAP.db",
+            "write the map store (SQLite) after every update that changes the graph");
   cli.value("--graph-period-s", &node_options.graph_period_s, "S",
-            "MAP_GRAPH after a change at most every S seconds of message time (default 1)").min(0);
+            "MAP_GRAPH after a change at most every S seconds of message time (default 1)")
+      .min(0);
   cli.value("--stats-period-s", &node_options.stats_period_s, "S",
-            "MAPPER_STATS every S seconds of message time (default 1)").min(0);
+            "MAPPER_STATS every S seconds of message time (default 1)")
+      .min(0);
   cli.value("--time-window-s", &node_options.input.time.window_s, "S",
             "refuse a message stamped more than S s from the stream's clock until others confirm "
-            "the jump (default 120; 0: off; core/messages/inbox.h)").min(0);
+            "the jump (default 120; 0: off; core/messages/inbox.h)")
+      .min(0);
   cli.value("--queue", &node_options.input.queue_capacity, "N",
-            "messages LCM may queue per subscription (default 10000)").min(1).max(1000000);
+            "messages LCM may queue per subscription (default 10000)")
+      .min(1)
+      .max(1000000);
   cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.flag("--quiet", &quiet, "no summary on exit");
   double progress_s = 0.0;
   cli.value("--progress-s", &progress_s, "S",
             "print a progress line (message time, nodes, constraints, drops) every S s of wall "
-            "time while messages arrive (0: none)").min(0);
+            "time while messages arrive (0: none)")
+      .min(0);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   // SIGINT/SIGTERM blocked, then polled between LCM waits: before any thread starts (restoring
   // a stored map runs a solver batch, whose background worker would otherwise take the signal
@@ -136,12 +148,12 @@ int main(int argc, char** argv) {
       previous_utime = now_utime;
       next_progress = Clock::now() + std::chrono::duration_cast<Clock::duration>(
                                          std::chrono::duration<double>(progress_s));
-      std::printf("progress: wall %.0f s, data %.0f s, session %d, nodes %zu, "
-                  "constraints %zu, dropped %lld\n",
-                  std::chrono::duration<double>(Clock::now() - started).count(), data_s,
-                  m.session(),
-                  m.nodes().size(), m.constraints().all().size(),
-                  static_cast<long long>(node.counts().dropped()));
+      std::printf(
+          "progress: wall %.0f s, data %.0f s, session %d, nodes %zu, "
+          "constraints %zu, dropped %lld\n",
+          std::chrono::duration<double>(Clock::now() - started).count(), data_s, m.session(),
+          m.nodes().size(), m.constraints().all().size(),
+          static_cast<long long>(node.counts().dropped()));
       std::fflush(stdout);
     }
   }

@@ -11,15 +11,18 @@ namespace {
 
 std::vector<double> poseBlob(const core::SE3d& p) {
   const auto& q = p.quaternion();
-  return {p.translation().x(), p.translation().y(), p.translation().z(), q.w(), q.x(), q.y(), q.z()};
+  return {
+      p.translation().x(), p.translation().y(), p.translation().z(), q.w(), q.x(), q.y(), q.z()};
 }
 
 Expected<core::SE3d> poseFromBlob(const void* data, int bytes, const std::string& what) {
-  if (bytes != 7 * static_cast<int>(sizeof(double))) return makeError(what, ": pose blob of ", bytes, " bytes");
+  if (bytes != 7 * static_cast<int>(sizeof(double)))
+    return makeError(what, ": pose blob of ", bytes, " bytes");
   double v[7];
   std::memcpy(v, data, sizeof v);
   const Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
-  if (!std::isfinite(q.norm()) || std::abs(q.norm() - 1.0) > 1e-6) return makeError(what, ": quaternion is not unit");
+  if (!std::isfinite(q.norm()) || std::abs(q.norm() - 1.0) > 1e-6)
+    return makeError(what, ": quaternion is not unit");
   return core::SE3d(q.normalized(), core::Vec3(v[0], v[1], v[2]));
 }
 
@@ -29,10 +32,16 @@ constexpr int64_t kMapStoreSchemaVersion = 3;
 // The map_tracking columns each version after 1 added (a store is migrated by adding them).
 constexpr std::pair<const char*, const char*> kTrackingColumnsAdded[] = {
     // version 2: the VO odometry pose
-    {"odom_epoch", "INTEGER"}, {"odom_utime", "INTEGER"}, {"odom_pose", "BLOB"},
-    {"odom_covariance", "BLOB"}, {"odom_own_covariance", "BLOB"},
+    {"odom_epoch", "INTEGER"},
+    {"odom_utime", "INTEGER"},
+    {"odom_pose", "BLOB"},
+    {"odom_covariance", "BLOB"},
+    {"odom_own_covariance", "BLOB"},
     // version 3: the wheels' odometry pose
-    {"wheel_epoch", "INTEGER"}, {"wheel_utime", "INTEGER"}, {"wheel_pose", "BLOB"}, {"wheel_covariance", "BLOB"}};
+    {"wheel_epoch", "INTEGER"},
+    {"wheel_utime", "INTEGER"},
+    {"wheel_pose", "BLOB"},
+    {"wheel_covariance", "BLOB"}};
 
 // Finalises a statement on every path.
 struct Statement {
@@ -42,11 +51,13 @@ struct Statement {
 
 }  // namespace
 
-Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapStoreOptions& options) {
+Expected<MapStore> MapStore::open(const std::filesystem::path& file,
+                                  const MapStoreOptions& options) {
   if (options.fold_after < 0 || options.fold_after == 1)
     return makeError(file.string(), ": fold_after must be 0 (never) or >= 2");
   sqlite3* db = nullptr;
-  const int flags = options.read_only ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE;
+  const int flags =
+      options.read_only ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE;
   if (sqlite3_open_v2(file.c_str(), &db, flags, nullptr) != SQLITE_OK) {
     std::string msg = db ? sqlite3_errmsg(db) : "out of memory";
     sqlite3_close(db);
@@ -59,29 +70,39 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapSt
       "PRAGMA auto_vacuum=INCREMENTAL;"
       "PRAGMA journal_mode=WAL;"
       "PRAGMA synchronous=NORMAL;"
-      "CREATE TABLE IF NOT EXISTS map_sessions (session_id INTEGER PRIMARY KEY, start_utime INTEGER NOT NULL);"
-      "CREATE TABLE IF NOT EXISTS map_floors (floor_index INTEGER PRIMARY KEY, height_m REAL NOT NULL);"
-      "CREATE TABLE IF NOT EXISTS map_nodes (node_id INTEGER PRIMARY KEY, session_id INTEGER NOT NULL,"
+      "CREATE TABLE IF NOT EXISTS map_sessions (session_id INTEGER PRIMARY KEY, start_utime "
+      "INTEGER NOT NULL);"
+      "CREATE TABLE IF NOT EXISTS map_floors (floor_index INTEGER PRIMARY KEY, height_m REAL NOT "
+      "NULL);"
+      "CREATE TABLE IF NOT EXISTS map_nodes (node_id INTEGER PRIMARY KEY, session_id INTEGER NOT "
+      "NULL,"
       " floor INTEGER NOT NULL, keyframe_utime INTEGER NOT NULL, pose BLOB NOT NULL);"
-      "CREATE TABLE IF NOT EXISTS map_edges (edge_id INTEGER PRIMARY KEY, from_node INTEGER NOT NULL,"
-      " to_node INTEGER NOT NULL, kind INTEGER NOT NULL, accepted INTEGER NOT NULL, utime INTEGER NOT NULL,"
+      "CREATE TABLE IF NOT EXISTS map_edges (edge_id INTEGER PRIMARY KEY, from_node INTEGER NOT "
+      "NULL,"
+      " to_node INTEGER NOT NULL, kind INTEGER NOT NULL, accepted INTEGER NOT NULL, utime INTEGER "
+      "NOT NULL,"
       " pose BLOB NOT NULL, covariance BLOB NOT NULL);"
-      "CREATE TABLE IF NOT EXISTS map_attitude (node_id INTEGER PRIMARY KEY, roll_rad REAL NOT NULL,"
+      "CREATE TABLE IF NOT EXISTS map_attitude (node_id INTEGER PRIMARY KEY, roll_rad REAL NOT "
+      "NULL,"
       " pitch_rad REAL NOT NULL, covariance BLOB NOT NULL);"
       "CREATE TABLE IF NOT EXISTS map_folds (edge_id INTEGER PRIMARY KEY, members INTEGER NOT NULL,"
       " rejected INTEGER NOT NULL, first_utime INTEGER NOT NULL);"
       "CREATE INDEX IF NOT EXISTS map_edges_pair ON map_edges (from_node, to_node);"
-      "CREATE TABLE IF NOT EXISTS map_saved (session_id INTEGER PRIMARY KEY, constraints INTEGER NOT NULL);"
+      "CREATE TABLE IF NOT EXISTS map_saved (session_id INTEGER PRIMARY KEY, constraints INTEGER "
+      "NOT NULL);"
       // Version 1: the tracking state (a version-0 store is migrated by this line); the columns
       // of later versions are added below (kTrackingColumnsAdded).
-      "CREATE TABLE IF NOT EXISTS map_tracking (id INTEGER PRIMARY KEY CHECK (id = 0), utime INTEGER NOT NULL,"
-      " session_id INTEGER NOT NULL, session_start_utime INTEGER NOT NULL, active_node INTEGER NOT NULL,"
-      " floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL, pose BLOB NOT NULL, covariance BLOB NOT NULL);";
+      "CREATE TABLE IF NOT EXISTS map_tracking (id INTEGER PRIMARY KEY CHECK (id = 0), utime "
+      "INTEGER NOT NULL,"
+      " session_id INTEGER NOT NULL, session_start_utime INTEGER NOT NULL, active_node INTEGER NOT "
+      "NULL,"
+      " floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL, pose BLOB NOT NULL, covariance BLOB "
+      "NOT NULL);";
   auto version = store.queryInt("PRAGMA user_version");
   if (!version) return version.error();
   if (*version > kMapStoreSchemaVersion)
-    return makeError(file.string(), ": map store schema version ", *version, ", newer than this program's ",
-                     kMapStoreSchemaVersion);
+    return makeError(file.string(), ": map store schema version ", *version,
+                     ", newer than this program's ", kMapStoreSchemaVersion);
   if (!options.read_only) {
     if (Status s = store.exec(schema); !s) return s.error();
     // The columns of later versions the table lacks, added in one transaction (a kill leaves
@@ -90,7 +111,8 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapSt
     for (const auto& [column, type] : kTrackingColumnsAdded) {
       auto has = store.hasTrackingColumn(column);
       if (!has) return has.error();
-      if (!*has) migrate += std::string("ALTER TABLE map_tracking ADD COLUMN ") + column + " " + type + ";";
+      if (!*has)
+        migrate += std::string("ALTER TABLE map_tracking ADD COLUMN ") + column + " " + type + ";";
     }
     if (!migrate.empty()) {
       if (Status s = store.exec(("BEGIN IMMEDIATE;" + migrate + "COMMIT;").c_str()); !s) {
@@ -104,7 +126,8 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapSt
     }
   }
   Statement st;
-  if (sqlite3_prepare_v2(db, "SELECT COALESCE(MAX(edge_id), -1) FROM map_edges", -1, &st.s, nullptr) != SQLITE_OK ||
+  if (sqlite3_prepare_v2(db, "SELECT COALESCE(MAX(edge_id), -1) FROM map_edges", -1, &st.s,
+                         nullptr) != SQLITE_OK ||
       sqlite3_step(st.s) != SQLITE_ROW)
     return makeError(file.string(), ": not a map store (", sqlite3_errmsg(db), ")");
   store.last_edge_id_ = sqlite3_column_int64(st.s, 0);
@@ -112,7 +135,10 @@ Expected<MapStore> MapStore::open(const std::filesystem::path& file, const MapSt
 }
 
 MapStore::MapStore(MapStore&& o) noexcept
-    : db_(o.db_), file_(std::move(o.file_)), options_(o.options_), last_edge_id_(o.last_edge_id_),
+    : db_(o.db_),
+      file_(std::move(o.file_)),
+      options_(o.options_),
+      last_edge_id_(o.last_edge_id_),
       stored_poses_(std::move(o.stored_poses_)) {
   o.db_ = nullptr;
 }
@@ -148,11 +174,16 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     return makeError(file_.string(), ": ", what, ": ", m);
   };
   Statement ses, flo, nod, edg, att;
-  if (sqlite3_prepare_v2(db_, "INSERT OR IGNORE INTO map_sessions VALUES (?1, ?2)", -1, &ses.s, nullptr) ||
-      sqlite3_prepare_v2(db_, "INSERT OR REPLACE INTO map_floors VALUES (?1, ?2)", -1, &flo.s, nullptr) ||
-      sqlite3_prepare_v2(db_, "INSERT OR REPLACE INTO map_nodes VALUES (?1, ?2, ?3, ?4, ?5)", -1, &nod.s, nullptr) ||
-      sqlite3_prepare_v2(db_, "INSERT INTO map_edges VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)", -1, &edg.s, nullptr) ||
-      sqlite3_prepare_v2(db_, "INSERT OR IGNORE INTO map_attitude VALUES (?1, ?2, ?3, ?4)", -1, &att.s, nullptr))
+  if (sqlite3_prepare_v2(db_, "INSERT OR IGNORE INTO map_sessions VALUES (?1, ?2)", -1, &ses.s,
+                         nullptr) ||
+      sqlite3_prepare_v2(db_, "INSERT OR REPLACE INTO map_floors VALUES (?1, ?2)", -1, &flo.s,
+                         nullptr) ||
+      sqlite3_prepare_v2(db_, "INSERT OR REPLACE INTO map_nodes VALUES (?1, ?2, ?3, ?4, ?5)", -1,
+                         &nod.s, nullptr) ||
+      sqlite3_prepare_v2(db_, "INSERT INTO map_edges VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)", -1,
+                         &edg.s, nullptr) ||
+      sqlite3_prepare_v2(db_, "INSERT OR IGNORE INTO map_attitude VALUES (?1, ?2, ?3, ?4)", -1,
+                         &att.s, nullptr))
     return fail("prepare");
   sqlite3_bind_int(ses.s, 1, session);
   sqlite3_bind_int64(ses.s, 2, session_start_utime);
@@ -177,7 +208,8 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     sqlite3_bind_int(nod.s, 2, n.session);
     sqlite3_bind_int(nod.s, 3, n.floor);
     sqlite3_bind_int64(nod.s, 4, n.keyframe_utime);
-    sqlite3_bind_blob(nod.s, 5, pose.data(), static_cast<int>(pose.size() * sizeof(double)), SQLITE_TRANSIENT);
+    sqlite3_bind_blob(nod.s, 5, pose.data(), static_cast<int>(pose.size() * sizeof(double)),
+                      SQLITE_TRANSIENT);
     if (sqlite3_step(nod.s) != SQLITE_DONE) return fail("nodes");
     written.emplace_back(k, std::move(pose));
     if (!n.attitude || !is_new) continue;  // an attitude never changes: stored once
@@ -193,7 +225,8 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
   // (stats().restored_constraints) came from this file.
   const auto& all = mapper.constraints().all();
   auto saved =
-      queryInt("SELECT COALESCE(MAX(constraints), -1) FROM map_saved WHERE session_id = ?1", mapper.firstSession());
+      queryInt("SELECT COALESCE(MAX(constraints), -1) FROM map_saved WHERE session_id = ?1",
+               mapper.firstSession());
   if (!saved) return fail("map_saved");
   const int64_t first_new = *saved >= 0 ? *saved : mapper.stats().restored_constraints;
   const int64_t last_edge_before = last_edge_id_;
@@ -211,7 +244,8 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     sqlite3_bind_int(edg.s, 4, static_cast<int>(c.kind));
     sqlite3_bind_int(edg.s, 5, c.accepted ? 1 : 0);
     sqlite3_bind_int64(edg.s, 6, c.utime);
-    sqlite3_bind_blob(edg.s, 7, pose.data(), static_cast<int>(pose.size() * sizeof(double)), SQLITE_TRANSIENT);
+    sqlite3_bind_blob(edg.s, 7, pose.data(), static_cast<int>(pose.size() * sizeof(double)),
+                      SQLITE_TRANSIENT);
     sqlite3_bind_blob(edg.s, 8, cov.data(), 36 * sizeof(double), SQLITE_TRANSIENT);
     if (sqlite3_step(edg.s) != SQLITE_DONE) {
       last_edge_id_ = last_edge_before;
@@ -220,7 +254,8 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
   }
   {
     Statement sv;
-    if (sqlite3_prepare_v2(db_, "INSERT OR REPLACE INTO map_saved VALUES (?1, ?2)", -1, &sv.s, nullptr)) {
+    if (sqlite3_prepare_v2(db_, "INSERT OR REPLACE INTO map_saved VALUES (?1, ?2)", -1, &sv.s,
+                           nullptr)) {
       last_edge_id_ = last_edge_before;
       return fail("prepare");
     }
@@ -268,12 +303,15 @@ Status MapStore::writeTracking(const Mapper& mapper) {
   const std::optional<TrackingState> t = mapper.trackingState();
   if (!t) return exec("DELETE FROM map_tracking");
   Statement st;
-  if (sqlite3_prepare_v2(db_,
-                         "INSERT OR REPLACE INTO map_tracking (id, utime, session_id, session_start_utime, active_node,"
-                         " floor, in_elevator, pose, covariance, odom_epoch, odom_utime, odom_pose, odom_covariance,"
-                         " odom_own_covariance, wheel_epoch, wheel_utime, wheel_pose, wheel_covariance)"
-                         " VALUES (0, ?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17)",
-                         -1, &st.s, nullptr))
+  if (sqlite3_prepare_v2(
+          db_,
+          "INSERT OR REPLACE INTO map_tracking (id, utime, session_id, session_start_utime, "
+          "active_node,"
+          " floor, in_elevator, pose, covariance, odom_epoch, odom_utime, odom_pose, "
+          "odom_covariance,"
+          " odom_own_covariance, wheel_epoch, wheel_utime, wheel_pose, wheel_covariance)"
+          " VALUES (0, ?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17)",
+          -1, &st.s, nullptr))
     return makeError(file_.string(), ": tracking: ", sqlite3_errmsg(db_));
   const std::vector<double> pose = poseBlob(t->active_T_body.mean);
   const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov = t->active_T_body.covariance;
@@ -283,7 +321,8 @@ Status MapStore::writeTracking(const Mapper& mapper) {
   sqlite3_bind_int64(st.s, 4, t->active_node);
   sqlite3_bind_int(st.s, 5, t->floor);
   sqlite3_bind_int(st.s, 6, t->in_elevator ? 1 : 0);
-  sqlite3_bind_blob(st.s, 7, pose.data(), static_cast<int>(pose.size() * sizeof(double)), SQLITE_TRANSIENT);
+  sqlite3_bind_blob(st.s, 7, pose.data(), static_cast<int>(pose.size() * sizeof(double)),
+                    SQLITE_TRANSIENT);
   sqlite3_bind_blob(st.s, 8, cov.data(), 36 * sizeof(double), SQLITE_TRANSIENT);
   if (t->odometry) {
     // Unbound parameters are NULL: no odometry pose.
@@ -293,8 +332,8 @@ Status MapStore::writeTracking(const Mapper& mapper) {
     const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> own_cov = t->odometry->own_covariance;
     sqlite3_bind_int64(st.s, 9, o.epoch);
     sqlite3_bind_int64(st.s, 10, o.utime);
-    sqlite3_bind_blob(st.s, 11, odom_pose.data(), static_cast<int>(odom_pose.size() * sizeof(double)),
-                      SQLITE_TRANSIENT);
+    sqlite3_bind_blob(st.s, 11, odom_pose.data(),
+                      static_cast<int>(odom_pose.size() * sizeof(double)), SQLITE_TRANSIENT);
     sqlite3_bind_blob(st.s, 12, odom_cov.data(), 36 * sizeof(double), SQLITE_TRANSIENT);
     sqlite3_bind_blob(st.s, 13, own_cov.data(), 36 * sizeof(double), SQLITE_TRANSIENT);
   }
@@ -307,7 +346,8 @@ Status MapStore::writeTracking(const Mapper& mapper) {
     sqlite3_bind_blob(st.s, 16, wheel_pose, sizeof(wheel_pose), SQLITE_TRANSIENT);
     sqlite3_bind_blob(st.s, 17, wheel_cov.data(), 9 * sizeof(double), SQLITE_TRANSIENT);
   }
-  if (sqlite3_step(st.s) != SQLITE_DONE) return makeError(file_.string(), ": tracking: ", sqlite3_errmsg(db_));
+  if (sqlite3_step(st.s) != SQLITE_DONE)
+    return makeError(file_.string(), ": tracking: ", sqlite3_errmsg(db_));
   return Ok{};
 }
 
@@ -318,7 +358,9 @@ Status MapStore::saveTracking(const Mapper& mapper) {
   if (t) {
     auto held = queryInt("SELECT COUNT(*) FROM map_nodes WHERE node_id = ?1", t->active_node);
     if (!held) return held.error();
-    if (*held == 0) return makeError(file_.string(), ": tracking state names node ", t->active_node, ", not stored yet");
+    if (*held == 0)
+      return makeError(file_.string(), ": tracking state names node ", t->active_node,
+                       ", not stored yet");
   }
   if (Status s = exec("BEGIN IMMEDIATE"); !s) return s;
   if (Status s = writeTracking(mapper); !s) {
@@ -350,7 +392,8 @@ Status MapStore::foldPair(const Mapper& mapper, int64_t i, int64_t j) {
   const auto& all = mapper.constraints().all();
   for (size_t k : pair->second.members)
     if (all[k].from != i || all[k].to != j) return Ok{};
-  auto rows = queryInt("SELECT COUNT(*) FROM map_edges WHERE from_node = ?1 AND to_node = ?2", i, j);
+  auto rows =
+      queryInt("SELECT COUNT(*) FROM map_edges WHERE from_node = ?1 AND to_node = ?2", i, j);
   if (!rows) return rows.error();
   if (*rows < options_.fold_after) return Ok{};
   // What the rows stand for: folds count their members, single rows count one; and the
@@ -359,7 +402,8 @@ Status MapStore::foldPair(const Mapper& mapper, int64_t i, int64_t j) {
       "SELECT COALESCE(SUM(CASE WHEN f.edge_id IS NULL THEN e.accepted ELSE f.members END), 0),"
       " COALESCE(SUM(CASE WHEN f.edge_id IS NULL THEN 1 - e.accepted ELSE f.rejected END), 0),"
       " MIN(COALESCE(f.first_utime, e.utime)), MAX(e.utime), MIN(e.edge_id)"
-      " FROM map_edges e LEFT JOIN map_folds f ON f.edge_id = e.edge_id WHERE e.from_node = ?1 AND e.to_node = ?2";
+      " FROM map_edges e LEFT JOIN map_folds f ON f.edge_id = e.edge_id WHERE e.from_node = ?1 AND "
+      "e.to_node = ?2";
   int64_t members = 0, rejected = 0, first_utime = 0, last_utime = 0, oldest_id = 0, kind = 0;
   {
     Statement st;
@@ -367,7 +411,8 @@ Status MapStore::foldPair(const Mapper& mapper, int64_t i, int64_t j) {
       return makeError(file_.string(), ": fold: ", sqlite3_errmsg(db_));
     sqlite3_bind_int64(st.s, 1, i);
     sqlite3_bind_int64(st.s, 2, j);
-    if (sqlite3_step(st.s) != SQLITE_ROW) return makeError(file_.string(), ": fold: ", sqlite3_errmsg(db_));
+    if (sqlite3_step(st.s) != SQLITE_ROW)
+      return makeError(file_.string(), ": fold: ", sqlite3_errmsg(db_));
     members = sqlite3_column_int64(st.s, 0);
     rejected = sqlite3_column_int64(st.s, 1);
     first_utime = sqlite3_column_int64(st.s, 2);
@@ -375,7 +420,9 @@ Status MapStore::foldPair(const Mapper& mapper, int64_t i, int64_t j) {
     oldest_id = sqlite3_column_int64(st.s, 4);
   }
   // The pair's kind is its first constraint's (an odometry pair stays one when loops confirm it).
-  auto first_kind = queryInt("SELECT kind FROM map_edges WHERE from_node = ?1 AND to_node = ?2 ORDER BY edge_id LIMIT 1", i, j);
+  auto first_kind = queryInt(
+      "SELECT kind FROM map_edges WHERE from_node = ?1 AND to_node = ?2 ORDER BY edge_id LIMIT 1",
+      i, j);
   if (!first_kind) return first_kind.error();
   kind = *first_kind;
   {
@@ -384,12 +431,14 @@ Status MapStore::foldPair(const Mapper& mapper, int64_t i, int64_t j) {
                            "DELETE FROM map_folds WHERE edge_id IN"
                            " (SELECT edge_id FROM map_edges WHERE from_node = ?1 AND to_node = ?2)",
                            -1, &del_folds.s, nullptr) ||
-        sqlite3_prepare_v2(db_, "DELETE FROM map_edges WHERE from_node = ?1 AND to_node = ?2", -1, &del_edges.s, nullptr))
+        sqlite3_prepare_v2(db_, "DELETE FROM map_edges WHERE from_node = ?1 AND to_node = ?2", -1,
+                           &del_edges.s, nullptr))
       return makeError(file_.string(), ": fold: ", sqlite3_errmsg(db_));
     for (sqlite3_stmt* st : {del_folds.s, del_edges.s}) {
       sqlite3_bind_int64(st, 1, i);
       sqlite3_bind_int64(st, 2, j);
-      if (sqlite3_step(st) != SQLITE_DONE) return makeError(file_.string(), ": fold: ", sqlite3_errmsg(db_));
+      if (sqlite3_step(st) != SQLITE_DONE)
+        return makeError(file_.string(), ": fold: ", sqlite3_errmsg(db_));
     }
   }
   // The merged estimate as one accepted row with the id of the pair's oldest row, and so in
@@ -403,15 +452,18 @@ Status MapStore::foldPair(const Mapper& mapper, int64_t i, int64_t j) {
   const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov = merged.covariance;
   const int64_t id = oldest_id;
   Statement edg, fold;
-  if (sqlite3_prepare_v2(db_, "INSERT INTO map_edges VALUES (?1, ?2, ?3, ?4, 1, ?5, ?6, ?7)", -1, &edg.s, nullptr) ||
-      sqlite3_prepare_v2(db_, "INSERT INTO map_folds VALUES (?1, ?2, ?3, ?4)", -1, &fold.s, nullptr))
+  if (sqlite3_prepare_v2(db_, "INSERT INTO map_edges VALUES (?1, ?2, ?3, ?4, 1, ?5, ?6, ?7)", -1,
+                         &edg.s, nullptr) ||
+      sqlite3_prepare_v2(db_, "INSERT INTO map_folds VALUES (?1, ?2, ?3, ?4)", -1, &fold.s,
+                         nullptr))
     return makeError(file_.string(), ": fold: ", sqlite3_errmsg(db_));
   sqlite3_bind_int64(edg.s, 1, id);
   sqlite3_bind_int64(edg.s, 2, i);
   sqlite3_bind_int64(edg.s, 3, j);
   sqlite3_bind_int64(edg.s, 4, kind);
   sqlite3_bind_int64(edg.s, 5, last_utime);
-  sqlite3_bind_blob(edg.s, 6, pose.data(), static_cast<int>(pose.size() * sizeof(double)), SQLITE_TRANSIENT);
+  sqlite3_bind_blob(edg.s, 6, pose.data(), static_cast<int>(pose.size() * sizeof(double)),
+                    SQLITE_TRANSIENT);
   sqlite3_bind_blob(edg.s, 7, cov.data(), 36 * sizeof(double), SQLITE_TRANSIENT);
   sqlite3_bind_int64(fold.s, 1, id);
   sqlite3_bind_int64(fold.s, 2, members);
@@ -427,27 +479,32 @@ Expected<MapSnapshot> MapStore::load() const {
   const std::string name = file_.string();
   {
     Statement st;
-    if (sqlite3_prepare_v2(db_, "SELECT session_id, start_utime FROM map_sessions ORDER BY session_id", -1, &st.s, nullptr))
+    if (sqlite3_prepare_v2(db_,
+                           "SELECT session_id, start_utime FROM map_sessions ORDER BY session_id",
+                           -1, &st.s, nullptr))
       return makeError(name, ": ", sqlite3_errmsg(db_));
     while (sqlite3_step(st.s) == SQLITE_ROW)
       out.sessions.emplace_back(sqlite3_column_int(st.s, 0), sqlite3_column_int64(st.s, 1));
   }
   {
     Statement st;
-    if (sqlite3_prepare_v2(db_, "SELECT floor_index, height_m FROM map_floors ORDER BY floor_index", -1, &st.s, nullptr))
+    if (sqlite3_prepare_v2(db_, "SELECT floor_index, height_m FROM map_floors ORDER BY floor_index",
+                           -1, &st.s, nullptr))
       return makeError(name, ": ", sqlite3_errmsg(db_));
     while (sqlite3_step(st.s) == SQLITE_ROW)
       out.floors.emplace_back(sqlite3_column_int(st.s, 0), sqlite3_column_double(st.s, 1));
   }
   {
     Statement st;
-    if (sqlite3_prepare_v2(db_, "SELECT node_id, session_id, floor, keyframe_utime, pose FROM map_nodes ORDER BY node_id",
+    if (sqlite3_prepare_v2(db_,
+                           "SELECT node_id, session_id, floor, keyframe_utime, pose FROM map_nodes "
+                           "ORDER BY node_id",
                            -1, &st.s, nullptr))
       return makeError(name, ": ", sqlite3_errmsg(db_));
     while (sqlite3_step(st.s) == SQLITE_ROW) {
       StoredNode n;
-      n.node = MapperNode{sqlite3_column_int64(st.s, 0), sqlite3_column_int64(st.s, 3), sqlite3_column_int(st.s, 2),
-                          sqlite3_column_int(st.s, 1), std::nullopt};
+      n.node = MapperNode{sqlite3_column_int64(st.s, 0), sqlite3_column_int64(st.s, 3),
+                          sqlite3_column_int(st.s, 2), sqlite3_column_int(st.s, 1), std::nullopt};
       auto pose = poseFromBlob(sqlite3_column_blob(st.s, 4), sqlite3_column_bytes(st.s, 4),
                                name + ": node " + std::to_string(n.node.id));
       if (!pose) return pose.error();
@@ -457,13 +514,16 @@ Expected<MapSnapshot> MapStore::load() const {
   }
   {
     Statement st;
-    if (sqlite3_prepare_v2(db_, "SELECT node_id, roll_rad, pitch_rad, covariance FROM map_attitude ORDER BY node_id", -1,
-                           &st.s, nullptr))
+    if (sqlite3_prepare_v2(
+            db_,
+            "SELECT node_id, roll_rad, pitch_rad, covariance FROM map_attitude ORDER BY node_id",
+            -1, &st.s, nullptr))
       return makeError(name, ": ", sqlite3_errmsg(db_));
     while (sqlite3_step(st.s) == SQLITE_ROW) {
       const int64_t id = sqlite3_column_int64(st.s, 0);
       const std::string what = name + ": attitude of node " + std::to_string(id);
-      if (id < 0 || id >= static_cast<int64_t>(out.nodes.size()) || out.nodes[static_cast<size_t>(id)].node.id != id)
+      if (id < 0 || id >= static_cast<int64_t>(out.nodes.size()) ||
+          out.nodes[static_cast<size_t>(id)].node.id != id)
         return makeError(what, ": no such node");
       if (sqlite3_column_bytes(st.s, 3) != 4 * static_cast<int>(sizeof(double)))
         return makeError(what, ": covariance blob of ", sqlite3_column_bytes(st.s, 3), " bytes");
@@ -478,11 +538,13 @@ Expected<MapSnapshot> MapStore::load() const {
   }
   {
     Statement st;
-    if (sqlite3_prepare_v2(db_,
-                           "SELECT e.edge_id, e.from_node, e.to_node, e.kind, e.accepted, e.utime, e.pose, e.covariance,"
-                           " COALESCE(f.members, 0), COALESCE(f.rejected, 0)"
-                           " FROM map_edges e LEFT JOIN map_folds f ON f.edge_id = e.edge_id ORDER BY e.edge_id",
-                           -1, &st.s, nullptr))
+    if (sqlite3_prepare_v2(
+            db_,
+            "SELECT e.edge_id, e.from_node, e.to_node, e.kind, e.accepted, e.utime, e.pose, "
+            "e.covariance,"
+            " COALESCE(f.members, 0), COALESCE(f.rejected, 0)"
+            " FROM map_edges e LEFT JOIN map_folds f ON f.edge_id = e.edge_id ORDER BY e.edge_id",
+            -1, &st.s, nullptr))
       return makeError(name, ": ", sqlite3_errmsg(db_));
     while (sqlite3_step(st.s) == SQLITE_ROW) {
       StoredEdge e;
@@ -514,11 +576,14 @@ Expected<MapSnapshot> MapStore::load() const {
     out.max_saved_mapper = static_cast<int>(*saved);
   }
   // A version-0 store opened read-only has no map_tracking: no state.
-  auto has_tracking = queryInt("SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = 'map_tracking'");
+  auto has_tracking =
+      queryInt("SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = 'map_tracking'");
   if (!has_tracking) return has_tracking.error();
   if (*has_tracking > 0) {
     // An older store opened read-only lacks the later columns: read as NULL (no pose).
-    std::string sql = "SELECT utime, session_id, session_start_utime, active_node, floor, in_elevator, pose, covariance";
+    std::string sql =
+        "SELECT utime, session_id, session_start_utime, active_node, floor, in_elevator, pose, "
+        "covariance";
     for (const auto& [column, type] : kTrackingColumnsAdded) {
       auto has = hasTrackingColumn(column);
       if (!has) return has.error();
@@ -526,7 +591,8 @@ Expected<MapSnapshot> MapStore::load() const {
     }
     sql += " FROM map_tracking WHERE id = 0";
     Statement st;
-    if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &st.s, nullptr)) return makeError(name, ": ", sqlite3_errmsg(db_));
+    if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &st.s, nullptr))
+      return makeError(name, ": ", sqlite3_errmsg(db_));
     if (sqlite3_step(st.s) == SQLITE_ROW) {
       const std::string what = name + ": tracking state";
       TrackingState t;
@@ -549,12 +615,14 @@ Expected<MapSnapshot> MapStore::load() const {
         Tracker::OdometryAnchor a;
         a.pose.epoch = sqlite3_column_int64(st.s, 8);
         a.pose.utime = sqlite3_column_int64(st.s, 9);
-        auto odom_pose = poseFromBlob(sqlite3_column_blob(st.s, 10), sqlite3_column_bytes(st.s, 10), what + " odometry");
+        auto odom_pose = poseFromBlob(sqlite3_column_blob(st.s, 10), sqlite3_column_bytes(st.s, 10),
+                                      what + " odometry");
         if (!odom_pose) return odom_pose.error();
         a.pose.odom_T_cam.mean = *odom_pose;
         for (int col : {11, 12}) {
           if (sqlite3_column_bytes(st.s, col) != 36 * static_cast<int>(sizeof(double)))
-            return makeError(what, ": odometry covariance blob of ", sqlite3_column_bytes(st.s, col), " bytes");
+            return makeError(what, ": odometry covariance blob of ",
+                             sqlite3_column_bytes(st.s, col), " bytes");
           Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c;
           std::memcpy(c.data(), sqlite3_column_blob(st.s, col), 36 * sizeof(double));
           if (!c.allFinite()) return makeError(what, ": odometry covariance is not finite");
@@ -569,8 +637,8 @@ Expected<MapSnapshot> MapStore::load() const {
         double v[3];
         if (sqlite3_column_bytes(st.s, 15) != static_cast<int>(sizeof(v)) ||
             sqlite3_column_bytes(st.s, 16) != 9 * static_cast<int>(sizeof(double)))
-          return makeError(what, ": wheel odometry blobs of ", sqlite3_column_bytes(st.s, 15), " and ",
-                           sqlite3_column_bytes(st.s, 16), " bytes");
+          return makeError(what, ": wheel odometry blobs of ", sqlite3_column_bytes(st.s, 15),
+                           " and ", sqlite3_column_bytes(st.s, 16), " bytes");
         std::memcpy(v, sqlite3_column_blob(st.s, 15), sizeof(v));
         Eigen::Matrix<double, 3, 3, Eigen::RowMajor> c;
         std::memcpy(c.data(), sqlite3_column_blob(st.s, 16), 9 * sizeof(double));
@@ -588,7 +656,8 @@ Expected<MapSnapshot> MapStore::load() const {
 
 Expected<bool> MapStore::hasTrackingColumn(const char* column) const {
   const std::string sql =
-      std::string("SELECT COUNT(*) FROM pragma_table_info('map_tracking') WHERE name = '") + column + "'";
+      std::string("SELECT COUNT(*) FROM pragma_table_info('map_tracking') WHERE name = '") +
+      column + "'";
   auto count = queryInt(sql.c_str());
   if (!count) return count.error();
   return *count > 0;
@@ -596,10 +665,12 @@ Expected<bool> MapStore::hasTrackingColumn(const char* column) const {
 
 Status MapStore::integrityCheck() const {
   Statement st;
-  if (sqlite3_prepare_v2(db_, "PRAGMA integrity_check", -1, &st.s, nullptr) || sqlite3_step(st.s) != SQLITE_ROW)
+  if (sqlite3_prepare_v2(db_, "PRAGMA integrity_check", -1, &st.s, nullptr) ||
+      sqlite3_step(st.s) != SQLITE_ROW)
     return makeError(file_.string(), ": integrity_check failed to run");
   const char* r = reinterpret_cast<const char*>(sqlite3_column_text(st.s, 0));
-  if (!r || std::string(r) != "ok") return makeError(file_.string(), ": integrity_check: ", r ? r : "(null)");
+  if (!r || std::string(r) != "ok")
+    return makeError(file_.string(), ": integrity_check: ", r ? r : "(null)");
   return Ok{};
 }
 

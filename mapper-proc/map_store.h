@@ -1,7 +1,8 @@
 #pragma once
 // The mapper's part of the map store (DESIGN.md section 7): one SQLite file per map, WAL,
-// one transaction per update (then a checkpoint that empties the log), so a process killed at any moment leaves the last committed
-// map loadable. Other components keep their own tables in the same file; these are:
+// one transaction per update (then a checkpoint that empties the log), so a process killed at any
+// moment leaves the last committed map loadable. Other components keep their own tables in the same
+// file; these are:
 //
 //   CREATE TABLE map_sessions (session_id INTEGER PRIMARY KEY, start_utime INTEGER NOT NULL);
 //   CREATE TABLE map_floors   (floor_index INTEGER PRIMARY KEY, height_m REAL NOT NULL);
@@ -52,7 +53,8 @@
 // A store of a newer version is refused (its rows may mean what this code does not know).
 //
 // Every constraint is an edge (accepted or rejected, DESIGN.md section 3) until its pair is
-// folded; node poses are the latest estimates, rewritten in an update's transaction when they moved.
+// folded; node poses are the latest estimates, rewritten in an update's transaction when they
+// moved.
 //
 // Folding (paper section I: the graph, and so the store, grows with the area, not with the
 // time): once a pair of nodes holds `fold_after` rows, the transaction that adds the last one
@@ -86,9 +88,9 @@ struct StoredNode {
 };
 
 struct StoredEdge {
-  int64_t edge_id = 0;      // increasing in the order the constraints were made
+  int64_t edge_id = 0;  // increasing in the order the constraints were made
   Constraint constraint;
-  int64_t folded = 0;       // > 0: a fold of this many accepted constraints (map_folds)
+  int64_t folded = 0;  // > 0: a fold of this many accepted constraints (map_folds)
   int64_t folded_rejected = 0;
 };
 
@@ -122,7 +124,8 @@ class MapStore {
  public:
   // Opens (creating if needed) the file, switches it to WAL and creates the tables. Errors
   // name the file.
-  static Expected<MapStore> open(const std::filesystem::path& file, const MapStoreOptions& options = {});
+  static Expected<MapStore> open(const std::filesystem::path& file,
+                                 const MapStoreOptions& options = {});
   MapStore(MapStore&& other) noexcept;
   MapStore& operator=(MapStore&& other) noexcept;
   MapStore(const MapStore&) = delete;

@@ -25,8 +25,11 @@ Status MapperOptions::validate() const {
   if (!(merge_radius_m >= 0.0 && merge_radius_m <= overlap_radius_cells * cell_size_m))
     return Error{"mapper.merge_radius_m: must be in [0, overlap_radius_cells x cell_size_m]"};
   if (merge_radius_m > 0.0 && (full_graph || !(map_gate > 0.0) || vetted_loop_kernel.active()))
-    return Error{"mapper.merge_radius_m: merges need the reduced graph, the map gate and no kernel on vetted closures"};
-  if (!(merge_heading_sectors > 0.0 && merge_heading_sectors <= overlap_heading_sectors) && merge_radius_m > 0.0)
+    return Error{
+        "mapper.merge_radius_m: merges need the reduced graph, the map gate and no kernel on "
+        "vetted closures"};
+  if (!(merge_heading_sectors > 0.0 && merge_heading_sectors <= overlap_heading_sectors) &&
+      merge_radius_m > 0.0)
     return Error{"mapper.merge_heading_sectors: must be in (0, overlap_heading_sectors]"};
   if (!(merge_sigma_m > 0.0)) return Error{"mapper.merge_sigma_m: must be > 0"};
   if (relocalization_checks < 0) return Error{"mapper.relocalization_checks: must be >= 0"};
@@ -35,7 +38,8 @@ Status MapperOptions::validate() const {
   if (!(session_gap_s > 0.0)) return Error{"mapper.session_gap_s: must be > 0"};
   if (!(recovery_quiet_s >= 0.0)) return Error{"mapper.recovery_quiet_s: must be >= 0"};
   if (!(recovery_slack_m >= 0.0)) return Error{"mapper.recovery_slack_m: must be >= 0"};
-  if (!(recovery_drift_fraction >= 0.0)) return Error{"mapper.recovery_drift_fraction: must be >= 0"};
+  if (!(recovery_drift_fraction >= 0.0))
+    return Error{"mapper.recovery_drift_fraction: must be >= 0"};
   if (!(floor_match_m > 0.0)) return Error{"mapper.floor_match_m: must be > 0"};
   if (!(warm_restart_max_gap_s >= 0.0) || !std::isfinite(warm_restart_max_gap_s))
     return Error{"mapper.warm_restart_max_gap_s: must be a finite number >= 0"};
@@ -43,7 +47,8 @@ Status MapperOptions::validate() const {
     return Error{"mapper.warm_restart_speed_m_s: must be a finite number > 0"};
   if (!(warm_restart_turn_rad_s > 0.0) || !std::isfinite(warm_restart_turn_rad_s))
     return Error{"mapper.warm_restart_turn_rad_s: must be a finite number > 0"};
-  if (!(warm_restart_node_sigma_m >= 0.0)) return Error{"mapper.warm_restart_node_sigma_m: must be >= 0"};
+  if (!(warm_restart_node_sigma_m >= 0.0))
+    return Error{"mapper.warm_restart_node_sigma_m: must be >= 0"};
   if (!(warm_restart_bridge_max_gap_s >= 0.0) || !std::isfinite(warm_restart_bridge_max_gap_s))
     return Error{"mapper.warm_restart_bridge_max_gap_s: must be a finite number >= 0"};
   if (!(warm_restart_wheel_wait_s >= 0.0) || !(warm_restart_wheel_wait_s <= 10.0))
@@ -115,19 +120,25 @@ void MapperStats::addCounters(const MapperStats& o) {
 
 std::string MapperStats::text() const {
   std::ostringstream s;
-  s << "steps " << steps << "\nnodes " << nodes << "\nconstraints " << constraints
-    << "\nfactors " << factors << "\nmerged " << merged << "\nrejected_inconsistent "
-    << rejected_inconsistent << "\nrequests_node " << requests_node << "\nrequests_global "
-    << requests_global << "\nregistrations_ok " << registrations_ok << "\nloop_closures "
-    << loop_closures << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept << "\ndelta_fused " << delta_fused
-    << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor " << rejected_floor << "\nclosures_uninformative " << closures_uninformative << "\nclosures_saturated " << closures_saturated << "\nnode_merges " << node_merges << "\nmerges_refused " << merges_refused << "\nmerges_undone " << merges_undone << "\ngate_recoveries " << gate_recoveries << "\nrecoveries_too_far " << recoveries_too_far << "\nrelocalizations " << relocalizations
-    << "\ntimeouts " << timeouts << "\ndropped " << dropped << "\nrelocalization_disagreements " << relocalization_disagreements << "\nrelocalization_same_frame_checks " << relocalization_same_frame_checks << "\nrestored_nodes " << restored_nodes
-    << "\nimplausible_floors " << implausible_floors
+  s << "steps " << steps << "\nnodes " << nodes << "\nconstraints " << constraints << "\nfactors "
+    << factors << "\nmerged " << merged << "\nrejected_inconsistent " << rejected_inconsistent
+    << "\nrequests_node " << requests_node << "\nrequests_global " << requests_global
+    << "\nregistrations_ok " << registrations_ok << "\nloop_closures " << loop_closures
+    << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept << "\ndelta_fused "
+    << delta_fused << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor "
+    << rejected_floor << "\nclosures_uninformative " << closures_uninformative
+    << "\nclosures_saturated " << closures_saturated << "\nnode_merges " << node_merges
+    << "\nmerges_refused " << merges_refused << "\nmerges_undone " << merges_undone
+    << "\ngate_recoveries " << gate_recoveries << "\nrecoveries_too_far " << recoveries_too_far
+    << "\nrelocalizations " << relocalizations << "\ntimeouts " << timeouts << "\ndropped "
+    << dropped << "\nrelocalization_disagreements " << relocalization_disagreements
+    << "\nrelocalization_same_frame_checks " << relocalization_same_frame_checks
+    << "\nrestored_nodes " << restored_nodes << "\nimplausible_floors " << implausible_floors
     << "\nrestored_constraints " << restored_constraints << "\nwarm_restarts " << warm_restarts
     << "\nlost_restarts " << lost_restarts << "\nwarm_confirmations " << warm_confirmations
     << "\nwarm_rejections " << warm_rejections << "\nwarm_bridged " << warm_bridged
-    << "\nwarm_bridged_by_wheels " << warm_bridged_by_wheels << "\nwarm_wheel_waits " << warm_wheel_waits
-    << "\nwarm_elevator_refusals " << warm_elevator_refusals << "\n";
+    << "\nwarm_bridged_by_wheels " << warm_bridged_by_wheels << "\nwarm_wheel_waits "
+    << warm_wheel_waits << "\nwarm_elevator_refusals " << warm_elevator_refusals << "\n";
   return s.str();
 }
 
@@ -144,7 +155,8 @@ Mapper::Mapper(const MapperOptions& options, int session)
 Status Mapper::onVo(const vo_delta_t& msg) {
   // A keyframe step the tracker held for its heading is taken before VO moves on; after a
   // session's gap, without the mapper's step (it would belong to the session before).
-  const bool session_gap = last_vo_utime_ >= 0 && msg.utime - last_vo_utime_ > micros(o_.session_gap_s);
+  const bool session_gap =
+      last_vo_utime_ >= 0 && msg.utime - last_vo_utime_ > micros(o_.session_gap_s);
   takeHeldStep(msg.utime, session_gap);
   if (saved_tracking_ && waitForWheels(msg)) {
     ++stats_.warm_wheel_waits;
@@ -178,14 +190,17 @@ void Mapper::takeHeldStep(int64_t now_utime, bool session_starts) {
   const auto keyframe_utime = tracker_.takeHeldStep();
   // Not when a session starts (the step belongs to the one before), nor when its request
   // would be timed out at once (the streams stopped while it waited).
-  if (keyframe_utime && !session_starts && now_utime - *keyframe_utime <= micros(o_.request_timeout_s))
+  if (keyframe_utime && !session_starts &&
+      now_utime - *keyframe_utime <= micros(o_.request_timeout_s))
     stepAtKeyframe(*keyframe_utime);
 }
 
 void Mapper::startSession(int64_t utime) {
   if (!have_floor_ || active_ < 0) return;  // nothing mapped yet: the first session goes on
   // The FLOOR message and the VO gap both announce a session: one session per gap.
-  if (lost_ && session_start_utime_ >= 0 && std::abs(utime - session_start_utime_) < micros(o_.session_gap_s)) return;
+  if (lost_ && session_start_utime_ >= 0 &&
+      std::abs(utime - session_start_utime_) < micros(o_.session_gap_s))
+    return;
   // Where the robot is relative to the map is unknown until a global registration
   // re-localises it (DESIGN.md section 3).
   lost_ = true;
@@ -211,7 +226,8 @@ Status Mapper::onAttitude(const attitude_t& msg) {
   const double det = msg.covariance[0] * msg.covariance[3] - msg.covariance[1] * msg.covariance[2];
   if (!finite || msg.utime <= last_attitude_utime_ || !(msg.covariance[0] > 0.0) ||
       !(msg.covariance[3] > 0.0) || !(det > 0.0) ||
-      std::abs(msg.covariance[1] - msg.covariance[2]) > 1e-9 * std::max(msg.covariance[0], msg.covariance[3])) {
+      std::abs(msg.covariance[1] - msg.covariance[2]) >
+          1e-9 * std::max(msg.covariance[0], msg.covariance[3])) {
     ++stats_.dropped;
     return makeError("ATTITUDE ", msg.utime, ": not finite, out of order or not a covariance");
   }
@@ -226,8 +242,8 @@ Status Mapper::onFloor(const floor_t& msg) {
   // A ride's start stops the steps after it, not one held before it; a session's start
   // (EVENT_NONE) ends the session the held step belongs to: no mapper step then.
   takeHeldStep(msg.utime, msg.event == floor_t::EVENT_NONE);
-  if (!std::isfinite(msg.height_m) || !std::isfinite(msg.height_sigma_m) || msg.height_sigma_m < 0 ||
-      msg.utime < last_floor_utime_) {
+  if (!std::isfinite(msg.height_m) || !std::isfinite(msg.height_sigma_m) ||
+      msg.height_sigma_m < 0 || msg.utime < last_floor_utime_) {
     ++stats_.dropped;
     return makeError("FLOOR ", msg.utime, ": not finite or out of order");
   }
@@ -267,11 +283,13 @@ Status Mapper::onFloor(const floor_t& msg) {
   if (have_floor_ && msg.event == floor_t::EVENT_RIDE_END && active_ >= 0) {
     // The ride's vertical displacement, as far as odometry has not seen it already (VO may
     // track through the cab; wheels never do): the estimate is moved to the measured height.
-    tracker_.addHeight(msg.height_m - pose().mean.translation().z(), std::max(msg.height_sigma_m, 0.01));
+    tracker_.addHeight(msg.height_m - pose().mean.translation().z(),
+                       std::max(msg.height_sigma_m, 0.01));
   }
   // elevator-proc numbers floors from where it started (a restarted one, a new session,
   // calls a floor the map already has "new"): the label comes from the map's table by height.
-  floor_ = msg.event == floor_t::EVENT_RIDE_END ? floorAtHeight(msg.floor_index, msg.height_m) : msg.floor_index;
+  floor_ = msg.event == floor_t::EVENT_RIDE_END ? floorAtHeight(msg.floor_index, msg.height_m)
+                                                : msg.floor_index;
   floor_height_m_ = msg.height_m;
   if (floor_ >= 0) {
     // A floor has one height: the first one reported for it, as restore() reads it back. Each
@@ -316,7 +334,8 @@ core::UncertainPose Mapper::pose() const {
   return p;
 }
 
-std::optional<int64_t> Mapper::nodeAt(const core::SE3d& world_T_body, int floor, int64_t newest_allowed) const {
+std::optional<int64_t> Mapper::nodeAt(const core::SE3d& world_T_body, int floor,
+                                      int64_t newest_allowed) const {
   return partition_.nodeAt(world_T_body, floor, newest_allowed, nodes_, schedule_.solver());
 }
 
@@ -363,14 +382,17 @@ void Mapper::step(int64_t keyframe_utime) {
     // the same on every floor).
     if (!target && nodes_[static_cast<size_t>(active_)].floor == floor_) target = active_;
   }
-  if (target) sendRequest(register_request_t::MODE_NODE, *target);
-  else sendRequest(register_request_t::MODE_GLOBAL, -1);
+  if (target)
+    sendRequest(register_request_t::MODE_NODE, *target);
+  else
+    sendRequest(register_request_t::MODE_GLOBAL, -1);
   step_cost_s_ += secondsSince(t0);
   step_cpu_s_ += threadCpuSeconds() - c0;
 }
 
 bool Mapper::isSatellite(int64_t node) const {
-  return active_ == satellite_anchor_ && std::find(satellites_.begin(), satellites_.end(), node) != satellites_.end();
+  return active_ == satellite_anchor_ &&
+         std::find(satellites_.begin(), satellites_.end(), node) != satellites_.end();
 }
 
 void Mapper::finishStep(bool registered) {
@@ -389,19 +411,21 @@ void Mapper::finishStep(bool registered) {
   if (lost_) {
     // Not re-localised yet: neither a node nor a step pose from a meaningless Δ.
     stats_.timing.partition_s += secondsSince(t0);
-    stats_.timing.step_cost.push_back({f.keyframe_utime, step_cost_s_ + secondsSince(t0), step_cpu_s_ + threadCpuSeconds() - c0});
+    stats_.timing.step_cost.push_back(
+        {f.keyframe_utime, step_cost_s_ + secondsSince(t0), step_cpu_s_ + threadCpuSeconds() - c0});
     return;
   }
   // A registration the gate rejected still says a node is near (or it is a false match, and
   // the next step adds the node): no new node at this step.
   // A warm restart's unconfirmed pose places a node only while it is known to a cell or so.
-  const double sigma_m =
-      std::sqrt(std::max(f.delta_at_keyframe.covariance(0, 0), f.delta_at_keyframe.covariance(1, 1)));
+  const double sigma_m = std::sqrt(
+      std::max(f.delta_at_keyframe.covariance(0, 0), f.delta_at_keyframe.covariance(1, 1)));
   const bool placeable = !resumed_ || sigma_m <= o_.warm_restart_node_sigma_m;
-  const bool registered_to_active =
-      o_.node_at_every_new_place && registered && registered_delta && active_ == f.active && !relocalize_;
+  const bool registered_to_active = o_.node_at_every_new_place && registered && registered_delta &&
+                                    active_ == f.active && !relocalize_;
   if ((!registered || registered_to_active) && !gate_rejected && !o_.full_graph && placeable) {
-    const core::UncertainPose active_T_keyframe = registered_to_active ? *registered_delta : f.delta_at_keyframe;
+    const core::UncertainPose active_T_keyframe =
+        registered_to_active ? *registered_delta : f.delta_at_keyframe;
     const core::SE3d world_T_body = nodePose(f.active) * active_T_keyframe.mean;
     if (!nodeAt(world_T_body, floor_, f.keyframe_utime)) {
       // A new place (eq. 8): the node at the keyframe.
@@ -425,10 +449,12 @@ void Mapper::finishStep(bool registered) {
   stats_.timing.partition_s += secondsSince(t0);
   flushSolver();
   const auto q_T_now = tracker_.sinceKeyframe(f.keyframe_utime);
-  const core::SE3d node_T_q = tracker_.delta().mean * (q_T_now ? q_T_now->mean.inverse() : core::SE3d());
+  const core::SE3d node_T_q =
+      tracker_.delta().mean * (q_T_now ? q_T_now->mean.inverse() : core::SE3d());
   // A warm restart's unconfirmed pose is the held one, metres off: no step pose (as no POSE).
   if (!resumed_) step_poses_.push_back(StepPose{f.keyframe_utime, active_, node_T_q, session_});
-  stats_.timing.step_cost.push_back({f.keyframe_utime, step_cost_s_ + secondsSince(t0), step_cpu_s_ + threadCpuSeconds() - c0});
+  stats_.timing.step_cost.push_back(
+      {f.keyframe_utime, step_cost_s_ + secondsSince(t0), step_cpu_s_ + threadCpuSeconds() - c0});
 }
 
 int64_t Mapper::addNode(int64_t keyframe_utime, const core::UncertainPose& active_T_node) {
@@ -443,7 +469,8 @@ int64_t Mapper::addNode(int64_t keyframe_utime, const core::UncertainPose& activ
   schedule_.addVariable(id, world_T_node);
   if (active_ < 0) {
     Eigen::MatrixXd W = Eigen::MatrixXd::Zero(6, 6);
-    W.diagonal() << core::Vec3::Constant(1.0 / o_.origin_sigma_m), core::Vec3::Constant(1.0 / o_.origin_sigma_rad);
+    W.diagonal() << core::Vec3::Constant(1.0 / o_.origin_sigma_m),
+        core::Vec3::Constant(1.0 / o_.origin_sigma_rad);
     schedule_.addFactor(std::make_shared<solver::PosePrior3Factor>(id, world_T_node, W));
   } else {
     addConstraint(active_, id, active_T_node, ConstraintKind::kOdometry, keyframe_utime);
@@ -477,8 +504,8 @@ bool Mapper::addAttitudeFactor(int64_t id, const NodeAttitude& a) {
   const Eigen::Matrix2d info = a.covariance.inverse();
   Eigen::LLT<Eigen::Matrix2d> llt(0.5 * (info + info.transpose()));
   if (!a.covariance.allFinite() || llt.info() != Eigen::Success) return false;
-  schedule_.addFactor(
-      std::make_shared<solver::RollPitchFactor>(id, a.roll_rad, a.pitch_rad, Eigen::MatrixXd(llt.matrixU())));
+  schedule_.addFactor(std::make_shared<solver::RollPitchFactor>(id, a.roll_rad, a.pitch_rad,
+                                                                Eigen::MatrixXd(llt.matrixU())));
   return true;
 }
 
@@ -507,7 +534,8 @@ void Mapper::addConstraint(int64_t from, int64_t to, const core::UncertainPose& 
   // whose cost grows with the map; that consolidation waits for the solver's scheduled batch
   // steps (solver_schedule.h), so merges cost what any new constraint costs.
   // i_T_j, as the pair sees it (through the merges).
-  const core::UncertainPose& measurement = outcome == ConstraintSet::Outcome::kMerged ? paired : pair->i_T_j;
+  const core::UncertainPose& measurement =
+      outcome == ConstraintSet::Outcome::kMerged ? paired : pair->i_T_j;
   if (outcome == ConstraintSet::Outcome::kMerged) {
     ++stats_.merged;
     if (schedule_.deferMerge(key)) return;  // the pair's factor waits for its consolidation
@@ -524,17 +552,21 @@ void Mapper::addConstraint(int64_t from, int64_t to, const core::UncertainPose& 
   // paper scale, sessions 0-3. A constraint that agreed with its pair's earlier ones
   // (χ² test above), and the pair's merged factor (consolidatePairs), have consensus.
   const solver::RobustKernel& kernel = vetted ? o_.vetted_loop_kernel : o_.loop_kernel;
-  if (kind == ConstraintKind::kLoop && outcome == ConstraintSet::Outcome::kNewPair && kernel.active())
+  if (kind == ConstraintKind::kLoop && outcome == ConstraintSet::Outcome::kNewPair &&
+      kernel.active())
     factor->setKernel(kernel);
   schedule_.addPairFactor(key, factor);
 }
 
 void Mapper::flushSolver() {
   const auto t_refresh = SteadyClock::now();
-  if (partition_.refresh(nodes_, schedule_.solver())) stats_.timing.partition_s += secondsSince(t_refresh);
-  const std::optional<SolverSchedule::Flush> flush = schedule_.flush(last_step_utime_, constraints_);
+  if (partition_.refresh(nodes_, schedule_.solver()))
+    stats_.timing.partition_s += secondsSince(t_refresh);
+  const std::optional<SolverSchedule::Flush> flush =
+      schedule_.flush(last_step_utime_, constraints_);
   if (flush) recordFlush(*flush);
-  for (const auto& m : std::exchange(merge_contradictions_, {})) undoMergesAgainst(m.constraint, m.merged);
+  for (const auto& m : std::exchange(merge_contradictions_, {}))
+    undoMergesAgainst(m.constraint, m.merged);
   if (std::exchange(closed_loop_, false)) {
     if (o_.merge_radius_m > 0.0) mergeChain();
     chain_start_ = static_cast<int64_t>(nodes_.size());
@@ -559,8 +591,8 @@ void Mapper::mergeChain() {
     const MapperNode& node = nodes_[static_cast<size_t>(n)];
     if (node.merged_into >= 0 || keep.count(n) || node.session != session_) continue;
     const core::SE3d world_T_n = nodePose(n);
-    const auto m = partition_.closestNode(world_T_n, node.floor, before_chain, nodes_, schedule_.solver(),
-                                          o_.merge_radius_m, heading_rad);
+    const auto m = partition_.closestNode(world_T_n, node.floor, before_chain, nodes_,
+                                          schedule_.solver(), o_.merge_radius_m, heading_rad);
     if (!m) continue;
     // The map must know them to be one place: the marginal of their relative position.
     const std::optional<core::UncertainPose> m_T_n = mapRelative(*m, n);
@@ -598,7 +630,8 @@ void Mapper::noteMergeContradiction(const ConstraintSet::Pair* pair) {
   note(all.back());
   if (pair)
     for (size_t k : pair->members) note(all[k]);
-  if (!merged.empty()) merge_contradictions_.push_back({all.size() - 1, {merged.begin(), merged.end()}});
+  if (!merged.empty())
+    merge_contradictions_.push_back({all.size() - 1, {merged.begin(), merged.end()}});
 }
 
 void Mapper::undoMergesAgainst(size_t constraint, const std::vector<int64_t>& merged) {
@@ -612,7 +645,8 @@ void Mapper::undoMergesAgainst(size_t constraint, const std::vector<int64_t>& me
   // always accepted), and nothing the map accepted is rejected instead.
   const Constraint c = constraints_.paired(constraints_.all()[constraint]);
   const auto pair = constraints_.pairs().find({std::min(c.from, c.to), std::max(c.from, c.to)});
-  const bool agrees = constraints_.all()[constraint].accepted && pair != constraints_.pairs().end() &&
+  const bool agrees = constraints_.all()[constraint].accepted &&
+                      pair != constraints_.pairs().end() &&
                       pair->second.members.front() != constraint;
   if (!agrees || newly_rejected > 0) {
     // The constraint is what is wrong (or nothing tells): the merges are put back.
@@ -640,7 +674,8 @@ void Mapper::rebuildGraph() {
   for (const MapperNode& n : nodes_) {
     if (n.merged_into >= 0) continue;
     const auto undone = undone_poses_.find(n.id);
-    variables.emplace_back(n.id, undone != undone_poses_.end() ? undone->second : schedule_.pose(n.id));
+    variables.emplace_back(n.id,
+                           undone != undone_poses_.end() ? undone->second : schedule_.pose(n.id));
   }
   undone_poses_.clear();
   const SolverSchedule::Flush flush = schedule_.rebuild(variables, constraints_);
@@ -669,14 +704,16 @@ void Mapper::recordFlush(const SolverSchedule::Flush& flush) {
   // restored map, a removal outside the schedule) re-files every node at once; after a
   // background batch the old nodes are re-filed over the next steps.
   const auto t1 = SteadyClock::now();
-  for (int64_t id : flush.added) partition_.file(id, partition_.cellOf(nodePose(id), nodes_[id].floor));
+  for (int64_t id : flush.added)
+    partition_.file(id, partition_.cellOf(nodePose(id), nodes_[id].floor));
   if (flush.batch) partition_.rebuild(nodes_, schedule_.solver().estimate());
   if (flush.batch_swapped) partition_.startRefresh();
   stats_.timing.partition_s += secondsSince(t1);
 }
 
 Status Mapper::restore(const MapSnapshot& map) {
-  if (!nodes_.empty() || have_floor_) return Error{"mapper: restore: the mapper already holds a map"};
+  if (!nodes_.empty() || have_floor_)
+    return Error{"mapper: restore: the mapper already holds a map"};
   // A map that fails half-way leaves the mapper as it was: empty.
   const auto abandon = [this](Error why) -> Status {
     nodes_.clear();
@@ -694,13 +731,15 @@ Status Mapper::restore(const MapSnapshot& map) {
   for (size_t k = 0; k < map.nodes.size(); ++k) {
     const StoredNode& n = map.nodes[k];
     if (n.node.id != static_cast<int64_t>(k))
-      return abandon(makeError("mapper: restore: node ", n.node.id, " where node ", k, " was expected"));
+      return abandon(
+          makeError("mapper: restore: node ", n.node.id, " where node ", k, " was expected"));
     max_session = std::max(max_session, n.node.session);
     schedule_.addVariable(n.node.id, n.world_T_body);
     if (k == 0) {
       // The origin stays where the first session put it.
       Eigen::MatrixXd W = Eigen::MatrixXd::Zero(6, 6);
-      W.diagonal() << core::Vec3::Constant(1.0 / o_.origin_sigma_m), core::Vec3::Constant(1.0 / o_.origin_sigma_rad);
+      W.diagonal() << core::Vec3::Constant(1.0 / o_.origin_sigma_m),
+          core::Vec3::Constant(1.0 / o_.origin_sigma_rad);
       schedule_.addFactor(std::make_shared<solver::PosePrior3Factor>(0, n.world_T_body, W));
     }
     const auto height = floors.find(n.node.floor);
@@ -708,17 +747,18 @@ Status Mapper::restore(const MapSnapshot& map) {
       schedule_.addFactor(std::make_shared<solver::HeightFactor>(n.node.id, height->second, 0.02));
     }
     MapperNode node = n.node;
-    if (node.attitude && !(o_.attitude_factors && addAttitudeFactor(node.id, *node.attitude))) node.attitude.reset();
+    if (node.attitude && !(o_.attitude_factors && addAttitudeFactor(node.id, *node.attitude)))
+      node.attitude.reset();
     nodes_.push_back(node);
   }
   const auto n_nodes = static_cast<int64_t>(nodes_.size());
   for (size_t k = 0; k < map.edges.size(); ++k) {
     const Constraint& c = map.edges[k].constraint;
     // In the order they were made (a fold comes before its pair's later constraints).
-    if ((k > 0 && map.edges[k].edge_id <= map.edges[k - 1].edge_id) || c.from < 0 || c.to < 0 || c.from >= n_nodes ||
-        c.to >= n_nodes || c.from == c.to) {
-      return abandon(makeError("mapper: restore: edge ", map.edges[k].edge_id, " (", c.from, " -> ", c.to,
-                               ") is out of order or names an unknown node"));
+    if ((k > 0 && map.edges[k].edge_id <= map.edges[k - 1].edge_id) || c.from < 0 || c.to < 0 ||
+        c.from >= n_nodes || c.to >= n_nodes || c.from == c.to) {
+      return abandon(makeError("mapper: restore: edge ", map.edges[k].edge_id, " (", c.from, " -> ",
+                               c.to, ") is out of order or names an unknown node"));
     }
     // As the live mapper added it: closures of the reduced graph passed the map gate.
     addConstraint(c.from, c.to, c.from_T_to, c.kind, c.utime, o_.map_gate > 0 && !o_.full_graph);
@@ -735,7 +775,7 @@ Status Mapper::restore(const MapSnapshot& map) {
   first_session_ = session_;
   active_ = n_nodes - 1;
   chain_start_ = n_nodes;  // merges look at the nodes made after the restore
-  lost_ = true;  // where the robot is on this map is unknown until a global registration
+  lost_ = true;            // where the robot is on this map is unknown until a global registration
   // ... and so is its floor, unless a FLOOR message says it (a session's start, a ride's
   // end): a mapper-proc restarted mid-session gets none. The guess is the floor of the newest
   // node (where the robot was when the map was saved); every other global search covers
@@ -757,8 +797,9 @@ Status Mapper::restore(const MapSnapshot& map) {
   } else {
     ++stats_.lost_restarts;
     restart_gap_s_ = -1.0;
-    restart_note_ = !map.tracking ? "no tracking state stored (the mapper was lost, or an older store)"
-                                  : "the stored tracking state is older than the newest node or names none";
+    restart_note_ = !map.tracking
+                        ? "no tracking state stored (the mapper was lost, or an older store)"
+                        : "the stored tracking state is older than the newest node or names none";
   }
   return Ok{};
 }
@@ -776,7 +817,8 @@ std::optional<core::UncertainPose> noBridge(std::string& why, const Parts&... pa
 
 }  // namespace
 
-std::optional<core::UncertainPose> Mapper::odometryBridge(const TrackingState& s, const vo_delta_t& msg,
+std::optional<core::UncertainPose> Mapper::odometryBridge(const TrackingState& s,
+                                                          const vo_delta_t& msg,
                                                           std::string& why) const {
   if (!o_.warm_restart_bridge) return noBridge(why, "mapper.warm_restart_bridge is off");
   if (!s.odometry) return noBridge(why, "the saved state holds no odometry pose");
@@ -784,7 +826,8 @@ std::optional<core::UncertainPose> Mapper::odometryBridge(const TrackingState& s
   const auto now = messages::odometryPose(msg, &malformed);
   if (!now) return noBridge(why, "the first VO_DELTA: ", malformed);
   const messages::OdometryPose& saved = s.odometry->pose;
-  if (now->epoch != saved.epoch) return noBridge(why, "odometry epoch ", saved.epoch, " then, ", now->epoch, " now");
+  if (now->epoch != saved.epoch)
+    return noBridge(why, "odometry epoch ", saved.epoch, " then, ", now->epoch, " now");
   const double gap_s = 1e-6 * static_cast<double>(now->utime - saved.utime);
   if (gap_s > o_.warm_restart_bridge_max_gap_s)
     return noBridge(why, gap_s, " s > mapper.warm_restart_bridge_max_gap_s");
@@ -793,8 +836,8 @@ std::optional<core::UncertainPose> Mapper::odometryBridge(const TrackingState& s
   // saved_T_now of the body; the odometry's frame is the camera's.
   const core::UncertainPose body = tracker_.toBody(cam->mean, cam->covariance);
   if (const std::string implausible =
-          tracker_.implausibleMotion(body.mean.translation().norm(), core::rotationAngle(body.mean.so3()),
-                                     saved.utime, now->utime);
+          tracker_.implausibleMotion(body.mean.translation().norm(),
+                                     core::rotationAngle(body.mean.so3()), saved.utime, now->utime);
       !implausible.empty())
     return noBridge(why, "implausible: ", implausible);
   // The body is level (to the IMU's accuracy): its z is the world's vertical.
@@ -803,14 +846,17 @@ std::optional<core::UncertainPose> Mapper::odometryBridge(const TrackingState& s
   return body;
 }
 
-std::optional<core::UncertainPose> Mapper::wheelBridge(const TrackingState& s, int64_t utime, std::string& why) const {
+std::optional<core::UncertainPose> Mapper::wheelBridge(const TrackingState& s, int64_t utime,
+                                                       std::string& why) const {
   if (!o_.warm_restart_bridge) return noBridge(why, "mapper.warm_restart_bridge is off");
   if (!s.wheel) return noBridge(why, "the saved state holds no wheel odometry pose");
   const auto now = tracker_.wheelOdometryAt(utime);
   if (!now) return noBridge(why, "no wheel odometry pose at ", utime);
-  if (now->epoch != s.wheel->epoch) return noBridge(why, "wheel odometry epoch ", s.wheel->epoch, " then, ", now->epoch, " now");
+  if (now->epoch != s.wheel->epoch)
+    return noBridge(why, "wheel odometry epoch ", s.wheel->epoch, " then, ", now->epoch, " now");
   const double gap_s = 1e-6 * static_cast<double>(now->utime - s.wheel->utime);
-  if (gap_s > o_.warm_restart_bridge_max_gap_s) return noBridge(why, gap_s, " s > mapper.warm_restart_bridge_max_gap_s");
+  if (gap_s > o_.warm_restart_bridge_max_gap_s)
+    return noBridge(why, gap_s, " s > mapper.warm_restart_bridge_max_gap_s");
   const auto d = messages::wheelOdometryBetween(*s.wheel, *now);
   if (!d) return noBridge(why, d.error().message);
   // The SSC covariance is over (x, y) in the start frame; the right tangent's translation is
@@ -821,35 +867,42 @@ std::optional<core::UncertainPose> Mapper::wheelBridge(const TrackingState& s, i
       tracker_.planarMotion(d->a_T_b.vector(), to_right * d->covariance * to_right.transpose());
   const double distance_m = d->a_T_b.translation().norm();
   const double angle_rad = std::abs(d->a_T_b.theta());
-  if (const std::string implausible = tracker_.implausibleMotion(distance_m, angle_rad, s.wheel->utime, now->utime);
+  if (const std::string implausible =
+          tracker_.implausibleMotion(distance_m, angle_rad, s.wheel->utime, now->utime);
       !implausible.empty())
     return noBridge(why, "implausible: ", implausible);
   return body;
 }
 
-std::optional<std::pair<int64_t, double>> Mapper::elevatorNear(const core::SE3d& world_T_body) const {
+std::optional<std::pair<int64_t, double>> Mapper::elevatorNear(
+    const core::SE3d& world_T_body) const {
   std::optional<std::pair<int64_t, double>> best;
   if (o_.warm_restart_elevator_radius_m <= 0.0) return best;
   const auto n = static_cast<int64_t>(nodes_.size());
   for (const Constraint& c : constraints_.all()) {
-    if (c.kind != ConstraintKind::kOdometry || c.from < 0 || c.to < 0 || c.from >= n || c.to >= n) continue;
-    if (nodes_[static_cast<size_t>(c.from)].floor == nodes_[static_cast<size_t>(c.to)].floor) continue;
+    if (c.kind != ConstraintKind::kOdometry || c.from < 0 || c.to < 0 || c.from >= n || c.to >= n)
+      continue;
+    if (nodes_[static_cast<size_t>(c.from)].floor == nodes_[static_cast<size_t>(c.to)].floor)
+      continue;
     for (const int64_t id : {c.from, c.to}) {
       const double d = (nodePose(id).translation() - world_T_body.translation()).head<2>().norm();
-      if (d <= o_.warm_restart_elevator_radius_m && (!best || d < best->second)) best = std::pair{id, d};
+      if (d <= o_.warm_restart_elevator_radius_m && (!best || d < best->second))
+        best = std::pair{id, d};
     }
   }
   return best;
 }
 
 bool Mapper::waitForWheels(const vo_delta_t& msg) {
-  if (o_.warm_restart_wheel_wait_s <= 0.0 || !saved_tracking_->wheel || saved_tracking_->in_elevator ||
-      tracker_.wheelOdometryAt(msg.utime))
+  if (o_.warm_restart_wheel_wait_s <= 0.0 || !saved_tracking_->wheel ||
+      saved_tracking_->in_elevator || tracker_.wheelOdometryAt(msg.utime))
     return false;
   // A gap no bridge crosses (a new session's first frame, hours or days after the state):
   // nothing to wait for, and the frames set aside would be the session's first keyframe,
   // where the robot stands where it stood before (the relocalisation's best chance).
-  if (1e-6 * static_cast<double>(msg.utime - saved_tracking_->utime) > o_.warm_restart_bridge_max_gap_s) return false;
+  if (1e-6 * static_cast<double>(msg.utime - saved_tracking_->utime) >
+      o_.warm_restart_bridge_max_gap_s)
+    return false;
   if (restart_first_vo_utime_ < 0) restart_first_vo_utime_ = msg.utime;
   if (msg.utime - restart_first_vo_utime_ > micros(o_.warm_restart_wheel_wait_s)) return false;
   std::string why_not;
@@ -863,7 +916,8 @@ void Mapper::decideRestart(const vo_delta_t& msg) {
   const double gap_s = 1e-6 * static_cast<double>(utime - s.utime);
   restart_gap_s_ = gap_s;
   if (s.in_elevator || !(gap_s >= 0.0) || o_.full_graph || o_.warm_restart_max_gap_s <= 0.0) {
-    restart_note_ = s.in_elevator ? "saved in the elevator cab" : "no warm restart (options, or a state from the future)";
+    restart_note_ = s.in_elevator ? "saved in the elevator cab"
+                                  : "no warm restart (options, or a state from the future)";
     ++stats_.lost_restarts;
     return;
   }
@@ -885,21 +939,24 @@ void Mapper::decideRestart(const vo_delta_t& msg) {
   } else {
     const int64_t from_utime = by_wheels ? s.wheel->utime : s.odometry->pose.utime;
     note << (by_wheels ? "bridged by wheel odometry over " : "bridged by odometry over ")
-         << 1e-6 * static_cast<double>(utime - from_utime) << " s: " << bridge->mean.translation().norm() << " m, "
+         << 1e-6 * static_cast<double>(utime - from_utime)
+         << " s: " << bridge->mean.translation().norm() << " m, "
          << core::rotationAngle(bridge->mean.so3()) << " rad";
     if (by_wheels) note << " (VO not bridged: " << vo_why << ")";
   }
   restart_note_ = note.str();
   // Near an elevator, a gap long enough to ride may hold a ride neither bridge sees: the
   // floor is unknown, so the restart is lost (global searches on every floor), not inflated.
-  if (gap_s >= o_.warm_restart_ride_min_s && s.active_node >= 0 && s.active_node < static_cast<int64_t>(nodes_.size())) {
+  if (gap_s >= o_.warm_restart_ride_min_s && s.active_node >= 0 &&
+      s.active_node < static_cast<int64_t>(nodes_.size())) {
     const core::SE3d saved = nodePose(s.active_node) * s.active_T_body.mean;
     auto near = elevatorNear(saved);
     if (!near && bridge) near = elevatorNear(saved * bridge->mean);
     if (near) {
       std::ostringstream elevator;
-      elevator << near->second << " m from the elevator at node " << near->first << " over " << gap_s
-               << " s: a ride may lie in the gap (" << (bridge ? "not bridged" : restart_note_) << ")";
+      elevator << near->second << " m from the elevator at node " << near->first << " over "
+               << gap_s << " s: a ride may lie in the gap ("
+               << (bridge ? "not bridged" : restart_note_) << ")";
       restart_note_ = elevator.str();
       ++stats_.lost_restarts;
       ++stats_.warm_elevator_refusals;
@@ -917,7 +974,8 @@ void Mapper::decideRestart(const vo_delta_t& msg) {
     const double sigma_m = o_.warm_restart_speed_m_s * gap_s;
     const double sigma_rad = std::min(o_.warm_restart_turn_rad_s * gap_s, std::numbers::pi);
     core::Vec6 grow;
-    grow << sigma_m * sigma_m, sigma_m * sigma_m, 0.0025 * gap_s, 1e-4 * gap_s, 1e-4 * gap_s, sigma_rad * sigma_rad;
+    grow << sigma_m * sigma_m, sigma_m * sigma_m, 0.0025 * gap_s, 1e-4 * gap_s, 1e-4 * gap_s,
+        sigma_rad * sigma_rad;
     delta.covariance += grow.asDiagonal();
   }
   active_ = s.active_node;

@@ -55,12 +55,12 @@ struct MapSnapshot;  // map_store.h
 // What a mapper tracks, saved with the map (map_store.h, table map_tracking) so that a
 // restarted mapper can resume where the killed one was (MapperOptions::warm_restart_*).
 struct TrackingState {
-  int64_t utime = 0;             // message time of the pose: the tracker's newest input
+  int64_t utime = 0;  // message time of the pose: the tracker's newest input
   int session = 0;
   int64_t session_start_utime = -1;
-  int64_t active_node = -1;      // the node tracked against
+  int64_t active_node = -1;  // the node tracked against
   int floor = 0;
-  bool in_elevator = false;      // between a ride's start and end (no warm restart from it)
+  bool in_elevator = false;           // between a ride's start and end (no warm restart from it)
   core::UncertainPose active_T_body;  // Δ at utime, with its covariance
   // The odometry pose of the VO frame Δ is at (Tracker::odometryAtDelta), when VO tracked
   // and its sender stamps one: a restart whose first VO_DELTA is of the same epoch bridges
@@ -75,8 +75,8 @@ struct TrackingState {
 // The mapper's solver: iSAM's schedule (GN, a batch step every 100 updates) with the two
 // changes that keep a step's cost from growing with the map (docs/mapper.md, "Step cost"):
 // partial back substitution (a change under 1 mm / 1 mrad stops propagating: iSAM2's
-// wildfire, at GTSAM's default threshold) and the scheduled batch steps computed in the background, swapped in 10 updates
-// (at least 5 s of message time at 2 Hz steps) after they start.
+// wildfire, at GTSAM's default threshold) and the scheduled batch steps computed in the background,
+// swapped in 10 updates (at least 5 s of message time at 2 Hz steps) after they start.
 inline solver::IncrementalOptions mapperSolverOptions() {
   solver::IncrementalOptions o;
   o.wildfire_threshold = 1e-3;
@@ -226,7 +226,8 @@ struct MapperOptions {
   // the node ATE of S (node_at_every_new_place, 2-cell overlap) from 0.336 to 0.225 m mean
   // (seed 2 0.233 -> 0.059, seed 5 0.713 -> 0.136 m) and Algorithm 1's from 0.189 to 0.212 m
   // (seeds 6 and 7 worse, 0.147 -> 0.205 and 0.154 -> 0.251 m: on seed 7 registrations to
-  // one node were right and a Δ that VO had drifted by 0.3-0.4 m was not); docs/mapper.md, "A year".
+  // one node were right and a Δ that VO had drifted by 0.3-0.4 m was not); docs/mapper.md, "A
+  // year".
   bool recovery_needs_two_nodes = false;
   // A ride's end is on the map's floor whose height is within this of the ride's measured
   // height (the map's label, whatever a restarted elevator-proc numbers it), metres.
@@ -297,10 +298,10 @@ struct MapperOptions {
 // Per-component time (wall clock, measurement only: never an input to the algorithm).
 struct MapperTiming {
   double tracking_s = 0.0;
-  double registration_s = 0.0;   // handling results: constraints, Δ replacement
-  double partition_s = 0.0;      // cell index rebuild and new-place tests
+  double registration_s = 0.0;  // handling results: constraints, Δ replacement
+  double partition_s = 0.0;     // cell index rebuild and new-place tests
   double solver_s = 0.0;
-  std::vector<double> update_s;  // solver time of each step that changed the graph
+  std::vector<double> update_s;       // solver time of each step that changed the graph
   std::vector<int64_t> update_utime;  // message time of each update_s entry
   // Background batch steps (IncrementalOptions::background_batch_lag): how many were swapped
   // in, the worker's time on them (work done off the steps, on another core), and how long
@@ -323,33 +324,33 @@ struct MapperTiming {
 struct MapperStats {
   int64_t steps = 0;
   int64_t nodes = 0;
-  int64_t constraints = 0;        // every constraint made (kept in the constraint set)
-  int64_t factors = 0;            // node pairs the solver holds factors for
+  int64_t constraints = 0;  // every constraint made (kept in the constraint set)
+  int64_t factors = 0;      // node pairs the solver holds factors for
   int64_t merged = 0;
   int64_t rejected_inconsistent = 0;
   int64_t requests_node = 0;
   int64_t requests_global = 0;
   int64_t registrations_ok = 0;
-  int64_t loop_closures = 0;      // constraints to another existing node
-  int64_t delta_replaced = 0;     // active-node registrations that replaced Δ
-  int64_t delta_kept = 0;         // ... that lost the det(Σ) test
-  int64_t delta_fused = 0;        // ... fused with Δ (fuse_active_registration)
-  int64_t rejected_map_gate = 0;  // registrations that contradicted the map or Δ
-  int64_t rejected_floor = 0;     // registrations to a node of another floor
+  int64_t loop_closures = 0;           // constraints to another existing node
+  int64_t delta_replaced = 0;          // active-node registrations that replaced Δ
+  int64_t delta_kept = 0;              // ... that lost the det(Σ) test
+  int64_t delta_fused = 0;             // ... fused with Δ (fuse_active_registration)
+  int64_t rejected_map_gate = 0;       // registrations that contradicted the map or Δ
+  int64_t rejected_floor = 0;          // registrations to a node of another floor
   int64_t closures_uninformative = 0;  // new pairs below min_closure_information: no factor
-  int64_t closures_saturated = 0;  // new pairs of saturated nodes below their bound: no factor
-  int64_t node_merges = 0;        // nodes merged into an older one (merge_radius_m)
-  int64_t merges_refused = 0;     // ... not: their constraints contradicted the map's
-  int64_t merges_undone = 0;      // ... undone later: a constraint contradicted the merge
-  int64_t gate_recoveries = 0;    // ... accepted after all: a second one agreed with them
-  int64_t recoveries_too_far = 0; // ... not: their jump was more than odometry could drift
-  int64_t relocalizations = 0;   // a new session tied to the map by a global registration
-  int64_t relocalization_disagreements = 0;  // a lost session's registrations that disagreed
+  int64_t closures_saturated = 0;      // new pairs of saturated nodes below their bound: no factor
+  int64_t node_merges = 0;             // nodes merged into an older one (merge_radius_m)
+  int64_t merges_refused = 0;          // ... not: their constraints contradicted the map's
+  int64_t merges_undone = 0;           // ... undone later: a constraint contradicted the merge
+  int64_t gate_recoveries = 0;         // ... accepted after all: a second one agreed with them
+  int64_t recoveries_too_far = 0;      // ... not: their jump was more than odometry could drift
+  int64_t relocalizations = 0;         // a new session tied to the map by a global registration
+  int64_t relocalization_disagreements = 0;      // a lost session's registrations that disagreed
   int64_t relocalization_same_frame_checks = 0;  // candidates checked on their own keyframe
-  int64_t implausible_floors = 0;  // FLOOR refused by the floor gate (in dropped too)
+  int64_t implausible_floors = 0;                // FLOOR refused by the floor gate (in dropped too)
   int64_t timeouts = 0;
-  int64_t dropped = 0;            // malformed, stale or out-of-order messages
-  int64_t restored_nodes = 0;     // loaded from a map store by restore()
+  int64_t dropped = 0;         // malformed, stale or out-of-order messages
+  int64_t restored_nodes = 0;  // loaded from a map store by restore()
   int64_t restored_constraints = 0;
   // A restored map's start: tracking resumed from the stored state (warm), or lost (no state,
   // a state too old for warm_restart_max_gap_s, or a ride or a new session announced since).
@@ -382,21 +383,21 @@ class Mapper {
   // stored estimates, and every stored constraint replayed through the constraint set in
   // stored order (merges and rejections come out as they did), then one solver batch. The
   // origin prior goes on node 0, height factors on every node and the stored roll/pitch
-  // factors on their nodes. The mapper is then in a new session (one past the highest stored) and lost: only
-  // global registrations until one places it on the map. Its floor is a guess (the newest
-  // node's) until a FLOOR message or that re-localisation confirms it: meanwhile every other
-  // global search (the first included) covers every floor, and a registration on any floor may place it (a
-  // mapper-proc restarted mid-session, on another floor than the one its last session began on). Errors: a mapper that already has
-  // nodes, node or edge ids that are not 0..n-1 in order, an edge naming an unknown node.
-  // With map.tracking (a state saved by a mapper that tracked), the start is decided at the
-  // first VO_DELTA: if it comes at most warm_restart_max_gap_s after the state and no FLOOR
-  // message newer than the state announced a ride or a session, tracking resumes from the
-  // state's node in its session and floor, Δ's covariance grown by the gap
-  // (warm_restart_speed_m_s, warm_restart_turn_rad_s); else the start is lost, as above.
-  // Until two agreeing registrations to the restored map confirm the resumed placement, a
-  // registration to a restored node makes no closure (it is a candidate, checked against the
-  // inflated pose), and POSE is withheld (resumedUnconfirmed()); nodes are added as usual,
-  // the first one linked to the state's node by Δ's inflated covariance.
+  // factors on their nodes. The mapper is then in a new session (one past the highest stored) and
+  // lost: only global registrations until one places it on the map. Its floor is a guess (the
+  // newest node's) until a FLOOR message or that re-localisation confirms it: meanwhile every other
+  // global search (the first included) covers every floor, and a registration on any floor may
+  // place it (a mapper-proc restarted mid-session, on another floor than the one its last session
+  // began on). Errors: a mapper that already has nodes, node or edge ids that are not 0..n-1 in
+  // order, an edge naming an unknown node. With map.tracking (a state saved by a mapper that
+  // tracked), the start is decided at the first VO_DELTA: if it comes at most
+  // warm_restart_max_gap_s after the state and no FLOOR message newer than the state announced a
+  // ride or a session, tracking resumes from the state's node in its session and floor, Δ's
+  // covariance grown by the gap (warm_restart_speed_m_s, warm_restart_turn_rad_s); else the start
+  // is lost, as above. Until two agreeing registrations to the restored map confirm the resumed
+  // placement, a registration to a restored node makes no closure (it is a candidate, checked
+  // against the inflated pose), and POSE is withheld (resumedUnconfirmed()); nodes are added as
+  // usual, the first one linked to the state's node by Δ's inflated covariance.
   Status restore(const MapSnapshot& map);
   // The state to save with the map; empty while lost or before the first node.
   std::optional<TrackingState> trackingState() const;
@@ -430,7 +431,9 @@ class Mapper {
   // Every node made, merged ones included (MapperNode::merged_into); ids are indices.
   const std::vector<MapperNode>& nodes() const { return nodes_; }
   // The nodes of the graph: those not merged into another.
-  int64_t graphNodes() const { return static_cast<int64_t>(nodes_.size() - constraints_.aliases().size()); }
+  int64_t graphNodes() const {
+    return static_cast<int64_t>(nodes_.size() - constraints_.aliases().size());
+  }
   int64_t activeNode() const { return active_; }
   // A new session not yet placed on the map by a global registration: pose() means nothing.
   bool lost() const { return lost_; }
@@ -475,7 +478,7 @@ class Mapper {
     int8_t mode = 0;
     int64_t active = -1;
     core::UncertainPose delta_at_keyframe;  // active_T_keyframe
-    bool same_frame_check = false;  // a lost robot's candidate checked on its own keyframe
+    bool same_frame_check = false;          // a lost robot's candidate checked on its own keyframe
   };
 
   // Algorithm 1's step (mapper.cpp): the request at a keyframe, and the step's end once its
@@ -493,12 +496,13 @@ class Mapper {
   // What a registration b_T_q of the keyframe does: places a lost session (two that agree;
   // returns the same-keyframe check's node, if any), refines Δ (b is the active node), or
   // closes a loop to b.
-  std::optional<int64_t> placeLostSession(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
+  std::optional<int64_t> placeLostSession(const InFlight& f, int64_t b,
+                                          const core::UncertainPose& b_T_q,
                                           const core::UncertainPose& q_T_now, bool* registered);
-  void registerToActive(const InFlight& f, const core::UncertainPose& b_T_q, const core::UncertainPose& q_T_now,
-                        bool* registered);
-  void closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q, const core::UncertainPose& q_T_now,
-                 bool* registered);
+  void registerToActive(const InFlight& f, const core::UncertainPose& b_T_q,
+                        const core::UncertainPose& q_T_now, bool* registered);
+  void closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
+                 const core::UncertainPose& q_T_now, bool* registered);
 
   // The graph (mapper.cpp): nodes, factors and constraints, gathered for the solver's next
   // update (flushSolver: the step's end; a full-graph step's node before its request too).
@@ -511,7 +515,8 @@ class Mapper {
   // The registration protocol's tests against the map and odometry (mapper_registration.cpp).
   // information (when given): the closure's mutual information with the map, nats
   // (MapperOptions::min_closure_information); infinity without a marginal.
-  bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b, double* information = nullptr);
+  bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b,
+                         double* information = nullptr);
   // The map's estimate of a_T_b with its marginal covariance (the joint marginal of a and b
   // through the relative-pose Jacobians); empty when the solver gives no marginal.
   std::optional<core::UncertainPose> mapRelative(int64_t a, int64_t b) const;
@@ -528,9 +533,11 @@ class Mapper {
   // A registration the map gate rejects: true when it confirms the previous rejected one
   // (then both were right and the map or Δ was wrong) and its jump_m is a drift odometry could
   // have made (MapperOptions::recovery_slack_m); otherwise it becomes the candidate.
-  bool confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime, double jump_m);
+  bool confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime,
+                        double jump_m);
   // How far apart the map puts the keyframe q through a (Δ = a_T_q) and through b (b_T_q).
-  double jumpM(int64_t a, const core::UncertainPose& a_T_q, int64_t b, const core::UncertainPose& b_T_q) const;
+  double jumpM(int64_t a, const core::UncertainPose& a_T_q, int64_t b,
+               const core::UncertainPose& b_T_q) const;
   // Gaps odometry bridged so far (tracker counts and rides), and whether a gate recovery may
   // override Δ now (MapperOptions::recovery_quiet_s).
   int64_t bridges() const;
@@ -557,7 +564,8 @@ class Mapper {
   void rebuildGraph();
   void recordFlush(const SolverSchedule::Flush& flush);
   // The node of the place world_T_body is in (partition_index.h).
-  std::optional<int64_t> nodeAt(const core::SE3d& world_T_body, int floor, int64_t newest_allowed) const;
+  std::optional<int64_t> nodeAt(const core::SE3d& world_T_body, int floor,
+                                int64_t newest_allowed) const;
   // A new session (FLOOR with EVENT_NONE, or a gap in VO time): lost until re-localised.
   void startSession(int64_t utime);
   // The map's label for the floor a ride ended on at height_m (FLOOR's reported label):
@@ -574,7 +582,8 @@ class Mapper {
                                                     std::string& why) const;
   // The same from the wheels' odometry frame, to the first VO_DELTA's time `utime`; why not
   // (if not) in `why`.
-  std::optional<core::UncertainPose> wheelBridge(const TrackingState& s, int64_t utime, std::string& why) const;
+  std::optional<core::UncertainPose> wheelBridge(const TrackingState& s, int64_t utime,
+                                                 std::string& why) const;
   // Whether the restart decision waits for the wheels: the saved state holds a wheel pose, VO
   // cannot bridge, no wheel pose at msg's time has arrived yet, and the wait is not over.
   bool waitForWheels(const vo_delta_t& msg);
@@ -582,7 +591,8 @@ class Mapper {
   // `world_T_body` within warm_restart_elevator_radius_m, and its distance; empty if none.
   std::optional<std::pair<int64_t, double>> elevatorNear(const core::SE3d& world_T_body) const;
   // A registration to a restored node while resumedUnconfirmed() (mapper_registration.cpp).
-  std::optional<int64_t> confirmResumed(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
+  std::optional<int64_t> confirmResumed(const InFlight& f, int64_t b,
+                                        const core::UncertainPose& b_T_q,
                                         const core::UncertainPose& q_T_now, bool* registered);
 
   MapperOptions o_;
@@ -594,8 +604,8 @@ class Mapper {
   SolverSchedule schedule_;
   std::vector<MapperNode> nodes_;
   int64_t active_ = -1;
-  bool relocalize_ = false;  // after a loop closure: the next registration to b replaces Δ
-  bool lost_ = false;        // a new session that no global registration has placed yet
+  bool relocalize_ = false;   // after a loop closure: the next registration to b replaces Δ
+  bool lost_ = false;         // a new session that no global registration has placed yet
   double step_cost_s_ = 0.0;  // wall time of the step in progress so far
   double step_cpu_s_ = 0.0;   // ... and CPU time of the mapper's thread
   // While lost: the last registration to the map, waiting for a second one that agrees.
@@ -632,15 +642,15 @@ class Mapper {
   std::map<int64_t, core::SE3d> undone_poses_;
   bool rebuild_graph_ = false;
   int floor_ = 0;
-  bool floor_confirmed_ = true;     // false: a restored map's guess (restore(), sendRequest)
+  bool floor_confirmed_ = true;  // false: a restored map's guess (restore(), sendRequest)
   int64_t unconfirmed_searches_ = 0;
   double floor_height_m_ = 0.0;
   std::map<int, double> floors_;
   bool have_floor_ = false;
-  bool in_elevator_ = false;  // between a ride's start and end: no steps
-  int64_t rides_ = 0;         // ride ends seen
-  int64_t last_confirmed_utime_ = -1;   // keyframe of the last accepted registration
-  int64_t bridges_at_confirmation_ = 0;  // bridges() then
+  bool in_elevator_ = false;               // between a ride's start and end: no steps
+  int64_t rides_ = 0;                      // ride ends seen
+  int64_t last_confirmed_utime_ = -1;      // keyframe of the last accepted registration
+  int64_t bridges_at_confirmation_ = 0;    // bridges() then
   double odometer_at_confirmation_ = 0.0;  // tracker_.odometerM() then
   std::optional<attitude_t> attitude_;
   int64_t last_step_utime_ = -1;
@@ -652,7 +662,7 @@ class Mapper {
   int64_t next_request_id_ = 1;
   std::optional<InFlight> in_flight_;
   std::optional<TrackingState> saved_tracking_;  // restore()'s, until decideRestart()
-  bool resumed_ = false;            // warm restart, placement not confirmed yet
+  bool resumed_ = false;                         // warm restart, placement not confirmed yet
   std::optional<double> restart_gap_s_;
   int64_t restart_first_vo_utime_ = -1;  // the first VO_DELTA after a restart (waitForWheels)
   std::string restart_note_;

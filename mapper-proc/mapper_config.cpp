@@ -61,7 +61,8 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.tracker.gyro_noise_density", &o->tracker.gyro_noise_density);
   reader.read("mapper.tracker.gyro_bias_correlation_s", &o->tracker.gyro_bias_correlation_s);
   reader.read("mapper.tracker.vo_gyro_gate", &o->tracker.vo_gyro_gate);
-  reader.read("mapper.tracker.heading_extrapolation_rate_sigma_rad_s", &o->tracker.heading_extrapolation_rate_sigma_rad_s);
+  reader.read("mapper.tracker.heading_extrapolation_rate_sigma_rad_s",
+              &o->tracker.heading_extrapolation_rate_sigma_rad_s);
   reader.read("mapper.tracker.heading_extrapolation_s", &o->tracker.heading_extrapolation_s);
   reader.read("mapper.tracker.heading_wait_s", &o->tracker.heading_wait_s);
   reader.read("mapper.tracker.max_speed_m_s", &o->tracker.max_speed_m_s);
@@ -77,8 +78,9 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.loop_kernel", &loop_kernel);
   reader.read("mapper.vetted_loop_kernel", &vetted_loop_kernel);
   if (auto s = reader.finish(); !s) return s;
-  for (auto [key, text, kernel] : {std::tuple{"mapper.loop_kernel", &loop_kernel, &o->loop_kernel},
-                                   std::tuple{"mapper.vetted_loop_kernel", &vetted_loop_kernel, &o->vetted_loop_kernel}}) {
+  for (auto [key, text, kernel] :
+       {std::tuple{"mapper.loop_kernel", &loop_kernel, &o->loop_kernel},
+        std::tuple{"mapper.vetted_loop_kernel", &vetted_loop_kernel, &o->vetted_loop_kernel}}) {
     if (text->empty()) continue;
     auto k = solver::parseRobustKernel(*text);
     if (!k) return makeError(reader.where(key), ": ", key, ": ", k.error().message);
@@ -87,8 +89,8 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   if (!method.empty()) {
     auto m = solver::parseMethod(method);
     if (!m || *m == solver::Method::kLevenbergMarquardt)
-      return makeError(reader.where("mapper.solver.method"), ": mapper.solver.method: expected 'gn' or 'dogleg', got '", method,
-                       "'");
+      return makeError(reader.where("mapper.solver.method"),
+                       ": mapper.solver.method: expected 'gn' or 'dogleg', got '", method, "'");
     o->solver.method = *m;
   }
   if (auto s = o->validate(); !s) return makeError(file.name(), ": ", s.error().message);

@@ -29,7 +29,9 @@ void Mapper::sendRequest(int8_t mode, int64_t target) {
   // A restored mapper's floor is a guess (its newest node's) until a FLOOR message or a
   // relocalisation confirms it: every other global search, the first included, covers every
   // floor (a session may begin on any floor; a restarted mapper is likely on the guessed one).
-  if (!floor_confirmed_ && mode == register_request_t::MODE_GLOBAL && ++unconfirmed_searches_ % 2 == 1) r.floor = -1;
+  if (!floor_confirmed_ && mode == register_request_t::MODE_GLOBAL &&
+      ++unconfirmed_searches_ % 2 == 1)
+    r.floor = -1;
   r.session = session_;
   in_flight_->request_id = r.request_id;
   in_flight_->mode = mode;
@@ -82,12 +84,15 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
   bool finite = std::isfinite(msg.translation[0]) && std::isfinite(msg.translation[1]) &&
                 std::isfinite(msg.translation[2]);
   for (double q : msg.orientation) finite = finite && std::isfinite(q);
-  const double q_norm = Eigen::Vector4d(msg.orientation[0], msg.orientation[1], msg.orientation[2], msg.orientation[3]).norm();
+  const double q_norm = Eigen::Vector4d(msg.orientation[0], msg.orientation[1], msg.orientation[2],
+                                        msg.orientation[3])
+                            .norm();
   auto cov = messages::covarianceFromMessage(msg.covariance, "REGISTER_RESULT");
   if (!finite || std::abs(q_norm - 1.0) > 1e-3 || !cov || msg.node_id < 0 ||
       msg.node_id >= static_cast<int64_t>(nodes_.size())) {
     ++stats_.dropped;
-    status = makeError("REGISTER_RESULT ", msg.request_id, ": malformed pose, covariance or node id");
+    status =
+        makeError("REGISTER_RESULT ", msg.request_id, ": malformed pose, covariance or node id");
   } else {
     ++stats_.registrations_ok;
     same_frame_target = handleRegistration(msg, f, *cov, &registered);
@@ -109,8 +114,10 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
 std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
                                                   const core::Mat6& cam_cov, bool* registered) {
   int64_t b = msg.node_id;
-  const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2], msg.orientation[3]);
-  const core::SE3d cam_T = core::SE3d(q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2]));
+  const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2],
+                             msg.orientation[3]);
+  const core::SE3d cam_T = core::SE3d(
+      q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2]));
   // The registration in body frames (paper eq. 9), by STEREO_CALIB's mounting once it came.
   core::UncertainPose b_T_q = tracker_.registrationToBody(cam_T, cam_cov);
   registered_via_.reset();
@@ -127,11 +134,13 @@ std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, 
     return std::nullopt;
   }
   if (lost_) return placeLostSession(f, b, b_T_q, *q_T_now, registered);
-  if (resumed_ && b < resume_first_new_node_) return confirmResumed(f, b, b_T_q, *q_T_now, registered);
+  if (resumed_ && b < resume_first_new_node_)
+    return confirmResumed(f, b, b_T_q, *q_T_now, registered);
   if (o_.full_graph) {
-    if (nodes_[b].keyframe_utime > f.keyframe_utime - micros(o_.recent_exclusion_s)) return std::nullopt;
-    addConstraint(f.active, b, core::compound(f.delta_at_keyframe, core::invert(b_T_q)), ConstraintKind::kLoop,
-                  f.keyframe_utime);
+    if (nodes_[b].keyframe_utime > f.keyframe_utime - micros(o_.recent_exclusion_s))
+      return std::nullopt;
+    addConstraint(f.active, b, core::compound(f.delta_at_keyframe, core::invert(b_T_q)),
+                  ConstraintKind::kLoop, f.keyframe_utime);
     ++stats_.loop_closures;
     *registered = true;
     return std::nullopt;
@@ -153,8 +162,10 @@ std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, 
   return std::nullopt;
 }
 
-std::optional<int64_t> Mapper::placeLostSession(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
-                                                const core::UncertainPose& q_T_now, bool* registered) {
+std::optional<int64_t> Mapper::placeLostSession(const InFlight& f, int64_t b,
+                                                const core::UncertainPose& b_T_q,
+                                                const core::UncertainPose& q_T_now,
+                                                bool* registered) {
   // One global match may be a false one, and nothing in the map could contradict a wrong
   // placement of the whole session afterwards: the session is placed only when two
   // registrations, chained by odometry, agree on where it is.
@@ -186,8 +197,10 @@ std::optional<int64_t> Mapper::placeLostSession(const InFlight& f, int64_t b, co
   return std::nullopt;
 }
 
-std::optional<int64_t> Mapper::confirmResumed(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
-                                              const core::UncertainPose& q_T_now, bool* registered) {
+std::optional<int64_t> Mapper::confirmResumed(const InFlight& f, int64_t b,
+                                              const core::UncertainPose& b_T_q,
+                                              const core::UncertainPose& q_T_now,
+                                              bool* registered) {
   // A warm restart's Δ (or the first node made from it) is the saved pose with the gap's
   // uncertainty: a closure from it would carry the unknown motion of the gap into the map as
   // a measurement (a false loop edge, metres off), and one registration inside so wide a
@@ -195,8 +208,10 @@ std::optional<int64_t> Mapper::confirmResumed(const InFlight& f, int64_t b, cons
   // registration must fit the inflated pose (the map gate, with Δ's covariance in the chain
   // a_T_b) and a second one must agree with it through odometry; then the robot is placed.
   const core::UncertainPose a_T_b = core::compound(f.delta_at_keyframe, core::invert(b_T_q));
-  const bool fits = b == f.active ? !(o_.map_gate > 0) || ConstraintSet::mahalanobis2(f.delta_at_keyframe, b_T_q) <= o_.map_gate
-                                  : consistentWithMap(f.active, b, a_T_b);
+  const bool fits = b == f.active
+                        ? !(o_.map_gate > 0) ||
+                              ConstraintSet::mahalanobis2(f.delta_at_keyframe, b_T_q) <= o_.map_gate
+                        : consistentWithMap(f.active, b, a_T_b);
   *registered = false;
   gate_rejected_ = true;  // a place of the map is near (or a false match): no node at this step
   if (!fits) {
@@ -205,7 +220,8 @@ std::optional<int64_t> Mapper::confirmResumed(const InFlight& f, int64_t b, cons
   }
   if (!confirmsRelocalization(b, b_T_q, f.keyframe_utime, relocalization_candidate_)) {
     relocalization_candidate_ = RelocalizationCandidate{b, b_T_q, f.keyframe_utime};
-    if (!f.same_frame_check && o_.relocalization_checks > 0) return linkedNeighbour(b, nodePose(b) * b_T_q.mean);
+    if (!f.same_frame_check && o_.relocalization_checks > 0)
+      return linkedNeighbour(b, nodePose(b) * b_T_q.mean);
     return std::nullopt;
   }
   relocalization_candidate_.reset();
@@ -232,7 +248,8 @@ void Mapper::registerToActive(const InFlight& f, const core::UncertainPose& b_T_
   // A registration that contradicts the tracked Δ is not trusted with it (a false match),
   // unless a second one confirms it: then Δ is what was wrong, and it is replaced.
   if (o_.map_gate > 0 && ConstraintSet::mahalanobis2(f.delta_at_keyframe, b_T_q) > o_.map_gate) {
-    if (!confirmsRejected(b, b_T_q, f.keyframe_utime, jumpM(f.active, f.delta_at_keyframe, b, b_T_q))) {
+    if (!confirmsRejected(b, b_T_q, f.keyframe_utime,
+                          jumpM(f.active, f.delta_at_keyframe, b, b_T_q))) {
       ++stats_.rejected_map_gate;
       gate_rejected_ = true;
       *registered = false;
@@ -252,7 +269,8 @@ void Mapper::registerToActive(const InFlight& f, const core::UncertainPose& b_T_
     return;
   }
   // Entropy test of section III-B.3: keep the better-determined estimate of Δ.
-  if (relocalize_ || f.delta_at_keyframe.covariance.determinant() > b_T_q.covariance.determinant()) {
+  if (relocalize_ ||
+      f.delta_at_keyframe.covariance.determinant() > b_T_q.covariance.determinant()) {
     tracker_.reset(core::compound(b_T_q, q_T_now));
     relocalize_ = false;
     ++stats_.delta_replaced;
@@ -268,10 +286,12 @@ void Mapper::closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& 
   const core::UncertainPose a_T_b = core::compound(f.delta_at_keyframe, core::invert(b_T_q));
   // A pair that already holds constraints tests a new one against them (constraint_set.h);
   // the map gate is for a pair's first constraint, which nothing else can contradict.
-  const bool known_pair = constraints_.pairs().count({std::min(f.active, b), std::max(f.active, b)}) > 0;
+  const bool known_pair =
+      constraints_.pairs().count({std::min(f.active, b), std::max(f.active, b)}) > 0;
   double information = std::numeric_limits<double>::infinity();
   const bool contradicts_map = !known_pair && !consistentWithMap(f.active, b, a_T_b, &information);
-  if (contradicts_map && !confirmsRejected(b, b_T_q, f.keyframe_utime, jumpM(f.active, f.delta_at_keyframe, b, b_T_q))) {
+  if (contradicts_map && !confirmsRejected(b, b_T_q, f.keyframe_utime,
+                                           jumpM(f.active, f.delta_at_keyframe, b, b_T_q))) {
     ++stats_.rejected_map_gate;
     gate_rejected_ = true;
     *registered = false;
@@ -289,8 +309,9 @@ void Mapper::closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& 
   }
   // A new pair between two nodes that are both tied to as many others as
   // MapperOptions::closure_partners allows needs saturated_closure_information.
-  const bool saturated = !known_pair && o_.closure_partners > 0 &&
-                         std::min(constraints_.partners(f.active), constraints_.partners(b)) >= o_.closure_partners;
+  const bool saturated =
+      !known_pair && o_.closure_partners > 0 &&
+      std::min(constraints_.partners(f.active), constraints_.partners(b)) >= o_.closure_partners;
   const bool uninformative = !known_pair && information < o_.min_closure_information;
   if (uninformative || (saturated && information < o_.saturated_closure_information)) {
     // The map already holds what this closure says about the pair: re-localised on b, no
@@ -306,8 +327,8 @@ void Mapper::closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& 
   if (registered_via_) {
     // To the merged node the keyframe registered to: a contradiction can then undo the merge.
     const auto& [n, n_T_q] = *registered_via_;
-    addConstraint(f.active, n, core::compound(f.delta_at_keyframe, core::invert(n_T_q)), ConstraintKind::kLoop,
-                  f.keyframe_utime, o_.map_gate > 0);
+    addConstraint(f.active, n, core::compound(f.delta_at_keyframe, core::invert(n_T_q)),
+                  ConstraintKind::kLoop, f.keyframe_utime, o_.map_gate > 0);
   } else {
     addConstraint(f.active, b, a_T_b, ConstraintKind::kLoop, f.keyframe_utime, o_.map_gate > 0);
   }
@@ -323,11 +344,14 @@ void Mapper::closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& 
   relocalize_ = true;
 }
 
-double Mapper::jumpM(int64_t a, const core::UncertainPose& a_T_q, int64_t b, const core::UncertainPose& b_T_q) const {
-  return ((nodePose(a) * a_T_q.mean).translation() - (nodePose(b) * b_T_q.mean).translation()).norm();
+double Mapper::jumpM(int64_t a, const core::UncertainPose& a_T_q, int64_t b,
+                     const core::UncertainPose& b_T_q) const {
+  return ((nodePose(a) * a_T_q.mean).translation() - (nodePose(b) * b_T_q.mean).translation())
+      .norm();
 }
 
-bool Mapper::confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime, double jump_m) {
+bool Mapper::confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime,
+                              double jump_m) {
   // A registration the gate rejects says either that it is a false match or that the map's
   // idea of where the robot is (Δ, or the chain of nodes made since the last closure) went
   // wrong, e.g. after a VO failure longer than its covariance admits. Two rejected
@@ -336,12 +360,14 @@ bool Mapper::confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64
   // mapper adds nodes over mapped places until the session ends.
   // Repeated texture (floor tiles) makes false matches that agree with each other: a Δ that
   // registrations keep confirming, with no gap bridged since, is not overridden by them.
-  const bool another_node = !o_.recovery_needs_two_nodes || (rejected_candidate_ && rejected_candidate_->node != b);
+  const bool another_node =
+      !o_.recovery_needs_two_nodes || (rejected_candidate_ && rejected_candidate_->node != b);
   bool agree = recoveryAllowed(keyframe_utime) && another_node &&
                confirmsRelocalization(b, b_T_q, keyframe_utime, rejected_candidate_);
   // Agreeing registrations one texture period away: not a drift odometry could have made.
   const double drift_m =
-      o_.recovery_slack_m + o_.recovery_drift_fraction * (tracker_.odometerM() - odometer_at_confirmation_);
+      o_.recovery_slack_m +
+      o_.recovery_drift_fraction * (tracker_.odometerM() - odometer_at_confirmation_);
   if (agree && jump_m > drift_m) {
     ++stats_.recoveries_too_far;
     agree = false;
@@ -362,7 +388,8 @@ std::optional<int64_t> Mapper::relocalizationCheck(int64_t keyframe_utime) {
   // to find the same place by appearance (a session that starts where an earlier one
   // started passes one place of the map in its first seconds). Two checks at most, then
   // global searches again (a false candidate cannot hold the search).
-  if (!relocalization_candidate_ || relocalization_candidate_->verifications >= o_.relocalization_checks)
+  if (!relocalization_candidate_ ||
+      relocalization_candidate_->verifications >= o_.relocalization_checks)
     return std::nullopt;
   RelocalizationCandidate& c = *relocalization_candidate_;
   const auto c_T_now = tracker_.sinceKeyframe(c.keyframe_utime);
@@ -396,7 +423,8 @@ std::optional<int64_t> Mapper::linkedNeighbour(int64_t node, const core::SE3d& w
   return best;
 }
 
-bool Mapper::confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime,
+bool Mapper::confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q,
+                                    int64_t keyframe_utime,
                                     const std::optional<RelocalizationCandidate>& candidate) {
   if (!candidate) return false;
   const RelocalizationCandidate c = *candidate;
@@ -406,10 +434,12 @@ bool Mapper::confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q,
   // The two placements chained: c.node_T_b = c.node_T_kc ⊕ kc_T_q ⊕ ⊖(b_T_q) (eq. 6-7; the
   // odometry covariance is counted twice where the two chains share increments: a looser gate).
   const core::UncertainPose kc_T_q = core::compound(*c_T_now, core::invert(*q_T_now));
-  const core::UncertainPose measured = core::compound(core::compound(c.node_T_keyframe, kc_T_q), core::invert(b_T_q));
+  const core::UncertainPose measured =
+      core::compound(core::compound(c.node_T_keyframe, kc_T_q), core::invert(b_T_q));
   bool agree = false;
   if (c.node == b) {
-    agree = !(o_.map_gate > 0) || ConstraintSet::mahalanobis2(core::UncertainPose{}, measured) <= o_.map_gate;
+    agree = !(o_.map_gate > 0) ||
+            ConstraintSet::mahalanobis2(core::UncertainPose{}, measured) <= o_.map_gate;
   } else {
     agree = consistentWithMap(c.node, b, measured);
   }
@@ -432,7 +462,8 @@ std::optional<core::UncertainPose> Mapper::mapRelative(int64_t a, int64_t b) con
   return predicted;
 }
 
-bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b, double* information) {
+bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b,
+                               double* information) {
   if (information) *information = std::numeric_limits<double>::infinity();
   if (!(o_.map_gate > 0)) return true;
   // The map's own estimate of a_T_b with its marginal covariance, against the measured chain.
@@ -457,7 +488,8 @@ bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& 
 
 int64_t Mapper::bridges() const {
   const TrackerCounts& c = tracker_.counts();
-  return c.wheel_applied + c.restarts + c.reanchored + c.relinks_refused + c.relinks_weaker + rides_;
+  return c.wheel_applied + c.restarts + c.reanchored + c.relinks_refused + c.relinks_weaker +
+         rides_;
 }
 
 bool Mapper::recoveryAllowed(int64_t keyframe_utime) const {

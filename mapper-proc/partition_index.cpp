@@ -13,7 +13,8 @@ core::PlanarCell PartitionIndex::cellOf(const core::SE3d& world_T_body, int floo
   return grid_.cellOf(core::toPlanar(world_T_body), floor);
 }
 
-std::optional<int64_t> PartitionIndex::nodeInCell(const core::PlanarCell& cell, int64_t newest_allowed,
+std::optional<int64_t> PartitionIndex::nodeInCell(const core::PlanarCell& cell,
+                                                  int64_t newest_allowed,
                                                   const std::vector<MapperNode>& nodes) const {
   auto it = cells_.find(cell);
   if (it == cells_.end()) return std::nullopt;
@@ -31,18 +32,18 @@ double PartitionIndex::headingApartRad(const core::SE2d& a, const core::SE2d& b)
   return std::abs(std::remainder(a.theta() - b.theta(), 2.0 * std::numbers::pi));
 }
 
-std::optional<int64_t> PartitionIndex::overlappingNode(const core::SE3d& world_T_body, int floor,
-                                                       int64_t newest_allowed,
-                                                       const std::vector<MapperNode>& nodes,
-                                                       const solver::IncrementalSolver& solver) const {
-  return closestNode(world_T_body, floor, newest_allowed, nodes, solver, o_.overlap_radius_cells * o_.cell_size_m,
-                     overlapHeadingRad());
+std::optional<int64_t> PartitionIndex::overlappingNode(
+    const core::SE3d& world_T_body, int floor, int64_t newest_allowed,
+    const std::vector<MapperNode>& nodes, const solver::IncrementalSolver& solver) const {
+  return closestNode(world_T_body, floor, newest_allowed, nodes, solver,
+                     o_.overlap_radius_cells * o_.cell_size_m, overlapHeadingRad());
 }
 
-std::optional<int64_t> PartitionIndex::closestNode(const core::SE3d& world_T_body, int floor, int64_t newest_allowed,
+std::optional<int64_t> PartitionIndex::closestNode(const core::SE3d& world_T_body, int floor,
+                                                   int64_t newest_allowed,
                                                    const std::vector<MapperNode>& nodes,
-                                                   const solver::IncrementalSolver& solver, double radius_m,
-                                                   double heading_rad) const {
+                                                   const solver::IncrementalSolver& solver,
+                                                   double radius_m, double heading_rad) const {
   if (!(radius_m > 0.0) || !(heading_rad > 0.0)) return std::nullopt;
   const core::SE2d p = core::toPlanar(world_T_body);
   const core::PlanarCell c = grid_.cellOf(p, floor);
@@ -50,13 +51,17 @@ std::optional<int64_t> PartitionIndex::closestNode(const core::SE3d& world_T_bod
   double best_score = 2.0;
   // The cells and sectors the overlap reaches into: every candidate is filed in one of them.
   const int rings = static_cast<int>(std::ceil(o_.overlap_radius_cells));
-  const int sector_rings = std::min(static_cast<int>(std::ceil(o_.overlap_heading_sectors)), o_.heading_bins / 2);
+  const int sector_rings =
+      std::min(static_cast<int>(std::ceil(o_.overlap_heading_sectors)), o_.heading_bins / 2);
   for (int dx = -rings; dx <= rings; ++dx) {
     for (int dy = -rings; dy <= rings; ++dy) {
       for (int dh = -sector_rings; dh <= sector_rings; ++dh) {
         // each sector once: with an even number of sectors the opposite one is reached both ways
-        if (o_.heading_bins % 2 == 0 && sector_rings == o_.heading_bins / 2 && dh == -sector_rings) continue;
-        core::PlanarCell n{floor, c.ix + dx, c.iy + dy, ((c.iheading + dh) % o_.heading_bins + o_.heading_bins) % o_.heading_bins};
+        if (o_.heading_bins % 2 == 0 && sector_rings == o_.heading_bins / 2 && dh == -sector_rings)
+          continue;
+        core::PlanarCell n{
+            floor, c.ix + dx, c.iy + dy,
+            ((c.iheading + dh) % o_.heading_bins + o_.heading_bins) % o_.heading_bins};
         auto it = cells_.find(n);
         if (it == cells_.end()) continue;
         for (int64_t id : it->second) {
@@ -76,7 +81,8 @@ std::optional<int64_t> PartitionIndex::closestNode(const core::SE3d& world_T_bod
   return best;
 }
 
-std::optional<int64_t> PartitionIndex::nodeAt(const core::SE3d& world_T_body, int floor, int64_t newest_allowed,
+std::optional<int64_t> PartitionIndex::nodeAt(const core::SE3d& world_T_body, int floor,
+                                              int64_t newest_allowed,
                                               const std::vector<MapperNode>& nodes,
                                               const solver::IncrementalSolver& solver) const {
   if (auto id = nodeInCell(cellOf(world_T_body, floor), newest_allowed, nodes)) return id;
@@ -103,13 +109,16 @@ void PartitionIndex::file(int64_t id, const core::PlanarCell& cell) {
 void PartitionIndex::rebuild(const std::vector<MapperNode>& nodes, const solver::Values& estimate) {
   cells_.clear();
   node_cell_.clear();
-  for (const MapperNode& n : nodes) file(n.id, n.merged_into >= 0 ? kUnfiled : cellOf(estimate[n.id].se3, n.floor));
+  for (const MapperNode& n : nodes)
+    file(n.id, n.merged_into >= 0 ? kUnfiled : cellOf(estimate[n.id].se3, n.floor));
   refresh_next_ = SIZE_MAX;
 }
 
-bool PartitionIndex::refresh(const std::vector<MapperNode>& nodes, const solver::IncrementalSolver& solver) {
+bool PartitionIndex::refresh(const std::vector<MapperNode>& nodes,
+                             const solver::IncrementalSolver& solver) {
   if (refresh_next_ >= nodes.size()) return false;
-  const size_t end = std::min(nodes.size(), refresh_next_ + static_cast<size_t>(o_.refresh_per_step));
+  const size_t end =
+      std::min(nodes.size(), refresh_next_ + static_cast<size_t>(o_.refresh_per_step));
   for (; refresh_next_ < end; ++refresh_next_) {
     const MapperNode& n = nodes[refresh_next_];
     if (n.merged_into < 0) file(n.id, cellOf(solver.estimate(n.id).se3, n.floor));

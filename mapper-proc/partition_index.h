@@ -29,7 +29,7 @@ class PartitionIndex {
   struct Options {
     double cell_size_m = 1.0;
     int heading_bins = 8;
-    double overlap_radius_cells = 1.0;    // the overlap's radius, in cells
+    double overlap_radius_cells = 1.0;     // the overlap's radius, in cells
     double overlap_heading_sectors = 1.0;  // ... and its heading tolerance, in sectors
     int refresh_per_step = 200;            // nodes re-filed per step after a background batch
   };
@@ -42,13 +42,15 @@ class PartitionIndex {
                                     const std::vector<MapperNode>& nodes) const;
   // The node closest to world_T_body within the overlap, searched in the neighbouring cells
   // and sectors, on the floor.
-  std::optional<int64_t> overlappingNode(const core::SE3d& world_T_body, int floor, int64_t newest_allowed,
+  std::optional<int64_t> overlappingNode(const core::SE3d& world_T_body, int floor,
+                                         int64_t newest_allowed,
                                          const std::vector<MapperNode>& nodes,
                                          const solver::IncrementalSolver& solver) const;
   // The same within radius_m and heading_rad, at most the overlap's (merges).
-  std::optional<int64_t> closestNode(const core::SE3d& world_T_body, int floor, int64_t newest_allowed,
-                                     const std::vector<MapperNode>& nodes, const solver::IncrementalSolver& solver,
-                                     double radius_m, double heading_rad) const;
+  std::optional<int64_t> closestNode(const core::SE3d& world_T_body, int floor,
+                                     int64_t newest_allowed, const std::vector<MapperNode>& nodes,
+                                     const solver::IncrementalSolver& solver, double radius_m,
+                                     double heading_rad) const;
   // The node of the place world_T_body is in: its cell's, else the one overlapping it.
   std::optional<int64_t> nodeAt(const core::SE3d& world_T_body, int floor, int64_t newest_allowed,
                                 const std::vector<MapperNode>& nodes,

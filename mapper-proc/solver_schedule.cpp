@@ -22,16 +22,19 @@ Eigen::MatrixXd sqrtInformation(const core::Mat6& covariance, double floor) {
 
 }  // namespace
 
-std::shared_ptr<solver::RelativePose3Factor> pairFactor(int64_t i, int64_t j, const core::UncertainPose& i_T_j,
+std::shared_ptr<solver::RelativePose3Factor> pairFactor(int64_t i, int64_t j,
+                                                        const core::UncertainPose& i_T_j,
                                                         double covariance_floor) {
-  return std::make_shared<solver::RelativePose3Factor>(i, j, i_T_j.mean,
-                                                       sqrtInformation(i_T_j.covariance, covariance_floor),
-                                                       solver::RelativePose3Factor::Convention::kLog);
+  return std::make_shared<solver::RelativePose3Factor>(
+      i, j, i_T_j.mean, sqrtInformation(i_T_j.covariance, covariance_floor),
+      solver::RelativePose3Factor::Convention::kLog);
 }
 
 SolverSchedule::SolverSchedule(const solver::IncrementalOptions& options, bool defer_merges,
                                double covariance_floor)
-    : batch_every_(options.batch_every), defer_merges_(defer_merges), covariance_floor_(covariance_floor),
+    : batch_every_(options.batch_every),
+      defer_merges_(defer_merges),
+      covariance_floor_(covariance_floor),
       options_(options),
       solver_(std::make_unique<solver::IncrementalSolver>(options)) {}
 
@@ -84,12 +87,14 @@ void SolverSchedule::consolidatePairs(const ConstraintSet& constraints) {
   }
 }
 
-std::optional<SolverSchedule::Flush> SolverSchedule::flush(int64_t step_utime, const ConstraintSet& constraints) {
+std::optional<SolverSchedule::Flush> SolverSchedule::flush(int64_t step_utime,
+                                                           const ConstraintSet& constraints) {
   // Merged pairs are consolidated at the solver's scheduled batch steps: it batch-steps every
   // batch_every-th update anyway (its update counter starts at 0).
   const auto t0 = SteadyClock::now();
   const int every = batch_every_;
-  const bool changes = !pending_update_.new_variables.empty() || !pending_update_.new_factors.empty();
+  const bool changes =
+      !pending_update_.new_variables.empty() || !pending_update_.new_factors.empty();
   const bool scheduled = every > 0 && changes && solver_updates_ % every == 0;
   const bool idle = every > 0 && !changes && deferred_merges_ >= every;
   if ((scheduled || idle) && !to_consolidate_.empty()) {
@@ -103,7 +108,8 @@ std::optional<SolverSchedule::Flush> SolverSchedule::flush(int64_t step_utime, c
   out.solver_s = secondsSince(t0);
   // Contract: the mapper only builds updates over keys it created, with finite factors.
   if (!result) {
-    std::fprintf(stderr, "evermap-mapper: solver update failed: %s\n", result.error().message.c_str());
+    std::fprintf(stderr, "evermap-mapper: solver update failed: %s\n",
+                 result.error().message.c_str());
     std::abort();
   }
   if (result->batch_started) batch_start_utime_ = step_utime;
@@ -129,8 +135,9 @@ std::optional<SolverSchedule::Flush> SolverSchedule::flush(int64_t step_utime, c
   return out;
 }
 
-SolverSchedule::Flush SolverSchedule::rebuild(const std::vector<std::pair<int64_t, core::SE3d>>& variables,
-                                               const ConstraintSet& constraints) {
+SolverSchedule::Flush SolverSchedule::rebuild(
+    const std::vector<std::pair<int64_t, core::SE3d>>& variables,
+    const ConstraintSet& constraints) {
   const auto t0 = SteadyClock::now();
   if (!pending_update_.new_variables.empty() || !pending_update_.new_factors.empty() ||
       !pending_update_.remove_factors.empty()) {
@@ -155,19 +162,22 @@ SolverSchedule::Flush SolverSchedule::rebuild(const std::vector<std::pair<int64_
     request.new_factors.push_back(pairFactor(pair.i, pair.j, pair.i_T_j, covariance_floor_));
   }
   request.force_batch = true;
-  solver_ = std::make_unique<solver::IncrementalSolver>(options_);  // the old one's worker is waited for
+  solver_ =
+      std::make_unique<solver::IncrementalSolver>(options_);  // the old one's worker is waited for
   pair_factor_.clear();
   to_consolidate_.clear();
   deferred_merges_ = 0;
   auto result = solver_->update(request);
   if (!result) {
-    std::fprintf(stderr, "evermap-mapper: solver rebuild failed: %s\n", result.error().message.c_str());
+    std::fprintf(stderr, "evermap-mapper: solver rebuild failed: %s\n",
+                 result.error().message.c_str());
     std::abort();
   }
   // The consolidations follow the new solver's batch schedule (its update counter).
   solver_updates_ = solver_->updates();
   const size_t first_pair = request.new_factors.size() - pairs.size();
-  for (size_t k = 0; k < pairs.size(); ++k) pair_factor_[pairs[k]].push_back(result->new_factor_ids[first_pair + k]);
+  for (size_t k = 0; k < pairs.size(); ++k)
+    pair_factor_[pairs[k]].push_back(result->new_factor_ids[first_pair + k]);
   Flush out;
   out.solver_s = secondsSince(t0);
   out.batch = true;

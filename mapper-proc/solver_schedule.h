@@ -1,7 +1,8 @@
 #pragma once
 // When the mapper's changes reach the solver: Algorithm 1's "update the solution", at the end
-// of each step (and of a restore), through iSAM's schedule (an incremental update; every batch_every-th a batch step,
-// computed in the background and swapped in later, MapperOptions::solver).
+// of each step (and of a restore), through iSAM's schedule (an incremental update; every
+// batch_every-th a batch step, computed in the background and swapped in later,
+// MapperOptions::solver).
 //
 // A step's new nodes and factors are gathered and sent as one update (flush). A constraint
 // that merges into a pair the solver already holds a factor of waits, when defer_merges, for
@@ -28,12 +29,14 @@ namespace evermap::mapper {
 using NodePair = std::pair<int64_t, int64_t>;  // (i, j), i < j, as ConstraintSet keys pairs
 
 // The factor of a relative-pose constraint i_T_j (covariance_floor added to its covariance).
-std::shared_ptr<solver::RelativePose3Factor> pairFactor(int64_t i, int64_t j, const core::UncertainPose& i_T_j,
+std::shared_ptr<solver::RelativePose3Factor> pairFactor(int64_t i, int64_t j,
+                                                        const core::UncertainPose& i_T_j,
                                                         double covariance_floor);
 
 class SolverSchedule {
  public:
-  SolverSchedule(const solver::IncrementalOptions& options, bool defer_merges, double covariance_floor);
+  SolverSchedule(const solver::IncrementalOptions& options, bool defer_merges,
+                 double covariance_floor);
 
   const solver::IncrementalSolver& solver() const { return *solver_; }
   core::SE3d pose(int64_t id) const { return solver_->estimate(id).se3; }
@@ -55,12 +58,12 @@ class SolverSchedule {
   // cost") and what it changed.
   struct Flush {
     double solver_s = 0.0;
-    bool batch = false;          // a synchronous batch step: every estimate moved
-    bool batch_swapped = false;  // a background batch step swapped in
-    double batch_compute_s = 0.0;    // ... the worker's time on it
-    double batch_wait_s = 0.0;       // ... how long this update waited for it (offline)
+    bool batch = false;                // a synchronous batch step: every estimate moved
+    bool batch_swapped = false;        // a background batch step swapped in
+    double batch_compute_s = 0.0;      // ... the worker's time on it
+    double batch_wait_s = 0.0;         // ... how long this update waited for it (offline)
     double wait_in_operation_s = 0.0;  // ... and how long a step would wait in operation
-    std::vector<int64_t> added;  // the nodes of this update
+    std::vector<int64_t> added;        // the nodes of this update
   };
   // Sends what the step gathered (consolidating merged pairs at scheduled batch steps);
   // nothing to send: no update. step_utime is the message time of the step.
@@ -69,7 +72,8 @@ class SolverSchedule {
   // factors of no pair added so far whose nodes are all among them, and one factor per pair
   // of `constraints` (its merged constraint): what a merge or its undo leaves (Mapper,
   // MapperOptions::merge_radius_m), solved by a batch step. Nothing may be waiting to be sent.
-  Flush rebuild(const std::vector<std::pair<int64_t, core::SE3d>>& variables, const ConstraintSet& constraints);
+  Flush rebuild(const std::vector<std::pair<int64_t, core::SE3d>>& variables,
+                const ConstraintSet& constraints);
   // Drops what was gathered and not sent, merges waiting for consolidation included (a
   // restore that failed half-way).
   void discard();

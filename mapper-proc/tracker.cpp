@@ -26,7 +26,8 @@ Mat6 symmetric(const Mat6& m) { return 0.5 * (m + m.transpose()); }
 
 Status TrackerOptions::validate() const {
   if (!(wheel_offplane_sigma_m > 0.0)) return Error("tracker.wheel_offplane_sigma_m: must be > 0");
-  if (!(wheel_offplane_sigma_rad > 0.0)) return Error("tracker.wheel_offplane_sigma_rad: must be > 0");
+  if (!(wheel_offplane_sigma_rad > 0.0))
+    return Error("tracker.wheel_offplane_sigma_rad: must be > 0");
   if (!(history_s > 0.0)) return Error("tracker.history_s: must be > 0");
   if (!(vo_timeout_s > 0.0)) return Error("tracker.vo_timeout_s: must be > 0");
   if (!(relink_gate > 0.0)) return Error("tracker.relink_gate: must be > 0");
@@ -37,7 +38,8 @@ Status TrackerOptions::validate() const {
     return Error("tracker.gyro_bias_correlation_s: must be > 0");
   if (!(vo_gyro_gate >= 0.0 && std::isfinite(vo_gyro_gate)))
     return Error("tracker.vo_gyro_gate: must be a finite number >= 0");
-  if (!(heading_extrapolation_rate_sigma_rad_s >= 0.0 && std::isfinite(heading_extrapolation_rate_sigma_rad_s)))
+  if (!(heading_extrapolation_rate_sigma_rad_s >= 0.0 &&
+        std::isfinite(heading_extrapolation_rate_sigma_rad_s)))
     return Error("tracker.heading_extrapolation_rate_sigma_rad_s: must be >= 0");
   if (!(heading_wait_s >= 0.0 && heading_wait_s < vo_timeout_s))
     return Error("tracker.heading_wait_s: must be >= 0 and below tracker.vo_timeout_s");
@@ -140,7 +142,8 @@ Status Tracker::addVo(const vo_delta_t& msg) {
       ++counts_.dropped;
       return Error("VO_DELTA " + std::to_string(msg.utime) + ": pose is not finite");
     }
-    q = Eigen::Quaterniond(msg.orientation[0], msg.orientation[1], msg.orientation[2], msg.orientation[3]);
+    q = Eigen::Quaterniond(msg.orientation[0], msg.orientation[1], msg.orientation[2],
+                           msg.orientation[3]);
     if (std::abs(q.norm() - 1.0) > 1e-3) {
       ++counts_.dropped;
       return Error("VO_DELTA " + std::to_string(msg.utime) + ": quaternion is not unit");
@@ -150,9 +153,9 @@ Status Tracker::addVo(const vo_delta_t& msg) {
       ++counts_.dropped;
       return makeError("VO_DELTA ", msg.utime, ": ", cov.error().message);
     }
-    const std::string implausible =
-        implausibleMotion(Eigen::Vector3d(msg.translation[0], msg.translation[1], msg.translation[2]).norm(),
-                          Eigen::AngleAxisd(q.normalized()).angle(), msg.ref_utime, msg.utime);
+    const std::string implausible = implausibleMotion(
+        Eigen::Vector3d(msg.translation[0], msg.translation[1], msg.translation[2]).norm(),
+        Eigen::AngleAxisd(q.normalized()).angle(), msg.ref_utime, msg.utime);
     if (!implausible.empty()) {
       ++counts_.dropped;
       ++counts_.implausible;
@@ -179,8 +182,10 @@ Status Tracker::addVo(const vo_delta_t& msg) {
     recent_wheel_.clear();
     ++counts_.restarts;
     delta_utime_ = msg.utime;
-    if (ok) ++counts_.vo_applied;
-    else ++counts_.vo_failed;
+    if (ok)
+      ++counts_.vo_applied;
+    else
+      ++counts_.vo_failed;
     anchorOdometry(msg, Mat6::Zero());
     return Ok{};
   }
@@ -191,8 +196,9 @@ Status Tracker::addVo(const vo_delta_t& msg) {
     odometry_at_delta_.reset();
     return Ok{};
   }
-  const UncertainPose ref_T_body =
-      toBody(SE3d(q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2])), *cov);
+  const UncertainPose ref_T_body = toBody(
+      SE3d(q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2])),
+      *cov);
   if (!vo_mode_ || msg.ref_utime != ref_utime_) rejoin(msg.ref_utime, ref_T_body, msg.utime);
   pending_ = ref_T_body;
   delta_utime_ = msg.utime;
@@ -202,8 +208,8 @@ Status Tracker::addVo(const vo_delta_t& msg) {
   // The gyro's heading that reaches the frame may still be on its way: the step waits for it
   // (its motion is in Δ already). Not from a reanchored reference, which the gyro does not test.
   const bool headings_flow = !headings_.empty() && headings_.back().utime >= msg.utime - 1'000'000;
-  if (o_.heading_wait_s > 0.0 && o_.gyro_heading && msg.ref_utime != reanchored_ref_utime_ && headings_flow &&
-      !headingReaches(msg.utime)) {
+  if (o_.heading_wait_s > 0.0 && o_.gyro_heading && msg.ref_utime != reanchored_ref_utime_ &&
+      headings_flow && !headingReaches(msg.utime)) {
     held_ = HeldStep{msg.ref_utime, msg.utime};
     ++counts_.heading_waits;
     return Ok{};
@@ -213,10 +219,13 @@ Status Tracker::addVo(const vo_delta_t& msg) {
 }
 
 bool Tracker::heldStepDue(int64_t utime) const {
-  return held_ && (heldStepCovered() || utime > held_->utime + static_cast<int64_t>(o_.heading_wait_s * 1e6));
+  return held_ && (heldStepCovered() ||
+                   utime > held_->utime + static_cast<int64_t>(o_.heading_wait_s * 1e6));
 }
 
-bool Tracker::headingReaches(int64_t utime) const { return !headings_.empty() && headings_.back().utime >= utime; }
+bool Tracker::headingReaches(int64_t utime) const {
+  return !headings_.empty() && headings_.back().utime >= utime;
+}
 
 bool Tracker::heldStepCovered() const { return held_ && headingReaches(held_->utime); }
 
@@ -232,7 +241,8 @@ std::optional<int64_t> Tracker::takeHeldStep() {
 }
 
 void Tracker::takeStep(int64_t ref_utime, int64_t utime) {
-  if (ref_utime != reanchored_ref_utime_ && gyroContradicts(ref_utime, utime, pending_) && wheelsCover(ref_utime, utime)) {
+  if (ref_utime != reanchored_ref_utime_ && gyroContradicts(ref_utime, utime, pending_) &&
+      wheelsCover(ref_utime, utime)) {
     // VO's step contradicts the gyro: the wheels carry Δ from the step's reference; VO's next
     // frame (on this frame as its reference) is placed where they put the body.
     ++counts_.vo_contradicted;
@@ -241,7 +251,8 @@ void Tracker::takeStep(int64_t ref_utime, int64_t utime) {
     odometry_at_delta_.reset();
     return;
   }
-  commit(utime, ref_utime == reanchored_ref_utime_ ? pending_ : withGyroYaw(ref_utime, utime, pending_));
+  commit(utime,
+         ref_utime == reanchored_ref_utime_ ? pending_ : withGyroYaw(ref_utime, utime, pending_));
   pending_ = UncertainPose{};
   ref_utime_ = utime;
 }
@@ -257,13 +268,15 @@ void Tracker::anchorOdometry(const vo_delta_t& msg, const Mat6& own_covariance) 
   odometry_at_delta_ = OdometryAnchor{*pose, own_covariance};
 }
 
-std::optional<std::pair<double, double>> Tracker::gyroInnovation(int64_t t0, int64_t t1,
-                                                                  const UncertainPose& increment) const {
+std::optional<std::pair<double, double>> Tracker::gyroInnovation(
+    int64_t t0, int64_t t1, const UncertainPose& increment) const {
   const auto gyro = o_.gyro_heading ? gyroYaw(t0, t1) : std::nullopt;
   if (!gyro) return std::nullopt;
   const double s = increment.covariance(5, 5) + gyro->second;
   if (!(s > 0.0)) return std::nullopt;
-  return std::make_pair(std::remainder(gyro->first - core::toPlanar(increment.mean).theta(), 2.0 * std::numbers::pi), s);
+  return std::make_pair(
+      std::remainder(gyro->first - core::toPlanar(increment.mean).theta(), 2.0 * std::numbers::pi),
+      s);
 }
 
 bool Tracker::gyroContradicts(int64_t t0, int64_t t1, const UncertainPose& increment) const {
@@ -336,7 +349,8 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
       ++counts_.relinks_refused;
       at = history_.end();
     } else if (at != history_.end() && std::next(at) != history_.end() &&
-               planarBlock(ref_T_body.covariance).determinant() > planarBlock(wheel.covariance).determinant()) {
+               planarBlock(ref_T_body.covariance).determinant() >
+                   planarBlock(wheel.covariance).determinant()) {
       // VO's motion over the gap is less certain than the wheels' (and the gyro's): VO
       // predicted it (a break bridged by its motion prior, contracts.md), it did not measure
       // it. The wheels keep the gap; the frame goes where they put it.
@@ -379,8 +393,9 @@ Status Tracker::addWheel(const wheel_odom_t& msg) {
     ++counts_.dropped;
     return makeError("WHEEL_ODOM ", msg.utime, ": ", c.error().message);
   }
-  if (const std::string implausible = implausibleMotion(std::hypot(msg.delta_x_m, msg.delta_y_m),
-                                                       std::abs(msg.delta_theta_rad), msg.prev_utime, msg.utime);
+  if (const std::string implausible =
+          implausibleMotion(std::hypot(msg.delta_x_m, msg.delta_y_m), std::abs(msg.delta_theta_rad),
+                            msg.prev_utime, msg.utime);
       !implausible.empty()) {
     ++counts_.dropped;
     ++counts_.implausible;
@@ -395,9 +410,11 @@ Status Tracker::addWheel(const wheel_odom_t& msg) {
     // Kept to bridge a VO failure from its last good frame on.
     recent_wheel_.push_back(msg);
     const int64_t window = static_cast<int64_t>(o_.wheel_buffer_s * 1e6);
-    while (!recent_wheel_.empty() && recent_wheel_.front().utime < msg.utime - window) recent_wheel_.pop_front();
+    while (!recent_wheel_.empty() && recent_wheel_.front().utime < msg.utime - window)
+      recent_wheel_.pop_front();
     // VO silent: vo-proc gone or its messages lost.
-    if (last_vo_utime_ >= 0 && msg.utime - last_vo_utime_ > static_cast<int64_t>(o_.vo_timeout_s * 1e6)) {
+    if (last_vo_utime_ >= 0 &&
+        msg.utime - last_vo_utime_ > static_cast<int64_t>(o_.vo_timeout_s * 1e6)) {
       ++counts_.vo_timeouts;
       enterWheelMode(last_vo_utime_);
     }
@@ -418,10 +435,12 @@ void Tracker::keepWheelPose(const wheel_odom_t& msg) {
   }
   if (!wheel_poses_.empty() && wheel_poses_.back().epoch != pose->epoch) wheel_poses_.clear();
   wheel_poses_.push_back(*pose);
-  while (wheel_poses_.size() > 2 && wheel_poses_.front().utime < msg.utime - 1'000'000) wheel_poses_.pop_front();
+  while (wheel_poses_.size() > 2 && wheel_poses_.front().utime < msg.utime - 1'000'000)
+    wheel_poses_.pop_front();
 }
 
-UncertainPose Tracker::planarMotion(const Eigen::Vector3d& x, const Eigen::Matrix3d& covariance) const {
+UncertainPose Tracker::planarMotion(const Eigen::Vector3d& x,
+                                    const Eigen::Matrix3d& covariance) const {
   UncertainPose inc;
   inc.mean = SE3d(core::SO3d::exp(core::Vec3(0, 0, x[2])), core::Vec3(x[0], x[1], 0.0));
   const int idx[3] = {0, 1, 5};
@@ -439,7 +458,8 @@ void Tracker::extrapolateWheel(int64_t utime) {
   // Wheels silent for more than two of their periods: nothing to extrapolate from.
   if (!last_wheel_ || utime <= last_wheel_->utime || !reaches(*last_wheel_, utime)) return;
   const wheel_odom_t& w = *last_wheel_;
-  const double f = static_cast<double>(utime - w.utime) / static_cast<double>(w.utime - w.prev_utime);
+  const double f =
+      static_cast<double>(utime - w.utime) / static_cast<double>(w.utime - w.prev_utime);
   wheel_odom_t x = w;
   x.prev_utime = w.utime;
   x.utime = utime;
@@ -492,8 +512,10 @@ std::optional<std::pair<double, double>> Tracker::gyroYaw(int64_t t0, int64_t t1
   };
   const double dt = static_cast<double>(t1 - t0) * 1e-6;
   const double sb = headings_.back().rate_sigma;
-  // The span past the newest heading, extrapolated (TrackerOptions::heading_extrapolation_rate_sigma_rad_s).
-  const double tau = static_cast<double>(std::max<int64_t>(0, t1 - std::max(t0, headings_.back().utime))) * 1e-6;
+  // The span past the newest heading, extrapolated
+  // (TrackerOptions::heading_extrapolation_rate_sigma_rad_s).
+  const double tau =
+      static_cast<double>(std::max<int64_t>(0, t1 - std::max(t0, headings_.back().utime))) * 1e-6;
   const double extrapolated = o_.heading_extrapolation_rate_sigma_rad_s * tau;
   return std::make_pair(at(t1) - at(t0), sb * sb * dt * o_.gyro_bias_correlation_s +
                                              o_.gyro_noise_density * o_.gyro_noise_density * dt +
@@ -512,7 +534,8 @@ void Tracker::applyWheel(const wheel_odom_t& msg, int64_t from_utime) {
   // only its share after it, at constant rate.
   const int64_t start = std::max(msg.prev_utime, from_utime);
   if (start > msg.prev_utime && msg.utime > msg.prev_utime) {
-    const double f = static_cast<double>(msg.utime - start) / static_cast<double>(msg.utime - msg.prev_utime);
+    const double f =
+        static_cast<double>(msg.utime - start) / static_cast<double>(msg.utime - msg.prev_utime);
     x *= f;
     P *= f;
   }

@@ -123,23 +123,23 @@ struct TrackerOptions {
 
 struct TrackerCounts {
   int64_t vo_applied = 0;
-  int64_t vo_failed = 0;       // frames with a failure status
-  int64_t wheel_applied = 0;   // increments compounded while VO was down
-  int64_t dropped = 0;         // malformed, non-finite, out of order or implausible
-  int64_t implausible = 0;     // ... of which motion beyond max_speed_m_s / max_turn_rad_s
-  int64_t restarts = 0;        // VO restarted from a new reference (first frame, chain break)
-  int64_t relinked = 0;        // VO back on its kept reference after failing: wheel undone
-  int64_t relinks_refused = 0; // ... whose motion contradicted the wheels: reanchored instead
-  int64_t relinks_weaker = 0;  // ... whose motion was less certain than the wheels' over the
-                               // gap (VO's motion prior bridging a break): reanchored instead
-  int64_t reanchored = 0;      // VO on a reference the tracker did not know
-  int64_t vo_timeouts = 0;     // VO silent for vo_timeout_s: wheel odometry took over
-  int64_t gyro_turns = 0;      // wheel increments and VO keyframe steps whose yaw was fused
-                               // with the gyro's
-  int64_t odometry_refused = 0; // VO_DELTAs whose odometry pose (odom_*) was malformed: the
-                                // frame is used, its pose is not
-  int64_t vo_contradicted = 0;  // keyframe steps whose yaw the gyro contradicted (vo_gyro_gate)
-  int64_t heading_waits = 0;    // keyframe steps held for the heading that covers them
+  int64_t vo_failed = 0;         // frames with a failure status
+  int64_t wheel_applied = 0;     // increments compounded while VO was down
+  int64_t dropped = 0;           // malformed, non-finite, out of order or implausible
+  int64_t implausible = 0;       // ... of which motion beyond max_speed_m_s / max_turn_rad_s
+  int64_t restarts = 0;          // VO restarted from a new reference (first frame, chain break)
+  int64_t relinked = 0;          // VO back on its kept reference after failing: wheel undone
+  int64_t relinks_refused = 0;   // ... whose motion contradicted the wheels: reanchored instead
+  int64_t relinks_weaker = 0;    // ... whose motion was less certain than the wheels' over the
+                                 // gap (VO's motion prior bridging a break): reanchored instead
+  int64_t reanchored = 0;        // VO on a reference the tracker did not know
+  int64_t vo_timeouts = 0;       // VO silent for vo_timeout_s: wheel odometry took over
+  int64_t gyro_turns = 0;        // wheel increments and VO keyframe steps whose yaw was fused
+                                 // with the gyro's
+  int64_t odometry_refused = 0;  // VO_DELTAs whose odometry pose (odom_*) was malformed: the
+                                 // frame is used, its pose is not
+  int64_t vo_contradicted = 0;   // keyframe steps whose yaw the gyro contradicted (vo_gyro_gate)
+  int64_t heading_waits = 0;     // keyframe steps held for the heading that covers them
   int64_t heading_waits_expired = 0;  // ... taken before one came (heading_wait_s)
 
   // Adds another tracker's counts (sessions tracked by successive trackers).
@@ -246,8 +246,8 @@ class Tracker {
 
  private:
   struct Increment {
-    int64_t utime;        // end of the increment (a keyframe's utime in VO mode)
-    UncertainPose pose;   // previous commit point _T_ this one
+    int64_t utime;       // end of the increment (a keyframe's utime in VO mode)
+    UncertainPose pose;  // previous commit point _T_ this one
   };
   // Δ is now at msg's frame: its odometry pose (if any) becomes odometryAtDelta().
   void anchorOdometry(const vo_delta_t& msg, const Mat6& own_covariance);
@@ -273,7 +273,8 @@ class Tracker {
   // The gyro's yaw over [t0, t1] against the increment's: (innovation, its variance with the
   // increment's), empty without a heading; and whether it contradicts the increment
   // (TrackerOptions::vo_gyro_gate).
-  std::optional<std::pair<double, double>> gyroInnovation(int64_t t0, int64_t t1, const UncertainPose& increment) const;
+  std::optional<std::pair<double, double>> gyroInnovation(int64_t t0, int64_t t1,
+                                                          const UncertainPose& increment) const;
   bool gyroContradicts(int64_t t0, int64_t t1, const UncertainPose& increment) const;
   // Whether the wheel increments kept while VO tracks reach back to from_utime and on to
   // to_utime; whether increment w reaches `utime` (within two of its periods: beyond, the
@@ -299,8 +300,8 @@ class Tracker {
 
   TrackerOptions o_;
   Mat6 ad_body_T_cam_;
-  UncertainPose base_;      // active_T_(last commit point)
-  UncertainPose pending_;   // (last commit point)_T_body, from VO frames since the keyframe
+  UncertainPose base_;     // active_T_(last commit point)
+  UncertainPose pending_;  // (last commit point)_T_body, from VO frames since the keyframe
   bool vo_mode_ = false;
   int64_t ref_utime_ = -1;  // VO's current reference keyframe
   // A reference placed by reanchoring (where the estimate has the body at a frame, through
@@ -317,7 +318,8 @@ class Tracker {
   std::deque<wheel_odom_t> recent_wheel_;  // while VO tracks (wheel_buffer_s)
   std::optional<OdometryAnchor> odometry_at_delta_;
   int64_t delta_utime_ = -1;
-  std::deque<messages::WheelOdometryPose> wheel_poses_;  // the last second of WHEEL_ODOM odom_*, one epoch
+  std::deque<messages::WheelOdometryPose>
+      wheel_poses_;  // the last second of WHEEL_ODOM odom_*, one epoch
   TrackerCounts counts_;
 };
 

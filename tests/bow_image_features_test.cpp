@@ -29,7 +29,8 @@ TEST(ListImages, ListsImagesInNaturalOrderAndNamesBadFolders) {
   const fs::path dir = fs::temp_directory_path() / ("evermap_list_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir / "sub");
-  for (const char* name : {"10.png", "2.JPG", "1.jpg", "notes.txt"}) std::ofstream(dir / name) << "x";
+  for (const char* name : {"10.png", "2.JPG", "1.jpg", "notes.txt"})
+    std::ofstream(dir / name) << "x";
   auto files = listImages(dir);
   ASSERT_TRUE(files.ok()) << files.error().message;
   ASSERT_EQ(files->size(), 3u);

@@ -1,5 +1,5 @@
-// tools/place-eval/loop_evaluation and epipolar_check: the loop ground truth of RTAB-Map's samples is
-// read in the right orientation, precision and recall follow their definitions, and the whole
+// tools/place-eval/loop_evaluation and epipolar_check: the loop ground truth of RTAB-Map's samples
+// is read in the right orientation, precision and recall follow their definitions, and the whole
 // detector — default vocabulary trained from the shared images at test time — reaches
 // precision 100 % with recall >= 70 % on the 84 samples.
 #include <gtest/gtest.h>
@@ -147,18 +147,18 @@ TEST(LoopDetector, DefaultVocabularyReachesFullPrecisionAndSeventyPercentRecallO
   auto records = runLoopDetector(*images, *vocabulary, options);
   ASSERT_TRUE(records.ok()) << records.error().message;
 
-  const PrPoint geo = evaluateAt(*records, *gt, Decision::kGeometricCheck,
-                                 options.exclude_recent, kDefaultGeometricThreshold);
+  const PrPoint geo = evaluateAt(*records, *gt, Decision::kGeometricCheck, options.exclude_recent,
+                                 kDefaultGeometricThreshold);
   std::printf("score + epipolar: precision %.3f recall %.3f (TP %d FP %d)\n", geo.precision,
               geo.recall, geo.true_positives, geo.false_positives);
   EXPECT_EQ(geo.false_positives, 0);
   EXPECT_DOUBLE_EQ(geo.precision, 1.0);
   EXPECT_GE(geo.recall, 0.70);
 
-  const PrPoint raw = evaluateAt(*records, *gt, Decision::kRawScore, options.exclude_recent,
-                                 kDefaultRawThreshold);
-  std::printf("raw score: precision %.3f recall %.3f (TP %d FP %d)\n", raw.precision,
-              raw.recall, raw.true_positives, raw.false_positives);
+  const PrPoint raw =
+      evaluateAt(*records, *gt, Decision::kRawScore, options.exclude_recent, kDefaultRawThreshold);
+  std::printf("raw score: precision %.3f recall %.3f (TP %d FP %d)\n", raw.precision, raw.recall,
+              raw.true_positives, raw.false_positives);
   EXPECT_DOUBLE_EQ(raw.precision, 1.0);
   EXPECT_GE(raw.recall, 0.70);
   // Without any threshold the raw best candidate is often wrong: the check earns its keep.

@@ -33,8 +33,7 @@ class PlaceStoreTest : public ::testing::Test {
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(file_.c_str(), &db), SQLITE_OK);
     char* err = nullptr;
-    EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err), SQLITE_OK)
-        << (err ? err : "");
+    EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err), SQLITE_OK) << (err ? err : "");
     sqlite3_free(err);
     sqlite3_close(db);
   }
@@ -69,8 +68,7 @@ evermap::keyframe_t keyframe(int64_t utime, int n) {
 }
 
 TEST_F(PlaceStoreTest, PlacesSurviveReopeningAndQueryAlike) {
-  const std::vector<Place> first = {place(1, 0, {{3, 0.5f}, {7, 0.5f}}),
-                                    place(2, 0, {{3, 1.0f}})};
+  const std::vector<Place> first = {place(1, 0, {{3, 0.5f}, {7, 0.5f}}), place(2, 0, {{3, 1.0f}})};
   const std::vector<Place> second = {place(3, 1, {{7, 0.25f}, {99, 0.75f}})};
   {
     auto store = PlaceStore::open(file_, kFingerprint, kWords);

@@ -12,7 +12,8 @@ inline Descriptor randomDescriptor(SplitMix64& rng) {
   Descriptor d;
   for (int w = 0; w < 4; ++w) {
     const uint64_t x = rng.next();
-    for (int b = 0; b < 8; ++b) d.bytes[static_cast<size_t>(8 * w + b)] = static_cast<uint8_t>(x >> (8 * b));
+    for (int b = 0; b < 8; ++b)
+      d.bytes[static_cast<size_t>(8 * w + b)] = static_cast<uint8_t>(x >> (8 * b));
   }
   return d;
 }

@@ -163,8 +163,8 @@ TEST(DbowYaml, Slambook2VocabularyFindsTheBooksLoopBetweenImages1And10) {
   ASSERT_TRUE(v.ok());
   std::vector<BowVector> bow;
   for (int i = 1; i <= 10; ++i) {
-    auto f = extractOrbFromFile(dir / "slambook2_ch11_tum_images" / (std::to_string(i) + ".png"),
-                                {});
+    auto f =
+        extractOrbFromFile(dir / "slambook2_ch11_tum_images" / (std::to_string(i) + ".png"), {});
     ASSERT_TRUE(f.ok()) << f.error().message;
     bow.push_back(v->transform(f->descriptors));
   }
@@ -183,8 +183,8 @@ TEST(DbowYaml, KimeraVocabularyPairsTheEurocLoopImages) {
   ASSERT_TRUE(v.ok());
   std::vector<BowVector> bow;
   for (int i = 0; i < 4; ++i) {
-    auto f = extractOrbFromFile(euroc / "lcd_pairs" / ("left_img_" + std::to_string(i) + ".png"),
-                                {});
+    auto f =
+        extractOrbFromFile(euroc / "lcd_pairs" / ("left_img_" + std::to_string(i) + ".png"), {});
     ASSERT_TRUE(f.ok());
     bow.push_back(v->transform(f->descriptors));
   }
@@ -219,13 +219,17 @@ TEST(DbowYaml, MalformedFilesGiveOneLineErrors) {
   check("tf.yml", head + "   scoringType: 0\n   weightingType: 1\n   nodes: []\n   words: []\n",
         "weightingType 1");
   check("short_desc.yml",
-        head + "   scoringType: 0\n   weightingType: 0\n   nodes:\n"
-               "      - { nodeId:1, parentId:0, weight:1., descriptor:\"1 2 3\" }\n   words: []\n",
+        head +
+            "   scoringType: 0\n   weightingType: 0\n   nodes:\n"
+            "      - { nodeId:1, parentId:0, weight:1., descriptor:\"1 2 3\" }\n   words: []\n",
         "3 numbers");
   check("orphan.yml",
-        head + "   scoringType: 0\n   weightingType: 0\n   nodes:\n"
-               "      - { nodeId:1, parentId:5, weight:1., descriptor:\"" + d32 + "\" }\n"
-               "   words:\n      - { wordId:0, nodeId:1 }\n",
+        head +
+            "   scoringType: 0\n   weightingType: 0\n   nodes:\n"
+            "      - { nodeId:1, parentId:5, weight:1., descriptor:\"" +
+            d32 +
+            "\" }\n"
+            "   words:\n      - { wordId:0, nodeId:1 }\n",
         "parentId 5");
   check("not_yaml.yml", "\x01\x02 this is not yaml: [", "");
   auto missing = loadDbowYaml(dir.path() / "missing.yml.gz");

@@ -99,7 +99,8 @@ TEST(StereoCalibration, ImageSizeMismatchBetweenLeftAndRightIsRefused) {
   StereoCalibration s = rectifiedPair(0.1);
   s.right.width = 752;
   s.right.cx = 376.0;
-  expectRefused(s.validate("rig.yaml"), "rig.yaml: image sizes differ: left 640x480, right 752x480");
+  expectRefused(s.validate("rig.yaml"),
+                "rig.yaml: image sizes differ: left 640x480, right 752x480");
 }
 
 TEST(StereoCalibration, ZeroBaselineIsRefused) {
@@ -126,7 +127,9 @@ TEST(StereoCalibration, RectifiedPairsMustBeUndistortedAlignedAndShareIntrinsics
   expectRefused(s.validate(), "marked rectified but the intrinsics differ");
   s = rectifiedPair(0.5);
   s.right.cy = 240.8;
-  expectRefused(s.validate(), "marked rectified but the intrinsics differ: left fx fy cy = 400 400 240, right 400 400 240.8");
+  expectRefused(s.validate(),
+                "marked rectified but the intrinsics differ: left fx fy cy = 400 400 240, right "
+                "400 400 240.8");
   EXPECT_FALSE(rectifiedStereoCamera(s).ok());
   s = rectifiedPair(0.5);
   s.right.body_T_cam = SE3d(SO3d::exp(Vec3(0.0, 0.01, 0.0)), Vec3(0.5, 0.0, 0.0));
@@ -157,7 +160,9 @@ TEST(StereoCalibration, ADisparityOffsetBeyondAQuarterOfTheWidthIsRefused) {
   s.right.cx = 320.0 + 160.0;  // 640 / 4: the largest accepted
   EXPECT_TRUE(rectifiedStereoCamera(s).ok());
   s.right.cx = 320.0 + 160.5;
-  expectRefused(s.validate("rig"), "rig: marked rectified but the principal points differ by right cx - left cx = 160.5 px, beyond a quarter of the 640 px width");
+  expectRefused(s.validate("rig"),
+                "rig: marked rectified but the principal points differ by right cx - left cx = "
+                "160.5 px, beyond a quarter of the 640 px width");
   EXPECT_FALSE(rectifiedStereoCamera(s).ok());
   s.right.cx = 100.0;
   expectRefused(s.validate(), "right cx - left cx = -220 px");
@@ -190,7 +195,8 @@ std::string readText(const fs::path& p) {
 }
 
 // Writes `text` to `name` in the test's scratch folder.
-fs::path writeTemp(const testing::ScratchDir& dir, const std::string& name, const std::string& text) {
+fs::path writeTemp(const testing::ScratchDir& dir, const std::string& name,
+                   const std::string& text) {
   std::ofstream(dir / name) << text;
   return dir / name;
 }
@@ -241,11 +247,12 @@ TEST(EurocCalibration, BrokenFilesAreRefusedNamingTheFileAndField) {
                    std::regex_replace(good, std::regex("intrinsics: \\[[^\\]]*\\]"),
                                       "intrinsics: [458.654, 457.296, 367.215]")),
          "intrinsics must be 4 numbers");
-  refuse(writeTemp(scratch, "zero_fx.yaml",
-                   std::regex_replace(good, std::regex("458\\.654"), "0.0")),
-         "focal length fx = 0");
-  refuse(writeTemp(scratch, "nan_fy.yaml", std::regex_replace(good, std::regex("457\\.296"), ".nan")),
-         "focal length fy = nan");
+  refuse(
+      writeTemp(scratch, "zero_fx.yaml", std::regex_replace(good, std::regex("458\\.654"), "0.0")),
+      "focal length fx = 0");
+  refuse(
+      writeTemp(scratch, "nan_fy.yaml", std::regex_replace(good, std::regex("457\\.296"), ".nan")),
+      "focal length fy = nan");
   refuse(writeTemp(scratch, "pp_outside.yaml",
                    std::regex_replace(good, std::regex("367\\.215"), "900.0")),
          "principal point (900, 248.375) is outside the 752x480 image");
@@ -271,9 +278,10 @@ TEST(EurocCalibration, InconsistentPairsAreRefused) {
   ASSERT_FALSE(c.ok());
   EXPECT_NE(c.error().message.find("baseline is 0 m"), std::string::npos) << c.error().message;
   // A right camera of another resolution.
-  const fs::path small = writeTemp(
-      scratch, "cam1_small.yaml",
-      std::regex_replace(right, std::regex("resolution: \\[752, 480\\]"), "resolution: [640, 480]"));
+  const fs::path small =
+      writeTemp(scratch, "cam1_small.yaml",
+                std::regex_replace(right, std::regex("resolution: \\[752, 480\\]"),
+                                   "resolution: [640, 480]"));
   c = datasets::readEurocStereoCalibration(cam0, small);
   ASSERT_FALSE(c.ok());
   EXPECT_NE(c.error().message.find("image sizes differ: left 752x480, right 640x480"),

@@ -36,8 +36,14 @@ StereoCalibration syntheticRig() {
   StereoCalibration s;
   s.left.width = s.right.width = 752;
   s.left.height = s.right.height = 480;
-  s.left.fx = 458.654; s.left.fy = 457.296; s.left.cx = 367.215; s.left.cy = 248.375;
-  s.right.fx = 457.587; s.right.fy = 456.134; s.right.cx = 379.999; s.right.cy = 255.238;
+  s.left.fx = 458.654;
+  s.left.fy = 457.296;
+  s.left.cx = 367.215;
+  s.left.cy = 248.375;
+  s.right.fx = 457.587;
+  s.right.fy = 456.134;
+  s.right.cx = 379.999;
+  s.right.cy = 255.238;
   s.left.distortion_model = s.right.distortion_model = DistortionModel::kRadTan;
   s.left.distortion = {-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05};
   s.right.distortion = {-0.28368365, 0.07451284, -0.00010473, -3.55590700e-05};
@@ -77,15 +83,15 @@ TEST(StereoRectifier, RectifiedPointsShareARowAndGiveTheirDepth) {
     const auto expected = cam.project(p_rect);
     ASSERT_TRUE(expected.has_value());
     if (!cam.inImage(expected->x(), expected->y())) continue;
-    const Eigen::Vector2d l = rect->rectifyPoint(StereoRectifier::Side::kLeft,
-                                                 projectRaw(raw.left, p_left));
-    const Eigen::Vector2d r = rect->rectifyPoint(StereoRectifier::Side::kRight,
-                                                 projectRaw(raw.right, p_right));
+    const Eigen::Vector2d l =
+        rect->rectifyPoint(StereoRectifier::Side::kLeft, projectRaw(raw.left, p_left));
+    const Eigen::Vector2d r =
+        rect->rectifyPoint(StereoRectifier::Side::kRight, projectRaw(raw.right, p_right));
     // Iterative undistortion converges to ~1e-4 px on this strong barrel distortion.
     EXPECT_NEAR(l.x(), expected->x(), 2e-3);
     EXPECT_NEAR(l.y(), expected->y(), 2e-3);
-    EXPECT_NEAR(r.y(), l.y(), 2e-3);                    // the same row
-    EXPECT_NEAR(l.x() - r.x(), expected->z(), 2e-3);    // disparity = fx b / z
+    EXPECT_NEAR(r.y(), l.y(), 2e-3);                  // the same row
+    EXPECT_NEAR(l.x() - r.x(), expected->z(), 2e-3);  // disparity = fx b / z
     ++checked;
   }
   EXPECT_GT(checked, 100);
@@ -193,8 +199,10 @@ TEST(StereoRectifier, EurocMatchedFeaturesLieOnTheSameRowAfterRectification) {
   ASSERT_TRUE(left_rows.ok()) << left_rows.error().message;
   std::vector<std::pair<cv::Mat, cv::Mat>> raw_pairs, rect_pairs;
   for (const datasets::ImageEntry& e : *left_rows) {
-    const cv::Mat l = cv::imread((dir / "mav0/cam0/data" / e.filename).string(), cv::IMREAD_UNCHANGED);
-    const cv::Mat r = cv::imread((dir / "mav0/cam1/data" / e.filename).string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat l =
+        cv::imread((dir / "mav0/cam0/data" / e.filename).string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat r =
+        cv::imread((dir / "mav0/cam1/data" / e.filename).string(), cv::IMREAD_UNCHANGED);
     if (l.empty() || r.empty()) continue;
     const auto pair = rect->rectify(l, r);
     ASSERT_TRUE(pair.ok()) << pair.error().message;
@@ -209,9 +217,10 @@ TEST(StereoRectifier, EurocMatchedFeaturesLieOnTheSameRowAfterRectification) {
   ASSERT_GT(rect_dv.size(), 1000u);
   const double raw_median = median(raw_dv);
   const double rect_median = median(rect_dv);
-  std::printf("EuRoC V1_01 excerpt, 95 pairs: median |v_left - v_right| raw %.3f px over %zu "
-              "matches, rectified %.3f px over %zu matches\n",
-              raw_median, raw_dv.size(), rect_median, rect_dv.size());
+  std::printf(
+      "EuRoC V1_01 excerpt, 95 pairs: median |v_left - v_right| raw %.3f px over %zu "
+      "matches, rectified %.3f px over %zu matches\n",
+      raw_median, raw_dv.size(), rect_median, rect_dv.size());
   EXPECT_LT(rect_median, 0.5);
   EXPECT_LT(rect_median, raw_median);
 }

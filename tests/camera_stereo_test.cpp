@@ -137,7 +137,8 @@ TEST(StereoCamera, BackProjectionCovarianceMatchesMonteCarlo) {
     for (int c = 0; c < 3; ++c) {
       const double scale = std::sqrt(predicted(r, r) * predicted(c, c));
       EXPECT_NEAR(sample_cov(r, c) / scale, predicted(r, c) / scale, 0.03)
-          << "entry (" << r << "," << c << ")\npredicted\n" << predicted << "\nsampled\n"
+          << "entry (" << r << "," << c << ")\npredicted\n"
+          << predicted << "\nsampled\n"
           << sample_cov;
     }
   }
@@ -178,10 +179,12 @@ TEST(StereoCamera, InconsistentModelsAreRefusedNamingTheField) {
 
 TEST(StereoCamera, TheDisparityOffsetIsZeroByDefaultAndBoundedByAQuarterOfTheWidth) {
   EXPECT_EQ(eurocLike().disparityOffsetPx(), 0.0);
-  const auto kitti = StereoCamera::create(718.856, 718.856, 607.1928, 185.2157, 0.537, 1241, 376, 0.8);
+  const auto kitti =
+      StereoCamera::create(718.856, 718.856, 607.1928, 185.2157, 0.537, 1241, 376, 0.8);
   ASSERT_TRUE(kitti.ok()) << kitti.error().message;
   EXPECT_EQ(kitti->disparityOffsetPx(), 0.8);
-  EXPECT_NE(kitti->describe().find("disparity_offset=+0.800px"), std::string::npos) << kitti->describe();
+  EXPECT_NE(kitti->describe().find("disparity_offset=+0.800px"), std::string::npos)
+      << kitti->describe();
   EXPECT_EQ(eurocLike().describe().find("disparity_offset"), std::string::npos);
   EXPECT_TRUE(StereoCamera::create(400, 400, 320, 240, 0.1, 640, 480, -160.0).ok());
   for (double bad : {160.5, -161.0, std::numeric_limits<double>::infinity(),
@@ -199,7 +202,8 @@ TEST(StereoCamera, TheDisparityOffsetLeavesTheModelsProjectionAlone) {
   // The offset concerns only disparities measured between the images (StereoDepth): project
   // and backProject are those of the model, d = fx b / z, with or without it.
   const StereoCamera plain = eurocLike();
-  const StereoCamera offset = *StereoCamera::create(435.2, 431.9, 367.4, 252.2, 0.110, 752, 480, 0.8);
+  const StereoCamera offset =
+      *StereoCamera::create(435.2, 431.9, 367.4, 252.2, 0.110, 752, 480, 0.8);
   for (const Vec3& p : samplePoints()) {
     EXPECT_EQ(*plain.project(p), *offset.project(p));
     const Vec3 uvd = *plain.project(p);

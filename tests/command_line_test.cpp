@@ -93,7 +93,8 @@ TEST(CommandLine, ANumberOutsideItsRangeIsRefusedNamingTheOptionAndTheBound) {
   const std::vector<Case> cases = {
       {Args{"--queue", "-5"}, "bad --queue: -5 is below the minimum 1"},
       {Args{"--queue", "1001"}, "bad --queue: 1001 is above the maximum 1000"},
-      {Args{"--queue", "99999999999999999999"}, "bad --queue: \"99999999999999999999\" is not an integer in range"},
+      {Args{"--queue", "99999999999999999999"},
+       "bad --queue: \"99999999999999999999\" is not an integer in range"},
       {Args{"--rate", "0"}, "bad --rate: 0 is not above 0"},
       {Args{"--rate", "-1e-300"}, "bad --rate"},
       {Args{"--rate", "inf"}, "bad --rate: \"inf\" is not a finite number"},
@@ -109,7 +110,8 @@ TEST(CommandLine, ANumberOutsideItsRangeIsRefusedNamingTheOptionAndTheBound) {
       continue;
     }
     ASSERT_FALSE(outcome.ok()) << c.expected;
-    EXPECT_NE(outcome.error().message.find(c.expected), std::string::npos) << outcome.error().message;
+    EXPECT_NE(outcome.error().message.find(c.expected), std::string::npos)
+        << outcome.error().message;
     EXPECT_EQ(queue, 2) << "a refused value must not be stored";
   }
 }

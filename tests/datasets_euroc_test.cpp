@@ -38,7 +38,8 @@ TEST(EurocReaders, ReadTheRealExcerptCompletely) {
 
 TEST(EurocReaders, MalformedLineIsReportedWithFileAndLine) {
   const evermap::testing::ScratchDir dir;
-  const auto path = dir.write("evermap_bad_imu.csv", "#header\n1,0,0,0,0,0,9.81\n2,0,0,zero,0,0,9.81\n");
+  const auto path =
+      dir.write("evermap_bad_imu.csv", "#header\n1,0,0,0,0,0,9.81\n2,0,0,zero,0,0,9.81\n");
   const auto imu = readEurocImu(path);
   ASSERT_FALSE(imu.ok());
   EXPECT_NE(imu.error().message.find("evermap_bad_imu.csv:3"), std::string::npos)
@@ -69,9 +70,9 @@ TEST(EurocReaders, SecondsAreReadToTheNanosecond) {
 
 TEST(EurocReaders, TumLayoutCanBeForcedWhateverTheExtension) {
   const evermap::testing::ScratchDir dir;
-  const auto path = dir.write(
-      "evermap_gt_forced.tum",
-      "# t x y z qx qy qz qw\n\t1.5 1 2 3 0 0 0 1\n2.5 1 2 4 0 0 0.7071068 0.7071068\n");
+  const auto path =
+      dir.write("evermap_gt_forced.tum",
+                "# t x y z qx qy qz qw\n\t1.5 1 2 3 0 0 0 1\n2.5 1 2 4 0 0 0.7071068 0.7071068\n");
   const auto gt = readEurocGroundTruth(path, PoseFileLayout::kTum);
   ASSERT_TRUE(gt.ok()) << gt.error().message;
   ASSERT_EQ(gt->size(), 2u);

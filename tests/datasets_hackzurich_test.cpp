@@ -16,8 +16,8 @@ namespace evermap {
 namespace {
 
 std::filesystem::path tempDir(const std::string& name) {
-  const auto d = std::filesystem::temp_directory_path() / ("evermap_" + name + "_" +
-                                                            std::to_string(::getpid()));
+  const auto d = std::filesystem::temp_directory_path() /
+                 ("evermap_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::create_directories(d);
   return d;
 }

@@ -62,7 +62,8 @@ TEST(KittiCalib, BrokenOrInconsistentFilesAreRefused) {
   expectError(readKittiCalib(writeTemp(scratch, "one.txt", p0 + "\n")), "needs P0 and P1");
   expectError(readKittiCalib(writeTemp(scratch, "short.txt", "P0: 1 2 3\nP1: " + p0 + "\n")),
               "short.txt:1: expected 12 numbers");
-  expectError(readKittiCalib(writeTemp(scratch, "word.txt", "P0: " + p0 + "\nP1: 700 0 600 x 0 700 180 0 0 0 1 0\n")),
+  expectError(readKittiCalib(writeTemp(scratch, "word.txt",
+                                       "P0: " + p0 + "\nP1: 700 0 600 x 0 700 180 0 0 0 1 0\n")),
               "word.txt:2: expected 12 numbers");
 
   const auto calib = [&](const std::string& p1) {
@@ -75,8 +76,10 @@ TEST(KittiCalib, BrokenOrInconsistentFilesAreRefused) {
   expectError(calib("700 0 600 0 0 700 180 0 0 0 1 0"), "baseline is 0 m");
   expectError(calib("710 0 600 -350 0 700 180 0 0 0 1 0"), "different intrinsics");
   expectError(calib("700 0 600 -350 0 700 180 5 0 0 1 0"), "offset is not along x");
-  const auto p = readKittiCalib(writeTemp(scratch, "d.txt", p0 + "\n700 0 600 -350 0 700 180 0 0 0 1 0\n"));
-  expectError(kittiStereoCalibration(*p, 1000, 100, "d.txt"), "principal point (600, 180) is outside the 1000x100 image");
+  const auto p =
+      readKittiCalib(writeTemp(scratch, "d.txt", p0 + "\n700 0 600 -350 0 700 180 0 0 0 1 0\n"));
+  expectError(kittiStereoCalibration(*p, 1000, 100, "d.txt"),
+              "principal point (600, 180) is outside the 1000x100 image");
   expectError(kittiStereoCalibration(*p, 0, 370, "d.txt"), "image size 0x370");
 }
 
@@ -98,11 +101,13 @@ TEST(KittiTimesAndPoses, BrokenFilesAreRefusedNamingTheLine) {
   const testing::ScratchDir scratch;
   expectError(readKittiTimes(writeTemp(scratch, "t1.txt", "0.0\n0.1\n0.1\n")),
               "t1.txt:3: time 0.1 s is not after the previous line's");
-  expectError(readKittiTimes(writeTemp(scratch, "t2.txt", "0.0\nnan\n")), "t2.txt:2: expected one time");
+  expectError(readKittiTimes(writeTemp(scratch, "t2.txt", "0.0\nnan\n")),
+              "t2.txt:2: expected one time");
   expectError(readKittiTimes(writeTemp(scratch, "t3.txt", "")), "no times");
   expectError(readKittiPoses(writeTemp(scratch, "p1.txt", "1 0 0 0 0 1 0 0 0 0 1\n")),
               "p1.txt:1: expected 12 numbers");
-  expectError(readKittiPoses(writeTemp(scratch, "p2.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n2 0 0 0 0 1 0 0 0 0 1 0\n")),
+  expectError(readKittiPoses(writeTemp(scratch, "p2.txt",
+                                       "1 0 0 0 0 1 0 0 0 0 1 0\n2 0 0 0 0 1 0 0 0 0 1 0\n")),
               "p2.txt:2: the rotation is not orthonormal");
 }
 

@@ -96,7 +96,8 @@ void expectOrderedWithCalibrationFirst(const std::vector<Event>& events) {
     if (e.channel == channels::kStereoCalib) last_calibration = e.timestamp;
     if (e.channel != channels::kStereo) continue;
     ASSERT_GE(last_calibration, 0);
-    EXPECT_LE(e.timestamp - last_calibration, static_cast<int64_t>(channels::kCalibrationPeriodS * 1e6));
+    EXPECT_LE(e.timestamp - last_calibration,
+              static_cast<int64_t>(channels::kCalibrationPeriodS * 1e6));
   }
 }
 
@@ -133,12 +134,13 @@ TEST(EurocToLcm, TheRealExcerptRoundTripsWithEveryMessageAndPixel) {
   // The calibration is the sensor.yaml pair, unrectified.
   const auto calib = fromMsg(decode<evermap::stereo_calib_t>(events.front()));
   ASSERT_TRUE(calib.ok()) << calib.error().message;
-  const auto expected_calib = readEurocStereoCalibration(dir / "mav0/cam0/sensor.yaml",
-                                                         dir / "mav0/cam1/sensor.yaml");
+  const auto expected_calib =
+      readEurocStereoCalibration(dir / "mav0/cam0/sensor.yaml", dir / "mav0/cam1/sensor.yaml");
   EXPECT_FALSE(calib->rectified);
   EXPECT_EQ(calib->left.fx, expected_calib->left.fx);
   EXPECT_EQ(calib->right.distortion, expected_calib->right.distortion);
-  EXPECT_LT((calib->right_T_left().matrix() - expected_calib->right_T_left().matrix()).norm(), 1e-12);
+  EXPECT_LT((calib->right_T_left().matrix() - expected_calib->right_T_left().matrix()).norm(),
+            1e-12);
 
   // Every stereo pair decodes to the pixels of the PNG files on disk, at the row's stamp.
   size_t pair = 0, imu_i = 0, gt_i = 0;
@@ -431,8 +433,10 @@ TEST(KittiToLcm, WithoutTimesOrARateOrWithAMissingFolderTheErrorSaysWhatToGive) 
   const ScratchDir scratch;
   auto r = convertKittiToLcm(dir, scratch.path() / "a.lcmlog", {});
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.error().message.find("times.txt: no such file; give the frame rate instead (--rate HZ)"),
-            std::string::npos) << r.error().message;
+  EXPECT_NE(
+      r.error().message.find("times.txt: no such file; give the frame rate instead (--rate HZ)"),
+      std::string::npos)
+      << r.error().message;
   KittiToLcmOptions options;
   options.sequence.rate_hz = -1.0;
   r = convertKittiToLcm(dir, scratch.path() / "b.lcmlog", options);
@@ -442,7 +446,8 @@ TEST(KittiToLcm, WithoutTimesOrARateOrWithAMissingFolderTheErrorSaysWhatToGive) 
   options.sequence.right_folder = "image_x";
   r = convertKittiToLcm(dir, scratch.path() / "c.lcmlog", options);
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.error().message.find("image_x: no right images"), std::string::npos) << r.error().message;
+  EXPECT_NE(r.error().message.find("image_x: no right images"), std::string::npos)
+      << r.error().message;
   EXPECT_TRUE(fs::is_empty(scratch.path()));
 }
 

@@ -72,7 +72,7 @@ TEST(DeputyConfig, ReadsProcmanDocumentationExample) {
   EXPECT_EQ(load->host, "robot");
   EXPECT_EQ(load->group, "");
   EXPECT_FALSE(load->auto_respawn);
-  EXPECT_EQ(load->stop_signal, 2);           // procman's defaults
+  EXPECT_EQ(load->stop_signal, 2);  // procman's defaults
   EXPECT_EQ(load->stop_time_allowed_s, 7);
   EXPECT_EQ(load->pos.line, 2);
   EXPECT_TRUE(c.findCommand("hardware interface")->auto_respawn);
@@ -180,7 +180,8 @@ TEST(DeputyConfig, MalformedInputNamesFileLineAndColumn) {
             "bad.pmd:1:43: stop_time_allowed must be in [1, 86400], got 0");
   EXPECT_EQ(parseError("cmd \"a\" { exec = \"x\"; auto_respawn = \"yes\"; }"),
             "bad.pmd:1:38: auto_respawn must be \"true\" or \"false\", got \"yes\"");
-  EXPECT_EQ(parseError("cmd \"a\" { host = \"robot\"; }"), "bad.pmd:1:27: command \"a\" has no exec");
+  EXPECT_EQ(parseError("cmd \"a\" { host = \"robot\"; }"),
+            "bad.pmd:1:27: command \"a\" has no exec");
   EXPECT_EQ(parseError("cmd \"a\" { exec = \"x\"; stop_signal = -2; }"),
             "bad.pmd:1:37: unexpected character '-'");
   EXPECT_EQ(parseError("group \"g\" {\n  cmd \"a\" { exec = \"x\"; }\n"),
@@ -193,8 +194,9 @@ TEST(DeputyConfig, MalformedInputNamesFileLineAndColumn) {
 }
 
 TEST(DeputyConfig, RefusesDuplicatesAndUnknownReferences) {
-  EXPECT_EQ(parseError("cmd \"a\" { exec = \"x\"; }\ngroup \"g\" {\n  cmd \"a\" { exec = \"y\"; }\n}"),
-            "bad.pmd:3:7: duplicate command name \"a\" (first at line 1)");
+  EXPECT_EQ(
+      parseError("cmd \"a\" { exec = \"x\"; }\ngroup \"g\" {\n  cmd \"a\" { exec = \"y\"; }\n}"),
+      "bad.pmd:3:7: duplicate command name \"a\" (first at line 1)");
   EXPECT_EQ(parseError("script \"s\" { }\nscript \"s\" { }"),
             "bad.pmd:2:8: duplicate script name \"s\" (first at line 1)");
   EXPECT_EQ(parseError("cmd \"a\" { exec = \"x\"; }\nscript \"s\" {\n  start cmd \"b\";\n}"),
@@ -203,11 +205,14 @@ TEST(DeputyConfig, RefusesDuplicatesAndUnknownReferences) {
             "bad.pmd:2:3: unknown group \"nope\"");
   EXPECT_EQ(parseError("script \"s\" { run_script \"t\"; }"),
             "bad.pmd:1:14: script \"s\" runs unknown script \"t\"");
-  EXPECT_EQ(parseError("cmd \"a\" { exec = \"x\"; }\nscript \"s\" { start cmd \"a\" wait \"done\"; }"),
-            "bad.pmd:2:33: expected \"running\" or \"stopped\", got \"done\"");
-  EXPECT_EQ(parseError("cmd \"a\" { exec = \"x\"; }\nscript \"s\" { stop cmd \"a\" wait \"running\"; }"),
-            "bad.pmd:2:32: a stop can only wait for \"stopped\"");
-  EXPECT_EQ(parseError("script \"s\" { wait ms; }"), "bad.pmd:1:21: expected milliseconds, got ';' (;)");
+  EXPECT_EQ(
+      parseError("cmd \"a\" { exec = \"x\"; }\nscript \"s\" { start cmd \"a\" wait \"done\"; }"),
+      "bad.pmd:2:33: expected \"running\" or \"stopped\", got \"done\"");
+  EXPECT_EQ(
+      parseError("cmd \"a\" { exec = \"x\"; }\nscript \"s\" { stop cmd \"a\" wait \"running\"; }"),
+      "bad.pmd:2:32: a stop can only wait for \"stopped\"");
+  EXPECT_EQ(parseError("script \"s\" { wait ms; }"),
+            "bad.pmd:1:21: expected milliseconds, got ';' (;)");
 }
 
 TEST(DeputyConfig, RefusesScriptsThatCallThemselves) {
@@ -232,7 +237,8 @@ TEST(DeputyConfig, ErrorsFromAFileNameTheFile) {
 
 TEST(DeputyConfig, ReadsEveryShippedConfig) {
   int n = 0;
-  for (const auto& e : std::filesystem::directory_iterator(std::filesystem::path(EVERMAP_SOURCE_DIR) / "config")) {
+  for (const auto& e :
+       std::filesystem::directory_iterator(std::filesystem::path(EVERMAP_SOURCE_DIR) / "config")) {
     if (e.path().extension() != ".pmd") continue;
     auto c = loadConfig(e.path());
     EXPECT_TRUE(c.ok()) << c.error().message;

@@ -170,9 +170,8 @@ TEST_F(DeputyNodeTest, OrdersOf24To49BytesAreCountedAndTheDeputyKeepsSupervising
       for (int k = 8; k < size; ++k) b[k] = static_cast<uint8_t>(fill < 0 ? rng() : fill);
       lcm_.publish(channels::kDeputyOrder, b.data(), static_cast<unsigned>(size));
       ++sent;
-      ASSERT_TRUE(spinUntil([&] {
-        return node_->inbox().counts().at(channels::kDeputyOrder).received == sent;
-      }));
+      ASSERT_TRUE(spinUntil(
+          [&] { return node_->inbox().counts().at(channels::kDeputyOrder).received == sent; }));
     }
   }
   const DeputyNode::Counters c = node_->counters();
@@ -231,17 +230,20 @@ TEST_F(DeputyNodeTest, ClientStartsStopsAndRestartsByNameAndGroup) {
   const pid_t b_pid = supervisor_->status("b")->pid;
   ASSERT_TRUE(client.restart({{CtlTarget::Kind::kCommand, "b"}}).ok());
   ASSERT_TRUE(client.waitFor({{CtlTarget::Kind::kCommand, "b"}}, true).ok());
-  ASSERT_TRUE(spinUntil([&] { return supervisor_->status("b")->starts == 2 &&
-                                     supervisor_->status("b")->state == ProcessState::kRunning; }));
+  ASSERT_TRUE(spinUntil([&] {
+    return supervisor_->status("b")->starts == 2 &&
+           supervisor_->status("b")->state == ProcessState::kRunning;
+  }));
   EXPECT_NE(supervisor_->status("b")->pid, b_pid);
 
   // A one-shot that failed "should run" already: start re-arms it and it runs again.
   ASSERT_TRUE(client.start({{CtlTarget::Kind::kAuto, "once"}}).ok());
   ASSERT_TRUE(client.waitFor({{CtlTarget::Kind::kAuto, "once"}}, false).ok());
   ASSERT_TRUE(client.start({{CtlTarget::Kind::kAuto, "once"}}).ok());
-  ASSERT_TRUE(spinUntil([&] { return supervisor_->status("once")->starts == 2 &&
-                                     supervisor_->status("once")->has_ended &&
-                                     supervisor_->status("once")->pid == 0; }));
+  ASSERT_TRUE(spinUntil([&] {
+    return supervisor_->status("once")->starts == 2 && supervisor_->status("once")->has_ended &&
+           supervisor_->status("once")->pid == 0;
+  }));
   EXPECT_EQ(supervisor_->status("once")->last_exit_code, 4);
 
   ASSERT_TRUE(client.stop({{CtlTarget::Kind::kEverything, ""}}).ok());
@@ -269,7 +271,8 @@ TEST_F(DeputyNodeTest, RunsAScriptWithWaits) {
       run_script "halt";
     }
     script "halt" { stop cmd "worker" wait "stopped"; }
-  )", "inline.pmd");
+  )",
+                            "inline.pmd");
   ASSERT_TRUE(config.ok()) << config.error().message;
   makeDeputy(config->commands);
   auto runner = ScriptRunner::create(*config, "go");

@@ -109,9 +109,9 @@ TEST(OutputThrottle, DropsLinesOverTheRateAndSaysHowMany) {
   o.max_message_bytes = 8192;
   OutputThrottle t(o);
   const auto t0 = Clock::now();
-  const std::string line(99, 'x');  // 100 bytes with '\n'
+  const std::string line(99, 'x');                         // 100 bytes with '\n'
   for (int i = 0; i < 100; ++i) t.addLine("a", line, t0);  // 10000 bytes at once
-  EXPECT_EQ(t.droppedLines(), 100 - 81);                    // 8192 / 100 = 81 fit the burst
+  EXPECT_EQ(t.droppedLines(), 100 - 81);                   // 8192 / 100 = 81 fit the burst
   auto due = t.takeDue(t0, true);
   size_t sent = 0;
   for (const auto& b : due) sent += b.text.size();
@@ -127,22 +127,23 @@ TEST(OutputThrottle, DropsLinesOverTheRateAndSaysHowMany) {
 TEST(LaunchPlan, PlainCommandsRunWithoutAShell) {
   const LaunchPlan p = planLaunch("  evermap-vo-proc --config  config/vo.yaml\t-v ");
   EXPECT_FALSE(p.via_shell);
-  EXPECT_EQ(p.argv, (std::vector<std::string>{"evermap-vo-proc", "--config", "config/vo.yaml", "-v"}));
+  EXPECT_EQ(p.argv,
+            (std::vector<std::string>{"evermap-vo-proc", "--config", "config/vo.yaml", "-v"}));
   EXPECT_TRUE(p.env_assignments.empty());
 }
 
 TEST(LaunchPlan, LeadingAssignmentsSetTheEnvironment) {
-  const LaunchPlan p = planLaunch("DISPLAY=:1.0 LCM_DEFAULT_URL=udpm://239.255.76.67:7667 xterm a=b");
+  const LaunchPlan p =
+      planLaunch("DISPLAY=:1.0 LCM_DEFAULT_URL=udpm://239.255.76.67:7667 xterm a=b");
   EXPECT_FALSE(p.via_shell);
-  EXPECT_EQ(p.env_assignments,
-            (std::vector<std::string>{"DISPLAY=:1.0", "LCM_DEFAULT_URL=udpm://239.255.76.67:7667"}));
+  EXPECT_EQ(p.env_assignments, (std::vector<std::string>{
+                                   "DISPLAY=:1.0", "LCM_DEFAULT_URL=udpm://239.255.76.67:7667"}));
   EXPECT_EQ(p.argv, (std::vector<std::string>{"xterm", "a=b"}));
 }
 
 TEST(LaunchPlan, ShellSyntaxGoesThroughSh) {
   for (const char* exec : {"ls ${HOME}", "a | b", "echo 'quoted'", "a; b", "a > log", "ls *.txt",
-                           "cd ~", "X=1",
-                           "exit 3", "exec prog --x"}) {
+                           "cd ~", "X=1", "exit 3", "exec prog --x"}) {
     const LaunchPlan p = planLaunch(exec);
     EXPECT_TRUE(p.via_shell) << exec;
     EXPECT_EQ(p.argv, (std::vector<std::string>{"/bin/sh", "-c", exec}));

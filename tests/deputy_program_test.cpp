@@ -19,7 +19,8 @@ namespace {
 
 using testing::readFile;
 
-const std::filesystem::path kDeputy = std::filesystem::path(EVERMAP_BINARY_DIR) / "bin" / "evermap-deputy";
+const std::filesystem::path kDeputy =
+    std::filesystem::path(EVERMAP_BINARY_DIR) / "bin" / "evermap-deputy";
 
 // Starts the deputy with `args`, its stderr into `stderr_file`.
 pid_t startDeputy(const std::vector<std::string>& args, const std::filesystem::path& stderr_file) {
@@ -69,10 +70,10 @@ TEST(DeputyProgram, SigtermStopsEveryChildAndLeavesNoOrphan) {
       << "auto_respawn = \"true\"; }\n"
       << "  cmd \"crasher\" { exec = \"exit 1\"; auto_respawn = \"true\"; }\n"
       << "}\n";
-  const pid_t deputy = startDeputy({(dir / "test.pmd").string(), "--log-dir", d + "/logs",
-                                    "--start-all", "--lcm-url", "memq://", "--backoff-initial-ms",
-                                    "20"},
-                                   dir / "stderr.txt");
+  const pid_t deputy =
+      startDeputy({(dir / "test.pmd").string(), "--log-dir", d + "/logs", "--start-all",
+                   "--lcm-url", "memq://", "--backoff-initial-ms", "20"},
+                  dir / "stderr.txt");
   ASSERT_GT(deputy, 0);
   std::vector<pid_t> children;
   for (const char* f : {"sleeper.pid", "stubborn.pid", "stubborn-child.pid", "respawner.pid"}) {
@@ -92,9 +93,9 @@ TEST(DeputyProgram, RefusesAMalformedConfigNamingTheLine) {
   ASSERT_TRUE(std::filesystem::exists(kDeputy)) << kDeputy << " not built";
   evermap::testing::ScratchDir dir;
   std::ofstream(dir / "bad.pmd") << "cmd \"a\" {\n  exec = \"x\";\n  auto_respawn = true;\n}\n";
-  const pid_t deputy = startDeputy({(dir / "bad.pmd").string(), "--log-dir", (dir / "logs").string(),
-                                    "--lcm-url", "memq://"},
-                                   dir / "stderr.txt");
+  const pid_t deputy = startDeputy(
+      {(dir / "bad.pmd").string(), "--log-dir", (dir / "logs").string(), "--lcm-url", "memq://"},
+      dir / "stderr.txt");
   ASSERT_GT(deputy, 0);
   EXPECT_EQ(waitExit(deputy), 2);
   EXPECT_EQ(readFile(dir / "stderr.txt"),
@@ -109,13 +110,15 @@ TEST(DeputyProgram, ExitsAfterItsScriptWhenAsked) {
                                  << "cmd \"job\" { exec = \"echo job-done\"; }\n"
                                  << "script \"run\" {\n  start cmd \"server\" wait \"running\";\n"
                                  << "  start cmd \"job\" wait \"stopped\";\n}\n";
-  const pid_t deputy = startDeputy({(dir / "run.pmd").string(), "--log-dir", (dir / "logs").string(),
-                                    "--lcm-url", "memq://", "--script", "run", "--exit-after-script"},
-                                   dir / "stderr.txt");
+  const pid_t deputy =
+      startDeputy({(dir / "run.pmd").string(), "--log-dir", (dir / "logs").string(), "--lcm-url",
+                   "memq://", "--script", "run", "--exit-after-script"},
+                  dir / "stderr.txt");
   ASSERT_GT(deputy, 0);
   EXPECT_EQ(waitExit(deputy), 0) << readFile(dir / "stderr.txt");
   EXPECT_NE(readFile(dir / "logs" / "job.log").find("job-done\n"), std::string::npos);
-  EXPECT_NE(readFile(dir / "logs" / "server.log").find("ended: killed by signal 2"), std::string::npos)
+  EXPECT_NE(readFile(dir / "logs" / "server.log").find("ended: killed by signal 2"),
+            std::string::npos)
       << readFile(dir / "logs" / "server.log");
 }
 

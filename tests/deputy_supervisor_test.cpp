@@ -34,8 +34,8 @@ std::unique_ptr<Supervisor> makeSupervisor(std::vector<CommandSpec> commands,
 
 TEST(DeputySupervisor, WritesStdoutAndStderrToTheProcessLogAndTheSink) {
   evermap::testing::ScratchDir dir;
-  auto s = makeSupervisor({command("talker", "echo out-line; echo err-line >&2; printf 'no newline'")},
-                          dir / "logs");
+  auto s = makeSupervisor(
+      {command("talker", "echo out-line; echo err-line >&2; printf 'no newline'")}, dir / "logs");
   std::vector<std::string> lines;
   s->setLineSink([&](const std::string& name, const std::string& line, bool from_deputy) {
     EXPECT_EQ(name, "talker");
@@ -59,7 +59,8 @@ TEST(DeputySupervisor, RotatesALogFileThatGrowsTooBig) {
   o.max_log_bytes = 4000;
   // 300 lines of 100 bytes: 30000 bytes, rotated every ~4000.
   auto s = Supervisor::create(
-      {command("chatty", "i=0; while [ $i -lt 300 ]; do printf '%099d\\n' $i; i=$((i+1)); done")}, o);
+      {command("chatty", "i=0; while [ $i -lt 300 ]; do printf '%099d\\n' $i; i=$((i+1)); done")},
+      o);
   ASSERT_TRUE(s.ok()) << s.error().message;
   ASSERT_TRUE((*s)->start("chatty").ok());
   ASSERT_TRUE(spinUntil(**s, [&] { return (*s)->status("chatty")->has_ended; }));
@@ -105,11 +106,13 @@ TEST(DeputySupervisor, RestartsACrashingCommandWithGrowingBackoff) {
   const std::vector<double> expected_ms = {50, 100, 200, 400, 400};
   std::vector<double> gaps_ms;
   for (size_t i = 0; i + 1 < notes.size(); ++i) {
-    if (notes[i].first.rfind("ended:", 0) == 0 && notes[i + 1].first.find("restarting in") != std::string::npos) {
+    if (notes[i].first.rfind("ended:", 0) == 0 &&
+        notes[i + 1].first.find("restarting in") != std::string::npos) {
       // The restart note follows the end; the restart itself is the next "restarted" note.
       for (size_t j = i + 2; j < notes.size(); ++j) {
         if (notes[j].first.rfind("restarted pid", 0) == 0) {
-          gaps_ms.push_back(std::chrono::duration<double, std::milli>(notes[j].second - notes[i].second).count());
+          gaps_ms.push_back(
+              std::chrono::duration<double, std::milli>(notes[j].second - notes[i].second).count());
           break;
         }
       }
@@ -117,7 +120,8 @@ TEST(DeputySupervisor, RestartsACrashingCommandWithGrowingBackoff) {
   }
   ASSERT_GE(gaps_ms.size(), 5u);
   for (size_t i = 0; i < 5; ++i) EXPECT_GE(gaps_ms[i], expected_ms[i]) << "restart " << i + 1;
-  EXPECT_NE(readFile(dir / "crasher.log").find("auto_respawn: restarting in 400 ms"), std::string::npos);
+  EXPECT_NE(readFile(dir / "crasher.log").find("auto_respawn: restarting in 400 ms"),
+            std::string::npos);
 }
 
 TEST(DeputySupervisor, StableRunsResetTheBackoff) {
@@ -144,24 +148,29 @@ TEST(DeputySupervisor, WithoutAutoRespawnAFailedCommandStaysFailed) {
   EXPECT_EQ(st.restarts, 0);
   EXPECT_TRUE(st.desired_running);  // procman: still "should run"; a new start order reruns it
   ASSERT_TRUE(s->start("once").ok());
-  ASSERT_TRUE(spinUntil(*s, [&] { return s->status("once")->starts == 2 && s->status("once")->pid == 0 &&
-                                         s->status("once")->state == ProcessState::kFailed; }));
+  ASSERT_TRUE(spinUntil(*s, [&] {
+    return s->status("once")->starts == 2 && s->status("once")->pid == 0 &&
+           s->status("once")->state == ProcessState::kFailed;
+  }));
 }
 
 TEST(DeputySupervisor, StopEscalatesToSigkillAfterStopTimeAllowed) {
   evermap::testing::ScratchDir dir;
-  CommandSpec stubborn = command("stubborn", "trap '' INT TERM; echo ready; while :; do sleep 0.05; done");
+  CommandSpec stubborn =
+      command("stubborn", "trap '' INT TERM; echo ready; while :; do sleep 0.05; done");
   stubborn.stop_signal = SIGTERM;
   stubborn.stop_time_allowed_s = 1;
   auto s = makeSupervisor({stubborn}, dir.path());
   ASSERT_TRUE(s->start("stubborn").ok());
-  ASSERT_TRUE(spinUntil(*s, [&] { return readFile(dir / "stubborn.log").find("ready\n") != std::string::npos; }));
+  ASSERT_TRUE(spinUntil(
+      *s, [&] { return readFile(dir / "stubborn.log").find("ready\n") != std::string::npos; }));
   const pid_t pid = s->status("stubborn")->pid;
   ASSERT_GT(pid, 0);
   const auto stop_at = Clock::now();
   ASSERT_TRUE(s->stop("stubborn").ok());
   EXPECT_EQ(s->status("stubborn")->state, ProcessState::kStopping);
-  ASSERT_TRUE(spinUntil(*s, [&] { return s->status("stubborn")->state == ProcessState::kStopped; }));
+  ASSERT_TRUE(
+      spinUntil(*s, [&] { return s->status("stubborn")->state == ProcessState::kStopped; }));
   // SIGTERM was ignored; SIGKILL came, and not before stop_time_allowed had passed.
   EXPECT_GE(Clock::now() - stop_at, std::chrono::seconds(1));
   EXPECT_EQ(s->status("stubborn")->last_exit_code, -SIGKILL);
@@ -176,11 +185,12 @@ TEST(DeputySupervisor, StopEscalatesToSigkillAfterStopTimeAllowed) {
 TEST(DeputySupervisor, StopSignalReachesTheWholeProcessGroup) {
   evermap::testing::ScratchDir dir;
   // The shell waits on two sleeps; the stop signal must reach them, not only the shell.
-  auto s = makeSupervisor({command("pair", "sleep 1000 & echo $! > " + (dir / "child.pid").string() +
-                                                "; sleep 1000")},
-                          dir.path());
+  auto s = makeSupervisor(
+      {command("pair", "sleep 1000 & echo $! > " + (dir / "child.pid").string() + "; sleep 1000")},
+      dir.path());
   ASSERT_TRUE(s->start("pair").ok());
-  ASSERT_TRUE(spinUntil(*s, [&] { return readFile(dir / "child.pid").find('\n') != std::string::npos; }));
+  ASSERT_TRUE(
+      spinUntil(*s, [&] { return readFile(dir / "child.pid").find('\n') != std::string::npos; }));
   const pid_t child = std::stoi(readFile(dir / "child.pid"));
   ASSERT_TRUE(s->stop("pair").ok());
   ASSERT_TRUE(spinUntil(*s, [&] { return s->status("pair")->state == ProcessState::kStopped; }));
@@ -194,8 +204,10 @@ TEST(DeputySupervisor, RestartOrderGivesANewProcess) {
   ASSERT_TRUE(spinUntil(*s, [&] { return s->status("sleeper")->state == ProcessState::kRunning; }));
   const pid_t first = s->status("sleeper")->pid;
   ASSERT_TRUE(s->restart("sleeper").ok());
-  ASSERT_TRUE(spinUntil(*s, [&] { return s->status("sleeper")->starts == 2 &&
-                                         s->status("sleeper")->state == ProcessState::kRunning; }));
+  ASSERT_TRUE(spinUntil(*s, [&] {
+    return s->status("sleeper")->starts == 2 &&
+           s->status("sleeper")->state == ProcessState::kRunning;
+  }));
   EXPECT_NE(s->status("sleeper")->pid, first);
   EXPECT_EQ(s->status("sleeper")->restarts, 0);  // ordered, not automatic
   EXPECT_TRUE(gone(first));
@@ -225,14 +237,16 @@ TEST(DeputySupervisor, AMissingProgramIsReportedAsFailed) {
   ASSERT_TRUE(spinUntil(*s, [&] { return s->status("ghost")->has_ended; }));
   EXPECT_EQ(s->status("ghost")->state, ProcessState::kFailed);
   EXPECT_EQ(s->status("ghost")->last_exit_code, 127);
-  EXPECT_NE(readFile(dir / "ghost.log").find("cannot execute '/nonexistent/evermap-ghost'"), std::string::npos);
+  EXPECT_NE(readFile(dir / "ghost.log").find("cannot execute '/nonexistent/evermap-ghost'"),
+            std::string::npos);
   EXPECT_FALSE(s->start("nobody").ok());
 }
 
 TEST(DeputySupervisor, ShutdownStopsEveryChildIncludingStubbornOnes) {
   evermap::testing::ScratchDir dir;
-  CommandSpec stubborn = command("stubborn", "trap '' INT TERM; echo $$ > " + (dir / "s.pid").string() +
-                                                 "; while :; do sleep 0.05; done");
+  CommandSpec stubborn =
+      command("stubborn", "trap '' INT TERM; echo $$ > " + (dir / "s.pid").string() +
+                              "; while :; do sleep 0.05; done");
   stubborn.stop_time_allowed_s = 1;
   CommandSpec respawner = command("respawner", "sleep 1000");
   respawner.auto_respawn = true;
@@ -260,11 +274,12 @@ TEST(DeputySupervisor, DestroyingTheSupervisorLeavesNoChild) {
   evermap::testing::ScratchDir dir;
   pid_t pid = 0, grandchild = 0;
   {
-    auto s = makeSupervisor({command("family", "sleep 1000 & echo $! > " + (dir / "g.pid").string() +
-                                                   "; wait")},
-                            dir.path());
+    auto s = makeSupervisor(
+        {command("family", "sleep 1000 & echo $! > " + (dir / "g.pid").string() + "; wait")},
+        dir.path());
     ASSERT_TRUE(s->start("family").ok());
-    ASSERT_TRUE(spinUntil(*s, [&] { return readFile(dir / "g.pid").find('\n') != std::string::npos; }));
+    ASSERT_TRUE(
+        spinUntil(*s, [&] { return readFile(dir / "g.pid").find('\n') != std::string::npos; }));
     pid = s->status("family")->pid;
     grandchild = std::stoi(readFile(dir / "g.pid"));
   }
@@ -278,8 +293,10 @@ TEST(DeputySupervisor, MeasuresCpuAndMemoryOfTheProcessGroup) {
                           dir.path());
   ASSERT_TRUE(s->start("busy").ok());
   ASSERT_TRUE(s->start("idle").ok());
-  ASSERT_TRUE(spinUntil(*s, [&] { return s->status("busy")->state == ProcessState::kRunning &&
-                                         s->status("idle")->state == ProcessState::kRunning; }));
+  ASSERT_TRUE(spinUntil(*s, [&] {
+    return s->status("busy")->state == ProcessState::kRunning &&
+           s->status("idle")->state == ProcessState::kRunning;
+  }));
   s->sampleUsage();
   // On a loaded machine the loop gets less than a core; it gets some, the sleeper none.
   ASSERT_TRUE(spinUntil(*s, [&] {

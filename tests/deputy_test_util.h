@@ -28,7 +28,8 @@ inline bool spinUntil(Supervisor& s, const std::function<bool()>& done,
     std::vector<pollfd> fds;
     s.appendPollFds(&fds);
     const auto wait = std::chrono::ceil<std::chrono::milliseconds>(
-        std::min(s.nextDeadline(), std::chrono::steady_clock::now() + std::chrono::milliseconds(50)) -
+        std::min(s.nextDeadline(),
+                 std::chrono::steady_clock::now() + std::chrono::milliseconds(50)) -
         std::chrono::steady_clock::now());
     ::poll(fds.data(), fds.size(), static_cast<int>(std::max<int64_t>(0, wait.count())));
     s.service();

@@ -22,8 +22,9 @@ namespace {
 // Frames moving forward 0.25 m each through the room, turning slightly; the right image is
 // moved right by `right_shift_px` whole pixels (0: exact). Returns the registered consecutive
 // pairs measured with `camera` (which may differ from the rig that rendered them).
-std::vector<StereoMatchPair> forwardPairs(const testing::TexturedRoom& room, const StereoCamera& rendered,
-                                          const StereoCamera& camera, int right_shift_px) {
+std::vector<StereoMatchPair> forwardPairs(const testing::TexturedRoom& room,
+                                          const StereoCamera& rendered, const StereoCamera& camera,
+                                          int right_shift_px) {
   auto extractor = StereoFeatureExtractor::create(StereoFeatureExtractor::Options{});
   EXPECT_TRUE(extractor.ok());
   OrbExtractor orb{OrbExtractor::Options{}};
@@ -31,7 +32,8 @@ std::vector<StereoMatchPair> forwardPairs(const testing::TexturedRoom& room, con
   std::vector<StereoMatchPair> pairs;
   KeyframeFeatures previous;
   for (int k = 0; k < 8; ++k) {
-    const SE3d world_T_cam(SO3d::exp(Vec3(0.0, 0.02 * k, 0.0)), Vec3(0.1 * k, 0.1, -2.5 + 0.25 * k));
+    const SE3d world_T_cam(SO3d::exp(Vec3(0.0, 0.02 * k, 0.0)),
+                           Vec3(0.1 * k, 0.1, -2.5 + 0.25 * k));
     cv::Mat left, right;
     room.render(rendered, world_T_cam, &left, &right, &rng);
     if (right_shift_px > 0) {
@@ -44,7 +46,8 @@ std::vector<StereoMatchPair> forwardPairs(const testing::TexturedRoom& room, con
     EXPECT_TRUE(extractor->extract(camera, k, left, right, &frame).ok());
     KeyframeFeatures kf = makeKeyframeFeatures(frame, orb);
     if (k > 0) {
-      const RegistrationSummary s = registerFrames(camera, previous, camera, kf, RegistrationOptions{});
+      const RegistrationSummary s =
+          registerFrames(camera, previous, camera, kf, RegistrationOptions{});
       EXPECT_TRUE(s.ok()) << s.message;
       pairs.push_back(matchPair(previous, kf, s));
     }
@@ -53,17 +56,18 @@ std::vector<StereoMatchPair> forwardPairs(const testing::TexturedRoom& room, con
   return pairs;
 }
 
-#define REQUIRE_ROOM(room)                                                             \
-  const testing::TexturedRoom room(testing::dataRoot());                               \
-  if (!room.ok()) {                                                                    \
-    if (testing::underCi()) FAIL() << "room textures not found";                       \
-    GTEST_SKIP() << "room textures (kitti07-mono-160, euroc-v101-micro) not found";   \
+#define REQUIRE_ROOM(room)                                                          \
+  const testing::TexturedRoom room(testing::dataRoot());                            \
+  if (!room.ok()) {                                                                 \
+    if (testing::underCi()) FAIL() << "room textures not found";                    \
+    GTEST_SKIP() << "room textures (kitti07-mono-160, euroc-v101-micro) not found"; \
   }
 
 TEST(DisparityOffset, AnExactRigHasNoOffset) {
   REQUIRE_ROOM(room);
   const StereoCamera camera = testing::syntheticCamera();
-  const auto est = estimateDisparityOffset(camera, forwardPairs(room, camera, camera, 0), DisparityOffsetOptions{});
+  const auto est = estimateDisparityOffset(camera, forwardPairs(room, camera, camera, 0),
+                                           DisparityOffsetOptions{});
   ASSERT_TRUE(est.ok()) << est.error().message;
   EXPECT_EQ(est->pairs, 7);
   std::printf("%s\n", est->message.c_str());
@@ -73,7 +77,8 @@ TEST(DisparityOffset, AnExactRigHasNoOffset) {
 TEST(DisparityOffset, ARightImageOnePixelOffFromItsCalibrationIsFound) {
   REQUIRE_ROOM(room);
   const StereoCamera camera = testing::syntheticCamera();
-  const auto est = estimateDisparityOffset(camera, forwardPairs(room, camera, camera, 1), DisparityOffsetOptions{});
+  const auto est = estimateDisparityOffset(camera, forwardPairs(room, camera, camera, 1),
+                                           DisparityOffsetOptions{});
   ASSERT_TRUE(est.ok()) << est.error().message;
   std::printf("%s\n", est->message.c_str());
   EXPECT_NEAR(est->offset_px, 1.0, 0.15) << est->message;
@@ -82,9 +87,11 @@ TEST(DisparityOffset, ARightImageOnePixelOffFromItsCalibrationIsFound) {
 TEST(DisparityOffset, AWrongBaselineIsNotMistakenForAnOffset) {
   REQUIRE_ROOM(room);
   const StereoCamera rendered = testing::syntheticCamera();
-  const StereoCamera measured = *StereoCamera::create(rendered.fx(), rendered.fy(), rendered.cx(), rendered.cy(),
-                                                      rendered.baselineM() * 1.08, rendered.width(), rendered.height());
-  const auto est = estimateDisparityOffset(measured, forwardPairs(room, rendered, measured, 0), DisparityOffsetOptions{});
+  const StereoCamera measured =
+      *StereoCamera::create(rendered.fx(), rendered.fy(), rendered.cx(), rendered.cy(),
+                            rendered.baselineM() * 1.08, rendered.width(), rendered.height());
+  const auto est = estimateDisparityOffset(measured, forwardPairs(room, rendered, measured, 0),
+                                           DisparityOffsetOptions{});
   ASSERT_TRUE(est.ok()) << est.error().message;
   std::printf("%s\n", est->message.c_str());
   EXPECT_NEAR(est->offset_px, 0.0, 0.15) << est->message;

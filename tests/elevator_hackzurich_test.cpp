@@ -48,10 +48,10 @@ struct SessionTruth {
 const std::vector<SessionTruth>& truths() {
   static const std::vector<SessionTruth> t = {
       {1,
-       {{1474103777.1, 1474103789.8},    // getting_in_and_out: up 15.5 m
-        {1474103851.5, 1474103857.1},    //   down 6.2 m
-        {1474103917.5, 1474103920.3},    //   down 3.2 m
-        {1474104290.9, 1474104299.3}},   // walk_and_ride: down 10 m
+       {{1474103777.1, 1474103789.8},   // getting_in_and_out: up 15.5 m
+        {1474103851.5, 1474103857.1},   //   down 6.2 m
+        {1474103917.5, 1474103920.3},   //   down 3.2 m
+        {1474104290.9, 1474104299.3}},  // walk_and_ride: down 10 m
        {}},
       {2,
        {{1474121118.7, 1474121122.9},    // elevator_up_and_stairs_down: up 3.3 m (a stop)
@@ -85,7 +85,8 @@ TEST_P(ElevatorHackzurich, EveryLabelledRideIsFoundWithTheBarometricHeight) {
   ASSERT_EQ(session->episodes.size(), 2u);
   std::vector<imu::ImuSample> samples;
   for (const auto& s : session->imu) {
-    samples.push_back({s.t_ns / 1000, zero_gyro ? Eigen::Vector3d::Zero() : s.gyro_rad_s, s.accel_m_s2});
+    samples.push_back(
+        {s.t_ns / 1000, zero_gyro ? Eigen::Vector3d::Zero() : s.gyro_rad_s, s.accel_m_s2});
   }
   const OfflineRun run = runImuElevator(samples, {}, {});
   const std::vector<RideRow> rows =
@@ -93,10 +94,10 @@ TEST_P(ElevatorHackzurich, EveryLabelledRideIsFoundWithTheBarometricHeight) {
   EXPECT_EQ(run.attitude_counts.accel_only, zero_gyro);
   EXPECT_TRUE(run.rejected.empty());
   std::printf("session %d%s (%s)\n%s", truth.session, zero_gyro ? ", gyroscope zeroed" : "",
-              run.counts.summary().c_str(),
-              formatRideTable(rows, samples.front().utime).c_str());
+              run.counts.summary().c_str(), formatRideTable(rows, samples.front().utime).c_str());
   for (const auto& a : run.abandoned) {
-    std::printf("  abandoned start at unix %.1f: %s\n", unixSeconds(a.start_utime), a.reason.c_str());
+    std::printf("  abandoned start at unix %.1f: %s\n", unixSeconds(a.start_utime),
+                a.reason.c_str());
   }
 
   auto inEpisode = [&](double t0, double t1) {
@@ -109,7 +110,8 @@ TEST_P(ElevatorHackzurich, EveryLabelledRideIsFoundWithTheBarometricHeight) {
   for (const LabelledRide& l : truth.rides) {
     int found = 0;
     for (size_t i = 0; i < rows.size(); ++i) {
-      const double s = unixSeconds(rows[i].ride.start_utime), e = unixSeconds(rows[i].ride.end_utime);
+      const double s = unixSeconds(rows[i].ride.start_utime),
+                   e = unixSeconds(rows[i].ride.end_utime);
       if (s < l.baro_end_s + 2.0 && e > l.baro_start_s - 8.0) {
         ++found;
         ++hits[i];
@@ -132,11 +134,13 @@ TEST_P(ElevatorHackzurich, EveryLabelledRideIsFoundWithTheBarometricHeight) {
         << "ride outside the episodes at unix " << s << " not confirmed by the barometer";
     EXPECT_GT(std::abs(rows[i].baro_change_m), 2.0);
     EXPECT_GE(rows[i].baro_peak_rate_m_s, kElevatorRate)
-        << "ride outside the episodes at unix " << s << ": the barometer moved too slowly for an elevator";
+        << "ride outside the episodes at unix " << s
+        << ": the barometer moved too slowly for an elevator";
   }
   for (const auto& [a, b] : truth.stairs) {
     double rate = 0;
-    ASSERT_TRUE(baroPeakRate(session->barometer, static_cast<int64_t>(a * 1e6), static_cast<int64_t>(b * 1e6), &rate));
+    ASSERT_TRUE(baroPeakRate(session->barometer, static_cast<int64_t>(a * 1e6),
+                             static_cast<int64_t>(b * 1e6), &rate));
     std::printf("  stairs unix %.0f..%.0f: barometer at most %.2f m/s\n", a, b, rate);
     EXPECT_LT(rate, kElevatorRate) << "the elevator-speed criterion must tell stairs apart";
     for (const FloorEvent& ev : run.events) {
@@ -149,8 +153,10 @@ TEST_P(ElevatorHackzurich, EveryLabelledRideIsFoundWithTheBarometricHeight) {
     EXPECT_FALSE(inEpisode(unixSeconds(ab.start_utime), unixSeconds(ab.abandon_utime)))
         << "abandoned ride start inside an episode at unix " << unixSeconds(ab.start_utime);
     double rate = 0;
-    ASSERT_TRUE(baroPeakRate(session->barometer, ab.start_utime - 5'000'000, ab.abandon_utime + 15'000'000, &rate));
-    std::printf("  abandoned start at unix %.1f: barometer at most %.2f m/s\n", unixSeconds(ab.start_utime), rate);
+    ASSERT_TRUE(baroPeakRate(session->barometer, ab.start_utime - 5'000'000,
+                             ab.abandon_utime + 15'000'000, &rate));
+    std::printf("  abandoned start at unix %.1f: barometer at most %.2f m/s\n",
+                unixSeconds(ab.start_utime), rate);
     EXPECT_GE(rate, kElevatorRate) << "abandoned ride start at unix " << unixSeconds(ab.start_utime)
                                    << " with no elevator motion in the barometer";
   }

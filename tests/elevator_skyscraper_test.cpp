@@ -39,16 +39,16 @@ TEST(ScienceJournalReader, SparseRowsMakeSamplesAndEveryRowIsCounted) {
   {
     std::ofstream out(file);
     out << "relative_time,LinearAccelerometerSensor,AccX,AccY,AccZ\n"
-           "0,,,,9.8\n"          // z first: no sample yet
+           "0,,,,9.8\n"  // z first: no sample yet
            "1,,0.1,,\n"
-           "2,,,0.2,\n"          // x, y, z known: first sample at 2 ms
-           "10,0.5,,,\n"         // linear acceleration only: counted, not used
-           "20,,0.3,0.4,9.9\n"   // a full row: a sample
+           "2,,,0.2,\n"         // x, y, z known: first sample at 2 ms
+           "10,0.5,,,\n"        // linear acceleration only: counted, not used
+           "20,,0.3,0.4,9.9\n"  // a full row: a sample
            "30,,0.5,,\n"
-           "31,,0.6,,\n"         // x again before y and z: superseded
-           "32,,,0.7,10.0\n"     // completes the sample at 32 ms with x = 0.6
-           "40,,,,\n"            // nothing
-           "50,,1.0,,\n";        // an incomplete triple at the end
+           "31,,0.6,,\n"      // x again before y and z: superseded
+           "32,,,0.7,10.0\n"  // completes the sample at 32 ms with x = 0.6
+           "40,,,,\n"         // nothing
+           "50,,1.0,,\n";     // an incomplete triple at the end
   }
   const auto r = datasets::readScienceJournalCsv(file);
   ASSERT_TRUE(r.ok()) << r.error().message;
@@ -94,9 +94,10 @@ TEST(ElevatorSkyscraper, TheFastLongRideIsFoundAccelerometerOnly) {
   EXPECT_TRUE(run.attitude_counts.accel_only);
   ASSERT_EQ(run.rides.size(), 1u);
   const Ride& r = run.rides.front();
-  std::printf("ride %.1f..%.1f s: %+.2f m (sigma %.2f), peak %.2f m/s, pulses %+.2f / %+.2f m/s^2\n",
-              1e-6 * static_cast<double>(r.start_utime), 1e-6 * static_cast<double>(r.end_utime),
-              r.displacement_m, r.sigma_m, r.peak_speed_m_s, r.start_accel_m_s2, r.stop_accel_m_s2);
+  std::printf(
+      "ride %.1f..%.1f s: %+.2f m (sigma %.2f), peak %.2f m/s, pulses %+.2f / %+.2f m/s^2\n",
+      1e-6 * static_cast<double>(r.start_utime), 1e-6 * static_cast<double>(r.end_utime),
+      r.displacement_m, r.sigma_m, r.peak_speed_m_s, r.start_accel_m_s2, r.stop_accel_m_s2);
   // 70.8-74.3 m (see the top), and a few metres of the author's own uncertainty.
   EXPECT_NEAR(r.displacement_m, 73.0, 4.0);
   EXPECT_NEAR(r.peak_speed_m_s, 4.0, 0.4);
@@ -114,7 +115,8 @@ TEST(ElevatorSkyscraper, AGravityRemovedStreamIsRefusedNotMisread) {
   std::vector<imu::ImuSample> linear = toImu(rec->imu);
   Eigen::Vector3d gravity = linear.front().accel_m_s2;
   for (size_t i = 0; i < linear.size(); ++i) {
-    const double dt = i > 0 ? 1e-6 * static_cast<double>(linear[i].utime - linear[i - 1].utime) : 0.0;
+    const double dt =
+        i > 0 ? 1e-6 * static_cast<double>(linear[i].utime - linear[i - 1].utime) : 0.0;
     gravity += dt / (1.0 + dt) * (linear[i].accel_m_s2 - gravity);
     linear[i].accel_m_s2 -= gravity;
   }

@@ -1,10 +1,10 @@
 // The elevators that exist (issue 18), swept on the synthetic generator
-// (tools/imu-elevator-run/ride_simulator.h): office lifts (0.5-1.6 m/s) to high-rise lifts (2.5-10 m/s),
-// rides of 1 to 80 floors, jerk-limited profiles of 0.3-1.5 m/s^2 with jerks of 0.5-1.5 m/s^3
+// (tools/imu-elevator-run/ride_simulator.h): office lifts (0.5-1.6 m/s) to high-rise lifts (2.5-10
+// m/s), rides of 1 to 80 floors, jerk-limited profiles of 0.3-1.5 m/s^2 with jerks of 0.5-1.5 m/s^3
 // (acceleration phases of 1-10 s), IMU rates of 10 Hz to 1 kHz, with and without a gyroscope,
-// accelerometer noise of 1-3 times a phone sensor's density and biases up to 0.2 m/s^2. Every ride must be found once with its
-// displacement within 3 % + 0.3 m, and nothing reported on stairs, escalators (0.5 m/s
-// vertical for 30 s) or while walking.
+// accelerometer noise of 1-3 times a phone sensor's density and biases up to 0.2 m/s^2. Every ride
+// must be found once with its displacement within 3 % + 0.3 m, and nothing reported on stairs,
+// escalators (0.5 m/s vertical for 30 s) or while walking.
 //
 // The cases are a structured grid over (speed, floors, acceleration), each given a rate, a
 // jerk, gyroscope on/off, a noise level and a bias by cycling through their lists, so every
@@ -109,7 +109,7 @@ std::string heightClass(int floors) {
 
 struct Tally {
   int found = 0, missed = 0, false_rides = 0, rejected = 0;
-  std::vector<double> errors;  // |error| / bound... kept in metres
+  std::vector<double> errors;    // |error| / bound... kept in metres
   std::vector<double> relative;  // error / (0.03 |d| + 0.3)
 };
 
@@ -134,7 +134,8 @@ TEST(ElevatorSweep, EveryRideOfTheRangeIsFoundWithinThreePercentAndThirtyCentime
     Tally& cell = table[{speedClass(c.speed_m_s), heightClass(c.floors)}];
     int matched = 0;
     for (const Ride& r : run.rides) {
-      const double s = 1e-6 * static_cast<double>(r.start_utime), e = 1e-6 * static_cast<double>(r.end_utime);
+      const double s = 1e-6 * static_cast<double>(r.start_utime),
+                   e = 1e-6 * static_cast<double>(r.end_utime);
       const bool over = s < t.end_s && e > t.start_s;
       if (!over) {
         ++cell.false_rides;
@@ -155,9 +156,10 @@ TEST(ElevatorSweep, EveryRideOfTheRangeIsFoundWithinThreePercentAndThirtyCentime
       EXPECT_LE(err, bound) << "v " << c.speed_m_s << " m/s, " << c.floors << " floors, a "
                             << c.accel_m_s2 << ", j " << c.jerk_m_s3 << ", " << c.rate_hz
                             << " Hz, gyro " << c.gyroscope << ": " << r.displacement_m << " m for "
-                            << t.displacement_m << " m (seed " << c.seed << "); found " << s << ".." << e << " s, true "
-                            << t.start_s << ".." << t.end_s << " s, pulses " << r.start_accel_m_s2
-                            << " / " << r.stop_accel_m_s2 << " m/s^2, bias " << r.bias_m_s2;
+                            << t.displacement_m << " m (seed " << c.seed << "); found " << s << ".."
+                            << e << " s, true " << t.start_s << ".." << t.end_s << " s, pulses "
+                            << r.start_accel_m_s2 << " / " << r.stop_accel_m_s2 << " m/s^2, bias "
+                            << r.bias_m_s2;
     }
     cell.rejected += static_cast<int>(run.rejected.size());
     all.rejected += static_cast<int>(run.rejected.size());
@@ -176,18 +178,22 @@ TEST(ElevatorSweep, EveryRideOfTheRangeIsFoundWithinThreePercentAndThirtyCentime
       ++all.found;
     }
   }
-  std::printf("| speed class | height class | rides | found | missed | false | rejected | error median | error worst | worst / bound |\n"
-              "|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| speed class | height class | rides | found | missed | false | rejected | error median | "
+      "error worst | worst / bound |\n"
+      "|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& [key, t] : table) {
-    std::printf("| %s | %s | %d | %d | %d | %d | %d | %.2f m | %.2f m | %.2f |\n", key.first.c_str(),
-                key.second.c_str(), t.found + t.missed, t.found, t.missed, t.false_rides, t.rejected,
-                median(t.errors), t.errors.empty() ? 0.0 : *std::max_element(t.errors.begin(), t.errors.end()),
+    std::printf("| %s | %s | %d | %d | %d | %d | %d | %.2f m | %.2f m | %.2f |\n",
+                key.first.c_str(), key.second.c_str(), t.found + t.missed, t.found, t.missed,
+                t.false_rides, t.rejected, median(t.errors),
+                t.errors.empty() ? 0.0 : *std::max_element(t.errors.begin(), t.errors.end()),
                 t.relative.empty() ? 0.0 : *std::max_element(t.relative.begin(), t.relative.end()));
   }
-  std::printf("| all | | %d | %d | %d | %d | %d | %.2f m | %.2f m | %.2f |\n", all.found + all.missed,
-              all.found, all.missed, all.false_rides, all.rejected, median(all.errors),
-              all.errors.empty() ? 0.0 : *std::max_element(all.errors.begin(), all.errors.end()),
-              all.relative.empty() ? 0.0 : *std::max_element(all.relative.begin(), all.relative.end()));
+  std::printf(
+      "| all | | %d | %d | %d | %d | %d | %.2f m | %.2f m | %.2f |\n", all.found + all.missed,
+      all.found, all.missed, all.false_rides, all.rejected, median(all.errors),
+      all.errors.empty() ? 0.0 : *std::max_element(all.errors.begin(), all.errors.end()),
+      all.relative.empty() ? 0.0 : *std::max_element(all.relative.begin(), all.relative.end()));
   EXPECT_EQ(all.missed, 0);
   EXPECT_EQ(all.false_rides, 0);
   EXPECT_GE(static_cast<int>(cases.size()), 80);
@@ -207,13 +213,20 @@ TEST(ElevatorSweep, NothingIsReportedOnStairsEscalatorsOrWhileWalking) {
       o.escalator_speed_m_s = 0.5;  // 4 storeys of 3.75 m: 15 m in 30 s
       o.seed = static_cast<uint32_t>(rate) + (gyro ? 1 : 2);
       using K = SimSegment::Kind;
-      const SimulatedRun truth = simulateRun(
-          o, {{K::kWalk, 20.0, 0}, {K::kEscalator, 0, 4}, {K::kWalk, 10.0, 0}, {K::kEscalator, 0, 0},
-              {K::kStand, 10.0, 0}, {K::kStairs, 0, 3}, {K::kWalk, 5.0, 0}, {K::kStairs, 0, 0},
-              {K::kSitDown, 0, 0}, {K::kWalk, 60.0, 0}});
+      const SimulatedRun truth = simulateRun(o, {{K::kWalk, 20.0, 0},
+                                                 {K::kEscalator, 0, 4},
+                                                 {K::kWalk, 10.0, 0},
+                                                 {K::kEscalator, 0, 0},
+                                                 {K::kStand, 10.0, 0},
+                                                 {K::kStairs, 0, 3},
+                                                 {K::kWalk, 5.0, 0},
+                                                 {K::kStairs, 0, 0},
+                                                 {K::kSitDown, 0, 0},
+                                                 {K::kWalk, 60.0, 0}});
       const OfflineRun run = runImuElevator(truth.samples, {}, {});
       int starts = 0;
-      for (const FloorEvent& e : run.events) starts += e.kind == FloorEvent::Kind::kRideStart ? 1 : 0;
+      for (const FloorEvent& e : run.events)
+        starts += e.kind == FloorEvent::Kind::kRideStart ? 1 : 0;
       EXPECT_EQ(run.rides.size(), 0u) << rate << " Hz, gyro " << gyro;
       EXPECT_EQ(starts, 0) << rate << " Hz, gyro " << gyro;
       std::printf("%6.0f Hz, gyro %d: %zu rides, %d ride starts, %zu rejected (%s)\n", rate, gyro,

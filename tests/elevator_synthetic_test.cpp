@@ -17,10 +17,10 @@ namespace evermap::elevator {
 namespace {
 
 struct Score {
-  int matched = 0;       // true rides with one reported ride over them, on the right floor
+  int matched = 0;  // true rides with one reported ride over them, on the right floor
   int wrong_floor = 0;
   int missed = 0;
-  int spurious = 0;      // reported rides over no true ride
+  int spurious = 0;  // reported rides over no true ride
   double worst_error_m = 0;
 };
 
@@ -36,11 +36,14 @@ Score score(const SimulatedRun& truth, const OfflineRun& run, bool print) {
     int found = -1;
     for (size_t i = 0; i < run.rides.size(); ++i) {
       const Ride& r = run.rides[i];
-      if (seconds(r.start_utime) < t.end_s && seconds(r.end_utime) > t.start_s) found = static_cast<int>(i);
+      if (seconds(r.start_utime) < t.end_s && seconds(r.end_utime) > t.start_s)
+        found = static_cast<int>(i);
     }
     if (found < 0) {
       ++s.missed;
-      if (print) std::printf("  missed: %.1f..%.1f s, floor %d -> %d\n", t.start_s, t.end_s, t.from_floor, t.to_floor);
+      if (print)
+        std::printf("  missed: %.1f..%.1f s, floor %d -> %d\n", t.start_s, t.end_s, t.from_floor,
+                    t.to_floor);
       continue;
     }
     used[found] = true;
@@ -48,19 +51,24 @@ Score score(const SimulatedRun& truth, const OfflineRun& run, bool print) {
     s.worst_error_m = std::max(s.worst_error_m, std::abs(r.displacement_m - t.displacement_m));
     auto [it, inserted] = tracker_to_true.emplace(r.to_floor, t.to_floor);
     const bool right = it->second == t.to_floor;
-    if (right) ++s.matched; else ++s.wrong_floor;
+    if (right)
+      ++s.matched;
+    else
+      ++s.wrong_floor;
     if (print) {
-      std::printf("  %6.1f..%6.1f s  floor %d -> %d  true %+6.2f m  found %6.1f..%6.1f s %+6.2f m  "
-                  "table %d%s\n",
-                  t.start_s, t.end_s, t.from_floor, t.to_floor, t.displacement_m,
-                  seconds(r.start_utime), seconds(r.end_utime), r.displacement_m, r.to_floor,
-                  right ? "" : "  WRONG FLOOR");
+      std::printf(
+          "  %6.1f..%6.1f s  floor %d -> %d  true %+6.2f m  found %6.1f..%6.1f s %+6.2f m  "
+          "table %d%s\n",
+          t.start_s, t.end_s, t.from_floor, t.to_floor, t.displacement_m, seconds(r.start_utime),
+          seconds(r.end_utime), r.displacement_m, r.to_floor, right ? "" : "  WRONG FLOOR");
     }
   }
   for (size_t i = 0; i < run.rides.size(); ++i) {
     if (!used[i]) {
       ++s.spurious;
-      if (print) std::printf("  spurious ride at %.1f s: %+.2f m\n", seconds(run.rides[i].start_utime), run.rides[i].displacement_m);
+      if (print)
+        std::printf("  spurious ride at %.1f s: %+.2f m\n", seconds(run.rides[i].start_utime),
+                    run.rides[i].displacement_m);
     }
   }
   return s;
@@ -87,7 +95,8 @@ TEST_P(ElevatorSynthetic, EveryRideEndsOnTheRightFloor) {
     if (e.kind != FloorEvent::Kind::kRideStart) continue;
     for (const auto& [a, b] : truth.no_ride_intervals) {
       EXPECT_FALSE(seconds(e.utime) > a + 1.0 && seconds(e.utime) < b - 1.0)
-          << "ride start at " << seconds(e.utime) << " s inside a no-ride interval " << a << ".." << b;
+          << "ride start at " << seconds(e.utime) << " s inside a no-ride interval " << a << ".."
+          << b;
     }
   }
 }

@@ -102,9 +102,15 @@ SimulatedRun fourRides(double rate_hz) {
   RideSimulatorOptions o;
   o.rate_hz = rate_hz;
   using K = SimSegment::Kind;
-  return simulateRun(o, {{K::kWalk, 8, 0}, {K::kElevator, 0, 5}, {K::kWalk, 8, 0},
-                         {K::kElevator, 0, 2}, {K::kWalk, 8, 0}, {K::kElevator, 0, 9},
-                         {K::kWalk, 8, 0}, {K::kElevator, 0, 0}, {K::kWalk, 8, 0}});
+  return simulateRun(o, {{K::kWalk, 8, 0},
+                         {K::kElevator, 0, 5},
+                         {K::kWalk, 8, 0},
+                         {K::kElevator, 0, 2},
+                         {K::kWalk, 8, 0},
+                         {K::kElevator, 0, 9},
+                         {K::kWalk, 8, 0},
+                         {K::kElevator, 0, 0},
+                         {K::kWalk, 8, 0}});
 }
 
 void expectRidesMatch(const SimulatedRun& truth, const OfflineRun& run) {
@@ -205,10 +211,17 @@ TEST(ElevatorTracker, JitteredTenHertzStreamFindsEveryRide) {
 TEST(ElevatorTracker, StairsEscalatorsSittingAndStandingAreNoRides) {
   RideSimulatorOptions o;
   using K = SimSegment::Kind;
-  const SimulatedRun truth = simulateRun(
-      o, {{K::kWalk, 10, 0}, {K::kStairs, 0, 1}, {K::kWalk, 6, 0}, {K::kStairs, 0, 2},
-          {K::kStand, 30, 0}, {K::kSitDown, 0, 0}, {K::kEscalator, 0, 3}, {K::kWalk, 5, 0},
-          {K::kEscalator, 0, 1}, {K::kStairs, 0, 0}, {K::kWalk, 10, 0}});
+  const SimulatedRun truth = simulateRun(o, {{K::kWalk, 10, 0},
+                                             {K::kStairs, 0, 1},
+                                             {K::kWalk, 6, 0},
+                                             {K::kStairs, 0, 2},
+                                             {K::kStand, 30, 0},
+                                             {K::kSitDown, 0, 0},
+                                             {K::kEscalator, 0, 3},
+                                             {K::kWalk, 5, 0},
+                                             {K::kEscalator, 0, 1},
+                                             {K::kStairs, 0, 0},
+                                             {K::kWalk, 10, 0}});
   const OfflineRun run = runImuElevator(truth.samples, {}, {});
   EXPECT_TRUE(run.rides.empty());
   EXPECT_TRUE(run.events.empty()) << run.events.size() << " FLOOR events";
@@ -221,15 +234,16 @@ TEST(ElevatorTracker, ARideReachingNoOtherFloorIsRejectedWithTheReason) {
   RideSimulatorOptions o;
   o.rate_hz = 50.0;
   using K = SimSegment::Kind;
-  const SimulatedRun truth =
-      simulateRun(o, {{K::kWalk, 8, 0}, {K::kElevator, 0, 1}, {K::kWalk, 8, 0}, {K::kElevator, 0, 2}});
+  const SimulatedRun truth = simulateRun(
+      o, {{K::kWalk, 8, 0}, {K::kElevator, 0, 1}, {K::kWalk, 8, 0}, {K::kElevator, 0, 2}});
   ElevatorTrackerOptions e;
   e.floors.match_threshold_m = 4.0;
   const OfflineRun run = runImuElevator(truth.samples, {}, e);
   // 0 -> 1 (4.5 m, a new floor), then 1 -> 2 (3.6 m: floor 1 is nearest): rejected.
   ASSERT_EQ(run.rides.size(), 1u);
   ASSERT_EQ(run.rejected.size(), 1u);
-  EXPECT_NE(run.rejected[0].reason.find("reaches no other floor"), std::string::npos) << run.rejected[0].reason;
+  EXPECT_NE(run.rejected[0].reason.find("reaches no other floor"), std::string::npos)
+      << run.rejected[0].reason;
   EXPECT_NEAR(run.rejected[0].displacement_m, 3.6, 0.4);
   EXPECT_EQ(run.counts.rejected, 1);
   ASSERT_FALSE(run.events.empty());
@@ -248,7 +262,8 @@ TEST(ElevatorTracker, ARideStoppingJustBeforeTheEndOfTheDataIsFound) {
   SimulatedRun truth = simulateRun(o, {{K::kWalk, 8, 0}, {K::kElevator, 0, 3}});
   // simulateRun stands 10 s at the end; keep 1 s after the cab stops.
   const double end = truth.rides.back().end_s + 1.0;
-  std::erase_if(truth.samples, [&](const imu::ImuSample& s) { return 1e-6 * static_cast<double>(s.utime) > end; });
+  std::erase_if(truth.samples,
+                [&](const imu::ImuSample& s) { return 1e-6 * static_cast<double>(s.utime) > end; });
   const OfflineRun run = runImuElevator(truth.samples, {}, {});
   ASSERT_EQ(run.rides.size(), 1u);
   EXPECT_NEAR(run.rides[0].displacement_m, truth.rides[0].displacement_m, 0.3);

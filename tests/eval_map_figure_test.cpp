@@ -26,7 +26,8 @@ MapFigure threeFloors() {
 std::vector<double> circleYs(const std::string& svg) {
   std::vector<double> ys;
   const std::regex re("<circle cx=\"[^\"]+\" cy=\"([^\"]+)\" r=\"1.60\"");
-  for (auto it = std::sregex_iterator(svg.begin(), svg.end(), re); it != std::sregex_iterator(); ++it) {
+  for (auto it = std::sregex_iterator(svg.begin(), svg.end(), re); it != std::sregex_iterator();
+       ++it) {
     ys.push_back(std::stod((*it)[1]));
   }
   return ys;
@@ -41,7 +42,8 @@ TEST(MapFigure, DrawsOnePlatePerFloorAndStacksThemUpwards) {
   EXPECT_EQ(summary.loop_closures, 3u);
   const std::string svg = canvas->encodeSvg();
   size_t plates = 0;
-  for (size_t at = svg.find("<polygon"); at != std::string::npos; at = svg.find("<polygon", at + 1)) {
+  for (size_t at = svg.find("<polygon"); at != std::string::npos;
+       at = svg.find("<polygon", at + 1)) {
     ++plates;
   }
   EXPECT_EQ(plates, 3u);

@@ -243,7 +243,8 @@ TEST(Evaluation, FigureShowsOnlyTheGroundTruthTheEstimateCovers) {
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_EQ(r->gt_positions.size(), 70u);
   EXPECT_EQ(r->est_positions_aligned.size(), 70u);
-  EXPECT_NEAR((r->gt_positions.front() - gt.poses[50].world_T_body.translation()).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((r->gt_positions.front() - gt.poses[50].world_T_body.translation()).norm(), 0.0,
+              1e-12);
 }
 
 }  // namespace

@@ -38,8 +38,8 @@ cv::Mat texture(int width, int height, uint64_t seed) {
 cv::Mat realOrSynthetic() {
   const auto dir = testing::dataDir("euroc-v101-micro");
   if (!dir.empty()) {
-    cv::Mat m = cv::imread((dir / "mav0/cam0/data/1403715273262142976.png").string(),
-                           cv::IMREAD_GRAYSCALE);
+    cv::Mat m =
+        cv::imread((dir / "mav0/cam0/data/1403715273262142976.png").string(), cv::IMREAD_GRAYSCALE);
     if (!m.empty()) return m;
   }
   return texture(752, 480, 1);
@@ -238,7 +238,8 @@ TEST(StereoDepth, GivesNoDepthOnRepeatedTextureOrFlatImages) {
     ASSERT_TRUE(pl.build(*image, 1).ok());
     ASSERT_TRUE(pr.build(*image, 1).ok());
     for (int u = 150; u < 250; u += 7) {
-      EXPECT_TRUE(std::isnan(depth.disparity(cameraOf(*image), pl, pr, Keypoint{float(u), 50.0f, 0, 0})));
+      EXPECT_TRUE(
+          std::isnan(depth.disparity(cameraOf(*image), pl, pr, Keypoint{float(u), 50.0f, 0, 0})));
     }
   }
 }
@@ -294,8 +295,8 @@ TEST(OrbExtractor, DescriptorsSurviveARotationOfTheImage) {
     const double y = M.at<double>(1, 0) * k.u + M.at<double>(1, 1) * k.v + M.at<double>(1, 2);
     if (std::hypot(x - centre.x, y - centre.y) > 180) continue;  // stay inside both images
     kept.push_back(k);
-    kb.push_back(Keypoint{static_cast<float>(std::round(x)), static_cast<float>(std::round(y)),
-                          k.score, 0});
+    kb.push_back(
+        Keypoint{static_cast<float>(std::round(x)), static_cast<float>(std::round(y)), k.score, 0});
   }
   ASSERT_GT(kept.size(), 30u);
   OrbExtractor orb(OrbExtractor::Options{});

@@ -70,10 +70,10 @@ TEST(SO3, RollPitchYawRoundTripsAndFollowsZYX) {
   EXPECT_NEAR(rpy.x(), 0.1, 1e-12);
   EXPECT_NEAR(rpy.y(), -0.2, 1e-12);
   EXPECT_NEAR(rpy.z(), 2.5, 1e-12);
-  const Mat3 expected = (Eigen::AngleAxisd(2.5, Vec3::UnitZ()) *
-                         Eigen::AngleAxisd(-0.2, Vec3::UnitY()) *
-                         Eigen::AngleAxisd(0.1, Vec3::UnitX()))
-                            .toRotationMatrix();
+  const Mat3 expected =
+      (Eigen::AngleAxisd(2.5, Vec3::UnitZ()) * Eigen::AngleAxisd(-0.2, Vec3::UnitY()) *
+       Eigen::AngleAxisd(0.1, Vec3::UnitX()))
+          .toRotationMatrix();
   EXPECT_TRUE(R.matrix().isApprox(expected, 1e-12));
 }
 
@@ -151,9 +151,9 @@ TEST(SE3, RightJacobianMatchesNumericalDerivativeOfExp) {
     for (int i = 0; i < 6; ++i) {
       Vec6 d = Vec6::Zero();
       d[i] = h;
-      J.col(i) = ((T.inverse() * SE3d::exp(xi + d)).log() -
-                  (T.inverse() * SE3d::exp(xi - d)).log()) /
-                 (2 * h);
+      J.col(i) =
+          ((T.inverse() * SE3d::exp(xi + d)).log() - (T.inverse() * SE3d::exp(xi - d)).log()) /
+          (2 * h);
     }
     EXPECT_TRUE(J.isApprox(SE3d::rightJacobian(xi), 1e-6)) << xi.transpose();
     EXPECT_TRUE((SE3d::rightJacobian(xi) * SE3d::rightJacobianInverse(xi))

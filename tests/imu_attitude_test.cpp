@@ -57,8 +57,8 @@ struct SwayingBody {
       s.utime = static_cast<int64_t>(std::llround(t * 1e6));
       const Eigen::Vector3d w = rate(t);
       s.gyro_rad_s = w + gyro_bias + noise * 0.01 * Eigen::Vector3d(n(rng), n(rng), n(rng));
-      s.accel_m_s2 = R.inverse() * Eigen::Vector3d(0, 0, kG) +
-                     noise * Eigen::Vector3d(n(rng), n(rng), n(rng));
+      s.accel_m_s2 =
+          R.inverse() * Eigen::Vector3d(0, 0, kG) + noise * Eigen::Vector3d(n(rng), n(rng), n(rng));
       out.push_back(s);
     }
     return out;
@@ -220,8 +220,8 @@ TEST(SampleGate, NonFiniteSaturatedRepeatedAndOutOfOrderSamplesAreDroppedAndCoun
   ImuSample sat_gyro = still(t, 0.2, 0.1);
   sat_gyro.gyro_rad_s.z() = -40.0;
   EXPECT_FALSE(f.add(sat_gyro));
-  EXPECT_FALSE(f.add(still(t - 5000, 0.2, 0.1)));    // repeated time stamp
-  EXPECT_FALSE(f.add(still(t - 20000, 0.2, 0.1)));   // out of order
+  EXPECT_FALSE(f.add(still(t - 5000, 0.2, 0.1)));   // repeated time stamp
+  EXPECT_FALSE(f.add(still(t - 20000, 0.2, 0.1)));  // out of order
   EXPECT_TRUE(f.add(still(t, 0.2, 0.1)));
   const SampleGateCounts& c = f.gateCounts();
   EXPECT_EQ(c.non_finite, 2);
@@ -353,7 +353,8 @@ TEST(AttitudeFilterEuroc, RollAndPitchRmsErrorIsBelowOneDegreeOnV101) {
   AttitudeCompareOptions c;
   c.max_offset_s = 0.06;  // the OpenVINS reference is at 20 Hz
   const AttitudeErrorSummary imu_frame = compareAttitude(track, *gt_ov, c);
-  c.vehicle_up_imu = meanSpecificForce(*imu, imu->front().t_ns, AttitudeFilterOptions{}.init_window_s);
+  c.vehicle_up_imu =
+      meanSpecificForce(*imu, imu->front().t_ns, AttitudeFilterOptions{}.init_window_s);
   const AttitudeErrorSummary vehicle = compareAttitude(track, *gt_ov, c);
   c.vehicle_up_imu.setZero();
   c.level_body = true;
@@ -369,7 +370,7 @@ TEST(AttitudeFilterEuroc, RollAndPitchRmsErrorIsBelowOneDegreeOnV101) {
   EXPECT_LE(vehicle.pitch_rms_rad, 1.0 * kDeg);
   EXPECT_LE(vehicle.tilt_rms_rad, 1.2 * kDeg);  // a regression guard; measured 1.04 deg
   EXPECT_DOUBLE_EQ(vehicle.tilt_rms_rad, imu_frame.tilt_rms_rad);  // the frame changes no error
-  EXPECT_GE(vehicle.within_3_sigma, 0.9);  // the covariance is honest
+  EXPECT_GE(vehicle.within_3_sigma, 0.9);                          // the covariance is honest
   EXPECT_GT(orig.matched, 25000);
   EXPECT_LE(orig.roll_rms_rad, 1.0 * kDeg);
   EXPECT_LE(orig.pitch_rms_rad, 1.0 * kDeg);

@@ -92,7 +92,8 @@ TEST(LogComparator, ReplayOverMemqArrivesIntact) {
       },
       &*cmp);
   lcm::LogFile log(path.string(), "r");
-  while (const lcm::LogEvent* ev = log.readNextEvent()) lcm.publish(ev->channel, ev->data, ev->datalen);
+  while (const lcm::LogEvent* ev = log.readNextEvent())
+    lcm.publish(ev->channel, ev->data, ev->datalen);
   while (lcm.handleTimeout(0) > 0) {
   }
   const auto s = cmp->summary();

@@ -82,8 +82,8 @@ register_request_t request(int64_t id, int64_t utime, int64_t keyframe, int8_t m
 core::SE3d poseOf(const register_result_t& r) {
   const Eigen::Quaterniond q(r.orientation[0], r.orientation[1], r.orientation[2],
                              r.orientation[3]);
-  return core::SE3d(core::SO3d(q), core::Vec3(r.translation[0], r.translation[1],
-                                              r.translation[2]));
+  return core::SE3d(core::SO3d(q),
+                    core::Vec3(r.translation[0], r.translation[1], r.translation[2]));
 }
 
 TEST(LoopCloseEuroc, TheServiceRegistersTheRealLoopPairsWithinFiveCentimetresAndOneDegree) {
@@ -154,18 +154,18 @@ TEST(LoopCloseEuroc, TheServiceRegistersTheRealLoopPairsWithinFiveCentimetresAnd
   for (const auto& [match, query] : {std::pair{0, 1}, std::pair{2, 3}}) {
     const core::SE3d truth = p.truth(match, query);  // node_T_query
     for (int8_t mode : {kNode, kGlobal}) {
-      const register_result_t r =
-          ask(utime_of[query], mode, mode == kNode ? node_of[match] : -1);
+      const register_result_t r = ask(utime_of[query], mode, mode == kNode ? node_of[match] : -1);
       ASSERT_EQ(r.status, kOk) << "pair (" << match << ", " << query << "): " << r.reason;
       EXPECT_EQ(r.node_id, node_of[match]);
       EXPECT_EQ(r.keyframe_utime, utime_of[query]);
       const core::SE3d err = truth.inverse() * poseOf(r);
       const double deg = core::rotationAngle(err.so3()) * 180.0 / M_PI;
-      std::printf("pair (%d, %d) %s: node %lld, %d inliers, score %.3f; truth %.3f m %.1f deg; "
-                  "error %.4f m %.3f deg\n", match, query, mode == kNode ? "MODE_NODE" :
-                  "MODE_GLOBAL", static_cast<long long>(r.node_id), r.num_inliers, r.score,
-                  truth.translation().norm(), core::rotationAngle(truth.so3()) * 180.0 / M_PI,
-                  err.translation().norm(), deg);
+      std::printf(
+          "pair (%d, %d) %s: node %lld, %d inliers, score %.3f; truth %.3f m %.1f deg; "
+          "error %.4f m %.3f deg\n",
+          match, query, mode == kNode ? "MODE_NODE" : "MODE_GLOBAL",
+          static_cast<long long>(r.node_id), r.num_inliers, r.score, truth.translation().norm(),
+          core::rotationAngle(truth.so3()) * 180.0 / M_PI, err.translation().norm(), deg);
       EXPECT_LT(err.translation().norm(), 0.05);
       EXPECT_LT(deg, 1.0);
       EXPECT_GE(r.num_inliers, core::RegistrationOptions{}.min_inliers);
@@ -176,8 +176,8 @@ TEST(LoopCloseEuroc, TheServiceRegistersTheRealLoopPairsWithinFiveCentimetresAnd
     const register_result_t wrong = ask(utime_of[query], kNode, node_of[other]);
     EXPECT_EQ(wrong.status, kTooFewInliers);
     EXPECT_FALSE(wrong.reason.empty());
-    std::printf("query %d against node %lld: %s\n", query,
-                static_cast<long long>(node_of[other]), wrong.reason.c_str());
+    std::printf("query %d against node %lld: %s\n", query, static_cast<long long>(node_of[other]),
+                wrong.reason.c_str());
   }
   register_result_t r = ask(utime_of[1], kNode, 999);
   EXPECT_EQ(r.status, kUnknownNode);

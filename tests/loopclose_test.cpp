@@ -50,7 +50,8 @@ class World {
   World() : rng_(99) {
     for (int p = 0; p < kPlaces; ++p) {
       std::vector<Descriptor> prototypes;
-      for (int i = 0; i < kFeatures; ++i) prototypes.push_back(bow::testing::randomDescriptor(rng_));
+      for (int i = 0; i < kFeatures; ++i)
+        prototypes.push_back(bow::testing::randomDescriptor(rng_));
       places_.push_back(std::move(prototypes));
     }
     std::vector<std::vector<Descriptor>> training;
@@ -112,7 +113,8 @@ class FakeRegistration final : public FrameRegistration {
       return o;
     }
     o.ok = true;
-    o.target_T_query = core::SE3d(core::SO3d(), core::Vec3(1e-6 * (target.utime - query.utime), 0, 0));
+    o.target_T_query =
+        core::SE3d(core::SO3d(), core::Vec3(1e-6 * (target.utime - query.utime), 0, 0));
     o.covariance = 0.01 * core::Mat6::Identity();
     return o;
   }
@@ -425,7 +427,8 @@ TEST_F(LoopCloserTest, TheMapHoldsAtMostMaxPlacesAndAtMostMaxWaitingNodesWait) {
   ASSERT_TRUE(waiting->addNode(node(2, t + 2, 0)).ok());
   const Status third = waiting->addNode(node(3, t + 3, 0));
   ASSERT_FALSE(third.ok());
-  EXPECT_NE(third.error().message.find("max_waiting_nodes = 2"), std::string::npos) << third.error().message;
+  EXPECT_NE(third.error().message.find("max_waiting_nodes = 2"), std::string::npos)
+      << third.error().message;
   EXPECT_EQ(waiting->stats().nodes_waited, 2);
   EXPECT_EQ(waiting->stats().nodes_over_capacity, 1);
   // The two that wait are added when their keyframes come.
@@ -473,8 +476,8 @@ TEST_F(LoopCloserTest, AFullQueueDropsTheOldestRequest) {
 }
 
 TEST_F(LoopCloserTest, TheMapStoreCarriesNodesAndKeyframesToTheNextSession) {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("evermap_loopclose_" + std::to_string(::getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("evermap_loopclose_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   const auto file = dir / "map.db";
@@ -523,8 +526,7 @@ TEST_F(LoopCloserTest, ServesRequestsOverLcm) {
   EXPECT_EQ(lc->numNodes(), 3u);
   const evermap::keyframe_t q = world_.keyframe(1, 50 * kSecond);
   lcm.publish(channels::kKeyframe, &q);
-  const register_request_t req = request(42, 50 * kSecond, 50 * kSecond,
-                                         kGlobal, -1, 0);
+  const register_request_t req = request(42, 50 * kSecond, 50 * kSecond, kGlobal, -1, 0);
   lcm.publish(channels::kRegisterRequest, &req);
   // Garbage on every input channel: counted, never fatal.
   const char junk[] = "not an lcm message";

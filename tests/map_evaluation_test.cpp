@@ -35,7 +35,8 @@ TEST(MapEvaluation, ScoresARigidlyMovedTrueMapAsExactAndSeesADisplacedNode) {
   ASSERT_GT(truth->world_T_body.size(), 100u);
 
   // Every 20th truth sample as a node, in a map frame moved by a rigid transform.
-  const core::SE3d map_T_world(core::SO3d::exp(core::Vec3(0.0, 0.0, 0.7)), core::Vec3(3.0, -2.0, 0.5));
+  const core::SE3d map_T_world(core::SO3d::exp(core::Vec3(0.0, 0.0, 0.7)),
+                               core::Vec3(3.0, -2.0, 0.5));
   EvalMap map;
   int k = 0;
   for (const auto& [utime, pose] : truth->world_T_body) {
@@ -57,7 +58,8 @@ TEST(MapEvaluation, ScoresARigidlyMovedTrueMapAsExactAndSeesADisplacedNode) {
 
   // One node 2 m off: the rmse over n nodes is about 2/sqrt(n) after alignment.
   map.nodes[map.nodes.size() / 2].world_T_body =
-      core::SE3d(core::SO3d(), core::Vec3(2.0, 0.0, 0.0)) * map.nodes[map.nodes.size() / 2].world_T_body;
+      core::SE3d(core::SO3d(), core::Vec3(2.0, 0.0, 0.0)) *
+      map.nodes[map.nodes.size() / 2].world_T_body;
   auto off = evaluateMap(map, *truth);
   ASSERT_TRUE(off);
   const double n = static_cast<double>(map.nodes.size());

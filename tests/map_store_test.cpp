@@ -92,7 +92,9 @@ TEST(MapStore, FoldsAPairsConstraintsSoTheStoreGrowsWithTheMapNotWithTheTime) {
   // The pages folds freed went back to the file system: the file is the map.
   {
     sqlite3* db = nullptr;
-    ASSERT_EQ(sqlite3_open_v2((dir.path() / "folded.db").c_str(), &db, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
+    ASSERT_EQ(
+        sqlite3_open_v2((dir.path() / "folded.db").c_str(), &db, SQLITE_OPEN_READONLY, nullptr),
+        SQLITE_OK);
     sqlite3_stmt* st = nullptr;
     ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA freelist_count", -1, &st, nullptr), SQLITE_OK);
     ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
@@ -112,8 +114,10 @@ TEST(MapStore, FoldsAPairsConstraintsSoTheStoreGrowsWithTheMapNotWithTheTime) {
   for (const auto& [key, pair] : m.constraints().pairs()) {
     const auto it = restored.constraints().pairs().find(key);
     ASSERT_NE(it, restored.constraints().pairs().end());
-    EXPECT_LT((pair.i_T_j.mean.inverse() * it->second.i_T_j.mean).log().norm(), 1e-9) << key.first << "-" << key.second;
-    EXPECT_LT((pair.i_T_j.covariance - it->second.i_T_j.covariance).norm(), 1e-9 * pair.i_T_j.covariance.norm());
+    EXPECT_LT((pair.i_T_j.mean.inverse() * it->second.i_T_j.mean).log().norm(), 1e-9)
+        << key.first << "-" << key.second;
+    EXPECT_LT((pair.i_T_j.covariance - it->second.i_T_j.covariance).norm(),
+              1e-9 * pair.i_T_j.covariance.norm());
   }
   // A fold sits where its pair's first constraint sat: the unfolded store numbers every
   // constraint as it came, and the fold has the id that store gave the pair's first one. A
@@ -124,7 +128,8 @@ TEST(MapStore, FoldsAPairsConstraintsSoTheStoreGrowsWithTheMapNotWithTheTime) {
     auto unfolded = plain->load();
     ASSERT_TRUE(unfolded);
     auto pairOf = [](const StoredEdge& e) {
-      return std::make_pair(std::min(e.constraint.from, e.constraint.to), std::max(e.constraint.from, e.constraint.to));
+      return std::make_pair(std::min(e.constraint.from, e.constraint.to),
+                            std::max(e.constraint.from, e.constraint.to));
     };
     std::map<std::pair<int64_t, int64_t>, int64_t> first_id;
     for (const StoredEdge& e : unfolded->edges) first_id.emplace(pairOf(e), e.edge_id);

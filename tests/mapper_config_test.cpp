@@ -62,14 +62,16 @@ TEST(MapperConfig, ErrorsNameTheKeyAndWhereItWasSet) {
     std::string text;
     std::string expected;
   };
-  for (const Case& c : {Case{"mapper.map_gat = 3\n", "x.conf:1: unknown key 'mapper.map_gat'"},
-                        Case{"\nmapper.heading_bins = many\n", "x.conf:2"},
-                        Case{"mapper.loop_kernel = tukey\n", "mapper.loop_kernel"},
-                        Case{"mapper.solver.method = lm\n", "mapper.solver.method"},
-                        Case{"mapper.map_gate = -1\n", "mapper.map_gate"},
-                        Case{"mapper.closure_partners = 1\n", "mapper.closure_partners"},
-                        Case{"mapper.saturated_closure_information = -2\n", "mapper.saturated_closure_information"},
-                        Case{"mapper.saturated_closure_information = inf\n", "mapper.saturated_closure_information"}}) {
+  for (const Case& c :
+       {Case{"mapper.map_gat = 3\n", "x.conf:1: unknown key 'mapper.map_gat'"},
+        Case{"\nmapper.heading_bins = many\n", "x.conf:2"},
+        Case{"mapper.loop_kernel = tukey\n", "mapper.loop_kernel"},
+        Case{"mapper.solver.method = lm\n", "mapper.solver.method"},
+        Case{"mapper.map_gate = -1\n", "mapper.map_gate"},
+        Case{"mapper.closure_partners = 1\n", "mapper.closure_partners"},
+        Case{"mapper.saturated_closure_information = -2\n", "mapper.saturated_closure_information"},
+        Case{"mapper.saturated_closure_information = inf\n",
+             "mapper.saturated_closure_information"}}) {
     MapperOptions o;
     const Status s = readMapperOptions(parse(c.text), &o);
     ASSERT_FALSE(s) << c.text;
@@ -78,7 +80,8 @@ TEST(MapperConfig, ErrorsNameTheKeyAndWhereItWasSet) {
 }
 
 TEST(MapperConfig, OneFileHoldsTheSimulatorsAndTheMappersSettings) {
-  KeyValueFile file = parse("seed = 7\nmapper.map_gate = 10\noracle.false_match_rate_node = 0.05\n");
+  KeyValueFile file =
+      parse("seed = 7\nmapper.map_gate = 10\noracle.false_match_rate_node = 0.05\n");
   ASSERT_TRUE(file.set("mapper.cell_size_m=2", "--set mapper.cell_size_m=2"));
   const KeyValueFile mapper_keys = file.extract("mapper.");
   EXPECT_EQ(mapper_keys.entries().size(), 2u);

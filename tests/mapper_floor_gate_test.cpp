@@ -29,7 +29,9 @@ floor_t floorMsg(int64_t utime, int8_t event, double height_m, int32_t index) {
   return f;
 }
 
-bool names(const std::string& why, const char* bound) { return why.find(bound) != std::string::npos; }
+bool names(const std::string& why, const char* bound) {
+  return why.find(bound) != std::string::npos;
+}
 
 TEST(FloorGate, RefusesHeightsNoBuildingHasAndRidesFasterThanAnElevator) {
   FloorGateOptions o;
@@ -37,8 +39,10 @@ TEST(FloorGate, RefusesHeightsNoBuildingHasAndRidesFasterThanAnElevator) {
   o.max_vertical_speed_m_s = 10.0;
   FloorGate gate(o);
   // The first message is checked against the height bound only.
-  EXPECT_TRUE(names(gate.check(floorMsg(0, floor_t::EVENT_RIDE_START, 501.0, -1)), "floor_gate.max_height_m 500"));
-  EXPECT_TRUE(names(gate.check(floorMsg(0, floor_t::EVENT_RIDE_START, -501.0, -1)), "floor_gate.max_height_m"));
+  EXPECT_TRUE(names(gate.check(floorMsg(0, floor_t::EVENT_RIDE_START, 501.0, -1)),
+                    "floor_gate.max_height_m 500"));
+  EXPECT_TRUE(names(gate.check(floorMsg(0, floor_t::EVENT_RIDE_START, -501.0, -1)),
+                    "floor_gate.max_height_m"));
   const floor_t start = floorMsg(1'000'000, floor_t::EVENT_RIDE_START, 0.0, -1);
   ASSERT_EQ(gate.check(start), "");
   gate.accept(start);
@@ -91,7 +95,8 @@ TEST(FloorGate, TheMapperRefusesAnImplausibleFloorCountsItAndKeepsItsEstimate) {
       << fast.error().message;
   const Status high = m.onFloor(floorMsg(9'000'000, floor_t::EVENT_RIDE_END, 5000.0, 2));
   ASSERT_FALSE(high);
-  EXPECT_NE(high.error().message.find("floor_gate.max_height_m 1000"), std::string::npos) << high.error().message;
+  EXPECT_NE(high.error().message.find("floor_gate.max_height_m 1000"), std::string::npos)
+      << high.error().message;
   EXPECT_EQ(m.stats().implausible_floors, 2);
   EXPECT_EQ(m.stats().dropped, dropped + 2);
   EXPECT_EQ(m.floor(), 1);

@@ -54,10 +54,18 @@ struct Listener {
   std::vector<mapper_stats_t> stats;
   std::vector<node_added_t> nodes;
   int64_t requests = 0;
-  void onPose(const lcm::ReceiveBuffer*, const std::string&, const pose_t* m) { poses.push_back(*m); }
-  void onGraph(const lcm::ReceiveBuffer*, const std::string&, const map_graph_t* m) { graphs.push_back(*m); }
-  void onStats(const lcm::ReceiveBuffer*, const std::string&, const mapper_stats_t* m) { stats.push_back(*m); }
-  void onNode(const lcm::ReceiveBuffer*, const std::string&, const node_added_t* m) { nodes.push_back(*m); }
+  void onPose(const lcm::ReceiveBuffer*, const std::string&, const pose_t* m) {
+    poses.push_back(*m);
+  }
+  void onGraph(const lcm::ReceiveBuffer*, const std::string&, const map_graph_t* m) {
+    graphs.push_back(*m);
+  }
+  void onStats(const lcm::ReceiveBuffer*, const std::string&, const mapper_stats_t* m) {
+    stats.push_back(*m);
+  }
+  void onNode(const lcm::ReceiveBuffer*, const std::string&, const node_added_t* m) {
+    nodes.push_back(*m);
+  }
   void onRequest(const lcm::ReceiveBuffer*, const std::string&) { ++requests; }
 };
 
@@ -95,7 +103,8 @@ LiveRun runLive(Inject what, const std::filesystem::path& store_file, int* injec
     oracle.addKeyframe(k);
     out.truth_world_T_cam[k.utime] = k.world_T_cam;
   };
-  (void)sim::generateRun(*plan, [&](int) -> sim::MessageSink& { return log; }, observers);
+  (void)sim::generateRun(
+      *plan, [&](int) -> sim::MessageSink& { return log; }, observers);
 
   lcm::LCM lcm("memq://");
   EXPECT_TRUE(lcm.good());
@@ -124,7 +133,8 @@ LiveRun runLive(Inject what, const std::filesystem::path& store_file, int* injec
   auto publishFarCopies = [&] {
     // A copy of the first message of each sensor channel, re-stamped 2^62 (utime is the first
     // field after the 8-byte hash, big-endian).
-    for (const char* c : {channels::kVoDelta, channels::kWheelOdom, channels::kAttitude, channels::kFloor}) {
+    for (const char* c :
+         {channels::kVoDelta, channels::kWheelOdom, channels::kAttitude, channels::kFloor}) {
       for (const auto& m : log.messages) {
         if (m.channel != c) continue;
         std::vector<uint8_t> b = m.data;
@@ -145,22 +155,22 @@ LiveRun runLive(Inject what, const std::filesystem::path& store_file, int* injec
     drain();
     if (inject && ++count == 2000) {
       const uint8_t garbage[5] = {1, 2, 3, 4, 5};
-      lcm.publish(channels::kVoDelta, garbage, sizeof garbage);           // undecodable
+      lcm.publish(channels::kVoDelta, garbage, sizeof garbage);  // undecodable
       for (const char* c : {channels::kWheelOdom, channels::kAttitude, channels::kVoDelta}) {
-        const auto& old = earlier.at(c);                                   // out of order
+        const auto& old = earlier.at(c);  // out of order
         lcm.publish(c, old.data(), static_cast<unsigned>(old.size()));
       }
-      attitude_t nan{};                                                    // not finite
+      attitude_t nan{};  // not finite
       nan.utime = m.utime + 1;
       nan.roll_rad = std::nan("");
       nan.covariance[0] = nan.covariance[3] = 1e-4;
       lcm.publish(channels::kAttitude, &nan);
-      register_result_t stray{};                                           // no such request
+      register_result_t stray{};  // no such request
       stray.utime = m.utime;
       stray.request_id = 999999;
       stray.status = register_result_t::STATUS_OK;
       lcm.publish(channels::kRegisterResult, &stray);
-      floor_t high{};                                                      // implausible
+      floor_t high{};  // implausible
       high.utime = m.utime + 1;
       high.height_m = 5000.0;  // 5 km above the start floor: beyond floor_gate.max_height_m
       high.event = floor_t::EVENT_RIDE_END;
@@ -210,15 +220,18 @@ TEST(MapperLcm, PublishesPoseGraphAndStatsAndStoresTheMapItBuilds) {
   }
   EXPECT_GT(loops, 0);
   // Graphs go out at most every 5 s of message time, and only after a change.
-  for (size_t k = 1; k + 1 < h.graphs.size(); ++k) EXPECT_GE(h.graphs[k].utime - h.graphs[k - 1].utime, 5000000);
+  for (size_t k = 1; k + 1 < h.graphs.size(); ++k)
+    EXPECT_GE(h.graphs[k].utime - h.graphs[k - 1].utime, 5000000);
 
   // The map is right: node poses against the keyframes' truth (world_T_body), SE(3)-aligned.
   const core::SE3d cam_T_body = shortRun().sensors.camera.bodyTCam().inverse();
   std::vector<core::SE3d> gt, est;
   for (const auto& n : g.nodes) {
     gt.push_back(r.truth_world_T_cam.at(n.keyframe_utime) * cam_T_body);
-    const Eigen::Quaterniond q(n.orientation[0], n.orientation[1], n.orientation[2], n.orientation[3]);
-    est.push_back(core::SE3d(q.normalized(), core::Vec3(n.position[0], n.position[1], n.position[2])));
+    const Eigen::Quaterniond q(n.orientation[0], n.orientation[1], n.orientation[2],
+                               n.orientation[3]);
+    est.push_back(
+        core::SE3d(q.normalized(), core::Vec3(n.position[0], n.position[1], n.position[2])));
   }
   auto aligned = eval::alignTrajectories(gt, est, eval::AlignmentMode::kSE3);
   ASSERT_TRUE(aligned);

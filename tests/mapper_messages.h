@@ -21,7 +21,8 @@ inline SE3d planar(double x, double y, double yaw) {
   return SE3d(core::SO3d::exp(Vec3(0, 0, yaw)), Vec3(x, y, 0));
 }
 
-inline vo_delta_t voMsg(int64_t utime, int64_t ref, const SE3d& ref_T_cur, double sigma, bool keyframe) {
+inline vo_delta_t voMsg(int64_t utime, int64_t ref, const SE3d& ref_T_cur, double sigma,
+                        bool keyframe) {
   vo_delta_t m{};
   m.utime = utime;
   m.ref_utime = ref;

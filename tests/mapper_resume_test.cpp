@@ -184,13 +184,15 @@ TEST(MapperRestore, ReplaysEveryStoredConstraintIntoTheSameMergedPairs) {
   // it (a few centimetres on loops held by the robust kernel); a wrong replay moves metres.
   double worst = 0.0;
   for (const StoredNode& n : snap->nodes)
-    worst = std::max(worst, (m.nodePose(n.node.id).translation() - n.world_T_body.translation()).norm());
+    worst = std::max(worst,
+                     (m.nodePose(n.node.id).translation() - n.world_T_body.translation()).norm());
   EXPECT_LT(worst, 0.1);
   // The roll/pitch factors came back from the store with their nodes.
   size_t with_attitude = 0;
   for (const MapperNode& n : m.nodes()) with_attitude += n.attitude ? 1 : 0;
   EXPECT_GT(with_attitude, m.nodes().size() / 2);
-  for (const StoredNode& n : snap->nodes) EXPECT_EQ(m.nodes()[n.node.id].attitude.has_value(), n.node.attitude.has_value());
+  for (const StoredNode& n : snap->nodes)
+    EXPECT_EQ(m.nodes()[n.node.id].attitude.has_value(), n.node.attitude.has_value());
   // A second restore, or one into a mapper that has a map, is refused.
   EXPECT_FALSE(m.restore(*snap));
 }
@@ -371,7 +373,9 @@ TEST_F(MapperInput, DropsRegistrationResultsThatAreStaleOrMalformed) {
   EXPECT_FALSE(m_.onRegisterResult(bad));
   EXPECT_EQ(m_.stats().dropped, 3);
   EXPECT_EQ(m_.stats().registrations_ok, 0);
-  EXPECT_EQ(m_.stats().loop_closures + m_.stats().delta_replaced + m_.stats().delta_kept + m_.stats().delta_fused, 0);
+  EXPECT_EQ(m_.stats().loop_closures + m_.stats().delta_replaced + m_.stats().delta_kept +
+                m_.stats().delta_fused,
+            0);
   // The same answer once more: nothing in flight any more.
   EXPECT_FALSE(m_.onRegisterResult(ok));
   EXPECT_EQ(m_.stats().dropped, 4);

@@ -100,10 +100,10 @@ TEST(ReducedGraph, AnOverlapWiderThanACellFindsTheNodesTwoCellsAway) {
 // that fails to register there (a dark stretch, a random failure) adds one, years later.
 // node_at_every_new_place gives every new place its node on the first visit (a satellite of the
 // active node, its constraint Δ fused with the step's registration): the corridor driven
-// again in the dark adds none. The cells alone (no overlap), so that a place is a cell; the dark pass along the
-// straight only (a turn's steps fall in other heading sectors each time); 5 heading sectors,
-// so that the corridor's heading (0) is inside one and not on the edge between two, and the
-// corridor 0.5 m beside the first node (the map's origin), so that it runs inside a row of
+// again in the dark adds none. The cells alone (no overlap), so that a place is a cell; the dark
+// pass along the straight only (a turn's steps fall in other heading sectors each time); 5 heading
+// sectors, so that the corridor's heading (0) is inside one and not on the edge between two, and
+// the corridor 0.5 m beside the first node (the map's origin), so that it runs inside a row of
 // cells and not along the edge between two.
 TEST(ReducedGraph, AVisitThatRegistersAllTheWayStillLeavesANodeAtEveryNewPlace) {
   auto dark_lap_nodes = [](bool every_place, int64_t* first_lap_nodes) {
@@ -154,8 +154,9 @@ TEST(ReducedGraph, PlacesPassedWhileRegisteredHangOffTheNodeRegisteredTo) {
   EXPECT_GE(m.stats().nodes, 13);
   EXPECT_EQ(m.stats().loop_closures, 0);
   int most_partners = 0;
-  for (const MapperNode& n : m.nodes()) most_partners = std::max(most_partners, m.constraints().partners(n.id));
-  EXPECT_GE(most_partners, 3);  // a node registered to over metres holds its satellites
+  for (const MapperNode& n : m.nodes())
+    most_partners = std::max(most_partners, m.constraints().partners(n.id));
+  EXPECT_GE(most_partners, 3);   // a node registered to over metres holds its satellites
   EXPECT_NE(m.activeNode(), 0);  // ... and the robot went on from them
   EXPECT_LT((m.pose().mean.translation() - Vec3(7.5, 0.25, 0)).norm(), 1e-6);
 }
@@ -210,7 +211,8 @@ MapperOptions withPartners(int partners) {
   return o;
 }
 
-TEST(ReducedGraph, PairsOfNodesTiedToEnoughOthersOpenOnlyWhenInformativeSoFactorsStopGrowingWithVisits) {
+TEST(ReducedGraph,
+     PairsOfNodesTiedToEnoughOthersOpenOnlyWhenInformativeSoFactorsStopGrowingWithVisits) {
   ScriptedDrive unbounded(withPartners(0));
   const std::vector<int64_t> all = factorsPerCrossingLoop(&unbounded, 12);
   ScriptedDrive bounded(withPartners(2));
@@ -228,7 +230,10 @@ TEST(ReducedGraph, PairsOfNodesTiedToEnoughOthersOpenOnlyWhenInformativeSoFactor
   // Every pair opened without the test had a node with fewer partners than the bound.
   EXPECT_LE(b.factors, 2 * b.nodes);
   // Re-localised on the nodes all the same: exact measurements, an exact pose.
-  EXPECT_LT((bounded.mapper().pose().mean.translation() - unbounded.mapper().pose().mean.translation()).norm(), 1e-6);
+  EXPECT_LT(
+      (bounded.mapper().pose().mean.translation() - unbounded.mapper().pose().mean.translation())
+          .norm(),
+      1e-6);
   // A bound far above any node's partners changes nothing.
   ScriptedDrive loose(withPartners(50));
   EXPECT_EQ(factorsPerCrossingLoop(&loose, 12), all);
@@ -265,7 +270,8 @@ TEST(ReducedGraph, TheClosureThatTiesANewChainToTheMapOpensWhateverTheBound) {
   EXPECT_GE(ties, 1);
   EXPECT_EQ(after.closures_saturated, 0);
   // Exact measurements: the chain's nodes, tied, are where the truth is.
-  for (int64_t id = first_chain_node; id < static_cast<int64_t>(drive.mapper().nodes().size()); ++id) {
+  for (int64_t id = first_chain_node; id < static_cast<int64_t>(drive.mapper().nodes().size());
+       ++id) {
     const SE3d estimate = drive.mapper().nodePose(0).inverse() * drive.mapper().nodePose(id);
     const SE3d truth = drive.nodeTruth(0).inverse() * drive.nodeTruth(id);
     EXPECT_LT((estimate.translation() - truth.translation()).norm(), 1e-3) << "node " << id;
@@ -319,7 +325,8 @@ TEST(ReducedGraph, AMapReloadedFromItsStoreCountsTheSamePartnersAndKeepsItsFacto
   ASSERT_TRUE(reloaded.restore(*snap));
   ASSERT_EQ(reloaded.nodes().size(), drive.mapper().nodes().size());
   for (int64_t id = 0; id < static_cast<int64_t>(reloaded.nodes().size()); ++id)
-    EXPECT_EQ(reloaded.constraints().partners(id), drive.mapper().constraints().partners(id)) << "node " << id;
+    EXPECT_EQ(reloaded.constraints().partners(id), drive.mapper().constraints().partners(id))
+        << "node " << id;
   EXPECT_EQ(reloaded.stats().factors, drive.mapper().stats().factors);
   // The restarted mapper goes on with the bound where the first left off.
   const int64_t factors_before = drive.mapper().stats().factors;
@@ -335,8 +342,8 @@ TEST(ReducedGraph, AMapReloadedFromItsStoreCountsTheSamePartnersAndKeepsItsFacto
 // again and closes onto the lap's nodes, which brings the dark nodes back onto the line.
 struct DarkPass {
   MapperStats stats;
-  int64_t nodes_before = 0;   // after the lap
-  int64_t nodes_dark = 0;     // ... and after the dark pass
+  int64_t nodes_before = 0;         // after the lap
+  int64_t nodes_dark = 0;           // ... and after the dark pass
   double worst_node_error_m = 0.0;  // every node's estimate against its truth, the frame of node 0
 };
 void driveDarkPassBack(ScriptedDrive& drive, double slip_rad, DarkPass* out) {
@@ -366,7 +373,9 @@ double worstNodeError(ScriptedDrive& drive, const Mapper& m) {
   const SE3d origin = drive.nodeTruth(0);
   double worst = 0.0;
   for (int64_t id = 0; id < static_cast<int64_t>(m.nodes().size()); ++id)
-    worst = std::max(worst, (m.nodePose(id).translation() - (origin.inverse() * drive.nodeTruth(id)).translation()).norm());
+    worst = std::max(worst, (m.nodePose(id).translation() -
+                             (origin.inverse() * drive.nodeTruth(id)).translation())
+                                .norm());
   return worst;
 }
 DarkPass darkPassBack(const MapperOptions& o, double slip_rad) {
@@ -437,7 +446,9 @@ TEST(ReducedGraph, ARegistrationToAMergedNodeIsOneToItsNodeAndItsClosureNamesIt)
   const auto& all = drive.mapper().constraints().all();
   int64_t naming = 0;
   for (size_t k = constraints_before; k < all.size(); ++k)
-    if (all[k].kind == ConstraintKind::kLoop && all[k].accepted && (all[k].from == merged || all[k].to == merged)) ++naming;
+    if (all[k].kind == ConstraintKind::kLoop && all[k].accepted &&
+        (all[k].from == merged || all[k].to == merged))
+      ++naming;
   EXPECT_GE(naming, 1);
   EXPECT_GT(drive.mapper().stats().loop_closures, closures_before);
   EXPECT_EQ(drive.mapper().stats().merges_undone, 0);
@@ -460,8 +471,8 @@ TEST(ReducedGraph, AMergeThatALaterConstraintContradictsIsUndone) {
   EXPECT_GE(st.node_merges, 2);
   EXPECT_GE(st.merges_undone, 1);
   EXPECT_EQ(st.nodes, unmergedNodes(drive.mapper()));
-  EXPECT_EQ(unmergedNodes(drive.mapper()),
-            static_cast<int64_t>(drive.mapper().nodes().size()) - st.node_merges + st.merges_undone);
+  EXPECT_EQ(unmergedNodes(drive.mapper()), static_cast<int64_t>(drive.mapper().nodes().size()) -
+                                               st.node_merges + st.merges_undone);
   const ConstraintSet& set = drive.mapper().constraints();
   for (const auto& [node, alias] : set.aliases()) {
     EXPECT_LT(drive.mapper().nodes()[static_cast<size_t>(alias.into)].merged_into, 0);
@@ -534,7 +545,8 @@ TEST(ReducedGraph, AnElevatorRideMovesTheEstimateToTheNewFloorAndTakesNoStepInTh
   ASSERT_TRUE(m.onFloor(start));
   const int64_t steps = m.stats().steps;
   for (int k = 1; k <= 5; ++k)
-    ASSERT_TRUE(m.onVo(voMsg(1'000'000 + k * 600'000, k == 1 ? 0 : 1'000'000 + (k - 1) * 600'000, SE3d(), 1e-3, true)));
+    ASSERT_TRUE(m.onVo(voMsg(1'000'000 + k * 600'000, k == 1 ? 0 : 1'000'000 + (k - 1) * 600'000,
+                             SE3d(), 1e-3, true)));
   EXPECT_EQ(m.stats().steps, steps);
   floor_t end = start;
   end.utime = 5'000'000;
@@ -645,7 +657,8 @@ TEST(ReducedGraph, RecoversWhenTwoRegistrationsAgreeAgainstAWrongDelta) {
   EXPECT_LE(drive.mapper().nodes().size(), nodes_before + 1);
   // The map's origin is the first frame, 0.1 m along x.
   const SE3d estimate = drive.mapper().pose().mean;
-  EXPECT_LT((estimate.translation() - (drive.truePose().translation() - Vec3(0.1, 0, 0))).norm(), 0.05);
+  EXPECT_LT((estimate.translation() - (drive.truePose().translation() - Vec3(0.1, 0, 0))).norm(),
+            0.05);
 }
 
 TEST(ReducedGraph, RegistrationsThatAgreeOnAPlaceOneTexturePeriodAwayDoNotMoveTheRobot) {
@@ -665,7 +678,8 @@ TEST(ReducedGraph, RegistrationsThatAgreeOnAPlaceOneTexturePeriodAwayDoNotMoveTh
     drive.driveTo(4.0, 0.0);
     const auto& s = drive.mapper().stats();
     const SE3d estimate = drive.mapper().pose().mean;
-    const double error_m = (estimate.translation() - (drive.truePose().translation() - Vec3(0.1, 0, 0))).norm();
+    const double error_m =
+        (estimate.translation() - (drive.truePose().translation() - Vec3(0.1, 0, 0))).norm();
     if (bounded) {
       EXPECT_GE(s.rejected_map_gate, 2);
       EXPECT_GE(s.recoveries_too_far, 1);
@@ -678,7 +692,8 @@ TEST(ReducedGraph, RegistrationsThatAgreeOnAPlaceOneTexturePeriodAwayDoNotMoveTh
   }
 }
 
-TEST(ReducedGraph, RegistrationsToOneNodeThatShareItsErrorDoNotOverrideDeltaWhenARecoveryNeedsTwoNodes) {
+TEST(ReducedGraph,
+     RegistrationsToOneNodeThatShareItsErrorDoNotOverrideDeltaWhenARecoveryNeedsTwoNodes) {
   // Every registration to one node of a mapped corridor is 0.4 m and 3° off (its keyframe's
   // error, which they all share): the gate rejects them against Δ, and they agree with each
   // other. Two registrations to one node are then no proof that Δ is wrong; with
@@ -696,7 +711,9 @@ TEST(ReducedGraph, RegistrationsToOneNodeThatShareItsErrorDoNotOverrideDeltaWhen
     for (double x = 2.8; x <= 8.0; x += 0.1) {
       drive.driveTo(x, 0.0);
       const SE3d estimate = drive.mapper().pose().mean;
-      worst_m = std::max(worst_m, (estimate.translation() - (drive.truePose().translation() - Vec3(0.1, 0, 0))).norm());
+      worst_m = std::max(
+          worst_m,
+          (estimate.translation() - (drive.truePose().translation() - Vec3(0.1, 0, 0))).norm());
     }
     const auto& s = drive.mapper().stats();
     EXPECT_GE(s.rejected_map_gate, 2) << two_nodes;
@@ -724,10 +741,12 @@ TEST(ReducedGraph, AGateRecoveryToAnotherNodeAddsNoClosureFromTheWrongDelta) {
   for (const auto& c : drive.mapper().constraints().all()) {
     if (!c.accepted || c.kind != ConstraintKind::kLoop) continue;
     const SE3d truth = drive.nodeTruth(c.from).inverse() * drive.nodeTruth(c.to);
-    EXPECT_LT((c.from_T_to.mean.translation() - truth.translation()).norm(), 0.05) << c.from << " -> " << c.to;
+    EXPECT_LT((c.from_T_to.mean.translation() - truth.translation()).norm(), 0.05)
+        << c.from << " -> " << c.to;
   }
   const SE3d estimate = drive.mapper().pose().mean;
-  EXPECT_LT((estimate.translation() - (drive.truePose().translation() - Vec3(0.1, 0, 0))).norm(), 0.05);
+  EXPECT_LT((estimate.translation() - (drive.truePose().translation() - Vec3(0.1, 0, 0))).norm(),
+            0.05);
 }
 
 TEST(ReducedGraph, ActiveNodeRegistrationIsFusedWithDeltaExceptToReLocalise) {
@@ -759,7 +778,8 @@ TEST(ReducedGraph, NodesOfAFloorAreHeldAtTheFloorsFirstHeightNotAtEachRidesEstim
   ASSERT_GT(drive.mapper().nodes().size(), before + 5);
   EXPECT_EQ(drive.mapper().floors().at(0), 0.0);
   for (size_t id = before; id < drive.mapper().nodes().size(); ++id)
-    EXPECT_LT(std::abs(drive.mapper().nodePose(static_cast<int64_t>(id)).translation().z()), 0.01) << id;
+    EXPECT_LT(std::abs(drive.mapper().nodePose(static_cast<int64_t>(id)).translation().z()), 0.01)
+        << id;
 }
 
 TEST(Mapper, ALongGapInVoStartsOneSessionEvenWhenItsFloorMessageIsLost) {
@@ -889,14 +909,15 @@ TEST(ReducedGraph, HasFarFewerNodesThanTheFullGraphWithComparableAccuracy) {
 TEST(ViewCover, APoseIsANewViewUnlessAnEarlierOneIsWithinTheReachOnItsFloor) {
   ViewCover cover(1.0, std::numbers::pi / 4);
   auto at = [](double x, double y, double yaw) {
-    return core::SE3d(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())), core::Vec3(x, y, 0.0));
+    return core::SE3d(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())),
+                      core::Vec3(x, y, 0.0));
   };
   EXPECT_TRUE(cover.add(0, at(0.0, 0.0, 0.0)));
-  EXPECT_FALSE(cover.add(0, at(0.9, 0.0, 0.7)));   // within 1 m and 45°
-  EXPECT_FALSE(cover.add(0, at(-0.5, -0.6, -0.7)));  // across a cell corner
-  EXPECT_TRUE(cover.add(0, at(1.1, 0.0, 0.0)));    // beyond the radius
-  EXPECT_TRUE(cover.add(0, at(0.0, 0.0, 0.9)));    // beyond the heading
-  EXPECT_TRUE(cover.add(1, at(0.0, 0.0, 0.0)));    // another floor
+  EXPECT_FALSE(cover.add(0, at(0.9, 0.0, 0.7)));                         // within 1 m and 45°
+  EXPECT_FALSE(cover.add(0, at(-0.5, -0.6, -0.7)));                      // across a cell corner
+  EXPECT_TRUE(cover.add(0, at(1.1, 0.0, 0.0)));                          // beyond the radius
+  EXPECT_TRUE(cover.add(0, at(0.0, 0.0, 0.9)));                          // beyond the heading
+  EXPECT_TRUE(cover.add(1, at(0.0, 0.0, 0.0)));                          // another floor
   EXPECT_FALSE(cover.add(0, at(0.0, 0.0, 2 * std::numbers::pi - 0.1)));  // the heading wraps
   EXPECT_EQ(cover.views(), 4);
 }
@@ -909,8 +930,8 @@ TEST(ReducedGraph, FortySessionsAddAThirdOfTheNodesAfterExplorationWhenEveryNewP
   sim.patrol.explore_tours = true;
   sim.patrol.explore_sessions = 4;
   struct Growth {
-    int64_t explored = 0;  // nodes at the end of the exploration sessions
-    int64_t later = 0;     // nodes the other 36 sessions added
+    int64_t explored = 0;                         // nodes at the end of the exploration sessions
+    int64_t later = 0;                            // nodes the other 36 sessions added
     int64_t views_explored = 0, views_later = 0;  // the same for the truth's views
     double ate_rmse_m = 0.0;
   };
@@ -923,7 +944,8 @@ TEST(ReducedGraph, FortySessionsAddAThirdOfTheNodesAfterExplorationWhenEveryNewP
     Growth g;
     if (!summary) return g;
     for (size_t s = 0; s < summary->nodes_by_session.size(); ++s)
-      (static_cast<int>(s) < sim.patrol.explore_sessions ? g.explored : g.later) += summary->nodes_by_session[s];
+      (static_cast<int>(s) < sim.patrol.explore_sessions ? g.explored : g.later) +=
+          summary->nodes_by_session[s];
     for (size_t s = 0; s < summary->views_by_session.size(); ++s)
       (static_cast<int>(s) < sim.patrol.explore_sessions ? g.views_explored : g.views_later) +=
           summary->views_by_session[s];
@@ -940,7 +962,7 @@ TEST(ReducedGraph, FortySessionsAddAThirdOfTheNodesAfterExplorationWhenEveryNewP
   EXPECT_LT(paper.views_later * 50, paper.views_explored);
   // Measured: 75 nodes after 514 (+14.6 %) against 15 after 892 (+1.7 %).
   EXPECT_LT(3 * every_place.later, paper.later);
-  EXPECT_GT(paper.later * 20, paper.explored);            // Algorithm 1 alone: over 5 %
+  EXPECT_GT(paper.later * 20, paper.explored);              // Algorithm 1 alone: over 5 %
   EXPECT_LE(every_place.later * 50, every_place.explored);  // every new place its node: at most 2 %
   EXPECT_LT(every_place.ate_rmse_m, 1.5 * paper.ate_rmse_m);
   EXPECT_LT(every_place.ate_rmse_m, 0.15);

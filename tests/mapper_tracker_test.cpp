@@ -104,11 +104,13 @@ TEST(Tracker, RefusesOdometryFasterThanPhysicsAllowsAndKeepsItsEstimate) {
   // Motion since the reference, 0.2 s before: 2.1 m, 10.5 m/s.
   const Status fast = t.addVo(voMsg(200000, 0, planar(2.1, 0, 0), 1e-3, false));
   ASSERT_FALSE(fast);
-  EXPECT_NE(fast.error().message.find("tracker.max_speed_m_s"), std::string::npos) << fast.error().message;
+  EXPECT_NE(fast.error().message.find("tracker.max_speed_m_s"), std::string::npos)
+      << fast.error().message;
   // 1.1 rad in 0.2 s: 5.5 rad/s.
   const Status turn = t.addVo(voMsg(200000, 0, planar(0.1, 0, 1.1), 1e-3, false));
   ASSERT_FALSE(turn);
-  EXPECT_NE(turn.error().message.find("tracker.max_turn_rad_s"), std::string::npos) << turn.error().message;
+  EXPECT_NE(turn.error().message.find("tracker.max_turn_rad_s"), std::string::npos)
+      << turn.error().message;
   // The hostile message's 1e9 m over the whole span since the reference.
   EXPECT_FALSE(t.addVo(voMsg(300000, 0, planar(1e9, 0, 0), 1e-3, false)));
   EXPECT_EQ(t.counts().implausible, 3);
@@ -216,7 +218,8 @@ void loseVoOverAMetreOfWheels(Tracker& t) {
   vo_delta_t fail = voMsg(200000, 100000, SE3d(), 0, false);
   fail.status = vo_delta_t::STATUS_INSUFFICIENT_FEATURES;
   ASSERT_TRUE(t.addVo(fail));
-  for (int k = 2; k <= 11; ++k) ASSERT_TRUE(t.addWheel(wheelMsg((k - 1) * 100000, k * 100000, 0.1, 1e-6)));
+  for (int k = 2; k <= 11; ++k)
+    ASSERT_TRUE(t.addWheel(wheelMsg((k - 1) * 100000, k * 100000, 0.1, 1e-6)));
 }
 
 TEST(Tracker, VoBackOnItsKeptReferenceIsNotBelievedWhenTheWheelsContradictIt) {
@@ -283,7 +286,8 @@ TEST(Tracker, SilentVoHandsOverToWheelOdometryFromItsLastFrame) {
   Tracker t(o);
   ASSERT_TRUE(t.addVo(voRestart(0)));
   ASSERT_TRUE(t.addVo(voMsg(100000, 0, planar(0.1, 0, 0), 1e-3, false)));
-  for (int k = 2; k <= 10; ++k) ASSERT_TRUE(t.addWheel(wheelMsg((k - 1) * 100000, k * 100000, 0.1)));
+  for (int k = 2; k <= 10; ++k)
+    ASSERT_TRUE(t.addWheel(wheelMsg((k - 1) * 100000, k * 100000, 0.1)));
   EXPECT_FALSE(t.voTracking());
   EXPECT_EQ(t.counts().vo_timeouts, 1);
   EXPECT_NEAR(t.delta().mean.translation().x(), 0.1 + 0.9, 1e-12);
@@ -333,7 +337,8 @@ TEST(ConstraintSet, AMergedNodesConstraintsJoinItsNodesPairsAndComeBackWhenTheMe
     return c;
   };
   ConstraintSet set(16.81);
-  for (const auto& [i, j] : std::vector<std::pair<int, int>>{{0, 1}, {1, 3}, {0, 2}, {3, 2}}) set.add(make(i, j));
+  for (const auto& [i, j] : std::vector<std::pair<int, int>>{{0, 1}, {1, 3}, {0, 2}, {3, 2}})
+    set.add(make(i, j));
   ASSERT_EQ(set.pairs().size(), 4u);
   const auto before = set.pairs();
 
@@ -346,7 +351,9 @@ TEST(ConstraintSet, AMergedNodesConstraintsJoinItsNodesPairsAndComeBackWhenTheMe
   EXPECT_EQ(set.partners(1), 2);
   EXPECT_EQ(set.partners(2), 0);
   // Exact constraints: the merged pairs are exact too.
-  EXPECT_LT((set.pairs().at({1, 3}).i_T_j.mean.inverse() * (w_T[1].inverse() * w_T[3])).log().norm(), 1e-12);
+  EXPECT_LT(
+      (set.pairs().at({1, 3}).i_T_j.mean.inverse() * (w_T[1].inverse() * w_T[3])).log().norm(),
+      1e-12);
   // The constraints are kept as they were made.
   EXPECT_EQ(set.all()[2].to, 2);
   // 3 -> 2 re-expressed as 1_T_3 (the pair's order): its covariance is the one of the made

@@ -169,7 +169,8 @@ TEST(MapperWarmRestart, AGapBridgedByTheOdometryFrameAddsAccurateNodesAtOnce) {
   ASSERT_TRUE(map.tracking->odometry);  // the VO frame's odometry pose is saved with the state
   const auto restored = static_cast<int64_t>(map.nodes.size());
   drive.blind(true);  // nothing to register against: only the odometry places the robot
-  ASSERT_TRUE(drive.restart(map, scriptedOptions(), 8.0, 3.0, GapOdometry::kSameEpoch));  // now at x = 11
+  ASSERT_TRUE(
+      drive.restart(map, scriptedOptions(), 8.0, 3.0, GapOdometry::kSameEpoch));  // now at x = 11
   const Mapper& m = drive.mapper();
   EXPECT_EQ(m.stats().warm_restarts, 1);
   EXPECT_EQ(m.stats().warm_bridged, 1);
@@ -231,7 +232,8 @@ TEST(MapperWarmRestart, AGapInWhichVoRestartedItsChainIsBridgedByTheWheels) {
   EXPECT_EQ(m.stats().warm_bridged_by_wheels, 1);
   EXPECT_FALSE(m.resumedUnconfirmed()) << m.restartNote();
   EXPECT_NE(m.restartNote().find("wheel"), std::string::npos) << m.restartNote();
-  EXPECT_NE(m.restartNote().find("epoch"), std::string::npos) << m.restartNote();  // why VO could not
+  EXPECT_NE(m.restartNote().find("epoch"), std::string::npos)
+      << m.restartNote();  // why VO could not
   expectTrackingGoesOnAsIfNothingWasLost(drive, restored);
 }
 
@@ -248,7 +250,8 @@ TEST(MapperWarmRestart, TheWheelsBridgeWithinTheirEpochAndAreWaitedForBriefly) {
   ASSERT_TRUE(drive.restart(map, scriptedOptions(), 8.0, 3.0, GapOdometry::kNewEpoch));
   EXPECT_EQ(drive.mapper().stats().warm_bridged, 0);
   EXPECT_TRUE(drive.mapper().resumedUnconfirmed());
-  EXPECT_NE(drive.mapper().restartNote().find("wheel odometry epoch"), std::string::npos) << drive.mapper().restartNote();
+  EXPECT_NE(drive.mapper().restartNote().find("wheel odometry epoch"), std::string::npos)
+      << drive.mapper().restartNote();
 
   ScriptedDrive late(scriptedOptions());
   late.wheels(true, /*late=*/true);
@@ -339,7 +342,8 @@ TEST(MapperWarmRestart, TheBridgeIsRefusedBeyondItsGapOrForAVerticalMotion) {
   ASSERT_TRUE(drive.restart(map, short_bridge, 8.0, 3.0, GapOdometry::kSameEpoch));
   EXPECT_EQ(drive.mapper().stats().warm_bridged, 0);
   EXPECT_EQ(drive.mapper().stats().warm_restarts, 1);  // inflated, within warm_restart_max_gap_s
-  EXPECT_NE(drive.mapper().restartNote().find("bridge_max_gap_s"), std::string::npos) << drive.mapper().restartNote();
+  EXPECT_NE(drive.mapper().restartNote().find("bridge_max_gap_s"), std::string::npos)
+      << drive.mapper().restartNote();
   // A saved odometry pose 3 m below the one VO reports now: a ride.
   ScriptedDrive other(scriptedOptions());
   const MapSnapshot base = drivenAndSaved(other, dir.path() / "map2.db");
@@ -349,7 +353,8 @@ TEST(MapperWarmRestart, TheBridgeIsRefusedBeyondItsGapOrForAVerticalMotion) {
   other.blind(true);
   ASSERT_TRUE(other.restart(ride, scriptedOptions(), 2.0, 0.0, GapOdometry::kSameEpoch));
   EXPECT_EQ(other.mapper().stats().warm_bridged, 0);
-  EXPECT_NE(other.mapper().restartNote().find("vertical"), std::string::npos) << other.mapper().restartNote();
+  EXPECT_NE(other.mapper().restartNote().find("vertical"), std::string::npos)
+      << other.mapper().restartNote();
 }
 
 TEST(MapperWarmRestart, ARestartBeyondTheGapStartsLost) {
@@ -381,9 +386,9 @@ TEST(MapperWarmRestart, WithTheWarmRestartOffEveryRestartStartsLost) {
 }
 
 // The robot drove 3 m during a 4 s gap, along the mapped corridor: the held pose is 3 m
-// behind it (σ 6 m). The registrations that find the mapped places must neither close a loop from it
-// nor leave the robot where it was: the earlier attempt at this closed loops from the held
-// pose (6 false loop edges in the live run, pose ATE 3.3 m).
+// behind it (σ 6 m). The registrations that find the mapped places must neither close a loop from
+// it nor leave the robot where it was: the earlier attempt at this closed loops from the held pose
+// (6 false loop edges in the live run, pose ATE 3.3 m).
 TEST(MapperWarmRestart, MotionDuringTheGapMakesNoFalseClosureAndTheRobotIsPlacedWhereItIs) {
   evermap::testing::ScratchDir dir;
   ScriptedDrive drive(scriptedOptions());
@@ -449,7 +454,8 @@ TEST(MapStore, TheTrackingStateSurvivesAKillMidSave) {
       ++with_state;
       ASSERT_GE(snap->tracking->active_node, 0);
       ASSERT_LT(snap->tracking->active_node, static_cast<int64_t>(snap->nodes.size()));
-      for (const StoredNode& n : snap->nodes) EXPECT_LE(n.node.keyframe_utime, snap->tracking->utime);
+      for (const StoredNode& n : snap->nodes)
+        EXPECT_LE(n.node.keyframe_utime, snap->tracking->utime);
       Mapper m{scriptedOptions()};
       ASSERT_TRUE(m.restore(*snap));
       EXPECT_EQ(m.stats().lost_restarts, 0);  // usable: decided at the first VO
@@ -480,7 +486,8 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheTrackingStateOpensAndIsMigrated) {
   ScriptedDrive drive(scriptedOptions());
   drive.driveTo(4.0, 0.0);
   // Back to what the code before this schema wrote: no map_tracking, user_version 0.
-  ASSERT_NO_FATAL_FAILURE(saveAsAnOlderSchema(drive, file, "DROP TABLE map_tracking; PRAGMA user_version=0;"));
+  ASSERT_NO_FATAL_FAILURE(
+      saveAsAnOlderSchema(drive, file, "DROP TABLE map_tracking; PRAGMA user_version=0;"));
   {
     auto ro = MapStore::open(file, MapStoreOptions{2, true});
     ASSERT_TRUE(ro) << ro.error().message;
@@ -505,8 +512,8 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheTrackingStateOpensAndIsMigrated) {
 }
 
 // Stores of schema version 1 (map_tracking without its odom_* columns) open read-only as they
-// are and read-write migrated to the current version; their state restarts warm without the bridge, and
-// the next save stores the odometry pose, which a load gives back as it was saved.
+// are and read-write migrated to the current version; their state restarts warm without the bridge,
+// and the next save stores the odometry pose, which a load gives back as it was saved.
 TEST(MapStore, AStoreOfTheSchemaBeforeTheOdometryPoseIsMigratedAndTheRoundTripKeepsThePose) {
   evermap::testing::ScratchDir dir;
   const auto file = dir.path() / "v1.db";
@@ -515,11 +522,14 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheOdometryPoseIsMigratedAndTheRoundTripKe
   // Back to what version 1 wrote: map_tracking with its first nine columns.
   ASSERT_NO_FATAL_FAILURE(saveAsAnOlderSchema(
       drive, file,
-      "CREATE TABLE t1 AS SELECT id, utime, session_id, session_start_utime, active_node, floor, in_elevator, pose,"
+      "CREATE TABLE t1 AS SELECT id, utime, session_id, session_start_utime, active_node, floor, "
+      "in_elevator, pose,"
       " covariance FROM map_tracking; DROP TABLE map_tracking;"
       "CREATE TABLE map_tracking (id INTEGER PRIMARY KEY CHECK (id = 0), utime INTEGER NOT NULL,"
-      " session_id INTEGER NOT NULL, session_start_utime INTEGER NOT NULL, active_node INTEGER NOT NULL,"
-      " floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL, pose BLOB NOT NULL, covariance BLOB NOT NULL);"
+      " session_id INTEGER NOT NULL, session_start_utime INTEGER NOT NULL, active_node INTEGER NOT "
+      "NULL,"
+      " floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL, pose BLOB NOT NULL, covariance BLOB "
+      "NOT NULL);"
       "INSERT INTO map_tracking SELECT * FROM t1; DROP TABLE t1; PRAGMA user_version=1;"));
   {
     auto ro = MapStore::open(file, MapStoreOptions{2, true});
@@ -543,7 +553,8 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheOdometryPoseIsMigratedAndTheRoundTripKe
   const Tracker::OdometryAnchor& a = *again->tracking->odometry;
   EXPECT_EQ(a.pose.epoch, saved->odometry->pose.epoch);
   EXPECT_EQ(a.pose.utime, saved->odometry->pose.utime);
-  EXPECT_LT((a.pose.odom_T_cam.mean.inverse() * saved->odometry->pose.odom_T_cam.mean).log().norm(), 1e-12);
+  EXPECT_LT((a.pose.odom_T_cam.mean.inverse() * saved->odometry->pose.odom_T_cam.mean).log().norm(),
+            1e-12);
   EXPECT_EQ(a.pose.odom_T_cam.covariance, saved->odometry->pose.odom_T_cam.covariance);
   EXPECT_EQ(a.own_covariance, saved->odometry->own_covariance);
   EXPECT_TRUE(store->integrityCheck());
@@ -558,11 +569,13 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheWheelPoseIsMigratedAndTheRoundTripKeeps
   ScriptedDrive drive(scriptedOptions());
   drive.wheels(true);
   drive.driveTo(4.0, 0.0);
-  ASSERT_NO_FATAL_FAILURE(saveAsAnOlderSchema(
-      drive, file,
-      "ALTER TABLE map_tracking DROP COLUMN wheel_epoch; ALTER TABLE map_tracking DROP COLUMN wheel_utime;"
-      "ALTER TABLE map_tracking DROP COLUMN wheel_pose; ALTER TABLE map_tracking DROP COLUMN wheel_covariance;"
-      "PRAGMA user_version=2;"));
+  ASSERT_NO_FATAL_FAILURE(
+      saveAsAnOlderSchema(drive, file,
+                          "ALTER TABLE map_tracking DROP COLUMN wheel_epoch; ALTER TABLE "
+                          "map_tracking DROP COLUMN wheel_utime;"
+                          "ALTER TABLE map_tracking DROP COLUMN wheel_pose; ALTER TABLE "
+                          "map_tracking DROP COLUMN wheel_covariance;"
+                          "PRAGMA user_version=2;"));
   {
     auto ro = MapStore::open(file, MapStoreOptions{2, true});
     ASSERT_TRUE(ro) << ro.error().message;

@@ -43,7 +43,8 @@ Msg throughWire(const Msg& msg) {
 cv::Mat testImage(int w, int h, int seed) {
   cv::Mat m(h, w, CV_8UC1);
   for (int r = 0; r < h; ++r) {
-    for (int c = 0; c < w; ++c) m.at<uint8_t>(r, c) = static_cast<uint8_t>((r * 7 + c * 3 + seed) ^ (r * c));
+    for (int c = 0; c < w; ++c)
+      m.at<uint8_t>(r, c) = static_cast<uint8_t>((r * 7 + c * 3 + seed) ^ (r * c));
   }
   return m;
 }
@@ -279,7 +280,8 @@ TEST(CalibrationMsg, ARectifiedPairKeepsItsDisparityOffsetThroughTheWire) {
   EXPECT_EQ(static_cast<float>(cam->disparityOffsetPx()), 0.8f);  // what StereoDepth adds
   EXPECT_EQ(cam->cx(), 607.1928);
   // Without the offset the message is what it was before the offset existed.
-  EXPECT_EQ(core::rectifiedStereoCamera(*fromMsg(throughWire(toMsg(s, 5))))->disparityOffsetPx(), 0.0);
+  EXPECT_EQ(core::rectifiedStereoCamera(*fromMsg(throughWire(toMsg(s, 5))))->disparityOffsetPx(),
+            0.0);
 }
 
 TEST(CalibrationMsg, MalformedCalibrationsAreRefused) {
@@ -414,8 +416,8 @@ TEST(DecodeLcm, RandomlyCorruptedStereoMessagesNeverCrashTheReceiver) {
       const int flips = 1 + static_cast<int>(rng() % 4);
       for (int k = 0; k < flips; ++k) b[rng() % b.size()] = static_cast<uint8_t>(rng());
       if (rng() % 8 == 0) b.resize(rng() % b.size());  // and sometimes truncated
-      const auto msg = decodeLcm<evermap::stereo_image_t>(b.data(),
-                                                          static_cast<int64_t>(b.size()), "S");
+      const auto msg =
+          decodeLcm<evermap::stereo_image_t>(b.data(), static_cast<int64_t>(b.size()), "S");
       if (!msg) {
         ++refused;
         continue;

@@ -50,8 +50,8 @@ class InboxTest : public ::testing::Test {
 
 TEST_F(InboxTest, MalformedBytesAreCountedAndNeverReachTheHandler) {
   Inbox inbox(lcm_, options());
-  inbox.subscribe<evermap::stereo_calib_t>(channels::kStereoCalib,
-                                           [&](const evermap::stereo_calib_t& m) { seen_.push_back(m.utime); });
+  inbox.subscribe<evermap::stereo_calib_t>(
+      channels::kStereoCalib, [&](const evermap::stereo_calib_t& m) { seen_.push_back(m.utime); });
   evermap::stereo_calib_t c{};
   c.utime = kT0;
   std::vector<uint8_t> b(static_cast<size_t>(c.getEncodedSize()));
@@ -90,7 +90,8 @@ TEST_F(InboxTest, AMessageStampedTwoToThe62IsRefusedAndNeverBecomesNow) {
   Inbox::Options o = options();
   o.time.expire_count = 50;
   Inbox inbox(lcm_, o);
-  inbox.subscribe<evermap::imu_t>(channels::kImu, [&](const evermap::imu_t& m) { seen_.push_back(m.utime); });
+  inbox.subscribe<evermap::imu_t>(channels::kImu,
+                                  [&](const evermap::imu_t& m) { seen_.push_back(m.utime); });
   std::vector<int64_t> sent;
   for (int k = 0; k < 200; ++k) {
     if (k == 100) {
@@ -109,7 +110,8 @@ TEST_F(InboxTest, TheFirstMessagesWaitUntilTheyAgreeSoAFarFirstMessageIsNotTheCl
   Inbox::Options o = options();
   o.time.expire_count = 10;
   Inbox inbox(lcm_, o);
-  inbox.subscribe<evermap::imu_t>(channels::kImu, [&](const evermap::imu_t& m) { seen_.push_back(m.utime); });
+  inbox.subscribe<evermap::imu_t>(channels::kImu,
+                                  [&](const evermap::imu_t& m) { seen_.push_back(m.utime); });
   publishImu(kFar);
   publishImu(kT0);
   publishImu(kT0 + 5000);
@@ -125,7 +127,8 @@ TEST_F(InboxTest, AStreamThatReallyJumpsIsFollowedWithNothingLost) {
   // A new session a day later (or a log replayed again): after confirm_count messages agree,
   // the clock moves and the held messages are passed on in order.
   Inbox inbox(lcm_, options());
-  inbox.subscribe<evermap::imu_t>(channels::kImu, [&](const evermap::imu_t& m) { seen_.push_back(m.utime); });
+  inbox.subscribe<evermap::imu_t>(channels::kImu,
+                                  [&](const evermap::imu_t& m) { seen_.push_back(m.utime); });
   std::vector<int64_t> sent;
   for (int k = 0; k < 10; ++k) sent.push_back(kT0 + k * 5000);
   const int64_t day = int64_t{86400} * 1'000'000;
@@ -140,7 +143,8 @@ TEST_F(InboxTest, CountsGoOutAsInputStats) {
   Inbox::Options o = options();
   o.time.confirm_count = 1;
   Inbox inbox(lcm_, o);
-  inbox.subscribe<evermap::imu_t>(channels::kImu, [&](const evermap::imu_t& m) { seen_.push_back(m.utime); });
+  inbox.subscribe<evermap::imu_t>(channels::kImu,
+                                  [&](const evermap::imu_t& m) { seen_.push_back(m.utime); });
   publishImu(kT0);
   const char junk[] = "junk";
   lcm_.publish(channels::kImu, junk, sizeof junk);

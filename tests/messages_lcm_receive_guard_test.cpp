@@ -20,7 +20,6 @@
 #include <filesystem>
 #include <thread>
 
-
 #include "core/messages/inbox.h"
 #include "core/messages/lcm_receive_guard.h"
 #include <evermap/imu_t.hpp>

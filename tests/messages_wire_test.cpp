@@ -112,12 +112,12 @@ void fuzz(const std::vector<uint8_t>& original, int trials, std::mt19937_64& rng
 }
 
 TEST(WireCheck, EveryTypesOwnEncodingIsAcceptedWhole) {
-#define EVERMAP_CHECK_TYPE(type)                                                       \
-  {                                                                                    \
-    const auto b = encode(evermap::type{});                                            \
-    auto used = checkWire<evermap::type>(b.data(), static_cast<int64_t>(b.size()));   \
-    ASSERT_TRUE(used.ok()) << #type << ": " << used.error().message;                   \
-    EXPECT_EQ(*used, static_cast<int64_t>(b.size())) << #type;                         \
+#define EVERMAP_CHECK_TYPE(type)                                                                 \
+  {                                                                                              \
+    const auto b = encode(evermap::type{});                                                      \
+    auto used = checkWire<evermap::type>(b.data(), static_cast<int64_t>(b.size()));              \
+    ASSERT_TRUE(used.ok()) << #type << ": " << used.error().message;                             \
+    EXPECT_EQ(*used, static_cast<int64_t>(b.size())) << #type;                                   \
     EXPECT_TRUE(decodeLcm<evermap::type>(b.data(), static_cast<int64_t>(b.size()), #type).ok()); \
   }
   EVERMAP_FOR_EACH_LCM_TYPE(EVERMAP_CHECK_TYPE)
@@ -148,8 +148,8 @@ TEST(WireCheck, AStereoCalibClaimingTwoToThe28DistortionValuesIsRefusedNamingThe
   std::vector<uint8_t> b = encode(c);
   // hash(8) utime(8) rectified(1), then left: width height(8) fx fy cx cy(32) model(1).
   putBe32(b, 8 + 8 + 1 + 8 + 32 + 1, 1u << 28);
-  const auto msg = decodeLcm<evermap::stereo_calib_t>(b.data(), static_cast<int64_t>(b.size()),
-                                                      "STEREO_CALIB");
+  const auto msg =
+      decodeLcm<evermap::stereo_calib_t>(b.data(), static_cast<int64_t>(b.size()), "STEREO_CALIB");
   ASSERT_FALSE(msg.ok());
   EXPECT_NE(msg.error().message.find("STEREO_CALIB: not a valid stereo_calib_t"), std::string::npos)
       << msg.error().message;
@@ -158,7 +158,8 @@ TEST(WireCheck, AStereoCalibClaimingTwoToThe28DistortionValuesIsRefusedNamingThe
   EXPECT_NE(msg.error().message.find("268435456"), std::string::npos) << msg.error().message;
   // And a negative count.
   putBe32(b, 8 + 8 + 1 + 8 + 32 + 1, 0xfffffffbu);
-  EXPECT_FALSE(decodeLcm<evermap::stereo_calib_t>(b.data(), static_cast<int64_t>(b.size()), "S").ok());
+  EXPECT_FALSE(
+      decodeLcm<evermap::stereo_calib_t>(b.data(), static_cast<int64_t>(b.size()), "S").ok());
 }
 
 TEST(WireCheck, DeputyOrdersOf24To49BytesAreRefusedWithoutAThrow) {
@@ -188,13 +189,15 @@ TEST(WireCheck, DeputyOrdersOf24To49BytesAreRefusedWithoutAThrow) {
 
 TEST(WireCheck, ForeignAndTruncatedBytesAreRefusedNamingTheType) {
   const auto imu = encode(evermap::imu_t{});
-  const auto as_pose = decodeLcm<evermap::pose_t>(imu.data(), static_cast<int64_t>(imu.size()), "POSE");
+  const auto as_pose =
+      decodeLcm<evermap::pose_t>(imu.data(), static_cast<int64_t>(imu.size()), "POSE");
   ASSERT_FALSE(as_pose.ok());
   EXPECT_NE(as_pose.error().message.find("POSE: not a valid pose_t (not a pose_t (type hash"),
             std::string::npos)
       << as_pose.error().message;
   EXPECT_FALSE(decodeLcm<evermap::imu_t>(imu.data(), 7, "IMU").ok());
-  EXPECT_FALSE(decodeLcm<evermap::imu_t>(imu.data(), static_cast<int64_t>(imu.size()) - 1, "IMU").ok());
+  EXPECT_FALSE(
+      decodeLcm<evermap::imu_t>(imu.data(), static_cast<int64_t>(imu.size()) - 1, "IMU").ok());
 }
 
 TEST(WireCheck, ATruncatedArrayOfStructsIsRefusedNamingTheElementAndTheMember) {
@@ -205,8 +208,9 @@ TEST(WireCheck, ATruncatedArrayOfStructsIsRefusedNamingTheElementAndTheMember) {
   const int64_t size = 8 + 8 + 4 + 2 * 80 + 10;
   const auto used = checkWire<evermap::map_graph_t>(g.data(), size);
   ASSERT_FALSE(used.ok());
-  EXPECT_NE(used.error().message.find("map_graph_t.nodes[2].keyframe_utime: 8 bytes needed, 2 left"),
-            std::string::npos)
+  EXPECT_NE(
+      used.error().message.find("map_graph_t.nodes[2].keyframe_utime: 8 bytes needed, 2 left"),
+      std::string::npos)
       << used.error().message;
   // The same buffer whole: accepted (nothing of the failed walk is left behind).
   EXPECT_TRUE(checkWire<evermap::map_graph_t>(g.data(), static_cast<int64_t>(g.size())).ok());

@@ -33,7 +33,9 @@ vo_delta_t frame(int64_t utime, int64_t ref, const UncertainPose& ref_T_cur, boo
   return m;
 }
 
-vo_delta_t restart(int64_t utime) { return frame(utime, utime, UncertainPose{}, true, vo_delta_t::STATUS_NO_DATA); }
+vo_delta_t restart(int64_t utime) {
+  return frame(utime, utime, UncertainPose{}, true, vo_delta_t::STATUS_NO_DATA);
+}
 
 // A random motion of a few decimetres and degrees with a random covariance.
 UncertainPose randomMotion(std::mt19937& rng) {
@@ -109,7 +111,8 @@ TEST(OdometryFrame, TheMotionBetweenTwoFramesHasTheCovarianceOfTheIncrementsBetw
     auto between = odometryBetween(*a, a_own, *b);
     ASSERT_TRUE(between) << between.error().message;
     EXPECT_LT((between->mean.inverse() * expected.mean).log().norm(), 1e-9);
-    EXPECT_LT(relativeError(between->covariance, expected.covariance), 1e-6) << (a_is_keyframe ? "keyframe" : "frame");
+    EXPECT_LT(relativeError(between->covariance, expected.covariance), 1e-6)
+        << (a_is_keyframe ? "keyframe" : "frame");
     // Without a's own covariance added back, a frame riding on its keyframe would count too
     // little: the check above would fail.
     if (!a_is_keyframe) {
@@ -297,7 +300,8 @@ TEST(WheelOdometryFrame, APoseBetweenOrJustPastTheMessagesIsInterpolatedAtConsta
   // Halfway between the first two poses (1100, 1200): half the twist.
   const auto mid = wheelOdometryAt(poses, 1150);
   ASSERT_TRUE(mid);
-  const core::SE2d expected = core::compose(poses[0].odom_T_body, core::SE2d::exp(0.5 * core::SE2d(0.1, 0, 0.1).log()));
+  const core::SE2d expected =
+      core::compose(poses[0].odom_T_body, core::SE2d::exp(0.5 * core::SE2d(0.1, 0, 0.1).log()));
   EXPECT_LT((mid->odom_T_body.vector() - expected.vector()).norm(), 1e-12);
   EXPECT_GT(mid->covariance(0, 0), poses[0].covariance(0, 0));
   EXPECT_LT(mid->covariance(0, 0), poses[1].covariance(0, 0));
@@ -307,8 +311,8 @@ TEST(WheelOdometryFrame, APoseBetweenOrJustPastTheMessagesIsInterpolatedAtConsta
   ASSERT_TRUE(ahead);
   EXPECT_NEAR(ahead->odom_T_body.theta(), 0.35, 1e-12);
   EXPECT_GT(ahead->covariance(0, 0), poses[2].covariance(0, 0));
-  EXPECT_FALSE(wheelOdometryAt(poses, 1501));  // more than two increments past
-  EXPECT_FALSE(wheelOdometryAt(poses, 1099));  // before the oldest
+  EXPECT_FALSE(wheelOdometryAt(poses, 1501));       // more than two increments past
+  EXPECT_FALSE(wheelOdometryAt(poses, 1099));       // before the oldest
   EXPECT_FALSE(wheelOdometryAt({poses[1]}, 1250));  // one pose: only its own time
   EXPECT_TRUE(wheelOdometryAt({poses[1]}, 1200));
 }

@@ -84,8 +84,10 @@ TEST(CliqueInliers, DepthNoiseIsAllowedForAlongTheRaysOnly) {
   const Vec3 moved = Vec3(2, 0, 30) * (30.5 / 30.0);
   EXPECT_TRUE(consistent({Vec3(-2, 0, 30), Vec3(2, 0, 30)}, {Vec3(-2, 0, 30), moved}));
   // Without sigmas: FOVIS's fixed threshold refuses the depth error too.
-  EXPECT_EQ(maxConsistentClique({Vec3(0, 0, 20), Vec3(0, 0, 30)}, {Vec3(0, 0, 20), Vec3(0, 0, 30.5)},
-                                {}, {}, options).size(), 1u);
+  EXPECT_EQ(maxConsistentClique({Vec3(0, 0, 20), Vec3(0, 0, 30)},
+                                {Vec3(0, 0, 20), Vec3(0, 0, 30.5)}, {}, {}, options)
+                .size(),
+            1u);
 }
 
 TEST(MotionEstimation, JacobianMatchesNumericalDerivatives) {
@@ -93,7 +95,8 @@ TEST(MotionEstimation, JacobianMatchesNumericalDerivatives) {
   const StereoCamera cam = camera();
   const Vec3 p = pointsSeenByBoth(kMotion, 1, &rng).front();
   const Correspondence m = measure(kMotion, p, 0.5, &rng);
-  const SE3d T = kMotion * SE3d::exp((Vec6() << 0.01, -0.02, 0.01, 0.003, 0.002, -0.004).finished());
+  const SE3d T =
+      kMotion * SE3d::exp((Vec6() << 0.01, -0.02, 0.01, 0.003, 0.002, -0.004).finished());
   Eigen::Matrix<double, 4, 1> r0;
   Eigen::Matrix<double, 4, 6> J;
   ASSERT_TRUE(bidirectionalResidual(cam, cam, m, T, &r0, &J));
@@ -202,7 +205,8 @@ TEST(MotionEstimation, WhiteningForDepthNoiseKeepsFarPointsWithinTheBound) {
   options.disparity_sigma_px = 0.3;
   const MotionEstimate whitened = estimateMotion(cam, cam, matches, all, forward, options);
   ASSERT_TRUE(whitened.ok()) << whitened.message;
-  std::printf("inliers: %zu unwhitened, %zu whitened\n", plain.inliers.size(), whitened.inliers.size());
+  std::printf("inliers: %zu unwhitened, %zu whitened\n", plain.inliers.size(),
+              whitened.inliers.size());
   EXPECT_GT(whitened.inliers.size(), 2 * plain.inliers.size());
   EXPECT_LT(rotationAngle((forward.inverse() * whitened.a_T_b).so3()), 0.002);
 }
@@ -252,7 +256,8 @@ TEST(DescriptorMatcher, KeepsMutualBestMatchesOnly) {
   // b[i] = a[i] with 10 bits flipped, in reverse order, plus unrelated descriptors.
   for (int i = 49; i >= 0; --i) {
     OrbDescriptor d = a[static_cast<size_t>(i)];
-    for (int k = 0; k < 10; ++k) d[static_cast<size_t>(k * 3)] ^= static_cast<uint8_t>(1 << (k % 8));
+    for (int k = 0; k < 10; ++k)
+      d[static_cast<size_t>(k * 3)] ^= static_cast<uint8_t>(1 << (k % 8));
     b.push_back(d);
   }
   for (int i = 0; i < 50; ++i) b.push_back(random());
@@ -331,7 +336,8 @@ TEST(RegisterFrames, ReportsBadInputTooFewFeaturesAndUnrelatedFrames) {
             RegistrationStatus::kInsufficientFeatures);
   KeyframeFeatures broken = a;
   broken.points[3].z() = std::nanf("");
-  const RegistrationSummary s = registerFrames(camera(), broken, camera(), b, RegistrationOptions{});
+  const RegistrationSummary s =
+      registerFrames(camera(), broken, camera(), b, RegistrationOptions{});
   EXPECT_EQ(s.status, RegistrationStatus::kBadInput);
   EXPECT_NE(s.message.find("feature 3"), std::string::npos) << s.message;
   broken = a;

@@ -27,7 +27,8 @@ WarpCase randomWarpCase(Random& rng, int level_w, int level_h, int width) {
   c.level.resize(static_cast<size_t>(level_w) * level_h);
   for (uint16_t& p : c.level) p = static_cast<uint16_t>(rng.index(1024));
   c.response.resize(1024);
-  for (int i = 0; i < 1024; ++i) c.response[static_cast<size_t>(i)] = static_cast<int32_t>(i * 255 / 1023);
+  for (int i = 0; i < 1024; ++i)
+    c.response[static_cast<size_t>(i)] = static_cast<int32_t>(i * 255 / 1023);
   c.noise.resize(static_cast<size_t>(width));
   for (int16_t& n : c.noise) n = static_cast<int16_t>(rng.integer(-20, 20));
   c.row.level = c.level.data();
@@ -55,8 +56,10 @@ TEST(RenderKernels, WarpAvx2MatchesPortableBitForBit) {
         dlv[b] = static_cast<float>(0.01 * spread * (rng.uniform() - 0.5));
       }
       std::vector<uint8_t> portable(width), avx2(width);
-      warpRow(c.row, lu0.data(), lv0.data(), dlu.data(), dlv.data(), c.noise.data(), width, portable.data());
-      warpRowAvx2(c.row, lu0.data(), lv0.data(), dlu.data(), dlv.data(), c.noise.data(), width, avx2.data());
+      warpRow(c.row, lu0.data(), lv0.data(), dlu.data(), dlv.data(), c.noise.data(), width,
+              portable.data());
+      warpRowAvx2(c.row, lu0.data(), lv0.data(), dlu.data(), dlv.data(), c.noise.data(), width,
+                  avx2.data());
       ASSERT_EQ(portable, avx2) << "width " << width << ", trial " << trial;
     }
   }
@@ -67,12 +70,13 @@ TEST(RenderKernels, WarpAtPixelCentresReadsTheLevelPixel) {
   const int width = 40;
   WarpCase c = randomWarpCase(rng, 64, 10, width);
   // Output pixel u reads level pixel (u + 3, 5) exactly; no interpolation weight.
-  std::vector<float> lu0 = {3.0f, 19.0f, 35.0f}, lv0 = {5.0f, 5.0f, 5.0f}, dlu = {1, 1, 1}, dlv = {0, 0, 0};
+  std::vector<float> lu0 = {3.0f, 19.0f, 35.0f}, lv0 = {5.0f, 5.0f, 5.0f}, dlu = {1, 1, 1},
+                     dlv = {0, 0, 0};
   std::vector<uint8_t> out(width);
   for (const bool avx2 : {false, true}) {
     if (avx2 && !core::cpuHasAvx2()) continue;
-    (avx2 ? warpRowAvx2 : warpRow)(c.row, lu0.data(), lv0.data(), dlu.data(), dlv.data(), c.noise.data(), width,
-                                   out.data());
+    (avx2 ? warpRowAvx2 : warpRow)(c.row, lu0.data(), lv0.data(), dlu.data(), dlv.data(),
+                                   c.noise.data(), width, out.data());
     for (int u = 0; u < width; ++u) {
       const int expected = std::clamp(c.response[c.level[5 * 64 + u + 3]] + c.noise[u], 0, 255);
       ASSERT_EQ(out[u], expected) << "u " << u << (avx2 ? " (AVX2)" : "");
@@ -109,8 +113,10 @@ TEST(RenderKernels, SurfaceRowAvx2MatchesPortableBitForBit) {
   std::vector<const Texture*> texture_of_cell(256);
   std::vector<int> gain_of_cell(256);
   for (int cell = 0; cell < 256; ++cell) {
-    texture_of_cell[static_cast<size_t>(cell)] = &lib->textures[static_cast<size_t>(cell % lib->textures.size())];
-    gain_of_cell[static_cast<size_t>(cell)] = 200 + 450 * (cell % 4);  // up to 1550: bright texels clip at 1023
+    texture_of_cell[static_cast<size_t>(cell)] =
+        &lib->textures[static_cast<size_t>(cell % lib->textures.size())];
+    gain_of_cell[static_cast<size_t>(cell)] =
+        200 + 450 * (cell % 4);  // up to 1550: bright texels clip at 1023
   }
   for (const int width : {664, 29}) {
     std::vector<float> dx(width), dy(width), lod(width);
@@ -142,7 +148,8 @@ TEST(RenderKernels, SurfaceRowAvx2MatchesPortableBitForBit) {
       row.texture_of_cell = texture_of_cell.data();
       row.gain_of_cell = gain_of_cell.data();
       std::vector<uint16_t> portable(width);
-      for (uint16_t& p : portable) p = static_cast<uint16_t>(rng.index(1024));  // what the walls drew
+      for (uint16_t& p : portable)
+        p = static_cast<uint16_t>(rng.index(1024));  // what the walls drew
       std::vector<uint16_t> avx2 = portable;
       surfaceRow(row, width, portable.data());
       surfaceRowAvx2(row, width, avx2.data());
@@ -160,9 +167,11 @@ TEST(RenderKernels, WallSpanAvx2MatchesPortableBitForBit) {
   ASSERT_TRUE(lib) << lib.error().message;
   const int stride = 7, rows = 300;
   for (int trial = 0; trial < 300; ++trial) {
-    const Texture& texture = lib->textures[static_cast<size_t>(rng.index(static_cast<int64_t>(lib->textures.size())))];
+    const Texture& texture =
+        lib->textures[static_cast<size_t>(rng.index(static_cast<int64_t>(lib->textures.size())))];
     // Every fifth column sits on the texture's last texel column (its neighbour wraps to 0).
-    const float tu = trial % 5 == 0 ? static_cast<float>(texture.size()) - 0.2f : static_cast<float>(rng.uniform(-500.0, 500.0));
+    const float tu = trial % 5 == 0 ? static_cast<float>(texture.size()) - 0.2f
+                                    : static_cast<float>(rng.uniform(-500.0, 500.0));
     const Texture::Column column(texture, tu, static_cast<int>(rng.index(5)) - 1);
     WallSpan span;
     span.column = &column;
@@ -174,7 +183,8 @@ TEST(RenderKernels, WallSpanAvx2MatchesPortableBitForBit) {
     span.scale_z = static_cast<float>(rng.uniform(20.0, 300.0));
     span.offset_z = static_cast<float>(rng.uniform(-100.0, 100.0));
     span.height = 2.8f;
-    const int v0 = span.v_top + static_cast<int>(rng.index(30)), v1 = v0 + static_cast<int>(rng.index(rows - 70));
+    const int v0 = span.v_top + static_cast<int>(rng.index(30)),
+              v1 = v0 + static_cast<int>(rng.index(rows - 70));
     std::vector<uint16_t> portable(static_cast<size_t>(rows) * stride);
     for (uint16_t& p : portable) p = static_cast<uint16_t>(rng.index(1024));
     std::vector<uint16_t> avx2 = portable;
@@ -205,7 +215,8 @@ TEST(RenderKernels, WallSpanSamplesTheTextureColumn) {
     (avx2 ? wallSpanAvx2 : wallSpan)(span, 10, 90, out.data(), 1);
     for (int v = 10; v < 90; ++v) {
       const float d = 0.25f + static_cast<float>(v - 5) * 0.004f;
-      ASSERT_EQ(out[v], texture.sample(17.3f, d * 100.0f + 3.0f, 1)) << "v " << v << (avx2 ? " (AVX2)" : "");
+      ASSERT_EQ(out[v], texture.sample(17.3f, d * 100.0f + 3.0f, 1))
+          << "v " << v << (avx2 ? " (AVX2)" : "");
     }
   }
 }

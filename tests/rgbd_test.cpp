@@ -64,8 +64,8 @@ TEST(RgbdMessage, RoundTripsRawAndPngLosslessly) {
     auto msg = messages::toMsg(f, enc);
     ASSERT_TRUE(msg.ok()) << msg.error().message;
     const auto bytes = encode(*msg);
-    auto decoded = messages::decodeLcm<evermap::rgbd_image_t>(bytes.data(),
-                                                               static_cast<int64_t>(bytes.size()), "RGBD");
+    auto decoded = messages::decodeLcm<evermap::rgbd_image_t>(
+        bytes.data(), static_cast<int64_t>(bytes.size()), "RGBD");
     ASSERT_TRUE(decoded.ok()) << decoded.error().message;
     auto back = messages::fromMsg(*decoded);
     ASSERT_TRUE(back.ok()) << back.error().message;
@@ -159,7 +159,8 @@ TEST(TumRgbd, ConvertsAColorFolderAndCountsUnassociatedFrames) {
   auto wrong = datasets::convertTumRgbdToLcm(dir.path(), dir / "out.lcmlog", options);
   ASSERT_FALSE(wrong.ok());
   EXPECT_NE(wrong.error().message.find("is 320x240, the calibration (ros-default) is 640x480"),
-            std::string::npos) << wrong.error().message;
+            std::string::npos)
+      << wrong.error().message;
   EXPECT_FALSE(std::filesystem::exists(dir / "out.lcmlog"));
   // At 640x480 it converts: 2 frames, 1 unassociated, the color made gray.
   for (int i = 0; i < 3; ++i) {
@@ -202,7 +203,8 @@ TEST(TumRgbd, RefusesADepthImageThatIsNot16Bit) {
   auto r = datasets::convertTumRgbdToLcm(dir.path(), dir / "out.lcmlog", {});
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().message.find("depth/1.png: depth must be 16-bit one-channel, is 8-bit"),
-            std::string::npos) << r.error().message;
+            std::string::npos)
+      << r.error().message;
 }
 
 TEST(RgbdCamera, EquivalentStereoNoiseIsTheKinectModelAtEveryDepth) {
@@ -278,7 +280,8 @@ TEST(VoPipelineRgbd, AllZeroDepthIsTooFewFeaturesAndSaysWhy) {
   EXPECT_EQ(out.result.status, vo::VoStatus::kInsufficientFeatures);
   EXPECT_NE(out.result.message.find("the depth image is all zero"), std::string::npos)
       << out.result.message;
-  EXPECT_EQ(pipeline.stats().by_status[static_cast<size_t>(vo::VoStatus::kInsufficientFeatures)], 1);
+  EXPECT_EQ(pipeline.stats().by_status[static_cast<size_t>(vo::VoStatus::kInsufficientFeatures)],
+            1);
 }
 
 TEST(VoPipelineRgbd, BadDepthAndUnassociatedFramesAreCountedBadInput) {

@@ -16,10 +16,10 @@ class ScratchDir {
  public:
   ScratchDir() {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    std::string tmpl = (std::filesystem::temp_directory_path() /
-                        ("evermap_" + std::string(info->test_suite_name()) + "_" + info->name() +
-                         ".XXXXXX"))
-                           .string();
+    std::string tmpl =
+        (std::filesystem::temp_directory_path() /
+         ("evermap_" + std::string(info->test_suite_name()) + "_" + info->name() + ".XXXXXX"))
+            .string();
     if (::mkdtemp(tmpl.data()) == nullptr) {
       ADD_FAILURE() << "cannot create a scratch folder from " << tmpl;
     }

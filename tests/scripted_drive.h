@@ -19,9 +19,9 @@ namespace evermap::mapper::testing {
 
 // What a restarted mapper's first VO_DELTA says of the odometry frame (ScriptedDrive::restart).
 enum class GapOdometry {
-  kNone,      // no odometry pose (a sender without one)
-  kSameEpoch, // VO went on through the gap: the same epoch, the gap's motion in it
-  kNewEpoch,  // vo-proc restarted too: its first frame starts a new epoch
+  kNone,       // no odometry pose (a sender without one)
+  kSameEpoch,  // VO went on through the gap: the same epoch, the gap's motion in it
+  kNewEpoch,   // vo-proc restarted too: its first frame starts a new epoch
 };
 
 // A scripted drive along a corridor and back, twice, with exact VO and a registration oracle
@@ -77,7 +77,9 @@ class ScriptedDrive {
   void sidestep(double dy) { frame(SE3d(pose_.so3(), pose_.translation() + Vec3(0, dy, 0))); }
   // The robot slides `dx` metres along x without VO seeing it (a wheel slip VO missed, a
   // kidnapping): VO reports no motion, with its usual confidence.
-  void slip(double dx) { slipBy(pose_.inverse() * SE3d(pose_.so3(), pose_.translation() + Vec3(dx, 0, 0))); }
+  void slip(double dx) {
+    slipBy(pose_.inverse() * SE3d(pose_.so3(), pose_.translation() + Vec3(dx, 0, 0)));
+  }
   // The robot moves by `motion` (body frame) while VO reports standing still: odometry error.
   void slipBy(const SE3d& motion) {
     utime_ += 100000;
@@ -97,8 +99,8 @@ class ScriptedDrive {
   // `map`, and nothing reaches it for `gap_s` seconds, in which the robot moves `moved_dx`
   // metres along its heading. Then VO goes on from a reference the new mapper never saw; its
   // odometry pose is as `odometry` says (VO ran through the gap, its frames lost to the mapper).
-  Status restart(const MapSnapshot& map, const MapperOptions& o, double gap_s, double moved_dx = 0.0,
-                 GapOdometry odometry = GapOdometry::kNone) {
+  Status restart(const MapSnapshot& map, const MapperOptions& o, double gap_s,
+                 double moved_dx = 0.0, GapOdometry odometry = GapOdometry::kNone) {
     mapper_ = std::make_unique<Mapper>(o);
     if (Status s = mapper_->restore(map); !s) return s;
     const auto gap = static_cast<int64_t>(gap_s * 1e6);
@@ -115,8 +117,9 @@ class ScriptedDrive {
     }
     utime_ += 100000;
     // The robot stood still over this frame: VO's motion from its (unknown) reference.
-    vo_delta_t first = odometry == GapOdometry::kNewEpoch ? voRestart(utime_)
-                                                          : voMsg(utime_, utime_ - 100000, SE3d(), 1e-3, true);
+    vo_delta_t first = odometry == GapOdometry::kNewEpoch
+                           ? voRestart(utime_)
+                           : voMsg(utime_, utime_ - 100000, SE3d(), 1e-3, true);
     if (odometry != GapOdometry::kNone) odom_.stamp(first);
     const wheel_odom_t wheel = wheelMsg(utime_ - 100000, utime_, SE3d());
     if (wheels_ && !wheels_late_) {
@@ -194,7 +197,8 @@ class ScriptedDrive {
   }
   void answer() {
     for (int guard = 0; guard < 4; ++guard) {
-      for (const auto& n : mapper_->takeNodesAdded()) node_truth_[n.node_id] = truth_.at(n.keyframe_utime);
+      for (const auto& n : mapper_->takeNodesAdded())
+        node_truth_[n.node_id] = truth_.at(n.keyframe_utime);
       const auto requests = mapper_->takeRequests();
       if (requests.empty()) return;
       for (const auto& r : requests) {
@@ -213,7 +217,9 @@ class ScriptedDrive {
         if (global && global_finds_ > 0) --global_finds_;
         for (const auto& [id, p] : node_truth_) {
           if (blind_) break;
-          if (r.mode == register_request_t::MODE_NODE && id != (answer_as_ >= 0 ? answer_as_ : r.target_node_id)) continue;
+          if (r.mode == register_request_t::MODE_NODE &&
+              id != (answer_as_ >= 0 ? answer_as_ : r.target_node_id))
+            continue;
           const double d = (p.translation() - q.translation()).norm() +
                            std::abs(core::wrapAngle(yawOf(p) - yawOf(q)));
           if (d < best_d) best_d = d, best = id;
@@ -235,7 +241,7 @@ class ScriptedDrive {
   }
 
   std::unique_ptr<Mapper> mapper_;
-  messages::OdometryFrame odom_;  // vo-proc's, which no mapper restart resets
+  messages::OdometryFrame odom_;             // vo-proc's, which no mapper restart resets
   messages::WheelOdometryFrame wheel_odom_;  // the wheel driver's
   bool wheels_ = false;
   bool wheels_late_ = false;

@@ -31,7 +31,8 @@ TEST(SimConfig, ShippedConfigurationsLoad) {
     auto o = loadSimOptions(*file);
     EXPECT_TRUE(o.ok()) << name << ": " << (o.ok() ? "" : o.error().message);
   }
-  auto paper = loadSimOptions(*KeyValueFile::load(std::filesystem::path(EVERMAP_SOURCE_DIR) / "config/sim-paper-scale.conf"));
+  auto paper = loadSimOptions(*KeyValueFile::load(std::filesystem::path(EVERMAP_SOURCE_DIR) /
+                                                  "config/sim-paper-scale.conf"));
   ASSERT_TRUE(paper.ok());
   EXPECT_EQ(paper->building.floors, 10);
   EXPECT_EQ(paper->patrol.sessions, 14);
@@ -39,7 +40,8 @@ TEST(SimConfig, ShippedConfigurationsLoad) {
 
 TEST(SimConfig, KittiConfigurationFindsItsTrajectory) {
   EVERMAP_REQUIRE_DATA(dir, "kitti-gt-poses");
-  auto file = KeyValueFile::load(std::filesystem::path(EVERMAP_SOURCE_DIR) / "config/sim-kitti00.conf");
+  auto file =
+      KeyValueFile::load(std::filesystem::path(EVERMAP_SOURCE_DIR) / "config/sim-kitti00.conf");
   ASSERT_TRUE(file.ok());
   ASSERT_TRUE(file->set("trajectory.file = " + (dir / "00.txt").string(), "test").ok());
   auto o = loadSimOptions(*file);
@@ -52,14 +54,18 @@ TEST(SimConfig, KittiConfigurationFindsItsTrajectory) {
 
 TEST(SimConfig, ErrorsNameTheFileAndLine) {
   EXPECT_EQ(errorOf("seed = 1\nvo.rate_hx = 20\n"), "x.conf:2: unknown key 'vo.rate_hx'");
-  EXPECT_EQ(errorOf("# comment\n\nvo.rate_hz = fast\n"), "x.conf:3: vo.rate_hz: expected a number, got 'fast'");
-  EXPECT_EQ(errorOf("patrol.sessions = 2.5\n"), "x.conf:1: patrol.sessions: expected an integer, got '2.5'");
-  EXPECT_EQ(errorOf("imu.enabled = maybe\n"), "x.conf:1: imu.enabled: expected true or false, got 'maybe'");
+  EXPECT_EQ(errorOf("# comment\n\nvo.rate_hz = fast\n"),
+            "x.conf:3: vo.rate_hz: expected a number, got 'fast'");
+  EXPECT_EQ(errorOf("patrol.sessions = 2.5\n"),
+            "x.conf:1: patrol.sessions: expected an integer, got '2.5'");
+  EXPECT_EQ(errorOf("imu.enabled = maybe\n"),
+            "x.conf:1: imu.enabled: expected true or false, got 'maybe'");
   EXPECT_EQ(errorOf("seed = 1\nseed = 2\n"), "x.conf:2: key 'seed' already set at x.conf:1");
   EXPECT_EQ(errorOf("seed 1\n"), "x.conf:1: expected 'key = value', got 'seed 1'");
   EXPECT_EQ(errorOf("seed =\n"), "x.conf:1: key 'seed' has no value");
   EXPECT_EQ(errorOf("vo.rate_hz = nan\n"), "x.conf:1: vo.rate_hz: not a finite number");
-  EXPECT_EQ(errorOf("mode = sky\n"), "x.conf:1: mode: expected 'building' or 'trajectory', got 'sky'");
+  EXPECT_EQ(errorOf("mode = sky\n"),
+            "x.conf:1: mode: expected 'building' or 'trajectory', got 'sky'");
 }
 
 TEST(SimConfig, InvalidSettingsNameTheKeyAndLine) {
@@ -96,7 +102,8 @@ TEST(SimConfig, SetAllAppliesEveryOverrideAndNamesTheBadOne) {
   EXPECT_EQ(o->sensors.vo.rate_hz, 12.0);
   const Status bad = file->setAll({"seed=7", "novalue"}, "--sim-set");
   ASSERT_FALSE(bad.ok());
-  EXPECT_NE(bad.error().message.find("--sim-set novalue"), std::string::npos) << bad.error().message;
+  EXPECT_NE(bad.error().message.find("--sim-set novalue"), std::string::npos)
+      << bad.error().message;
 }
 
 TEST(SimConfig, PrintedConfigurationReadsBackIdentically) {

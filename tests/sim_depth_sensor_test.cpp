@@ -39,7 +39,7 @@ TEST(DepthSensor, DepthIsTheTruthWithinTheKinectNoiseModel) {
       }
     }
     const double n = kW * kH;
-    EXPECT_NEAR(sum / n, 0.0, 0.03) << z;           // unbiased
+    EXPECT_NEAR(sum / n, 0.0, 0.03) << z;              // unbiased
     EXPECT_NEAR(std::sqrt(sum2 / n), 1.0, 0.03) << z;  // σ_z = 1.425e-3 z² (+ quantisation)
     EXPECT_NEAR(sensor.sigma(z), 1.425e-3 * z * z, 1e-12);
   }
@@ -52,7 +52,8 @@ TEST(DepthSensor, HolesAlongDepthEdgesAndTheProjectorShadowLeftOfNearObjects) {
   const cv::Mat truth = wallWithBox(3.5f, 1.0f);
   cv::Mat depth;
   sensor.measure(truth, &depth);
-  const int shadow = static_cast<int>(std::ceil(kFx * o.shadow_baseline_m * (1.0 / 1.0 - 1.0 / 3.5)));  // 25 px
+  const int shadow =
+      static_cast<int>(std::ceil(kFx * o.shadow_baseline_m * (1.0 / 1.0 - 1.0 / 3.5)));  // 25 px
   ASSERT_EQ(shadow, 25);
   const int v = (kBoxV0 + kBoxV1) / 2;
   // Left of the box: the shadow (25 px of the wall), and the edge's own holes on the box.
@@ -146,7 +147,8 @@ TEST(DepthSensor, SameSeedSameDepthOtherSeedOtherNoise) {
 }
 
 TEST(DepthSensor, BadOptionsNameTheField) {
-  for (const auto& [change, field] : std::vector<std::pair<void (*)(DepthSensorOptions&), std::string>>{
+  for (const auto& [change, field] :
+       std::vector<std::pair<void (*)(DepthSensorOptions&), std::string>>{
            {[](DepthSensorOptions& o) { o.max_range_m = 0.2; }, "min_range_m"},
            {[](DepthSensorOptions& o) { o.max_range_m = -1; }, "max_range_m"},
            {[](DepthSensorOptions& o) { o.unit_m = 1e-5; }, "unit_m"},

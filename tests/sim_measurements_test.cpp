@@ -42,7 +42,8 @@ Captured capture(const RunPlan& run, int session) {
   c.plan = run.session(session);
   SessionObservers obs;
   obs.on_keyframe = [&](const KeyframeTruth& k) { c.keyframes[k.utime] = k; };
-  c.summary = generateSession(run.building(), c.plan, run.options().sensors, run.options().seed, c.sink, obs);
+  c.summary = generateSession(run.building(), c.plan, run.options().sensors, run.options().seed,
+                              c.sink, obs);
   return c;
 }
 
@@ -116,7 +117,8 @@ TEST(SimMeasurements, NoiseFreeWheelOdometryIntegratesToPlanarGroundTruth) {
   const Captured c = capture(run, 1);
   const auto odo = decodeAll<wheel_odom_t>(c.sink, channels::kWheelOdom);
   ASSERT_GT(odo.size(), 1000u);
-  core::SE2d pose = core::toPlanar(c.plan.trajectory->at(c.plan.trajectory->startUtime()).world_T_body);
+  core::SE2d pose =
+      core::toPlanar(c.plan.trajectory->at(c.plan.trajectory->startUtime()).world_T_body);
   int64_t prev = c.plan.trajectory->startUtime();
   for (const wheel_odom_t& m : odo) {
     ASSERT_EQ(m.prev_utime, prev);
@@ -159,8 +161,8 @@ TEST(SimMeasurements, ElevatorRidesChangeFloorsAndFloorEventsCarryIndexAndHeight
       EXPECT_EQ(t.at((r.start_utime + r.end_utime) / 2).floor, -1);
       EXPECT_EQ(t.at(r.end_utime).floor, r.floor_to);
       EXPECT_NE(r.floor_from, r.floor_to);
-      EXPECT_NEAR(t.at(r.end_utime).world_T_body.translation().z(), run.building().floors[r.floor_to].height_m,
-                  1e-9);
+      EXPECT_NEAR(t.at(r.end_utime).world_T_body.translation().z(),
+                  run.building().floors[r.floor_to].height_m, 1e-9);
       // The profile the issue asks for: 0.5-1 m/s^2 at start and stop, at most 2 m/s.
       double peak_a = 0.0;
       double peak_v = 0.0;
@@ -229,7 +231,8 @@ TEST(SimMeasurements, NoiseFreeImuIntegratesToRideVelocityAndHeight) {
         v = v_next;
         EXPECT_NEAR(v, truth.velocity_world.z(), 2e-3);
       }
-      for (int i = 0; i < 3; ++i) EXPECT_NEAR(m.angular_velocity[i], 0.0, 1e-9);  // standing in the cab
+      for (int i = 0; i < 3; ++i)
+        EXPECT_NEAR(m.angular_velocity[i], 0.0, 1e-9);  // standing in the cab
       prev = &m;
       prev_a = a;
       ++samples;
@@ -329,18 +332,19 @@ TEST(SimMeasurements, MessagesAreInTimeOrderAndCarryTheirChannelsTypes) {
     last = m.utime;
     per_channel[m.channel]++;
   }
-  for (const char* ch : {channels::kGroundTruth, channels::kVoDelta, channels::kKeyframe, channels::kWheelOdom,
-                         channels::kAttitude, channels::kFloor, channels::kImu}) {
+  for (const char* ch :
+       {channels::kGroundTruth, channels::kVoDelta, channels::kKeyframe, channels::kWheelOdom,
+        channels::kAttitude, channels::kFloor, channels::kImu}) {
     EXPECT_GT(per_channel[ch], 0) << ch;
   }
   // Every decodes as its type (decodeAll checks sizes).
-  EXPECT_EQ(decodeAll<pose_t>(c.sink, channels::kGroundTruth).size(), static_cast<size_t>(per_channel["GROUND_TRUTH"]));
+  EXPECT_EQ(decodeAll<pose_t>(c.sink, channels::kGroundTruth).size(),
+            static_cast<size_t>(per_channel["GROUND_TRUTH"]));
   for (const keyframe_t& k : decodeAll<keyframe_t>(c.sink, channels::kKeyframe)) {
     EXPECT_EQ(k.num_features, 0);
     EXPECT_TRUE(c.keyframes.count(k.utime));
   }
 }
-
 
 TEST(SimMeasurements, TheGyroReadsASessionBiasOfItsOwnStream) {
   // A session's gyro bias: drawn per session from its own stream (no other noise changes),
@@ -359,7 +363,8 @@ TEST(SimMeasurements, TheGyroReadsASessionBiasOfItsOwnStream) {
   Random rng(1);
   // A still moment: before the first ride (the robot stands in the cab).
   ASSERT_FALSE(c.plan.rides.empty());
-  const imu_t m = measureImu(c.plan.rides.front().start_utime - 500000, traj, o, Vec3::Zero(), b0, rng);
+  const imu_t m =
+      measureImu(c.plan.rides.front().start_utime - 500000, traj, o, Vec3::Zero(), b0, rng);
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(m.angular_velocity[i], b0[i], 1e-9);
   o.gyro_bias_sigma_radps = 0.0;
   EXPECT_EQ(gyroBias(o, 5, 0), Vec3::Zero());

@@ -29,7 +29,8 @@ void expectConsistentProfile(const MotionProfile& p, double distance, double spe
   for (double t = 0.013; t < p.duration(); t += p.duration() / 89.0) {
     const double numeric = (p.velocity(t + h) - p.velocity(t - h)) / (2 * h);
     if (std::abs(numeric - p.acceleration(t)) > 1e-4) {
-      EXPECT_NEAR(p.velocity(t + h) - p.velocity(t - h), 2 * h * p.acceleration(t), 4 * h * accel) << t;
+      EXPECT_NEAR(p.velocity(t + h) - p.velocity(t - h), 2 * h * p.acceleration(t), 4 * h * accel)
+          << t;
     }
   }
 }
@@ -62,13 +63,15 @@ TEST(SimBuilding, FloorsAreWalkableAndTheShaftLinesUp) {
       EXPECT_GE(storey, o.storey_height_m - o.storey_jitter_m);
       EXPECT_LE(storey, o.storey_height_m + o.storey_jitter_m);
     }
-    for (double d : f.distancesFrom(f.lobby)) EXPECT_TRUE(std::isfinite(d)) << "floor " << i << " is not connected";
+    for (double d : f.distancesFrom(f.lobby))
+      EXPECT_TRUE(std::isfinite(d)) << "floor " << i << " is not connected";
     EXPECT_TRUE(f.places[f.lobby].xy.isZero());
     EXPECT_TRUE(f.places[f.cab_place].xy.isApprox(b.floors[0].places[b.floors[0].cab_place].xy));
     EXPECT_TRUE(f.cab.contains(f.places[f.cab_place].xy));
     for (const Room& r : f.rooms) {
       EXPECT_TRUE(r.box.contains(f.places[r.centre].xy));
-      EXPECT_FALSE(r.box.contains(f.places[r.door].xy)) << "the door is on the corridor, outside the room";
+      EXPECT_FALSE(r.box.contains(f.places[r.door].xy))
+          << "the door is on the corridor, outside the room";
       EXPECT_TRUE(f.footprint.contains(r.box.min) && f.footprint.contains(r.box.max));
       EXPECT_LT(f.roomAt(f.places[f.lobby].xy), 0);
     }
@@ -78,8 +81,10 @@ TEST(SimBuilding, FloorsAreWalkableAndTheShaftLinesUp) {
       }
     }
   }
-  EXPECT_NEAR(b.floors[o.main_floor].footprint.max.x() - b.floors[o.main_floor].footprint.min.x(),
-              (o.main_cross_corridors - 1) * o.cross_corridor_spacing_m + 2 * o.corridor_half_width_m, 1e-9);
+  EXPECT_NEAR(
+      b.floors[o.main_floor].footprint.max.x() - b.floors[o.main_floor].footprint.min.x(),
+      (o.main_cross_corridors - 1) * o.cross_corridor_spacing_m + 2 * o.corridor_half_width_m,
+      1e-9);
   EXPECT_EQ(b.floors[b.main_floor].places[b.home_place].kind, PlaceKind::kJunction);
 }
 
@@ -102,8 +107,9 @@ TEST(SimMotion, SessionsMoveContinuouslyAlongPassages) {
   for (int64_t u = t.startUtime() + step; u <= t.endUtime(); u += step) {
     const BodyState cur = t.at(u);
     const Vec3 move = cur.world_T_body.translation() - prev.world_T_body.translation();
-    EXPECT_LE(move.head<2>().norm(), 0.55 * 1.15 * 0.02 + 1e-9);  // never faster than the cruise speed
-    EXPECT_LE(std::abs(move.z()), 2.0 * 0.02 + 1e-9);              // nor than the elevator
+    EXPECT_LE(move.head<2>().norm(),
+              0.55 * 1.15 * 0.02 + 1e-9);              // never faster than the cruise speed
+    EXPECT_LE(std::abs(move.z()), 2.0 * 0.02 + 1e-9);  // nor than the elevator
     driven += move.head<2>().norm();
     if (cur.floor >= 0) {
       const Floor& f = b.floors[cur.floor];
@@ -145,7 +151,8 @@ TEST(SimMotion, ExplorationToursDriveEveryPassageBothWays) {
     const SessionPlan s = plan->session(k);
     const auto& segments = dynamic_cast<const SegmentTrajectory&>(*s.trajectory).segments();
     for (const Segment& g : segments) {
-      if (g.kind == Segment::Kind::kDrive) driven.emplace(g.floor, placeAt(g.floor, g.from), placeAt(g.floor, g.to));
+      if (g.kind == Segment::Kind::kDrive)
+        driven.emplace(g.floor, placeAt(g.floor, g.from), placeAt(g.floor, g.to));
     }
   }
   // Every passage between places other than the cab, on every floor, both ways.
@@ -155,7 +162,8 @@ TEST(SimMotion, ExplorationToursDriveEveryPassageBothWays) {
       for (const Passage& e : f.passages[i]) {
         if (static_cast<int>(i) == f.cab_place || e.to == f.cab_place) continue;
         ++passages;
-        EXPECT_TRUE(driven.count({f.index, static_cast<int>(i), e.to})) << "floor " << f.index << ": " << i << " -> " << e.to;
+        EXPECT_TRUE(driven.count({f.index, static_cast<int>(i), e.to}))
+            << "floor " << f.index << ": " << i << " -> " << e.to;
       }
     }
   }
@@ -170,7 +178,8 @@ TEST(SimMotion, SameSeedPlansTheSameBuildingAndSessions) {
   const SessionPlan sb = b->session(1);
   ASSERT_EQ(sa.trajectory->endUtime(), sb.trajectory->endUtime());
   for (int64_t u = sa.trajectory->startUtime(); u <= sa.trajectory->endUtime(); u += 1000000) {
-    EXPECT_EQ(sa.trajectory->at(u).world_T_body.matrix(), sb.trajectory->at(u).world_T_body.matrix());
+    EXPECT_EQ(sa.trajectory->at(u).world_T_body.matrix(),
+              sb.trajectory->at(u).world_T_body.matrix());
   }
 }
 

@@ -14,7 +14,9 @@ namespace {
 
 struct Results {
   std::vector<register_result_t> got;
-  void onResult(const lcm::ReceiveBuffer*, const std::string&, const register_result_t* r) { got.push_back(*r); }
+  void onResult(const lcm::ReceiveBuffer*, const std::string&, const register_result_t* r) {
+    got.push_back(*r);
+  }
 };
 
 TEST(OracleServer, AnswersRequestsPublishedOnLcm) {
@@ -24,11 +26,13 @@ TEST(OracleServer, AnswersRequestsPublishedOnLcm) {
   o.false_match_rate_node = 0.0;
   o.success_probability = 1.0;
   o.distance_scale_m = o.angle_scale_rad = 1e6;
-  o.translation_sigma_m = o.translation_sigma_per_m = o.rotation_sigma_rad = o.rotation_sigma_per_rad = 0.0;
+  o.translation_sigma_m = o.translation_sigma_per_m = o.rotation_sigma_rad =
+      o.rotation_sigma_per_rad = 0.0;
   RegistrationOracle oracle(o, 1);
   const SE3d body_T_cam = CameraOptions{}.bodyTCam();
   oracle.addKeyframe(KeyframeTruth{100, body_T_cam, 0, 0});
-  oracle.addKeyframe(KeyframeTruth{200, SE3d(core::SO3d(), Vec3(1.0, 0.0, 0.0)) * body_T_cam, 0, 0});
+  oracle.addKeyframe(
+      KeyframeTruth{200, SE3d(core::SO3d(), Vec3(1.0, 0.0, 0.0)) * body_T_cam, 0, 0});
   OracleServer server(lcm, oracle);
   Results results;
   lcm.subscribe(channels::kRegisterResult, &Results::onResult, &results);

@@ -33,7 +33,8 @@ node_added_t node(int64_t id, int64_t keyframe_utime, int floor = 0) {
   return n;
 }
 
-register_request_t request(int64_t id, int64_t keyframe_utime, int8_t mode, int64_t target = -1, int floor = 0) {
+register_request_t request(int64_t id, int64_t keyframe_utime, int8_t mode, int64_t target = -1,
+                           int floor = 0) {
   register_request_t r{};
   r.utime = keyframe_utime;
   r.request_id = id;
@@ -98,14 +99,17 @@ TEST(RegistrationOracle, FalseMatchRateIsCloseToTheConfiguredRate) {
       ++false_node;
       EXPECT_EQ(a.result.status, kOk);
       // Wrong by at least 0.5 m: a real error, not noise.
-      const SE3d truth = camera(1000 + i, i, 0, 0).world_T_cam.inverse() * camera(0, i + 0.3, 0.2, 0.1).world_T_cam;
+      const SE3d truth = camera(1000 + i, i, 0, 0).world_T_cam.inverse() *
+                         camera(0, i + 0.3, 0.2, 0.1).world_T_cam;
       EXPECT_GT((relativePoseOf(a.result).translation() - truth.translation()).norm(), 0.5);
     }
-    const auto g = oracle.answerWithTruth(request(n + k, 5000 + i, register_request_t::MODE_GLOBAL));
+    const auto g =
+        oracle.answerWithTruth(request(n + k, 5000 + i, register_request_t::MODE_GLOBAL));
     if (g.false_match) {
       ++false_global;
       EXPECT_EQ(g.result.status, kOk);
-      EXPECT_GT(std::abs(static_cast<double>(g.result.node_id - i)), 4.0) << "a false node is not a near one";
+      EXPECT_GT(std::abs(static_cast<double>(g.result.node_id - i)), 4.0)
+          << "a false node is not a near one";
     }
   }
   // Within 4 standard deviations of the binomial count.
@@ -126,12 +130,14 @@ TEST(RegistrationOracle, SuccessFallsWithDistanceAndViewAngleAsModelled) {
   EXPECT_EQ(oracle.successProbability(0.0, o.max_view_angle_rad + 0.1), 0.0);
   // Empirical rate at 2 m and 0.3 rad against the model.
   oracle.addKeyframe(camera(1, 0.0, 0.0, 0.0));
-  oracle.addKeyframe(camera(2, -2.0, 0.0, 0.3));  // behind, so both see the same way (optical axes 0.3 apart)
+  oracle.addKeyframe(
+      camera(2, -2.0, 0.0, 0.3));  // behind, so both see the same way (optical axes 0.3 apart)
   ASSERT_TRUE(oracle.addNode(node(0, 1)));
   const double p = oracle.successProbability(2.0, 0.3);
   const int n = 10000;
   int ok = 0;
-  for (int k = 0; k < n; ++k) ok += oracle.answer(request(k, 2, register_request_t::MODE_NODE, 0)).status == kOk;
+  for (int k = 0; k < n; ++k)
+    ok += oracle.answer(request(k, 2, register_request_t::MODE_NODE, 0)).status == kOk;
   EXPECT_NEAR(ok, p * n, 4.0 * std::sqrt(n * p * (1 - p)));
 }
 
@@ -154,7 +160,8 @@ TEST(RegistrationOracle, TheReachFittedToAnOraclesAnswersIsItsModel) {
     oracle.addKeyframe(camera(2 * k + 1, 0.0, 0.0, 0.0));
     oracle.addKeyframe(camera(2 * k + 2, -d, 0.0, a));
     ASSERT_TRUE(oracle.addNode(node(k, 2 * k + 1)));
-    const bool ok = oracle.answer(request(k, 2 * k + 2, register_request_t::MODE_NODE, k)).status == kOk;
+    const bool ok =
+        oracle.answer(request(k, 2 * k + 2, register_request_t::MODE_NODE, k)).status == kOk;
     samples.push_back({d, a, ok});
   }
   const ReachFit fit = fitReach(samples, o);
@@ -165,8 +172,8 @@ TEST(RegistrationOracle, TheReachFittedToAnOraclesAnswersIsItsModel) {
   EXPECT_NEAR(fit.success_probability, 0.9, 0.05);
   EXPECT_NEAR(fit.distance_scale_m, 1.3, 0.1);
   EXPECT_NEAR(fit.angle_scale_rad, 0.6, 0.06);
-  EXPECT_GT(fit.beyond, 0);       // angles over max_view_angle_rad (1 rad)
-  EXPECT_EQ(fit.ok_beyond, 0);    // which the oracle never registers
+  EXPECT_GT(fit.beyond, 0);     // angles over max_view_angle_rad (1 rad)
+  EXPECT_EQ(fit.ok_beyond, 0);  // which the oracle never registers
   EXPECT_EQ(fit.samples + fit.beyond, 6000);
 }
 
@@ -201,11 +208,13 @@ TEST(RegistrationOracle, GlobalSearchStaysOnTheRequestedFloorAndTrueFloor) {
   oracle.addKeyframe(camera(3, 0.5, 0.0, 0.0, 1));
   ASSERT_TRUE(oracle.addNode(node(10, 1, 0)));
   ASSERT_TRUE(oracle.addNode(node(11, 2, 1)));
-  const register_result_t on1 = oracle.answer(request(1, 3, register_request_t::MODE_GLOBAL, -1, 1));
+  const register_result_t on1 =
+      oracle.answer(request(1, 3, register_request_t::MODE_GLOBAL, -1, 1));
   ASSERT_EQ(on1.status, kOk);
   EXPECT_EQ(on1.node_id, 11);
   // Searching floor 0 finds only node 10, which is on another true floor: no registration.
-  const register_result_t on0 = oracle.answer(request(2, 3, register_request_t::MODE_GLOBAL, -1, 0));
+  const register_result_t on0 =
+      oracle.answer(request(2, 3, register_request_t::MODE_GLOBAL, -1, 0));
   EXPECT_EQ(on0.status, int(register_result_t::STATUS_NO_CANDIDATE));
   // The same holds for a direct request against node 10.
   EXPECT_EQ(oracle.answer(request(3, 3, register_request_t::MODE_NODE, 10)).status,
@@ -270,7 +279,8 @@ TEST(RegistrationOracle, AnswersASimulatedRunUnderTheSyntheticLoad) {
   SessionObservers obs;
   obs.on_keyframe = [&](const KeyframeTruth& k) { load.onKeyframe(k); };
   NullSink null;
-  const RunSummary run = generateRun(*plan, [&](int) -> MessageSink& { return null; }, obs);
+  const RunSummary run = generateRun(
+      *plan, [&](int) -> MessageSink& { return null; }, obs);
   const OracleSummary& s = oracle.summary();
   EXPECT_EQ(s.keyframes, run.voKeyframes());
   EXPECT_EQ(s.nodes, load.summary().nodes_added);

@@ -62,7 +62,8 @@ RenderFloor roomFloor(const TextureLibrary& lib, double half_m, bool dark, bool 
 // rolled and pitched by (roll, pitch).
 core::SE3d cameraAt(double x, double y, double yaw, double roll = 0.0, double pitch = 0.0) {
   const CameraOptions mount;  // x forward, y left, z up -> camera axes
-  core::SE3d body(core::SO3d::exp(Vec3(0, 0, yaw)) * core::SO3d::exp(Vec3(roll, pitch, 0)), Vec3(x, y, 0.0));
+  core::SE3d body(core::SO3d::exp(Vec3(0, 0, yaw)) * core::SO3d::exp(Vec3(roll, pitch, 0)),
+                  Vec3(x, y, 0.0));
   core::SE3d body_T_cam = mount.bodyTCam();
   body_T_cam = core::SE3d(body_T_cam.so3(), Vec3(0, 0, 1.2));
   return body * body_T_cam;
@@ -80,12 +81,14 @@ constexpr int kPatch = 8;  // half size of the matched patch
 // Disparity at left pixel (u, v): the best integer shift by SSD along the row, refined by
 // Gauss-Newton on the bilinear right image (Lucas-Kanade in one dimension). NaN when it does
 // not converge.
-double matchDisparity(const cv::Mat& left, const cv::Mat& right, int u, int v, int max_d, double slope) {
+double matchDisparity(const cv::Mat& left, const cv::Mat& right, int u, int v, int max_d,
+                      double slope) {
   auto cost = [&](double d) {
     double s = 0.0;
     for (int dy = -kPatch; dy <= kPatch; ++dy) {
       for (int dx = -kPatch; dx <= kPatch; ++dx) {
-        const double e = left.at<uint8_t>(v + dy, u + dx) - at(right, u + dx - d - slope * dx, v + dy);
+        const double e =
+            left.at<uint8_t>(v + dy, u + dx) - at(right, u + dx - d - slope * dx, v + dy);
         s += e * e;
       }
     }
@@ -121,7 +124,8 @@ double matchDisparity(const cv::Mat& left, const cv::Mat& right, int u, int v, i
 double horizontalTexture(const cv::Mat& im, int u, int v) {
   double s = 0.0;
   for (int dy = -kPatch; dy <= kPatch; ++dy) {
-    for (int dx = -kPatch; dx <= kPatch; ++dx) s += std::abs(im.at<uint8_t>(v + dy, u + dx + 1) - im.at<uint8_t>(v + dy, u + dx - 1));
+    for (int dx = -kPatch; dx <= kPatch; ++dx)
+      s += std::abs(im.at<uint8_t>(v + dy, u + dx + 1) - im.at<uint8_t>(v + dy, u + dx - 1));
   }
   return s / ((2 * kPatch + 1) * (2 * kPatch + 1));
 }
@@ -131,13 +135,15 @@ TEST(SimRender, RenderedPointAppearsWhereTheStereoModelSays) {
   const RenderFloor floor = roomFloor(lib, 10.0, false, false);
   const PinholeCamera cam{640, 480, 450.0, 450.0, 320.0, 240.0};
   const double baseline = 0.12;
-  auto stereo = core::StereoCamera::create(cam.fx, cam.fy, cam.cx, cam.cy, baseline, cam.width, cam.height);
+  auto stereo =
+      core::StereoCamera::create(cam.fx, cam.fy, cam.cx, cam.cy, baseline, cam.width, cam.height);
   ASSERT_TRUE(stereo);
   ImageRenderer renderer(lib, cam, 0.0, 1);
   // Facing the wall x = 10 square on (depth 2.5 m), turned by 20 degrees (a slanted wall), and
   // rolled and pitched as on a rough floor (the image is then resampled from a level view).
-  for (const auto& [yaw, tilt] : {std::pair{0.0, 0.0}, std::pair{20.0 * std::numbers::pi / 180.0, 0.0},
-                                  std::pair{0.2, 0.006}}) {
+  for (const auto& [yaw, tilt] :
+       {std::pair{0.0, 0.0}, std::pair{20.0 * std::numbers::pi / 180.0, 0.0},
+        std::pair{0.2, 0.006}}) {
     const core::SE3d world_T_left = cameraAt(7.5, 0.5, yaw, tilt, -0.7 * tilt);
     const core::SE3d world_T_right = world_T_left * core::SE3d(core::SO3d(), Vec3(baseline, 0, 0));
     cv::Mat left, right;
@@ -160,7 +166,8 @@ TEST(SimRender, RenderedPointAppearsWhereTheStereoModelSays) {
         EXPECT_NEAR((*uvd)[0], u, 1e-6);
         // The disparity one pixel to each side, for the slope across the patch.
         auto disparityAt = [&](double uu) {
-          const Vec3 r = world_T_left.so3() * Vec3((uu - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);
+          const Vec3 r =
+              world_T_left.so3() * Vec3((uu - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);
           return (*stereo->project(world_T_left.inverse() * (c + (10.0 - c.x()) / r.x() * r)))[2];
         };
         const double slope = 0.5 * (disparityAt(u + 1) - disparityAt(u - 1));
@@ -175,7 +182,8 @@ TEST(SimRender, RenderedPointAppearsWhereTheStereoModelSays) {
         // A level camera renders each pixel exactly; a tilted one is resampled from a level
         // view (bilinear), which moves single patches by up to ~0.3 px.
         EXPECT_NEAR(depth / truth, 1.0, tilt == 0.0 ? 0.01 : 0.025)
-            << "pixel " << u << "," << v << " yaw " << yaw << ": disparity " << d << " vs " << (*uvd)[2];
+            << "pixel " << u << "," << v << " yaw " << yaw << ": disparity " << d << " vs "
+            << (*uvd)[2];
         ++checked;
       }
     }
@@ -239,14 +247,16 @@ struct Hit {
   double depth = std::numeric_limits<double>::infinity();
   int surface = -1;
 };
-Hit rayCast(const PinholeCamera& cam, const core::SE3d& world_T_cam, double half_m, double floor_z, double ceiling_z,
-            const Occluder* person, double u, double v) {
-  const Vec3 d = world_T_cam.so3() * Vec3((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);  // z_cam = 1
+Hit rayCast(const PinholeCamera& cam, const core::SE3d& world_T_cam, double half_m, double floor_z,
+            double ceiling_z, const Occluder* person, double u, double v) {
+  const Vec3 d =
+      world_T_cam.so3() * Vec3((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);  // z_cam = 1
   const Vec3 c = world_T_cam.translation();
   Hit best;
   int id = 0;
-  for (const auto& [axis, value] : {std::pair{0, half_m}, std::pair{0, -half_m}, std::pair{1, half_m},
-                                    std::pair{1, -half_m}, std::pair{2, floor_z}, std::pair{2, ceiling_z}}) {
+  for (const auto& [axis, value] :
+       {std::pair{0, half_m}, std::pair{0, -half_m}, std::pair{1, half_m}, std::pair{1, -half_m},
+        std::pair{2, floor_z}, std::pair{2, ceiling_z}}) {
     const double t = std::abs(d[axis]) < 1e-12 ? -1.0 : (value - c[axis]) / d[axis];
     if (t > 0.0 && t < best.depth) best = Hit{t, id};
     ++id;
@@ -254,9 +264,11 @@ Hit rayCast(const PinholeCamera& cam, const core::SE3d& world_T_cam, double half
   if (person) {
     const Vec2 n = person->normal;
     const double den = n.x() * d.x() + n.y() * d.y();
-    const double t = ((person->centre.x() - c.x()) * n.x() + (person->centre.y() - c.y()) * n.y()) / den;
+    const double t =
+        ((person->centre.x() - c.x()) * n.x() + (person->centre.y() - c.y()) * n.y()) / den;
     const Vec3 p = c + t * d;
-    const double side = (p.x() - person->centre.x()) * -n.y() + (p.y() - person->centre.y()) * n.x();
+    const double side =
+        (p.x() - person->centre.x()) * -n.y() + (p.y() - person->centre.y()) * n.x();
     if (t > 0.0 && t < best.depth && std::abs(side) <= 0.5 * person->width_m && p.z() >= floor_z &&
         p.z() <= floor_z + person->height_m) {
       best = Hit{t, 6};
@@ -278,10 +290,12 @@ TEST(SimRender, RenderedDepthIsTheRayCastDepth) {
   person.texture = lib.people.front();
   // Level and square-on, then turned, rolled and pitched as the robot on a rough floor.
   for (const auto& [world_T_cam, with_person] :
-       {std::pair{cameraAt(-1.0, 0.0, 0.0), true}, std::pair{cameraAt(-1.0, 0.5, 0.6, 0.01, -0.015), false},
+       {std::pair{cameraAt(-1.0, 0.0, 0.0), true},
+        std::pair{cameraAt(-1.0, 0.5, 0.6, 0.01, -0.015), false},
         std::pair{cameraAt(0.5, -1.0, 2.2, -0.012, 0.008), false}}) {
     cv::Mat gray, depth;
-    const std::vector<Occluder> occluders = with_person ? std::vector<Occluder>{person} : std::vector<Occluder>{};
+    const std::vector<Occluder> occluders =
+        with_person ? std::vector<Occluder>{person} : std::vector<Occluder>{};
     renderer.render(floor, 0.0, world_T_cam, occluders, &gray, &depth);
     ASSERT_EQ(depth.type(), CV_32FC1);
     ASSERT_EQ(depth.size(), gray.size());
@@ -294,8 +308,10 @@ TEST(SimRender, RenderedDepthIsTheRayCastDepth) {
         // Where two surfaces meet within a pixel (corners of the room, the passer-by's
         // outline), the rendered depth is either side's or between them.
         bool seam = false, jump = false;
-        for (const auto& [du, dv] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
-          const Hit n = rayCast(cam, world_T_cam, half, floor.floor_z, floor.ceiling_z, p, u + du, v + dv);
+        for (const auto& [du, dv] :
+             {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+          const Hit n =
+              rayCast(cam, world_T_cam, half, floor.floor_z, floor.ceiling_z, p, u + du, v + dv);
           seam = seam || n.surface != truth.surface;
           jump = jump || std::abs(n.depth - truth.depth) > 0.1 * truth.depth;
         }
@@ -327,8 +343,10 @@ std::string smallConfig() {
          "patrol.sessions = 1\npatrol.total_hours = 0.1\npatrol.other_floor_probability = 0.5\n"
          "camera.cx = 32\ncamera.cy = 24\ncamera.fx = 40\ncamera.fy = 40\n"
          "render.width = 64\nrender.height = 48\nrender.rate_hz = 2\nrender.posters = none\n"
-         "imu.rate_hz = 200\nimu.accel_sigma_mps2 = 0\nimu.gyro_sigma_radps = 0\nimu.gyro_bias_sigma_radps = 0\n"
-         "imu.accel_bias_sigma_mps2 = 0\nground_truth.rate_hz = 20\nvo.passerby_rate_per_hour = 0\n";
+         "imu.rate_hz = 200\nimu.accel_sigma_mps2 = 0\nimu.gyro_sigma_radps = "
+         "0\nimu.gyro_bias_sigma_radps = 0\n"
+         "imu.accel_bias_sigma_mps2 = 0\nground_truth.rate_hz = 20\nvo.passerby_rate_per_hour = "
+         "0\n";
 }
 
 std::unique_ptr<ImageSimulator> makeSimulator(const std::string& text,
@@ -347,7 +365,8 @@ TEST(ImageSession, NoiseFreeImuIntegratesToGroundTruthVelocityAndHeight) {
   auto probe = makeSimulator(smallConfig());
   ASSERT_FALSE(probe->session().rides.empty());
   const ElevatorRide ride = probe->session().rides.front();
-  const double until_s = static_cast<double>(ride.end_utime + 10'000'000 - probe->startUtime()) * 1e-6;
+  const double until_s =
+      static_cast<double>(ride.end_utime + 10'000'000 - probe->startUtime()) * 1e-6;
   auto sim = makeSimulator(smallConfig(), {"render.max_duration_s = " + std::to_string(until_s)});
   VectorSink sink;
   auto summary = sim->run(sink);
@@ -364,11 +383,14 @@ TEST(ImageSession, NoiseFreeImuIntegratesToGroundTruthVelocityAndHeight) {
   double max_dv = 0.0, max_dz = 0.0, max_climb = 0.0;
   for (const auto& m : sink.messages) {
     if (m.channel != channels::kImu || m.utime < t0) continue;
-    auto imu = messages::decodeLcm<imu_t>(m.data.data(), static_cast<int64_t>(m.data.size()), "IMU");
+    auto imu =
+        messages::decodeLcm<imu_t>(m.data.data(), static_cast<int64_t>(m.data.size()), "IMU");
     ASSERT_TRUE(imu);
     const BodyState s = traj.at(m.utime);
-    const Vec3 f(imu->linear_acceleration[0], imu->linear_acceleration[1], imu->linear_acceleration[2]);
-    const Vec3 a = s.world_T_body.so3() * f - Vec3(0, 0, sim->options().sim.sensors.imu.gravity_mps2);
+    const Vec3 f(imu->linear_acceleration[0], imu->linear_acceleration[1],
+                 imu->linear_acceleration[2]);
+    const Vec3 a =
+        s.world_T_body.so3() * f - Vec3(0, 0, sim->options().sim.sensors.imu.gravity_mps2);
     if (prev >= 0) {
       const double dt = static_cast<double>(m.utime - prev) * 1e-6;
       const Vec3 v_next = v + 0.5 * dt * (a + a_prev);
@@ -379,7 +401,8 @@ TEST(ImageSession, NoiseFreeImuIntegratesToGroundTruthVelocityAndHeight) {
     a_prev = a;
     max_dv = std::max(max_dv, (v - s.velocity_world).norm());
     max_dz = std::max(max_dz, std::abs(z - s.world_T_body.translation().z()));
-    max_climb = std::max(max_climb, std::abs(s.world_T_body.translation().z() - s0.world_T_body.translation().z()));
+    max_climb = std::max(
+        max_climb, std::abs(s.world_T_body.translation().z() - s0.world_T_body.translation().z()));
   }
   EXPECT_GT(max_climb, 2.0);  // the ride is in the window
   EXPECT_LT(max_dv, 0.02);
@@ -388,7 +411,8 @@ TEST(ImageSession, NoiseFreeImuIntegratesToGroundTruthVelocityAndHeight) {
 
 TEST(ImageSession, LogRoundTripsThroughTheExistingReaders) {
   auto sim = makeSimulator(smallConfig(), {"render.max_duration_s = 3", "render.rate_hz = 10"});
-  const fs::path log = fs::temp_directory_path() / ("sim_render_test_" + std::to_string(::getpid()) + ".lcmlog");
+  const fs::path log =
+      fs::temp_directory_path() / ("sim_render_test_" + std::to_string(::getpid()) + ".lcmlog");
   auto summary = writeImageSessionLog(*sim, log);
   ASSERT_TRUE(summary) << summary.error().message;
   EXPECT_EQ(summary->frames, 31);
@@ -413,7 +437,8 @@ TEST(ImageSession, LogRoundTripsThroughTheExistingReaders) {
       EXPECT_NEAR(cam->baselineM(), 0.12, 1e-9);
     } else if (e->channel == channels::kStereo) {
       ASSERT_GE(last_calibration, 0) << "a pair before STEREO_CALIB";
-      EXPECT_LE(e->timestamp - last_calibration, static_cast<int64_t>(channels::kCalibrationPeriodS * 1e6));
+      EXPECT_LE(e->timestamp - last_calibration,
+                static_cast<int64_t>(channels::kCalibrationPeriodS * 1e6));
       auto m = messages::decodeLcm<stereo_image_t>(e->data, e->datalen, e->channel);
       ASSERT_TRUE(m);
       auto frame = messages::fromMsg(*m);
@@ -490,9 +515,10 @@ TEST(ImageSession, PostersComeFromTheRealPhotographs) {
 }
 
 TEST(ImageSession, RgbdModeWritesRgbdFramesWhoseDepthIsTheRayCastWithinTheKinectModel) {
-  auto sim = makeSimulator(smallConfig(), {"render.max_duration_s = 3", "render.rate_hz = 10", "render.camera = rgbd",
-                                           "render.width = 320", "render.height = 240", "camera.fx = 225",
-                                           "camera.fy = 225", "camera.cx = 160", "camera.cy = 120"});
+  auto sim = makeSimulator(
+      smallConfig(), {"render.max_duration_s = 3", "render.rate_hz = 10", "render.camera = rgbd",
+                      "render.width = 320", "render.height = 240", "camera.fx = 225",
+                      "camera.fy = 225", "camera.cx = 160", "camera.cy = 120"});
   const DepthSensorOptions& d = sim->options().render.depth;
   // The frames: depth within the noise model where the truth is in range and not at an edge,
   // none beyond the range, holes along depth edges.
@@ -508,7 +534,8 @@ TEST(ImageSession, RgbdModeWritesRgbdFramesWhoseDepthIsTheRayCastWithinTheKinect
         const double z = truth.at<float>(v, u);
         const uint16_t m = depth.at<uint16_t>(v, u);
         double spread = 0.0;
-        for (const auto& [du, dv] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+        for (const auto& [du, dv] :
+             {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
           spread = std::max(spread, std::abs(truth.at<float>(v + dv, u + du) - z) / z);
         }
         if (spread > 0.2) {
@@ -536,8 +563,10 @@ TEST(ImageSession, RgbdModeWritesRgbdFramesWhoseDepthIsTheRayCastWithinTheKinect
   ASSERT_GT(edge_pixels, 100);
   EXPECT_EQ(edge_holes, edge_pixels);
 
-  // The log: RGBD_CALIB and RGBD in place of STEREO_CALIB and STEREO, readable by the RGB-D readers.
-  const fs::path log = fs::temp_directory_path() / ("sim_render_rgbd_test_" + std::to_string(::getpid()) + ".lcmlog");
+  // The log: RGBD_CALIB and RGBD in place of STEREO_CALIB and STEREO, readable by the RGB-D
+  // readers.
+  const fs::path log = fs::temp_directory_path() /
+                       ("sim_render_rgbd_test_" + std::to_string(::getpid()) + ".lcmlog");
   auto summary = writeImageSessionLog(*sim, log);
   ASSERT_TRUE(summary) << summary.error().message;
   lcm::LogFile file(log.string(), "r");
@@ -576,10 +605,10 @@ TEST(ImageSession, RgbdModeWritesRgbdFramesWhoseDepthIsTheRayCastWithinTheKinect
 }
 
 TEST(ImageSimOptions, BadConfigGivesAOneLineError) {
-  for (const std::string bad : {"render.width = -3", "render.colour = 1", "render.encoding = jpeg",
-                                "lighting.gamma = 0", "camera.cx = 900", "building.floors = 0",
-                                "render.camera = mono", "rgbd.max_range_m = -1", "rgbd.unit_m = 0.00001",
-                                "rgbd.edge_hole_px = 40", "rgbd.dropout_fraction = 1.5"}) {
+  for (const std::string bad :
+       {"render.width = -3", "render.colour = 1", "render.encoding = jpeg", "lighting.gamma = 0",
+        "camera.cx = 900", "building.floors = 0", "render.camera = mono", "rgbd.max_range_m = -1",
+        "rgbd.unit_m = 0.00001", "rgbd.edge_hole_px = 40", "rgbd.dropout_fraction = 1.5"}) {
     auto file = KeyValueFile::parse(smallConfig(), "bad.conf");
     ASSERT_TRUE(file);
     ASSERT_TRUE(file->set(bad, "bad.conf:99"));

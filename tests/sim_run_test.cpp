@@ -25,7 +25,8 @@ namespace fs = std::filesystem;
 class TempDir {
  public:
   explicit TempDir(const std::string& name)
-      : path_(fs::temp_directory_path() / ("evermap-sim-" + std::to_string(::getpid()) + "-" + name)) {
+      : path_(fs::temp_directory_path() /
+              ("evermap-sim-" + std::to_string(::getpid()) + "-" + name)) {
     fs::remove_all(path_);
   }
   ~TempDir() { fs::remove_all(path_); }
@@ -54,12 +55,15 @@ TEST(SimRun, SameSeedGivesIdenticalLogBytes) {
   write(testing::smallRun(21), b.path());
   write(testing::smallRun(22), c.path());
   ASSERT_EQ(wa.logs.size(), 2u);
-  for (const char* name : {"session-00.lcmlog", "session-01.lcmlog", "session-00.tum", "session-01.tum", "run.sim.txt"}) {
+  for (const char* name : {"session-00.lcmlog", "session-01.lcmlog", "session-00.tum",
+                           "session-01.tum", "run.sim.txt"}) {
     const std::string x = readBytes(a.path() / name);
     ASSERT_FALSE(x.empty()) << name;
-    EXPECT_TRUE(x == readBytes(b.path() / name)) << name << " differs between two runs with one seed";
+    EXPECT_TRUE(x == readBytes(b.path() / name))
+        << name << " differs between two runs with one seed";
   }
-  EXPECT_FALSE(readBytes(a.path() / "session-01.lcmlog") == readBytes(c.path() / "session-01.lcmlog"));
+  EXPECT_FALSE(readBytes(a.path() / "session-01.lcmlog") ==
+               readBytes(c.path() / "session-01.lcmlog"));
   // Nothing is left under a temporary name.
   for (const auto& e : fs::directory_iterator(a.path())) {
     EXPECT_EQ(e.path().string().find(".partial"), std::string::npos) << e.path();
@@ -78,7 +82,8 @@ TEST(SimRun, SidecarIsAConfigurationThatRegeneratesTheRun) {
   auto again = loadSimOptions(*file);
   ASSERT_TRUE(again.ok()) << again.error().message;
   write(*again, b.path());
-  EXPECT_TRUE(readBytes(a.path() / "session-01.lcmlog") == readBytes(b.path() / "session-01.lcmlog"));
+  EXPECT_TRUE(readBytes(a.path() / "session-01.lcmlog") ==
+              readBytes(b.path() / "session-01.lcmlog"));
 }
 
 TEST(SimRun, LogsHoldTheGeneratedMessagesInTimeOrder) {
@@ -110,7 +115,8 @@ TEST(SimRun, LogsHoldTheGeneratedMessagesInTimeOrder) {
       }
     }
   }
-  for (const auto& [channel, c] : w.summary.channels) EXPECT_EQ(counts[channel], c.messages) << channel;
+  for (const auto& [channel, c] : w.summary.channels)
+    EXPECT_EQ(counts[channel], c.messages) << channel;
   EXPECT_GT(gt, 100);
 }
 
@@ -133,7 +139,8 @@ TEST(SimRun, UnwritableFolderIsAnErrorNamingIt) {
   ASSERT_TRUE(plan.ok());
   auto w = writeRun(*plan, a.path() / "file" / "out");
   ASSERT_FALSE(w.ok());
-  EXPECT_NE(w.error().message.find((a.path() / "file" / "out").string()), std::string::npos) << w.error().message;
+  EXPECT_NE(w.error().message.find((a.path() / "file" / "out").string()), std::string::npos)
+      << w.error().message;
 }
 
 TEST(SimRun, ScheduleVisitsEveryFloorInSessionsThatDoNotOverlap) {

@@ -46,7 +46,8 @@ inline void removeNoise(SimOptions& o) {
   w.slip_rate_per_hour = 0.0;
   o.sensors.attitude.sigma_rad = 0.0;
   o.sensors.floor.height_sigma_m = o.sensors.floor.height_sigma_per_m = 0.0;
-  o.sensors.imu.accel_sigma_mps2 = o.sensors.imu.gyro_sigma_radps = o.sensors.imu.accel_bias_sigma_mps2 = 0.0;
+  o.sensors.imu.accel_sigma_mps2 = o.sensors.imu.gyro_sigma_radps =
+      o.sensors.imu.accel_bias_sigma_mps2 = 0.0;
   o.sensors.imu.gyro_bias_sigma_radps = 0.0;
 }
 

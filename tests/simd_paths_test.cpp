@@ -75,8 +75,8 @@ TEST(SimdPaths, StereoDisparitiesAgreeOnEveryCornerUpToTheRightBorder) {
   ASSERT_TRUE(pr_shift.build(shifted(left, 17.4, 0.0), 3).ok());
   ASSERT_TRUE(pl_vary.build(left, 3).ok());
   ASSERT_TRUE(pr_vary.build(rightWithVaryingDisparity(left), 3).ok());
-  const StereoCamera camera = *StereoCamera::create(300.0, 300.0, left.cols / 2.0,
-                                                    left.rows / 2.0, 0.1, left.cols, left.rows);
+  const StereoCamera camera = *StereoCamera::create(300.0, 300.0, left.cols / 2.0, left.rows / 2.0,
+                                                    0.1, left.cols, left.rows);
   struct Pair {
     const ImagePyramid* left;
     const ImagePyramid* right;
@@ -157,7 +157,8 @@ TEST(SimdPaths, PatchAlignmentAgreesInOneAndTwoDimensionsAndAtTheBorders) {
 TEST(SimdPaths, RotationPriorAgrees) {
   if (skipWithoutAvx2()) GTEST_SKIP() << "this CPU has no AVX2: only the portable path exists";
   const cv::Mat a = texture(155, 47, 5, 2.0);
-  const StereoCamera camera = *StereoCamera::create(718.856, 718.856, 607.19, 185.22, 0.537, 1241, 376);
+  const StereoCamera camera =
+      *StereoCamera::create(718.856, 718.856, 607.19, 185.22, 0.537, 1241, 376);
   // Turned and shifted both ways, so that samples fall on the first and the last columns.
   for (double dx : {3.6, -3.6}) {
     const cv::Mat b = shifted(a, dx, -1.2);

@@ -22,8 +22,8 @@ namespace {
 
 using core::SE3d;
 
-using testing::Scenario;
 using testing::edgeFactor;
+using testing::Scenario;
 using testing::spatialScenario;
 
 // The request that adds pose i (chained from the estimate of i - 1) and its factors.
@@ -36,7 +36,8 @@ UpdateRequest poseRequest(const Scenario& s, const IncrementalSolver& inc, int i
   }
   for (const auto& [a, b, z] : s.edges) {
     if (b != i) continue;
-    if (a == i - 1) r.new_variables.emplace_back(i, PoseValue::spatial(inc.estimate(a).se3 * z.se3));
+    if (a == i - 1)
+      r.new_variables.emplace_back(i, PoseValue::spatial(inc.estimate(a).se3 * z.se3));
     r.new_factors.push_back(edgeFactor(a, b, z));
   }
   return r;
@@ -54,7 +55,8 @@ double differenceFromDenseStep(const IncrementalSolver& inc) {
   const Values got = inc.estimate();
   double worst = 0.0;
   for (int v = 0; v < got.size(); ++v) {
-    worst = std::max(worst, (expected.at(v).se3.inverse() * got.at(v).se3).log().cwiseAbs().maxCoeff());
+    worst =
+        std::max(worst, (expected.at(v).se3.inverse() * got.at(v).se3).log().cwiseAbs().maxCoeff());
   }
   return worst;
 }
@@ -66,7 +68,8 @@ IncrementalOptions backgroundOptions(int lag) {
   return o;
 }
 
-TEST(IncrementalSolverBackground, SwapsTheBatchInAtTheScheduledUpdateWithEveryFactorSinceRelinearised) {
+TEST(IncrementalSolverBackground,
+     SwapsTheBatchInAtTheScheduledUpdateWithEveryFactorSinceRelinearised) {
   const Scenario s = spatialScenario(40, 0.02, 3);
   IncrementalSolver inc(backgroundOptions(3));
   int started = 0, swapped = 0;
@@ -106,7 +109,8 @@ TEST(IncrementalSolverBackground, GivesTheSameEstimatesWhateverTheWorkerSpeed) {
   }
   for (int run = 1; run < 3; ++run) {
     for (int v = 0; v < runs[0].size(); ++v) {
-      EXPECT_EQ(runs[run].at(v).se3.translation(), runs[0].at(v).se3.translation()) << "run " << run;
+      EXPECT_EQ(runs[run].at(v).se3.translation(), runs[0].at(v).se3.translation())
+          << "run " << run;
     }
   }
 }
@@ -141,8 +145,10 @@ TEST(IncrementalSolverBackground, AReplacementFactorStandsInForTheRemovedOneAfte
   ASSERT_EQ(inc.graph().variablesOf(odometry_3_4)[0], 3);
   ASSERT_EQ(inc.graph().variablesOf(odometry_3_4)[1], 4);
   replace.remove_factors.push_back(odometry_3_4);
-  replace.new_factors.push_back(edgeFactor(
-      3, 4, PoseValue::spatial(std::get<2>(s.edges[3]).se3 * SE3d::exp(Eigen::Matrix<double, 6, 1>::Constant(0.01)))));
+  replace.new_factors.push_back(
+      edgeFactor(3, 4,
+                 PoseValue::spatial(std::get<2>(s.edges[3]).se3 *
+                                    SE3d::exp(Eigen::Matrix<double, 6, 1>::Constant(0.01)))));
   auto r = inc.update(replace);
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_TRUE(r->batch_started);

@@ -47,9 +47,10 @@ double incrementalSse(const GraphFile& g) {
 // iSAM 1.6 values from ../shared/data/README.md; 0.01 % is the bar.
 TEST(SolverData, BatchGaussNewtonReachesIsamWeightedSse) {
   EVERMAP_REQUIRE_DATA(dir, "posegraph-isam");
-  const std::vector<std::pair<std::string, double>> cases = {
-      {"manhattanOlson3500.txt", 6532.74}, {"city10000.txt", 31931.4},
-      {"sphere400.txt", 2312.06},          {"sphere2500.txt", 14642.4}};
+  const std::vector<std::pair<std::string, double>> cases = {{"manhattanOlson3500.txt", 6532.74},
+                                                             {"city10000.txt", 31931.4},
+                                                             {"sphere400.txt", 2312.06},
+                                                             {"sphere2500.txt", 14642.4}};
   for (const auto& [file, sse] : cases) {
     EXPECT_NEAR(batchSse(read(dir / file)), sse, 1e-4 * sse) << file;
   }
@@ -96,9 +97,10 @@ double halfUnitInFourthDigit(double f) {
 
 TEST(SolverData, SeSyncCostReachesTheCertifiedOptimaToFourDigits) {
   EVERMAP_REQUIRE_DATA(dir, "posegraph-sesync");
-  const std::vector<std::pair<std::string, double>> cases = {
-      {"CSAIL.g2o", 31.70}, {"intel.g2o", 52.35}, {"city10000.g2o", 638.6},
-      {"parking-garage.g2o", 1.263}};
+  const std::vector<std::pair<std::string, double>> cases = {{"CSAIL.g2o", 31.70},
+                                                             {"intel.g2o", 52.35},
+                                                             {"city10000.g2o", 638.6},
+                                                             {"parking-garage.g2o", 1.263}};
   for (const auto& [file, fstar] : cases) {
     const double f = seSyncMinimum(read(dir / file));
     EXPECT_NEAR(f, fstar, halfUnitInFourthDigit(fstar)) << file << " f = " << f;
@@ -116,7 +118,8 @@ TEST(SolverData, SeSyncManhattanIsWithinOneUnitOfThePublishedFourthDigit) {
 TEST(SolverData, DcsSurvivesOneHundredFalseLoopClosures) {
   EVERMAP_REQUIRE_DATA(dir, "posegraph-isam");
   const GraphFile g = read(dir / "manhattanOlson3500.txt");
-  auto truth = odometryInitialization(read(dir / "groundtruth" / "manhattanOlson3500_groundtruth.txt"));
+  auto truth =
+      odometryInitialization(read(dir / "groundtruth" / "manhattanOlson3500_groundtruth.txt"));
   ASSERT_TRUE(truth.ok());
   auto ate = [&](const GraphFile& file, const RobustKernel& k) {
     auto init = odometryInitialization(file);

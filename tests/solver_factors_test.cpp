@@ -49,7 +49,8 @@ double jacobianError(const Factor& f, const std::vector<PoseValue>& x) {
 Eigen::MatrixXd eye(int n) { return Eigen::MatrixXd::Identity(n, n); }
 
 TEST(SolverFactors, RelativePose2JacobiansMatchNumericalDerivatives) {
-  for (auto conv : {RelativePose2Factor::Convention::kIsam, RelativePose2Factor::Convention::kG2o}) {
+  for (auto conv :
+       {RelativePose2Factor::Convention::kIsam, RelativePose2Factor::Convention::kG2o}) {
     for (int k = 0; k < 20; ++k) {
       RelativePose2Factor f(0, 1, randomSE2(), eye(3), conv);
       EXPECT_LT(jacobianError(f, {PoseValue::planar(randomSE2()), PoseValue::planar(randomSE2())}),
@@ -66,8 +67,10 @@ TEST(SolverFactors, RelativePose3JacobiansMatchNumericalDerivatives) {
       // Keep the predicted relative pose near the measurement (pitch away from ±π/2 for the
       // Euler convention, angle below π for log and quaternions).
       const SE3d z = randomSE3(0.8);
-      const SE3d b = a * z * SE3d::exp((Eigen::Matrix<double, 6, 1>() << 0.1, -0.2, 0.05, 0.1,
-                                        -0.05, 0.08).finished());
+      const SE3d b =
+          a * z *
+          SE3d::exp(
+              (Eigen::Matrix<double, 6, 1>() << 0.1, -0.2, 0.05, 0.1, -0.05, 0.08).finished());
       RelativePose3Factor f(0, 1, z, eye(6), conv);
       EXPECT_LT(jacobianError(f, {PoseValue::spatial(a), PoseValue::spatial(b)}), 1e-6)
           << "convention " << static_cast<int>(conv);
@@ -173,8 +176,8 @@ TEST(SolverFactors, GncSurrogateWeightIsItsDerivativeAndItTendsToTruncatedLeastS
   const RobustKernel convex{KernelType::kGncTls, 9.0, 1e-4};
   for (double r = 0.01; r < 300.0; r *= 1.3) {
     const double h = 1e-3 * r;
-    const double second = convex.cost((r + h) * (r + h)) - 2.0 * convex.cost(r * r) +
-                          convex.cost((r - h) * (r - h));
+    const double second =
+        convex.cost((r + h) * (r + h)) - 2.0 * convex.cost(r * r) + convex.cost((r - h) * (r - h));
     EXPECT_GE(second / (h * h), -2.0 * 1e-4 - 1e-6) << "curvature below −2μ at r = " << r;
     EXPECT_LE(convex.cost(r * r), r * r + 1e-12);
   }

@@ -31,7 +31,8 @@ namespace fs = std::filesystem;
 class TempFile {
  public:
   TempFile(const std::string& name, const std::string& content)
-      : path_(fs::temp_directory_path() / ("evermap_solver_io_" + std::to_string(::getpid()) + "_" + name)) {
+      : path_(fs::temp_directory_path() /
+              ("evermap_solver_io_" + std::to_string(::getpid()) + "_" + name)) {
     std::ofstream(path_) << content;
   }
   ~TempFile() { fs::remove(path_); }
@@ -82,12 +83,12 @@ TEST(GraphIo, ReadsG2o3dQuaternionEdges) {
 
 TEST(GraphIo, MalformedLinesAreErrorsNamingFileAndLine) {
   const std::vector<std::pair<std::string, std::string>> cases = {
-      {"VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 1.0 0.0 0.1 100 0 0 100 0\n", ":2:"},        // short
-      {"VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 x 1.0 0.0 0.1 100 0 0 100 0 400\n", ":2:"},    // id
-      {"EDGE_SE2 0 1 1.0 abc 0.1 100 0 0 100 0 400\n", ":1:"},                        // number
-      {"EDGE_SE2 0 1 1.0 nan 0.1 100 0 0 100 0 400\n", ":1:"},                        // NaN
-      {"EDGE_SE2 0 1 1.0 0.0 0.1 100 0 0 100 0 400 7\n", ":1:"},                     // long
-      {"VERTEX_SE2 0 0 0 0\nVERTEX_SE2 0 1 0 0\n", ":2:"},                             // duplicate
+      {"VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 1.0 0.0 0.1 100 0 0 100 0\n", ":2:"},      // short
+      {"VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 x 1.0 0.0 0.1 100 0 0 100 0 400\n", ":2:"},  // id
+      {"EDGE_SE2 0 1 1.0 abc 0.1 100 0 0 100 0 400\n", ":1:"},                      // number
+      {"EDGE_SE2 0 1 1.0 nan 0.1 100 0 0 100 0 400\n", ":1:"},                      // NaN
+      {"EDGE_SE2 0 1 1.0 0.0 0.1 100 0 0 100 0 400 7\n", ":1:"},                    // long
+      {"VERTEX_SE2 0 0 0 0\nVERTEX_SE2 0 1 0 0\n", ":2:"},                          // duplicate
   };
   for (size_t k = 0; k < cases.size(); ++k) {
     TempFile f("bad" + std::to_string(k) + ".g2o", cases[k].first);
@@ -126,8 +127,7 @@ TEST(GraphIo, IsamFormatReadsSquareRootInformationAndRollPitchYawAngles) {
   EXPECT_NEAR(g2->edges[1].information()(0, 0), 4.0, 1e-12);
   // EDGE3 x y z roll pitch yaw; square root in (x, y, z, roll, pitch, yaw) order in the file,
   // stored as iSAM's (x, y, z, yaw, pitch, roll).
-  TempFile f3("e.txt",
-              "EDGE3 0 1 1 2 3 0.1 0.2 0.3 1 0 0 0 0 0 2 0 0 0 0 3 0 0 0 4 0 0 5 0 6\n");
+  TempFile f3("e.txt", "EDGE3 0 1 1 2 3 0.1 0.2 0.3 1 0 0 0 0 0 2 0 0 0 0 3 0 0 0 4 0 0 5 0 6\n");
   auto g3 = readGraphFile(f3.path());
   ASSERT_TRUE(g3.ok()) << g3.error().message;
   const core::Vec3 ypr = yawPitchRoll(g3->edges[0].measurement.se3.rotationMatrix());
@@ -152,7 +152,8 @@ TEST(GraphIo, G2oWriterRoundTripsVerticesAndEdges) {
   ASSERT_TRUE(g.ok());
   auto v = fileInitialization(*g);
   ASSERT_TRUE(v.ok());
-  const fs::path out = fs::temp_directory_path() / ("evermap_solver_io_out_" + std::to_string(::getpid()) + ".g2o");
+  const fs::path out =
+      fs::temp_directory_path() / ("evermap_solver_io_out_" + std::to_string(::getpid()) + ".g2o");
   ASSERT_TRUE(writeG2o(out, *g, *v).ok());
   auto back = readGraphFile(out);
   fs::remove(out);
@@ -168,7 +169,8 @@ TEST(GraphIo, IsamEdgesWrittenAsG2oKeepTheirCostToFirstOrder) {
   TempFile in("h.txt", "ODOMETRY 0 1 1 0.5 0.7 2 0.3 0.1 3 0.2 4\n");
   auto g = readGraphFile(in.path());
   ASSERT_TRUE(g.ok());
-  const fs::path out = fs::temp_directory_path() / ("evermap_solver_io_h_" + std::to_string(::getpid()) + ".g2o");
+  const fs::path out =
+      fs::temp_directory_path() / ("evermap_solver_io_h_" + std::to_string(::getpid()) + ".g2o");
   Values v;
   v.add(0, PoseValue::planar(core::SE2d()));
   v.add(1, PoseValue::planar(core::SE2d(1.01, 0.49, 0.71)));
@@ -254,9 +256,7 @@ TEST(GraphIo, BlocksRuleDropsOnlyTheCouplingOfTranslationAndRotation) {
 
 TEST(GraphIo, NearestPositiveDefiniteRaisesOnlyTheEigenvaluesBelowTheFloor) {
   Eigen::MatrixXd I(3, 3);
-  I << 4, 3, 0,
-       3, 1, 0,
-       0, 0, 2;  // eigenvalues 2, 2.5 ± √(2.25 + 9) → 5.854, −0.854
+  I << 4, 3, 0, 3, 1, 0, 0, 0, 2;  // eigenvalues 2, 2.5 ± √(2.25 + 9) → 5.854, −0.854
   const Eigen::MatrixXd P = nearestPositiveDefinite(I, 1e-6);
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> before(I), after(P);
   EXPECT_NEAR(after.eigenvalues()[0], 1e-6 * before.eigenvalues()[2], 1e-12);

@@ -184,11 +184,11 @@ TEST(SolverLandmarks, ReadsG2oLandmarkVerticesEdgesAndSensorOffsets) {
 
 TEST(SolverLandmarks, AMalformedLandmarkLineIsOneErrorNamingFileAndLine) {
   const std::vector<std::pair<std::string, std::string>> cases = {
-      {"ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 0 2.5 -1 5 0.5\n", ":2:"},      // short
-      {"ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 x 2.5 -1 5 0.5 4\n", ":2:"},    // id
-      {"ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 0 2.5 nan 5 0.5 4\n", ":2:"},   // NaN
-      {"ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 0 2.5 1 0 0.5 4\n", ":2:"},     // singular
-      {"ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nPOINT3 1 0 1 2 3\n", ":2:"},               // 3-D in 2-D
+      {"ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 0 2.5 -1 5 0.5\n", ":2:"},     // short
+      {"ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 x 2.5 -1 5 0.5 4\n", ":2:"},   // id
+      {"ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 0 2.5 nan 5 0.5 4\n", ":2:"},  // NaN
+      {"ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 0 2.5 1 0 0.5 4\n", ":2:"},    // singular
+      {"ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nPOINT3 1 0 1 2 3\n", ":2:"},              // 3-D in 2-D
       {"EDGE3 0 1 1 0 0 0 0 0\nPOINT3 1 0 1 2 3 1 0 0 1 0\n", ":2:"},                // 10 numbers
   };
   for (size_t k = 0; k < cases.size(); ++k) {
@@ -202,7 +202,7 @@ TEST(SolverLandmarks, AMalformedLandmarkLineIsOneErrorNamingFileAndLine) {
   const std::vector<std::pair<std::string, std::string>> g2o = {
       {"VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nEDGE_SE3_TRACKXYZ 0 9 3 1 2 3 10 0 0 10 0 10\n", ":2:"},
       {"VERTEX_SE2 0 0 0 0\nEDGE_SE2_XY 0 5 1 2 100 0 -4\n", ":2:"},  // not positive definite
-      {"VERTEX_SE2 0 0 0 0\nVERTEX_XY 0 1 2\n", ":2:"},              // id of a pose
+      {"VERTEX_SE2 0 0 0 0\nVERTEX_XY 0 1 2\n", ":2:"},               // id of a pose
   };
   for (size_t k = 0; k < g2o.size(); ++k) {
     TempFile f("badg2o" + std::to_string(k) + ".g2o", g2o[k].first);
@@ -262,7 +262,8 @@ Solved compare(const sim::LandmarkGraph& lg, const PoseGraph& graph, const Value
       const Vec3& l = lg.points[k - kIsamLandmarkKeyBase];
       truth.add(k, lg.dimension == 2 ? PoseValue::point2(l.head<2>()) : PoseValue::point3(l));
     } else {
-      truth.add(k, lg.dimension == 2 ? PoseValue::planar(lg.poses2[k]) : PoseValue::spatial(lg.poses3[k]));
+      truth.add(k, lg.dimension == 2 ? PoseValue::planar(lg.poses2[k])
+                                     : PoseValue::spatial(lg.poses3[k]));
     }
   }
   out.truth_excess = graph.cost(truth).weighted_sse - graph.cost(x).weighted_sse;
@@ -323,7 +324,8 @@ TEST(SolverLandmarks, NoiseFreeCityTreesAndTorusPointsAreSolvedToTheTruth) {
 // standard deviation sqrt(2 dof)); the estimation error δ is within noise when ‖J δ‖² (the
 // SSE of the truth minus that of the estimate) is a χ² sample with `unknowns` degrees of
 // freedom; and the incremental run ends at the batch solve's minimum.
-void expectSolvedWithinNoise(const sim::LandmarkGraph& lg, double max_pose_m, double max_landmark_m) {
+void expectSolvedWithinNoise(const sim::LandmarkGraph& lg, double max_pose_m,
+                             double max_landmark_m) {
   const GraphFile g = readGenerated(lg, "noisy.txt");
   const Solved batch = solveBatchFile(lg, g);
   const Solved inc = solveIncrementalFile(lg, g);
@@ -337,13 +339,14 @@ void expectSolvedWithinNoise(const sim::LandmarkGraph& lg, double max_pose_m, do
   EXPECT_LT(batch.pose_error, max_pose_m);
   EXPECT_LT(batch.landmark_error, max_landmark_m);
   EXPECT_NEAR(inc.pose_error, batch.pose_error, 1e-5);
-  std::printf("[ figures  ] %d-D: %d poses, %d landmarks, %d observations: SSE %.6f (dof %lld), "
-              "batch %d iterations, incremental SSE %.6f (final %d iterations), SSE(truth) - "
-              "SSE %.1f (%d unknowns), max pose error %.3f m, landmark RMS %.3f m\n",
-              lg.dimension, static_cast<int>(lg.dimension == 2 ? lg.poses2.size() : lg.poses3.size()),
-              lg.observed_landmarks, lg.observations, batch.sse, static_cast<long long>(batch.dof),
-              batch.iterations, inc.sse, inc.iterations, batch.truth_excess, batch.unknowns,
-              batch.pose_error, batch.landmark_error);
+  std::printf(
+      "[ figures  ] %d-D: %d poses, %d landmarks, %d observations: SSE %.6f (dof %lld), "
+      "batch %d iterations, incremental SSE %.6f (final %d iterations), SSE(truth) - "
+      "SSE %.1f (%d unknowns), max pose error %.3f m, landmark RMS %.3f m\n",
+      lg.dimension, static_cast<int>(lg.dimension == 2 ? lg.poses2.size() : lg.poses3.size()),
+      lg.observed_landmarks, lg.observations, batch.sse, static_cast<long long>(batch.dof),
+      batch.iterations, inc.sse, inc.iterations, batch.truth_excess, batch.unknowns,
+      batch.pose_error, batch.landmark_error);
 }
 
 TEST(SolverLandmarks, CityTreesLikeProblemConvergesToTheTruthWithinNoiseBatchAndIncremental) {

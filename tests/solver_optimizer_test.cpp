@@ -20,14 +20,13 @@
 namespace evermap::solver {
 namespace {
 
-using testing::Scenario;
 using testing::edgeFactor;
 using testing::planarScenario;
+using testing::Scenario;
 using testing::spatialScenario;
 
 using core::SE2d;
 using core::SE3d;
-
 
 FactorPtr anchor(const PoseValue& p) {
   if (p.kind == PoseKind::kSE2) return makeAnchorFactor(0, 2);
@@ -41,7 +40,8 @@ PoseGraph buildGraph(const Scenario& s) {
   EXPECT_TRUE(g.addVariable(0, x).ok());
   for (const auto& [a, b, z] : s.edges) {
     if (b == a + 1) {
-      x = x.kind == PoseKind::kSE2 ? PoseValue::planar(x.se2 * z.se2) : PoseValue::spatial(x.se3 * z.se3);
+      x = x.kind == PoseKind::kSE2 ? PoseValue::planar(x.se2 * z.se2)
+                                   : PoseValue::spatial(x.se3 * z.se3);
       EXPECT_TRUE(g.addVariable(b, x).ok());
     }
   }
@@ -186,7 +186,8 @@ TEST(BatchSolver, StartedAtAMinimumStopsOnTheGradientWithoutIterating) {
   // Noise-free measurements at the true poses: the gradient is zero to rounding.
   Scenario s = planarScenario(40, 0.0, 1);
   PoseGraph g = buildGraph(s);
-  for (int i = 0; i < g.values().size(); ++i) g.mutableValues().at(i) = s.truth[g.values().keyAt(i)];
+  for (int i = 0; i < g.values().size(); ++i)
+    g.mutableValues().at(i) = s.truth[g.values().keyAt(i)];
   BatchOptions o;
   o.gradient_tolerance = 1e-9;
   const BatchSummary sum = solveBatch(g, o);
@@ -223,7 +224,8 @@ TEST(Gnc, RejectsGrossFalseLoopClosuresThatLeastSquaresAbsorbs) {
     }
     // Every loop closure is a candidate, true ones included.
     for (FactorId id = 1; id < g.numFactorSlots(); ++id) {
-      if (g.variablesOf(id).size() == 2 && std::abs(g.variablesOf(id)[0] - g.variablesOf(id)[1]) > 1) {
+      if (g.variablesOf(id).size() == 2 &&
+          std::abs(g.variablesOf(id)[0] - g.variablesOf(id)[1]) > 1) {
         g.factorPtr(id)->setKernel(kernelForFactor(k, 3));
       }
     }
@@ -284,7 +286,8 @@ TEST(IncrementalSolver, MatchesBatchWhenFedStepByStep) {
       UpdateRequest r;
       for (const auto& [a, b, z] : s.edges) {
         if (b != i) continue;
-        if (a == i - 1) r.new_variables.emplace_back(i, PoseValue::planar(inc.estimate(a).se2 * z.se2));
+        if (a == i - 1)
+          r.new_variables.emplace_back(i, PoseValue::planar(inc.estimate(a).se2 * z.se2));
         r.new_factors.push_back(edgeFactor(a, b, z));
       }
       auto res = inc.update(r);
@@ -296,7 +299,8 @@ TEST(IncrementalSolver, MatchesBatchWhenFedStepByStep) {
     BatchOptions bo;
     bo.relative_cost_tolerance = 1e-14;
     ASSERT_TRUE(solveBatch(batch, bo).ok());
-    EXPECT_NEAR(inc.cost().weighted_sse, batch.cost().weighted_sse, 1e-6 * batch.cost().weighted_sse)
+    EXPECT_NEAR(inc.cost().weighted_sse, batch.cost().weighted_sse,
+                1e-6 * batch.cost().weighted_sse)
         << methodName(m);
   }
 }
@@ -316,7 +320,8 @@ TEST(IncrementalSolver, IncrementalStepsKeepRConsistentWithABatchFactorisation) 
     UpdateRequest r;
     for (const auto& [a, b, z] : s.edges) {
       if (b != i) continue;
-      if (a == i - 1) r.new_variables.emplace_back(i, PoseValue::spatial(inc.estimate(a).se3 * z.se3));
+      if (a == i - 1)
+        r.new_variables.emplace_back(i, PoseValue::spatial(inc.estimate(a).se3 * z.se3));
       r.new_factors.push_back(edgeFactor(a, b, z));
     }
     ASSERT_TRUE(inc.update(r).ok());
@@ -339,11 +344,12 @@ TEST(IncrementalSolver, IncrementalStepsKeepRConsistentWithABatchFactorisation) 
   const Eigen::VectorXd step = Hd.ldlt().solve(rhs);
   Values expected = g.values();
   expected.retractAll(step);
-  EXPECT_LT(maxPoseError(inc.estimate(), [&] {
-              std::vector<PoseValue> t;
-              for (int i = 0; i < expected.size(); ++i) t.push_back(expected.at(i));
-              return t;
-            }()),
+  EXPECT_LT(maxPoseError(inc.estimate(),
+                         [&] {
+                           std::vector<PoseValue> t;
+                           for (int i = 0; i < expected.size(); ++i) t.push_back(expected.at(i));
+                           return t;
+                         }()),
             1e-8);
 }
 
@@ -397,7 +403,8 @@ GraphFile asFile(const Scenario& s) {
     e.from = a;
     e.to = b;
     e.measurement = z;
-    e.sqrt_information = Eigen::MatrixXd::Identity(g.dimension == 2 ? 3 : 6, g.dimension == 2 ? 3 : 6);
+    e.sqrt_information =
+        Eigen::MatrixXd::Identity(g.dimension == 2 ? 3 : 6, g.dimension == 2 ? 3 : 6);
     e.line = line++;
     g.edges.push_back(e);
   }
@@ -442,8 +449,8 @@ TEST(PartialPriors, RollPitchAndHeightFixOnlyWhatTheyMeasure) {
   PoseGraph g;
   const SE3d start(core::SO3d::fromRollPitchYaw(0.3, -0.2, 1.0), core::Vec3(4.0, -2.0, 7.0));
   ASSERT_TRUE(g.addVariable(0, PoseValue::spatial(start)).ok());
-  ASSERT_TRUE(g.addFactor(std::make_shared<RollPitchFactor>(0, 0.05, 0.02,
-                                                            100.0 * Eigen::MatrixXd::Identity(2, 2)))
+  ASSERT_TRUE(g.addFactor(std::make_shared<RollPitchFactor>(
+                              0, 0.05, 0.02, 100.0 * Eigen::MatrixXd::Identity(2, 2)))
                   .ok());
   ASSERT_TRUE(g.addFactor(std::make_shared<HeightFactor>(0, 1.5, 0.01)).ok());
   BatchOptions o;
@@ -474,10 +481,11 @@ TEST(Marginals, EqualTheBlocksOfTheDenseInverse) {
     const int d = spatial ? 6 : 3;
     for (size_t a = 0; a < keys.size(); ++a) {
       for (size_t b = 0; b < keys.size(); ++b) {
-        const Eigen::MatrixXd expected =
-            cov.block(pat.offset(g.values().indexOf(keys[a])), pat.offset(g.values().indexOf(keys[b])), d, d);
+        const Eigen::MatrixXd expected = cov.block(pat.offset(g.values().indexOf(keys[a])),
+                                                   pat.offset(g.values().indexOf(keys[b])), d, d);
         const Eigen::MatrixXd got = joint->block(d * a, d * b, d, d);
-        EXPECT_LT((got - expected).cwiseAbs().maxCoeff(), 1e-9 * (1.0 + expected.cwiseAbs().maxCoeff()));
+        EXPECT_LT((got - expected).cwiseAbs().maxCoeff(),
+                  1e-9 * (1.0 + expected.cwiseAbs().maxCoeff()));
       }
     }
     auto single = m->marginal(11);
@@ -492,7 +500,8 @@ TEST(Marginals, FromTheIncrementalSolverMatchBatchAtTheSamePoint) {
   ASSERT_TRUE(solveBatch(g, BatchOptions{}).ok());
   IncrementalSolver inc;
   UpdateRequest all;
-  for (int i = 0; i < g.values().size(); ++i) all.new_variables.emplace_back(g.values().keyAt(i), g.values().at(i));
+  for (int i = 0; i < g.values().size(); ++i)
+    all.new_variables.emplace_back(g.values().keyAt(i), g.values().at(i));
   for (FactorId id = 0; id < g.numFactorSlots(); ++id) all.new_factors.push_back(g.factorPtr(id));
   ASSERT_TRUE(inc.update(all).ok());  // first update is a batch step at these values
   auto a = Marginals::fromSolver(inc).marginal(12);

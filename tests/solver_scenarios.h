@@ -69,7 +69,8 @@ inline Scenario spatialScenario(int n, double noise, unsigned seed) {
 
 inline FactorPtr edgeFactor(int a, int b, const PoseValue& z) {
   if (z.kind == PoseKind::kSE2) {
-    return std::make_shared<RelativePose2Factor>(a, b, z.se2, 10.0 * Eigen::MatrixXd::Identity(3, 3));
+    return std::make_shared<RelativePose2Factor>(a, b, z.se2,
+                                                 10.0 * Eigen::MatrixXd::Identity(3, 3));
   }
   return std::make_shared<RelativePose3Factor>(a, b, z.se3, 10.0 * Eigen::MatrixXd::Identity(6, 6));
 }

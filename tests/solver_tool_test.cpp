@@ -58,8 +58,8 @@ fs::path writeGraph(const std::string& name, bool indefinite_loop) {
     out << "EDGE_SE2 " << i << ' ' << i + 1 << ' ' << 1.0 + 0.05 * ((i % 3) - 1) << " 0.02 "
         << turn + 0.03 * ((i % 4) - 1.5) << " 100 0 0 100 0 400\n";
   }
-  out << "EDGE_SE2 0 20 0.5 0.3 0.2 " << (indefinite_loop ? "100 0 300 100 0 400" : "100 0 0 100 0 400")
-      << "\n";
+  out << "EDGE_SE2 0 20 0.5 0.3 0.2 "
+      << (indefinite_loop ? "100 0 300 100 0 400" : "100 0 0 100 0 400") << "\n";
   out << "EDGE_SE2 5 35 -0.5 0.4 0.1 100 0 0 100 0 400\n";
   return path;
 }
@@ -86,7 +86,8 @@ TEST(SolverTool, RefusesAnIndefiniteInformationMatrixUnlessARuleIsChosen) {
   const fs::path g = writeGraph("indefinite.g2o", true);
   const ToolRun refused = run("--batch " + g.string());
   EXPECT_EQ(refused.exit_status, 1) << refused.output;
-  EXPECT_NE(refused.output.find(g.string() + ":41: edge 0-20"), std::string::npos) << refused.output;
+  EXPECT_NE(refused.output.find(g.string() + ":41: edge 0-20"), std::string::npos)
+      << refused.output;
   for (const std::string rule : {"blocks", "nearest"}) {
     const ToolRun repaired = run("--batch --indefinite-information " + rule + " " + g.string());
     EXPECT_EQ(repaired.exit_status, 0) << repaired.output;
@@ -131,7 +132,9 @@ TEST(SolverTool, SolvesIsamLandmarkLinesInsteadOfDroppingThem) {
   std::ofstream(path) << "ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 0 2.5 -1 5 0.5\n";
   const ToolRun bad = run(path.string());
   EXPECT_EQ(bad.exit_status, 1);
-  EXPECT_EQ(bad.output.rfind("evermap-solver: " + path.string() + ":2: LANDMARK expects 7 fields, got 6", 0), 0u)
+  EXPECT_EQ(bad.output.rfind(
+                "evermap-solver: " + path.string() + ":2: LANDMARK expects 7 fields, got 6", 0),
+            0u)
       << bad.output;
   EXPECT_EQ(bad.output.find('\n'), bad.output.size() - 1) << "one line: " << bad.output;
   fs::remove(path);

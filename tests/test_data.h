@@ -30,13 +30,13 @@ inline std::filesystem::path dataDir(const std::string& name) {
 }  // namespace evermap::testing
 
 // Use at the top of a test body: skips (or fails under CI) when the data set is missing.
-#define EVERMAP_REQUIRE_DATA(var, name)                                                   \
-  const std::filesystem::path var = ::evermap::testing::dataDir(name);                    \
-  if (var.empty()) {                                                                      \
-    if (::evermap::testing::underCi()) {                                                  \
-      FAIL() << "data set " << name << " not found under " << ::evermap::testing::dataRoot() \
-             << " (set EVERMAP_DATA)";                                                    \
-    }                                                                                     \
-    GTEST_SKIP() << "data set " << name << " not found under "                            \
-                 << ::evermap::testing::dataRoot() << " (set EVERMAP_DATA)";              \
+#define EVERMAP_REQUIRE_DATA(var, name)                                                          \
+  const std::filesystem::path var = ::evermap::testing::dataDir(name);                           \
+  if (var.empty()) {                                                                             \
+    if (::evermap::testing::underCi()) {                                                         \
+      FAIL() << "data set " << name << " not found under " << ::evermap::testing::dataRoot()     \
+             << " (set EVERMAP_DATA)";                                                           \
+    }                                                                                            \
+    GTEST_SKIP() << "data set " << name << " not found under " << ::evermap::testing::dataRoot() \
+                 << " (set EVERMAP_DATA)";                                                       \
   }

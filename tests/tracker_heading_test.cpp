@@ -47,8 +47,10 @@ void turnInPlace(Tracker* t, bool with_gyro) {
   int64_t att = 0;
   for (int k = 1; k <= 20; ++k) {
     const int64_t t0 = (k - 1) * 100000, t1 = k * 100000;
-    for (; with_gyro && att <= t1; att += 20000) ASSERT_TRUE(t->addHeading(heading(att, true_rate * att * 1e-6)));
-    ASSERT_TRUE(t->addWheel(wheel(t0, t1, 0.0, 0.8 * true_rate * 0.1, std::pow(0.02 * true_rate * 0.1, 2))));
+    for (; with_gyro && att <= t1; att += 20000)
+      ASSERT_TRUE(t->addHeading(heading(att, true_rate * att * 1e-6)));
+    ASSERT_TRUE(t->addWheel(
+        wheel(t0, t1, 0.0, 0.8 * true_rate * 0.1, std::pow(0.02 * true_rate * 0.1, 2))));
   }
 }
 
@@ -60,7 +62,8 @@ TEST(TrackerHeading, TheGyroTurnsTheBodyWhereTheWheelsSlip) {
   // Information-weighted per increment: the wheels' σθ = 0.02 x 0.0785 rad against the gyro's
   // σ² = (1e-4)² x 0.1 x 10 + (1e-3)² x 0.1: 96 % of the weight on the gyro; 18 degrees of
   // wheel error become 0.75.
-  const double wheel_var = std::pow(0.02 * (std::numbers::pi / 4) * 0.1, 2), gyro_var = 1e-8 * 0.1 * 10 + 1e-6 * 0.1;
+  const double wheel_var = std::pow(0.02 * (std::numbers::pi / 4) * 0.1, 2),
+               gyro_var = 1e-8 * 0.1 * 10 + 1e-6 * 0.1;
   const double w = wheel_var / (wheel_var + gyro_var);
   EXPECT_NEAR(yawOf(with), std::numbers::pi / 2 * (0.8 + 0.2 * w), 1e-6);
   EXPECT_NEAR(yawOf(with), std::numbers::pi / 2, 1.0 * kDeg);
@@ -76,7 +79,8 @@ TEST(TrackerHeading, AnUncertainGyroBiasLeavesTheWheelsTheirWeight) {
   Tracker t(TrackerOptions{});
   int64_t att = 0;
   for (int k = 1; k <= 10; ++k) {
-    for (; att <= k * 100000; att += 20000) ASSERT_TRUE(t.addHeading(heading(att, 0.5 * att * 1e-6, 0.02)));
+    for (; att <= k * 100000; att += 20000)
+      ASSERT_TRUE(t.addHeading(heading(att, 0.5 * att * 1e-6, 0.02)));
     ASSERT_TRUE(t.addWheel(wheel((k - 1) * 100000, k * 100000, 0.1, 0.0, 1e-6)));
   }
   EXPECT_LT(std::abs(yawOf(t)), 0.02);  // the gyro says 0.5 rad
@@ -86,7 +90,8 @@ TEST(TrackerHeading, AnUncertainGyroBiasLeavesTheWheelsTheirWeight) {
 TEST(TrackerHeading, HeadingsThatDoNotCoverAnIncrementAreNotUsed) {
   Tracker t(TrackerOptions{});
   // Headings stop at 0.2 s; an increment ending at 1.0 s is beyond the extrapolation.
-  for (int64_t a = 0; a <= 200000; a += 20000) ASSERT_TRUE(t.addHeading(heading(a, 1.0 * a * 1e-6)));
+  for (int64_t a = 0; a <= 200000; a += 20000)
+    ASSERT_TRUE(t.addHeading(heading(a, 1.0 * a * 1e-6)));
   ASSERT_TRUE(t.addWheel(wheel(900000, 1000000, 0.1, 0.01, 1e-4)));
   EXPECT_EQ(t.counts().gyro_turns, 0);
   EXPECT_NEAR(yawOf(t), 0.01, 1e-12);
@@ -136,13 +141,13 @@ TEST(TrackerHeading, MalformedHeadingsAreDroppedAndCounted) {
   EXPECT_EQ(t.counts().dropped, 2);
 }
 
-
 TEST(TrackerHeading, AVoRestartBetweenWheelMessagesIsPlacedWhereTheBodyIsThen) {
   // Turning in place at 0.8 rad/s on wheels; VO restarts 50 ms after the last wheel message.
   // The reference goes where the body is at the restart: the gyro's yaw over those 50 ms.
   Tracker t(TrackerOptions{});
   const double rate = 0.8;
-  for (int64_t a = 0; a <= 600000; a += 20000) ASSERT_TRUE(t.addHeading(heading(a, rate * a * 1e-6)));
+  for (int64_t a = 0; a <= 600000; a += 20000)
+    ASSERT_TRUE(t.addHeading(heading(a, rate * a * 1e-6)));
   for (int k = 1; k <= 5; ++k)
     ASSERT_TRUE(t.addWheel(wheel((k - 1) * 100000, k * 100000, 0.0, rate * 0.1, 1e-4)));
   vo_delta_t restart{};
@@ -194,11 +199,13 @@ Tracker driveWithAVoGlitch(double vo_gyro_gate, bool wheels, double wheels_until
   for (int k = 1; k <= 30; ++k) {
     const int64_t t1 = k * 100000;
     for (; att <= t1; att += 20000) EXPECT_TRUE(t.addHeading(heading(att, 0.0)));
-    if (wheels && t1 <= wheels_until_s * 1e6) EXPECT_TRUE(t.addWheel(wheel(t1 - 100000, t1, 0.1, 0.0, 1e-6)));
+    if (wheels && t1 <= wheels_until_s * 1e6)
+      EXPECT_TRUE(t.addWheel(wheel(t1 - 100000, t1, 0.1, 0.0, 1e-6)));
     const double since_ref = 1e-6 * static_cast<double>(t1 - ref);
     const bool glitch = ref == 1200000;
-    const SE3d ref_T_cur = glitch ? testing::planar(3.0 * since_ref, 0.0, 10.0 * kDeg * since_ref / 0.3)
-                                  : testing::planar(since_ref, 0.0, 0.0);
+    const SE3d ref_T_cur =
+        glitch ? testing::planar(3.0 * since_ref, 0.0, 10.0 * kDeg * since_ref / 0.3)
+               : testing::planar(since_ref, 0.0, 0.0);
     const bool keyframe = k % 3 == 0;
     EXPECT_TRUE(t.addVo(testing::voMsg(t1, ref, ref_T_cur, 1e-3, keyframe)));
     if (keyframe) ref = t1;
@@ -228,7 +235,8 @@ TEST(TrackerHeading, AVoStepTheGyroContradictsIsCarriedByTheWheels) {
   const Tracker stopped = driveWithAVoGlitch(16.0, true, 1.0);
   const Tracker stopped_fused = driveWithAVoGlitch(0.0, true, 1.0);
   EXPECT_EQ(stopped.counts().vo_contradicted, 0);
-  EXPECT_NEAR(stopped.delta().mean.translation().x(), stopped_fused.delta().mean.translation().x(), 1e-9);
+  EXPECT_NEAR(stopped.delta().mean.translation().x(), stopped_fused.delta().mean.translation().x(),
+              1e-9);
   EXPECT_GT(stopped.delta().mean.translation().x(), 3.5);
   TrackerOptions bad;
   bad.vo_gyro_gate = -1.0;
@@ -248,8 +256,8 @@ TEST(TrackerHeading, AVoStepThatTurnsWithTheGyroIsKept) {
     for (; att <= t1; att += 20000) ASSERT_TRUE(t.addHeading(heading(att, 0.5 * att * 1e-6)));
     ASSERT_TRUE(t.addWheel(wheel(t1 - 100000, t1, 0.0, 0.025, 1e-6)));
     const bool keyframe = k % 3 == 0;
-    ASSERT_TRUE(t.addVo(testing::voMsg(t1, ref, testing::planar(0, 0, 0.5e-6 * static_cast<double>(t1 - ref)), 1e-3,
-                                       keyframe)));
+    ASSERT_TRUE(t.addVo(testing::voMsg(
+        t1, ref, testing::planar(0, 0, 0.5e-6 * static_cast<double>(t1 - ref)), 1e-3, keyframe)));
     if (keyframe) ref = t1;
   }
   EXPECT_EQ(t.counts().vo_contradicted, 0);
@@ -261,7 +269,8 @@ TEST(TrackerHeading, AVoStepThatTurnsWithTheGyroIsKept) {
 // (featureless texture, seed 3 of the rendered sessions). ATTITUDE at 50 Hz lags the frames by
 // `lag_us` and each arrives after the VO frame it would cover, as imu-proc's do; with
 // `headings_stop_s` the gyro falls silent then.
-Tracker driveWithLaggingHeadings(double heading_wait_s, int64_t lag_us, double headings_stop_s = 10.0) {
+Tracker driveWithLaggingHeadings(double heading_wait_s, int64_t lag_us,
+                                 double headings_stop_s = 10.0) {
   TrackerOptions o;
   o.heading_wait_s = heading_wait_s;
   Tracker t(o);
@@ -273,7 +282,8 @@ Tracker driveWithLaggingHeadings(double heading_wait_s, int64_t lag_us, double h
     const double since_ref = 1e-6 * static_cast<double>(t1 - ref);
     const double yaw = ref == 1200000 ? 1.0 * kDeg * since_ref / 0.3 : 0.0;
     const bool keyframe = k % 3 == 0;
-    EXPECT_TRUE(t.addVo(testing::voMsg(t1, ref, testing::planar(since_ref, 0.0, yaw), 1e-3, keyframe)));
+    EXPECT_TRUE(
+        t.addVo(testing::voMsg(t1, ref, testing::planar(since_ref, 0.0, yaw), 1e-3, keyframe)));
     if (keyframe) ref = t1;
     for (; att <= t1 + 20000 - lag_us && att <= headings_stop_s * 1e6; att += 20000)
       EXPECT_TRUE(t.addHeading(heading(att, 0.0)));
@@ -330,7 +340,8 @@ TEST(MapperHeading, TheStepAtAHeldKeyframeIsTakenWhenItsHeadingComes) {
     ASSERT_TRUE(m.onAttitude(heading(1010000, 0.0)));
     m.takeRequests();
     for (int64_t a = 1030000; a <= 1990000; a += 20000) ASSERT_TRUE(m.onAttitude(heading(a, 0.0)));
-    ASSERT_TRUE(m.onVo(testing::voMsg(2000000, 1000000, testing::planar(1.0, 0.0, 0.0), 1e-3, true)));
+    ASSERT_TRUE(
+        m.onVo(testing::voMsg(2000000, 1000000, testing::planar(1.0, 0.0, 0.0), 1e-3, true)));
     EXPECT_EQ(m.takeRequests().size(), wait_s > 0.0 ? 0u : 1u) << wait_s;
     EXPECT_EQ(m.tracker().heldKeyframeUtime(), wait_s > 0.0 ? 2000000 : -1);
     ASSERT_TRUE(m.onAttitude(heading(2010000, 0.0)));
@@ -356,7 +367,8 @@ struct HeldKeyframe {
     EXPECT_TRUE(m.onVo(testing::voRestart(1000000)));
     for (int64_t a = 1010000; a <= 1990000; a += 20000) EXPECT_TRUE(m.onAttitude(heading(a, 0.0)));
     m.takeRequests();
-    EXPECT_TRUE(m.onVo(testing::voMsg(2000000, 1000000, testing::planar(1.0, 0.0, 0.0), 1e-3, true)));
+    EXPECT_TRUE(
+        m.onVo(testing::voMsg(2000000, 1000000, testing::planar(1.0, 0.0, 0.0), 1e-3, true)));
     EXPECT_EQ(m.tracker().heldKeyframeUtime(), 2000000);
     EXPECT_TRUE(m.takeRequests().empty());
   }

@@ -54,9 +54,11 @@ TEST(ViewerLcmListener, StereoBecomesAScaledJpegWithTheKeyframesFeatures) {
 
   const std::string image = latest(board, Topic::kImage);
   ASSERT_FALSE(image.empty()) << listener.inbox().summary();
-  EXPECT_NE(image.find("\"width\":640,\"height\":480,\"scale\":0.50000,\"jpeg\":\"/9j/"), std::string::npos)
+  EXPECT_NE(image.find("\"width\":640,\"height\":480,\"scale\":0.50000,\"jpeg\":\"/9j/"),
+            std::string::npos)
       << image.substr(0, 200);
-  EXPECT_NE(image.find("\"features_utime\":1000000,\"features\":[10.0,20.0,630.0,470.0]"), std::string::npos);
+  EXPECT_NE(image.find("\"features_utime\":1000000,\"features\":[10.0,20.0,630.0,470.0]"),
+            std::string::npos);
   EXPECT_EQ(listener.imagesSent(), 1);
 }
 

@@ -115,7 +115,9 @@ TEST(ViewerLogPlayer, ImagesBeyondTheirBudgetAreThinnedNotRefused) {
   int64_t bytes = 0;
   player->rewind();
   for (int64_t t = 1000; t <= 10000; t += 10)
-    player->playTo(t, [&](const std::string&, const void*, size_t size) { bytes += static_cast<int64_t>(size); });
+    player->playTo(t, [&](const std::string&, const void*, size_t size) {
+      bytes += static_cast<int64_t>(size);
+    });
   EXPECT_LE(bytes, 100);
   // Without KEYFRAME asked for, images come alone.
   auto alone = LogPlayer::open(file, {"STEREO"}, o);
@@ -145,9 +147,12 @@ TEST(ViewerLogPlayer, ThePagesCommandsAreParsedAndAnythingElseIsNothing) {
   EXPECT_DOUBLE_EQ(parseLogCommand("speed 1000")->speed, kMaxLogSpeed);
   EXPECT_DOUBLE_EQ(parseLogCommand("speed 0.01")->speed, kMinLogSpeed);
   // The page is untrusted: partial numbers, non-finite or out-of-range speeds, other words.
-  for (const char* text : {"", "a", "Play", "play ", "seek", "seek ", "seek 12x", "seek x12", "seek 1e3",
-                           "seek 99999999999999999999", "speed", "speed ", "speed 0", "speed -1", "speed 0.001",
-                           "speed 1001", "speed inf", "speed nan", "speed 2 ", "speed 2x", "speeds 2", "stop"})
+  for (const char* text :
+       {"",           "a",         "Play",      "play ",    "seek",
+        "seek ",      "seek 12x",  "seek x12",  "seek 1e3", "seek 99999999999999999999",
+        "speed",      "speed ",    "speed 0",   "speed -1", "speed 0.001",
+        "speed 1001", "speed inf", "speed nan", "speed 2 ", "speed 2x",
+        "speeds 2",   "stop"})
     EXPECT_FALSE(parseLogCommand(text)) << "'" << text << "'";
 }
 

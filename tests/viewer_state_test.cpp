@@ -143,13 +143,15 @@ TEST(ViewerState, TheStatsTextCarriesTheMappersNamedCounters) {
   std::string stats;
   while (auto item = board.next(&seen, -1))
     if (item->topic == Topic::kStats) stats = *item->text;
-  EXPECT_NE(stats.find("\"counters\":[[\"warm_restarts\",2],[\"implausible_floors\",7]]"), std::string::npos)
+  EXPECT_NE(stats.find("\"counters\":[[\"warm_restarts\",2],[\"implausible_floors\",7]]"),
+            std::string::npos)
       << stats;
   // Names and values that do not pair up are refused.
   s.counter_values = {2};
   const Status bad = state.onStats(s);
   ASSERT_FALSE(bad);
-  EXPECT_NE(bad.error().message.find("2 counter names for 1 values"), std::string::npos) << bad.error().message;
+  EXPECT_NE(bad.error().message.find("2 counter names for 1 values"), std::string::npos)
+      << bad.error().message;
 }
 
 TEST(ViewerState, DeputiesBeyondTheLimitAreRefused) {

@@ -60,7 +60,8 @@ class RawClient {
         "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
         "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n"
         "Sec-WebSocket-Protocol: evermap\r\n\r\n";
-    ok_ = ok_ && ::send(fd_, request.data(), request.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(request.size());
+    ok_ = ok_ && ::send(fd_, request.data(), request.size(), MSG_NOSIGNAL) ==
+                     static_cast<ssize_t>(request.size());
   }
   ~RawClient() { ::close(fd_); }
   bool ok() const { return ok_; }
@@ -75,7 +76,8 @@ class RawClient {
 
   // A masked text frame (client to server), up to 125 bytes.
   void sendText(const std::string& text) {
-    std::string frame = {static_cast<char>(0x81), static_cast<char>(0x80 | text.size()), 1, 2, 3, 4};
+    std::string frame = {
+        static_cast<char>(0x81), static_cast<char>(0x80 | text.size()), 1, 2, 3, 4};
     for (size_t k = 0; k < text.size(); ++k) frame += static_cast<char>(text[k] ^ (1 + k % 4));
     ::send(fd_, frame.data(), frame.size(), MSG_NOSIGNAL);
   }
@@ -152,7 +154,8 @@ map_graph_t bigGraph(int n) {
   return g;
 }
 
-TEST(ViewerWebServer, ServesTheNewestStateWhileFiftyClientsNeverReadAndAHundredThousandNodeMapIsPosted) {
+TEST(ViewerWebServer,
+     ServesTheNewestStateWhileFiftyClientsNeverReadAndAHundredThousandNodeMapIsPosted) {
   testing::ScratchDir dir;
   { std::ofstream(dir.path() / "index.html") << "<!doctype html><title>t</title>"; }
   Board board;
@@ -206,14 +209,15 @@ TEST(ViewerWebServer, ServesTheNewestStateWhileFiftyClientsNeverReadAndAHundredT
   EXPECT_TRUE(got_last_pose);
   const WebServerCounts c = (*server)->counts();
   const int64_t rss_after = rssKb();
-  std::printf("100000-node graph text built in %.0f ms; 5000 poses posted in %.1f ms; %lld clients, "
-              "%lld texts sent, %d poses read; RSS %lld -> %lld MB\n",
-              1e3 * graph_s, 1e3 * poses_s, static_cast<long long>(c.clients),
-              static_cast<long long>(c.texts_sent), poses_read,
-              static_cast<long long>(rss_before / 1024), static_cast<long long>(rss_after / 1024));
+  std::printf(
+      "100000-node graph text built in %.0f ms; 5000 poses posted in %.1f ms; %lld clients, "
+      "%lld texts sent, %d poses read; RSS %lld -> %lld MB\n",
+      1e3 * graph_s, 1e3 * poses_s, static_cast<long long>(c.clients),
+      static_cast<long long>(c.texts_sent), poses_read, static_cast<long long>(rss_before / 1024),
+      static_cast<long long>(rss_after / 1024));
   EXPECT_EQ(c.clients, 51);
   EXPECT_LT(poses_read, 20);  // the reader got the newest pose, not 5000 of them
-  EXPECT_LT(poses_s, 5.0);              // (0.1 s on an idle machine: no wait on any client)
+  EXPECT_LT(poses_s, 5.0);    // (0.1 s on an idle machine: no wait on any client)
   // One map text shared by every client, one fragment buffered each: far below 50 copies.
   EXPECT_LT(rss_after - rss_before, 300 * 1024);
 

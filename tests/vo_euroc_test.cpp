@@ -47,7 +47,8 @@ TEST(VoEuroc, TracksEveryFrameOfTheExcerptAndBarelyMoves) {
   for (const auto& e : *images) {
     const std::string name = std::to_string(e.t_ns) + ".png";
     const cv::Mat left = cv::imread((dir / "mav0/cam0/data" / name).string(), cv::IMREAD_GRAYSCALE);
-    const cv::Mat right = cv::imread((dir / "mav0/cam1/data" / name).string(), cv::IMREAD_GRAYSCALE);
+    const cv::Mat right =
+        cv::imread((dir / "mav0/cam1/data" / name).string(), cv::IMREAD_GRAYSCALE);
     if (left.empty() || right.empty()) continue;  // cam0/data.csv lists 4 rows without files
     messages::StereoFrame f{messages::utimeFromNs(e.t_ns), false, left, right};
     auto msg = messages::toMsg(f, messages::ImageEncoding::kGray8);
@@ -80,8 +81,10 @@ TEST(VoEuroc, TracksEveryFrameOfTheExcerptAndBarelyMoves) {
     farthest = std::max(farthest, (positions[i] - positions.front()).norm());
   }
   const double net = (positions.back() - positions.front()).norm();
-  std::printf("EuRoC excerpt: %d frames, %d keyframes, net %.4f m, farthest %.4f m, "
-              "path %.4f m\n", frames, keyframes, net, farthest, path);
+  std::printf(
+      "EuRoC excerpt: %d frames, %d keyframes, net %.4f m, farthest %.4f m, "
+      "path %.4f m\n",
+      frames, keyframes, net, farthest, path);
   RecordProperty("path_m", std::to_string(path));
   EXPECT_LT(net, 0.02);
   EXPECT_LT(farthest, 0.02);
@@ -95,9 +98,9 @@ TEST(RegistrationEuroc, LoopPairsRegisterWithinFiveCentimetresAndOneDegree) {
   ASSERT_EQ(p.keyframes.size(), 4u);
   const core::StereoCamera& cam = p.rectifier->camera();
   for (const auto& [a, b] : {std::pair{0, 1}, std::pair{2, 3}}) {
-    const core::RegistrationSummary s = core::registerFrames(
-        cam, p.keyframes[static_cast<size_t>(a)], cam, p.keyframes[static_cast<size_t>(b)],
-        core::RegistrationOptions{});
+    const core::RegistrationSummary s =
+        core::registerFrames(cam, p.keyframes[static_cast<size_t>(a)], cam,
+                             p.keyframes[static_cast<size_t>(b)], core::RegistrationOptions{});
     ASSERT_TRUE(s.ok()) << "pair (" << a << ", " << b << "): " << s.message;
     const SE3d truth = p.truth(a, b);
     const SE3d err = truth.inverse() * s.a_T_b;
@@ -114,9 +117,9 @@ TEST(RegistrationEuroc, LoopPairsRegisterWithinFiveCentimetresAndOneDegree) {
   }
   // Different places (the two loops, ~3.5 m and 150° apart): refused, not registered wrongly.
   for (const auto& [a, b] : {std::pair{0, 2}, std::pair{1, 3}, std::pair{0, 3}}) {
-    const core::RegistrationSummary s = core::registerFrames(
-        cam, p.keyframes[static_cast<size_t>(a)], cam, p.keyframes[static_cast<size_t>(b)],
-        core::RegistrationOptions{});
+    const core::RegistrationSummary s =
+        core::registerFrames(cam, p.keyframes[static_cast<size_t>(a)], cam,
+                             p.keyframes[static_cast<size_t>(b)], core::RegistrationOptions{});
     EXPECT_EQ(s.status, core::RegistrationStatus::kInsufficientInliers)
         << "pair (" << a << ", " << b << "): " << s.message;
   }

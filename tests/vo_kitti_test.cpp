@@ -48,8 +48,8 @@ TEST(VoKitti, TracksEveryFrameOfTheStereoClipWithFovisInliersAndRotationWithinTw
     if (registered || (k == 0 && f.status == VoStatus::kNoData)) {
       ++tracked;
     } else {
-      ADD_FAILURE() << "frame " << k << ": " << (f.bridged ? "bridged" : toString(f.status))
-                    << ": " << f.message;
+      ADD_FAILURE() << "frame " << k << ": " << (f.bridged ? "bridged" : toString(f.status)) << ": "
+                    << f.message;
     }
   }
   EXPECT_EQ(run->frames.size(), 51u);
@@ -97,9 +97,10 @@ TEST(VoKitti, TheOdometryFrameOfTheClipIsItsKeyframeChain) {
     core::Mat6 c;
     for (int r = 0; r < 6; ++r)
       for (int j = 0; j < 6; ++j) c(r, j) = deltas[k].covariance[6 * r + j];
-    const Eigen::Quaterniond q(deltas[k].orientation[0], deltas[k].orientation[1], deltas[k].orientation[2],
-                               deltas[k].orientation[3]);
-    const core::Vec3 t(deltas[k].translation[0], deltas[k].translation[1], deltas[k].translation[2]);
+    const Eigen::Quaterniond q(deltas[k].orientation[0], deltas[k].orientation[1],
+                               deltas[k].orientation[2], deltas[k].orientation[3]);
+    const core::Vec3 t(deltas[k].translation[0], deltas[k].translation[1],
+                       deltas[k].translation[2]);
     expected = core::compound(expected, core::UncertainPose{core::SE3d(q, t), c});
   }
   const auto between = messages::odometryBetween(poses[a], core::Mat6::Zero(), poses.back());
@@ -124,7 +125,8 @@ TEST(VoKitti, WithTheDisparityOffsetOfItsOwnImagesTheClipDriftsLessThanTwoPercen
   std::optional<core::StereoCamera> camera;
   for (size_t k = 0; k < seq->frames.size(); ++k) {
     const cv::Mat left = cv::imread(seq->leftImage(seq->frames[k]).string(), cv::IMREAD_GRAYSCALE);
-    const cv::Mat right = cv::imread(seq->rightImage(seq->frames[k]).string(), cv::IMREAD_GRAYSCALE);
+    const cv::Mat right =
+        cv::imread(seq->rightImage(seq->frames[k]).string(), cv::IMREAD_GRAYSCALE);
     if (!camera) {
       camera = *core::StereoCamera::create(P.P0(0, 0), P.P0(1, 1), P.P0(0, 2), P.P0(1, 2),
                                            -P.P1(0, 3) / P.P1(0, 0), left.cols, left.rows);
@@ -134,7 +136,8 @@ TEST(VoKitti, WithTheDisparityOffsetOfItsOwnImagesTheClipDriftsLessThanTwoPercen
     core::KeyframeFeatures kf = core::makeKeyframeFeatures(frame, orb);
     if (k > 0) {
       pairs.push_back(core::matchPair(
-          previous, kf, core::registerFrames(*camera, previous, *camera, kf, core::RegistrationOptions{})));
+          previous, kf,
+          core::registerFrames(*camera, previous, *camera, kf, core::RegistrationOptions{})));
     }
     previous = std::move(kf);
   }
@@ -159,9 +162,10 @@ TEST(VoKitti, WithTheDisparityOffsetOfItsOwnImagesTheClipDriftsLessThanTwoPercen
 }
 
 // The path a user takes through the pipeline (issue 16): evermap-kitti2lcm --disparity-offset
-// 0.8 writes the offset into STEREO_CALIB (the right camera's cx), and the offline runner (vo-proc's
-// VoPipeline) corrects the clip with no option of its own: the same poses as the folder run with
-// that calibration, and the same as evermap-vo-run --disparity-offset 0.8 over a log without it.
+// 0.8 writes the offset into STEREO_CALIB (the right camera's cx), and the offline runner
+// (vo-proc's VoPipeline) corrects the clip with no option of its own: the same poses as the folder
+// run with that calibration, and the same as evermap-vo-run --disparity-offset 0.8 over a log
+// without it.
 TEST(VoKitti, ALogWhoseCalibrationCarriesTheDisparityOffsetIsCorrectedWithoutAnOption) {
   EVERMAP_REQUIRE_DATA(dir, "kitti-stereo-clip");
   const testing::ScratchDir scratch;
@@ -201,18 +205,21 @@ TEST(VoKitti, ALogWhoseCalibrationCarriesTheDisparityOffsetIsCorrectedWithoutAnO
            folder->path_length_m;
   };
   const double e_corrected = endErrorPercent(*corrected);
-  std::printf("end error: log with the offset %.2f %%, override of a plain log %.2f %%, "
-              "offset taken away %.2f %%, plain log %.2f %%\n",
-              e_corrected, endErrorPercent(*overridden), endErrorPercent(*uncorrected),
-              endErrorPercent(*as_given));
+  std::printf(
+      "end error: log with the offset %.2f %%, override of a plain log %.2f %%, "
+      "offset taken away %.2f %%, plain log %.2f %%\n",
+      e_corrected, endErrorPercent(*overridden), endErrorPercent(*uncorrected),
+      endErrorPercent(*as_given));
   EXPECT_LE(e_corrected, 2.0);
   EXPECT_NEAR(e_corrected, folder->end_error_percent, 0.01);
   EXPECT_GT(endErrorPercent(*as_given), 5.0);
   // The override and the calibration are one path: the same poses to the bit.
-  for (const auto& [a, b] : {std::pair{&*corrected, &*overridden}, std::pair{&*as_given, &*uncorrected}}) {
+  for (const auto& [a, b] :
+       {std::pair{&*corrected, &*overridden}, std::pair{&*as_given, &*uncorrected}}) {
     ASSERT_EQ(a->trajectory.size(), b->trajectory.size());
     for (size_t i = 0; i < a->trajectory.size(); ++i) {
-      EXPECT_EQ(a->trajectory.poses[i].world_T_body.matrix(), b->trajectory.poses[i].world_T_body.matrix())
+      EXPECT_EQ(a->trajectory.poses[i].world_T_body.matrix(),
+                b->trajectory.poses[i].world_T_body.matrix())
           << "pose " << i;
     }
   }

@@ -27,10 +27,10 @@ const TexturedRoom& room() {
   return r;
 }
 
-#define EVERMAP_REQUIRE_ROOM()                                                        \
-  if (!room().ok()) {                                                                 \
-    if (::evermap::testing::underCi()) FAIL() << "room textures not found";           \
-    GTEST_SKIP() << "room textures (kitti07-mono-160, euroc-v101-micro) not found";   \
+#define EVERMAP_REQUIRE_ROOM()                                                      \
+  if (!room().ok()) {                                                               \
+    if (::evermap::testing::underCi()) FAIL() << "room textures not found";         \
+    GTEST_SKIP() << "room textures (kitti07-mono-160, euroc-v101-micro) not found"; \
   }
 
 StereoOdometry makeOdometry(const OdometryOptions& options = {}) {
@@ -84,10 +84,11 @@ TEST(StereoOdometry, DriftAlongASyntheticLoopIsBelowOnePercentOfTheDistance) {
   RecordProperty("path_m", std::to_string(d.path_m));
   RecordProperty("drift_m", std::to_string(d.translation_m));
   RecordProperty("drift_deg", std::to_string(d.rotation_deg));
-  std::printf("synthetic loop: %.2f m, %d keyframes, end error %.4f m (%.3f %%), %.4f deg "
-              "(%.5f deg/m)\n",
-              d.path_m, d.keyframes, d.translation_m, 100.0 * d.translation_m / d.path_m,
-              d.rotation_deg, d.rotation_deg / d.path_m);
+  std::printf(
+      "synthetic loop: %.2f m, %d keyframes, end error %.4f m (%.3f %%), %.4f deg "
+      "(%.5f deg/m)\n",
+      d.path_m, d.keyframes, d.translation_m, 100.0 * d.translation_m / d.path_m, d.rotation_deg,
+      d.rotation_deg / d.path_m);
   // The bar is 1 % of the distance and 0.01°/m over 200 m of the (future) image-level
   // simulator. This loop turns a full circle in 9.6 m (37°/m): its rotation drift is held to
   // 0.1 % of the rotation travelled instead.
@@ -140,10 +141,11 @@ TEST(StereoOdometry, BadImagesGiveAStatusNotACrash) {
     const char* what;
   };
   int64_t t = 1000;
-  for (const Case& c : {Case{empty, r, "left image: empty"}, Case{l, empty, "right image: empty"},
-                        Case{small, r, "left image: 376x240"}, Case{l, wide, "right image: 800x480"},
-                        Case{color, r, "left image: not an 8-bit gray"},
-                        Case{l, floats, "right image: not an 8-bit gray"}}) {
+  for (const Case& c :
+       {Case{empty, r, "left image: empty"}, Case{l, empty, "right image: empty"},
+        Case{small, r, "left image: 376x240"}, Case{l, wide, "right image: 800x480"},
+        Case{color, r, "left image: not an 8-bit gray"},
+        Case{l, floats, "right image: not an 8-bit gray"}}) {
     const FrameResult bad = vo.process(t += 1000, c.left, c.right);
     EXPECT_EQ(bad.status, VoStatus::kBadInput) << c.what;
     EXPECT_NE(bad.message.find(c.what), std::string::npos) << bad.message;

@@ -153,8 +153,8 @@ TEST(KeyframeConvert, RoundTripsAndRefusesMalformedMessages) {
   const evermap::keyframe_t msg = messages::toMsg(cam, k);
   std::vector<uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
   msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
-  auto decoded = messages::decodeLcm<evermap::keyframe_t>(bytes.data(),
-                                                          static_cast<int64_t>(bytes.size()), "KEYFRAME");
+  auto decoded = messages::decodeLcm<evermap::keyframe_t>(
+      bytes.data(), static_cast<int64_t>(bytes.size()), "KEYFRAME");
   ASSERT_TRUE(decoded.ok()) << decoded.error().message;
   auto back = messages::fromMsg(*decoded);
   ASSERT_TRUE(back.ok()) << back.error().message;
@@ -244,10 +244,13 @@ TEST(VoTrajectory, ChainsKeyframesAndBridgesFailures) {
   VoTrajectory chain;
   EXPECT_FALSE(chain.add(delta(1, 1, D::STATUS_INSUFFICIENT_FEATURES, false)));  // not started
   EXPECT_TRUE(chain.add(delta(2, 2, D::STATUS_NO_DATA, true))->translation().isZero());
-  EXPECT_NEAR(chain.add(delta(3, 2, D::STATUS_OK, false, Vec3(1, 0, 0)))->translation().x(), 1, 1e-12);
+  EXPECT_NEAR(chain.add(delta(3, 2, D::STATUS_OK, false, Vec3(1, 0, 0)))->translation().x(), 1,
+              1e-12);
   // New keyframe at 4, 2 m from 2.
-  EXPECT_NEAR(chain.add(delta(4, 2, D::STATUS_OK, true, Vec3(2, 0, 0)))->translation().x(), 2, 1e-12);
-  EXPECT_NEAR(chain.add(delta(5, 4, D::STATUS_OK, false, Vec3(0, 1, 0)))->translation().y(), 1, 1e-12);
+  EXPECT_NEAR(chain.add(delta(4, 2, D::STATUS_OK, true, Vec3(2, 0, 0)))->translation().x(), 2,
+              1e-12);
+  EXPECT_NEAR(chain.add(delta(5, 4, D::STATUS_OK, false, Vec3(0, 1, 0)))->translation().y(), 1,
+              1e-12);
   // Failure, then the reference is replaced by frame 7 without a motion: a break.
   EXPECT_FALSE(chain.add(delta(6, 4, D::STATUS_INSUFFICIENT_INLIERS, false)));
   EXPECT_FALSE(chain.add(delta(7, 4, D::STATUS_INSUFFICIENT_INLIERS, true)));

@@ -34,10 +34,12 @@ class TexturedRoom {
   explicit TexturedRoom(const std::filesystem::path& data_root) {
     const std::filesystem::path kitti = data_root / "kitti07-mono-160/image_0";
     const std::filesystem::path euroc = data_root / "euroc-v101-micro/mav0/cam0/data";
-    const std::array<std::filesystem::path, 6> files = {
-        kitti / "000000.png", kitti / "000050.png", kitti / "000100.png",
-        kitti / "000150.png", euroc / "1403715273262142976.png",
-        kitti / "000075.png"};
+    const std::array<std::filesystem::path, 6> files = {kitti / "000000.png",
+                                                        kitti / "000050.png",
+                                                        kitti / "000100.png",
+                                                        kitti / "000150.png",
+                                                        euroc / "1403715273262142976.png",
+                                                        kitti / "000075.png"};
     for (size_t f = 0; f < files.size(); ++f) {
       cv::Mat image = cv::imread(files[f].string(), cv::IMREAD_GRAYSCALE);
       if (image.empty()) return;
@@ -52,8 +54,8 @@ class TexturedRoom {
 
   // The depth (z in the camera frame, metres) seen through pixel (u, v) of a camera at
   // world_T_cam: the truth for stereo depth.
-  static double depthAt(const core::StereoCamera& camera, const core::SE3d& world_T_cam,
-                        double u, double v) {
+  static double depthAt(const core::StereoCamera& camera, const core::SE3d& world_T_cam, double u,
+                        double v) {
     const Eigen::Vector3d ray((u - camera.cx()) / camera.fx(), (v - camera.cy()) / camera.fy(),
                               1.0);
     return exitDistance(world_T_cam.translation(), world_T_cam.rotationMatrix() * ray, nullptr);
@@ -83,8 +85,8 @@ class TexturedRoom {
       float* row = value_image.ptr<float>(v);
       const float* n = noise.ptr<float>(v);
       for (int u = 0; u < camera.width(); ++u) {
-        const Eigen::Vector3d d =
-            R * Eigen::Vector3d((u - camera.cx()) / camera.fx(), (v - camera.cy()) / camera.fy(), 1.0);
+        const Eigen::Vector3d d = R * Eigen::Vector3d((u - camera.cx()) / camera.fx(),
+                                                      (v - camera.cy()) / camera.fy(), 1.0);
         int axis = 0;
         const Eigen::Vector3d p = o + exitDistance(o, d, &axis) * d;
         double value = 128.0;
@@ -154,8 +156,9 @@ inline std::vector<core::SE3d> loopTrajectory(int steps, double radius_m = 1.5,
     const core::Vec3 outward(std::sin(a), 0.0, -std::cos(a));
     const core::Vec3 forward = std::cos(M_PI / 6) * tangent + std::sin(M_PI / 6) * outward;
     const double yaw = std::atan2(forward.x(), forward.z());
-    const core::SO3d R = core::SO3d::exp(core::Vec3(0.0, yaw, 0.0)) *
-                         core::SO3d::exp(core::Vec3(0.05 * std::sin(2 * a), 0.0, 0.03 * std::cos(a)));
+    const core::SO3d R =
+        core::SO3d::exp(core::Vec3(0.0, yaw, 0.0)) *
+        core::SO3d::exp(core::Vec3(0.05 * std::sin(2 * a), 0.0, 0.03 * std::cos(a)));
     poses.emplace_back(R, position);
   }
   return poses;

@@ -62,9 +62,11 @@ TEST(VoTumRgbd, ConvertsAndTracksTheExcerptWithinTheStatedBounds) {
   options.rpe.delta_frames = 30;  // ~1 s at 30 Hz
   auto report = eval::evaluate(*gt, summary->trajectory, options);
   ASSERT_TRUE(report.ok()) << report.error().message;
-  std::printf("TUM fr1_rpy excerpt: %d of %d frames tracked, ATE %.4f m, RPE(30 frames) %.4f m "
-              "%.3f deg\n", tracked, kFrames, report->ate.translation_m.rmse,
-              report->rpe.translation_m.rmse, report->rpe.rotation_deg.rmse);
+  std::printf(
+      "TUM fr1_rpy excerpt: %d of %d frames tracked, ATE %.4f m, RPE(30 frames) %.4f m "
+      "%.3f deg\n",
+      tracked, kFrames, report->ate.translation_m.rmse, report->rpe.translation_m.rmse,
+      report->rpe.rotation_deg.rmse);
   RecordProperty("ate_m", std::to_string(report->ate.translation_m.rmse));
   EXPECT_LT(report->ate.translation_m.rmse, kMaxAteM);
   EXPECT_LT(report->rpe.translation_m.rmse, kMaxRpe1sM);
@@ -75,7 +77,8 @@ TEST(VoTumRgbd, ConvertsAndTracksTheExcerptWithinTheStatedBounds) {
 std::optional<core::SE3d> truthAt(const eval::Trajectory& gt, int64_t utime) {
   const eval::StampedPose* best = nullptr;
   for (const auto& p : gt.poses) {
-    if (!best || std::llabs(p.t_ns - utime * 1000) < std::llabs(best->t_ns - utime * 1000)) best = &p;
+    if (!best || std::llabs(p.t_ns - utime * 1000) < std::llabs(best->t_ns - utime * 1000))
+      best = &p;
   }
   if (!best || std::llabs(best->t_ns - utime * 1000) > 10000000) return std::nullopt;
   return best->world_T_body;
@@ -111,8 +114,8 @@ TEST(VoTumRgbd, ConsecutiveKeyframesRegisterAsLoopClosureWouldAgreeingWithMotion
   for (size_t i = 0; i + 1 < keyframes.size(); ++i) {
     const auto& a = keyframes[i];
     const auto& b = keyframes[i + 1];
-    const core::RegistrationSummary r =
-        core::registerFrames(a.camera, a.features, b.camera, b.features, core::RegistrationOptions{});
+    const core::RegistrationSummary r = core::registerFrames(
+        a.camera, a.features, b.camera, b.features, core::RegistrationOptions{});
     if (!r.ok()) continue;
     ++registered;
     const auto wa = truthAt(*gt, utimes[i]);
@@ -123,8 +126,9 @@ TEST(VoTumRgbd, ConsecutiveKeyframesRegisterAsLoopClosureWouldAgreeingWithMotion
     worst_m = std::max(worst_m, error.translation().norm());
     worst_deg = std::max(worst_deg, core::rotationAngle(error.so3()) * 180.0 / M_PI);
   }
-  std::printf("%zu keyframes: %d consecutive pairs registered, %d compared: worst %.4f m %.3f deg\n",
-              keyframes.size(), registered, compared, worst_m, worst_deg);
+  std::printf(
+      "%zu keyframes: %d consecutive pairs registered, %d compared: worst %.4f m %.3f deg\n",
+      keyframes.size(), registered, compared, worst_m, worst_deg);
   // Measured when written: 37 keyframes, 31 of 36 pairs registered, worst 3.8 cm and 2.2 deg
   // (the truth is the nearest 100 Hz motion-capture pose, up to 5 ms off at ~50 deg/s).
   const int pairs = static_cast<int>(keyframes.size()) - 1;

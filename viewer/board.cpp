@@ -4,18 +4,30 @@ namespace evermap::viewer {
 
 const char* topicName(Topic t) {
   switch (t) {
-    case Topic::kGraph: return "graph";
-    case Topic::kPose: return "pose";
-    case Topic::kFloor: return "floor";
-    case Topic::kStats: return "stats";
-    case Topic::kHistory: return "history";
-    case Topic::kRegister: return "register";
-    case Topic::kDeputy: return "deputy";
-    case Topic::kVo: return "vo";
-    case Topic::kImage: return "image";
-    case Topic::kViewer: return "viewer";
-    case Topic::kLog: return "log";
-    case Topic::kCount: break;
+    case Topic::kGraph:
+      return "graph";
+    case Topic::kPose:
+      return "pose";
+    case Topic::kFloor:
+      return "floor";
+    case Topic::kStats:
+      return "stats";
+    case Topic::kHistory:
+      return "history";
+    case Topic::kRegister:
+      return "register";
+    case Topic::kDeputy:
+      return "deputy";
+    case Topic::kVo:
+      return "vo";
+    case Topic::kImage:
+      return "image";
+    case Topic::kViewer:
+      return "viewer";
+    case Topic::kLog:
+      return "log";
+    case Topic::kCount:
+      break;
   }
   return "?";
 }

@@ -19,17 +19,17 @@
 namespace evermap::viewer {
 
 enum class Topic : int {
-  kGraph = 0,   // MAP_GRAPH, as nodes, edges and floors
-  kPose,        // POSE
-  kFloor,       // FLOOR
-  kStats,       // MAPPER_STATS
-  kHistory,     // nodes and component times against message time
-  kRegister,    // REGISTER_RESULT counts and the latest
-  kDeputy,      // DEPUTY_STATUS of every host
-  kVo,          // VO_DELTA status
-  kImage,       // the left image of STEREO, decimated, with the KEYFRAME features
-  kViewer,      // the viewer's own counts (received, dropped, clients)
-  kLog,         // --log: the log's span, the position, playing or not
+  kGraph = 0,  // MAP_GRAPH, as nodes, edges and floors
+  kPose,       // POSE
+  kFloor,      // FLOOR
+  kStats,      // MAPPER_STATS
+  kHistory,    // nodes and component times against message time
+  kRegister,   // REGISTER_RESULT counts and the latest
+  kDeputy,     // DEPUTY_STATUS of every host
+  kVo,         // VO_DELTA status
+  kImage,      // the left image of STEREO, decimated, with the KEYFRAME features
+  kViewer,     // the viewer's own counts (received, dropped, clients)
+  kLog,        // --log: the log's span, the position, playing or not
   kCount
 };
 inline constexpr int kTopicCount = static_cast<int>(Topic::kCount);

@@ -43,11 +43,13 @@ Status LogPlayerOptions::validate() const {
   return Ok{};
 }
 
-Expected<LogPlayer> LogPlayer::open(const std::filesystem::path& file, const std::set<std::string>& channels,
+Expected<LogPlayer> LogPlayer::open(const std::filesystem::path& file,
+                                    const std::set<std::string>& channels,
                                     const LogPlayerOptions& options) {
   if (Status s = options.validate(); !s) return s.error();
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) return makeError(file.string(), ": no such log (not a file)");
+  if (!std::filesystem::is_regular_file(file, ec))
+    return makeError(file.string(), ": no such log (not a file)");
   lcm::LogFile log(file.string(), "r");
   if (!log.good()) return makeError(file.string(), ": cannot open as an LCM log");
   LogPlayer p;
@@ -102,7 +104,8 @@ Expected<LogPlayer> LogPlayer::open(const std::filesystem::path& file, const std
     }
     bytes += e->datalen;
     if (bytes > options.max_bytes)
-      return makeError(file.string(), ": more than ", options.max_bytes, " bytes of messages on the viewer's channels");
+      return makeError(file.string(), ": more than ", options.max_bytes,
+                       " bytes of messages on the viewer's channels");
     p.events_.push_back(event(e));
   }
   p.images_ = static_cast<int64_t>(images.size());
@@ -130,7 +133,10 @@ int64_t LogPlayer::playTo(int64_t utime, const Send& send_event) {
       if (last_graph != events_.size()) send[k - next_] = false;
       last_graph = k;
     } else if (ch == channels::kPose) {
-      if (poses_left == 0) send[k - next_] = false; else --poses_left;
+      if (poses_left == 0)
+        send[k - next_] = false;
+      else
+        --poses_left;
     } else if (ch == channels::kStereo) {
       if (last_image != events_.size()) send[k - next_] = false;
       last_image = k;

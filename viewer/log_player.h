@@ -59,7 +59,8 @@ std::optional<LogCommand> parseLogCommand(std::string_view text);
 class LogPlayer {
  public:
   // Reads the events of `channels` from `file`. Errors: no such file, not an LCM log, too big.
-  static Expected<LogPlayer> open(const std::filesystem::path& file, const std::set<std::string>& channels,
+  static Expected<LogPlayer> open(const std::filesystem::path& file,
+                                  const std::set<std::string>& channels,
                                   const LogPlayerOptions& options = {});
 
   int64_t startUtime() const { return events_.empty() ? 0 : events_.front().timestamp; }
@@ -77,7 +78,10 @@ class LogPlayer {
   using Send = std::function<void(const std::string& channel, const void* data, size_t size)>;
   int64_t playTo(int64_t utime, const Send& send);
   // Back to before the first event (the caller restarts the state it feeds).
-  void rewind() { next_ = 0; position_ = startUtime() - 1; }
+  void rewind() {
+    next_ = 0;
+    position_ = startUtime() - 1;
+  }
 
  private:
   struct Event {

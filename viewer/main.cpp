@@ -38,7 +38,8 @@ namespace fs = std::filesystem;
 fs::path findWebDir(const std::string& given) {
   std::vector<fs::path> candidates;
   if (!given.empty()) return given;
-  if (const char* env = std::getenv("EVERMAP_VIEWER_WEB"); env && *env) candidates.emplace_back(env);
+  if (const char* env = std::getenv("EVERMAP_VIEWER_WEB"); env && *env)
+    candidates.emplace_back(env);
   std::error_code ec;
   const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
   if (!ec) candidates.push_back(exe.parent_path() / ".." / "share" / "evermap" / "viewer" / "web");
@@ -134,21 +135,32 @@ int main(int argc, char** argv) {
   std::string url, store_file, log_file, web_dir;
   double log_speed = 1.0;
   bool quiet = false;
-  CommandLine cli("evermap-viewer",
-                  "Serves a page that shows the map as it is built: MAP_GRAPH, POSE, FLOOR, MAPPER_STATS,\n"
-                  "REGISTER_RESULT, DEPUTY_STATUS, VO_DELTA, KEYFRAME and STEREO in (read-only: it\n"
-                  "publishes nothing), HTTP and a WebSocket stream out. Open http://BIND:PORT/.");
-  cli.value("--bind", &web.bind, "ADDR", "address to listen on (default 127.0.0.1: this machine only)");
-  cli.value("--port", &web.port, "N", "TCP port (default 8080; 0: any free port, printed)").min(0).max(65535);
-  cli.value("--store", &store_file, "MAP.db", "show this map store (SQLite) instead of listening to LCM");
+  CommandLine cli(
+      "evermap-viewer",
+      "Serves a page that shows the map as it is built: MAP_GRAPH, POSE, FLOOR, MAPPER_STATS,\n"
+      "REGISTER_RESULT, DEPUTY_STATUS, VO_DELTA, KEYFRAME and STEREO in (read-only: it\n"
+      "publishes nothing), HTTP and a WebSocket stream out. Open http://BIND:PORT/.");
+  cli.value("--bind", &web.bind, "ADDR",
+            "address to listen on (default 127.0.0.1: this machine only)");
+  cli.value("--port", &web.port, "N", "TCP port (default 8080; 0: any free port, printed)")
+      .min(0)
+      .max(65535);
+  cli.value("--store", &store_file, "MAP.db",
+            "show this map store (SQLite) instead of listening to LCM");
   cli.value("--log", &log_file, "FILE.lcmlog",
             "play this LCM log instead of listening to LCM, with a time slider on the page");
-  cli.value("--speed", &log_speed, "X", "--log: playing speed, x real time (default 1; 0.01-1000, also set on the page)")
+  cli.value("--speed", &log_speed, "X",
+            "--log: playing speed, x real time (default 1; 0.01-1000, also set on the page)")
       .min(viewer::kMinLogSpeed)
       .max(viewer::kMaxLogSpeed);
-  cli.value("--web-dir", &web_dir, "DIR", "the page's files (default: found next to the program or in the source tree)");
-  cli.value("--max-clients", &web.max_clients, "N", "browser connections served at once (default 64)").min(1);
-  cli.value("--image-period-s", &listen.image_period_s, "S", "wall seconds between two camera images sent (default 0.5)").min(0);
+  cli.value("--web-dir", &web_dir, "DIR",
+            "the page's files (default: found next to the program or in the source tree)");
+  cli.value("--max-clients", &web.max_clients, "N",
+            "browser connections served at once (default 64)")
+      .min(1);
+  cli.value("--image-period-s", &listen.image_period_s, "S",
+            "wall seconds between two camera images sent (default 0.5)")
+      .min(0);
   cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.flag("--quiet", &quiet, "no summary on exit");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
@@ -158,8 +170,10 @@ int main(int argc, char** argv) {
   web.web_dir = findWebDir(web_dir);
   web.three_dir = web.web_dir / "node_modules" / "three";
   if (!fs::is_regular_file(web.three_dir / "build" / "three.module.js")) {
-    std::fprintf(stderr, "evermap-viewer: three.js is not installed in %s (run scripts/setup.sh): "
-                 "the page has no 3-D view\n", web.three_dir.c_str());
+    std::fprintf(stderr,
+                 "evermap-viewer: three.js is not installed in %s (run scripts/setup.sh): "
+                 "the page has no 3-D view\n",
+                 web.three_dir.c_str());
     web.three_dir.clear();
   }
   if (!store_file.empty() && !log_file.empty()) {
@@ -186,8 +200,8 @@ int main(int argc, char** argv) {
     return status;
   };
 
-  std::printf("evermap-viewer: serving http://%s:%d/ (page from %s)\n", web.bind.c_str(), (*server)->port(),
-              web.web_dir.c_str());
+  std::printf("evermap-viewer: serving http://%s:%d/ (page from %s)\n", web.bind.c_str(),
+              (*server)->port(), web.web_dir.c_str());
   std::fflush(stdout);
 
   if (!store_file.empty()) {
@@ -199,7 +213,8 @@ int main(int argc, char** argv) {
     }
     viewer::ViewerState state(board, listen.state);
     if (Status s = state.onGraph(stored->graph, store_file); !s) {
-      std::fprintf(stderr, "evermap-viewer: %s: %s\n", store_file.c_str(), s.error().message.c_str());
+      std::fprintf(stderr, "evermap-viewer: %s: %s\n", store_file.c_str(),
+                   s.error().message.c_str());
       return finish(1);
     }
     const viewer::GraphSummary& g = state.lastGraph();
@@ -212,11 +227,12 @@ int main(int argc, char** argv) {
     stats.num_sessions = static_cast<int32_t>(g.sessions);
     stats.num_rejected = stored->rejected;
     (void)state.onStats(stats);
-    std::printf("evermap-viewer: %s: %lld nodes, %lld edges (%lld loop closures), %lld floors, "
-                "%lld sessions, %lld rejected constraints\n",
-                store_file.c_str(), static_cast<long long>(g.nodes), static_cast<long long>(g.edges),
-                static_cast<long long>(g.closures), static_cast<long long>(g.floors),
-                static_cast<long long>(g.sessions), static_cast<long long>(stored->rejected));
+    std::printf(
+        "evermap-viewer: %s: %lld nodes, %lld edges (%lld loop closures), %lld floors, "
+        "%lld sessions, %lld rejected constraints\n",
+        store_file.c_str(), static_cast<long long>(g.nodes), static_cast<long long>(g.edges),
+        static_cast<long long>(g.closures), static_cast<long long>(g.floors),
+        static_cast<long long>(g.sessions), static_cast<long long>(stored->rejected));
     std::fflush(stdout);
     (*server)->notify();
     while (!stop.requested()) std::this_thread::sleep_for(std::chrono::milliseconds(200));
@@ -227,9 +243,9 @@ int main(int argc, char** argv) {
   std::optional<viewer::LogPlayer> player;
   if (!log_file.empty()) {
     const std::set<std::string> channels_shown = {
-        channels::kMapGraph, channels::kPose, channels::kFloor, channels::kMapperStats,
-        channels::kRegisterResult, channels::kDeputyStatus, channels::kVoDelta, channels::kStereo,
-        channels::kKeyframe};
+        channels::kMapGraph,    channels::kPose,           channels::kFloor,
+        channels::kMapperStats, channels::kRegisterResult, channels::kDeputyStatus,
+        channels::kVoDelta,     channels::kStereo,         channels::kKeyframe};
     auto opened = viewer::LogPlayer::open(log_file, channels_shown);
     if (!opened) {
       std::fprintf(stderr, "evermap-viewer: %s\n", opened.error().message.c_str());
@@ -240,7 +256,8 @@ int main(int argc, char** argv) {
     std::printf("evermap-viewer: %s: %zu events over %.1f s (%lld camera images, one per %.1f s)\n",
                 log_file.c_str(), player->events(),
                 1e-6 * static_cast<double>(player->endUtime() - player->startUtime()),
-                static_cast<long long>(player->images()), 1e-6 * static_cast<double>(player->imagePeriodUs()));
+                static_cast<long long>(player->images()),
+                1e-6 * static_cast<double>(player->imagePeriodUs()));
     std::fflush(stdout);
   }
   lcm::LCM lcm(url);
@@ -254,7 +271,8 @@ int main(int argc, char** argv) {
   using Clock = std::chrono::steady_clock;
   auto next_counts = Clock::now();
   if (player) {
-    status = playLog(*player, lcm, listener_slot, listen, board, **server, stop, log_file, log_speed);
+    status =
+        playLog(*player, lcm, listener_slot, listen, board, **server, stop, log_file, log_speed);
     return finish(status);
   }
   viewer::LcmListener& listener = *listener_slot;
@@ -275,13 +293,14 @@ int main(int argc, char** argv) {
   status = finish(status);
   if (!quiet) {
     const viewer::WebServerCounts c = (*server)->counts();
-    std::printf("evermap-viewer: %s\ngraphs %lld\nlast_graph_nodes %lld\nimages_sent %lld\n"
-                "connections %lld\nrefused_connections %lld\ntexts_sent %lld\nversions_skipped %lld\n",
-                listener.inbox().summary().c_str(), static_cast<long long>(listener.state().graphs()),
-                static_cast<long long>(listener.state().lastGraph().nodes),
-                static_cast<long long>(listener.imagesSent()), static_cast<long long>(c.connections),
-                static_cast<long long>(c.refused), static_cast<long long>(c.texts_sent),
-                static_cast<long long>(c.versions_skipped));
+    std::printf(
+        "evermap-viewer: %s\ngraphs %lld\nlast_graph_nodes %lld\nimages_sent %lld\n"
+        "connections %lld\nrefused_connections %lld\ntexts_sent %lld\nversions_skipped %lld\n",
+        listener.inbox().summary().c_str(), static_cast<long long>(listener.state().graphs()),
+        static_cast<long long>(listener.state().lastGraph().nodes),
+        static_cast<long long>(listener.imagesSent()), static_cast<long long>(c.connections),
+        static_cast<long long>(c.refused), static_cast<long long>(c.texts_sent),
+        static_cast<long long>(c.versions_skipped));
   }
   return status;
 }

@@ -39,7 +39,8 @@ StoredGraph graphFromSnapshot(const mapper::MapSnapshot& snapshot) {
     if (c.kind == mapper::ConstraintKind::kLoop) m.type = map_edge_t::TYPE_LOOP;
   }
   for (auto& [key, e] : pairs) g.edges.push_back(e);
-  for (const auto& [index, height] : snapshot.floors) g.floors.push_back(map_floor_t{index, height});
+  for (const auto& [index, height] : snapshot.floors)
+    g.floors.push_back(map_floor_t{index, height});
   g.num_nodes = static_cast<int32_t>(g.nodes.size());
   g.num_edges = static_cast<int32_t>(g.edges.size());
   g.num_floors = static_cast<int32_t>(g.floors.size());

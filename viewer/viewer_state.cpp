@@ -27,36 +27,54 @@ bool finiteAll(const double* v, int n) {
 
 const char* registerStatusName(int s) {
   switch (s) {
-    case register_result_t::STATUS_OK: return "ok";
-    case register_result_t::STATUS_NO_CANDIDATE: return "no_candidate";
-    case register_result_t::STATUS_TOO_FEW_INLIERS: return "too_few_inliers";
-    case register_result_t::STATUS_UNKNOWN_NODE: return "unknown_node";
-    case register_result_t::STATUS_UNKNOWN_KEYFRAME: return "unknown_keyframe";
-    case register_result_t::STATUS_MALFORMED: return "malformed";
-    case register_result_t::STATUS_STALE: return "stale";
+    case register_result_t::STATUS_OK:
+      return "ok";
+    case register_result_t::STATUS_NO_CANDIDATE:
+      return "no_candidate";
+    case register_result_t::STATUS_TOO_FEW_INLIERS:
+      return "too_few_inliers";
+    case register_result_t::STATUS_UNKNOWN_NODE:
+      return "unknown_node";
+    case register_result_t::STATUS_UNKNOWN_KEYFRAME:
+      return "unknown_keyframe";
+    case register_result_t::STATUS_MALFORMED:
+      return "malformed";
+    case register_result_t::STATUS_STALE:
+      return "stale";
   }
   return "other";
 }
 
 const char* voStatusName(int s) {
   switch (s) {
-    case vo_delta_t::STATUS_OK: return "ok";
-    case vo_delta_t::STATUS_NO_DATA: return "no_data";
-    case vo_delta_t::STATUS_INSUFFICIENT_FEATURES: return "insufficient_features";
-    case vo_delta_t::STATUS_INSUFFICIENT_INLIERS: return "insufficient_inliers";
-    case vo_delta_t::STATUS_OPTIMIZATION_FAILURE: return "optimization_failure";
-    case vo_delta_t::STATUS_REPROJECTION_ERROR: return "reprojection_error";
-    case vo_delta_t::STATUS_BAD_INPUT: return "bad_input";
+    case vo_delta_t::STATUS_OK:
+      return "ok";
+    case vo_delta_t::STATUS_NO_DATA:
+      return "no_data";
+    case vo_delta_t::STATUS_INSUFFICIENT_FEATURES:
+      return "insufficient_features";
+    case vo_delta_t::STATUS_INSUFFICIENT_INLIERS:
+      return "insufficient_inliers";
+    case vo_delta_t::STATUS_OPTIMIZATION_FAILURE:
+      return "optimization_failure";
+    case vo_delta_t::STATUS_REPROJECTION_ERROR:
+      return "reprojection_error";
+    case vo_delta_t::STATUS_BAD_INPUT:
+      return "bad_input";
   }
   return "other";
 }
 
 const char* procStateName(int s) {
   switch (s) {
-    case deputy_proc_t::STATE_STOPPED: return "stopped";
-    case deputy_proc_t::STATE_RUNNING: return "running";
-    case deputy_proc_t::STATE_RESTARTING: return "restarting";
-    case deputy_proc_t::STATE_FAILED: return "failed";
+    case deputy_proc_t::STATE_STOPPED:
+      return "stopped";
+    case deputy_proc_t::STATE_RUNNING:
+      return "running";
+    case deputy_proc_t::STATE_RESTARTING:
+      return "restarting";
+    case deputy_proc_t::STATE_FAILED:
+      return "failed";
   }
   return "other";
 }
@@ -71,7 +89,8 @@ std::string clip(const std::string& s, size_t max = 200) {
 Status ViewerStateOptions::validate() const {
   if (history_points < 2) return makeError("history_points: must be >= 2, got ", history_points);
   if (max_hosts < 1) return makeError("max_hosts: must be >= 1, got ", max_hosts);
-  if (!(max_coordinate_m > 0.0)) return makeError("max_coordinate_m: must be > 0, got ", max_coordinate_m);
+  if (!(max_coordinate_m > 0.0))
+    return makeError("max_coordinate_m: must be > 0, got ", max_coordinate_m);
   if (max_features < 0) return makeError("max_features: must be >= 0, got ", max_features);
   return Ok{};
 }
@@ -88,14 +107,16 @@ Expected<std::string> graphText(const map_graph_t& g, const std::string& source,
       return makeError("MAP_GRAPH: node ", n.node_id, ": position is not finite");
     for (double v : n.position)
       if (std::abs(v) > o.max_coordinate_m)
-        return makeError("MAP_GRAPH: node ", n.node_id, ": position ", v, " m beyond ", o.max_coordinate_m, " m");
+        return makeError("MAP_GRAPH: node ", n.node_id, ": position ", v, " m beyond ",
+                         o.max_coordinate_m, " m");
     if (!index.emplace(n.node_id, static_cast<int64_t>(k)).second)
       return makeError("MAP_GRAPH: node id ", n.node_id, " appears twice");
     sessions.insert(n.session);
     floors.insert(n.floor);
   }
   for (const map_floor_t& f : g.floors)
-    if (!std::isfinite(f.height_m)) return makeError("MAP_GRAPH: floor ", f.index, ": height is not finite");
+    if (!std::isfinite(f.height_m))
+      return makeError("MAP_GRAPH: floor ", f.index, ": height is not finite");
 
   JsonWriter j;
   j.beginObject().key("type").value("graph").key("source").value(source);
@@ -161,7 +182,8 @@ Expected<std::string> graphText(const map_graph_t& g, const std::string& source,
   return j.take();
 }
 
-ViewerState::ViewerState(Board& board, const ViewerStateOptions& options) : board_(board), o_(options) {}
+ViewerState::ViewerState(Board& board, const ViewerStateOptions& options)
+    : board_(board), o_(options) {}
 
 Status ViewerState::onGraph(const map_graph_t& msg, const std::string& source) {
   GraphSummary s;
@@ -177,7 +199,8 @@ Status ViewerState::onPose(const pose_t& msg) {
   if (!finiteAll(msg.position, 3) || !finiteAll(msg.orientation, 4))
     return makeError("POSE ", msg.utime, ": position or orientation is not finite");
   for (double v : msg.position)
-    if (std::abs(v) > o_.max_coordinate_m) return makeError("POSE ", msg.utime, ": position ", v, " m is absurd");
+    if (std::abs(v) > o_.max_coordinate_m)
+      return makeError("POSE ", msg.utime, ": position ", v, " m is absurd");
   JsonWriter j;
   j.beginObject().key("type").value("pose").key("utime").value(msg.utime);
   j.key("xyz").beginArray();
@@ -209,12 +232,18 @@ Status ViewerState::onStats(const mapper_stats_t& msg) {
     return makeError("MAPPER_STATS ", msg.utime, ": ", msg.component_names.size(), " names for ",
                      msg.component_ms.size(), " times");
   if (msg.counter_values.size() != msg.counter_names.size())
-    return makeError("MAPPER_STATS ", msg.utime, ": ", msg.counter_names.size(), " counter names for ",
-                     msg.counter_values.size(), " values");
+    return makeError("MAPPER_STATS ", msg.utime, ": ", msg.counter_names.size(),
+                     " counter names for ", msg.counter_values.size(), " values");
   JsonWriter j;
   j.beginObject().key("type").value("stats").key("utime").value(msg.utime);
-  j.key("nodes").value(static_cast<int64_t>(msg.num_nodes)).key("edges").value(static_cast<int64_t>(msg.num_edges));
-  j.key("floors").value(static_cast<int64_t>(msg.num_floors)).key("sessions").value(static_cast<int64_t>(msg.num_sessions));
+  j.key("nodes")
+      .value(static_cast<int64_t>(msg.num_nodes))
+      .key("edges")
+      .value(static_cast<int64_t>(msg.num_edges));
+  j.key("floors")
+      .value(static_cast<int64_t>(msg.num_floors))
+      .key("sessions")
+      .value(static_cast<int64_t>(msg.num_sessions));
   j.key("constraints").value(msg.num_constraints).key("rejected").value(msg.num_rejected);
   j.key("dropped").value(msg.num_dropped_messages);
   j.key("components").beginArray();
@@ -260,7 +289,8 @@ void ViewerState::postHistory() {
   std::vector<std::string> names;
   for (const HistoryPoint& p : history_)
     for (const auto& [name, ms] : p.component_ms)
-      if (std::find(names.begin(), names.end(), name) == names.end() && names.size() < 16) names.push_back(name);
+      if (std::find(names.begin(), names.end(), name) == names.end() && names.size() < 16)
+        names.push_back(name);
   j.key("components").beginObject();
   for (const std::string& name : names) {
     j.key(name).beginArray();
@@ -287,7 +317,8 @@ Status ViewerState::onRegister(const register_result_t& msg) {
     j.key(registerStatusName(status)).value(n);
   }
   j.endObject().key("ok").value(ok).key("failed").value(failed);
-  j.key("last").beginObject().key("utime").value(msg.utime).key("status").value(registerStatusName(msg.status));
+  j.key("last").beginObject().key("utime").value(msg.utime).key("status").value(
+      registerStatusName(msg.status));
   j.key("node_id").value(msg.node_id).key("inliers").value(static_cast<int64_t>(msg.num_inliers));
   j.key("score").value(msg.score, 3).key("reason").value(clip(msg.reason)).endObject().endObject();
   board_.post(Topic::kRegister, j.take());
@@ -302,8 +333,14 @@ Status ViewerState::onDeputy(const deputy_status_t& msg) {
   h.beginObject().key("host").value(host).key("utime").value(msg.utime).key("procs").beginArray();
   for (const deputy_proc_t& p : msg.procs) {
     h.beginObject().key("name").value(clip(p.name, 64)).key("group").value(clip(p.group, 64));
-    h.key("state").value(procStateName(p.state)).key("desired_running").value(p.desired_running != 0);
-    h.key("pid").value(static_cast<int64_t>(p.pid)).key("restarts").value(static_cast<int64_t>(p.restarts));
+    h.key("state")
+        .value(procStateName(p.state))
+        .key("desired_running")
+        .value(p.desired_running != 0);
+    h.key("pid")
+        .value(static_cast<int64_t>(p.pid))
+        .key("restarts")
+        .value(static_cast<int64_t>(p.restarts));
     h.key("last_exit_code").value(static_cast<int64_t>(p.last_exit_code));
     h.key("cpu_percent").value(p.cpu_percent, 1).key("rss_bytes").value(p.rss_bytes).endObject();
   }
@@ -324,7 +361,10 @@ Status ViewerState::onDeputy(const deputy_status_t& msg) {
 Status ViewerState::onVo(const vo_delta_t& msg) {
   JsonWriter j;
   j.beginObject().key("type").value("vo").key("utime").value(msg.utime);
-  j.key("status").value(voStatusName(msg.status)).key("keyframe_changed").value(msg.keyframe_changed != 0);
+  j.key("status")
+      .value(voStatusName(msg.status))
+      .key("keyframe_changed")
+      .value(msg.keyframe_changed != 0);
   j.key("features").value(static_cast<int64_t>(msg.num_features));
   j.key("matches").value(static_cast<int64_t>(msg.num_matches));
   j.key("inliers").value(static_cast<int64_t>(msg.num_inliers)).endObject();
@@ -334,8 +374,8 @@ Status ViewerState::onVo(const vo_delta_t& msg) {
 
 Status ViewerState::onKeyframe(const keyframe_t& msg) {
   if (msg.keypoints.size() != static_cast<size_t>(std::max(0, msg.num_features)))
-    return makeError("KEYFRAME ", msg.utime, ": ", msg.keypoints.size(), " keypoints for num_features ",
-                     msg.num_features);
+    return makeError("KEYFRAME ", msg.utime, ": ", msg.keypoints.size(),
+                     " keypoints for num_features ", msg.num_features);
   JsonWriter j;
   j.beginArray();
   const size_t n = std::min(msg.keypoints.size(), static_cast<size_t>(o_.max_features));

@@ -50,9 +50,9 @@ struct ViewerStateOptions {
 // Errors: a non-finite or absurd position, a duplicate node id.
 struct GraphSummary {
   int64_t nodes = 0, edges = 0, floors = 0, sessions = 0;
-  int64_t loop_edges = 0;       // edges of TYPE_LOOP
-  int64_t closures = 0;         // accepted loop constraints (num_measurements of loop edges)
-  int64_t edges_skipped = 0;    // edges naming a node the graph does not hold
+  int64_t loop_edges = 0;     // edges of TYPE_LOOP
+  int64_t closures = 0;       // accepted loop constraints (num_measurements of loop edges)
+  int64_t edges_skipped = 0;  // edges naming a node the graph does not hold
 };
 Expected<std::string> graphText(const map_graph_t& g, const std::string& source,
                                 const ViewerStateOptions& options, GraphSummary* summary = nullptr);
@@ -92,7 +92,7 @@ class ViewerState {
     std::vector<std::pair<std::string, double>> component_ms;
   };
   std::vector<HistoryPoint> history_;
-  int64_t history_stride_ = 1;   // keep one MAPPER_STATS in this many (doubles when full)
+  int64_t history_stride_ = 1;  // keep one MAPPER_STATS in this many (doubles when full)
   int64_t history_seen_ = 0;
   // REGISTER_RESULT counts by status.
   std::map<int, int64_t> register_counts_;

@@ -22,9 +22,9 @@ struct ServerTables {
 struct WebServer::Client {
   Board::Seen seen{};
   int last_topic = -1;
-  Board::Text text;   // being sent
-  size_t offset = 0;  // bytes of `text` sent
-  int credit = 0;     // texts it may still be sent before it acknowledges one
+  Board::Text text;                   // being sent
+  size_t offset = 0;                  // bytes of `text` sent
+  int credit = 0;                     // texts it may still be sent before it acknowledges one
   std::vector<unsigned char> buffer;  // LWS_PRE + one fragment
 };
 
@@ -48,7 +48,8 @@ Status WebServerOptions::validate() const {
   if (port < 0 || port > 65535) return makeError("port: must be in [0, 65535], got ", port);
   if (bind.empty()) return makeError("bind: an address is needed (e.g. 127.0.0.1)");
   if (max_clients < 1) return makeError("max_clients: must be >= 1, got ", max_clients);
-  if (fragment_bytes < 1024) return makeError("fragment_bytes: must be >= 1024, got ", fragment_bytes);
+  if (fragment_bytes < 1024)
+    return makeError("fragment_bytes: must be >= 1024, got ", fragment_bytes);
   if (stall_timeout_s < 1) return makeError("stall_timeout_s: must be >= 1, got ", stall_timeout_s);
   if (max_in_flight < 1) return makeError("max_in_flight: must be >= 1, got ", max_in_flight);
   if (!std::filesystem::is_regular_file(web_dir / "index.html"))
@@ -59,7 +60,8 @@ Status WebServerOptions::validate() const {
 WebServer::WebServer(Board& board, const WebServerOptions& options)
     : board_(board), o_(options), tables_(std::make_unique<ServerTables>()) {}
 
-Expected<std::unique_ptr<WebServer>> WebServer::start(Board& board, const WebServerOptions& options) {
+Expected<std::unique_ptr<WebServer>> WebServer::start(Board& board,
+                                                      const WebServerOptions& options) {
   if (Status s = options.validate(); !s) return s.error();
   std::unique_ptr<WebServer> server(new WebServer(board, options));
   WebServer& w = *server;
@@ -194,7 +196,8 @@ int WebServer::write(lws* wsi, Client& c) {
   const bool last = c.offset + n == text.size();
   std::memcpy(c.buffer.data() + LWS_PRE, text.data() + c.offset, n);
   const int flags = lws_write_ws_flags(LWS_WRITE_TEXT, first, last);
-  const int written = lws_write(wsi, c.buffer.data() + LWS_PRE, n, static_cast<lws_write_protocol>(flags));
+  const int written =
+      lws_write(wsi, c.buffer.data() + LWS_PRE, n, static_cast<lws_write_protocol>(flags));
   if (written < static_cast<int>(n)) return -1;  // the connection failed: close it
   bytes_sent_ += static_cast<int64_t>(n);
   c.offset += n;
@@ -236,7 +239,11 @@ std::string WebServer::countsJson() const {
   JsonWriter j;
   j.beginObject().key("clients").value(c.clients).key("connections").value(c.connections);
   j.key("refused").value(c.refused).key("texts_sent").value(c.texts_sent);
-  j.key("bytes_sent").value(c.bytes_sent).key("versions_skipped").value(c.versions_skipped).endObject();
+  j.key("bytes_sent")
+      .value(c.bytes_sent)
+      .key("versions_skipped")
+      .value(c.versions_skipped)
+      .endObject();
   return j.take();
 }
 

@@ -56,10 +56,10 @@ struct WebServerOptions {
 };
 
 struct WebServerCounts {
-  int64_t clients = 0;         // connected now
-  int64_t connections = 0;     // accepted since start
-  int64_t refused = 0;         // beyond max_clients
-  int64_t texts_sent = 0;      // complete texts sent
+  int64_t clients = 0;      // connected now
+  int64_t connections = 0;  // accepted since start
+  int64_t refused = 0;      // beyond max_clients
+  int64_t texts_sent = 0;   // complete texts sent
   int64_t bytes_sent = 0;
   int64_t versions_skipped = 0;  // newer versions a slow client never got
 };

@@ -90,7 +90,8 @@ int main(int argc, char** argv) {
       char* end = nullptr;
       const long n = std::strtol(v, &end, 10);
       if (end == v || *end != '\0' || n < 1 || n > 1000) {
-        std::fprintf(stderr, "evermap-vo-proc: --queue: expected an integer in [1, 1000], got \"%s\"\n", v);
+        std::fprintf(stderr,
+                     "evermap-vo-proc: --queue: expected an integer in [1, 1000], got \"%s\"\n", v);
         return 2;
       }
       queue_size = static_cast<size_t>(n);
@@ -99,7 +100,9 @@ int main(int argc, char** argv) {
       char* end = nullptr;
       time_window_s = std::strtod(v, &end);
       if (end == v || *end != '\0' || !std::isfinite(time_window_s) || time_window_s < 0) {
-        std::fprintf(stderr, "evermap-vo-proc: --time-window-s: expected a finite number >= 0, got \"%s\"\n", v);
+        std::fprintf(
+            stderr, "evermap-vo-proc: --time-window-s: expected a finite number >= 0, got \"%s\"\n",
+            v);
         return 2;
       }
     } else if (a == "--no-descriptors") {
@@ -133,7 +136,8 @@ int main(int argc, char** argv) {
                  url.empty() ? "default URL" : url.c_str());
     return 1;
   }
-  evermap::StopSignals stop;  // SIGINT/SIGTERM; blocked before the worker starts, so it inherits that
+  evermap::StopSignals
+      stop;  // SIGINT/SIGTERM; blocked before the worker starts, so it inherits that
 
   evermap::vo::BoundedQueue<QueuedFrame> queue(queue_size);
   Shared shared;
@@ -145,9 +149,11 @@ int main(int argc, char** argv) {
   input.time.window_s = time_window_s;
   evermap::messages::Inbox inbox(lcm, input);
   inbox.subscribeBytes<evermap::stereo_image_t>(
-      evermap::channels::kStereo, [&](const void* d, int64_t n) { return receiver.onFrame(false, d, n); });
+      evermap::channels::kStereo,
+      [&](const void* d, int64_t n) { return receiver.onFrame(false, d, n); });
   inbox.subscribeBytes<evermap::rgbd_image_t>(
-      evermap::channels::kRgbd, [&](const void* d, int64_t n) { return receiver.onFrame(true, d, n); });
+      evermap::channels::kRgbd,
+      [&](const void* d, int64_t n) { return receiver.onFrame(true, d, n); });
   inbox.subscribeBytes<evermap::stereo_calib_t>(
       evermap::channels::kStereoCalib,
       [&](const void* d, int64_t n) { return receiver.onCalibration(d, n); }, 8);
@@ -172,22 +178,25 @@ int main(int argc, char** argv) {
         }
       }
       const Bytes& bytes = frame->bytes;
-      auto out = frame->rgbd
-                     ? pipeline->handleRgbdBytes(bytes.data(), static_cast<int64_t>(bytes.size()))
-                     : pipeline->handleStereoBytes(bytes.data(), static_cast<int64_t>(bytes.size()));
+      auto out =
+          frame->rgbd
+              ? pipeline->handleRgbdBytes(bytes.data(), static_cast<int64_t>(bytes.size()))
+              : pipeline->handleStereoBytes(bytes.data(), static_cast<int64_t>(bytes.size()));
       if (!out) {
         std::fprintf(stderr, "evermap-vo-proc: dropped: %s\n", out.error().message.c_str());
         continue;
       }
-      // Bad input is counted in the pipeline's stats; a flood of it gets 20 lines, then one in 1000.
+      // Bad input is counted in the pipeline's stats; a flood of it gets 20 lines, then one in
+      // 1000.
       const bool bad = out->result.status == evermap::vo::VoStatus::kBadInput;
       if (bad) ++bad_frames;
       if (out->result.status != evermap::vo::VoStatus::kOk &&
           (!bad || bad_frames <= 20 || bad_frames % 1000 == 0)) {
-        std::fprintf(stderr, "evermap-vo-proc: %lld %s: %s%s\n",
-                     static_cast<long long>(out->result.utime),
-                     evermap::vo::toString(out->result.status), out->result.message.c_str(),
-                     bad && bad_frames > 20 ? (" (" + std::to_string(bad_frames) + " bad frames)").c_str() : "");
+        std::fprintf(
+            stderr, "evermap-vo-proc: %lld %s: %s%s\n", static_cast<long long>(out->result.utime),
+            evermap::vo::toString(out->result.status), out->result.message.c_str(),
+            bad && bad_frames > 20 ? (" (" + std::to_string(bad_frames) + " bad frames)").c_str()
+                                   : "");
       }
       lcm.publish(evermap::channels::kVoDelta, &out->delta);
       if (out->keyframe) lcm.publish(evermap::channels::kKeyframe, &*out->keyframe);

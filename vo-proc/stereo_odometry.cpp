@@ -12,13 +12,20 @@ using core::SE3d;
 
 const char* toString(VoStatus status) {
   switch (status) {
-    case VoStatus::kOk: return "ok";
-    case VoStatus::kNoData: return "no data";
-    case VoStatus::kInsufficientFeatures: return "insufficient features";
-    case VoStatus::kInsufficientInliers: return "insufficient inliers";
-    case VoStatus::kOptimizationFailure: return "optimization failure";
-    case VoStatus::kReprojectionError: return "reprojection error";
-    case VoStatus::kBadInput: return "bad input";
+    case VoStatus::kOk:
+      return "ok";
+    case VoStatus::kNoData:
+      return "no data";
+    case VoStatus::kInsufficientFeatures:
+      return "insufficient features";
+    case VoStatus::kInsufficientInliers:
+      return "insufficient inliers";
+    case VoStatus::kOptimizationFailure:
+      return "optimization failure";
+    case VoStatus::kReprojectionError:
+      return "reprojection error";
+    case VoStatus::kBadInput:
+      return "bad input";
   }
   return "?";
 }
@@ -84,22 +91,20 @@ Status OdometryOptions::validate() const {
 
 std::string OdometryOptions::describe() const {
   std::ostringstream s;
-  s << "levels " << features.feature_levels << " (pyramid " << features.pyramid_levels
-    << "), FAST " << features.fast.describe() << ", stereo window "
-    << 2 * features.stereo.window_radius_px + 1 << " px max disparity "
-    << features.stereo.max_disparity_px << " px, search radius " << matching.search_radius_px
-    << " px, clique " << registration.clique.threshold_m << " m, inlier error "
-    << registration.motion.inlier_max_reprojection_px << " px, min features "
+  s << "levels " << features.feature_levels << " (pyramid " << features.pyramid_levels << "), FAST "
+    << features.fast.describe() << ", stereo window " << 2 * features.stereo.window_radius_px + 1
+    << " px max disparity " << features.stereo.max_disparity_px << " px, search radius "
+    << matching.search_radius_px << " px, clique " << registration.clique.threshold_m
+    << " m, inlier error " << registration.motion.inlier_max_reprojection_px << " px, min features "
     << registration.min_features << ", min inliers " << registration.min_inliers
     << ", keyframe below " << keyframe_inlier_threshold << " inliers or "
     << keyframe_inlier_fraction << " of the first, keyframe after " << keyframe_min_translation_m
     << " m or " << keyframe_min_rotation_rad << " rad, rotation estimate "
     << (estimate_rotation ? "on" : "off") << ", constant velocity "
     << (constant_velocity ? "on" : "off") << ", retry previous frame "
-    << (retry_previous_frame ? "on" : "off") << ", bridge breaks "
-    << (bridge_breaks ? "on" : "off") << " (" << bridge.translation_sigma_m << " m, "
-    << bridge.rotation_sigma_rad << " rad + " << bridge.velocity_fraction
-    << " of the motion per frame)";
+    << (retry_previous_frame ? "on" : "off") << ", bridge breaks " << (bridge_breaks ? "on" : "off")
+    << " (" << bridge.translation_sigma_m << " m, " << bridge.rotation_sigma_rad << " rad + "
+    << bridge.velocity_fraction << " of the motion per frame)";
   return s.str();
 }
 
@@ -187,8 +192,7 @@ core::RegistrationSummary StereoOdometry::registerTo(const core::FeatureFrame& f
     matches.push_back({a.uv.cast<double>(), a.point, m.uv.cast<double>(), *p_b});
     ids.emplace_back(m.ref, m.cur);
   }
-  return core::registerMatches(camera_, camera_, matches, ids, from_T_pred,
-                               options_.registration);
+  return core::registerMatches(camera_, camera_, matches, ids, from_T_pred, options_.registration);
 }
 
 core::Mat6 StereoOdometry::priorCovariance(const SE3d& prev_T_cur, int frames) const {
@@ -206,15 +210,17 @@ void StereoOdometry::bridge(const SE3d& ref_T_pred, FrameResult* r) {
   // over the frames since; the prior's variance grows with their number.
   const SE3d good_T_pred = ref_T_good_.inverse() * ref_T_pred;
   const SE3d per_frame = has_motion_ ? prev_T_cur_motion_ : SE3d();
-  const core::UncertainPose bridged = core::compound(
-      {ref_T_good_, ref_T_good_cov_}, {good_T_pred, priorCovariance(per_frame, frames_since_good_)});
+  const core::UncertainPose bridged =
+      core::compound({ref_T_good_, ref_T_good_cov_},
+                     {good_T_pred, priorCovariance(per_frame, frames_since_good_)});
   const core::UncertainPose kf_T_cur = core::compound(kf_T_ref_, bridged);
   r->status = VoStatus::kOk;
   r->bridged = true;
   r->ref_T_cur = kf_T_cur.mean;
   r->covariance = kf_T_cur.covariance;
-  r->message = makeError("bridged by the motion prior over ", frames_since_good_,
-                         " frames (", r->failure_kind, ": ", r->message, ")").message;
+  r->message = makeError("bridged by the motion prior over ", frames_since_good_, " frames (",
+                         r->failure_kind, ": ", r->message, ")")
+                   .message;
   makeCurrentTheReference(r);
 }
 
@@ -225,11 +231,16 @@ const char* failureKind(const core::RegistrationSummary& reg, int min_inliers) {
     case core::RegistrationStatus::kInsufficientInliers:
       return reg.num_clique < min_inliers ? "too few consistent matches"
                                           : "too few inliers after outlier rejection";
-    case core::RegistrationStatus::kReprojectionError: return "reprojection error";
-    case core::RegistrationStatus::kOptimizationFailure: return "optimization failure";
-    case core::RegistrationStatus::kInsufficientFeatures: return "too few features";
-    case core::RegistrationStatus::kBadInput: return "bad input";
-    case core::RegistrationStatus::kOk: return "";
+    case core::RegistrationStatus::kReprojectionError:
+      return "reprojection error";
+    case core::RegistrationStatus::kOptimizationFailure:
+      return "optimization failure";
+    case core::RegistrationStatus::kInsufficientFeatures:
+      return "too few features";
+    case core::RegistrationStatus::kBadInput:
+      return "bad input";
+    case core::RegistrationStatus::kOk:
+      return "";
   }
   return "?";
 }
@@ -237,15 +248,18 @@ const char* failureKind(const core::RegistrationSummary& reg, int min_inliers) {
 }  // namespace
 
 FrameResult StereoOdometry::process(int64_t utime, const cv::Mat& left, const cv::Mat& right) {
-  return track(utime, [&] { return extractor_.extract(camera_, utime, left, right, cur_.get()); },
-               nullptr);
+  return track(
+      utime, [&] { return extractor_.extract(camera_, utime, left, right, cur_.get()); }, nullptr);
 }
 
 FrameResult StereoOdometry::processRgbd(int64_t utime, const cv::Mat& gray, const cv::Mat& depth,
                                         double depth_scale_m) {
-  return track(utime, [&] {
-    return extractor_.extractRgbd(camera_, utime, gray, depth, depth_scale_m, cur_.get());
-  }, &depth);
+  return track(
+      utime,
+      [&] {
+        return extractor_.extractRgbd(camera_, utime, gray, depth, depth_scale_m, cur_.get());
+      },
+      &depth);
 }
 
 FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& extract,
@@ -287,7 +301,8 @@ FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& 
     r.failure_kind = "too few features";
     r.message = makeError(r.num_features, " features with depth (", r.num_corners,
                           " corners at FAST threshold ", fastThreshold(), "), need ",
-                          options_.registration.min_features).message;
+                          options_.registration.min_features)
+                    .message;
     if (depth != nullptr && !depth->empty() && cv::countNonZero(*depth) == 0) {
       r.message += ": the depth image is all zero (no pixel has a depth)";
     }
@@ -335,8 +350,8 @@ FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& 
           core::compound({ref_T_good_, ref_T_good_cov_}, {again.a_T_b, again.covariance});
       r.via_previous = true;
       r.message = "registered to the previous frame " + std::to_string(prev_->utime) +
-                  " after failing against the reference (" + failureKind(reg, options_.registration.min_inliers) +
-                  ": " + reg.message + ")";
+                  " after failing against the reference (" +
+                  failureKind(reg, options_.registration.min_inliers) + ": " + reg.message + ")";
       reg = again;
       ref_T_cur = chained.mean;
       covariance = chained.covariance;

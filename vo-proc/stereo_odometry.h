@@ -79,7 +79,7 @@ enum class VoStatus : int8_t {
   kInsufficientInliers = 3,   // occlusion, fast motion
   kOptimizationFailure = 4,
   kReprojectionError = 5,
-  kBadInput = 6,              // wrong size, empty image, no valid calibration
+  kBadInput = 6,  // wrong size, empty image, no valid calibration
 };
 const char* toString(VoStatus status);
 
@@ -134,13 +134,13 @@ struct FrameResult {
   int64_t utime = 0;
   int64_t ref_utime = 0;  // the keyframe the motion is relative to
   VoStatus status = VoStatus::kBadInput;
-  std::string message;    // one line; why, when status is not kOk
+  std::string message;            // one line; why, when status is not kOk
   bool keyframe_changed = false;  // this frame is now the reference keyframe
   // From the keyframe ref_utime to this frame: valid when status is kOk (identity for kNoData).
   core::SE3d ref_T_cur;
   core::Mat6 covariance = core::Mat6::Zero();  // right tangent (υ, ω) at ref_T_cur
-  int num_corners = 0;   // FAST corners detected
-  int num_features = 0;  // with a depth
+  int num_corners = 0;                         // FAST corners detected
+  int num_features = 0;                        // with a depth
   int num_matches = 0;
   int num_inliers = 0;
   double mean_reprojection_px = 0.0;
@@ -201,7 +201,8 @@ class StereoOdometry {
   bool farEnoughForAKeyframe(const core::SE3d& kf_T_cur) const;
   // Matches `from` into the current frame in windows around the prediction from_T_pred
   // (from_T_cur) and registers: a = from, b = current.
-  core::RegistrationSummary registerTo(const core::FeatureFrame& from, const core::SE3d& from_T_pred) const;
+  core::RegistrationSummary registerTo(const core::FeatureFrame& from,
+                                       const core::SE3d& from_T_pred) const;
   // The motion prior's covariance over `frames` predicted frames of `prev_T_cur`.
   core::Mat6 priorCovariance(const core::SE3d& prev_T_cur, int frames) const;
   // Bridges the break at the current frame by ref_T_pred (see the class comment).

@@ -148,7 +148,9 @@ PipelineOutput VoPipeline::badInput(int64_t utime, const std::string& why) {
 
 PipelineOutput VoPipeline::handleStereo(const evermap::stereo_image_t& msg) {
   if (!odometry_) return badInput(msg.utime, no_camera_reason_);
-  if (!calibration_) return badInput(msg.utime, "STEREO: the camera is RGB-D (from RGBD frames), no stereo calibration");
+  if (!calibration_)
+    return badInput(msg.utime,
+                    "STEREO: the camera is RGB-D (from RGBD frames), no stereo calibration");
   // Before decoding: a PNG may claim up to kMaxImageSide^2 pixels (268 MB) in a few bytes;
   // only the calibrated camera's size is worth decompressing.
   const core::CameraCalibration& cam = calibration_->left;
@@ -162,10 +164,12 @@ PipelineOutput VoPipeline::handleStereo(const evermap::stereo_image_t& msg) {
   return handleFrame(msg.utime, messages::fromMsg(msg));
 }
 
-PipelineOutput VoPipeline::handleFrame(int64_t utime, const Expected<messages::StereoFrame>& frame) {
+PipelineOutput VoPipeline::handleFrame(int64_t utime,
+                                       const Expected<messages::StereoFrame>& frame) {
   if (!odometry_) return badInput(utime, no_camera_reason_);
   if (!frame) return badInput(utime, "STEREO: " + frame.error().message);
-  if (!calibration_) return badInput(utime, "STEREO: the camera is RGB-D (from RGBD frames), no stereo calibration");
+  if (!calibration_)
+    return badInput(utime, "STEREO: the camera is RGB-D (from RGBD frames), no stereo calibration");
   if (frame->rectified != calibration_->rectified) {
     return badInput(utime, frame->rectified
                                ? "STEREO: a rectified pair but the calibration is raw"

@@ -64,9 +64,9 @@ struct PipelineStats {
   int64_t frames = 0;
   std::array<int64_t, 7> by_status{};  // indexed by VoStatus
   int64_t keyframes = 0;
-  int64_t calibrations = 0;           // accepted
+  int64_t calibrations = 0;  // accepted
   int64_t calibrations_refused = 0;
-  int64_t undecodable = 0;            // messages that could not be decoded at all
+  int64_t undecodable = 0;  // messages that could not be decoded at all
 
   std::string report() const;
 };
@@ -119,8 +119,8 @@ class VoPipeline {
   std::optional<core::StereoCalibration> calibration_;  // as received
   std::optional<core::StereoRectifier> rectifier_;      // raw calibrations only
   std::optional<StereoOdometry> odometry_;
-  std::optional<core::RgbdCamera> rgbd_;                // RGB-D mode only
-  cv::Mat rgbd_gray_, rgbd_depth_;                      // undistorted buffers
+  std::optional<core::RgbdCamera> rgbd_;  // RGB-D mode only
+  cv::Mat rgbd_gray_, rgbd_depth_;        // undistorted buffers
   std::string no_camera_reason_ = "no calibration received yet (STEREO_CALIB)";
   core::SE3d body_T_cam_;
   // Stamps every VO_DELTA with its pose in the odometry frame (odom_*): a new camera restarts

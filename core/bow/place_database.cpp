@@ -68,8 +68,10 @@ Expected<std::vector<PlaceMatch>> PlaceDatabase::query(const BowVector& bow,
                                                        const PlaceQuery& q) const {
   if (std::string why = q.validate(); !why.empty()) return makeError("place query: ", why);
   if (!isWellFormed(bow) || (!bow.empty() && bow.back().word >= num_words_)) {
-    return makeError("place query: bag-of-words vector is ill formed or not of this "
-                     "vocabulary (", num_words_, " words)");
+    return makeError(
+        "place query: bag-of-words vector is ill formed or not of this "
+        "vocabulary (",
+        num_words_, " words)");
   }
   std::vector<float> score(places_.size(), 0.0f);
   if (q.floor) {

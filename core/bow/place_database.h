@@ -92,8 +92,7 @@ class PlaceDatabase {
   struct FloorIndex {
     std::unordered_map<uint32_t, std::vector<Posting>> postings;
   };
-  void accumulate(const FloorIndex& index, const BowVector& bow,
-                  std::vector<float>& score) const;
+  void accumulate(const FloorIndex& index, const BowVector& bow, std::vector<float>& score) const;
 
   size_t num_words_;
   uint64_t fingerprint_;

@@ -14,7 +14,9 @@ namespace {
 // A prepared statement that finalizes itself.
 class Statement {
  public:
-  Statement(sqlite3* db, const char* sql) { rc_ = sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr); }
+  Statement(sqlite3* db, const char* sql) {
+    rc_ = sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr);
+  }
   ~Statement() { sqlite3_finalize(stmt_); }
   Statement(const Statement&) = delete;
   Statement& operator=(const Statement&) = delete;
@@ -82,8 +84,7 @@ Expected<BowVector> decodeBowVector(std::span<const uint8_t> blob, size_t num_wo
   }
   if (!isWellFormed(v)) return makeError("BoW blob is not sorted or has a bad weight");
   if (!v.empty() && v.back().word >= num_words) {
-    return makeError("BoW blob holds word ", v.back().word, " but the vocabulary has ",
-                     num_words);
+    return makeError("BoW blob holds word ", v.back().word, " but the vocabulary has ", num_words);
   }
   return v;
 }
@@ -93,7 +94,9 @@ PlaceStore::PlaceStore(sqlite3* db, std::filesystem::path file, uint64_t fingerp
     : db_(db), file_(std::move(file)), fingerprint_(fingerprint), num_words_(num_words) {}
 
 PlaceStore::PlaceStore(PlaceStore&& o) noexcept
-    : db_(o.db_), file_(std::move(o.file_)), fingerprint_(o.fingerprint_),
+    : db_(o.db_),
+      file_(std::move(o.file_)),
+      fingerprint_(o.fingerprint_),
       num_words_(o.num_words_) {
   o.db_ = nullptr;
 }
@@ -125,8 +128,8 @@ Status PlaceStore::exec(const char* sql) const {
 Expected<PlaceStore> PlaceStore::open(const std::filesystem::path& file, uint64_t fingerprint,
                                       size_t num_words) {
   sqlite3* raw = nullptr;
-  const int rc = sqlite3_open_v2(file.c_str(), &raw,
-                                 SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
+  const int rc =
+      sqlite3_open_v2(file.c_str(), &raw, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
   PlaceStore store(raw, file, fingerprint, num_words);  // closes `raw` on every return below
   if (rc != SQLITE_OK) return sqlError(file, raw, "cannot open");
   sqlite3_busy_timeout(raw, 5000);  // another process of the map may hold the write lock
@@ -187,9 +190,8 @@ Expected<PlaceStore> PlaceStore::open(const std::filesystem::path& file, uint64_
     }
   } else {
     if (stored_version != std::to_string(kPlaceStoreSchemaVersion)) {
-      return rollback(makeError(file.string(), ": place tables of schema version ",
-                                stored_version, ", this build reads version ",
-                                kPlaceStoreSchemaVersion));
+      return rollback(makeError(file.string(), ": place tables of schema version ", stored_version,
+                                ", this build reads version ", kPlaceStoreSchemaVersion));
     }
     if (stored_fingerprint != hex16(fingerprint) || stored_words != std::to_string(num_words)) {
       return rollback(makeError(file.string(), ": places were made with vocabulary ",
@@ -209,8 +211,9 @@ Status PlaceStore::savePlaces(std::span<const Place> batch) {
     }
   }
   if (Status s = exec("BEGIN IMMEDIATE"); !s) return s;
-  Statement ins(db_, "INSERT OR REPLACE INTO bow_places (place_id, floor, utime, words) "
-                     "VALUES (?1, ?2, ?3, ?4)");
+  Statement ins(db_,
+                "INSERT OR REPLACE INTO bow_places (place_id, floor, utime, words) "
+                "VALUES (?1, ?2, ?3, ?4)");
   if (!ins.ok()) {
     Error e = sqlError(file_, db_, "cannot prepare the place insert");
     (void)exec("ROLLBACK");
@@ -258,7 +261,8 @@ Expected<PlaceDatabase> PlaceStore::loadDatabase() const {
   if (!places) return places.error();
   PlaceDatabase db(num_words_, fingerprint_);
   for (Place& p : *places) {
-    if (Status s = db.insert(std::move(p)); !s) return makeError(file_.string(), ": ", s.error().message);
+    if (Status s = db.insert(std::move(p)); !s)
+      return makeError(file_.string(), ": ", s.error().message);
   }
   return db;
 }
@@ -319,7 +323,8 @@ Expected<std::vector<int64_t>> PlaceStore::keyframeUtimes() const {
   if (!q.ok()) return sqlError(file_, db_, "cannot read keyframes");
   std::vector<int64_t> out;
   int rc;
-  while ((rc = sqlite3_step(q.get())) == SQLITE_ROW) out.push_back(sqlite3_column_int64(q.get(), 0));
+  while ((rc = sqlite3_step(q.get())) == SQLITE_ROW)
+    out.push_back(sqlite3_column_int64(q.get(), 0));
   if (rc != SQLITE_DONE) return sqlError(file_, db_, "cannot read keyframes");
   return out;
 }

@@ -18,8 +18,8 @@ constexpr int kMaxLevels = 32;
 Expected<Vocabulary> Vocabulary::create(int branching, int levels, std::vector<NodeSpec> nodes,
                                         const std::string& what) {
   if (branching < 2 || branching > kMaxBranching) {
-    return makeError(what, ": branching factor k = ", branching, " is outside [2, ",
-                     kMaxBranching, "]");
+    return makeError(what, ": branching factor k = ", branching, " is outside [2, ", kMaxBranching,
+                     "]");
   }
   if (levels < 1 || levels > kMaxLevels) {
     return makeError(what, ": depth L = ", levels, " is outside [1, ", kMaxLevels, "]");
@@ -81,8 +81,8 @@ Expected<Vocabulary> Vocabulary::create(int branching, int levels, std::vector<N
     const int64_t w = nodes[i].word;
     if (w < 0) continue;
     if (w >= static_cast<int64_t>(num_words)) {
-      return makeError(what, ": node ", i, " has word id ", w, " but there are only ",
-                       num_words, " words (ids must be 0..", num_words - 1, ")");
+      return makeError(what, ": node ", i, " has word id ", w, " but there are only ", num_words,
+                       " words (ids must be 0..", num_words - 1, ")");
     }
     if (node_of_word[static_cast<size_t>(w)] != kNoParent) {
       return makeError(what, ": word id ", w, " is used by two nodes");
@@ -167,7 +167,7 @@ BowVector Vocabulary::transform(std::span<const Descriptor> descriptors) const {
 
 void Vocabulary::transform(std::span<const Descriptor> descriptors, int direct_index_depth,
                            BowVector* bow, FeatureVector* direct) const {
-  std::vector<std::pair<uint32_t, uint32_t>> words;  // (word, feature)
+  std::vector<std::pair<uint32_t, uint32_t>> words;   // (word, feature)
   std::vector<std::pair<uint32_t, uint32_t>> groups;  // (node at depth, feature)
   words.reserve(descriptors.size());
   if (direct) groups.reserve(descriptors.size());

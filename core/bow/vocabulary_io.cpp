@@ -25,12 +25,14 @@ void putU64(std::string& out, uint64_t v) {
 }
 uint32_t getU32(const std::string& in, size_t at) {
   uint32_t v = 0;
-  for (int i = 0; i < 4; ++i) v |= static_cast<uint32_t>(static_cast<uint8_t>(in[at + i])) << (8 * i);
+  for (int i = 0; i < 4; ++i)
+    v |= static_cast<uint32_t>(static_cast<uint8_t>(in[at + i])) << (8 * i);
   return v;
 }
 uint64_t getU64(const std::string& in, size_t at) {
   uint64_t v = 0;
-  for (int i = 0; i < 8; ++i) v |= static_cast<uint64_t>(static_cast<uint8_t>(in[at + i])) << (8 * i);
+  for (int i = 0; i < 8; ++i)
+    v |= static_cast<uint64_t>(static_cast<uint8_t>(in[at + i])) << (8 * i);
   return v;
 }
 
@@ -79,8 +81,9 @@ Expected<Vocabulary> loadVocabulary(const std::filesystem::path& file) {
   const std::string& in = *bytes;
   const std::string name = file.string();
   if (in.size() < sizeof(kMagic) || std::memcmp(in.data(), kMagic, sizeof(kMagic)) != 0) {
-    return makeError(name, ": not an evermap vocabulary file (bad magic; a DBoW2/DBoW3 .yml.gz "
-                           "is read by loadDbowYaml)");
+    return makeError(name,
+                     ": not an evermap vocabulary file (bad magic; a DBoW2/DBoW3 .yml.gz "
+                     "is read by loadDbowYaml)");
   }
   if (in.size() < kHeaderBytes + 8) {
     return makeError(name, ": truncated (", in.size(), " bytes, the header alone is ",
@@ -123,13 +126,13 @@ Expected<Vocabulary> loadVocabulary(const std::filesystem::path& file) {
     nodes[n].weight = std::bit_cast<double>(getU64(in, at + 8));
     std::memcpy(nodes[n].descriptor.bytes.data(), in.data() + at + 16, kDescriptorBytes);
   }
-  return Vocabulary::create(static_cast<int>(k), static_cast<int>(levels), std::move(nodes),
-                            name);
+  return Vocabulary::create(static_cast<int>(k), static_cast<int>(levels), std::move(nodes), name);
 }
 
 Expected<Vocabulary> loadAnyVocabulary(const std::filesystem::path& file) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) return makeError(file.string(), ": no such file");
+  if (!std::filesystem::is_regular_file(file, ec))
+    return makeError(file.string(), ": no such file");
   std::ifstream in(file, std::ios::binary);
   if (!in) return makeError(file.string(), ": cannot open for reading");
   char head[sizeof(kMagic)] = {};

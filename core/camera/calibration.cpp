@@ -39,19 +39,19 @@ Status CameraCalibration::validate(const std::string& what) const {
   switch (distortion_model) {
     case DistortionModel::kNone:
       if (!distortion.empty()) {
-        return makeError(what, ": distortion model none with ", distortion.size(),
-                         " coefficients");
+        return makeError(what, ": distortion model none with ", distortion.size(), " coefficients");
       }
       break;
     case DistortionModel::kRadTan:
       if (distortion.size() != 4 && distortion.size() != 5) {
-        return makeError(what, ": radial-tangential distortion needs 4 or 5 coefficients "
-                               "(k1 k2 p1 p2 [k3]), got ", distortion.size());
+        return makeError(what,
+                         ": radial-tangential distortion needs 4 or 5 coefficients "
+                         "(k1 k2 p1 p2 [k3]), got ",
+                         distortion.size());
       }
       break;
     default:
-      return makeError(what, ": unknown distortion model ",
-                       static_cast<int>(distortion_model));
+      return makeError(what, ": unknown distortion model ", static_cast<int>(distortion_model));
   }
   for (double k : distortion) {
     if (!std::isfinite(k)) return makeError(what, ": non-finite distortion coefficient");
@@ -66,8 +66,8 @@ Status StereoCalibration::validate(const std::string& what) const {
   if (Status s = left.validate(what + ": left camera"); !s) return s;
   if (Status s = right.validate(what + ": right camera"); !s) return s;
   if (left.width != right.width || left.height != right.height) {
-    return makeError(what, ": image sizes differ: left ", left.width, "x", left.height,
-                     ", right ", right.width, "x", right.height);
+    return makeError(what, ": image sizes differ: left ", left.width, "x", left.height, ", right ",
+                     right.width, "x", right.height);
   }
   const SE3d r_T_l = right_T_left();
   const double baseline = r_T_l.translation().norm();
@@ -84,14 +84,17 @@ Status StereoCalibration::validate(const std::string& what) const {
   // cx may differ: the disparity offset (StereoCamera); fx, fy and cy may not, or rows and
   // scales would differ between the images.
   if (!same(left.fx, right.fx) || !same(left.fy, right.fy) || !same(left.cy, right.cy)) {
-    return makeError(what, ": marked rectified but the intrinsics differ: left fx fy cy = ",
-                     num(left.fx), " ", num(left.fy), " ", num(left.cy), ", right ",
-                     num(right.fx), " ", num(right.fy), " ", num(right.cy));
+    return makeError(what,
+                     ": marked rectified but the intrinsics differ: left fx fy cy = ", num(left.fx),
+                     " ", num(left.fy), " ", num(left.cy), ", right ", num(right.fx), " ",
+                     num(right.fy), " ", num(right.cy));
   }
   const double offset = right.cx - left.cx;
   if (!(std::abs(offset) <= left.width / 4.0)) {
-    return makeError(what, ": marked rectified but the principal points differ by right cx - "
-                           "left cx = ", num(offset), " px, beyond a quarter of the ", left.width,
+    return makeError(what,
+                     ": marked rectified but the principal points differ by right cx - "
+                     "left cx = ",
+                     num(offset), " px, beyond a quarter of the ", left.width,
                      " px width (left cx ", num(left.cx), ", right cx ", num(right.cx), ")");
   }
   if (rotationAngle(r_T_l.so3()) > 1e-6) {
@@ -113,18 +116,20 @@ Status StereoCalibration::validate(const std::string& what) const {
 
 Expected<StereoCamera> rectifiedStereoCamera(const StereoCalibration& c) {
   if (!c.rectified) {
-    return makeError("stereo calibration is not rectified: rectify the images first "
-                     "(StereoRectifier)");
+    return makeError(
+        "stereo calibration is not rectified: rectify the images first "
+        "(StereoRectifier)");
   }
   if (Status s = c.validate(); !s) return s.error();
   return StereoCamera::create(c.left.fx, c.left.fy, c.left.cx, c.left.cy,
-                              -c.right_T_left().translation().x(), c.left.width,
-                              c.left.height, c.right.cx - c.left.cx);
+                              -c.right_T_left().translation().x(), c.left.width, c.left.height,
+                              c.right.cx - c.left.cx);
 }
 
 Expected<StereoCalibration> withDisparityOffset(const StereoCalibration& c, double offset_px) {
   if (!c.rectified) {
-    return makeError("disparity offset ", num(offset_px), " px: the stereo calibration is not "
+    return makeError("disparity offset ", num(offset_px),
+                     " px: the stereo calibration is not "
                      "rectified (a raw pair's rectification sets the rectified principal points)");
   }
   if (!std::isfinite(offset_px)) return makeError("disparity offset ", num(offset_px), " px");

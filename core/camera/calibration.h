@@ -25,8 +25,8 @@ enum class DistortionModel : int8_t {
 };
 
 struct CameraCalibration {
-  int width = 0;   // pixels
-  int height = 0;  // pixels
+  int width = 0;              // pixels
+  int height = 0;             // pixels
   double fx = 0.0, fy = 0.0;  // focal lengths, pixels
   double cx = 0.0, cy = 0.0;  // principal point, pixels
   DistortionModel distortion_model = DistortionModel::kNone;

@@ -48,8 +48,8 @@ Status RgbdCamera::undistort(const cv::Mat& gray, const cv::Mat& depth, cv::Mat*
                        type == CV_16UC1 ? " (need 16-bit one-channel)" : " (need 8-bit gray)");
     }
     if (m.cols != calibration_.width || m.rows != calibration_.height) {
-      return makeError(what, ": ", m.cols, "x", m.rows, " but the camera is ",
-                       calibration_.width, "x", calibration_.height);
+      return makeError(what, ": ", m.cols, "x", m.rows, " but the camera is ", calibration_.width,
+                       "x", calibration_.height);
     }
     return Ok{};
   };
@@ -69,8 +69,7 @@ Status RgbdCamera::undistort(const cv::Mat& gray, const cv::Mat& depth, cv::Mat*
 std::string RgbdCamera::describe() const {
   std::ostringstream s;
   s << "rgbd " << stereo_.describe() << " (equivalent baseline), depth noise "
-    << options_.depth_noise_per_m2 << " z^2"
-    << (distorted() ? ", undistorted" : "");
+    << options_.depth_noise_per_m2 << " z^2" << (distorted() ? ", undistorted" : "");
   return s.str();
 }
 

@@ -66,7 +66,8 @@ class RgbdCamera {
   std::string describe() const;
 
  private:
-  RgbdCamera(const CameraCalibration& calibration, const Options& options, const StereoCamera& stereo)
+  RgbdCamera(const CameraCalibration& calibration, const Options& options,
+             const StereoCamera& stereo)
       : calibration_(calibration), options_(options), stereo_(stereo) {}
 
   CameraCalibration calibration_;

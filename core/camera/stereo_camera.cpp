@@ -70,9 +70,8 @@ std::optional<StereoCamera::Vec3> StereoCamera::project(const Vec3& p, Mat3* J) 
   const Vec3 uvd(fx_ * p.x() * iz + cx_, fy_ * p.y() * iz + cy_, fx_ * baseline_m_ * iz);
   if (J) {
     const double iz2 = iz * iz;
-    *J << fx_ * iz, 0.0, -fx_ * p.x() * iz2,
-          0.0, fy_ * iz, -fy_ * p.y() * iz2,
-          0.0, 0.0, -fx_ * baseline_m_ * iz2;
+    *J << fx_ * iz, 0.0, -fx_ * p.x() * iz2, 0.0, fy_ * iz, -fy_ * p.y() * iz2, 0.0, 0.0,
+        -fx_ * baseline_m_ * iz2;
   }
   return uvd;
 }
@@ -88,9 +87,7 @@ std::optional<StereoCamera::Vec3> StereoCamera::backProject(const Vec3& uvd, Mat
   const Vec3 p(du * b_d, dv * r * b_d, fx_ * b_d);
   if (J) {
     const double b_d2 = b_d / d;
-    *J << b_d, 0.0, -du * b_d2,
-          0.0, r * b_d, -dv * r * b_d2,
-          0.0, 0.0, -fx_ * b_d2;
+    *J << b_d, 0.0, -du * b_d2, 0.0, r * b_d, -dv * r * b_d2, 0.0, 0.0, -fx_ * b_d2;
   }
   return p;
 }
@@ -119,15 +116,15 @@ StereoCamera::Mat3 StereoCamera::backProjectionCovariance(const Vec3& uvd,
 
 StereoCamera::Mat3 StereoCamera::backProjectionCovariance(const Vec3& uvd, double sigma_px,
                                                           double sigma_disparity_px) const {
-  const Vec3 var(sigma_px * sigma_px, sigma_px * sigma_px,
-                 sigma_disparity_px * sigma_disparity_px);
+  const Vec3 var(sigma_px * sigma_px, sigma_px * sigma_px, sigma_disparity_px * sigma_disparity_px);
   return backProjectionCovariance(uvd, Mat3(var.asDiagonal()));
 }
 
 std::string StereoCamera::describe() const {
   char buf[200];
-  const int n = std::snprintf(buf, sizeof buf, "fx=%.3f fy=%.3f cx=%.3f cy=%.3f baseline=%.4fm %dx%d",
-                              fx_, fy_, cx_, cy_, baseline_m_, width_, height_);
+  const int n =
+      std::snprintf(buf, sizeof buf, "fx=%.3f fy=%.3f cx=%.3f cy=%.3f baseline=%.4fm %dx%d", fx_,
+                    fy_, cx_, cy_, baseline_m_, width_, height_);
   if (disparity_offset_px_ != 0.0 && n > 0 && static_cast<size_t>(n) < sizeof buf) {
     std::snprintf(buf + n, sizeof buf - static_cast<size_t>(n), " disparity_offset=%+.3fpx",
                   disparity_offset_px_);

@@ -67,8 +67,7 @@ class StereoCamera {
   // (px^2). Precondition: uvd back-projects (d > 0); otherwise an always-on check aborts.
   Mat3 backProjectionCovariance(const Vec3& uvd, const Mat3& uvd_covariance) const;
   // The same with independent noise: σ_u = σ_v = sigma_px, σ_d = sigma_disparity_px.
-  Mat3 backProjectionCovariance(const Vec3& uvd, double sigma_px,
-                                double sigma_disparity_px) const;
+  Mat3 backProjectionCovariance(const Vec3& uvd, double sigma_px, double sigma_disparity_px) const;
 
   // Whether pixel (u, v) lies inside the image.
   bool inImage(double u, double v) const {

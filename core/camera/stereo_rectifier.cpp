@@ -27,8 +27,8 @@ cv::Mat distortionVector(const CameraCalibration& c) {
 Status checkImage(const cv::Mat& image, const char* which, const CameraCalibration& raw) {
   if (image.empty()) return makeError("rectify: the ", which, " image is empty");
   if (image.type() != CV_8UC1) {
-    return makeError("rectify: the ", which, " image is not 8-bit gray (OpenCV type ",
-                     image.type(), ")");
+    return makeError("rectify: the ", which, " image is not 8-bit gray (OpenCV type ", image.type(),
+                     ")");
   }
   if (image.cols != raw.width || image.rows != raw.height) {
     return makeError("rectify: the ", which, " image is ", image.cols, "x", image.rows,
@@ -41,8 +41,7 @@ Status checkImage(const cv::Mat& image, const char* which, const CameraCalibrati
 
 Status StereoRectifier::Options::validate() const {
   if (!(std::isfinite(alpha) && alpha >= 0.0 && alpha <= 1.0)) {
-    return makeError("rectifier options: alpha = ", std::to_string(alpha),
-                     " must be in [0, 1]");
+    return makeError("rectifier options: alpha = ", std::to_string(alpha), " must be in [0, 1]");
   }
   return Ok{};
 }
@@ -68,8 +67,9 @@ Expected<StereoRectifier> StereoRectifier::create(const StereoCalibration& raw,
   cv::stereoRectify(K[0], D[0], K[1], D[1], size, R, T, Rr[0], Rr[1], P[0], P[1], Q,
                     cv::CALIB_ZERO_DISPARITY, options.alpha, size);
   if (std::abs(P[1].at<double>(1, 3)) > 1e-9 * std::abs(P[1].at<double>(0, 3))) {
-    return makeError("rectifier: the rig is vertical (baseline along y); only horizontal "
-                     "stereo is supported");
+    return makeError(
+        "rectifier: the rig is vertical (baseline along y); only horizontal "
+        "stereo is supported");
   }
   // P_right = [f 0 cx -f b; 0 f cy 0; 0 0 1 0]: b = -P_right(0,3) / f.
   const double f = P[0].at<double>(0, 0);
@@ -88,8 +88,7 @@ Expected<StereoRectifier> StereoRectifier::create(const StereoCalibration& raw,
     r.D_[s] = D[s];
     r.R_[s] = Rr[s];
     r.P_[s] = P[s];
-    cv::initUndistortRectifyMap(K[s], D[s], Rr[s], P[s], size, CV_16SC2, r.map1_[s],
-                                r.map2_[s]);
+    cv::initUndistortRectifyMap(K[s], D[s], Rr[s], P[s], size, CV_16SC2, r.map1_[s], r.map2_[s]);
   }
 
   // Rectified frames: p_rect = rect_R_raw p_raw, so body_T_rect = body_T_raw * (rect_R_raw)ᵀ;

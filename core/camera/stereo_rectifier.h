@@ -19,7 +19,7 @@
 namespace evermap::core {
 
 struct RectifiedPair {
-  cv::Mat left;   // CV_8UC1, camera().width() x camera().height()
+  cv::Mat left;  // CV_8UC1, camera().width() x camera().height()
   cv::Mat right;
 };
 

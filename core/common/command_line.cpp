@@ -31,8 +31,8 @@ CommandLine::Option& CommandLine::add(std::string name, std::string metavar, std
   return options_.back();
 }
 
-void CommandLine::value(std::string name, std::string* out, std::string metavar,
-                        std::string help, bool required) {
+void CommandLine::value(std::string name, std::string* out, std::string metavar, std::string help,
+                        bool required) {
   add(std::move(name), std::move(metavar), std::move(help), required).set =
       [out](const std::string& v) -> Status {
     *out = v;
@@ -59,7 +59,8 @@ Status CommandLine::Range::check(double v) const {
   const Limits& l = *limits_;
   const std::string text = numberText(v, 10);
   if (l.lo_open && !(v > l.lo)) return makeError(text, " is not above ", numberText(l.lo, 10));
-  if (!l.lo_open && v < l.lo) return makeError(text, " is below the minimum ", numberText(l.lo, 10));
+  if (!l.lo_open && v < l.lo)
+    return makeError(text, " is below the minimum ", numberText(l.lo, 10));
   if (v > l.hi) return makeError(text, " is above the maximum ", numberText(l.hi, 10));
   return Ok{};
 }
@@ -83,7 +84,8 @@ CommandLine::Range CommandLine::value(std::string name, double* out, std::string
 
 void CommandLine::repeated(std::string name, std::vector<std::string>* out, std::string metavar,
                            std::string help) {
-  add(std::move(name), std::move(metavar), std::move(help), false).set = [out](const std::string& v) -> Status {
+  add(std::move(name), std::move(metavar), std::move(help), false).set =
+      [out](const std::string& v) -> Status {
     out->push_back(v);
     return Ok{};
   };
@@ -101,8 +103,7 @@ void CommandLine::flag(std::string name, bool* out, std::string help) {
   };
 }
 
-void CommandLine::positional(std::vector<std::string>* out, std::string metavar,
-                             std::string help) {
+void CommandLine::positional(std::vector<std::string>* out, std::string metavar, std::string help) {
   positional_ = out;
   positional_metavar_ = std::move(metavar);
   positional_help_ = std::move(help);

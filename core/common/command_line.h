@@ -58,14 +58,13 @@ class CommandLine {
   // be finite and lie in their Range. `required` options must be given.
   void value(std::string name, std::string* out, std::string metavar, std::string help,
              bool required = false);
-  [[nodiscard("give the option its range: .min(), .max(), .positive() or .any()")]]
-  Range value(std::string name, double* out, std::string metavar, std::string help,
-              bool required = false);
+  [[nodiscard("give the option its range: .min(), .max(), .positive() or .any()")]] Range value(
+      std::string name, double* out, std::string metavar, std::string help, bool required = false);
   template <typename Int>
-    requires(std::is_integral_v<Int> && !std::is_same_v<Int, bool>)
-  [[nodiscard("give the option its range: .min(), .max(), .positive() or .any()")]]
-  Range value(std::string name, Int* out, std::string metavar, std::string help,
-              bool required = false) {
+  requires(std::is_integral_v<Int> && !std::is_same_v<Int, bool>)
+      [[nodiscard("give the option its range: .min(), .max(), .positive() or .any()")]] Range
+      value(std::string name, Int* out, std::string metavar, std::string help,
+            bool required = false) {
     auto limits = std::make_shared<Range::Limits>();
     add(std::move(name), std::move(metavar), std::move(help), required).set =
         [out, limits](const std::string& v) -> Status {
@@ -78,10 +77,11 @@ class CommandLine {
     return Range(limits);
   }
   // A value checked by the caller: `set` returns an error message for a bad value.
-  void value(std::string name, std::function<Status(const std::string&)> set,
-             std::string metavar, std::string help, bool required = false);
+  void value(std::string name, std::function<Status(const std::string&)> set, std::string metavar,
+             std::string help, bool required = false);
   // An option that may be given several times: each value is appended to `*out`.
-  void repeated(std::string name, std::vector<std::string>* out, std::string metavar, std::string help);
+  void repeated(std::string name, std::vector<std::string>* out, std::string metavar,
+                std::string help);
   // An option without a value; sets `*out` to true.
   void flag(std::string name, bool* out, std::string help);
   // Words that are not options go here (in order); without this, they are errors.

@@ -39,29 +39,41 @@ Error makeError(Args&&... parts) {
 template <typename T>
 class [[nodiscard]] Expected {
  public:
-  Expected(T value) : v_(std::move(value)) {}        // NOLINT: implicit by design
-  Expected(Error error) : v_(std::move(error)) {}    // NOLINT: implicit by design
+  Expected(T value) : v_(std::move(value)) {}      // NOLINT: implicit by design
+  Expected(Error error) : v_(std::move(error)) {}  // NOLINT: implicit by design
 
   bool ok() const { return v_.index() == 0; }
   explicit operator bool() const { return ok(); }
 
   // Contract: only call value() when ok(), error() when !ok(); a breach aborts with a message.
-  T& value() & { check(true); return std::get<0>(v_); }
-  const T& value() const& { check(true); return std::get<0>(v_); }
+  T& value() & {
+    check(true);
+    return std::get<0>(v_);
+  }
+  const T& value() const& {
+    check(true);
+    return std::get<0>(v_);
+  }
   // By value: `for (x : f().value())` must not point into a destroyed temporary.
-  T value() && { check(true); return std::get<0>(std::move(v_)); }
+  T value() && {
+    check(true);
+    return std::get<0>(std::move(v_));
+  }
   T& operator*() & { return value(); }
   const T& operator*() const& { return value(); }
   T* operator->() { return &value(); }
   const T* operator->() const { return &value(); }
-  const Error& error() const { check(false); return std::get<1>(v_); }
+  const Error& error() const {
+    check(false);
+    return std::get<1>(v_);
+  }
 
  private:
   void check(bool want_value) const {
     if (ok() != want_value) {
       std::fprintf(stderr, "evermap: Expected accessed as %s but holds %s%s%s\n",
-                   want_value ? "value" : "error", ok() ? "a value" : "error: ",
-                   ok() ? "" : std::get<1>(v_).message.c_str(), "");
+                   want_value ? "value" : "error",
+                   ok() ? "a value" : "error: ", ok() ? "" : std::get<1>(v_).message.c_str(), "");
       std::abort();
     }
   }

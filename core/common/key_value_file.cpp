@@ -189,7 +189,8 @@ Status KeyValueReader::finish(const std::vector<std::string>& ignored_prefixes) 
   return Ok{};
 }
 
-Expected<KeyValueFile> KeyValueFile::load(const std::filesystem::path& path, const std::vector<std::string>& overrides,
+Expected<KeyValueFile> KeyValueFile::load(const std::filesystem::path& path,
+                                          const std::vector<std::string>& overrides,
                                           const std::string& option) {
   auto file = load(path);
   if (!file) return file;
@@ -197,7 +198,8 @@ Expected<KeyValueFile> KeyValueFile::load(const std::filesystem::path& path, con
   return file;
 }
 
-Status KeyValueFile::setAll(const std::vector<std::string>& assignments, const std::string& option) {
+Status KeyValueFile::setAll(const std::vector<std::string>& assignments,
+                            const std::string& option) {
   for (const std::string& a : assignments) {
     if (Status s = set(a, option + " " + a); !s) return s;
   }

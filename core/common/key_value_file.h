@@ -24,7 +24,8 @@ class KeyValueFile {
 
   static Expected<KeyValueFile> load(const std::filesystem::path& path);
   // load(), then setAll(overrides, option): a program's --config FILE with its --set list.
-  static Expected<KeyValueFile> load(const std::filesystem::path& path, const std::vector<std::string>& overrides,
+  static Expected<KeyValueFile> load(const std::filesystem::path& path,
+                                     const std::vector<std::string>& overrides,
                                      const std::string& option);
   // `name` is used in messages in place of a file name.
   static Expected<KeyValueFile> parse(const std::string& text, const std::string& name);

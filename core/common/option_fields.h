@@ -66,27 +66,41 @@ Status setField(Options* options, const std::string& key, const std::string& val
     found = true;
     using T = std::decay_t<decltype(field)>;
     if constexpr (std::is_same_v<T, bool>) {
-      if (v == "1" || v == "true") { field = true; parsed = true; }
-      if (v == "0" || v == "false") { field = false; parsed = true; }
+      if (v == "1" || v == "true") {
+        field = true;
+        parsed = true;
+      }
+      if (v == "0" || v == "false") {
+        field = false;
+        parsed = true;
+      }
     } else if constexpr (std::is_floating_point_v<T>) {
       // Finite only: "inf" and "nan" parse as numbers but are never a valid setting (a
       // rate of inf, a threshold of nan that every comparison fails).
       try {
         size_t used = 0;
         const double d = std::stod(v, &used);
-        if (used == v.size() && std::isfinite(d)) { field = static_cast<T>(d); parsed = true; }
+        if (used == v.size() && std::isfinite(d)) {
+          field = static_cast<T>(d);
+          parsed = true;
+        }
       } catch (...) {
       }
     } else {
       T n{};
       const auto r = std::from_chars(v.data(), v.data() + v.size(), n);
-      if (r.ec == std::errc() && r.ptr == v.data() + v.size()) { field = n; parsed = true; }
+      if (r.ec == std::errc() && r.ptr == v.data() + v.size()) {
+        field = n;
+        parsed = true;
+      }
     }
   });
   if (!found) return makeError("unknown option \"", key, "\"");
   if (!parsed) {
-    const bool number = v == "inf" || v == "-inf" || v == "nan" || v.find("e999") != std::string::npos;
-    return makeError("option ", key, ": bad value \"", v, "\"", number ? " (not a finite number)" : "");
+    const bool number =
+        v == "inf" || v == "-inf" || v == "nan" || v.find("e999") != std::string::npos;
+    return makeError("option ", key, ": bad value \"", v, "\"",
+                     number ? " (not a finite number)" : "");
   }
   return Ok{};
 }

@@ -38,12 +38,11 @@ Status FastDetector::Options::validate() const {
 
 std::string FastDetector::Options::describe() const {
   std::ostringstream s;
-  s << "threshold " << initial_threshold << " [" << min_threshold << ", " << max_threshold
-    << "]" << (adaptive ? " adaptive gain " + std::to_string(adaptive_gain) : " fixed")
+  s << "threshold " << initial_threshold << " [" << min_threshold << ", " << max_threshold << "]"
+    << (adaptive ? " adaptive gain " + std::to_string(adaptive_gain) : " fixed")
     << ", target 1 per " << target_pixels_per_feature << " px";
   if (bucketing) {
-    s << ", buckets " << bucket_width_px << "x" << bucket_height_px << " px max "
-      << max_per_bucket;
+    s << ", buckets " << bucket_width_px << "x" << bucket_height_px << " px max " << max_per_bucket;
   }
   return s.str();
 }
@@ -74,9 +73,8 @@ std::vector<Keypoint> FastDetector::detect(const ImagePyramid& pyramid, int num_
     // Strongest first, so bucketing keeps the best ones and the output is ordered.
     order.resize(corners.size());
     std::iota(order.begin(), order.end(), 0);
-    std::sort(order.begin(), order.end(), [&](int i, int j) {
-      return corners[i].response > corners[j].response;
-    });
+    std::sort(order.begin(), order.end(),
+              [&](int i, int j) { return corners[i].response > corners[j].response; });
     const int nbx = (image.cols + options_.bucket_width_px - 1) / options_.bucket_width_px;
     const int nby = (image.rows + options_.bucket_height_px - 1) / options_.bucket_height_px;
     bucket_count.assign(static_cast<size_t>(nbx * nby), 0);

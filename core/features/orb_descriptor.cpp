@@ -12,8 +12,8 @@ constexpr int kCentroidRadius = 15;  // ORB's 31x31 patch
 
 Status OrbExtractor::Options::validate() const {
   if (border_px < kCentroidRadius + 1) {
-    return makeError("orb extractor: border_px ", border_px, " must be >= ",
-                     kCentroidRadius + 1, " (the orientation disc)");
+    return makeError("orb extractor: border_px ", border_px, " must be >= ", kCentroidRadius + 1,
+                     " (the orientation disc)");
   }
   return Ok{};
 }

@@ -15,7 +15,8 @@ namespace {
 constexpr int kMaxRadius = 8;
 constexpr int kMaxSide = 2 * kMaxRadius + 1;
 constexpr int kStride = 24;  // floats per template row: kMaxSide rounded up to whole vectors
-static_assert(kStride % 8 == 0 && kStride >= 16, "template rows are read as one or two 8-float vectors");
+static_assert(kStride % 8 == 0 && kStride >= 16,
+              "template rows are read as one or two 8-float vectors");
 
 // The template of a, its gradient and a lane mask, one patch row per kStride floats; lanes
 // past the patch side are 0 (gradient, mask), so a row can be summed in whole 8-float vectors.
@@ -47,8 +48,8 @@ __attribute__((target("avx2"))) float sum8(__m256 v) {
 }
 
 // The template of the patch of a around (ua, va).
-__attribute__((target("avx2")))
-void templateAvx2(const cv::Mat& a, int ua, int va, int r, bool x_only, Template* tp) {
+__attribute__((target("avx2"))) void templateAvx2(const cv::Mat& a, int ua, int va, int r,
+                                                  bool x_only, Template* tp) {
   const int side = 2 * r + 1;
   const __m256 half = _mm256_set1_ps(0.5f);
   __m256 hxx = _mm256_setzero_ps(), hxy = hxx, hx1 = hxx, hyy = hxx, hy1 = hxx;
@@ -59,14 +60,12 @@ void templateAvx2(const cv::Mat& a, int ua, int va, int r, bool x_only, Template
     for (int k = 0; k < vectorsPerRow(side); ++k) {
       const int o = 8 * k;
       const __m256 mask = _mm256_load_ps(tp->mask + o);
-      const __m256 gx =
-          _mm256_mul_ps(_mm256_mul_ps(half, _mm256_sub_ps(pixels(p + o + 1), pixels(p + o - 1))),
-                        mask);
+      const __m256 gx = _mm256_mul_ps(
+          _mm256_mul_ps(half, _mm256_sub_ps(pixels(p + o + 1), pixels(p + o - 1))), mask);
       const __m256 gy =
           x_only ? _mm256_setzero_ps()
                  : _mm256_mul_ps(
-                       _mm256_mul_ps(half, _mm256_sub_ps(pixels(down + o), pixels(up + o))),
-                       mask);
+                       _mm256_mul_ps(half, _mm256_sub_ps(pixels(down + o), pixels(up + o))), mask);
       _mm256_store_ps(tp->t[row] + o, pixels(p + o));
       _mm256_store_ps(tp->gx[row] + o, gx);
       _mm256_store_ps(tp->gy[row] + o, gy);
@@ -108,9 +107,10 @@ void templateScalar(const cv::Mat& a, int ua, int va, int r, bool x_only, Templa
 
 // Σ gx e, Σ gy e, Σ e over the patch of b at integer (x0 - r, y0 - r) with bilinear weights,
 // e = b - t - offset. `vertical`: false when the weights of the next row are 0 (1-D case).
-__attribute__((target("avx2")))
-Eigen::Vector3d sumsAvx2(const Template& tp, const cv::Mat& b, int x0, int y0, int r, float w00,
-                         float w01, float w10, float w11, float offset, bool vertical) {
+__attribute__((target("avx2"))) Eigen::Vector3d sumsAvx2(const Template& tp, const cv::Mat& b,
+                                                         int x0, int y0, int r, float w00,
+                                                         float w01, float w10, float w11,
+                                                         float offset, bool vertical) {
   const int side = 2 * r + 1;
   const __m256 W00 = _mm256_set1_ps(w00), W01 = _mm256_set1_ps(w01);
   const __m256 W10 = _mm256_set1_ps(w10), W11 = _mm256_set1_ps(w11);
@@ -121,15 +121,15 @@ Eigen::Vector3d sumsAvx2(const Template& tp, const cv::Mat& b, int x0, int y0, i
     const uint8_t* r1 = b.ptr<uint8_t>(y0 - r + row + 1) + (x0 - r);
     for (int k = 0; k < vectorsPerRow(side); ++k) {
       const int o = 8 * k;
-      __m256 s = _mm256_add_ps(_mm256_mul_ps(W00, pixels(r0 + o)),
-                               _mm256_mul_ps(W01, pixels(r0 + o + 1)));
+      __m256 s =
+          _mm256_add_ps(_mm256_mul_ps(W00, pixels(r0 + o)), _mm256_mul_ps(W01, pixels(r0 + o + 1)));
       if (vertical) {
         s = _mm256_add_ps(s, _mm256_add_ps(_mm256_mul_ps(W10, pixels(r1 + o)),
                                            _mm256_mul_ps(W11, pixels(r1 + o + 1))));
       }
-      const __m256 e = _mm256_mul_ps(
-          _mm256_sub_ps(_mm256_sub_ps(s, _mm256_load_ps(tp.t[row] + o)), off),
-          _mm256_load_ps(tp.mask + o));
+      const __m256 e =
+          _mm256_mul_ps(_mm256_sub_ps(_mm256_sub_ps(s, _mm256_load_ps(tp.t[row] + o)), off),
+                        _mm256_load_ps(tp.mask + o));
       sx = _mm256_add_ps(sx, _mm256_mul_ps(_mm256_load_ps(tp.gx[row] + o), e));
       sy = _mm256_add_ps(sy, _mm256_mul_ps(_mm256_load_ps(tp.gy[row] + o), e));
       s1 = _mm256_add_ps(s1, e);
@@ -138,8 +138,8 @@ Eigen::Vector3d sumsAvx2(const Template& tp, const cv::Mat& b, int x0, int y0, i
   return Eigen::Vector3d(sum8(sx), sum8(sy), sum8(s1));
 }
 
-Eigen::Vector3d sumsScalar(const Template& tp, const cv::Mat& b, int x0, int y0, int r,
-                           float w00, float w01, float w10, float w11, float offset) {
+Eigen::Vector3d sumsScalar(const Template& tp, const cv::Mat& b, int x0, int y0, int r, float w00,
+                           float w01, float w10, float w11, float offset) {
   float sx = 0, sy = 0, s1 = 0;
   for (int dy = -r; dy <= r; ++dy) {
     const uint8_t* r0 = b.ptr<uint8_t>(y0 + dy) + x0;
@@ -208,8 +208,7 @@ std::optional<Eigen::Vector2f> alignPatch(const cv::Mat& a, int ua, int va, cons
       return std::nullopt;
     }
     const float ax = p.x() - fx, ay = p.y() - fy;
-    const float w00 = (1 - ax) * (1 - ay), w01 = ax * (1 - ay), w10 = (1 - ax) * ay,
-                w11 = ax * ay;
+    const float w00 = (1 - ax) * (1 - ay), w01 = ax * (1 - ay), w10 = (1 - ax) * ay, w11 = ax * ay;
     // The next row's weights are 0 only when p.y() is a whole number; in the 1-D case p.y()
     // stays the start's, which need not be.
     const bool vertical = ay != 0.0f;

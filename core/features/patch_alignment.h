@@ -18,10 +18,10 @@
 namespace evermap::core {
 
 struct PatchAlignmentOptions {
-  int radius_px = 4;         // template (2r+1)^2
-  bool x_only = false;       // rectified stereo: the match lies on the same row
+  int radius_px = 4;    // template (2r+1)^2
+  bool x_only = false;  // rectified stereo: the match lies on the same row
   int max_iterations = 8;
-  double max_shift_px = 1.5; // from the start; farther means the discrete match was wrong
+  double max_shift_px = 1.5;  // from the start; farther means the discrete match was wrong
   double converged_px = 0.01;
 };
 

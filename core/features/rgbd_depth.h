@@ -22,9 +22,9 @@ namespace evermap::core {
 class RgbdDepth {
  public:
   struct Options {
-    double min_depth_m = 0.4;   // the Kinect's near limit
-    double max_depth_m = 5.0;   // beyond, σ_z > 3.5 cm and quantisation steps of ~10 cm
-    int window_radius_px = 2;   // level-0 pixels around the corner checked for holes and edges
+    double min_depth_m = 0.4;  // the Kinect's near limit
+    double max_depth_m = 5.0;  // beyond, σ_z > 3.5 cm and quantisation steps of ~10 cm
+    int window_radius_px = 2;  // level-0 pixels around the corner checked for holes and edges
     double max_relative_spread = 0.05;  // max - min of the window, as a fraction of z
 
     Status validate() const;

@@ -68,9 +68,8 @@ void sadCurvePortable(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, i
 
 // Blocks of 32 disparities: |l - x| of 32 bytes in one register, widened to two 16-lane sums
 // by unpacking with zero (within 128-bit halves; put in order when stored).
-__attribute__((target("avx2")))
-void sadCurveAvx2(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int dmax,
-                  uint16_t* cost) {
+__attribute__((target("avx2"))) void sadCurveAvx2(const cv::Mat& L, const cv::Mat& R, int u, int v,
+                                                  int r, int dmax, uint16_t* cost) {
   constexpr int kBlock = 32;
   const int n = dmax + 1;
   assert(n >= kBlock && "a curve shorter than one block takes the portable path");
@@ -98,15 +97,14 @@ void sadCurveAvx2(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int d
 }
 
 // The lowest of cost[begin, end) (0xffff for an empty range); vectorised by the compiler.
-__attribute__((target_clones("avx2", "default")))
-uint16_t minCost(const uint16_t* cost, int begin, int end) {
+__attribute__((target_clones("avx2", "default"))) uint16_t minCost(const uint16_t* cost, int begin,
+                                                                   int end) {
   uint16_t lowest = 0xffff;
   for (int j = begin; j < end; ++j) lowest = std::min(lowest, cost[j]);
   return lowest;
 }
 
-void sadCurve(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int dmax,
-              uint16_t* cost) {
+void sadCurve(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int dmax, uint16_t* cost) {
   if (dmax + 1 >= 32 && cpuHasAvx2()) {
     sadCurveAvx2(L, R, u, v, r, dmax, cost);
   } else {
@@ -129,8 +127,7 @@ Status StereoDepth::Options::validate() const {
                      " is not in [0, max_disparity_px)");
   }
   if (!(max_mean_abs_diff > 0.0 && max_mean_abs_diff <= 255.0)) {
-    return makeError("stereo depth: max_mean_abs_diff ", max_mean_abs_diff,
-                     " is not in (0, 255]");
+    return makeError("stereo depth: max_mean_abs_diff ", max_mean_abs_diff, " is not in (0, 255]");
   }
   if (!(uniqueness_ratio > 0.0 && uniqueness_ratio <= 1.0)) {
     return makeError("stereo depth: uniqueness_ratio ", uniqueness_ratio, " is not in (0, 1]");
@@ -200,8 +197,8 @@ float StereoDepth::disparity(const StereoCamera& camera, const ImagePyramid& lef
     align.x_only = true;
     align.max_iterations = 5;  // one unknown: converges in two or three
     align.max_shift_px = options_.max_refinement_px;
-    const auto x = alignPatch(L, u, v, R, Eigen::Vector2f(static_cast<float>(u) - d,
-                                                          static_cast<float>(v)), align);
+    const auto x = alignPatch(
+        L, u, v, R, Eigen::Vector2f(static_cast<float>(u) - d, static_cast<float>(v)), align);
     if (!x) return kNaN;
     d = static_cast<float>(u) - x->x();
   }

@@ -29,13 +29,13 @@ namespace evermap::core {
 class StereoDepth {
  public:
   struct Options {
-    int window_radius_px = 3;          // SAD window (2r+1)^2 at the corner's level
-    int max_disparity_px = 128;        // level 0; EuRoC (fx b = 50 px m): z >= 0.39 m
-    double min_disparity_px = 0.5;     // level 0; smaller is too far to give a depth
-    double max_mean_abs_diff = 16.0;   // gray levels per pixel at the best disparity
-    double uniqueness_ratio = 0.9;     // best <= ratio * second best (outside +-1 px)
+    int window_radius_px = 3;         // SAD window (2r+1)^2 at the corner's level
+    int max_disparity_px = 128;       // level 0; EuRoC (fx b = 50 px m): z >= 0.39 m
+    double min_disparity_px = 0.5;    // level 0; smaller is too far to give a depth
+    double max_mean_abs_diff = 16.0;  // gray levels per pixel at the best disparity
+    double uniqueness_ratio = 0.9;    // best <= ratio * second best (outside +-1 px)
     bool subpixel = true;
-    double max_refinement_px = 1.0;    // level pixels
+    double max_refinement_px = 1.0;  // level pixels
 
     Status validate() const;
   };
@@ -51,8 +51,8 @@ class StereoDepth {
                              const std::vector<Keypoint>& keypoints) const;
 
   // The same for one keypoint.
-  float disparity(const StereoCamera& camera, const ImagePyramid& left,
-                  const ImagePyramid& right, const Keypoint& k) const;
+  float disparity(const StereoCamera& camera, const ImagePyramid& left, const ImagePyramid& right,
+                  const Keypoint& k) const;
 
   const Options& options() const { return options_; }
 

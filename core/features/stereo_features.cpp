@@ -30,8 +30,8 @@ Status checkStereoImage(const StereoCamera& camera, const cv::Mat& image, const 
   if (image.empty()) return makeError(what, ": empty image");
   if (image.type() != CV_8UC1) return makeError(what, ": not an 8-bit gray image");
   if (image.cols != camera.width() || image.rows != camera.height()) {
-    return makeError(what, ": ", image.cols, "x", image.rows, " but the camera is ",
-                     camera.width(), "x", camera.height());
+    return makeError(what, ": ", image.cols, "x", image.rows, " but the camera is ", camera.width(),
+                     "x", camera.height());
   }
   return Ok{};
 }
@@ -59,8 +59,8 @@ Status StereoFeatureExtractor::extractWith(const StereoCamera& camera, int64_t u
     const auto p = camera.backProject(Eigen::Vector3d(f.uv.x(), f.uv.y(), d));
     if (!p) continue;
     f.point = *p;
-    f.patch = patchDescriptor(frame->left.level(k.level), static_cast<int>(k.u),
-                              static_cast<int>(k.v));
+    f.patch =
+        patchDescriptor(frame->left.level(k.level), static_cast<int>(k.u), static_cast<int>(k.v));
     frame->features.push_back(f);
   }
   return Ok{};

@@ -36,9 +36,9 @@ struct StereoFeature {
 
 struct FeatureFrame {
   int64_t utime = 0;
-  ImagePyramid left;                   // kept for sub-pixel refinement, ORB and rotation
-  std::vector<StereoFeature> features; // corners with a depth
-  int num_corners = 0;                 // corners detected, with or without a depth
+  ImagePyramid left;                    // kept for sub-pixel refinement, ORB and rotation
+  std::vector<StereoFeature> features;  // corners with a depth
+  int num_corners = 0;                  // corners detected, with or without a depth
 };
 
 class StereoFeatureExtractor {
@@ -71,7 +71,10 @@ class StereoFeatureExtractor {
 
  private:
   explicit StereoFeatureExtractor(const Options& options)
-      : options_(options), detector_(options.fast), depth_(options.stereo), rgbd_depth_(options.rgbd) {}
+      : options_(options),
+        detector_(options.fast),
+        depth_(options.stereo),
+        rgbd_depth_(options.rgbd) {}
 
   // Pyramid, corners and, for each corner with a depth (`disparity` of its level-0 position,
   // NaN for none), the feature.

@@ -68,14 +68,10 @@ SE2d compose(const SE2d& a, const SE2d& b, Eigen::Matrix3d* J_a, Eigen::Matrix3d
   const double c = std::cos(a.theta());
   const double s = std::sin(a.theta());
   if (J_a) {
-    *J_a << 1.0, 0.0, -s * b.x() - c * b.y(),
-            0.0, 1.0, c * b.x() - s * b.y(),
-            0.0, 0.0, 1.0;
+    *J_a << 1.0, 0.0, -s * b.x() - c * b.y(), 0.0, 1.0, c * b.x() - s * b.y(), 0.0, 0.0, 1.0;
   }
   if (J_b) {
-    *J_b << c, -s, 0.0,
-            s, c, 0.0,
-            0.0, 0.0, 1.0;
+    *J_b << c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0;
   }
   return a * b;
 }
@@ -84,9 +80,7 @@ SE2d inverse(const SE2d& a, Eigen::Matrix3d* J_a) {
   const double c = std::cos(a.theta());
   const double s = std::sin(a.theta());
   if (J_a) {
-    *J_a << -c, -s, a.x() * s - a.y() * c,
-            s, -c, a.x() * c + a.y() * s,
-            0.0, 0.0, -1.0;
+    *J_a << -c, -s, a.x() * s - a.y() * c, s, -c, a.x() * c + a.y() * s, 0.0, 0.0, -1.0;
   }
   return a.inverse();
 }

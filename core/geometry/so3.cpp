@@ -80,8 +80,7 @@ Mat3 SO3d::rightJacobianInverse(const Vec3& w) {
   const Mat3 W = hat(w);
   if (theta2 < 1e-10) return Mat3::Identity() + 0.5 * W + (1.0 / 12.0) * W * W;
   const double theta = std::sqrt(theta2);
-  const double coef =
-      1.0 / theta2 - (1.0 + std::cos(theta)) / (2.0 * theta * std::sin(theta));
+  const double coef = 1.0 / theta2 - (1.0 + std::cos(theta)) / (2.0 * theta * std::sin(theta));
   return Mat3::Identity() + 0.5 * W + coef * W * W;
 }
 

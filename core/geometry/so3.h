@@ -19,9 +19,7 @@ using Mat3 = Eigen::Matrix3d;
 // The skew-symmetric matrix with hat(a) * b == a.cross(b).
 inline Mat3 hat(const Vec3& w) {
   Mat3 W;
-  W << 0.0, -w.z(), w.y(),
-       w.z(), 0.0, -w.x(),
-       -w.y(), w.x(), 0.0;
+  W << 0.0, -w.z(), w.y(), w.z(), 0.0, -w.x(), -w.y(), w.x(), 0.0;
   return W;
 }
 // Inverse of hat for a skew-symmetric matrix.

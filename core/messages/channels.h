@@ -5,28 +5,28 @@
 
 namespace evermap::channels {
 
-inline constexpr const char* kStereo = "STEREO";              // stereo_image_t
-inline constexpr const char* kStereoCalib = "STEREO_CALIB";   // stereo_calib_t
-inline constexpr const char* kRgbd = "RGBD";                  // rgbd_image_t (calibration inside)
-inline constexpr const char* kRgbdCalib = "RGBD_CALIB";       // rgbd_calib_t (for the mapper)
-inline constexpr const char* kAccel = "ACCEL";                // accel_t (no gyroscope: Kinect)
-inline constexpr const char* kImu = "IMU";                    // imu_t
-inline constexpr const char* kWheelOdom = "WHEEL_ODOM";       // wheel_odom_t
-inline constexpr const char* kGroundTruth = "GROUND_TRUTH";   // pose_t
-inline constexpr const char* kVoDelta = "VO_DELTA";           // vo_delta_t
-inline constexpr const char* kKeyframe = "KEYFRAME";          // keyframe_t
-inline constexpr const char* kAttitude = "ATTITUDE";          // attitude_t
-inline constexpr const char* kFloor = "FLOOR";                // floor_t
-inline constexpr const char* kNodeAdded = "NODE_ADDED";       // node_added_t
+inline constexpr const char* kStereo = "STEREO";             // stereo_image_t
+inline constexpr const char* kStereoCalib = "STEREO_CALIB";  // stereo_calib_t
+inline constexpr const char* kRgbd = "RGBD";                 // rgbd_image_t (calibration inside)
+inline constexpr const char* kRgbdCalib = "RGBD_CALIB";      // rgbd_calib_t (for the mapper)
+inline constexpr const char* kAccel = "ACCEL";               // accel_t (no gyroscope: Kinect)
+inline constexpr const char* kImu = "IMU";                   // imu_t
+inline constexpr const char* kWheelOdom = "WHEEL_ODOM";      // wheel_odom_t
+inline constexpr const char* kGroundTruth = "GROUND_TRUTH";  // pose_t
+inline constexpr const char* kVoDelta = "VO_DELTA";          // vo_delta_t
+inline constexpr const char* kKeyframe = "KEYFRAME";         // keyframe_t
+inline constexpr const char* kAttitude = "ATTITUDE";         // attitude_t
+inline constexpr const char* kFloor = "FLOOR";               // floor_t
+inline constexpr const char* kNodeAdded = "NODE_ADDED";      // node_added_t
 inline constexpr const char* kRegisterRequest = "REGISTER_REQUEST";  // register_request_t
 inline constexpr const char* kRegisterResult = "REGISTER_RESULT";    // register_result_t
-inline constexpr const char* kPose = "POSE";                  // pose_t
-inline constexpr const char* kMapGraph = "MAP_GRAPH";         // map_graph_t
-inline constexpr const char* kMapperStats = "MAPPER_STATS";   // mapper_stats_t
-inline constexpr const char* kDeputyStatus = "DEPUTY_STATUS"; // deputy_status_t
-inline constexpr const char* kDeputyOrder = "DEPUTY_ORDER";   // deputy_order_t
-inline constexpr const char* kDeputyOutput = "DEPUTY_OUTPUT"; // deputy_output_t
-inline constexpr const char* kInputStats = "INPUT_STATS";     // input_stats_t
+inline constexpr const char* kPose = "POSE";                         // pose_t
+inline constexpr const char* kMapGraph = "MAP_GRAPH";                // map_graph_t
+inline constexpr const char* kMapperStats = "MAPPER_STATS";          // mapper_stats_t
+inline constexpr const char* kDeputyStatus = "DEPUTY_STATUS";        // deputy_status_t
+inline constexpr const char* kDeputyOrder = "DEPUTY_ORDER";          // deputy_order_t
+inline constexpr const char* kDeputyOutput = "DEPUTY_OUTPUT";        // deputy_output_t
+inline constexpr const char* kInputStats = "INPUT_STATS";            // input_stats_t
 
 // Calibration is state, not an event (docs/contracts.md): every source of STEREO sends
 // STEREO_CALIB before its first frame and again before the first frame of every period, so a

@@ -68,8 +68,10 @@ int64_t utimeFromNs(int64_t t_ns) {
 
 const char* toString(ImageEncoding e) {
   switch (e) {
-    case ImageEncoding::kGray8: return "gray8";
-    case ImageEncoding::kPng: return "png";
+    case ImageEncoding::kGray8:
+      return "gray8";
+    case ImageEncoding::kPng:
+      return "png";
   }
   return "?";
 }
@@ -87,8 +89,7 @@ Expected<evermap::image_t> toMsg(const cv::Mat& image, int64_t utime, ImageEncod
     msg.row_stride = image.cols;
     msg.data.resize(static_cast<size_t>(image.cols) * image.rows);
     for (int r = 0; r < image.rows; ++r) {
-      std::memcpy(msg.data.data() + static_cast<size_t>(r) * image.cols, image.ptr(r),
-                  image.cols);
+      std::memcpy(msg.data.data() + static_cast<size_t>(r) * image.cols, image.ptr(r), image.cols);
     }
   } else {
     msg.pixelformat = evermap::image_t::FORMAT_PNG;
@@ -109,16 +110,14 @@ Expected<cv::Mat> fromMsg(const evermap::image_t& msg) {
   const std::string what = "image_t at utime " + std::to_string(msg.utime);
   if (msg.width <= 0 || msg.height <= 0 || msg.width > kMaxImageSide ||
       msg.height > kMaxImageSide) {
-    return makeError(what, ": size ", msg.width, "x", msg.height, " is not in 1..",
-                     kMaxImageSide);
+    return makeError(what, ": size ", msg.width, "x", msg.height, " is not in 1..", kMaxImageSide);
   }
   if (msg.size < 0 || static_cast<size_t>(msg.size) != msg.data.size()) {
     return makeError(what, ": size field ", msg.size, " but ", msg.data.size(), " data bytes");
   }
   if (msg.pixelformat == evermap::image_t::FORMAT_GRAY8) {
     if (msg.row_stride < msg.width) {
-      return makeError(what, ": row_stride ", msg.row_stride, " is less than width ",
-                       msg.width);
+      return makeError(what, ": row_stride ", msg.row_stride, " is less than width ", msg.width);
     }
     const int64_t need = int64_t{msg.row_stride} * msg.height;
     if (msg.size != need) {
@@ -201,8 +200,8 @@ Expected<StereoFrame> fromMsg(const evermap::stereo_image_t& msg) {
   auto right = fromMsg(msg.right);
   if (!right) return makeError(what, ": right: ", right.error().message);
   if (left->size() != right->size()) {
-    return makeError(what, ": left ", left->cols, "x", left->rows, " and right ", right->cols,
-                     "x", right->rows, " differ in size");
+    return makeError(what, ": left ", left->cols, "x", left->rows, " and right ", right->cols, "x",
+                     right->rows, " differ in size");
   }
   StereoFrame frame;
   frame.utime = msg.utime;
@@ -233,8 +232,8 @@ evermap::camera_calib_t toMsg(const core::CameraCalibration& c) {
 Expected<core::CameraCalibration> fromMsg(const evermap::camera_calib_t& msg) {
   const std::string what = "camera_calib_t";
   if (msg.num_distortion < 0 || static_cast<size_t>(msg.num_distortion) != msg.distortion.size()) {
-    return makeError(what, ": num_distortion ", msg.num_distortion, " but ",
-                     msg.distortion.size(), " coefficients");
+    return makeError(what, ": num_distortion ", msg.num_distortion, " but ", msg.distortion.size(),
+                     " coefficients");
   }
   core::CameraCalibration c;
   c.width = msg.width;
@@ -307,8 +306,8 @@ Expected<ImuSample> fromMsg(const evermap::imu_t& msg) {
   }
   ImuSample s;
   s.t_ns = nsFromUtime(msg.utime);
-  s.gyro_rad_s = Eigen::Vector3d(msg.angular_velocity[0], msg.angular_velocity[1],
-                                 msg.angular_velocity[2]);
+  s.gyro_rad_s =
+      Eigen::Vector3d(msg.angular_velocity[0], msg.angular_velocity[1], msg.angular_velocity[2]);
   s.accel_m_s2 = Eigen::Vector3d(msg.linear_acceleration[0], msg.linear_acceleration[1],
                                  msg.linear_acceleration[2]);
   return s;

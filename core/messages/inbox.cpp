@@ -43,7 +43,8 @@ Status TimeGuardOptions::validate() const {
     return makeError("time confirm_count: must be in [1, 100], got ", confirm_count);
   if (expire_count < 1) return makeError("time expire_count: must be >= 1, got ", expire_count);
   if (max_held < confirm_count)
-    return makeError("time max_held: must be >= confirm_count (", confirm_count, "), got ", max_held);
+    return makeError("time max_held: must be >= confirm_count (", confirm_count, "), got ",
+                     max_held);
   return Ok{};
 }
 
@@ -153,7 +154,8 @@ void Inbox::guard(Entry& e, const void* data, int64_t size, int64_t utime) {
 
 void Inbox::expireHeld() {
   while (!held_.empty() && passed_ - held_.front().passed_at > o_.time.expire_count)
-    refuseOldestHeld("more than the time window from the stream's clock " + std::to_string(clock_utime_));
+    refuseOldestHeld("more than the time window from the stream's clock " +
+                     std::to_string(clock_utime_));
 }
 
 void Inbox::refuseOldestHeld(const std::string& why) {
@@ -196,8 +198,9 @@ void Inbox::countRefused(const std::string& channel, const std::string& why) {
 
 void Inbox::log(const std::string&, int64_t count, const std::string& line) {
   if (count <= o_.log_lines || count % 1000 == 0) {
-    std::fprintf(stderr, "%s: dropped: %s%s\n", o_.process.c_str(), line.c_str(),
-                 count > o_.log_lines ? (" (" + std::to_string(count) + " of this kind)").c_str() : "");
+    std::fprintf(
+        stderr, "%s: dropped: %s%s\n", o_.process.c_str(), line.c_str(),
+        count > o_.log_lines ? (" (" + std::to_string(count) + " of this kind)").c_str() : "");
   }
 }
 
@@ -217,10 +220,9 @@ std::string Inbox::summary() const {
   std::string s;
   for (const auto& [channel, c] : counts_) {
     if (!s.empty()) s += "; ";
-    s += channel + " " + std::to_string(c.received) + " received, " +
-         std::to_string(c.malformed) + " malformed, " + std::to_string(c.time_refused) +
-         " time-refused, " + std::to_string(c.refused) + " refused, " +
-         std::to_string(c.failed) + " failed";
+    s += channel + " " + std::to_string(c.received) + " received, " + std::to_string(c.malformed) +
+         " malformed, " + std::to_string(c.time_refused) + " time-refused, " +
+         std::to_string(c.refused) + " refused, " + std::to_string(c.failed) + " failed";
     // LCM's own queue (lcm_receive_guard.h): what never reached receive().
     if (const int64_t lost = lcmQueueDropped(channel); lost > 0) {
       s += ", " + std::to_string(lost) + " dropped by LCM's full queue";

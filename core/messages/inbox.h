@@ -56,11 +56,11 @@ struct TimeGuardOptions {
 };
 
 struct ChannelCounts {
-  int64_t received = 0;   // delivered by LCM to the Inbox
-  int64_t malformed = 0;  // did not decode (wire layout, type hash, decoder)
+  int64_t received = 0;      // delivered by LCM to the Inbox
+  int64_t malformed = 0;     // did not decode (wire layout, type hash, decoder)
   int64_t time_refused = 0;  // refused by the time guard
-  int64_t refused = 0;    // the handler returned an Error
-  int64_t failed = 0;     // the handler threw
+  int64_t refused = 0;       // the handler returned an Error
+  int64_t failed = 0;        // the handler threw
   int64_t dropped() const { return malformed + time_refused + refused + failed; }
 };
 

@@ -77,8 +77,8 @@ Expected<KeyframeMsgContents> fromMsg(const evermap::keyframe_t& msg) {
   }
   const int width = static_cast<int>(std::ceil(std::max(2.0 * msg.cx, max_u + 1.0)));
   const int height = static_cast<int>(std::ceil(std::max(2.0 * msg.cy, max_v + 1.0)));
-  auto camera = core::StereoCamera::create(msg.fx, msg.fy, msg.cx, msg.cy, msg.baseline_m,
-                                           width, height);
+  auto camera =
+      core::StereoCamera::create(msg.fx, msg.fy, msg.cx, msg.cy, msg.baseline_m, width, height);
   if (!camera) return makeError(who, ": ", camera.error().message);
   return KeyframeMsgContents{*camera, std::move(f)};
 }

@@ -25,8 +25,7 @@ struct KeyframeMsgContents {
   core::KeyframeFeatures features;
 };
 
-evermap::keyframe_t toMsg(const core::StereoCamera& camera,
-                          const core::KeyframeFeatures& features);
+evermap::keyframe_t toMsg(const core::StereoCamera& camera, const core::KeyframeFeatures& features);
 // Errors name the field: non-finite or non-positive intrinsics, inconsistent lengths, a
 // feature that is not finite, a non-positive disparity or depth, a negative level.
 Expected<KeyframeMsgContents> fromMsg(const evermap::keyframe_t& msg);

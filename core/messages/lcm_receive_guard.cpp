@@ -122,7 +122,8 @@ extern "C" ssize_t recvmsg(int fd, struct msghdr* msg, int flags) {
   if (evermap::messages::lcmPacketIsSafe(msg->msg_iov[0].iov_base, seen)) return n;
   const int64_t refused = ++evermap::messages::refusedCount();
   if (refused <= 20 || refused % 1000 == 0) {
-    std::fprintf(stderr, "evermap: dropped: an LCM fragment with an inconsistent header (%lld so far)\n",
+    std::fprintf(stderr,
+                 "evermap: dropped: an LCM fragment with an inconsistent header (%lld so far)\n",
                  static_cast<long long>(refused));
   }
   return 0;  // LCM discards a datagram shorter than its header
@@ -137,7 +138,8 @@ extern "C" int lcm_try_enqueue_message(void* lcm, const char* channel) {
   static const TryEnqueue real = [] {
     auto f = reinterpret_cast<TryEnqueue>(dlsym(RTLD_NEXT, "lcm_try_enqueue_message"));
     if (f == nullptr) {  // a broken contract: liblcm without the function LCM 1.3.1 exports
-      std::fprintf(stderr, "evermap: liblcm's lcm_try_enqueue_message() not found: %s\n", dlerror());
+      std::fprintf(stderr, "evermap: liblcm's lcm_try_enqueue_message() not found: %s\n",
+                   dlerror());
       std::abort();
     }
     return f;

@@ -29,7 +29,8 @@ template <int N>
 Eigen::Matrix<double, N, N> clippedToPsd(const Eigen::Matrix<double, N, N>& c) {
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> eig(0.5 * (c + c.transpose()));
   const Eigen::Matrix<double, N, 1> lambda = eig.eigenvalues().cwiseMax(0.0);
-  const Eigen::Matrix<double, N, N> out = eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
+  const Eigen::Matrix<double, N, N> out =
+      eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
   return 0.5 * (out + out.transpose());
 }
 
@@ -52,7 +53,8 @@ std::optional<OdometryPose> odometryPose(const evermap::vo_delta_t& m, std::stri
   return p;
 }
 
-Expected<core::UncertainPose> odometryBetween(const OdometryPose& a, const core::Mat6& a_own_covariance,
+Expected<core::UncertainPose> odometryBetween(const OdometryPose& a,
+                                              const core::Mat6& a_own_covariance,
                                               const OdometryPose& b) {
   if (a.epoch != b.epoch) return makeError("odometry epochs differ (", a.epoch, ", ", b.epoch, ")");
   if (b.utime <= a.utime) return makeError("odometry pose at ", b.utime, " is not after ", a.utime);
@@ -117,7 +119,8 @@ WheelOdometryPose compound(const WheelOdometryPose& a, const PlanarMotion& d, in
   b.epoch = a.epoch;
   b.utime = utime;
   b.odom_T_body = core::compose(a.odom_T_body, d.a_T_b, &j1, &j2);
-  b.covariance = clippedToPsd<3>(j1 * a.covariance * j1.transpose() + j2 * d.covariance * j2.transpose());
+  b.covariance =
+      clippedToPsd<3>(j1 * a.covariance * j1.transpose() + j2 * d.covariance * j2.transpose());
   return b;
 }
 
@@ -128,7 +131,8 @@ PlanarMotion share(const PlanarMotion& d, double f) {
 
 }  // namespace
 
-std::optional<WheelOdometryPose> wheelOdometryPose(const evermap::wheel_odom_t& m, std::string* why) {
+std::optional<WheelOdometryPose> wheelOdometryPose(const evermap::wheel_odom_t& m,
+                                                   std::string* why) {
   const auto fail = [&](const char* what) -> std::optional<WheelOdometryPose> {
     if (why) *why = what;
     return std::nullopt;
@@ -146,21 +150,27 @@ std::optional<WheelOdometryPose> wheelOdometryPose(const evermap::wheel_odom_t& 
   return p;
 }
 
-Expected<PlanarMotion> wheelOdometryBetween(const WheelOdometryPose& a, const WheelOdometryPose& b) {
-  if (a.epoch != b.epoch) return makeError("wheel odometry epochs differ (", a.epoch, ", ", b.epoch, ")");
-  if (b.utime < a.utime) return makeError("wheel odometry pose at ", b.utime, " is before ", a.utime);
+Expected<PlanarMotion> wheelOdometryBetween(const WheelOdometryPose& a,
+                                            const WheelOdometryPose& b) {
+  if (a.epoch != b.epoch)
+    return makeError("wheel odometry epochs differ (", a.epoch, ", ", b.epoch, ")");
+  if (b.utime < a.utime)
+    return makeError("wheel odometry pose at ", b.utime, " is before ", a.utime);
   PlanarMotion d;
   d.a_T_b = core::between(a.odom_T_body, b.odom_T_body);
   Eigen::Matrix3d j1, j2;
   (void)core::compose(a.odom_T_body, d.a_T_b, &j1, &j2);
   const Eigen::Matrix3d j2_inv = j2.inverse();  // a rotation block and 1: always invertible
-  d.covariance = clippedToPsd<3>(j2_inv * (b.covariance - j1 * a.covariance * j1.transpose()) * j2_inv.transpose());
+  d.covariance = clippedToPsd<3>(j2_inv * (b.covariance - j1 * a.covariance * j1.transpose()) *
+                                 j2_inv.transpose());
   return d;
 }
 
-std::optional<WheelOdometryPose> wheelOdometryAt(const std::deque<WheelOdometryPose>& poses, int64_t utime) {
+std::optional<WheelOdometryPose> wheelOdometryAt(const std::deque<WheelOdometryPose>& poses,
+                                                 int64_t utime) {
   if (poses.empty() || utime < poses.front().utime) return std::nullopt;
-  if (poses.size() == 1) return utime == poses.front().utime ? std::optional(poses.front()) : std::nullopt;
+  if (poses.size() == 1)
+    return utime == poses.front().utime ? std::optional(poses.front()) : std::nullopt;
   auto b = std::lower_bound(poses.begin(), poses.end(), utime,
                             [](const WheelOdometryPose& p, int64_t t) { return p.utime < t; });
   if (b != poses.end() && b->utime == utime) return *b;
@@ -183,8 +193,8 @@ void WheelOdometryFrame::stamp(evermap::wheel_odom_t& m) {
   PlanarMotion d;
   d.a_T_b = core::SE2d(m.delta_x_m, m.delta_y_m, m.delta_theta_rad);
   const auto c = planarCovarianceFromMessage(m.covariance, "WHEEL_ODOM");
-  const bool valid = std::isfinite(m.delta_x_m) && std::isfinite(m.delta_y_m) && std::isfinite(m.delta_theta_rad) &&
-                     c && m.prev_utime <= m.utime;
+  const bool valid = std::isfinite(m.delta_x_m) && std::isfinite(m.delta_y_m) &&
+                     std::isfinite(m.delta_theta_rad) && c && m.prev_utime <= m.utime;
   if (!valid) {
     // An increment that is no motion: what follows starts again.
     pose_ = WheelOdometryPose{};

@@ -43,8 +43,8 @@ namespace evermap::messages {
 
 // A frame's pose in its odometry frame, as a VO_DELTA carries it (camera frames).
 struct OdometryPose {
-  int64_t epoch = 0;     // utime of the frame the odometry frame started at
-  int64_t utime = 0;     // the frame's
+  int64_t epoch = 0;  // utime of the frame the odometry frame started at
+  int64_t utime = 0;  // the frame's
   core::UncertainPose odom_T_cam;
 };
 
@@ -56,7 +56,8 @@ std::optional<OdometryPose> odometryPose(const evermap::vo_delta_t& m, std::stri
 // The motion a_T_b between two poses of one epoch, b after a, and its covariance (above);
 // a_own_covariance: the covariance of a's motion from its reference keyframe (zero when a
 // is a keyframe). An error for poses of different epochs or b not after a.
-Expected<core::UncertainPose> odometryBetween(const OdometryPose& a, const core::Mat6& a_own_covariance,
+Expected<core::UncertainPose> odometryBetween(const OdometryPose& a,
+                                              const core::Mat6& a_own_covariance,
                                               const OdometryPose& b);
 
 // Stamps a VO_DELTA stream with odometry poses (above): one per sender, messages in order.
@@ -70,7 +71,7 @@ class OdometryFrame {
  private:
   void startEpoch(int64_t utime);
   int64_t epoch_ = 0;
-  int64_t ref_utime_ = -1;         // the reference keyframe the next frames ride on
+  int64_t ref_utime_ = -1;  // the reference keyframe the next frames ride on
   core::UncertainPose odom_T_ref_;
 };
 
@@ -95,7 +96,8 @@ struct PlanarMotion {
 
 // The pose `m` carries; empty when it carries none (odom_epoch 0) or its fields are no pose
 // (not finite, a covariance not symmetric positive semi-definite): then `why` says which.
-std::optional<WheelOdometryPose> wheelOdometryPose(const evermap::wheel_odom_t& m, std::string* why = nullptr);
+std::optional<WheelOdometryPose> wheelOdometryPose(const evermap::wheel_odom_t& m,
+                                                   std::string* why = nullptr);
 // The motion between two poses of one epoch, b not before a; an error otherwise.
 Expected<PlanarMotion> wheelOdometryBetween(const WheelOdometryPose& a, const WheelOdometryPose& b);
 // The pose at `utime` from recent poses of one epoch in time order: interpolated at constant
@@ -103,7 +105,8 @@ Expected<PlanarMotion> wheelOdometryBetween(const WheelOdometryPose& a, const Wh
 // at most two of its lengths (variance: the share's, and as much again for the change of
 // speed it cannot see). Empty when utime is before the oldest, further past the newest, or
 // fewer than two poses are kept (one pose: only its own time).
-std::optional<WheelOdometryPose> wheelOdometryAt(const std::deque<WheelOdometryPose>& poses, int64_t utime);
+std::optional<WheelOdometryPose> wheelOdometryAt(const std::deque<WheelOdometryPose>& poses,
+                                                 int64_t utime);
 
 // Stamps a WHEEL_ODOM stream with odometry poses (above): one per sender, messages in order.
 class WheelOdometryFrame {

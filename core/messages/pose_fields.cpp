@@ -16,7 +16,8 @@ template <int N>
 Expected<Eigen::Matrix<double, N, N>> covarianceOf(const double* row_major, const char* what) {
   using Mat = Eigen::Matrix<double, N, N>;
   for (int i = 0; i < N * N; ++i)
-    if (!std::isfinite(row_major[i])) return Error(std::string(what) + ": covariance is not finite");
+    if (!std::isfinite(row_major[i]))
+      return Error(std::string(what) + ": covariance is not finite");
   Mat c;
   for (int r = 0; r < N; ++r)
     for (int k = 0; k < N; ++k) c(r, k) = row_major[N * r + k];

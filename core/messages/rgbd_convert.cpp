@@ -62,8 +62,8 @@ Expected<cv::Mat> decodeDepth(const evermap::rgbd_image_t& msg, const std::strin
       return makeError(what, ": depth_format DEPTH_PNG16 but the depth data is not a PNG");
     }
     if (h.width != msg.depth_width || h.height != msg.depth_height) {
-      return makeError(what, ": the depth PNG is ", h.width, "x", h.height,
-                       ", the message says ", msg.depth_width, "x", msg.depth_height);
+      return makeError(what, ": the depth PNG is ", h.width, "x", h.height, ", the message says ",
+                       msg.depth_width, "x", msg.depth_height);
     }
     if (h.bit_depth != 16 || h.colour_type != 0) {
       return makeError(what, ": the depth PNG is ", h.bit_depth, "-bit, colour type ",
@@ -95,8 +95,8 @@ Expected<evermap::rgbd_image_t> toMsg(const RgbdFrame& f, ImageEncoding encoding
     return makeError(what, ": depth must be a non-empty 16-bit one-channel image");
   }
   if (f.depth.size() != f.gray.size()) {
-    return makeError(what, ": depth ", f.depth.cols, "x", f.depth.rows, " and gray ",
-                     f.gray.cols, "x", f.gray.rows, " differ in size");
+    return makeError(what, ": depth ", f.depth.cols, "x", f.depth.rows, " and gray ", f.gray.cols,
+                     "x", f.gray.rows, " differ in size");
   }
   if (!(f.depth_scale_m > 0.0) || !std::isfinite(f.depth_scale_m)) {
     return makeError(what, ": depth_scale_m ", f.depth_scale_m, " is not positive and finite");

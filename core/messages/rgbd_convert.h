@@ -19,11 +19,11 @@ namespace evermap::messages {
 
 // Depth of the image: CV_16UC1 in units of depth_scale_m, 0 = no depth (the Kinect's hole).
 struct RgbdFrame {
-  int64_t utime = 0;        // the gray image's exposure
-  int64_t depth_utime = 0;  // the depth image's exposure
-  cv::Mat gray;             // CV_8UC1
-  cv::Mat depth;            // CV_16UC1, the gray image's size, registered to it
-  double depth_scale_m = 0.0002;  // metres per unit (TUM and OpenNI: 1/5000)
+  int64_t utime = 0;               // the gray image's exposure
+  int64_t depth_utime = 0;         // the depth image's exposure
+  cv::Mat gray;                    // CV_8UC1
+  cv::Mat depth;                   // CV_16UC1, the gray image's size, registered to it
+  double depth_scale_m = 0.0002;   // metres per unit (TUM and OpenNI: 1/5000)
   core::CameraCalibration camera;  // of the gray image
 
   // Depth in metres of a depth value (0 for no depth).

@@ -18,7 +18,8 @@ int64_t readInteger(const uint8_t* p, int bytes) {
 
 class Walker {
  public:
-  Walker(const uint8_t* buf, int64_t size, const char* root) : buf_(buf), size_(size), root_(root) {}
+  Walker(const uint8_t* buf, int64_t size, const char* root)
+      : buf_(buf), size_(size), root_(root) {}
 
   // Walks one struct starting at pos_; false with error_ set when the buffer cannot hold it.
   // The member's path ("map_graph_t.nodes[12].position") is spelled only for an error: a
@@ -52,7 +53,8 @@ class Walker {
       int64_t count = empty ? 0 : 1;
       for (int d = 0; d < m.num_dims && !empty; ++d) {
         count *= dims[d];
-        if (count > left()) return fail(name, ": ", count, " elements exceed the ", left(), " bytes left");
+        if (count > left())
+          return fail(name, ": ", count, " elements exceed the ", left(), " bytes left");
       }
       if (m.kind == Kind::kStruct) {
         for (int64_t e = 0; e < count; ++e) {

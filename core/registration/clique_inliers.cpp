@@ -13,8 +13,8 @@ namespace {
 
 // popcount of a AND b over `words` 64-bit words. The clique search is mostly this; compiled
 // twice (with the POPCNT instruction, and portable) and chosen at load time.
-__attribute__((target_clones("popcnt", "default")))
-int popcountAnd(const uint64_t* a, const uint64_t* b, int words) {
+__attribute__((target_clones("popcnt", "default"))) int popcountAnd(const uint64_t* a,
+                                                                    const uint64_t* b, int words) {
   int d = 0;
   for (int w = 0; w < words; ++w) d += __builtin_popcountll(a[w] & b[w]);
   return d;
@@ -23,13 +23,11 @@ int popcountAnd(const uint64_t* a, const uint64_t* b, int words) {
 // Row by row, the pairs (i, j > i) whose distance changes less than their threshold: the n²/2
 // distance computations, compiled for AVX2 and for the baseline. w[k] = sigmas * s_k / z_k of
 // each point (0: the fixed threshold).
-__attribute__((target_clones("avx2", "default")))
-void fillAdjacency(int n, int words, const float* __restrict ax, const float* __restrict ay,
-                   const float* __restrict az, const float* __restrict bx,
-                   const float* __restrict by, const float* __restrict bz,
-                   const float* __restrict wa, const float* __restrict wb, float t0,
-                   float* __restrict change, float* __restrict threshold,
-                   uint64_t* __restrict adj) {
+__attribute__((target_clones("avx2", "default"))) void fillAdjacency(
+    int n, int words, const float* __restrict ax, const float* __restrict ay,
+    const float* __restrict az, const float* __restrict bx, const float* __restrict by,
+    const float* __restrict bz, const float* __restrict wa, const float* __restrict wb, float t0,
+    float* __restrict change, float* __restrict threshold, uint64_t* __restrict adj) {
   for (int i = 0; i < n; ++i) {
     for (int j = i + 1; j < n; ++j) {
       const float dax = ax[i] - ax[j], day = ay[i] - ay[j], daz = az[i] - az[j];
@@ -44,8 +42,8 @@ void fillAdjacency(int n, int words, const float* __restrict ax, const float* __
       const float aj = (dax * ax[j] + day * ay[j] + daz * az[j]) * wa[j];
       const float bi = (dbx * bx[i] + dby * by[i] + dbz * bz[i]) * wb[i];
       const float bj = (dbx * bx[j] + dby * by[j] + dbz * bz[j]) * wb[j];
-      const float var = (ai * ai + aj * aj) / std::max(la2, 1e-12f) +
-                        (bi * bi + bj * bj) / std::max(lb2, 1e-12f);
+      const float var =
+          (ai * ai + aj * aj) / std::max(la2, 1e-12f) + (bi * bi + bj * bj) / std::max(lb2, 1e-12f);
       threshold[j] = t0 + std::sqrt(var);
     }
     uint64_t* ri = adj + static_cast<size_t>(i) * words;
@@ -67,7 +65,8 @@ std::vector<int> maxConsistentClique(const std::vector<Eigen::Vector3d>& points_
                                      const CliqueOptions& options) {
   if (points_a.size() != points_b.size() || depth_sigma_a_m.size() != depth_sigma_b_m.size() ||
       (!depth_sigma_a_m.empty() && depth_sigma_a_m.size() != points_a.size())) {
-    std::fprintf(stderr, "evermap: maxConsistentClique: %zu points against %zu (%zu and %zu sigmas)\n",
+    std::fprintf(stderr,
+                 "evermap: maxConsistentClique: %zu points against %zu (%zu and %zu sigmas)\n",
                  points_a.size(), points_b.size(), depth_sigma_a_m.size(), depth_sigma_b_m.size());
     std::abort();
   }

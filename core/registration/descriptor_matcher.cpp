@@ -9,8 +9,9 @@ namespace {
 
 // Hamming distances from one descriptor to n others: the bulk of brute-force matching.
 // Compiled with and without the POPCNT instruction, chosen at load time.
-__attribute__((target_clones("popcnt", "default")))
-void hammingRow(const OrbDescriptor& a, const OrbDescriptor* b, int n, int* out) {
+__attribute__((target_clones("popcnt", "default"))) void hammingRow(const OrbDescriptor& a,
+                                                                    const OrbDescriptor* b, int n,
+                                                                    int* out) {
   uint64_t x[4];
   std::memcpy(x, a.data(), 32);
   for (int j = 0; j < n; ++j) {

@@ -10,12 +10,18 @@ namespace evermap::core {
 
 const char* toString(RegistrationStatus status) {
   switch (status) {
-    case RegistrationStatus::kOk: return "ok";
-    case RegistrationStatus::kInsufficientFeatures: return "insufficient features";
-    case RegistrationStatus::kInsufficientInliers: return "insufficient inliers";
-    case RegistrationStatus::kOptimizationFailure: return "optimization failure";
-    case RegistrationStatus::kReprojectionError: return "reprojection error";
-    case RegistrationStatus::kBadInput: return "bad input";
+    case RegistrationStatus::kOk:
+      return "ok";
+    case RegistrationStatus::kInsufficientFeatures:
+      return "insufficient features";
+    case RegistrationStatus::kInsufficientInliers:
+      return "insufficient inliers";
+    case RegistrationStatus::kOptimizationFailure:
+      return "optimization failure";
+    case RegistrationStatus::kReprojectionError:
+      return "reprojection error";
+    case RegistrationStatus::kBadInput:
+      return "bad input";
   }
   return "?";
 }
@@ -24,19 +30,21 @@ Status RegistrationOptions::validate() const {
   if (Status s = matching.validate(); !s) return s;
   if (Status s = motion.validate(); !s) return s;
   if (!(clique.threshold_m > 0.0) || !(clique.sigmas >= 0.0) || !(disparity_sigma_px >= 0.0)) {
-    return makeError("registration: clique threshold ", clique.threshold_m, " m + ",
-                     clique.sigmas, " sigmas of ", disparity_sigma_px,
+    return makeError("registration: clique threshold ", clique.threshold_m, " m + ", clique.sigmas,
+                     " sigmas of ", disparity_sigma_px,
                      " px disparity noise: need a positive threshold, non-negative noise");
   }
   if (min_features < 3) {
     return makeError("registration: min_features ", min_features, " must be >= 3");
   }
-  if (!(ambiguity_ratio >= 0.0) || !(ambiguity_translation_m > 0.0) || !(ambiguity_rotation_deg > 0.0)) {
-    return makeError("registration: ambiguity_ratio ", ambiguity_ratio, " must be >= 0, its thresholds > 0");
+  if (!(ambiguity_ratio >= 0.0) || !(ambiguity_translation_m > 0.0) ||
+      !(ambiguity_rotation_deg > 0.0)) {
+    return makeError("registration: ambiguity_ratio ", ambiguity_ratio,
+                     " must be >= 0, its thresholds > 0");
   }
   if (min_inliers < motion.min_inliers) {
-    return makeError("registration: min_inliers ", min_inliers,
-                     " is below motion.min_inliers ", motion.min_inliers);
+    return makeError("registration: min_inliers ", min_inliers, " is below motion.min_inliers ",
+                     motion.min_inliers);
   }
   return Ok{};
 }
@@ -57,15 +65,19 @@ SE3d rigidFit(const std::vector<Eigen::Vector3d>& pa, const std::vector<Eigen::V
 
 }  // namespace
 
-std::optional<std::string> ambiguity(const std::vector<Eigen::Vector3d>& pa, const std::vector<Eigen::Vector3d>& pb,
-                                     const std::vector<double>& sigma_a, const std::vector<double>& sigma_b,
-                                     const std::vector<int>& clique, const RegistrationOptions& options) {
+std::optional<std::string> ambiguity(const std::vector<Eigen::Vector3d>& pa,
+                                     const std::vector<Eigen::Vector3d>& pb,
+                                     const std::vector<double>& sigma_a,
+                                     const std::vector<double>& sigma_b,
+                                     const std::vector<int>& clique,
+                                     const RegistrationOptions& options) {
   std::vector<bool> used(pa.size(), false);
   for (int i : clique) used[static_cast<size_t>(i)] = true;
   std::vector<int> rest;
   for (size_t i = 0; i < pa.size(); ++i)
     if (!used[i]) rest.push_back(static_cast<int>(i));
-  const double needed = std::max<double>(options.min_inliers, options.ambiguity_ratio * static_cast<double>(clique.size()));
+  const double needed = std::max<double>(
+      options.min_inliers, options.ambiguity_ratio * static_cast<double>(clique.size()));
   if (static_cast<double>(rest.size()) < needed) return std::nullopt;
   std::vector<Eigen::Vector3d> ra, rb;
   std::vector<double> rsa, rsb;
@@ -85,7 +97,8 @@ std::optional<std::string> ambiguity(const std::vector<Eigen::Vector3d>& pa, con
   const SE3d d = first_T.inverse() * second_T;
   const double dt = d.translation().norm();
   const double dr = rotationAngle(d.so3()) * 180.0 / std::numbers::pi;
-  if (dt <= options.ambiguity_translation_m && dr <= options.ambiguity_rotation_deg) return std::nullopt;
+  if (dt <= options.ambiguity_translation_m && dr <= options.ambiguity_rotation_deg)
+    return std::nullopt;
   std::ostringstream why;
   why << "a second consistent set of " << second.size() << " matches moves " << dt << " m, " << dr
       << " deg differently (repeated structure)";
@@ -105,8 +118,9 @@ RegistrationSummary registerMatches(const StereoCamera& camera_a, const StereoCa
   }
   if (ids.size() != matches.size()) {
     s.status = RegistrationStatus::kBadInput;
-    s.message = makeError("registration: ", matches.size(), " matches but ", ids.size(),
-                          " index pairs").message;
+    s.message =
+        makeError("registration: ", matches.size(), " matches but ", ids.size(), " index pairs")
+            .message;
     return s;
   }
   std::vector<Eigen::Vector3d> pa, pb;
@@ -129,14 +143,17 @@ RegistrationSummary registerMatches(const StereoCamera& camera_a, const StereoCa
   s.num_clique = static_cast<int>(clique.size());
   if (s.num_clique < options.min_inliers) {
     s.status = RegistrationStatus::kInsufficientInliers;
-    s.message = makeError(s.num_matches, " matches, ", s.num_clique,
-                          " consistent (clique), need ", options.min_inliers).message;
+    s.message = makeError(s.num_matches, " matches, ", s.num_clique, " consistent (clique), need ",
+                          options.min_inliers)
+                    .message;
     return s;
   }
   if (options.ambiguity_ratio > 0.0) {
     if (auto why = ambiguity(pa, pb, sigma_a, sigma_b, clique, options)) {
       s.status = RegistrationStatus::kInsufficientInliers;
-      s.message = makeError(s.num_matches, " matches, ", s.num_clique, " in the clique: ambiguous, ", *why).message;
+      s.message =
+          makeError(s.num_matches, " matches, ", s.num_clique, " in the clique: ambiguous, ", *why)
+              .message;
       return s;
     }
   }
@@ -193,7 +210,8 @@ RegistrationSummary registerFrames(const StereoCamera& camera_a, const KeyframeF
   if (s.num_features_a < options.min_features || s.num_features_b < options.min_features) {
     s.status = RegistrationStatus::kInsufficientFeatures;
     s.message = makeError("keyframes have ", s.num_features_a, " and ", s.num_features_b,
-                          " features, need ", options.min_features).message;
+                          " features, need ", options.min_features)
+                    .message;
     return s;
   }
   const std::vector<std::pair<int, int>> ids =

@@ -32,7 +32,7 @@ enum class RegistrationStatus : int8_t {
   kInsufficientInliers = 3,   // too few consistent matches: occlusion, fast motion, elsewhere
   kOptimizationFailure = 4,
   kReprojectionError = 5,
-  kBadInput = 6,              // invalid features or options
+  kBadInput = 6,  // invalid features or options
 };
 const char* toString(RegistrationStatus status);
 

@@ -37,10 +37,14 @@ Status MotionOptions::validate() const {
 
 const char* toString(MotionStatus status) {
   switch (status) {
-    case MotionStatus::kOk: return "ok";
-    case MotionStatus::kInsufficientInliers: return "insufficient inliers";
-    case MotionStatus::kOptimizationFailure: return "optimization failure";
-    case MotionStatus::kReprojectionError: return "reprojection error";
+    case MotionStatus::kOk:
+      return "ok";
+    case MotionStatus::kInsufficientInliers:
+      return "insufficient inliers";
+    case MotionStatus::kOptimizationFailure:
+      return "optimization failure";
+    case MotionStatus::kReprojectionError:
+      return "reprojection error";
   }
   return "?";
 }
@@ -76,9 +80,9 @@ inline bool projectPixel(const StereoCamera& c, const Vec3& p, Eigen::Vector2d* 
 // J (4x6, optional): d r / d δ. Ja_out, Jb_out (optional): the projection Jacobians at the two
 // reprojected points.
 inline bool residual(const StereoCamera& camera_a, const StereoCamera& camera_b,
-                     const Correspondence& m, const PoseMatrices& T,
-                     Eigen::Matrix<double, 4, 1>* r, Eigen::Matrix<double, 4, 6>* J,
-                     Mat23* Ja_out = nullptr, Mat23* Jb_out = nullptr) {
+                     const Correspondence& m, const PoseMatrices& T, Eigen::Matrix<double, 4, 1>* r,
+                     Eigen::Matrix<double, 4, 6>* J, Mat23* Ja_out = nullptr,
+                     Mat23* Jb_out = nullptr) {
   // Into a: q_a = T exp(δ) p_b ≈ T p_b + R (υ + ω × p_b): dq_a/dδ = R [I, -[p_b]x].
   const Vec3 q_a = T.R * m.p_b + T.t;
   // Into b: q_b = exp(-δ) T⁻¹ p_a ≈ q_b - υ - ω × q_b: dq_b/dδ = [-I, [q_b]x].
@@ -134,8 +138,9 @@ namespace {
 // down along the epipolar direction where it does (far points under translation).
 // The whitening depends on the pose; the Jacobian holds it fixed. J (rows `row`, `row` + 1)
 // may be null: the cost alone.
-void whitenAlong(const Eigen::Vector2d& g, double sigma_px, Eigen::Ref<Eigen::Matrix<double, 2, 1>> r,
-                 Eigen::Matrix<double, 4, 6>* J, int row) {
+void whitenAlong(const Eigen::Vector2d& g, double sigma_px,
+                 Eigen::Ref<Eigen::Matrix<double, 2, 1>> r, Eigen::Matrix<double, 4, 6>* J,
+                 int row) {
   const double g2 = g.squaredNorm();
   if (!(g2 > 1e-12)) return;
   const double c = 1.0 - 1.0 / std::sqrt(1.0 + g2 / (sigma_px * sigma_px));
@@ -276,8 +281,8 @@ MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& 
       T = a->dst_S_src.rigid;
     }
   }
-  Problem problem{camera_a, camera_b, matches, options.disparity_sigma_px,
-                  options.pixel_sigma_px, {}};
+  Problem problem{camera_a, camera_b, matches, options.disparity_sigma_px, options.pixel_sigma_px,
+                  {}};
   problem.precompute();
   std::vector<int> active = candidates;
   int iterations = problem.solve(&T, active, options.max_iterations);
@@ -295,7 +300,8 @@ MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& 
       worst.push_back(problem.errors(P, i).maxCoeff());
     }
     std::vector<double> sorted = worst;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
+                     sorted.end());
     // At most half the previous bound: a fit pulled off so far that the median itself is an
     // outlier's error would otherwise keep the same bound.
     const double robust = std::min(3.0 * 1.4826 * sorted[sorted.size() / 2], 0.5 * previous_bound);
@@ -311,8 +317,9 @@ MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& 
     active.swap(kept);
     if (static_cast<int>(active.size()) < n_min) {
       out.status = MotionStatus::kInsufficientInliers;
-      out.message = makeError(active.size(), " of ", candidates.size(), " matches within ",
-                              bound, " px after ", round + 1, " solves, need ", n_min).message;
+      out.message = makeError(active.size(), " of ", candidates.size(), " matches within ", bound,
+                              " px after ", round + 1, " solves, need ", n_min)
+                        .message;
       out.a_T_b = T;
       out.inliers = active;
       return out;
@@ -351,8 +358,9 @@ MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& 
   out.covariance = 2.0 * sigma2 * 0.5 * (Hinv + Hinv.transpose());
   if (out.mean_reprojection_px > options.max_mean_reprojection_px) {
     out.status = MotionStatus::kReprojectionError;
-    out.message = makeError("mean reprojection error ", out.mean_reprojection_px,
-                            " px exceeds ", options.max_mean_reprojection_px, " px").message;
+    out.message = makeError("mean reprojection error ", out.mean_reprojection_px, " px exceeds ",
+                            options.max_mean_reprojection_px, " px")
+                      .message;
     return out;
   }
   out.status = MotionStatus::kOk;

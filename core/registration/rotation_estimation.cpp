@@ -19,7 +19,7 @@ namespace {
 struct TemplatePixels {
   std::vector<float> ray_x, ray_y;  // normalised coordinates of the pixel of image a
   std::vector<float> value;
-  std::vector<float> sd[4];         // steepest descent: ∇I_a · ∂W/∂ω, and 1 for the offset
+  std::vector<float> sd[4];  // steepest descent: ∇I_a · ∂W/∂ω, and 1 for the offset
   size_t size() const { return value.size(); }
 };
 
@@ -67,9 +67,8 @@ int accumulateScalar(const TemplatePixels& t, const Warp& w, const cv::Mat& imag
 // The same, 8 pixels at a time: the four neighbours of a sample come from two 32-bit gathers
 // (bytes x0 - 1 .. x0 + 2 of rows y0 and y0 + 1). Samples whose gather would leave the image
 // row (x0 = 0 or x0 + 2 = cols) and the last pixels take the scalar path.
-__attribute__((target("avx2")))
-int accumulateAvx2(const TemplatePixels& t, const Warp& w, const cv::Mat& image_b,
-                   Eigen::Vector4f* g) {
+__attribute__((target("avx2"))) int accumulateAvx2(const TemplatePixels& t, const Warp& w,
+                                                   const cv::Mat& image_b, Eigen::Vector4f* g) {
   const size_t n = t.size();
   const size_t n8 = n / 8 * 8;
   const auto* base = reinterpret_cast<const int*>(image_b.ptr<uint8_t>(0));
@@ -94,9 +93,12 @@ int accumulateAvx2(const TemplatePixels& t, const Warp& w, const cv::Mat& image_
   for (size_t i = 0; i < n8; i += 8) {
     const __m256 rx = _mm256_loadu_ps(t.ray_x.data() + i);
     const __m256 ry = _mm256_loadu_ps(t.ray_y.data() + i);
-    const __m256 qx = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r00, rx), _mm256_mul_ps(r01, ry)), r02);
-    const __m256 qy = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r10, rx), _mm256_mul_ps(r11, ry)), r12);
-    const __m256 qz = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r20, rx), _mm256_mul_ps(r21, ry)), r22);
+    const __m256 qx =
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r00, rx), _mm256_mul_ps(r01, ry)), r02);
+    const __m256 qy =
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r10, rx), _mm256_mul_ps(r11, ry)), r12);
+    const __m256 qz =
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r20, rx), _mm256_mul_ps(r21, ry)), r22);
     const __m256 front = _mm256_cmp_ps(qz, min_z, _CMP_GT_OQ);
     const __m256 iz = _mm256_div_ps(one, qz);
     const __m256 u = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(fx, qx), iz), cx);
@@ -106,7 +108,8 @@ int accumulateAvx2(const TemplatePixels& t, const Warp& w, const cv::Mat& image_
     // Inside for the scalar rule (x0 >= 0, x0 + 1 < cols, same for rows) and for the gathers
     // (also x0 >= 1, x0 + 2 < cols). Lanes behind the camera have garbage x0, y0: masked.
     const __m256i rows_in = _mm256_andnot_si256(
-        _mm256_or_si256(_mm256_cmpgt_epi32(zero_i, y0), _mm256_cmpgt_epi32(y0, _mm256_sub_epi32(rows_minus_1, one_i))),
+        _mm256_or_si256(_mm256_cmpgt_epi32(zero_i, y0),
+                        _mm256_cmpgt_epi32(y0, _mm256_sub_epi32(rows_minus_1, one_i))),
         _mm256_castps_si256(front));
     const __m256i inside = _mm256_andnot_si256(
         _mm256_or_si256(_mm256_cmpgt_epi32(zero_i, x0),
@@ -127,7 +130,8 @@ int accumulateAvx2(const TemplatePixels& t, const Warp& w, const cv::Mat& image_
     }
     if (gather_bits == 0) continue;
     used += __builtin_popcount(static_cast<unsigned>(gather_bits));
-    const __m256i index = _mm256_add_epi32(_mm256_mullo_epi32(y0, steps), _mm256_sub_epi32(x0, one_i));
+    const __m256i index =
+        _mm256_add_epi32(_mm256_mullo_epi32(y0, steps), _mm256_sub_epi32(x0, one_i));
     const __m256i w0 = _mm256_mask_i32gather_epi32(zero_i, base, index, gatherable, 1);
     const __m256i w1 =
         _mm256_mask_i32gather_epi32(zero_i, base, _mm256_add_epi32(index, steps), gatherable, 1);
@@ -212,7 +216,7 @@ std::optional<SO3d> estimateRotation(const cv::Mat& image_a, const cv::Mat& imag
   double offset = 0.0;
   for (int it = 0; it < options.max_iterations; ++it) {
     const Warp warp{R.matrix().cast<float>(), static_cast<float>(fx), static_cast<float>(fy),
-                    static_cast<float>(cx), static_cast<float>(cy), static_cast<float>(offset)};
+                    static_cast<float>(cx),   static_cast<float>(cy), static_cast<float>(offset)};
     Eigen::Vector4f g = Eigen::Vector4f::Zero();
     const int used = avx2 ? accumulateAvx2(pixels, warp, image_b, &g)
                           : accumulateScalar(pixels, warp, image_b, &g);

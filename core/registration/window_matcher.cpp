@@ -11,16 +11,14 @@ namespace evermap::core {
 
 Status WindowMatchOptions::validate() const {
   if (search_radius_px < 1) {
-    return makeError("window matching: search_radius_px ", search_radius_px,
-                     " must be positive");
+    return makeError("window matching: search_radius_px ", search_radius_px, " must be positive");
   }
   if (!(max_mean_abs_diff > 0.0 && max_mean_abs_diff <= 255.0)) {
     return makeError("window matching: max_mean_abs_diff ", max_mean_abs_diff,
                      " is not in (0, 255]");
   }
   if (!(max_refinement_px > 0.0)) {
-    return makeError("window matching: max_refinement_px ", max_refinement_px,
-                     " must be positive");
+    return makeError("window matching: max_refinement_px ", max_refinement_px, " must be positive");
   }
   return Ok{};
 }

@@ -30,9 +30,9 @@ struct WindowMatchOptions {
 };
 
 struct WindowMatch {
-  int ref = 0;          // index into ref.features
-  int cur = 0;          // index into cur.features
-  Eigen::Vector2f uv;   // the current feature, level-0 pixels (sub-pixel when refined)
+  int ref = 0;         // index into ref.features
+  int cur = 0;         // index into cur.features
+  Eigen::Vector2f uv;  // the current feature, level-0 pixels (sub-pixel when refined)
 };
 
 // `cur_T_ref` maps points of the reference camera into the current one (the prediction).

@@ -165,8 +165,8 @@ BatchSummary solveBatch(PoseGraph& graph, const BatchOptions& options) {
     const Values candidate = retracted(x, step);
     const Cost new_cost = graph.cost(candidate);
     const bool finite = std::isfinite(new_cost.robust);
-    const double decrease = finite ? cost.robust - new_cost.robust
-                                   : -std::numeric_limits<double>::infinity();
+    const double decrease =
+        finite ? cost.robust - new_cost.robust : -std::numeric_limits<double>::infinity();
     if (!finite && options.method == Method::kGaussNewton) {
       summary.termination = Termination::kFailure;
       summary.message = "gauss-newton diverged (non-finite cost); try lm or dogleg";
@@ -216,8 +216,8 @@ BatchSummary solveBatch(PoseGraph& graph, const BatchOptions& options) {
     }
   }
   // The budget ran out; the last iteration's step may still have met a test at its end.
-  if (!converged && summary.termination == Termination::kMaxIterations &&
-      need_factorization && g.lpNorm<Eigen::Infinity>() <= options.gradient_tolerance) {
+  if (!converged && summary.termination == Termination::kMaxIterations && need_factorization &&
+      g.lpNorm<Eigen::Infinity>() <= options.gradient_tolerance) {
     summary.termination = Termination::kSmallGradient;
   }
   summary.final_gradient_max = g.lpNorm<Eigen::Infinity>();

@@ -64,7 +64,7 @@ struct BatchSummary {
   double initial_cost = 0.0;  // robust cost Σρ at the start
   double final_cost = 0.0;    // robust cost Σρ at the end
   double final_weighted_sse = 0.0;
-  int64_t factor_nnz = 0;     // non-zeros of the last Cholesky factor
+  int64_t factor_nnz = 0;  // non-zeros of the last Cholesky factor
   // At the end: ‖g‖∞ of the gradient at the final estimate, and |Δcost|/cost of the last
   // accepted step (NaN when no step was accepted).
   double final_gradient_max = 0.0;
@@ -80,8 +80,7 @@ struct BatchSummary {
 
 // Powell's dog-leg step inside radius Δ from the Gauss-Newton step h_gn and the Cauchy step
 // h_sd (Madsen, Nielsen & Tingleff 2004, eq. 3.20).
-Eigen::VectorXd dogLegStep(const Eigen::VectorXd& h_gn, const Eigen::VectorXd& h_sd,
-                           double radius);
+Eigen::VectorXd dogLegStep(const Eigen::VectorXd& h_gn, const Eigen::VectorXd& h_sd, double radius);
 
 // Minimises the graph's robust cost starting from its current values; updates the values.
 BatchSummary solveBatch(PoseGraph& graph, const BatchOptions& options);

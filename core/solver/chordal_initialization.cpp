@@ -88,8 +88,10 @@ Expected<Values> chordalInitialization(const GraphFile& graph) {
     if (e.i >= 0) pattern.addBlock(e.i, e.i, k * I, H);
     if (e.j >= 0) pattern.addBlock(e.j, e.j, k * I, H);
     if (e.i >= 0 && e.j >= 0) {
-      if (e.i < e.j) pattern.addBlock(e.i, e.j, -k * e.Rz, H);
-      else pattern.addBlock(e.j, e.i, -k * e.Rz.transpose(), H);
+      if (e.i < e.j)
+        pattern.addBlock(e.i, e.j, -k * e.Rz, H);
+      else
+        pattern.addBlock(e.j, e.i, -k * e.Rz.transpose(), H);
     } else if (e.i < 0 && e.j >= 0) {
       G.middleRows(e.j * d, d) += k * e.Rz.transpose();  // columns e_r
     } else if (e.j < 0 && e.i >= 0) {
@@ -141,12 +143,12 @@ Expected<Values> chordalInitialization(const GraphFile& graph) {
     const Key key = chain.keyAt(v);
     if (d == 2) {
       const double th = std::atan2(R[v](1, 0), R[v](0, 0));
-      const Eigen::Vector2d t = unknown[v] < 0 ? Eigen::Vector2d::Zero()
-                                               : Eigen::Vector2d(T.segment(unknown[v] * d, 2));
+      const Eigen::Vector2d t =
+          unknown[v] < 0 ? Eigen::Vector2d::Zero() : Eigen::Vector2d(T.segment(unknown[v] * d, 2));
       out.add(key, PoseValue::planar(core::SE2d(t.x(), t.y(), th)));
     } else {
-      const core::Vec3 t = unknown[v] < 0 ? core::Vec3::Zero()
-                                          : core::Vec3(T.segment(unknown[v] * d, 3));
+      const core::Vec3 t =
+          unknown[v] < 0 ? core::Vec3::Zero() : core::Vec3(T.segment(unknown[v] * d, 3));
       out.add(key, PoseValue::spatial(core::SE3d(core::SO3d::fromMatrix(R[v]), t)));
     }
   }

@@ -16,8 +16,9 @@ Factor::Factor(std::vector<Key> keys, Eigen::MatrixXd sqrt_information)
     for (int c = 0; c < r; ++c) ok = ok && W(r, c) == 0.0;
   }
   if (!ok) {
-    std::fprintf(stderr, "evermap: Factor: sqrt information must be square, finite, upper "
-                         "triangular\n");
+    std::fprintf(stderr,
+                 "evermap: Factor: sqrt information must be square, finite, upper "
+                 "triangular\n");
     std::abort();
   }
 }
@@ -42,12 +43,12 @@ Expected<Eigen::MatrixXd> sqrtInformationFromInformation(const Eigen::MatrixXd& 
   return W;
 }
 
-Expected<Eigen::MatrixXd> checkSqrtInformation(const Eigen::MatrixXd& W,
-                                               const std::string& what) {
+Expected<Eigen::MatrixXd> checkSqrtInformation(const Eigen::MatrixXd& W, const std::string& what) {
   if (!W.allFinite()) return makeError(what, ": square-root information is not finite");
   for (int r = 0; r < W.rows(); ++r) {
     for (int c = 0; c < r; ++c) {
-      if (W(r, c) != 0.0) return makeError(what, ": square-root information is not upper triangular");
+      if (W(r, c) != 0.0)
+        return makeError(what, ": square-root information is not upper triangular");
     }
     if (W(r, r) == 0.0) {
       return makeError(what, ": square-root information is singular (zero on the diagonal)");
@@ -57,8 +58,7 @@ Expected<Eigen::MatrixXd> checkSqrtInformation(const Eigen::MatrixXd& W,
 }
 
 std::vector<Eigen::MatrixXd> numericalJacobians(const Factor& factor,
-                                                std::span<const PoseValue* const> x,
-                                                double step) {
+                                                std::span<const PoseValue* const> x, double step) {
   const int m = factor.dim();
   std::vector<Eigen::MatrixXd> out;
   std::vector<PoseValue> perturbed(x.size());

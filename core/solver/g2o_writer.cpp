@@ -103,7 +103,8 @@ Status writeG2o(const std::filesystem::path& path, const GraphFile& graph, const
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
-  if (ec) return makeError(path.string(), ": cannot rename from ", tmp.string(), ": ", ec.message());
+  if (ec)
+    return makeError(path.string(), ": cannot rename from ", tmp.string(), ": ", ec.message());
   return Ok{};
 }
 

@@ -32,11 +32,11 @@ struct GncOptions {
 };
 
 struct GncSummary {
-  BatchSummary batch;      // the last stage; iterations are summed over all stages
+  BatchSummary batch;  // the last stage; iterations are summed over all stages
   int stages = 0;
   double final_mu = 0.0;
-  int candidates = 0;      // factors with a GNC kernel
-  int rejected = 0;        // of those, weight < 0.5 at the end
+  int candidates = 0;  // factors with a GNC kernel
+  int rejected = 0;    // of those, weight < 0.5 at the end
 };
 
 GncSummary solveGnc(PoseGraph& graph, const GncOptions& options);

@@ -54,7 +54,8 @@ struct LineParser {
     return makeError(where, ": ", t[0], " expects ", want, " fields, got ", t.size() - 1);
   }
   Status keyAt(size_t i, Key* k) const {
-    if (!toKey(t[i], k)) return makeError(where, ": field ", i, " ('", t[i], "') is not an integer id");
+    if (!toKey(t[i], k))
+      return makeError(where, ": field ", i, " ('", t[i], "') is not an integer id");
     return Ok{};
   }
   Status numbers(size_t first, size_t count, double* out) const {
@@ -165,8 +166,7 @@ Expected<IndefiniteInformation> parseIndefiniteInformation(const std::string& te
   return makeError("indefinite information rule '", text, "': expected refuse, blocks or nearest");
 }
 
-Eigen::MatrixXd nearestPositiveDefinite(const Eigen::MatrixXd& information,
-                                        double relative_floor) {
+Eigen::MatrixXd nearestPositiveDefinite(const Eigen::MatrixXd& information, double relative_floor) {
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(information);
   Eigen::VectorXd lambda = eig.eigenvalues();
   const double floor = relative_floor * lambda.maxCoeff();
@@ -187,12 +187,15 @@ Expected<int> resolveIndefiniteInformation(GraphFile* g, IndefiniteInformation r
     Eigen::MatrixXd repaired;
     switch (rule) {
       case IndefiniteInformation::kRefuse:
-        return makeError(where, ": information matrix is not positive definite (smallest "
-                         "eigenvalue ", smallestEigenvalue(I), "); --indefinite-information "
+        return makeError(where,
+                         ": information matrix is not positive definite (smallest "
+                         "eigenvalue ",
+                         smallestEigenvalue(I),
+                         "); --indefinite-information "
                          "blocks|nearest repairs it, --objective sesync uses only its blocks");
       case IndefiniteInformation::kBlocks: {
-        const int nt = d;                     // translation rows
-        const int nr = I.rows() - d;          // rotation rows
+        const int nt = d;             // translation rows
+        const int nr = I.rows() - d;  // rotation rows
         repaired = Eigen::MatrixXd::Zero(I.rows(), I.cols());
         repaired.topLeftCorner(nt, nt) = I.topLeftCorner(nt, nt);
         repaired.bottomRightCorner(nr, nr) = I.bottomRightCorner(nr, nr);
@@ -255,9 +258,9 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
     const LineParser p{where, t};
     const std::string& tag = t[0];
     Status st = Ok{};
-#define EVERMAP_TRY(expr)             \
-  if (auto s_ = (expr); !s_.ok()) {   \
-    return s_.error();                \
+#define EVERMAP_TRY(expr)           \
+  if (auto s_ = (expr); !s_.ok()) { \
+    return s_.error();              \
   }
     // Every 2-D edge line is "TAG from to dx dy dθ" and six information numbers whose layout
     // depends on the format; `sqrtInfo` turns those six into the square-root information.
@@ -299,9 +302,11 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
       vx.pose = PoseValue::spatial(core::SE3d(q, core::Vec3(v[0], v[1], v[2])));
       EVERMAP_TRY(addVertex(&g, vx, &seen, where));
     } else if (g.format == GraphFormat::kG2o && tag == "EDGE_SE2") {
-      EVERMAP_TRY(planarEdge([&](const double* info) -> Expected<Eigen::MatrixXd> {
-        return upperFromRowMajor(info, 3, true);
-      }, true));
+      EVERMAP_TRY(planarEdge(
+          [&](const double* info) -> Expected<Eigen::MatrixXd> {
+            return upperFromRowMajor(info, 3, true);
+          },
+          true));
     } else if (g.format == GraphFormat::kG2o && tag == "EDGE_SE3:QUAT") {
       GraphEdge e;
       EVERMAP_TRY(setDim(3, where));
@@ -330,18 +335,20 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
       vx.pose = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
       EVERMAP_TRY(addVertex(&g, vx, &seen, where));
     } else if (g.format == GraphFormat::kToro && tag == "EDGE2") {
-      EVERMAP_TRY(planarEdge([&](const double* info) -> Expected<Eigen::MatrixXd> {
-        // TORO: Ixx Ixy Iyy Iθθ Ixθ Iyθ.
-        Eigen::MatrixXd I(3, 3);
-        I << info[0], info[1], info[4],
-             info[1], info[2], info[5],
-             info[4], info[5], info[3];
-        return I;
-      }, true));
+      EVERMAP_TRY(planarEdge(
+          [&](const double* info) -> Expected<Eigen::MatrixXd> {
+            // TORO: Ixx Ixy Iyy Iθθ Ixθ Iyθ.
+            Eigen::MatrixXd I(3, 3);
+            I << info[0], info[1], info[4], info[1], info[2], info[5], info[4], info[5], info[3];
+            return I;
+          },
+          true));
     } else if (g.format == GraphFormat::kIsam && (tag == "ODOMETRY" || tag == "EDGE2")) {
-      EVERMAP_TRY(planarEdge([&](const double* sqrt_info) {
-        return checkSqrtInformation(upperFromRowMajor(sqrt_info, 3, false), where);
-      }, false));
+      EVERMAP_TRY(planarEdge(
+          [&](const double* sqrt_info) {
+            return checkSqrtInformation(upperFromRowMajor(sqrt_info, 3, false), where);
+          },
+          false));
     } else if (g.format == GraphFormat::kIsam && tag == "EDGE3") {
       GraphEdge e;
       EVERMAP_TRY(setDim(3, where));
@@ -358,8 +365,11 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
         // Rotation rows in (yaw, pitch, roll) order, as iSAM's Loader builds them.
         const double s44 = S(3, 3), s45 = S(3, 4), s46 = S(3, 5);
         const double s55 = S(4, 4), s56 = S(4, 5), s66 = S(5, 5);
-        S(3, 3) = s66; S(3, 4) = s56; S(3, 5) = s46;
-        S(4, 4) = s55; S(4, 5) = s45;
+        S(3, 3) = s66;
+        S(3, 4) = s56;
+        S(3, 5) = s46;
+        S(4, 4) = s55;
+        S(4, 5) = s45;
         S(5, 5) = s44;
       }
       auto W = checkSqrtInformation(S, where);
@@ -394,11 +404,12 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
       const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
       if (q.norm() < 1e-6) return makeError(where, ": quaternion has zero norm");
       g.sensor_offsets[static_cast<int>(id)] = core::SE3d(q, core::Vec3(v[0], v[1], v[2]));
-    } else if ((g.format == GraphFormat::kG2o && (tag == "EDGE_SE2_XY" || tag == "EDGE_SE3_TRACKXYZ")) ||
+    } else if ((g.format == GraphFormat::kG2o &&
+                (tag == "EDGE_SE2_XY" || tag == "EDGE_SE3_TRACKXYZ")) ||
                (g.format == GraphFormat::kIsam && (tag == "LANDMARK" || tag == "POINT3"))) {
       const bool isam = g.format == GraphFormat::kIsam;
       const int d = (tag == "EDGE_SE2_XY" || tag == "LANDMARK") ? 2 : 3;
-      const size_t tri = d == 2 ? 3 : 6;        // upper-triangle entries
+      const size_t tri = d == 2 ? 3 : 6;  // upper-triangle entries
       const size_t param = tag == "EDGE_SE3_TRACKXYZ" ? 1 : 0;
       GraphObservation o;
       EVERMAP_TRY(setDim(d, where));
@@ -446,7 +457,8 @@ Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat
   }
   if (in.bad()) return makeError(path.string(), ": read error");
   for (Key id : landmark_vertices) {
-    if (seen.count(id)) return makeError(path.string(), ": vertex ", id, " is both a pose and a landmark");
+    if (seen.count(id))
+      return makeError(path.string(), ": vertex ", id, " is both a pose and a landmark");
   }
   if (g.format == GraphFormat::kIsam && !g.observations.empty()) {
     for (const GraphEdge& e : g.edges) {

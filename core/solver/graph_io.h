@@ -65,12 +65,12 @@ struct GraphVertex {
 struct GraphEdge {
   Key from = 0;
   Key to = 0;
-  PoseValue measurement;            // from_T_to
+  PoseValue measurement;  // from_T_to
   // Upper triangular, in the format's residual order; empty when the file's information
   // matrix is not positive definite (then indefinite_information holds it).
   Eigen::MatrixXd sqrt_information;
   Eigen::MatrixXd indefinite_information;  // symmetric, as read; empty unless indefinite
-  int line = 0;                      // 1-based line in the file
+  int line = 0;                            // 1-based line in the file
   bool positiveDefinite() const { return sqrt_information.size() > 0; }
   Eigen::MatrixXd information() const {
     return positiveDefinite() ? Eigen::MatrixXd(sqrt_information.transpose() * sqrt_information)
@@ -104,13 +104,13 @@ struct GraphObservation {
 struct GraphFile {
   std::string path;
   GraphFormat format = GraphFormat::kG2o;
-  int dimension = 2;  // 2 or 3
-  std::vector<GraphVertex> vertices;  // file order
-  std::vector<GraphEdge> edges;       // file order
+  int dimension = 2;                           // 2 or 3
+  std::vector<GraphVertex> vertices;           // file order
+  std::vector<GraphEdge> edges;                // file order
   std::vector<GraphLandmark> landmarks;        // file order (g2o only)
   std::vector<GraphObservation> observations;  // file order
   std::map<int, core::SE3d> sensor_offsets;    // g2o PARAMS_SE3OFFSET
-  std::vector<Key> fixed;             // g2o FIX
+  std::vector<Key> fixed;                      // g2o FIX
   std::map<std::string, int> skipped_tags;
   int skippedLines() const;
   // Distinct landmarks observed or defined.

@@ -33,7 +33,8 @@ SeSyncWeights seSyncWeights(const GraphEdge& edge, int dimension) {
 
 Status checkInformation(const GraphFile& graph, Objective objective) {
   if (objective == Objective::kSeSync && !graph.observations.empty()) {
-    return makeError(graph.path, ":", graph.observations.front().line, ": SE-Sync's objective "
+    return makeError(graph.path, ":", graph.observations.front().line,
+                     ": SE-Sync's objective "
                      "has no landmark term; use --objective native for files with landmarks");
   }
   for (const GraphEdge& e : graph.edges) {
@@ -43,7 +44,8 @@ Status checkInformation(const GraphFile& graph, Objective objective) {
     };
     if (objective == Objective::kNative) {
       if (!e.positiveDefinite()) {
-        return makeError(where(), ": information matrix is not positive definite; "
+        return makeError(where(),
+                         ": information matrix is not positive definite; "
                          "--indefinite-information blocks|nearest repairs it, --objective "
                          "sesync uses only its translation and rotation blocks");
       }
@@ -56,7 +58,8 @@ Status checkInformation(const GraphFile& graph, Objective objective) {
       return Eigen::LLT<Eigen::MatrixXd>(B).info() == Eigen::Success;
     };
     if (!pd(I.topLeftCorner(d, d)) || !pd(I.bottomRightCorner(nr, nr))) {
-      return makeError(where(), ": the translation or rotation block of the information "
+      return makeError(where(),
+                       ": the translation or rotation block of the information "
                        "matrix is not positive definite (SE-Sync's weights need both)");
     }
   }
@@ -73,14 +76,16 @@ double seSyncCost(const GraphFile& graph, const Values& values) {
       const core::Mat2 Ra = a.se2.rotationMatrix();
       const core::Mat2 Rz = e.measurement.se2.rotationMatrix();
       f += w.kappa * (b.se2.rotationMatrix() - Ra * Rz).squaredNorm();
-      f += w.tau * (b.se2.translation() - a.se2.translation() - Ra * e.measurement.se2.translation())
-                       .squaredNorm();
+      f +=
+          w.tau * (b.se2.translation() - a.se2.translation() - Ra * e.measurement.se2.translation())
+                      .squaredNorm();
     } else {
       const core::Mat3 Ra = a.se3.rotationMatrix();
       const core::Mat3 Rz = e.measurement.se3.rotationMatrix();
       f += w.kappa * (b.se3.rotationMatrix() - Ra * Rz).squaredNorm();
-      f += w.tau * (b.se3.translation() - a.se3.translation() - Ra * e.measurement.se3.translation())
-                       .squaredNorm();
+      f +=
+          w.tau * (b.se3.translation() - a.se3.translation() - Ra * e.measurement.se3.translation())
+                      .squaredNorm();
     }
   }
   return f;
@@ -117,8 +122,8 @@ RobustKernel kernelForFactor(const RobustKernel& kernel, int dim) {
 
 FactorPtr makeAnchorFactor(Key key, int dimension, double sqrt_information) {
   if (dimension == 2) {
-    return std::make_shared<PosePrior2Factor>(
-        key, core::SE2d(), sqrt_information * Eigen::MatrixXd::Identity(3, 3));
+    return std::make_shared<PosePrior2Factor>(key, core::SE2d(),
+                                              sqrt_information * Eigen::MatrixXd::Identity(3, 3));
   }
   return std::make_shared<PosePrior3Factor>(key, core::SE3d(),
                                             sqrt_information * Eigen::MatrixXd::Identity(6, 6));
@@ -152,7 +157,8 @@ FactorPtr makeObservationFactor(const GraphFile& graph, const GraphObservation& 
 Status addLandmarkInitialization(const GraphFile& graph, bool file_positions, Values* values) {
   if (file_positions) {
     for (const GraphLandmark& l : graph.landmarks) {
-      if (values->contains(l.id)) return makeError(graph.path, ": vertex ", l.id, " is both a pose and a landmark");
+      if (values->contains(l.id))
+        return makeError(graph.path, ": vertex ", l.id, " is both a pose and a landmark");
       values->add(l.id, l.position);
     }
   }

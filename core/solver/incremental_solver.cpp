@@ -15,15 +15,13 @@
 #include "core/solver/ordering.h"
 
 namespace evermap::solver {
-namespace {
-
-
-}  // namespace
+namespace {}  // namespace
 
 Status IncrementalOptions::validate() const {
   if (method == Method::kLevenbergMarquardt) {
-    return makeError("IncrementalOptions: Levenberg-Marquardt has no incremental mode "
-                     "(use gn or dogleg)");
+    return makeError(
+        "IncrementalOptions: Levenberg-Marquardt has no incremental mode "
+        "(use gn or dogleg)");
   }
   if (batch_every < 0) return makeError("IncrementalOptions: batch_every must be >= 0");
   if (recent_last < 0) return makeError("IncrementalOptions: recent_last must be >= 0");
@@ -33,7 +31,8 @@ Status IncrementalOptions::validate() const {
   if (!(initial_trust_radius > 0.0)) {
     return makeError("IncrementalOptions: initial_trust_radius must be > 0");
   }
-  if (background_batch_lag < 0) return makeError("IncrementalOptions: background_batch_lag must be >= 0");
+  if (background_batch_lag < 0)
+    return makeError("IncrementalOptions: background_batch_lag must be >= 0");
   if (background_batch_lag > 0 && method != Method::kGaussNewton) {
     return makeError("IncrementalOptions: background_batch_lag needs the Gauss-Newton method");
   }
@@ -67,7 +66,8 @@ Expected<UpdateResult> IncrementalSolver::update(const UpdateRequest& request) {
   for (const FactorPtr& f : request.new_factors) {
     for (size_t i = 0; i < f->keys().size(); ++i) {
       const int kind = kindOf(f->keys()[i]);
-      if (kind < 0) return makeError("update: ", f->name(), " factor uses unknown variable ", f->keys()[i]);
+      if (kind < 0)
+        return makeError("update: ", f->name(), " factor uses unknown variable ", f->keys()[i]);
       if (kind != static_cast<int>(f->kindOf(static_cast<int>(i)))) {
         return makeError("update: ", f->name(), " factor: variable ", f->keys()[i],
                          " has the wrong pose kind");
@@ -96,7 +96,8 @@ Expected<UpdateResult> IncrementalSolver::update(const UpdateRequest& request) {
 
   const bool scheduled = options_.batch_every > 0 && updates_ % options_.batch_every == 0;
   ++updates_;
-  const bool background = scheduled && options_.background_batch_lag > 0 && !need_batch_ && !request.force_batch;
+  const bool background =
+      scheduled && options_.background_batch_lag > 0 && !need_batch_ && !request.force_batch;
   if (need_batch_ || request.force_batch || (!request.remove_factors.empty() && !background) ||
       (scheduled && !background)) {
     result.batch = true;
@@ -146,7 +147,7 @@ void IncrementalSolver::startBackgroundBatch(const std::vector<FactorId>& remove
     std::vector<int> offset;  // of each variable in delta
     Eigen::VectorXd delta;
     std::vector<FactorPtr> factors;  // null where removed
-    SquareRootFactor retired;  // the factor of the last swap, freed off this thread
+    SquareRootFactor retired;        // the factor of the last swap, freed off this thread
   } snap;
   snap.keys = graph_.values().keys();
   snap.theta = graph_.values().all();
@@ -154,29 +155,32 @@ void IncrementalSolver::startBackgroundBatch(const std::vector<FactorId>& remove
   for (size_t v = 0; v < snap.offset.size(); ++v) snap.offset[v] = R_.scalarOffset(position_of_[v]);
   snap.delta = delta_;
   snap.factors.reserve(graph_.numFactorSlots());
-  for (FactorId id = 0; id < graph_.numFactorSlots(); ++id) snap.factors.push_back(graph_.factorPtr(id));
+  for (FactorId id = 0; id < graph_.numFactorSlots(); ++id)
+    snap.factors.push_back(graph_.factorPtr(id));
   snap.retired = std::move(retired_);
   retired_ = SquareRootFactor{};
   BackgroundBatch job;
   job.factor_slots = graph_.numFactorSlots();
   job.swap_at_update = updates_ + options_.background_batch_lag;
-  job.result = std::async(std::launch::async, [snap = std::move(snap), recent = options_.recent_last]() mutable {
-    // The lowest priority for this thread (Linux: nice applies per thread): the updates that
-    // go on meanwhile come first, and the worker takes what CPU they leave.
-    (void)setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 19);
-    snap.retired.clear();
-    PoseGraph graph;
-    for (size_t v = 0; v < snap.keys.size(); ++v) {
-      (void)graph.addVariable(snap.keys[v], retract(snap.theta[v], snap.delta.data() + snap.offset[v]));
-    }
-    for (FactorPtr& f : snap.factors) {
-      if (f) (void)graph.addFactor(std::move(f));  // validated when they were first added
-    }
-    SparseCholesky chol;
-    auto out = refactor(graph, recent, &chol);
-    if (out) out->theta = std::move(graph.mutableValues());
-    return out;
-  });
+  job.result = std::async(
+      std::launch::async, [snap = std::move(snap), recent = options_.recent_last]() mutable {
+        // The lowest priority for this thread (Linux: nice applies per thread): the updates that
+        // go on meanwhile come first, and the worker takes what CPU they leave.
+        (void)setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 19);
+        snap.retired.clear();
+        PoseGraph graph;
+        for (size_t v = 0; v < snap.keys.size(); ++v) {
+          (void)graph.addVariable(snap.keys[v],
+                                  retract(snap.theta[v], snap.delta.data() + snap.offset[v]));
+        }
+        for (FactorPtr& f : snap.factors) {
+          if (f) (void)graph.addFactor(std::move(f));  // validated when they were first added
+        }
+        SparseCholesky chol;
+        auto out = refactor(graph, recent, &chol);
+        if (out) out->theta = std::move(graph.mutableValues());
+        return out;
+      });
   job_ = std::move(job);
 }
 
@@ -207,7 +211,8 @@ Status IncrementalSolver::swapInBackgroundBatch(UpdateResult* result) {
   // The old factor is freed by the next worker (~7000 blocks: up to a millisecond here).
   retired_ = std::exchange(R_, std::move(out->R));
   variable_at_ = std::move(out->variable_at);
-  for (size_t p = 0; p < variable_at_.size(); ++p) position_of_[variable_at_[p]] = static_cast<int>(p);
+  for (size_t p = 0; p < variable_at_.size(); ++p)
+    position_of_[variable_at_[p]] = static_cast<int>(p);
   delta_ = std::move(out->delta);
   cost_at_linpoint_ = out->cost;
   for (int v = n_snapshot; v < theta.size(); ++v) {
@@ -331,7 +336,8 @@ Status IncrementalSolver::moveLinearizationPoint() {
   return Ok{};
 }
 
-Expected<IncrementalSolver::Refactored> IncrementalSolver::refactor(const PoseGraph& graph, int recent_last,
+Expected<IncrementalSolver::Refactored> IncrementalSolver::refactor(const PoseGraph& graph,
+                                                                    int recent_last,
                                                                     SparseCholesky* chol) {
   const auto t0 = SteadyClock::now();
   Refactored out;
@@ -349,7 +355,8 @@ Expected<IncrementalSolver::Refactored> IncrementalSolver::refactor(const PoseGr
   Eigen::VectorXd g_pos(out.R.scalarSize());
   for (int p = 0; p < out.R.size(); ++p) {
     const int v = out.variable_at[p];
-    g_pos.segment(out.R.scalarOffset(p), out.R.dimAt(p)) = g.segment(pattern.offset(v), pattern.dim(v));
+    g_pos.segment(out.R.scalarOffset(p), out.R.dimAt(p)) =
+        g.segment(pattern.offset(v), pattern.dim(v));
   }
   out.R.setRhs(out.R.solveTranspose(g_pos));
   out.delta.setZero(out.R.scalarSize());
@@ -366,7 +373,8 @@ Status IncrementalSolver::batchStep() {
   if (!out) return out.error();
   R_ = std::move(out->R);
   variable_at_ = std::move(out->variable_at);
-  for (size_t p = 0; p < variable_at_.size(); ++p) position_of_[variable_at_[p]] = static_cast<int>(p);
+  for (size_t p = 0; p < variable_at_.size(); ++p)
+    position_of_[variable_at_[p]] = static_cast<int>(p);
   cost_at_linpoint_ = out->cost;
   need_batch_ = false;
   if (options_.method == Method::kDogLeg) {

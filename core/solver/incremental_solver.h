@@ -72,9 +72,9 @@ struct UpdateRequest {
 
 struct UpdateResult {
   std::vector<FactorId> new_factor_ids;
-  bool batch = false;       // this update was a batch step
-  int rows_modified = 0;    // R row blocks changed by the new rows (incremental updates)
-  int rows_solved = 0;      // row blocks recomputed by back substitution
+  bool batch = false;         // this update was a batch step
+  int rows_modified = 0;      // R row blocks changed by the new rows (incremental updates)
+  int rows_solved = 0;        // row blocks recomputed by back substitution
   bool step_accepted = true;  // dog leg: the trust-region step lowered the cost
   // Background batch steps (IncrementalOptions::background_batch_lag): one was started at this
   // update / the one started background_batch_lag updates ago was swapped in at this update.
@@ -131,15 +131,17 @@ class IncrementalSolver {
   };
   struct BackgroundBatch {
     std::future<Expected<Refactored>> result;
-    int factor_slots = 0;      // factors with ids below this are in the snapshot
-    int swap_at_update = 0;    // updates_ when it is swapped in
+    int factor_slots = 0;    // factors with ids below this are in the snapshot
+    int swap_at_update = 0;  // updates_ when it is swapped in
   };
   // Linearises `graph` at its values, orders (CCOLAMD, the `recent_last` newest variables
   // last), factors with CHOLMOD and solves for the Gauss-Newton step. Touches no member.
-  static Expected<Refactored> refactor(const PoseGraph& graph, int recent_last, SparseCholesky* chol);
+  static Expected<Refactored> refactor(const PoseGraph& graph, int recent_last,
+                                       SparseCholesky* chol);
   // θ ← θ ⊞ Δ for every variable; errors (changing nothing) when a value is not finite.
   Status moveLinearizationPoint();
-  void startBackgroundBatch(const std::vector<FactorId>& removed, std::vector<FactorId>* live_factors);
+  void startBackgroundBatch(const std::vector<FactorId>& removed,
+                            std::vector<FactorId>* live_factors);
   Status swapInBackgroundBatch(UpdateResult* result);
   void dropBackgroundBatch();
 

@@ -40,7 +40,8 @@ void PosePoint2Factor::evaluate(std::span<const PoseValue* const> x, double* res
 }
 
 PosePoint3Factor::PosePoint3Factor(Key pose, Key point, const Vec3& p_sensor,
-                                   Eigen::MatrixXd sqrt_information, const core::SE3d& pose_T_sensor)
+                                   Eigen::MatrixXd sqrt_information,
+                                   const core::SE3d& pose_T_sensor)
     : Factor({pose, point}, std::move(sqrt_information)),
       z_(p_sensor),
       pose_T_sensor_(pose_T_sensor),

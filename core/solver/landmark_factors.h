@@ -35,7 +35,8 @@ class PosePoint2Factor final : public Factor {
 
 class PosePoint3Factor final : public Factor {
  public:
-  PosePoint3Factor(Key pose, Key point, const core::Vec3& p_sensor, Eigen::MatrixXd sqrt_information,
+  PosePoint3Factor(Key pose, Key point, const core::Vec3& p_sensor,
+                   Eigen::MatrixXd sqrt_information,
                    const core::SE3d& pose_T_sensor = core::SE3d());
   PoseKind kindOf(int i) const override { return i == 0 ? PoseKind::kSE3 : PoseKind::kPoint3; }
   std::string name() const override { return "PosePoint3"; }

@@ -30,7 +30,8 @@ Expected<Marginals> Marginals::compute(const PoseGraph& graph) {
   return m;
 }
 
-Expected<Eigen::MatrixXd> Marginals::jointOf(const IncrementalSolver& solver, std::span<const Key> keys) {
+Expected<Eigen::MatrixXd> Marginals::jointOf(const IncrementalSolver& solver,
+                                             std::span<const Key> keys) {
   std::vector<int> positions;
   for (Key k : keys) {
     const int v = solver.graph().values().indexOf(k);
@@ -83,7 +84,8 @@ Expected<Eigen::MatrixXd> Marginals::joint(std::span<const Key> keys) const {
   return jointAt(R_, positions);
 }
 
-Expected<Eigen::MatrixXd> Marginals::jointAt(const SquareRootFactor& R, std::span<const int> positions) {
+Expected<Eigen::MatrixXd> Marginals::jointAt(const SquareRootFactor& R,
+                                             std::span<const int> positions) {
   std::vector<Path> paths;
   std::vector<int> offsets = {0};
   for (int k : positions) {

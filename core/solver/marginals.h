@@ -29,7 +29,8 @@ class Marginals {
   // The joint covariance of `keys` straight from the solver's current factor, without the
   // copy: the work is the path solves alone (the elimination-tree paths of the keys to the
   // root), not the size of R. For callers that ask a few marginals between updates.
-  static Expected<Eigen::MatrixXd> jointOf(const IncrementalSolver& solver, std::span<const Key> keys);
+  static Expected<Eigen::MatrixXd> jointOf(const IncrementalSolver& solver,
+                                           std::span<const Key> keys);
   // Linearises the graph at its values and factors it (CHOLMOD), for batch results.
   static Expected<Marginals> compute(const PoseGraph& graph);
 
@@ -40,11 +41,12 @@ class Marginals {
 
  private:
   // Blocks of at most 6 × 6 (SquareRootFactor::kMaxBlockDim) live on the stack.
-  using Block = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, SquareRootFactor::kMaxBlockDim,
-                              SquareRootFactor::kMaxBlockDim>;
+  using Block = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0,
+                              SquareRootFactor::kMaxBlockDim, SquareRootFactor::kMaxBlockDim>;
   using Path = std::map<int, Block>;  // position -> rows of Y at that position
   static Expected<Path> pathSolve(const SquareRootFactor& R, int position);
-  static Expected<Eigen::MatrixXd> jointAt(const SquareRootFactor& R, std::span<const int> positions);
+  static Expected<Eigen::MatrixXd> jointAt(const SquareRootFactor& R,
+                                           std::span<const int> positions);
 
   SquareRootFactor R_;
   std::map<Key, int> position_of_key_;

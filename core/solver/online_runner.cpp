@@ -14,8 +14,8 @@ OnlineRunner::OnlineRunner(const GraphFile& graph, const OnlineOptions& options)
   size_t next_obs = 0;
   // Observations that came before edge `upto` in the file join the current step.
   auto takeObservations = [&](int upto) {
-    for (; next_obs < graph.observations.size() &&
-           graph.observations[next_obs].edges_before <= upto;
+    for (;
+         next_obs < graph.observations.size() && graph.observations[next_obs].edges_before <= upto;
          ++next_obs) {
       const int o = static_cast<int>(next_obs);
       steps_.back().observations.push_back(o);
@@ -85,8 +85,8 @@ Expected<UpdateResult> OnlineRunner::step() {
       return makeError(graph_.path, ":", ob.line, ": landmark ", ob.landmark,
                        " is observed from a landmark or has a pose's id");
     }
-    request.new_variables.emplace_back(ob.landmark,
-                                       observationInitialValue(base, ob.measured, ob.pose_T_sensor));
+    request.new_variables.emplace_back(
+        ob.landmark, observationInitialValue(base, ob.measured, ob.pose_T_sensor));
   }
   for (int o : s.observations) {
     FactorPtr f = makeObservationFactor(graph_, graph_.observations[o]);
@@ -98,11 +98,13 @@ Expected<UpdateResult> OnlineRunner::step() {
   for (int e : s.edges) {
     const GraphEdge& edge = graph_.edges[e];
     if (options_.build.objective == Objective::kNative && !edge.positiveDefinite()) {
-      return makeError(graph_.path, ":", edge.line, ": information matrix is not positive "
+      return makeError(graph_.path, ":", edge.line,
+                       ": information matrix is not positive "
                        "definite (see resolveIndefiniteInformation)");
     }
     FactorPtr f = makeEdgeFactor(graph_, edge, options_.build.objective);
-    if (options_.build.kernel.active() && (options_.build.robust_odometry || !isOdometryEdge(edge))) {
+    if (options_.build.kernel.active() &&
+        (options_.build.robust_odometry || !isOdometryEdge(edge))) {
       f->setKernel(kernelForFactor(options_.build.kernel, f->dim()));
     }
     request.new_factors.push_back(std::move(f));

@@ -35,8 +35,8 @@ std::vector<int> fillReducingOrder(int num_vars, const std::vector<std::vector<i
   double knobs[CCOLAMD_KNOBS];
   ccolamd_set_defaults(knobs);
   int stats[CCOLAMD_STATS];
-  const int ok = ccolamd(n_row, num_vars, static_cast<int>(alen), A.data(), p.data(), knobs,
-                         stats, cmember.empty() ? nullptr : cmember.data());
+  const int ok = ccolamd(n_row, num_vars, static_cast<int>(alen), A.data(), p.data(), knobs, stats,
+                         cmember.empty() ? nullptr : cmember.data());
   if (!ok) {
     std::fprintf(stderr, "evermap: CCOLAMD failed (status %d)\n", stats[CCOLAMD_STATUS]);
     std::abort();

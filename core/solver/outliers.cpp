@@ -71,7 +71,8 @@ class Generator {
     std::normal_distribution<double> r(0.0, o_.rotation_sigma_rad);
     if (g_.dimension == 2) return PoseValue::planar(core::SE2d(t(rng_), t(rng_), r(rng_)));
     const core::Vec3 omega(r(rng_), r(rng_), r(rng_));
-    return PoseValue::spatial(core::SE3d(core::SO3d::exp(omega), core::Vec3(t(rng_), t(rng_), t(rng_))));
+    return PoseValue::spatial(
+        core::SE3d(core::SO3d::exp(omega), core::Vec3(t(rng_), t(rng_), t(rng_))));
   }
 
   GraphEdge edge(Key a, Key b, const PoseValue& a_T_b) {
@@ -108,7 +109,8 @@ class Generator {
 
   // a_T_{a+n} chained from odometry, or nothing when a link is missing.
   std::optional<PoseValue> chain(Key a, int n) const {
-    PoseValue T = g_.dimension == 2 ? PoseValue::planar(core::SE2d()) : PoseValue::spatial(core::SE3d());
+    PoseValue T =
+        g_.dimension == 2 ? PoseValue::planar(core::SE2d()) : PoseValue::spatial(core::SE3d());
     for (int k = 0; k < n; ++k) {
       const auto it = odometry_.find(a + k);
       if (it == odometry_.end()) return std::nullopt;

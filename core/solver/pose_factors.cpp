@@ -27,9 +27,7 @@ Mat3 eulerRateFromBodyRate(double roll, double pitch) {
   const double tp = std::tan(pitch);
   const double cp = std::cos(pitch);
   Mat3 E;
-  E << 1.0, sr * tp, cr * tp,
-       0.0, cr, -sr,
-       0.0, sr / cp, cr / cp;
+  E << 1.0, sr * tp, cr * tp, 0.0, cr, -sr, 0.0, sr / cp, cr / cp;
   return E;  // rows: roll, pitch, yaw
 }
 
@@ -60,8 +58,7 @@ Mat3 yawPitchRollJacobian(const Mat3& R) {
 // ---------------------------------------------------------------- RelativePose2Factor
 
 RelativePose2Factor::RelativePose2Factor(Key a, Key b, const core::SE2d& a_T_b,
-                                         Eigen::MatrixXd sqrt_information,
-                                         Convention convention)
+                                         Eigen::MatrixXd sqrt_information, Convention convention)
     : Factor({a, b}, std::move(sqrt_information)), z_(a_T_b), convention_(convention) {}
 
 void RelativePose2Factor::evaluate(std::span<const PoseValue* const> x, double* residual,
@@ -97,8 +94,7 @@ void RelativePose2Factor::evaluate(std::span<const PoseValue* const> x, double* 
 // ---------------------------------------------------------------- RelativePose3Factor
 
 RelativePose3Factor::RelativePose3Factor(Key a, Key b, const core::SE3d& a_T_b,
-                                         Eigen::MatrixXd sqrt_information,
-                                         Convention convention)
+                                         Eigen::MatrixXd sqrt_information, Convention convention)
     : Factor({a, b}, std::move(sqrt_information)),
       z_(a_T_b),
       z_inv_(a_T_b.inverse()),
@@ -181,8 +177,8 @@ ChordalRelativePose2Factor::ChordalRelativePose2Factor(Key a, Key b, const core:
                                                        double kappa, double tau)
     : Factor({a, b}, chordalWeights(2, kappa, tau)), z_(a_T_b) {}
 
-void ChordalRelativePose2Factor::evaluate(std::span<const PoseValue* const> x,
-                                          double* residual, double* const* jacobians) const {
+void ChordalRelativePose2Factor::evaluate(std::span<const PoseValue* const> x, double* residual,
+                                          double* const* jacobians) const {
   const core::SE2d& a = x[0]->se2;
   const core::SE2d& b = x[1]->se2;
   const Mat2 Ra = a.rotationMatrix();
@@ -214,8 +210,8 @@ ChordalRelativePose3Factor::ChordalRelativePose3Factor(Key a, Key b, const core:
                                                        double kappa, double tau)
     : Factor({a, b}, chordalWeights(3, kappa, tau)), z_(a_T_b) {}
 
-void ChordalRelativePose3Factor::evaluate(std::span<const PoseValue* const> x,
-                                          double* residual, double* const* jacobians) const {
+void ChordalRelativePose3Factor::evaluate(std::span<const PoseValue* const> x, double* residual,
+                                          double* const* jacobians) const {
   const core::SE3d& a = x[0]->se3;
   const core::SE3d& b = x[1]->se3;
   const Mat3 Ra = a.rotationMatrix();

@@ -18,8 +18,8 @@ Expected<FactorId> PoseGraph::addFactor(FactorPtr factor) {
     return makeError(factor->name(), " factor: needs 1 to 8 variables, has ", keys.size());
   }
   if (factor->dim() > kMaxResidualDim) {
-    return makeError(factor->name(), " factor: residual dimension ", factor->dim(),
-                     " exceeds ", kMaxResidualDim);
+    return makeError(factor->name(), " factor: residual dimension ", factor->dim(), " exceeds ",
+                     kMaxResidualDim);
   }
   for (size_t i = 0; i < keys.size(); ++i) {
     const int v = values_.indexOf(keys[i]);

@@ -161,9 +161,7 @@ void SparseCholesky::analyze(const BlockPattern& pattern, std::span<const int> b
 
 double* SparseCholesky::values() { return static_cast<double*>(impl_->H->x); }
 
-void SparseCholesky::zeroValues() {
-  std::fill_n(values(), pattern_->nnz(), 0.0);
-}
+void SparseCholesky::zeroValues() { std::fill_n(values(), pattern_->nnz(), 0.0); }
 
 Status SparseCholesky::factorize(const Eigen::VectorXd& extra_diagonal) {
   cholmod_common* c = &impl_->common;
@@ -183,8 +181,9 @@ Status SparseCholesky::factorize(const Eigen::VectorXd& extra_diagonal) {
     for (int j = 0; j < n; ++j) x[cp[j + 1] - 1] = impl_->base_diagonal[j];
   }
   if (c->status == CHOLMOD_NOT_POSDEF || impl_->L->minor < static_cast<size_t>(n)) {
-    return makeError("normal equations are not positive definite (a variable or the gauge "
-                     "is not constrained by the factors, or the estimate diverged)");
+    return makeError(
+        "normal equations are not positive definite (a variable or the gauge "
+        "is not constrained by the factors, or the estimate diverged)");
   }
   if (c->status < 0) return makeError("CHOLMOD factorisation failed (status ", c->status, ")");
   return Ok{};

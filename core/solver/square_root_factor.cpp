@@ -121,7 +121,7 @@ double SquareRootFactor::addRows(std::span<const int> positions,
   const int m = static_cast<int>(A.rows());
   std::vector<int>& S = structure_;
   S.assign(positions.begin(), positions.end());
-  work_ = A;  // column-major: each scalar column of the new rows is contiguous
+  work_ = A;     // column-major: each scalar column of the new rows is contiguous
   int base = 0;  // work_ columns [base, ...) belong to S
   rhs_ = b;
   double* rhs = rhs_.data();
@@ -135,8 +135,7 @@ double SquareRootFactor::addRows(std::span<const int> positions,
     // Union of the row's structure and the new rows' structure: fill-in of R.
     merged_.clear();
     if (R.initialized) {
-      std::set_union(R.cols.begin(), R.cols.end(), S.begin(), S.end(),
-                     std::back_inserter(merged_));
+      std::set_union(R.cols.begin(), R.cols.end(), S.begin(), S.end(), std::back_inserter(merged_));
     } else {
       merged_ = S;
     }
@@ -207,8 +206,7 @@ void SquareRootFactor::subtractBlocks(const Row& R, const double* x, double* acc
 }
 
 Expected<int> SquareRootFactor::backSubstitutePartial(const std::vector<char>& dirty,
-                                                      double threshold,
-                                                      Eigen::VectorXd* x) const {
+                                                      double threshold, Eigen::VectorXd* x) const {
   if (x->size() != scalarSize()) x->conservativeResizeLike(Eigen::VectorXd::Zero(scalarSize()));
   // Rows are solved from the last position down; a row is redone when its right-hand side
   // changed (dirty) or a variable it reads moved by more than the threshold (users_ lists
@@ -252,7 +250,8 @@ Expected<int> SquareRootFactor::backSubstitutePartial(const std::vector<char>& d
     double* xp = xd + scalar_offsets_[p];
     double change = 0.0;
     double scale = 0.0;
-    for (int j = 0; j < d; ++j) scale = std::max(scale, std::abs(Ad[static_cast<int64_t>(j) * width + j]));
+    for (int j = 0; j < d; ++j)
+      scale = std::max(scale, std::abs(Ad[static_cast<int64_t>(j) * width + j]));
     for (int j = d - 1; j >= 0; --j) {
       const double* a = Ad + static_cast<int64_t>(j) * width;
       double s = acc[j];

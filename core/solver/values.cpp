@@ -34,7 +34,8 @@ PoseValue retract(const PoseValue& x, const double* delta) {
   } else if (x.kind == PoseKind::kPoint3) {
     out.point += Eigen::Map<const core::Vec3>(delta);
   } else if (x.kind == PoseKind::kSE2) {
-    const core::Vec2 t = x.se2.translation() + x.se2.rotationMatrix() * core::Vec2(delta[0], delta[1]);
+    const core::Vec2 t =
+        x.se2.translation() + x.se2.rotationMatrix() * core::Vec2(delta[0], delta[1]);
     out.se2 = core::SE2d(t.x(), t.y(), x.se2.theta() + delta[2]);
   } else {
     const Eigen::Map<const core::Vec3> v(delta);

@@ -28,10 +28,14 @@ enum class PoseKind : uint8_t { kSE2, kSE3, kPoint2, kPoint3 };
 
 inline int tangentDim(PoseKind kind) {
   switch (kind) {
-    case PoseKind::kSE2: return 3;
-    case PoseKind::kSE3: return 6;
-    case PoseKind::kPoint2: return 2;
-    case PoseKind::kPoint3: return 3;
+    case PoseKind::kSE2:
+      return 3;
+    case PoseKind::kSE3:
+      return 6;
+    case PoseKind::kPoint2:
+      return 2;
+    case PoseKind::kPoint3:
+      return 3;
   }
   return 0;
 }

@@ -121,7 +121,8 @@ Expected<std::vector<ImuSample>> readEurocImu(const std::filesystem::path& csv) 
     if (isCommentOrBlank(line)) continue;
     ImuSample s;
     if (!parseStamp(line, &s.t_ns) || !parseNumbers(line, ',', &v) || v.size() != 7) {
-      return makeError(csv.string(), ":", n, ": expected 7 numeric fields (t[ns], gyro xyz, accel xyz)");
+      return makeError(csv.string(), ":", n,
+                       ": expected 7 numeric fields (t[ns], gyro xyz, accel xyz)");
     }
     s.gyro_rad_s = Eigen::Vector3d(v[1], v[2], v[3]);
     s.accel_m_s2 = Eigen::Vector3d(v[4], v[5], v[6]);

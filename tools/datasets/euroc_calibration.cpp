@@ -70,13 +70,16 @@ Expected<core::CameraCalibration> readEurocCameraYaml(const std::filesystem::pat
   if (!readNumbers(fs["T_BS"]["data"], &v) || v.size() != 16) {
     return makeError(name, ": T_BS.data must be 16 numbers (row-major 4x4 body_T_cam)");
   }
-  const Eigen::Matrix4d T = Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(v.data());
+  const Eigen::Matrix4d T =
+      Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(v.data());
   if (!T.allFinite()) return makeError(name, ": T_BS has a non-finite entry");
   const Eigen::Matrix3d R = T.topLeftCorner<3, 3>();
   if ((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-6 ||
-      R.determinant() < 0.0 || (T.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-12) {
-    return makeError(name, ": T_BS is not a rigid transform (rotation not orthonormal or last "
-                           "row not 0 0 0 1)");
+      R.determinant() < 0.0 ||
+      (T.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-12) {
+    return makeError(name,
+                     ": T_BS is not a rigid transform (rotation not orthonormal or last "
+                     "row not 0 0 0 1)");
   }
   c.body_T_cam = core::SE3d::fromMatrix(T);
 
@@ -84,8 +87,8 @@ Expected<core::CameraCalibration> readEurocCameraYaml(const std::filesystem::pat
   return c;
 }
 
-Expected<core::StereoCalibration> readEurocStereoCalibration(const std::filesystem::path& cam0_yaml,
-                                                             const std::filesystem::path& cam1_yaml) {
+Expected<core::StereoCalibration> readEurocStereoCalibration(
+    const std::filesystem::path& cam0_yaml, const std::filesystem::path& cam1_yaml) {
   auto left = readEurocCameraYaml(cam0_yaml);
   if (!left) return left.error();
   auto right = readEurocCameraYaml(cam1_yaml);

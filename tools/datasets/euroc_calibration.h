@@ -14,7 +14,7 @@ namespace evermap::datasets {
 Expected<core::CameraCalibration> readEurocCameraYaml(const std::filesystem::path& yaml);
 // cam0 (left) and cam1 (right) sensor.yaml files: a raw (rectified = false) stereo calibration,
 // validated as a pair (same image size, positive baseline).
-Expected<core::StereoCalibration> readEurocStereoCalibration(const std::filesystem::path& cam0_yaml,
-                                                             const std::filesystem::path& cam1_yaml);
+Expected<core::StereoCalibration> readEurocStereoCalibration(
+    const std::filesystem::path& cam0_yaml, const std::filesystem::path& cam1_yaml);
 
 }  // namespace evermap::datasets

@@ -60,8 +60,8 @@ Expected<ConversionSummary> convertEurocToLcm(const fs::path& asl_folder, const 
   }
   ConversionSummary summary;
 
-  auto calibration = readEurocStereoCalibration(mav0 / "cam0/sensor.yaml",
-                                                mav0 / "cam1/sensor.yaml");
+  auto calibration =
+      readEurocStereoCalibration(mav0 / "cam0/sensor.yaml", mav0 / "cam1/sensor.yaml");
   if (!calibration) return calibration.error();
   auto imu = readEurocImu(mav0 / "imu0/data.csv");
   if (!imu) return imu.error();
@@ -77,12 +77,11 @@ Expected<ConversionSummary> convertEurocToLcm(const fs::path& asl_folder, const 
   for (const ImageEntry& l : *left) {
     while (j < right->size() && (*right)[j].t_ns < l.t_ns) ++j;
     if (j < right->size() && (*right)[j].t_ns == l.t_ns) {
-      pairs.push_back({l.t_ns, mav0 / "cam0/data" / l.filename,
-                       mav0 / "cam1/data" / (*right)[j].filename});
+      pairs.push_back(
+          {l.t_ns, mav0 / "cam0/data" / l.filename, mav0 / "cam1/data" / (*right)[j].filename});
     }
   }
-  summary.skipped_unpaired =
-      static_cast<int64_t>(left->size() + right->size() - 2 * pairs.size());
+  summary.skipped_unpaired = static_cast<int64_t>(left->size() + right->size() - 2 * pairs.size());
 
   std::vector<StampedPose> truth;
   fs::path gt_file = options.ground_truth;
@@ -114,7 +113,9 @@ Expected<ConversionSummary> convertEurocToLcm(const fs::path& asl_folder, const 
   if (!writer) return writer.error();
   const messages::ImageEncoding enc = options.encoding;
   channels::CalibrationRepeat calib_repeat;
-  if (Status s = detail::writeCalibrationIfDue(*writer, calib_repeat, *calibration, events.front().utime); !s)
+  if (Status s =
+          detail::writeCalibrationIfDue(*writer, calib_repeat, *calibration, events.front().utime);
+      !s)
     return s.error();
   for (const PendingEvent& e : events) {
     Status s = Ok{};
@@ -123,8 +124,9 @@ Expected<ConversionSummary> convertEurocToLcm(const fs::path& asl_folder, const 
         s = writer->write(channels::kImu, e.utime, messages::toMsg((*imu)[e.index]));
         break;
       case EventKind::kGroundTruth:
-        s = writer->write(channels::kGroundTruth, e.utime,
-                          messages::toMsg(e.utime, core::UncertainPose{truth[e.index].world_T_body}));
+        s = writer->write(
+            channels::kGroundTruth, e.utime,
+            messages::toMsg(e.utime, core::UncertainPose{truth[e.index].world_T_body}));
         break;
       case EventKind::kStereo: {
         const StereoRow& row = pairs[e.index];

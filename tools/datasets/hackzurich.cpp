@@ -46,8 +46,8 @@ Status readCsv(const std::filesystem::path& file, size_t min_values, OnRow on_ro
     if (n == 1 || line.empty()) continue;  // header
     int64_t t_ns = 0;
     if (!parseRow(line, &t_ns, &values) || values.size() < min_values) {
-      return makeError(file.string(), ":", n, ": expected \"unix_time_s,date_iso,",
-                       min_values, " numbers\"");
+      return makeError(file.string(), ":", n, ": expected \"unix_time_s,date_iso,", min_values,
+                       " numbers\"");
     }
     on_row(t_ns, values);
   }
@@ -139,13 +139,14 @@ Expected<HackzurichSession> readHackzurichSession(const std::filesystem::path& d
       return st.error();
     }
   }
-  Status st = readCsv(dir / (prefix + "barometer.csv"), 2,
-                      [&s](int64_t t, const std::vector<double>& v) {
-                        s.barometer.push_back({t, v[0], v[1]});
-                      });
+  Status st =
+      readCsv(dir / (prefix + "barometer.csv"), 2, [&s](int64_t t, const std::vector<double>& v) {
+        s.barometer.push_back({t, v[0], v[1]});
+      });
   if (!st.ok()) return st.error();
   // Gyro rows in time order for the search (the files are, but do not rely on it).
-  std::stable_sort(gyro.begin(), gyro.end(), [](const Row& a, const Row& b) { return a.t_ns < b.t_ns; });
+  std::stable_sort(gyro.begin(), gyro.end(),
+                   [](const Row& a, const Row& b) { return a.t_ns < b.t_ns; });
   const int64_t max_offset_ns = static_cast<int64_t>(max_gyro_offset_s * 1e9);
   s.accelerometer_rows = static_cast<int64_t>(accel.size());
   for (const Row& a : accel) {  // kept in file order: time-order problems are the gate's

@@ -14,9 +14,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool blank(const std::string& line) {
-  return line.find_first_not_of(" \t\r") == std::string::npos;
-}
+bool blank(const std::string& line) { return line.find_first_not_of(" \t\r") == std::string::npos; }
 
 Mat34 toMat34(const std::vector<double>& v) { return Mat34(v.data()); }
 
@@ -59,8 +57,9 @@ Expected<KittiProjections> readKittiCalib(const std::filesystem::path& file) {
     return p;
   }
   if (!have0 || !have1) {
-    return makeError(name, ": needs P0 and P1 (labelled \"P0:\" / \"P1:\", or the first two of "
-                           "unlabelled lines of 12 numbers)");
+    return makeError(name,
+                     ": needs P0 and P1 (labelled \"P0:\" / \"P1:\", or the first two of "
+                     "unlabelled lines of 12 numbers)");
   }
   return p;
 }
@@ -72,8 +71,7 @@ Expected<core::StereoCalibration> kittiStereoCalibration(const KittiProjections&
   if ((K0 - K1).cwiseAbs().maxCoeff() > 1e-9 * scale) {
     return makeError(what, ": P0 and P1 have different intrinsics: not a rectified pair");
   }
-  if (K0(0, 1) != 0.0 || K0(1, 0) != 0.0 || K0(2, 0) != 0.0 || K0(2, 1) != 0.0 ||
-      K0(2, 2) != 1.0) {
+  if (K0(0, 1) != 0.0 || K0(1, 0) != 0.0 || K0(2, 0) != 0.0 || K0(2, 1) != 0.0 || K0(2, 2) != 1.0) {
     return makeError(what, ": P0 is not a pinhole [fx 0 cx; 0 fy cy; 0 0 1]");
   }
   if (p.P0.col(3).cwiseAbs().maxCoeff() > 1e-9 * scale) {
@@ -217,10 +215,9 @@ Expected<KittiSequence> readKittiSequence(const fs::path& folder,
       return makeError(q.right_dir.string(), ": no right images (no such folder)");
     }
     const bool kitti = q.left_dir.filename() == "image_0";
-    return makeError((folder / (kitti ? "image_1" : "image_r")).string(),
-                     ": no right images: stereo needs ",
-                     kitti ? "image_0 and image_1" : "image_l and image_r",
-                     " (this folder is monocular)");
+    return makeError(
+        (folder / (kitti ? "image_1" : "image_r")).string(), ": no right images: stereo needs ",
+        kitti ? "image_0 and image_1" : "image_l and image_r", " (this folder is monocular)");
   }
   q.calib_file = folder / "calib.txt";
   auto projections = readKittiCalib(q.calib_file);
@@ -248,8 +245,8 @@ Expected<KittiSequence> readKittiSequence(const fs::path& folder,
     if (!p) return p.error();
     if (p->size() != q.times_ns.size()) {
       return makeError(q.poses_file.string(), ": ", p->size(), " poses but ",
-                       options.rate_hz > 0.0 ? q.left_dir.string() : times_file.string(),
-                       " has ", q.times_ns.size(), " frames");
+                       options.rate_hz > 0.0 ? q.left_dir.string() : times_file.string(), " has ",
+                       q.times_ns.size(), " frames");
     }
     q.poses = std::move(*p);
   }

@@ -66,12 +66,12 @@ struct KittiSequenceOptions {
 struct KittiSequence {
   std::filesystem::path folder, left_dir, right_dir, calib_file, poses_file;
   KittiProjections projections;
-  std::vector<int64_t> times_ns;   // every frame number, from times.txt or the rate
-  std::vector<core::SE3d> poses;   // world_T_cam0 per frame number; empty without ground truth
-  std::vector<size_t> frames;      // frame numbers with both images, increasing
+  std::vector<int64_t> times_ns;  // every frame number, from times.txt or the rate
+  std::vector<core::SE3d> poses;  // world_T_cam0 per frame number; empty without ground truth
+  std::vector<size_t> frames;     // frame numbers with both images, increasing
   int64_t skipped_missing_image = 0;
 
-  std::filesystem::path leftImage(size_t frame) const;   // left_dir / NNNNNN.png
+  std::filesystem::path leftImage(size_t frame) const;  // left_dir / NNNNNN.png
   std::filesystem::path rightImage(size_t frame) const;
 };
 

@@ -53,7 +53,9 @@ Expected<ConversionSummary> convertKittiToLcm(const fs::path& sequence, const fs
   auto writer = messages::LogWriter::open(output);
   if (!writer) return writer.error();
   channels::CalibrationRepeat calib_repeat;
-  if (Status s = detail::writeCalibrationIfDue(*writer, calib_repeat, *calibration, events.front().utime); !s)
+  if (Status s =
+          detail::writeCalibrationIfDue(*writer, calib_repeat, *calibration, events.front().utime);
+      !s)
     return s.error();
   for (const PendingEvent& e : events) {
     Status s = Ok{};

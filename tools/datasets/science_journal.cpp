@@ -32,15 +32,16 @@ bool parseNumber(const std::string& s, double* v) {
 
 std::string ScienceJournalRecording::summary() const {
   char buf[400];
-  std::snprintf(buf, sizeof buf,
-                "%lld rows -> %zu samples: %lld rows completed a sample, %lld updated part of one, "
-                "%lld before all three axes were known, %lld after the last sample, %lld linear "
-                "acceleration only (not used: gravity removed), %lld empty; %lld axis values "
-                "superseded before their sample",
-                static_cast<long long>(rows), imu.size(), static_cast<long long>(rows_completing_sample),
-                static_cast<long long>(rows_partial), static_cast<long long>(rows_before_first_sample),
-                static_cast<long long>(rows_trailing), static_cast<long long>(rows_linear_only),
-                static_cast<long long>(rows_empty), static_cast<long long>(values_superseded));
+  std::snprintf(
+      buf, sizeof buf,
+      "%lld rows -> %zu samples: %lld rows completed a sample, %lld updated part of one, "
+      "%lld before all three axes were known, %lld after the last sample, %lld linear "
+      "acceleration only (not used: gravity removed), %lld empty; %lld axis values "
+      "superseded before their sample",
+      static_cast<long long>(rows), imu.size(), static_cast<long long>(rows_completing_sample),
+      static_cast<long long>(rows_partial), static_cast<long long>(rows_before_first_sample),
+      static_cast<long long>(rows_trailing), static_cast<long long>(rows_linear_only),
+      static_cast<long long>(rows_empty), static_cast<long long>(values_superseded));
   return buf;
 }
 

@@ -25,15 +25,15 @@
 namespace evermap::datasets {
 
 struct ScienceJournalRecording {
-  std::vector<ImuSample> imu;  // gyro_rad_s = 0 (no gyroscope)
-  int64_t rows = 0;                 // data rows (after the header)
-  int64_t rows_completing_sample = 0;  // the row that completed a sample
-  int64_t rows_partial = 0;         // updated some axes of a sample completed by a later row
-  int64_t rows_linear_only = 0;     // only LinearAccelerometerSensor (not used, see above)
-  int64_t rows_empty = 0;           // a time and nothing else
+  std::vector<ImuSample> imu;            // gyro_rad_s = 0 (no gyroscope)
+  int64_t rows = 0;                      // data rows (after the header)
+  int64_t rows_completing_sample = 0;    // the row that completed a sample
+  int64_t rows_partial = 0;              // updated some axes of a sample completed by a later row
+  int64_t rows_linear_only = 0;          // only LinearAccelerometerSensor (not used, see above)
+  int64_t rows_empty = 0;                // a time and nothing else
   int64_t rows_before_first_sample = 0;  // axes seen before all three were known
-  int64_t values_superseded = 0;    // an axis updated again before its sample was made
-  int64_t rows_trailing = 0;        // after the last sample (an incomplete triple)
+  int64_t values_superseded = 0;         // an axis updated again before its sample was made
+  int64_t rows_trailing = 0;             // after the last sample (an incomplete triple)
   std::string summary() const;
 };
 

@@ -86,7 +86,7 @@ struct TumToLcmOptions {
   messages::ImageEncoding encoding = messages::ImageEncoding::kPng;
   // One of tumCalibration()'s names; empty: tumCalibrationNameFor(the folder).
   std::string calibration;
-  TumRgbdOptions sequence;  // the association limit
+  TumRgbdOptions sequence;              // the association limit
   double depth_scale_m = 1.0 / 5000.0;  // TUM's depth unit
 
   Status validate() const;

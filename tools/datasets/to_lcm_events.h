@@ -30,7 +30,8 @@ inline void sortByTime(std::vector<PendingEvent>* events) {
 
 // STEREO_CALIB at `utime` when the repeat is due (channels::CalibrationRepeat): called at the
 // log's first stamp and before every stereo pair.
-inline Status writeCalibrationIfDue(messages::LogWriter& writer, channels::CalibrationRepeat& repeat,
+inline Status writeCalibrationIfDue(messages::LogWriter& writer,
+                                    channels::CalibrationRepeat& repeat,
                                     const core::StereoCalibration& calibration, int64_t utime) {
   if (!repeat.due(utime)) return Ok{};
   return writer.write(channels::kStereoCalib, utime, messages::toMsg(calibration, utime));

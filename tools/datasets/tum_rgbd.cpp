@@ -46,44 +46,46 @@ Status forEachLine(const fs::path& file, Row row) {
 
 Expected<std::vector<TumImageEntry>> readTumImageList(const fs::path& file) {
   std::vector<TumImageEntry> out;
-  Status s = forEachLine(file, [&](const std::vector<std::string>& w, const std::string& where) -> Status {
-    TumImageEntry e;
-    if (w.size() != 2 || !parseSecondsToNs(w[0], &e.t_ns)) {
-      return makeError(where, ": expected \"timestamp filename\"");
-    }
-    if (!out.empty() && e.t_ns <= out.back().t_ns) {
-      return makeError(where, ": timestamp ", w[0], " is not after the previous line's");
-    }
-    e.file = w[1];
-    out.push_back(std::move(e));
-    return Ok{};
-  });
+  Status s =
+      forEachLine(file, [&](const std::vector<std::string>& w, const std::string& where) -> Status {
+        TumImageEntry e;
+        if (w.size() != 2 || !parseSecondsToNs(w[0], &e.t_ns)) {
+          return makeError(where, ": expected \"timestamp filename\"");
+        }
+        if (!out.empty() && e.t_ns <= out.back().t_ns) {
+          return makeError(where, ": timestamp ", w[0], " is not after the previous line's");
+        }
+        e.file = w[1];
+        out.push_back(std::move(e));
+        return Ok{};
+      });
   if (!s) return s.error();
   return out;
 }
 
 Expected<std::vector<AccelSample>> readTumAccelerometer(const fs::path& file) {
   std::vector<AccelSample> out;
-  Status s = forEachLine(file, [&](const std::vector<std::string>& w, const std::string& where) -> Status {
-    AccelSample a;
-    if (w.size() != 4 || !parseSecondsToNs(w[0], &a.t_ns)) {
-      return makeError(where, ": expected \"timestamp ax ay az\"");
-    }
-    for (int i = 0; i < 3; ++i) {
-      double v = 0.0;
-      std::istringstream f(w[static_cast<size_t>(i) + 1]);
-      if (!(f >> v) || !f.eof() || !std::isfinite(v)) {
-        return makeError(where, ": acceleration '", w[static_cast<size_t>(i) + 1],
-                         "' is not a finite number");
-      }
-      a.accel_m_s2[i] = v;
-    }
-    if (!out.empty() && a.t_ns <= out.back().t_ns) {
-      return makeError(where, ": timestamp ", w[0], " is not after the previous line's");
-    }
-    out.push_back(a);
-    return Ok{};
-  });
+  Status s =
+      forEachLine(file, [&](const std::vector<std::string>& w, const std::string& where) -> Status {
+        AccelSample a;
+        if (w.size() != 4 || !parseSecondsToNs(w[0], &a.t_ns)) {
+          return makeError(where, ": expected \"timestamp ax ay az\"");
+        }
+        for (int i = 0; i < 3; ++i) {
+          double v = 0.0;
+          std::istringstream f(w[static_cast<size_t>(i) + 1]);
+          if (!(f >> v) || !f.eof() || !std::isfinite(v)) {
+            return makeError(where, ": acceleration '", w[static_cast<size_t>(i) + 1],
+                             "' is not a finite number");
+          }
+          a.accel_m_s2[i] = v;
+        }
+        if (!out.empty() && a.t_ns <= out.back().t_ns) {
+          return makeError(where, ": timestamp ", w[0], " is not after the previous line's");
+        }
+        out.push_back(a);
+        return Ok{};
+      });
   if (!s) return s.error();
   return out;
 }
@@ -184,8 +186,10 @@ Expected<TumRgbdSequence> readTumRgbdSequence(const fs::path& folder,
   seq.unassociated_color = static_cast<int64_t>(seq.color.size() - seq.frames.size());
   seq.unassociated_depth = static_cast<int64_t>(seq.depth.size() - seq.frames.size());
   if (seq.frames.empty()) {
-    return makeError(folder.string(), ": no color image of rgb.txt has a depth image of "
-                     "depth.txt within ", options.max_difference_s, " s");
+    return makeError(folder.string(),
+                     ": no color image of rgb.txt has a depth image of "
+                     "depth.txt within ",
+                     options.max_difference_s, " s");
   }
   if (fs::exists(folder / "groundtruth.txt")) {
     auto gt = readEurocGroundTruth(folder / "groundtruth.txt", PoseFileLayout::kTum);

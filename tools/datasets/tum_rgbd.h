@@ -70,7 +70,7 @@ struct TumRgbdSequence {
   std::vector<std::pair<size_t, size_t>> frames;
   int64_t unassociated_color = 0;  // color images with no depth within the limit
   int64_t unassociated_depth = 0;
-  std::vector<StampedPose> ground_truth;  // empty when groundtruth.txt is absent
+  std::vector<StampedPose> ground_truth;   // empty when groundtruth.txt is absent
   std::vector<AccelSample> accelerometer;  // empty when accelerometer.txt is absent
 };
 

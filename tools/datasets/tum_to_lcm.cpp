@@ -80,7 +80,8 @@ Expected<ConversionSummary> convertTumRgbdToLcm(const fs::path& folder, const fs
     events.push_back({messages::utimeFromNs(seq->accelerometer[i].t_ns), EventKind::kImu, i});
   }
   for (size_t i = 0; i < seq->ground_truth.size(); ++i) {
-    events.push_back({messages::utimeFromNs(seq->ground_truth[i].t_ns), EventKind::kGroundTruth, i});
+    events.push_back(
+        {messages::utimeFromNs(seq->ground_truth[i].t_ns), EventKind::kGroundTruth, i});
   }
   for (size_t k = 0; k < seq->frames.size(); ++k) {
     const int64_t t = seq->color[seq->frames[k].first].t_ns;
@@ -105,11 +106,13 @@ Expected<ConversionSummary> convertTumRgbdToLcm(const fs::path& folder, const fs
     if (e.kind == EventKind::kImu) {
       evermap::accel_t msg;
       msg.utime = e.utime;
-      for (int i = 0; i < 3; ++i) msg.linear_acceleration[i] = seq->accelerometer[e.index].accel_m_s2[i];
+      for (int i = 0; i < 3; ++i)
+        msg.linear_acceleration[i] = seq->accelerometer[e.index].accel_m_s2[i];
       s = writer->write(channels::kAccel, e.utime, msg);
     } else if (e.kind == EventKind::kGroundTruth) {
-      s = writer->write(channels::kGroundTruth, e.utime,
-                        messages::toMsg(e.utime, core::UncertainPose{seq->ground_truth[e.index].world_T_body}));
+      s = writer->write(
+          channels::kGroundTruth, e.utime,
+          messages::toMsg(e.utime, core::UncertainPose{seq->ground_truth[e.index].world_T_body}));
     } else {
       const auto [ci, di] = seq->frames[e.index];
       messages::RgbdFrame f;
@@ -123,11 +126,12 @@ Expected<ConversionSummary> convertTumRgbdToLcm(const fs::path& folder, const fs
       if (!gray) return gray.error();
       auto depth = readDepth(depth_file);
       if (!depth) return depth.error();
-      for (const auto& [file, image] : {std::pair{&color_file, &*gray}, std::pair{&depth_file, &*depth}}) {
+      for (const auto& [file, image] :
+           {std::pair{&color_file, &*gray}, std::pair{&depth_file, &*depth}}) {
         if (image->cols != camera->width || image->rows != camera->height) {
           return makeError(file->string(), ": image is ", image->cols, "x", image->rows,
-                           ", the calibration (", calibration_name, ") is ", camera->width,
-                           "x", camera->height);
+                           ", the calibration (", calibration_name, ") is ", camera->width, "x",
+                           camera->height);
         }
       }
       f.gray = std::move(*gray);

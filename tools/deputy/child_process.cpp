@@ -98,13 +98,11 @@ LaunchPlan planLaunch(std::string_view exec) {
     }
     // A shell builtin ("exit 3", "exec prog", "cd dir") only means something to a shell.
     static constexpr std::string_view kBuiltins[] = {
-        ".",     "alias", "break",    "cd",     "command", "continue", "eval",  "exec",
-        "exit",  "export", "getopts", "hash",   "local",   "read",     "readonly", "return",
-        "set",   "shift", "source",   "times",  "trap",    "type",     "ulimit", "umask",
-        "unalias", "unset", "wait"};
-    const bool builtin = !plan.argv.empty() &&
-                         std::find(std::begin(kBuiltins), std::end(kBuiltins), plan.argv[0]) !=
-                             std::end(kBuiltins);
+        ".",      "alias",   "break", "cd",    "command", "continue", "eval",    "exec",  "exit",
+        "export", "getopts", "hash",  "local", "read",    "readonly", "return",  "set",   "shift",
+        "source", "times",   "trap",  "type",  "ulimit",  "umask",    "unalias", "unset", "wait"};
+    const bool builtin = !plan.argv.empty() && std::find(std::begin(kBuiltins), std::end(kBuiltins),
+                                                         plan.argv[0]) != std::end(kBuiltins);
     if (!plan.argv.empty() && !builtin) return plan;
   }
   plan = LaunchPlan{};
@@ -140,8 +138,8 @@ Expected<ChildHandle> spawnChild(const LaunchPlan& plan) {
 
   posix_spawnattr_t attr;
   posix_spawnattr_init(&attr);
-  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGMASK |
-                                      POSIX_SPAWN_SETSIGDEF);
+  posix_spawnattr_setflags(&attr,
+                           POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
   posix_spawnattr_setpgroup(&attr, 0);  // leads a new group whose id is its pid
   sigset_t none;
   sigemptyset(&none);

@@ -6,8 +6,8 @@
 // environment assignments, as procman allows) is split on white space and executed directly,
 // so the pid the deputy reports is the program's own. Anything else (quotes, $VAR, pipes,
 // redirections, ';', globs, ~, a shell builtin such as exit or exec as the first word) runs
-// as `/bin/sh -c EXEC`; start it with `exec` to have the shell replaced by the program. Either way the child leads a new
-// process group, so a stop signal reaches everything it started.
+// as `/bin/sh -c EXEC`; start it with `exec` to have the shell replaced by the program. Either way
+// the child leads a new process group, so a stop signal reaches everything it started.
 
 #include <sys/types.h>
 
@@ -29,9 +29,9 @@ LaunchPlan planLaunch(std::string_view exec);
 
 // A started child. The deputy owns the file descriptors and closes them (closeFds()).
 struct ChildHandle {
-  pid_t pid = 0;      // also the process group id
-  int output_fd = -1; // read end of the stdout+stderr pipe, non-blocking
-  int pid_fd = -1;    // pidfd (readable when the child ends), or -1 where unsupported
+  pid_t pid = 0;       // also the process group id
+  int output_fd = -1;  // read end of the stdout+stderr pipe, non-blocking
+  int pid_fd = -1;     // pidfd (readable when the child ends), or -1 where unsupported
   void closeFds();
 };
 

@@ -74,12 +74,23 @@ std::string quote(const std::string& s) {
   std::string out = "\"";
   for (char c : s) {
     switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\r': out += "\\r"; break;
-      case '\t': out += "\\t"; break;
-      default: out += c;
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
+      default:
+        out += c;
     }
   }
   return out + "\"";
@@ -101,8 +112,7 @@ void writeCommand(std::ostringstream& out, const CommandSpec& c, const std::stri
 }
 
 // Writes the group `path` ("" for the top level): its own commands, then its subgroups.
-void writeGroup(std::ostringstream& out, const Config& config, const std::string& path,
-                int depth) {
+void writeGroup(std::ostringstream& out, const Config& config, const std::string& path, int depth) {
   const std::string indent(4 * depth, ' ');
   for (const CommandSpec& c : config.commands) {
     if (c.group == path) writeCommand(out, c, indent);
@@ -120,9 +130,12 @@ void writeGroup(std::ostringstream& out, const Config& config, const std::string
 
 std::string targetText(const ScriptAction& a) {
   switch (a.target_kind) {
-    case TargetKind::kEverything: return "everything";
-    case TargetKind::kCommand: return "cmd " + quote(a.target);
-    case TargetKind::kGroup: return "group " + quote(a.target);
+    case TargetKind::kEverything:
+      return "everything";
+    case TargetKind::kCommand:
+      return "cmd " + quote(a.target);
+    case TargetKind::kGroup:
+      return "group " + quote(a.target);
   }
   return "";
 }
@@ -148,11 +161,15 @@ std::string formatConfig(const Config& config) {
               << targetText(a);
           if (a.wait != WaitFor::kNothing) out << " wait " << statusText(a.wait);
           break;
-        case ScriptAction::Kind::kWaitMs: out << "wait ms " << a.delay_ms; break;
+        case ScriptAction::Kind::kWaitMs:
+          out << "wait ms " << a.delay_ms;
+          break;
         case ScriptAction::Kind::kWaitStatus:
           out << "wait " << targetText(a) << " status " << statusText(a.wait);
           break;
-        case ScriptAction::Kind::kRunScript: out << "run_script " << quote(a.target); break;
+        case ScriptAction::Kind::kRunScript:
+          out << "run_script " << quote(a.target);
+          break;
       }
       out << ";\n";
     }

@@ -36,13 +36,13 @@ struct SourcePos {
 
 struct CommandSpec {
   std::string name;
-  std::string exec;               // shell-style command line
-  std::string host;               // the deputy that runs it; "" or "localhost": any deputy
-  std::string group;              // slash-joined path of enclosing groups; "" at top level
-  bool auto_respawn = false;      // restart when it ends while it should be running
-  int stop_signal = 2;            // sent first when stopping (2 = SIGINT, procman's default)
-  int stop_time_allowed_s = 7;    // then SIGKILL after this many seconds
-  int start_delay_ms = 0;         // evermap addition: wait this long after a start order
+  std::string exec;             // shell-style command line
+  std::string host;             // the deputy that runs it; "" or "localhost": any deputy
+  std::string group;            // slash-joined path of enclosing groups; "" at top level
+  bool auto_respawn = false;    // restart when it ends while it should be running
+  int stop_signal = 2;          // sent first when stopping (2 = SIGINT, procman's default)
+  int stop_time_allowed_s = 7;  // then SIGKILL after this many seconds
+  int start_delay_ms = 0;       // evermap addition: wait this long after a start order
   SourcePos pos;
 };
 
@@ -53,9 +53,9 @@ struct ScriptAction {
   enum class Kind { kStart, kStop, kRestart, kWaitMs, kWaitStatus, kRunScript };
   Kind kind = Kind::kWaitMs;
   TargetKind target_kind = TargetKind::kEverything;  // start/stop/restart/wait status
-  std::string target;             // command name, group path or script name
+  std::string target;                                // command name, group path or script name
   WaitFor wait = WaitFor::kNothing;
-  int delay_ms = 0;               // wait ms
+  int delay_ms = 0;  // wait ms
   SourcePos pos;
 };
 

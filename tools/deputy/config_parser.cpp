@@ -24,14 +24,22 @@ enum class Tok { kIdentifier, kString, kInteger, kOpen, kClose, kAssign, kEnd, k
 
 const char* describe(Tok t) {
   switch (t) {
-    case Tok::kIdentifier: return "a word";
-    case Tok::kString: return "a quoted string";
-    case Tok::kInteger: return "an integer";
-    case Tok::kOpen: return "'{'";
-    case Tok::kClose: return "'}'";
-    case Tok::kAssign: return "'='";
-    case Tok::kEnd: return "';'";
-    case Tok::kEof: return "end of file";
+    case Tok::kIdentifier:
+      return "a word";
+    case Tok::kString:
+      return "a quoted string";
+    case Tok::kInteger:
+      return "an integer";
+    case Tok::kOpen:
+      return "'{'";
+    case Tok::kClose:
+      return "'}'";
+    case Tok::kAssign:
+      return "'='";
+    case Tok::kEnd:
+      return "';'";
+    case Tok::kEof:
+      return "end of file";
   }
   return "?";
 }
@@ -59,12 +67,30 @@ class Tokenizer {
     if (i_ >= text_.size()) return t;
     const char c = text_[i_];
     switch (c) {
-      case '{': advance(); t.type = Tok::kOpen; t.text = "{"; return t;
-      case '}': advance(); t.type = Tok::kClose; t.text = "}"; return t;
-      case '=': advance(); t.type = Tok::kAssign; t.text = "="; return t;
-      case ';': advance(); t.type = Tok::kEnd; t.text = ";"; return t;
-      case '"': return quoted(t);
-      default: break;
+      case '{':
+        advance();
+        t.type = Tok::kOpen;
+        t.text = "{";
+        return t;
+      case '}':
+        advance();
+        t.type = Tok::kClose;
+        t.text = "}";
+        return t;
+      case '=':
+        advance();
+        t.type = Tok::kAssign;
+        t.text = "=";
+        return t;
+      case ';':
+        advance();
+        t.type = Tok::kEnd;
+        t.text = ";";
+        return t;
+      case '"':
+        return quoted(t);
+      default:
+        break;
     }
     if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
       t.type = Tok::kIdentifier;
@@ -243,7 +269,8 @@ class Parser {
       } else if (attr.text == "auto_respawn") {
         needString();
         if (value.text != "true" && value.text != "false") {
-          failAt(value.pos, "auto_respawn must be \"true\" or \"false\", got \"" + value.text + "\"");
+          failAt(value.pos,
+                 "auto_respawn must be \"true\" or \"false\", got \"" + value.text + "\"");
         }
         cmd.auto_respawn = value.text == "true";
       } else if (attr.text == "stop_signal") {
@@ -264,9 +291,10 @@ class Parser {
     }
     const Token close = expect(Tok::kClose, "an attribute or '}'");
     if (!has_exec || cmd.exec.find_first_not_of(" \t") == std::string::npos) {
-      failAt(close.pos, "command " + (cmd.name.empty() ? std::string("without a name")
-                                                        : "\"" + cmd.name + "\"") +
-                            " has no exec");
+      failAt(close.pos,
+             "command " +
+                 (cmd.name.empty() ? std::string("without a name") : "\"" + cmd.name + "\"") +
+                 " has no exec");
     }
     if (cmd.name.empty()) cmd.name = cmd.exec;
     if (const CommandSpec* first = config_.findCommand(cmd.name)) {
@@ -391,8 +419,8 @@ void checkReferences(Config* config) {
       if (a.kind == ScriptAction::Kind::kWaitMs) continue;
       if (a.kind == ScriptAction::Kind::kRunScript) {
         if (!config->findScript(a.target)) {
-          throw ParseFailure{a.pos, "script \"" + s.name + "\" runs unknown script \"" +
-                                        a.target + "\""};
+          throw ParseFailure{a.pos,
+                             "script \"" + s.name + "\" runs unknown script \"" + a.target + "\""};
         }
         continue;
       }
@@ -422,8 +450,8 @@ void checkReferences(Config* config) {
       if (a.kind != ScriptAction::Kind::kRunScript) continue;
       const size_t j = index(a.target);
       if (colour[j] == kGrey) {
-        throw ParseFailure{a.pos, "script \"" + config->scripts[i].name + "\" calls \"" +
-                                      a.target + "\", which leads back to it"};
+        throw ParseFailure{a.pos, "script \"" + config->scripts[i].name + "\" calls \"" + a.target +
+                                      "\", which leads back to it"};
       }
       if (colour[j] == kWhite) self(self, j);
     }

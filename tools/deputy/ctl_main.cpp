@@ -68,8 +68,8 @@ struct OutputPrinter {
     while (start < m->text.size()) {
       size_t end = m->text.find('\n', start);
       if (end == std::string::npos) end = m->text.size();
-      std::printf("[%s/%s] %.*s\n", m->host.c_str(), m->name.c_str(),
-                  static_cast<int>(end - start), m->text.c_str() + start);
+      std::printf("[%s/%s] %.*s\n", m->host.c_str(), m->name.c_str(), static_cast<int>(end - start),
+                  m->text.c_str() + start);
       start = end + 1;
     }
     std::fflush(stdout);
@@ -92,20 +92,28 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (a == "--lcm-url") lcm_url = next();
-    else if (a == "--host") options.host = next();
+    if (a == "--lcm-url")
+      lcm_url = next();
+    else if (a == "--host")
+      options.host = next();
     else if (a == "--timeout-s") {
       const std::string v = next();
       char* end = nullptr;
       options.timeout_s = std::strtod(v.c_str(), &end);
-      if (v.empty() || *end != '\0' || !std::isfinite(options.timeout_s) || !(options.timeout_s > 0)) {
-        std::fprintf(stderr, "evermap-deputy-ctl: bad --timeout-s: \"%s\" is not a finite number > 0\n", v.c_str());
+      if (v.empty() || *end != '\0' || !std::isfinite(options.timeout_s) ||
+          !(options.timeout_s > 0)) {
+        std::fprintf(stderr,
+                     "evermap-deputy-ctl: bad --timeout-s: \"%s\" is not a finite number > 0\n",
+                     v.c_str());
         return 2;
       }
-    }
-    else if (a == "--tsv") tsv = true;
-    else if (a == "-h" || a == "--help") { usage(); return 0; }
-    else rest.push_back(a);
+    } else if (a == "--tsv")
+      tsv = true;
+    else if (a == "-h" || a == "--help") {
+      usage();
+      return 0;
+    } else
+      rest.push_back(a);
   }
   if (rest.empty() || !options.validate()) {
     usage();
@@ -155,7 +163,8 @@ int main(int argc, char** argv) {
       usage();
       return 2;
     }
-    const auto s = client.waitFor(parseTargets({args.begin() + 1, args.end()}), args[0] == "running");
+    const auto s =
+        client.waitFor(parseTargets({args.begin() + 1, args.end()}), args[0] == "running");
     if (!s) return fail(s.error());
   } else {
     usage();

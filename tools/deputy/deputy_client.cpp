@@ -70,9 +70,9 @@ Expected<std::vector<ProcRef>> resolveTargets(const std::vector<deputy_status_t>
       const char* what = t.kind == CtlTarget::Kind::kCommand ? "command"
                          : t.kind == CtlTarget::Kind::kGroup ? "group"
                                                              : "command or group";
-      return makeError("no ", what, " \"", t.name, "\" on any deputy (commands: ",
-                       known.empty() ? "none" : known, "; groups: ",
-                       known_groups.empty() ? "none" : known_groups, ")");
+      return makeError("no ", what, " \"", t.name,
+                       "\" on any deputy (commands: ", known.empty() ? "none" : known,
+                       "; groups: ", known_groups.empty() ? "none" : known_groups, ")");
     }
     for (ProcRef& r : found) {
       if (std::find(refs.begin(), refs.end(), r) == refs.end()) refs.push_back(std::move(r));
@@ -83,18 +83,23 @@ Expected<std::vector<ProcRef>> resolveTargets(const std::vector<deputy_status_t>
 
 const char* stateText(const deputy_proc_t& p) {
   switch (p.state) {
-    case deputy_proc_t::STATE_RUNNING: return p.desired_running ? "running" : "stopping";
-    case deputy_proc_t::STATE_RESTARTING: return "waiting";
-    case deputy_proc_t::STATE_STOPPED: return "stopped";
-    case deputy_proc_t::STATE_FAILED: return "failed";
-    default: return "unknown";
+    case deputy_proc_t::STATE_RUNNING:
+      return p.desired_running ? "running" : "stopping";
+    case deputy_proc_t::STATE_RESTARTING:
+      return "waiting";
+    case deputy_proc_t::STATE_STOPPED:
+      return "stopped";
+    case deputy_proc_t::STATE_FAILED:
+      return "failed";
+    default:
+      return "unknown";
   }
 }
 
 std::string formatStatusTable(const std::vector<deputy_status_t>& statuses, bool tsv) {
   std::vector<std::vector<std::string>> rows;
-  rows.push_back({"HOST", "NAME", "GROUP", "STATE", "DESIRED", "PID", "CPU%", "RSS_MB",
-                  "RESTARTS", "LAST_EXIT"});
+  rows.push_back({"HOST", "NAME", "GROUP", "STATE", "DESIRED", "PID", "CPU%", "RSS_MB", "RESTARTS",
+                  "LAST_EXIT"});
   for (const deputy_status_t& s : statuses) {
     for (const deputy_proc_t& p : s.procs) {
       char cpu[32], rss[32];
@@ -130,7 +135,8 @@ std::string formatStatusTable(const std::vector<deputy_status_t>& statuses, bool
 
 Status DeputyClientOptions::validate() const {
   for (double v : {timeout_s, settle_s, resend_period_s}) {
-    if (!(v > 0.0) || !std::isfinite(v)) return makeError("deputy client: times must be > 0, got ", v);
+    if (!(v > 0.0) || !std::isfinite(v))
+      return makeError("deputy client: times must be > 0, got ", v);
   }
   return Ok{};
 }
@@ -194,8 +200,8 @@ Expected<std::vector<deputy_status_t>> DeputyClient::gather() {
     }
   }
   if (!latest_.empty()) return latestList();
-  return makeError("no status from ", options_.host.empty() ? "any deputy" : options_.host,
-                   " on ", channels::kDeputyStatus, " within ", secondsText(options_.timeout_s));
+  return makeError("no status from ", options_.host.empty() ? "any deputy" : options_.host, " on ",
+                   channels::kDeputyStatus, " within ", secondsText(options_.timeout_s));
 }
 
 Status DeputyClient::order(const std::vector<ProcRef>& refs, bool running) {
@@ -245,8 +251,8 @@ Status DeputyClient::start(const std::vector<CtlTarget>& targets) {
   std::vector<ProcRef> ended;  // should run, but has ended: re-arm with a stop first
   for (const ProcRef& r : *refs) {
     const deputy_proc_t* p = find(r);
-    if (p && p->desired_running && (p->state == deputy_proc_t::STATE_STOPPED ||
-                                    p->state == deputy_proc_t::STATE_FAILED)) {
+    if (p && p->desired_running &&
+        (p->state == deputy_proc_t::STATE_STOPPED || p->state == deputy_proc_t::STATE_FAILED)) {
       ended.push_back(r);
     }
   }

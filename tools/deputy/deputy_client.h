@@ -51,9 +51,9 @@ const char* stateText(const deputy_proc_t& p);
 std::string formatStatusTable(const std::vector<deputy_status_t>& statuses, bool tsv);
 
 struct DeputyClientOptions {
-  std::string host;               // only this deputy; "" for all
-  double timeout_s = 10.0;        // for gathering status and for each acknowledgement
-  double settle_s = 1.2;          // after the first status, listen this long for other hosts
+  std::string host;         // only this deputy; "" for all
+  double timeout_s = 10.0;  // for gathering status and for each acknowledgement
+  double settle_s = 1.2;    // after the first status, listen this long for other hosts
   double resend_period_s = 0.5;
 
   Status validate() const;

@@ -26,11 +26,15 @@ Status DeputyNodeOptions::validate() const {
 
 int8_t messageState(ProcessState state) {
   switch (state) {
-    case ProcessState::kStopped: return deputy_proc_t::STATE_STOPPED;
+    case ProcessState::kStopped:
+      return deputy_proc_t::STATE_STOPPED;
     case ProcessState::kRunning:
-    case ProcessState::kStopping: return deputy_proc_t::STATE_RUNNING;  // pid != 0, desired 0
-    case ProcessState::kWaiting: return deputy_proc_t::STATE_RESTARTING;
-    case ProcessState::kFailed: return deputy_proc_t::STATE_FAILED;
+    case ProcessState::kStopping:
+      return deputy_proc_t::STATE_RUNNING;  // pid != 0, desired 0
+    case ProcessState::kWaiting:
+      return deputy_proc_t::STATE_RESTARTING;
+    case ProcessState::kFailed:
+      return deputy_proc_t::STATE_FAILED;
   }
   return deputy_proc_t::STATE_FAILED;
 }
@@ -65,9 +69,7 @@ DeputyNode::DeputyNode(lcm::LCM& lcm, Supervisor& supervisor, DeputyNodeOptions 
   next_status_ = Clock::now();  // the first status goes out at once
 }
 
-DeputyNode::~DeputyNode() {
-  supervisor_.setLineSink(nullptr);
-}
+DeputyNode::~DeputyNode() { supervisor_.setLineSink(nullptr); }
 
 void DeputyNode::runScript(ScriptRunner runner) {
   script_.emplace(std::move(runner));

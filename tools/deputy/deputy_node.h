@@ -29,12 +29,12 @@
 namespace evermap::deputy {
 
 struct DeputyNodeOptions {
-  std::string host;                 // this deputy's name in orders and status
-  double status_period_s = 1.0;     // DEPUTY_STATUS period (CPU % is measured over it)
-  double min_status_gap_s = 0.1;    // extra status messages on changes, at most this often
-  bool publish_output = true;       // DEPUTY_OUTPUT on/off (log files are always written)
+  std::string host;               // this deputy's name in orders and status
+  double status_period_s = 1.0;   // DEPUTY_STATUS period (CPU % is measured over it)
+  double min_status_gap_s = 0.1;  // extra status messages on changes, at most this often
+  bool publish_output = true;     // DEPUTY_OUTPUT on/off (log files are always written)
   OutputThrottleOptions output;
-  bool print_notes = false;         // the deputy's notes ("started pid 12") also on stderr
+  bool print_notes = false;  // the deputy's notes ("started pid 12") also on stderr
 
   Status validate() const;
 };
@@ -47,11 +47,11 @@ class DeputyNode {
   using Clock = std::chrono::steady_clock;
 
   struct Counters {
-    int64_t orders_applied = 0;      // orders addressed to this deputy
-    int64_t orders_for_others = 0;   // addressed to another host
-    int64_t unknown_names = 0;       // names in our orders we do not supervise
-    int64_t orders_malformed = 0;    // did not decode, or values out of range
-    int64_t handler_failed = 0;      // an order's handling threw (caught at the boundary)
+    int64_t orders_applied = 0;     // orders addressed to this deputy
+    int64_t orders_for_others = 0;  // addressed to another host
+    int64_t unknown_names = 0;      // names in our orders we do not supervise
+    int64_t orders_malformed = 0;   // did not decode, or values out of range
+    int64_t handler_failed = 0;     // an order's handling threw (caught at the boundary)
     int64_t status_published = 0;
     int64_t output_published = 0;
   };

@@ -36,8 +36,8 @@ void printConfig(const Config& config, const std::string& host) {
   for (const CommandSpec& c : config.commands) {
     std::printf("  cmd %-24s group=%-16s host=%-10s respawn=%s stop=%d/%ds delay=%dms\n    %s\n",
                 ("\"" + c.name + "\"").c_str(), c.group.empty() ? "-" : c.group.c_str(),
-                c.host.empty() ? "-" : c.host.c_str(), c.auto_respawn ? "yes" : "no",
-                c.stop_signal, c.stop_time_allowed_s, c.start_delay_ms, c.exec.c_str());
+                c.host.empty() ? "-" : c.host.c_str(), c.auto_respawn ? "yes" : "no", c.stop_signal,
+                c.stop_time_allowed_s, c.start_delay_ms, c.exec.c_str());
   }
   for (const Script& s : config.scripts) {
     std::printf("  script \"%s\": %zu actions\n", s.name.c_str(), s.actions.size());
@@ -74,7 +74,8 @@ int main(int argc, char** argv) {
   cli.value("--backoff-initial-ms", &backoff.initial_delay_ms, "MS", "first restart delay").min(0);
   cli.value("--backoff-max-ms", &backoff.max_delay_ms, "MS", "longest restart delay").min(0);
   cli.value("--stable-after-s", &backoff.stable_after_s, "S",
-            "running this long resets the back-off").min(0);
+            "running this long resets the back-off")
+      .min(0);
   cli.value("--max-log-mb", &max_log_mb, "MB", "rotate a process log beyond this size").positive();
   cli.flag("--check", &check, "parse CONFIG, print it and exit");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
@@ -117,7 +118,8 @@ int main(int argc, char** argv) {
   const auto commands = config->commandsForHost(host);
   SupervisorOptions supervisor_options;
   supervisor_options.log_dir = log_dir;
-  if (max_log_mb >= 0) supervisor_options.max_log_bytes = static_cast<int64_t>(max_log_mb * (1 << 20));
+  if (max_log_mb >= 0)
+    supervisor_options.max_log_bytes = static_cast<int64_t>(max_log_mb * (1 << 20));
   supervisor_options.backoff = backoff;
   auto supervisor = Supervisor::create(commands, supervisor_options);
   if (!supervisor) {
@@ -143,7 +145,8 @@ int main(int argc, char** argv) {
                log_dir.c_str(), backoff.describe().c_str());
 
   if (commands.empty()) {
-    std::fprintf(stderr, "evermap-deputy: warning: no command of %s is for host \"%s\" "
+    std::fprintf(stderr,
+                 "evermap-deputy: warning: no command of %s is for host \"%s\" "
                  "(set --host, or host = \"localhost\" in the file)\n",
                  config_path.c_str(), host.c_str());
   }

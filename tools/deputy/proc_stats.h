@@ -20,8 +20,8 @@ namespace evermap::deputy {
 struct ProcStat {
   pid_t pid = 0;
   pid_t pgrp = 0;
-  char state = '?';      // R, S, D, Z, ...
-  int64_t cpu_ticks = 0; // utime + stime + cutime + cstime
+  char state = '?';       // R, S, D, Z, ...
+  int64_t cpu_ticks = 0;  // utime + stime + cutime + cstime
 };
 
 // Parses the text of /proc/<pid>/stat. The command name (field 2) is in parentheses and may

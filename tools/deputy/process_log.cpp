@@ -30,7 +30,7 @@ ProcessLog::~ProcessLog() {
 
 void ProcessLog::open() {
   fd_ = ::open(file_.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
-  struct stat st{};
+  struct stat st {};
   bytes_ = (fd_ >= 0 && ::fstat(fd_, &st) == 0) ? st.st_size : 0;
 }
 

@@ -13,7 +13,8 @@ namespace evermap::deputy {
 class ProcessLog {
  public:
   // `max_bytes` 0: no rotation.
-  ProcessLog(std::filesystem::path file, int64_t max_bytes) : file_(std::move(file)), max_bytes_(max_bytes) {}
+  ProcessLog(std::filesystem::path file, int64_t max_bytes)
+      : file_(std::move(file)), max_bytes_(max_bytes) {}
   ~ProcessLog();
   ProcessLog(const ProcessLog&) = delete;
   ProcessLog& operator=(const ProcessLog&) = delete;

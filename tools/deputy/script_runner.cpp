@@ -7,8 +7,8 @@ Expected<ScriptRunner> ScriptRunner::create(const Config& config, const std::str
   if (!s) {
     std::string known;
     for (const Script& k : config.scripts) known += (known.empty() ? "" : ", ") + k.name;
-    return makeError(config.source, ": no script \"", script, "\" (scripts: ",
-                     known.empty() ? "none" : known, ")");
+    return makeError(config.source, ": no script \"", script,
+                     "\" (scripts: ", known.empty() ? "none" : known, ")");
   }
   return ScriptRunner(config, s);
 }
@@ -25,8 +25,12 @@ std::vector<std::string> ScriptRunner::targets(const ScriptAction& a,
     case TargetKind::kEverything:
       for (const CommandSpec& c : config_->commands) all.push_back(c.name);
       break;
-    case TargetKind::kCommand: all.push_back(a.target); break;
-    case TargetKind::kGroup: all = config_->commandsInGroup(a.target); break;
+    case TargetKind::kCommand:
+      all.push_back(a.target);
+      break;
+    case TargetKind::kGroup:
+      all = config_->commandsInGroup(a.target);
+      break;
   }
   std::vector<std::string> mine;
   for (std::string& n : all) {

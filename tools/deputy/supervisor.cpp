@@ -44,18 +44,24 @@ struct Supervisor::Process {
 
 const char* toString(ProcessState state) {
   switch (state) {
-    case ProcessState::kStopped: return "stopped";
-    case ProcessState::kWaiting: return "waiting";
-    case ProcessState::kRunning: return "running";
-    case ProcessState::kStopping: return "stopping";
-    case ProcessState::kFailed: return "failed";
+    case ProcessState::kStopped:
+      return "stopped";
+    case ProcessState::kWaiting:
+      return "waiting";
+    case ProcessState::kRunning:
+      return "running";
+    case ProcessState::kStopping:
+      return "stopping";
+    case ProcessState::kFailed:
+      return "failed";
   }
   return "?";
 }
 
 Status SupervisorOptions::validate() const {
   if (log_dir.empty()) return makeError("supervisor: no log folder given");
-  if (max_log_bytes < 0) return makeError("supervisor: max_log_bytes must be >= 0, got ", max_log_bytes);
+  if (max_log_bytes < 0)
+    return makeError("supervisor: max_log_bytes must be >= 0, got ", max_log_bytes);
   return backoff.validate();
 }
 
@@ -68,8 +74,8 @@ constexpr auto kPollWithoutPidfd = std::chrono::milliseconds(100);
 std::string fileNameFor(const std::string& name) {
   std::string out;
   for (char c : name) {
-    out += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-') ? c
-                                                                                           : '_';
+    out +=
+        (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-') ? c : '_';
   }
   if (out.empty() || out[0] == '.') out.insert(out.begin(), '_');
   return out + ".log";
@@ -81,7 +87,9 @@ std::string describeExit(int code) {
   return "killed by signal " + std::to_string(-code) + (name ? std::string(" (") + name + ")" : "");
 }
 
-double seconds(std::chrono::steady_clock::duration d) { return std::chrono::duration<double>(d).count(); }
+double seconds(std::chrono::steady_clock::duration d) {
+  return std::chrono::duration<double>(d).count();
+}
 
 }  // namespace
 
@@ -90,7 +98,8 @@ Expected<std::unique_ptr<Supervisor>> Supervisor::create(std::vector<CommandSpec
   if (auto ok = options.validate(); !ok) return ok.error();
   std::set<std::string> names;
   for (const CommandSpec& c : commands) {
-    if (!names.insert(c.name).second) return makeError("supervisor: duplicate name \"", c.name, "\"");
+    if (!names.insert(c.name).second)
+      return makeError("supervisor: duplicate name \"", c.name, "\"");
   }
   std::error_code ec;
   std::filesystem::create_directories(options.log_dir, ec);
@@ -150,14 +159,17 @@ Status Supervisor::start(const std::string& name) {
   if (shutting_down_) return makeError("\"", name, "\" not started: the deputy is shutting down");
   p->desired = true;
   switch (p->state) {
-    case ProcessState::kStopping: p->start_after_exit = true; break;
+    case ProcessState::kStopping:
+      p->start_after_exit = true;
+      break;
     case ProcessState::kStopped:
     case ProcessState::kFailed:
       p->backoff.reset();
       scheduleStart(*p, p->spec.start_delay_ms, false);
       break;
     case ProcessState::kRunning:
-    case ProcessState::kWaiting: break;
+    case ProcessState::kWaiting:
+      break;
   }
   return Ok{};
 }
@@ -186,10 +198,14 @@ Status Supervisor::restart(const std::string& name) {
       requestStop(*p);
       p->start_after_exit = true;
       break;
-    case ProcessState::kStopping: p->start_after_exit = true; break;
+    case ProcessState::kStopping:
+      p->start_after_exit = true;
+      break;
     case ProcessState::kWaiting:
     case ProcessState::kStopped:
-    case ProcessState::kFailed: scheduleStart(*p, p->spec.start_delay_ms, false); break;
+    case ProcessState::kFailed:
+      scheduleStart(*p, p->spec.start_delay_ms, false);
+      break;
   }
   return Ok{};
 }
@@ -281,7 +297,7 @@ void Supervisor::reap(Process& p) {
   int status = 0;
   while (::waitpid(p.child.pid, &status, 0) < 0 && errno == EINTR) {
   }
-  const int code = WIFEXITED(status) ? WEXITSTATUS(status)
+  const int code = WIFEXITED(status)     ? WEXITSTATUS(status)
                    : WIFSIGNALED(status) ? -WTERMSIG(status)
                                          : -1;
   onEnded(p, code);

@@ -43,14 +43,14 @@ struct ProcessStatus {
   std::string command;
   ProcessState state = ProcessState::kStopped;
   bool desired_running = false;
-  pid_t pid = 0;              // 0 when not running
-  int starts = 0;             // every start, ordered or automatic
-  int restarts = 0;           // automatic restarts after the process ended
-  bool has_ended = false;     // it ran and ended at least once
-  int last_exit_code = 0;     // exit status, or -N when ended by signal N
-  double cpu_percent = 0.0;   // of one core, over the last sampleUsage() period
-  int64_t rss_bytes = 0;      // resident memory of its process group
-  double last_backoff_ms = 0; // the wait before the latest automatic restart
+  pid_t pid = 0;               // 0 when not running
+  int starts = 0;              // every start, ordered or automatic
+  int restarts = 0;            // automatic restarts after the process ended
+  bool has_ended = false;      // it ran and ended at least once
+  int last_exit_code = 0;      // exit status, or -N when ended by signal N
+  double cpu_percent = 0.0;    // of one core, over the last sampleUsage() period
+  int64_t rss_bytes = 0;       // resident memory of its process group
+  double last_backoff_ms = 0;  // the wait before the latest automatic restart
 };
 
 struct SupervisorOptions {

@@ -4,10 +4,14 @@ namespace evermap::eval {
 
 const char* toString(AlignmentMode mode) {
   switch (mode) {
-    case AlignmentMode::kNone: return "none";
-    case AlignmentMode::kSE3: return "se3";
-    case AlignmentMode::kSim3: return "sim3";
-    case AlignmentMode::kFirstPose: return "first";
+    case AlignmentMode::kNone:
+      return "none";
+    case AlignmentMode::kSE3:
+      return "se3";
+    case AlignmentMode::kSim3:
+      return "sim3";
+    case AlignmentMode::kFirstPose:
+      return "first";
   }
   return "?";
 }
@@ -17,7 +21,8 @@ Expected<AlignmentMode> parseAlignmentMode(std::string_view name) {
   if (name == "se3") return AlignmentMode::kSE3;
   if (name == "sim3") return AlignmentMode::kSim3;
   if (name == "first") return AlignmentMode::kFirstPose;
-  return makeError("unknown alignment \"", std::string(name), "\" (expected se3, sim3, first or none)");
+  return makeError("unknown alignment \"", std::string(name),
+                   "\" (expected se3, sim3, first or none)");
 }
 
 Expected<AlignmentResult> umeyama(const std::vector<core::Vec3>& src,

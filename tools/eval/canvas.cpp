@@ -45,11 +45,20 @@ std::string xmlEscape(const std::string& s) {
   std::string out;
   for (char c : s) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -237,8 +246,8 @@ std::string Canvas::encodeSvg() const {
       }
       case Item::kPolygon: {
         s += "<polygon fill=\"" + svgColor(it.fill) + "\" stroke=\"" +
-             (it.width_px > 0 ? svgColor(it.stroke) : std::string("none")) +
-             "\" stroke-width=\"" + num(it.width_px) + "\" stroke-linejoin=\"round\" points=\"";
+             (it.width_px > 0 ? svgColor(it.stroke) : std::string("none")) + "\" stroke-width=\"" +
+             num(it.width_px) + "\" stroke-linejoin=\"round\" points=\"";
         for (size_t i = 0; i < it.points.size(); ++i) {
           if (i > 0) s += ' ';
           s += num(it.points[i].x()) + "," + num(it.points[i].y());

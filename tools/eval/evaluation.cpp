@@ -68,7 +68,8 @@ Expected<EvaluationReport> evaluate(const Trajectory& gt, const Trajectory& est,
   // sequence is drawn against that part only.
   const int64_t t_first = m.t_ns.front(), t_last = m.t_ns.back();
   for (const StampedPose& p : gt.poses) {
-    if (p.t_ns >= t_first && p.t_ns <= t_last) r.gt_positions.push_back(p.world_T_body.translation());
+    if (p.t_ns >= t_first && p.t_ns <= t_last)
+      r.gt_positions.push_back(p.world_T_body.translation());
   }
   r.est_positions_aligned.reserve(est.size());
   for (const StampedPose& p : est.poses) {

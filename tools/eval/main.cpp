@@ -44,32 +44,40 @@ std::function<Status(const std::string&)> parsedInto(T* out, Parse parse) {
 
 // Parses argv: -1 to run, or the exit status (0 after --help, 2 after a bad command line).
 int parse(int argc, char** argv, Arguments* c) {
-  evermap::CommandLine cli("evermap-eval",
-                           "Compares an estimated trajectory with ground truth: ATE, RPE, KITTI drift.");
+  evermap::CommandLine cli(
+      "evermap-eval", "Compares an estimated trajectory with ground truth: ATE, RPE, KITTI drift.");
   cli.value("--gt", &c->gt, "FILE", "ground truth (TUM, KITTI or EuRoC)", true);
   cli.value("--est", &c->est, "FILE", "the estimate (TUM, KITTI or EuRoC)", true);
-  cli.value("--gt-format", parsedInto(&c->gt_format, parseTrajectoryFormat), "tum|kitti|euroc", "default: guessed from extension/content");
-  cli.value("--est-format", parsedInto(&c->est_format, parseTrajectoryFormat), "tum|kitti|euroc", "default: guessed from extension/content");
-  cli.value("--gt-times", &c->gt_times, "FILE", "stamps for a KITTI pose file (default: line index, in seconds)");
+  cli.value("--gt-format", parsedInto(&c->gt_format, parseTrajectoryFormat), "tum|kitti|euroc",
+            "default: guessed from extension/content");
+  cli.value("--est-format", parsedInto(&c->est_format, parseTrajectoryFormat), "tum|kitti|euroc",
+            "default: guessed from extension/content");
+  cli.value("--gt-times", &c->gt_times, "FILE",
+            "stamps for a KITTI pose file (default: line index, in seconds)");
   cli.value("--est-times", &c->est_times, "FILE", "the same for the estimate");
   cli.value("--align", parsedInto(&c->options.alignment, parseAlignmentMode), "se3|sim3|first|none",
-      "Umeyama alignment of the estimate (default se3); first: the first estimated pose on the first ground-truth pose");
-  cli.value("--max-dt", &c->options.association.max_dt_s, "S", "largest stamp difference of a pair, seconds (default 0.02)").positive();
+            "Umeyama alignment of the estimate (default se3); first: the first estimated pose on "
+            "the first ground-truth pose");
+  cli.value("--max-dt", &c->options.association.max_dt_s, "S",
+            "largest stamp difference of a pair, seconds (default 0.02)")
+      .positive();
   // Not given: the sentinels (the command line refuses NaN, and no one types INT_MIN frames).
   int rpe_frames = std::numeric_limits<int>::min();
   double rpe_distance = std::numeric_limits<double>::quiet_NaN();
   cli.value("--rpe-frames", &rpe_frames, "N", "RPE step in frames (default 1)").min(1);
   cli.value("--rpe-distance", &rpe_distance, "M", "RPE step in metres").positive();
   cli.flag("--steps", &c->steps,
-           "per-step translation ratio |est step| / |gt step| (median, p10, p90) and the end error relative to the first pose, "
+           "per-step translation ratio |est step| / |gt step| (median, p10, p90) and the end error "
+           "relative to the first pose, "
            "% of the ground-truth path and degrees: a scale error shows in the ratio");
   cli.flag("--kitti-drift", &c->options.kitti_drift, "KITTI devkit drift over 100..800 m segments");
   cli.value("--json", &c->json, "OUT.json", "write the figures as JSON");
   cli.value("--plot", &c->plot, "OUT.png|OUT.svg", "top view of ground truth and aligned estimate");
-  cli.value("--plot-plane", parsedInto(&c->plane, parsePlotPlane),
-      "auto|xy|xz|yz", "plane of the top view (default auto)");
+  cli.value("--plot-plane", parsedInto(&c->plane, parsePlotPlane), "auto|xy|xz|yz",
+            "plane of the top view (default auto)");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
-  const bool by_frames = rpe_frames != std::numeric_limits<int>::min(), by_distance = !std::isnan(rpe_distance);
+  const bool by_frames = rpe_frames != std::numeric_limits<int>::min(),
+             by_distance = !std::isnan(rpe_distance);
   if (by_frames) c->options.rpe.delta_frames = rpe_frames;
   if (by_distance) {
     c->options.rpe.delta_frames = 0;
@@ -113,14 +121,20 @@ void printSteps(const Trajectory& gt, const Trajectory& est, const AssociationOp
     if (g > 0.05) ratio.push_back(e / g);  // steps of a few centimetres say nothing about scale
   }
   const size_t n = a->size() - 1;
-  const core::SE3d gt_rel = a->gt[0].inverse() * a->gt[n], est_rel = a->est[0].inverse() * a->est[n];
+  const core::SE3d gt_rel = a->gt[0].inverse() * a->gt[n],
+                   est_rel = a->est[0].inverse() * a->est[n];
   const core::SE3d err = gt_rel.inverse() * est_rel;
   std::sort(ratio.begin(), ratio.end());
-  auto q = [&ratio](double f) { return ratio.empty() ? std::nan("") : ratio[static_cast<size_t>(f * (ratio.size() - 1) + 0.5)]; };
-  std::printf("steps (%zu of %zu longer than 5 cm)\n  length ratio est/gt  median %.4f   p10 %.4f   p90 %.4f\n",
-              ratio.size(), n, q(0.5), q(0.1), q(0.9));
-  std::printf("  end error from the first pose: %.3f m = %.2f %% of %.2f m, %.2f deg\n", err.translation().norm(),
-              100.0 * err.translation().norm() / gt_path, gt_path, err.so3().log().norm() * 180.0 / M_PI);
+  auto q = [&ratio](double f) {
+    return ratio.empty() ? std::nan("") : ratio[static_cast<size_t>(f * (ratio.size() - 1) + 0.5)];
+  };
+  std::printf(
+      "steps (%zu of %zu longer than 5 cm)\n  length ratio est/gt  median %.4f   p10 %.4f   p90 "
+      "%.4f\n",
+      ratio.size(), n, q(0.5), q(0.1), q(0.9));
+  std::printf("  end error from the first pose: %.3f m = %.2f %% of %.2f m, %.2f deg\n",
+              err.translation().norm(), 100.0 * err.translation().norm() / gt_path, gt_path,
+              err.so3().log().norm() * 180.0 / M_PI);
 }
 
 }  // namespace

@@ -138,11 +138,10 @@ Expected<Canvas> drawMapFigure(const MapFigure& figure, const MapFigureOptions& 
 
   // Per floor: the plate, the horizontal bounding box of its nodes with a margin.
   std::vector<std::array<Vector2d, 4>> plates(levels.floors.size());
-  std::vector<std::array<double, 4>> boxes(levels.floors.size(),
-                                           {std::numeric_limits<double>::infinity(),
-                                            std::numeric_limits<double>::infinity(),
-                                            -std::numeric_limits<double>::infinity(),
-                                            -std::numeric_limits<double>::infinity()});
+  std::vector<std::array<double, 4>> boxes(
+      levels.floors.size(),
+      {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+       -std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()});
   for (const MapFigureNode& n : figure.nodes) {
     auto& b = boxes[levels.rank_of.at(n.floor)];
     b = {std::min(b[0], n.p_world.x()), std::min(b[1], n.p_world.y()),
@@ -151,8 +150,9 @@ Expected<Canvas> drawMapFigure(const MapFigure& figure, const MapFigureOptions& 
   for (size_t r = 0; r < plates.size(); ++r) {
     const auto& b = boxes[r];
     const double lv = static_cast<double>(r);
-    plates[r] = {proj(b[0] - margin_m, b[1] - margin_m, lv), proj(b[2] + margin_m, b[1] - margin_m, lv),
-                 proj(b[2] + margin_m, b[3] + margin_m, lv), proj(b[0] - margin_m, b[3] + margin_m, lv)};
+    plates[r] = {
+        proj(b[0] - margin_m, b[1] - margin_m, lv), proj(b[2] + margin_m, b[1] - margin_m, lv),
+        proj(b[2] + margin_m, b[3] + margin_m, lv), proj(b[0] - margin_m, b[3] + margin_m, lv)};
   }
 
   auto nodeLevel = [&](const MapFigureNode& n) {
@@ -183,8 +183,8 @@ Expected<Canvas> drawMapFigure(const MapFigure& figure, const MapFigureOptions& 
   const double top_px = 70.0, bottom_px = 50.0, left_px = 30.0;
   const double plot_w = options.width_px - left_px - label_px;
   const double plot_h = options.height_px - top_px - bottom_px;
-  const double ppm = std::min(plot_w / std::max(1e-9, hi.x() - lo.x()),
-                              plot_h / std::max(1e-9, hi.y() - lo.y()));
+  const double ppm =
+      std::min(plot_w / std::max(1e-9, hi.x() - lo.x()), plot_h / std::max(1e-9, hi.y() - lo.y()));
   auto px = [&](const Vector2d& q) {
     return Vector2d(left_px + (q.x() - lo.x()) * ppm, top_px + plot_h - (q.y() - lo.y()) * ppm);
   };
@@ -201,9 +201,9 @@ Expected<Canvas> drawMapFigure(const MapFigure& figure, const MapFigureOptions& 
     std::vector<Vector2d> plate_px;
     for (const Vector2d& q : plates[r]) plate_px.push_back(px(q));
     canvas.polygon(plate_px, kPlateEdge, 1.0, kPlateFill);
-    const Vector2d right = *std::max_element(
-        plate_px.begin(), plate_px.end(),
-        [](const Vector2d& a, const Vector2d& b) { return a.x() < b.x(); });
+    const Vector2d right =
+        *std::max_element(plate_px.begin(), plate_px.end(),
+                          [](const Vector2d& a, const Vector2d& b) { return a.x() < b.x(); });
     char label[96];
     std::snprintf(label, sizeof label, "floor %d  (%.1f m)", levels.floors[r],
                   std::abs(levels.height_m[r]) < 0.05 ? 0.0 : levels.height_m[r]);

@@ -37,8 +37,8 @@ struct MapFigure {
 struct MapFigureOptions {
   std::string title;
   std::string subtitle;
-  double azimuth_deg = -30.0;    // turn of the horizontal plane before projecting
-  double flatten = 0.45;         // factor on the depth axis of the horizontal plane (0, 1]
+  double azimuth_deg = -30.0;  // turn of the horizontal plane before projecting
+  double flatten = 0.45;       // factor on the depth axis of the horizontal plane (0, 1]
   // Vertical distance drawn between consecutive floors, as a fraction of the horizontal
   // extent: floors 3 m apart would otherwise overlap in a 100 m wide building.
   double floor_spacing = 0.35;

@@ -60,10 +60,14 @@ std::vector<Vector2d> toPixels(const View& view, const std::vector<Vector2d>& uv
 
 const char* toString(PlotPlane plane) {
   switch (plane) {
-    case PlotPlane::kAuto: return "auto";
-    case PlotPlane::kXY: return "xy";
-    case PlotPlane::kXZ: return "xz";
-    case PlotPlane::kYZ: return "yz";
+    case PlotPlane::kAuto:
+      return "auto";
+    case PlotPlane::kXY:
+      return "xy";
+    case PlotPlane::kXZ:
+      return "xz";
+    case PlotPlane::kYZ:
+      return "yz";
   }
   return "?";
 }
@@ -206,11 +210,13 @@ Status writeTopView(const std::filesystem::path& file, const std::vector<core::V
 
 Status LineChartOptions::validate() const {
   if (width_px < 200 || width_px > 16384 || height_px < 150 || height_px > 16384)
-    return makeError("chart: image size ", width_px, "x", height_px, " px is outside [200x150, 16384x16384]");
+    return makeError("chart: image size ", width_px, "x", height_px,
+                     " px is outside [200x150, 16384x16384]");
   return Ok{};
 }
 
-Expected<Canvas> drawLineChart(const std::vector<ChartSeries>& series, const LineChartOptions& options) {
+Expected<Canvas> drawLineChart(const std::vector<ChartSeries>& series,
+                               const LineChartOptions& options) {
   if (Status s = options.validate(); !s) return s.error();
   if (series.empty()) return makeError("chart: nothing to draw (no series)");
   Vector2d lo(std::numeric_limits<double>::infinity(), 0.0);
@@ -229,7 +235,8 @@ Expected<Canvas> drawLineChart(const std::vector<ChartSeries>& series, const Lin
   const double W = options.width_px, H = options.height_px;
   const double x0 = 80, y0 = 100, w = W - x0 - 24, h = H - y0 - 56;
   auto px = [&](const Vector2d& p) {
-    return Vector2d(x0 + (p.x() - lo.x()) / (hi.x() - lo.x()) * w, y0 + h - (p.y() - lo.y()) / (hi.y() - lo.y()) * h);
+    return Vector2d(x0 + (p.x() - lo.x()) / (hi.x() - lo.x()) * w,
+                    y0 + h - (p.y() - lo.y()) / (hi.y() - lo.y()) * h);
   };
   Canvas c(options.width_px, options.height_px);
   const double xs = niceStep((hi.x() - lo.x()) / 8.0), ys = niceStep((hi.y() - lo.y()) / 6.0);
@@ -246,8 +253,10 @@ Expected<Canvas> drawLineChart(const std::vector<ChartSeries>& series, const Lin
   c.rect({x0, y0}, {w, h}, kFrameColor, 1);
   c.text({x0 + 0.5 * w, H - 14}, options.x_label, 12, kTextColor, TextAnchor::kMiddle);
   c.text({x0 - 6, y0 - 8}, options.y_label, 12, kTextColor, TextAnchor::kStart);
-  if (!options.title.empty()) c.text({0.5 * W, 26}, options.title, 14, kTextColor, TextAnchor::kMiddle);
-  if (!options.subtitle.empty()) c.text({0.5 * W, 48}, options.subtitle, 11, kTextColor, TextAnchor::kMiddle);
+  if (!options.title.empty())
+    c.text({0.5 * W, 26}, options.title, 14, kTextColor, TextAnchor::kMiddle);
+  if (!options.subtitle.empty())
+    c.text({0.5 * W, 48}, options.subtitle, 11, kTextColor, TextAnchor::kMiddle);
   double lx = x0 + 160;
   const double ly = y0 - 22;
   for (const ChartSeries& s : series) {

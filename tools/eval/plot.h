@@ -65,7 +65,8 @@ struct LineChartOptions {
 };
 
 // Errors: no series, a series without points, a non-finite point, bad options.
-Expected<Canvas> drawLineChart(const std::vector<ChartSeries>& series, const LineChartOptions& options);
+Expected<Canvas> drawLineChart(const std::vector<ChartSeries>& series,
+                               const LineChartOptions& options);
 // drawLineChart + Canvas::save. The error names the file.
 Status writeLineChart(const std::filesystem::path& file, const std::vector<ChartSeries>& series,
                       const LineChartOptions& options);

@@ -54,9 +54,12 @@ Expected<Trajectory> checked(Trajectory t) {
 
 const char* toString(TrajectoryFormat format) {
   switch (format) {
-    case TrajectoryFormat::kTum: return "tum";
-    case TrajectoryFormat::kKitti: return "kitti";
-    case TrajectoryFormat::kEuroc: return "euroc";
+    case TrajectoryFormat::kTum:
+      return "tum";
+    case TrajectoryFormat::kKitti:
+      return "kitti";
+    case TrajectoryFormat::kEuroc:
+      return "euroc";
   }
   return "?";
 }
@@ -175,9 +178,12 @@ Expected<Trajectory> readKitti(const std::filesystem::path& poses_file,
 Expected<Trajectory> readTrajectory(const std::filesystem::path& file, TrajectoryFormat format,
                                     const std::filesystem::path& kitti_times) {
   switch (format) {
-    case TrajectoryFormat::kTum: return readTum(file);
-    case TrajectoryFormat::kKitti: return readKitti(file, kitti_times);
-    case TrajectoryFormat::kEuroc: return readEuroc(file);
+    case TrajectoryFormat::kTum:
+      return readTum(file);
+    case TrajectoryFormat::kKitti:
+      return readKitti(file, kitti_times);
+    case TrajectoryFormat::kEuroc:
+      return readEuroc(file);
   }
   return makeError(file.string(), ": unknown format");
 }

@@ -17,11 +17,12 @@ double wrap(double a) { return std::remainder(a, 2.0 * std::numbers::pi); }
 std::string AttitudeErrorSummary::summary() const {
   const double d = 180.0 / std::numbers::pi;
   char buf[300];
-  std::snprintf(buf, sizeof buf,
-                "%d matched; tilt RMS %.3f deg; roll RMS %.3f deg (max %.2f), pitch RMS %.3f deg (max %.2f); "
-                "%.1f %% inside 3 sigma; world tilt %.2f deg, body offset %.2f deg",
-                matched, tilt_rms_rad * d, roll_rms_rad * d, roll_max_rad * d, pitch_rms_rad * d, pitch_max_rad * d,
-                100.0 * within_3_sigma, world_tilt_rad * d, body_offset_rad * d);
+  std::snprintf(
+      buf, sizeof buf,
+      "%d matched; tilt RMS %.3f deg; roll RMS %.3f deg (max %.2f), pitch RMS %.3f deg (max %.2f); "
+      "%.1f %% inside 3 sigma; world tilt %.2f deg, body offset %.2f deg",
+      matched, tilt_rms_rad * d, roll_rms_rad * d, roll_max_rad * d, pitch_rms_rad * d,
+      pitch_max_rad * d, 100.0 * within_3_sigma, world_tilt_rad * d, body_offset_rad * d);
   return buf;
 }
 
@@ -42,15 +43,16 @@ double referenceTiltAtRest(const std::vector<datasets::ImuSample>& imu,
                            const std::vector<datasets::StampedPose>& ground_truth, int64_t t0_ns,
                            double window_s) {
   const int64_t t1_ns = t0_ns + static_cast<int64_t>(window_s * 1e9);
-  if (ground_truth.empty() || ground_truth.front().t_ns > t0_ns || ground_truth.back().t_ns < t1_ns) {
+  if (ground_truth.empty() || ground_truth.front().t_ns > t0_ns ||
+      ground_truth.back().t_ns < t1_ns) {
     return -1.0;
   }
   const Eigen::Vector3d f = meanSpecificForce(imu, t0_ns, window_s);
   if (f.squaredNorm() == 0) return -1.0;
   const int64_t mid = t0_ns + (t1_ns - t0_ns) / 2;
-  const auto it = std::lower_bound(
-      ground_truth.begin(), ground_truth.end(), mid,
-      [](const datasets::StampedPose& p, int64_t t) { return p.t_ns < t; });
+  const auto it =
+      std::lower_bound(ground_truth.begin(), ground_truth.end(), mid,
+                       [](const datasets::StampedPose& p, int64_t t) { return p.t_ns < t; });
   const Eigen::Vector3d up_world = it->world_T_body.so3() * f.normalized();
   return std::acos(std::clamp(up_world.z(), -1.0, 1.0));
 }
@@ -61,17 +63,16 @@ AttitudeErrorSummary compareAttitude(const std::vector<Attitude>& estimates,
   AttitudeErrorSummary s;
   if (estimates.empty() || ground_truth.empty()) return s;
   const int64_t max_offset_ns = static_cast<int64_t>(options.max_offset_s * 1e9);
-  const int64_t t_start_us =
-      estimates.front().utime + static_cast<int64_t>(options.skip_s * 1e6);
+  const int64_t t_start_us = estimates.front().utime + static_cast<int64_t>(options.skip_s * 1e6);
   // Ground truth interpolated (slerp) at each estimate's time, between two poses at most
   // max_offset_s apart in time on each side.
   std::vector<std::pair<const Attitude*, core::SO3d>> pairs;
   for (const Attitude& e : estimates) {
     if (e.utime < t_start_us) continue;
     const int64_t t_ns = e.utime * 1000;
-    auto it = std::lower_bound(
-        ground_truth.begin(), ground_truth.end(), t_ns,
-        [](const datasets::StampedPose& p, int64_t t) { return p.t_ns < t; });
+    auto it =
+        std::lower_bound(ground_truth.begin(), ground_truth.end(), t_ns,
+                         [](const datasets::StampedPose& p, int64_t t) { return p.t_ns < t; });
     if (it == ground_truth.end() || it == ground_truth.begin()) continue;
     const datasets::StampedPose& p1 = *it;
     const datasets::StampedPose& p0 = *(it - 1);
@@ -118,9 +119,8 @@ AttitudeErrorSummary compareAttitude(const std::vector<Attitude>& estimates,
   } else if (options.level_body && !pairs.empty()) {
     Eigen::Vector3d mean_up = Eigen::Vector3d::Zero();
     for (const auto& pr : pairs) mean_up += refUp(pr.second);
-    level_R_imu =
-        Eigen::Quaterniond::FromTwoVectors(mean_up.normalized(), Eigen::Vector3d::UnitZ())
-            .toRotationMatrix();
+    level_R_imu = Eigen::Quaterniond::FromTwoVectors(mean_up.normalized(), Eigen::Vector3d::UnitZ())
+                      .toRotationMatrix();
   }
   double roll_sq = 0, pitch_sq = 0, tilt_sq = 0;
   int inside = 0;

@@ -10,7 +10,7 @@
 namespace evermap::imu {
 
 struct AttitudeErrorSummary {
-  int matched = 0;            // estimates with a ground-truth pose within max_offset
+  int matched = 0;  // estimates with a ground-truth pose within max_offset
   double roll_rms_rad = 0;
   double pitch_rms_rad = 0;
   double roll_max_rad = 0;
@@ -27,8 +27,8 @@ struct AttitudeErrorSummary {
 };
 
 // Compares each estimate with the ground-truth orientation interpolated at its time between
-// the two poses around it (each at most max_offset_s away; ground truth sorted by time). Estimates before skip_s from the first are left out
-// (the filter's start-up).
+// the two poses around it (each at most max_offset_s away; ground truth sorted by time). Estimates
+// before skip_s from the first are left out (the filter's start-up).
 //
 // A motion-capture world frame need not be level. With align_gravity the gravity direction
 // in the ground truth's world frame is estimated first (2 degrees of freedom, the mean of

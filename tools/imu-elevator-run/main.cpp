@@ -51,7 +51,8 @@ namespace {
 using namespace evermap;
 
 struct Args {
-  std::string euroc_imu, ground_truth, hackzurich, science_journal, lcm_log, channel = channels::kImu;
+  std::string euroc_imu, ground_truth, hackzurich, science_journal, lcm_log,
+      channel = channels::kImu;
   bool zero_gyro = false;
   std::string dump_attitude, dump_trace, write_lcm_log, floor_log;
   int synthetic_rides = 0;
@@ -67,10 +68,12 @@ struct Args {
 
 // The command line; -1 to run, else the exit status (usage and errors already printed).
 int parse(int argc, char** argv, Args* a) {
-  CommandLine cli("evermap-imu-elevator-run",
-                  "imu-proc's attitude filter and elevator-proc's tracker over a recording, offline. One input:\n"
-                  "--euroc-imu, --hackzurich, --science-journal, --lcm-log, --synthetic or --sim-config\n"
-                  "(docs/imu-elevator.md).");
+  CommandLine cli(
+      "evermap-imu-elevator-run",
+      "imu-proc's attitude filter and elevator-proc's tracker over a recording, offline. One "
+      "input:\n"
+      "--euroc-imu, --hackzurich, --science-journal, --lcm-log, --synthetic or --sim-config\n"
+      "(docs/imu-elevator.md).");
   std::string config;
   std::vector<std::string> sets;
   cli.value("--euroc-imu", &a->euroc_imu, "CSV", "EuRoC mav0/imu0/data.csv");
@@ -78,23 +81,33 @@ int parse(int argc, char** argv, Args* a) {
   cli.value("--hackzurich", &a->hackzurich, "DIR", "the phone recordings (with --session)");
   cli.value("--session", &a->session, "N", "HackZurich session number (default 1)").min(1);
   cli.value("--science-journal", &a->science_journal, "CSV",
-            "an Android Science Journal accelerometer export (relative_time, AccX, AccY, AccZ; sparse rows)");
-  cli.flag("--zero-gyro", &a->zero_gyro, "set every gyro reading to 0 (the accelerometer-only control)");
+            "an Android Science Journal accelerometer export (relative_time, AccX, AccY, AccZ; "
+            "sparse rows)");
+  cli.flag("--zero-gyro", &a->zero_gyro,
+           "set every gyro reading to 0 (the accelerometer-only control)");
   cli.value("--lcm-log", &a->lcm_log, "FILE", "IMU messages of an LCM log");
   cli.value("--channel", &a->channel, "IMU", "the IMU channel of --lcm-log and --write-lcm-log");
-  cli.value("--synthetic", &a->synthetic_rides, "N", "a synthetic building run with N rides").min(0);
-  cli.value("--rate", &a->rate_hz, "HZ", "IMU rate of --synthetic (default 100)").positive().max(100000);
+  cli.value("--synthetic", &a->synthetic_rides, "N", "a synthetic building run with N rides")
+      .min(0);
+  cli.value("--rate", &a->rate_hz, "HZ", "IMU rate of --synthetic (default 100)")
+      .positive()
+      .max(100000);
   cli.value("--sim-config", &a->sim_config, "FILE",
             "the measurement-level simulator's IMU: does every ride end on the right floor?");
   cli.repeated("--sim-set", &a->sim_sets, "key=value", "override one simulator setting");
-  cli.value("--sim-sessions", &a->sim_sessions, "N", "only the first N sessions of --sim-config (0: all)").min(0);
+  cli.value("--sim-sessions", &a->sim_sessions, "N",
+            "only the first N sessions of --sim-config (0: all)")
+      .min(0);
   cli.value("--config", &config, "FILE", "attitude and elevator options (key = value)");
   cli.repeated("--set", &sets, "key=value", "one attitude or elevator option (after --config)");
   cli.flag("--print-options", &a->print_options, "print every option with its value and exit");
-  cli.value("--dump-attitude", &a->dump_attitude, "FILE", "the attitude track, one estimate a line");
+  cli.value("--dump-attitude", &a->dump_attitude, "FILE",
+            "the attitude track, one estimate a line");
   cli.value("--dump-trace", &a->dump_trace, "FILE", "the elevator's 0.1 s grid");
-  cli.value("--write-lcm-log", &a->write_lcm_log, "FILE", "the IMU samples read, as an LCM log for lcm-logplayer");
-  cli.value("--print-floor-log", &a->floor_log, "FILE", "only print the FLOOR and ATTITUDE summary of an LCM log");
+  cli.value("--write-lcm-log", &a->write_lcm_log, "FILE",
+            "the IMU samples read, as an LCM log for lcm-logplayer");
+  cli.value("--print-floor-log", &a->floor_log, "FILE",
+            "only print the FLOOR and ATTITUDE summary of an LCM log");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   Status st = Ok{};
   if (!config.empty()) st = loadFields(config, &a->attitude, &a->elevator);
@@ -109,7 +122,9 @@ int parse(int argc, char** argv, Args* a) {
     return 2;
   }
   if (a->synthetic_rides < 0 || !(a->rate_hz > 0) || a->sim_sessions < 0) {
-    std::fprintf(stderr, "evermap-imu-elevator-run: --synthetic and --sim-sessions must be >= 0, --rate > 0\n");
+    std::fprintf(
+        stderr,
+        "evermap-imu-elevator-run: --synthetic and --sim-sessions must be >= 0, --rate > 0\n");
     return 2;
   }
   return -1;
@@ -153,13 +168,23 @@ int printFloorLog(const std::string& file) {
 // The simulator's raw IMU through both filters: does every ride end on the right floor?
 int runSimulatorCheck(const Args& args) {
   auto file = KeyValueFile::load(args.sim_config, args.sim_sets, "--sim-set");
-  if (!file.ok()) { std::fprintf(stderr, "%s\n", file.error().message.c_str()); return 1; }
+  if (!file.ok()) {
+    std::fprintf(stderr, "%s\n", file.error().message.c_str());
+    return 1;
+  }
   auto options = sim::loadSimOptions(*file);
-  if (!options.ok()) { std::fprintf(stderr, "%s\n", options.error().message.c_str()); return 1; }
+  if (!options.ok()) {
+    std::fprintf(stderr, "%s\n", options.error().message.c_str());
+    return 1;
+  }
   std::printf("simulator: %s, IMU at %.0f Hz, %.1f s around each ride\n", args.sim_config.c_str(),
               options->sensors.imu.rate_hz, options->sensors.imu.margin_s);
-  auto check = elevator::checkSimulatedFloors(*options, args.attitude, args.elevator, args.sim_sessions);
-  if (!check.ok()) { std::fprintf(stderr, "%s\n", check.error().message.c_str()); return 1; }
+  auto check =
+      elevator::checkSimulatedFloors(*options, args.attitude, args.elevator, args.sim_sessions);
+  if (!check.ok()) {
+    std::fprintf(stderr, "%s\n", check.error().message.c_str());
+    return 1;
+  }
   std::printf("%s%s\nelevator: %s\nfloor table:", check->table().c_str(), check->summary().c_str(),
               check->counts.summary().c_str());
   for (size_t i = 0; i < check->table_heights.size(); ++i) {
@@ -176,7 +201,8 @@ int main(int argc, char** argv) {
   if (const int code = parse(argc, argv, &args); code >= 0) return code;
   if (!args.floor_log.empty()) return printFloorLog(args.floor_log);
   if (args.print_options) {
-    std::printf("%s%s", describeFields(args.attitude).c_str(), describeFields(args.elevator).c_str());
+    std::printf("%s%s", describeFields(args.attitude).c_str(),
+                describeFields(args.elevator).c_str());
     return 0;
   }
   if (!args.sim_config.empty()) return runSimulatorCheck(args);
@@ -185,39 +211,55 @@ int main(int argc, char** argv) {
   elevator::SimulatedRun truth;
   if (!args.euroc_imu.empty()) {
     auto r = datasets::readEurocImu(args.euroc_imu);
-    if (!r.ok()) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); return 1; }
+    if (!r.ok()) {
+      std::fprintf(stderr, "%s\n", r.error().message.c_str());
+      return 1;
+    }
     samples = std::move(*r);
   } else if (!args.hackzurich.empty()) {
     auto r = datasets::readHackzurichSession(args.hackzurich, args.session);
-    if (!r.ok()) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); return 1; }
+    if (!r.ok()) {
+      std::fprintf(stderr, "%s\n", r.error().message.c_str());
+      return 1;
+    }
     session = std::move(*r);
     samples = session.imu;
-    std::printf("session %d: %lld accelerometer rows, %lld without a gyro reading near them, "
-                "%zu barometer rows, %zu labelled episodes\n", args.session,
-                static_cast<long long>(session.accelerometer_rows),
-                static_cast<long long>(session.rows_without_gyro), session.barometer.size(),
-                session.episodes.size());
+    std::printf(
+        "session %d: %lld accelerometer rows, %lld without a gyro reading near them, "
+        "%zu barometer rows, %zu labelled episodes\n",
+        args.session, static_cast<long long>(session.accelerometer_rows),
+        static_cast<long long>(session.rows_without_gyro), session.barometer.size(),
+        session.episodes.size());
   } else if (!args.science_journal.empty()) {
     auto r = datasets::readScienceJournalCsv(args.science_journal);
-    if (!r.ok()) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); return 1; }
+    if (!r.ok()) {
+      std::fprintf(stderr, "%s\n", r.error().message.c_str());
+      return 1;
+    }
     std::printf("%s: %s\n", args.science_journal.c_str(), r->summary().c_str());
     samples = std::move(r->imu);
   } else if (!args.lcm_log.empty()) {
     auto r = imu::readImuLog(args.lcm_log, args.channel);
-    if (!r.ok()) { std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", r.error().message.c_str()); return 1; }
-    for (const auto& s : r->samples) samples.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
-    std::printf("%s: %zu %s messages, %lld undecodable\n", args.lcm_log.c_str(),
-                r->samples.size(), args.channel.c_str(), static_cast<long long>(r->undecodable));
+    if (!r.ok()) {
+      std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", r.error().message.c_str());
+      return 1;
+    }
+    for (const auto& s : r->samples)
+      samples.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
+    std::printf("%s: %zu %s messages, %lld undecodable\n", args.lcm_log.c_str(), r->samples.size(),
+                args.channel.c_str(), static_cast<long long>(r->undecodable));
   } else if (args.synthetic_rides > 0) {
     elevator::RideSimulatorOptions o;
     o.rate_hz = args.rate_hz;
     truth = elevator::simulateRun(o, elevator::randomScript(o, args.synthetic_rides, 5));
-    for (const auto& s : truth.samples) samples.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
+    for (const auto& s : truth.samples)
+      samples.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
     std::printf("synthetic building: %zu rides, %zu samples at %.0f Hz\n", truth.rides.size(),
                 samples.size(), o.rate_hz);
   } else {
-    std::fprintf(stderr, "evermap-imu-elevator-run: no input: give --euroc-imu, --hackzurich, --lcm-log, "
-                         "--synthetic or --sim-config (--help)\n");
+    std::fprintf(stderr,
+                 "evermap-imu-elevator-run: no input: give --euroc-imu, --hackzurich, --lcm-log, "
+                 "--synthetic or --sim-config (--help)\n");
     return 2;
   }
   if (samples.empty()) {
@@ -227,7 +269,8 @@ int main(int argc, char** argv) {
 
   std::vector<imu::ImuSample> imu_samples;
   for (const auto& s : samples) {
-    imu_samples.push_back({s.t_ns / 1000, args.zero_gyro ? Eigen::Vector3d::Zero() : s.gyro_rad_s, s.accel_m_s2});
+    imu_samples.push_back(
+        {s.t_ns / 1000, args.zero_gyro ? Eigen::Vector3d::Zero() : s.gyro_rad_s, s.accel_m_s2});
   }
   if (!args.write_lcm_log.empty()) {
     if (Status st = imu::writeImuLog(args.write_lcm_log, args.channel, imu_samples); !st.ok()) {
@@ -246,19 +289,28 @@ int main(int argc, char** argv) {
   std::printf("attitude: %s\nelevator: %s\n    gate: %s\n", run.attitude_counts.summary().c_str(),
               run.counts.summary().c_str(), run.gate.summary().c_str());
   std::printf("gravity reference at the end: %.3f m/s^2%s\n", run.gravity_m_s2,
-              run.gravity_plausible ? "" : "  NOT GRAVITY: is the input gravity-removed? every ride is rejected");
+              run.gravity_plausible
+                  ? ""
+                  : "  NOT GRAVITY: is the input gravity-removed? every ride is rejected");
 
   if (!args.ground_truth.empty()) {
     const auto gt = datasets::readEurocGroundTruth(args.ground_truth);
-    if (!gt.ok()) { std::fprintf(stderr, "%s\n", gt.error().message.c_str()); return 1; }
-    if (gt->empty()) { std::fprintf(stderr, "%s: no poses\n", args.ground_truth.c_str()); return 1; }
+    if (!gt.ok()) {
+      std::fprintf(stderr, "%s\n", gt.error().message.c_str());
+      return 1;
+    }
+    if (gt->empty()) {
+      std::fprintf(stderr, "%s: no poses\n", args.ground_truth.c_str());
+      return 1;
+    }
     // The body stands still for the filter's start-up window (it says so: still_start) and,
     // on EuRoC, a few seconds more: the reference's world z is checked against gravity over
     // the first 2 s both cover.
     const int64_t rest_t0 = std::max(samples.front().t_ns, gt->front().t_ns);
     const double world_tilt = imu::referenceTiltAtRest(samples, *gt, rest_t0, 2.0);
-    std::printf("reference world z vs gravity measured at rest (2 s from the start of both): %.2f deg\n",
-                world_tilt * 180.0 / M_PI);
+    std::printf(
+        "reference world z vs gravity measured at rest (2 s from the start of both): %.2f deg\n",
+        world_tilt * 180.0 / M_PI);
     imu::AttitudeCompareOptions c;
     c.max_offset_s = 0.06;
     std::printf("attitude error, IMU frame (its own Euler angles): %s\n",
@@ -266,12 +318,15 @@ int main(int argc, char** argv) {
     if (run.attitude_counts.still_start) {
       // The vehicle frame: the IMU turned by its mounting tilt, read off the accelerometer
       // during the still start-up window (the vehicle stands level on the ground).
-      c.vehicle_up_imu = imu::meanSpecificForce(samples, samples.front().t_ns, args.attitude.init_window_s);
+      c.vehicle_up_imu =
+          imu::meanSpecificForce(samples, samples.front().t_ns, args.attitude.init_window_s);
       const imu::AttitudeErrorSummary v = imu::compareAttitude(track, *gt, c);
-      std::printf("attitude error, vehicle frame (IMU turned by its mounting tilt at rest, %.1f deg): %s\n",
-                  std::acos(c.vehicle_up_imu.normalized().z()) * 180.0 / M_PI, v.summary().c_str());
-      std::printf("EuRoC roll/pitch figure (vehicle frame): roll RMS %.2f deg, pitch RMS %.2f deg\n",
-                  v.roll_rms_rad * 180.0 / M_PI, v.pitch_rms_rad * 180.0 / M_PI);
+      std::printf(
+          "attitude error, vehicle frame (IMU turned by its mounting tilt at rest, %.1f deg): %s\n",
+          std::acos(c.vehicle_up_imu.normalized().z()) * 180.0 / M_PI, v.summary().c_str());
+      std::printf(
+          "EuRoC roll/pitch figure (vehicle frame): roll RMS %.2f deg, pitch RMS %.2f deg\n",
+          v.roll_rms_rad * 180.0 / M_PI, v.pitch_rms_rad * 180.0 / M_PI);
       c.vehicle_up_imu.setZero();
     } else {
       std::printf("attitude error, vehicle frame: not available (the start was not still)\n");
@@ -292,7 +347,8 @@ int main(int argc, char** argv) {
   std::printf("\nrides (times from the first sample, disp = elevator, baro = barometer):\n%s",
               elevator::formatRideTable(rows, origin).c_str());
   std::printf("floors:");
-  for (size_t i = 0; i < run.floor_heights.size(); ++i) std::printf(" %zu: %.2f m", i, run.floor_heights[i]);
+  for (size_t i = 0; i < run.floor_heights.size(); ++i)
+    std::printf(" %zu: %.2f m", i, run.floor_heights[i]);
   std::printf("\n");
   for (const auto& r : truth.rides) {
     std::printf("true ride %.1f..%.1f s  floor %d -> %d  %+.2f m\n", r.start_s - origin * 1e-6,
@@ -300,8 +356,9 @@ int main(int argc, char** argv) {
   }
   for (const auto& r : run.rejected) {
     std::printf("rejected ride %.1f..%.1f s (%+.2f m, peak %.2f m/s): %s\n",
-                1e-6 * static_cast<double>(r.start_utime - origin), 1e-6 * static_cast<double>(r.end_utime - origin),
-                r.displacement_m, r.peak_speed_m_s, r.reason.c_str());
+                1e-6 * static_cast<double>(r.start_utime - origin),
+                1e-6 * static_cast<double>(r.end_utime - origin), r.displacement_m,
+                r.peak_speed_m_s, r.reason.c_str());
   }
   for (const auto& a : run.abandoned) {
     std::printf("abandoned ride start at %.1f s (given up at %.1f s): %s\n",
@@ -325,8 +382,8 @@ int main(int argc, char** argv) {
   if (!args.dump_attitude.empty()) {
     std::ostringstream out;
     for (const auto& a : track) {
-      out << a.utime << ' ' << a.roll_rad << ' ' << a.pitch_rad << ' ' << a.covariance(0, 0)
-          << ' ' << a.covariance(1, 1) << ' ' << int(a.accel_trusted) << '\n';
+      out << a.utime << ' ' << a.roll_rad << ' ' << a.pitch_rad << ' ' << a.covariance(0, 0) << ' '
+          << a.covariance(1, 1) << ' ' << int(a.accel_trusted) << '\n';
     }
     if (!write(args.dump_attitude, out.str())) return 1;
   }
@@ -339,11 +396,11 @@ int main(int argc, char** argv) {
     std::ostringstream pout;
     for (const auto& p : pulses) {
       const int64_t bin_us = static_cast<int64_t>(std::llround(args.elevator.pulse.bin_s * 1e6));
-      pout << p.firstBin() * bin_us << ' ' << p.lastBin() * bin_us << ' '
-           << p.amplitude_m_s2 << ' ' << p.residual_m_s2 << ' ' << p.snr << ' ' << p.delta_v_m_s
-           << '\n';
+      pout << p.firstBin() * bin_us << ' ' << p.lastBin() * bin_us << ' ' << p.amplitude_m_s2 << ' '
+           << p.residual_m_s2 << ' ' << p.snr << ' ' << p.delta_v_m_s << '\n';
     }
-    if (!write(args.dump_trace, out.str()) || !write(args.dump_trace + ".pulses", pout.str())) return 1;
+    if (!write(args.dump_trace, out.str()) || !write(args.dump_trace + ".pulses", pout.str()))
+      return 1;
   }
   return 0;
 }

@@ -11,7 +11,8 @@ bool medianAltitude(const std::vector<datasets::BarometerSample>& baro, int64_t 
                     int64_t to_ns, double* out) {
   std::vector<double> v;
   for (const auto& b : baro) {
-    if (b.t_ns >= from_ns && b.t_ns <= to_ns && std::isfinite(b.altitude_m)) v.push_back(b.altitude_m);
+    if (b.t_ns >= from_ns && b.t_ns <= to_ns && std::isfinite(b.altitude_m))
+      v.push_back(b.altitude_m);
   }
   if (v.empty()) return false;
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
@@ -44,7 +45,8 @@ bool baroPeakRate(const std::vector<datasets::BarometerSample>& baro, int64_t fr
   for (auto a = w.begin(); a != w.end(); ++a) {
     for (auto b = a + 1; b != w.end() && b->t_ns - a->t_ns <= 6 * sec; ++b) {
       if (b->t_ns - a->t_ns < 2 * sec) continue;
-      best = std::max(best, std::abs(b->altitude_m - a->altitude_m) / (1e-9 * static_cast<double>(b->t_ns - a->t_ns)));
+      best = std::max(best, std::abs(b->altitude_m - a->altitude_m) /
+                                (1e-9 * static_cast<double>(b->t_ns - a->t_ns)));
       any = true;
     }
   }
@@ -83,8 +85,9 @@ std::string formatRideTable(const std::vector<RideRow>& rows, int64_t origin) {
       std::snprintf(diff, sizeof diff, "%6.2f", r.displacement_m - row.baro_change_m);
       std::snprintf(rate, sizeof rate, "%6.2f", row.baro_peak_rate_m_s);
     }
-    std::snprintf(buf, sizeof buf, "%3d %9.1f %9.1f %6.1f %7.2f %8.2f  %s  %s  %s  %2d->%-2d%s %s\n",
-                  ++i, 1e-6 * static_cast<double>(r.start_utime - origin),
+    std::snprintf(buf, sizeof buf,
+                  "%3d %9.1f %9.1f %6.1f %7.2f %8.2f  %s  %s  %s  %2d->%-2d%s %s\n", ++i,
+                  1e-6 * static_cast<double>(r.start_utime - origin),
                   1e-6 * static_cast<double>(r.end_utime - origin),
                   1e-6 * static_cast<double>(r.end_utime - r.start_utime), r.displacement_m,
                   r.sigma_m, baro, diff, rate, r.from_floor, r.to_floor, r.new_floor ? "*" : " ",

@@ -34,7 +34,10 @@ struct RideProfile {
     double lo = 0.05, hi = v_max;
     for (int i = 0; i < 60; ++i) {
       shape(0.5 * (lo + hi));
-      if (accelDistance() * 2 > D) hi = 0.5 * (lo + hi); else lo = 0.5 * (lo + hi);
+      if (accelDistance() * 2 > D)
+        hi = 0.5 * (lo + hi);
+      else
+        lo = 0.5 * (lo + hi);
     }
     shape(lo);
     t_cruise = std::max(0.0, (D - 2 * accelDistance()) / v);
@@ -72,7 +75,7 @@ struct Generator {
   std::normal_distribution<double> normal{0.0, 1.0};
   std::uniform_real_distribution<double> uniform{0.0, 1.0};
   SimulatedRun run;
-  double t = 0;            // s
+  double t = 0;  // s
   double dt = 0;
   int floor = 0;
   double height = 0, vz = 0;
@@ -102,8 +105,8 @@ struct Generator {
     double ts = t;
     if (o.time_jitter_s > 0) ts += o.time_jitter_s * (2 * uniform(rng) - 1);
     s.utime = static_cast<int64_t>(std::llround(ts * 1e6));
-    const Eigen::Vector3d w = first ? Eigen::Vector3d::Zero()
-                                    : Eigen::Vector3d((last_R.inverse() * R).log() / dt);
+    const Eigen::Vector3d w =
+        first ? Eigen::Vector3d::Zero() : Eigen::Vector3d((last_R.inverse() * R).log() / dt);
     s.gyro_rad_s = w + o.gyro_bias_rad_s + o.gyro_noise_rad_s * noise3();
     if (!o.gyroscope) s.gyro_rad_s.setZero();
     s.accel_m_s2 = R.inverse() * (a_w + Eigen::Vector3d(0, 0, kG)) + o.accel_bias_m_s2 +
@@ -138,9 +141,9 @@ struct Generator {
       const double a_ctrl = std::clamp((vz_target - v_ctrl) / 1.0, -0.5, 0.5);
       v_ctrl += a_ctrl * dt;
       const double az = a_ctrl + bounce * std::cos(2 * kPi * f * e);
-      const Eigen::Vector3d a = horizontal(1.2 * std::sin(2 * kPi * f * e + 1.0),
-                                           0.6 * std::sin(kPi * f * e)) +
-                                Eigen::Vector3d(0, 0, az);
+      const Eigen::Vector3d a =
+          horizontal(1.2 * std::sin(2 * kPi * f * e + 1.0), 0.6 * std::sin(kPi * f * e)) +
+          Eigen::Vector3d(0, 0, az);
       emit(a, 5.0 * kDeg, 0, turn * std::sin(0.5 * e));
     }
   }
@@ -162,10 +165,10 @@ struct Generator {
   void elevator(int to_floor) {
     stand(3.0 + 3.0 * uniform(rng));  // doors close
     const double distance = floorHeight(o, to_floor) - floorHeight(o, floor);
-    const double a = o.min_ride_accel_m_s2 +
-                     (o.max_ride_accel_m_s2 - o.min_ride_accel_m_s2) * uniform(rng);
-    const double v = o.min_ride_speed_m_s +
-                     (o.max_ride_speed_m_s - o.min_ride_speed_m_s) * uniform(rng);
+    const double a =
+        o.min_ride_accel_m_s2 + (o.max_ride_accel_m_s2 - o.min_ride_accel_m_s2) * uniform(rng);
+    const double v =
+        o.min_ride_speed_m_s + (o.max_ride_speed_m_s - o.min_ride_speed_m_s) * uniform(rng);
     const RideProfile p(distance, a, v, o.ride_jerk_m_s3);
     TrueRide r;
     r.start_s = t;
@@ -231,7 +234,9 @@ SimulatedRun simulateRun(const RideSimulatorOptions& options,
   for (const SimSegment& s : script) {
     const double begin = g.t;
     switch (s.kind) {
-      case SimSegment::Kind::kStand: g.stand(s.duration_s); break;
+      case SimSegment::Kind::kStand:
+        g.stand(s.duration_s);
+        break;
       case SimSegment::Kind::kWalk:
         g.walk(s.duration_s);
         g.run.no_ride_intervals.push_back({begin, g.t});
@@ -240,9 +245,15 @@ SimulatedRun simulateRun(const RideSimulatorOptions& options,
         g.sitDown();
         g.run.no_ride_intervals.push_back({begin, g.t});
         break;
-      case SimSegment::Kind::kStairs: g.stairs(s.to_floor); break;
-      case SimSegment::Kind::kEscalator: g.escalator(s.to_floor); break;
-      case SimSegment::Kind::kElevator: g.elevator(s.to_floor); break;
+      case SimSegment::Kind::kStairs:
+        g.stairs(s.to_floor);
+        break;
+      case SimSegment::Kind::kEscalator:
+        g.escalator(s.to_floor);
+        break;
+      case SimSegment::Kind::kElevator:
+        g.elevator(s.to_floor);
+        break;
     }
   }
   g.stand(10.0);
@@ -277,7 +288,8 @@ std::vector<SimSegment> randomScript(const RideSimulatorOptions& options, int ri
       script.push_back({K::kStand, 10.0 + 20.0 * u(rng), 0});
     }
     int to = floor_of(rng);
-    if (to == floor) to = (floor + 1 + static_cast<int>(u(rng) * (options.floors - 1))) % options.floors;
+    if (to == floor)
+      to = (floor + 1 + static_cast<int>(u(rng) * (options.floors - 1))) % options.floors;
     script.push_back({K::kElevator, 0, to});
     floor = to;
   }

@@ -20,9 +20,9 @@ namespace evermap::elevator {
 struct RideSimulatorOptions {
   double rate_hz = 100.0;
   int floors = 10;
-  double floor_height_m = 3.6;        // floors above the lobby (storey)
-  double lobby_height_m = 4.5;        // floor 0 to floor 1
-  double accel_noise_m_s2 = 0.05;     // white, per sample, each axis
+  double floor_height_m = 3.6;     // floors above the lobby (storey)
+  double lobby_height_m = 4.5;     // floor 0 to floor 1
+  double accel_noise_m_s2 = 0.05;  // white, per sample, each axis
   double gyro_noise_rad_s = 0.005;
   Eigen::Vector3d accel_bias_m_s2{0.04, -0.06, 0.08};
   Eigen::Vector3d gyro_bias_rad_s{0.01, -0.005, 0.008};
@@ -69,7 +69,6 @@ SimulatedRun simulateRun(const RideSimulatorOptions& options,
 // A day in the building: n elevator rides between random floors, each between walks,
 // with sitting down, stairs and escalators (up and back: the tracker follows elevator
 // transitions only, as the paper's robot) in between.
-std::vector<SimSegment> randomScript(const RideSimulatorOptions& options, int rides,
-                                     uint32_t seed);
+std::vector<SimSegment> randomScript(const RideSimulatorOptions& options, int rides, uint32_t seed);
 
 }  // namespace evermap::elevator

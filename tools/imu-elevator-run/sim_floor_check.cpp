@@ -22,7 +22,8 @@ namespace {
 // simulator emits them (time order), as elevator-proc would receive them over LCM.
 class ImuFeed final : public sim::MessageSink {
  public:
-  ImuFeed(imu::AttitudeFilter& filter, ElevatorTracker& tracker) : filter_(filter), tracker_(tracker) {}
+  ImuFeed(imu::AttitudeFilter& filter, ElevatorTracker& tracker)
+      : filter_(filter), tracker_(tracker) {}
   void write(const std::string& channel, int64_t, const std::vector<uint8_t>& data) override {
     if (channel != channels::kImu) return;
     auto m = messages::decodeLcm<imu_t>(data.data(), static_cast<int64_t>(data.size()), channel);
@@ -49,11 +50,13 @@ double seconds(int64_t utime) { return 1e-6 * static_cast<double>(utime); }
 }  // namespace
 
 int SimFloorCheck::found() const {
-  return static_cast<int>(std::count_if(rides.begin(), rides.end(), [](const SimRideCheck& r) { return r.found; }));
+  return static_cast<int>(
+      std::count_if(rides.begin(), rides.end(), [](const SimRideCheck& r) { return r.found; }));
 }
 
 int SimFloorCheck::correct() const {
-  return static_cast<int>(std::count_if(rides.begin(), rides.end(), [](const SimRideCheck& r) { return r.right_floor; }));
+  return static_cast<int>(std::count_if(rides.begin(), rides.end(),
+                                        [](const SimRideCheck& r) { return r.right_floor; }));
 }
 
 double SimFloorCheck::worstErrorM() const {
@@ -70,21 +73,21 @@ std::string SimFloorCheck::table() const {
   for (const SimRideCheck& r : rides) {
     char line[200];
     if (r.found) {
-      std::snprintf(line, sizeof line, "  %7d %8.1f %7.1f  %2d->%-2d %+8.2f %+8.2f  %5d  %4d  %s\n", r.session,
-                    seconds(r.start_utime - origin), seconds(r.end_utime - r.start_utime), r.floor_from,
-                    r.floor_to, r.true_dz_m, r.displacement_m, r.table_floor, r.mapped_floor,
-                    r.right_floor ? "yes" : "NO");
+      std::snprintf(line, sizeof line, "  %7d %8.1f %7.1f  %2d->%-2d %+8.2f %+8.2f  %5d  %4d  %s\n",
+                    r.session, seconds(r.start_utime - origin),
+                    seconds(r.end_utime - r.start_utime), r.floor_from, r.floor_to, r.true_dz_m,
+                    r.displacement_m, r.table_floor, r.mapped_floor, r.right_floor ? "yes" : "NO");
     } else {
       std::snprintf(line, sizeof line, "  %7d %8.1f %7.1f  %2d->%-2d %+8.2f   missed\n", r.session,
-                    seconds(r.start_utime - origin), seconds(r.end_utime - r.start_utime), r.floor_from,
-                    r.floor_to, r.true_dz_m);
+                    seconds(r.start_utime - origin), seconds(r.end_utime - r.start_utime),
+                    r.floor_from, r.floor_to, r.true_dz_m);
     }
     out += line;
   }
   for (const AbandonedRide& a : abandoned) {
     char line[200];
-    std::snprintf(line, sizeof line, "  abandoned ride start at %.1f s: %s\n", seconds(a.start_utime - origin),
-                  a.reason.c_str());
+    std::snprintf(line, sizeof line, "  abandoned ride start at %.1f s: %s\n",
+                  seconds(a.start_utime - origin), a.reason.c_str());
     out += line;
   }
   return out;
@@ -92,21 +95,26 @@ std::string SimFloorCheck::table() const {
 
 std::string SimFloorCheck::summary() const {
   char buf[400];
-  std::snprintf(buf, sizeof buf,
-                "%d sessions, %lld IMU samples, %zu floors visited, %zu rides: %d found, %d on the right floor; "
-                "%d spurious, %d abandoned starts; worst displacement error %.2f m; table has %zu floors",
-                sessions, static_cast<long long>(imu_samples), floors_visited.size(), rides.size(), found(), correct(),
-                spurious, static_cast<int>(abandoned.size()), worstErrorM(), table_heights.size());
+  std::snprintf(
+      buf, sizeof buf,
+      "%d sessions, %lld IMU samples, %zu floors visited, %zu rides: %d found, %d on the right "
+      "floor; "
+      "%d spurious, %d abandoned starts; worst displacement error %.2f m; table has %zu floors",
+      sessions, static_cast<long long>(imu_samples), floors_visited.size(), rides.size(), found(),
+      correct(), spurious, static_cast<int>(abandoned.size()), worstErrorM(), table_heights.size());
   return buf;
 }
 
 Expected<SimFloorCheck> checkSimulatedFloors(const sim::SimOptions& options,
                                              const imu::AttitudeFilterOptions& attitude_options,
-                                             const ElevatorTrackerOptions& elevator_options, int max_sessions) {
+                                             const ElevatorTrackerOptions& elevator_options,
+                                             int max_sessions) {
   if (options.mode != sim::SimOptions::Mode::kBuilding) {
-    return Error{"simulator options: mode must be building (a recorded trajectory has no elevator)"};
+    return Error{
+        "simulator options: mode must be building (a recorded trajectory has no elevator)"};
   }
-  if (!options.sensors.imu.enabled) return Error{"simulator options: imu.enabled is 0 (no IMU to check)"};
+  if (!options.sensors.imu.enabled)
+    return Error{"simulator options: imu.enabled is 0 (no IMU to check)"};
   if (auto s = attitude_options.validate(); !s) return s.error();
   if (auto s = elevator_options.validate(); !s) return s.error();
   // Only the IMU is used. The other streams are thinned to save time; every sensor draws from
@@ -164,7 +172,8 @@ Expected<SimFloorCheck> checkSimulatedFloors(const sim::SimOptions& options,
     if (c.found) {
       auto it = to_sim.find(c.table_floor);
       if (it == to_sim.end()) {
-        it = to_sim.emplace(c.table_floor, building.nearestFloor(main_z + heights[c.table_floor])).first;
+        it = to_sim.emplace(c.table_floor, building.nearestFloor(main_z + heights[c.table_floor]))
+                 .first;
       }
       c.mapped_floor = it->second;
       c.right_floor = c.mapped_floor == c.floor_to;

@@ -32,28 +32,28 @@ struct SimRideCheck {
   int session = 0;
   int64_t start_utime = 0;  // the true ride (cab moving)
   int64_t end_utime = 0;
-  int floor_from = 0;       // simulated floors
+  int floor_from = 0;  // simulated floors
   int floor_to = 0;
   double true_dz_m = 0;
-  bool found = false;       // a reported ride overlaps it
+  bool found = false;         // a reported ride overlaps it
   double displacement_m = 0;  // of that ride
-  int table_floor = -1;     // its arrival floor in elevator-proc's table
-  int mapped_floor = -1;    // the simulated floor that table floor maps to
+  int table_floor = -1;       // its arrival floor in elevator-proc's table
+  int mapped_floor = -1;      // the simulated floor that table floor maps to
   bool right_floor = false;
 };
 
 struct SimFloorCheck {
   std::vector<SimRideCheck> rides;
-  int spurious = 0;       // reported rides over no true ride
+  int spurious = 0;                      // reported rides over no true ride
   std::vector<AbandonedRide> abandoned;  // ride starts given up (not rides; for the record)
   int sessions = 0;
   int64_t imu_samples = 0;
-  std::vector<int> floors_visited;   // simulated floors reached by the true rides
-  std::vector<double> table_heights; // elevator-proc's floor table at the end
+  std::vector<int> floors_visited;    // simulated floors reached by the true rides
+  std::vector<double> table_heights;  // elevator-proc's floor table at the end
   ElevatorCounts counts;
 
-  int found() const;      // rides found
-  int correct() const;    // rides found and on the right floor
+  int found() const;           // rides found
+  int correct() const;         // rides found and on the right floor
   double worstErrorM() const;  // largest |displacement - true| over found rides
   std::string table() const;   // one line per ride
   std::string summary() const;

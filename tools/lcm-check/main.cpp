@@ -25,7 +25,8 @@ int main(int argc, char** argv) {
                            "Checks that what arrives on LCM is exactly the content of a log.");
   cli.value("--log", &log, "FILE", "the LCM log being replayed");
   cli.value("--ready-file", &ready_file, "PATH", "written once subscribed");
-  cli.value("--idle-timeout-s", &idle_timeout_s, "S", "stop after S seconds of silence (10)").positive();
+  cli.value("--idle-timeout-s", &idle_timeout_s, "S", "stop after S seconds of silence (10)")
+      .positive();
   cli.value("--lcm-url", &url, "URL", "LCM provider (default: LCM_DEFAULT_URL)");
   cli.flag("--list-types", &list_types, "print the known message types and fingerprints");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
@@ -53,7 +54,9 @@ int main(int argc, char** argv) {
   lcm::Subscription* sub = lcm.subscribeFunction(
       ".*",
       +[](const lcm::ReceiveBuffer* rbuf, const std::string& channel,
-          evermap::messages::LogComparator* c) { c->onMessage(channel, rbuf->data, rbuf->data_size); },
+          evermap::messages::LogComparator* c) {
+        c->onMessage(channel, rbuf->data, rbuf->data_size);
+      },
       &*comparator);
   // LCM queues at most 30 messages per subscription by default and drops the oldest beyond
   // that: a checker must not lose any, so its queue is unbounded.

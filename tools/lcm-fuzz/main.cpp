@@ -79,7 +79,8 @@ bool lcmGroup(sockaddr_in* to) {
   std::string host = "239.255.76.67";
   int port = 7667;
   if (url.rfind("udpm://", 0) == 0) {
-    std::string rest = url.substr(7, url.find('?') == std::string::npos ? std::string::npos : url.find('?') - 7);
+    std::string rest =
+        url.substr(7, url.find('?') == std::string::npos ? std::string::npos : url.find('?') - 7);
     const size_t colon = rest.find(':');
     if (!rest.empty()) host = rest.substr(0, colon);
     if (colon != std::string::npos) port = std::atoi(rest.c_str() + colon + 1);
@@ -109,7 +110,8 @@ int fragmentAttack(const std::vector<std::string>& channel_list) {
   int sent = 0;
   for (const std::string& ch : channel_list) {
     const Bytes first = messages::lcmFragmentPacket(seqno, 100000, 0, 0, 2, ch, 1000, 0x41);
-    const Bytes evil = messages::lcmFragmentPacket(seqno, 100000, 0xffffff00u, 1, 2, ch, 1000, 0x41);
+    const Bytes evil =
+        messages::lcmFragmentPacket(seqno, 100000, 0xffffff00u, 1, 2, ch, 1000, 0x41);
     ++seqno;
     for (const Bytes* b : {&first, &evil}) {
       if (sendto(fd, b->data(), b->size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to) ==
@@ -130,25 +132,31 @@ int main(int argc, char** argv) {
   int64_t seed = 1;
   double rate_hz = 2000.0;
   bool fragment_attack = false;
-  CommandLine cli("evermap-lcm-fuzz",
-                  "Hostile messages on evermap's input channels (inside scripts/lcm-sandbox only).");
+  CommandLine cli(
+      "evermap-lcm-fuzz",
+      "Hostile messages on evermap's input channels (inside scripts/lcm-sandbox only).");
   cli.value("--channels", &channel_text, "A,B,...", "the channels to fuzz", /*required=*/true);
   cli.value("--count", &count, "N", "messages per channel (default 1000)").min(0).max(1e9);
-  cli.value("--seed", &seed, "S", "random seed (default 1): the same seed sends the same bytes").any();
-  cli.value("--rate-hz", &rate_hz, "HZ", "messages per second over all channels (default 2000; 0: as fast as possible)").min(0);
+  cli.value("--seed", &seed, "S", "random seed (default 1): the same seed sends the same bytes")
+      .any();
+  cli.value("--rate-hz", &rate_hz, "HZ",
+            "messages per second over all channels (default 2000; 0: as fast as possible)")
+      .min(0);
   cli.value("--log", &log_file, "LOG", "mutate the first message of each channel in this LCM log");
   cli.flag("--fragment-attack", &fragment_attack,
            "send the 2-packet LCM 1.3.1 fragment overflow on each channel instead");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (count < 0 || count > 100'000'000 || !(rate_hz >= 0.0) || rate_hz > 1e7) {
-    std::fprintf(stderr, "evermap-lcm-fuzz: --count must be in [0, 1e8] and --rate-hz in [0, 1e7]\n");
+    std::fprintf(stderr,
+                 "evermap-lcm-fuzz: --count must be in [0, 1e8] and --rate-hz in [0, 1e7]\n");
     return 2;
   }
   std::vector<std::string> channel_list;
   std::stringstream ss(channel_text);
   for (std::string c; std::getline(ss, c, ',');) {
     if (!channelTypes().count(c)) {
-      std::fprintf(stderr, "evermap-lcm-fuzz: --channels: unknown input channel \"%s\"\n", c.c_str());
+      std::fprintf(stderr, "evermap-lcm-fuzz: --channels: unknown input channel \"%s\"\n",
+                   c.c_str());
       return 2;
     }
     channel_list.push_back(c);
@@ -184,7 +192,8 @@ int main(int argc, char** argv) {
       const Bytes b = messages::mutateLcm(seeds[c], rng);
       lcm.publish(c, b.data(), static_cast<unsigned>(b.size()));
       ++sent;
-      if (rate_hz > 0.0) std::this_thread::sleep_until(start + std::chrono::duration<double>(sent / rate_hz));
+      if (rate_hz > 0.0)
+        std::this_thread::sleep_until(start + std::chrono::duration<double>(sent / rate_hz));
     }
   }
   std::printf("fuzzed_messages_sent %lld\n", static_cast<long long>(sent));

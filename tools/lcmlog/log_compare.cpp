@@ -71,7 +71,8 @@ CompareSummary LogComparator::summary() const {
 
 std::string CompareSummary::table() const {
   std::ostringstream o;
-  o << "channel              type                 expected  received    intact   corrupt undecodable        bytes\n";
+  o << "channel              type                 expected  received    intact   corrupt "
+       "undecodable        bytes\n";
   char line[256];
   for (const auto& [name, r] : channels) {
     std::snprintf(line, sizeof line, "%-20s %-20s %8lld  %8lld  %8lld  %8lld    %8lld %12lld\n",

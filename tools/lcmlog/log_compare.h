@@ -14,13 +14,13 @@
 namespace evermap::messages {
 
 struct ChannelReport {
-  std::string type;        // evermap type name, or "?" when the fingerprint is unknown
-  int64_t expected = 0;    // messages in the log
+  std::string type;      // evermap type name, or "?" when the fingerprint is unknown
+  int64_t expected = 0;  // messages in the log
   int64_t received = 0;
-  int64_t intact = 0;      // received, in order, byte-identical to the log
-  int64_t corrupt = 0;     // received but matching no logged message still due
-  int64_t undecodable = 0; // received but not a cleanly decodable evermap message
-  int64_t bytes = 0;       // total bytes received
+  int64_t intact = 0;       // received, in order, byte-identical to the log
+  int64_t corrupt = 0;      // received but matching no logged message still due
+  int64_t undecodable = 0;  // received but not a cleanly decodable evermap message
+  int64_t bytes = 0;        // total bytes received
 };
 
 struct CompareSummary {

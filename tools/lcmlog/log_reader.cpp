@@ -109,8 +109,8 @@ const LogReader::Event* LogReader::next() {
   const int64_t start = offset_;
   // Built only for a message: "byte 1234 (event 57, after 56 complete events)".
   const auto where = [&] {
-    return "byte " + std::to_string(start) + " (event " + std::to_string(events_ + 1) +
-           ", after " + std::to_string(events_) + " complete events)";
+    return "byte " + std::to_string(start) + " (event " + std::to_string(events_ + 1) + ", after " +
+           std::to_string(events_) + " complete events)";
   };
   uint8_t header[kHeaderBytes];
   const size_t got = std::fread(header, 1, sizeof header, f_);
@@ -149,8 +149,7 @@ const LogReader::Event* LogReader::next() {
   const int64_t need = int64_t{channel_len} + data_len;
   if (const int64_t left = bytesLeft(); need > left) {
     fail("truncated at " + where() + ": the event claims " + std::to_string(need) +
-         " bytes of channel and data, " + std::to_string(left < 0 ? 0 : left) +
-         " are left");
+         " bytes of channel and data, " + std::to_string(left < 0 ? 0 : left) + " are left");
     return nullptr;
   }
   if (skip_data_) {

@@ -91,15 +91,14 @@ Status LogWriter::commit() {
   const auto size = std::filesystem::file_size(tmp_, ec);
   if (ec || static_cast<int64_t>(size) != bytes_) {
     const std::string msg = tmp_.string() + ": " + std::to_string(ec ? 0 : size) +
-                            " bytes on disk, " + std::to_string(bytes_) +
-                            " written (disk full?)";
+                            " bytes on disk, " + std::to_string(bytes_) + " written (disk full?)";
     discard();
     return Error{msg};
   }
   std::filesystem::rename(tmp_, output_, ec);
   if (ec) {
-    const std::string msg = "cannot rename " + tmp_.string() + " to " + output_.string() +
-                            ": " + ec.message();
+    const std::string msg =
+        "cannot rename " + tmp_.string() + " to " + output_.string() + ": " + ec.message();
     discard();
     return Error{msg};
   }

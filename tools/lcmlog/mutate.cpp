@@ -6,14 +6,16 @@
 namespace evermap::messages {
 
 std::vector<uint8_t> mutateLcm(const std::vector<uint8_t>& original, std::mt19937_64& rng) {
-  static constexpr uint32_t kLengths[] = {0u, 1u, 0x10000u, 1u << 28, 0x7fffffffu, 0x80000000u, 0xffffffffu};
+  static constexpr uint32_t kLengths[] = {0u,          1u,          0x10000u,   1u << 28,
+                                          0x7fffffffu, 0x80000000u, 0xffffffffu};
   std::vector<uint8_t> b = original;
   const auto pick = [&rng](size_t n) { return static_cast<size_t>(rng() % n); };
   switch (pick(8)) {
     case 0:
     case 1:
       if (b.size() > 8) {
-        for (size_t k = 0, n = 1 + pick(4); k < n; ++k) b[8 + pick(b.size() - 8)] = static_cast<uint8_t>(rng());
+        for (size_t k = 0, n = 1 + pick(4); k < n; ++k)
+          b[8 + pick(b.size() - 8)] = static_cast<uint8_t>(rng());
       }
       break;
     case 2:

@@ -21,11 +21,13 @@ bool decodeAs(const void* data, size_t size) {
 const std::vector<Entry>& entries() {
   static const std::vector<Entry> table = [] {
     std::vector<Entry> t;
-#define EVERMAP_REGISTER_TYPE(type) \
-  t.push_back(Entry{TypeInfo{#type, static_cast<int64_t>(evermap::type::getHash())}, &decodeAs<evermap::type>});
+#define EVERMAP_REGISTER_TYPE(type)                                                  \
+  t.push_back(Entry{TypeInfo{#type, static_cast<int64_t>(evermap::type::getHash())}, \
+                    &decodeAs<evermap::type>});
     EVERMAP_FOR_EACH_LCM_TYPE(EVERMAP_REGISTER_TYPE)
 #undef EVERMAP_REGISTER_TYPE
-    std::sort(t.begin(), t.end(), [](const Entry& a, const Entry& b) { return a.info.name < b.info.name; });
+    std::sort(t.begin(), t.end(),
+              [](const Entry& a, const Entry& b) { return a.info.name < b.info.name; });
     return t;
   }();
   return table;

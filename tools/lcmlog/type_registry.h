@@ -10,8 +10,8 @@
 namespace evermap::messages {
 
 struct TypeInfo {
-  std::string name;      // "imu_t"
-  int64_t fingerprint;   // the 8-byte hash that starts every encoded message of this type
+  std::string name;     // "imu_t"
+  int64_t fingerprint;  // the 8-byte hash that starts every encoded message of this type
 };
 
 // All evermap types, sorted by name.

@@ -35,9 +35,13 @@ int main(int argc, char** argv) {
   cli.value("--out", &out_file, "FIG", "the figure to write, .png or .svg", true);
   cli.value("--gt", &gt_file, "GT.tum", "ground truth (TUM) drawn under the map, aligned by time");
   cli.value("--title", &title, "TEXT", "the figure's title");
-  cli.value("--azimuth", &options.azimuth_deg, "DEG", "turn of the horizontal plane (-30)").min(-360).max(360);
+  cli.value("--azimuth", &options.azimuth_deg, "DEG", "turn of the horizontal plane (-30)")
+      .min(-360)
+      .max(360);
   cli.value("--floor-spacing", &options.floor_spacing, "F",
-            "floor spacing as a fraction of the map's extent (0.35)").min(0).max(10);
+            "floor spacing as a fraction of the map's extent (0.35)")
+      .min(0)
+      .max(10);
   cli.value("--width", &options.width_px, "PX", "image width (1200)").min(16).max(20000);
   cli.value("--height", &options.height_px, "PX", "image height (1000)").min(16).max(20000);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
@@ -88,7 +92,8 @@ int main(int argc, char** argv) {
     auto aligned = eval::alignTrajectories(pairs->gt, pairs->est, eval::AlignmentMode::kSE3);
     if (!aligned) return fail(gt_file + ": " + aligned.error().message);
     const core::SE3d est_T_gt = aligned->gt_S_est.rigid.inverse();
-    for (const auto& p : gt->poses) figure.reference.push_back(est_T_gt * p.world_T_body.translation());
+    for (const auto& p : gt->poses)
+      figure.reference.push_back(est_T_gt * p.world_T_body.translation());
   }
 
   options.title = title.empty() ? "map " + store_file : title;
@@ -99,8 +104,8 @@ int main(int argc, char** argv) {
   std::snprintf(subtitle, sizeof subtitle,
                 "%zu nodes, %zu edges (%zu with loop closures; %zu constraints, %zu rejected), "
                 "%zu floors, %zu sessions",
-                figure.nodes.size(), figure.edges.size(), summary.loop_closures, constraints, rejected,
-                summary.floors, summary.sessions);
+                figure.nodes.size(), figure.edges.size(), summary.loop_closures, constraints,
+                rejected, summary.floors, summary.sessions);
   options.subtitle = subtitle;
   canvas = eval::drawMapFigure(figure, options);
   if (!canvas) return fail(canvas.error().message);

@@ -60,8 +60,8 @@ int checkStore(const std::string& file) {
   long long updated = -1;  // the newest keyframe an update stored (a node's or an edge's)
   for (const auto& n : snap->nodes) updated = std::max<long long>(updated, n.node.keyframe_utime);
   for (const auto& e : snap->edges) updated = std::max<long long>(updated, e.constraint.utime);
-  std::printf("store ok nodes %zu edges %zu sessions %zu updated_utime %lld tracking_utime %lld\n", snap->nodes.size(),
-              snap->edges.size(), snap->sessions.size(), updated,
+  std::printf("store ok nodes %zu edges %zu sessions %zu updated_utime %lld tracking_utime %lld\n",
+              snap->nodes.size(), snap->edges.size(), snap->sessions.size(), updated,
               snap->tracking ? static_cast<long long>(snap->tracking->utime) : -1LL);
   return 0;
 }
@@ -72,18 +72,20 @@ void report(const char* what, const evermap::Status& s) {
 
 // The paper's Fig. 4 (estimate against ground truth, top view) and Fig. 7 (nodes and mapper
 // time against operating time), from the runs made.
-void writePlots(const std::filesystem::path& dir, const std::map<std::string, OfflineRunSummary>& runs) {
+void writePlots(const std::filesystem::path& dir,
+                const std::map<std::string, OfflineRunSummary>& runs) {
   using evermap::eval::LineChartOptions;
   using evermap::eval::Rgb;
   const std::map<std::string, Rgb> color = {{"reduced", {214, 39, 40}}, {"full", {31, 119, 180}}};
   std::vector<ChartSeries> nodes, step99, step50, parts;
   for (const auto& [mode, s] : runs) {
     char sub[200];
-    std::snprintf(sub, sizeof sub, "%s pose graph: %lld nodes, ATE rmse %.3f m, median %.3f m", mode.c_str(),
-                  static_cast<long long>(s.nodes), s.ate_rmse_m, s.ate_median_m);
+    std::snprintf(sub, sizeof sub, "%s pose graph: %lld nodes, ATE rmse %.3f m, median %.3f m",
+                  mode.c_str(), static_cast<long long>(s.nodes), s.ate_rmse_m, s.ate_median_m);
     if (!s.trajectory_gt.empty()) {
       evermap::eval::TopViewOptions top;
-      top.title = "Fig. 4: " + mode + " pose graph, trajectory against ground truth (all floors, top view)";
+      top.title =
+          "Fig. 4: " + mode + " pose graph, trajectory against ground truth (all floors, top view)";
       top.subtitle = sub;
       top.plane = evermap::eval::PlotPlane::kXY;
       report("plot", evermap::eval::writeTopView(dir / ("fig4-" + mode + ".png"), s.trajectory_gt,
@@ -91,15 +93,17 @@ void writePlots(const std::filesystem::path& dir, const std::map<std::string, Of
       // Floors stacked: an oblique view (u = x + 0.5 y, v = 0.35 y + 3 z) as in the paper's figure.
       auto oblique = [](const std::vector<evermap::core::Vec3>& pts) {
         std::vector<evermap::core::Vec3> out;
-        for (const auto& p : pts) out.emplace_back(p.x() + 0.5 * p.y(), 0.35 * p.y() + 3.0 * p.z(), 0.0);
+        for (const auto& p : pts)
+          out.emplace_back(p.x() + 0.5 * p.y(), 0.35 * p.y() + 3.0 * p.z(), 0.0);
         return out;
       };
-      top.title = "Fig. 4: " + mode + " pose graph, map nodes against ground truth, floors stacked (oblique)";
+      top.title = "Fig. 4: " + mode +
+                  " pose graph, map nodes against ground truth, floors stacked (oblique)";
       top.gt_label = "nodes, ground truth";
       top.est_label = "nodes, estimate";
       if (!s.nodes_gt.empty())
-        report("plot", evermap::eval::writeTopView(dir / ("fig4-" + mode + "-floors.svg"), oblique(s.nodes_gt),
-                                                   oblique(s.nodes_est), top));
+        report("plot", evermap::eval::writeTopView(dir / ("fig4-" + mode + "-floors.svg"),
+                                                   oblique(s.nodes_gt), oblique(s.nodes_est), top));
     }
     ChartSeries n{mode + " nodes", {}, color.at(mode), false};
     ChartSeries p99{mode + " p99", {}, color.at(mode), false};
@@ -121,7 +125,8 @@ void writePlots(const std::filesystem::path& dir, const std::map<std::string, Of
       rg.points.emplace_back(hours, 1e3 * (r.registration_s + r.partition_s) / window_s);
       so.points.emplace_back(hours, 1e3 * r.solver_s / window_s);
     }
-    rg.color = {static_cast<uint8_t>(color.at(mode).r / 2), static_cast<uint8_t>(color.at(mode).g / 2),
+    rg.color = {static_cast<uint8_t>(color.at(mode).r / 2),
+                static_cast<uint8_t>(color.at(mode).g / 2),
                 static_cast<uint8_t>(color.at(mode).b / 2)};
     if (!n.points.empty()) nodes.push_back(n);
     if (!p99.points.empty()) {
@@ -140,7 +145,8 @@ void writePlots(const std::filesystem::path& dir, const std::map<std::string, Of
     report("plot", evermap::eval::writeLineChart(dir / "fig7-nodes.svg", nodes, o));
   }
   if (!step99.empty()) {
-    o.title = "Fig. 7: mapper time per step (request, result handling, new node, solver), per minute";
+    o.title =
+        "Fig. 7: mapper time per step (request, result handling, new node, solver), per minute";
     o.y_label = "ms per step";
     std::vector<ChartSeries> both = step99;
     both.insert(both.end(), step50.begin(), step50.end());
@@ -157,21 +163,26 @@ int main(int argc, char** argv) {
   using namespace evermap;
   std::string config, mode = "reduced", store, timeline, out, replot, check_store;
   std::vector<std::string> sets;
-  double hours = -1.0, max_wall_s = 0.0, store_period_s = 0.0, restart_gap_s = 0.0, stop_after_s = 0.0;
+  double hours = -1.0, max_wall_s = 0.0, store_period_s = 0.0, restart_gap_s = 0.0,
+         stop_after_s = 0.0;
   bool progress = false;
   int first = 0, last = -1;
-  CommandLine cli("evermap-mapper-run",
-                  "Simulates a measurement-level run and maps it with the reduced pose graph, the full\n"
-                  "pose graph or both, with the registration oracle, in one process (docs/mapper.md).\n"
-                  "Also: --replot DIR, --check-store MAP.db.");
-  cli.value("--config", &config, "SIM.conf", "measurement-level simulation settings (config/sim-*.conf)");
-  cli.repeated("--set", &sets, "key=value",
-               "override one setting of the config (e.g. oracle.false_match_rate_node=0.05); mapper.* keys "
-               "set the mapper's options (e.g. mapper.map_gate=0)");
+  CommandLine cli(
+      "evermap-mapper-run",
+      "Simulates a measurement-level run and maps it with the reduced pose graph, the full\n"
+      "pose graph or both, with the registration oracle, in one process (docs/mapper.md).\n"
+      "Also: --replot DIR, --check-store MAP.db.");
+  cli.value("--config", &config, "SIM.conf",
+            "measurement-level simulation settings (config/sim-*.conf)");
+  cli.repeated(
+      "--set", &sets, "key=value",
+      "override one setting of the config (e.g. oracle.false_match_rate_node=0.05); mapper.* keys "
+      "set the mapper's options (e.g. mapper.map_gate=0)");
   cli.value(
       "--mode",
       [&](const std::string& v) -> Status {
-        if (v != "reduced" && v != "full" && v != "both") return Error{"expected reduced, full or both"};
+        if (v != "reduced" && v != "full" && v != "both")
+          return Error{"expected reduced, full or both"};
         mode = v;
         return Ok{};
       },
@@ -185,29 +196,43 @@ int main(int argc, char** argv) {
       },
       "A-B", "map only sessions A..B of the run (0-based, inclusive)");
   cli.value("--store", &store, "MAP.db",
-            "the map store (reduced graph only): a map it holds is continued, each update is one transaction");
+            "the map store (reduced graph only): a map it holds is continued, each update is one "
+            "transaction");
   cli.value("--store-period-s", &store_period_s, "S",
-            "at most one store transaction per S seconds of operating time, and one at the end (0: each update)")
+            "at most one store transaction per S seconds of operating time, and one at the end (0: "
+            "each update)")
       .min(0);
   cli.value("--restart-gap-s", &restart_gap_s, "S",
-            "continuing a store: skip the messages of S s after its newest state, as a restart loses them (default 0)")
-      .min(0).max(3600);
+            "continuing a store: skip the messages of S s after its newest state, as a restart "
+            "loses them (default 0)")
+      .min(0)
+      .max(3600);
   cli.value("--stop-after-s", &stop_after_s, "S",
-            "stop mapping after S s of operating time of this run, as a process killed then (0: to the end)")
+            "stop mapping after S s of operating time of this run, as a process killed then (0: to "
+            "the end)")
       .min(0);
-  cli.flag("--progress", &progress, "print 'committed nodes N edges E rows R utime U' after each store transaction (E constraints, R rows of map_edges)");
-  cli.value("--timeline", &timeline, "FILE.csv", "per-minute timeline CSV (nodes, per-component time, step cost)");
+  cli.flag("--progress", &progress,
+           "print 'committed nodes N edges E rows R utime U' after each store transaction (E "
+           "constraints, R rows of map_edges)");
+  cli.value("--timeline", &timeline, "FILE.csv",
+            "per-minute timeline CSV (nodes, per-component time, step cost)");
   cli.value("--out", &out, "DIR",
-            "timelines, summaries, per-step and per-node errors (steps-M.csv, nodes-M.csv) and the Fig. 4 / "
+            "timelines, summaries, per-step and per-node errors (steps-M.csv, nodes-M.csv) and the "
+            "Fig. 4 / "
             "Fig. 7 plots into DIR");
   cli.value("--max-wall-s", &max_wall_s, "S",
-            "stop mapping after S seconds of wall time (per mode); the figures cover the operating time reached").min(0);
+            "stop mapping after S seconds of wall time (per mode); the figures cover the operating "
+            "time reached")
+      .min(0);
   cli.value("--replot", &replot, "DIR",
-            "instead of a run: the Fig. 7 plots again from DIR/timeline-reduced.csv and DIR/timeline-full.csv "
+            "instead of a run: the Fig. 7 plots again from DIR/timeline-reduced.csv and "
+            "DIR/timeline-full.csv "
             "(either may be missing), runs of the two modes made separately, drawn side by side");
-  cli.value("--check-store", &check_store, "MAP.db",
-            "instead of a run: PRAGMA integrity_check of a map store, then 'store ok nodes N edges E sessions S "
-            "updated_utime U' (U: the newest keyframe of a stored node or edge; a run resumes after it)");
+  cli.value(
+      "--check-store", &check_store, "MAP.db",
+      "instead of a run: PRAGMA integrity_check of a map store, then 'store ok nodes N edges E "
+      "sessions S "
+      "updated_utime U' (U: the newest keyframe of a stored node or edge; a run resumes after it)");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (!check_store.empty()) return checkStore(check_store);
   if (!replot.empty()) {
@@ -224,7 +249,8 @@ int main(int argc, char** argv) {
       if (!runs[m].timeline.empty()) runs[m].nodes = runs[m].timeline.back().nodes;
     }
     if (runs.empty()) {
-      std::fprintf(stderr, "evermap-mapper-run: %s: no timeline-reduced.csv or timeline-full.csv\n", replot.c_str());
+      std::fprintf(stderr, "evermap-mapper-run: %s: no timeline-reduced.csv or timeline-full.csv\n",
+                   replot.c_str());
       return 1;
     }
     writePlots(replot, runs);
@@ -286,9 +312,9 @@ int main(int argc, char** argv) {
     if (!full) run.store_file = store;
     if (progress) {
       run.on_commit = [](const mapper::StoreCommit& c) {
-        std::printf("committed nodes %lld edges %lld rows %lld utime %lld\n", static_cast<long long>(c.nodes),
-                    static_cast<long long>(c.edges), static_cast<long long>(c.edge_rows),
-                    static_cast<long long>(c.utime));
+        std::printf("committed nodes %lld edges %lld rows %lld utime %lld\n",
+                    static_cast<long long>(c.nodes), static_cast<long long>(c.edges),
+                    static_cast<long long>(c.edge_rows), static_cast<long long>(c.utime));
         std::fflush(stdout);
       };
     }
@@ -303,7 +329,8 @@ int main(int argc, char** argv) {
     if (!timeline.empty()) csv.emplace_back(timeline);
     if (!out.empty()) {
       csv.push_back(std::filesystem::path(out) / ("timeline-" + name + ".csv"));
-      std::FILE* f = std::fopen((std::filesystem::path(out) / ("summary-" + name + ".txt")).c_str(), "w");
+      std::FILE* f =
+          std::fopen((std::filesystem::path(out) / ("summary-" + name + ".txt")).c_str(), "w");
       if (f) {
         std::fputs(summary->text().c_str(), f);
         std::fclose(f);
@@ -311,7 +338,8 @@ int main(int argc, char** argv) {
     }
     if (!out.empty()) {
       const std::filesystem::path dir(out);
-      if (Status s = mapper::writeErrorsCsv(dir / ("steps-" + name + ".csv"), dir / ("nodes-" + name + ".csv"), *summary);
+      if (Status s = mapper::writeErrorsCsv(dir / ("steps-" + name + ".csv"),
+                                            dir / ("nodes-" + name + ".csv"), *summary);
           !s) {
         std::fprintf(stderr, "evermap-mapper-run: %s\n", s.error().message.c_str());
         return 1;

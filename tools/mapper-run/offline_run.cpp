@@ -102,7 +102,8 @@ class Broker final : public sim::MessageSink {
         nodes_.pop_front();
         progressed = true;
       }
-      if (!requests_.empty() && requests_.front().keyframe_utime <= known_keyframe_ && nodes_.empty()) {
+      if (!requests_.empty() && requests_.front().keyframe_utime <= known_keyframe_ &&
+          nodes_.empty()) {
         const register_request_t r = requests_.front();
         requests_.pop_front();
         const auto answer = oracle_.answerWithTruth(r);
@@ -137,23 +138,26 @@ core::SE3d truthAt(const std::map<int64_t, core::SE3d>& gt, int64_t utime) {
   if (hi == gt.end()) return std::prev(hi)->second;
   if (hi->first == utime || hi == gt.begin()) return hi->second;
   auto lo = std::prev(hi);
-  const double a = static_cast<double>(utime - lo->first) / static_cast<double>(hi->first - lo->first);
+  const double a =
+      static_cast<double>(utime - lo->first) / static_cast<double>(hi->first - lo->first);
   const core::Vec3 t = (1 - a) * lo->second.translation() + a * hi->second.translation();
   return core::SE3d(a < 0.5 ? lo->second.so3() : hi->second.so3(), t);
 }
-
 
 }  // namespace
 
 Status OfflineRunOptions::validate() const {
   if (first_session < 0) return Error{"run.first_session: must be >= 0"};
-  if (last_session >= 0 && last_session < first_session) return Error{"run.last_session: must be >= first_session"};
+  if (last_session >= 0 && last_session < first_session)
+    return Error{"run.last_session: must be >= first_session"};
   if (!(timeline_interval_s >= 0.0)) return Error{"run.timeline_interval_s: must be >= 0"};
-  if (!(revisit_radius_m > 0.0) || !(revisit_angle_rad > 0.0)) return Error{"run.revisit_*: must be > 0"};
+  if (!(revisit_radius_m > 0.0) || !(revisit_angle_rad > 0.0))
+    return Error{"run.revisit_*: must be > 0"};
   if (!(max_wall_s >= 0.0)) return Error{"run.max_wall_s: must be >= 0"};
   if (!(stop_after_s >= 0.0)) return Error{"run.stop_after_s: must be >= 0"};
   if (!(store_period_s >= 0.0)) return Error{"run.store_period_s: must be >= 0"};
-  if (!(restart_gap_s >= 0.0) || !std::isfinite(restart_gap_s)) return Error{"run.restart_gap_s: must be >= 0"};
+  if (!(restart_gap_s >= 0.0) || !std::isfinite(restart_gap_s))
+    return Error{"run.restart_gap_s: must be >= 0"};
   return Ok{};
 }
 
@@ -173,8 +177,8 @@ std::string OfflineRunSummary::text() const {
   for (int64_t n : nodes_near_a_view_by_session) s << " " << n;
   s << "\nviews_by_session";
   for (int64_t n : views_by_session) s << " " << n;
-  s << "\ninterfloor_pairs " << interfloor_pairs << "\ninterfloor_yaw_rms_deg " << interfloor_yaw_rms_deg
-    << "\ninterfloor_yaw_claimed_deg " << interfloor_yaw_claimed_deg;
+  s << "\ninterfloor_pairs " << interfloor_pairs << "\ninterfloor_yaw_rms_deg "
+    << interfloor_yaw_rms_deg << "\ninterfloor_yaw_claimed_deg " << interfloor_yaw_claimed_deg;
   s << "\npairs_by_session";
   for (int64_t n : pairs_by_session) s << " " << n;
   s << "\npairs_between_earlier_nodes_by_session";
@@ -183,26 +187,25 @@ std::string OfflineRunSummary::text() const {
   for (int64_t n : steps_by_session) s << " " << n;
   s << "\nsteps_in_mapped_area_by_session";
   for (int64_t n : steps_in_mapped_area_by_session) s << " " << n;
-  s << "\nmessages " << messages << "\ndecode_errors " << decode_errors
-    << "\nfalse_matches " << false_matches << "\nsimulated_s " << duration_s << "\ndistance_m "
-    << distance_m << "\nstep_poses " << step_poses << "\nate_rmse_m " << ate_rmse_m
-    << "\nate_median_m " << ate_median_m << "\ntime_tracking_s " << stats.timing.tracking_s
-    << "\ntime_registration_s " << stats.timing.registration_s << "\ntime_partition_s "
-    << stats.timing.partition_s << "\ntime_solver_s " << stats.timing.solver_s
-    << "\nbackground_batches " << stats.timing.background_batches << "\ntime_background_batch_s "
-    << stats.timing.background_batch_s << "\ntime_background_wait_offline_s " << stats.timing.background_wait_s
-    << "\nupdate_median_ms " << update_median_ms << "\nupdate_p99_ms " << update_p99_ms
-    << "\nstep_median_ms " << step_median_ms << "\nstep_p99_ms " << step_p99_ms << "\nstep_p99_first_hour_ms "
-    << step_p99_first_hour_ms << "\nstep_p99_last_hour_ms " << step_p99_last_hour_ms
-    << "\nstep_cpu_p99_first_hour_ms " << step_cpu_p99_first_hour_ms << "\nstep_cpu_p99_last_hour_ms "
-    << step_cpu_p99_last_hour_ms << "\nnodes_4h_before_end "
-    << nodes_4h_before_end
-    << "\nstore_transactions " << store_transactions << "\ntime_store_s " << store_s
-    << "\noperating_h " << operating_s / 3600.0 << "\nstopped_early " << (stopped_early ? 1 : 0)
-    << "\nwall_s " << wall_s << "\n";
+  s << "\nmessages " << messages << "\ndecode_errors " << decode_errors << "\nfalse_matches "
+    << false_matches << "\nsimulated_s " << duration_s << "\ndistance_m " << distance_m
+    << "\nstep_poses " << step_poses << "\nate_rmse_m " << ate_rmse_m << "\nate_median_m "
+    << ate_median_m << "\ntime_tracking_s " << stats.timing.tracking_s << "\ntime_registration_s "
+    << stats.timing.registration_s << "\ntime_partition_s " << stats.timing.partition_s
+    << "\ntime_solver_s " << stats.timing.solver_s << "\nbackground_batches "
+    << stats.timing.background_batches << "\ntime_background_batch_s "
+    << stats.timing.background_batch_s << "\ntime_background_wait_offline_s "
+    << stats.timing.background_wait_s << "\nupdate_median_ms " << update_median_ms
+    << "\nupdate_p99_ms " << update_p99_ms << "\nstep_median_ms " << step_median_ms
+    << "\nstep_p99_ms " << step_p99_ms << "\nstep_p99_first_hour_ms " << step_p99_first_hour_ms
+    << "\nstep_p99_last_hour_ms " << step_p99_last_hour_ms << "\nstep_cpu_p99_first_hour_ms "
+    << step_cpu_p99_first_hour_ms << "\nstep_cpu_p99_last_hour_ms " << step_cpu_p99_last_hour_ms
+    << "\nnodes_4h_before_end " << nodes_4h_before_end << "\nstore_transactions "
+    << store_transactions << "\ntime_store_s " << store_s << "\noperating_h "
+    << operating_s / 3600.0 << "\nstopped_early " << (stopped_early ? 1 : 0) << "\nwall_s "
+    << wall_s << "\n";
   return s.str();
 }
-
 
 Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, MapperOptions options,
                                        const std::filesystem::path& store_file) {
@@ -219,10 +222,11 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   bool stopped_early = false;
   auto plan = sim::RunPlan::create(sim_options);
   if (!plan) return plan.error();
-  const int last_session = run.last_session < 0 ? plan->sessions() - 1 : std::min(run.last_session, plan->sessions() - 1);
+  const int last_session = run.last_session < 0 ? plan->sessions() - 1
+                                                : std::min(run.last_session, plan->sessions() - 1);
   if (run.first_session > last_session)
-    return makeError("offline run: sessions ", run.first_session, "-", last_session, ": the run has ",
-                     plan->sessions());
+    return makeError("offline run: sessions ", run.first_session, "-", last_session,
+                     ": the run has ", plan->sessions());
   const core::SE3d body_T_cam = sim_options.sensors.camera.bodyTCam();
   options.tracker.body_T_cam = body_T_cam;
   Mapper mapper(options);
@@ -244,7 +248,8 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     store = std::move(*s);
     auto snapshot = store->load();
     if (!snapshot) return snapshot.error();
-    if (Status r = mapper.restore(*snapshot); !r) return makeError(run.store_file.string(), ": ", r.error().message);
+    if (Status r = mapper.restore(*snapshot); !r)
+      return makeError(run.store_file.string(), ": ", r.error().message);
     std::vector<node_added_t> stored;
     for (const StoredNode& n : snapshot->nodes) {
       node_added_t m{};
@@ -257,12 +262,15 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
       node_truth.push_back(NodeTruth{core::SE3d(), -1, n.node.session, false});
     }
     // Every update stored happened at or before its newest keyframe: resume after it.
-    for (const StoredEdge& e : snapshot->edges) resume_utime = std::max(resume_utime, e.constraint.utime);
+    for (const StoredEdge& e : snapshot->edges)
+      resume_utime = std::max(resume_utime, e.constraint.utime);
     // ... and after the saved tracking state; a live restart loses the messages of its gap.
     if (snapshot->tracking) resume_utime = std::max(resume_utime, snapshot->tracking->utime);
-    if (resume_utime >= 0) resume_utime += static_cast<int64_t>(std::llround(run.restart_gap_s * 1e6));
-    std::sort(stored.begin(), stored.end(),
-              [](const node_added_t& a, const node_added_t& b) { return a.keyframe_utime < b.keyframe_utime; });
+    if (resume_utime >= 0)
+      resume_utime += static_cast<int64_t>(std::llround(run.restart_gap_s * 1e6));
+    std::sort(stored.begin(), stored.end(), [](const node_added_t& a, const node_added_t& b) {
+      return a.keyframe_utime < b.keyframe_utime;
+    });
     stored_for_oracle.assign(stored.begin(), stored.end());
     stored_nodes = static_cast<int64_t>(mapper.nodes().size());
     stored_constraints = static_cast<int64_t>(mapper.constraints().all().size());
@@ -308,11 +316,12 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   int64_t session_start = -1;
   int current_session = 0;
   auto operating = [&](int64_t utime) {
-    return operating_before_s + (session_start < 0 ? 0.0 : 1e-6 * static_cast<double>(utime - session_start));
+    return operating_before_s +
+           (session_start < 0 ? 0.0 : 1e-6 * static_cast<double>(utime - session_start));
   };
   int64_t messages_seen = 0;
   std::vector<std::pair<int64_t, double>> session_offsets;  // (start utime, operating time then)
-  double next_store_s = 0.0;  // OfflineRunOptions::store_period_s
+  double next_store_s = 0.0;                                // OfflineRunOptions::store_period_s
   int64_t tracked_steps = 0;
   auto saveStore = [&](int64_t utime) {
     const auto nodes = static_cast<int64_t>(mapper.nodes().size());
@@ -335,8 +344,10 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     ++transactions;
     if (store_status && run.on_commit) {
       auto rows = store->edgeRows();
-      if (!rows) store_status = rows.error();
-      else run.on_commit(StoreCommit{nodes, constraints, *rows, utime});
+      if (!rows)
+        store_status = rows.error();
+      else
+        run.on_commit(StoreCommit{nodes, constraints, *rows, utime});
     }
   };
   broker.setAfterMessage([&](int64_t utime) {
@@ -350,7 +361,8 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
       broker.setDeliver(false);
     }
     if (run.max_wall_s > 0 && ++messages_seen % 1000 == 0 &&
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count() > run.max_wall_s) {
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count() >
+            run.max_wall_s) {
       stopped_early = true;
       broker.setDeliver(false);
     }
@@ -366,17 +378,20 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   observers.on_keyframe = [&](const sim::KeyframeTruth& k) {
     oracle.addKeyframe(k);
     if (views.add(k.floor, k.world_T_cam * body_T_cam.inverse())) {
-      if (current_session >= static_cast<int>(views_by_session.size())) views_by_session.resize(current_session + 1, 0);
+      if (current_session >= static_cast<int>(views_by_session.size()))
+        views_by_session.resize(current_session + 1, 0);
       ++views_by_session[current_session];
     }
-    if (k.utime > resume_utime && current_session >= run.first_session) step_floor.emplace_back(k.utime, k.floor);
+    if (k.utime > resume_utime && current_session >= run.first_session)
+      step_floor.emplace_back(k.utime, k.floor);
     recent.push_back(k);
     while (recent.size() > 2 && recent.front().utime < k.utime - 120'000'000) recent.pop_front();
     while (!stored_for_oracle.empty() && stored_for_oracle.front().keyframe_utime <= k.utime) {
       const node_added_t& n = stored_for_oracle.front();
       oracle.addNode(n);
       if (n.keyframe_utime == k.utime) {
-        node_truth[n.node_id] = NodeTruth{k.world_T_cam * body_T_cam.inverse(), k.floor, n.session, true};
+        node_truth[n.node_id] =
+            NodeTruth{k.world_T_cam * body_T_cam.inverse(), k.floor, n.session, true};
       }
       stored_for_oracle.pop_front();
     }
@@ -395,15 +410,17 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     const bool mapped = i >= run.first_session;
     broker.setDeliver(mapped);
     session_start = -1;
-    const sim::SessionSummary ss = sim::generateSession(plan->building(), plan->session(i), sim_options.sensors,
-                                                        sim_options.seed, broker, observers);
+    const sim::SessionSummary ss =
+        sim::generateSession(plan->building(), plan->session(i), sim_options.sensors,
+                             sim_options.seed, broker, observers);
     if (mapped) {
       summary_run.sessions.push_back(ss);
       operating_reached_s = operating(stopped_early ? mapper.tracker().lastUtime() : ss.end_utime);
       if (session_start >= 0) operating_before_s = operating(ss.end_utime);
     }
   }
-  if (store && run.store_period_s > 0) saveStore(mapper.tracker().lastUtime());  // what the last period left
+  if (store && run.store_period_s > 0)
+    saveStore(mapper.tracker().lastUtime());  // what the last period left
   timeline.sample(operating_reached_s, mapper.tracker().lastUtime(), current_session, true);
 
   if (!store_status) return store_status.error();
@@ -419,15 +436,17 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   out.nodes = mapper.graphNodes();
   out.views_by_session = std::move(views_by_session);
   for (const MapperNode& n : mapper.nodes()) {
-    if (n.session >= static_cast<int>(out.nodes_by_session.size())) out.nodes_by_session.resize(n.session + 1, 0);
+    if (n.session >= static_cast<int>(out.nodes_by_session.size()))
+      out.nodes_by_session.resize(n.session + 1, 0);
     ++out.nodes_by_session[n.session];
   }
   node_truth.resize(mapper.nodes().size());
   {
-    const std::vector<PlaceCause> causes = placeCauses(node_truth, node_truth, run.revisit_radius_m, run.revisit_angle_rad);
+    const std::vector<PlaceCause> causes =
+        placeCauses(node_truth, node_truth, run.revisit_radius_m, run.revisit_angle_rad);
     // The same test at twice the radius and angle (2 m, 45°: the partition's sector).
-    const std::vector<PlaceCause> near =
-        placeCauses(node_truth, node_truth, 2.0 * run.revisit_radius_m, 2.0 * run.revisit_angle_rad);
+    const std::vector<PlaceCause> near = placeCauses(
+        node_truth, node_truth, 2.0 * run.revisit_radius_m, 2.0 * run.revisit_angle_rad);
     for (auto* v : {&out.nodes_in_mapped_area_by_session, &out.nodes_new_heading_by_session,
                     &out.nodes_new_place_by_session, &out.nodes_near_a_view_by_session})
       v->assign(out.nodes_by_session.size(), 0);
@@ -437,7 +456,8 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
       if (causes[k] == PlaceCause::kMapped) ++out.nodes_in_mapped_area_by_session[s];
       if (causes[k] == PlaceCause::kNewHeading) ++out.nodes_new_heading_by_session[s];
       if (causes[k] == PlaceCause::kNewPlace) ++out.nodes_new_place_by_session[s];
-      if (causes[k] != PlaceCause::kMapped && near[k] == PlaceCause::kMapped) ++out.nodes_near_a_view_by_session[s];
+      if (causes[k] != PlaceCause::kMapped && near[k] == PlaceCause::kMapped)
+        ++out.nodes_near_a_view_by_session[s];
     }
   }
   {
@@ -447,16 +467,19 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     for (const auto& p : mapper.stepPoses()) {
       if (truth.empty()) break;
       NodeTruth t{truthAt(truth, p.utime), -1, p.session, false};
-      auto it = std::lower_bound(step_floor.begin(), step_floor.end(), std::make_pair(p.utime, INT_MIN));
+      auto it =
+          std::lower_bound(step_floor.begin(), step_floor.end(), std::make_pair(p.utime, INT_MIN));
       if (it != step_floor.end() && it->first == p.utime) {
         t.floor = it->second;
         t.known = true;
       }
       steps.push_back(t);
-      if (p.session >= static_cast<int>(out.steps_by_session.size())) out.steps_by_session.resize(p.session + 1, 0);
+      if (p.session >= static_cast<int>(out.steps_by_session.size()))
+        out.steps_by_session.resize(p.session + 1, 0);
       ++out.steps_by_session[p.session];
     }
-    out.steps_in_mapped_area_by_session = inMappedArea(node_truth, steps, run.revisit_radius_m, run.revisit_angle_rad);
+    out.steps_in_mapped_area_by_session =
+        inMappedArea(node_truth, steps, run.revisit_radius_m, run.revisit_angle_rad);
     out.steps_in_mapped_area_by_session.resize(out.steps_by_session.size(), 0);
   }
   {
@@ -464,14 +487,16 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     // each was opened in (that of the step at or after its first constraint).
     const auto& poses = mapper.stepPoses();
     const size_t sessions = out.nodes_by_session.size();
-    for (auto* v : {&out.pairs_by_session, &out.pairs_between_earlier_nodes_by_session}) v->assign(sessions, 0);
+    for (auto* v : {&out.pairs_by_session, &out.pairs_between_earlier_nodes_by_session})
+      v->assign(sessions, 0);
     double yaw2 = 0.0, claimed2 = 0.0;
     for (const auto& [key, pair] : mapper.constraints().pairs()) {
       if (static_cast<size_t>(key.second) < node_truth.size()) {
         const NodeTruth& a = node_truth[key.first];
         const NodeTruth& b = node_truth[key.second];
         if (a.known && b.known && a.floor != b.floor) {
-          const core::SE3d err = (a.world_T_body.inverse() * b.world_T_body).inverse() * pair.i_T_j.mean;
+          const core::SE3d err =
+              (a.world_T_body.inverse() * b.world_T_body).inverse() * pair.i_T_j.mean;
           const double yaw = err.so3().rollPitchYaw().z();
           yaw2 += yaw * yaw;
           claimed2 += pair.i_T_j.covariance(5, 5);
@@ -485,7 +510,8 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
       const auto s = static_cast<size_t>(it->session);
       if (s >= sessions) continue;
       ++out.pairs_by_session[s];
-      const int last = std::max(mapper.nodes()[key.first].session, mapper.nodes()[key.second].session);
+      const int last =
+          std::max(mapper.nodes()[key.first].session, mapper.nodes()[key.second].session);
       if (last < it->session) ++out.pairs_between_earlier_nodes_by_session[s];
     }
     if (out.interfloor_pairs > 0) {
@@ -508,7 +534,8 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
   {
     std::vector<double> all, first_hour, last_hour, first_hour_cpu, last_hour_cpu;
     for (const auto& c : mapper.stats().timing.step_cost) {
-      auto it = std::upper_bound(session_offsets.begin(), session_offsets.end(), std::make_pair(c.utime, 1e300));
+      auto it = std::upper_bound(session_offsets.begin(), session_offsets.end(),
+                                 std::make_pair(c.utime, 1e300));
       if (it == session_offsets.begin()) continue;
       --it;
       const double t = it->second + 1e-6 * static_cast<double>(c.utime - it->first);
@@ -551,18 +578,20 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim_options, Mappe
     out.trajectory_gt.push_back(gt[k].translation());
     out.trajectory_est.push_back(est[k].translation());
     const Mapper::StepPose& p = mapper.stepPoses()[k];
-    auto fl = std::lower_bound(step_floor.begin(), step_floor.end(), std::make_pair(p.utime, INT_MIN));
+    auto fl =
+        std::lower_bound(step_floor.begin(), step_floor.end(), std::make_pair(p.utime, INT_MIN));
     const int floor = fl != step_floor.end() && fl->first == p.utime ? fl->second : -1;
-    out.step_errors.push_back({p.utime, p.session, p.node, floor, (gt[k].translation() - est[k].translation()).norm(),
+    out.step_errors.push_back({p.utime, p.session, p.node, floor,
+                               (gt[k].translation() - est[k].translation()).norm(),
                                core::toPlanar(gt[k].inverse() * est[k]).theta() * 180.0 / M_PI});
   }
   for (const MapperNode& n : mapper.nodes()) {
     if (n.id >= static_cast<int64_t>(node_truth.size()) || !node_truth[n.id].known) continue;
     out.nodes_gt.push_back(node_truth[n.id].world_T_body.translation());
     out.nodes_est.push_back((aligned->gt_S_est * mapper.nodePose(n.id)).translation());
-    out.node_errors.push_back(
-        {n.id, n.session, n.floor, n.keyframe_utime, (out.nodes_gt.back() - out.nodes_est.back()).norm(),
-         node_truth[n.id].world_T_body});
+    out.node_errors.push_back({n.id, n.session, n.floor, n.keyframe_utime,
+                               (out.nodes_gt.back() - out.nodes_est.back()).norm(),
+                               node_truth[n.id].world_T_body});
   }
   return out;
 }

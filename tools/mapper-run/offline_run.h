@@ -7,10 +7,10 @@
 // to the oracle likewise. Deterministic: same options, same result.
 //
 // Continuing a map: with a store that holds nodes, the mapper restores it (Mapper::restore)
-// and the run resumes after the newest keyframe the store mentions (of a node or an edge). Sessions before the mapped range and
-// messages before that point are still simulated for the oracle, which learns the stored
-// nodes' keyframes from them, but reach the mapper only as FLOOR messages (the floor the
-// robot is on). A run killed at any moment is thereby resumed by running it again.
+// and the run resumes after the newest keyframe the store mentions (of a node or an edge). Sessions
+// before the mapped range and messages before that point are still simulated for the oracle, which
+// learns the stored nodes' keyframes from them, but reach the mapper only as FLOOR messages (the
+// floor the robot is on). A run killed at any moment is thereby resumed by running it again.
 
 #include <cstdint>
 #include <filesystem>
@@ -31,10 +31,10 @@ struct TimelineRow {
   double operating_s = 0.0;
   int64_t utime = 0;
   int session = 0;
-  int64_t nodes = 0;          // in the graph, restored ones included
+  int64_t nodes = 0;  // in the graph, restored ones included
   int64_t factors = 0;
-  int64_t steps = 0;          // in this window
-  double tracking_s = 0.0;    // wall time in this window, per component
+  int64_t steps = 0;        // in this window
+  double tracking_s = 0.0;  // wall time in this window, per component
   double registration_s = 0.0;
   double partition_s = 0.0;
   double solver_s = 0.0;
@@ -52,10 +52,10 @@ struct TimelineRow {
 
 // After every map store transaction.
 struct StoreCommit {
-  int64_t nodes = 0;  // committed in the file
-  int64_t edges = 0;       // the mapper's constraints
-  int64_t edge_rows = 0;   // rows of map_edges (constraints, folded ones as one)
-  int64_t utime = 0;       // message time of the update
+  int64_t nodes = 0;      // committed in the file
+  int64_t edges = 0;      // the mapper's constraints
+  int64_t edge_rows = 0;  // rows of map_edges (constraints, folded ones as one)
+  int64_t utime = 0;      // message time of the update
 };
 
 struct OfflineRunOptions {
@@ -129,20 +129,20 @@ struct OfflineRunSummary {
   std::vector<int64_t> steps_by_session;
   std::vector<int64_t> steps_in_mapped_area_by_session;
   int64_t restored_nodes = 0;
-  std::string restart_note;     // Mapper::restartNote() of a restored map's start
-  bool stopped_early = false;   // OfflineRunOptions::max_wall_s or stop_after_s reached
-  int final_floor = -1;         // the mapper's floor at the end (-1: not known)
-  double operating_s = 0.0;     // operating time mapped
-  double wall_s = 0.0;          // wall time of the whole run
+  std::string restart_note;    // Mapper::restartNote() of a restored map's start
+  bool stopped_early = false;  // OfflineRunOptions::max_wall_s or stop_after_s reached
+  int final_floor = -1;        // the mapper's floor at the end (-1: not known)
+  double operating_s = 0.0;    // operating time mapped
+  double wall_s = 0.0;         // wall time of the whole run
   int64_t factors = 0;         // pair factors in the solver
   int64_t constraints = 0;     // every constraint kept
   int64_t messages = 0;        // simulator messages delivered
   int64_t decode_errors = 0;
-  int64_t false_matches = 0;   // oracle answers that were false matches
+  int64_t false_matches = 0;  // oracle answers that were false matches
   int64_t step_poses = 0;
-  double ate_rmse_m = 0.0;     // step poses with the final node estimates, SE(3)-aligned
+  double ate_rmse_m = 0.0;  // step poses with the final node estimates, SE(3)-aligned
   double ate_median_m = 0.0;
-  double duration_s = 0.0;     // simulated time, mapped sessions
+  double duration_s = 0.0;  // simulated time, mapped sessions
   double distance_m = 0.0;
   double update_median_ms = 0.0;  // solver updates
   double update_p99_ms = 0.0;
@@ -157,8 +157,8 @@ struct OfflineRunSummary {
   double step_cpu_p99_first_hour_ms = 0.0;
   double step_cpu_p99_last_hour_ms = 0.0;
   int64_t nodes_4h_before_end = 0;  // graph size 4 h of operating time before the end
-  int64_t store_transactions = 0;  // with a map store: one per update that changed the graph
-  double store_s = 0.0;            // wall time spent writing them
+  int64_t store_transactions = 0;   // with a map store: one per update that changed the graph
+  double store_s = 0.0;             // wall time spent writing them
   std::vector<TimelineRow> timeline;
   // For plots: the step poses (ground truth and aligned estimate) and the nodes (ground
   // truth of their keyframes' body poses and aligned estimates), world frame, metres.
@@ -168,15 +168,15 @@ struct OfflineRunSummary {
   struct StepError {
     int64_t utime = 0;
     int session = 0;
-    int64_t node = 0;      // the node the step pose hangs on
-    int true_floor = -1;   // -1: unknown
+    int64_t node = 0;     // the node the step pose hangs on
+    int true_floor = -1;  // -1: unknown
     double error_m = 0.0;
     double yaw_error_deg = 0.0;  // estimated minus true heading, (-180, 180]
   };
   struct NodeError {
     int64_t id = 0;
     int session = 0;
-    int floor = 0;         // as the mapper assigned it
+    int floor = 0;  // as the mapper assigned it
     int64_t keyframe_utime = 0;
     double error_m = 0.0;
     core::SE3d world_T_body_true;  // the true body pose at the node's keyframe
@@ -197,8 +197,8 @@ Expected<OfflineRunSummary> runOffline(const sim::SimOptions& sim, MapperOptions
 Status writeTimelineCsv(const std::filesystem::path& file, const std::vector<TimelineRow>& rows);
 // The per-step and per-node errors as two CSV files with header lines (steps_file,
 // nodes_file), each written through a temporary file and a rename.
-Status writeErrorsCsv(const std::filesystem::path& steps_file, const std::filesystem::path& nodes_file,
-                      const OfflineRunSummary& summary);
+Status writeErrorsCsv(const std::filesystem::path& steps_file,
+                      const std::filesystem::path& nodes_file, const OfflineRunSummary& summary);
 // Reads what writeTimelineCsv wrote. Errors name the file and line.
 Expected<std::vector<TimelineRow>> readTimelineCsv(const std::filesystem::path& file);
 

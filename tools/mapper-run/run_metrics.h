@@ -23,7 +23,8 @@ double percentile(std::vector<double> v, double p);
 // Per-component wall time and step costs of the mapper between two timeline rows.
 class TimelineRecorder {
  public:
-  TimelineRecorder(const Mapper& mapper, double interval_s) : mapper_(mapper), interval_s_(interval_s) {}
+  TimelineRecorder(const Mapper& mapper, double interval_s)
+      : mapper_(mapper), interval_s_(interval_s) {}
   // Fills a row's store columns (TimelineRow::store_rows, store_bytes) when it is taken.
   void setStoreProbe(std::function<void(TimelineRow*)> probe) { store_probe_ = std::move(probe); }
   // Counts the views of the true poses (TimelineRow::views) when a row is taken.
@@ -79,7 +80,9 @@ template <class T>
 class FloorGrid {
  public:
   explicit FloorGrid(double cell_m) : cell_m_(cell_m) {}
-  void add(int floor, double x, double y, T item) { cells_[key(floor, x, y, 0, 0)].push_back(std::move(item)); }
+  void add(int floor, double x, double y, T item) {
+    cells_[key(floor, x, y, 0, 0)].push_back(std::move(item));
+  }
   // Calls near(item) for the items of the cells around (x, y) on `floor`, until it returns
   // true; whether one did.
   template <class F>
@@ -98,14 +101,15 @@ class FloorGrid {
  private:
   using Key = std::tuple<int, int64_t, int64_t>;
   Key key(int floor, double x, double y, int64_t dx, int64_t dy) const {
-    return {floor, static_cast<int64_t>(std::floor(x / cell_m_)) + dx, static_cast<int64_t>(std::floor(y / cell_m_)) + dy};
+    return {floor, static_cast<int64_t>(std::floor(x / cell_m_)) + dx,
+            static_cast<int64_t>(std::floor(y / cell_m_)) + dy};
   }
   double cell_m_;
   std::map<Key, std::vector<T>> cells_;
 };
 
-// True pose and floor of a node (or a step pose)'s keyframe, and the count of nodes placed where an earlier
-// session already had one.
+// True pose and floor of a node (or a step pose)'s keyframe, and the count of nodes placed where an
+// earlier session already had one.
 struct NodeTruth {
   core::SE3d world_T_body;
   int floor = -1;
@@ -115,8 +119,9 @@ struct NodeTruth {
 
 // For each session: how many of `queries` lie where an earlier session had a node of `nodes`
 // (same true floor, within radius_m and angle_rad), all at their true poses.
-std::vector<int64_t> inMappedArea(const std::vector<NodeTruth>& nodes, const std::vector<NodeTruth>& queries,
-                                  double radius_m, double angle_rad);
+std::vector<int64_t> inMappedArea(const std::vector<NodeTruth>& nodes,
+                                  const std::vector<NodeTruth>& queries, double radius_m,
+                                  double angle_rad);
 
 // Where each query lies against the nodes of earlier sessions (same true floor, true poses):
 // the cause a new node has (issue 22's accounting of late nodes).
@@ -126,9 +131,9 @@ enum class PlaceCause : uint8_t {
   kMapped = 2,      // an earlier node within radius_m and angle_rad: a duplicate
   kUnknown = 3,     // no true pose
 };
-std::vector<PlaceCause> placeCauses(const std::vector<NodeTruth>& nodes, const std::vector<NodeTruth>& queries,
-                                    double radius_m, double angle_rad);
-
+std::vector<PlaceCause> placeCauses(const std::vector<NodeTruth>& nodes,
+                                    const std::vector<NodeTruth>& queries, double radius_m,
+                                    double angle_rad);
 
 // The views the robot's true poses need (issue 22): a greedy cover of the poses, in the
 // order given, where a pose is a new view unless an earlier view lies on its floor within
@@ -138,7 +143,8 @@ std::vector<PlaceCause> placeCauses(const std::vector<NodeTruth>& nodes, const s
 // a robot that keeps meeting new views adds nodes however well it maps.
 class ViewCover {
  public:
-  ViewCover(double radius_m, double heading_rad) : radius_m_(radius_m), heading_rad_(heading_rad), views_(radius_m) {}
+  ViewCover(double radius_m, double heading_rad)
+      : radius_m_(radius_m), heading_rad_(heading_rad), views_(radius_m) {}
   // True when world_T_body is a new view.
   bool add(int floor, const core::SE3d& world_T_body);
   int64_t views() const { return count_; }
@@ -148,6 +154,5 @@ class ViewCover {
   int64_t count_ = 0;
   FloorGrid<core::SE2d> views_;  // in radius-sized cells
 };
-
 
 }  // namespace evermap::mapper

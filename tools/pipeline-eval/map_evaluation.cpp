@@ -23,14 +23,15 @@ namespace {
 Expected<core::SE3d> poseOf(const double* t, const double* q, const std::string& what) {
   const Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
   const double norm = quat.norm();
-  if (!std::isfinite(t[0]) || !std::isfinite(t[1]) || !std::isfinite(t[2]) || !std::isfinite(norm) ||
-      std::abs(norm - 1.0) > 1e-3)
+  if (!std::isfinite(t[0]) || !std::isfinite(t[1]) || !std::isfinite(t[2]) ||
+      !std::isfinite(norm) || std::abs(norm - 1.0) > 1e-3)
     return makeError(what, ": non-finite position or non-unit quaternion");
   return core::SE3d(quat.normalized(), core::Vec3(t[0], t[1], t[2]));
 }
 
 // SE(3)-aligned ATE of est against gt (paired by index).
-Expected<eval::ErrorStats> alignedAte(const std::vector<core::SE3d>& gt, std::vector<core::SE3d> est) {
+Expected<eval::ErrorStats> alignedAte(const std::vector<core::SE3d>& gt,
+                                      std::vector<core::SE3d> est) {
   auto aligned = eval::alignTrajectories(gt, est, eval::AlignmentMode::kSE3);
   if (!aligned) return aligned.error();
   for (auto& e : est) e = aligned->gt_S_est * e;
@@ -52,12 +53,14 @@ Expected<EvalMap> mapFromGraph(const map_graph_t& g) {
   for (const map_edge_t& e : g.edges) {
     if (e.type != map_edge_t::TYPE_LOOP) continue;
     ++m.loop_edges;
-    auto pose = poseOf(e.translation, e.orientation, "MAP_GRAPH edge " + std::to_string(e.from_node));
+    auto pose =
+        poseOf(e.translation, e.orientation, "MAP_GRAPH edge " + std::to_string(e.from_node));
     if (!pose) return pose.error();
     m.loops.push_back(EvalLoop{e.from_node, e.to_node, *pose});
   }
   for (const map_floor_t& f : g.floors) {
-    if (!std::isfinite(f.height_m)) return makeError("MAP_GRAPH floor ", f.index, ": height is not finite");
+    if (!std::isfinite(f.height_m))
+      return makeError("MAP_GRAPH floor ", f.index, ": height is not finite");
     m.floors[f.index] = f.height_m;
   }
   return m;
@@ -71,7 +74,8 @@ Expected<EvalMap> mapFromStore(const std::filesystem::path& file) {
   if (!snap) return snap.error();
   EvalMap m;
   for (const StoredNode& n : snap->nodes)
-    m.nodes.push_back(EvalNode{n.node.id, n.node.keyframe_utime, n.world_T_body, n.node.floor, n.node.session});
+    m.nodes.push_back(
+        EvalNode{n.node.id, n.node.keyframe_utime, n.world_T_body, n.node.floor, n.node.session});
   std::set<std::pair<int64_t, int64_t>> pairs, loops;
   for (const StoredEdge& e : snap->edges) {
     if (!e.constraint.accepted) continue;
@@ -138,7 +142,8 @@ bool RunTruth::at(int64_t utime, core::SE3d* out) const {
   if (hi == world_T_body.end() || hi == world_T_body.begin()) return false;
   auto lo = std::prev(hi);
   if (utime - lo->first > kMaxGap || hi->first - utime > kMaxGap) return false;
-  const double a = static_cast<double>(utime - lo->first) / static_cast<double>(hi->first - lo->first);
+  const double a =
+      static_cast<double>(utime - lo->first) / static_cast<double>(hi->first - lo->first);
   const core::Vec3 t = (1 - a) * lo->second.translation() + a * hi->second.translation();
   *out = core::SE3d(a < 0.5 ? lo->second.so3() : hi->second.so3(), t);
   return true;
@@ -164,13 +169,15 @@ Expected<RunTruth> readRunTruth(const std::filesystem::path& folder) {
   for (const auto& e : file->entries()) {
     int index = 0;
     char rest[16] = {};
-    if (std::sscanf(e.key.c_str(), "meta.floor.%d.%15s", &index, rest) == 2 && std::string(rest) == "height_m") {
+    if (std::sscanf(e.key.c_str(), "meta.floor.%d.%15s", &index, rest) == 2 &&
+        std::string(rest) == "height_m") {
       truth.floors[index] = std::atof(e.value.c_str());
     } else if (e.key.rfind("meta.session.", 0) == 0) {
       ++truth.sessions;
     }
   }
-  if (truth.floors.empty()) return makeError(sidecar.string(), ": no meta.floor.*.height_m lines (not a run sidecar?)");
+  if (truth.floors.empty())
+    return makeError(sidecar.string(), ": no meta.floor.*.height_m lines (not a run sidecar?)");
   std::vector<std::filesystem::path> tums;
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator(folder, ec))
@@ -187,14 +194,16 @@ Expected<RunTruth> readRunTruth(const std::filesystem::path& folder) {
 
 Expected<RunTruth> truthFromSamples(const std::map<int64_t, core::SE3d>& poses,
                                     const std::map<int64_t, std::pair<int, int>>& floor_session) {
-  if (poses.size() < 2) return makeError("ground truth: ", poses.size(), " GROUND_TRUTH samples (2 needed)");
+  if (poses.size() < 2)
+    return makeError("ground truth: ", poses.size(), " GROUND_TRUTH samples (2 needed)");
   RunTruth truth;
   truth.world_T_body = poses;
   std::map<int, std::vector<double>> heights;
   std::set<int> sessions;
   for (const auto& [utime, fs] : floor_session) {
     auto it = poses.find(utime);
-    if (fs.first >= 0 && it != poses.end()) heights[fs.first].push_back(it->second.translation().z());
+    if (fs.first >= 0 && it != poses.end())
+      heights[fs.first].push_back(it->second.translation().z());
     if (fs.second >= 0) sessions.insert(fs.second);
   }
   for (auto& [floor, z] : heights) {
@@ -224,7 +233,9 @@ Expected<RunTruth> readLogTruth(const std::vector<std::filesystem::path>& logs) 
     if (Status s = log.status(); !s) return s.error();
   }
   auto truth = truthFromSamples(poses, floor_session);
-  if (!truth) return makeError(logs.empty() ? std::string("no log") : logs.front().string(), ": ", truth.error().message);
+  if (!truth)
+    return makeError(logs.empty() ? std::string("no log") : logs.front().string(), ": ",
+                     truth.error().message);
   return truth;
 }
 
@@ -273,7 +284,8 @@ Expected<MapEvaluation> evaluateMap(const EvalMap& map, const RunTruth& truth,
     if (a == node_truth.end() || b == node_truth.end()) continue;
     ++e.loops_with_truth;
     const core::SE3d err = (a->second.inverse() * b->second).inverse() * l.from_T_to;
-    const double off_m = err.translation().norm(), off_deg = core::rotationAngle(err.so3()) * 180.0 / M_PI;
+    const double off_m = err.translation().norm(),
+                 off_deg = core::rotationAngle(err.so3()) * 180.0 / M_PI;
     if (off_m > 0.5 || off_deg > 5.0) {
       ++e.false_loops;
       std::ostringstream line;
@@ -294,8 +306,10 @@ Expected<MapEvaluation> evaluateMap(const EvalMap& map, const RunTruth& truth,
     if (auto aligned = eval::alignTrajectories(gt, est, eval::AlignmentMode::kSE3)) {
       std::vector<std::pair<double, const EvalNode*>> off;
       for (size_t i = 0; i < gt.size(); ++i)
-        off.emplace_back(((aligned->gt_S_est * est[i]).translation() - gt[i].translation()).norm(), est_nodes[i]);
-      std::sort(off.begin(), off.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+        off.emplace_back(((aligned->gt_S_est * est[i]).translation() - gt[i].translation()).norm(),
+                         est_nodes[i]);
+      std::sort(off.begin(), off.end(),
+                [](const auto& a, const auto& b) { return a.first > b.first; });
       for (size_t i = 0; i < std::min<size_t>(5, off.size()); ++i) {
         std::ostringstream line;
         line << off[i].second->id << " (session " << off[i].second->session << ", utime "
@@ -345,24 +359,27 @@ std::string MapEvaluation::text() const {
   if (std::isnan(ate_rmse_m))
     s << "node_ate_rmse_m n/a (" << nodes_with_truth << " nodes with ground truth, 3 needed)\n";
   else
-    s << "node_ate_rmse_m " << ate_rmse_m << "\nnode_ate_median_m " << ate_median_m << "\nnode_ate_max_m " << ate_max_m
-      << "\n";
+    s << "node_ate_rmse_m " << ate_rmse_m << "\nnode_ate_median_m " << ate_median_m
+      << "\nnode_ate_max_m " << ate_max_m << "\n";
   for (const std::string& line : worst_node_lines) s << "node_ate_worst " << line << "\n";
   if (poses > 0)
-    s << "poses " << poses << "\npose_ate_rmse_m " << pose_ate_rmse_m << "\npose_ate_median_m " << pose_ate_median_m
-      << "\n";
+    s << "poses " << poses << "\npose_ate_rmse_m " << pose_ate_rmse_m << "\npose_ate_median_m "
+      << pose_ate_median_m << "\n";
   return s.str();
 }
 
 std::string MapEvaluation::json() const {
   std::ostringstream s;
-  s << "{\"nodes\": " << nodes << ", \"nodes_with_truth\": " << nodes_with_truth << ", \"edges\": " << edges
-    << ", \"loop_edges\": " << loop_edges << ", \"floors\": " << floors << ", \"floors_right\": " << floors_right
-    << ", \"nodes_on_true_floor\": " << nodes_floor_right << ", \"nodes_on_consistent_floor\": "
-    << nodes_floor_consistent << ", \"loop_edges_false\": " << false_loops << ", \"sessions\": " << sessions
-    << ", \"sessions_truth\": " << sessions_truth << ", \"node_ate_rmse_m\": " << jsonNumber(ate_rmse_m)
-    << ", \"node_ate_median_m\": " << jsonNumber(ate_median_m) << ", \"node_ate_max_m\": " << jsonNumber(ate_max_m)
-    << ", \"poses\": " << poses << ", \"pose_ate_rmse_m\": " << pose_ate_rmse_m
+  s << "{\"nodes\": " << nodes << ", \"nodes_with_truth\": " << nodes_with_truth
+    << ", \"edges\": " << edges << ", \"loop_edges\": " << loop_edges << ", \"floors\": " << floors
+    << ", \"floors_right\": " << floors_right << ", \"nodes_on_true_floor\": " << nodes_floor_right
+    << ", \"nodes_on_consistent_floor\": " << nodes_floor_consistent
+    << ", \"loop_edges_false\": " << false_loops << ", \"sessions\": " << sessions
+    << ", \"sessions_truth\": " << sessions_truth
+    << ", \"node_ate_rmse_m\": " << jsonNumber(ate_rmse_m)
+    << ", \"node_ate_median_m\": " << jsonNumber(ate_median_m)
+    << ", \"node_ate_max_m\": " << jsonNumber(ate_max_m) << ", \"poses\": " << poses
+    << ", \"pose_ate_rmse_m\": " << pose_ate_rmse_m
     << ", \"pose_ate_median_m\": " << pose_ate_median_m << "}\n";
   return s.str();
 }

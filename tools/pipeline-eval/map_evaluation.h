@@ -43,7 +43,7 @@ struct EvalMap {
   std::vector<EvalNode> nodes;
   int64_t edges = 0;
   int64_t loop_edges = 0;
-  std::vector<EvalLoop> loops;  // from MAP_GRAPH (a store lists constraints, not pairs)
+  std::vector<EvalLoop> loops;   // from MAP_GRAPH (a store lists constraints, not pairs)
   std::map<int, double> floors;  // index -> height, metres
 };
 
@@ -54,9 +54,9 @@ Expected<EvalMap> mapFromStore(const std::filesystem::path& store);
 
 // What a recorded log of the live pipeline holds for the evaluation.
 struct RecordedRun {
-  EvalMap map;                       // from the last MAP_GRAPH
+  EvalMap map;  // from the last MAP_GRAPH
   bool have_stats = false;
-  mapper_stats_t stats{};            // the last MAPPER_STATS
+  mapper_stats_t stats{};                             // the last MAPPER_STATS
   std::vector<std::pair<int64_t, core::SE3d>> poses;  // POSE (utime, world_T_body)
   int64_t graphs = 0;
   int64_t undecodable = 0;
@@ -90,20 +90,20 @@ struct MapEvaluation {
   int64_t edges = 0;
   int64_t loop_edges = 0;
   int floors = 0;
-  int floors_right = 0;          // of the map's floor table, within 0.25 m of the building's
-  int64_t nodes_floor_right = 0; // floor label = the true floor
+  int floors_right = 0;           // of the map's floor table, within 0.25 m of the building's
+  int64_t nodes_floor_right = 0;  // floor label = the true floor
   // Floor labels are the map's own (elevator-proc numbers floors from the session's start):
   // nodes whose label maps to their true floor under the one label -> floor assignment that
   // most nodes agree with; and how many labels that assignment has.
   int64_t nodes_floor_consistent = 0;
-  int64_t loops_with_truth = 0;  // loop edges whose nodes have truth
-  int64_t false_loops = 0;       // ... off the truth by > 0.5 m or > 5 degrees
+  int64_t loops_with_truth = 0;               // loop edges whose nodes have truth
+  int64_t false_loops = 0;                    // ... off the truth by > 0.5 m or > 5 degrees
   std::vector<std::string> worst_node_lines;  // the 5 nodes furthest off after the alignment
   std::vector<std::string> false_loop_lines;  // each: "A-B: D m, R deg off the truth
-  int sessions = 0;              // distinct sessions among the nodes
+  int sessions = 0;                           // distinct sessions among the nodes
   int sessions_truth = 0;
   double ate_rmse_m = 0.0, ate_median_m = 0.0, ate_max_m = 0.0;
-  int64_t poses = 0;             // POSE messages with truth
+  int64_t poses = 0;  // POSE messages with truth
   double pose_ate_rmse_m = 0.0, pose_ate_median_m = 0.0;
   std::string text() const;
   std::string json() const;

@@ -26,8 +26,8 @@ struct EpipolarCheckOptions {
 };
 
 struct EpipolarCheckResult {
-  int matches = 0;   // guided matches tried
-  int inliers = 0;   // consistent with the fundamental matrix (0 when fewer than 8 matches)
+  int matches = 0;  // guided matches tried
+  int inliers = 0;  // consistent with the fundamental matrix (0 when fewer than 8 matches)
   bool accepted = false;
 };
 

@@ -73,8 +73,8 @@ std::vector<DescriptorMatch> matchGuided(const FeatureVector& direct_a,
       if (options.mutual) {
         // Position of m.index in ib->features (they are increasing).
         const auto& fb = ib->features;
-        const size_t pos = static_cast<size_t>(
-            std::lower_bound(fb.begin(), fb.end(), m.index) - fb.begin());
+        const size_t pos =
+            static_cast<size_t>(std::lower_bound(fb.begin(), fb.end(), m.index) - fb.begin());
         if (ba[pos].index != ia->features[i]) continue;
       }
       out.push_back({ia->features[i], m.index, m.distance});

@@ -23,7 +23,8 @@ LoopGroundTruth::LoopGroundTruth(size_t n, std::vector<uint8_t> cells)
 
 Expected<LoopGroundTruth> LoopGroundTruth::fromImage(const std::filesystem::path& file) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) return makeError(file.string(), ": no such file");
+  if (!std::filesystem::is_regular_file(file, ec))
+    return makeError(file.string(), ": no such file");
   const cv::Mat m = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
   if (m.empty()) return makeError(file.string(), ": not a readable image");
   if (m.rows != m.cols) {
@@ -120,8 +121,7 @@ const CandidateRecord* decide(const QueryRecord& r, Decision decision, int min_i
 }  // namespace
 
 PrPoint evaluateAt(const std::vector<QueryRecord>& records, const LoopGroundTruth& gt,
-                   Decision decision, int exclude_recent, double threshold,
-                   int min_inliers) {
+                   Decision decision, int exclude_recent, double threshold, int min_inliers) {
   PrPoint p;
   p.threshold = threshold;
   for (size_t i = 0; i < records.size() && i < gt.size(); ++i) {

@@ -63,10 +63,10 @@ struct SequenceOptions {
 };
 
 struct CandidateRecord {
-  size_t image = 0;   // index of the candidate image
-  double score = 0;   // normalised L1 score
-  int matches = 0;    // guided matches
-  int inliers = 0;    // epipolar RANSAC inliers
+  size_t image = 0;  // index of the candidate image
+  double score = 0;  // normalised L1 score
+  int matches = 0;   // guided matches
+  int inliers = 0;   // epipolar RANSAC inliers
   bool geometric_ok = false;
 };
 
@@ -117,7 +117,6 @@ PrCurve precisionRecall(const std::vector<QueryRecord>& records, const LoopGroun
 // candidates pass (inliers >= min_inliers) instead of the check's recorded verdict, so the
 // inlier threshold can be swept without running the detector again.
 PrPoint evaluateAt(const std::vector<QueryRecord>& records, const LoopGroundTruth& gt,
-                   Decision decision, int exclude_recent, double threshold,
-                   int min_inliers = -1);
+                   Decision decision, int exclude_recent, double threshold, int min_inliers = -1);
 
 }  // namespace evermap::bow

@@ -1,8 +1,7 @@
-// evermap-place-eval: runs the bag-of-words loop detector (tools/place-eval/loop_evaluation.h) over a
-// monocular image sequence with a loop ground-truth matrix and prints the precision-recall
-// curve of the raw scores and of the scores after the epipolar check, and the figures at the
-// chosen thresholds. Exit status: 0 done, 1 bad input (the message names it), 2 bad command
-// line.
+// evermap-place-eval: runs the bag-of-words loop detector (tools/place-eval/loop_evaluation.h) over
+// a monocular image sequence with a loop ground-truth matrix and prints the precision-recall curve
+// of the raw scores and of the scores after the epipolar check, and the figures at the chosen
+// thresholds. Exit status: 0 done, 1 bad input (the message names it), 2 bad command line.
 
 #include <cstdio>
 #include <cstdlib>
@@ -39,23 +38,37 @@ int parse(int argc, char** argv, Command* c) {
   cli.value("--train-default", &c->train_root, "DIR",
             "train the default vocabulary from the shared data under DIR (k=10, L=5)");
   cli.value("--exclude-recent", &c->options.exclude_recent, "N",
-            "most recent images not searched (10)").min(0);
+            "most recent images not searched (10)")
+      .min(0);
   cli.value("--candidates", &c->options.candidates, "N",
-            "candidates per query for the geometric check (5)").min(1);
+            "candidates per query for the geometric check (5)")
+      .min(1);
   cli.value("--min-inliers", &c->options.geometry.min_inliers, "N",
-            "epipolar RANSAC inliers to accept (30)").min(0);
-  cli.value("--raw-threshold", &c->raw_threshold, "S", "operating threshold of the raw score (0.10)").min(0);
+            "epipolar RANSAC inliers to accept (30)")
+      .min(0);
+  cli.value("--raw-threshold", &c->raw_threshold, "S",
+            "operating threshold of the raw score (0.10)")
+      .min(0);
   cli.value("--geo-threshold", &c->geo_threshold, "S",
-            "operating threshold of the score after the check (0)").min(0);
-  cli.value("--features", &c->options.orb.max_features, "N", "ORB features per image (1000)").min(1).max(100000);
+            "operating threshold of the score after the check (0)")
+      .min(0);
+  cli.value("--features", &c->options.orb.max_features, "N", "ORB features per image (1000)")
+      .min(1)
+      .max(100000);
   cli.value("--direct-depth", &c->options.direct_index_depth, "N",
-            "direct-index depth for guided matching (2)").min(0);
+            "direct-index depth for guided matching (2)")
+      .min(0);
   cli.value("--ratio", &c->options.geometry.matching.ratio, "R",
-            "ratio test of guided matching (0.8; 1 = off)").positive().max(1);
+            "ratio test of guided matching (0.8; 1 = off)")
+      .positive()
+      .max(1);
   cli.value("--max-distance", &c->options.geometry.matching.max_distance, "N",
-            "largest Hamming distance of a match (64)").min(0).max(256);
+            "largest Hamming distance of a match (64)")
+      .min(0)
+      .max(256);
   cli.value("--ransac-px", &c->options.geometry.ransac_threshold_px, "P",
-            "epipolar RANSAC threshold, pixels (2)").positive();
+            "epipolar RANSAC threshold, pixels (2)")
+      .positive();
   cli.value("--csv", &c->csv, "FILE", "write every query's candidates as CSV");
   cli.flag("--full-curve", &c->full_curve, "print every point of the curves, not a summary");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
@@ -109,17 +122,16 @@ int main(int argc, char** argv) {
   auto gt = LoopGroundTruth::fromImage(cmd->gt);
   if (!gt) return fail(gt.error().message);
   if (gt->size() != images->size()) {
-    return fail(cmd->gt + ": a " + std::to_string(gt->size()) + "x" +
-                std::to_string(gt->size()) + " matrix for " + std::to_string(images->size()) +
-                " images in " + cmd->images);
+    return fail(cmd->gt + ": a " + std::to_string(gt->size()) + "x" + std::to_string(gt->size()) +
+                " matrix for " + std::to_string(images->size()) + " images in " + cmd->images);
   }
   std::optional<Vocabulary> vocabulary;
   if (!cmd->vocab.empty()) {
     auto v = loadAnyVocabulary(cmd->vocab);
     if (!v) return fail(v.error().message);
     vocabulary = std::move(*v);
-    std::printf("vocabulary %s: k=%d L=%d, %zu words\n", cmd->vocab.c_str(), vocabulary->branching(),
-                vocabulary->levels(), vocabulary->numWords());
+    std::printf("vocabulary %s: k=%d L=%d, %zu words\n", cmd->vocab.c_str(),
+                vocabulary->branching(), vocabulary->levels(), vocabulary->numWords());
   } else {
     ImageTrainingSummary summary;
     auto v = trainFromImageFolders(defaultTrainingFolders(cmd->train_root), {}, &summary);
@@ -146,17 +158,18 @@ int main(int argc, char** argv) {
                 100 * p.precision, 100 * p.recall);
   }
   std::printf("\nat the chosen thresholds:\n");
-  const PrPoint raw =
-      evaluateAt(*records, *gt, Decision::kRawScore, cmd->options.exclude_recent, cmd->raw_threshold);
+  const PrPoint raw = evaluateAt(*records, *gt, Decision::kRawScore, cmd->options.exclude_recent,
+                                 cmd->raw_threshold);
   const PrPoint geo = evaluateAt(*records, *gt, Decision::kGeometricCheck,
                                  cmd->options.exclude_recent, cmd->geo_threshold);
   std::printf("  raw score        >= %.3f: precision %.1f%%, recall %.1f%% (TP %d, FP %d)\n",
               raw.threshold, 100 * raw.precision, 100 * raw.recall, raw.true_positives,
               raw.false_positives);
-  std::printf("  score + epipolar >= %.3f, >= %d inliers: precision %.1f%%, recall %.1f%% "
-              "(TP %d, FP %d)\n",
-              geo.threshold, cmd->options.geometry.min_inliers, 100 * geo.precision,
-              100 * geo.recall, geo.true_positives, geo.false_positives);
+  std::printf(
+      "  score + epipolar >= %.3f, >= %d inliers: precision %.1f%%, recall %.1f%% "
+      "(TP %d, FP %d)\n",
+      geo.threshold, cmd->options.geometry.min_inliers, 100 * geo.precision, 100 * geo.recall,
+      geo.true_positives, geo.false_positives);
 
   if (!cmd->csv.empty()) {
     std::string csv = "query,rank,candidate,score,matches,inliers,geometric_ok,ground_truth\n";

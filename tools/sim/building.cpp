@@ -76,7 +76,8 @@ class FloorBuilder {
     const double hw = o_.corridor_half_width_m;
     floor_.lobby = station(0, 0.0, PlaceKind::kLobby);
     floor_.places[floor_.lobby].kind = PlaceKind::kLobby;
-    floor_.cab = Box{Vec2(-0.5 * o_.cab_width_m, hw), Vec2(0.5 * o_.cab_width_m, hw + o_.cab_depth_m)};
+    floor_.cab =
+        Box{Vec2(-0.5 * o_.cab_width_m, hw), Vec2(0.5 * o_.cab_width_m, hw + o_.cab_depth_m)};
     floor_.cab_place = addPlace(Vec2(0.0, hw + 0.5 * o_.cab_depth_m), PlaceKind::kCab);
     connect(floor_.lobby, floor_.cab_place);
   }
@@ -120,11 +121,16 @@ class FloorBuilder {
 
 const char* placeKindName(PlaceKind kind) {
   switch (kind) {
-    case PlaceKind::kJunction: return "junction";
-    case PlaceKind::kDoor: return "door";
-    case PlaceKind::kRoom: return "room";
-    case PlaceKind::kLobby: return "lobby";
-    case PlaceKind::kCab: return "cab";
+    case PlaceKind::kJunction:
+      return "junction";
+    case PlaceKind::kDoor:
+      return "door";
+    case PlaceKind::kRoom:
+      return "room";
+    case PlaceKind::kLobby:
+      return "lobby";
+    case PlaceKind::kCab:
+      return "cab";
   }
   return "?";
 }
@@ -166,7 +172,8 @@ std::vector<int> Floor::shortestPath(int from, int to) const {
   while (p != to) {
     int next = -1;
     for (const Passage& e : passages[p]) {
-      if (std::abs(dist[e.to] + e.length_m - dist[p]) < 1e-9 && (next < 0 || e.to < next)) next = e.to;
+      if (std::abs(dist[e.to] + e.length_m - dist[p]) < 1e-9 && (next < 0 || e.to < next))
+        next = e.to;
     }
     if (next < 0) return {};  // cannot happen on a consistent graph
     path.push_back(next);
@@ -200,7 +207,8 @@ Status BuildingOptions::validate() const {
     return makeError("cross_corridor_spacing_m: must leave room for one room between corridors");
   }
   if (!(long_corridor_spacing_m >= 2.0 * (corridor_half_width_m + room_depth_m))) {
-    return makeError("long_corridor_spacing_m: must be >= 2 * (corridor_half_width_m + room_depth_m)");
+    return makeError(
+        "long_corridor_spacing_m: must be >= 2 * (corridor_half_width_m + room_depth_m)");
   }
   if (main_cross_corridors < 2) return makeError("main_cross_corridors: must be >= 2");
   if (main_long_corridors < 1) return makeError("main_long_corridors: must be >= 1");
@@ -223,7 +231,8 @@ Status BuildingOptions::validate() const {
 int Building::nearestFloor(double z) const {
   int best = 0;
   for (size_t i = 1; i < floors.size(); ++i) {
-    if (std::abs(floors[i].height_m - z) < std::abs(floors[best].height_m - z)) best = static_cast<int>(i);
+    if (std::abs(floors[i].height_m - z) < std::abs(floors[best].height_m - z))
+      best = static_cast<int>(i);
   }
   return best;
 }
@@ -236,9 +245,11 @@ Building generateBuilding(const BuildingOptions& o, Random& rng) {
   for (int f = 0; f < o.floors; ++f) {
     if (f > 0) height += o.storey_height_m + rng.uniform(-o.storey_jitter_m, o.storey_jitter_m);
     const bool main = f == o.main_floor;
-    const int n_cross = main ? o.main_cross_corridors
-                             : static_cast<int>(rng.integer(o.min_cross_corridors, o.max_cross_corridors));
-    const int n_long = main ? o.main_long_corridors : static_cast<int>(rng.integer(1, o.max_long_corridors));
+    const int n_cross =
+        main ? o.main_cross_corridors
+             : static_cast<int>(rng.integer(o.min_cross_corridors, o.max_cross_corridors));
+    const int n_long =
+        main ? o.main_long_corridors : static_cast<int>(rng.integer(1, o.max_long_corridors));
     // The shaft (x = 0) lies midway between cross corridors j and j + 1.
     const int j = main ? (n_cross - 2) / 2 : static_cast<int>(rng.index(n_cross - 1));
     const double x_min = -(j + 0.5) * o.cross_corridor_spacing_m;

@@ -61,9 +61,9 @@ struct Floor {
   std::vector<Place> places;
   std::vector<std::vector<Passage>> passages;  // adjacency, per place
   std::vector<Room> rooms;
-  Box cab;                // elevator cab interior
-  int lobby = -1;         // place in front of the elevator door
-  int cab_place = -1;     // place inside the cab
+  Box cab;             // elevator cab interior
+  int lobby = -1;      // place in front of the elevator door
+  int cab_place = -1;  // place inside the cab
 
   // The room whose box contains p, or -1.
   int roomAt(const Vec2& p) const;
@@ -76,20 +76,20 @@ struct Floor {
 
 struct BuildingOptions {
   int floors = 10;
-  int main_floor = 2;              // the floor patrolled most (the paper's experiments: floor 3)
-  double storey_height_m = 4.5;    // nominal floor-to-floor height
-  double storey_jitter_m = 0.4;    // each storey height is nominal ± this (uniform)
+  int main_floor = 2;            // the floor patrolled most (the paper's experiments: floor 3)
+  double storey_height_m = 4.5;  // nominal floor-to-floor height
+  double storey_jitter_m = 0.4;  // each storey height is nominal ± this (uniform)
   double corridor_half_width_m = 1.25;
   double cross_corridor_spacing_m = 15.0;
   double long_corridor_spacing_m = 16.0;
-  int main_cross_corridors = 7;    // main floor: 7 cross corridors -> 90 m long
+  int main_cross_corridors = 7;  // main floor: 7 cross corridors -> 90 m long
   int main_long_corridors = 2;
-  int min_cross_corridors = 3;     // other floors: drawn in [min, max]
+  int min_cross_corridors = 3;  // other floors: drawn in [min, max]
   int max_cross_corridors = 7;
-  int max_long_corridors = 2;      // other floors: drawn in [1, max]
+  int max_long_corridors = 2;  // other floors: drawn in [1, max]
   double room_width_m = 5.0;
   double room_depth_m = 6.0;
-  double room_probability = 0.6;   // per room slot along a corridor side
+  double room_probability = 0.6;  // per room slot along a corridor side
   double dark_room_fraction = 0.15;
   double blank_wall_fraction = 0.2;  // of junctions
   double cab_width_m = 2.0;

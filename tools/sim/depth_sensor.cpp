@@ -27,17 +27,24 @@ bool edge(float a, float b, float jump) {
 }  // namespace
 
 Status DepthSensorOptions::validate() const {
-  if (!(max_range_m > 0.0 && max_range_m <= 100.0)) return makeError("max_range_m: must be in (0, 100]");
-  if (!(min_range_m >= 0.0 && min_range_m < max_range_m)) return makeError("min_range_m: need 0 <= min < max_range_m");
-  if (!(noise_coefficient >= 0.0 && noise_coefficient < 0.1)) return makeError("noise_coefficient: must be in [0, 0.1)");
+  if (!(max_range_m > 0.0 && max_range_m <= 100.0))
+    return makeError("max_range_m: must be in (0, 100]");
+  if (!(min_range_m >= 0.0 && min_range_m < max_range_m))
+    return makeError("min_range_m: need 0 <= min < max_range_m");
+  if (!(noise_coefficient >= 0.0 && noise_coefficient < 0.1))
+    return makeError("noise_coefficient: must be in [0, 0.1)");
   if (!(unit_m > 0.0 && unit_m <= 0.1)) return makeError("unit_m: must be in (0, 0.1]");
   if (!(max_range_m / unit_m < 65535.0)) {
-    return makeError("unit_m: max_range_m / unit_m must be < 65535 (16-bit depth), got ", max_range_m / unit_m);
+    return makeError("unit_m: max_range_m / unit_m must be < 65535 (16-bit depth), got ",
+                     max_range_m / unit_m);
   }
-  if (!(edge_jump_fraction > 0.0 && edge_jump_fraction <= 10.0)) return makeError("edge_jump_fraction: must be in (0, 10]");
+  if (!(edge_jump_fraction > 0.0 && edge_jump_fraction <= 10.0))
+    return makeError("edge_jump_fraction: must be in (0, 10]");
   if (edge_hole_px < 0 || edge_hole_px > 16) return makeError("edge_hole_px: must be in [0, 16]");
-  if (!(shadow_baseline_m >= 0.0 && shadow_baseline_m <= 1.0)) return makeError("shadow_baseline_m: must be in [0, 1]");
-  if (!(dropout_fraction >= 0.0 && dropout_fraction < 1.0)) return makeError("dropout_fraction: must be in [0, 1)");
+  if (!(shadow_baseline_m >= 0.0 && shadow_baseline_m <= 1.0))
+    return makeError("shadow_baseline_m: must be in [0, 1]");
+  if (!(dropout_fraction >= 0.0 && dropout_fraction < 1.0))
+    return makeError("dropout_fraction: must be in [0, 1)");
   return Ok{};
 }
 
@@ -51,7 +58,9 @@ DepthSensor::DepthSensor(const DepthSensorOptions& options, double fx, uint64_t 
 
 void DepthSensor::measure(const cv::Mat& truth, cv::Mat* out) {
   if (truth.type() != CV_32FC1 || truth.cols > kMaxWidth) {
-    std::fprintf(stderr, "evermap::sim: DepthSensor::measure needs a CV_32FC1 depth up to %d wide\n", kMaxWidth);
+    std::fprintf(stderr,
+                 "evermap::sim: DepthSensor::measure needs a CV_32FC1 depth up to %d wide\n",
+                 kMaxWidth);
     std::abort();
   }
   const int W = truth.cols, H = truth.rows;
@@ -89,7 +98,8 @@ void DepthSensor::measure(const cv::Mat& truth, cv::Mat* out) {
         if (!(far > near * (1.0f + jump))) continue;
         const double width = fb * (1.0 / near - (std::isfinite(far) ? 1.0 / far : 0.0));
         const int last = std::max(0, u - static_cast<int>(std::ceil(width)));
-        for (int s = u - 1; s >= last && !(valid(z[s]) && z[s] <= near * (1.0f + jump)); --s) h[s] = 1;
+        for (int s = u - 1; s >= last && !(valid(z[s]) && z[s] <= near * (1.0f + jump)); --s)
+          h[s] = 1;
       }
     }
   }

@@ -37,9 +37,9 @@ struct DepthSensorOptions {
   double noise_coefficient = 1.425e-3;  // σ_z = noise_coefficient z², 1/m (0: exact depth)
   double unit_m = 0.0002;               // metres per depth unit (max_range_m / unit_m < 65535)
   double edge_jump_fraction = 0.1;      // neighbours differing by more than this: a depth edge
-  int edge_hole_px = 1;                 // holes this far from a depth edge, pixels (0: the edge only)
-  double shadow_baseline_m = 0.075;     // projector to IR camera, m (0: no shadows)
-  double dropout_fraction = 0.002;      // pixels dropped at random
+  int edge_hole_px = 1;              // holes this far from a depth edge, pixels (0: the edge only)
+  double shadow_baseline_m = 0.075;  // projector to IR camera, m (0: no shadows)
+  double dropout_fraction = 0.002;   // pixels dropped at random
 
   Status validate() const;  // messages start with the field's name
 };

@@ -16,10 +16,7 @@
 #include "tools/sim/streams.h"
 
 namespace evermap::sim {
-namespace {
-
-
-}  // namespace
+namespace {}  // namespace
 
 std::string ImageSessionSummary::text() const {
   std::ostringstream out;
@@ -57,7 +54,8 @@ Expected<std::unique_ptr<ImageSimulator>> ImageSimulator::create(const ImageSimO
   if (!textures) return textures.error();
   sim->textures_ = std::make_unique<TextureLibrary>(std::move(*textures));
   Random paint_rng = Random::derive(o.sim.seed, static_cast<uint64_t>(Stream::kPainting));
-  auto world = buildRenderWorld(sim->plan_.building(), o.sim.building, o.render.world, *sim->textures_, paint_rng);
+  auto world = buildRenderWorld(sim->plan_.building(), o.sim.building, o.render.world,
+                                *sim->textures_, paint_rng);
   if (!world) return world.error();
   sim->world_ = std::move(*world);
   const Trajectory& traj = *sim->session_.trajectory;
@@ -65,11 +63,13 @@ Expected<std::unique_ptr<ImageSimulator>> ImageSimulator::create(const ImageSimO
   const VoOptions& vo = o.sim.sensors.vo;
   sim->passers_ = Intervals(traj.startUtime(), traj.endUtime(), vo.passerby_rate_per_hour,
                             vo.passerby_min_s, vo.passerby_max_s, passer_rng);
-  sim->renderer_ = std::make_unique<ImageRenderer>(*sim->textures_, o.camera(), o.render.noise_sigma_gray,
-                                                   mixSeed(o.sim.seed, static_cast<uint64_t>(Stream::kRenderNoise) + index));
+  sim->renderer_ = std::make_unique<ImageRenderer>(
+      *sim->textures_, o.camera(), o.render.noise_sigma_gray,
+      mixSeed(o.sim.seed, static_cast<uint64_t>(Stream::kRenderNoise) + index));
   sim->renderer_->setLighting(o.lighting.forSession(index, o.sim.seed));
   sim->depth_sensor_ = std::make_unique<DepthSensor>(
-      o.render.depth, o.sim.sensors.camera.fx, mixSeed(o.sim.seed, static_cast<uint64_t>(Stream::kDepthNoise) + index));
+      o.render.depth, o.sim.sensors.camera.fx,
+      mixSeed(o.sim.seed, static_cast<uint64_t>(Stream::kDepthNoise) + index));
   return sim;
 }
 
@@ -82,7 +82,8 @@ int64_t ImageSimulator::endUtime() const {
 }
 
 core::StereoCalibration ImageSimulator::calibration() const {
-  return options_.sim.sensors.camera.stereoCalibration(options_.render.width, options_.render.height);
+  return options_.sim.sensors.camera.stereoCalibration(options_.render.width,
+                                                       options_.render.height);
 }
 
 FrameFacts ImageSimulator::facts(int64_t utime, const BodyState& state) const {
@@ -115,16 +116,19 @@ std::vector<Occluder> ImageSimulator::passersBy(int64_t utime) const {
     const auto [b, e] = spans[i];
     if (utime < b || utime >= e) continue;
     // The look of this passer-by: its own stream, so it does not depend on the frame rate.
-    Random rng = Random::derive(options_.sim.seed, static_cast<uint64_t>(Stream::kPasserbyLook) + static_cast<uint64_t>(i) * 7919 +
-                                                       static_cast<uint64_t>(options_.render.session));
+    Random rng =
+        Random::derive(options_.sim.seed, static_cast<uint64_t>(Stream::kPasserbyLook) +
+                                              static_cast<uint64_t>(i) * 7919 +
+                                              static_cast<uint64_t>(options_.render.session));
     const PasserbyOptions& p = options_.passerby;
     const double distance = rng.uniform(p.distance_min_m, p.distance_max_m);
     const bool from_left = rng.bernoulli(0.5);
     const std::vector<int>& pool = textures_->people.empty() ? textures_->wall : textures_->people;
     const int texture = pool[static_cast<size_t>(rng.index(static_cast<int64_t>(pool.size())))];
     const Trajectory& traj = *session_.trajectory;
-    const SE3d cam_mid = traj.at(std::clamp((b + e) / 2, traj.startUtime(), traj.endUtime())).world_T_body *
-                         options_.sim.sensors.camera.bodyTCam();
+    const SE3d cam_mid =
+        traj.at(std::clamp((b + e) / 2, traj.startUtime(), traj.endUtime())).world_T_body *
+        options_.sim.sensors.camera.bodyTCam();
     Vec2 fwd = cam_mid.so3().matrix().col(2).head<2>();
     fwd.normalize();
     const Vec2 left(-fwd.y(), fwd.x());
@@ -134,9 +138,11 @@ std::vector<Occluder> ImageSimulator::passersBy(int64_t utime) const {
     const double half_view = distance * 0.5 * cam.width / cam.fx + 0.5 * p.width_m + 0.1;
     const double x0 = from_left ? half_view : -half_view;
     const double tau = static_cast<double>(utime - b) / static_cast<double>(e - b);
-    const double shape = tau - 0.9 * std::sin(2.0 * std::numbers::pi * tau) / (2.0 * std::numbers::pi);
+    const double shape =
+        tau - 0.9 * std::sin(2.0 * std::numbers::pi * tau) / (2.0 * std::numbers::pi);
     const double x = x0 * (1.0 - 2.0 * shape);
-    const Vec3 c = (traj.at(utime).world_T_body * options_.sim.sensors.camera.bodyTCam()).translation();
+    const Vec3 c =
+        (traj.at(utime).world_T_body * options_.sim.sensors.camera.bodyTCam()).translation();
     Occluder o;
     o.centre = c.head<2>() + distance * fwd + x * left;
     o.normal = -fwd;
@@ -156,19 +162,22 @@ FrameFacts ImageSimulator::renderPair(int64_t utime, cv::Mat* left, cv::Mat* rig
   const SE3d world_T_left = state.world_T_body * c.bodyTCam();
   const SE3d world_T_right = world_T_left * SE3d(core::SO3d(), Vec3(c.baseline_m, 0.0, 0.0));
   const std::vector<Occluder> occluders = passersBy(utime);
-  const RenderFloor& floor = f.closed_cab ? world_.closed_cab : world_.floors[static_cast<size_t>(f.floor)];
+  const RenderFloor& floor =
+      f.closed_cab ? world_.closed_cab : world_.floors[static_cast<size_t>(f.floor)];
   const double z_shift = f.closed_cab ? state.world_T_body.translation().z() : 0.0;
   renderer_->render(floor, z_shift, world_T_left, occluders, left);
   renderer_->render(floor, z_shift, world_T_right, occluders, right);
   return f;
 }
 
-FrameFacts ImageSimulator::renderRgbd(int64_t utime, cv::Mat* gray, cv::Mat* depth, cv::Mat* truth) {
+FrameFacts ImageSimulator::renderRgbd(int64_t utime, cv::Mat* gray, cv::Mat* depth,
+                                      cv::Mat* truth) {
   const BodyState state = session_.trajectory->at(utime);
   const FrameFacts f = facts(utime, state);
   const SE3d world_T_cam = state.world_T_body * options_.sim.sensors.camera.bodyTCam();
   const std::vector<Occluder> occluders = passersBy(utime);
-  const RenderFloor& floor = f.closed_cab ? world_.closed_cab : world_.floors[static_cast<size_t>(f.floor)];
+  const RenderFloor& floor =
+      f.closed_cab ? world_.closed_cab : world_.floors[static_cast<size_t>(f.floor)];
   const double z_shift = f.closed_cab ? state.world_T_body.translation().z() : 0.0;
   cv::Mat& exact = truth ? *truth : depth_truth_;
   renderer_->render(floor, z_shift, world_T_cam, occluders, gray, &exact);
@@ -176,7 +185,8 @@ FrameFacts ImageSimulator::renderRgbd(int64_t utime, cv::Mat* gray, cv::Mat* dep
   return f;
 }
 
-Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::function<bool(double)>& progress) {
+Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out,
+                                                  const std::function<bool(double)>& progress) {
   const ImageSimOptions& o = options_;
   const SensorOptions& so = o.sim.sensors;
   const Trajectory& traj = *session_.trajectory;
@@ -193,17 +203,19 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
   }
 
   Random slip_rng = streamFor(o.sim.seed, Stream::kSlips, index);
-  Intervals slips(start, traj.endUtime(), so.wheel.slip_rate_per_hour, so.wheel.slip_min_s, so.wheel.slip_max_s, slip_rng);
+  Intervals slips(start, traj.endUtime(), so.wheel.slip_rate_per_hour, so.wheel.slip_min_s,
+                  so.wheel.slip_max_s, slip_rng);
   WheelModel wheel(so.wheel, std::move(slips), streamFor(o.sim.seed, Stream::kWheelNoise, index));
   Random imu_rng = streamFor(o.sim.seed, Stream::kImuNoise, index);
-  const Vec3 imu_bias(so.imu.accel_bias_sigma_mps2 * imu_rng.normal(), so.imu.accel_bias_sigma_mps2 * imu_rng.normal(),
+  const Vec3 imu_bias(so.imu.accel_bias_sigma_mps2 * imu_rng.normal(),
+                      so.imu.accel_bias_sigma_mps2 * imu_rng.normal(),
                       so.imu.accel_bias_sigma_mps2 * imu_rng.normal());
   const Vec3 gyro_bias = gyroBias(so.imu, o.sim.seed, index);
 
   const core::StereoCalibration calib = calibration();
   channels::CalibrationRepeat calib_repeat;
-  TickClock imu(start, so.imu.rate_hz), gt(start, so.ground_truth_rate_hz), wheel_ticks(start, so.wheel.rate_hz, 1),
-      stereo(start, o.render.rate_hz);
+  TickClock imu(start, so.imu.rate_hz), gt(start, so.ground_truth_rate_hz),
+      wheel_ticks(start, so.wheel.rate_hz, 1), stereo(start, o.render.rate_hz);
   constexpr int64_t kNever = INT64_MAX;
   int64_t wheel_prev_utime = start;
   BodyState wheel_prev = traj.at(start);
@@ -221,7 +233,8 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
       const BodyState s = traj.at(t);
       writeMessage(sink, channels::kGroundTruth,
                    messages::toMsg(t, core::UncertainPose{s.world_T_body}, s.floor, index));
-      if (s.floor >= 0 && std::find(floors.begin(), floors.end(), s.floor) == floors.end()) floors.push_back(s.floor);
+      if (s.floor >= 0 && std::find(floors.begin(), floors.end(), s.floor) == floors.end())
+        floors.push_back(s.floor);
       gt.advance();
     } else if (t == wheel_ticks.next()) {
       const BodyState s = traj.at(t);
@@ -258,7 +271,8 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
         summary.encode_s += secondsSince(t1);
         writeMessage(sink, channels::kRgbd, *msg);
       } else {
-        if (calib_repeat.due(t)) writeMessage(sink, channels::kStereoCalib, messages::toMsg(calib, t));
+        if (calib_repeat.due(t))
+          writeMessage(sink, channels::kStereoCalib, messages::toMsg(calib, t));
         const auto t1 = SteadyClock::now();
         auto msg = messages::toMsg(messages::StereoFrame{t, true, left, right}, o.render.encoding);
         if (!msg) return msg.error();
@@ -282,7 +296,8 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out, const std::f
   return summary;
 }
 
-Expected<ImageSessionSummary> writeImageSessionLog(ImageSimulator& simulator, const std::filesystem::path& output,
+Expected<ImageSessionSummary> writeImageSessionLog(ImageSimulator& simulator,
+                                                   const std::filesystem::path& output,
                                                    const std::function<bool(double)>& progress) {
   auto writer = messages::LogWriter::open(output);
   if (!writer) return writer.error();

@@ -42,24 +42,24 @@ namespace evermap::sim {
 // What the camera faces at one frame (for the summary and for tests).
 struct FrameFacts {
   int floor = -1;
-  bool dark_room = false;    // the camera is in a room with the lights off
-  bool blank_zone = false;   // the camera is in a featureless zone
-  bool passerby = false;     // a passer-by is in front of the camera
-  bool closed_cab = false;   // inside the elevator cab with its door closed
+  bool dark_room = false;   // the camera is in a room with the lights off
+  bool blank_zone = false;  // the camera is in a featureless zone
+  bool passerby = false;    // a passer-by is in front of the camera
+  bool closed_cab = false;  // inside the elevator cab with its door closed
 };
 
 struct ImageSessionSummary {
   int session = 0;
   double duration_s = 0.0;
-  double distance_m = 0.0;   // driven in the rendered part
-  int rides = 0;             // elevator rides in the rendered part
+  double distance_m = 0.0;  // driven in the rendered part
+  int rides = 0;            // elevator rides in the rendered part
   std::vector<int> floors_visited;
   int64_t frames = 0, frames_dark_room = 0, frames_blank_zone = 0, frames_passerby = 0,
           frames_closed_cab = 0;
   std::map<std::string, ChannelCount> channels;
   std::vector<std::pair<int64_t, FrameFacts>> frame_facts;  // per stereo frame, by utime
-  double render_s = 0.0;     // wall time spent rendering (a measurement, not an input)
-  double encode_s = 0.0;     // wall time spent encoding images
+  double render_s = 0.0;  // wall time spent rendering (a measurement, not an input)
+  double encode_s = 0.0;  // wall time spent encoding images
 
   std::string text() const;  // figures, one per line
 };
@@ -106,8 +106,8 @@ class ImageSimulator {
 };
 
 // Writes the session as an LCM log at `output` (temporary file, renamed when complete).
-Expected<ImageSessionSummary> writeImageSessionLog(ImageSimulator& simulator,
-                                                   const std::filesystem::path& output,
-                                                   const std::function<bool(double)>& progress = {});
+Expected<ImageSessionSummary> writeImageSessionLog(
+    ImageSimulator& simulator, const std::filesystem::path& output,
+    const std::function<bool(double)>& progress = {});
 
 }  // namespace evermap::sim

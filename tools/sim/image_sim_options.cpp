@@ -10,7 +10,8 @@ namespace {
 namespace fs = std::filesystem;
 
 // Prefixes of the keys this file reads; every other key goes to loadSimOptions.
-constexpr const char* kOwnPrefixes[] = {"render.", "world.", "texture.", "lighting.", "passerby.", "rgbd."};
+constexpr const char* kOwnPrefixes[] = {"render.",   "world.",    "texture.",
+                                        "lighting.", "passerby.", "rgbd."};
 
 bool ownKey(const std::string& key) {
   for (const char* p : kOwnPrefixes) {
@@ -88,7 +89,8 @@ Status RenderSimOptions::validate() const {
   if (width < 16 || height < 16 || width > 8192 || height > 8192) {
     return makeError("render.width: image size must be in [16, 8192], got ", width, "x", height);
   }
-  if (!(rate_hz > 0.0 && rate_hz <= 1000.0)) return makeError("render.rate_hz: must be in (0, 1000]");
+  if (!(rate_hz > 0.0 && rate_hz <= 1000.0))
+    return makeError("render.rate_hz: must be in (0, 1000]");
   if (!(noise_sigma_gray >= 0.0 && noise_sigma_gray < 100.0)) {
     return makeError("render.noise_sigma_gray: must be in [0, 100)");
   }
@@ -104,8 +106,10 @@ Status RenderSimOptions::validate() const {
 
 Status LightingOptions::validate() const {
   if (Status s = base.validate(); !s) return makeError("lighting.", s.error().message);
-  if (!(gain_jitter >= 0.0 && gain_jitter < 1.0)) return makeError("lighting.gain_jitter: must be in [0, 1)");
-  if (!(gamma_jitter >= 0.0 && gamma_jitter < 1.0)) return makeError("lighting.gamma_jitter: must be in [0, 1)");
+  if (!(gain_jitter >= 0.0 && gain_jitter < 1.0))
+    return makeError("lighting.gain_jitter: must be in [0, 1)");
+  if (!(gamma_jitter >= 0.0 && gamma_jitter < 1.0))
+    return makeError("lighting.gamma_jitter: must be in [0, 1)");
   if (!(offset_jitter_gray >= 0.0 && offset_jitter_gray < 128.0)) {
     return makeError("lighting.offset_jitter_gray: must be in [0, 128)");
   }
@@ -151,7 +155,8 @@ Status ImageSimOptions::validate() const {
 
 fs::path ImageSimOptions::posterFolder() const {
   if (render.posters == "none") return {};
-  if (render.posters == "auto") return defaultPosterFolder(config_folder / ".." / ".." / "shared" / "data");
+  if (render.posters == "auto")
+    return defaultPosterFolder(config_folder / ".." / ".." / "shared" / "data");
   const fs::path p(render.posters);
   return p.is_relative() ? (config_folder / p).lexically_normal() : p;
 }
@@ -162,7 +167,8 @@ std::string ImageSimOptions::toConfigText() const {
   out << "render.encoding = " << messages::toString(render.encoding) << "\n";
   out << "render.camera = " << (render.camera == CameraMode::kRgbd ? "rgbd" : "stereo") << "\n";
   ImageSimOptions copy = *this;
-  visitOwn(copy, [&](const char* key, auto* field) { out << key << " = " << format(*field) << "\n"; });
+  visitOwn(copy,
+           [&](const char* key, auto* field) { out << key << " = " << format(*field) << "\n"; });
   return out.str();
 }
 
@@ -185,16 +191,16 @@ Expected<ImageSimOptions> loadImageSimOptions(const KeyValueFile& file) {
   if (encoding == "gray8") {
     o.render.encoding = messages::ImageEncoding::kGray8;
   } else if (encoding != "png") {
-    return makeError(reader.where("render.encoding"), ": render.encoding: expected 'png' or 'gray8', got '",
-                     encoding, "'");
+    return makeError(reader.where("render.encoding"),
+                     ": render.encoding: expected 'png' or 'gray8', got '", encoding, "'");
   }
   std::string camera = "stereo";
   reader.read("render.camera", &camera);
   if (camera == "rgbd") {
     o.render.camera = CameraMode::kRgbd;
   } else if (camera != "stereo") {
-    return makeError(reader.where("render.camera"), ": render.camera: expected 'stereo' or 'rgbd', got '", camera,
-                     "'");
+    return makeError(reader.where("render.camera"),
+                     ": render.camera: expected 'stereo' or 'rgbd', got '", camera, "'");
   }
   visitOwn(o, [&](const char* key, auto* field) { reader.read(key, field); });
   if (Status s = reader.finish(); !s) return s.error();

@@ -34,18 +34,18 @@ enum class CameraMode { kStereo, kRgbd };
 
 struct RenderSimOptions {
   CameraMode camera = CameraMode::kStereo;  // render.camera = stereo | rgbd
-  int width = 752;                 // pixels (camera.cx, camera.cy must lie inside)
+  int width = 752;                          // pixels (camera.cx, camera.cy must lie inside)
   int height = 480;
-  double rate_hz = 20.0;           // stereo pairs per second
-  double noise_sigma_gray = 2.0;   // sensor noise, gray levels
+  double rate_hz = 20.0;          // stereo pairs per second
+  double noise_sigma_gray = 2.0;  // sensor noise, gray levels
   messages::ImageEncoding encoding = messages::ImageEncoding::kPng;
-  std::string posters = "auto";    // auto: $EVERMAP_DATA or ../shared/data; none; or a folder
-  int session = 0;                 // which session of the patrol plan to render
-  double max_duration_s = 0.0;     // render at most this much of the session (0: all)
-  double door_margin_s = 2.0;      // the cab door is closed from this long before a ride to after
+  std::string posters = "auto";  // auto: $EVERMAP_DATA or ../shared/data; none; or a folder
+  int session = 0;               // which session of the patrol plan to render
+  double max_duration_s = 0.0;   // render at most this much of the session (0: all)
+  double door_margin_s = 2.0;    // the cab door is closed from this long before a ride to after
   WorldOptions world;
   TextureOptions textures;
-  DepthSensorOptions depth;        // rgbd.*, read in both modes, used in rgbd
+  DepthSensorOptions depth;  // rgbd.*, read in both modes, used in rgbd
 
   Status validate() const;
 };

@@ -11,9 +11,11 @@ Expected<SessionPlan> loadKittiSession(const TrajectoryOptions& o, const CameraO
   auto poses = datasets::readKittiPoses(o.file);
   if (!poses) return poses.error();
   const size_t first = static_cast<size_t>(o.first);
-  const size_t end = o.count > 0 ? std::min(poses->size(), first + static_cast<size_t>(o.count)) : poses->size();
+  const size_t end =
+      o.count > 0 ? std::min(poses->size(), first + static_cast<size_t>(o.count)) : poses->size();
   if (first + 2 > end) {
-    return makeError(o.file, ": ", poses->size(), " poses, fewer than 2 from trajectory.first = ", o.first);
+    return makeError(o.file, ": ", poses->size(),
+                     " poses, fewer than 2 from trajectory.first = ", o.first);
   }
   const SE3d body_T_cam = camera.bodyTCam();
   const SE3d cam_T_body = body_T_cam.inverse();

@@ -17,7 +17,7 @@
 
 namespace evermap::sim {
 
-Expected<SessionPlan> loadKittiSession(const TrajectoryOptions& options, const CameraOptions& camera,
-                                       int64_t start_utime);
+Expected<SessionPlan> loadKittiSession(const TrajectoryOptions& options,
+                                       const CameraOptions& camera, int64_t start_utime);
 
 }  // namespace evermap::sim

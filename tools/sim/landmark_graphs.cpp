@@ -27,7 +27,8 @@ std::vector<int> visible(const Vec3& at, const std::vector<Vec3>& points, double
   }
   std::sort(near.begin(), near.end());
   std::vector<int> out;
-  for (int k = 0; k < static_cast<int>(near.size()) && k < max_count; ++k) out.push_back(near[k].second);
+  for (int k = 0; k < static_cast<int>(near.size()) && k < max_count; ++k)
+    out.push_back(near[k].second);
   return out;
 }
 
@@ -74,7 +75,8 @@ LandmarkGraph cityTreesLike(const LandmarkGraphOptions& o) {
   const int half = std::max(3, static_cast<int>(std::sqrt(static_cast<double>(o.poses)) / 2));
   std::vector<Vec3> placed;
   for (int j = 0; j < o.landmarks; ++j) {
-    placed.emplace_back(place.uniform(-half - 1.0, half + 1.0), place.uniform(-half - 1.0, half + 1.0), 0.0);
+    placed.emplace_back(place.uniform(-half - 1.0, half + 1.0),
+                        place.uniform(-half - 1.0, half + 1.0), 0.0);
   }
   SE2d pose;
   g.poses2.push_back(pose);
@@ -101,19 +103,21 @@ LandmarkGraph cityTreesLike(const LandmarkGraphOptions& o) {
   IdMap ids{std::vector<int>(placed.size(), -1), {}};
   auto observe = [&](int i) {
     const SE2d& p = g.poses2[i];
-    for (int j : visible(Vec3(p.x(), p.y(), 0.0), placed, o.sensor_range_m, o.max_observations_per_pose)) {
+    for (int j :
+         visible(Vec3(p.x(), p.y(), 0.0), placed, o.sensor_range_m, o.max_observations_per_pose)) {
       const int id = ids.idOf(j, placed);
       const Vec2 z = p.rotationMatrix().transpose() * (placed[j].head<2>() - p.translation());
-      out << "LANDMARK " << i << ' ' << id << ' ' << z.x() + noise.normal(0.0, o.point_sigma_m) << ' '
-          << z.y() + noise.normal(0.0, o.point_sigma_m) << ' ' << 1.0 / sp << " 0 " << 1.0 / sp << '\n';
+      out << "LANDMARK " << i << ' ' << id << ' ' << z.x() + noise.normal(0.0, o.point_sigma_m)
+          << ' ' << z.y() + noise.normal(0.0, o.point_sigma_m) << ' ' << 1.0 / sp << " 0 "
+          << 1.0 / sp << '\n';
       ++g.observations;
     }
   };
   observe(0);
   for (int i = 1; i < o.poses; ++i) {
     const SE2d z = g.poses2[i - 1].inverse() * g.poses2[i];
-    out << "EDGE2 " << i - 1 << ' ' << i << ' ' << z.x() + noise.normal(0.0, o.odometry_sigma_m) << ' '
-        << z.y() + noise.normal(0.0, o.odometry_sigma_m) << ' '
+    out << "EDGE2 " << i - 1 << ' ' << i << ' ' << z.x() + noise.normal(0.0, o.odometry_sigma_m)
+        << ' ' << z.y() + noise.normal(0.0, o.odometry_sigma_m) << ' '
         << z.theta() + noise.normal(0.0, o.odometry_sigma_rad) << ' ' << 1.0 / st << " 0 0 "
         << 1.0 / st << " 0 " << 1.0 / sr << '\n';
     observe(i);
@@ -133,11 +137,13 @@ LandmarkGraph torusPointsLike(const LandmarkGraphOptions& o) {
   const double r = 3.0;
   const double two_pi = 2.0 * std::numbers::pi;
   // Surface point, its tangent along the path and its outward normal at (u, v).
-  auto surface = [&](double u, double v) { return Vec3((R + r * std::cos(v)) * std::cos(u),
-                                                       (R + r * std::cos(v)) * std::sin(u),
-                                                       r * std::sin(v)); };
-  auto normal = [&](double u, double v) { return Vec3(std::cos(v) * std::cos(u),
-                                                      std::cos(v) * std::sin(u), std::sin(v)); };
+  auto surface = [&](double u, double v) {
+    return Vec3((R + r * std::cos(v)) * std::cos(u), (R + r * std::cos(v)) * std::sin(u),
+                r * std::sin(v));
+  };
+  auto normal = [&](double u, double v) {
+    return Vec3(std::cos(v) * std::cos(u), std::cos(v) * std::sin(u), std::sin(v));
+  };
   // About 1 m between poses: the path goes round the major circle twice while winding
   // around the minor circle.
   const double turns_u = 2.0;

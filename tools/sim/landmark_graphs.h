@@ -23,22 +23,22 @@ namespace evermap::sim {
 
 struct LandmarkGraphOptions {
   int poses = 1000;
-  int landmarks = 100;               // placed; only those seen are written
-  double sensor_range_m = 4.0;       // a landmark is seen within this distance of a pose
-  int max_observations_per_pose = 2; // the nearest ones
+  int landmarks = 100;                // placed; only those seen are written
+  double sensor_range_m = 4.0;        // a landmark is seen within this distance of a pose
+  int max_observations_per_pose = 2;  // the nearest ones
   double odometry_sigma_m = 0.05;
   double odometry_sigma_rad = 0.01;
   double point_sigma_m = 0.1;
-  double nominal_sigma = 0.05;       // information for the zero-noise case
+  double nominal_sigma = 0.05;  // information for the zero-noise case
   uint64_t seed = 1;
 };
 
 struct LandmarkGraph {
   int dimension = 2;
-  std::string isam_text;             // EDGE2 + LANDMARK lines, or EDGE3 + POINT3 lines
-  std::vector<core::SE2d> poses2;    // truth, dimension 2
-  std::vector<core::SE3d> poses3;    // truth, dimension 3
-  std::vector<core::Vec3> points;    // truth by landmark id (z = 0 in 2-D)
+  std::string isam_text;           // EDGE2 + LANDMARK lines, or EDGE3 + POINT3 lines
+  std::vector<core::SE2d> poses2;  // truth, dimension 2
+  std::vector<core::SE3d> poses3;  // truth, dimension 3
+  std::vector<core::Vec3> points;  // truth by landmark id (z = 0 in 2-D)
   int observations = 0;
   int observed_landmarks = 0;
 };

@@ -12,7 +12,8 @@ namespace evermap::sim {
 class MessageSink {
  public:
   virtual ~MessageSink() = default;
-  virtual void write(const std::string& channel, int64_t utime, const std::vector<uint8_t>& data) = 0;
+  virtual void write(const std::string& channel, int64_t utime,
+                     const std::vector<uint8_t>& data) = 0;
 };
 
 // Encodes an LCM message and hands it to the sink.

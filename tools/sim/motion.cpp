@@ -134,8 +134,10 @@ BodyState SegmentTrajectory::at(int64_t utime) const {
       b.velocity_world.z() = sign * s.profile.velocity(tau);
       b.acceleration_world.z() = sign * s.profile.acceleration(tau);
       b.riding = tau > 0.0 && tau < s.duration_s;
-      if (tau >= s.duration_s) b.floor = s.floor_to;
-      else if (tau > 0.0) b.floor = -1;
+      if (tau >= s.duration_s)
+        b.floor = s.floor_to;
+      else if (tau > 0.0)
+        b.floor = -1;
       break;
     }
   }
@@ -150,12 +152,14 @@ SampledTrajectory::SampledTrajectory(std::vector<int64_t> utimes, std::vector<SE
   bool ok = utimes_.size() >= 2 && utimes_.size() == poses_.size();
   for (size_t i = 1; ok && i < utimes_.size(); ++i) ok = utimes_[i] > utimes_[i - 1];
   if (!ok) {
-    std::fprintf(stderr, "evermap::sim: a sampled trajectory needs >= 2 poses at increasing times\n");
+    std::fprintf(stderr,
+                 "evermap::sim: a sampled trajectory needs >= 2 poses at increasing times\n");
     std::abort();
   }
   odometer_.resize(poses_.size(), 0.0);
   for (size_t i = 1; i < poses_.size(); ++i) {
-    odometer_[i] = odometer_[i - 1] + (poses_[i].translation() - poses_[i - 1].translation()).norm();
+    odometer_[i] =
+        odometer_[i - 1] + (poses_[i].translation() - poses_[i - 1].translation()).norm();
   }
 }
 
@@ -171,8 +175,8 @@ BodyState SampledTrajectory::at(int64_t utime) const {
   if (i + 1 >= utimes_.size()) i = utimes_.size() - 2;
   BodyState b;
   b.floor = 0;
-  const double alpha = static_cast<double>(utime - utimes_[i]) /
-                       static_cast<double>(utimes_[i + 1] - utimes_[i]);
+  const double alpha =
+      static_cast<double>(utime - utimes_[i]) / static_cast<double>(utimes_[i + 1] - utimes_[i]);
   if (alpha == 0.0) {
     b.world_T_body = poses_[i];
     b.odometer_m = odometer_[i];

@@ -71,7 +71,7 @@ class MotionProfile {
 struct Segment {
   enum class Kind { kDrive, kTurn, kWait, kRide };
   Kind kind = Kind::kWait;
-  double t0_s = 0.0;         // start, seconds since the session started
+  double t0_s = 0.0;  // start, seconds since the session started
   double duration_s = 0.0;
   int floor = 0;             // kRide: departure floor
   int floor_to = 0;          // kRide: arrival floor
@@ -84,7 +84,7 @@ struct Segment {
   double odometer0_m = 0.0;  // distance driven before this segment
   MotionProfile profile;     // kDrive (metres), kTurn (radians), kRide (metres)
   bool in_cab = false;
-  bool blank_wall = false;   // kTurn: facing a featureless wall
+  bool blank_wall = false;  // kTurn: facing a featureless wall
 };
 
 // The small roll and pitch of a robot on a real floor, as functions of distance driven (so

@@ -18,7 +18,8 @@ Expected<int64_t> loadStoredNodes(RegistrationOracle& oracle, const std::filesys
   }
   sqlite3_busy_timeout(db, 5000);  // the mapper may be committing
   sqlite3_stmt* st = nullptr;
-  const char* sql = "SELECT node_id, keyframe_utime, floor, session_id FROM map_nodes ORDER BY node_id";
+  const char* sql =
+      "SELECT node_id, keyframe_utime, floor, session_id FROM map_nodes ORDER BY node_id";
   if (sqlite3_prepare_v2(db, sql, -1, &st, nullptr) != SQLITE_OK) {
     const std::string why = sqlite3_errmsg(db);
     sqlite3_close(db);

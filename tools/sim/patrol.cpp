@@ -69,7 +69,8 @@ class SessionBuilder {
       for (const Passage& q : f.passages[p]) {
         if (in[static_cast<size_t>(q.to)]) out[p].push_back(q.to);
       }
-      for (size_t k = out[p].size(); k > 1; --k) std::swap(out[p][k - 1], out[p][rng_.index(static_cast<int64_t>(k))]);
+      for (size_t k = out[p].size(); k > 1; --k)
+        std::swap(out[p][k - 1], out[p][rng_.index(static_cast<int64_t>(k))]);
     }
     std::vector<size_t> next(f.places.size(), 0);
     std::vector<int> stack{place_}, circuit;
@@ -102,7 +103,8 @@ class SessionBuilder {
              f.places[path[i - 1]].kind == PlaceKind::kCab);
       Segment s = base(Segment::Kind::kDrive);
       s.to = to;
-      s.profile = MotionProfile(MotionProfile::Shape::kTrapezoid, length, speed, p_.drive_accel_mps2);
+      s.profile =
+          MotionProfile(MotionProfile::Shape::kTrapezoid, length, speed, p_.drive_accel_mps2);
       s.duration_s = s.profile.duration();
       push(s);
       xy_ = to;
@@ -155,7 +157,8 @@ class SessionBuilder {
     plan.floors_visited.assign(visited_.begin(), visited_.end());
     FloorRoughness roughness;
     roughness.amplitude_rad = p_.roughness_rad;
-    plan.trajectory = std::make_shared<SegmentTrajectory>(start_utime_, std::move(segments_), roughness);
+    plan.trajectory =
+        std::make_shared<SegmentTrajectory>(start_utime_, std::move(segments_), roughness);
     return plan;
   }
 
@@ -245,7 +248,8 @@ std::vector<int> exploredPlaces(const Building& b, const PatrolOptions& p, int i
 Status PatrolOptions::validate() const {
   if (sessions < 1) return makeError("sessions: must be >= 1, got ", sessions);
   if (!(total_hours > 0.0)) return makeError("total_hours: must be > 0");
-  if (!(session_jitter >= 0.0 && session_jitter < 1.0)) return makeError("session_jitter: must be in [0, 1)");
+  if (!(session_jitter >= 0.0 && session_jitter < 1.0))
+    return makeError("session_jitter: must be in [0, 1)");
   if (!(span_days >= 0.0)) return makeError("span_days: must be >= 0");
   if (start_utime < 0) return makeError("start_utime: must be >= 0");
   if (!(drive_speed_mps > 0.0 && drive_accel_mps2 > 0.0)) {
@@ -257,12 +261,14 @@ Status PatrolOptions::validate() const {
   if (!(pause_min_s >= 0.0 && pause_max_s >= pause_min_s)) {
     return makeError("pause_min_s: need 0 <= pause_min_s <= pause_max_s");
   }
-  if (goals_min < 1 || goals_max < goals_min) return makeError("goals_min: need 1 <= goals_min <= goals_max");
+  if (goals_min < 1 || goals_max < goals_min)
+    return makeError("goals_min: need 1 <= goals_min <= goals_max");
   if (!(other_floor_probability >= 0.0 && other_floor_probability <= 1.0)) {
     return makeError("other_floor_probability: must be in [0, 1]");
   }
   if (explore_sessions < 1) return makeError("explore_sessions: must be >= 1");
-  if (!(roughness_rad >= 0.0 && roughness_rad < 0.2)) return makeError("roughness_rad: must be in [0, 0.2)");
+  if (!(roughness_rad >= 0.0 && roughness_rad < 0.2))
+    return makeError("roughness_rad: must be in [0, 0.2)");
   return Ok{};
 }
 
@@ -314,7 +320,8 @@ std::vector<SessionSlot> scheduleSessions(const Building& building, const Patrol
   for (size_t f = 0; f < building.floors.size(); ++f) {
     if (static_cast<int>(f) != building.main_floor) others.push_back(static_cast<int>(f));
   }
-  for (size_t k = others.size(); k > 1; --k) std::swap(others[k - 1], others[rng.index(static_cast<int64_t>(k))]);
+  for (size_t k = others.size(); k > 1; --k)
+    std::swap(others[k - 1], others[rng.index(static_cast<int64_t>(k))]);
   // With exploration tours the first visits fall in the exploration sessions.
   const int spread = p.explore_tours ? std::min(p.sessions, p.explore_sessions) : p.sessions;
   for (size_t k = 0; k < others.size(); ++k) {
@@ -355,8 +362,10 @@ SessionPlan planSession(const Building& b, const PatrolOptions& p, const Elevato
     }
     s.elevatorTrip(target);
     // A visit lasts its patrol even past the deadline: the robot does not abandon a floor.
-    if (first_visit) s.explore(goalPlaces(b.floors[target]));
-    else s.patrol(goalPlaces(b.floors[target]), goals, s.now() + deadline);
+    if (first_visit)
+      s.explore(goalPlaces(b.floors[target]));
+    else
+      s.patrol(goalPlaces(b.floors[target]), goals, s.now() + deadline);
     s.elevatorTrip(b.main_floor);
   }
   s.driveTo(b.home_place);

@@ -30,30 +30,30 @@ namespace evermap::sim {
 
 struct PatrolOptions {
   int sessions = 14;
-  double total_hours = 9.0;            // summed over sessions
-  double session_jitter = 0.3;         // each session lasts mean * (1 ± jitter), then rescaled
-  double span_days = 180.0;            // the sessions are spread over this many days
+  double total_hours = 9.0;                // summed over sessions
+  double session_jitter = 0.3;             // each session lasts mean * (1 ± jitter), then rescaled
+  double span_days = 180.0;                // the sessions are spread over this many days
   int64_t start_utime = 1325419200000000;  // 2012-01-01 12:00 UTC, start of session 0
-  double drive_speed_mps = 0.55;       // cruise speed (each leg draws ±15 %)
+  double drive_speed_mps = 0.55;           // cruise speed (each leg draws ±15 %)
   double drive_accel_mps2 = 0.5;
   double turn_rate_radps = 0.8;
   double turn_accel_radps2 = 1.5;
-  double pause_min_s = 1.0;            // at each goal
+  double pause_min_s = 1.0;  // at each goal
   double pause_max_s = 15.0;
-  int goals_min = 3;                   // per patrol
+  int goals_min = 3;  // per patrol
   int goals_max = 8;
   double other_floor_probability = 0.08;  // per patrol, beyond the visits that cover every floor
-  int explore_sessions = 4;            // the whole main floor is reachable from this session on
-  bool explore_tours = false;          // tours of the main floor and first visits (see above)
-  double roughness_rad = 0.005;        // amplitude of floor-induced roll and pitch
+  int explore_sessions = 4;               // the whole main floor is reachable from this session on
+  bool explore_tours = false;             // tours of the main floor and first visits (see above)
+  double roughness_rad = 0.005;           // amplitude of floor-induced roll and pitch
 
   Status validate() const;
 };
 
 struct ElevatorOptions {
-  double accel_min_mps2 = 0.5;    // peak acceleration of a ride, drawn per ride
+  double accel_min_mps2 = 0.5;  // peak acceleration of a ride, drawn per ride
   double accel_max_mps2 = 1.0;
-  double speed_min_mps = 1.0;     // cruise speed, drawn per ride
+  double speed_min_mps = 1.0;  // cruise speed, drawn per ride
   double speed_max_mps = 2.0;
   double call_wait_max_s = 30.0;  // waiting at the lobby for the cab
   double door_wait_min_s = 4.0;   // standing in the cab before and after each ride

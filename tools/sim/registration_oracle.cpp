@@ -86,9 +86,11 @@ Status OracleOptions::validate() const {
   }
   if (global_candidates < 1) return makeError("global_candidates: must be >= 1");
   for (double r : {false_match_rate_node, false_match_rate_global}) {
-    if (!(r >= 0.0 && r <= 1.0)) return makeError("false_match_rate_node: false-match rates must be in [0, 1]");
+    if (!(r >= 0.0 && r <= 1.0))
+      return makeError("false_match_rate_node: false-match rates must be in [0, 1]");
   }
-  for (double s : {translation_sigma_m, translation_sigma_per_m, rotation_sigma_rad, rotation_sigma_per_rad}) {
+  for (double s :
+       {translation_sigma_m, translation_sigma_per_m, rotation_sigma_rad, rotation_sigma_per_rad}) {
     if (!(s >= 0.0)) return makeError("translation_sigma_m: noise parameters must be >= 0");
   }
   if (min_inliers < 0 || max_inliers < min_inliers) {
@@ -101,13 +103,15 @@ Status OracleOptions::validate() const {
 std::string OracleSummary::text() const {
   std::ostringstream o;
   o << "oracle keyframes known      " << keyframes << "\n"
-    << "oracle nodes                " << nodes << " (" << nodes_without_keyframe << " without keyframe)\n"
-    << "oracle node requests        " << requests_node << ": ok " << ok_node << " (false " << false_node << ")\n"
-    << "oracle global requests      " << requests_global << ": ok " << ok_global << " (false " << false_global
-    << ")\n"
-    << "oracle failures             no candidate " << no_candidate << ", too few inliers " << too_few_inliers
-    << ", unknown node " << unknown_node << ", unknown keyframe " << unknown_keyframe << ", malformed "
-    << malformed << "\n";
+    << "oracle nodes                " << nodes << " (" << nodes_without_keyframe
+    << " without keyframe)\n"
+    << "oracle node requests        " << requests_node << ": ok " << ok_node << " (false "
+    << false_node << ")\n"
+    << "oracle global requests      " << requests_global << ": ok " << ok_global << " (false "
+    << false_global << ")\n"
+    << "oracle failures             no candidate " << no_candidate << ", too few inliers "
+    << too_few_inliers << ", unknown node " << unknown_node << ", unknown keyframe "
+    << unknown_keyframe << ", malformed " << malformed << "\n";
   return o.str();
 }
 
@@ -126,8 +130,10 @@ void RegistrationOracle::addKeyframe(const KeyframeTruth& k) {
   } else {
     auto it = std::lower_bound(keyframes_.begin(), keyframes_.end(), k.utime,
                                [](const KeyframeTruth& a, int64_t t) { return a.utime < t; });
-    if (it != keyframes_.end() && it->utime == k.utime) *it = k;
-    else keyframes_.insert(it, k);
+    if (it != keyframes_.end() && it->utime == k.utime)
+      *it = k;
+    else
+      keyframes_.insert(it, k);
   }
   if (o_.keyframe_window_s > 0.0) {
     const auto window = static_cast<int64_t>(o_.keyframe_window_s * 1e6);
@@ -206,7 +212,8 @@ void RegistrationOracle::registerTrue(const Node& node, const KeyframeTruth& que
   core::Mat6 cov = core::Mat6::Zero();
   cov.diagonal() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr;
   writeCovariance(cov, r->covariance);
-  r->num_inliers = o_.min_inliers + static_cast<int32_t>((o_.max_inliers - o_.min_inliers) * p * rng_.uniform(0.7, 1.0));
+  r->num_inliers = o_.min_inliers + static_cast<int32_t>((o_.max_inliers - o_.min_inliers) * p *
+                                                         rng_.uniform(0.7, 1.0));
   r->score = std::clamp(p * rng_.uniform(0.8, 1.0), 0.0, 1.0);
   r->reason.clear();
 }
@@ -238,23 +245,35 @@ RegistrationOracle::Answer RegistrationOracle::answerWithTruth(const register_re
     return {emptyResult(req, register_result_t::STATUS_MALFORMED, "unknown mode"), false};
   }
   const KeyframeTruth* query = findKeyframe(req.keyframe_utime);
-  if (req.mode == register_request_t::MODE_NODE) ++summary_.requests_node;
-  else ++summary_.requests_global;
+  if (req.mode == register_request_t::MODE_NODE)
+    ++summary_.requests_node;
+  else
+    ++summary_.requests_global;
   if (!query) {
     ++summary_.unknown_keyframe;
-    return {emptyResult(req, register_result_t::STATUS_UNKNOWN_KEYFRAME, "query keyframe not known"), false};
+    return {
+        emptyResult(req, register_result_t::STATUS_UNKNOWN_KEYFRAME, "query keyframe not known"),
+        false};
   }
-  Answer a = req.mode == register_request_t::MODE_NODE ? nodeMode(req, *query) : globalMode(req, *query);
+  Answer a =
+      req.mode == register_request_t::MODE_NODE ? nodeMode(req, *query) : globalMode(req, *query);
   const bool node_mode = req.mode == register_request_t::MODE_NODE;
   switch (a.result.status) {
     case register_result_t::STATUS_OK:
       (node_mode ? summary_.ok_node : summary_.ok_global) += 1;
       if (a.false_match) (node_mode ? summary_.false_node : summary_.false_global) += 1;
       break;
-    case register_result_t::STATUS_NO_CANDIDATE: ++summary_.no_candidate; break;
-    case register_result_t::STATUS_TOO_FEW_INLIERS: ++summary_.too_few_inliers; break;
-    case register_result_t::STATUS_UNKNOWN_NODE: ++summary_.unknown_node; break;
-    default: break;
+    case register_result_t::STATUS_NO_CANDIDATE:
+      ++summary_.no_candidate;
+      break;
+    case register_result_t::STATUS_TOO_FEW_INLIERS:
+      ++summary_.too_few_inliers;
+      break;
+    case register_result_t::STATUS_UNKNOWN_NODE:
+      ++summary_.unknown_node;
+      break;
+    default:
+      break;
   }
   return a;
 }
@@ -263,7 +282,8 @@ RegistrationOracle::Answer RegistrationOracle::nodeMode(const register_request_t
                                                         const KeyframeTruth& query) {
   const auto it = node_index_.find(req.target_node_id);
   if (it == node_index_.end()) {
-    return {emptyResult(req, register_result_t::STATUS_UNKNOWN_NODE, "target node not known"), false};
+    return {emptyResult(req, register_result_t::STATUS_UNKNOWN_NODE, "target node not known"),
+            false};
   }
   const Node& node = nodes_[it->second];
   Answer a{emptyResult(req, register_result_t::STATUS_TOO_FEW_INLIERS, "too few inliers"), false};
@@ -286,24 +306,29 @@ RegistrationOracle::Answer RegistrationOracle::globalMode(const register_request
   // The nodes the appearance search may return: those the mapper put on the requested floor.
   std::vector<int> floors;
   if (req.floor >= 0) {
-    if (nodes_by_floor_.count(req.floor) && !nodes_by_floor_[req.floor].empty()) floors.push_back(req.floor);
+    if (nodes_by_floor_.count(req.floor) && !nodes_by_floor_[req.floor].empty())
+      floors.push_back(req.floor);
   } else {
     for (const auto& [f, list] : nodes_by_floor_) {
       if (!list.empty()) floors.push_back(f);
     }
   }
   if (floors.empty()) {
-    return {emptyResult(req, register_result_t::STATUS_NO_CANDIDATE, "no node on the floor"), false};
+    return {emptyResult(req, register_result_t::STATUS_NO_CANDIDATE, "no node on the floor"),
+            false};
   }
   Answer a{emptyResult(req, register_result_t::STATUS_NO_CANDIDATE, "no candidate"), false};
   const Vec3 q = query.world_T_cam.translation();
   if (rng_.bernoulli(o_.false_match_rate_global)) {
     // A plausible but wrong node: one of the floor's nodes that is not near the query.
-    const std::vector<size_t>& pool = nodes_by_floor_[floors[rng_.index(static_cast<int64_t>(floors.size()))]];
+    const std::vector<size_t>& pool =
+        nodes_by_floor_[floors[rng_.index(static_cast<int64_t>(floors.size()))]];
     size_t pick = pool[rng_.index(static_cast<int64_t>(pool.size()))];
     for (int tries = 0; tries < 16; ++tries) {
       const Node& n = nodes_[pick];
-      if (n.true_floor != query.floor || (n.world_T_cam.translation() - q).norm() > o_.max_distance_m) break;
+      if (n.true_floor != query.floor ||
+          (n.world_T_cam.translation() - q).norm() > o_.max_distance_m)
+        break;
       pick = pool[rng_.index(static_cast<int64_t>(pool.size()))];
     }
     // Close to the wrong node, as if the query were there.
@@ -336,7 +361,8 @@ RegistrationOracle::Answer RegistrationOracle::globalMode(const register_request
   std::sort(candidates.begin(), candidates.end(), [&](const Candidate& x, const Candidate& y) {
     return x.p != y.p ? x.p > y.p : nodes_[x.node].id < nodes_[y.node].id;
   });
-  if (static_cast<int>(candidates.size()) > o_.global_candidates) candidates.resize(o_.global_candidates);
+  if (static_cast<int>(candidates.size()) > o_.global_candidates)
+    candidates.resize(o_.global_candidates);
   for (const Candidate& c : candidates) {
     if (rng_.bernoulli(c.p)) {
       registerTrue(nodes_[c.node], query, c.p, &a.result);

@@ -79,9 +79,9 @@ struct ReachFit {
   double distance_scale_m = 0.0;
   double angle_scale_rad = 0.0;
   double log_likelihood = 0.0;
-  int64_t samples = 0;     // fitted
-  int64_t beyond = 0;      // outside the bounds
-  int64_t ok_beyond = 0;   // of which succeeded
+  int64_t samples = 0;    // fitted
+  int64_t beyond = 0;     // outside the bounds
+  int64_t ok_beyond = 0;  // of which succeeded
 };
 ReachFit fitReach(const std::vector<ReachSample>& samples, const OracleOptions& bounds);
 
@@ -115,7 +115,9 @@ class RegistrationOracle {
   void addKeyframe(const KeyframeTruth& keyframe);
   // False (and counted) when the node's keyframe is unknown; a repeated node id is replaced.
   bool addNode(const node_added_t& node);
-  register_result_t answer(const register_request_t& request) { return answerWithTruth(request).result; }
+  register_result_t answer(const register_request_t& request) {
+    return answerWithTruth(request).result;
+  }
   // The answer and whether it is a false match (for tests and evaluation).
   Answer answerWithTruth(const register_request_t& request);
 
@@ -145,7 +147,8 @@ class RegistrationOracle {
   Answer globalMode(const register_request_t& req, const KeyframeTruth& query);
   void registerTrue(const Node& node, const KeyframeTruth& query, double p, register_result_t* r);
   void registerFalse(const Node& node, const SE3d& base, register_result_t* r);
-  static register_result_t emptyResult(const register_request_t& req, int8_t status, const char* reason);
+  static register_result_t emptyResult(const register_request_t& req, int8_t status,
+                                       const char* reason);
 
   OracleOptions o_;
   Random rng_;

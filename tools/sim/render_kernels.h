@@ -22,14 +22,14 @@ namespace evermap::sim::kernels {
 struct WarpRow {
   const uint16_t* level = nullptr;  // the level image, row-major, level_w wide
   int level_w = 0;
-  float max_u = 0, max_v = 0;       // largest level coordinates (keep x0 + 1, y0 + 1 inside)
+  float max_u = 0, max_v = 0;         // largest level coordinates (keep x0 + 1, y0 + 1 inside)
   const int32_t* response = nullptr;  // 1024 entries
   int block = 16;                     // pixels per exact homography evaluation (multiple of 8)
 };
-void warpRow(const WarpRow& w, const float* lu0, const float* lv0, const float* dlu, const float* dlv,
-             const int16_t* noise, int width, uint8_t* out);
-void warpRowAvx2(const WarpRow& w, const float* lu0, const float* lv0, const float* dlu, const float* dlv,
-                 const int16_t* noise, int width, uint8_t* out);
+void warpRow(const WarpRow& w, const float* lu0, const float* lv0, const float* dlu,
+             const float* dlv, const int16_t* noise, int width, uint8_t* out);
+void warpRowAvx2(const WarpRow& w, const float* lu0, const float* lv0, const float* dlu,
+                 const float* dlv, const int16_t* noise, int width, uint8_t* out);
 
 // One row v of the floor (v below the horizon) or the ceiling seen by the level camera
 // (renderLevel's floor pass). Pixel u shows the floor point c + t (dx[u], dy[u]) unless a wall
@@ -44,8 +44,8 @@ struct SurfaceRow {
   float cx = 0, cy = 0;           // camera centre, world x y
   const float* col_dx = nullptr;  // per column: horizontal ray direction, world x y
   const float* col_dy = nullptr;
-  const float* col_lod = nullptr;    // per column: the column's part of the mip level
-  const int* col_limit = nullptr;    // per column: first floor row (down), else last ceiling row + 1
+  const float* col_lod = nullptr;  // per column: the column's part of the mip level
+  const int* col_limit = nullptr;  // per column: first floor row (down), else last ceiling row + 1
   const RenderFloor* floor = nullptr;
   const Texture* const* texture_of_cell = nullptr;  // per grid cell value (256)
   const int* gain_of_cell = nullptr;                // per grid cell value, brightness * 256

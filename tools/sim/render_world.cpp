@@ -55,12 +55,15 @@ class WallBuilder {
     w.gain_q8 = static_cast<int>(std::lround(256.0 * light * (1.0 + jitter)));
     const double height = f_->ceiling_z - f_->floor_z;
     if (!blank && !lib_.posters.empty() && length >= 1.5 && rng_.bernoulli(o_.poster_probability)) {
-      const double width = std::min(rng_.uniform(o_.poster_width_min_m, o_.poster_width_max_m), length - 0.3);
+      const double width =
+          std::min(rng_.uniform(o_.poster_width_min_m, o_.poster_width_max_m), length - 0.3);
       const double tall = std::min(0.75 * width, height - 0.4);
       const double s0 = rng_.uniform(0.15, length - width - 0.15);
-      const double zc = std::clamp(rng_.uniform(1.0, 1.7), 0.5 * tall + 0.1, height - 0.5 * tall - 0.1);
-      w.poster = Poster{pick(lib_.posters, rng_), static_cast<float>(s0), static_cast<float>(s0 + width),
-                        static_cast<float>(zc - 0.5 * tall), static_cast<float>(zc + 0.5 * tall)};
+      const double zc =
+          std::clamp(rng_.uniform(1.0, 1.7), 0.5 * tall + 0.1, height - 0.5 * tall - 0.1);
+      w.poster =
+          Poster{pick(lib_.posters, rng_), static_cast<float>(s0), static_cast<float>(s0 + width),
+                 static_cast<float>(zc - 0.5 * tall), static_cast<float>(zc + 0.5 * tall)};
     }
     f_->walls.push_back(w);
   }
@@ -75,7 +78,8 @@ class WallBuilder {
 
 Status WorldOptions::validate() const {
   if (!(ceiling_height_m > 0.5)) return makeError("ceiling_height_m: must be > 0.5");
-  if (!(grid_cell_m > 0.0 && grid_cell_m <= 0.5)) return makeError("grid_cell_m: must be in (0, 0.5]");
+  if (!(grid_cell_m > 0.0 && grid_cell_m <= 0.5))
+    return makeError("grid_cell_m: must be in (0, 0.5]");
   if (!(door_width_m > 0.0)) return makeError("door_width_m: must be > 0");
   if (!(piece_min_m > 0.0 && piece_max_m >= piece_min_m)) {
     return makeError("piece_min_m: need 0 < piece_min_m <= piece_max_m");
@@ -102,7 +106,8 @@ Expected<RenderFloor> buildRenderFloor(const FloorSpec& spec, const WorldOptions
                                        const TextureLibrary& lib, Random& rng) {
   if (Status s = o.validate(); !s) return s.error();
   if (spec.regions.empty() || spec.regions.size() > kLabelMask - 1) {
-    return makeError("floor at z = ", spec.floor_z, ": needs 1..126 regions, got ", spec.regions.size());
+    return makeError("floor at z = ", spec.floor_z, ": needs 1..126 regions, got ",
+                     spec.regions.size());
   }
   RenderFloor f;
   f.floor_z = static_cast<float>(spec.floor_z);
@@ -110,7 +115,8 @@ Expected<RenderFloor> buildRenderFloor(const FloorSpec& spec, const WorldOptions
   f.regions = spec.regions;
   const int cab_texture = lib.cab >= 0 ? lib.cab : pick(lib.wall, rng);
   for (Region& r : f.regions) {
-    if (r.boxes.empty()) return makeError("floor at z = ", spec.floor_z, ": a region without boxes");
+    if (r.boxes.empty())
+      return makeError("floor at z = ", spec.floor_z, ": a region without boxes");
     auto resolve = [&](int* t, const std::vector<int>& pool) {
       if (*t == kTexturePerRegion) *t = pick(pool, rng);
       if (*t == kTextureCab) *t = cab_texture;
@@ -135,11 +141,13 @@ Expected<RenderFloor> buildRenderFloor(const FloorSpec& spec, const WorldOptions
       hi = hi.cwiseMax(b.max);
     }
   }
-  const double x0 = (std::floor(lo.x() / cell) - 2.0) * cell, y0 = (std::floor(lo.y() / cell) - 2.0) * cell;
+  const double x0 = (std::floor(lo.x() / cell) - 2.0) * cell,
+               y0 = (std::floor(lo.y() / cell) - 2.0) * cell;
   const int w = static_cast<int>(std::ceil((hi.x() - x0) / cell)) + 2;
   const int h = static_cast<int>(std::ceil((hi.y() - y0) / cell)) + 2;
   if (static_cast<int64_t>(w) * h > 64'000'000) {
-    return makeError("floor at z = ", spec.floor_z, ": ", w, " x ", h, " grid cells is too many (grid_cell_m too small?)");
+    return makeError("floor at z = ", spec.floor_z, ": ", w, " x ", h,
+                     " grid cells is too many (grid_cell_m too small?)");
   }
   f.grid_x0 = static_cast<float>(x0);
   f.grid_y0 = static_cast<float>(y0);
@@ -156,7 +164,8 @@ Expected<RenderFloor> buildRenderFloor(const FloorSpec& spec, const WorldOptions
       const int j1 = std::min(h - 1, static_cast<int>(std::ceil((b.max.y() - y0) / cell)));
       for (int j = j0; j <= j1; ++j) {
         for (int i = i0; i <= i1; ++i) {
-          if (b.contains(centre(i, j))) f.grid[static_cast<size_t>(j) * w + i] = static_cast<uint8_t>(r + 1);
+          if (b.contains(centre(i, j)))
+            f.grid[static_cast<size_t>(j) * w + i] = static_cast<uint8_t>(r + 1);
         }
       }
     }
@@ -164,7 +173,8 @@ Expected<RenderFloor> buildRenderFloor(const FloorSpec& spec, const WorldOptions
   const double r2 = o.blank_radius_m * o.blank_radius_m;
   for (const Vec2& c : spec.blank_centres) {
     const int rad = static_cast<int>(std::ceil(o.blank_radius_m / cell));
-    const int ci = static_cast<int>((c.x() - x0) / cell), cj = static_cast<int>((c.y() - y0) / cell);
+    const int ci = static_cast<int>((c.x() - x0) / cell),
+              cj = static_cast<int>((c.y() - y0) / cell);
     for (int j = std::max(0, cj - rad); j <= std::min(h - 1, cj + rad); ++j) {
       for (int i = std::max(0, ci - rad); i <= std::min(w - 1, ci + rad); ++i) {
         uint8_t& g = f.grid[static_cast<size_t>(j) * w + i];
@@ -196,7 +206,8 @@ Expected<RenderFloor> buildRenderFloor(const FloorSpec& spec, const WorldOptions
           if (m < along) {
             const int ia = vertical ? k - 1 : m, ja = vertical ? m : k - 1;
             const int ib = vertical ? k : m, jb = vertical ? m : k;
-            uint8_t a = f.grid[static_cast<size_t>(ja) * w + ia], b = f.grid[static_cast<size_t>(jb) * w + ib];
+            uint8_t a = f.grid[static_cast<size_t>(ja) * w + ia],
+                    b = f.grid[static_cast<size_t>(jb) * w + ib];
             if (side == 1) std::swap(a, b);
             const Vec2 mid = vertical ? Vec2(x0 + k * cell, y0 + (m + 0.5) * cell)
                                       : Vec2(x0 + (m + 0.5) * cell, y0 + k * cell);
@@ -247,8 +258,9 @@ FloorSpec floorSpecOf(const Building& building, int floor, const BuildingOptions
   const double door = 0.5 * o.door_width_m;
   if (fl.lobby >= 0) {
     const Vec2 l = fl.places[static_cast<size_t>(fl.lobby)].xy;
-    spec.openings.push_back(Opening{0, 1, Box{Vec2(l.x() - door, fl.cab.min.y() - 0.2),
-                                              Vec2(l.x() + door, fl.cab.min.y() + 0.2)}});
+    spec.openings.push_back(Opening{
+        0, 1,
+        Box{Vec2(l.x() - door, fl.cab.min.y() - 0.2), Vec2(l.x() + door, fl.cab.min.y() + 0.2)}});
   }
   for (const Room& room : fl.rooms) {
     Region r;
@@ -258,8 +270,8 @@ FloorSpec floorSpecOf(const Building& building, int floor, const BuildingOptions
     const int index = static_cast<int>(spec.regions.size());
     spec.regions.push_back(r);
     const Vec2 d = fl.places[static_cast<size_t>(room.door)].xy;
-    spec.openings.push_back(Opening{0, index, Box{Vec2(d.x() - door, d.y() - hw - 0.2),
-                                                  Vec2(d.x() + door, d.y() + hw + 0.2)}});
+    spec.openings.push_back(Opening{
+        0, index, Box{Vec2(d.x() - door, d.y() - hw - 0.2), Vec2(d.x() + door, d.y() + hw + 0.2)}});
   }
   return spec;
 }
@@ -274,7 +286,8 @@ FloorSpec closedCabSpec(const Building& building) {
 }
 
 Expected<RenderWorld> buildRenderWorld(const Building& building, const BuildingOptions& bo,
-                                       const WorldOptions& o, const TextureLibrary& lib, Random& rng) {
+                                       const WorldOptions& o, const TextureLibrary& lib,
+                                       Random& rng) {
   RenderWorld world;
   for (size_t f = 0; f < building.floors.size(); ++f) {
     auto floor = buildRenderFloor(floorSpecOf(building, static_cast<int>(f), bo, o), o, lib, rng);

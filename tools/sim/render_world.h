@@ -26,21 +26,21 @@
 namespace evermap::sim {
 
 struct WorldOptions {
-  double ceiling_height_m = 2.8;     // above each floor surface
-  double grid_cell_m = 0.05;         // rasterisation of the regions
-  double door_width_m = 1.2;         // room doors and the elevator door
-  double piece_min_m = 2.0;          // walls are cut into pieces of [min, max] metres
+  double ceiling_height_m = 2.8;  // above each floor surface
+  double grid_cell_m = 0.05;      // rasterisation of the regions
+  double door_width_m = 1.2;      // room doors and the elevator door
+  double piece_min_m = 2.0;       // walls are cut into pieces of [min, max] metres
   double piece_max_m = 6.0;
-  double wall_texel_min_m = 0.008;   // texel size of wall textures, drawn per piece
+  double wall_texel_min_m = 0.008;  // texel size of wall textures, drawn per piece
   double wall_texel_max_m = 0.016;
   double floor_texel_m = 0.012;
   double ceiling_texel_m = 0.02;
   double poster_probability = 0.35;  // per wall piece at least 1.5 m long
   double poster_width_min_m = 0.6;
   double poster_width_max_m = 1.1;
-  double dark_light = 0.04;          // light level of a room with the lights off (lit: 1)
-  double blank_radius_m = 4.0;       // featureless zone around a blank-wall junction
-  double brightness_jitter = 0.25;   // each wall piece is lit 1 ± this
+  double dark_light = 0.04;         // light level of a room with the lights off (lit: 1)
+  double blank_radius_m = 4.0;      // featureless zone around a blank-wall junction
+  double brightness_jitter = 0.25;  // each wall piece is lit 1 ± this
 
   Status validate() const;
 };
@@ -55,9 +55,9 @@ struct Wall {
   float p0x = 0, p0y = 0, ex = 0, ey = 0, nx = 0, ny = 0, length = 0;
   int region = 0;
   int texture = -1;
-  float inv_texel = 100.0f;      // texels per metre
+  float inv_texel = 100.0f;          // texels per metre
   float s_offset = 0, z_offset = 0;  // texture offset, texels
-  int gain_q8 = 256;             // brightness * 256 (light of the region included)
+  int gain_q8 = 256;                 // brightness * 256 (light of the region included)
   Poster poster;
 };
 
@@ -102,7 +102,8 @@ struct RenderFloor {
 
   // The grid cell of a point (clamped to the grid).
   uint8_t cellAt(float x, float y) const {
-    int i = static_cast<int>((x - grid_x0) * inv_cell), j = static_cast<int>((y - grid_y0) * inv_cell);
+    int i = static_cast<int>((x - grid_x0) * inv_cell),
+        j = static_cast<int>((y - grid_y0) * inv_cell);
     i = i < 0 ? 0 : (i >= grid_w ? grid_w - 1 : i);
     j = j < 0 ? 0 : (j >= grid_h ? grid_h - 1 : j);
     return grid[static_cast<size_t>(j) * grid_w + i];
@@ -128,7 +129,8 @@ struct RenderWorld {
   std::vector<RenderFloor> floors;
   RenderFloor closed_cab;
 };
-Expected<RenderWorld> buildRenderWorld(const Building& building, const BuildingOptions& building_options,
+Expected<RenderWorld> buildRenderWorld(const Building& building,
+                                       const BuildingOptions& building_options,
                                        const WorldOptions& options, const TextureLibrary& textures,
                                        Random& rng);
 

@@ -15,7 +15,8 @@ void RequestLoad::onKeyframe(const KeyframeTruth& k) {
   if (k.floor < 0) return;
   const Vec3 axis = k.world_T_cam.so3() * Vec3::UnitZ();  // optical axis
   const Vec3& p = k.world_T_cam.translation();
-  const core::PlanarCell cell = grid_.cellOf(core::SE2d(p.x(), p.y(), std::atan2(axis.y(), axis.x())), k.floor);
+  const core::PlanarCell cell =
+      grid_.cellOf(core::SE2d(p.x(), p.y(), std::atan2(axis.y(), axis.x())), k.floor);
   const auto it = cells_.find(cell);
   if (it == cells_.end()) {
     node_added_t n{};

@@ -15,7 +15,8 @@ Expected<RunPlan> RunPlan::create(const SimOptions& options) {
   RunPlan plan;
   plan.options_ = options;
   if (options.mode == SimOptions::Mode::kTrajectory) {
-    auto recorded = loadKittiSession(options.trajectory, options.sensors.camera, options.patrol.start_utime);
+    auto recorded =
+        loadKittiSession(options.trajectory, options.sensors.camera, options.patrol.start_utime);
     if (!recorded) return recorded.error();
     plan.building_ = flatBuilding();
     plan.recorded_ = std::move(*recorded);
@@ -111,27 +112,32 @@ std::string RunSummary::text() const {
   const std::vector<int> floors = floorsVisited();
   std::snprintf(line, sizeof line, "floors visited              %zu\n", floors.size());
   o << line;
-  std::snprintf(line, sizeof line, "elevator rides              %lld\n", static_cast<long long>(rides()));
+  std::snprintf(line, sizeof line, "elevator rides              %lld\n",
+                static_cast<long long>(rides()));
   o << line;
-  std::snprintf(line, sizeof line, "VO frames                   %lld\n", static_cast<long long>(voFrames()));
+  std::snprintf(line, sizeof line, "VO frames                   %lld\n",
+                static_cast<long long>(voFrames()));
   o << line;
-  std::snprintf(line, sizeof line, "VO keyframes                %lld\n", static_cast<long long>(voKeyframes()));
+  std::snprintf(line, sizeof line, "VO keyframes                %lld\n",
+                static_cast<long long>(voKeyframes()));
   o << line;
-  std::snprintf(line, sizeof line, "failed VO frames            %lld\n", static_cast<long long>(voFailed()));
+  std::snprintf(line, sizeof line, "failed VO frames            %lld\n",
+                static_cast<long long>(voFailed()));
   o << line;
   int64_t chains = 0;
   const double drift = voDriftMedian(20.0, &chains);
-  std::snprintf(line, sizeof line, "VO drift, chains >= 20 m   %.2f %% of distance (median of %lld)\n", 100.0 * drift,
+  std::snprintf(line, sizeof line,
+                "VO drift, chains >= 20 m   %.2f %% of distance (median of %lld)\n", 100.0 * drift,
                 static_cast<long long>(chains));
   o << line;
   o << "channel              messages          bytes\n";
   for (const auto& [name, c] : channels) {
-    std::snprintf(line, sizeof line, "%-20s %8lld %14lld\n", name.c_str(), static_cast<long long>(c.messages),
-                  static_cast<long long>(c.bytes));
+    std::snprintf(line, sizeof line, "%-20s %8lld %14lld\n", name.c_str(),
+                  static_cast<long long>(c.messages), static_cast<long long>(c.bytes));
     o << line;
   }
-  std::snprintf(line, sizeof line, "%-20s %8lld %14lld\n", "total", static_cast<long long>(messages()),
-                static_cast<long long>(bytes()));
+  std::snprintf(line, sizeof line, "%-20s %8lld %14lld\n", "total",
+                static_cast<long long>(messages()), static_cast<long long>(bytes()));
   o << line;
   return o.str();
 }
@@ -142,8 +148,8 @@ RunSummary generateRun(const RunPlan& plan, const std::function<MessageSink&(int
   for (int i = 0; i < plan.sessions(); ++i) {
     const SessionPlan session = plan.session(i);
     CountingSink counter(&sink_for(i));
-    summary.sessions.push_back(
-        generateSession(plan.building(), session, plan.options().sensors, plan.options().seed, counter, observers));
+    summary.sessions.push_back(generateSession(plan.building(), session, plan.options().sensors,
+                                               plan.options().seed, counter, observers));
     for (const auto& [name, c] : counter.counts()) {
       summary.channels[name].messages += c.messages;
       summary.channels[name].bytes += c.bytes;

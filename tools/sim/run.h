@@ -57,7 +57,8 @@ struct RunSummary {
 
 // Generates every session in order. `sink_for(i)` gives the sink of session i (it may return
 // the same sink for all); it is asked once per session, just before the session starts.
-RunSummary generateRun(const RunPlan& plan, const std::function<MessageSink&(int session)>& sink_for,
+RunSummary generateRun(const RunPlan& plan,
+                       const std::function<MessageSink&(int session)>& sink_for,
                        const SessionObservers& observers = {});
 
 }  // namespace evermap::sim

@@ -11,7 +11,8 @@
 
 namespace evermap::sim {
 
-void LogWriterSink::write(const std::string& channel, int64_t utime, const std::vector<uint8_t>& data) {
+void LogWriterSink::write(const std::string& channel, int64_t utime,
+                          const std::vector<uint8_t>& data) {
   if (!error_.empty()) return;
   if (auto s = writer_.writeBytes(channel, utime, data); !s) error_ = s.error().message;
 }
@@ -37,7 +38,8 @@ std::string sidecarText(const RunPlan& plan, const RunSummary& summary,
     o << line;
   }
   const SE3d c = plan.options().sensors.camera.bodyTCam();
-  std::snprintf(line, sizeof line, "meta.body_T_cam = %.9f %.9f %.9f %.12f %.12f %.12f %.12f  # t, q wxyz\n",
+  std::snprintf(line, sizeof line,
+                "meta.body_T_cam = %.9f %.9f %.9f %.12f %.12f %.12f %.12f  # t, q wxyz\n",
                 c.translation().x(), c.translation().y(), c.translation().z(), c.quaternion().w(),
                 c.quaternion().x(), c.quaternion().y(), c.quaternion().z());
   o << line;
@@ -49,11 +51,12 @@ std::string sidecarText(const RunPlan& plan, const RunSummary& summary,
       floors += std::to_string(f);
     }
     const std::string& log = log_names.size() == 1 ? log_names[0] : log_names.at(i);
-    std::snprintf(line, sizeof line,
-                  "meta.session.%zu = start_utime %lld end_utime %lld distance_m %.1f rides %d floors %s "
-                  "log %s\n",
-                  i, static_cast<long long>(s.start_utime), static_cast<long long>(s.end_utime), s.distance_m,
-                  s.rides, floors.c_str(), log.c_str());
+    std::snprintf(
+        line, sizeof line,
+        "meta.session.%zu = start_utime %lld end_utime %lld distance_m %.1f rides %d floors %s "
+        "log %s\n",
+        i, static_cast<long long>(s.start_utime), static_cast<long long>(s.end_utime), s.distance_m,
+        s.rides, floors.c_str(), log.c_str());
     o << line;
   }
   for (const auto& [name, count] : summary.channels) {
@@ -81,7 +84,8 @@ Expected<WrittenRun> writeRun(const RunPlan& plan, const std::filesystem::path& 
       log.reset();
     }
     if (truth) {
-      if (auto s = eval::writeTum(*truth, folder / (name + ".tum")); !s && error.empty()) error = s.error().message;
+      if (auto s = eval::writeTum(*truth, folder / (name + ".tum")); !s && error.empty())
+        error = s.error().message;
       truth.reset();
     }
   };
@@ -116,7 +120,8 @@ Expected<WrittenRun> writeRun(const RunPlan& plan, const std::filesystem::path& 
   std::vector<std::string> log_names;
   for (const auto& p : written.logs) log_names.push_back(p.filename().string());
   written.sidecar = folder / "run.sim.txt";
-  if (auto s = writeFileAtomically(written.sidecar, sidecarText(plan, written.summary, log_names)); !s) {
+  if (auto s = writeFileAtomically(written.sidecar, sidecarText(plan, written.summary, log_names));
+      !s) {
     return s.error();
   }
   return written;

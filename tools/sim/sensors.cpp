@@ -33,7 +33,8 @@ Status positive(double v, const char* name) {
 
 Status nonNegative(std::initializer_list<double> values, const char* name) {
   for (double v : values) {
-    if (!(v >= 0.0)) return makeError(name, ": noise and rate parameters must be >= 0, got ", shortest(v));
+    if (!(v >= 0.0))
+      return makeError(name, ": noise and rate parameters must be >= 0, got ", shortest(v));
   }
   return Ok{};
 }
@@ -43,9 +44,7 @@ Status nonNegative(std::initializer_list<double> values, const char* name) {
 SE3d CameraOptions::bodyTCam() const {
   core::Mat3 R;
   // Columns: the camera's x (right), y (down), z (forward) axes in the body frame.
-  R << 0, 0, 1,
-      -1, 0, 0,
-       0, -1, 0;
+  R << 0, 0, 1, -1, 0, 0, 0, -1, 0;
   return SE3d(core::SO3d::fromMatrix(R), Vec3(forward_m, 0.0, height_m));
 }
 
@@ -71,21 +70,27 @@ Status CameraOptions::validate() const {
   for (double v : {height_m, forward_m}) {
     if (!std::isfinite(v)) return makeError("height_m: camera offsets must be finite");
   }
-  if (!(fx > 0.0 && fy > 0.0 && cx > 0.0 && cy > 0.0)) return makeError("fx: intrinsics must be > 0");
+  if (!(fx > 0.0 && fy > 0.0 && cx > 0.0 && cy > 0.0))
+    return makeError("fx: intrinsics must be > 0");
   return positive(baseline_m, "baseline_m");
 }
 
 Status VoOptions::validate() const {
   if (auto s = positive(rate_hz, "rate_hz"); !s) return s;
-  if (auto s = nonNegative({keyframe_translation_m, keyframe_rotation_rad}, "keyframe_translation_m"); !s) return s;
+  if (auto s =
+          nonNegative({keyframe_translation_m, keyframe_rotation_rad}, "keyframe_translation_m");
+      !s)
+    return s;
   if (auto s = nonNegative({translation_sigma_m, translation_sigma_per_m, translation_sigma_per_rad,
                             rotation_sigma_rad, rotation_sigma_per_rad, rotation_sigma_per_m},
                            "translation_sigma_m");
       !s) {
     return s;
   }
-  if (auto s = nonNegative({passerby_rate_per_hour, passerby_min_s}, "passerby_rate_per_hour"); !s) return s;
-  if (!(passerby_max_s >= passerby_min_s)) return makeError("passerby_max_s: must be >= passerby_min_s");
+  if (auto s = nonNegative({passerby_rate_per_hour, passerby_min_s}, "passerby_rate_per_hour"); !s)
+    return s;
+  if (!(passerby_max_s >= passerby_min_s))
+    return makeError("passerby_max_s: must be >= passerby_min_s");
   return Ok{};
 }
 
@@ -113,8 +118,8 @@ Status AttitudeOptions::validate() const {
   if (auto s = positive(rate_hz, "rate_hz"); !s) return s;
   if (auto s = nonNegative({sigma_rad}, "sigma_rad"); !s) return s;
   if (auto s = positive(untrusted_accel_mps2, "untrusted_accel_mps2"); !s) return s;
-  if (auto s = nonNegative({heading_noise_density, heading_bias_sigma_rad_s, heading_bias_walk_density,
-                            heading_scale_sigma},
+  if (auto s = nonNegative({heading_noise_density, heading_bias_sigma_rad_s,
+                            heading_bias_walk_density, heading_scale_sigma},
                            "heading_noise_density");
       !s)
     return s;
@@ -129,7 +134,10 @@ Status FloorOptions::validate() const {
 Status ImuOptions::validate() const {
   if (auto s = positive(rate_hz, "rate_hz"); !s) return s;
   if (auto s = nonNegative({margin_s}, "margin_s"); !s) return s;
-  if (auto s = nonNegative({accel_sigma_mps2, gyro_sigma_radps, gyro_bias_sigma_radps, accel_bias_sigma_mps2}, "accel_sigma_mps2"); !s) {
+  if (auto s = nonNegative(
+          {accel_sigma_mps2, gyro_sigma_radps, gyro_bias_sigma_radps, accel_bias_sigma_mps2},
+          "accel_sigma_mps2");
+      !s) {
     return s;
   }
   return positive(gravity_mps2, "gravity_mps2");
@@ -202,8 +210,10 @@ vo_delta_t VoModel::measure(int64_t utime, const BodyState& state, int8_t condit
   const SE3d ref_T_cur = world_T_ref_.inverse() * world_T_cam;
   const double d = ref_T_cur.translation().norm();
   const double theta = core::rotationAngle(ref_T_cur.so3());
-  const double st = o_.translation_sigma_m + o_.translation_sigma_per_m * d + o_.translation_sigma_per_rad * theta;
-  const double sr = o_.rotation_sigma_rad + o_.rotation_sigma_per_rad * theta + o_.rotation_sigma_per_m * d;
+  const double st = o_.translation_sigma_m + o_.translation_sigma_per_m * d +
+                    o_.translation_sigma_per_rad * theta;
+  const double sr =
+      o_.rotation_sigma_rad + o_.rotation_sigma_per_rad * theta + o_.rotation_sigma_per_m * d;
   core::Vec6 delta;
   for (int i = 0; i < 3; ++i) delta[i] = st * rng_.normal();
   for (int i = 3; i < 6; ++i) delta[i] = sr * rng_.normal();
@@ -276,7 +286,8 @@ attitude_t measureAttitude(int64_t utime, const BodyState& state, const Attitude
   return m;
 }
 
-GyroHeadingModel::GyroHeadingModel(const AttitudeOptions& options, Random rng) : o_(options), rng_(rng) {
+GyroHeadingModel::GyroHeadingModel(const AttitudeOptions& options, Random rng)
+    : o_(options), rng_(rng) {
   scale_error_ = o_.heading_scale_sigma * rng_.normal();
   // The robot stood still before its session (it boots standing): one zero-rate update.
   bias_error_ = o_.heading_bias_sigma_rad_s * rng_.normal();
@@ -289,9 +300,10 @@ void GyroHeadingModel::fill(int64_t utime, const BodyState& s, attitude_t* m) {
     const double dt = 1e-6 * static_cast<double>(utime - last_utime_);
     const double turned = std::remainder(yaw - last_yaw_, 2.0 * std::numbers::pi);
     unwrapped_yaw_ += turned;
-    heading_error_ += bias_error_ * dt + scale_error_ * turned + o_.heading_noise_density * std::sqrt(dt) * rng_.normal();
-    const bool still = s.velocity_world.head<2>().norm() < 0.01 && s.acceleration_world.norm() < 0.1 &&
-                       std::abs(turned) < 1e-3 * dt;
+    heading_error_ += bias_error_ * dt + scale_error_ * turned +
+                      o_.heading_noise_density * std::sqrt(dt) * rng_.normal();
+    const bool still = s.velocity_world.head<2>().norm() < 0.01 &&
+                       s.acceleration_world.norm() < 0.1 && std::abs(turned) < 1e-3 * dt;
     still_s_ = still ? still_s_ + dt : 0.0;
     if (still_s_ >= o_.heading_still_s) {
       bias_error_ = o_.heading_bias_sigma_rad_s * rng_.normal();
@@ -384,8 +396,10 @@ imu_t measureImu(int64_t utime, const Trajectory& trajectory, const ImuOptions& 
   imu_t m{};
   m.utime = utime;
   for (int i = 0; i < 3; ++i) {
-    m.linear_acceleration[i] = f[i] + bias[i] + (o.accel_sigma_mps2 > 0.0 ? o.accel_sigma_mps2 * rng.normal() : 0.0);
-    m.angular_velocity[i] = w[i] + gyro_bias[i] + (o.gyro_sigma_radps > 0.0 ? o.gyro_sigma_radps * rng.normal() : 0.0);
+    m.linear_acceleration[i] =
+        f[i] + bias[i] + (o.accel_sigma_mps2 > 0.0 ? o.accel_sigma_mps2 * rng.normal() : 0.0);
+    m.angular_velocity[i] =
+        w[i] + gyro_bias[i] + (o.gyro_sigma_radps > 0.0 ? o.gyro_sigma_radps * rng.normal() : 0.0);
   }
   return m;
 }

@@ -225,7 +225,8 @@ class WheelModel {
   WheelOptions o_;
   Intervals slips_;
   Random rng_;
-  messages::WheelOdometryFrame odometry_frame_;  // odom_* of every increment, as a wheel driver integrates them
+  messages::WheelOdometryFrame
+      odometry_frame_;  // odom_* of every increment, as a wheel driver integrates them
 };
 
 attitude_t measureAttitude(int64_t utime, const BodyState& state, const AttitudeOptions& o,
@@ -237,8 +238,8 @@ std::vector<floor_t> floorEvents(const Building& building, const SessionPlan& pl
 
 // IMU sample; `bias` is the session's accelerometer bias, `gyro_bias` its gyro bias
 // (gyroBias()).
-imu_t measureImu(int64_t utime, const Trajectory& trajectory, const ImuOptions& o,
-                 const Vec3& bias, const Vec3& gyro_bias, Random& rng);
+imu_t measureImu(int64_t utime, const Trajectory& trajectory, const ImuOptions& o, const Vec3& bias,
+                 const Vec3& gyro_bias, Random& rng);
 
 // The gyro bias of one session: gyro_bias_sigma_radps per axis, from its own random stream
 // (so that it changes no other noise of the session).

@@ -16,7 +16,6 @@ namespace {
 
 constexpr int64_t kNever = std::numeric_limits<int64_t>::max();
 
-
 // IMU ticks, only inside [ride start - margin, ride end + margin] windows.
 class ImuSchedule {
  public:
@@ -72,8 +71,9 @@ int8_t visualCondition(const Building& building, const BodyState& s, const SE3d&
 
 Status SensorOptions::validate() const {
   const std::pair<const char*, Status> parts[] = {
-      {"camera.", camera.validate()}, {"vo.", vo.validate()},       {"wheel.", wheel.validate()},
-      {"attitude.", attitude.validate()}, {"floor.", floor.validate()}, {"imu.", imu.validate()}};
+      {"camera.", camera.validate()}, {"vo.", vo.validate()},
+      {"wheel.", wheel.validate()},   {"attitude.", attitude.validate()},
+      {"floor.", floor.validate()},   {"imu.", imu.validate()}};
   for (const auto& [prefix, status] : parts) {
     if (!status) return makeError(prefix, status.error().message);
   }
@@ -98,15 +98,17 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
   const int session = plan.index;
   const SE3d body_T_cam = o.camera.bodyTCam();
   // The camera the VO deltas are of (DESIGN.md: calibration is state, repeated).
-  const core::StereoCalibration calibration = o.camera.stereoCalibration(
-      static_cast<int>(std::lround(2.0 * o.camera.cx)), static_cast<int>(std::lround(2.0 * o.camera.cy)));
+  const core::StereoCalibration calibration =
+      o.camera.stereoCalibration(static_cast<int>(std::lround(2.0 * o.camera.cx)),
+                                 static_cast<int>(std::lround(2.0 * o.camera.cy)));
   channels::CalibrationRepeat calib_repeat;
 
   Random passer_rng = streamFor(seed, Stream::kPassersBy, session);
   const Intervals passers(start, end, o.vo.passerby_rate_per_hour, o.vo.passerby_min_s,
                           o.vo.passerby_max_s, passer_rng);
   Random slip_rng = streamFor(seed, Stream::kSlips, session);
-  Intervals slips(start, end, o.wheel.slip_rate_per_hour, o.wheel.slip_min_s, o.wheel.slip_max_s, slip_rng);
+  Intervals slips(start, end, o.wheel.slip_rate_per_hour, o.wheel.slip_min_s, o.wheel.slip_max_s,
+                  slip_rng);
   SessionSummary summary;
   summary.session = session;
   summary.start_utime = start;
@@ -147,15 +149,19 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
   auto closeChain = [&]() {
     if (!in_chain) return;
     summary.vo_chains.push_back(
-        VoChain{chain_end_m - chain_start_m, (chain_estimate.translation() - chain_truth.translation()).norm()});
+        VoChain{chain_end_m - chain_start_m,
+                (chain_estimate.translation() - chain_truth.translation()).norm()});
     in_chain = false;
   };
 
   enum { kGt, kImu, kWheel, kAttitude, kFloor, kVo, kStreams };
   while (true) {
-    const int64_t next[kStreams] = {
-        gt_clock.next(), imu_clock.next(), wheel_clock.next(), attitude_clock.next(),
-        floor_next < floors.size() ? floors[floor_next].utime : kNever, vo_clock.next()};
+    const int64_t next[kStreams] = {gt_clock.next(),
+                                    imu_clock.next(),
+                                    wheel_clock.next(),
+                                    attitude_clock.next(),
+                                    floor_next < floors.size() ? floors[floor_next].utime : kNever,
+                                    vo_clock.next()};
     int which = -1;
     for (int s = 0; s < kStreams; ++s) {
       if (next[s] <= end && (which < 0 || next[s] < next[which])) which = s;
@@ -165,18 +171,21 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
     switch (which) {
       case kGt: {
         const BodyState s = traj.at(t);
-        writeMessage(sink, channels::kGroundTruth, toPoseMessage(t, s.world_T_body, s.floor, session));
+        writeMessage(sink, channels::kGroundTruth,
+                     toPoseMessage(t, s.world_T_body, s.floor, session));
         if (observers.on_ground_truth) observers.on_ground_truth(t, s);
         gt_clock.advance();
         break;
       }
       case kImu:
-        writeMessage(sink, channels::kImu, measureImu(t, traj, o.imu, imu_bias, gyro_bias, imu_rng));
+        writeMessage(sink, channels::kImu,
+                     measureImu(t, traj, o.imu, imu_bias, gyro_bias, imu_rng));
         imu_clock.advance();
         break;
       case kWheel: {
         const BodyState s = traj.at(t);
-        writeMessage(sink, channels::kWheelOdom, wheel.increment(wheel_prev_utime, wheel_prev, t, s));
+        writeMessage(sink, channels::kWheelOdom,
+                     wheel.increment(wheel_prev_utime, wheel_prev, t, s));
         wheel_prev_utime = t;
         wheel_prev = s;
         wheel_clock.advance();
@@ -198,7 +207,8 @@ SessionSummary generateSession(const Building& building, const SessionPlan& plan
         const BodyState s = traj.at(t);
         const int8_t condition = visualCondition(building, s, body_T_cam, o.vo, passers, t);
         const vo_delta_t m = vo.frame(t, s, condition);
-        if (calib_repeat.due(t)) writeMessage(sink, channels::kStereoCalib, messages::toMsg(calibration, t));
+        if (calib_repeat.due(t))
+          writeMessage(sink, channels::kStereoCalib, messages::toMsg(calibration, t));
         writeMessage(sink, channels::kVoDelta, m);
         ++summary.vo_frames;
         ++summary.vo_status[static_cast<size_t>(m.status)];

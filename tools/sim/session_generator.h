@@ -63,14 +63,14 @@ struct SessionSummary {
   int rides = 0;
   std::vector<int> floors_visited;
   int64_t vo_frames = 0;
-  int64_t vo_keyframes = 0;                 // frames with keyframe_changed = 1
-  std::array<int64_t, 7> vo_status{};       // frames per vo_delta_t status
+  int64_t vo_keyframes = 0;            // frames with keyframe_changed = 1
+  std::array<int64_t, 7> vo_status{};  // frames per vo_delta_t status
   std::vector<VoChain> vo_chains;
   int64_t passerby_events = 0;
   int64_t slip_events = 0;
 
   double durationS() const { return static_cast<double>(end_utime - start_utime) * 1e-6; }
-  int64_t voFailed() const;                 // frames with a failure status
+  int64_t voFailed() const;  // frames with a failure status
 };
 
 // Generates one session. `seed` is the run's seed; the session's noise streams derive from it

@@ -42,7 +42,6 @@ using evermap::sim::RunPlan;
 using Clock = evermap::SteadyClock;
 using evermap::secondsSince;
 
-
 struct Args {
   std::string config;
   std::vector<std::string> sets;
@@ -87,13 +86,16 @@ int parseArgs(int argc, char** argv, Args* a) {
   cli.value("--lcm-url", &a->lcm_url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.value("--map", &a->map, "STORE", "--oracle: first learn the nodes the map store holds");
   cli.value("--speed", &a->speed, "X", "--serve: times real time (0: as fast as possible)").min(0);
-  cli.value("--idle-exit-s", &a->idle_exit_s, "S", "--oracle: exit after S s without requests").min(0);
+  cli.value("--idle-exit-s", &a->idle_exit_s, "S", "--oracle: exit after S s without requests")
+      .min(0);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   a->load = !no_load;
-  for (auto [on, m] : {std::pair{stats, "stats"}, {serve, "serve"}, {oracle, "oracle"}, {print, "print"}}) {
+  for (auto [on, m] :
+       {std::pair{stats, "stats"}, {serve, "serve"}, {oracle, "oracle"}, {print, "print"}}) {
     if (!on) continue;
     if (const auto s = mode(m)(""); !s) {
-      std::fprintf(stderr, "evermap-sim-measure: %s\n%s", s.error().message.c_str(), cli.usage().c_str());
+      std::fprintf(stderr, "evermap-sim-measure: %s\n%s", s.error().message.c_str(),
+                   cli.usage().c_str());
       return 2;
     }
   }
@@ -129,8 +131,8 @@ int runStats(const RunPlan& plan, bool load) {
   evermap::sim::NullSink null;
   const auto t0 = Clock::now();
   const double cpu0 = cpuSeconds();
-  const auto summary = evermap::sim::generateRun(plan, [&](int) -> evermap::sim::MessageSink& { return null; },
-                                                 observers);
+  const auto summary = evermap::sim::generateRun(
+      plan, [&](int) -> evermap::sim::MessageSink& { return null; }, observers);
   const double wall = secondsSince(t0);
   std::printf("%s", summary.text().c_str());
   std::printf("generation + encoding       %.2f s wall, %.2f s CPU\n", wall - oracle_s,
@@ -155,7 +157,8 @@ int runOut(const RunPlan& plan, const std::string& folder) {
     return 1;
   }
   std::printf("%s", written->summary.text().c_str());
-  std::printf("generation + writing        %.2f s wall, %.2f s CPU\n", secondsSince(t0), cpuSeconds() - cpu0);
+  std::printf("generation + writing        %.2f s wall, %.2f s CPU\n", secondsSince(t0),
+              cpuSeconds() - cpu0);
   std::printf("wrote %zu log(s) and %s\n", written->logs.size(), written->sidecar.string().c_str());
   return 0;
 }
@@ -163,7 +166,8 @@ int runOut(const RunPlan& plan, const std::string& folder) {
 // Publishes every message on LCM; between messages, answers what arrived.
 class LcmSink final : public evermap::sim::MessageSink {
  public:
-  LcmSink(lcm::LCM& lcm, double speed, evermap::StopSignals& stop) : lcm_(lcm), speed_(speed), stop_(stop) {}
+  LcmSink(lcm::LCM& lcm, double speed, evermap::StopSignals& stop)
+      : lcm_(lcm), speed_(speed), stop_(stop) {}
   void startSession() { first_utime_ = -1; }
   void write(const std::string& channel, int64_t utime, const std::vector<uint8_t>& data) override {
     if (stop_.requested()) return;
@@ -172,7 +176,8 @@ class LcmSink final : public evermap::sim::MessageSink {
         first_utime_ = utime;
         wall_start_ = Clock::now();
       }
-      const auto due = wall_start_ + std::chrono::microseconds(static_cast<int64_t>((utime - first_utime_) / speed_));
+      const auto due = wall_start_ + std::chrono::microseconds(
+                                         static_cast<int64_t>((utime - first_utime_) / speed_));
       while (Clock::now() < due && !stop_.requested()) lcm_.handleTimeout(1);
     }
     lcm_.publish(channel, data.data(), static_cast<unsigned int>(data.size()));
@@ -191,7 +196,8 @@ class LcmSink final : public evermap::sim::MessageSink {
 int runServe(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) {
   lcm::LCM lcm(args.lcm_url);
   if (!lcm.good()) {
-    std::fprintf(stderr, "evermap-sim-measure: cannot start LCM (url \"%s\")\n", args.lcm_url.c_str());
+    std::fprintf(stderr, "evermap-sim-measure: cannot start LCM (url \"%s\")\n",
+                 args.lcm_url.c_str());
     return 1;
   }
   evermap::sim::RegistrationOracle oracle(plan.options().oracle, plan.oracleSeed());
@@ -213,15 +219,16 @@ int runServe(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) 
   while (Clock::now() < end && !stop.requested()) lcm.handleTimeout(50);
   std::printf("%s", summary.text().c_str());
   std::printf("%s", oracle.summary().text().c_str());
-  std::printf("answered %lld requests, dropped %lld messages\n", static_cast<long long>(server.answered()),
-              static_cast<long long>(server.dropped()));
+  std::printf("answered %lld requests, dropped %lld messages\n",
+              static_cast<long long>(server.answered()), static_cast<long long>(server.dropped()));
   return stop.requested() ? 1 : 0;
 }
 
 int runOracle(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) {
   lcm::LCM lcm(args.lcm_url);
   if (!lcm.good()) {
-    std::fprintf(stderr, "evermap-sim-measure: cannot start LCM (url \"%s\")\n", args.lcm_url.c_str());
+    std::fprintf(stderr, "evermap-sim-measure: cannot start LCM (url \"%s\")\n",
+                 args.lcm_url.c_str());
     return 1;
   }
   evermap::sim::OracleOptions options = plan.options().oracle;
@@ -230,7 +237,8 @@ int runOracle(const RunPlan& plan, const Args& args, evermap::StopSignals& stop)
   evermap::sim::SessionObservers observers;
   observers.on_keyframe = [&](const KeyframeTruth& k) { oracle.addKeyframe(k); };
   evermap::sim::NullSink null;
-  (void)evermap::sim::generateRun(plan, [&](int) -> evermap::sim::MessageSink& { return null; }, observers);
+  (void)evermap::sim::generateRun(
+      plan, [&](int) -> evermap::sim::MessageSink& { return null; }, observers);
   int64_t stored_nodes = 0;
   if (!args.map.empty()) {
     auto told = evermap::sim::loadStoredNodes(oracle, args.map);
@@ -241,8 +249,9 @@ int runOracle(const RunPlan& plan, const Args& args, evermap::StopSignals& stop)
     stored_nodes = *told;
   }
   evermap::sim::OracleServer server(lcm, oracle);
-  std::printf("evermap-sim-measure: oracle ready, %lld keyframes known, %lld nodes from the map store\n",
-              static_cast<long long>(oracle.summary().keyframes), static_cast<long long>(stored_nodes));
+  std::printf(
+      "evermap-sim-measure: oracle ready, %lld keyframes known, %lld nodes from the map store\n",
+      static_cast<long long>(oracle.summary().keyframes), static_cast<long long>(stored_nodes));
   std::fflush(stdout);
   auto last = Clock::now();
   int64_t seen = 0;

@@ -35,12 +35,15 @@ core::Mat6 readCovariance(const double in[36]) {
 }
 
 pose_t toPoseMessage(int64_t utime, const core::SE3d& world_T_body, int floor, int session) {
-  return messages::toMsg(utime, core::UncertainPose{world_T_body, core::Mat6::Zero()}, floor, session);
+  return messages::toMsg(utime, core::UncertainPose{world_T_body, core::Mat6::Zero()}, floor,
+                         session);
 }
 
 core::SE3d poseOf(const pose_t& m) { return readPose(m.position, m.orientation); }
 core::SE3d deltaOf(const vo_delta_t& m) { return readPose(m.translation, m.orientation); }
-core::SE3d relativePoseOf(const register_result_t& m) { return readPose(m.translation, m.orientation); }
+core::SE3d relativePoseOf(const register_result_t& m) {
+  return readPose(m.translation, m.orientation);
+}
 
 keyframe_t keyframeIdentity(int64_t utime, const CameraOptions& camera) {
   keyframe_t k{};

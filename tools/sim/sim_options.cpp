@@ -162,9 +162,10 @@ Status TrajectoryOptions::validate() const {
 }
 
 Status SimOptions::validate() const {
-  const std::pair<const char*, Status> parts[] = {
-      {"building.", building.validate()}, {"patrol.", patrol.validate()},
-      {"elevator.", elevator.validate()}, {"oracle.", oracle.validate()}};
+  const std::pair<const char*, Status> parts[] = {{"building.", building.validate()},
+                                                  {"patrol.", patrol.validate()},
+                                                  {"elevator.", elevator.validate()},
+                                                  {"oracle.", oracle.validate()}};
   for (const auto& [prefix, status] : parts) {
     if (!status) return makeError(prefix, status.error().message);
   }
@@ -182,8 +183,10 @@ std::string SimOptions::toConfigText() const {
   visitOptions(copy, [&](const char* key, auto* field) {
     const std::string value = format(*field);
     // An empty value cannot be written as `key = value`: leave the default in place.
-    if (value.empty()) out << "# " << key << " = (empty)\n";
-    else out << key << " = " << value << "\n";
+    if (value.empty())
+      out << "# " << key << " = (empty)\n";
+    else
+      out << key << " = " << value << "\n";
   });
   return out.str();
 }
@@ -196,7 +199,8 @@ Expected<SimOptions> loadSimOptions(const KeyValueFile& file) {
   if (mode == "trajectory") {
     o.mode = SimOptions::Mode::kTrajectory;
   } else if (mode != "building") {
-    return makeError(reader.where("mode"), ": mode: expected 'building' or 'trajectory', got '", mode, "'");
+    return makeError(reader.where("mode"), ": mode: expected 'building' or 'trajectory', got '",
+                     mode, "'");
   }
   visitOptions(o, [&](const char* key, auto* field) { reader.read(key, field); });
   // meta.*: what the simulator wrote about a run; mapper.*: the mapper's options, which a

@@ -17,10 +17,10 @@ namespace evermap::sim {
 
 // mode = trajectory: drive along a recorded trajectory instead of patrolling a building.
 struct TrajectoryOptions {
-  std::string file;          // KITTI odometry poses (12 numbers per line); relative to the config
-  double rate_hz = 10.0;     // of the poses in the file
-  int first = 0;             // first pose used
-  int count = 0;             // poses used; 0: to the end of the file
+  std::string file;       // KITTI odometry poses (12 numbers per line); relative to the config
+  double rate_hz = 10.0;  // of the poses in the file
+  int first = 0;          // first pose used
+  int count = 0;          // poses used; 0: to the end of the file
 
   Status validate() const;
 };

@@ -2,7 +2,8 @@
 //
 //   evermap-sim-render --config FILE [--set key=value]... [--seed N] --out LOG [--stats]
 //       render one session into an LCM log (STEREO_CALIB, STEREO, IMU, WHEEL_ODOM,
-//       GROUND_TRUTH; RGBD_CALIB and RGBD instead of the first two with render.camera = rgbd) and its ground truth in TUM format beside it (LOG minus .lcmlog + .gt.tum)
+//       GROUND_TRUTH; RGBD_CALIB and RGBD instead of the first two with render.camera = rgbd) and
+//       its ground truth in TUM format beside it (LOG minus .lcmlog + .gt.tum)
 //   evermap-sim-render --config FILE [--set key=value]... --stats
 //       render without writing; print the figures and the render rate
 //   evermap-sim-render --config FILE --publish [--lcm-url URL] [--speed X]
@@ -38,7 +39,6 @@ namespace {
 namespace fs = std::filesystem;
 using evermap::sim::ImageSimulator;
 
-
 struct Args {
   std::string config;
   std::vector<std::string> sets;
@@ -71,8 +71,10 @@ int parseArgs(int argc, char** argv, Args* a) {
   cli.flag("--stats", &a->stats, "print figures and timings");
   cli.flag("--publish", &a->publish, "publish on LCM instead of writing");
   cli.value("--lcm-url", &a->lcm_url, "URL", "--publish: LCM provider");
-  cli.value("--speed", &a->speed, "X", "--publish: times real time (0: as fast as it renders)").min(0);
-  cli.value("--snapshots", &a->snapshots, "DIR", "write left images tagged with the failure in view");
+  cli.value("--speed", &a->speed, "X", "--publish: times real time (0: as fast as it renders)")
+      .min(0);
+  cli.value("--snapshots", &a->snapshots, "DIR",
+            "write left images tagged with the failure in view");
   cli.value("--every", &a->every_s, "S", "--snapshots: one every S seconds (10)").positive();
   cli.value("--facts", &a->facts, "F.csv", "per-frame facts (failure in view) as CSV");
   cli.flag("--print-config", &a->print, "print every setting and exit");
@@ -160,12 +162,15 @@ int main(int argc, char** argv) {
     fs::create_directories(args.snapshots, ec);
     cv::Mat left, right, depth;
     const bool rgbd = options->render.camera == evermap::sim::CameraMode::kRgbd;
-    for (int64_t t = (*sim)->startUtime(); t <= (*sim)->endUtime(); t += static_cast<int64_t>(args.every_s * 1e6)) {
-      const auto f = rgbd ? (*sim)->renderRgbd(t, &left, &depth) : (*sim)->renderPair(t, &left, &right);
+    for (int64_t t = (*sim)->startUtime(); t <= (*sim)->endUtime();
+         t += static_cast<int64_t>(args.every_s * 1e6)) {
+      const auto f =
+          rgbd ? (*sim)->renderRgbd(t, &left, &depth) : (*sim)->renderPair(t, &left, &right);
       char name[128];
-      std::snprintf(name, sizeof name, "left-%06.1f%s%s%s%s.png", 1e-6 * static_cast<double>(t - (*sim)->startUtime()),
-                    f.dark_room ? "-dark" : "", f.blank_zone ? "-blank" : "", f.passerby ? "-passerby" : "",
-                    f.closed_cab ? "-cab" : "");
+      std::snprintf(name, sizeof name, "left-%06.1f%s%s%s%s.png",
+                    1e-6 * static_cast<double>(t - (*sim)->startUtime()),
+                    f.dark_room ? "-dark" : "", f.blank_zone ? "-blank" : "",
+                    f.passerby ? "-passerby" : "", f.closed_cab ? "-cab" : "");
       const fs::path file = fs::path(args.snapshots) / name;
       std::string depth_name = name;
       depth_name.replace(0, 4, "depth");
@@ -184,8 +189,10 @@ int main(int argc, char** argv) {
     summary = evermap::sim::writeImageSessionLog(**sim, args.out, keep_going);
     if (summary) {
       const fs::path gt = groundTruthPath(args.out);
-      if (auto s = writeGroundTruth(**sim, gt); !s) summary = s.error();
-      else std::printf("wrote %s and %s\n", args.out.c_str(), gt.c_str());
+      if (auto s = writeGroundTruth(**sim, gt); !s)
+        summary = s.error();
+      else
+        std::printf("wrote %s and %s\n", args.out.c_str(), gt.c_str());
     }
   } else if (args.publish) {
     lcm::LCM lcm(args.lcm_url);
@@ -207,8 +214,9 @@ int main(int argc, char** argv) {
   if (!args.facts.empty()) {
     std::string text = "utime,floor,dark_room,blank_zone,passerby,closed_cab\n";
     for (const auto& [t, f] : summary->frame_facts) {
-      text += std::to_string(t) + "," + std::to_string(f.floor) + "," + std::to_string(f.dark_room) + "," +
-              std::to_string(f.blank_zone) + "," + std::to_string(f.passerby) + "," + std::to_string(f.closed_cab) + "\n";
+      text += std::to_string(t) + "," + std::to_string(f.floor) + "," +
+              std::to_string(f.dark_room) + "," + std::to_string(f.blank_zone) + "," +
+              std::to_string(f.passerby) + "," + std::to_string(f.closed_cab) + "\n";
     }
     if (auto s = evermap::writeFileAtomically(args.facts, text); !s) {
       std::fprintf(stderr, "evermap-sim-render: %s\n", s.error().message.c_str());

@@ -21,7 +21,8 @@ Status PinholeCamera::validate() const {
   if (width < 16 || height < 16 || width > 8192 || height > 8192) {
     return makeError("width: image size must be in [16, 8192], got ", width, "x", height);
   }
-  if (!(fx > 0.0 && fy > 0.0 && std::isfinite(fx) && std::isfinite(fy))) return makeError("fx: focal lengths must be > 0");
+  if (!(fx > 0.0 && fy > 0.0 && std::isfinite(fx) && std::isfinite(fy)))
+    return makeError("fx: focal lengths must be > 0");
   if (!(cx >= 0.0 && cx < width && cy >= 0.0 && cy < height)) {
     return makeError("cx: the principal point must lie inside the image");
   }
@@ -30,7 +31,8 @@ Status PinholeCamera::validate() const {
 
 Status Lighting::validate() const {
   if (!(gain > 0.0 && gain < 10.0)) return makeError("gain: must be in (0, 10)");
-  if (!(offset_gray > -255.0 && offset_gray < 255.0)) return makeError("offset_gray: must be in (-255, 255)");
+  if (!(offset_gray > -255.0 && offset_gray < 255.0))
+    return makeError("offset_gray: must be in (-255, 255)");
   if (!(gamma > 0.1 && gamma < 10.0)) return makeError("gamma: must be in (0.1, 10)");
   return Ok{};
 }
@@ -40,7 +42,8 @@ ImageRenderer::ImageRenderer(const TextureLibrary& textures, const PinholeCamera
     : textures_(textures), camera_(camera), rng_(noise_seed), avx2_(core::cpuHasAvx2()) {
   noise_.resize(kNoiseTable + static_cast<size_t>(camera.width));
   for (int16_t& n : noise_) {
-    n = static_cast<int16_t>(std::lround(noise_sigma_gray > 0.0 ? noise_sigma_gray * rng_.normal() : 0.0));
+    n = static_cast<int16_t>(
+        std::lround(noise_sigma_gray > 0.0 ? noise_sigma_gray * rng_.normal() : 0.0));
   }
   setLighting(Lighting{});
   level_w_ = camera.width + 2 * kLevelMargin;
@@ -60,7 +63,8 @@ void ImageRenderer::setLighting(const Lighting& l) {
 }
 
 void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const core::Vec3& c,
-                                const core::Vec2& hf, std::span<const Occluder> occluders, bool with_depth) {
+                                const core::Vec2& hf, std::span<const Occluder> occluders,
+                                bool with_depth) {
   const int W = level_w_, H = level_h_;
   const double fx = camera_.fx, fy = camera_.fy;
   const double cxl = camera_.cx + kLevelMargin, cyl = camera_.cy + kLevelMargin;
@@ -75,9 +79,10 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
     const Wall& w = floor.walls[i];
     const double ahead = (c.x() - w.p0x) * w.nx + (c.y() - w.p0y) * w.ny;
     if (ahead <= 1e-4) continue;  // behind the wall's face
-    double q[2][2];  // end points: forward, left
+    double q[2][2];               // end points: forward, left
     for (int e = 0; e < 2; ++e) {
-      const double px = w.p0x + e * w.length * w.ex - c.x(), py = w.p0y + e * w.length * w.ey - c.y();
+      const double px = w.p0x + e * w.length * w.ex - c.x(),
+                   py = w.p0y + e * w.length * w.ey - c.y();
       q[e][0] = px * hf.x() + py * hf.y();
       q[e][1] = px * hl.x() + py * hl.y();
     }
@@ -117,9 +122,10 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
     const double dz = std::max(std::abs(v - cyl) / fy, 1e-4);
     const double t = std::min((v > cyl ? below : above) / dz, 1e4);
     row_t[static_cast<size_t>(v)] = static_cast<float>(t);
-    // Footprint axes t|d|/f and t|d|^2/(f |dz|), |d|^2 ~ (1 + x^2)(1 + dz^2) split by row and column.
-    row_lod[static_cast<size_t>(v)] =
-        static_cast<float>(std::log2(t / fy) + 0.75 * std::log2(1.0 + dz * dz) - 0.5 * std::log2(dz));
+    // Footprint axes t|d|/f and t|d|^2/(f |dz|), |d|^2 ~ (1 + x^2)(1 + dz^2) split by row and
+    // column.
+    row_lod[static_cast<size_t>(v)] = static_cast<float>(
+        std::log2(t / fy) + 0.75 * std::log2(1.0 + dz * dz) - 0.5 * std::log2(dz));
   }
   thread_local std::vector<float> col_dx, col_dy;
   thread_local std::vector<int> col_top, col_bot;
@@ -127,10 +133,12 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
   col_dy.resize(static_cast<size_t>(W));
   col_top.resize(static_cast<size_t>(W));
   col_bot.resize(static_cast<size_t>(W));
-  for (int u = 0; u < W; ++u) col_lod[static_cast<size_t>(u)] = static_cast<float>(0.75 * std::log2(1.0 + xOf(u) * xOf(u)));
+  for (int u = 0; u < W; ++u)
+    col_lod[static_cast<size_t>(u)] = static_cast<float>(0.75 * std::log2(1.0 + xOf(u) * xOf(u)));
 
   const Texture* tex = textures_.textures.data();
-  const float floor_log = std::log2(floor.floor_inv_texel), ceiling_log = std::log2(floor.ceiling_inv_texel);
+  const float floor_log = std::log2(floor.floor_inv_texel),
+              ceiling_log = std::log2(floor.ceiling_inv_texel);
   const Texture& blank = tex[textures_.blank];
   const float c2x = static_cast<float>(c.x()), c2y = static_cast<float>(c.y());
   auto put = [&](int u, int v, int value, int gain_q8) {
@@ -148,13 +156,16 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
       const Wall& w = floor.walls[static_cast<size_t>(id)];
       v_top = std::clamp(static_cast<int>(std::ceil(cyl - fy * above / t)), 0, H);
       v_bot = std::clamp(static_cast<int>(std::floor(cyl + fy * below / t)) + 1, v_top, H);
-      const double s = ((c.x() - w.p0x) * w.ex + (c.y() - w.p0y) * w.ey) + t * (w.ex * dxd + w.ey * dyd);
+      const double s =
+          ((c.x() - w.p0x) * w.ex + (c.y() - w.p0y) * w.ey) + t * (w.ex * dxd + w.ey * dyd);
       const double nd = std::max(1e-6, -(w.nx * dxd + w.ny * dyd));
       const double dd = 1.0 + x * x;
-      const float lod = static_cast<float>(std::log2(t * std::sqrt(dd) / fx) + 0.5 * std::log2(std::sqrt(dd) / nd));
+      const float lod = static_cast<float>(std::log2(t * std::sqrt(dd) / fx) +
+                                           0.5 * std::log2(std::sqrt(dd) / nd));
       // Texture row of image row v: (ceiling - z(v)) / texel, z(v) = c_z - t (v - cy) / fy.
       const float step = static_cast<float>(t / fy);
-      const float z_top = static_cast<float>(above - t * (cyl - v_top) / fy);  // metres below the ceiling
+      const float z_top =
+          static_cast<float>(above - t * (cyl - v_top) / fy);  // metres below the ceiling
       const Texture& wt = tex[w.texture];
       const float tu = static_cast<float>(s) * w.inv_texel + w.s_offset;
       const int level = mipLevel(lod + std::log2(w.inv_texel));
@@ -163,8 +174,10 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
       float p_scale = 0.0f;
       if (p.texture >= 0 && s >= p.s0 && s <= p.s1) {
         const double height = floor.ceiling_z - floor.floor_z;
-        p_top = std::clamp(static_cast<int>(std::ceil(cyl - fy * (above - (height - p.z1)) / t)), v_top, v_bot);
-        p_bot = std::clamp(static_cast<int>(std::floor(cyl + fy * (below - p.z0) / t)) + 1, p_top, v_bot);
+        p_top = std::clamp(static_cast<int>(std::ceil(cyl - fy * (above - (height - p.z1)) / t)),
+                           v_top, v_bot);
+        p_bot = std::clamp(static_cast<int>(std::floor(cyl + fy * (below - p.z0) / t)) + 1, p_top,
+                           v_bot);
         p_scale = static_cast<float>(tex[p.texture].size()) / (p.s1 - p.s0);
       }
       const Texture::Column column(wt, tu, level);
@@ -203,7 +216,8 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
   int gain_of_cell[256];
   for (int cell = 0; cell < 256; ++cell) {
     const int label = cell & 0x7f;
-    const Region& r = floor.regions[static_cast<size_t>(label > 0 && label <= static_cast<int>(floor.regions.size()) ? label - 1 : 0)];
+    const Region& r = floor.regions[static_cast<size_t>(
+        label > 0 && label <= static_cast<int>(floor.regions.size()) ? label - 1 : 0)];
     const bool featureless = (cell & 0x80) != 0;
     floor_of_cell[cell] = featureless ? &blank : &tex[r.floor_texture];
     ceiling_of_cell[cell] = featureless ? &blank : &tex[r.ceiling_texture];
@@ -225,7 +239,8 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
     row.lod_row = row_lod[static_cast<size_t>(v)] + (row.down ? floor_log : ceiling_log);
     row.col_limit = row.down ? col_bot.data() : col_top.data();
     row.texture_of_cell = row.down ? floor_of_cell : ceiling_of_cell;
-    (avx2_ ? kernels::surfaceRowAvx2 : kernels::surfaceRow)(row, W, level_.data() + static_cast<size_t>(v) * W);
+    (avx2_ ? kernels::surfaceRowAvx2 : kernels::surfaceRow)(
+        row, W, level_.data() + static_cast<size_t>(v) * W);
   }
   if (with_depth) {  // wall rows at the column's depth, floor and ceiling rows at the row's
     level_depth_.resize(static_cast<size_t>(W) * H);
@@ -233,7 +248,8 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
       float* d = level_depth_.data() + static_cast<size_t>(v) * W;
       const float row = row_t[static_cast<size_t>(v)];
       for (int u = 0; u < W; ++u) {
-        const bool wall = v >= col_top[static_cast<size_t>(u)] && v < col_bot[static_cast<size_t>(u)];
+        const bool wall =
+            v >= col_top[static_cast<size_t>(u)] && v < col_bot[static_cast<size_t>(u)];
         d[u] = wall ? depth_[static_cast<size_t>(u)] : row;
       }
     }
@@ -246,13 +262,17 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
     for (const Occluder& o : occluders) {
       const double den = o.normal.x() * dxd + o.normal.y() * dyd;
       if (den >= -1e-9) continue;
-      const double to = ((o.centre.x() - c.x()) * o.normal.x() + (o.centre.y() - c.y()) * o.normal.y()) / den;
+      const double to =
+          ((o.centre.x() - c.x()) * o.normal.x() + (o.centre.y() - c.y()) * o.normal.y()) / den;
       if (!(to > 0.05) || !(to < t)) continue;
       const double ex = -o.normal.y(), ey = o.normal.x();
-      const double so = (c.x() - o.centre.x()) * ex + (c.y() - o.centre.y()) * ey + to * (ex * dxd + ey * dyd);
+      const double so =
+          (c.x() - o.centre.x()) * ex + (c.y() - o.centre.y()) * ey + to * (ex * dxd + ey * dyd);
       if (std::abs(so) > 0.5 * o.width_m) continue;
-      const int o_top = std::clamp(static_cast<int>(std::ceil(cyl - fy * (o.height_m - below) / to)), 0, H);
-      const int o_bot = std::clamp(static_cast<int>(std::floor(cyl + fy * below / to)) + 1, o_top, H);
+      const int o_top =
+          std::clamp(static_cast<int>(std::ceil(cyl - fy * (o.height_m - below) / to)), 0, H);
+      const int o_bot =
+          std::clamp(static_cast<int>(std::floor(cyl + fy * below / to)) + 1, o_top, H);
       const float inv_texel = static_cast<float>(1.0 / o.texel_m);
       const float tu = static_cast<float>((so + 0.5 * o.width_m) * inv_texel);
       const float step = static_cast<float>(to / fy * inv_texel);
@@ -261,7 +281,8 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
       float tv = static_cast<float>((o.height_m - below + to * (o_top - cyl) / fy) * inv_texel);
       for (int v = o_top; v < o_bot; ++v, tv += step) put(u, v, ot.sample(tu, tv, level), 200);
       if (with_depth) {
-        for (int v = o_top; v < o_bot; ++v) level_depth_[static_cast<size_t>(v) * W + u] = static_cast<float>(to);
+        for (int v = o_top; v < o_bot; ++v)
+          level_depth_[static_cast<size_t>(v) * W + u] = static_cast<float>(to);
       }
     }
   }
@@ -312,13 +333,15 @@ void ImageRenderer::render(const RenderFloor& floor, double z_shift, const core:
       const core::Vec3 next = h + (b + 1) * kBlock * M.col(0);
       lu0[static_cast<size_t>(b)] = static_cast<float>(a.x() / a.z());
       lv0[static_cast<size_t>(b)] = static_cast<float>(a.y() / a.z());
-      dlu[static_cast<size_t>(b)] = static_cast<float>((next.x() / next.z() - a.x() / a.z()) / kBlock);
-      dlv[static_cast<size_t>(b)] = static_cast<float>((next.y() / next.z() - a.y() / a.z()) / kBlock);
+      dlu[static_cast<size_t>(b)] =
+          static_cast<float>((next.x() / next.z() - a.x() / a.z()) / kBlock);
+      dlv[static_cast<size_t>(b)] =
+          static_cast<float>((next.y() / next.z() - a.y() / a.z()) / kBlock);
       a = next;
     }
     const int16_t* noise = noise_.data() + rng_.index(kNoiseTable);
-    (avx2_ ? kernels::warpRowAvx2 : kernels::warpRow)(warp, lu0.data(), lv0.data(), dlu.data(), dlv.data(), noise,
-                                                       W, out->ptr<uint8_t>(v));
+    (avx2_ ? kernels::warpRowAvx2 : kernels::warpRow)(warp, lu0.data(), lv0.data(), dlu.data(),
+                                                      dlv.data(), noise, W, out->ptr<uint8_t>(v));
   }
   if (depth) warpDepth(M, depth);
 }
@@ -332,7 +355,8 @@ void ImageRenderer::warpDepth(const core::Mat3& M, cv::Mat* depth) const {
     float* out = depth->ptr<float>(v);
     const core::Vec3 h0 = M * core::Vec3(0.0, v, 1.0);
     for (int u = 0; u < W; ++u) {
-      const double hx = h0.x() + u * step.x(), hy = h0.y() + u * step.y(), hz = h0.z() + u * step.z();
+      const double hx = h0.x() + u * step.x(), hy = h0.y() + u * step.y(),
+                   hz = h0.z() + u * step.z();
       const double inv = 1.0 / hz;
       const double lu = std::clamp(hx * inv, 0.0, max_u), lv = std::clamp(hy * inv, 0.0, max_v);
       const int u0 = static_cast<int>(lu), v0 = static_cast<int>(lv);
@@ -341,7 +365,9 @@ void ImageRenderer::warpDepth(const core::Mat3& M, cv::Mat* depth) const {
       const float z00 = p[0], z01 = p[1], z10 = p[LW], z11 = p[LW + 1];
       const float lo = std::min({z00, z01, z10, z11}), hi = std::max({z00, z01, z10, z11});
       double z_level;
-      if (hi <= lo * 1.1f) {  // one surface (grazing floors change by up to ~5 % a pixel): bilinear in 1/z
+      if (hi <=
+          lo *
+              1.1f) {  // one surface (grazing floors change by up to ~5 % a pixel): bilinear in 1/z
         z_level = 1.0 / ((1 - b) * ((1 - a) / z00 + a / z01) + b * ((1 - a) / z10 + a / z11));
       } else {  // a depth edge: the nearest level pixel
         z_level = p[(b < 0.5 ? 0 : LW) + (a < 0.5 ? 0 : 1)];

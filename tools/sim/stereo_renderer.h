@@ -75,8 +75,8 @@ struct Occluder {
 class ImageRenderer {
  public:
   // `noise_sigma_gray`: standard deviation of the sensor noise, gray levels (0: none).
-  ImageRenderer(const TextureLibrary& textures, const PinholeCamera& camera, double noise_sigma_gray,
-                uint64_t noise_seed);
+  ImageRenderer(const TextureLibrary& textures, const PinholeCamera& camera,
+                double noise_sigma_gray, uint64_t noise_seed);
 
   void setLighting(const Lighting& lighting);
   // Renders the view of a camera at world_T_cam (camera z forward, x right, y down) inside
@@ -98,8 +98,8 @@ class ImageRenderer {
 
   void warpDepth(const core::Mat3& M, cv::Mat* depth) const;
 
-  std::vector<int16_t> noise_;      // Gaussian samples, read from a random offset per row
-  std::vector<int32_t> response_;   // light (0..1023) -> gray, the session's camera response
+  std::vector<int16_t> noise_;     // Gaussian samples, read from a random offset per row
+  std::vector<int32_t> response_;  // light (0..1023) -> gray, the session's camera response
   int level_w_ = 0, level_h_ = 0;
   std::vector<uint16_t> level_;     // the level image: light 0..1023, row-major
   std::vector<float> depth_;        // per level column: forward distance of the nearest wall

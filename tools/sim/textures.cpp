@@ -19,8 +19,11 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 struct Canvas {
   int n;
   std::vector<float> v;
-  explicit Canvas(int size, float fill = 0.0f) : n(size), v(static_cast<size_t>(size) * size, fill) {}
-  float& at(int x, int y) { return v[static_cast<size_t>(((y % n) + n) % n) * n + ((x % n) + n) % n]; }
+  explicit Canvas(int size, float fill = 0.0f)
+      : n(size), v(static_cast<size_t>(size) * size, fill) {}
+  float& at(int x, int y) {
+    return v[static_cast<size_t>(((y % n) + n) % n) * n + ((x % n) + n) % n];
+  }
   void fillRect(int x0, int y0, int w, int h, float value) {
     for (int y = y0; y < y0 + h; ++y) {
       for (int x = x0; x < x0 + w; ++x) at(x, y) = value;
@@ -54,7 +57,9 @@ void addValueNoise(Canvas* c, int cells, float amplitude, Random& rng) {
       const int x0 = static_cast<int>(gx);
       float fx = gx - static_cast<float>(x0);
       fx = fx * fx * (3.0f - 2.0f * fx);
-      auto l = [&](int i, int j) { return lattice[static_cast<size_t>(j % cells) * cells + i % cells]; };
+      auto l = [&](int i, int j) {
+        return lattice[static_cast<size_t>(j % cells) * cells + i % cells];
+      };
       const float top = l(x0, y0) + fx * (l(x0 + 1, y0) - l(x0, y0));
       const float bottom = l(x0, y0 + 1) + fx * (l(x0 + 1, y0 + 1) - l(x0, y0 + 1));
       c->at(x, y) += amplitude * (top + fy * (bottom - top));
@@ -101,8 +106,9 @@ Canvas tiles(int n, Random& rng) {
                  static_cast<float>(rng.uniform(110.0, 230.0)));
       if (rng.bernoulli(0.3)) {  // a fleck on some tiles
         const int s = t / 4;
-        c.fillRect(i * t + static_cast<int>(rng.index(t - s)), j * t + static_cast<int>(rng.index(t - s)),
-                   s, s, static_cast<float>(rng.uniform(40.0, 120.0)));
+        c.fillRect(i * t + static_cast<int>(rng.index(t - s)),
+                   j * t + static_cast<int>(rng.index(t - s)), s, s,
+                   static_cast<float>(rng.uniform(40.0, 120.0)));
       }
     }
   }
@@ -141,7 +147,8 @@ Canvas terrazzo(int n, Random& rng) {
   for (int k = 0; k < dots; ++k) {
     const int cx = static_cast<int>(rng.index(n)), cy = static_cast<int>(rng.index(n));
     const double r = rng.uniform(1.0, 4.5);
-    const float shade = static_cast<float>(rng.bernoulli(0.5) ? rng.uniform(10.0, 90.0) : rng.uniform(200.0, 255.0));
+    const float shade = static_cast<float>(rng.bernoulli(0.5) ? rng.uniform(10.0, 90.0)
+                                                              : rng.uniform(200.0, 255.0));
     const int ri = static_cast<int>(std::ceil(r));
     for (int dy = -ri; dy <= ri; ++dy) {
       for (int dx = -ri; dx <= ri; ++dx) {
@@ -157,7 +164,8 @@ Canvas blocks(int n, Random& rng) {
   Canvas c(n, static_cast<float>(rng.uniform(100.0, 180.0)));
   const int count = 45;
   for (int k = 0; k < count; ++k) {
-    const int w = static_cast<int>(rng.integer(n / 16, n / 3)), h = static_cast<int>(rng.integer(n / 16, n / 3));
+    const int w = static_cast<int>(rng.integer(n / 16, n / 3)),
+              h = static_cast<int>(rng.integer(n / 16, n / 3));
     const int x = static_cast<int>(rng.index(n)), y = static_cast<int>(rng.index(n));
     c.fillRect(x - 2, y - 2, w + 4, h + 4, 25.0f);
     c.fillRect(x, y, w, h, static_cast<float>(rng.uniform(40.0, 240.0)));
@@ -175,7 +183,8 @@ Canvas text(int n, Random& rng) {
     while (x < n) {
       const int w = static_cast<int>(rng.integer(3, 22));
       const int h = static_cast<int>(rng.integer(line / 2, line - 2));
-      if (rng.bernoulli(0.85)) c.fillRect(x, y + line - 2 - h, w, h, static_cast<float>(rng.uniform(10.0, 80.0)));
+      if (rng.bernoulli(0.85))
+        c.fillRect(x, y + line - 2 - h, w, h, static_cast<float>(rng.uniform(10.0, 80.0)));
       x += w + static_cast<int>(rng.integer(3, 10));
     }
   }
@@ -228,7 +237,8 @@ void Texture::makeViews() {
   view_.clear();
   for (size_t l = 0; l < levels_.size(); ++l) {
     const int side = size_ >> l;
-    view_.push_back(Level{levels_[l].data(), side - 1, std::countr_zero(static_cast<unsigned>(side)),
+    view_.push_back(Level{levels_[l].data(), side - 1,
+                          std::countr_zero(static_cast<unsigned>(side)),
                           256.0f / static_cast<float>(1 << l)});
   }
   last_ = static_cast<int>(view_.size()) - 1;
@@ -236,14 +246,22 @@ void Texture::makeViews() {
 
 const char* patternName(Pattern p) {
   switch (p) {
-    case Pattern::kNoise: return "noise";
-    case Pattern::kBricks: return "bricks";
-    case Pattern::kTiles: return "tiles";
-    case Pattern::kWood: return "wood";
-    case Pattern::kTerrazzo: return "terrazzo";
-    case Pattern::kBlocks: return "blocks";
-    case Pattern::kText: return "text";
-    case Pattern::kBrushed: return "brushed";
+    case Pattern::kNoise:
+      return "noise";
+    case Pattern::kBricks:
+      return "bricks";
+    case Pattern::kTiles:
+      return "tiles";
+    case Pattern::kWood:
+      return "wood";
+    case Pattern::kTerrazzo:
+      return "terrazzo";
+    case Pattern::kBlocks:
+      return "blocks";
+    case Pattern::kText:
+      return "text";
+    case Pattern::kBrushed:
+      return "brushed";
   }
   return "?";
 }
@@ -256,13 +274,27 @@ Texture makePattern(Pattern pattern, int size, Random& rng) {
       stretch(&c, 15.0f, 240.0f);
       c.addNoise(3.0f, rng);
       break;
-    case Pattern::kBricks: c = bricks(size, rng); break;
-    case Pattern::kTiles: c = tiles(size, rng); break;
-    case Pattern::kWood: c = wood(size, rng); break;
-    case Pattern::kTerrazzo: c = terrazzo(size, rng); break;
-    case Pattern::kBlocks: c = blocks(size, rng); break;
-    case Pattern::kText: c = text(size, rng); break;
-    case Pattern::kBrushed: c = brushed(size, rng); break;
+    case Pattern::kBricks:
+      c = bricks(size, rng);
+      break;
+    case Pattern::kTiles:
+      c = tiles(size, rng);
+      break;
+    case Pattern::kWood:
+      c = wood(size, rng);
+      break;
+    case Pattern::kTerrazzo:
+      c = terrazzo(size, rng);
+      break;
+    case Pattern::kBlocks:
+      c = blocks(size, rng);
+      break;
+    case Pattern::kText:
+      c = text(size, rng);
+      break;
+    case Pattern::kBrushed:
+      c = brushed(size, rng);
+      break;
   }
   return Texture(size, c.toGray());
 }
@@ -275,8 +307,10 @@ Texture makeBlank(int size, int mean, double contrast, Random& rng) {
 }
 
 Status TextureOptions::validate() const {
-  if (!isPowerOfTwo(size)) return makeError("texture_size: must be a power of two >= 4, got ", size);
-  if (!isPowerOfTwo(poster_size)) return makeError("poster_size: must be a power of two >= 4, got ", poster_size);
+  if (!isPowerOfTwo(size))
+    return makeError("texture_size: must be a power of two >= 4, got ", size);
+  if (!isPowerOfTwo(poster_size))
+    return makeError("poster_size: must be a power of two >= 4, got ", poster_size);
   if (variants < 1) return makeError("texture_variants: must be >= 1, got ", variants);
   if (max_posters < 0) return makeError("max_posters: must be >= 0, got ", max_posters);
   return Ok{};
@@ -320,7 +354,8 @@ Expected<TextureLibrary> makeTextureLibrary(const TextureOptions& o, const fs::p
       if (gray.empty()) return makeError(f.string(), ": not a readable image");
       cv::Mat square;
       cv::resize(gray, square, cv::Size(o.poster_size, o.poster_size), 0, 0, cv::INTER_AREA);
-      add(Texture(o.poster_size, std::vector<uint8_t>(square.datastart, square.dataend)), &lib.posters);
+      add(Texture(o.poster_size, std::vector<uint8_t>(square.datastart, square.dataend)),
+          &lib.posters);
     }
     if (lib.posters.empty()) return makeError(poster_folder.string(), ": no .jpg or .png image");
   } else {

@@ -91,7 +91,9 @@ class Texture {
   };
 
   Texture(const Texture& other) : size_(other.size_), levels_(other.levels_) { makeViews(); }
-  Texture(Texture&& other) noexcept : size_(other.size_), levels_(std::move(other.levels_)) { makeViews(); }
+  Texture(Texture&& other) noexcept : size_(other.size_), levels_(std::move(other.levels_)) {
+    makeViews();
+  }
   Texture& operator=(const Texture& other) {
     size_ = other.size_;
     levels_ = other.levels_;
@@ -127,20 +129,20 @@ Texture makeBlank(int size, int mean, double contrast, Random& rng);
 // The textures a world is painted with: procedural ones, then posters.
 struct TextureLibrary {
   std::vector<Texture> textures;
-  std::vector<int> wall;      // indices of textures suited to walls
-  std::vector<int> floor;     // ... to floors
-  std::vector<int> ceiling;   // ... to ceilings
-  std::vector<int> posters;   // photographs
-  std::vector<int> people;    // passers-by (clothes-like patterns)
-  int blank = -1;             // the featureless texture
-  int cab = -1;               // elevator cab walls
+  std::vector<int> wall;     // indices of textures suited to walls
+  std::vector<int> floor;    // ... to floors
+  std::vector<int> ceiling;  // ... to ceilings
+  std::vector<int> posters;  // photographs
+  std::vector<int> people;   // passers-by (clothes-like patterns)
+  int blank = -1;            // the featureless texture
+  int cab = -1;              // elevator cab walls
 };
 
 struct TextureOptions {
-  int size = 256;                 // texels per side of procedural textures (power of two)
-  int variants = 3;               // procedural textures drawn per pattern
-  int poster_size = 256;          // texels per side of a stored poster
-  int max_posters = 40;           // photographs loaded at most
+  int size = 256;         // texels per side of procedural textures (power of two)
+  int variants = 3;       // procedural textures drawn per pattern
+  int poster_size = 256;  // texels per side of a stored poster
+  int max_posters = 40;   // photographs loaded at most
   Status validate() const;
 };
 

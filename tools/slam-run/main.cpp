@@ -32,8 +32,10 @@ void report(const evermap::Status& s) {
 
 // The paper's Fig. 4 (the map's nodes against the ground truth: top view, and floors stacked)
 // and Fig. 7 (nodes, and time per component, against operating time), from this run.
-void writeFigures(const std::filesystem::path& dir, const evermap::slam_run::SlamRunSummary& summary,
-                  const std::vector<evermap::slam_run::SlamRunner::FrameRow>& frames, bool full_graph) {
+void writeFigures(const std::filesystem::path& dir,
+                  const evermap::slam_run::SlamRunSummary& summary,
+                  const std::vector<evermap::slam_run::SlamRunner::FrameRow>& frames,
+                  bool full_graph) {
   using namespace evermap;
   const std::string graph = full_graph ? "full" : "reduced";
   if (summary.node_rows.size() >= 3) {
@@ -45,9 +47,11 @@ void writeFigures(const std::filesystem::path& dir, const evermap::slam_run::Sla
     if (auto a = eval::umeyama(est, gt, false)) {
       for (core::Vec3& p : est) p = a->gt_S_est * p;
       eval::TopViewOptions top;
-      top.title = "Fig. 4: " + graph + " pose graph from pixels (evermap-slam-run), map nodes against ground truth";
+      top.title = "Fig. 4: " + graph +
+                  " pose graph from pixels (evermap-slam-run), map nodes against ground truth";
       char sub[200];
-      std::snprintf(sub, sizeof sub, "%zu nodes, %zu sessions, node ATE rmse %.3f m", gt.size(), summary.sessions.size(),
+      std::snprintf(sub, sizeof sub, "%zu nodes, %zu sessions, node ATE rmse %.3f m", gt.size(),
+                    summary.sessions.size(),
                     summary.evaluation ? summary.evaluation->ate_rmse_m : -1.0);
       top.subtitle = sub;
       top.gt_label = "nodes, ground truth";
@@ -56,7 +60,8 @@ void writeFigures(const std::filesystem::path& dir, const evermap::slam_run::Sla
       report(eval::writeTopView(dir / "fig4-nodes.png", gt, est, top));
       // Floors stacked: an oblique view (u = x + 0.5 y, v = 0.35 y + 3 z) as in the paper's figure.
       auto oblique = [](std::vector<core::Vec3> pts) {
-        for (core::Vec3& p : pts) p = core::Vec3(p.x() + 0.5 * p.y(), 0.35 * p.y() + 3.0 * p.z(), 0.0);
+        for (core::Vec3& p : pts)
+          p = core::Vec3(p.x() + 0.5 * p.y(), 0.35 * p.y() + 3.0 * p.z(), 0.0);
         return pts;
       };
       top.title = "Fig. 4: " + graph + " pose graph from pixels, floors stacked (oblique)";
@@ -106,29 +111,40 @@ int main(int argc, char** argv) {
   std::string render_config;
   int render_sessions = -1;
   bool full_graph = false;
-  CommandLine cli("evermap-slam-run",
-                  "The visual SLAM system in one process: LCM logs (one per session) in, a map out.");
-  cli.value("--vocab", &vocab_file, "FILE", "vocabulary (evermap-vocab-train .evoc, or DBoW2/3 .yml.gz)", true);
+  CommandLine cli(
+      "evermap-slam-run",
+      "The visual SLAM system in one process: LCM logs (one per session) in, a map out.");
+  cli.value("--vocab", &vocab_file, "FILE",
+            "vocabulary (evermap-vocab-train .evoc, or DBoW2/3 .yml.gz)", true);
   cli.value("--out", &out_dir, "DIR",
-            "output folder: map.db, trajectory.tum, frames.csv, registrations.csv, nodes.csv, summary.txt, fig4-nodes.png, fig4-floors.svg, fig7-*.svg "
+            "output folder: map.db, trajectory.tum, frames.csv, registrations.csv, nodes.csv, "
+            "summary.txt, fig4-nodes.png, fig4-floors.svg, fig7-*.svg "
             "(created; an existing map.db is "
             "continued as a stored map)",
             true);
-  cli.flag("--full-graph", &full_graph, "a node at every step (the paper's baseline) instead of the reduced graph");
+  cli.flag("--full-graph", &full_graph,
+           "a node at every step (the paper's baseline) instead of the reduced graph");
   cli.value("--config", &config, "MAPPER.conf", "mapper.* settings (docs/mapper.md)");
   cli.repeated("--set", &sets, "mapper.KEY=VALUE", "override one mapper.* setting");
-  cli.value("--max-session-s", &options.max_session_s, "S", "map at most S seconds of each log (0: all)").min(0);
+  cli.value("--max-session-s", &options.max_session_s, "S",
+            "map at most S seconds of each log (0: all)")
+      .min(0);
   cli.value("--render", &render_config, "SIM-IMAGE.conf",
-            "render the image-level simulator's sessions on the fly instead of reading logs (config/sim-image-*.conf)");
-  cli.repeated("--render-set", &render_sets, "KEY=VALUE", "override one setting of the --render file");
-  cli.value("--sessions", &render_sessions, "N", "with --render: sessions 0 .. N-1 (default: patrol.sessions)").min(1);
+            "render the image-level simulator's sessions on the fly instead of reading logs "
+            "(config/sim-image-*.conf)");
+  cli.repeated("--render-set", &render_sets, "KEY=VALUE",
+               "override one setting of the --render file");
+  cli.value("--sessions", &render_sessions, "N",
+            "with --render: sessions 0 .. N-1 (default: patrol.sessions)")
+      .min(1);
   cli.positional(&logs, "LOG...", "LCM logs, mapped as successive sessions");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   auto fail = [](const std::string& what, int code) {
     std::fprintf(stderr, "evermap-slam-run: %s\n", what.c_str());
     return code;
   };
-  if (logs.empty() == render_config.empty()) return fail("give either LCM logs or --render\n" + cli.usage(), 2);
+  if (logs.empty() == render_config.empty())
+    return fail("give either LCM logs or --render\n" + cli.usage(), 2);
   std::optional<sim::ImageSimOptions> render;
   if (!render_config.empty()) {
     auto file = KeyValueFile::load(render_config, render_sets, "--render-set");
@@ -137,7 +153,9 @@ int main(int argc, char** argv) {
     if (!o) return fail(o.error().message, 2);
     if (render_sessions < 0) render_sessions = o->sim.patrol.sessions;
     if (render_sessions < 1 || render_sessions > o->sim.patrol.sessions)
-      return fail("--sessions: must be 1 .. patrol.sessions (" + std::to_string(o->sim.patrol.sessions) + ")", 2);
+      return fail("--sessions: must be 1 .. patrol.sessions (" +
+                      std::to_string(o->sim.patrol.sessions) + ")",
+                  2);
     render = *o;
   }
   auto settings = config.empty() ? KeyValueFile::parse("", "--set") : KeyValueFile::load(config);
@@ -145,12 +163,14 @@ int main(int argc, char** argv) {
     if (Status s = settings->setAll(sets, "--set"); !s) settings = s.error();
   }
   if (!settings) return fail(settings.error().message, 2);
-  if (Status s = mapper::readMapperOptions(*settings, &options.mapper); !s) return fail(s.error().message, 2);
+  if (Status s = mapper::readMapperOptions(*settings, &options.mapper); !s)
+    return fail(s.error().message, 2);
   options.mapper.full_graph = full_graph;
   // Every log whole before anything is created: a log cut mid-event is one line and no
   // output folder, not a map of part of the data.
   for (const std::string& log : logs) {
-    if (auto events = messages::LogReader::check(log); !events) return fail(events.error().message, 1);
+    if (auto events = messages::LogReader::check(log); !events)
+      return fail(events.error().message, 1);
   }
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);
@@ -177,37 +197,47 @@ int main(int argc, char** argv) {
   summary->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   eval::Trajectory trajectory;
-  for (const auto& [utime, pose] : summary->trajectory) trajectory.poses.push_back({utime * 1000, pose});
-  if (Status s = eval::writeTum(trajectory, out / "trajectory.tum"); !s && !trajectory.poses.empty())
+  for (const auto& [utime, pose] : summary->trajectory)
+    trajectory.poses.push_back({utime * 1000, pose});
+  if (Status s = eval::writeTum(trajectory, out / "trajectory.tum");
+      !s && !trajectory.poses.empty())
     return fail(s.error().message, 1);
   std::ostringstream csv;
   csv << "utime,session,run_s,vo_status,inliers,vo_ms,loopclose_ms,mapper_ms,nodes\n";
   for (const auto& f : (*runner)->frames())
-    csv << f.utime << "," << f.session << "," << f.run_s << "," << f.vo_status << "," << f.inliers << "," << f.vo_ms << ","
-        << f.loopclose_ms << "," << f.mapper_ms << "," << f.nodes << "\n";
-  if (Status s = writeFileAtomically(out / "frames.csv", csv.str()); !s) return fail(s.error().message, 1);
+    csv << f.utime << "," << f.session << "," << f.run_s << "," << f.vo_status << "," << f.inliers
+        << "," << f.vo_ms << "," << f.loopclose_ms << "," << f.mapper_ms << "," << f.nodes << "\n";
+  if (Status s = writeFileAtomically(out / "frames.csv", csv.str()); !s)
+    return fail(s.error().message, 1);
   std::ostringstream reg;
-  reg << "query_utime,mode,status,node,node_keyframe_utime,inliers,score,error_m,error_deg,nees,outcome,active,"
+  reg << "query_utime,mode,status,node,node_keyframe_utime,inliers,score,error_m,error_deg,nees,"
+         "outcome,active,"
          "delta_error_m,delta_error_deg,delta_nees,requested_node,requested_keyframe_utime\n";
   for (const auto& r : (*runner)->registrations())
-    reg << r.query_utime << "," << r.mode << "," << r.status << "," << r.node << "," << r.node_keyframe_utime << ","
-        << r.inliers << "," << r.score << "," << r.error_m << "," << r.error_deg << "," << r.nees << "," << r.outcome
-        << "," << r.active << "," << r.delta_error_m << "," << r.delta_error_deg << "," << r.delta_nees << ","
+    reg << r.query_utime << "," << r.mode << "," << r.status << "," << r.node << ","
+        << r.node_keyframe_utime << "," << r.inliers << "," << r.score << "," << r.error_m << ","
+        << r.error_deg << "," << r.nees << "," << r.outcome << "," << r.active << ","
+        << r.delta_error_m << "," << r.delta_error_deg << "," << r.delta_nees << ","
         << r.requested_node << "," << r.requested_keyframe_utime << "\n";
-  if (Status s = writeFileAtomically(out / "registrations.csv", reg.str()); !s) return fail(s.error().message, 1);
+  if (Status s = writeFileAtomically(out / "registrations.csv", reg.str()); !s)
+    return fail(s.error().message, 1);
   std::ostringstream nodes_csv;
-  nodes_csv << "node,session,floor,true_floor,keyframe_utime,x,y,z,true_x,true_y,true_z,yaw_deg,true_yaw_deg\n";
+  nodes_csv << "node,session,floor,true_floor,keyframe_utime,x,y,z,true_x,true_y,true_z,yaw_deg,"
+               "true_yaw_deg\n";
   for (const auto& n : summary->node_rows)
-    nodes_csv << n.id << "," << n.session << "," << n.floor << "," << n.true_floor << "," << n.keyframe_utime << ","
-              << n.estimate.x() << "," << n.estimate.y() << "," << n.estimate.z() << "," << n.truth.x() << ","
-              << n.truth.y() << "," << n.truth.z() << "," << n.yaw_rad * 180.0 / std::numbers::pi << ","
+    nodes_csv << n.id << "," << n.session << "," << n.floor << "," << n.true_floor << ","
+              << n.keyframe_utime << "," << n.estimate.x() << "," << n.estimate.y() << ","
+              << n.estimate.z() << "," << n.truth.x() << "," << n.truth.y() << "," << n.truth.z()
+              << "," << n.yaw_rad * 180.0 / std::numbers::pi << ","
               << n.true_yaw_rad * 180.0 / std::numbers::pi << "\n";
   if (!summary->node_rows.empty()) {
-    if (Status s = writeFileAtomically(out / "nodes.csv", nodes_csv.str()); !s) return fail(s.error().message, 1);
+    if (Status s = writeFileAtomically(out / "nodes.csv", nodes_csv.str()); !s)
+      return fail(s.error().message, 1);
   }
   writeFigures(out, *summary, (*runner)->frames(), full_graph);
   const std::string text = summary->text();
-  if (Status s = writeFileAtomically(out / "summary.txt", text); !s) return fail(s.error().message, 1);
+  if (Status s = writeFileAtomically(out / "summary.txt", text); !s)
+    return fail(s.error().message, 1);
   std::printf("%s", text.c_str());
   return 0;
 }

@@ -36,7 +36,6 @@
 namespace evermap::slam_run {
 namespace {
 
-
 int64_t peakRssKb() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
@@ -53,7 +52,8 @@ Status SlamRunOptions::validate() const {
   if (Status s = registration.validate(); !s) return s;
   if (Status s = mapper.validate(); !s) return s;
   if (store.empty()) return Error("a map store is needed (sessions restore the map from it)");
-  if (!(false_closure_m > 0.0) || !(false_closure_deg > 0.0)) return Error("false closure thresholds must be > 0");
+  if (!(false_closure_m > 0.0) || !(false_closure_deg > 0.0))
+    return Error("false closure thresholds must be > 0");
   if (!(max_session_s >= 0.0)) return Error("max_session_s: must be >= 0");
   return Ok{};
 }
@@ -74,7 +74,8 @@ Expected<std::unique_ptr<SlamRunner>> SlamRunner::create(const bow::Vocabulary& 
   r->store_ = std::move(*store);
   // The loop closer's places live in memory for the whole run (loopclose-proc would reload
   // the same from its place store after a restart).
-  auto closer = loopclose::LoopCloser::create(vocabulary, *r->registration_, options.loopclose, std::nullopt);
+  auto closer =
+      loopclose::LoopCloser::create(vocabulary, *r->registration_, options.loopclose, std::nullopt);
   if (!closer) return closer.error();
   r->loop_closer_ = std::move(*closer);
   return r;
@@ -93,7 +94,8 @@ Status SlamRunner::startMapper(int session) {
   if (!held) return held.error();
   auto m = std::make_unique<mapper::Mapper>(options_.mapper, session);
   if (!held->nodes.empty()) {
-    if (Status s = m->restore(*held); !s) return makeError(options_.store.string(), ": ", s.error().message);
+    if (Status s = m->restore(*held); !s)
+      return makeError(options_.store.string(), ": ", s.error().message);
   }
   if (mapper_) {  // the run's totals
     mapper_before_.addCounters(mapper_->stats());
@@ -110,11 +112,13 @@ namespace {
 // are told apart (counters only: MapperStats also holds the growing per-step timings).
 using OutcomeCounters = std::array<int64_t, 7>;
 OutcomeCounters outcomeCounters(const mapper::MapperStats& s) {
-  return {s.loop_closures,     s.relocalizations,       s.gate_recoveries, s.delta_fused + s.delta_replaced + s.delta_kept,
-          s.rejected_map_gate, s.rejected_inconsistent, s.rejected_floor};
+  return {s.loop_closures,     s.relocalizations,
+          s.gate_recoveries,   s.delta_fused + s.delta_replaced + s.delta_kept,
+          s.rejected_map_gate, s.rejected_inconsistent,
+          s.rejected_floor};
 }
 const char* outcomeOf(const OutcomeCounters& before, const OutcomeCounters& after) {
-  static constexpr const char* kNames[] = {"closure", "relocalised", "recovered", "active",
+  static constexpr const char* kNames[] = {"closure", "relocalised",  "recovered", "active",
                                            "gate",    "inconsistent", "floor"};
   for (size_t i = 0; i < before.size(); ++i)
     if (after[i] > before[i]) return kNames[i];
@@ -133,8 +137,12 @@ double normalisedError(const core::SE3d& err, const core::Mat6& covariance) {
 
 void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
   // A node id the mapper has made, and its keyframe's time.
-  auto isNode = [&](int64_t id) { return id >= 0 && id < static_cast<int64_t>(mapper_->nodes().size()); };
-  auto keyframeOf = [&](int64_t id) { return mapper_->nodes()[static_cast<size_t>(id)].keyframe_utime; };
+  auto isNode = [&](int64_t id) {
+    return id >= 0 && id < static_cast<int64_t>(mapper_->nodes().size());
+  };
+  auto keyframeOf = [&](int64_t id) {
+    return mapper_->nodes()[static_cast<size_t>(id)].keyframe_utime;
+  };
   while (true) {
     // Errors of nodes that waited for their keyframe come out of addKeyframe, addNode and
     // answer (the clock moving on): drained at every pass, the last (empty) one included.
@@ -166,10 +174,11 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
         ++answers_ok_;
         row.node = answer.node_id;
         if (isNode(answer.node_id)) row.node_keyframe_utime = keyframeOf(answer.node_id);
-        const Eigen::Quaterniond q(answer.orientation[0], answer.orientation[1], answer.orientation[2],
-                                   answer.orientation[3]);
-        const core::SE3d cam_T(q.normalized(), core::Vec3(answer.translation[0], answer.translation[1],
-                                                          answer.translation[2]));
+        const Eigen::Quaterniond q(answer.orientation[0], answer.orientation[1],
+                                   answer.orientation[2], answer.orientation[3]);
+        const core::SE3d cam_T(
+            q.normalized(),
+            core::Vec3(answer.translation[0], answer.translation[1], answer.translation[2]));
         // As the mapper reads it; the mean alone when the covariance is unusable.
         const auto cam_cov = messages::covarianceFromMessage(answer.covariance, "REGISTER_RESULT");
         const core::UncertainPose body =
@@ -185,7 +194,8 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
       registrations_.push_back(row);
       t0 = SteadyClock::now();
       const OutcomeCounters before = outcomeCounters(mapper_->stats());
-      if (Status s = mapper_->onRegisterResult(answer); !s) inputError("REGISTER_RESULT: " + s.error().message);
+      if (Status s = mapper_->onRegisterResult(answer); !s)
+        inputError("REGISTER_RESULT: " + s.error().message);
       *mapper_s += secondsSince(t0);
       registrations_.back().outcome = outcomeOf(before, outcomeCounters(mapper_->stats()));
     }
@@ -269,8 +279,8 @@ class EventStream {
 }  // namespace detail
 
 using detail::EventStream;
-using detail::ReadEvent;
 using detail::makeEvent;
+using detail::ReadEvent;
 
 namespace {
 
@@ -344,7 +354,8 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
     const auto size = static_cast<int64_t>(e->data.size());
     if (first_utime < 0) first_utime = e->timestamp;
     last_utime = std::max(last_utime, e->timestamp);
-    if (options_.max_session_s > 0.0 && e->timestamp - first_utime > static_cast<int64_t>(options_.max_session_s * 1e6)) {
+    if (options_.max_session_s > 0.0 &&
+        e->timestamp - first_utime > static_cast<int64_t>(options_.max_session_s * 1e6)) {
       cut_short = true;  // damage the reader found further on does not concern this map
       break;
     }
@@ -353,23 +364,27 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
     double loopclose_s = 0.0, mapper_s = 0.0;
     if (channel == channels::kStereoCalib) {
       auto t0 = SteadyClock::now();
-      if (Status s = vo->handleCalibrationBytes(data, size); !s) inputError("vo: " + s.error().message);
+      if (Status s = vo->handleCalibrationBytes(data, size); !s)
+        inputError("vo: " + s.error().message);
       t.vo_s += secondsSince(t0);
       t0 = SteadyClock::now();
-      if (Status s = calibration_.handle(data, size, *mapper_); !s) inputError("mapper: " + s.error().message);
+      if (Status s = calibration_.handle(data, size, *mapper_); !s)
+        inputError("mapper: " + s.error().message);
       mapper_s += secondsSince(t0);
     } else if (channel == channels::kRgbdCalib) {
       // An RGB-D camera: vo-proc takes the calibration from the frames, the mapper from here.
       auto t0 = SteadyClock::now();
-      if (Status s = calibration_.handleRgbd(data, size, *mapper_); !s) inputError("mapper: " + s.error().message);
+      if (Status s = calibration_.handleRgbd(data, size, *mapper_); !s)
+        inputError("mapper: " + s.error().message);
       mapper_s += secondsSince(t0);
     } else if (channel == channels::kStereo || channel == channels::kRgbd) {
       auto t0 = SteadyClock::now();
       // Decoded ahead by the reader; what did not decode as LCM fails here as in vo-proc.
       const bool rgbd = channel == channels::kRgbd;
       Expected<vo::PipelineOutput> out =
-          rgbd ? (e->rgbd_frame ? Expected<vo::PipelineOutput>(vo->handleRgbdFrame(e->stereo_utime, *e->rgbd_frame))
-                                : vo->handleRgbdBytes(data, size))
+          rgbd       ? (e->rgbd_frame ? Expected<vo::PipelineOutput>(
+                                      vo->handleRgbdFrame(e->stereo_utime, *e->rgbd_frame))
+                                      : vo->handleRgbdBytes(data, size))
           : e->frame ? Expected<vo::PipelineOutput>(vo->handleFrame(e->stereo_utime, *e->frame))
                      : vo->handleStereoBytes(data, size);
       const double vo_s = secondsSince(t0);
@@ -383,7 +398,8 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
         if (out->keyframe) {
           ++ss.keyframes;
           t0 = SteadyClock::now();
-          if (Status s = loop_closer_->addKeyframe(*out->keyframe); !s) inputError("KEYFRAME: " + s.error().message);
+          if (Status s = loop_closer_->addKeyframe(*out->keyframe); !s)
+            inputError("KEYFRAME: " + s.error().message);
           loopclose_s += secondsSince(t0);
         }
         t0 = SteadyClock::now();
@@ -396,12 +412,15 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
         exchange(&loopclose_s, &mapper_s);
         if (mapper_->activeNode() >= 0 && !mapper_->lost())
           summary_.trajectory.emplace_back(out->delta.utime, mapper_->pose().mean);
-        if (starts_lost && ss.relocalised_after_s < 0 && !mapper_->lost() && mapper_->activeNode() >= 0)
-          ss.relocalised_after_s = 1e-6 * static_cast<double>(out->delta.utime - session_start_utime_);
-        const double run_s = summary_.data_s + 1e-6 * static_cast<double>(out->delta.utime - session_start_utime_);
-        frames_.push_back(FrameRow{out->delta.utime, session, run_s, out->delta.status, out->delta.num_inliers, 1e3 * vo_s,
-                                   1e3 * loopclose_s, 1e3 * mapper_s,
-                                   mapper_->graphNodes()});
+        if (starts_lost && ss.relocalised_after_s < 0 && !mapper_->lost() &&
+            mapper_->activeNode() >= 0)
+          ss.relocalised_after_s =
+              1e-6 * static_cast<double>(out->delta.utime - session_start_utime_);
+        const double run_s =
+            summary_.data_s + 1e-6 * static_cast<double>(out->delta.utime - session_start_utime_);
+        frames_.push_back(FrameRow{out->delta.utime, session, run_s, out->delta.status,
+                                   out->delta.num_inliers, 1e3 * vo_s, 1e3 * loopclose_s,
+                                   1e3 * mapper_s, mapper_->graphNodes()});
       }
     } else if (channel == channels::kImu) {
       auto msg = messages::decodeLcm<imu_t>(data, size, channel);
@@ -411,15 +430,18 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
         auto t0 = SteadyClock::now();
         std::optional<attitude_t> att = attitude.add(*msg);
         if (att) latest_attitude = imu::fromLcm(*att);
-        const auto events = elevator.add(imu::fromLcm(*msg), latest_attitude ? &*latest_attitude : nullptr);
+        const auto events =
+            elevator.add(imu::fromLcm(*msg), latest_attitude ? &*latest_attitude : nullptr);
         t.imu_s += secondsSince(t0);
         t0 = SteadyClock::now();
         if (att) {
-          if (Status s = mapper_->onAttitude(*att); !s) inputError("ATTITUDE: " + s.error().message);
+          if (Status s = mapper_->onAttitude(*att); !s)
+            inputError("ATTITUDE: " + s.error().message);
         }
         for (const auto& ev : events) {
           ++ss.floor_events;
-          if (Status s = mapper_->onFloor(elevator::toLcm(ev)); !s) inputError("FLOOR: " + s.error().message);
+          if (Status s = mapper_->onFloor(elevator::toLcm(ev)); !s)
+            inputError("FLOOR: " + s.error().message);
         }
         mapper_s += secondsSince(t0);
       }
@@ -464,7 +486,8 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
   summary_.vo.calibrations += vs.calibrations;
   summary_.vo.calibrations_refused += vs.calibrations_refused;
   summary_.vo.undecodable += vs.undecodable;
-  if (Status s = store_->save(*mapper_, mapper_->session(), session_start_utime_ >= 0 ? session_start_utime_ : first_utime);
+  if (Status s = store_->save(*mapper_, mapper_->session(),
+                              session_start_utime_ >= 0 ? session_start_utime_ : first_utime);
       !s)
     return s;
   for (const char* suffix : {"", "-wal"}) {
@@ -479,7 +502,8 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
 
 Expected<SlamRunSummary> SlamRunner::finish() {
   if (!mapper_) return Error("no session was run");
-  if (Status s = store_->save(*mapper_, mapper_->session(), session_start_utime_); !s) return s.error();
+  if (Status s = store_->save(*mapper_, mapper_->session(), session_start_utime_); !s)
+    return s.error();
   SlamRunSummary& out = summary_;
   const mapper::Mapper& m = *mapper_;
   out.mapper = m.stats();
@@ -523,8 +547,15 @@ Expected<SlamRunSummary> SlamRunner::finish() {
     for (const auto& [id, p] : node_truth) {
       const mapper::MapperNode& n = m.nodes()[static_cast<size_t>(id)];
       const core::SE3d est = m.nodePose(id);
-      SlamRunSummary::NodeRow row{id, n.session, n.floor, -1, n.keyframe_utime, p.translation(),
-                                  est.translation(), core::toPlanar(p).theta(), core::toPlanar(est).theta()};
+      SlamRunSummary::NodeRow row{id,
+                                  n.session,
+                                  n.floor,
+                                  -1,
+                                  n.keyframe_utime,
+                                  p.translation(),
+                                  est.translation(),
+                                  core::toPlanar(p).theta(),
+                                  core::toPlanar(est).theta()};
       auto f = truth_floor_.lower_bound(n.keyframe_utime);
       if (f != truth_floor_.end()) row.true_floor = f->second.first;
       out.node_rows.push_back(row);
@@ -542,7 +573,9 @@ Expected<SlamRunSummary> SlamRunner::finish() {
     }
     for (RegistrationRow& row : registrations_) {
       core::SE3d b, q;
-      if (row.node < 0 || !truth->at(row.node_keyframe_utime, &b) || !truth->at(row.query_utime, &q)) continue;
+      if (row.node < 0 || !truth->at(row.node_keyframe_utime, &b) ||
+          !truth->at(row.query_utime, &q))
+        continue;
       const core::SE3d err = (b.inverse() * q).inverse() * row.b_T_q;
       row.error_m = err.translation().norm();
       row.error_deg = core::rotationAngle(err.so3()) * 180.0 / std::numbers::pi;
@@ -558,11 +591,13 @@ Expected<SlamRunSummary> SlamRunner::finish() {
     const core::SE3d& body_T_cam = m.tracker().bodyTCamera();
     for (const RegistrationRow& row : registrations_) {
       core::SE3d n, q;
-      if (row.requested_node < 0 || !truth->at(row.requested_keyframe_utime, &n) || !truth->at(row.query_utime, &q))
+      if (row.requested_node < 0 || !truth->at(row.requested_keyframe_utime, &n) ||
+          !truth->at(row.query_utime, &q))
         continue;
       if (std::abs(n.translation().z() - q.translation().z()) > 1.0) continue;
-      const bool ok = row.status == register_result_t::STATUS_OK && row.node == row.requested_node &&
-                      row.error_m >= 0.0 && row.error_m <= options_.false_closure_m &&
+      const bool ok = row.status == register_result_t::STATUS_OK &&
+                      row.node == row.requested_node && row.error_m >= 0.0 &&
+                      row.error_m <= options_.false_closure_m &&
                       row.error_deg <= options_.false_closure_deg;
       out.reach.push_back({(n.translation() - q.translation()).norm(),
                            sim::viewAngle(n * body_T_cam, q * body_T_cam), ok});
@@ -580,7 +615,8 @@ Expected<SlamRunSummary> SlamRunner::finish() {
         if (jt == node_truth.end()) continue;
         const core::SE2d q = core::toPlanar(jt->second);
         const double dyaw = std::remainder(p.theta() - q.theta(), 2.0 * std::numbers::pi);
-        if ((p.translation() - q.translation()).norm() <= 1.0 && std::abs(dyaw) <= std::numbers::pi / 8 &&
+        if ((p.translation() - q.translation()).norm() <= 1.0 &&
+            std::abs(dyaw) <= std::numbers::pi / 8 &&
             std::abs(it->second.translation().z() - jt->second.translation().z()) < 1.0) {
           for (SessionSummary& ss : out.sessions)
             if (ss.session == n.session) ++ss.nodes_in_mapped_area;
@@ -591,39 +627,47 @@ Expected<SlamRunSummary> SlamRunner::finish() {
     auto map = mapper::mapFromGraph(mapper::graphMessage(m, 0));
     if (!map) return map.error();
     auto e = mapper::evaluateMap(*map, *truth, out.trajectory);
-    if (e) out.evaluation = *e;
-    else out.errors.push_back("evaluation: " + e.error().message);
+    if (e)
+      out.evaluation = *e;
+    else
+      out.errors.push_back("evaluation: " + e.error().message);
   }
   return out;
 }
 
 std::string SlamRunSummary::text() const {
   std::ostringstream s;
-  s << "sessions " << sessions.size() << "\ndata_s " << data_s << "\nwall_s " << wall_s << "\nrealtime_factor "
-    << (wall_s > 0 ? data_s / wall_s : 0.0) << "\npeak_rss_mb " << peak_rss_kb / 1024 << "\n";
+  s << "sessions " << sessions.size() << "\ndata_s " << data_s << "\nwall_s " << wall_s
+    << "\nrealtime_factor " << (wall_s > 0 ? data_s / wall_s : 0.0) << "\npeak_rss_mb "
+    << peak_rss_kb / 1024 << "\n";
   for (const SessionSummary& ss : sessions) {
-    s << "session." << ss.session << " log " << ss.log << " duration_s " << ss.duration_s << " frames "
-      << ss.stereo_frames << " vo_ok " << ss.vo_ok << " keyframes " << ss.keyframes << " floor_events "
-      << ss.floor_events << " nodes_added " << ss.nodes_added << " nodes_in_mapped_area " << ss.nodes_in_mapped_area
-      << " relocalised_after_s " << ss.relocalised_after_s << " store_bytes " << ss.store_bytes << " store_edge_rows "
+    s << "session." << ss.session << " log " << ss.log << " duration_s " << ss.duration_s
+      << " frames " << ss.stereo_frames << " vo_ok " << ss.vo_ok << " keyframes " << ss.keyframes
+      << " floor_events " << ss.floor_events << " nodes_added " << ss.nodes_added
+      << " nodes_in_mapped_area " << ss.nodes_in_mapped_area << " relocalised_after_s "
+      << ss.relocalised_after_s << " store_bytes " << ss.store_bytes << " store_edge_rows "
       << ss.store_edge_rows << "\n";
   }
   for (const HourFigures& h : hours)
-    s << "hour." << h.hour << " frames " << h.frames << " nodes_at_end " << h.nodes_at_end << " mapper_p99_ms "
-      << h.mapper_p99_ms << " loopclose_p99_ms " << h.loopclose_p99_ms << "\n";
-  s << "nodes " << nodes << "\nedges " << edges << "\nfloors " << floors << "\nloop_proposals " << loop_proposals
-    << " (node " << mapper.requests_node << ", global " << mapper.requests_global << ")\nverified " << verified
-    << "\naccepted_closures " << accepted_closures << " (in the final map's constraints: a folded pair counts as its first; "
+    s << "hour." << h.hour << " frames " << h.frames << " nodes_at_end " << h.nodes_at_end
+      << " mapper_p99_ms " << h.mapper_p99_ms << " loopclose_p99_ms " << h.loopclose_p99_ms << "\n";
+  s << "nodes " << nodes << "\nedges " << edges << "\nfloors " << floors << "\nloop_proposals "
+    << loop_proposals << " (node " << mapper.requests_node << ", global " << mapper.requests_global
+    << ")\nverified " << verified << "\naccepted_closures " << accepted_closures
+    << " (in the final map's constraints: a folded pair counts as its first; "
     << mapper.loop_closures << " made over the run)\nrejected " << rejected << " (map gate "
-    << mapper.rejected_map_gate << ", other floor " << mapper.rejected_floor << ", inconsistent " << mapper.rejected_inconsistent << ", recovered "
-    << mapper.gate_recoveries << ", too far to recover " << mapper.recoveries_too_far << ")\nrelocalizations " << mapper.relocalizations
-    << "\nnode_merges " << mapper.node_merges << " (refused " << mapper.merges_refused << ", undone " << mapper.merges_undone << ")\n";
+    << mapper.rejected_map_gate << ", other floor " << mapper.rejected_floor << ", inconsistent "
+    << mapper.rejected_inconsistent << ", recovered " << mapper.gate_recoveries
+    << ", too far to recover " << mapper.recoveries_too_far << ")\nrelocalizations "
+    << mapper.relocalizations << "\nnode_merges " << mapper.node_merges << " (refused "
+    << mapper.merges_refused << ", undone " << mapper.merges_undone << ")\n";
   if (false_closures >= 0)
     s << "false_closures " << false_closures << " (of " << closures_with_truth << " with truth)\n";
   if (reach_fit) {
     // Node-mode requests by the true distance between the keyframes: registered / asked.
     constexpr double kEdges[] = {0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 1e9};
-    s << "registration_reach node_requests " << reach.size() << " (same floor, with truth), registered by distance:";
+    s << "registration_reach node_requests " << reach.size()
+      << " (same floor, with truth), registered by distance:";
     for (size_t b = 0; b + 1 < std::size(kEdges); ++b) {
       int asked = 0, ok = 0;
       for (const sim::ReachSample& r : reach)
@@ -632,26 +676,32 @@ std::string SlamRunSummary::text() const {
           ok += r.ok ? 1 : 0;
         }
       s << " " << kEdges[b];
-      if (b + 2 < std::size(kEdges)) s << "-" << kEdges[b + 1];
-      else s << "+";
+      if (b + 2 < std::size(kEdges))
+        s << "-" << kEdges[b + 1];
+      else
+        s << "+";
       s << " m " << ok << "/" << asked;
     }
-    s << "\nregistration_reach_fit success_probability " << reach_fit->success_probability << " distance_scale_m "
-      << reach_fit->distance_scale_m << " angle_scale_rad " << reach_fit->angle_scale_rad << " (the oracle's p = P exp(-(d/D)^2/2) exp(-(a/A)^2/2) over "
-      << reach_fit->samples << " requests; beyond its bounds " << reach_fit->beyond << ", " << reach_fit->ok_beyond
-      << " registered; its defaults: 0.95, 2, 0.5)\n";
+    s << "\nregistration_reach_fit success_probability " << reach_fit->success_probability
+      << " distance_scale_m " << reach_fit->distance_scale_m << " angle_scale_rad "
+      << reach_fit->angle_scale_rad << " (the oracle's p = P exp(-(d/D)^2/2) exp(-(a/A)^2/2) over "
+      << reach_fit->samples << " requests; beyond its bounds " << reach_fit->beyond << ", "
+      << reach_fit->ok_beyond << " registered; its defaults: 0.95, 2, 0.5)\n";
   }
-  s << "vo " << vo.report() << "\ntracker vo_applied " << tracker.vo_applied << ", vo_failed " << tracker.vo_failed
-    << ", wheel_applied " << tracker.wheel_applied << ", restarts " << tracker.restarts << ", relinked "
-    << tracker.relinked << ", relinks_refused " << tracker.relinks_refused << ", relinks_weaker " << tracker.relinks_weaker << ", reanchored " << tracker.reanchored
-    << ", vo_timeouts " << tracker.vo_timeouts << ", gyro_turns " << tracker.gyro_turns << ", vo_contradicted " << tracker.vo_contradicted << ", heading_waits " << tracker.heading_waits << " (expired " << tracker.heading_waits_expired << ")" << ", dropped " << tracker.dropped << "\nloopclose " << loopclose.text()
-    << "\n";
+  s << "vo " << vo.report() << "\ntracker vo_applied " << tracker.vo_applied << ", vo_failed "
+    << tracker.vo_failed << ", wheel_applied " << tracker.wheel_applied << ", restarts "
+    << tracker.restarts << ", relinked " << tracker.relinked << ", relinks_refused "
+    << tracker.relinks_refused << ", relinks_weaker " << tracker.relinks_weaker << ", reanchored "
+    << tracker.reanchored << ", vo_timeouts " << tracker.vo_timeouts << ", gyro_turns "
+    << tracker.gyro_turns << ", vo_contradicted " << tracker.vo_contradicted << ", heading_waits "
+    << tracker.heading_waits << " (expired " << tracker.heading_waits_expired << ")"
+    << ", dropped " << tracker.dropped << "\nloopclose " << loopclose.text() << "\n";
   if (evaluation) s << evaluation->text();
   const double n = std::max<double>(1.0, static_cast<double>(vo.frames));
-  s << "ms_per_frame decode " << 1e3 * times.decode_s / n << " (reader thread) wait " << 1e3 * times.wait_s / n
-    << " vo " << 1e3 * times.vo_s / n << " imu "
-    << 1e3 * times.imu_s / n << " loopclose " << 1e3 * times.loopclose_s / n << " mapper "
-    << 1e3 * times.mapper_s / n << "\ninput_errors " << input_errors << "\n";
+  s << "ms_per_frame decode " << 1e3 * times.decode_s / n << " (reader thread) wait "
+    << 1e3 * times.wait_s / n << " vo " << 1e3 * times.vo_s / n << " imu " << 1e3 * times.imu_s / n
+    << " loopclose " << 1e3 * times.loopclose_s / n << " mapper " << 1e3 * times.mapper_s / n
+    << "\ninput_errors " << input_errors << "\n";
   for (const std::string& e : errors) s << "error " << e << "\n";
   return s.str();
 }

@@ -79,7 +79,7 @@ struct ComponentTimes {
 struct SessionSummary {
   std::string log;
   int session = 0;
-  double duration_s = 0.0;       // data time
+  double duration_s = 0.0;  // data time
   int64_t stereo_frames = 0;
   int64_t vo_ok = 0;
   int64_t keyframes = 0;
@@ -111,17 +111,17 @@ struct SlamRunSummary {
   vo::PipelineStats vo;
   mapper::TrackerCounts tracker;  // of every session's mapper, summed
   int64_t nodes = 0;
-  int64_t edges = 0;             // node pairs with a factor
+  int64_t edges = 0;  // node pairs with a factor
   int64_t floors = 0;
-  int64_t loop_proposals = 0;    // registration requests that were answered (node + global)
-  int64_t verified = 0;          // answers that registered (geometric check passed)
-  int64_t accepted_closures = 0; // accepted constraints between existing nodes
-  int64_t rejected = 0;          // gate or consistency rejections
-  int64_t false_closures = -1;   // accepted closures off the truth; -1: no truth
+  int64_t loop_proposals = 0;     // registration requests that were answered (node + global)
+  int64_t verified = 0;           // answers that registered (geometric check passed)
+  int64_t accepted_closures = 0;  // accepted constraints between existing nodes
+  int64_t rejected = 0;           // gate or consistency rejections
+  int64_t false_closures = -1;    // accepted closures off the truth; -1: no truth
   int64_t closures_with_truth = 0;
   std::optional<mapper::MapEvaluation> evaluation;  // with ground truth
   ComponentTimes times;
-  double data_s = 0.0;           // data time of all sessions
+  double data_s = 0.0;  // data time of all sessions
   double wall_s = 0.0;
   int64_t peak_rss_kb = 0;
   std::vector<std::pair<int64_t, core::SE3d>> trajectory;  // live pose after each VO frame
@@ -225,8 +225,8 @@ class SlamRunner {
   int sessions_ = 0;
   int64_t session_start_utime_ = -1;
   SlamRunSummary summary_;
-  mapper::MapperStats mapper_before_;  // of earlier sessions' mappers, summed by finish()
-  std::map<int64_t, core::SE3d> truth_;            // GROUND_TRUTH, world_T_body by utime
+  mapper::MapperStats mapper_before_;    // of earlier sessions' mappers, summed by finish()
+  std::map<int64_t, core::SE3d> truth_;  // GROUND_TRUTH, world_T_body by utime
   std::map<int64_t, std::pair<int, int>> truth_floor_;  // utime -> (floor, session)
   std::vector<FrameRow> frames_;
   std::vector<RegistrationRow> registrations_;

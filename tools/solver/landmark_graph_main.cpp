@@ -11,14 +11,17 @@
 int main(int argc, char** argv) {
   namespace sim = evermap::sim;
   if (argc < 4 || argc > 5) {
-    std::fprintf(stderr, "usage: evermap-landmark-graph city-trees|torus-points POSES FILE [SEED]\n");
+    std::fprintf(stderr,
+                 "usage: evermap-landmark-graph city-trees|torus-points POSES FILE [SEED]\n");
     return 2;
   }
   const std::string kind = argv[1];
   const int poses = std::atoi(argv[2]);
   const uint64_t seed = argc == 5 ? std::strtoull(argv[4], nullptr, 10) : 1;
   if ((kind != "city-trees" && kind != "torus-points") || poses < 2) {
-    std::fprintf(stderr, "evermap-landmark-graph: expected city-trees or torus-points and at least 2 poses\n");
+    std::fprintf(
+        stderr,
+        "evermap-landmark-graph: expected city-trees or torus-points and at least 2 poses\n");
     return 2;
   }
   const sim::LandmarkGraph g = kind == "city-trees"

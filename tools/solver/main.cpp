@@ -50,9 +50,12 @@ Expected<Values> initialValues(const GraphFile& g, const ToolOptions& o) {
   if (init == Init::kAuto) {
     // SE-Sync's cost is minimised from the chordal relaxation (its own initialisation);
     // otherwise the file's vertices when it has them, else odometry chaining as iSAM.
-    if (o.objective == Objective::kSeSync) init = Init::kChordal;
-    else if (!g.vertices.empty()) init = Init::kFile;
-    else init = Init::kOdometry;
+    if (o.objective == Objective::kSeSync)
+      init = Init::kChordal;
+    else if (!g.vertices.empty())
+      init = Init::kFile;
+    else
+      init = Init::kOdometry;
   }
   switch (init) {
     case Init::kFile:
@@ -183,8 +186,8 @@ int main(int argc, char** argv) {
     auto built = buildPoseGraph(g, *init, build);
     if (!built.ok()) return fail(built.error().message);
     graph = std::make_unique<PoseGraph>(std::move(*built));
-    std::printf("initial robust cost (edges + anchor) %.10g, SE-Sync f %.10g\n", graph->cost().robust,
-                seSyncCost(g, graph->values()));
+    std::printf("initial robust cost (edges + anchor) %.10g, SE-Sync f %.10g\n",
+                graph->cost().robust, seSyncCost(g, graph->values()));
     BatchSummary s;
     if (o.kernel.type == KernelType::kGncTls) {
       GncOptions go;
@@ -252,7 +255,9 @@ int main(int argc, char** argv) {
     const double cpu = cpuSeconds() - cpu0;
     std::printf("incremental %s: %d steps, batch every %d (%d batch steps), wildfire %g%s\n",
                 methodName(o.method), runner.numSteps(), o.batch_every, batches, o.wildfire,
-                o.method == Method::kDogLeg ? (", " + std::to_string(rejected) + " rejected steps").c_str() : "");
+                o.method == Method::kDogLeg
+                    ? (", " + std::to_string(rejected) + " rejected steps").c_str()
+                    : "");
     std::printf("time: %.3f s wall (steps %.3f s, final batch iterations %.3f s), %.3f s cpu\n",
                 wall, steps_wall, final_wall, cpu);
     std::printf("final batch iterations: %s\n", summary.message.c_str());

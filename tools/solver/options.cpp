@@ -72,8 +72,8 @@ Expected<ToolOptions> parseArguments(int argc, char** argv) {
       if (i + 1 >= argc) return makeError(a, ": missing value");
       return std::string(argv[++i]);
     };
-#define EVERMAP_VALUE(var)                 \
-  auto var = value();                      \
+#define EVERMAP_VALUE(var) \
+  auto var = value();      \
   if (!var.ok()) return var.error();
     if (a == "--help" || a == "-h") {
       return makeError("help");
@@ -106,11 +106,16 @@ Expected<ToolOptions> parseArguments(int argc, char** argv) {
       o.method = *m;
     } else if (a == "--init") {
       EVERMAP_VALUE(v);
-      if (*v == "auto") o.init = Init::kAuto;
-      else if (*v == "odometry") o.init = Init::kOdometry;
-      else if (*v == "chordal") o.init = Init::kChordal;
-      else if (*v == "file") o.init = Init::kFile;
-      else return makeError("--init: '", *v, "': expected auto, odometry, chordal or file");
+      if (*v == "auto")
+        o.init = Init::kAuto;
+      else if (*v == "odometry")
+        o.init = Init::kOdometry;
+      else if (*v == "chordal")
+        o.init = Init::kChordal;
+      else if (*v == "file")
+        o.init = Init::kFile;
+      else
+        return makeError("--init: '", *v, "': expected auto, odometry, chordal or file");
     } else if (a == "--robust") {
       EVERMAP_VALUE(v);
       auto k = solver::parseRobustKernel(*v);
@@ -126,7 +131,8 @@ Expected<ToolOptions> parseArguments(int argc, char** argv) {
       // Stored in an int (a seed in an unsigned): larger values would not convert.
       const double most = a == "--seed" ? 4294967295.0 : 2147483647.0;
       if (*n < 0 || *n > most || *n != static_cast<long long>(*n)) {
-        return makeError(a, ": expected an integer in [0, ", static_cast<long long>(most), "], got '", *v, "'");
+        return makeError(a, ": expected an integer in [0, ", static_cast<long long>(most),
+                         "], got '", *v, "'");
       }
       if (a == "--batch-every") o.batch_every = static_cast<int>(*n);
       if (a == "--max-iterations") o.max_iterations = static_cast<int>(*n);
@@ -170,8 +176,9 @@ Expected<ToolOptions> parseArguments(int argc, char** argv) {
   if (o.input.empty()) return makeError("no input file");
   if (o.max_iterations < 1) return makeError("--max-iterations: must be >= 1");
   if (!o.batch && o.kernel.type == solver::KernelType::kGncTls) {
-    return makeError("--robust gnc: graduated non-convexity re-solves the whole problem per "
-                     "stage and has no incremental mode; add --batch");
+    return makeError(
+        "--robust gnc: graduated non-convexity re-solves the whole problem per "
+        "stage and has no incremental mode; add --batch");
   }
   if (!o.batch && o.method == solver::Method::kLevenbergMarquardt) {
     return makeError("--method lm: Levenberg-Marquardt has no incremental mode; add --batch");

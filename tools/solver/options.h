@@ -35,8 +35,8 @@ struct ToolOptions {
   solver::OutlierMode outlier_mode = solver::OutlierMode::kRandom;
   unsigned seed = 1;
   std::string ground_truth;
-  std::string output;   // g2o
-  std::string stats;    // per-step statistics
+  std::string output;  // g2o
+  std::string stats;   // per-step statistics
   bool stats_chi2 = false;
   std::string marginals;  // comma-separated keys
   bool verbose = false;

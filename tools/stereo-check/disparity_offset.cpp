@@ -31,8 +31,8 @@ double pairCost(const StereoCamera& camera, const StereoMatchPair& pair, double 
       const auto in_a = camera.project(a_T_b * pb[i]);
       const auto in_b = camera.project(b_T_a * pa[i]);
       for (int j = 0; j < 3; ++j) {
-        (*r)(Eigen::Index(6 * i + j)) = in_a ? ((*in_a)(j) - ma[i](j)) / sigma(j) : kBehind;
-        (*r)(Eigen::Index(6 * i + 3 + j)) = in_b ? ((*in_b)(j) - mb[i](j)) / sigma(j) : kBehind;
+        (*r)(Eigen::Index(6 * i + j)) = in_a ? ((*in_a)(j)-ma[i](j)) / sigma(j) : kBehind;
+        (*r)(Eigen::Index(6 * i + 3 + j)) = in_b ? ((*in_b)(j)-mb[i](j)) / sigma(j) : kBehind;
       }
     }
   };
@@ -50,7 +50,8 @@ double pairCost(const StereoCamera& camera, const StereoMatchPair& pair, double 
       J.col(c) = (r1 - r0) / h;
     }
     // Iteratively reweighted least squares for the Huber loss.
-    const Eigen::VectorXd w = r0.unaryExpr([k](double x) { return std::abs(x) < k ? 1.0 : k / std::abs(x); });
+    const Eigen::VectorXd w =
+        r0.unaryExpr([k](double x) { return std::abs(x) < k ? 1.0 : k / std::abs(x); });
     const Mat6 H = J.transpose() * w.asDiagonal() * J;
     const Vec6 g = J.transpose() * w.cwiseProduct(r0);
     const Vec6 dx = -H.ldlt().solve(g);
@@ -75,18 +76,22 @@ StereoMatchPair matchPair(const KeyframeFeatures& a, const KeyframeFeatures& b,
   if (!registration.ok()) return pair;
   pair.a_T_b = registration.a_T_b;
   for (const auto& [ia, ib] : registration.inliers) {
-    pair.uvd_a.emplace_back(a.keypoints[size_t(ia)].x(), a.keypoints[size_t(ia)].y(), a.disparity[size_t(ia)]);
-    pair.uvd_b.emplace_back(b.keypoints[size_t(ib)].x(), b.keypoints[size_t(ib)].y(), b.disparity[size_t(ib)]);
+    pair.uvd_a.emplace_back(a.keypoints[size_t(ia)].x(), a.keypoints[size_t(ia)].y(),
+                            a.disparity[size_t(ia)]);
+    pair.uvd_b.emplace_back(b.keypoints[size_t(ib)].x(), b.keypoints[size_t(ib)].y(),
+                            b.disparity[size_t(ib)]);
   }
   return pair;
 }
 
 Status DisparityOffsetOptions::validate() const {
-  if (!(std::isfinite(min_offset_px) && std::isfinite(max_offset_px) && min_offset_px < max_offset_px)) {
+  if (!(std::isfinite(min_offset_px) && std::isfinite(max_offset_px) &&
+        min_offset_px < max_offset_px)) {
     return makeError("disparity offset: grid [", min_offset_px, ", ", max_offset_px, "] is empty");
   }
   if (!(step_px > 0.0) || (max_offset_px - min_offset_px) / step_px > 10000.0) {
-    return makeError("disparity offset: step_px ", step_px, " is not positive or too fine for the grid");
+    return makeError("disparity offset: step_px ", step_px,
+                     " is not positive or too fine for the grid");
   }
   if (!(sigma_uv_px > 0.0 && sigma_d_px > 0.0 && huber_sigmas > 0.0)) {
     return makeError("disparity offset: sigma_uv_px, sigma_d_px and huber_sigmas must be positive");
@@ -104,15 +109,16 @@ Expected<DisparityOffsetSummary> estimateDisparityOffset(const StereoCamera& cam
   DisparityOffsetSummary summary;
   for (const auto& p : pairs) {
     if (p.uvd_a.size() != p.uvd_b.size()) {
-      return makeError("disparity offset: a pair has ", p.uvd_a.size(), " points in a and ", p.uvd_b.size(),
-                       " in b");
+      return makeError("disparity offset: a pair has ", p.uvd_a.size(), " points in a and ",
+                       p.uvd_b.size(), " in b");
     }
     if (p.uvd_a.empty()) continue;
     ++summary.pairs;
     summary.matches += static_cast<int>(p.uvd_a.size());
   }
   if (summary.matches == 0) return makeError("disparity offset: no matches");
-  const int steps = static_cast<int>(std::floor((options.max_offset_px - options.min_offset_px) / options.step_px + 1e-9));
+  const int steps = static_cast<int>(
+      std::floor((options.max_offset_px - options.min_offset_px) / options.step_px + 1e-9));
   size_t best = 0;
   for (int s = 0; s <= steps; ++s) {
     const double offset = options.min_offset_px + s * options.step_px;
@@ -124,10 +130,11 @@ Expected<DisparityOffsetSummary> estimateDisparityOffset(const StereoCamera& cam
     summary.curve.emplace_back(offset, cost);
     if (cost < summary.curve[best].second) best = summary.curve.size() - 1;
   }
-  if (summary.curve.empty()) return makeError("disparity offset: every candidate makes some disparity <= 0");
+  if (summary.curve.empty())
+    return makeError("disparity offset: every candidate makes some disparity <= 0");
   if (best == 0 || best + 1 == summary.curve.size()) {
-    return makeError("disparity offset: least cost at the end of the grid (", summary.curve[best].first,
-                     " px); widen [min_offset_px, max_offset_px]");
+    return makeError("disparity offset: least cost at the end of the grid (",
+                     summary.curve[best].first, " px); widen [min_offset_px, max_offset_px]");
   }
   // Parabola through the least cost and its two neighbours.
   const double c0 = summary.curve[best - 1].second, c1 = summary.curve[best].second,
@@ -135,8 +142,10 @@ Expected<DisparityOffsetSummary> estimateDisparityOffset(const StereoCamera& cam
   const double denom = c0 - 2.0 * c1 + c2;
   const double shift = denom > 0.0 ? 0.5 * (c0 - c2) / denom : 0.0;
   summary.offset_px = summary.curve[best].first + shift * options.step_px;
-  summary.message = makeError("disparity offset ", summary.offset_px, " px (true = measured + offset) from ",
-                              summary.pairs, " pairs, ", summary.matches, " matches").message;
+  summary.message =
+      makeError("disparity offset ", summary.offset_px, " px (true = measured + offset) from ",
+                summary.pairs, " pairs, ", summary.matches, " matches")
+          .message;
   return summary;
 }
 

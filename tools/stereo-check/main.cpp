@@ -131,7 +131,8 @@ PlaneFit fitDisparityPlane(const std::vector<cv::Point3d>& uvd, double tol_px, u
     std::vector<const cv::Point3d*> s = {&uvd[pick(rng)], &uvd[pick(rng)], &uvd[pick(rng)]};
     if (!solve(s, &cand)) continue;
     int count = 0;
-    for (const auto& p : uvd) count += std::abs(cand.a * p.x + cand.b * p.y + cand.c - p.z) < tol_px;
+    for (const auto& p : uvd)
+      count += std::abs(cand.a * p.x + cand.b * p.y + cand.c - p.z) < tol_px;
     if (count > best_count) {
       best_count = count;
       best.a = cand.a;
@@ -153,7 +154,6 @@ PlaneFit fitDisparityPlane(const std::vector<cv::Point3d>& uvd, double tol_px, u
   return best;
 }
 
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -164,24 +164,37 @@ int main(int argc, char** argv) {
   double height_m = 1.65, offset_px = 0.0, road_margin_px = 30.0, road_half_width = 0.25;
   double ahead_min_m = 6.0, ahead_max_m = 20.0;
   bool self_offset = false;
-  evermap::CommandLine cli("evermap-stereo-check",
-                           "Checks a rectified KITTI-layout stereo sequence against its calibration and ground truth "
-                           "without odometry: published calibration, row offsets, road-plane camera height, disparity offset.");
-  cli.positional(&positional, "SEQUENCE", "folder with image_0/image_1 (or image_l/image_r), calib.txt, optional poses.txt");
+  evermap::CommandLine cli(
+      "evermap-stereo-check",
+      "Checks a rectified KITTI-layout stereo sequence against its calibration and ground truth "
+      "without odometry: published calibration, row offsets, road-plane camera height, disparity "
+      "offset.");
+  cli.positional(&positional, "SEQUENCE",
+                 "folder with image_0/image_1 (or image_l/image_r), calib.txt, optional poses.txt");
   cli.value("--left", &left, "DIR", "left image folder (relative to SEQUENCE)");
   cli.value("--right", &right, "DIR", "right image folder");
   cli.value("--poses", &poses, "FILE", "ground truth (default SEQUENCE/poses.txt when present)");
   cli.value("--step", &step, "N", "every N-th frame (default 5)").min(1);
-  cli.value("--camera-height", &height_m, "M", "the rig's known height above the road (KITTI 1.65)").positive();
+  cli.value("--camera-height", &height_m, "M", "the rig's known height above the road (KITTI 1.65)")
+      .positive();
   cli.value("--disparity-offset", &offset_px, "PX",
-            "hypothesis: true disparity = measured + PX (the plane fit and height under it)").min(-20).max(20);
-  cli.value("--road-margin", &road_margin_px, "PX", "road pixels start this far below cy (default 30)").min(0);
+            "hypothesis: true disparity = measured + PX (the plane fit and height under it)")
+      .min(-20)
+      .max(20);
+  cli.value("--road-margin", &road_margin_px, "PX",
+            "road pixels start this far below cy (default 30)")
+      .min(0);
   cli.value("--road-half-width", &road_half_width, "FRACTION",
-            "road pixels within this fraction of the width around cx (default 0.25)").positive().max(0.5);
-  cli.value("--ahead-min", &ahead_min_m, "M", "ground-truth positions used from this far ahead (default 6)").min(0);
+            "road pixels within this fraction of the width around cx (default 0.25)")
+      .positive()
+      .max(0.5);
+  cli.value("--ahead-min", &ahead_min_m, "M",
+            "ground-truth positions used from this far ahead (default 6)")
+      .min(0);
   cli.value("--ahead-max", &ahead_max_m, "M", "... up to this far (default 20)").positive();
   cli.flag("--self-offset", &self_offset,
-           "estimate the disparity offset from consecutive frames alone (registration, no ground truth; slower)");
+           "estimate the disparity offset from consecutive frames alone (registration, no ground "
+           "truth; slower)");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (positional.size() != 1) {
     std::fprintf(stderr, "evermap-stereo-check: expected SEQUENCE (--help)\n");
@@ -202,10 +215,11 @@ int main(int argc, char** argv) {
   std::printf("calibration  %s: fx %.4f fy %.4f cx %.4f cy %.4f, right cx %.4f, baseline %.5f m\n",
               seq->calib_file.c_str(), f, fy, cx, cy, P.P1(0, 2), B);
   for (const auto& p : kPublished) {
-    const bool same = std::abs(p.fx - f) < 1e-3 && std::abs(p.cx - cx) < 1e-3 && std::abs(p.cy - cy) < 1e-3 &&
-                      std::abs(p.p1_03 - P.P1(0, 3)) < 1e-3 && std::abs(P.P1(0, 2) - cx) < 1e-3;
-    std::printf("  KITTI odometry %-13s fx %.4f cx %.4f cy %.4f b %.5f m: %s\n", p.sequences, p.fx, p.cx, p.cy,
-                -p.p1_03 / p.fx, same ? "identical" : "differs");
+    const bool same = std::abs(p.fx - f) < 1e-3 && std::abs(p.cx - cx) < 1e-3 &&
+                      std::abs(p.cy - cy) < 1e-3 && std::abs(p.p1_03 - P.P1(0, 3)) < 1e-3 &&
+                      std::abs(P.P1(0, 2) - cx) < 1e-3;
+    std::printf("  KITTI odometry %-13s fx %.4f cx %.4f cy %.4f b %.5f m: %s\n", p.sequences, p.fx,
+                p.cx, p.cy, -p.p1_03 / p.fx, same ? "identical" : "differs");
   }
 
   evermap::core::StereoDepth::Options depth_options;
@@ -214,8 +228,10 @@ int main(int argc, char** argv) {
   std::vector<double> dy_all, dy_left, dy_mid, dy_right, dy_top, dy_bottom, d_all;
   std::vector<double> heights, offsets;
   int frames_used = 0;
-  std::printf("\nper frame (every %d-th): road plane d = a (u - cx) + b (v - cy) + c, height B / |(a, b, c/f)|%s\n",
-              step, seq->poses.empty() ? "" : "; offset: ground truth's positions ahead on the plane");
+  std::printf(
+      "\nper frame (every %d-th): road plane d = a (u - cx) + b (v - cy) + c, height B / |(a, b, "
+      "c/f)|%s\n",
+      step, seq->poses.empty() ? "" : "; offset: ground truth's positions ahead on the plane");
   std::printf("%6s %8s %8s %8s %7s %6s %8s %8s %9s\n", "frame", "rows dy", "a", "b", "c", "points",
               "rms px", "h m", "offset px");
   for (size_t k = 0; k < seq->frames.size(); k += step) {
@@ -223,7 +239,8 @@ int main(int argc, char** argv) {
     const cv::Mat L = cv::imread(seq->leftImage(frame).string(), cv::IMREAD_GRAYSCALE);
     const cv::Mat R = cv::imread(seq->rightImage(frame).string(), cv::IMREAD_GRAYSCALE);
     if (L.empty() || R.empty() || L.size() != R.size()) {
-      std::fprintf(stderr, "evermap-stereo-check: frame %zu: unreadable or mismatched images\n", frame);
+      std::fprintf(stderr, "evermap-stereo-check: frame %zu: unreadable or mismatched images\n",
+                   frame);
       return 1;
     }
     ++frames_used;
@@ -241,7 +258,8 @@ int main(int argc, char** argv) {
       const int u = static_cast<int>(corners[i].pt.x), v = static_cast<int>(corners[i].pt.y);
       int d = 0;
       if (!sadSearch(L, R, u, v, -16, 160, &d)) continue;
-      const auto x = evermap::core::alignPatch(L, u, v, R, Eigen::Vector2f(float(u - d), float(v)), align2d);
+      const auto x =
+          evermap::core::alignPatch(L, u, v, R, Eigen::Vector2f(float(u - d), float(v)), align2d);
       if (!x) continue;
       const double dy = x->y() - v;
       const double disp = u - x->x();
@@ -261,8 +279,8 @@ int main(int argc, char** argv) {
     }
     std::vector<cv::Point3d> uvd;
     for (int v = static_cast<int>(cy + road_margin_px); v < L.rows - 8; v += 4) {
-      for (int u = static_cast<int>(cx - road_half_width * L.cols); u <= cx + road_half_width * L.cols;
-           u += 6) {
+      for (int u = static_cast<int>(cx - road_half_width * L.cols);
+           u <= cx + road_half_width * L.cols; u += 6) {
         evermap::core::Keypoint kp;
         kp.u = static_cast<float>(u);
         kp.v = static_cast<float>(v);
@@ -271,7 +289,8 @@ int main(int argc, char** argv) {
       }
     }
     const PlaneFit fit = fitDisparityPlane(uvd, 0.5, 7u + static_cast<uint32_t>(frame));
-    const double h = B / std::sqrt(fit.a * fit.a + fit.b * fit.b * (f / fy) * (f / fy) + (fit.c / f) * (fit.c / f));
+    const double h = B / std::sqrt(fit.a * fit.a + fit.b * fit.b * (f / fy) * (f / fy) +
+                                   (fit.c / f) * (fit.c / f));
     if (fit.inliers >= 50) heights.push_back(h);
 
     // 4. The camera's positions ahead (ground truth, in this camera's frame) lie on the road
@@ -290,17 +309,21 @@ int main(int argc, char** argv) {
         offsets.push_back(delta);
       }
     }
-    std::printf("%6zu %8.3f %8.5f %8.5f %7.2f %6d %8.3f %8.3f %9.2f\n", frame, median(dy_frame), fit.a, fit.b,
-                fit.c, fit.inliers, fit.rms_px, h, delta);
+    std::printf("%6zu %8.3f %8.5f %8.5f %7.2f %6d %8.3f %8.3f %9.2f\n", frame, median(dy_frame),
+                fit.a, fit.b, fit.c, fit.inliers, fit.rms_px, h, delta);
   }
-  std::printf("\nrectification: %zu corners in %d frames, row offset right - left: median %.3f px, robust sigma %.3f px\n",
-              dy_all.size(), frames_used, median(dy_all), mad(dy_all));
-  std::printf("  by column third: %.3f / %.3f / %.3f px; above / below cy: %.3f / %.3f px\n", median(dy_left),
-              median(dy_mid), median(dy_right), median(dy_top), median(dy_bottom));
-  std::printf("disparities (negative allowed): p0.5 %.2f px, p1 %.2f px, p5 %.2f px, %.2f %% below -0.5 px\n",
-              quantile(d_all, 0.005), quantile(d_all, 0.01), quantile(d_all, 0.05),
-              100.0 * std::count_if(d_all.begin(), d_all.end(), [](double d) { return d < -0.5; }) /
-                  std::max<size_t>(1, d_all.size()));
+  std::printf(
+      "\nrectification: %zu corners in %d frames, row offset right - left: median %.3f px, robust "
+      "sigma %.3f px\n",
+      dy_all.size(), frames_used, median(dy_all), mad(dy_all));
+  std::printf("  by column third: %.3f / %.3f / %.3f px; above / below cy: %.3f / %.3f px\n",
+              median(dy_left), median(dy_mid), median(dy_right), median(dy_top), median(dy_bottom));
+  std::printf(
+      "disparities (negative allowed): p0.5 %.2f px, p1 %.2f px, p5 %.2f px, %.2f %% below -0.5 "
+      "px\n",
+      quantile(d_all, 0.005), quantile(d_all, 0.01), quantile(d_all, 0.05),
+      100.0 * std::count_if(d_all.begin(), d_all.end(), [](double d) { return d < -0.5; }) /
+          std::max<size_t>(1, d_all.size()));
   {
     std::printf("  lowest disparities (0.25 px bins from -2 px):");
     int bins[16] = {0};
@@ -311,10 +334,13 @@ int main(int argc, char** argv) {
     for (int b = 0; b < 16; ++b) std::printf(" %d", bins[b]);
     std::printf("\n");
   }
-  std::printf("road plane: camera height median %.3f m (p10 %.3f, p90 %.3f; %zu frames) against %.3f m: ratio %.4f\n",
-              median(heights), quantile(heights, 0.1), quantile(heights, 0.9), heights.size(), height_m,
-              median(heights) / height_m);
-  std::printf("  baseline that gives %.3f m: %.4f m (calib.txt %.4f m)\n", height_m, B * height_m / median(heights), B);
+  std::printf(
+      "road plane: camera height median %.3f m (p10 %.3f, p90 %.3f; %zu frames) against %.3f m: "
+      "ratio %.4f\n",
+      median(heights), quantile(heights, 0.1), quantile(heights, 0.9), heights.size(), height_m,
+      median(heights) / height_m);
+  std::printf("  baseline that gives %.3f m: %.4f m (calib.txt %.4f m)\n", height_m,
+              B * height_m / median(heights), B);
   // 5. Without ground truth: the disparity offset under which consecutive frames register
   // best. A wrong offset distorts each frame's points projectively (far points most), and no
   // rigid motion maps one distorted frame onto the next; a wrong baseline only scales them.
@@ -335,7 +361,8 @@ int main(int argc, char** argv) {
       if (!extractor->extract(*camera, static_cast<int64_t>(k), L, R, &ff)) return 1;
       evermap::core::KeyframeFeatures kf = evermap::core::makeKeyframeFeatures(ff, orb);
       if (k > 0) {
-        const auto s = evermap::core::registerFrames(*camera, previous, *camera, kf, evermap::core::RegistrationOptions{});
+        const auto s = evermap::core::registerFrames(*camera, previous, *camera, kf,
+                                                     evermap::core::RegistrationOptions{});
         if (s.ok()) {
           evermap::core::StereoMatchPair m = evermap::core::matchPair(previous, kf, s);
           for (auto& x : m.uvd_a) x.z() += offset_px;
@@ -345,31 +372,40 @@ int main(int argc, char** argv) {
       }
       previous = std::move(kf);
     }
-    const auto est = evermap::core::estimateDisparityOffset(*camera, pairs, evermap::core::DisparityOffsetOptions{});
+    const auto est = evermap::core::estimateDisparityOffset(
+        *camera, pairs, evermap::core::DisparityOffsetOptions{});
     if (!est) {
       std::fprintf(stderr, "evermap-stereo-check: %s\n", est.error().message.c_str());
       return 1;
     }
-    std::printf("self-calibration: %d of %zu consecutive pairs registered (ORB, registerFrames), %d inliers\n",
-                est->pairs, seq->frames.size() - 1, est->matches);
+    std::printf(
+        "self-calibration: %d of %zu consecutive pairs registered (ORB, registerFrames), %d "
+        "inliers\n",
+        est->pairs, seq->frames.size() - 1, est->matches);
     std::printf("  cost against offset:");
     for (const auto& [d, c] : est->curve) std::printf(" %+.1f:%.0f", d, c);
     // Its spread: the same from each half of the sequence.
     const size_t half = pairs.size() / 2;
-    const std::vector<evermap::core::StereoMatchPair> first(pairs.begin(), pairs.begin() + long(half)),
+    const std::vector<evermap::core::StereoMatchPair> first(pairs.begin(),
+                                                            pairs.begin() + long(half)),
         second(pairs.begin() + long(half), pairs.end());
-    const auto e1 = evermap::core::estimateDisparityOffset(*camera, first, evermap::core::DisparityOffsetOptions{});
-    const auto e2 = evermap::core::estimateDisparityOffset(*camera, second, evermap::core::DisparityOffsetOptions{});
-    std::printf("\ndisparity offset from the images alone: %+.2f px [true = measured + offset%s]; "
-                "first half of the pairs %+.2f, second half %+.2f\n",
-                est->offset_px, offset_px != 0.0 ? ", after --disparity-offset" : "", e1 ? e1->offset_px : std::nan(""),
-                e2 ? e2->offset_px : std::nan(""));
+    const auto e1 = evermap::core::estimateDisparityOffset(*camera, first,
+                                                           evermap::core::DisparityOffsetOptions{});
+    const auto e2 = evermap::core::estimateDisparityOffset(*camera, second,
+                                                           evermap::core::DisparityOffsetOptions{});
+    std::printf(
+        "\ndisparity offset from the images alone: %+.2f px [true = measured + offset%s]; "
+        "first half of the pairs %+.2f, second half %+.2f\n",
+        est->offset_px, offset_px != 0.0 ? ", after --disparity-offset" : "",
+        e1 ? e1->offset_px : std::nan(""), e2 ? e2->offset_px : std::nan(""));
   }
   if (!offsets.empty()) {
-    std::printf("disparity offset from the ground truth's direction: median %+.2f px (p10 %+.2f, p90 %+.2f; %zu frames)"
-                " [true = measured + offset%s]\n",
-                median(offsets), quantile(offsets, 0.1), quantile(offsets, 0.9), offsets.size(),
-                offset_px != 0.0 ? ", after --disparity-offset" : "");
+    std::printf(
+        "disparity offset from the ground truth's direction: median %+.2f px (p10 %+.2f, p90 "
+        "%+.2f; %zu frames)"
+        " [true = measured + offset%s]\n",
+        median(offsets), quantile(offsets, 0.1), quantile(offsets, 0.9), offsets.size(),
+        offset_px != 0.0 ? ", after --disparity-offset" : "");
   }
   return 0;
 }

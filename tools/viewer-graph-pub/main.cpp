@@ -54,7 +54,10 @@ map_edge_t edge(int64_t a, int64_t b, int8_t type) {
 // The columns of steps-<mode>.csv that matter here (tools/mapper-run).
 bool graphFromSteps(const std::string& file, int max_loops, map_graph_t* g, std::string* error) {
   std::ifstream in(file);
-  if (!in) { *error = file + ": cannot open"; return false; }
+  if (!in) {
+    *error = file + ": cannot open";
+    return false;
+  }
   std::string line;
   std::getline(in, line);
   std::map<std::string, int> col;
@@ -64,7 +67,10 @@ bool graphFromSteps(const std::string& file, int max_loops, map_graph_t* g, std:
     for (int k = 0; std::getline(s, name, ','); ++k) col[name] = k;
   }
   for (const char* need : {"utime", "session", "node", "true_floor", "est_x", "est_y", "est_z"})
-    if (!col.count(need)) { *error = file + ": no column " + need + " (not a steps CSV)"; return false; }
+    if (!col.count(need)) {
+      *error = file + ": no column " + need + " (not a steps CSV)";
+      return false;
+    }
   std::unordered_map<int64_t, int64_t> first_step_of_place;  // reduced node -> first step there
   std::map<int, std::pair<double, int>> floor_z;             // floor -> (sum of z, count)
   int loops = 0;
@@ -97,7 +103,8 @@ bool graphFromSteps(const std::string& file, int max_loops, map_graph_t* g, std:
     ++z.second;
     g->nodes.push_back(n);
   }
-  for (const auto& [index, z] : floor_z) g->floors.push_back(map_floor_t{index, z.first / z.second});
+  for (const auto& [index, z] : floor_z)
+    g->floors.push_back(map_floor_t{index, z.first / z.second});
   g->num_nodes = static_cast<int32_t>(g->nodes.size());
   g->num_edges = static_cast<int32_t>(g->edges.size());
   g->num_floors = static_cast<int32_t>(g->floors.size());
@@ -107,22 +114,26 @@ bool graphFromSteps(const std::string& file, int max_loops, map_graph_t* g, std:
 }  // namespace
 
 int main(int argc, char** argv) {
-  CommandLine cli("evermap-viewer-graph-pub",
-                  "Publishes one map on MAP_GRAPH at a fixed rate, utime = publish time (wall clock, us); "
-                  "for bench/viewer_latency.sh, inside scripts/lcm-sandbox.");
+  CommandLine cli(
+      "evermap-viewer-graph-pub",
+      "Publishes one map on MAP_GRAPH at a fixed rate, utime = publish time (wall clock, us); "
+      "for bench/viewer_latency.sh, inside scripts/lcm-sandbox.");
   std::string store, steps;
   double rate_hz = 1.0, duration_s = 30.0;
   int max_loops = 30193;
   bool describe = false;
   cli.value("--store", &store, "MAP.db", "publish the map of this store (reduced graph)");
-  cli.value("--steps", &steps, "FILE.csv", "publish a full graph made of a run's step poses (steps-*.csv)");
-  cli.value("--max-loops", &max_loops, "N", "most loop edges of the --steps graph (default 30193)").min(0);
+  cli.value("--steps", &steps, "FILE.csv",
+            "publish a full graph made of a run's step poses (steps-*.csv)");
+  cli.value("--max-loops", &max_loops, "N", "most loop edges of the --steps graph (default 30193)")
+      .min(0);
   cli.value("--rate-hz", &rate_hz, "HZ", "messages per second (default 1)").positive().max(1000);
   cli.value("--duration-s", &duration_s, "S", "how long to publish (default 30)").min(0);
   cli.flag("--describe", &describe, "print the map's counts and encoded size, publish nothing");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (store.empty() == steps.empty()) {
-    std::fprintf(stderr, "evermap-viewer-graph-pub: give one of --store, --steps\n%s", cli.usage().c_str());
+    std::fprintf(stderr, "evermap-viewer-graph-pub: give one of --store, --steps\n%s",
+                 cli.usage().c_str());
     return 2;
   }
   map_graph_t g;
@@ -140,8 +151,8 @@ int main(int argc, char** argv) {
   int loops = 0;
   for (const map_edge_t& e : g.edges) loops += e.type == map_edge_t::TYPE_LOOP;
   std::vector<uint8_t> bytes(static_cast<size_t>(g.getEncodedSize()));
-  std::printf("graph nodes %d edges %d loops %d floors %d bytes %zu\n", g.num_nodes, g.num_edges, loops,
-              g.num_floors, bytes.size());
+  std::printf("graph nodes %d edges %d loops %d floors %d bytes %zu\n", g.num_nodes, g.num_edges,
+              loops, g.num_floors, bytes.size());
   std::fflush(stdout);
   if (describe) return 0;
 
@@ -154,13 +165,15 @@ int main(int argc, char** argv) {
   const auto start = std::chrono::steady_clock::now();
   long sent = 0;
   double encode_ms = 0.0;
-  for (auto next = start; std::chrono::steady_clock::now() - start < std::chrono::duration<double>(duration_s);
+  for (auto next = start;
+       std::chrono::steady_clock::now() - start < std::chrono::duration<double>(duration_s);
        next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period)) {
     std::this_thread::sleep_until(next);
     const auto t0 = std::chrono::steady_clock::now();
     g.utime = wallUs();
     g.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
-    encode_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    encode_ms +=
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     if (lcm.publish(channels::kMapGraph, bytes.data(), static_cast<unsigned>(bytes.size())) != 0)
       std::fprintf(stderr, "evermap-viewer-graph-pub: publish failed\n");
     ++sent;

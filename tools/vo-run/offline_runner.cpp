@@ -39,9 +39,9 @@ std::string OfflineSummary::report() const {
     via_previous += f.via_previous ? 1 : 0;
   }
   s << stats.report() << "\n"
-    << trajectory.size() << " poses, path length " << trajectory.pathLengthM() << " m, "
-    << breaks << " chain breaks, " << bridged << " frames bridged by the motion prior, "
-    << via_previous << " registered through the previous frame\n";
+    << trajectory.size() << " poses, path length " << trajectory.pathLengthM() << " m, " << breaks
+    << " chain breaks, " << bridged << " frames bridged by the motion prior, " << via_previous
+    << " registered through the previous frame\n";
   const auto kinds = failuresByKind();
   if (kinds.empty()) {
     s << "failures: none\n";
@@ -50,8 +50,7 @@ std::string OfflineSummary::report() const {
     for (const auto& [kind, n] : kinds) s << " " << kind << " " << n << ";";
     s << "\n";
   }
-  s << "per frame: median " << median_ms << " ms, p90 " << p90_ms << " ms, p99 " << p99_ms
-    << " ms";
+  s << "per frame: median " << median_ms << " ms, p90 " << p90_ms << " ms, p99 " << p99_ms << " ms";
   return s.str();
 }
 
@@ -107,7 +106,8 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
     if (channel == channels::kStereoCalib) {
       Status s = Ok{};
       if (options.disparity_offset_px) {
-        auto msg = overrideDisparityOffset(event->data, event->datalen, *options.disparity_offset_px);
+        auto msg =
+            overrideDisparityOffset(event->data, event->datalen, *options.disparity_offset_px);
         if (!msg) return msg.error();
         s = pipeline->handleCalibration(*msg);
       } else {
@@ -124,8 +124,7 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
     auto out = rgbd ? pipeline->handleRgbdBytes(event->data, event->datalen)
                     : pipeline->handleStereoBytes(event->data, event->datalen);
     const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-            .count();
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     if (!out) {
       std::fprintf(stderr, "vo: event %lld: %s\n", static_cast<long long>(event->eventnum),
                    out.error().message.c_str());
@@ -193,9 +192,9 @@ Status writeFrameStatsCsv(const std::vector<FrameStats>& frames,
     std::snprintf(numbers, sizeof(numbers), "%.4f,%.6f,%.3f", f.mean_reprojection_px,
                   f.delta_translation_m, f.process_ms);
     s << f.utime << "," << toString(f.status) << "," << (f.keyframe_changed ? 1 : 0) << ","
-      << f.num_corners << "," << f.num_features << "," << f.num_matches << ","
-      << f.num_inliers << "," << numbers << "," << (f.bridged ? 1 : 0) << "," << f.failure_kind
-      << "," << message << "\n";
+      << f.num_corners << "," << f.num_features << "," << f.num_matches << "," << f.num_inliers
+      << "," << numbers << "," << (f.bridged ? 1 : 0) << "," << f.failure_kind << "," << message
+      << "\n";
   }
   return writeFileAtomically(file, s.str());
 }

@@ -25,7 +25,7 @@ struct OfflineOptions {
   // rectified left camera: body0_T_body = B * cam0_T_cam * B⁻¹. For comparing with EuRoC
   // ground truth (which is of the body).
   bool body_frame = false;
-  int64_t max_frames = -1;  // stop after this many STEREO or RGBD events; -1: all
+  int64_t max_frames = -1;           // stop after this many STEREO or RGBD events; -1: all
   std::filesystem::path output_log;  // empty: none
   // Replaces the disparity offset of every rectified STEREO_CALIB of the log (its right cx
   // becomes left cx + this, core::withDisparityOffset) before the pipeline sees it
@@ -55,7 +55,7 @@ struct OfflineSummary {
   eval::Trajectory trajectory;  // frames with a pose
   std::vector<FrameStats> frames;
   PipelineStats stats;
-  int breaks = 0;               // chain breaks bridged (vo_trajectory.h)
+  int breaks = 0;  // chain breaks bridged (vo_trajectory.h)
   double median_ms = 0.0;
   double p90_ms = 0.0;
   double p99_ms = 0.0;
@@ -79,7 +79,6 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
 double percentile(std::vector<double> v, double q);
 
 // Per-frame statistics as CSV (a header line, one line per frame), written atomically.
-Status writeFrameStatsCsv(const std::vector<FrameStats>& frames,
-                          const std::filesystem::path& file);
+Status writeFrameStatsCsv(const std::vector<FrameStats>& frames, const std::filesystem::path& file);
 
 }  // namespace evermap::vo

@@ -50,8 +50,10 @@ Expected<SequenceRun> runKittiSequence(const std::filesystem::path& folder,
   auto seq = datasets::readKittiSequence(folder, options.sequence);
   if (!seq) return seq.error();
   if (seq->poses.empty()) return makeError(folder.string(), ": no ground truth (poses.txt)");
-  const cv::Mat first = cv::imread(seq->leftImage(seq->frames.front()).string(), cv::IMREAD_GRAYSCALE);
-  if (first.empty()) return makeError(seq->leftImage(seq->frames.front()).string(), ": cannot read");
+  const cv::Mat first =
+      cv::imread(seq->leftImage(seq->frames.front()).string(), cv::IMREAD_GRAYSCALE);
+  if (first.empty())
+    return makeError(seq->leftImage(seq->frames.front()).string(), ": cannot read");
   auto from_file = datasets::kittiStereoCalibration(seq->projections, first.cols, first.rows,
                                                     seq->calib_file.string());
   if (!from_file) return from_file.error();

@@ -40,19 +40,19 @@ struct SequenceRunOptions {
 };
 
 struct SequenceRun {
-  std::vector<FrameResult> frames;      // keyframe payloads dropped
-  std::vector<double> cpu_ms;           // per frame
-  std::vector<core::SE3d> gt, est;      // world_T_cam of the posed frames with ground truth
-  int posed = 0;                        // frames with a pose (OK, first frame, bridged)
+  std::vector<FrameResult> frames;  // keyframe payloads dropped
+  std::vector<double> cpu_ms;       // per frame
+  std::vector<core::SE3d> gt, est;  // world_T_cam of the posed frames with ground truth
+  int posed = 0;                    // frames with a pose (OK, first frame, bridged)
   int keyframes = 0;
-  double path_length_m = 0.0;           // of the ground truth over the posed frames
+  double path_length_m = 0.0;  // of the ground truth over the posed frames
   double end_error_m = 0.0;
   double end_error_percent = 0.0;
   double end_rotation_deg = 0.0;
   double ate_rmse_m = 0.0;
-  double rpe_percent = 0.0;             // mean per-frame translation error / mean step
-  double rpe_deg = 0.0;                 // mean per-frame rotation error
-  double mean_inliers = 0.0;            // over the frames registered (OK)
+  double rpe_percent = 0.0;   // mean per-frame translation error / mean step
+  double rpe_deg = 0.0;       // mean per-frame rotation error
+  double mean_inliers = 0.0;  // over the frames registered (OK)
   double median_ms = 0.0, p90_ms = 0.0, p99_ms = 0.0;
 
   // A few lines with every figure above.

@@ -15,8 +15,7 @@ std::optional<core::SE3d> VoTrajectory::add(const evermap::vo_delta_t& d) {
   } else if (ok && started_ && d.ref_utime == ref_utime_) {
     const Eigen::Quaterniond q(d.orientation[0], d.orientation[1], d.orientation[2],
                                d.orientation[3]);
-    const core::SE3d ref_T_cur(q, core::Vec3(d.translation[0], d.translation[1],
-                                             d.translation[2]));
+    const core::SE3d ref_T_cur(q, core::Vec3(d.translation[0], d.translation[1], d.translation[2]));
     pose = world_T_ref_ * ref_T_cur;
     if (d.keyframe_changed) {
       world_T_ref_ = *pose;

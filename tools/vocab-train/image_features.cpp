@@ -21,8 +21,7 @@ std::string OrbOptions::validate() const {
 
 ImageFeatures extractOrb(const cv::Mat& image, const OrbOptions& options) {
   if (image.depth() != CV_8U) {
-    std::fprintf(stderr, "evermap: extractOrb needs an 8-bit image, got depth %d\n",
-                 image.depth());
+    std::fprintf(stderr, "evermap: extractOrb needs an 8-bit image, got depth %d\n", image.depth());
     std::abort();
   }
   cv::Mat gray;
@@ -49,7 +48,8 @@ Expected<ImageFeatures> extractOrbFromFile(const std::filesystem::path& file,
                                            const OrbOptions& options) {
   if (std::string why = options.validate(); !why.empty()) return makeError("ORB options: ", why);
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) return makeError(file.string(), ": no such file");
+  if (!std::filesystem::is_regular_file(file, ec))
+    return makeError(file.string(), ": no such file");
   cv::Mat image = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
   if (image.empty()) return makeError(file.string(), ": not a readable image");
   return extractOrb(image, options);

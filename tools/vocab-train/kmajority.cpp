@@ -104,8 +104,8 @@ Descriptor bitwiseMajority(std::span<const Descriptor> all, std::span<const uint
   return majorityOf(counts, members.size());
 }
 
-KMajorityResult kMajority(std::span<const Descriptor> all, std::span<const uint32_t> members,
-                          int k, int max_iterations, SplitMix64& rng) {
+KMajorityResult kMajority(std::span<const Descriptor> all, std::span<const uint32_t> members, int k,
+                          int max_iterations, SplitMix64& rng) {
   if (k < 1 || max_iterations < 1) {
     std::fprintf(stderr, "evermap: kMajority needs k >= 1 and max_iterations >= 1\n");
     std::abort();

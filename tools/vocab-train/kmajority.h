@@ -47,8 +47,8 @@ struct KMajorityResult {
 // Clusters all[members[i]] into at most k groups. Fewer than k distinct descriptors give one
 // cluster per distinct descriptor. A bit of a centre is 1 when at least half of the members
 // have it (ties go to 1, as in DBoW2). Preconditions: k >= 1, max_iterations >= 1.
-KMajorityResult kMajority(std::span<const Descriptor> all, std::span<const uint32_t> members,
-                          int k, int max_iterations, SplitMix64& rng);
+KMajorityResult kMajority(std::span<const Descriptor> all, std::span<const uint32_t> members, int k,
+                          int max_iterations, SplitMix64& rng);
 
 // Bitwise majority of all[members[i]] (ties to 1). Precondition: members not empty.
 Descriptor bitwiseMajority(std::span<const Descriptor> all, std::span<const uint32_t> members);

@@ -1,6 +1,7 @@
 // evermap-vocab-train: trains a vocabulary tree (core/bow) from folders of images and writes it
-// in evermap's vocabulary format. Features are OpenCV ORB for now (tools/vocab-train/image_features.h).
-// Exit status: 0 done, 1 bad input (the message names it), 2 bad command line.
+// in evermap's vocabulary format. Features are OpenCV ORB for now
+// (tools/vocab-train/image_features.h). Exit status: 0 done, 1 bad input (the message names it), 2
+// bad command line.
 
 #include <chrono>
 #include <cstdio>
@@ -43,11 +44,15 @@ int parse(int argc, char** argv, Command* c) {
   cli.value("--k", &c->options.tree.branching, "N", "branching factor (10)").min(2).max(1000);
   cli.value("--levels", &c->options.tree.levels, "N", "depth L (5)").min(1).max(10);
   cli.value("--iterations", &c->options.tree.max_iterations, "N",
-            "k-majority iterations per node (10)").min(1).max(1000);
+            "k-majority iterations per node (10)")
+      .min(1)
+      .max(1000);
   cli.value("--seed", &c->options.tree.seed, "N", "k-means++ seed (1)").any();
-  cli.value("--features", &c->options.orb.max_features, "N", "ORB features per image (1000)").min(1).max(100000);
-  cli.value("--image-step", &c->options.image_step, "N",
-            "use every N-th image of each folder (1)").min(1);
+  cli.value("--features", &c->options.orb.max_features, "N", "ORB features per image (1000)")
+      .min(1)
+      .max(100000);
+  cli.value("--image-step", &c->options.image_step, "N", "use every N-th image of each folder (1)")
+      .min(1);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   c->folders.insert(c->folders.end(), folders.begin(), folders.end());
   auto fail = [&](const std::string& why) {

@@ -25,8 +25,8 @@ Expected<Vocabulary> trainVocabulary(const std::vector<std::vector<Descriptor>>&
   }
   std::vector<Descriptor> all;
   for (const auto& image : images) all.insert(all.end(), image.begin(), image.end());
-  if (all.empty()) return makeError("vocabulary training: no descriptors in ", images.size(),
-                                    " images");
+  if (all.empty())
+    return makeError("vocabulary training: no descriptors in ", images.size(), " images");
 
   TrainingSummary s;
   s.images = images.size();
@@ -49,8 +49,7 @@ Expected<Vocabulary> trainVocabulary(const std::vector<std::vector<Descriptor>>&
     Pending p = std::move(queue[head]);
     bool split = false;
     if (p.depth < options.levels && p.members.size() > 1) {
-      KMajorityResult r =
-          kMajority(all, p.members, options.branching, options.max_iterations, rng);
+      KMajorityResult r = kMajority(all, p.members, options.branching, options.max_iterations, rng);
       // One cluster means every member is the same descriptor: the node is a word.
       if (r.centres.size() > 1) {
         split = true;
@@ -66,8 +65,8 @@ Expected<Vocabulary> trainVocabulary(const std::vector<std::vector<Descriptor>>&
       }
     }
     if (!split) {
-      if (p.node == 0) return makeError("vocabulary training: all ", all.size(),
-                                        " descriptors are identical");
+      if (p.node == 0)
+        return makeError("vocabulary training: all ", all.size(), " descriptors are identical");
       nodes[p.node].word = next_word++;
     }
     std::vector<uint32_t>().swap(queue[head].members);
@@ -75,8 +74,8 @@ Expected<Vocabulary> trainVocabulary(const std::vector<std::vector<Descriptor>>&
 
   // idf: ln(N / n_w) over the training images (T-RO 2012, section IV); computed by
   // quantising the training descriptors again through the finished tree, as DBoW2 does.
-  auto unweighted = Vocabulary::create(options.branching, options.levels, nodes,
-                                       "trained vocabulary");
+  auto unweighted =
+      Vocabulary::create(options.branching, options.levels, nodes, "trained vocabulary");
   if (!unweighted) return unweighted.error();
   const size_t num_words = unweighted->numWords();
   std::vector<uint32_t> images_with_word(num_words, 0);
@@ -97,8 +96,8 @@ Expected<Vocabulary> trainVocabulary(const std::vector<std::vector<Descriptor>>&
     node.weight = count > 0 ? std::log(n / count) : 0.0;
     if (node.weight <= 0.0) ++s.zero_weight_words;
   }
-  auto vocabulary = Vocabulary::create(options.branching, options.levels, std::move(nodes),
-                                       "trained vocabulary");
+  auto vocabulary =
+      Vocabulary::create(options.branching, options.levels, std::move(nodes), "trained vocabulary");
   if (!vocabulary) return vocabulary.error();
   s.nodes = vocabulary->numNodes();
   s.words = vocabulary->numWords();

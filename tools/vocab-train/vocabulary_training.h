@@ -34,11 +34,11 @@ struct TrainingSummary {
   size_t descriptors = 0;
   size_t nodes = 0;
   size_t words = 0;
-  size_t zero_weight_words = 0;       // seen in every training image, or in none
+  size_t zero_weight_words = 0;         // seen in every training image, or in none
   std::vector<size_t> words_per_depth;  // index = depth below the root
-  size_t clustered_nodes = 0;          // inner nodes split by k-majority
-  size_t unconverged_nodes = 0;        // of those, how many hit max_iterations
-  std::string message;                 // one line for a person
+  size_t clustered_nodes = 0;           // inner nodes split by k-majority
+  size_t unconverged_nodes = 0;         // of those, how many hit max_iterations
+  std::string message;                  // one line for a person
 };
 
 // `images[i]` holds the descriptors of training image i (images without descriptors count
