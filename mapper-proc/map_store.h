@@ -45,8 +45,8 @@ struct MapStoreOptions {
   // A pair's rows are folded into one when they reach this many (0: never fold). 2: a pair's
   // second constraint, accepted by the gate, agrees with the first and is folded with it.
   int fold_after = 2;
-  // Open an existing store to read it only (a viewer): no file is created, the schema is not
-  // touched and save() refuses.
+  // Open an existing store to read it only (a tool; the viewer reads through core/map): no file is
+  // created, the schema is not touched and save() refuses.
   bool read_only = false;
 };
 
