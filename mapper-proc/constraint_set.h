@@ -24,24 +24,17 @@
 #include <vector>
 
 #include "core/geometry/se3.h"
+#include "core/map/map_snapshot.h"
 
 namespace evermap::mapper {
 
-enum class ConstraintKind : uint8_t { kOdometry = 0, kLoop = 1 };
+using map::Constraint;  // core/map/map_snapshot.h: as the map store holds it
+using map::ConstraintKind;
 
 // A node merged into another: the node it is part of and its pose in that node's frame.
 struct NodeAlias {
   int64_t into = -1;
   core::SE3d into_T_node;
-};
-
-struct Constraint {
-  int64_t from = 0;
-  int64_t to = 0;
-  core::UncertainPose from_T_to;
-  int64_t utime = 0;
-  ConstraintKind kind = ConstraintKind::kOdometry;
-  bool accepted = false;  // merged into its pair's factor
 };
 
 class ConstraintSet {

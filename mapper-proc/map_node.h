@@ -1,34 +1,17 @@
 #pragma once
-// A node of the map as the mapper keeps it besides its pose (which the solver holds): when,
-// on which floor and in which session it was made, and its roll/pitch factor.
+// A node of the map as the mapper keeps it besides its pose (which the solver holds), and what
+// the map store saves and restores of the mapper (the snapshot): plain data of core/map, which
+// the mapper's code names in its own namespace.
 
-#include <cstdint>
-#include <optional>
-
-#include <Eigen/Core>
-
-#include "core/geometry/se3.h"
+#include "core/map/map_snapshot.h"
 
 namespace evermap::mapper {
 
-// The IMU's roll and pitch at a node's keyframe (imu-proc's ATTITUDE): its partial factor.
-struct NodeAttitude {
-  double roll_rad = 0.0;
-  double pitch_rad = 0.0;
-  Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();  // rad², (roll, pitch)
-};
-
-struct MapperNode {
-  int64_t id = 0;
-  int64_t keyframe_utime = 0;
-  int floor = 0;
-  int session = 0;
-  std::optional<NodeAttitude> attitude;  // when the node has a roll/pitch factor
-  // Merged into another node (MapperOptions::merge_radius_m): the node it is part of, and its
-  // pose in that node's frame; -1: a node of the graph. Not in the map store: a restored map
-  // holds every node (its constraints are stored as they were made).
-  int64_t merged_into = -1;
-  core::SE3d into_T_node;
-};
+using map::MapperNode;
+using map::MapSnapshot;
+using map::NodeAttitude;
+using map::StoredEdge;
+using map::StoredNode;
+using map::TrackingState;
 
 }  // namespace evermap::mapper

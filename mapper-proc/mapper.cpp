@@ -11,7 +11,6 @@
 
 #include "core/common/clocks.h"
 #include "core/solver/pose_factors.h"
-#include "mapper-proc/map_store.h"
 
 namespace evermap::mapper {
 

@@ -44,6 +44,7 @@
 
 #include "core/common/expected.h"
 #include "core/geometry/se3.h"
+#include "core/map/map_snapshot.h"
 #include "core/messages/odometry_frame.h"
 
 namespace evermap::mapper {
@@ -223,10 +224,7 @@ class Tracker {
   // VO frame that carries one and moves Δ to itself, cleared when anything else moves Δ on
   // (wheel odometry, a failure) or a frame carries none. A resets() or a height keeps it: Δ is
   // still at that frame.
-  struct OdometryAnchor {
-    messages::OdometryPose pose;
-    Mat6 own_covariance = Mat6::Zero();
-  };
+  using OdometryAnchor = map::OdometryAnchor;  // core/map/map_snapshot.h
   const std::optional<OdometryAnchor>& odometryAtDelta() const { return odometry_at_delta_; }
   // The message time Δ is at: its last VO frame, or the last wheel increment compounded.
   int64_t deltaUtime() const { return delta_utime_; }

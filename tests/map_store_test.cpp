@@ -1,14 +1,18 @@
 // mapper-proc: the map store of a scripted drive (one transaction per update, every node and
-// edge reloaded, a pair's constraints folded) and a file that is not one.
+// edge reloaded, a pair's constraints folded, the same map through core/map's read-only reader)
+// and a file that is not one.
 
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <string>
 #include <vector>
 
+#include "core/map/store_file.h"
+#include "core/map/store_reader.h"
 #include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
 #include "tests/scratch_dir.h"
@@ -146,6 +150,42 @@ TEST(MapStore, FoldsAPairsConstraintsSoTheStoreGrowsWithTheMapNotWithTheTime) {
   auto reopened = MapStore::open(dir.path() / "folded.db");
   ASSERT_TRUE(reopened && reopened->save(drive.mapper(), 0, 0));
   EXPECT_EQ(reopened->load()->edges.size(), folded_rows.back());
+}
+
+// The viewer's path (core/map): a read-only open reads what the mapper's store loads, and
+// leaves the file as it was.
+TEST(MapStore, AReadOnlyReaderLoadsWhatTheMapperSavedAndWritesNothing) {
+  evermap::testing::ScratchDir dir;
+  const auto file = dir.path() / "map.db";
+  ScriptedDrive drive(scriptedOptions());
+  auto store = MapStore::open(file);
+  ASSERT_TRUE(store) << store.error().message;
+  lap(drive);
+  lap(drive);
+  ASSERT_TRUE(store->save(drive.mapper(), 0, 0));
+  auto saved = store->load();
+  ASSERT_TRUE(saved) << saved.error().message;
+  auto bytes = [&file] {
+    std::ifstream in(file, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string before = bytes();
+  auto reader = map::StoreFile::open(file, /*read_only=*/true);
+  ASSERT_TRUE(reader) << reader.error().message;
+  auto read = map::readMap(*reader);
+  ASSERT_TRUE(read) << read.error().message;
+  EXPECT_EQ(bytes(), before);
+  ASSERT_EQ(read->nodes.size(), saved->nodes.size());
+  ASSERT_EQ(read->edges.size(), saved->edges.size());
+  EXPECT_EQ(read->constraintsRepresented(), saved->constraintsRepresented());
+  EXPECT_EQ(read->tracking.has_value(), saved->tracking.has_value());
+  for (size_t k = 0; k < read->edges.size(); ++k) {
+    EXPECT_EQ(read->edges[k].edge_id, saved->edges[k].edge_id);
+    EXPECT_EQ(read->edges[k].folded, saved->edges[k].folded);
+  }
+  auto missing = map::StoreFile::open(dir.path() / "none.db", /*read_only=*/true);
+  ASSERT_FALSE(missing);
+  EXPECT_NE(missing.error().message.find("none.db"), std::string::npos);
 }
 
 TEST(MapStore, RejectsAFileThatIsNotAMapStore) {

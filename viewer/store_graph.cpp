@@ -4,15 +4,17 @@
 #include <system_error>
 #include <utility>
 
+#include "core/map/store_file.h"
+#include "core/map/store_reader.h"
 #include "core/messages/pose_fields.h"
 
 namespace evermap::viewer {
 using messages::putPose;
 
-StoredGraph graphFromSnapshot(const mapper::MapSnapshot& snapshot) {
+StoredGraph graphFromSnapshot(const map::MapSnapshot& snapshot) {
   StoredGraph out;
   map_graph_t& g = out.graph;
-  for (const mapper::StoredNode& n : snapshot.nodes) {
+  for (const map::StoredNode& n : snapshot.nodes) {
     map_node_t m{};
     m.node_id = n.node.id;
     m.keyframe_utime = n.node.keyframe_utime;
@@ -23,8 +25,8 @@ StoredGraph graphFromSnapshot(const mapper::MapSnapshot& snapshot) {
     g.nodes.push_back(m);
   }
   std::map<std::pair<int64_t, int64_t>, map_edge_t> pairs;
-  for (const mapper::StoredEdge& e : snapshot.edges) {
-    const mapper::Constraint& c = e.constraint;
+  for (const map::StoredEdge& e : snapshot.edges) {
+    const map::Constraint& c = e.constraint;
     out.rejected += e.folded > 0 ? e.folded_rejected : (c.accepted ? 0 : 1);
     if (e.folded <= 0 && !c.accepted) continue;
     auto [it, inserted] = pairs.try_emplace({c.from, c.to});
@@ -36,7 +38,7 @@ StoredGraph graphFromSnapshot(const mapper::MapSnapshot& snapshot) {
       putPose(c.from_T_to.mean, m.translation, m.orientation);
     }
     m.num_measurements += e.folded > 0 ? static_cast<int32_t>(e.folded) : 1;
-    if (c.kind == mapper::ConstraintKind::kLoop) m.type = map_edge_t::TYPE_LOOP;
+    if (c.kind == map::ConstraintKind::kLoop) m.type = map_edge_t::TYPE_LOOP;
   }
   for (auto& [key, e] : pairs) g.edges.push_back(e);
   for (const auto& [index, height] : snapshot.floors)
@@ -51,11 +53,9 @@ Expected<StoredGraph> loadStoredGraph(const std::filesystem::path& file) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(file, ec))
     return makeError(file.string(), ": no such map store (not a file)");
-  mapper::MapStoreOptions options;
-  options.read_only = true;
-  auto store = mapper::MapStore::open(file, options);
+  auto store = map::StoreFile::open(file, /*read_only=*/true);
   if (!store) return store.error();
-  auto snapshot = store->load();
+  auto snapshot = map::readMap(*store);
   if (!snapshot) return snapshot.error();
   return graphFromSnapshot(*snapshot);
 }
