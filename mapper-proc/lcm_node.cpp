@@ -228,7 +228,7 @@ void LcmNode::publishStats() {
   const MapperTiming& t = st.timing;
   mapper_stats_t s{};
   s.utime = last_utime_;
-  s.num_nodes = static_cast<int32_t>(m_.graphNodes());  // merged nodes are part of others
+  s.num_nodes = static_cast<int32_t>(m_.graphNodes());
   s.num_edges = static_cast<int32_t>(m_.constraints().pairs().size());
   s.num_floors = static_cast<int32_t>(m_.floors().size());
   std::set<int> sessions;
@@ -267,9 +267,6 @@ void LcmNode::publishStats() {
       {"warm_bridged_by_wheels", st.warm_bridged_by_wheels},
       {"implausible_motion", m_.tracker().counts().implausible},
       {"implausible_floors", st.implausible_floors},
-      {"node_merges", st.node_merges},
-      {"merges_refused", st.merges_refused},
-      {"merges_undone", st.merges_undone},
       {"vo_contradicted", m_.tracker().counts().vo_contradicted},
       {"heading_waits", m_.tracker().counts().heading_waits},
       {"heading_waits_expired", m_.tracker().counts().heading_waits_expired},

@@ -21,9 +21,6 @@ void MapperStats::addCounters(const MapperStats& o) {
   constraints += o.constraints;
   factors += o.factors;
   merged += o.merged;
-  node_merges += o.node_merges;
-  merges_refused += o.merges_refused;
-  merges_undone += o.merges_undone;
   rejected_inconsistent += o.rejected_inconsistent;
   requests_node += o.requests_node;
   requests_global += o.requests_global;
@@ -34,7 +31,6 @@ void MapperStats::addCounters(const MapperStats& o) {
   delta_fused += o.delta_fused;
   rejected_map_gate += o.rejected_map_gate;
   rejected_floor += o.rejected_floor;
-  closures_uninformative += o.closures_uninformative;
   closures_saturated += o.closures_saturated;
   gate_recoveries += o.gate_recoveries;
   recoveries_too_far += o.recoveries_too_far;
@@ -64,12 +60,10 @@ std::string MapperStats::text() const {
     << "\nregistrations_ok " << registrations_ok << "\nloop_closures " << loop_closures
     << "\ndelta_replaced " << delta_replaced << "\ndelta_kept " << delta_kept << "\ndelta_fused "
     << delta_fused << "\nrejected_map_gate " << rejected_map_gate << "\nrejected_floor "
-    << rejected_floor << "\nclosures_uninformative " << closures_uninformative
-    << "\nclosures_saturated " << closures_saturated << "\nnode_merges " << node_merges
-    << "\nmerges_refused " << merges_refused << "\nmerges_undone " << merges_undone
-    << "\ngate_recoveries " << gate_recoveries << "\nrecoveries_too_far " << recoveries_too_far
-    << "\nrelocalizations " << relocalizations << "\ntimeouts " << timeouts << "\ndropped "
-    << dropped << "\nrelocalization_disagreements " << relocalization_disagreements
+    << rejected_floor << "\nclosures_saturated " << closures_saturated << "\ngate_recoveries "
+    << gate_recoveries << "\nrecoveries_too_far " << recoveries_too_far << "\nrelocalizations "
+    << relocalizations << "\ntimeouts " << timeouts << "\ndropped " << dropped
+    << "\nrelocalization_disagreements " << relocalization_disagreements
     << "\nrelocalization_same_frame_checks " << relocalization_same_frame_checks
     << "\nrestored_nodes " << restored_nodes << "\nimplausible_floors " << implausible_floors
     << "\nrestored_constraints " << restored_constraints << "\nwarm_restarts " << warm_restarts
@@ -258,13 +252,7 @@ int Mapper::floorAtHeight(int reported, double height_m) const {
 std::vector<register_request_t> Mapper::takeRequests() { return std::exchange(requests_, {}); }
 std::vector<node_added_t> Mapper::takeNodesAdded() { return std::exchange(nodes_added_, {}); }
 
-core::SE3d Mapper::nodePose(int64_t id) const {
-  if (id >= 0 && static_cast<size_t>(id) < nodes_.size()) {
-    const MapperNode& n = nodes_[static_cast<size_t>(id)];
-    if (n.merged_into >= 0) return schedule_.pose(n.merged_into) * n.into_T_node;
-  }
-  return schedule_.pose(id);
-}
+core::SE3d Mapper::nodePose(int64_t id) const { return schedule_.pose(id); }
 
 core::UncertainPose Mapper::pose() const {
   core::UncertainPose p = tracker_.delta();
@@ -315,7 +303,6 @@ void Mapper::step(int64_t keyframe_utime) {
                                    keyframe_utime - micros(o_.recent_exclusion_s), nodes_);
   } else {
     target = nodeAt(world_T_body, floor_, keyframe_utime);
-    if (target && isSatellite(*target) && !step_failed_) target = active_;
     // The active node, unless a ride left it on another floor (the cab it was made in looks
     // the same on every floor).
     if (!target && nodes_[static_cast<size_t>(active_)].floor == floor_) target = active_;
@@ -328,11 +315,6 @@ void Mapper::step(int64_t keyframe_utime) {
   step_cpu_s_ += threadCpuSeconds() - c0;
 }
 
-bool Mapper::isSatellite(int64_t node) const {
-  return active_ == satellite_anchor_ &&
-         std::find(satellites_.begin(), satellites_.end(), node) != satellites_.end();
-}
-
 void Mapper::finishStep(bool registered) {
   const InFlight f = *in_flight_;
   in_flight_.reset();
@@ -342,8 +324,6 @@ void Mapper::finishStep(bool registered) {
     odometer_at_confirmation_ = tracker_.odometerM();
   }
   const bool gate_rejected = std::exchange(gate_rejected_, false);
-  step_failed_ = !registered;
-  const auto registered_delta = std::exchange(registered_active_T_keyframe_, std::nullopt);
   const auto t0 = SteadyClock::now();
   const double c0 = threadCpuSeconds();
   if (lost_) {
@@ -359,29 +339,13 @@ void Mapper::finishStep(bool registered) {
   const double sigma_m = std::sqrt(
       std::max(f.delta_at_keyframe.covariance(0, 0), f.delta_at_keyframe.covariance(1, 1)));
   const bool placeable = !resumed_ || sigma_m <= o_.warm_restart_node_sigma_m;
-  const bool registered_to_active = o_.node_at_every_new_place && registered && registered_delta &&
-                                    active_ == f.active && !relocalize_;
-  if ((!registered || registered_to_active) && !gate_rejected && !o_.full_graph && placeable) {
-    const core::UncertainPose active_T_keyframe =
-        registered_to_active ? *registered_delta : f.delta_at_keyframe;
-    const core::SE3d world_T_body = nodePose(f.active) * active_T_keyframe.mean;
+  if (!registered && !gate_rejected && !o_.full_graph && placeable) {
+    const core::SE3d world_T_body = nodePose(f.active) * f.delta_at_keyframe.mean;
     if (!nodeAt(world_T_body, floor_, f.keyframe_utime)) {
-      // A new place (eq. 8): the node at the keyframe.
-      const int64_t anchor = active_;
-      const int64_t id = addNode(f.keyframe_utime, active_T_keyframe);
-      if (registered_to_active) {
-        // Passed while registered to the active node: the node hangs off it by Δ, which goes
-        // on from it (the registrations to it keep Δ's error from growing along a chain of
-        // short links).
-        if (satellite_anchor_ != anchor) satellites_.clear();
-        satellite_anchor_ = anchor;
-        satellites_.push_back(id);
-        active_ = anchor;
-      } else {
-        // Δ restarts from the new node.
-        tracker_.reset(tracker_.sinceKeyframe(f.keyframe_utime).value_or(core::UncertainPose{}));
-        relocalize_ = false;
-      }
+      // A new place (eq. 8): the node at the keyframe, and Δ restarts from it.
+      addNode(f.keyframe_utime, f.delta_at_keyframe);
+      tracker_.reset(tracker_.sinceKeyframe(f.keyframe_utime).value_or(core::UncertainPose{}));
+      relocalize_ = false;
     }
   }
   stats_.timing.partition_s += secondsSince(t0);
@@ -461,17 +425,15 @@ void Mapper::addConstraint(int64_t from, int64_t to, const core::UncertainPose& 
   ++stats_.constraints;
   if (outcome == ConstraintSet::Outcome::kRejected) {
     ++stats_.rejected_inconsistent;
-    noteMergeContradiction(pair);
     return;
   }
-  if (outcome == ConstraintSet::Outcome::kInternal) return;  // agrees with a merge: no factor
   const auto key = std::make_pair(pair->i, pair->j);
   // An agreeing constraint joins its pair as a factor of its own: the product of the pair's
   // Gaussians is the information-weighted merge, and adding it is an incremental update.
   // Replacing the pair's factor by the merged one needs a factor removal, i.e. a batch step
   // whose cost grows with the map; that consolidation waits for the solver's scheduled batch
   // steps (solver_schedule.h), so merges cost what any new constraint costs.
-  // i_T_j, as the pair sees it (through the merges).
+  // i_T_j, as the pair sees it.
   const core::UncertainPose& measurement =
       outcome == ConstraintSet::Outcome::kMerged ? paired : pair->i_T_j;
   if (outcome == ConstraintSet::Outcome::kMerged) {
@@ -503,126 +465,6 @@ void Mapper::flushSolver() {
   const std::optional<SolverSchedule::Flush> flush =
       schedule_.flush(last_step_utime_, constraints_);
   if (flush) recordFlush(*flush);
-  for (const auto& m : std::exchange(merge_contradictions_, {}))
-    undoMergesAgainst(m.constraint, m.merged);
-  if (std::exchange(closed_loop_, false)) {
-    if (o_.merge_radius_m > 0.0) mergeChain();
-    chain_start_ = static_cast<int64_t>(nodes_.size());
-  }
-  if (std::exchange(rebuild_graph_, false)) rebuildGraph();
-}
-
-void Mapper::mergeChain() {
-  const auto end = static_cast<int64_t>(nodes_.size());
-  if (chain_start_ <= 0 || chain_start_ >= end) return;
-  // Older than the chain: the map it closed onto.
-  const int64_t before_chain = nodes_[static_cast<size_t>(chain_start_)].keyframe_utime - 1;
-  const double heading_rad = o_.merge_heading_sectors * 2.0 * std::numbers::pi / o_.heading_bins;
-  // Nodes the tracking or a pending decision names stay as they are; so do nodes others are
-  // merged into (a merge names a node of the graph).
-  std::set<int64_t> keep{active_, satellite_anchor_};
-  keep.insert(satellites_.begin(), satellites_.end());
-  if (relocalization_candidate_) keep.insert(relocalization_candidate_->node);
-  if (rejected_candidate_) keep.insert(rejected_candidate_->node);
-  for (const auto& [node, alias] : constraints_.aliases()) keep.insert(alias.into);
-  for (int64_t n = chain_start_; n < end; ++n) {
-    const MapperNode& node = nodes_[static_cast<size_t>(n)];
-    if (node.merged_into >= 0 || keep.count(n) || node.session != session_) continue;
-    const core::SE3d world_T_n = nodePose(n);
-    const auto m = partition_.closestNode(world_T_n, node.floor, before_chain, nodes_,
-                                          schedule_.solver(), o_.merge_radius_m, heading_rad);
-    if (!m) continue;
-    // The map must know them to be one place: the marginal of their relative position.
-    const std::optional<core::UncertainPose> m_T_n = mapRelative(*m, n);
-    if (!m_T_n) continue;
-    const core::Mat6& cov = m_T_n->covariance;
-    if (!(std::sqrt(std::max(cov(0, 0), cov(1, 1))) <= o_.merge_sigma_m)) continue;
-    std::map<int64_t, NodeAlias> aliases = constraints_.aliases();
-    const NodeAlias alias{*m, nodePose(*m).inverse() * world_T_n};
-    aliases[n] = alias;
-    if (constraints_.setAliases(aliases) > 0) {
-      // Its constraints, re-expressed, contradict what the map holds of the older node.
-      aliases.erase(n);
-      constraints_.setAliases(std::move(aliases));
-      ++stats_.merges_refused;
-      continue;
-    }
-    nodes_[static_cast<size_t>(n)].merged_into = alias.into;
-    nodes_[static_cast<size_t>(n)].into_T_node = alias.into_T_node;
-    keep.insert(*m);
-    --stats_.nodes;
-    ++stats_.node_merges;
-    rebuild_graph_ = true;
-  }
-}
-
-void Mapper::noteMergeContradiction(const ConstraintSet::Pair* pair) {
-  const auto& aliases = constraints_.aliases();
-  if (aliases.empty()) return;
-  const auto& all = constraints_.all();
-  std::set<int64_t> merged;
-  const auto note = [&](const Constraint& c) {
-    for (const int64_t node : {c.from, c.to})
-      if (aliases.count(node)) merged.insert(node);
-  };
-  note(all.back());
-  if (pair)
-    for (size_t k : pair->members) note(all[k]);
-  if (!merged.empty())
-    merge_contradictions_.push_back({all.size() - 1, {merged.begin(), merged.end()}});
-}
-
-void Mapper::undoMergesAgainst(size_t constraint, const std::vector<int64_t>& merged) {
-  const std::map<int64_t, NodeAlias> before = constraints_.aliases();
-  std::map<int64_t, NodeAlias> aliases = before;
-  for (const int64_t n : merged) aliases.erase(n);
-  if (aliases.size() == before.size()) return;  // undone already
-  const int64_t newly_rejected = constraints_.setAliases(std::move(aliases));
-  // Evidence against the merges: without them the constraint agrees with the constraints its
-  // pair already holds (alone in a new pair it would say nothing: a first constraint is
-  // always accepted), and nothing the map accepted is rejected instead.
-  const Constraint c = constraints_.paired(constraints_.all()[constraint]);
-  const auto pair = constraints_.pairs().find({std::min(c.from, c.to), std::max(c.from, c.to)});
-  const bool agrees = constraints_.all()[constraint].accepted &&
-                      pair != constraints_.pairs().end() &&
-                      pair->second.members.front() != constraint;
-  if (!agrees || newly_rejected > 0) {
-    // The constraint is what is wrong (or nothing tells): the merges are put back.
-    constraints_.setAliases(before);
-    return;
-  }
-  takeBack(merged);
-}
-
-void Mapper::takeBack(const std::vector<int64_t>& merged) {
-  for (const int64_t n : merged) {
-    MapperNode& node = nodes_[static_cast<size_t>(n)];
-    if (node.merged_into < 0) continue;
-    undone_poses_[n] = nodePose(n);
-    node.merged_into = -1;
-    ++stats_.nodes;
-    ++stats_.merges_undone;
-  }
-  rebuild_graph_ = true;
-}
-
-void Mapper::rebuildGraph() {
-  const auto t0 = SteadyClock::now();
-  std::vector<std::pair<int64_t, core::SE3d>> variables;
-  for (const MapperNode& n : nodes_) {
-    if (n.merged_into >= 0) continue;
-    const auto undone = undone_poses_.find(n.id);
-    variables.emplace_back(n.id,
-                           undone != undone_poses_.end() ? undone->second : schedule_.pose(n.id));
-  }
-  undone_poses_.clear();
-  const SolverSchedule::Flush flush = schedule_.rebuild(variables, constraints_);
-  stats_.timing.solver_s += flush.solver_s;
-  stats_.timing.update_s.push_back(flush.solver_s);
-  stats_.timing.update_utime.push_back(last_step_utime_);
-  stats_.factors = schedule_.factors();
-  partition_.rebuild(nodes_, schedule_.solver().estimate());
-  stats_.timing.partition_s += secondsSince(t0) - flush.solver_s;
 }
 
 void Mapper::recordFlush(const SolverSchedule::Flush& flush) {
@@ -712,8 +554,7 @@ Status Mapper::restore(const MapSnapshot& map) {
   session_ = max_session + 1;
   first_session_ = session_;
   active_ = n_nodes - 1;
-  chain_start_ = n_nodes;  // merges look at the nodes made after the restore
-  lost_ = true;            // where the robot is on this map is unknown until a global registration
+  lost_ = true;  // where the robot is on this map is unknown until a global registration
   // ... and so is its floor, unless a FLOOR message says it (a session's start, a ride's
   // end): a mapper-proc restarted mid-session gets none. The guess is the floor of the newest
   // node (where the robot was when the map was saved); every other global search covers

@@ -109,20 +109,16 @@ struct MapperStats {
   int64_t requests_node = 0;
   int64_t requests_global = 0;
   int64_t registrations_ok = 0;
-  int64_t loop_closures = 0;           // constraints to another existing node
-  int64_t delta_replaced = 0;          // active-node registrations that replaced Δ
-  int64_t delta_kept = 0;              // ... that lost the det(Σ) test
-  int64_t delta_fused = 0;             // ... fused with Δ (fuse_active_registration)
-  int64_t rejected_map_gate = 0;       // registrations that contradicted the map or Δ
-  int64_t rejected_floor = 0;          // registrations to a node of another floor
-  int64_t closures_uninformative = 0;  // new pairs below min_closure_information: no factor
-  int64_t closures_saturated = 0;      // new pairs of saturated nodes below their bound: no factor
-  int64_t node_merges = 0;             // nodes merged into an older one (merge_radius_m)
-  int64_t merges_refused = 0;          // ... not: their constraints contradicted the map's
-  int64_t merges_undone = 0;           // ... undone later: a constraint contradicted the merge
-  int64_t gate_recoveries = 0;         // ... accepted after all: a second one agreed with them
-  int64_t recoveries_too_far = 0;      // ... not: their jump was more than odometry could drift
-  int64_t relocalizations = 0;         // a new session tied to the map by a global registration
+  int64_t loop_closures = 0;       // constraints to another existing node
+  int64_t delta_replaced = 0;      // active-node registrations that replaced Δ
+  int64_t delta_kept = 0;          // ... that lost the det(Σ) test
+  int64_t delta_fused = 0;         // ... fused with Δ (fuse_active_registration)
+  int64_t rejected_map_gate = 0;   // registrations that contradicted the map or Δ
+  int64_t rejected_floor = 0;      // registrations to a node of another floor
+  int64_t closures_saturated = 0;  // new pairs of saturated nodes below their bound: no factor
+  int64_t gate_recoveries = 0;     // ... accepted after all: a second one agreed with them
+  int64_t recoveries_too_far = 0;  // ... not: their jump was more than odometry could drift
+  int64_t relocalizations = 0;     // a new session tied to the map by a global registration
   int64_t relocalization_disagreements = 0;      // a lost session's registrations that disagreed
   int64_t relocalization_same_frame_checks = 0;  // candidates checked on their own keyframe
   int64_t implausible_floors = 0;                // FLOOR refused by the floor gate (in dropped too)
@@ -159,7 +155,7 @@ class Mapper {
 
   // Continues a stored map (map_store.h) before any message: its floors, its nodes at their
   // stored estimates, and every stored constraint replayed through the constraint set in
-  // stored order (merges and rejections come out as they did), then one solver batch. The
+  // stored order (rejections come out as they did), then one solver batch. The
   // origin prior goes on node 0, height factors on every node and the stored roll/pitch
   // factors on their nodes. The mapper is then in a new session (one past the highest stored) and
   // lost: only global registrations until one places it on the map. Its floor is a guess (the
@@ -206,12 +202,9 @@ class Mapper {
   // The current estimate: world_T_body now.
   core::UncertainPose pose() const;
   core::SE3d nodePose(int64_t id) const;
-  // Every node made, merged ones included (MapperNode::merged_into); ids are indices.
+  // Every node made; ids are indices.
   const std::vector<MapperNode>& nodes() const { return nodes_; }
-  // The nodes of the graph: those not merged into another.
-  int64_t graphNodes() const {
-    return static_cast<int64_t>(nodes_.size() - constraints_.aliases().size());
-  }
+  int64_t graphNodes() const { return static_cast<int64_t>(nodes_.size()); }
   int64_t activeNode() const { return active_; }
   // A new session not yet placed on the map by a global registration: pose() means nothing.
   bool lost() const { return lost_; }
@@ -292,7 +285,7 @@ class Mapper {
                      ConstraintKind kind, int64_t utime, bool vetted = false);
   // The registration protocol's tests against the map and odometry (mapper_registration.cpp).
   // information (when given): the closure's mutual information with the map, nats
-  // (MapperOptions::min_closure_information); infinity without a marginal.
+  // (MapperOptions::saturated_closure_information); infinity without a marginal.
   bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b,
                          double* information = nullptr);
   // The map's estimate of a_T_b with its marginal covariance (the joint marginal of a and b
@@ -320,26 +313,13 @@ class Mapper {
   // override Δ now (MapperOptions::recovery_quiet_s).
   int64_t bridges() const;
   bool recoveryAllowed(int64_t keyframe_utime) const;
-  // The step's changes to the solver (solver_schedule.h), and the partition index after them;
-  // then the merges and undoes the step calls for (MapperOptions::merge_radius_m).
+  // The step's changes to the solver (solver_schedule.h), and the partition index after them.
   void flushSolver();
-  // Merges (mapper.cpp): the chain's nodes that the corrected map puts at an older node's place,
-  // after a loop closure.
-  void mergeChain();
   // The step at a keyframe VO moved its reference to (Algorithm 1), when one is due.
   void stepAtKeyframe(int64_t keyframe_utime);
   // The keyframe step the tracker held for its heading, taken now (by a message at now_utime),
   // and the mapper's step at it unless a session starts or the step is stale.
   void takeHeldStep(int64_t now_utime, bool session_starts = false);
-  // A constraint that its pair (or a merge's own pose) rejected, where a merged node is among
-  // its ends or its pair's: checked at the step's end (undoMergesAgainst).
-  void noteMergeContradiction(const ConstraintSet::Pair* pair);
-  void undoMergesAgainst(size_t constraint, const std::vector<int64_t>& merged);
-  // The merged nodes `nodes` back in the graph at their merged poses (the aliases already
-  // without them); the graph is rebuilt at the step's end.
-  void takeBack(const std::vector<int64_t>& nodes);
-  // The solver and the partition index over the nodes of the graph, after merges or undoes.
-  void rebuildGraph();
   void recordFlush(const SolverSchedule::Flush& flush);
   // The node of the place world_T_body is in (partition_index.h).
   std::optional<int64_t> nodeAt(const core::SE3d& world_T_body, int floor,
@@ -397,28 +377,6 @@ class Mapper {
   // The last registration the map gate rejected, waiting for a second one that agrees.
   std::optional<RelocalizationCandidate> rejected_candidate_;
   bool gate_rejected_ = false;  // the step in flight had a registration the gate rejected
-  std::optional<core::UncertainPose> registered_active_T_keyframe_;
-  // node_at_every_new_place: the nodes added at registered steps, hung off satellite_anchor_
-  // (the active node then) by Δ; while that node stays active and answers they are not
-  // registered to (step_failed_: the last step found no registration).
-  int64_t satellite_anchor_ = -1;
-  bool step_failed_ = false;
-  std::vector<int64_t> satellites_;
-  bool isSatellite(int64_t node) const;
-  // Merges: the first node of the chain made since the last loop closure, a closure in the
-  // step, the registration's own node when it was a merged one (n, n_T_q: a closure's
-  // constraint names it), contradictions to check, undone nodes' poses, and whether the
-  // solver must be rebuilt at the step's end.
-  int64_t chain_start_ = 0;
-  bool closed_loop_ = false;
-  std::optional<std::pair<int64_t, core::UncertainPose>> registered_via_;
-  struct MergeContradiction {
-    size_t constraint;
-    std::vector<int64_t> merged;
-  };
-  std::vector<MergeContradiction> merge_contradictions_;
-  std::map<int64_t, core::SE3d> undone_poses_;
-  bool rebuild_graph_ = false;
   int floor_ = 0;
   bool floor_confirmed_ = true;  // false: a restored map's guess (restore(), sendRequest)
   int64_t unconfirmed_searches_ = 0;

@@ -113,21 +113,13 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
 
 std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
                                                   const core::Mat6& cam_cov, bool* registered) {
-  int64_t b = msg.node_id;
+  const int64_t b = msg.node_id;
   const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2],
                              msg.orientation[3]);
   const core::SE3d cam_T = core::SE3d(
       q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2]));
   // The registration in body frames (paper eq. 9), by STEREO_CALIB's mounting once it came.
-  core::UncertainPose b_T_q = tracker_.registrationToBody(cam_T, cam_cov);
-  registered_via_.reset();
-  if (const MapperNode& n = nodes_[static_cast<size_t>(b)]; n.merged_into >= 0) {
-    // A merged node's keyframe is a view of the place of the node it is part of: the
-    // registration is one to that node (a closure's constraint still names the merged one).
-    registered_via_.emplace(b, b_T_q);
-    b_T_q.mean = n.into_T_node * b_T_q.mean;
-    b = n.merged_into;
-  }
+  const core::UncertainPose b_T_q = tracker_.registrationToBody(cam_T, cam_cov);
   const auto q_T_now = tracker_.sinceKeyframe(f.keyframe_utime);
   if (!q_T_now) {
     ++stats_.dropped;
@@ -146,14 +138,6 @@ std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, 
     return std::nullopt;
   }
   *registered = true;
-  if (b != f.active && isSatellite(b)) {
-    // A node hung off the active node by Δ (node_at_every_new_place): a closure to it would
-    // count Δ's registrations twice. Re-localised on it instead, no factor.
-    active_ = b;
-    tracker_.reset(core::compound(b_T_q, *q_T_now));
-    relocalize_ = false;
-    return std::nullopt;
-  }
   if (b == f.active) {
     registerToActive(f, b_T_q, *q_T_now, registered);
   } else {
@@ -263,8 +247,7 @@ void Mapper::registerToActive(const InFlight& f, const core::UncertainPose& b_T_
     // independent measurements of active_T_keyframe: their information-weighted fusion
     // keeps both. Keeping only one (below) loses, e.g., VO's better heading whenever the
     // registration has the smaller det(Σ), and the graph drifts faster than VO alone.
-    registered_active_T_keyframe_ = ConstraintSet::fuse(f.delta_at_keyframe, b_T_q);
-    tracker_.reset(core::compound(*registered_active_T_keyframe_, q_T_now));
+    tracker_.reset(core::compound(ConstraintSet::fuse(f.delta_at_keyframe, b_T_q), q_T_now));
     ++stats_.delta_fused;
     return;
   }
@@ -274,10 +257,8 @@ void Mapper::registerToActive(const InFlight& f, const core::UncertainPose& b_T_
     tracker_.reset(core::compound(b_T_q, q_T_now));
     relocalize_ = false;
     ++stats_.delta_replaced;
-    registered_active_T_keyframe_ = b_T_q;
   } else {
     ++stats_.delta_kept;
-    registered_active_T_keyframe_ = f.delta_at_keyframe;
   }
 }
 
@@ -312,11 +293,10 @@ void Mapper::closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& 
   const bool saturated =
       !known_pair && o_.closure_partners > 0 &&
       std::min(constraints_.partners(f.active), constraints_.partners(b)) >= o_.closure_partners;
-  const bool uninformative = !known_pair && information < o_.min_closure_information;
-  if (uninformative || (saturated && information < o_.saturated_closure_information)) {
+  if (saturated && information < o_.saturated_closure_information) {
     // The map already holds what this closure says about the pair: re-localised on b, no
-    // factor (MapperOptions::min_closure_information, closure_partners).
-    ++(uninformative ? stats_.closures_uninformative : stats_.closures_saturated);
+    // factor (MapperOptions::closure_partners).
+    ++stats_.closures_saturated;
     active_ = b;
     tracker_.reset(core::compound(b_T_q, q_T_now));
     relocalize_ = false;
@@ -324,20 +304,12 @@ void Mapper::closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& 
   }
   const size_t rejected_before = constraints_.rejected();
   // The chain active → keyframe → b, compounded (eq. 6-7): a constraint between existing nodes.
-  if (registered_via_) {
-    // To the merged node the keyframe registered to: a contradiction can then undo the merge.
-    const auto& [n, n_T_q] = *registered_via_;
-    addConstraint(f.active, n, core::compound(f.delta_at_keyframe, core::invert(n_T_q)),
-                  ConstraintKind::kLoop, f.keyframe_utime, o_.map_gate > 0);
-  } else {
-    addConstraint(f.active, b, a_T_b, ConstraintKind::kLoop, f.keyframe_utime, o_.map_gate > 0);
-  }
+  addConstraint(f.active, b, a_T_b, ConstraintKind::kLoop, f.keyframe_utime, o_.map_gate > 0);
   if (constraints_.rejected() != static_cast<int64_t>(rejected_before)) {
     *registered = false;  // an inconsistent closure: neither the map nor Δ trusts it
     return;
   }
   ++stats_.loop_closures;
-  closed_loop_ = true;
   active_ = b;
   tracker_.reset(core::compound(b_T_q, q_T_now));
   // Δ now reuses the registration the constraint holds: re-localise at the next chance.
@@ -360,9 +332,7 @@ bool Mapper::confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64
   // mapper adds nodes over mapped places until the session ends.
   // Repeated texture (floor tiles) makes false matches that agree with each other: a Δ that
   // registrations keep confirming, with no gap bridged since, is not overridden by them.
-  const bool another_node =
-      !o_.recovery_needs_two_nodes || (rejected_candidate_ && rejected_candidate_->node != b);
-  bool agree = recoveryAllowed(keyframe_utime) && another_node &&
+  bool agree = recoveryAllowed(keyframe_utime) &&
                confirmsRelocalization(b, b_T_q, keyframe_utime, rejected_candidate_);
   // Agreeing registrations one texture period away: not a drift odometry could have made.
   const double drift_m =

@@ -251,18 +251,16 @@ TEST(MapperLcm, PublishesPoseGraphAndStatsAndStoresTheMapItBuilds) {
   ASSERT_EQ(s.num_components, 7);
   EXPECT_EQ(s.component_names[3], "solver");
   for (double ms : s.component_ms) EXPECT_GE(ms, 0.0);
-  // The named counters (nothing restarted, nothing implausible, no merge in a clean run with
-  // merges off).
-  ASSERT_EQ(s.num_counters, 14);
+  // The named counters (nothing restarted, nothing implausible in a clean run).
+  ASSERT_EQ(s.num_counters, 11);
   ASSERT_EQ(s.counter_names.size(), s.counter_values.size());
   EXPECT_EQ(s.counter_names[0], "warm_restarts");
   EXPECT_EQ(s.counter_names[4], "warm_bridged");
   EXPECT_EQ(s.counter_names[5], "warm_bridged_by_wheels");
   EXPECT_EQ(s.counter_names[7], "implausible_floors");
-  EXPECT_EQ(s.counter_names[8], "node_merges");
-  EXPECT_EQ(s.counter_names[11], "vo_contradicted");
-  EXPECT_EQ(s.counter_names[12], "heading_waits");
-  EXPECT_EQ(s.counter_names[13], "heading_waits_expired");
+  EXPECT_EQ(s.counter_names[8], "vo_contradicted");
+  EXPECT_EQ(s.counter_names[9], "heading_waits");
+  EXPECT_EQ(s.counter_names[10], "heading_waits_expired");
   for (int64_t v : s.counter_values) EXPECT_EQ(v, 0);
 
   // The store holds the final map: every node, and every constraint (some folded).

@@ -659,8 +659,7 @@ std::string SlamRunSummary::text() const {
     << mapper.rejected_map_gate << ", other floor " << mapper.rejected_floor << ", inconsistent "
     << mapper.rejected_inconsistent << ", recovered " << mapper.gate_recoveries
     << ", too far to recover " << mapper.recoveries_too_far << ")\nrelocalizations "
-    << mapper.relocalizations << "\nnode_merges " << mapper.node_merges << " (refused "
-    << mapper.merges_refused << ", undone " << mapper.merges_undone << ")\n";
+    << mapper.relocalizations << "\n";
   if (false_closures >= 0)
     s << "false_closures " << false_closures << " (of " << closures_with_truth << " with truth)\n";
   if (reach_fit) {
