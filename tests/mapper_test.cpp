@@ -10,6 +10,9 @@
 #include <fstream>
 #include <map>
 #include <numbers>
+#include <set>
+#include <sstream>
+#include <string>
 
 #include "mapper-proc/constraint_set.h"
 #include "mapper-proc/map_store.h"
@@ -606,6 +609,31 @@ TEST(ViewCover, APoseIsANewViewUnlessAnEarlierOneIsWithinTheReachOnItsFloor) {
   EXPECT_TRUE(cover.add(1, at(0.0, 0.0, 0.0)));                          // another floor
   EXPECT_FALSE(cover.add(0, at(0.0, 0.0, 2 * std::numbers::pi - 0.1)));  // the heading wraps
   EXPECT_EQ(cover.views(), 4);
+}
+
+// The counters are listed once (MapperStats::counters()): text() prints each of them once,
+// with its value, and addCounters sums each of them.
+TEST(MapperStats, TextPrintsEveryCounterOnceAndAddCountersSumsEveryCounter) {
+  MapperStats a;
+  int64_t v = 1;
+  for (const MapperStats::Counter& c : MapperStats::counters()) a.*c.field = v++;
+  MapperStats sum = a;
+  sum.addCounters(a);
+  std::istringstream text(a.text());
+  std::set<std::string> names;
+  std::string name;
+  int64_t value = 0;
+  size_t k = 0;
+  while (text >> name >> value) {
+    ASSERT_LT(k, MapperStats::counters().size());
+    EXPECT_EQ(name, MapperStats::counters()[k].name);
+    EXPECT_EQ(value, static_cast<int64_t>(k + 1));
+    EXPECT_EQ(sum.*MapperStats::counters()[k].field, 2 * value) << name;
+    names.insert(name);
+    ++k;
+  }
+  EXPECT_EQ(k, MapperStats::counters().size());
+  EXPECT_EQ(names.size(), k);
 }
 
 }  // namespace
