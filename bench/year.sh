@@ -8,7 +8,7 @@
 # summary figures. The mapper's figures,
 # not the visual system's. About 15 min of CPU, 5 GB of memory.
 #   bench/year.sh [BUILD_DIR] [OUT_DIR] [SESSIONS] [MAPPER_RUN_OPTION ...]
-# e.g. bench/year.sh build out/year-dense 365 --set mapper.node_at_every_new_place=true
+# e.g. bench/year.sh build out/year-bound2 365 --set mapper.closure_partners=2
 set -euo pipefail
 build="${1:-build}"; out="${2:-out/year-bench}"; sessions="${3:-365}"
 shift $(( $# < 3 ? $# : 3 ))

@@ -9,14 +9,7 @@
 // both covariances in the tangent space at j (right perturbations). d² ≤ gate: merged by the
 // information-weighted update on the manifold, K = Σm (Σm + Σz)⁻¹, m ← m exp(K e),
 // Σm ← (I − K) Σm (a Kalman update with the measurement of the state itself).
-//
-// Merged nodes (MapperOptions::merge_radius_m): a node n merged into r is part of r, at the
-// fixed pose r_T_n. Every constraint is kept as it was made (all(), the map store's rows),
-// and is paired through the aliases: a constraint of n is one of r, re-expressed as
-// r_T_n ⊕ n_T_c (its covariance moved to the tangent space at the new end by Ad(r_T_n) when
-// n is that end). One between n and r is tested against r_T_n itself and makes no pair.
-// Setting the aliases places the constraints of the pairs it changes again, in the order they
-// were made, so that undoing a merge gives back the pairs as if it had never been made.
+// Every constraint is kept as it was made (all(), the map store's rows).
 
 #include <cstdint>
 #include <map>
@@ -31,17 +24,9 @@ namespace evermap::mapper {
 using map::Constraint;  // core/map/map_snapshot.h: as the map store holds it
 using map::ConstraintKind;
 
-// A node merged into another: the node it is part of and its pose in that node's frame.
-struct NodeAlias {
-  int64_t into = -1;
-  core::SE3d into_T_node;
-};
-
 class ConstraintSet {
  public:
-  // kInternal: a constraint between a merged node and the node it is part of, agreeing with
-  // the merge (no pair, no factor); one that disagrees is kRejected.
-  enum class Outcome { kNewPair, kMerged, kRejected, kInternal };
+  enum class Outcome { kNewPair, kMerged, kRejected };
   struct Pair {
     int64_t i = 0;
     int64_t j = 0;
@@ -53,20 +38,10 @@ class ConstraintSet {
   // gate: the χ² bound on d² (6 degrees of freedom).
   explicit ConstraintSet(double gate) : gate_(gate) {}
 
-  // Adds and classifies a constraint; `pair` (when given) receives the pair it belongs to
-  // (none for kInternal), and `paired` the constraint as its pair sees it: i_T_j through the
-  // aliases.
+  // Adds and classifies a constraint; `pair` (when given) receives the pair it belongs to,
+  // and `paired` the constraint as its pair sees it: i_T_j.
   Outcome add(const Constraint& constraint, const Pair** pair = nullptr, double* d2 = nullptr,
               core::UncertainPose* paired = nullptr);
-
-  // The merged nodes (node -> alias; an alias names a node that is not merged itself), and
-  // the constraints placed again as if they had been added under them (those of the pairs of
-  // the nodes whose merge changed). Returns how many constraints it accepted before and
-  // rejects now.
-  int64_t setAliases(std::map<int64_t, NodeAlias> aliases);
-  const std::map<int64_t, NodeAlias>& aliases() const { return aliases_; }
-  // The constraint c as paired under the aliases (its ends may be equal: kInternal).
-  Constraint paired(const Constraint& c) const;
 
   const std::vector<Constraint>& all() const { return all_; }
   const std::map<std::pair<int64_t, int64_t>, Pair>& pairs() const { return pairs_; }
@@ -84,12 +59,7 @@ class ConstraintSet {
   static core::UncertainPose fuse(const core::UncertainPose& m, const core::UncertainPose& z);
 
  private:
-  // Pairs all_[k] (kept as made) through the aliases.
-  Outcome place(size_t k, const Pair** pair, double* d2, core::UncertainPose* paired);
-
   double gate_;
-  std::map<int64_t, NodeAlias> aliases_;
-  std::vector<size_t> internal_;  // constraints of a merge itself (kInternal or rejected as one)
   std::vector<Constraint> all_;
   std::map<std::pair<int64_t, int64_t>, Pair> pairs_;
   std::vector<int> partners_;  // by node id

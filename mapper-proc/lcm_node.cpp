@@ -228,7 +228,7 @@ void LcmNode::publishStats() {
   const MapperTiming& t = st.timing;
   mapper_stats_t s{};
   s.utime = last_utime_;
-  s.num_nodes = static_cast<int32_t>(m_.graphNodes());  // merged nodes are part of others
+  s.num_nodes = static_cast<int32_t>(m_.graphNodes());
   s.num_edges = static_cast<int32_t>(m_.constraints().pairs().size());
   s.num_floors = static_cast<int32_t>(m_.floors().size());
   std::set<int> sessions;
@@ -256,28 +256,14 @@ void LcmNode::publishStats() {
     s.component_ms.push_back(1e3 * seconds);
   }
   s.num_components = static_cast<int32_t>(s.component_names.size());
-  // Counts that were only in the log and the --stats summary (docs/mapper.md, "Warm
-  // restart"; the plausibility gates of issue 17).
-  const std::pair<const char*, int64_t> counters[] = {
-      {"warm_restarts", st.warm_restarts},
-      {"lost_restarts", st.lost_restarts},
-      {"warm_confirmations", st.warm_confirmations},
-      {"warm_rejections", st.warm_rejections},
-      {"warm_bridged", st.warm_bridged},
-      {"warm_bridged_by_wheels", st.warm_bridged_by_wheels},
-      {"implausible_motion", m_.tracker().counts().implausible},
-      {"implausible_floors", st.implausible_floors},
-      {"node_merges", st.node_merges},
-      {"merges_refused", st.merges_refused},
-      {"merges_undone", st.merges_undone},
-      {"vo_contradicted", m_.tracker().counts().vo_contradicted},
-      {"heading_waits", m_.tracker().counts().heading_waits},
-      {"heading_waits_expired", m_.tracker().counts().heading_waits_expired},
-  };
-  for (const auto& [name, value] : counters) {
+  // Every counter of the mapper and of its tracker, named as in the summaries.
+  const auto add = [&s](std::string_view name, int64_t value) {
     s.counter_names.emplace_back(name);
     s.counter_values.push_back(value);
-  }
+  };
+  for (const MapperStats::Counter& c : MapperStats::counters()) add(c.name, st.*c.field);
+  const TrackerCounts& tracked = m_.tracker().counts();
+  for (const TrackerCounts::Counter& c : TrackerCounts::counters()) add(c.name, tracked.*c.field);
   s.num_counters = static_cast<int32_t>(s.counter_names.size());
   lcm_.publish(channels::kMapperStats, &s);
   const input_stats_t input = inbox_.statsMessage(last_utime_);
@@ -311,13 +297,8 @@ std::string LcmNode::summary() const {
     << "\nstore_transactions " << counts_.store_transactions << "\ntracking_transactions "
     << counts_.tracking_transactions << "\ntracking_failures " << counts_.tracking_failures << "\n";
   const TrackerCounts& t = m_.tracker().counts();
-  s << "vo_applied " << t.vo_applied << "\nvo_failed " << t.vo_failed << "\nwheel_applied "
-    << t.wheel_applied << "\nvo_restarts " << t.restarts << "\nrelinked " << t.relinked
-    << "\nrelinks_refused " << t.relinks_refused << "\nrelinks_weaker " << t.relinks_weaker
-    << "\nreanchored " << t.reanchored << "\nvo_timeouts " << t.vo_timeouts << "\ngyro_turns "
-    << t.gyro_turns << "\nvo_contradicted " << t.vo_contradicted << "\nheading_waits "
-    << t.heading_waits << "\nheading_waits_expired " << t.heading_waits_expired
-    << "\nimplausible_motion " << t.implausible << "\n";
+  for (const TrackerCounts::Counter& k : TrackerCounts::counters())
+    s << k.name << " " << t.*k.field << "\n";
   return s.str();
 }
 

@@ -40,104 +40,29 @@
 #include <evermap/register_request_t.hpp>
 #include <evermap/register_result_t.hpp>
 
+#include "core/common/clocks.h"
 #include "core/solver/incremental_solver.h"
 #include "mapper-proc/constraint_set.h"
-#include "mapper-proc/floor_gate.h"
+#include "mapper-proc/floor_state.h"
+#include "mapper-proc/gate_recovery.h"
+#include "mapper-proc/map_gate.h"
 #include "mapper-proc/map_node.h"
 #include "mapper-proc/mapper_options.h"
+#include "mapper-proc/mapper_stats.h"
 #include "mapper-proc/partition_index.h"
 #include "mapper-proc/solver_schedule.h"
 #include "mapper-proc/tracker.h"
+#include "mapper-proc/warm_restart.h"
 
 namespace evermap::mapper {
-
-// Per-component time (wall clock, measurement only: never an input to the algorithm).
-struct MapperTiming {
-  double tracking_s = 0.0;
-  double registration_s = 0.0;  // handling results: constraints, Δ replacement
-  double partition_s = 0.0;     // cell index rebuild and new-place tests
-  double solver_s = 0.0;
-  std::vector<double> update_s;       // solver time of each step that changed the graph
-  std::vector<int64_t> update_utime;  // message time of each update_s entry
-  // Background batch steps (IncrementalOptions::background_batch_lag): how many were swapped
-  // in, the worker's time on them (work done off the steps, on another core), and how long
-  // the swapping steps waited for the worker — in the offline runner, where message time
-  // runs ~2000x faster than in operation; step cost counts only the wait operation would see
-  // (the worker's time beyond the message time between start and swap).
-  int64_t background_batches = 0;
-  double background_batch_s = 0.0;
-  double background_wait_s = 0.0;
-  // Wall time of the mapper's work for each step (request, result handling, new node,
-  // solver update), at the step's keyframe time: the "mapper update" of the paper's Fig. 7.
-  struct StepCost {
-    int64_t utime;
-    double s;
-    double cpu_s = 0.0;  // the same work as the step thread's CPU time (no preemption)
-  };
-  std::vector<StepCost> step_cost;
-};
-
-struct MapperStats {
-  int64_t steps = 0;
-  int64_t nodes = 0;
-  int64_t constraints = 0;  // every constraint made (kept in the constraint set)
-  int64_t factors = 0;      // node pairs the solver holds factors for
-  int64_t merged = 0;
-  int64_t rejected_inconsistent = 0;
-  int64_t requests_node = 0;
-  int64_t requests_global = 0;
-  int64_t registrations_ok = 0;
-  int64_t loop_closures = 0;           // constraints to another existing node
-  int64_t delta_replaced = 0;          // active-node registrations that replaced Δ
-  int64_t delta_kept = 0;              // ... that lost the det(Σ) test
-  int64_t delta_fused = 0;             // ... fused with Δ (fuse_active_registration)
-  int64_t rejected_map_gate = 0;       // registrations that contradicted the map or Δ
-  int64_t rejected_floor = 0;          // registrations to a node of another floor
-  int64_t closures_uninformative = 0;  // new pairs below min_closure_information: no factor
-  int64_t closures_saturated = 0;      // new pairs of saturated nodes below their bound: no factor
-  int64_t node_merges = 0;             // nodes merged into an older one (merge_radius_m)
-  int64_t merges_refused = 0;          // ... not: their constraints contradicted the map's
-  int64_t merges_undone = 0;           // ... undone later: a constraint contradicted the merge
-  int64_t gate_recoveries = 0;         // ... accepted after all: a second one agreed with them
-  int64_t recoveries_too_far = 0;      // ... not: their jump was more than odometry could drift
-  int64_t relocalizations = 0;         // a new session tied to the map by a global registration
-  int64_t relocalization_disagreements = 0;      // a lost session's registrations that disagreed
-  int64_t relocalization_same_frame_checks = 0;  // candidates checked on their own keyframe
-  int64_t implausible_floors = 0;                // FLOOR refused by the floor gate (in dropped too)
-  int64_t timeouts = 0;
-  int64_t dropped = 0;         // malformed, stale or out-of-order messages
-  int64_t restored_nodes = 0;  // loaded from a map store by restore()
-  int64_t restored_constraints = 0;
-  // A restored map's start: tracking resumed from the stored state (warm), or lost (no state,
-  // a state too old for warm_restart_max_gap_s, or a ride or a new session announced since).
-  int64_t warm_restarts = 0;
-  int64_t lost_restarts = 0;
-  // After a warm restart: the placement confirmed by two agreeing registrations to the
-  // restored map (consistent with the inflated pose), and registrations that contradicted it.
-  int64_t warm_confirmations = 0;
-  int64_t warm_rejections = 0;
-  // Warm restarts whose gap the odometry bridged (MapperOptions::warm_restart_bridge): no
-  // confirmation needed; of them, those the wheels' odometry bridged (VO's chain had
-  // restarted in the gap), and VO frames set aside after a restart while waiting for the
-  // wheel pose to bridge with (at most warm_restart_wheel_wait_s).
-  int64_t warm_bridged = 0;
-  int64_t warm_bridged_by_wheels = 0;
-  int64_t warm_wheel_waits = 0;
-  // Restarts near an elevator over a gap a ride fits in: lost, not bridged or inflated.
-  int64_t warm_elevator_refusals = 0;
-  MapperTiming timing;
-  std::string text() const;
-  // Adds the counters of another mapper's stats (sessions mapped by successive mappers).
-  void addCounters(const MapperStats& other);
-};
 
 class Mapper {
  public:
   explicit Mapper(const MapperOptions& options, int session = 0);
 
-  // Continues a stored map (map_store.h) before any message: its floors, its nodes at their
-  // stored estimates, and every stored constraint replayed through the constraint set in
-  // stored order (merges and rejections come out as they did), then one solver batch. The
+  // Continues a stored map (core/map/map_snapshot.h) before any message: its floors, its nodes at
+  // their stored estimates, and every stored constraint replayed through the constraint set in
+  // stored order (rejections come out as they did), then one solver batch. The
   // origin prior goes on node 0, height factors on every node and the stored roll/pitch
   // factors on their nodes. The mapper is then in a new session (one past the highest stored) and
   // lost: only global registrations until one places it on the map. Its floor is a guess (the
@@ -158,13 +83,13 @@ class Mapper {
   // The state to save with the map; empty while lost or before the first node.
   std::optional<TrackingState> trackingState() const;
   // A warm restart whose placement on the restored map no registration has confirmed yet.
-  bool resumedUnconfirmed() const { return resumed_; }
+  bool resumedUnconfirmed() const { return warm_.unconfirmed(); }
   // The gap between the saved tracking state and the first VO_DELTA after restore(), seconds,
   // once decided (negative: no saved state usable).
-  std::optional<double> restartGapS() const { return restart_gap_s_; }
+  std::optional<double> restartGapS() const { return warm_.gapS(); }
   // How the restart was decided, for the log: why a warm restart was or was not bridged by
   // odometry ("" before the decision and for a restart without a saved state).
-  const std::string& restartNote() const { return restart_note_; }
+  const std::string& restartNote() const { return warm_.note(); }
 
   // The left camera's mounting (rectified body_T_cam of STEREO_CALIB, calibration_latch.h):
   // VO deltas are camera motions. Until it is set, options.tracker.body_T_cam holds.
@@ -183,13 +108,10 @@ class Mapper {
 
   // The current estimate: world_T_body now.
   core::UncertainPose pose() const;
-  core::SE3d nodePose(int64_t id) const;
-  // Every node made, merged ones included (MapperNode::merged_into); ids are indices.
+  core::SE3d nodePose(int64_t id) const { return schedule_.pose(id); }
+  // Every node made; ids are indices.
   const std::vector<MapperNode>& nodes() const { return nodes_; }
-  // The nodes of the graph: those not merged into another.
-  int64_t graphNodes() const {
-    return static_cast<int64_t>(nodes_.size() - constraints_.aliases().size());
-  }
+  int64_t graphNodes() const { return static_cast<int64_t>(nodes_.size()); }
   int64_t activeNode() const { return active_; }
   // A new session not yet placed on the map by a global registration: pose() means nothing.
   bool lost() const { return lost_; }
@@ -197,13 +119,13 @@ class Mapper {
   const solver::IncrementalSolver& solver() const { return schedule_.solver(); }
   const Tracker& tracker() const { return tracker_; }
   const MapperStats& stats() const { return stats_; }
-  int floor() const { return floor_; }
+  int floor() const { return floors_.floor(); }
   int session() const { return session_; }
   // The session this mapper started with (constructed or restored): later sessions it maps
   // (a gap in VO) are numbered after it. Names the mapper in the map store (map_saved).
   int firstSession() const { return first_session_; }
   // Floor index -> height (metres), as the FLOOR messages reported them.
-  const std::map<int, double>& floors() const { return floors_; }
+  const std::map<int, double>& floors() const { return floors_.table(); }
 
   // The tracked pose at every step: (utime, node, node_T_body). With the final node
   // estimates this gives the trajectory both modes are compared on.
@@ -237,10 +159,21 @@ class Mapper {
     bool same_frame_check = false;          // a lost robot's candidate checked on its own keyframe
   };
 
-  // Algorithm 1's step (mapper.cpp): the request at a keyframe, and the step's end once its
-  // answer is in (a new node at a new place, the solver update).
+  // Algorithm 1's step (mapper.cpp): the request at a keyframe (to the node of the place
+  // the estimate is in, else a global search), and the step's end once its answer is in (a
+  // new node at a new place, the solver update).
   void step(int64_t keyframe_utime);
+  std::optional<int64_t> stepTarget(int64_t keyframe_utime, const core::SE3d& world_T_body);
   void finishStep(bool registered);
+  // The step at a keyframe VO moved its reference to, when one is due.
+  void stepAtKeyframe(int64_t keyframe_utime);
+  // The keyframe step the tracker held for its heading, taken now (by a message at now_utime),
+  // and the mapper's step at it unless a session starts or the step is stale.
+  void takeHeldStep(int64_t now_utime, bool session_starts = false);
+  // A new session (FLOOR with EVENT_NONE, or a gap in VO time): lost until re-localised.
+  void startSession(int64_t utime);
+  // The step's wall and CPU time since t0/c0, added to the step's cost so far.
+  void addStepCost(SteadyClock::time_point t0, double c0);
 
   // The registration protocol (mapper_registration.cpp).
   void sendRequest(int8_t mode, int64_t target);
@@ -259,24 +192,19 @@ class Mapper {
                         const core::UncertainPose& q_T_now, bool* registered);
   void closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
                  const core::UncertainPose& q_T_now, bool* registered);
+  // A registration to a restored node while resumedUnconfirmed().
+  std::optional<int64_t> confirmResumed(const InFlight& f, int64_t b,
+                                        const core::UncertainPose& b_T_q,
+                                        const core::UncertainPose& q_T_now, bool* registered);
+  // The robot placed on b by b_T_q (q_T_now since the keyframe): b active, no constraint.
+  void relocalizeOn(int64_t b, const core::UncertainPose& b_T_q,
+                    const core::UncertainPose& q_T_now);
 
-  // The graph (mapper.cpp): nodes, factors and constraints, gathered for the solver's next
-  // update (flushSolver: the step's end; a full-graph step's node before its request too).
-  int64_t addNode(int64_t keyframe_utime, const core::UncertainPose& active_T_node);
-  // The partial factor of IMU roll and pitch on a node (false: a covariance it cannot use).
-  bool addAttitudeFactor(int64_t id, const NodeAttitude& attitude);
-  // vetted: a loop closure the map gate has tested against the map (no robust kernel).
-  void addConstraint(int64_t from, int64_t to, const core::UncertainPose& from_T_to,
-                     ConstraintKind kind, int64_t utime, bool vetted = false);
-  // The registration protocol's tests against the map and odometry (mapper_registration.cpp).
-  // information (when given): the closure's mutual information with the map, nats
-  // (MapperOptions::min_closure_information); infinity without a marginal.
-  bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b,
-                         double* information = nullptr);
-  // The map's estimate of a_T_b with its marginal covariance (the joint marginal of a and b
-  // through the relative-pose Jacobians); empty when the solver gives no marginal.
-  std::optional<core::UncertainPose> mapRelative(int64_t a, int64_t b) const;
-  struct RelocalizationCandidate;
+  // Relocalisation and gate recovery (mapper_relocalization.cpp). Whether b_T_q confirms the
+  // candidate placement; if not it becomes the candidate, and *check is the node to check it
+  // against on the same keyframe (linkedNeighbour), if any.
+  bool confirmsCandidate(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
+                         std::optional<int64_t>* check);
   // While lost with a candidate placement: the node to check it against (step), if any.
   std::optional<int64_t> relocalizationCheck(int64_t keyframe_utime);
   // A node the map links to `node` (a constraint between them) whose view overlaps the
@@ -285,72 +213,48 @@ class Mapper {
   // Whether the registration b_T_q of the keyframe agrees, chained by odometry, with an
   // earlier one (candidate) on where the robot is.
   bool confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime,
-                              const std::optional<RelocalizationCandidate>& candidate);
+                              const std::optional<PlacementCandidate>& candidate);
   // A registration the map gate rejects: true when it confirms the previous rejected one
   // (then both were right and the map or Δ was wrong) and its jump_m is a drift odometry could
-  // have made (MapperOptions::recovery_slack_m); otherwise it becomes the candidate.
+  // have made (GateRecovery); otherwise it becomes the candidate.
   bool confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime,
                         double jump_m);
   // How far apart the map puts the keyframe q through a (Δ = a_T_q) and through b (b_T_q).
   double jumpM(int64_t a, const core::UncertainPose& a_T_q, int64_t b,
                const core::UncertainPose& b_T_q) const;
-  // Gaps odometry bridged so far (tracker counts and rides), and whether a gate recovery may
-  // override Δ now (MapperOptions::recovery_quiet_s).
+  // Gaps odometry bridged so far (tracker counts and rides).
   int64_t bridges() const;
-  bool recoveryAllowed(int64_t keyframe_utime) const;
-  // The step's changes to the solver (solver_schedule.h), and the partition index after them;
-  // then the merges and undoes the step calls for (MapperOptions::merge_radius_m).
+  // The map gate's test of a_T_b (map_gate.h), its time counted.
+  bool consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b,
+                         double* information = nullptr);
+
+  // The graph (mapper_graph.cpp): nodes, factors and constraints, gathered for the solver's
+  // next update (flushSolver: the step's end; a full-graph step's node before its request too).
+  int64_t addNode(int64_t keyframe_utime, const core::UncertainPose& active_T_node);
+  // The IMU's roll and pitch at the keyframe, when a trusted ATTITUDE is at most 1 s older.
+  std::optional<NodeAttitude> attitudeAt(int64_t keyframe_utime) const;
+  // The partial factor of IMU roll and pitch on a node (false: a covariance it cannot use).
+  bool addAttitudeFactor(int64_t id, const NodeAttitude& attitude);
+  void addOriginPrior(int64_t id, const core::SE3d& world_T_node);
+  // vetted: a loop closure the map gate has tested against the map (no robust kernel).
+  void addConstraint(int64_t from, int64_t to, const core::UncertainPose& from_T_to,
+                     ConstraintKind kind, int64_t utime, bool vetted = false);
+  // The step's changes to the solver (solver_schedule.h), and the partition index after them.
   void flushSolver();
-  // Merges (mapper.cpp): the chain's nodes that the corrected map puts at an older node's place,
-  // after a loop closure.
-  void mergeChain();
-  // The step at a keyframe VO moved its reference to (Algorithm 1), when one is due.
-  void stepAtKeyframe(int64_t keyframe_utime);
-  // The keyframe step the tracker held for its heading, taken now (by a message at now_utime),
-  // and the mapper's step at it unless a session starts or the step is stale.
-  void takeHeldStep(int64_t now_utime, bool session_starts = false);
-  // A constraint that its pair (or a merge's own pose) rejected, where a merged node is among
-  // its ends or its pair's: checked at the step's end (undoMergesAgainst).
-  void noteMergeContradiction(const ConstraintSet::Pair* pair);
-  void undoMergesAgainst(size_t constraint, const std::vector<int64_t>& merged);
-  // The merged nodes `nodes` back in the graph at their merged poses (the aliases already
-  // without them); the graph is rebuilt at the step's end.
-  void takeBack(const std::vector<int64_t>& nodes);
-  // The solver and the partition index over the nodes of the graph, after merges or undoes.
-  void rebuildGraph();
   void recordFlush(const SolverSchedule::Flush& flush);
   // The node of the place world_T_body is in (partition_index.h).
   std::optional<int64_t> nodeAt(const core::SE3d& world_T_body, int floor,
                                 int64_t newest_allowed) const;
-  // A new session (FLOOR with EVENT_NONE, or a gap in VO time): lost until re-localised.
-  void startSession(int64_t utime);
-  // The map's label for the floor a ride ended on at height_m (FLOOR's reported label):
-  // the floor of the map's table at that height, else the reported label if the map has no
-  // floor by it, else a new label.
-  int floorAtHeight(int reported, double height_m) const;
 
-  // The warm-restart decision at the first VO_DELTA after restore() (mapper.cpp).
-  void decideRestart(const vo_delta_t& msg);
-  // The motion over a restart's gap from the odometry frame, from the state's VO frame to
-  // msg's (saved_T_now, body frames), when the bridge may cross it; else empty, and `why`
-  // says why not.
-  std::optional<core::UncertainPose> odometryBridge(const TrackingState& s, const vo_delta_t& msg,
-                                                    std::string& why) const;
-  // The same from the wheels' odometry frame, to the first VO_DELTA's time `utime`; why not
-  // (if not) in `why`.
-  std::optional<core::UncertainPose> wheelBridge(const TrackingState& s, int64_t utime,
-                                                 std::string& why) const;
-  // Whether the restart decision waits for the wheels: the saved state holds a wheel pose, VO
-  // cannot bridge, no wheel pose at msg's time has arrived yet, and the wait is not over.
-  bool waitForWheels(const vo_delta_t& msg);
-  // The node at an end of a ride (an odometry constraint between floors) closest in x-y to
-  // `world_T_body` within warm_restart_elevator_radius_m, and its distance; empty if none.
-  std::optional<std::pair<int64_t, double>> elevatorNear(const core::SE3d& world_T_body) const;
-  // A registration to a restored node while resumedUnconfirmed() (mapper_registration.cpp).
-  std::optional<int64_t> confirmResumed(const InFlight& f, int64_t b,
-                                        const core::UncertainPose& b_T_q,
-                                        const core::UncertainPose& q_T_now, bool* registered);
+  // A stored map read back (mapper_restore.cpp): its nodes and their factors, its
+  // constraints, and the tracking a warm restart resumes.
+  Status restoreNodes(const MapSnapshot& map, const std::map<int, double>& floors,
+                      int* max_session);
+  Status restoreEdges(const MapSnapshot& map);
+  void resume(const WarmRestart::Resume& r);
 
+  // Algorithm 1's state: the options, the session, the graph (partition index, nodes,
+  // constraints, solver), the tracked Δ against the active node, the step in flight.
   MapperOptions o_;
   int session_;
   int first_session_;
@@ -358,71 +262,28 @@ class Mapper {
   Tracker tracker_;
   ConstraintSet constraints_;
   SolverSchedule schedule_;
+  MapGate map_gate_;
   std::vector<MapperNode> nodes_;
   int64_t active_ = -1;
-  bool relocalize_ = false;   // after a loop closure: the next registration to b replaces Δ
-  bool lost_ = false;         // a new session that no global registration has placed yet
-  double step_cost_s_ = 0.0;  // wall time of the step in progress so far
-  double step_cpu_s_ = 0.0;   // ... and CPU time of the mapper's thread
-  // While lost: the last registration to the map, waiting for a second one that agrees.
-  struct RelocalizationCandidate {
-    int64_t node;
-    core::UncertainPose node_T_keyframe;
-    int64_t keyframe_utime;
-    int verifications = 0;  // node-mode requests sent to check it (step)
-  };
-  std::optional<RelocalizationCandidate> relocalization_candidate_;
-  // The last registration the map gate rejected, waiting for a second one that agrees.
-  std::optional<RelocalizationCandidate> rejected_candidate_;
+  bool relocalize_ = false;     // after a loop closure: the next registration to b replaces Δ
+  bool lost_ = false;           // a new session that no global registration has placed yet
   bool gate_rejected_ = false;  // the step in flight had a registration the gate rejected
-  std::optional<core::UncertainPose> registered_active_T_keyframe_;
-  // node_at_every_new_place: the nodes added at registered steps, hung off satellite_anchor_
-  // (the active node then) by Δ; while that node stays active and answers they are not
-  // registered to (step_failed_: the last step found no registration).
-  int64_t satellite_anchor_ = -1;
-  bool step_failed_ = false;
-  std::vector<int64_t> satellites_;
-  bool isSatellite(int64_t node) const;
-  // Merges: the first node of the chain made since the last loop closure, a closure in the
-  // step, the registration's own node when it was a merged one (n, n_T_q: a closure's
-  // constraint names it), contradictions to check, undone nodes' poses, and whether the
-  // solver must be rebuilt at the step's end.
-  int64_t chain_start_ = 0;
-  bool closed_loop_ = false;
-  std::optional<std::pair<int64_t, core::UncertainPose>> registered_via_;
-  struct MergeContradiction {
-    size_t constraint;
-    std::vector<int64_t> merged;
-  };
-  std::vector<MergeContradiction> merge_contradictions_;
-  std::map<int64_t, core::SE3d> undone_poses_;
-  bool rebuild_graph_ = false;
-  int floor_ = 0;
-  bool floor_confirmed_ = true;  // false: a restored map's guess (restore(), sendRequest)
-  int64_t unconfirmed_searches_ = 0;
-  double floor_height_m_ = 0.0;
-  std::map<int, double> floors_;
-  bool have_floor_ = false;
-  bool in_elevator_ = false;               // between a ride's start and end: no steps
-  int64_t rides_ = 0;                      // ride ends seen
-  int64_t last_confirmed_utime_ = -1;      // keyframe of the last accepted registration
-  int64_t bridges_at_confirmation_ = 0;    // bridges() then
-  double odometer_at_confirmation_ = 0.0;  // tracker_.odometerM() then
-  std::optional<attitude_t> attitude_;
   int64_t last_step_utime_ = -1;
-  int64_t last_floor_utime_ = -1;
-  FloorGate floor_gate_{o_.floor_gate};
   int64_t last_vo_utime_ = -1;
   int64_t session_start_utime_ = -1;  // utime of the message that started the session
-  int64_t last_attitude_utime_ = -1;
   int64_t next_request_id_ = 1;
   std::optional<InFlight> in_flight_;
-  std::optional<TrackingState> saved_tracking_;  // restore()'s, until decideRestart()
-  bool resumed_ = false;                         // warm restart, placement not confirmed yet
-  std::optional<double> restart_gap_s_;
-  int64_t restart_first_vo_utime_ = -1;  // the first VO_DELTA after a restart (waitForWheels)
-  std::string restart_note_;
-  int64_t resume_first_new_node_ = 0;  // nodes from this id on were made after the restart
+  // While lost (or resumed unconfirmed): the last registration to the map, waiting for a
+  // second one that agrees.
+  std::optional<PlacementCandidate> relocalization_candidate_;
+  GateRecovery recovery_;
+  FloorState floors_;
+  WarmRestart warm_;
+  std::optional<attitude_t> attitude_;  // the last trusted ATTITUDE (node roll/pitch factors)
+  int64_t last_attitude_utime_ = -1;
+  double step_cost_s_ = 0.0;  // wall time of the step in progress so far
+  double step_cpu_s_ = 0.0;   // ... and CPU time of the mapper's thread
+  // Outputs.
   std::vector<register_request_t> requests_;
   std::vector<node_added_t> nodes_added_;
   std::vector<StepPose> step_poses_;

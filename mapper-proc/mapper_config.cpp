@@ -13,10 +13,6 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.heading_bins", &o->heading_bins);
   reader.read("mapper.overlap_radius_cells", &o->overlap_radius_cells);
   reader.read("mapper.overlap_heading_sectors", &o->overlap_heading_sectors);
-  reader.read("mapper.merge_radius_m", &o->merge_radius_m);
-  reader.read("mapper.merge_heading_sectors", &o->merge_heading_sectors);
-  reader.read("mapper.merge_sigma_m", &o->merge_sigma_m);
-  reader.read("mapper.node_at_every_new_place", &o->node_at_every_new_place);
   reader.read("mapper.relocalization_checks", &o->relocalization_checks);
   reader.read("mapper.step_interval_s", &o->step_interval_s);
   reader.read("mapper.request_timeout_s", &o->request_timeout_s);
@@ -29,14 +25,12 @@ Status readMapperOptions(const KeyValueFile& file, MapperOptions* o) {
   reader.read("mapper.attitude_factors", &o->attitude_factors);
   reader.read("mapper.height_factors", &o->height_factors);
   reader.read("mapper.map_gate", &o->map_gate);
-  reader.read("mapper.min_closure_information", &o->min_closure_information);
   reader.read("mapper.closure_partners", &o->closure_partners);
   reader.read("mapper.saturated_closure_information", &o->saturated_closure_information);
   reader.read("mapper.defer_merges", &o->defer_merges);
   reader.read("mapper.cell_refresh_per_step", &o->cell_refresh_per_step);
   reader.read("mapper.fuse_active_registration", &o->fuse_active_registration);
   reader.read("mapper.recovery_quiet_s", &o->recovery_quiet_s);
-  reader.read("mapper.recovery_needs_two_nodes", &o->recovery_needs_two_nodes);
   reader.read("mapper.recovery_slack_m", &o->recovery_slack_m);
   reader.read("mapper.recovery_drift_fraction", &o->recovery_drift_fraction);
   reader.read("mapper.floor_match_m", &o->floor_match_m);

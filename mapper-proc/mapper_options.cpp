@@ -9,16 +9,6 @@ Status MapperOptions::validate() const {
     return Error{"mapper.overlap_radius_cells: must be in [0, 3]"};
   if (!(overlap_heading_sectors >= 0.0 && overlap_heading_sectors <= 1.0))
     return Error{"mapper.overlap_heading_sectors: must be in [0, 1]"};
-  if (!(merge_radius_m >= 0.0 && merge_radius_m <= overlap_radius_cells * cell_size_m))
-    return Error{"mapper.merge_radius_m: must be in [0, overlap_radius_cells x cell_size_m]"};
-  if (merge_radius_m > 0.0 && (full_graph || !(map_gate > 0.0) || vetted_loop_kernel.active()))
-    return Error{
-        "mapper.merge_radius_m: merges need the reduced graph, the map gate and no kernel on "
-        "vetted closures"};
-  if (!(merge_heading_sectors > 0.0 && merge_heading_sectors <= overlap_heading_sectors) &&
-      merge_radius_m > 0.0)
-    return Error{"mapper.merge_heading_sectors: must be in (0, overlap_heading_sectors]"};
-  if (!(merge_sigma_m > 0.0)) return Error{"mapper.merge_sigma_m: must be > 0"};
   if (relocalization_checks < 0) return Error{"mapper.relocalization_checks: must be >= 0"};
   if (!(step_interval_s >= 0.0)) return Error{"mapper.step_interval_s: must be >= 0"};
   if (!(request_timeout_s > 0.0)) return Error{"mapper.request_timeout_s: must be > 0"};
@@ -46,10 +36,7 @@ Status MapperOptions::validate() const {
     return Error{"mapper.warm_restart_ride_min_s: must be a finite number >= 0"};
   if (!(consistency_gate > 0.0)) return Error{"mapper.consistency_gate: must be > 0"};
   if (!(map_gate >= 0.0)) return Error{"mapper.map_gate: must be >= 0"};
-  if (!(min_closure_information >= 0.0) || !std::isfinite(min_closure_information))
-    return Error{"mapper.min_closure_information: must be a finite number >= 0"};
-  // 1 would test every new pair (a node has its odometry partner from the start): that is
-  // min_closure_information's rule.
+  // 1 would test every new pair (a node has its odometry partner from the start).
   if (closure_partners < 0 || closure_partners == 1)
     return Error{"mapper.closure_partners: must be 0 (no bound) or >= 2"};
   if (!(saturated_closure_information >= 0.0) || !std::isfinite(saturated_closure_information))

@@ -24,22 +24,6 @@ inline solver::IncrementalOptions mapperSolverOptions() {
 struct MapperOptions {
   // false: the reduced pose graph; true: a node at every step (the paper's baseline).
   bool full_graph = false;
-  // Algorithm 1 adds a node only at a step that found no registration: a first visit that
-  // keeps registering to the active node for metres leaves the places between without a node,
-  // and a later visit whose registration fails there adds one, so the map keeps growing long
-  // after the building is explored (docs/mapper.md, "A year"). true: a step whose
-  // registration to the active node succeeded also adds a node when its place has none, hung
-  // off the active node by Δ (fused with that registration): a *satellite*. The active node
-  // stays, and so does Δ, while it answers (the registrations to one node keep Δ's error from
-  // growing, which a chain of short links would not), and its satellites are not registered
-  // to meanwhile (a closure to one would count Δ's registrations twice; a global search that
-  // finds one re-localises on it, no factor). When the active node stops answering, the step
-  // registers to the satellite of its place, which becomes the active node. Off by default:
-  // on the year run (overlap 2 cells, seeds 1-5) it stops the node growth (+1.7 to +2.1 %
-  // after 10 h instead of +6.8 to +8.4 %) and halves the factors' (+11 to +14 % instead of
-  // +21 to +26 %), with the paper-scale map as large and its node ATE lower (mean 0.147
-  // against 0.171 m), but the year run's node ATE is higher (mean 0.079 against 0.068 m).
-  bool node_at_every_new_place = false;
   // Partition of each floor (paper section IV-B): cell edge in metres, heading sectors.
   double cell_size_m = 1.0;
   int heading_bins = 8;
@@ -53,20 +37,6 @@ struct MapperOptions {
   // tolerance at most a sector.
   double overlap_radius_cells = 1.0;
   double overlap_heading_sectors = 1.0;
-  // Merges (issue 22; docs/mapper.md, "Merges"): after a loop closure, each node of the chain
-  // made since the previous closure (in the dark, or while the map could not place it) that
-  // the corrected map puts within merge_radius_m and merge_heading_sectors × a sector of an
-  // older node, with the map's marginal standard deviation of their relative position at
-  // most merge_sigma_m (the larger of x and y), is merged into it: it leaves the graph, its
-  // constraints are re-expressed through its pose in the older node's frame (constraint_set.h),
-  // and a registration to it is one to that node. A merge whose re-expressed constraints
-  // contradict one the map holds is not made; one that a later constraint contradicts (its
-  // pair rejects it, and would accept it without the merge) is undone, the node back in the
-  // graph at its merged pose. 0: no merges. At most the overlap's radius; needs the map gate
-  // (its marginals) and the reduced graph.
-  double merge_radius_m = 0.0;
-  double merge_heading_sectors = 0.5;
-  double merge_sigma_m = 0.25;
   // While lost, a registration that places the robot (a candidate, waiting for a second one
   // that agrees) is checked by up to this many node-mode requests to the node where it says
   // the robot is now, before global searches resume. 0: global searches only.
@@ -102,18 +72,12 @@ struct MapperOptions {
   // against Δ. Catches false matches the per-pair test cannot see (a pair's first
   // constraint). 0 disables; 22.46 = 99.9 %.
   double map_gate = 22.46;
-  // A loop closure that would open a new node pair is added only when it tells the map
-  // something: its mutual information with the map's estimate of the pair,
-  //   I = ½ ln det(Σ_map + Σ_z) / det(Σ_z)  (nats; Ila, Porta & Andrade-Cetto 2010),
-  // is at least this. Below, the map already ties the two nodes as well as the registration
-  // would: b becomes active (the robot is re-localised on it), and no factor is added, so
-  // factors grow with the nodes, not with the visits. 0: every closure (the paper). Needs
-  // the map gate (its marginal).
-  double min_closure_information = 0.0;
   // Partners per node (docs/mapper.md, "A year"): a loop closure that would open a new pair
   // between two nodes that both already belong to at least closure_partners pairs (of any
   // kind: a node of a chain has two odometry partners) is added only when its mutual
-  // information with the map (as above) reaches saturated_closure_information; below, the
+  // information with the map's estimate of the pair,
+  //   I = ½ ln det(Σ_map + Σ_z) / det(Σ_z)  (nats; Ila, Porta & Andrade-Cetto 2010),
+  // reaches saturated_closure_information; below, the
   // robot is re-localised on b and no factor is added. A node with fewer partners always
   // takes the pair, so a new node, a weakly tied one, or a part of the map that nothing else
   // ties keeps every closure; a pair opened below the bound raises a node's count toward
@@ -156,16 +120,6 @@ struct MapperOptions {
   // drift by a period in a few metres.
   double recovery_slack_m = 3.0;
   double recovery_drift_fraction = 0.15;
-  // ... and only when the two registrations are to different nodes: two registrations to
-  // one node share its keyframe's errors (its depths, where its features lie) and can agree
-  // on a placement that is wrong by a degree or more; another node's view is evidence of its own.
-  // Off by default: on the rendered 3-floor sessions (evermap-slam-run, seeds 2-8) it takes
-  // the node ATE of S (node_at_every_new_place, 2-cell overlap) from 0.336 to 0.225 m mean
-  // (seed 2 0.233 -> 0.059, seed 5 0.713 -> 0.136 m) and Algorithm 1's from 0.189 to 0.212 m
-  // (seeds 6 and 7 worse, 0.147 -> 0.205 and 0.154 -> 0.251 m: on seed 7 registrations to
-  // one node were right and a Δ that VO had drifted by 0.3-0.4 m was not); docs/mapper.md, "A
-  // year".
-  bool recovery_needs_two_nodes = false;
   // A ride's end is on the map's floor whose height is within this of the ride's measured
   // height (the map's label, whatever a restarted elevator-proc numbers it), metres.
   double floor_match_m = 1.0;

@@ -93,15 +93,12 @@ void PartitionIndex::file(int64_t id, const core::PlanarCell& cell) {
   const auto k = static_cast<size_t>(id);
   if (k < node_cell_.size()) {
     if (node_cell_[k] == cell) return;
-    if (!(node_cell_[k] == kUnfiled)) {
-      auto& old = cells_[node_cell_[k]];
-      old.erase(std::find(old.begin(), old.end(), id));
-    }
+    auto& old = cells_[node_cell_[k]];
+    old.erase(std::find(old.begin(), old.end(), id));
     node_cell_[k] = cell;
   } else {
     node_cell_.push_back(cell);  // nodes are filed first in id order
   }
-  if (cell == kUnfiled) return;
   auto& ids = cells_[cell];
   ids.insert(std::lower_bound(ids.begin(), ids.end(), id), id);
 }
@@ -109,8 +106,7 @@ void PartitionIndex::file(int64_t id, const core::PlanarCell& cell) {
 void PartitionIndex::rebuild(const std::vector<MapperNode>& nodes, const solver::Values& estimate) {
   cells_.clear();
   node_cell_.clear();
-  for (const MapperNode& n : nodes)
-    file(n.id, n.merged_into >= 0 ? kUnfiled : cellOf(estimate[n.id].se3, n.floor));
+  for (const MapperNode& n : nodes) file(n.id, cellOf(estimate[n.id].se3, n.floor));
   refresh_next_ = SIZE_MAX;
 }
 
@@ -121,7 +117,7 @@ bool PartitionIndex::refresh(const std::vector<MapperNode>& nodes,
       std::min(nodes.size(), refresh_next_ + static_cast<size_t>(o_.refresh_per_step));
   for (; refresh_next_ < end; ++refresh_next_) {
     const MapperNode& n = nodes[refresh_next_];
-    if (n.merged_into < 0) file(n.id, cellOf(solver.estimate(n.id).se3, n.floor));
+    file(n.id, cellOf(solver.estimate(n.id).se3, n.floor));
   }
   if (refresh_next_ >= nodes.size()) refresh_next_ = SIZE_MAX;
   return true;

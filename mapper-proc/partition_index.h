@@ -46,11 +46,6 @@ class PartitionIndex {
                                          int64_t newest_allowed,
                                          const std::vector<MapperNode>& nodes,
                                          const solver::IncrementalSolver& solver) const;
-  // The same within radius_m and heading_rad, at most the overlap's (merges).
-  std::optional<int64_t> closestNode(const core::SE3d& world_T_body, int floor,
-                                     int64_t newest_allowed, const std::vector<MapperNode>& nodes,
-                                     const solver::IncrementalSolver& solver, double radius_m,
-                                     double heading_rad) const;
   // The node of the place world_T_body is in: its cell's, else the one overlapping it.
   std::optional<int64_t> nodeAt(const core::SE3d& world_T_body, int floor, int64_t newest_allowed,
                                 const std::vector<MapperNode>& nodes,
@@ -61,11 +56,8 @@ class PartitionIndex {
   double overlapHeadingRad() const;
   static double headingApartRad(const core::SE2d& a, const core::SE2d& b);
 
-  // Files node id under cell (moving it there if it was filed elsewhere). Nodes are filed
-  // first in id order.
-  // Files node `id` in `cell` (moving it from its old one); kUnfiled: in none (a merged node).
+  // Files node `id` in `cell` (moving it from its old one). Nodes are filed first in id order.
   void file(int64_t id, const core::PlanarCell& cell);
-  static constexpr core::PlanarCell kUnfiled{std::numeric_limits<int>::min(), 0, 0, 0};
   // Every node re-filed at the estimate.
   void rebuild(const std::vector<MapperNode>& nodes, const solver::Values& estimate);
   // After a background batch step: re-file refresh_per_step nodes at each refresh() from now.
@@ -75,6 +67,11 @@ class PartitionIndex {
   bool refresh(const std::vector<MapperNode>& nodes, const solver::IncrementalSolver& solver);
 
  private:
+  // overlappingNode's search within radius_m and heading_rad, at most the overlap's.
+  std::optional<int64_t> closestNode(const core::SE3d& world_T_body, int floor,
+                                     int64_t newest_allowed, const std::vector<MapperNode>& nodes,
+                                     const solver::IncrementalSolver& solver, double radius_m,
+                                     double heading_rad) const;
   Options o_;
   core::PlanarGrid grid_;
   // Nodes of each cell, ascending ids; node_cell_[id] is the cell node id is filed under.

@@ -35,7 +35,6 @@ SolverSchedule::SolverSchedule(const solver::IncrementalOptions& options, bool d
     : batch_every_(options.batch_every),
       defer_merges_(defer_merges),
       covariance_floor_(covariance_floor),
-      options_(options),
       solver_(std::make_unique<solver::IncrementalSolver>(options)) {}
 
 void SolverSchedule::addVariable(int64_t id, const core::SE3d& world_T_node) {
@@ -43,7 +42,6 @@ void SolverSchedule::addVariable(int64_t id, const core::SE3d& world_T_node) {
 }
 
 void SolverSchedule::addFactor(solver::FactorPtr factor) {
-  node_factors_.push_back(factor);
   pending_update_.new_factors.push_back(std::move(factor));
   pending_pairs_.emplace_back(-1, -1);
   pending_factor_slot_.push_back(pending_update_.new_factors.size() - 1);
@@ -132,55 +130,6 @@ std::optional<SolverSchedule::Flush> SolverSchedule::flush(int64_t step_utime,
   pending_update_ = {};
   pending_pairs_.clear();
   pending_factor_slot_.clear();
-  return out;
-}
-
-SolverSchedule::Flush SolverSchedule::rebuild(
-    const std::vector<std::pair<int64_t, core::SE3d>>& variables,
-    const ConstraintSet& constraints) {
-  const auto t0 = SteadyClock::now();
-  if (!pending_update_.new_variables.empty() || !pending_update_.new_factors.empty() ||
-      !pending_update_.remove_factors.empty()) {
-    std::fprintf(stderr, "evermap-mapper: solver rebuild with an update waiting\n");
-    std::abort();
-  }
-  std::set<int64_t> live;
-  solver::UpdateRequest request;
-  for (const auto& [id, pose] : variables) {
-    live.insert(id);
-    request.new_variables.emplace_back(id, solver::PoseValue::spatial(pose));
-  }
-  for (const solver::FactorPtr& f : node_factors_) {
-    const auto& keys = f->keys();
-    if (std::all_of(keys.begin(), keys.end(), [&](solver::Key k) { return live.count(k) > 0; }))
-      request.new_factors.push_back(f);
-  }
-  std::vector<NodePair> pairs;
-  for (const auto& [key, pair] : constraints.pairs()) {
-    if (!live.count(pair.i) || !live.count(pair.j)) continue;
-    pairs.push_back(key);
-    request.new_factors.push_back(pairFactor(pair.i, pair.j, pair.i_T_j, covariance_floor_));
-  }
-  request.force_batch = true;
-  solver_ =
-      std::make_unique<solver::IncrementalSolver>(options_);  // the old one's worker is waited for
-  pair_factor_.clear();
-  to_consolidate_.clear();
-  deferred_merges_ = 0;
-  auto result = solver_->update(request);
-  if (!result) {
-    std::fprintf(stderr, "evermap-mapper: solver rebuild failed: %s\n",
-                 result.error().message.c_str());
-    std::abort();
-  }
-  // The consolidations follow the new solver's batch schedule (its update counter).
-  solver_updates_ = solver_->updates();
-  const size_t first_pair = request.new_factors.size() - pairs.size();
-  for (size_t k = 0; k < pairs.size(); ++k)
-    pair_factor_[pairs[k]].push_back(result->new_factor_ids[first_pair + k]);
-  Flush out;
-  out.solver_s = secondsSince(t0);
-  out.batch = true;
   return out;
 }
 

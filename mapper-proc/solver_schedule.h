@@ -68,12 +68,6 @@ class SolverSchedule {
   // Sends what the step gathered (consolidating merged pairs at scheduled batch steps);
   // nothing to send: no update. step_utime is the message time of the step.
   std::optional<Flush> flush(int64_t step_utime, const ConstraintSet& constraints);
-  // Starts the solver over with `variables` (the nodes of the graph at their poses), the
-  // factors of no pair added so far whose nodes are all among them, and one factor per pair
-  // of `constraints` (its merged constraint): what a merge or its undo leaves (Mapper,
-  // MapperOptions::merge_radius_m), solved by a batch step. Nothing may be waiting to be sent.
-  Flush rebuild(const std::vector<std::pair<int64_t, core::SE3d>>& variables,
-                const ConstraintSet& constraints);
   // Drops what was gathered and not sent, merges waiting for consolidation included (a
   // restore that failed half-way).
   void discard();
@@ -84,10 +78,7 @@ class SolverSchedule {
   int batch_every_;  // the solver's batch step schedule (IncrementalOptions::batch_every)
   bool defer_merges_;
   double covariance_floor_;
-  solver::IncrementalOptions options_;
   std::unique_ptr<solver::IncrementalSolver> solver_;
-  // Every factor of no pair added (kept for rebuild()).
-  std::vector<solver::FactorPtr> node_factors_;
   solver::UpdateRequest pending_update_;
   // The solver's factors of each node pair: one, or one per agreeing constraint until the
   // pair is consolidated into its merged constraint.

@@ -118,6 +118,52 @@ void Tracker::commit(int64_t utime, const UncertainPose& increment) {
   while (!history_.empty() && history_.front().utime < utime - window) history_.pop_front();
 }
 
+Expected<Tracker::VoMotion> Tracker::checkedMotion(const vo_delta_t& msg) {
+  if (msg.ref_utime >= msg.utime)
+    return Error("VO_DELTA " + std::to_string(msg.utime) + ": reference " +
+                 std::to_string(msg.ref_utime) + " is not before the frame");
+  if (!finiteArray(msg.translation, 3) || !finiteArray(msg.orientation, 4))
+    return Error("VO_DELTA " + std::to_string(msg.utime) + ": pose is not finite");
+  const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2],
+                             msg.orientation[3]);
+  if (std::abs(q.norm() - 1.0) > 1e-3)
+    return Error("VO_DELTA " + std::to_string(msg.utime) + ": quaternion is not unit");
+  const Expected<Mat6> cov = messages::covarianceFromMessage(msg.covariance, "VO_DELTA");
+  if (!cov) return makeError("VO_DELTA ", msg.utime, ": ", cov.error().message);
+  const core::Vec3 t(msg.translation[0], msg.translation[1], msg.translation[2]);
+  const std::string implausible = implausibleMotion(
+      t.norm(), Eigen::AngleAxisd(q.normalized()).angle(), msg.ref_utime, msg.utime);
+  if (!implausible.empty()) {
+    ++counts_.implausible;
+    return makeError("VO_DELTA ", msg.utime, ": ", implausible);
+  }
+  return VoMotion{toBody(SE3d(q.normalized(), t), *cov), *cov};
+}
+
+void Tracker::restartChain(const vo_delta_t& msg, bool ok) {
+  // A new reference keyframe at the current estimate.
+  if (vo_mode_) {
+    commit(msg.utime, pending_);
+  } else {
+    // Wheel odometry last reached the body at its last message, up to a wheel period
+    // before this frame: the rest of the way is extrapolated (in a turn in place a tenth of
+    // a second is degrees), its yaw from the gyro.
+    extrapolateWheel(msg.utime);
+    commit(msg.utime, UncertainPose{});
+  }
+  pending_ = UncertainPose{};
+  vo_mode_ = true;
+  ref_utime_ = msg.utime;
+  recent_wheel_.clear();
+  ++counts_.restarts;
+  delta_utime_ = msg.utime;
+  if (ok)
+    ++counts_.vo_applied;
+  else
+    ++counts_.vo_failed;
+  anchorOdometry(msg, Mat6::Zero());
+}
+
 Status Tracker::addVo(const vo_delta_t& msg) {
   // Time moved on past a held step: it is taken with the headings there are.
   takeHeldStep();
@@ -130,63 +176,17 @@ Status Tracker::addVo(const vo_delta_t& msg) {
   const bool restart = msg.keyframe_changed && (!ok || msg.ref_utime == msg.utime);
   // A frame's pose and covariance are checked before anything, its time stamp included, is
   // taken from it: a malformed message leaves the tracker as it was.
-  Expected<Mat6> cov = Mat6::Zero().eval();
-  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
-  if (ok && !restart) {
-    if (msg.ref_utime >= msg.utime) {
-      ++counts_.dropped;
-      return Error("VO_DELTA " + std::to_string(msg.utime) + ": reference " +
-                   std::to_string(msg.ref_utime) + " is not before the frame");
-    }
-    if (!finiteArray(msg.translation, 3) || !finiteArray(msg.orientation, 4)) {
-      ++counts_.dropped;
-      return Error("VO_DELTA " + std::to_string(msg.utime) + ": pose is not finite");
-    }
-    q = Eigen::Quaterniond(msg.orientation[0], msg.orientation[1], msg.orientation[2],
-                           msg.orientation[3]);
-    if (std::abs(q.norm() - 1.0) > 1e-3) {
-      ++counts_.dropped;
-      return Error("VO_DELTA " + std::to_string(msg.utime) + ": quaternion is not unit");
-    }
-    cov = messages::covarianceFromMessage(msg.covariance, "VO_DELTA");
-    if (!cov) {
-      ++counts_.dropped;
-      return makeError("VO_DELTA ", msg.utime, ": ", cov.error().message);
-    }
-    const std::string implausible = implausibleMotion(
-        Eigen::Vector3d(msg.translation[0], msg.translation[1], msg.translation[2]).norm(),
-        Eigen::AngleAxisd(q.normalized()).angle(), msg.ref_utime, msg.utime);
-    if (!implausible.empty()) {
-      ++counts_.dropped;
-      ++counts_.implausible;
-      return makeError("VO_DELTA ", msg.utime, ": ", implausible);
-    }
+  Expected<VoMotion> motion = VoMotion{};
+  if (ok && !restart) motion = checkedMotion(msg);
+  if (!motion) {
+    ++counts_.dropped;
+    return motion.error();
   }
   const int64_t previous_vo_utime = last_vo_utime_;
   last_vo_utime_ = msg.utime;
   last_utime_ = std::max(last_utime_, msg.utime);
   if (restart) {
-    // A new reference keyframe at the current estimate.
-    if (vo_mode_) {
-      commit(msg.utime, pending_);
-    } else {
-      // Wheel odometry last reached the body at its last message, up to a wheel period
-      // before this frame: the rest of the way is extrapolated (in a turn in place a tenth of
-      // a second is degrees), its yaw from the gyro.
-      extrapolateWheel(msg.utime);
-      commit(msg.utime, UncertainPose{});
-    }
-    pending_ = UncertainPose{};
-    vo_mode_ = true;
-    ref_utime_ = msg.utime;
-    recent_wheel_.clear();
-    ++counts_.restarts;
-    delta_utime_ = msg.utime;
-    if (ok)
-      ++counts_.vo_applied;
-    else
-      ++counts_.vo_failed;
-    anchorOdometry(msg, Mat6::Zero());
+    restartChain(msg, ok);
     return Ok{};
   }
   if (!ok) {
@@ -196,14 +196,12 @@ Status Tracker::addVo(const vo_delta_t& msg) {
     odometry_at_delta_.reset();
     return Ok{};
   }
-  const UncertainPose ref_T_body = toBody(
-      SE3d(q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2])),
-      *cov);
+  const UncertainPose& ref_T_body = motion->ref_T_body;
   if (!vo_mode_ || msg.ref_utime != ref_utime_) rejoin(msg.ref_utime, ref_T_body, msg.utime);
   pending_ = ref_T_body;
   delta_utime_ = msg.utime;
   ++counts_.vo_applied;
-  anchorOdometry(msg, msg.keyframe_changed ? Mat6::Zero() : *cov);
+  anchorOdometry(msg, msg.keyframe_changed ? Mat6::Zero() : motion->covariance);
   if (!msg.keyframe_changed) return Ok{};
   // The gyro's heading that reaches the frame may still be on its way: the step waits for it
   // (its motion is in Δ already). Not from a reanchored reference, which the gyro does not test.

@@ -46,6 +46,7 @@
 #include "core/geometry/se3.h"
 #include "core/map/map_snapshot.h"
 #include "core/messages/odometry_frame.h"
+#include "mapper-proc/tracker_counts.h"
 
 namespace evermap::mapper {
 
@@ -120,48 +121,6 @@ struct TrackerOptions {
   double max_turn_rad_s = 20.0;
 
   Status validate() const;
-};
-
-struct TrackerCounts {
-  int64_t vo_applied = 0;
-  int64_t vo_failed = 0;         // frames with a failure status
-  int64_t wheel_applied = 0;     // increments compounded while VO was down
-  int64_t dropped = 0;           // malformed, non-finite, out of order or implausible
-  int64_t implausible = 0;       // ... of which motion beyond max_speed_m_s / max_turn_rad_s
-  int64_t restarts = 0;          // VO restarted from a new reference (first frame, chain break)
-  int64_t relinked = 0;          // VO back on its kept reference after failing: wheel undone
-  int64_t relinks_refused = 0;   // ... whose motion contradicted the wheels: reanchored instead
-  int64_t relinks_weaker = 0;    // ... whose motion was less certain than the wheels' over the
-                                 // gap (VO's motion prior bridging a break): reanchored instead
-  int64_t reanchored = 0;        // VO on a reference the tracker did not know
-  int64_t vo_timeouts = 0;       // VO silent for vo_timeout_s: wheel odometry took over
-  int64_t gyro_turns = 0;        // wheel increments and VO keyframe steps whose yaw was fused
-                                 // with the gyro's
-  int64_t odometry_refused = 0;  // VO_DELTAs whose odometry pose (odom_*) was malformed: the
-                                 // frame is used, its pose is not
-  int64_t vo_contradicted = 0;   // keyframe steps whose yaw the gyro contradicted (vo_gyro_gate)
-  int64_t heading_waits = 0;     // keyframe steps held for the heading that covers them
-  int64_t heading_waits_expired = 0;  // ... taken before one came (heading_wait_s)
-
-  // Adds another tracker's counts (sessions tracked by successive trackers).
-  void add(const TrackerCounts& o) {
-    vo_applied += o.vo_applied;
-    vo_failed += o.vo_failed;
-    wheel_applied += o.wheel_applied;
-    dropped += o.dropped;
-    implausible += o.implausible;
-    restarts += o.restarts;
-    relinked += o.relinked;
-    relinks_refused += o.relinks_refused;
-    relinks_weaker += o.relinks_weaker;
-    reanchored += o.reanchored;
-    vo_timeouts += o.vo_timeouts;
-    gyro_turns += o.gyro_turns;
-    odometry_refused += o.odometry_refused;
-    vo_contradicted += o.vo_contradicted;
-    heading_waits += o.heading_waits;
-    heading_waits_expired += o.heading_waits_expired;
-  }
 };
 
 class Tracker {
@@ -247,6 +206,15 @@ class Tracker {
     int64_t utime;       // end of the increment (a keyframe's utime in VO mode)
     UncertainPose pose;  // previous commit point _T_ this one
   };
+  // A VO frame's motion from its reference (body frames) and its VO covariance (camera's),
+  // checked: an error names what is wrong (an implausible motion is counted).
+  struct VoMotion {
+    UncertainPose ref_T_body;
+    Mat6 covariance = Mat6::Zero();
+  };
+  Expected<VoMotion> checkedMotion(const vo_delta_t& msg);
+  // A new reference keyframe (VO's first frame, a chain break) at the current estimate.
+  void restartChain(const vo_delta_t& msg, bool ok);
   // Δ is now at msg's frame: its odometry pose (if any) becomes odometryAtDelta().
   void anchorOdometry(const vo_delta_t& msg, const Mat6& own_covariance);
   void commit(int64_t utime, const UncertainPose& increment);

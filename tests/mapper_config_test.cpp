@@ -21,7 +21,6 @@ TEST(MapperConfig, ReadsEveryKindOfSettingAndKeepsTheDefaultsOfTheRest) {
       "mapper.fuse_active_registration = false\n"
       "mapper.heading_bins = 16\n"
       "mapper.overlap_heading_sectors = 0.5\n"
-      "mapper.min_closure_information = 2\n"
       "mapper.closure_partners = 5\n"
       "mapper.saturated_closure_information = 1.5\n"
       "mapper.loop_kernel = cauchy:2\n"
@@ -39,7 +38,6 @@ TEST(MapperConfig, ReadsEveryKindOfSettingAndKeepsTheDefaultsOfTheRest) {
   EXPECT_FALSE(o.fuse_active_registration);
   EXPECT_EQ(o.heading_bins, 16);
   EXPECT_EQ(o.overlap_heading_sectors, 0.5);
-  EXPECT_EQ(o.min_closure_information, 2.0);
   EXPECT_EQ(o.closure_partners, 5);
   EXPECT_EQ(o.saturated_closure_information, 1.5);
   EXPECT_EQ(o.loop_kernel.type, solver::KernelType::kCauchy);

@@ -251,19 +251,26 @@ TEST(MapperLcm, PublishesPoseGraphAndStatsAndStoresTheMapItBuilds) {
   ASSERT_EQ(s.num_components, 7);
   EXPECT_EQ(s.component_names[3], "solver");
   for (double ms : s.component_ms) EXPECT_GE(ms, 0.0);
-  // The named counters (nothing restarted, nothing implausible, no merge in a clean run with
-  // merges off).
-  ASSERT_EQ(s.num_counters, 14);
+  // The named counters: every counter of the mapper's stats, in text()'s order and with its
+  // value, then every count of its tracker (one list each: mapper_stats.h, tracker_counts.h).
   ASSERT_EQ(s.counter_names.size(), s.counter_values.size());
-  EXPECT_EQ(s.counter_names[0], "warm_restarts");
-  EXPECT_EQ(s.counter_names[4], "warm_bridged");
-  EXPECT_EQ(s.counter_names[5], "warm_bridged_by_wheels");
-  EXPECT_EQ(s.counter_names[7], "implausible_floors");
-  EXPECT_EQ(s.counter_names[8], "node_merges");
-  EXPECT_EQ(s.counter_names[11], "vo_contradicted");
-  EXPECT_EQ(s.counter_names[12], "heading_waits");
-  EXPECT_EQ(s.counter_names[13], "heading_waits_expired");
-  for (int64_t v : s.counter_values) EXPECT_EQ(v, 0);
+  ASSERT_EQ(s.num_counters, static_cast<int32_t>(s.counter_names.size()));
+  std::string listed;
+  for (size_t k = 0; k < MapperStats::counters().size(); ++k)
+    listed += s.counter_names[k] + " " + std::to_string(s.counter_values[k]) + "\n";
+  EXPECT_EQ(listed, r.stats.text());
+  ASSERT_EQ(s.counter_names.size(),
+            MapperStats::counters().size() + TrackerCounts::counters().size());
+  for (size_t k = 0; k < TrackerCounts::counters().size(); ++k)
+    EXPECT_EQ(s.counter_names[MapperStats::counters().size() + k],
+              TrackerCounts::counters()[k].name);
+  // Nothing restarted, nothing implausible in a clean run.
+  for (const char* zero :
+       {"warm_restarts", "lost_restarts", "implausible_floors", "implausible_motion"}) {
+    const auto at = std::find(s.counter_names.begin(), s.counter_names.end(), zero);
+    ASSERT_NE(at, s.counter_names.end()) << zero;
+    EXPECT_EQ(s.counter_values[static_cast<size_t>(at - s.counter_names.begin())], 0) << zero;
+  }
 
   // The store holds the final map: every node, and every constraint (some folded).
   EXPECT_EQ(r.stored_nodes, g.num_nodes);

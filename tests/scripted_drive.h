@@ -66,13 +66,6 @@ class ScriptedDrive {
   // Only the next `n` global searches find a place (by appearance); later ones find none,
   // node-mode requests still register (-1: every search finds one).
   void globalSearchesFind(int n) { global_finds_ = n; }
-  // Node-mode requests are answered as registrations to `node` (when it is within reach),
-  // whatever node they name, as loopclose-proc may answer with a node of the same place; -1:
-  // to the node named.
-  void answerAs(int64_t node) { answer_as_ = node; }
-  // Every registration to `node` is off by `error` (in the node's frame), as when its
-  // keyframe's depths are wrong: an error all its registrations share.
-  void skewAnswersOf(int64_t node, const SE3d& error) { skewed_[node] = error; }
   // Steps `dy` metres sideways (along y), heading kept, VO seeing it.
   void sidestep(double dy) { frame(SE3d(pose_.so3(), pose_.translation() + Vec3(0, dy, 0))); }
   // The robot slides `dx` metres along x without VO seeing it (a wheel slip VO missed, a
@@ -217,16 +210,13 @@ class ScriptedDrive {
         if (global && global_finds_ > 0) --global_finds_;
         for (const auto& [id, p] : node_truth_) {
           if (blind_) break;
-          if (r.mode == register_request_t::MODE_NODE &&
-              id != (answer_as_ >= 0 ? answer_as_ : r.target_node_id))
-            continue;
+          if (r.mode == register_request_t::MODE_NODE && id != r.target_node_id) continue;
           const double d = (p.translation() - q.translation()).norm() +
                            std::abs(core::wrapAngle(yawOf(p) - yawOf(q)));
           if (d < best_d) best_d = d, best = id;
         }
         if (best >= 0) {
-          SE3d rel = node_truth_.at(best).inverse() * q;
-          if (auto it = skewed_.find(best); it != skewed_.end()) rel = it->second * rel;
+          const SE3d rel = node_truth_.at(best).inverse() * q;
           res = register_result_t{};
           res.request_id = r.request_id;
           res.keyframe_utime = r.keyframe_utime;
@@ -248,14 +238,12 @@ class ScriptedDrive {
   double registration_variance_;
   double alias_dx_ = 0.0;
   double vo_sigma_ = 1e-3;
-  int64_t answer_as_ = -1;
   bool blind_ = false;
   int global_finds_ = -1;
   SE3d pose_;
   int64_t utime_ = 0;
   std::map<int64_t, SE3d> truth_;
   std::map<int64_t, SE3d> node_truth_;
-  std::map<int64_t, SE3d> skewed_;
 };
 
 inline MapperOptions scriptedOptions() {

@@ -251,7 +251,7 @@ Status ViewerState::onStats(const mapper_stats_t& msg) {
     j.beginArray().value(clip(msg.component_names[k], 40)).value(msg.component_ms[k], 3).endArray();
   j.endArray();
   j.key("counters").beginArray();
-  for (size_t k = 0; k < msg.counter_names.size() && k < 32; ++k)
+  for (size_t k = 0; k < msg.counter_names.size() && k < 64; ++k)
     j.beginArray().value(clip(msg.counter_names[k], 40)).value(msg.counter_values[k]).endArray();
   j.endArray().endObject();
   board_.post(Topic::kStats, j.take());

@@ -30,11 +30,6 @@ struct MapperNode {
   int floor = 0;
   int session = 0;
   std::optional<NodeAttitude> attitude;  // when the node has a roll/pitch factor
-  // Merged into another node (MapperOptions::merge_radius_m): the node it is part of, and its
-  // pose in that node's frame; -1: a node of the graph. Not in the map store: a restored map
-  // holds every node (its constraints are stored as they were made).
-  int64_t merged_into = -1;
-  core::SE3d into_T_node;
 };
 
 enum class ConstraintKind : uint8_t { kOdometry = 0, kLoop = 1 };

@@ -10,6 +10,7 @@
 #include <numbers>
 #include <set>
 #include <sstream>
+#include <utility>
 #include <thread>
 
 #include <evermap/imu_t.hpp>
@@ -659,8 +660,7 @@ std::string SlamRunSummary::text() const {
     << mapper.rejected_map_gate << ", other floor " << mapper.rejected_floor << ", inconsistent "
     << mapper.rejected_inconsistent << ", recovered " << mapper.gate_recoveries
     << ", too far to recover " << mapper.recoveries_too_far << ")\nrelocalizations "
-    << mapper.relocalizations << "\nnode_merges " << mapper.node_merges << " (refused "
-    << mapper.merges_refused << ", undone " << mapper.merges_undone << ")\n";
+    << mapper.relocalizations << "\n";
   if (false_closures >= 0)
     s << "false_closures " << false_closures << " (of " << closures_with_truth << " with truth)\n";
   if (reach_fit) {
@@ -688,14 +688,15 @@ std::string SlamRunSummary::text() const {
       << reach_fit->samples << " requests; beyond its bounds " << reach_fit->beyond << ", "
       << reach_fit->ok_beyond << " registered; its defaults: 0.95, 2, 0.5)\n";
   }
-  s << "vo " << vo.report() << "\ntracker vo_applied " << tracker.vo_applied << ", vo_failed "
-    << tracker.vo_failed << ", wheel_applied " << tracker.wheel_applied << ", restarts "
-    << tracker.restarts << ", relinked " << tracker.relinked << ", relinks_refused "
-    << tracker.relinks_refused << ", relinks_weaker " << tracker.relinks_weaker << ", reanchored "
-    << tracker.reanchored << ", vo_timeouts " << tracker.vo_timeouts << ", gyro_turns "
-    << tracker.gyro_turns << ", vo_contradicted " << tracker.vo_contradicted << ", heading_waits "
-    << tracker.heading_waits << " (expired " << tracker.heading_waits_expired << ")"
-    << ", dropped " << tracker.dropped << "\nloopclose " << loopclose.text() << "\n";
+  s << "vo " << vo.report();
+  // Every counter of the mapper and of its tracker (mapper_stats.h, tracker_counts.h).
+  const char* separator = "\nmapper ";
+  for (const auto& c : mapper::MapperStats::counters())
+    s << std::exchange(separator, ", ") << c.name << " " << mapper.*c.field;
+  separator = "\ntracker ";
+  for (const auto& c : mapper::TrackerCounts::counters())
+    s << std::exchange(separator, ", ") << c.name << " " << tracker.*c.field;
+  s << "\nloopclose " << loopclose.text() << "\n";
   if (evaluation) s << evaluation->text();
   const double n = std::max<double>(1.0, static_cast<double>(vo.frames));
   s << "ms_per_frame decode " << 1e3 * times.decode_s / n << " (reader thread) wait "

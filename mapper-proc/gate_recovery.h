@@ -1,0 +1,57 @@
+#pragma once
+// Placements that wait for a second registration to agree, and when the map gate may be
+// overridden (mapper.h, "gate recovery"). A registration the gate rejects says either that
+// it is a false match or that the map's idea of where the robot is (Δ, or the chain of nodes
+// made since the last closure) went wrong; two rejected registrations that agree through
+// odometry tell the two apart. Repeated texture makes false matches that agree with each
+// other, so a recovery overrides Δ only when odometry bridged a gap since the last
+// registration that confirmed Δ (or none has for recovery_quiet_s), and only by a jump
+// odometry could have drifted since (recovery_slack_m + recovery_drift_fraction × the
+// distance travelled).
+
+#include <cstdint>
+#include <optional>
+
+#include "core/geometry/se3.h"
+#include "mapper-proc/mapper_options.h"
+
+namespace evermap::mapper {
+
+// A registration that places the robot (node_T_keyframe), waiting for a second one that
+// agrees with it through odometry.
+struct PlacementCandidate {
+  int64_t node;
+  core::UncertainPose node_T_keyframe;
+  int64_t keyframe_utime;
+  int verifications = 0;  // node-mode requests sent to check it (Mapper::step)
+};
+
+class GateRecovery {
+ public:
+  explicit GateRecovery(const MapperOptions& o)
+      : quiet_s_(o.recovery_quiet_s),
+        slack_m_(o.recovery_slack_m),
+        drift_fraction_(o.recovery_drift_fraction) {}
+
+  // A registration the step accepted at keyframe_utime, with the gaps odometry had bridged
+  // (`bridges`) and the distance travelled then.
+  void confirmed(int64_t keyframe_utime, int64_t bridges, double odometer_m);
+  // Whether a recovery may override Δ at keyframe_utime, `bridges` bridged by now.
+  bool allowed(int64_t keyframe_utime, int64_t bridges) const;
+  // The largest jump odometry could have made since the last confirmed registration, at
+  // odometer_m travelled.
+  double driftM(double odometer_m) const;
+  // The last registration the gate rejected, waiting for a second one that agrees.
+  std::optional<PlacementCandidate>& rejected() { return rejected_; }
+
+ private:
+  double quiet_s_;
+  double slack_m_;
+  double drift_fraction_;
+  std::optional<PlacementCandidate> rejected_;
+  int64_t last_confirmed_utime_ = -1;  // keyframe of the last accepted registration
+  int64_t bridges_at_confirmation_ = 0;
+  double odometer_at_confirmation_ = 0.0;
+};
+
+}  // namespace evermap::mapper

@@ -1,0 +1,31 @@
+#include "mapper-proc/tracker_counts.h"
+
+namespace evermap::mapper {
+
+// Every field is a count of the list: one added there and not here fails to compile.
+static_assert(sizeof(TrackerCounts) == 16 * sizeof(int64_t));
+
+const std::array<TrackerCounts::Counter, 16>& TrackerCounts::counters() {
+  using T = TrackerCounts;
+  static const std::array<Counter, 16> list{{
+      {"vo_applied", &T::vo_applied},
+      {"vo_failed", &T::vo_failed},
+      {"wheel_applied", &T::wheel_applied},
+      {"vo_restarts", &T::restarts},
+      {"relinked", &T::relinked},
+      {"relinks_refused", &T::relinks_refused},
+      {"relinks_weaker", &T::relinks_weaker},
+      {"reanchored", &T::reanchored},
+      {"vo_timeouts", &T::vo_timeouts},
+      {"gyro_turns", &T::gyro_turns},
+      {"vo_contradicted", &T::vo_contradicted},
+      {"heading_waits", &T::heading_waits},
+      {"heading_waits_expired", &T::heading_waits_expired},
+      {"implausible_motion", &T::implausible},
+      {"odometry_refused", &T::odometry_refused},
+      {"odometry_dropped", &T::dropped},
+  }};
+  return list;
+}
+
+}  // namespace evermap::mapper
