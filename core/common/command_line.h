@@ -81,6 +81,9 @@ class CommandLine {
   }
   void options(OptionList list);
   OptionList& optionList() { return option_list_; }
+  // A rule checked after the options are set (a struct's validate(): the rules between
+  // fields), before --print-config prints them; its error is a bad command line.
+  void check(std::function<Status()> rule) { checks_.push_back(std::move(rule)); }
   // Words that are not options go here (in order); without this, they are errors.
   void positional(std::vector<std::string>* out, std::string metavar, std::string help);
 
@@ -95,7 +98,10 @@ class CommandLine {
   // already printed).
   int parseOrExit(int argc, const char* const* argv);
 
+  // The flags and every option (--help).
   std::string usage() const;
+  // The flags only (after a bad command line).
+  std::string flagUsage() const;
   // The program, its flags and its options as Markdown (docs/options.md).
   std::string markdown() const;
   const std::string& program() const { return program_; }
@@ -137,6 +143,7 @@ class CommandLine {
   std::string config_file_;
   std::vector<std::string> config_sets_;
   bool print_config_ = false;
+  std::vector<std::function<Status()>> checks_;
 };
 
 }  // namespace evermap
