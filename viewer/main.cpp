@@ -149,6 +149,19 @@ struct Settings {
   }
 };
 
+// The page's files and three.js (without it the page has no 3-D view).
+void findPage(const std::string& web_dir, evermap::viewer::WebServerOptions* web) {
+  web->web_dir = findWebDir(web_dir);
+  web->three_dir = web->web_dir / "node_modules" / "three";
+  if (!fs::is_regular_file(web->three_dir / "build" / "three.module.js")) {
+    std::fprintf(stderr,
+                 "evermap-viewer: three.js is not installed in %s (run scripts/setup.sh): "
+                 "the page has no 3-D view\n",
+                 web->three_dir.c_str());
+    web->three_dir.clear();
+  }
+}
+
 // The command line; -1 to run, else the exit status.
 int parse(int argc, char** argv, Settings* s) {
   using namespace evermap;
@@ -182,25 +195,13 @@ int parse(int argc, char** argv, Settings* s) {
   cli.flag("--quiet", &s->quiet, "no summary on exit");
   cli.options(s, "viewer.");
   cli.check([s]() -> Status {
+    findPage(s->web_dir, &s->web);
     if (!s->store_file.empty() && !s->log_file.empty())
       return makeError("--store and --log: one or the other");
     if (Status v = s->web.validate(); !v) return v;
     return s->listen.validate();
   });
   return cli.parseOrExit(argc, argv);
-}
-
-// The page's files and three.js (without it the page has no 3-D view).
-void findPage(const std::string& web_dir, evermap::viewer::WebServerOptions* web) {
-  web->web_dir = findWebDir(web_dir);
-  web->three_dir = web->web_dir / "node_modules" / "three";
-  if (!fs::is_regular_file(web->three_dir / "build" / "three.module.js")) {
-    std::fprintf(stderr,
-                 "evermap-viewer: three.js is not installed in %s (run scripts/setup.sh): "
-                 "the page has no 3-D view\n",
-                 web->three_dir.c_str());
-    web->three_dir.clear();
-  }
 }
 
 // Offline: the stored map, once; the server shows it until stopped. 0, or 1 on a bad store.
@@ -297,7 +298,6 @@ int main(int argc, char** argv) {
   if (const int code = parse(argc, argv, &s); code >= 0) return code;
   // Signals blocked before any thread starts, then polled (the server thread inherits it).
   StopSignals stop;
-  findPage(s.web_dir, &s.web);
   viewer::Board board;
   auto server = viewer::WebServer::start(board, s.web);
   if (!server) {
