@@ -116,8 +116,8 @@ struct AttitudeFilterOptions {
     o.add("gyroscope_mode", &gyroscope_mode, "",
           "-1 auto, 0 accelerometer only, 1 use the gyroscope")
         .in(-1, 1);
-    o.add("accel_only_tilt_rate_density", &accel_only_tilt_rate_density,
-          "rad/s/sqrt(Hz)", "tilt random walk in accelerometer-only mode")
+    o.add("accel_only_tilt_rate_density", &accel_only_tilt_rate_density, "rad/s/sqrt(Hz)",
+          "tilt random walk in accelerometer-only mode")
         .positive();
     o.add("gyro_bias_walk_density", &gyro_bias_walk_density, "rad/s^2/sqrt(Hz)",
           "gyro bias random walk")
