@@ -1,5 +1,5 @@
 #pragma once
-// Command-line options of evermap-solver (see usage() and docs/solver.md).
+// Command-line options of evermap-solver (--help, docs/solver.md).
 
 #include <string>
 
@@ -42,8 +42,8 @@ struct ToolOptions {
   bool verbose = false;
 };
 
-std::string usage();
-// Errors name the offending argument.
-Expected<ToolOptions> parseArguments(int argc, char** argv);
+// The command line into `*o`: -1 to run, else the exit status (0 after --help, 2 after a bad
+// command line; the error, naming the option, and the usage already printed).
+int parseArguments(int argc, char** argv, ToolOptions* o);
 
 }  // namespace evermap::solver_tool
