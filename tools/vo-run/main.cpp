@@ -9,27 +9,25 @@
 #include "core/common/command_line.h"
 #include "tools/vo-run/offline_runner.h"
 
-int main(int argc, char** argv) {
+namespace {
+
+// The command line of a run, beside the runner's options.
+struct VoArgs {
   evermap::vo::OfflineOptions options;
   std::string stats, output_log;
   std::vector<std::string> positional;
   bool no_descriptors = false, verbose = false, no_motion_prior = false;
-  evermap::CommandLine cli(
-      "evermap-vo-run",
-      "Visual odometry over an LCM log, in one process; writes the trajectory (TUM).");
-  cli.positional(&positional, "LOG TRAJECTORY.tum",
-                 "the LCM log with STEREO_CALIB and STEREO (evermap-euroc2lcm output) or RGBD "
-                 "(evermap-tum2lcm); the TUM file of the tracked frames");
-  cli.flag("--body", &options.body_frame, "body (IMU) frame poses instead of the left camera's");
-  cli.value("--stats", &stats, "FILE.csv", "per-frame statistics");
-  cli.value("--output-log", &output_log, "FILE",
-            "the VO_DELTA and KEYFRAME messages, as an LCM log");
-  cli.value("--max-frames", &options.max_frames, "N", "stop after N stereo frames").min(1);
-  cli.value("--keyframe-inliers", &options.pipeline.odometry.keyframe_inlier_threshold, "N",
+  double disparity_offset_px = std::nan("");
+};
+
+// The odometry's settings that the command line overrides.
+void declareOdometryOptions(evermap::CommandLine& cli, VoArgs* a) {
+  auto& options = a->options;
+  auto& odo = options.pipeline.odometry;
+  cli.value("--keyframe-inliers", &odo.keyframe_inlier_threshold, "N",
             "new reference below N inliers (default 150; a keyframe only after "
             "--keyframe-distance/--keyframe-angle)")
       .min(0);
-  auto& odo = options.pipeline.odometry;
   cli.value("--keyframe-distance", &odo.keyframe_min_translation_m, "M",
             "a new reference is a map keyframe after M metres (or --keyframe-angle)")
       .min(0);
@@ -62,13 +60,11 @@ int main(int argc, char** argv) {
   cli.value("--depth-noise", &options.pipeline.rgbd.depth_noise_per_m2, "K",
             "RGB-D: depth noise sigma_z = K z^2 (default 1.425e-3, Khoshelham & Elberink 2012)")
       .positive();
-  double disparity_offset_px = std::nan("");
-  cli.value("--disparity-offset", &disparity_offset_px, "PX",
+  cli.value("--disparity-offset", &a->disparity_offset_px, "PX",
             "stereo: replaces the calibration's disparity offset (right cx - left cx of a "
-            "rectified STEREO_CALIB, "
-            "added to every measured disparity; evermap-stereo-check --self-offset estimates it; "
-            "default: the log's, "
-            "which evermap-kitti2lcm --disparity-offset writes)")
+            "rectified STEREO_CALIB, added to every measured disparity; evermap-stereo-check "
+            "--self-offset estimates it; default: the log's, which evermap-kitti2lcm "
+            "--disparity-offset writes)")
       .min(-1000)
       .max(1000);
   cli.value("--clique-threshold", &odo.registration.clique.threshold_m, "M",
@@ -77,42 +73,66 @@ int main(int argc, char** argv) {
   cli.value("--search-radius", &odo.matching.search_radius_px, "PX",
             "window half-size at a feature's level")
       .positive();
-  cli.flag("--no-motion-prior", &no_motion_prior,
+}
+
+// -1 to run, else the exit status (usage and errors already printed).
+int parseCommandLine(int argc, char** argv, VoArgs* a) {
+  evermap::CommandLine cli(
+      "evermap-vo-run",
+      "Visual odometry over an LCM log, in one process; writes the trajectory (TUM).");
+  cli.positional(&a->positional, "LOG TRAJECTORY.tum",
+                 "the LCM log with STEREO_CALIB and STEREO (evermap-euroc2lcm output) or RGBD "
+                 "(evermap-tum2lcm); the TUM file of the tracked frames");
+  cli.flag("--body", &a->options.body_frame, "body (IMU) frame poses instead of the left camera's");
+  cli.value("--stats", &a->stats, "FILE.csv", "per-frame statistics");
+  cli.value("--output-log", &a->output_log, "FILE",
+            "the VO_DELTA and KEYFRAME messages, as an LCM log");
+  cli.value("--max-frames", &a->options.max_frames, "N", "stop after N stereo frames").min(1);
+  declareOdometryOptions(cli, a);
+  cli.flag("--no-motion-prior", &a->no_motion_prior,
            "predict the rotation only (FOVIS), not a constant velocity");
-  cli.flag("--no-descriptors", &no_descriptors, "no ORB descriptors at keyframes");
-  cli.flag("--verbose", &verbose,
+  cli.flag("--no-descriptors", &a->no_descriptors, "no ORB descriptors at keyframes");
+  cli.flag("--verbose", &a->verbose,
            "one line per frame that failed, was bridged or retried, with its reason");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
-  if (!std::isnan(disparity_offset_px)) options.disparity_offset_px = disparity_offset_px;
-  if (no_descriptors) options.pipeline.odometry.keyframe_descriptors = false;
-  if (no_motion_prior) options.pipeline.odometry.constant_velocity = false;
-  options.output_log = output_log;
-  if (positional.size() != 2) {
+  if (!std::isnan(a->disparity_offset_px)) a->options.disparity_offset_px = a->disparity_offset_px;
+  if (a->no_descriptors) a->options.pipeline.odometry.keyframe_descriptors = false;
+  if (a->no_motion_prior) a->options.pipeline.odometry.constant_velocity = false;
+  a->options.output_log = a->output_log;
+  if (a->positional.size() != 2) {
     std::fprintf(stderr,
                  "evermap-vo-run: expected LOG and TRAJECTORY.tum, got %zu words (--help)\n",
-                 positional.size());
+                 a->positional.size());
     return 2;
   }
-  const auto summary = evermap::vo::runOffline(positional[0], options);
+  return -1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  VoArgs a;
+  if (const int code = parseCommandLine(argc, argv, &a); code >= 0) return code;
+  const auto summary = evermap::vo::runOffline(a.positional[0], a.options);
   if (!summary) {
     std::fprintf(stderr, "evermap-vo-run: %s\n", summary.error().message.c_str());
     return 1;
   }
-  if (verbose) std::printf("%s", summary->verboseReport().c_str());
+  if (a.verbose) std::printf("%s", summary->verboseReport().c_str());
   if (summary->trajectory.empty()) {
     std::fprintf(stderr, "evermap-vo-run: no frame was tracked\n%s\n", summary->report().c_str());
     return 1;
   }
-  if (auto s = evermap::eval::writeTum(summary->trajectory, positional[1]); !s) {
+  if (auto s = evermap::eval::writeTum(summary->trajectory, a.positional[1]); !s) {
     std::fprintf(stderr, "evermap-vo-run: %s\n", s.error().message.c_str());
     return 1;
   }
-  if (!stats.empty()) {
-    if (auto s = evermap::vo::writeFrameStatsCsv(summary->frames, stats); !s) {
+  if (!a.stats.empty()) {
+    if (auto s = evermap::vo::writeFrameStatsCsv(summary->frames, a.stats); !s) {
       std::fprintf(stderr, "evermap-vo-run: %s\n", s.error().message.c_str());
       return 1;
     }
   }
-  std::printf("%s\nwrote %s\n", summary->report().c_str(), positional[1].c_str());
+  std::printf("%s\nwrote %s\n", summary->report().c_str(), a.positional[1].c_str());
   return 0;
 }
