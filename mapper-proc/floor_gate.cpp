@@ -6,14 +6,6 @@
 
 namespace evermap::mapper {
 
-Status FloorGateOptions::validate() const {
-  if (!(max_height_m > 0.0 && std::isfinite(max_height_m)))
-    return Error("floor_gate.max_height_m: must be a finite number > 0");
-  if (!(max_vertical_speed_m_s > 0.0 && std::isfinite(max_vertical_speed_m_s)))
-    return Error("floor_gate.max_vertical_speed_m_s: must be a finite number > 0");
-  return Ok{};
-}
-
 std::string FloorGate::check(const floor_t& msg) const {
   std::ostringstream why;
   if (!(std::abs(msg.height_m) <= o_.max_height_m)) {

@@ -21,6 +21,7 @@
 #include <evermap/floor_t.hpp>
 
 #include "core/common/expected.h"
+#include "core/common/option_fields.h"
 
 namespace evermap::mapper {
 
@@ -34,7 +35,13 @@ struct FloorGateOptions {
   // 74 m ride of elevator-android-skyscraper at ~4 m/s, the simulator's rides at 1-2 m/s.
   double max_vertical_speed_m_s = 25.0;
 
-  Status validate() const;
+  void declareOptions(OptionList& o) {
+    o.add("max_height_m", &max_height_m, "m", "a FLOOR height beyond ± this is refused").positive();
+    o.add("max_vertical_speed_m_s", &max_vertical_speed_m_s, "m/s",
+          "a FLOOR height changing faster than this is refused")
+        .positive();
+  }
+  Status validate() const { return checkOptionRanges(*this, "floor_gate."); }
 };
 
 class FloorGate {

@@ -91,14 +91,14 @@ TEST(CommandLine, ANumberOutsideItsRangeIsRefusedNamingTheOptionAndTheBound) {
     const char* expected;  // nullptr: accepted
   };
   const std::vector<Case> cases = {
-      {Args{"--queue", "-5"}, "bad --queue: -5 is below the minimum 1"},
-      {Args{"--queue", "1001"}, "bad --queue: 1001 is above the maximum 1000"},
+      {Args{"--queue", "-5"}, "bad --queue: -5 is outside [1, 1000]"},
+      {Args{"--queue", "1001"}, "bad --queue: 1001 is outside [1, 1000]"},
       {Args{"--queue", "99999999999999999999"},
        "bad --queue: \"99999999999999999999\" is not an integer in range"},
-      {Args{"--rate", "0"}, "bad --rate: 0 is not above 0"},
+      {Args{"--rate", "0"}, "bad --rate: 0 is outside > 0"},
       {Args{"--rate", "-1e-300"}, "bad --rate"},
       {Args{"--rate", "inf"}, "bad --rate: \"inf\" is not a finite number"},
-      {Args{"--fraction", "1.0000001"}, "bad --fraction: 1.0000001 is above the maximum 1"},
+      {Args{"--fraction", "1.0000001"}, "bad --fraction: 1.0000001 is outside [0, 1]"},
       {Args{"--queue", "1", "--queue", "1000", "--rate", "1e-9", "--fraction", "0"}, nullptr},
   };
   for (const Case& c : cases) {

@@ -1,5 +1,6 @@
 #include "core/common/command_line.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -40,34 +41,9 @@ void CommandLine::value(std::string name, std::string* out, std::string metavar,
   };
 }
 
-CommandLine::Range& CommandLine::Range::min(double lo) {
-  limits_->lo = lo;
-  limits_->lo_open = false;
-  return *this;
-}
-CommandLine::Range& CommandLine::Range::max(double hi) {
-  limits_->hi = hi;
-  return *this;
-}
-CommandLine::Range& CommandLine::Range::positive() {
-  limits_->lo = 0.0;
-  limits_->lo_open = true;
-  return *this;
-}
-
-Status CommandLine::Range::check(double v) const {
-  const Limits& l = *limits_;
-  const std::string text = numberText(v, 10);
-  if (l.lo_open && !(v > l.lo)) return makeError(text, " is not above ", numberText(l.lo, 10));
-  if (!l.lo_open && v < l.lo)
-    return makeError(text, " is below the minimum ", numberText(l.lo, 10));
-  if (v > l.hi) return makeError(text, " is above the maximum ", numberText(l.hi, 10));
-  return Ok{};
-}
-
 CommandLine::Range CommandLine::value(std::string name, double* out, std::string metavar,
                                       std::string help, bool required) {
-  auto limits = std::make_shared<Range::Limits>();
+  auto limits = std::make_shared<OptionRange::Limits>();
   add(std::move(name), std::move(metavar), std::move(help), required).set =
       [out, limits](const std::string& v) -> Status {
     char* end = nullptr;
@@ -109,11 +85,38 @@ void CommandLine::positional(std::vector<std::string>* out, std::string metavar,
   positional_help_ = std::move(help);
 }
 
+bool CommandLine::declared(const std::string& name) const {
+  return std::any_of(options_.begin(), options_.end(),
+                     [&name](const Option& o) { return o.name == name; });
+}
+
+void CommandLine::options(OptionList list) {
+  option_list_.append(std::move(list));
+  if (declared("--config") || declared("--set") || declared("--print-config")) return;
+  options_own_config_ = true;
+  value("--config", &config_file_, "FILE", "read options from FILE (key = value lines)");
+  repeated("--set", &config_sets_, "KEY=VALUE", "set one option (after --config; repeatable)");
+  flag("--print-config", &print_config_, "print the options in effect and exit");
+}
+
+Status CommandLine::applyOptions() {
+  if (!options_own_config_) return Ok{};
+  OptionList& list = option_list_;
+  if (!config_file_.empty()) {
+    if (Status s = list.loadFile(config_file_); !s) return s;
+  }
+  for (const std::string& assignment : config_sets_) {
+    if (Status s = list.assign(assignment); !s) return makeError("bad --set: ", s.error().message);
+  }
+  return Ok{};
+}
+
 Expected<CommandLine::Outcome> CommandLine::parse(int argc, const char* const* argv) {
   for (Option& o : options_) o.seen = false;
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
     if (arg == "--help" || arg == "-h") return Outcome::kHelp;
+    if (arg == "--help-markdown") return Outcome::kHelpMarkdown;
     if (arg.size() < 2 || arg[0] != '-') {
       if (!positional_) return makeError("unexpected argument \"", arg, "\"");
       positional_->push_back(arg);
@@ -143,6 +146,8 @@ Expected<CommandLine::Outcome> CommandLine::parse(int argc, const char* const* a
     if (Status s = option->set(value); !s) return makeError("bad ", arg, ": ", s.error().message);
     option->seen = true;
   }
+  if (Status s = applyOptions(); !s) return Error{s.error()};
+  if (print_config_) return Outcome::kPrintConfig;
   for (const Option& o : options_) {
     if (o.required && !o.seen) return makeError(o.name, " is required");
   }
@@ -156,9 +161,18 @@ int CommandLine::parseOrExit(int argc, const char* const* argv) {
                  usage().c_str());
     return 2;
   }
-  if (*outcome == Outcome::kHelp) {
-    std::fputs(usage().c_str(), stdout);
-    return 0;
+  switch (*outcome) {
+    case Outcome::kHelp:
+      std::fputs(usage().c_str(), stdout);
+      return 0;
+    case Outcome::kHelpMarkdown:
+      std::fputs(markdown().c_str(), stdout);
+      return 0;
+    case Outcome::kPrintConfig:
+      std::fputs(option_list_.print().c_str(), stdout);
+      return 0;
+    case Outcome::kRun:
+      break;
   }
   return -1;
 }
@@ -183,6 +197,25 @@ std::string CommandLine::usage() const {
   for (const Option& o : options_) {
     line(o.name + (o.metavar.empty() ? "" : " " + o.metavar), o.help);
   }
+  if (!option_list_.fields().empty()) {
+    text += "options (--set KEY=VALUE or KEY = VALUE in --config FILE; default, unit, allowed):\n";
+    text += option_list_.help();
+  }
+  return text;
+}
+
+std::string CommandLine::markdown() const {
+  std::string text = "## " + program_ + "\n\n" + summary_ + "\n\n| flag | meaning |\n|---|---|\n";
+  if (positional_) text += "| `" + positional_metavar_ + "` | " + positional_help_ + " |\n";
+  for (const Option& o : options_) {
+    const std::string left = o.name + (o.metavar.empty() ? "" : " " + o.metavar);
+    text += "| `" + left + "` | " + o.help + (o.required ? " (required)" : "") + " |\n";
+  }
+  if (!option_list_.fields().empty()) {
+    text += '\n';
+    text += option_list_.markdown();
+  }
+  text += '\n';
   return text;
 }
 

@@ -23,34 +23,18 @@
 #include <vector>
 
 #include "core/common/expected.h"
+#include "core/common/option_fields.h"
 
 namespace evermap {
 
 class CommandLine {
  public:
-  // The range of a numeric option, checked when the option is parsed: a value outside it is
-  // a bad command line naming the option and the range ("bad --queue: -5 is below 1"). Every
-  // numeric value() returns one, [[nodiscard]], so an option declared without its range
-  // warns at compile time: say .min(), .max(), .positive() or, where every number means
-  // something (a seed, an angle), .any().
-  class Range {
-   public:
-    Range& min(double lo);  // value >= lo
-    Range& max(double hi);  // value <= hi
-    Range& positive();      // value > 0
-    Range& any() { return *this; }
-    // Ok, or why `v` is outside.
-    Status check(double v) const;
-
-   private:
-    friend class CommandLine;
-    struct Limits {
-      double lo = -1e308, hi = 1e308;
-      bool lo_open = false;
-    };
-    explicit Range(std::shared_ptr<Limits> limits) : limits_(std::move(limits)) {}
-    std::shared_ptr<Limits> limits_;
-  };
+  // The range of a numeric option (core/common/option_fields.h), checked when the option is
+  // parsed: a value outside it is a bad command line naming the option and the range ("bad
+  // --queue: -5 is outside [1, 1000]"). Every numeric value() returns one, [[nodiscard]], so
+  // an option declared without its range warns at compile time: say .min(), .max(),
+  // .positive(), .in() or, where every number means something (a seed, an angle), .any().
+  using Range = OptionRange;
 
   CommandLine(std::string program, std::string summary);
 
@@ -65,7 +49,7 @@ class CommandLine {
       [[nodiscard("give the option its range: .min(), .max(), .positive() or .any()")]] Range
       value(std::string name, Int* out, std::string metavar, std::string help,
             bool required = false) {
-    auto limits = std::make_shared<Range::Limits>();
+    auto limits = std::make_shared<OptionRange::Limits>();
     add(std::move(name), std::move(metavar), std::move(help), required).set =
         [out, limits](const std::string& v) -> Status {
       Int n{};
@@ -84,18 +68,36 @@ class CommandLine {
                 std::string help);
   // An option without a value; sets `*out` to true.
   void flag(std::string name, bool* out, std::string help);
+  // The declared options of an options struct (core/common/option_fields.h), keys prefixed
+  // with `prefix`: the program takes --config FILE (`key = value` lines, read first),
+  // --set KEY=VALUE (repeatable, applied after the file, in order) and --print-config (prints
+  // the values in effect as a config file and exits 0), and --help lists every option with
+  // its default, unit, allowed values and doc. May be called for several structs; a program
+  // that declared --config or --set itself (a file shared with other settings) keeps its own
+  // and loads optionList() itself.
+  template <typename Options>
+  void options(Options* o, const std::string& prefix = "") {
+    options(OptionList::of(o, prefix));
+  }
+  void options(OptionList list);
+  OptionList& optionList() { return option_list_; }
   // Words that are not options go here (in order); without this, they are errors.
   void positional(std::vector<std::string>* out, std::string metavar, std::string help);
 
   // Parses argv[1..]. Errors are one line naming the option.
-  enum class Outcome { kRun, kHelp };
+  // kPrintConfig: --print-config was given (the options are set). kHelpMarkdown:
+  // --help-markdown, the usage as a section of docs/options.md.
+  enum class Outcome { kRun, kHelp, kPrintConfig, kHelpMarkdown };
   Expected<Outcome> parse(int argc, const char* const* argv);
 
   // parse() with the conventions above: returns -1 to run, or the exit status to return
-  // from main (0 after --help, 2 after an error, both already printed).
+  // from main (0 after --help, --help-markdown or --print-config, 2 after an error, all
+  // already printed).
   int parseOrExit(int argc, const char* const* argv);
 
   std::string usage() const;
+  // The program, its flags and its options as Markdown (docs/options.md).
+  std::string markdown() const;
   const std::string& program() const { return program_; }
 
  private:
@@ -120,6 +122,9 @@ class CommandLine {
     return Ok{};
   }
   Option& add(std::string name, std::string metavar, std::string help, bool required);
+  bool declared(const std::string& name) const;
+  // --config, then the --set list, into option_list_.
+  Status applyOptions();
 
   std::string program_;
   std::string summary_;
@@ -127,6 +132,11 @@ class CommandLine {
   std::vector<std::string>* positional_ = nullptr;
   std::string positional_metavar_;
   std::string positional_help_;
+  OptionList option_list_;
+  bool options_own_config_ = false;  // --config/--set/--print-config come from options()
+  std::string config_file_;
+  std::vector<std::string> config_sets_;
+  bool print_config_ = false;
 };
 
 }  // namespace evermap

@@ -100,13 +100,13 @@ refused 2 "^evermap-imu-elevator-run: .*unknown.cfg:1: unknown option \"publish_
   fail "config/elevator-proc.cfg no longer loads"
 
 # 3. Numbers out of range.
-refused 2 "^evermap-vo-run: bad --max-frames: -5 is below the minimum 1" -- \
+refused 2 "^evermap-vo-run: bad --max-frames: -5 is outside >= 1" -- \
   "$bin/evermap-vo-run" --max-frames -5 "$tmp/imu.lcmlog" "$tmp/out/vo.tum"
-refused 2 "^evermap-mapper-proc: bad --queue: -5 is below the minimum 1" -- \
+refused 2 "^evermap-mapper-proc: bad --queue: -5 is outside \[1, 1000000\]" -- \
   "$bin/evermap-mapper-proc" --queue -5
-refused 2 "^evermap-map-render: bad --width: 0 is below the minimum 16" -- \
+refused 2 "^evermap-map-render: bad --width: 0 is outside \[16, 20000\]" -- \
   "$bin/evermap-map-render" --store "$tmp/none.db" --out "$tmp/out/m.png" --width 0
-refused 2 "^evermap-eval: bad --max-dt: 0 is not above 0" -- \
+refused 2 "^evermap-eval: bad --max-dt: 0 is outside > 0" -- \
   "$bin/evermap-eval" --gt "$tmp/a.tum" --est "$tmp/b.tum" --max-dt 0
 refused 2 "^evermap-imu-elevator-run: bad --rate: \"inf\" is not a finite number" -- \
   "$bin/evermap-imu-elevator-run" --synthetic 1 --rate inf
