@@ -21,6 +21,7 @@
 #include <evermap/deputy_output_t.hpp>
 
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "core/messages/channels.h"
 #include "core/messages/inbox.h"
 #include "tools/deputy/deputy_client.h"
@@ -29,30 +30,35 @@ namespace {
 
 using namespace evermap::deputy;
 
+// The client's settings (--help lists them, --print-config prints them).
+struct CtlOptions {
+  DeputyClientOptions client;
+  void declareOptions(evermap::OptionList& o) {
+    o.add("timeout_s", &client.timeout_s, "s",
+          "how long to wait for a status or for each acknowledgement")
+        .positive();
+    o.add("settle_s", &client.settle_s, "s",
+          "after the first status, listen this long for other hosts")
+        .positive();
+  }
+};
+
 // The command line: the options, then COMMAND and its words.
 struct CtlArgs {
   std::string lcm_url;
-  DeputyClientOptions options;
+  CtlOptions tool;
+  DeputyClientOptions& options = tool.client;
   std::vector<std::string> rest;
   bool tsv = false;
 };
 
-evermap::CommandLine commandLine(CtlArgs* a) {
-  evermap::CommandLine cli(
-      "evermap-deputy-ctl",
-      "Operates evermap deputies over LCM (docs/deputy.md). COMMAND is one of\n"
-      "  status [--tsv]                   the latest status of every deputy\n"
-      "  start|stop|restart TARGET...     TARGET: NAME | cmd NAME | group NAME | everything\n"
-      "  wait running|stopped TARGET...   until every target is in that state\n"
-      "  output [NAME...]                 print DEPUTY_OUTPUT lines as they arrive (Ctrl-C ends)");
+void declareCommandLine(evermap::CommandLine& cli, CtlArgs* a) {
   cli.value("--lcm-url", &a->lcm_url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.value("--host", &a->options.host, "NAME", "only the deputy of this host (default: all)");
-  cli.value("--timeout-s", &a->options.timeout_s, "S",
-            "how long to wait for an answer or an acknowledgement")
-      .positive();
+  cli.options(&a->tool);
+  cli.alias("--timeout-s", "timeout_s", "S");
   cli.flag("--tsv", &a->tsv, "status: tab-separated values instead of a table");
   cli.positional(&a->rest, "COMMAND ...", "the command and its words (above)");
-  return cli;
 }
 
 std::vector<CtlTarget> parseTargets(const std::vector<std::string>& args) {
@@ -135,7 +141,14 @@ int sendOrder(DeputyClient& client, const std::string& command,
 
 int main(int argc, char** argv) {
   CtlArgs a;
-  evermap::CommandLine cli = commandLine(&a);
+  evermap::CommandLine cli(
+      "evermap-deputy-ctl",
+      "Operates evermap deputies over LCM (docs/deputy.md). COMMAND is one of\n"
+      "  status [--tsv]                   the latest status of every deputy\n"
+      "  start|stop|restart TARGET...     TARGET: NAME | cmd NAME | group NAME | everything\n"
+      "  wait running|stopped TARGET...   until every target is in that state\n"
+      "  output [NAME...]                 print DEPUTY_OUTPUT lines as they arrive (Ctrl-C ends)");
+  declareCommandLine(cli, &a);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   auto usage = [&cli]() {
     std::fputs(cli.usage().c_str(), stderr);

@@ -19,6 +19,7 @@
 #include <string>
 
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "tools/deputy/config.h"
 #include "tools/deputy/deputy_node.h"
 #include "tools/deputy/script_runner.h"
@@ -50,13 +51,27 @@ std::string machineName() {
   return buf;
 }
 
+// The supervision's settings (--help lists them, --print-config prints them).
+struct DeputyOptions {
+  BackoffOptions backoff;
+  double max_log_mb = 256.0;  // SupervisorOptions::max_log_bytes
+
+  void declareOptions(evermap::OptionList& o) {
+    o.add("backoff_initial_ms", &backoff.initial_delay_ms, "ms", "first restart delay").min(0);
+    o.add("backoff_max_ms", &backoff.max_delay_ms, "ms", "longest restart delay").min(0);
+    o.add("stable_after_s", &backoff.stable_after_s, "s", "running this long resets the back-off")
+        .min(0);
+    o.add("max_log_mb", &max_log_mb, "MiB", "rotate a process log beyond this size").positive();
+  }
+};
+
 // The command line of a deputy.
 struct DeputyArgs {
   std::string config_path, log_dir, host, script, lcm_url;
   bool check = false, start_all = false, exit_after_script = false, quiet = false;
   bool no_output = false;
-  BackoffOptions backoff;
-  double max_log_mb = -1.0;  // default of SupervisorOptions
+  DeputyOptions options;
+  const BackoffOptions& backoff = options.backoff;
 };
 
 // -1 to run, else the exit status (usage and errors already printed).
@@ -73,14 +88,11 @@ int parseCommandLine(int argc, char** argv, DeputyArgs* a) {
   cli.value("--lcm-url", &a->lcm_url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.flag("--no-output", &a->no_output, "do not publish output lines on LCM");
   cli.flag("--quiet", &a->quiet, "print less");
-  cli.value("--backoff-initial-ms", &a->backoff.initial_delay_ms, "MS", "first restart delay")
-      .min(0);
-  cli.value("--backoff-max-ms", &a->backoff.max_delay_ms, "MS", "longest restart delay").min(0);
-  cli.value("--stable-after-s", &a->backoff.stable_after_s, "S",
-            "running this long resets the back-off")
-      .min(0);
-  cli.value("--max-log-mb", &a->max_log_mb, "MB", "rotate a process log beyond this size")
-      .positive();
+  cli.options(&a->options);
+  cli.alias("--backoff-initial-ms", "backoff_initial_ms", "MS");
+  cli.alias("--backoff-max-ms", "backoff_max_ms", "MS");
+  cli.alias("--stable-after-s", "stable_after_s", "S");
+  cli.alias("--max-log-mb", "max_log_mb", "MB");
   cli.flag("--check", &a->check, "parse CONFIG, print it and exit");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (positional.size() == 1) a->config_path = positional.front();
@@ -164,8 +176,7 @@ int runDeputy(const Config& config, const DeputyArgs& a, int signal_fd) {
   const auto commands = config.commandsForHost(a.host);
   SupervisorOptions supervisor_options;
   supervisor_options.log_dir = a.log_dir;
-  if (a.max_log_mb >= 0)
-    supervisor_options.max_log_bytes = static_cast<int64_t>(a.max_log_mb * (1 << 20));
+  supervisor_options.max_log_bytes = static_cast<int64_t>(a.options.max_log_mb * (1 << 20));
   supervisor_options.backoff = a.backoff;
   auto supervisor = Supervisor::create(commands, supervisor_options);
   if (!supervisor) {

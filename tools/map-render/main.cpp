@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "mapper-proc/map_store.h"
 #include "tools/eval/alignment.h"
 #include "tools/eval/association.h"
@@ -24,9 +25,23 @@ int fail(const std::string& message) {
   return 1;
 }
 
+// The figure's settings (--help lists them, --print-config prints them).
+struct RenderOptions {
+  eval::MapFigureOptions figure;
+
+  void declareOptions(OptionList& o) {
+    o.add("azimuth_deg", &figure.azimuth_deg, "deg", "turn of the horizontal plane").in(-360, 360);
+    o.add("floor_spacing", &figure.floor_spacing, "",
+          "floor spacing as a fraction of the map's extent")
+        .in(0, 10);
+    o.add("width_px", &figure.width_px, "px", "image width").in(16, 20000);
+    o.add("height_px", &figure.height_px, "px", "image height").in(16, 20000);
+  }
+};
+
 struct RenderArgs {
   std::string store_file, out_file, gt_file, title;
-  eval::MapFigureOptions options;
+  RenderOptions options;
 };
 
 // -1 to run, else the exit status (usage and errors already printed).
@@ -38,15 +53,11 @@ int parseCommandLine(int argc, char** argv, RenderArgs* a) {
   cli.value("--gt", &a->gt_file, "GT.tum",
             "ground truth (TUM) drawn under the map, aligned by time");
   cli.value("--title", &a->title, "TEXT", "the figure's title");
-  cli.value("--azimuth", &a->options.azimuth_deg, "DEG", "turn of the horizontal plane (-30)")
-      .min(-360)
-      .max(360);
-  cli.value("--floor-spacing", &a->options.floor_spacing, "F",
-            "floor spacing as a fraction of the map's extent (0.35)")
-      .min(0)
-      .max(10);
-  cli.value("--width", &a->options.width_px, "PX", "image width (1200)").min(16).max(20000);
-  cli.value("--height", &a->options.height_px, "PX", "image height (1000)").min(16).max(20000);
+  cli.options(&a->options);
+  cli.alias("--azimuth", "azimuth_deg", "DEG");
+  cli.alias("--floor-spacing", "floor_spacing", "F");
+  cli.alias("--width", "width_px", "PX");
+  cli.alias("--height", "height_px", "PX");
   return cli.parseOrExit(argc, argv);
 }
 
@@ -120,7 +131,7 @@ int main(int argc, char** argv) {
   if (!a.gt_file.empty()) {
     if (Status s = addReference(a.gt_file, &*f); !s) return fail(s.error().message);
   }
-  eval::MapFigureOptions& options = a.options;
+  eval::MapFigureOptions& options = a.options.figure;
   const eval::MapFigure& figure = f->figure;
   options.title = a.title.empty() ? "map " + a.store_file : a.title;
   char subtitle[160];

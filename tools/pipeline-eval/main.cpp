@@ -10,6 +10,7 @@
 
 #include "core/common/atomic_write.h"
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "tools/eval/trajectory.h"
 #include "tools/pipeline-eval/map_evaluation.h"
 
@@ -17,10 +18,19 @@ namespace {
 
 using namespace evermap;
 
+// The evaluation's one setting (--help lists it, --print-config prints it).
+struct PipelineEvalOptions {
+  double max_ate_m = 0.0;
+  void declareOptions(OptionList& o) {
+    o.add("max_ate_m", &max_ate_m, "m", "exit 1 when the node ATE rmse exceeds this (0: no limit)")
+        .min(0);
+  }
+};
+
 struct EvalArgs {
   std::string run, log, store, json, poses_tum;
   std::vector<std::string> truth_logs;
-  double max_ate_m = 0.0;
+  PipelineEvalOptions options;
 };
 
 int fail(const Error& e) {
@@ -41,9 +51,8 @@ int parseCommandLine(int argc, char** argv, EvalArgs* a) {
   cli.value("--log", &a->log, "LOG",
             "an LCM log recorded from the pipeline (last MAP_GRAPH, POSE, MAPPER_STATS)");
   cli.value("--store", &a->store, "MAP.db", "a map store instead of a log");
-  cli.value("--max-ate", &a->max_ate_m, "M",
-            "exit 1 when the node ATE rmse exceeds M metres (0: no limit)")
-      .min(0);
+  cli.options(&a->options);
+  cli.alias("--max-ate", "max_ate_m", "M");
   cli.value("--json", &a->json, "OUT.json", "also write the figures as JSON");
   cli.value("--poses-tum", &a->poses_tum, "OUT.tum",
             "write the live POSE trajectory of --log as TUM (for evermap-eval and its plot)");
@@ -122,9 +131,10 @@ int main(int argc, char** argv) {
   if (!a.poses_tum.empty()) {
     if (Status s = writePoses(a, *recorded); !s) return fail(s.error());
   }
-  if (a.max_ate_m > 0.0 && !(e->ate_rmse_m <= a.max_ate_m)) {  // NaN (no node ATE) fails too
+  if (a.options.max_ate_m > 0.0 &&
+      !(e->ate_rmse_m <= a.options.max_ate_m)) {  // NaN (no node ATE) fails too
     std::fprintf(stderr, "evermap-pipeline-eval: node ATE rmse %.3f m exceeds %.3f m\n",
-                 e->ate_rmse_m, a.max_ate_m);
+                 e->ate_rmse_m, a.options.max_ate_m);
     return 1;
   }
   return 0;

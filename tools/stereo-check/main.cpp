@@ -24,6 +24,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "core/features/image_pyramid.h"
 #include "core/features/orb_descriptor.h"
 #include "core/features/patch_alignment.h"
@@ -154,16 +155,42 @@ PlaneFit fitDisparityPlane(const std::vector<cv::Point3d>& uvd, double tol_px, u
   return best;
 }
 
+// The checks' settings (--help lists them, --print-config prints them).
 struct CheckOptions {
-  std::string sequence, left, right, poses;
   int step = 5;
   double height_m = 1.65, offset_px = 0.0, road_margin_px = 30.0, road_half_width = 0.25;
   double ahead_min_m = 6.0, ahead_max_m = 20.0;
   bool self_offset = false;
+
+  void declareOptions(evermap::OptionList& o) {
+    o.add("step", &step, "", "every N-th frame").min(1);
+    o.add("camera_height_m", &height_m, "m", "the rig's known height above the road (KITTI 1.65)")
+        .positive();
+    o.add("disparity_offset_px", &offset_px, "px",
+          "hypothesis: true disparity = measured + this (the plane fit and height under it)")
+        .in(-20, 20);
+    o.add("road_margin_px", &road_margin_px, "px", "road pixels start this far below cy").min(0);
+    o.add("road_half_width", &road_half_width, "",
+          "road pixels within this fraction of the width around cx")
+        .positive()
+        .max(0.5);
+    o.add("ahead_min_m", &ahead_min_m, "m", "ground-truth positions used from this far ahead")
+        .min(0);
+    o.add("ahead_max_m", &ahead_max_m, "m", "... up to this far").positive();
+    o.add("self_offset", &self_offset,
+          "estimate the disparity offset from consecutive frames alone (registration, no ground "
+          "truth; slower)");
+  }
 };
 
-// The command line into `o`: -1 to run, else main's exit status.
-int parseCommandLine(int argc, char** argv, CheckOptions* o) {
+// The command line: the sequence and its folders beside the settings.
+struct CheckArgs {
+  std::string sequence, left, right, poses;
+  CheckOptions options;
+};
+
+// The command line into `a`: -1 to run, else main's exit status.
+int parseCommandLine(int argc, char** argv, CheckArgs* a) {
   std::vector<std::string> positional;
   evermap::CommandLine cli(
       "evermap-stereo-check",
@@ -172,37 +199,24 @@ int parseCommandLine(int argc, char** argv, CheckOptions* o) {
       "offset.");
   cli.positional(&positional, "SEQUENCE",
                  "folder with image_0/image_1 (or image_l/image_r), calib.txt, optional poses.txt");
-  cli.value("--left", &o->left, "DIR", "left image folder (relative to SEQUENCE)");
-  cli.value("--right", &o->right, "DIR", "right image folder");
-  cli.value("--poses", &o->poses, "FILE", "ground truth (default SEQUENCE/poses.txt when present)");
-  cli.value("--step", &o->step, "N", "every N-th frame (default 5)").min(1);
-  cli.value("--camera-height", &o->height_m, "M",
-            "the rig's known height above the road (KITTI 1.65)")
-      .positive();
-  cli.value("--disparity-offset", &o->offset_px, "PX",
-            "hypothesis: true disparity = measured + PX (the plane fit and height under it)")
-      .min(-20)
-      .max(20);
-  cli.value("--road-margin", &o->road_margin_px, "PX",
-            "road pixels start this far below cy (default 30)")
-      .min(0);
-  cli.value("--road-half-width", &o->road_half_width, "FRACTION",
-            "road pixels within this fraction of the width around cx (default 0.25)")
-      .positive()
-      .max(0.5);
-  cli.value("--ahead-min", &o->ahead_min_m, "M",
-            "ground-truth positions used from this far ahead (default 6)")
-      .min(0);
-  cli.value("--ahead-max", &o->ahead_max_m, "M", "... up to this far (default 20)").positive();
-  cli.flag("--self-offset", &o->self_offset,
-           "estimate the disparity offset from consecutive frames alone (registration, no ground "
-           "truth; slower)");
+  cli.value("--left", &a->left, "DIR", "left image folder (relative to SEQUENCE)");
+  cli.value("--right", &a->right, "DIR", "right image folder");
+  cli.value("--poses", &a->poses, "FILE", "ground truth (default SEQUENCE/poses.txt when present)");
+  cli.options(&a->options);
+  cli.alias("--step", "step", "N");
+  cli.alias("--camera-height", "camera_height_m", "M");
+  cli.alias("--disparity-offset", "disparity_offset_px", "PX");
+  cli.alias("--road-margin", "road_margin_px", "PX");
+  cli.alias("--road-half-width", "road_half_width", "FRACTION");
+  cli.alias("--ahead-min", "ahead_min_m", "M");
+  cli.alias("--ahead-max", "ahead_max_m", "M");
+  cli.alias("--self-offset", "self_offset", "");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (positional.size() != 1) {
     std::fprintf(stderr, "evermap-stereo-check: expected SEQUENCE (--help)\n");
     return 2;
   }
-  o->sequence = positional[0];
+  a->sequence = positional[0];
   return -1;
 }
 
@@ -441,14 +455,15 @@ int selfCalibrate(const evermap::datasets::KittiSequence& seq, const Rig& rig, d
 }  // namespace
 
 int main(int argc, char** argv) {
-  CheckOptions o;
-  if (const int code = parseCommandLine(argc, argv, &o); code >= 0) return code;
+  CheckArgs a;
+  if (const int code = parseCommandLine(argc, argv, &a); code >= 0) return code;
+  const CheckOptions& o = a.options;
   evermap::datasets::KittiSequenceOptions seq_options;
   seq_options.rate_hz = 10.0;
-  seq_options.left_folder = o.left;
-  seq_options.right_folder = o.right;
-  seq_options.poses = o.poses;
-  const auto seq = evermap::datasets::readKittiSequence(o.sequence, seq_options);
+  seq_options.left_folder = a.left;
+  seq_options.right_folder = a.right;
+  seq_options.poses = a.poses;
+  const auto seq = evermap::datasets::readKittiSequence(a.sequence, seq_options);
   if (!seq) {
     std::fprintf(stderr, "evermap-stereo-check: %s\n", seq.error().message.c_str());
     return 1;
