@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "tools/datasets/to_lcm.h"
 
 namespace evermap::datasets {
@@ -21,20 +22,52 @@ struct ConvertArgs {
   TumToLcmOptions tum;
 };
 
+// The conversion's settings of one data set (--help lists them, --print-config prints them).
+template <Dataset kDataset>
+struct ConvertOptions {
+  ConvertArgs* a = nullptr;  // where the values live
+  ConvertArgs defaults;      // a default-constructed struct points at its own
+  ConvertOptions() : a(&defaults) {}
+  explicit ConvertOptions(ConvertArgs* args) : a(args) {}
+
+  void declareOptions(OptionList& o) {
+    o.add("raw", &a->raw,
+          kDataset == Dataset::kTumRgbd ? "store raw gray8 and raw uint16 depth instead of PNG"
+                                        : "store images as raw gray8 instead of PNG");
+    if (kDataset == Dataset::kTumRgbd) {
+      o.add("camera", &a->tum.calibration, "",
+            "freiburg1, freiburg2, freiburg3 or ros-default (TUM's published intrinsics); empty: "
+            "from the folder name (freiburgN or frN), else ros-default");
+      o.add("max_difference_s", &a->tum.sequence.max_difference_s, "s",
+            "color/depth association limit (TUM associate.py: 0.02)")
+          .positive();
+    }
+    if (kDataset == Dataset::kKitti) {
+      o.add("disparity_offset_px", &a->kitti.disparity_offset_px, "px",
+            "the images' disparity offset against calib.txt, written into STEREO_CALIB as the "
+            "right camera's cx = left cx + this (kitti-stereo-clip: 0.8, from evermap-stereo-check "
+            "--self-offset)")
+          .in(-1000, 1000);
+    }
+  }
+};
+
 // The options only one data set has.
 void declareDatasetOptions(Dataset dataset, CommandLine& cli, ConvertArgs* a) {
   if (dataset == Dataset::kTumRgbd) {
-    cli.value("--camera", &a->tum.calibration, "NAME",
-              "freiburg1, freiburg2, freiburg3 or ros-default (TUM's published intrinsics); "
-              "default from the folder name (freiburgN or frN), else ros-default");
-    cli.value("--max-difference", &a->tum.sequence.max_difference_s, "S",
-              "color/depth association limit, seconds (TUM associate.py: 0.02)")
-        .positive();
+    ConvertOptions<Dataset::kTumRgbd> view(a);  // the list points into *a
+    cli.options(&view);
+    cli.alias("--camera", "camera", "NAME");
+    cli.alias("--max-difference", "max_difference_s", "S");
   } else if (dataset == Dataset::kEuroc) {
+    ConvertOptions<Dataset::kEuroc> view(a);  // the list points into *a
+    cli.options(&view);
     cli.value("--gt", &a->ground_truth, "FILE",
               "ground truth (EuRoC csv or TUM txt) when mav0/state_groundtruth_estimate0/data.csv "
               "is absent");
   } else {
+    ConvertOptions<Dataset::kKitti> view(a);  // the list points into *a
+    cli.options(&view);
     cli.value("--poses", &a->ground_truth, "FILE",
               "ground-truth poses (KITTI format); default SEQUENCE_FOLDER/poses.txt when present");
     cli.value("--rate", &a->kitti.sequence.rate_hz, "HZ",
@@ -43,13 +76,9 @@ void declareDatasetOptions(Dataset dataset, CommandLine& cli, ConvertArgs* a) {
         .max(10000);
     cli.value("--left", &a->left, "DIR", "left images (default image_0/, else image_l/)");
     cli.value("--right", &a->right, "DIR", "right images (default image_1/, else image_r/)");
-    cli.value("--disparity-offset", &a->kitti.disparity_offset_px, "PX",
-              "the images' disparity offset against calib.txt, written into STEREO_CALIB as the "
-              "right camera's cx = left cx + PX (kitti-stereo-clip: 0.8, from evermap-stereo-check "
-              "--self-offset; default 0)")
-        .min(-1000)
-        .max(1000);
+    cli.alias("--disparity-offset", "disparity_offset_px", "PX");
   }
+  cli.alias("--raw", "raw", "");
 }
 
 // -1 to run, else the exit status (usage and errors already printed).
@@ -68,9 +97,6 @@ int parseCommandLine(Dataset dataset, const std::string& program, int argc, char
               "accelerometer.txt when present), and the log to write"
             : "a KITTI odometry sequence (image_0/ or image_l/, image_1/ or image_r/, calib.txt, "
               "times.txt or --rate), and the log to write");
-  cli.flag("--raw", &a->raw,
-           tum ? "store raw gray8 and raw uint16 depth instead of PNG"
-               : "store images as raw gray8 instead of PNG");
   declareDatasetOptions(dataset, cli, a);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (a->positional.size() != 2) {

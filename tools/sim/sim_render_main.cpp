@@ -79,6 +79,9 @@ int parseArgs(int argc, char** argv, Args* a) {
   cli.value("--every", &a->every_s, "S", "--snapshots: one every S seconds (10)").positive();
   cli.value("--facts", &a->facts, "F.csv", "per-frame facts (failure in view) as CSV");
   cli.flag("--print-config", &a->print, "print every setting and exit");
+  // The settings a --config file and --set take, listed in --help (read by the simulator).
+  evermap::sim::ImageSimOptions listed;
+  cli.options(&listed);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   const int modes = (a->out.empty() ? 0 : 1) + (a->publish ? 1 : 0) + (a->print ? 1 : 0) +
                     (a->snapshots.empty() ? 0 : 1);

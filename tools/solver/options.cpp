@@ -1,106 +1,123 @@
 #include "options.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <vector>
 
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 
 namespace evermap::solver_tool {
 
 namespace {
 
-// An option whose text is parsed by `parse` (one of core/solver's parseX) into `*out`.
-template <typename T, typename Parse>
-std::function<Status(const std::string&)> parsedInto(T* out, Parse parse) {
-  return [out, parse](const std::string& v) -> Status {
-    auto r = parse(v);
-    if (!r.ok()) return r.error();
-    *out = *r;
-    return Ok{};
-  };
-}
-
-Expected<Init> parseInit(const std::string& v) {
-  if (v == "auto") return Init::kAuto;
-  if (v == "odometry") return Init::kOdometry;
-  if (v == "chordal") return Init::kChordal;
-  if (v == "file") return Init::kFile;
-  return makeError("'", v, "': expected auto, odometry, chordal or file");
+// The robust kernel as parseRobustKernel reads it back ("dcs:20"; "gnc" with its default).
+std::string kernelText(const solver::RobustKernel& k) {
+  static const char* const kNames[] = {"none", "pseudo-huber", "cauchy", "dcs", "gnc"};
+  const std::string name = kNames[static_cast<int>(k.type)];
+  if (!k.active() || k.parameter <= 0.0) return name;
+  return name + ":" + option_text::ofDouble(k.parameter);
 }
 
 // The graph, its objective and the initial values.
-void declareProblem(CommandLine* cli, ToolOptions* o) {
-  cli->value("--format", parsedInto(&o->format, solver::parseGraphFormat), "auto|g2o|toro|isam",
-             "input format (default auto: by content)");
-  cli->value("--objective", parsedInto(&o->objective, solver::parseObjective), "native|sesync",
-             "native: the format's own residual (iSAM's or g2o's chi2); sesync: SE-Sync's chordal "
-             "cost f (reaches f*)");
-  cli->value("--indefinite-information",
-             parsedInto(&o->indefinite, solver::parseIndefiniteInformation),
-             "refuse|blocks|nearest",
-             "an information matrix that is not positive definite: refuse (default; names the "
-             "edge), blocks (translation and rotation blocks without their coupling) or nearest "
-             "(nearest positive definite, eigenvalues >= 1e-6 lambda_max); ignored by --objective "
-             "sesync, which uses only the blocks");
-  cli->value("--init", parsedInto(&o->init, parseInit), "auto|odometry|chordal|file",
-             "batch initial values (auto: chordal for sesync, else the file's vertices if present, "
-             "else odometry)");
-  cli->value("--outliers", &o->outliers, "N", "add N false loop closures (seed --seed)")
-      .min(0)
-      .max(2147483647);
-  cli->value("--seed", &o->seed, "S", "seed of --outliers (1)").any();
-  cli->value("--outlier-mode", parsedInto(&o->outlier_mode, solver::parseOutlierMode),
-             "random|local|group",
-             "Vertigo's protocols: random pose pairs, pairs at most 20 poses apart, or groups of "
-             "10 mutually consistent false closures between two stretches (default random)");
+void declareProblem(OptionList& o, ToolOptions* t) {
+  using solver::GraphFormat;
+  o.choice("format", &t->format,
+           {{"auto", GraphFormat::kAuto},
+            {"g2o", GraphFormat::kG2o},
+            {"toro", GraphFormat::kToro},
+            {"isam", GraphFormat::kIsam}},
+           "input format (auto: by content)");
+  o.choice("objective", &t->objective,
+           {{"native", solver::Objective::kNative}, {"sesync", solver::Objective::kSeSync}},
+           "native: the format's own residual (iSAM's or g2o's chi2); sesync: SE-Sync's chordal "
+           "cost f (reaches f*)");
+  using solver::IndefiniteInformation;
+  o.choice("indefinite_information", &t->indefinite,
+           {{"refuse", IndefiniteInformation::kRefuse},
+            {"blocks", IndefiniteInformation::kBlocks},
+            {"nearest", IndefiniteInformation::kNearest}},
+           "an information matrix that is not positive definite: refuse (names the edge), blocks "
+           "(translation and rotation blocks without their coupling) or nearest (nearest positive "
+           "definite, eigenvalues >= 1e-6 lambda_max); ignored by objective sesync");
+  o.choice("init", &t->init,
+           {{"auto", Init::kAuto},
+            {"odometry", Init::kOdometry},
+            {"chordal", Init::kChordal},
+            {"file", Init::kFile}},
+           "batch initial values (auto: chordal for sesync, else the file's vertices if present, "
+           "else odometry)");
+  o.add("outliers", &t->outliers, "", "add this many false loop closures").in(0, 2147483647);
+  o.add("seed", &t->seed, "", "seed of the false loop closures").any();
+  using solver::OutlierMode;
+  o.choice("outlier_mode", &t->outlier_mode,
+           {{"random", OutlierMode::kRandom},
+            {"local", OutlierMode::kLocal},
+            {"group", OutlierMode::kGroup}},
+           "Vertigo's protocols: random pose pairs, pairs at most 20 poses apart, or groups of 10 "
+           "mutually consistent false closures between two stretches");
 }
 
 // How it is solved.
-void declareSolver(CommandLine* cli, ToolOptions* o) {
-  cli->flag("--batch", &o->batch, "batch optimisation (default: incremental in file order)");
-  cli->value("--method", parsedInto(&o->method, solver::parseMethod), "gn|lm|dogleg",
-             "Gauss-Newton (default), Levenberg-Marquardt (batch only), Powell's dog leg "
-             "(incremental: RISE)");
-  cli->value("--robust", parsedInto(&o->kernel, solver::parseRobustKernel),
-             "none|pseudo-huber[:b]|cauchy[:b]|dcs[:phi]|gnc[:c2]",
-             "kernel on loop closures (gnc: graduated non-convexity to truncated least squares, "
-             "c2 default chi2(dim, 0.99); batch only)");
-  cli->flag("--robust-odometry", &o->robust_odometry, "apply the kernel to odometry edges too");
-  cli->value("--batch-every", &o->batch_every, "N",
-             "incremental: batch relinearisation every N steps (100)")
+void declareSolver(OptionList& o, ToolOptions* t) {
+  o.add("batch", &t->batch, "batch optimisation (else incremental in file order)");
+  using solver::Method;
+  o.choice("method", &t->method,
+           {{"gn", Method::kGaussNewton},
+            {"lm", Method::kLevenbergMarquardt},
+            {"dogleg", Method::kDogLeg}},
+           "Gauss-Newton, Levenberg-Marquardt (batch only), Powell's dog leg (incremental: RISE)");
+  o.custom<solver::RobustKernel>(
+      "robust", &t->kernel, solver::parseRobustKernel, kernelText,
+      "none | pseudo-huber[:b] | cauchy[:b] | dcs[:phi] | gnc[:c2]",
+      "kernel on loop closures (gnc: graduated non-convexity to truncated least squares, c2 "
+      "default chi2(dim, 0.99); batch only)");
+  o.add("robust_odometry", &t->robust_odometry, "apply the kernel to odometry edges too");
+  o.add("batch_every", &t->batch_every, "", "incremental: batch relinearisation every N steps")
+      .in(0, 2147483647);
+  o.add("wildfire", &t->wildfire, "", "incremental: partial back-substitution threshold").min(0);
+  o.add("max_iterations", &t->max_iterations, "",
+        "budget of batch iterations: batch mode, and the final phase of an incremental run (1: "
+        "iSAM's single final batch step)")
+      .in(1, 2147483647);
+  o.add("tolerance", &t->relative_tolerance, "",
+        "converged when a step lowers the cost by less than this times the cost")
       .min(0);
-  cli->value("--wildfire", &o->wildfire, "T",
-             "incremental: partial back-substitution threshold (1e-9)")
+  o.add("gradient_tolerance", &t->gradient_tolerance, "", "converged when max |gradient| <= this")
       .min(0);
-  cli->value("--max-iterations", &o->max_iterations, "N",
-             "budget of batch iterations (1000): batch mode, and the final phase of an incremental "
-             "run, which iterates batch steps from the incremental estimate to convergence "
-             "(--max-iterations 1: iSAM's single final batch step)")
-      .min(1);
-  cli->value("--tolerance", &o->relative_tolerance, "R",
-             "converged when a step lowers the cost by less than R*cost (1e-10)")
-      .min(0);
-  cli->value("--gradient-tolerance", &o->gradient_tolerance, "G",
-             "converged when max |gradient| <= G (1e-10)")
-      .min(0);
-  static bool final_converge = false;  // kept for old command lines: now the default
-  cli->flag("--final-converge", &final_converge,
-            "(no effect: iterating to convergence is the "
-            "default)");
-  cli->flag("--verbose", &o->verbose, "one line per batch iteration");
+  o.add("stats_chi2", &t->stats_chi2,
+        "add the normalised chi2 to each statistics line (O(m) a step)");
+  o.add("verbose", &t->verbose, "one line per batch iteration");
 }
 
-// What it writes and prints besides the costs.
-void declareOutputs(CommandLine* cli, ToolOptions* o) {
+// The files it reads and writes besides the graph.
+void declareFiles(CommandLine* cli, ToolOptions* o) {
   cli->value("--ground-truth", &o->ground_truth, "FILE",
              "noise-free graph (iSAM groundtruth/ or g2o with vertices): print the absolute "
              "trajectory error");
   cli->value("--output", &o->output, "FILE.g2o", "write the final estimate (and the edges) as g2o");
   cli->value("--stats", &o->stats, "FILE", "per-step statistics (incremental)");
-  cli->flag("--stats-chi2", &o->stats_chi2,
-            "add the normalised chi2 to each statistics line (O(m) a step)");
   cli->value("--marginals", &o->marginals, "K1,K2,...",
              "print the joint marginal covariance of these poses");
+  static bool final_converge = false;  // kept for old command lines: now the default
+  cli->flag("--final-converge", &final_converge,
+            "(no effect: iterating to convergence is the default)");
+}
+
+// Every setting keeps its flag: --batch-every N is --set batch_every=N.
+void declareAliases(CommandLine* cli) {
+  for (const char* key : {"format", "objective", "indefinite_information", "init", "outliers",
+                          "seed", "outlier_mode", "method", "robust", "batch_every", "wildfire",
+                          "max_iterations", "tolerance", "gradient_tolerance"}) {
+    std::string flag = std::string("--") + key;
+    std::replace(flag.begin(), flag.end(), '_', '-');
+    cli->alias(flag, key, "VALUE");
+  }
+  for (const char* key : {"batch", "robust_odometry", "stats_chi2", "verbose"}) {
+    std::string flag = std::string("--") + key;
+    std::replace(flag.begin(), flag.end(), '_', '-');
+    cli->alias(flag, key, "");
+  }
 }
 
 // What the options leave to check together.
@@ -121,6 +138,11 @@ Status checkCombination(const std::vector<std::string>& inputs, const ToolOption
 
 }  // namespace
 
+void ToolOptions::declareOptions(OptionList& o) {
+  declareProblem(o, this);
+  declareSolver(o, this);
+}
+
 int parseArguments(int argc, char** argv, ToolOptions* o) {
   CommandLine cli(
       "evermap-solver",
@@ -129,9 +151,9 @@ int parseArguments(int argc, char** argv, ToolOptions* o) {
       "last, says which test held or that none did), 1 failure, 2 bad arguments.");
   std::vector<std::string> inputs;
   cli.positional(&inputs, "FILE", "the pose graph");
-  declareProblem(&cli, o);
-  declareSolver(&cli, o);
-  declareOutputs(&cli, o);
+  declareFiles(&cli, o);
+  cli.options(o);
+  declareAliases(&cli);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (Status s = checkCombination(inputs, *o); !s) {
     std::fprintf(stderr, "evermap-solver: %s\n%s", s.error().message.c_str(), cli.usage().c_str());

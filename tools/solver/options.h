@@ -10,6 +10,10 @@
 #include "core/solver/outliers.h"
 #include "core/solver/robust_kernel.h"
 
+namespace evermap {
+class OptionList;
+}
+
 namespace evermap::solver_tool {
 
 enum class Init { kAuto, kOdometry, kChordal, kFile };
@@ -40,6 +44,9 @@ struct ToolOptions {
   bool stats_chi2 = false;
   std::string marginals;  // comma-separated keys
   bool verbose = false;
+
+  // The settings (not the files): key, default, unit, allowed values, doc (options.cpp).
+  void declareOptions(OptionList& o);
 };
 
 // The command line into `*o`: -1 to run, else the exit status (0 after --help, 2 after a bad
