@@ -7,50 +7,29 @@
 
 namespace evermap::elevator {
 
+// Single-field ranges are declared (elevator_tracker.h); these are the rules between fields.
 Status ElevatorTrackerOptions::validate() const {
   if (Status st = pulse.validate(); !st.ok()) return st;
   if (Status st = floors.validate(); !st.ok()) return st;
   if (Status st = gate.validate(); !st.ok()) return st;
-  if (!(gravity_window_s > 0 && gravity_min_calm_s > 0 && gravity_min_calm_s <= gravity_window_s)) {
-    return makeError("need 0 < gravity_min_calm_s <= gravity_window_s");
+  if (Status st = checkOptionRanges(*this); !st.ok()) return st;
+  if (!(gravity_min_calm_s <= gravity_window_s)) {
+    return makeError("need gravity_min_calm_s <= gravity_window_s");
   }
-  if (!(initial_gravity_m_s2 > 0)) return makeError("initial_gravity_m_s2 must be > 0");
-  if (!(gravity_provisional_calm_s > 0 && gravity_provisional_calm_s <= gravity_min_calm_s)) {
-    return makeError("need 0 < gravity_provisional_calm_s <= gravity_min_calm_s");
-  }
-  if (!(gravity_nominal_m_s2 > 0 && max_gravity_error_m_s2 > 0)) {
-    return makeError("gravity_nominal_m_s2 and max_gravity_error_m_s2 must be > 0");
-  }
-  if (!(max_cruise_velocity_spread_fraction > 0 && max_cruise_velocity_spread_m_s >= 0 &&
-        max_reverse_velocity_fraction >= 0 && min_profile_fill >= 0 && min_profile_fill <= 1)) {
-    return makeError(
-        "ride sanity limits: need spread fraction > 0, spread, reverse >= 0, "
-        "0 <= min_profile_fill <= 1");
+  if (!(gravity_provisional_calm_s <= gravity_min_calm_s)) {
+    return makeError("need gravity_provisional_calm_s <= gravity_min_calm_s");
   }
   if (!(motion_window_s >= 2 * pulse.bin_s)) {
     return makeError("motion_window_s must be at least two bins");
   }
-  if (!(calm_std_m_s2 > 0 && walking_std_m_s2 > calm_std_m_s2)) {
-    return makeError("need 0 < calm_std_m_s2 < walking_std_m_s2");
+  if (!(walking_std_m_s2 > calm_std_m_s2)) {
+    return makeError("need calm_std_m_s2 < walking_std_m_s2");
   }
-  if (!(lead_in_s >= 0)) return makeError("lead_in_s must be >= 0");
-  if (!(lead_in_max_busy_fraction >= 0 && lead_in_max_busy_fraction <= 1)) {
-    return makeError("lead_in_max_busy_fraction must be in [0, 1]");
-  }
-  if (!(max_walking_in_ride_s > 0)) return makeError("max_walking_in_ride_s must be > 0");
-  if (!(min_ride_speed_m_s > 0)) return makeError("min_ride_speed_m_s must be > 0");
-  if (!(max_pulse_ratio >= 1)) return makeError("max_pulse_ratio must be >= 1");
-  if (!(max_ride_s > 0)) return makeError("max_ride_s must be > 0");
-  if (!(min_displacement_m >= 0)) return makeError("min_displacement_m must be >= 0");
-  if (!(max_bias_m_s2 > 0)) return makeError("max_bias_m_s2 must be > 0");
-  if (!(scale_sigma_fraction >= 0)) return makeError("scale_sigma_fraction must be >= 0");
-  if (!(max_fill_s >= 0 && max_fill_s <= max_gap_in_ride_s)) {
-    return makeError("need 0 <= max_fill_s <= max_gap_in_ride_s");
+  if (!(max_fill_s <= max_gap_in_ride_s)) {
+    return makeError("need max_fill_s <= max_gap_in_ride_s");
   }
   if (!(max_gap_in_ride_s >= pulse.bin_s))
     return makeError("max_gap_in_ride_s must be >= pulse_bin_s");
-  if (!(max_gravity_freeze_s >= 0)) return makeError("max_gravity_freeze_s must be >= 0");
-  if (!(max_attitude_age_s > 0)) return makeError("max_attitude_age_s must be > 0");
   return Ok{};
 }
 

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "core/common/expected.h"
+#include "core/common/option_fields.h"
 #include "elevator-proc/floor_table.h"
 #include "elevator-proc/pulse_filter.h"
 #include "imu-proc/attitude_filter.h"
@@ -111,54 +112,134 @@ struct ElevatorTrackerOptions {
   double max_attitude_age_s = 0.5;
 
   Status validate() const;
-  template <typename F>
-  void forEachField(F&& f) {  // see core/common/option_fields.h
-    f("pulse_bin_s", pulse.bin_s, "s");
-    f("pulse_plateau_min_width_s", pulse.plateau_min_width_s, "s");
-    f("pulse_min_amplitude_m_s2", pulse.min_amplitude_m_s2, "m/s^2");
-    f("pulse_max_amplitude_m_s2", pulse.max_amplitude_m_s2, "m/s^2");
-    f("pulse_max_residual_m_s2", pulse.max_residual_m_s2, "m/s^2");
-    f("pulse_max_residual_ratio", pulse.max_residual_ratio, "");
-    f("pulse_max_residual_loose_m_s2", pulse.max_residual_loose_m_s2, "m/s^2");
-    f("pulse_max_residual_ratio_loose", pulse.max_residual_ratio_loose, "");
-    f("pulse_min_snr_loose", pulse.min_snr_loose, "");
-    f("pulse_noise_floor_m_s2", pulse.noise_floor_m_s2, "m/s^2");
-    f("pulse_min_snr", pulse.min_snr, "");
-    f("pulse_flank_s", pulse.flank_s, "s");
-    f("pulse_max_missing_fraction", pulse.max_missing_fraction, "");
-    f("floor_match_threshold_m", floors.match_threshold_m, "m");
-    f("floor_refine_weight", floors.refine_weight, "");
-    f("gravity_window_s", gravity_window_s, "s");
-    f("gravity_min_calm_s", gravity_min_calm_s, "s");
-    f("gravity_provisional_calm_s", gravity_provisional_calm_s, "s");
-    f("gravity_nominal_m_s2", gravity_nominal_m_s2, "m/s^2");
-    f("max_gravity_error_m_s2", max_gravity_error_m_s2, "m/s^2");
-    f("max_gravity_freeze_s", max_gravity_freeze_s, "s");
-    f("initial_gravity_m_s2", initial_gravity_m_s2, "m/s^2");
-    f("motion_window_s", motion_window_s, "s");
-    f("calm_std_m_s2", calm_std_m_s2, "m/s^2");
-    f("lead_in_s", lead_in_s, "s");
-    f("lead_in_max_std_m_s2", lead_in_max_std_m_s2, "m/s^2");
-    f("max_step_fraction", max_step_fraction, "of the pulse amplitude");
-    f("lead_in_max_busy_fraction", lead_in_max_busy_fraction, "");
-    f("walking_std_m_s2", walking_std_m_s2, "m/s^2");
-    f("max_walking_in_ride_s", max_walking_in_ride_s, "s");
-    f("min_ride_speed_m_s", min_ride_speed_m_s, "m/s");
-    f("max_pulse_ratio", max_pulse_ratio, "");
-    f("max_loose_closure", max_loose_closure, "");
-    f("max_ride_s", max_ride_s, "s");
-    f("min_displacement_m", min_displacement_m, "m");
-    f("max_bias_m_s2", max_bias_m_s2, "m/s^2");
-    f("max_cruise_velocity_spread_fraction", max_cruise_velocity_spread_fraction,
-      "of the peak speed");
-    f("max_cruise_velocity_spread_m_s", max_cruise_velocity_spread_m_s, "m/s");
-    f("max_reverse_velocity_fraction", max_reverse_velocity_fraction, "of the peak speed");
-    f("min_profile_fill", min_profile_fill, "of peak speed x duration");
-    f("scale_sigma_fraction", scale_sigma_fraction, "");
-    f("max_fill_s", max_fill_s, "s");
-    f("max_gap_in_ride_s", max_gap_in_ride_s, "s");
-    f("max_attitude_age_s", max_attitude_age_s, "s");
-    gate.forEachField(f);
+  // Every setting once: key, unit, range, doc (core/common/option_fields.h).
+  void declareOptions(OptionList& o) {
+    declarePulseOptions(o);
+    declareGravityOptions(o);
+    declareRideOptions(o);
+    o.nest("gate_", &gate);
+  }
+  void declarePulseOptions(OptionList& o) {
+    o.add("pulse_bin_s", &pulse.bin_s, "s", "grid the vertical acceleration is averaged onto")
+        .above(0)
+        .max(0.5);
+    o.add("pulse_plateau_min_width_s", &pulse.plateau_min_width_s, "s",
+          "plateau templates only from this width on")
+        .any();
+    o.add("pulse_min_amplitude_m_s2", &pulse.min_amplitude_m_s2, "m/s^2",
+          "a smaller pulse is not an elevator")
+        .positive();
+    o.add("pulse_max_amplitude_m_s2", &pulse.max_amplitude_m_s2, "m/s^2",
+          "a larger pulse is not a cabin (above the minimum)")
+        .positive();
+    o.add("pulse_max_residual_m_s2", &pulse.max_residual_m_s2, "m/s^2",
+          "rms misfit of the pulse shape at most")
+        .positive();
+    o.add("pulse_max_residual_ratio", &pulse.max_residual_ratio, "",
+          "... and relative to the amplitude")
+        .positive();
+    o.add("pulse_max_residual_loose_m_s2", &pulse.max_residual_loose_m_s2, "m/s^2",
+          "misfit of an expected (stop) pulse at most")
+        .positive();
+    o.add("pulse_max_residual_ratio_loose", &pulse.max_residual_ratio_loose, "",
+          "... and relative to the amplitude")
+        .positive();
+    o.add("pulse_min_snr_loose", &pulse.min_snr_loose, "",
+          "signal-to-noise of an expected pulse at least")
+        .positive();
+    o.add("pulse_noise_floor_m_s2", &pulse.noise_floor_m_s2, "m/s^2", "noise assumed at least this")
+        .positive();
+    o.add("pulse_min_snr", &pulse.min_snr, "", "signal-to-noise of a pulse at least").positive();
+    o.add("pulse_flank_s", &pulse.flank_s, "s",
+          "flank of zeros before the template; 0: no baseline fit")
+        .nonNegative();
+    o.add("pulse_max_missing_fraction", &pulse.max_missing_fraction, "",
+          "windows missing more bins are not evaluated")
+        .min(0)
+        .below(1);
+    o.add("floor_match_threshold_m", &floors.match_threshold_m, "m",
+          "a ride ends on a known floor within this")
+        .positive();
+    o.add("floor_refine_weight", &floors.refine_weight, "",
+          "weight of a new arrival in a floor's height")
+        .in(0, 1);
+  }
+  void declareGravityOptions(OptionList& o) {
+    o.add("gravity_window_s", &gravity_window_s, "s",
+          "gravity is the median of the calm cells over this")
+        .positive();
+    o.add("gravity_min_calm_s", &gravity_min_calm_s, "s",
+          "... of at least this much calm (at most the window)")
+        .positive();
+    o.add("gravity_provisional_calm_s", &gravity_provisional_calm_s, "s",
+          "until then, of at least this much")
+        .positive();
+    o.add("gravity_nominal_m_s2", &gravity_nominal_m_s2, "m/s^2", "the gravity expected")
+        .positive();
+    o.add("max_gravity_error_m_s2", &max_gravity_error_m_s2, "m/s^2",
+          "a reference farther from nominal is not gravity")
+        .positive();
+    o.add("max_gravity_freeze_s", &max_gravity_freeze_s, "s",
+          "reference frozen while a pulse is pending, at most")
+        .nonNegative();
+    o.add("initial_gravity_m_s2", &initial_gravity_m_s2, "m/s^2", "reference before any calm")
+        .positive();
+    o.add("motion_window_s", &motion_window_s, "s",
+          "motion is the std of the acceleration over this")
+        .positive();
+    o.add("calm_std_m_s2", &calm_std_m_s2, "m/s^2", "motion below this is calm").positive();
+    o.add("lead_in_s", &lead_in_s, "s", "a start pulse needs this much quiet lead-in")
+        .nonNegative();
+    o.add("lead_in_max_std_m_s2", &lead_in_max_std_m_s2, "m/s^2",
+          "motion of the lead-in below this ...")
+        .any();
+    o.add("max_step_fraction", &max_step_fraction, "",
+          "level change over a start pulse at most this fraction of the pulse (else a step)")
+        .any();
+    o.add("lead_in_max_busy_fraction", &lead_in_max_busy_fraction, "",
+          "... over all but this fraction of it")
+        .in(0, 1);
+  }
+  void declareRideOptions(OptionList& o) {
+    o.add("walking_std_m_s2", &walking_std_m_s2, "m/s^2",
+          "motion above this is walking (above calm)")
+        .positive();
+    o.add("max_walking_in_ride_s", &max_walking_in_ride_s, "s",
+          "walking this long ends a ride attempt")
+        .positive();
+    o.add("min_ride_speed_m_s", &min_ride_speed_m_s, "m/s", "velocity change of a ride at least")
+        .positive();
+    o.add("max_pulse_ratio", &max_pulse_ratio, "",
+          "stop and start velocity changes agree within this ratio")
+        .min(1);
+    o.add("max_loose_closure", &max_loose_closure, "",
+          "a loose stop's integrated velocity closes within this")
+        .any();
+    o.add("max_ride_s", &max_ride_s, "s", "a ride lasts at most this").positive();
+    o.add("min_displacement_m", &min_displacement_m, "m", "a ride moves at least this")
+        .nonNegative();
+    o.add("max_bias_m_s2", &max_bias_m_s2, "m/s^2",
+          "the bias the zero-velocity constraint removes at most")
+        .positive();
+    o.add("max_cruise_velocity_spread_fraction", &max_cruise_velocity_spread_fraction, "",
+          "cruise velocity within this fraction of peak speed of its mean")
+        .positive();
+    o.add("max_cruise_velocity_spread_m_s", &max_cruise_velocity_spread_m_s, "m/s", "... plus this")
+        .nonNegative();
+    o.add("max_reverse_velocity_fraction", &max_reverse_velocity_fraction, "",
+          "velocity against the ride at most this fraction of peak speed")
+        .nonNegative();
+    o.add("min_profile_fill", &min_profile_fill, "",
+          "displacement at least this fraction of peak speed x duration")
+        .in(0, 1);
+    o.add("scale_sigma_fraction", &scale_sigma_fraction, "",
+          "relative scale uncertainty of a displacement")
+        .nonNegative();
+    o.add("max_fill_s", &max_fill_s, "s", "sample gaps up to this are interpolated").nonNegative();
+    o.add("max_gap_in_ride_s", &max_gap_in_ride_s, "s", "a longer gap abandons a ride").positive();
+    o.add("max_attitude_age_s", &max_attitude_age_s, "s",
+          "attitude further than this from a sample is not used")
+        .positive();
   }
 };
 

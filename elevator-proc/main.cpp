@@ -5,7 +5,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <deque>
 #include <string>
 
@@ -14,7 +13,7 @@
 #include <evermap/imu_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
-#include "core/common/option_fields.h"
+#include "core/common/command_line.h"
 #include "core/common/stop_signals.h"
 #include "core/messages/channels.h"
 #include "core/messages/inbox.h"
@@ -78,55 +77,42 @@ class Node {
   int64_t bad_attitudes_ = 0;
 };
 
-void usage() {
-  std::printf(
-      "usage: evermap-elevator-proc [--lcm-url URL] [--config FILE] [--set key=value]... "
-      "[--time-window-s S] [--print-options]\nSubscribes IMU and ATTITUDE, publishes FLOOR.\n");
+struct Settings {
+  evermap::elevator::ElevatorTrackerOptions tracker;
+  std::string url;
+  double time_window_s = 120.0;  // core/messages/inbox.h, TimeGuardOptions
+};
+
+// The command line; -1 to run, else the exit status.
+int parse(int argc, char** argv, Settings* s) {
+  using namespace evermap;
+  CommandLine cli("evermap-elevator-proc", "Subscribes IMU and ATTITUDE, publishes FLOOR.");
+  cli.value("--lcm-url", &s->url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
+  cli.value("--time-window-s", &s->time_window_s, "S",
+            "a sample stamped more than S s from the stream's clock waits for confirmation "
+            "(default 120; 0: off)")
+      .nonNegative();
+  bool print_options = false;
+  cli.flag("--print-options", &print_options, "the same as --print-config");
+  cli.options(&s->tracker);
+  cli.check([s] { return s->tracker.validate(); });
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  if (print_options) {
+    std::fputs(cli.optionList().print().c_str(), stdout);
+    return 0;
+  }
+  return -1;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace evermap;
-  elevator::ElevatorTrackerOptions options;
-  std::string url;
-  double time_window_s = 120.0;  // core/messages/inbox.h, TimeGuardOptions
-  bool print = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const bool has_value = i + 1 < argc;
-    Status st = Ok{};
-    if (a == "--lcm-url" && has_value) {
-      url = argv[++i];
-    } else if (a == "--config" && has_value) {
-      st = loadFields(argv[++i], &options);
-    } else if (a == "--set" && has_value) {
-      st = setFieldFromAssignment(&options, argv[++i]);
-    } else if (a == "--time-window-s" && has_value) {
-      char* end = nullptr;
-      time_window_s = std::strtod(argv[++i], &end);
-      if (end == argv[i] || *end != '\0' || !std::isfinite(time_window_s) || time_window_s < 0) {
-        st = makeError("--time-window-s: expected a finite number >= 0, got \"", argv[i], "\"");
-      }
-    } else if (a == "--print-options") {
-      print = true;
-    } else {
-      usage();
-      return a == "--help" || a == "-h" ? 0 : 2;
-    }
-    if (!st.ok()) {
-      std::fprintf(stderr, "evermap-elevator-proc: %s\n", st.error().message.c_str());
-      return 2;
-    }
-  }
-  if (const Status st = options.validate(); !st.ok()) {
-    std::fprintf(stderr, "evermap-elevator-proc: %s\n", st.error().message.c_str());
-    return 2;
-  }
-  if (print) {
-    std::printf("%s", describeFields(options).c_str());
-    return 0;
-  }
+  Settings settings;
+  if (const int code = parse(argc, argv, &settings); code >= 0) return code;
+  const elevator::ElevatorTrackerOptions& options = settings.tracker;
+  const std::string& url = settings.url;
+  const double time_window_s = settings.time_window_s;
   lcm::LCM lcm(url);
   if (!lcm.good()) {
     std::fprintf(stderr, "evermap-elevator-proc: cannot open LCM \"%s\"\n", url.c_str());

@@ -34,38 +34,9 @@ Eigen::Vector3d upFromRollPitch(double roll_rad, double pitch_rad) {
           std::cos(roll_rad) * std::cos(pitch_rad)};
 }
 
+// Single-field ranges are declared (attitude_filter.h); these are the rules between fields.
 Status AttitudeFilterOptions::validate() const {
-  if (!(gravity_m_s2 > 0)) return makeError("gravity_m_s2 must be > 0");
-  if (!(gyro_noise_density > 0)) return makeError("gyro_noise_density must be > 0");
-  if (gyroscope_mode < -1 || gyroscope_mode > 1) {
-    return makeError("gyroscope_mode must be -1 (auto), 0 (accelerometer only) or 1 (use it)");
-  }
-  if (!(accel_only_tilt_rate_density > 0))
-    return makeError("accel_only_tilt_rate_density must be > 0");
-  if (!(gyro_scale_sigma >= 0)) return makeError("gyro_scale_sigma must be >= 0");
-  if (!(interpolation_error_scale >= 0)) return makeError("interpolation_error_scale must be >= 0");
-  if (!(max_rejected_s > 0)) return makeError("max_rejected_s must be > 0");
-  if (!(gyro_bias_walk_density >= 0)) return makeError("gyro_bias_walk_density must be >= 0");
-  if (!(linear_accel_density > 0)) return makeError("linear_accel_density must be > 0");
-  if (!(untrusted_accel_error_m_s2 > 0)) return makeError("untrusted_accel_error_m_s2 must be > 0");
-  if (!(untrusted_jerk_m_s3 > 0)) return makeError("untrusted_jerk_m_s3 must be > 0");
-  if (!(untrusted_horizontal_accel_m_s2 > 0)) {
-    return makeError("untrusted_horizontal_accel_m_s2 must be > 0");
-  }
-  if (!(max_untrusted_s > 0)) return makeError("max_untrusted_s must be > 0");
-  if (!(trust_smoothing_s >= 0)) return makeError("trust_smoothing_s must be >= 0");
-  if (!(innovation_gate_chi2 > 0)) return makeError("innovation_gate_chi2 must be > 0");
-  if (!(initial_tilt_sigma_rad > 0)) return makeError("initial_tilt_sigma_rad must be > 0");
-  if (!(initial_gyro_bias_sigma_rad_s >= 0)) {
-    return makeError("initial_gyro_bias_sigma_rad_s must be >= 0");
-  }
-  if (!(velocity_prior_sigma_m_s >= 0)) return makeError("velocity_prior_sigma_m_s must be >= 0");
-  if (!(velocity_prior_period_s > 0)) return makeError("velocity_prior_period_s must be > 0");
-  if (!(accel_noise_density > 0)) return makeError("accel_noise_density must be > 0");
-  if (!(init_window_s >= 0)) return makeError("init_window_s must be >= 0");
-  if (!(still_gyro_spread_rad_s >= 0) || !(still_tilt_change_rad >= 0)) {
-    return makeError("still_gyro_spread_rad_s and still_tilt_change_rad must be >= 0");
-  }
+  if (Status s = checkOptionRanges(*this); !s) return s;
   if (!(max_tilt_sigma_rad >= initial_tilt_sigma_rad)) {
     return makeError("max_tilt_sigma_rad must be >= initial_tilt_sigma_rad");
   }

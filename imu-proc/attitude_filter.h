@@ -38,6 +38,7 @@
 #include <Eigen/Core>
 
 #include "core/common/expected.h"
+#include "core/common/option_fields.h"
 #include "core/geometry/so3.h"
 #include "imu-proc/sample_gate.h"
 
@@ -107,34 +108,66 @@ struct AttitudeFilterOptions {
   SampleGateOptions gate;
 
   Status validate() const;
-  template <typename F>
-  void forEachField(F&& f) {  // see core/common/option_fields.h
-    f("gravity_m_s2", gravity_m_s2, "m/s^2");
-    f("gyro_noise_density", gyro_noise_density, "rad/s/sqrt(Hz)");
-    f("gyroscope_mode", gyroscope_mode, "-1 auto, 0 accelerometer only, 1 use the gyroscope");
-    f("accel_only_tilt_rate_density", accel_only_tilt_rate_density,
-      "rad/s/sqrt(Hz), accelerometer-only mode");
-    f("gyro_bias_walk_density", gyro_bias_walk_density, "rad/s^2/sqrt(Hz)");
-    f("gyro_scale_sigma", gyro_scale_sigma, "of each increment");
-    f("interpolation_error_scale", interpolation_error_scale, "");
-    f("linear_accel_density", linear_accel_density, "m/s^2/sqrt(Hz)");
-    f("velocity_prior_sigma_m_s", velocity_prior_sigma_m_s, "m/s");
-    f("velocity_prior_period_s", velocity_prior_period_s, "s");
-    f("accel_noise_density", accel_noise_density, "m/s^2/sqrt(Hz)");
-    f("untrusted_accel_error_m_s2", untrusted_accel_error_m_s2, "m/s^2");
-    f("untrusted_jerk_m_s3", untrusted_jerk_m_s3, "m/s^3");
-    f("untrusted_horizontal_accel_m_s2", untrusted_horizontal_accel_m_s2, "m/s^2");
-    f("trust_smoothing_s", trust_smoothing_s, "s");
-    f("max_untrusted_s", max_untrusted_s, "s");
-    f("innovation_gate_chi2", innovation_gate_chi2, "");
-    f("max_rejected_s", max_rejected_s, "s");
-    f("initial_tilt_sigma_rad", initial_tilt_sigma_rad, "rad");
-    f("initial_gyro_bias_sigma_rad_s", initial_gyro_bias_sigma_rad_s, "rad/s");
-    f("init_window_s", init_window_s, "s");
-    f("still_gyro_spread_rad_s", still_gyro_spread_rad_s, "rad/s");
-    f("still_tilt_change_rad", still_tilt_change_rad, "rad");
-    f("max_tilt_sigma_rad", max_tilt_sigma_rad, "rad");
-    gate.forEachField(f);
+  // Every setting once: key, unit, range, doc (core/common/option_fields.h).
+  void declareOptions(OptionList& o) {
+    o.add("gravity_m_s2", &gravity_m_s2, "m/s^2", "gravity's magnitude").positive();
+    o.add("gyro_noise_density", &gyro_noise_density, "rad/s/sqrt(Hz)", "gyro white noise")
+        .positive();
+    o.add("gyroscope_mode", &gyroscope_mode, "",
+          "-1 auto, 0 accelerometer only, 1 use the gyroscope")
+        .in(-1, 1);
+    o.add("accel_only_tilt_rate_density", &accel_only_tilt_rate_density, "rad/s/sqrt(Hz)",
+          "tilt random walk in accelerometer-only mode")
+        .positive();
+    o.add("gyro_bias_walk_density", &gyro_bias_walk_density, "rad/s^2/sqrt(Hz)",
+          "gyro bias random walk")
+        .nonNegative();
+    o.add("gyro_scale_sigma", &gyro_scale_sigma, "", "relative gyro scale error of each increment")
+        .nonNegative();
+    o.add("interpolation_error_scale", &interpolation_error_scale, "",
+          "weight of the interpolation error")
+        .nonNegative();
+    o.add("linear_accel_density", &linear_accel_density, "m/s^2/sqrt(Hz)",
+          "linear acceleration as noise")
+        .positive();
+    o.add("velocity_prior_sigma_m_s", &velocity_prior_sigma_m_s, "m/s", "velocity prior sigma")
+        .nonNegative();
+    o.add("velocity_prior_period_s", &velocity_prior_period_s, "s",
+          "velocity prior applied this often")
+        .positive();
+    o.add("accel_noise_density", &accel_noise_density, "m/s^2/sqrt(Hz)",
+          "accelerometer white noise")
+        .positive();
+    o.add("untrusted_accel_error_m_s2", &untrusted_accel_error_m_s2, "m/s^2",
+          "|a| this far from g: accelerometer untrusted")
+        .positive();
+    o.add("untrusted_jerk_m_s3", &untrusted_jerk_m_s3, "m/s^3",
+          "jerk above this: accelerometer untrusted")
+        .positive();
+    o.add("untrusted_horizontal_accel_m_s2", &untrusted_horizontal_accel_m_s2, "m/s^2",
+          "horizontal acceleration above this: untrusted")
+        .positive();
+    o.add("trust_smoothing_s", &trust_smoothing_s, "s", "trust smoothed over this").nonNegative();
+    o.add("max_untrusted_s", &max_untrusted_s, "s", "untrusted at most this long").positive();
+    o.add("innovation_gate_chi2", &innovation_gate_chi2, "", "gate of an accelerometer update")
+        .positive();
+    o.add("max_rejected_s", &max_rejected_s, "s", "updates rejected at most this long").positive();
+    o.add("initial_tilt_sigma_rad", &initial_tilt_sigma_rad, "rad", "tilt sigma at start")
+        .positive();
+    o.add("initial_gyro_bias_sigma_rad_s", &initial_gyro_bias_sigma_rad_s, "rad/s",
+          "gyro bias sigma at start")
+        .nonNegative();
+    o.add("init_window_s", &init_window_s, "s", "still start window").nonNegative();
+    o.add("still_gyro_spread_rad_s", &still_gyro_spread_rad_s, "rad/s",
+          "still: gyro rates within this")
+        .nonNegative();
+    o.add("still_tilt_change_rad", &still_tilt_change_rad, "rad",
+          "still: gravity direction within this")
+        .nonNegative();
+    o.add("max_tilt_sigma_rad", &max_tilt_sigma_rad, "rad",
+          "tilt sigma capped here (at least the initial)")
+        .positive();
+    o.nest("gate_", &gate);
   }
 };
 

@@ -6,22 +6,7 @@
 
 namespace evermap::imu {
 
-Status HeadingOptions::validate() const {
-  auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  if (!positive(noise_density)) return Error("heading.noise_density: must be > 0");
-  if (!(std::isfinite(bias_walk_density) && bias_walk_density >= 0.0))
-    return Error("heading.bias_walk_density: must be >= 0");
-  if (!positive(initial_bias_sigma_rad_s))
-    return Error("heading.initial_bias_sigma_rad_s: must be > 0");
-  if (!positive(still_window_s)) return Error("heading.still_window_s: must be > 0");
-  if (!positive(still_gyro_spread_rad_s))
-    return Error("heading.still_gyro_spread_rad_s: must be > 0");
-  if (!positive(still_accel_spread_m_s2))
-    return Error("heading.still_accel_spread_m_s2: must be > 0");
-  if (!positive(still_max_rate_rad_s)) return Error("heading.still_max_rate_rad_s: must be > 0");
-  if (!positive(max_gap_s)) return Error("heading.max_gap_s: must be > 0");
-  return Ok{};
-}
+Status HeadingOptions::validate() const { return checkOptionRanges(*this, "heading."); }
 
 HeadingIntegrator::HeadingIntegrator(const HeadingOptions& options) : o_(options) {
   if (Status s = o_.validate(); !s) {

@@ -26,6 +26,7 @@
 #include <Eigen/Core>
 
 #include "core/common/expected.h"
+#include "core/common/option_fields.h"
 #include "core/geometry/so3.h"
 #include "imu-proc/sample_gate.h"
 
@@ -50,16 +51,25 @@ struct HeadingOptions {
   double max_gap_s = 0.5;
 
   Status validate() const;
-  template <typename F>
-  void forEachField(F&& f) {  // see core/common/option_fields.h
-    f("heading.noise_density", noise_density, "rad/s/sqrt(Hz)");
-    f("heading.bias_walk_density", bias_walk_density, "rad/s^2/sqrt(Hz)");
-    f("heading.initial_bias_sigma_rad_s", initial_bias_sigma_rad_s, "rad/s");
-    f("heading.still_window_s", still_window_s, "s");
-    f("heading.still_gyro_spread_rad_s", still_gyro_spread_rad_s, "rad/s");
-    f("heading.still_accel_spread_m_s2", still_accel_spread_m_s2, "m/s^2");
-    f("heading.still_max_rate_rad_s", still_max_rate_rad_s, "rad/s");
-    f("heading.max_gap_s", max_gap_s, "s");
+  // Every setting once: key, unit, range, doc (core/common/option_fields.h).
+  void declareOptions(OptionList& o) {
+    o.add("noise_density", &noise_density, "rad/s/sqrt(Hz)", "gyro white noise").positive();
+    o.add("bias_walk_density", &bias_walk_density, "rad/s^2/sqrt(Hz)", "gyro bias random walk")
+        .nonNegative();
+    o.add("initial_bias_sigma_rad_s", &initial_bias_sigma_rad_s, "rad/s",
+          "bias sigma before any still window")
+        .positive();
+    o.add("still_window_s", &still_window_s, "s", "a still window lasts this long ...").positive();
+    o.add("still_gyro_spread_rad_s", &still_gyro_spread_rad_s, "rad/s",
+          "... with every gyro reading within this")
+        .positive();
+    o.add("still_accel_spread_m_s2", &still_accel_spread_m_s2, "m/s^2",
+          "... and every accelerometer reading within this")
+        .positive();
+    o.add("still_max_rate_rad_s", &still_max_rate_rad_s, "rad/s",
+          "... and its mean rate within this of the bias")
+        .positive();
+    o.add("max_gap_s", &max_gap_s, "s", "a longer gap restarts the integration").positive();
   }
 };
 

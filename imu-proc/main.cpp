@@ -1,16 +1,14 @@
 // evermap-imu-proc: IMU -> ATTITUDE (roll, pitch, covariance, the gyro's heading). Only options,
 // LCM and the loop; the filter is evermap::imu::AttitudeFilter.
 
-#include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <string>
 
 #include <evermap/attitude_t.hpp>
 #include <evermap/imu_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
-#include "core/common/option_fields.h"
+#include "core/common/command_line.h"
 #include "core/common/stop_signals.h"
 #include "core/messages/channels.h"
 #include "core/messages/inbox.h"
@@ -21,11 +19,12 @@ namespace {
 struct ProcOptions {
   double publish_rate_hz = 50.0;
   double time_window_s = 120.0;
-  template <typename F>
-  void forEachField(F&& f) {
-    f("publish_rate_hz", publish_rate_hz, "Hz (at most the IMU rate)");
-    f("time_window_s", time_window_s,
-      "s: an IMU sample stamped further from the stream's clock waits for confirmation (0: off)");
+  void declareOptions(evermap::OptionList& o) {
+    o.add("publish_rate_hz", &publish_rate_hz, "Hz", "ATTITUDE rate (at most the IMU's)")
+        .positive();
+    o.add("time_window_s", &time_window_s, "s",
+          "a sample stamped further from the stream's clock waits for confirmation; 0: off")
+        .nonNegative();
   }
 };
 
@@ -46,62 +45,45 @@ struct Publisher {
   }
 };
 
-void usage() {
-  std::printf(
-      "usage: evermap-imu-proc [--lcm-url URL] [--config FILE] [--set key=value]... "
-      "[--print-options]\n"
-      "Subscribes IMU, publishes ATTITUDE.\n");
+struct Settings {
+  evermap::imu::AttitudeFilterOptions filter;
+  evermap::imu::HeadingOptions heading;
+  ProcOptions proc;
+  std::string url;
+};
+
+// The command line; -1 to run, else the exit status.
+int parse(int argc, char** argv, Settings* s) {
+  using namespace evermap;
+  CommandLine cli("evermap-imu-proc",
+                  "Subscribes IMU, publishes ATTITUDE (roll, pitch, covariance, the gyro's "
+                  "heading).");
+  cli.value("--lcm-url", &s->url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
+  bool print_options = false;
+  cli.flag("--print-options", &print_options, "the same as --print-config");
+  cli.options(&s->filter);
+  cli.options(&s->heading, "heading.");
+  cli.options(&s->proc);
+  cli.check([s] { return s->filter.validate(); });
+  cli.check([s] { return s->heading.validate(); });
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  if (print_options) {
+    std::fputs(cli.optionList().print().c_str(), stdout);
+    return 0;
+  }
+  return -1;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace evermap;
-  imu::AttitudeFilterOptions options;
-  imu::HeadingOptions heading;
-  ProcOptions proc;
-  std::string url;
-  bool print = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const bool has_value = i + 1 < argc;
-    Status st = Ok{};
-    if (a == "--lcm-url" && has_value) {
-      url = argv[++i];
-    } else if (a == "--config" && has_value) {
-      st = loadFields(argv[++i], &options, &heading, &proc);
-    } else if (a == "--set" && has_value) {
-      st = setFieldFromAssignment(argv[++i], &options, &heading, &proc);
-    } else if (a == "--print-options") {
-      print = true;
-    } else {
-      usage();
-      return a == "--help" || a == "-h" ? 0 : 2;
-    }
-    if (!st.ok()) {
-      std::fprintf(stderr, "evermap-imu-proc: %s\n", st.error().message.c_str());
-      return 2;
-    }
-  }
-  for (const Status& st : {options.validate(), heading.validate()}) {
-    if (!st.ok()) {
-      std::fprintf(stderr, "evermap-imu-proc: %s\n", st.error().message.c_str());
-      return 2;
-    }
-  }
-  if (!(proc.publish_rate_hz > 0) || !std::isfinite(proc.publish_rate_hz)) {
-    std::fprintf(stderr, "evermap-imu-proc: publish_rate_hz must be a finite number > 0\n");
-    return 2;
-  }
-  if (!(proc.time_window_s >= 0) || !std::isfinite(proc.time_window_s)) {
-    std::fprintf(stderr, "evermap-imu-proc: time_window_s must be a finite number >= 0\n");
-    return 2;
-  }
-  if (print) {
-    std::printf("%s%s%s", describeFields(options).c_str(), describeFields(heading).c_str(),
-                describeFields(proc).c_str());
-    return 0;
-  }
+  Settings settings;
+  if (const int code = parse(argc, argv, &settings); code >= 0) return code;
+  const imu::AttitudeFilterOptions& options = settings.filter;
+  const imu::HeadingOptions& heading = settings.heading;
+  const ProcOptions& proc = settings.proc;
+  const std::string& url = settings.url;
 
   lcm::LCM lcm(url);
   if (!lcm.good()) {

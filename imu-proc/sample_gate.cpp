@@ -6,12 +6,7 @@
 namespace evermap::imu {
 
 Status SampleGateOptions::validate() const {
-  if (!(accel_full_scale_m_s2 > 0)) return makeError("gate_accel_full_scale_m_s2 must be > 0");
-  if (!(gyro_full_scale_rad_s > 0)) return makeError("gate_gyro_full_scale_rad_s must be > 0");
-  if (!(saturation_fraction > 0 && saturation_fraction <= 1)) {
-    return makeError("gate_saturation_fraction must be in (0, 1]");
-  }
-  if (!(min_interval_s >= 0)) return makeError("gate_min_interval_s must be >= 0");
+  if (Status s = checkOptionRanges(*this, "gate_"); !s) return s;
   if (!(max_interval_s > min_interval_s)) {
     return makeError("gate_max_interval_s must be > gate_min_interval_s");
   }

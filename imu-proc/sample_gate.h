@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 
 #include "core/common/expected.h"
+#include "core/common/option_fields.h"
 
 namespace evermap::imu {
 
@@ -32,13 +33,20 @@ struct SampleGateOptions {
   double max_interval_s = 0.5;
 
   Status validate() const;
-  template <typename F>
-  void forEachField(F&& f) {  // see core/common/option_fields.h
-    f("gate_accel_full_scale_m_s2", accel_full_scale_m_s2, "m/s^2");
-    f("gate_gyro_full_scale_rad_s", gyro_full_scale_rad_s, "rad/s");
-    f("gate_saturation_fraction", saturation_fraction, "of full scale");
-    f("gate_min_interval_s", min_interval_s, "s");
-    f("gate_max_interval_s", max_interval_s, "s");
+  // Keys prefixed "gate_" by the structs that hold a gate.
+  void declareOptions(OptionList& o) {
+    o.add("accel_full_scale_m_s2", &accel_full_scale_m_s2, "m/s^2", "accelerometer full scale")
+        .positive();
+    o.add("gyro_full_scale_rad_s", &gyro_full_scale_rad_s, "rad/s", "gyroscope full scale")
+        .positive();
+    o.add("saturation_fraction", &saturation_fraction, "",
+          "an axis beyond this fraction of full scale is saturated")
+        .above(0)
+        .max(1);
+    o.add("min_interval_s", &min_interval_s, "s", "samples closer than this are the same instant")
+        .nonNegative();
+    o.add("max_interval_s", &max_interval_s, "s", "a longer interval is a gap (above the minimum)")
+        .positive();
   }
 };
 

@@ -31,6 +31,7 @@
 #include "core/bow/place_store.h"
 #include "core/bow/vocabulary.h"
 #include "core/common/expected.h"
+#include "core/common/option_fields.h"
 #include "loopclose-proc/keyframe.h"
 #include "loopclose-proc/registration.h"
 
@@ -70,6 +71,30 @@ struct LoopCloserOptions {
   int64_t exclude_recent_us = 10'000'000;
 
   Status validate() const;
+  void declareOptions(OptionList& o) {
+    o.add("max_rate_hz", &max_rate_hz, "Hz", "answers per second of data time").positive();
+    o.add("max_request_age_us", &max_request_age_us, "us",
+          "a request older than this behind the newest data is stale")
+        .positive();
+    o.add("keyframe_wait_us", &keyframe_wait_us, "us", "a request waits this long for its keyframe")
+        .nonNegative();
+    o.add("max_pending_requests", &max_pending_requests, "", "requests waiting at most").min(1);
+    o.add("recent_keyframes", &recent_keyframes, "", "recent keyframes kept in memory").min(1);
+    o.add("node_keyframe_cache", &node_keyframe_cache, "",
+          "node keyframes kept decoded beside a map store")
+        .min(1);
+    o.add("max_places", &max_places, "", "places held at most; beyond, NODE_ADDED is refused")
+        .min(1);
+    o.add("max_waiting_nodes", &max_waiting_nodes, "", "NODE_ADDED waiting for a keyframe at most")
+        .min(1);
+    o.add("max_floor", &max_floor, "", "highest floor label a NODE_ADDED may carry").min(0);
+    o.add("global_candidates", &global_candidates, "", "appearance candidates tried").min(1);
+    o.add("min_candidate_score", &min_candidate_score, "", "lowest appearance score considered")
+        .any();
+    o.add("exclude_recent_us", &exclude_recent_us, "us",
+          "places this recent before the query are no loop closures")
+        .nonNegative();
+  }
 };
 
 struct LoopCloserStats {

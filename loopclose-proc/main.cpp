@@ -44,6 +44,8 @@ int main(int argc, char** argv) {
   cli.value("--max-places", &options.max_places, "N",
             "places held at most; NODE_ADDED beyond are refused and counted (20000)")
       .min(1);
+  cli.options(&options);
+  cli.check([&options] { return options.validate(); });
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   auto vocabulary = bow::loadAnyVocabulary(vocab_file);
   if (!vocabulary) {

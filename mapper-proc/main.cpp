@@ -17,148 +17,163 @@
 #include "mapper-proc/mapper.h"
 #include "mapper-proc/mapper_config.h"
 
-int main(int argc, char** argv) {
-  using namespace evermap;
+namespace {
+
+using namespace evermap;
+
+struct Settings {
   // The camera mounting comes from STEREO_CALIB (LcmNode).
   mapper::MapperOptions options;
   mapper::LcmNodeOptions node_options;
   std::string url, store_file;
-  bool full_graph = false, quiet = false;
+  bool quiet = false;
+  double progress_s = 0.0;
+};
+
+// The command line; -1 to run, else the exit status.
+int parse(int argc, char** argv, Settings* s) {
   CommandLine cli(
       "evermap-mapper-proc",
       "The reduced pose graph mapper on LCM: STEREO_CALIB, VO_DELTA, WHEEL_ODOM, ATTITUDE,\n"
       "FLOOR and REGISTER_RESULT in; REGISTER_REQUEST, NODE_ADDED, POSE, MAP_GRAPH, MAPPER_STATS "
       "out.");
+  bool full_graph = false;
   cli.flag("--full-graph", &full_graph,
            "a node at every step (the paper's baseline) instead of the reduced graph");
-  std::string config;
-  std::vector<std::string> sets;
-  cli.value("--config", &config, "MAPPER.conf",
-            "the mapper's options as mapper.* settings (docs/mapper.md)");
-  cli.repeated("--set", &sets, "mapper.KEY=VALUE",
-               "override one mapper.* setting (after --config)");
-  cli.value("--store", &store_file, "MAP.db",
+  cli.value("--store", &s->store_file, "MAP.db",
             "write the map store (SQLite) after every update that changes the graph");
-  cli.value("--graph-period-s", &node_options.graph_period_s, "S",
+  cli.value("--graph-period-s", &s->node_options.graph_period_s, "S",
             "MAP_GRAPH after a change at most every S seconds of message time (default 1)")
       .min(0);
-  cli.value("--stats-period-s", &node_options.stats_period_s, "S",
+  cli.value("--stats-period-s", &s->node_options.stats_period_s, "S",
             "MAPPER_STATS every S seconds of message time (default 1)")
       .min(0);
-  cli.value("--time-window-s", &node_options.input.time.window_s, "S",
+  cli.value("--time-window-s", &s->node_options.input.time.window_s, "S",
             "refuse a message stamped more than S s from the stream's clock until others confirm "
             "the jump (default 120; 0: off; core/messages/inbox.h)")
       .min(0);
-  cli.value("--queue", &node_options.input.queue_capacity, "N",
+  cli.value("--queue", &s->node_options.input.queue_capacity, "N",
             "messages LCM may queue per subscription (default 10000)")
       .min(1)
       .max(1000000);
-  cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
-  cli.flag("--quiet", &quiet, "no summary on exit");
-  double progress_s = 0.0;
-  cli.value("--progress-s", &progress_s, "S",
+  cli.value("--lcm-url", &s->url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
+  cli.flag("--quiet", &s->quiet, "no summary on exit");
+  cli.value("--progress-s", &s->progress_s, "S",
             "print a progress line (message time, nodes, constraints, drops) every S s of wall "
             "time while messages arrive (0: none)")
       .min(0);
-  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
-  // SIGINT/SIGTERM blocked, then polled between LCM waits: before any thread starts (restoring
-  // a stored map runs a solver batch, whose background worker would otherwise take the signal
-  // and die of it, with no summary and no last flush).
-  StopSignals stop;
-  options.full_graph = full_graph;
-  auto settings = config.empty() ? KeyValueFile::parse("", "--set") : KeyValueFile::load(config);
-  if (settings) {
-    if (Status s = settings->setAll(sets, "--set"); !s) settings = s.error();
-  }
-  if (!settings) {
-    std::fprintf(stderr, "evermap-mapper-proc: %s\n", settings.error().message.c_str());
-    return 2;
-  }
-  if (Status s = mapper::readMapperOptions(*settings, &options); !s) {
-    std::fprintf(stderr, "evermap-mapper-proc: %s\n", s.error().message.c_str());
-    return 2;
-  }
-  for (Status s : {options.validate(), node_options.validate()}) {
-    if (!s) {
-      std::fprintf(stderr, "evermap-mapper-proc: %s\n", s.error().message.c_str());
-      return 2;
+  cli.options(&s->options, "mapper.");
+  cli.check([s, &full_graph]() -> Status {
+    s->options.full_graph = full_graph;
+    if (Status v = s->options.validate(); !v) return v;
+    return s->node_options.validate();
+  });
+  return cli.parseOrExit(argc, argv);
+}
+
+// The store of --store (none without it); exit status 1 printed when it cannot be opened.
+Expected<std::optional<mapper::MapStore>> openStore(const std::string& file) {
+  if (file.empty()) return std::optional<mapper::MapStore>();
+  auto opened = mapper::MapStore::open(file);
+  if (!opened) return opened.error();
+  return std::optional<mapper::MapStore>(std::move(*opened));
+}
+
+// A store that holds a map (a restart after a crash, or a new session over a saved map):
+// the mapper continues it, lost until a global registration places it on the map.
+Status restoreMap(mapper::MapStore& store, const std::string& file, mapper::Mapper* m) {
+  auto held = store.load();
+  if (!held) return held.error();
+  if (held->nodes.empty()) return Ok{};
+  if (Status r = m->restore(*held); !r) return makeError(file, ": ", r.error().message);
+  std::printf("evermap-mapper-proc: continuing %s: %zu nodes, %zu constraints restored\n",
+              file.c_str(), m->nodes().size(), m->constraints().all().size());
+  std::fflush(stdout);
+  return Ok{};
+}
+
+// Progress is for the person watching, so it runs on the wall clock; the map never sees it.
+class Progress {
+ public:
+  explicit Progress(double period_s) : period_s_(period_s) {}
+  void maybePrint(const mapper::LcmNode& node, const mapper::Mapper& m) {
+    if (!(period_s_ > 0.0) || node.lastUtime() < 0 || Clock::now() < next_) return;
+    const int64_t now_utime = node.lastUtime();
+    // Data time mapped so far; a jump of an hour or more (the gap between sessions) is not
+    // counted.
+    if (previous_utime_ >= 0 && now_utime > previous_utime_) {
+      const double step_s = 1e-6 * static_cast<double>(now_utime - previous_utime_);
+      if (step_s < 3600.0) data_s_ += step_s;
     }
+    previous_utime_ = now_utime;
+    next_ = Clock::now() +
+            std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(period_s_));
+    std::printf(
+        "progress: wall %.0f s, data %.0f s, session %d, nodes %zu, "
+        "constraints %zu, dropped %lld\n",
+        std::chrono::duration<double>(Clock::now() - started_).count(), data_s_, m.session(),
+        m.nodes().size(), m.constraints().all().size(),
+        static_cast<long long>(node.counts().dropped()));
+    std::fflush(stdout);
   }
 
-  std::optional<mapper::MapStore> store;
-  if (!store_file.empty()) {
-    auto opened = mapper::MapStore::open(store_file);
-    if (!opened) {
-      std::fprintf(stderr, "evermap-mapper-proc: %s\n", opened.error().message.c_str());
-      return 1;
-    }
-    store = std::move(*opened);
-  }
-
-  lcm::LCM lcm(url);
-  if (!lcm.good()) {
-    std::fprintf(stderr, "evermap-mapper-proc: cannot start LCM (url \"%s\")\n", url.c_str());
-    return 1;
-  }
-  mapper::Mapper m(options);
-  // A store that holds a map (a restart after a crash, or a new session over a saved map):
-  // the mapper continues it, lost until a global registration places it on the map.
-  if (store) {
-    auto held = store->load();
-    if (!held) {
-      std::fprintf(stderr, "evermap-mapper-proc: %s\n", held.error().message.c_str());
-      return 1;
-    }
-    if (!held->nodes.empty()) {
-      if (Status r = m.restore(*held); !r) {
-        std::fprintf(stderr, "evermap-mapper-proc: %s: %s\n", store_file.c_str(),
-                     r.error().message.c_str());
-        return 1;
-      }
-      std::printf("evermap-mapper-proc: continuing %s: %zu nodes, %zu constraints restored\n",
-                  store_file.c_str(), m.nodes().size(), m.constraints().all().size());
-      std::fflush(stdout);
-    }
-  }
-  mapper::LcmNode node(lcm, m, node_options, store ? &*store : nullptr);
-  int status = 0;
-  // Progress is for the person watching, so it runs on the wall clock; the map never sees it.
+ private:
   using Clock = std::chrono::steady_clock;
-  const auto started = Clock::now();
-  auto next_progress = started;
-  // Data time mapped so far; a jump of an hour or more (the gap between
-  // sessions) is not counted.
-  int64_t previous_utime = -1;
-  double data_s = 0.0;
+  double period_s_;
+  Clock::time_point started_ = Clock::now();
+  Clock::time_point next_ = started_;
+  int64_t previous_utime_ = -1;
+  double data_s_ = 0.0;
+};
+
+// Handles LCM until SIGINT/SIGTERM; 0, or 1 when LCM fails.
+int runLoop(lcm::LCM& lcm, mapper::LcmNode& node, const mapper::Mapper& m, StopSignals& stop,
+            double progress_s) {
+  Progress progress(progress_s);
   while (!stop.requested()) {
     const int handled = lcm.handleTimeout(200);
     if (handled < 0) {
       std::fprintf(stderr, "evermap-mapper-proc: LCM failed\n");
-      status = 1;
-      break;
+      return 1;
     }
     // Idle: whatever changed since the last MAP_GRAPH goes out now (the end of a replay).
     if (handled == 0) node.flush();
-    if (progress_s > 0.0 && node.lastUtime() >= 0 && Clock::now() >= next_progress) {
-      const int64_t now_utime = node.lastUtime();
-      if (previous_utime >= 0 && now_utime > previous_utime) {
-        const double step_s = 1e-6 * static_cast<double>(now_utime - previous_utime);
-        if (step_s < 3600.0) data_s += step_s;
-      }
-      previous_utime = now_utime;
-      next_progress = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                         std::chrono::duration<double>(progress_s));
-      std::printf(
-          "progress: wall %.0f s, data %.0f s, session %d, nodes %zu, "
-          "constraints %zu, dropped %lld\n",
-          std::chrono::duration<double>(Clock::now() - started).count(), data_s, m.session(),
-          m.nodes().size(), m.constraints().all().size(),
-          static_cast<long long>(node.counts().dropped()));
-      std::fflush(stdout);
+    progress.maybePrint(node, m);
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Settings settings;
+  if (const int code = parse(argc, argv, &settings); code >= 0) return code;
+  // SIGINT/SIGTERM blocked, then polled between LCM waits: before any thread starts (restoring
+  // a stored map runs a solver batch, whose background worker would otherwise take the signal
+  // and die of it, with no summary and no last flush).
+  StopSignals stop;
+  auto store = openStore(settings.store_file);
+  if (!store) {
+    std::fprintf(stderr, "evermap-mapper-proc: %s\n", store.error().message.c_str());
+    return 1;
+  }
+  lcm::LCM lcm(settings.url);
+  if (!lcm.good()) {
+    std::fprintf(stderr, "evermap-mapper-proc: cannot start LCM (url \"%s\")\n",
+                 settings.url.c_str());
+    return 1;
+  }
+  mapper::Mapper m(settings.options);
+  if (*store) {
+    if (Status r = restoreMap(**store, settings.store_file, &m); !r) {
+      std::fprintf(stderr, "evermap-mapper-proc: %s\n", r.error().message.c_str());
+      return 1;
     }
   }
+  mapper::LcmNode node(lcm, m, settings.node_options, *store ? &**store : nullptr);
+  int status = runLoop(lcm, node, m, stop, settings.progress_s);
   node.flush();
   if (!node.storeStatus()) status = 1;
-  if (!quiet) std::printf("evermap-mapper-proc: %s", node.summary().c_str());
+  if (!settings.quiet) std::printf("evermap-mapper-proc: %s", node.summary().c_str());
   return status;
 }

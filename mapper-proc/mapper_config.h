@@ -1,6 +1,7 @@
 #pragma once
 // MapperOptions from `key = value` settings (core/common/key_value_file.h): "mapper." and the
-// option's name in MapperOptions, with tracker.* and solver.* for the nested ones, e.g.
+// keys MapperOptions::declareOptions declares, with tracker.*, solver.* and floor_gate.* for
+// the nested ones, e.g.
 //   mapper.map_gate = 0            mapper.fuse_active_registration = false
 //   mapper.loop_kernel = dcs:20    mapper.solver.batch_every = 50
 // (kernels as parseRobustKernel reads them; mapper.solver.method = gn or dogleg).
@@ -18,5 +19,9 @@ namespace evermap::mapper {
 // their values) and validates the result. Errors name the file and line of the bad value, or
 // the unknown key.
 Status readMapperOptions(const KeyValueFile& file, MapperOptions* options);
+
+// Every mapper.* setting of `options` as `key = value` lines (a config readMapperOptions reads
+// back to the same options).
+std::string printMapperOptions(const MapperOptions& options);
 
 }  // namespace evermap::mapper

@@ -3,6 +3,7 @@
 // evermap-slam-run (read by mapper_config.h), with its default, unit and meaning.
 
 #include "core/common/expected.h"
+#include "core/common/option_fields.h"
 #include "core/solver/incremental_solver.h"
 #include "mapper-proc/floor_gate.h"
 #include "mapper-proc/tracker.h"
@@ -229,7 +230,21 @@ struct MapperOptions {
   TrackerOptions tracker;
   solver::IncrementalOptions solver = mapperSolverOptions();
 
+  // Every setting once, with its unit, range and doc (core/common/option_fields.h); keys
+  // are read with the prefix "mapper.". full_graph and tracker.body_T_cam are the programs'.
+  void declareOptions(OptionList& o);
+  // checkOptionRanges, then the rules that tie fields together.
   Status validate() const;
+
+ private:
+  void declarePlaces(OptionList& o);
+  void declareSteps(OptionList& o);
+  void declareClosures(OptionList& o);
+  void declareRecovery(OptionList& o);
+  void declareWarmRestart(OptionList& o);
 };
+
+// The mapper.solver.* settings of the mapper's IncrementalOptions.
+void declareSolverOptions(OptionList& o, solver::IncrementalOptions* s);
 
 }  // namespace evermap::mapper

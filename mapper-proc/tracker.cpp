@@ -25,30 +25,9 @@ Mat6 symmetric(const Mat6& m) { return 0.5 * (m + m.transpose()); }
 }  // namespace
 
 Status TrackerOptions::validate() const {
-  if (!(wheel_offplane_sigma_m > 0.0)) return Error("tracker.wheel_offplane_sigma_m: must be > 0");
-  if (!(wheel_offplane_sigma_rad > 0.0))
-    return Error("tracker.wheel_offplane_sigma_rad: must be > 0");
-  if (!(history_s > 0.0)) return Error("tracker.history_s: must be > 0");
-  if (!(vo_timeout_s > 0.0)) return Error("tracker.vo_timeout_s: must be > 0");
-  if (!(relink_gate > 0.0)) return Error("tracker.relink_gate: must be > 0");
-  if (!(wheel_buffer_s >= 0.0)) return Error("tracker.wheel_buffer_s: must be >= 0");
-  if (!(gyro_noise_density > 0.0 && std::isfinite(gyro_noise_density)))
-    return Error("tracker.gyro_noise_density: must be > 0");
-  if (!(gyro_bias_correlation_s > 0.0 && std::isfinite(gyro_bias_correlation_s)))
-    return Error("tracker.gyro_bias_correlation_s: must be > 0");
-  if (!(vo_gyro_gate >= 0.0 && std::isfinite(vo_gyro_gate)))
-    return Error("tracker.vo_gyro_gate: must be a finite number >= 0");
-  if (!(heading_extrapolation_rate_sigma_rad_s >= 0.0 &&
-        std::isfinite(heading_extrapolation_rate_sigma_rad_s)))
-    return Error("tracker.heading_extrapolation_rate_sigma_rad_s: must be >= 0");
-  if (!(heading_wait_s >= 0.0 && heading_wait_s < vo_timeout_s))
-    return Error("tracker.heading_wait_s: must be >= 0 and below tracker.vo_timeout_s");
-  if (!(heading_extrapolation_s >= 0.0 && std::isfinite(heading_extrapolation_s)))
-    return Error("tracker.heading_extrapolation_s: must be >= 0");
-  if (!(max_speed_m_s > 0.0 && std::isfinite(max_speed_m_s)))
-    return Error("tracker.max_speed_m_s: must be a finite number > 0");
-  if (!(max_turn_rad_s > 0.0 && std::isfinite(max_turn_rad_s)))
-    return Error("tracker.max_turn_rad_s: must be a finite number > 0");
+  if (Status s = checkOptionRanges(*this, "tracker."); !s) return s;
+  if (!(heading_wait_s < vo_timeout_s))
+    return Error("tracker.heading_wait_s: must be below tracker.vo_timeout_s");
   return Ok{};
 }
 

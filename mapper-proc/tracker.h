@@ -43,6 +43,7 @@
 #include <evermap/wheel_odom_t.hpp>
 
 #include "core/common/expected.h"
+#include "core/common/option_fields.h"
 #include "core/geometry/se3.h"
 #include "core/messages/odometry_frame.h"
 
@@ -118,6 +119,46 @@ struct TrackerOptions {
   double max_speed_m_s = 50.0;
   double max_turn_rad_s = 20.0;
 
+  // The tracker.* settings (core/common/option_fields.h); body_T_cam is the program's.
+  void declareOptions(OptionList& o) {
+    o.add("wheel_offplane_sigma_m", &wheel_offplane_sigma_m, "m",
+          "height sigma given to each planar wheel increment")
+        .positive();
+    o.add("wheel_offplane_sigma_rad", &wheel_offplane_sigma_rad, "rad",
+          "roll and pitch sigma given to each planar wheel increment")
+        .positive();
+    o.add("history_s", &history_s, "s", "committed increments kept for late registrations")
+        .positive();
+    o.add("vo_timeout_s", &vo_timeout_s, "s", "VO silent this long: wheel odometry takes over")
+        .positive();
+    o.add("wheel_buffer_s", &wheel_buffer_s, "s", "wheel increments kept to bridge a VO failure")
+        .nonNegative();
+    o.add("relink_gate", &relink_gate, "chi2(3)",
+          "gate of VO's motion over a failure gap against the wheels'")
+        .positive();
+    o.add("gyro_heading", &gyro_heading, "fuse the gyro's heading into wheel increments' yaw");
+    o.add("gyro_noise_density", &gyro_noise_density, "rad/s/sqrt(Hz)", "gyro white noise")
+        .positive();
+    o.add("gyro_bias_correlation_s", &gyro_bias_correlation_s, "s",
+          "how long the gyro's bias error stays the same")
+        .positive();
+    o.add("vo_gyro_gate", &vo_gyro_gate, "chi2(1)",
+          "gate of VO's yaw over a keyframe step against the gyro's; 0: no test")
+        .nonNegative();
+    o.add("heading_extrapolation_rate_sigma_rad_s", &heading_extrapolation_rate_sigma_rad_s,
+          "rad/s", "turn-rate change assumed over an extrapolated heading's span")
+        .nonNegative();
+    o.add("heading_extrapolation_s", &heading_extrapolation_s, "s",
+          "a wheel increment this far past the newest heading extrapolates it")
+        .nonNegative();
+    o.add("heading_wait_s", &heading_wait_s, "s",
+          "a VO step waits this long for a heading to cover it (below vo_timeout_s); 0: never")
+        .nonNegative();
+    o.add("max_speed_m_s", &max_speed_m_s, "m/s", "odometry faster than this is refused")
+        .positive();
+    o.add("max_turn_rad_s", &max_turn_rad_s, "rad/s", "odometry turning faster is refused")
+        .positive();
+  }
   Status validate() const;
 };
 

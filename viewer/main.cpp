@@ -126,69 +126,180 @@ int playLog(evermap::viewer::LogPlayer& player, lcm::LCM& lcm,
   return 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  using namespace evermap;
-  viewer::WebServerOptions web;
-  viewer::LcmListenerOptions listen;
+// What the viewer runs with: the web server's and the listener's settings that a user
+// chooses, declared once (--help, --config, --set, --print-config); the flags below set the
+// same fields.
+struct Settings {
+  evermap::viewer::WebServerOptions web;
+  evermap::viewer::LcmListenerOptions listen;
   std::string url, store_file, log_file, web_dir;
   double log_speed = 1.0;
   bool quiet = false;
+
+  void declareOptions(evermap::OptionList& o) {
+    o.add("bind", &web.bind, "", "address to listen on (127.0.0.1: this machine only)");
+    o.add("port", &web.port, "", "TCP port; 0: any free port, printed").in(0, 65535);
+    o.add("max_clients", &web.max_clients, "", "browser connections served at once").min(1);
+    o.add("image_period_s", &listen.image_period_s, "s",
+          "wall seconds between two camera images sent")
+        .nonNegative();
+    o.add("image_width", &listen.image_width, "px", "width of the camera images sent").in(16, 4096);
+    o.add("log_speed", &log_speed, "x", "--log: playing speed, x real time")
+        .in(evermap::viewer::kMinLogSpeed, evermap::viewer::kMaxLogSpeed);
+  }
+};
+
+// The page's files and three.js (without it the page has no 3-D view).
+void findPage(const std::string& web_dir, evermap::viewer::WebServerOptions* web) {
+  web->web_dir = findWebDir(web_dir);
+  web->three_dir = web->web_dir / "node_modules" / "three";
+  if (!fs::is_regular_file(web->three_dir / "build" / "three.module.js")) {
+    std::fprintf(stderr,
+                 "evermap-viewer: three.js is not installed in %s (run scripts/setup.sh): "
+                 "the page has no 3-D view\n",
+                 web->three_dir.c_str());
+    web->three_dir.clear();
+  }
+}
+
+// The command line; -1 to run, else the exit status.
+int parse(int argc, char** argv, Settings* s) {
+  using namespace evermap;
   CommandLine cli(
       "evermap-viewer",
       "Serves a page that shows the map as it is built: MAP_GRAPH, POSE, FLOOR, MAPPER_STATS,\n"
       "REGISTER_RESULT, DEPUTY_STATUS, VO_DELTA, KEYFRAME and STEREO in (read-only: it\n"
       "publishes nothing), HTTP and a WebSocket stream out. Open http://BIND:PORT/.");
-  cli.value("--bind", &web.bind, "ADDR",
+  cli.value("--bind", &s->web.bind, "ADDR",
             "address to listen on (default 127.0.0.1: this machine only)");
-  cli.value("--port", &web.port, "N", "TCP port (default 8080; 0: any free port, printed)")
+  cli.value("--port", &s->web.port, "N", "TCP port (default 8080; 0: any free port, printed)")
       .min(0)
       .max(65535);
-  cli.value("--store", &store_file, "MAP.db",
+  cli.value("--store", &s->store_file, "MAP.db",
             "show this map store (SQLite) instead of listening to LCM");
-  cli.value("--log", &log_file, "FILE.lcmlog",
+  cli.value("--log", &s->log_file, "FILE.lcmlog",
             "play this LCM log instead of listening to LCM, with a time slider on the page");
-  cli.value("--speed", &log_speed, "X",
+  cli.value("--speed", &s->log_speed, "X",
             "--log: playing speed, x real time (default 1; 0.01-1000, also set on the page)")
       .min(viewer::kMinLogSpeed)
       .max(viewer::kMaxLogSpeed);
-  cli.value("--web-dir", &web_dir, "DIR",
+  cli.value("--web-dir", &s->web_dir, "DIR",
             "the page's files (default: found next to the program or in the source tree)");
-  cli.value("--max-clients", &web.max_clients, "N",
+  cli.value("--max-clients", &s->web.max_clients, "N",
             "browser connections served at once (default 64)")
       .min(1);
-  cli.value("--image-period-s", &listen.image_period_s, "S",
+  cli.value("--image-period-s", &s->listen.image_period_s, "S",
             "wall seconds between two camera images sent (default 0.5)")
       .min(0);
-  cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
-  cli.flag("--quiet", &quiet, "no summary on exit");
-  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  cli.value("--lcm-url", &s->url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
+  cli.flag("--quiet", &s->quiet, "no summary on exit");
+  cli.options(s, "viewer.");
+  cli.check([s]() -> Status {
+    findPage(s->web_dir, &s->web);
+    if (!s->store_file.empty() && !s->log_file.empty())
+      return makeError("--store and --log: one or the other");
+    if (Status v = s->web.validate(); !v) return v;
+    return s->listen.validate();
+  });
+  return cli.parseOrExit(argc, argv);
+}
+
+// Offline: the stored map, once; the server shows it until stopped. 0, or 1 on a bad store.
+int showStore(const std::string& store_file, const Settings& s, evermap::viewer::Board& board,
+              evermap::viewer::WebServer& server, evermap::StopSignals& stop) {
+  using namespace evermap;
+  auto stored = viewer::loadStoredGraph(store_file);
+  if (!stored) {
+    std::fprintf(stderr, "evermap-viewer: %s\n", stored.error().message.c_str());
+    return 1;
+  }
+  viewer::ViewerState state(board, s.listen.state);
+  if (Status r = state.onGraph(stored->graph, store_file); !r) {
+    std::fprintf(stderr, "evermap-viewer: %s: %s\n", store_file.c_str(), r.error().message.c_str());
+    return 1;
+  }
+  const viewer::GraphSummary& g = state.lastGraph();
+  // The counts the mapper would publish for this map (MAPPER_STATS), for the page's table.
+  mapper_stats_t stats{};
+  stats.utime = stored->graph.utime;
+  stats.num_nodes = static_cast<int32_t>(g.nodes);
+  stats.num_edges = static_cast<int32_t>(g.edges);
+  stats.num_floors = static_cast<int32_t>(g.floors);
+  stats.num_sessions = static_cast<int32_t>(g.sessions);
+  stats.num_rejected = stored->rejected;
+  (void)state.onStats(stats);
+  std::printf(
+      "evermap-viewer: %s: %lld nodes, %lld edges (%lld loop closures), %lld floors, "
+      "%lld sessions, %lld rejected constraints\n",
+      store_file.c_str(), static_cast<long long>(g.nodes), static_cast<long long>(g.edges),
+      static_cast<long long>(g.closures), static_cast<long long>(g.floors),
+      static_cast<long long>(g.sessions), static_cast<long long>(stored->rejected));
+  std::fflush(stdout);
+  server.notify();
+  while (!stop.requested()) std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  return 0;
+}
+
+// --log: the log to play into an in-process LCM, read by the same listener.
+evermap::Expected<evermap::viewer::LogPlayer> openLog(const std::string& log_file) {
+  using namespace evermap;
+  const std::set<std::string> channels_shown = {
+      channels::kMapGraph,    channels::kPose,           channels::kFloor,
+      channels::kMapperStats, channels::kRegisterResult, channels::kDeputyStatus,
+      channels::kVoDelta,     channels::kStereo,         channels::kKeyframe};
+  auto player = viewer::LogPlayer::open(log_file, channels_shown);
+  if (!player) return player.error();
+  std::printf("evermap-viewer: %s: %zu events over %.1f s (%lld camera images, one per %.1f s)\n",
+              log_file.c_str(), player->events(),
+              1e-6 * static_cast<double>(player->endUtime() - player->startUtime()),
+              static_cast<long long>(player->images()),
+              1e-6 * static_cast<double>(player->imagePeriodUs()));
+  std::fflush(stdout);
+  return player;
+}
+
+// Live: LCM until SIGINT/SIGTERM; 0, or 1 when LCM fails.
+int listenLive(lcm::LCM& lcm, evermap::viewer::LcmListener& listener,
+               evermap::viewer::WebServer& server, evermap::StopSignals& stop) {
+  using Clock = std::chrono::steady_clock;
+  auto next_counts = Clock::now();
+  while (!stop.requested()) {
+    // Short waits: the clients are woken at most every 20 ms however fast messages come.
+    if (lcm.handleTimeout(20) < 0) {
+      std::fprintf(stderr, "evermap-viewer: LCM failed\n");
+      return 1;
+    }
+    if (Clock::now() >= next_counts) {
+      listener.postCounts(server.countsJson());
+      next_counts = Clock::now() + std::chrono::seconds(1);
+    }
+    server.notify();
+  }
+  return 0;
+}
+
+void printSummary(const evermap::viewer::LcmListener& listener,
+                  const evermap::viewer::WebServerCounts& c) {
+  std::printf(
+      "evermap-viewer: %s\ngraphs %lld\nlast_graph_nodes %lld\nimages_sent %lld\n"
+      "connections %lld\nrefused_connections %lld\ntexts_sent %lld\nversions_skipped %lld\n",
+      listener.inbox().summary().c_str(), static_cast<long long>(listener.state().graphs()),
+      static_cast<long long>(listener.state().lastGraph().nodes),
+      static_cast<long long>(listener.imagesSent()), static_cast<long long>(c.connections),
+      static_cast<long long>(c.refused), static_cast<long long>(c.texts_sent),
+      static_cast<long long>(c.versions_skipped));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace evermap;
+  Settings s;
+  if (const int code = parse(argc, argv, &s); code >= 0) return code;
   // Signals blocked before any thread starts, then polled (the server thread inherits it).
   StopSignals stop;
-
-  web.web_dir = findWebDir(web_dir);
-  web.three_dir = web.web_dir / "node_modules" / "three";
-  if (!fs::is_regular_file(web.three_dir / "build" / "three.module.js")) {
-    std::fprintf(stderr,
-                 "evermap-viewer: three.js is not installed in %s (run scripts/setup.sh): "
-                 "the page has no 3-D view\n",
-                 web.three_dir.c_str());
-    web.three_dir.clear();
-  }
-  if (!store_file.empty() && !log_file.empty()) {
-    std::fprintf(stderr, "evermap-viewer: --store and --log: one or the other\n");
-    return 2;
-  }
-  for (Status s : {web.validate(), listen.validate()}) {
-    if (!s) {
-      std::fprintf(stderr, "evermap-viewer: %s\n", s.error().message.c_str());
-      return 2;
-    }
-  }
-
   viewer::Board board;
-  auto server = viewer::WebServer::start(board, web);
+  auto server = viewer::WebServer::start(board, s.web);
   if (!server) {
     std::fprintf(stderr, "evermap-viewer: %s\n", server.error().message.c_str());
     return 1;
@@ -199,108 +310,33 @@ int main(int argc, char** argv) {
     serving.join();
     return status;
   };
-
-  std::printf("evermap-viewer: serving http://%s:%d/ (page from %s)\n", web.bind.c_str(),
-              (*server)->port(), web.web_dir.c_str());
+  std::printf("evermap-viewer: serving http://%s:%d/ (page from %s)\n", s.web.bind.c_str(),
+              (*server)->port(), s.web.web_dir.c_str());
   std::fflush(stdout);
+  if (!s.store_file.empty()) return finish(showStore(s.store_file, s, board, **server, stop));
 
-  if (!store_file.empty()) {
-    // Offline: the stored map, once; the server shows it until stopped.
-    auto stored = viewer::loadStoredGraph(store_file);
-    if (!stored) {
-      std::fprintf(stderr, "evermap-viewer: %s\n", stored.error().message.c_str());
-      return finish(1);
-    }
-    viewer::ViewerState state(board, listen.state);
-    if (Status s = state.onGraph(stored->graph, store_file); !s) {
-      std::fprintf(stderr, "evermap-viewer: %s: %s\n", store_file.c_str(),
-                   s.error().message.c_str());
-      return finish(1);
-    }
-    const viewer::GraphSummary& g = state.lastGraph();
-    // The counts the mapper would publish for this map (MAPPER_STATS), for the page's table.
-    mapper_stats_t stats{};
-    stats.utime = stored->graph.utime;
-    stats.num_nodes = static_cast<int32_t>(g.nodes);
-    stats.num_edges = static_cast<int32_t>(g.edges);
-    stats.num_floors = static_cast<int32_t>(g.floors);
-    stats.num_sessions = static_cast<int32_t>(g.sessions);
-    stats.num_rejected = stored->rejected;
-    (void)state.onStats(stats);
-    std::printf(
-        "evermap-viewer: %s: %lld nodes, %lld edges (%lld loop closures), %lld floors, "
-        "%lld sessions, %lld rejected constraints\n",
-        store_file.c_str(), static_cast<long long>(g.nodes), static_cast<long long>(g.edges),
-        static_cast<long long>(g.closures), static_cast<long long>(g.floors),
-        static_cast<long long>(g.sessions), static_cast<long long>(stored->rejected));
-    std::fflush(stdout);
-    (*server)->notify();
-    while (!stop.requested()) std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    return finish(0);
-  }
-
-  // --log: the log is played into an in-process LCM, read by the same listener.
   std::optional<viewer::LogPlayer> player;
-  if (!log_file.empty()) {
-    const std::set<std::string> channels_shown = {
-        channels::kMapGraph,    channels::kPose,           channels::kFloor,
-        channels::kMapperStats, channels::kRegisterResult, channels::kDeputyStatus,
-        channels::kVoDelta,     channels::kStereo,         channels::kKeyframe};
-    auto opened = viewer::LogPlayer::open(log_file, channels_shown);
+  if (!s.log_file.empty()) {
+    auto opened = openLog(s.log_file);
     if (!opened) {
       std::fprintf(stderr, "evermap-viewer: %s\n", opened.error().message.c_str());
       return finish(1);
     }
     player = std::move(*opened);
-    url = "memq://";
-    std::printf("evermap-viewer: %s: %zu events over %.1f s (%lld camera images, one per %.1f s)\n",
-                log_file.c_str(), player->events(),
-                1e-6 * static_cast<double>(player->endUtime() - player->startUtime()),
-                static_cast<long long>(player->images()),
-                1e-6 * static_cast<double>(player->imagePeriodUs()));
-    std::fflush(stdout);
+    s.url = "memq://";
   }
-  lcm::LCM lcm(url);
+  lcm::LCM lcm(s.url);
   if (!lcm.good()) {
-    std::fprintf(stderr, "evermap-viewer: cannot start LCM (url \"%s\")\n", url.c_str());
+    std::fprintf(stderr, "evermap-viewer: cannot start LCM (url \"%s\")\n", s.url.c_str());
     return finish(1);
   }
-  std::optional<viewer::LcmListener> listener_slot;
-  listener_slot.emplace(lcm, board, listen);
-  int status = 0;
-  using Clock = std::chrono::steady_clock;
-  auto next_counts = Clock::now();
+  std::optional<viewer::LcmListener> listener;
+  listener.emplace(lcm, board, s.listen);
   if (player) {
-    status =
-        playLog(*player, lcm, listener_slot, listen, board, **server, stop, log_file, log_speed);
-    return finish(status);
+    return finish(
+        playLog(*player, lcm, listener, s.listen, board, **server, stop, s.log_file, s.log_speed));
   }
-  viewer::LcmListener& listener = *listener_slot;
-  while (!stop.requested()) {
-    // Short waits: the clients are woken at most every 20 ms however fast messages come.
-    const int handled = lcm.handleTimeout(20);
-    if (handled < 0) {
-      std::fprintf(stderr, "evermap-viewer: LCM failed\n");
-      status = 1;
-      break;
-    }
-    if (Clock::now() >= next_counts) {
-      listener.postCounts((*server)->countsJson());
-      next_counts = Clock::now() + std::chrono::seconds(1);
-    }
-    (*server)->notify();
-  }
-  status = finish(status);
-  if (!quiet) {
-    const viewer::WebServerCounts c = (*server)->counts();
-    std::printf(
-        "evermap-viewer: %s\ngraphs %lld\nlast_graph_nodes %lld\nimages_sent %lld\n"
-        "connections %lld\nrefused_connections %lld\ntexts_sent %lld\nversions_skipped %lld\n",
-        listener.inbox().summary().c_str(), static_cast<long long>(listener.state().graphs()),
-        static_cast<long long>(listener.state().lastGraph().nodes),
-        static_cast<long long>(listener.imagesSent()), static_cast<long long>(c.connections),
-        static_cast<long long>(c.refused), static_cast<long long>(c.texts_sent),
-        static_cast<long long>(c.versions_skipped));
-  }
+  const int status = finish(listenLive(lcm, *listener, **server, stop));
+  if (!s.quiet) printSummary(*listener, (*server)->counts());
   return status;
 }

@@ -17,6 +17,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "core/common/command_line.h"
 #include "core/common/stop_signals.h"
 #include "core/messages/channels.h"
 #include "core/messages/inbox.h"
@@ -24,18 +25,6 @@
 #include "vo-proc/vo_pipeline.h"
 
 namespace {
-
-constexpr const char* kUsage =
-    "usage: evermap-vo-proc [--lcm-url URL] [--queue N] [--no-descriptors]\n"
-    "                       [--keyframe-inliers N] [--ready-file PATH] [--print-options]\n"
-    "  --lcm-url URL          LCM provider (default: $LCM_DEFAULT_URL or LCM's default)\n"
-    "  --queue N              frames waiting at most, 1..1000 (default 2); older ones are dropped\n"
-    "  --time-window-s S      a frame stamped more than S s from the stream's clock waits for\n"
-    "                         confirmation (default 120; 0: off)\n"
-    "  --no-descriptors       keyframes without ORB descriptors (faster; no loop closure)\n"
-    "  --keyframe-inliers N   new keyframe below N inliers (default 150)\n"
-    "  --ready-file PATH      create PATH once subscribed (for scripts)\n"
-    "  --print-options        print the odometry options and exit\n";
 
 using Bytes = std::vector<uint8_t>;
 
@@ -72,63 +61,102 @@ class Receiver {
   Shared* shared_;
 };
 
+struct Settings {
+  std::string url;
+  int queue_size = 2;
+  double time_window_s = 120.0;  // core/messages/inbox.h, TimeGuardOptions
+  evermap::vo::PipelineOptions pipeline;
+  std::string ready_file;
+};
+
+// The command line; -1 to run, else the exit status.
+int parse(int argc, char** argv, Settings* s) {
+  using evermap::CommandLine;
+  CommandLine cli("evermap-vo-proc",
+                  "Visual odometry on LCM: STEREO_CALIB + STEREO or RGBD in, VO_DELTA and "
+                  "KEYFRAME out.");
+  cli.value("--lcm-url", &s->url, "URL", "LCM provider (default: $LCM_DEFAULT_URL or LCM's)");
+  cli.value("--queue", &s->queue_size, "N", "frames waiting at most (default 2); older dropped")
+      .in(1, 1000);
+  cli.value("--time-window-s", &s->time_window_s, "S",
+            "a frame stamped more than S s from the stream's clock waits for confirmation "
+            "(default 120; 0: off)")
+      .nonNegative();
+  bool no_descriptors = false;
+  cli.flag("--no-descriptors", &no_descriptors,
+           "keyframes without ORB descriptors (faster; no loop closure)");
+  cli.value("--keyframe-inliers", &s->pipeline.odometry.keyframe_inlier_threshold, "N",
+            "new keyframe below N inliers (default 150; odometry.keyframe_inlier_threshold)")
+      .min(0);
+  cli.value("--ready-file", &s->ready_file, "PATH", "create PATH once subscribed (for scripts)");
+  bool print_options = false;
+  cli.flag("--print-options", &print_options, "print the odometry options in words and exit");
+  cli.options(&s->pipeline);
+  cli.check([s, &no_descriptors] {
+    if (no_descriptors) s->pipeline.odometry.keyframe_descriptors = false;
+    return s->pipeline.validate();
+  });
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  if (print_options) {
+    std::printf("%s\n", s->pipeline.odometry.describe().c_str());
+    return 0;
+  }
+  return -1;
+}
+
+// The worker: applies the latest calibration, runs each queued frame and publishes.
+void work(evermap::vo::BoundedQueue<QueuedFrame>* queue, Shared* shared,
+          evermap::vo::VoPipeline* pipeline, lcm::LCM* lcm) {
+  int64_t bad_frames = 0;
+  while (auto frame = queue->pop()) {
+    std::optional<Bytes> calibration;
+    {
+      std::lock_guard<std::mutex> lock(shared->mutex);
+      calibration.swap(shared->calibration);
+    }
+    if (calibration) {
+      if (evermap::Status s = pipeline->handleCalibrationBytes(
+              calibration->data(), static_cast<int64_t>(calibration->size()));
+          !s) {
+        std::fprintf(stderr, "evermap-vo-proc: %s\n", s.error().message.c_str());
+      }
+    }
+    const Bytes& bytes = frame->bytes;
+    auto out = frame->rgbd
+                   ? pipeline->handleRgbdBytes(bytes.data(), static_cast<int64_t>(bytes.size()))
+                   : pipeline->handleStereoBytes(bytes.data(), static_cast<int64_t>(bytes.size()));
+    if (!out) {
+      std::fprintf(stderr, "evermap-vo-proc: dropped: %s\n", out.error().message.c_str());
+      continue;
+    }
+    // Bad input is counted in the pipeline's stats; a flood of it gets 20 lines, then one in
+    // 1000.
+    const bool bad = out->result.status == evermap::vo::VoStatus::kBadInput;
+    if (bad) ++bad_frames;
+    if (out->result.status != evermap::vo::VoStatus::kOk &&
+        (!bad || bad_frames <= 20 || bad_frames % 1000 == 0)) {
+      std::fprintf(
+          stderr, "evermap-vo-proc: %lld %s: %s%s\n", static_cast<long long>(out->result.utime),
+          evermap::vo::toString(out->result.status), out->result.message.c_str(),
+          bad && bad_frames > 20 ? (" (" + std::to_string(bad_frames) + " bad frames)").c_str()
+                                 : "");
+    }
+    lcm->publish(evermap::channels::kVoDelta, &out->delta);
+    if (out->keyframe) lcm->publish(evermap::channels::kKeyframe, &*out->keyframe);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string url;
-  size_t queue_size = 2;
-  double time_window_s = 120.0;  // core/messages/inbox.h, TimeGuardOptions
-  evermap::vo::PipelineOptions options;
-  bool print_options = false;
-  std::string ready_file;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--lcm-url" && i + 1 < argc) {
-      url = argv[++i];
-    } else if (a == "--queue" && i + 1 < argc) {
-      const char* v = argv[++i];
-      char* end = nullptr;
-      const long n = std::strtol(v, &end, 10);
-      if (end == v || *end != '\0' || n < 1 || n > 1000) {
-        std::fprintf(stderr,
-                     "evermap-vo-proc: --queue: expected an integer in [1, 1000], got \"%s\"\n", v);
-        return 2;
-      }
-      queue_size = static_cast<size_t>(n);
-    } else if (a == "--time-window-s" && i + 1 < argc) {
-      const char* v = argv[++i];
-      char* end = nullptr;
-      time_window_s = std::strtod(v, &end);
-      if (end == v || *end != '\0' || !std::isfinite(time_window_s) || time_window_s < 0) {
-        std::fprintf(
-            stderr, "evermap-vo-proc: --time-window-s: expected a finite number >= 0, got \"%s\"\n",
-            v);
-        return 2;
-      }
-    } else if (a == "--no-descriptors") {
-      options.odometry.keyframe_descriptors = false;
-    } else if (a == "--keyframe-inliers" && i + 1 < argc) {
-      options.odometry.keyframe_inlier_threshold = std::atoi(argv[++i]);
-    } else if (a == "--ready-file" && i + 1 < argc) {
-      ready_file = argv[++i];
-    } else if (a == "--print-options") {
-      print_options = true;
-    } else if (a == "-h" || a == "--help") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    } else {
-      std::fprintf(stderr, "evermap-vo-proc: unknown argument %s\n%s", a.c_str(), kUsage);
-      return 2;
-    }
-  }
-  auto pipeline = evermap::vo::VoPipeline::create(options);
+  Settings settings;
+  if (const int code = parse(argc, argv, &settings); code >= 0) return code;
+  const std::string& url = settings.url;
+  const size_t queue_size = static_cast<size_t>(settings.queue_size);
+  auto pipeline = evermap::vo::VoPipeline::create(settings.pipeline);
   if (!pipeline) {
     std::fprintf(stderr, "evermap-vo-proc: %s\n", pipeline.error().message.c_str());
     return 2;
-  }
-  if (print_options) {
-    std::printf("%s\n", options.odometry.describe().c_str());
-    return 0;
   }
   lcm::LCM lcm(url);
   if (!lcm.good()) {
@@ -146,7 +174,7 @@ int main(int argc, char** argv) {
   input.process = "evermap-vo-proc";
   // Frames wait in the worker's queue (--queue); LCM's own holds a few more (~600 kB each).
   input.queue_capacity = 4;
-  input.time.window_s = time_window_s;
+  input.time.window_s = settings.time_window_s;
   evermap::messages::Inbox inbox(lcm, input);
   inbox.subscribeBytes<evermap::stereo_image_t>(
       evermap::channels::kStereo,
@@ -158,50 +186,11 @@ int main(int argc, char** argv) {
       evermap::channels::kStereoCalib,
       [&](const void* d, int64_t n) { return receiver.onCalibration(d, n); }, 8);
 
-  if (!ready_file.empty()) {
-    if (std::FILE* f = std::fopen(ready_file.c_str(), "w")) std::fclose(f);
+  if (!settings.ready_file.empty()) {
+    if (std::FILE* f = std::fopen(settings.ready_file.c_str(), "w")) std::fclose(f);
   }
 
-  std::thread worker([&] {
-    int64_t bad_frames = 0;
-    while (auto frame = queue.pop()) {
-      std::optional<Bytes> calibration;
-      {
-        std::lock_guard<std::mutex> lock(shared.mutex);
-        calibration.swap(shared.calibration);
-      }
-      if (calibration) {
-        if (evermap::Status s = pipeline->handleCalibrationBytes(
-                calibration->data(), static_cast<int64_t>(calibration->size()));
-            !s) {
-          std::fprintf(stderr, "evermap-vo-proc: %s\n", s.error().message.c_str());
-        }
-      }
-      const Bytes& bytes = frame->bytes;
-      auto out =
-          frame->rgbd
-              ? pipeline->handleRgbdBytes(bytes.data(), static_cast<int64_t>(bytes.size()))
-              : pipeline->handleStereoBytes(bytes.data(), static_cast<int64_t>(bytes.size()));
-      if (!out) {
-        std::fprintf(stderr, "evermap-vo-proc: dropped: %s\n", out.error().message.c_str());
-        continue;
-      }
-      // Bad input is counted in the pipeline's stats; a flood of it gets 20 lines, then one in
-      // 1000.
-      const bool bad = out->result.status == evermap::vo::VoStatus::kBadInput;
-      if (bad) ++bad_frames;
-      if (out->result.status != evermap::vo::VoStatus::kOk &&
-          (!bad || bad_frames <= 20 || bad_frames % 1000 == 0)) {
-        std::fprintf(
-            stderr, "evermap-vo-proc: %lld %s: %s%s\n", static_cast<long long>(out->result.utime),
-            evermap::vo::toString(out->result.status), out->result.message.c_str(),
-            bad && bad_frames > 20 ? (" (" + std::to_string(bad_frames) + " bad frames)").c_str()
-                                   : "");
-      }
-      lcm.publish(evermap::channels::kVoDelta, &out->delta);
-      if (out->keyframe) lcm.publish(evermap::channels::kKeyframe, &*out->keyframe);
-    }
-  });
+  std::thread worker([&] { work(&queue, &shared, &*pipeline, &lcm); });
 
   while (!stop.requested()) {
     lcm.handleTimeout(200);

@@ -61,6 +61,7 @@
 
 #include "core/camera/stereo_camera.h"
 #include "core/common/expected.h"
+#include "core/common/option_fields.h"
 #include "core/features/orb_descriptor.h"
 #include "core/features/stereo_features.h"
 #include "core/geometry/se3.h"
@@ -125,6 +126,42 @@ struct OdometryOptions {
 
   Status validate() const;
   std::string describe() const;
+  // The settings of this struct (the feature, matching and registration options of core/
+  // are not declared: they keep the values above).
+  void declareOptions(OptionList& o) {
+    o.add("keyframe_inlier_threshold", &keyframe_inlier_threshold, "inliers",
+          "a frame with fewer inliers replaces the reference (at least registration's minimum)")
+        .min(0);
+    o.add("keyframe_inlier_fraction", &keyframe_inlier_fraction, "",
+          "... or fewer than this fraction of the first frame's")
+        .min(0)
+        .below(1);
+    o.add("keyframe_min_translation_m", &keyframe_min_translation_m, "m",
+          "a new reference is a map keyframe after moving this far ...")
+        .nonNegative();
+    o.add("keyframe_min_rotation_rad", &keyframe_min_rotation_rad, "rad",
+          "... or turning this much")
+        .nonNegative();
+    o.add("max_failed_frames", &max_failed_frames, "frames",
+          "consecutive failures before the reference is replaced")
+        .nonNegative();
+    o.add("estimate_rotation", &estimate_rotation, "initial rotation from the top pyramid level");
+    o.add("constant_velocity", &constant_velocity, "predict the last motion (else rotation only)");
+    o.add("retry_previous_frame", &retry_previous_frame,
+          "a frame failing against the reference tries the last registered frame");
+    o.add("bridge_breaks", &bridge_breaks, "bridge a chain break with the motion prior");
+    o.add("bridge.translation_sigma_m", &bridge.translation_sigma_m, "m",
+          "motion prior's translation sigma per frame")
+        .positive();
+    o.add("bridge.rotation_sigma_rad", &bridge.rotation_sigma_rad, "rad",
+          "motion prior's rotation sigma per frame")
+        .positive();
+    o.add("bridge.velocity_fraction", &bridge.velocity_fraction, "",
+          "... plus this fraction of the predicted motion")
+        .nonNegative();
+    o.add("keyframe_descriptors", &keyframe_descriptors,
+          "ORB descriptors on keyframes (for loop closure)");
+  }
 
   static core::StereoFeatureExtractor::Options defaultFeatures();
   static core::RegistrationOptions defaultRegistration();

@@ -51,6 +51,15 @@ struct PipelineOptions {
   double rgbd_max_mean_reprojection_px = 2.0;
 
   Status validate() const;
+  void declareOptions(OptionList& o) {
+    o.add("rgbd_inlier_max_reprojection_px", &rgbd_inlier_max_reprojection_px, "px",
+          "RGB-D: a match within this reprojection error is an inlier")
+        .positive();
+    o.add("rgbd_max_mean_reprojection_px", &rgbd_max_mean_reprojection_px, "px",
+          "RGB-D: a motion's mean inlier error at most")
+        .positive();
+    o.nest("odometry.", &odometry);
+  }
 };
 
 struct PipelineOutput {

@@ -173,6 +173,9 @@ Expected<CommandLine::Outcome> CommandLine::parse(int argc, const char* const* a
     option->seen = true;
   }
   if (Status s = applyOptions(); !s) return Error{s.error()};
+  for (const auto& rule : checks_) {
+    if (Status s = rule(); !s) return Error{s.error()};
+  }
   if (print_config_) return Outcome::kPrintConfig;
   for (const Option& o : options_) {
     if (o.required && !o.seen) return makeError(o.name, " is required");
@@ -184,7 +187,11 @@ int CommandLine::parseOrExit(int argc, const char* const* argv) {
   const Expected<Outcome> outcome = parse(argc, argv);
   if (!outcome) {
     std::fprintf(stderr, "%s: %s\n%s", program_.c_str(), outcome.error().message.c_str(),
-                 usage().c_str());
+                 flagUsage().c_str());
+    if (!option_list_.fields().empty()) {
+      std::fprintf(stderr, "(%s --help lists its %zu options)\n", program_.c_str(),
+                   option_list_.fields().size());
+    }
     return 2;
   }
   switch (*outcome) {
@@ -204,6 +211,15 @@ int CommandLine::parseOrExit(int argc, const char* const* argv) {
 }
 
 std::string CommandLine::usage() const {
+  std::string text = flagUsage();
+  if (!option_list_.fields().empty()) {
+    text += "options (--set KEY=VALUE or KEY = VALUE in --config FILE; default, unit, allowed):\n";
+    text += option_list_.help();
+  }
+  return text;
+}
+
+std::string CommandLine::flagUsage() const {
   std::string text = "usage: " + program_;
   for (const Option& o : options_) {
     std::string item = o.name + (o.metavar.empty() ? "" : " " + o.metavar);
@@ -222,10 +238,6 @@ std::string CommandLine::usage() const {
   if (positional_) line(positional_metavar_, positional_help_);
   for (const Option& o : options_) {
     line(o.name + (o.metavar.empty() ? "" : " " + o.metavar), o.help);
-  }
-  if (!option_list_.fields().empty()) {
-    text += "options (--set KEY=VALUE or KEY = VALUE in --config FILE; default, unit, allowed):\n";
-    text += option_list_.help();
   }
   return text;
 }

@@ -88,6 +88,9 @@ class CommandLine {
   // is the option's doc, default, unit and allowed values. Declare after options().
   void alias(std::string name, const std::string& key, std::string metavar,
              std::string flag_value = "true");
+  // A rule checked after the options are set (a struct's validate(): the rules between
+  // fields), before --print-config prints them; its error is a bad command line.
+  void check(std::function<Status()> rule) { checks_.push_back(std::move(rule)); }
   // Words that are not options go here (in order); without this, they are errors.
   void positional(std::vector<std::string>* out, std::string metavar, std::string help);
 
@@ -102,7 +105,10 @@ class CommandLine {
   // already printed).
   int parseOrExit(int argc, const char* const* argv);
 
+  // The flags and every option (--help).
   std::string usage() const;
+  // The flags only (after a bad command line).
+  std::string flagUsage() const;
   // The program, its flags and its options as Markdown (docs/options.md).
   std::string markdown() const;
   const std::string& program() const { return program_; }
@@ -148,6 +154,7 @@ class CommandLine {
   std::string config_file_;
   std::vector<std::string> config_sets_;
   bool print_config_ = false;
+  std::vector<std::function<Status()>> checks_;
 };
 
 }  // namespace evermap

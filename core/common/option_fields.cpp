@@ -145,11 +145,7 @@ void OptionList::add(const std::string& key, std::string* field, std::string uni
 
 void OptionList::append(OptionList other) {
   for (OptionField& f : other.fields_) {
-    if (find(f.key)) {
-      std::fprintf(stderr, "OptionList: option %s declared twice\n", f.key.c_str());
-      std::abort();
-    }
-    fields_.push_back(std::move(f));
+    if (!find(f.key)) fields_.push_back(std::move(f));
   }
 }
 

@@ -79,17 +79,17 @@ printf 'publish_rate_hz = inf\n' > "$tmp/inf.cfg"
 printf 'max_ride_s = nan\n' > "$tmp/nan.cfg"
 refused 2 "^evermap-imu-proc: .*unknown.cfg:2: unknown option \"no_such_key\"" -- \
   "$bin/evermap-imu-proc" --config "$tmp/unknown.cfg" --print-options
-refused 2 "^evermap-imu-proc: .*inf.cfg:1: option publish_rate_hz: bad value" -- \
+refused 2 "^evermap-imu-proc: .*inf.cfg:1: option publish_rate_hz: \"inf\" is not a finite number" -- \
   "$bin/evermap-imu-proc" --config "$tmp/inf.cfg" --print-options
-refused 2 "^evermap-imu-proc: unknown option \"no_such_key\"" -- \
+refused 2 "^evermap-imu-proc: bad --set: unknown option \"no_such_key\"" -- \
   "$bin/evermap-imu-proc" --set no_such_key=1 --print-options
-refused 2 "^evermap-imu-proc: option publish_rate_hz: bad value" -- \
+refused 2 "^evermap-imu-proc: bad --set: option publish_rate_hz: \"inf\" is not a finite number" -- \
   "$bin/evermap-imu-proc" --set publish_rate_hz=inf --print-options
 refused 2 "^evermap-elevator-proc: .*unknown.cfg:1: unknown option \"publish_rate_hz\"" -- \
   "$bin/evermap-elevator-proc" --config "$tmp/unknown.cfg" --print-options
-refused 2 "^evermap-elevator-proc: .*nan.cfg:1: option max_ride_s: bad value" -- \
+refused 2 "^evermap-elevator-proc: .*nan.cfg:1: option max_ride_s: \"nan\" is not a finite number" -- \
   "$bin/evermap-elevator-proc" --config "$tmp/nan.cfg" --print-options
-refused 2 "^evermap-imu-elevator-run: .*nan.cfg:1: option max_ride_s: bad value" -- \
+refused 2 "^evermap-imu-elevator-run: .*nan.cfg:1: option max_ride_s: \"nan\" is not a finite number" -- \
   "$bin/evermap-imu-elevator-run" --config "$tmp/nan.cfg" --synthetic 1
 refused 2 "^evermap-imu-elevator-run: .*unknown.cfg:1: unknown option \"publish_rate_hz\"" -- \
   "$bin/evermap-imu-elevator-run" --config "$tmp/unknown.cfg" --synthetic 1
