@@ -74,8 +74,6 @@ int parse(int argc, char** argv, Args* a) {
       "input:\n"
       "--euroc-imu, --hackzurich, --science-journal, --lcm-log, --synthetic or --sim-config\n"
       "(docs/imu-elevator.md).");
-  std::string config;
-  std::vector<std::string> sets;
   cli.value("--euroc-imu", &a->euroc_imu, "CSV", "EuRoC mav0/imu0/data.csv");
   cli.value("--ground-truth", &a->ground_truth, "FILE", "EuRoC ground truth: the attitude error");
   cli.value("--hackzurich", &a->hackzurich, "DIR", "the phone recordings (with --session)");
@@ -98,9 +96,11 @@ int parse(int argc, char** argv, Args* a) {
   cli.value("--sim-sessions", &a->sim_sessions, "N",
             "only the first N sessions of --sim-config (0: all)")
       .min(0);
-  cli.value("--config", &config, "FILE", "attitude and elevator options (key = value)");
-  cli.repeated("--set", &sets, "key=value", "one attitude or elevator option (after --config)");
-  cli.flag("--print-options", &a->print_options, "print every option with its value and exit");
+  cli.flag("--print-options", &a->print_options, "the same as --print-config");
+  cli.options(&a->attitude);
+  cli.options(&a->elevator);
+  cli.check([a] { return a->attitude.validate(); });
+  cli.check([a] { return a->elevator.validate(); });
   cli.value("--dump-attitude", &a->dump_attitude, "FILE",
             "the attitude track, one estimate a line");
   cli.value("--dump-trace", &a->dump_trace, "FILE", "the elevator's 0.1 s grid");
@@ -109,17 +109,9 @@ int parse(int argc, char** argv, Args* a) {
   cli.value("--print-floor-log", &a->floor_log, "FILE",
             "only print the FLOOR and ATTITUDE summary of an LCM log");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
-  Status st = Ok{};
-  if (!config.empty()) st = loadFields(config, &a->attitude, &a->elevator);
-  for (const std::string& v : sets) {
-    if (!st.ok()) break;
-    st = setFieldFromAssignment(v, &a->attitude, &a->elevator);
-  }
-  if (st.ok()) st = a->attitude.validate();
-  if (st.ok()) st = a->elevator.validate();
-  if (!st.ok()) {
-    std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", st.error().message.c_str());
-    return 2;
+  if (a->print_options) {
+    std::fputs(cli.optionList().print().c_str(), stdout);
+    return 0;
   }
   if (a->synthetic_rides < 0 || !(a->rate_hz > 0) || a->sim_sessions < 0) {
     std::fprintf(
@@ -419,11 +411,6 @@ int main(int argc, char** argv) {
   Args args;
   if (const int code = parse(argc, argv, &args); code >= 0) return code;
   if (!args.floor_log.empty()) return printFloorLog(args.floor_log);
-  if (args.print_options) {
-    std::printf("%s%s", describeFields(args.attitude).c_str(),
-                describeFields(args.elevator).c_str());
-    return 0;
-  }
   if (!args.sim_config.empty()) return runSimulatorCheck(args);
   Input in;
   if (const int code = readInput(args, &in); code >= 0) return code;

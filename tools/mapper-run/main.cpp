@@ -178,7 +178,7 @@ struct RunArgs {
   std::vector<std::string> sets;
   double hours = -1.0, max_wall_s = 0.0, store_period_s = 0.0, restart_gap_s = 0.0,
          stop_after_s = 0.0;
-  bool progress = false;
+  bool progress = false, print_config = false;
   int first = 0, last = -1;
 };
 
@@ -242,6 +242,9 @@ void declareOptions(evermap::CommandLine* cli, RunArgs* a) {
              "instead of a run: the Fig. 7 plots again from DIR/timeline-reduced.csv and "
              "DIR/timeline-full.csv (either may be missing), runs of the two modes made "
              "separately, drawn side by side");
+  cli->flag("--print-config", &a->print_config,
+            "print the simulation's and the mapper's settings in effect (after --config and --set) "
+            "and exit");
   cli->value("--check-store", &a->check_store, "MAP.db",
              "instead of a run: PRAGMA integrity_check of a map store, then 'store ok nodes N "
              "edges E sessions S updated_utime U' (U: the newest keyframe of a stored node or "
@@ -408,6 +411,11 @@ int main(int argc, char** argv) {
       "pose graph or both, with the registration oracle, in one process (docs/mapper.md).\n"
       "Also: --replot DIR, --check-store MAP.db.");
   declareOptions(&cli, &a);
+  // The keys --config and --set take, listed in --help: the simulator's and mapper.*.
+  evermap::sim::SimOptions listed_sim;
+  evermap::mapper::MapperOptions listed_mapper;
+  cli.options(&listed_sim);
+  cli.options(&listed_mapper, "mapper.");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (!a.check_store.empty()) return checkStore(a.check_store);
   if (!a.replot.empty()) return replot(a.replot);
@@ -415,5 +423,10 @@ int main(int argc, char** argv) {
   evermap::sim::SimOptions sim;
   evermap::mapper::MapperOptions mapper_options;
   if (const int code = loadOptions(a, &sim, &mapper_options); code >= 0) return code;
+  if (a.print_config) {
+    std::printf("%s%s", sim.toConfigText().c_str(),
+                evermap::mapper::printMapperOptions(mapper_options).c_str());
+    return 0;
+  }
   return run(a, sim, mapper_options);
 }

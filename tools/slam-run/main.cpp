@@ -108,7 +108,7 @@ struct SlamArgs {
   std::vector<std::string> logs, sets, render_sets;
   std::string render_config;
   int render_sessions = -1;
-  bool full_graph = false;
+  bool full_graph = false, print_config = false;
 };
 
 int fail(const std::string& what, int code) {
@@ -122,13 +122,12 @@ int parseCommandLine(int argc, char** argv, SlamArgs* a) {
       "evermap-slam-run",
       "The visual SLAM system in one process: LCM logs (one per session) in, a map out.");
   cli.value("--vocab", &a->vocab_file, "FILE",
-            "vocabulary (evermap-vocab-train .evoc, or DBoW2/3 .yml.gz)", true);
+            "vocabulary (evermap-vocab-train .evoc, or DBoW2/3 .yml.gz; required)");
   cli.value("--out", &a->out_dir, "DIR",
             "output folder: map.db, trajectory.tum, frames.csv, registrations.csv, nodes.csv, "
             "summary.txt, fig4-nodes.png, fig4-floors.svg, fig7-*.svg "
             "(created; an existing map.db is "
-            "continued as a stored map)",
-            true);
+            "continued as a stored map; required)");
   cli.flag("--full-graph", &a->full_graph,
            "a node at every step (the paper's baseline) instead of the reduced graph");
   cli.value("--config", &a->config, "MAPPER.conf", "mapper.* settings (docs/mapper.md)");
@@ -144,8 +143,17 @@ int parseCommandLine(int argc, char** argv, SlamArgs* a) {
   cli.value("--sessions", &a->render_sessions, "N",
             "with --render: sessions 0 .. N-1 (default: patrol.sessions)")
       .min(1);
+  cli.flag("--print-config", &a->print_config,
+           "print the mapper's settings in effect (and the --render file's) and exit");
   cli.positional(&a->logs, "LOG...", "LCM logs, mapped as successive sessions");
+  // The keys --config and --set take, listed in --help.
+  evermap::mapper::MapperOptions listed;
+  cli.options(&listed, "mapper.");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  if (a->print_config) return -1;
+  for (const auto& [flag, value] : {std::pair{"--vocab", &a->vocab_file}, {"--out", &a->out_dir}}) {
+    if (value->empty()) return fail(std::string(flag) + " is required\n" + cli.usage(), 2);
+  }
   if (a->logs.empty() == a->render_config.empty())
     return fail("give either LCM logs or --render\n" + cli.usage(), 2);
   return -1;
@@ -274,6 +282,11 @@ int main(int argc, char** argv) {
   std::optional<evermap::sim::ImageSimOptions> render;
   if (const int code = loadRender(&a, &render); code >= 0) return code;
   if (const int code = loadMapperOptions(&a); code >= 0) return code;
+  if (a.print_config) {
+    std::printf("%s%s", evermap::mapper::printMapperOptions(a.options.mapper).c_str(),
+                render ? render->toConfigText().c_str() : "");
+    return 0;
+  }
   // Every log whole before anything is created: a log cut mid-event is one line and no
   // output folder, not a map of part of the data.
   for (const std::string& log : a.logs) {
