@@ -65,6 +65,7 @@ evermap-euroc2lcm|raw|-|-|-
 evermap-kitti2lcm|disparity_offset_px|--disparity-offset|2000|\[-1000, 1000\]
 evermap-tum2lcm|max_difference_s|--max-difference|0|> 0
 evermap-imu-elevator-run|max_ride_s|-|-1|> 0
+evermap-landmark-graph|poses|-|1|>= 2
 TABLE
 
 # The simulators and the runners read one config file with keys of several parts: their
