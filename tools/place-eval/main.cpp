@@ -115,6 +115,23 @@ void printCurve(const PrCurve& curve, bool full) {
               100 * b.recall, b.true_positives, curve.queries_with_loop, b.threshold);
 }
 
+// --csv: every query's candidates, images numbered from 1.
+Status writeCandidatesCsv(const std::string& file, const std::vector<QueryRecord>& records,
+                          const LoopGroundTruth& gt) {
+  std::string csv = "query,rank,candidate,score,matches,inliers,geometric_ok,ground_truth\n";
+  for (const QueryRecord& r : records) {
+    for (size_t k = 0; k < r.candidates.size(); ++k) {
+      const CandidateRecord& c = r.candidates[k];
+      char line[160];
+      std::snprintf(line, sizeof(line), "%zu,%zu,%zu,%.6f,%d,%d,%d,%d\n", r.image + 1, k + 1,
+                    c.image + 1, c.score, c.matches, c.inliers, c.geometric_ok ? 1 : 0,
+                    gt.loop(r.image, c.image) ? 1 : 0);
+      csv += line;
+    }
+  }
+  return writeFileAtomically(file, csv);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -182,18 +199,7 @@ int main(int argc, char** argv) {
       geo.true_positives, geo.false_positives);
 
   if (!cmd->csv.empty()) {
-    std::string csv = "query,rank,candidate,score,matches,inliers,geometric_ok,ground_truth\n";
-    for (const QueryRecord& r : *records) {
-      for (size_t k = 0; k < r.candidates.size(); ++k) {
-        const CandidateRecord& c = r.candidates[k];
-        char line[160];
-        std::snprintf(line, sizeof(line), "%zu,%zu,%zu,%.6f,%d,%d,%d,%d\n", r.image + 1, k + 1,
-                      c.image + 1, c.score, c.matches, c.inliers, c.geometric_ok ? 1 : 0,
-                      gt->loop(r.image, c.image) ? 1 : 0);
-        csv += line;
-      }
-    }
-    if (Status s = writeFileAtomically(cmd->csv, csv); !s) return fail(s.error().message);
+    if (Status s = writeCandidatesCsv(cmd->csv, *records, *gt); !s) return fail(s.error().message);
     std::printf("candidates written to %s (images numbered from 1)\n", cmd->csv.c_str());
   }
   return 0;
