@@ -32,6 +32,10 @@ std::string cell(std::string s) {
 namespace option_text {
 
 std::string ofDouble(double v) {
+  // Whole numbers as such ("1000000", not "1e+06"), else the shortest exact text.
+  if (std::isfinite(v) && v == std::floor(v) && std::abs(v) < 1e15) {
+    return std::to_string(static_cast<long long>(v));
+  }
   char buf[64];
   const auto r = std::to_chars(buf, buf + sizeof buf, v);
   return std::string(buf, r.ptr);
