@@ -53,23 +53,25 @@ TEST(SimConfig, KittiConfigurationFindsItsTrajectory) {
 }
 
 TEST(SimConfig, ErrorsNameTheFileAndLine) {
-  EXPECT_EQ(errorOf("seed = 1\nvo.rate_hx = 20\n"), "x.conf:2: unknown key 'vo.rate_hx'");
+  EXPECT_EQ(errorOf("seed = 1\nvo.rate_hx = 20\n"), "x.conf:2: unknown option \"vo.rate_hx\"");
   EXPECT_EQ(errorOf("# comment\n\nvo.rate_hz = fast\n"),
-            "x.conf:3: vo.rate_hz: expected a number, got 'fast'");
+            "x.conf:3: option vo.rate_hz: \"fast\" is not a number");
   EXPECT_EQ(errorOf("patrol.sessions = 2.5\n"),
-            "x.conf:1: patrol.sessions: expected an integer, got '2.5'");
+            "x.conf:1: option patrol.sessions: \"2.5\" is not an integer in range");
   EXPECT_EQ(errorOf("imu.enabled = maybe\n"),
-            "x.conf:1: imu.enabled: expected true or false, got 'maybe'");
+            "x.conf:1: option imu.enabled: \"maybe\" is not true or false");
   EXPECT_EQ(errorOf("seed = 1\nseed = 2\n"), "x.conf:2: key 'seed' already set at x.conf:1");
   EXPECT_EQ(errorOf("seed 1\n"), "x.conf:1: expected 'key = value', got 'seed 1'");
   EXPECT_EQ(errorOf("seed =\n"), "x.conf:1: key 'seed' has no value");
-  EXPECT_EQ(errorOf("vo.rate_hz = nan\n"), "x.conf:1: vo.rate_hz: not a finite number");
+  EXPECT_EQ(errorOf("vo.rate_hz = nan\n"),
+            "x.conf:1: option vo.rate_hz: \"nan\" is not a finite number");
   EXPECT_EQ(errorOf("mode = sky\n"),
-            "x.conf:1: mode: expected 'building' or 'trajectory', got 'sky'");
+            "x.conf:1: option mode: \"sky\" is not one of building | trajectory");
 }
 
 TEST(SimConfig, InvalidSettingsNameTheKeyAndLine) {
-  EXPECT_EQ(errorOf("seed = 3\nvo.rate_hz = -1\n"), "x.conf:2: vo.rate_hz: must be > 0, got -1");
+  EXPECT_EQ(errorOf("seed = 3\nvo.rate_hz = -1\n"),
+            "x.conf:2: option vo.rate_hz: -1 is outside > 0");
   EXPECT_EQ(errorOf("building.main_floor = 12\n"),
             "x.conf:1: building.main_floor: must be in [0, floors), got 12");
   EXPECT_EQ(errorOf("oracle.false_match_rate_node = 1.5\n").substr(0, 9), "x.conf:1:");

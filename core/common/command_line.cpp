@@ -99,6 +99,29 @@ void CommandLine::options(OptionList list) {
   flag("--print-config", &print_config_, "print the options in effect and exit");
 }
 
+void CommandLine::alias(std::string name, const std::string& key, std::string metavar,
+                        std::string flag_value) {
+  const OptionField* f = option_list_.find(key);
+  if (!f) {
+    std::fprintf(stderr, "CommandLine: %s: no option %s declared before it\n", name.c_str(),
+                 key.c_str());
+    std::abort();
+  }
+  const bool flag = metavar.empty();
+  const std::string help = f->doc + " [" + (f->default_text.empty() ? "\"\"" : f->default_text) +
+                           (f->unit.empty() ? "" : " " + f->unit) + "; " + f->allowedText() +
+                           "] (--set " + key + (flag ? "=" + flag_value : "") + ")";
+  Option& o = add(std::move(name), std::move(metavar), help, false);
+  o.alias_of = key;
+  o.flag_value = std::move(flag_value);
+}
+
+Status CommandLine::setAlias(const std::string& key, const std::string& value) {
+  if (Status s = option_list_.find(key)->set(value); !s) return s;
+  config_sets_.push_back(key + "=" + value);  // again after --config, in order with --set
+  return Ok{};
+}
+
 Status CommandLine::applyOptions() {
   if (!options_own_config_) return Ok{};
   OptionList& list = option_list_;
@@ -143,7 +166,10 @@ Expected<CommandLine::Outcome> CommandLine::parse(int argc, const char* const* a
       if (i + 1 >= argc) return makeError(arg, " needs a value (", option->metavar, ")");
       value = argv[++i];
     }
-    if (Status s = option->set(value); !s) return makeError("bad ", arg, ": ", s.error().message);
+    if (!option->alias_of.empty() && option->metavar.empty()) value = option->flag_value;
+    const Status set =
+        option->alias_of.empty() ? option->set(value) : setAlias(option->alias_of, value);
+    if (!set) return makeError("bad ", arg, ": ", set.error().message);
     option->seen = true;
   }
   if (Status s = applyOptions(); !s) return Error{s.error()};

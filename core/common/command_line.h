@@ -81,6 +81,13 @@ class CommandLine {
   }
   void options(OptionList list);
   OptionList& optionList() { return option_list_; }
+  // A flag of its own for an option declared through options(), the short form command lines
+  // already use: `--name VALUE` is `--set key=VALUE` (with an empty metavar, `--name` alone is
+  // `--set key=flag_value`). The value is checked when parsed (an error names --name and the
+  // allowed values) and applied in order with the --set list, after --config. Its help line
+  // is the option's doc, default, unit and allowed values. Declare after options().
+  void alias(std::string name, const std::string& key, std::string metavar,
+             std::string flag_value = "true");
   // A rule checked after the options are set (a struct's validate(): the rules between
   // fields), before --print-config prints them; its error is a bad command line.
   void check(std::function<Status()> rule) { checks_.push_back(std::move(rule)); }
@@ -114,6 +121,8 @@ class CommandLine {
     bool required = false;
     bool seen = false;
     std::function<Status(const std::string&)> set;
+    std::string alias_of;    // the key of option_list_ an alias() sets
+    std::string flag_value;  // ... to this, for an alias without a value
   };
   // Whole text, in range (unsigned types refuse a minus sign).
   template <typename Int>
@@ -129,6 +138,8 @@ class CommandLine {
   }
   Option& add(std::string name, std::string metavar, std::string help, bool required);
   bool declared(const std::string& name) const;
+  // An alias()'s value into its option, and onto the --set list.
+  Status setAlias(const std::string& key, const std::string& value);
   // --config, then the --set list, into option_list_.
   Status applyOptions();
 

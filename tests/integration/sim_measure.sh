@@ -22,7 +22,7 @@ set +e
 rc=$?
 set -e
 [ "$rc" -eq 2 ] || { echo "sim_measure: bad configuration gave exit status $rc, not 2"; exit 1; }
-grep -q "bad.conf:2: vo.rate_hz: must be > 0, got -3" "$tmp/err.txt" || { cat "$tmp/err.txt"; exit 1; }
+grep -q "bad.conf:2: option vo.rate_hz: -3 is outside > 0" "$tmp/err.txt" || { cat "$tmp/err.txt"; exit 1; }
 
 # 504 simulated seconds at 10x: about 50 s, ~500 messages/s (gentle enough for loopback
 # multicast on a busy machine).

@@ -110,7 +110,7 @@ refused 2 "^evermap-eval: bad --max-dt: 0 is outside > 0" -- \
   "$bin/evermap-eval" --gt "$tmp/a.tum" --est "$tmp/b.tum" --max-dt 0
 refused 2 "^evermap-imu-elevator-run: bad --rate: \"inf\" is not a finite number" -- \
   "$bin/evermap-imu-elevator-run" --synthetic 1 --rate inf
-refused 2 "^evermap-solver: .*--wildfire: 'nan' is not a finite number" -- \
+refused 2 '^evermap-solver: bad --wildfire: "nan" is not a finite number' -- \
   "$bin/evermap-solver" --wildfire nan "$tmp/none.g2o"
 
 echo "OK: $checks bad inputs refused with one line, a non-zero exit and no output left behind"

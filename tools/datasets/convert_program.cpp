@@ -6,97 +6,150 @@
 #include <vector>
 
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "tools/datasets/to_lcm.h"
 
 namespace evermap::datasets {
 
-int convertMain(Dataset dataset, int argc, char** argv) {
-  const bool euroc = dataset == Dataset::kEuroc;
-  const bool tum = dataset == Dataset::kTumRgbd;
-  const std::string program = euroc ? "evermap-euroc2lcm"
-                              : tum ? "evermap-tum2lcm"
-                                    : "evermap-kitti2lcm";
-  CommandLine cli(program,
-                  euroc ? "Converts an EuRoC ASL folder to an LCM log."
-                  : tum ? "Converts a TUM RGB-D sequence to an LCM log (RGBD, ACCEL, GROUND_TRUTH)."
-                        : "Converts a KITTI odometry sequence to an LCM log.");
+namespace {
+
+// The command line of a converter.
+struct ConvertArgs {
   std::vector<std::string> positional;
   bool raw = false;
   std::string ground_truth, left, right;
   KittiToLcmOptions kitti;
-  TumToLcmOptions tum_options;
+  TumToLcmOptions tum;
+};
+
+// The conversion's settings of one data set (--help lists them, --print-config prints them).
+template <Dataset kDataset>
+struct ConvertOptions {
+  ConvertArgs* a = nullptr;  // where the values live
+  ConvertArgs defaults;      // a default-constructed struct points at its own
+  ConvertOptions() : a(&defaults) {}
+  explicit ConvertOptions(ConvertArgs* args) : a(args) {}
+
+  void declareOptions(OptionList& o) {
+    o.add("raw", &a->raw,
+          kDataset == Dataset::kTumRgbd ? "store raw gray8 and raw uint16 depth instead of PNG"
+                                        : "store images as raw gray8 instead of PNG");
+    if (kDataset == Dataset::kTumRgbd) {
+      o.add("camera", &a->tum.calibration, "",
+            "freiburg1, freiburg2, freiburg3 or ros-default (TUM's published intrinsics); empty: "
+            "from the folder name (freiburgN or frN), else ros-default");
+      o.add("max_difference_s", &a->tum.sequence.max_difference_s, "s",
+            "color/depth association limit (TUM associate.py: 0.02)")
+          .positive();
+    }
+    if (kDataset == Dataset::kKitti) {
+      o.add("disparity_offset_px", &a->kitti.disparity_offset_px, "px",
+            "the images' disparity offset against calib.txt, written into STEREO_CALIB as the "
+            "right camera's cx = left cx + this (kitti-stereo-clip: 0.8, from evermap-stereo-check "
+            "--self-offset)")
+          .in(-1000, 1000);
+    }
+  }
+};
+
+// The options only one data set has.
+void declareDatasetOptions(Dataset dataset, CommandLine& cli, ConvertArgs* a) {
+  if (dataset == Dataset::kTumRgbd) {
+    ConvertOptions<Dataset::kTumRgbd> view(a);  // the list points into *a
+    cli.options(&view);
+    cli.alias("--camera", "camera", "NAME");
+    cli.alias("--max-difference", "max_difference_s", "S");
+  } else if (dataset == Dataset::kEuroc) {
+    ConvertOptions<Dataset::kEuroc> view(a);  // the list points into *a
+    cli.options(&view);
+    cli.value("--gt", &a->ground_truth, "FILE",
+              "ground truth (EuRoC csv or TUM txt) when mav0/state_groundtruth_estimate0/data.csv "
+              "is absent");
+  } else {
+    ConvertOptions<Dataset::kKitti> view(a);  // the list points into *a
+    cli.options(&view);
+    cli.value("--poses", &a->ground_truth, "FILE",
+              "ground-truth poses (KITTI format); default SEQUENCE_FOLDER/poses.txt when present");
+    cli.value("--rate", &a->kitti.sequence.rate_hz, "HZ",
+              "frame i at i/HZ s instead of times.txt (for copies without it; KITTI: about 10)")
+        .positive()
+        .max(10000);
+    cli.value("--left", &a->left, "DIR", "left images (default image_0/, else image_l/)");
+    cli.value("--right", &a->right, "DIR", "right images (default image_1/, else image_r/)");
+    cli.alias("--disparity-offset", "disparity_offset_px", "PX");
+  }
+  cli.alias("--raw", "raw", "");
+}
+
+// -1 to run, else the exit status (usage and errors already printed).
+int parseCommandLine(Dataset dataset, const std::string& program, int argc, char** argv,
+                     ConvertArgs* a) {
+  const bool euroc = dataset == Dataset::kEuroc;
+  const bool tum = dataset == Dataset::kTumRgbd;
+  CommandLine cli(program,
+                  euroc ? "Converts an EuRoC ASL folder to an LCM log."
+                  : tum ? "Converts a TUM RGB-D sequence to an LCM log (RGBD, ACCEL, GROUND_TRUTH)."
+                        : "Converts a KITTI odometry sequence to an LCM log.");
   cli.positional(
-      &positional, euroc ? "ASL_FOLDER OUTPUT.lcmlog" : "SEQUENCE_FOLDER OUTPUT.lcmlog",
+      &a->positional, euroc ? "ASL_FOLDER OUTPUT.lcmlog" : "SEQUENCE_FOLDER OUTPUT.lcmlog",
       euroc ? "the folder holding mav0/ (cam0, cam1, imu0, sensor.yaml files), and the log to write"
       : tum ? "a TUM RGB-D sequence (rgb.txt, depth.txt, rgb/, depth/; groundtruth.txt and "
               "accelerometer.txt when present), and the log to write"
             : "a KITTI odometry sequence (image_0/ or image_l/, image_1/ or image_r/, calib.txt, "
               "times.txt or --rate), and the log to write");
-  cli.flag("--raw", &raw,
-           tum ? "store raw gray8 and raw uint16 depth instead of PNG"
-               : "store images as raw gray8 instead of PNG");
-  if (tum) {
-    cli.value("--camera", &tum_options.calibration, "NAME",
-              "freiburg1, freiburg2, freiburg3 or ros-default (TUM's published intrinsics); "
-              "default from the folder name (freiburgN or frN), else ros-default");
-    cli.value("--max-difference", &tum_options.sequence.max_difference_s, "S",
-              "color/depth association limit, seconds (TUM associate.py: 0.02)")
-        .positive();
-  } else if (euroc) {
-    cli.value("--gt", &ground_truth, "FILE",
-              "ground truth (EuRoC csv or TUM txt) when mav0/state_groundtruth_estimate0/data.csv "
-              "is absent");
-  } else {
-    cli.value("--poses", &ground_truth, "FILE",
-              "ground-truth poses (KITTI format); default SEQUENCE_FOLDER/poses.txt when present");
-    cli.value("--rate", &kitti.sequence.rate_hz, "HZ",
-              "frame i at i/HZ s instead of times.txt (for copies without it; KITTI: about 10)")
-        .positive()
-        .max(10000);
-    cli.value("--left", &left, "DIR", "left images (default image_0/, else image_l/)");
-    cli.value("--right", &right, "DIR", "right images (default image_1/, else image_r/)");
-    cli.value("--disparity-offset", &kitti.disparity_offset_px, "PX",
-              "the images' disparity offset against calib.txt, written into STEREO_CALIB as the "
-              "right camera's "
-              "cx = left cx + PX (kitti-stereo-clip: 0.8, from evermap-stereo-check --self-offset; "
-              "default 0)")
-        .min(-1000)
-        .max(1000);
-  }
+  declareDatasetOptions(dataset, cli, a);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
-  if (positional.size() != 2) {
+  if (a->positional.size() != 2) {
     std::fprintf(stderr,
                  "%s: expected the input folder and OUTPUT.lcmlog, got %zu words (--help)\n",
-                 program.c_str(), positional.size());
+                 program.c_str(), a->positional.size());
     return 2;
   }
-  const auto encoding = raw ? messages::ImageEncoding::kGray8 : messages::ImageEncoding::kPng;
-  const auto start = std::chrono::steady_clock::now();  // for the report only
-  Expected<ConversionSummary> summary = Error{""};
-  if (tum) {
-    tum_options.encoding = encoding;
-    const std::string name = tum_options.calibration.empty() ? tumCalibrationNameFor(positional[0])
-                                                             : tum_options.calibration;
+  return -1;
+}
+
+// The conversion itself, by data set.
+Expected<ConversionSummary> convert(Dataset dataset, ConvertArgs& a,
+                                    messages::ImageEncoding encoding) {
+  const std::string& in = a.positional[0];
+  const std::string& out = a.positional[1];
+  if (dataset == Dataset::kTumRgbd) {
+    a.tum.encoding = encoding;
+    const std::string name =
+        a.tum.calibration.empty() ? tumCalibrationNameFor(in) : a.tum.calibration;
     std::printf("camera: TUM %s\n", name.c_str());
-    summary = convertTumRgbdToLcm(positional[0], positional[1], tum_options);
-  } else if (euroc) {
+    return convertTumRgbdToLcm(in, out, a.tum);
+  }
+  if (dataset == Dataset::kEuroc) {
     EurocToLcmOptions options;
     options.encoding = encoding;
-    options.ground_truth = ground_truth;
-    summary = convertEurocToLcm(positional[0], positional[1], options);
-  } else {
-    kitti.encoding = encoding;
-    kitti.sequence.poses = ground_truth;
-    kitti.sequence.left_folder = left;
-    kitti.sequence.right_folder = right;
-    summary = convertKittiToLcm(positional[0], positional[1], kitti);
+    options.ground_truth = a.ground_truth;
+    return convertEurocToLcm(in, out, options);
   }
+  a.kitti.encoding = encoding;
+  a.kitti.sequence.poses = a.ground_truth;
+  a.kitti.sequence.left_folder = a.left;
+  a.kitti.sequence.right_folder = a.right;
+  return convertKittiToLcm(in, out, a.kitti);
+}
+
+}  // namespace
+
+int convertMain(Dataset dataset, int argc, char** argv) {
+  const std::string program = dataset == Dataset::kEuroc     ? "evermap-euroc2lcm"
+                              : dataset == Dataset::kTumRgbd ? "evermap-tum2lcm"
+                                                             : "evermap-kitti2lcm";
+  ConvertArgs a;
+  if (const int code = parseCommandLine(dataset, program, argc, argv, &a); code >= 0) return code;
+  const auto encoding = a.raw ? messages::ImageEncoding::kGray8 : messages::ImageEncoding::kPng;
+  const auto start = std::chrono::steady_clock::now();  // for the report only
+  const Expected<ConversionSummary> summary = convert(dataset, a, encoding);
   if (!summary) {
     std::fprintf(stderr, "%s: %s\n", program.c_str(), summary.error().message.c_str());
     return 1;
   }
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::printf("wrote %s (images: %s)\n%sconverted in %.1f s\n", positional[1].c_str(),
+  std::printf("wrote %s (images: %s)\n%sconverted in %.1f s\n", a.positional[1].c_str(),
               messages::toString(encoding), summary->report().c_str(), s);
   return 0;
 }

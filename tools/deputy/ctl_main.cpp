@@ -20,6 +20,8 @@
 
 #include <evermap/deputy_output_t.hpp>
 
+#include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "core/messages/channels.h"
 #include "core/messages/inbox.h"
 #include "tools/deputy/deputy_client.h"
@@ -28,14 +30,35 @@ namespace {
 
 using namespace evermap::deputy;
 
-void usage() {
-  std::fprintf(stderr,
-               "usage: evermap-deputy-ctl [--lcm-url URL] [--host NAME] [--timeout-s S] COMMAND\n"
-               "  status [--tsv]\n"
-               "  start|stop|restart TARGET...     TARGET: NAME | cmd NAME | group NAME | "
-               "everything\n"
-               "  wait running|stopped TARGET...\n"
-               "  output [NAME...]\n");
+// The client's settings (--help lists them, --print-config prints them).
+struct CtlOptions {
+  DeputyClientOptions client;
+  void declareOptions(evermap::OptionList& o) {
+    o.add("timeout_s", &client.timeout_s, "s",
+          "how long to wait for a status or for each acknowledgement")
+        .positive();
+    o.add("settle_s", &client.settle_s, "s",
+          "after the first status, listen this long for other hosts")
+        .positive();
+  }
+};
+
+// The command line: the options, then COMMAND and its words.
+struct CtlArgs {
+  std::string lcm_url;
+  CtlOptions tool;
+  DeputyClientOptions& options = tool.client;
+  std::vector<std::string> rest;
+  bool tsv = false;
+};
+
+void declareCommandLine(evermap::CommandLine& cli, CtlArgs* a) {
+  cli.value("--lcm-url", &a->lcm_url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
+  cli.value("--host", &a->options.host, "NAME", "only the deputy of this host (default: all)");
+  cli.options(&a->tool);
+  cli.alias("--timeout-s", "timeout_s", "S");
+  cli.flag("--tsv", &a->tsv, "status: tab-separated values instead of a table");
+  cli.positional(&a->rest, "COMMAND ...", "the command and its words (above)");
 }
 
 std::vector<CtlTarget> parseTargets(const std::vector<std::string>& args) {
@@ -76,99 +99,73 @@ struct OutputPrinter {
   }
 };
 
-}  // namespace
+// output: DEPUTY_OUTPUT lines of the named processes (all without names) until interrupted.
+int printOutput(lcm::LCM& lcm, const std::vector<std::string>& names) {
+  OutputPrinter printer;
+  printer.names.insert(names.begin(), names.end());
+  evermap::messages::Inbox::Options input;
+  input.process = "evermap-deputy-ctl";
+  input.time.window_s = 0.0;  // the deputy's wall clock
+  evermap::messages::Inbox inbox(lcm, input);
+  inbox.subscribe<evermap::deputy_output_t>(
+      evermap::channels::kDeputyOutput,
+      [&printer](const evermap::deputy_output_t& m) { printer.onOutput(&m); });
+  while (lcm.handle() == 0) {
+  }
+  return 1;
+}
 
-int main(int argc, char** argv) {
-  std::string lcm_url;
-  DeputyClientOptions options;
-  std::vector<std::string> rest;
-  bool tsv = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "evermap-deputy-ctl: %s needs a value\n", a.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (a == "--lcm-url")
-      lcm_url = next();
-    else if (a == "--host")
-      options.host = next();
-    else if (a == "--timeout-s") {
-      const std::string v = next();
-      char* end = nullptr;
-      options.timeout_s = std::strtod(v.c_str(), &end);
-      if (v.empty() || *end != '\0' || !std::isfinite(options.timeout_s) ||
-          !(options.timeout_s > 0)) {
-        std::fprintf(stderr,
-                     "evermap-deputy-ctl: bad --timeout-s: \"%s\" is not a finite number > 0\n",
-                     v.c_str());
-        return 2;
-      }
-    } else if (a == "--tsv")
-      tsv = true;
-    else if (a == "-h" || a == "--help") {
-      usage();
-      return 0;
-    } else
-      rest.push_back(a);
-  }
-  if (rest.empty() || !options.validate()) {
-    usage();
-    return 2;
-  }
-  const std::string command = rest[0];
-  const std::vector<std::string> args(rest.begin() + 1, rest.end());
-  lcm::LCM lcm(lcm_url);
-  if (!lcm.good()) {
-    std::fprintf(stderr, "evermap-deputy-ctl: cannot start LCM (url \"%s\")\n", lcm_url.c_str());
-    return 1;
-  }
-
-  if (command == "output") {
-    OutputPrinter printer;
-    printer.names.insert(args.begin(), args.end());
-    evermap::messages::Inbox::Options input;
-    input.process = "evermap-deputy-ctl";
-    input.time.window_s = 0.0;  // the deputy's wall clock
-    evermap::messages::Inbox inbox(lcm, input);
-    inbox.subscribe<evermap::deputy_output_t>(
-        evermap::channels::kDeputyOutput,
-        [&printer](const evermap::deputy_output_t& m) { printer.onOutput(&m); });
-    while (lcm.handle() == 0) {
-    }
-    return 1;
-  }
-
-  DeputyClient client(lcm, options);
-  if (command == "status") {
-    if (!args.empty()) {
-      usage();
-      return 2;
-    }
-  } else if (command == "start" || command == "stop" || command == "restart") {
-    if (args.empty()) {
-      usage();
-      return 2;
-    }
+// Sends the order of `command` (none for status); -1 when sent and acknowledged, else the
+// exit status (2 for words that do not fit the command).
+int sendOrder(DeputyClient& client, const std::string& command,
+              const std::vector<std::string>& args) {
+  if (command == "status") return args.empty() ? -1 : 2;
+  if (command == "start" || command == "stop" || command == "restart") {
+    if (args.empty()) return 2;
     const auto targets = parseTargets(args);
     const auto s = command == "start"  ? client.start(targets)
                    : command == "stop" ? client.stop(targets)
                                        : client.restart(targets);
-    if (!s) return fail(s.error());
-  } else if (command == "wait") {
-    if (args.size() < 2 || (args[0] != "running" && args[0] != "stopped")) {
-      usage();
-      return 2;
-    }
+    return s ? -1 : fail(s.error());
+  }
+  if (command == "wait") {
+    if (args.size() < 2 || (args[0] != "running" && args[0] != "stopped")) return 2;
     const auto s =
         client.waitFor(parseTargets({args.begin() + 1, args.end()}), args[0] == "running");
-    if (!s) return fail(s.error());
-  } else {
-    usage();
+    return s ? -1 : fail(s.error());
+  }
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CtlArgs a;
+  evermap::CommandLine cli(
+      "evermap-deputy-ctl",
+      "Operates evermap deputies over LCM (docs/deputy.md). COMMAND is one of\n"
+      "  status [--tsv]                   the latest status of every deputy\n"
+      "  start|stop|restart TARGET...     TARGET: NAME | cmd NAME | group NAME | everything\n"
+      "  wait running|stopped TARGET...   until every target is in that state\n"
+      "  output [NAME...]                 print DEPUTY_OUTPUT lines as they arrive (Ctrl-C ends)");
+  declareCommandLine(cli, &a);
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  auto usage = [&cli]() {
+    std::fputs(cli.usage().c_str(), stderr);
     return 2;
+  };
+  if (a.rest.empty() || !a.options.validate()) return usage();
+  const std::string command = a.rest[0];
+  const std::vector<std::string> args(a.rest.begin() + 1, a.rest.end());
+  lcm::LCM lcm(a.lcm_url);
+  if (!lcm.good()) {
+    std::fprintf(stderr, "evermap-deputy-ctl: cannot start LCM (url \"%s\")\n", a.lcm_url.c_str());
+    return 1;
+  }
+  if (command == "output") return printOutput(lcm, args);
+  DeputyClient client(lcm, a.options);
+  if (const int code = sendOrder(client, command, args); code >= 0) {
+    return code == 2 ? usage() : code;
   }
   std::vector<evermap::deputy_status_t> statuses;
   if (command == "status") {
@@ -178,6 +175,6 @@ int main(int argc, char** argv) {
   } else {
     for (const auto& [host, s] : client.latest()) statuses.push_back(s);  // fresh: just acked
   }
-  std::printf("%s", formatStatusTable(statuses, tsv).c_str());
+  std::printf("%s", formatStatusTable(statuses, a.tsv).c_str());
   return 0;
 }

@@ -19,6 +19,7 @@
 #include <string>
 
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "tools/deputy/config.h"
 #include "tools/deputy/deputy_node.h"
 #include "tools/deputy/script_runner.h"
@@ -50,59 +51,66 @@ std::string machineName() {
   return buf;
 }
 
-}  // namespace
+// The supervision's settings (--help lists them, --print-config prints them).
+struct DeputyOptions {
+  BackoffOptions backoff;
+  double max_log_mb = 256.0;  // SupervisorOptions::max_log_bytes
 
-int main(int argc, char** argv) {
+  void declareOptions(evermap::OptionList& o) {
+    o.add("backoff_initial_ms", &backoff.initial_delay_ms, "ms", "first restart delay").min(0);
+    o.add("backoff_max_ms", &backoff.max_delay_ms, "ms", "longest restart delay").min(0);
+    o.add("stable_after_s", &backoff.stable_after_s, "s", "running this long resets the back-off")
+        .min(0);
+    o.add("max_log_mb", &max_log_mb, "MiB", "rotate a process log beyond this size").positive();
+  }
+};
+
+// The command line of a deputy.
+struct DeputyArgs {
   std::string config_path, log_dir, host, script, lcm_url;
   bool check = false, start_all = false, exit_after_script = false, quiet = false;
-  bool publish_output = true;
-  BackoffOptions backoff;
-  double max_log_mb = -1.0;  // default of SupervisorOptions
   bool no_output = false;
+  DeputyOptions options;
+  const BackoffOptions& backoff = options.backoff;
+};
+
+// -1 to run, else the exit status (usage and errors already printed).
+int parseCommandLine(int argc, char** argv, DeputyArgs* a) {
   std::vector<std::string> positional;
   evermap::CommandLine cli("evermap-deputy",
                            "Spawns and watches the processes of a bot-procman config (CONFIG).");
   cli.positional(&positional, "CONFIG", "the process configuration (config/*.pmd)");
-  cli.value("--log-dir", &log_dir, "DIR", "one output log per process (needed unless --check)");
-  cli.value("--host", &host, "NAME", "this deputy's host name (default: the machine's)");
-  cli.value("--script", &script, "NAME", "run this script of the config");
-  cli.flag("--start-all", &start_all, "start every command at once");
-  cli.flag("--exit-after-script", &exit_after_script, "stop everything when the script ends");
-  cli.value("--lcm-url", &lcm_url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
-  cli.flag("--no-output", &no_output, "do not publish output lines on LCM");
-  cli.flag("--quiet", &quiet, "print less");
-  cli.value("--backoff-initial-ms", &backoff.initial_delay_ms, "MS", "first restart delay").min(0);
-  cli.value("--backoff-max-ms", &backoff.max_delay_ms, "MS", "longest restart delay").min(0);
-  cli.value("--stable-after-s", &backoff.stable_after_s, "S",
-            "running this long resets the back-off")
-      .min(0);
-  cli.value("--max-log-mb", &max_log_mb, "MB", "rotate a process log beyond this size").positive();
-  cli.flag("--check", &check, "parse CONFIG, print it and exit");
+  cli.value("--log-dir", &a->log_dir, "DIR", "one output log per process (needed unless --check)");
+  cli.value("--host", &a->host, "NAME", "this deputy's host name (default: the machine's)");
+  cli.value("--script", &a->script, "NAME", "run this script of the config");
+  cli.flag("--start-all", &a->start_all, "start every command at once");
+  cli.flag("--exit-after-script", &a->exit_after_script, "stop everything when the script ends");
+  cli.value("--lcm-url", &a->lcm_url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
+  cli.flag("--no-output", &a->no_output, "do not publish output lines on LCM");
+  cli.flag("--quiet", &a->quiet, "print less");
+  cli.options(&a->options);
+  cli.alias("--backoff-initial-ms", "backoff_initial_ms", "MS");
+  cli.alias("--backoff-max-ms", "backoff_max_ms", "MS");
+  cli.alias("--stable-after-s", "stable_after_s", "S");
+  cli.alias("--max-log-mb", "max_log_mb", "MB");
+  cli.flag("--check", &a->check, "parse CONFIG, print it and exit");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
-  publish_output = !no_output;
-  if (positional.size() == 1) config_path = positional.front();
-  if (positional.size() != 1 || (!check && log_dir.empty()) || (start_all && !script.empty()) ||
-      (exit_after_script && script.empty())) {
+  if (positional.size() == 1) a->config_path = positional.front();
+  if (positional.size() != 1 || (!a->check && a->log_dir.empty()) ||
+      (a->start_all && !a->script.empty()) || (a->exit_after_script && a->script.empty())) {
     std::fprintf(stderr,
                  "evermap-deputy: one CONFIG, --log-dir unless --check, --start-all or --script, "
                  "--exit-after-script only with --script\n%s",
                  cli.usage().c_str());
     return 2;
   }
-  if (host.empty()) host = machineName();
+  if (a->host.empty()) a->host = machineName();
+  return -1;
+}
 
-  auto config = loadConfig(config_path);
-  if (!config) {
-    std::fprintf(stderr, "evermap-deputy: %s\n", config.error().message.c_str());
-    return 2;
-  }
-  if (check) {
-    printConfig(*config, host);
-    return 0;
-  }
-
-  // SIGINT, SIGTERM and SIGHUP arrive on a signalfd, read in the main loop (no handler, no global).
-  // Children get an empty mask (posix_spawn in child_process.cpp).
+// SIGINT, SIGTERM and SIGHUP arrive on a signalfd, read in the main loop (no handler, no
+// global). Children get an empty mask (posix_spawn in child_process.cpp). -1 on failure.
+int stopSignalFd() {
   sigset_t stop_signals;
   sigemptyset(&stop_signals);
   sigaddset(&stop_signals, SIGINT);
@@ -110,59 +118,13 @@ int main(int argc, char** argv) {
   sigaddset(&stop_signals, SIGHUP);  // the terminal went away: stop cleanly, not abruptly
   sigprocmask(SIG_BLOCK, &stop_signals, nullptr);
   const int signal_fd = ::signalfd(-1, &stop_signals, SFD_NONBLOCK | SFD_CLOEXEC);
-  if (signal_fd < 0) {
-    std::perror("evermap-deputy: signalfd");
-    return 2;
-  }
+  if (signal_fd < 0) std::perror("evermap-deputy: signalfd");
+  return signal_fd;
+}
 
-  const auto commands = config->commandsForHost(host);
-  SupervisorOptions supervisor_options;
-  supervisor_options.log_dir = log_dir;
-  if (max_log_mb >= 0)
-    supervisor_options.max_log_bytes = static_cast<int64_t>(max_log_mb * (1 << 20));
-  supervisor_options.backoff = backoff;
-  auto supervisor = Supervisor::create(commands, supervisor_options);
-  if (!supervisor) {
-    std::fprintf(stderr, "evermap-deputy: %s\n", supervisor.error().message.c_str());
-    return 2;
-  }
-  lcm::LCM lcm(lcm_url);
-  if (!lcm.good()) {
-    std::fprintf(stderr, "evermap-deputy: cannot start LCM (url \"%s\")\n", lcm_url.c_str());
-    return 2;
-  }
-  DeputyNodeOptions node_options;
-  node_options.host = host;
-  node_options.publish_output = publish_output;
-  node_options.print_notes = !quiet;
-  if (auto ok = node_options.validate(); !ok) {
-    std::fprintf(stderr, "evermap-deputy: %s\n", ok.error().message.c_str());
-    return 2;
-  }
-  DeputyNode node(lcm, **supervisor, node_options);
-  std::fprintf(stderr, "evermap-deputy: host \"%s\": %zu of %zu commands from %s, logs in %s, %s\n",
-               host.c_str(), commands.size(), config->commands.size(), config_path.c_str(),
-               log_dir.c_str(), backoff.describe().c_str());
-
-  if (commands.empty()) {
-    std::fprintf(stderr,
-                 "evermap-deputy: warning: no command of %s is for host \"%s\" "
-                 "(set --host, or host = \"localhost\" in the file)\n",
-                 config_path.c_str(), host.c_str());
-  }
-  if (!script.empty()) {
-    auto runner = ScriptRunner::create(*config, script);
-    if (!runner) {
-      std::fprintf(stderr, "evermap-deputy: %s\n", runner.error().message.c_str());
-      return 2;
-    }
-    node.runScript(std::move(*runner));
-  }
-  if (start_all) {
-    for (const CommandSpec& c : commands) (void)(*supervisor)->start(c.name);
-  }
-
-  Supervisor& sup = **supervisor;
+// Serves LCM and the processes until everything has stopped: a first signal (or the end of
+// the script, with --exit-after-script) stops every process, a second one kills them.
+void superviseUntilStopped(DeputyNode& node, Supervisor& sup, const DeputyArgs& a, int signal_fd) {
   while (true) {
     node.spinOnce(500, signal_fd);
     signalfd_siginfo info{};
@@ -176,14 +138,16 @@ int main(int argc, char** argv) {
         sup.killAll();
       }
     }
-    if (exit_after_script && !node.scriptRunning() && !sup.shuttingDown()) {
+    if (a.exit_after_script && !node.scriptRunning() && !sup.shuttingDown()) {
       std::fprintf(stderr, "evermap-deputy: script \"%s\" done: stopping every process\n",
-                   script.c_str());
+                   a.script.c_str());
       sup.beginShutdown();
     }
     if (sup.shuttingDown() && sup.allStopped()) break;
   }
-  node.publishStatus();
+}
+
+void printFinalCounts(const DeputyNode& node, const Supervisor& sup) {
   int restarts = 0;
   for (const ProcessStatus& s : sup.status()) restarts += s.restarts;
   const auto& c = node.counters();
@@ -193,5 +157,81 @@ int main(int argc, char** argv) {
                restarts, static_cast<long long>(c.orders_applied),
                static_cast<long long>(node.outputLinesDropped()));
   std::fprintf(stderr, "evermap-deputy: input: %s\n", node.inbox().summary().c_str());
+}
+
+// The node's options from the command line; false (error printed) when they do not hold.
+bool nodeOptions(const DeputyArgs& a, DeputyNodeOptions* node_options) {
+  node_options->host = a.host;
+  node_options->publish_output = !a.no_output;
+  node_options->print_notes = !a.quiet;
+  if (auto ok = node_options->validate(); !ok) {
+    std::fprintf(stderr, "evermap-deputy: %s\n", ok.error().message.c_str());
+    return false;
+  }
+  return true;
+}
+
+// Supervises this host's commands of `config` until stopped; main's exit status.
+int runDeputy(const Config& config, const DeputyArgs& a, int signal_fd) {
+  const auto commands = config.commandsForHost(a.host);
+  SupervisorOptions supervisor_options;
+  supervisor_options.log_dir = a.log_dir;
+  supervisor_options.max_log_bytes = static_cast<int64_t>(a.options.max_log_mb * (1 << 20));
+  supervisor_options.backoff = a.backoff;
+  auto supervisor = Supervisor::create(commands, supervisor_options);
+  if (!supervisor) {
+    std::fprintf(stderr, "evermap-deputy: %s\n", supervisor.error().message.c_str());
+    return 2;
+  }
+  lcm::LCM lcm(a.lcm_url);
+  if (!lcm.good()) {
+    std::fprintf(stderr, "evermap-deputy: cannot start LCM (url \"%s\")\n", a.lcm_url.c_str());
+    return 2;
+  }
+  DeputyNodeOptions node_options;
+  if (!nodeOptions(a, &node_options)) return 2;
+  DeputyNode node(lcm, **supervisor, node_options);
+  std::fprintf(stderr, "evermap-deputy: host \"%s\": %zu of %zu commands from %s, logs in %s, %s\n",
+               a.host.c_str(), commands.size(), config.commands.size(), a.config_path.c_str(),
+               a.log_dir.c_str(), a.backoff.describe().c_str());
+  if (commands.empty()) {
+    std::fprintf(stderr,
+                 "evermap-deputy: warning: no command of %s is for host \"%s\" "
+                 "(set --host, or host = \"localhost\" in the file)\n",
+                 a.config_path.c_str(), a.host.c_str());
+  }
+  if (!a.script.empty()) {
+    auto runner = ScriptRunner::create(config, a.script);
+    if (!runner) {
+      std::fprintf(stderr, "evermap-deputy: %s\n", runner.error().message.c_str());
+      return 2;
+    }
+    node.runScript(std::move(*runner));
+  }
+  if (a.start_all) {
+    for (const CommandSpec& c : commands) (void)(*supervisor)->start(c.name);
+  }
+  superviseUntilStopped(node, **supervisor, a, signal_fd);
+  node.publishStatus();
+  printFinalCounts(node, **supervisor);
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  DeputyArgs a;
+  if (const int code = parseCommandLine(argc, argv, &a); code >= 0) return code;
+  auto config = loadConfig(a.config_path);
+  if (!config) {
+    std::fprintf(stderr, "evermap-deputy: %s\n", config.error().message.c_str());
+    return 2;
+  }
+  if (a.check) {
+    printConfig(*config, a.host);
+    return 0;
+  }
+  const int signal_fd = stopSignalFd();
+  if (signal_fd < 0) return 2;
+  return runDeputy(*config, a, signal_fd);
 }

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "core/common/number_text.h"
 #include "tools/eval/association.h"
 #include "tools/eval/evaluation.h"
@@ -23,12 +24,36 @@ namespace {
 using namespace evermap;
 using namespace evermap::eval;
 
+// The evaluation's settings (--help lists them, --print-config prints them).
+struct EvalToolOptions {
+  EvaluationOptions evaluation;
+  PlotPlane plane = PlotPlane::kAuto;
+
+  void declareOptions(OptionList& o) {
+    o.choice("align", &evaluation.alignment,
+             {{"se3", AlignmentMode::kSE3},
+              {"sim3", AlignmentMode::kSim3},
+              {"first", AlignmentMode::kFirstPose},
+              {"none", AlignmentMode::kNone}},
+             "Umeyama alignment of the estimate; first: the first estimated pose on the first "
+             "ground-truth pose");
+    o.add("max_dt_s", &evaluation.association.max_dt_s, "s", "largest stamp difference of a pair")
+        .positive();
+    o.add("kitti_drift", &evaluation.kitti_drift, "KITTI devkit drift over 100..800 m segments");
+    o.choice("plot_plane", &plane,
+             {{"auto", PlotPlane::kAuto},
+              {"xy", PlotPlane::kXY},
+              {"xz", PlotPlane::kXZ},
+              {"yz", PlotPlane::kYZ}},
+             "plane of the top view");
+  }
+};
+
 struct Arguments {
   std::string gt, est, gt_times, est_times, json, plot;
   bool steps = false;
   std::optional<TrajectoryFormat> gt_format, est_format;
-  PlotPlane plane = PlotPlane::kAuto;
-  EvaluationOptions options;
+  EvalToolOptions tool;
 };
 
 // An option value read by `parse` (text -> Expected<T>) into *out.
@@ -55,12 +80,9 @@ int parse(int argc, char** argv, Arguments* c) {
   cli.value("--gt-times", &c->gt_times, "FILE",
             "stamps for a KITTI pose file (default: line index, in seconds)");
   cli.value("--est-times", &c->est_times, "FILE", "the same for the estimate");
-  cli.value("--align", parsedInto(&c->options.alignment, parseAlignmentMode), "se3|sim3|first|none",
-            "Umeyama alignment of the estimate (default se3); first: the first estimated pose on "
-            "the first ground-truth pose");
-  cli.value("--max-dt", &c->options.association.max_dt_s, "S",
-            "largest stamp difference of a pair, seconds (default 0.02)")
-      .positive();
+  cli.options(&c->tool);
+  cli.alias("--align", "align", "se3|sim3|first|none");
+  cli.alias("--max-dt", "max_dt_s", "S");
   // Not given: the sentinels (the command line refuses NaN, and no one types INT_MIN frames).
   int rpe_frames = std::numeric_limits<int>::min();
   double rpe_distance = std::numeric_limits<double>::quiet_NaN();
@@ -70,22 +92,21 @@ int parse(int argc, char** argv, Arguments* c) {
            "per-step translation ratio |est step| / |gt step| (median, p10, p90) and the end error "
            "relative to the first pose, "
            "% of the ground-truth path and degrees: a scale error shows in the ratio");
-  cli.flag("--kitti-drift", &c->options.kitti_drift, "KITTI devkit drift over 100..800 m segments");
+  cli.alias("--kitti-drift", "kitti_drift", "");
   cli.value("--json", &c->json, "OUT.json", "write the figures as JSON");
   cli.value("--plot", &c->plot, "OUT.png|OUT.svg", "top view of ground truth and aligned estimate");
-  cli.value("--plot-plane", parsedInto(&c->plane, parsePlotPlane), "auto|xy|xz|yz",
-            "plane of the top view (default auto)");
+  cli.alias("--plot-plane", "plot_plane", "auto|xy|xz|yz");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   const bool by_frames = rpe_frames != std::numeric_limits<int>::min(),
              by_distance = !std::isnan(rpe_distance);
-  if (by_frames) c->options.rpe.delta_frames = rpe_frames;
+  if (by_frames) c->tool.evaluation.rpe.delta_frames = rpe_frames;
   if (by_distance) {
-    c->options.rpe.delta_frames = 0;
-    c->options.rpe.delta_distance_m = rpe_distance;
+    c->tool.evaluation.rpe.delta_frames = 0;
+    c->tool.evaluation.rpe.delta_distance_m = rpe_distance;
   }
   std::string bad;
   if (by_frames && by_distance) bad = "give --rpe-frames or --rpe-distance, not both";
-  if (Status s = c->options.validate(); bad.empty() && !s) bad = s.error().message;
+  if (Status s = c->tool.evaluation.validate(); bad.empty() && !s) bad = s.error().message;
   if (!bad.empty()) {
     std::fprintf(stderr, "evermap-eval: %s (--help)\n", bad.c_str());
     return 2;
@@ -154,7 +175,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-eval: %s\n", est.error().message.c_str());
     return 1;
   }
-  auto report = evaluate(*gt, *est, cl->options);
+  auto report = evaluate(*gt, *est, cl->tool.evaluation);
   if (!report) {
     std::fprintf(stderr, "evermap-eval: %s\n", report.error().message.c_str());
     return 1;
@@ -162,7 +183,7 @@ int main(int argc, char** argv) {
   report->gt_format = gt_format;
   report->est_format = est_format;
   std::fputs(formatText(*report).c_str(), stdout);
-  if (cl->steps) printSteps(*gt, *est, cl->options.association);
+  if (cl->steps) printSteps(*gt, *est, cl->tool.evaluation.association);
 
   if (!cl->json.empty()) {
     if (Status s = writeJson(*report, cl->json); !s) {
@@ -173,15 +194,16 @@ int main(int argc, char** argv) {
   }
   if (!cl->plot.empty()) {
     TopViewOptions plot;
-    plot.plane = cl->plane;
+    plot.plane = cl->tool.plane;
     plot.gt_label = "ground truth: " + std::filesystem::path(cl->gt).filename().string();
-    plot.est_label = "estimate" +
-                     (cl->options.alignment == AlignmentMode::kNone
-                          ? std::string()
-                          : std::string(", ") + toString(cl->options.alignment) + "-aligned") +
-                     ": " + std::filesystem::path(cl->est).filename().string();
-    plot.title = "Top view, alignment: " + std::string(toString(cl->options.alignment));
-    const RpeOptions& rpe = cl->options.rpe;
+    plot.est_label =
+        "estimate" +
+        (cl->tool.evaluation.alignment == AlignmentMode::kNone
+             ? std::string()
+             : std::string(", ") + toString(cl->tool.evaluation.alignment) + "-aligned") +
+        ": " + std::filesystem::path(cl->est).filename().string();
+    plot.title = "Top view, alignment: " + std::string(toString(cl->tool.evaluation.alignment));
+    const RpeOptions& rpe = cl->tool.evaluation.rpe;
     const std::string step = rpe.byDistance() ? numberText(rpe.delta_distance_m) + " m"
                                               : std::to_string(rpe.delta_frames) +
                                                     (rpe.delta_frames == 1 ? " frame" : " frames");

@@ -74,8 +74,6 @@ int parse(int argc, char** argv, Args* a) {
       "input:\n"
       "--euroc-imu, --hackzurich, --science-journal, --lcm-log, --synthetic or --sim-config\n"
       "(docs/imu-elevator.md).");
-  std::string config;
-  std::vector<std::string> sets;
   cli.value("--euroc-imu", &a->euroc_imu, "CSV", "EuRoC mav0/imu0/data.csv");
   cli.value("--ground-truth", &a->ground_truth, "FILE", "EuRoC ground truth: the attitude error");
   cli.value("--hackzurich", &a->hackzurich, "DIR", "the phone recordings (with --session)");
@@ -98,9 +96,11 @@ int parse(int argc, char** argv, Args* a) {
   cli.value("--sim-sessions", &a->sim_sessions, "N",
             "only the first N sessions of --sim-config (0: all)")
       .min(0);
-  cli.value("--config", &config, "FILE", "attitude and elevator options (key = value)");
-  cli.repeated("--set", &sets, "key=value", "one attitude or elevator option (after --config)");
-  cli.flag("--print-options", &a->print_options, "print every option with its value and exit");
+  cli.flag("--print-options", &a->print_options, "the same as --print-config");
+  cli.options(&a->attitude);
+  cli.options(&a->elevator);
+  cli.check([a] { return a->attitude.validate(); });
+  cli.check([a] { return a->elevator.validate(); });
   cli.value("--dump-attitude", &a->dump_attitude, "FILE",
             "the attitude track, one estimate a line");
   cli.value("--dump-trace", &a->dump_trace, "FILE", "the elevator's 0.1 s grid");
@@ -109,17 +109,9 @@ int parse(int argc, char** argv, Args* a) {
   cli.value("--print-floor-log", &a->floor_log, "FILE",
             "only print the FLOOR and ATTITUDE summary of an LCM log");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
-  Status st = Ok{};
-  if (!config.empty()) st = loadFields(config, &a->attitude, &a->elevator);
-  for (const std::string& v : sets) {
-    if (!st.ok()) break;
-    st = setFieldFromAssignment(v, &a->attitude, &a->elevator);
-  }
-  if (st.ok()) st = a->attitude.validate();
-  if (st.ok()) st = a->elevator.validate();
-  if (!st.ok()) {
-    std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", st.error().message.c_str());
-    return 2;
+  if (a->print_options) {
+    std::fputs(cli.optionList().print().c_str(), stdout);
+    return 0;
   }
   if (a->synthetic_rides < 0 || !(a->rate_hz > 0) || a->sim_sessions < 0) {
     std::fprintf(
@@ -194,35 +186,36 @@ int runSimulatorCheck(const Args& args) {
   return 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  Args args;
-  if (const int code = parse(argc, argv, &args); code >= 0) return code;
-  if (!args.floor_log.empty()) return printFloorLog(args.floor_log);
-  if (args.print_options) {
-    std::printf("%s%s", describeFields(args.attitude).c_str(),
-                describeFields(args.elevator).c_str());
-    return 0;
-  }
-  if (!args.sim_config.empty()) return runSimulatorCheck(args);
+// What the input gave: the samples, and a HackZurich session's reference or the synthetic
+// run's truth when there is one.
+struct Input {
   std::vector<datasets::ImuSample> samples;
   datasets::HackzurichSession session;
   elevator::SimulatedRun truth;
+};
+
+// `r`'s value, or its error printed and false.
+template <typename T>
+bool take(Expected<T>&& r, T* out) {
+  if (!r.ok()) {
+    std::fprintf(stderr, "%s\n", r.error().message.c_str());
+    return false;
+  }
+  *out = std::move(*r);
+  return true;
+}
+
+// Reads the one input the command line names; -1 on success, else the exit status.
+int readInput(const Args& args, Input* in) {
+  auto& samples = in->samples;
   if (!args.euroc_imu.empty()) {
-    auto r = datasets::readEurocImu(args.euroc_imu);
-    if (!r.ok()) {
-      std::fprintf(stderr, "%s\n", r.error().message.c_str());
+    return take(datasets::readEurocImu(args.euroc_imu), &samples) ? -1 : 1;
+  }
+  if (!args.hackzurich.empty()) {
+    if (!take(datasets::readHackzurichSession(args.hackzurich, args.session), &in->session)) {
       return 1;
     }
-    samples = std::move(*r);
-  } else if (!args.hackzurich.empty()) {
-    auto r = datasets::readHackzurichSession(args.hackzurich, args.session);
-    if (!r.ok()) {
-      std::fprintf(stderr, "%s\n", r.error().message.c_str());
-      return 1;
-    }
-    session = std::move(*r);
+    const datasets::HackzurichSession& session = in->session;
     samples = session.imu;
     std::printf(
         "session %d: %lld accelerometer rows, %lld without a gyro reading near them, "
@@ -230,7 +223,9 @@ int main(int argc, char** argv) {
         args.session, static_cast<long long>(session.accelerometer_rows),
         static_cast<long long>(session.rows_without_gyro), session.barometer.size(),
         session.episodes.size());
-  } else if (!args.science_journal.empty()) {
+    return -1;
+  }
+  if (!args.science_journal.empty()) {
     auto r = datasets::readScienceJournalCsv(args.science_journal);
     if (!r.ok()) {
       std::fprintf(stderr, "%s\n", r.error().message.c_str());
@@ -238,7 +233,9 @@ int main(int argc, char** argv) {
     }
     std::printf("%s: %s\n", args.science_journal.c_str(), r->summary().c_str());
     samples = std::move(r->imu);
-  } else if (!args.lcm_log.empty()) {
+    return -1;
+  }
+  if (!args.lcm_log.empty()) {
     auto r = imu::readImuLog(args.lcm_log, args.channel);
     if (!r.ok()) {
       std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", r.error().message.c_str());
@@ -248,109 +245,88 @@ int main(int argc, char** argv) {
       samples.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
     std::printf("%s: %zu %s messages, %lld undecodable\n", args.lcm_log.c_str(), r->samples.size(),
                 args.channel.c_str(), static_cast<long long>(r->undecodable));
-  } else if (args.synthetic_rides > 0) {
+    return -1;
+  }
+  if (args.synthetic_rides > 0) {
     elevator::RideSimulatorOptions o;
     o.rate_hz = args.rate_hz;
-    truth = elevator::simulateRun(o, elevator::randomScript(o, args.synthetic_rides, 5));
-    for (const auto& s : truth.samples)
+    in->truth = elevator::simulateRun(o, elevator::randomScript(o, args.synthetic_rides, 5));
+    for (const auto& s : in->truth.samples)
       samples.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
-    std::printf("synthetic building: %zu rides, %zu samples at %.0f Hz\n", truth.rides.size(),
+    std::printf("synthetic building: %zu rides, %zu samples at %.0f Hz\n", in->truth.rides.size(),
                 samples.size(), o.rate_hz);
-  } else {
-    std::fprintf(stderr,
-                 "evermap-imu-elevator-run: no input: give --euroc-imu, --hackzurich, --lcm-log, "
-                 "--synthetic or --sim-config (--help)\n");
-    return 2;
+    return -1;
   }
-  if (samples.empty()) {
-    std::fprintf(stderr, "evermap-imu-elevator-run: no IMU samples\n");
+  std::fprintf(stderr,
+               "evermap-imu-elevator-run: no input: give --euroc-imu, --hackzurich, --lcm-log, "
+               "--synthetic or --sim-config (--help)\n");
+  return 2;
+}
+
+// The attitude track against EuRoC ground truth, in the IMU, vehicle and level-body frames.
+int printAttitudeErrors(const Args& args, const std::vector<datasets::ImuSample>& samples,
+                        const elevator::OfflineRun& run) {
+  const std::vector<imu::Attitude>& track = run.attitudes;
+  const auto gt = datasets::readEurocGroundTruth(args.ground_truth);
+  if (!gt.ok()) {
+    std::fprintf(stderr, "%s\n", gt.error().message.c_str());
     return 1;
   }
-
-  std::vector<imu::ImuSample> imu_samples;
-  for (const auto& s : samples) {
-    imu_samples.push_back(
-        {s.t_ns / 1000, args.zero_gyro ? Eigen::Vector3d::Zero() : s.gyro_rad_s, s.accel_m_s2});
+  if (gt->empty()) {
+    std::fprintf(stderr, "%s: no poses\n", args.ground_truth.c_str());
+    return 1;
   }
-  if (!args.write_lcm_log.empty()) {
-    if (Status st = imu::writeImuLog(args.write_lcm_log, args.channel, imu_samples); !st.ok()) {
-      std::fprintf(stderr, "%s\n", st.error().message.c_str());
-      return 1;
-    }
-    std::printf("wrote %zu IMU samples to %s\n", imu_samples.size(), args.write_lcm_log.c_str());
-  }
-  std::vector<elevator::TraceBin> trace;
-  std::vector<elevator::Pulse> pulses;
-  const bool tracing = !args.dump_trace.empty();
-  const elevator::OfflineRun run =
-      elevator::runImuElevator(imu_samples, args.attitude, args.elevator, true,
-                               tracing ? &trace : nullptr, tracing ? &pulses : nullptr);
-  const std::vector<imu::Attitude>& track = run.attitudes;
-  std::printf("attitude: %s\nelevator: %s\n    gate: %s\n", run.attitude_counts.summary().c_str(),
-              run.counts.summary().c_str(), run.gate.summary().c_str());
-  std::printf("gravity reference at the end: %.3f m/s^2%s\n", run.gravity_m_s2,
-              run.gravity_plausible
-                  ? ""
-                  : "  NOT GRAVITY: is the input gravity-removed? every ride is rejected");
-
-  if (!args.ground_truth.empty()) {
-    const auto gt = datasets::readEurocGroundTruth(args.ground_truth);
-    if (!gt.ok()) {
-      std::fprintf(stderr, "%s\n", gt.error().message.c_str());
-      return 1;
-    }
-    if (gt->empty()) {
-      std::fprintf(stderr, "%s: no poses\n", args.ground_truth.c_str());
-      return 1;
-    }
-    // The body stands still for the filter's start-up window (it says so: still_start) and,
-    // on EuRoC, a few seconds more: the reference's world z is checked against gravity over
-    // the first 2 s both cover.
-    const int64_t rest_t0 = std::max(samples.front().t_ns, gt->front().t_ns);
-    const double world_tilt = imu::referenceTiltAtRest(samples, *gt, rest_t0, 2.0);
+  // The body stands still for the filter's start-up window (it says so: still_start) and,
+  // on EuRoC, a few seconds more: the reference's world z is checked against gravity over
+  // the first 2 s both cover.
+  const int64_t rest_t0 = std::max(samples.front().t_ns, gt->front().t_ns);
+  const double world_tilt = imu::referenceTiltAtRest(samples, *gt, rest_t0, 2.0);
+  std::printf(
+      "reference world z vs gravity measured at rest (2 s from the start of both): %.2f deg\n",
+      world_tilt * 180.0 / M_PI);
+  imu::AttitudeCompareOptions c;
+  c.max_offset_s = 0.06;
+  std::printf("attitude error, IMU frame (its own Euler angles): %s\n",
+              imu::compareAttitude(track, *gt, c).summary().c_str());
+  if (run.attitude_counts.still_start) {
+    // The vehicle frame: the IMU turned by its mounting tilt, read off the accelerometer
+    // during the still start-up window (the vehicle stands level on the ground).
+    c.vehicle_up_imu =
+        imu::meanSpecificForce(samples, samples.front().t_ns, args.attitude.init_window_s);
+    const imu::AttitudeErrorSummary v = imu::compareAttitude(track, *gt, c);
     std::printf(
-        "reference world z vs gravity measured at rest (2 s from the start of both): %.2f deg\n",
-        world_tilt * 180.0 / M_PI);
-    imu::AttitudeCompareOptions c;
-    c.max_offset_s = 0.06;
-    std::printf("attitude error, IMU frame (its own Euler angles): %s\n",
-                imu::compareAttitude(track, *gt, c).summary().c_str());
-    if (run.attitude_counts.still_start) {
-      // The vehicle frame: the IMU turned by its mounting tilt, read off the accelerometer
-      // during the still start-up window (the vehicle stands level on the ground).
-      c.vehicle_up_imu =
-          imu::meanSpecificForce(samples, samples.front().t_ns, args.attitude.init_window_s);
-      const imu::AttitudeErrorSummary v = imu::compareAttitude(track, *gt, c);
-      std::printf(
-          "attitude error, vehicle frame (IMU turned by its mounting tilt at rest, %.1f deg): %s\n",
-          std::acos(c.vehicle_up_imu.normalized().z()) * 180.0 / M_PI, v.summary().c_str());
-      std::printf(
-          "EuRoC roll/pitch figure (vehicle frame): roll RMS %.2f deg, pitch RMS %.2f deg\n",
-          v.roll_rms_rad * 180.0 / M_PI, v.pitch_rms_rad * 180.0 / M_PI);
-      c.vehicle_up_imu.setZero();
-    } else {
-      std::printf("attitude error, vehicle frame: not available (the start was not still)\n");
-    }
-    c.level_body = true;
-    std::printf("attitude error, level body (mean reference up):  %s\n",
-                imu::compareAttitude(track, *gt, c).summary().c_str());
-    c.align_gravity = true;
-    std::printf("attitude error, level body, world up fit:        %s\n",
-                imu::compareAttitude(track, *gt, c).summary().c_str());
-    c.align_body = true;
-    std::printf("attitude error, level body, world+body fit:      %s\n",
-                imu::compareAttitude(track, *gt, c).summary().c_str());
+        "attitude error, vehicle frame (IMU turned by its mounting tilt at rest, %.1f deg): %s\n",
+        std::acos(c.vehicle_up_imu.normalized().z()) * 180.0 / M_PI, v.summary().c_str());
+    std::printf("EuRoC roll/pitch figure (vehicle frame): roll RMS %.2f deg, pitch RMS %.2f deg\n",
+                v.roll_rms_rad * 180.0 / M_PI, v.pitch_rms_rad * 180.0 / M_PI);
+    c.vehicle_up_imu.setZero();
+  } else {
+    std::printf("attitude error, vehicle frame: not available (the start was not still)\n");
   }
+  c.level_body = true;
+  std::printf("attitude error, level body (mean reference up):  %s\n",
+              imu::compareAttitude(track, *gt, c).summary().c_str());
+  c.align_gravity = true;
+  std::printf("attitude error, level body, world up fit:        %s\n",
+              imu::compareAttitude(track, *gt, c).summary().c_str());
+  c.align_body = true;
+  std::printf("attitude error, level body, world+body fit:      %s\n",
+              imu::compareAttitude(track, *gt, c).summary().c_str());
+  return 0;
+}
 
-  const int64_t origin = samples.front().t_ns / 1000;
-  const auto rows = elevator::ridesWithReference(run.rides, session.barometer, session.episodes);
+// The rides found, beside the barometer, the labelled episodes and the synthetic truth.
+void printRides(const Input& in, const elevator::OfflineRun& run) {
+  const int64_t origin = in.samples.front().t_ns / 1000;
+  const auto rows =
+      elevator::ridesWithReference(run.rides, in.session.barometer, in.session.episodes);
   std::printf("\nrides (times from the first sample, disp = elevator, baro = barometer):\n%s",
               elevator::formatRideTable(rows, origin).c_str());
   std::printf("floors:");
   for (size_t i = 0; i < run.floor_heights.size(); ++i)
     std::printf(" %zu: %.2f m", i, run.floor_heights[i]);
   std::printf("\n");
-  for (const auto& r : truth.rides) {
+  for (const auto& r : in.truth.rides) {
     std::printf("true ride %.1f..%.1f s  floor %d -> %d  %+.2f m\n", r.start_s - origin * 1e-6,
                 r.end_s - origin * 1e-6, r.from_floor, r.to_floor, r.displacement_m);
   }
@@ -365,27 +341,33 @@ int main(int argc, char** argv) {
                 1e-6 * static_cast<double>(a.start_utime - origin),
                 1e-6 * static_cast<double>(a.abandon_utime - origin), a.reason.c_str());
   }
-  for (const auto& e : session.episodes) {
+  for (const auto& e : in.session.episodes) {
     std::printf("episode %-30s %8.1f .. %8.1f s\n", e.label.c_str(),
                 1e-9 * static_cast<double>(e.start_ns) - 1e-6 * static_cast<double>(origin),
                 1e-9 * static_cast<double>(e.end_ns) - 1e-6 * static_cast<double>(origin));
   }
+}
 
-  // Written whole or not at all (temporary file + rename): never a half file on failure.
-  auto write = [](const std::string& file, const std::string& text) {
-    if (Status s = writeFileAtomically(file, text); !s) {
-      std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", s.error().message.c_str());
-      return false;
-    }
-    return true;
-  };
+// Written whole or not at all (temporary file + rename): never a half file on failure.
+bool writeWhole(const std::string& file, const std::string& text) {
+  if (Status s = writeFileAtomically(file, text); !s) {
+    std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", s.error().message.c_str());
+    return false;
+  }
+  return true;
+}
+
+// --dump-attitude and --dump-trace; false when one could not be written.
+bool writeDumps(const Args& args, const elevator::OfflineRun& run,
+                const std::vector<elevator::TraceBin>& trace,
+                const std::vector<elevator::Pulse>& pulses) {
   if (!args.dump_attitude.empty()) {
     std::ostringstream out;
-    for (const auto& a : track) {
+    for (const auto& a : run.attitudes) {
       out << a.utime << ' ' << a.roll_rad << ' ' << a.pitch_rad << ' ' << a.covariance(0, 0) << ' '
           << a.covariance(1, 1) << ' ' << int(a.accel_trusted) << '\n';
     }
-    if (!write(args.dump_attitude, out.str())) return 1;
+    if (!writeWhole(args.dump_attitude, out.str())) return false;
   }
   if (!args.dump_trace.empty()) {
     std::ostringstream out;
@@ -399,8 +381,58 @@ int main(int argc, char** argv) {
       pout << p.firstBin() * bin_us << ' ' << p.lastBin() * bin_us << ' ' << p.amplitude_m_s2 << ' '
            << p.residual_m_s2 << ' ' << p.snr << ' ' << p.delta_v_m_s << '\n';
     }
-    if (!write(args.dump_trace, out.str()) || !write(args.dump_trace + ".pulses", pout.str()))
-      return 1;
+    if (!writeWhole(args.dump_trace, out.str()) ||
+        !writeWhole(args.dump_trace + ".pulses", pout.str()))
+      return false;
   }
-  return 0;
+  return true;
+}
+
+// The samples as the filters take them (µs, the gyro zeroed under --zero-gyro), written to
+// --write-lcm-log when asked.
+bool filterSamples(const Args& args, const std::vector<datasets::ImuSample>& samples,
+                   std::vector<imu::ImuSample>* imu_samples) {
+  for (const auto& s : samples) {
+    imu_samples->push_back(
+        {s.t_ns / 1000, args.zero_gyro ? Eigen::Vector3d::Zero() : s.gyro_rad_s, s.accel_m_s2});
+  }
+  if (args.write_lcm_log.empty()) return true;
+  if (Status st = imu::writeImuLog(args.write_lcm_log, args.channel, *imu_samples); !st.ok()) {
+    std::fprintf(stderr, "%s\n", st.error().message.c_str());
+    return false;
+  }
+  std::printf("wrote %zu IMU samples to %s\n", imu_samples->size(), args.write_lcm_log.c_str());
+  return true;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args args;
+  if (const int code = parse(argc, argv, &args); code >= 0) return code;
+  if (!args.floor_log.empty()) return printFloorLog(args.floor_log);
+  if (!args.sim_config.empty()) return runSimulatorCheck(args);
+  Input in;
+  if (const int code = readInput(args, &in); code >= 0) return code;
+  if (in.samples.empty()) {
+    std::fprintf(stderr, "evermap-imu-elevator-run: no IMU samples\n");
+    return 1;
+  }
+  std::vector<imu::ImuSample> imu_samples;
+  if (!filterSamples(args, in.samples, &imu_samples)) return 1;
+  std::vector<elevator::TraceBin> trace;
+  std::vector<elevator::Pulse> pulses;
+  const bool tracing = !args.dump_trace.empty();
+  const elevator::OfflineRun run =
+      elevator::runImuElevator(imu_samples, args.attitude, args.elevator, true,
+                               tracing ? &trace : nullptr, tracing ? &pulses : nullptr);
+  std::printf("attitude: %s\nelevator: %s\n    gate: %s\n", run.attitude_counts.summary().c_str(),
+              run.counts.summary().c_str(), run.gate.summary().c_str());
+  std::printf("gravity reference at the end: %.3f m/s^2%s\n", run.gravity_m_s2,
+              run.gravity_plausible
+                  ? ""
+                  : "  NOT GRAVITY: is the input gravity-removed? every ride is rejected");
+  if (!args.ground_truth.empty() && printAttitudeErrors(args, in.samples, run) != 0) return 1;
+  printRides(in, run);
+  return writeDumps(args, run, trace, pulses) ? 0 : 1;
 }

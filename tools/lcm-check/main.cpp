@@ -12,21 +12,36 @@
 #include <string>
 
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "tools/lcmlog/log_compare.h"
 #include "tools/lcmlog/type_registry.h"
+
+namespace {
+
+// The check's one setting (--help lists it, --print-config prints it).
+struct LcmCheckOptions {
+  double idle_timeout_s = 10.0;
+  void declareOptions(evermap::OptionList& o) {
+    o.add("idle_timeout_s", &idle_timeout_s, "s", "stop after this long without a message")
+        .positive();
+  }
+};
+
+}  // namespace
 
 int main(int argc, char** argv) {
   std::string log;
   std::string ready_file;
   std::string url;
-  double idle_timeout_s = 10.0;
+  LcmCheckOptions options;
+  const double& idle_timeout_s = options.idle_timeout_s;
   bool list_types = false;
   evermap::CommandLine cli("evermap-lcm-check",
                            "Checks that what arrives on LCM is exactly the content of a log.");
   cli.value("--log", &log, "FILE", "the LCM log being replayed");
   cli.value("--ready-file", &ready_file, "PATH", "written once subscribed");
-  cli.value("--idle-timeout-s", &idle_timeout_s, "S", "stop after S seconds of silence (10)")
-      .positive();
+  cli.options(&options);
+  cli.alias("--idle-timeout-s", "idle_timeout_s", "S");
   cli.value("--lcm-url", &url, "URL", "LCM provider (default: LCM_DEFAULT_URL)");
   cli.flag("--list-types", &list_types, "print the known message types and fingerprints");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;

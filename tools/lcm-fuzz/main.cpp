@@ -28,6 +28,7 @@
 #include <evermap/all_types.hpp>
 
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "core/messages/channels.h"
 #include "core/messages/lcm_receive_guard.h"
 #include "tools/lcmlog/log_reader.h"
@@ -124,33 +125,40 @@ int fragmentAttack(const std::vector<std::string>& channel_list) {
   return 0;
 }
 
+// The fuzzer's settings (--help lists them, --print-config prints them).
+struct FuzzOptions {
+  int64_t count = 1000;
+  int64_t seed = 1;
+  double rate_hz = 2000.0;
+  void declareOptions(evermap::OptionList& o) {
+    o.add("count", &count, "", "messages per channel").in(0, 1e8);
+    o.add("seed", &seed, "", "random seed: the same seed sends the same bytes").any();
+    o.add("rate_hz", &rate_hz, "Hz",
+          "messages per second over all channels (0: as fast as possible)")
+        .in(0, 1e7);
+  }
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::string channel_text, log_file;
-  int64_t count = 1000;
-  int64_t seed = 1;
-  double rate_hz = 2000.0;
+  FuzzOptions options;
+  const int64_t &count = options.count, &seed = options.seed;
+  const double& rate_hz = options.rate_hz;
   bool fragment_attack = false;
   CommandLine cli(
       "evermap-lcm-fuzz",
       "Hostile messages on evermap's input channels (inside scripts/lcm-sandbox only).");
   cli.value("--channels", &channel_text, "A,B,...", "the channels to fuzz", /*required=*/true);
-  cli.value("--count", &count, "N", "messages per channel (default 1000)").min(0).max(1e9);
-  cli.value("--seed", &seed, "S", "random seed (default 1): the same seed sends the same bytes")
-      .any();
-  cli.value("--rate-hz", &rate_hz, "HZ",
-            "messages per second over all channels (default 2000; 0: as fast as possible)")
-      .min(0);
+  cli.options(&options);
+  cli.alias("--count", "count", "N");
+  cli.alias("--seed", "seed", "S");
+  cli.alias("--rate-hz", "rate_hz", "HZ");
   cli.value("--log", &log_file, "LOG", "mutate the first message of each channel in this LCM log");
   cli.flag("--fragment-attack", &fragment_attack,
            "send the 2-packet LCM 1.3.1 fragment overflow on each channel instead");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
-  if (count < 0 || count > 100'000'000 || !(rate_hz >= 0.0) || rate_hz > 1e7) {
-    std::fprintf(stderr,
-                 "evermap-lcm-fuzz: --count must be in [0, 1e8] and --rate-hz in [0, 1e7]\n");
-    return 2;
-  }
   std::vector<std::string> channel_list;
   std::stringstream ss(channel_text);
   for (std::string c; std::getline(ss, c, ',');) {

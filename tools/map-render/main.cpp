@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "mapper-proc/map_store.h"
 #include "tools/eval/alignment.h"
 #include "tools/eval/association.h"
@@ -24,92 +25,128 @@ int fail(const std::string& message) {
   return 1;
 }
 
-}  // namespace
+// The figure's settings (--help lists them, --print-config prints them).
+struct RenderOptions {
+  eval::MapFigureOptions figure;
 
-int main(int argc, char** argv) {
+  void declareOptions(OptionList& o) {
+    o.add("azimuth_deg", &figure.azimuth_deg, "deg", "turn of the horizontal plane").in(-360, 360);
+    o.add("floor_spacing", &figure.floor_spacing, "",
+          "floor spacing as a fraction of the map's extent")
+        .in(0, 10);
+    o.add("width_px", &figure.width_px, "px", "image width").in(16, 20000);
+    o.add("height_px", &figure.height_px, "px", "image height").in(16, 20000);
+  }
+};
+
+struct RenderArgs {
   std::string store_file, out_file, gt_file, title;
-  eval::MapFigureOptions options;
+  RenderOptions options;
+};
+
+// -1 to run, else the exit status (usage and errors already printed).
+int parseCommandLine(int argc, char** argv, RenderArgs* a) {
   CommandLine cli("evermap-map-render",
                   "Draws a map store with its floors stacked (PNG or SVG by the extension).");
-  cli.value("--store", &store_file, "MAP.db", "the map store (mapper-proc --store)", true);
-  cli.value("--out", &out_file, "FIG", "the figure to write, .png or .svg", true);
-  cli.value("--gt", &gt_file, "GT.tum", "ground truth (TUM) drawn under the map, aligned by time");
-  cli.value("--title", &title, "TEXT", "the figure's title");
-  cli.value("--azimuth", &options.azimuth_deg, "DEG", "turn of the horizontal plane (-30)")
-      .min(-360)
-      .max(360);
-  cli.value("--floor-spacing", &options.floor_spacing, "F",
-            "floor spacing as a fraction of the map's extent (0.35)")
-      .min(0)
-      .max(10);
-  cli.value("--width", &options.width_px, "PX", "image width (1200)").min(16).max(20000);
-  cli.value("--height", &options.height_px, "PX", "image height (1000)").min(16).max(20000);
-  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  cli.value("--store", &a->store_file, "MAP.db", "the map store (mapper-proc --store)", true);
+  cli.value("--out", &a->out_file, "FIG", "the figure to write, .png or .svg", true);
+  cli.value("--gt", &a->gt_file, "GT.tum",
+            "ground truth (TUM) drawn under the map, aligned by time");
+  cli.value("--title", &a->title, "TEXT", "the figure's title");
+  cli.options(&a->options);
+  cli.alias("--azimuth", "azimuth_deg", "DEG");
+  cli.alias("--floor-spacing", "floor_spacing", "F");
+  cli.alias("--width", "width_px", "PX");
+  cli.alias("--height", "height_px", "PX");
+  return cli.parseOrExit(argc, argv);
+}
 
-  auto store = mapper::MapStore::open(store_file);
-  if (!store) return fail(store.error().message);
-  auto snapshot = store->load();
-  if (!snapshot) return fail(snapshot.error().message);
-
+// The figure's nodes and edges from the store's snapshot, with the nodes' keyframe times.
+struct StoreFigure {
   eval::MapFigure figure;
   eval::Trajectory nodes_by_time;
-  nodes_by_time.source = store_file;
+  size_t rejected = 0, constraints = 0;
+};
+
+Expected<StoreFigure> figureOfStore(const std::string& store_file) {
+  auto store = mapper::MapStore::open(store_file);
+  if (!store) return store.error();
+  auto snapshot = store->load();
+  if (!snapshot) return snapshot.error();
+  StoreFigure out;
+  out.nodes_by_time.source = store_file;
   std::map<int64_t, size_t> index_of;
   for (const mapper::StoredNode& n : snapshot->nodes) {
-    index_of[n.node.id] = figure.nodes.size();
-    figure.nodes.push_back({n.world_T_body.translation(), n.node.floor, n.node.session});
-    nodes_by_time.poses.push_back({n.node.keyframe_utime * 1000, n.world_T_body});
+    index_of[n.node.id] = out.figure.nodes.size();
+    out.figure.nodes.push_back({n.world_T_body.translation(), n.node.floor, n.node.session});
+    out.nodes_by_time.poses.push_back({n.node.keyframe_utime * 1000, n.world_T_body});
   }
   // One edge per node pair (the merged factor); a loop closure when any constraint of the
   // pair is one.
-  size_t rejected = 0, constraints = 0;
   std::map<std::pair<size_t, size_t>, bool> pairs;
   for (const mapper::StoredEdge& e : snapshot->edges) {
     if (!e.constraint.accepted) {
-      ++rejected;
+      ++out.rejected;
       continue;
     }
-    ++constraints;
+    ++out.constraints;
     const auto a = index_of.find(e.constraint.from), b = index_of.find(e.constraint.to);
     if (a == index_of.end() || b == index_of.end()) {
-      return fail(store_file + ": edge " + std::to_string(e.edge_id) + " refers to a missing node");
+      return makeError(store_file, ": edge ", e.edge_id, " refers to a missing node");
     }
     const auto key = std::minmax(a->second, b->second);
     pairs[key] = pairs[key] || e.constraint.kind == mapper::ConstraintKind::kLoop;
   }
-  for (const auto& [key, loop] : pairs) figure.edges.push_back({key.first, key.second, loop});
+  for (const auto& [key, loop] : pairs) out.figure.edges.push_back({key.first, key.second, loop});
+  return out;
+}
 
-  if (!gt_file.empty()) {
-    auto gt = eval::readTum(gt_file);
-    if (!gt) return fail(gt.error().message);
-    // Nodes are keyframes, so their times are ground-truth times (to the simulator's rate).
-    std::sort(nodes_by_time.poses.begin(), nodes_by_time.poses.end(),
-              [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
-    eval::AssociationOptions assoc;
-    assoc.max_dt_s = 0.05;
-    auto pairs = eval::associate(*gt, nodes_by_time, assoc);
-    if (!pairs) return fail(pairs.error().message);
-    auto aligned = eval::alignTrajectories(pairs->gt, pairs->est, eval::AlignmentMode::kSE3);
-    if (!aligned) return fail(gt_file + ": " + aligned.error().message);
-    const core::SE3d est_T_gt = aligned->gt_S_est.rigid.inverse();
-    for (const auto& p : gt->poses)
-      figure.reference.push_back(est_T_gt * p.world_T_body.translation());
+// The ground truth of `gt_file`, aligned to the map through the nodes' keyframe times, as the
+// figure's reference.
+Status addReference(const std::string& gt_file, StoreFigure* f) {
+  auto gt = eval::readTum(gt_file);
+  if (!gt) return gt.error();
+  // Nodes are keyframes, so their times are ground-truth times (to the simulator's rate).
+  std::sort(f->nodes_by_time.poses.begin(), f->nodes_by_time.poses.end(),
+            [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
+  eval::AssociationOptions assoc;
+  assoc.max_dt_s = 0.05;
+  auto pairs = eval::associate(*gt, f->nodes_by_time, assoc);
+  if (!pairs) return pairs.error();
+  auto aligned = eval::alignTrajectories(pairs->gt, pairs->est, eval::AlignmentMode::kSE3);
+  if (!aligned) return makeError(gt_file, ": ", aligned.error().message);
+  const core::SE3d est_T_gt = aligned->gt_S_est.rigid.inverse();
+  for (const auto& p : gt->poses)
+    f->figure.reference.push_back(est_T_gt * p.world_T_body.translation());
+  return Ok{};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  RenderArgs a;
+  if (const int code = parseCommandLine(argc, argv, &a); code >= 0) return code;
+  auto f = figureOfStore(a.store_file);
+  if (!f) return fail(f.error().message);
+  if (!a.gt_file.empty()) {
+    if (Status s = addReference(a.gt_file, &*f); !s) return fail(s.error().message);
   }
-
-  options.title = title.empty() ? "map " + store_file : title;
+  eval::MapFigureOptions& options = a.options.figure;
+  const eval::MapFigure& figure = f->figure;
+  options.title = a.title.empty() ? "map " + a.store_file : a.title;
   char subtitle[160];
   eval::MapFigureSummary summary;
   auto canvas = eval::drawMapFigure(figure, options, &summary);
-  if (!canvas) return fail(store_file + ": " + canvas.error().message);
+  if (!canvas) return fail(a.store_file + ": " + canvas.error().message);
   std::snprintf(subtitle, sizeof subtitle,
                 "%zu nodes, %zu edges (%zu with loop closures; %zu constraints, %zu rejected), "
                 "%zu floors, %zu sessions",
-                figure.nodes.size(), figure.edges.size(), summary.loop_closures, constraints,
-                rejected, summary.floors, summary.sessions);
+                figure.nodes.size(), figure.edges.size(), summary.loop_closures, f->constraints,
+                f->rejected, summary.floors, summary.sessions);
   options.subtitle = subtitle;
   canvas = eval::drawMapFigure(figure, options);
   if (!canvas) return fail(canvas.error().message);
-  if (Status s = canvas->save(out_file); !s) return fail(s.error().message);
-  std::printf("%s: %s\n", out_file.c_str(), subtitle);
+  if (Status s = canvas->save(a.out_file); !s) return fail(s.error().message);
+  std::printf("%s: %s\n", a.out_file.c_str(), subtitle);
   return 0;
 }

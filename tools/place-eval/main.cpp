@@ -12,6 +12,7 @@
 #include "core/bow/vocabulary_io.h"
 #include "core/common/atomic_write.h"
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "tools/place-eval/loop_evaluation.h"
 #include "tools/vocab-train/image_training.h"
 
@@ -20,12 +21,40 @@ namespace {
 using namespace evermap;
 using namespace evermap::bow;
 
+// The evaluation's settings (--help lists them, --print-config prints them).
+struct PlaceEvalOptions {
+  SequenceOptions sequence;
+  double raw_threshold = kDefaultRawThreshold;
+  double geo_threshold = kDefaultGeometricThreshold;
+
+  void declareOptions(OptionList& o) {
+    o.add("exclude_recent", &sequence.exclude_recent, "", "most recent images not searched").min(0);
+    o.add("candidates", &sequence.candidates, "", "candidates per query for the geometric check")
+        .min(1);
+    o.add("min_inliers", &sequence.geometry.min_inliers, "", "epipolar RANSAC inliers to accept")
+        .min(0);
+    o.add("raw_threshold", &raw_threshold, "", "operating threshold of the raw score").min(0);
+    o.add("geo_threshold", &geo_threshold, "", "operating threshold of the score after the check")
+        .min(0);
+    o.add("features", &sequence.orb.max_features, "", "ORB features per image").in(1, 100000);
+    o.add("direct_depth", &sequence.direct_index_depth, "",
+          "direct-index depth for guided matching")
+        .min(0);
+    o.add("ratio", &sequence.geometry.matching.ratio, "", "ratio test of guided matching (1: off)")
+        .positive()
+        .max(1);
+    o.add("max_distance", &sequence.geometry.matching.max_distance, "",
+          "largest Hamming distance of a match")
+        .in(0, 256);
+    o.add("ransac_px", &sequence.geometry.ransac_threshold_px, "px", "epipolar RANSAC threshold")
+        .positive();
+  }
+};
+
 struct Command {
   std::string images, gt, vocab, train_root, csv;
   bool full_curve = false;
-  SequenceOptions options;
-  double raw_threshold = kDefaultRawThreshold;
-  double geo_threshold = kDefaultGeometricThreshold;
+  PlaceEvalOptions tool;
 };
 
 // Returns -1 to run, or main's exit status.
@@ -37,38 +66,17 @@ int parse(int argc, char** argv, Command* c) {
   cli.value("--vocab", &c->vocab, "FILE", "evermap (.evoc) or DBoW2/DBoW3 (.yml.gz) vocabulary");
   cli.value("--train-default", &c->train_root, "DIR",
             "train the default vocabulary from the shared data under DIR (k=10, L=5)");
-  cli.value("--exclude-recent", &c->options.exclude_recent, "N",
-            "most recent images not searched (10)")
-      .min(0);
-  cli.value("--candidates", &c->options.candidates, "N",
-            "candidates per query for the geometric check (5)")
-      .min(1);
-  cli.value("--min-inliers", &c->options.geometry.min_inliers, "N",
-            "epipolar RANSAC inliers to accept (30)")
-      .min(0);
-  cli.value("--raw-threshold", &c->raw_threshold, "S",
-            "operating threshold of the raw score (0.10)")
-      .min(0);
-  cli.value("--geo-threshold", &c->geo_threshold, "S",
-            "operating threshold of the score after the check (0)")
-      .min(0);
-  cli.value("--features", &c->options.orb.max_features, "N", "ORB features per image (1000)")
-      .min(1)
-      .max(100000);
-  cli.value("--direct-depth", &c->options.direct_index_depth, "N",
-            "direct-index depth for guided matching (2)")
-      .min(0);
-  cli.value("--ratio", &c->options.geometry.matching.ratio, "R",
-            "ratio test of guided matching (0.8; 1 = off)")
-      .positive()
-      .max(1);
-  cli.value("--max-distance", &c->options.geometry.matching.max_distance, "N",
-            "largest Hamming distance of a match (64)")
-      .min(0)
-      .max(256);
-  cli.value("--ransac-px", &c->options.geometry.ransac_threshold_px, "P",
-            "epipolar RANSAC threshold, pixels (2)")
-      .positive();
+  cli.options(&c->tool);
+  cli.alias("--exclude-recent", "exclude_recent", "N");
+  cli.alias("--candidates", "candidates", "N");
+  cli.alias("--min-inliers", "min_inliers", "N");
+  cli.alias("--raw-threshold", "raw_threshold", "S");
+  cli.alias("--geo-threshold", "geo_threshold", "S");
+  cli.alias("--features", "features", "N");
+  cli.alias("--direct-depth", "direct_depth", "N");
+  cli.alias("--ratio", "ratio", "R");
+  cli.alias("--max-distance", "max_distance", "N");
+  cli.alias("--ransac-px", "ransac_px", "P");
   cli.value("--csv", &c->csv, "FILE", "write every query's candidates as CSV");
   cli.flag("--full-curve", &c->full_curve, "print every point of the curves, not a summary");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
@@ -79,7 +87,7 @@ int parse(int argc, char** argv, Command* c) {
   if (c->vocab.empty() == c->train_root.empty()) {
     return fail("give exactly one of --vocab and --train-default");
   }
-  if (std::string why = c->options.validate(); !why.empty()) return fail(why);
+  if (std::string why = c->tool.sequence.validate(); !why.empty()) return fail(why);
   return -1;
 }
 
@@ -105,6 +113,23 @@ void printCurve(const PrCurve& curve, bool full) {
   const PrPoint& b = curve.best_at_full_precision;
   std::printf("  best recall at 100%% precision: %.1f%% (%d of %zu) from threshold %.4f\n",
               100 * b.recall, b.true_positives, curve.queries_with_loop, b.threshold);
+}
+
+// --csv: every query's candidates, images numbered from 1.
+Status writeCandidatesCsv(const std::string& file, const std::vector<QueryRecord>& records,
+                          const LoopGroundTruth& gt) {
+  std::string csv = "query,rank,candidate,score,matches,inliers,geometric_ok,ground_truth\n";
+  for (const QueryRecord& r : records) {
+    for (size_t k = 0; k < r.candidates.size(); ++k) {
+      const CandidateRecord& c = r.candidates[k];
+      char line[160];
+      std::snprintf(line, sizeof(line), "%zu,%zu,%zu,%.6f,%d,%d,%d,%d\n", r.image + 1, k + 1,
+                    c.image + 1, c.score, c.matches, c.inliers, c.geometric_ok ? 1 : 0,
+                    gt.loop(r.image, c.image) ? 1 : 0);
+      csv += line;
+    }
+  }
+  return writeFileAtomically(file, csv);
 }
 
 }  // namespace
@@ -140,50 +165,41 @@ int main(int argc, char** argv) {
     std::printf("default vocabulary: %s\n", summary.message.c_str());
   }
   std::printf("%zu images, ground truth %zu positive cells; recent-frame exclusion %d images\n",
-              images->size(), gt->numCells(), cmd->options.exclude_recent);
+              images->size(), gt->numCells(), cmd->tool.sequence.exclude_recent);
 
-  auto records = runLoopDetector(*images, *vocabulary, cmd->options);
+  auto records = runLoopDetector(*images, *vocabulary, cmd->tool.sequence);
   if (!records) return fail(records.error().message);
 
   for (Decision d : {Decision::kRawScore, Decision::kGeometricCheck}) {
-    printCurve(precisionRecall(*records, *gt, d, cmd->options.exclude_recent), cmd->full_curve);
+    printCurve(precisionRecall(*records, *gt, d, cmd->tool.sequence.exclude_recent),
+               cmd->full_curve);
   }
   // The other threshold of the check: inliers, at the chosen score threshold.
-  std::printf("\nscore + epipolar at score >= %.3f, by inlier threshold\n", cmd->geo_threshold);
+  std::printf("\nscore + epipolar at score >= %.3f, by inlier threshold\n",
+              cmd->tool.geo_threshold);
   std::printf("  inliers   TP   FP  precision  recall\n");
   for (int m : {8, 10, 12, 15, 20, 25, 30, 40, 50, 60, 80, 100}) {
     const PrPoint p = evaluateAt(*records, *gt, Decision::kGeometricCheck,
-                                 cmd->options.exclude_recent, cmd->geo_threshold, m);
+                                 cmd->tool.sequence.exclude_recent, cmd->tool.geo_threshold, m);
     std::printf("  %7d %4d %4d  %8.1f%%  %5.1f%%\n", m, p.true_positives, p.false_positives,
                 100 * p.precision, 100 * p.recall);
   }
   std::printf("\nat the chosen thresholds:\n");
-  const PrPoint raw = evaluateAt(*records, *gt, Decision::kRawScore, cmd->options.exclude_recent,
-                                 cmd->raw_threshold);
+  const PrPoint raw = evaluateAt(*records, *gt, Decision::kRawScore,
+                                 cmd->tool.sequence.exclude_recent, cmd->tool.raw_threshold);
   const PrPoint geo = evaluateAt(*records, *gt, Decision::kGeometricCheck,
-                                 cmd->options.exclude_recent, cmd->geo_threshold);
+                                 cmd->tool.sequence.exclude_recent, cmd->tool.geo_threshold);
   std::printf("  raw score        >= %.3f: precision %.1f%%, recall %.1f%% (TP %d, FP %d)\n",
               raw.threshold, 100 * raw.precision, 100 * raw.recall, raw.true_positives,
               raw.false_positives);
   std::printf(
       "  score + epipolar >= %.3f, >= %d inliers: precision %.1f%%, recall %.1f%% "
       "(TP %d, FP %d)\n",
-      geo.threshold, cmd->options.geometry.min_inliers, 100 * geo.precision, 100 * geo.recall,
+      geo.threshold, cmd->tool.sequence.geometry.min_inliers, 100 * geo.precision, 100 * geo.recall,
       geo.true_positives, geo.false_positives);
 
   if (!cmd->csv.empty()) {
-    std::string csv = "query,rank,candidate,score,matches,inliers,geometric_ok,ground_truth\n";
-    for (const QueryRecord& r : *records) {
-      for (size_t k = 0; k < r.candidates.size(); ++k) {
-        const CandidateRecord& c = r.candidates[k];
-        char line[160];
-        std::snprintf(line, sizeof(line), "%zu,%zu,%zu,%.6f,%d,%d,%d,%d\n", r.image + 1, k + 1,
-                      c.image + 1, c.score, c.matches, c.inliers, c.geometric_ok ? 1 : 0,
-                      gt->loop(r.image, c.image) ? 1 : 0);
-        csv += line;
-      }
-    }
-    if (Status s = writeFileAtomically(cmd->csv, csv); !s) return fail(s.error().message);
+    if (Status s = writeCandidatesCsv(cmd->csv, *records, *gt); !s) return fail(s.error().message);
     std::printf("candidates written to %s (images numbered from 1)\n", cmd->csv.c_str());
   }
   return 0;

@@ -1,8 +1,8 @@
 #include "tools/sim/image_sim_options.h"
 
-#include <charconv>
 #include <cmath>
-#include <sstream>
+
+#include "core/common/option_fields.h"
 
 namespace evermap::sim {
 namespace {
@@ -20,68 +20,112 @@ bool ownKey(const std::string& key) {
   return false;
 }
 
-// The one table of this file's keys, in file order. `encoding` is handled apart (a string).
-template <typename Options, typename Visitor>
-void visitOwn(Options& o, Visitor&& v) {
-  auto& r = o.render;
-  v("render.width", &r.width);
-  v("render.height", &r.height);
-  v("render.rate_hz", &r.rate_hz);
-  v("render.noise_sigma_gray", &r.noise_sigma_gray);
-  v("render.posters", &r.posters);
-  v("render.session", &r.session);
-  v("render.max_duration_s", &r.max_duration_s);
-  v("render.door_margin_s", &r.door_margin_s);
-  auto& w = r.world;
-  v("world.ceiling_height_m", &w.ceiling_height_m);
-  v("world.grid_cell_m", &w.grid_cell_m);
-  v("world.door_width_m", &w.door_width_m);
-  v("world.piece_min_m", &w.piece_min_m);
-  v("world.piece_max_m", &w.piece_max_m);
-  v("world.wall_texel_min_m", &w.wall_texel_min_m);
-  v("world.wall_texel_max_m", &w.wall_texel_max_m);
-  v("world.floor_texel_m", &w.floor_texel_m);
-  v("world.ceiling_texel_m", &w.ceiling_texel_m);
-  v("world.poster_probability", &w.poster_probability);
-  v("world.poster_width_min_m", &w.poster_width_min_m);
-  v("world.poster_width_max_m", &w.poster_width_max_m);
-  v("world.dark_light", &w.dark_light);
-  v("world.blank_radius_m", &w.blank_radius_m);
-  v("world.brightness_jitter", &w.brightness_jitter);
-  v("texture.size", &r.textures.size);
-  v("texture.variants", &r.textures.variants);
-  v("texture.poster_size", &r.textures.poster_size);
-  v("texture.max_posters", &r.textures.max_posters);
-  auto& d = r.depth;
-  v("rgbd.min_range_m", &d.min_range_m);
-  v("rgbd.max_range_m", &d.max_range_m);
-  v("rgbd.noise_coefficient", &d.noise_coefficient);
-  v("rgbd.unit_m", &d.unit_m);
-  v("rgbd.edge_jump_fraction", &d.edge_jump_fraction);
-  v("rgbd.edge_hole_px", &d.edge_hole_px);
-  v("rgbd.shadow_baseline_m", &d.shadow_baseline_m);
-  v("rgbd.dropout_fraction", &d.dropout_fraction);
-  auto& l = o.lighting;
-  v("lighting.gain", &l.base.gain);
-  v("lighting.offset_gray", &l.base.offset_gray);
-  v("lighting.gamma", &l.base.gamma);
-  v("lighting.gain_jitter", &l.gain_jitter);
-  v("lighting.offset_jitter_gray", &l.offset_jitter_gray);
-  v("lighting.gamma_jitter", &l.gamma_jitter);
-  auto& p = o.passerby;
-  v("passerby.distance_min_m", &p.distance_min_m);
-  v("passerby.distance_max_m", &p.distance_max_m);
-  v("passerby.width_m", &p.width_m);
-  v("passerby.height_m", &p.height_m);
+void declareRender(OptionList& o, RenderSimOptions& r) {
+  o.choice("render.encoding", &r.encoding,
+           {{"png", messages::ImageEncoding::kPng}, {"gray8", messages::ImageEncoding::kGray8}},
+           "how images are stored in the log");
+  o.choice("render.camera", &r.camera,
+           {{"stereo", CameraMode::kStereo}, {"rgbd", CameraMode::kRgbd}},
+           "a rectified stereo pair (camera.*) or an RGB-D camera (rgbd.*)");
+  o.add("render.width", &r.width, "px", "image width (camera.cx inside)").in(16, 8192);
+  o.add("render.height", &r.height, "px", "image height (camera.cy inside)").in(16, 8192);
+  o.add("render.rate_hz", &r.rate_hz, "Hz", "stereo pairs per second").above(0).max(1000);
+  o.add("render.noise_sigma_gray", &r.noise_sigma_gray, "gray", "sensor noise").min(0).below(100);
+  o.add("render.posters", &r.posters, "",
+        "auto ($EVERMAP_DATA or ../shared/data), none, or a folder of images");
+  o.add("render.session", &r.session, "", "the session of the patrol plan rendered").min(0);
+  o.add("render.max_duration_s", &r.max_duration_s, "s", "render at most this much (0: all)")
+      .min(0);
+  o.add("render.door_margin_s", &r.door_margin_s, "s",
+        "the cab door is closed from this long before a ride to after")
+      .min(0);
 }
 
-std::string format(double v) {
-  char buf[64];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::string(buf, r.ptr);
+void declareWorld(OptionList& o, WorldOptions& w) {
+  o.add("world.ceiling_height_m", &w.ceiling_height_m, "m", "above each floor surface").above(0.5);
+  o.add("world.grid_cell_m", &w.grid_cell_m, "m", "rasterisation of the regions").above(0).max(0.5);
+  o.add("world.door_width_m", &w.door_width_m, "m", "room doors and the elevator door").positive();
+  o.add("world.piece_min_m", &w.piece_min_m, "m", "walls are cut into pieces this long at least")
+      .positive();
+  o.add("world.piece_max_m", &w.piece_max_m, "m", "... at most (>= min)").any();
+  o.add("world.wall_texel_min_m", &w.wall_texel_min_m, "m", "wall texel size, least (per piece)")
+      .positive();
+  o.add("world.wall_texel_max_m", &w.wall_texel_max_m, "m", "... most (>= min)").any();
+  o.add("world.floor_texel_m", &w.floor_texel_m, "m", "floor texel size").positive();
+  o.add("world.ceiling_texel_m", &w.ceiling_texel_m, "m", "ceiling texel size").positive();
+  o.add("world.poster_probability", &w.poster_probability, "",
+        "a poster on a wall piece at least 1.5 m long")
+      .in(0, 1);
+  o.add("world.poster_width_min_m", &w.poster_width_min_m, "m", "poster width, least").positive();
+  o.add("world.poster_width_max_m", &w.poster_width_max_m, "m", "... most (>= min)").any();
+  o.add("world.dark_light", &w.dark_light, "", "light level of a dark room (lit: 1)").in(0, 1);
+  o.add("world.blank_radius_m", &w.blank_radius_m, "m",
+        "featureless zone around a blank-wall junction")
+      .min(0);
+  o.add("world.brightness_jitter", &w.brightness_jitter, "", "each wall piece is lit 1 +- this")
+      .min(0)
+      .below(1);
 }
-std::string format(int v) { return std::to_string(v); }
-std::string format(const std::string& v) { return v; }
+
+void declareTexturesAndDepth(OptionList& o, RenderSimOptions& r) {
+  auto& t = r.textures;
+  o.add("texture.size", &t.size, "texel", "side of procedural textures (power of two)").min(4);
+  o.add("texture.variants", &t.variants, "", "procedural textures drawn per pattern").min(1);
+  o.add("texture.poster_size", &t.poster_size, "texel", "side of a stored poster (power of two)")
+      .min(4);
+  o.add("texture.max_posters", &t.max_posters, "", "photographs loaded at most").min(0);
+  auto& d = r.depth;
+  o.add("rgbd.min_range_m", &d.min_range_m, "m", "nearer: no depth").min(0);
+  o.add("rgbd.max_range_m", &d.max_range_m, "m", "farther: no depth").above(0).max(100);
+  o.add("rgbd.noise_coefficient", &d.noise_coefficient, "1/m", "depth noise sigma_z = k z^2")
+      .min(0)
+      .below(0.1);
+  o.add("rgbd.unit_m", &d.unit_m, "m", "metres per depth unit (max_range_m / unit_m < 65535)")
+      .above(0)
+      .max(0.1);
+  o.add("rgbd.edge_jump_fraction", &d.edge_jump_fraction, "",
+        "neighbours differing by more than this: a depth edge")
+      .above(0)
+      .max(10);
+  o.add("rgbd.edge_hole_px", &d.edge_hole_px, "px", "holes this far from a depth edge").in(0, 16);
+  o.add("rgbd.shadow_baseline_m", &d.shadow_baseline_m, "m", "projector to IR camera (0: none)")
+      .in(0, 1);
+  o.add("rgbd.dropout_fraction", &d.dropout_fraction, "", "pixels dropped at random")
+      .min(0)
+      .below(1);
+}
+
+void declareLightingAndPasserby(OptionList& o, LightingOptions& l, PasserbyOptions& p) {
+  o.add("lighting.gain", &l.base.gain, "", "camera response gain, session 0").above(0).below(10);
+  o.add("lighting.offset_gray", &l.base.offset_gray, "gray", "response offset, session 0")
+      .above(-255)
+      .below(255);
+  o.add("lighting.gamma", &l.base.gamma, "", "response gamma, session 0").above(0.1).below(10);
+  o.add("lighting.gain_jitter", &l.gain_jitter, "", "per session: gain * (1 + jitter x)")
+      .min(0)
+      .below(1);
+  o.add("lighting.offset_jitter_gray", &l.offset_jitter_gray, "gray",
+        "per session: offset + jitter x")
+      .min(0)
+      .below(128);
+  o.add("lighting.gamma_jitter", &l.gamma_jitter, "", "per session: gamma * (1 + jitter x)")
+      .min(0)
+      .below(1);
+  o.add("passerby.distance_min_m", &p.distance_min_m, "m",
+        "a passer-by walks this far ahead, least")
+      .above(0.05);
+  o.add("passerby.distance_max_m", &p.distance_max_m, "m", "... most (>= min)").any();
+  o.add("passerby.width_m", &p.width_m, "m", "a passer-by's width").positive();
+  o.add("passerby.height_m", &p.height_m, "m", "a passer-by's height").positive();
+}
+
+// This simulator's own keys (render.*, world.*, texture.*, rgbd.*, lighting.*, passerby.*).
+void declareOwn(OptionList& o, ImageSimOptions& s) {
+  declareRender(o, s.render);
+  declareWorld(o, s.render.world);
+  declareTexturesAndDepth(o, s.render);
+  declareLightingAndPasserby(o, s.lighting, s.passerby);
+}
 
 }  // namespace
 
@@ -161,15 +205,14 @@ fs::path ImageSimOptions::posterFolder() const {
   return p.is_relative() ? (config_folder / p).lexically_normal() : p;
 }
 
+void ImageSimOptions::declareOptions(OptionList& o) {
+  o.nest("", &sim);
+  declareOwn(o, *this);
+}
+
 std::string ImageSimOptions::toConfigText() const {
-  std::ostringstream out;
-  out << sim.toConfigText();
-  out << "render.encoding = " << messages::toString(render.encoding) << "\n";
-  out << "render.camera = " << (render.camera == CameraMode::kRgbd ? "rgbd" : "stereo") << "\n";
   ImageSimOptions copy = *this;
-  visitOwn(copy,
-           [&](const char* key, auto* field) { out << key << " = " << format(*field) << "\n"; });
-  return out.str();
+  return OptionList::of(&copy).print();
 }
 
 Expected<ImageSimOptions> loadImageSimOptions(const KeyValueFile& file) {
@@ -185,30 +228,12 @@ Expected<ImageSimOptions> loadImageSimOptions(const KeyValueFile& file) {
   auto sim = loadSimOptions(*rest);
   if (!sim) return sim.error();
   o.sim = std::move(*sim);
-  KeyValueReader reader(*own);
-  std::string encoding = "png";
-  reader.read("render.encoding", &encoding);
-  if (encoding == "gray8") {
-    o.render.encoding = messages::ImageEncoding::kGray8;
-  } else if (encoding != "png") {
-    return makeError(reader.where("render.encoding"),
-                     ": render.encoding: expected 'png' or 'gray8', got '", encoding, "'");
-  }
-  std::string camera = "stereo";
-  reader.read("render.camera", &camera);
-  if (camera == "rgbd") {
-    o.render.camera = CameraMode::kRgbd;
-  } else if (camera != "stereo") {
-    return makeError(reader.where("render.camera"),
-                     ": render.camera: expected 'stereo' or 'rgbd', got '", camera, "'");
-  }
-  visitOwn(o, [&](const char* key, auto* field) { reader.read(key, field); });
-  if (Status s = reader.finish(); !s) return s.error();
+  OptionList list;
+  declareOwn(list, o);
+  if (Status s = list.load(*own); !s) return s.error();
   if (Status s = o.validate(); !s) {
     const std::string& m = s.error().message;
-    const std::string key = m.substr(0, m.find(':'));
-    const KeyValueFile::Entry* e = file.find(key);
-    return makeError(e ? e->origin : file.name() + " (default value)", ": ", m);
+    return makeError(whereIn(file, m.substr(0, m.find(':'))), ": ", m);
   }
   return o;
 }

@@ -80,11 +80,13 @@ struct ImageSimOptions {
   PasserbyOptions passerby;
   std::filesystem::path config_folder;  // where relative folders are resolved
 
+  // The measurement simulator's keys (SimOptions), then this simulator's own.
+  void declareOptions(OptionList& o);
   Status validate() const;
   PinholeCamera camera() const;
   // The poster folder `render.posters` names (empty: procedural posters).
   std::filesystem::path posterFolder() const;
-  // Every setting as `key = value` lines (the measurement keys first).
+  // Every setting as `key = value  # unit` lines (the measurement keys first).
   std::string toConfigText() const;
 };
 

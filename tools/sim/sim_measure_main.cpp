@@ -88,6 +88,9 @@ int parseArgs(int argc, char** argv, Args* a) {
   cli.value("--speed", &a->speed, "X", "--serve: times real time (0: as fast as possible)").min(0);
   cli.value("--idle-exit-s", &a->idle_exit_s, "S", "--oracle: exit after S s without requests")
       .min(0);
+  // The settings a --config file and --set take, listed in --help (read by the simulator).
+  evermap::sim::SimOptions listed;
+  cli.options(&listed);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   a->load = !no_load;
   for (auto [on, m] :

@@ -13,6 +13,10 @@
 #include "tools/sim/registration_oracle.h"
 #include "tools/sim/session_generator.h"
 
+namespace evermap {
+class OptionList;
+}
+
 namespace evermap::sim {
 
 // mode = trajectory: drive along a recorded trajectory instead of patrolling a building.
@@ -42,14 +46,21 @@ struct SimOptions {
   TrajectoryOptions trajectory;
   OutputOptions output;
 
-  // Messages start with the dotted key ("vo.rate_hz: must be > 0").
+  // Every key, its unit, range and doc (sim_option_list.cpp; core/common/option_fields.h).
+  void declareOptions(OptionList& o);
+  // The rules that tie keys together. Messages start with the dotted key ("vo.rate_hz: ...").
   Status validate() const;
-  // Every setting as `key = value` lines, in a fixed order.
+  // Every setting as `key = value  # unit` lines, in a fixed order (readable back).
   std::string toConfigText() const;
 };
 
-// Reads a configuration: unknown keys, malformed values and invalid settings are errors that
-// name the file and line. Relative trajectory files are resolved against the file's folder.
+// Reads a configuration: unknown keys, malformed values, values outside their range and invalid
+// settings are errors that name the file and line (meta.* and mapper.* keys are left to others).
+// Relative trajectory files are resolved against the file's folder.
 Expected<SimOptions> loadSimOptions(const KeyValueFile& file);
+
+// Where `file` sets `key` ("sim.conf:12"), else "sim.conf (default value)": the place an
+// error of validate() points at.
+std::string whereIn(const KeyValueFile& file, const std::string& key);
 
 }  // namespace evermap::sim

@@ -20,6 +20,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -78,6 +79,9 @@ int parseArgs(int argc, char** argv, Args* a) {
   cli.value("--every", &a->every_s, "S", "--snapshots: one every S seconds (10)").positive();
   cli.value("--facts", &a->facts, "F.csv", "per-frame facts (failure in view) as CSV");
   cli.flag("--print-config", &a->print, "print every setting and exit");
+  // The settings a --config file and --set take, listed in --help (read by the simulator).
+  evermap::sim::ImageSimOptions listed;
+  cli.options(&listed);
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   const int modes = (a->out.empty() ? 0 : 1) + (a->publish ? 1 : 0) + (a->print ? 1 : 0) +
                     (a->snapshots.empty() ? 0 : 1);
@@ -133,6 +137,66 @@ evermap::Status writeGroundTruth(const ImageSimulator& sim, const fs::path& file
   return evermap::eval::writeTum(truth, file);
 }
 
+// --snapshots: the left image (and depth) every --every-s seconds as PNG; main's exit status.
+int writeSnapshots(ImageSimulator& sim, const Args& args) {
+  std::error_code ec;
+  fs::create_directories(args.snapshots, ec);
+  cv::Mat left, right, depth;
+  const bool rgbd = sim.options().render.camera == evermap::sim::CameraMode::kRgbd;
+  for (int64_t t = sim.startUtime(); t <= sim.endUtime();
+       t += static_cast<int64_t>(args.every_s * 1e6)) {
+    const auto f = rgbd ? sim.renderRgbd(t, &left, &depth) : sim.renderPair(t, &left, &right);
+    char name[128];
+    std::snprintf(name, sizeof name, "left-%06.1f%s%s%s%s.png",
+                  1e-6 * static_cast<double>(t - sim.startUtime()), f.dark_room ? "-dark" : "",
+                  f.blank_zone ? "-blank" : "", f.passerby ? "-passerby" : "",
+                  f.closed_cab ? "-cab" : "");
+    const fs::path file = fs::path(args.snapshots) / name;
+    std::string depth_name = name;
+    depth_name.replace(0, 4, "depth");
+    if (!cv::imwrite(file.string(), left) ||
+        (rgbd && !cv::imwrite((fs::path(args.snapshots) / depth_name).string(), depth))) {
+      std::fprintf(stderr, "evermap-sim-render: %s: cannot write\n", file.c_str());
+      return 1;
+    }
+  }
+  return 0;
+}
+
+// The session rendered into --out (with its ground truth beside), published on LCM, or only
+// counted; `keep_going` ends it early.
+evermap::Expected<evermap::sim::ImageSessionSummary> renderSession(
+    ImageSimulator& sim, const Args& args, const std::function<bool(double)>& keep_going) {
+  if (!args.out.empty()) {
+    auto summary = evermap::sim::writeImageSessionLog(sim, args.out, keep_going);
+    if (!summary) return summary;
+    const fs::path gt = groundTruthPath(args.out);
+    if (auto s = writeGroundTruth(sim, gt); !s) return s.error();
+    std::printf("wrote %s and %s\n", args.out.c_str(), gt.c_str());
+    return summary;
+  }
+  if (args.publish) {
+    lcm::LCM lcm(args.lcm_url);
+    if (!lcm.good()) return evermap::makeError("cannot open LCM (", args.lcm_url, ")");
+    PublishSink sink(lcm, args.speed);
+    return sim.run(sink, keep_going);
+  }
+  evermap::sim::NullSink sink;
+  return sim.run(sink, keep_going);
+}
+
+// --facts: what each frame showed, as CSV.
+evermap::Status writeFacts(const std::string& file,
+                           const evermap::sim::ImageSessionSummary& summary) {
+  std::string text = "utime,floor,dark_room,blank_zone,passerby,closed_cab\n";
+  for (const auto& [t, f] : summary.frame_facts) {
+    text += std::to_string(t) + "," + std::to_string(f.floor) + "," + std::to_string(f.dark_room) +
+            "," + std::to_string(f.blank_zone) + "," + std::to_string(f.passerby) + "," +
+            std::to_string(f.closed_cab) + "\n";
+  }
+  return evermap::writeFileAtomically(file, text);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -157,68 +221,17 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-sim-render: %s\n", sim.error().message.c_str());
     return 2;
   }
-  if (!args.snapshots.empty()) {
-    std::error_code ec;
-    fs::create_directories(args.snapshots, ec);
-    cv::Mat left, right, depth;
-    const bool rgbd = options->render.camera == evermap::sim::CameraMode::kRgbd;
-    for (int64_t t = (*sim)->startUtime(); t <= (*sim)->endUtime();
-         t += static_cast<int64_t>(args.every_s * 1e6)) {
-      const auto f =
-          rgbd ? (*sim)->renderRgbd(t, &left, &depth) : (*sim)->renderPair(t, &left, &right);
-      char name[128];
-      std::snprintf(name, sizeof name, "left-%06.1f%s%s%s%s.png",
-                    1e-6 * static_cast<double>(t - (*sim)->startUtime()),
-                    f.dark_room ? "-dark" : "", f.blank_zone ? "-blank" : "",
-                    f.passerby ? "-passerby" : "", f.closed_cab ? "-cab" : "");
-      const fs::path file = fs::path(args.snapshots) / name;
-      std::string depth_name = name;
-      depth_name.replace(0, 4, "depth");
-      if (!cv::imwrite(file.string(), left) ||
-          (rgbd && !cv::imwrite((fs::path(args.snapshots) / depth_name).string(), depth))) {
-        std::fprintf(stderr, "evermap-sim-render: %s: cannot write\n", file.c_str());
-        return 1;
-      }
-    }
-    return 0;
-  }
+  if (!args.snapshots.empty()) return writeSnapshots(**sim, args);
   evermap::StopSignals stop;  // SIGINT/SIGTERM end a render early
   auto keep_going = [&stop](double) { return !stop.requested(); };
-  evermap::Expected<evermap::sim::ImageSessionSummary> summary = evermap::makeError("nothing run");
-  if (!args.out.empty()) {
-    summary = evermap::sim::writeImageSessionLog(**sim, args.out, keep_going);
-    if (summary) {
-      const fs::path gt = groundTruthPath(args.out);
-      if (auto s = writeGroundTruth(**sim, gt); !s)
-        summary = s.error();
-      else
-        std::printf("wrote %s and %s\n", args.out.c_str(), gt.c_str());
-    }
-  } else if (args.publish) {
-    lcm::LCM lcm(args.lcm_url);
-    if (!lcm.good()) {
-      std::fprintf(stderr, "evermap-sim-render: cannot open LCM (%s)\n", args.lcm_url.c_str());
-      return 1;
-    }
-    PublishSink sink(lcm, args.speed);
-    summary = (*sim)->run(sink, keep_going);
-  } else {
-    evermap::sim::NullSink sink;
-    summary = (*sim)->run(sink, keep_going);
-  }
+  const auto summary = renderSession(**sim, args, keep_going);
   if (!summary) {
     std::fprintf(stderr, "evermap-sim-render: %s\n", summary.error().message.c_str());
     return 1;
   }
   if (args.stats || !args.out.empty()) std::fputs(summary->text().c_str(), stdout);
   if (!args.facts.empty()) {
-    std::string text = "utime,floor,dark_room,blank_zone,passerby,closed_cab\n";
-    for (const auto& [t, f] : summary->frame_facts) {
-      text += std::to_string(t) + "," + std::to_string(f.floor) + "," +
-              std::to_string(f.dark_room) + "," + std::to_string(f.blank_zone) + "," +
-              std::to_string(f.passerby) + "," + std::to_string(f.closed_cab) + "\n";
-    }
-    if (auto s = evermap::writeFileAtomically(args.facts, text); !s) {
+    if (auto s = writeFacts(args.facts, *summary); !s) {
       std::fprintf(stderr, "evermap-sim-render: %s\n", s.error().message.c_str());
       return 1;
     }

@@ -101,93 +101,169 @@ void writeFigures(const std::filesystem::path& dir,
   report(eval::writeLineChart(dir / "fig7-components.svg", {vo, lc, mp}, o));
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  using namespace evermap;
-  slam_run::SlamRunOptions options;
+// The command line of a run.
+struct SlamArgs {
+  evermap::slam_run::SlamRunOptions options;
   std::string vocab_file, out_dir, config;
   std::vector<std::string> logs, sets, render_sets;
   std::string render_config;
   int render_sessions = -1;
-  bool full_graph = false;
-  CommandLine cli(
+  bool full_graph = false, print_config = false;
+};
+
+int fail(const std::string& what, int code) {
+  std::fprintf(stderr, "evermap-slam-run: %s\n", what.c_str());
+  return code;
+}
+
+// -1 to run, else the exit status (usage and errors already printed).
+int parseCommandLine(int argc, char** argv, SlamArgs* a) {
+  evermap::CommandLine cli(
       "evermap-slam-run",
       "The visual SLAM system in one process: LCM logs (one per session) in, a map out.");
-  cli.value("--vocab", &vocab_file, "FILE",
-            "vocabulary (evermap-vocab-train .evoc, or DBoW2/3 .yml.gz)", true);
-  cli.value("--out", &out_dir, "DIR",
+  cli.value("--vocab", &a->vocab_file, "FILE",
+            "vocabulary (evermap-vocab-train .evoc, or DBoW2/3 .yml.gz; required)");
+  cli.value("--out", &a->out_dir, "DIR",
             "output folder: map.db, trajectory.tum, frames.csv, registrations.csv, nodes.csv, "
             "summary.txt, fig4-nodes.png, fig4-floors.svg, fig7-*.svg "
             "(created; an existing map.db is "
-            "continued as a stored map)",
-            true);
-  cli.flag("--full-graph", &full_graph,
+            "continued as a stored map; required)");
+  cli.flag("--full-graph", &a->full_graph,
            "a node at every step (the paper's baseline) instead of the reduced graph");
-  cli.value("--config", &config, "MAPPER.conf", "mapper.* settings (docs/mapper.md)");
-  cli.repeated("--set", &sets, "mapper.KEY=VALUE", "override one mapper.* setting");
-  cli.value("--max-session-s", &options.max_session_s, "S",
+  cli.value("--config", &a->config, "MAPPER.conf", "mapper.* settings (docs/mapper.md)");
+  cli.repeated("--set", &a->sets, "mapper.KEY=VALUE", "override one mapper.* setting");
+  cli.value("--max-session-s", &a->options.max_session_s, "S",
             "map at most S seconds of each log (0: all)")
       .min(0);
-  cli.value("--render", &render_config, "SIM-IMAGE.conf",
+  cli.value("--render", &a->render_config, "SIM-IMAGE.conf",
             "render the image-level simulator's sessions on the fly instead of reading logs "
             "(config/sim-image-*.conf)");
-  cli.repeated("--render-set", &render_sets, "KEY=VALUE",
+  cli.repeated("--render-set", &a->render_sets, "KEY=VALUE",
                "override one setting of the --render file");
-  cli.value("--sessions", &render_sessions, "N",
+  cli.value("--sessions", &a->render_sessions, "N",
             "with --render: sessions 0 .. N-1 (default: patrol.sessions)")
       .min(1);
-  cli.positional(&logs, "LOG...", "LCM logs, mapped as successive sessions");
+  cli.flag("--print-config", &a->print_config,
+           "print the mapper's settings in effect (and the --render file's) and exit");
+  cli.positional(&a->logs, "LOG...", "LCM logs, mapped as successive sessions");
+  // The keys --config and --set take, listed in --help.
+  evermap::mapper::MapperOptions listed;
+  cli.options(&listed, "mapper.");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
-  auto fail = [](const std::string& what, int code) {
-    std::fprintf(stderr, "evermap-slam-run: %s\n", what.c_str());
-    return code;
-  };
-  if (logs.empty() == render_config.empty())
-    return fail("give either LCM logs or --render\n" + cli.usage(), 2);
-  std::optional<sim::ImageSimOptions> render;
-  if (!render_config.empty()) {
-    auto file = KeyValueFile::load(render_config, render_sets, "--render-set");
-    if (!file) return fail(file.error().message, 2);
-    auto o = sim::loadImageSimOptions(*file);
-    if (!o) return fail(o.error().message, 2);
-    if (render_sessions < 0) render_sessions = o->sim.patrol.sessions;
-    if (render_sessions < 1 || render_sessions > o->sim.patrol.sessions)
-      return fail("--sessions: must be 1 .. patrol.sessions (" +
-                      std::to_string(o->sim.patrol.sessions) + ")",
-                  2);
-    render = *o;
+  if (a->print_config) return -1;
+  for (const auto& [flag, value] : {std::pair{"--vocab", &a->vocab_file}, {"--out", &a->out_dir}}) {
+    if (value->empty()) return fail(std::string(flag) + " is required\n" + cli.usage(), 2);
   }
-  auto settings = config.empty() ? KeyValueFile::parse("", "--set") : KeyValueFile::load(config);
+  if (a->logs.empty() == a->render_config.empty())
+    return fail("give either LCM logs or --render\n" + cli.usage(), 2);
+  return -1;
+}
+
+// The image-level simulator's settings of --render (none without it), and the number of
+// sessions to render into a->render_sessions; -1, else the exit status.
+int loadRender(SlamArgs* a, std::optional<evermap::sim::ImageSimOptions>* render) {
+  using namespace evermap;
+  if (a->render_config.empty()) return -1;
+  auto file = KeyValueFile::load(a->render_config, a->render_sets, "--render-set");
+  if (!file) return fail(file.error().message, 2);
+  auto o = sim::loadImageSimOptions(*file);
+  if (!o) return fail(o.error().message, 2);
+  if (a->render_sessions < 0) a->render_sessions = o->sim.patrol.sessions;
+  if (a->render_sessions < 1 || a->render_sessions > o->sim.patrol.sessions)
+    return fail(
+        "--sessions: must be 1 .. patrol.sessions (" + std::to_string(o->sim.patrol.sessions) + ")",
+        2);
+  *render = *o;
+  return -1;
+}
+
+// The mapper's options from --config and --set (mapper.* keys); -1, else the exit status.
+int loadMapperOptions(SlamArgs* a) {
+  using namespace evermap;
+  auto settings =
+      a->config.empty() ? KeyValueFile::parse("", "--set") : KeyValueFile::load(a->config);
   if (settings) {
-    if (Status s = settings->setAll(sets, "--set"); !s) settings = s.error();
+    if (Status s = settings->setAll(a->sets, "--set"); !s) settings = s.error();
   }
   if (!settings) return fail(settings.error().message, 2);
-  if (Status s = mapper::readMapperOptions(*settings, &options.mapper); !s)
+  if (Status s = mapper::readMapperOptions(*settings, &a->options.mapper); !s)
     return fail(s.error().message, 2);
-  options.mapper.full_graph = full_graph;
-  // Every log whole before anything is created: a log cut mid-event is one line and no
-  // output folder, not a map of part of the data.
-  for (const std::string& log : logs) {
-    if (auto events = messages::LogReader::check(log); !events)
-      return fail(events.error().message, 1);
-  }
-  std::error_code ec;
-  std::filesystem::create_directories(out_dir, ec);
-  if (ec) return fail(out_dir + ": cannot create (" + ec.message() + ")", 1);
-  const std::filesystem::path out(out_dir);
-  options.store = out / "map.db";
+  a->options.mapper.full_graph = a->full_graph;
+  return -1;
+}
 
+// frames.csv, registrations.csv and nodes.csv of the run.
+evermap::Status writeTables(const std::filesystem::path& out,
+                            const evermap::slam_run::SlamRunner& runner,
+                            const evermap::slam_run::SlamRunSummary& summary) {
+  using evermap::writeFileAtomically;
+  std::ostringstream csv;
+  csv << "utime,session,run_s,vo_status,inliers,vo_ms,loopclose_ms,mapper_ms,nodes\n";
+  for (const auto& f : runner.frames())
+    csv << f.utime << "," << f.session << "," << f.run_s << "," << f.vo_status << "," << f.inliers
+        << "," << f.vo_ms << "," << f.loopclose_ms << "," << f.mapper_ms << "," << f.nodes << "\n";
+  if (auto s = writeFileAtomically(out / "frames.csv", csv.str()); !s) return s;
+  std::ostringstream reg;
+  reg << "query_utime,mode,status,node,node_keyframe_utime,inliers,score,error_m,error_deg,nees,"
+         "outcome,active,"
+         "delta_error_m,delta_error_deg,delta_nees,requested_node,requested_keyframe_utime\n";
+  for (const auto& r : runner.registrations())
+    reg << r.query_utime << "," << r.mode << "," << r.status << "," << r.node << ","
+        << r.node_keyframe_utime << "," << r.inliers << "," << r.score << "," << r.error_m << ","
+        << r.error_deg << "," << r.nees << "," << r.outcome << "," << r.active << ","
+        << r.delta_error_m << "," << r.delta_error_deg << "," << r.delta_nees << ","
+        << r.requested_node << "," << r.requested_keyframe_utime << "\n";
+  if (auto s = writeFileAtomically(out / "registrations.csv", reg.str()); !s) return s;
+  std::ostringstream nodes_csv;
+  nodes_csv << "node,session,floor,true_floor,keyframe_utime,x,y,z,true_x,true_y,true_z,yaw_deg,"
+               "true_yaw_deg\n";
+  for (const auto& n : summary.node_rows)
+    nodes_csv << n.id << "," << n.session << "," << n.floor << "," << n.true_floor << ","
+              << n.keyframe_utime << "," << n.estimate.x() << "," << n.estimate.y() << ","
+              << n.estimate.z() << "," << n.truth.x() << "," << n.truth.y() << "," << n.truth.z()
+              << "," << n.yaw_rad * 180.0 / std::numbers::pi << ","
+              << n.true_yaw_rad * 180.0 / std::numbers::pi << "\n";
+  if (summary.node_rows.empty()) return evermap::Ok{};
+  return writeFileAtomically(out / "nodes.csv", nodes_csv.str());
+}
+
+// Every output of the run into `out`, the summary printed; main's exit status.
+int writeOutputs(const std::filesystem::path& out, const evermap::slam_run::SlamRunner& runner,
+                 const evermap::slam_run::SlamRunSummary& summary, bool full_graph) {
+  using namespace evermap;
+  eval::Trajectory trajectory;
+  for (const auto& [utime, pose] : summary.trajectory)
+    trajectory.poses.push_back({utime * 1000, pose});
+  if (Status s = eval::writeTum(trajectory, out / "trajectory.tum");
+      !s && !trajectory.poses.empty())
+    return fail(s.error().message, 1);
+  if (Status s = writeTables(out, runner, summary); !s) return fail(s.error().message, 1);
+  writeFigures(out, summary, runner.frames(), full_graph);
+  const std::string text = summary.text();
+  if (Status s = writeFileAtomically(out / "summary.txt", text); !s)
+    return fail(s.error().message, 1);
+  std::printf("%s", text.c_str());
+  return 0;
+}
+
+// Maps the logs, then the rendered sessions, then writes the outputs; main's exit status.
+int run(SlamArgs& a, std::optional<evermap::sim::ImageSimOptions>& render) {
+  using namespace evermap;
+  std::error_code ec;
+  std::filesystem::create_directories(a.out_dir, ec);
+  if (ec) return fail(a.out_dir + ": cannot create (" + ec.message() + ")", 1);
+  const std::filesystem::path out(a.out_dir);
+  a.options.store = out / "map.db";
   const auto t0 = std::chrono::steady_clock::now();
-  auto vocabulary = bow::loadAnyVocabulary(vocab_file);
+  auto vocabulary = bow::loadAnyVocabulary(a.vocab_file);
   if (!vocabulary) return fail(vocabulary.error().message, 1);
-  auto runner = slam_run::SlamRunner::create(*vocabulary, options);
+  auto runner = slam_run::SlamRunner::create(*vocabulary, a.options);
   if (!runner) return fail(runner.error().message, 1);
-  for (const std::string& log : logs) {
+  for (const std::string& log : a.logs) {
     std::fprintf(stderr, "evermap-slam-run: session %s\n", log.c_str());
     if (Status s = (*runner)->runSession(log); !s) return fail(s.error().message, 1);
   }
-  for (int i = 0; render && i < render_sessions; ++i) {
+  for (int i = 0; render && i < a.render_sessions; ++i) {
     std::fprintf(stderr, "evermap-slam-run: rendering session %d\n", i);
     render->render.session = i;
     if (Status s = (*runner)->renderSession(*render); !s) return fail(s.error().message, 1);
@@ -195,49 +271,27 @@ int main(int argc, char** argv) {
   auto summary = (*runner)->finish();
   if (!summary) return fail(summary.error().message, 1);
   summary->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return writeOutputs(out, **runner, *summary, a.full_graph);
+}
 
-  eval::Trajectory trajectory;
-  for (const auto& [utime, pose] : summary->trajectory)
-    trajectory.poses.push_back({utime * 1000, pose});
-  if (Status s = eval::writeTum(trajectory, out / "trajectory.tum");
-      !s && !trajectory.poses.empty())
-    return fail(s.error().message, 1);
-  std::ostringstream csv;
-  csv << "utime,session,run_s,vo_status,inliers,vo_ms,loopclose_ms,mapper_ms,nodes\n";
-  for (const auto& f : (*runner)->frames())
-    csv << f.utime << "," << f.session << "," << f.run_s << "," << f.vo_status << "," << f.inliers
-        << "," << f.vo_ms << "," << f.loopclose_ms << "," << f.mapper_ms << "," << f.nodes << "\n";
-  if (Status s = writeFileAtomically(out / "frames.csv", csv.str()); !s)
-    return fail(s.error().message, 1);
-  std::ostringstream reg;
-  reg << "query_utime,mode,status,node,node_keyframe_utime,inliers,score,error_m,error_deg,nees,"
-         "outcome,active,"
-         "delta_error_m,delta_error_deg,delta_nees,requested_node,requested_keyframe_utime\n";
-  for (const auto& r : (*runner)->registrations())
-    reg << r.query_utime << "," << r.mode << "," << r.status << "," << r.node << ","
-        << r.node_keyframe_utime << "," << r.inliers << "," << r.score << "," << r.error_m << ","
-        << r.error_deg << "," << r.nees << "," << r.outcome << "," << r.active << ","
-        << r.delta_error_m << "," << r.delta_error_deg << "," << r.delta_nees << ","
-        << r.requested_node << "," << r.requested_keyframe_utime << "\n";
-  if (Status s = writeFileAtomically(out / "registrations.csv", reg.str()); !s)
-    return fail(s.error().message, 1);
-  std::ostringstream nodes_csv;
-  nodes_csv << "node,session,floor,true_floor,keyframe_utime,x,y,z,true_x,true_y,true_z,yaw_deg,"
-               "true_yaw_deg\n";
-  for (const auto& n : summary->node_rows)
-    nodes_csv << n.id << "," << n.session << "," << n.floor << "," << n.true_floor << ","
-              << n.keyframe_utime << "," << n.estimate.x() << "," << n.estimate.y() << ","
-              << n.estimate.z() << "," << n.truth.x() << "," << n.truth.y() << "," << n.truth.z()
-              << "," << n.yaw_rad * 180.0 / std::numbers::pi << ","
-              << n.true_yaw_rad * 180.0 / std::numbers::pi << "\n";
-  if (!summary->node_rows.empty()) {
-    if (Status s = writeFileAtomically(out / "nodes.csv", nodes_csv.str()); !s)
-      return fail(s.error().message, 1);
+}  // namespace
+
+int main(int argc, char** argv) {
+  SlamArgs a;
+  if (const int code = parseCommandLine(argc, argv, &a); code >= 0) return code;
+  std::optional<evermap::sim::ImageSimOptions> render;
+  if (const int code = loadRender(&a, &render); code >= 0) return code;
+  if (const int code = loadMapperOptions(&a); code >= 0) return code;
+  if (a.print_config) {
+    std::printf("%s%s", evermap::mapper::printMapperOptions(a.options.mapper).c_str(),
+                render ? render->toConfigText().c_str() : "");
+    return 0;
   }
-  writeFigures(out, *summary, (*runner)->frames(), full_graph);
-  const std::string text = summary->text();
-  if (Status s = writeFileAtomically(out / "summary.txt", text); !s)
-    return fail(s.error().message, 1);
-  std::printf("%s", text.c_str());
-  return 0;
+  // Every log whole before anything is created: a log cut mid-event is one line and no
+  // output folder, not a map of part of the data.
+  for (const std::string& log : a.logs) {
+    if (auto events = evermap::messages::LogReader::check(log); !events)
+      return fail(events.error().message, 1);
+  }
+  return run(a, render);
 }

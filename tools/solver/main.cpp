@@ -120,24 +120,8 @@ double percentile(std::vector<double> v, double q) {
   return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  tuneProcessForSolver();
-  auto parsed = solver_tool::parseArguments(argc, argv);
-  if (!parsed.ok()) {
-    if (parsed.error().message == "help") {
-      std::printf("%s", solver_tool::usage().c_str());
-      return 0;
-    }
-    std::fprintf(stderr, "evermap-solver: %s\n%s", parsed.error().message.c_str(),
-                 solver_tool::usage().c_str());
-    return 2;
-  }
-  const ToolOptions& o = *parsed;
-  auto file = readGraphFile(o.input, o.format);
-  if (!file.ok()) return fail(file.error().message);
-  GraphFile g = std::move(*file);
+// One line on the graph read: format, size, what was skipped, indefinite information.
+void printGraphSummary(const GraphFile& g, int indefinite) {
   std::printf("%s: %s, %d-D, %zu vertices, %zu edges", g.path.c_str(), graphFormatName(g.format),
               g.dimension, g.vertices.size(), g.edges.size());
   if (!g.observations.empty() || !g.landmarks.empty()) {
@@ -148,18 +132,27 @@ int main(int argc, char** argv) {
     std::printf(", skipped:");
     for (const auto& [tag, n] : g.skipped_tags) std::printf(" %s x%d", tag.c_str(), n);
   }
-  int indefinite = 0;
-  for (const GraphEdge& e : g.edges) indefinite += !e.positiveDefinite();
   if (indefinite > 0) std::printf(", %d with an indefinite information matrix", indefinite);
   std::printf("\n");
-  if (g.edges.empty()) return fail(g.path + ": no edges read (wrong --format?)");
+}
+
+// The graph file as it is solved: read, its information matrices resolved and checked, the
+// false loop closures of --outliers added.
+Expected<GraphFile> prepareGraph(const ToolOptions& o) {
+  auto file = readGraphFile(o.input, o.format);
+  if (!file.ok()) return file.error();
+  GraphFile g = std::move(*file);
+  int indefinite = 0;
+  for (const GraphEdge& e : g.edges) indefinite += !e.positiveDefinite();
+  printGraphSummary(g, indefinite);
+  if (g.edges.empty()) return makeError(g.path, ": no edges read (wrong --format?)");
   if (indefinite > 0 && o.objective == Objective::kNative) {
     auto changed = resolveIndefiniteInformation(&g, o.indefinite);
-    if (!changed.ok()) return fail(changed.error().message);
+    if (!changed.ok()) return changed.error();
     std::printf("%d information matrices replaced (--indefinite-information %s)\n", *changed,
                 o.indefinite == IndefiniteInformation::kBlocks ? "blocks" : "nearest");
   }
-  if (auto st = checkInformation(g, o.objective); !st.ok()) return fail(st.error().message);
+  if (auto st = checkInformation(g, o.objective); !st.ok()) return st.error();
   if (o.outliers > 0) {
     OutlierOptions oo;
     oo.count = o.outliers;
@@ -170,143 +163,193 @@ int main(int argc, char** argv) {
     std::printf("added %zu false loop closures, mode %s (seed %u)\n", g.edges.size() - before,
                 outlierModeName(o.outlier_mode), o.seed);
   }
+  return g;
+}
+
+// What a solve leaves: the estimate, the graph it is the estimate of, the final summary.
+struct Solution {
+  Values estimate;
+  std::unique_ptr<PoseGraph> graph;
+  BatchSummary summary;
+};
+
+// Batch: from the initial values of --init, GNC or the chosen method to convergence.
+Expected<Solution> solveInBatch(const GraphFile& g, const ToolOptions& o,
+                                const BuildOptions& build) {
+  const double wall0 = wallSeconds();
+  const double cpu0 = cpuSeconds();
+  auto init = initialValues(g, o);
+  if (!init.ok()) return init.error();
+  auto built = buildPoseGraph(g, *init, build);
+  if (!built.ok()) return built.error();
+  Solution out;
+  out.graph = std::make_unique<PoseGraph>(std::move(*built));
+  PoseGraph& graph = *out.graph;
+  std::printf("initial robust cost (edges + anchor) %.10g, SE-Sync f %.10g\n", graph.cost().robust,
+              seSyncCost(g, graph.values()));
+  BatchSummary s;
+  if (o.kernel.type == KernelType::kGncTls) {
+    GncOptions go;
+    go.final_stage = batchOptions(o, o.method);
+    const GncSummary gs = solveGnc(graph, go);
+    std::printf("gnc: %d stages, final mu %.3g, %d of %d loop closures rejected (weight < 0.5)\n",
+                gs.stages, gs.final_mu, gs.rejected, gs.candidates);
+    s = gs.batch;
+  } else {
+    s = solveBatch(graph, batchOptions(o, o.method));
+  }
+  out.summary = s;
+  const double wall = wallSeconds() - wall0;
+  const double cpu = cpuSeconds() - cpu0;
+  std::printf("batch %s: %s (%d iterations, %d factorizations, nnz(L) %lld)\n",
+              methodName(o.method), s.message.c_str(), s.iterations, s.factorizations,
+              static_cast<long long>(s.factor_nnz));
+  std::printf("time: %.3f s wall, %.3f s cpu (initialisation included)\n", wall, cpu);
+  if (!s.ok()) return makeError(s.message);
+  out.estimate = graph.values();
+  return out;
+}
+
+// One --stats line of the incremental run after a step.
+std::string statsLine(const OnlineRunner& runner, const UpdateResult& r, double dw, double dc,
+                      bool chi2) {
+  const auto& s = runner.solver();
+  std::ostringstream line;
+  line << runner.nextStep() - 1 << ' ' << dw << ' ' << dc << ' ' << r.batch << ' '
+       << r.rows_modified << ' ' << r.rows_solved << ' ' << s.nnz() << ' '
+       << s.graph().values().size() << ' ' << s.graph().numActiveFactors();
+  if (chi2) {
+    const Cost cost = s.cost();
+    const int64_t dof = cost.residual_dim - s.graph().values().totalDim();
+    line << ' ' << (dof > 0 ? cost.weighted_sse / dof : 0.0);
+  }
+  return line.str();
+}
+
+// Incremental (iSAM) in file order, then batch iterations from its estimate to convergence.
+Expected<Solution> solveIncrementally(const GraphFile& g, const ToolOptions& o,
+                                      const BuildOptions& build) {
+  const double wall0 = wallSeconds();
+  const double cpu0 = cpuSeconds();
+  OnlineOptions oo;
+  oo.solver.method = o.method;
+  oo.solver.batch_every = o.batch_every;
+  oo.solver.wildfire_threshold = o.wildfire;
+  oo.build = build;
+  OnlineRunner runner(g, oo);
+  std::vector<double> step_wall;
+  std::vector<std::string> lines;
+  int batches = 0;
+  int rejected = 0;
+  while (!runner.done()) {
+    const double w = wallSeconds();
+    const double c = cpuSeconds();
+    auto r = runner.step();
+    const double dw = wallSeconds() - w;
+    const double dc = cpuSeconds() - c;
+    if (!r.ok()) return r.error();
+    step_wall.push_back(dw);
+    batches += r->batch;
+    rejected += !r->step_accepted;
+    if (!o.stats.empty()) lines.push_back(statsLine(runner, *r, dw, dc, o.stats_chi2));
+  }
+  const double steps_wall = wallSeconds() - wall0;
+  const double wf = wallSeconds();
+  Solution out;
+  // The final phase: batch iterations from the incremental estimate until a convergence
+  // test holds or the budget runs out (--max-iterations 1 is iSAM's one final batch step).
+  out.summary = runner.solver().optimize(
+      batchOptions(o, o.method == Method::kDogLeg ? Method::kDogLeg : Method::kGaussNewton));
+  if (!out.summary.ok()) return makeError(out.summary.message);
+  const double final_wall = wallSeconds() - wf;
+  const double wall = wallSeconds() - wall0;
+  const double cpu = cpuSeconds() - cpu0;
+  std::printf("incremental %s: %d steps, batch every %d (%d batch steps), wildfire %g%s\n",
+              methodName(o.method), runner.numSteps(), o.batch_every, batches, o.wildfire,
+              o.method == Method::kDogLeg
+                  ? (", " + std::to_string(rejected) + " rejected steps").c_str()
+                  : "");
+  std::printf("time: %.3f s wall (steps %.3f s, final batch iterations %.3f s), %.3f s cpu\n", wall,
+              steps_wall, final_wall, cpu);
+  std::printf("final batch iterations: %s\n", out.summary.message.c_str());
+  std::printf("per step: median %.3f ms, p99 %.3f ms, max %.3f ms; nnz(R) %lld\n",
+              1e3 * percentile(step_wall, 0.5), 1e3 * percentile(step_wall, 0.99),
+              1e3 * percentile(step_wall, 1.0), static_cast<long long>(runner.solver().nnz()));
+  if (!o.stats.empty()) {
+    if (auto st = writeStats(o.stats, lines); !st.ok()) return st.error();
+  }
+  out.estimate = runner.solver().estimate();
+  out.graph = std::make_unique<PoseGraph>(runner.solver().graph());
+  return out;
+}
+
+// --ground-truth: the absolute trajectory error of the estimate.
+Status printTrajectoryError(const std::string& file, const Values& estimate) {
+  auto gt = readGraphFile(file);
+  if (!gt.ok()) return gt.error();
+  auto truth = gt->vertices.empty() ? odometryInitialization(*gt) : fileInitialization(*gt);
+  if (!truth.ok()) return truth.error();
+  auto ate = absoluteTrajectoryError(estimate, *truth);
+  if (!ate.ok()) return ate.error();
+  std::printf("ATE vs %s: RMSE %.4f m, max %.4f m over %d poses\n", file.c_str(), ate->rmse_m,
+              ate->max_m, ate->matched);
+  return Ok{};
+}
+
+// --marginals: the joint marginal covariance of the listed poses at the estimate.
+Status printMarginals(const std::string& list, const Solution& solution) {
+  std::vector<Key> keys;
+  std::stringstream ss(list);
+  std::string item;
+  while (std::getline(ss, item, ',')) keys.push_back(std::atoll(item.c_str()));
+  PoseGraph at_estimate = *solution.graph;
+  at_estimate.mutableValues() = solution.estimate;
+  auto m = Marginals::compute(at_estimate);
+  if (!m.ok()) return m.error();
+  auto S = m->joint(keys);
+  if (!S.ok()) return S.error();
+  std::printf("joint marginal covariance of %s ((υ, ω) per pose, own frame):\n", list.c_str());
+  for (int r = 0; r < S->rows(); ++r) {
+    for (int c = 0; c < S->cols(); ++c) std::printf(" % .6e", (*S)(r, c));
+    std::printf("\n");
+  }
+  return Ok{};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  tuneProcessForSolver();
+  ToolOptions o;
+  if (const int code = solver_tool::parseArguments(argc, argv, &o); code >= 0) return code;
+  auto g = prepareGraph(o);
+  if (!g.ok()) return fail(g.error().message);
   BuildOptions build;
   build.objective = o.objective;
   build.kernel = o.kernel;
   build.robust_odometry = o.robust_odometry;
-
-  const double wall0 = wallSeconds();
-  const double cpu0 = cpuSeconds();
-  Values estimate;
-  std::unique_ptr<PoseGraph> graph;
-  BatchSummary summary;
-  if (o.batch) {
-    auto init = initialValues(g, o);
-    if (!init.ok()) return fail(init.error().message);
-    auto built = buildPoseGraph(g, *init, build);
-    if (!built.ok()) return fail(built.error().message);
-    graph = std::make_unique<PoseGraph>(std::move(*built));
-    std::printf("initial robust cost (edges + anchor) %.10g, SE-Sync f %.10g\n",
-                graph->cost().robust, seSyncCost(g, graph->values()));
-    BatchSummary s;
-    if (o.kernel.type == KernelType::kGncTls) {
-      GncOptions go;
-      go.final_stage = batchOptions(o, o.method);
-      const GncSummary gs = solveGnc(*graph, go);
-      std::printf("gnc: %d stages, final mu %.3g, %d of %d loop closures rejected (weight < 0.5)\n",
-                  gs.stages, gs.final_mu, gs.rejected, gs.candidates);
-      s = gs.batch;
-    } else {
-      s = solveBatch(*graph, batchOptions(o, o.method));
-    }
-    summary = s;
-    const double wall = wallSeconds() - wall0;
-    const double cpu = cpuSeconds() - cpu0;
-    std::printf("batch %s: %s (%d iterations, %d factorizations, nnz(L) %lld)\n",
-                methodName(o.method), s.message.c_str(), s.iterations, s.factorizations,
-                static_cast<long long>(s.factor_nnz));
-    std::printf("time: %.3f s wall, %.3f s cpu (initialisation included)\n", wall, cpu);
-    if (!s.ok()) return fail(s.message);
-    estimate = graph->values();
-  } else {
-    OnlineOptions oo;
-    oo.solver.method = o.method;
-    oo.solver.batch_every = o.batch_every;
-    oo.solver.wildfire_threshold = o.wildfire;
-    oo.build = build;
-    OnlineRunner runner(g, oo);
-    std::vector<double> step_wall;
-    std::vector<std::string> lines;
-    int batches = 0;
-    int rejected = 0;
-    while (!runner.done()) {
-      const double w = wallSeconds();
-      const double c = cpuSeconds();
-      auto r = runner.step();
-      const double dw = wallSeconds() - w;
-      const double dc = cpuSeconds() - c;
-      if (!r.ok()) return fail(r.error().message);
-      step_wall.push_back(dw);
-      batches += r->batch;
-      rejected += !r->step_accepted;
-      if (!o.stats.empty()) {
-        const auto& s = runner.solver();
-        std::ostringstream line;
-        line << runner.nextStep() - 1 << ' ' << dw << ' ' << dc << ' ' << r->batch << ' '
-             << r->rows_modified << ' ' << r->rows_solved << ' ' << s.nnz() << ' '
-             << s.graph().values().size() << ' ' << s.graph().numActiveFactors();
-        if (o.stats_chi2) {
-          const Cost cost = s.cost();
-          const int64_t dof = cost.residual_dim - s.graph().values().totalDim();
-          line << ' ' << (dof > 0 ? cost.weighted_sse / dof : 0.0);
-        }
-        lines.push_back(line.str());
-      }
-    }
-    const double steps_wall = wallSeconds() - wall0;
-    const double wf = wallSeconds();
-    // The final phase: batch iterations from the incremental estimate until a convergence
-    // test holds or the budget runs out (--max-iterations 1 is iSAM's one final batch step).
-    summary = runner.solver().optimize(
-        batchOptions(o, o.method == Method::kDogLeg ? Method::kDogLeg : Method::kGaussNewton));
-    if (!summary.ok()) return fail(summary.message);
-    const double final_wall = wallSeconds() - wf;
-    const double wall = wallSeconds() - wall0;
-    const double cpu = cpuSeconds() - cpu0;
-    std::printf("incremental %s: %d steps, batch every %d (%d batch steps), wildfire %g%s\n",
-                methodName(o.method), runner.numSteps(), o.batch_every, batches, o.wildfire,
-                o.method == Method::kDogLeg
-                    ? (", " + std::to_string(rejected) + " rejected steps").c_str()
-                    : "");
-    std::printf("time: %.3f s wall (steps %.3f s, final batch iterations %.3f s), %.3f s cpu\n",
-                wall, steps_wall, final_wall, cpu);
-    std::printf("final batch iterations: %s\n", summary.message.c_str());
-    std::printf("per step: median %.3f ms, p99 %.3f ms, max %.3f ms; nnz(R) %lld\n",
-                1e3 * percentile(step_wall, 0.5), 1e3 * percentile(step_wall, 0.99),
-                1e3 * percentile(step_wall, 1.0), static_cast<long long>(runner.solver().nnz()));
-    if (!o.stats.empty()) {
-      if (auto st = writeStats(o.stats, lines); !st.ok()) return fail(st.error().message);
-    }
-    estimate = runner.solver().estimate();
-    graph = std::make_unique<PoseGraph>(runner.solver().graph());
-  }
+  auto solved = o.batch ? solveInBatch(*g, o, build) : solveIncrementally(*g, o, build);
+  if (!solved.ok()) return fail(solved.error().message);
+  const Solution& solution = *solved;
   rusage ru;
   getrusage(RUSAGE_SELF, &ru);
   std::printf("peak memory %.1f MB\n", ru.ru_maxrss / 1024.0);
-  printResult(g, *graph, estimate, o.objective);
-
+  printResult(*g, *solution.graph, solution.estimate, o.objective);
   if (!o.ground_truth.empty()) {
-    auto gt = readGraphFile(o.ground_truth);
-    if (!gt.ok()) return fail(gt.error().message);
-    auto truth = gt->vertices.empty() ? odometryInitialization(*gt) : fileInitialization(*gt);
-    if (!truth.ok()) return fail(truth.error().message);
-    auto ate = absoluteTrajectoryError(estimate, *truth);
-    if (!ate.ok()) return fail(ate.error().message);
-    std::printf("ATE vs %s: RMSE %.4f m, max %.4f m over %d poses\n", o.ground_truth.c_str(),
-                ate->rmse_m, ate->max_m, ate->matched);
-  }
-  if (!o.marginals.empty()) {
-    std::vector<Key> keys;
-    std::stringstream ss(o.marginals);
-    std::string item;
-    while (std::getline(ss, item, ',')) keys.push_back(std::atoll(item.c_str()));
-    PoseGraph at_estimate = *graph;
-    at_estimate.mutableValues() = estimate;
-    auto m = Marginals::compute(at_estimate);
-    if (!m.ok()) return fail(m.error().message);
-    auto S = m->joint(keys);
-    if (!S.ok()) return fail(S.error().message);
-    std::printf("joint marginal covariance of %s ((υ, ω) per pose, own frame):\n",
-                o.marginals.c_str());
-    for (int r = 0; r < S->rows(); ++r) {
-      for (int c = 0; c < S->cols(); ++c) std::printf(" % .6e", (*S)(r, c));
-      std::printf("\n");
+    if (Status s = printTrajectoryError(o.ground_truth, solution.estimate); !s) {
+      return fail(s.error().message);
     }
   }
+  if (!o.marginals.empty()) {
+    if (Status s = printMarginals(o.marginals, solution); !s) return fail(s.error().message);
+  }
   if (!o.output.empty()) {
-    if (auto st = writeG2o(o.output, g, estimate); !st.ok()) return fail(st.error().message);
+    if (auto st = writeG2o(o.output, *g, solution.estimate); !st.ok()) {
+      return fail(st.error().message);
+    }
     std::printf("wrote %s\n", o.output.c_str());
   }
+  const BatchSummary& summary = solution.summary;
   // Printed last so that scripts and readers see it: converged, or the budget ran out.
   std::printf("status: %s after %d iterations (last relative decrease %.3g, max |gradient| %.3g)\n",
               summary.converged() ? terminationName(summary.termination)

@@ -1,5 +1,5 @@
 #pragma once
-// Command-line options of evermap-solver (see usage() and docs/solver.md).
+// Command-line options of evermap-solver (--help, docs/solver.md).
 
 #include <string>
 
@@ -9,6 +9,10 @@
 #include "core/solver/graph_problem.h"
 #include "core/solver/outliers.h"
 #include "core/solver/robust_kernel.h"
+
+namespace evermap {
+class OptionList;
+}
 
 namespace evermap::solver_tool {
 
@@ -40,10 +44,13 @@ struct ToolOptions {
   bool stats_chi2 = false;
   std::string marginals;  // comma-separated keys
   bool verbose = false;
+
+  // The settings (not the files): key, default, unit, allowed values, doc (options.cpp).
+  void declareOptions(OptionList& o);
 };
 
-std::string usage();
-// Errors name the offending argument.
-Expected<ToolOptions> parseArguments(int argc, char** argv);
+// The command line into `*o`: -1 to run, else the exit status (0 after --help, 2 after a bad
+// command line; the error, naming the option, and the usage already printed).
+int parseArguments(int argc, char** argv, ToolOptions* o);
 
 }  // namespace evermap::solver_tool

@@ -28,6 +28,7 @@
 #include <evermap/map_graph_t.hpp>
 
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "core/messages/channels.h"
 #include "viewer/store_graph.h"
 
@@ -111,6 +112,17 @@ bool graphFromSteps(const std::string& file, int max_loops, map_graph_t* g, std:
   return true;
 }
 
+// The publisher's settings (--help lists them, --print-config prints them).
+struct GraphPubOptions {
+  double rate_hz = 1.0, duration_s = 30.0;
+  int max_loops = 30193;
+  void declareOptions(OptionList& o) {
+    o.add("max_loops", &max_loops, "", "most loop edges of the --steps graph").min(0);
+    o.add("rate_hz", &rate_hz, "Hz", "messages per second").positive().max(1000);
+    o.add("duration_s", &duration_s, "s", "how long to publish").min(0);
+  }
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -119,16 +131,17 @@ int main(int argc, char** argv) {
       "Publishes one map on MAP_GRAPH at a fixed rate, utime = publish time (wall clock, us); "
       "for bench/viewer_latency.sh, inside scripts/lcm-sandbox.");
   std::string store, steps;
-  double rate_hz = 1.0, duration_s = 30.0;
-  int max_loops = 30193;
+  GraphPubOptions options;
+  const double &rate_hz = options.rate_hz, &duration_s = options.duration_s;
+  const int& max_loops = options.max_loops;
   bool describe = false;
   cli.value("--store", &store, "MAP.db", "publish the map of this store (reduced graph)");
   cli.value("--steps", &steps, "FILE.csv",
             "publish a full graph made of a run's step poses (steps-*.csv)");
-  cli.value("--max-loops", &max_loops, "N", "most loop edges of the --steps graph (default 30193)")
-      .min(0);
-  cli.value("--rate-hz", &rate_hz, "HZ", "messages per second (default 1)").positive().max(1000);
-  cli.value("--duration-s", &duration_s, "S", "how long to publish (default 30)").min(0);
+  cli.options(&options);
+  cli.alias("--max-loops", "max_loops", "N");
+  cli.alias("--rate-hz", "rate_hz", "HZ");
+  cli.alias("--duration-s", "duration_s", "S");
   cli.flag("--describe", &describe, "print the map's counts and encoded size, publish nothing");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (store.empty() == steps.empty()) {

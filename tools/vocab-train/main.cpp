@@ -10,6 +10,7 @@
 
 #include "core/bow/vocabulary_io.h"
 #include "core/common/command_line.h"
+#include "core/common/option_fields.h"
 #include "tools/vocab-train/image_training.h"
 
 namespace {
@@ -17,10 +18,25 @@ namespace {
 using namespace evermap;
 using namespace evermap::bow;
 
+// The training's settings (--help lists them, --print-config prints them).
+struct VocabTrainOptions {
+  ImageTrainingOptions training;
+
+  void declareOptions(OptionList& o) {
+    o.add("k", &training.tree.branching, "", "branching factor").in(2, 1000);
+    o.add("levels", &training.tree.levels, "", "depth L").in(1, 10);
+    o.add("iterations", &training.tree.max_iterations, "", "k-majority iterations per node")
+        .in(1, 1000);
+    o.add("seed", &training.tree.seed, "", "k-means++ seed").any();
+    o.add("features", &training.orb.max_features, "", "ORB features per image").in(1, 100000);
+    o.add("image_step", &training.image_step, "", "use every N-th image of each folder").min(1);
+  }
+};
+
 struct Command {
   std::string out;
   std::vector<std::filesystem::path> folders;
-  ImageTrainingOptions options;
+  VocabTrainOptions tool;
 };
 
 // Returns -1 to run, or main's exit status.
@@ -41,18 +57,13 @@ int parse(int argc, char** argv, Command* c) {
       "DIR",
       "add the default training folders under DIR (KITTI 07 and 01, EuRoC V1_01 cam0, "
       "slambook2 TUM frames)");
-  cli.value("--k", &c->options.tree.branching, "N", "branching factor (10)").min(2).max(1000);
-  cli.value("--levels", &c->options.tree.levels, "N", "depth L (5)").min(1).max(10);
-  cli.value("--iterations", &c->options.tree.max_iterations, "N",
-            "k-majority iterations per node (10)")
-      .min(1)
-      .max(1000);
-  cli.value("--seed", &c->options.tree.seed, "N", "k-means++ seed (1)").any();
-  cli.value("--features", &c->options.orb.max_features, "N", "ORB features per image (1000)")
-      .min(1)
-      .max(100000);
-  cli.value("--image-step", &c->options.image_step, "N", "use every N-th image of each folder (1)")
-      .min(1);
+  cli.options(&c->tool);
+  cli.alias("--k", "k", "N");
+  cli.alias("--levels", "levels", "N");
+  cli.alias("--iterations", "iterations", "N");
+  cli.alias("--seed", "seed", "N");
+  cli.alias("--features", "features", "N");
+  cli.alias("--image-step", "image_step", "N");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   c->folders.insert(c->folders.end(), folders.begin(), folders.end());
   auto fail = [&](const std::string& why) {
@@ -60,7 +71,7 @@ int parse(int argc, char** argv, Command* c) {
     return 2;
   };
   if (c->folders.empty()) return fail("no image folder given");
-  if (std::string why = c->options.validate(); !why.empty()) return fail(why);
+  if (std::string why = c->tool.training.validate(); !why.empty()) return fail(why);
   return -1;
 }
 
@@ -74,7 +85,7 @@ int main(int argc, char** argv) {
   // Wall-clock time is only reported to the person running the tool.
   const auto start = std::chrono::steady_clock::now();
   ImageTrainingSummary summary;
-  auto vocabulary = trainFromImageFolders(cmd->folders, cmd->options, &summary);
+  auto vocabulary = trainFromImageFolders(cmd->folders, cmd->tool.training, &summary);
   if (!vocabulary) {
     std::fprintf(stderr, "evermap-vocab-train: %s\n", vocabulary.error().message.c_str());
     return 1;
