@@ -26,10 +26,10 @@
 #include <vector>
 
 #include "core/common/expected.h"
+#include "core/imu/attitude.h"
+#include "core/imu/sample_gate.h"
 #include "elevator-proc/floor_table.h"
 #include "elevator-proc/pulse_filter.h"
-#include "imu-proc/attitude_filter.h"
-#include "imu-proc/sample_gate.h"
 
 namespace evermap::elevator {
 

@@ -19,12 +19,12 @@
 
 #include "core/common/clocks.h"
 #include "core/geometry/se2.h"
+#include "core/imu/lcm_convert.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
 #include "core/messages/pose_fields.h"
 #include "core/messages/rgbd_convert.h"
 #include "elevator-proc/lcm_convert.h"
-#include "imu-proc/lcm_convert.h"
 #include "mapper-proc/constraint_set.h"
 #include "mapper-proc/lcm_node.h"
 #include "tools/lcmlog/log_reader.h"
