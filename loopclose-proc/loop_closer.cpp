@@ -6,6 +6,8 @@
 #include <sstream>
 #include <utility>
 
+#include "core/messages/pose_fields.h"
+
 namespace evermap::loopclose {
 
 using evermap::register_request_t;
@@ -382,13 +384,7 @@ register_result_t LoopCloser::registerAgainst(const register_request_t& request,
   r.keyframe_utime = request.keyframe_utime;
   r.status = register_result_t::STATUS_OK;
   r.node_id = node_id;
-  const core::Vec3& t = o.target_T_query.translation();
-  const Eigen::Quaterniond& rot = o.target_T_query.so3().quaternion();
-  for (int i = 0; i < 3; ++i) r.translation[i] = t[i];
-  r.orientation[0] = rot.w();
-  r.orientation[1] = rot.x();
-  r.orientation[2] = rot.y();
-  r.orientation[3] = rot.z();
+  messages::putPose(o.target_T_query, r.translation, r.orientation);
   for (int i = 0; i < 6; ++i) {
     for (int j = 0; j < 6; ++j) r.covariance[6 * i + j] = o.covariance(i, j);
   }

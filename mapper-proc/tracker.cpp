@@ -138,16 +138,14 @@ Status Tracker::addVo(const vo_delta_t& msg) {
       return Error("VO_DELTA " + std::to_string(msg.utime) + ": reference " +
                    std::to_string(msg.ref_utime) + " is not before the frame");
     }
-    if (!finiteArray(msg.translation, 3) || !finiteArray(msg.orientation, 4)) {
+    const std::string what = "VO_DELTA " + std::to_string(msg.utime);
+    const Expected<SE3d> ref_T_cur =
+        messages::poseFromMessage(msg.translation, msg.orientation, what.c_str());
+    if (!ref_T_cur) {
       ++counts_.dropped;
-      return Error("VO_DELTA " + std::to_string(msg.utime) + ": pose is not finite");
+      return ref_T_cur.error();
     }
-    q = Eigen::Quaterniond(msg.orientation[0], msg.orientation[1], msg.orientation[2],
-                           msg.orientation[3]);
-    if (std::abs(q.norm() - 1.0) > 1e-3) {
-      ++counts_.dropped;
-      return Error("VO_DELTA " + std::to_string(msg.utime) + ": quaternion is not unit");
-    }
+    q = ref_T_cur->quaternion();  // normalised
     cov = messages::covarianceFromMessage(msg.covariance, "VO_DELTA");
     if (!cov) {
       ++counts_.dropped;
@@ -155,7 +153,7 @@ Status Tracker::addVo(const vo_delta_t& msg) {
     }
     const std::string implausible = implausibleMotion(
         Eigen::Vector3d(msg.translation[0], msg.translation[1], msg.translation[2]).norm(),
-        Eigen::AngleAxisd(q.normalized()).angle(), msg.ref_utime, msg.utime);
+        Eigen::AngleAxisd(q).angle(), msg.ref_utime, msg.utime);
     if (!implausible.empty()) {
       ++counts_.dropped;
       ++counts_.implausible;
@@ -196,9 +194,8 @@ Status Tracker::addVo(const vo_delta_t& msg) {
     odometry_at_delta_.reset();
     return Ok{};
   }
-  const UncertainPose ref_T_body = toBody(
-      SE3d(q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2])),
-      *cov);
+  const UncertainPose ref_T_body =
+      toBody(SE3d(q, core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2])), *cov);
   if (!vo_mode_ || msg.ref_utime != ref_utime_) rejoin(msg.ref_utime, ref_T_body, msg.utime);
   pending_ = ref_T_body;
   delta_utime_ = msg.utime;

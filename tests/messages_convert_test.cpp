@@ -359,7 +359,10 @@ TEST(PoseMsg, MalformedPosesAreRefused) {
   const evermap::pose_t good = toMsg(9, core::UncertainPose{});
   evermap::pose_t m = good;
   m.position[1] = kNan;
-  expectError(fromMsg(m), "pose_t at utime 9: non-finite position or orientation");
+  expectError(fromMsg(m), "pose_t at utime 9: translation is not finite");
+  m = good;
+  m.orientation[3] = kNan;
+  expectError(fromMsg(m), "pose_t at utime 9: orientation is not finite");
   m = good;
   m.orientation[0] = 0.5;
   expectError(fromMsg(m), "not a unit quaternion");
