@@ -108,7 +108,7 @@ Status LoopCloser::addKeyframe(const evermap::keyframe_t& msg) {
   ++stats_.keyframes;
   auto shared = std::make_shared<const Keyframe>(std::move(*k));
   auto same = std::find_if(recent_.begin(), recent_.end(),
-                           [&](const auto& r) { return r->utime == shared->utime; });
+                           [&](const auto& r) { return r->utime() == shared->utime(); });
   if (same != recent_.end()) {
     *same = shared;  // a repeated keyframe replaces the old one
   } else {
@@ -134,7 +134,7 @@ Status LoopCloser::addKeyframe(const evermap::keyframe_t& msg) {
 
 const Keyframe* LoopCloser::recentKeyframe(int64_t utime) const {
   for (auto it = recent_.rbegin(); it != recent_.rend(); ++it) {
-    if ((*it)->utime == utime) return it->get();
+    if ((*it)->utime() == utime) return it->get();
   }
   return nullptr;
 }
@@ -190,7 +190,7 @@ Status LoopCloser::addNode(const evermap::node_added_t& msg) {
   }
   std::shared_ptr<const Keyframe> keyframe;
   for (const auto& r : recent_) {
-    if (r->utime == msg.keyframe_utime) keyframe = r;
+    if (r->utime() == msg.keyframe_utime) keyframe = r;
   }
   if (!keyframe && store_) {
     auto stored = store_->loadKeyframe(msg.keyframe_utime);
@@ -365,7 +365,7 @@ register_result_t LoopCloser::registerAgainst(const register_request_t& request,
     return r;
   }
   if (target->size() == 0) {
-    *why = "keyframe " + std::to_string(target->utime) + " of node " + std::to_string(node_id) +
+    *why = "keyframe " + std::to_string(target->utime()) + " of node " + std::to_string(node_id) +
            " has no features";
     return r;
   }
@@ -419,7 +419,7 @@ register_result_t LoopCloser::answer(const register_request_t& request) {
   }
   if (query->size() == 0) {
     return failure(request, register_result_t::STATUS_TOO_FEW_INLIERS,
-                   "query keyframe " + std::to_string(query->utime) + " has no features");
+                   "query keyframe " + std::to_string(query->utime()) + " has no features");
   }
   const bow::BowVector query_bow = vocabulary_.transform(query->descriptors);
 
@@ -438,7 +438,7 @@ register_result_t LoopCloser::answer(const register_request_t& request) {
 
   bow::PlaceQuery q;
   if (request.floor >= 0) q.floor = request.floor;
-  q.newest_utime = query->utime - options_.exclude_recent_us;
+  q.newest_utime = query->utime() - options_.exclude_recent_us;
   q.top_k = options_.global_candidates;
   q.min_score = options_.min_candidate_score;
   auto candidates = places_.query(query_bow, q);

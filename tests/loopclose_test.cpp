@@ -114,7 +114,7 @@ class FakeRegistration final : public FrameRegistration {
     }
     o.ok = true;
     o.target_T_query =
-        core::SE3d(core::SO3d(), core::Vec3(1e-6 * (target.utime - query.utime), 0, 0));
+        core::SE3d(core::SO3d(), core::Vec3(1e-6 * (target.utime() - query.utime()), 0, 0));
     o.covariance = 0.01 * core::Mat6::Identity();
     return o;
   }

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "core/common/number_text.h"
+#include "core/common/quoted_number.h"
 
 namespace evermap::core {
 namespace {

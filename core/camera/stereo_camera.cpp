@@ -5,7 +5,7 @@
 #include <cstdlib>
 #include <limits>
 
-#include "core/common/number_text.h"
+#include "core/common/quoted_number.h"
 
 namespace evermap::core {
 Expected<StereoCamera> StereoCamera::create(double fx, double fy, double cx, double cy,

@@ -3,7 +3,6 @@
 // significant digits ("1", "0.25", "1.5e-07"), where std::to_string would print "1.000000"
 // and "0.000000".
 
-#include <cmath>
 #include <cstdio>
 #include <string>
 
@@ -14,9 +13,5 @@ inline std::string numberText(double v, int digits = 6) {
   std::snprintf(buf, sizeof(buf), "%.*g", digits, v);
   return buf;
 }
-
-// A bad input value as an error message quotes it: numberText, but a NaN is "nan" whatever its
-// sign ("-nan" from a YAML ".nan" reads as a typo).
-inline std::string quotedNumberText(double v) { return std::isnan(v) ? "nan" : numberText(v); }
 
 }  // namespace evermap
