@@ -1,8 +1,10 @@
 # The layering of the source tree, checked on every build (and by the layering.* tests):
 #   core/                      includes only core/ (and the generated LCM types);
-#   vo-proc/ ... mapper-proc/  (the five processes) and viewer/ include core/ and process
-#                              folders, never tools/: simulators, evaluation, data-set readers
-#                              and offline runners are tools around a process, not part of it.
+#   vo-proc/ ... mapper-proc/  (the five processes) and viewer/ include core/ and their own
+#                              folder only: never tools/ (simulators, evaluation, data-set
+#                              readers and offline runners are tools around a process, not part
+#                              of it), never another process (what two processes share lives in
+#                              core/, or travels between them as a message).
 # Tools may include anything. Run: cmake -DEVERMAP_SOURCE_DIR=<tree> -P CheckLayering.cmake
 # It fails with one line per offending #include.
 if(NOT EVERMAP_SOURCE_DIR)
@@ -32,6 +34,11 @@ evermap_check_folder(core "^(tools|${process_alternatives})/"
                      "core/ holds what the processes share and includes only core/")
 foreach(dir ${process_dirs})
   evermap_check_folder(${dir} "^tools/" "a process never includes a tool")
+  set(others ${process_dirs})
+  list(REMOVE_ITEM others ${dir})
+  list(JOIN others "|" other_alternatives)
+  evermap_check_folder(${dir} "^(${other_alternatives})/"
+                       "a process includes core/ and its own folder, never another process")
 endforeach()
 
 if(violations)

@@ -27,10 +27,10 @@
 
 #include "core/common/expected.h"
 #include "core/common/option_fields.h"
+#include "core/imu/attitude.h"
+#include "core/imu/sample_gate.h"
 #include "elevator-proc/floor_table.h"
 #include "elevator-proc/pulse_filter.h"
-#include "imu-proc/attitude_filter.h"
-#include "imu-proc/sample_gate.h"
 
 namespace evermap::elevator {
 

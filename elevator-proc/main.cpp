@@ -15,11 +15,11 @@
 
 #include "core/common/command_line.h"
 #include "core/common/stop_signals.h"
+#include "core/imu/lcm_convert.h"
 #include "core/messages/channels.h"
 #include "core/messages/inbox.h"
 #include "elevator-proc/elevator_tracker.h"
 #include "elevator-proc/lcm_convert.h"
-#include "imu-proc/lcm_convert.h"
 
 namespace {
 

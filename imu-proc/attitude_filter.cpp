@@ -24,16 +24,6 @@ Eigen::Matrix<double, 3, 2> ezCrossXY() {
 
 }  // namespace
 
-Eigen::Vector2d rollPitchFromUp(const Eigen::Vector3d& up_body) {
-  const Eigen::Vector3d u = up_body.normalized();
-  return {std::atan2(u.y(), u.z()), -std::asin(std::clamp(u.x(), -1.0, 1.0))};
-}
-
-Eigen::Vector3d upFromRollPitch(double roll_rad, double pitch_rad) {
-  return {-std::sin(pitch_rad), std::sin(roll_rad) * std::cos(pitch_rad),
-          std::cos(roll_rad) * std::cos(pitch_rad)};
-}
-
 // Single-field ranges are declared (attitude_filter.h); these are the rules between fields.
 Status AttitudeFilterOptions::validate() const {
   if (Status s = checkOptionRanges(*this); !s) return s;

@@ -40,7 +40,8 @@
 #include "core/common/expected.h"
 #include "core/common/option_fields.h"
 #include "core/geometry/so3.h"
-#include "imu-proc/sample_gate.h"
+#include "core/imu/attitude.h"
+#include "core/imu/sample_gate.h"
 
 namespace evermap::imu {
 
@@ -171,14 +172,6 @@ struct AttitudeFilterOptions {
   }
 };
 
-struct Attitude {
-  int64_t utime = 0;
-  double roll_rad = 0;
-  double pitch_rad = 0;
-  Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();  // over (roll, pitch), rad^2
-  bool accel_trusted = false;
-};
-
 struct AttitudeFilterCounts {
   int64_t updates = 0;    // accelerometer corrections applied
   int64_t untrusted = 0;  // samples where gravity was not observable
@@ -247,10 +240,5 @@ class AttitudeFilter {
   bool last_trusted_ = false;
   std::vector<ImuSample> startup_;  // samples of the start-up window
 };
-
-// Roll and pitch (R = Rz Ry Rx) from a gravity direction in the body frame.
-Eigen::Vector2d rollPitchFromUp(const Eigen::Vector3d& up_body);
-// Unit "up" in the body frame from roll and pitch (yaw does not matter).
-Eigen::Vector3d upFromRollPitch(double roll_rad, double pitch_rad);
 
 }  // namespace evermap::imu

@@ -1,6 +1,6 @@
 #include "imu-proc/attitude_stream.h"
 
-#include "imu-proc/lcm_convert.h"
+#include "core/imu/lcm_convert.h"
 
 namespace evermap::imu {
 

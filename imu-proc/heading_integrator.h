@@ -28,7 +28,7 @@
 #include "core/common/expected.h"
 #include "core/common/option_fields.h"
 #include "core/geometry/so3.h"
-#include "imu-proc/sample_gate.h"
+#include "core/imu/sample_gate.h"
 
 namespace evermap::imu {
 

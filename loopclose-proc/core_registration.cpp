@@ -1,6 +1,6 @@
 #include "loopclose-proc/core_registration.h"
 
-#include "core/messages/keyframe_convert.h"
+#include "core/registration/frame_registration.h"
 
 namespace evermap::loopclose {
 
@@ -14,20 +14,8 @@ Expected<CoreRegistration> CoreRegistration::create(const core::RegistrationOpti
 RegistrationOutcome CoreRegistration::registerFrames(const Keyframe& target,
                                                      const Keyframe& query) {
   RegistrationOutcome o;
-  // Through keyframe_t: core's converter checks what core's registration relies on (positive
-  // disparity and depth, levels), which loopclose's own validation does not.
-  auto a = messages::fromMsg(toMsg(target));
-  if (!a) {
-    o.reason = "node keyframe: " + a.error().message;
-    return o;
-  }
-  auto b = messages::fromMsg(toMsg(query));
-  if (!b) {
-    o.reason = "query keyframe: " + b.error().message;
-    return o;
-  }
   const core::RegistrationSummary s =
-      core::registerFrames(a->camera, a->features, b->camera, b->features, options_);
+      core::registerFrames(target.camera, target.features, query.camera, query.features, options_);
   o.inliers = s.num_inliers;
   if (!s.ok()) {
     o.reason = std::string(core::toString(s.status)) + ": " + s.message;

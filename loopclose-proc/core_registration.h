@@ -2,10 +2,9 @@
 // The frame registration loopclose-proc uses by default: core/registration's registerFrames()
 // (descriptor matching with mutual check, maximum-clique inliers, 6-DOF refinement by
 // bidirectional reprojection error, covariance; paper section IV-D, docs/vo.md) behind the
-// FrameRegistration interface. The adapter only converts: a loopclose Keyframe goes through
-// its keyframe_t form into core's camera + KeyframeFeatures (core/messages/keyframe_convert.h),
-// so both sides validate the same way; registerFrames' a_T_b with a = node, b = query is
-// node_T_query.
+// FrameRegistration interface. A loopclose Keyframe holds core's camera + KeyframeFeatures,
+// validated once when it arrived (core/messages/keyframe_convert.h); registerFrames' a_T_b
+// with a = node, b = query is node_T_query.
 
 #include <string>
 

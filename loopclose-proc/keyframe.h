@@ -1,39 +1,33 @@
 #pragma once
-// A keyframe as loopclose-proc keeps it: features of the rectified left image with their 3-D
-// points (left camera frame) and 256-bit descriptors — what KEYFRAME (keyframe_t) carries, in
-// compact arrays. Built only through fromMsg(), which validates what arrived.
+// A keyframe as loopclose-proc keeps it: what KEYFRAME (keyframe_t) carries, decoded and
+// validated by core's one converter (messages::fromMsg in core/messages/keyframe_convert.h:
+// the rectified camera and the features registration uses).
 
 #include <cstdint>
 #include <vector>
 
-#include <Eigen/Core>
-
 #include <evermap/keyframe_t.hpp>
 
 #include "core/bow/descriptor.h"
+#include "core/camera/stereo_camera.h"
 #include "core/common/expected.h"
+#include "core/registration/keyframe_features.h"
 
 namespace evermap::loopclose {
 
 struct Keyframe {
-  int64_t utime = 0;                      // microseconds: the keyframe's id
-  double fx = 0, fy = 0, cx = 0, cy = 0;  // rectified left camera, pixels
-  double baseline_m = 0;
-  std::vector<Eigen::Vector2f> keypoints;  // pixels (u, v)
-  std::vector<Eigen::Vector3f> points;     // metres, left camera frame
-  std::vector<float> disparity;            // pixels
-  std::vector<int8_t> level;               // pyramid level of detection
-  std::vector<bow::Descriptor> descriptors;
+  core::StereoCamera camera;
+  core::KeyframeFeatures features;
 
-  size_t size() const { return descriptors.size(); }
+  int64_t utime() const { return features.utime; }  // microseconds: the keyframe's id
+  size_t size() const { return features.size(); }
+  // The descriptors in the form the vocabulary reads (a copy: a node's keyframe stays in
+  // memory, its descriptors once).
+  std::vector<bow::Descriptor> bowDescriptors() const;
 };
 
-// Largest number of features a keyframe may claim (bounds what a malformed message costs).
-inline constexpr int kMaxKeyframeFeatures = 100000;
-
-// Checks array lengths against num_features, finiteness, positive focal lengths and baseline,
-// and 32-byte descriptors; the error names the keyframe and the field. An empty keyframe
-// (0 features) is valid here: it is answered with a failure reason when used.
+// messages::fromMsg's checks (an empty keyframe, 0 features, is valid here: it is answered
+// with a failure reason when used); the error names the keyframe and the field.
 Expected<Keyframe> fromMsg(const evermap::keyframe_t& msg);
 evermap::keyframe_t toMsg(const Keyframe& keyframe);
 

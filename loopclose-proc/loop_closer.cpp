@@ -6,6 +6,8 @@
 #include <sstream>
 #include <utility>
 
+#include "core/messages/pose_fields.h"
+
 namespace evermap::loopclose {
 
 using evermap::register_request_t;
@@ -106,7 +108,7 @@ Status LoopCloser::addKeyframe(const evermap::keyframe_t& msg) {
   ++stats_.keyframes;
   auto shared = std::make_shared<const Keyframe>(std::move(*k));
   auto same = std::find_if(recent_.begin(), recent_.end(),
-                           [&](const auto& r) { return r->utime == shared->utime; });
+                           [&](const auto& r) { return r->utime() == shared->utime(); });
   if (same != recent_.end()) {
     *same = shared;  // a repeated keyframe replaces the old one
   } else {
@@ -132,7 +134,7 @@ Status LoopCloser::addKeyframe(const evermap::keyframe_t& msg) {
 
 const Keyframe* LoopCloser::recentKeyframe(int64_t utime) const {
   for (auto it = recent_.rbegin(); it != recent_.rend(); ++it) {
-    if ((*it)->utime == utime) return it->get();
+    if ((*it)->utime() == utime) return it->get();
   }
   return nullptr;
 }
@@ -188,7 +190,7 @@ Status LoopCloser::addNode(const evermap::node_added_t& msg) {
   }
   std::shared_ptr<const Keyframe> keyframe;
   for (const auto& r : recent_) {
-    if (r->utime == msg.keyframe_utime) keyframe = r;
+    if (r->utime() == msg.keyframe_utime) keyframe = r;
   }
   if (!keyframe && store_) {
     auto stored = store_->loadKeyframe(msg.keyframe_utime);
@@ -214,7 +216,7 @@ Status LoopCloser::addNode(const evermap::node_added_t& msg) {
                      recent_.size(), " recent keyframes");
   }
   bow::Place place{msg.node_id, msg.floor, msg.keyframe_utime,
-                   vocabulary_.transform(keyframe->descriptors)};
+                   vocabulary_.transform(keyframe->bowDescriptors())};
   Status persisted = Ok{};
   if (store_) {
     // The keyframe first: a place is never stored without the keyframe behind it.
@@ -363,7 +365,7 @@ register_result_t LoopCloser::registerAgainst(const register_request_t& request,
     return r;
   }
   if (target->size() == 0) {
-    *why = "keyframe " + std::to_string(target->utime) + " of node " + std::to_string(node_id) +
+    *why = "keyframe " + std::to_string(target->utime()) + " of node " + std::to_string(node_id) +
            " has no features";
     return r;
   }
@@ -382,13 +384,7 @@ register_result_t LoopCloser::registerAgainst(const register_request_t& request,
   r.keyframe_utime = request.keyframe_utime;
   r.status = register_result_t::STATUS_OK;
   r.node_id = node_id;
-  const core::Vec3& t = o.target_T_query.translation();
-  const Eigen::Quaterniond& rot = o.target_T_query.so3().quaternion();
-  for (int i = 0; i < 3; ++i) r.translation[i] = t[i];
-  r.orientation[0] = rot.w();
-  r.orientation[1] = rot.x();
-  r.orientation[2] = rot.y();
-  r.orientation[3] = rot.z();
+  messages::putPose(o.target_T_query, r.translation, r.orientation);
   for (int i = 0; i < 6; ++i) {
     for (int j = 0; j < 6; ++j) r.covariance[6 * i + j] = o.covariance(i, j);
   }
@@ -423,9 +419,9 @@ register_result_t LoopCloser::answer(const register_request_t& request) {
   }
   if (query->size() == 0) {
     return failure(request, register_result_t::STATUS_TOO_FEW_INLIERS,
-                   "query keyframe " + std::to_string(query->utime) + " has no features");
+                   "query keyframe " + std::to_string(query->utime()) + " has no features");
   }
-  const bow::BowVector query_bow = vocabulary_.transform(query->descriptors);
+  const bow::BowVector query_bow = vocabulary_.transform(query->bowDescriptors());
 
   if (request.mode == register_request_t::MODE_NODE) {
     const bow::Place* place = places_.find(request.target_node_id);
@@ -442,7 +438,7 @@ register_result_t LoopCloser::answer(const register_request_t& request) {
 
   bow::PlaceQuery q;
   if (request.floor >= 0) q.floor = request.floor;
-  q.newest_utime = query->utime - options_.exclude_recent_us;
+  q.newest_utime = query->utime() - options_.exclude_recent_us;
   q.top_k = options_.global_candidates;
   q.min_score = options_.min_candidate_score;
   auto candidates = places_.query(query_bow, q);

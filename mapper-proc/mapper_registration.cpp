@@ -75,15 +75,10 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
   bool registered = false;
   std::optional<int64_t> same_frame_target;
   Status status = Ok{};
-  bool finite = std::isfinite(msg.translation[0]) && std::isfinite(msg.translation[1]) &&
-                std::isfinite(msg.translation[2]);
-  for (double q : msg.orientation) finite = finite && std::isfinite(q);
-  const double q_norm = Eigen::Vector4d(msg.orientation[0], msg.orientation[1], msg.orientation[2],
-                                        msg.orientation[3])
-                            .norm();
+  const bool pose_ok =
+      messages::poseFromMessage(msg.translation, msg.orientation, "REGISTER_RESULT").ok();
   auto cov = messages::covarianceFromMessage(msg.covariance, "REGISTER_RESULT");
-  if (!finite || std::abs(q_norm - 1.0) > 1e-3 || !cov || msg.node_id < 0 ||
-      msg.node_id >= static_cast<int64_t>(nodes_.size())) {
+  if (!pose_ok || !cov || msg.node_id < 0 || msg.node_id >= static_cast<int64_t>(nodes_.size())) {
     ++stats_.dropped;
     status =
         makeError("REGISTER_RESULT ", msg.request_id, ": malformed pose, covariance or node id");
@@ -107,8 +102,8 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
 std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, const InFlight& f,
                                                   const core::Mat6& cam_cov, bool* registered) {
   const int64_t b = msg.node_id;
-  const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2],
-                             msg.orientation[3]);
+  // Checked by onRegisterResult.
+  const Eigen::Quaterniond q = *messages::quaternionFromMessage(msg.orientation, "REGISTER_RESULT");
   const core::SE3d cam_T = core::SE3d(
       q.normalized(), core::Vec3(msg.translation[0], msg.translation[1], msg.translation[2]));
   // The registration in body frames (paper eq. 9), by STEREO_CALIB's mounting once it came.

@@ -101,22 +101,21 @@ Expected<Tracker::VoMotion> Tracker::checkedMotion(const vo_delta_t& msg) {
   if (msg.ref_utime >= msg.utime)
     return Error("VO_DELTA " + std::to_string(msg.utime) + ": reference " +
                  std::to_string(msg.ref_utime) + " is not before the frame");
-  if (!finiteArray(msg.translation, 3) || !finiteArray(msg.orientation, 4))
-    return Error("VO_DELTA " + std::to_string(msg.utime) + ": pose is not finite");
-  const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2],
-                             msg.orientation[3]);
-  if (std::abs(q.norm() - 1.0) > 1e-3)
-    return Error("VO_DELTA " + std::to_string(msg.utime) + ": quaternion is not unit");
+  const std::string what = "VO_DELTA " + std::to_string(msg.utime);
+  const Expected<SE3d> ref_T_cur =
+      messages::poseFromMessage(msg.translation, msg.orientation, what.c_str());
+  if (!ref_T_cur) return ref_T_cur.error();
+  const Eigen::Quaterniond q = ref_T_cur->quaternion();  // normalised
   const Expected<Mat6> cov = messages::covarianceFromMessage(msg.covariance, "VO_DELTA");
   if (!cov) return makeError("VO_DELTA ", msg.utime, ": ", cov.error().message);
   const core::Vec3 t(msg.translation[0], msg.translation[1], msg.translation[2]);
-  const std::string implausible = implausibleMotion(
-      t.norm(), Eigen::AngleAxisd(q.normalized()).angle(), msg.ref_utime, msg.utime);
+  const std::string implausible =
+      implausibleMotion(t.norm(), Eigen::AngleAxisd(q).angle(), msg.ref_utime, msg.utime);
   if (!implausible.empty()) {
     ++counts_.implausible;
     return makeError("VO_DELTA ", msg.utime, ": ", implausible);
   }
-  return VoMotion{toBody(SE3d(q.normalized(), t), *cov), *cov};
+  return VoMotion{toBody(SE3d(q, t), *cov), *cov};
 }
 
 void Tracker::restartChain(const vo_delta_t& msg, bool ok) {

@@ -7,9 +7,9 @@
 
 #include <gtest/gtest.h>
 
+#include "core/imu/lcm_convert.h"
 #include "imu-proc/attitude_stream.h"
 #include "imu-proc/heading_integrator.h"
-#include "imu-proc/lcm_convert.h"
 
 namespace evermap::imu {
 namespace {

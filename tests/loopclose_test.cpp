@@ -106,7 +106,8 @@ class FakeRegistration final : public FrameRegistration {
     RegistrationOutcome o;
     const size_t n = std::min(target.size(), query.size());
     for (size_t i = 0; i < n; ++i) {
-      o.inliers += bow::hammingDistance(target.descriptors[i], query.descriptors[i]) <= 20;
+      o.inliers += core::hammingDistance(target.features.descriptors[i],
+                                         query.features.descriptors[i]) <= 20;
     }
     if (o.inliers < 40) {
       o.reason = std::to_string(o.inliers) + " inliers";
@@ -114,7 +115,7 @@ class FakeRegistration final : public FrameRegistration {
     }
     o.ok = true;
     o.target_T_query =
-        core::SE3d(core::SO3d(), core::Vec3(1e-6 * (target.utime - query.utime), 0, 0));
+        core::SE3d(core::SO3d(), core::Vec3(1e-6 * (target.utime() - query.utime()), 0, 0));
     o.covariance = 0.01 * core::Mat6::Identity();
     return o;
   }

@@ -13,6 +13,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/messages/convert.h"
+#include "core/messages/pose_fields.h"
 #include "tools/datasets/euroc.h"
 #include "scratch_dir.h"
 
@@ -359,7 +360,10 @@ TEST(PoseMsg, MalformedPosesAreRefused) {
   const evermap::pose_t good = toMsg(9, core::UncertainPose{});
   evermap::pose_t m = good;
   m.position[1] = kNan;
-  expectError(fromMsg(m), "pose_t at utime 9: non-finite position or orientation");
+  expectError(fromMsg(m), "pose_t at utime 9: translation is not finite");
+  m = good;
+  m.orientation[3] = kNan;
+  expectError(fromMsg(m), "pose_t at utime 9: orientation is not finite");
   m = good;
   m.orientation[0] = 0.5;
   expectError(fromMsg(m), "not a unit quaternion");
@@ -372,6 +376,37 @@ TEST(PoseMsg, MalformedPosesAreRefused) {
   m = good;
   m.covariance[35] = kNan;
   expectError(fromMsg(m), "non-finite covariance");
+}
+
+TEST(PoseFields, PoseFromMessageReadsBackWhatPutPoseWrote) {
+  const core::SE3d pose(core::SO3d::exp(core::Vec3(0.3, -1.2, 2.0)), core::Vec3(1.5, -2.25, 7.0));
+  double t[3], q[4];
+  putPose(pose, t, q);
+  const Expected<core::SE3d> back = poseFromMessage(t, q, "test");
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->translation(), pose.translation());
+  EXPECT_EQ(back->quaternion().coeffs(), core::SO3d(pose.quaternion()).quaternion().coeffs());
+}
+
+TEST(PoseFields, QuaternionFromMessageReturnsTheFieldsAsReadWhenNearlyUnit) {
+  const double q[4] = {1.0005, 0.0, 0.0, 0.0};  // within the 1e-3 tolerance, not normalised
+  const Expected<Eigen::Quaterniond> read = quaternionFromMessage(q, "test");
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  EXPECT_EQ(read->w(), 1.0005);
+}
+
+TEST(PoseFields, NonFiniteOrNonUnitFieldsAreRefusedWithTheirName) {
+  const double t[3] = {0.0, 0.0, 0.0};
+  double q[4] = {1.0, 0.0, 0.0, 0.0};
+  q[2] = kNan;
+  expectError(quaternionFromMessage(q, "VO_DELTA 5"), "VO_DELTA 5: orientation is not finite");
+  q[2] = 0.0;
+  q[0] = 0.9;
+  expectError(poseFromMessage(t, q, "REGISTER_RESULT"),
+              "REGISTER_RESULT: orientation is not a unit quaternion");
+  const double bad_t[3] = {0.0, kNan, 0.0};
+  q[0] = 1.0;
+  expectError(poseFromMessage(bad_t, q, "pose"), "pose: translation is not finite");
 }
 
 TEST(DecodeLcm, TruncatedForeignAndOverlongBytesAreRefused) {

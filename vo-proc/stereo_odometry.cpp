@@ -267,21 +267,57 @@ FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& 
   FrameResult r;
   r.utime = utime;
   r.ref_utime = has_ref_ ? kf_utime_ : utime;
-  if (has_ref_ && utime <= ref_->utime) {
-    r.status = VoStatus::kBadInput;
-    r.failure_kind = "bad input";
-    r.message = makeError("frame ", utime, " is not after its reference ", ref_->utime).message;
+  if (!extractFrame(utime, extract, &r)) return r;
+  const SE3d ref_T_pred = predictMotion();
+  if (has_ref_) ++frames_since_good_;
+
+  if (r.num_features < options_.registration.min_features) {
+    failTooFewFeatures(depth, ref_T_pred, &r);
     return r;
+  }
+  if (!has_ref_) {
+    r.status = VoStatus::kNoData;
+    r.message = "first frame: it becomes the reference";
+    r.ref_utime = utime;
+    makeCurrentTheReference(&r);
+    return r;
+  }
+  if (failures_ > options_.max_failed_frames) {
+    restartStaleReference(ref_T_pred, &r);
+    return r;
+  }
+  const RegisteredMotion motion = registerCurrent(ref_T_pred, &r);
+  r.num_matches = motion.summary.num_matches;
+  r.num_inliers = motion.summary.num_inliers;
+  r.mean_reprojection_px = motion.summary.mean_reprojection_px;
+  if (motion.summary.ok()) {
+    takeMotion(motion, &r);
+  } else {
+    failRegistration(motion.summary, ref_T_pred, &r);
+  }
+  return r;
+}
+
+bool StereoOdometry::extractFrame(int64_t utime, const std::function<Status()>& extract,
+                                  FrameResult* r) {
+  if (has_ref_ && utime <= ref_->utime) {
+    r->status = VoStatus::kBadInput;
+    r->failure_kind = "bad input";
+    r->message = makeError("frame ", utime, " is not after its reference ", ref_->utime).message;
+    return false;
   }
   if (Status s = extract(); !s) {
-    r.status = VoStatus::kBadInput;
-    r.failure_kind = "bad input";
-    r.message = s.error().message;
-    return r;
+    r->status = VoStatus::kBadInput;
+    r->failure_kind = "bad input";
+    r->message = s.error().message;
+    return false;
   }
-  r.num_corners = cur_->num_corners;
-  r.num_features = static_cast<int>(cur_->features.size());
+  r->num_corners = cur_->num_corners;
+  r->num_features = static_cast<int>(cur_->features.size());
+  return true;
+}
 
+SE3d StereoOdometry::predictMotion() {
   // Initial rotation between the previous frame and this one (FOVIS section 3.3).
   std::optional<core::SO3d> cur_R_prev;
   const int top = cur_->left.numLevels() - 1;
@@ -293,112 +329,110 @@ FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& 
   // The motion prior: the last frame-to-frame motion, with the measured rotation.
   SE3d prev_T_pred = options_.constant_velocity && has_motion_ ? prev_T_cur_motion_ : SE3d();
   if (cur_R_prev) prev_T_pred = SE3d(cur_R_prev->inverse(), prev_T_pred.translation());
-  const SE3d ref_T_pred = ref_T_prev_ * prev_T_pred;
-  if (has_ref_) ++frames_since_good_;
+  return ref_T_prev_ * prev_T_pred;
+}
 
-  if (r.num_features < options_.registration.min_features) {
-    r.status = VoStatus::kInsufficientFeatures;
-    r.failure_kind = "too few features";
-    r.message = makeError(r.num_features, " features with depth (", r.num_corners,
-                          " corners at FAST threshold ", fastThreshold(), "), need ",
-                          options_.registration.min_features)
-                    .message;
-    if (depth != nullptr && !depth->empty() && cv::countNonZero(*depth) == 0) {
-      r.message += ": the depth image is all zero (no pixel has a depth)";
-    }
-    if (has_ref_) {
-      ++failures_;
-      ref_T_prev_ = ref_T_pred;
-    }
-    return r;
+void StereoOdometry::failTooFewFeatures(const cv::Mat* depth, const SE3d& ref_T_pred,
+                                        FrameResult* r) {
+  r->status = VoStatus::kInsufficientFeatures;
+  r->failure_kind = "too few features";
+  r->message = makeError(r->num_features, " features with depth (", r->num_corners,
+                         " corners at FAST threshold ", fastThreshold(), "), need ",
+                         options_.registration.min_features)
+                   .message;
+  if (depth != nullptr && !depth->empty() && cv::countNonZero(*depth) == 0) {
+    r->message += ": the depth image is all zero (no pixel has a depth)";
   }
-  if (!has_ref_) {
-    r.status = VoStatus::kNoData;
-    r.message = "first frame: it becomes the reference";
-    r.ref_utime = utime;
-    makeCurrentTheReference(&r);
-    return r;
+  if (has_ref_) {
+    ++failures_;
+    ref_T_prev_ = ref_T_pred;
   }
+}
 
-  if (failures_ > options_.max_failed_frames) {
-    // The reference is stale: the prediction (the motion before the failures) no longer says
-    // where to look, and a window search from a wrong prediction in a repeated texture (floor
-    // tiles) finds a wrong motion with many inliers. The chain restarts here, bridged by the
-    // motion prior or, without one, as at a first frame (the mapper bridges the gap).
-    r.failure_kind = "stale reference";
-    r.message = makeError("the reference is stale after ", failures_, " failed frames").message;
-    if (options_.bridge_breaks && has_motion_) {
-      bridge(ref_T_pred, &r);
-      return r;
-    }
-    r.status = VoStatus::kNoData;
-    r.message += ": this frame becomes the reference";
-    r.ref_utime = utime;
-    makeCurrentTheReference(&r);
-    return r;
+void StereoOdometry::restartStaleReference(const SE3d& ref_T_pred, FrameResult* r) {
+  // The reference is stale: the prediction (the motion before the failures) no longer says
+  // where to look, and a window search from a wrong prediction in a repeated texture (floor
+  // tiles) finds a wrong motion with many inliers. The chain restarts here, bridged by the
+  // motion prior or, without one, as at a first frame (the mapper bridges the gap).
+  r->failure_kind = "stale reference";
+  r->message = makeError("the reference is stale after ", failures_, " failed frames").message;
+  if (options_.bridge_breaks && has_motion_) {
+    bridge(ref_T_pred, r);
+    return;
   }
+  r->status = VoStatus::kNoData;
+  r->message += ": this frame becomes the reference";
+  r->ref_utime = r->utime;
+  makeCurrentTheReference(r);
+}
 
+StereoOdometry::RegisteredMotion StereoOdometry::registerCurrent(const SE3d& ref_T_pred,
+                                                                 FrameResult* r) const {
   // Register to the reference (a = reference, b = current); failing that, to the last frame
   // that registered, the motion through it chained to the reference.
-  core::RegistrationSummary reg = registerTo(*ref_, ref_T_pred);
-  SE3d ref_T_cur = reg.a_T_b;
-  core::Mat6 covariance = reg.covariance;
-  if (!reg.ok() && options_.retry_previous_frame && has_prev_) {
+  RegisteredMotion m;
+  m.summary = registerTo(*ref_, ref_T_pred);
+  m.ref_T_cur = m.summary.a_T_b;
+  m.covariance = m.summary.covariance;
+  if (!m.summary.ok() && options_.retry_previous_frame && has_prev_) {
     const core::RegistrationSummary again = registerTo(*prev_, ref_T_good_.inverse() * ref_T_pred);
     if (again.ok()) {
       const core::UncertainPose chained =
           core::compound({ref_T_good_, ref_T_good_cov_}, {again.a_T_b, again.covariance});
-      r.via_previous = true;
-      r.message = "registered to the previous frame " + std::to_string(prev_->utime) +
-                  " after failing against the reference (" +
-                  failureKind(reg, options_.registration.min_inliers) + ": " + reg.message + ")";
-      reg = again;
-      ref_T_cur = chained.mean;
-      covariance = chained.covariance;
+      r->via_previous = true;
+      r->message = "registered to the previous frame " + std::to_string(prev_->utime) +
+                   " after failing against the reference (" +
+                   failureKind(m.summary, options_.registration.min_inliers) + ": " +
+                   m.summary.message + ")";
+      m.summary = again;
+      m.ref_T_cur = chained.mean;
+      m.covariance = chained.covariance;
     }
   }
-  r.num_matches = reg.num_matches;
-  r.num_inliers = reg.num_inliers;
-  r.mean_reprojection_px = reg.mean_reprojection_px;
-  if (reg.ok()) {
-    const core::UncertainPose kf_T_cur = core::compound(kf_T_ref_, {ref_T_cur, covariance});
-    r.status = VoStatus::kOk;
-    r.ref_T_cur = kf_T_cur.mean;
-    r.covariance = kf_T_cur.covariance;
-    failures_ = 0;
-    prev_T_cur_motion_ = ref_T_prev_.inverse() * ref_T_cur;
-    has_motion_ = true;
-    ref_T_prev_ = ref_T_cur;
-    if (first_inliers_ == 0) first_inliers_ = reg.num_inliers;
-    if (r.via_previous || reg.num_inliers < options_.keyframe_inlier_threshold ||
-        reg.num_inliers < options_.keyframe_inlier_fraction * first_inliers_) {
-      makeCurrentTheReference(&r, farEnoughForAKeyframe(kf_T_cur.mean), kf_T_cur);
-    } else {
-      std::swap(prev_, cur_);
-      has_prev_ = true;
-      ref_T_good_ = ref_T_cur;
-      ref_T_good_cov_ = covariance;
-      frames_since_good_ = 0;
-    }
-    return r;
+  return m;
+}
+
+void StereoOdometry::takeMotion(const RegisteredMotion& m, FrameResult* r) {
+  const core::UncertainPose kf_T_cur = core::compound(kf_T_ref_, {m.ref_T_cur, m.covariance});
+  r->status = VoStatus::kOk;
+  r->ref_T_cur = kf_T_cur.mean;
+  r->covariance = kf_T_cur.covariance;
+  failures_ = 0;
+  prev_T_cur_motion_ = ref_T_prev_.inverse() * m.ref_T_cur;
+  has_motion_ = true;
+  ref_T_prev_ = m.ref_T_cur;
+  const int inliers = m.summary.num_inliers;
+  if (first_inliers_ == 0) first_inliers_ = inliers;
+  if (r->via_previous || inliers < options_.keyframe_inlier_threshold ||
+      inliers < options_.keyframe_inlier_fraction * first_inliers_) {
+    makeCurrentTheReference(r, farEnoughForAKeyframe(kf_T_cur.mean), kf_T_cur);
+  } else {
+    std::swap(prev_, cur_);
+    has_prev_ = true;
+    ref_T_good_ = m.ref_T_cur;
+    ref_T_good_cov_ = m.covariance;
+    frames_since_good_ = 0;
   }
-  r.status = static_cast<VoStatus>(static_cast<int8_t>(reg.status));
-  r.failure_kind = failureKind(reg, options_.registration.min_inliers);
-  r.message = reg.message;
+}
+
+void StereoOdometry::failRegistration(const core::RegistrationSummary& reg, const SE3d& ref_T_pred,
+                                      FrameResult* r) {
+  r->status = static_cast<VoStatus>(static_cast<int8_t>(reg.status));
+  r->failure_kind = failureKind(reg, options_.registration.min_inliers);
+  r->message = reg.message;
   ++failures_;
   ref_T_prev_ = ref_T_pred;
   if (failures_ > options_.max_failed_frames) {
     if (options_.bridge_breaks && has_motion_) {
-      bridge(ref_T_pred, &r);
-      return r;
+      bridge(ref_T_pred, r);
+      return;
     }
     // The chain breaks: like a first frame, the new reference is its own reference (the
     // VO_DELTA contract, docs/contracts.md); the motion to it is unknown.
-    r.message += "; the reference is replaced by this frame";
-    r.ref_utime = utime;
-    makeCurrentTheReference(&r);
+    r->message += "; the reference is replaced by this frame";
+    r->ref_utime = r->utime;
+    makeCurrentTheReference(r);
   }
-  return r;
 }
 
 }  // namespace evermap::vo

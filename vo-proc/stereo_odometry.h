@@ -230,6 +230,24 @@ class StereoOdometry {
   // Everything after the features: `extract` fills cur_; `depth` (RGB-D only) explains a
   // frame without features.
   FrameResult track(int64_t utime, const std::function<Status()>& extract, const cv::Mat* depth);
+  // The steps of track(). The frame's time order and its features (false: *result says why).
+  bool extractFrame(int64_t utime, const std::function<Status()>& extract, FrameResult* result);
+  // The motion prior: reference to current, predicted (and the rotation estimate's image kept).
+  core::SE3d predictMotion();
+  void failTooFewFeatures(const cv::Mat* depth, const core::SE3d& ref_T_pred, FrameResult* result);
+  // Too many failures in a row: the chain restarts at the current frame (bridged or not).
+  void restartStaleReference(const core::SE3d& ref_T_pred, FrameResult* result);
+  // The registration of the current frame and the motion from the reference to it.
+  struct RegisteredMotion {
+    core::RegistrationSummary summary;
+    core::SE3d ref_T_cur;
+    core::Mat6 covariance = core::Mat6::Zero();
+  };
+  RegisteredMotion registerCurrent(const core::SE3d& ref_T_pred, FrameResult* result) const;
+  // A registered motion: the result, the motion prior, and the reference or keyframe moved on.
+  void takeMotion(const RegisteredMotion& motion, FrameResult* result);
+  void failRegistration(const core::RegistrationSummary& reg, const core::SE3d& ref_T_pred,
+                        FrameResult* result);
   // The current frame becomes the reference; a keyframe too when `keyframe`, else kf_T_cur
   // (the motion from the last keyframe to it) is kept for chaining.
   void makeCurrentTheReference(FrameResult* result, bool keyframe = true,

@@ -4,6 +4,7 @@
 
 #include "core/messages/convert.h"
 #include "core/messages/keyframe_convert.h"
+#include "core/messages/pose_fields.h"
 
 namespace evermap::vo {
 
@@ -105,15 +106,7 @@ evermap::vo_delta_t toMsg(const FrameResult& r) {
   m.ref_utime = r.ref_utime;
   m.status = static_cast<int8_t>(r.status);
   m.keyframe_changed = r.keyframe_changed ? 1 : 0;
-  const core::Vec3& t = r.ref_T_cur.translation();
-  const Eigen::Quaterniond& q = r.ref_T_cur.quaternion();
-  m.translation[0] = t.x();
-  m.translation[1] = t.y();
-  m.translation[2] = t.z();
-  m.orientation[0] = q.w();
-  m.orientation[1] = q.x();
-  m.orientation[2] = q.y();
-  m.orientation[3] = q.z();
+  messages::putPose(r.ref_T_cur, m.translation, m.orientation);
   for (int i = 0; i < 6; ++i) {
     for (int j = 0; j < 6; ++j) m.covariance[i * 6 + j] = r.covariance(i, j);
   }

@@ -13,6 +13,89 @@ namespace evermap::bow {
 namespace {
 constexpr int kMaxBranching = 4096;
 constexpr int kMaxLevels = 32;
+
+using Children = std::vector<std::vector<uint32_t>>;
+
+// The children of every node, in the order of `nodes`; an error when a parent is not another
+// node.
+Expected<Children> childrenOf(const std::vector<NodeSpec>& nodes, const std::string& what) {
+  const size_t n = nodes.size();
+  Children children(n);
+  for (size_t i = 1; i < n; ++i) {
+    const int64_t p = nodes[i].parent;
+    if (p < 0 || p >= static_cast<int64_t>(n) || p == static_cast<int64_t>(i)) {
+      return makeError(what, ": node ", i, " has parent ", p, ", which is not another node");
+    }
+    children[static_cast<size_t>(p)].push_back(static_cast<uint32_t>(i));
+  }
+  return children;
+}
+
+// Breadth-first order from the root: children of one node are enqueued together, hence
+// contiguous. Errors: more than k children, deeper than L, nodes the root does not reach.
+Status breadthFirst(const Children& children, int branching, int levels, const std::string& what,
+                    std::vector<uint32_t>* order, std::vector<uint8_t>* depth_old) {
+  const size_t n = children.size();
+  order->reserve(n);
+  order->push_back(0);
+  for (size_t head = 0; head < order->size(); ++head) {
+    const uint32_t old = (*order)[head];
+    if (children[old].size() > static_cast<size_t>(branching)) {
+      return makeError(what, ": node ", old, " has ", children[old].size(),
+                       " children, more than k = ", branching);
+    }
+    for (uint32_t c : children[old]) {
+      (*depth_old)[c] = static_cast<uint8_t>((*depth_old)[old] + 1);
+      if ((*depth_old)[c] > levels) {
+        return makeError(what, ": node ", c, " lies at depth ", int((*depth_old)[c]),
+                         ", deeper than L = ", levels);
+      }
+      order->push_back(c);
+    }
+  }
+  if (order->size() != n) {
+    return makeError(what, ": ", n - order->size(),
+                     " nodes are not reachable from the root (their parents form a cycle)");
+  }
+  return Ok{};
+}
+
+// Words: exactly the leaves, ids 0..W-1 each once, finite non-negative weights. Returns W.
+Expected<size_t> checkWords(const std::vector<NodeSpec>& nodes, const Children& children,
+                            const std::string& what) {
+  const size_t n = nodes.size();
+  size_t num_words = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const bool leaf = children[i].empty();
+    if (i == 0 && leaf) return makeError(what, ": the root has no children");
+    if (leaf && nodes[i].word < 0) {
+      return makeError(what, ": node ", i, " is a leaf without a word id");
+    }
+    if (!leaf && nodes[i].word >= 0) {
+      return makeError(what, ": node ", i, " has children but is also word ", nodes[i].word);
+    }
+    if (leaf) ++num_words;
+  }
+  std::vector<bool> used(num_words, false);
+  for (size_t i = 0; i < n; ++i) {
+    const int64_t w = nodes[i].word;
+    if (w < 0) continue;
+    if (w >= static_cast<int64_t>(num_words)) {
+      return makeError(what, ": node ", i, " has word id ", w, " but there are only ", num_words,
+                       " words (ids must be 0..", num_words - 1, ")");
+    }
+    if (used[static_cast<size_t>(w)]) {
+      return makeError(what, ": word id ", w, " is used by two nodes");
+    }
+    if (!std::isfinite(nodes[i].weight) || nodes[i].weight < 0.0) {
+      return makeError(what, ": word ", w, " has weight ", nodes[i].weight,
+                       " (must be finite and >= 0)");
+    }
+    used[static_cast<size_t>(w)] = true;
+  }
+  return num_words;
+}
+
 }  // namespace
 
 Expected<Vocabulary> Vocabulary::create(int branching, int levels, std::vector<NodeSpec> nodes,
@@ -29,70 +112,16 @@ Expected<Vocabulary> Vocabulary::create(int branching, int levels, std::vector<N
   if (n >= kNoParent) return makeError(what, ": ", n, " nodes is too many");
   if (nodes[0].parent != -1) return makeError(what, ": node 0 must be the root (parent -1)");
 
-  std::vector<std::vector<uint32_t>> children(n);
-  for (size_t i = 1; i < n; ++i) {
-    const int64_t p = nodes[i].parent;
-    if (p < 0 || p >= static_cast<int64_t>(n) || p == static_cast<int64_t>(i)) {
-      return makeError(what, ": node ", i, " has parent ", p, ", which is not another node");
-    }
-    children[static_cast<size_t>(p)].push_back(static_cast<uint32_t>(i));
-  }
-
-  // Breadth-first order: children of one node are enqueued together, hence contiguous.
+  auto children = childrenOf(nodes, what);
+  if (!children) return children.error();
   std::vector<uint32_t> order;  // order[new] = old
   std::vector<uint8_t> depth_old(n, 0);
-  order.reserve(n);
-  order.push_back(0);
-  for (size_t head = 0; head < order.size(); ++head) {
-    const uint32_t old = order[head];
-    if (children[old].size() > static_cast<size_t>(branching)) {
-      return makeError(what, ": node ", old, " has ", children[old].size(),
-                       " children, more than k = ", branching);
-    }
-    for (uint32_t c : children[old]) {
-      depth_old[c] = static_cast<uint8_t>(depth_old[old] + 1);
-      if (depth_old[c] > levels) {
-        return makeError(what, ": node ", c, " lies at depth ", int(depth_old[c]),
-                         ", deeper than L = ", levels);
-      }
-      order.push_back(c);
-    }
+  if (Status st = breadthFirst(*children, branching, levels, what, &order, &depth_old); !st) {
+    return st.error();
   }
-  if (order.size() != n) {
-    return makeError(what, ": ", n - order.size(),
-                     " nodes are not reachable from the root (their parents form a cycle)");
-  }
-
-  // Words: exactly the leaves, ids 0..W-1 each once, finite non-negative weights.
-  size_t num_words = 0;
-  for (size_t i = 0; i < n; ++i) {
-    const bool leaf = children[i].empty();
-    if (i == 0 && leaf) return makeError(what, ": the root has no children");
-    if (leaf && nodes[i].word < 0) {
-      return makeError(what, ": node ", i, " is a leaf without a word id");
-    }
-    if (!leaf && nodes[i].word >= 0) {
-      return makeError(what, ": node ", i, " has children but is also word ", nodes[i].word);
-    }
-    if (leaf) ++num_words;
-  }
-  std::vector<uint32_t> node_of_word(num_words, kNoParent);
-  for (size_t i = 0; i < n; ++i) {
-    const int64_t w = nodes[i].word;
-    if (w < 0) continue;
-    if (w >= static_cast<int64_t>(num_words)) {
-      return makeError(what, ": node ", i, " has word id ", w, " but there are only ", num_words,
-                       " words (ids must be 0..", num_words - 1, ")");
-    }
-    if (node_of_word[static_cast<size_t>(w)] != kNoParent) {
-      return makeError(what, ": word id ", w, " is used by two nodes");
-    }
-    if (!std::isfinite(nodes[i].weight) || nodes[i].weight < 0.0) {
-      return makeError(what, ": word ", w, " has weight ", nodes[i].weight,
-                       " (must be finite and >= 0)");
-    }
-    node_of_word[static_cast<size_t>(w)] = static_cast<uint32_t>(i);
-  }
+  const Expected<size_t> words = checkWords(nodes, *children, what);
+  if (!words) return words.error();
+  const size_t num_words = *words;
 
   Vocabulary v;
   v.branching_ = branching;
@@ -111,8 +140,8 @@ Expected<Vocabulary> Vocabulary::create(int branching, int levels, std::vector<N
     const uint32_t old = order[k];
     const NodeSpec& s = nodes[old];
     v.parent_[k] = k == 0 ? kNoParent : new_of_old[static_cast<size_t>(s.parent)];
-    v.num_children_[k] = static_cast<uint32_t>(children[old].size());
-    if (!children[old].empty()) v.first_child_[k] = new_of_old[children[old].front()];
+    v.num_children_[k] = static_cast<uint32_t>((*children)[old].size());
+    if (!(*children)[old].empty()) v.first_child_[k] = new_of_old[(*children)[old].front()];
     v.depth_[k] = depth_old[old];
     v.word_of_node_[k] = s.word;
     v.descriptors_[k] = k == 0 ? Descriptor{} : s.descriptor;

@@ -3,16 +3,10 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/common/quoted_number.h"
+
 namespace evermap::core {
 namespace {
-
-// "%g" without the sign of a NaN ("-nan" from a YAML ".nan" reads as a typo).
-std::string num(double v) {
-  if (std::isnan(v)) return "nan";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", v);
-  return buf;
-}
 
 bool positiveFinite(double v) { return std::isfinite(v) && v > 0.0; }
 
@@ -23,18 +17,20 @@ bool same(double a, double b) { return std::abs(a - b) <= 1e-6 * std::max(1.0, s
 
 Status CameraCalibration::validate(const std::string& what) const {
   if (!positiveFinite(fx)) {
-    return makeError(what, ": focal length fx = ", num(fx), " must be positive and finite");
+    return makeError(what, ": focal length fx = ", quotedNumberText(fx),
+                     " must be positive and finite");
   }
   if (!positiveFinite(fy)) {
-    return makeError(what, ": focal length fy = ", num(fy), " must be positive and finite");
+    return makeError(what, ": focal length fy = ", quotedNumberText(fy),
+                     " must be positive and finite");
   }
   if (width <= 0 || height <= 0) {
     return makeError(what, ": image size ", width, "x", height, " must be positive");
   }
   if (!(std::isfinite(cx) && std::isfinite(cy) && cx >= 0.0 && cy >= 0.0 && cx < width &&
         cy < height)) {
-    return makeError(what, ": principal point (", num(cx), ", ", num(cy), ") is outside the ",
-                     width, "x", height, " image");
+    return makeError(what, ": principal point (", quotedNumberText(cx), ", ", quotedNumberText(cy),
+                     ") is outside the ", width, "x", height, " image");
   }
   switch (distortion_model) {
     case DistortionModel::kNone:
@@ -72,7 +68,7 @@ Status StereoCalibration::validate(const std::string& what) const {
   const SE3d r_T_l = right_T_left();
   const double baseline = r_T_l.translation().norm();
   if (!(baseline > 1e-6)) {
-    return makeError(what, ": baseline is ", num(baseline),
+    return makeError(what, ": baseline is ", quotedNumberText(baseline),
                      " m: the cameras are at the same place (identical extrinsics?)");
   }
   if (!rectified) return Ok{};
@@ -84,31 +80,33 @@ Status StereoCalibration::validate(const std::string& what) const {
   // cx may differ: the disparity offset (StereoCamera); fx, fy and cy may not, or rows and
   // scales would differ between the images.
   if (!same(left.fx, right.fx) || !same(left.fy, right.fy) || !same(left.cy, right.cy)) {
-    return makeError(what,
-                     ": marked rectified but the intrinsics differ: left fx fy cy = ", num(left.fx),
-                     " ", num(left.fy), " ", num(left.cy), ", right ", num(right.fx), " ",
-                     num(right.fy), " ", num(right.cy));
+    return makeError(what, ": marked rectified but the intrinsics differ: left fx fy cy = ",
+                     quotedNumberText(left.fx), " ", quotedNumberText(left.fy), " ",
+                     quotedNumberText(left.cy), ", right ", quotedNumberText(right.fx), " ",
+                     quotedNumberText(right.fy), " ", quotedNumberText(right.cy));
   }
   const double offset = right.cx - left.cx;
   if (!(std::abs(offset) <= left.width / 4.0)) {
     return makeError(what,
                      ": marked rectified but the principal points differ by right cx - "
                      "left cx = ",
-                     num(offset), " px, beyond a quarter of the ", left.width,
-                     " px width (left cx ", num(left.cx), ", right cx ", num(right.cx), ")");
+                     quotedNumberText(offset), " px, beyond a quarter of the ", left.width,
+                     " px width (left cx ", quotedNumberText(left.cx), ", right cx ",
+                     quotedNumberText(right.cx), ")");
   }
   if (rotationAngle(r_T_l.so3()) > 1e-6) {
     return makeError(what, ": marked rectified but the cameras are rotated by ",
-                     num(rotationAngle(r_T_l.so3())), " rad");
+                     quotedNumberText(rotationAngle(r_T_l.so3())), " rad");
   }
   // The right camera at +b along x of the left: p_right = p_left - (b, 0, 0).
   const Vec3 t = r_T_l.translation();
   if (std::abs(t.y()) > 1e-6 * baseline || std::abs(t.z()) > 1e-6 * baseline) {
     return makeError(what, ": marked rectified but the baseline is not along x: right_t_left = (",
-                     num(t.x()), ", ", num(t.y()), ", ", num(t.z()), ") m");
+                     quotedNumberText(t.x()), ", ", quotedNumberText(t.y()), ", ",
+                     quotedNumberText(t.z()), ") m");
   }
   if (t.x() >= 0.0) {
-    return makeError(what, ": the right camera is ", num(t.x()),
+    return makeError(what, ": the right camera is ", quotedNumberText(t.x()),
                      " m to the LEFT of the left camera (left and right swapped?)");
   }
   return Ok{};
@@ -128,11 +126,12 @@ Expected<StereoCamera> rectifiedStereoCamera(const StereoCalibration& c) {
 
 Expected<StereoCalibration> withDisparityOffset(const StereoCalibration& c, double offset_px) {
   if (!c.rectified) {
-    return makeError("disparity offset ", num(offset_px),
+    return makeError("disparity offset ", quotedNumberText(offset_px),
                      " px: the stereo calibration is not "
                      "rectified (a raw pair's rectification sets the rectified principal points)");
   }
-  if (!std::isfinite(offset_px)) return makeError("disparity offset ", num(offset_px), " px");
+  if (!std::isfinite(offset_px))
+    return makeError("disparity offset ", quotedNumberText(offset_px), " px");
   StereoCalibration out = c;
   out.right.cx = c.left.cx + offset_px;
   if (Status s = out.validate(); !s) return s.error();

@@ -5,19 +5,9 @@
 #include <cstdlib>
 #include <limits>
 
+#include "core/common/quoted_number.h"
+
 namespace evermap::core {
-namespace {
-
-// "%g" without the sign of a NaN ("-nan" from a YAML ".nan" reads as a typo).
-std::string num(double v) {
-  if (std::isnan(v)) return "nan";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", v);
-  return buf;
-}
-
-}  // namespace
-
 Expected<StereoCamera> StereoCamera::create(double fx, double fy, double cx, double cy,
                                             double baseline_m, int width, int height,
                                             double disparity_offset_px) {
@@ -37,13 +27,15 @@ Expected<StereoCamera> StereoCamera::create(double fx, double fy, double cx, dou
 Status StereoCamera::validate() const {
   const char* who = "stereo camera: ";
   if (!(std::isfinite(fx_) && fx_ > 0.0)) {
-    return makeError(who, "focal length fx = ", num(fx_), " must be positive and finite");
+    return makeError(who, "focal length fx = ", quotedNumberText(fx_),
+                     " must be positive and finite");
   }
   if (!(std::isfinite(fy_) && fy_ > 0.0)) {
-    return makeError(who, "focal length fy = ", num(fy_), " must be positive and finite");
+    return makeError(who, "focal length fy = ", quotedNumberText(fy_),
+                     " must be positive and finite");
   }
   if (!(std::isfinite(baseline_m_) && baseline_m_ > 0.0)) {
-    return makeError(who, "baseline = ", num(baseline_m_),
+    return makeError(who, "baseline = ", quotedNumberText(baseline_m_),
                      " m must be positive and finite (right camera at +x of the left)");
   }
   if (width_ <= 0 || height_ <= 0) {
@@ -51,15 +43,16 @@ Status StereoCamera::validate() const {
   }
   if (!(std::isfinite(cx_) && std::isfinite(cy_) && cx_ >= 0.0 && cy_ >= 0.0 && cx_ < width_ &&
         cy_ < height_)) {
-    return makeError(who, "principal point (", num(cx_), ", ", num(cy_), ") is outside the ",
-                     width_, "x", height_, " image");
+    return makeError(who, "principal point (", quotedNumberText(cx_), ", ", quotedNumberText(cy_),
+                     ") is outside the ", width_, "x", height_, " image");
   }
   // A quarter of the width is far beyond any rectification error (KITTI's clip: 0.8 px of
   // 1241) and still refuses a right camera's cx given in another image's coordinates.
   if (!(std::isfinite(disparity_offset_px_) && std::abs(disparity_offset_px_) <= width_ / 4.0)) {
-    return makeError(who, "disparity offset cx_right - cx_left = ", num(disparity_offset_px_),
-                     " px is not finite or beyond a quarter of the ", width_,
-                     " px width (a rectified pair's principal points differ by little)");
+    return makeError(
+        who, "disparity offset cx_right - cx_left = ", quotedNumberText(disparity_offset_px_),
+        " px is not finite or beyond a quarter of the ", width_,
+        " px width (a rectified pair's principal points differ by little)");
   }
   return Ok{};
 }

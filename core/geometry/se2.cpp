@@ -30,17 +30,27 @@ SE2d SE2d::inverse() const {
   return SE2d(t.x(), t.y(), -theta_);
 }
 
+namespace {
+
+// V(w) = [[a, -b], [b, a]], the matrix that maps the translation part of a tangent vector to
+// the translation of exp: a = sin(w)/w, b = (1 - cos(w))/w, by their series near w = 0.
+void leftJacobianCoefficients(double w, double* a, double* b) {
+  if (std::abs(w) < 1e-9) {
+    *a = 1.0 - w * w / 6.0;
+    *b = 0.5 * w;
+  } else {
+    *a = std::sin(w) / w;
+    *b = (1.0 - std::cos(w)) / w;
+  }
+}
+
+}  // namespace
+
 SE2d SE2d::exp(const Eigen::Vector3d& xi) {
   const double w = xi.z();
-  double a;  // sin(w)/w
-  double b;  // (1 - cos(w))/w
-  if (std::abs(w) < 1e-9) {
-    a = 1.0 - w * w / 6.0;
-    b = 0.5 * w;
-  } else {
-    a = std::sin(w) / w;
-    b = (1.0 - std::cos(w)) / w;
-  }
+  double a;
+  double b;
+  leftJacobianCoefficients(w, &a, &b);
   const double x = a * xi.x() - b * xi.y();
   const double y = b * xi.x() + a * xi.y();
   return SE2d(x, y, w);
@@ -50,13 +60,7 @@ Eigen::Vector3d SE2d::log() const {
   const double w = theta_;
   double a;
   double b;
-  if (std::abs(w) < 1e-9) {
-    a = 1.0 - w * w / 6.0;
-    b = 0.5 * w;
-  } else {
-    a = std::sin(w) / w;
-    b = (1.0 - std::cos(w)) / w;
-  }
+  leftJacobianCoefficients(w, &a, &b);
   // Invert V = [[a, -b], [b, a]].
   const double det = a * a + b * b;
   const double vx = (a * x_ + b * y_) / det;

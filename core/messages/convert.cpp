@@ -328,14 +328,8 @@ evermap::pose_t toMsg(int64_t utime, const core::UncertainPose& pose, int32_t fl
 
 Expected<core::UncertainPose> fromMsg(const evermap::pose_t& msg) {
   const std::string what = "pose_t at utime " + std::to_string(msg.utime);
-  if (!finite(msg.position, 3) || !finite(msg.orientation, 4)) {
-    return makeError(what, ": non-finite position or orientation");
-  }
-  const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2],
-                             msg.orientation[3]);
-  if (std::abs(q.norm() - 1.0) > 1e-3) {
-    return makeError(what, ": orientation is not a unit quaternion (norm ", q.norm(), ")");
-  }
+  const Expected<core::SE3d> mean = poseFromMessage(msg.position, msg.orientation, what.c_str());
+  if (!mean) return mean.error();
   if (!finite(msg.covariance, 36)) return makeError(what, ": non-finite covariance");
   core::UncertainPose pose;
   for (int r = 0; r < 6; ++r) {
@@ -348,7 +342,7 @@ Expected<core::UncertainPose> fromMsg(const evermap::pose_t& msg) {
   if ((pose.covariance.diagonal().array() < 0.0).any()) {
     return makeError(what, ": covariance has a negative variance");
   }
-  pose.mean = core::SE3d(q, core::Vec3(msg.position[0], msg.position[1], msg.position[2]));
+  pose.mean = *mean;
   return pose;
 }
 

@@ -38,7 +38,10 @@ evermap::keyframe_t toMsg(const core::StereoCamera& camera,
 
 Expected<KeyframeMsgContents> fromMsg(const evermap::keyframe_t& msg) {
   const std::string who = "keyframe_t " + std::to_string(msg.utime);
-  if (msg.num_features < 0) return makeError(who, ": num_features ", msg.num_features);
+  if (msg.num_features < 0 || msg.num_features > kMaxKeyframeFeatures) {
+    return makeError(who, ": num_features ", msg.num_features, " is outside [0, ",
+                     kMaxKeyframeFeatures, "]");
+  }
   const auto n = static_cast<size_t>(msg.num_features);
   if (msg.keypoints.size() != n || msg.points.size() != n || msg.disparity.size() != n ||
       msg.level.size() != n || msg.descriptors.size() != n) {

@@ -20,14 +20,18 @@
 
 namespace evermap::messages {
 
+// Largest number of features a keyframe may claim (bounds what a malformed message costs).
+inline constexpr int kMaxKeyframeFeatures = 100000;
+
 struct KeyframeMsgContents {
   core::StereoCamera camera;
   core::KeyframeFeatures features;
 };
 
 evermap::keyframe_t toMsg(const core::StereoCamera& camera, const core::KeyframeFeatures& features);
-// Errors name the field: non-finite or non-positive intrinsics, inconsistent lengths, a
-// feature that is not finite, a non-positive disparity or depth, a negative level.
+// Errors name the field: a feature count outside [0, kMaxKeyframeFeatures], non-finite or
+// non-positive intrinsics, inconsistent lengths, a feature that is not finite, a non-positive
+// disparity or depth, a negative level.
 Expected<KeyframeMsgContents> fromMsg(const evermap::keyframe_t& msg);
 
 }  // namespace evermap::messages

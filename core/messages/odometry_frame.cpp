@@ -18,10 +18,10 @@ bool finite(const double* v, int n) {
 
 // A pose from translation[3] and orientation[4] (w x y z); empty when not finite or not unit.
 std::optional<core::SE3d> poseOf(const double* t, const double* q) {
-  if (!finite(t, 3) || !finite(q, 4)) return std::nullopt;
-  const Eigen::Quaterniond rot(q[0], q[1], q[2], q[3]);
-  if (std::abs(rot.norm() - 1.0) > 1e-3) return std::nullopt;
-  return core::SE3d(rot.normalized(), core::Vec3(t[0], t[1], t[2]));
+  if (!finite(t, 3)) return std::nullopt;
+  const Expected<Eigen::Quaterniond> rot = quaternionFromMessage(q, "VO_DELTA");
+  if (!rot) return std::nullopt;
+  return core::SE3d(rot->normalized(), core::Vec3(t[0], t[1], t[2]));
 }
 
 // Symmetric, negative eigenvalues (rounding) set to zero.

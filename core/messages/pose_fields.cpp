@@ -41,4 +41,22 @@ Expected<Eigen::Matrix3d> planarCovarianceFromMessage(const double* row_major, c
   return covarianceOf<3>(row_major, what);
 }
 
+Expected<Eigen::Quaterniond> quaternionFromMessage(const double* orientation, const char* what) {
+  const Eigen::Quaterniond q(orientation[0], orientation[1], orientation[2], orientation[3]);
+  if (!q.coeffs().allFinite()) return makeError(what, ": orientation is not finite");
+  if (std::abs(q.norm() - 1.0) > kUnitQuaternionTolerance) {
+    return makeError(what, ": orientation is not a unit quaternion (norm ", q.norm(), ")");
+  }
+  return q;
+}
+
+Expected<core::SE3d> poseFromMessage(const double* translation, const double* orientation,
+                                     const char* what) {
+  const core::Vec3 t(translation[0], translation[1], translation[2]);
+  if (!t.allFinite()) return makeError(what, ": translation is not finite");
+  const Expected<Eigen::Quaterniond> q = quaternionFromMessage(orientation, what);
+  if (!q) return q.error();
+  return core::SE3d(*q, t);
+}
+
 }  // namespace evermap::messages

@@ -1,6 +1,7 @@
 #pragma once
-// A pose into the translation[3] and orientation[4] (w, x, y, z) fields that pose-carrying
-// messages have (pose_t, map_graph_t's nodes and edges), and a 6x6 covariance out of a
+// A pose into, and out of, the translation[3] and orientation[4] (w, x, y, z) fields that
+// pose-carrying messages have (pose_t, vo_delta_t, register_result_t, map_graph_t's nodes and
+// edges), and a 6x6 covariance out of a
 // row-major covariance[36] field (vo_delta_t, register_result_t), or a 3x3 one out of a
 // covariance[9] field (wheel_odom_t).
 
@@ -17,6 +18,16 @@ inline void putPose(const core::SE3d& pose, double* translation, double* orienta
   orientation[2] = q.y();
   orientation[3] = q.z();
 }
+
+// The rotation an orientation[4] field (w, x, y, z) holds, as read: the caller's SO3d / SE3d
+// normalises it. An error naming `what` when a component is not finite or the norm is farther
+// than kUnitQuaternionTolerance from 1.
+inline constexpr double kUnitQuaternionTolerance = 1e-3;
+Expected<Eigen::Quaterniond> quaternionFromMessage(const double* orientation, const char* what);
+// The pose of translation[3] and orientation[4] fields (putPose's inverse): the translation
+// finite, the quaternion checked as above.
+Expected<core::SE3d> poseFromMessage(const double* translation, const double* orientation,
+                                     const char* what);
 
 // Covariance from a row-major 6x6 message field, symmetrised; an error naming `what` when it
 // is not finite or not symmetric positive semi-definite (within rounding).

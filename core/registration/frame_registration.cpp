@@ -63,6 +63,71 @@ SE3d rigidFit(const std::vector<Eigen::Vector3d>& pa, const std::vector<Eigen::V
   return SE3d(SO3d::fromMatrix(T.topLeftCorner<3, 3>()), T.topRightCorner<3, 1>());
 }
 
+// The points of the matches in their cameras, with their depth noise σ_z = z² σ_d / (fx b)
+// (first order of z = fx b / d) when disparity_sigma_px > 0.
+struct MatchedPoints {
+  std::vector<Eigen::Vector3d> pa, pb;
+  std::vector<double> sigma_a, sigma_b;
+};
+
+MatchedPoints matchedPoints(const StereoCamera& camera_a, const StereoCamera& camera_b,
+                            const std::vector<Correspondence>& matches,
+                            const RegistrationOptions& options) {
+  MatchedPoints p;
+  p.pa.reserve(matches.size());
+  p.pb.reserve(matches.size());
+  auto depthSigma = [&](const StereoCamera& c, double z) {
+    return z * z * options.disparity_sigma_px / (c.fx() * c.baselineM());
+  };
+  for (const Correspondence& m : matches) {
+    p.pa.push_back(m.p_a);
+    p.pb.push_back(m.p_b);
+    if (options.disparity_sigma_px > 0.0) {
+      p.sigma_a.push_back(depthSigma(camera_a, m.p_a.z()));
+      p.sigma_b.push_back(depthSigma(camera_b, m.p_b.z()));
+    }
+  }
+  return p;
+}
+
+// The motion estimate into the summary: pose, covariance, inliers as index pairs, status and
+// message.
+void takeMotion(const MotionEstimate& motion, const std::vector<std::pair<int, int>>& ids,
+                const RegistrationOptions& options, RegistrationSummary* s) {
+  s->a_T_b = motion.a_T_b;
+  s->covariance = motion.covariance;
+  s->num_inliers = static_cast<int>(motion.inliers.size());
+  s->mean_reprojection_px = motion.mean_reprojection_px;
+  s->inliers.reserve(motion.inliers.size());
+  for (int i : motion.inliers) s->inliers.push_back(ids[static_cast<size_t>(i)]);
+  std::ostringstream msg;
+  msg << s->num_matches << " matches, " << s->num_clique << " in the clique, " << s->num_inliers
+      << " inliers, mean reprojection error " << s->mean_reprojection_px << " px";
+  switch (motion.status) {
+    case MotionStatus::kOk:
+      if (s->num_inliers < options.min_inliers) {
+        s->status = RegistrationStatus::kInsufficientInliers;
+        msg << " (need " << options.min_inliers << " inliers)";
+      } else {
+        s->status = RegistrationStatus::kOk;
+      }
+      break;
+    case MotionStatus::kInsufficientInliers:
+      s->status = RegistrationStatus::kInsufficientInliers;
+      msg << ": " << motion.message;
+      break;
+    case MotionStatus::kOptimizationFailure:
+      s->status = RegistrationStatus::kOptimizationFailure;
+      msg << ": " << motion.message;
+      break;
+    case MotionStatus::kReprojectionError:
+      s->status = RegistrationStatus::kReprojectionError;
+      msg << ": " << motion.message;
+      break;
+  }
+  s->message = msg.str();
+}
+
 }  // namespace
 
 std::optional<std::string> ambiguity(const std::vector<Eigen::Vector3d>& pa,
@@ -123,22 +188,11 @@ RegistrationSummary registerMatches(const StereoCamera& camera_a, const StereoCa
             .message;
     return s;
   }
-  std::vector<Eigen::Vector3d> pa, pb;
-  std::vector<double> sigma_a, sigma_b;
-  pa.reserve(matches.size());
-  pb.reserve(matches.size());
-  // Depth noise of a stereo point: σ_z = z² σ_d / (fx b) (first order of z = fx b / d).
-  auto depthSigma = [&](const StereoCamera& c, double z) {
-    return z * z * options.disparity_sigma_px / (c.fx() * c.baselineM());
-  };
-  for (const Correspondence& m : matches) {
-    pa.push_back(m.p_a);
-    pb.push_back(m.p_b);
-    if (options.disparity_sigma_px > 0.0) {
-      sigma_a.push_back(depthSigma(camera_a, m.p_a.z()));
-      sigma_b.push_back(depthSigma(camera_b, m.p_b.z()));
-    }
-  }
+  const MatchedPoints points = matchedPoints(camera_a, camera_b, matches, options);
+  const std::vector<Eigen::Vector3d>& pa = points.pa;
+  const std::vector<Eigen::Vector3d>& pb = points.pb;
+  const std::vector<double>& sigma_a = points.sigma_a;
+  const std::vector<double>& sigma_b = points.sigma_b;
   const std::vector<int> clique = maxConsistentClique(pa, pb, sigma_a, sigma_b, options.clique);
   s.num_clique = static_cast<int>(clique.size());
   if (s.num_clique < options.min_inliers) {
@@ -159,38 +213,7 @@ RegistrationSummary registerMatches(const StereoCamera& camera_a, const StereoCa
   }
   const MotionEstimate motion =
       estimateMotion(camera_a, camera_b, matches, clique, initial, options.motion);
-  s.a_T_b = motion.a_T_b;
-  s.covariance = motion.covariance;
-  s.num_inliers = static_cast<int>(motion.inliers.size());
-  s.mean_reprojection_px = motion.mean_reprojection_px;
-  s.inliers.reserve(motion.inliers.size());
-  for (int i : motion.inliers) s.inliers.push_back(ids[static_cast<size_t>(i)]);
-  std::ostringstream msg;
-  msg << s.num_matches << " matches, " << s.num_clique << " in the clique, " << s.num_inliers
-      << " inliers, mean reprojection error " << s.mean_reprojection_px << " px";
-  switch (motion.status) {
-    case MotionStatus::kOk:
-      if (s.num_inliers < options.min_inliers) {
-        s.status = RegistrationStatus::kInsufficientInliers;
-        msg << " (need " << options.min_inliers << " inliers)";
-      } else {
-        s.status = RegistrationStatus::kOk;
-      }
-      break;
-    case MotionStatus::kInsufficientInliers:
-      s.status = RegistrationStatus::kInsufficientInliers;
-      msg << ": " << motion.message;
-      break;
-    case MotionStatus::kOptimizationFailure:
-      s.status = RegistrationStatus::kOptimizationFailure;
-      msg << ": " << motion.message;
-      break;
-    case MotionStatus::kReprojectionError:
-      s.status = RegistrationStatus::kReprojectionError;
-      msg << ": " << motion.message;
-      break;
-  }
-  s.message = msg.str();
+  takeMotion(motion, ids, options, &s);
   return s;
 }
 

@@ -255,19 +255,10 @@ struct Problem {
   }
 };
 
-}  // namespace
-
-MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& camera_b,
-                              const std::vector<Correspondence>& matches,
-                              const std::vector<int>& candidates, const SE3d& initial,
-                              const MotionOptions& options) {
-  MotionEstimate out;
-  const int n_min = options.min_inliers;
-  if (static_cast<int>(candidates.size()) < n_min) {
-    out.status = MotionStatus::kInsufficientInliers;
-    out.message = makeError(candidates.size(), " candidate matches, need ", n_min).message;
-    return out;
-  }
+// The starting motion: `initial`, or (use_initial_guess off) the rigid alignment of the
+// candidates' points when it exists.
+SE3d initialMotion(const std::vector<Correspondence>& matches, const std::vector<int>& candidates,
+                   const SE3d& initial, const MotionOptions& options) {
   SE3d T = initial;
   if (!options.use_initial_guess) {
     std::vector<Vec3> src, dst;  // a_T_b maps p_b onto p_a
@@ -281,89 +272,131 @@ MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& 
       T = a->dst_S_src.rigid;
     }
   }
-  Problem problem{camera_a, camera_b, matches, options.disparity_sigma_px, options.pixel_sigma_px,
-                  {}};
-  problem.precompute();
-  std::vector<int> active = candidates;
-  int iterations = problem.solve(&T, active, options.max_iterations);
-  // Outlier rejection (FOVIS): drop matches beyond the error bound and solve again. When the
-  // first solve is pulled off by gross outliers (a clique that admits far points with wrong
-  // depths), the bound starts at a robust multiple of the median error (1.4826 median = σ of
-  // a normal distribution), at least halves per solve and reaches
-  // inlier_max_reprojection_px after at most max_rejection_rounds solves.
+  return T;
+}
+
+// The error bound of one rejection round, and in *worst the largest error of each active match.
+double rejectionBound(const Problem& problem, const SE3d& T, const std::vector<int>& active,
+                      int round, double previous_bound, const MotionOptions& options,
+                      std::vector<double>* worst) {
+  worst->reserve(active.size());
+  const PoseMatrices P(T);
+  for (int i : active) {
+    worst->push_back(problem.errors(P, i).maxCoeff());
+  }
+  std::vector<double> sorted = *worst;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
+                   sorted.end());
+  // At most half the previous bound: a fit pulled off so far that the median itself is an
+  // outlier's error would otherwise keep the same bound.
+  const double robust = std::min(3.0 * 1.4826 * sorted[sorted.size() / 2], 0.5 * previous_bound);
+  return round >= options.max_rejection_rounds
+             ? options.inlier_max_reprojection_px
+             : std::max(options.inlier_max_reprojection_px, robust);
+}
+
+// Outlier rejection (FOVIS): drop matches beyond the error bound and solve again. When the
+// first solve is pulled off by gross outliers (a clique that admits far points with wrong
+// depths), the bound starts at a robust multiple of the median error (1.4826 median = σ of
+// a normal distribution), at least halves per solve and reaches
+// inlier_max_reprojection_px after at most max_rejection_rounds solves. False (and *out
+// final) when too few matches stay.
+bool rejectOutliers(const Problem& problem, const std::vector<int>& candidates,
+                    const MotionOptions& options, SE3d* T, std::vector<int>* active,
+                    int* iterations, MotionEstimate* out) {
+  const int n_min = options.min_inliers;
   double previous_bound = std::numeric_limits<double>::infinity();
-  for (int round = 0; iterations >= 0; ++round) {
+  for (int round = 0; *iterations >= 0; ++round) {
     std::vector<double> worst;
-    worst.reserve(active.size());
-    const PoseMatrices P(T);
-    for (int i : active) {
-      worst.push_back(problem.errors(P, i).maxCoeff());
-    }
-    std::vector<double> sorted = worst;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
-                     sorted.end());
-    // At most half the previous bound: a fit pulled off so far that the median itself is an
-    // outlier's error would otherwise keep the same bound.
-    const double robust = std::min(3.0 * 1.4826 * sorted[sorted.size() / 2], 0.5 * previous_bound);
-    const double bound = round >= options.max_rejection_rounds
-                             ? options.inlier_max_reprojection_px
-                             : std::max(options.inlier_max_reprojection_px, robust);
+    const double bound =
+        rejectionBound(problem, *T, *active, round, previous_bound, options, &worst);
     previous_bound = bound;
     std::vector<int> kept;
-    kept.reserve(active.size());
-    for (size_t k = 0; k < active.size(); ++k) {
-      if (worst[k] <= bound) kept.push_back(active[k]);
+    kept.reserve(active->size());
+    for (size_t k = 0; k < active->size(); ++k) {
+      if (worst[k] <= bound) kept.push_back((*active)[k]);
     }
-    active.swap(kept);
-    if (static_cast<int>(active.size()) < n_min) {
-      out.status = MotionStatus::kInsufficientInliers;
-      out.message = makeError(active.size(), " of ", candidates.size(), " matches within ", bound,
-                              " px after ", round + 1, " solves, need ", n_min)
-                        .message;
-      out.a_T_b = T;
-      out.inliers = active;
-      return out;
+    active->swap(kept);
+    if (static_cast<int>(active->size()) < n_min) {
+      out->status = MotionStatus::kInsufficientInliers;
+      out->message = makeError(active->size(), " of ", candidates.size(), " matches within ", bound,
+                               " px after ", round + 1, " solves, need ", n_min)
+                         .message;
+      out->a_T_b = *T;
+      out->inliers = *active;
+      return false;
     }
-    const int more = problem.solve(&T, active, options.max_iterations);
-    iterations = more < 0 ? -1 : iterations + more;
+    const int more = problem.solve(T, *active, options.max_iterations);
+    *iterations = more < 0 ? -1 : *iterations + more;
     if (bound <= options.inlier_max_reprojection_px) break;
   }
-  out.iterations = std::max(iterations, 0);
-  out.a_T_b = T;
-  out.inliers = active;
+  return true;
+}
+
+// The estimate's reprojection error, covariance and status at the solution T.
+void judgeEstimate(const Problem& problem, int iterations, const MotionOptions& options,
+                   MotionEstimate* out) {
+  const SE3d& T = out->a_T_b;
+  const std::vector<int>& active = out->inliers;
   Mat6 H;
   Vec6 g;
   const double cost = problem.evaluate(T, active, &H, &g);
   if (iterations < 0 || !std::isfinite(cost) || !T.translation().allFinite()) {
-    out.status = MotionStatus::kOptimizationFailure;
-    out.message = "the motion estimate did not stay finite";
-    return out;
+    out->status = MotionStatus::kOptimizationFailure;
+    out->message = "the motion estimate did not stay finite";
+    return;
   }
   double sum_error = 0.0;
   const PoseMatrices P(T);
   for (int i : active) {
     sum_error += problem.errors(P, i).sum();
   }
-  out.mean_reprojection_px = sum_error / (2.0 * static_cast<double>(active.size()));
+  out->mean_reprojection_px = sum_error / (2.0 * static_cast<double>(active.size()));
   Eigen::FullPivLU<Mat6> lu(H);
   if (!lu.isInvertible() || !H.allFinite()) {
-    out.status = MotionStatus::kOptimizationFailure;
-    out.message = "the motion is not determined by the inliers (singular normal equations)";
-    return out;
+    out->status = MotionStatus::kOptimizationFailure;
+    out->message = "the motion is not determined by the inliers (singular normal equations)";
+    return;
   }
   // Residual variance per pixel coordinate: 4 residuals per match, 6 unknowns.
   const double dof = std::max(4.0 * static_cast<double>(active.size()) - 6.0, 1.0);
   const double sigma2 = std::max(cost / dof, options.pixel_sigma_px * options.pixel_sigma_px);
   const Mat6 Hinv = lu.inverse();
-  out.covariance = 2.0 * sigma2 * 0.5 * (Hinv + Hinv.transpose());
-  if (out.mean_reprojection_px > options.max_mean_reprojection_px) {
-    out.status = MotionStatus::kReprojectionError;
-    out.message = makeError("mean reprojection error ", out.mean_reprojection_px, " px exceeds ",
-                            options.max_mean_reprojection_px, " px")
-                      .message;
+  out->covariance = 2.0 * sigma2 * 0.5 * (Hinv + Hinv.transpose());
+  if (out->mean_reprojection_px > options.max_mean_reprojection_px) {
+    out->status = MotionStatus::kReprojectionError;
+    out->message = makeError("mean reprojection error ", out->mean_reprojection_px, " px exceeds ",
+                             options.max_mean_reprojection_px, " px")
+                       .message;
+    return;
+  }
+  out->status = MotionStatus::kOk;
+}
+
+}  // namespace
+
+MotionEstimate estimateMotion(const StereoCamera& camera_a, const StereoCamera& camera_b,
+                              const std::vector<Correspondence>& matches,
+                              const std::vector<int>& candidates, const SE3d& initial,
+                              const MotionOptions& options) {
+  MotionEstimate out;
+  const int n_min = options.min_inliers;
+  if (static_cast<int>(candidates.size()) < n_min) {
+    out.status = MotionStatus::kInsufficientInliers;
+    out.message = makeError(candidates.size(), " candidate matches, need ", n_min).message;
     return out;
   }
-  out.status = MotionStatus::kOk;
+  SE3d T = initialMotion(matches, candidates, initial, options);
+  Problem problem{camera_a, camera_b, matches, options.disparity_sigma_px, options.pixel_sigma_px,
+                  {}};
+  problem.precompute();
+  std::vector<int> active = candidates;
+  int iterations = problem.solve(&T, active, options.max_iterations);
+  if (!rejectOutliers(problem, candidates, options, &T, &active, &iterations, &out)) return out;
+  out.iterations = std::max(iterations, 0);
+  out.a_T_b = T;
+  out.inliers = active;
+  judgeEstimate(problem, iterations, options, &out);
   return out;
 }
 

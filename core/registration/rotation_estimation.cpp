@@ -64,89 +64,133 @@ int accumulateScalar(const TemplatePixels& t, const Warp& w, const cv::Mat& imag
   return used;
 }
 
-// The same, 8 pixels at a time: the four neighbours of a sample come from two 32-bit gathers
-// (bytes x0 - 1 .. x0 + 2 of rows y0 and y0 + 1). Samples whose gather would leave the image
-// row (x0 = 0 or x0 + 2 = cols) and the last pixels take the scalar path.
+// The warp's constants broadcast to 8 lanes, for accumulateAvx2.
+struct Avx2Constants {
+  __m256 r00, r01, r02, r10, r11, r12, r20, r21, r22;
+  __m256 fx, fy, cx, cy, offset, one, min_z;
+  __m256i zero_i, one_i, cols_minus_2, cols_minus_1, rows_minus_1, steps, byte;
+};
+
+__attribute__((target("avx2"))) void broadcast(const Warp& w, const cv::Mat& image_b,
+                                               Avx2Constants* c) {
+  const int step = static_cast<int>(image_b.step[0]);
+  c->r00 = _mm256_set1_ps(w.Rm(0, 0));
+  c->r01 = _mm256_set1_ps(w.Rm(0, 1));
+  c->r02 = _mm256_set1_ps(w.Rm(0, 2));
+  c->r10 = _mm256_set1_ps(w.Rm(1, 0));
+  c->r11 = _mm256_set1_ps(w.Rm(1, 1));
+  c->r12 = _mm256_set1_ps(w.Rm(1, 2));
+  c->r20 = _mm256_set1_ps(w.Rm(2, 0));
+  c->r21 = _mm256_set1_ps(w.Rm(2, 1));
+  c->r22 = _mm256_set1_ps(w.Rm(2, 2));
+  c->fx = _mm256_set1_ps(w.fx);
+  c->fy = _mm256_set1_ps(w.fy);
+  c->cx = _mm256_set1_ps(w.cx);
+  c->cy = _mm256_set1_ps(w.cy);
+  c->offset = _mm256_set1_ps(w.offset);
+  c->one = _mm256_set1_ps(1.0f);
+  c->min_z = _mm256_set1_ps(1e-3f);
+  c->zero_i = _mm256_setzero_si256();
+  c->one_i = _mm256_set1_epi32(1);
+  c->cols_minus_2 = _mm256_set1_epi32(image_b.cols - 2);
+  c->cols_minus_1 = _mm256_set1_epi32(image_b.cols - 1);
+  c->rows_minus_1 = _mm256_set1_epi32(image_b.rows - 1);
+  c->steps = _mm256_set1_epi32(step);
+  c->byte = _mm256_set1_epi32(0xff);
+}
+
+// Template pixels i .. i + 7 warped into image b: where they land (u, v), the pixel below-left
+// of it (x0, y0), and which lanes are inside (the scalar rule: x0 >= 0, x0 + 1 < cols, same
+// for rows) and gatherable (also x0 >= 1, x0 + 2 < cols). Lanes behind the camera have
+// garbage x0, y0: masked.
+struct Avx2Lanes {
+  __m256 u, v, fu, fv;
+  __m256i x0, y0, inside, gatherable;
+};
+
+__attribute__((target("avx2"))) void warpLanes(const Avx2Constants& c, const TemplatePixels& t,
+                                               size_t i, Avx2Lanes* l) {
+  const __m256 rx = _mm256_loadu_ps(t.ray_x.data() + i);
+  const __m256 ry = _mm256_loadu_ps(t.ray_y.data() + i);
+  const __m256 qx =
+      _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(c.r00, rx), _mm256_mul_ps(c.r01, ry)), c.r02);
+  const __m256 qy =
+      _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(c.r10, rx), _mm256_mul_ps(c.r11, ry)), c.r12);
+  const __m256 qz =
+      _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(c.r20, rx), _mm256_mul_ps(c.r21, ry)), c.r22);
+  const __m256 front = _mm256_cmp_ps(qz, c.min_z, _CMP_GT_OQ);
+  const __m256 iz = _mm256_div_ps(c.one, qz);
+  l->u = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(c.fx, qx), iz), c.cx);
+  l->v = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(c.fy, qy), iz), c.cy);
+  l->fu = _mm256_floor_ps(l->u);
+  l->fv = _mm256_floor_ps(l->v);
+  l->x0 = _mm256_cvttps_epi32(l->fu);
+  l->y0 = _mm256_cvttps_epi32(l->fv);
+  const __m256i rows_in = _mm256_andnot_si256(
+      _mm256_or_si256(_mm256_cmpgt_epi32(c.zero_i, l->y0),
+                      _mm256_cmpgt_epi32(l->y0, _mm256_sub_epi32(c.rows_minus_1, c.one_i))),
+      _mm256_castps_si256(front));
+  l->inside = _mm256_andnot_si256(
+      _mm256_or_si256(_mm256_cmpgt_epi32(c.zero_i, l->x0),
+                      _mm256_cmpgt_epi32(l->x0, _mm256_sub_epi32(c.cols_minus_1, c.one_i))),
+      rows_in);
+  l->gatherable = _mm256_andnot_si256(
+      _mm256_or_si256(_mm256_cmpgt_epi32(c.one_i, l->x0),
+                      _mm256_cmpgt_epi32(l->x0, _mm256_sub_epi32(c.cols_minus_2, c.one_i))),
+      l->inside);
+}
+
+// The bilinear sample of image b at the gatherable lanes (0 elsewhere): the four neighbours
+// of a sample come from two 32-bit gathers (bytes x0 - 1 .. x0 + 2 of rows y0 and y0 + 1).
+__attribute__((target("avx2"))) __m256 sampleLanes(const Avx2Constants& c, const Avx2Lanes& l,
+                                                   const cv::Mat& image_b) {
+  const auto* base = reinterpret_cast<const int*>(image_b.ptr<uint8_t>(0));
+  const __m256i index =
+      _mm256_add_epi32(_mm256_mullo_epi32(l.y0, c.steps), _mm256_sub_epi32(l.x0, c.one_i));
+  const __m256i w0 = _mm256_mask_i32gather_epi32(c.zero_i, base, index, l.gatherable, 1);
+  const __m256i w1 = _mm256_mask_i32gather_epi32(c.zero_i, base, _mm256_add_epi32(index, c.steps),
+                                                 l.gatherable, 1);
+  const __m256 p00 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(w0, 8), c.byte));
+  const __m256 p01 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(w0, 16), c.byte));
+  const __m256 p10 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(w1, 8), c.byte));
+  const __m256 p11 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(w1, 16), c.byte));
+  const __m256 ax = _mm256_sub_ps(l.u, l.fu), ay = _mm256_sub_ps(l.v, l.fv);
+  const __m256 bx = _mm256_sub_ps(c.one, ax), by = _mm256_sub_ps(c.one, ay);
+  return _mm256_add_ps(
+      _mm256_mul_ps(by, _mm256_add_ps(_mm256_mul_ps(bx, p00), _mm256_mul_ps(ax, p01))),
+      _mm256_mul_ps(ay, _mm256_add_ps(_mm256_mul_ps(bx, p10), _mm256_mul_ps(ax, p11))));
+}
+
+// The same as accumulateScalar, 8 pixels at a time (warpLanes, sampleLanes). Samples whose
+// gather would leave the image row (x0 = 0 or x0 + 2 = cols) and the last pixels take the
+// scalar path.
 __attribute__((target("avx2"))) int accumulateAvx2(const TemplatePixels& t, const Warp& w,
                                                    const cv::Mat& image_b, Eigen::Vector4f* g) {
   const size_t n = t.size();
   const size_t n8 = n / 8 * 8;
-  const auto* base = reinterpret_cast<const int*>(image_b.ptr<uint8_t>(0));
-  const int step = static_cast<int>(image_b.step[0]);
-  const __m256 r00 = _mm256_set1_ps(w.Rm(0, 0)), r01 = _mm256_set1_ps(w.Rm(0, 1)),
-               r02 = _mm256_set1_ps(w.Rm(0, 2)), r10 = _mm256_set1_ps(w.Rm(1, 0)),
-               r11 = _mm256_set1_ps(w.Rm(1, 1)), r12 = _mm256_set1_ps(w.Rm(1, 2)),
-               r20 = _mm256_set1_ps(w.Rm(2, 0)), r21 = _mm256_set1_ps(w.Rm(2, 1)),
-               r22 = _mm256_set1_ps(w.Rm(2, 2));
-  const __m256 fx = _mm256_set1_ps(w.fx), fy = _mm256_set1_ps(w.fy);
-  const __m256 cx = _mm256_set1_ps(w.cx), cy = _mm256_set1_ps(w.cy);
-  const __m256 offset = _mm256_set1_ps(w.offset), one = _mm256_set1_ps(1.0f);
-  const __m256 min_z = _mm256_set1_ps(1e-3f);
-  const __m256i zero_i = _mm256_setzero_si256(), one_i = _mm256_set1_epi32(1);
-  const __m256i cols_minus_2 = _mm256_set1_epi32(image_b.cols - 2);
-  const __m256i cols_minus_1 = _mm256_set1_epi32(image_b.cols - 1);
-  const __m256i rows_minus_1 = _mm256_set1_epi32(image_b.rows - 1);
-  const __m256i steps = _mm256_set1_epi32(step), byte = _mm256_set1_epi32(0xff);
+  Avx2Constants c;
+  broadcast(w, image_b, &c);
   __m256 g0 = _mm256_setzero_ps(), g1 = g0, g2 = g0, g3 = g0;
   int used = 0;
   Eigen::Vector4f g_scalar = Eigen::Vector4f::Zero();
   for (size_t i = 0; i < n8; i += 8) {
-    const __m256 rx = _mm256_loadu_ps(t.ray_x.data() + i);
-    const __m256 ry = _mm256_loadu_ps(t.ray_y.data() + i);
-    const __m256 qx =
-        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r00, rx), _mm256_mul_ps(r01, ry)), r02);
-    const __m256 qy =
-        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r10, rx), _mm256_mul_ps(r11, ry)), r12);
-    const __m256 qz =
-        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(r20, rx), _mm256_mul_ps(r21, ry)), r22);
-    const __m256 front = _mm256_cmp_ps(qz, min_z, _CMP_GT_OQ);
-    const __m256 iz = _mm256_div_ps(one, qz);
-    const __m256 u = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(fx, qx), iz), cx);
-    const __m256 v = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(fy, qy), iz), cy);
-    const __m256 fu = _mm256_floor_ps(u), fv = _mm256_floor_ps(v);
-    const __m256i x0 = _mm256_cvttps_epi32(fu), y0 = _mm256_cvttps_epi32(fv);
-    // Inside for the scalar rule (x0 >= 0, x0 + 1 < cols, same for rows) and for the gathers
-    // (also x0 >= 1, x0 + 2 < cols). Lanes behind the camera have garbage x0, y0: masked.
-    const __m256i rows_in = _mm256_andnot_si256(
-        _mm256_or_si256(_mm256_cmpgt_epi32(zero_i, y0),
-                        _mm256_cmpgt_epi32(y0, _mm256_sub_epi32(rows_minus_1, one_i))),
-        _mm256_castps_si256(front));
-    const __m256i inside = _mm256_andnot_si256(
-        _mm256_or_si256(_mm256_cmpgt_epi32(zero_i, x0),
-                        _mm256_cmpgt_epi32(x0, _mm256_sub_epi32(cols_minus_1, one_i))),
-        rows_in);
-    const __m256i gatherable = _mm256_andnot_si256(
-        _mm256_or_si256(_mm256_cmpgt_epi32(one_i, x0),
-                        _mm256_cmpgt_epi32(x0, _mm256_sub_epi32(cols_minus_2, one_i))),
-        inside);
-    const int inside_bits = _mm256_movemask_ps(_mm256_castsi256_ps(inside));
-    const int gather_bits = _mm256_movemask_ps(_mm256_castsi256_ps(gatherable));
+    Avx2Lanes l;
+    warpLanes(c, t, i, &l);
+    const int inside_bits = _mm256_movemask_ps(_mm256_castsi256_ps(l.inside));
+    const int gather_bits = _mm256_movemask_ps(_mm256_castsi256_ps(l.gatherable));
     if (inside_bits != gather_bits) {  // a sample on the first or last column
-      for (int l = 0; l < 8; ++l) {
-        if ((inside_bits & ~gather_bits) >> l & 1) {
-          used += accumulate(t, i + static_cast<size_t>(l), w, image_b, &g_scalar) ? 1 : 0;
+      for (int k = 0; k < 8; ++k) {
+        if ((inside_bits & ~gather_bits) >> k & 1) {
+          used += accumulate(t, i + static_cast<size_t>(k), w, image_b, &g_scalar) ? 1 : 0;
         }
       }
     }
     if (gather_bits == 0) continue;
     used += __builtin_popcount(static_cast<unsigned>(gather_bits));
-    const __m256i index =
-        _mm256_add_epi32(_mm256_mullo_epi32(y0, steps), _mm256_sub_epi32(x0, one_i));
-    const __m256i w0 = _mm256_mask_i32gather_epi32(zero_i, base, index, gatherable, 1);
-    const __m256i w1 =
-        _mm256_mask_i32gather_epi32(zero_i, base, _mm256_add_epi32(index, steps), gatherable, 1);
-    const __m256 p00 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(w0, 8), byte));
-    const __m256 p01 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(w0, 16), byte));
-    const __m256 p10 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(w1, 8), byte));
-    const __m256 p11 = _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32(w1, 16), byte));
-    const __m256 ax = _mm256_sub_ps(u, fu), ay = _mm256_sub_ps(v, fv);
-    const __m256 bx = _mm256_sub_ps(one, ax), by = _mm256_sub_ps(one, ay);
-    const __m256 value = _mm256_add_ps(
-        _mm256_mul_ps(by, _mm256_add_ps(_mm256_mul_ps(bx, p00), _mm256_mul_ps(ax, p01))),
-        _mm256_mul_ps(ay, _mm256_add_ps(_mm256_mul_ps(bx, p10), _mm256_mul_ps(ax, p11))));
+    const __m256 value = sampleLanes(c, l, image_b);
     const __m256 e = _mm256_and_ps(
-        _mm256_sub_ps(_mm256_sub_ps(value, _mm256_loadu_ps(t.value.data() + i)), offset),
-        _mm256_castsi256_ps(gatherable));
+        _mm256_sub_ps(_mm256_sub_ps(value, _mm256_loadu_ps(t.value.data() + i)), c.offset),
+        _mm256_castsi256_ps(l.gatherable));
     g0 = _mm256_add_ps(g0, _mm256_mul_ps(_mm256_loadu_ps(t.sd[0].data() + i), e));
     g1 = _mm256_add_ps(g1, _mm256_mul_ps(_mm256_loadu_ps(t.sd[1].data() + i), e));
     g2 = _mm256_add_ps(g2, _mm256_mul_ps(_mm256_loadu_ps(t.sd[2].data() + i), e));

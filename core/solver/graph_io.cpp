@@ -135,6 +135,316 @@ Status addVertex(GraphFile* g, const GraphVertex& v, std::map<Key, int>* seen,
   return Ok{};
 }
 
+// The reading of one graph file, line by line: the graph read so far, and what the checks
+// across lines need (the dimension, the vertex ids seen).
+class GraphReader {
+ public:
+  GraphReader(const std::filesystem::path& path, GraphFormat format) {
+    g_.path = path.string();
+    g_.format = format == GraphFormat::kAuto ? sniff(path) : format;
+  }
+
+  // One line of the file, split into tokens (not empty, not a comment).
+  Status readLine(int line_no, const std::vector<std::string>& t);
+  // The checks that need the whole file; then the graph.
+  Expected<GraphFile> finish();
+
+ private:
+  Status setDim(int d, const std::string& where);
+  // VERTEX_SE2 (g2o), VERTEX2 (TORO): "TAG id x y θ".
+  Status planarVertex(const LineParser& p);
+  Status spatialVertex(const LineParser& p);
+  // Every 2-D edge line is "TAG from to dx dy dθ" and six information numbers whose layout
+  // depends on the format; `sqrt_info` turns those six into the square-root information.
+  template <typename SqrtInfo>
+  Status planarEdge(const LineParser& p, SqrtInfo sqrt_info, bool from_information);
+  Status g2oSpatialEdge(const LineParser& p);
+  Status isamSpatialEdge(const LineParser& p);
+  Status fixedVertices(const LineParser& p);
+  Status landmarkVertex(const LineParser& p);
+  Status sensorOffset(const LineParser& p);
+  Status observation(const LineParser& p);
+  // g2o's "x y z qx qy qz qw" at v.
+  Expected<core::SE3d> g2oPose(const double* v, const std::string& where) const;
+
+  GraphFile g_;
+  bool dim_known_ = false;
+  std::map<Key, int> seen_;
+  std::set<Key> landmark_vertices_;
+  int line_no_ = 0;
+  double v_[40];
+};
+
+#define EVERMAP_TRY(expr)           \
+  if (auto s_ = (expr); !s_.ok()) { \
+    return s_.error();              \
+  }
+
+Status GraphReader::setDim(int d, const std::string& where) {
+  if (dim_known_ && g_.dimension != d) {
+    return makeError(where, ": mixes 2-D and 3-D poses");
+  }
+  g_.dimension = d;
+  dim_known_ = true;
+  return Ok{};
+}
+
+Expected<core::SE3d> GraphReader::g2oPose(const double* v, const std::string& where) const {
+  const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
+  if (q.norm() < 1e-6) return makeError(where, ": quaternion has zero norm");
+  return core::SE3d(q, core::Vec3(v[0], v[1], v[2]));
+}
+
+Status GraphReader::planarVertex(const LineParser& p) {
+  GraphVertex vx;
+  EVERMAP_TRY(setDim(2, p.where));
+  EVERMAP_TRY(p.expectFields({4}));
+  EVERMAP_TRY(p.keyAt(1, &vx.id));
+  EVERMAP_TRY(p.numbers(2, 3, v_));
+  vx.pose = PoseValue::planar(core::SE2d(v_[0], v_[1], v_[2]));
+  return addVertex(&g_, vx, &seen_, p.where);
+}
+
+Status GraphReader::spatialVertex(const LineParser& p) {
+  GraphVertex vx;
+  EVERMAP_TRY(setDim(3, p.where));
+  EVERMAP_TRY(p.expectFields({8}));
+  EVERMAP_TRY(p.keyAt(1, &vx.id));
+  EVERMAP_TRY(p.numbers(2, 7, v_));
+  const Expected<core::SE3d> pose = g2oPose(v_, p.where);
+  if (!pose) return pose.error();
+  vx.pose = PoseValue::spatial(*pose);
+  return addVertex(&g_, vx, &seen_, p.where);
+}
+
+template <typename SqrtInfo>
+Status GraphReader::planarEdge(const LineParser& p, SqrtInfo sqrt_info, bool from_information) {
+  GraphEdge e;
+  EVERMAP_TRY(setDim(2, p.where));
+  EVERMAP_TRY(p.expectFields({11}));
+  EVERMAP_TRY(p.keyAt(1, &e.from));
+  EVERMAP_TRY(p.keyAt(2, &e.to));
+  EVERMAP_TRY(p.numbers(3, 9, v_));
+  e.measurement = PoseValue::planar(core::SE2d(v_[0], v_[1], v_[2]));
+  auto W = sqrt_info(v_ + 3);
+  if (!W.ok()) return W.error();
+  if (from_information) {
+    EVERMAP_TRY(setInformation(*W, p.where, &e));
+  } else {
+    e.sqrt_information = *W;
+  }
+  e.line = line_no_;
+  g_.edges.push_back(std::move(e));
+  return Ok{};
+}
+
+Status GraphReader::g2oSpatialEdge(const LineParser& p) {
+  GraphEdge e;
+  EVERMAP_TRY(setDim(3, p.where));
+  EVERMAP_TRY(p.expectFields({30}));
+  EVERMAP_TRY(p.keyAt(1, &e.from));
+  EVERMAP_TRY(p.keyAt(2, &e.to));
+  EVERMAP_TRY(p.numbers(3, 28, v_));
+  const Expected<core::SE3d> z = g2oPose(v_, p.where);
+  if (!z) return z.error();
+  e.measurement = PoseValue::spatial(*z);
+  EVERMAP_TRY(setInformation(upperFromRowMajor(v_ + 7, 6, true), p.where, &e));
+  e.line = line_no_;
+  g_.edges.push_back(std::move(e));
+  return Ok{};
+}
+
+Status GraphReader::isamSpatialEdge(const LineParser& p) {
+  const std::vector<std::string>& t = p.t;
+  GraphEdge e;
+  EVERMAP_TRY(setDim(3, p.where));
+  EVERMAP_TRY(p.expectFields({8, 29}));
+  EVERMAP_TRY(p.keyAt(1, &e.from));
+  EVERMAP_TRY(p.keyAt(2, &e.to));
+  EVERMAP_TRY(p.numbers(3, t.size() - 3, v_));
+  // File angles: roll, pitch, yaw (iSAM Loader); R = Rz(yaw) Ry(pitch) Rx(roll).
+  core::SE3d z(core::SO3d::fromRollPitchYaw(v_[3], v_[4], v_[5]), core::Vec3(v_[0], v_[1], v_[2]));
+  Eigen::MatrixXd S = Eigen::MatrixXd::Identity(6, 6);
+  if (t.size() == 30) {
+    const double* s = v_ + 6;  // s11 s12 ... s16 s22 ... s66
+    S = upperFromRowMajor(s, 6, false);
+    // Rotation rows in (yaw, pitch, roll) order, as iSAM's Loader builds them.
+    const double s44 = S(3, 3), s45 = S(3, 4), s46 = S(3, 5);
+    const double s55 = S(4, 4), s56 = S(4, 5), s66 = S(5, 5);
+    S(3, 3) = s66;
+    S(3, 4) = s56;
+    S(3, 5) = s46;
+    S(4, 4) = s55;
+    S(4, 5) = s45;
+    S(5, 5) = s44;
+  }
+  auto W = checkSqrtInformation(S, p.where);
+  if (!W.ok()) return W.error();
+  if (e.from > e.to) {
+    // iSAM keeps the square root and inverts the measurement (Loader::parse_line).
+    std::swap(e.from, e.to);
+    z = z.inverse();
+  }
+  e.measurement = PoseValue::spatial(z);
+  e.sqrt_information = *W;
+  e.line = line_no_;
+  g_.edges.push_back(std::move(e));
+  return Ok{};
+}
+
+Status GraphReader::fixedVertices(const LineParser& p) {
+  for (size_t i = 1; i < p.t.size(); ++i) {
+    Key k;
+    EVERMAP_TRY(p.keyAt(i, &k));
+    g_.fixed.push_back(k);
+  }
+  return Ok{};
+}
+
+Status GraphReader::landmarkVertex(const LineParser& p) {
+  const int d = p.t[0] == "VERTEX_XY" ? 2 : 3;
+  GraphLandmark l;
+  EVERMAP_TRY(setDim(d, p.where));
+  EVERMAP_TRY(p.expectFields({static_cast<size_t>(d + 1)}));
+  EVERMAP_TRY(p.keyAt(1, &l.id));
+  EVERMAP_TRY(p.numbers(2, d, v_));
+  if (seen_.count(l.id) || !landmark_vertices_.insert(l.id).second) {
+    return makeError(p.where, ": vertex ", l.id, " defined twice");
+  }
+  l.position = d == 2 ? PoseValue::point2(core::Vec2(v_[0], v_[1]))
+                      : PoseValue::point3(core::Vec3(v_[0], v_[1], v_[2]));
+  g_.landmarks.push_back(l);
+  return Ok{};
+}
+
+Status GraphReader::sensorOffset(const LineParser& p) {
+  Key id;
+  EVERMAP_TRY(p.expectFields({8}));
+  EVERMAP_TRY(p.keyAt(1, &id));
+  EVERMAP_TRY(p.numbers(2, 7, v_));
+  const Expected<core::SE3d> offset = g2oPose(v_, p.where);
+  if (!offset) return offset.error();
+  g_.sensor_offsets[static_cast<int>(id)] = *offset;
+  return Ok{};
+}
+
+// EDGE_SE2_XY, EDGE_SE3_TRACKXYZ (g2o); LANDMARK, POINT3 (iSAM).
+Status GraphReader::observation(const LineParser& p) {
+  const std::vector<std::string>& t = p.t;
+  const std::string& tag = t[0];
+  const bool isam = g_.format == GraphFormat::kIsam;
+  const int d = (tag == "EDGE_SE2_XY" || tag == "LANDMARK") ? 2 : 3;
+  const size_t tri = d == 2 ? 3 : 6;  // upper-triangle entries
+  const size_t param = tag == "EDGE_SE3_TRACKXYZ" ? 1 : 0;
+  GraphObservation o;
+  EVERMAP_TRY(setDim(d, p.where));
+  if (tag == "POINT3") {
+    EVERMAP_TRY(p.expectFields({5, 11}));
+  } else {
+    EVERMAP_TRY(p.expectFields({2 + param + d + tri}));
+  }
+  EVERMAP_TRY(p.keyAt(1, &o.pose));
+  EVERMAP_TRY(p.keyAt(2, &o.landmark));
+  if (isam) o.landmark = isamLandmarkKey(o.landmark);
+  if (param) {
+    Key id;
+    EVERMAP_TRY(p.keyAt(3, &id));
+    const auto it = g_.sensor_offsets.find(static_cast<int>(id));
+    if (it == g_.sensor_offsets.end()) {
+      return makeError(p.where, ": ", tag, " uses parameter ", id,
+                       " without a PARAMS_SE3OFFSET line before it");
+    }
+    o.offset_param = static_cast<int>(id);
+    o.pose_T_sensor = it->second;
+  }
+  const size_t first = 3 + param;
+  EVERMAP_TRY(p.numbers(first, t.size() - first, v_));
+  for (int k = 0; k < d; ++k) o.measured[k] = v_[k];
+  if (t.size() - first == static_cast<size_t>(d)) {
+    o.sqrt_information = Eigen::MatrixXd::Identity(d, d);  // iSAM's POINT3 without numbers
+  } else if (isam) {
+    auto W = checkSqrtInformation(upperFromRowMajor(v_ + d, d, false), p.where);
+    if (!W.ok()) return W.error();
+    o.sqrt_information = *W;
+  } else {
+    auto W = sqrtInformationFromInformation(upperFromRowMajor(v_ + d, d, true), p.where);
+    if (!W.ok()) return W.error();
+    o.sqrt_information = *W;
+  }
+  o.line = line_no_;
+  o.edges_before = static_cast<int>(g_.edges.size());
+  g_.observations.push_back(std::move(o));
+  return Ok{};
+}
+
+Status GraphReader::readLine(int line_no, const std::vector<std::string>& t) {
+  line_no_ = line_no;
+  const std::string where = g_.path + ":" + std::to_string(line_no);
+  const LineParser p{where, t};
+  const std::string& tag = t[0];
+  const bool g2o = g_.format == GraphFormat::kG2o;
+  const bool toro = g_.format == GraphFormat::kToro;
+  const bool isam = g_.format == GraphFormat::kIsam;
+  if ((g2o && tag == "VERTEX_SE2") || (toro && tag == "VERTEX2")) return planarVertex(p);
+  if (g2o && tag == "VERTEX_SE3:QUAT") return spatialVertex(p);
+  if (g2o && tag == "EDGE_SE2") {
+    return planarEdge(
+        p,
+        [&](const double* info) -> Expected<Eigen::MatrixXd> {
+          return upperFromRowMajor(info, 3, true);
+        },
+        true);
+  }
+  if (g2o && tag == "EDGE_SE3:QUAT") return g2oSpatialEdge(p);
+  if (g2o && tag == "FIX") return fixedVertices(p);
+  if (toro && tag == "EDGE2") {
+    return planarEdge(
+        p,
+        [&](const double* info) -> Expected<Eigen::MatrixXd> {
+          // TORO: Ixx Ixy Iyy Iθθ Ixθ Iyθ.
+          Eigen::MatrixXd I(3, 3);
+          I << info[0], info[1], info[4], info[1], info[2], info[5], info[4], info[5], info[3];
+          return I;
+        },
+        true);
+  }
+  if (isam && (tag == "ODOMETRY" || tag == "EDGE2")) {
+    return planarEdge(
+        p,
+        [&](const double* sqrt_info) {
+          return checkSqrtInformation(upperFromRowMajor(sqrt_info, 3, false), where);
+        },
+        false);
+  }
+  if (isam && tag == "EDGE3") return isamSpatialEdge(p);
+  if (g2o && (tag == "VERTEX_XY" || tag == "VERTEX_TRACKXYZ")) return landmarkVertex(p);
+  if (g2o && tag == "PARAMS_SE3OFFSET") return sensorOffset(p);
+  if ((g2o && (tag == "EDGE_SE2_XY" || tag == "EDGE_SE3_TRACKXYZ")) ||
+      (isam && (tag == "LANDMARK" || tag == "POINT3"))) {
+    return observation(p);
+  }
+  ++g_.skipped_tags[tag];
+  return Ok{};
+}
+
+#undef EVERMAP_TRY
+
+Expected<GraphFile> GraphReader::finish() {
+  for (Key id : landmark_vertices_) {
+    if (seen_.count(id))
+      return makeError(g_.path, ": vertex ", id, " is both a pose and a landmark");
+  }
+  if (g_.format == GraphFormat::kIsam && !g_.observations.empty()) {
+    for (const GraphEdge& e : g_.edges) {
+      if (std::max(e.from, e.to) >= kIsamLandmarkKeyBase) {
+        return makeError(g_.path, ":", e.line, ": pose id ", std::max(e.from, e.to),
+                         " collides with the landmark keys (from ", kIsamLandmarkKeyBase, ")");
+      }
+    }
+  }
+  return std::move(g_);
+}
+
 }  // namespace
 
 Expected<GraphFormat> parseGraphFormat(const std::string& text) {
@@ -233,242 +543,17 @@ int GraphFile::skippedLines() const {
 Expected<GraphFile> readGraphFile(const std::filesystem::path& path, GraphFormat format) {
   std::ifstream in(path);
   if (!in) return makeError(path.string(), ": cannot open");
-  GraphFile g;
-  g.path = path.string();
-  g.format = format == GraphFormat::kAuto ? sniff(path) : format;
-  bool dim_known = false;
-  auto setDim = [&](int d, const std::string& where) -> Status {
-    if (dim_known && g.dimension != d) {
-      return makeError(where, ": mixes 2-D and 3-D poses");
-    }
-    g.dimension = d;
-    dim_known = true;
-    return Ok{};
-  };
-  std::map<Key, int> seen;
-  std::set<Key> landmark_vertices;
+  GraphReader reader(path, format);
   std::string line;
   int line_no = 0;
-  double v[40];
   while (std::getline(in, line)) {
     ++line_no;
     const auto t = tokens(line);
     if (t.empty() || t[0][0] == '#') continue;
-    const std::string where = path.string() + ":" + std::to_string(line_no);
-    const LineParser p{where, t};
-    const std::string& tag = t[0];
-    Status st = Ok{};
-#define EVERMAP_TRY(expr)           \
-  if (auto s_ = (expr); !s_.ok()) { \
-    return s_.error();              \
-  }
-    // Every 2-D edge line is "TAG from to dx dy dθ" and six information numbers whose layout
-    // depends on the format; `sqrtInfo` turns those six into the square-root information.
-    auto planarEdge = [&](auto sqrtInfo, bool from_information) -> Status {
-      GraphEdge e;
-      EVERMAP_TRY(setDim(2, where));
-      EVERMAP_TRY(p.expectFields({11}));
-      EVERMAP_TRY(p.keyAt(1, &e.from));
-      EVERMAP_TRY(p.keyAt(2, &e.to));
-      EVERMAP_TRY(p.numbers(3, 9, v));
-      e.measurement = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
-      auto W = sqrtInfo(v + 3);
-      if (!W.ok()) return W.error();
-      if (from_information) {
-        EVERMAP_TRY(setInformation(*W, where, &e));
-      } else {
-        e.sqrt_information = *W;
-      }
-      e.line = line_no;
-      g.edges.push_back(std::move(e));
-      return Ok{};
-    };
-    if (g.format == GraphFormat::kG2o && tag == "VERTEX_SE2") {
-      GraphVertex vx;
-      EVERMAP_TRY(setDim(2, where));
-      EVERMAP_TRY(p.expectFields({4}));
-      EVERMAP_TRY(p.keyAt(1, &vx.id));
-      EVERMAP_TRY(p.numbers(2, 3, v));
-      vx.pose = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
-      EVERMAP_TRY(addVertex(&g, vx, &seen, where));
-    } else if (g.format == GraphFormat::kG2o && tag == "VERTEX_SE3:QUAT") {
-      GraphVertex vx;
-      EVERMAP_TRY(setDim(3, where));
-      EVERMAP_TRY(p.expectFields({8}));
-      EVERMAP_TRY(p.keyAt(1, &vx.id));
-      EVERMAP_TRY(p.numbers(2, 7, v));
-      const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
-      if (q.norm() < 1e-6) return makeError(where, ": quaternion has zero norm");
-      vx.pose = PoseValue::spatial(core::SE3d(q, core::Vec3(v[0], v[1], v[2])));
-      EVERMAP_TRY(addVertex(&g, vx, &seen, where));
-    } else if (g.format == GraphFormat::kG2o && tag == "EDGE_SE2") {
-      EVERMAP_TRY(planarEdge(
-          [&](const double* info) -> Expected<Eigen::MatrixXd> {
-            return upperFromRowMajor(info, 3, true);
-          },
-          true));
-    } else if (g.format == GraphFormat::kG2o && tag == "EDGE_SE3:QUAT") {
-      GraphEdge e;
-      EVERMAP_TRY(setDim(3, where));
-      EVERMAP_TRY(p.expectFields({30}));
-      EVERMAP_TRY(p.keyAt(1, &e.from));
-      EVERMAP_TRY(p.keyAt(2, &e.to));
-      EVERMAP_TRY(p.numbers(3, 28, v));
-      const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
-      if (q.norm() < 1e-6) return makeError(where, ": quaternion has zero norm");
-      e.measurement = PoseValue::spatial(core::SE3d(q, core::Vec3(v[0], v[1], v[2])));
-      EVERMAP_TRY(setInformation(upperFromRowMajor(v + 7, 6, true), where, &e));
-      e.line = line_no;
-      g.edges.push_back(std::move(e));
-    } else if (g.format == GraphFormat::kG2o && tag == "FIX") {
-      for (size_t i = 1; i < t.size(); ++i) {
-        Key k;
-        EVERMAP_TRY(p.keyAt(i, &k));
-        g.fixed.push_back(k);
-      }
-    } else if (g.format == GraphFormat::kToro && tag == "VERTEX2") {
-      GraphVertex vx;
-      EVERMAP_TRY(setDim(2, where));
-      EVERMAP_TRY(p.expectFields({4}));
-      EVERMAP_TRY(p.keyAt(1, &vx.id));
-      EVERMAP_TRY(p.numbers(2, 3, v));
-      vx.pose = PoseValue::planar(core::SE2d(v[0], v[1], v[2]));
-      EVERMAP_TRY(addVertex(&g, vx, &seen, where));
-    } else if (g.format == GraphFormat::kToro && tag == "EDGE2") {
-      EVERMAP_TRY(planarEdge(
-          [&](const double* info) -> Expected<Eigen::MatrixXd> {
-            // TORO: Ixx Ixy Iyy Iθθ Ixθ Iyθ.
-            Eigen::MatrixXd I(3, 3);
-            I << info[0], info[1], info[4], info[1], info[2], info[5], info[4], info[5], info[3];
-            return I;
-          },
-          true));
-    } else if (g.format == GraphFormat::kIsam && (tag == "ODOMETRY" || tag == "EDGE2")) {
-      EVERMAP_TRY(planarEdge(
-          [&](const double* sqrt_info) {
-            return checkSqrtInformation(upperFromRowMajor(sqrt_info, 3, false), where);
-          },
-          false));
-    } else if (g.format == GraphFormat::kIsam && tag == "EDGE3") {
-      GraphEdge e;
-      EVERMAP_TRY(setDim(3, where));
-      EVERMAP_TRY(p.expectFields({8, 29}));
-      EVERMAP_TRY(p.keyAt(1, &e.from));
-      EVERMAP_TRY(p.keyAt(2, &e.to));
-      EVERMAP_TRY(p.numbers(3, t.size() - 3, v));
-      // File angles: roll, pitch, yaw (iSAM Loader); R = Rz(yaw) Ry(pitch) Rx(roll).
-      core::SE3d z(core::SO3d::fromRollPitchYaw(v[3], v[4], v[5]), core::Vec3(v[0], v[1], v[2]));
-      Eigen::MatrixXd S = Eigen::MatrixXd::Identity(6, 6);
-      if (t.size() == 30) {
-        const double* s = v + 6;  // s11 s12 ... s16 s22 ... s66
-        S = upperFromRowMajor(s, 6, false);
-        // Rotation rows in (yaw, pitch, roll) order, as iSAM's Loader builds them.
-        const double s44 = S(3, 3), s45 = S(3, 4), s46 = S(3, 5);
-        const double s55 = S(4, 4), s56 = S(4, 5), s66 = S(5, 5);
-        S(3, 3) = s66;
-        S(3, 4) = s56;
-        S(3, 5) = s46;
-        S(4, 4) = s55;
-        S(4, 5) = s45;
-        S(5, 5) = s44;
-      }
-      auto W = checkSqrtInformation(S, where);
-      if (!W.ok()) return W.error();
-      if (e.from > e.to) {
-        // iSAM keeps the square root and inverts the measurement (Loader::parse_line).
-        std::swap(e.from, e.to);
-        z = z.inverse();
-      }
-      e.measurement = PoseValue::spatial(z);
-      e.sqrt_information = *W;
-      e.line = line_no;
-      g.edges.push_back(std::move(e));
-    } else if (g.format == GraphFormat::kG2o && (tag == "VERTEX_XY" || tag == "VERTEX_TRACKXYZ")) {
-      const int d = tag == "VERTEX_XY" ? 2 : 3;
-      GraphLandmark l;
-      EVERMAP_TRY(setDim(d, where));
-      EVERMAP_TRY(p.expectFields({static_cast<size_t>(d + 1)}));
-      EVERMAP_TRY(p.keyAt(1, &l.id));
-      EVERMAP_TRY(p.numbers(2, d, v));
-      if (seen.count(l.id) || !landmark_vertices.insert(l.id).second) {
-        return makeError(where, ": vertex ", l.id, " defined twice");
-      }
-      l.position = d == 2 ? PoseValue::point2(core::Vec2(v[0], v[1]))
-                          : PoseValue::point3(core::Vec3(v[0], v[1], v[2]));
-      g.landmarks.push_back(l);
-    } else if (g.format == GraphFormat::kG2o && tag == "PARAMS_SE3OFFSET") {
-      Key id;
-      EVERMAP_TRY(p.expectFields({8}));
-      EVERMAP_TRY(p.keyAt(1, &id));
-      EVERMAP_TRY(p.numbers(2, 7, v));
-      const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
-      if (q.norm() < 1e-6) return makeError(where, ": quaternion has zero norm");
-      g.sensor_offsets[static_cast<int>(id)] = core::SE3d(q, core::Vec3(v[0], v[1], v[2]));
-    } else if ((g.format == GraphFormat::kG2o &&
-                (tag == "EDGE_SE2_XY" || tag == "EDGE_SE3_TRACKXYZ")) ||
-               (g.format == GraphFormat::kIsam && (tag == "LANDMARK" || tag == "POINT3"))) {
-      const bool isam = g.format == GraphFormat::kIsam;
-      const int d = (tag == "EDGE_SE2_XY" || tag == "LANDMARK") ? 2 : 3;
-      const size_t tri = d == 2 ? 3 : 6;  // upper-triangle entries
-      const size_t param = tag == "EDGE_SE3_TRACKXYZ" ? 1 : 0;
-      GraphObservation o;
-      EVERMAP_TRY(setDim(d, where));
-      if (tag == "POINT3") {
-        EVERMAP_TRY(p.expectFields({5, 11}));
-      } else {
-        EVERMAP_TRY(p.expectFields({2 + param + d + tri}));
-      }
-      EVERMAP_TRY(p.keyAt(1, &o.pose));
-      EVERMAP_TRY(p.keyAt(2, &o.landmark));
-      if (isam) o.landmark = isamLandmarkKey(o.landmark);
-      if (param) {
-        Key id;
-        EVERMAP_TRY(p.keyAt(3, &id));
-        const auto it = g.sensor_offsets.find(static_cast<int>(id));
-        if (it == g.sensor_offsets.end()) {
-          return makeError(where, ": ", tag, " uses parameter ", id,
-                           " without a PARAMS_SE3OFFSET line before it");
-        }
-        o.offset_param = static_cast<int>(id);
-        o.pose_T_sensor = it->second;
-      }
-      const size_t first = 3 + param;
-      EVERMAP_TRY(p.numbers(first, t.size() - first, v));
-      for (int k = 0; k < d; ++k) o.measured[k] = v[k];
-      if (t.size() - first == static_cast<size_t>(d)) {
-        o.sqrt_information = Eigen::MatrixXd::Identity(d, d);  // iSAM's POINT3 without numbers
-      } else if (isam) {
-        auto W = checkSqrtInformation(upperFromRowMajor(v + d, d, false), where);
-        if (!W.ok()) return W.error();
-        o.sqrt_information = *W;
-      } else {
-        auto W = sqrtInformationFromInformation(upperFromRowMajor(v + d, d, true), where);
-        if (!W.ok()) return W.error();
-        o.sqrt_information = *W;
-      }
-      o.line = line_no;
-      o.edges_before = static_cast<int>(g.edges.size());
-      g.observations.push_back(std::move(o));
-    } else {
-      ++g.skipped_tags[tag];
-    }
-#undef EVERMAP_TRY
-    (void)st;
+    if (Status s = reader.readLine(line_no, t); !s.ok()) return s.error();
   }
   if (in.bad()) return makeError(path.string(), ": read error");
-  for (Key id : landmark_vertices) {
-    if (seen.count(id))
-      return makeError(path.string(), ": vertex ", id, " is both a pose and a landmark");
-  }
-  if (g.format == GraphFormat::kIsam && !g.observations.empty()) {
-    for (const GraphEdge& e : g.edges) {
-      if (std::max(e.from, e.to) >= kIsamLandmarkKeyBase) {
-        return makeError(path.string(), ":", e.line, ": pose id ", std::max(e.from, e.to),
-                         " collides with the landmark keys (from ", kIsamLandmarkKeyBase, ")");
-      }
-    }
-  }
-  return g;
+  return reader.finish();
 }
 
 }  // namespace evermap::solver

@@ -8,7 +8,7 @@
 #include <evermap/imu_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
-#include "imu-proc/lcm_convert.h"
+#include "core/imu/lcm_convert.h"
 #include "tools/lcmlog/log_reader.h"
 
 namespace evermap::imu {

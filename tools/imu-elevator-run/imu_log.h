@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "core/common/expected.h"
-#include "imu-proc/sample_gate.h"
+#include "core/imu/sample_gate.h"
 
 namespace evermap::imu {
 

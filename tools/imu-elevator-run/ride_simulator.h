@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "imu-proc/sample_gate.h"
+#include "core/imu/sample_gate.h"
 
 namespace evermap::elevator {
 

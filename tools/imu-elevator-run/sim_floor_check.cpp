@@ -9,8 +9,8 @@
 
 #include <evermap/imu_t.hpp>
 
+#include "core/imu/lcm_convert.h"
 #include "core/messages/channels.h"
-#include "imu-proc/lcm_convert.h"
 #include "tools/sim/message_sink.h"
 #include "tools/sim/run.h"
 

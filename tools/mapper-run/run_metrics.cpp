@@ -13,14 +13,6 @@
 
 namespace evermap::mapper {
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const size_t k =
-      std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size() - 1) + 0.5));
-  return v[k];
-}
-
 Status writeTimelineCsv(const std::filesystem::path& file, const std::vector<TimelineRow>& rows) {
   std::ostringstream s;
   s << "operating_h,utime,session,nodes,factors,steps,tracking_s,registration_s,partition_s,solver_"

@@ -11,14 +11,12 @@
 #include <vector>
 
 #include "core/common/expected.h"
+#include "core/common/percentile.h"
 #include "core/geometry/se3.h"
 #include "mapper-proc/mapper.h"
 #include "tools/mapper-run/offline_run.h"
 
 namespace evermap::mapper {
-
-// The p-quantile (0..1) of v by nearest rank; 0 for an empty v.
-double percentile(std::vector<double> v, double p);
 
 // Per-component wall time and step costs of the mapper between two timeline rows.
 class TimelineRecorder {

@@ -11,6 +11,7 @@
 #include "core/common/key_value_file.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
+#include "core/messages/pose_fields.h"
 #include "mapper-proc/map_store.h"
 #include "tools/eval/alignment.h"
 #include "tools/eval/metrics.h"
@@ -21,12 +22,11 @@ namespace evermap::mapper {
 namespace {
 
 Expected<core::SE3d> poseOf(const double* t, const double* q, const std::string& what) {
-  const Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
-  const double norm = quat.norm();
-  if (!std::isfinite(t[0]) || !std::isfinite(t[1]) || !std::isfinite(t[2]) ||
-      !std::isfinite(norm) || std::abs(norm - 1.0) > 1e-3)
-    return makeError(what, ": non-finite position or non-unit quaternion");
-  return core::SE3d(quat.normalized(), core::Vec3(t[0], t[1], t[2]));
+  const Expected<Eigen::Quaterniond> quat = messages::quaternionFromMessage(q, what.c_str());
+  if (!quat) return quat.error();
+  if (!std::isfinite(t[0]) || !std::isfinite(t[1]) || !std::isfinite(t[2]))
+    return makeError(what, ": position is not finite");
+  return core::SE3d(quat->normalized(), core::Vec3(t[0], t[1], t[2]));
 }
 
 // SE(3)-aligned ATE of est against gt (paired by index).

@@ -19,13 +19,14 @@
 #include <evermap/wheel_odom_t.hpp>
 
 #include "core/common/clocks.h"
+#include "core/common/percentile.h"
 #include "core/geometry/se2.h"
+#include "core/imu/lcm_convert.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
 #include "core/messages/pose_fields.h"
 #include "core/messages/rgbd_convert.h"
 #include "elevator-proc/lcm_convert.h"
-#include "imu-proc/lcm_convert.h"
 #include "mapper-proc/constraint_set.h"
 #include "mapper-proc/lcm_node.h"
 #include "tools/lcmlog/log_reader.h"
@@ -175,8 +176,9 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
         ++answers_ok_;
         row.node = answer.node_id;
         if (isNode(answer.node_id)) row.node_keyframe_utime = keyframeOf(answer.node_id);
-        const Eigen::Quaterniond q(answer.orientation[0], answer.orientation[1],
-                                   answer.orientation[2], answer.orientation[3]);
+        // The loop closer answers OK with a finite unit quaternion (putPose of an SE3d).
+        const Eigen::Quaterniond q =
+            *messages::quaternionFromMessage(answer.orientation, "REGISTER_RESULT");
         const core::SE3d cam_T(
             q.normalized(),
             core::Vec3(answer.translation[0], answer.translation[1], answer.translation[2]));
@@ -532,8 +534,8 @@ Expected<SlamRunSummary> SlamRunner::finish() {
       h.nodes_at_end = frames_[i].nodes;
     }
     h.frames = static_cast<int64_t>(mapper_ms.size());
-    h.mapper_p99_ms = mapper::percentile(std::move(mapper_ms), 0.99);
-    h.loopclose_p99_ms = mapper::percentile(std::move(loopclose_ms), 0.99);
+    h.mapper_p99_ms = percentile(std::move(mapper_ms), 0.99);
+    h.loopclose_p99_ms = percentile(std::move(loopclose_ms), 0.99);
     out.hours.push_back(h);
   }
 

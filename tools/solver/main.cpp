@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "core/common/atomic_write.h"
+#include "core/common/percentile.h"
 #include "core/solver/batch_solver.h"
 #include "core/solver/graph_io.h"
 #include "core/solver/gnc.h"
@@ -112,12 +113,6 @@ Status writeStats(const std::string& path, const std::vector<std::string>& lines
       << " [normalized_chi2]\n";
   for (const auto& l : lines) out << l << '\n';
   return writeFileAtomically(path, out.str());  // whole or not at all
-}
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
 }
 
 // One line on the graph read: format, size, what was skipped, indefinite information.
@@ -273,8 +268,8 @@ Expected<Solution> solveIncrementally(const GraphFile& g, const ToolOptions& o,
               steps_wall, final_wall, cpu);
   std::printf("final batch iterations: %s\n", out.summary.message.c_str());
   std::printf("per step: median %.3f ms, p99 %.3f ms, max %.3f ms; nnz(R) %lld\n",
-              1e3 * percentile(step_wall, 0.5), 1e3 * percentile(step_wall, 0.99),
-              1e3 * percentile(step_wall, 1.0), static_cast<long long>(runner.solver().nnz()));
+              1e3 * evermap::percentile(step_wall, 0.5), 1e3 * evermap::percentile(step_wall, 0.99),
+              1e3 * evermap::percentile(step_wall, 1.0), static_cast<long long>(runner.solver().nnz()));
   if (!o.stats.empty()) {
     if (auto st = writeStats(o.stats, lines); !st.ok()) return st.error();
   }

@@ -25,6 +25,7 @@
 
 #include "core/common/command_line.h"
 #include "core/common/option_fields.h"
+#include "core/common/percentile.h"
 #include "core/features/image_pyramid.h"
 #include "core/features/orb_descriptor.h"
 #include "core/features/patch_alignment.h"
@@ -56,9 +57,7 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 double quantile(std::vector<double> v, double q) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
+  return v.empty() ? std::nan("") : evermap::percentile(std::move(v), q);
 }
 double mad(const std::vector<double>& v) {
   const double m = median(v);

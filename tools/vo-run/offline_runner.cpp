@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "core/common/atomic_write.h"
+#include "core/common/percentile.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
 #include "tools/lcmlog/log_reader.h"
@@ -14,13 +15,6 @@
 #include "tools/vo-run/vo_trajectory.h"
 
 namespace evermap::vo {
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
-  return v[i];
-}
 
 std::map<std::string, int> OfflineSummary::failuresByKind() const {
   std::map<std::string, int> n;

@@ -74,10 +74,6 @@ struct OfflineSummary {
 Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
                                     const OfflineOptions& options);
 
-// The q-quantile (0..1) of `v`, the element at index floor(q n) of the sorted list; 0 for an
-// empty list.
-double percentile(std::vector<double> v, double q);
-
 // Per-frame statistics as CSV (a header line, one line per frame), written atomically.
 Status writeFrameStatsCsv(const std::vector<FrameStats>& frames, const std::filesystem::path& file);
 

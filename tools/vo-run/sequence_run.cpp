@@ -11,6 +11,7 @@
 
 #include "core/camera/calibration.h"
 #include "core/common/clocks.h"
+#include "core/common/percentile.h"
 #include "tools/eval/alignment.h"
 #include "tools/eval/metrics.h"
 #include "tools/vo-run/offline_runner.h"

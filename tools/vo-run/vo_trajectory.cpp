@@ -1,5 +1,7 @@
 #include "tools/vo-run/vo_trajectory.h"
 
+#include "core/messages/pose_fields.h"
+
 namespace evermap::vo {
 
 std::optional<core::SE3d> VoTrajectory::add(const evermap::vo_delta_t& d) {
@@ -13,13 +15,14 @@ std::optional<core::SE3d> VoTrajectory::add(const evermap::vo_delta_t& d) {
     ref_utime_ = d.utime;
     pose = world_T_ref_;
   } else if (ok && started_ && d.ref_utime == ref_utime_) {
-    const Eigen::Quaterniond q(d.orientation[0], d.orientation[1], d.orientation[2],
-                               d.orientation[3]);
-    const core::SE3d ref_T_cur(q, core::Vec3(d.translation[0], d.translation[1], d.translation[2]));
-    pose = world_T_ref_ * ref_T_cur;
-    if (d.keyframe_changed) {
-      world_T_ref_ = *pose;
-      ref_utime_ = d.utime;
+    // A malformed motion (not finite, not a unit quaternion) gives this frame no pose.
+    if (const auto ref_T_cur =
+            messages::poseFromMessage(d.translation, d.orientation, "VO_DELTA")) {
+      pose = world_T_ref_ * *ref_T_cur;
+      if (d.keyframe_changed) {
+        world_T_ref_ = *pose;
+        ref_utime_ = d.utime;
+      }
     }
   } else if (d.keyframe_changed && started_) {
     // A new reference without a motion to it: bridge the gap with the last pose.

@@ -1,4 +1,4 @@
-#include "imu-proc/sample_gate.h"
+#include "core/imu/sample_gate.h"
 
 #include <cmath>
 #include <cstdio>

@@ -5,8 +5,8 @@
 #include <evermap/attitude_t.hpp>
 #include <evermap/imu_t.hpp>
 
-#include "imu-proc/attitude_filter.h"
-#include "imu-proc/sample_gate.h"
+#include "core/imu/attitude.h"
+#include "core/imu/sample_gate.h"
 
 namespace evermap::imu {
 
