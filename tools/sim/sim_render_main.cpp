@@ -33,6 +33,7 @@
 #include "core/common/stop_signals.h"
 #include "tools/eval/trajectory.h"
 #include "tools/sim/image_session.h"
+#include "tools/sim/render_progress.h"
 
 namespace {
 
@@ -183,7 +184,8 @@ int main(int argc, char** argv) {
     return 0;
   }
   evermap::StopSignals stop;  // SIGINT/SIGTERM end a render early
-  auto keep_going = [&stop](double) { return !stop.requested(); };
+  auto keep_going =
+      evermap::sim::withProgressLines(**sim, [&stop](double) { return !stop.requested(); });
   evermap::Expected<evermap::sim::ImageSessionSummary> summary = evermap::makeError("nothing run");
   if (!args.out.empty()) {
     summary = evermap::sim::writeImageSessionLog(**sim, args.out, keep_going);
