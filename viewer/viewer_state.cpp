@@ -95,12 +95,16 @@ Status ViewerStateOptions::validate() const {
   return Ok{};
 }
 
-Expected<std::string> graphText(const map_graph_t& g, const std::string& source,
-                                const ViewerStateOptions& o, GraphSummary* summary) {
-  GraphSummary s;
-  std::unordered_map<int64_t, int64_t> index;  // node id -> position in the arrays
+namespace {
+
+// The graph's nodes checked (finite, within max_coordinate_m, ids unique): node id -> position
+// in the arrays; the sessions and floors of the nodes into `sessions` and `floors`.
+Expected<std::unordered_map<int64_t, int64_t>> indexNodes(const map_graph_t& g,
+                                                          const ViewerStateOptions& o,
+                                                          std::set<int>* sessions,
+                                                          std::set<int>* floors) {
+  std::unordered_map<int64_t, int64_t> index;
   index.reserve(g.nodes.size());
-  std::set<int> sessions, floors;
   for (size_t k = 0; k < g.nodes.size(); ++k) {
     const map_node_t& n = g.nodes[k];
     if (!finiteAll(n.position, 3))
@@ -111,16 +115,16 @@ Expected<std::string> graphText(const map_graph_t& g, const std::string& source,
                          o.max_coordinate_m, " m");
     if (!index.emplace(n.node_id, static_cast<int64_t>(k)).second)
       return makeError("MAP_GRAPH: node id ", n.node_id, " appears twice");
-    sessions.insert(n.session);
-    floors.insert(n.floor);
+    sessions->insert(n.session);
+    floors->insert(n.floor);
   }
   for (const map_floor_t& f : g.floors)
     if (!std::isfinite(f.height_m))
       return makeError("MAP_GRAPH: floor ", f.index, ": height is not finite");
+  return index;
+}
 
-  JsonWriter j;
-  j.beginObject().key("type").value("graph").key("source").value(source);
-  j.key("utime").value(g.utime).key("built_ms").value(wallMs());
+void writeNodes(const map_graph_t& g, JsonWriter& j) {
   j.key("nodes").beginObject();
   j.key("id").beginArray();
   for (const map_node_t& n : g.nodes) j.value(n.node_id);
@@ -134,7 +138,12 @@ Expected<std::string> graphText(const map_graph_t& g, const std::string& source,
   j.endArray().key("utime").beginArray();
   for (const map_node_t& n : g.nodes) j.value(n.keyframe_utime);
   j.endArray().endObject();
-  // Edges by the positions of their nodes in the arrays above.
+}
+
+// Edges by the positions of their nodes in the node arrays; those with a missing node are
+// skipped (counted in `s`, as loop edges and closures).
+void writeEdges(const map_graph_t& g, const std::unordered_map<int64_t, int64_t>& index,
+                JsonWriter& j, GraphSummary* s) {
   j.key("edges").beginObject();
   std::vector<int64_t> a, b;
   std::vector<int> kind, count;
@@ -142,7 +151,7 @@ Expected<std::string> graphText(const map_graph_t& g, const std::string& source,
   for (const map_edge_t& e : g.edges) {
     const auto i = index.find(e.from_node), k = index.find(e.to_node);
     if (i == index.end() || k == index.end()) {
-      ++s.edges_skipped;
+      ++s->edges_skipped;
       continue;
     }
     a.push_back(i->second);
@@ -150,8 +159,8 @@ Expected<std::string> graphText(const map_graph_t& g, const std::string& source,
     kind.push_back(e.type);
     count.push_back(e.num_measurements);
     if (e.type == map_edge_t::TYPE_LOOP) {
-      ++s.loop_edges;
-      s.closures += std::max(0, e.num_measurements);
+      ++s->loop_edges;
+      s->closures += std::max(0, e.num_measurements);
     }
   }
   j.key("a").beginArray();
@@ -163,6 +172,22 @@ Expected<std::string> graphText(const map_graph_t& g, const std::string& source,
   j.endArray().key("n").beginArray();
   for (int v : count) j.value(v);
   j.endArray().endObject();
+  s->edges = static_cast<int64_t>(a.size());
+}
+
+}  // namespace
+
+Expected<std::string> graphText(const map_graph_t& g, const std::string& source,
+                                const ViewerStateOptions& o, GraphSummary* summary) {
+  GraphSummary s;
+  std::set<int> sessions, floors;
+  auto index = indexNodes(g, o, &sessions, &floors);
+  if (!index) return index.error();
+  JsonWriter j;
+  j.beginObject().key("type").value("graph").key("source").value(source);
+  j.key("utime").value(g.utime).key("built_ms").value(wallMs());
+  writeNodes(g, j);
+  writeEdges(g, *index, j, &s);
   j.key("floors").beginArray();
   for (const map_floor_t& f : g.floors) {
     j.beginObject().key("index").value(f.index).key("height_m").value(f.height_m, 3).endObject();
@@ -170,7 +195,6 @@ Expected<std::string> graphText(const map_graph_t& g, const std::string& source,
   }
   j.endArray();
   s.nodes = static_cast<int64_t>(g.nodes.size());
-  s.edges = static_cast<int64_t>(a.size());
   s.floors = static_cast<int64_t>(floors.size());
   s.sessions = static_cast<int64_t>(sessions.size());
   j.key("counts").beginObject();

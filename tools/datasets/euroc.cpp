@@ -4,16 +4,10 @@
 #include <cmath>
 #include <fstream>
 
+#include "tools/datasets/text_lines.h"
+
 namespace evermap::datasets {
 namespace {
-
-bool isCommentOrBlank(const std::string& line) {
-  for (char c : line) {
-    if (c == '#') return true;
-    if (!std::isspace(static_cast<unsigned char>(c))) return false;
-  }
-  return true;
-}
 
 // Parses the leading integer of a line (nanosecond stamps do not fit a double exactly).
 bool parseStamp(const std::string& field, int64_t* out) {

@@ -50,42 +50,32 @@ Expected<ConversionSummary> convertKittiToLcm(const fs::path& sequence, const fs
   }
   detail::sortByTime(&events);
 
-  auto writer = messages::LogWriter::open(output);
-  if (!writer) return writer.error();
   channels::CalibrationRepeat calib_repeat;
-  if (Status s =
-          detail::writeCalibrationIfDue(*writer, calib_repeat, *calibration, events.front().utime);
-      !s)
-    return s.error();
-  for (const PendingEvent& e : events) {
-    Status s = Ok{};
+  auto writer = detail::openStereoLog(output, calib_repeat, *calibration, events.front().utime);
+  if (!writer) return writer.error();
+  return detail::writeEvents(*writer, events, summary, [&](const PendingEvent& e) -> Status {
     if (e.kind == EventKind::kGroundTruth) {
-      s = writer->write(channels::kGroundTruth, e.utime,
-                        messages::toMsg(e.utime, core::UncertainPose{poses[e.index]}));
-    } else {
-      evermap::stereo_image_t msg;
-      msg.utime = e.utime;
-      msg.rectified = 1;
-      for (auto [file, slot] : {std::pair{seq->leftImage(e.index), &msg.left},
-                                std::pair{seq->rightImage(e.index), &msg.right}}) {
-        auto image = messages::imageMsgFromFile(file, e.utime, options.encoding);
-        if (!image) return image.error();
-        if (image->width != calibration->left.width || image->height != calibration->left.height) {
-          return makeError(file.string(), ": image is ", image->width, "x", image->height,
-                           ", the sequence's first image is ", calibration->left.width, "x",
-                           calibration->left.height);
-        }
-        *slot = std::move(*image);
-      }
-      s = detail::writeCalibrationIfDue(*writer, calib_repeat, *calibration, e.utime);
-      if (s) s = writer->write(channels::kStereo, e.utime, msg);
+      return writer->write(channels::kGroundTruth, e.utime,
+                           messages::toMsg(e.utime, core::UncertainPose{poses[e.index]}));
     }
-    if (!s) return s.error();
-  }
-  summary.messages = writer->counts();
-  summary.bytes = writer->bytes();
-  if (Status s = writer->commit(); !s) return s.error();
-  return summary;
+    evermap::stereo_image_t msg;
+    msg.utime = e.utime;
+    msg.rectified = 1;
+    for (auto [file, slot] : {std::pair{seq->leftImage(e.index), &msg.left},
+                              std::pair{seq->rightImage(e.index), &msg.right}}) {
+      auto image = messages::imageMsgFromFile(file, e.utime, options.encoding);
+      if (!image) return image.error();
+      if (image->width != calibration->left.width || image->height != calibration->left.height) {
+        return makeError(file.string(), ": image is ", image->width, "x", image->height,
+                         ", the sequence's first image is ", calibration->left.width, "x",
+                         calibration->left.height);
+      }
+      *slot = std::move(*image);
+    }
+    Status s = detail::writeCalibrationIfDue(*writer, calib_repeat, *calibration, e.utime);
+    if (s) s = writer->write(channels::kStereo, e.utime, msg);
+    return s;
+  });
 }
 
 }  // namespace evermap::datasets

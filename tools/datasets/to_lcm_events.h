@@ -8,6 +8,7 @@
 #include "core/camera/calibration.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
+#include "tools/datasets/to_lcm.h"
 #include "tools/lcmlog/log_writer.h"
 
 namespace evermap::datasets::detail {
@@ -35,6 +36,33 @@ inline Status writeCalibrationIfDue(messages::LogWriter& writer,
                                     const core::StereoCalibration& calibration, int64_t utime) {
   if (!repeat.due(utime)) return Ok{};
   return writer.write(channels::kStereoCalib, utime, messages::toMsg(calibration, utime));
+}
+
+// Opens the log at `output` and writes STEREO_CALIB at the first event's time `first_utime`.
+inline Expected<messages::LogWriter> openStereoLog(const std::filesystem::path& output,
+                                                   channels::CalibrationRepeat& repeat,
+                                                   const core::StereoCalibration& calibration,
+                                                   int64_t first_utime) {
+  auto writer = messages::LogWriter::open(output);
+  if (!writer) return writer.error();
+  if (Status s = writeCalibrationIfDue(*writer, repeat, calibration, first_utime); !s)
+    return s.error();
+  return writer;
+}
+
+// Writes `events` in order, each with `write` (Status(const PendingEvent&)), then commits the
+// log. Returns `summary` with the log's message counts and size.
+template <typename WriteEvent>
+Expected<ConversionSummary> writeEvents(messages::LogWriter& writer,
+                                        const std::vector<PendingEvent>& events,
+                                        ConversionSummary summary, WriteEvent write) {
+  for (const PendingEvent& e : events) {
+    if (Status s = write(e); !s) return s.error();
+  }
+  summary.messages = writer.counts();
+  summary.bytes = writer.bytes();
+  if (Status s = writer.commit(); !s) return s.error();
+  return summary;
 }
 
 }  // namespace evermap::datasets::detail

@@ -5,18 +5,12 @@
 #include <fstream>
 #include <sstream>
 
+#include "tools/datasets/text_lines.h"
+
 namespace evermap::datasets {
 namespace {
 
 namespace fs = std::filesystem;
-
-bool isCommentOrBlank(const std::string& line) {
-  for (char c : line) {
-    if (c == '#') return true;
-    if (!std::isspace(static_cast<unsigned char>(c))) return false;
-  }
-  return true;
-}
 
 std::vector<std::string> words(const std::string& line) {
   std::istringstream in(line);

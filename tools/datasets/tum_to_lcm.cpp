@@ -1,10 +1,11 @@
 // TUM RGB-D sequence -> LCM log (to_lcm.h).
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
+#include "core/features/gray_image.h"
 #include "core/messages/channels.h"
 #include "core/messages/rgbd_convert.h"
 #include "tools/datasets/to_lcm.h"
@@ -30,16 +31,9 @@ Expected<cv::Mat> readGray(const fs::path& file) {
   }
   if (image.empty()) return makeError(file.string(), ": missing, corrupt or not an image");
   if (image.depth() != CV_8U) return makeError(file.string(), ": not an 8-bit image");
-  if (image.channels() == 1) return image;
-  cv::Mat gray;
-  if (image.channels() == 3) {
-    cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-  } else if (image.channels() == 4) {
-    cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
-  } else {
-    return makeError(file.string(), ": ", image.channels(), " channels (need 1, 3 or 4)");
-  }
-  return gray;
+  std::optional<cv::Mat> gray = core::toGray(image);
+  if (!gray) return makeError(file.string(), ": ", image.channels(), " channels (need 1, 3 or 4)");
+  return *gray;
 }
 
 Expected<cv::Mat> readDepth(const fs::path& file) {
@@ -56,6 +50,39 @@ Expected<cv::Mat> readDepth(const fs::path& file) {
                      " channels");
   }
   return depth;
+}
+
+// The RGB-D message of the sequence's frame `k`: its colour image as gray and its depth,
+// both checked against the calibration's size.
+Expected<rgbd_image_t> rgbdMessage(const fs::path& folder, const TumRgbdSequence& seq, size_t k,
+                                   int64_t utime, const core::CameraCalibration& camera,
+                                   const std::string& calibration_name,
+                                   const TumToLcmOptions& options) {
+  const auto [ci, di] = seq.frames[k];
+  messages::RgbdFrame f;
+  f.utime = utime;
+  f.depth_utime = messages::utimeFromNs(seq.depth[di].t_ns);
+  f.depth_scale_m = options.depth_scale_m;
+  f.camera = camera;
+  const fs::path color_file = folder / seq.color[ci].file;
+  const fs::path depth_file = folder / seq.depth[di].file;
+  auto gray = readGray(color_file);
+  if (!gray) return gray.error();
+  auto depth = readDepth(depth_file);
+  if (!depth) return depth.error();
+  for (const auto& [file, image] :
+       {std::pair{&color_file, &*gray}, std::pair{&depth_file, &*depth}}) {
+    if (image->cols != camera.width || image->rows != camera.height) {
+      return makeError(file->string(), ": image is ", image->cols, "x", image->rows,
+                       ", the calibration (", calibration_name, ") is ", camera.width, "x",
+                       camera.height);
+    }
+  }
+  f.gray = std::move(*gray);
+  f.depth = std::move(*depth);
+  auto msg = messages::toMsg(f, options.encoding);
+  if (!msg) return makeError(color_file.string(), ": ", msg.error().message);
+  return msg;
 }
 
 }  // namespace
@@ -101,52 +128,25 @@ Expected<ConversionSummary> convertTumRgbdToLcm(const fs::path& folder, const fs
     return writer->write(channels::kRgbdCalib, utime, msg);
   };
   if (Status s = writeCalibrationIfDue(events.front().utime); !s) return s.error();
-  for (const PendingEvent& e : events) {
-    Status s = Ok{};
+  return detail::writeEvents(*writer, events, summary, [&](const PendingEvent& e) -> Status {
     if (e.kind == EventKind::kImu) {
       evermap::accel_t msg;
       msg.utime = e.utime;
       for (int i = 0; i < 3; ++i)
         msg.linear_acceleration[i] = seq->accelerometer[e.index].accel_m_s2[i];
-      s = writer->write(channels::kAccel, e.utime, msg);
-    } else if (e.kind == EventKind::kGroundTruth) {
-      s = writer->write(
+      return writer->write(channels::kAccel, e.utime, msg);
+    }
+    if (e.kind == EventKind::kGroundTruth) {
+      return writer->write(
           channels::kGroundTruth, e.utime,
           messages::toMsg(e.utime, core::UncertainPose{seq->ground_truth[e.index].world_T_body}));
-    } else {
-      const auto [ci, di] = seq->frames[e.index];
-      messages::RgbdFrame f;
-      f.utime = e.utime;
-      f.depth_utime = messages::utimeFromNs(seq->depth[di].t_ns);
-      f.depth_scale_m = options.depth_scale_m;
-      f.camera = *camera;
-      const fs::path color_file = folder / seq->color[ci].file;
-      const fs::path depth_file = folder / seq->depth[di].file;
-      auto gray = readGray(color_file);
-      if (!gray) return gray.error();
-      auto depth = readDepth(depth_file);
-      if (!depth) return depth.error();
-      for (const auto& [file, image] :
-           {std::pair{&color_file, &*gray}, std::pair{&depth_file, &*depth}}) {
-        if (image->cols != camera->width || image->rows != camera->height) {
-          return makeError(file->string(), ": image is ", image->cols, "x", image->rows,
-                           ", the calibration (", calibration_name, ") is ", camera->width, "x",
-                           camera->height);
-        }
-      }
-      f.gray = std::move(*gray);
-      f.depth = std::move(*depth);
-      auto msg = messages::toMsg(f, options.encoding);
-      if (!msg) return makeError(color_file.string(), ": ", msg.error().message);
-      s = writeCalibrationIfDue(e.utime);
-      if (s) s = writer->write(channels::kRgbd, e.utime, *msg);
     }
-    if (!s) return s.error();
-  }
-  summary.messages = writer->counts();
-  summary.bytes = writer->bytes();
-  if (Status s = writer->commit(); !s) return s.error();
-  return summary;
+    auto msg = rgbdMessage(folder, *seq, e.index, e.utime, *camera, calibration_name, options);
+    if (!msg) return msg.error();
+    Status s = writeCalibrationIfDue(e.utime);
+    if (s) s = writer->write(channels::kRgbd, e.utime, *msg);
+    return s;
+  });
 }
 
 }  // namespace evermap::datasets

@@ -2,6 +2,7 @@
 #include <map>
 #include <sstream>
 
+#include "core/common/quoted_text.h"
 #include "tools/deputy/config.h"
 
 namespace evermap::deputy {
@@ -70,31 +71,7 @@ std::string normalizeGroupPath(std::string_view path) {
 
 namespace {
 
-std::string quote(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    switch (c) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\r':
-        out += "\\r";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out + "\"";
-}
+std::string quote(const std::string& s) { return quotedText(s, /*escape_controls=*/false); }
 
 void writeCommand(std::ostringstream& out, const CommandSpec& c, const std::string& indent) {
   out << indent << "cmd " << quote(c.name) << " {\n";

@@ -83,6 +83,182 @@ struct Projection {
   }
 };
 
+// Margins of the plot area, pixels: floor labels right of the plates, title above, legend below.
+constexpr double kLabelPx = 190.0, kTopPx = 70.0, kBottomPx = 50.0, kLeftPx = 30.0;
+
+Status checkFigure(const MapFigure& figure) {
+  if (figure.nodes.empty()) return makeError("map figure: the map has no nodes");
+  for (size_t i = 0; i < figure.nodes.size(); ++i) {
+    if (!figure.nodes[i].p_world.allFinite()) {
+      return makeError("map figure: node ", i, " has a non-finite position");
+    }
+  }
+  for (const MapFigureEdge& e : figure.edges) {
+    if (e.a >= figure.nodes.size() || e.b >= figure.nodes.size()) {
+      return makeError("map figure: edge (", e.a, ", ", e.b, ") refers to a missing node");
+    }
+  }
+  for (const core::Vec3& p : figure.reference) {
+    if (!p.allFinite()) return makeError("map figure: the reference has a non-finite position");
+  }
+  return Ok{};
+}
+
+// The projection of the options; the horizontal extent sets the floor spacing, so the figure
+// keeps its shape at any scale. `margin_m`: the plates' margin around their nodes.
+Projection projectionOf(const MapFigure& figure, const MapFigureOptions& options,
+                        double* margin_m) {
+  double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
+  auto grow = [&](const core::Vec3& p) {
+    x0 = std::min(x0, p.x()), x1 = std::max(x1, p.x());
+    y0 = std::min(y0, p.y()), y1 = std::max(y1, p.y());
+  };
+  for (const MapFigureNode& n : figure.nodes) grow(n.p_world);
+  for (const core::Vec3& p : figure.reference) grow(p);
+  const double extent = std::max({x1 - x0, y1 - y0, 1.0});
+  *margin_m = 0.03 * extent;
+  Projection proj;
+  const double az = options.azimuth_deg * M_PI / 180.0;
+  proj.c = std::cos(az);
+  proj.s = std::sin(az);
+  proj.flatten = options.flatten;
+  proj.level_m = options.floor_spacing * extent;
+  return proj;
+}
+
+// Per floor: the plate, the horizontal bounding box of its nodes with a margin.
+std::vector<std::array<Vector2d, 4>> platesOf(const MapFigure& figure, const FloorLevels& levels,
+                                              const Projection& proj, double margin_m) {
+  std::vector<std::array<Vector2d, 4>> plates(levels.floors.size());
+  std::vector<std::array<double, 4>> boxes(
+      levels.floors.size(),
+      {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+       -std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()});
+  for (const MapFigureNode& n : figure.nodes) {
+    auto& b = boxes[levels.rank_of.at(n.floor)];
+    b = {std::min(b[0], n.p_world.x()), std::min(b[1], n.p_world.y()),
+         std::max(b[2], n.p_world.x()), std::max(b[3], n.p_world.y())};
+  }
+  for (size_t r = 0; r < plates.size(); ++r) {
+    const auto& b = boxes[r];
+    const double lv = static_cast<double>(r);
+    plates[r] = {
+        proj(b[0] - margin_m, b[1] - margin_m, lv), proj(b[2] + margin_m, b[1] - margin_m, lv),
+        proj(b[2] + margin_m, b[3] + margin_m, lv), proj(b[0] - margin_m, b[3] + margin_m, lv)};
+  }
+  return plates;
+}
+
+// Where everything goes: plates, nodes and reference projected, fitted into the plot area at
+// one scale.
+struct Layout {
+  std::vector<std::array<Vector2d, 4>> plates;  // by floor rank
+  std::vector<Vector2d> node_uv, ref_uv;
+  std::vector<double> node_level, ref_level;  // drawing level (floor rank)
+  Vector2d lo;
+  double ppm = 1.0, plot_h = 0.0;
+
+  Vector2d px(const Vector2d& q) const {
+    return Vector2d(kLeftPx + (q.x() - lo.x()) * ppm, kTopPx + plot_h - (q.y() - lo.y()) * ppm);
+  }
+};
+
+Layout layoutOf(const MapFigure& figure, const FloorLevels& levels,
+                const MapFigureOptions& options) {
+  double margin_m = 0.0;
+  const Projection proj = projectionOf(figure, options, &margin_m);
+  Layout l;
+  l.plates = platesOf(figure, levels, proj, margin_m);
+  for (const MapFigureNode& n : figure.nodes) {
+    l.node_level.push_back(static_cast<double>(levels.rank_of.at(n.floor)));
+    l.node_uv.push_back(proj(n.p_world.x(), n.p_world.y(), l.node_level.back()));
+  }
+  for (const core::Vec3& p : figure.reference) {
+    l.ref_level.push_back(levels.levelOfHeight(p.z()));
+    l.ref_uv.push_back(proj(p.x(), p.y(), l.ref_level.back()));
+  }
+  Vector2d lo = Vector2d::Constant(std::numeric_limits<double>::infinity());
+  Vector2d hi = -lo;
+  auto fit = [&](const Vector2d& q) { lo = lo.cwiseMin(q), hi = hi.cwiseMax(q); };
+  for (const auto& plate : l.plates) {
+    for (const Vector2d& q : plate) fit(q);
+  }
+  for (const Vector2d& q : l.ref_uv) fit(q);
+  const double plot_w = options.width_px - kLeftPx - kLabelPx;
+  l.plot_h = options.height_px - kTopPx - kBottomPx;
+  l.ppm = std::min(plot_w / std::max(1e-9, hi.x() - lo.x()),
+                   l.plot_h / std::max(1e-9, hi.y() - lo.y()));
+  l.lo = lo;
+  return l;
+}
+
+// Floor rank `r`: its plate and label, the reference where it lies on or climbs from the
+// floor, the edges drawn with the upper of their floors (loop closures over odometry), the
+// nodes. `sessions` collects the sessions drawn.
+void drawFloor(Canvas& canvas, const MapFigure& figure, const FloorLevels& levels, const Layout& l,
+               size_t r, std::set<int>* sessions) {
+  std::vector<Vector2d> plate_px;
+  for (const Vector2d& q : l.plates[r]) plate_px.push_back(l.px(q));
+  canvas.polygon(plate_px, kPlateEdge, 1.0, kPlateFill);
+  const Vector2d right =
+      *std::max_element(plate_px.begin(), plate_px.end(),
+                        [](const Vector2d& a, const Vector2d& b) { return a.x() < b.x(); });
+  char label[96];
+  std::snprintf(label, sizeof label, "floor %d  (%.1f m)", levels.floors[r],
+                std::abs(levels.height_m[r]) < 0.05 ? 0.0 : levels.height_m[r]);
+  canvas.text(right + Vector2d(10, 4), label, 11, kTextColor);
+
+  const double lv = static_cast<double>(r);
+  std::vector<Vector2d> run;
+  auto flush = [&] {
+    if (run.size() >= 2) canvas.polyline(run, kReferenceColor, 1.0);
+    run.clear();
+  };
+  for (size_t i = 0; i < l.ref_uv.size(); ++i) {
+    if (l.ref_level[i] >= lv - 0.5 && l.ref_level[i] < lv + 0.5) {
+      run.push_back(l.px(l.ref_uv[i]));
+    } else {
+      flush();
+    }
+  }
+  flush();
+
+  for (int pass = 0; pass < 2; ++pass) {
+    for (const MapFigureEdge& e : figure.edges) {
+      if (e.loop_closure != (pass == 1)) continue;
+      if (std::max(l.node_level[e.a], l.node_level[e.b]) != lv) continue;
+      const Rgb color = e.loop_closure ? kLoopColor : sessionColor(figure.nodes[e.b].session);
+      canvas.line(l.px(l.node_uv[e.a]), l.px(l.node_uv[e.b]), color, e.loop_closure ? 0.8 : 1.0);
+    }
+  }
+  for (size_t i = 0; i < figure.nodes.size(); ++i) {
+    if (l.node_level[i] != lv) continue;
+    sessions->insert(figure.nodes[i].session);
+    canvas.circle(l.px(l.node_uv[i]), 1.6, sessionColor(figure.nodes[i].session), true);
+  }
+}
+
+// Legend along the bottom: sessions, loop closures, reference.
+void drawLegend(Canvas& canvas, const MapFigureOptions& options, const std::set<int>& sessions,
+                bool reference) {
+  double x = kLeftPx;
+  const double y = options.height_px - 18.0;
+  for (int s : sessions) {
+    if (x > options.width_px - 160) break;
+    canvas.circle({x + 5, y - 4}, 4, sessionColor(s), true);
+    const std::string t = "session " + std::to_string(s);
+    canvas.text({x + 14, y}, t, 10, kTextColor);
+    x += 24 + Canvas::textWidthPx(t, 10);
+  }
+  canvas.line({x, y - 4}, {x + 18, y - 4}, kLoopColor, 1.5);
+  canvas.text({x + 24, y}, "loop closure", 10, kTextColor);
+  x += 34 + Canvas::textWidthPx("loop closure", 10);
+  if (reference) {
+    canvas.line({x, y - 4}, {x + 18, y - 4}, kReferenceColor, 1.5);
+    canvas.text({x + 24, y}, "ground truth", 10, kTextColor);
+  }
+}
+
 }  // namespace
 
 Status MapFigureOptions::validate() const {
@@ -101,166 +277,22 @@ Status MapFigureOptions::validate() const {
 Expected<Canvas> drawMapFigure(const MapFigure& figure, const MapFigureOptions& options,
                                MapFigureSummary* summary) {
   if (Status s = options.validate(); !s) return s.error();
-  if (figure.nodes.empty()) return makeError("map figure: the map has no nodes");
-  for (size_t i = 0; i < figure.nodes.size(); ++i) {
-    if (!figure.nodes[i].p_world.allFinite()) {
-      return makeError("map figure: node ", i, " has a non-finite position");
-    }
-  }
-  for (const MapFigureEdge& e : figure.edges) {
-    if (e.a >= figure.nodes.size() || e.b >= figure.nodes.size()) {
-      return makeError("map figure: edge (", e.a, ", ", e.b, ") refers to a missing node");
-    }
-  }
-  for (const core::Vec3& p : figure.reference) {
-    if (!p.allFinite()) return makeError("map figure: the reference has a non-finite position");
-  }
-
+  if (Status s = checkFigure(figure); !s) return s.error();
   const FloorLevels levels = floorLevels(figure.nodes);
-
-  // Horizontal extent sets the floor spacing, so the figure keeps its shape at any scale.
-  double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
-  auto grow = [&](const core::Vec3& p) {
-    x0 = std::min(x0, p.x()), x1 = std::max(x1, p.x());
-    y0 = std::min(y0, p.y()), y1 = std::max(y1, p.y());
-  };
-  for (const MapFigureNode& n : figure.nodes) grow(n.p_world);
-  for (const core::Vec3& p : figure.reference) grow(p);
-  const double extent = std::max({x1 - x0, y1 - y0, 1.0});
-  const double margin_m = 0.03 * extent;
-
-  Projection proj;
-  const double az = options.azimuth_deg * M_PI / 180.0;
-  proj.c = std::cos(az);
-  proj.s = std::sin(az);
-  proj.flatten = options.flatten;
-  proj.level_m = options.floor_spacing * extent;
-
-  // Per floor: the plate, the horizontal bounding box of its nodes with a margin.
-  std::vector<std::array<Vector2d, 4>> plates(levels.floors.size());
-  std::vector<std::array<double, 4>> boxes(
-      levels.floors.size(),
-      {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-       -std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()});
-  for (const MapFigureNode& n : figure.nodes) {
-    auto& b = boxes[levels.rank_of.at(n.floor)];
-    b = {std::min(b[0], n.p_world.x()), std::min(b[1], n.p_world.y()),
-         std::max(b[2], n.p_world.x()), std::max(b[3], n.p_world.y())};
-  }
-  for (size_t r = 0; r < plates.size(); ++r) {
-    const auto& b = boxes[r];
-    const double lv = static_cast<double>(r);
-    plates[r] = {
-        proj(b[0] - margin_m, b[1] - margin_m, lv), proj(b[2] + margin_m, b[1] - margin_m, lv),
-        proj(b[2] + margin_m, b[3] + margin_m, lv), proj(b[0] - margin_m, b[3] + margin_m, lv)};
-  }
-
-  auto nodeLevel = [&](const MapFigureNode& n) {
-    return static_cast<double>(levels.rank_of.at(n.floor));
-  };
-  std::vector<Vector2d> node_uv(figure.nodes.size());
-  for (size_t i = 0; i < figure.nodes.size(); ++i) {
-    const auto& p = figure.nodes[i].p_world;
-    node_uv[i] = proj(p.x(), p.y(), nodeLevel(figure.nodes[i]));
-  }
-  std::vector<Vector2d> ref_uv(figure.reference.size());
-  std::vector<double> ref_level(figure.reference.size());
-  for (size_t i = 0; i < figure.reference.size(); ++i) {
-    const auto& p = figure.reference[i];
-    ref_level[i] = levels.levelOfHeight(p.z());
-    ref_uv[i] = proj(p.x(), p.y(), ref_level[i]);
-  }
-
-  // Fit everything into the plot area at one scale.
-  Vector2d lo = Vector2d::Constant(std::numeric_limits<double>::infinity());
-  Vector2d hi = -lo;
-  auto fit = [&](const Vector2d& q) { lo = lo.cwiseMin(q), hi = hi.cwiseMax(q); };
-  for (const auto& plate : plates) {
-    for (const Vector2d& q : plate) fit(q);
-  }
-  for (const Vector2d& q : ref_uv) fit(q);
-  const double label_px = 190.0;  // floor labels right of the plates
-  const double top_px = 70.0, bottom_px = 50.0, left_px = 30.0;
-  const double plot_w = options.width_px - left_px - label_px;
-  const double plot_h = options.height_px - top_px - bottom_px;
-  const double ppm =
-      std::min(plot_w / std::max(1e-9, hi.x() - lo.x()), plot_h / std::max(1e-9, hi.y() - lo.y()));
-  auto px = [&](const Vector2d& q) {
-    return Vector2d(left_px + (q.x() - lo.x()) * ppm, top_px + plot_h - (q.y() - lo.y()) * ppm);
-  };
+  const Layout layout = layoutOf(figure, levels, options);
 
   Canvas canvas(options.width_px, options.height_px);
-  canvas.text({left_px, 28}, options.title, 15, kTextColor);
-  canvas.text({left_px, 52}, options.subtitle, 12, kTextColor);
-
+  canvas.text({kLeftPx, 28}, options.title, 15, kTextColor);
+  canvas.text({kLeftPx, 52}, options.subtitle, 12, kTextColor);
   // Bottom floor first, so that each plate hides what lies under it.
   std::set<int> sessions;
-  size_t loops = 0;
-  for (const MapFigureEdge& e : figure.edges) loops += e.loop_closure ? 1 : 0;
-  for (size_t r = 0; r < plates.size(); ++r) {
-    std::vector<Vector2d> plate_px;
-    for (const Vector2d& q : plates[r]) plate_px.push_back(px(q));
-    canvas.polygon(plate_px, kPlateEdge, 1.0, kPlateFill);
-    const Vector2d right =
-        *std::max_element(plate_px.begin(), plate_px.end(),
-                          [](const Vector2d& a, const Vector2d& b) { return a.x() < b.x(); });
-    char label[96];
-    std::snprintf(label, sizeof label, "floor %d  (%.1f m)", levels.floors[r],
-                  std::abs(levels.height_m[r]) < 0.05 ? 0.0 : levels.height_m[r]);
-    canvas.text(right + Vector2d(10, 4), label, 11, kTextColor);
-
-    // The reference where it lies on or climbs from this floor.
-    const double lv = static_cast<double>(r);
-    std::vector<Vector2d> run;
-    auto flush = [&] {
-      if (run.size() >= 2) canvas.polyline(run, kReferenceColor, 1.0);
-      run.clear();
-    };
-    for (size_t i = 0; i < ref_uv.size(); ++i) {
-      if (ref_level[i] >= lv - 0.5 && ref_level[i] < lv + 0.5) {
-        run.push_back(px(ref_uv[i]));
-      } else {
-        flush();
-      }
-    }
-    flush();
-
-    // Edges are drawn with the upper of their two floors; loop closures over odometry.
-    for (int pass = 0; pass < 2; ++pass) {
-      for (const MapFigureEdge& e : figure.edges) {
-        if (e.loop_closure != (pass == 1)) continue;
-        const double level = std::max(nodeLevel(figure.nodes[e.a]), nodeLevel(figure.nodes[e.b]));
-        if (level != lv) continue;
-        const Rgb color = e.loop_closure ? kLoopColor : sessionColor(figure.nodes[e.b].session);
-        canvas.line(px(node_uv[e.a]), px(node_uv[e.b]), color, e.loop_closure ? 0.8 : 1.0);
-      }
-    }
-    for (size_t i = 0; i < figure.nodes.size(); ++i) {
-      if (nodeLevel(figure.nodes[i]) != lv) continue;
-      sessions.insert(figure.nodes[i].session);
-      canvas.circle(px(node_uv[i]), 1.6, sessionColor(figure.nodes[i].session), true);
-    }
-  }
-
-  // Legend along the bottom: sessions, loop closures, reference.
-  double x = left_px;
-  const double y = options.height_px - 18.0;
-  for (int s : sessions) {
-    if (x > options.width_px - 160) break;
-    canvas.circle({x + 5, y - 4}, 4, sessionColor(s), true);
-    const std::string t = "session " + std::to_string(s);
-    canvas.text({x + 14, y}, t, 10, kTextColor);
-    x += 24 + Canvas::textWidthPx(t, 10);
-  }
-  canvas.line({x, y - 4}, {x + 18, y - 4}, kLoopColor, 1.5);
-  canvas.text({x + 24, y}, "loop closure", 10, kTextColor);
-  x += 34 + Canvas::textWidthPx("loop closure", 10);
-  if (!figure.reference.empty()) {
-    canvas.line({x, y - 4}, {x + 18, y - 4}, kReferenceColor, 1.5);
-    canvas.text({x + 24, y}, "ground truth", 10, kTextColor);
-  }
+  for (size_t r = 0; r < layout.plates.size(); ++r)
+    drawFloor(canvas, figure, levels, layout, r, &sessions);
+  drawLegend(canvas, options, sessions, !figure.reference.empty());
 
   if (summary) {
+    size_t loops = 0;
+    for (const MapFigureEdge& e : figure.edges) loops += e.loop_closure ? 1 : 0;
     summary->floors = levels.floors.size();
     summary->sessions = sessions.size();
     summary->loop_closures = loops;

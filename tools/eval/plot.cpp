@@ -56,6 +56,103 @@ std::vector<Vector2d> toPixels(const View& view, const std::vector<Vector2d>& uv
   return out;
 }
 
+// The two axes drawn: the options' plane, or (auto) the two of largest extent of the ground
+// truth.
+std::array<int, 2> plotAxes(const std::vector<core::Vec3>& gt, PlotPlane plane) {
+  core::Vec3 lo = gt.front(), hi = gt.front();
+  for (const core::Vec3& p : gt) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  if (plane == PlotPlane::kAuto) {
+    Eigen::Index vertical = 0;
+    (hi - lo).minCoeff(&vertical);
+    plane = vertical == 2 ? PlotPlane::kXY : vertical == 1 ? PlotPlane::kXZ : PlotPlane::kYZ;
+  }
+  if (plane == PlotPlane::kXZ) return {0, 2};
+  if (plane == PlotPlane::kYZ) return {1, 2};
+  return {0, 1};
+}
+
+// Equal scale on both axes, the data centred in the plot area with a 6 % margin.
+View viewOf(const std::vector<Vector2d>& gt_uv, const std::vector<Vector2d>& est_uv, double W,
+            double H) {
+  View view{72.0, 100.0, W - 72.0 - 24.0, H - 100.0 - 56.0, 0, 0, 1};
+  Vector2d a = gt_uv.front(), b = gt_uv.front();
+  for (const auto* list : {&gt_uv, &est_uv}) {
+    for (const Vector2d& p : *list) {
+      a = a.cwiseMin(p);
+      b = b.cwiseMax(p);
+    }
+  }
+  const double span_floor = std::max(1e-3 * (b - a).maxCoeff(), 1e-6);
+  const Vector2d span = (b - a).cwiseMax(Vector2d(span_floor, span_floor)) * 1.12;
+  view.ppm = std::min(view.w / span.x(), view.h / span.y());
+  const Vector2d centre = 0.5 * (a + b);
+  view.u_min = centre.x() - 0.5 * view.w / view.ppm;
+  view.v_min = centre.y() - 0.5 * view.h / view.ppm;
+  return view;
+}
+
+// Grid and tick labels, one step for both axes so that squares stay squares; the frame, the
+// axis names and the titles.
+void drawFrame(Canvas& c, const View& view, const std::array<int, 2>& axes,
+               const TopViewOptions& options) {
+  const double W = options.width_px, H = options.height_px;
+  const char* names = "xyz";
+  const double step = niceStep(std::max(view.uMax() - view.u_min, view.vMax() - view.v_min) / 8.0);
+  for (double u = std::ceil(view.u_min / step) * step; u <= view.uMax(); u += step) {
+    const double x = view.px({u, 0}).x();
+    c.line({x, view.y0}, {x, view.y0 + view.h}, kGridColor, 1);
+    c.text({x, view.y0 + view.h + 18}, tickText(u, step), 10, kTextColor, TextAnchor::kMiddle);
+  }
+  for (double v = std::ceil(view.v_min / step) * step; v <= view.vMax(); v += step) {
+    const double y = view.px({0, v}).y();
+    c.line({view.x0, y}, {view.x0 + view.w, y}, kGridColor, 1);
+    c.text({view.x0 - 6, y + 5}, tickText(v, step), 10, kTextColor, TextAnchor::kEnd);
+  }
+  c.rect({view.x0, view.y0}, {view.w, view.h}, kFrameColor, 1);
+  c.text({view.x0 + 0.5 * view.w, H - 14}, std::string(1, names[axes[0]]) + " [m]", 12, kTextColor,
+         TextAnchor::kMiddle);
+  c.text({view.x0 - 6, view.y0 - 8}, std::string(1, names[axes[1]]) + " [m]", 12, kTextColor,
+         TextAnchor::kEnd);
+  if (!options.title.empty()) {
+    c.text({0.5 * W, 26}, options.title, 14, kTextColor, TextAnchor::kMiddle);
+  }
+  if (!options.subtitle.empty()) {
+    c.text({0.5 * W, 48}, options.subtitle, 11, kTextColor, TextAnchor::kMiddle);
+  }
+}
+
+// Legend in a row between the titles and the plot, scale bar under the plot's right end:
+// outside the plot area, they never hide a part of a trajectory.
+void drawLegend(Canvas& c, const View& view, const TopViewOptions& options) {
+  const double W = options.width_px, H = options.height_px;
+  const std::array<std::string, 3> labels = {options.gt_label, options.est_label, "start"};
+  double legend_w = 0;
+  for (const auto& l : labels) legend_w += 34 + Canvas::textWidthPx(l, 11) + 24;
+  double lx = std::max(view.x0, 0.5 * (W - legend_w + 24));
+  const double ly = view.y0 - 22;
+  for (int k = 0; k < 3; ++k) {
+    if (k < 2) {
+      c.line({lx, ly}, {lx + 28, ly}, k == 0 ? kGtColor : kEstColor, k == 0 ? 2.5 : 1.5);
+    } else {
+      c.circle({lx + 14, ly}, 5, kGtColor, true);
+    }
+    c.text({lx + 34, ly + 5}, labels[k], 11, kTextColor);
+    lx += 34 + Canvas::textWidthPx(labels[k], 11) + 24;
+  }
+  const double bar_m = niceStep((view.uMax() - view.u_min) / 6.0);
+  const double bar_px = bar_m * view.ppm;
+  const double bar_right = view.x0 + view.w;
+  const double bar_y = H - 19;
+  c.line({bar_right - bar_px, bar_y}, {bar_right, bar_y}, kTextColor, 3);
+  c.line({bar_right - bar_px, bar_y - 5}, {bar_right - bar_px, bar_y + 5}, kTextColor, 2);
+  c.line({bar_right, bar_y - 5}, {bar_right, bar_y + 5}, kTextColor, 2);
+  c.text({bar_right - bar_px - 8, bar_y + 5}, tickText(bar_m, bar_m) + " m", 11, kTextColor,
+         TextAnchor::kEnd);
+}
+
 }  // namespace
 
 const char* toString(PlotPlane plane) {
@@ -97,22 +194,7 @@ Expected<Canvas> drawTopView(const std::vector<core::Vec3>& gt, const std::vecto
       if (!p.allFinite()) return makeError("plot: a position is not finite");
     }
   }
-  // Which two axes to draw.
-  core::Vec3 lo = gt.front(), hi = gt.front();
-  for (const core::Vec3& p : gt) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  std::array<int, 2> axes = {0, 1};
-  PlotPlane plane = options.plane;
-  if (plane == PlotPlane::kAuto) {
-    Eigen::Index vertical = 0;
-    (hi - lo).minCoeff(&vertical);
-    plane = vertical == 2 ? PlotPlane::kXY : vertical == 1 ? PlotPlane::kXZ : PlotPlane::kYZ;
-  }
-  if (plane == PlotPlane::kXZ) axes = {0, 2};
-  if (plane == PlotPlane::kYZ) axes = {1, 2};
-  const char* names = "xyz";
+  const std::array<int, 2> axes = plotAxes(gt, options.plane);
   auto project = [&](const std::vector<core::Vec3>& pts) {
     std::vector<Vector2d> uv;
     uv.reserve(pts.size());
@@ -121,49 +203,10 @@ Expected<Canvas> drawTopView(const std::vector<core::Vec3>& gt, const std::vecto
   };
   const std::vector<Vector2d> gt_uv = project(gt);
   const std::vector<Vector2d> est_uv = project(est);
-
-  // Equal scale on both axes, the data centred in the plot area with a 6 % margin.
-  const double W = options.width_px, H = options.height_px;
-  View view{72.0, 100.0, W - 72.0 - 24.0, H - 100.0 - 56.0, 0, 0, 1};
-  Vector2d a = gt_uv.front(), b = gt_uv.front();
-  for (const auto* list : {&gt_uv, &est_uv}) {
-    for (const Vector2d& p : *list) {
-      a = a.cwiseMin(p);
-      b = b.cwiseMax(p);
-    }
-  }
-  const double span_floor = std::max(1e-3 * (b - a).maxCoeff(), 1e-6);
-  const Vector2d span = (b - a).cwiseMax(Vector2d(span_floor, span_floor)) * 1.12;
-  view.ppm = std::min(view.w / span.x(), view.h / span.y());
-  const Vector2d centre = 0.5 * (a + b);
-  view.u_min = centre.x() - 0.5 * view.w / view.ppm;
-  view.v_min = centre.y() - 0.5 * view.h / view.ppm;
+  const View view = viewOf(gt_uv, est_uv, options.width_px, options.height_px);
 
   Canvas c(options.width_px, options.height_px);
-  // Grid and tick labels, one step for both axes so that squares stay squares.
-  const double step = niceStep(std::max(view.uMax() - view.u_min, view.vMax() - view.v_min) / 8.0);
-  for (double u = std::ceil(view.u_min / step) * step; u <= view.uMax(); u += step) {
-    const double x = view.px({u, 0}).x();
-    c.line({x, view.y0}, {x, view.y0 + view.h}, kGridColor, 1);
-    c.text({x, view.y0 + view.h + 18}, tickText(u, step), 10, kTextColor, TextAnchor::kMiddle);
-  }
-  for (double v = std::ceil(view.v_min / step) * step; v <= view.vMax(); v += step) {
-    const double y = view.px({0, v}).y();
-    c.line({view.x0, y}, {view.x0 + view.w, y}, kGridColor, 1);
-    c.text({view.x0 - 6, y + 5}, tickText(v, step), 10, kTextColor, TextAnchor::kEnd);
-  }
-  c.rect({view.x0, view.y0}, {view.w, view.h}, kFrameColor, 1);
-  c.text({view.x0 + 0.5 * view.w, H - 14}, std::string(1, names[axes[0]]) + " [m]", 12, kTextColor,
-         TextAnchor::kMiddle);
-  c.text({view.x0 - 6, view.y0 - 8}, std::string(1, names[axes[1]]) + " [m]", 12, kTextColor,
-         TextAnchor::kEnd);
-  if (!options.title.empty()) {
-    c.text({0.5 * W, 26}, options.title, 14, kTextColor, TextAnchor::kMiddle);
-  }
-  if (!options.subtitle.empty()) {
-    c.text({0.5 * W, 48}, options.subtitle, 11, kTextColor, TextAnchor::kMiddle);
-  }
-
+  drawFrame(c, view, axes, options);
   // The trajectories: ground truth wide and black underneath, the estimate thin on top, so
   // that both stay visible where they agree.
   const std::vector<Vector2d> gt_px = toPixels(view, gt_uv);
@@ -172,32 +215,7 @@ Expected<Canvas> drawTopView(const std::vector<core::Vec3>& gt, const std::vecto
   c.polyline(est_px, kEstColor, 1.5);
   c.circle(gt_px.front(), 6, kGtColor, true);
   c.circle(est_px.front(), 6, kEstColor, false);
-
-  // Legend in a row between the titles and the plot, scale bar under the plot's right end:
-  // outside the plot area, they never hide a part of a trajectory.
-  const std::array<std::string, 3> labels = {options.gt_label, options.est_label, "start"};
-  double legend_w = 0;
-  for (const auto& l : labels) legend_w += 34 + Canvas::textWidthPx(l, 11) + 24;
-  double lx = std::max(view.x0, 0.5 * (W - legend_w + 24));
-  const double ly = view.y0 - 22;
-  for (int k = 0; k < 3; ++k) {
-    if (k < 2) {
-      c.line({lx, ly}, {lx + 28, ly}, k == 0 ? kGtColor : kEstColor, k == 0 ? 2.5 : 1.5);
-    } else {
-      c.circle({lx + 14, ly}, 5, kGtColor, true);
-    }
-    c.text({lx + 34, ly + 5}, labels[k], 11, kTextColor);
-    lx += 34 + Canvas::textWidthPx(labels[k], 11) + 24;
-  }
-  const double bar_m = niceStep((view.uMax() - view.u_min) / 6.0);
-  const double bar_px = bar_m * view.ppm;
-  const double bar_right = view.x0 + view.w;
-  const double bar_y = H - 19;
-  c.line({bar_right - bar_px, bar_y}, {bar_right, bar_y}, kTextColor, 3);
-  c.line({bar_right - bar_px, bar_y - 5}, {bar_right - bar_px, bar_y + 5}, kTextColor, 2);
-  c.line({bar_right, bar_y - 5}, {bar_right, bar_y + 5}, kTextColor, 2);
-  c.text({bar_right - bar_px - 8, bar_y + 5}, tickText(bar_m, bar_m) + " m", 11, kTextColor,
-         TextAnchor::kEnd);
+  drawLegend(c, view, options);
   return c;
 }
 

@@ -6,6 +6,7 @@
 
 #include "core/common/atomic_write.h"
 #include "core/common/number_text.h"
+#include "core/common/quoted_text.h"
 
 namespace evermap::eval {
 namespace {
@@ -14,37 +15,7 @@ constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
 // ---- JSON ----
 
-std::string jsonString(const std::string& s) {
-  std::string out = "\"";
-  for (unsigned char c : s) {
-    switch (c) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\r':
-        out += "\\r";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        if (c < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof(buf), "\\u%04x", c);
-          out += buf;
-        } else {
-          out += static_cast<char>(c);  // UTF-8 passes through unchanged
-        }
-    }
-  }
-  return out + "\"";
-}
+std::string jsonString(const std::string& s) { return quotedText(s, /*escape_controls=*/true); }
 
 std::string jsonNumber(double v) { return std::isfinite(v) ? numberText(v, 10) : "null"; }
 

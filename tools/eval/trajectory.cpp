@@ -7,17 +7,12 @@
 
 #include "core/common/atomic_write.h"
 #include "core/common/number_text.h"
+#include "tools/datasets/text_lines.h"
 
 namespace evermap::eval {
 namespace {
 
-bool isCommentOrBlank(const std::string& line) {
-  for (char c : line) {
-    if (c == '#') return true;
-    if (!std::isspace(static_cast<unsigned char>(c))) return false;
-  }
-  return true;
-}
+using datasets::isCommentOrBlank;
 
 std::string trim(const std::string& s) {
   const size_t b = s.find_first_not_of(" \t\r");

@@ -57,16 +57,18 @@ double referenceTiltAtRest(const std::vector<datasets::ImuSample>& imu,
   return std::acos(std::clamp(up_world.z(), -1.0, 1.0));
 }
 
-AttitudeErrorSummary compareAttitude(const std::vector<Attitude>& estimates,
-                                     const std::vector<datasets::StampedPose>& ground_truth,
-                                     const AttitudeCompareOptions& options) {
-  AttitudeErrorSummary s;
-  if (estimates.empty() || ground_truth.empty()) return s;
+namespace {
+
+using TruthPairs = std::vector<std::pair<const Attitude*, core::SO3d>>;
+
+// Ground truth interpolated (slerp) at each estimate's time after skip_s, between two poses at
+// most max_offset_s apart in time on each side.
+TruthPairs pairWithTruth(const std::vector<Attitude>& estimates,
+                         const std::vector<datasets::StampedPose>& ground_truth,
+                         const AttitudeCompareOptions& options) {
   const int64_t max_offset_ns = static_cast<int64_t>(options.max_offset_s * 1e9);
   const int64_t t_start_us = estimates.front().utime + static_cast<int64_t>(options.skip_s * 1e6);
-  // Ground truth interpolated (slerp) at each estimate's time, between two poses at most
-  // max_offset_s apart in time on each side.
-  std::vector<std::pair<const Attitude*, core::SO3d>> pairs;
+  TruthPairs pairs;
   for (const Attitude& e : estimates) {
     if (e.utime < t_start_us) continue;
     const int64_t t_ns = e.utime * 1000;
@@ -82,31 +84,48 @@ AttitudeErrorSummary compareAttitude(const std::vector<Attitude>& estimates,
     const core::SO3d R1 = p1.world_T_body.so3();
     pairs.emplace_back(&e, R0 * core::SO3d::exp(f * (R0.inverse() * R1).log()));
   }
+  return pairs;
+}
+
+// The world's up and the body mis-calibration gt_R_imu that best explain the estimates:
+// alternating least squares, the world up given the body offset a normalised mean, the body
+// offset given the world up Wahba's problem (Kabsch, by SVD).
+void alignGravity(const TruthPairs& pairs, bool align_body, Eigen::Vector3d* up_world,
+                  Eigen::Matrix3d* gt_R_imu) {
+  const int rounds = align_body ? 10 : 1;
+  for (int round = 0; round < rounds; ++round) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const auto& [e, R] : pairs) {
+      sum += R * (*gt_R_imu * upFromRollPitch(e->roll_rad, e->pitch_rad));
+    }
+    *up_world = sum.normalized();
+    if (!align_body) break;
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    for (const auto& [e, R] : pairs) {
+      H += upFromRollPitch(e->roll_rad, e->pitch_rad) * (R.inverse() * *up_world).transpose();
+    }
+    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+    D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
+    *gt_R_imu = svd.matrixV() * D * svd.matrixU().transpose();
+  }
+}
+
+}  // namespace
+
+AttitudeErrorSummary compareAttitude(const std::vector<Attitude>& estimates,
+                                     const std::vector<datasets::StampedPose>& ground_truth,
+                                     const AttitudeCompareOptions& options) {
+  AttitudeErrorSummary s;
+  if (estimates.empty() || ground_truth.empty()) return s;
+  const TruthPairs pairs = pairWithTruth(estimates, ground_truth, options);
   Eigen::Vector3d up_world = Eigen::Vector3d::UnitZ();
   Eigen::Matrix3d gt_R_imu = Eigen::Matrix3d::Identity();  // the body mis-calibration
   const auto refUp = [&](const core::SO3d& world_R_gt) {
     return Eigen::Vector3d(gt_R_imu.transpose() * (world_R_gt.inverse() * up_world));
   };
   if (options.align_gravity && !pairs.empty()) {
-    // Alternating least squares: the world up given the body offset is a normalised mean;
-    // the body offset given the world up is Wahba's problem (Kabsch, by SVD).
-    const int rounds = options.align_body ? 10 : 1;
-    for (int round = 0; round < rounds; ++round) {
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      for (const auto& [e, R] : pairs) {
-        sum += R * (gt_R_imu * upFromRollPitch(e->roll_rad, e->pitch_rad));
-      }
-      up_world = sum.normalized();
-      if (!options.align_body) break;
-      Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-      for (const auto& [e, R] : pairs) {
-        H += upFromRollPitch(e->roll_rad, e->pitch_rad) * (R.inverse() * up_world).transpose();
-      }
-      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
-      Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-      D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
-      gt_R_imu = svd.matrixV() * D * svd.matrixU().transpose();
-    }
+    alignGravity(pairs, options.align_body, &up_world, &gt_R_imu);
     s.world_tilt_rad = std::acos(std::clamp(up_world.z(), -1.0, 1.0));
     s.body_offset_rad = core::SO3d::fromMatrix(gt_R_imu).log().norm();
   }

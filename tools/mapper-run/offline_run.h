@@ -88,6 +88,8 @@ struct OfflineRunOptions {
   // keyframe or tracking state the store holds) do not reach the mapper, as those sent while
   // mapper-proc restarts do not (MapperOptions::warm_restart_max_gap_s).
   double restart_gap_s = 0.0;
+  // A progress line on stderr at most this often, seconds of wall time (0: none).
+  double progress_period_s = 10.0;
 
   Status validate() const;
 };

@@ -239,100 +239,128 @@ Expected<RunTruth> readLogTruth(const std::vector<std::filesystem::path>& logs) 
   return truth;
 }
 
-Expected<MapEvaluation> evaluateMap(const EvalMap& map, const RunTruth& truth,
-                                    const std::vector<std::pair<int64_t, core::SE3d>>& poses) {
-  MapEvaluation e;
-  e.nodes = static_cast<int64_t>(map.nodes.size());
-  e.edges = map.edges;
-  e.loop_edges = map.loop_edges;
-  e.floors = static_cast<int>(map.floors.size());
+namespace {
+
+// The map's nodes whose keyframes the truth covers: their true and estimated poses.
+struct NodesWithTruth {
+  std::vector<core::SE3d> gt, est;
+  std::vector<const EvalNode*> nodes;
+};
+
+// Floors: the map's floor table against the true heights, node labels right and right up to
+// a relabelling (each label to the true floor most of its nodes are on).
+void evaluateFloors(const EvalMap& map, const RunTruth& truth, MapEvaluation* e) {
+  e->floors = static_cast<int>(map.floors.size());
   for (const auto& [index, height] : map.floors) {
     auto it = truth.floors.find(index);
-    if (it != truth.floors.end() && std::abs(it->second - height) <= 0.25) ++e.floors_right;
+    if (it != truth.floors.end() && std::abs(it->second - height) <= 0.25) ++e->floors_right;
   }
-  e.sessions_truth = truth.sessions;
-  std::set<int> sessions;
-  std::vector<core::SE3d> gt, est;
-  std::vector<const EvalNode*> est_nodes;
-  for (const EvalNode& n : map.nodes) {
-    sessions.insert(n.session);
-    core::SE3d t;
-    if (!truth.at(n.keyframe_utime, &t)) continue;
-    gt.push_back(t);
-    est.push_back(n.world_T_body);
-    est_nodes.push_back(&n);
-    if (truth.floorAt(t.translation().z()) == n.floor) ++e.nodes_floor_right;
-  }
-  e.sessions = static_cast<int>(sessions.size());
-  e.nodes_with_truth = static_cast<int64_t>(gt.size());
-  // Floor labels up to a relabelling: each label to the true floor most of its nodes are on.
   std::map<int, std::map<int, int64_t>> label_votes;
-  std::map<int64_t, core::SE3d> node_truth;
   for (const EvalNode& n : map.nodes) {
     core::SE3d t;
     if (!truth.at(n.keyframe_utime, &t)) continue;
-    node_truth[n.id] = t;
+    if (truth.floorAt(t.translation().z()) == n.floor) ++e->nodes_floor_right;
     ++label_votes[n.floor][truth.floorAt(t.translation().z())];
   }
   for (const auto& [label, votes] : label_votes) {
     int64_t best = 0;
     for (const auto& [floor, count] : votes) best = std::max(best, count);
-    e.nodes_floor_consistent += best;
+    e->nodes_floor_consistent += best;
   }
+}
+
+// Loop edges off the truth by more than 0.5 m or 5 degrees, one line each.
+void evaluateLoops(const EvalMap& map, const std::map<int64_t, core::SE3d>& node_truth,
+                   MapEvaluation* e) {
   for (const EvalLoop& l : map.loops) {
     auto a = node_truth.find(l.from), b = node_truth.find(l.to);
     if (a == node_truth.end() || b == node_truth.end()) continue;
-    ++e.loops_with_truth;
+    ++e->loops_with_truth;
     const core::SE3d err = (a->second.inverse() * b->second).inverse() * l.from_T_to;
     const double off_m = err.translation().norm(),
                  off_deg = core::rotationAngle(err.so3()) * 180.0 / M_PI;
     if (off_m > 0.5 || off_deg > 5.0) {
-      ++e.false_loops;
+      ++e->false_loops;
       std::ostringstream line;
       line << l.from << "-" << l.to << ": " << off_m << " m, " << off_deg << " deg off the truth";
-      e.false_loop_lines.push_back(line.str());
+      e->false_loop_lines.push_back(line.str());
     }
   }
-  // Node ATE needs 3 nodes with ground truth for the alignment; a smaller map (a camera that
-  // turned in place) has the rest of its evaluation, and NaN there (printed "n/a").
-  e.ate_rmse_m = e.ate_median_m = e.ate_max_m = std::numeric_limits<double>::quiet_NaN();
-  if (gt.size() >= 3) {
-    auto ate = alignedAte(gt, est);
-    if (!ate) return makeError("map evaluation: node ATE: ", ate.error().message);
-    e.ate_rmse_m = ate->rmse;
-    e.ate_median_m = ate->median;
-    e.ate_max_m = ate->max;
-    // The worst nodes after the same alignment, to find where a map went wrong.
-    if (auto aligned = eval::alignTrajectories(gt, est, eval::AlignmentMode::kSE3)) {
-      std::vector<std::pair<double, const EvalNode*>> off;
-      for (size_t i = 0; i < gt.size(); ++i)
-        off.emplace_back(((aligned->gt_S_est * est[i]).translation() - gt[i].translation()).norm(),
-                         est_nodes[i]);
-      std::sort(off.begin(), off.end(),
-                [](const auto& a, const auto& b) { return a.first > b.first; });
-      for (size_t i = 0; i < std::min<size_t>(5, off.size()); ++i) {
-        std::ostringstream line;
-        line << off[i].second->id << " (session " << off[i].second->session << ", utime "
-             << off[i].second->keyframe_utime << "): " << off[i].first << " m";
-        e.worst_node_lines.push_back(line.str());
-      }
-    }
+}
+
+// Node ATE (3 nodes with truth at least for the alignment; else NaN, printed "n/a": a camera
+// that turned in place) and the worst nodes after the same alignment, to find where a map
+// went wrong.
+Status evaluateNodeAte(const NodesWithTruth& n, MapEvaluation* e) {
+  e->ate_rmse_m = e->ate_median_m = e->ate_max_m = std::numeric_limits<double>::quiet_NaN();
+  if (n.gt.size() < 3) return Ok{};
+  auto ate = alignedAte(n.gt, n.est);
+  if (!ate) return makeError("map evaluation: node ATE: ", ate.error().message);
+  e->ate_rmse_m = ate->rmse;
+  e->ate_median_m = ate->median;
+  e->ate_max_m = ate->max;
+  auto aligned = eval::alignTrajectories(n.gt, n.est, eval::AlignmentMode::kSE3);
+  if (!aligned) return Ok{};
+  std::vector<std::pair<double, const EvalNode*>> off;
+  for (size_t i = 0; i < n.gt.size(); ++i)
+    off.emplace_back(((aligned->gt_S_est * n.est[i]).translation() - n.gt[i].translation()).norm(),
+                     n.nodes[i]);
+  std::sort(off.begin(), off.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  for (size_t i = 0; i < std::min<size_t>(5, off.size()); ++i) {
+    std::ostringstream line;
+    line << off[i].second->id << " (session " << off[i].second->session << ", utime "
+         << off[i].second->keyframe_utime << "): " << off[i].first << " m";
+    e->worst_node_lines.push_back(line.str());
   }
-  gt.clear();
-  est.clear();
+  return Ok{};
+}
+
+// ATE of the live poses (POSE) with truth, 3 at least.
+Status evaluatePoseAte(const RunTruth& truth,
+                       const std::vector<std::pair<int64_t, core::SE3d>>& poses, MapEvaluation* e) {
+  std::vector<core::SE3d> gt, est;
   for (const auto& [utime, pose] : poses) {
     core::SE3d t;
     if (!truth.at(utime, &t)) continue;
     gt.push_back(t);
     est.push_back(pose);
   }
-  e.poses = static_cast<int64_t>(gt.size());
-  if (gt.size() >= 3) {
-    auto pose_ate = alignedAte(gt, est);
-    if (!pose_ate) return makeError("map evaluation: POSE ATE: ", pose_ate.error().message);
-    e.pose_ate_rmse_m = pose_ate->rmse;
-    e.pose_ate_median_m = pose_ate->median;
+  e->poses = static_cast<int64_t>(gt.size());
+  if (gt.size() < 3) return Ok{};
+  auto pose_ate = alignedAte(gt, est);
+  if (!pose_ate) return makeError("map evaluation: POSE ATE: ", pose_ate.error().message);
+  e->pose_ate_rmse_m = pose_ate->rmse;
+  e->pose_ate_median_m = pose_ate->median;
+  return Ok{};
+}
+
+}  // namespace
+
+Expected<MapEvaluation> evaluateMap(const EvalMap& map, const RunTruth& truth,
+                                    const std::vector<std::pair<int64_t, core::SE3d>>& poses) {
+  MapEvaluation e;
+  e.nodes = static_cast<int64_t>(map.nodes.size());
+  e.edges = map.edges;
+  e.loop_edges = map.loop_edges;
+  e.sessions_truth = truth.sessions;
+  std::set<int> sessions;
+  NodesWithTruth with_truth;
+  std::map<int64_t, core::SE3d> node_truth;
+  for (const EvalNode& n : map.nodes) {
+    sessions.insert(n.session);
+    core::SE3d t;
+    if (!truth.at(n.keyframe_utime, &t)) continue;
+    with_truth.gt.push_back(t);
+    with_truth.est.push_back(n.world_T_body);
+    with_truth.nodes.push_back(&n);
+    node_truth[n.id] = t;
   }
+  e.sessions = static_cast<int>(sessions.size());
+  e.nodes_with_truth = static_cast<int64_t>(with_truth.gt.size());
+  evaluateFloors(map, truth, &e);
+  evaluateLoops(map, node_truth, &e);
+  if (Status s = evaluateNodeAte(with_truth, &e); !s) return s.error();
+  if (Status s = evaluatePoseAte(truth, poses, &e); !s) return s.error();
   return e;
 }
 

@@ -193,23 +193,15 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out,
   const int index = o.render.session;
   const int64_t start = startUtime(), end = endUtime();
   CountingSink sink(&out);
-  ImageSessionSummary summary;
-  summary.session = index;
-  summary.duration_s = static_cast<double>(end - start) * 1e-6;
-  summary.distance_m = traj.at(end).odometer_m - traj.at(start).odometer_m;
+  ImageSessionSummary summary = summaryHead();
   std::vector<int> floors;
-  for (const ElevatorRide& r : session_.rides) {
-    if (r.start_utime < end) ++summary.rides;
-  }
 
   Random slip_rng = streamFor(o.sim.seed, Stream::kSlips, index);
   Intervals slips(start, traj.endUtime(), so.wheel.slip_rate_per_hour, so.wheel.slip_min_s,
                   so.wheel.slip_max_s, slip_rng);
   WheelModel wheel(so.wheel, std::move(slips), streamFor(o.sim.seed, Stream::kWheelNoise, index));
   Random imu_rng = streamFor(o.sim.seed, Stream::kImuNoise, index);
-  const Vec3 imu_bias(so.imu.accel_bias_sigma_mps2 * imu_rng.normal(),
-                      so.imu.accel_bias_sigma_mps2 * imu_rng.normal(),
-                      so.imu.accel_bias_sigma_mps2 * imu_rng.normal());
+  const Vec3 imu_bias = accelBias(so.imu, imu_rng);
   const Vec3 gyro_bias = gyroBias(so.imu, o.sim.seed, index);
 
   const core::StereoCalibration calib = calibration();
@@ -220,8 +212,6 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out,
   int64_t wheel_prev_utime = start;
   BodyState wheel_prev = traj.at(start);
   const double total = static_cast<double>(std::max<int64_t>(1, end - start));
-  const bool rgbd = o.render.camera == CameraMode::kRgbd;
-  cv::Mat left, right, depth;
   while (true) {
     const int64_t t_imu = so.imu.enabled ? imu.next() : kNever;
     const int64_t t = std::min({t_imu, gt.next(), wheel_ticks.next(), stereo.next()});
@@ -243,49 +233,10 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out,
       wheel_prev = s;
       wheel_ticks.advance();
     } else {
-      const auto t0 = SteadyClock::now();
-      const FrameFacts f = rgbd ? renderRgbd(t, &left, &depth) : renderPair(t, &left, &right);
-      summary.render_s += secondsSince(t0);
-      ++summary.frames;
-      summary.frames_dark_room += f.dark_room;
-      summary.frames_blank_zone += f.blank_zone;
-      summary.frames_passerby += f.passerby;
-      summary.frames_closed_cab += f.closed_cab;
-      summary.frame_facts.emplace_back(t, f);
-      if (rgbd) {
-        if (calib_repeat.due(t)) {
-          evermap::rgbd_calib_t c;
-          c.utime = t;
-          c.camera = messages::toMsg(calib.left);
-          writeMessage(sink, channels::kRgbdCalib, c);
-        }
-        const auto t1 = SteadyClock::now();
-        messages::RgbdFrame frame;
-        frame.utime = frame.depth_utime = t;
-        frame.gray = left;
-        frame.depth = depth;
-        frame.depth_scale_m = o.render.depth.unit_m;
-        frame.camera = calib.left;
-        auto msg = messages::toMsg(frame, o.render.encoding);
-        if (!msg) return msg.error();
-        summary.encode_s += secondsSince(t1);
-        writeMessage(sink, channels::kRgbd, *msg);
-      } else {
-        if (calib_repeat.due(t))
-          writeMessage(sink, channels::kStereoCalib, messages::toMsg(calib, t));
-        const auto t1 = SteadyClock::now();
-        auto msg = messages::toMsg(messages::StereoFrame{t, true, left, right}, o.render.encoding);
-        if (!msg) return msg.error();
-        summary.encode_s += secondsSince(t1);
-        writeMessage(sink, channels::kStereo, *msg);
-      }
+      if (Status s = writeCameraFrame(sink, t, calib, calib_repeat, &summary); !s) return s.error();
       stereo.advance();
       if (progress && !progress(static_cast<double>(t - start) / total)) {
-        // Stopped early: the figures cover what was written.
-        summary.duration_s = static_cast<double>(t - start) * 1e-6;
-        summary.distance_m = traj.at(t).odometer_m - traj.at(start).odometer_m;
-        summary.rides = 0;
-        for (const ElevatorRide& r : session_.rides) summary.rides += r.start_utime < t ? 1 : 0;
+        stoppedAt(t, &summary);  // the figures cover what was written
         break;
       }
     }
@@ -294,6 +245,73 @@ Expected<ImageSessionSummary> ImageSimulator::run(MessageSink& out,
   summary.floors_visited = floors;
   summary.channels = sink.counts();
   return summary;
+}
+
+ImageSessionSummary ImageSimulator::summaryHead() const {
+  const Trajectory& traj = *session_.trajectory;
+  const int64_t start = startUtime(), end = endUtime();
+  ImageSessionSummary summary;
+  summary.session = options_.render.session;
+  summary.duration_s = static_cast<double>(end - start) * 1e-6;
+  summary.distance_m = traj.at(end).odometer_m - traj.at(start).odometer_m;
+  for (const ElevatorRide& r : session_.rides) {
+    if (r.start_utime < end) ++summary.rides;
+  }
+  return summary;
+}
+
+void ImageSimulator::stoppedAt(int64_t utime, ImageSessionSummary* summary) const {
+  const Trajectory& traj = *session_.trajectory;
+  const int64_t start = startUtime();
+  summary->duration_s = static_cast<double>(utime - start) * 1e-6;
+  summary->distance_m = traj.at(utime).odometer_m - traj.at(start).odometer_m;
+  summary->rides = 0;
+  for (const ElevatorRide& r : session_.rides) summary->rides += r.start_utime < utime ? 1 : 0;
+}
+
+Status ImageSimulator::writeCameraFrame(MessageSink& sink, int64_t t,
+                                        const core::StereoCalibration& calib,
+                                        channels::CalibrationRepeat& calib_repeat,
+                                        ImageSessionSummary* summary) {
+  const bool rgbd = options_.render.camera == CameraMode::kRgbd;
+  cv::Mat &left = frame_left_, &right = frame_right_, &depth = frame_depth_;
+  const auto t0 = SteadyClock::now();
+  const FrameFacts f = rgbd ? renderRgbd(t, &left, &depth) : renderPair(t, &left, &right);
+  summary->render_s += secondsSince(t0);
+  ++summary->frames;
+  summary->frames_dark_room += f.dark_room;
+  summary->frames_blank_zone += f.blank_zone;
+  summary->frames_passerby += f.passerby;
+  summary->frames_closed_cab += f.closed_cab;
+  summary->frame_facts.emplace_back(t, f);
+  const messages::ImageEncoding encoding = options_.render.encoding;
+  if (rgbd) {
+    if (calib_repeat.due(t)) {
+      evermap::rgbd_calib_t c;
+      c.utime = t;
+      c.camera = messages::toMsg(calib.left);
+      writeMessage(sink, channels::kRgbdCalib, c);
+    }
+    const auto t1 = SteadyClock::now();
+    messages::RgbdFrame frame;
+    frame.utime = frame.depth_utime = t;
+    frame.gray = left;
+    frame.depth = depth;
+    frame.depth_scale_m = options_.render.depth.unit_m;
+    frame.camera = calib.left;
+    auto msg = messages::toMsg(frame, encoding);
+    if (!msg) return msg.error();
+    summary->encode_s += secondsSince(t1);
+    writeMessage(sink, channels::kRgbd, *msg);
+  } else {
+    if (calib_repeat.due(t)) writeMessage(sink, channels::kStereoCalib, messages::toMsg(calib, t));
+    const auto t1 = SteadyClock::now();
+    auto msg = messages::toMsg(messages::StereoFrame{t, true, left, right}, encoding);
+    if (!msg) return msg.error();
+    summary->encode_s += secondsSince(t1);
+    writeMessage(sink, channels::kStereo, *msg);
+  }
+  return Ok{};
 }
 
 Expected<ImageSessionSummary> writeImageSessionLog(ImageSimulator& simulator,

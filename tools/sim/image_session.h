@@ -28,6 +28,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/camera/calibration.h"
+#include "core/messages/channels.h"
 #include "core/common/expected.h"
 #include "tools/sim/depth_sensor.h"
 #include "tools/sim/image_sim_options.h"
@@ -92,6 +93,14 @@ class ImageSimulator {
  private:
   ImageSimulator(const ImageSimOptions& options, RunPlan plan);
   FrameFacts facts(int64_t utime, const BodyState& state) const;
+  // The summary's figures known before the run (session, duration, distance, rides).
+  ImageSessionSummary summaryHead() const;
+  // The summary's figures of a run stopped after the frame at `utime`.
+  void stoppedAt(int64_t utime, ImageSessionSummary* summary) const;
+  // Renders the camera frame at `utime` and writes it (after the calibration when due) into
+  // `sink`; counts it in `summary`. Errors: the image encoding.
+  Status writeCameraFrame(MessageSink& sink, int64_t utime, const core::StereoCalibration& calib,
+                          channels::CalibrationRepeat& calib_repeat, ImageSessionSummary* summary);
   std::vector<Occluder> passersBy(int64_t utime) const;
 
   ImageSimOptions options_;
@@ -103,6 +112,7 @@ class ImageSimulator {
   std::unique_ptr<ImageRenderer> renderer_;
   std::unique_ptr<DepthSensor> depth_sensor_;
   cv::Mat depth_truth_;
+  cv::Mat frame_left_, frame_right_, frame_depth_;  // the frame run() renders, reused
 };
 
 // Writes the session as an LCM log at `output` (temporary file, renamed when complete).

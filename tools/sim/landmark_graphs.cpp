@@ -45,6 +45,67 @@ struct IdMap {
   }
 };
 
+// The iSAM text of a graph being written: its stream, the square-root information of its
+// measurements, and the landmark ids it has given out.
+struct IsamText {
+  IsamText(const LandmarkGraphOptions& o, size_t landmarks)
+      : st(sigmaOr(o.odometry_sigma_m, o.nominal_sigma)),
+        sr(sigmaOr(o.odometry_sigma_rad, o.nominal_sigma)),
+        sp(sigmaOr(o.point_sigma_m, o.nominal_sigma)),
+        ids{std::vector<int>(landmarks, -1), {}} {
+    out.precision(17);
+  }
+  // The text, the observed landmarks and their count into `g`.
+  void finish(LandmarkGraph* g) {
+    g->isam_text = out.str();
+    g->points = ids.points;
+    g->observed_landmarks = static_cast<int>(ids.points.size());
+  }
+
+  const double st, sr, sp;  // odometry translation and rotation, points (sigmas)
+  std::ostringstream out;
+  IdMap ids;
+};
+
+// The torus of torusPointsLike: its surface point and outward normal at angles (u, v).
+struct Torus {
+  double R = 10.0, r = 3.0;
+  Vec3 surface(double u, double v) const {
+    return Vec3((R + r * std::cos(v)) * std::cos(u), (R + r * std::cos(v)) * std::sin(u),
+                r * std::sin(v));
+  }
+  Vec3 normal(double u, double v) const {
+    return Vec3(std::cos(v) * std::cos(u), std::cos(v) * std::sin(u), std::sin(v));
+  }
+};
+
+// The torus path's poses in the world, x along the path and z along the surface's normal:
+// about 1 m between poses, twice round the major circle while winding around the minor one.
+std::vector<SE3d> torusPath(const Torus& torus, int poses) {
+  const double two_pi = 2.0 * std::numbers::pi;
+  const double turns_u = 2.0;
+  const double winds_v = std::max(1.0, std::round(poses / 60.0));
+  auto at = [&](int i) {
+    const double s = static_cast<double>(i) / poses;
+    return std::pair<double, double>(two_pi * turns_u * s, two_pi * winds_v * s);
+  };
+  std::vector<SE3d> world;
+  for (int i = 0; i < poses; ++i) {
+    const auto [u, v] = at(i);
+    const auto [u2, v2] = at(i + 1);
+    const Vec3 p = torus.surface(u, v);
+    const Vec3 x = (torus.surface(u2, v2) - p).normalized();
+    const Vec3 n = torus.normal(u, v);
+    const Vec3 z = (n - n.dot(x) * x).normalized();
+    core::Mat3 Rm;
+    Rm.col(0) = x;
+    Rm.col(1) = z.cross(x);
+    Rm.col(2) = z;
+    world.emplace_back(core::SO3d::fromMatrix(Rm), p);
+  }
+  return world;
+}
+
 }  // namespace
 
 LandmarkGraphOptions cityTreesOptions(int poses, uint64_t seed) {
@@ -95,17 +156,14 @@ LandmarkGraph cityTreesLike(const LandmarkGraphOptions& o) {
                 std::round(pose.theta() / quarter) * quarter);
     g.poses2.push_back(pose);
   }
-  const double st = sigmaOr(o.odometry_sigma_m, o.nominal_sigma);
-  const double sr = sigmaOr(o.odometry_sigma_rad, o.nominal_sigma);
-  const double sp = sigmaOr(o.point_sigma_m, o.nominal_sigma);
-  std::ostringstream out;
-  out.precision(17);
-  IdMap ids{std::vector<int>(placed.size(), -1), {}};
+  IsamText text(o, placed.size());
+  std::ostringstream& out = text.out;
+  const double st = text.st, sr = text.sr, sp = text.sp;
   auto observe = [&](int i) {
     const SE2d& p = g.poses2[i];
     for (int j :
          visible(Vec3(p.x(), p.y(), 0.0), placed, o.sensor_range_m, o.max_observations_per_pose)) {
-      const int id = ids.idOf(j, placed);
+      const int id = text.ids.idOf(j, placed);
       const Vec2 z = p.rotationMatrix().transpose() * (placed[j].head<2>() - p.translation());
       out << "LANDMARK " << i << ' ' << id << ' ' << z.x() + noise.normal(0.0, o.point_sigma_m)
           << ' ' << z.y() + noise.normal(0.0, o.point_sigma_m) << ' ' << 1.0 / sp << " 0 "
@@ -122,9 +180,7 @@ LandmarkGraph cityTreesLike(const LandmarkGraphOptions& o) {
         << 1.0 / st << " 0 " << 1.0 / sr << '\n';
     observe(i);
   }
-  g.isam_text = out.str();
-  g.points = ids.points;
-  g.observed_landmarks = static_cast<int>(ids.points.size());
+  text.finish(&g);
   return g;
 }
 
@@ -133,58 +189,25 @@ LandmarkGraph torusPointsLike(const LandmarkGraphOptions& o) {
   Random noise = Random::derive(o.seed, 3);
   LandmarkGraph g;
   g.dimension = 3;
-  const double R = 10.0;
-  const double r = 3.0;
-  const double two_pi = 2.0 * std::numbers::pi;
-  // Surface point, its tangent along the path and its outward normal at (u, v).
-  auto surface = [&](double u, double v) {
-    return Vec3((R + r * std::cos(v)) * std::cos(u), (R + r * std::cos(v)) * std::sin(u),
-                r * std::sin(v));
-  };
-  auto normal = [&](double u, double v) {
-    return Vec3(std::cos(v) * std::cos(u), std::cos(v) * std::sin(u), std::sin(v));
-  };
-  // About 1 m between poses: the path goes round the major circle twice while winding
-  // around the minor circle.
-  const double turns_u = 2.0;
-  const double winds_v = std::max(1.0, std::round(o.poses / 60.0));
-  auto at = [&](int i) {
-    const double s = static_cast<double>(i) / o.poses;
-    return std::pair<double, double>(two_pi * turns_u * s, two_pi * winds_v * s);
-  };
-  std::vector<SE3d> world;
-  for (int i = 0; i < o.poses; ++i) {
-    const auto [u, v] = at(i);
-    const auto [u2, v2] = at(i + 1);
-    const Vec3 p = surface(u, v);
-    const Vec3 x = (surface(u2, v2) - p).normalized();
-    const Vec3 n = normal(u, v);
-    const Vec3 z = (n - n.dot(x) * x).normalized();
-    core::Mat3 Rm;
-    Rm.col(0) = x;
-    Rm.col(1) = z.cross(x);
-    Rm.col(2) = z;
-    world.emplace_back(core::SO3d::fromMatrix(Rm), p);
-  }
+  const Torus torus;
+  const std::vector<SE3d> world = torusPath(torus, o.poses);
   // Express everything relative to pose 0 (iSAM's anchor at the origin).
   const SE3d origin_inv = world[0].inverse();
   for (const SE3d& w : world) g.poses3.push_back(origin_inv * w);
   std::vector<Vec3> placed;
   for (int j = 0; j < o.landmarks; ++j) {
-    const double u = place.uniform(0.0, two_pi);
-    const double v = place.uniform(0.0, two_pi);
-    placed.push_back(origin_inv * (surface(u, v) + place.uniform(0.5, 2.0) * normal(u, v)));
+    const double u = place.uniform(0.0, 2.0 * std::numbers::pi);
+    const double v = place.uniform(0.0, 2.0 * std::numbers::pi);
+    placed.push_back(origin_inv *
+                     (torus.surface(u, v) + place.uniform(0.5, 2.0) * torus.normal(u, v)));
   }
-  const double st = sigmaOr(o.odometry_sigma_m, o.nominal_sigma);
-  const double sr = sigmaOr(o.odometry_sigma_rad, o.nominal_sigma);
-  const double sp = sigmaOr(o.point_sigma_m, o.nominal_sigma);
-  std::ostringstream out;
-  out.precision(17);
-  IdMap ids{std::vector<int>(placed.size(), -1), {}};
+  IsamText text(o, placed.size());
+  std::ostringstream& out = text.out;
+  const double st = text.st, sr = text.sr, sp = text.sp;
   auto observe = [&](int i) {
     const SE3d& p = g.poses3[i];
     for (int j : visible(p.translation(), placed, o.sensor_range_m, o.max_observations_per_pose)) {
-      const int id = ids.idOf(j, placed);
+      const int id = text.ids.idOf(j, placed);
       const Vec3 z = p.inverse() * placed[j];
       out << "POINT3 " << i << ' ' << id;
       for (int k = 0; k < 3; ++k) out << ' ' << z[k] + noise.normal(0.0, o.point_sigma_m);
@@ -211,9 +234,7 @@ LandmarkGraph torusPointsLike(const LandmarkGraphOptions& o) {
     out << '\n';
     observe(i);
   }
-  g.isam_text = out.str();
-  g.points = ids.points;
-  g.observed_landmarks = static_cast<int>(ids.points.size());
+  text.finish(&g);
   return g;
 }
 

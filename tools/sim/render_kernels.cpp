@@ -47,6 +47,23 @@ inline float wallRow(const WallSpan& w, int v) {
   return w.poster ? (w.offset_z - (w.height - d)) * w.scale_z : d * w.scale_z + w.offset_z;
 }
 
+// Bilinear interpolation in fixed point of four values per lane (p00, p01 of the upper row,
+// p10, p11 of the lower) with 8-bit fractions ax (across) and ay (down); `half` = 1 << 15
+// rounds the result back to the values' scale.
+__attribute__((target("avx2"))) inline __m256i bilinearAvx2(__m256i p00, __m256i p01, __m256i p10,
+                                                            __m256i p11, __m256i ax, __m256i ay,
+                                                            __m256i half) {
+  const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8),
+                                       _mm256_madd_epi16(_mm256_sub_epi32(p01, p00), ax));
+  const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8),
+                                          _mm256_madd_epi16(_mm256_sub_epi32(p11, p10), ax));
+  return _mm256_srai_epi32(
+      _mm256_add_epi32(_mm256_add_epi32(_mm256_slli_epi32(top, 8),
+                                        _mm256_mullo_epi32(_mm256_sub_epi32(bottom, top), ay)),
+                       half),
+      16);
+}
+
 // The 32-bit pixel pairs (q[o], q[o + 1]) for lane offsets o = 2 lane + odd in [0, 16).
 __attribute__((target("avx2"))) inline __m256i pixelPairs(const uint16_t* q, __m256i lane,
                                                           __m256i odd) {
@@ -78,6 +95,39 @@ __attribute__((target("avx2"))) inline void gatherTexels(const int* texels, __m2
     *p10 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x0), 1), low8);
     *p11 = _mm256_and_si256(_mm256_i32gather_epi32(texels, _mm256_add_epi32(r1, x1), 1), low8);
   }
+}
+
+// Texture::sample at one level for eight plane points (px, py), metres: bilinear between the
+// level's texels, wrapping around its edges.
+__attribute__((target("avx2"))) inline __m256i sampleLevelAvx2(const Texture::Level& L, __m256 px,
+                                                               __m256 py, __m256 inv_texel) {
+  const __m256 offset = _mm256_set1_ps(128.0f);
+  const __m256i low8 = _mm256_set1_epi32(255), positive = _mm256_set1_epi32(1 << 28),
+                one = _mm256_set1_epi32(1), half = _mm256_set1_epi32(1 << 15);
+  const __m256 scale = _mm256_set1_ps(L.scale);
+  const __m256i mask = _mm256_set1_epi32(L.mask);
+  const __m256i fu =
+      _mm256_add_epi32(_mm256_cvttps_epi32(_mm256_sub_ps(
+                           _mm256_mul_ps(_mm256_mul_ps(px, inv_texel), scale), offset)),
+                       positive);
+  const __m256i fv =
+      _mm256_add_epi32(_mm256_cvttps_epi32(_mm256_sub_ps(
+                           _mm256_mul_ps(_mm256_mul_ps(py, inv_texel), scale), offset)),
+                       positive);
+  const __m256i x0 = _mm256_and_si256(_mm256_srai_epi32(fu, 8), mask),
+                x1 = _mm256_and_si256(_mm256_add_epi32(x0, one), mask);
+  const __m256i y0 = _mm256_and_si256(_mm256_srai_epi32(fv, 8), mask),
+                y1 = _mm256_and_si256(_mm256_add_epi32(y0, one), mask);
+  const __m128i shift = _mm_cvtsi32_si128(L.shift);
+  const __m256i r0 = _mm256_sll_epi32(y0, shift), r1 = _mm256_sll_epi32(y1, shift);
+  const auto* texels = reinterpret_cast<const int*>(L.texels);
+  __m256i p00, p01, p10, p11;
+  // No lane wraps around the texture's edge when no x0 is the last column.
+  const bool adjacent =
+      _mm256_testz_si256(_mm256_cmpeq_epi32(x0, mask), _mm256_cmpeq_epi32(x0, mask));
+  gatherTexels(texels, r0, r1, x0, x1, adjacent, low8, &p00, &p01, &p10, &p11);
+  const __m256i ax = _mm256_and_si256(fu, low8), ay = _mm256_and_si256(fv, low8);
+  return bilinearAvx2(p00, p01, p10, p11, ax, ay, half);
 }
 
 void warpRow(const WarpRow& w, const float* lu0, const float* lv0, const float* dlu,
@@ -143,15 +193,7 @@ __attribute__((target("avx2"))) void warpRowAvx2(const WarpRow& w, const float* 
       const __m256i ax = _mm256_and_si256(fu, low8), ay = _mm256_and_si256(fv, low8);
       const __m256i p00 = _mm256_and_si256(g0, low16), p01 = _mm256_srli_epi32(g0, 16);
       const __m256i p10 = _mm256_and_si256(g1, low16), p11 = _mm256_srli_epi32(g1, 16);
-      const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8),
-                                           _mm256_madd_epi16(_mm256_sub_epi32(p01, p00), ax));
-      const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8),
-                                              _mm256_madd_epi16(_mm256_sub_epi32(p11, p10), ax));
-      const __m256i light = _mm256_srai_epi32(
-          _mm256_add_epi32(_mm256_add_epi32(_mm256_slli_epi32(top, 8),
-                                            _mm256_mullo_epi32(_mm256_sub_epi32(bottom, top), ay)),
-                           half),
-          16);
+      const __m256i light = bilinearAvx2(p00, p01, p10, p11, ax, ay, half);
       const __m256i gray = _mm256_add_epi32(
           _mm256_i32gather_epi32(w.response, light, 4),
           _mm256_cvtepi16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(noise + u))));
@@ -180,13 +222,10 @@ __attribute__((target("avx2"))) void surfaceRowAvx2(const SurfaceRow& r, int wid
   const __m256 gx0 = _mm256_set1_ps(f.grid_x0), gy0 = _mm256_set1_ps(f.grid_y0),
                inv_cell = _mm256_set1_ps(f.inv_cell);
   const __m256 inv_texel = _mm256_set1_ps(r.inv_texel), lod_row = _mm256_set1_ps(r.lod_row);
-  const __m256 quarter = _mm256_set1_ps(0.25f), zero_ps = _mm256_setzero_ps(),
-               offset = _mm256_set1_ps(128.0f);
+  const __m256 quarter = _mm256_set1_ps(0.25f), zero_ps = _mm256_setzero_ps();
   const __m256i zero = _mm256_setzero_si256(), gw = _mm256_set1_epi32(f.grid_w);
   const __m256i max_i = _mm256_set1_epi32(f.grid_w - 1), max_j = _mm256_set1_epi32(f.grid_h - 1);
-  const __m256i low8 = _mm256_set1_epi32(255), positive = _mm256_set1_epi32(1 << 28),
-                one = _mm256_set1_epi32(1);
-  const __m256i half = _mm256_set1_epi32(1 << 15), max_light = _mm256_set1_epi32(1023);
+  const __m256i low8 = _mm256_set1_epi32(255), max_light = _mm256_set1_epi32(1023);
   // Drawn: down v >= limit, i.e. v + 1 > limit; up: limit > v.
   const __m256i v_cmp = _mm256_set1_epi32(r.down ? r.v + 1 : r.v);
   const auto* grid = reinterpret_cast<const int*>(f.grid.data());
@@ -226,38 +265,7 @@ __attribute__((target("avx2"))) void surfaceRowAvx2(const SurfaceRow& r, int wid
     }
     // Texture::sample at one level for all eight.
     const Texture::Level& L = r.texture_of_cell[cells[first]]->levelView(levels[first]);
-    const __m256 scale = _mm256_set1_ps(L.scale);
-    const __m256i mask = _mm256_set1_epi32(L.mask);
-    const __m256i fu =
-        _mm256_add_epi32(_mm256_cvttps_epi32(_mm256_sub_ps(
-                             _mm256_mul_ps(_mm256_mul_ps(px, inv_texel), scale), offset)),
-                         positive);
-    const __m256i fv =
-        _mm256_add_epi32(_mm256_cvttps_epi32(_mm256_sub_ps(
-                             _mm256_mul_ps(_mm256_mul_ps(py, inv_texel), scale), offset)),
-                         positive);
-    const __m256i x0 = _mm256_and_si256(_mm256_srai_epi32(fu, 8), mask),
-                  x1 = _mm256_and_si256(_mm256_add_epi32(x0, one), mask);
-    const __m256i y0 = _mm256_and_si256(_mm256_srai_epi32(fv, 8), mask),
-                  y1 = _mm256_and_si256(_mm256_add_epi32(y0, one), mask);
-    const __m128i shift = _mm_cvtsi32_si128(L.shift);
-    const __m256i r0 = _mm256_sll_epi32(y0, shift), r1 = _mm256_sll_epi32(y1, shift);
-    const auto* texels = reinterpret_cast<const int*>(L.texels);
-    __m256i p00, p01, p10, p11;
-    // No lane wraps around the texture's edge when no x0 is the last column.
-    const bool adjacent =
-        _mm256_testz_si256(_mm256_cmpeq_epi32(x0, mask), _mm256_cmpeq_epi32(x0, mask));
-    gatherTexels(texels, r0, r1, x0, x1, adjacent, low8, &p00, &p01, &p10, &p11);
-    const __m256i ax = _mm256_and_si256(fu, low8), ay = _mm256_and_si256(fv, low8);
-    const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8),
-                                         _mm256_madd_epi16(_mm256_sub_epi32(p01, p00), ax));
-    const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8),
-                                            _mm256_madd_epi16(_mm256_sub_epi32(p11, p10), ax));
-    const __m256i value = _mm256_srai_epi32(
-        _mm256_add_epi32(_mm256_add_epi32(_mm256_slli_epi32(top, 8),
-                                          _mm256_mullo_epi32(_mm256_sub_epi32(bottom, top), ay)),
-                         half),
-        16);
+    const __m256i value = sampleLevelAvx2(L, px, py, inv_texel);
     const __m256i light = _mm256_min_epi32(
         _mm256_srai_epi32(
             _mm256_mullo_epi32(value, _mm256_set1_epi32(r.gain_of_cell[cells[first]])), 8),
@@ -316,15 +324,7 @@ __attribute__((target("avx2"))) void wallSpanAvx2(const WallSpan& w, int v0, int
     __m256i p00, p01, p10, p11;
     gatherTexels(texels, r0, r1, x0, x1, adjacent, low8, &p00, &p01, &p10, &p11);
     const __m256i ay = _mm256_and_si256(fv, low8);
-    const __m256i top = _mm256_add_epi32(_mm256_slli_epi32(p00, 8),
-                                         _mm256_madd_epi16(_mm256_sub_epi32(p01, p00), ax));
-    const __m256i bottom = _mm256_add_epi32(_mm256_slli_epi32(p10, 8),
-                                            _mm256_madd_epi16(_mm256_sub_epi32(p11, p10), ax));
-    const __m256i value = _mm256_srai_epi32(
-        _mm256_add_epi32(_mm256_add_epi32(_mm256_slli_epi32(top, 8),
-                                          _mm256_mullo_epi32(_mm256_sub_epi32(bottom, top), ay)),
-                         half),
-        16);
+    const __m256i value = bilinearAvx2(p00, p01, p10, p11, ax, ay, half);
     const __m256i light =
         _mm256_min_epi32(_mm256_srai_epi32(_mm256_mullo_epi32(value, gain), 8), max_light);
     alignas(32) int32_t lights[8];

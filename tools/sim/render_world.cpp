@@ -74,6 +74,143 @@ class WallBuilder {
   Random& rng_;
 };
 
+// The label grid of a floor: origin and cell size in metres (doubles: the floats kept in
+// RenderFloor are for the renderer), cells across.
+struct GridFrame {
+  double x0 = 0.0, y0 = 0.0, cell = 1.0;
+  int w = 0, h = 0;
+  Vec2 centre(int i, int j) const { return Vec2(x0 + (i + 0.5) * cell, y0 + (j + 0.5) * cell); }
+};
+
+// Each region's textures from the library's pools (one cab texture for the floor).
+Status resolveTextures(const FloorSpec& spec, const TextureLibrary& lib, Random& rng,
+                       RenderFloor* f) {
+  const int cab_texture = lib.cab >= 0 ? lib.cab : pick(lib.wall, rng);
+  for (Region& r : f->regions) {
+    if (r.boxes.empty())
+      return makeError("floor at z = ", spec.floor_z, ": a region without boxes");
+    auto resolve = [&](int* t, const std::vector<int>& pool) {
+      if (*t == kTexturePerRegion) *t = pick(pool, rng);
+      if (*t == kTextureCab) *t = cab_texture;
+    };
+    resolve(&r.wall_texture, lib.wall);
+    resolve(&r.floor_texture, lib.floor);
+    resolve(&r.ceiling_texture, lib.ceiling);
+    if (r.floor_texture < 0) r.floor_texture = pick(lib.floor, rng);
+    if (r.ceiling_texture < 0) r.ceiling_texture = pick(lib.ceiling, rng);
+  }
+  return Ok{};
+}
+
+// Rasterise: cell centres inside a box get its region's label.
+Expected<GridFrame> rasterise(const FloorSpec& spec, const WorldOptions& o, RenderFloor* f) {
+  GridFrame g;
+  const double cell = g.cell = o.grid_cell_m;
+  Vec2 lo(1e18, 1e18), hi(-1e18, -1e18);
+  for (const Region& r : spec.regions) {
+    for (const Box& b : r.boxes) {
+      lo = lo.cwiseMin(b.min);
+      hi = hi.cwiseMax(b.max);
+    }
+  }
+  const double x0 = g.x0 = (std::floor(lo.x() / cell) - 2.0) * cell;
+  const double y0 = g.y0 = (std::floor(lo.y() / cell) - 2.0) * cell;
+  const int w = g.w = static_cast<int>(std::ceil((hi.x() - x0) / cell)) + 2;
+  const int h = g.h = static_cast<int>(std::ceil((hi.y() - y0) / cell)) + 2;
+  if (static_cast<int64_t>(w) * h > 64'000'000) {
+    return makeError("floor at z = ", spec.floor_z, ": ", w, " x ", h,
+                     " grid cells is too many (grid_cell_m too small?)");
+  }
+  f->grid_x0 = static_cast<float>(x0);
+  f->grid_y0 = static_cast<float>(y0);
+  f->inv_cell = static_cast<float>(1.0 / cell);
+  f->grid_w = w;
+  f->grid_h = h;
+  f->grid.assign(static_cast<size_t>(w) * h + kGatherPadBytes, 0);
+  for (size_t r = 0; r < spec.regions.size(); ++r) {
+    for (const Box& b : spec.regions[r].boxes) {
+      const int i0 = std::max(0, static_cast<int>(std::floor((b.min.x() - x0) / cell)));
+      const int i1 = std::min(w - 1, static_cast<int>(std::ceil((b.max.x() - x0) / cell)));
+      const int j0 = std::max(0, static_cast<int>(std::floor((b.min.y() - y0) / cell)));
+      const int j1 = std::min(h - 1, static_cast<int>(std::ceil((b.max.y() - y0) / cell)));
+      for (int j = j0; j <= j1; ++j) {
+        for (int i = i0; i <= i1; ++i) {
+          if (b.contains(g.centre(i, j)))
+            f->grid[static_cast<size_t>(j) * w + i] = static_cast<uint8_t>(r + 1);
+        }
+      }
+    }
+  }
+  return g;
+}
+
+// The blank bit on labelled cells within blank_radius_m of a blank centre.
+void markBlanks(const FloorSpec& spec, const WorldOptions& o, const GridFrame& g, RenderFloor* f) {
+  const double r2 = o.blank_radius_m * o.blank_radius_m;
+  for (const Vec2& c : spec.blank_centres) {
+    const int rad = static_cast<int>(std::ceil(o.blank_radius_m / g.cell));
+    const int ci = static_cast<int>((c.x() - g.x0) / g.cell),
+              cj = static_cast<int>((c.y() - g.y0) / g.cell);
+    for (int j = std::max(0, cj - rad); j <= std::min(g.h - 1, cj + rad); ++j) {
+      for (int i = std::max(0, ci - rad); i <= std::min(g.w - 1, ci + rad); ++i) {
+        uint8_t& cell = f->grid[static_cast<size_t>(j) * g.w + i];
+        if ((cell & kLabelMask) != 0 && (g.centre(i, j) - c).squaredNorm() <= r2) cell |= kBlankBit;
+      }
+    }
+  }
+}
+
+// A wall between cells labelled a (its face) and b at `mid`, unless an opening joins them.
+bool isWall(const FloorSpec& spec, uint8_t a, uint8_t b, const Vec2& mid) {
+  const int la = a & kLabelMask, lb = b & kLabelMask;
+  if (la == 0 || la == lb) return false;
+  for (const Opening& op : spec.openings) {
+    const bool pair = (op.a + 1 == la && op.b + 1 == lb) || (op.a + 1 == lb && op.b + 1 == la);
+    if (pair && op.span.contains(mid)) return false;
+  }
+  return true;
+}
+
+// Walls: grid edges between different labels, outside openings. For every grid line and each
+// side, runs of edges with the same (region, blank) become one run of wall.
+void buildWalls(const FloorSpec& spec, const GridFrame& g, WallBuilder& builder,
+                const RenderFloor& f) {
+  const double x0 = g.x0, y0 = g.y0, cell = g.cell;
+  // `vertical`: lines x = x0 + k * cell (walls along y); else lines y = y0 + k * cell.
+  for (bool vertical : {true, false}) {
+    const int lines = vertical ? g.w : g.h, along = vertical ? g.h : g.w;
+    for (int k = 1; k < lines; ++k) {
+      for (int side = 0; side < 2; ++side) {  // 0: the cell below k faces (normal -axis), 1: above
+        int run_start = -1, run_key = -1;
+        for (int m = 0; m <= along; ++m) {
+          int key = -1;
+          if (m < along) {
+            const int ia = vertical ? k - 1 : m, ja = vertical ? m : k - 1;
+            const int ib = vertical ? k : m, jb = vertical ? m : k;
+            uint8_t a = f.grid[static_cast<size_t>(ja) * g.w + ia],
+                    b = f.grid[static_cast<size_t>(jb) * g.w + ib];
+            if (side == 1) std::swap(a, b);
+            const Vec2 mid = vertical ? Vec2(x0 + k * cell, y0 + (m + 0.5) * cell)
+                                      : Vec2(x0 + (m + 0.5) * cell, y0 + k * cell);
+            if (isWall(spec, a, b, mid)) key = a;
+          }
+          if (key == run_key) continue;
+          if (run_key >= 0) {
+            const double s0 = run_start * cell, len = (m - run_start) * cell;
+            const Vec2 p0 = vertical ? Vec2(x0 + k * cell, y0 + s0) : Vec2(x0 + s0, y0 + k * cell);
+            const Vec2 e = vertical ? Vec2(0, 1) : Vec2(1, 0);
+            const double sign = side == 0 ? -1.0 : 1.0;
+            const Vec2 n = vertical ? Vec2(sign, 0) : Vec2(0, sign);
+            builder.addRun(p0, e, n, len, (run_key & kLabelMask) - 1, (run_key & kBlankBit) != 0);
+          }
+          run_key = key;
+          run_start = m;
+        }
+      }
+    }
+  }
+}
+
 }  // namespace
 
 Status WorldOptions::validate() const {
@@ -113,121 +250,16 @@ Expected<RenderFloor> buildRenderFloor(const FloorSpec& spec, const WorldOptions
   f.floor_z = static_cast<float>(spec.floor_z);
   f.ceiling_z = static_cast<float>(spec.floor_z + o.ceiling_height_m);
   f.regions = spec.regions;
-  const int cab_texture = lib.cab >= 0 ? lib.cab : pick(lib.wall, rng);
-  for (Region& r : f.regions) {
-    if (r.boxes.empty())
-      return makeError("floor at z = ", spec.floor_z, ": a region without boxes");
-    auto resolve = [&](int* t, const std::vector<int>& pool) {
-      if (*t == kTexturePerRegion) *t = pick(pool, rng);
-      if (*t == kTextureCab) *t = cab_texture;
-    };
-    resolve(&r.wall_texture, lib.wall);
-    resolve(&r.floor_texture, lib.floor);
-    resolve(&r.ceiling_texture, lib.ceiling);
-    if (r.floor_texture < 0) r.floor_texture = pick(lib.floor, rng);
-    if (r.ceiling_texture < 0) r.ceiling_texture = pick(lib.ceiling, rng);
-  }
+  if (Status s = resolveTextures(spec, lib, rng, &f); !s) return s.error();
   f.floor_gain_q8[0] = 256;
   f.floor_gain_q8[1] = static_cast<int>(std::lround(256.0 * o.dark_light));
   f.floor_inv_texel = static_cast<float>(1.0 / o.floor_texel_m);
   f.ceiling_inv_texel = static_cast<float>(1.0 / o.ceiling_texel_m);
-
-  // Rasterise: cell centres inside a box get its region's label.
-  const double cell = o.grid_cell_m;
-  Vec2 lo(1e18, 1e18), hi(-1e18, -1e18);
-  for (const Region& r : spec.regions) {
-    for (const Box& b : r.boxes) {
-      lo = lo.cwiseMin(b.min);
-      hi = hi.cwiseMax(b.max);
-    }
-  }
-  const double x0 = (std::floor(lo.x() / cell) - 2.0) * cell,
-               y0 = (std::floor(lo.y() / cell) - 2.0) * cell;
-  const int w = static_cast<int>(std::ceil((hi.x() - x0) / cell)) + 2;
-  const int h = static_cast<int>(std::ceil((hi.y() - y0) / cell)) + 2;
-  if (static_cast<int64_t>(w) * h > 64'000'000) {
-    return makeError("floor at z = ", spec.floor_z, ": ", w, " x ", h,
-                     " grid cells is too many (grid_cell_m too small?)");
-  }
-  f.grid_x0 = static_cast<float>(x0);
-  f.grid_y0 = static_cast<float>(y0);
-  f.inv_cell = static_cast<float>(1.0 / cell);
-  f.grid_w = w;
-  f.grid_h = h;
-  f.grid.assign(static_cast<size_t>(w) * h + kGatherPadBytes, 0);
-  auto centre = [&](int i, int j) { return Vec2(x0 + (i + 0.5) * cell, y0 + (j + 0.5) * cell); };
-  for (size_t r = 0; r < spec.regions.size(); ++r) {
-    for (const Box& b : spec.regions[r].boxes) {
-      const int i0 = std::max(0, static_cast<int>(std::floor((b.min.x() - x0) / cell)));
-      const int i1 = std::min(w - 1, static_cast<int>(std::ceil((b.max.x() - x0) / cell)));
-      const int j0 = std::max(0, static_cast<int>(std::floor((b.min.y() - y0) / cell)));
-      const int j1 = std::min(h - 1, static_cast<int>(std::ceil((b.max.y() - y0) / cell)));
-      for (int j = j0; j <= j1; ++j) {
-        for (int i = i0; i <= i1; ++i) {
-          if (b.contains(centre(i, j)))
-            f.grid[static_cast<size_t>(j) * w + i] = static_cast<uint8_t>(r + 1);
-        }
-      }
-    }
-  }
-  const double r2 = o.blank_radius_m * o.blank_radius_m;
-  for (const Vec2& c : spec.blank_centres) {
-    const int rad = static_cast<int>(std::ceil(o.blank_radius_m / cell));
-    const int ci = static_cast<int>((c.x() - x0) / cell),
-              cj = static_cast<int>((c.y() - y0) / cell);
-    for (int j = std::max(0, cj - rad); j <= std::min(h - 1, cj + rad); ++j) {
-      for (int i = std::max(0, ci - rad); i <= std::min(w - 1, ci + rad); ++i) {
-        uint8_t& g = f.grid[static_cast<size_t>(j) * w + i];
-        if ((g & kLabelMask) != 0 && (centre(i, j) - c).squaredNorm() <= r2) g |= kBlankBit;
-      }
-    }
-  }
-
-  // Walls: grid edges between different labels, outside openings. For every grid line and
-  // each side, runs of edges with the same (region, blank) become one run of wall.
-  auto isWall = [&](uint8_t a, uint8_t b, const Vec2& mid) {
-    const int la = a & kLabelMask, lb = b & kLabelMask;
-    if (la == 0 || la == lb) return false;
-    for (const Opening& op : spec.openings) {
-      const bool pair = (op.a + 1 == la && op.b + 1 == lb) || (op.a + 1 == lb && op.b + 1 == la);
-      if (pair && op.span.contains(mid)) return false;
-    }
-    return true;
-  };
+  auto grid = rasterise(spec, o, &f);
+  if (!grid) return grid.error();
+  markBlanks(spec, o, *grid, &f);
   WallBuilder builder(&f, o, lib, rng);
-  // `vertical`: lines x = x0 + k * cell (walls along y); else lines y = y0 + k * cell.
-  for (bool vertical : {true, false}) {
-    const int lines = vertical ? w : h, along = vertical ? h : w;
-    for (int k = 1; k < lines; ++k) {
-      for (int side = 0; side < 2; ++side) {  // 0: the cell below k faces (normal -axis), 1: above
-        int run_start = -1, run_key = -1;
-        for (int m = 0; m <= along; ++m) {
-          int key = -1;
-          if (m < along) {
-            const int ia = vertical ? k - 1 : m, ja = vertical ? m : k - 1;
-            const int ib = vertical ? k : m, jb = vertical ? m : k;
-            uint8_t a = f.grid[static_cast<size_t>(ja) * w + ia],
-                    b = f.grid[static_cast<size_t>(jb) * w + ib];
-            if (side == 1) std::swap(a, b);
-            const Vec2 mid = vertical ? Vec2(x0 + k * cell, y0 + (m + 0.5) * cell)
-                                      : Vec2(x0 + (m + 0.5) * cell, y0 + k * cell);
-            if (isWall(a, b, mid)) key = a;
-          }
-          if (key == run_key) continue;
-          if (run_key >= 0) {
-            const double s0 = run_start * cell, len = (m - run_start) * cell;
-            const Vec2 p0 = vertical ? Vec2(x0 + k * cell, y0 + s0) : Vec2(x0 + s0, y0 + k * cell);
-            const Vec2 e = vertical ? Vec2(0, 1) : Vec2(1, 0);
-            const double sign = side == 0 ? -1.0 : 1.0;
-            const Vec2 n = vertical ? Vec2(sign, 0) : Vec2(0, sign);
-            builder.addRun(p0, e, n, len, (run_key & kLabelMask) - 1, (run_key & kBlankBit) != 0);
-          }
-          run_key = key;
-          run_start = m;
-        }
-      }
-    }
-  }
+  buildWalls(spec, *grid, builder, f);
   return f;
 }
 

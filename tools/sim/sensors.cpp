@@ -365,6 +365,11 @@ std::vector<floor_t> floorEvents(const Building& building, const SessionPlan& pl
   return out;
 }
 
+Vec3 accelBias(const ImuOptions& o, Random& rng) {
+  return Vec3(o.accel_bias_sigma_mps2 * rng.normal(), o.accel_bias_sigma_mps2 * rng.normal(),
+              o.accel_bias_sigma_mps2 * rng.normal());
+}
+
 Vec3 gyroBias(const ImuOptions& o, uint64_t seed, int session) {
   Random rng = streamFor(seed, Stream::kGyroBias, session);
   const double s = o.gyro_bias_sigma_radps;

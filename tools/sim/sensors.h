@@ -241,6 +241,10 @@ std::vector<floor_t> floorEvents(const Building& building, const SessionPlan& pl
 imu_t measureImu(int64_t utime, const Trajectory& trajectory, const ImuOptions& o, const Vec3& bias,
                  const Vec3& gyro_bias, Random& rng);
 
+// The accelerometer bias of one session: accel_bias_sigma_mps2 per axis, the first three
+// draws of the session's IMU noise stream `rng`.
+Vec3 accelBias(const ImuOptions& o, Random& rng);
+
 // The gyro bias of one session: gyro_bias_sigma_radps per axis, from its own random stream
 // (so that it changes no other noise of the session).
 Vec3 gyroBias(const ImuOptions& o, uint64_t seed, int session);

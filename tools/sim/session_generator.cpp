@@ -67,6 +67,207 @@ int8_t visualCondition(const Building& building, const BodyState& s, const SE3d&
   return vo_delta_t::STATUS_OK;
 }
 
+// Dead reckoning with the VO deltas, for the drift figure of the summary: a chain starts at
+// each fresh VO start (NO_DATA) and ends at a failure.
+class VoChains {
+ public:
+  void frame(const vo_delta_t& m, const SE3d& world_T_cam, double odometer_m,
+             std::vector<VoChain>* chains) {
+    if (m.status == vo_delta_t::STATUS_NO_DATA) {
+      close(chains);
+      in_chain_ = true;
+      estimate_ = truth_ = world_T_cam;
+      start_m_ = end_m_ = odometer_m;
+    } else if (m.status == vo_delta_t::STATUS_OK && m.keyframe_changed) {
+      estimate_ = estimate_ * deltaOf(m);
+      truth_ = world_T_cam;
+      end_m_ = odometer_m;
+    } else if (m.status != vo_delta_t::STATUS_OK) {
+      close(chains);
+    }
+  }
+  void close(std::vector<VoChain>* chains) {
+    if (!in_chain_) return;
+    chains->push_back(
+        VoChain{end_m_ - start_m_, (estimate_.translation() - truth_.translation()).norm()});
+    in_chain_ = false;
+  }
+
+ private:
+  bool in_chain_ = false;
+  SE3d estimate_, truth_;
+  double start_m_ = 0.0, end_m_ = 0.0;
+};
+
+// The session's wheel slips, and how many.
+Intervals slipsOf(const WheelOptions& o, uint64_t seed, int session, int64_t start, int64_t end,
+                  int64_t* count) {
+  Random rng = streamFor(seed, Stream::kSlips, session);
+  Intervals slips(start, end, o.slip_rate_per_hour, o.slip_min_s, o.slip_max_s, rng);
+  *count = static_cast<int64_t>(slips.size());
+  return slips;
+}
+
+Intervals passersOf(const VoOptions& o, uint64_t seed, int session, int64_t start, int64_t end) {
+  Random rng = streamFor(seed, Stream::kPassersBy, session);
+  return Intervals(start, end, o.passerby_rate_per_hour, o.passerby_min_s, o.passerby_max_s, rng);
+}
+
+// One session's sensor streams, each from its own clock and noise stream, written in time
+// order.
+class SessionWriter {
+ public:
+  SessionWriter(const Building& building, const SessionPlan& plan, const SensorOptions& o,
+                uint64_t seed, MessageSink& sink, const SessionObservers& observers)
+      : building_(building),
+        o_(o),
+        sink_(sink),
+        observers_(observers),
+        traj_(*plan.trajectory),
+        start_(traj_.startUtime()),
+        end_(traj_.endUtime()),
+        session_(plan.index),
+        body_T_cam_(o.camera.bodyTCam()),
+        // The camera the VO deltas are of (DESIGN.md: calibration is state, repeated).
+        calibration_(o.camera.stereoCalibration(static_cast<int>(std::lround(2.0 * o.camera.cx)),
+                                                static_cast<int>(std::lround(2.0 * o.camera.cy)))),
+        passers_(passersOf(o.vo, seed, session_, start_, end_)),
+        vo_(o.vo, body_T_cam_, streamFor(seed, Stream::kVoNoise, session_)),
+        wheel_(o.wheel, slipsOf(o.wheel, seed, session_, start_, end_, &slip_events_),
+               streamFor(seed, Stream::kWheelNoise, session_)),
+        attitude_rng_(streamFor(seed, Stream::kAttitudeNoise, session_)),
+        gyro_heading_(o.attitude, streamFor(seed, Stream::kGyroHeading, session_)),
+        imu_rng_(streamFor(seed, Stream::kImuNoise, session_)),
+        imu_bias_(accelBias(o.imu, imu_rng_)),
+        gyro_bias_(gyroBias(o.imu, seed, session_)),
+        gt_clock_(start_, o.ground_truth_rate_hz),
+        imu_clock_(plan, o.imu, start_, end_),
+        wheel_clock_(start_, o.wheel.rate_hz, 1),
+        attitude_clock_(start_, o.attitude.rate_hz),
+        vo_clock_(start_, o.vo.rate_hz),
+        wheel_prev_utime_(start_),
+        wheel_prev_(traj_.at(start_)) {
+    Random floor_rng = streamFor(seed, Stream::kFloorNoise, session_);
+    floors_ = floorEvents(building, plan, o.floor, floor_rng);
+    summary_.session = session_;
+    summary_.start_utime = start_;
+    summary_.end_utime = end_;
+    summary_.distance_m = plan.distance_m;
+    summary_.rides = static_cast<int>(plan.rides.size());
+    summary_.floors_visited = plan.floors_visited;
+    summary_.passerby_events = static_cast<int64_t>(passers_.size());
+    summary_.slip_events = slip_events_;
+  }
+
+  SessionSummary run() {
+    enum { kGt, kImu, kWheel, kAttitude, kFloor, kVo, kStreams };
+    while (true) {
+      const int64_t next[kStreams] = {
+          gt_clock_.next(),
+          imu_clock_.next(),
+          wheel_clock_.next(),
+          attitude_clock_.next(),
+          floor_next_ < floors_.size() ? floors_[floor_next_].utime : kNever,
+          vo_clock_.next()};
+      int which = -1;
+      for (int s = 0; s < kStreams; ++s) {
+        if (next[s] <= end_ && (which < 0 || next[s] < next[which])) which = s;
+      }
+      if (which < 0) break;
+      const int64_t t = next[which];
+      if (which == kGt) groundTruth(t);
+      if (which == kImu) {
+        writeMessage(sink_, channels::kImu,
+                     measureImu(t, traj_, o_.imu, imu_bias_, gyro_bias_, imu_rng_));
+        imu_clock_.advance();
+      }
+      if (which == kWheel) wheelTick(t);
+      if (which == kAttitude) attitudeTick(t);
+      if (which == kFloor) writeMessage(sink_, channels::kFloor, floors_[floor_next_++]);
+      if (which == kVo) voFrame(t);
+    }
+    chains_.close(&summary_.vo_chains);
+    return summary_;
+  }
+
+ private:
+  void groundTruth(int64_t t) {
+    const BodyState s = traj_.at(t);
+    writeMessage(sink_, channels::kGroundTruth,
+                 toPoseMessage(t, s.world_T_body, s.floor, session_));
+    if (observers_.on_ground_truth) observers_.on_ground_truth(t, s);
+    gt_clock_.advance();
+  }
+
+  void wheelTick(int64_t t) {
+    const BodyState s = traj_.at(t);
+    writeMessage(sink_, channels::kWheelOdom,
+                 wheel_.increment(wheel_prev_utime_, wheel_prev_, t, s));
+    wheel_prev_utime_ = t;
+    wheel_prev_ = s;
+    wheel_clock_.advance();
+  }
+
+  void attitudeTick(int64_t t) {
+    const BodyState s = traj_.at(t);
+    attitude_t m = measureAttitude(t, s, o_.attitude, attitude_rng_);
+    if (o_.attitude.heading) gyro_heading_.fill(t, s, &m);
+    writeMessage(sink_, channels::kAttitude, m);
+    attitude_clock_.advance();
+  }
+
+  void voFrame(int64_t t) {
+    const BodyState s = traj_.at(t);
+    const int8_t condition = visualCondition(building_, s, body_T_cam_, o_.vo, passers_, t);
+    const vo_delta_t m = vo_.frame(t, s, condition);
+    if (calib_repeat_.due(t))
+      writeMessage(sink_, channels::kStereoCalib, messages::toMsg(calibration_, t));
+    writeMessage(sink_, channels::kVoDelta, m);
+    ++summary_.vo_frames;
+    ++summary_.vo_status[static_cast<size_t>(m.status)];
+    const SE3d world_T_cam = s.world_T_body * body_T_cam_;
+    chains_.frame(m, world_T_cam, s.odometer_m, &summary_.vo_chains);
+    if (m.keyframe_changed) {
+      ++summary_.vo_keyframes;
+      // The oracle learns the keyframe before anyone can hear of it and ask.
+      if (observers_.on_keyframe) {
+        observers_.on_keyframe(KeyframeTruth{t, world_T_cam, s.floor, session_});
+      }
+      writeMessage(sink_, channels::kKeyframe, keyframeIdentity(t, o_.camera));
+    }
+    vo_clock_.advance();
+  }
+
+  const Building& building_;
+  const SensorOptions& o_;
+  MessageSink& sink_;
+  const SessionObservers& observers_;
+  const Trajectory& traj_;
+  const int64_t start_, end_;
+  const int session_;
+  const SE3d body_T_cam_;
+  const core::StereoCalibration calibration_;
+  channels::CalibrationRepeat calib_repeat_;
+  const Intervals passers_;
+  int64_t slip_events_ = 0;
+  VoModel vo_;
+  WheelModel wheel_;
+  Random attitude_rng_;
+  GyroHeadingModel gyro_heading_;
+  Random imu_rng_;
+  const Vec3 imu_bias_;
+  const Vec3 gyro_bias_;
+  std::vector<floor_t> floors_;
+  TickClock gt_clock_;
+  ImuSchedule imu_clock_;
+  TickClock wheel_clock_, attitude_clock_, vo_clock_;
+  size_t floor_next_ = 0;
+  int64_t wheel_prev_utime_;
+  BodyState wheel_prev_;
+  VoChains chains_;
+  SessionSummary summary_;
+};
+
 }  // namespace
 
 Status SensorOptions::validate() const {
@@ -92,156 +293,7 @@ int64_t SessionSummary::voFailed() const {
 SessionSummary generateSession(const Building& building, const SessionPlan& plan,
                                const SensorOptions& o, uint64_t seed, MessageSink& sink,
                                const SessionObservers& observers) {
-  const Trajectory& traj = *plan.trajectory;
-  const int64_t start = traj.startUtime();
-  const int64_t end = traj.endUtime();
-  const int session = plan.index;
-  const SE3d body_T_cam = o.camera.bodyTCam();
-  // The camera the VO deltas are of (DESIGN.md: calibration is state, repeated).
-  const core::StereoCalibration calibration =
-      o.camera.stereoCalibration(static_cast<int>(std::lround(2.0 * o.camera.cx)),
-                                 static_cast<int>(std::lround(2.0 * o.camera.cy)));
-  channels::CalibrationRepeat calib_repeat;
-
-  Random passer_rng = streamFor(seed, Stream::kPassersBy, session);
-  const Intervals passers(start, end, o.vo.passerby_rate_per_hour, o.vo.passerby_min_s,
-                          o.vo.passerby_max_s, passer_rng);
-  Random slip_rng = streamFor(seed, Stream::kSlips, session);
-  Intervals slips(start, end, o.wheel.slip_rate_per_hour, o.wheel.slip_min_s, o.wheel.slip_max_s,
-                  slip_rng);
-  SessionSummary summary;
-  summary.session = session;
-  summary.start_utime = start;
-  summary.end_utime = end;
-  summary.distance_m = plan.distance_m;
-  summary.rides = static_cast<int>(plan.rides.size());
-  summary.floors_visited = plan.floors_visited;
-  summary.passerby_events = static_cast<int64_t>(passers.size());
-  summary.slip_events = static_cast<int64_t>(slips.size());
-
-  VoModel vo(o.vo, body_T_cam, streamFor(seed, Stream::kVoNoise, session));
-  WheelModel wheel(o.wheel, std::move(slips), streamFor(seed, Stream::kWheelNoise, session));
-  Random attitude_rng = streamFor(seed, Stream::kAttitudeNoise, session);
-  GyroHeadingModel gyro_heading(o.attitude, streamFor(seed, Stream::kGyroHeading, session));
-  Random imu_rng = streamFor(seed, Stream::kImuNoise, session);
-  Random floor_rng = streamFor(seed, Stream::kFloorNoise, session);
-  const Vec3 imu_bias(o.imu.accel_bias_sigma_mps2 * imu_rng.normal(),
-                      o.imu.accel_bias_sigma_mps2 * imu_rng.normal(),
-                      o.imu.accel_bias_sigma_mps2 * imu_rng.normal());
-  const Vec3 gyro_bias = gyroBias(o.imu, seed, session);
-  const std::vector<floor_t> floors = floorEvents(building, plan, o.floor, floor_rng);
-
-  TickClock gt_clock(start, o.ground_truth_rate_hz);
-  ImuSchedule imu_clock(plan, o.imu, start, end);
-  TickClock wheel_clock(start, o.wheel.rate_hz, 1);
-  TickClock attitude_clock(start, o.attitude.rate_hz);
-  TickClock vo_clock(start, o.vo.rate_hz);
-  size_t floor_next = 0;
-  int64_t wheel_prev_utime = start;
-  BodyState wheel_prev = traj.at(start);
-
-  // Dead reckoning with the VO deltas, for the drift figure of the summary.
-  bool in_chain = false;
-  SE3d chain_estimate;
-  SE3d chain_truth;
-  double chain_start_m = 0.0;
-  double chain_end_m = 0.0;
-  auto closeChain = [&]() {
-    if (!in_chain) return;
-    summary.vo_chains.push_back(
-        VoChain{chain_end_m - chain_start_m,
-                (chain_estimate.translation() - chain_truth.translation()).norm()});
-    in_chain = false;
-  };
-
-  enum { kGt, kImu, kWheel, kAttitude, kFloor, kVo, kStreams };
-  while (true) {
-    const int64_t next[kStreams] = {gt_clock.next(),
-                                    imu_clock.next(),
-                                    wheel_clock.next(),
-                                    attitude_clock.next(),
-                                    floor_next < floors.size() ? floors[floor_next].utime : kNever,
-                                    vo_clock.next()};
-    int which = -1;
-    for (int s = 0; s < kStreams; ++s) {
-      if (next[s] <= end && (which < 0 || next[s] < next[which])) which = s;
-    }
-    if (which < 0) break;
-    const int64_t t = next[which];
-    switch (which) {
-      case kGt: {
-        const BodyState s = traj.at(t);
-        writeMessage(sink, channels::kGroundTruth,
-                     toPoseMessage(t, s.world_T_body, s.floor, session));
-        if (observers.on_ground_truth) observers.on_ground_truth(t, s);
-        gt_clock.advance();
-        break;
-      }
-      case kImu:
-        writeMessage(sink, channels::kImu,
-                     measureImu(t, traj, o.imu, imu_bias, gyro_bias, imu_rng));
-        imu_clock.advance();
-        break;
-      case kWheel: {
-        const BodyState s = traj.at(t);
-        writeMessage(sink, channels::kWheelOdom,
-                     wheel.increment(wheel_prev_utime, wheel_prev, t, s));
-        wheel_prev_utime = t;
-        wheel_prev = s;
-        wheel_clock.advance();
-        break;
-      }
-      case kAttitude: {
-        const BodyState s = traj.at(t);
-        attitude_t m = measureAttitude(t, s, o.attitude, attitude_rng);
-        if (o.attitude.heading) gyro_heading.fill(t, s, &m);
-        writeMessage(sink, channels::kAttitude, m);
-        attitude_clock.advance();
-        break;
-      }
-      case kFloor:
-        writeMessage(sink, channels::kFloor, floors[floor_next]);
-        ++floor_next;
-        break;
-      case kVo: {
-        const BodyState s = traj.at(t);
-        const int8_t condition = visualCondition(building, s, body_T_cam, o.vo, passers, t);
-        const vo_delta_t m = vo.frame(t, s, condition);
-        if (calib_repeat.due(t))
-          writeMessage(sink, channels::kStereoCalib, messages::toMsg(calibration, t));
-        writeMessage(sink, channels::kVoDelta, m);
-        ++summary.vo_frames;
-        ++summary.vo_status[static_cast<size_t>(m.status)];
-        const SE3d world_T_cam = s.world_T_body * body_T_cam;
-        if (m.status == vo_delta_t::STATUS_NO_DATA) {
-          closeChain();
-          in_chain = true;
-          chain_estimate = chain_truth = world_T_cam;
-          chain_start_m = chain_end_m = s.odometer_m;
-        } else if (m.status == vo_delta_t::STATUS_OK && m.keyframe_changed) {
-          chain_estimate = chain_estimate * deltaOf(m);
-          chain_truth = world_T_cam;
-          chain_end_m = s.odometer_m;
-        } else if (m.status != vo_delta_t::STATUS_OK) {
-          closeChain();
-        }
-        if (m.keyframe_changed) {
-          ++summary.vo_keyframes;
-          // The oracle learns the keyframe before anyone can hear of it and ask.
-          if (observers.on_keyframe) {
-            observers.on_keyframe(KeyframeTruth{t, world_T_cam, s.floor, session});
-          }
-          writeMessage(sink, channels::kKeyframe, keyframeIdentity(t, o.camera));
-        }
-        vo_clock.advance();
-        break;
-      }
-      default:
-        break;
-    }
-  }
-  closeChain();
-  return summary;
+  return SessionWriter(building, plan, o, seed, sink, observers).run();
 }
 
 }  // namespace evermap::sim

@@ -34,6 +34,7 @@
 #include "core/common/stop_signals.h"
 #include "tools/eval/trajectory.h"
 #include "tools/sim/image_session.h"
+#include "tools/sim/render_progress.h"
 
 namespace {
 
@@ -223,7 +224,8 @@ int main(int argc, char** argv) {
   }
   if (!args.snapshots.empty()) return writeSnapshots(**sim, args);
   evermap::StopSignals stop;  // SIGINT/SIGTERM end a render early
-  auto keep_going = [&stop](double) { return !stop.requested(); };
+  auto keep_going =
+      evermap::sim::withProgressLines(**sim, [&stop](double) { return !stop.requested(); });
   const auto summary = renderSession(**sim, args, keep_going);
   if (!summary) {
     std::fprintf(stderr, "evermap-sim-render: %s\n", summary.error().message.c_str());

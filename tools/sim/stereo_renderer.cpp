@@ -62,16 +62,43 @@ void ImageRenderer::setLighting(const Lighting& l) {
   }
 }
 
+// The level camera of one render: centre, heading, and the level image's intrinsics.
+struct ImageRenderer::LevelView {
+  core::Vec3 c;
+  core::Vec2 hf, hl;  // heading (forward) and its left, horizontal
+  double fx = 0.0, fy = 0.0, cxl = 0.0, cyl = 0.0;
+  double below = 0.0, above = 0.0;  // camera height over the floor, under the ceiling
+  // Column u looks along dxy(u) = hf - x(u) hl, x(u) = (u - cx) / fx (camera x is right).
+  double xOf(int u) const { return (u - cxl) / fx; }
+};
+
 void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const core::Vec3& c,
                                 const core::Vec2& hf, std::span<const Occluder> occluders,
                                 bool with_depth) {
-  const int W = level_w_, H = level_h_;
-  const double fx = camera_.fx, fy = camera_.fy;
-  const double cxl = camera_.cx + kLevelMargin, cyl = camera_.cy + kLevelMargin;
-  const core::Vec2 hl(-hf.y(), hf.x());
-  // Column u looks along dxy(u) = hf - x(u) hl, x(u) = (u - cx) / fx (camera x is right).
-  auto xOf = [&](int u) { return (u - cxl) / fx; };
+  LevelView view;
+  view.c = c;
+  view.hf = hf;
+  view.hl = core::Vec2(-hf.y(), hf.x());
+  view.fx = camera_.fx;
+  view.fy = camera_.fy;
+  view.cxl = camera_.cx + kLevelMargin;
+  view.cyl = camera_.cy + kLevelMargin;
+  const double fz = floor.floor_z + z_shift, cz = floor.ceiling_z + z_shift;
+  view.below = c.z() - fz;
+  view.above = cz - c.z();
+  nearestWalls(floor, view);
+  surfaceDepths(view);
+  for (int u = 0; u < level_w_; ++u) drawWallColumn(floor, view, u);
+  drawSurfaces(floor, view);
+  if (with_depth) fillLevelDepth();
+  drawOccluders(view, occluders, with_depth);
+}
 
+void ImageRenderer::nearestWalls(const RenderFloor& floor, const LevelView& view) {
+  const int W = level_w_;
+  const core::Vec3& c = view.c;
+  const core::Vec2 &hf = view.hf, &hl = view.hl;
+  const double fx = view.fx, cxl = view.cxl;
   // 1-D depth buffer: the nearest facing wall per column (forward distance).
   std::fill(depth_.begin(), depth_.end(), kInf);
   std::fill(nearest_.begin(), nearest_.end(), -1);
@@ -101,7 +128,7 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
     const int u1 = std::min(W - 1, static_cast<int>(std::floor(std::max(ua, ub) + 0.01)));
     const double nf = w.nx * hf.x() + w.ny * hf.y(), nl = w.nx * hl.x() + w.ny * hl.y();
     for (int u = u0; u <= u1; ++u) {
-      const double den = nf - xOf(u) * nl;
+      const double den = nf - view.xOf(u) * nl;
       if (den >= -1e-9) continue;
       const auto t = static_cast<float>(-ahead / den);
       if (t < depth_[static_cast<size_t>(u)]) {
@@ -110,107 +137,101 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
       }
     }
   }
+}
 
-  const double fz = floor.floor_z + z_shift, cz = floor.ceiling_z + z_shift;
-  const double below = c.z() - fz, above = cz - c.z();  // camera height over floor, under ceiling
+void ImageRenderer::surfaceDepths(const LevelView& view) {
+  const int W = level_w_, H = level_h_;
+  const double fy = view.fy, cyl = view.cyl;
   // Per row: depth of floor (below the horizon) or ceiling (above) and its mip level part.
-  thread_local std::vector<float> row_t, row_lod, col_lod;
-  row_t.resize(static_cast<size_t>(H));
-  row_lod.resize(static_cast<size_t>(H));
-  col_lod.resize(static_cast<size_t>(W));
+  row_t_.resize(static_cast<size_t>(H));
+  row_lod_.resize(static_cast<size_t>(H));
+  col_lod_.resize(static_cast<size_t>(W));
   for (int v = 0; v < H; ++v) {
     const double dz = std::max(std::abs(v - cyl) / fy, 1e-4);
-    const double t = std::min((v > cyl ? below : above) / dz, 1e4);
-    row_t[static_cast<size_t>(v)] = static_cast<float>(t);
+    const double t = std::min((v > cyl ? view.below : view.above) / dz, 1e4);
+    row_t_[static_cast<size_t>(v)] = static_cast<float>(t);
     // Footprint axes t|d|/f and t|d|^2/(f |dz|), |d|^2 ~ (1 + x^2)(1 + dz^2) split by row and
     // column.
-    row_lod[static_cast<size_t>(v)] = static_cast<float>(
+    row_lod_[static_cast<size_t>(v)] = static_cast<float>(
         std::log2(t / fy) + 0.75 * std::log2(1.0 + dz * dz) - 0.5 * std::log2(dz));
   }
-  thread_local std::vector<float> col_dx, col_dy;
-  thread_local std::vector<int> col_top, col_bot;
-  col_dx.resize(static_cast<size_t>(W));
-  col_dy.resize(static_cast<size_t>(W));
-  col_top.resize(static_cast<size_t>(W));
-  col_bot.resize(static_cast<size_t>(W));
+  col_dx_.resize(static_cast<size_t>(W));
+  col_dy_.resize(static_cast<size_t>(W));
+  col_top_.resize(static_cast<size_t>(W));
+  col_bot_.resize(static_cast<size_t>(W));
   for (int u = 0; u < W; ++u)
-    col_lod[static_cast<size_t>(u)] = static_cast<float>(0.75 * std::log2(1.0 + xOf(u) * xOf(u)));
+    col_lod_[static_cast<size_t>(u)] =
+        static_cast<float>(0.75 * std::log2(1.0 + view.xOf(u) * view.xOf(u)));
+}
 
-  const Texture* tex = textures_.textures.data();
-  const float floor_log = std::log2(floor.floor_inv_texel),
-              ceiling_log = std::log2(floor.ceiling_inv_texel);
-  const Texture& blank = tex[textures_.blank];
-  const float c2x = static_cast<float>(c.x()), c2y = static_cast<float>(c.y());
-  auto put = [&](int u, int v, int value, int gain_q8) {
-    const int light = (value * gain_q8) >> 8;
-    level_[static_cast<size_t>(v) * W + u] = static_cast<uint16_t>(light > 1023 ? 1023 : light);
-  };
-  for (int u = 0; u < W; ++u) {
-    const double x = xOf(u);
-    const double dxd = hf.x() - x * hl.x(), dyd = hf.y() - x * hl.y();
-    const float dx = static_cast<float>(dxd), dy = static_cast<float>(dyd);
-    const int id = nearest_[static_cast<size_t>(u)];
+void ImageRenderer::drawWallColumn(const RenderFloor& floor, const LevelView& view, int u) {
+  const double x = view.xOf(u);
+  const double dxd = view.hf.x() - x * view.hl.x(), dyd = view.hf.y() - x * view.hl.y();
+  const int id = nearest_[static_cast<size_t>(u)];
+  const double cyl = view.cyl;
+  int v_top = static_cast<int>(std::floor(cyl)) + 1, v_bot = v_top;  // wall rows [v_top, v_bot)
+  if (id >= 0) {
+    const Wall& w = floor.walls[static_cast<size_t>(id)];
     const double t = depth_[static_cast<size_t>(u)];
-    int v_top = static_cast<int>(std::floor(cyl)) + 1, v_bot = v_top;  // wall rows [v_top, v_bot)
-    if (id >= 0) {
-      const Wall& w = floor.walls[static_cast<size_t>(id)];
-      v_top = std::clamp(static_cast<int>(std::ceil(cyl - fy * above / t)), 0, H);
-      v_bot = std::clamp(static_cast<int>(std::floor(cyl + fy * below / t)) + 1, v_top, H);
-      const double s =
-          ((c.x() - w.p0x) * w.ex + (c.y() - w.p0y) * w.ey) + t * (w.ex * dxd + w.ey * dyd);
-      const double nd = std::max(1e-6, -(w.nx * dxd + w.ny * dyd));
-      const double dd = 1.0 + x * x;
-      const float lod = static_cast<float>(std::log2(t * std::sqrt(dd) / fx) +
-                                           0.5 * std::log2(std::sqrt(dd) / nd));
-      // Texture row of image row v: (ceiling - z(v)) / texel, z(v) = c_z - t (v - cy) / fy.
-      const float step = static_cast<float>(t / fy);
-      const float z_top =
-          static_cast<float>(above - t * (cyl - v_top) / fy);  // metres below the ceiling
-      const Texture& wt = tex[w.texture];
-      const float tu = static_cast<float>(s) * w.inv_texel + w.s_offset;
-      const int level = mipLevel(lod + std::log2(w.inv_texel));
-      int p_top = v_bot, p_bot = v_bot;  // poster rows [p_top, p_bot)
-      const Poster& p = w.poster;
-      float p_scale = 0.0f;
-      if (p.texture >= 0 && s >= p.s0 && s <= p.s1) {
-        const double height = floor.ceiling_z - floor.floor_z;
-        p_top = std::clamp(static_cast<int>(std::ceil(cyl - fy * (above - (height - p.z1)) / t)),
-                           v_top, v_bot);
-        p_bot = std::clamp(static_cast<int>(std::floor(cyl + fy * (below - p.z0) / t)) + 1, p_top,
-                           v_bot);
-        p_scale = static_cast<float>(tex[p.texture].size()) / (p.s1 - p.s0);
-      }
-      const Texture::Column column(wt, tu, level);
-      kernels::WallSpan span;
-      span.column = &column;
-      span.gain = w.gain_q8;
-      span.v_top = v_top;
-      span.d_top = z_top;
-      span.step = step;
-      span.scale_z = w.inv_texel;
-      span.offset_z = w.z_offset;
-      const auto wall_span = avx2_ ? kernels::wallSpanAvx2 : kernels::wallSpan;
-      uint16_t* out = level_.data() + u;
-      wall_span(span, v_top, p_top, out, W);
-      if (p_top < p_bot) {
-        const Texture::Column poster(tex[p.texture], (static_cast<float>(s) - p.s0) * p_scale,
-                                     mipLevel(lod + std::log2(p_scale)));
-        kernels::WallSpan on_poster = span;
-        on_poster.column = &poster;
-        on_poster.poster = true;
-        on_poster.scale_z = p_scale;
-        on_poster.offset_z = p.z1;
-        on_poster.height = static_cast<float>(floor.ceiling_z - floor.floor_z);
-        wall_span(on_poster, p_top, p_bot, out, W);
-      }
-      wall_span(span, p_bot, v_bot, out, W);
+    const double fx = view.fx, fy = view.fy, above = view.above, below = view.below;
+    const core::Vec3& c = view.c;
+    v_top = std::clamp(static_cast<int>(std::ceil(cyl - fy * above / t)), 0, level_h_);
+    v_bot = std::clamp(static_cast<int>(std::floor(cyl + fy * below / t)) + 1, v_top, level_h_);
+    const double s =
+        ((c.x() - w.p0x) * w.ex + (c.y() - w.p0y) * w.ey) + t * (w.ex * dxd + w.ey * dyd);
+    const double nd = std::max(1e-6, -(w.nx * dxd + w.ny * dyd));
+    const double dd = 1.0 + x * x;
+    const float lod =
+        static_cast<float>(std::log2(t * std::sqrt(dd) / fx) + 0.5 * std::log2(std::sqrt(dd) / nd));
+    const Texture* tex = textures_.textures.data();
+    int p_top = v_bot, p_bot = v_bot;  // poster rows [p_top, p_bot)
+    const Poster& p = w.poster;
+    float p_scale = 0.0f;
+    if (p.texture >= 0 && s >= p.s0 && s <= p.s1) {
+      const double height = floor.ceiling_z - floor.floor_z;
+      p_top = std::clamp(static_cast<int>(std::ceil(cyl - fy * (above - (height - p.z1)) / t)),
+                         v_top, v_bot);
+      p_bot =
+          std::clamp(static_cast<int>(std::floor(cyl + fy * (below - p.z0) / t)) + 1, p_top, v_bot);
+      p_scale = static_cast<float>(tex[p.texture].size()) / (p.s1 - p.s0);
     }
-    col_dx[static_cast<size_t>(u)] = dx;
-    col_dy[static_cast<size_t>(u)] = dy;
-    col_top[static_cast<size_t>(u)] = v_top;
-    col_bot[static_cast<size_t>(u)] = v_bot;
+    const Texture::Column column(tex[w.texture], static_cast<float>(s) * w.inv_texel + w.s_offset,
+                                 mipLevel(lod + std::log2(w.inv_texel)));
+    kernels::WallSpan span;
+    span.column = &column;
+    span.gain = w.gain_q8;
+    span.v_top = v_top;
+    // Texture row of image row v: (ceiling - z(v)) / texel, z(v) = c_z - t (v - cy) / fy.
+    span.d_top = static_cast<float>(above - t * (cyl - v_top) / fy);  // metres below the ceiling
+    span.step = static_cast<float>(t / fy);
+    span.scale_z = w.inv_texel;
+    span.offset_z = w.z_offset;
+    const auto wall_span = avx2_ ? kernels::wallSpanAvx2 : kernels::wallSpan;
+    uint16_t* out = level_.data() + u;
+    wall_span(span, v_top, p_top, out, level_w_);
+    if (p_top < p_bot) {
+      const Texture::Column poster(tex[p.texture], (static_cast<float>(s) - p.s0) * p_scale,
+                                   mipLevel(lod + std::log2(p_scale)));
+      kernels::WallSpan on_poster = span;
+      on_poster.column = &poster;
+      on_poster.poster = true;
+      on_poster.scale_z = p_scale;
+      on_poster.offset_z = p.z1;
+      on_poster.height = static_cast<float>(floor.ceiling_z - floor.floor_z);
+      wall_span(on_poster, p_top, p_bot, out, level_w_);
+    }
+    wall_span(span, p_bot, v_bot, out, level_w_);
   }
+  col_dx_[static_cast<size_t>(u)] = static_cast<float>(dxd);
+  col_dy_[static_cast<size_t>(u)] = static_cast<float>(dyd);
+  col_top_[static_cast<size_t>(u)] = v_top;
+  col_bot_[static_cast<size_t>(u)] = v_bot;
+}
+
+void ImageRenderer::drawSurfaces(const RenderFloor& floor, const LevelView& view) {
   // Ceiling above the walls and floor below them, row by row (one depth per row).
+  const Texture* tex = textures_.textures.data();
+  const Texture& blank = tex[textures_.blank];
   const Texture* floor_of_cell[256];
   const Texture* ceiling_of_cell[256];
   int gain_of_cell[256];
@@ -223,41 +244,55 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
     ceiling_of_cell[cell] = featureless ? &blank : &tex[r.ceiling_texture];
     gain_of_cell[cell] = floor.floor_gain_q8[r.dark ? 1 : 0];
   }
+  const float floor_log = std::log2(floor.floor_inv_texel),
+              ceiling_log = std::log2(floor.ceiling_inv_texel);
   kernels::SurfaceRow row;
-  row.cx = c2x;
-  row.cy = c2y;
-  row.col_dx = col_dx.data();
-  row.col_dy = col_dy.data();
-  row.col_lod = col_lod.data();
+  row.cx = static_cast<float>(view.c.x());
+  row.cy = static_cast<float>(view.c.y());
+  row.col_dx = col_dx_.data();
+  row.col_dy = col_dy_.data();
+  row.col_lod = col_lod_.data();
   row.floor = &floor;
   row.gain_of_cell = gain_of_cell;
-  for (int v = 0; v < H; ++v) {
+  const int W = level_w_;
+  for (int v = 0; v < level_h_; ++v) {
     row.v = v;
-    row.down = v > cyl;
-    row.t = row_t[static_cast<size_t>(v)];
+    row.down = v > view.cyl;
+    row.t = row_t_[static_cast<size_t>(v)];
     row.inv_texel = row.down ? floor.floor_inv_texel : floor.ceiling_inv_texel;
-    row.lod_row = row_lod[static_cast<size_t>(v)] + (row.down ? floor_log : ceiling_log);
-    row.col_limit = row.down ? col_bot.data() : col_top.data();
+    row.lod_row = row_lod_[static_cast<size_t>(v)] + (row.down ? floor_log : ceiling_log);
+    row.col_limit = row.down ? col_bot_.data() : col_top_.data();
     row.texture_of_cell = row.down ? floor_of_cell : ceiling_of_cell;
     (avx2_ ? kernels::surfaceRowAvx2 : kernels::surfaceRow)(
         row, W, level_.data() + static_cast<size_t>(v) * W);
   }
-  if (with_depth) {  // wall rows at the column's depth, floor and ceiling rows at the row's
-    level_depth_.resize(static_cast<size_t>(W) * H);
-    for (int v = 0; v < H; ++v) {
-      float* d = level_depth_.data() + static_cast<size_t>(v) * W;
-      const float row = row_t[static_cast<size_t>(v)];
-      for (int u = 0; u < W; ++u) {
-        const bool wall =
-            v >= col_top[static_cast<size_t>(u)] && v < col_bot[static_cast<size_t>(u)];
-        d[u] = wall ? depth_[static_cast<size_t>(u)] : row;
-      }
+}
+
+void ImageRenderer::fillLevelDepth() {
+  // Wall rows at the column's depth, floor and ceiling rows at the row's.
+  const int W = level_w_, H = level_h_;
+  level_depth_.resize(static_cast<size_t>(W) * H);
+  for (int v = 0; v < H; ++v) {
+    float* d = level_depth_.data() + static_cast<size_t>(v) * W;
+    const float row = row_t_[static_cast<size_t>(v)];
+    for (int u = 0; u < W; ++u) {
+      const bool wall =
+          v >= col_top_[static_cast<size_t>(u)] && v < col_bot_[static_cast<size_t>(u)];
+      d[u] = wall ? depth_[static_cast<size_t>(u)] : row;
     }
   }
+}
+
+void ImageRenderer::drawOccluders(const LevelView& view, std::span<const Occluder> occluders,
+                                  bool with_depth) {
   // Passers-by in front of whatever is behind them.
+  const int W = level_w_, H = level_h_;
+  const double fx = view.fx, fy = view.fy, cyl = view.cyl, below = view.below;
+  const core::Vec3& c = view.c;
+  const Texture* tex = textures_.textures.data();
   for (int u = 0; u < W; ++u) {
-    const double x = xOf(u);
-    const double dxd = hf.x() - x * hl.x(), dyd = hf.y() - x * hl.y();
+    const double x = view.xOf(u);
+    const double dxd = view.hf.x() - x * view.hl.x(), dyd = view.hf.y() - x * view.hl.y();
     const double t = depth_[static_cast<size_t>(u)];
     for (const Occluder& o : occluders) {
       const double den = o.normal.x() * dxd + o.normal.y() * dyd;
@@ -279,7 +314,10 @@ void ImageRenderer::renderLevel(const RenderFloor& floor, double z_shift, const 
       const Texture& ot = tex[o.texture];
       const int level = mipLevel(static_cast<float>(std::log2(to / fx * inv_texel)));
       float tv = static_cast<float>((o.height_m - below + to * (o_top - cyl) / fy) * inv_texel);
-      for (int v = o_top; v < o_bot; ++v, tv += step) put(u, v, ot.sample(tu, tv, level), 200);
+      for (int v = o_top; v < o_bot; ++v, tv += step) {
+        const int light = (ot.sample(tu, tv, level) * 200) >> 8;
+        level_[static_cast<size_t>(v) * W + u] = static_cast<uint16_t>(light > 1023 ? 1023 : light);
+      }
       if (with_depth) {
         for (int v = o_top; v < o_bot; ++v)
           level_depth_[static_cast<size_t>(v) * W + u] = static_cast<float>(to);

@@ -93,8 +93,17 @@ class ImageRenderer {
   PinholeCamera camera_;
   Random rng_;
   bool avx2_;  // the CPU has AVX2: use the AVX2 kernels (render_kernels.h)
+  // The level image (a camera of the same centre looking horizontally along `heading`): the
+  // walls' nearest per column, their spans, the floor and ceiling rows, the passers-by.
+  struct LevelView;
   void renderLevel(const RenderFloor& floor, double z_shift, const core::Vec3& centre,
                    const core::Vec2& heading, std::span<const Occluder> occluders, bool with_depth);
+  void nearestWalls(const RenderFloor& floor, const LevelView& view);
+  void surfaceDepths(const LevelView& view);
+  void drawWallColumn(const RenderFloor& floor, const LevelView& view, int u);
+  void drawSurfaces(const RenderFloor& floor, const LevelView& view);
+  void fillLevelDepth();
+  void drawOccluders(const LevelView& view, std::span<const Occluder> occluders, bool with_depth);
 
   void warpDepth(const core::Mat3& M, cv::Mat* depth) const;
 
@@ -105,6 +114,10 @@ class ImageRenderer {
   std::vector<float> depth_;        // per level column: forward distance of the nearest wall
   std::vector<int> nearest_;        // per level column: that wall, -1 none
   std::vector<float> level_depth_;  // with depth: the level image's depth, row-major, metres
+  // Per level row: the floor's or ceiling's forward distance and mip level part; per level
+  // column: its mip level part, direction (x, y) and the wall's rows [top, bot).
+  std::vector<float> row_t_, row_lod_, col_lod_, col_dx_, col_dy_;
+  std::vector<int> col_top_, col_bot_;
 };
 
 }  // namespace evermap::sim

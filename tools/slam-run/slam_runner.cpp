@@ -14,7 +14,6 @@
 #include <thread>
 
 #include <evermap/imu_t.hpp>
-#include <evermap/rgbd_image_t.hpp>
 #include <evermap/pose_t.hpp>
 #include <evermap/wheel_odom_t.hpp>
 
@@ -25,15 +24,15 @@
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
 #include "core/messages/pose_fields.h"
-#include "core/messages/rgbd_convert.h"
 #include "elevator-proc/lcm_convert.h"
 #include "mapper-proc/constraint_set.h"
 #include "mapper-proc/lcm_node.h"
 #include "tools/lcmlog/log_reader.h"
 #include "tools/mapper-run/run_metrics.h"
+#include "tools/mapper-run/store_bytes.h"
 #include "tools/sim/image_session.h"
-#include "tools/sim/message_sink.h"
-#include "vo-proc/frame_queue.h"
+#include "tools/slam-run/event_stream.h"
+#include "tools/slam-run/truth_evaluation.h"
 
 namespace evermap::slam_run {
 namespace {
@@ -57,6 +56,7 @@ Status SlamRunOptions::validate() const {
   if (!(false_closure_m > 0.0) || !(false_closure_deg > 0.0))
     return Error("false closure thresholds must be > 0");
   if (!(max_session_s >= 0.0)) return Error("max_session_s: must be >= 0");
+  if (!(progress_period_s >= 0.0)) return Error("progress_period_s: must be >= 0");
   return Ok{};
 }
 
@@ -125,14 +125,6 @@ const char* outcomeOf(const OutcomeCounters& before, const OutcomeCounters& afte
   for (size_t i = 0; i < before.size(); ++i)
     if (after[i] > before[i]) return kNames[i];
   return "none";
-}
-
-// e' Σ⁻¹ e of an estimate's error err = truth⁻¹ · estimate, as the mapper's gates compute it
-// (ConstraintSet::mahalanobis2 against the exact truth); -1 without a covariance.
-double normalisedError(const core::SE3d& err, const core::Mat6& covariance) {
-  if (!covariance.allFinite() || covariance.isZero()) return -1.0;
-  const double d2 = mapper::ConstraintSet::mahalanobis2(core::UncertainPose{}, {err, covariance});
-  return std::isfinite(d2) ? d2 : -1.0;
 }
 
 }  // namespace
@@ -205,103 +197,30 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
   }
 }
 
-namespace detail {
-
-// One event, read from a log or rendered (and for STEREO, decoded: LCM and PNG) by the
-// producer thread ahead of the pipeline, which then spends its time on the algorithms.
-struct ReadEvent {
-  std::string channel;
-  int64_t timestamp = 0;
-  std::vector<uint8_t> data;
-  // STEREO that decoded as LCM: its images, decoded, and its utime.
-  std::optional<Expected<messages::StereoFrame>> frame;
-  // RGBD that decoded as LCM: its images, decoded (utime in stereo_utime).
-  std::optional<Expected<messages::RgbdFrame>> rgbd_frame;
-  int64_t stereo_utime = 0;
-  double decode_s = 0.0;
-};
-
-ReadEvent makeEvent(const std::string& channel, int64_t timestamp, const uint8_t* p, size_t size) {
-  const auto t0 = SteadyClock::now();
-  ReadEvent r;
-  r.channel = channel;
-  r.timestamp = timestamp;
-  r.data.assign(p, p + size);
-  if (r.channel == channels::kStereo) {
-    auto msg = messages::decodeLcm<stereo_image_t>(p, static_cast<int64_t>(size), r.channel);
-    if (msg) {
-      r.frame = messages::fromMsg(*msg);
-      r.stereo_utime = msg->utime;
-      r.data.clear();  // the decoded images are what is used
-    }
-  } else if (r.channel == channels::kRgbd) {
-    auto msg = messages::decodeLcm<rgbd_image_t>(p, static_cast<int64_t>(size), r.channel);
-    if (msg) {
-      r.rgbd_frame = messages::fromMsg(*msg);
-      r.stereo_utime = msg->utime;
-      r.data.clear();
-    }
-  }
-  r.decode_s = secondsSince(t0);
-  return r;
-}
-
-// A session's events, produced on their own thread at most `ahead` events in front of the
-// consumer (512: about 25 frames of a 20 Hz stereo session with 200 Hz IMU, ~30 MB of decoded
-// images). The producer is an LCM log or the image-level simulator rendering on the fly.
-class EventStream {
- public:
-  using Producer = std::function<Status(EventStream&)>;
-  explicit EventStream(Producer produce, size_t ahead = 512)
-      : queue_(ahead, vo::BoundedQueue<ReadEvent>::Full::kWait) {
-    thread_ = std::thread([this, produce = std::move(produce)] {
-      status_ = produce(*this);
-      queue_.close();
-    });
-  }
-  ~EventStream() {
-    queue_.close();
-    if (thread_.joinable()) thread_.join();
-  }
-  // False once the consumer has stopped (the producer should stop too).
-  bool push(ReadEvent e) { return queue_.push(std::move(e)); }
-  std::optional<ReadEvent> next() { return queue_.pop(); }
-  // The producer's outcome, once next() has returned nullopt.
-  Status finish() {
-    queue_.close();
-    if (thread_.joinable()) thread_.join();
-    return status_;
-  }
-
- private:
-  vo::BoundedQueue<ReadEvent> queue_;
-  Status status_ = Ok{};
-  std::thread thread_;
-};
-
-}  // namespace detail
-
 using detail::EventStream;
 using detail::makeEvent;
 using detail::ReadEvent;
+using detail::StreamSink;
 
-namespace {
+// One session's pipeline state: the processes that start anew with each session (vo-proc,
+// imu-proc, elevator-proc) and what the session's summary counts.
+struct SlamRunner::Session {
+  Session(vo::VoPipeline vo_pipeline, const SlamRunOptions& options)
+      : vo(std::move(vo_pipeline)),
+        attitude(options.attitude, options.attitude_rate_hz),
+        elevator(options.elevator) {}
 
-// Rendered messages into the stream.
-class StreamSink final : public sim::MessageSink {
- public:
-  explicit StreamSink(EventStream& stream) : stream_(stream) {}
-  void write(const std::string& channel, int64_t utime, const std::vector<uint8_t>& data) override {
-    if (!stream_.push(makeEvent(channel, utime, data.data(), data.size()))) stopped_ = true;
-  }
-  bool stopped() const { return stopped_; }
-
- private:
-  EventStream& stream_;
-  bool stopped_ = false;
+  vo::VoPipeline vo;
+  imu::AttitudeStream attitude;
+  elevator::ElevatorTracker elevator;
+  std::optional<imu::Attitude> latest_attitude;
+  SessionSummary summary;
+  int64_t nodes_before = 0;
+  bool starts_lost = false;
+  int64_t first_utime = -1, last_utime = -1;
+  int64_t events = 0;
+  std::optional<ProgressReporter> progress;
 };
-
-}  // namespace
 
 Status SlamRunner::runSession(const std::filesystem::path& log_file) {
   auto opened = messages::LogReader::open(log_file);
@@ -314,7 +233,9 @@ Status SlamRunner::runSession(const std::filesystem::path& log_file) {
     }
     return log->status();  // a log cut mid-event or damaged: the map would be of part of it
   });
-  return mapSession(events, log_file.string());
+  // The log's event count, for the progress lines (the reader reports damage itself).
+  const auto count = messages::LogReader::check(log_file);
+  return mapSession(events, log_file.string(), SessionSize{count ? *count : -1, 0.0});
 }
 
 Status SlamRunner::renderSession(const sim::ImageSimOptions& options) {
@@ -323,153 +244,52 @@ Status SlamRunner::renderSession(const sim::ImageSimOptions& options) {
   auto simulator = sim::ImageSimulator::create(o);
   if (!simulator) return simulator.error();
   std::shared_ptr<sim::ImageSimulator> sim = std::move(*simulator);
+  const double duration_s = 1e-6 * static_cast<double>(sim->endUtime() - sim->startUtime());
   EventStream events([sim](EventStream& out) -> Status {
     StreamSink sink(out);
     auto summary = sim->run(sink, [&sink](double) { return !sink.stopped(); });
     if (!summary) return summary.error();
     return Ok{};
   });
-  return mapSession(events, "rendered session " + std::to_string(o.render.session));
+  return mapSession(events, "rendered session " + std::to_string(o.render.session),
+                    SessionSize{-1, duration_s});
 }
 
-Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name) {
+Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name,
+                              const SessionSize& size) {
   const int session = sessions_++;
   if (Status s = startMapper(session); !s) return s;
   auto vo = vo::VoPipeline::create(options_.vo);
   if (!vo) return vo.error();
-  imu::AttitudeStream attitude(options_.attitude, options_.attitude_rate_hz);
-  elevator::ElevatorTracker elevator(options_.elevator);
-  std::optional<imu::Attitude> latest_attitude;
-
-  SessionSummary ss;
-  ss.log = name;
-  ss.session = session;
-  const int64_t nodes_before = static_cast<int64_t>(mapper_->nodes().size());
-  const bool starts_lost = mapper_->lost() || !mapper_->nodes().empty();
-  int64_t first_utime = -1, last_utime = -1;
+  Session ss(std::move(*vo), options_);
+  ss.summary.log = name;
+  ss.summary.session = session;
+  ss.nodes_before = static_cast<int64_t>(mapper_->nodes().size());
+  ss.starts_lost = mapper_->lost() || !mapper_->nodes().empty();
+  if (options_.progress_period_s > 0.0)
+    ss.progress.emplace("evermap-slam-run session " + std::to_string(session), "frames",
+                        printToStderr, options_.progress_period_s);
   session_start_utime_ = -1;
   ComponentTimes& t = summary_.times;
   auto t_read = SteadyClock::now();
   bool cut_short = false;
   while (std::optional<ReadEvent> e = log.next()) {
-    const std::string& channel = e->channel;
-    const void* data = e->data.data();
-    const auto size = static_cast<int64_t>(e->data.size());
-    if (first_utime < 0) first_utime = e->timestamp;
-    last_utime = std::max(last_utime, e->timestamp);
+    if (ss.first_utime < 0) ss.first_utime = e->timestamp;
+    ss.last_utime = std::max(ss.last_utime, e->timestamp);
     if (options_.max_session_s > 0.0 &&
-        e->timestamp - first_utime > static_cast<int64_t>(options_.max_session_s * 1e6)) {
+        e->timestamp - ss.first_utime > static_cast<int64_t>(options_.max_session_s * 1e6)) {
       cut_short = true;  // damage the reader found further on does not concern this map
       break;
     }
     t.decode_s += e->decode_s;
     t.wait_s += secondsSince(t_read);
     double loopclose_s = 0.0, mapper_s = 0.0;
-    if (channel == channels::kStereoCalib) {
-      auto t0 = SteadyClock::now();
-      if (Status s = vo->handleCalibrationBytes(data, size); !s)
-        inputError("vo: " + s.error().message);
-      t.vo_s += secondsSince(t0);
-      t0 = SteadyClock::now();
-      if (Status s = calibration_.handle(data, size, *mapper_); !s)
-        inputError("mapper: " + s.error().message);
-      mapper_s += secondsSince(t0);
-    } else if (channel == channels::kRgbdCalib) {
-      // An RGB-D camera: vo-proc takes the calibration from the frames, the mapper from here.
-      auto t0 = SteadyClock::now();
-      if (Status s = calibration_.handleRgbd(data, size, *mapper_); !s)
-        inputError("mapper: " + s.error().message);
-      mapper_s += secondsSince(t0);
-    } else if (channel == channels::kStereo || channel == channels::kRgbd) {
-      auto t0 = SteadyClock::now();
-      // Decoded ahead by the reader; what did not decode as LCM fails here as in vo-proc.
-      const bool rgbd = channel == channels::kRgbd;
-      Expected<vo::PipelineOutput> out =
-          rgbd       ? (e->rgbd_frame ? Expected<vo::PipelineOutput>(
-                                      vo->handleRgbdFrame(e->stereo_utime, *e->rgbd_frame))
-                                      : vo->handleRgbdBytes(data, size))
-          : e->frame ? Expected<vo::PipelineOutput>(vo->handleFrame(e->stereo_utime, *e->frame))
-                     : vo->handleStereoBytes(data, size);
-      const double vo_s = secondsSince(t0);
-      t.vo_s += vo_s;
-      if (!out) {
-        inputError(std::string(channel) + ": " + out.error().message);
-      } else {
-        ++ss.stereo_frames;
-        if (session_start_utime_ < 0) session_start_utime_ = out->delta.utime;
-        if (out->result.ok()) ++ss.vo_ok;
-        if (out->keyframe) {
-          ++ss.keyframes;
-          t0 = SteadyClock::now();
-          if (Status s = loop_closer_->addKeyframe(*out->keyframe); !s)
-            inputError("KEYFRAME: " + s.error().message);
-          loopclose_s += secondsSince(t0);
-        }
-        t0 = SteadyClock::now();
-        if (!calibration_.haveCamera()) {
-          inputError("VO_DELTA before STEREO_CALIB or RGBD_CALIB");
-        } else if (Status s = mapper_->onVo(out->delta); !s) {
-          inputError("VO_DELTA: " + s.error().message);
-        }
-        mapper_s += secondsSince(t0);
-        exchange(&loopclose_s, &mapper_s);
-        if (mapper_->activeNode() >= 0 && !mapper_->lost())
-          summary_.trajectory.emplace_back(out->delta.utime, mapper_->pose().mean);
-        if (starts_lost && ss.relocalised_after_s < 0 && !mapper_->lost() &&
-            mapper_->activeNode() >= 0)
-          ss.relocalised_after_s =
-              1e-6 * static_cast<double>(out->delta.utime - session_start_utime_);
-        const double run_s =
-            summary_.data_s + 1e-6 * static_cast<double>(out->delta.utime - session_start_utime_);
-        frames_.push_back(FrameRow{out->delta.utime, session, run_s, out->delta.status,
-                                   out->delta.num_inliers, 1e3 * vo_s, 1e3 * loopclose_s,
-                                   1e3 * mapper_s, mapper_->graphNodes()});
-      }
-    } else if (channel == channels::kImu) {
-      auto msg = messages::decodeLcm<imu_t>(data, size, channel);
-      if (!msg) {
-        inputError(msg.error().message);
-      } else {
-        auto t0 = SteadyClock::now();
-        std::optional<attitude_t> att = attitude.add(*msg);
-        if (att) latest_attitude = imu::fromLcm(*att);
-        const auto events =
-            elevator.add(imu::fromLcm(*msg), latest_attitude ? &*latest_attitude : nullptr);
-        t.imu_s += secondsSince(t0);
-        t0 = SteadyClock::now();
-        if (att) {
-          if (Status s = mapper_->onAttitude(*att); !s)
-            inputError("ATTITUDE: " + s.error().message);
-        }
-        for (const auto& ev : events) {
-          ++ss.floor_events;
-          if (Status s = mapper_->onFloor(elevator::toLcm(ev)); !s)
-            inputError("FLOOR: " + s.error().message);
-        }
-        mapper_s += secondsSince(t0);
-      }
-    } else if (channel == channels::kWheelOdom) {
-      auto msg = messages::decodeLcm<wheel_odom_t>(data, size, channel);
-      const auto t0 = SteadyClock::now();
-      if (!msg) {
-        inputError(msg.error().message);
-      } else if (Status s = mapper_->onWheel(*msg); !s) {
-        inputError("WHEEL_ODOM: " + s.error().message);
-      }
-      mapper_s += secondsSince(t0);
-    } else if (channel == channels::kGroundTruth) {
-      auto msg = messages::decodeLcm<pose_t>(data, size, channel);
-      auto pose = msg ? messages::fromMsg(*msg) : Expected<core::UncertainPose>(msg.error());
-      if (!pose) {
-        inputError("GROUND_TRUTH: " + pose.error().message);
-      } else {
-        truth_[msg->utime] = pose->mean;
-        truth_floor_[msg->utime] = {msg->floor, msg->session};
-      }
-    }
+    handleEvent(ss, *e, &loopclose_s, &mapper_s);
     exchange(&loopclose_s, &mapper_s);
     t.loopclose_s += loopclose_s;
     t.mapper_s += mapper_s;
+    ++ss.events;
+    if (ss.progress) ss.progress->update(progressOf(ss, size));
     t_read = SteadyClock::now();
   }
   t.wait_s += secondsSince(t_read);
@@ -478,11 +298,155 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
     if (s.error().message.rfind(name, 0) == 0) return s;
     return makeError(name, ": ", s.error().message);
   }
-  if (first_utime < 0) return makeError(name, ": no event");
-  ss.duration_s = 1e-6 * static_cast<double>(last_utime - first_utime);
-  ss.nodes_added = static_cast<int64_t>(mapper_->nodes().size()) - nodes_before;
-  summary_.data_s += ss.duration_s;
-  const vo::PipelineStats& vs = vo->stats();
+  if (ss.first_utime < 0) return makeError(name, ": no event");
+  return endSession(ss);
+}
+
+Progress SlamRunner::progressOf(const Session& ss, const SessionSize& size) const {
+  Progress p;
+  p.data_done_s = 1e-6 * static_cast<double>(ss.last_utime - ss.first_utime);
+  p.data_total_s = size.data_s;
+  if (options_.max_session_s > 0.0)
+    p.data_total_s = p.data_total_s > 0.0 ? std::min(p.data_total_s, options_.max_session_s)
+                                          : options_.max_session_s;
+  if (size.events > 0) {
+    p.fraction = static_cast<double>(ss.events) / static_cast<double>(size.events);
+    if (options_.max_session_s > 0.0)
+      p.fraction = std::max(p.fraction, p.data_done_s / options_.max_session_s);
+  }
+  p.steps = ss.summary.stereo_frames;
+  p.nodes = mapper_->graphNodes();
+  return p;
+}
+
+void SlamRunner::handleEvent(Session& ss, const ReadEvent& e, double* loopclose_s,
+                             double* mapper_s) {
+  const std::string& channel = e.channel;
+  const void* data = e.data.data();
+  const auto size = static_cast<int64_t>(e.data.size());
+  if (channel == channels::kStereoCalib) {
+    auto t0 = SteadyClock::now();
+    if (Status s = ss.vo.handleCalibrationBytes(data, size); !s)
+      inputError("vo: " + s.error().message);
+    summary_.times.vo_s += secondsSince(t0);
+    t0 = SteadyClock::now();
+    if (Status s = calibration_.handle(data, size, *mapper_); !s)
+      inputError("mapper: " + s.error().message);
+    *mapper_s += secondsSince(t0);
+  } else if (channel == channels::kRgbdCalib) {
+    // An RGB-D camera: vo-proc takes the calibration from the frames, the mapper from here.
+    auto t0 = SteadyClock::now();
+    if (Status s = calibration_.handleRgbd(data, size, *mapper_); !s)
+      inputError("mapper: " + s.error().message);
+    *mapper_s += secondsSince(t0);
+  } else if (channel == channels::kStereo || channel == channels::kRgbd) {
+    onFrame(ss, e, loopclose_s, mapper_s);
+  } else if (channel == channels::kImu) {
+    onImu(ss, data, size, mapper_s);
+  } else if (channel == channels::kWheelOdom) {
+    auto msg = messages::decodeLcm<wheel_odom_t>(data, size, channel);
+    const auto t0 = SteadyClock::now();
+    if (!msg) {
+      inputError(msg.error().message);
+    } else if (Status s = mapper_->onWheel(*msg); !s) {
+      inputError("WHEEL_ODOM: " + s.error().message);
+    }
+    *mapper_s += secondsSince(t0);
+  } else if (channel == channels::kGroundTruth) {
+    auto msg = messages::decodeLcm<pose_t>(data, size, channel);
+    auto pose = msg ? messages::fromMsg(*msg) : Expected<core::UncertainPose>(msg.error());
+    if (!pose) {
+      inputError("GROUND_TRUTH: " + pose.error().message);
+    } else {
+      truth_[msg->utime] = pose->mean;
+      truth_floor_[msg->utime] = {msg->floor, msg->session};
+    }
+  }
+}
+
+void SlamRunner::onFrame(Session& ss, const ReadEvent& e, double* loopclose_s, double* mapper_s) {
+  auto t0 = SteadyClock::now();
+  // Decoded ahead by the reader; what did not decode as LCM fails here as in vo-proc.
+  const void* data = e.data.data();
+  const auto size = static_cast<int64_t>(e.data.size());
+  const bool rgbd = e.channel == channels::kRgbd;
+  Expected<vo::PipelineOutput> out =
+      rgbd      ? (e.rgbd_frame ? Expected<vo::PipelineOutput>(
+                                 ss.vo.handleRgbdFrame(e.stereo_utime, *e.rgbd_frame))
+                                : ss.vo.handleRgbdBytes(data, size))
+      : e.frame ? Expected<vo::PipelineOutput>(ss.vo.handleFrame(e.stereo_utime, *e.frame))
+                : ss.vo.handleStereoBytes(data, size);
+  const double vo_s = secondsSince(t0);
+  summary_.times.vo_s += vo_s;
+  if (!out) {
+    inputError(e.channel + ": " + out.error().message);
+    return;
+  }
+  ++ss.summary.stereo_frames;
+  if (session_start_utime_ < 0) session_start_utime_ = out->delta.utime;
+  if (out->result.ok()) ++ss.summary.vo_ok;
+  if (out->keyframe) {
+    ++ss.summary.keyframes;
+    t0 = SteadyClock::now();
+    if (Status s = loop_closer_->addKeyframe(*out->keyframe); !s)
+      inputError("KEYFRAME: " + s.error().message);
+    *loopclose_s += secondsSince(t0);
+  }
+  t0 = SteadyClock::now();
+  if (!calibration_.haveCamera()) {
+    inputError("VO_DELTA before STEREO_CALIB or RGBD_CALIB");
+  } else if (Status s = mapper_->onVo(out->delta); !s) {
+    inputError("VO_DELTA: " + s.error().message);
+  }
+  *mapper_s += secondsSince(t0);
+  exchange(loopclose_s, mapper_s);
+  afterFrame(ss, *out, vo_s, *loopclose_s, *mapper_s);
+}
+
+void SlamRunner::afterFrame(Session& ss, const vo::PipelineOutput& out, double vo_s,
+                            double loopclose_s, double mapper_s) {
+  const int64_t utime = out.delta.utime;
+  if (mapper_->activeNode() >= 0 && !mapper_->lost())
+    summary_.trajectory.emplace_back(utime, mapper_->pose().mean);
+  if (ss.starts_lost && ss.summary.relocalised_after_s < 0 && !mapper_->lost() &&
+      mapper_->activeNode() >= 0)
+    ss.summary.relocalised_after_s = 1e-6 * static_cast<double>(utime - session_start_utime_);
+  const double run_s = summary_.data_s + 1e-6 * static_cast<double>(utime - session_start_utime_);
+  frames_.push_back(FrameRow{utime, ss.summary.session, run_s, out.delta.status,
+                             out.delta.num_inliers, 1e3 * vo_s, 1e3 * loopclose_s, 1e3 * mapper_s,
+                             mapper_->graphNodes()});
+}
+
+void SlamRunner::onImu(Session& ss, const void* data, int64_t size, double* mapper_s) {
+  auto msg = messages::decodeLcm<imu_t>(data, size, channels::kImu);
+  if (!msg) {
+    inputError(msg.error().message);
+    return;
+  }
+  auto t0 = SteadyClock::now();
+  std::optional<attitude_t> att = ss.attitude.add(*msg);
+  if (att) ss.latest_attitude = imu::fromLcm(*att);
+  const auto events =
+      ss.elevator.add(imu::fromLcm(*msg), ss.latest_attitude ? &*ss.latest_attitude : nullptr);
+  summary_.times.imu_s += secondsSince(t0);
+  t0 = SteadyClock::now();
+  if (att) {
+    if (Status s = mapper_->onAttitude(*att); !s) inputError("ATTITUDE: " + s.error().message);
+  }
+  for (const auto& ev : events) {
+    ++ss.summary.floor_events;
+    if (Status s = mapper_->onFloor(elevator::toLcm(ev)); !s)
+      inputError("FLOOR: " + s.error().message);
+  }
+  *mapper_s += secondsSince(t0);
+}
+
+Status SlamRunner::endSession(Session& ss) {
+  SessionSummary& out = ss.summary;
+  out.duration_s = 1e-6 * static_cast<double>(ss.last_utime - ss.first_utime);
+  out.nodes_added = static_cast<int64_t>(mapper_->nodes().size()) - ss.nodes_before;
+  summary_.data_s += out.duration_s;
+  const vo::PipelineStats& vs = ss.vo.stats();
   summary_.vo.frames += vs.frames;
   for (size_t i = 0; i < vs.by_status.size(); ++i) summary_.vo.by_status[i] += vs.by_status[i];
   summary_.vo.keyframes += vs.keyframes;
@@ -490,16 +454,12 @@ Status SlamRunner::mapSession(detail::EventStream& log, const std::string& name)
   summary_.vo.calibrations_refused += vs.calibrations_refused;
   summary_.vo.undecodable += vs.undecodable;
   if (Status s = store_->save(*mapper_, mapper_->session(),
-                              session_start_utime_ >= 0 ? session_start_utime_ : first_utime);
+                              session_start_utime_ >= 0 ? session_start_utime_ : ss.first_utime);
       !s)
     return s;
-  for (const char* suffix : {"", "-wal"}) {
-    std::error_code ec;
-    const auto bytes = std::filesystem::file_size(options_.store.string() + suffix, ec);
-    if (!ec) ss.store_bytes += static_cast<int64_t>(bytes);
-  }
-  if (auto rows = store_->edgeRows()) ss.store_edge_rows = *rows;
-  summary_.sessions.push_back(ss);
+  out.store_bytes = mapper::storeFileBytes(options_.store);
+  if (auto rows = store_->edgeRows()) out.store_edge_rows = *rows;
+  summary_.sessions.push_back(out);
   return Ok{};
 }
 
@@ -523,190 +483,33 @@ Expected<SlamRunSummary> SlamRunner::finish() {
   for (const auto& c : m.constraints().all())
     if (c.accepted && c.kind == mapper::ConstraintKind::kLoop) ++out.accepted_closures;
   out.peak_rss_kb = peakRssKb();
-  out.hours.clear();
-  for (size_t i = 0; i < frames_.size();) {
-    HourFigures h;
-    h.hour = static_cast<int>(frames_[i].run_s / 3600.0);
-    std::vector<double> mapper_ms, loopclose_ms;
-    for (; i < frames_.size() && static_cast<int>(frames_[i].run_s / 3600.0) == h.hour; ++i) {
-      mapper_ms.push_back(frames_[i].mapper_ms);
-      loopclose_ms.push_back(frames_[i].loopclose_ms);
-      h.nodes_at_end = frames_[i].nodes;
-    }
-    h.frames = static_cast<int64_t>(mapper_ms.size());
-    h.mapper_p99_ms = percentile(std::move(mapper_ms), 0.99);
-    h.loopclose_p99_ms = percentile(std::move(loopclose_ms), 0.99);
-    out.hours.push_back(h);
-  }
-
-  auto truth = mapper::truthFromSamples(truth_, truth_floor_);
-  if (truth) {
-    // Accepted closures against the truth at their nodes' keyframes.
-    std::map<int64_t, core::SE3d> node_truth;
-    for (const mapper::MapperNode& n : m.nodes()) {
-      core::SE3d p;
-      if (truth->at(n.keyframe_utime, &p)) node_truth[n.id] = p;
-    }
-    for (const auto& [id, p] : node_truth) {
-      const mapper::MapperNode& n = m.nodes()[static_cast<size_t>(id)];
-      const core::SE3d est = m.nodePose(id);
-      SlamRunSummary::NodeRow row{id,
-                                  n.session,
-                                  n.floor,
-                                  -1,
-                                  n.keyframe_utime,
-                                  p.translation(),
-                                  est.translation(),
-                                  core::toPlanar(p).theta(),
-                                  core::toPlanar(est).theta()};
-      auto f = truth_floor_.lower_bound(n.keyframe_utime);
-      if (f != truth_floor_.end()) row.true_floor = f->second.first;
-      out.node_rows.push_back(row);
-    }
-    out.false_closures = 0;
-    for (const auto& c : m.constraints().all()) {
-      if (!c.accepted || c.kind != mapper::ConstraintKind::kLoop) continue;
-      auto a = node_truth.find(c.from), bb = node_truth.find(c.to);
-      if (a == node_truth.end() || bb == node_truth.end()) continue;
-      ++out.closures_with_truth;
-      const core::SE3d err = (a->second.inverse() * bb->second).inverse() * c.from_T_to.mean;
-      if (err.translation().norm() > options_.false_closure_m ||
-          core::rotationAngle(err.so3()) * 180.0 / std::numbers::pi > options_.false_closure_deg)
-        ++out.false_closures;
-    }
-    for (RegistrationRow& row : registrations_) {
-      core::SE3d b, q;
-      if (row.node < 0 || !truth->at(row.node_keyframe_utime, &b) ||
-          !truth->at(row.query_utime, &q))
-        continue;
-      const core::SE3d err = (b.inverse() * q).inverse() * row.b_T_q;
-      row.error_m = err.translation().norm();
-      row.error_deg = core::rotationAngle(err.so3()) * 180.0 / std::numbers::pi;
-      row.nees = normalisedError(err, row.b_T_q_covariance);
-      core::SE3d a;
-      if (row.active < 0 || !truth->at(row.active_keyframe_utime, &a)) continue;
-      const core::SE3d delta_err = (a.inverse() * q).inverse() * row.active_T_q.mean;
-      row.delta_error_m = delta_err.translation().norm();
-      row.delta_error_deg = core::rotationAngle(delta_err.so3()) * 180.0 / std::numbers::pi;
-      row.delta_nees = normalisedError(delta_err, row.active_T_q.covariance);
-    }
-    // The registration's reach: every node-mode request on one floor, answered or not.
-    const core::SE3d& body_T_cam = m.tracker().bodyTCamera();
-    for (const RegistrationRow& row : registrations_) {
-      core::SE3d n, q;
-      if (row.requested_node < 0 || !truth->at(row.requested_keyframe_utime, &n) ||
-          !truth->at(row.query_utime, &q))
-        continue;
-      if (std::abs(n.translation().z() - q.translation().z()) > 1.0) continue;
-      const bool ok = row.status == register_result_t::STATUS_OK &&
-                      row.node == row.requested_node && row.error_m >= 0.0 &&
-                      row.error_m <= options_.false_closure_m &&
-                      row.error_deg <= options_.false_closure_deg;
-      out.reach.push_back({(n.translation() - q.translation()).norm(),
-                           sim::viewAngle(n * body_T_cam, q * body_T_cam), ok});
-    }
-    if (!out.reach.empty()) out.reach_fit = sim::fitReach(out.reach, sim::OracleOptions{});
-    // New nodes of a session where an earlier session had one (true poses; 1 m, π/8).
-    for (SessionSummary& ss : out.sessions) ss.nodes_in_mapped_area = 0;
-    for (const mapper::MapperNode& n : m.nodes()) {
-      auto it = node_truth.find(n.id);
-      if (it == node_truth.end()) continue;
-      const core::SE2d p = core::toPlanar(it->second);
-      for (const mapper::MapperNode& o : m.nodes()) {
-        if (o.session >= n.session) continue;
-        auto jt = node_truth.find(o.id);
-        if (jt == node_truth.end()) continue;
-        const core::SE2d q = core::toPlanar(jt->second);
-        const double dyaw = std::remainder(p.theta() - q.theta(), 2.0 * std::numbers::pi);
-        if ((p.translation() - q.translation()).norm() <= 1.0 &&
-            std::abs(dyaw) <= std::numbers::pi / 8 &&
-            std::abs(it->second.translation().z() - jt->second.translation().z()) < 1.0) {
-          for (SessionSummary& ss : out.sessions)
-            if (ss.session == n.session) ++ss.nodes_in_mapped_area;
-          break;
-        }
-      }
-    }
-    auto map = mapper::mapFromGraph(mapper::graphMessage(m, 0));
-    if (!map) return map.error();
-    auto e = mapper::evaluateMap(*map, *truth, out.trajectory);
-    if (e)
-      out.evaluation = *e;
-    else
-      out.errors.push_back("evaluation: " + e.error().message);
+  out.hours = hourFigures(frames_);
+  if (auto truth = mapper::truthFromSamples(truth_, truth_floor_)) {
+    if (Status s = evaluate(*truth); !s) return s.error();
   }
   return out;
 }
 
-std::string SlamRunSummary::text() const {
-  std::ostringstream s;
-  s << "sessions " << sessions.size() << "\ndata_s " << data_s << "\nwall_s " << wall_s
-    << "\nrealtime_factor " << (wall_s > 0 ? data_s / wall_s : 0.0) << "\npeak_rss_mb "
-    << peak_rss_kb / 1024 << "\n";
-  for (const SessionSummary& ss : sessions) {
-    s << "session." << ss.session << " log " << ss.log << " duration_s " << ss.duration_s
-      << " frames " << ss.stereo_frames << " vo_ok " << ss.vo_ok << " keyframes " << ss.keyframes
-      << " floor_events " << ss.floor_events << " nodes_added " << ss.nodes_added
-      << " nodes_in_mapped_area " << ss.nodes_in_mapped_area << " relocalised_after_s "
-      << ss.relocalised_after_s << " store_bytes " << ss.store_bytes << " store_edge_rows "
-      << ss.store_edge_rows << "\n";
-  }
-  for (const HourFigures& h : hours)
-    s << "hour." << h.hour << " frames " << h.frames << " nodes_at_end " << h.nodes_at_end
-      << " mapper_p99_ms " << h.mapper_p99_ms << " loopclose_p99_ms " << h.loopclose_p99_ms << "\n";
-  s << "nodes " << nodes << "\nedges " << edges << "\nfloors " << floors << "\nloop_proposals "
-    << loop_proposals << " (node " << mapper.requests_node << ", global " << mapper.requests_global
-    << ")\nverified " << verified << "\naccepted_closures " << accepted_closures
-    << " (in the final map's constraints: a folded pair counts as its first; "
-    << mapper.loop_closures << " made over the run)\nrejected " << rejected << " (map gate "
-    << mapper.rejected_map_gate << ", other floor " << mapper.rejected_floor << ", inconsistent "
-    << mapper.rejected_inconsistent << ", recovered " << mapper.gate_recoveries
-    << ", too far to recover " << mapper.recoveries_too_far << ")\nrelocalizations "
-    << mapper.relocalizations << "\n";
-  if (false_closures >= 0)
-    s << "false_closures " << false_closures << " (of " << closures_with_truth << " with truth)\n";
-  if (reach_fit) {
-    // Node-mode requests by the true distance between the keyframes: registered / asked.
-    constexpr double kEdges[] = {0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 1e9};
-    s << "registration_reach node_requests " << reach.size()
-      << " (same floor, with truth), registered by distance:";
-    for (size_t b = 0; b + 1 < std::size(kEdges); ++b) {
-      int asked = 0, ok = 0;
-      for (const sim::ReachSample& r : reach)
-        if (r.distance_m >= kEdges[b] && r.distance_m < kEdges[b + 1]) {
-          ++asked;
-          ok += r.ok ? 1 : 0;
-        }
-      s << " " << kEdges[b];
-      if (b + 2 < std::size(kEdges))
-        s << "-" << kEdges[b + 1];
-      else
-        s << "+";
-      s << " m " << ok << "/" << asked;
-    }
-    s << "\nregistration_reach_fit success_probability " << reach_fit->success_probability
-      << " distance_scale_m " << reach_fit->distance_scale_m << " angle_scale_rad "
-      << reach_fit->angle_scale_rad << " (the oracle's p = P exp(-(d/D)^2/2) exp(-(a/A)^2/2) over "
-      << reach_fit->samples << " requests; beyond its bounds " << reach_fit->beyond << ", "
-      << reach_fit->ok_beyond << " registered; its defaults: 0.95, 2, 0.5)\n";
-  }
-  s << "vo " << vo.report();
-  // Every counter of the mapper and of its tracker (mapper_stats.h, tracker_counts.h).
-  const char* separator = "\nmapper ";
-  for (const auto& c : mapper::MapperStats::counters())
-    s << std::exchange(separator, ", ") << c.name << " " << mapper.*c.field;
-  separator = "\ntracker ";
-  for (const auto& c : mapper::TrackerCounts::counters())
-    s << std::exchange(separator, ", ") << c.name << " " << tracker.*c.field;
-  s << "\nloopclose " << loopclose.text() << "\n";
-  if (evaluation) s << evaluation->text();
-  const double n = std::max<double>(1.0, static_cast<double>(vo.frames));
-  s << "ms_per_frame decode " << 1e3 * times.decode_s / n << " (reader thread) wait "
-    << 1e3 * times.wait_s / n << " vo " << 1e3 * times.vo_s / n << " imu " << 1e3 * times.imu_s / n
-    << " loopclose " << 1e3 * times.loopclose_s / n << " mapper " << 1e3 * times.mapper_s / n
-    << "\ninput_errors " << input_errors << "\n";
-  for (const std::string& e : errors) s << "error " << e << "\n";
-  return s.str();
+Status SlamRunner::evaluate(const mapper::RunTruth& truth) {
+  SlamRunSummary& out = summary_;
+  const mapper::Mapper& m = *mapper_;
+  const std::map<int64_t, core::SE3d> node_truth = nodeTruth(m, truth);
+  out.node_rows = nodeRows(m, node_truth, truth_floor_);
+  out.false_closures = falseClosures(m, node_truth, options_.false_closure_m,
+                                     options_.false_closure_deg, &out.closures_with_truth);
+  for (RegistrationRow& row : registrations_) scoreRegistration(truth, &row);
+  out.reach = registrationReach(registrations_, truth, m.tracker().bodyTCamera(),
+                                options_.false_closure_m, options_.false_closure_deg);
+  if (!out.reach.empty()) out.reach_fit = sim::fitReach(out.reach, sim::OracleOptions{});
+  countNodesInMappedArea(m, node_truth, &out.sessions);
+  auto map = mapper::mapFromGraph(mapper::graphMessage(m, 0));
+  if (!map) return map.error();
+  auto e = mapper::evaluateMap(*map, truth, out.trajectory);
+  if (e)
+    out.evaluation = *e;
+  else
+    out.errors.push_back("evaluation: " + e.error().message);
+  return Ok{};
 }
 
 }  // namespace evermap::slam_run

@@ -29,6 +29,7 @@
 
 #include "core/bow/vocabulary.h"
 #include "core/common/expected.h"
+#include "core/common/progress.h"
 #include "core/geometry/se3.h"
 #include "elevator-proc/elevator_tracker.h"
 #include "imu-proc/attitude_stream.h"
@@ -46,7 +47,8 @@ namespace evermap::slam_run {
 
 namespace detail {
 class EventStream;
-}
+struct ReadEvent;
+}  // namespace detail
 
 struct SlamRunOptions {
   vo::PipelineOptions vo;
@@ -62,6 +64,8 @@ struct SlamRunOptions {
   double false_closure_deg = 5.0;
   // > 0: stop a session after this many seconds of its data.
   double max_session_s = 0.0;
+  // A progress line on stderr at most this often, seconds of wall time (0: none).
+  double progress_period_s = 10.0;
 
   Status validate() const;
 };
@@ -208,8 +212,27 @@ class SlamRunner {
 
  private:
   SlamRunner(const bow::Vocabulary& vocabulary, const SlamRunOptions& options);
+  struct Session;
+  // How much a session holds, as far as known before it is read: its events (a log; -1: not
+  // known) and its data time (rendered; 0: not known).
+  struct SessionSize {
+    int64_t events = -1;
+    double data_s = 0.0;
+  };
   Status startMapper(int session);
-  Status mapSession(detail::EventStream& events, const std::string& name);
+  Status mapSession(detail::EventStream& events, const std::string& name, const SessionSize& size);
+  // One event of the session into the processes; component times of loopclose and the mapper
+  // are added to the two counts (vo and imu to summary_.times).
+  void handleEvent(Session& ss, const detail::ReadEvent& e, double* loopclose_s, double* mapper_s);
+  void onFrame(Session& ss, const detail::ReadEvent& e, double* loopclose_s, double* mapper_s);
+  void afterFrame(Session& ss, const vo::PipelineOutput& out, double vo_s, double loopclose_s,
+                  double mapper_s);
+  void onImu(Session& ss, const void* data, int64_t size, double* mapper_s);
+  // The session's totals into the run's, and the map store saved.
+  Status endSession(Session& ss);
+  Progress progressOf(const Session& ss, const SessionSize& size) const;
+  // The run's figures against the ground truth of its logs.
+  Status evaluate(const mapper::RunTruth& truth);
   // Hands the mapper's requests to the loop closer and its answers back, and new nodes to it,
   // until neither side has anything more.
   void exchange(double* loopclose_s, double* mapper_s);

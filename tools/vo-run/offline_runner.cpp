@@ -74,6 +74,50 @@ Expected<evermap::stereo_calib_t> overrideDisparityOffset(const void* data, int6
   return messages::toMsg(*offset, msg->utime);
 }
 
+// A STEREO_CALIB event into the pipeline (with the options' disparity offset). Errors: the
+// offset does not apply; the pipeline's own refusals are printed and the run goes on.
+Status handleCalibration(VoPipeline& pipeline, const messages::LogReader::Event& event,
+                         const OfflineOptions& options) {
+  Status s = Ok{};
+  if (options.disparity_offset_px) {
+    auto msg = overrideDisparityOffset(event.data, event.datalen, *options.disparity_offset_px);
+    if (!msg) return msg.error();
+    s = pipeline.handleCalibration(*msg);
+  } else {
+    s = pipeline.handleCalibrationBytes(event.data, event.datalen);
+  }
+  if (!s) std::fprintf(stderr, "vo: %s\n", s.error().message.c_str());
+  return Ok{};
+}
+
+// The CSV row of one frame's result, processed in `ms`.
+FrameStats frameStats(const FrameResult& r, double ms) {
+  FrameStats f;
+  f.utime = r.utime;
+  f.status = r.status;
+  f.keyframe_changed = r.keyframe_changed;
+  f.num_corners = r.num_corners;
+  f.num_features = r.num_features;
+  f.num_matches = r.num_matches;
+  f.num_inliers = r.num_inliers;
+  f.mean_reprojection_px = r.mean_reprojection_px;
+  f.delta_translation_m = r.ok() ? r.ref_T_cur.translation().norm() : 0.0;
+  f.process_ms = ms;
+  f.bridged = r.bridged;
+  f.via_previous = r.via_previous;
+  f.failure_kind = r.failure_kind;
+  f.message = r.message;
+  return f;
+}
+
+// VO_DELTA and, for a new keyframe, KEYFRAME into the output log.
+Status writeOutput(messages::LogWriter& writer, const PipelineOutput& out) {
+  const int64_t utime = out.result.utime;
+  if (Status s = writer.write(channels::kVoDelta, utime, out.delta); !s) return s;
+  if (out.keyframe) return writer.write(channels::kKeyframe, utime, *out.keyframe);
+  return Ok{};
+}
+
 }  // namespace
 
 Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
@@ -98,16 +142,7 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
   while (const messages::LogReader::Event* event = file.next()) {
     const std::string& channel = event->channel;
     if (channel == channels::kStereoCalib) {
-      Status s = Ok{};
-      if (options.disparity_offset_px) {
-        auto msg =
-            overrideDisparityOffset(event->data, event->datalen, *options.disparity_offset_px);
-        if (!msg) return msg.error();
-        s = pipeline->handleCalibration(*msg);
-      } else {
-        s = pipeline->handleCalibrationBytes(event->data, event->datalen);
-      }
-      if (!s) std::fprintf(stderr, "vo: %s\n", s.error().message.c_str());
+      if (Status s = handleCalibration(*pipeline, *event, options); !s) return s.error();
       continue;
     }
     const bool rgbd = channel == channels::kRgbd;
@@ -126,22 +161,7 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
     }
     const FrameResult& r = out->result;
     times.push_back(ms);
-    FrameStats f;
-    f.utime = r.utime;
-    f.status = r.status;
-    f.keyframe_changed = r.keyframe_changed;
-    f.num_corners = r.num_corners;
-    f.num_features = r.num_features;
-    f.num_matches = r.num_matches;
-    f.num_inliers = r.num_inliers;
-    f.mean_reprojection_px = r.mean_reprojection_px;
-    f.delta_translation_m = r.ok() ? r.ref_T_cur.translation().norm() : 0.0;
-    f.process_ms = ms;
-    f.bridged = r.bridged;
-    f.via_previous = r.via_previous;
-    f.failure_kind = r.failure_kind;
-    f.message = r.message;
-    summary.frames.push_back(f);
+    summary.frames.push_back(frameStats(r, ms));
     if (auto cam0_T_cam = chain.add(out->delta)) {
       core::SE3d pose = *cam0_T_cam;
       if (options.body_frame) {
@@ -151,12 +171,7 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
       summary.trajectory.poses.push_back({messages::nsFromUtime(r.utime), pose});
     }
     if (writer) {
-      if (Status s = writer->write(channels::kVoDelta, r.utime, out->delta); !s) return s.error();
-      if (out->keyframe) {
-        if (Status s = writer->write(channels::kKeyframe, r.utime, *out->keyframe); !s) {
-          return s.error();
-        }
-      }
+      if (Status s = writeOutput(*writer, *out); !s) return s.error();
     }
   }
   // A log cut mid-event (or damaged) gives a trajectory of part of the data: an error, and
