@@ -211,11 +211,12 @@ if [ -f "$samples/samples_GT.bmp" ]; then
     sed -u -n 's/^  \(raw score\|score + epipolar\)/   project vocabulary, \1/p' | keep_alive "evermap-place-eval"
   # Beside it, evermap-vocab-train's default training images (KITTI 07 and 01, EuRoC V1_01
   # cam0, slambook2's TUM frames; not the samples, the test set).
-  if "$bin/evermap-vocab-train" --out "$out/real-images.evoc" --default-data "$data" > "$out/real-images.txt" 2>&1; then
+  if { "$bin/evermap-vocab-train" --out "$out/real-images.evoc" --default-data "$data" > "$out/real-images.txt" 2>&1; } |
+    keep_alive "training the real-image vocabulary"; then
     "$bin/evermap-place-eval" --vocab "$out/real-images.evoc" --images "$samples/samples" --gt "$samples/samples_GT.bmp" |
       sed -u -n 's/^  \(raw score\|score + epipolar\)/   real-image vocabulary, \1/p' | keep_alive "evermap-place-eval"
   else
-    echo "   no real-image vocabulary beside it: $(tail -n 1 "$out/real-images.txt")"
+    echo "   no real-image vocabulary beside it: $(head -n 1 "$out/real-images.txt")"
   fi
 else
   echo "== 3. skipped (no real data): RTAB-Map's loop-closure samples are not at $samples; put samples/*.jpg and samples_GT.bmp from github.com/introlab/rtabmap (data/samples, data/samples_GT.bmp) there and set EVERMAP_DATA"
