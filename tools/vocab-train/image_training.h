@@ -1,8 +1,9 @@
 #pragma once
 // Training a vocabulary from folders of images: ORB features of every image (image_features.h,
 // OpenCV's ORB for now), then vocabulary_training.h. Used by evermap-vocab-train, the tests
-// and the demo, which train the default vocabulary from the shared real data at run time (a
-// trained vocabulary is a derived file and is never committed).
+// and the demo. The project's vocabulary is trained at run time from the image simulator's
+// renders (scripts/make-vocab.sh); the one from real images (defaultTrainingFolders) needs the
+// shared data. A trained vocabulary is a derived file and is never committed.
 
 #include <filesystem>
 #include <string>
