@@ -56,7 +56,7 @@ evermap-pipeline-eval|max_ate_m|--max-ate|-1|>= 0
 evermap-place-eval|candidates|--candidates|0|>= 1
 evermap-vocab-train|levels|--levels|11|\[1, 10\]
 evermap-lcm-check|idle_timeout_s|--idle-timeout-s|0|> 0
-evermap-lcm-fuzz|rate_hz|--rate-hz|-1|\[0, 1e\+07\]
+evermap-lcm-fuzz|rate_hz|--rate-hz|-1|\[0, (1e\+07|10000000)\]
 evermap-viewer-graph-pub|rate_hz|--rate-hz|2000|\(0, 1000\]
 evermap-deputy|max_log_mb|--max-log-mb|0|> 0
 evermap-deputy-ctl|timeout_s|--timeout-s|0|> 0
