@@ -7,6 +7,7 @@
 #include <string>
 
 #include "core/geometry/se2.h"
+#include "core/messages/pose_fields.h"
 #include "tools/sim/streams.h"
 
 namespace evermap::sim {
@@ -220,15 +221,7 @@ vo_delta_t VoModel::measure(int64_t utime, const BodyState& state, int8_t condit
   const SE3d measured = (st > 0.0 || sr > 0.0) ? ref_T_cur * SE3d::exp(delta) : ref_T_cur;
   m.status = vo_delta_t::STATUS_OK;
   m.ref_utime = ref_utime_;
-  const Vec3& t = measured.translation();
-  const Eigen::Quaterniond& q = measured.quaternion();
-  m.translation[0] = t.x();
-  m.translation[1] = t.y();
-  m.translation[2] = t.z();
-  m.orientation[0] = q.w();
-  m.orientation[1] = q.x();
-  m.orientation[2] = q.y();
-  m.orientation[3] = q.z();
+  messages::putPose(measured, m.translation, m.orientation);
   setDiagonal6(m.covariance, st, sr);
   if (d >= o_.keyframe_translation_m || theta >= o_.keyframe_rotation_rad) {
     m.keyframe_changed = 1;
