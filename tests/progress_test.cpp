@@ -12,9 +12,8 @@ namespace {
 struct Fixture {
   double now_s = 100.0;
   std::vector<std::string> lines;
-  ProgressReporter reporter{"prog", "frames",
-                            [this](const std::string& l) { lines.push_back(l); }, 10.0,
-                            [this] { return now_s; }};
+  ProgressReporter reporter{"prog", "frames", [this](const std::string& l) { lines.push_back(l); },
+                            10.0, [this] { return now_s; }};
 };
 
 TEST(ProgressReporter, StaysQuietUntilThePeriodHasPassed) {
@@ -38,6 +37,17 @@ TEST(ProgressReporter, CountsThePeriodFromTheLastLine) {
   f.reporter.report({});
   EXPECT_EQ(f.lines.size(), 3u);
   EXPECT_FALSE(f.reporter.update({}));
+}
+
+TEST(ProgressReporter, TextLinesShareThePeriod) {
+  Fixture f;
+  f.reporter.reportText("making 58 textures");
+  f.now_s += 5.0;
+  EXPECT_FALSE(f.reporter.updateText("20 of 58 textures made"));
+  f.now_s += 5.0;
+  EXPECT_TRUE(f.reporter.updateText("40 of 58 textures made"));
+  EXPECT_EQ(f.lines,
+            (std::vector<std::string>{"prog: making 58 textures", "prog: 40 of 58 textures made"}));
 }
 
 TEST(ProgressReporter, LineSaysDataTimeStepsNodesRateAndTimeLeft) {

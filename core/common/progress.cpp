@@ -50,6 +50,19 @@ void ProgressReporter::report(const Progress& p) {
   sink_(line(p, last_s_ - start_s_));
 }
 
+bool ProgressReporter::updateText(const std::string& text) {
+  const double now = clock_();
+  if (now - last_s_ < period_s_) return false;
+  last_s_ = now;
+  sink_(label_ + ": " + text);
+  return true;
+}
+
+void ProgressReporter::reportText(const std::string& text) {
+  last_s_ = clock_();
+  sink_(label_ + ": " + text);
+}
+
 std::string ProgressReporter::line(const Progress& p, double wall_s) const {
   std::ostringstream o;
   o.setf(std::ios::fixed);
@@ -67,13 +80,13 @@ std::string ProgressReporter::line(const Progress& p, double wall_s) const {
     o.precision(2);
     o << ", " << p.data_done_s / wall_s << "x real time";
   }
-  if (wall_s > 0.0 && fraction > 0.0) o << ", " << duration(wall_s * (1.0 - fraction) / fraction) << " left";
+  if (wall_s > 0.0 && fraction > 0.0)
+    o << ", " << duration(wall_s * (1.0 - fraction) / fraction) << " left";
   return o.str();
 }
 
 double ProgressReporter::steadySeconds() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
 void printToStderr(const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); }

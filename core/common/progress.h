@@ -17,8 +17,8 @@ struct Progress {
   // read of a log's count); < 0: data_done_s / data_total_s. Neither known: no percentage and
   // no time left.
   double fraction = -1.0;
-  int64_t steps = 0;          // frames, messages or steps: what `steps_name` says
-  int64_t nodes = -1;         // graph nodes; < 0: not shown
+  int64_t steps = 0;   // frames, messages or steps: what `steps_name` says
+  int64_t nodes = -1;  // graph nodes; < 0: not shown
 };
 
 class ProgressReporter {
@@ -36,6 +36,9 @@ class ProgressReporter {
   bool update(const Progress& p);
   // Prints a line now (the end of a part of the work, say).
   void report(const Progress& p);
+  // The same for a stage without data time (setting up): "LABEL: TEXT".
+  bool updateText(const std::string& text);
+  void reportText(const std::string& text);
   // The line for `p` after `wall_s` seconds of work:
   //   "LABEL: data 12.0 / 60.0 s (20%), 240 frames, 3 nodes, 1.50x real time, 32 s left"
   // (the rate is data time per wall time; the time left is at the rate so far).

@@ -33,9 +33,9 @@ OfflineMapping::OfflineMapping(const sim::SimOptions& sim, const sim::RunPlan& p
              2.0 * std::numbers::pi / options.heading_bins),
       wall_start_(std::chrono::steady_clock::now()) {
   if (run.progress_period_s > 0.0)
-    progress_.emplace(std::string("evermap-mapper-run, ") +
-                          (options.full_graph ? "full" : "reduced") + " graph",
-                      "steps", printToStderr, run.progress_period_s);
+    progress_.emplace(
+        std::string("evermap-mapper-run, ") + (options.full_graph ? "full" : "reduced") + " graph",
+        "steps", printToStderr, run.progress_period_s);
 }
 
 double OfflineMapping::wallS() const {
@@ -193,11 +193,10 @@ void OfflineMapping::afterMessage(int64_t utime) {
 Progress OfflineMapping::progressAt(int64_t utime) const {
   Progress p;
   p.data_done_s = operating(utime);
-  const double in_session =
-      trajectory_end_ > trajectory_start_
-          ? static_cast<double>(utime - trajectory_start_) /
-                static_cast<double>(trajectory_end_ - trajectory_start_)
-          : 0.0;
+  const double in_session = trajectory_end_ > trajectory_start_
+                                ? static_cast<double>(utime - trajectory_start_) /
+                                      static_cast<double>(trajectory_end_ - trajectory_start_)
+                                : 0.0;
   p.fraction = (current_session_ - first_generated_ + std::clamp(in_session, 0.0, 1.0)) /
                (last_session_ - first_generated_ + 1);
   if (run_.stop_after_s > 0) p.fraction = std::max(p.fraction, p.data_done_s / run_.stop_after_s);

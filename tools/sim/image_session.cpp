@@ -42,17 +42,26 @@ std::string ImageSessionSummary::text() const {
 ImageSimulator::ImageSimulator(const ImageSimOptions& options, RunPlan plan)
     : options_(options), plan_(std::move(plan)) {}
 
-Expected<std::unique_ptr<ImageSimulator>> ImageSimulator::create(const ImageSimOptions& o) {
+Expected<std::unique_ptr<ImageSimulator>> ImageSimulator::create(const ImageSimOptions& o,
+                                                                 ProgressReporter* progress) {
   if (Status s = o.validate(); !s) return s.error();
+  const int index = o.render.session;
+  if (progress) progress->reportText("planning session " + std::to_string(index));
   auto plan = RunPlan::create(o.sim);
   if (!plan) return plan.error();
   std::unique_ptr<ImageSimulator> sim(new ImageSimulator(o, std::move(*plan)));
-  const int index = o.render.session;
   sim->session_ = sim->plan_.session(index);
   Random texture_rng = Random::derive(o.sim.seed, static_cast<uint64_t>(Stream::kTextures));
-  auto textures = makeTextureLibrary(o.render.textures, o.posterFolder(), texture_rng);
+  if (progress) progress->reportText("making the textures");
+  auto textures = makeTextureLibrary(
+      o.render.textures, o.posterFolder(), texture_rng, [progress](int made, int total) {
+        if (progress)
+          progress->updateText(std::to_string(made) + " of " + std::to_string(total) +
+                               " textures made");
+      });
   if (!textures) return textures.error();
   sim->textures_ = std::make_unique<TextureLibrary>(std::move(*textures));
+  if (progress) progress->reportText("building the world");
   Random paint_rng = Random::derive(o.sim.seed, static_cast<uint64_t>(Stream::kPainting));
   auto world = buildRenderWorld(sim->plan_.building(), o.sim.building, o.render.world,
                                 *sim->textures_, paint_rng);

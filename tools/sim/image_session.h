@@ -28,6 +28,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/camera/calibration.h"
+#include "core/common/progress.h"
 #include "core/messages/channels.h"
 #include "core/common/expected.h"
 #include "tools/sim/depth_sensor.h"
@@ -67,7 +68,9 @@ struct ImageSessionSummary {
 
 class ImageSimulator {
  public:
-  static Expected<std::unique_ptr<ImageSimulator>> create(const ImageSimOptions& options);
+  // `progress` (if set) hears of each stage of the setting up (the textures take seconds).
+  static Expected<std::unique_ptr<ImageSimulator>> create(const ImageSimOptions& options,
+                                                          ProgressReporter* progress = nullptr);
 
   const ImageSimOptions& options() const { return options_; }
   const Building& building() const { return plan_.building(); }

@@ -12,8 +12,8 @@ std::function<bool(double)> withProgressLines(const ImageSimulator& simulator,
                                               double period_s) {
   const double duration_s =
       1e-6 * static_cast<double>(simulator.endUtime() - simulator.startUtime());
-  auto reporter = std::make_shared<ProgressReporter>("evermap-sim-render", "frames",
-                                                     printToStderr, period_s);
+  auto reporter =
+      std::make_shared<ProgressReporter>("evermap-sim-render", "frames", printToStderr, period_s);
   auto frames = std::make_shared<int64_t>(0);
   return [=, keep_going = std::move(keep_going)](double fraction) {
     reporter->update(Progress{fraction * duration_s, duration_s, -1.0, ++*frames, -1});

@@ -217,7 +217,8 @@ int main(int argc, char** argv) {
     std::fputs(options->toConfigText().c_str(), stdout);
     return 0;
   }
-  auto sim = ImageSimulator::create(*options);
+  evermap::ProgressReporter setup("evermap-sim-render", "frames", evermap::printToStderr);
+  auto sim = ImageSimulator::create(*options, &setup);
   if (!sim) {
     std::fprintf(stderr, "evermap-sim-render: %s\n", sim.error().message.c_str());
     return 2;

@@ -316,15 +316,18 @@ Status TextureOptions::validate() const {
   return Ok{};
 }
 
-Expected<TextureLibrary> makeTextureLibrary(const TextureOptions& o, const fs::path& poster_folder,
-                                            Random& rng) {
+Expected<TextureLibrary> makeTextureLibrary(
+    const TextureOptions& o, const fs::path& poster_folder, Random& rng,
+    const std::function<void(int made, int total)>& on_made) {
   if (Status s = o.validate(); !s) return s.error();
   TextureLibrary lib;
+  const int procedural = 7 * o.variants + 2;
   auto add = [&](Texture t, std::vector<int>* a, std::vector<int>* b = nullptr) {
     lib.textures.push_back(std::move(t));
     const int id = static_cast<int>(lib.textures.size()) - 1;
     if (a) a->push_back(id);
     if (b) b->push_back(id);
+    if (on_made && id < procedural) on_made(id + 1, procedural);
     return id;
   };
   for (int k = 0; k < o.variants; ++k) {

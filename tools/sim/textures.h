@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -149,10 +150,11 @@ struct TextureOptions {
 // Procedural textures from `rng`, plus up to max_posters photographs (*.jpg, *.png, any size,
 // converted to gray) from `poster_folder` when it is not empty. A folder that does not exist
 // or holds no readable image is an error naming it; callers fall back to procedural posters
-// by passing an empty folder.
-Expected<TextureLibrary> makeTextureLibrary(const TextureOptions& options,
-                                            const std::filesystem::path& poster_folder,
-                                            Random& rng);
+// by passing an empty folder. `on_made` (if set) hears of each procedural texture made: how
+// many so far, of how many (making them takes seconds).
+Expected<TextureLibrary> makeTextureLibrary(
+    const TextureOptions& options, const std::filesystem::path& poster_folder, Random& rng,
+    const std::function<void(int made, int total)>& on_made = {});
 
 // The folder of photographs used as posters: $EVERMAP_DATA (else `default_root`) joined with
 // rtabmap-lcd-samples/samples; empty when it does not exist.

@@ -241,7 +241,11 @@ Status SlamRunner::runSession(const std::filesystem::path& log_file) {
 Status SlamRunner::renderSession(const sim::ImageSimOptions& options) {
   sim::ImageSimOptions o = options;
   o.render.encoding = messages::ImageEncoding::kGray8;  // nothing to compress: no disk
-  auto simulator = sim::ImageSimulator::create(o);
+  std::optional<ProgressReporter> setup;
+  if (options_.progress_period_s > 0.0)
+    setup.emplace("evermap-slam-run, rendered session " + std::to_string(o.render.session),
+                  "frames", printToStderr, options_.progress_period_s);
+  auto simulator = sim::ImageSimulator::create(o, setup ? &*setup : nullptr);
   if (!simulator) return simulator.error();
   std::shared_ptr<sim::ImageSimulator> sim = std::move(*simulator);
   const double duration_s = 1e-6 * static_cast<double>(sim->endUtime() - sim->startUtime());

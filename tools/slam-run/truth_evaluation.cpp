@@ -81,7 +81,8 @@ int64_t falseClosures(const mapper::Mapper& m, const std::map<int64_t, core::SE3
     if (a == node_truth.end() || b == node_truth.end()) continue;
     ++*with_truth;
     const core::SE3d err = (a->second.inverse() * b->second).inverse() * c.from_T_to.mean;
-    if (err.translation().norm() > max_m || core::rotationAngle(err.so3()) * 180.0 / std::numbers::pi > max_deg)
+    if (err.translation().norm() > max_m ||
+        core::rotationAngle(err.so3()) * 180.0 / std::numbers::pi > max_deg)
       ++false_closures;
   }
   return false_closures;
@@ -89,8 +90,7 @@ int64_t falseClosures(const mapper::Mapper& m, const std::map<int64_t, core::SE3
 
 void scoreRegistration(const mapper::RunTruth& truth, SlamRunner::RegistrationRow* row) {
   core::SE3d b, q;
-  if (row->node < 0 || !truth.at(row->node_keyframe_utime, &b) ||
-      !truth.at(row->query_utime, &q))
+  if (row->node < 0 || !truth.at(row->node_keyframe_utime, &b) || !truth.at(row->query_utime, &q))
     return;
   const core::SE3d err = (b.inverse() * q).inverse() * row->b_T_q;
   row->error_m = err.translation().norm();
@@ -114,9 +114,8 @@ std::vector<sim::ReachSample> registrationReach(
         !truth.at(row.query_utime, &q))
       continue;
     if (std::abs(n.translation().z() - q.translation().z()) > 1.0) continue;
-    const bool ok = row.status == register_result_t::STATUS_OK &&
-                    row.node == row.requested_node && row.error_m >= 0.0 &&
-                    row.error_m <= max_m && row.error_deg <= max_deg;
+    const bool ok = row.status == register_result_t::STATUS_OK && row.node == row.requested_node &&
+                    row.error_m >= 0.0 && row.error_m <= max_m && row.error_deg <= max_deg;
     reach.push_back({(n.translation() - q.translation()).norm(),
                      sim::viewAngle(n * body_T_cam, q * body_T_cam), ok});
   }
