@@ -21,7 +21,7 @@
 # Parts 2 and 3 say in one line that they are skipped, and what to get, when the data is not
 # there. Every step starts with a line that says how long it takes (on 2 cores), and nothing
 # stays silent for more than 10 s: a step's own progress lines pass through, and a line
-# "... N s" comes after each 10 s without one.
+# "... N s" comes after each 9 s without one (a 2-core machine under load adds a second).
 #
 #   scripts/demo.sh [RUN_DIR]   RUN_DIR: a run written by `evermap-sim-measure --out`
 #                               (default: one made from config/sim-small.conf)
@@ -38,13 +38,13 @@ sim_config="${EVERMAP_SIM_CONFIG:-$root/config/sim-small.conf}"
 speed="${EVERMAP_SPEED:-20}"
 run="${1:-}"
 
-# Passes its input through and, after each 10 s without a line, prints "   ... LABEL: N s"
+# Passes its input through and, after each 9 s without a line, prints "   ... LABEL: N s"
 # (with the last progress line of FILE when one is given: a process's log under the deputy).
 keep_alive() {  # LABEL [FILE]
   local label="$1" file="${2:-}" start=$SECONDS line="" rest="" rc p
   while :; do
     rc=0
-    IFS= read -r -t 10 line || rc=$?
+    IFS= read -r -t 9 line || rc=$?
     if [ "$rc" -eq 0 ]; then
       printf '%s\n' "$rest$line"
       rest=""
