@@ -1,9 +1,8 @@
 #pragma once
 // Plain `key = value` configuration text, one assignment per line, `#` starts a comment.
 // Every problem is reported in one line naming the file and line ("sim.conf:12: ..."), so a
-// wrong setting is found without reading code. Typed reading goes through KeyValueReader,
-// which also reports keys that nothing read (a misspelt key is an error, not a silent
-// default).
+// wrong setting is found without reading code. Typed reading goes through OptionList
+// (core/common/option_fields.h), which also refuses keys no option declares.
 
 #include <cstdint>
 #include <filesystem>
@@ -52,35 +51,6 @@ class KeyValueFile {
   std::string name_;
   std::filesystem::path folder_;
   std::vector<Entry> entries_;
-};
-
-// Reads typed values out of a KeyValueFile. A missing key leaves the target untouched (the
-// default of the Options struct stays). The first error is kept and returned by finish().
-class KeyValueReader {
- public:
-  explicit KeyValueReader(const KeyValueFile& file);
-
-  void read(const std::string& key, double* out);
-  void read(const std::string& key, int* out);
-  void read(const std::string& key, int64_t* out);
-  void read(const std::string& key, uint64_t* out);
-  void read(const std::string& key, bool* out);
-  void read(const std::string& key, std::string* out);
-
-  // "file.conf:12" for a key that was read from the file, else "file.conf (default value)".
-  std::string where(const std::string& key) const;
-  // The first error, else an error for the first key no read() asked for. Keys starting with
-  // one of `ignored_prefixes` are accepted unread.
-  Status finish(const std::vector<std::string>& ignored_prefixes = {}) const;
-
- private:
-  template <typename T>
-  void readNumber(const std::string& key, T* out, const char* what);
-  const KeyValueFile::Entry* use(const std::string& key);
-
-  const KeyValueFile& file_;
-  std::vector<bool> used_;
-  std::string first_error_;
 };
 
 }  // namespace evermap

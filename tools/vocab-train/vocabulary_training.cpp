@@ -18,21 +18,12 @@ std::string TrainingOptions::validate() const {
   return {};
 }
 
-Expected<Vocabulary> trainVocabulary(const std::vector<std::vector<Descriptor>>& images,
-                                     const TrainingOptions& options, TrainingSummary* summary) {
-  if (std::string why = options.validate(); !why.empty()) {
-    return makeError("vocabulary training options: ", why);
-  }
-  std::vector<Descriptor> all;
-  for (const auto& image : images) all.insert(all.end(), image.begin(), image.end());
-  if (all.empty())
-    return makeError("vocabulary training: no descriptors in ", images.size(), " images");
+namespace {
 
-  TrainingSummary s;
-  s.images = images.size();
-  s.descriptors = all.size();
-
-  // Breadth-first construction: each pending node carries the training descriptors below it.
+// The tree without weights, breadth first: each pending node carries the training descriptors
+// below it and is split by k-majority until `levels` or until its members are one descriptor.
+Expected<std::vector<NodeSpec>> buildTree(const std::vector<Descriptor>& all,
+                                          const TrainingOptions& options, TrainingSummary* s) {
   struct Pending {
     size_t node;
     int depth;
@@ -53,8 +44,8 @@ Expected<Vocabulary> trainVocabulary(const std::vector<std::vector<Descriptor>>&
       // One cluster means every member is the same descriptor: the node is a word.
       if (r.centres.size() > 1) {
         split = true;
-        ++s.clustered_nodes;
-        if (!r.converged) ++s.unconverged_nodes;
+        ++s->clustered_nodes;
+        if (!r.converged) ++s->unconverged_nodes;
         for (size_t j = 0; j < r.centres.size(); ++j) {
           NodeSpec child;
           child.parent = static_cast<int64_t>(p.node);
@@ -71,11 +62,16 @@ Expected<Vocabulary> trainVocabulary(const std::vector<std::vector<Descriptor>>&
     }
     std::vector<uint32_t>().swap(queue[head].members);
   }
+  return nodes;
+}
 
-  // idf: ln(N / n_w) over the training images (T-RO 2012, section IV); computed by
-  // quantising the training descriptors again through the finished tree, as DBoW2 does.
+// idf: ln(N / n_w) over the training images (T-RO 2012, section IV); computed by quantising
+// the training descriptors again through the finished tree, as DBoW2 does.
+Status weightWords(const std::vector<std::vector<Descriptor>>& images,
+                   const TrainingOptions& options, std::vector<NodeSpec>* nodes,
+                   TrainingSummary* s) {
   auto unweighted =
-      Vocabulary::create(options.branching, options.levels, nodes, "trained vocabulary");
+      Vocabulary::create(options.branching, options.levels, *nodes, "trained vocabulary");
   if (!unweighted) return unweighted.error();
   const size_t num_words = unweighted->numWords();
   std::vector<uint32_t> images_with_word(num_words, 0);
@@ -90,25 +86,50 @@ Expected<Vocabulary> trainVocabulary(const std::vector<std::vector<Descriptor>>&
     }
   }
   const double n = static_cast<double>(images.size());
-  for (NodeSpec& node : nodes) {
+  for (NodeSpec& node : *nodes) {
     if (node.word < 0) continue;
     const uint32_t count = images_with_word[static_cast<size_t>(node.word)];
     node.weight = count > 0 ? std::log(n / count) : 0.0;
-    if (node.weight <= 0.0) ++s.zero_weight_words;
+    if (node.weight <= 0.0) ++s->zero_weight_words;
   }
-  auto vocabulary =
-      Vocabulary::create(options.branching, options.levels, std::move(nodes), "trained vocabulary");
-  if (!vocabulary) return vocabulary.error();
-  s.nodes = vocabulary->numNodes();
-  s.words = vocabulary->numWords();
-  s.words_per_depth = vocabulary->wordsPerDepth();
+  return Ok{};
+}
+
+std::string summaryLine(const TrainingOptions& options, const TrainingSummary& s) {
   char line[256];
   std::snprintf(line, sizeof(line),
                 "k=%d L=%d: %zu words (%zu of zero weight), %zu nodes from %zu descriptors of "
                 "%zu images; %zu of %zu splits hit the iteration limit",
                 options.branching, options.levels, s.words, s.zero_weight_words, s.nodes,
                 s.descriptors, s.images, s.unconverged_nodes, s.clustered_nodes);
-  s.message = line;
+  return line;
+}
+
+}  // namespace
+
+Expected<Vocabulary> trainVocabulary(const std::vector<std::vector<Descriptor>>& images,
+                                     const TrainingOptions& options, TrainingSummary* summary) {
+  if (std::string why = options.validate(); !why.empty()) {
+    return makeError("vocabulary training options: ", why);
+  }
+  std::vector<Descriptor> all;
+  for (const auto& image : images) all.insert(all.end(), image.begin(), image.end());
+  if (all.empty())
+    return makeError("vocabulary training: no descriptors in ", images.size(), " images");
+
+  TrainingSummary s;
+  s.images = images.size();
+  s.descriptors = all.size();
+  auto nodes = buildTree(all, options, &s);
+  if (!nodes) return nodes.error();
+  if (Status st = weightWords(images, options, &*nodes, &s); !st) return st.error();
+  auto vocabulary = Vocabulary::create(options.branching, options.levels, std::move(*nodes),
+                                       "trained vocabulary");
+  if (!vocabulary) return vocabulary.error();
+  s.nodes = vocabulary->numNodes();
+  s.words = vocabulary->numWords();
+  s.words_per_depth = vocabulary->wordsPerDepth();
+  s.message = summaryLine(options, s);
   if (summary) *summary = std::move(s);
   return vocabulary;
 }
