@@ -92,15 +92,10 @@ int parse(int argc, char** argv, Settings* s) {
             "a sample stamped more than S s from the stream's clock waits for confirmation "
             "(default 120; 0: off)")
       .nonNegative();
-  bool print_options = false;
-  cli.flag("--print-options", &print_options, "the same as --print-config");
   cli.options(&s->tracker);
   cli.check([s] { return s->tracker.validate(); });
+  cli.printConfigAlias("--print-options");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
-  if (print_options) {
-    std::fputs(cli.optionList().print().c_str(), stdout);
-    return 0;
-  }
   return -1;
 }
 

@@ -59,18 +59,13 @@ int parse(int argc, char** argv, Settings* s) {
                   "Subscribes IMU, publishes ATTITUDE (roll, pitch, covariance, the gyro's "
                   "heading).");
   cli.value("--lcm-url", &s->url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
-  bool print_options = false;
-  cli.flag("--print-options", &print_options, "the same as --print-config");
   cli.options(&s->filter);
   cli.options(&s->heading, "heading.");
   cli.options(&s->proc);
   cli.check([s] { return s->filter.validate(); });
   cli.check([s] { return s->heading.validate(); });
+  cli.printConfigAlias("--print-options");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
-  if (print_options) {
-    std::fputs(cli.optionList().print().c_str(), stdout);
-    return 0;
-  }
   return -1;
 }
 

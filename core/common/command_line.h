@@ -53,7 +53,7 @@ class CommandLine {
     add(std::move(name), std::move(metavar), std::move(help), required).set =
         [out, limits](const std::string& v) -> Status {
       Int n{};
-      if (Status s = parseInteger(v, &n); !s) return s;
+      if (Status s = option_text::parseInteger(v, &n); !s) return s;
       if (Status s = Range(limits).check(static_cast<double>(n)); !s) return s;
       *out = n;
       return Ok{};
@@ -88,6 +88,10 @@ class CommandLine {
   // is the option's doc, default, unit and allowed values. Declare after options().
   void alias(std::string name, const std::string& key, std::string metavar,
              std::string flag_value = "true");
+  // Another name for --print-config, kept for command lines that use it (--print-options).
+  void printConfigAlias(std::string name) {
+    flag(std::move(name), &print_config_, "the same as --print-config");
+  }
   // A rule checked after the options are set (a struct's validate(): the rules between
   // fields), before --print-config prints them; its error is a bad command line.
   void check(std::function<Status()> rule) { checks_.push_back(std::move(rule)); }
@@ -124,18 +128,6 @@ class CommandLine {
     std::string alias_of;    // the key of option_list_ an alias() sets
     std::string flag_value;  // ... to this, for an alias without a value
   };
-  // Whole text, in range (unsigned types refuse a minus sign).
-  template <typename Int>
-  static Status parseInteger(const std::string& text, Int* out) {
-    Int v{};
-    const char* end = text.data() + text.size();
-    const auto [ptr, ec] = std::from_chars(text.data(), end, v);
-    if (text.empty() || ec != std::errc() || ptr != end) {
-      return makeError("\"", text, "\" is not an integer in range");
-    }
-    *out = v;
-    return Ok{};
-  }
   Option& add(std::string name, std::string metavar, std::string help, bool required);
   bool declared(const std::string& name) const;
   // An alias()'s value into its option, and onto the --set list.

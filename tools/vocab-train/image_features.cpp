@@ -4,10 +4,13 @@
 #include <cctype>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "core/features/gray_image.h"
 
 namespace evermap::bow {
 
@@ -24,14 +27,8 @@ ImageFeatures extractOrb(const cv::Mat& image, const OrbOptions& options) {
     std::fprintf(stderr, "evermap: extractOrb needs an 8-bit image, got depth %d\n", image.depth());
     std::abort();
   }
-  cv::Mat gray;
-  if (image.channels() == 3) {
-    cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-  } else if (image.channels() == 4) {
-    cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
-  } else {
-    gray = image;
-  }
+  const std::optional<cv::Mat> converted = core::toGray(image);
+  const cv::Mat gray = converted ? *converted : image;
   auto orb = cv::ORB::create(options.max_features, static_cast<float>(options.scale_factor),
                              options.pyramid_levels, 31, 0, 2, cv::ORB::HARRIS_SCORE, 31,
                              options.fast_threshold);
