@@ -9,12 +9,16 @@ namespace evermap::loopclose {
 Expected<Keyframe> fromMsg(const evermap::keyframe_t& msg) {
   Expected<messages::KeyframeMsgContents> contents = messages::fromMsg(msg);
   if (!contents) return contents.error();
-  Keyframe k{contents->camera, std::move(contents->features), {}};
-  k.descriptors.reserve(k.features.descriptors.size());
-  for (const core::OrbDescriptor& d : k.features.descriptors) {
-    k.descriptors.push_back(bow::descriptorFromBytes(d.data()));
+  return Keyframe{contents->camera, std::move(contents->features)};
+}
+
+std::vector<bow::Descriptor> Keyframe::bowDescriptors() const {
+  std::vector<bow::Descriptor> out;
+  out.reserve(features.descriptors.size());
+  for (const core::OrbDescriptor& d : features.descriptors) {
+    out.push_back(bow::descriptorFromBytes(d.data()));
   }
-  return k;
+  return out;
 }
 
 evermap::keyframe_t toMsg(const Keyframe& keyframe) {

@@ -1,8 +1,7 @@
 #pragma once
 // A keyframe as loopclose-proc keeps it: what KEYFRAME (keyframe_t) carries, decoded and
 // validated by core's one converter (messages::fromMsg in core/messages/keyframe_convert.h:
-// the rectified camera and the features registration uses), with its descriptors also in the
-// bag-of-words form the vocabulary reads.
+// the rectified camera and the features registration uses).
 
 #include <cstdint>
 #include <vector>
@@ -19,10 +18,12 @@ namespace evermap::loopclose {
 struct Keyframe {
   core::StereoCamera camera;
   core::KeyframeFeatures features;
-  std::vector<bow::Descriptor> descriptors;  // features.descriptors, for the vocabulary
 
   int64_t utime() const { return features.utime; }  // microseconds: the keyframe's id
   size_t size() const { return features.size(); }
+  // The descriptors in the form the vocabulary reads (a copy: a node's keyframe stays in
+  // memory, its descriptors once).
+  std::vector<bow::Descriptor> bowDescriptors() const;
 };
 
 // messages::fromMsg's checks (an empty keyframe, 0 features, is valid here: it is answered

@@ -216,7 +216,7 @@ Status LoopCloser::addNode(const evermap::node_added_t& msg) {
                      recent_.size(), " recent keyframes");
   }
   bow::Place place{msg.node_id, msg.floor, msg.keyframe_utime,
-                   vocabulary_.transform(keyframe->descriptors)};
+                   vocabulary_.transform(keyframe->bowDescriptors())};
   Status persisted = Ok{};
   if (store_) {
     // The keyframe first: a place is never stored without the keyframe behind it.
@@ -421,7 +421,7 @@ register_result_t LoopCloser::answer(const register_request_t& request) {
     return failure(request, register_result_t::STATUS_TOO_FEW_INLIERS,
                    "query keyframe " + std::to_string(query->utime()) + " has no features");
   }
-  const bow::BowVector query_bow = vocabulary_.transform(query->descriptors);
+  const bow::BowVector query_bow = vocabulary_.transform(query->bowDescriptors());
 
   if (request.mode == register_request_t::MODE_NODE) {
     const bow::Place* place = places_.find(request.target_node_id);

@@ -106,7 +106,8 @@ class FakeRegistration final : public FrameRegistration {
     RegistrationOutcome o;
     const size_t n = std::min(target.size(), query.size());
     for (size_t i = 0; i < n; ++i) {
-      o.inliers += bow::hammingDistance(target.descriptors[i], query.descriptors[i]) <= 20;
+      o.inliers += core::hammingDistance(target.features.descriptors[i],
+                                         query.features.descriptors[i]) <= 20;
     }
     if (o.inliers < 40) {
       o.reason = std::to_string(o.inliers) + " inliers";
