@@ -93,10 +93,9 @@ int parse(int argc, char** argv, Settings* s) {
             "(default 120; 0: off)")
       .nonNegative();
   cli.options(&s->tracker);
-  cli.check([s] { return s->tracker.validate(); });
   cli.printConfigAlias("--print-options");
-  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
-  return -1;
+  cli.check([s] { return s->tracker.validate(); });
+  return cli.parseOrExit(argc, argv);
 }
 
 }  // namespace

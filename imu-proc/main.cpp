@@ -65,8 +65,7 @@ int parse(int argc, char** argv, Settings* s) {
   cli.check([s] { return s->filter.validate(); });
   cli.check([s] { return s->heading.validate(); });
   cli.printConfigAlias("--print-options");
-  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
-  return -1;
+  return cli.parseOrExit(argc, argv);
 }
 
 }  // namespace
