@@ -223,6 +223,9 @@ struct SlamRunner::Session {
 };
 
 Status SlamRunner::runSession(const std::filesystem::path& log_file) {
+  // The log's event count, for the progress lines (the reader reports damage itself), before
+  // the reader thread starts.
+  const auto count = messages::LogReader::check(log_file);
   auto opened = messages::LogReader::open(log_file);
   if (!opened) return opened.error();
   auto log = std::make_shared<messages::LogReader>(std::move(*opened));
@@ -233,8 +236,6 @@ Status SlamRunner::runSession(const std::filesystem::path& log_file) {
     }
     return log->status();  // a log cut mid-event or damaged: the map would be of part of it
   });
-  // The log's event count, for the progress lines (the reader reports damage itself).
-  const auto count = messages::LogReader::check(log_file);
   return mapSession(events, log_file.string(), SessionSize{count ? *count : -1, 0.0});
 }
 
