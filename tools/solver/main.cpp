@@ -269,7 +269,8 @@ Expected<Solution> solveIncrementally(const GraphFile& g, const ToolOptions& o,
   std::printf("final batch iterations: %s\n", out.summary.message.c_str());
   std::printf("per step: median %.3f ms, p99 %.3f ms, max %.3f ms; nnz(R) %lld\n",
               1e3 * evermap::percentile(step_wall, 0.5), 1e3 * evermap::percentile(step_wall, 0.99),
-              1e3 * evermap::percentile(step_wall, 1.0), static_cast<long long>(runner.solver().nnz()));
+              1e3 * evermap::percentile(step_wall, 1.0),
+              static_cast<long long>(runner.solver().nnz()));
   if (!o.stats.empty()) {
     if (auto st = writeStats(o.stats, lines); !st.ok()) return st.error();
   }
