@@ -21,6 +21,10 @@ struct Progress {
   int64_t nodes = -1;  // graph nodes; < 0: not shown
 };
 
+// The programs' period: the reporter is asked once a step (a frame, a message, a texture), and
+// a step can take a second or two on a loaded machine, so 8 s keeps the gaps under 10 s.
+inline constexpr double kProgressPeriodS = 8.0;
+
 class ProgressReporter {
  public:
   using Clock = std::function<double()>;  // seconds, monotonic
@@ -28,8 +32,8 @@ class ProgressReporter {
 
   // `label` starts each line (the program's name), `steps_name` names Progress::steps
   // ("frames", "messages"). `sink` receives each line without its newline.
-  ProgressReporter(std::string label, std::string steps_name, Sink sink, double period_s = 10.0,
-                   Clock clock = steadySeconds);
+  ProgressReporter(std::string label, std::string steps_name, Sink sink,
+                   double period_s = kProgressPeriodS, Clock clock = steadySeconds);
 
   // Prints a line when `period_s` has passed since the last one (or since construction).
   // Returns whether it printed.

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "core/common/progress.h"
 #include "core/common/expected.h"
 #include "core/geometry/se3.h"
 #include "mapper-proc/mapper.h"
@@ -89,7 +90,7 @@ struct OfflineRunOptions {
   // mapper-proc restarts do not (MapperOptions::warm_restart_max_gap_s).
   double restart_gap_s = 0.0;
   // A progress line on stderr at most this often, seconds of wall time (0: none).
-  double progress_period_s = 10.0;
+  double progress_period_s = kProgressPeriodS;
 
   Status validate() const;
 };

@@ -3,6 +3,7 @@
 
 #include <functional>
 
+#include "core/common/progress.h"
 #include "tools/sim/image_session.h"
 
 namespace evermap::sim {
@@ -12,6 +13,6 @@ namespace evermap::sim {
 // `keep_going`.
 std::function<bool(double)> withProgressLines(const ImageSimulator& simulator,
                                               std::function<bool(double)> keep_going,
-                                              double period_s = 10.0);
+                                              double period_s = kProgressPeriodS);
 
 }  // namespace evermap::sim

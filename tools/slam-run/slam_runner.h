@@ -65,7 +65,7 @@ struct SlamRunOptions {
   // > 0: stop a session after this many seconds of its data.
   double max_session_s = 0.0;
   // A progress line on stderr at most this often, seconds of wall time (0: none).
-  double progress_period_s = 10.0;
+  double progress_period_s = kProgressPeriodS;
 
   Status validate() const;
 };
