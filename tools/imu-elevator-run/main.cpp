@@ -8,6 +8,7 @@
 //   evermap-imu-elevator-run --science-journal FILE.csv   (Android Science Journal export)
 //   evermap-imu-elevator-run --lcm-log FILE [--channel IMU]
 //   evermap-imu-elevator-run --synthetic N [--rate HZ]   (a building run with N rides)
+//   evermap-imu-elevator-run --walking-sweep   (rides next to walking: the table of issue 50)
 //   evermap-imu-elevator-run --sim-config config/sim-paper-scale.conf [--sim-set key=value]...
 //          [--sim-sessions N]   (the measurement-level simulator's IMU: rides on the right floor?)
 // Options: --set key=value (attitude or elevator option), --config FILE, --print-options,
@@ -44,6 +45,7 @@
 #include "tools/imu-elevator-run/ride_report.h"
 #include "tools/imu-elevator-run/ride_simulator.h"
 #include "tools/imu-elevator-run/sim_floor_check.h"
+#include "tools/imu-elevator-run/walking_sweep.h"
 #include "tools/lcmlog/log_reader.h"
 
 namespace {
@@ -62,6 +64,7 @@ struct Args {
   double rate_hz = 100.0;
   int session = 1;
   bool print_options = false;
+  bool walking_sweep = false;
   imu::AttitudeFilterOptions attitude;
   elevator::ElevatorTrackerOptions elevator;
 };
@@ -72,7 +75,8 @@ int parse(int argc, char** argv, Args* a) {
       "evermap-imu-elevator-run",
       "imu-proc's attitude filter and elevator-proc's tracker over a recording, offline. One "
       "input:\n"
-      "--euroc-imu, --hackzurich, --science-journal, --lcm-log, --synthetic or --sim-config\n"
+      "--euroc-imu, --hackzurich, --science-journal, --lcm-log, --synthetic, --sim-config or\n"
+      "--walking-sweep\n"
       "(docs/imu-elevator.md).");
   cli.value("--euroc-imu", &a->euroc_imu, "CSV", "EuRoC mav0/imu0/data.csv");
   cli.value("--ground-truth", &a->ground_truth, "FILE", "EuRoC ground truth: the attitude error");
@@ -90,6 +94,8 @@ int parse(int argc, char** argv, Args* a) {
   cli.value("--rate", &a->rate_hz, "HZ", "IMU rate of --synthetic (default 100)")
       .positive()
       .max(100000);
+  cli.flag("--walking-sweep", &a->walking_sweep,
+           "rides next to walking at 10/50/200 Hz, gyro on/off, gaps 0.5-3 s: the table");
   cli.value("--sim-config", &a->sim_config, "FILE",
             "the measurement-level simulator's IMU: does every ride end on the right floor?");
   cli.repeated("--sim-set", &a->sim_sets, "key=value", "override one simulator setting");
@@ -412,6 +418,11 @@ int main(int argc, char** argv) {
   if (const int code = parse(argc, argv, &args); code >= 0) return code;
   if (!args.floor_log.empty()) return printFloorLog(args.floor_log);
   if (!args.sim_config.empty()) return runSimulatorCheck(args);
+  if (args.walking_sweep) {
+    std::printf("%s",
+                elevator::formatWalkingSweep(elevator::runWalkingSweep(args.elevator)).c_str());
+    return 0;
+  }
   Input in;
   if (const int code = readInput(args, &in); code >= 0) return code;
   if (in.samples.empty()) {

@@ -129,22 +129,40 @@ struct Generator {
   void stand(double duration) {
     for (double e = 0; e < duration; e += dt) emit(Eigen::Vector3d::Zero(), 1.0 * kDeg, 0, 0);
   }
-  // Walking: steps at ~1.9 Hz with vertical bounce, fore-aft surges, turns.
-  void walk(double duration, double vz_target = 0.0, double bounce = 2.5) {
-    const double f = 1.8 + 0.3 * uniform(rng);
+  // Walking: a cadence of 1.6-2.2 Hz and a vertical bounce of 1.5-2.5 m/s^2 (bounce < 0) or
+  // the bounce given, drawn per walk; each step its own period (+-5 %) and amplitude
+  // (+-20 %), the left and right steps differing by up to 10 % (a stride component at half
+  // the cadence, as a real gait has), a second harmonic, fore-aft surges and turns. Each
+  // sample carries the mean of the bounce over its interval, and the walk ends on a whole
+  // step, so the bounce's velocity starts and ends at 0 (the person does not drift upward).
+  void walk(double duration, double vz_target = 0.0, double bounce = -1.0) {
+    const double cadence = 1.6 + 0.6 * uniform(rng);
+    const double mean_bounce = bounce > 0 ? bounce : 1.5 + uniform(rng);
+    const double stride = 1.0 + 0.1 * (2 * uniform(rng) - 1);
     const double turn = 0.4 * (2 * uniform(rng) - 1);
-    // Whole steps, and a bounce whose velocity (bounce / w) sin(w t) starts and ends at 0.
-    duration = std::max(1.0, std::round(duration * f)) / f;
+    const int steps = std::max(2, static_cast<int>(std::lround(duration * cadence)));
+    double f = cadence, amplitude = mean_bounce, phase = 0;  // phase: 2 pi per step
     double v_ctrl = vz;
-    for (double e = 0; e < duration; e += dt) {
+    for (double e = 0; phase < 2 * kPi * steps; e += dt) {
       // The carried vertical speed moves to the target within ~1 s (stairs, escalators).
       const double a_ctrl = std::clamp((vz_target - v_ctrl) / 1.0, -0.5, 0.5);
       v_ctrl += a_ctrl * dt;
-      const double az = a_ctrl + bounce * std::cos(2 * kPi * f * e);
+      const double step = std::floor(phase / (2 * kPi));
+      const double next = std::min(phase + 2 * kPi * f * dt, 2 * kPi * steps);
+      // The bounce A cos(phase) + 0.3 A cos(2 phase + 0.5) integrated over the interval.
+      const double dv = amplitude * (std::sin(next) - std::sin(phase) +
+                                     0.15 * (std::sin(2 * next + 0.5) - std::sin(2 * phase + 0.5)));
+      const double az = a_ctrl + dv / (2 * kPi * f * dt);
       const Eigen::Vector3d a =
-          horizontal(1.2 * std::sin(2 * kPi * f * e + 1.0), 0.6 * std::sin(kPi * f * e)) +
+          horizontal(1.2 * std::sin(phase + 1.0), 0.6 * std::sin(0.5 * phase)) +
           Eigen::Vector3d(0, 0, az);
       emit(a, 5.0 * kDeg, 0, turn * std::sin(0.5 * e));
+      phase = next;
+      if (std::floor(phase / (2 * kPi)) > step) {  // a new step: its own period and force
+        f = cadence * (1.0 + 0.05 * std::clamp(normal(rng), -2.0, 2.0));
+        const double side = static_cast<int>(step) % 2 == 0 ? stride : 1.0 / stride;
+        amplitude = mean_bounce * side * (0.8 + 0.4 * uniform(rng));
+      }
     }
   }
   void sitDown() {
@@ -162,8 +180,9 @@ struct Generator {
            2.0 * kDeg, 0, 0);
     }
   }
-  void elevator(int to_floor) {
-    stand(3.0 + 3.0 * uniform(rng));  // doors close
+  // stand_before_s / stand_after_s < 0: 3-6 s for the doors to close, 1-3 s to open.
+  void elevator(int to_floor, double stand_before_s, double stand_after_s) {
+    stand(stand_before_s >= 0 ? stand_before_s : 3.0 + 3.0 * uniform(rng));
     const double distance = floorHeight(o, to_floor) - floorHeight(o, floor);
     const double a =
         o.min_ride_accel_m_s2 + (o.max_ride_accel_m_s2 - o.min_ride_accel_m_s2) * uniform(rng);
@@ -189,14 +208,14 @@ struct Generator {
     vz = 0;  // the cabin stops exactly at the floor
     height = floorHeight(o, to_floor);
     floor = to_floor;
-    stand(1.0 + 2.0 * uniform(rng));  // doors open
+    stand(stand_after_s >= 0 ? stand_after_s : 1.0 + 2.0 * uniform(rng));
   }
   void stairs(int to_floor) {
     const double distance = floorHeight(o, to_floor) - floorHeight(o, floor);
     const double vz_target = distance > 0 ? o.stairs_up_speed_m_s : -o.stairs_down_speed_m_s;
     const double begin = t;
     walk(std::abs(distance / vz_target) + 1.0, vz_target, 3.5);
-    walk(1.5, 0.0, 2.5);
+    walk(1.5, 0.0);
     run.no_ride_intervals.push_back({begin, t});
     vz = 0;
     height = floorHeight(o, to_floor);
@@ -252,7 +271,7 @@ SimulatedRun simulateRun(const RideSimulatorOptions& options,
         g.escalator(s.to_floor);
         break;
       case SimSegment::Kind::kElevator:
-        g.elevator(s.to_floor);
+        g.elevator(s.to_floor, s.stand_before_s, s.stand_after_s);
         break;
     }
   }

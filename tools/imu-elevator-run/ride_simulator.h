@@ -45,6 +45,9 @@ struct SimSegment {
   Kind kind = Kind::kStand;
   double duration_s = 10.0;  // kStand, kWalk, kStairs (kElevator: from the profile)
   int to_floor = 0;          // kElevator, kStairs, kEscalator: the floor reached
+  // kElevator: standing in the cab before the ride starts and after it stops, s (the gap
+  // between the walk into the cab and the ride); < 0: 3-6 s before, 1-3 s after.
+  double stand_before_s = -1, stand_after_s = -1;
 };
 
 struct TrueRide {
