@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <numbers>
 
 namespace evermap::elevator {
 
@@ -22,8 +23,8 @@ Status ElevatorTrackerOptions::validate() const {
   if (!(motion_window_s >= 2 * pulse.bin_s)) {
     return makeError("motion_window_s must be at least two bins");
   }
-  if (!(walking_std_m_s2 > calm_std_m_s2)) {
-    return makeError("need calm_std_m_s2 < walking_std_m_s2");
+  if (!(walking_step_off_m_s2 <= walking_step_on_m_s2)) {
+    return makeError("need walking_step_off_m_s2 <= walking_step_on_m_s2");
   }
   if (!(max_fill_s <= max_gap_in_ride_s)) {
     return makeError("need max_fill_s <= max_gap_in_ride_s");
@@ -63,7 +64,16 @@ ElevatorTracker::ElevatorTracker(const ElevatorTrackerOptions& options)
       pulse_filter_(options.pulse),
       floors_(options.floors),
       bin_us_(static_cast<int64_t>(std::llround(options.pulse.bin_s * 1e6))),
-      gravity_(options.initial_gravity_m_s2) {}
+      gravity_(options.initial_gravity_m_s2) {
+  // The low band's Hann: zero at +-half bins, so half - 1 cells on each side weigh in.
+  const int half =
+      static_cast<int>(std::lround(options_.ride_lowpass_s / (2 * options_.pulse.bin_s)));
+  lowpass_half_ = std::max(0, half - 1);
+  for (int j = 0; j <= lowpass_half_; ++j) {
+    lowpass_.push_back(half > 1 ? 0.5 + 0.5 * std::cos(std::numbers::pi * j / half) : 1.0);
+  }
+  step_half_ = static_cast<int>(std::lround(options_.step_window_s / (2 * options_.pulse.bin_s)));
+}
 
 int64_t ElevatorTracker::binUtime(int64_t index) const { return index * bin_us_ + bin_us_ / 2; }
 
@@ -100,6 +110,7 @@ std::vector<FloorEvent> ElevatorTracker::add(const imu::ImuSample& sample,
     } else {
       // A long gap: nothing across it can be integrated. Pulses pending before it are final
       // (a stop just before the gap still ends its ride); then start the grid again.
+      drain(&events);
       for (const Pulse& p : pulse_filter_.flush()) onPulse(p, &events);
       if (!starts_.empty()) abandon(open_index_, "gap in the data", &events);
       pulse_filter_.reset();
@@ -126,6 +137,7 @@ std::vector<FloorEvent> ElevatorTracker::finish() {
     closeBin(&events);
     open_index_ = -1;
   }
+  drain(&events);
   for (const Pulse& p : pulse_filter_.flush()) onPulse(p, &events);
   if (!starts_.empty()) {
     const int64_t last =
@@ -195,7 +207,8 @@ void ElevatorTracker::processBin(int64_t index, const Bin& in, std::vector<Floor
   if (!b.valid) ++counts_.empty_bins;
   const size_t keep = static_cast<size_t>(
       (options_.max_ride_s + options_.lead_in_s + 4 * options_.pulse.widths_s.back() + 2.0) /
-      options_.pulse.bin_s);
+          options_.pulse.bin_s +
+      lowpass_half_ + step_half_);
   while (history_.size() > keep) {
     history_.pop_front();
     ++history_first_;
@@ -209,20 +222,70 @@ void ElevatorTracker::processBin(int64_t index, const Bin& in, std::vector<Floor
   // Until a reference from calm cells exists there is nothing worth freezing (the first
   // cell's value, taken while a phone is put down, can be 2 m/s^2 off).
   if (starts_.empty() && (!frozen || !calm_reference_)) updateGravity(index);
-  if (trace_) {
-    trace_->push_back({binUtime(index), b.accel, b.motion, gravity_, b.valid, !starts_.empty()});
+  splitBands(index - lowpass_half_, events);
+}
+
+void ElevatorTracker::splitBands(int64_t index, std::vector<FloorEvent>* events) {
+  Bin* c = mutableBin(index);
+  if (!c) return;
+  if (c->valid) {
+    double sum = 0, weight = 0;
+    for (int j = -lowpass_half_; j <= lowpass_half_; ++j) {
+      const Bin* b = bin(index + j);
+      if (!b || !b->valid) continue;
+      sum += lowpass_[static_cast<size_t>(std::abs(j))] * b->raw;
+      weight += lowpass_[static_cast<size_t>(std::abs(j))];
+    }
+    c->low = sum / weight;
   }
+  updateWalking(index - step_half_);
+  fed_index_ = index;
+  for (const Pulse& p : pulse_filter_.add(index, c->low - c->gravity, c->valid)) onPulse(p, events);
+  if (!starts_.empty()) checkRide(index, events);
+}
 
-  for (const Pulse& p : pulse_filter_.add(index, b.accel, b.valid)) onPulse(p, events);
-  if (starts_.empty()) return;
+void ElevatorTracker::drain(std::vector<FloorEvent>* events) {
+  if (history_.empty()) return;
+  const int64_t last = history_first_ + static_cast<int64_t>(history_.size()) - 1;
+  for (int64_t k = std::max(fed_index_ + 1, history_first_); k <= last; ++k) {
+    splitBands(k, events);
+  }
+  for (int64_t k = std::max(last - step_half_ + 1, history_first_); k <= last; ++k) {
+    updateWalking(k);
+  }
+}
 
+void ElevatorTracker::updateWalking(int64_t index) {
+  Bin* c = mutableBin(index);
+  if (!c) return;
+  // Step energy: rms of the signal above the low band (its low is known up to fed_index_ + 1).
+  double sum2 = 0;
+  int n = 0;
+  for (int j = -step_half_; j <= step_half_; ++j) {
+    const Bin* b = bin(index + j);
+    if (!b || !b->valid || index + j > fed_index_ + 1) continue;
+    sum2 += (b->raw - b->low) * (b->raw - b->low);
+    ++n;
+  }
+  c->step = n > 0 ? std::sqrt(sum2 / n) : 0.0;
+  if (c->valid) {
+    walking_ = walking_ ? c->step > options_.walking_step_off_m_s2
+                        : c->step > options_.walking_step_on_m_s2;
+  }
+  c->walking = walking_;
+  if (trace_) {
+    trace_->push_back({binUtime(index), c->low - c->gravity, c->motion, c->step, c->walking,
+                       c->gravity, c->valid, !starts_.empty()});
+  }
+}
+
+void ElevatorTracker::checkRide(int64_t index, std::vector<FloorEvent>* events) {
   // Checks on a cell old enough that every pulse ending before it is final: people walk out
   // right after the stop pulse, and that must not end the ride it completes.
   const int64_t checked = index - pulse_filter_.longestWidthBins() - 1;
   if (checked > starts_.back().lastBin()) {
     const Bin* c = bin(checked);
-    walking_bins_ =
-        (c && c->valid && c->motion > options_.walking_std_m_s2) ? walking_bins_ + 1 : 0;
+    walking_bins_ = (c && c->valid && c->walking) ? walking_bins_ + 1 : 0;
     if (walking_bins_ * options_.pulse.bin_s > options_.max_walking_in_ride_s) {
       abandon(index, "walking", events);
       return;
@@ -341,19 +404,23 @@ bool ElevatorTracker::tryFinish(const Pulse& q, std::vector<FloorEvent>* events)
 
 bool ElevatorTracker::startable(const Pulse& p) const {
   if (!p.strict || std::abs(p.delta_v_m_s) < options_.min_ride_speed_m_s) return false;
+  // A cab starts while its riders stand: no step in the middle half of the pulse (stairs and
+  // escalators change the vertical speed while stepping).
+  for (int64_t k = p.firstBin() + p.width_bins / 4; k <= p.lastBin() - p.width_bins / 4; ++k) {
+    const Bin* b = bin(k);
+    if (!b || b->walking) return false;
+  }
   const int lead = static_cast<int>(std::lround(options_.lead_in_s / options_.pulse.bin_s));
-  int busy = 0, n_pre = 0;
+  int n_pre = 0;
   double pre = 0;
   for (int k = 1; k <= lead; ++k) {
     const Bin* b = bin(p.firstBin() - k);
-    if (!b) return false;  // not enough history to know the rider stood still
-    if (!b->valid || b->motion > options_.lead_in_max_std_m_s2) ++busy;
+    if (!b) return false;  // not enough history to know the level before it
     if (b->valid) {
-      pre += b->accel;
+      pre += b->low - b->gravity;
       ++n_pre;
     }
   }
-  if (busy > options_.lead_in_max_busy_fraction * lead) return false;
   // Measured from the level before it rather than from the gravity reference (which may be
   // stale after the phone turned): a constant c adds sum(h)/sum(h^2) c to the fit (4/3 c
   // for a Hann).
@@ -372,7 +439,7 @@ bool ElevatorTracker::startable(const Pulse& p) const {
   for (int k = 1; k <= lead; ++k) {
     const Bin* b = bin(p.lastBin() + k);
     if (b && b->valid) {
-      post += b->accel;
+      post += b->low - b->gravity;
       ++n_post;
     }
   }
@@ -400,7 +467,7 @@ bool ElevatorTracker::fitRide(const Pulse& start, const Pulse& stop, RideFit* fi
     if (!b->valid) continue;
     // One reference for the whole ride (the gravity reference may have moved within it;
     // a constant is what the zero-velocity constraint removes).
-    a[i] = b->raw - reference;
+    a[i] = b->low - reference;
     motion.push_back(b->motion);
     if (prev_valid >= 0 && i - prev_valid > 1) {
       for (int j = prev_valid + 1; j < i; ++j) {

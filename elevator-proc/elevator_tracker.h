@@ -61,18 +61,27 @@ struct ElevatorTrackerOptions {
   double motion_window_s = 1.0;
   // "Calm": standing still, hand-held or in a pocket (walking is 1-5 m/s^2).
   double calm_std_m_s2 = 0.35;
-  // A start pulse needs this much lead-in before it (the doors close before a ride starts)
-  // with motion below lead_in_max_std_m_s2 over all but lead_in_max_busy_fraction of it.
-  // (A rider with the phone in a pocket shifts weight just before the start: this is
-  // looser than "calm".)
+  // Two bands of the vertical specific force. A ride's acceleration pulse lies below
+  // ~0.7 Hz (phases of 1.5-10 s), a person's steps at 1.5-2.5 Hz (with a stride component at
+  // half that and harmonics above). The low band, a centred Hann of ride_lowpass_s (zero to
+  // zero; first null at 2 / width = 1.43 Hz, 1/40 of a step left at 1.5-2.5 Hz), is what the
+  // matched filter and the ride's integration see. The rest (the signal minus its low band)
+  // is the step band; its rms over a centred step_window_s is the step energy, which only
+  // decides walking vs standing, with hysteresis: walking from walking_step_on_m_s2, standing
+  // again below walking_step_off_m_s2. Steps of 1-3 m/s^2 give 0.6-2 m/s^2 rms; a standing
+  // rider < 0.15; a ride's own pulse leaks < 0.15 (1 m/s^2 over 1.5 s, the sharpest).
+  double ride_lowpass_s = 1.4;
+  double step_window_s = 1.0;
+  double walking_step_on_m_s2 = 0.4;
+  double walking_step_off_m_s2 = 0.2;
+  // The levels before and after a start pulse are measured over this much (low band).
   double lead_in_s = 1.5;
-  double lead_in_max_std_m_s2 = 0.7;
-  double lead_in_max_busy_fraction = 0.5;
   // The level after a start pulse (over lead_in_s) may differ from the level before it by
   // at most this fraction of the pulse amplitude in the pulse's direction (else: a step).
   double max_step_fraction = 0.5;
-  // "Walking": motion above this for longer than max_walking_in_ride_s ends a ride attempt.
-  double walking_std_m_s2 = 1.0;
+  // Walking (the step band) for longer than this after a start pulse ends the ride attempt.
+  // A start pulse is no start when the middle half of it is walking (stairs, escalators: the
+  // vertical speed changes while stepping; a cab starts while its riders stand).
   double max_walking_in_ride_s = 3.0;
   // Velocity change of the start pulse, and of the ride, at least this (m/s).
   double min_ride_speed_m_s = 0.4;
@@ -188,21 +197,25 @@ struct ElevatorTrackerOptions {
           "motion is the std of the acceleration over this")
         .positive();
     o.add("calm_std_m_s2", &calm_std_m_s2, "m/s^2", "motion below this is calm").positive();
-    o.add("lead_in_s", &lead_in_s, "s", "a start pulse needs this much quiet lead-in")
-        .nonNegative();
-    o.add("lead_in_max_std_m_s2", &lead_in_max_std_m_s2, "m/s^2",
-          "motion of the lead-in below this ...")
-        .any();
+    o.add("lead_in_s", &lead_in_s, "s", "levels before and after a start pulse over this")
+        .positive();
     o.add("max_step_fraction", &max_step_fraction, "",
           "level change over a start pulse at most this fraction of the pulse (else a step)")
         .any();
-    o.add("lead_in_max_busy_fraction", &lead_in_max_busy_fraction, "",
-          "... over all but this fraction of it")
-        .in(0, 1);
   }
   void declareRideOptions(OptionList& o) {
-    o.add("walking_std_m_s2", &walking_std_m_s2, "m/s^2",
-          "motion above this is walking (above calm)")
+    o.add("ride_lowpass_s", &ride_lowpass_s, "s",
+          "Hann low-pass (zero to zero) the pulses and the integration see; 2/width Hz null")
+        .min(0)
+        .max(4);
+    o.add("step_window_s", &step_window_s, "s", "step energy: rms of the band above, over this")
+        .positive()
+        .max(4);
+    o.add("walking_step_on_m_s2", &walking_step_on_m_s2, "m/s^2",
+          "step energy above this: walking starts")
+        .positive();
+    o.add("walking_step_off_m_s2", &walking_step_off_m_s2, "m/s^2",
+          "step energy below this: walking ends (at most the start level)")
         .positive();
     o.add("max_walking_in_ride_s", &max_walking_in_ride_s, "s",
           "walking this long ends a ride attempt")
@@ -301,8 +314,10 @@ struct ElevatorCounts {
 // One grid cell, for plotting and debugging (see ElevatorTracker::setTrace).
 struct TraceBin {
   int64_t utime = 0;
-  double accel_m_s2 = 0;
+  double accel_m_s2 = 0;  // the low band, gravity removed
   double motion_std_m_s2 = 0;
+  double step_rms_m_s2 = 0;  // step energy
+  bool walking = false;
   double gravity_m_s2 = 0;  // the reference subtracted
   bool valid = false;
   bool riding = false;
@@ -350,12 +365,22 @@ class ElevatorTracker {
     double gravity = 0;  // the reference when the cell was closed
     double accel = 0;    // vertical, gravity removed
     double motion = 0;
+    double low = 0;   // the low band of raw (set ride_lowpass_s / 2 later)
+    double step = 0;  // step energy (set a further step_window_s / 2 later)
+    bool walking = false;
     bool valid = false;
   };
 
   void closeBin(std::vector<FloorEvent>* events);
   void updateGravity(int64_t index);
   void processBin(int64_t index, const Bin& bin, std::vector<FloorEvent>* events);
+  // The two bands of cell `index` (low band, then the step energy and walking state of the
+  // cell step_window_s / 2 earlier) and the pulse filter fed with it; drain(): every cell
+  // still waiting (the end of the data, a long gap), with the windows cut short.
+  void splitBands(int64_t index, std::vector<FloorEvent>* events);
+  void drain(std::vector<FloorEvent>* events);
+  void updateWalking(int64_t index);
+  void checkRide(int64_t index, std::vector<FloorEvent>* events);
   void onPulse(const Pulse& q, std::vector<FloorEvent>* events);
   // The sanity checks of a fitted ride: empty when it passes, else the reason.
   std::string sanity(const RideFit& fit) const;
@@ -367,6 +392,7 @@ class ElevatorTracker {
                   std::vector<FloorEvent>* events);
   void abandon(int64_t now_index, const std::string& reason, std::vector<FloorEvent>* events);
   const Bin* bin(int64_t index) const;
+  Bin* mutableBin(int64_t index) { return const_cast<Bin*>(bin(index)); }
 
   ElevatorTrackerOptions options_;
   imu::SampleGate gate_;
@@ -396,6 +422,12 @@ class ElevatorTracker {
   std::vector<Pulse> starts_;
   int64_t last_ride_end_bin_ = -1;
   int64_t walking_bins_ = 0;
+  // The band split: the Hann weights (centre first), its half width and the step window's,
+  // bins; the last cell fed to the pulse filter and the walking state (hysteresis).
+  std::vector<double> lowpass_;
+  int lowpass_half_ = 0, step_half_ = 0;
+  int64_t fed_index_ = -1;
+  bool walking_ = false;
 
   std::vector<Ride> rides_;
   std::vector<AbandonedRide> abandoned_;

@@ -379,7 +379,8 @@ bool writeDumps(const Args& args, const elevator::OfflineRun& run,
     std::ostringstream out;
     for (const auto& b : trace) {
       out << b.utime << ' ' << b.accel_m_s2 << ' ' << b.motion_std_m_s2 << ' ' << int(b.valid)
-          << ' ' << int(b.riding) << ' ' << b.gravity_m_s2 << '\n';
+          << ' ' << int(b.riding) << ' ' << b.gravity_m_s2 << ' ' << b.step_rms_m_s2 << ' '
+          << int(b.walking) << '\n';
     }
     std::ostringstream pout;
     for (const auto& p : pulses) {

@@ -125,7 +125,8 @@ std::string formatWalkingSweep(const std::vector<WalkingSweepCell>& cells) {
       std::snprintf(buf, sizeof buf, "%s%+.2f", errors.empty() ? "" : " ", e);
       errors += buf;
     }
-    std::snprintf(buf, sizeof buf, "| %.0f Hz | %s | %.1f s | %d | %d | %d | %d | %d | %d | %.2f m | %s |\n",
+    std::snprintf(buf, sizeof buf,
+                  "| %.0f Hz | %s | %.1f s | %d | %d | %d | %d | %d | %d | %.2f m | %s |\n",
                   c.rate_hz, c.gyroscope ? "yes" : "no", c.gap_s, c.rides, c.found, c.missed,
                   c.false_rides, c.rejected, c.abandoned, c.worst_error_m, errors.c_str());
     out += buf;
