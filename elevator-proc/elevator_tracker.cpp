@@ -240,7 +240,7 @@ void ElevatorTracker::splitBands(int64_t index, std::vector<FloorEvent>* events)
   }
   updateWalking(index - step_half_);
   fed_index_ = index;
-  for (const Pulse& p : pulse_filter_.add(index, c->low - c->gravity, c->valid)) onPulse(p, events);
+  for (const Pulse& p : pulse_filter_.add(index, c->accel, c->valid)) onPulse(p, events);
   if (!starts_.empty()) checkRide(index, events);
 }
 
@@ -286,7 +286,9 @@ void ElevatorTracker::checkRide(int64_t index, std::vector<FloorEvent>* events) 
   if (checked > starts_.back().lastBin()) {
     const Bin* c = bin(checked);
     walking_bins_ = (c && c->valid && c->walking) ? walking_bins_ + 1 : 0;
-    if (walking_bins_ * options_.pulse.bin_s > options_.max_walking_in_ride_s) {
+    // Not while a pulse may still be under way: riders step toward the door during the stop.
+    if (walking_bins_ * options_.pulse.bin_s > options_.max_walking_in_ride_s &&
+        !pulse_filter_.pending()) {
       abandon(index, "walking", events);
       return;
     }
@@ -467,7 +469,7 @@ bool ElevatorTracker::fitRide(const Pulse& start, const Pulse& stop, RideFit* fi
     if (!b->valid) continue;
     // One reference for the whole ride (the gravity reference may have moved within it;
     // a constant is what the zero-velocity constraint removes).
-    a[i] = b->low - reference;
+    a[i] = b->raw - reference;
     motion.push_back(b->motion);
     if (prev_valid >= 0 && i - prev_valid > 1) {
       for (int j = prev_valid + 1; j < i; ++j) {
