@@ -94,7 +94,7 @@ TEST(PulseFilterOptions, BadValuesAreNamed) {
   EXPECT_FALSE(o.validate().ok());
   EXPECT_NE(o.validate().error().message.find("widths_s"), std::string::npos);
   ElevatorTrackerOptions t;
-  t.calm_std_m_s2 = 2.0;  // above walking
+  t.walking_step_off_m_s2 = 0.5;  // above the level walking starts at
   EXPECT_FALSE(t.validate().ok());
 }
 
