@@ -27,7 +27,7 @@ ElevatorTracker::ElevatorTracker(const ElevatorTrackerOptions& options)
       gravity_(options.initial_gravity_m_s2) {
   // The low band's Hann: zero at +-half bins, so half - 1 cells on each side weigh in.
   const int half =
-      static_cast<int>(std::lround(options_.ride_lowpass_s / (2 * options_.pulse.bin_s)));
+      static_cast<int>(std::lround(options_.lowpass_width_s / (2 * options_.pulse.bin_s)));
   lowpass_half_ = std::max(0, half - 1);
   for (int j = 0; j <= lowpass_half_; ++j) {
     lowpass_.push_back(half > 1 ? 0.5 + 0.5 * std::cos(std::numbers::pi * j / half) : 1.0);
@@ -234,8 +234,8 @@ void ElevatorTracker::updateWalking(int64_t index) {
   }
   c->walking = walking_;
   if (trace_) {
-    trace_->push_back({binUtime(index), c->low - c->gravity, c->motion, c->step, c->walking,
-                       c->gravity, c->valid, !starts_.empty()});
+    trace_->push_back({binUtime(index), c->accel, c->motion, c->step, c->walking, c->gravity,
+                       c->valid, !starts_.empty()});
   }
 }
 
