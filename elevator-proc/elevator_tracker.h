@@ -210,7 +210,7 @@ struct ElevatorTrackerOptions {
   void declareRideOptions(OptionList& o) {
     o.add("lowpass_width_s", &lowpass_width_s, "s",
           "Hann low-pass (zero to zero) that splits the steps off; null at 2/width Hz")
-        .min(0)
+        .positive()
         .max(4);
     o.add("step_window_s", &step_window_s, "s", "step energy: rms of the band above, over this")
         .positive()

@@ -21,6 +21,9 @@ Status ElevatorTrackerOptions::validate() const {
   if (!(motion_window_s >= 2 * pulse.bin_s)) {
     return makeError("motion_window_s must be at least two bins");
   }
+  if (!(lowpass_width_s >= 4 * pulse.bin_s) || !(step_window_s >= 2 * pulse.bin_s)) {
+    return makeError("lowpass_width_s must be >= 4 and step_window_s >= 2 pulse bins");
+  }
   if (!(walking_step_off_m_s2 <= walking_step_on_m_s2)) {
     return makeError("need walking_step_off_m_s2 <= walking_step_on_m_s2");
   }

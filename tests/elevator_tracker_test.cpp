@@ -96,6 +96,10 @@ TEST(PulseFilterOptions, BadValuesAreNamed) {
   ElevatorTrackerOptions t;
   t.walking_step_off_m_s2 = 0.5;  // above the level walking starts at
   EXPECT_FALSE(t.validate().ok());
+  ElevatorTrackerOptions narrow;
+  narrow.lowpass_width_s = 0.2;  // two bins: no step band left
+  EXPECT_FALSE(narrow.validate().ok());
+  EXPECT_NE(narrow.validate().error().message.find("lowpass_width_s"), std::string::npos);
 }
 
 SimulatedRun fourRides(double rate_hz) {
