@@ -214,6 +214,50 @@ TEST(ElevatorTracker, JitteredTenHertzStreamFindsEveryRide) {
   EXPECT_NEAR(run.rides[1].displacement_m, truth.rides[1].displacement_m, 1.0);
 }
 
+// The step energy tells walking from standing and riding (docs/imu-elevator.md, "Walking and
+// rides"): away from the transitions (1.5 s), every cell of a walk is walking and no cell of
+// standing or of a ride is, at 10 and 200 Hz, with and without a gyroscope.
+TEST(ElevatorTracker, StepEnergyTellsWalkingFromStandingAndRiding) {
+  for (double rate : {10.0, 200.0}) {
+    for (bool gyro : {true, false}) {
+      RideSimulatorOptions o;
+      o.rate_hz = rate;
+      o.gyroscope = gyro;
+      o.seed = 11;
+      using K = SimSegment::Kind;
+      SimSegment ride{K::kElevator, 0, 3};
+      ride.stand_before_s = ride.stand_after_s = 4.0;
+      const SimulatedRun truth =
+          simulateRun(o, {{K::kWalk, 12, 0}, ride, {K::kStand, 6, 0}, {K::kWalk, 12, 0}});
+      std::vector<TraceBin> trace;
+      runImuElevator(truth.samples, {}, {}, false, &trace);
+      auto inside = [](double t, const std::pair<double, double>& w, double margin) {
+        return t > w.first + margin && t < w.second - margin;
+      };
+      int walk_cells = 0, walk_walking = 0, still_cells = 0, still_walking = 0;
+      for (const TraceBin& b : trace) {
+        const double t = 1e-6 * static_cast<double>(b.utime);
+        bool walking = false, near_walk = false;
+        for (const auto& w : truth.no_ride_intervals) {
+          walking = walking || inside(t, w, 1.5);
+          near_walk = near_walk || inside(t, w, -1.5);
+        }
+        if (walking) {
+          ++walk_cells;
+          walk_walking += b.walking ? 1 : 0;
+        } else if (!near_walk) {
+          ++still_cells;
+          still_walking += b.walking ? 1 : 0;
+        }
+      }
+      EXPECT_EQ(walk_walking, walk_cells) << rate << " Hz, gyro " << gyro;
+      EXPECT_EQ(still_walking, 0) << rate << " Hz, gyro " << gyro;
+      EXPECT_GT(walk_cells, 150);
+      EXPECT_GT(still_cells, 150);
+    }
+  }
+}
+
 TEST(ElevatorTracker, StairsEscalatorsSittingAndStandingAreNoRides) {
   RideSimulatorOptions o;
   using K = SimSegment::Kind;
