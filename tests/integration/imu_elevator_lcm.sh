@@ -27,7 +27,13 @@ set -euo pipefail
 lcm-logger --quiet "$tmp/out.lcm" > /dev/null 2>&1 & logger_pid=\$!
 sleep 1
 lcm-logplayer --speed=4 "$tmp/imu.lcm"
-sleep 2
+# On a loaded machine the processes may still be working through the log's tail: wait for
+# elevator-proc to report the rides' ends (at most 60 s; the check below says what is missing).
+for _ in \$(seq 120); do
+  [ "\$(grep -c 'ride end' "$tmp/elevator-proc.log" || true)" -ge $n_offline ] && break
+  sleep 0.5
+done
+sleep 1
 kill -TERM \$imu_pid \$elevator_pid \$logger_pid
 wait \$imu_pid \$elevator_pid \$logger_pid || true
 SCRIPT
