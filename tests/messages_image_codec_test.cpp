@@ -44,7 +44,8 @@ std::vector<cv::Mat> variedImages() {
   images.push_back(noise);
   cv::Mat stripes(40, 64, CV_8UC1);
   for (int r = 0; r < stripes.rows; ++r) {
-    for (int c = 0; c < stripes.cols; ++c) stripes.at<uint8_t>(r, c) = (c * 37 + (rng() & 1)) & 0xff;
+    for (int c = 0; c < stripes.cols; ++c)
+      stripes.at<uint8_t>(r, c) = (c * 37 + (rng() & 1)) & 0xff;
   }
   images.push_back(stripes);
   cv::Mat ramp(48, 80, CV_8UC1);
@@ -54,8 +55,8 @@ std::vector<cv::Mat> variedImages() {
   images.push_back(ramp);
   images.push_back(cv::Mat(16, 16, CV_8UC1, cv::Scalar(255)));
   images.push_back(cv::Mat(1, 1, CV_8UC1, cv::Scalar(7)));
-  images.push_back(ramp.colRange(3, 4).clone());  // one column
-  images.push_back(ramp.rowRange(5, 6).clone());  // one row
+  images.push_back(ramp.colRange(3, 4).clone());   // one column
+  images.push_back(ramp.rowRange(5, 6).clone());   // one row
   images.push_back(ramp(cv::Rect(2, 3, 30, 20)));  // a view with a stride
   return images;
 }
@@ -91,7 +92,7 @@ TEST(ImageCodec, EveryPredictorByteDecodesAsDocumented) {
         const int a = c > 0 ? px[r][c - 1] : 0;
         const int b = r > 0 ? px[r - 1][c] : 0;
         const int ul = (r > 0 && c > 0) ? px[r - 1][c - 1] : 0;
-        const int predicted = r == 0 ? a
+        const int predicted = r == 0   ? a
                               : p == 0 ? a
                               : p == 1 ? b
                               : p == 2 ? (a + b) / 2
