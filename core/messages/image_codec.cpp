@@ -105,7 +105,8 @@ bool restoreRow(const uint8_t* in, const uint8_t* above, int width, uint8_t* row
       return true;
     case kAverage: {
       int a = 0;
-      for (int i = 0; i < width; ++i) row[i] = static_cast<uint8_t>(a = (r[i] + ((a + above[i]) >> 1)) & 0xff);
+      for (int i = 0; i < width; ++i)
+        row[i] = static_cast<uint8_t>(a = (r[i] + ((a + above[i]) >> 1)) & 0xff);
       return true;
     }
     case kGradient: {
@@ -147,7 +148,8 @@ Expected<std::vector<uint8_t>> compress(const std::vector<uint8_t>& raw, const s
   std::vector<uint8_t> out(ZSTD_compressBound(raw.size()));
   const size_t n = ZSTD_compressCCtx(compressContext(), out.data(), out.size(), raw.data(),
                                      raw.size(), kZstdLevel);
-  if (ZSTD_isError(n)) return makeError(what, ": zstd encoding failed (", ZSTD_getErrorName(n), ")");
+  if (ZSTD_isError(n))
+    return makeError(what, ": zstd encoding failed (", ZSTD_getErrorName(n), ")");
   out.resize(n);
   return out;
 }
@@ -206,8 +208,8 @@ Expected<EncodedImage> encodePng(const cv::Mat& image, const std::string& what) 
   return e;
 }
 
-Expected<cv::Mat> decodePng(int width, int height, int row_stride,
-                            const std::vector<uint8_t>& data, const std::string& what) {
+Expected<cv::Mat> decodePng(int width, int height, int row_stride, const std::vector<uint8_t>& data,
+                            const std::string& what) {
   if (row_stride != 0) return makeError(what, ": row_stride must be 0 for PNG, is ", row_stride);
   int64_t w = 0, h = 0;
   if (!isPng(data) || !pngSize(data, &w, &h)) {

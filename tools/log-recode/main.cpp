@@ -80,9 +80,11 @@ Expected<std::vector<uint8_t>> recode(const messages::LogReader::Event& e,
 
 int run(const std::string& in, const std::string& out, messages::ImageEncoding encoding) {
   auto reader = messages::LogReader::open(in);
-  if (!reader) return std::fprintf(stderr, "evermap-log-recode: %s\n", reader.error().message.c_str()), 1;
+  if (!reader)
+    return std::fprintf(stderr, "evermap-log-recode: %s\n", reader.error().message.c_str()), 1;
   auto writer = messages::LogWriter::open(out);
-  if (!writer) return std::fprintf(stderr, "evermap-log-recode: %s\n", writer.error().message.c_str()), 1;
+  if (!writer)
+    return std::fprintf(stderr, "evermap-log-recode: %s\n", writer.error().message.c_str()), 1;
   Tally t;
   while (const messages::LogReader::Event* e = reader->next()) {
     std::vector<uint8_t> data(e->data, e->data + e->datalen);
@@ -98,23 +100,30 @@ int run(const std::string& in, const std::string& out, messages::ImageEncoding e
       t.bytes_out += static_cast<int64_t>(data.size());
     }
     if (evermap::Status s = writer->writeBytes(e->channel, e->timestamp, data); !s) {
-      return std::fprintf(stderr, "evermap-log-recode: %s: %s\n", out.c_str(), s.error().message.c_str()), 1;
+      return std::fprintf(stderr, "evermap-log-recode: %s: %s\n", out.c_str(),
+                          s.error().message.c_str()),
+             1;
     }
   }
   if (evermap::Status s = reader->status(); !s) {
     return std::fprintf(stderr, "evermap-log-recode: %s\n", s.error().message.c_str()), 1;
   }
   if (evermap::Status s = writer->commit(); !s) {
-    return std::fprintf(stderr, "evermap-log-recode: %s: %s\n", out.c_str(), s.error().message.c_str()), 1;
+    return std::fprintf(stderr, "evermap-log-recode: %s: %s\n", out.c_str(),
+                        s.error().message.c_str()),
+           1;
   }
   if (t.kept > 0) {
-    std::fprintf(stderr, "evermap-log-recode: %s: %lld frames did not decode, copied as they were (first: %s)\n",
-                 in.c_str(), static_cast<long long>(t.kept), t.first_kept.c_str());
+    std::fprintf(
+        stderr,
+        "evermap-log-recode: %s: %lld frames did not decode, copied as they were (first: %s)\n",
+        in.c_str(), static_cast<long long>(t.kept), t.first_kept.c_str());
   }
   const double n = t.frames > 0 ? static_cast<double>(t.frames) : 1.0;
-  std::printf("frames %lld encoding %s bytes_per_frame_in %.0f bytes_per_frame_out %.0f kept %lld\n",
-              static_cast<long long>(t.frames), messages::toString(encoding), t.bytes_in / n,
-              t.bytes_out / n, static_cast<long long>(t.kept));
+  std::printf(
+      "frames %lld encoding %s bytes_per_frame_in %.0f bytes_per_frame_out %.0f kept %lld\n",
+      static_cast<long long>(t.frames), messages::toString(encoding), t.bytes_in / n,
+      t.bytes_out / n, static_cast<long long>(t.kept));
   return 0;
 }
 
