@@ -38,8 +38,8 @@ fs::path dataRoot() {
 
 // Rendered left and right images of config/sim-image-3floor.conf's session 0, every 10 s.
 std::vector<cv::Mat> renderedImages() {
-  auto file = evermap::KeyValueFile::load(fs::path(EVERMAP_SOURCE_DIR) /
-                                          "config/sim-image-3floor.conf");
+  auto file =
+      evermap::KeyValueFile::load(fs::path(EVERMAP_SOURCE_DIR) / "config/sim-image-3floor.conf");
   if (!file) return {};
   auto options = evermap::sim::loadImageSimOptions(*file);
   if (!options) return {};
@@ -104,7 +104,8 @@ std::vector<std::unique_ptr<Set>> loadSets() {
     s->name = name;
     s->images = std::move(images);
     for (ImageEncoding e : kEncodings) {
-      for (const cv::Mat& m : s->images) s->messages[e].push_back(*evermap::messages::toMsg(m, 1, e));
+      for (const cv::Mat& m : s->images)
+        s->messages[e].push_back(*evermap::messages::toMsg(m, 1, e));
     }
     sets.push_back(std::move(s));
   }

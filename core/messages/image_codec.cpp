@@ -105,8 +105,10 @@ bool restoreRow(const uint8_t* in, const uint8_t* above, int width, uint8_t* row
       return true;
     case kAverage: {
       int a = 0;
-      for (int i = 0; i < width; ++i)
-        row[i] = static_cast<uint8_t>(a = (r[i] + ((a + above[i]) >> 1)) & 0xff);
+      for (int i = 0; i < width; ++i) {
+        a = (r[i] + ((a + above[i]) >> 1)) & 0xff;
+        row[i] = static_cast<uint8_t>(a);
+      }
       return true;
     }
     case kGradient: {
