@@ -3,6 +3,12 @@ find_package(Eigen3 3.4 REQUIRED NO_MODULE)
 find_package(OpenCV 4 REQUIRED COMPONENTS core imgproc imgcodecs calib3d features2d)
 find_package(Threads REQUIRED)
 find_package(SQLite3 REQUIRED)
+# zstd (libzstd-dev): the default image encoding (core/messages/image_codec.h).
+find_path(ZSTD_INCLUDE_DIR zstd.h REQUIRED)
+find_library(ZSTD_LIBRARY zstd REQUIRED)
+add_library(evermap_zstd INTERFACE)
+target_include_directories(evermap_zstd INTERFACE ${ZSTD_INCLUDE_DIR})
+target_link_libraries(evermap_zstd INTERFACE ${ZSTD_LIBRARY})
 
 # LCM 1.3.1 ships a pkg-config file that drags in glib's; the C/C++ API needs neither.
 find_path(LCM_INCLUDE_DIR lcm/lcm-cpp.hpp REQUIRED)

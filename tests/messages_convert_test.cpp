@@ -86,15 +86,16 @@ TEST(Utime, NanosecondsRoundToTheNearestMicrosecond) {
   EXPECT_EQ(nsFromUtime(utimeFromNs(123456789000LL)), 123456789000LL);
 }
 
-TEST(ImageMsg, Gray8AndPngRoundTripPixelExactThroughTheWire) {
+TEST(ImageMsg, Gray8PngAndZstdRoundTripPixelExactThroughTheWire) {
   const cv::Mat image = testImage(75, 48, 1);
-  for (ImageEncoding e : {ImageEncoding::kGray8, ImageEncoding::kPng}) {
+  for (ImageEncoding e : {ImageEncoding::kGray8, ImageEncoding::kPng, ImageEncoding::kZstd}) {
     auto msg = toMsg(image, 42, e);
     ASSERT_TRUE(msg.ok()) << msg.error().message;
     EXPECT_EQ(msg->width, 75);
     EXPECT_EQ(msg->height, 48);
-    const int32_t format = e == ImageEncoding::kPng ? int32_t{evermap::image_t::FORMAT_PNG}
-                                                    : int32_t{evermap::image_t::FORMAT_GRAY8};
+    const int32_t format = e == ImageEncoding::kPng    ? int32_t{evermap::image_t::FORMAT_PNG}
+                           : e == ImageEncoding::kZstd ? int32_t{evermap::image_t::FORMAT_ZSTD}
+                                                       : int32_t{evermap::image_t::FORMAT_GRAY8};
     EXPECT_EQ(msg->pixelformat, format);
     const auto back = fromMsg(throughWire(*msg));
     ASSERT_TRUE(back.ok()) << back.error().message;
@@ -443,9 +444,10 @@ TEST(DecodeLcm, RandomlyCorruptedStereoMessagesNeverCrashTheReceiver) {
   f.right = testImage(24, 12, 10);
   const auto png = encode(*toMsg(f, ImageEncoding::kPng));
   const auto gray = encode(*toMsg(f, ImageEncoding::kGray8));
+  const auto zstd = encode(*toMsg(f, ImageEncoding::kZstd));
   std::mt19937 rng(17);
   int accepted = 0, refused = 0;
-  for (const auto* original : {&png, &gray}) {
+  for (const auto* original : {&png, &gray, &zstd}) {
     for (int trial = 0; trial < 3000; ++trial) {
       std::vector<uint8_t> b = *original;
       const int flips = 1 + static_cast<int>(rng() % 4);

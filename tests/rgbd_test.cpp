@@ -56,11 +56,12 @@ std::vector<uint8_t> encode(const evermap::rgbd_image_t& m) {
   return b;
 }
 
-TEST(RgbdMessage, RoundTripsRawAndPngLosslessly) {
+TEST(RgbdMessage, RoundTripsRawPngAndZstdLosslessly) {
   RgbdFrame f = texturedFrame(1000, 1.5);
   f.depth.at<uint16_t>(3, 4) = 0;
   f.depth.at<uint16_t>(5, 6) = 65535;
-  for (auto enc : {messages::ImageEncoding::kGray8, messages::ImageEncoding::kPng}) {
+  for (auto enc : {messages::ImageEncoding::kGray8, messages::ImageEncoding::kPng,
+                   messages::ImageEncoding::kZstd}) {
     auto msg = messages::toMsg(f, enc);
     ASSERT_TRUE(msg.ok()) << msg.error().message;
     const auto bytes = encode(*msg);

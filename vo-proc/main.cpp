@@ -4,7 +4,8 @@
 //
 // Threads: the LCM thread only copies each received STEREO or RGBD event into a bounded queue
 // (dropping the oldest when the worker falls behind) and keeps the latest calibration; the
-// worker thread decodes, runs odometry and publishes (lcm::LCM::publish is thread-safe).
+// worker thread decodes (a stereo pair's two images in parallel: messages::fromMsg), runs
+// odometry and publishes (lcm::LCM::publish is thread-safe).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

@@ -144,8 +144,9 @@ PipelineOutput VoPipeline::handleStereo(const evermap::stereo_image_t& msg) {
   if (!calibration_)
     return badInput(msg.utime,
                     "STEREO: the camera is RGB-D (from RGBD frames), no stereo calibration");
-  // Before decoding: a PNG may claim up to kMaxImageSide^2 pixels (268 MB) in a few bytes;
-  // only the calibrated camera's size is worth decompressing.
+  // Before decoding: a PNG or zstd frame may claim up to kMaxImageSide^2 pixels (268 MB) in a
+  // few bytes; only the calibrated camera's size is worth decompressing. fromMsg decodes the
+  // right image on a second thread while the left one decodes.
   const core::CameraCalibration& cam = calibration_->left;
   for (const evermap::image_t* im : {&msg.left, &msg.right}) {
     if (im->width != cam.width || im->height != cam.height) {

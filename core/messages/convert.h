@@ -28,6 +28,7 @@
 #include "core/camera/calibration.h"
 #include "core/common/expected.h"
 #include "core/geometry/se3.h"
+#include "core/messages/image_codec.h"
 #include "core/messages/imu_sample.h"
 #include "core/messages/wire_check.h"
 
@@ -38,16 +39,7 @@ int64_t utimeFromNs(int64_t t_ns);
 inline int64_t nsFromUtime(int64_t utime) { return utime * 1000; }
 
 // ---- Images ----
-enum class ImageEncoding {
-  kGray8,  // raw bytes, row_stride == width
-  kPng,    // lossless PNG of the gray image
-};
-const char* toString(ImageEncoding e);
-
-// Largest width or height a received image may claim (pixels): bounds the memory a
-// malformed message can make a receiver allocate.
-inline constexpr int kMaxImageSide = 16384;
-
+// Encodings, kMaxImageSide and the codec itself: image_codec.h.
 // `image` must be CV_8UC1 and non-empty.
 Expected<evermap::image_t> toMsg(const cv::Mat& image, int64_t utime, ImageEncoding encoding);
 // The image of a message, CV_8UC1 of width x height (a copy, independent of the message).

@@ -49,6 +49,21 @@ expect_line "$tmp/kitti.txt" '^wrote .*kitti.lcmlog \(images: gray8\)'
 expect_line "$tmp/kitti.txt" '^  STEREO +20 messages'
 expect_line "$tmp/kitti.txt" '^  GROUND_TRUTH +20 messages'
 
+# The default encoding, and evermap-log-recode: raw -> zstd -> raw gives the same log byte for
+# byte (lossless, every other event copied), and a cut log is refused naming it.
+"$build/bin/evermap-kitti2lcm" "$seq" "$tmp/kitti-zstd.lcmlog" > "$tmp/kitti-zstd.txt"
+expect_line "$tmp/kitti-zstd.txt" '^wrote .*kitti-zstd.lcmlog \(images: zstd\)'
+"$build/bin/evermap-log-recode" "$tmp/kitti.lcmlog" "$tmp/recoded.lcmlog" > "$tmp/recode.txt"
+expect_line "$tmp/recode.txt" '^frames 20 encoding zstd bytes_per_frame_in [0-9]+ bytes_per_frame_out [0-9]+ kept 0$'
+cmp -s "$tmp/recoded.lcmlog" "$tmp/kitti-zstd.lcmlog" || fail "recoded raw log differs from the converter's zstd log"
+"$build/bin/evermap-log-recode" "$tmp/recoded.lcmlog" "$tmp/back.lcmlog" --encoding gray8 > /dev/null
+cmp -s "$tmp/back.lcmlog" "$tmp/kitti.lcmlog" || fail "raw -> zstd -> raw is not the same log"
+head -c 300000 "$tmp/recoded.lcmlog" > "$tmp/cut.lcmlog"
+rc=0; "$build/bin/evermap-log-recode" "$tmp/cut.lcmlog" "$tmp/cut-out.lcmlog" 2> "$tmp/cut.err" > /dev/null || rc=$?
+[ "$rc" = 1 ] || fail "cut log: exit $rc, wanted 1"
+expect_line "$tmp/cut.err" '^evermap-log-recode: .*cut.lcmlog'
+[ -e "$tmp/cut-out.lcmlog" ] && fail "a log was written for a cut input"
+
 rc=0; "$build/bin/evermap-kitti2lcm" "$kitti" "$tmp/mono.lcmlog" 2> "$tmp/mono.err" || rc=$?
 [ "$rc" = 1 ] || fail "monocular folder: exit $rc, wanted 1"
 expect_line "$tmp/mono.err" 'image_1: no right images'

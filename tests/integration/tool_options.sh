@@ -62,6 +62,7 @@ evermap-deputy|max_log_mb|--max-log-mb|0|> 0
 evermap-deputy-ctl|timeout_s|--timeout-s|0|> 0
 evermap-solver|wildfire|--wildfire|-1|>= 0
 evermap-euroc2lcm|raw|-|-|-
+evermap-log-recode|encoding|-|-|-
 evermap-kitti2lcm|disparity_offset_px|--disparity-offset|2000|\[-1000, 1000\]
 evermap-tum2lcm|max_difference_s|--max-difference|0|> 0
 evermap-imu-elevator-run|max_ride_s|-|-1|> 0

@@ -17,6 +17,7 @@ namespace {
 struct ConvertArgs {
   std::vector<std::string> positional;
   bool raw = false;
+  messages::ImageEncoding encoding = messages::ImageEncoding::kZstd;
   std::string ground_truth, left, right;
   KittiToLcmOptions kitti;
   TumToLcmOptions tum;
@@ -31,9 +32,16 @@ struct ConvertOptions {
   explicit ConvertOptions(ConvertArgs* args) : a(args) {}
 
   void declareOptions(OptionList& o) {
-    o.add("raw", &a->raw,
-          kDataset == Dataset::kTumRgbd ? "store raw gray8 and raw uint16 depth instead of PNG"
-                                        : "store images as raw gray8 instead of PNG");
+    o.choice("encoding", &a->encoding,
+             {{"zstd", messages::ImageEncoding::kZstd},
+              {"png", messages::ImageEncoding::kPng},
+              {"gray8", messages::ImageEncoding::kGray8}},
+             kDataset == Dataset::kTumRgbd
+                 ? "how gray images are stored: zstd rows (decode fastest), png (other tools read "
+                   "it) or gray8 (raw); depth is 16-bit PNG, raw uint16 with gray8"
+                 : "how images are stored: zstd rows (decode fastest), png (other tools read it) "
+                   "or gray8 (raw)");
+    o.add("raw", &a->raw, "same as encoding = gray8");
     if (kDataset == Dataset::kTumRgbd) {
       o.add("camera", &a->tum.calibration, "",
             "freiburg1, freiburg2, freiburg3 or ros-default (TUM's published intrinsics); empty: "
@@ -79,6 +87,7 @@ void declareDatasetOptions(Dataset dataset, CommandLine& cli, ConvertArgs* a) {
     cli.alias("--disparity-offset", "disparity_offset_px", "PX");
   }
   cli.alias("--raw", "raw", "");
+  cli.alias("--encoding", "encoding", "zstd|png|gray8");
 }
 
 // -1 to run, else the exit status (usage and errors already printed).
@@ -141,7 +150,7 @@ int convertMain(Dataset dataset, int argc, char** argv) {
                                                              : "evermap-kitti2lcm";
   ConvertArgs a;
   if (const int code = parseCommandLine(dataset, program, argc, argv, &a); code >= 0) return code;
-  const auto encoding = a.raw ? messages::ImageEncoding::kGray8 : messages::ImageEncoding::kPng;
+  const auto encoding = a.raw ? messages::ImageEncoding::kGray8 : a.encoding;
   const auto start = std::chrono::steady_clock::now();  // for the report only
   const Expected<ConversionSummary> summary = convert(dataset, a, encoding);
   if (!summary) {

@@ -8,12 +8,12 @@
 //                 before the first pair of every channels::kCalibrationPeriodS (state, not
 //                 an event: docs/contracts.md)
 //   STEREO        stereo_image_t per synchronised pair (EuRoC: raw, rectified = 0;
-//                 KITTI: rectified = 1), PNG-compressed or raw gray8
+//                 KITTI: rectified = 1), zstd rows (default), PNG or raw gray8
 //   IMU           imu_t per row of imu0/data.csv (EuRoC only)
 //   GROUND_TRUTH  pose_t world_T_body per ground-truth row (zero covariance, floor and
 //                 session -1); KITTI: body = camera 0
 //   RGBD          rgbd_image_t per associated color/depth pair (TUM RGB-D), the calibration
-//                 inside; gray PNG + 16-bit PNG depth, or raw gray8 + raw uint16
+//                 inside; gray zstd rows (or PNG) + 16-bit PNG depth, or raw gray8 + raw uint16
 //   RGBD_CALIB    rgbd_calib_t, first and before the first frame of every period (TUM RGB-D)
 //   ACCEL         accel_t per row of accelerometer.txt (TUM RGB-D)
 //   GROUND_TRUTH  TUM RGB-D: world_T_body, body = the color camera
@@ -47,7 +47,7 @@ struct ConversionSummary {
 };
 
 struct EurocToLcmOptions {
-  messages::ImageEncoding encoding = messages::ImageEncoding::kPng;
+  messages::ImageEncoding encoding = messages::ImageEncoding::kZstd;
   // Ground truth, EuRoC CSV ("t[ns], p xyz, q wxyz, ...") or TUM text (.txt). Empty: use
   // mav0/state_groundtruth_estimate0/data.csv when it exists, else write no ground truth.
   std::filesystem::path ground_truth;
@@ -63,7 +63,7 @@ Expected<ConversionSummary> convertEurocToLcm(const std::filesystem::path& asl_f
                                               const EurocToLcmOptions& options);
 
 struct KittiToLcmOptions {
-  messages::ImageEncoding encoding = messages::ImageEncoding::kPng;
+  messages::ImageEncoding encoding = messages::ImageEncoding::kZstd;
   // Folders, frame rate, ground truth (tools/datasets/kitti.h).
   KittiSequenceOptions sequence;
   // The images' disparity offset (pixels) against calib.txt, written into STEREO_CALIB as the
@@ -83,7 +83,7 @@ Expected<ConversionSummary> convertKittiToLcm(const std::filesystem::path& seque
                                               const KittiToLcmOptions& options);
 
 struct TumToLcmOptions {
-  messages::ImageEncoding encoding = messages::ImageEncoding::kPng;
+  messages::ImageEncoding encoding = messages::ImageEncoding::kZstd;
   // One of tumCalibration()'s names; empty: tumCalibrationNameFor(the folder).
   std::string calibration;
   TumRgbdOptions sequence;              // the association limit

@@ -22,8 +22,11 @@ bool ownKey(const std::string& key) {
 
 void declareRender(OptionList& o, RenderSimOptions& r) {
   o.choice("render.encoding", &r.encoding,
-           {{"png", messages::ImageEncoding::kPng}, {"gray8", messages::ImageEncoding::kGray8}},
-           "how images are stored in the log");
+           {{"zstd", messages::ImageEncoding::kZstd},
+            {"png", messages::ImageEncoding::kPng},
+            {"gray8", messages::ImageEncoding::kGray8}},
+           "how images are stored in the log: zstd rows (decode fastest), png (other tools read "
+           "it) or gray8 (raw)");
   o.choice("render.camera", &r.camera,
            {{"stereo", CameraMode::kStereo}, {"rgbd", CameraMode::kRgbd}},
            "a rectified stereo pair (camera.*) or an RGB-D camera (rgbd.*)");

@@ -38,7 +38,7 @@ struct RenderSimOptions {
   int height = 480;
   double rate_hz = 20.0;          // stereo pairs per second
   double noise_sigma_gray = 2.0;  // sensor noise, gray levels
-  messages::ImageEncoding encoding = messages::ImageEncoding::kPng;
+  messages::ImageEncoding encoding = messages::ImageEncoding::kZstd;
   std::string posters = "auto";  // auto: $EVERMAP_DATA or ../shared/data; none; or a folder
   int session = 0;               // which session of the patrol plan to render
   double max_duration_s = 0.0;   // render at most this much of the session (0: all)

@@ -1,7 +1,8 @@
 #pragma once
 // A session's events for evermap-slam-run, read from an LCM log or rendered by the image-level
 // simulator on a producer thread ahead of the pipeline (which then spends its time on the
-// algorithms). STEREO and RGBD events arrive decoded (LCM and PNG).
+// algorithms). STEREO and RGBD events arrive decoded (LCM, then the images: zstd rows or PNG,
+// a stereo pair's two in parallel, messages::fromMsg).
 
 #include <cstddef>
 #include <cstdint>

@@ -72,7 +72,7 @@ struct SlamRunOptions {
 
 // Wall time per component, seconds (measurement only).
 struct ComponentTimes {
-  double decode_s = 0.0;     // reading and decoding the log (LCM, PNG), on the reader thread
+  double decode_s = 0.0;     // reading and decoding the log (LCM, images), on the reader thread
   double wait_s = 0.0;       // the pipeline waiting for the reader
   double vo_s = 0.0;         // rectification, features, odometry, keyframe descriptors
   double imu_s = 0.0;        // attitude filter and elevator tracker
