@@ -2,6 +2,8 @@
 // of every kind of malformed message, including random corruption of encoded bytes.
 #include <gtest/gtest.h>
 
+#include "image_test_util.h"
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -50,15 +52,8 @@ cv::Mat testImage(int w, int h, int seed) {
   return m;
 }
 
-bool sameImage(const cv::Mat& a, const cv::Mat& b) {
-  return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0.0;
-}
-
-void expectError(const auto& result, const std::string& needle) {
-  ASSERT_FALSE(result.ok()) << "accepted; wanted an error containing: " << needle;
-  EXPECT_NE(result.error().message.find(needle), std::string::npos)
-      << "got: " << result.error().message << "\nwanted: " << needle;
-}
+using evermap::testing::expectError;
+using evermap::testing::sameImage;
 
 core::CameraCalibration eurocLeft() {
   core::CameraCalibration c;

@@ -17,6 +17,7 @@
 
 #include "core/messages/convert.h"
 #include "core/messages/image_codec.h"
+#include "image_test_util.h"
 #include "test_data.h"
 
 namespace evermap::messages {
@@ -24,15 +25,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool sameImage(const cv::Mat& a, const cv::Mat& b) {
-  return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0.0;
-}
-
-void expectError(const auto& result, const std::string& needle) {
-  ASSERT_FALSE(result.ok()) << "accepted; wanted an error containing: " << needle;
-  EXPECT_NE(result.error().message.find(needle), std::string::npos)
-      << "got: " << result.error().message << "\nwanted: " << needle;
-}
+using evermap::testing::expectError;
+using evermap::testing::sameImage;
 
 // Images that make the encoder pick each predictor somewhere: noise (left), vertical stripes
 // (up), smooth ramps (average, gradient), flat, and the smallest sizes.

@@ -57,25 +57,25 @@ Expected<std::vector<uint8_t>> encoded(const Msg& msg) {
   return bytes;
 }
 
-// A frame event's bytes re-encoded, or the error that keeps it as it was.
-Expected<std::vector<uint8_t>> recode(const messages::LogReader::Event& e,
-                                      messages::ImageEncoding encoding) {
-  if (e.channel == evermap::channels::kStereo) {
-    auto msg = messages::decodeLcm<evermap::stereo_image_t>(e.data, e.datalen, e.channel);
-    if (!msg) return msg.error();
-    auto frame = messages::fromMsg(*msg);
-    if (!frame) return frame.error();
-    auto out = messages::toMsg(*frame, encoding);
-    if (!out) return out.error();
-    return encoded(*out);
-  }
-  auto msg = messages::decodeLcm<evermap::rgbd_image_t>(e.data, e.datalen, e.channel);
+// A frame message of type Msg (stereo_image_t or rgbd_image_t) re-encoded.
+template <typename Msg>
+Expected<std::vector<uint8_t>> recodeAs(const messages::LogReader::Event& e,
+                                        messages::ImageEncoding encoding) {
+  auto msg = messages::decodeLcm<Msg>(e.data, e.datalen, e.channel);
   if (!msg) return msg.error();
   auto frame = messages::fromMsg(*msg);
   if (!frame) return frame.error();
   auto out = messages::toMsg(*frame, encoding);
   if (!out) return out.error();
   return encoded(*out);
+}
+
+// A frame event's bytes re-encoded, or the error that keeps it as it was.
+Expected<std::vector<uint8_t>> recode(const messages::LogReader::Event& e,
+                                      messages::ImageEncoding encoding) {
+  if (e.channel == evermap::channels::kStereo)
+    return recodeAs<evermap::stereo_image_t>(e, encoding);
+  return recodeAs<evermap::rgbd_image_t>(e, encoding);
 }
 
 int run(const std::string& in, const std::string& out, messages::ImageEncoding encoding) {
