@@ -31,14 +31,7 @@ namespace fs = std::filesystem;
 using evermap::register_request_t;
 using evermap::register_result_t;
 
-// lcm-gen declares the constants without a definition: compare against local copies.
-constexpr int kOk = register_result_t::STATUS_OK;
-constexpr int kTooFewInliers = register_result_t::STATUS_TOO_FEW_INLIERS;
-constexpr int kUnknownNode = register_result_t::STATUS_UNKNOWN_NODE;
-constexpr int kMalformed = register_result_t::STATUS_MALFORMED;
-constexpr int8_t kNode = register_request_t::MODE_NODE;
-constexpr int8_t kGlobal = register_request_t::MODE_GLOBAL;
-constexpr int64_t kSecond = 1'000'000;
+using namespace evermap::testing;  // the status constants, kSecond
 
 // A vocabulary trained here from real images of the same room that are none of the loop
 // images: every 5th frame of the excerpt's stereo sequence (t = 273..278 s of V1_01), with the

@@ -29,21 +29,10 @@ using bow::SplitMix64;
 using evermap::register_request_t;
 using evermap::register_result_t;
 
-// lcm-gen declares the status constants without a definition: EXPECT_EQ binds references,
-// so compare against local copies.
-constexpr int kOk = register_result_t::STATUS_OK;
-constexpr int kNoCandidate = register_result_t::STATUS_NO_CANDIDATE;
-constexpr int kTooFewInliers = register_result_t::STATUS_TOO_FEW_INLIERS;
-constexpr int kUnknownNode = register_result_t::STATUS_UNKNOWN_NODE;
-constexpr int kUnknownKeyframe = register_result_t::STATUS_UNKNOWN_KEYFRAME;
-constexpr int kMalformed = register_result_t::STATUS_MALFORMED;
-constexpr int kStale = register_result_t::STATUS_STALE;
-constexpr int8_t kNode = register_request_t::MODE_NODE;
-constexpr int8_t kGlobal = register_request_t::MODE_GLOBAL;
+using namespace evermap::testing;  // the status constants, kSecond, emptyKeyframe
 
 constexpr int kPlaces = 8;
 constexpr int kFeatures = 80;
-constexpr int64_t kSecond = 1'000'000;
 
 class World {
  public:
@@ -73,12 +62,7 @@ class World {
     return d;
   }
   evermap::keyframe_t keyframe(int place, int64_t utime) {
-    evermap::keyframe_t k;
-    k.utime = utime;
-    k.fx = k.fy = 450.0;
-    k.cx = 320.0;
-    k.cy = 240.0;
-    k.baseline_m = 0.11;
+    evermap::keyframe_t k = emptyKeyframe(utime);
     const std::vector<Descriptor> d = place >= 0 ? noisy(place) : std::vector<Descriptor>{};
     k.num_features = static_cast<int32_t>(d.size());
     for (size_t i = 0; i < d.size(); ++i) {

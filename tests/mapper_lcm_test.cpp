@@ -39,14 +39,7 @@ namespace evermap::mapper {
 namespace {
 
 // One session of ~3 simulated minutes on the 3-floor building.
-sim::SimOptions shortRun() {
-  sim::SimOptions o = sim::testing::smallBuilding(5);
-  o.patrol.sessions = 1;
-  o.patrol.total_hours = 0.04;
-  o.patrol.span_days = 1;
-  o.patrol.explore_sessions = 1;
-  return o;
-}
+sim::SimOptions shortRun() { return sim::testing::smallPatrol(5, 1, 0.04, 1, 1); }
 
 struct Listener {
   std::vector<pose_t> poses;
