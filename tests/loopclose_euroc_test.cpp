@@ -60,18 +60,6 @@ bow::Vocabulary trainExcerptVocabulary(const fs::path& dir, const core::StereoRe
   return std::move(*v);
 }
 
-register_request_t request(int64_t id, int64_t utime, int64_t keyframe, int8_t mode,
-                           int64_t target = -1) {
-  register_request_t r{};
-  r.utime = utime;
-  r.request_id = id;
-  r.keyframe_utime = keyframe;
-  r.mode = mode;
-  r.target_node_id = target;
-  r.floor = -1;
-  return r;
-}
-
 core::SE3d poseOf(const register_result_t& r) {
   const Eigen::Quaterniond q(r.orientation[0], r.orientation[1], r.orientation[2],
                              r.orientation[3]);
@@ -136,7 +124,8 @@ TEST(LoopCloseEuroc, TheServiceRegistersTheRealLoopPairsWithinFiveCentimetresAnd
   int64_t id = 0;
   auto ask = [&](int64_t keyframe, int8_t mode, int64_t target) {
     ++id;
-    const register_request_t r = request(id, 200 * kSecond + id * kSecond, keyframe, mode, target);
+    const register_request_t r =
+        registerRequest(id, 200 * kSecond + id * kSecond, keyframe, mode, target);
     lcm.publish(channels::kRegisterRequest, &r);
     deliver();
     EXPECT_EQ(results.size(), static_cast<size_t>(id));

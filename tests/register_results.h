@@ -1,6 +1,6 @@
 #pragma once
 // For the loopclose-proc tests: the REGISTER_RESULT messages published on an LCM (memq:// in
-// tests), collected as they are handled; the status and mode constants; a keyframe message.
+// tests), collected as they are handled; the status and mode constants; the messages they send.
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -8,6 +8,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include <evermap/keyframe_t.hpp>
+#include <evermap/node_added_t.hpp>
 #include <evermap/register_request_t.hpp>
 #include <evermap/register_result_t.hpp>
 
@@ -27,6 +28,29 @@ constexpr int kStale = register_result_t::STATUS_STALE;
 constexpr int8_t kNode = register_request_t::MODE_NODE;
 constexpr int8_t kGlobal = register_request_t::MODE_GLOBAL;
 constexpr int64_t kSecond = 1'000'000;
+
+// NODE_ADDED for node `id` made at keyframe `keyframe_utime` on `floor`.
+inline node_added_t nodeAdded(int64_t id, int64_t keyframe_utime, int32_t floor) {
+  node_added_t n{};
+  n.utime = keyframe_utime;
+  n.node_id = id;
+  n.keyframe_utime = keyframe_utime;
+  n.floor = floor;
+  return n;
+}
+
+// REGISTER_REQUEST `id` sent at `utime` for keyframe `keyframe`; `target` the node (MODE_NODE).
+inline register_request_t registerRequest(int64_t id, int64_t utime, int64_t keyframe, int8_t mode,
+                                          int64_t target = -1, int32_t floor = -1) {
+  register_request_t r{};
+  r.utime = utime;
+  r.request_id = id;
+  r.keyframe_utime = keyframe;
+  r.mode = mode;
+  r.target_node_id = target;
+  r.floor = floor;
+  return r;
+}
 
 // A keyframe message at `utime` without features, from a 640x480 camera (fx = fy = 450 px,
 // 0.11 m baseline).
