@@ -27,8 +27,7 @@ const char* nameOf(const EnumNames<Enum, N>& names, Enum value) {
 // The value called `name`; else the error `unknown WHAT "name" (expected a, b or c)`, the
 // names in the table's order.
 template <class Enum, size_t N>
-Expected<Enum> parseName(const EnumNames<Enum, N>& names, std::string_view name,
-                         const char* what) {
+Expected<Enum> parseName(const EnumNames<Enum, N>& names, std::string_view name, const char* what) {
   std::string expected;
   for (size_t i = 0; i < N; ++i) {
     if (name == names[i].second) return names[i].first;

@@ -273,7 +273,7 @@ Expected<OfflineRunSummary> summarise(OfflineMapping& mapping, const OfflineRunO
   out.stats = mapper.stats();
   out.restored_nodes = mapper.stats().restored_nodes;
   out.restart_note = mapper.restartNote();
-  out.nodes = mapper.graphNodes();
+  out.nodes = static_cast<int64_t>(mapper.nodes().size());
   out.views_by_session = mapping.truth().views_by_session;
   std::vector<NodeTruth> node_truth = mapping.truth().nodes;
   node_truth.resize(mapper.nodes().size());
