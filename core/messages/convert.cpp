@@ -302,6 +302,10 @@ evermap::imu_t toMsg(const ImuSample& s) {
   return msg;
 }
 
+imu::ImuSample toImuSample(const ImuSample& s) {
+  return {utimeFromNs(s.t_ns), s.gyro_rad_s, s.accel_m_s2};
+}
+
 Expected<ImuSample> fromMsg(const evermap::imu_t& msg) {
   if (!finite(msg.angular_velocity, 3) || !finite(msg.linear_acceleration, 3)) {
     return makeError("imu_t at utime ", msg.utime, ": non-finite value");
