@@ -13,11 +13,9 @@
 #include <evermap/imu_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 
-#include "core/common/command_line.h"
-#include "core/common/stop_signals.h"
 #include "core/imu/lcm_convert.h"
 #include "core/messages/channels.h"
-#include "core/messages/inbox.h"
+#include "core/messages/lcm_process.h"
 #include "elevator-proc/elevator_tracker.h"
 #include "elevator-proc/lcm_convert.h"
 
@@ -79,23 +77,16 @@ class Node {
 
 struct Settings {
   evermap::elevator::ElevatorTrackerOptions tracker;
-  std::string url;
   double time_window_s = 120.0;  // core/messages/inbox.h, TimeGuardOptions
 };
 
-// The command line; -1 to run, else the exit status.
-int parse(int argc, char** argv, Settings* s) {
-  using namespace evermap;
-  CommandLine cli("evermap-elevator-proc", "Subscribes IMU and ATTITUDE, publishes FLOOR.");
-  cli.value("--lcm-url", &s->url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
+void declare(evermap::CommandLine& cli, Settings* s) {
   cli.value("--time-window-s", &s->time_window_s, "S",
             "a sample stamped more than S s from the stream's clock waits for confirmation "
             "(default 120; 0: off)")
       .nonNegative();
   cli.options(&s->tracker);
-  cli.printConfigAlias("--print-options");
   cli.check([s] { return s->tracker.validate(); });
-  return cli.parseOrExit(argc, argv);
 }
 
 }  // namespace
@@ -103,30 +94,17 @@ int parse(int argc, char** argv, Settings* s) {
 int main(int argc, char** argv) {
   using namespace evermap;
   Settings settings;
-  if (const int code = parse(argc, argv, &settings); code >= 0) return code;
-  const elevator::ElevatorTrackerOptions& options = settings.tracker;
-  const std::string& url = settings.url;
-  const double time_window_s = settings.time_window_s;
-  lcm::LCM lcm(url);
-  if (!lcm.good()) {
-    std::fprintf(stderr, "evermap-elevator-proc: cannot open LCM \"%s\"\n", url.c_str());
-    return 1;
-  }
-  Node node(&lcm, options);
-  messages::Inbox::Options input;
-  input.process = "evermap-elevator-proc";
-  input.queue_capacity = 2000;  // 2 s of IMU at 1 kHz
-  input.time.window_s = time_window_s;
-  messages::Inbox inbox(lcm, input);
+  messages::LcmProcess process("evermap-elevator-proc",
+                               "Subscribes IMU and ATTITUDE, publishes FLOOR.");
+  declare(process.cli(), &settings);
+  if (const int code = process.start(argc, argv); code >= 0) return code;
+  Node node(&process.lcm(), settings.tracker);
+  // 2 s of IMU at 1 kHz
+  messages::Inbox& inbox = process.inbox(2000, settings.time_window_s);
   inbox.subscribe<imu_t>(channels::kImu, [&node](const imu_t& m) { node.onImu(m); });
   inbox.subscribe<attitude_t>(channels::kAttitude,
                               [&node](const attitude_t& m) { return node.onAttitude(m); });
-  StopSignals stop;  // SIGINT/SIGTERM, polled between LCM waits
-  while (!stop.requested()) {
-    if (lcm.handleTimeout(200) < 0) break;
-    inbox.publishStatsEvery(1.0);
-  }
-  std::fprintf(stderr, "evermap-elevator-proc: input: %s\n", inbox.summary().c_str());
+  process.run();
   std::fprintf(stderr, "evermap-elevator-proc: %s; gate: %s; bad attitudes %lld\n",
                node.tracker().counts().summary().c_str(),
                node.tracker().gateCounts().summary().c_str(),

@@ -228,7 +228,7 @@ void LcmNode::publishStats() {
   const MapperTiming& t = st.timing;
   mapper_stats_t s{};
   s.utime = last_utime_;
-  s.num_nodes = static_cast<int32_t>(m_.graphNodes());
+  s.num_nodes = static_cast<int32_t>(m_.nodes().size());
   s.num_edges = static_cast<int32_t>(m_.constraints().pairs().size());
   s.num_floors = static_cast<int32_t>(m_.floors().size());
   std::set<int> sessions;

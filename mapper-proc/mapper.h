@@ -111,7 +111,6 @@ class Mapper {
   core::SE3d nodePose(int64_t id) const { return schedule_.pose(id); }
   // Every node made; ids are indices.
   const std::vector<MapperNode>& nodes() const { return nodes_; }
-  int64_t graphNodes() const { return static_cast<int64_t>(nodes_.size()); }
   int64_t activeNode() const { return active_; }
   // A new session not yet placed on the map by a global registration: pose() means nothing.
   bool lost() const { return lost_; }

@@ -178,6 +178,7 @@ bool WarmRestart::rideMayLieInGap(const TrackingState& s, double gap_s,
                                   const RestoredMap& map) {
   // Near an elevator, a gap long enough to ride may hold a ride neither bridge sees: the
   // floor is unknown, so the restart is lost (global searches on every floor), not inflated.
+  // The note keeps what the bridge said (bridged by what, or why not).
   if (gap_s < o_.warm_restart_ride_min_s || s.active_node < 0 ||
       s.active_node >= static_cast<int64_t>(map.nodes.size()))
     return false;
@@ -187,7 +188,7 @@ bool WarmRestart::rideMayLieInGap(const TrackingState& s, double gap_s,
   if (!near) return false;
   std::ostringstream elevator;
   elevator << near->second << " m from the elevator at node " << near->first << " over " << gap_s
-           << " s: a ride may lie in the gap (" << (bridged ? "not bridged" : note_) << ")";
+           << " s: a ride may lie in the gap (" << note_ << ")";
   note_ = elevator.str();
   return true;
 }

@@ -10,6 +10,7 @@
 #include <fstream>
 
 #include "core/bow/place_store.h"
+#include "tests/register_results.h"
 
 namespace evermap::bow {
 namespace {
@@ -50,12 +51,7 @@ Place place(int64_t id, int32_t floor, BowVector bow) {
 }
 
 evermap::keyframe_t keyframe(int64_t utime, int n) {
-  evermap::keyframe_t k;
-  k.utime = utime;
-  k.fx = k.fy = 450.0;
-  k.cx = 320.0;
-  k.cy = 240.0;
-  k.baseline_m = 0.11;
+  evermap::keyframe_t k = evermap::testing::emptyKeyframe(utime);
   k.num_features = n;
   for (int i = 0; i < n; ++i) {
     k.keypoints.push_back({static_cast<float>(i), static_cast<float>(2 * i)});

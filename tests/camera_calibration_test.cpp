@@ -49,28 +49,21 @@ void expectRefused(const Status& s, const std::string& needle) {
 TEST(CameraCalibration, EachInconsistentFieldIsRefusedByName) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   EXPECT_TRUE(pinhole().validate("cam").ok());
+  // Each case: the pinhole changed in one way, and the error it must give.
+  const auto refused = [](auto change, const std::string& needle) {
+    CameraCalibration c = pinhole();
+    change(c);
+    expectRefused(c.validate("cam0"), needle);
+  };
+  using Cam = CameraCalibration;
+  refused([](Cam& c) { c.fx = 0.0; }, "cam0: focal length fx = 0");
+  refused([nan](Cam& c) { c.fy = nan; }, "focal length fy = nan");
+  refused([](Cam& c) { c.fx = -458.0; }, "fx = -458");
+  refused([](Cam& c) { c.width = 0; }, "image size 0x480 must be positive");
+  refused([](Cam& c) { c.height = -480; }, "image size 640x-480");
+  refused([](Cam& c) { c.cx = 640.0; }, "principal point (640, 240) is outside the 640x480 image");
+  refused([](Cam& c) { c.cy = -1.0; }, "principal point (320, -1) is outside");
   auto c = pinhole();
-  c.fx = 0.0;
-  expectRefused(c.validate("cam0"), "cam0: focal length fx = 0");
-  c = pinhole();
-  c.fy = nan;
-  expectRefused(c.validate("cam0"), "focal length fy = nan");
-  c = pinhole();
-  c.fx = -458.0;
-  expectRefused(c.validate("cam0"), "fx = -458");
-  c = pinhole();
-  c.width = 0;
-  expectRefused(c.validate("cam0"), "image size 0x480 must be positive");
-  c = pinhole();
-  c.height = -480;
-  expectRefused(c.validate("cam0"), "image size 640x-480");
-  c = pinhole();
-  c.cx = 640.0;
-  expectRefused(c.validate("cam0"), "principal point (640, 240) is outside the 640x480 image");
-  c = pinhole();
-  c.cy = -1.0;
-  expectRefused(c.validate("cam0"), "principal point (320, -1) is outside");
-  c = pinhole();
   c.distortion_model = DistortionModel::kRadTan;
   c.distortion = {0.1, 0.2};
   expectRefused(c.validate("cam0"), "needs 4 or 5 coefficients");

@@ -17,6 +17,7 @@
 
 #include "test_data.h"
 #include "tools/datasets/science_journal.h"
+#include "core/messages/convert.h"
 #include "tools/imu-elevator-run/offline_run.h"
 
 namespace evermap::elevator {
@@ -24,7 +25,7 @@ namespace {
 
 std::vector<imu::ImuSample> toImu(const std::vector<datasets::ImuSample>& in) {
   std::vector<imu::ImuSample> out;
-  for (const auto& s : in) out.push_back({s.t_ns / 1000, s.gyro_rad_s, s.accel_m_s2});
+  for (const auto& s : in) out.push_back(messages::toImuSample(s));
   return out;
 }
 

@@ -31,14 +31,7 @@ namespace fs = std::filesystem;
 using evermap::register_request_t;
 using evermap::register_result_t;
 
-// lcm-gen declares the constants without a definition: compare against local copies.
-constexpr int kOk = register_result_t::STATUS_OK;
-constexpr int kTooFewInliers = register_result_t::STATUS_TOO_FEW_INLIERS;
-constexpr int kUnknownNode = register_result_t::STATUS_UNKNOWN_NODE;
-constexpr int kMalformed = register_result_t::STATUS_MALFORMED;
-constexpr int8_t kNode = register_request_t::MODE_NODE;
-constexpr int8_t kGlobal = register_request_t::MODE_GLOBAL;
-constexpr int64_t kSecond = 1'000'000;
+using namespace evermap::testing;  // the status constants, kSecond
 
 // A vocabulary trained here from real images of the same room that are none of the loop
 // images: every 5th frame of the excerpt's stereo sequence (t = 273..278 s of V1_01), with the
@@ -65,18 +58,6 @@ bow::Vocabulary trainExcerptVocabulary(const fs::path& dir, const core::StereoRe
   auto v = bow::trainVocabulary(training, o);
   EXPECT_TRUE(v.ok()) << v.error().message;
   return std::move(*v);
-}
-
-register_request_t request(int64_t id, int64_t utime, int64_t keyframe, int8_t mode,
-                           int64_t target = -1) {
-  register_request_t r{};
-  r.utime = utime;
-  r.request_id = id;
-  r.keyframe_utime = keyframe;
-  r.mode = mode;
-  r.target_node_id = target;
-  r.floor = -1;
-  return r;
 }
 
 core::SE3d poseOf(const register_result_t& r) {
@@ -143,7 +124,8 @@ TEST(LoopCloseEuroc, TheServiceRegistersTheRealLoopPairsWithinFiveCentimetresAnd
   int64_t id = 0;
   auto ask = [&](int64_t keyframe, int8_t mode, int64_t target) {
     ++id;
-    const register_request_t r = request(id, 200 * kSecond + id * kSecond, keyframe, mode, target);
+    const register_request_t r =
+        registerRequest(id, 200 * kSecond + id * kSecond, keyframe, mode, target);
     lcm.publish(channels::kRegisterRequest, &r);
     deliver();
     EXPECT_EQ(results.size(), static_cast<size_t>(id));

@@ -29,21 +29,10 @@ using bow::SplitMix64;
 using evermap::register_request_t;
 using evermap::register_result_t;
 
-// lcm-gen declares the status constants without a definition: EXPECT_EQ binds references,
-// so compare against local copies.
-constexpr int kOk = register_result_t::STATUS_OK;
-constexpr int kNoCandidate = register_result_t::STATUS_NO_CANDIDATE;
-constexpr int kTooFewInliers = register_result_t::STATUS_TOO_FEW_INLIERS;
-constexpr int kUnknownNode = register_result_t::STATUS_UNKNOWN_NODE;
-constexpr int kUnknownKeyframe = register_result_t::STATUS_UNKNOWN_KEYFRAME;
-constexpr int kMalformed = register_result_t::STATUS_MALFORMED;
-constexpr int kStale = register_result_t::STATUS_STALE;
-constexpr int8_t kNode = register_request_t::MODE_NODE;
-constexpr int8_t kGlobal = register_request_t::MODE_GLOBAL;
+using namespace evermap::testing;  // the status constants, kSecond, emptyKeyframe
 
 constexpr int kPlaces = 8;
 constexpr int kFeatures = 80;
-constexpr int64_t kSecond = 1'000'000;
 
 class World {
  public:
@@ -73,12 +62,7 @@ class World {
     return d;
   }
   evermap::keyframe_t keyframe(int place, int64_t utime) {
-    evermap::keyframe_t k;
-    k.utime = utime;
-    k.fx = k.fy = 450.0;
-    k.cx = 320.0;
-    k.cy = 240.0;
-    k.baseline_m = 0.11;
+    evermap::keyframe_t k = emptyKeyframe(utime);
     const std::vector<Descriptor> d = place >= 0 ? noisy(place) : std::vector<Descriptor>{};
     k.num_features = static_cast<int32_t>(d.size());
     for (size_t i = 0; i < d.size(); ++i) {
@@ -123,25 +107,9 @@ class FakeRegistration final : public FrameRegistration {
   int calls = 0;
 };
 
+using evermap::testing::registerRequest;
 evermap::node_added_t node(int64_t id, int64_t keyframe_utime, int32_t floor) {
-  evermap::node_added_t n{};
-  n.utime = keyframe_utime;
-  n.node_id = id;
-  n.keyframe_utime = keyframe_utime;
-  n.floor = floor;
-  return n;
-}
-
-register_request_t request(int64_t id, int64_t utime, int64_t keyframe, int8_t mode,
-                           int64_t target = -1, int32_t floor = -1) {
-  register_request_t r{};
-  r.utime = utime;
-  r.request_id = id;
-  r.keyframe_utime = keyframe;
-  r.mode = mode;
-  r.target_node_id = target;
-  r.floor = floor;
-  return r;
+  return evermap::testing::nodeAdded(id, keyframe_utime, floor);
 }
 
 class LoopCloserTest : public ::testing::Test {
@@ -171,7 +139,7 @@ TEST_F(LoopCloserTest, NodeModeRegistersAgainstTheGivenNode) {
   EXPECT_EQ(lc->numNodes(), static_cast<size_t>(kPlaces));
   const int64_t t = 60 * kSecond;
   ASSERT_TRUE(lc->addKeyframe(world_.keyframe(2, t)).ok());  // back at place 2 = node 3
-  register_result_t r = lc->answer(request(7, t, t, kNode, 3));
+  register_result_t r = lc->answer(registerRequest(7, t, t, kNode, 3));
   EXPECT_EQ(r.status, kOk) << r.reason;
   EXPECT_EQ(r.request_id, 7);
   EXPECT_EQ(r.keyframe_utime, t);
@@ -184,7 +152,7 @@ TEST_F(LoopCloserTest, NodeModeRegistersAgainstTheGivenNode) {
   EXPECT_GE(r.num_inliers, 40);
   EXPECT_GT(r.score, 0.3);
   // Against another place: registration fails, and the answer says why.
-  r = lc->answer(request(8, t, t, kNode, 5));
+  r = lc->answer(registerRequest(8, t, t, kNode, 5));
   EXPECT_EQ(r.status, kTooFewInliers);
   EXPECT_NE(r.reason.find("inliers"), std::string::npos) << r.reason;
   EXPECT_EQ(r.node_id, 5);
@@ -198,14 +166,14 @@ TEST_F(LoopCloserTest, GlobalModeFindsTheRevisitedPlaceOnTheRequestedFloor) {
   ASSERT_TRUE(lc->addNode(node(100, 20 * kSecond, 1)).ok());
   const int64_t t = 60 * kSecond;
   ASSERT_TRUE(lc->addKeyframe(world_.keyframe(5, t)).ok());
-  register_result_t r = lc->answer(request(1, t, t, kGlobal, -1, 0));
+  register_result_t r = lc->answer(registerRequest(1, t, t, kGlobal, -1, 0));
   EXPECT_EQ(r.status, kOk) << r.reason;
   EXPECT_EQ(r.node_id, 6);
   EXPECT_GT(r.score, 0.3);
-  r = lc->answer(request(2, t, t, kGlobal, -1, 1));
+  r = lc->answer(registerRequest(2, t, t, kGlobal, -1, 1));
   EXPECT_EQ(r.status, kOk) << r.reason;
   EXPECT_EQ(r.node_id, 100);
-  r = lc->answer(request(3, t, t, kGlobal, -1, 4));
+  r = lc->answer(registerRequest(3, t, t, kGlobal, -1, 4));
   EXPECT_EQ(r.status, kNoCandidate);
   EXPECT_NE(r.reason.find("floor 4"), std::string::npos) << r.reason;
 }
@@ -218,11 +186,11 @@ TEST_F(LoopCloserTest, RecentPlacesAreNotLoopClosures) {
   ASSERT_TRUE(lc->addNode(node(1, 1 * kSecond, 0)).ok());
   const int64_t t = 5 * kSecond;  // 4 s later, same place: not a loop yet
   ASSERT_TRUE(lc->addKeyframe(world_.keyframe(1, t)).ok());
-  register_result_t r = lc->answer(request(1, t, t, kGlobal));
+  register_result_t r = lc->answer(registerRequest(1, t, t, kGlobal));
   EXPECT_EQ(r.status, kNoCandidate) << r.reason;
   const int64_t later = 30 * kSecond;
   ASSERT_TRUE(lc->addKeyframe(world_.keyframe(1, later)).ok());
-  r = lc->answer(request(2, later, later, kGlobal));
+  r = lc->answer(registerRequest(2, later, later, kGlobal));
   EXPECT_EQ(r.status, kOk) << r.reason;
 }
 
@@ -231,21 +199,21 @@ TEST_F(LoopCloserTest, BadInputIsAnsweredWithAReasonNeverACrash) {
   addMap(*lc);
   const int64_t t = 60 * kSecond;
   ASSERT_TRUE(lc->addKeyframe(world_.keyframe(2, t)).ok());
-  register_result_t r = lc->answer(request(1, t, t, kNode, 999));
+  register_result_t r = lc->answer(registerRequest(1, t, t, kNode, 999));
   EXPECT_EQ(r.status, kUnknownNode);
   EXPECT_NE(r.reason.find("999"), std::string::npos);
-  r = lc->answer(request(2, t, t + 1, kNode, 3));
+  r = lc->answer(registerRequest(2, t, t + 1, kNode, 3));
   EXPECT_EQ(r.status, kUnknownKeyframe);
-  r = lc->answer(request(3, t, t, 7, 3));
+  r = lc->answer(registerRequest(3, t, t, 7, 3));
   EXPECT_EQ(r.status, kMalformed);
   EXPECT_NE(r.reason.find("mode 7"), std::string::npos);
   // An empty keyframe is accepted as data but answered with a reason when used.
   ASSERT_TRUE(lc->addKeyframe(world_.keyframe(-1, t + 10)).ok());
-  r = lc->answer(request(4, t, t + 10, kGlobal));
+  r = lc->answer(registerRequest(4, t, t + 10, kGlobal));
   EXPECT_EQ(r.status, kTooFewInliers);
   EXPECT_NE(r.reason.find("no features"), std::string::npos);
   ASSERT_TRUE(lc->addNode(node(50, t + 10, 0)).ok());
-  r = lc->answer(request(5, t, t, kNode, 50));
+  r = lc->answer(registerRequest(5, t, t, kNode, 50));
   EXPECT_EQ(r.status, kTooFewInliers);
   EXPECT_NE(r.reason.find("no features"), std::string::npos) << r.reason;
   // Malformed keyframes and nodes are refused and counted.
@@ -272,9 +240,9 @@ TEST_F(LoopCloserTest, AnswersAtMostTwoPerSecondNewestFirstAndDropsStaleOnes) {
   for (int k = 0; k < 3; ++k) {
     ASSERT_TRUE(lc->addKeyframe(world_.keyframe(k, t + k * 100'000)).ok());
   }
-  lc->submit(request(1, t, t, kNode, 1));
-  lc->submit(request(2, t + 100'000, t + 100'000, kNode, 2));
-  lc->submit(request(3, t + 200'000, t + 200'000, kNode, 3));
+  lc->submit(registerRequest(1, t, t, kNode, 1));
+  lc->submit(registerRequest(2, t + 100'000, t + 100'000, kNode, 2));
+  lc->submit(registerRequest(3, t + 200'000, t + 200'000, kNode, 3));
   auto out = lc->poll();
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].request_id, 3);  // the newest
@@ -304,7 +272,7 @@ TEST_F(LoopCloserTest, ARequestThatOvertookItsKeyframeWaitsForIt) {
   addMap(*lc);
   const int64_t t = 100 * kSecond;
   lc->advanceClock(t);
-  lc->submit(request(1, t, t, kGlobal));
+  lc->submit(registerRequest(1, t, t, kGlobal));
   EXPECT_TRUE(lc->poll().empty());  // not answered "unknown keyframe"
   lc->advanceClock(t + 50'000);
   EXPECT_TRUE(lc->poll().empty());
@@ -316,7 +284,7 @@ TEST_F(LoopCloserTest, ARequestThatOvertookItsKeyframeWaitsForIt) {
   EXPECT_EQ(out[0].node_id, 3);
   // A keyframe that never comes: answered unknown once the wait is over, not before.
   const int64_t t2 = t + 2 * kSecond;
-  lc->submit(request(2, t2, t2, kGlobal));
+  lc->submit(registerRequest(2, t2, t2, kGlobal));
   lc->advanceClock(t2 + 400'000);
   EXPECT_TRUE(lc->poll().empty());
   lc->advanceClock(t2 + 500'000);
@@ -343,7 +311,8 @@ TEST_F(LoopCloserTest, ANodeThatCameBeforeItsKeyframeWaitsForIt) {
   EXPECT_TRUE(lc->takeNodeErrors().empty());
   // Found by a later query of the same place.
   ASSERT_TRUE(lc->addKeyframe(world_.keyframe(0, t + 20 * kSecond)).ok());
-  const register_result_t r = lc->answer(request(1, t + 20 * kSecond, t + 20 * kSecond, kGlobal));
+  const register_result_t r =
+      lc->answer(registerRequest(1, t + 20 * kSecond, t + 20 * kSecond, kGlobal));
   EXPECT_EQ(r.status, kOk) << r.reason;
   EXPECT_EQ(r.node_id, 1);
   // A keyframe that never comes: rejected once the wait is over, with a line naming the node.
@@ -416,7 +385,7 @@ TEST_F(LoopCloserTest, TheMapHoldsAtMostMaxPlacesAndAtMostMaxWaitingNodesWait) {
   EXPECT_EQ(lc->stats().nodes_over_capacity, 1);
   // The places held still answer.
   ASSERT_TRUE(lc->addKeyframe(world_.keyframe(1, t0 + 6)).ok());
-  const register_result_t r = lc->answer(request(1, t0 + 6, t0 + 6, kNode, 2));
+  const register_result_t r = lc->answer(registerRequest(1, t0 + 6, t0 + 6, kNode, 2));
   EXPECT_EQ(r.status, kOk) << r.reason;
 
   LoopCloserOptions w;
@@ -466,7 +435,7 @@ TEST_F(LoopCloserTest, AFullQueueDropsTheOldestRequest) {
   addMap(*lc);
   const int64_t t = 100 * kSecond;
   ASSERT_TRUE(lc->addKeyframe(world_.keyframe(0, t)).ok());
-  for (int k = 1; k <= 3; ++k) lc->submit(request(k, t + k, t, kNode, 1));
+  for (int k = 1; k <= 3; ++k) lc->submit(registerRequest(k, t + k, t, kNode, 1));
   auto out = lc->poll();
   ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(out[0].request_id, 1);
@@ -498,11 +467,11 @@ TEST_F(LoopCloserTest, TheMapStoreCarriesNodesAndKeyframesToTheNextSession) {
   EXPECT_EQ(lc->numNodes(), static_cast<size_t>(kPlaces));
   const int64_t t = 200 * kSecond;
   ASSERT_TRUE(lc->addKeyframe(world_.keyframe(1, t)).ok());
-  register_result_t r = lc->answer(request(1, t, t, kNode, 2));
+  register_result_t r = lc->answer(registerRequest(1, t, t, kNode, 2));
   EXPECT_EQ(r.status, kOk) << r.reason;
   for (int p : {6, 0, 3}) {
     ASSERT_TRUE(lc->addKeyframe(world_.keyframe(p, t + p + 1)).ok());
-    r = lc->answer(request(2, t, t + p + 1, kGlobal));
+    r = lc->answer(registerRequest(2, t, t + p + 1, kGlobal));
     EXPECT_EQ(r.status, kOk) << r.reason;
     EXPECT_EQ(r.node_id, p + 1);
   }
@@ -527,7 +496,7 @@ TEST_F(LoopCloserTest, ServesRequestsOverLcm) {
   EXPECT_EQ(lc->numNodes(), 3u);
   const evermap::keyframe_t q = world_.keyframe(1, 50 * kSecond);
   lcm.publish(channels::kKeyframe, &q);
-  const register_request_t req = request(42, 50 * kSecond, 50 * kSecond, kGlobal, -1, 0);
+  const register_request_t req = registerRequest(42, 50 * kSecond, 50 * kSecond, kGlobal, -1, 0);
   lcm.publish(channels::kRegisterRequest, &req);
   // Garbage on every input channel: counted, never fatal.
   const char junk[] = "not an lcm message";
@@ -560,7 +529,7 @@ TEST_F(LoopCloserTest, TheMotionStreamStartsTheClockSoTheFirstRequestIsAnsweredA
     const int64_t t = 100 * kSecond;  // far from the clock addMap left: the guard holds
     const evermap::keyframe_t k = world_.keyframe(1, t);
     lcm.publish(channels::kKeyframe, &k);
-    const register_request_t req = request(7, t, t, kGlobal, -1, 0);
+    const register_request_t req = registerRequest(7, t, t, kGlobal, -1, 0);
     lcm.publish(channels::kRegisterRequest, &req);
     for (int f = 1; with_vo && f <= 3; ++f) {  // 50 ms apart: one keyframe interval is not over
       evermap::vo_delta_t d{};

@@ -16,11 +16,7 @@ namespace evermap::mapper {
 namespace {
 
 sim::SimOptions threeFloors() {
-  sim::SimOptions o = sim::testing::smallBuilding(3);
-  o.patrol.sessions = 1;
-  o.patrol.total_hours = 0.03;
-  o.patrol.span_days = 1;
-  return o;
+  return sim::testing::smallPatrol(3, 1, 0.03, 1, sim::PatrolOptions{}.explore_sessions);
 }
 
 TEST(MapEvaluation, ScoresARigidlyMovedTrueMapAsExactAndSeesADisplacedNode) {

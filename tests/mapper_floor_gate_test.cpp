@@ -18,17 +18,6 @@ namespace {
 
 using namespace testing;  // tests/mapper_messages.h, tests/scripted_drive.h
 
-floor_t floorMsg(int64_t utime, int8_t event, double height_m, int32_t index) {
-  floor_t f{};
-  f.utime = utime;
-  f.event = event;
-  f.height_m = height_m;
-  f.height_sigma_m = 0.05;
-  f.floor_index = index;
-  f.in_elevator = event == floor_t::EVENT_RIDE_START ? 1 : 0;
-  return f;
-}
-
 bool names(const std::string& why, const char* bound) {
   return why.find(bound) != std::string::npos;
 }

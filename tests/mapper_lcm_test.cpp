@@ -39,14 +39,7 @@ namespace evermap::mapper {
 namespace {
 
 // One session of ~3 simulated minutes on the 3-floor building.
-sim::SimOptions shortRun() {
-  sim::SimOptions o = sim::testing::smallBuilding(5);
-  o.patrol.sessions = 1;
-  o.patrol.total_hours = 0.04;
-  o.patrol.span_days = 1;
-  o.patrol.explore_sessions = 1;
-  return o;
-}
+sim::SimOptions shortRun() { return sim::testing::smallPatrol(5, 1, 0.04, 1, 1); }
 
 struct Listener {
   std::vector<pose_t> poses;
@@ -289,6 +282,16 @@ void expectSameGraph(const map_graph_t& a, const map_graph_t& b) {
   }
 }
 
+// The last MAP_GRAPH of a run with messages injected is the clean run's, node for node.
+void expectTheCleanMap(const LiveRun& clean, const LiveRun& injected) {
+  ASSERT_FALSE(clean.heard.graphs.empty());
+  ASSERT_FALSE(injected.heard.graphs.empty());
+  const map_graph_t& a = clean.heard.graphs.back();
+  const map_graph_t& b = injected.heard.graphs.back();
+  ASSERT_NO_FATAL_FAILURE(expectSameGraph(a, b));
+  EXPECT_EQ(a.utime, b.utime);  // the mapper's clock never left the stream's
+}
+
 TEST(MapperLcm, DropsAndCountsMalformedAndOutOfOrderMessagesWithoutApplyingThem) {
   evermap::testing::ScratchDir dir;
   const LiveRun clean = runLive(Inject::kNothing, dir.path() / "clean.db");
@@ -308,9 +311,7 @@ TEST(MapperLcm, DropsAndCountsMalformedAndOutOfOrderMessagesWithoutApplyingThem)
   ASSERT_NE(at, s.counter_names.end());
   EXPECT_EQ(s.counter_values[static_cast<size_t>(at - s.counter_names.begin())], 1);
   // Nothing of it reached the map: the same graph, node for node.
-  ASSERT_FALSE(clean.heard.graphs.empty());
-  ASSERT_FALSE(dirty.heard.graphs.empty());
-  expectSameGraph(clean.heard.graphs.back(), dirty.heard.graphs.back());
+  expectTheCleanMap(clean, dirty);
 }
 
 TEST(MapperLcm, AMessageStampedTwoToThe62IsRefusedAndTheMapIsTheCleanRunsOne) {
@@ -328,12 +329,7 @@ TEST(MapperLcm, AMessageStampedTwoToThe62IsRefusedAndTheMapIsTheCleanRunsOne) {
   EXPECT_EQ(far.stats.dropped, clean.stats.dropped);
   ASSERT_FALSE(far.heard.stats.empty());
   EXPECT_EQ(far.heard.stats.back().num_dropped_messages, 8);
-  ASSERT_FALSE(clean.heard.graphs.empty());
-  ASSERT_FALSE(far.heard.graphs.empty());
-  const map_graph_t& a = clean.heard.graphs.back();
-  const map_graph_t& b = far.heard.graphs.back();
-  ASSERT_NO_FATAL_FAILURE(expectSameGraph(a, b));
-  EXPECT_EQ(a.utime, b.utime);  // the mapper's clock never left the stream's
+  expectTheCleanMap(clean, far);
 }
 
 TEST(MapperLcm, TakesTheCameraFromStereoCalibAndRefusesVoBeforeIt) {

@@ -1,8 +1,10 @@
 #pragma once
-// Messages for the mapper tests: planar poses and VO deltas as vo-proc sends them.
+// Messages for the mapper tests: planar poses, VO deltas as vo-proc sends them, FLOOR as
+// elevator-proc does.
 
 #include <cstdint>
 
+#include <evermap/floor_t.hpp>
 #include <evermap/vo_delta_t.hpp>
 
 #include "core/geometry/se3.h"
@@ -31,6 +33,19 @@ inline vo_delta_t voMsg(int64_t utime, int64_t ref, const SE3d& ref_T_cur, doubl
   messages::putPose(ref_T_cur, m.translation, m.orientation);
   for (int i = 0; i < 6; ++i) m.covariance[7 * i] = sigma * sigma;
   return m;
+}
+
+// A FLOOR message as elevator-proc sends it (height sigma 0.05 m; in the cab from a ride's
+// start on).
+inline floor_t floorMsg(int64_t utime, int8_t event, double height_m, int32_t index) {
+  floor_t f{};
+  f.utime = utime;
+  f.event = event;
+  f.height_m = height_m;
+  f.height_sigma_m = 0.05;
+  f.floor_index = index;
+  f.in_elevator = event == floor_t::EVENT_RIDE_START ? 1 : 0;
+  return f;
 }
 
 inline vo_delta_t voRestart(int64_t utime) {

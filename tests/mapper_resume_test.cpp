@@ -23,14 +23,7 @@ using core::Vec3;
 
 // Two sessions over a three-floor building; the second starts at home, where the first
 // mapped, and reaches the whole main floor.
-sim::SimOptions twoSessions() {
-  sim::SimOptions o = sim::testing::smallBuilding(7);
-  o.patrol.sessions = 2;
-  o.patrol.total_hours = 0.1;
-  o.patrol.span_days = 2;
-  o.patrol.explore_sessions = 1;
-  return o;
-}
+sim::SimOptions twoSessions() { return sim::testing::smallPatrol(7, 2, 0.1, 2, 1); }
 
 TEST(MapperRestore, ASecondSessionContinuesTheStoredMapAndAddsNodesOnlyWhereItIsNew) {
   evermap::testing::ScratchDir dir;

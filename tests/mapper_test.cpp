@@ -259,25 +259,13 @@ TEST(ReducedGraph, AnElevatorRideMovesTheEstimateToTheNewFloorAndTakesNoStepInTh
   Mapper m(scriptedOptions());
   ASSERT_TRUE(m.onVo(voRestart(0)));
   ASSERT_EQ(m.nodes().size(), 1u);
-  floor_t start{};
-  start.utime = 1'000'000;
-  start.floor_index = -1;
-  start.height_m = 0.0;
-  start.height_sigma_m = 0.05;
-  start.in_elevator = 1;
-  start.event = floor_t::EVENT_RIDE_START;
-  ASSERT_TRUE(m.onFloor(start));
+  ASSERT_TRUE(m.onFloor(floorMsg(1'000'000, floor_t::EVENT_RIDE_START, 0.0, -1)));
   const int64_t steps = m.stats().steps;
   for (int k = 1; k <= 5; ++k)
     ASSERT_TRUE(m.onVo(voMsg(1'000'000 + k * 600'000, k == 1 ? 0 : 1'000'000 + (k - 1) * 600'000,
                              SE3d(), 1e-3, true)));
   EXPECT_EQ(m.stats().steps, steps);
-  floor_t end = start;
-  end.utime = 5'000'000;
-  end.floor_index = 1;
-  end.height_m = -4.7;
-  end.in_elevator = 0;
-  end.event = floor_t::EVENT_RIDE_END;
+  floor_t end = floorMsg(5'000'000, floor_t::EVENT_RIDE_END, -4.7, 1);
   end.new_floor = 1;
   ASSERT_TRUE(m.onFloor(end));
   EXPECT_NEAR(m.pose().mean.translation().z(), -4.7, 1e-6);
@@ -295,36 +283,15 @@ TEST(ReducedGraph, ARideEndsOnTheMapsFloorAtItsHeightWhateverElevatorProcCallsIt
   for (const double ride_m : {4.7, -4.6}) {
     Mapper m(scriptedOptions());
     ASSERT_TRUE(m.onVo(voRestart(0)));
-    floor_t start{};
-    start.utime = 1'000'000;
-    start.floor_index = -1;
-    start.height_sigma_m = 0.05;
-    start.in_elevator = 1;
-    start.event = floor_t::EVENT_RIDE_START;
-    ASSERT_TRUE(m.onFloor(start));
-    floor_t end = start;
-    end.utime = 5'000'000;
-    end.floor_index = 1;
-    end.height_m = -4.7;
-    end.in_elevator = 0;
-    end.event = floor_t::EVENT_RIDE_END;
-    ASSERT_TRUE(m.onFloor(end));
+    ASSERT_TRUE(m.onFloor(floorMsg(1'000'000, floor_t::EVENT_RIDE_START, 0.0, -1)));
+    ASSERT_TRUE(m.onFloor(floorMsg(5'000'000, floor_t::EVENT_RIDE_END, -4.7, 1)));
     ASSERT_EQ(m.floor(), 1);
     // Back to floor 0, then the new session's ride, labelled 1 by its elevator-proc.
-    start.utime = 6'000'000;
-    start.height_m = -4.7;
-    ASSERT_TRUE(m.onFloor(start));
-    end.utime = 9'000'000;
-    end.floor_index = 0;
-    end.height_m = 0.05;
-    ASSERT_TRUE(m.onFloor(end));
+    ASSERT_TRUE(m.onFloor(floorMsg(6'000'000, floor_t::EVENT_RIDE_START, -4.7, -1)));
+    ASSERT_TRUE(m.onFloor(floorMsg(9'000'000, floor_t::EVENT_RIDE_END, 0.05, 0)));
     ASSERT_EQ(m.floor(), 0);
-    start.utime = 10'000'000;
-    start.height_m = 0.0;
-    ASSERT_TRUE(m.onFloor(start));
-    end.utime = 14'000'000;
-    end.floor_index = 1;
-    end.height_m = ride_m;
+    ASSERT_TRUE(m.onFloor(floorMsg(10'000'000, floor_t::EVENT_RIDE_START, 0.0, -1)));
+    floor_t end = floorMsg(14'000'000, floor_t::EVENT_RIDE_END, ride_m, 1);
     end.new_floor = 1;
     ASSERT_TRUE(m.onFloor(end));
     EXPECT_EQ(m.floor(), ride_m > 0 ? 2 : 1) << ride_m;
@@ -551,14 +518,7 @@ TEST(Mapper, DropsMalformedAndStaleMessagesAndCountsThem) {
   EXPECT_EQ(m.stats().nodes, 0);
 }
 
-sim::SimOptions shortPatrol() {
-  sim::SimOptions o = sim::testing::smallBuilding(7);
-  o.patrol.sessions = 1;
-  o.patrol.total_hours = 0.05;
-  o.patrol.span_days = 1;
-  o.patrol.explore_sessions = 1;
-  return o;
-}
+sim::SimOptions shortPatrol() { return sim::testing::smallPatrol(7, 1, 0.05, 1, 1); }
 
 TEST(ReducedGraph, HasFarFewerNodesThanTheFullGraphWithComparableAccuracy) {
   MapperOptions reduced_options;

@@ -123,45 +123,49 @@ TEST(ImageMsg, MalformedImagesAreRefusedWithTheReason) {
   const evermap::image_t gray = *toMsg(image, 5, ImageEncoding::kGray8);
   const evermap::image_t png = *toMsg(image, 5, ImageEncoding::kPng);
 
-  evermap::image_t m = gray;
-  m.width = 0;
-  expectError(fromMsg(m), "size 0x16 is not in 1..16384");
-  m = gray;
-  m.height = 1 << 20;
-  expectError(fromMsg(m), "is not in 1..16384");
-  m = gray;
-  m.size = 100;
-  expectError(fromMsg(m), "size field 100 but 512 data bytes");
-  m = gray;
-  m.row_stride = 31;
-  expectError(fromMsg(m), "row_stride 31 is less than width 32");
-  m = gray;
-  m.height = 17;
-  expectError(fromMsg(m), "needs 544 bytes, has 512");
-  m = gray;
-  m.pixelformat = 99;
-  expectError(fromMsg(m), "unknown pixelformat 99");
-  m = png;
-  m.width = 33;
-  expectError(fromMsg(m), "the PNG is 32x16, the message says 33x16");
-  m = png;
-  m.data[0] = 'X';
-  expectError(fromMsg(m), "the data is not a PNG");
-  m = png;
-  m.data.resize(m.data.size() / 2);  // a truncated PNG
-  m.size = static_cast<int32_t>(m.data.size());
-  expectError(fromMsg(m), "corrupt or unsupported image data");
-  m = png;
-  m.row_stride = 32;
-  expectError(fromMsg(m), "row_stride must be 0 for PNG");
+  // Each case: the message changed in one way, and the error it must give.
+  const auto refused = [](const evermap::image_t& good, auto change, const std::string& needle) {
+    evermap::image_t m = good;
+    change(m);
+    expectError(fromMsg(m), needle);
+  };
+  using Image = evermap::image_t;
+  refused(
+      gray, [](Image& m) { m.width = 0; }, "size 0x16 is not in 1..16384");
+  refused(
+      gray, [](Image& m) { m.height = 1 << 20; }, "is not in 1..16384");
+  refused(
+      gray, [](Image& m) { m.size = 100; }, "size field 100 but 512 data bytes");
+  refused(
+      gray, [](Image& m) { m.row_stride = 31; }, "row_stride 31 is less than width 32");
+  refused(
+      gray, [](Image& m) { m.height = 17; }, "needs 544 bytes, has 512");
+  refused(
+      gray, [](Image& m) { m.pixelformat = 99; }, "unknown pixelformat 99");
+  refused(
+      png, [](Image& m) { m.width = 33; }, "the PNG is 32x16, the message says 33x16");
+  refused(
+      png, [](Image& m) { m.data[0] = 'X'; }, "the data is not a PNG");
+  refused(
+      png,
+      [](Image& m) {
+        m.data.resize(m.data.size() / 2);  // a truncated PNG
+        m.size = static_cast<int32_t>(m.data.size());
+      },
+      "corrupt or unsupported image data");
+  refused(
+      png, [](Image& m) { m.row_stride = 32; }, "row_stride must be 0 for PNG");
   // A colour PNG is not a gray image.
   cv::Mat colour(16, 32, CV_8UC3, cv::Scalar(1, 2, 3));
   std::vector<uint8_t> bytes;
   cv::imencode(".png", colour, bytes);
-  m = png;
-  m.data = bytes;
-  m.size = static_cast<int32_t>(bytes.size());
-  expectError(fromMsg(m), "not an 8-bit gray image (3 channels");
+  refused(
+      png,
+      [&bytes](Image& m) {
+        m.data = bytes;
+        m.size = static_cast<int32_t>(bytes.size());
+      },
+      "not an 8-bit gray image (3 channels");
   // And the sender side refuses what it cannot describe.
   expectError(toMsg(colour, 1, ImageEncoding::kPng), "must be a non-empty 8-bit gray image");
   expectError(toMsg(cv::Mat(), 1, ImageEncoding::kGray8), "must be a non-empty 8-bit gray image");

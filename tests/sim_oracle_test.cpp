@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "sim_test_support.h"
+#include "tests/register_results.h"
 #include "tools/sim/registration_oracle.h"
 #include "tools/sim/request_load.h"
 #include "tools/sim/sim_message_conversions.h"
@@ -15,7 +16,7 @@
 namespace evermap::sim {
 namespace {
 
-constexpr int kOk = register_result_t::STATUS_OK;
+using evermap::testing::kOk;
 
 // A camera looking along world x (its z axis), at (x, y, 1.2) on `floor`, turned by yaw.
 KeyframeTruth camera(int64_t utime, double x, double y, double yaw, int floor = 0) {
@@ -25,24 +26,13 @@ KeyframeTruth camera(int64_t utime, double x, double y, double yaw, int floor = 
 }
 
 node_added_t node(int64_t id, int64_t keyframe_utime, int floor = 0) {
-  node_added_t n{};
-  n.utime = keyframe_utime;
-  n.node_id = id;
-  n.keyframe_utime = keyframe_utime;
-  n.floor = floor;
-  return n;
+  return evermap::testing::nodeAdded(id, keyframe_utime, floor);
 }
 
+// Sent at the keyframe's time.
 register_request_t request(int64_t id, int64_t keyframe_utime, int8_t mode, int64_t target = -1,
                            int floor = 0) {
-  register_request_t r{};
-  r.utime = keyframe_utime;
-  r.request_id = id;
-  r.keyframe_utime = keyframe_utime;
-  r.mode = mode;
-  r.target_node_id = target;
-  r.floor = floor;
-  return r;
+  return evermap::testing::registerRequest(id, keyframe_utime, keyframe_utime, mode, target, floor);
 }
 
 OracleOptions exact() {

@@ -24,13 +24,21 @@ inline SimOptions smallBuilding(uint64_t seed) {
   return o;
 }
 
+// smallBuilding(seed) patrolled in `sessions` sessions over `span_days` days, `total_hours` in
+// all; the whole main floor is reachable from session `explore_sessions` on.
+inline SimOptions smallPatrol(uint64_t seed, int sessions, double total_hours, int span_days,
+                              int explore_sessions) {
+  SimOptions o = smallBuilding(seed);
+  o.patrol.sessions = sessions;
+  o.patrol.total_hours = total_hours;
+  o.patrol.span_days = span_days;
+  o.patrol.explore_sessions = explore_sessions;
+  return o;
+}
+
 // 3 floors, 2 sessions, about 8 minutes of patrol in all; every floor is visited.
 inline SimOptions smallRun(uint64_t seed = 11) {
-  SimOptions o = smallBuilding(seed);
-  o.patrol.sessions = 2;
-  o.patrol.total_hours = 0.12;
-  o.patrol.span_days = 3;
-  o.patrol.explore_sessions = 1;
+  SimOptions o = smallPatrol(seed, 2, 0.12, 3, 1);
   o.elevator.intermediate_stop_probability = 0.5;
   return o;
 }

@@ -9,8 +9,12 @@
 
 #include "core/solver/pose_factors.h"
 
+#include "tests/solver_test_util.h"
+
 namespace evermap::solver {
 namespace {
+
+using testing::jacobianError;
 
 using core::SE2d;
 using core::SE3d;
@@ -28,22 +32,6 @@ SE3d randomSE3(double max_angle = 1.2) {
   core::Vec3 w(n(rng), n(rng), n(rng));
   w *= max_angle / std::max(1.0, w.norm());
   return SE3d(core::SO3d::exp(w), core::Vec3(n(rng), n(rng), n(rng)));
-}
-
-// Max |analytic − numerical| over all Jacobian blocks of a factor at x.
-double jacobianError(const Factor& f, const std::vector<PoseValue>& x) {
-  std::vector<const PoseValue*> ptr;
-  for (const auto& v : x) ptr.push_back(&v);
-  std::vector<Eigen::MatrixXd> J;
-  std::vector<double*> out;
-  for (const auto& v : x) J.emplace_back(f.dim(), v.dim());
-  for (auto& j : J) out.push_back(j.data());
-  Eigen::VectorXd r(f.dim());
-  f.evaluate(ptr, r.data(), out.data());
-  const auto num = numericalJacobians(f, ptr);
-  double err = 0.0;
-  for (size_t i = 0; i < J.size(); ++i) err = std::max(err, (J[i] - num[i]).cwiseAbs().maxCoeff());
-  return err;
 }
 
 Eigen::MatrixXd eye(int n) { return Eigen::MatrixXd::Identity(n, n); }

@@ -23,24 +23,14 @@
 #include "core/solver/pose_factors.h"
 #include "core/solver/trajectory_error.h"
 
+#include "tests/solver_test_util.h"
+
 namespace evermap::solver {
 namespace {
 
+using testing::TempFile;
+
 namespace fs = std::filesystem;
-
-class TempFile {
- public:
-  TempFile(const std::string& name, const std::string& content)
-      : path_(fs::temp_directory_path() /
-              ("evermap_solver_io_" + std::to_string(::getpid()) + "_" + name)) {
-    std::ofstream(path_) << content;
-  }
-  ~TempFile() { fs::remove(path_); }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
 
 TEST(GraphIo, ReadsG2o2dVerticesEdgesAndCountsUnknownTags) {
   TempFile f("a.g2o",

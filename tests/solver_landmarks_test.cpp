@@ -19,8 +19,13 @@
 #include "core/solver/outliers.h"
 #include "tools/sim/landmark_graphs.h"
 
+#include "tests/solver_test_util.h"
+
 namespace evermap::solver {
 namespace {
+
+using testing::jacobianError;
+using testing::TempFile;
 
 namespace fs = std::filesystem;
 using core::SE2d;
@@ -29,35 +34,6 @@ using core::Vec2;
 using core::Vec3;
 
 std::mt19937 rng(7);
-
-class TempFile {
- public:
-  TempFile(const std::string& name, const std::string& content)
-      : path_(fs::temp_directory_path() /
-              ("evermap_solver_landmarks_" + std::to_string(::getpid()) + "_" + name)) {
-    std::ofstream(path_) << content;
-  }
-  ~TempFile() { fs::remove(path_); }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-double jacobianError(const Factor& f, const std::vector<PoseValue>& x) {
-  std::vector<const PoseValue*> ptr;
-  for (const auto& v : x) ptr.push_back(&v);
-  std::vector<Eigen::MatrixXd> J;
-  std::vector<double*> out;
-  for (const auto& v : x) J.emplace_back(f.dim(), v.dim());
-  for (auto& j : J) out.push_back(j.data());
-  Eigen::VectorXd r(f.dim());
-  f.evaluate(ptr, r.data(), out.data());
-  const auto num = numericalJacobians(f, ptr);
-  double err = 0.0;
-  for (size_t i = 0; i < J.size(); ++i) err = std::max(err, (J[i] - num[i]).cwiseAbs().maxCoeff());
-  return err;
-}
 
 Vec3 randomVec3(double scale) {
   std::normal_distribution<double> n(0.0, scale);

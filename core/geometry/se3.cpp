@@ -23,27 +23,27 @@ Mat3 leftQ(const Vec3& rho, const Vec3& phi) {
          d * (P * R * P * P + P * P * R * P);
 }
 
+// [[A, B], [0, A]]: the form of SE(3)'s left Jacobian and its inverse, (υ, ω) order.
+Mat6 blockUpperTriangular(const Mat3& A, const Mat3& B) {
+  Mat6 J = Mat6::Zero();
+  J.topLeftCorner<3, 3>() = A;
+  J.bottomRightCorner<3, 3>() = A;
+  J.topRightCorner<3, 3>() = B;
+  return J;
+}
+
 // Left Jacobian of SE(3), (υ, ω) order.
 Mat6 leftJacobianSE3(const Vec6& xi) {
   const Vec3 rho = xi.head<3>();
   const Vec3 phi = xi.tail<3>();
-  const Mat3 Jl = SO3d::leftJacobian(phi);
-  Mat6 J = Mat6::Zero();
-  J.topLeftCorner<3, 3>() = Jl;
-  J.bottomRightCorner<3, 3>() = Jl;
-  J.topRightCorner<3, 3>() = leftQ(rho, phi);
-  return J;
+  return blockUpperTriangular(SO3d::leftJacobian(phi), leftQ(rho, phi));
 }
 
 Mat6 leftJacobianInverseSE3(const Vec6& xi) {
   const Vec3 rho = xi.head<3>();
   const Vec3 phi = xi.tail<3>();
   const Mat3 Jli = SO3d::leftJacobianInverse(phi);
-  Mat6 J = Mat6::Zero();
-  J.topLeftCorner<3, 3>() = Jli;
-  J.bottomRightCorner<3, 3>() = Jli;
-  J.topRightCorner<3, 3>() = -Jli * leftQ(rho, phi) * Jli;
-  return J;
+  return blockUpperTriangular(Jli, -Jli * leftQ(rho, phi) * Jli);
 }
 
 }  // namespace

@@ -3,28 +3,33 @@
 #include <cmath>
 #include <cstring>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "core/map/store_codec.h"
 
 namespace evermap::map {
 namespace {
 
-Status readSessions(const StoreFile& file, MapSnapshot& out) {
+// The rows of a query of two columns, an int and what `second` reads, appended to `out`.
+template <class T, class Second>
+Status readPairs(const StoreFile& file, const char* sql, std::vector<std::pair<int, T>>& out,
+                 Second second) {
   Statement st;
-  if (!file.prepare(st, "SELECT session_id, start_utime FROM map_sessions ORDER BY session_id"))
-    return file.sqliteError();
+  if (!file.prepare(st, sql)) return file.sqliteError();
   while (sqlite3_step(st.s) == SQLITE_ROW)
-    out.sessions.emplace_back(sqlite3_column_int(st.s, 0), sqlite3_column_int64(st.s, 1));
+    out.emplace_back(sqlite3_column_int(st.s, 0), second(st.s, 1));
   return Ok{};
 }
 
+Status readSessions(const StoreFile& file, MapSnapshot& out) {
+  return readPairs(file, "SELECT session_id, start_utime FROM map_sessions ORDER BY session_id",
+                   out.sessions, sqlite3_column_int64);
+}
+
 Status readFloors(const StoreFile& file, MapSnapshot& out) {
-  Statement st;
-  if (!file.prepare(st, "SELECT floor_index, height_m FROM map_floors ORDER BY floor_index"))
-    return file.sqliteError();
-  while (sqlite3_step(st.s) == SQLITE_ROW)
-    out.floors.emplace_back(sqlite3_column_int(st.s, 0), sqlite3_column_double(st.s, 1));
-  return Ok{};
+  return readPairs(file, "SELECT floor_index, height_m FROM map_floors ORDER BY floor_index",
+                   out.floors, sqlite3_column_double);
 }
 
 Status readNodes(const StoreFile& file, MapSnapshot& out) {

@@ -19,6 +19,18 @@ bool finite(const double* v, int n) {
   return true;
 }
 
+// The image size and the pinhole intrinsics, which core::CameraCalibration and camera_calib_t
+// name alike.
+template <class From, class To>
+void copyIntrinsics(const From& from, To& to) {
+  to.width = from.width;
+  to.height = from.height;
+  to.fx = from.fx;
+  to.fy = from.fy;
+  to.cx = from.cx;
+  to.cy = from.cy;
+}
+
 }  // namespace
 
 int64_t utimeFromNs(int64_t t_ns) {
@@ -115,12 +127,7 @@ Expected<StereoFrame> fromMsg(const evermap::stereo_image_t& msg) {
 
 evermap::camera_calib_t toMsg(const core::CameraCalibration& c) {
   evermap::camera_calib_t msg;
-  msg.width = c.width;
-  msg.height = c.height;
-  msg.fx = c.fx;
-  msg.fy = c.fy;
-  msg.cx = c.cx;
-  msg.cy = c.cy;
+  copyIntrinsics(c, msg);
   msg.distortion_model = static_cast<int8_t>(c.distortion_model);
   msg.distortion = c.distortion;
   msg.num_distortion = static_cast<int32_t>(c.distortion.size());
@@ -138,12 +145,7 @@ Expected<core::CameraCalibration> fromMsg(const evermap::camera_calib_t& msg) {
                      " coefficients");
   }
   core::CameraCalibration c;
-  c.width = msg.width;
-  c.height = msg.height;
-  c.fx = msg.fx;
-  c.fy = msg.fy;
-  c.cx = msg.cx;
-  c.cy = msg.cy;
+  copyIntrinsics(msg, c);
   if (msg.distortion_model != evermap::camera_calib_t::DISTORTION_NONE &&
       msg.distortion_model != evermap::camera_calib_t::DISTORTION_RADTAN) {
     return makeError(what, ": unknown distortion_model ", int{msg.distortion_model});
@@ -200,6 +202,10 @@ evermap::imu_t toMsg(const ImuSample& s) {
     msg.linear_acceleration[i] = s.accel_m_s2[i];
   }
   return msg;
+}
+
+imu::ImuSample toImuSample(const ImuSample& s) {
+  return {utimeFromNs(s.t_ns), s.gyro_rad_s, s.accel_m_s2};
 }
 
 Expected<ImuSample> fromMsg(const evermap::imu_t& msg) {

@@ -28,6 +28,7 @@
 #include "core/camera/calibration.h"
 #include "core/common/expected.h"
 #include "core/geometry/se3.h"
+#include "core/imu/sample_gate.h"
 #include "core/messages/image_codec.h"
 #include "core/messages/imu_sample.h"
 #include "core/messages/wire_check.h"
@@ -70,6 +71,9 @@ Expected<core::StereoCalibration> fromMsg(const evermap::stereo_calib_t& msg);
 
 // ---- IMU ----
 evermap::imu_t toMsg(const ImuSample& sample);
+// A data-set sample as the IMU filters take it (imu::ImuSample, microseconds): its stamp
+// rounded by utimeFromNs, as toMsg rounds it for imu_t.
+imu::ImuSample toImuSample(const ImuSample& sample);
 // t_ns = utime * 1000.
 Expected<ImuSample> fromMsg(const evermap::imu_t& msg);
 

@@ -152,6 +152,8 @@ class GraphReader {
  private:
   Status setDim(int d, const std::string& where);
   // VERTEX_SE2 (g2o), VERTEX2 (TORO): "TAG id x y θ".
+  // A vertex line of a `dim`-D graph: its id into vx and its `n` numbers into v_.
+  Status vertexFields(const LineParser& p, int dim, size_t n, GraphVertex* vx);
   Status planarVertex(const LineParser& p);
   Status spatialVertex(const LineParser& p);
   // Every 2-D edge line is "TAG from to dx dy dθ" and six information numbers whose layout
@@ -195,22 +197,23 @@ Expected<core::SE3d> GraphReader::g2oPose(const double* v, const std::string& wh
   return core::SE3d(q, core::Vec3(v[0], v[1], v[2]));
 }
 
+Status GraphReader::vertexFields(const LineParser& p, int dim, size_t n, GraphVertex* vx) {
+  EVERMAP_TRY(setDim(dim, p.where));
+  EVERMAP_TRY(p.expectFields({1 + n}));
+  EVERMAP_TRY(p.keyAt(1, &vx->id));
+  return p.numbers(2, n, v_);
+}
+
 Status GraphReader::planarVertex(const LineParser& p) {
   GraphVertex vx;
-  EVERMAP_TRY(setDim(2, p.where));
-  EVERMAP_TRY(p.expectFields({4}));
-  EVERMAP_TRY(p.keyAt(1, &vx.id));
-  EVERMAP_TRY(p.numbers(2, 3, v_));
+  EVERMAP_TRY(vertexFields(p, 2, 3, &vx));
   vx.pose = PoseValue::planar(core::SE2d(v_[0], v_[1], v_[2]));
   return addVertex(&g_, vx, &seen_, p.where);
 }
 
 Status GraphReader::spatialVertex(const LineParser& p) {
   GraphVertex vx;
-  EVERMAP_TRY(setDim(3, p.where));
-  EVERMAP_TRY(p.expectFields({8}));
-  EVERMAP_TRY(p.keyAt(1, &vx.id));
-  EVERMAP_TRY(p.numbers(2, 7, v_));
+  EVERMAP_TRY(vertexFields(p, 3, 7, &vx));
   const Expected<core::SE3d> pose = g2oPose(v_, p.where);
   if (!pose) return pose.error();
   vx.pose = PoseValue::spatial(*pose);

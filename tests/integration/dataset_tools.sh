@@ -3,23 +3,10 @@
 # excerpt, evermap-kitti2lcm on a stereo folder made from real KITTI frames and on the real
 # monocular folder (refused), and their usage errors. Skips (77) without the data, except
 # under CI.
-set -euo pipefail
-build="$1"; src="$2"
-data="${EVERMAP_DATA:-${EVERMAP_DATA_DEFAULT:-$src/../shared/data}}"
+source "$(dirname "$0")/lib.sh" "$@"
 euroc="$data/euroc-v101-micro"; kitti="$data/kitti07-mono-160"
-for d in "$euroc" "$kitti"; do
-  if [ ! -d "$d" ]; then
-    echo "data set $d not found (set EVERMAP_DATA)"
-    [ "${CI:-}" = "true" ] && exit 1
-    exit 77
-  fi
-done
+need_data "$euroc" "$kitti"
 euroc="$(cd "$euroc" && pwd)"; kitti="$(cd "$kitti" && pwd)"  # the symlinks below need absolute targets
-tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
-expect_line() {  # expect_line FILE REGEX
-  grep -Eq "$2" "$1" || { cat "$1" >&2; fail "no line matching '$2'"; }
-}
 
 # EuRoC, options after the positional arguments as in docs/datasets.md.
 "$build/bin/evermap-euroc2lcm" "$euroc" "$tmp/euroc.lcmlog" \

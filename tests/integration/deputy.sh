@@ -4,21 +4,11 @@
 # with SIGKILL is restarted (seen through the ctl tool), groups stop and start by order,
 # output arrives on DEPUTY_OUTPUT, and SIGTERM to the deputy leaves no child behind.
 # Waits have generous time-outs against hangs; no speed is asserted.
-set -euo pipefail
-build="$1"; src="$2"
-if [ "${EVERMAP_LCM_SANDBOX:-}" != "1" ]; then
-  exec "$src/scripts/lcm-sandbox" bash "$0" "$@"
-fi
+source "$(dirname "$0")/lib.sh" "$@"
+in_sandbox "$@"
 deputy="$build/bin/evermap-deputy"
 ctl="$build/bin/evermap-deputy-ctl"
-tmp="$(mktemp -d)"
-dpid=""
-cleanup() {
-  [ -n "$dpid" ] && kill -KILL "$dpid" 2>/dev/null || true
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
-fail() { echo "FAIL: $*"; echo "--- deputy stderr:"; cat "$tmp/deputy.err" || true; exit 1; }
+fail_logs=("$tmp/deputy.err")
 
 cat > "$tmp/test.pmd" <<'EOF'
 group "workers" {
@@ -40,19 +30,10 @@ EOF
 "$deputy" "$tmp/test.pmd" --log-dir "$tmp/logs" --host sandbox --script go \
   --backoff-initial-ms 100 2> "$tmp/deputy.err" &
 dpid=$!
+kill_at_exit "$dpid"
 
 # Column of `status --tsv`: 1 HOST 2 NAME 3 GROUP 4 STATE 5 DESIRED 6 PID 7 CPU% 8 RSS_MB
 # 9 RESTARTS 10 LAST_EXIT.
-status() { "$ctl" --host sandbox --timeout-s 30 status --tsv > "$tmp/status.tsv"; }
-field() { awk -F'\t' -v n="$1" -v c="$2" 'NR > 1 && $2 == n { print $c }' "$tmp/status.tsv"; }
-wait_until() {  # SECONDS COMMAND...: polls the status until COMMAND succeeds
-  local end=$((SECONDS + $1)); shift
-  while [ "$SECONDS" -lt "$end" ]; do
-    status && "$@" && return 0
-    sleep 0.2
-  done
-  return 1
-}
 
 "$ctl" --host sandbox --timeout-s 60 wait running group workers > /dev/null \
   || fail "workers not running"
@@ -64,11 +45,7 @@ pid="$(field sleeper 6)"
 
 # 1. A child killed with SIGKILL comes back: new pid, one restart, last exit -9.
 kill -KILL "$pid"
-restarted() {
-  [ "$(field sleeper 4)" = running ] && [ "$(field sleeper 6)" != "$pid" ] &&
-    [ "$(field sleeper 9)" -ge 1 ] && [ "$(field sleeper 10)" = "-9" ]
-}
-wait_until 60 restarted || fail "sleeper was not restarted after SIGKILL"
+wait_until 60 restarted_after_kill sleeper "$pid" || fail "sleeper was not restarted after SIGKILL"
 echo "sleeper: pid $pid killed, restarted as $(field sleeper 6), restarts $(field sleeper 9)"
 grep -q "ended: killed by signal 9" "$tmp/logs/sleeper.log" || fail "sleeper.log lacks the kill"
 grep -q "restarted pid" "$tmp/logs/sleeper.log" || fail "sleeper.log lacks the restart"
@@ -97,7 +74,6 @@ set -e
 pids="$pids $(field ticker 6)"
 kill -TERM "$dpid"
 rc=0; wait "$dpid" || rc=$?
-dpid=""
 [ "$rc" -eq 0 ] || fail "deputy exited with $rc after SIGTERM"
 for p in $pids; do
   for _ in $(seq 600); do kill -0 "$p" 2>/dev/null || break; sleep 0.1; done

@@ -4,18 +4,9 @@
 # 2e-5 rad per frame, 5 cm noise), the KITTI snippet against itself; the JSON parsed back with
 # python3, the figures checked by their magic bytes, and bad input refused with the right
 # exit status and a message naming the file. Skips (77) without the data, except under CI.
-set -euo pipefail
-build="$1"; src="$2"
-data="${EVERMAP_DATA:-${EVERMAP_DATA_DEFAULT:-$src/../shared/data}}"
-for d in euroc-v101-micro kitti-gt-poses kitti07-mono-160; do
-  if [ ! -d "$data/$d" ]; then
-    echo "data set $d not found under $data (set EVERMAP_DATA)"
-    [ "${CI:-}" = "true" ] && exit 1
-    exit 77
-  fi
-done
+source "$(dirname "$0")/lib.sh" "$@"
+need_data euroc-v101-micro kitti-gt-poses kitti07-mono-160
 eval_bin="$build/bin/evermap-eval"
-tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
 gt_dir="$data/euroc-v101-micro/groundtruth_openvins"
 
 # 1. EuRoC: two ground truths of V1_01_easy, TUM text against EuRoC CSV.

@@ -9,31 +9,18 @@
 # EVERMAP_FUZZ_LOG=FILE.lcmlog the mutations start from that log's messages (real STEREO
 # images, keyframes) instead of empty ones; EVERMAP_FUZZ_CHANNELS=A,B restricts the channels.
 # Waits have generous time-outs against hangs; no speed is asserted.
-set -euo pipefail
-build="$1"; src="$2"
-if [ "${EVERMAP_LCM_SANDBOX:-}" != "1" ]; then
-  exec "$src/scripts/lcm-sandbox" bash "$0" "$@"
-fi
+source "$(dirname "$0")/lib.sh" "$@"
+in_sandbox "$@"
 count="${EVERMAP_FUZZ_COUNT:-300}"
 rate="${EVERMAP_FUZZ_RATE_HZ:-3000}"
-bin="$build/bin"
-tmp="$(mktemp -d)"
 pids=()
 names=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
-fail() {
-  echo "FAIL: $*"
-  for f in "$tmp"/*.log; do [ -f "$f" ] && { echo "--- $f"; tail -15 "$f"; }; done
-  exit 1
-}
+fail_logs=("$tmp/*.log"); fail_tail=15
 start() {  # NAME CMD...
   local name="$1"; shift
   "$@" > "$tmp/$name.log" 2>&1 &
   pids+=($!)
+  kill_at_exit $!
   names+=("$name")
 }
 rss() { awk '/^VmHWM/ { print $2 }' "/proc/$1/status" 2>/dev/null || echo 0; }

@@ -12,34 +12,18 @@
 # the replay (with EVERMAP_PIPELINE_HOURS=1, a longer run: kills about 15 s apart, beyond the
 # deputy's 10 s after which a process counts as stable and its restart delay is 250 ms again) (issue 17: each restart resumes from the store, relocalises and maps on); the
 # final map's figures are then to be compared with a run without kills (docs/reliability.md).
-set -euo pipefail
-build="$1"; src="$2"
-if [ "${EVERMAP_LCM_SANDBOX:-}" != "1" ]; then
-  exec "$src/scripts/lcm-sandbox" bash "$0" "$@"
-fi
+source "$(dirname "$0")/lib.sh" "$@"
+in_sandbox "$@"
 speed="${EVERMAP_PIPELINE_SPEED:-20}"
 # Node ATE limit, metres: the offline runner's node ATE on this run is 0.116 m; live runs
 # measured 0.06-0.17 m at 20x-400x, with and without the kill (registrations lost while the
 # oracle is down, answers later than offline; docs/pipeline.md). 0.4 m is 3.5x the offline
 # figure; a broken map (floors mixed up, a false match accepted, a lost session) is metres off.
 max_ate="${EVERMAP_PIPELINE_MAX_ATE:-0.4}"
-bin="$build/bin"
 ctl="$bin/evermap-deputy-ctl"
-tmp="$(mktemp -d)"
-dpid=""; lpid=""
-cleanup() {
-  [ -n "$dpid" ] && kill -TERM "$dpid" 2>/dev/null && sleep 2 && kill -KILL "$dpid" 2>/dev/null || true
-  [ -n "$lpid" ] && kill -KILL "$lpid" 2>/dev/null || true
-  # EVERMAP_PIPELINE_KEEP=DIR: the run, the logs, the store and the recording are kept there.
-  [ -n "${EVERMAP_PIPELINE_KEEP:-}" ] && mkdir -p "$EVERMAP_PIPELINE_KEEP" && cp -r "$tmp"/. "$EVERMAP_PIPELINE_KEEP"/ || true
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
-fail() {
-  echo "FAIL: $*"
-  for f in "$tmp"/logs/*.log "$tmp/deputy.err"; do [ -f "$f" ] && { echo "--- $f"; tail -30 "$f"; }; done
-  exit 1
-}
+# EVERMAP_PIPELINE_KEEP=DIR: the run, the logs, the store and the recording are kept there.
+keep_tmp="${EVERMAP_PIPELINE_KEEP:-}"
+fail_logs=("$tmp/logs/*.log" "$tmp/deputy.err")
 
 # 1. A short run: 3 floors, 2 sessions, about 15 simulated minutes (45 s at 20x).
 "$bin/evermap-sim-measure" --config "$src/config/sim-small.conf" --set patrol.total_hours="${EVERMAP_PIPELINE_HOURS:-0.06}" \
@@ -52,22 +36,13 @@ echo "run: $sim_s simulated s, $(ls "$tmp"/run/*.lcmlog | wc -l) session logs"
 # 2. Record what the mapper publishes, then run the pipeline under the deputy.
 lcm-logger -q -f -c 'MAP_GRAPH|MAPPER_STATS|POSE' "$tmp/mapper.lcmlog" &
 lpid=$!
+kill_at_exit "$lpid"
 (cd "$src" && EVERMAP_BIN="$bin" EVERMAP_RUN="$tmp/run" EVERMAP_MAP="$tmp/map.db" EVERMAP_SPEED="$speed" \
   EVERMAP_GRAPH_PERIOD_S=5 exec "$bin/evermap-deputy" config/pipeline-oracle.pmd --log-dir "$tmp/logs" \
   --host sandbox --script replay --exit-after-script --quiet 2> "$tmp/deputy.err") &
 dpid=$!
+kill_at_exit "$dpid"
 
-# Columns of `status --tsv`: 2 NAME 4 STATE 6 PID 9 RESTARTS 10 LAST_EXIT.
-status() { "$ctl" --host sandbox --timeout-s 30 status --tsv > "$tmp/status.tsv" 2>/dev/null; }
-field() { awk -F'\t' -v n="$1" -v c="$2" 'NR > 1 && $2 == n { print $c }' "$tmp/status.tsv"; }
-wait_until() {  # SECONDS COMMAND...: polls the status until COMMAND succeeds
-  local end=$((SECONDS + $1)); shift
-  while [ "$SECONDS" -lt "$end" ]; do
-    status && "$@" && return 0
-    sleep 0.2
-  done
-  return 1
-}
 playing() { [ "$(field player 4)" = running ]; }
 wait_until 60 playing || fail "the player did not start"
 
@@ -83,8 +58,7 @@ for ((k = 1; k <= kill_mapper; k++)); do
   playing || { echo "the replay ended after $((k - 1)) kills"; break; }
   [ -n "$pid" ] && [ "$pid" -gt 0 ] || continue  # between a kill and its restart
   kill -KILL "$pid"
-  respawned() { [ "$(field mapper-proc 4)" = running ] && [ "$(field mapper-proc 6)" != "$pid" ]; }
-  wait_until 30 respawned || { playing || break; fail "mapper-proc was not restarted after SIGKILL $k"; }
+  wait_until 30 respawned mapper-proc "$pid" || { playing || break; fail "mapper-proc was not restarted after SIGKILL $k"; }
   echo "mapper-proc: kill $k, pid $pid, restarted as $(field mapper-proc 6) (restarts $(field mapper-proc 9))"
 done
 if [ "$kill_oracle" = 1 ]; then
@@ -94,21 +68,16 @@ pid="$(field sim-oracle 6)"
 [ -n "$pid" ] && [ "$pid" -gt 0 ] || fail "no pid for sim-oracle"
 playing || fail "the replay ended before the kill (raise the speed's divisor)"
 kill -KILL "$pid"
-restarted() {
-  [ "$(field sim-oracle 4)" = running ] && [ "$(field sim-oracle 6)" != "$pid" ] &&
-    [ "$(field sim-oracle 9)" -ge 1 ] && [ "$(field sim-oracle 10)" = "-9" ]
-}
-wait_until 30 restarted || fail "sim-oracle was not restarted after SIGKILL"
+wait_until 30 restarted_after_kill sim-oracle "$pid" || fail "sim-oracle was not restarted after SIGKILL"
 echo "sim-oracle: pid $pid killed, restarted as $(field sim-oracle 6)"
 fi
 
 # 4. The run finishes: the script stops the pipeline after the replay, the deputy exits 0.
 rc=0
 wait "$dpid" || rc=$?
-dpid=""
 [ "$rc" -eq 0 ] || fail "deputy exited with $rc"
 sleep 0.5
-kill -INT "$lpid"; wait "$lpid" || true; lpid=""
+kill -INT "$lpid"; wait "$lpid" || true
 
 logs="$tmp/logs"
 if [ "$kill_oracle" = 1 ]; then

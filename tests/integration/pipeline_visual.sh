@@ -10,19 +10,9 @@
 # that agrees; then a short second session, the pipeline started afresh on the same stores, is
 # relocalised live in the first one's map and maps on. Skips (77) without the vocabulary's
 # training data, except under CI.
-set -euo pipefail
-build="$1"; src="$2"
-data="${EVERMAP_DATA:-${EVERMAP_DATA_DEFAULT:-$src/../shared/data}}"
-for d in kitti07-mono-160 kitti-mono-snippet euroc-v101-micro vocab-orb-small; do
-  if [ ! -d "$data/$d" ]; then
-    echo "data set $d not found under $data (set EVERMAP_DATA): no vocabulary to train"
-    [ "${CI:-}" = "true" ] && exit 1
-    exit 77
-  fi
-done
-if [ "${EVERMAP_LCM_SANDBOX:-}" != "1" ]; then
-  exec "$src/scripts/lcm-sandbox" bash "$0" "$@"
-fi
+source "$(dirname "$0")/lib.sh" "$@"
+need_data kitti07-mono-160 kitti-mono-snippet euroc-v101-micro vocab-orb-small
+in_sandbox "$@"
 # Seconds of the session: the elevator ride ends at 85 s, the first loop closures come
 # after 200 s (slam-run: 0 closures at 200 s, 7 at 230 s).
 duration="${EVERMAP_VISUAL_DURATION_S:-240}"
@@ -30,21 +20,9 @@ duration="${EVERMAP_VISUAL_DURATION_S:-240}"
 # of this session (live at 160 s: 0.14 m); 0.5 m is 2.5x that, a broken map (a floor at the
 # wrong height, an aliased closure) is metres off.
 max_ate="${EVERMAP_VISUAL_MAX_ATE:-0.5}"
-bin="$build/bin"
-tmp="$(mktemp -d)"
-dpid=""; lpid=""
-cleanup() {
-  [ -n "$dpid" ] && kill -TERM "$dpid" 2>/dev/null && sleep 2 && kill -KILL "$dpid" 2>/dev/null || true
-  [ -n "$lpid" ] && kill -KILL "$lpid" 2>/dev/null || true
-  if [ -n "${EVERMAP_KEEP_TMP:-}" ]; then echo "kept: $tmp"; else rm -rf "$tmp"; fi
-}
-trap cleanup EXIT
-fail() {
-  echo "FAIL: $*"
-  for f in "$tmp"/logs/*.log "$tmp"/logs1/*.log "$tmp"/logs*.err; do [ -f "$f" ] && { echo "--- $f"; tail -25 "$f"; }; done
-  exit 1
-}
-value() { awk -v k="$1" '$1 == k { print $2; exit }' "$2"; }
+# EVERMAP_KEEP_TMP=DIR: the stores, logs and recordings are kept there.
+keep_tmp="${EVERMAP_KEEP_TMP:-}"
+fail_logs=("$tmp/logs/*.log" "$tmp/logs1/*.log" "$tmp/logs*.err"); fail_tail=25
 
 # 1. The vocabulary and the session.
 "$bin/evermap-vocab-train" --out "$tmp/default.evoc" --default-data "$data" --image-step 2 > "$tmp/vocab.txt" \
@@ -60,13 +38,15 @@ echo "session: $duration s, $frames stereo pairs"
 start_pipeline() {  # LOG LOG_DIR RECORD CHANNELS
   lcm-logger -q -f -c "$4" "$3" &
   lpid=$!
+  kill_at_exit "$lpid"
   (cd "$src" && EVERMAP_BIN="$bin" EVERMAP_LOG="$1" EVERMAP_MAP="$tmp/map.db" \
     EVERMAP_VOCAB="$tmp/default.evoc" EVERMAP_PLACES="$tmp/places.db" EVERMAP_SPEED=1 \
     exec "$bin/evermap-deputy" config/pipeline-log.pmd --log-dir "$2" --host sandbox --script go \
     --exit-after-script --quiet 2> "$2.err") &
   dpid=$!
+  kill_at_exit "$dpid"
 }
-stop_logger() { sleep 0.5; kill -INT "$lpid"; wait "$lpid" || true; lpid=""; }
+stop_logger() { sleep 0.5; kill -INT "$lpid"; wait "$lpid" || true; }
 
 # 2. The five processes under the deputy, the log replayed at 1x.
 start_pipeline "$tmp/s0.lcmlog" "$tmp/logs" "$tmp/mapper.lcmlog" 'MAP_GRAPH|MAPPER_STATS|POSE'
@@ -79,7 +59,6 @@ killer=$!
 rc=0
 wait "$dpid" || rc=$?
 wait "$killer" || true
-dpid=""
 [ "$rc" -eq 0 ] || fail "deputy exited with $rc"
 stop_logger
 
@@ -153,7 +132,6 @@ duration1="${EVERMAP_VISUAL_SESSION1_S:-45}"
 start_pipeline "$tmp/s1.lcmlog" "$tmp/logs1" "$tmp/mapper1.lcmlog" 'MAP_GRAPH|MAPPER_STATS|POSE|REGISTER_.*'
 rc=0
 wait "$dpid" || rc=$?
-dpid=""
 [ "$rc" -eq 0 ] || fail "deputy exited with $rc (session 1)"
 stop_logger
 relocalised="$(value relocalizations "$tmp/logs1/mapper-proc.log")"

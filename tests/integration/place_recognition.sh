@@ -5,19 +5,10 @@
 # 100 % with recall >= 70 % after the epipolar check; bad input is refused with exit status 1
 # and a message naming the file, a bad command line with 2. Skips (77) without the data,
 # except under CI.
-set -euo pipefail
-build="$1"; src="$2"
-data="${EVERMAP_DATA:-${EVERMAP_DATA_DEFAULT:-$src/../shared/data}}"
-for d in rtabmap-lcd-samples vocab-orb-small kitti07-mono-160 kitti-mono-snippet euroc-v101-micro; do
-  if [ ! -d "$data/$d" ]; then
-    echo "data set $d not found under $data (set EVERMAP_DATA)"
-    [ "${CI:-}" = "true" ] && exit 1
-    exit 77
-  fi
-done
+source "$(dirname "$0")/lib.sh" "$@"
+need_data rtabmap-lcd-samples vocab-orb-small kitti07-mono-160 kitti-mono-snippet euroc-v101-micro
 train="$build/bin/evermap-vocab-train"
 evaluate="$build/bin/evermap-place-eval"
-tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
 samples="$data/rtabmap-lcd-samples"
 
 # 1. Train the default vocabulary (never committed: it is made here).

@@ -3,11 +3,7 @@
 # --help lists each option with its default, unit and range, --print-config prints the values
 # in effect as a config file that --config reads back to the same values, a bad value is
 # refused naming the option and its range, and the shipped configs still load. Opens no LCM.
-set -euo pipefail
-build="$1"; src="$2"
-bin="$build/bin"
-tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
+source "$(dirname "$0")/lib.sh" "$@"
 
 # program, one of its keys, a value outside that key's range, the range as --help shows it
 while read -r program key bad range; do

@@ -7,14 +7,10 @@
 # Checked: the map has nodes on both floors, every node on a consistent floor, no false
 # closure, the node ATE against the simulator's truth, and session 1 relocalised in session
 # 0's map. About a minute of CPU.
-set -euo pipefail
-build="$1"; src="$2"
+source "$(dirname "$0")/lib.sh" "$@"
 # Seconds of each session: the elevator ride of session 0 ends at 85 s; at 100 s slam-run
 # made 44 nodes on 2 floors, relocalised session 1 after 3.3 s of it, node ATE 0.024 m.
 duration="${EVERMAP_NO_DATA_DURATION_S:-100}"
-tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
-value() { awk -v k="$1" '$1 == k { print $2; exit }' "$2"; }
 mkdir "$tmp/no-data"
 export EVERMAP_DATA="$tmp/no-data"
 

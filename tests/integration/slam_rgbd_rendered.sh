@@ -6,21 +6,12 @@
 # error, VO tracked on RGBD frames, nodes made, every node on a consistent floor, no false
 # closure and the node ATE against the simulator's truth. About a minute of CPU.
 # Skips (77) without the vocabulary, except under CI.
-set -euo pipefail
-build="$1"; src="$2"
-data="${EVERMAP_DATA:-${EVERMAP_DATA_DEFAULT:-$src/../shared/data}}"
+source "$(dirname "$0")/lib.sh" "$@"
 vocab="$data/vocab-orb-small/slambook2_vocabulary.yml.gz"
-if [ ! -f "$vocab" ]; then
-  echo "vocabulary $vocab not found (set EVERMAP_DATA)"
-  [ "${CI:-}" = "true" ] && exit 1
-  exit 77
-fi
+need_data "$vocab"
 # Seconds of session 0: the first 60 s hold a featureless zone (VO fails there, the wheels
 # bridge it) and about 20 nodes.
 duration="${EVERMAP_RGBD_DURATION_S:-60}"
-tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
-value() { awk -v k="$1" '$1 == k { print $2; exit }' "$2"; }
 
 "$build/bin/evermap-slam-run" --vocab "$vocab" --out "$tmp/slam" --render "$src/config/sim-image-3floor.conf" \
   --render-set render.camera=rgbd --render-set "render.max_duration_s=$duration" --sessions 1 \

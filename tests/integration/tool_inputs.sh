@@ -4,11 +4,7 @@
 # refused with one line naming the input on stderr and a non-zero exit, and leave no output
 # file (nor a temporary one) behind. Needs no data set: the log is the IMU of a synthetic
 # elevator run (evermap-imu-elevator-run --synthetic).
-set -euo pipefail
-build="$1"; src="$2"
-bin="$build/bin"
-tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
+source "$(dirname "$0")/lib.sh" "$@"
 checks=0
 
 # refused WANT_RC REGEX OUTPUT... -- COMMAND...: COMMAND exits WANT_RC, the first line of its

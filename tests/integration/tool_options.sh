@@ -4,11 +4,7 @@
 # that --config reads back to the same text; a bad value is refused (exit 2) with one line
 # naming the option and the allowed range, through --set and through the program's own flag.
 # Needs no data set.
-set -euo pipefail
-build="$1"; src="$2"
-bin="$build/bin"
-tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
+source "$(dirname "$0")/lib.sh" "$@"
 checks=0
 
 # refused REGEX COMMAND...: exit 2 and REGEX on the first line of stderr.

@@ -6,20 +6,9 @@
 #  3. evermap-vo-proc live, inside the LCM sandbox, while lcm-logplayer replays RGBD in real
 #     time: every frame processed or counted as dropped, VO_DELTA and KEYFRAME on LCM.
 # Skips (77) without the data, except under CI.
-set -euo pipefail
-build="$1"; src="$2"
-data="${EVERMAP_DATA:-${EVERMAP_DATA_DEFAULT:-$src/../shared/data}}"
+source "$(dirname "$0")/lib.sh" "$@"
+need_data tum-rgbd-fr1-rpy
 tum="$data/tum-rgbd-fr1-rpy"
-if [ ! -d "$tum" ]; then
-  echo "data set tum-rgbd-fr1-rpy not found under $data (set EVERMAP_DATA)"
-  [ "${CI:-}" = "true" ] && exit 1
-  exit 77
-fi
-tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
-expect_line() {  # expect_line FILE REGEX
-  grep -Eq "$2" "$1" || { cat "$1" >&2; fail "no line matching '$2'"; }
-}
 
 "$build/bin/evermap-tum2lcm" "$tum" "$tmp/tum.lcmlog" > "$tmp/convert.txt"
 expect_line "$tmp/convert.txt" '^camera: TUM freiburg1'
@@ -48,26 +37,6 @@ else
 fi
 
 # 3. Live, over LCM.
-ready="$tmp/ready"
-"$src/scripts/lcm-sandbox" bash -c '
-  set -euo pipefail
-  "$1/bin/evermap-vo-proc" --ready-file "$3" 2> "$2/proc.txt" &
-  proc=$!
-  lcm-logger -q -c "VO_DELTA|KEYFRAME" "$2/live.lcmlog" &
-  logger=$!
-  for _ in $(seq 300); do [ -f "$3" ] && break; sleep 0.1; done
-  sleep 0.5
-  timeout 15 lcm-logplayer -e "RGBD" "$2/tum.lcmlog" > /dev/null || true
-  sleep 2
-  kill -TERM "$proc"; wait "$proc"
-  kill -INT "$logger"; wait "$logger" || true
-' vo "$build" "$tmp" "$ready"
-tail -n 3 "$tmp/proc.txt"
-summary="$(grep -E '^evermap-vo-proc: [0-9]+ frames' "$tmp/proc.txt")" || fail "no summary line"
-frames="$(sed -E 's/^evermap-vo-proc: ([0-9]+) frames.*/\1/' <<< "$summary")"
-dropped="$(sed -E 's/.*; ([0-9]+) frames dropped.*/\1/' <<< "$summary")"
-[ "$((frames + dropped))" = 150 ] || fail "$frames processed + $dropped dropped != 150 frames"
-[ "$frames" -ge 10 ] || fail "only $frames frames processed"
-if grep -q "bad input" <<< "$summary"; then fail "bad input frames: $summary"; fi
-[ -s "$tmp/live.lcmlog" ] || fail "nothing received on VO_DELTA/KEYFRAME"
-echo "vo_rgbd: OK ($frames frames processed live, $dropped dropped)"
+vo_proc_live vo "$tmp/tum.lcmlog" "RGBD" 150
+if grep -q "bad input" <<< "$vo_summary"; then fail "bad input frames: $vo_summary"; fi
+echo "vo_rgbd: OK ($vo_frames frames processed live, $vo_dropped dropped)"

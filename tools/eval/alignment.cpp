@@ -1,28 +1,21 @@
 #include "tools/eval/alignment.h"
+#include "tools/eval/enum_names.h"
 
 namespace evermap::eval {
 
-const char* toString(AlignmentMode mode) {
-  switch (mode) {
-    case AlignmentMode::kNone:
-      return "none";
-    case AlignmentMode::kSE3:
-      return "se3";
-    case AlignmentMode::kSim3:
-      return "sim3";
-    case AlignmentMode::kFirstPose:
-      return "first";
-  }
-  return "?";
-}
+namespace {
+constexpr EnumNames<AlignmentMode, 4> kAlignmentModeNames{{
+    {AlignmentMode::kSE3, "se3"},
+    {AlignmentMode::kSim3, "sim3"},
+    {AlignmentMode::kFirstPose, "first"},
+    {AlignmentMode::kNone, "none"},
+}};
+}  // namespace
+
+const char* toString(AlignmentMode mode) { return nameOf(kAlignmentModeNames, mode); }
 
 Expected<AlignmentMode> parseAlignmentMode(std::string_view name) {
-  if (name == "none") return AlignmentMode::kNone;
-  if (name == "se3") return AlignmentMode::kSE3;
-  if (name == "sim3") return AlignmentMode::kSim3;
-  if (name == "first") return AlignmentMode::kFirstPose;
-  return makeError("unknown alignment \"", std::string(name),
-                   "\" (expected se3, sim3, first or none)");
+  return parseName(kAlignmentModeNames, name, "alignment");
 }
 
 Expected<AlignmentResult> umeyama(const std::vector<core::Vec3>& src,

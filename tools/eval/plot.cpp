@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include "tools/eval/enum_names.h"
 
 namespace evermap::eval {
 namespace {
@@ -155,26 +156,19 @@ void drawLegend(Canvas& c, const View& view, const TopViewOptions& options) {
 
 }  // namespace
 
-const char* toString(PlotPlane plane) {
-  switch (plane) {
-    case PlotPlane::kAuto:
-      return "auto";
-    case PlotPlane::kXY:
-      return "xy";
-    case PlotPlane::kXZ:
-      return "xz";
-    case PlotPlane::kYZ:
-      return "yz";
-  }
-  return "?";
-}
+namespace {
+constexpr EnumNames<PlotPlane, 4> kPlotPlaneNames{{
+    {PlotPlane::kAuto, "auto"},
+    {PlotPlane::kXY, "xy"},
+    {PlotPlane::kXZ, "xz"},
+    {PlotPlane::kYZ, "yz"},
+}};
+}  // namespace
+
+const char* toString(PlotPlane plane) { return nameOf(kPlotPlaneNames, plane); }
 
 Expected<PlotPlane> parsePlotPlane(std::string_view name) {
-  if (name == "auto") return PlotPlane::kAuto;
-  if (name == "xy") return PlotPlane::kXY;
-  if (name == "xz") return PlotPlane::kXZ;
-  if (name == "yz") return PlotPlane::kYZ;
-  return makeError("unknown plot plane \"", std::string(name), "\" (expected auto, xy, xz or yz)");
+  return parseName(kPlotPlaneNames, name, "plot plane");
 }
 
 Status TopViewOptions::validate() const {

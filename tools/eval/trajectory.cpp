@@ -8,6 +8,7 @@
 #include "core/common/atomic_write.h"
 #include "core/common/number_text.h"
 #include "tools/datasets/text_lines.h"
+#include "tools/eval/enum_names.h"
 
 namespace evermap::eval {
 namespace {
@@ -47,24 +48,18 @@ Expected<Trajectory> checked(Trajectory t) {
 
 }  // namespace
 
-const char* toString(TrajectoryFormat format) {
-  switch (format) {
-    case TrajectoryFormat::kTum:
-      return "tum";
-    case TrajectoryFormat::kKitti:
-      return "kitti";
-    case TrajectoryFormat::kEuroc:
-      return "euroc";
-  }
-  return "?";
-}
+namespace {
+constexpr EnumNames<TrajectoryFormat, 3> kTrajectoryFormatNames{{
+    {TrajectoryFormat::kTum, "tum"},
+    {TrajectoryFormat::kKitti, "kitti"},
+    {TrajectoryFormat::kEuroc, "euroc"},
+}};
+}  // namespace
+
+const char* toString(TrajectoryFormat format) { return nameOf(kTrajectoryFormatNames, format); }
 
 Expected<TrajectoryFormat> parseTrajectoryFormat(std::string_view name) {
-  if (name == "tum") return TrajectoryFormat::kTum;
-  if (name == "kitti") return TrajectoryFormat::kKitti;
-  if (name == "euroc") return TrajectoryFormat::kEuroc;
-  return makeError("unknown trajectory format \"", std::string(name),
-                   "\" (expected tum, kitti or euroc)");
+  return parseName(kTrajectoryFormatNames, name, "trajectory format");
 }
 
 double Trajectory::pathLengthM() const {

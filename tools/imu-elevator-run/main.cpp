@@ -323,7 +323,7 @@ int printAttitudeErrors(const Args& args, const std::vector<datasets::ImuSample>
 
 // The rides found, beside the barometer, the labelled episodes and the synthetic truth.
 void printRides(const Input& in, const elevator::OfflineRun& run) {
-  const int64_t origin = in.samples.front().t_ns / 1000;
+  const int64_t origin = messages::utimeFromNs(in.samples.front().t_ns);
   const auto rows =
       elevator::ridesWithReference(run.rides, in.session.barometer, in.session.episodes);
   std::printf("\nrides (times from the first sample, disp = elevator, baro = barometer):\n%s",
@@ -400,8 +400,8 @@ bool writeDumps(const Args& args, const elevator::OfflineRun& run,
 bool filterSamples(const Args& args, const std::vector<datasets::ImuSample>& samples,
                    std::vector<imu::ImuSample>* imu_samples) {
   for (const auto& s : samples) {
-    imu_samples->push_back(
-        {s.t_ns / 1000, args.zero_gyro ? Eigen::Vector3d::Zero() : s.gyro_rad_s, s.accel_m_s2});
+    imu_samples->push_back(messages::toImuSample(s));
+    if (args.zero_gyro) imu_samples->back().gyro_rad_s.setZero();
   }
   if (args.write_lcm_log.empty()) return true;
   if (Status st = imu::writeImuLog(args.write_lcm_log, args.channel, *imu_samples); !st.ok()) {

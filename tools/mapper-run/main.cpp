@@ -176,10 +176,11 @@ void writePlots(const std::filesystem::path& dir,
 struct RunArgs {
   std::string config, mode = "reduced", store, timeline, out, replot, check_store;
   std::vector<std::string> sets;
-  double hours = -1.0, max_wall_s = 0.0, store_period_s = 0.0, restart_gap_s = 0.0,
-         stop_after_s = 0.0;
+  double hours = -1.0;
   bool progress = false, print_config = false;
-  int first = 0, last = -1;
+  // The sessions, the store's period, the restart gap and the limits (store_file comes from
+  // `store`, for the reduced graph only).
+  evermap::mapper::OfflineRunOptions run;
 };
 
 // Declares every option of the command line, into `a`.
@@ -206,23 +207,24 @@ void declareOptions(evermap::CommandLine* cli, RunArgs* a) {
   cli->value(
       "--sessions",
       [a](const std::string& v) -> Status {
-        if (!parseSessions(v, &a->first, &a->last)) return Error{"expected A or A-B, 0 <= A <= B"};
+        if (!parseSessions(v, &a->run.first_session, &a->run.last_session))
+          return Error{"expected A or A-B, 0 <= A <= B"};
         return Ok{};
       },
       "A-B", "map only sessions A..B of the run (0-based, inclusive)");
   cli->value("--store", &a->store, "MAP.db",
              "the map store (reduced graph only): a map it holds is continued, each update is one "
              "transaction");
-  cli->value("--store-period-s", &a->store_period_s, "S",
+  cli->value("--store-period-s", &a->run.store_period_s, "S",
              "at most one store transaction per S seconds of operating time, and one at the end "
              "(0: each update)")
       .min(0);
-  cli->value("--restart-gap-s", &a->restart_gap_s, "S",
+  cli->value("--restart-gap-s", &a->run.restart_gap_s, "S",
              "continuing a store: skip the messages of S s after its newest state, as a restart "
              "loses them (default 0)")
       .min(0)
       .max(3600);
-  cli->value("--stop-after-s", &a->stop_after_s, "S",
+  cli->value("--stop-after-s", &a->run.stop_after_s, "S",
              "stop mapping after S s of operating time of this run, as a process killed then (0: "
              "to the end)")
       .min(0);
@@ -234,7 +236,7 @@ void declareOptions(evermap::CommandLine* cli, RunArgs* a) {
   cli->value("--out", &a->out, "DIR",
              "timelines, summaries, per-step and per-node errors (steps-M.csv, nodes-M.csv) and "
              "the Fig. 4 / Fig. 7 plots into DIR");
-  cli->value("--max-wall-s", &a->max_wall_s, "S",
+  cli->value("--max-wall-s", &a->run.max_wall_s, "S",
              "stop mapping after S seconds of wall time (per mode); the figures cover the "
              "operating time reached")
       .min(0);
@@ -284,7 +286,7 @@ int checkRunArgs(const RunArgs& a, const evermap::CommandLine& cli) {
     std::fprintf(stderr, "evermap-mapper-run: --hours: must be > 0\n");
     return 2;
   }
-  if (a.max_wall_s < 0) {
+  if (a.run.max_wall_s < 0) {
     std::fprintf(stderr, "evermap-mapper-run: --max-wall-s: must be >= 0\n");
     return 2;
   }
@@ -321,13 +323,7 @@ int loadOptions(const RunArgs& a, evermap::sim::SimOptions* sim,
 
 // The run's settings for one mode.
 evermap::mapper::OfflineRunOptions runOptions(const RunArgs& a, bool full) {
-  evermap::mapper::OfflineRunOptions run;
-  run.first_session = a.first;
-  run.last_session = a.last;
-  run.max_wall_s = a.max_wall_s;
-  run.store_period_s = a.store_period_s;
-  run.restart_gap_s = a.restart_gap_s;
-  run.stop_after_s = a.stop_after_s;
+  evermap::mapper::OfflineRunOptions run = a.run;
   if (!full) run.store_file = a.store;
   if (a.progress) {
     run.on_commit = [](const evermap::mapper::StoreCommit& c) {

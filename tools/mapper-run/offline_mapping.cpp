@@ -201,7 +201,7 @@ Progress OfflineMapping::progressAt(int64_t utime) const {
                (last_session_ - first_generated_ + 1);
   if (run_.stop_after_s > 0) p.fraction = std::max(p.fraction, p.data_done_s / run_.stop_after_s);
   p.steps = mapper_.stats().steps;
-  p.nodes = mapper_.graphNodes();
+  p.nodes = static_cast<int64_t>(mapper_.nodes().size());
   return p;
 }
 

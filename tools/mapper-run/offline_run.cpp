@@ -211,33 +211,35 @@ Status OfflineRunOptions::validate() const {
   return Ok{};
 }
 
+namespace {
+
+// One line "NAME v0 v1 ...".
+void writeRow(std::ostringstream& s, const char* name, const std::vector<int64_t>& values) {
+  s << name;
+  for (int64_t n : values) s << " " << n;
+  s << "\n";
+}
+
+}  // namespace
+
 std::string OfflineRunSummary::text() const {
   std::ostringstream s;
   s << stats.text();
   if (!restart_note.empty()) s << "restart_note " << restart_note << "\n";
-  s << "nodes_by_session";
-  for (int64_t n : nodes_by_session) s << " " << n;
-  s << "\nnodes_in_mapped_area_by_session";
-  for (int64_t n : nodes_in_mapped_area_by_session) s << " " << n;
-  s << "\nnodes_new_heading_by_session";
-  for (int64_t n : nodes_new_heading_by_session) s << " " << n;
-  s << "\nnodes_new_place_by_session";
-  for (int64_t n : nodes_new_place_by_session) s << " " << n;
-  s << "\nnodes_near_a_view_by_session";
-  for (int64_t n : nodes_near_a_view_by_session) s << " " << n;
-  s << "\nviews_by_session";
-  for (int64_t n : views_by_session) s << " " << n;
-  s << "\ninterfloor_pairs " << interfloor_pairs << "\ninterfloor_yaw_rms_deg "
-    << interfloor_yaw_rms_deg << "\ninterfloor_yaw_claimed_deg " << interfloor_yaw_claimed_deg;
-  s << "\npairs_by_session";
-  for (int64_t n : pairs_by_session) s << " " << n;
-  s << "\npairs_between_earlier_nodes_by_session";
-  for (int64_t n : pairs_between_earlier_nodes_by_session) s << " " << n;
-  s << "\nsteps_by_session";
-  for (int64_t n : steps_by_session) s << " " << n;
-  s << "\nsteps_in_mapped_area_by_session";
-  for (int64_t n : steps_in_mapped_area_by_session) s << " " << n;
-  s << "\nmessages " << messages << "\ndecode_errors " << decode_errors << "\nfalse_matches "
+  writeRow(s, "nodes_by_session", nodes_by_session);
+  writeRow(s, "nodes_in_mapped_area_by_session", nodes_in_mapped_area_by_session);
+  writeRow(s, "nodes_new_heading_by_session", nodes_new_heading_by_session);
+  writeRow(s, "nodes_new_place_by_session", nodes_new_place_by_session);
+  writeRow(s, "nodes_near_a_view_by_session", nodes_near_a_view_by_session);
+  writeRow(s, "views_by_session", views_by_session);
+  s << "interfloor_pairs " << interfloor_pairs << "\ninterfloor_yaw_rms_deg "
+    << interfloor_yaw_rms_deg << "\ninterfloor_yaw_claimed_deg " << interfloor_yaw_claimed_deg
+    << "\n";
+  writeRow(s, "pairs_by_session", pairs_by_session);
+  writeRow(s, "pairs_between_earlier_nodes_by_session", pairs_between_earlier_nodes_by_session);
+  writeRow(s, "steps_by_session", steps_by_session);
+  writeRow(s, "steps_in_mapped_area_by_session", steps_in_mapped_area_by_session);
+  s << "messages " << messages << "\ndecode_errors " << decode_errors << "\nfalse_matches "
     << false_matches << "\nsimulated_s " << duration_s << "\ndistance_m " << distance_m
     << "\nstep_poses " << step_poses << "\nate_rmse_m " << ate_rmse_m << "\nate_median_m "
     << ate_median_m << "\ntime_tracking_s " << stats.timing.tracking_s << "\ntime_registration_s "
@@ -271,7 +273,7 @@ Expected<OfflineRunSummary> summarise(OfflineMapping& mapping, const OfflineRunO
   out.stats = mapper.stats();
   out.restored_nodes = mapper.stats().restored_nodes;
   out.restart_note = mapper.restartNote();
-  out.nodes = mapper.graphNodes();
+  out.nodes = static_cast<int64_t>(mapper.nodes().size());
   out.views_by_session = mapping.truth().views_by_session;
   std::vector<NodeTruth> node_truth = mapping.truth().nodes;
   node_truth.resize(mapper.nodes().size());

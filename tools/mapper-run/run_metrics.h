@@ -37,7 +37,7 @@ class TimelineRecorder {
     r.operating_s = operating_s;
     r.utime = utime;
     r.session = session;
-    r.nodes = mapper_.graphNodes();
+    r.nodes = static_cast<int64_t>(mapper_.nodes().size());
     r.factors = st.factors;
     r.tracking_s = t.tracking_s - last_.tracking_s;
     r.registration_s = t.registration_s - last_.registration_s;

@@ -41,35 +41,35 @@ SessionPlan RunPlan::session(int index) const {
   return planSession(building_, options_.patrol, options_.elevator, index, slots_[index], rng);
 }
 
-double RunSummary::durationS() const {
-  double s = 0.0;
-  for (const auto& x : sessions) s += x.durationS();
+namespace {
+
+// The sum of `value` over the sessions, in their order.
+template <class T, class Value>
+T sumSessions(const std::vector<SessionSummary>& sessions, Value value) {
+  T s = 0;
+  for (const auto& x : sessions) s += value(x);
   return s;
+}
+
+}  // namespace
+
+double RunSummary::durationS() const {
+  return sumSessions<double>(sessions, [](const SessionSummary& x) { return x.durationS(); });
 }
 double RunSummary::distanceM() const {
-  double s = 0.0;
-  for (const auto& x : sessions) s += x.distance_m;
-  return s;
+  return sumSessions<double>(sessions, [](const SessionSummary& x) { return x.distance_m; });
 }
 int64_t RunSummary::rides() const {
-  int64_t s = 0;
-  for (const auto& x : sessions) s += x.rides;
-  return s;
+  return sumSessions<int64_t>(sessions, [](const SessionSummary& x) { return x.rides; });
 }
 int64_t RunSummary::voFrames() const {
-  int64_t s = 0;
-  for (const auto& x : sessions) s += x.vo_frames;
-  return s;
+  return sumSessions<int64_t>(sessions, [](const SessionSummary& x) { return x.vo_frames; });
 }
 int64_t RunSummary::voKeyframes() const {
-  int64_t s = 0;
-  for (const auto& x : sessions) s += x.vo_keyframes;
-  return s;
+  return sumSessions<int64_t>(sessions, [](const SessionSummary& x) { return x.vo_keyframes; });
 }
 int64_t RunSummary::voFailed() const {
-  int64_t s = 0;
-  for (const auto& x : sessions) s += x.voFailed();
-  return s;
+  return sumSessions<int64_t>(sessions, [](const SessionSummary& x) { return x.voFailed(); });
 }
 double RunSummary::voDriftMedian(double min_length_m, int64_t* chains) const {
   std::vector<double> ratios;

@@ -320,7 +320,7 @@ Progress SlamRunner::progressOf(const Session& ss, const SessionSize& size) cons
       p.fraction = std::max(p.fraction, p.data_done_s / options_.max_session_s);
   }
   p.steps = ss.summary.stereo_frames;
-  p.nodes = mapper_->graphNodes();
+  p.nodes = static_cast<int64_t>(mapper_->nodes().size());
   return p;
 }
 
@@ -419,7 +419,7 @@ void SlamRunner::afterFrame(Session& ss, const vo::PipelineOutput& out, double v
   const double run_s = summary_.data_s + 1e-6 * static_cast<double>(utime - session_start_utime_);
   frames_.push_back(FrameRow{utime, ss.summary.session, run_s, out.delta.status,
                              out.delta.num_inliers, 1e3 * vo_s, 1e3 * loopclose_s, 1e3 * mapper_s,
-                             mapper_->graphNodes()});
+                             static_cast<int64_t>(mapper_->nodes().size())});
 }
 
 void SlamRunner::onImu(Session& ss, const void* data, int64_t size, double* mapper_s) {
@@ -478,7 +478,7 @@ Expected<SlamRunSummary> SlamRunner::finish() {
   out.mapper.addCounters(mapper_before_);
   out.tracker.add(m.tracker().counts());
   out.loopclose = loop_closer_->stats();
-  out.nodes = m.graphNodes();
+  out.nodes = static_cast<int64_t>(m.nodes().size());
   out.edges = static_cast<int64_t>(m.constraints().pairs().size());
   out.floors = static_cast<int64_t>(m.floors().size());
   out.loop_proposals = requests_answered_;

@@ -1,0 +1,120 @@
+# Sourced by the integration tests (tests/integration/*.sh; not a test itself, tests/CMakeLists.txt
+# leaves it out), first thing:   source "$(dirname "$0")/lib.sh" "$@"
+# Sets build, src (the two arguments every test takes), bin, data (EVERMAP_DATA, else the
+# default beside the repository) and tmp (a folder removed when the script exits, after the
+# background processes given to kill_at_exit are stopped), and the checks the tests share.
+set -euo pipefail
+build="$1"; src="$2"; bin="$build/bin"
+data="${EVERMAP_DATA:-${EVERMAP_DATA_DEFAULT:-$src/../shared/data}}"
+tmp="$(mktemp -d)"
+at_exit_pids=()
+keep_tmp=""      # a folder the contents of $tmp are copied to at exit (for a look after a run)
+fail_logs=()     # glob patterns of the logs whose last lines fail() shows
+fail_tail=30
+
+# kill_at_exit PID: a background process stopped when the script exits (TERM, then KILL after
+# 2 s).
+kill_at_exit() { at_exit_pids+=("$1"); }
+
+cleanup() {
+  local p i
+  for p in "${at_exit_pids[@]}"; do kill -TERM "$p" 2> /dev/null || true; done
+  for i in $(seq 20); do
+    for p in "${at_exit_pids[@]}"; do kill -0 "$p" 2> /dev/null && break; p=""; done
+    [ -z "${p:-}" ] && break
+    sleep 0.1
+  done
+  for p in "${at_exit_pids[@]}"; do kill -KILL "$p" 2> /dev/null || true; done
+  if [ -n "$keep_tmp" ]; then mkdir -p "$keep_tmp" && cp -r "$tmp"/. "$keep_tmp"/ || true; fi
+  rm -rf "$tmp"
+}
+trap cleanup EXIT
+
+# in_sandbox "$@": runs this script again inside the LCM sandbox (private network namespace).
+in_sandbox() {
+  if [ "${EVERMAP_LCM_SANDBOX:-}" != "1" ]; then
+    rm -rf "$tmp"
+    exec "$src/scripts/lcm-sandbox" bash "$0" "$@"
+  fi
+}
+
+# need_data PATH...: each PATH (below $data unless absolute) must exist, else the test is
+# skipped (exit 77), or fails under CI.
+need_data() {
+  local p
+  for p in "$@"; do
+    [[ "$p" = /* ]] || p="$data/$p"
+    if [ ! -e "$p" ]; then
+      echo "$p not found (set EVERMAP_DATA)"
+      [ "${CI:-}" = "true" ] && exit 1
+      exit 77
+    fi
+  done
+}
+
+fail() {
+  echo "FAIL: $*" >&2
+  local pattern f
+  for pattern in "${fail_logs[@]}"; do
+    for f in $pattern; do
+      if [ -f "$f" ]; then { echo "--- $f"; tail -n "$fail_tail" "$f"; } >&2; fi
+    done
+  done
+  exit 1
+}
+expect_line() {  # expect_line FILE REGEX
+  grep -Eq "$2" "$1" || { cat "$1" >&2; fail "no line matching '$2'"; }
+}
+value() { awk -v k="$1" '$1 == k { print $2; exit }' "$2"; }  # value KEY FILE: "KEY VALUE" lines
+
+# The deputy's status (evermap-deputy-ctl status --tsv, host "sandbox") in $tmp/status.tsv;
+# field NAME COLUMN reads it (2 NAME, 3 GROUP, 4 STATE, 6 PID, 9 RESTARTS, 10 LAST_EXIT).
+status() {
+  "$bin/evermap-deputy-ctl" --host sandbox --timeout-s 30 status --tsv > "$tmp/status.tsv" \
+    2> /dev/null
+}
+field() { awk -F'\t' -v n="$1" -v c="$2" 'NR > 1 && $2 == n { print $c }' "$tmp/status.tsv"; }
+wait_until() {  # SECONDS COMMAND...: polls the status until COMMAND succeeds
+  local end=$((SECONDS + $1)); shift
+  while [ "$SECONDS" -lt "$end" ]; do
+    status && "$@" && return 0
+    sleep 0.2
+  done
+  return 1
+}
+# respawned NAME OLD_PID: NAME runs again, under another pid.
+respawned() { [ "$(field "$1" 4)" = running ] && [ "$(field "$1" 6)" != "$2" ]; }
+# restarted_after_kill NAME OLD_PID: respawned, restarted at least once, last exit SIGKILL (-9).
+restarted_after_kill() {
+  respawned "$1" "$2" && [ "$(field "$1" 9)" -ge 1 ] && [ "$(field "$1" 10)" = "-9" ]
+}
+
+# vo_proc_live NAME LOG CHANNELS FRAMES: evermap-vo-proc inside the LCM sandbox while
+# lcm-logplayer replays CHANNELS of LOG in real time (stopped after 15 s); checks that the
+# FRAMES frames were each processed or counted as dropped, at least 10 processed, and that
+# VO_DELTA/KEYFRAME arrived. Sets vo_summary, vo_frames and vo_dropped.
+vo_proc_live() {
+  local name="$1" log="$2" channels="$3" want="$4"
+  "$src/scripts/lcm-sandbox" bash -c '
+    set -euo pipefail
+    "$1/bin/evermap-vo-proc" --ready-file "$3" 2> "$2/proc.txt" &
+    proc=$!
+    lcm-logger -q -c "VO_DELTA|KEYFRAME" "$2/live.lcmlog" &
+    logger=$!
+    for _ in $(seq 300); do [ -f "$3" ] && break; sleep 0.1; done
+    sleep 0.5
+    timeout 15 lcm-logplayer -e "$5" "$4" > /dev/null || true
+    sleep 2
+    kill -TERM "$proc"; wait "$proc"
+    kill -INT "$logger"; wait "$logger" || true
+  ' "$name" "$build" "$tmp" "$tmp/ready" "$log" "$channels"
+  tail -n 3 "$tmp/proc.txt"
+  vo_summary="$(grep -E '^evermap-vo-proc: [0-9]+ frames' "$tmp/proc.txt")" ||
+    fail "no summary line"
+  vo_frames="$(sed -E 's/^evermap-vo-proc: ([0-9]+) frames.*/\1/' <<< "$vo_summary")"
+  vo_dropped="$(sed -E 's/.*; ([0-9]+) frames dropped.*/\1/' <<< "$vo_summary")"
+  [ "$((vo_frames + vo_dropped))" = "$want" ] ||
+    fail "$vo_frames processed + $vo_dropped dropped != $want frames"
+  [ "$vo_frames" -ge 10 ] || fail "only $vo_frames frames processed"
+  [ -s "$tmp/live.lcmlog" ] || fail "nothing received on VO_DELTA/KEYFRAME"
+}
