@@ -101,15 +101,19 @@ Canvas::Canvas(int width_px, int height_px, Rgb background)
   }
 }
 
+Canvas::Item& Canvas::add(Item::Kind kind, std::vector<Eigen::Vector2d> points, Rgb stroke,
+                          double width_px) {
+  Item& it = items_.emplace_back();
+  it.kind = kind;
+  it.points = std::move(points);
+  it.stroke = stroke;
+  it.width_px = width_px;
+  return it;
+}
+
 void Canvas::polyline(std::vector<Eigen::Vector2d> points_px, Rgb color, double width_px,
                       bool dashed) {
-  Item it;
-  it.kind = Item::kPolyline;
-  it.points = std::move(points_px);
-  it.stroke = color;
-  it.width_px = width_px;
-  it.dashed = dashed;
-  items_.push_back(std::move(it));
+  add(Item::kPolyline, std::move(points_px), color, width_px).dashed = dashed;
 }
 
 void Canvas::line(const Eigen::Vector2d& a, const Eigen::Vector2d& b, Rgb color, double width_px) {
@@ -117,51 +121,31 @@ void Canvas::line(const Eigen::Vector2d& a, const Eigen::Vector2d& b, Rgb color,
 }
 
 void Canvas::circle(const Eigen::Vector2d& center, double radius_px, Rgb color, bool filled) {
-  Item it;
-  it.kind = Item::kCircle;
-  it.points = {center};
-  it.stroke = color;
+  Item& it = add(Item::kCircle, {center}, color, radius_px);
   it.fill = color;
   it.filled = filled;
-  it.width_px = radius_px;
-  items_.push_back(std::move(it));
 }
 
 void Canvas::rect(const Eigen::Vector2d& top_left, const Eigen::Vector2d& size, Rgb stroke,
                   double stroke_px, bool filled, Rgb fill) {
-  Item it;
-  it.kind = Item::kRect;
-  it.points = {top_left};
+  Item& it = add(Item::kRect, {top_left}, stroke, stroke_px);
   it.size = size;
-  it.stroke = stroke;
   it.fill = fill;
   it.filled = filled;
-  it.width_px = stroke_px;
-  items_.push_back(std::move(it));
 }
 
 void Canvas::polygon(std::vector<Eigen::Vector2d> points_px, Rgb stroke, double stroke_px,
                      Rgb fill) {
-  Item it;
-  it.kind = Item::kPolygon;
-  it.points = std::move(points_px);
-  it.stroke = stroke;
+  Item& it = add(Item::kPolygon, std::move(points_px), stroke, stroke_px);
   it.fill = fill;
   it.filled = true;
-  it.width_px = stroke_px;
-  items_.push_back(std::move(it));
 }
 
 void Canvas::text(const Eigen::Vector2d& at, std::string s, double size_px, Rgb color,
                   TextAnchor anchor) {
-  Item it;
-  it.kind = Item::kText;
-  it.points = {at};
+  Item& it = add(Item::kText, {at}, color, size_px);
   it.text = std::move(s);
-  it.stroke = color;
-  it.width_px = size_px;
   it.anchor = anchor;
-  items_.push_back(std::move(it));
 }
 
 double Canvas::textWidthPx(const std::string& s, double size_px) {

@@ -67,6 +67,9 @@ class Canvas {
     std::string text;
     TextAnchor anchor = TextAnchor::kStart;
   };
+  // A new item of `kind` with its common fields; the caller sets the rest.
+  Item& add(Item::Kind kind, std::vector<Eigen::Vector2d> points, Rgb stroke, double width_px);
+
   int width_;
   int height_;
   Rgb background_;

@@ -26,6 +26,18 @@ double reachLogLikelihood(const std::vector<ReachSample>& samples, double P, dou
   return ll;
 }
 
+// An accepted registration to node `node_id`: the pose and a diagonal covariance of
+// translation sigma `st` and rotation sigma `sr`.
+void acceptResult(int64_t node_id, const SE3d& node_T_query, double st, double sr,
+                  register_result_t* r) {
+  r->status = register_result_t::STATUS_OK;
+  r->node_id = node_id;
+  writePose(node_T_query, r->translation, r->orientation);
+  core::Mat6 cov = core::Mat6::Zero();
+  cov.diagonal() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr;
+  writeCovariance(cov, r->covariance);
+}
+
 }  // namespace
 
 double viewAngle(const SE3d& a, const SE3d& b) {
@@ -206,12 +218,7 @@ void RegistrationOracle::registerTrue(const Node& node, const KeyframeTruth& que
   core::Vec6 delta;
   for (int i = 0; i < 6; ++i) delta[i] = (i < 3 ? st : sr) * rng_.normal();
   const SE3d measured = (st > 0.0 || sr > 0.0) ? truth * SE3d::exp(delta) : truth;
-  r->status = register_result_t::STATUS_OK;
-  r->node_id = node.id;
-  writePose(measured, r->translation, r->orientation);
-  core::Mat6 cov = core::Mat6::Zero();
-  cov.diagonal() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr;
-  writeCovariance(cov, r->covariance);
+  acceptResult(node.id, measured, st, sr, r);
   r->num_inliers = o_.min_inliers + static_cast<int32_t>((o_.max_inliers - o_.min_inliers) * p *
                                                          rng_.uniform(0.7, 1.0));
   r->score = std::clamp(p * rng_.uniform(0.8, 1.0), 0.0, 1.0);
@@ -228,12 +235,7 @@ void RegistrationOracle::registerFalse(const Node& node, const SE3d& base, regis
                                  Vec3(dist * std::cos(heading), 0.0, dist * std::sin(heading)));
   const double st = o_.translation_sigma_m + o_.translation_sigma_per_m * dist;
   const double sr = o_.rotation_sigma_rad + o_.rotation_sigma_per_rad * std::abs(turn);
-  r->status = register_result_t::STATUS_OK;
-  r->node_id = node.id;
-  writePose(wrong, r->translation, r->orientation);
-  core::Mat6 cov = core::Mat6::Zero();
-  cov.diagonal() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr;
-  writeCovariance(cov, r->covariance);
+  acceptResult(node.id, wrong, st, sr, r);
   r->num_inliers = o_.min_inliers + static_cast<int32_t>(rng_.integer(0, 15));
   r->score = rng_.uniform(0.2, 0.5);
   r->reason.clear();

@@ -103,27 +103,21 @@ int64_t RunSummary::bytes() const {
 std::string RunSummary::text() const {
   std::ostringstream o;
   char line[256];
-  std::snprintf(line, sizeof line, "sessions                    %zu\n", sessions.size());
-  o << line;
-  std::snprintf(line, sizeof line, "simulated time              %.2f h\n", durationS() / 3600.0);
-  o << line;
-  std::snprintf(line, sizeof line, "distance driven             %.2f km\n", distanceM() / 1000.0);
-  o << line;
-  const std::vector<int> floors = floorsVisited();
-  std::snprintf(line, sizeof line, "floors visited              %zu\n", floors.size());
-  o << line;
-  std::snprintf(line, sizeof line, "elevator rides              %lld\n",
-                static_cast<long long>(rides()));
-  o << line;
-  std::snprintf(line, sizeof line, "VO frames                   %lld\n",
-                static_cast<long long>(voFrames()));
-  o << line;
-  std::snprintf(line, sizeof line, "VO keyframes                %lld\n",
-                static_cast<long long>(voKeyframes()));
-  o << line;
-  std::snprintf(line, sizeof line, "failed VO frames            %lld\n",
-                static_cast<long long>(voFailed()));
-  o << line;
+  // One "label  value" row, the value from `format` (one number) at column 29.
+  const auto row = [&](const char* label, const char* format, auto value) {
+    char text[64];
+    std::snprintf(text, sizeof text, format, value);
+    std::snprintf(line, sizeof line, "%-28s%s\n", label, text);
+    o << line;
+  };
+  row("sessions", "%zu", sessions.size());
+  row("simulated time", "%.2f h", durationS() / 3600.0);
+  row("distance driven", "%.2f km", distanceM() / 1000.0);
+  row("floors visited", "%zu", floorsVisited().size());
+  row("elevator rides", "%lld", static_cast<long long>(rides()));
+  row("VO frames", "%lld", static_cast<long long>(voFrames()));
+  row("VO keyframes", "%lld", static_cast<long long>(voKeyframes()));
+  row("failed VO frames", "%lld", static_cast<long long>(voFailed()));
   int64_t chains = 0;
   const double drift = voDriftMedian(20.0, &chains);
   std::snprintf(line, sizeof line,
