@@ -28,6 +28,7 @@
 namespace evermap::solver {
 namespace {
 
+using testing::readGraphText;
 using testing::TempFile;
 
 namespace fs = std::filesystem;
@@ -207,6 +208,18 @@ std::string coupledInformationGraph(double c) {
   return out.str();
 }
 
+// coupledInformationGraph(300) read from a file named `name` and its indefinite matrices
+// resolved by `rule`: all 8 change and the native objective then takes them.
+void readResolved(const std::string& name, IndefiniteInformation rule, GraphFile* out) {
+  auto g = readGraphText(name, coupledInformationGraph(300.0));
+  ASSERT_TRUE(g.ok());
+  auto changed = resolveIndefiniteInformation(&*g, rule);
+  ASSERT_TRUE(changed.ok()) << changed.error().message;
+  EXPECT_EQ(*changed, 8);
+  EXPECT_TRUE(checkInformation(*g, Objective::kNative).ok());
+  *out = std::move(*g);
+}
+
 TEST(GraphIo, IndefiniteInformationIsReadAndRefusedNamingTheEdge) {
   TempFile f("indefinite.g2o", coupledInformationGraph(300.0));  // 300² > 100·400
   auto g = readGraphFile(f.path());
@@ -231,14 +244,9 @@ TEST(GraphIo, IndefiniteInformationIsReadAndRefusedNamingTheEdge) {
 }
 
 TEST(GraphIo, BlocksRuleDropsOnlyTheCouplingOfTranslationAndRotation) {
-  TempFile f("blocks.g2o", coupledInformationGraph(300.0));
-  auto g = readGraphFile(f.path());
-  ASSERT_TRUE(g.ok());
-  auto changed = resolveIndefiniteInformation(&*g, IndefiniteInformation::kBlocks);
-  ASSERT_TRUE(changed.ok()) << changed.error().message;
-  EXPECT_EQ(*changed, 8);
-  EXPECT_TRUE(checkInformation(*g, Objective::kNative).ok());
-  const Eigen::MatrixXd I = g->edges[7].information();
+  GraphFile g;
+  ASSERT_NO_FATAL_FAILURE(readResolved("blocks.g2o", IndefiniteInformation::kBlocks, &g));
+  const Eigen::MatrixXd I = g.edges[7].information();
   EXPECT_NEAR(I(0, 0), 100.0, 1e-9);
   EXPECT_NEAR(I(5, 5), 400.0, 1e-9);
   EXPECT_NEAR(I.topRightCorner(3, 3).norm(), 0.0, 1e-9);
@@ -254,13 +262,8 @@ TEST(GraphIo, NearestPositiveDefiniteRaisesOnlyTheEigenvaluesBelowTheFloor) {
   EXPECT_NEAR(after.eigenvalues()[2], before.eigenvalues()[2], 1e-12);
   // Nearest in the Frobenius norm: the distance is what the clipped eigenvalue moved.
   EXPECT_NEAR((P - I).norm(), 1e-6 * before.eigenvalues()[2] - before.eigenvalues()[0], 1e-12);
-  TempFile f("nearest.g2o", coupledInformationGraph(300.0));
-  auto g = readGraphFile(f.path());
-  ASSERT_TRUE(g.ok());
-  auto changed = resolveIndefiniteInformation(&*g, IndefiniteInformation::kNearest);
-  ASSERT_TRUE(changed.ok()) << changed.error().message;
-  EXPECT_EQ(*changed, 8);
-  EXPECT_TRUE(checkInformation(*g, Objective::kNative).ok());
+  GraphFile g;
+  ASSERT_NO_FATAL_FAILURE(readResolved("nearest.g2o", IndefiniteInformation::kNearest, &g));
 }
 
 TEST(GraphProblem, SeSyncObjectiveUsesOnlyTheBlocksOfAnIndefiniteMatrix) {
@@ -374,9 +377,13 @@ GraphFile chainWithLoops(int n) {
   return g;
 }
 
-std::vector<GraphEdge> synthetic(const GraphFile& g) {
+// The `count` false closures of `mode` that addFalseLoopClosures adds to g.
+std::vector<GraphEdge> falseClosures(const GraphFile& g, OutlierMode mode, int count) {
+  OutlierOptions o;
+  o.count = count;
+  o.mode = mode;
   std::vector<GraphEdge> out;
-  for (const GraphEdge& e : g.edges) {
+  for (const GraphEdge& e : addFalseLoopClosures(g, o).edges) {
     if (isSyntheticOutlier(e)) out.push_back(e);
   }
   return out;
@@ -384,9 +391,7 @@ std::vector<GraphEdge> synthetic(const GraphFile& g) {
 
 TEST(Outliers, RandomClosuresCarryVertigosMeasurementSpread) {
   const GraphFile g = chainWithLoops(300);
-  OutlierOptions o;
-  o.count = 2000;
-  const auto edges = synthetic(addFalseLoopClosures(g, o));
+  const auto edges = falseClosures(g, OutlierMode::kRandom, 2000);
   ASSERT_EQ(edges.size(), 2000u);
   double sx = 0.0, st = 0.0;
   int far = 0;
@@ -402,10 +407,7 @@ TEST(Outliers, RandomClosuresCarryVertigosMeasurementSpread) {
 
 TEST(Outliers, LocalClosuresJoinPosesAtMostTwentyApart) {
   const GraphFile g = chainWithLoops(300);
-  OutlierOptions o;
-  o.count = 200;
-  o.mode = OutlierMode::kLocal;
-  const auto edges = synthetic(addFalseLoopClosures(g, o));
+  const auto edges = falseClosures(g, OutlierMode::kLocal, 200);
   ASSERT_EQ(edges.size(), 200u);
   std::set<Key> gaps;
   for (const GraphEdge& e : edges) {
@@ -418,10 +420,7 @@ TEST(Outliers, LocalClosuresJoinPosesAtMostTwentyApart) {
 
 TEST(Outliers, AGroupAgreesOnOneFalseRelativePoseBetweenTwoStretches) {
   const GraphFile g = chainWithLoops(300);
-  OutlierOptions o;
-  o.count = 30;
-  o.mode = OutlierMode::kGroup;
-  const auto edges = synthetic(addFalseLoopClosures(g, o));
+  const auto edges = falseClosures(g, OutlierMode::kGroup, 30);
   ASSERT_EQ(edges.size(), 30u);
   // Group by the first pose of the stretch: members k of a group join a + k and b + k.
   std::map<Key, std::vector<GraphEdge>> groups;  // by b − a (distinct groups: distinct gaps)
