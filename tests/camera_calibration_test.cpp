@@ -233,32 +233,31 @@ TEST(EurocCalibration, BrokenFilesAreRefusedNamingTheFileAndField) {
   };
   refuse("/nonexistent/cam0/sensor.yaml", "cannot open");
   refuse(writeTemp(scratch, "garbage.yaml", "%YAML:1.0\nintrinsics: [1, 2\n  : ]]]\n"), "");
-  refuse(writeTemp(scratch, "no_intrinsics.yaml",
-                   std::regex_replace(good, std::regex("intrinsics:.*"), "")),
-         "intrinsics must be 4 numbers");
-  refuse(writeTemp(scratch, "three_intrinsics.yaml",
-                   std::regex_replace(good, std::regex("intrinsics: \\[[^\\]]*\\]"),
-                                      "intrinsics: [458.654, 457.296, 367.215]")),
-         "intrinsics must be 4 numbers");
-  refuse(
-      writeTemp(scratch, "zero_fx.yaml", std::regex_replace(good, std::regex("458\\.654"), "0.0")),
-      "focal length fx = 0");
-  refuse(
-      writeTemp(scratch, "nan_fy.yaml", std::regex_replace(good, std::regex("457\\.296"), ".nan")),
-      "focal length fy = nan");
-  refuse(writeTemp(scratch, "pp_outside.yaml",
-                   std::regex_replace(good, std::regex("367\\.215"), "900.0")),
-         "principal point (900, 248.375) is outside the 752x480 image");
-  refuse(writeTemp(scratch, "zero_size.yaml",
-                   std::regex_replace(good, std::regex("resolution: \\[752, 480\\]"),
-                                      "resolution: [0, 480]")),
-         "image size 0x480 must be positive");
-  refuse(writeTemp(scratch, "fisheye.yaml",
-                   std::regex_replace(good, std::regex("radial-tangential"), "equidistant")),
-         "distortion_model \"equidistant\" is not supported");
-  refuse(writeTemp(scratch, "bad_tbs.yaml",
-                   std::regex_replace(good, std::regex("0\\.0148655429818"), "0.5")),
-         "T_BS is not a rigid transform");
+  // The good file with one field broken: what is replaced, by what, and the refusal.
+  const struct {
+    const char* file;
+    const char* pattern;
+    const char* replacement;
+    const char* refusal;
+  } broken[] = {
+      {"no_intrinsics.yaml", "intrinsics:.*", "", "intrinsics must be 4 numbers"},
+      {"three_intrinsics.yaml", "intrinsics: \\[[^\\]]*\\]",
+       "intrinsics: [458.654, 457.296, 367.215]", "intrinsics must be 4 numbers"},
+      {"zero_fx.yaml", "458\\.654", "0.0", "focal length fx = 0"},
+      {"nan_fy.yaml", "457\\.296", ".nan", "focal length fy = nan"},
+      {"pp_outside.yaml", "367\\.215", "900.0",
+       "principal point (900, 248.375) is outside the 752x480 image"},
+      {"zero_size.yaml", "resolution: \\[752, 480\\]", "resolution: [0, 480]",
+       "image size 0x480 must be positive"},
+      {"fisheye.yaml", "radial-tangential", "equidistant",
+       "distortion_model \"equidistant\" is not supported"},
+      {"bad_tbs.yaml", "0\\.0148655429818", "0.5", "T_BS is not a rigid transform"},
+  };
+  for (const auto& b : broken) {
+    refuse(
+        writeTemp(scratch, b.file, std::regex_replace(good, std::regex(b.pattern), b.replacement)),
+        b.refusal);
+  }
 }
 
 TEST(EurocCalibration, InconsistentPairsAreRefused) {

@@ -32,6 +32,12 @@ std::unique_ptr<Supervisor> makeSupervisor(std::vector<CommandSpec> commands,
   return s.ok() ? std::move(*s) : nullptr;
 }
 
+// Starts `name` and spins the supervisor until the command has ended.
+void runToTheEnd(Supervisor& s, const std::string& name) {
+  ASSERT_TRUE(s.start(name).ok());
+  ASSERT_TRUE(spinUntil(s, [&] { return s.status(name)->has_ended; }));
+}
+
 TEST(DeputySupervisor, WritesStdoutAndStderrToTheProcessLogAndTheSink) {
   evermap::testing::ScratchDir dir;
   auto s = makeSupervisor(
@@ -41,8 +47,7 @@ TEST(DeputySupervisor, WritesStdoutAndStderrToTheProcessLogAndTheSink) {
     EXPECT_EQ(name, "talker");
     if (!from_deputy) lines.push_back(line);
   });
-  ASSERT_TRUE(s->start("talker").ok());
-  ASSERT_TRUE(spinUntil(*s, [&] { return s->status("talker")->has_ended; }));
+  ASSERT_NO_FATAL_FAILURE(runToTheEnd(*s, "talker"));
   EXPECT_EQ(s->status("talker")->state, ProcessState::kStopped);  // exit 0 without respawn
   EXPECT_EQ(s->status("talker")->last_exit_code, 0);
   EXPECT_EQ(lines, (std::vector<std::string>{"out-line", "err-line", "no newline"}));
@@ -62,8 +67,7 @@ TEST(DeputySupervisor, RotatesALogFileThatGrowsTooBig) {
       {command("chatty", "i=0; while [ $i -lt 300 ]; do printf '%099d\\n' $i; i=$((i+1)); done")},
       o);
   ASSERT_TRUE(s.ok()) << s.error().message;
-  ASSERT_TRUE((*s)->start("chatty").ok());
-  ASSERT_TRUE(spinUntil(**s, [&] { return (*s)->status("chatty")->has_ended; }));
+  ASSERT_NO_FATAL_FAILURE(runToTheEnd(**s, "chatty"));
   EXPECT_EQ((*s)->status("chatty")->last_exit_code, 0);
   const auto current = std::filesystem::file_size(dir / "chatty.log");
   const auto previous = std::filesystem::file_size(dir / "chatty.log.1");
@@ -140,8 +144,7 @@ TEST(DeputySupervisor, StableRunsResetTheBackoff) {
 TEST(DeputySupervisor, WithoutAutoRespawnAFailedCommandStaysFailed) {
   evermap::testing::ScratchDir dir;
   auto s = makeSupervisor({command("once", "exit 7")}, dir.path());
-  ASSERT_TRUE(s->start("once").ok());
-  ASSERT_TRUE(spinUntil(*s, [&] { return s->status("once")->has_ended; }));
+  ASSERT_NO_FATAL_FAILURE(runToTheEnd(*s, "once"));
   const ProcessStatus st = *s->status("once");
   EXPECT_EQ(st.state, ProcessState::kFailed);
   EXPECT_EQ(st.last_exit_code, 7);
@@ -233,8 +236,7 @@ TEST(DeputySupervisor, StartDelayHoldsTheStart) {
 TEST(DeputySupervisor, AMissingProgramIsReportedAsFailed) {
   evermap::testing::ScratchDir dir;
   auto s = makeSupervisor({command("ghost", "/nonexistent/evermap-ghost --x")}, dir.path());
-  ASSERT_TRUE(s->start("ghost").ok());
-  ASSERT_TRUE(spinUntil(*s, [&] { return s->status("ghost")->has_ended; }));
+  ASSERT_NO_FATAL_FAILURE(runToTheEnd(*s, "ghost"));
   EXPECT_EQ(s->status("ghost")->state, ProcessState::kFailed);
   EXPECT_EQ(s->status("ghost")->last_exit_code, 127);
   EXPECT_NE(readFile(dir / "ghost.log").find("cannot execute '/nonexistent/evermap-ghost'"),

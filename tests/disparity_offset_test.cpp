@@ -56,6 +56,17 @@ std::vector<StereoMatchPair> forwardPairs(const testing::TexturedRoom& room,
   return pairs;
 }
 
+// The offset that `camera` estimates from `pairs` with the default options is `expected_px`
+// within 0.15 px; the summary goes to *out.
+void expectOffset(const StereoCamera& camera, const std::vector<StereoMatchPair>& pairs,
+                  double expected_px, DisparityOffsetSummary* out = nullptr) {
+  const auto est = estimateDisparityOffset(camera, pairs, DisparityOffsetOptions{});
+  ASSERT_TRUE(est.ok()) << est.error().message;
+  std::printf("%s\n", est->message.c_str());
+  EXPECT_NEAR(est->offset_px, expected_px, 0.15) << est->message;
+  if (out != nullptr) *out = *est;
+}
+
 #define REQUIRE_ROOM(room)                                                          \
   const testing::TexturedRoom room(testing::dataRoot());                            \
   if (!room.ok()) {                                                                 \
@@ -66,22 +77,15 @@ std::vector<StereoMatchPair> forwardPairs(const testing::TexturedRoom& room,
 TEST(DisparityOffset, AnExactRigHasNoOffset) {
   REQUIRE_ROOM(room);
   const StereoCamera camera = testing::syntheticCamera();
-  const auto est = estimateDisparityOffset(camera, forwardPairs(room, camera, camera, 0),
-                                           DisparityOffsetOptions{});
-  ASSERT_TRUE(est.ok()) << est.error().message;
-  EXPECT_EQ(est->pairs, 7);
-  std::printf("%s\n", est->message.c_str());
-  EXPECT_NEAR(est->offset_px, 0.0, 0.15) << est->message;
+  DisparityOffsetSummary est;
+  ASSERT_NO_FATAL_FAILURE(expectOffset(camera, forwardPairs(room, camera, camera, 0), 0.0, &est));
+  EXPECT_EQ(est.pairs, 7);
 }
 
 TEST(DisparityOffset, ARightImageOnePixelOffFromItsCalibrationIsFound) {
   REQUIRE_ROOM(room);
   const StereoCamera camera = testing::syntheticCamera();
-  const auto est = estimateDisparityOffset(camera, forwardPairs(room, camera, camera, 1),
-                                           DisparityOffsetOptions{});
-  ASSERT_TRUE(est.ok()) << est.error().message;
-  std::printf("%s\n", est->message.c_str());
-  EXPECT_NEAR(est->offset_px, 1.0, 0.15) << est->message;
+  expectOffset(camera, forwardPairs(room, camera, camera, 1), 1.0);
 }
 
 TEST(DisparityOffset, AWrongBaselineIsNotMistakenForAnOffset) {
@@ -90,11 +94,7 @@ TEST(DisparityOffset, AWrongBaselineIsNotMistakenForAnOffset) {
   const StereoCamera measured =
       *StereoCamera::create(rendered.fx(), rendered.fy(), rendered.cx(), rendered.cy(),
                             rendered.baselineM() * 1.08, rendered.width(), rendered.height());
-  const auto est = estimateDisparityOffset(measured, forwardPairs(room, rendered, measured, 0),
-                                           DisparityOffsetOptions{});
-  ASSERT_TRUE(est.ok()) << est.error().message;
-  std::printf("%s\n", est->message.c_str());
-  EXPECT_NEAR(est->offset_px, 0.0, 0.15) << est->message;
+  expectOffset(measured, forwardPairs(room, rendered, measured, 0), 0.0);
 }
 
 TEST(DisparityOffset, RefusesAGridWhoseEndIsTheMinimumAndEmptyInput) {

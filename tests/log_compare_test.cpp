@@ -59,6 +59,11 @@ std::filesystem::path writeLog(int n) {
   return path;
 }
 
+// `bytes` handed to the comparator as a message received on `channel`.
+void receive(LogComparator& cmp, const std::string& channel, const std::vector<uint8_t>& bytes) {
+  cmp.onMessage(channel, bytes.data(), bytes.size());
+}
+
 TEST(TypeRegistry, KnowsEveryTypeAndIdentifiesEncodedMessages) {
   EXPECT_GE(allTypes().size(), 20u);
   const auto bytes = encode(imu(5));
@@ -108,11 +113,10 @@ TEST(LogComparator, CountsMissingAndCorruptMessages) {
   const auto path = writeLog(3);
   auto cmp = LogComparator::fromLog(path);
   ASSERT_TRUE(cmp.ok());
-  auto good = encode(imu(0));
-  cmp->onMessage(channels::kImu, good.data(), good.size());
+  receive(*cmp, channels::kImu, encode(imu(0)));
   auto bad = encode(imu(1));
   bad.back() ^= 0x01;  // one flipped bit in the payload
-  cmp->onMessage(channels::kImu, bad.data(), bad.size());
+  receive(*cmp, channels::kImu, bad);
   const auto s = cmp->summary();
   EXPECT_FALSE(s.complete());
   EXPECT_EQ(s.channels.at(channels::kImu).intact, 1);
@@ -127,11 +131,9 @@ TEST(LogComparator, IgnoresLcmSelfTest) {
   ASSERT_TRUE(cmp.ok());
   const uint8_t probe[4] = {'l', 'c', 'm', 0};
   cmp->onMessage("LCM_SELF_TEST", probe, sizeof probe);
-  auto a = encode(imu(0));
-  cmp->onMessage(channels::kImu, a.data(), a.size());
+  receive(*cmp, channels::kImu, encode(imu(0)));
   EXPECT_FALSE(cmp->allReceived());  // the stereo message is still due
-  auto b = encode(stereo(0));
-  cmp->onMessage(channels::kStereo, b.data(), b.size());
+  receive(*cmp, channels::kStereo, encode(stereo(0)));
   EXPECT_TRUE(cmp->allReceived());
   EXPECT_TRUE(cmp->summary().complete());
   std::filesystem::remove(path);

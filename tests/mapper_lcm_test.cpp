@@ -282,6 +282,18 @@ void expectSameGraph(const map_graph_t& a, const map_graph_t& b) {
   }
 }
 
+// A clean run and one with `what` injected, each with its own store: `expected` messages were
+// injected and MAPPER_STATS counts every one of them as dropped.
+void runCleanAndInjected(Inject what, int expected, LiveRun* clean, LiveRun* injected) {
+  evermap::testing::ScratchDir dir;
+  *clean = runLive(Inject::kNothing, dir.path() / "clean.db");
+  int count = 0;
+  *injected = runLive(what, dir.path() / "injected.db", &count);
+  ASSERT_EQ(count, expected);
+  ASSERT_FALSE(injected->heard.stats.empty());
+  EXPECT_EQ(injected->heard.stats.back().num_dropped_messages, expected);
+}
+
 // The last MAP_GRAPH of a run with messages injected is the clean run's, node for node.
 void expectTheCleanMap(const LiveRun& clean, const LiveRun& injected) {
   ASSERT_FALSE(clean.heard.graphs.empty());
@@ -293,17 +305,12 @@ void expectTheCleanMap(const LiveRun& clean, const LiveRun& injected) {
 }
 
 TEST(MapperLcm, DropsAndCountsMalformedAndOutOfOrderMessagesWithoutApplyingThem) {
-  evermap::testing::ScratchDir dir;
-  const LiveRun clean = runLive(Inject::kNothing, dir.path() / "clean.db");
-  int injected = 0;
-  const LiveRun dirty = runLive(Inject::kBad, dir.path() / "dirty.db", &injected);
-  ASSERT_EQ(injected, 7);
+  LiveRun clean, dirty;
+  ASSERT_NO_FATAL_FAILURE(runCleanAndInjected(Inject::kBad, 7, &clean, &dirty));
   EXPECT_EQ(dirty.counts.undecodable, 1);
   EXPECT_EQ(dirty.counts.refused, 6);
   EXPECT_EQ(dirty.stats.dropped, clean.stats.dropped + 6);
   EXPECT_EQ(dirty.stats.implausible_floors, 1);
-  ASSERT_FALSE(dirty.heard.stats.empty());
-  EXPECT_EQ(dirty.heard.stats.back().num_dropped_messages, 7);
   // The floor refusal is in MAPPER_STATS' named counters too.
   const mapper_stats_t& s = dirty.heard.stats.back();
   ASSERT_EQ(s.counter_names.size(), s.counter_values.size());
@@ -319,17 +326,22 @@ TEST(MapperLcm, AMessageStampedTwoToThe62IsRefusedAndTheMapIsTheCleanRunsOne) {
   // stream and again in the middle of it, used to become the mapper's "now" (0 nodes from VO,
   // wrong floors, every attitude refused after it). The time guard holds them, no other
   // message confirms them, they are refused and counted; the map is the clean run's.
-  evermap::testing::ScratchDir dir;
-  const LiveRun clean = runLive(Inject::kNothing, dir.path() / "clean.db");
-  int injected = 0;
-  const LiveRun far = runLive(Inject::kFarTime, dir.path() / "far.db", &injected);
-  ASSERT_EQ(injected, 8);
+  LiveRun clean, far;
+  ASSERT_NO_FATAL_FAILURE(runCleanAndInjected(Inject::kFarTime, 8, &clean, &far));
   EXPECT_EQ(far.counts.time_refused, 8);
   EXPECT_EQ(far.counts.undecodable, 0);
   EXPECT_EQ(far.stats.dropped, clean.stats.dropped);
-  ASSERT_FALSE(far.heard.stats.empty());
-  EXPECT_EQ(far.heard.stats.back().num_dropped_messages, 8);
   expectTheCleanMap(clean, far);
+}
+
+// A VO_DELTA that starts a keyframe at `utime` with no motion measured.
+vo_delta_t keyframeWithoutMotion(int64_t utime) {
+  vo_delta_t delta{};
+  delta.utime = delta.ref_utime = utime;
+  delta.status = vo_delta_t::STATUS_NO_DATA;
+  delta.keyframe_changed = 1;
+  delta.orientation[0] = 1.0;
+  return delta;
 }
 
 TEST(MapperLcm, TakesTheCameraFromStereoCalibAndRefusesVoBeforeIt) {
@@ -345,11 +357,7 @@ TEST(MapperLcm, TakesTheCameraFromStereoCalibAndRefusesVoBeforeIt) {
     while (lcm.handleTimeout(0) > 0) {
     }
   };
-  vo_delta_t first{};
-  first.utime = first.ref_utime = 1'000'000;
-  first.status = vo_delta_t::STATUS_NO_DATA;
-  first.keyframe_changed = 1;
-  first.orientation[0] = 1.0;
+  vo_delta_t first = keyframeWithoutMotion(1'000'000);
   lcm.publish(channels::kVoDelta, &first);
   drain();
   EXPECT_EQ(node.counts().no_calibration, 1);
@@ -409,11 +417,7 @@ TEST(MapperLcm, TakesTheCameraFromRgbdCalibToo) {
   lcm.publish(channels::kRgbdCalib, &bad);
   drain();
   EXPECT_EQ(node.calibration().counts().refused, 1);
-  vo_delta_t first{};
-  first.utime = first.ref_utime = 3'100'000;
-  first.status = vo_delta_t::STATUS_NO_DATA;
-  first.keyframe_changed = 1;
-  first.orientation[0] = 1.0;
+  const vo_delta_t first = keyframeWithoutMotion(3'100'000);
   lcm.publish(channels::kVoDelta, &first);
   drain();
   EXPECT_EQ(node.counts().no_calibration, 0);

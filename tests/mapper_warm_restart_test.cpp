@@ -479,6 +479,15 @@ void saveAsAnOlderSchema(ScriptedDrive& drive, const std::filesystem::path& file
   ASSERT_EQ(rc, SQLITE_OK) << error;
 }
 
+// The store at `file` opened read-only, as it is: its map into *snap.
+void loadReadOnly(const std::filesystem::path& file, MapSnapshot* snap) {
+  auto ro = MapStore::open(file, MapStoreOptions{2, true});
+  ASSERT_TRUE(ro) << ro.error().message;
+  auto loaded = ro->load();
+  ASSERT_TRUE(loaded) << loaded.error().message;
+  *snap = std::move(*loaded);
+}
+
 // Stores written before the tracking state (schema version 0: no map_tracking) open, read
 // only and read-write; read-write migrates them; a restart from one starts lost, as before.
 TEST(MapStore, AStoreOfTheSchemaBeforeTheTrackingStateOpensAndIsMigrated) {
@@ -490,12 +499,10 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheTrackingStateOpensAndIsMigrated) {
   ASSERT_NO_FATAL_FAILURE(
       saveAsAnOlderSchema(drive, file, "DROP TABLE map_tracking; PRAGMA user_version=0;"));
   {
-    auto ro = MapStore::open(file, MapStoreOptions{2, true});
-    ASSERT_TRUE(ro) << ro.error().message;
-    auto snap = ro->load();
-    ASSERT_TRUE(snap) << snap.error().message;
-    EXPECT_FALSE(snap->tracking);
-    EXPECT_EQ(snap->nodes.size(), drive.mapper().nodes().size());
+    MapSnapshot snap;
+    ASSERT_NO_FATAL_FAILURE(loadReadOnly(file, &snap));
+    EXPECT_FALSE(snap.tracking);
+    EXPECT_EQ(snap.nodes.size(), drive.mapper().nodes().size());
   }
   auto store = MapStore::open(file);
   ASSERT_TRUE(store) << store.error().message;
@@ -533,12 +540,10 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheOdometryPoseIsMigratedAndTheRoundTripKe
       "NOT NULL);"
       "INSERT INTO map_tracking SELECT * FROM t1; DROP TABLE t1; PRAGMA user_version=1;"));
   {
-    auto ro = MapStore::open(file, MapStoreOptions{2, true});
-    ASSERT_TRUE(ro) << ro.error().message;
-    auto snap = ro->load();
-    ASSERT_TRUE(snap) << snap.error().message;
-    ASSERT_TRUE(snap->tracking);
-    EXPECT_FALSE(snap->tracking->odometry);
+    MapSnapshot snap;
+    ASSERT_NO_FATAL_FAILURE(loadReadOnly(file, &snap));
+    ASSERT_TRUE(snap.tracking);
+    EXPECT_FALSE(snap.tracking->odometry);
   }
   auto store = MapStore::open(file);
   ASSERT_TRUE(store) << store.error().message;
@@ -578,12 +583,11 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheWheelPoseIsMigratedAndTheRoundTripKeeps
                           "map_tracking DROP COLUMN wheel_covariance;"
                           "PRAGMA user_version=2;"));
   {
-    auto ro = MapStore::open(file, MapStoreOptions{2, true});
-    ASSERT_TRUE(ro) << ro.error().message;
-    auto snap = ro->load();
-    ASSERT_TRUE(snap && snap->tracking) << snap.error().message;
-    EXPECT_TRUE(snap->tracking->odometry);
-    EXPECT_FALSE(snap->tracking->wheel);
+    MapSnapshot snap;
+    ASSERT_NO_FATAL_FAILURE(loadReadOnly(file, &snap));
+    ASSERT_TRUE(snap.tracking);
+    EXPECT_TRUE(snap.tracking->odometry);
+    EXPECT_FALSE(snap.tracking->wheel);
   }
   auto store = MapStore::open(file);
   ASSERT_TRUE(store) << store.error().message;

@@ -38,6 +38,11 @@ class InboxTest : public ::testing::Test {
     lcm_.publish(channels::kImu, &m);
     drain();  // one at a time: memq queues are bounded too
   }
+  // Every IMU sample the inbox passes on goes to seen_.
+  void recordImu(Inbox& inbox) {
+    inbox.subscribe<evermap::imu_t>(channels::kImu,
+                                    [this](const evermap::imu_t& m) { seen_.push_back(m.utime); });
+  }
   Inbox::Options options() const {
     Inbox::Options o;
     o.process = "inbox-test";
@@ -90,8 +95,7 @@ TEST_F(InboxTest, AMessageStampedTwoToThe62IsRefusedAndNeverBecomesNow) {
   Inbox::Options o = options();
   o.time.expire_count = 50;
   Inbox inbox(lcm_, o);
-  inbox.subscribe<evermap::imu_t>(channels::kImu,
-                                  [&](const evermap::imu_t& m) { seen_.push_back(m.utime); });
+  recordImu(inbox);
   std::vector<int64_t> sent;
   for (int k = 0; k < 200; ++k) {
     if (k == 100) {
@@ -110,8 +114,7 @@ TEST_F(InboxTest, TheFirstMessagesWaitUntilTheyAgreeSoAFarFirstMessageIsNotTheCl
   Inbox::Options o = options();
   o.time.expire_count = 10;
   Inbox inbox(lcm_, o);
-  inbox.subscribe<evermap::imu_t>(channels::kImu,
-                                  [&](const evermap::imu_t& m) { seen_.push_back(m.utime); });
+  recordImu(inbox);
   publishImu(kFar);
   publishImu(kT0);
   publishImu(kT0 + 5000);
@@ -127,8 +130,7 @@ TEST_F(InboxTest, AStreamThatReallyJumpsIsFollowedWithNothingLost) {
   // A new session a day later (or a log replayed again): after confirm_count messages agree,
   // the clock moves and the held messages are passed on in order.
   Inbox inbox(lcm_, options());
-  inbox.subscribe<evermap::imu_t>(channels::kImu,
-                                  [&](const evermap::imu_t& m) { seen_.push_back(m.utime); });
+  recordImu(inbox);
   std::vector<int64_t> sent;
   for (int k = 0; k < 10; ++k) sent.push_back(kT0 + k * 5000);
   const int64_t day = int64_t{86400} * 1'000'000;
@@ -143,8 +145,7 @@ TEST_F(InboxTest, CountsGoOutAsInputStats) {
   Inbox::Options o = options();
   o.time.confirm_count = 1;
   Inbox inbox(lcm_, o);
-  inbox.subscribe<evermap::imu_t>(channels::kImu,
-                                  [&](const evermap::imu_t& m) { seen_.push_back(m.utime); });
+  recordImu(inbox);
   publishImu(kT0);
   const char junk[] = "junk";
   lcm_.publish(channels::kImu, junk, sizeof junk);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numeric>
 #include <random>
 #include <vector>
 
@@ -42,6 +43,22 @@ Correspondence measure(const SE3d& a_T_b, const Vec3& p_a, double sigma_px, std:
 }
 
 const SE3d kMotion(SO3d::exp(Vec3(0.02, -0.15, 0.03)), Vec3(0.12, -0.03, 0.25));
+
+// Noisy measurements (sigma_px) of n points that both frames of kMotion see.
+std::vector<Correspondence> noisyMatches(int n, double sigma_px, std::mt19937* rng) {
+  std::vector<Correspondence> matches;
+  for (const Vec3& p : pointsSeenByBoth(kMotion, n, rng)) {
+    matches.push_back(measure(kMotion, p, sigma_px, rng));
+  }
+  return matches;
+}
+
+// 0, 1, ..., n - 1: every candidate.
+std::vector<int> allIndices(size_t n) {
+  std::vector<int> all(n);
+  std::iota(all.begin(), all.end(), 0);
+  return all;
+}
 
 TEST(CliqueInliers, FindsTheRigidSubsetAmongOutliers) {
   std::mt19937 rng(1);
@@ -115,15 +132,11 @@ TEST(MotionEstimation, JacobianMatchesNumericalDerivatives) {
 TEST(MotionEstimation, RecoversTheMotionAndRejectsOutliers) {
   std::mt19937 rng(3);
   const StereoCamera cam = camera();
-  std::vector<Correspondence> matches;
-  for (const Vec3& p : pointsSeenByBoth(kMotion, 150, &rng)) {
-    matches.push_back(measure(kMotion, p, 0.3, &rng));
-  }
+  std::vector<Correspondence> matches = noisyMatches(150, 0.3, &rng);
   // Ten matches whose current observation is off by 5 px: the clique would keep them (small
   // 3-D errors) but the reprojection test must not.
   for (int i = 0; i < 10; ++i) matches[static_cast<size_t>(i)].uv_b += Eigen::Vector2d(5.0, -4.0);
-  std::vector<int> all(matches.size());
-  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  const std::vector<int> all = allIndices(matches.size());
   const MotionEstimate e = estimateMotion(cam, cam, matches, all, SE3d(), MotionOptions{});
   ASSERT_TRUE(e.ok()) << e.message;
   const SE3d err = kMotion.inverse() * e.a_T_b;
@@ -149,17 +162,13 @@ TEST(MotionEstimation, GrossOutliersThatPullTheFirstSolveOffAreShedOverSeveralRo
   // median error, shrinking to 1 px) recovers the motion.
   std::mt19937 rng(5);
   const StereoCamera cam = camera();
-  std::vector<Correspondence> matches;
-  for (const Vec3& p : pointsSeenByBoth(kMotion, 120, &rng)) {
-    matches.push_back(measure(kMotion, p, 0.2, &rng));
-  }
+  std::vector<Correspondence> matches = noisyMatches(120, 0.2, &rng);
   std::uniform_real_distribution<double> off(30.0, 60.0);
   for (int i = 0; i < 30; ++i) {
     matches[static_cast<size_t>(i)].uv_b += Eigen::Vector2d(off(rng), -off(rng));
     matches[static_cast<size_t>(i)].uv_a += Eigen::Vector2d(-off(rng), off(rng));
   }
-  std::vector<int> all(matches.size());
-  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  const std::vector<int> all = allIndices(matches.size());
   MotionOptions options;
   options.inlier_max_reprojection_px = 1.0;
   options.max_rejection_rounds = 4;
@@ -195,8 +204,7 @@ TEST(MotionEstimation, WhiteningForDepthNoiseKeepsFarPointsWithinTheBound) {
     if (!pa || !pb || a.z() <= 0.2 || b.z() <= 0.2) continue;
     matches.push_back({a.head<2>(), *pa, b.head<2>(), *pb});
   }
-  std::vector<int> all(matches.size());
-  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  const std::vector<int> all = allIndices(matches.size());
   MotionOptions options;
   options.inlier_max_reprojection_px = 1.0;
   options.max_mean_reprojection_px = 10.0;
@@ -215,8 +223,7 @@ TEST(MotionEstimation, CovarianceMatchesTheSpreadOfTheEstimates) {
   std::mt19937 rng(4);
   const StereoCamera cam = camera();
   const std::vector<Vec3> points = pointsSeenByBoth(kMotion, 60, &rng);
-  std::vector<int> all(points.size());
-  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  const std::vector<int> all = allIndices(points.size());
   std::vector<Vec6> errors;
   Mat6 predicted = Mat6::Zero();
   const int trials = 300;

@@ -39,6 +39,13 @@ WarpCase randomWarpCase(Random& rng, int level_w, int level_h, int width) {
   return c;
 }
 
+// A texture library of one variant per texture, drawn from rng.
+Expected<TextureLibrary> oneVariantLibrary(Random& rng) {
+  TextureOptions to;
+  to.variants = 1;
+  return makeTextureLibrary(to, {}, rng);
+}
+
 TEST(RenderKernels, WarpAvx2MatchesPortableBitForBit) {
   if (!core::cpuHasAvx2()) GTEST_SKIP() << "this CPU has no AVX2";
   Random rng(3);
@@ -105,9 +112,7 @@ RenderFloor threeRooms(const TextureLibrary& lib) {
 TEST(RenderKernels, SurfaceRowAvx2MatchesPortableBitForBit) {
   if (!core::cpuHasAvx2()) GTEST_SKIP() << "this CPU has no AVX2";
   Random rng(5);
-  TextureOptions to;
-  to.variants = 1;
-  auto lib = makeTextureLibrary(to, {}, rng);
+  auto lib = oneVariantLibrary(rng);
   ASSERT_TRUE(lib) << lib.error().message;
   const RenderFloor floor = threeRooms(*lib);
   std::vector<const Texture*> texture_of_cell(256);
@@ -161,9 +166,7 @@ TEST(RenderKernels, SurfaceRowAvx2MatchesPortableBitForBit) {
 TEST(RenderKernels, WallSpanAvx2MatchesPortableBitForBit) {
   if (!core::cpuHasAvx2()) GTEST_SKIP() << "this CPU has no AVX2";
   Random rng(6);
-  TextureOptions to;
-  to.variants = 1;
-  auto lib = makeTextureLibrary(to, {}, rng);
+  auto lib = oneVariantLibrary(rng);
   ASSERT_TRUE(lib) << lib.error().message;
   const int stride = 7, rows = 300;
   for (int trial = 0; trial < 300; ++trial) {
@@ -196,9 +199,7 @@ TEST(RenderKernels, WallSpanAvx2MatchesPortableBitForBit) {
 
 TEST(RenderKernels, WallSpanSamplesTheTextureColumn) {
   Random rng(8);
-  TextureOptions to;
-  to.variants = 1;
-  auto lib = makeTextureLibrary(to, {}, rng);
+  auto lib = oneVariantLibrary(rng);
   ASSERT_TRUE(lib) << lib.error().message;
   const Texture& texture = lib->textures[0];
   const Texture::Column column(texture, 17.3f, 1);

@@ -23,25 +23,9 @@ namespace {
 using core::SE3d;
 
 using testing::edgeFactor;
+using testing::poseRequest;
 using testing::Scenario;
 using testing::spatialScenario;
-
-// The request that adds pose i (chained from the estimate of i - 1) and its factors.
-UpdateRequest poseRequest(const Scenario& s, const IncrementalSolver& inc, int i) {
-  UpdateRequest r;
-  if (i == 0) {
-    r.new_variables.emplace_back(0, s.truth[0]);
-    r.new_factors.push_back(makeAnchorFactor(0, 3));
-    return r;
-  }
-  for (const auto& [a, b, z] : s.edges) {
-    if (b != i) continue;
-    if (a == i - 1)
-      r.new_variables.emplace_back(i, PoseValue::spatial(inc.estimate(a).se3 * z.se3));
-    r.new_factors.push_back(edgeFactor(a, b, z));
-  }
-  return r;
-}
 
 // The largest difference between the solver's estimate and one dense Gauss-Newton step from
 // its linearisation point over all its active factors: zero when R, d hold exactly those

@@ -28,21 +28,21 @@
 namespace evermap::solver {
 namespace {
 
+using testing::readGraphText;
 using testing::TempFile;
 
 namespace fs = std::filesystem;
 
 TEST(GraphIo, ReadsG2o2dVerticesEdgesAndCountsUnknownTags) {
-  TempFile f("a.g2o",
-             "# comment\n"
-             "VERTEX_SE2 0 0 0 0\n"
-             "VERTEX_SE2 1 1.0 0.1 0.2\n"
-             "\n"
-             "EDGE_SE2 0 1 1.0 0.0 0.1 100 0 0 100 0 400\n"
-             "VERTEX_SE2_UNKNOWN 7 1 2\n"
-             "VERTEX_SE2_UNKNOWN 8 1 2\n"
-             "FIX 0\n");
-  auto g = readGraphFile(f.path());
+  auto g = readGraphText("a.g2o",
+                         "# comment\n"
+                         "VERTEX_SE2 0 0 0 0\n"
+                         "VERTEX_SE2 1 1.0 0.1 0.2\n"
+                         "\n"
+                         "EDGE_SE2 0 1 1.0 0.0 0.1 100 0 0 100 0 400\n"
+                         "VERTEX_SE2_UNKNOWN 7 1 2\n"
+                         "VERTEX_SE2_UNKNOWN 8 1 2\n"
+                         "FIX 0\n");
   ASSERT_TRUE(g.ok()) << g.error().message;
   EXPECT_EQ(g->format, GraphFormat::kG2o);
   EXPECT_EQ(g->dimension, 2);
@@ -58,12 +58,11 @@ TEST(GraphIo, ReadsG2o2dVerticesEdgesAndCountsUnknownTags) {
 }
 
 TEST(GraphIo, ReadsG2o3dQuaternionEdges) {
-  TempFile f("b.g2o",
-             "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n"
-             "VERTEX_SE3:QUAT 1 1 0 0 0 0 0.7071068 0.7071068\n"
-             "EDGE_SE3:QUAT 0 1 1 0 0 0 0 0.7071068 0.7071068 "
-             "10 0 0 0 0 0  10 0 0 0 0  10 0 0 0  40 0 0  40 0  40\n");
-  auto g = readGraphFile(f.path());
+  auto g = readGraphText("b.g2o",
+                         "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n"
+                         "VERTEX_SE3:QUAT 1 1 0 0 0 0 0.7071068 0.7071068\n"
+                         "EDGE_SE3:QUAT 0 1 1 0 0 0 0 0.7071068 0.7071068 "
+                         "10 0 0 0 0 0  10 0 0 0 0  10 0 0 0  40 0 0  40 0  40\n");
   ASSERT_TRUE(g.ok()) << g.error().message;
   EXPECT_EQ(g->dimension, 3);
   const core::SE3d& z = g->edges[0].measurement.se3;
@@ -92,9 +91,8 @@ TEST(GraphIo, MalformedLinesAreErrorsNamingFileAndLine) {
 
 TEST(GraphIo, ToroInformationUsesToroOrdering) {
   // EDGE2 i j x y θ Ixx Ixy Iyy Iθθ Ixθ Iyθ.
-  TempFile f("c.graph",
-             "VERTEX2 0 0 0 0\nVERTEX2 1 1 0 0\nEDGE2 0 1 1 0 0 10 1 20 30 2 3\nEQUIV 0 1\n");
-  auto g = readGraphFile(f.path());
+  auto g = readGraphText(
+      "c.graph", "VERTEX2 0 0 0 0\nVERTEX2 1 1 0 0\nEDGE2 0 1 1 0 0 10 1 20 30 2 3\nEQUIV 0 1\n");
   ASSERT_TRUE(g.ok()) << g.error().message;
   EXPECT_EQ(g->format, GraphFormat::kToro);
   const Eigen::MatrixXd I = g->edges[0].information();
@@ -108,8 +106,8 @@ TEST(GraphIo, ToroInformationUsesToroOrdering) {
 }
 
 TEST(GraphIo, IsamFormatReadsSquareRootInformationAndRollPitchYawAngles) {
-  TempFile f2("d.txt", "ODOMETRY 0 1 1 0 0.1 2 0 0 3 0 4\nEDGE2 0 1 1 0 0.1 2 0.5 0 3 0 4\n");
-  auto g2 = readGraphFile(f2.path());
+  auto g2 =
+      readGraphText("d.txt", "ODOMETRY 0 1 1 0 0.1 2 0 0 3 0 4\nEDGE2 0 1 1 0 0.1 2 0.5 0 3 0 4\n");
   ASSERT_TRUE(g2.ok()) << g2.error().message;
   EXPECT_EQ(g2->format, GraphFormat::kIsam);
   EXPECT_NEAR(g2->edges[0].sqrt_information(1, 1), 3.0, 1e-12);
@@ -117,8 +115,8 @@ TEST(GraphIo, IsamFormatReadsSquareRootInformationAndRollPitchYawAngles) {
   EXPECT_NEAR(g2->edges[1].information()(0, 0), 4.0, 1e-12);
   // EDGE3 x y z roll pitch yaw; square root in (x, y, z, roll, pitch, yaw) order in the file,
   // stored as iSAM's (x, y, z, yaw, pitch, roll).
-  TempFile f3("e.txt", "EDGE3 0 1 1 2 3 0.1 0.2 0.3 1 0 0 0 0 0 2 0 0 0 0 3 0 0 0 4 0 0 5 0 6\n");
-  auto g3 = readGraphFile(f3.path());
+  auto g3 = readGraphText(
+      "e.txt", "EDGE3 0 1 1 2 3 0.1 0.2 0.3 1 0 0 0 0 0 2 0 0 0 0 3 0 0 0 4 0 0 5 0 6\n");
   ASSERT_TRUE(g3.ok()) << g3.error().message;
   const core::Vec3 ypr = yawPitchRoll(g3->edges[0].measurement.se3.rotationMatrix());
   EXPECT_NEAR(ypr[0], 0.3, 1e-12);
@@ -128,17 +126,15 @@ TEST(GraphIo, IsamFormatReadsSquareRootInformationAndRollPitchYawAngles) {
   EXPECT_EQ(S(3, 3), 6.0);  // yaw
   EXPECT_EQ(S(4, 4), 5.0);  // pitch
   EXPECT_EQ(S(5, 5), 4.0);  // roll
-  TempFile bad("f.txt", "ODOMETRY 0 1 1 0 0.1 2 0 0 0 0 4\n");
-  auto b = readGraphFile(bad.path());
+  auto b = readGraphText("f.txt", "ODOMETRY 0 1 1 0 0.1 2 0 0 0 0 4\n");
   ASSERT_FALSE(b.ok());
   EXPECT_NE(b.error().message.find(":1:"), std::string::npos);
 }
 
 TEST(GraphIo, G2oWriterRoundTripsVerticesAndEdges) {
-  TempFile in("g.g2o",
-              "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1.0 0.1 0.2\n"
-              "EDGE_SE2 0 1 1.0 0.0 0.1 100 5 0 100 0 400\n");
-  auto g = readGraphFile(in.path());
+  auto g = readGraphText("g.g2o",
+                         "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1.0 0.1 0.2\n"
+                         "EDGE_SE2 0 1 1.0 0.0 0.1 100 5 0 100 0 400\n");
   ASSERT_TRUE(g.ok());
   auto v = fileInitialization(*g);
   ASSERT_TRUE(v.ok());
@@ -156,8 +152,7 @@ TEST(GraphIo, G2oWriterRoundTripsVerticesAndEdges) {
 
 TEST(GraphIo, IsamEdgesWrittenAsG2oKeepTheirCostToFirstOrder) {
   // A 2-D iSAM edge and its g2o rewrite give the same χ² near the measurement.
-  TempFile in("h.txt", "ODOMETRY 0 1 1 0.5 0.7 2 0.3 0.1 3 0.2 4\n");
-  auto g = readGraphFile(in.path());
+  auto g = readGraphText("h.txt", "ODOMETRY 0 1 1 0.5 0.7 2 0.3 0.1 3 0.2 4\n");
   ASSERT_TRUE(g.ok());
   const fs::path out =
       fs::temp_directory_path() / ("evermap_solver_io_h_" + std::to_string(::getpid()) + ".g2o");
@@ -207,6 +202,18 @@ std::string coupledInformationGraph(double c) {
   return out.str();
 }
 
+// coupledInformationGraph(300) read from a file named `name` and its indefinite matrices
+// resolved by `rule`: all 8 change and the native objective then takes them.
+void readResolved(const std::string& name, IndefiniteInformation rule, GraphFile* out) {
+  auto g = readGraphText(name, coupledInformationGraph(300.0));
+  ASSERT_TRUE(g.ok());
+  auto changed = resolveIndefiniteInformation(&*g, rule);
+  ASSERT_TRUE(changed.ok()) << changed.error().message;
+  EXPECT_EQ(*changed, 8);
+  EXPECT_TRUE(checkInformation(*g, Objective::kNative).ok());
+  *out = std::move(*g);
+}
+
 TEST(GraphIo, IndefiniteInformationIsReadAndRefusedNamingTheEdge) {
   TempFile f("indefinite.g2o", coupledInformationGraph(300.0));  // 300² > 100·400
   auto g = readGraphFile(f.path());
@@ -231,14 +238,9 @@ TEST(GraphIo, IndefiniteInformationIsReadAndRefusedNamingTheEdge) {
 }
 
 TEST(GraphIo, BlocksRuleDropsOnlyTheCouplingOfTranslationAndRotation) {
-  TempFile f("blocks.g2o", coupledInformationGraph(300.0));
-  auto g = readGraphFile(f.path());
-  ASSERT_TRUE(g.ok());
-  auto changed = resolveIndefiniteInformation(&*g, IndefiniteInformation::kBlocks);
-  ASSERT_TRUE(changed.ok()) << changed.error().message;
-  EXPECT_EQ(*changed, 8);
-  EXPECT_TRUE(checkInformation(*g, Objective::kNative).ok());
-  const Eigen::MatrixXd I = g->edges[7].information();
+  GraphFile g;
+  ASSERT_NO_FATAL_FAILURE(readResolved("blocks.g2o", IndefiniteInformation::kBlocks, &g));
+  const Eigen::MatrixXd I = g.edges[7].information();
   EXPECT_NEAR(I(0, 0), 100.0, 1e-9);
   EXPECT_NEAR(I(5, 5), 400.0, 1e-9);
   EXPECT_NEAR(I.topRightCorner(3, 3).norm(), 0.0, 1e-9);
@@ -254,13 +256,8 @@ TEST(GraphIo, NearestPositiveDefiniteRaisesOnlyTheEigenvaluesBelowTheFloor) {
   EXPECT_NEAR(after.eigenvalues()[2], before.eigenvalues()[2], 1e-12);
   // Nearest in the Frobenius norm: the distance is what the clipped eigenvalue moved.
   EXPECT_NEAR((P - I).norm(), 1e-6 * before.eigenvalues()[2] - before.eigenvalues()[0], 1e-12);
-  TempFile f("nearest.g2o", coupledInformationGraph(300.0));
-  auto g = readGraphFile(f.path());
-  ASSERT_TRUE(g.ok());
-  auto changed = resolveIndefiniteInformation(&*g, IndefiniteInformation::kNearest);
-  ASSERT_TRUE(changed.ok()) << changed.error().message;
-  EXPECT_EQ(*changed, 8);
-  EXPECT_TRUE(checkInformation(*g, Objective::kNative).ok());
+  GraphFile g;
+  ASSERT_NO_FATAL_FAILURE(readResolved("nearest.g2o", IndefiniteInformation::kNearest, &g));
 }
 
 TEST(GraphProblem, SeSyncObjectiveUsesOnlyTheBlocksOfAnIndefiniteMatrix) {
@@ -374,9 +371,13 @@ GraphFile chainWithLoops(int n) {
   return g;
 }
 
-std::vector<GraphEdge> synthetic(const GraphFile& g) {
+// The `count` false closures of `mode` that addFalseLoopClosures adds to g.
+std::vector<GraphEdge> falseClosures(const GraphFile& g, OutlierMode mode, int count) {
+  OutlierOptions o;
+  o.count = count;
+  o.mode = mode;
   std::vector<GraphEdge> out;
-  for (const GraphEdge& e : g.edges) {
+  for (const GraphEdge& e : addFalseLoopClosures(g, o).edges) {
     if (isSyntheticOutlier(e)) out.push_back(e);
   }
   return out;
@@ -384,9 +385,7 @@ std::vector<GraphEdge> synthetic(const GraphFile& g) {
 
 TEST(Outliers, RandomClosuresCarryVertigosMeasurementSpread) {
   const GraphFile g = chainWithLoops(300);
-  OutlierOptions o;
-  o.count = 2000;
-  const auto edges = synthetic(addFalseLoopClosures(g, o));
+  const auto edges = falseClosures(g, OutlierMode::kRandom, 2000);
   ASSERT_EQ(edges.size(), 2000u);
   double sx = 0.0, st = 0.0;
   int far = 0;
@@ -402,10 +401,7 @@ TEST(Outliers, RandomClosuresCarryVertigosMeasurementSpread) {
 
 TEST(Outliers, LocalClosuresJoinPosesAtMostTwentyApart) {
   const GraphFile g = chainWithLoops(300);
-  OutlierOptions o;
-  o.count = 200;
-  o.mode = OutlierMode::kLocal;
-  const auto edges = synthetic(addFalseLoopClosures(g, o));
+  const auto edges = falseClosures(g, OutlierMode::kLocal, 200);
   ASSERT_EQ(edges.size(), 200u);
   std::set<Key> gaps;
   for (const GraphEdge& e : edges) {
@@ -418,10 +414,7 @@ TEST(Outliers, LocalClosuresJoinPosesAtMostTwentyApart) {
 
 TEST(Outliers, AGroupAgreesOnOneFalseRelativePoseBetweenTwoStretches) {
   const GraphFile g = chainWithLoops(300);
-  OutlierOptions o;
-  o.count = 30;
-  o.mode = OutlierMode::kGroup;
-  const auto edges = synthetic(addFalseLoopClosures(g, o));
+  const auto edges = falseClosures(g, OutlierMode::kGroup, 30);
   ASSERT_EQ(edges.size(), 30u);
   // Group by the first pose of the stretch: members k of a group join a + k and b + k.
   std::map<Key, std::vector<GraphEdge>> groups;  // by b − a (distinct groups: distinct gaps)

@@ -25,6 +25,7 @@ namespace evermap::solver {
 namespace {
 
 using testing::jacobianError;
+using testing::readGraphText;
 using testing::TempFile;
 
 namespace fs = std::filesystem;
@@ -95,11 +96,10 @@ TEST(SolverLandmarks, TheInitialValueOfANewLandmarkReproducesItsMeasurement) {
 }
 
 TEST(SolverLandmarks, ReadsIsamLandmarkAndPoint3LinesWithTheirSquareRootInformation) {
-  TempFile f2("a.txt",
-              "ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\n"
-              "LANDMARK 1 0 2.5 -1 5 0.5 4\n"
-              "LANDMARK 0 0 3.5 -1 5 0 5\n");
-  auto g = readGraphFile(f2.path());
+  auto g = readGraphText("a.txt",
+                         "ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\n"
+                         "LANDMARK 1 0 2.5 -1 5 0.5 4\n"
+                         "LANDMARK 0 0 3.5 -1 5 0 5\n");
   ASSERT_TRUE(g.ok()) << g.error().message;
   EXPECT_EQ(g->format, GraphFormat::kIsam);
   EXPECT_EQ(g->skippedLines(), 0);
@@ -115,11 +115,10 @@ TEST(SolverLandmarks, ReadsIsamLandmarkAndPoint3LinesWithTheirSquareRootInformat
   EXPECT_DOUBLE_EQ(o.sqrt_information(1, 0), 0.0);
   EXPECT_DOUBLE_EQ(o.sqrt_information(1, 1), 4.0);
 
-  TempFile f3("b.txt",
-              "EDGE3 0 1 1 0 0 0 0 0\n"
-              "POINT3 1 4 1 2 3\n"
-              "POINT3 0 4 2 2 3 10 1 2 10 3 10\n");
-  auto h = readGraphFile(f3.path());
+  auto h = readGraphText("b.txt",
+                         "EDGE3 0 1 1 0 0 0 0 0\n"
+                         "POINT3 1 4 1 2 3\n"
+                         "POINT3 0 4 2 2 3 10 1 2 10 3 10\n");
   ASSERT_TRUE(h.ok()) << h.error().message;
   EXPECT_EQ(h->dimension, 3);
   ASSERT_EQ(h->observations.size(), 2u);
@@ -129,11 +128,10 @@ TEST(SolverLandmarks, ReadsIsamLandmarkAndPoint3LinesWithTheirSquareRootInformat
 }
 
 TEST(SolverLandmarks, ReadsG2oLandmarkVerticesEdgesAndSensorOffsets) {
-  TempFile f2("c.g2o",
-              "VERTEX_SE2 0 0 0 0\n"
-              "VERTEX_XY 5 1 2\n"
-              "EDGE_SE2_XY 0 5 1 2 100 10 400\n");
-  auto g = readGraphFile(f2.path());
+  auto g = readGraphText("c.g2o",
+                         "VERTEX_SE2 0 0 0 0\n"
+                         "VERTEX_XY 5 1 2\n"
+                         "EDGE_SE2_XY 0 5 1 2 100 10 400\n");
   ASSERT_TRUE(g.ok()) << g.error().message;
   ASSERT_EQ(g->landmarks.size(), 1u);
   ASSERT_EQ(g->observations.size(), 1u);
@@ -146,12 +144,11 @@ TEST(SolverLandmarks, ReadsG2oLandmarkVerticesEdgesAndSensorOffsets) {
   ASSERT_TRUE(init.ok()) << init.error().message;
   EXPECT_EQ((*init)[5].kind, PoseKind::kPoint2);
 
-  TempFile f3("d.g2o",
-              "PARAMS_SE3OFFSET 3 0.1 0 0.2 0 0 0.7071068 0.7071068\n"
-              "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n"
-              "VERTEX_TRACKXYZ 9 1 2 3\n"
-              "EDGE_SE3_TRACKXYZ 0 9 3 1 2 3 10 0 0 10 0 10\n");
-  auto h = readGraphFile(f3.path());
+  auto h = readGraphText("d.g2o",
+                         "PARAMS_SE3OFFSET 3 0.1 0 0.2 0 0 0.7071068 0.7071068\n"
+                         "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n"
+                         "VERTEX_TRACKXYZ 9 1 2 3\n"
+                         "EDGE_SE3_TRACKXYZ 0 9 3 1 2 3 10 0 0 10 0 10\n");
   ASSERT_TRUE(h.ok()) << h.error().message;
   ASSERT_EQ(h->observations.size(), 1u);
   EXPECT_EQ(h->observations[0].offset_param, 3);
@@ -205,8 +202,7 @@ struct Solved {
 };
 
 GraphFile readGenerated(const sim::LandmarkGraph& lg, const std::string& name) {
-  TempFile f(name, lg.isam_text);
-  auto g = readGraphFile(f.path());
+  auto g = readGraphText(name, lg.isam_text);
   EXPECT_TRUE(g.ok()) << g.error().message;
   return *g;
 }
@@ -388,8 +384,8 @@ TEST(SolverLandmarks, FalseLoopClosuresKeepObservationsAfterTheirEdges) {
 }
 
 TEST(SolverLandmarks, SeSyncObjectiveRefusesLandmarksNamingTheLine) {
-  TempFile f("e.txt", "ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 0 2.5 -1 5 0.5 4\n");
-  auto g = readGraphFile(f.path());
+  auto g =
+      readGraphText("e.txt", "ODOMETRY 0 1 1 0 0 10 0 0 10 0 20\nLANDMARK 1 0 2.5 -1 5 0.5 4\n");
   ASSERT_TRUE(g.ok());
   auto st = checkInformation(*g, Objective::kSeSync);
   ASSERT_FALSE(st.ok());

@@ -22,6 +22,7 @@ namespace {
 
 using testing::edgeFactor;
 using testing::planarScenario;
+using testing::poseRequest;
 using testing::Scenario;
 using testing::spatialScenario;
 
@@ -278,19 +279,8 @@ TEST(IncrementalSolver, MatchesBatchWhenFedStepByStep) {
     io.method = m;
     io.batch_every = 25;
     IncrementalSolver inc(io);
-    UpdateRequest first;
-    first.new_variables.emplace_back(0, s.truth[0]);
-    first.new_factors.push_back(anchor(s.truth[0]));
-    ASSERT_TRUE(inc.update(first).ok());
-    for (int i = 1; i < static_cast<int>(s.truth.size()); ++i) {
-      UpdateRequest r;
-      for (const auto& [a, b, z] : s.edges) {
-        if (b != i) continue;
-        if (a == i - 1)
-          r.new_variables.emplace_back(i, PoseValue::planar(inc.estimate(a).se2 * z.se2));
-        r.new_factors.push_back(edgeFactor(a, b, z));
-      }
-      auto res = inc.update(r);
+    for (int i = 0; i < static_cast<int>(s.truth.size()); ++i) {
+      auto res = inc.update(poseRequest(s, inc, i));
       ASSERT_TRUE(res.ok()) << res.error().message;
     }
     ASSERT_TRUE(inc.batchStep().ok());
@@ -312,36 +302,11 @@ TEST(IncrementalSolver, IncrementalStepsKeepRConsistentWithABatchFactorisation) 
   IncrementalOptions io;
   io.batch_every = 0;
   IncrementalSolver inc(io);
-  UpdateRequest first;
-  first.new_variables.emplace_back(0, s.truth[0]);
-  first.new_factors.push_back(anchor(s.truth[0]));
-  ASSERT_TRUE(inc.update(first).ok());
-  for (int i = 1; i < 20; ++i) {
-    UpdateRequest r;
-    for (const auto& [a, b, z] : s.edges) {
-      if (b != i) continue;
-      if (a == i - 1)
-        r.new_variables.emplace_back(i, PoseValue::spatial(inc.estimate(a).se3 * z.se3));
-      r.new_factors.push_back(edgeFactor(a, b, z));
-    }
-    ASSERT_TRUE(inc.update(r).ok());
-  }
+  for (int i = 0; i < 20; ++i) ASSERT_TRUE(inc.update(poseRequest(s, inc, i)).ok());
   // One Gauss-Newton step from θ computed densely.
   const PoseGraph& g = inc.graph();
-  const BlockPattern pat = buildPattern(g);
-  std::vector<double> H(pat.nnz());
   Eigen::VectorXd rhs;
-  assembleNormalEquations(g, g.values(), pat, H.data(), &rhs);
-  Eigen::MatrixXd Hd = Eigen::MatrixXd::Zero(pat.scalarSize(), pat.scalarSize());
-  Eigen::VectorXd e = Eigen::VectorXd::Zero(pat.scalarSize());
-  for (int c = 0; c < pat.scalarSize(); ++c) {
-    e.setZero();
-    e[c] = 1.0;
-    Eigen::VectorXd col = Eigen::VectorXd::Zero(pat.scalarSize());
-    pat.multiplyAdd(H.data(), e, &col);
-    Hd.col(c) = col;
-  }
-  const Eigen::VectorXd step = Hd.ldlt().solve(rhs);
+  const Eigen::VectorXd step = testing::denseHessian(g, &rhs).ldlt().solve(rhs);
   Values expected = g.values();
   expected.retractAll(step);
   EXPECT_LT(maxPoseError(inc.estimate(),

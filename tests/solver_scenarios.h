@@ -11,6 +11,8 @@
 
 #include "core/geometry/se2.h"
 #include "core/geometry/se3.h"
+#include "core/solver/graph_problem.h"
+#include "core/solver/incremental_solver.h"
 #include "core/solver/normal_equations.h"
 #include "core/solver/pose_factors.h"
 #include "core/solver/pose_graph.h"
@@ -73,6 +75,23 @@ inline FactorPtr edgeFactor(int a, int b, const PoseValue& z) {
                                                  10.0 * Eigen::MatrixXd::Identity(3, 3));
   }
   return std::make_shared<RelativePose3Factor>(a, b, z.se3, 10.0 * Eigen::MatrixXd::Identity(6, 6));
+}
+
+// The request that adds pose i of the scenario to `inc`: pose 0 with its anchor, any other
+// chained from the estimate of i - 1, with the factors of the edges that end at it.
+inline UpdateRequest poseRequest(const Scenario& s, const IncrementalSolver& inc, int i) {
+  UpdateRequest r;
+  if (i == 0) {
+    r.new_variables.emplace_back(0, s.truth[0]);
+    r.new_factors.push_back(makeAnchorFactor(0, s.truth[0].kind == PoseKind::kSE2 ? 2 : 3));
+    return r;
+  }
+  for (const auto& [a, b, z] : s.edges) {
+    if (b != i) continue;
+    if (a == i - 1) r.new_variables.emplace_back(i, compose(inc.estimate(a), z));
+    r.new_factors.push_back(edgeFactor(a, b, z));
+  }
+  return r;
 }
 
 // The Gauss-Newton system of the graph at its values, dense: H (n x n) and the right-hand

@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 
 #include "core/solver/factor.h"
+#include "core/solver/graph_io.h"
 
 namespace evermap::testing {
 
@@ -32,6 +33,14 @@ class TempFile {
  private:
   std::filesystem::path path_;
 };
+
+// `content` read as a graph file from a TempFile named after `name`.
+inline Expected<solver::GraphFile> readGraphText(
+    const std::string& name, const std::string& content,
+    solver::GraphFormat format = solver::GraphFormat::kAuto) {
+  const TempFile f(name, content);
+  return solver::readGraphFile(f.path(), format);
+}
 
 // Max |analytic − numerical| over all Jacobian blocks of a factor at x.
 inline double jacobianError(const solver::Factor& f, const std::vector<solver::PoseValue>& x) {

@@ -38,10 +38,15 @@ void writeLog(const std::filesystem::path& file) {
   }
 }
 
-TEST(ViewerLogPlayer, ASkippedStretchSendsTheLastMapAndTheTrailAndEverythingElse) {
+// Each test plays the same log of writeLog.
+class ViewerLogPlayer : public ::testing::Test {
+ protected:
+  void SetUp() override { ASSERT_NO_FATAL_FAILURE(writeLog(file)); }
   testing::ScratchDir dir;
-  const auto file = dir.path() / "run.lcmlog";
-  writeLog(file);
+  const std::filesystem::path file = dir.path() / "run.lcmlog";
+};
+
+TEST_F(ViewerLogPlayer, ASkippedStretchSendsTheLastMapAndTheTrailAndEverythingElse) {
   LogPlayerOptions o;
   o.trail_poses = 50;
   auto player = LogPlayer::open(file, {"POSE", "MAP_GRAPH", "MAPPER_STATS"}, o);
@@ -74,10 +79,7 @@ TEST(ViewerLogPlayer, ASkippedStretchSendsTheLastMapAndTheTrailAndEverythingElse
   EXPECT_EQ(sent["MAP_GRAPH"], 1);
 }
 
-TEST(ViewerLogPlayer, CameraImagesAreKeptOnePerPeriodEachWithTheNewestKeyframeBeforeIt) {
-  testing::ScratchDir dir;
-  const auto file = dir.path() / "run.lcmlog";
-  writeLog(file);
+TEST_F(ViewerLogPlayer, CameraImagesAreKeptOnePerPeriodEachWithTheNewestKeyframeBeforeIt) {
   LogPlayerOptions o;
   o.image_period_us = 1000;
   auto player = LogPlayer::open(file, {"POSE", "STEREO", "KEYFRAME"}, o);
@@ -100,10 +102,7 @@ TEST(ViewerLogPlayer, CameraImagesAreKeptOnePerPeriodEachWithTheNewestKeyframeBe
   EXPECT_EQ(images, (std::vector<std::string>{"KEYFRAME10000", "STEREO10000"}));
 }
 
-TEST(ViewerLogPlayer, ImagesBeyondTheirBudgetAreThinnedNotRefused) {
-  testing::ScratchDir dir;
-  const auto file = dir.path() / "run.lcmlog";
-  writeLog(file);
+TEST_F(ViewerLogPlayer, ImagesBeyondTheirBudgetAreThinnedNotRefused) {
   LogPlayerOptions o;
   o.image_period_us = 1000;
   o.max_image_bytes = 100;  // about four images with their keyframes ("KEYFRAME1000STEREO1000")
@@ -125,13 +124,13 @@ TEST(ViewerLogPlayer, ImagesBeyondTheirBudgetAreThinnedNotRefused) {
   EXPECT_EQ(alone->events(), static_cast<size_t>(alone->images()));
 }
 
-TEST(ViewerLogPlayer, AMissingLogIsAnErrorNamingIt) {
+TEST_F(ViewerLogPlayer, AMissingLogIsAnErrorNamingIt) {
   auto player = LogPlayer::open("/nonexistent/run.lcmlog", {"POSE"});
   ASSERT_FALSE(player);
   EXPECT_NE(player.error().message.find("/nonexistent/run.lcmlog"), std::string::npos);
 }
 
-TEST(ViewerLogPlayer, ThePagesCommandsAreParsedAndAnythingElseIsNothing) {
+TEST_F(ViewerLogPlayer, ThePagesCommandsAreParsedAndAnythingElseIsNothing) {
   using Kind = LogCommand::Kind;
   ASSERT_TRUE(parseLogCommand("play"));
   EXPECT_EQ(parseLogCommand("play")->kind, Kind::kPlay);
