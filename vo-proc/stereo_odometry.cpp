@@ -291,11 +291,48 @@ FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& 
   r.num_inliers = motion.summary.num_inliers;
   r.mean_reprojection_px = motion.summary.mean_reprojection_px;
   if (motion.summary.ok()) {
+    if (collect_inlier_pairs_ && !r.via_previous) r.inlier_pair = inlierPair(motion.summary);
     takeMotion(motion, &r);
   } else {
     failRegistration(motion.summary, ref_T_pred, &r);
   }
   return r;
+}
+
+core::StereoMatchPair StereoOdometry::inlierPair(const core::RegistrationSummary& reg) const {
+  core::StereoMatchPair pair;
+  pair.a_T_b = reg.a_T_b;
+  for (const auto& [ia, ib] : reg.clique) {
+    const core::StereoFeature& a = ref_->features[static_cast<size_t>(ia)];
+    const core::StereoFeature& b = cur_->features[static_cast<size_t>(ib)];
+    pair.uvd_a.emplace_back(a.uv.x(), a.uv.y(), a.disparity);
+    pair.uvd_b.emplace_back(b.uv.x(), b.uv.y(), b.disparity);
+  }
+  return pair;
+}
+
+Status StereoOdometry::setDisparityOffset(double offset_px) {
+  auto camera =
+      core::StereoCamera::create(camera_.fx(), camera_.fy(), camera_.cx(), camera_.cy(),
+                                 camera_.baselineM(), camera_.width(), camera_.height(), offset_px);
+  if (!camera) return camera.error();
+  const auto change = static_cast<float>(offset_px - camera_.disparityOffsetPx());
+  camera_ = *camera;
+  for (core::FeatureFrame* frame : {ref_.get(), prev_.get()}) {
+    std::vector<core::StereoFeature>& f = frame->features;
+    size_t kept = 0;
+    for (core::StereoFeature& feature : f) {
+      const float d = feature.disparity + change;
+      const auto p = camera_.backProject(core::Vec3(feature.uv.x(), feature.uv.y(), d));
+      if (!p) continue;
+      feature.disparity = d;
+      feature.point = *p;
+      if (&f[kept] != &feature) f[kept] = std::move(feature);
+      ++kept;
+    }
+    f.resize(kept);
+  }
+  return Ok{};
 }
 
 bool StereoOdometry::extractFrame(int64_t utime, const std::function<Status()>& extract,

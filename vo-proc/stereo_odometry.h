@@ -65,6 +65,7 @@
 #include "core/features/orb_descriptor.h"
 #include "core/features/stereo_features.h"
 #include "core/geometry/se3.h"
+#include "core/registration/disparity_offset.h"
 #include "core/registration/frame_registration.h"
 #include "core/registration/keyframe_features.h"
 #include "core/registration/rotation_estimation.h"
@@ -192,6 +193,12 @@ struct FrameResult {
   // rejection", "reprojection error", "optimization failure", "stale reference",
   // "bad input"; with `bridged`, why the bridge was needed. Empty otherwise.
   std::string failure_kind;
+  // With setCollectInlierPairs: the clique's matches (u, v, d) in the reference and in this
+  // frame, and the registered motion, of a frame registered to the reference itself (the
+  // evidence of the disparity offset's estimate: the clique, not the motion's inliers, whose
+  // 1 px bound under the current offset drops the far points that would show a wrong one).
+  // Empty otherwise.
+  core::StereoMatchPair inlier_pair;
 
   bool ok() const { return status == VoStatus::kOk; }
 };
@@ -217,6 +224,14 @@ class StereoOdometry {
 
   // Forgets the reference: the next usable frame starts anew (kNoData).
   void reset();
+
+  // Fill FrameResult::inlier_pair from now on (on) or not (off, the default).
+  void setCollectInlierPairs(bool on) { collect_inlier_pairs_ = on; }
+  // The camera's disparity offset (StereoCamera::disparityOffsetPx) becomes offset_px for the
+  // frames to come; the disparities and points of the frames kept (reference, last registered)
+  // are corrected by the change, and a feature whose disparity would not stay positive is
+  // dropped. The motions already given are not revised. Errors: an offset the camera refuses.
+  Status setDisparityOffset(double offset_px);
 
   const core::StereoCamera& camera() const { return camera_; }
   const OdometryOptions& options() const { return options_; }
@@ -244,6 +259,8 @@ class StereoOdometry {
     core::Mat6 covariance = core::Mat6::Zero();
   };
   RegisteredMotion registerCurrent(const core::SE3d& ref_T_pred, FrameResult* result) const;
+  // The registration's clique between the reference and the current frame (before takeMotion).
+  core::StereoMatchPair inlierPair(const core::RegistrationSummary& reg) const;
   // A registered motion: the result, the motion prior, and the reference or keyframe moved on.
   void takeMotion(const RegisteredMotion& motion, FrameResult* result);
   void failRegistration(const core::RegistrationSummary& reg, const core::SE3d& ref_T_pred,
@@ -288,6 +305,7 @@ class StereoOdometry {
   core::SE3d ref_T_good_;
   core::Mat6 ref_T_good_cov_ = core::Mat6::Zero();
   int frames_since_good_ = 0;
+  bool collect_inlier_pairs_ = false;
   int failures_ = 0;
   // Inliers of the first frame registered against the reference (0: none yet).
   int first_inliers_ = 0;
