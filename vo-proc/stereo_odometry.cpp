@@ -83,6 +83,10 @@ Status OdometryOptions::validate() const {
                      bridge.rotation_sigma_rad, " rad must be positive, velocity_fraction ",
                      bridge.velocity_fraction, " non-negative");
   }
+  if (relaxed.enabled() && !(relaxed.max_mean_reprojection_px > 0.0)) {
+    return makeError("odometry: relaxed.max_mean_reprojection_px ",
+                     relaxed.max_mean_reprojection_px, " must be positive with relaxed bounds");
+  }
   if (!(rotation.max_angle_rad > 0.0) || rotation.max_iterations < 1) {
     return makeError("odometry: rotation estimate needs max_angle_rad > 0 and iterations >= 1");
   }
@@ -176,7 +180,7 @@ void StereoOdometry::makeCurrentTheReference(FrameResult* result, bool keyframe,
 }
 
 core::RegistrationSummary StereoOdometry::registerTo(const core::FeatureFrame& from,
-                                                     const SE3d& from_T_pred) const {
+                                                     const SE3d& from_T_pred, bool relaxed) const {
   const std::vector<core::WindowMatch> window =
       core::matchInWindow(camera_, from, *cur_, from_T_pred.inverse(), options_.matching);
   std::vector<core::Correspondence> matches;
@@ -192,7 +196,12 @@ core::RegistrationSummary StereoOdometry::registerTo(const core::FeatureFrame& f
     matches.push_back({a.uv.cast<double>(), a.point, m.uv.cast<double>(), *p_b});
     ids.emplace_back(m.ref, m.cur);
   }
-  return core::registerMatches(camera_, camera_, matches, ids, from_T_pred, options_.registration);
+  core::RegistrationOptions registration = options_.registration;
+  if (relaxed) {
+    registration.motion.inlier_max_reprojection_px = options_.relaxed.inlier_max_reprojection_px;
+    registration.motion.max_mean_reprojection_px = options_.relaxed.max_mean_reprojection_px;
+  }
+  return core::registerMatches(camera_, camera_, matches, ids, from_T_pred, registration);
 }
 
 core::Mat6 StereoOdometry::priorCovariance(const SE3d& prev_T_cur, int frames) const {
@@ -424,6 +433,22 @@ StereoOdometry::RegisteredMotion StereoOdometry::registerCurrent(const SE3d& ref
       m.summary = again;
       m.ref_T_cur = chained.mean;
       m.covariance = chained.covariance;
+    }
+  }
+  if (!m.summary.ok() && options_.relaxed.enabled() &&
+      m.summary.num_clique >= options_.registration.min_inliers) {
+    // Consistent in 3-D but not within the image bounds under one rigid motion: fast rotation
+    // (blur, a rolling shutter). Once more against the reference with the relaxed bounds.
+    const core::RegistrationSummary relaxed = registerTo(*ref_, ref_T_pred, true);
+    if (relaxed.ok()) {
+      r->relaxed = true;
+      r->message = std::string("registered with the relaxed bounds (") +
+                   failureKind(m.summary, options_.registration.min_inliers) + ": " +
+                   m.summary.message + ")";
+      r->via_previous = false;
+      m.summary = relaxed;
+      m.ref_T_cur = relaxed.a_T_b;
+      m.covariance = relaxed.covariance;
     }
   }
   return m;

@@ -121,6 +121,14 @@ struct OdometryOptions {
     double rotation_sigma_rad = 0.02;
     double velocity_fraction = 0.3;  // of the predicted translation and rotation
   } bridge;
+  // A frame that registers to neither the reference nor the last registered frame, but whose
+  // clique has at least registration.min_inliers matches, is registered to the reference once
+  // more with these motion bounds (0: off, the default; the pipeline sets them for RGB-D).
+  struct Relaxed {
+    double inlier_max_reprojection_px = 0.0;
+    double max_mean_reprojection_px = 0.0;
+    bool enabled() const { return inlier_max_reprojection_px > 0.0; }
+  } relaxed;
   // ORB descriptors of keyframes (for loop closure); off saves their cost.
   bool keyframe_descriptors = true;
   core::OrbExtractor::Options orb;
@@ -188,6 +196,8 @@ struct FrameResult {
   bool bridged = false;
   // kOk through the last registered frame after failing against the reference.
   bool via_previous = false;
+  // kOk against the reference with the relaxed bounds (OdometryOptions::relaxed).
+  bool relaxed = false;
   // Why, for a frame that did not register, in a few fixed words (for counting by kind):
   // "too few features", "too few consistent matches", "too few inliers after outlier
   // rejection", "reprojection error", "optimization failure", "stale reference",
@@ -274,7 +284,7 @@ class StereoOdometry {
   // Matches `from` into the current frame in windows around the prediction from_T_pred
   // (from_T_cur) and registers: a = from, b = current.
   core::RegistrationSummary registerTo(const core::FeatureFrame& from,
-                                       const core::SE3d& from_T_pred) const;
+                                       const core::SE3d& from_T_pred, bool relaxed = false) const;
   // The motion prior's covariance over `frames` predicted frames of `prev_T_cur`.
   core::Mat6 priorCovariance(const core::SE3d& prev_T_cur, int frames) const;
   // Bridges the break at the current frame by ref_T_pred (see the class comment).

@@ -277,6 +277,10 @@ PipelineOutput VoPipeline::handleRgbdFrame(int64_t utime,
         options_.rgbd_inlier_max_reprojection_px;
     odometry_options.registration.motion.max_mean_reprojection_px =
         options_.rgbd_max_mean_reprojection_px;
+    odometry_options.relaxed.inlier_max_reprojection_px =
+        options_.rgbd_relaxed_inlier_max_reprojection_px;
+    odometry_options.relaxed.max_mean_reprojection_px =
+        options_.rgbd_relaxed_max_mean_reprojection_px;
     auto odometry = StereoOdometry::create(camera->stereo(), odometry_options);
     if (!odometry) {
       ++stats_.calibrations_refused;

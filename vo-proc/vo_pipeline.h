@@ -61,6 +61,11 @@ struct PipelineOptions {
   // frames unregistered and doubled the ATE; 2 px left 4.
   double rgbd_inlier_max_reprojection_px = 2.0;
   double rgbd_max_mean_reprojection_px = 2.0;
+  // With an RGB-D camera, a frame that fails with these bounds although its clique is large
+  // enough is registered once more with the relaxed ones (OdometryOptions::relaxed): at the
+  // fastest hand-held rotations the rolling shutter bends the image by more than 2 px.
+  double rgbd_relaxed_inlier_max_reprojection_px = 4.0;
+  double rgbd_relaxed_max_mean_reprojection_px = 3.0;
   // Stereo self-calibration of the disparity offset (see above); off when the offset is given.
   struct DisparityOffset {
     bool estimate = true;
@@ -76,6 +81,12 @@ struct PipelineOptions {
     o.add("rgbd_max_mean_reprojection_px", &rgbd_max_mean_reprojection_px, "px",
           "RGB-D: a motion's mean inlier error at most")
         .positive();
+    o.add("rgbd_relaxed_inlier_max_reprojection_px", &rgbd_relaxed_inlier_max_reprojection_px, "px",
+          "RGB-D: the inlier bound of the second try of a frame that failed (0: none)")
+        .nonNegative();
+    o.add("rgbd_relaxed_max_mean_reprojection_px", &rgbd_relaxed_max_mean_reprojection_px, "px",
+          "RGB-D: ... and its bound on the mean error")
+        .nonNegative();
     o.add("disparity_offset.estimate", &disparity_offset.estimate,
           "stereo: estimate the disparity offset (right cx - left cx) online and apply it");
     o.add("disparity_offset.converged_sigma_px", &disparity_offset.tracker.converged_sigma_px, "px",

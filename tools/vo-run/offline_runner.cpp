@@ -53,7 +53,7 @@ std::string OfflineSummary::verboseReport() const {
   std::ostringstream s;
   for (size_t k = 0; k < frames.size(); ++k) {
     const FrameStats& f = frames[k];
-    if (f.status == VoStatus::kOk && !f.bridged && !f.via_previous) continue;
+    if (f.status == VoStatus::kOk && !f.bridged && !f.via_previous && !f.relaxed) continue;
     s << "frame " << k << " (" << f.utime << "): " << (f.bridged ? "bridged" : toString(f.status));
     if (!f.failure_kind.empty()) s << " [" << f.failure_kind << "]";
     s << ": " << f.message << "\n";
@@ -106,6 +106,7 @@ FrameStats frameStats(const FrameResult& r, double ms) {
   f.process_ms = ms;
   f.bridged = r.bridged;
   f.via_previous = r.via_previous;
+  f.relaxed = r.relaxed;
   f.failure_kind = r.failure_kind;
   f.message = r.message;
   return f;

@@ -48,6 +48,7 @@ struct FrameStats {
   double process_ms = 0.0;           // wall time of the frame (a measurement, not an input)
   bool bridged = false;              // kOk by the motion prior (FrameResult::bridged)
   bool via_previous = false;         // kOk through the previous frame
+  bool relaxed = false;              // kOk with the relaxed bounds (FrameResult::relaxed)
   std::string failure_kind;          // FrameResult::failure_kind
   std::string message;
 };
