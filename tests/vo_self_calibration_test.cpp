@@ -46,7 +46,7 @@ struct ForwardRun {
 // `frames` frames 0.1 m apart, forward through the room and turning slightly, at 20 Hz; the
 // right image moved right by `right_shift_px` whole pixels.
 ForwardRun runForward(VoPipeline& pipeline, const testing::TexturedRoom& room, int right_shift_px,
-               int frames) {
+                      int frames) {
   const core::StereoCamera camera = testing::syntheticCamera();
   EXPECT_TRUE(pipeline.handleCalibration(messages::toMsg(rectifiedCalibration(camera), 0)).ok());
   cv::RNG rng(11);
