@@ -83,6 +83,9 @@ Status OdometryOptions::validate() const {
                      bridge.rotation_sigma_rad, " rad must be positive, velocity_fraction ",
                      bridge.velocity_fraction, " non-negative");
   }
+  if (threads != 1 && threads != 2) {
+    return makeError("odometry: threads ", threads, " is not 1 or 2");
+  }
   if (!(rotation.max_angle_rad > 0.0) || rotation.max_iterations < 1) {
     return makeError("odometry: rotation estimate needs max_angle_rad > 0 and iterations >= 1");
   }
@@ -122,6 +125,7 @@ StereoOdometry::StereoOdometry(const core::StereoCamera& camera, const OdometryO
       options_(options),
       extractor_(std::move(extractor)),
       orb_(options.orb),
+      pair_(options.threads > 1 ? std::make_unique<core::ParallelPair>(options.threads) : nullptr),
       ref_(std::make_unique<core::FeatureFrame>()),
       prev_(std::make_unique<core::FeatureFrame>()),
       cur_(std::make_unique<core::FeatureFrame>()) {}
@@ -249,7 +253,9 @@ const char* failureKind(const core::RegistrationSummary& reg, int min_inliers) {
 
 FrameResult StereoOdometry::process(int64_t utime, const cv::Mat& left, const cv::Mat& right) {
   return track(
-      utime, [&] { return extractor_.extract(camera_, utime, left, right, cur_.get()); }, nullptr);
+      utime,
+      [&] { return extractor_.extract(camera_, utime, left, right, cur_.get(), pair_.get()); },
+      nullptr);
 }
 
 FrameResult StereoOdometry::processRgbd(int64_t utime, const cv::Mat& gray, const cv::Mat& depth,
@@ -257,7 +263,8 @@ FrameResult StereoOdometry::processRgbd(int64_t utime, const cv::Mat& gray, cons
   return track(
       utime,
       [&] {
-        return extractor_.extractRgbd(camera_, utime, gray, depth, depth_scale_m, cur_.get());
+        return extractor_.extractRgbd(camera_, utime, gray, depth, depth_scale_m, cur_.get(),
+                                      pair_.get());
       },
       &depth);
 }
