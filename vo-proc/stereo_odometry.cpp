@@ -181,8 +181,8 @@ void StereoOdometry::makeCurrentTheReference(FrameResult* result, bool keyframe,
 
 core::RegistrationSummary StereoOdometry::registerTo(const core::FeatureFrame& from,
                                                      const SE3d& from_T_pred) const {
-  const std::vector<core::WindowMatch> window =
-      core::matchInWindow(camera_, from, *cur_, from_T_pred.inverse(), options_.matching);
+  const std::vector<core::WindowMatch> window = core::matchInWindow(
+      camera_, from, *cur_, from_T_pred.inverse(), options_.matching, pair_.get());
   std::vector<core::Correspondence> matches;
   std::vector<std::pair<int, int>> ids;
   matches.reserve(window.size());

@@ -50,7 +50,7 @@
 // of the right image; VO_DELTA and KEYFRAME do not say which camera made them.
 //
 // Not thread-safe; one instance per camera stream. With options.threads = 2 an instance owns
-// one worker thread (core::ParallelPair) that shares each frame's feature extraction.
+// one worker thread (core::ParallelPair) that shares each frame's features and matching.
 
 #include <cstdint>
 #include <functional>
@@ -124,9 +124,9 @@ struct OdometryOptions {
   } bridge;
   // ORB descriptors of keyframes (for loop closure); off saves their cost.
   bool keyframe_descriptors = true;
-  // Threads of a frame's feature extraction: 2 runs its independent parts (the two
-  // pyramids, FAST's levels, the corners' depths) on a second core, with the same results;
-  // 1 for a single core.
+  // Threads of a frame's work: 2 runs its independent parts (the two pyramids, FAST's
+  // levels, the corners' depths, the window matching's halves) on a second core, with the
+  // same results; 1 for a single core.
   int threads = 2;
   core::OrbExtractor::Options orb;
 
@@ -167,8 +167,9 @@ struct OdometryOptions {
         .nonNegative();
     o.add("keyframe_descriptors", &keyframe_descriptors,
           "ORB descriptors on keyframes (for loop closure)");
-    o.add("threads", &threads, "",
-          "threads of feature extraction (2: a second core, same results; 1: one core)")
+    o.add(
+         "threads", &threads, "",
+         "threads per frame (2: features and matching on a second core, same results; 1: one core)")
         .in(1, 2);
   }
 
@@ -276,7 +277,7 @@ class StereoOdometry {
   OdometryOptions options_;
   core::StereoFeatureExtractor extractor_;
   core::OrbExtractor orb_;
-  // The second thread of feature extraction (options.threads; one thread: none).
+  // The second thread of a frame (options.threads; one thread: none).
   std::unique_ptr<core::ParallelPair> pair_;
   // Buffers swapped, never copied: the reference, the last frame that registered to it, the
   // current frame.
