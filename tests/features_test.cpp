@@ -276,40 +276,6 @@ TEST(StereoFeatures, DepthOfARenderedRoomMatchesTheTruth) {
   EXPECT_NE(s.error().message.find("right image"), std::string::npos);
 }
 
-TEST(StereoFeatures, TwoThreadsGiveTheSameFeaturesInTheSameOrderAsOne) {
-  const testing::TexturedRoom room(testing::dataRoot());
-  if (!room.ok()) GTEST_SKIP() << "room textures not found";
-  const StereoCamera camera = testing::syntheticCamera();
-  auto one = StereoFeatureExtractor::create(StereoFeatureExtractor::Options{});
-  auto two = StereoFeatureExtractor::create(StereoFeatureExtractor::Options{});
-  ASSERT_TRUE(one.ok() && two.ok());
-  ParallelPair pair(2);
-  cv::RNG rng(3);
-  // Several frames: the adaptive FAST threshold carried from frame to frame must agree too.
-  for (int k = 0; k < 4; ++k) {
-    const SE3d pose(SO3d::exp(Vec3(0.0, 0.1 * k, 0.0)), Vec3(0.1 * k, 0.0, -1.0));
-    cv::Mat left, right;
-    room.render(camera, pose, &left, &right, &rng);
-    FeatureFrame a, b;
-    ASSERT_TRUE(one->extract(camera, k, left, right, &a).ok());
-    ASSERT_TRUE(two->extract(camera, k, left, right, &b, &pair).ok());
-    EXPECT_EQ(a.num_corners, b.num_corners);
-    ASSERT_EQ(a.features.size(), b.features.size());
-    ASSERT_GT(a.features.size(), 100u);
-    for (size_t i = 0; i < a.features.size(); ++i) {
-      const StereoFeature& fa = a.features[i];
-      const StereoFeature& fb = b.features[i];
-      EXPECT_EQ(fa.keypoint.u, fb.keypoint.u);
-      EXPECT_EQ(fa.keypoint.v, fb.keypoint.v);
-      EXPECT_EQ(fa.keypoint.level, fb.keypoint.level);
-      EXPECT_EQ(fa.disparity, fb.disparity);  // bit for bit
-      EXPECT_EQ(fa.point, fb.point);
-      EXPECT_EQ(fa.patch.bytes, fb.patch.bytes);
-    }
-    EXPECT_EQ(one->detector().threshold(), two->detector().threshold());
-  }
-}
-
 TEST(OrbExtractor, DescriptorsSurviveARotationOfTheImage) {
   const cv::Mat a = realOrSynthetic();
   // b: a turned by 30° about the centre.

@@ -96,31 +96,6 @@ TEST(StereoOdometry, DriftAlongASyntheticLoopIsBelowOnePercentOfTheDistance) {
   EXPECT_LT(d.rotation_deg, 0.001 * 360.0);
 }
 
-TEST(StereoOdometry, TwoThreadsGiveTheSameResultsBitForBitAsOne) {
-  EVERMAP_REQUIRE_ROOM();
-  const core::StereoCamera camera = testing::syntheticCamera();
-  OdometryOptions single;
-  single.threads = 1;
-  StereoOdometry one = makeOdometry(single);
-  StereoOdometry two = makeOdometry();  // threads = 2 by default
-  cv::RNG rng(11);
-  const std::vector<SE3d> poses = testing::loopTrajectory(40);
-  cv::Mat left, right;
-  for (size_t k = 0; k < poses.size(); ++k) {
-    room().render(camera, poses[k], &left, &right, &rng);
-    const int64_t utime = static_cast<int64_t>(k + 1) * 50000;
-    const FrameResult a = one.process(utime, left, right);
-    const FrameResult b = two.process(utime, left, right);
-    EXPECT_EQ(a.status, b.status) << "frame " << k;
-    EXPECT_EQ(a.num_features, b.num_features) << "frame " << k;
-    EXPECT_EQ(a.num_matches, b.num_matches) << "frame " << k;
-    EXPECT_EQ(a.num_inliers, b.num_inliers) << "frame " << k;
-    EXPECT_EQ(a.keyframe_changed, b.keyframe_changed) << "frame " << k;
-    EXPECT_EQ(a.ref_T_cur.matrix(), b.ref_T_cur.matrix()) << "frame " << k;  // exact
-    EXPECT_EQ(a.covariance, b.covariance) << "frame " << k;
-  }
-}
-
 TEST(StereoOdometry, FirstFrameBecomesTheReference) {
   EVERMAP_REQUIRE_ROOM();
   cv::RNG rng(1);

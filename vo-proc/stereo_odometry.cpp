@@ -87,9 +87,6 @@ Status OdometryOptions::validate() const {
     return makeError("odometry: relaxed.max_mean_reprojection_px ",
                      relaxed.max_mean_reprojection_px, " must be positive with relaxed bounds");
   }
-  if (threads != 1 && threads != 2) {
-    return makeError("odometry: threads ", threads, " is not 1 or 2");
-  }
   if (!(rotation.max_angle_rad > 0.0) || rotation.max_iterations < 1) {
     return makeError("odometry: rotation estimate needs max_angle_rad > 0 and iterations >= 1");
   }
@@ -129,7 +126,6 @@ StereoOdometry::StereoOdometry(const core::StereoCamera& camera, const OdometryO
       options_(options),
       extractor_(std::move(extractor)),
       orb_(options.orb),
-      pair_(options.threads > 1 ? std::make_unique<core::ParallelPair>(options.threads) : nullptr),
       ref_(std::make_unique<core::FeatureFrame>()),
       prev_(std::make_unique<core::FeatureFrame>()),
       cur_(std::make_unique<core::FeatureFrame>()) {}
@@ -185,8 +181,8 @@ void StereoOdometry::makeCurrentTheReference(FrameResult* result, bool keyframe,
 
 core::RegistrationSummary StereoOdometry::registerTo(const core::FeatureFrame& from,
                                                      const SE3d& from_T_pred, bool relaxed) const {
-  const std::vector<core::WindowMatch> window = core::matchInWindow(
-      camera_, from, *cur_, from_T_pred.inverse(), options_.matching, pair_.get());
+  const std::vector<core::WindowMatch> window =
+      core::matchInWindow(camera_, from, *cur_, from_T_pred.inverse(), options_.matching);
   std::vector<core::Correspondence> matches;
   std::vector<std::pair<int, int>> ids;
   matches.reserve(window.size());
@@ -262,9 +258,7 @@ const char* failureKind(const core::RegistrationSummary& reg, int min_inliers) {
 
 FrameResult StereoOdometry::process(int64_t utime, const cv::Mat& left, const cv::Mat& right) {
   return track(
-      utime,
-      [&] { return extractor_.extract(camera_, utime, left, right, cur_.get(), pair_.get()); },
-      nullptr);
+      utime, [&] { return extractor_.extract(camera_, utime, left, right, cur_.get()); }, nullptr);
 }
 
 FrameResult StereoOdometry::processRgbd(int64_t utime, const cv::Mat& gray, const cv::Mat& depth,
@@ -272,8 +266,7 @@ FrameResult StereoOdometry::processRgbd(int64_t utime, const cv::Mat& gray, cons
   return track(
       utime,
       [&] {
-        return extractor_.extractRgbd(camera_, utime, gray, depth, depth_scale_m, cur_.get(),
-                                      pair_.get());
+        return extractor_.extractRgbd(camera_, utime, gray, depth, depth_scale_m, cur_.get());
       },
       &depth);
 }

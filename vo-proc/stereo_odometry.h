@@ -49,8 +49,7 @@
 // (core/camera/rgbd_camera.h): only the depth of a feature comes from the depth image instead
 // of the right image; VO_DELTA and KEYFRAME do not say which camera made them.
 //
-// Not thread-safe; one instance per camera stream. With options.threads = 2 an instance owns
-// one worker thread (core::ParallelPair) that shares each frame's features and matching.
+// Not thread-safe; one instance per camera stream.
 
 #include <cstdint>
 #include <functional>
@@ -63,7 +62,6 @@
 #include "core/camera/stereo_camera.h"
 #include "core/common/expected.h"
 #include "core/common/option_fields.h"
-#include "core/common/parallel_pair.h"
 #include "core/features/orb_descriptor.h"
 #include "core/features/stereo_features.h"
 #include "core/geometry/se3.h"
@@ -133,10 +131,6 @@ struct OdometryOptions {
   } relaxed;
   // ORB descriptors of keyframes (for loop closure); off saves their cost.
   bool keyframe_descriptors = true;
-  // Threads of a frame's work: 2 runs its independent parts (the two pyramids, FAST's
-  // levels, the corners' depths, the window matching's halves) on a second core, with the
-  // same results; 1 for a single core.
-  int threads = 2;
   core::OrbExtractor::Options orb;
 
   Status validate() const;
@@ -176,10 +170,6 @@ struct OdometryOptions {
         .nonNegative();
     o.add("keyframe_descriptors", &keyframe_descriptors,
           "ORB descriptors on keyframes (for loop closure)");
-    o.add(
-         "threads", &threads, "",
-         "threads per frame (2: features and matching on a second core, same results; 1: one core)")
-        .in(1, 2);
   }
 
   static core::StereoFeatureExtractor::Options defaultFeatures();
@@ -304,8 +294,6 @@ class StereoOdometry {
   OdometryOptions options_;
   core::StereoFeatureExtractor extractor_;
   core::OrbExtractor orb_;
-  // The second thread of a frame (options.threads; one thread: none).
-  std::unique_ptr<core::ParallelPair> pair_;
   // Buffers swapped, never copied: the reference, the last frame that registered to it, the
   // current frame.
   std::unique_ptr<core::FeatureFrame> ref_, prev_, cur_;

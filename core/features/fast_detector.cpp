@@ -55,13 +55,15 @@ FastDetector::FastDetector(const Options& options)
   }
 }
 
-size_t FastDetector::detectLevels(const ImagePyramid& pyramid, int first, int last,
-                                  int fast_threshold, std::vector<Keypoint>* out) const {
+std::vector<Keypoint> FastDetector::detect(const ImagePyramid& pyramid, int num_levels) {
+  num_levels = std::min(num_levels, pyramid.numLevels());
+  const int fast_threshold = threshold();
+  std::vector<Keypoint> out;
   std::vector<cv::KeyPoint> corners;
   std::vector<int> order;
   std::vector<int> bucket_count;
   size_t detected = 0;
-  for (int l = first; l < last; ++l) {
+  for (int l = 0; l < num_levels; ++l) {
     const cv::Mat& image = pyramid.level(l);
     corners.clear();
     cv::FAST(image, corners, fast_threshold, /*nonmaxSuppression=*/true,
@@ -86,30 +88,8 @@ size_t FastDetector::detectLevels(const ImagePyramid& pyramid, int first, int la
         if (count >= options_.max_per_bucket) continue;
         ++count;
       }
-      out->push_back({k.pt.x, k.pt.y, k.response, static_cast<int8_t>(l)});
+      out.push_back({k.pt.x, k.pt.y, k.response, static_cast<int8_t>(l)});
     }
-  }
-  return detected;
-}
-
-std::vector<Keypoint> FastDetector::detect(const ImagePyramid& pyramid, int num_levels,
-                                           ParallelPair* pair) {
-  num_levels = std::min(num_levels, pyramid.numLevels());
-  const int fast_threshold = threshold();
-  std::vector<Keypoint> out;
-  size_t detected = 0;
-  if (pair != nullptr && pair->threads() > 1 && num_levels > 1) {
-    // Level 0 (three quarters of the pixels) here, the levels above on the worker; the same
-    // corners in the same order as one pass.
-    std::vector<Keypoint> upper;
-    size_t detected_upper = 0;
-    pair->run(
-        [&] { detected = detectLevels(pyramid, 0, 1, fast_threshold, &out); },
-        [&] { detected_upper = detectLevels(pyramid, 1, num_levels, fast_threshold, &upper); });
-    out.insert(out.end(), upper.begin(), upper.end());
-    detected += detected_upper;
-  } else {
-    detected = detectLevels(pyramid, 0, num_levels, fast_threshold, &out);
   }
   if (options_.adaptive) {
     const cv::Mat& base = pyramid.level(0);

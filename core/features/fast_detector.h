@@ -17,7 +17,6 @@
 #include <vector>
 
 #include "core/common/expected.h"
-#include "core/common/parallel_pair.h"
 #include "core/features/image_pyramid.h"
 
 namespace evermap::core {
@@ -61,20 +60,12 @@ class FastDetector {
 
   // Corners on levels [0, num_levels) of `pyramid` (num_levels <= pyramid.numLevels()),
   // strongest first within each level, levels in increasing order. Updates the threshold.
-  // With `pair` (two threads), level 0 and the levels above are searched at once; the corners
-  // are the same.
-  std::vector<Keypoint> detect(const ImagePyramid& pyramid, int num_levels,
-                               ParallelPair* pair = nullptr);
+  std::vector<Keypoint> detect(const ImagePyramid& pyramid, int num_levels);
 
   int threshold() const { return static_cast<int>(threshold_ + 0.5); }
   const Options& options() const { return options_; }
 
  private:
-  // The corners of levels [first, last) at `fast_threshold` appended to *out; returns the
-  // number detected before bucketing.
-  size_t detectLevels(const ImagePyramid& pyramid, int first, int last, int fast_threshold,
-                      std::vector<Keypoint>* out) const;
-
   Options options_;
   double threshold_;
 };

@@ -36,73 +36,50 @@ Status checkStereoImage(const StereoCamera& camera, const cv::Mat& image, const 
   return Ok{};
 }
 
-namespace {
-
-// The feature of corner k with level-0 disparity d (NaN: none); false when it has no depth.
-bool makeFeature(const StereoCamera& camera, const ImagePyramid& left, const Keypoint& k, float d,
-                 StereoFeature* f) {
-  if (!std::isfinite(d)) return false;
-  const float s = ImagePyramid::scale(k.level);
-  f->keypoint = k;
-  f->uv = Eigen::Vector2f(k.u * s, k.v * s);
-  f->disparity = d;
-  const auto p = camera.backProject(Eigen::Vector3d(f->uv.x(), f->uv.y(), d));
-  if (!p) return false;
-  f->point = *p;
-  f->patch = patchDescriptor(left.level(k.level), static_cast<int>(k.u), static_cast<int>(k.v));
-  return true;
-}
-
-}  // namespace
-
 template <typename Disparity>
 Status StereoFeatureExtractor::extractWith(const StereoCamera& camera, int64_t utime,
-                                           FeatureFrame* frame, Disparity disparity,
-                                           ParallelPair* pair) {
+                                           const cv::Mat& left, FeatureFrame* frame,
+                                           Disparity disparity) {
   frame->utime = utime;
   frame->features.clear();
-  const std::vector<Keypoint> corners =
-      detector_.detect(frame->left, options_.feature_levels, pair);
+  frame->num_corners = 0;
+  if (Status s = frame->left.build(left, options_.pyramid_levels); !s) return s;
+
+  const std::vector<Keypoint> corners = detector_.detect(frame->left, options_.feature_levels);
   frame->num_corners = static_cast<int>(corners.size());
-  // Each corner on its own (even corners here, odd ones on the pair's worker), kept in the
-  // corners' order: the same features as one pass.
-  std::vector<StereoFeature> made(corners.size());
-  std::vector<uint8_t> has(corners.size(), 0);
-  auto make = [&](size_t first) {
-    for (size_t i = first; i < corners.size(); i += 2) {
-      has[i] = makeFeature(camera, frame->left, corners[i], disparity(corners[i]), &made[i]);
-    }
-  };
-  runBoth(
-      pair, [&] { make(0); }, [&] { make(1); });
   frame->features.reserve(corners.size());
-  for (size_t i = 0; i < corners.size(); ++i) {
-    if (has[i]) frame->features.push_back(made[i]);
+  for (const Keypoint& k : corners) {
+    const float d = disparity(k);
+    if (!std::isfinite(d)) continue;
+    const float s = ImagePyramid::scale(k.level);
+    StereoFeature f;
+    f.keypoint = k;
+    f.uv = Eigen::Vector2f(k.u * s, k.v * s);
+    f.disparity = d;
+    const auto p = camera.backProject(Eigen::Vector3d(f.uv.x(), f.uv.y(), d));
+    if (!p) continue;
+    f.point = *p;
+    f.patch =
+        patchDescriptor(frame->left.level(k.level), static_cast<int>(k.u), static_cast<int>(k.v));
+    frame->features.push_back(f);
   }
   return Ok{};
 }
 
 Status StereoFeatureExtractor::extract(const StereoCamera& camera, int64_t utime,
                                        const cv::Mat& left, const cv::Mat& right,
-                                       FeatureFrame* frame, ParallelPair* pair) {
+                                       FeatureFrame* frame) {
   if (Status s = checkStereoImage(camera, left, "left image"); !s) return s;
   if (Status s = checkStereoImage(camera, right, "right image"); !s) return s;
-  frame->num_corners = 0;
-  Status left_built = Ok{}, right_built = Ok{};
-  runBoth(
-      pair, [&] { left_built = frame->left.build(left, options_.pyramid_levels); },
-      [&] { right_built = right_.build(right, options_.feature_levels); });
-  if (!right_built) return right_built;
-  if (!left_built) return left_built;
-  return extractWith(
-      camera, utime, frame,
-      [&](const Keypoint& k) { return depth_.disparity(camera, frame->left, right_, k); }, pair);
+  if (Status s = right_.build(right, options_.feature_levels); !s) return s;
+  return extractWith(camera, utime, left, frame, [&](const Keypoint& k) {
+    return depth_.disparity(camera, frame->left, right_, k);
+  });
 }
 
 Status StereoFeatureExtractor::extractRgbd(const StereoCamera& camera, int64_t utime,
                                            const cv::Mat& gray, const cv::Mat& depth,
-                                           double depth_scale_m, FeatureFrame* frame,
-                                           ParallelPair* pair) {
+                                           double depth_scale_m, FeatureFrame* frame) {
   if (Status s = checkStereoImage(camera, gray, "gray image"); !s) return s;
   if (depth.empty() || depth.type() != CV_16UC1) {
     return makeError("depth image: ", depth.empty() ? "empty" : "not 16-bit one-channel");
@@ -114,15 +91,10 @@ Status StereoFeatureExtractor::extractRgbd(const StereoCamera& camera, int64_t u
   if (!(depth_scale_m > 0.0) || !std::isfinite(depth_scale_m)) {
     return makeError("depth image: scale ", depth_scale_m, " m is not positive and finite");
   }
-  frame->num_corners = 0;
-  if (Status s = frame->left.build(gray, options_.pyramid_levels); !s) return s;
-  return extractWith(
-      camera, utime, frame,
-      [&](const Keypoint& k) {
-        const float s = ImagePyramid::scale(k.level);
-        return rgbd_depth_.disparity(camera, depth, depth_scale_m, k.u * s, k.v * s);
-      },
-      pair);
+  return extractWith(camera, utime, gray, frame, [&](const Keypoint& k) {
+    const float s = ImagePyramid::scale(k.level);
+    return rgbd_depth_.disparity(camera, depth, depth_scale_m, k.u * s, k.v * s);
+  });
 }
 
 }  // namespace evermap::core

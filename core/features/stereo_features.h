@@ -18,7 +18,6 @@
 
 #include "core/camera/stereo_camera.h"
 #include "core/common/expected.h"
-#include "core/common/parallel_pair.h"
 #include "core/features/fast_detector.h"
 #include "core/features/image_pyramid.h"
 #include "core/features/patch_descriptor.h"
@@ -58,17 +57,14 @@ class StereoFeatureExtractor {
   static Expected<StereoFeatureExtractor> create(const Options& options);
 
   // Fills `frame` (reusing its buffers). Errors: an image that is empty, not 8-bit gray or
-  // not of the camera's size (the message names which). With `pair` (two threads) the
-  // independent parts run on both (the two pyramids, FAST's levels, the corners' depths and
-  // patches); the features are the same, in the same order.
+  // not of the camera's size (the message names which).
   Status extract(const StereoCamera& camera, int64_t utime, const cv::Mat& left,
-                 const cv::Mat& right, FeatureFrame* frame, ParallelPair* pair = nullptr);
+                 const cv::Mat& right, FeatureFrame* frame);
 
   // An RGB-D frame: `gray` (CV_8UC1) and `depth` (CV_16UC1, metres = value · depth_scale_m),
   // both undistorted to `camera` (RgbdCamera::undistort) and of its size. Errors as extract().
   Status extractRgbd(const StereoCamera& camera, int64_t utime, const cv::Mat& gray,
-                     const cv::Mat& depth, double depth_scale_m, FeatureFrame* frame,
-                     ParallelPair* pair = nullptr);
+                     const cv::Mat& depth, double depth_scale_m, FeatureFrame* frame);
 
   const FastDetector& detector() const { return detector_; }
   const Options& options() const { return options_; }
@@ -80,11 +76,11 @@ class StereoFeatureExtractor {
         depth_(options.stereo),
         rgbd_depth_(options.rgbd) {}
 
-  // On frame->left (built): corners and, for each corner with a depth (`disparity` of its
-  // level-0 position, NaN for none; called from both threads of `pair`), the feature.
+  // Pyramid, corners and, for each corner with a depth (`disparity` of its level-0 position,
+  // NaN for none), the feature.
   template <typename Disparity>
-  Status extractWith(const StereoCamera& camera, int64_t utime, FeatureFrame* frame,
-                     Disparity disparity, ParallelPair* pair);
+  Status extractWith(const StereoCamera& camera, int64_t utime, const cv::Mat& left,
+                     FeatureFrame* frame, Disparity disparity);
 
   Options options_;
   FastDetector detector_;

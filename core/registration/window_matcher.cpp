@@ -23,30 +23,27 @@ Status WindowMatchOptions::validate() const {
   return Ok{};
 }
 
-namespace {
-
-// The window search of reference features [first, last): best_cur[i] for each, and for each
-// current feature the lowest-SAD reference feature among them (the first at a tie).
-struct WindowSearch {
-  std::vector<int> best_cur;            // per reference feature, -1: none
-  std::vector<int> best_ref, best_sad;  // per current feature
-};
-
-void searchWindows(const StereoCamera& camera, const FeatureFrame& ref, const FeatureFrame& cur,
-                   const std::vector<int>& order, const SE3d& cur_T_ref,
-                   const WindowMatchOptions& options, size_t first, size_t last,
-                   WindowSearch* out) {
+std::vector<WindowMatch> matchInWindow(const StereoCamera& camera, const FeatureFrame& ref,
+                                       const FeatureFrame& cur, const SE3d& cur_T_ref,
+                                       const WindowMatchOptions& options) {
   const auto& rf = ref.features;
   const auto& cf = cur.features;
+  // Current features sorted by (level, v): the candidates of a window are a contiguous run
+  // of rows of one level.
+  std::vector<int> order(cf.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    const Keypoint& ka = cf[static_cast<size_t>(a)].keypoint;
+    const Keypoint& kb = cf[static_cast<size_t>(b)].keypoint;
+    return ka.level != kb.level ? ka.level < kb.level : ka.v < kb.v;
+  });
   const int max_sad = static_cast<int>(options.max_mean_abs_diff * kPatchBytes);
-  std::vector<int>& best_ref = out->best_ref;
-  std::vector<int>& best_ref_sad = out->best_sad;
-  best_ref.assign(cf.size(), -1);
-  best_ref_sad.assign(cf.size(), INT_MAX);
+  std::vector<int> best_cur(rf.size(), -1);
+  std::vector<int> best_ref(cf.size(), -1), best_ref_sad(cf.size(), INT_MAX);
   const float radius = static_cast<float>(options.search_radius_px);
   const Mat3 R = cur_T_ref.rotationMatrix();
   const Vec3 t = cur_T_ref.translation();
-  for (size_t i = first; i < last; ++i) {
+  for (size_t i = 0; i < rf.size(); ++i) {
     const StereoFeature& f = rf[i];
     const auto uvd = camera.project(R * f.point + t);
     if (!uvd) continue;
@@ -54,12 +51,12 @@ void searchWindows(const StereoCamera& camera, const FeatureFrame& ref, const Fe
     const float s = ImagePyramid::scale(level);
     const float pu = static_cast<float>(uvd->x()) / s, pv = static_cast<float>(uvd->y()) / s;
     // First current feature of this level with v >= pv - radius.
-    auto first_it = std::lower_bound(order.begin(), order.end(), 0, [&](int idx, int) {
+    auto first = std::lower_bound(order.begin(), order.end(), 0, [&](int idx, int) {
       const Keypoint& k = cf[static_cast<size_t>(idx)].keypoint;
       return k.level != level ? k.level < level : k.v < pv - radius;
     });
     int best = -1, best_sad = max_sad + 1;
-    for (auto it = first_it; it != order.end(); ++it) {
+    for (auto it = first; it != order.end(); ++it) {
       const StereoFeature& c = cf[static_cast<size_t>(*it)];
       if (c.keypoint.level != level || c.keypoint.v > pv + radius) break;
       if (std::abs(c.keypoint.u - pu) > radius) continue;
@@ -73,24 +70,19 @@ void searchWindows(const StereoCamera& camera, const FeatureFrame& ref, const Fe
         best_ref[static_cast<size_t>(*it)] = static_cast<int>(i);
       }
     }
-    out->best_cur[i] = best;
+    best_cur[i] = best;
   }
-}
 
-// The matches of reference features [first, last) that pass the mutual check, refined,
-// appended to *out in their order.
-void refineMatches(const FeatureFrame& ref, const FeatureFrame& cur, const WindowSearch& search,
-                   const WindowMatchOptions& options, size_t first, size_t last,
-                   std::vector<WindowMatch>* out) {
+  std::vector<WindowMatch> out;
   PatchAlignmentOptions align;
   align.radius_px = kPatchRadius;
   align.max_shift_px = options.max_refinement_px;
-  for (size_t i = first; i < last; ++i) {
-    const int j = search.best_cur[i];
+  for (size_t i = 0; i < rf.size(); ++i) {
+    const int j = best_cur[i];
     if (j < 0) continue;
-    if (options.mutual && search.best_ref[static_cast<size_t>(j)] != static_cast<int>(i)) continue;
-    const StereoFeature& f = ref.features[i];
-    const StereoFeature& c = cur.features[static_cast<size_t>(j)];
+    if (options.mutual && best_ref[static_cast<size_t>(j)] != static_cast<int>(i)) continue;
+    const StereoFeature& f = rf[i];
+    const StereoFeature& c = cf[static_cast<size_t>(j)];
     WindowMatch m{static_cast<int>(i), j, c.uv};
     if (options.subpixel) {
       const int level = f.keypoint.level;
@@ -100,48 +92,8 @@ void refineMatches(const FeatureFrame& ref, const FeatureFrame& cur, const Windo
       if (!p) continue;
       m.uv = *p * ImagePyramid::scale(level);
     }
-    out->push_back(m);
+    out.push_back(m);
   }
-}
-
-}  // namespace
-
-std::vector<WindowMatch> matchInWindow(const StereoCamera& camera, const FeatureFrame& ref,
-                                       const FeatureFrame& cur, const SE3d& cur_T_ref,
-                                       const WindowMatchOptions& options, ParallelPair* pair) {
-  const auto& cf = cur.features;
-  // Current features sorted by (level, v): the candidates of a window are a contiguous run
-  // of rows of one level.
-  std::vector<int> order(cf.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int a, int b) {
-    const Keypoint& ka = cf[static_cast<size_t>(a)].keypoint;
-    const Keypoint& kb = cf[static_cast<size_t>(b)].keypoint;
-    return ka.level != kb.level ? ka.level < kb.level : ka.v < kb.v;
-  });
-  // The reference features in two halves (on both threads of `pair`), merged as one pass
-  // would: the lower half's best reference wins a tie, as the lower index does.
-  const size_t n = ref.features.size(), half = n / 2;
-  WindowSearch a, b;
-  a.best_cur.assign(n, -1);
-  runBoth(
-      pair, [&] { searchWindows(camera, ref, cur, order, cur_T_ref, options, 0, half, &a); },
-      [&] {
-        b.best_cur.assign(n, -1);
-        searchWindows(camera, ref, cur, order, cur_T_ref, options, half, n, &b);
-      });
-  for (size_t i = half; i < n; ++i) a.best_cur[i] = b.best_cur[i];
-  for (size_t j = 0; j < cf.size(); ++j) {
-    if (b.best_sad[j] < a.best_sad[j]) {
-      a.best_sad[j] = b.best_sad[j];
-      a.best_ref[j] = b.best_ref[j];
-    }
-  }
-  std::vector<WindowMatch> out, upper;
-  runBoth(
-      pair, [&] { refineMatches(ref, cur, a, options, 0, half, &out); },
-      [&] { refineMatches(ref, cur, a, options, half, n, &upper); });
-  out.insert(out.end(), upper.begin(), upper.end());
   return out;
 }
 

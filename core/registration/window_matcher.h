@@ -13,7 +13,6 @@
 
 #include "core/camera/stereo_camera.h"
 #include "core/common/expected.h"
-#include "core/common/parallel_pair.h"
 #include "core/features/stereo_features.h"
 #include "core/geometry/se3.h"
 
@@ -37,11 +36,8 @@ struct WindowMatch {
 };
 
 // `cur_T_ref` maps points of the reference camera into the current one (the prediction).
-// With `pair` (two threads) each half of the reference features is searched and refined on
-// its own thread; the matches are the same, in the same order.
 std::vector<WindowMatch> matchInWindow(const StereoCamera& camera, const FeatureFrame& ref,
                                        const FeatureFrame& cur, const SE3d& cur_T_ref,
-                                       const WindowMatchOptions& options,
-                                       ParallelPair* pair = nullptr);
+                                       const WindowMatchOptions& options);
 
 }  // namespace evermap::core
