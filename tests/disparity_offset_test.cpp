@@ -36,12 +36,7 @@ std::vector<StereoMatchPair> forwardPairs(const testing::TexturedRoom& room,
                            Vec3(0.1 * k, 0.1, -2.5 + 0.25 * k));
     cv::Mat left, right;
     room.render(rendered, world_T_cam, &left, &right, &rng);
-    if (right_shift_px > 0) {
-      cv::Mat shifted = right.clone();
-      right(cv::Rect(0, 0, right.cols - right_shift_px, right.rows))
-          .copyTo(shifted(cv::Rect(right_shift_px, 0, right.cols - right_shift_px, right.rows)));
-      right = shifted;
-    }
+    right = testing::shiftedRight(right, right_shift_px);
     FeatureFrame frame;
     EXPECT_TRUE(extractor->extract(camera, k, left, right, &frame).ok());
     KeyframeFeatures kf = makeKeyframeFeatures(frame, orb);

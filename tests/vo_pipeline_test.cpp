@@ -23,19 +23,7 @@ using core::Vec3;
 
 // The synthetic rig's calibration as already rectified images.
 core::StereoCalibration rectifiedCalibration() {
-  const core::StereoCamera cam = testing::syntheticCamera();
-  core::StereoCalibration c;
-  c.rectified = true;
-  for (core::CameraCalibration* k : {&c.left, &c.right}) {
-    k->width = cam.width();
-    k->height = cam.height();
-    k->fx = cam.fx();
-    k->fy = cam.fy();
-    k->cx = cam.cx();
-    k->cy = cam.cy();
-  }
-  c.right.body_T_cam = SE3d(core::SO3d(), Vec3(cam.baselineM(), 0.0, 0.0));
-  return c;
+  return testing::rectifiedCalibration(testing::syntheticCamera());
 }
 
 evermap::stereo_image_t stereoMsg(int64_t utime, const cv::Mat& l, const cv::Mat& r,

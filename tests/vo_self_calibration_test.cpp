@@ -23,21 +23,6 @@ using core::SE3d;
 using core::SO3d;
 using core::Vec3;
 
-core::StereoCalibration rectifiedCalibration(const core::StereoCamera& cam) {
-  core::StereoCalibration c;
-  c.rectified = true;
-  for (core::CameraCalibration* k : {&c.left, &c.right}) {
-    k->width = cam.width();
-    k->height = cam.height();
-    k->fx = cam.fx();
-    k->fy = cam.fy();
-    k->cx = cam.cx();
-    k->cy = cam.cy();
-  }
-  c.right.body_T_cam = SE3d(SO3d(), Vec3(cam.baselineM(), 0.0, 0.0));
-  return c;
-}
-
 struct ForwardRun {
   std::vector<std::string> notes;
   int tracked = 0;
@@ -48,7 +33,8 @@ struct ForwardRun {
 ForwardRun runForward(VoPipeline& pipeline, const testing::TexturedRoom& room, int right_shift_px,
                       int frames) {
   const core::StereoCamera camera = testing::syntheticCamera();
-  EXPECT_TRUE(pipeline.handleCalibration(messages::toMsg(rectifiedCalibration(camera), 0)).ok());
+  EXPECT_TRUE(
+      pipeline.handleCalibration(messages::toMsg(testing::rectifiedCalibration(camera), 0)).ok());
   cv::RNG rng(11);
   ForwardRun run;
   for (int k = 0; k < frames; ++k) {
@@ -56,12 +42,7 @@ ForwardRun runForward(VoPipeline& pipeline, const testing::TexturedRoom& room, i
                            Vec3(0.03 * k, 0.1, -2.8 + 0.1 * k));
     cv::Mat left, right;
     room.render(camera, world_T_cam, &left, &right, &rng);
-    if (right_shift_px > 0) {
-      cv::Mat shifted = right.clone();
-      right(cv::Rect(0, 0, right.cols - right_shift_px, right.rows))
-          .copyTo(shifted(cv::Rect(right_shift_px, 0, right.cols - right_shift_px, right.rows)));
-      right = shifted;
-    }
+    right = testing::shiftedRight(right, right_shift_px);
     const int64_t utime = 1000000 + 50000 * k;
     const PipelineOutput out =
         pipeline.handleFrame(utime, messages::StereoFrame{utime, true, left, right});
