@@ -130,7 +130,6 @@ void work(evermap::vo::BoundedQueue<QueuedFrame>* queue, Shared* shared,
       std::fprintf(stderr, "evermap-vo-proc: dropped: %s\n", out.error().message.c_str());
       continue;
     }
-    if (!out->note.empty()) std::fprintf(stderr, "evermap-vo-proc: %s\n", out->note.c_str());
     // Bad input is counted in the pipeline's stats; a flood of it gets 20 lines, then one in
     // 1000.
     const bool bad = out->result.status == evermap::vo::VoStatus::kBadInput;

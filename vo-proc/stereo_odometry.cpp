@@ -83,10 +83,6 @@ Status OdometryOptions::validate() const {
                      bridge.rotation_sigma_rad, " rad must be positive, velocity_fraction ",
                      bridge.velocity_fraction, " non-negative");
   }
-  if (relaxed.enabled() && !(relaxed.max_mean_reprojection_px > 0.0)) {
-    return makeError("odometry: relaxed.max_mean_reprojection_px ",
-                     relaxed.max_mean_reprojection_px, " must be positive with relaxed bounds");
-  }
   if (!(rotation.max_angle_rad > 0.0) || rotation.max_iterations < 1) {
     return makeError("odometry: rotation estimate needs max_angle_rad > 0 and iterations >= 1");
   }
@@ -180,7 +176,7 @@ void StereoOdometry::makeCurrentTheReference(FrameResult* result, bool keyframe,
 }
 
 core::RegistrationSummary StereoOdometry::registerTo(const core::FeatureFrame& from,
-                                                     const SE3d& from_T_pred, bool relaxed) const {
+                                                     const SE3d& from_T_pred) const {
   const std::vector<core::WindowMatch> window =
       core::matchInWindow(camera_, from, *cur_, from_T_pred.inverse(), options_.matching);
   std::vector<core::Correspondence> matches;
@@ -196,12 +192,7 @@ core::RegistrationSummary StereoOdometry::registerTo(const core::FeatureFrame& f
     matches.push_back({a.uv.cast<double>(), a.point, m.uv.cast<double>(), *p_b});
     ids.emplace_back(m.ref, m.cur);
   }
-  core::RegistrationOptions registration = options_.registration;
-  if (relaxed) {
-    registration.motion.inlier_max_reprojection_px = options_.relaxed.inlier_max_reprojection_px;
-    registration.motion.max_mean_reprojection_px = options_.relaxed.max_mean_reprojection_px;
-  }
-  return core::registerMatches(camera_, camera_, matches, ids, from_T_pred, registration);
+  return core::registerMatches(camera_, camera_, matches, ids, from_T_pred, options_.registration);
 }
 
 core::Mat6 StereoOdometry::priorCovariance(const SE3d& prev_T_cur, int frames) const {
@@ -300,48 +291,11 @@ FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& 
   r.num_inliers = motion.summary.num_inliers;
   r.mean_reprojection_px = motion.summary.mean_reprojection_px;
   if (motion.summary.ok()) {
-    if (collect_inlier_pairs_ && !r.via_previous) r.inlier_pair = inlierPair(motion.summary);
     takeMotion(motion, &r);
   } else {
     failRegistration(motion.summary, ref_T_pred, &r);
   }
   return r;
-}
-
-core::StereoMatchPair StereoOdometry::inlierPair(const core::RegistrationSummary& reg) const {
-  core::StereoMatchPair pair;
-  pair.a_T_b = reg.a_T_b;
-  for (const auto& [ia, ib] : reg.clique) {
-    const core::StereoFeature& a = ref_->features[static_cast<size_t>(ia)];
-    const core::StereoFeature& b = cur_->features[static_cast<size_t>(ib)];
-    pair.uvd_a.emplace_back(a.uv.x(), a.uv.y(), a.disparity);
-    pair.uvd_b.emplace_back(b.uv.x(), b.uv.y(), b.disparity);
-  }
-  return pair;
-}
-
-Status StereoOdometry::setDisparityOffset(double offset_px) {
-  auto camera =
-      core::StereoCamera::create(camera_.fx(), camera_.fy(), camera_.cx(), camera_.cy(),
-                                 camera_.baselineM(), camera_.width(), camera_.height(), offset_px);
-  if (!camera) return camera.error();
-  const auto change = static_cast<float>(offset_px - camera_.disparityOffsetPx());
-  camera_ = *camera;
-  for (core::FeatureFrame* frame : {ref_.get(), prev_.get()}) {
-    std::vector<core::StereoFeature>& f = frame->features;
-    size_t kept = 0;
-    for (core::StereoFeature& feature : f) {
-      const float d = feature.disparity + change;
-      const auto p = camera_.backProject(core::Vec3(feature.uv.x(), feature.uv.y(), d));
-      if (!p) continue;
-      feature.disparity = d;
-      feature.point = *p;
-      if (&f[kept] != &feature) f[kept] = std::move(feature);
-      ++kept;
-    }
-    f.resize(kept);
-  }
-  return Ok{};
 }
 
 bool StereoOdometry::extractFrame(int64_t utime, const std::function<Status()>& extract,
@@ -433,22 +387,6 @@ StereoOdometry::RegisteredMotion StereoOdometry::registerCurrent(const SE3d& ref
       m.summary = again;
       m.ref_T_cur = chained.mean;
       m.covariance = chained.covariance;
-    }
-  }
-  if (!m.summary.ok() && options_.relaxed.enabled() &&
-      m.summary.num_clique >= options_.registration.min_inliers) {
-    // Consistent in 3-D but not within the image bounds under one rigid motion: fast rotation
-    // (blur, a rolling shutter). Once more against the reference with the relaxed bounds.
-    const core::RegistrationSummary relaxed = registerTo(*ref_, ref_T_pred, true);
-    if (relaxed.ok()) {
-      r->relaxed = true;
-      r->message = std::string("registered with the relaxed bounds (") +
-                   failureKind(m.summary, options_.registration.min_inliers) + ": " +
-                   m.summary.message + ")";
-      r->via_previous = false;
-      m.summary = relaxed;
-      m.ref_T_cur = relaxed.a_T_b;
-      m.covariance = relaxed.covariance;
     }
   }
   return m;

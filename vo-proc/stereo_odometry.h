@@ -65,7 +65,6 @@
 #include "core/features/orb_descriptor.h"
 #include "core/features/stereo_features.h"
 #include "core/geometry/se3.h"
-#include "core/registration/disparity_offset.h"
 #include "core/registration/frame_registration.h"
 #include "core/registration/keyframe_features.h"
 #include "core/registration/rotation_estimation.h"
@@ -121,14 +120,6 @@ struct OdometryOptions {
     double rotation_sigma_rad = 0.02;
     double velocity_fraction = 0.3;  // of the predicted translation and rotation
   } bridge;
-  // A frame that registers to neither the reference nor the last registered frame, but whose
-  // clique has at least registration.min_inliers matches, is registered to the reference once
-  // more with these motion bounds (0: off, the default; the pipeline sets them for RGB-D).
-  struct Relaxed {
-    double inlier_max_reprojection_px = 0.0;
-    double max_mean_reprojection_px = 0.0;
-    bool enabled() const { return inlier_max_reprojection_px > 0.0; }
-  } relaxed;
   // ORB descriptors of keyframes (for loop closure); off saves their cost.
   bool keyframe_descriptors = true;
   core::OrbExtractor::Options orb;
@@ -196,19 +187,11 @@ struct FrameResult {
   bool bridged = false;
   // kOk through the last registered frame after failing against the reference.
   bool via_previous = false;
-  // kOk against the reference with the relaxed bounds (OdometryOptions::relaxed).
-  bool relaxed = false;
   // Why, for a frame that did not register, in a few fixed words (for counting by kind):
   // "too few features", "too few consistent matches", "too few inliers after outlier
   // rejection", "reprojection error", "optimization failure", "stale reference",
   // "bad input"; with `bridged`, why the bridge was needed. Empty otherwise.
   std::string failure_kind;
-  // With setCollectInlierPairs: the clique's matches (u, v, d) in the reference and in this
-  // frame, and the registered motion, of a frame registered to the reference itself (the
-  // evidence of the disparity offset's estimate: the clique, not the motion's inliers, whose
-  // 1 px bound under the current offset drops the far points that would show a wrong one).
-  // Empty otherwise.
-  core::StereoMatchPair inlier_pair;
 
   bool ok() const { return status == VoStatus::kOk; }
 };
@@ -234,14 +217,6 @@ class StereoOdometry {
 
   // Forgets the reference: the next usable frame starts anew (kNoData).
   void reset();
-
-  // Fill FrameResult::inlier_pair from now on (on) or not (off, the default).
-  void setCollectInlierPairs(bool on) { collect_inlier_pairs_ = on; }
-  // The camera's disparity offset (StereoCamera::disparityOffsetPx) becomes offset_px for the
-  // frames to come; the disparities and points of the frames kept (reference, last registered)
-  // are corrected by the change, and a feature whose disparity would not stay positive is
-  // dropped. The motions already given are not revised. Errors: an offset the camera refuses.
-  Status setDisparityOffset(double offset_px);
 
   const core::StereoCamera& camera() const { return camera_; }
   const OdometryOptions& options() const { return options_; }
@@ -269,8 +244,6 @@ class StereoOdometry {
     core::Mat6 covariance = core::Mat6::Zero();
   };
   RegisteredMotion registerCurrent(const core::SE3d& ref_T_pred, FrameResult* result) const;
-  // The registration's clique between the reference and the current frame (before takeMotion).
-  core::StereoMatchPair inlierPair(const core::RegistrationSummary& reg) const;
   // A registered motion: the result, the motion prior, and the reference or keyframe moved on.
   void takeMotion(const RegisteredMotion& motion, FrameResult* result);
   void failRegistration(const core::RegistrationSummary& reg, const core::SE3d& ref_T_pred,
@@ -284,7 +257,7 @@ class StereoOdometry {
   // Matches `from` into the current frame in windows around the prediction from_T_pred
   // (from_T_cur) and registers: a = from, b = current.
   core::RegistrationSummary registerTo(const core::FeatureFrame& from,
-                                       const core::SE3d& from_T_pred, bool relaxed = false) const;
+                                       const core::SE3d& from_T_pred) const;
   // The motion prior's covariance over `frames` predicted frames of `prev_T_cur`.
   core::Mat6 priorCovariance(const core::SE3d& prev_T_cur, int frames) const;
   // Bridges the break at the current frame by ref_T_pred (see the class comment).
@@ -315,7 +288,6 @@ class StereoOdometry {
   core::SE3d ref_T_good_;
   core::Mat6 ref_T_good_cov_ = core::Mat6::Zero();
   int frames_since_good_ = 0;
-  bool collect_inlier_pairs_ = false;
   int failures_ = 0;
   // Inliers of the first frame registered against the reference (0: none yet).
   int first_inliers_ = 0;

@@ -1,6 +1,5 @@
 #include "vo-proc/vo_pipeline.h"
 
-#include <cstdio>
 #include <sstream>
 
 #include "core/messages/convert.h"
@@ -15,11 +14,6 @@ Status PipelineOptions::validate() const {
   if (!(rgbd_inlier_max_reprojection_px > 0.0) || !(rgbd_max_mean_reprojection_px > 0.0)) {
     return makeError("vo pipeline: rgbd reprojection thresholds ", rgbd_inlier_max_reprojection_px,
                      " px and ", rgbd_max_mean_reprojection_px, " px must be positive");
-  }
-  if (Status s = disparity_offset.tracker.validate(); !s) return s;
-  if (disparity_offset.max_rounds < 1) {
-    return makeError("vo pipeline: disparity_offset.max_rounds ", disparity_offset.max_rounds,
-                     " < 1");
   }
   return rectifier.validate();
 }
@@ -66,7 +60,6 @@ Status VoPipeline::handleCalibration(const evermap::stereo_calib_t& msg) {
     rectifier_.reset();
     odometry_.reset();
     rgbd_.reset();
-    offset_tracker_.reset();
     no_camera_reason_ = "calibration refused: " + why;
     return Error{no_camera_reason_};
   };
@@ -94,15 +87,6 @@ Status VoPipeline::handleCalibration(const evermap::stereo_calib_t& msg) {
   calibration_ = *calibration;
   rectifier_ = std::move(rectifier);
   odometry_.emplace(std::move(*odometry));
-  offset_tracker_.reset();
-  camera_frames_ = offset_converged_frames_ = 0;
-  offset_converged_s_ = offset_applied_px_ = 0.0;
-  offset_rounds_ = 0;
-  offset_settled_ = false;
-  if (options_.disparity_offset.estimate) {
-    offset_tracker_.emplace(options_.disparity_offset.tracker);
-    odometry_->setCollectInlierPairs(true);
-  }
   ++stats_.calibrations;
   return Ok{};
 }
@@ -132,45 +116,9 @@ evermap::vo_delta_t toMsg(const FrameResult& r) {
   return m;
 }
 
-std::string VoPipeline::selfCalibrate(const FrameResult& result) {
-  if (!offset_tracker_ || !odometry_ || offset_settled_) return "";
-  if (camera_frames_++ == 0) camera_first_utime_ = result.utime;
-  if (result.inlier_pair.uvd_a.empty()) return "";
-  const core::StereoCamera& camera = odometry_->camera();
-  if (!offset_tracker_->add(camera, result.inlier_pair) || !offset_tracker_->converged()) return "";
-  ++offset_rounds_;
-  const bool apply = offset_tracker_->significant();
-  const double total = camera.disparityOffsetPx() + offset_tracker_->offsetPx();
-  char line[300];
-  std::snprintf(line, sizeof line, "self-calibration round %d: %s after %lld frames (%.2f s)",
-                offset_rounds_, offset_tracker_->describe().c_str(),
-                static_cast<long long>(camera_frames_),
-                static_cast<double>(result.utime - camera_first_utime_) * 1e-6);
-  std::string note = line;
-  if (apply) {
-    if (Status s = odometry_->setDisparityOffset(total); !s) {
-      offset_settled_ = true;
-      return note + "; not applied: " + s.error().message;
-    }
-    offset_applied_px_ += offset_tracker_->offsetPx();
-    std::snprintf(line, sizeof line, "; the camera's offset is now %+.3f px", total);
-    note += line;
-  }
-  if (!apply || offset_rounds_ >= options_.disparity_offset.max_rounds) {
-    offset_settled_ = true;
-    offset_converged_frames_ = camera_frames_;
-    offset_converged_s_ = static_cast<double>(result.utime - camera_first_utime_) * 1e-6;
-    odometry_->setCollectInlierPairs(false);
-  } else {
-    offset_tracker_.emplace(options_.disparity_offset.tracker);
-  }
-  return note;
-}
-
-PipelineOutput VoPipeline::finish(FrameResult result) {
+PipelineOutput VoPipeline::finish(const FrameResult& result) {
   PipelineOutput out;
-  out.note = selfCalibrate(result);
-  result.inlier_pair = {};
+  out.result = result;
   out.delta = toMsg(result);
   odometry_frame_.stamp(out.delta);
   ++stats_.frames;
@@ -179,7 +127,6 @@ PipelineOutput VoPipeline::finish(FrameResult result) {
     out.keyframe = messages::toMsg(odometry_->camera(), *result.keyframe);
     ++stats_.keyframes;
   }
-  out.result = std::move(result);
   return out;
 }
 
@@ -266,7 +213,6 @@ PipelineOutput VoPipeline::handleRgbdFrame(int64_t utime,
     rectifier_.reset();
     odometry_.reset();
     rgbd_.reset();
-    offset_tracker_.reset();
     auto camera = core::RgbdCamera::create(frame->camera, options_.rgbd);
     if (!camera) {
       ++stats_.calibrations_refused;
@@ -278,10 +224,6 @@ PipelineOutput VoPipeline::handleRgbdFrame(int64_t utime,
         options_.rgbd_inlier_max_reprojection_px;
     odometry_options.registration.motion.max_mean_reprojection_px =
         options_.rgbd_max_mean_reprojection_px;
-    odometry_options.relaxed.inlier_max_reprojection_px =
-        options_.rgbd_relaxed_inlier_max_reprojection_px;
-    odometry_options.relaxed.max_mean_reprojection_px =
-        options_.rgbd_relaxed_max_mean_reprojection_px;
     auto odometry = StereoOdometry::create(camera->stereo(), odometry_options);
     if (!odometry) {
       ++stats_.calibrations_refused;

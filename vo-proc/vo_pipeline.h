@@ -10,18 +10,6 @@
 // (core/camera/rgbd_camera.h); the images are undistorted and given to
 // StereoOdometry::processRgbd. A stereo calibration replaces an RGB-D camera and the reverse.
 //
-// Stereo self-calibration (disparity_offset.estimate, on by default): from the first frames of
-// a stereo camera on, every frame registered to its reference gives its inliers to a
-// core::DisparityOffsetTracker. When its sigma reaches disparity_offset.converged_sigma_px the
-// estimate stops; if it is significant (|offset| >= significance_sigmas sigma) it is added to
-// the camera's offset (StereoOdometry::setDisparityOffset) for every later frame, and a new
-// round measures what is left (the clique of a frame was chosen under the offset before), up
-// to disparity_offset.max_rounds; a round whose estimate is not significant ends it and
-// changes nothing (so a calibrated rig stays as it is). Each round's end is one line
-// (PipelineOutput::note). Keyframes
-// carry disparities and points with the offset applied (keyframe_t has no field for it). Not
-// for RGB-D cameras (their disparities come from the depth image, not from a right image).
-//
 // Every frame that can be decoded gets a vo_delta_t, bad ones with STATUS_BAD_INPUT (and a
 // one-line reason): no valid calibration yet (e.g. NaN intrinsics), images of the wrong size,
 // an image that does not decode, a raw pair announced as rectified or the reverse; for RGBD,
@@ -61,17 +49,6 @@ struct PipelineOptions {
   // frames unregistered and doubled the ATE; 2 px left 4.
   double rgbd_inlier_max_reprojection_px = 2.0;
   double rgbd_max_mean_reprojection_px = 2.0;
-  // With an RGB-D camera, a frame that fails with these bounds although its clique is large
-  // enough is registered once more with the relaxed ones (OdometryOptions::relaxed): at the
-  // fastest hand-held rotations the rolling shutter bends the image by more than 2 px.
-  double rgbd_relaxed_inlier_max_reprojection_px = 4.0;
-  double rgbd_relaxed_max_mean_reprojection_px = 3.0;
-  // Stereo self-calibration of the disparity offset (see above); off when the offset is given.
-  struct DisparityOffset {
-    bool estimate = true;
-    core::DisparityOffsetTracker::Options tracker;
-    int max_rounds = 3;
-  } disparity_offset;
 
   Status validate() const;
   void declareOptions(OptionList& o) {
@@ -81,23 +58,6 @@ struct PipelineOptions {
     o.add("rgbd_max_mean_reprojection_px", &rgbd_max_mean_reprojection_px, "px",
           "RGB-D: a motion's mean inlier error at most")
         .positive();
-    o.add("rgbd_relaxed_inlier_max_reprojection_px", &rgbd_relaxed_inlier_max_reprojection_px, "px",
-          "RGB-D: the inlier bound of the second try of a frame that failed (0: none)")
-        .nonNegative();
-    o.add("rgbd_relaxed_max_mean_reprojection_px", &rgbd_relaxed_max_mean_reprojection_px, "px",
-          "RGB-D: ... and its bound on the mean error")
-        .nonNegative();
-    o.add("disparity_offset.estimate", &disparity_offset.estimate,
-          "stereo: estimate the disparity offset (right cx - left cx) online and apply it");
-    o.add("disparity_offset.converged_sigma_px", &disparity_offset.tracker.converged_sigma_px, "px",
-          "... the estimate stops when its sigma is at most this")
-        .positive();
-    o.add("disparity_offset.significance_sigmas", &disparity_offset.tracker.significance_sigmas,
-          "sigmas", "... and is applied when at least this many sigmas from 0")
-        .positive();
-    o.add("disparity_offset.max_rounds", &disparity_offset.max_rounds, "",
-          "... then what is left is estimated again, at most this many times in all")
-        .min(1);
     o.nest("odometry.", &odometry);
   }
 };
@@ -106,7 +66,6 @@ struct PipelineOutput {
   evermap::vo_delta_t delta;
   std::optional<evermap::keyframe_t> keyframe;
   FrameResult result;  // the details (message, counts)
-  std::string note;    // an event worth one log line (the disparity offset converged), or empty
 };
 
 // Counts since the start, per status and of what was refused.
@@ -158,27 +117,12 @@ class VoPipeline {
   // camera.
   const core::SE3d& bodyTCamera() const { return body_T_cam_; }
   const PipelineStats& stats() const { return stats_; }
-  // The stereo camera's disparity offset estimate, while and after it runs.
-  const std::optional<core::DisparityOffsetTracker>& disparityOffset() const {
-    return offset_tracker_;
-  }
-  // The offset added to the camera's by the estimate (pixels), and the rounds it took.
-  double offsetAppliedPx() const { return offset_applied_px_; }
-  int offsetRounds() const { return offset_rounds_; }
-  // Whether the estimate is over (converged and not significant, or max_rounds done).
-  bool offsetSettled() const { return offset_settled_; }
-  // Frames of the current camera seen until the estimate settled (0: not yet), and the time
-  // from the first of them (seconds).
-  int64_t offsetConvergedAfterFrames() const { return offset_converged_frames_; }
-  double offsetConvergedAfterSeconds() const { return offset_converged_s_; }
   const PipelineOptions& options() const { return options_; }
 
  private:
   explicit VoPipeline(const PipelineOptions& options) : options_(options) {}
   PipelineOutput badInput(int64_t utime, const std::string& why);
-  PipelineOutput finish(FrameResult result);
-  // Feeds the disparity offset estimate; the note when it converges.
-  std::string selfCalibrate(const FrameResult& result);
+  PipelineOutput finish(const FrameResult& result);
 
   PipelineOptions options_;
   std::optional<core::StereoCalibration> calibration_;  // as received
@@ -192,13 +136,6 @@ class VoPipeline {
   // the chain (NO_DATA), and with it the epoch.
   messages::OdometryFrame odometry_frame_;
   PipelineStats stats_;
-  std::optional<core::DisparityOffsetTracker> offset_tracker_;  // stereo, while estimating
-  int64_t camera_frames_ = 0, camera_first_utime_ = 0;
-  int64_t offset_converged_frames_ = 0;
-  double offset_applied_px_ = 0.0;
-  int offset_rounds_ = 0;
-  bool offset_settled_ = false;
-  double offset_converged_s_ = 0.0;
 };
 
 // The vo_delta_t of a result.

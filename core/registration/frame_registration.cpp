@@ -195,8 +195,6 @@ RegistrationSummary registerMatches(const StereoCamera& camera_a, const StereoCa
   const std::vector<double>& sigma_b = points.sigma_b;
   const std::vector<int> clique = maxConsistentClique(pa, pb, sigma_a, sigma_b, options.clique);
   s.num_clique = static_cast<int>(clique.size());
-  s.clique.reserve(clique.size());
-  for (int i : clique) s.clique.push_back(ids[static_cast<size_t>(i)]);
   if (s.num_clique < options.min_inliers) {
     s.status = RegistrationStatus::kInsufficientInliers;
     s.message = makeError(s.num_matches, " matches, ", s.num_clique, " consistent (clique), need ",

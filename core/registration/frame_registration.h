@@ -71,9 +71,6 @@ struct RegistrationSummary {
   int num_inliers = 0;  // used by the final motion
   double mean_reprojection_px = 0.0;
   std::vector<std::pair<int, int>> inliers;  // (index in a, index in b)
-  // The clique's matches (index in a, index in b): consistent in 3-D, before the motion's
-  // outlier rejection (which, under a wrong stereo model, drops the points that show it).
-  std::vector<std::pair<int, int>> clique;
 
   bool ok() const { return status == RegistrationStatus::kOk; }
 };

@@ -50,12 +50,6 @@ struct VoRunOptions {
     o.add("rgbd_max_mean_px", &offline.pipeline.rgbd_max_mean_reprojection_px, "px",
           "RGB-D: largest mean reprojection error of an accepted motion")
         .positive();
-    o.add("rgbd_relaxed_px", &offline.pipeline.rgbd_relaxed_inlier_max_reprojection_px, "px",
-          "RGB-D: inlier bound of the second try of a failed frame (0: none)")
-        .nonNegative();
-    o.add("rgbd_relaxed_mean_px", &offline.pipeline.rgbd_relaxed_max_mean_reprojection_px, "px",
-          "RGB-D: ... and its bound on the mean error")
-        .nonNegative();
     o.add("depth_spread", &odo.features.rgbd.max_relative_spread, "",
           "RGB-D: refuse a corner whose 5x5 depths spread by more than this fraction of its depth")
         .positive();
@@ -107,8 +101,7 @@ int parseCommandLine(int argc, char** argv, VoArgs* a) {
   for (const char* key :
        {"keyframe_inliers", "keyframe_distance", "keyframe_angle", "disparity_sigma",
         "motion_disparity_sigma", "inlier_px", "max_mean_px", "rgbd_inlier_px", "rgbd_max_mean_px",
-        "rgbd_relaxed_px", "rgbd_relaxed_mean_px", "depth_spread", "depth_noise",
-        "clique_threshold", "search_radius"}) {
+        "depth_spread", "depth_noise", "clique_threshold", "search_radius"}) {
     std::string flag = std::string("--") + key;
     std::replace(flag.begin(), flag.end(), '_', '-');
     cli.alias(flag, key, "VALUE");

@@ -44,7 +44,6 @@ std::string OfflineSummary::report() const {
     for (const auto& [kind, n] : kinds) s << " " << kind << " " << n << ";";
     s << "\n";
   }
-  if (!disparity_offset.empty()) s << "self-calibration: " << disparity_offset << "\n";
   s << "per frame: median " << median_ms << " ms, p90 " << p90_ms << " ms, p99 " << p99_ms << " ms";
   return s.str();
 }
@@ -53,7 +52,7 @@ std::string OfflineSummary::verboseReport() const {
   std::ostringstream s;
   for (size_t k = 0; k < frames.size(); ++k) {
     const FrameStats& f = frames[k];
-    if (f.status == VoStatus::kOk && !f.bridged && !f.via_previous && !f.relaxed) continue;
+    if (f.status == VoStatus::kOk && !f.bridged && !f.via_previous) continue;
     s << "frame " << k << " (" << f.utime << "): " << (f.bridged ? "bridged" : toString(f.status));
     if (!f.failure_kind.empty()) s << " [" << f.failure_kind << "]";
     s << ": " << f.message << "\n";
@@ -106,7 +105,6 @@ FrameStats frameStats(const FrameResult& r, double ms) {
   f.process_ms = ms;
   f.bridged = r.bridged;
   f.via_previous = r.via_previous;
-  f.relaxed = r.relaxed;
   f.failure_kind = r.failure_kind;
   f.message = r.message;
   return f;
@@ -120,33 +118,11 @@ Status writeOutput(messages::LogWriter& writer, const PipelineOutput& out) {
   return Ok{};
 }
 
-// The online disparity offset estimate's outcome into the summary (nothing without one).
-void summarizeSelfCalibration(const VoPipeline& pipeline, OfflineSummary* summary) {
-  if (!pipeline.disparityOffset()) return;
-  char line[200];
-  std::snprintf(line, sizeof line,
-                "disparity offset %+.3f px added to the calibration's, %d rounds",
-                pipeline.offsetAppliedPx(), pipeline.offsetRounds());
-  summary->disparity_offset = line;
-  summary->offset_applied_px = pipeline.offsetAppliedPx();
-  if (!pipeline.offsetSettled()) {
-    summary->disparity_offset += ", not settled: " + pipeline.disparityOffset()->describe();
-    return;
-  }
-  summary->offset_settled_s = pipeline.offsetConvergedAfterSeconds();
-  std::snprintf(line, sizeof line, ", settled after %lld frames (%.2f s)",
-                static_cast<long long>(pipeline.offsetConvergedAfterFrames()),
-                pipeline.offsetConvergedAfterSeconds());
-  summary->disparity_offset += line;
-}
-
 }  // namespace
 
 Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
                                     const OfflineOptions& options) {
-  PipelineOptions pipeline_options = options.pipeline;
-  if (options.disparity_offset_px) pipeline_options.disparity_offset.estimate = false;
-  auto pipeline = VoPipeline::create(pipeline_options);
+  auto pipeline = VoPipeline::create(options.pipeline);
   if (!pipeline) return pipeline.error();
   auto opened = messages::LogReader::open(log);
   if (!opened) return opened.error();
@@ -184,7 +160,6 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
       continue;
     }
     const FrameResult& r = out->result;
-    if (!out->note.empty()) std::fprintf(stderr, "vo: %s\n", out->note.c_str());
     times.push_back(ms);
     summary.frames.push_back(frameStats(r, ms));
     if (auto cam0_T_cam = chain.add(out->delta)) {
@@ -206,8 +181,6 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
     if (Status s = writer->commit(); !s) return s.error();
   }
   summary.stats = pipeline->stats();
-  summarizeSelfCalibration(*pipeline, &summary);
-
   summary.breaks = chain.breaks();
   summary.median_ms = percentile(times, 0.5);
   summary.p90_ms = percentile(times, 0.9);

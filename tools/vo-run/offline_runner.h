@@ -31,7 +31,6 @@ struct OfflineOptions {
   // becomes left cx + this, core::withDisparityOffset) before the pipeline sees it
   // (evermap-vo-run --disparity-offset). Unset: the log's calibration as it is. A raw
   // calibration with it set is an error: its rectification decides the principal points.
-  // Set, it also turns the pipeline's online estimate of the offset off (the user's wins).
   std::optional<double> disparity_offset_px;
 };
 
@@ -48,7 +47,6 @@ struct FrameStats {
   double process_ms = 0.0;           // wall time of the frame (a measurement, not an input)
   bool bridged = false;              // kOk by the motion prior (FrameResult::bridged)
   bool via_previous = false;         // kOk through the previous frame
-  bool relaxed = false;              // kOk with the relaxed bounds (FrameResult::relaxed)
   std::string failure_kind;          // FrameResult::failure_kind
   std::string message;
 };
@@ -61,11 +59,6 @@ struct OfflineSummary {
   double median_ms = 0.0;
   double p90_ms = 0.0;
   double p99_ms = 0.0;
-  // The online disparity offset estimate at the end (VoPipeline::disparityOffset), with when
-  // it converged; empty without one (RGB-D, or the offset given).
-  std::string disparity_offset;
-  double offset_applied_px = 0.0;  // added to the calibration's by the estimate
-  double offset_settled_s = -1.0;  // from the camera's first frame; -1: not settled or none
 
   // Frames that did not register, counted by FrameResult::failure_kind (bridged frames by
   // the kind of failure that made the bridge needed).
