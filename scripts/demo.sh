@@ -112,7 +112,7 @@ echo "== the same two logs offline through evermap-slam-run, the five processes'
 cat "$vis"/s0.gt.tum "$vis"/s1.gt.tum | grep -v '^#' > "$vis/ground_truth.tum"
 "$bin/evermap-map-render" --store "$vis/map.db" --gt "$vis/ground_truth.tum" \
   --title "visual SLAM from pixels, live: 2 sessions, floors stacked (cf. paper Fig. 1)" --out "$vis/fig1_visual_map.png"
-rm -f "$vis"/s0.lcmlog "$vis"/s1.lcmlog  # 2-3 GB of PNG frames; made again in 2 minutes
+rm -f "$vis"/s0.lcmlog "$vis"/s1.lcmlog  # 2-3 GB of frames; made again in 2 minutes
 
 # ---------------------------------------------------------------------------------------------
 echo "== 1. the pipeline on a simulated multi-floor, multi-session run"
