@@ -139,53 +139,24 @@ TEST(ElevatorSweep, EveryRideOfTheRangeIsFoundWithinThreePercentAndThirtyCentime
     const SimulatedRun truth = simulateRun(o, {{K::kWalk, 6.0, 0}, ride, {K::kWalk, 8.0, 0}});
     const OfflineRun run = runImuElevator(truth.samples, {}, {});
     ASSERT_EQ(truth.rides.size(), 1u);
-    const TrueRide& t = truth.rides.front();
     Tally& cell = table[{speedClass(c.speed_m_s), heightClass(c.floors)}];
-    int matched = 0;
-    for (const Ride& r : run.rides) {
-      const double s = 1e-6 * static_cast<double>(r.start_utime),
-                   e = 1e-6 * static_cast<double>(r.end_utime);
-      const bool over = s < t.end_s && e > t.start_s;
-      if (!over) {
-        ++cell.false_rides;
-        ++all.false_rides;
-        continue;
+    RideScore score;
+    scoreRides(truth, run, &score);
+    for (Tally* t : {&cell, &all}) {
+      t->found += score.found;
+      t->missed += score.missed;
+      t->false_rides += score.false_rides;
+      t->rejected += score.rejected;
+      for (size_t k = 0; k < score.errors_m.size(); ++k) {
+        t->errors.push_back(std::abs(score.errors_m[k]));
+        t->relative.push_back(std::abs(score.errors_m[k]) / score.bounds_m[k]);
       }
-      if (++matched > 1) {
-        ++cell.false_rides;
-        ++all.false_rides;
-        continue;
-      }
-      const double err = std::abs(r.displacement_m - t.displacement_m);
-      const double bound = 0.03 * std::abs(t.displacement_m) + 0.3;
-      cell.errors.push_back(err);
-      all.errors.push_back(err);
-      cell.relative.push_back(err / bound);
-      all.relative.push_back(err / bound);
-      EXPECT_LE(err, bound) << "v " << c.speed_m_s << " m/s, " << c.floors << " floors, a "
-                            << c.accel_m_s2 << ", j " << c.jerk_m_s3 << ", " << c.rate_hz
-                            << " Hz, gyro " << c.gyroscope << ": " << r.displacement_m << " m for "
-                            << t.displacement_m << " m (seed " << c.seed << "); found " << s << ".."
-                            << e << " s, true " << t.start_s << ".." << t.end_s << " s, pulses "
-                            << r.start_accel_m_s2 << " / " << r.stop_accel_m_s2 << " m/s^2, bias "
-                            << r.bias_m_s2;
     }
-    cell.rejected += static_cast<int>(run.rejected.size());
-    all.rejected += static_cast<int>(run.rejected.size());
-    if (matched == 0) {
-      ++cell.missed;
-      ++all.missed;
-      std::string why;
-      for (const RejectedRide& r : run.rejected) why += " rejected: " + r.reason + ";";
-      for (const AbandonedRide& a : run.abandoned) why += " abandoned: " + a.reason + ";";
-      ADD_FAILURE() << "missed: v " << c.speed_m_s << " m/s, " << c.floors << " floors ("
-                    << t.displacement_m << " m), a " << c.accel_m_s2 << ", j " << c.jerk_m_s3
-                    << ", " << c.rate_hz << " Hz, gyro " << c.gyroscope << ", gap "
-                    << c.walking_gap_s << " s, noise " << c.noise_density << ", bias "
-                    << c.bias_m_s2 << ";" << why;
-    } else {
-      ++cell.found;
-      ++all.found;
+    for (const std::string& failure : score.failures) {
+      ADD_FAILURE() << "v " << c.speed_m_s << " m/s, " << c.floors << " floors, a " << c.accel_m_s2
+                    << ", j " << c.jerk_m_s3 << ", " << c.rate_hz << " Hz, gyro " << c.gyroscope
+                    << ", gap " << c.walking_gap_s << " s, noise " << c.noise_density << ", bias "
+                    << c.bias_m_s2 << " (seed " << c.seed << "): " << failure;
     }
   }
   std::printf(

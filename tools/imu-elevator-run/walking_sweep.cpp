@@ -4,9 +4,6 @@
 #include <cmath>
 #include <cstdio>
 
-#include "tools/imu-elevator-run/offline_run.h"
-#include "tools/imu-elevator-run/ride_simulator.h"
-
 namespace evermap::elevator {
 
 double walkingSweepBound(double displacement_m) { return 0.03 * std::abs(displacement_m) + 0.3; }
@@ -47,7 +44,9 @@ std::vector<SimSegment> cellScript(double gap_s) {
   return script;
 }
 
-void scoreRun(const SimulatedRun& truth, const OfflineRun& run, WalkingSweepCell* cell) {
+}  // namespace
+
+void scoreRides(const SimulatedRun& truth, const OfflineRun& run, RideScore* score) {
   std::vector<int> hits(truth.rides.size(), 0);
   char line[256];
   for (const Ride& r : run.rides) {
@@ -58,41 +57,41 @@ void scoreRun(const SimulatedRun& truth, const OfflineRun& run, WalkingSweepCell
       if (s < truth.rides[i].end_s && e > truth.rides[i].start_s) match = static_cast<int>(i);
     }
     if (match < 0 || ++hits[match] > 1) {
-      ++cell->false_rides;
+      ++score->false_rides;
       std::snprintf(line, sizeof line, "false ride %.1f..%.1f s, %.2f m", s, e, r.displacement_m);
-      cell->failures.push_back(line);
+      score->failures.push_back(line);
       continue;
     }
     const TrueRide& t = truth.rides[match];
     const double err = r.displacement_m - t.displacement_m;
-    cell->worst_error_m = std::max(cell->worst_error_m, std::abs(err));
-    if (std::abs(t.to_floor - t.from_floor) == 1) cell->one_floor_errors_m.push_back(err);
+    score->worst_error_m = std::max(score->worst_error_m, std::abs(err));
+    score->errors_m.push_back(err);
+    score->bounds_m.push_back(walkingSweepBound(t.displacement_m));
+    if (std::abs(t.to_floor - t.from_floor) == 1) score->one_floor_errors_m.push_back(err);
     if (std::abs(err) > walkingSweepBound(t.displacement_m)) {
-      ++cell->outside_bound;
+      ++score->outside_bound;
       std::snprintf(line, sizeof line, "ride %.1f..%.1f s: %.2f m for %.2f m", t.start_s, t.end_s,
                     r.displacement_m, t.displacement_m);
-      cell->failures.push_back(line);
+      score->failures.push_back(line);
     }
   }
   for (size_t i = 0; i < truth.rides.size(); ++i) {
-    ++cell->rides;
+    ++score->rides;
     if (hits[i] > 0) {
-      ++cell->found;
+      ++score->found;
       continue;
     }
-    ++cell->missed;
+    ++score->missed;
     std::string why;
     for (const AbandonedRide& a : run.abandoned) why += " abandoned: " + a.reason + ";";
     for (const RejectedRide& r : run.rejected) why += " rejected: " + r.reason + ";";
     std::snprintf(line, sizeof line, "missed ride %.1f..%.1f s (%.2f m);", truth.rides[i].start_s,
                   truth.rides[i].end_s, truth.rides[i].displacement_m);
-    cell->failures.push_back(line + why);
+    score->failures.push_back(line + why);
   }
-  cell->rejected += static_cast<int>(run.rejected.size());
-  cell->abandoned += static_cast<int>(run.abandoned.size());
+  score->rejected += static_cast<int>(run.rejected.size());
+  score->abandoned += static_cast<int>(run.abandoned.size());
 }
-
-}  // namespace
 
 std::vector<WalkingSweepCell> runWalkingSweep(const ElevatorTrackerOptions& options) {
   std::vector<WalkingSweepCell> cells;
@@ -105,7 +104,7 @@ std::vector<WalkingSweepCell> runWalkingSweep(const ElevatorTrackerOptions& opti
         cell.gyroscope = gyro;
         cell.gap_s = gap;
         const SimulatedRun truth = simulateRun(cellSimulator(rate, gyro, ++seed), cellScript(gap));
-        scoreRun(truth, runImuElevator(truth.samples, {}, options), &cell);
+        scoreRides(truth, runImuElevator(truth.samples, {}, options), &cell);
         cells.push_back(std::move(cell));
       }
     }

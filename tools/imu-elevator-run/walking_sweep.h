@@ -12,18 +12,29 @@
 #include <vector>
 
 #include "elevator-proc/elevator_tracker.h"
+#include "tools/imu-elevator-run/offline_run.h"
+#include "tools/imu-elevator-run/ride_simulator.h"
 
 namespace evermap::elevator {
 
-struct WalkingSweepCell {
+// Reported rides against a simulated run's true rides: a reported ride is found when it
+// overlaps a true ride in time; one that overlaps none, or a second one on the same ride, is
+// false. Adds to what `score` holds.
+struct RideScore {
+  int rides = 0, found = 0, missed = 0, false_rides = 0, rejected = 0, abandoned = 0;
+  int outside_bound = 0;  // found rides with |error| > walkingSweepBound
+  double worst_error_m = 0;
+  std::vector<double> errors_m;            // signed: found - true, each ride found
+  std::vector<double> bounds_m;            // walkingSweepBound of each, in the same order
+  std::vector<double> one_floor_errors_m;  // the same, each one-floor ride found
+  std::vector<std::string> failures;       // one line per miss, false ride or error
+};
+void scoreRides(const SimulatedRun& truth, const OfflineRun& run, RideScore* score);
+
+struct WalkingSweepCell : RideScore {
   double rate_hz = 0;
   bool gyroscope = true;
   double gap_s = 0;
-  int rides = 0, found = 0, missed = 0, false_rides = 0, rejected = 0, abandoned = 0;
-  int outside_bound = 0;  // found rides with |error| > 3 % + 0.3 m
-  double worst_error_m = 0;
-  std::vector<double> one_floor_errors_m;  // signed: found - true, each one-floor ride found
-  std::vector<std::string> failures;       // one line per miss, false ride or error
 };
 
 // The error bound of a found ride: 3 % of the true displacement + 0.3 m.
