@@ -248,14 +248,17 @@ Expected<cv::Mat> decodeGray8(int width, int height, int row_stride,
 
 }  // namespace
 
+const std::vector<std::pair<std::string, ImageEncoding>>& imageEncodingNames() {
+  static const std::vector<std::pair<std::string, ImageEncoding>> names = {
+      {"zstd", ImageEncoding::kZstd},
+      {"png", ImageEncoding::kPng},
+      {"gray8", ImageEncoding::kGray8}};
+  return names;
+}
+
 const char* toString(ImageEncoding e) {
-  switch (e) {
-    case ImageEncoding::kGray8:
-      return "gray8";
-    case ImageEncoding::kPng:
-      return "png";
-    case ImageEncoding::kZstd:
-      return "zstd";
+  for (const auto& [name, value] : imageEncodingNames()) {
+    if (value == e) return name.c_str();
   }
   return "?";
 }

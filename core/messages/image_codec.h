@@ -19,6 +19,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -32,6 +33,8 @@ enum class ImageEncoding {
   kPng,    // lossless PNG of the gray image (readable by other tools)
   kZstd,   // lossless, predictor rows in a zstd frame (the default)
 };
+// Each encoding's name, as options and output take it: zstd, png, gray8.
+const std::vector<std::pair<std::string, ImageEncoding>>& imageEncodingNames();
 const char* toString(ImageEncoding e);
 
 // Largest width or height a received image may claim (pixels): bounds the memory a

@@ -32,10 +32,7 @@ struct ConvertOptions {
   explicit ConvertOptions(ConvertArgs* args) : a(args) {}
 
   void declareOptions(OptionList& o) {
-    o.choice("encoding", &a->encoding,
-             {{"zstd", messages::ImageEncoding::kZstd},
-              {"png", messages::ImageEncoding::kPng},
-              {"gray8", messages::ImageEncoding::kGray8}},
+    o.choice("encoding", &a->encoding, messages::imageEncodingNames(),
              kDataset == Dataset::kTumRgbd
                  ? "how gray images are stored: zstd rows (decode fastest), png (other tools read "
                    "it) or gray8 (raw); depth is 16-bit PNG, raw uint16 with gray8"

@@ -33,10 +33,7 @@ namespace messages = evermap::messages;
 struct RecodeOptions {
   messages::ImageEncoding encoding = messages::ImageEncoding::kZstd;
   void declareOptions(evermap::OptionList& o) {
-    o.choice("encoding", &encoding,
-             {{"zstd", messages::ImageEncoding::kZstd},
-              {"png", messages::ImageEncoding::kPng},
-              {"gray8", messages::ImageEncoding::kGray8}},
+    o.choice("encoding", &encoding, messages::imageEncodingNames(),
              "the images' encoding in the output: zstd rows (decode fastest), png (other tools "
              "read it) or gray8 (raw)");
   }

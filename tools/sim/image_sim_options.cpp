@@ -21,10 +21,7 @@ bool ownKey(const std::string& key) {
 }
 
 void declareRender(OptionList& o, RenderSimOptions& r) {
-  o.choice("render.encoding", &r.encoding,
-           {{"zstd", messages::ImageEncoding::kZstd},
-            {"png", messages::ImageEncoding::kPng},
-            {"gray8", messages::ImageEncoding::kGray8}},
+  o.choice("render.encoding", &r.encoding, messages::imageEncodingNames(),
            "how images are stored in the log: zstd rows (decode fastest), png (other tools read "
            "it) or gray8 (raw)");
   o.choice("render.camera", &r.camera,
