@@ -50,7 +50,7 @@ evermap-map-render|width_px|--width|0|\[16, 20000\]
 evermap-eval|max_dt_s|--max-dt|0|> 0
 evermap-pipeline-eval|max_ate_m|--max-ate|-1|>= 0
 evermap-place-eval|candidates|--candidates|0|>= 1
-evermap-vocab-train|levels|--levels|11|\[1, 10\]
+evermap-vocab-train|levels|--levels|11|\[1, 8\]
 evermap-lcm-check|idle_timeout_s|--idle-timeout-s|0|> 0
 evermap-lcm-fuzz|rate_hz|--rate-hz|-1|\[0, (1e\+07|10000000)\]
 evermap-viewer-graph-pub|rate_hz|--rate-hz|2000|\(0, 1000\]

@@ -6,19 +6,21 @@
 
 namespace evermap::deputy {
 
+void BackoffOptions::declareOptions(OptionList& o) {
+  o.add("backoff_initial_ms", &initial_delay_ms, "ms",
+        "wait before the first restart after a short run")
+      .nonNegative();
+  o.add("backoff_factor", &factor, "", "the wait grows by this per further short run").min(1);
+  o.add("backoff_max_ms", &max_delay_ms, "ms", "longest wait (at least backoff_initial_ms)")
+      .nonNegative();
+  o.add("stable_after_s", &stable_after_s, "s", "a run this long resets the back-off").positive();
+}
+
 Status BackoffOptions::validate() const {
-  if (!(initial_delay_ms >= 0.0) || !std::isfinite(initial_delay_ms)) {
-    return makeError("backoff initial_delay_ms must be finite and >= 0, got ", initial_delay_ms);
-  }
-  if (!(factor >= 1.0) || !std::isfinite(factor)) {
-    return makeError("backoff factor must be finite and >= 1, got ", factor);
-  }
-  if (!(max_delay_ms >= initial_delay_ms) || !std::isfinite(max_delay_ms)) {
-    return makeError("backoff max_delay_ms must be finite and >= initial_delay_ms, got ",
+  if (Status s = checkOptionRanges(*this); !s) return s;
+  if (!(max_delay_ms >= initial_delay_ms)) {
+    return makeError("backoff_max_ms must be >= backoff_initial_ms (", initial_delay_ms, "), got ",
                      max_delay_ms);
-  }
-  if (!(stable_after_s > 0.0) || !std::isfinite(stable_after_s)) {
-    return makeError("backoff stable_after_s must be finite and > 0, got ", stable_after_s);
   }
   return Ok{};
 }

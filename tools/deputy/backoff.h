@@ -11,20 +11,18 @@
 #include <string>
 
 #include "core/common/expected.h"
+#include "core/common/option_fields.h"
 
 namespace evermap::deputy {
 
 struct BackoffOptions {
-  // Wait before the first restart after a short run, milliseconds.
   double initial_delay_ms = 250.0;
-  // Growth per further short run (> 1).
   double factor = 2.0;
-  // Upper bound of the wait, milliseconds.
   double max_delay_ms = 16000.0;
-  // A run at least this long, seconds, resets the back-off.
   double stable_after_s = 10.0;
 
-  Status validate() const;
+  void declareOptions(OptionList& o);
+  Status validate() const;       // the ranges, and max_delay_ms >= initial_delay_ms
   std::string describe() const;  // "backoff 250 ms x2 up to 16000 ms, stable after 10 s"
 };
 

@@ -54,13 +54,12 @@ std::string machineName() {
 // The supervision's settings (--help lists them, --print-config prints them).
 struct DeputyOptions {
   BackoffOptions backoff;
+  OutputThrottleOptions output;
   double max_log_mb = 256.0;  // SupervisorOptions::max_log_bytes
 
   void declareOptions(evermap::OptionList& o) {
-    o.add("backoff_initial_ms", &backoff.initial_delay_ms, "ms", "first restart delay").min(0);
-    o.add("backoff_max_ms", &backoff.max_delay_ms, "ms", "longest restart delay").min(0);
-    o.add("stable_after_s", &backoff.stable_after_s, "s", "running this long resets the back-off")
-        .min(0);
+    o.nest("", &backoff);
+    o.nest("output.", &output);
     o.add("max_log_mb", &max_log_mb, "MiB", "rotate a process log beyond this size").positive();
   }
 };
@@ -164,6 +163,7 @@ bool nodeOptions(const DeputyArgs& a, DeputyNodeOptions* node_options) {
   node_options->host = a.host;
   node_options->publish_output = !a.no_output;
   node_options->print_notes = !a.quiet;
+  node_options->output = a.options.output;
   if (auto ok = node_options->validate(); !ok) {
     std::fprintf(stderr, "evermap-deputy: %s\n", ok.error().message.c_str());
     return false;

@@ -5,19 +5,24 @@
 
 namespace evermap::deputy {
 
+void OutputThrottleOptions::declareOptions(OptionList& o) {
+  o.add("flush_interval_ms", &flush_interval_ms, "ms",
+        "a process's lines wait at most this long before they are sent")
+      .nonNegative();
+  o.add("max_message_bytes", &max_message_bytes, "bytes", "a batch is sent early at this size")
+      .min(64);
+  o.add("max_bytes_per_s", &max_bytes_per_s, "bytes/s", "sustained output allowed per process")
+      .positive();
+  o.add("burst_bytes", &burst_bytes, "bytes",
+        "sent at once after a quiet period (at least max_message_bytes)")
+      .positive();
+}
+
 Status OutputThrottleOptions::validate() const {
-  if (!(flush_interval_ms >= 0.0) || !std::isfinite(flush_interval_ms)) {
-    return makeError("output flush_interval_ms must be finite and >= 0, got ", flush_interval_ms);
-  }
-  if (max_message_bytes < 64) {
-    return makeError("output max_message_bytes must be >= 64, got ", max_message_bytes);
-  }
-  if (!(max_bytes_per_s > 0.0) || !std::isfinite(max_bytes_per_s)) {
-    return makeError("output max_bytes_per_s must be finite and > 0, got ", max_bytes_per_s);
-  }
-  if (!(burst_bytes >= static_cast<double>(max_message_bytes)) || !std::isfinite(burst_bytes)) {
-    return makeError("output burst_bytes must be finite and >= max_message_bytes, got ",
-                     burst_bytes);
+  if (Status s = checkOptionRanges(*this, "output."); !s) return s;
+  if (!(burst_bytes >= static_cast<double>(max_message_bytes))) {
+    return makeError("output.burst_bytes must be >= output.max_message_bytes (", max_message_bytes,
+                     "), got ", burst_bytes);
   }
   return Ok{};
 }

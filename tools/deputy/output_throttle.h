@@ -16,20 +16,18 @@
 #include <vector>
 
 #include "core/common/expected.h"
+#include "core/common/option_fields.h"
 
 namespace evermap::deputy {
 
 struct OutputThrottleOptions {
-  // Lines of one process wait at most this long before they are sent, milliseconds.
   double flush_interval_ms = 100.0;
-  // A batch is sent early once it holds this many bytes.
   size_t max_message_bytes = 8192;
-  // Sustained output rate allowed per process, bytes per second.
   double max_bytes_per_s = 32768.0;
-  // Bytes a process may send at once after a quiet period.
   double burst_bytes = 65536.0;
 
-  Status validate() const;
+  void declareOptions(OptionList& o);
+  Status validate() const;  // the ranges, and burst_bytes >= max_message_bytes
 };
 
 class OutputThrottle {

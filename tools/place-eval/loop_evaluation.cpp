@@ -59,7 +59,7 @@ size_t LoopGroundTruth::numQueriesWithLoop(int exclude_recent) const {
 }
 
 std::string SequenceOptions::validate() const {
-  if (std::string why = orb.validate(); !why.empty()) return "orb: " + why;
+  if (Status s = orb.validate(); !s) return "orb: " + s.error().message;
   if (std::string why = geometry.validate(); !why.empty()) return "geometry: " + why;
   if (direct_index_depth < 1) return "direct_index_depth must be >= 1";
   if (exclude_recent < 0) return "exclude_recent must be >= 0";

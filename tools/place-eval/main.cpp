@@ -36,7 +36,7 @@ struct PlaceEvalOptions {
     o.add("raw_threshold", &raw_threshold, "", "operating threshold of the raw score").min(0);
     o.add("geo_threshold", &geo_threshold, "", "operating threshold of the score after the check")
         .min(0);
-    o.add("features", &sequence.orb.max_features, "", "ORB features per image").in(1, 100000);
+    o.nest("", &sequence.orb);
     o.add("direct_depth", &sequence.direct_index_depth, "",
           "direct-index depth for guided matching")
         .min(0);

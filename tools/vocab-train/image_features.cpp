@@ -14,12 +14,11 @@
 
 namespace evermap::bow {
 
-std::string OrbOptions::validate() const {
-  if (max_features < 1) return "max_features must be >= 1";
-  if (!(scale_factor > 1.0 && scale_factor <= 2.0)) return "scale_factor must be in (1, 2]";
-  if (pyramid_levels < 1 || pyramid_levels > 16) return "pyramid_levels must be in [1, 16]";
-  if (fast_threshold < 1 || fast_threshold > 254) return "fast_threshold must be in [1, 254]";
-  return {};
+void OrbOptions::declareOptions(OptionList& o) {
+  o.add("features", &max_features, "", "ORB features kept per image").in(1, 100000);
+  o.add("scale_factor", &scale_factor, "", "scale between pyramid levels").above(1).max(2);
+  o.add("pyramid_levels", &pyramid_levels, "", "pyramid levels").in(1, 16);
+  o.add("fast_threshold", &fast_threshold, "grey levels", "FAST threshold").in(1, 254);
 }
 
 ImageFeatures extractOrb(const cv::Mat& image, const OrbOptions& options) {
@@ -43,7 +42,7 @@ ImageFeatures extractOrb(const cv::Mat& image, const OrbOptions& options) {
 
 Expected<ImageFeatures> extractOrbFromFile(const std::filesystem::path& file,
                                            const OrbOptions& options) {
-  if (std::string why = options.validate(); !why.empty()) return makeError("ORB options: ", why);
+  if (Status s = options.validate(); !s) return makeError("ORB options: ", s.error().message);
   std::error_code ec;
   if (!std::filesystem::is_regular_file(file, ec))
     return makeError(file.string(), ": no such file");

@@ -12,19 +12,19 @@
 
 #include "core/bow/descriptor.h"
 #include "core/common/expected.h"
+#include "core/common/option_fields.h"
 
 namespace evermap::bow {
 
+// ORB-SLAM's pyramid (1.2, 8 levels), the strongest features by FAST/Harris response.
 struct OrbOptions {
-  // Features kept per image (the strongest by FAST/Harris response).
   int max_features = 1000;
-  // Scale pyramid: ratio between levels and number of levels (ORB-SLAM's 1.2 and 8).
   double scale_factor = 1.2;
   int pyramid_levels = 8;
-  // FAST threshold on intensity differences, grey levels.
   int fast_threshold = 20;
 
-  std::string validate() const;  // empty when valid
+  void declareOptions(OptionList& o);
+  Status validate() const { return checkOptionRanges(*this); }
 };
 
 struct ImageFeatures {

@@ -2,18 +2,17 @@
 
 namespace evermap::bow {
 
-std::string ImageTrainingOptions::validate() const {
-  if (std::string why = orb.validate(); !why.empty()) return "orb: " + why;
-  if (std::string why = tree.validate(); !why.empty()) return "tree: " + why;
-  if (image_step < 1) return "image_step must be >= 1";
-  return {};
+void ImageTrainingOptions::declareOptions(OptionList& o) {
+  o.nest("", &tree);
+  o.nest("", &orb);
+  o.add("image_step", &image_step, "", "use every N-th image of each folder").min(1);
 }
 
 Expected<Vocabulary> trainFromImageFolders(const std::vector<std::filesystem::path>& folders,
                                            const ImageTrainingOptions& options,
                                            ImageTrainingSummary* summary) {
-  if (std::string why = options.validate(); !why.empty()) {
-    return makeError("vocabulary training options: ", why);
+  if (Status s = options.validate(); !s) {
+    return makeError("vocabulary training options: ", s.error().message);
   }
   if (folders.empty()) return makeError("vocabulary training: no image folder given");
   ImageTrainingSummary s;

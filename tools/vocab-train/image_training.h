@@ -19,10 +19,10 @@ namespace evermap::bow {
 struct ImageTrainingOptions {
   OrbOptions orb;
   TrainingOptions tree;
-  // Use every n-th image of each folder (consecutive video frames add little).
-  int image_step = 1;
+  int image_step = 1;  // consecutive video frames add little
 
-  std::string validate() const;  // empty when valid
+  void declareOptions(OptionList& o);
+  Status validate() const { return checkOptionRanges(*this); }
 };
 
 struct ImageTrainingSummary {

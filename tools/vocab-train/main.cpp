@@ -22,15 +22,7 @@ using namespace evermap::bow;
 struct VocabTrainOptions {
   ImageTrainingOptions training;
 
-  void declareOptions(OptionList& o) {
-    o.add("k", &training.tree.branching, "", "branching factor").in(2, 1000);
-    o.add("levels", &training.tree.levels, "", "depth L").in(1, 10);
-    o.add("iterations", &training.tree.max_iterations, "", "k-majority iterations per node")
-        .in(1, 1000);
-    o.add("seed", &training.tree.seed, "", "k-means++ seed").any();
-    o.add("features", &training.orb.max_features, "", "ORB features per image").in(1, 100000);
-    o.add("image_step", &training.image_step, "", "use every N-th image of each folder").min(1);
-  }
+  void declareOptions(OptionList& o) { o.nest("", &training); }
 };
 
 struct Command {
@@ -71,7 +63,7 @@ int parse(int argc, char** argv, Command* c) {
     return 2;
   };
   if (c->folders.empty()) return fail("no image folder given");
-  if (std::string why = c->tool.training.validate(); !why.empty()) return fail(why);
+  if (Status s = c->tool.training.validate(); !s) return fail(s.error().message);
   return -1;
 }
 

@@ -8,14 +8,13 @@
 
 namespace evermap::bow {
 
-std::string TrainingOptions::validate() const {
-  if (branching < 2) return "branching must be >= 2, got " + std::to_string(branching);
-  if (branching > 64) return "branching must be <= 64, got " + std::to_string(branching);
-  if (levels < 1 || levels > 8) return "levels must be in [1, 8], got " + std::to_string(levels);
-  if (max_iterations < 1) {
-    return "max_iterations must be >= 1, got " + std::to_string(max_iterations);
-  }
-  return {};
+void TrainingOptions::declareOptions(OptionList& o) {
+  o.add("k", &branching, "", "branching factor: children per node").in(2, 64);
+  o.add("levels", &levels, "", "depth L below the root: up to k^L words").in(1, 8);
+  o.add("iterations", &max_iterations, "",
+        "k-majority iterations per node at most (a node stops when its assignment is stable)")
+      .min(1);
+  o.add("seed", &seed, "", "seed of the k-means++ draws").any();
 }
 
 namespace {
@@ -109,8 +108,8 @@ std::string summaryLine(const TrainingOptions& options, const TrainingSummary& s
 
 Expected<Vocabulary> trainVocabulary(const std::vector<std::vector<Descriptor>>& images,
                                      const TrainingOptions& options, TrainingSummary* summary) {
-  if (std::string why = options.validate(); !why.empty()) {
-    return makeError("vocabulary training options: ", why);
+  if (Status s = options.validate(); !s) {
+    return makeError("vocabulary training options: ", s.error().message);
   }
   std::vector<Descriptor> all;
   for (const auto& image : images) all.insert(all.end(), image.begin(), image.end());

@@ -10,23 +10,21 @@
 #include "core/bow/descriptor.h"
 #include "core/bow/vocabulary.h"
 #include "core/common/expected.h"
+#include "core/common/option_fields.h"
 
 namespace evermap::bow {
 
+// k = 10 as DBoW2 and ORB-SLAM. With a few hundred thousand training descriptors, L = 5 leaves
+// a handful per word at the bottom level (docs/place-recognition.md: what depth suits how much
+// data). The same data and seed give the same vocabulary.
 struct TrainingOptions {
-  // Branching factor k: children per node. DBoW2/ORB-SLAM use 10.
   int branching = 10;
-  // Depth L: levels below the root; up to k^L words. With a few hundred thousand training
-  // descriptors, L = 5 leaves a handful per word at the bottom level — see
-  // docs/place-recognition.md for what depth suits how much data.
   int levels = 5;
-  // Lloyd iterations per node (each node stops earlier when its assignment is stable).
   int max_iterations = 10;
-  // Seed of the k-means++ draws: the same data and seed give the same vocabulary.
   uint64_t seed = 1;
 
-  // Empty string when valid, else what is wrong.
-  std::string validate() const;
+  void declareOptions(OptionList& o);
+  Status validate() const { return checkOptionRanges(*this); }
 };
 
 struct TrainingSummary {
