@@ -56,6 +56,14 @@ core::SE3d cameraAt(double x, double y, double yaw, double roll = 0.0, double pi
   return body * body_T_cam;
 }
 
+// The 4 m room seen from its middle, 0.3 rad to the left, with pixel noise `noise`.
+cv::Mat renderRoom(const TextureLibrary& lib, double noise, bool dark, bool blank) {
+  ImageRenderer renderer(lib, PinholeCamera{320, 240, 225.0, 225.0, 160.0, 120.0}, noise, 3);
+  cv::Mat image;
+  renderer.render(roomFloor(lib, 4.0, dark, blank), 0.0, cameraAt(0, 0, 0.3), {}, &image);
+  return image;
+}
+
 // Bilinear sample of a gray image.
 double at(const cv::Mat& im, double x, int y) {
   const int x0 = static_cast<int>(std::floor(x));
@@ -183,22 +191,16 @@ TEST(SimRender, RenderedPointAppearsWhereTheStereoModelSays) {
 
 TEST(SimRender, LightsOffGiveADarkImage) {
   const TextureLibrary lib = testTextures();
-  const PinholeCamera cam{320, 240, 225.0, 225.0, 160.0, 120.0};
-  ImageRenderer renderer(lib, cam, 2.0, 3);
-  cv::Mat lit, dark;
-  renderer.render(roomFloor(lib, 4.0, false, false), 0.0, cameraAt(0, 0, 0.3), {}, &lit);
-  renderer.render(roomFloor(lib, 4.0, true, false), 0.0, cameraAt(0, 0, 0.3), {}, &dark);
+  const cv::Mat lit = renderRoom(lib, 2.0, false, false);
+  const cv::Mat dark = renderRoom(lib, 2.0, true, false);
   EXPECT_GT(cv::mean(lit)[0], 60.0);
   EXPECT_LT(cv::mean(dark)[0], 15.0);
 }
 
 TEST(SimRender, FeaturelessZoneGivesAFlatImage) {
   const TextureLibrary lib = testTextures();
-  const PinholeCamera cam{320, 240, 225.0, 225.0, 160.0, 120.0};
-  ImageRenderer renderer(lib, cam, 0.0, 3);
-  cv::Mat textured, blank;
-  renderer.render(roomFloor(lib, 4.0, false, false), 0.0, cameraAt(0, 0, 0.3), {}, &textured);
-  renderer.render(roomFloor(lib, 4.0, false, true), 0.0, cameraAt(0, 0, 0.3), {}, &blank);
+  const cv::Mat textured = renderRoom(lib, 0.0, false, false);
+  const cv::Mat blank = renderRoom(lib, 0.0, false, true);
   cv::Mat gx_t, gx_b;
   cv::Scalar m, sd_t, sd_b;
   cv::Laplacian(textured, gx_t, CV_32F);
