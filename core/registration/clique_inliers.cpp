@@ -11,13 +11,21 @@ namespace evermap::core {
 
 namespace {
 
-// popcount of a AND b over `words` 64-bit words. The clique search is mostly this; compiled
-// twice (with the POPCNT instruction, and portable) and chosen at load time.
+// popcount of a AND b over `words` 64-bit words (the degrees the clique search starts from);
+// compiled twice (with the POPCNT instruction, and portable) and chosen at load time.
 __attribute__((target_clones("popcnt", "default"))) int popcountAnd(const uint64_t* a,
                                                                     const uint64_t* b, int words) {
   int d = 0;
   for (int w = 0; w < words; ++w) d += __builtin_popcountll(a[w] & b[w]);
   return d;
+}
+
+// Calls f(i) for every bit i set in `bits`, in increasing order.
+template <typename F>
+void forEachBit(const uint64_t* bits, int words, F f) {
+  for (int w = 0; w < words; ++w) {
+    for (uint64_t b = bits[w]; b; b &= b - 1) f(w * 64 + std::countr_zero(b));
+  }
 }
 
 // Row by row, the pairs (i, j > i) whose distance changes less than their threshold: the n²/2
@@ -118,22 +126,38 @@ std::vector<int> maxConsistentClique(const std::vector<Eigen::Vector3d>& points_
   }
   std::vector<int> clique = {seed};
   std::vector<uint64_t> candidates(row(seed), row(seed) + words);
+  // degree[i]: neighbours of candidate i among the candidates. A step keeps the candidates
+  // adjacent to the vertex taken; each one it drops lowers its neighbours' degree by one
+  // (the adjacency is symmetric), which costs far less than counting every degree again.
+  std::vector<int> degree(static_cast<size_t>(n), 0);
+  forEachBit(candidates.data(), words, [&](int i) {
+    degree[static_cast<size_t>(i)] = popcountAnd(row(i), candidates.data(), words);
+  });
+  std::vector<uint64_t> dropped(static_cast<size_t>(words));
   for (;;) {
-    int best = -1, best_degree = -1;
-    for (int w = 0; w < words; ++w) {
-      for (uint64_t bits = candidates[static_cast<size_t>(w)]; bits; bits &= bits - 1) {
-        const int i = w * 64 + std::countr_zero(bits);
-        const int d = popcountAnd(row(i), candidates.data(), words);
-        if (d > best_degree) {
-          best = i;
-          best_degree = d;
-        }
+    int best = -1, best_degree = -1;  // the first of the highest degree, in index order
+    forEachBit(candidates.data(), words, [&](int i) {
+      if (degree[static_cast<size_t>(i)] > best_degree) {
+        best = i;
+        best_degree = degree[static_cast<size_t>(i)];
       }
-    }
+    });
     if (best < 0) break;
     clique.push_back(best);
     const uint64_t* r = row(best);
-    for (int w = 0; w < words; ++w) candidates[static_cast<size_t>(w)] &= r[w];
+    for (int w = 0; w < words; ++w) {
+      const auto k = static_cast<size_t>(w);
+      dropped[k] = candidates[k] & ~r[w];
+      candidates[k] &= r[w];
+    }
+    forEachBit(dropped.data(), words, [&](int d) {
+      const uint64_t* rd = row(d);
+      for (int w = 0; w < words; ++w) {
+        for (uint64_t bits = candidates[static_cast<size_t>(w)] & rd[w]; bits; bits &= bits - 1) {
+          --degree[static_cast<size_t>(w * 64 + std::countr_zero(bits))];
+        }
+      }
+    });
   }
   std::sort(clique.begin(), clique.end());
   return clique;
