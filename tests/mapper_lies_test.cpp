@@ -95,8 +95,8 @@ void report(FloorState& floors, int64_t utime, int8_t event, double height_m, in
 
 TEST(FloorHeights, AFloorsFirstHeightIsReplacedWhenTheNextReportContradictsIt) {
   FloorState floors(1.0, FloorGateOptions{});
-  report(floors, 1'000'000, floor_t::EVENT_NONE, 7.3, 0);   // forged
-  report(floors, 2'000'000, floor_t::EVENT_NONE, 0.0, 0);   // the real session's start
+  report(floors, 1'000'000, floor_t::EVENT_NONE, 7.3, 0);  // forged
+  report(floors, 2'000'000, floor_t::EVENT_NONE, 0.0, 0);  // the real session's start
   EXPECT_EQ(floors.heightM(), 0.0);
   EXPECT_EQ(floors.table().at(0), 0.0);
   EXPECT_EQ(floors.heightsReplaced(), 1);

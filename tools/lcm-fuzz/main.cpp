@@ -146,16 +146,16 @@ struct FuzzOptions {
   int64_t stamp = 0;  // 0: mutate
   double stamp_step_s = 0.5;
   void declareOptions(evermap::OptionList& o) {
-    o.add("stamp", &stamp, "us",
-          "send unmutated copies stamped from this utime on instead of mutations; 0: mutate")
-        .min(0);
-    o.add("stamp_step_s", &stamp_step_s, "s", "step between the stamps of --stamp's copies")
-        .in(0, 1e6);
     o.add("count", &count, "", "messages per channel").in(0, 1e8);
     o.add("seed", &seed, "", "random seed: the same seed sends the same bytes").any();
     o.add("rate_hz", &rate_hz, "Hz",
           "messages per second over all channels (0: as fast as possible)")
         .in(0, 1e7);
+    o.add("stamp", &stamp, "us",
+          "send unmutated copies stamped from this utime on instead of mutations; 0: mutate")
+        .min(0);
+    o.add("stamp_step_s", &stamp_step_s, "s", "step between the stamps of --stamp's copies")
+        .in(0, 1e6);
   }
 };
 
