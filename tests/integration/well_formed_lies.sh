@@ -15,7 +15,8 @@
 # height, both sessions. EVERMAP_LIES_MEASURE=1 prints the figures without judging them (the
 # before/after measurement of docs/results/reliability.md); EVERMAP_LIES_FUZZ=BIN takes the
 # fuzzer from another build (one without --stamp cannot send far_stamps). EVERMAP_LIES_CASES
-# restricts the lies (e.g. "far_stamps fuzz_floor").
+# restricts the lies (e.g. "far_stamps fuzz_floor"); EVERMAP_LIES_MAPPER_FLAGS adds options to
+# mapper-proc (e.g. "--time-window-s 0": the floor and session rules without the time guard).
 source "$(dirname "$0")/lib.sh" "$@"
 in_sandbox "$@"
 speed="${EVERMAP_LIES_SPEED:-20}"
@@ -48,7 +49,8 @@ lie_fuzz_floor() {
 run_case() {
   local name="$1" d="$tmp/$1"
   mkdir -p "$d"
-  "$bin/evermap-mapper-proc" --store "$d/map.db" --graph-period-s 5 > "$d/mapper.log" 2>&1 &
+  "$bin/evermap-mapper-proc" --store "$d/map.db" --graph-period-s 5 ${EVERMAP_LIES_MAPPER_FLAGS:-} \
+    > "$d/mapper.log" 2>&1 &
   local mapper=$!
   kill_at_exit "$mapper"
   sleep 0.3
