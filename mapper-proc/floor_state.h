@@ -5,15 +5,28 @@
 //
 // elevator-proc numbers floors from where it started (a restarted one, a new session, calls a
 // floor the map already has "new"): a ride's end is labelled from the table by its height
-// (floor_match_m). A floor has one height: the first one reported for it, as restore() reads
-// it back. Each ride's own height estimate differs from it by that ride's error (0.1 m and more
-// after a long ride); height factors at the ride's estimate would hold the nodes of one floor
-// at heights that contradict each other and the loop closures between them, and the solver
-// would bend the poses (and with them x, y) to meet them all.
+// (floor_match_m). A floor has one height at a time, not each ride's own estimate: that differs
+// by the ride's error (0.1 m and more after a long ride), and height factors at the rides'
+// estimates would hold the nodes of one floor at heights that contradict each other and the
+// loop closures between them, and the solver would bend the poses (and with them x, y) to meet
+// them all. Which height: the reports of a floor (a ride's start or end, a session's start) are
+// grouped, each group the reports within floor_match_m of its first, and the floor's height is
+// the first report of one group: the first group, until another has more reports; a height that
+// a single report gave (unconfirmed) is replaced by the next report that contradicts it. On
+// clean data every report of a floor falls in its first group, so the height is its first
+// report, as before; a wrong first report (a forged or corrupt FLOOR; issue 47: the first
+// height was kept for good) lasts until the next real report, and a wrong height that copies
+// confirmed lasts only until more real reports contradict it than confirm it. A replacement
+// is counted (heightsReplaced()) and noted in one line (takeNotes()).
+//
+// The map's floors (table()) are those a node is on, and the current one: a floor only reported
+// (by traffic that made no node) is not part of the map.
 
 #include <cstdint>
 #include <map>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include <evermap/floor_t.hpp>
 
@@ -42,6 +55,8 @@ class FloorState {
   // The robot placed on `floor` (a relocalisation, a warm restart): confirmed; its height from
   // the table, else fallback_height_m if given.
   void placeOn(int floor, std::optional<double> fallback_height_m);
+  // A node was made on `floor` (added > 0), or left the map (a quarantine, added < 0).
+  void nodesOn(int floor, int64_t added);
   // The floor a global search covers: the current one, or every floor (-1) on every other
   // search while the floor is a guess (the first included).
   int searchFloor();
@@ -53,20 +68,38 @@ class FloorState {
   bool confirmed() const { return confirmed_; }
   bool inElevator() const { return in_elevator_; }
   int64_t rides() const { return rides_; }  // ride ends seen
-  const std::map<int, double>& table() const { return table_; }
+  // The map's floors and their heights (the header's rule).
+  const std::map<int, double>& table() const { return published_; }
+  int64_t heightsReplaced() const { return heights_replaced_; }
+  // One line for each height replaced since the last call.
+  std::vector<std::string> takeNotes() { return std::move(notes_); }
 
  private:
   // The map's label for the floor a ride ended on at height_m (FLOOR's reported label): the
   // floor of the table at that height, else the reported label if the table has no floor by
   // it, else a new label.
   int floorAtHeight(int reported, double height_m) const;
+  // A report of `floor` at height_m: the floor's height after it.
+  double report(int floor, double height_m);
+  void publish();
+  struct Group {
+    double height_m;      // its first report's
+    int64_t count;        // reports in it
+    int64_t last_report;  // when it was last reported (reports_ at the time)
+  };
 
   double floor_match_m_;
   FloorGate gate_;
   int64_t last_utime_ = -1;
   int floor_ = 0;
   double height_m_ = 0.0;
-  std::map<int, double> table_;
+  std::map<int, double> table_;      // every floor reported, at its height
+  std::map<int, double> published_;  // the map's floors (table())
+  std::map<int, std::vector<Group>> groups_;
+  std::map<int, int64_t> nodes_on_;
+  int64_t reports_ = 0;
+  int64_t heights_replaced_ = 0;
+  std::vector<std::string> notes_;
   bool known_ = false;
   bool confirmed_ = true;  // false: a restored map's guess
   int64_t unconfirmed_searches_ = 0;

@@ -37,7 +37,9 @@ Status LcmNodeOptions::validate() const {
 map_graph_t graphMessage(const Mapper& mapper, int64_t utime) {
   map_graph_t g{};
   g.utime = utime;
+  // A quarantined session's nodes are kept (the store, the graph) but are no part of the map.
   for (const MapperNode& n : mapper.nodes()) {
+    if (mapper.quarantined(n.id)) continue;
     map_node_t m{};
     m.node_id = n.id;
     m.keyframe_utime = n.keyframe_utime;
@@ -48,6 +50,7 @@ map_graph_t graphMessage(const Mapper& mapper, int64_t utime) {
   }
   const auto& all = mapper.constraints().all();
   for (const auto& [key, pair] : mapper.constraints().pairs()) {
+    if (mapper.quarantined(pair.i) || mapper.quarantined(pair.j)) continue;
     map_edge_t e{};
     e.from_node = pair.i;
     e.to_node = pair.j;
@@ -151,6 +154,8 @@ void LcmNode::afterMessage(int64_t utime, bool publish_pose) {
           m_.restartNote().c_str());
     std::fflush(stdout);
   }
+  for (const std::string& line : m_.takeNotes())
+    std::printf("evermap-mapper-proc: %s\n", line.c_str());
   last_utime_ = std::max(last_utime_, utime);
   for (const auto& r : m_.takeRequests()) lcm_.publish(channels::kRegisterRequest, &r);
   for (const auto& n : m_.takeNodesAdded()) lcm_.publish(channels::kNodeAdded, &n);

@@ -85,8 +85,9 @@ struct LcmNodeCounts {
   }
 };
 
-// MAP_GRAPH of the mapper's current state: every node with its estimate, one edge per node
-// pair (the merged factor; num_measurements = accepted constraints of the pair), the floors.
+// MAP_GRAPH of the mapper's current state: every node (but a quarantined session's, mapper.h) with
+// its estimate, one edge per node pair (the merged factor; num_measurements = accepted constraints
+// of the pair), the floors.
 map_graph_t graphMessage(const Mapper& mapper, int64_t utime);
 
 class LcmNode {

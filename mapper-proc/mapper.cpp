@@ -75,13 +75,45 @@ void Mapper::startSession(int64_t utime) {
   if (lost_ && session_start_utime_ >= 0 &&
       std::abs(utime - session_start_utime_) < micros(o_.session_gap_s))
     return;
-  // Where the robot is relative to the map is unknown until a global registration
-  // re-localises it (DESIGN.md section 3).
-  lost_ = true;
   relocalization_candidate_.reset();
   recovery_.rejected().reset();
   ++session_;
   session_start_utime_ = utime;
+  if (!map_confirmed_) {
+    // Nothing of the map was ever confirmed: no place to re-localise on, and waiting for one
+    // would map nothing (issue 47: a phantom node from fuzzed odometry, then 0 nodes).
+    quarantineOrigin();
+    lost_ = false;
+    return;
+  }
+  // Where the robot is relative to the map is unknown until a global registration
+  // re-localises it (DESIGN.md section 3).
+  lost_ = true;
+}
+
+void Mapper::quarantineOrigin() {
+  quarantined_.resize(nodes_.size(), false);
+  int64_t count = 0;
+  int origin_session = -1;
+  for (const MapperNode& n : nodes_) {
+    if (quarantined_[static_cast<size_t>(n.id)]) continue;
+    quarantined_[static_cast<size_t>(n.id)] = true;
+    partition_.quarantine(n.id);
+    floors_.nodesOn(n.floor, -1);
+    if (origin_session < 0) origin_session = n.session;
+    ++count;
+  }
+  ++stats_.sessions_quarantined;
+  stats_.nodes_quarantined += count;
+  notes_.push_back(
+      "session " + std::to_string(origin_session) + " quarantined: " + std::to_string(count) +
+      " nodes no registration confirmed; session " + std::to_string(session_) +
+      " starts the map afresh (" + std::to_string(stats_.sessions_quarantined) + " quarantined)");
+  // The next step's node is the new origin; a step still open belonged to the session before.
+  active_ = -1;
+  in_flight_.reset();
+  relocalize_ = false;
+  tracker_.reset(core::UncertainPose{});
 }
 
 Status Mapper::onWheel(const wheel_odom_t& msg) {
@@ -126,6 +158,7 @@ Status Mapper::onFloor(const floor_t& msg) {
   warm_.onFloor(msg, stats_);
   if (msg.event == floor_t::EVENT_RIDE_START) {
     floors_.rideStarts(msg);
+    stats_.floor_heights_replaced = floors_.heightsReplaced();
     return Ok{};
   }
   if (msg.event == floor_t::EVENT_NONE) startSession(msg.utime);
@@ -136,11 +169,16 @@ Status Mapper::onFloor(const floor_t& msg) {
                        std::max(msg.height_sigma_m, 0.01));
   }
   floors_.reach(msg);
+  stats_.floor_heights_replaced = floors_.heightsReplaced();
   return Ok{};
 }
 
 std::vector<register_request_t> Mapper::takeRequests() { return std::exchange(requests_, {}); }
 std::vector<node_added_t> Mapper::takeNodesAdded() { return std::exchange(nodes_added_, {}); }
+std::vector<std::string> Mapper::takeNotes() {
+  for (std::string& line : floors_.takeNotes()) notes_.push_back(std::move(line));
+  return std::exchange(notes_, {});
+}
 
 core::UncertainPose Mapper::pose() const {
   core::UncertainPose p = tracker_.delta();
@@ -160,7 +198,7 @@ void Mapper::step(int64_t keyframe_utime) {
   last_step_utime_ = keyframe_utime;
   step_cost_s_ = 0.0;
   step_cpu_s_ = 0.0;
-  if (nodes_.empty()) {
+  if (active_ < 0) {  // the first node (or the first after a quarantine): the origin
     addNode(keyframe_utime, core::UncertainPose{});
     tracker_.reset(tracker_.sinceKeyframe(keyframe_utime).value_or(core::UncertainPose{}));
     flushSolver();
@@ -207,6 +245,7 @@ void Mapper::finishStep(bool registered) {
   const InFlight f = *in_flight_;
   in_flight_.reset();
   if (registered) recovery_.confirmed(f.keyframe_utime, bridges(), tracker_.odometerM());
+  if (registered) map_confirmed_ = true;
   const bool gate_rejected = std::exchange(gate_rejected_, false);
   const auto t0 = SteadyClock::now();
   const double c0 = threadCpuSeconds();

@@ -105,6 +105,9 @@ class Mapper {
   // Outputs produced since the last call.
   std::vector<register_request_t> takeRequests();
   std::vector<node_added_t> takeNodesAdded();
+  // One line for each recovery from traffic that never became consistent (a session
+  // quarantined, a floor's height replaced), since the last call.
+  std::vector<std::string> takeNotes();
 
   // The current estimate: world_T_body now.
   core::UncertainPose pose() const;
@@ -114,6 +117,11 @@ class Mapper {
   int64_t activeNode() const { return active_; }
   // A new session not yet placed on the map by a global registration: pose() means nothing.
   bool lost() const { return lost_; }
+  // A node of a quarantined session (startSession): kept in the graph, no place of the map.
+  bool quarantined(int64_t id) const {
+    return id >= 0 && static_cast<size_t>(id) < quarantined_.size() &&
+           quarantined_[static_cast<size_t>(id)];
+  }
   const ConstraintSet& constraints() const { return constraints_; }
   const solver::IncrementalSolver& solver() const { return schedule_.solver(); }
   const Tracker& tracker() const { return tracker_; }
@@ -169,8 +177,15 @@ class Mapper {
   // The keyframe step the tracker held for its heading, taken now (by a message at now_utime),
   // and the mapper's step at it unless a session starts or the step is stale.
   void takeHeldStep(int64_t now_utime, bool session_starts = false);
-  // A new session (FLOOR with EVENT_NONE, or a gap in VO time): lost until re-localised.
+  // A new session (FLOOR with EVENT_NONE, or a gap in VO time): lost until re-localised. A
+  // map whose first session no registration ever confirmed (made from traffic that never became
+  // consistent: forged or corrupt odometry, a stranger's keyframes) holds nothing to re-localise
+  // on: that session is quarantined (quarantineOrigin) and the new one starts the map afresh.
   void startSession(int64_t utime);
+  // The nodes of the session that made the map's origin leave the partition (no step registers
+  // to them, no new place is refused for them) and registrations to them are refused; the next
+  // node is a new origin. One line, counted (sessions_quarantined, nodes_quarantined).
+  void quarantineOrigin();
   // The step's wall and CPU time since t0/c0, added to the step's cost so far.
   void addStepCost(SteadyClock::time_point t0, double c0);
 
@@ -250,6 +265,8 @@ class Mapper {
   Status restoreNodes(const MapSnapshot& map, const std::map<int, double>& floors,
                       int* max_session);
   Status restoreEdges(const MapSnapshot& map);
+  // An origin prior on the first node of every part of the stored map not tied to node 0.
+  void anchorComponents(const MapSnapshot& map);
   void resume(const WarmRestart::Resume& r);
 
   // Algorithm 1's state: the options, the session, the graph (partition index, nodes,
@@ -264,9 +281,14 @@ class Mapper {
   MapGate map_gate_;
   std::vector<MapperNode> nodes_;
   int64_t active_ = -1;
-  bool relocalize_ = false;     // after a loop closure: the next registration to b replaces Δ
-  bool lost_ = false;           // a new session that no global registration has placed yet
-  bool gate_rejected_ = false;  // the step in flight had a registration the gate rejected
+  bool relocalize_ = false;  // after a loop closure: the next registration to b replaces Δ
+  bool lost_ = false;        // a new session that no global registration has placed yet
+  // Whether a registration ever confirmed a node of the map (or the map was restored), and the
+  // session whose first node is the current origin; sessions quarantined (startSession).
+  bool map_confirmed_ = false;
+  int origin_session_ = -1;
+  std::vector<bool> quarantined_;  // by node id
+  bool gate_rejected_ = false;     // the step in flight had a registration the gate rejected
   int64_t last_step_utime_ = -1;
   int64_t last_vo_utime_ = -1;
   int64_t session_start_utime_ = -1;  // utime of the message that started the session
@@ -285,6 +307,7 @@ class Mapper {
   // Outputs.
   std::vector<register_request_t> requests_;
   std::vector<node_added_t> nodes_added_;
+  std::vector<std::string> notes_;
   std::vector<StepPose> step_poses_;
   MapperStats stats_;
 };

@@ -29,6 +29,7 @@ int64_t Mapper::addNode(int64_t keyframe_utime, const core::UncertainPose& activ
   MapperNode node{id, keyframe_utime, floors_.floor(), session_, std::nullopt};
   if (const auto a = attitudeAt(keyframe_utime); a && addAttitudeFactor(id, *a)) node.attitude = a;
   nodes_.push_back(node);
+  floors_.nodesOn(node.floor, 1);
   node_added_t msg{};
   msg.utime = keyframe_utime;
   msg.node_id = id;

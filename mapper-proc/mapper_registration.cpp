@@ -63,6 +63,13 @@ Status Mapper::onRegisterResult(const register_result_t& msg) {
     return Ok{};
   }
   const InFlight f = *in_flight_;
+  if (quarantined(msg.node_id)) {
+    // A place of a quarantined session: not part of the map (startSession).
+    ++stats_.registrations_quarantined;
+    addStepCost(t0, c0);
+    finishStep(false);
+    return Ok{};
+  }
   if (msg.node_id >= 0 && msg.node_id < static_cast<int64_t>(nodes_.size()) &&
       floors_.confirmed() && nodes_[static_cast<size_t>(msg.node_id)].floor != floors_.floor()) {
     // A place on another floor: the elevator cab, or a floor that looks like this one.

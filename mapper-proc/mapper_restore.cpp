@@ -17,6 +17,7 @@ Status Mapper::restore(const MapSnapshot& map) {
   int max_session = -1;
   Status s = restoreNodes(map, floors, &max_session);
   if (s) s = restoreEdges(map);
+  if (s) anchorComponents(map);
   if (!s) {
     // A map that fails half-way leaves the mapper as it was: empty.
     nodes_.clear();
@@ -36,7 +37,8 @@ Status Mapper::restore(const MapSnapshot& map) {
   session_ = max_session + 1;
   first_session_ = session_;
   active_ = n_nodes - 1;
-  lost_ = true;  // where the robot is on this map is unknown until a global registration
+  map_confirmed_ = true;  // a stored map is the operator's
+  lost_ = true;           // where the robot is on this map is unknown until a global registration
   // ... and so is its floor, unless a FLOOR message says it (a session's start, a ride's
   // end): a mapper-proc restarted mid-session gets none. The guess is the floor of the newest
   // node (where the robot was when the map was saved); every other global search covers
@@ -46,6 +48,7 @@ Status Mapper::restore(const MapSnapshot& map) {
     if (n.keyframe_utime >= nodes_[static_cast<size_t>(newest)].keyframe_utime) newest = n.id;
   const MapperNode& newest_node = nodes_[static_cast<size_t>(newest)];
   floors_.restore(floors, newest_node.floor);
+  for (const MapperNode& n : nodes_) floors_.nodesOn(n.floor, 1);
   warm_.arm(map.tracking, n_nodes, newest_node.keyframe_utime, stats_);
   return Ok{};
 }
@@ -90,6 +93,26 @@ Status Mapper::restoreEdges(const MapSnapshot& map) {
     addConstraint(c.from, c.to, c.from_T_to, c.kind, c.utime, o_.map_gate > 0 && !o_.full_graph);
   }
   return Ok{};
+}
+
+void Mapper::anchorComponents(const MapSnapshot& map) {
+  // Union-find over the stored constraints; a part no constraint ties to node 0 (a session
+  // that started the map afresh after a quarantine, startSession) gets an origin prior at its
+  // first node, as it had when it was made.
+  std::vector<int64_t> root(nodes_.size());
+  for (size_t k = 0; k < root.size(); ++k) root[k] = static_cast<int64_t>(k);
+  auto find = [&](int64_t k) {
+    while (root[static_cast<size_t>(k)] != k)
+      k = root[static_cast<size_t>(k)] = root[static_cast<size_t>(root[static_cast<size_t>(k)])];
+    return k;
+  };
+  for (const StoredEdge& e : map.edges) {
+    const int64_t a = find(e.constraint.from), b = find(e.constraint.to);
+    root[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
+  }
+  for (size_t k = 1; k < root.size(); ++k)
+    if (find(static_cast<int64_t>(k)) == static_cast<int64_t>(k))
+      addOriginPrior(static_cast<int64_t>(k), map.nodes[k].world_T_body);
 }
 
 void Mapper::resume(const WarmRestart::Resume& r) {

@@ -7,11 +7,11 @@ namespace evermap::mapper {
 
 // Every field before timing is a counter of the list: a counter added there and not here
 // fails to compile.
-static_assert(offsetof(MapperStats, timing) == 34 * sizeof(int64_t));
+static_assert(offsetof(MapperStats, timing) == 38 * sizeof(int64_t));
 
-const std::array<MapperStats::Counter, 34>& MapperStats::counters() {
+const std::array<MapperStats::Counter, 38>& MapperStats::counters() {
   using S = MapperStats;
-  static const std::array<Counter, 34> list{{
+  static const std::array<Counter, 38> list{{
       {"steps", &S::steps},
       {"nodes", &S::nodes},
       {"constraints", &S::constraints},
@@ -46,6 +46,10 @@ const std::array<MapperStats::Counter, 34>& MapperStats::counters() {
       {"warm_bridged_by_wheels", &S::warm_bridged_by_wheels},
       {"warm_wheel_waits", &S::warm_wheel_waits},
       {"warm_elevator_refusals", &S::warm_elevator_refusals},
+      {"sessions_quarantined", &S::sessions_quarantined},
+      {"nodes_quarantined", &S::nodes_quarantined},
+      {"registrations_quarantined", &S::registrations_quarantined},
+      {"floor_heights_replaced", &S::floor_heights_replaced},
   }};
   return list;
 }

@@ -81,6 +81,14 @@ struct MapperStats {
   int64_t warm_wheel_waits = 0;
   // Restarts near an elevator over a gap a ride fits in: lost, not bridged or inflated.
   int64_t warm_elevator_refusals = 0;
+  // A map's first session that no registration ever confirmed (made from traffic that never
+  // became consistent), quarantined when the next session began (mapper.h, startSession), its
+  // nodes, and registrations to them refused since.
+  int64_t sessions_quarantined = 0;
+  int64_t nodes_quarantined = 0;
+  int64_t registrations_quarantined = 0;
+  // A floor's height replaced because later reports contradicted the one in use (floor_state.h).
+  int64_t floor_heights_replaced = 0;
   MapperTiming timing;
 
   // Every counter above, once: its name (text()'s, MAPPER_STATS') and its field.
@@ -88,7 +96,7 @@ struct MapperStats {
     std::string_view name;
     int64_t MapperStats::*field;
   };
-  static const std::array<Counter, 34>& counters();
+  static const std::array<Counter, 38>& counters();
   // "name value" lines, in counters() order.
   std::string text() const;
   // Adds the counters of another mapper's stats (sessions mapped by successive mappers).

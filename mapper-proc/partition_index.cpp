@@ -89,16 +89,30 @@ std::optional<int64_t> PartitionIndex::nodeAt(const core::SE3d& world_T_body, in
   return overlappingNode(world_T_body, floor, newest_allowed, nodes, solver);
 }
 
+void PartitionIndex::quarantine(int64_t id) {
+  const auto k = static_cast<size_t>(id);
+  if (k >= quarantined_.size()) quarantined_.resize(k + 1, false);
+  if (quarantined_[k]) return;
+  quarantined_[k] = true;
+  if (k >= node_cell_.size()) return;
+  auto& ids = cells_[node_cell_[k]];
+  ids.erase(std::find(ids.begin(), ids.end(), id));
+}
+
 void PartitionIndex::file(int64_t id, const core::PlanarCell& cell) {
   const auto k = static_cast<size_t>(id);
+  const bool out = k < quarantined_.size() && quarantined_[k];
   if (k < node_cell_.size()) {
     if (node_cell_[k] == cell) return;
-    auto& old = cells_[node_cell_[k]];
-    old.erase(std::find(old.begin(), old.end(), id));
+    if (!out) {
+      auto& old = cells_[node_cell_[k]];
+      old.erase(std::find(old.begin(), old.end(), id));
+    }
     node_cell_[k] = cell;
   } else {
     node_cell_.push_back(cell);  // nodes are filed first in id order
   }
+  if (out) return;
   auto& ids = cells_[cell];
   ids.insert(std::lower_bound(ids.begin(), ids.end(), id), id);
 }

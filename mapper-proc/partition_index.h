@@ -58,6 +58,9 @@ class PartitionIndex {
 
   // Files node `id` in `cell` (moving it from its old one). Nodes are filed first in id order.
   void file(int64_t id, const core::PlanarCell& cell);
+  // Node `id` is no place of the map any more (a quarantined session's, mapper.h): it leaves its
+  // cell, and filing it again keeps it out.
+  void quarantine(int64_t id);
   // Every node re-filed at the estimate.
   void rebuild(const std::vector<MapperNode>& nodes, const solver::Values& estimate);
   // After a background batch step: re-file refresh_per_step nodes at each refresh() from now.
@@ -77,6 +80,7 @@ class PartitionIndex {
   // Nodes of each cell, ascending ids; node_cell_[id] is the cell node id is filed under.
   std::unordered_map<core::PlanarCell, std::vector<int64_t>, core::PlanarCellHash> cells_;
   std::vector<core::PlanarCell> node_cell_;
+  std::vector<bool> quarantined_;   // by id
   size_t refresh_next_ = SIZE_MAX;  // next node to re-file after a swap; SIZE_MAX: none
 };
 

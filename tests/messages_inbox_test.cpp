@@ -131,14 +131,87 @@ TEST_F(InboxTest, AStreamThatReallyJumpsIsFollowedWithNothingLost) {
   // the clock moves and the held messages are passed on in order.
   Inbox inbox(lcm_, options());
   recordImu(inbox);
+  // 40 samples at 200 Hz each: past confirm_span_s (0.1 s) within max_held.
   std::vector<int64_t> sent;
-  for (int k = 0; k < 10; ++k) sent.push_back(kT0 + k * 5000);
+  for (int k = 0; k < 40; ++k) sent.push_back(kT0 + k * 5000);
   const int64_t day = int64_t{86400} * 1'000'000;
-  for (int k = 0; k < 10; ++k) sent.push_back(kT0 + day + k * 5000);
-  for (int k = 0; k < 10; ++k) sent.push_back(kT0 - day + k * 5000);  // and back
+  for (int k = 0; k < 40; ++k) sent.push_back(kT0 + day + k * 5000);
+  for (int k = 0; k < 40; ++k) sent.push_back(kT0 - day + k * 5000);  // and back
   for (int64_t t : sent) publishImu(t);
   EXPECT_EQ(seen_, sent);
   EXPECT_EQ(inbox.total().dropped(), 0);
+  EXPECT_EQ(inbox.clockJumps(), 2);
+}
+
+TEST_F(InboxTest, ThreeDistinctFarStampsDoNotMoveTheClockWhileTheStreamGoesOn) {
+  // Issue 47: three well-formed messages stamped near 2^62, 0.5 s apart (they agree and span
+  // confirm_span_s), slipped into a live stream. The stream going on at the clock contradicts
+  // them: they are refused and every sample of the stream is passed on.
+  Inbox::Options o = options();
+  o.time.expire_count = 50;
+  Inbox inbox(lcm_, o);
+  recordImu(inbox);
+  std::vector<int64_t> sent;
+  for (int k = 0; k < 300; ++k) {
+    if (k == 100 || k == 120 || k == 140) publishImu(kFar + (k - 100) * 25'000);
+    sent.push_back(kT0 + k * 5000);
+    publishImu(sent.back());
+  }
+  EXPECT_EQ(seen_, sent);
+  EXPECT_EQ(inbox.counts().at(channels::kImu).time_refused, 3);
+  EXPECT_EQ(inbox.clockJumps(), 0);
+  EXPECT_GT(inbox.jumpsContradicted(), 0);
+  EXPECT_EQ(inbox.held(), 0);
+}
+
+TEST_F(InboxTest, FarStampsSentTogetherDoNotMoveTheClockWhenTheStreamPauses) {
+  // Stamps corrupted or forged together (microseconds apart) do not span confirm_span_s: the
+  // stream that comes back after a pause goes on at its clock.
+  Inbox::Options o = options();
+  o.time.expire_count = 20;
+  Inbox inbox(lcm_, o);
+  recordImu(inbox);
+  std::vector<int64_t> sent;
+  for (int k = 0; k < 10; ++k) sent.push_back(kT0 + k * 5000);
+  for (int64_t t : sent) publishImu(t);
+  for (int k = 0; k < 5; ++k) publishImu(kFar + k);
+  for (int k = 10; k < 50; ++k) {
+    sent.push_back(kT0 + k * 5000);
+    publishImu(sent.back());
+  }
+  EXPECT_EQ(seen_, sent);
+  EXPECT_EQ(inbox.clockJumps(), 0);
+  EXPECT_EQ(inbox.counts().at(channels::kImu).time_refused, 5);
+}
+
+TEST_F(InboxTest, ANewSessionIsAdoptedThoughALateMessageOfTheOldOneArrivesAmongIt) {
+  // A log replayed again: a message of the old session still in a queue arrives among the new
+  // session's first ones. It does not outnumber them: the new clock is adopted, nothing lost.
+  Inbox inbox(lcm_, options());
+  recordImu(inbox);
+  std::vector<int64_t> sent;
+  for (int k = 0; k < 40; ++k) sent.push_back(kT0 + k * 5000);
+  const int64_t earlier = kT0 - int64_t{3600} * 1'000'000;
+  for (int k = 0; k < 40; ++k) sent.push_back(earlier + k * 5000);
+  sent.insert(sent.begin() + 45, kT0 + 40 * 5000);  // the straggler
+  for (int64_t t : sent) publishImu(t);
+  EXPECT_EQ(seen_.size(), sent.size());
+  EXPECT_EQ(inbox.total().dropped(), 0);
+  EXPECT_EQ(inbox.clockJumps(), 1);
+}
+
+TEST_F(InboxTest, AFastStreamThatJumpsIsAdoptedWhenItFillsHalfOfTheHeldMessages) {
+  // IMU at 1 kHz: 0.1 s would be 100 messages, more than max_held (64); half of it adopts.
+  Inbox inbox(lcm_, options());
+  recordImu(inbox);
+  std::vector<int64_t> sent;
+  for (int k = 0; k < 40; ++k) sent.push_back(kT0 + k * 1000);
+  const int64_t day = int64_t{86400} * 1'000'000;
+  for (int k = 0; k < 200; ++k) sent.push_back(kT0 + day + k * 1000);
+  for (int64_t t : sent) publishImu(t);
+  EXPECT_EQ(seen_, sent);
+  EXPECT_EQ(inbox.total().dropped(), 0);
+  EXPECT_EQ(inbox.clockJumps(), 1);
 }
 
 TEST_F(InboxTest, CountsGoOutAsInputStats) {
@@ -171,6 +244,9 @@ TEST(InboxOptions, RefuseNonsense) {
   EXPECT_FALSE(o.validate().ok());
   o = Inbox::Options{};
   o.time.confirm_count = 0;
+  EXPECT_FALSE(o.validate().ok());
+  o = Inbox::Options{};
+  o.time.confirm_span_s = -0.1;
   EXPECT_FALSE(o.validate().ok());
   EXPECT_TRUE(Inbox::Options{}.validate().ok());
 }

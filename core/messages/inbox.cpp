@@ -41,6 +41,8 @@ Status TimeGuardOptions::validate() const {
   if (window_s > 1e9) return makeError("time window_s: at most 1e9 s, got ", window_s);
   if (confirm_count < 1 || confirm_count > 100)
     return makeError("time confirm_count: must be in [1, 100], got ", confirm_count);
+  if (!std::isfinite(confirm_span_s) || confirm_span_s < 0.0 || confirm_span_s > 1e9)
+    return makeError("time confirm_span_s: must be in [0, 1e9] s, got ", confirm_span_s);
   if (expire_count < 1) return makeError("time expire_count: must be >= 1, got ", expire_count);
   if (max_held < confirm_count)
     return makeError("time max_held: must be >= confirm_count (", confirm_count, "), got ",
@@ -115,23 +117,53 @@ void Inbox::guard(Entry& e, const void* data, int64_t size, int64_t utime) {
   held_.push_back(Held{&e, utime, passed_, std::vector<uint8_t>(b, b + size)});
   if (static_cast<int>(held_.size()) > o_.time.max_held)
     refuseOldestHeld("far from the stream's clock and not confirmed (too many held)");
-  // Do `confirm_count` held messages agree with this one? Then the clock moves to them.
-  // Distinct stamps: copies of one message (the same stamp sent again) confirm nothing.
+  const std::vector<size_t> agree = agreeing(utime, window_us);
+  if (confirmsJump(agree)) jump(agree, utime);
+}
+
+std::vector<size_t> Inbox::agreeing(int64_t utime, int64_t window_us) const {
   std::vector<size_t> agree;
+  for (size_t k = 0; k < held_.size(); ++k)
+    if (!apart(held_[k].utime, utime, window_us)) agree.push_back(k);
+  return agree;
+}
+
+bool Inbox::confirmsJump(const std::vector<size_t>& agree) {
+  // Distinct stamps: copies of one message (the same stamp sent again) confirm nothing.
   std::vector<int64_t> stamps;
-  for (size_t k = 0; k < held_.size(); ++k) {
-    if (!apart(held_[k].utime, utime, window_us)) {
-      agree.push_back(k);
-      stamps.push_back(held_[k].utime);
-    }
-  }
+  for (size_t k : agree) stamps.push_back(held_[k].utime);
   std::sort(stamps.begin(), stamps.end());
   const auto distinct = std::unique(stamps.begin(), stamps.end()) - stamps.begin();
-  if (distinct < o_.time.confirm_count) return;
+  if (distinct < o_.time.confirm_count) return false;
+  if (!have_clock_) return true;  // nothing to contradict the first clock
+  const long double span_us =
+      static_cast<long double>(stamps.back()) - static_cast<long double>(stamps.front());
+  const auto count = static_cast<int64_t>(agree.size());
+  if (span_us < static_cast<long double>(o_.time.confirm_span_s) * 1e6L &&
+      2 * count < o_.time.max_held)
+    return false;
+  // The streams at the clock since the first of them arrived: going on, they contradict it.
+  const int64_t since = passed_ - held_[agree.front()].passed_at;
+  if (since < count) return true;
+  ++jumps_contradicted_;
+  if (jumps_contradicted_ <= o_.log_lines || jumps_contradicted_ % 1000 == 0)
+    std::fprintf(stderr,
+                 "%s: message clock stays at %lld: %lld messages at it since %lld held ones "
+                 "began to agree on %lld (contradicted %lld times)\n",
+                 o_.process.c_str(), static_cast<long long>(clock_utime_),
+                 static_cast<long long>(since), static_cast<long long>(count),
+                 static_cast<long long>(held_[agree.back()].utime),
+                 static_cast<long long>(jumps_contradicted_));
+  return false;
+}
+
+void Inbox::jump(const std::vector<size_t>& agree, int64_t utime) {
+  if (have_clock_) ++clock_jumps_;
   const std::string how =
       have_clock_ ? "jumps from " + std::to_string(clock_utime_) + " to" : std::string("starts at");
-  std::fprintf(stderr, "%s: message clock %s %lld (%zu messages agree)\n", o_.process.c_str(),
-               how.c_str(), static_cast<long long>(utime), agree.size());
+  std::fprintf(stderr, "%s: message clock %s %lld (%zu messages agree; %lld jumps)\n",
+               o_.process.c_str(), how.c_str(), static_cast<long long>(utime), agree.size(),
+               static_cast<long long>(clock_jumps_));
   have_clock_ = true;
   clock_utime_ = utime;
   std::deque<Held> release;
@@ -229,6 +261,9 @@ std::string Inbox::summary() const {
     }
   }
   if (!held_.empty()) s += "; " + std::to_string(held_.size()) + " held";
+  if (clock_jumps_ > 0 || jumps_contradicted_ > 0)
+    s += "; message clock jumped " + std::to_string(clock_jumps_) + " times, " +
+         std::to_string(jumps_contradicted_) + " jumps contradicted";
   if (lcmPacketsRefused() > 0) {
     s += "; " + std::to_string(lcmPacketsRefused()) + " LCM fragments refused";
   }

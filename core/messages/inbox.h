@@ -34,19 +34,32 @@ namespace evermap::messages {
 // The message time guard. Time inside algorithms is message time (STYLE.md): one message
 // stamped 2^62 adopted as "now" froze the mapper's tracking for the rest of a run. A message
 // whose utime is more than `window_s` from the stream's recent clock (the utime of the last
-// message passed on, any channel of the Inbox) is held, not passed on. When `confirm_count`
-// held messages agree with each other (within the window), the stream has really moved (a new
-// session, a log replayed again): the clock jumps to them and they are passed on in arrival
-// order, nothing lost (agreeing copies of one stamp count once: re-sending one message does not
-// move the clock). A held message that no others confirm within `expire_count` messages
-// passed on is refused and counted. Before the first confirmation the clock is not set: the
-// first messages of a process are held until `confirm_count` of them agree.
+// message passed on, any channel of the Inbox) is held, not passed on. Held messages that agree
+// with each other (within the window) are a candidate clock; it is adopted when the streams
+// have really moved (a new session, a log replayed again) and the old ones stopped:
+//  - `confirm_count` of them have distinct stamps (copies of one message confirm nothing);
+//  - they span `confirm_span_s` of their own message time, or fill half of `max_held`;
+//  - fewer messages were passed on at the current clock since the first of them arrived than
+//    they are: a jump the other streams (or the same stream) contradict by going on at the
+//    clock is not adopted (a second robot, a log replayed beside the live one, forged stamps).
+// Then the clock jumps to them, they are passed on in arrival order, nothing lost, and one line
+// says so (clockJumps() counts them). A held message that no others confirm within
+// `expire_count` messages passed on is refused and counted. Before the first confirmation the
+// clock is not set: the first messages of a process are held until `confirm_count` of them
+// agree (nothing contradicts them, so neither span nor count is asked of them).
 struct TimeGuardOptions {
   // 0 turns the guard off.
   double window_s = 120.0;
   // Messages with distinct stamps agreeing on a new clock needed to adopt it (>= 1; 1 = adopt
   // at once).
   int confirm_count = 3;
+  // Message time the agreeing messages must span before a jump of the clock is adopted,
+  // seconds. 0.1 s is one frame or more of every evermap stream (VO 10-20 Hz, wheels 10-50 Hz,
+  // ATTITUDE 50 Hz, IMU 200-1000 Hz) and the messages it holds stay within max_held (at 1 kHz
+  // the half of max_held adopts first); a stream that really moved covers it within its first
+  // frames, while stamps forged or corrupted together (2^62, 2^62 + 1 µs, ...) do not. 0: no
+  // span asked.
+  double confirm_span_s = 0.1;
   // A held message not confirmed after this many messages passed on is refused.
   int expire_count = 200;
   // Most messages held at once (the oldest is refused beyond it).
@@ -130,6 +143,10 @@ class Inbox {
   const std::map<std::string, ChannelCounts>& counts() const { return counts_; }
   ChannelCounts total() const;
   int64_t held() const { return static_cast<int64_t>(held_.size()); }
+  // Jumps of the message clock adopted (a new session, a log replayed again) and candidate
+  // jumps the streams going on at the clock contradicted (checks refused, not messages).
+  int64_t clockJumps() const { return clock_jumps_; }
+  int64_t jumpsContradicted() const { return jumps_contradicted_; }
   // "IMU 1000 received, 2 malformed, 0 time-refused, 0 refused, 0 failed; ATTITUDE ..."
   std::string summary() const;
   // Channel INPUT_STATS.
@@ -160,6 +177,12 @@ class Inbox {
   void receive(Entry& entry, const void* data, int64_t size);
   void deliver(Entry& entry, const void* data, int64_t size, int64_t utime);
   void guard(Entry& entry, const void* data, int64_t size, int64_t utime);
+  // The held messages that agree with `utime` (indices into held_, in order) and whether they
+  // move the clock (TimeGuardOptions).
+  std::vector<size_t> agreeing(int64_t utime, int64_t window_us) const;
+  bool confirmsJump(const std::vector<size_t>& agree);
+  // The clock moves to `utime`; the agreeing messages are passed on.
+  void jump(const std::vector<size_t>& agree, int64_t utime);
   void expireHeld();
   // Refuses the oldest held message (counted, one line ending in `why`).
   void refuseOldestHeld(const std::string& why);
@@ -172,6 +195,8 @@ class Inbox {
   bool have_clock_ = false;
   int64_t clock_utime_ = 0;
   int64_t passed_ = 0;  // messages passed on the guard
+  int64_t clock_jumps_ = 0;
+  int64_t jumps_contradicted_ = 0;
   std::deque<Held> held_;
   std::chrono::steady_clock::time_point last_stats_{};
 };

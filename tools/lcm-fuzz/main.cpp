@@ -4,6 +4,8 @@
 //
 // Per channel, `--count` messages: mutations (tools/lcmlog/mutate.h) of a message of the
 // channel's type (the first one on that channel in `--log`, else a default-constructed one).
+// `--stamp UTIME` instead sends well-formed lies (issue 47): unmutated copies of that message,
+// the k-th stamped UTIME + k * `--stamp-step-s` (a clock that jumps, a log replayed by mistake).
 // `--fragment-attack` instead sends the two UDP packets that overflow LCM 1.3.1's fragment
 // check (fragment_offset = 0xffffff00) to the group of LCM_DEFAULT_URL.
 #include <arpa/inet.h>
@@ -12,6 +14,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -125,17 +128,34 @@ int fragmentAttack(const std::vector<std::string>& channel_list) {
   return 0;
 }
 
+// A copy of `message` (an evermap type: utime first, after the 8-byte hash) stamped
+// utime0 + k * step_s, big-endian as LCM encodes it.
+Bytes stamped(const Bytes& message, int64_t utime0, double step_s, int64_t k) {
+  Bytes b = message;
+  if (b.size() < 16) return b;
+  auto utime = static_cast<uint64_t>(utime0 + static_cast<int64_t>(std::llround(step_s * 1e6)) * k);
+  for (int i = 7; i >= 0; --i, utime >>= 8) b[8 + static_cast<size_t>(i)] = utime & 0xff;
+  return b;
+}
+
 // The fuzzer's settings (--help lists them, --print-config prints them).
 struct FuzzOptions {
   int64_t count = 1000;
   int64_t seed = 1;
   double rate_hz = 2000.0;
+  int64_t stamp = 0;  // 0: mutate
+  double stamp_step_s = 0.5;
   void declareOptions(evermap::OptionList& o) {
     o.add("count", &count, "", "messages per channel").in(0, 1e8);
     o.add("seed", &seed, "", "random seed: the same seed sends the same bytes").any();
     o.add("rate_hz", &rate_hz, "Hz",
           "messages per second over all channels (0: as fast as possible)")
         .in(0, 1e7);
+    o.add("stamp", &stamp, "us",
+          "send unmutated copies stamped from this utime on instead of mutations; 0: mutate")
+        .min(0);
+    o.add("stamp_step_s", &stamp_step_s, "s", "step between the stamps of --stamp's copies")
+        .in(0, 1e6);
   }
 };
 
@@ -155,6 +175,8 @@ int main(int argc, char** argv) {
   cli.alias("--count", "count", "N");
   cli.alias("--seed", "seed", "S");
   cli.alias("--rate-hz", "rate_hz", "HZ");
+  cli.alias("--stamp", "stamp", "UTIME");
+  cli.alias("--stamp-step-s", "stamp_step_s", "S");
   cli.value("--log", &log_file, "LOG", "mutate the first message of each channel in this LCM log");
   cli.flag("--fragment-attack", &fragment_attack,
            "send the 2-packet LCM 1.3.1 fragment overflow on each channel instead");
@@ -197,7 +219,8 @@ int main(int argc, char** argv) {
   int64_t sent = 0;
   for (int64_t k = 0; k < count; ++k) {
     for (const std::string& c : channel_list) {
-      const Bytes b = messages::mutateLcm(seeds[c], rng);
+      const Bytes b = options.stamp > 0 ? stamped(seeds[c], options.stamp, options.stamp_step_s, k)
+                                        : messages::mutateLcm(seeds[c], rng);
       lcm.publish(c, b.data(), static_cast<unsigned>(b.size()));
       ++sent;
       if (rate_hz > 0.0)
