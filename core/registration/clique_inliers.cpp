@@ -64,57 +64,11 @@ __attribute__((target_clones("avx2", "default"))) void fillAdjacency(
   }
 }
 
-}  // namespace
-
-std::vector<int> maxConsistentClique(const std::vector<Eigen::Vector3d>& points_a,
-                                     const std::vector<Eigen::Vector3d>& points_b,
-                                     const std::vector<double>& depth_sigma_a_m,
-                                     const std::vector<double>& depth_sigma_b_m,
-                                     const CliqueOptions& options) {
-  if (points_a.size() != points_b.size() || depth_sigma_a_m.size() != depth_sigma_b_m.size() ||
-      (!depth_sigma_a_m.empty() && depth_sigma_a_m.size() != points_a.size())) {
-    std::fprintf(stderr,
-                 "evermap: maxConsistentClique: %zu points against %zu (%zu and %zu sigmas)\n",
-                 points_a.size(), points_b.size(), depth_sigma_a_m.size(), depth_sigma_b_m.size());
-    std::abort();
-  }
-  const int n = static_cast<int>(points_a.size());
-  if (n == 0) return {};
-  const int words = (n + 63) / 64;
-  // Row i of the adjacency matrix as a bit set.
-  std::vector<uint64_t> adj(static_cast<size_t>(n) * words, 0);
+// Howard's greedy maximum clique over the adjacency bit sets (row i at adj + i * words): from
+// the vertex of highest degree, the candidate with the most neighbours among the candidates,
+// until none is left.
+std::vector<int> greedyClique(int n, int words, const std::vector<uint64_t>& adj) {
   auto row = [&](int i) { return adj.data() + static_cast<size_t>(i) * words; };
-  // Coordinates as float arrays, so the distance loop below vectorises (a few hundred
-  // matches: n²/2 pairs is the bulk of the work).
-  std::vector<float> c(static_cast<size_t>(8) * n);
-  float* ax = c.data();
-  float* ay = ax + n;
-  float* az = ay + n;
-  float* bx = az + n;
-  float* by = bx + n;
-  float* bz = by + n;
-  float* wa = bz + n;  // sigmas * s / z
-  float* wb = wa + n;
-  const bool noisy = !depth_sigma_a_m.empty();
-  for (int i = 0; i < n; ++i) {
-    const auto k = static_cast<size_t>(i);
-    const Eigen::Vector3d& a = points_a[k];
-    const Eigen::Vector3d& b = points_b[k];
-    ax[i] = static_cast<float>(a.x());
-    ay[i] = static_cast<float>(a.y());
-    az[i] = static_cast<float>(a.z());
-    bx[i] = static_cast<float>(b.x());
-    by[i] = static_cast<float>(b.y());
-    bz[i] = static_cast<float>(b.z());
-    auto weight = [&](double sigma, double z) {
-      return noisy && z > 0.0 ? static_cast<float>(options.sigmas * sigma / z) : 0.0f;
-    };
-    wa[i] = weight(noisy ? depth_sigma_a_m[k] : 0.0, a.z());
-    wb[i] = weight(noisy ? depth_sigma_b_m[k] : 0.0, b.z());
-  }
-  std::vector<float> change(static_cast<size_t>(n)), threshold(static_cast<size_t>(n));
-  fillAdjacency(n, words, ax, ay, az, bx, by, bz, wa, wb, static_cast<float>(options.threshold_m),
-                change.data(), threshold.data(), adj.data());
   // Seed: the vertex of highest degree.
   int seed = 0, seed_degree = -1;
   for (int i = 0; i < n; ++i) {
@@ -159,6 +113,60 @@ std::vector<int> maxConsistentClique(const std::vector<Eigen::Vector3d>& points_
       }
     });
   }
+  return clique;
+}
+
+}  // namespace
+
+std::vector<int> maxConsistentClique(const std::vector<Eigen::Vector3d>& points_a,
+                                     const std::vector<Eigen::Vector3d>& points_b,
+                                     const std::vector<double>& depth_sigma_a_m,
+                                     const std::vector<double>& depth_sigma_b_m,
+                                     const CliqueOptions& options) {
+  if (points_a.size() != points_b.size() || depth_sigma_a_m.size() != depth_sigma_b_m.size() ||
+      (!depth_sigma_a_m.empty() && depth_sigma_a_m.size() != points_a.size())) {
+    std::fprintf(stderr,
+                 "evermap: maxConsistentClique: %zu points against %zu (%zu and %zu sigmas)\n",
+                 points_a.size(), points_b.size(), depth_sigma_a_m.size(), depth_sigma_b_m.size());
+    std::abort();
+  }
+  const int n = static_cast<int>(points_a.size());
+  if (n == 0) return {};
+  const int words = (n + 63) / 64;
+  // Row i of the adjacency matrix as a bit set.
+  std::vector<uint64_t> adj(static_cast<size_t>(n) * words, 0);
+  // Coordinates as float arrays, so the distance loop below vectorises (a few hundred
+  // matches: n²/2 pairs is the bulk of the work).
+  std::vector<float> c(static_cast<size_t>(8) * n);
+  float* ax = c.data();
+  float* ay = ax + n;
+  float* az = ay + n;
+  float* bx = az + n;
+  float* by = bx + n;
+  float* bz = by + n;
+  float* wa = bz + n;  // sigmas * s / z
+  float* wb = wa + n;
+  const bool noisy = !depth_sigma_a_m.empty();
+  for (int i = 0; i < n; ++i) {
+    const auto k = static_cast<size_t>(i);
+    const Eigen::Vector3d& a = points_a[k];
+    const Eigen::Vector3d& b = points_b[k];
+    ax[i] = static_cast<float>(a.x());
+    ay[i] = static_cast<float>(a.y());
+    az[i] = static_cast<float>(a.z());
+    bx[i] = static_cast<float>(b.x());
+    by[i] = static_cast<float>(b.y());
+    bz[i] = static_cast<float>(b.z());
+    auto weight = [&](double sigma, double z) {
+      return noisy && z > 0.0 ? static_cast<float>(options.sigmas * sigma / z) : 0.0f;
+    };
+    wa[i] = weight(noisy ? depth_sigma_a_m[k] : 0.0, a.z());
+    wb[i] = weight(noisy ? depth_sigma_b_m[k] : 0.0, b.z());
+  }
+  std::vector<float> change(static_cast<size_t>(n)), threshold(static_cast<size_t>(n));
+  fillAdjacency(n, words, ax, ay, az, bx, by, bz, wa, wb, static_cast<float>(options.threshold_m),
+                change.data(), threshold.data(), adj.data());
+  std::vector<int> clique = greedyClique(n, words, adj);
   std::sort(clique.begin(), clique.end());
   return clique;
 }
