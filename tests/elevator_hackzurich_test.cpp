@@ -83,10 +83,9 @@ TEST_P(ElevatorHackzurich, EveryLabelledRideIsFoundWithTheBarometricHeight) {
   const auto session = datasets::readHackzurichSession(dir, truth.session);
   ASSERT_TRUE(session.ok()) << session.error().message;
   ASSERT_EQ(session->episodes.size(), 2u);
-  std::vector<imu::ImuSample> samples;
-  for (const auto& s : session->imu) {
-    samples.push_back(
-        {s.t_ns / 1000, zero_gyro ? Eigen::Vector3d::Zero() : s.gyro_rad_s, s.accel_m_s2});
+  std::vector<imu::ImuSample> samples = session->imu;
+  if (zero_gyro) {
+    for (imu::ImuSample& s : samples) s.gyro_rad_s.setZero();
   }
   const OfflineRun run = runImuElevator(samples, {}, {});
   const std::vector<RideRow> rows =

@@ -17,17 +17,10 @@
 
 #include "test_data.h"
 #include "tools/datasets/science_journal.h"
-#include "core/messages/convert.h"
 #include "tools/imu-elevator-run/offline_run.h"
 
 namespace evermap::elevator {
 namespace {
-
-std::vector<imu::ImuSample> toImu(const std::vector<datasets::ImuSample>& in) {
-  std::vector<imu::ImuSample> out;
-  for (const auto& s : in) out.push_back(messages::toImuSample(s));
-  return out;
-}
 
 int64_t accounted(const datasets::ScienceJournalRecording& r) {
   return r.rows_completing_sample + r.rows_partial + r.rows_before_first_sample + r.rows_trailing +
@@ -54,10 +47,10 @@ TEST(ScienceJournalReader, SparseRowsMakeSamplesAndEveryRowIsCounted) {
   const auto r = datasets::readScienceJournalCsv(file);
   ASSERT_TRUE(r.ok()) << r.error().message;
   ASSERT_EQ(r->imu.size(), 3u);
-  EXPECT_EQ(r->imu[0].t_ns, 2'000'000);
+  EXPECT_EQ(r->imu[0].utime, 2'000);
   EXPECT_DOUBLE_EQ(r->imu[0].accel_m_s2.z(), 9.8);
-  EXPECT_EQ(r->imu[1].t_ns, 20'000'000);
-  EXPECT_EQ(r->imu[2].t_ns, 32'000'000);
+  EXPECT_EQ(r->imu[1].utime, 20'000);
+  EXPECT_EQ(r->imu[2].utime, 32'000);
   EXPECT_DOUBLE_EQ(r->imu[2].accel_m_s2.x(), 0.6);
   EXPECT_TRUE(r->imu[2].gyro_rad_s.isZero(0.0));
   EXPECT_EQ(r->rows, 10);
@@ -89,7 +82,7 @@ TEST(ElevatorSkyscraper, TheFastLongRideIsFoundAccelerometerOnly) {
   std::printf("%s\n", rec->summary().c_str());
   EXPECT_EQ(accounted(*rec), rec->rows);
   EXPECT_GT(rec->imu.size(), 1700u);
-  const OfflineRun run = runImuElevator(toImu(rec->imu), {}, {});
+  const OfflineRun run = runImuElevator(rec->imu, {}, {});
   std::printf("attitude: %s\nelevator: %s\n", run.attitude_counts.summary().c_str(),
               run.counts.summary().c_str());
   EXPECT_TRUE(run.attitude_counts.accel_only);
@@ -113,7 +106,7 @@ TEST(ElevatorSkyscraper, AGravityRemovedStreamIsRefusedNotMisread) {
   EVERMAP_REQUIRE_DATA(dir, "elevator-android-skyscraper");
   const auto rec = datasets::readScienceJournalCsv(dir / "skyscrapper_up.csv");
   ASSERT_TRUE(rec.ok()) << rec.error().message;
-  std::vector<imu::ImuSample> linear = toImu(rec->imu);
+  std::vector<imu::ImuSample> linear = rec->imu;
   Eigen::Vector3d gravity = linear.front().accel_m_s2;
   for (size_t i = 0; i < linear.size(); ++i) {
     const double dt =

@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/messages/convert.h"
 #include "imu-proc/attitude_filter.h"
 #include "test_data.h"
 #include "tools/datasets/euroc.h"
@@ -335,16 +336,18 @@ TEST(AttitudeFilterEuroc, RollAndPitchRmsErrorIsBelowOneDegreeOnV101) {
   ASSERT_TRUE(gt_ov.ok()) << gt_ov.error().message;
   AttitudeFilter f;
   std::vector<Attitude> track;
-  for (const datasets::ImuSample& s : *imu) {
-    if (f.add(ImuSample{s.t_ns / 1000, s.gyro_rad_s, s.accel_m_s2})) track.push_back(f.attitude());
+  for (const ImuSample& s : *imu) {
+    if (f.add(s)) track.push_back(f.attitude());
   }
   std::printf("filter: %s; gate: %s\n", f.counts().summary().c_str(),
               f.gateCounts().summary().c_str());
   ASSERT_TRUE(f.counts().still_start);
 
   // The references' world z against gravity measured at rest (2 s from each one's start).
-  const double ov_tilt = referenceTiltAtRest(*imu, *gt_ov, gt_ov->front().t_ns, 2.0);
-  const double orig_tilt = referenceTiltAtRest(*imu, *gt_orig, gt_orig->front().t_ns, 2.0);
+  const double ov_tilt =
+      referenceTiltAtRest(*imu, *gt_ov, messages::utimeFromNs(gt_ov->front().t_ns), 2.0);
+  const double orig_tilt =
+      referenceTiltAtRest(*imu, *gt_orig, messages::utimeFromNs(gt_orig->front().t_ns), 2.0);
   std::printf("world z vs gravity at rest: OpenVINS %.2f deg, original %.2f deg\n", ov_tilt / kDeg,
               orig_tilt / kDeg);
   EXPECT_LT(ov_tilt, 1.0 * kDeg);
@@ -354,7 +357,7 @@ TEST(AttitudeFilterEuroc, RollAndPitchRmsErrorIsBelowOneDegreeOnV101) {
   c.max_offset_s = 0.06;  // the OpenVINS reference is at 20 Hz
   const AttitudeErrorSummary imu_frame = compareAttitude(track, *gt_ov, c);
   c.vehicle_up_imu =
-      meanSpecificForce(*imu, imu->front().t_ns, AttitudeFilterOptions{}.init_window_s);
+      meanSpecificForce(*imu, imu->front().utime, AttitudeFilterOptions{}.init_window_s);
   const AttitudeErrorSummary vehicle = compareAttitude(track, *gt_ov, c);
   c.vehicle_up_imu.setZero();
   c.level_body = true;

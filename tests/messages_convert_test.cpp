@@ -14,9 +14,10 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "core/imu/lcm_convert.h"
+#include "core/imu/sample_gate.h"
 #include "core/messages/convert.h"
 #include "core/messages/pose_fields.h"
-#include "tools/datasets/euroc.h"
 #include "scratch_dir.h"
 
 namespace evermap::messages {
@@ -322,21 +323,25 @@ TEST(CalibrationMsg, MalformedCalibrationsAreRefused) {
   expectError(fromMsg(m), "rectified must be 0 or 1");
 }
 
-TEST(ImuMsg, RoundTripsAndRefusesNonFiniteValues) {
-  datasets::ImuSample s;
-  s.t_ns = 1403715273262142976LL;
+TEST(ImuMsg, RoundTripsAndLeavesANonFiniteValueToTheGateThatCountsIt) {
+  imu::ImuSample s;
+  s.utime = 1403715273262143LL;
   s.gyro_rad_s = Eigen::Vector3d(-0.099134701513277898, 0.14730578886832138, 0.02722713633111154);
   s.accel_m_s2 = Eigen::Vector3d(8.1476917083333333, -0.37592158333333331, -2.4026292499999999);
-  const evermap::imu_t msg = throughWire(toMsg(s));
+  const evermap::imu_t msg = throughWire(imu::toLcm(s));
   EXPECT_EQ(msg.utime, 1403715273262143LL);
-  const auto back = fromMsg(msg);
-  ASSERT_TRUE(back.ok());
-  EXPECT_EQ(back->t_ns, 1403715273262143000LL);
-  EXPECT_EQ(back->gyro_rad_s, s.gyro_rad_s);
-  EXPECT_EQ(back->accel_m_s2, s.accel_m_s2);
+  const imu::ImuSample back = imu::fromLcm(msg);
+  EXPECT_EQ(back.utime, s.utime);
+  EXPECT_EQ(back.gyro_rad_s, s.gyro_rad_s);
+  EXPECT_EQ(back.accel_m_s2, s.accel_m_s2);
+  // The conversion refuses nothing: the SampleGate every consumer applies drops and counts.
   evermap::imu_t bad = msg;
   bad.linear_acceleration[2] = std::numeric_limits<double>::infinity();
-  expectError(fromMsg(bad), "imu_t at utime 1403715273262143: non-finite value");
+  imu::SampleGate gate;
+  double dt_s = 0;
+  EXPECT_EQ(gate.check(imu::fromLcm(bad), &dt_s), imu::GateVerdict::kDrop);
+  EXPECT_EQ(gate.counts().non_finite, 1);
+  EXPECT_EQ(gate.check(back, &dt_s), imu::GateVerdict::kAcceptAfterGap);  // the first
 }
 
 TEST(PoseMsg, RoundTripsPoseAndCovarianceInTangentOrder) {
@@ -410,7 +415,7 @@ TEST(PoseFields, NonFiniteOrNonUnitFieldsAreRefusedWithTheirName) {
 }
 
 TEST(DecodeLcm, TruncatedForeignAndOverlongBytesAreRefused) {
-  const auto imu = encode(toMsg(datasets::ImuSample{}));
+  const auto imu = encode(imu::toLcm(imu::ImuSample{}));
   expectError(decodeLcm<evermap::imu_t>(imu.data(), 10, "IMU"), "IMU: not a valid imu_t");
   expectError(decodeLcm<evermap::pose_t>(imu.data(), static_cast<int64_t>(imu.size()), "POSE"),
               "POSE: not a valid pose_t (not a pose_t (type hash");

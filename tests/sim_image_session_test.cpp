@@ -14,6 +14,7 @@
 #include <evermap/rgbd_calib_t.hpp>
 
 #include "core/camera/calibration.h"
+#include "core/imu/lcm_convert.h"
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
 #include "core/messages/rgbd_convert.h"
@@ -146,7 +147,8 @@ TEST(ImageSession, LogRoundTripsThroughTheExistingReaders) {
     } else if (e->channel == channels::kImu) {
       auto m = messages::decodeLcm<imu_t>(e->data, e->datalen, e->channel);
       ASSERT_TRUE(m);
-      EXPECT_TRUE(messages::fromMsg(*m));
+      const imu::ImuSample s = imu::fromLcm(*m);
+      EXPECT_TRUE(s.gyro_rad_s.allFinite() && s.accel_m_s2.allFinite());
     }
   }
   EXPECT_EQ(seen[channels::kStereoCalib], 4);  // 3 s of pairs (31 at 10 Hz): at 0, 1, 2 and 3 s

@@ -46,6 +46,39 @@ Rendered render(const SE3d& pose, uint64_t seed) {
   return r;
 }
 
+TEST(PipelineOptions, ReachTheFeatureMatchingAndRegistrationOptionsOfCore) {
+  PipelineOptions o;
+  OptionList list = OptionList::of(&o);
+  const OptionField* border = list.find("odometry.features.fast.border_px");
+  ASSERT_NE(border, nullptr);
+  EXPECT_EQ(border->default_text, "6");
+  EXPECT_EQ(border->unit, "px");
+  // The odometry's own defaults, not those of a default-constructed core struct.
+  ASSERT_NE(list.find("odometry.registration.min_inliers"), nullptr);
+  EXPECT_EQ(list.find("odometry.registration.min_inliers")->default_text, "15");
+  for (const char* key : {"odometry.matching.search_radius_px", "odometry.rotation.max_angle_rad",
+                          "odometry.orb.border_px", "rectifier.alpha", "rgbd.disparity_sigma_px"}) {
+    EXPECT_NE(list.find(key), nullptr) << key;
+  }
+  ASSERT_TRUE(list.set("odometry.registration.motion.min_inliers", "12").ok());
+  EXPECT_EQ(o.odometry.registration.motion.min_inliers, 12);
+  EXPECT_EQ(list.set("odometry.features.stereo.uniqueness_ratio", "1.5").error().message,
+            "option odometry.features.stereo.uniqueness_ratio: 1.5 is outside (0, 1]");
+}
+
+TEST(PipelineOptions, ValidateNamesTheKeyOfAValueSetInCodeAndKeepsTheRulesBetweenFields) {
+  PipelineOptions o;
+  EXPECT_TRUE(o.validate().ok());
+  o.odometry.matching.max_refinement_px = 0.0;
+  ASSERT_FALSE(o.validate().ok());
+  EXPECT_EQ(o.validate().error().message,
+            "option odometry.matching.max_refinement_px: 0 is outside > 0");
+  o = PipelineOptions{};
+  o.odometry.registration.min_inliers = 8;  // below motion.min_inliers (10)
+  ASSERT_FALSE(o.validate().ok());
+  EXPECT_NE(o.validate().error().message.find("min_inliers"), std::string::npos);
+}
+
 TEST(VoPipeline, FramesWithoutAValidCalibrationGetBadInput) {
   const Rendered img = render(SE3d(), 1);
   if (img.left.empty()) GTEST_SKIP() << "room textures not found";

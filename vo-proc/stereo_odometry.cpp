@@ -57,6 +57,7 @@ core::RegistrationOptions OdometryOptions::defaultRegistration() {
 }
 
 Status OdometryOptions::validate() const {
+  if (Status s = checkOptionRanges(*this, "odometry."); !s) return s;
   if (Status s = features.validate(); !s) return s;
   if (Status s = matching.validate(); !s) return s;
   if (Status s = registration.validate(); !s) return s;
@@ -64,27 +65,6 @@ Status OdometryOptions::validate() const {
   if (keyframe_inlier_threshold < registration.min_inliers) {
     return makeError("odometry: keyframe_inlier_threshold ", keyframe_inlier_threshold,
                      " is below registration.min_inliers ", registration.min_inliers);
-  }
-  if (!(keyframe_inlier_fraction >= 0.0 && keyframe_inlier_fraction < 1.0)) {
-    return makeError("odometry: keyframe_inlier_fraction ", keyframe_inlier_fraction,
-                     " is not in [0, 1)");
-  }
-  if (!(keyframe_min_translation_m >= 0.0) || !(keyframe_min_rotation_rad >= 0.0)) {
-    return makeError("odometry: keyframe_min_translation_m ", keyframe_min_translation_m,
-                     " and keyframe_min_rotation_rad ", keyframe_min_rotation_rad,
-                     " must be non-negative");
-  }
-  if (max_failed_frames < 0) {
-    return makeError("odometry: max_failed_frames ", max_failed_frames, " is negative");
-  }
-  if (!(bridge.translation_sigma_m > 0.0) || !(bridge.rotation_sigma_rad > 0.0) ||
-      !(bridge.velocity_fraction >= 0.0)) {
-    return makeError("odometry: bridge sigmas ", bridge.translation_sigma_m, " m, ",
-                     bridge.rotation_sigma_rad, " rad must be positive, velocity_fraction ",
-                     bridge.velocity_fraction, " non-negative");
-  }
-  if (!(rotation.max_angle_rad > 0.0) || rotation.max_iterations < 1) {
-    return makeError("odometry: rotation estimate needs max_angle_rad > 0 and iterations >= 1");
   }
   return Ok{};
 }

@@ -126,8 +126,9 @@ struct OdometryOptions {
 
   Status validate() const;
   std::string describe() const;
-  // The settings of this struct (the feature, matching and registration options of core/
-  // are not declared: they keep the values above).
+  // The settings of this struct, with those of core/'s feature, matching, registration,
+  // rotation and ORB options nested under features., matching., registration., rotation.
+  // and orb.
   void declareOptions(OptionList& o) {
     o.add("keyframe_inlier_threshold", &keyframe_inlier_threshold, "inliers",
           "a frame with fewer inliers replaces the reference (at least registration's minimum)")
@@ -161,6 +162,11 @@ struct OdometryOptions {
         .nonNegative();
     o.add("keyframe_descriptors", &keyframe_descriptors,
           "ORB descriptors on keyframes (for loop closure)");
+    o.nest("features.", &features);
+    o.nest("matching.", &matching);
+    o.nest("registration.", &registration);
+    o.nest("rotation.", &rotation);
+    o.nest("orb.", &orb);
   }
 
   static core::StereoFeatureExtractor::Options defaultFeatures();

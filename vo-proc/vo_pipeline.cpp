@@ -9,12 +9,9 @@
 namespace evermap::vo {
 
 Status PipelineOptions::validate() const {
+  if (Status s = checkOptionRanges(*this); !s) return s;
   if (Status s = odometry.validate(); !s) return s;
   if (Status s = rgbd.validate(); !s) return s;
-  if (!(rgbd_inlier_max_reprojection_px > 0.0) || !(rgbd_max_mean_reprojection_px > 0.0)) {
-    return makeError("vo pipeline: rgbd reprojection thresholds ", rgbd_inlier_max_reprojection_px,
-                     " px and ", rgbd_max_mean_reprojection_px, " px must be positive");
-  }
   return rectifier.validate();
 }
 

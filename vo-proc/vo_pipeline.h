@@ -59,6 +59,8 @@ struct PipelineOptions {
           "RGB-D: a motion's mean inlier error at most")
         .positive();
     o.nest("odometry.", &odometry);
+    o.nest("rectifier.", &rectifier);
+    o.nest("rgbd.", &rgbd);
   }
 };
 

@@ -6,19 +6,20 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/common/option_fields.h"
+
 namespace evermap::core {
 
-Status RgbdCamera::Options::validate() const {
-  if (!(depth_noise_per_m2 > 0.0) || !std::isfinite(depth_noise_per_m2)) {
-    return makeError("rgbd camera: depth_noise_per_m2 ", depth_noise_per_m2,
-                     " is not positive and finite");
-  }
-  if (!(disparity_sigma_px > 0.0) || !std::isfinite(disparity_sigma_px)) {
-    return makeError("rgbd camera: disparity_sigma_px ", disparity_sigma_px,
-                     " is not positive and finite");
-  }
-  return Ok{};
+void RgbdCamera::Options::declareOptions(OptionList& o) {
+  o.add("depth_noise_per_m2", &depth_noise_per_m2, "1/m",
+        "depth noise sigma_z = this * z^2 (Khoshelham & Elberink 2012)")
+      .positive();
+  o.add("disparity_sigma_px", &disparity_sigma_px, "px",
+        "disparity noise the registration assumes (sets the equivalent baseline)")
+      .positive();
 }
+
+Status RgbdCamera::Options::validate() const { return checkOptionRanges(*this, "rgbd."); }
 
 Expected<RgbdCamera> RgbdCamera::create(const CameraCalibration& c, const Options& options) {
   if (Status s = options.validate(); !s) return s.error();

@@ -30,6 +30,10 @@
 #include "core/camera/stereo_camera.h"
 #include "core/common/expected.h"
 
+namespace evermap {
+class OptionList;  // core/common/option_fields.h
+}  // namespace evermap
+
 namespace evermap::core {
 
 class RgbdCamera {
@@ -41,6 +45,7 @@ class RgbdCamera {
     double disparity_sigma_px = 0.2;
 
     Status validate() const;
+    void declareOptions(OptionList& o);
   };
 
   // Refuses an invalid calibration (CameraCalibration::validate) or options.

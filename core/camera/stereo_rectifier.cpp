@@ -8,6 +8,8 @@
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/common/option_fields.h"
+
 namespace evermap::core {
 namespace {
 
@@ -39,12 +41,14 @@ Status checkImage(const cv::Mat& image, const char* which, const CameraCalibrati
 
 }  // namespace
 
-Status StereoRectifier::Options::validate() const {
-  if (!(std::isfinite(alpha) && alpha >= 0.0 && alpha <= 1.0)) {
-    return makeError("rectifier options: alpha = ", std::to_string(alpha), " must be in [0, 1]");
-  }
-  return Ok{};
+void StereoRectifier::Options::declareOptions(OptionList& o) {
+  o.add("alpha", &alpha, "",
+        "free scaling: 0 no black borders, 1 every source pixel in view (cv::stereoRectify)")
+      .in(0, 1);
+  o.add("bilinear", &bilinear, "bilinear remap (else nearest neighbour)");
 }
+
+Status StereoRectifier::Options::validate() const { return checkOptionRanges(*this, "rectifier."); }
 
 Expected<StereoRectifier> StereoRectifier::create(const StereoCalibration& raw,
                                                   const Options& options) {

@@ -16,6 +16,10 @@
 #include "core/camera/stereo_camera.h"
 #include "core/common/expected.h"
 
+namespace evermap {
+class OptionList;  // core/common/option_fields.h
+}  // namespace evermap
+
 namespace evermap::core {
 
 struct RectifiedPair {
@@ -35,6 +39,7 @@ class StereoRectifier {
     bool bilinear = true;
 
     Status validate() const;
+    void declareOptions(OptionList& o);
   };
 
   enum class Side { kLeft = 0, kRight = 1 };

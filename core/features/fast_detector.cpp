@@ -8,30 +8,42 @@
 
 #include <opencv2/features2d.hpp>
 
+#include "core/common/option_fields.h"
+
 namespace evermap::core {
 
+void FastDetector::Options::declareOptions(OptionList& o) {
+  o.add("initial_threshold", &initial_threshold, "gray levels",
+        "FAST threshold of the first frame (within [min_threshold, max_threshold])")
+      .in(1, 254);
+  o.add("min_threshold", &min_threshold, "gray levels", "the adaptive threshold at least")
+      .in(1, 254);
+  o.add("max_threshold", &max_threshold, "gray levels", "... and at most").in(1, 254);
+  o.add("adaptive", &adaptive, "move the threshold toward the target corner count per frame");
+  o.add("adaptive_gain", &adaptive_gain, "", "threshold change per corner above the target count")
+      .min(0)
+      .below(1);
+  o.add("target_pixels_per_feature", &target_pixels_per_feature, "px",
+        "target count = level-0 width * height / this")
+      .min(1);
+  o.add("bucketing", &bucketing, "keep the strongest corners per bucket of the image");
+  o.add("bucket_width_px", &bucket_width_px, "px", "bucket width (pixels of each level)").min(1);
+  o.add("bucket_height_px", &bucket_height_px, "px", "bucket height").min(1);
+  o.add("max_per_bucket", &max_per_bucket, "corners", "corners kept per bucket at most").min(1);
+  o.add("border_px", &border_px, "px",
+        "corners closer to their level's border are dropped (>= 3: FAST's circle)")
+      .min(3);
+}
+
 Status FastDetector::Options::validate() const {
-  if (min_threshold < 1 || max_threshold > 254 || min_threshold > max_threshold) {
-    return makeError("fast detector: threshold range [", min_threshold, ", ", max_threshold,
-                     "] is not within [1, 254]");
+  if (Status s = checkOptionRanges(*this, "fast."); !s) return s;
+  if (min_threshold > max_threshold) {
+    return makeError("fast detector: min_threshold ", min_threshold, " is above max_threshold ",
+                     max_threshold);
   }
   if (initial_threshold < min_threshold || initial_threshold > max_threshold) {
     return makeError("fast detector: initial_threshold ", initial_threshold,
                      " is outside [min_threshold, max_threshold]");
-  }
-  if (!(adaptive_gain >= 0.0 && adaptive_gain < 1.0)) {
-    return makeError("fast detector: adaptive_gain ", adaptive_gain, " is not in [0, 1)");
-  }
-  if (target_pixels_per_feature < 1) {
-    return makeError("fast detector: target_pixels_per_feature ", target_pixels_per_feature,
-                     " must be positive");
-  }
-  if (bucket_width_px < 1 || bucket_height_px < 1 || max_per_bucket < 1) {
-    return makeError("fast detector: bucket ", bucket_width_px, "x", bucket_height_px, " px, ",
-                     max_per_bucket, " per bucket: all must be positive");
-  }
-  if (border_px < 3) {
-    return makeError("fast detector: border_px ", border_px, " must be >= 3 (FAST's circle)");
   }
   return Ok{};
 }

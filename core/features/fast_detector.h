@@ -19,6 +19,10 @@
 #include "core/common/expected.h"
 #include "core/features/image_pyramid.h"
 
+namespace evermap {
+class OptionList;  // core/common/option_fields.h
+}  // namespace evermap
+
 namespace evermap::core {
 
 // A corner. (u, v) are pixels of its pyramid level; level-0 pixels are (u, v) * 2^level.
@@ -53,6 +57,7 @@ class FastDetector {
 
     Status validate() const;
     std::string describe() const;
+    void declareOptions(OptionList& o);
   };
 
   // Contract: options.validate() passes (checked, aborts otherwise).

@@ -4,19 +4,21 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "core/common/option_fields.h"
+
 namespace evermap::core {
 
 namespace {
 constexpr int kCentroidRadius = 15;  // ORB's 31x31 patch
 }  // namespace
 
-Status OrbExtractor::Options::validate() const {
-  if (border_px < kCentroidRadius + 1) {
-    return makeError("orb extractor: border_px ", border_px, " must be >= ", kCentroidRadius + 1,
-                     " (the orientation disc)");
-  }
-  return Ok{};
+void OrbExtractor::Options::declareOptions(OptionList& o) {
+  o.add("border_px", &border_px, "px",
+        "corners closer to their level's border get no descriptor (>= 16: the orientation disc)")
+      .min(kCentroidRadius + 1);
 }
+
+Status OrbExtractor::Options::validate() const { return checkOptionRanges(*this, "orb."); }
 
 OrbExtractor::OrbExtractor(const Options& options) : options_(options) {
   if (Status s = options.validate(); !s) {

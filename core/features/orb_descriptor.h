@@ -22,6 +22,10 @@
 #include "core/features/fast_detector.h"
 #include "core/features/image_pyramid.h"
 
+namespace evermap {
+class OptionList;  // core/common/option_fields.h
+}  // namespace evermap
+
 namespace evermap::core {
 
 using OrbDescriptor = std::array<uint8_t, 32>;
@@ -47,6 +51,7 @@ class OrbExtractor {
     int border_px = 16;
 
     Status validate() const;
+    void declareOptions(OptionList& o);
   };
 
   // Contract: options.validate() passes (checked, aborts otherwise).

@@ -7,6 +7,7 @@
 #include <Eigen/Dense>  // Matrix3d::inverse
 
 #include "core/common/cpu.h"
+#include "core/common/option_fields.h"
 
 namespace evermap::core {
 
@@ -159,6 +160,16 @@ Eigen::Vector3d sumsScalar(const Template& tp, const cv::Mat& b, int x0, int y0,
 }
 
 }  // namespace
+
+void PatchAlignmentOptions::declareOptions(OptionList& o) {
+  o.add("radius_px", &radius_px, "px", "template (2r+1)^2").in(1, kMaxRadius);
+  o.add("x_only", &x_only, "align along the row only (rectified stereo)");
+  o.add("max_iterations", &max_iterations, "iterations", "Gauss-Newton iterations at most").min(1);
+  o.add("max_shift_px", &max_shift_px, "px",
+        "moving farther from the start means the discrete match was wrong")
+      .positive();
+  o.add("converged_px", &converged_px, "px", "a step below this ends the iterations").positive();
+}
 
 std::optional<Eigen::Vector2f> alignPatch(const cv::Mat& a, int ua, int va, const cv::Mat& b,
                                           const Eigen::Vector2f& start,

@@ -15,6 +15,10 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+namespace evermap {
+class OptionList;  // core/common/option_fields.h
+}  // namespace evermap
+
 namespace evermap::core {
 
 struct PatchAlignmentOptions {
@@ -23,6 +27,8 @@ struct PatchAlignmentOptions {
   int max_iterations = 8;
   double max_shift_px = 1.5;  // from the start; farther means the discrete match was wrong
   double converged_px = 0.01;
+
+  void declareOptions(OptionList& o);
 };
 
 // The position in `b` whose patch best matches the template of `a` at integer pixel

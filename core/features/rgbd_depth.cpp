@@ -6,18 +6,27 @@
 #include <cstdlib>
 #include <limits>
 
+#include "core/common/option_fields.h"
+
 namespace evermap::core {
 
+void RgbdDepth::Options::declareOptions(OptionList& o) {
+  o.add("min_depth_m", &min_depth_m, "m", "nearer depths are refused (the sensor's near limit)")
+      .positive();
+  o.add("max_depth_m", &max_depth_m, "m", "farther depths are refused (> min_depth_m)").positive();
+  o.add("window_radius_px", &window_radius_px, "px",
+        "level-0 pixels around the corner checked for holes and edges")
+      .in(0, 8);
+  o.add("max_relative_spread", &max_relative_spread, "",
+        "largest depth spread of the window, as a fraction of the depth")
+      .positive();
+}
+
 Status RgbdDepth::Options::validate() const {
-  if (!(min_depth_m > 0.0 && min_depth_m < max_depth_m) || !std::isfinite(max_depth_m)) {
-    return makeError("rgbd depth: need 0 < min_depth_m (", min_depth_m, ") < max_depth_m (",
-                     max_depth_m, "), finite");
-  }
-  if (window_radius_px < 0 || window_radius_px > 8) {
-    return makeError("rgbd depth: window_radius_px ", window_radius_px, " is not in [0, 8]");
-  }
-  if (!(max_relative_spread > 0.0)) {
-    return makeError("rgbd depth: max_relative_spread ", max_relative_spread, " is not positive");
+  if (Status s = checkOptionRanges(*this, "rgbd."); !s) return s;
+  if (!(min_depth_m < max_depth_m)) {
+    return makeError("rgbd depth: min_depth_m ", min_depth_m, " is not below max_depth_m ",
+                     max_depth_m);
   }
   return Ok{};
 }

@@ -17,6 +17,10 @@
 #include "core/camera/stereo_camera.h"
 #include "core/common/expected.h"
 
+namespace evermap {
+class OptionList;  // core/common/option_fields.h
+}  // namespace evermap
+
 namespace evermap::core {
 
 class RgbdDepth {
@@ -28,6 +32,7 @@ class RgbdDepth {
     double max_relative_spread = 0.05;  // max - min of the window, as a fraction of z
 
     Status validate() const;
+    void declareOptions(OptionList& o);
   };
 
   // Contract: options.validate() passes (checked, aborts otherwise).

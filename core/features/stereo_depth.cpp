@@ -11,6 +11,7 @@
 #include <immintrin.h>
 
 #include "core/common/cpu.h"
+#include "core/common/option_fields.h"
 #include "core/features/patch_alignment.h"
 
 namespace evermap::core {
@@ -114,26 +115,33 @@ void sadCurve(const cv::Mat& L, const cv::Mat& R, int u, int v, int r, int dmax,
 
 }  // namespace
 
+void StereoDepth::Options::declareOptions(OptionList& o) {
+  o.add("window_radius_px", &window_radius_px, "px", "SAD window (2r+1)^2 at the corner's level")
+      .in(1, 6);
+  o.add("max_disparity_px", &max_disparity_px, "px", "largest disparity searched (level 0)")
+      .in(4, kMaxDisparity);
+  o.add("min_disparity_px", &min_disparity_px, "px",
+        "a smaller disparity is too far to give a depth (level 0; < max_disparity_px)")
+      .nonNegative();
+  o.add("max_mean_abs_diff", &max_mean_abs_diff, "gray levels",
+        "mean absolute difference per pixel at the best disparity at most")
+      .above(0)
+      .max(255);
+  o.add("uniqueness_ratio", &uniqueness_ratio, "",
+        "best cost <= this * second best (outside +-1 px)")
+      .above(0)
+      .max(1);
+  o.add("subpixel", &subpixel, "refine the disparity to sub-pixel");
+  o.add("max_refinement_px", &max_refinement_px, "px",
+        "a refinement moving farther drops the depth (level pixels)")
+      .positive();
+}
+
 Status StereoDepth::Options::validate() const {
-  if (window_radius_px < 1 || window_radius_px > 6) {
-    return makeError("stereo depth: window_radius_px ", window_radius_px, " is not in [1, 6]");
-  }
-  if (max_disparity_px < 4 || max_disparity_px > kMaxDisparity) {
-    return makeError("stereo depth: max_disparity_px ", max_disparity_px, " is not in [4, ",
-                     kMaxDisparity, "]");
-  }
-  if (!(min_disparity_px >= 0.0 && min_disparity_px < max_disparity_px)) {
+  if (Status s = checkOptionRanges(*this, "stereo."); !s) return s;
+  if (!(min_disparity_px < max_disparity_px)) {
     return makeError("stereo depth: min_disparity_px ", min_disparity_px,
-                     " is not in [0, max_disparity_px)");
-  }
-  if (!(max_mean_abs_diff > 0.0 && max_mean_abs_diff <= 255.0)) {
-    return makeError("stereo depth: max_mean_abs_diff ", max_mean_abs_diff, " is not in (0, 255]");
-  }
-  if (!(uniqueness_ratio > 0.0 && uniqueness_ratio <= 1.0)) {
-    return makeError("stereo depth: uniqueness_ratio ", uniqueness_ratio, " is not in (0, 1]");
-  }
-  if (!(max_refinement_px > 0.0)) {
-    return makeError("stereo depth: max_refinement_px ", max_refinement_px, " must be positive");
+                     " is not below max_disparity_px ", max_disparity_px);
   }
   return Ok{};
 }

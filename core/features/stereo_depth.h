@@ -24,6 +24,10 @@
 #include "core/features/fast_detector.h"
 #include "core/features/image_pyramid.h"
 
+namespace evermap {
+class OptionList;  // core/common/option_fields.h
+}  // namespace evermap
+
 namespace evermap::core {
 
 class StereoDepth {
@@ -38,6 +42,7 @@ class StereoDepth {
     double max_refinement_px = 1.0;  // level pixels
 
     Status validate() const;
+    void declareOptions(OptionList& o);
   };
 
   // Contract: options.validate() passes (checked, aborts otherwise).

@@ -2,15 +2,26 @@
 
 #include <cmath>
 
+#include "core/common/option_fields.h"
+
 namespace evermap::core {
 
+void StereoFeatureExtractor::Options::declareOptions(OptionList& o) {
+  o.add("feature_levels", &feature_levels, "levels", "corners on pyramid levels [0, this)")
+      .in(1, 6);
+  o.add("pyramid_levels", &pyramid_levels, "levels",
+        "pyramid levels (>= feature_levels; the top one serves rotation estimation)")
+      .in(1, 8);
+  o.nest("fast.", &fast);
+  o.nest("stereo.", &stereo);
+  o.nest("rgbd.", &rgbd);
+}
+
 Status StereoFeatureExtractor::Options::validate() const {
-  if (feature_levels < 1 || feature_levels > 6) {
-    return makeError("stereo features: feature_levels ", feature_levels, " is not in [1, 6]");
-  }
-  if (pyramid_levels < feature_levels || pyramid_levels > 8) {
+  if (Status s = checkOptionRanges(*this, "features."); !s) return s;
+  if (pyramid_levels < feature_levels) {
     return makeError("stereo features: pyramid_levels ", pyramid_levels,
-                     " is not in [feature_levels, 8]");
+                     " is below feature_levels ", feature_levels);
   }
   if (fast.border_px < kPatchRadius + 1) {
     return makeError("stereo features: fast.border_px ", fast.border_px,

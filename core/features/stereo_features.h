@@ -24,6 +24,10 @@
 #include "core/features/rgbd_depth.h"
 #include "core/features/stereo_depth.h"
 
+namespace evermap {
+class OptionList;  // core/common/option_fields.h
+}  // namespace evermap
+
 namespace evermap::core {
 
 struct StereoFeature {
@@ -51,6 +55,7 @@ class StereoFeatureExtractor {
     RgbdDepth::Options rgbd;  // RGB-D frames only
 
     Status validate() const;
+    void declareOptions(OptionList& o);
   };
 
   // Refuses invalid options.

@@ -1,12 +1,16 @@
 #pragma once
-// Between LCM messages and the library's value types. Validation (finiteness, time order)
-// is the SampleGate's job, not the conversion's.
+// Between LCM messages and the library's value types. imu_t <-> ImuSample is the one
+// conversion of an IMU message (the data-set converters write with toLcm, the processes and
+// the offline runners read with fromLcm). It copies the fields and refuses nothing: the
+// checks of a sample (finite, not saturated, in time order) are the SampleGate's, which every
+// consumer passes it through, so a NaN sample is dropped and counted there
+// (SampleGateCounts::non_finite, in imu-proc's and elevator-proc's summaries).
 
 #include <evermap/attitude_t.hpp>
 #include <evermap/imu_t.hpp>
 
 #include "core/imu/attitude.h"
-#include "core/imu/sample_gate.h"
+#include "core/imu/imu_sample.h"
 
 namespace evermap::imu {
 

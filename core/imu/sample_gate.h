@@ -6,19 +6,11 @@
 #include <cstdint>
 #include <string>
 
-#include <Eigen/Core>
-
 #include "core/common/expected.h"
 #include "core/common/option_fields.h"
+#include "core/imu/imu_sample.h"
 
 namespace evermap::imu {
-
-// One IMU reading in the body (IMU) frame.
-struct ImuSample {
-  int64_t utime = 0;                                     // microseconds
-  Eigen::Vector3d gyro_rad_s = Eigen::Vector3d::Zero();  // angular velocity
-  Eigen::Vector3d accel_m_s2 = Eigen::Vector3d::Zero();  // specific force (+g up at rest)
-};
 
 struct SampleGateOptions {
   // A reading whose magnitude on any axis reaches this fraction of full scale is taken as

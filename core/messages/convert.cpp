@@ -194,33 +194,6 @@ Expected<core::StereoCalibration> fromMsg(const evermap::stereo_calib_t& msg) {
   return c;
 }
 
-evermap::imu_t toMsg(const ImuSample& s) {
-  evermap::imu_t msg;
-  msg.utime = utimeFromNs(s.t_ns);
-  for (int i = 0; i < 3; ++i) {
-    msg.angular_velocity[i] = s.gyro_rad_s[i];
-    msg.linear_acceleration[i] = s.accel_m_s2[i];
-  }
-  return msg;
-}
-
-imu::ImuSample toImuSample(const ImuSample& s) {
-  return {utimeFromNs(s.t_ns), s.gyro_rad_s, s.accel_m_s2};
-}
-
-Expected<ImuSample> fromMsg(const evermap::imu_t& msg) {
-  if (!finite(msg.angular_velocity, 3) || !finite(msg.linear_acceleration, 3)) {
-    return makeError("imu_t at utime ", msg.utime, ": non-finite value");
-  }
-  ImuSample s;
-  s.t_ns = nsFromUtime(msg.utime);
-  s.gyro_rad_s =
-      Eigen::Vector3d(msg.angular_velocity[0], msg.angular_velocity[1], msg.angular_velocity[2]);
-  s.accel_m_s2 = Eigen::Vector3d(msg.linear_acceleration[0], msg.linear_acceleration[1],
-                                 msg.linear_acceleration[2]);
-  return s;
-}
-
 evermap::pose_t toMsg(int64_t utime, const core::UncertainPose& pose, int32_t floor,
                       int32_t session) {
   evermap::pose_t msg;

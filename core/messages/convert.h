@@ -20,7 +20,6 @@
 
 #include <evermap/camera_calib_t.hpp>
 #include <evermap/image_t.hpp>
-#include <evermap/imu_t.hpp>
 #include <evermap/pose_t.hpp>
 #include <evermap/stereo_calib_t.hpp>
 #include <evermap/stereo_image_t.hpp>
@@ -28,9 +27,7 @@
 #include "core/camera/calibration.h"
 #include "core/common/expected.h"
 #include "core/geometry/se3.h"
-#include "core/imu/sample_gate.h"
 #include "core/messages/image_codec.h"
-#include "core/messages/imu_sample.h"
 #include "core/messages/wire_check.h"
 
 namespace evermap::messages {
@@ -70,12 +67,7 @@ evermap::stereo_calib_t toMsg(const core::StereoCalibration& calibration, int64_
 Expected<core::StereoCalibration> fromMsg(const evermap::stereo_calib_t& msg);
 
 // ---- IMU ----
-evermap::imu_t toMsg(const ImuSample& sample);
-// A data-set sample as the IMU filters take it (imu::ImuSample, microseconds): its stamp
-// rounded by utimeFromNs, as toMsg rounds it for imu_t.
-imu::ImuSample toImuSample(const ImuSample& sample);
-// t_ns = utime * 1000.
-Expected<ImuSample> fromMsg(const evermap::imu_t& msg);
+// imu_t <-> imu::ImuSample: core/imu/lcm_convert.h (a sample's checks are the SampleGate's).
 
 // ---- Poses ----
 evermap::pose_t toMsg(int64_t utime, const core::UncertainPose& pose, int32_t floor = -1,

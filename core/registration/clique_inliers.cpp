@@ -7,7 +7,16 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "core/common/option_fields.h"
+
 namespace evermap::core {
+
+void CliqueOptions::declareOptions(OptionList& o) {
+  o.add("threshold_m", &threshold_m, "m",
+        "change of a pairwise distance always counted as consistent (FOVIS: 0.1 m)")
+      .positive();
+  o.add("sigmas", &sigmas, "", "standard deviations of the depth noise added to it").nonNegative();
+}
 
 namespace {
 

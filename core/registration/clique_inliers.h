@@ -24,6 +24,10 @@
 
 #include <Eigen/Core>
 
+namespace evermap {
+class OptionList;  // core/common/option_fields.h
+}  // namespace evermap
+
 namespace evermap::core {
 
 struct CliqueOptions {
@@ -31,6 +35,8 @@ struct CliqueOptions {
   double threshold_m = 0.1;
   // Standard deviations of the depth noise added to it.
   double sigmas = 3.0;
+
+  void declareOptions(OptionList& o);
 };
 
 // Indices (into the match list) of a maximum clique of mutually consistent matches, where

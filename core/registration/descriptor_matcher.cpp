@@ -3,6 +3,8 @@
 #include <cstring>
 #include <limits>
 
+#include "core/common/option_fields.h"
+
 namespace evermap::core {
 
 namespace {
@@ -24,15 +26,16 @@ __attribute__((target_clones("popcnt", "default"))) void hammingRow(const OrbDes
 
 }  // namespace
 
-Status DescriptorMatchOptions::validate() const {
-  if (max_distance < 0 || max_distance > 256) {
-    return makeError("descriptor matching: max_distance ", max_distance, " is not in [0, 256]");
-  }
-  if (!(ratio > 0.0 && ratio <= 1.0)) {
-    return makeError("descriptor matching: ratio ", ratio, " is not in (0, 1]");
-  }
-  return Ok{};
+void DescriptorMatchOptions::declareOptions(OptionList& o) {
+  o.add("max_distance", &max_distance, "bits", "largest Hamming distance of a match (of 256)")
+      .in(0, 256);
+  o.add("mutual", &mutual, "keep only matches that are each other's best");
+  o.add("ratio", &ratio, "", "keep a match only if best < ratio * second best (1: off)")
+      .above(0)
+      .max(1);
 }
+
+Status DescriptorMatchOptions::validate() const { return checkOptionRanges(*this, "matching."); }
 
 std::vector<std::pair<int, int>> matchDescriptors(const std::vector<OrbDescriptor>& a,
                                                   const std::vector<OrbDescriptor>& b,

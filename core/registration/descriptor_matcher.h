@@ -11,6 +11,10 @@
 #include "core/common/expected.h"
 #include "core/features/orb_descriptor.h"
 
+namespace evermap {
+class OptionList;  // core/common/option_fields.h
+}  // namespace evermap
+
 namespace evermap::core {
 
 struct DescriptorMatchOptions {
@@ -20,6 +24,7 @@ struct DescriptorMatchOptions {
   double ratio = 0.9;
 
   Status validate() const;
+  void declareOptions(OptionList& o);
 };
 
 // Matches (index in a, index in b), in increasing order of the index in a.

@@ -6,6 +6,8 @@
 
 #include <Eigen/Geometry>
 
+#include "core/common/option_fields.h"
+
 namespace evermap::core {
 
 const char* toString(RegistrationStatus status) {
@@ -26,22 +28,32 @@ const char* toString(RegistrationStatus status) {
   return "?";
 }
 
+void RegistrationOptions::declareOptions(OptionList& o) {
+  o.nest("matching.", &matching);
+  o.nest("clique.", &clique);
+  o.add("disparity_sigma_px", &disparity_sigma_px, "px",
+        "disparity noise behind the depth uncertainty the clique allows for (0: threshold only)")
+      .nonNegative();
+  o.nest("motion.", &motion);
+  o.add("min_features", &min_features, "features",
+        "fewest features with depth (and descriptors) in each frame")
+      .min(3);
+  o.add("min_inliers", &min_inliers, "inliers",
+        "fewest inliers for a registration to be accepted (>= motion.min_inliers)")
+      .min(3);
+  o.add("ambiguity_ratio", &ambiguity_ratio, "",
+        "a second consistent set this fraction of the clique's size refuses the answer (0: off)")
+      .nonNegative();
+  o.add("ambiguity_translation_m", &ambiguity_translation_m, "m",
+        "... when its motion differs by more than this ...")
+      .positive();
+  o.add("ambiguity_rotation_deg", &ambiguity_rotation_deg, "deg", "... or this").positive();
+}
+
 Status RegistrationOptions::validate() const {
+  if (Status s = checkOptionRanges(*this, "registration."); !s) return s;
   if (Status s = matching.validate(); !s) return s;
   if (Status s = motion.validate(); !s) return s;
-  if (!(clique.threshold_m > 0.0) || !(clique.sigmas >= 0.0) || !(disparity_sigma_px >= 0.0)) {
-    return makeError("registration: clique threshold ", clique.threshold_m, " m + ", clique.sigmas,
-                     " sigmas of ", disparity_sigma_px,
-                     " px disparity noise: need a positive threshold, non-negative noise");
-  }
-  if (min_features < 3) {
-    return makeError("registration: min_features ", min_features, " must be >= 3");
-  }
-  if (!(ambiguity_ratio >= 0.0) || !(ambiguity_translation_m > 0.0) ||
-      !(ambiguity_rotation_deg > 0.0)) {
-    return makeError("registration: ambiguity_ratio ", ambiguity_ratio,
-                     " must be >= 0, its thresholds > 0");
-  }
   if (min_inliers < motion.min_inliers) {
     return makeError("registration: min_inliers ", min_inliers, " is below motion.min_inliers ",
                      motion.min_inliers);

@@ -23,6 +23,10 @@
 #include "core/registration/keyframe_features.h"
 #include "core/registration/motion_estimation.h"
 
+namespace evermap {
+class OptionList;  // core/common/option_fields.h
+}  // namespace evermap
+
 namespace evermap::core {
 
 // The values equal vo_delta_t::STATUS_* (lcmtypes/evermap_vo_delta_t.lcm).
@@ -57,6 +61,7 @@ struct RegistrationOptions {
   double ambiguity_rotation_deg = 5.0;
 
   Status validate() const;
+  void declareOptions(OptionList& o);
 };
 
 struct RegistrationSummary {

@@ -8,32 +8,36 @@
 #include <Eigen/Dense>
 
 #include "core/geometry/umeyama.h"
+#include "core/common/option_fields.h"
 
 namespace evermap::core {
 
-Status MotionOptions::validate() const {
-  if (max_iterations < 1) {
-    return makeError("motion: max_iterations ", max_iterations, " must be positive");
-  }
-  if (!(inlier_max_reprojection_px > 0.0)) {
-    return makeError("motion: inlier_max_reprojection_px ", inlier_max_reprojection_px,
-                     " must be positive");
-  }
-  if (!(max_mean_reprojection_px > 0.0)) {
-    return makeError("motion: max_mean_reprojection_px ", max_mean_reprojection_px,
-                     " must be positive");
-  }
-  if (max_rejection_rounds < 0) {
-    return makeError("motion: max_rejection_rounds ", max_rejection_rounds, " is negative");
-  }
-  if (min_inliers < 3) {
-    return makeError("motion: min_inliers ", min_inliers, " must be >= 3 (6 unknowns)");
-  }
-  if (!(pixel_sigma_px > 0.0)) {
-    return makeError("motion: pixel_sigma_px ", pixel_sigma_px, " must be positive");
-  }
-  return Ok{};
+void MotionOptions::declareOptions(OptionList& o) {
+  o.add("max_iterations", &max_iterations, "iterations", "Gauss-Newton iterations per solve")
+      .min(1);
+  o.add("inlier_max_reprojection_px", &inlier_max_reprojection_px, "px",
+        "after the first solve, matches with a larger error (either image) are outliers")
+      .positive();
+  o.add("max_rejection_rounds", &max_rejection_rounds, "solves",
+        "graduated rejection: solves until the outlier bound is reached (0: one rejection)")
+      .nonNegative();
+  o.add("max_mean_reprojection_px", &max_mean_reprojection_px, "px",
+        "the final mean error (both directions) at most")
+      .positive();
+  o.add("min_inliers", &min_inliers, "inliers",
+        "fewest inliers a motion is estimated from (>= 3: 6 unknowns)")
+      .min(3);
+  o.add("pixel_sigma_px", &pixel_sigma_px, "px",
+        "lower bound of the pixel noise of the covariance and of the whitening")
+      .positive();
+  o.add("disparity_sigma_px", &disparity_sigma_px, "px",
+        "disparity noise each residual is whitened for (0: points taken as exact)")
+      .nonNegative();
+  o.add("use_initial_guess", &use_initial_guess,
+        "start from the caller's motion instead of the closed form");
 }
+
+Status MotionOptions::validate() const { return checkOptionRanges(*this, "motion."); }
 
 const char* toString(MotionStatus status) {
   switch (status) {

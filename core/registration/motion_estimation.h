@@ -26,6 +26,10 @@
 #include "core/common/expected.h"
 #include "core/geometry/se3.h"
 
+namespace evermap {
+class OptionList;  // core/common/option_fields.h
+}  // namespace evermap
+
 namespace evermap::core {
 
 // One match: the observation (level-0 pixels of the rectified left image) and the 3-D point
@@ -64,6 +68,7 @@ struct MotionOptions {
   bool use_initial_guess = false;
 
   Status validate() const;
+  void declareOptions(OptionList& o);
 };
 
 enum class MotionStatus {

@@ -10,6 +10,7 @@
 #include <Eigen/Dense>
 
 #include "core/common/cpu.h"
+#include "core/common/option_fields.h"
 
 namespace evermap::core {
 
@@ -211,6 +212,19 @@ __attribute__((target("avx2"))) int accumulateAvx2(const TemplatePixels& t, cons
 }
 
 }  // namespace
+
+void RotationEstimateOptions::declareOptions(OptionList& o) {
+  o.add("max_iterations", &max_iterations, "iterations", "Gauss-Newton iterations at most").min(1);
+  o.add("converged_rad", &converged_rad, "rad", "a step below this ends the iterations").positive();
+  o.add("max_angle_rad", &max_angle_rad, "rad",
+        "a rotation larger than this between two frames is refused")
+      .positive();
+  o.add("border_px", &border_px, "px", "pixels of the level left out around the border")
+      .nonNegative();
+  o.add("min_gradient", &min_gradient, "gray levels/px",
+        "pixels whose gradient |gx| + |gy| is below this are left out")
+      .nonNegative();
+}
 
 std::optional<SO3d> estimateRotation(const cv::Mat& image_a, const cv::Mat& image_b,
                                      const StereoCamera& camera, int level,

@@ -16,6 +16,10 @@
 #include "core/camera/stereo_camera.h"
 #include "core/geometry/se3.h"
 
+namespace evermap {
+class OptionList;  // core/common/option_fields.h
+}  // namespace evermap
+
 namespace evermap::core {
 
 struct RotationEstimateOptions {
@@ -27,6 +31,8 @@ struct RotationEstimateOptions {
   int border_px = 2;
   // Pixels whose gradient |gx| + |gy| (gray levels per pixel) is below this are left out.
   float min_gradient = 3.0f;
+
+  void declareOptions(OptionList& o);
 };
 
 // b_R_a for two images of the same pyramid level `level` of cameras with the intrinsics of

@@ -5,23 +5,27 @@
 #include <cmath>
 #include <numeric>
 
+#include "core/common/option_fields.h"
 #include "core/features/patch_alignment.h"
 
 namespace evermap::core {
 
-Status WindowMatchOptions::validate() const {
-  if (search_radius_px < 1) {
-    return makeError("window matching: search_radius_px ", search_radius_px, " must be positive");
-  }
-  if (!(max_mean_abs_diff > 0.0 && max_mean_abs_diff <= 255.0)) {
-    return makeError("window matching: max_mean_abs_diff ", max_mean_abs_diff,
-                     " is not in (0, 255]");
-  }
-  if (!(max_refinement_px > 0.0)) {
-    return makeError("window matching: max_refinement_px ", max_refinement_px, " must be positive");
-  }
-  return Ok{};
+void WindowMatchOptions::declareOptions(OptionList& o) {
+  o.add("search_radius_px", &search_radius_px, "px",
+        "search window around the predicted position (pixels of the feature's level)")
+      .min(1);
+  o.add("mutual", &mutual, "keep only matches that are each other's best");
+  o.add("max_mean_abs_diff", &max_mean_abs_diff, "gray levels",
+        "largest mean absolute difference per pixel of the normalised patches")
+      .above(0)
+      .max(255);
+  o.add("subpixel", &subpixel, "refine matches to sub-pixel");
+  o.add("max_refinement_px", &max_refinement_px, "px",
+        "a refinement moving farther drops the match (pixels of the level)")
+      .positive();
 }
+
+Status WindowMatchOptions::validate() const { return checkOptionRanges(*this, "matching."); }
 
 std::vector<WindowMatch> matchInWindow(const StereoCamera& camera, const FeatureFrame& ref,
                                        const FeatureFrame& cur, const SE3d& cur_T_ref,

@@ -16,6 +16,10 @@
 #include "core/features/stereo_features.h"
 #include "core/geometry/se3.h"
 
+namespace evermap {
+class OptionList;  // core/common/option_fields.h
+}  // namespace evermap
+
 namespace evermap::core {
 
 struct WindowMatchOptions {
@@ -27,6 +31,7 @@ struct WindowMatchOptions {
   double max_refinement_px = 1.5;  // pixels of the level; farther: the match is dropped
 
   Status validate() const;
+  void declareOptions(OptionList& o);
 };
 
 struct WindowMatch {

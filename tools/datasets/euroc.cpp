@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 
+#include "core/messages/convert.h"
 #include "tools/datasets/text_lines.h"
 
 namespace evermap::datasets {
@@ -105,19 +106,21 @@ bool parseNumbers(const std::string& line, char separator, std::vector<double>* 
   return true;
 }
 
-Expected<std::vector<ImuSample>> readEurocImu(const std::filesystem::path& csv) {
+Expected<std::vector<imu::ImuSample>> readEurocImu(const std::filesystem::path& csv) {
   std::ifstream in(csv);
   if (!in) return makeError(csv.string(), ": cannot open");
-  std::vector<ImuSample> out;
+  std::vector<imu::ImuSample> out;
   std::string line;
   std::vector<double> v;
   for (int n = 1; std::getline(in, line); ++n) {
     if (isCommentOrBlank(line)) continue;
-    ImuSample s;
-    if (!parseStamp(line, &s.t_ns) || !parseNumbers(line, ',', &v) || v.size() != 7) {
+    imu::ImuSample s;
+    int64_t t_ns = 0;
+    if (!parseStamp(line, &t_ns) || !parseNumbers(line, ',', &v) || v.size() != 7) {
       return makeError(csv.string(), ":", n,
                        ": expected 7 numeric fields (t[ns], gyro xyz, accel xyz)");
     }
+    s.utime = messages::utimeFromNs(t_ns);
     s.gyro_rad_s = Eigen::Vector3d(v[1], v[2], v[3]);
     s.accel_m_s2 = Eigen::Vector3d(v[4], v[5], v[6]);
     if (!s.gyro_rad_s.allFinite() || !s.accel_m_s2.allFinite()) {

@@ -11,11 +11,9 @@
 
 #include "core/common/expected.h"
 #include "core/geometry/se3.h"
-#include "core/messages/imu_sample.h"
+#include "core/imu/imu_sample.h"
 
 namespace evermap::datasets {
-
-using ImuSample = messages::ImuSample;
 
 struct ImageEntry {
   int64_t t_ns = 0;
@@ -27,8 +25,9 @@ struct StampedPose {
   core::SE3d world_T_body;
 };
 
-// imu0/data.csv: "t[ns], gyro xyz [rad/s], accel xyz [m/s^2]".
-Expected<std::vector<ImuSample>> readEurocImu(const std::filesystem::path& csv);
+// imu0/data.csv: "t[ns], gyro xyz [rad/s], accel xyz [m/s^2]"; each stamp rounded to the
+// nearest microsecond (messages::utimeFromNs, as every data-set stamp that becomes a utime).
+Expected<std::vector<imu::ImuSample>> readEurocImu(const std::filesystem::path& csv);
 // camN/data.csv: "t[ns], filename".
 Expected<std::vector<ImageEntry>> readEurocImages(const std::filesystem::path& csv);
 // How a ground-truth file is laid out.

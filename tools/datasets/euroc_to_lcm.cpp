@@ -4,6 +4,7 @@
 #include <tuple>
 #include <vector>
 
+#include "core/imu/lcm_convert.h"
 #include "core/messages/channels.h"
 #include "tools/datasets/euroc.h"
 #include "tools/datasets/euroc_calibration.h"
@@ -128,7 +129,7 @@ Expected<ConversionSummary> convertEurocToLcm(const fs::path& asl_folder, const 
   std::vector<PendingEvent> events;
   events.reserve(imu->size() + truth->size() + pairs->size());
   for (size_t i = 0; i < imu->size(); ++i) {
-    events.push_back({messages::utimeFromNs((*imu)[i].t_ns), EventKind::kImu, i});
+    events.push_back({(*imu)[i].utime, EventKind::kImu, i});
   }
   for (size_t i = 0; i < truth->size(); ++i) {
     events.push_back({messages::utimeFromNs((*truth)[i].t_ns), EventKind::kGroundTruth, i});
@@ -145,7 +146,7 @@ Expected<ConversionSummary> convertEurocToLcm(const fs::path& asl_folder, const 
   return detail::writeEvents(*writer, events, summary, [&](const PendingEvent& e) -> Status {
     switch (e.kind) {
       case EventKind::kImu:
-        return writer->write(channels::kImu, e.utime, messages::toMsg((*imu)[e.index]));
+        return writer->write(channels::kImu, e.utime, imu::toLcm((*imu)[e.index]));
       case EventKind::kGroundTruth:
         return writer->write(
             channels::kGroundTruth, e.utime,

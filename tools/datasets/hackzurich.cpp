@@ -5,6 +5,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/messages/convert.h"
+
 namespace evermap::datasets {
 
 namespace {
@@ -168,8 +170,8 @@ Expected<HackzurichSession> readHackzurichSession(const std::filesystem::path& d
       ++s.rows_without_gyro;
       continue;
     }
-    ImuSample x;
-    x.t_ns = a.t_ns;
+    imu::ImuSample x;
+    x.utime = messages::utimeFromNs(a.t_ns);
     x.gyro_rad_s = w;
     x.accel_m_s2 = -kStandardGravity * a.v;  // iOS: g units, negative specific force
     s.imu.push_back(x);

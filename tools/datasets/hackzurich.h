@@ -35,7 +35,7 @@ struct LabelledEpisode {
 };
 
 struct HackzurichSession {
-  std::vector<ImuSample> imu;  // one per accelerometer row that had a gyro reading near it
+  std::vector<imu::ImuSample> imu;  // one per accelerometer row with a gyro reading near it
   std::vector<BarometerSample> barometer;
   std::vector<LabelledEpisode> episodes;
   int64_t accelerometer_rows = 0;

@@ -6,6 +6,8 @@
 #include <cstdlib>
 #include <fstream>
 
+#include "core/messages/convert.h"
+
 namespace evermap::datasets {
 
 namespace {
@@ -121,8 +123,8 @@ class SampleAssembly {
       updated_ = {true, true, true};
     }
     if (!(updated_[0] && updated_[1] && updated_[2])) return;
-    ImuSample s;
-    s.t_ns = static_cast<int64_t>(std::llround(t_ms * 1e6));
+    imu::ImuSample s;
+    s.utime = messages::utimeFromNs(std::llround(t_ms * 1e6));
     s.accel_m_s2 = value_;
     rec_.imu.push_back(s);
     ++rec_.rows_completing_sample;

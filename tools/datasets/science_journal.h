@@ -25,7 +25,7 @@
 namespace evermap::datasets {
 
 struct ScienceJournalRecording {
-  std::vector<ImuSample> imu;            // gyro_rad_s = 0 (no gyroscope)
+  std::vector<imu::ImuSample> imu;       // gyro_rad_s = 0 (no gyroscope)
   int64_t rows = 0;                      // data rows (after the header)
   int64_t rows_completing_sample = 0;    // the row that completed a sample
   int64_t rows_partial = 0;              // updated some axes of a sample completed by a later row

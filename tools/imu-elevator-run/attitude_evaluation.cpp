@@ -8,6 +8,8 @@
 #include <Eigen/SVD>
 #include <utility>
 
+#include "core/messages/convert.h"
+
 namespace evermap::imu {
 
 namespace {
@@ -26,33 +28,33 @@ std::string AttitudeErrorSummary::summary() const {
   return buf;
 }
 
-Eigen::Vector3d meanSpecificForce(const std::vector<datasets::ImuSample>& imu, int64_t t0_ns,
+Eigen::Vector3d meanSpecificForce(const std::vector<ImuSample>& imu, int64_t t0_utime,
                                   double window_s) {
-  const int64_t t1_ns = t0_ns + static_cast<int64_t>(window_s * 1e9);
+  const int64_t t1_utime = t0_utime + static_cast<int64_t>(window_s * 1e6);
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   int n = 0;
-  for (const datasets::ImuSample& s : imu) {
-    if (s.t_ns < t0_ns || s.t_ns >= t1_ns || !s.accel_m_s2.allFinite()) continue;
+  for (const ImuSample& s : imu) {
+    if (s.utime < t0_utime || s.utime >= t1_utime || !s.accel_m_s2.allFinite()) continue;
     sum += s.accel_m_s2;
     ++n;
   }
   return n > 0 ? Eigen::Vector3d(sum / n) : Eigen::Vector3d::Zero();
 }
 
-double referenceTiltAtRest(const std::vector<datasets::ImuSample>& imu,
-                           const std::vector<datasets::StampedPose>& ground_truth, int64_t t0_ns,
+double referenceTiltAtRest(const std::vector<ImuSample>& imu,
+                           const std::vector<datasets::StampedPose>& ground_truth, int64_t t0_utime,
                            double window_s) {
-  const int64_t t1_ns = t0_ns + static_cast<int64_t>(window_s * 1e9);
-  if (ground_truth.empty() || ground_truth.front().t_ns > t0_ns ||
-      ground_truth.back().t_ns < t1_ns) {
+  const int64_t t1_utime = t0_utime + static_cast<int64_t>(window_s * 1e6);
+  if (ground_truth.empty() || messages::utimeFromNs(ground_truth.front().t_ns) > t0_utime ||
+      messages::utimeFromNs(ground_truth.back().t_ns) < t1_utime) {
     return -1.0;
   }
-  const Eigen::Vector3d f = meanSpecificForce(imu, t0_ns, window_s);
+  const Eigen::Vector3d f = meanSpecificForce(imu, t0_utime, window_s);
   if (f.squaredNorm() == 0) return -1.0;
-  const int64_t mid = t0_ns + (t1_ns - t0_ns) / 2;
-  const auto it =
-      std::lower_bound(ground_truth.begin(), ground_truth.end(), mid,
-                       [](const datasets::StampedPose& p, int64_t t) { return p.t_ns < t; });
+  const int64_t mid = t0_utime + (t1_utime - t0_utime) / 2;
+  const auto it = std::lower_bound(
+      ground_truth.begin(), ground_truth.end(), mid,
+      [](const datasets::StampedPose& p, int64_t t) { return messages::utimeFromNs(p.t_ns) < t; });
   const Eigen::Vector3d up_world = it->world_T_body.so3() * f.normalized();
   return std::acos(std::clamp(up_world.z(), -1.0, 1.0));
 }

@@ -53,18 +53,20 @@ struct AttitudeCompareOptions {
   // IMU alone, not from the reference. Zero: not used.
   Eigen::Vector3d vehicle_up_imu = Eigen::Vector3d::Zero();
 };
-// Mean accelerometer reading over [t0, t0 + window_s) from the first sample at or after t0_ns
-// (the specific force of a still body points up); zero when no sample falls in the window.
-Eigen::Vector3d meanSpecificForce(const std::vector<datasets::ImuSample>& imu, int64_t t0_ns,
+// Mean accelerometer reading over [t0, t0 + window_s) from the first sample at or after
+// t0_utime (the specific force of a still body points up); zero when no sample falls in the
+// window.
+Eigen::Vector3d meanSpecificForce(const std::vector<ImuSample>& imu, int64_t t0_utime,
                                   double window_s);
 
 // Is the reference's world z vertical? The angle between its world z and gravity as the
 // accelerometer measures it while the body stands still: the mean specific force over
 // [t0, t0 + window_s), turned into the world by the reference orientation in the middle of
-// the window. Includes the accelerometer's bias (0.1 m/s^2 is 0.6 deg). Negative when the
-// reference does not cover the window.
-double referenceTiltAtRest(const std::vector<datasets::ImuSample>& imu,
-                           const std::vector<datasets::StampedPose>& ground_truth, int64_t t0_ns,
+// the window (the reference's ns stamps rounded to microseconds as the samples' are). Includes
+// the accelerometer's bias (0.1 m/s^2 is 0.6 deg). Negative when the reference does not cover
+// the window.
+double referenceTiltAtRest(const std::vector<ImuSample>& imu,
+                           const std::vector<datasets::StampedPose>& ground_truth, int64_t t0_utime,
                            double window_s);
 
 AttitudeErrorSummary compareAttitude(const std::vector<Attitude>& estimates,

@@ -195,7 +195,7 @@ int runSimulatorCheck(const Args& args) {
 // What the input gave: the samples, and a HackZurich session's reference or the synthetic
 // run's truth when there is one.
 struct Input {
-  std::vector<datasets::ImuSample> samples;
+  std::vector<imu::ImuSample> samples;
   datasets::HackzurichSession session;
   elevator::SimulatedRun truth;
 };
@@ -247,8 +247,7 @@ int readInput(const Args& args, Input* in) {
       std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", r.error().message.c_str());
       return 1;
     }
-    for (const auto& s : r->samples)
-      samples.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
+    samples = r->samples;
     std::printf("%s: %zu %s messages, %lld undecodable\n", args.lcm_log.c_str(), r->samples.size(),
                 args.channel.c_str(), static_cast<long long>(r->undecodable));
     return -1;
@@ -257,8 +256,7 @@ int readInput(const Args& args, Input* in) {
     elevator::RideSimulatorOptions o;
     o.rate_hz = args.rate_hz;
     in->truth = elevator::simulateRun(o, elevator::randomScript(o, args.synthetic_rides, 5));
-    for (const auto& s : in->truth.samples)
-      samples.push_back({s.utime * 1000, s.gyro_rad_s, s.accel_m_s2});
+    samples = in->truth.samples;
     std::printf("synthetic building: %zu rides, %zu samples at %.0f Hz\n", in->truth.rides.size(),
                 samples.size(), o.rate_hz);
     return -1;
@@ -270,7 +268,7 @@ int readInput(const Args& args, Input* in) {
 }
 
 // The attitude track against EuRoC ground truth, in the IMU, vehicle and level-body frames.
-int printAttitudeErrors(const Args& args, const std::vector<datasets::ImuSample>& samples,
+int printAttitudeErrors(const Args& args, const std::vector<imu::ImuSample>& samples,
                         const elevator::OfflineRun& run) {
   const std::vector<imu::Attitude>& track = run.attitudes;
   const auto gt = datasets::readEurocGroundTruth(args.ground_truth);
@@ -285,7 +283,7 @@ int printAttitudeErrors(const Args& args, const std::vector<datasets::ImuSample>
   // The body stands still for the filter's start-up window (it says so: still_start) and,
   // on EuRoC, a few seconds more: the reference's world z is checked against gravity over
   // the first 2 s both cover.
-  const int64_t rest_t0 = std::max(samples.front().t_ns, gt->front().t_ns);
+  const int64_t rest_t0 = std::max(samples.front().utime, messages::utimeFromNs(gt->front().t_ns));
   const double world_tilt = imu::referenceTiltAtRest(samples, *gt, rest_t0, 2.0);
   std::printf(
       "reference world z vs gravity measured at rest (2 s from the start of both): %.2f deg\n",
@@ -298,7 +296,7 @@ int printAttitudeErrors(const Args& args, const std::vector<datasets::ImuSample>
     // The vehicle frame: the IMU turned by its mounting tilt, read off the accelerometer
     // during the still start-up window (the vehicle stands level on the ground).
     c.vehicle_up_imu =
-        imu::meanSpecificForce(samples, samples.front().t_ns, args.attitude.init_window_s);
+        imu::meanSpecificForce(samples, samples.front().utime, args.attitude.init_window_s);
     const imu::AttitudeErrorSummary v = imu::compareAttitude(track, *gt, c);
     std::printf(
         "attitude error, vehicle frame (IMU turned by its mounting tilt at rest, %.1f deg): %s\n",
@@ -323,7 +321,7 @@ int printAttitudeErrors(const Args& args, const std::vector<datasets::ImuSample>
 
 // The rides found, beside the barometer, the labelled episodes and the synthetic truth.
 void printRides(const Input& in, const elevator::OfflineRun& run) {
-  const int64_t origin = messages::utimeFromNs(in.samples.front().t_ns);
+  const int64_t origin = in.samples.front().utime;
   const auto rows =
       elevator::ridesWithReference(run.rides, in.session.barometer, in.session.episodes);
   std::printf("\nrides (times from the first sample, disp = elevator, baro = barometer):\n%s",
@@ -395,13 +393,13 @@ bool writeDumps(const Args& args, const elevator::OfflineRun& run,
   return true;
 }
 
-// The samples as the filters take them (µs, the gyro zeroed under --zero-gyro), written to
+// The samples as the filters take them (the gyro zeroed under --zero-gyro), written to
 // --write-lcm-log when asked.
-bool filterSamples(const Args& args, const std::vector<datasets::ImuSample>& samples,
+bool filterSamples(const Args& args, const std::vector<imu::ImuSample>& samples,
                    std::vector<imu::ImuSample>* imu_samples) {
-  for (const auto& s : samples) {
-    imu_samples->push_back(messages::toImuSample(s));
-    if (args.zero_gyro) imu_samples->back().gyro_rad_s.setZero();
+  *imu_samples = samples;
+  if (args.zero_gyro) {
+    for (imu::ImuSample& s : *imu_samples) s.gyro_rad_s.setZero();
   }
   if (args.write_lcm_log.empty()) return true;
   if (Status st = imu::writeImuLog(args.write_lcm_log, args.channel, *imu_samples); !st.ok()) {
