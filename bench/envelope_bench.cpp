@@ -1,5 +1,5 @@
 // The envelope's cost per message (core/messages/envelope.h, issue 47): sealing (trailer +
-// HMAC-SHA-512-256) at the sender, opening and checking the MAC at the receiver, without a
+// keyed BLAKE2b-256) at the sender, opening and checking the MAC at the receiver, without a
 // key (identity only) and with one, for the sizes of an IMU sample, a VO_DELTA and a stereo
 // frame (EuRoC, 2 x 752 x 480 raw 8-bit). Figures: docs/results/reliability.md.
 #include <benchmark/benchmark.h>
@@ -61,9 +61,8 @@ void BM_OpenAndVerify(benchmark::State& state) {
                                     Envelope{{"evermap-vo-proc", 0x1234}, 1, 0, keyed},
                                     keyed ? &key : nullptr, bytes);
   for (auto _ : state) {
-    auto opened = evermap::messages::openEnvelope(nameOf(which), bytes.data(),
-                                                  static_cast<int64_t>(bytes.size()),
-                                                  keyed ? &key : nullptr);
+    auto opened = evermap::messages::openEnvelope(
+        nameOf(which), bytes.data(), static_cast<int64_t>(bytes.size()), keyed ? &key : nullptr);
     if (!opened || (keyed && !opened->mac_valid)) state.SkipWithError("the envelope did not open");
     benchmark::DoNotOptimize(opened);
   }

@@ -18,9 +18,12 @@ namespace {
 
 constexpr uint8_t kMagic[8] = {'e', 'v', 'm', 'e', 'n', 'v', '0', '1'};
 constexpr uint8_t kFlagMac = 1;
-constexpr int kMacBytes = crypto_auth_hmacsha512256_BYTES;
+constexpr int kMacBytes = 32;
 constexpr int kFixedBytes = 24;  // instance, counter, wall
-static_assert(MacKey::kBytes == crypto_auth_hmacsha512256_KEYBYTES);
+static_assert(MacKey::kBytes >= crypto_generichash_KEYBYTES_MIN &&
+              MacKey::kBytes <= crypto_generichash_KEYBYTES_MAX);
+static_assert(kMacBytes >= crypto_generichash_BYTES_MIN &&
+              kMacBytes <= crypto_generichash_BYTES_MAX);
 
 // libsodium must be initialised once before use; sodium_init() may be called again (and from
 // several threads) at no harm.
@@ -41,21 +44,23 @@ uint64_t getU64(const uint8_t* p) {
   return v;
 }
 
-// The mac over the channel name (its length first, so that no channel/message split is
+// The mac: keyed BLAKE2b-256 (libsodium's crypto_generichash with a key, which its
+// documentation gives as a MAC; twice as fast as HMAC-SHA-512-256 here, results/reliability.md),
+// over the channel name (its length first, so that no channel/message split is
 // ambiguous), then `a` and `b` (the message with the trailer's head, and the footer).
 void computeMac(const MacKey& key, const std::string& channel, const uint8_t* a, size_t a_size,
                 const uint8_t* b, size_t b_size, uint8_t* mac) {
   initSodium();
-  crypto_auth_hmacsha512256_state state;
-  crypto_auth_hmacsha512256_init(&state, key.data(), MacKey::kBytes);
+  crypto_generichash_state state;
+  crypto_generichash_init(&state, key.data(), MacKey::kBytes, kMacBytes);
   const uint8_t length[2] = {static_cast<uint8_t>(channel.size() >> 8),
                              static_cast<uint8_t>(channel.size())};
-  crypto_auth_hmacsha512256_update(&state, length, sizeof length);
-  crypto_auth_hmacsha512256_update(&state, reinterpret_cast<const uint8_t*>(channel.data()),
-                                   channel.size());
-  crypto_auth_hmacsha512256_update(&state, a, a_size);
-  crypto_auth_hmacsha512256_update(&state, b, b_size);
-  crypto_auth_hmacsha512256_final(&state, mac);
+  crypto_generichash_update(&state, length, sizeof length);
+  crypto_generichash_update(&state, reinterpret_cast<const uint8_t*>(channel.data()),
+                            channel.size());
+  crypto_generichash_update(&state, a, a_size);
+  crypto_generichash_update(&state, b, b_size);
+  crypto_generichash_final(&state, mac, kMacBytes);
   sodium_memzero(&state, sizeof state);
 }
 
@@ -100,8 +105,8 @@ Expected<MacKey> MacKey::load(const std::filesystem::path& file) {
   size_t used = 0;
   initSodium();
   if (hex.size() != 2 * kBytes ||
-      sodium_hex2bin(bytes.data(), bytes.size(), hex.data(), hex.size(), nullptr, &used,
-                     nullptr) != 0 ||
+      sodium_hex2bin(bytes.data(), bytes.size(), hex.data(), hex.size(), nullptr, &used, nullptr) !=
+          0 ||
       used != kBytes) {
     return makeError("--key ", file.string(), ": must hold ", 2 * kBytes,
                      " hex digits (e.g. from `openssl rand -hex 32`)");

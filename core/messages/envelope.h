@@ -11,7 +11,8 @@
 //   instance  u64, random, drawn when the process starts (a restarted process is a new sender)
 //   counter   u64, the sender's messages so far (any channel), from 1
 //   wall      i64, the sender's wall-clock time when it sent, µs since 1970
-//   mac[32]   with a key only: HMAC-SHA-512-256 (libsodium crypto_auth) over the channel name,
+//   mac[32]   with a key only: keyed BLAKE2b-256 (libsodium crypto_generichash) over the channel
+//   name,
 //             the message and the trailer without the mac
 //   n         u8
 //   flags     u8, bit 0: a mac is present (other bits 0)
@@ -72,7 +73,7 @@ struct Envelope {
 
 // A received message split into the LCM message and its envelope.
 struct Opened {
-  int64_t message_size = 0;         // the encoded LCM message's bytes (the buffer's start)
+  int64_t message_size = 0;          // the encoded LCM message's bytes (the buffer's start)
   std::optional<Envelope> envelope;  // none: an anonymous sender
   bool mac_valid = false;            // with a key: the mac is there and right
 };

@@ -33,8 +33,7 @@ SenderCheck::Now SenderCheck::Now::read() {
                  .count()};
 }
 
-SenderCheck::SenderCheck(const MacKey* key, SenderCheckOptions options)
-    : key_(key), o_(options) {}
+SenderCheck::SenderCheck(const MacKey* key, SenderCheckOptions options) : key_(key), o_(options) {}
 
 SenderCheck::Result SenderCheck::check(const std::string& channel, const void* data, int64_t size,
                                        Now now) {
@@ -96,8 +95,9 @@ SenderCheck::Result SenderCheck::lockOnto(const std::string& channel, const Send
     if (silent_s <= o_.silence_s) {
       r.kind = Kind::kOtherSender;
       if (!lock.ignored_any || !(lock.last_ignored == sender)) {
-        r.note = channel + ": ignoring " + sender.toString() + ", a second sender (the channel's is " +
-                 lock.who.toString() + "); its messages are counted";
+        r.note = channel + ": ignoring " + sender.toString() +
+                 ", a second sender (the channel's is " + lock.who.toString() +
+                 "); its messages are counted";
         lock.last_ignored = sender;
         lock.ignored_any = true;
       }
