@@ -92,7 +92,7 @@ TEST(Envelope, AMessageWithoutOneIsAnonymous) {
 
 TEST(Envelope, ATrailerLongerThanTheMessageIsAnError) {
   Bytes b = sealed(Bytes{}, kVo, 1, kWall, nullptr);  // 15 + 24 + 10 bytes
-  b[b.size() - 10] = 64;                               // the name's length
+  b[b.size() - 10] = 64;                              // the name's length
   EXPECT_FALSE(openEnvelope("IMU", b.data(), static_cast<int64_t>(b.size()), nullptr));
   b[b.size() - 10] = 65;
   EXPECT_FALSE(openEnvelope("IMU", b.data(), static_cast<int64_t>(b.size()), nullptr));
@@ -135,9 +135,9 @@ TEST(SenderCheck, AReplayedCounterOrAnOldMessageIsRefused) {
   EXPECT_EQ(check(c, sealed(imuBytes(2), kVo, 9, kWall, &key), at(0.1)).kind, Kind::kReplayed);
   EXPECT_EQ(check(c, sealed(imuBytes(2), kVo, 11, kWall, &key), at(0.1)).kind, Kind::kAccept);
   // The counter is per channel: counter 11 is new on ATTITUDE.
-  EXPECT_EQ(check(c, sealed(imuBytes(2), kVo, 11, kWall, &key, "ATTITUDE"), at(0.1), "ATTITUDE")
-                .kind,
-            Kind::kAccept);
+  EXPECT_EQ(
+      check(c, sealed(imuBytes(2), kVo, 11, kWall, &key, "ATTITUDE"), at(0.1), "ATTITUDE").kind,
+      Kind::kAccept);
   // A receiver that forgot the counters still refuses what was sent beyond the window (30 s).
   SenderCheck restarted(&key, {});
   EXPECT_EQ(check(restarted, first, at(0, kWall + 31'000'000)).kind, Kind::kReplayed);
@@ -168,7 +168,8 @@ TEST(SenderCheck, TheLockPassesOnAfterTheSenderFellSilent) {
   check(c, sealed(imuBytes(1), kVo, 2, kWall, nullptr), at(1.0), "ATTITUDE");
   EXPECT_EQ(check(c, sealed(imuBytes(1), kOther, 2, kWall, nullptr), at(2.5)).kind,
             Kind::kOtherSender);
-  const SenderCheck::Result taken = check(c, sealed(imuBytes(1), kOther, 3, kWall, nullptr), at(3.1));
+  const SenderCheck::Result taken =
+      check(c, sealed(imuBytes(1), kOther, 3, kWall, nullptr), at(3.1));
   EXPECT_EQ(taken.kind, Kind::kAccept);
   EXPECT_NE(taken.note.find("sender now evermap-vo-proc#0000000000009999"), std::string::npos);
   EXPECT_EQ(c.lockedSender("IMU"), kOther);
@@ -193,8 +194,8 @@ class KeyFile : public ::testing::Test {
     return file_;
   }
   void TearDown() override { std::filesystem::remove(file_); }
-  std::filesystem::path file_ = std::filesystem::temp_directory_path() /
-                                ("evermap-key-test-" + std::to_string(::getpid()));
+  std::filesystem::path file_ =
+      std::filesystem::temp_directory_path() / ("evermap-key-test-" + std::to_string(::getpid()));
   const std::string hex_ = std::string(64, 'a') + "\n";
 };
 

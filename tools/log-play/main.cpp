@@ -66,8 +66,8 @@ evermap::Expected<int64_t> play(const std::string& file, const evermap::messages
     if (!only.empty() && !only.count(e->channel)) continue;
     if (first < 0) first = e->timestamp;
     if (speed > 0.0) {
-      const auto due = start + std::chrono::microseconds(
-                                   static_cast<int64_t>((e->timestamp - first) / speed));
+      const auto due =
+          start + std::chrono::microseconds(static_cast<int64_t>((e->timestamp - first) / speed));
       std::this_thread::sleep_until(due);
     }
     if (out.publishBytes(e->channel, e->data, e->datalen) != 0)
