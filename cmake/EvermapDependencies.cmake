@@ -10,6 +10,10 @@ add_library(evermap_zstd INTERFACE)
 target_include_directories(evermap_zstd INTERFACE ${ZSTD_INCLUDE_DIR})
 target_link_libraries(evermap_zstd INTERFACE ${ZSTD_LIBRARY})
 
+# libsodium (libsodium-dev): the MAC of the message envelope (core/messages/envelope.h).
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(SODIUM REQUIRED IMPORTED_TARGET libsodium)
+
 # LCM 1.3.1 ships a pkg-config file that drags in glib's; the C/C++ API needs neither.
 find_path(LCM_INCLUDE_DIR lcm/lcm-cpp.hpp REQUIRED)
 find_library(LCM_LIBRARY lcm REQUIRED)

@@ -25,8 +25,9 @@ namespace {
 // ATTITUDE after it has seen the IMU sample, so the attitude arrives a little later.
 class Node {
  public:
-  Node(lcm::LCM* lcm, const evermap::elevator::ElevatorTrackerOptions& options)
-      : lcm_(lcm), tracker_(options) {}
+  Node(const evermap::messages::Outbox* out,
+       const evermap::elevator::ElevatorTrackerOptions& options)
+      : out_(out), tracker_(options) {}
 
   void onImu(const evermap::imu_t& msg) {
     pending_.push_back(evermap::imu::fromLcm(msg));
@@ -59,7 +60,7 @@ class Node {
     if (!att && have_attitude_) att = &latest_;
     for (const auto& e : tracker_.add(s, att)) {
       const evermap::floor_t out = evermap::elevator::toLcm(e);
-      lcm_->publish(evermap::channels::kFloor, &out);
+      out_->publish(evermap::channels::kFloor, out);
       std::fprintf(stderr, "evermap-elevator-proc: %s floor %d height %.2f m (+-%.2f)%s\n",
                    out.event == evermap::floor_t::EVENT_RIDE_START ? "ride start" : "ride end",
                    out.floor_index, out.height_m, out.height_sigma_m,
@@ -67,7 +68,7 @@ class Node {
     }
   }
 
-  lcm::LCM* lcm_;
+  const evermap::messages::Outbox* out_;
   evermap::elevator::ElevatorTracker tracker_;
   std::deque<evermap::imu::ImuSample> pending_;
   evermap::imu::Attitude latest_;
@@ -98,7 +99,7 @@ int main(int argc, char** argv) {
                                "Subscribes IMU and ATTITUDE, publishes FLOOR.");
   declare(process.cli(), &settings);
   if (const int code = process.start(argc, argv); code >= 0) return code;
-  Node node(&process.lcm(), settings.tracker);
+  Node node(&process.outbox(), settings.tracker);
   // 2 s of IMU at 1 kHz
   messages::Inbox& inbox = process.inbox(2000, settings.time_window_s);
   inbox.subscribe<imu_t>(channels::kImu, [&node](const imu_t& m) { node.onImu(m); });

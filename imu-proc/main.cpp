@@ -28,11 +28,11 @@ struct ProcOptions {
 
 // The handler owns the stream.
 struct Publisher {
-  lcm::LCM* lcm;
+  const evermap::messages::Outbox* out;
   evermap::imu::AttitudeStream stream;
   bool announced = false;
   void onImu(const evermap::imu_t& msg) {
-    if (auto out = stream.add(msg)) lcm->publish(evermap::channels::kAttitude, &*out);
+    if (auto out_msg = stream.add(msg)) out->publish(evermap::channels::kAttitude, *out_msg);
     if (!announced && stream.filter().initialized()) {
       // Once, when the start-up window has decided (gyroscope_mode -1: auto).
       announced = true;
@@ -68,7 +68,7 @@ int main(int argc, char** argv) {
   declare(process.cli(), &settings);
   if (const int code = process.start(argc, argv); code >= 0) return code;
   Publisher handler{
-      &process.lcm(),
+      &process.outbox(),
       imu::AttitudeStream(settings.filter, settings.proc.publish_rate_hz, settings.heading)};
   // 2 s at 1 kHz
   process.inbox(2000, settings.proc.time_window_s)

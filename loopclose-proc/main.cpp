@@ -12,6 +12,7 @@
 #include "core/bow/vocabulary_io.h"
 #include "core/common/command_line.h"
 #include "core/common/stop_signals.h"
+#include "core/messages/key_option.h"
 #include "loopclose-proc/core_registration.h"
 #include "loopclose-proc/loop_closer.h"
 #include "loopclose-proc/server.h"
@@ -31,7 +32,7 @@ std::unique_ptr<FrameRegistration> makeRegistration() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string vocab_file, store_file, url;
+  std::string vocab_file, store_file, url, key_file;
   LoopCloserOptions options;
   CommandLine cli("evermap-loopclose-proc",
                   "The loop-closure service: place recognition and frame registration on LCM.");
@@ -44,6 +45,7 @@ int main(int argc, char** argv) {
   cli.value("--max-places", &options.max_places, "N",
             "places held at most; NODE_ADDED beyond are refused and counted (20000)")
       .min(1);
+  messages::declareKeyOption(cli, &key_file);
   cli.options(&options);
   cli.check([&options] { return options.validate(); });
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
@@ -77,7 +79,14 @@ int main(int argc, char** argv) {
                  url.empty() ? "default URL" : url.c_str());
     return 1;
   }
-  LoopCloseServer server(lcm, **loop_closer);
+  auto signer = messages::makeSigner("evermap-loopclose-proc", key_file);
+  if (!signer) {
+    std::fprintf(stderr, "evermap-loopclose-proc: %s\n", signer.error().message.c_str());
+    return 2;
+  }
+  messages::Inbox::Options input = LoopCloseServer::defaultInput();
+  input.signer = *signer;
+  LoopCloseServer server(lcm, **loop_closer, input);
   std::printf("loopclose-proc: vocabulary %s (%zu words), %zu nodes loaded, registration: %s\n",
               vocab_file.c_str(), vocabulary->numWords(), (*loop_closer)->numNodes(),
               registration->describe().c_str());

@@ -11,7 +11,7 @@ namespace evermap::loopclose {
 
 LoopCloseServer::LoopCloseServer(lcm::LCM& lcm, LoopCloser& loop_closer,
                                  messages::Inbox::Options input)
-    : lcm_(lcm), loop_closer_(loop_closer), inbox_(lcm, std::move(input)) {
+    : out_(lcm, input.signer), loop_closer_(loop_closer), inbox_(lcm, std::move(input)) {
   inbox_.subscribe<evermap::keyframe_t>(channels::kKeyframe, [this](const evermap::keyframe_t& m) {
     Status s = loop_closer_.addKeyframe(m);
     publishDue();
@@ -46,7 +46,7 @@ void LoopCloseServer::publishDue() {
   for (const std::string& why : loop_closer_.takeNodeErrors())
     inbox_.countRefused(channels::kNodeAdded, std::string(channels::kNodeAdded) + ": " + why);
   for (const evermap::register_result_t& r : loop_closer_.poll()) {
-    lcm_.publish(channels::kRegisterResult, &r);
+    out_.publish(channels::kRegisterResult, r);
     ++published_;
   }
 }

@@ -12,6 +12,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "core/messages/inbox.h"
+#include "core/messages/outbox.h"
 #include "loopclose-proc/loop_closer.h"
 
 namespace evermap::loopclose {
@@ -41,7 +42,7 @@ class LoopCloseServer {
  private:
   void publishDue();
 
-  lcm::LCM& lcm_;
+  messages::Outbox out_;  // sealed with input.signer
   LoopCloser& loop_closer_;
   int64_t published_ = 0;
   messages::Inbox inbox_;  // last: its handlers use the members above

@@ -73,6 +73,7 @@ map_graph_t graphMessage(const Mapper& mapper, int64_t utime) {
 
 LcmNode::LcmNode(lcm::LCM& lcm, Mapper& mapper, const LcmNodeOptions& options, MapStore* store)
     : lcm_(lcm),
+      out_(lcm, options.input.signer),
       m_(mapper),
       o_(options),
       store_(store),
@@ -157,15 +158,15 @@ void LcmNode::afterMessage(int64_t utime, bool publish_pose) {
   for (const std::string& line : m_.takeNotes())
     std::printf("evermap-mapper-proc: %s\n", line.c_str());
   last_utime_ = std::max(last_utime_, utime);
-  for (const auto& r : m_.takeRequests()) lcm_.publish(channels::kRegisterRequest, &r);
-  for (const auto& n : m_.takeNodesAdded()) lcm_.publish(channels::kNodeAdded, &n);
+  for (const auto& r : m_.takeRequests()) out_.publish(channels::kRegisterRequest, r);
+  for (const auto& n : m_.takeNodesAdded()) out_.publish(channels::kNodeAdded, n);
   // Not while lost, nor while a warm restart's placement is unconfirmed: that pose is the
   // saved one, metres off by what the robot drove during the restart (its covariance says so,
   // but a consumer of POSE should not have to judge it).
   if (publish_pose && m_.activeNode() >= 0 && !m_.lost() && !m_.resumedUnconfirmed()) {
     const int session = m_.nodes().empty() ? -1 : m_.nodes().back().session;
     const pose_t p = messages::toMsg(utime, m_.pose(), m_.floor(), session);
-    lcm_.publish(channels::kPose, &p);
+    out_.publish(channels::kPose, p);
     ++counts_.poses;
   }
   extra_.publish_s += secondsSince(t0);
@@ -219,7 +220,7 @@ void LcmNode::publishGraph() {
     return;
   const auto t0 = SteadyClock::now();
   const map_graph_t g = graphMessage(m_, last_utime_);
-  lcm_.publish(channels::kMapGraph, &g);
+  out_.publish(channels::kMapGraph, g);
   graph_nodes_ = st.nodes;
   graph_constraints_ = st.constraints;
   graph_updates_ = st.timing.update_s.size();
@@ -270,9 +271,9 @@ void LcmNode::publishStats() {
   const TrackerCounts& tracked = m_.tracker().counts();
   for (const TrackerCounts::Counter& c : TrackerCounts::counters()) add(c.name, tracked.*c.field);
   s.num_counters = static_cast<int32_t>(s.counter_names.size());
-  lcm_.publish(channels::kMapperStats, &s);
+  out_.publish(channels::kMapperStats, s);
   const input_stats_t input = inbox_.statsMessage(last_utime_);
-  lcm_.publish(channels::kInputStats, &input);
+  out_.publish(channels::kInputStats, input);
   timing_at_stats_ = MapperTiming{};
   timing_at_stats_.tracking_s = t.tracking_s;
   timing_at_stats_.registration_s = t.registration_s;
@@ -301,6 +302,10 @@ std::string LcmNode::summary() const {
     << "\ngraphs_published " << counts_.graphs << "\nstats_published " << counts_.stats
     << "\nstore_transactions " << counts_.store_transactions << "\ntracking_transactions "
     << counts_.tracking_transactions << "\ntracking_failures " << counts_.tracking_failures << "\n";
+  // The envelopes refused (core/messages/sender_check.h), then the input per channel.
+  const messages::ChannelCounts in = inbox_.total();
+  s << "unauthenticated " << in.unauthenticated << "\nreplayed " << in.replayed << "\nother_sender "
+    << in.other_sender << "\ninput " << inbox_.summary() << "\n";
   const TrackerCounts& t = m_.tracker().counts();
   for (const TrackerCounts::Counter& k : TrackerCounts::counters())
     s << k.name << " " << t.*k.field << "\n";

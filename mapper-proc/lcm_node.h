@@ -32,6 +32,7 @@
 
 #include "core/common/expected.h"
 #include "core/messages/inbox.h"
+#include "core/messages/outbox.h"
 #include "mapper-proc/calibration_latch.h"
 #include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
@@ -117,6 +118,7 @@ class LcmNode {
   void save();
 
   lcm::LCM& lcm_;
+  messages::Outbox out_;  // every publish, sealed with input.signer
   Mapper& m_;
   LcmNodeOptions o_;
   MapStore* store_;

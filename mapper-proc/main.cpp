@@ -12,6 +12,7 @@
 
 #include "core/common/command_line.h"
 #include "core/common/stop_signals.h"
+#include "core/messages/key_option.h"
 #include "mapper-proc/lcm_node.h"
 #include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
@@ -25,7 +26,7 @@ struct Settings {
   // The camera mounting comes from STEREO_CALIB (LcmNode).
   mapper::MapperOptions options;
   mapper::LcmNodeOptions node_options;
-  std::string url, store_file;
+  std::string url, store_file, key_file;
   bool quiet = false;
   double progress_s = 0.0;
 };
@@ -58,6 +59,7 @@ int parse(int argc, char** argv, Settings* s) {
       .max(1000000);
   cli.value("--lcm-url", &s->url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.flag("--quiet", &s->quiet, "no summary on exit");
+  messages::declareKeyOption(cli, &s->key_file);
   cli.value("--progress-s", &s->progress_s, "S",
             "print a progress line (message time, nodes, constraints, drops) every S s of wall "
             "time while messages arrive (0: none)")
@@ -152,6 +154,12 @@ int main(int argc, char** argv) {
   // a stored map runs a solver batch, whose background worker would otherwise take the signal
   // and die of it, with no summary and no last flush).
   StopSignals stop;
+  auto signer = messages::makeSigner("evermap-mapper-proc", settings.key_file);
+  if (!signer) {
+    std::fprintf(stderr, "evermap-mapper-proc: %s\n", signer.error().message.c_str());
+    return 2;
+  }
+  settings.node_options.input.signer = *signer;
   auto store = openStore(settings.store_file);
   if (!store) {
     std::fprintf(stderr, "evermap-mapper-proc: %s\n", store.error().message.c_str());

@@ -8,7 +8,7 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 packages=(
   build-essential cmake ninja-build ccache pkg-config git clang-format
   liblcm-dev liblcm-bin liblcm-java libjchart2d-java default-jdk-headless
-  libeigen3-dev libopencv-dev libsuitesparse-dev libsqlite3-dev sqlite3 libzstd-dev
+  libeigen3-dev libopencv-dev libsuitesparse-dev libsqlite3-dev sqlite3 libzstd-dev libsodium-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   iproute2 util-linux procps python3
   libwebsockets-dev chromium nodejs

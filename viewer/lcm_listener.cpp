@@ -47,7 +47,9 @@ Status LcmListenerOptions::validate() const {
 
 LcmListener::LcmListener(lcm::LCM& lcm, Board& board, const LcmListenerOptions& options)
     : board_(board), o_(options), state_(board, options.state), inbox_(lcm, options.input) {
-  // The graph is large and only the newest matters: a queue of 2.
+  inbox_.shareChannel(channels::kDeputyStatus);  // every host's deputy
+  // The graph is large and only the newest matters: a queue of 2. Only the mapper the Inbox
+  // locked onto is shown (a second one is ignored, counted; sender_check.h), named in counts.
   inbox_.subscribe<map_graph_t>(
       channels::kMapGraph, [this](const map_graph_t& m) { return state_.onGraph(m); }, 2);
   inbox_.subscribe<pose_t>(channels::kPose, [this](const pose_t& m) { return state_.onPose(m); });
@@ -114,6 +116,7 @@ void LcmListener::postCounts(const std::string& extra_members) {
   const messages::ChannelCounts total = inbox_.total();
   j.endObject().key("received").value(total.received).key("dropped").value(total.dropped());
   j.key("images_sent").value(images_sent_).key("graphs").value(state_.graphs());
+  j.key("map_sender").value(inbox_.senderOf(channels::kMapGraph));
   j.key("server").raw(extra_members.empty() ? "{}" : extra_members).endObject();
   board_.post(Topic::kViewer, j.take());
 }

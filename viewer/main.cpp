@@ -21,6 +21,7 @@
 
 #include "core/common/command_line.h"
 #include "core/common/stop_signals.h"
+#include "core/messages/key_option.h"
 #include "viewer/board.h"
 #include "viewer/json_writer.h"
 #include "viewer/lcm_listener.h"
@@ -132,7 +133,7 @@ int playLog(evermap::viewer::LogPlayer& player, lcm::LCM& lcm,
 struct Settings {
   evermap::viewer::WebServerOptions web;
   evermap::viewer::LcmListenerOptions listen;
-  std::string url, store_file, log_file, web_dir;
+  std::string url, store_file, log_file, web_dir, key_file;
   double log_speed = 1.0;
   bool quiet = false;
 
@@ -193,6 +194,7 @@ int parse(int argc, char** argv, Settings* s) {
       .min(0);
   cli.value("--lcm-url", &s->url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.flag("--quiet", &s->quiet, "no summary on exit");
+  messages::declareKeyOption(cli, &s->key_file);
   cli.options(s, "viewer.");
   cli.check([s]() -> Status {
     findPage(s->web_dir, &s->web);
@@ -329,6 +331,14 @@ int main(int argc, char** argv) {
   if (!lcm.good()) {
     std::fprintf(stderr, "evermap-viewer: cannot start LCM (url \"%s\")\n", s.url.c_str());
     return finish(1);
+  }
+  if (!player) {  // a --log plays into memq: no key there
+    auto signer = messages::makeSigner("evermap-viewer", s.key_file);
+    if (!signer) {
+      std::fprintf(stderr, "evermap-viewer: %s\n", signer.error().message.c_str());
+      return finish(2);
+    }
+    s.listen.input.signer = *signer;
   }
   std::optional<viewer::LcmListener> listener;
   listener.emplace(lcm, board, s.listen);

@@ -22,6 +22,8 @@
 #include "core/common/stop_signals.h"
 #include "core/messages/channels.h"
 #include "core/messages/inbox.h"
+#include "core/messages/key_option.h"
+#include "core/messages/outbox.h"
 #include "vo-proc/frame_queue.h"
 #include "vo-proc/vo_pipeline.h"
 
@@ -68,6 +70,7 @@ struct Settings {
   double time_window_s = 120.0;  // core/messages/inbox.h, TimeGuardOptions
   evermap::vo::PipelineOptions pipeline;
   std::string ready_file;
+  std::string key_file;
 };
 
 // The command line; -1 to run, else the exit status.
@@ -90,6 +93,7 @@ int parse(int argc, char** argv, Settings* s) {
             "new keyframe below N inliers (default 150; odometry.keyframe_inlier_threshold)")
       .min(0);
   cli.value("--ready-file", &s->ready_file, "PATH", "create PATH once subscribed (for scripts)");
+  evermap::messages::declareKeyOption(cli, &s->key_file);
   bool print_options = false;
   cli.flag("--print-options", &print_options, "print the odometry options in words and exit");
   cli.options(&s->pipeline);
@@ -107,7 +111,7 @@ int parse(int argc, char** argv, Settings* s) {
 
 // The worker: applies the latest calibration, runs each queued frame and publishes.
 void work(evermap::vo::BoundedQueue<QueuedFrame>* queue, Shared* shared,
-          evermap::vo::VoPipeline* pipeline, lcm::LCM* lcm) {
+          evermap::vo::VoPipeline* pipeline, const evermap::messages::Outbox* sender) {
   int64_t bad_frames = 0;
   while (auto frame = queue->pop()) {
     std::optional<Bytes> calibration;
@@ -142,8 +146,8 @@ void work(evermap::vo::BoundedQueue<QueuedFrame>* queue, Shared* shared,
           bad && bad_frames > 20 ? (" (" + std::to_string(bad_frames) + " bad frames)").c_str()
                                  : "");
     }
-    lcm->publish(evermap::channels::kVoDelta, &out->delta);
-    if (out->keyframe) lcm->publish(evermap::channels::kKeyframe, &*out->keyframe);
+    sender->publish(evermap::channels::kVoDelta, out->delta);
+    if (out->keyframe) sender->publish(evermap::channels::kKeyframe, *out->keyframe);
   }
 }
 
@@ -157,6 +161,11 @@ int main(int argc, char** argv) {
   auto pipeline = evermap::vo::VoPipeline::create(settings.pipeline);
   if (!pipeline) {
     std::fprintf(stderr, "evermap-vo-proc: %s\n", pipeline.error().message.c_str());
+    return 2;
+  }
+  auto signer = evermap::messages::makeSigner("evermap-vo-proc", settings.key_file);
+  if (!signer) {
+    std::fprintf(stderr, "evermap-vo-proc: %s\n", signer.error().message.c_str());
     return 2;
   }
   lcm::LCM lcm(url);
@@ -176,6 +185,8 @@ int main(int argc, char** argv) {
   // Frames wait in the worker's queue (--queue); LCM's own holds a few more (~600 kB each).
   input.queue_capacity = 4;
   input.time.window_s = settings.time_window_s;
+  input.signer = *signer;
+  const evermap::messages::Outbox outbox(lcm, *signer);
   evermap::messages::Inbox inbox(lcm, input);
   inbox.subscribeBytes<evermap::stereo_image_t>(
       evermap::channels::kStereo,
@@ -191,7 +202,7 @@ int main(int argc, char** argv) {
     if (std::FILE* f = std::fopen(settings.ready_file.c_str(), "w")) std::fclose(f);
   }
 
-  std::thread worker([&] { work(&queue, &shared, &*pipeline, &lcm); });
+  std::thread worker([&] { work(&queue, &shared, &*pipeline, &outbox); });
 
   while (!stop.requested()) {
     lcm.handleTimeout(200);

@@ -1,6 +1,7 @@
 #include "core/messages/inbox.h"
 
 #include "core/messages/lcm_receive_guard.h"
+#include "core/messages/outbox.h"
 
 #include <unistd.h>
 
@@ -53,10 +54,12 @@ Status TimeGuardOptions::validate() const {
 Status Inbox::Options::validate() const {
   if (queue_capacity < 0) return makeError("queue_capacity: must be >= 0, got ", queue_capacity);
   if (log_lines < 0) return makeError("log_lines: must be >= 0, got ", log_lines);
+  if (Status s = senders.validate(); !s) return s;
   return time.validate();
 }
 
-Inbox::Inbox(lcm::LCM& lcm, Options options) : lcm_(lcm), o_(std::move(options)) {
+Inbox::Inbox(lcm::LCM& lcm, Options options)
+    : lcm_(lcm), o_(std::move(options)), senders_(o_.signer.key(), o_.senders) {
   // Every process with an Inbox gets the fragment guard (lcm_receive_guard.h) linked in.
   if (!lcmReceiveGuardLinked()) std::abort();
   if (Status s = o_.validate(); !s) {  // a broken contract: the caller validated its options
@@ -88,6 +91,7 @@ void Inbox::onMessage(const lcm::ReceiveBuffer* rbuf, const std::string&, Entry*
 void Inbox::receive(Entry& e, const void* data, int64_t size) {
   ChannelCounts& c = counts_[e.channel];
   ++c.received;
+  if (!admit(e, data, &size)) return;
   // The layout first: the time guard reads utime, and held bytes must be a whole message.
   const Expected<int64_t> used = checkWire(e.type, e.hash, data, size);
   if (!used || *used != size) {
@@ -104,6 +108,35 @@ void Inbox::receive(Entry& e, const void* data, int64_t size) {
   } else {
     deliver(e, data, size, 0);
   }
+}
+
+bool Inbox::admit(Entry& e, const void* data, int64_t* size) {
+  const SenderCheck::Result r = senders_.check(e.channel, data, *size, SenderCheck::Now::read());
+  if (!r.note.empty()) std::fprintf(stderr, "%s: %s\n", o_.process.c_str(), r.note.c_str());
+  ChannelCounts& c = counts_[e.channel];
+  switch (r.kind) {
+    case SenderCheck::Kind::kAccept:
+      *size = r.message_size;
+      return true;
+    case SenderCheck::Kind::kMalformed:
+      log(e.channel, ++c.malformed, r.why);
+      return false;
+    case SenderCheck::Kind::kUnauthenticated:
+      log(e.channel, ++c.unauthenticated, r.why);
+      return false;
+    case SenderCheck::Kind::kReplayed:
+      log(e.channel, ++c.replayed, r.why);
+      return false;
+    case SenderCheck::Kind::kOtherSender:
+      ++c.other_sender;
+      return false;
+  }
+  return false;
+}
+
+std::string Inbox::senderOf(const std::string& channel) const {
+  const std::optional<SenderId> s = senders_.lockedSender(channel);
+  return s ? s->toString() : std::string();
 }
 
 void Inbox::guard(Entry& e, const void* data, int64_t size, int64_t utime) {
@@ -244,6 +277,9 @@ ChannelCounts Inbox::total() const {
     t.time_refused += c.time_refused;
     t.refused += c.refused;
     t.failed += c.failed;
+    t.unauthenticated += c.unauthenticated;
+    t.replayed += c.replayed;
+    t.other_sender += c.other_sender;
   }
   return t;
 }
@@ -255,6 +291,9 @@ std::string Inbox::summary() const {
     s += channel + " " + std::to_string(c.received) + " received, " + std::to_string(c.malformed) +
          " malformed, " + std::to_string(c.time_refused) + " time-refused, " +
          std::to_string(c.refused) + " refused, " + std::to_string(c.failed) + " failed";
+    if (c.unauthenticated > 0) s += ", " + std::to_string(c.unauthenticated) + " unauthenticated";
+    if (c.replayed > 0) s += ", " + std::to_string(c.replayed) + " replayed";
+    if (c.other_sender > 0) s += ", " + std::to_string(c.other_sender) + " from another sender";
     // LCM's own queue (lcm_receive_guard.h): what never reached receive().
     if (const int64_t lost = lcmQueueDropped(channel); lost > 0) {
       s += ", " + std::to_string(lost) + " dropped by LCM's full queue";
@@ -280,7 +319,8 @@ evermap::input_stats_t Inbox::statsMessage(int64_t utime) const {
     m.received.push_back(c.received);
     m.malformed.push_back(c.malformed);
     m.time_refused.push_back(c.time_refused);
-    m.refused.push_back(c.refused);
+    // input_stats_t has no fields of their own for the envelope's refusals: refused.
+    m.refused.push_back(c.refused + c.unauthenticated + c.replayed + c.other_sender);
     m.failed.push_back(c.failed);
     m.queue_dropped.push_back(lcmQueueDropped(channel));
   }
@@ -295,7 +335,7 @@ void Inbox::publishStatsEvery(double period_s) {
   if (now - last_stats_ < std::chrono::duration<double>(period_s)) return;
   last_stats_ = now;
   const evermap::input_stats_t m = statsMessage(have_clock_ ? clock_utime_ : 0);
-  lcm_.publish("INPUT_STATS", &m);
+  Outbox(lcm_, o_.signer).publish("INPUT_STATS", m);
 }
 
 }  // namespace evermap::messages

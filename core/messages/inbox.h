@@ -5,6 +5,8 @@
 //  - has a bounded LCM queue (no subscription keeps LCM's silent default by accident);
 //  - is checked along its type's wire layout and decoded by decodeLcm, the one decoding path
 //    (convert.h): no length a message claims is allocated before its bytes are seen;
+//  - checks the sender's envelope first (sender_check.h: one sender per channel; with a key,
+//    only authentic messages, none replayed) and strips it;
 //  - passes the message time guard (TimeGuard below) when the process enables it;
 //  - calls the handler inside a try: an exception is caught here, logged and counted;
 //  - counts per channel what was received, malformed, refused by the guard or the handler,
@@ -28,6 +30,8 @@
 
 #include "core/common/expected.h"
 #include "core/messages/convert.h"
+#include "core/messages/envelope.h"
+#include "core/messages/sender_check.h"
 
 namespace evermap::messages {
 
@@ -69,12 +73,17 @@ struct TimeGuardOptions {
 };
 
 struct ChannelCounts {
-  int64_t received = 0;      // delivered by LCM to the Inbox
-  int64_t malformed = 0;     // did not decode (wire layout, type hash, decoder)
-  int64_t time_refused = 0;  // refused by the time guard
-  int64_t refused = 0;       // the handler returned an Error
-  int64_t failed = 0;        // the handler threw
-  int64_t dropped() const { return malformed + time_refused + refused + failed; }
+  int64_t received = 0;         // delivered by LCM to the Inbox
+  int64_t malformed = 0;        // did not decode (wire layout, type hash, decoder)
+  int64_t time_refused = 0;     // refused by the time guard
+  int64_t refused = 0;          // the handler returned an Error
+  int64_t failed = 0;           // the handler threw
+  int64_t unauthenticated = 0;  // with a key: no valid MAC (sender_check.h)
+  int64_t replayed = 0;         // with a key: a counter seen before, or outside the window
+  int64_t other_sender = 0;     // from a sender other than the one the channel is locked onto
+  int64_t dropped() const {
+    return malformed + time_refused + refused + failed + unauthenticated + replayed + other_sender;
+  }
 };
 
 class Inbox {
@@ -93,6 +102,10 @@ class Inbox {
     TimeGuardOptions time;
     // Lines logged per channel and kind of drop, then one in every 1000.
     int64_t log_lines = 20;
+    // This process as a sender (INPUT_STATS is published with it) and its key, if any: with
+    // one, what is not authenticated with it is refused. A default Signer: no key, anonymous.
+    Signer signer;
+    SenderCheckOptions senders;
 
     Status validate() const;
   };
@@ -136,6 +149,13 @@ class Inbox {
         });
   }
 
+  // A channel on which many senders are expected (INPUT_STATS, the deputy's): not locked onto
+  // one (sender_check.h).
+  void shareChannel(const std::string& channel) { senders_.shareChannel(channel); }
+  // The sender `channel` is locked onto ("anonymous" for messages without an envelope; empty
+  // before any message).
+  std::string senderOf(const std::string& channel) const;
+
   // A drop found after the handler (e.g. the consumer's own queue overflowed): counted as
   // refused on `channel`, logged as the others.
   void countRefused(const std::string& channel, const std::string& why);
@@ -175,6 +195,9 @@ class Inbox {
   void add(const std::string& channel, int queue_capacity, int type, int64_t hash, Handler handler);
   static void onMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel, Entry* entry);
   void receive(Entry& entry, const void* data, int64_t size);
+  // The envelope's check; false when the message is dropped (counted), else `*size` is the
+  // message's without the envelope.
+  bool admit(Entry& entry, const void* data, int64_t* size);
   void deliver(Entry& entry, const void* data, int64_t size, int64_t utime);
   void guard(Entry& entry, const void* data, int64_t size, int64_t utime);
   // The held messages that agree with `utime` (indices into held_, in order) and whether they
@@ -192,6 +215,7 @@ class Inbox {
   Options o_;
   std::list<Entry> entries_;  // stable addresses: LCM holds pointers to them
   std::map<std::string, ChannelCounts> counts_;
+  SenderCheck senders_;
   bool have_clock_ = false;
   int64_t clock_utime_ = 0;
   int64_t passed_ = 0;  // messages passed on the guard

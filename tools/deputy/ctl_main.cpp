@@ -24,6 +24,7 @@
 #include "core/common/option_fields.h"
 #include "core/messages/channels.h"
 #include "core/messages/inbox.h"
+#include "core/messages/key_option.h"
 #include "tools/deputy/deputy_client.h"
 
 namespace {
@@ -45,7 +46,7 @@ struct CtlOptions {
 
 // The command line: the options, then COMMAND and its words.
 struct CtlArgs {
-  std::string lcm_url;
+  std::string lcm_url, key_file;
   CtlOptions tool;
   DeputyClientOptions& options = tool.client;
   std::vector<std::string> rest;
@@ -55,6 +56,7 @@ struct CtlArgs {
 void declareCommandLine(evermap::CommandLine& cli, CtlArgs* a) {
   cli.value("--lcm-url", &a->lcm_url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.value("--host", &a->options.host, "NAME", "only the deputy of this host (default: all)");
+  evermap::messages::declareKeyOption(cli, &a->key_file);
   cli.options(&a->tool);
   cli.alias("--timeout-s", "timeout_s", "S");
   cli.flag("--tsv", &a->tsv, "status: tab-separated values instead of a table");
@@ -100,13 +102,16 @@ struct OutputPrinter {
 };
 
 // output: DEPUTY_OUTPUT lines of the named processes (all without names) until interrupted.
-int printOutput(lcm::LCM& lcm, const std::vector<std::string>& names) {
+int printOutput(lcm::LCM& lcm, const std::vector<std::string>& names,
+                const evermap::messages::Signer& signer) {
   OutputPrinter printer;
   printer.names.insert(names.begin(), names.end());
   evermap::messages::Inbox::Options input;
   input.process = "evermap-deputy-ctl";
   input.time.window_s = 0.0;  // the deputy's wall clock
+  input.signer = signer;
   evermap::messages::Inbox inbox(lcm, input);
+  inbox.shareChannel(evermap::channels::kDeputyOutput);
   inbox.subscribe<evermap::deputy_output_t>(
       evermap::channels::kDeputyOutput,
       [&printer](const evermap::deputy_output_t& m) { printer.onOutput(&m); });
@@ -162,7 +167,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-deputy-ctl: cannot start LCM (url \"%s\")\n", a.lcm_url.c_str());
     return 1;
   }
-  if (command == "output") return printOutput(lcm, args);
+  auto signer = evermap::messages::makeSigner("evermap-deputy-ctl", a.key_file);
+  if (!signer) return fail(signer.error());
+  a.options.signer = *signer;
+  if (command == "output") return printOutput(lcm, args, *signer);
   DeputyClient client(lcm, a.options);
   if (const int code = sendOrder(client, command, args); code >= 0) {
     return code == 2 ? usage() : code;

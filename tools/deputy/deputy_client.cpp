@@ -142,12 +142,14 @@ Status DeputyClientOptions::validate() const {
 }
 
 DeputyClient::DeputyClient(lcm::LCM& lcm, DeputyClientOptions options)
-    : lcm_(lcm), options_(std::move(options)), inbox_(lcm, [] {
+    : lcm_(lcm), out_(lcm, options.signer), options_(std::move(options)), inbox_(lcm, [this] {
         messages::Inbox::Options o;
+        o.signer = options_.signer;
         o.process = "evermap-deputy-ctl";
         o.time.window_s = 0.0;
         return o;
       }()) {
+  inbox_.shareChannel(channels::kDeputyStatus);  // every host's deputy
   inbox_.subscribe<deputy_status_t>(channels::kDeputyStatus,
                                     [this](const deputy_status_t& s) { onStatus(s); });
 }
@@ -235,7 +237,7 @@ Status DeputyClient::order(const std::vector<ProcRef>& refs, bool running) {
     if (now >= next_send) {
       for (auto& [host, o] : by_host) {
         o.utime = wallClockUtime();
-        lcm_.publish(channels::kDeputyOrder, &o);
+        out_.publish(channels::kDeputyOrder, o);
       }
       next_send = now + seconds(options_.resend_period_s);
     }

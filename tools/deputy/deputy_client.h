@@ -21,6 +21,7 @@
 
 #include "core/common/expected.h"
 #include "core/messages/inbox.h"
+#include "core/messages/outbox.h"
 
 namespace evermap::deputy {
 
@@ -55,6 +56,7 @@ struct DeputyClientOptions {
   double timeout_s = 10.0;  // for gathering status and for each acknowledgement
   double settle_s = 1.2;    // after the first status, listen this long for other hosts
   double resend_period_s = 0.5;
+  messages::Signer signer;  // this client as a sender, its key (core/messages/key_option.h)
 
   Status validate() const;
 };
@@ -92,6 +94,7 @@ class DeputyClient {
   Status order(const std::vector<ProcRef>& refs, bool running);
 
   lcm::LCM& lcm_;
+  messages::Outbox out_;
   DeputyClientOptions options_;
   std::function<void()> pump_;
   std::map<std::string, deputy_status_t> latest_;         // by host

@@ -53,15 +53,18 @@ Supervisor::Clock::duration secondsToDuration(double s) {
 
 DeputyNode::DeputyNode(lcm::LCM& lcm, Supervisor& supervisor, DeputyNodeOptions options)
     : lcm_(lcm),
+      out_(lcm, options.signer),
       supervisor_(supervisor),
       options_(std::move(options)),
       throttle_(options_.output),
-      inbox_(lcm, [] {
+      inbox_(lcm, [this] {
         messages::Inbox::Options o;
         o.process = "evermap-deputy";
         o.time.window_s = 0.0;
+        o.signer = options_.signer;
         return o;
       }()) {
+  inbox_.shareChannel(channels::kDeputyOrder);  // any client may give orders
   inbox_.subscribe<deputy_order_t>(channels::kDeputyOrder,
                                    [this](const deputy_order_t& o) { return onOrder(o); });
   supervisor_.setLineSink([this](const std::string& name, const std::string& line,
@@ -162,7 +165,7 @@ deputy_status_t DeputyNode::makeStatus() const {
 void DeputyNode::publishStatus() {
   flushOutput();
   const deputy_status_t msg = makeStatus();
-  lcm_.publish(channels::kDeputyStatus, &msg);
+  out_.publish(channels::kDeputyStatus, msg);
   ++counters_.status_published;
   last_status_ = Clock::now();
   last_signature_ = stateSignature();
@@ -177,7 +180,7 @@ void DeputyNode::publishOutput(bool all) {
     out.host = options_.host;
     out.name = batch.name;
     out.text = batch.text;
-    lcm_.publish(channels::kDeputyOutput, &out);
+    out_.publish(channels::kDeputyOutput, out);
     ++counters_.output_published;
   }
 }

@@ -15,6 +15,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "core/messages/inbox.h"
+#include "core/messages/outbox.h"
 #include <optional>
 #include <string>
 
@@ -35,6 +36,7 @@ struct DeputyNodeOptions {
   bool publish_output = true;     // DEPUTY_OUTPUT on/off (log files are always written)
   OutputThrottleOptions output;
   bool print_notes = false;  // the deputy's notes ("started pid 12") also on stderr
+  messages::Signer signer;   // this deputy as a sender, its key (core/messages/key_option.h)
 
   Status validate() const;
 };
@@ -85,6 +87,7 @@ class DeputyNode {
   void publishOutput(bool all);
 
   lcm::LCM& lcm_;
+  messages::Outbox out_;
   Supervisor& supervisor_;
   DeputyNodeOptions options_;
   OutputThrottle throttle_;

@@ -20,6 +20,7 @@
 
 #include "core/common/command_line.h"
 #include "core/common/option_fields.h"
+#include "core/messages/key_option.h"
 #include "tools/deputy/config.h"
 #include "tools/deputy/deputy_node.h"
 #include "tools/deputy/script_runner.h"
@@ -66,7 +67,7 @@ struct DeputyOptions {
 
 // The command line of a deputy.
 struct DeputyArgs {
-  std::string config_path, log_dir, host, script, lcm_url;
+  std::string config_path, log_dir, host, script, lcm_url, key_file;
   bool check = false, start_all = false, exit_after_script = false, quiet = false;
   bool no_output = false;
   DeputyOptions options;
@@ -86,6 +87,7 @@ int parseCommandLine(int argc, char** argv, DeputyArgs* a) {
   cli.flag("--exit-after-script", &a->exit_after_script, "stop everything when the script ends");
   cli.value("--lcm-url", &a->lcm_url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.flag("--no-output", &a->no_output, "do not publish output lines on LCM");
+  evermap::messages::declareKeyOption(cli, &a->key_file);
   cli.flag("--quiet", &a->quiet, "print less");
   cli.options(&a->options);
   cli.alias("--backoff-initial-ms", "backoff_initial_ms", "MS");
@@ -164,6 +166,12 @@ bool nodeOptions(const DeputyArgs& a, DeputyNodeOptions* node_options) {
   node_options->publish_output = !a.no_output;
   node_options->print_notes = !a.quiet;
   node_options->output = a.options.output;
+  auto signer = evermap::messages::makeSigner("evermap-deputy", a.key_file);
+  if (!signer) {
+    std::fprintf(stderr, "evermap-deputy: %s\n", signer.error().message.c_str());
+    return false;
+  }
+  node_options->signer = *signer;
   if (auto ok = node_options->validate(); !ok) {
     std::fprintf(stderr, "evermap-deputy: %s\n", ok.error().message.c_str());
     return false;

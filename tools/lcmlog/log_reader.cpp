@@ -6,6 +6,8 @@
 #include <cstring>
 #include <utility>
 
+#include "core/messages/envelope.h"
+
 namespace evermap::messages {
 namespace {
 
@@ -177,7 +179,8 @@ const LogReader::Event* LogReader::next() {
   }
   offset_ += need;
   event_.data = buffer_.data();
-  event_.datalen = data_len;
+  // The sender's envelope, when one was recorded, is not part of the message.
+  event_.datalen = static_cast<int32_t>(messageSize(buffer_.data(), data_len));
   ++events_;
   return &event_;
 }

@@ -32,7 +32,9 @@ class LogReader {
     int64_t eventnum = 0;
     int64_t timestamp = 0;  // µs, as lcm-logger (or LogWriter: the message's utime) wrote it
     std::string channel;
-    const uint8_t* data = nullptr;  // valid until the next call of next()
+    // The LCM message, valid until the next call of next(); an envelope recorded behind it
+    // (core/messages/envelope.h: a live evermap process's) is left out of datalen.
+    const uint8_t* data = nullptr;
     int32_t datalen = 0;
   };
   // LCM's own limits: lcm_eventlog.c asserts channel lengths below 1000; LCM_MAX_MESSAGE_SIZE.

@@ -44,14 +44,16 @@ Expected<int64_t> loadStoredNodes(RegistrationOracle& oracle, const std::filesys
   return told;
 }
 
-OracleServer::OracleServer(lcm::LCM& lcm, RegistrationOracle& oracle) : lcm_(lcm), oracle_(oracle) {
+OracleServer::OracleServer(lcm::LCM& lcm, RegistrationOracle& oracle, messages::Signer signer)
+    : lcm_(lcm), out_(lcm, std::move(signer)), oracle_(oracle) {
   // A node or a request lost to a full queue is an answer the mapper never gets.
   lcm_.subscribe(channels::kNodeAdded, &OracleServer::onNodeAdded, this)->setQueueCapacity(0);
   lcm_.subscribe(channels::kRegisterRequest, &OracleServer::onRequest, this)->setQueueCapacity(0);
 }
 
 void OracleServer::onNodeAdded(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
-  auto m = messages::decodeLcm<node_added_t>(buffer->data, buffer->data_size, channel);
+  auto m = messages::decodeLcm<node_added_t>(
+      buffer->data, messages::messageSize(buffer->data, buffer->data_size), channel);
   if (!m) {
     ++dropped_;
     std::fprintf(stderr, "evermap::sim oracle: dropped: %s\n", m.error().message.c_str());
@@ -64,7 +66,8 @@ void OracleServer::onNodeAdded(const lcm::ReceiveBuffer* buffer, const std::stri
 }
 
 void OracleServer::onRequest(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
-  auto m = messages::decodeLcm<register_request_t>(buffer->data, buffer->data_size, channel);
+  auto m = messages::decodeLcm<register_request_t>(
+      buffer->data, messages::messageSize(buffer->data, buffer->data_size), channel);
   if (!m) {
     ++dropped_;
     std::fprintf(stderr, "evermap::sim oracle: dropped: %s\n", m.error().message.c_str());
@@ -72,7 +75,7 @@ void OracleServer::onRequest(const lcm::ReceiveBuffer* buffer, const std::string
   }
   // The oracle answers invalid requests itself (STATUS_MALFORMED), so the mapper hears back.
   const register_result_t r = oracle_.answer(*m);
-  lcm_.publish(channels::kRegisterResult, &r);
+  out_.publish(channels::kRegisterResult, r);
   ++answered_;
 }
 

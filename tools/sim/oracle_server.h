@@ -11,6 +11,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "core/common/expected.h"
+#include "core/messages/outbox.h"
 #include "tools/sim/registration_oracle.h"
 
 namespace evermap::sim {
@@ -24,8 +25,9 @@ Expected<int64_t> loadStoredNodes(RegistrationOracle& oracle, const std::filesys
 
 class OracleServer {
  public:
-  // Subscribes on `lcm`; both must outlive the server.
-  OracleServer(lcm::LCM& lcm, RegistrationOracle& oracle);
+  // Subscribes on `lcm`; both must outlive the server. Results go out sealed by `signer`
+  // (core/messages/envelope.h); what arrives is read without its envelope, unchecked.
+  OracleServer(lcm::LCM& lcm, RegistrationOracle& oracle, messages::Signer signer = {});
   int64_t answered() const { return answered_; }
   int64_t dropped() const { return dropped_; }
 
@@ -34,6 +36,7 @@ class OracleServer {
   void onRequest(const lcm::ReceiveBuffer* buffer, const std::string& channel);
 
   lcm::LCM& lcm_;
+  messages::Outbox out_;
   RegistrationOracle& oracle_;
   int64_t answered_ = 0;
   int64_t dropped_ = 0;

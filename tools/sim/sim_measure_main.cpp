@@ -28,6 +28,8 @@
 #include "core/common/clocks.h"
 #include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
+#include "core/messages/key_option.h"
+#include "core/messages/outbox.h"
 #include "core/common/stop_signals.h"
 #include "tools/sim/oracle_server.h"
 #include "tools/sim/registration_oracle.h"
@@ -49,6 +51,7 @@ struct Args {
   std::string mode;  // out, stats, serve, oracle, print
   std::string lcm_url;
   std::string map;  // --oracle: the map store to read known nodes from
+  std::string key_file;
   double speed = 0.0;
   double idle_exit_s = 0.0;
   bool load = true;
@@ -85,6 +88,7 @@ int parseArgs(int argc, char** argv, Args* a) {
   cli.flag("--print-config", &print, "print every setting and exit");
   cli.value("--lcm-url", &a->lcm_url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.value("--map", &a->map, "STORE", "--oracle: first learn the nodes the map store holds");
+  evermap::messages::declareKeyOption(cli, &a->key_file);
   cli.value("--speed", &a->speed, "X", "--serve: times real time (0: as fast as possible)").min(0);
   cli.value("--idle-exit-s", &a->idle_exit_s, "S", "--oracle: exit after S s without requests")
       .min(0);
@@ -169,8 +173,9 @@ int runOut(const RunPlan& plan, const std::string& folder) {
 // Publishes every message on LCM; between messages, answers what arrived.
 class LcmSink final : public evermap::sim::MessageSink {
  public:
-  LcmSink(lcm::LCM& lcm, double speed, evermap::StopSignals& stop)
-      : lcm_(lcm), speed_(speed), stop_(stop) {}
+  LcmSink(lcm::LCM& lcm, const evermap::messages::Outbox& out, double speed,
+          evermap::StopSignals& stop)
+      : lcm_(lcm), out_(out), speed_(speed), stop_(stop) {}
   void startSession() { first_utime_ = -1; }
   void write(const std::string& channel, int64_t utime, const std::vector<uint8_t>& data) override {
     if (stop_.requested()) return;
@@ -183,13 +188,14 @@ class LcmSink final : public evermap::sim::MessageSink {
                                          static_cast<int64_t>((utime - first_utime_) / speed_));
       while (Clock::now() < due && !stop_.requested()) lcm_.handleTimeout(1);
     }
-    lcm_.publish(channel, data.data(), static_cast<unsigned int>(data.size()));
+    out_.publishBytes(channel, data.data(), static_cast<int64_t>(data.size()));
     while (lcm_.handleTimeout(0) > 0) {
     }
   }
 
  private:
   lcm::LCM& lcm_;
+  const evermap::messages::Outbox& out_;
   double speed_;
   evermap::StopSignals& stop_;
   int64_t first_utime_ = -1;
@@ -197,6 +203,11 @@ class LcmSink final : public evermap::sim::MessageSink {
 };
 
 int runServe(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) {
+  auto signer = evermap::messages::makeSigner("evermap-sim-measure", args.key_file);
+  if (!signer) {
+    std::fprintf(stderr, "evermap-sim-measure: %s\n", signer.error().message.c_str());
+    return 2;
+  }
   lcm::LCM lcm(args.lcm_url);
   if (!lcm.good()) {
     std::fprintf(stderr, "evermap-sim-measure: cannot start LCM (url \"%s\")\n",
@@ -204,8 +215,9 @@ int runServe(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) 
     return 1;
   }
   evermap::sim::RegistrationOracle oracle(plan.options().oracle, plan.oracleSeed());
-  evermap::sim::OracleServer server(lcm, oracle);
-  LcmSink sink(lcm, args.speed, stop);
+  const evermap::messages::Outbox out(lcm, *signer);
+  evermap::sim::OracleServer server(lcm, oracle, *signer);
+  LcmSink sink(lcm, out, args.speed, stop);
   evermap::sim::SessionObservers observers;
   observers.on_keyframe = [&](const KeyframeTruth& k) { oracle.addKeyframe(k); };
   const auto summary = evermap::sim::generateRun(
@@ -228,6 +240,11 @@ int runServe(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) 
 }
 
 int runOracle(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) {
+  auto signer = evermap::messages::makeSigner("evermap-sim-measure", args.key_file);
+  if (!signer) {
+    std::fprintf(stderr, "evermap-sim-measure: %s\n", signer.error().message.c_str());
+    return 2;
+  }
   lcm::LCM lcm(args.lcm_url);
   if (!lcm.good()) {
     std::fprintf(stderr, "evermap-sim-measure: cannot start LCM (url \"%s\")\n",
@@ -251,7 +268,7 @@ int runOracle(const RunPlan& plan, const Args& args, evermap::StopSignals& stop)
     }
     stored_nodes = *told;
   }
-  evermap::sim::OracleServer server(lcm, oracle);
+  evermap::sim::OracleServer server(lcm, oracle, *signer);
   std::printf(
       "evermap-sim-measure: oracle ready, %lld keyframes known, %lld nodes from the map store\n",
       static_cast<long long>(oracle.summary().keyframes), static_cast<long long>(stored_nodes));
