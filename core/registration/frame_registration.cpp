@@ -188,11 +188,6 @@ RegistrationSummary registerMatches(const StereoCamera& camera_a, const StereoCa
                                     const SE3d& initial, const RegistrationOptions& options) {
   RegistrationSummary s;
   s.num_matches = static_cast<int>(matches.size());
-  if (Status v = options.validate(); !v) {
-    s.status = RegistrationStatus::kBadInput;
-    s.message = v.error().message;
-    return s;
-  }
   if (ids.size() != matches.size()) {
     s.status = RegistrationStatus::kBadInput;
     s.message =

@@ -98,7 +98,8 @@ RegistrationSummary registerFrames(const StereoCamera& camera_a, const KeyframeF
 
 // The tail of registerFrames() for matches found otherwise: `ids[k]` = (index in a, index in
 // b) of matches[k]. `initial` seeds the motion when options.motion.use_initial_guess.
-// num_features_* and num_matches of the summary are set from the arguments.
+// num_features_* and num_matches of the summary are set from the arguments. `options` must be
+// valid (the caller validates them once: visual odometry calls this on every frame).
 RegistrationSummary registerMatches(const StereoCamera& camera_a, const StereoCamera& camera_b,
                                     const std::vector<Correspondence>& matches,
                                     const std::vector<std::pair<int, int>>& ids,
