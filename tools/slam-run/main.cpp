@@ -128,7 +128,8 @@ int parseCommandLine(int argc, char** argv, SlamArgs* a) {
             "summary.txt, fig4-nodes.png, fig4-floors.svg, fig7-*.svg "
             "(created; an existing map.db is "
             "continued as a stored map; required)");
-  cli.flag("--places", &a->places, "write loopclose-proc's place store to DIR/places.db as well "
+  cli.flag("--places", &a->places,
+           "write loopclose-proc's place store to DIR/places.db as well "
            "(the node keyframes evermap-map-export reads; an existing one is continued)");
   cli.flag("--full-graph", &a->full_graph,
            "a node at every step (the paper's baseline) instead of the reduced graph");
