@@ -18,8 +18,8 @@ Expected<core::SE3d> mountingFromLog(const std::filesystem::path& log) {
   const std::string name = log.string() + ": ";
   while (const messages::LogReader::Event* e = reader->next()) {
     if (e->channel == channels::kStereoCalib) {
-      auto msg = messages::decodeLcm<evermap::stereo_calib_t>(e->data, e->datalen,
-                                                              name + e->channel);
+      auto msg =
+          messages::decodeLcm<evermap::stereo_calib_t>(e->data, e->datalen, name + e->channel);
       if (!msg) return msg.error();
       auto calibration = messages::fromMsg(*msg);
       if (!calibration) return makeError(name, calibration.error().message);
@@ -28,8 +28,7 @@ Expected<core::SE3d> mountingFromLog(const std::filesystem::path& log) {
       return *mounting;
     }
     if (e->channel == channels::kRgbdCalib) {
-      auto msg =
-          messages::decodeLcm<evermap::rgbd_calib_t>(e->data, e->datalen, name + e->channel);
+      auto msg = messages::decodeLcm<evermap::rgbd_calib_t>(e->data, e->datalen, name + e->channel);
       if (!msg) return msg.error();
       auto camera = messages::fromMsg(msg->camera);
       if (!camera) return makeError(name, camera.error().message);

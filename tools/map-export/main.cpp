@@ -68,8 +68,7 @@ int parseCommandLine(int argc, char** argv, ExportArgs* a) {
   cli.alias("--band-max", "grid.band_max_m", "M");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (a->calib.empty() && a->truth.empty())
-    return fail("give --calib LOG (or --truth SIM.conf) for the camera's mounting\n" +
-                    cli.usage(),
+    return fail("give --calib LOG (or --truth SIM.conf) for the camera's mounting\n" + cli.usage(),
                 2);
   if (!a->truth.empty() && a->truth_nodes.empty())
     return fail("--truth needs --truth-nodes\n" + cli.usage(), 2);
@@ -135,12 +134,12 @@ int main(int argc, char** argv) {
   if (!written) return fail(written.error().message);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("%s: %zu floors, %zu of %zu nodes (%lld left out), %lld points, %lld files, "
-              "%lld bytes, %.2f s\n",
-              a.out.c_str(), plans.size(), scans.nodes.size(), snapshot->nodes.size(),
-              static_cast<long long>(scans.errors), static_cast<long long>(written->points),
-              static_cast<long long>(written->files), static_cast<long long>(written->bytes),
-              seconds);
+  std::printf(
+      "%s: %zu floors, %zu of %zu nodes (%lld left out), %lld points, %lld files, "
+      "%lld bytes, %.2f s\n",
+      a.out.c_str(), plans.size(), scans.nodes.size(), snapshot->nodes.size(),
+      static_cast<long long>(scans.errors), static_cast<long long>(written->points),
+      static_cast<long long>(written->files), static_cast<long long>(written->bytes), seconds);
   if (auto b = keyframes->keyframeBytes(); b && b->first > 0)
     std::printf("place store keyframes: %lld, %lld bytes of messages (%.0f per keyframe)\n",
                 static_cast<long long>(b->first), static_cast<long long>(b->second),

@@ -41,8 +41,8 @@ Expected<KeyframeReader> KeyframeReader::open(const std::filesystem::path& file)
   KeyframeReader r(db, file);
   Stmt st;
   if (sqlite3_prepare_v2(db, "SELECT COUNT(*) FROM keyframes", -1, &st.s, nullptr) != SQLITE_OK)
-    return makeError(file.string(), ": not a place store (no keyframes table: ",
-                     sqlite3_errmsg(db), ")");
+    return makeError(file.string(), ": not a place store (no keyframes table: ", sqlite3_errmsg(db),
+                     ")");
   return r;
 }
 
@@ -81,8 +81,8 @@ Expected<std::optional<std::vector<core::Vec3>>> KeyframeReader::points(int64_t 
 
 Expected<std::pair<int64_t, int64_t>> KeyframeReader::keyframeBytes() const {
   Stmt st;
-  if (sqlite3_prepare_v2(db_, "SELECT COUNT(*), TOTAL(LENGTH(message)) FROM keyframes", -1,
-                         &st.s, nullptr) != SQLITE_OK ||
+  if (sqlite3_prepare_v2(db_, "SELECT COUNT(*), TOTAL(LENGTH(message)) FROM keyframes", -1, &st.s,
+                         nullptr) != SQLITE_OK ||
       sqlite3_step(st.s) != SQLITE_ROW)
     return sqlError(file_, db_);
   return std::pair<int64_t, int64_t>(sqlite3_column_int64(st.s, 0),

@@ -6,7 +6,6 @@
 #include <cstdlib>
 #include <limits>
 
-
 namespace evermap::map_export {
 
 Status GridOptions::validate() const {

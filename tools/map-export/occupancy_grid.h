@@ -23,13 +23,13 @@
 namespace evermap::map_export {
 
 struct GridOptions {
-  double resolution_m = 0.05;     // cell side
-  double band_min_m = 0.1;        // the robot's height band above the floor surface
+  double resolution_m = 0.05;  // cell side
+  double band_min_m = 0.1;     // the robot's height band above the floor surface
   double band_max_m = 1.5;
-  double max_range_m = 5.0;       // points farther from their camera are not used
-  int min_hits = 2;               // hits a cell needs to be occupied
-  double occupied_fraction = 0.3; // and hits / (hits + misses) at least this
-  double margin_m = 1.0;          // around the floor's cameras and points
+  double max_range_m = 5.0;        // points farther from their camera are not used
+  int min_hits = 2;                // hits a cell needs to be occupied
+  double occupied_fraction = 0.3;  // and hits / (hits + misses) at least this
+  double margin_m = 1.0;           // around the floor's cameras and points
 
   void declareOptions(OptionList& o) {
     o.add("resolution_m", &resolution_m, "m", "cell side of the floor plans").in(0.01, 1.0);

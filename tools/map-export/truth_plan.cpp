@@ -34,7 +34,9 @@ BuildingTruth::TrueFloor trueFloor(const sim::FloorSpec& spec, double cell) {
   f.w = static_cast<int>(std::ceil((hi.x() - f.x0) / cell)) + 2;
   f.h = static_cast<int>(std::ceil((hi.y() - f.y0) / cell)) + 2;
   std::vector<uint8_t> label(static_cast<size_t>(f.w) * f.h, 0);
-  auto centre = [&](int i, int j) { return Vec2(f.x0 + (i + 0.5) * cell, f.y0 + (j + 0.5) * cell); };
+  auto centre = [&](int i, int j) {
+    return Vec2(f.x0 + (i + 0.5) * cell, f.y0 + (j + 0.5) * cell);
+  };
   for (size_t r = 0; r < spec.regions.size(); ++r)
     for (const sim::Box& b : spec.regions[r].boxes)
       for (int j = 0; j < f.h; ++j)
@@ -166,8 +168,8 @@ Expected<BuildingTruth> BuildingTruth::load(const sim::ImageSimOptions& options,
   auto rows = readColumns(nodes_csv, {"node", "true_floor", "x", "y", "true_x", "true_y"});
   if (!rows) return rows.error();
   for (const auto& r : *rows)
-    t.nodes_.push_back({static_cast<int64_t>(r[0]), static_cast<int>(r[1]), Vec2(r[2], r[3]),
-                        Vec2(r[4], r[5])});
+    t.nodes_.push_back(
+        {static_cast<int64_t>(r[0]), static_cast<int>(r[1]), Vec2(r[2], r[3]), Vec2(r[4], r[5])});
   return t;
 }
 
@@ -226,7 +228,8 @@ Expected<TruthComparison> BuildingTruth::compare(const std::vector<FloorPlan>& p
       est.push_back(n.world_T_body.translation().head<2>());
       truth.push_back(it->second->truth);
     }
-  if (est.size() < 3) return makeError("--truth-nodes: ", est.size(), " of the map's nodes have truth");
+  if (est.size() < 3)
+    return makeError("--truth-nodes: ", est.size(), " of the map's nodes have truth");
   TruthComparison c;
   c.truth_T_map = fitPlanar(est, truth, &c.fit_rmse_m);
   const core::SE3d map_T_truth = c.truth_T_map.inverse();
@@ -305,8 +308,10 @@ Status BuildingTruth::drawFloor(const FloorPlan& plan, const TruthComparison& c,
         }
         int e = i;
         while (e < g.width() && g.cell(e, j) == kind) ++e;
-        const Eigen::Vector2d a = px(Vec2(g.x0() + i * g.resolution(), g.y0() + (j + 1) * g.resolution()));
-        canvas.rect(a, Eigen::Vector2d((e - i) * px_per_cell, px_per_cell), colour, 0, true, colour);
+        const Eigen::Vector2d a =
+            px(Vec2(g.x0() + i * g.resolution(), g.y0() + (j + 1) * g.resolution()));
+        canvas.rect(a, Eigen::Vector2d((e - i) * px_per_cell, px_per_cell), colour, 0, true,
+                    colour);
         i = e;
       }
   }
@@ -316,7 +321,9 @@ Status BuildingTruth::drawFloor(const FloorPlan& plan, const TruthComparison& c,
       canvas.line(px(apply(map_T_truth, w.a)), px(apply(map_T_truth, w.b)), {220, 30, 30}, 1.0);
   }
   char title[300];
-  std::snprintf(title, sizeof title, "floor %d plan (black occupied, white free, grey unknown), %.2f m cells; red: the simulator's walls",
+  std::snprintf(title, sizeof title,
+                "floor %d plan (black occupied, white free, grey unknown), %.2f m cells; red: the "
+                "simulator's walls",
                 plan.floor, g.resolution());
   canvas.text({10, 22}, title, 13, {0, 0, 0});
   if (score) {

@@ -47,8 +47,8 @@ class BuildingTruth {
   // of slam-run's nodes.csv (node, true_floor, x, y, true_x, true_y columns).
   static Expected<BuildingTruth> load(const sim::ImageSimOptions& options,
                                       const std::filesystem::path& nodes_csv);
-  Expected<TruthComparison> compare(const std::vector<FloorPlan>& plans,
-                                    const ScanSet& scans, double tolerance_m) const;
+  Expected<TruthComparison> compare(const std::vector<FloorPlan>& plans, const ScanSet& scans,
+                                    double tolerance_m) const;
   // The plan with the true walls drawn over it (map frame), PNG or SVG by the extension.
   Status drawFloor(const FloorPlan& plan, const TruthComparison& c,
                    const std::filesystem::path& file) const;
