@@ -108,10 +108,9 @@ evermap::keyframe_t wallKeyframe(int64_t utime, double depth) {
   k.baseline_m = 0.1;
   for (double x = -0.98; x <= 1.0; x += 0.05)
     for (double y = -0.3; y <= 0.7; y += 0.25) {
-      k.keypoints.push_back({static_cast<float>(320 + 400 * x / depth),
-                             static_cast<float>(240 + 400 * y / depth)});
-      k.points.push_back(
-          {static_cast<float>(x), static_cast<float>(y), static_cast<float>(depth)});
+      k.keypoints.push_back(
+          {static_cast<float>(320 + 400 * x / depth), static_cast<float>(240 + 400 * y / depth)});
+      k.points.push_back({static_cast<float>(x), static_cast<float>(y), static_cast<float>(depth)});
       k.disparity.push_back(static_cast<float>(400 * 0.1 / depth));
       k.level.push_back(0);
       k.descriptors.emplace_back(32, 0);
