@@ -220,3 +220,16 @@ TEST(MapExport, ThePlanFollowsTheGraphWhenANodeMoves) {
 
 }  // namespace
 }  // namespace evermap::map_export
+
+namespace evermap::map_export {
+namespace {
+
+TEST(MapExport, ABodyThatIsTheCameraHasItsMinusYAxisUp) {
+  const core::SE3d plan_T_map = planTMap(UpAxis::kMinusY);
+  EXPECT_TRUE((plan_T_map * core::Vec3(0, -1, 0)).isApprox(core::Vec3(0, 0, 1)));
+  EXPECT_TRUE((plan_T_map * core::Vec3(0, 0, 1)).isApprox(core::Vec3(0, 1, 0)));  // ahead
+  EXPECT_TRUE((planTMap(UpAxis::kZ) * core::Vec3(1, 2, 3)).isApprox(core::Vec3(1, 2, 3)));
+}
+
+}  // namespace
+}  // namespace evermap::map_export

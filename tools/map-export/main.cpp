@@ -32,8 +32,12 @@ int fail(const std::string& message, int code = 1) {
 struct ExportOptions {
   map_export::GridOptions grid;
   double truth_tolerance_m = 0.10;
+  map_export::UpAxis up = map_export::UpAxis::kZ;
   void declareOptions(OptionList& o) {
     o.nest("grid.", &grid);
+    o.choice("up", &up, {{"z", map_export::UpAxis::kZ}, {"-y", map_export::UpAxis::kMinusY}},
+             "up in the map frame: z (a gravity-aligned body: IMU) or -y (the body is the "
+             "camera, y down: evermap-kitti2lcm)");
     o.add("truth_tolerance_m", &truth_tolerance_m, "m",
           "--truth: an occupied cell this close to a true wall is right")
         .positive();
@@ -126,7 +130,8 @@ int main(int argc, char** argv) {
   if (!snapshot) return fail(snapshot.error().message);
   auto keyframes = map_export::KeyframeReader::open(a.places);
   if (!keyframes) return fail(keyframes.error().message);
-  const map_export::ScanSet scans = map_export::loadScans(*snapshot, *keyframes, body_T_cam);
+  const map_export::ScanSet scans =
+      map_export::loadScans(*snapshot, *keyframes, body_T_cam, map_export::planTMap(a.options.up));
   for (const std::string& m : scans.messages) fail(a.store + ": " + m);
   const auto plans = map_export::makeFloorPlans(scans, a.options.grid);
   auto written =

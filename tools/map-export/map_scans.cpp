@@ -89,8 +89,16 @@ Expected<std::pair<int64_t, int64_t>> KeyframeReader::keyframeBytes() const {
                                      static_cast<int64_t>(sqlite3_column_double(st.s, 1)));
 }
 
+core::SE3d planTMap(UpAxis up) {
+  if (up == UpAxis::kZ) return core::SE3d();
+  // Rows: the plan's x, y, z in map coordinates (x, z forward-ish, -y up).
+  Eigen::Matrix3d R;
+  R << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  return core::SE3d(Eigen::Quaterniond(R), core::Vec3::Zero());
+}
+
 ScanSet loadScans(const map::MapSnapshot& map, const KeyframeReader& keyframes,
-                  const core::SE3d& body_T_cam) {
+                  const core::SE3d& body_T_cam, const core::SE3d& plan_T_map) {
   ScanSet out;
   auto drop = [&out](std::string message) {
     ++out.errors;
@@ -112,8 +120,8 @@ ScanSet loadScans(const map::MapSnapshot& map, const KeyframeReader& keyframes,
            " is not in the place store");
       continue;
     }
-    NodeScan s{n.node.id, n.node.session, n.node.floor, n.world_T_body, {}};
-    const core::SE3d world_T_cam = n.world_T_body * body_T_cam;
+    NodeScan s{n.node.id, n.node.session, n.node.floor, plan_T_map * n.world_T_body, {}};
+    const core::SE3d world_T_cam = s.world_T_body * body_T_cam;
     s.scan.camera = world_T_cam.translation();
     s.scan.points.reserve((*points)->size());
     for (const core::Vec3& p : **points) s.scan.points.push_back(world_T_cam * p);

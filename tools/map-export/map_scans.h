@@ -61,9 +61,16 @@ struct ScanSet {
   std::vector<std::string> messages;
 };
 
-// Every node of `map` with its keyframe's points; a node without a keyframe, or with a pose
-// or point that is not finite, is one message and counted, not fatal for the others.
+// Which way is up in the map frame: z (the mapper's body frame, gravity-aligned with an IMU),
+// or -y (a body that is the camera itself, y down: evermap-kitti2lcm's logs, no IMU).
+enum class UpAxis { kZ, kMinusY };
+// The rotation that takes the map frame to the plans' frame (z up).
+core::SE3d planTMap(UpAxis up);
+
+// Every node of `map` with its keyframe's points, in the plans' frame (plan_T_map * map); a
+// node without a keyframe, or with a pose or point that is not finite, is one message and
+// counted, not fatal for the others.
 ScanSet loadScans(const map::MapSnapshot& map, const KeyframeReader& keyframes,
-                  const core::SE3d& body_T_cam);
+                  const core::SE3d& body_T_cam, const core::SE3d& plan_T_map = {});
 
 }  // namespace evermap::map_export

@@ -33,9 +33,10 @@ struct GridOptions {
 
   void declareOptions(OptionList& o) {
     o.add("resolution_m", &resolution_m, "m", "cell side of the floor plans").in(0.01, 1.0);
-    o.add("band_min_m", &band_min_m, "m", "lowest obstacle height above the floor").min(0);
-    o.add("band_max_m", &band_max_m, "m", "highest obstacle height above the floor (robot)")
-        .positive();
+    o.add("band_min_m", &band_min_m, "m",
+          "lowest obstacle height above the floor (the body origins' median height)")
+        .any();
+    o.add("band_max_m", &band_max_m, "m", "highest obstacle height above the floor (robot)").any();
     o.add("max_range_m", &max_range_m, "m", "points farther from their camera are left out")
         .positive();
     o.add("min_hits", &min_hits, "", "points a cell needs to be occupied").min(1);
