@@ -108,7 +108,7 @@ struct SlamArgs {
   std::vector<std::string> logs, sets, render_sets;
   std::string render_config;
   int render_sessions = -1;
-  bool full_graph = false, print_config = false;
+  bool full_graph = false, print_config = false, places = false;
 };
 
 int fail(const std::string& what, int code) {
@@ -128,6 +128,9 @@ int parseCommandLine(int argc, char** argv, SlamArgs* a) {
             "summary.txt, fig4-nodes.png, fig4-floors.svg, fig7-*.svg "
             "(created; an existing map.db is "
             "continued as a stored map; required)");
+  cli.flag("--places", &a->places,
+           "write loopclose-proc's place store to DIR/places.db as well "
+           "(the node keyframes evermap-map-export reads; an existing one is continued)");
   cli.flag("--full-graph", &a->full_graph,
            "a node at every step (the paper's baseline) instead of the reduced graph");
   cli.value("--config", &a->config, "MAPPER.conf", "mapper.* settings (docs/mapper.md)");
@@ -254,6 +257,7 @@ int run(SlamArgs& a, std::optional<evermap::sim::ImageSimOptions>& render) {
   if (ec) return fail(a.out_dir + ": cannot create (" + ec.message() + ")", 1);
   const std::filesystem::path out(a.out_dir);
   a.options.store = out / "map.db";
+  if (a.places) a.options.places = out / "places.db";
   const auto t0 = std::chrono::steady_clock::now();
   auto vocabulary = bow::loadAnyVocabulary(a.vocab_file);
   if (!vocabulary) return fail(vocabulary.error().message, 1);

@@ -75,9 +75,17 @@ Expected<std::unique_ptr<SlamRunner>> SlamRunner::create(const bow::Vocabulary& 
   if (!store) return store.error();
   r->store_ = std::move(*store);
   // The loop closer's places live in memory for the whole run (loopclose-proc would reload
-  // the same from its place store after a restart).
-  auto closer =
-      loopclose::LoopCloser::create(vocabulary, *r->registration_, options.loopclose, std::nullopt);
+  // the same from its place store after a restart); with options.places they are also
+  // persisted there, as loopclose-proc does (evermap-map-export reads the node keyframes).
+  std::optional<bow::PlaceStore> places;
+  if (!options.places.empty()) {
+    auto opened =
+        bow::PlaceStore::open(options.places, vocabulary.fingerprint(), vocabulary.numWords());
+    if (!opened) return opened.error();
+    places = std::move(*opened);
+  }
+  auto closer = loopclose::LoopCloser::create(vocabulary, *r->registration_, options.loopclose,
+                                              std::move(places));
   if (!closer) return closer.error();
   r->loop_closer_ = std::move(*closer);
   return r;

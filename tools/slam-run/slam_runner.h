@@ -59,6 +59,9 @@ struct SlamRunOptions {
   core::RegistrationOptions registration;  // loopclose-proc's frame registration
   mapper::MapperOptions mapper;
   std::filesystem::path store;  // the map store; required (sessions restore from it)
+  // The loop closer's place store (loopclose-proc --store): node keyframes and places are
+  // persisted there as loopclose-proc does; empty: kept in memory only.
+  std::filesystem::path places;
   // An accepted loop closure is false when it is this far from the truth.
   double false_closure_m = 0.5;
   double false_closure_deg = 5.0;
