@@ -15,7 +15,8 @@ Status FrameDropOptions::validate() const {
   return Ok{};
 }
 
-FrameDropper::FrameDropper(const FrameDropOptions& options) : options_(options), rng_(options.seed) {
+FrameDropper::FrameDropper(const FrameDropOptions& options)
+    : options_(options), rng_(options.seed) {
   const double f = options.fraction;
   const double mean_length = 1.0 + options.burst_probability * (options.burst_frames - 1);
   // f = L q / (1 - q + L q)  <=>  q = f / (L (1 - f) + f)
