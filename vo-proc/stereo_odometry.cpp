@@ -122,6 +122,8 @@ void StereoOdometry::reset() {
   frames_since_good_ = 0;
   prev_T_cur_motion_ = SE3d();
   has_motion_ = false;
+  prev_utime_ = -1;
+  frame_dt_us_ = motion_dt_us_ = 0;
   kf_T_ref_ = core::UncertainPose{};
   failures_ = 0;
   first_inliers_ = 0;
@@ -248,7 +250,7 @@ FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& 
   r.utime = utime;
   r.ref_utime = has_ref_ ? kf_utime_ : utime;
   if (!extractFrame(utime, extract, &r)) return r;
-  const SE3d ref_T_pred = predictMotion();
+  const SE3d ref_T_pred = predictMotion(utime);
   if (has_ref_) ++frames_since_good_;
 
   if (r.num_features < options_.registration.min_features) {
@@ -297,7 +299,9 @@ bool StereoOdometry::extractFrame(int64_t utime, const std::function<Status()>& 
   return true;
 }
 
-SE3d StereoOdometry::predictMotion() {
+SE3d StereoOdometry::predictMotion(int64_t utime) {
+  frame_dt_us_ = prev_utime_ >= 0 ? utime - prev_utime_ : 0;
+  prev_utime_ = utime;
   // Initial rotation between the previous frame and this one (FOVIS section 3.3).
   std::optional<core::SO3d> cur_R_prev;
   const int top = cur_->left.numLevels() - 1;
@@ -306,10 +310,23 @@ SE3d StereoOdometry::predictMotion() {
     cur_R_prev = core::estimateRotation(prev_top_, top_image, camera_, top, options_.rotation);
   }
   top_image.copyTo(prev_top_);
-  // The motion prior: the last frame-to-frame motion, with the measured rotation.
-  SE3d prev_T_pred = options_.constant_velocity && has_motion_ ? prev_T_cur_motion_ : SE3d();
+  // The motion prior: the last frame-to-frame motion at the same velocity, with the measured
+  // rotation.
+  SE3d prev_T_pred =
+      options_.constant_velocity && has_motion_ ? scaledMotion(frame_dt_us_) : SE3d();
   if (cur_R_prev) prev_T_pred = SE3d(cur_R_prev->inverse(), prev_T_pred.translation());
   return ref_T_prev_ * prev_T_pred;
+}
+
+SE3d StereoOdometry::scaledMotion(int64_t dt_us) const {
+  // A frame lost in between (vo-proc's queue under load, a camera's dropped frame) makes the
+  // interval longer than the last motion's: the same velocity moves farther. Equal intervals
+  // (the usual case) leave the motion exactly as measured.
+  if (dt_us <= 0 || motion_dt_us_ <= 0 || dt_us == motion_dt_us_) return prev_T_cur_motion_;
+  const double ratio = std::min(static_cast<double>(dt_us) / static_cast<double>(motion_dt_us_),
+                                kMaxVelocityExtrapolation);
+  return SE3d(core::SO3d::exp(ratio * prev_T_cur_motion_.so3().log()),
+              ratio * prev_T_cur_motion_.translation());
 }
 
 void StereoOdometry::failTooFewFeatures(const cv::Mat* depth, const SE3d& ref_T_pred,
@@ -379,6 +396,7 @@ void StereoOdometry::takeMotion(const RegisteredMotion& m, FrameResult* r) {
   r->covariance = kf_T_cur.covariance;
   failures_ = 0;
   prev_T_cur_motion_ = ref_T_prev_.inverse() * m.ref_T_cur;
+  motion_dt_us_ = frame_dt_us_;
   has_motion_ = true;
   ref_T_prev_ = m.ref_T_cur;
   const int inliers = m.summary.num_inliers;

@@ -239,7 +239,11 @@ class StereoOdometry {
   // The steps of track(). The frame's time order and its features (false: *result says why).
   bool extractFrame(int64_t utime, const std::function<Status()>& extract, FrameResult* result);
   // The motion prior: reference to current, predicted (and the rotation estimate's image kept).
-  core::SE3d predictMotion();
+  core::SE3d predictMotion(int64_t utime);
+  // The last frame-to-frame motion carried over `dt_us` at its velocity (at most
+  // kMaxVelocityExtrapolation times its own interval).
+  core::SE3d scaledMotion(int64_t dt_us) const;
+  static constexpr double kMaxVelocityExtrapolation = 10.0;
   void failTooFewFeatures(const cv::Mat* depth, const core::SE3d& ref_T_pred, FrameResult* result);
   // Too many failures in a row: the chain restarts at the current frame (bridged or not).
   void restartStaleReference(const core::SE3d& ref_T_pred, FrameResult* result);
@@ -281,6 +285,9 @@ class StereoOdometry {
   // The last frame-to-frame motion (the constant-velocity prediction).
   core::SE3d prev_T_cur_motion_;
   bool has_motion_ = false;
+  int64_t prev_utime_ = -1;   // the frame ref_T_prev_ and prev_top_ are of (-1: none)
+  int64_t frame_dt_us_ = 0;   // from it to the frame being tracked
+  int64_t motion_dt_us_ = 0;  // the interval prev_T_cur_motion_ was measured over
   // The previous frame's top pyramid level, for the rotation estimate.
   cv::Mat prev_top_;
   // The last keyframe and the motion from it to the reference (identity when the reference

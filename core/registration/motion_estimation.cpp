@@ -238,15 +238,16 @@ struct Problem {
         A.diagonal() += lambda * (H.diagonal().array() + 1e-9).matrix();
         const Vec6 delta = A.ldlt().solve(-g);
         if (!delta.allFinite()) return -1;
+        // Converged: a step this far below any precision the data has (1e-7 m or rad) is not
+        // worth its evaluation; near the minimum, rounding would refuse it try after try.
+        if (delta.norm() < 1e-7) return it;
         const SE3d candidate = *T * SE3d::exp(delta);
         const double c = evaluate(candidate, active, nullptr, nullptr);
         if (std::isfinite(c) && c <= cost) {
           *T = candidate;
           lambda = std::max(lambda * 0.1, 1e-9);
           improved = true;
-          // Converged: the step is far below any precision the data has (1e-7 m or rad), or
-          // the cost no longer moves.
-          const bool converged = delta.norm() < 1e-7 || cost - c < 1e-9 * (cost + 1e-12);
+          const bool converged = cost - c < 1e-9 * (cost + 1e-12);  // the cost no longer moves
           cost = evaluate(*T, active, &H, &g);
           if (converged) return it + 1;
         } else {

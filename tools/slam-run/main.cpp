@@ -138,6 +138,11 @@ int parseCommandLine(int argc, char** argv, SlamArgs* a) {
   cli.value("--max-session-s", &a->options.max_session_s, "S",
             "map at most S seconds of each log (0: all)")
       .min(0);
+  cli.value("--drop-frames", &a->options.drop.fraction, "F",
+            "drop this fraction of the frames before VO, as vo-proc drops them under load: "
+            "single frames, and 30 % of the drops bursts of 5 frames (seeded)")
+      .in(0, 0.5);
+  cli.value("--drop-seed", &a->options.drop.seed, "N", "seed of --drop-frames").min(0);
   cli.value("--render", &a->render_config, "SIM-IMAGE.conf",
             "render the image-level simulator's sessions on the fly instead of reading logs "
             "(config/sim-image-*.conf)");

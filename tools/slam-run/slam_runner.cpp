@@ -57,11 +57,11 @@ Status SlamRunOptions::validate() const {
     return Error("false closure thresholds must be > 0");
   if (!(max_session_s >= 0.0)) return Error("max_session_s: must be >= 0");
   if (!(progress_period_s >= 0.0)) return Error("progress_period_s: must be >= 0");
-  return Ok{};
+  return drop.validate();
 }
 
 SlamRunner::SlamRunner(const bow::Vocabulary& vocabulary, const SlamRunOptions& options)
-    : vocabulary_(vocabulary), options_(options) {}
+    : vocabulary_(vocabulary), options_(options), dropper_(options.drop) {}
 SlamRunner::~SlamRunner() = default;
 
 Expected<std::unique_ptr<SlamRunner>> SlamRunner::create(const bow::Vocabulary& vocabulary,
@@ -353,6 +353,10 @@ void SlamRunner::handleEvent(Session& ss, const ReadEvent& e, double* loopclose_
       inputError("mapper: " + s.error().message);
     *mapper_s += secondsSince(t0);
   } else if (channel == channels::kStereo || channel == channels::kRgbd) {
+    if (dropper_.drop()) {
+      ++summary_.frames_dropped;
+      return;
+    }
     onFrame(ss, e, loopclose_s, mapper_s);
   } else if (channel == channels::kImu) {
     onImu(ss, data, size, mapper_s);

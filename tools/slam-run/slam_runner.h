@@ -39,6 +39,7 @@
 #include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
 #include "tools/pipeline-eval/map_evaluation.h"
+#include "tools/slam-run/frame_dropper.h"
 #include "tools/sim/image_sim_options.h"
 #include "tools/sim/registration_oracle.h"
 #include "vo-proc/vo_pipeline.h"
@@ -69,6 +70,8 @@ struct SlamRunOptions {
   double max_session_s = 0.0;
   // A progress line on stderr at most this often, seconds of wall time (0: none).
   double progress_period_s = kProgressPeriodS;
+  // Frames dropped before VO, as vo-proc drops them under load (none by default).
+  FrameDropOptions drop;
 
   Status validate() const;
 };
@@ -150,6 +153,7 @@ struct SlamRunSummary {
   std::optional<sim::ReachFit> reach_fit;
   std::vector<std::string> errors;  // first few input errors (one line each)
   int64_t input_errors = 0;
+  int64_t frames_dropped = 0;  // by SlamRunOptions::drop, never seen by VO
 
   std::string text() const;
 };
@@ -256,6 +260,7 @@ class SlamRunner {
   std::map<int64_t, std::pair<int, int>> truth_floor_;  // utime -> (floor, session)
   std::vector<FrameRow> frames_;
   std::vector<RegistrationRow> registrations_;
+  FrameDropper dropper_;
   int64_t requests_answered_ = 0;
   int64_t answers_ok_ = 0;
   bool relocalised_ = false;

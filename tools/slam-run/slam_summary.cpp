@@ -75,7 +75,7 @@ std::string SlamRunSummary::text() const {
   s << "ms_per_frame decode " << 1e3 * times.decode_s / n << " (reader thread) wait "
     << 1e3 * times.wait_s / n << " vo " << 1e3 * times.vo_s / n << " imu " << 1e3 * times.imu_s / n
     << " loopclose " << 1e3 * times.loopclose_s / n << " mapper " << 1e3 * times.mapper_s / n
-    << "\ninput_errors " << input_errors << "\n";
+    << "\ninput_errors " << input_errors << "\nframes_dropped " << frames_dropped << "\n";
   for (const std::string& e : errors) s << "error " << e << "\n";
   return s.str();
 }

@@ -1,0 +1,82 @@
+#include <gtest/gtest.h>
+
+#include "tools/slam-run/frame_dropper.h"
+
+namespace evermap::slam_run {
+namespace {
+
+// Lengths of the runs of dropped frames over `frames` frames.
+std::vector<int> dropRuns(FrameDropper& d, int frames) {
+  std::vector<int> runs;
+  int run = 0;
+  for (int i = 0; i < frames; ++i) {
+    if (d.drop()) {
+      ++run;
+    } else if (run > 0) {
+      runs.push_back(run);
+      run = 0;
+    }
+  }
+  return runs;
+}
+
+TEST(FrameDropper, DropsNothingByDefault) {
+  FrameDropper d;
+  for (int i = 0; i < 1000; ++i) EXPECT_FALSE(d.drop());
+  EXPECT_EQ(d.dropped(), 0);
+  EXPECT_EQ(d.frames(), 1000);
+}
+
+TEST(FrameDropper, DropsTheFractionAskedForOverALongRun) {
+  for (double f : {0.05, 0.10, 0.3}) {
+    FrameDropOptions o;
+    o.fraction = f;
+    FrameDropper d(o);
+    dropRuns(d, 400000);  // about 10^4 drops: the count is within a few per cent
+    EXPECT_NEAR(static_cast<double>(d.dropped()) / static_cast<double>(d.frames()), f, 0.05 * f)
+        << "fraction " << f;
+  }
+}
+
+TEST(FrameDropper, DropsSingleFramesAndBurstsOfTheGivenLength) {
+  FrameDropOptions o;
+  o.fraction = 0.1;
+  o.burst_probability = 0.3;
+  o.burst_frames = 5;
+  FrameDropper d(o);
+  const std::vector<int> runs = dropRuns(d, 100000);
+  int singles = 0, bursts = 0;
+  for (int r : runs) {
+    // A burst can follow a single drop at once (a run of 6) or two drops can touch: runs are
+    // sums of 1s and 5s.
+    if (r == 1) ++singles;
+    if (r == 5) ++bursts;
+  }
+  ASSERT_GT(singles + bursts, 1000);
+  EXPECT_NEAR(static_cast<double>(bursts) / (singles + bursts), 0.3, 0.05);
+}
+
+TEST(FrameDropper, TheSameSeedDropsTheSameFrames) {
+  FrameDropOptions o;
+  o.fraction = 0.05;
+  o.seed = 7;
+  FrameDropper a(o), b(o);
+  for (int i = 0; i < 5000; ++i) ASSERT_EQ(a.drop(), b.drop()) << "frame " << i;
+  o.seed = 8;
+  FrameDropper c(o);
+  FrameDropper a2(FrameDropOptions{0.05, 0.3, 5, 7});
+  int differ = 0;
+  for (int i = 0; i < 5000; ++i) differ += a2.drop() != c.drop();
+  EXPECT_GT(differ, 0);
+}
+
+TEST(FrameDropper, RefusesAFractionOutsideItsRange) {
+  EXPECT_FALSE((FrameDropOptions{0.6, 0.3, 5, 1}).validate().ok());
+  EXPECT_FALSE((FrameDropOptions{-0.1, 0.3, 5, 1}).validate().ok());
+  EXPECT_FALSE((FrameDropOptions{0.1, 1.5, 5, 1}).validate().ok());
+  EXPECT_FALSE((FrameDropOptions{0.1, 0.3, 0, 1}).validate().ok());
+  EXPECT_TRUE((FrameDropOptions{0.1, 0.3, 5, 1}).validate().ok());
+}
+
+}  // namespace
+}  // namespace evermap::slam_run

@@ -1,0 +1,45 @@
+#pragma once
+// Frames dropped as vo-proc drops them behind its queue when the CPU is shared (issue 46): live,
+// a frame that waits behind a slow one is lost, alone or in a burst when the other core is
+// busy for a while. evermap-slam-run --drop-frames F replays that offline, seeded, so that what
+// a lost frame costs the map can be measured and compared.
+//
+// A drop starts at a kept frame with probability q and takes `burst_frames` frames with
+// probability `burst_probability` (else one). Runs of kept frames are geometric, so over a
+// long run the fraction dropped is L q / (1 - q + L q) for a mean drop length L; q is chosen to
+// make it `fraction`.
+
+#include <cstdint>
+#include <random>
+
+#include "core/common/expected.h"
+
+namespace evermap::slam_run {
+
+struct FrameDropOptions {
+  double fraction = 0.0;  // of the stereo/RGB-D frames, over a long run; 0: none
+  double burst_probability = 0.3;
+  int burst_frames = 5;  // 250 ms at 20 Hz: a core busy for a quarter second
+  uint64_t seed = 1;
+
+  Status validate() const;
+};
+
+class FrameDropper {
+ public:
+  explicit FrameDropper(const FrameDropOptions& options = {});
+  // Whether the next frame is dropped.
+  bool drop();
+  int64_t dropped() const { return dropped_; }
+  int64_t frames() const { return frames_; }
+
+ private:
+  FrameDropOptions options_;
+  double start_probability_ = 0.0;
+  std::mt19937_64 rng_;
+  int remaining_ = 0;  // frames of the current drop still to go
+  int64_t dropped_ = 0;
+  int64_t frames_ = 0;
+};
+
+}  // namespace evermap::slam_run
