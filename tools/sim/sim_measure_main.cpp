@@ -19,6 +19,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -202,21 +204,38 @@ class LcmSink final : public evermap::sim::MessageSink {
   Clock::time_point wall_start_;
 };
 
-int runServe(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) {
+// The LCM of a serve or oracle run and this program's signer; nullopt (the error printed,
+// *code the exit status) when either cannot be had.
+struct SignedLcm {
+  evermap::messages::Signer signer;
+  std::unique_ptr<lcm::LCM> lcm;
+};
+std::optional<SignedLcm> openSignedLcm(const Args& args, int* code) {
   auto signer = evermap::messages::makeSigner("evermap-sim-measure", args.key_file);
   if (!signer) {
     std::fprintf(stderr, "evermap-sim-measure: %s\n", signer.error().message.c_str());
-    return 2;
+    *code = 2;
+    return std::nullopt;
   }
-  lcm::LCM lcm(args.lcm_url);
-  if (!lcm.good()) {
+  auto lcm = std::make_unique<lcm::LCM>(args.lcm_url);
+  if (!lcm->good()) {
     std::fprintf(stderr, "evermap-sim-measure: cannot start LCM (url \"%s\")\n",
                  args.lcm_url.c_str());
-    return 1;
+    *code = 1;
+    return std::nullopt;
   }
+  return SignedLcm{*signer, std::move(lcm)};
+}
+
+int runServe(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) {
+  int code = 0;
+  auto link = openSignedLcm(args, &code);
+  if (!link) return code;
+  lcm::LCM& lcm = *link->lcm;
+  const evermap::messages::Signer& signer = link->signer;
   evermap::sim::RegistrationOracle oracle(plan.options().oracle, plan.oracleSeed());
-  const evermap::messages::Outbox out(lcm, *signer);
-  evermap::sim::OracleServer server(lcm, oracle, *signer);
+  const evermap::messages::Outbox out(lcm, signer);
+  evermap::sim::OracleServer server(lcm, oracle, signer);
   LcmSink sink(lcm, out, args.speed, stop);
   evermap::sim::SessionObservers observers;
   observers.on_keyframe = [&](const KeyframeTruth& k) { oracle.addKeyframe(k); };
@@ -240,17 +259,11 @@ int runServe(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) 
 }
 
 int runOracle(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) {
-  auto signer = evermap::messages::makeSigner("evermap-sim-measure", args.key_file);
-  if (!signer) {
-    std::fprintf(stderr, "evermap-sim-measure: %s\n", signer.error().message.c_str());
-    return 2;
-  }
-  lcm::LCM lcm(args.lcm_url);
-  if (!lcm.good()) {
-    std::fprintf(stderr, "evermap-sim-measure: cannot start LCM (url \"%s\")\n",
-                 args.lcm_url.c_str());
-    return 1;
-  }
+  int code = 0;
+  auto link = openSignedLcm(args, &code);
+  if (!link) return code;
+  lcm::LCM& lcm = *link->lcm;
+  const evermap::messages::Signer& signer = link->signer;
   evermap::sim::OracleOptions options = plan.options().oracle;
   options.keyframe_window_s = 0.0;  // a replay may ask about any keyframe of the run
   evermap::sim::RegistrationOracle oracle(options, plan.oracleSeed());
@@ -268,7 +281,7 @@ int runOracle(const RunPlan& plan, const Args& args, evermap::StopSignals& stop)
     }
     stored_nodes = *told;
   }
-  evermap::sim::OracleServer server(lcm, oracle, *signer);
+  evermap::sim::OracleServer server(lcm, oracle, signer);
   std::printf(
       "evermap-sim-measure: oracle ready, %lld keyframes known, %lld nodes from the map store\n",
       static_cast<long long>(oracle.summary().keyframes), static_cast<long long>(stored_nodes));
