@@ -95,6 +95,19 @@ TEST(LcmLinkDirection, LosesTheGivenShareOfDatagramsAndCountsEachHitMessageOnce)
   EXPECT_LE(c.messages_hit, c.dropped);
 }
 
+TEST(LcmLinkDirection, LosesALargeDatagramWhenAnyOfItsIpPacketsIsLost) {
+  // A 35 KB KEYFRAME is one LCM datagram but 24 IP packets at an MTU of 1500: at 5 % packet
+  // loss it is lost with 1 - 0.95^24 = 71 %.
+  LinkOptions o;
+  o.loss_pct = 5.0;
+  Direction d(o, 11);
+  Bytes big = shortPacket(0, "KEYFRAME");
+  big.resize(35000, 0x55);
+  int lost = 0;
+  for (int k = 0; k < 2000; ++k) lost += !admit(&d, big, 0.0);
+  EXPECT_NEAR(lost / 2000.0, 0.708, 0.03);
+}
+
 TEST(LcmLinkDirection, TheSameSeedLosesTheSameDatagrams) {
   LinkOptions o;
   o.loss_pct = 30.0;

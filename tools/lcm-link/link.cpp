@@ -1,6 +1,7 @@
 #include "tools/lcm-link/link.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 
 namespace evermap::link {
@@ -26,7 +27,12 @@ std::string nameAt(const uint8_t* data, size_t size, size_t from) {
 }  // namespace
 
 void LinkOptions::declareOptions(OptionList& o) {
-  o.add("loss_pct", &loss_pct, "%", "each datagram is lost with this probability").in(0, 100);
+  o.add("loss_pct", &loss_pct, "%",
+        "each IP packet is lost with this probability (a datagram: if any of its packets is)")
+      .in(0, 100);
+  o.add("mtu", &mtu, "bytes",
+        "the link's MTU: a datagram crosses as ceil((size + 8) / (mtu - 20)) IP packets")
+      .in(576, 65535);
   o.add("delay_ms", &delay_ms, "ms", "one-way delay of each datagram").in(0, 60000);
   o.add("jitter_ms", &jitter_ms, "ms", "delay plus uniform(-jitter, +jitter), never below 0")
       .in(0, 60000);
@@ -58,6 +64,13 @@ PacketHeader parseHeader(const uint8_t* data, size_t size) {
 
 Direction::Direction(const LinkOptions& options, uint64_t seed)
     : options_(options), local_(options.local), rng_(seed) {}
+
+// A datagram is lost when any of the IP packets it is cut into is (UDP header 8 bytes, IP 20).
+double Direction::lossProbability(size_t size) const {
+  const double payload = static_cast<double>(options_.mtu - 20);
+  const double packets = std::ceil((static_cast<double>(size) + 8.0) / payload);
+  return 1.0 - std::pow(1.0 - options_.loss_pct / 100.0, packets);
+}
 
 bool Direction::inPartition(double now_s) const {
   return options_.partition_s > 0.0 && now_s >= options_.partition_start_s &&
@@ -94,7 +107,7 @@ bool Direction::admit(uint64_t sender, const uint8_t* data, size_t size, double 
     pass = false;
   } else {
     std::uniform_real_distribution<double> unit(0.0, 1.0);
-    const bool lost = unit(rng_) * 100.0 < options_.loss_pct;  // drawn for every datagram
+    const bool lost = unit(rng_) < lossProbability(size);  // drawn for every datagram
     if (lost || inPartition(now_s)) {
       ++c.dropped;
       const bool counted = msg ? msg->hit : false;

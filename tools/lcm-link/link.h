@@ -18,12 +18,13 @@ namespace evermap::link {
 
 // The faults of the link, the same in both directions.
 struct LinkOptions {
-  double loss_pct = 0.0;              // each datagram lost with this probability
-  double delay_ms = 0.0;              // one-way delay
-  double jitter_ms = 0.0;             // delay + uniform(-jitter, +jitter), never below 0
-  double partition_start_s = 0.0;     // from the link's start
-  double partition_s = 0.0;           // nothing crosses for this long (0: no partition)
-  int64_t seed = 1;                   // the same seed loses the same datagrams
+  double loss_pct = 0.0;           // each IP packet lost with this probability
+  int64_t mtu = 1500;              // a datagram crosses as ceil((size + 8) / (mtu - 20)) IP packets
+  double delay_ms = 0.0;           // one-way delay
+  double jitter_ms = 0.0;          // delay + uniform(-jitter, +jitter), never below 0
+  double partition_start_s = 0.0;  // from the link's start
+  double partition_s = 0.0;        // nothing crosses for this long (0: no partition)
+  int64_t seed = 1;                // the same seed loses the same datagrams
   std::string local = "STEREO|RGBD";  // channels that stay on their host (regex, whole name)
   void declareOptions(OptionList& o);
 };
@@ -67,6 +68,7 @@ class Direction {
     bool hit = false;
   };
   bool inPartition(double now_s) const;
+  double lossProbability(size_t size) const;
   std::string channelOf(uint64_t sender, const PacketHeader& h, Message** msg);
 
   LinkOptions options_;
