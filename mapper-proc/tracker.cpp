@@ -355,7 +355,28 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
   ++counts_.reanchored;
 }
 
-Status Tracker::addWheel(const wheel_odom_t& msg) {
+// WHEEL_ODOM after lost ones (a lossy link, a partition): the increment since the last one
+// taken comes from the two messages' odometry poses (one epoch), so the wheels carry the hole;
+// as received when nothing was lost or no pose spans the hole.
+wheel_odom_t Tracker::bridgeWheelHole(const wheel_odom_t& msg) const {
+  if (last_wheel_utime_ < 0 || msg.prev_utime <= last_wheel_utime_ || wheel_poses_.empty() ||
+      wheel_poses_.back().utime != last_wheel_utime_)
+    return msg;
+  const auto now = messages::wheelOdometryPose(msg);
+  if (!now || now->epoch != wheel_poses_.back().epoch) return msg;
+  const auto d = messages::wheelOdometryBetween(wheel_poses_.back(), *now);
+  if (!d) return msg;
+  wheel_odom_t m = msg;
+  m.prev_utime = last_wheel_utime_;
+  m.delta_x_m = d->a_T_b.vector()[0];
+  m.delta_y_m = d->a_T_b.vector()[1];
+  m.delta_theta_rad = d->a_T_b.vector()[2];
+  for (int k = 0; k < 9; ++k) m.covariance[k] = d->covariance(k / 3, k % 3);
+  return m;
+}
+
+Status Tracker::addWheel(const wheel_odom_t& received) {
+  const wheel_odom_t msg = bridgeWheelHole(received);
   if (msg.utime <= last_wheel_utime_ || msg.prev_utime > msg.utime) {
     ++counts_.dropped;
     return Error("WHEEL_ODOM " + std::to_string(msg.utime) + ": out of order");

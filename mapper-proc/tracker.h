@@ -170,6 +170,7 @@ class Tracker {
 
   // Each returns an error (and counts a drop) for a message it cannot apply.
   Status addVo(const vo_delta_t& msg);
+  // A WHEEL_ODOM after lost ones spans the hole by its odometry pose (bridgeWheelHole).
   Status addWheel(const wheel_odom_t& msg);
   // The gyro's heading from ATTITUDE (messages without heading_valid are ignored).
   Status addHeading(const attitude_t& msg);
@@ -268,6 +269,7 @@ class Tracker {
   void applyWheel(const wheel_odom_t& msg, int64_t from_utime);
   // Keeps msg's odometry pose (if any) for wheelOdometryAt().
   void keepWheelPose(const wheel_odom_t& msg);
+  wheel_odom_t bridgeWheelHole(const wheel_odom_t& msg) const;
   // Wheel odometry from its last increment to `utime` at that increment's rate (a VO restart
   // between two wheel messages).
   void extrapolateWheel(int64_t utime);

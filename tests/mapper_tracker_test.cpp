@@ -8,6 +8,7 @@
 #include <numbers>
 
 #include "core/geometry/se2.h"
+#include "core/messages/odometry_frame.h"
 #include "mapper-proc/constraint_set.h"
 #include "mapper-proc/tracker.h"
 #include "tests/mapper_messages.h"
@@ -294,6 +295,28 @@ TEST(Tracker, SilentVoHandsOverToWheelOdometryFromItsLastFrame) {
   ASSERT_TRUE(t.addVo(voRestart(1000000)));
   ASSERT_TRUE(t.addVo(voMsg(1100000, 1000000, planar(0.1, 0, 0), 1e-3, false)));
   EXPECT_NEAR(t.delta().mean.translation().x(), 1.1, 1e-12);
+}
+
+TEST(Tracker, WheelMessagesLostInAPartitionAreBridgedByTheirOdometryPoses) {
+  // The link to the base station is down for 5 s: neither VO_DELTA nor WHEEL_ODOM reach the
+  // mapper. The first wheel message after it spans the hole by its odometry pose (the robot's
+  // integration went on), so the body is where the wheels say, not where the link broke.
+  TrackerOptions o;
+  o.vo_timeout_s = 0.5;
+  Tracker t(o);
+  const int64_t t0 = 1'000'000;
+  messages::WheelOdometryFrame frame;
+  ASSERT_TRUE(t.addVo(voRestart(t0)));
+  ASSERT_TRUE(t.addVo(voMsg(t0 + 100000, t0, planar(0.1, 0, 0), 1e-3, false)));
+  for (int k = 1; k <= 60; ++k) {  // 0.1 m every 0.1 s
+    wheel_odom_t w = wheelMsg(t0 + (k - 1) * 100000, t0 + k * 100000, 0.1);
+    frame.stamp(w);
+    if (k >= 2 && k <= 50) continue;  // lost: 0.1 s to 5.0 s
+    ASSERT_TRUE(t.addWheel(w));
+  }
+  EXPECT_EQ(t.counts().vo_timeouts, 1);
+  EXPECT_NEAR(t.delta().mean.translation().x(), 0.1 + 5.0 + 0.9, 1e-9);
+  EXPECT_EQ(t.counts().dropped, 0);
 }
 
 TEST(ConstraintSet, AgreeingConstraintsMergeAndInconsistentOnesAreRejected) {
