@@ -280,7 +280,9 @@ TEST(Training, RejectsNoDataAndBadOptions) {
   o.branching = 1;
   auto r = trainVocabulary(syntheticImages(2, 1, 1), o);
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.error().message.find("branching"), std::string::npos);
+  // Named by its option key (evermap-vocab-train --k), with the range.
+  EXPECT_NE(r.error().message.find("option k: 1 is outside [2, 64]"), std::string::npos)
+      << r.error().message;
   SplitMix64 rng(1);
   const Descriptor d = randomDescriptor(rng);
   auto same = trainVocabulary({{d, d}, {d}}, {});

@@ -7,6 +7,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "core/messages/channels.h"
+#include "core/messages/envelope.h"
 #include "tools/lcmlog/log_compare.h"
 #include "tools/lcmlog/type_registry.h"
 
@@ -106,6 +107,28 @@ TEST(LogComparator, ReplayOverMemqArrivesIntact) {
   EXPECT_TRUE(s.complete()) << s.table();
   EXPECT_EQ(s.channels.at(channels::kStereo).type, "stereo_image_t");
   EXPECT_EQ(s.channels.at(channels::kImu).intact, 10);
+  std::filesystem::remove(path);
+}
+
+// A process that signs what it publishes (evermap-sim-measure --serve) sends each logged
+// message with its envelope behind it: the message is intact, the envelope is not compared.
+TEST(LogComparator, MessagesWithASendersEnvelopeArriveIntact) {
+  const auto path = writeLog(2);
+  auto cmp = LogComparator::fromLog(path);
+  ASSERT_TRUE(cmp.ok()) << cmp.error().message;
+  const Signer signer = Signer::make("evermap-sim-measure", nullptr);
+  for (int i = 0; i < 2; ++i) {
+    for (auto [channel, bytes] : {std::pair{channels::kImu, encode(imu(i))},
+                                  std::pair{channels::kStereo, encode(stereo(i))}}) {
+      const size_t plain = bytes.size();
+      signer.seal(channel, bytes);
+      ASSERT_GT(bytes.size(), plain);
+      receive(*cmp, channel, bytes);
+    }
+  }
+  const auto s = cmp->summary();
+  EXPECT_TRUE(s.complete()) << s.table();
+  EXPECT_EQ(s.channels.at(channels::kImu).undecodable, 0);
   std::filesystem::remove(path);
 }
 

@@ -3,6 +3,7 @@
 #include <cstring>
 #include <sstream>
 
+#include "core/messages/envelope.h"
 #include "tools/lcmlog/log_reader.h"
 #include "tools/lcmlog/type_registry.h"
 
@@ -41,6 +42,9 @@ void LogComparator::onMessage(const std::string& channel, const void* data, size
   }
   ++r.received;
   r.bytes += static_cast<int64_t>(size);
+  // A sender's envelope (evermap-sim-measure --serve signs what it publishes) is not part of
+  // the message: the log holds the message alone.
+  size = static_cast<size_t>(messages::messageSize(data, static_cast<int64_t>(size)));
   if (!decodesCleanly(data, size)) ++r.undecodable;
   const auto it = expected_.find(channel);
   if (it == expected_.end()) return;
