@@ -353,10 +353,7 @@ void SlamRunner::handleEvent(Session& ss, const ReadEvent& e, double* loopclose_
       inputError("mapper: " + s.error().message);
     *mapper_s += secondsSince(t0);
   } else if (channel == channels::kStereo || channel == channels::kRgbd) {
-    if (dropper_.drop()) {
-      ++summary_.frames_dropped;
-      return;
-    }
+    if (dropper_.drop()) return;
     onFrame(ss, e, loopclose_s, mapper_s);
   } else if (channel == channels::kImu) {
     onImu(ss, data, size, mapper_s);
@@ -463,6 +460,7 @@ Status SlamRunner::endSession(Session& ss) {
   out.duration_s = 1e-6 * static_cast<double>(ss.last_utime - ss.first_utime);
   out.nodes_added = static_cast<int64_t>(mapper_->nodes().size()) - ss.nodes_before;
   summary_.data_s += out.duration_s;
+  summary_.frames_dropped = dropper_.dropped();
   const vo::PipelineStats& vs = ss.vo.stats();
   summary_.vo.frames += vs.frames;
   for (size_t i = 0; i < vs.by_status.size(); ++i) summary_.vo.by_status[i] += vs.by_status[i];
