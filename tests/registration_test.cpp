@@ -356,16 +356,15 @@ TEST(RegisterFrames, ReportsBadInputTooFewFeaturesAndUnrelatedFrames) {
   EXPECT_EQ(registerFrames(camera(), a, camera(), b, bad).status, RegistrationStatus::kBadInput);
 }
 
-TEST(RotationEstimation, RecoversTheRotationBetweenTwoViews) {
-  // A textured image seen from a camera turned by R: x_b = K R K⁻¹ x_a.
+// A textured image and the same seen from a camera turned by R (x_b = K R K⁻¹ x_a), both at
+// the top level of a 4-level pyramid (94x60), as odometry uses them.
+std::pair<cv::Mat, cv::Mat> topLevelViews(const StereoCamera& cam, const SO3d& R) {
   cv::Mat noise(480, 752, CV_8UC1);
   cv::RNG rng(8);
   rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
   cv::Mat a;
   cv::GaussianBlur(noise, a, cv::Size(0, 0), 4.0);
   cv::normalize(a, a, 0, 255, cv::NORM_MINMAX);
-  const StereoCamera cam = camera();
-  const SO3d R = SO3d::exp(Vec3(0.01, -0.03, 0.02));
   const Eigen::Matrix3d K =
       (Eigen::Matrix3d() << cam.fx(), 0, cam.cx(), 0, cam.fy(), cam.cy(), 0, 0, 1).finished();
   const Eigen::Matrix3d H = K * R.matrix() * K.inverse();
@@ -375,12 +374,17 @@ TEST(RotationEstimation, RecoversTheRotationBetweenTwoViews) {
   }
   cv::Mat b;
   cv::warpPerspective(a, b, Hcv, a.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
-  // At the top level of a 4-level pyramid (94x60), as odometry uses it.
-  cv::Mat a3 = a, b3 = b;
   for (int l = 0; l < 3; ++l) {
-    cv::pyrDown(a3, a3);
-    cv::pyrDown(b3, b3);
+    cv::pyrDown(a, a);
+    cv::pyrDown(b, b);
   }
+  return {a, b};
+}
+
+TEST(RotationEstimation, RecoversTheRotationBetweenTwoViews) {
+  const StereoCamera cam = camera();
+  const SO3d R = SO3d::exp(Vec3(0.01, -0.03, 0.02));
+  const auto [a3, b3] = topLevelViews(cam, R);
   const auto est = estimateRotation(a3, b3, cam, 3, RotationEstimateOptions{});
   ASSERT_TRUE(est.has_value());
   EXPECT_LT(rotationAngle(R.inverse() * *est), 0.003);  // 0.17°: well inside a search window
@@ -388,6 +392,21 @@ TEST(RotationEstimation, RecoversTheRotationBetweenTwoViews) {
   const cv::Mat flat(60, 94, CV_8UC1, cv::Scalar(80));
   EXPECT_FALSE(estimateRotation(flat, flat, cam, 3, RotationEstimateOptions{}).has_value());
   EXPECT_FALSE(estimateRotation(a3, cv::Mat(), cam, 3, RotationEstimateOptions{}).has_value());
+}
+
+TEST(RotationEstimation, AFastTurnOutsideTheBasinIsRecoveredFromAPredictedRotation) {
+  // Frames lost during a turn: the turn between the two views left the photometric basin
+  // around the identity, and a prediction (the last motion at the same velocity) brings it
+  // back.
+  const StereoCamera cam = camera();
+  const SO3d R = SO3d::exp(Vec3(0.02, 0.22, 0.01));
+  const auto [a3, b3] = topLevelViews(cam, R);
+  const auto from_identity = estimateRotation(a3, b3, cam, 3, RotationEstimateOptions{});
+  EXPECT_TRUE(!from_identity.has_value() || rotationAngle(R.inverse() * *from_identity) > 0.01);
+  const SO3d predicted = SO3d::exp(Vec3(0.0, 0.19, 0.0));
+  const auto est = estimateRotation(a3, b3, cam, 3, RotationEstimateOptions{}, predicted);
+  ASSERT_TRUE(est.has_value());
+  EXPECT_LT(rotationAngle(R.inverse() * *est), 0.003);
 }
 
 }  // namespace

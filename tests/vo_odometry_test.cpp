@@ -313,6 +313,35 @@ TEST(StereoOdometry, AGapAfterTrackingIsBridgedByTheMotionPriorWithAnInflatedCov
   EXPECT_EQ(chain.breaks(), 0);
 }
 
+TEST(StereoOdometry, ABurstOfLostFramesInATurnIsRegisteredNotBridged) {
+  // vo-proc drops frames behind its queue under load. Six frames lost on the loop (1.8 deg
+  // per frame) put 13 deg between two frames; the rotation search starts from the motion
+  // prior carried over the longer interval, so the frame after the gap registers to the
+  // reference as any other.
+  EVERMAP_REQUIRE_ROOM();
+  cv::RNG rng(7);
+  StereoOdometry vo = makeOdometry();
+  const std::vector<SE3d> poses = testing::loopTrajectory(200);
+  VoTrajectory chain;
+  cv::Mat l, r;
+  std::optional<SE3d> pose;
+  auto frame = [&](size_t k) {
+    room().render(vo.camera(), poses[k], &l, &r, &rng);
+    const FrameResult res = vo.process(static_cast<int64_t>(k + 1) * 50000, l, r);
+    pose = chain.add(toMsg(res));
+    return res;
+  };
+  for (size_t k = 0; k < 8; ++k) ASSERT_TRUE(frame(k).ok() || k == 0);
+  for (size_t k = 14; k < 19; ++k) {
+    const FrameResult res = frame(k);
+    EXPECT_TRUE(res.ok() && !res.bridged) << "frame " << k << ": " << res.message;
+  }
+  ASSERT_TRUE(pose.has_value());
+  const SE3d error = (poses.front().inverse() * poses[18]).inverse() * *pose;
+  EXPECT_LT(error.translation().norm(), 0.02);
+  EXPECT_EQ(chain.breaks(), 0);
+}
+
 TEST(StereoOdometry, AFrameThatNoLongerMatchesTheReferenceRegistersThroughThePreviousFrame) {
   // The reference is kept as long as possible (keyframe threshold at the acceptance
   // threshold) while the camera turns at 3.6 deg per frame: when the view has left the

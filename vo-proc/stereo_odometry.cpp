@@ -302,18 +302,19 @@ bool StereoOdometry::extractFrame(int64_t utime, const std::function<Status()>& 
 SE3d StereoOdometry::predictMotion(int64_t utime) {
   frame_dt_us_ = prev_utime_ >= 0 ? utime - prev_utime_ : 0;
   prev_utime_ = utime;
-  // Initial rotation between the previous frame and this one (FOVIS section 3.3).
+  // The motion prior: the last frame-to-frame motion at the same velocity, with the measured
+  // rotation (FOVIS section 3.3) between the previous frame and this one, searched from the
+  // prior's.
+  SE3d prev_T_pred =
+      options_.constant_velocity && has_motion_ ? scaledMotion(frame_dt_us_) : SE3d();
   std::optional<core::SO3d> cur_R_prev;
   const int top = cur_->left.numLevels() - 1;
   const cv::Mat& top_image = cur_->left.level(top);
   if (options_.estimate_rotation && prev_top_.size() == top_image.size()) {
-    cur_R_prev = core::estimateRotation(prev_top_, top_image, camera_, top, options_.rotation);
+    cur_R_prev = core::estimateRotation(prev_top_, top_image, camera_, top, options_.rotation,
+                                        prev_T_pred.so3().inverse());
   }
   top_image.copyTo(prev_top_);
-  // The motion prior: the last frame-to-frame motion at the same velocity, with the measured
-  // rotation.
-  SE3d prev_T_pred =
-      options_.constant_velocity && has_motion_ ? scaledMotion(frame_dt_us_) : SE3d();
   if (cur_R_prev) prev_T_pred = SE3d(cur_R_prev->inverse(), prev_T_pred.translation());
   return ref_T_prev_ * prev_T_pred;
 }

@@ -228,7 +228,7 @@ void RotationEstimateOptions::declareOptions(OptionList& o) {
 
 std::optional<SO3d> estimateRotation(const cv::Mat& image_a, const cv::Mat& image_b,
                                      const StereoCamera& camera, int level,
-                                     const RotationEstimateOptions& options) {
+                                     const RotationEstimateOptions& options, const SO3d& initial) {
   if (image_a.empty() || image_a.size() != image_b.size() || image_a.type() != CV_8UC1 ||
       image_b.type() != CV_8UC1 || level < 0 || level > 8) {
     return std::nullopt;
@@ -270,7 +270,7 @@ std::optional<SO3d> estimateRotation(const cv::Mat& image_a, const cv::Mat& imag
   // The gathers index the image with 32-bit byte offsets.
   const bool avx2 = cpuHasAvx2() && static_cast<int64_t>(image_b.rows) * image_b.step[0] <
                                         static_cast<int64_t>(std::numeric_limits<int>::max());
-  SO3d R;  // b_R_a
+  SO3d R = initial;  // b_R_a
   double offset = 0.0;
   for (int it = 0; it < options.max_iterations; ++it) {
     const Warp warp{R.matrix().cast<float>(), static_cast<float>(fx), static_cast<float>(fy),

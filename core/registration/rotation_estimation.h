@@ -37,9 +37,12 @@ struct RotationEstimateOptions {
 
 // b_R_a for two images of the same pyramid level `level` of cameras with the intrinsics of
 // `camera` (level 0), so that a pixel x_a of image a is seen at K R K⁻¹ x_a in image b;
-// nullopt when the images differ in size, have no texture, or the estimate diverges.
+// nullopt when the images differ in size, have no texture, or the estimate diverges. The
+// search starts from `initial` (a predicted b_R_a): the photometric error has a basin of a
+// few pixels at the top level, which a fast turn over a long interval can leave.
 std::optional<SO3d> estimateRotation(const cv::Mat& image_a, const cv::Mat& image_b,
                                      const StereoCamera& camera, int level,
-                                     const RotationEstimateOptions& options);
+                                     const RotationEstimateOptions& options,
+                                     const SO3d& initial = SO3d());
 
 }  // namespace evermap::core
