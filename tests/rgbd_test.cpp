@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/camera/pinhole.h"
 #include "core/camera/rgbd_camera.h"
 #include "core/features/rgbd_depth.h"
 #include "core/messages/channels.h"
@@ -25,13 +26,7 @@ namespace {
 using messages::RgbdFrame;
 
 core::CameraCalibration smallCamera() {
-  core::CameraCalibration c;
-  c.width = 320;
-  c.height = 240;
-  c.fx = c.fy = 260.0;
-  c.cx = 159.5;
-  c.cy = 119.5;
-  return c;
+  return core::pinholeCamera(320, 240, 260.0, 260.0, 159.5, 119.5);
 }
 
 // Blurred random texture (corners everywhere) and a fronto-parallel plane at depth_m.
