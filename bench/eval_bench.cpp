@@ -4,6 +4,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <utility>
 
 #include "tools/eval/evaluation.h"
 #include "tools/eval/plot.h"
@@ -34,20 +35,30 @@ void BM_ReadTum(benchmark::State& state) {
 }
 BENCHMARK(BM_ReadTum)->Unit(benchmark::kMillisecond);
 
+// The OpenVINS ground truth of V1_01 (the original, 28 712 poses) and its 2 895-pose
+// version; false (the benchmark skipped) when they are missing.
+bool readEurocPair(benchmark::State& state, Trajectory* gt, Trajectory* est) {
+  auto a = readTum(kEuroc / "V1_01_easy_original.txt");
+  auto b = readEuroc(kEuroc / "V1_01_easy.csv");
+  if (!a || !b) {
+    state.SkipWithError("EuRoC ground truth missing");
+    return false;
+  }
+  *gt = std::move(*a);
+  *est = std::move(*b);
+  return true;
+}
+
 // The whole evaluation (association, SE(3) alignment, ATE, RPE) of the 2 895-pose OpenVINS
 // ground truth against the 28 712-pose original.
 void BM_EvaluateEuroc(benchmark::State& state) {
-  const auto gt = readTum(kEuroc / "V1_01_easy_original.txt");
-  const auto est = readEuroc(kEuroc / "V1_01_easy.csv");
-  if (!gt || !est) {
-    state.SkipWithError("EuRoC ground truth missing");
-    return;
-  }
+  Trajectory gt, est;
+  if (!readEurocPair(state, &gt, &est)) return;
   for (auto _ : state) {
-    auto r = evaluate(*gt, *est, {});
+    auto r = evaluate(gt, est, {});
     benchmark::DoNotOptimize(r.ok());
   }
-  state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(est->size()));
+  state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(est.size()));
 }
 BENCHMARK(BM_EvaluateEuroc)->Unit(benchmark::kMillisecond);
 
@@ -77,15 +88,11 @@ BENCHMARK(BM_EvaluateKitti00WithDrift)->Unit(benchmark::kMillisecond);
 
 // Drawing and encoding the 28 712 + 2 895 positions, PNG (range 0) or SVG (range 1).
 void BM_TopView(benchmark::State& state) {
-  const auto gt = readTum(kEuroc / "V1_01_easy_original.txt");
-  const auto est = readEuroc(kEuroc / "V1_01_easy.csv");
-  if (!gt || !est) {
-    state.SkipWithError("EuRoC ground truth missing");
-    return;
-  }
+  Trajectory gt, est;
+  if (!readEurocPair(state, &gt, &est)) return;
   std::vector<evermap::core::Vec3> a, b;
-  for (const auto& p : gt->poses) a.push_back(p.world_T_body.translation());
-  for (const auto& p : est->poses) b.push_back(p.world_T_body.translation());
+  for (const auto& p : gt.poses) a.push_back(p.world_T_body.translation());
+  for (const auto& p : est.poses) b.push_back(p.world_T_body.translation());
   for (auto _ : state) {
     auto c = drawTopView(a, b, {});
     if (state.range(0) == 0) {

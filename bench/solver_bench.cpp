@@ -238,26 +238,14 @@ void BM_LandmarksCityTreesBatch(benchmark::State& s) { landmarkBatch(s, false); 
 void BM_LandmarksCityTreesIncremental(benchmark::State& s) { landmarkIncremental(s, false); }
 void BM_LandmarksTorusPointsBatch(benchmark::State& s) { landmarkBatch(s, true); }
 void BM_LandmarksTorusPointsIncremental(benchmark::State& s) { landmarkIncremental(s, true); }
-BENCHMARK(BM_LandmarksCityTreesBatch)
-    ->Arg(2000)
-    ->Unit(benchmark::kMillisecond)
-    ->Repetitions(5)
-    ->ReportAggregatesOnly(true);
-BENCHMARK(BM_LandmarksCityTreesIncremental)
-    ->Arg(2000)
-    ->Unit(benchmark::kMillisecond)
-    ->Repetitions(5)
-    ->ReportAggregatesOnly(true);
-BENCHMARK(BM_LandmarksTorusPointsBatch)
-    ->Arg(2000)
-    ->Unit(benchmark::kMillisecond)
-    ->Repetitions(5)
-    ->ReportAggregatesOnly(true);
-BENCHMARK(BM_LandmarksTorusPointsIncremental)
-    ->Arg(2000)
-    ->Unit(benchmark::kMillisecond)
-    ->Repetitions(5)
-    ->ReportAggregatesOnly(true);
+// 2 000 poses, five repetitions, their aggregates only.
+void landmarkRuns(benchmark::internal::Benchmark* b) {
+  b->Arg(2000)->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
+}
+BENCHMARK(BM_LandmarksCityTreesBatch)->Apply(landmarkRuns);
+BENCHMARK(BM_LandmarksCityTreesIncremental)->Apply(landmarkRuns);
+BENCHMARK(BM_LandmarksTorusPointsBatch)->Apply(landmarkRuns);
+BENCHMARK(BM_LandmarksTorusPointsIncremental)->Apply(landmarkRuns);
 
 }  // namespace
 

@@ -24,6 +24,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "bench/loaded_inputs.h"
 #include "core/camera/stereo_rectifier.h"
 #include "core/common/clocks.h"
 #include "core/registration/frame_registration.h"
@@ -101,11 +102,9 @@ void report(benchmark::State& state, std::vector<double> ms) {
 // Frames go through in order; at the end of the excerpt odometry restarts (a first frame is
 // cheap: it is timed like the others, 1 in 95).
 void runVo(benchmark::State& state, bool rectify) {
-  const Inputs& in = inputs();
-  if (!in.error.empty()) {
-    state.SkipWithError(in.error.c_str());
-    return;
-  }
+  const Inputs* loaded = loadedInputs(state, inputs());
+  if (!loaded) return;
+  const Inputs& in = *loaded;
   auto vo = vo::StereoOdometry::create(in.rectifier->camera(), vo::OdometryOptions{});
   std::vector<double> ms;
   size_t k = 0;
@@ -141,11 +140,9 @@ void BM_VoFrameWithRectify(benchmark::State& state) { runVo(state, true); }
 BENCHMARK(BM_VoFrameWithRectify)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(285);
 
 void BM_FeatureExtraction(benchmark::State& state) {
-  const Inputs& in = inputs();
-  if (!in.error.empty()) {
-    state.SkipWithError(in.error.c_str());
-    return;
-  }
+  const Inputs* loaded = loadedInputs(state, inputs());
+  if (!loaded) return;
+  const Inputs& in = *loaded;
   auto extractor = core::StereoFeatureExtractor::create(vo::OdometryOptions{}.features);
   core::FeatureFrame frame;
   size_t k = 0;
@@ -159,11 +156,9 @@ void BM_FeatureExtraction(benchmark::State& state) {
 BENCHMARK(BM_FeatureExtraction)->Unit(benchmark::kMillisecond);
 
 void BM_RegisterKeyframes(benchmark::State& state) {
-  const Inputs& in = inputs();
-  if (!in.error.empty()) {
-    state.SkipWithError(in.error.c_str());
-    return;
-  }
+  const Inputs* loaded = loadedInputs(state, inputs());
+  if (!loaded) return;
+  const Inputs& in = *loaded;
   auto extractor = core::StereoFeatureExtractor::create(vo::OdometryOptions{}.features);
   core::OrbExtractor orb(core::OrbExtractor::Options{});
   core::FeatureFrame a, b;

@@ -20,6 +20,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "bench/loaded_inputs.h"
 #include "core/camera/rgbd_camera.h"
 #include "core/common/clocks.h"
 #include "core/features/stereo_features.h"
@@ -70,11 +71,9 @@ void report(benchmark::State& state, std::vector<double> ms) {
 }
 
 void BM_RgbdVoFrame(benchmark::State& state) {
-  const Inputs& in = inputs();
-  if (!in.error.empty()) {
-    state.SkipWithError(in.error.c_str());
-    return;
-  }
+  const Inputs* loaded = loadedInputs(state, inputs());
+  if (!loaded) return;
+  const Inputs& in = *loaded;
   std::optional<vo::VoPipeline> pipeline;
   std::vector<double> ms;
   size_t k = 0;
@@ -102,11 +101,9 @@ void BM_RgbdVoFrame(benchmark::State& state) {
 BENCHMARK(BM_RgbdVoFrame)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(300);
 
 void BM_RgbdFeatureExtraction(benchmark::State& state) {
-  const Inputs& in = inputs();
-  if (!in.error.empty()) {
-    state.SkipWithError(in.error.c_str());
-    return;
-  }
+  const Inputs* loaded = loadedInputs(state, inputs());
+  if (!loaded) return;
+  const Inputs& in = *loaded;
   auto camera = core::RgbdCamera::create(in.frames.front().camera, {});
   cv::Mat gray, depth;
   (void)camera->undistort(in.frames[10].gray, in.frames[10].depth, &gray, &depth);

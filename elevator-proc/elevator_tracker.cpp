@@ -2,18 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <numbers>
+
+#include "core/common/contract.h"
 
 namespace evermap::elevator {
 
 namespace {
 const ElevatorTrackerOptions& checked(const ElevatorTrackerOptions& o) {
-  if (const Status st = o.validate(); !st.ok()) {
-    std::fprintf(stderr, "evermap::elevator::ElevatorTracker: %s\n", st.error().message.c_str());
-    std::abort();  // broken contract: options are validated where they are read
-  }
+  requireValid(o.validate(), "evermap::elevator::ElevatorTracker");
   return o;
 }
 }  // namespace

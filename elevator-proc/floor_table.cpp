@@ -1,8 +1,8 @@
 #include "elevator-proc/floor_table.h"
 
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
+
+#include "core/common/contract.h"
 
 namespace evermap::elevator {
 
@@ -15,10 +15,7 @@ Status FloorTableOptions::validate() const {
 }
 
 FloorTable::FloorTable(const FloorTableOptions& options) : options_(options) {
-  if (const Status st = options_.validate(); !st.ok()) {
-    std::fprintf(stderr, "evermap::elevator::FloorTable: %s\n", st.error().message.c_str());
-    std::abort();
-  }
+  requireValid(options_.validate(), "evermap::elevator::FloorTable");
 }
 
 FloorAssignment FloorTable::peek(double displacement_m) const {

@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <limits>
 #include <numbers>
+
+#include "core/common/contract.h"
 
 namespace evermap::elevator {
 
@@ -43,10 +43,7 @@ Status PulseFilterOptions::validate() const {
 }
 
 PulseFilter::PulseFilter(const PulseFilterOptions& options) : options_(options) {
-  if (const Status st = options_.validate(); !st.ok()) {
-    std::fprintf(stderr, "evermap::elevator::PulseFilter: %s\n", st.error().message.c_str());
-    std::abort();
-  }
+  requireValid(options_.validate(), "evermap::elevator::PulseFilter");
   flank_ = static_cast<int>(std::lround(options_.flank_s / options_.bin_s));
   for (double w : options_.widths_s) {
     const int n = static_cast<int>(std::lround(w / options_.bin_s));

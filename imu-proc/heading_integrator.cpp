@@ -1,18 +1,15 @@
 #include "imu-proc/heading_integrator.h"
 
 #include <cmath>
-#include <cstdlib>
-#include <iostream>
+
+#include "core/common/contract.h"
 
 namespace evermap::imu {
 
 Status HeadingOptions::validate() const { return checkOptionRanges(*this, "heading."); }
 
 HeadingIntegrator::HeadingIntegrator(const HeadingOptions& options) : o_(options) {
-  if (Status s = o_.validate(); !s) {
-    std::cerr << "HeadingIntegrator: " << s.error().message << "\n";
-    std::abort();
-  }
+  requireValid(o_.validate(), "HeadingIntegrator");
   bias_var_ = o_.initial_bias_sigma_rad_s * o_.initial_bias_sigma_rad_s;
 }
 

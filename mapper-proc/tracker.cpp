@@ -9,16 +9,11 @@
 #include <Eigen/Eigenvalues>
 
 #include "core/geometry/se2.h"
+#include "core/common/finite.h"
 #include "core/messages/pose_fields.h"
 
 namespace evermap::mapper {
 namespace {
-
-bool finiteArray(const double* v, int n) {
-  for (int i = 0; i < n; ++i)
-    if (!std::isfinite(v[i])) return false;
-  return true;
-}
 
 Mat6 symmetric(const Mat6& m) { return 0.5 * (m + m.transpose()); }
 
@@ -382,7 +377,7 @@ Status Tracker::addWheel(const wheel_odom_t& received) {
     return Error("WHEEL_ODOM " + std::to_string(msg.utime) + ": out of order");
   }
   if (!std::isfinite(msg.delta_x_m) || !std::isfinite(msg.delta_y_m) ||
-      !std::isfinite(msg.delta_theta_rad) || !finiteArray(msg.covariance, 9)) {
+      !std::isfinite(msg.delta_theta_rad) || !allFinite(msg.covariance, 9)) {
     ++counts_.dropped;
     return Error("WHEEL_ODOM " + std::to_string(msg.utime) + ": not finite");
   }

@@ -61,6 +61,17 @@ keep_alive() {  # LABEL [FILE]
     fi
   done
 }
+# Runs config/PMD's SCRIPT under evermap-deputy in an LCM sandbox (the processes' logs in
+# LOG_DIR) while lcm-logger records MAP_GRAPH, MAPPER_STATS and POSE into MAPPER_LOG. The
+# EVERMAP_* variables set on the call reach the deputy and its processes.
+under_deputy() {  # PMD SCRIPT LOG_DIR MAPPER_LOG
+  PMD="$root/config/$1" SCRIPT="$2" LOG_DIR="$3" MAPPER_LOG="$4" "$root/scripts/lcm-sandbox" bash -c '
+    set -e
+    lcm-logger -q -f -c "MAP_GRAPH|MAPPER_STATS|POSE" "$MAPPER_LOG" & logger=$!
+    "$EVERMAP_BIN/evermap-deputy" "$PMD" --log-dir "$LOG_DIR" --script "$SCRIPT" \
+        --exit-after-script --quiet
+    kill -INT $logger; wait $logger || true'
+}
 # The tools' progress lines on stderr ("evermap-slam-run session 0: data 12.0 / 60.0 s ..."):
 # the filters below let them through.
 progress='^evermap-[a-z-]+[^:]*: data [0-9.]+ '
@@ -92,13 +103,9 @@ done
 for s in 0 1; do
   echo "   session $s: replayed at ${visual_speed}x (about $((visual_s / visual_speed + 15)) s); vo-proc, imu-proc, elevator-proc, loopclose-proc, mapper-proc under evermap-deputy"
   EVERMAP_BIN="$bin" EVERMAP_LOG="$vis/s$s.lcmlog" EVERMAP_MAP="$vis/map.db" EVERMAP_VOCAB="$vocab" \
-  EVERMAP_PLACES="$vis/places.db" EVERMAP_SPEED="$visual_speed" OUT="$vis" S="$s" \
-    "$root/scripts/lcm-sandbox" bash -c '
-      set -e
-      lcm-logger -q -f -c "MAP_GRAPH|MAPPER_STATS|POSE" "$OUT/mapper-s$S.lcmlog" & logger=$!
-      "$EVERMAP_BIN/evermap-deputy" "'"$root"'/config/pipeline-log.pmd" --log-dir "$OUT/deputy-logs-s$S" \
-          --script go --exit-after-script --quiet
-      kill -INT $logger; wait $logger || true' | keep_alive "replaying session $s, mapper-proc" "$vis/deputy-logs-s$s/mapper-proc.log"
+  EVERMAP_PLACES="$vis/places.db" EVERMAP_SPEED="$visual_speed" \
+    under_deputy pipeline-log.pmd go "$vis/deputy-logs-s$s" "$vis/mapper-s$s.lcmlog" |
+    keep_alive "replaying session $s, mapper-proc" "$vis/deputy-logs-s$s/mapper-proc.log"
   { grep -hE "^(nodes|loop_closures|relocalizations|vo_before_calibration) " "$vis/deputy-logs-s$s/mapper-proc.log" || true; } |
     tr '\n' ' ' | sed 's/^/   mapper: /'; echo
 done
@@ -131,13 +138,9 @@ rm -rf "$out/deputy-logs"
 echo "   replaying $(ls "$run"/session-*.lcmlog | wc -l) session log(s) at ${speed}x; mapper-proc and the oracle under evermap-deputy (about 80 s)"
 start_s=$(date +%s.%N)
 EVERMAP_BIN="$bin" EVERMAP_RUN="$run" EVERMAP_MAP="$out/map.db" EVERMAP_SPEED="$speed" \
-EVERMAP_MAPPER_FLAGS="--progress-s 5" OUT="$out" \
-  "$root/scripts/lcm-sandbox" bash -c '
-    set -e
-    lcm-logger -q -f -c "MAP_GRAPH|MAPPER_STATS|POSE" "$OUT/mapper.lcmlog" & logger=$!
-    "$EVERMAP_BIN/evermap-deputy" "'"$root"'/config/pipeline-oracle.pmd" --log-dir "$OUT/deputy-logs" \
-        --script replay --exit-after-script --quiet
-    kill -INT $logger; wait $logger || true' | keep_alive "replaying, mapper-proc" "$out/deputy-logs/mapper-proc.log"
+EVERMAP_MAPPER_FLAGS="--progress-s 5" \
+  under_deputy pipeline-oracle.pmd replay "$out/deputy-logs" "$out/mapper.lcmlog" |
+  keep_alive "replaying, mapper-proc" "$out/deputy-logs/mapper-proc.log"
 end_s=$(date +%s.%N)
 
 echo "== the map against the ground truth (seconds)"

@@ -127,34 +127,39 @@ TEST(VocabularyFile, SavingIntoAMissingFolderFailsCleanly) {
   EXPECT_NE(s.error().message.find("v.evoc"), std::string::npos);
 }
 
+struct TreeShape {
+  int branching = 0;
+  int levels = 0;
+  size_t words = 0;
+  size_t nodes = 0;
+};
+
+// A DBoW vocabulary of `shape` trained on `images` images: every weight is ln(images / n),
+// n = 1..images.
+void expectDbowVocabulary(const Vocabulary& v, const TreeShape& shape, int images) {
+  EXPECT_EQ(v.branching(), shape.branching);
+  EXPECT_EQ(v.levels(), shape.levels);
+  EXPECT_EQ(v.numWords(), shape.words);
+  EXPECT_EQ(v.numNodes(), shape.nodes);
+  for (uint32_t w = 0; w < v.numWords(); ++w) {
+    const double n = images / std::exp(v.weight(w));
+    EXPECT_NEAR(n, std::round(n), 1e-9) << "word " << w;
+  }
+}
+
 TEST(DbowYaml, KimeraDbow2VocabularyLoadsWithItsShapeAndIdfWeights) {
   EVERMAP_REQUIRE_DATA(dir, "vocab-orb-small");
   auto v = loadDbowYaml(dir / "kimera_small_voc.yml.gz");
   ASSERT_TRUE(v.ok()) << v.error().message;
-  EXPECT_EQ(v->branching(), 9);
-  EXPECT_EQ(v->levels(), 3);
-  EXPECT_EQ(v->numWords(), 692u);
-  EXPECT_EQ(v->numNodes(), 782u);  // 781 listed nodes + the implicit root
-  // Trained on 4 images: every weight is ln(4 / n), n = 1..4.
-  for (uint32_t w = 0; w < v->numWords(); ++w) {
-    const double n = 4.0 / std::exp(v->weight(w));
-    EXPECT_NEAR(n, std::round(n), 1e-9);
-  }
+  // 781 listed nodes + the implicit root; trained on 4 images.
+  expectDbowVocabulary(*v, {.branching = 9, .levels = 3, .words = 692, .nodes = 782}, 4);
 }
 
 TEST(DbowYaml, Slambook2Dbow3VocabularyLoadsWithItsShape) {
   EVERMAP_REQUIRE_DATA(dir, "vocab-orb-small");
   auto v = loadAnyVocabulary(dir / "slambook2_vocabulary.yml.gz");
   ASSERT_TRUE(v.ok()) << v.error().message;
-  EXPECT_EQ(v->branching(), 10);
-  EXPECT_EQ(v->levels(), 5);
-  EXPECT_EQ(v->numWords(), 4983u);
-  EXPECT_EQ(v->numNodes(), 6163u);
-  // Trained on 10 images: every weight is ln(10 / n), n = 1..10.
-  for (uint32_t w = 0; w < v->numWords(); ++w) {
-    const double n = 10.0 / std::exp(v->weight(w));
-    EXPECT_NEAR(n, std::round(n), 1e-9);
-  }
+  expectDbowVocabulary(*v, {.branching = 10, .levels = 5, .words = 4983, .nodes = 6163}, 10);
 }
 
 TEST(DbowYaml, Slambook2VocabularyFindsTheBooksLoopBetweenImages1And10) {

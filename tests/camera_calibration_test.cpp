@@ -11,6 +11,7 @@
 #include <string>
 
 #include "core/camera/calibration.h"
+#include "core/camera/pinhole.h"
 #include "scratch_dir.h"
 #include "test_data.h"
 #include "tools/datasets/euroc_calibration.h"
@@ -20,25 +21,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-CameraCalibration pinhole() {
-  CameraCalibration c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = c.fy = 400.0;
-  c.cx = 320.0;
-  c.cy = 240.0;
-  return c;
-}
+CameraCalibration pinhole() { return pinholeCamera(640, 480, 400.0, 400.0, 320.0, 240.0); }
 
 // A rectified pair with baseline b: the right camera at +b along x of the left.
-StereoCalibration rectifiedPair(double b) {
-  StereoCalibration s;
-  s.rectified = true;
-  s.left = pinhole();
-  s.right = pinhole();
-  s.right.body_T_cam = SE3d(SO3d(), Vec3(b, 0.0, 0.0));
-  return s;
-}
+StereoCalibration rectifiedPair(double b) { return core::rectifiedPair(pinhole(), b); }
 
 void expectRefused(const Status& s, const std::string& needle) {
   ASSERT_FALSE(s.ok()) << "accepted, wanted an error containing: " << needle;

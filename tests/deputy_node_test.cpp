@@ -19,6 +19,7 @@ namespace evermap::deputy {
 namespace {
 
 using testing::command;
+using testing::respawning;
 using Clock = std::chrono::steady_clock;
 // Copies: the generated constants have no out-of-line definition, and EXPECT_EQ takes them by
 // reference.
@@ -197,9 +198,7 @@ TEST_F(DeputyNodeTest, PublishesOutputLines) {
 }
 
 TEST_F(DeputyNodeTest, ReportsRestartsAndExitCodes) {
-  CommandSpec c = command("crasher", "sleep 0.1; exit 5");
-  c.auto_respawn = true;
-  makeDeputy({c});
+  makeDeputy({respawning("crasher", "sleep 0.1; exit 5")});
   order("", "crasher", true);
   ASSERT_TRUE(spinUntil([&] {
     const auto* p = listener_.latest("crasher");

@@ -18,6 +18,7 @@ using testing::command;
 using testing::countOf;
 using testing::gone;
 using testing::readFile;
+using testing::respawning;
 using testing::spinUntil;
 using Clock = std::chrono::steady_clock;
 
@@ -30,6 +31,24 @@ std::unique_ptr<Supervisor> makeSupervisor(std::vector<CommandSpec> commands,
   auto s = Supervisor::create(std::move(commands), o);
   EXPECT_TRUE(s.ok()) << (s.ok() ? "" : s.error().message);
   return s.ok() ? std::move(*s) : nullptr;
+}
+
+// A back-off from 50 ms (the tests wait for the restarts), stable after `stable_after_s`.
+BackoffOptions quickBackoff(double stable_after_s) {
+  BackoffOptions b;
+  b.initial_delay_ms = 50;
+  b.stable_after_s = stable_after_s;
+  return b;
+}
+
+// Whether `file` holds a whole line yet (a pid a command wrote).
+bool hasALine(const std::filesystem::path& file) {
+  return readFile(file).find('\n') != std::string::npos;
+}
+
+// Spins `s` until `file` holds a whole line.
+bool spinUntilALine(Supervisor& s, const std::filesystem::path& file) {
+  return spinUntil(s, [&] { return hasALine(file); });
 }
 
 // Starts `name` and spins the supervisor until the command has ended.
@@ -87,14 +106,10 @@ TEST(DeputySupervisor, LogFileNamesAreSafe) {
 
 TEST(DeputySupervisor, RestartsACrashingCommandWithGrowingBackoff) {
   evermap::testing::ScratchDir dir;
-  CommandSpec crash = command("crasher", "echo crash; exit 3");
-  crash.auto_respawn = true;
-  BackoffOptions b;
-  b.initial_delay_ms = 50;
+  BackoffOptions b = quickBackoff(30);
   b.factor = 2;
   b.max_delay_ms = 400;
-  b.stable_after_s = 30;
-  auto s = makeSupervisor({crash}, dir.path(), b);
+  auto s = makeSupervisor({respawning("crasher", "echo crash; exit 3")}, dir.path(), b);
   std::vector<std::pair<std::string, Clock::time_point>> notes;
   s->setLineSink([&](const std::string&, const std::string& line, bool from_deputy) {
     if (from_deputy) notes.emplace_back(line, Clock::now());
@@ -130,12 +145,9 @@ TEST(DeputySupervisor, RestartsACrashingCommandWithGrowingBackoff) {
 
 TEST(DeputySupervisor, StableRunsResetTheBackoff) {
   evermap::testing::ScratchDir dir;
-  CommandSpec c = command("slow-crasher", "sleep 0.4; exit 1");
-  c.auto_respawn = true;
-  BackoffOptions b;
-  b.initial_delay_ms = 50;
-  b.stable_after_s = 0.3;  // every 0.4 s run counts as stable
-  auto s = makeSupervisor({c}, dir.path(), b);
+  // Every 0.4 s run counts as stable.
+  auto s = makeSupervisor({respawning("slow-crasher", "sleep 0.4; exit 1")}, dir.path(),
+                          quickBackoff(0.3));
   ASSERT_TRUE(s->start("slow-crasher").ok());
   ASSERT_TRUE(spinUntil(*s, [&] { return s->status("slow-crasher")->restarts >= 3; }));
   EXPECT_DOUBLE_EQ(s->status("slow-crasher")->last_backoff_ms, 50.0);
@@ -192,8 +204,7 @@ TEST(DeputySupervisor, StopSignalReachesTheWholeProcessGroup) {
       {command("pair", "sleep 1000 & echo $! > " + (dir / "child.pid").string() + "; sleep 1000")},
       dir.path());
   ASSERT_TRUE(s->start("pair").ok());
-  ASSERT_TRUE(
-      spinUntil(*s, [&] { return readFile(dir / "child.pid").find('\n') != std::string::npos; }));
+  ASSERT_TRUE(spinUntilALine(*s, dir / "child.pid"));
   const pid_t child = std::stoi(readFile(dir / "child.pid"));
   ASSERT_TRUE(s->stop("pair").ok());
   ASSERT_TRUE(spinUntil(*s, [&] { return s->status("pair")->state == ProcessState::kStopped; }));
@@ -250,15 +261,15 @@ TEST(DeputySupervisor, ShutdownStopsEveryChildIncludingStubbornOnes) {
       command("stubborn", "trap '' INT TERM; echo $$ > " + (dir / "s.pid").string() +
                               "; while :; do sleep 0.05; done");
   stubborn.stop_time_allowed_s = 1;
-  CommandSpec respawner = command("respawner", "sleep 1000");
-  respawner.auto_respawn = true;
-  auto s = makeSupervisor({command("sleeper", "sleep 1000"), stubborn, respawner}, dir.path());
+  auto s = makeSupervisor(
+      {command("sleeper", "sleep 1000"), stubborn, respawning("respawner", "sleep 1000")},
+      dir.path());
   for (const char* n : {"sleeper", "stubborn", "respawner"}) ASSERT_TRUE(s->start(n).ok());
   ASSERT_TRUE(spinUntil(*s, [&] {
     for (const auto& st : s->status()) {
       if (st.state != ProcessState::kRunning) return false;
     }
-    return readFile(dir / "s.pid").find('\n') != std::string::npos;
+    return hasALine(dir / "s.pid");
   }));
   std::vector<pid_t> pids;
   for (const auto& st : s->status()) pids.push_back(st.pid);
@@ -280,8 +291,7 @@ TEST(DeputySupervisor, DestroyingTheSupervisorLeavesNoChild) {
         {command("family", "sleep 1000 & echo $! > " + (dir / "g.pid").string() + "; wait")},
         dir.path());
     ASSERT_TRUE(s->start("family").ok());
-    ASSERT_TRUE(
-        spinUntil(*s, [&] { return readFile(dir / "g.pid").find('\n') != std::string::npos; }));
+    ASSERT_TRUE(spinUntilALine(*s, dir / "g.pid"));
     pid = s->status("family")->pid;
     grandchild = std::stoi(readFile(dir / "g.pid"));
   }

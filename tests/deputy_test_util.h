@@ -71,4 +71,11 @@ inline CommandSpec command(const std::string& name, const std::string& exec) {
   return c;
 }
 
+// command() with auto_respawn: started again after each end, after the back-off.
+inline CommandSpec respawning(const std::string& name, const std::string& exec) {
+  CommandSpec c = command(name, exec);
+  c.auto_respawn = true;
+  return c;
+}
+
 }  // namespace evermap::deputy::testing

@@ -5,6 +5,7 @@
 #include <fstream>
 
 #include "eval_synthetic.h"
+#include "image_test_util.h"
 #include "scratch_dir.h"
 #include "test_data.h"
 #include "tools/eval/association.h"
@@ -16,6 +17,7 @@ namespace {
 namespace fs = std::filesystem;
 
 using TempDir = evermap::testing::ScratchDir;
+using evermap::testing::expectError;
 
 TEST(TrajectoryReaders, KittiPosesGetStampsFromTheTimesFileOrTheLineIndex) {
   TempDir dir;
@@ -41,38 +43,28 @@ TEST(TrajectoryReaders, KittiErrorsNameFileAndLine) {
   TempDir dir;
   const auto short_line = dir.write("a.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n");
   auto r = readKitti(short_line);
-  ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.error().message.find("a.txt:2: expected 12 numbers"), std::string::npos)
-      << r.error().message;
+  expectError(r, "a.txt:2: expected 12 numbers");
 
   const auto nan_line = dir.write("b.txt", "1 0 0 nan 0 1 0 0 0 0 1 0\n");
   r = readKitti(nan_line);
-  ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.error().message.find("b.txt:1: non-finite"), std::string::npos) << r.error().message;
+  expectError(r, "b.txt:1: non-finite");
 
   const auto not_rotation = dir.write("c.txt", "2 0 0 0 0 1 0 0 0 0 1 0\n");
   r = readKitti(not_rotation);
-  ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.error().message.find("c.txt:1: the 3x3 block is not a rotation"), std::string::npos)
-      << r.error().message;
+  expectError(r, "c.txt:1: the 3x3 block is not a rotation");
 
   const auto good = dir.write("d.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 1 0 1 0 0 0 0 1 0\n");
   const auto few_times = dir.write("t.txt", "0.0\n");
   r = readKitti(good, few_times);
-  ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.error().message.find("t.txt: 1 stamps for 2 poses"), std::string::npos)
-      << r.error().message;
+  expectError(r, "t.txt: 1 stamps for 2 poses");
 
   const auto bad_time = dir.write("u.txt", "0.0\nsoon\n");
   r = readKitti(good, bad_time);
-  ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.error().message.find("u.txt:2"), std::string::npos) << r.error().message;
+  expectError(r, "u.txt:2");
 
   const auto backwards = dir.write("v.txt", "1.0\n0.5\n");
   r = readKitti(good, backwards);
-  ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.error().message.find("time stamps must increase"), std::string::npos)
-      << r.error().message;
+  expectError(r, "time stamps must increase");
 }
 
 TEST(TrajectoryReaders, EmptyFilesAreErrors) {
@@ -80,13 +72,10 @@ TEST(TrajectoryReaders, EmptyFilesAreErrors) {
   const auto empty = dir.write("empty.txt", "# only a comment\n\n");
   for (TrajectoryFormat f : {TrajectoryFormat::kTum, TrajectoryFormat::kKitti}) {
     const auto r = readTrajectory(empty, f);
-    ASSERT_FALSE(r.ok());
-    EXPECT_NE(r.error().message.find("empty.txt: no poses"), std::string::npos)
-        << r.error().message;
+    expectError(r, "empty.txt: no poses");
   }
   const auto missing = readTum(dir.path() / "missing.txt");
-  ASSERT_FALSE(missing.ok());
-  EXPECT_NE(missing.error().message.find("missing.txt: cannot open"), std::string::npos);
+  expectError(missing, "missing.txt: cannot open");
 }
 
 TEST(TrajectoryReaders, FormatIsGuessedFromExtensionAndFirstLine) {
@@ -99,8 +88,7 @@ TEST(TrajectoryReaders, FormatIsGuessedFromExtensionAndFirstLine) {
   EXPECT_EQ(*guessTrajectoryFormat(dir.write("d.log", "1,0,0,0,1,0,0,0\n")),
             TrajectoryFormat::kEuroc);
   const auto unknown = guessTrajectoryFormat(dir.write("e.txt", "1 2 3\n"));
-  ASSERT_FALSE(unknown.ok());
-  EXPECT_NE(unknown.error().message.find("e.txt:1: cannot tell the format"), std::string::npos);
+  expectError(unknown, "e.txt:1: cannot tell the format");
   EXPECT_FALSE(parseTrajectoryFormat("g2o").ok());
   EXPECT_EQ(*parseTrajectoryFormat("kitti"), TrajectoryFormat::kKitti);
 }
@@ -123,8 +111,7 @@ TEST(TrajectoryReaders, TumWriterRoundTripsToTheNanosecond) {
   EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1);
   // A folder that does not exist is an error naming the file.
   const auto bad = writeTum(t, dir.path() / "no/such/folder/out.txt");
-  ASSERT_FALSE(bad.ok());
-  EXPECT_NE(bad.error().message.find("out.txt"), std::string::npos);
+  expectError(bad, "out.txt");
 }
 
 TEST(TrajectoryReaders, ReadTheRealKittiAndEurocFiles) {
@@ -178,8 +165,7 @@ TEST(Association, NoOverlapInTimeIsAnErrorNamingBothFiles) {
   const Trajectory gt = testing::syntheticTrajectory(20, 0, "gt.txt");
   const Trajectory est = testing::syntheticTrajectory(20, 50000000000LL, "est.txt");
   const auto a = associate(gt, est);
-  ASSERT_FALSE(a.ok());
-  EXPECT_NE(a.error().message.find("est.txt"), std::string::npos) << a.error().message;
+  ASSERT_NO_FATAL_FAILURE(expectError(a, "est.txt"));
   EXPECT_NE(a.error().message.find("gt.txt"), std::string::npos) << a.error().message;
   EXPECT_NE(a.error().message.find("do not overlap"), std::string::npos) << a.error().message;
 }
@@ -193,9 +179,7 @@ TEST(Association, InvalidInputsAreErrors) {
   nan.source = "nan.txt";
   nan.poses[3].world_T_body = core::SE3d(core::SO3d(), core::Vec3(0, std::nan(""), 0));
   const auto r = associate(gt, nan);
-  ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.error().message.find("nan.txt: pose 3 is not finite"), std::string::npos)
-      << r.error().message;
+  expectError(r, "nan.txt: pose 3 is not finite");
 }
 
 }  // namespace

@@ -60,6 +60,14 @@ std::filesystem::path writeLog(int n) {
   return path;
 }
 
+// writeLog(n) and the comparator made from it; the log is removed with it.
+struct LoggedComparator {
+  explicit LoggedComparator(int n) : path(writeLog(n)), cmp(LogComparator::fromLog(path)) {}
+  ~LoggedComparator() { std::filesystem::remove(path); }
+  std::filesystem::path path;
+  Expected<LogComparator> cmp;
+};
+
 // `bytes` handed to the comparator as a message received on `channel`.
 void receive(LogComparator& cmp, const std::string& channel, const std::vector<uint8_t>& bytes) {
   cmp.onMessage(channel, bytes.data(), bytes.size());
@@ -84,8 +92,8 @@ TEST(TypeRegistry, RejectsTruncatedAndUnknownMessages) {
 }
 
 TEST(LogComparator, ReplayOverMemqArrivesIntact) {
-  const auto path = writeLog(10);
-  auto cmp = LogComparator::fromLog(path);
+  LoggedComparator logged(10);
+  auto& cmp = logged.cmp;
   ASSERT_TRUE(cmp.ok()) << cmp.error().message;
   EXPECT_EQ(cmp->expectedTotal(), 20);
 
@@ -97,7 +105,7 @@ TEST(LogComparator, ReplayOverMemqArrivesIntact) {
         c->onMessage(ch, rb->data, rb->data_size);
       },
       &*cmp);
-  lcm::LogFile log(path.string(), "r");
+  lcm::LogFile log(logged.path.string(), "r");
   while (const lcm::LogEvent* ev = log.readNextEvent())
     lcm.publish(ev->channel, ev->data, ev->datalen);
   while (lcm.handleTimeout(0) > 0) {
@@ -107,14 +115,13 @@ TEST(LogComparator, ReplayOverMemqArrivesIntact) {
   EXPECT_TRUE(s.complete()) << s.table();
   EXPECT_EQ(s.channels.at(channels::kStereo).type, "stereo_image_t");
   EXPECT_EQ(s.channels.at(channels::kImu).intact, 10);
-  std::filesystem::remove(path);
 }
 
 // A process that signs what it publishes (evermap-sim-measure --serve) sends each logged
 // message with its envelope behind it: the message is intact, the envelope is not compared.
 TEST(LogComparator, MessagesWithASendersEnvelopeArriveIntact) {
-  const auto path = writeLog(2);
-  auto cmp = LogComparator::fromLog(path);
+  LoggedComparator logged(2);
+  auto& cmp = logged.cmp;
   ASSERT_TRUE(cmp.ok()) << cmp.error().message;
   const Signer signer = Signer::make("evermap-sim-measure", nullptr);
   for (int i = 0; i < 2; ++i) {
@@ -129,12 +136,11 @@ TEST(LogComparator, MessagesWithASendersEnvelopeArriveIntact) {
   const auto s = cmp->summary();
   EXPECT_TRUE(s.complete()) << s.table();
   EXPECT_EQ(s.channels.at(channels::kImu).undecodable, 0);
-  std::filesystem::remove(path);
 }
 
 TEST(LogComparator, CountsMissingAndCorruptMessages) {
-  const auto path = writeLog(3);
-  auto cmp = LogComparator::fromLog(path);
+  LoggedComparator logged(3);
+  auto& cmp = logged.cmp;
   ASSERT_TRUE(cmp.ok());
   receive(*cmp, channels::kImu, encode(imu(0)));
   auto bad = encode(imu(1));
@@ -145,12 +151,11 @@ TEST(LogComparator, CountsMissingAndCorruptMessages) {
   EXPECT_EQ(s.channels.at(channels::kImu).intact, 1);
   EXPECT_EQ(s.channels.at(channels::kImu).corrupt, 1);
   EXPECT_EQ(s.channels.at(channels::kStereo).received, 0);
-  std::filesystem::remove(path);
 }
 
 TEST(LogComparator, IgnoresLcmSelfTest) {
-  const auto path = writeLog(1);
-  auto cmp = LogComparator::fromLog(path);
+  LoggedComparator logged(1);
+  auto& cmp = logged.cmp;
   ASSERT_TRUE(cmp.ok());
   const uint8_t probe[4] = {'l', 'c', 'm', 0};
   cmp->onMessage("LCM_SELF_TEST", probe, sizeof probe);
@@ -159,7 +164,6 @@ TEST(LogComparator, IgnoresLcmSelfTest) {
   receive(*cmp, channels::kStereo, encode(stereo(0)));
   EXPECT_TRUE(cmp->allReceived());
   EXPECT_TRUE(cmp->summary().complete());
-  std::filesystem::remove(path);
 }
 
 TEST(LogComparator, MissingLogIsAnErrorNamingIt) {

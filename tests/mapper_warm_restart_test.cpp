@@ -85,9 +85,15 @@ void expectTrackingGoesOnAsIfNothingWasLost(ScriptedDrive& drive, int64_t restor
   EXPECT_EQ(m.stats().warm_confirmations, 0);
 }
 
-TEST(MapperWarmRestart, ARestartWithinTheGapResumesTrackingAndAddsNodesAtOnceWithoutRelocalising) {
+// Each test's scratch folder and its scripted drive (the mapper of scriptedOptions()).
+class MapperWarmRestart : public ::testing::Test {
+ protected:
   evermap::testing::ScratchDir dir;
-  ScriptedDrive drive(scriptedOptions());
+  ScriptedDrive drive{scriptedOptions()};
+};
+
+TEST_F(MapperWarmRestart,
+       ARestartWithinTheGapResumesTrackingAndAddsNodesAtOnceWithoutRelocalising) {
   const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
   const auto restored = static_cast<int64_t>(map.nodes.size());
   // Half a second of message time lost (mapper-proc restarts in 0.3 s at 1x), and a dark
@@ -128,9 +134,7 @@ TEST(MapperWarmRestart, ARestartWithinTheGapResumesTrackingAndAddsNodesAtOnceWit
 
 // Six seconds lost (a 20x replay's restart): the held pose is 9 m uncertain, too much to
 // choose a node's cell; nodes wait for the placement, which the first mapped place confirms.
-TEST(MapperWarmRestart, APoseTooUncertainForANodesCellWaitsForTheConfirmation) {
-  evermap::testing::ScratchDir dir;
-  ScriptedDrive drive(scriptedOptions());
+TEST_F(MapperWarmRestart, APoseTooUncertainForANodesCellWaitsForTheConfirmation) {
   const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
   drive.blind(true);
   ASSERT_TRUE(drive.restart(map, scriptedOptions(), 6.0));
@@ -158,9 +162,7 @@ TEST(MapperWarmRestart, APoseTooUncertainForANodesCellWaitsForTheConfirmation) {
 // VO running on: the odometry frame bridges the gap (the same epoch), so the restarted mapper
 // tracks as if nothing had been lost: a node at once where the robot is, every new node where
 // it truly is, POSE at once, and loop closures without waiting for a confirmation.
-TEST(MapperWarmRestart, AGapBridgedByTheOdometryFrameAddsAccurateNodesAtOnce) {
-  evermap::testing::ScratchDir dir;
-  ScriptedDrive drive(scriptedOptions());
+TEST_F(MapperWarmRestart, AGapBridgedByTheOdometryFrameAddsAccurateNodesAtOnce) {
   const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
   ASSERT_TRUE(map.tracking->odometry);  // the VO frame's odometry pose is saved with the state
   const auto restored = static_cast<int64_t>(map.nodes.size());
@@ -183,9 +185,7 @@ TEST(MapperWarmRestart, AGapBridgedByTheOdometryFrameAddsAccurateNodesAtOnce) {
 // The same gap, but vo-proc restarted too: its first frame starts a new odometry epoch, the
 // two poses are in different frames, and the restart falls back to the inflated pose, which
 // waits for a confirmation before nodes and closures.
-TEST(MapperWarmRestart, AnOdometryEpochThatChangedInTheGapFallsBackToTheInflatedPose) {
-  evermap::testing::ScratchDir dir;
-  ScriptedDrive drive(scriptedOptions());
+TEST_F(MapperWarmRestart, AnOdometryEpochThatChangedInTheGapFallsBackToTheInflatedPose) {
   const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
   ASSERT_TRUE(map.tracking->odometry);
   drive.blind(true);
@@ -212,9 +212,7 @@ TEST(MapperWarmRestart, AnOdometryEpochThatChangedInTheGapFallsBackToTheInflated
 // The same gap with vo-proc's chain restarted in it (a blank wall, a dark room: the
 // simulated VO starts a new epoch at every failure), but the wheels' odometry went on: the
 // wheels bridge it, and the restarted mapper tracks at once as with VO's bridge.
-TEST(MapperWarmRestart, AGapInWhichVoRestartedItsChainIsBridgedByTheWheels) {
-  evermap::testing::ScratchDir dir;
-  ScriptedDrive drive(scriptedOptions());
+TEST_F(MapperWarmRestart, AGapInWhichVoRestartedItsChainIsBridgedByTheWheels) {
   drive.wheels(true);
   const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
   ASSERT_TRUE(map.tracking->wheel);  // the wheels' odometry pose at Δ's time is saved too
@@ -236,9 +234,7 @@ TEST(MapperWarmRestart, AGapInWhichVoRestartedItsChainIsBridgedByTheWheels) {
 // The wheels bridge only within their epoch: a wheel driver restarted in the gap leaves the
 // inflated pose and its confirmation. And a restart whose first VO_DELTA comes before any
 // wheel pose at its time sets VO frames aside until one has arrived, then bridges.
-TEST(MapperWarmRestart, TheWheelsBridgeWithinTheirEpochAndAreWaitedForBriefly) {
-  evermap::testing::ScratchDir dir;
-  ScriptedDrive drive(scriptedOptions());
+TEST_F(MapperWarmRestart, TheWheelsBridgeWithinTheirEpochAndAreWaitedForBriefly) {
   drive.wheels(true);
   const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
   drive.blind(true);
@@ -290,28 +286,27 @@ TEST(MapperWarmRestart, TheWheelsBridgeWithinTheirEpochAndAreWaitedForBriefly) {
 // restarted mapper never heard, and which neither the wheels (planar) nor VO (a closed cab
 // standing still) can see: the restart is lost and relocalises, on whatever floor, instead of
 // being bridged onto the floor it was saved on. A gap too short for a ride is bridged.
-TEST(MapperWarmRestart, AGapNearAnElevatorLongEnoughForARideIsNotBridged) {
-  evermap::testing::ScratchDir dir;
+TEST_F(MapperWarmRestart, AGapNearAnElevatorLongEnoughForARideIsNotBridged) {
   for (const double gap_s : {10.0, 2.0}) {
-    ScriptedDrive drive(scriptedOptions());
-    drive.wheels(true);
-    drive.driveTo(8.0, 0.0);
-    drive.rideEnd(1, 3.0, 0.05);  // up at x = 8, floor 1 mapped to x = 12, down again there
-    drive.driveTo(12.0, 0.0);
-    drive.rideEnd(0, 0.0, 0.05);
-    drive.driveTo(14.0, 0.0);
+    ScriptedDrive fresh(scriptedOptions());  // a drive of its own for each gap
+    fresh.wheels(true);
+    fresh.driveTo(8.0, 0.0);
+    fresh.rideEnd(1, 3.0, 0.05);  // up at x = 8, floor 1 mapped to x = 12, down again there
+    fresh.driveTo(12.0, 0.0);
+    fresh.rideEnd(0, 0.0, 0.05);
+    fresh.driveTo(14.0, 0.0);
     const auto file = dir.path() / ("map" + std::to_string(static_cast<int>(gap_s)) + ".db");
     MapSnapshot map;
     {
       auto store = MapStore::open(file);
-      ASSERT_TRUE(store && store->save(drive.mapper(), drive.mapper().session(), 0));
+      ASSERT_TRUE(store && store->save(fresh.mapper(), fresh.mapper().session(), 0));
       auto snap = store->load();
       ASSERT_TRUE(snap && snap->tracking);
       map = *snap;
     }
-    drive.blind(true);
-    ASSERT_TRUE(drive.restart(map, scriptedOptions(), gap_s, 1.0, GapOdometry::kSameEpoch));
-    const Mapper& m = drive.mapper();
+    fresh.blind(true);
+    ASSERT_TRUE(fresh.restart(map, scriptedOptions(), gap_s, 1.0, GapOdometry::kSameEpoch));
+    const Mapper& m = fresh.mapper();
     if (gap_s >= scriptedOptions().warm_restart_ride_min_s) {
       EXPECT_EQ(m.stats().warm_elevator_refusals, 1);
       EXPECT_EQ(m.stats().warm_restarts, 0);
@@ -329,9 +324,7 @@ TEST(MapperWarmRestart, AGapNearAnElevatorLongEnoughForARideIsNotBridged) {
 
 // A bridge whose motion has a vertical part beyond a floor's tolerance (a ride the restarted
 // mapper did not hear of) or that is longer than warm_restart_bridge_max_gap_s is refused.
-TEST(MapperWarmRestart, TheBridgeIsRefusedBeyondItsGapOrForAVerticalMotion) {
-  evermap::testing::ScratchDir dir;
-  ScriptedDrive drive(scriptedOptions());
+TEST_F(MapperWarmRestart, TheBridgeIsRefusedBeyondItsGapOrForAVerticalMotion) {
   const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
   MapperOptions short_bridge = scriptedOptions();
   short_bridge.warm_restart_bridge_max_gap_s = 5.0;
@@ -354,9 +347,7 @@ TEST(MapperWarmRestart, TheBridgeIsRefusedBeyondItsGapOrForAVerticalMotion) {
       << other.mapper().restartNote();
 }
 
-TEST(MapperWarmRestart, ARestartBeyondTheGapStartsLost) {
-  evermap::testing::ScratchDir dir;
-  ScriptedDrive drive(scriptedOptions());
+TEST_F(MapperWarmRestart, ARestartBeyondTheGapStartsLost) {
   const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
   drive.blind(true);
   ASSERT_TRUE(drive.restart(map, scriptedOptions(), 20.0));  // > warm_restart_max_gap_s = 10
@@ -371,9 +362,7 @@ TEST(MapperWarmRestart, ARestartBeyondTheGapStartsLost) {
   EXPECT_GE(m.stats().relocalizations, 1);
 }
 
-TEST(MapperWarmRestart, WithTheWarmRestartOffEveryRestartStartsLost) {
-  evermap::testing::ScratchDir dir;
-  ScriptedDrive drive(scriptedOptions());
+TEST_F(MapperWarmRestart, WithTheWarmRestartOffEveryRestartStartsLost) {
   const MapSnapshot map = drivenAndSaved(drive, dir.path() / "map.db");
   MapperOptions off = scriptedOptions();
   off.warm_restart_max_gap_s = 0.0;
@@ -386,9 +375,7 @@ TEST(MapperWarmRestart, WithTheWarmRestartOffEveryRestartStartsLost) {
 // behind it (σ 6 m). The registrations that find the mapped places must neither close a loop from
 // it nor leave the robot where it was: the earlier attempt at this closed loops from the held pose
 // (6 false loop edges in the live run, pose ATE 3.3 m).
-TEST(MapperWarmRestart, MotionDuringTheGapMakesNoFalseClosureAndTheRobotIsPlacedWhereItIs) {
-  evermap::testing::ScratchDir dir;
-  ScriptedDrive drive(scriptedOptions());
+TEST_F(MapperWarmRestart, MotionDuringTheGapMakesNoFalseClosureAndTheRobotIsPlacedWhereItIs) {
   lap(drive);
   drive.driveTo(3.0, 0.0);  // the second time out, over mapped places
   auto store = MapStore::open(dir.path() / "map.db");

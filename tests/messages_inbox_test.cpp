@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -24,6 +25,7 @@ namespace {
 
 constexpr int64_t kT0 = 1'400'000'000'000'000;  // a 2014 stamp, µs
 constexpr int64_t kFar = int64_t{1} << 62;
+constexpr int64_t kDay = int64_t{86400} * 1'000'000;
 
 class InboxTest : public ::testing::Test {
  protected:
@@ -38,6 +40,15 @@ class InboxTest : public ::testing::Test {
     lcm_.publish(channels::kImu, &m);
     drain();  // one at a time: memq queues are bounded too
   }
+  // A sample of the stream at its clock: published and expected to be passed on.
+  void publishOnClock(std::vector<int64_t>* sent, int64_t utime) {
+    sent->push_back(utime);
+    publishImu(utime);
+  }
+  // n stamps from `start`, `step` µs apart, appended to `sent`.
+  static void appendStamps(std::vector<int64_t>* sent, int64_t start, int n, int64_t step) {
+    for (int k = 0; k < n; ++k) sent->push_back(start + k * step);
+  }
   // Every IMU sample the inbox passes on goes to seen_.
   void recordImu(Inbox& inbox) {
     inbox.subscribe<evermap::imu_t>(channels::kImu,
@@ -47,6 +58,25 @@ class InboxTest : public ::testing::Test {
     Inbox::Options o;
     o.process = "inbox-test";
     return o;
+  }
+  // options() whose held messages expire after `expire_count` passed on.
+  Inbox::Options expiringAfter(int expire_count) const {
+    Inbox::Options o = options();
+    o.time.expire_count = expire_count;
+    return o;
+  }
+  // An inbox whose IMU samples go to seen_.
+  std::unique_ptr<Inbox> recording(const Inbox::Options& o) {
+    auto inbox = std::make_unique<Inbox>(lcm_, o);
+    recordImu(*inbox);
+    return inbox;
+  }
+  // Publishes `sent`; every sample is passed on in order, none dropped, after `jumps` jumps.
+  void expectAllPassedOn(const Inbox& inbox, const std::vector<int64_t>& sent, int jumps) {
+    for (int64_t t : sent) publishImu(t);
+    EXPECT_EQ(seen_, sent);
+    EXPECT_EQ(inbox.total().dropped(), 0);
+    EXPECT_EQ(inbox.clockJumps(), jumps);
   }
 
   lcm::LCM lcm_{"memq://"};
@@ -92,29 +122,22 @@ TEST_F(InboxTest, AnExceptionInAHandlerIsCaughtAndCounted) {
 }
 
 TEST_F(InboxTest, AMessageStampedTwoToThe62IsRefusedAndNeverBecomesNow) {
-  Inbox::Options o = options();
-  o.time.expire_count = 50;
-  Inbox inbox(lcm_, o);
-  recordImu(inbox);
+  auto inbox = recording(expiringAfter(50));
   std::vector<int64_t> sent;
   for (int k = 0; k < 200; ++k) {
     if (k == 100) {
       publishImu(kFar);
       publishImu(kFar);  // a copy confirms nothing
     }
-    sent.push_back(kT0 + k * 5000);
-    publishImu(sent.back());
+    publishOnClock(&sent, kT0 + k * 5000);
   }
   EXPECT_EQ(seen_, sent);  // every sample of the stream, in order, and nothing else
-  EXPECT_EQ(inbox.counts().at(channels::kImu).time_refused, 2);
-  EXPECT_EQ(inbox.held(), 0);
+  EXPECT_EQ(inbox->counts().at(channels::kImu).time_refused, 2);
+  EXPECT_EQ(inbox->held(), 0);
 }
 
 TEST_F(InboxTest, TheFirstMessagesWaitUntilTheyAgreeSoAFarFirstMessageIsNotTheClock) {
-  Inbox::Options o = options();
-  o.time.expire_count = 10;
-  Inbox inbox(lcm_, o);
-  recordImu(inbox);
+  auto inbox = recording(expiringAfter(10));
   publishImu(kFar);
   publishImu(kT0);
   publishImu(kT0 + 5000);
@@ -123,95 +146,74 @@ TEST_F(InboxTest, TheFirstMessagesWaitUntilTheyAgreeSoAFarFirstMessageIsNotTheCl
   EXPECT_EQ(seen_, (std::vector<int64_t>{kT0, kT0 + 5000, kT0 + 10000}));
   for (int k = 3; k < 20; ++k) publishImu(kT0 + k * 5000);
   EXPECT_EQ(seen_.size(), 20u);
-  EXPECT_EQ(inbox.counts().at(channels::kImu).time_refused, 1);
+  EXPECT_EQ(inbox->counts().at(channels::kImu).time_refused, 1);
 }
 
 TEST_F(InboxTest, AStreamThatReallyJumpsIsFollowedWithNothingLost) {
   // A new session a day later (or a log replayed again): after confirm_count messages agree,
   // the clock moves and the held messages are passed on in order.
-  Inbox inbox(lcm_, options());
-  recordImu(inbox);
+  auto inbox = recording(options());
   // 40 samples at 200 Hz each: past confirm_span_s (0.1 s) within max_held.
   std::vector<int64_t> sent;
-  for (int k = 0; k < 40; ++k) sent.push_back(kT0 + k * 5000);
-  const int64_t day = int64_t{86400} * 1'000'000;
-  for (int k = 0; k < 40; ++k) sent.push_back(kT0 + day + k * 5000);
-  for (int k = 0; k < 40; ++k) sent.push_back(kT0 - day + k * 5000);  // and back
-  for (int64_t t : sent) publishImu(t);
-  EXPECT_EQ(seen_, sent);
-  EXPECT_EQ(inbox.total().dropped(), 0);
-  EXPECT_EQ(inbox.clockJumps(), 2);
+  appendStamps(&sent, kT0, 40, 5000);
+  appendStamps(&sent, kT0 + kDay, 40, 5000);
+  appendStamps(&sent, kT0 - kDay, 40, 5000);  // and back
+  expectAllPassedOn(*inbox, sent, 2);
 }
 
 TEST_F(InboxTest, ThreeDistinctFarStampsDoNotMoveTheClockWhileTheStreamGoesOn) {
   // Issue 47: three well-formed messages stamped near 2^62, 0.5 s apart (they agree and span
   // confirm_span_s), slipped into a live stream. The stream going on at the clock contradicts
   // them: they are refused and every sample of the stream is passed on.
-  Inbox::Options o = options();
-  o.time.expire_count = 50;
-  Inbox inbox(lcm_, o);
-  recordImu(inbox);
+  auto inbox = recording(expiringAfter(50));
   std::vector<int64_t> sent;
   for (int k = 0; k < 300; ++k) {
     if (k == 100 || k == 120 || k == 140) publishImu(kFar + (k - 100) * 25'000);
-    sent.push_back(kT0 + k * 5000);
-    publishImu(sent.back());
+    publishOnClock(&sent, kT0 + k * 5000);
   }
   EXPECT_EQ(seen_, sent);
-  EXPECT_EQ(inbox.counts().at(channels::kImu).time_refused, 3);
-  EXPECT_EQ(inbox.clockJumps(), 0);
-  EXPECT_GT(inbox.jumpsContradicted(), 0);
-  EXPECT_EQ(inbox.held(), 0);
+  EXPECT_EQ(inbox->counts().at(channels::kImu).time_refused, 3);
+  EXPECT_EQ(inbox->clockJumps(), 0);
+  EXPECT_GT(inbox->jumpsContradicted(), 0);
+  EXPECT_EQ(inbox->held(), 0);
 }
 
 TEST_F(InboxTest, FarStampsSentTogetherDoNotMoveTheClockWhenTheStreamPauses) {
   // Stamps corrupted or forged together (microseconds apart) do not span confirm_span_s: the
   // stream that comes back after a pause goes on at its clock.
-  Inbox::Options o = options();
-  o.time.expire_count = 20;
-  Inbox inbox(lcm_, o);
-  recordImu(inbox);
+  auto inbox = recording(expiringAfter(20));
   std::vector<int64_t> sent;
-  for (int k = 0; k < 10; ++k) sent.push_back(kT0 + k * 5000);
+  appendStamps(&sent, kT0, 10, 5000);
   for (int64_t t : sent) publishImu(t);
   for (int k = 0; k < 5; ++k) publishImu(kFar + k);
-  for (int k = 10; k < 50; ++k) {
-    sent.push_back(kT0 + k * 5000);
-    publishImu(sent.back());
-  }
+  for (int k = 10; k < 50; ++k) publishOnClock(&sent, kT0 + k * 5000);
   EXPECT_EQ(seen_, sent);
-  EXPECT_EQ(inbox.clockJumps(), 0);
-  EXPECT_EQ(inbox.counts().at(channels::kImu).time_refused, 5);
+  EXPECT_EQ(inbox->clockJumps(), 0);
+  EXPECT_EQ(inbox->counts().at(channels::kImu).time_refused, 5);
 }
 
 TEST_F(InboxTest, ANewSessionIsAdoptedThoughALateMessageOfTheOldOneArrivesAmongIt) {
   // A log replayed again: a message of the old session still in a queue arrives among the new
   // session's first ones. It does not outnumber them: the new clock is adopted, nothing lost.
-  Inbox inbox(lcm_, options());
-  recordImu(inbox);
+  auto inbox = recording(options());
   std::vector<int64_t> sent;
-  for (int k = 0; k < 40; ++k) sent.push_back(kT0 + k * 5000);
+  appendStamps(&sent, kT0, 40, 5000);
   const int64_t earlier = kT0 - int64_t{3600} * 1'000'000;
-  for (int k = 0; k < 40; ++k) sent.push_back(earlier + k * 5000);
+  appendStamps(&sent, earlier, 40, 5000);
   sent.insert(sent.begin() + 45, kT0 + 40 * 5000);  // the straggler
   for (int64_t t : sent) publishImu(t);
   EXPECT_EQ(seen_.size(), sent.size());
-  EXPECT_EQ(inbox.total().dropped(), 0);
-  EXPECT_EQ(inbox.clockJumps(), 1);
+  EXPECT_EQ(inbox->total().dropped(), 0);
+  EXPECT_EQ(inbox->clockJumps(), 1);
 }
 
 TEST_F(InboxTest, AFastStreamThatJumpsIsAdoptedWhenItFillsHalfOfTheHeldMessages) {
   // IMU at 1 kHz: 0.1 s would be 100 messages, more than max_held (64); half of it adopts.
-  Inbox inbox(lcm_, options());
-  recordImu(inbox);
+  auto inbox = recording(options());
   std::vector<int64_t> sent;
-  for (int k = 0; k < 40; ++k) sent.push_back(kT0 + k * 1000);
-  const int64_t day = int64_t{86400} * 1'000'000;
-  for (int k = 0; k < 200; ++k) sent.push_back(kT0 + day + k * 1000);
-  for (int64_t t : sent) publishImu(t);
-  EXPECT_EQ(seen_, sent);
-  EXPECT_EQ(inbox.total().dropped(), 0);
-  EXPECT_EQ(inbox.clockJumps(), 1);
+  appendStamps(&sent, kT0, 40, 1000);
+  appendStamps(&sent, kT0 + kDay, 200, 1000);
+  expectAllPassedOn(*inbox, sent, 1);
 }
 
 TEST_F(InboxTest, CountsGoOutAsInputStats) {

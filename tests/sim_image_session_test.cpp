@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <map>
+#include <string>
 
 #include <unistd.h>
 
@@ -52,6 +54,13 @@ std::unique_ptr<ImageSimulator> makeSimulator(const std::string& text,
   auto sim = ImageSimulator::create(*options);
   EXPECT_TRUE(sim) << sim.error().message;
   return std::move(*sim);
+}
+
+// The streams besides the camera's in the log of a 3 s session: IMU, ground truth, wheels.
+void expectMotionStreamsOfThreeSeconds(std::map<std::string, int>& seen) {
+  EXPECT_EQ(seen[channels::kImu], 601);
+  EXPECT_EQ(seen[channels::kGroundTruth], 61);
+  EXPECT_EQ(seen[channels::kWheelOdom], 30);
 }
 
 TEST(ImageSession, NoiseFreeImuIntegratesToGroundTruthVelocityAndHeight) {
@@ -153,9 +162,7 @@ TEST(ImageSession, LogRoundTripsThroughTheExistingReaders) {
   }
   EXPECT_EQ(seen[channels::kStereoCalib], 4);  // 3 s of pairs (31 at 10 Hz): at 0, 1, 2 and 3 s
   EXPECT_EQ(seen[channels::kStereo], 31);
-  EXPECT_EQ(seen[channels::kImu], 601);
-  EXPECT_EQ(seen[channels::kGroundTruth], 61);
-  EXPECT_EQ(seen[channels::kWheelOdom], 30);
+  expectMotionStreamsOfThreeSeconds(seen);
   fs::remove(log);
 }
 
@@ -266,9 +273,7 @@ TEST(ImageSession, RgbdModeWritesRgbdFramesWhoseDepthIsTheRayCastWithinTheKinect
   EXPECT_EQ(seen[channels::kRgbdCalib], 4);
   EXPECT_EQ(seen[channels::kStereo], 0);
   EXPECT_EQ(seen[channels::kStereoCalib], 0);
-  EXPECT_EQ(seen[channels::kImu], 601);
-  EXPECT_EQ(seen[channels::kGroundTruth], 61);
-  EXPECT_EQ(seen[channels::kWheelOdom], 30);
+  expectMotionStreamsOfThreeSeconds(seen);
   fs::remove(log);
 }
 

@@ -56,9 +56,22 @@ core::SE3d cameraAt(double x, double y, double yaw, double roll = 0.0, double pi
   return body * body_T_cam;
 }
 
+// The camera of the room tests: 320 x 240, 90° wide (what vo-proc sees of a room).
+constexpr PinholeCamera kRoomCamera{320, 240, 225.0, 225.0, 160.0, 120.0};
+
+// A passer-by `width_m` wide standing at `centre`, facing -x (towards a camera at the middle).
+Occluder passerBy(const TextureLibrary& lib, const Vec2& centre, double width_m) {
+  Occluder person;
+  person.centre = centre;
+  person.normal = Vec2(-1, 0);
+  person.width_m = width_m;
+  person.texture = lib.people.front();
+  return person;
+}
+
 // The 4 m room seen from its middle, 0.3 rad to the left, with pixel noise `noise`.
 cv::Mat renderRoom(const TextureLibrary& lib, double noise, bool dark, bool blank) {
-  ImageRenderer renderer(lib, PinholeCamera{320, 240, 225.0, 225.0, 160.0, 120.0}, noise, 3);
+  ImageRenderer renderer(lib, kRoomCamera, noise, 3);
   cv::Mat image;
   renderer.render(roomFloor(lib, 4.0, dark, blank), 0.0, cameraAt(0, 0, 0.3), {}, &image);
   return image;
@@ -213,16 +226,11 @@ TEST(SimRender, FeaturelessZoneGivesAFlatImage) {
 
 TEST(SimRender, PasserByCoversMostOfTheView) {
   const TextureLibrary lib = testTextures();
-  const PinholeCamera cam{320, 240, 225.0, 225.0, 160.0, 120.0};
-  ImageRenderer renderer(lib, cam, 0.0, 3);
+  ImageRenderer renderer(lib, kRoomCamera, 0.0, 3);
   const RenderFloor floor = roomFloor(lib, 6.0, false, false);
   cv::Mat free, blocked;
   renderer.render(floor, 0.0, cameraAt(0, 0, 0), {}, &free);
-  Occluder person;
-  person.centre = Vec2(0.8, 0.0);
-  person.normal = Vec2(-1, 0);
-  person.width_m = 1.0;
-  person.texture = lib.people.front();
+  const Occluder person = passerBy(lib, Vec2(0.8, 0.0), 1.0);
   renderer.render(floor, 0.0, cameraAt(0, 0, 0), std::vector<Occluder>{person}, &blocked);
   const double changed = cv::countNonZero(free != blocked) / static_cast<double>(free.total());
   EXPECT_GT(changed, 0.6);
@@ -268,15 +276,11 @@ Hit rayCast(const PinholeCamera& cam, const core::SE3d& world_T_cam, double half
 
 TEST(SimRender, RenderedDepthIsTheRayCastDepth) {
   const TextureLibrary lib = testTextures();
-  const PinholeCamera cam{320, 240, 225.0, 225.0, 160.0, 120.0};
+  const PinholeCamera& cam = kRoomCamera;
   ImageRenderer renderer(lib, cam, 0.0, 3);
   const double half = 3.0;
   const RenderFloor floor = roomFloor(lib, half, false, false);
-  Occluder person;
-  person.centre = Vec2(0.2, 0.3);
-  person.normal = Vec2(-1, 0);
-  person.width_m = 0.8;
-  person.texture = lib.people.front();
+  const Occluder person = passerBy(lib, Vec2(0.2, 0.3), 0.8);
   // Level and square-on, then turned, rolled and pitched as the robot on a rough floor.
   for (const auto& [world_T_cam, with_person] :
        {std::pair{cameraAt(-1.0, 0.0, 0.0), true},

@@ -22,10 +22,12 @@ namespace {
 
 using core::SE3d;
 
+using testing::addPoses;
 using testing::edgeFactor;
 using testing::poseRequest;
 using testing::Scenario;
 using testing::spatialScenario;
+using testing::withoutBatchSteps;
 
 // The largest difference between the solver's estimate and one dense Gauss-Newton step from
 // its linearisation point over all its active factors: zero when R, d hold exactly those
@@ -104,7 +106,7 @@ TEST(IncrementalSolverBackground, ReachesTheSameOptimumAsSynchronousBatchSteps) 
   double sse[2] = {0.0, 0.0};
   for (int lag : {0, 3}) {
     IncrementalSolver inc(backgroundOptions(lag));
-    for (int i = 0; i < 60; ++i) ASSERT_TRUE(inc.update(poseRequest(s, inc, i)).ok());
+    ASSERT_NO_FATAL_FAILURE(addPoses(inc, s, 60));
     for (int k = 0; k < 3; ++k) ASSERT_TRUE(inc.batchStep().ok());
     sse[lag > 0] = inc.cost().weighted_sse;
   }
@@ -163,10 +165,8 @@ TEST(IncrementalSolverBackground, RejectsOptionsItCannotHonour) {
 TEST(Marginals, JointOfTheSolverEqualsTheJointOfACopyOfItsFactor) {
   // After incremental updates (no batch step since): the path solves on the live factor.
   const Scenario s = spatialScenario(30, 0.02, 11);
-  IncrementalOptions o;
-  o.batch_every = 0;
-  IncrementalSolver inc(o);
-  for (int i = 0; i < 30; ++i) ASSERT_TRUE(inc.update(poseRequest(s, inc, i)).ok());
+  IncrementalSolver inc(withoutBatchSteps());
+  ASSERT_NO_FATAL_FAILURE(addPoses(inc, s, 30));
   const std::vector<Key> keys = {4, 27};
   auto live = Marginals::jointOf(inc, keys);
   auto copied = Marginals::fromSolver(inc).joint(keys);

@@ -299,10 +299,8 @@ TEST(IncrementalSolver, IncrementalStepsKeepRConsistentWithABatchFactorisation) 
   // Without batch steps R is only updated by Householder reflections; its normal equations
   // must still equal AᵀA of all factors linearised at θ: check via the solution.
   const Scenario s = spatialScenario(20, 0.02, 9);
-  IncrementalOptions io;
-  io.batch_every = 0;
-  IncrementalSolver inc(io);
-  for (int i = 0; i < 20; ++i) ASSERT_TRUE(inc.update(poseRequest(s, inc, i)).ok());
+  IncrementalSolver inc(testing::withoutBatchSteps());
+  ASSERT_NO_FATAL_FAILURE(testing::addPoses(inc, s, 20));
   // One Gauss-Newton step from θ computed densely.
   const PoseGraph& g = inc.graph();
   Eigen::VectorXd rhs;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <gtest/gtest.h>
 
 #include "core/geometry/se2.h"
 #include "core/geometry/se3.h"
@@ -30,43 +31,59 @@ struct Scenario {
   std::vector<std::tuple<int, int, PoseValue>> edges;  // from, to, measurement
 };
 
-inline Scenario planarScenario(int n, double noise, unsigned seed) {
+inline PoseValue poseValue(const SE2d& p) { return PoseValue::planar(p); }
+inline PoseValue poseValue(const SE3d& p) { return PoseValue::spatial(p); }
+
+// n poses from the identity, pose i + 1 = next(pose i, i); odometry between neighbours and a
+// loop closure from pose i - loop_span to pose i every loop_step poses, each measured as
+// noisy(true relative pose, nd, rng).
+template <typename Pose, typename Next, typename Noisy>
+Scenario pathScenario(int n, double noise, unsigned seed, int loop_span, int loop_step, Next next,
+                      Noisy noisy) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> nd(0.0, noise);
   Scenario s;
-  SE2d p;
+  std::vector<Pose> truth;
+  Pose p;
   for (int i = 0; i < n; ++i) {
-    s.truth.push_back(PoseValue::planar(p));
-    p = p * SE2d(1.0, 0.0, (i % 5 == 4) ? 1.5707963267948966 : 0.05);
+    truth.push_back(p);
+    s.truth.push_back(poseValue(p));
+    p = next(p, i);
   }
   auto measure = [&](int a, int b) {
-    const SE2d z = s.truth[a].se2.inverse() * s.truth[b].se2;
-    return PoseValue::planar(SE2d(z.x() + nd(rng), z.y() + nd(rng), z.theta() + nd(rng)));
+    return poseValue(noisy(truth[a].inverse() * truth[b], nd, rng));
   };
   for (int i = 1; i < n; ++i) s.edges.emplace_back(i - 1, i, measure(i - 1, i));
-  for (int i = 7; i < n; i += 3) s.edges.emplace_back(i - 7, i, measure(i - 7, i));
+  for (int i = loop_span; i < n; i += loop_step) {
+    s.edges.emplace_back(i - loop_span, i, measure(i - loop_span, i));
+  }
   return s;
 }
 
+inline Scenario planarScenario(int n, double noise, unsigned seed) {
+  return pathScenario<SE2d>(
+      n, noise, seed, 7, 3,
+      [](const SE2d& p, int i) {
+        return p * SE2d(1.0, 0.0, (i % 5 == 4) ? 1.5707963267948966 : 0.05);
+      },
+      [](const SE2d& z, std::normal_distribution<double>& nd, std::mt19937& rng) {
+        return SE2d(z.x() + nd(rng), z.y() + nd(rng), z.theta() + nd(rng));
+      });
+}
+
 inline Scenario spatialScenario(int n, double noise, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> nd(0.0, noise);
-  Scenario s;
-  SE3d p;
-  for (int i = 0; i < n; ++i) {
-    s.truth.push_back(PoseValue::spatial(p));
-    Eigen::Matrix<double, 6, 1> step;
-    step << 1.0, 0.1, 0.05, 0.05, 0.1, (i % 4 == 3) ? 1.2 : 0.1;
-    p = p * SE3d::exp(step);
-  }
-  auto measure = [&](int a, int b) {
-    Eigen::Matrix<double, 6, 1> e;
-    for (int k = 0; k < 6; ++k) e[k] = nd(rng);
-    return PoseValue::spatial(s.truth[a].se3.inverse() * s.truth[b].se3 * SE3d::exp(e));
-  };
-  for (int i = 1; i < n; ++i) s.edges.emplace_back(i - 1, i, measure(i - 1, i));
-  for (int i = 6; i < n; i += 2) s.edges.emplace_back(i - 6, i, measure(i - 6, i));
-  return s;
+  return pathScenario<SE3d>(
+      n, noise, seed, 6, 2,
+      [](const SE3d& p, int i) {
+        Eigen::Matrix<double, 6, 1> step;
+        step << 1.0, 0.1, 0.05, 0.05, 0.1, (i % 4 == 3) ? 1.2 : 0.1;
+        return p * SE3d::exp(step);
+      },
+      [](const SE3d& z, std::normal_distribution<double>& nd, std::mt19937& rng) {
+        Eigen::Matrix<double, 6, 1> e;
+        for (int k = 0; k < 6; ++k) e[k] = nd(rng);
+        return z * SE3d::exp(e);
+      });
 }
 
 inline FactorPtr edgeFactor(int a, int b, const PoseValue& z) {
@@ -92,6 +109,19 @@ inline UpdateRequest poseRequest(const Scenario& s, const IncrementalSolver& inc
     r.new_factors.push_back(edgeFactor(a, b, z));
   }
   return r;
+}
+
+// Adds poses 0 .. n-1 of `s` to `inc`, one update each; a failed update fails the test
+// (call it inside ASSERT_NO_FATAL_FAILURE).
+inline void addPoses(IncrementalSolver& inc, const Scenario& s, int n) {
+  for (int i = 0; i < n; ++i) ASSERT_TRUE(inc.update(poseRequest(s, inc, i)).ok()) << "pose " << i;
+}
+
+// Incremental options without scheduled batch steps: R changes by Householder updates only.
+inline IncrementalOptions withoutBatchSteps() {
+  IncrementalOptions o;
+  o.batch_every = 0;
+  return o;
 }
 
 // The Gauss-Newton system of the graph at its values, dense: H (n x n) and the right-hand

@@ -21,6 +21,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/camera/calibration.h"
+#include "core/camera/pinhole.h"
 #include "core/camera/stereo_camera.h"
 #include "core/geometry/se3.h"
 
@@ -168,18 +169,9 @@ inline std::vector<core::SE3d> loopTrajectory(int steps, double radius_m = 1.5,
 // `cam` as the calibration of already rectified images: both pinholes alike, the right one
 // `baselineM()` to the right of the left.
 inline core::StereoCalibration rectifiedCalibration(const core::StereoCamera& cam) {
-  core::StereoCalibration c;
-  c.rectified = true;
-  for (core::CameraCalibration* k : {&c.left, &c.right}) {
-    k->width = cam.width();
-    k->height = cam.height();
-    k->fx = cam.fx();
-    k->fy = cam.fy();
-    k->cx = cam.cx();
-    k->cy = cam.cy();
-  }
-  c.right.body_T_cam = core::SE3d(core::SO3d(), core::Vec3(cam.baselineM(), 0.0, 0.0));
-  return c;
+  return core::rectifiedPair(
+      core::pinholeCamera(cam.width(), cam.height(), cam.fx(), cam.fy(), cam.cx(), cam.cy()),
+      cam.baselineM());
 }
 
 // `image` moved right by `px` whole pixels (a rig whose right cx is `px` off); the columns

@@ -20,6 +20,7 @@
 #include "core/messages/channels.h"
 #include "core/messages/keyframe_convert.h"
 #include "core/registration/frame_registration.h"
+#include "log_messages.h"
 #include "scratch_dir.h"
 #include "test_data.h"
 #include "tools/datasets/to_lcm.h"
@@ -96,15 +97,14 @@ TEST(VoTumRgbd, ConsecutiveKeyframesRegisterAsLoopClosureWouldAgreeingWithMotion
   ASSERT_TRUE(runOffline(scratch / "tum.lcmlog", options).ok());
   std::vector<messages::KeyframeMsgContents> keyframes;
   std::vector<int64_t> utimes;
-  lcm::LogFile log((scratch / "vo.lcmlog").string(), "r");
-  while (const lcm::LogEvent* e = log.readNextEvent()) {
-    if (e->channel != channels::kKeyframe) continue;
-    auto msg = messages::decodeLcm<evermap::keyframe_t>(e->data, e->datalen, e->channel);
-    ASSERT_TRUE(msg.ok()) << msg.error().message;
-    auto kf = messages::fromMsg(*msg);
+  std::vector<evermap::keyframe_t> msgs;
+  ASSERT_NO_FATAL_FAILURE(
+      testing::readLogMessages(scratch / "vo.lcmlog", channels::kKeyframe, &msgs));
+  for (const evermap::keyframe_t& msg : msgs) {
+    auto kf = messages::fromMsg(msg);
     ASSERT_TRUE(kf.ok()) << kf.error().message;
     keyframes.push_back(std::move(*kf));
-    utimes.push_back(msg->utime);
+    utimes.push_back(msg.utime);
   }
   ASSERT_GE(keyframes.size(), 20u);
   auto gt = eval::readTum(dir / "groundtruth.txt");

@@ -29,37 +29,33 @@ void JsonWriter::beforeValue() {
   first_.back() = false;
 }
 
-JsonWriter& JsonWriter::beginObject() {
+JsonWriter& JsonWriter::open(bool object) {
   beforeValue();
-  out_ += '{';
-  object_.push_back(true);
+  out_ += object ? '{' : '[';
+  object_.push_back(object);
   first_.push_back(true);
   return *this;
 }
 
-JsonWriter& JsonWriter::endObject() {
-  check(!object_.empty() && object_.back() && !after_key_, "endObject without its object");
-  out_ += '}';
+JsonWriter& JsonWriter::close(bool object) {
+  if (object) {
+    check(!object_.empty() && object_.back() && !after_key_, "endObject without its object");
+  } else {
+    check(!object_.empty() && !object_.back(), "endArray without its array");
+  }
+  out_ += object ? '}' : ']';
   object_.pop_back();
   first_.pop_back();
   return *this;
 }
 
-JsonWriter& JsonWriter::beginArray() {
-  beforeValue();
-  out_ += '[';
-  object_.push_back(false);
-  first_.push_back(true);
-  return *this;
-}
+JsonWriter& JsonWriter::beginObject() { return open(true); }
 
-JsonWriter& JsonWriter::endArray() {
-  check(!object_.empty() && !object_.back(), "endArray without its array");
-  out_ += ']';
-  object_.pop_back();
-  first_.pop_back();
-  return *this;
-}
+JsonWriter& JsonWriter::endObject() { return close(true); }
+
+JsonWriter& JsonWriter::beginArray() { return open(false); }
+
+JsonWriter& JsonWriter::endArray() { return close(false); }
 
 JsonWriter& JsonWriter::key(std::string_view k) {
   check(!object_.empty() && object_.back() && !after_key_, "a key outside an object");

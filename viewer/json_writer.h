@@ -43,6 +43,9 @@ class JsonWriter {
 
  private:
   void beforeValue();
+  // Starts or ends an object (true) or an array (false).
+  JsonWriter& open(bool object);
+  JsonWriter& close(bool object);
   void writeString(std::string_view s);
   std::string out_;
   // One entry per open container: true = object. `first_` says whether it is still empty.

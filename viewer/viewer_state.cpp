@@ -6,6 +6,7 @@
 #include <set>
 #include <unordered_map>
 
+#include "core/common/finite.h"
 #include "viewer/json_writer.h"
 
 namespace evermap::viewer {
@@ -17,12 +18,6 @@ int64_t wallMs() {
   return std::chrono::duration_cast<std::chrono::milliseconds>(
              std::chrono::system_clock::now().time_since_epoch())
       .count();
-}
-
-bool finiteAll(const double* v, int n) {
-  for (int k = 0; k < n; ++k)
-    if (!std::isfinite(v[k])) return false;
-  return true;
 }
 
 const char* registerStatusName(int s) {
@@ -107,7 +102,7 @@ Expected<std::unordered_map<int64_t, int64_t>> indexNodes(const map_graph_t& g,
   index.reserve(g.nodes.size());
   for (size_t k = 0; k < g.nodes.size(); ++k) {
     const map_node_t& n = g.nodes[k];
-    if (!finiteAll(n.position, 3))
+    if (!allFinite(n.position, 3))
       return makeError("MAP_GRAPH: node ", n.node_id, ": position is not finite");
     for (double v : n.position)
       if (std::abs(v) > o.max_coordinate_m)
@@ -220,7 +215,7 @@ Status ViewerState::onGraph(const map_graph_t& msg, const std::string& source) {
 }
 
 Status ViewerState::onPose(const pose_t& msg) {
-  if (!finiteAll(msg.position, 3) || !finiteAll(msg.orientation, 4))
+  if (!allFinite(msg.position, 3) || !allFinite(msg.orientation, 4))
     return makeError("POSE ", msg.utime, ": position or orientation is not finite");
   for (double v : msg.position)
     if (std::abs(v) > o_.max_coordinate_m)

@@ -7,17 +7,11 @@
 #include <iterator>
 #include <vector>
 
+#include "core/common/finite.h"
 #include "core/messages/pose_fields.h"
 
 namespace evermap::messages {
 namespace {
-
-bool finite(const double* v, int n) {
-  for (int i = 0; i < n; ++i) {
-    if (!std::isfinite(v[i])) return false;
-  }
-  return true;
-}
 
 // The image size and the pinhole intrinsics, which core::CameraCalibration and camera_calib_t
 // name alike.
@@ -152,7 +146,7 @@ Expected<core::CameraCalibration> fromMsg(const evermap::camera_calib_t& msg) {
   }
   c.distortion_model = static_cast<core::DistortionModel>(msg.distortion_model);
   c.distortion = msg.distortion;
-  if (!finite(msg.body_T_cam, 16)) return makeError(what, ": non-finite body_T_cam");
+  if (!allFinite(msg.body_T_cam, 16)) return makeError(what, ": non-finite body_T_cam");
   core::Mat4 T;
   for (int r = 0; r < 4; ++r) {
     for (int k = 0; k < 4; ++k) T(r, k) = msg.body_T_cam[4 * r + k];
@@ -211,7 +205,7 @@ Expected<core::UncertainPose> fromMsg(const evermap::pose_t& msg) {
   const std::string what = "pose_t at utime " + std::to_string(msg.utime);
   const Expected<core::SE3d> mean = poseFromMessage(msg.position, msg.orientation, what.c_str());
   if (!mean) return mean.error();
-  if (!finite(msg.covariance, 36)) return makeError(what, ": non-finite covariance");
+  if (!allFinite(msg.covariance, 36)) return makeError(what, ": non-finite covariance");
   core::UncertainPose pose;
   for (int r = 0; r < 6; ++r) {
     for (int k = 0; k < 6; ++k) pose.covariance(r, k) = msg.covariance[6 * r + k];

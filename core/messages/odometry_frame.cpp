@@ -5,20 +5,15 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "core/common/finite.h"
 #include "core/messages/pose_fields.h"
 
 namespace evermap::messages {
 namespace {
 
-bool finite(const double* v, int n) {
-  for (int i = 0; i < n; ++i)
-    if (!std::isfinite(v[i])) return false;
-  return true;
-}
-
 // A pose from translation[3] and orientation[4] (w x y z); empty when not finite or not unit.
 std::optional<core::SE3d> poseOf(const double* t, const double* q) {
-  if (!finite(t, 3)) return std::nullopt;
+  if (!allFinite(t, 3)) return std::nullopt;
   const Expected<Eigen::Quaterniond> rot = quaternionFromMessage(q, "VO_DELTA");
   if (!rot) return std::nullopt;
   return core::SE3d(rot->normalized(), core::Vec3(t[0], t[1], t[2]));

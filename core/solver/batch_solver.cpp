@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "core/common/enum_names.h"
 #include "core/solver/normal_equations.h"
 #include "core/solver/ordering.h"
 #include "core/solver/sparse_cholesky.h"
@@ -12,38 +13,23 @@
 namespace evermap::solver {
 
 const char* methodName(Method m) {
-  switch (m) {
-    case Method::kGaussNewton:
-      return "gauss-newton";
-    case Method::kLevenbergMarquardt:
-      return "levenberg-marquardt";
-    case Method::kDogLeg:
-      return "dogleg";
-  }
-  return "?";
-}
-
-Expected<Method> parseMethod(const std::string& text) {
-  if (text == "gn" || text == "gauss-newton") return Method::kGaussNewton;
-  if (text == "lm" || text == "levenberg-marquardt") return Method::kLevenbergMarquardt;
-  if (text == "dogleg" || text == "dl" || text == "powell") return Method::kDogLeg;
-  return makeError("method '", text, "': expected gn, lm or dogleg");
+  static constexpr EnumNames<Method, 3> kNames{{
+      {Method::kGaussNewton, "gauss-newton"},
+      {Method::kLevenbergMarquardt, "levenberg-marquardt"},
+      {Method::kDogLeg, "dogleg"},
+  }};
+  return nameOf(kNames, m);
 }
 
 const char* terminationName(Termination t) {
-  switch (t) {
-    case Termination::kConverged:
-      return "converged (relative decrease)";
-    case Termination::kSmallGradient:
-      return "converged (gradient)";
-    case Termination::kSmallStep:
-      return "converged (small step)";
-    case Termination::kMaxIterations:
-      return "NOT converged: iteration budget exhausted";
-    case Termination::kFailure:
-      return "failure";
-  }
-  return "?";
+  static constexpr EnumNames<Termination, 5> kNames{{
+      {Termination::kConverged, "converged (relative decrease)"},
+      {Termination::kSmallGradient, "converged (gradient)"},
+      {Termination::kSmallStep, "converged (small step)"},
+      {Termination::kMaxIterations, "NOT converged: iteration budget exhausted"},
+      {Termination::kFailure, "failure"},
+  }};
+  return nameOf(kNames, t);
 }
 
 Status BatchOptions::validate() const {

@@ -18,7 +18,6 @@ namespace evermap::solver {
 
 enum class Method { kGaussNewton, kLevenbergMarquardt, kDogLeg };
 const char* methodName(Method m);
-Expected<Method> parseMethod(const std::string& text);  // "gn", "lm", "dogleg"
 
 struct BatchOptions {
   Method method = Method::kGaussNewton;

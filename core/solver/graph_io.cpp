@@ -5,11 +5,13 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <initializer_list>
 #include <set>
 #include <sstream>
 
 #include <Eigen/Eigenvalues>
 
+#include "core/common/enum_names.h"
 #include "core/solver/factor.h"
 
 namespace evermap::solver {
@@ -156,6 +158,10 @@ class GraphReader {
   Status vertexFields(const LineParser& p, int dim, size_t n, GraphVertex* vx);
   Status planarVertex(const LineParser& p);
   Status spatialVertex(const LineParser& p);
+  // An edge line of a `dim`-D graph with any of `fields` fields after the tag: its keys into
+  // e and the numbers after them into v_.
+  Status edgeFields(const LineParser& p, int dim, std::initializer_list<size_t> fields,
+                    GraphEdge* e);
   // Every 2-D edge line is "TAG from to dx dy dθ" and six information numbers whose layout
   // depends on the format; `sqrt_info` turns those six into the square-root information.
   template <typename SqrtInfo>
@@ -220,14 +226,19 @@ Status GraphReader::spatialVertex(const LineParser& p) {
   return addVertex(&g_, vx, &seen_, p.where);
 }
 
+Status GraphReader::edgeFields(const LineParser& p, int dim, std::initializer_list<size_t> fields,
+                               GraphEdge* e) {
+  EVERMAP_TRY(setDim(dim, p.where));
+  EVERMAP_TRY(p.expectFields(fields));
+  EVERMAP_TRY(p.keyAt(1, &e->from));
+  EVERMAP_TRY(p.keyAt(2, &e->to));
+  return p.numbers(3, p.t.size() - 3, v_);
+}
+
 template <typename SqrtInfo>
 Status GraphReader::planarEdge(const LineParser& p, SqrtInfo sqrt_info, bool from_information) {
   GraphEdge e;
-  EVERMAP_TRY(setDim(2, p.where));
-  EVERMAP_TRY(p.expectFields({11}));
-  EVERMAP_TRY(p.keyAt(1, &e.from));
-  EVERMAP_TRY(p.keyAt(2, &e.to));
-  EVERMAP_TRY(p.numbers(3, 9, v_));
+  EVERMAP_TRY(edgeFields(p, 2, {11}, &e));
   e.measurement = PoseValue::planar(core::SE2d(v_[0], v_[1], v_[2]));
   auto W = sqrt_info(v_ + 3);
   if (!W.ok()) return W.error();
@@ -243,11 +254,7 @@ Status GraphReader::planarEdge(const LineParser& p, SqrtInfo sqrt_info, bool fro
 
 Status GraphReader::g2oSpatialEdge(const LineParser& p) {
   GraphEdge e;
-  EVERMAP_TRY(setDim(3, p.where));
-  EVERMAP_TRY(p.expectFields({30}));
-  EVERMAP_TRY(p.keyAt(1, &e.from));
-  EVERMAP_TRY(p.keyAt(2, &e.to));
-  EVERMAP_TRY(p.numbers(3, 28, v_));
+  EVERMAP_TRY(edgeFields(p, 3, {30}, &e));
   const Expected<core::SE3d> z = g2oPose(v_, p.where);
   if (!z) return z.error();
   e.measurement = PoseValue::spatial(*z);
@@ -260,11 +267,7 @@ Status GraphReader::g2oSpatialEdge(const LineParser& p) {
 Status GraphReader::isamSpatialEdge(const LineParser& p) {
   const std::vector<std::string>& t = p.t;
   GraphEdge e;
-  EVERMAP_TRY(setDim(3, p.where));
-  EVERMAP_TRY(p.expectFields({8, 29}));
-  EVERMAP_TRY(p.keyAt(1, &e.from));
-  EVERMAP_TRY(p.keyAt(2, &e.to));
-  EVERMAP_TRY(p.numbers(3, t.size() - 3, v_));
+  EVERMAP_TRY(edgeFields(p, 3, {8, 29}, &e));
   // File angles: roll, pitch, yaw (iSAM Loader); R = Rz(yaw) Ry(pitch) Rx(roll).
   core::SE3d z(core::SO3d::fromRollPitchYaw(v_[3], v_[4], v_[5]), core::Vec3(v_[0], v_[1], v_[2]));
   Eigen::MatrixXd S = Eigen::MatrixXd::Identity(6, 6);
@@ -450,26 +453,14 @@ Expected<GraphFile> GraphReader::finish() {
 
 }  // namespace
 
-Expected<GraphFormat> parseGraphFormat(const std::string& text) {
-  if (text == "auto") return GraphFormat::kAuto;
-  if (text == "g2o") return GraphFormat::kG2o;
-  if (text == "toro") return GraphFormat::kToro;
-  if (text == "isam") return GraphFormat::kIsam;
-  return makeError("format '", text, "': expected auto, g2o, toro or isam");
-}
-
 const char* graphFormatName(GraphFormat f) {
-  switch (f) {
-    case GraphFormat::kAuto:
-      return "auto";
-    case GraphFormat::kG2o:
-      return "g2o";
-    case GraphFormat::kToro:
-      return "toro";
-    case GraphFormat::kIsam:
-      return "isam";
-  }
-  return "?";
+  static constexpr EnumNames<GraphFormat, 4> kNames{{
+      {GraphFormat::kAuto, "auto"},
+      {GraphFormat::kG2o, "g2o"},
+      {GraphFormat::kToro, "toro"},
+      {GraphFormat::kIsam, "isam"},
+  }};
+  return nameOf(kNames, f);
 }
 
 Expected<IndefiniteInformation> parseIndefiniteInformation(const std::string& text) {

@@ -54,7 +54,6 @@
 namespace evermap::solver {
 
 enum class GraphFormat { kAuto, kG2o, kToro, kIsam };
-Expected<GraphFormat> parseGraphFormat(const std::string& text);  // auto, g2o, toro, isam
 const char* graphFormatName(GraphFormat f);
 
 struct GraphVertex {

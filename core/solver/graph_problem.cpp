@@ -66,6 +66,21 @@ Status checkInformation(const GraphFile& graph, Objective objective) {
   return Ok{};
 }
 
+namespace {
+
+// Adds SE-Sync's chordal cost of one edge a -> b measuring z (SE2d or SE3d) to *f:
+// kappa |Rb - Ra Rz|^2, then tau |tb - ta - Ra tz|^2.
+template <typename Pose>
+void addChordalEdgeCost(const SeSyncWeights& w, const Pose& a, const Pose& b, const Pose& z,
+                        double* f) {
+  const auto Ra = a.rotationMatrix();
+  const auto Rz = z.rotationMatrix();
+  *f += w.kappa * (b.rotationMatrix() - Ra * Rz).squaredNorm();
+  *f += w.tau * (b.translation() - a.translation() - Ra * z.translation()).squaredNorm();
+}
+
+}  // namespace
+
 double seSyncCost(const GraphFile& graph, const Values& values) {
   double f = 0.0;
   for (const GraphEdge& e : graph.edges) {
@@ -73,19 +88,9 @@ double seSyncCost(const GraphFile& graph, const Values& values) {
     const PoseValue& a = values[e.from];
     const PoseValue& b = values[e.to];
     if (graph.dimension == 2) {
-      const core::Mat2 Ra = a.se2.rotationMatrix();
-      const core::Mat2 Rz = e.measurement.se2.rotationMatrix();
-      f += w.kappa * (b.se2.rotationMatrix() - Ra * Rz).squaredNorm();
-      f +=
-          w.tau * (b.se2.translation() - a.se2.translation() - Ra * e.measurement.se2.translation())
-                      .squaredNorm();
+      addChordalEdgeCost(w, a.se2, b.se2, e.measurement.se2, &f);
     } else {
-      const core::Mat3 Ra = a.se3.rotationMatrix();
-      const core::Mat3 Rz = e.measurement.se3.rotationMatrix();
-      f += w.kappa * (b.se3.rotationMatrix() - Ra * Rz).squaredNorm();
-      f +=
-          w.tau * (b.se3.translation() - a.se3.translation() - Ra * e.measurement.se3.translation())
-                      .squaredNorm();
+      addChordalEdgeCost(w, a.se3, b.se3, e.measurement.se3, &f);
     }
   }
   return f;

@@ -5,6 +5,7 @@
 #include <optional>
 #include <random>
 
+#include "core/common/enum_names.h"
 #include "core/solver/graph_problem.h"
 
 namespace evermap::solver {
@@ -17,15 +18,12 @@ Expected<OutlierMode> parseOutlierMode(const std::string& text) {
 }
 
 const char* outlierModeName(OutlierMode mode) {
-  switch (mode) {
-    case OutlierMode::kRandom:
-      return "random";
-    case OutlierMode::kLocal:
-      return "local";
-    case OutlierMode::kGroup:
-      return "group";
-  }
-  return "?";
+  static constexpr EnumNames<OutlierMode, 3> kNames{{
+      {OutlierMode::kRandom, "random"},
+      {OutlierMode::kLocal, "local"},
+      {OutlierMode::kGroup, "group"},
+  }};
+  return nameOf(kNames, mode);
 }
 
 bool isSyntheticOutlier(const GraphEdge& edge) { return edge.line == 0; }

@@ -132,12 +132,8 @@ Expected<std::vector<imu::ImuSample>> readEurocImu(const std::filesystem::path& 
 }
 
 Expected<std::vector<ImageEntry>> readEurocImages(const std::filesystem::path& csv) {
-  std::ifstream in(csv);
-  if (!in) return makeError(csv.string(), ": cannot open");
   std::vector<ImageEntry> out;
-  std::string line;
-  for (int n = 1; std::getline(in, line); ++n) {
-    if (isCommentOrBlank(line)) continue;
+  const Status s = forEachDataLine(csv, [&](const std::string& line, int n) -> Status {
     const auto fields = split(line, ',');
     ImageEntry e;
     if (fields.size() != 2 || !parseStamp(fields[0], &e.t_ns)) {
@@ -148,7 +144,9 @@ Expected<std::vector<ImageEntry>> readEurocImages(const std::filesystem::path& c
     e.filename = a == std::string::npos ? "" : e.filename.substr(a);
     if (e.filename.empty()) return makeError(csv.string(), ":", n, ": empty file name");
     out.push_back(e);
-  }
+    return Ok{};
+  });
+  if (!s) return s.error();
   return out;
 }
 

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <string>
 
+#include "core/camera/pinhole.h"
 #include "tools/datasets/euroc.h"  // parseNumbers
 
 namespace evermap::datasets {
@@ -80,19 +81,10 @@ Expected<core::StereoCalibration> kittiStereoCalibration(const KittiProjections&
   if (std::abs(p.P1(1, 3)) > 1e-9 * scale || std::abs(p.P1(2, 3)) > 1e-9 * scale) {
     return makeError(what, ": P1's offset is not along x: not a horizontal rectified pair");
   }
-  core::StereoCalibration c;
-  c.rectified = true;
-  for (core::CameraCalibration* cam : {&c.left, &c.right}) {
-    cam->width = width;
-    cam->height = height;
-    cam->fx = K0(0, 0);
-    cam->fy = K0(1, 1);
-    cam->cx = K0(0, 2);
-    cam->cy = K0(1, 2);
-  }
   // P1 = K [I | t] with t = (-b, 0, 0): p_right = p_left - (b, 0, 0).
   const double baseline = -p.P1(0, 3) / p.P1(0, 0);
-  c.right.body_T_cam = core::SE3d(core::SO3d(), core::Vec3(baseline, 0.0, 0.0));
+  const core::StereoCalibration c = core::rectifiedPair(
+      core::pinholeCamera(width, height, K0(0, 0), K0(1, 1), K0(0, 2), K0(1, 2)), baseline);
   if (Status s = c.validate(what); !s) return s.error();
   return c;
 }

@@ -22,49 +22,49 @@ std::vector<std::string> words(const std::string& line) {
 // Calls `row(words, where)` for every data line; stops at the first error.
 template <typename Row>
 Status forEachLine(const fs::path& file, Row row) {
-  std::ifstream in(file);
-  if (!in) return makeError(file.string(), ": cannot open");
-  std::string line;
-  int n = 0;
-  while (std::getline(in, line)) {
-    ++n;
-    if (isCommentOrBlank(line)) continue;
-    const std::string where = file.string() + ":" + std::to_string(n);
-    if (Status s = row(words(line), where); !s) return s;
-  }
-  if (in.bad()) return makeError(file.string(), ": read error");
-  return Ok{};
+  return forEachDataLine(file, [&](const std::string& line, int n) {
+    return row(words(line), file.string() + ":" + std::to_string(n));
+  });
 }
 
-}  // namespace
-
-Expected<std::vector<TumImageEntry>> readTumImageList(const fs::path& file) {
-  std::vector<TumImageEntry> out;
+// The rows of a TUM list of `fields` words a line, the first a timestamp in seconds, stamps
+// increasing; `fill(words, where, &row)` reads the rest of a line into its row (t_ns is set).
+template <typename T, typename Fill>
+Expected<std::vector<T>> readStampedRows(const fs::path& file, size_t fields, const char* format,
+                                         Fill fill) {
+  std::vector<T> out;
   Status s =
       forEachLine(file, [&](const std::vector<std::string>& w, const std::string& where) -> Status {
-        TumImageEntry e;
-        if (w.size() != 2 || !parseSecondsToNs(w[0], &e.t_ns)) {
-          return makeError(where, ": expected \"timestamp filename\"");
+        T row;
+        if (w.size() != fields || !parseSecondsToNs(w[0], &row.t_ns)) {
+          return makeError(where, ": expected \"", format, "\"");
         }
-        if (!out.empty() && e.t_ns <= out.back().t_ns) {
+        if (Status f = fill(w, where, &row); !f) return f;
+        if (!out.empty() && row.t_ns <= out.back().t_ns) {
           return makeError(where, ": timestamp ", w[0], " is not after the previous line's");
         }
-        e.file = w[1];
-        out.push_back(std::move(e));
+        out.push_back(std::move(row));
         return Ok{};
       });
   if (!s) return s.error();
   return out;
 }
 
+}  // namespace
+
+Expected<std::vector<TumImageEntry>> readTumImageList(const fs::path& file) {
+  return readStampedRows<TumImageEntry>(
+      file, 2, "timestamp filename",
+      [](const std::vector<std::string>& w, const std::string&, TumImageEntry* e) -> Status {
+        e->file = w[1];
+        return Ok{};
+      });
+}
+
 Expected<std::vector<AccelSample>> readTumAccelerometer(const fs::path& file) {
-  std::vector<AccelSample> out;
-  Status s =
-      forEachLine(file, [&](const std::vector<std::string>& w, const std::string& where) -> Status {
-        AccelSample a;
-        if (w.size() != 4 || !parseSecondsToNs(w[0], &a.t_ns)) {
-          return makeError(where, ": expected \"timestamp ax ay az\"");
-        }
+  return readStampedRows<AccelSample>(
+      file, 4, "timestamp ax ay az",
+      [](const std::vector<std::string>& w, const std::string& where, AccelSample* a) -> Status {
         for (int i = 0; i < 3; ++i) {
           double v = 0.0;
           std::istringstream f(w[static_cast<size_t>(i) + 1]);
@@ -72,16 +72,10 @@ Expected<std::vector<AccelSample>> readTumAccelerometer(const fs::path& file) {
             return makeError(where, ": acceleration '", w[static_cast<size_t>(i) + 1],
                              "' is not a finite number");
           }
-          a.accel_m_s2[i] = v;
+          a->accel_m_s2[i] = v;
         }
-        if (!out.empty() && a.t_ns <= out.back().t_ns) {
-          return makeError(where, ": timestamp ", w[0], " is not after the previous line's");
-        }
-        out.push_back(a);
         return Ok{};
       });
-  if (!s) return s.error();
-  return out;
 }
 
 std::vector<std::pair<size_t, size_t>> associateByTime(const std::vector<int64_t>& a,

@@ -22,7 +22,8 @@ namespace fs = std::filesystem;
 using detail::EventKind;
 using detail::PendingEvent;
 
-Expected<cv::Mat> readGray(const fs::path& file) {
+// The image in `file` as stored (any depth and channels); an error names the file.
+Expected<cv::Mat> readImage(const fs::path& file) {
   cv::Mat image;
   try {
     image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
@@ -30,26 +31,27 @@ Expected<cv::Mat> readGray(const fs::path& file) {
     return makeError(file.string(), ": cannot read (", e.msg, ")");
   }
   if (image.empty()) return makeError(file.string(), ": missing, corrupt or not an image");
-  if (image.depth() != CV_8U) return makeError(file.string(), ": not an 8-bit image");
-  std::optional<cv::Mat> gray = core::toGray(image);
-  if (!gray) return makeError(file.string(), ": ", image.channels(), " channels (need 1, 3 or 4)");
+  return image;
+}
+
+Expected<cv::Mat> readGray(const fs::path& file) {
+  auto image = readImage(file);
+  if (!image) return image.error();
+  if (image->depth() != CV_8U) return makeError(file.string(), ": not an 8-bit image");
+  std::optional<cv::Mat> gray = core::toGray(*image);
+  if (!gray) return makeError(file.string(), ": ", image->channels(), " channels (need 1, 3 or 4)");
   return *gray;
 }
 
 Expected<cv::Mat> readDepth(const fs::path& file) {
-  cv::Mat depth;
-  try {
-    depth = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    return makeError(file.string(), ": cannot read (", e.msg, ")");
-  }
-  if (depth.empty()) return makeError(file.string(), ": missing, corrupt or not an image");
-  if (depth.type() != CV_16UC1) {
+  auto depth = readImage(file);
+  if (!depth) return depth.error();
+  if (depth->type() != CV_16UC1) {
     return makeError(file.string(), ": depth must be 16-bit one-channel, is ",
-                     8 * static_cast<int>(depth.elemSize1()), "-bit with ", depth.channels(),
+                     8 * static_cast<int>(depth->elemSize1()), "-bit with ", depth->channels(),
                      " channels");
   }
-  return depth;
+  return *depth;
 }
 
 // The RGB-D message of the sequence's frame `k`: its colour image as gray and its depth,

@@ -44,6 +44,22 @@ const char* describe(Tok t) {
   return "?";
 }
 
+// The token of a one-character punctuation mark; kEof for any other character.
+Tok punctuation(char c) {
+  switch (c) {
+    case '{':
+      return Tok::kOpen;
+    case '}':
+      return Tok::kClose;
+    case '=':
+      return Tok::kAssign;
+    case ';':
+      return Tok::kEnd;
+    default:
+      return Tok::kEof;
+  }
+}
+
 struct Token {
   Tok type = Tok::kEof;
   std::string text;
@@ -66,31 +82,12 @@ class Tokenizer {
     t.pos = pos_;
     if (i_ >= text_.size()) return t;
     const char c = text_[i_];
-    switch (c) {
-      case '{':
-        advance();
-        t.type = Tok::kOpen;
-        t.text = "{";
-        return t;
-      case '}':
-        advance();
-        t.type = Tok::kClose;
-        t.text = "}";
-        return t;
-      case '=':
-        advance();
-        t.type = Tok::kAssign;
-        t.text = "=";
-        return t;
-      case ';':
-        advance();
-        t.type = Tok::kEnd;
-        t.text = ";";
-        return t;
-      case '"':
-        return quoted(t);
-      default:
-        break;
+    if (c == '"') return quoted(t);
+    if (const Tok p = punctuation(c); p != Tok::kEof) {
+      advance();
+      t.type = p;
+      t.text = std::string(1, c);
+      return t;
     }
     if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
       t.type = Tok::kIdentifier;

@@ -245,10 +245,14 @@ Status DeputyClient::order(const std::vector<ProcRef>& refs, bool running) {
   }
 }
 
-Status DeputyClient::start(const std::vector<CtlTarget>& targets) {
+Expected<std::vector<ProcRef>> DeputyClient::resolve(const std::vector<CtlTarget>& targets) {
   auto statuses = gather();
   if (!statuses) return statuses.error();
-  auto refs = resolveTargets(*statuses, targets);
+  return resolveTargets(*statuses, targets);
+}
+
+Status DeputyClient::start(const std::vector<CtlTarget>& targets) {
+  auto refs = resolve(targets);
   if (!refs) return refs.error();
   std::vector<ProcRef> ended;  // should run, but has ended: re-arm with a stop first
   for (const ProcRef& r : *refs) {
@@ -263,26 +267,20 @@ Status DeputyClient::start(const std::vector<CtlTarget>& targets) {
 }
 
 Status DeputyClient::stop(const std::vector<CtlTarget>& targets) {
-  auto statuses = gather();
-  if (!statuses) return statuses.error();
-  auto refs = resolveTargets(*statuses, targets);
+  auto refs = resolve(targets);
   if (!refs) return refs.error();
   return order(*refs, false);
 }
 
 Status DeputyClient::restart(const std::vector<CtlTarget>& targets) {
-  auto statuses = gather();
-  if (!statuses) return statuses.error();
-  auto refs = resolveTargets(*statuses, targets);
+  auto refs = resolve(targets);
   if (!refs) return refs.error();
   if (auto s = order(*refs, false); !s) return s;
   return order(*refs, true);
 }
 
 Status DeputyClient::waitFor(const std::vector<CtlTarget>& targets, bool running) {
-  auto statuses = gather();
-  if (!statuses) return statuses.error();
-  auto refs = resolveTargets(*statuses, targets);
+  auto refs = resolve(targets);
   if (!refs) return refs.error();
   const auto start = Clock::now();
   while (true) {

@@ -90,6 +90,8 @@ class DeputyClient {
   void pumpOnce();
   std::vector<deputy_status_t> latestList() const;
   const deputy_proc_t* find(const ProcRef& ref) const;
+  // The processes `targets` name among the statuses gathered now.
+  Expected<std::vector<ProcRef>> resolve(const std::vector<CtlTarget>& targets);
   // Sends desired state `running` for `refs` until acknowledged.
   Status order(const std::vector<ProcRef>& refs, bool running);
 

@@ -1,5 +1,5 @@
 #include "tools/eval/alignment.h"
-#include "tools/eval/enum_names.h"
+#include "core/common/enum_names.h"
 
 namespace evermap::eval {
 

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include "tools/eval/enum_names.h"
+#include "core/common/enum_names.h"
 
 namespace evermap::eval {
 namespace {

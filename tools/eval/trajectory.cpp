@@ -7,8 +7,8 @@
 
 #include "core/common/atomic_write.h"
 #include "core/common/number_text.h"
+#include "core/common/enum_names.h"
 #include "tools/datasets/text_lines.h"
-#include "tools/eval/enum_names.h"
 
 namespace evermap::eval {
 namespace {
@@ -24,12 +24,8 @@ std::string trim(const std::string& s) {
 
 // One stamp per non-blank line, in seconds.
 Expected<std::vector<int64_t>> readKittiTimes(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  if (!in) return makeError(file.string(), ": cannot open");
   std::vector<int64_t> out;
-  std::string line;
-  for (int n = 1; std::getline(in, line); ++n) {
-    if (isCommentOrBlank(line)) continue;
+  const Status s = datasets::forEachDataLine(file, [&](const std::string& line, int n) -> Status {
     int64_t t_ns = 0;
     const std::string field = trim(line);
     if (!datasets::parseSecondsToNs(field, &t_ns)) {
@@ -37,7 +33,9 @@ Expected<std::vector<int64_t>> readKittiTimes(const std::filesystem::path& file)
                        "\"");
     }
     out.push_back(t_ns);
-  }
+    return Ok{};
+  });
+  if (!s) return s.error();
   return out;
 }
 

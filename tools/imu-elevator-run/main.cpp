@@ -165,12 +165,7 @@ int printFloorLog(const std::string& file) {
 
 // The simulator's raw IMU through both filters: does every ride end on the right floor?
 int runSimulatorCheck(const Args& args) {
-  auto file = KeyValueFile::load(args.sim_config, args.sim_sets, "--sim-set");
-  if (!file.ok()) {
-    std::fprintf(stderr, "%s\n", file.error().message.c_str());
-    return 1;
-  }
-  auto options = sim::loadSimOptions(*file);
+  auto options = sim::loadConfig(sim::loadSimOptions, args.sim_config, args.sim_sets, "--sim-set");
   if (!options.ok()) {
     std::fprintf(stderr, "%s\n", options.error().message.c_str());
     return 1;

@@ -83,9 +83,7 @@ int parseCommandLine(int argc, char** argv, ExportArgs* a) {
 // The truth's simulator settings (none without --truth); -1, else the exit status.
 int loadTruth(const ExportArgs& a, std::optional<sim::ImageSimOptions>* out) {
   if (a.truth.empty()) return -1;
-  auto file = KeyValueFile::load(a.truth, a.truth_sets, "--truth-set");
-  if (!file) return fail(file.error().message, 2);
-  auto o = sim::loadImageSimOptions(*file);
+  auto o = sim::loadConfig(sim::loadImageSimOptions, a.truth, a.truth_sets, "--truth-set");
   if (!o) return fail(o.error().message, 2);
   *out = *o;
   return -1;

@@ -3,6 +3,8 @@
 #include <sqlite3.h>
 
 #include <cstdio>
+#include <optional>
+#include <utility>
 
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
@@ -51,14 +53,20 @@ OracleServer::OracleServer(lcm::LCM& lcm, RegistrationOracle& oracle, messages::
   lcm_.subscribe(channels::kRegisterRequest, &OracleServer::onRequest, this)->setQueueCapacity(0);
 }
 
-void OracleServer::onNodeAdded(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
-  auto m = messages::decodeLcm<node_added_t>(
+template <typename Msg>
+std::optional<Msg> OracleServer::decode(const lcm::ReceiveBuffer* buffer,
+                                        const std::string& channel) {
+  auto m = messages::decodeLcm<Msg>(
       buffer->data, messages::messageSize(buffer->data, buffer->data_size), channel);
-  if (!m) {
-    ++dropped_;
-    std::fprintf(stderr, "evermap::sim oracle: dropped: %s\n", m.error().message.c_str());
-    return;
-  }
+  if (m) return std::move(*m);
+  ++dropped_;
+  std::fprintf(stderr, "evermap::sim oracle: dropped: %s\n", m.error().message.c_str());
+  return std::nullopt;
+}
+
+void OracleServer::onNodeAdded(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
+  const auto m = decode<node_added_t>(buffer, channel);
+  if (!m) return;
   if (!oracle_.addNode(*m)) {
     std::fprintf(stderr, "evermap::sim oracle: node %lld names unknown keyframe %lld\n",
                  static_cast<long long>(m->node_id), static_cast<long long>(m->keyframe_utime));
@@ -66,13 +74,8 @@ void OracleServer::onNodeAdded(const lcm::ReceiveBuffer* buffer, const std::stri
 }
 
 void OracleServer::onRequest(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
-  auto m = messages::decodeLcm<register_request_t>(
-      buffer->data, messages::messageSize(buffer->data, buffer->data_size), channel);
-  if (!m) {
-    ++dropped_;
-    std::fprintf(stderr, "evermap::sim oracle: dropped: %s\n", m.error().message.c_str());
-    return;
-  }
+  const auto m = decode<register_request_t>(buffer, channel);
+  if (!m) return;
   // The oracle answers invalid requests itself (STATUS_MALFORMED), so the mapper hears back.
   const register_result_t r = oracle_.answer(*m);
   out_.publish(channels::kRegisterResult, r);

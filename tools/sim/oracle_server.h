@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include <lcm/lcm-cpp.hpp>
@@ -34,6 +35,9 @@ class OracleServer {
  private:
   void onNodeAdded(const lcm::ReceiveBuffer* buffer, const std::string& channel);
   void onRequest(const lcm::ReceiveBuffer* buffer, const std::string& channel);
+  // The message in `buffer`, or nothing (counted in dropped_, one line) when it does not decode.
+  template <typename Msg>
+  std::optional<Msg> decode(const lcm::ReceiveBuffer* buffer, const std::string& channel);
 
   lcm::LCM& lcm_;
   messages::Outbox out_;

@@ -6,6 +6,7 @@
 #include <numbers>
 #include <string>
 
+#include "core/camera/pinhole.h"
 #include "core/geometry/se2.h"
 #include "core/messages/pose_fields.h"
 #include "tools/sim/streams.h"
@@ -50,21 +51,9 @@ SE3d CameraOptions::bodyTCam() const {
 }
 
 core::StereoCalibration CameraOptions::stereoCalibration(int width, int height) const {
-  core::StereoCalibration calib;
-  calib.rectified = true;
-  core::CameraCalibration left;
-  left.width = width;
-  left.height = height;
-  left.fx = fx;
-  left.fy = fy;
-  left.cx = cx;
-  left.cy = cy;
+  core::CameraCalibration left = core::pinholeCamera(width, height, fx, fy, cx, cy);
   left.body_T_cam = bodyTCam();
-  core::CameraCalibration right = left;
-  right.body_T_cam = left.body_T_cam * SE3d(core::SO3d(), Vec3(baseline_m, 0.0, 0.0));
-  calib.left = left;
-  calib.right = right;
-  return calib;
+  return core::rectifiedPair(left, baseline_m);
 }
 
 Status CameraOptions::validate() const {

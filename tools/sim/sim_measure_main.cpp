@@ -227,12 +227,10 @@ std::optional<SignedLcm> openSignedLcm(const Args& args, int* code) {
   return SignedLcm{*signer, std::move(lcm)};
 }
 
-int runServe(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) {
-  int code = 0;
-  auto link = openSignedLcm(args, &code);
-  if (!link) return code;
-  lcm::LCM& lcm = *link->lcm;
-  const evermap::messages::Signer& signer = link->signer;
+int runServe(const RunPlan& plan, const Args& args, const SignedLcm& link,
+             evermap::StopSignals& stop) {
+  lcm::LCM& lcm = *link.lcm;
+  const evermap::messages::Signer& signer = link.signer;
   evermap::sim::RegistrationOracle oracle(plan.options().oracle, plan.oracleSeed());
   const evermap::messages::Outbox out(lcm, signer);
   evermap::sim::OracleServer server(lcm, oracle, signer);
@@ -258,12 +256,10 @@ int runServe(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) 
   return stop.requested() ? 1 : 0;
 }
 
-int runOracle(const RunPlan& plan, const Args& args, evermap::StopSignals& stop) {
-  int code = 0;
-  auto link = openSignedLcm(args, &code);
-  if (!link) return code;
-  lcm::LCM& lcm = *link->lcm;
-  const evermap::messages::Signer& signer = link->signer;
+int runOracle(const RunPlan& plan, const Args& args, const SignedLcm& link,
+              evermap::StopSignals& stop) {
+  lcm::LCM& lcm = *link.lcm;
+  const evermap::messages::Signer& signer = link.signer;
   evermap::sim::OracleOptions options = plan.options().oracle;
   options.keyframe_window_s = 0.0;  // a replay may ask about any keyframe of the run
   evermap::sim::RegistrationOracle oracle(options, plan.oracleSeed());
@@ -306,12 +302,8 @@ int main(int argc, char** argv) {
   Args args;
   if (const int code = parseArgs(argc, argv, &args); code >= 0) return code;
   evermap::StopSignals stop;  // SIGINT/SIGTERM end a serve or oracle run
-  auto file = evermap::KeyValueFile::load(args.config, args.sets, "--set");
-  if (!file) {
-    std::fprintf(stderr, "evermap-sim-measure: %s\n", file.error().message.c_str());
-    return 2;
-  }
-  auto options = evermap::sim::loadSimOptions(*file);
+  auto options =
+      evermap::sim::loadConfig(evermap::sim::loadSimOptions, args.config, args.sets, "--set");
   if (!options) {
     std::fprintf(stderr, "evermap-sim-measure: %s\n", options.error().message.c_str());
     return 2;
@@ -327,6 +319,9 @@ int main(int argc, char** argv) {
   }
   if (args.mode == "stats") return runStats(*plan, args.load);
   if (args.mode == "out") return runOut(*plan, args.out);
-  if (args.mode == "serve") return runServe(*plan, args, stop);
-  return runOracle(*plan, args, stop);
+  int code = 0;
+  auto link = openSignedLcm(args, &code);
+  if (!link) return code;
+  if (args.mode == "serve") return runServe(*plan, args, *link, stop);
+  return runOracle(*plan, args, *link, stop);
 }

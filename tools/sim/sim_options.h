@@ -5,7 +5,9 @@
 // start with `meta.` are written by the simulator into sidecars and ignored when read.
 
 #include <cstdint>
+#include <filesystem>
 #include <string>
+#include <vector>
 
 #include "core/common/key_value_file.h"
 #include "tools/sim/building.h"
@@ -58,6 +60,17 @@ struct SimOptions {
 // settings are errors that name the file and line (meta.* and mapper.* keys are left to others).
 // Relative trajectory files are resolved against the file's folder.
 Expected<SimOptions> loadSimOptions(const KeyValueFile& file);
+
+// `load` (loadSimOptions, loadImageSimOptions) of a program's --config `path` with its
+// `sets`, the `key=value` arguments of its `option` ("--set"). Errors: the file's or `load`'s.
+template <typename Options>
+Expected<Options> loadConfig(Expected<Options> (*load)(const KeyValueFile&),
+                             const std::filesystem::path& path,
+                             const std::vector<std::string>& sets, const std::string& option) {
+  auto file = KeyValueFile::load(path, sets, option);
+  if (!file) return file.error();
+  return load(*file);
+}
 
 // Where `file` sets `key` ("sim.conf:12"), else "sim.conf (default value)": the place an
 // error of validate() points at.

@@ -203,12 +203,8 @@ evermap::Status writeFacts(const std::string& file,
 int main(int argc, char** argv) {
   Args args;
   if (const int code = parseArgs(argc, argv, &args); code >= 0) return code;
-  auto file = evermap::KeyValueFile::load(args.config, args.sets, "--set");
-  if (!file) {
-    std::fprintf(stderr, "evermap-sim-render: %s\n", file.error().message.c_str());
-    return 2;
-  }
-  auto options = evermap::sim::loadImageSimOptions(*file);
+  auto options =
+      evermap::sim::loadConfig(evermap::sim::loadImageSimOptions, args.config, args.sets, "--set");
   if (!options) {
     std::fprintf(stderr, "evermap-sim-render: %s\n", options.error().message.c_str());
     return 2;

@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdlib>
+#include <iterator>
 #include <numbers>
 
 #include <opencv2/imgcodecs.hpp>
@@ -79,6 +80,14 @@ void stretch(Canvas* c, float lo, float hi) {
   const float a = *mn, b = *mx;
   if (b - a < 1e-6f) return;
   for (float& x : c->v) x = lo + (hi - lo) * (x - a) / (b - a);
+}
+
+Canvas noise(int n, Random& rng) {
+  Canvas c(n);
+  addFbm(&c, 4, 1.0f, rng);
+  stretch(&c, 15.0f, 240.0f);
+  c.addNoise(3.0f, rng);
+  return c;
 }
 
 Canvas bricks(int n, Random& rng) {
@@ -211,6 +220,15 @@ Canvas brushed(int n, Random& rng) {
 
 bool isPowerOfTwo(int n) { return n >= 4 && (n & (n - 1)) == 0; }
 
+// Each pattern's name and generator, in the order of enum Pattern.
+struct PatternMaker {
+  const char* name;
+  Canvas (*make)(int n, Random& rng);
+};
+constexpr PatternMaker kPatterns[kPatternCount] = {
+    {"noise", noise},       {"bricks", bricks}, {"tiles", tiles}, {"wood", wood},
+    {"terrazzo", terrazzo}, {"blocks", blocks}, {"text", text},   {"brushed", brushed}};
+
 }  // namespace
 
 Texture::Texture(int size, std::vector<uint8_t> base) : size_(size) {
@@ -245,57 +263,12 @@ void Texture::makeViews() {
 }
 
 const char* patternName(Pattern p) {
-  switch (p) {
-    case Pattern::kNoise:
-      return "noise";
-    case Pattern::kBricks:
-      return "bricks";
-    case Pattern::kTiles:
-      return "tiles";
-    case Pattern::kWood:
-      return "wood";
-    case Pattern::kTerrazzo:
-      return "terrazzo";
-    case Pattern::kBlocks:
-      return "blocks";
-    case Pattern::kText:
-      return "text";
-    case Pattern::kBrushed:
-      return "brushed";
-  }
-  return "?";
+  const auto i = static_cast<size_t>(p);
+  return i < std::size(kPatterns) ? kPatterns[i].name : "?";
 }
 
 Texture makePattern(Pattern pattern, int size, Random& rng) {
-  Canvas c(size);
-  switch (pattern) {
-    case Pattern::kNoise:
-      addFbm(&c, 4, 1.0f, rng);
-      stretch(&c, 15.0f, 240.0f);
-      c.addNoise(3.0f, rng);
-      break;
-    case Pattern::kBricks:
-      c = bricks(size, rng);
-      break;
-    case Pattern::kTiles:
-      c = tiles(size, rng);
-      break;
-    case Pattern::kWood:
-      c = wood(size, rng);
-      break;
-    case Pattern::kTerrazzo:
-      c = terrazzo(size, rng);
-      break;
-    case Pattern::kBlocks:
-      c = blocks(size, rng);
-      break;
-    case Pattern::kText:
-      c = text(size, rng);
-      break;
-    case Pattern::kBrushed:
-      c = brushed(size, rng);
-      break;
-  }
+  const Canvas c = kPatterns[static_cast<size_t>(pattern)].make(size, rng);
   return Texture(size, c.toGray());
 }
 

@@ -98,12 +98,8 @@ void printResult(const GraphFile& g, const PoseGraph& graph, const Values& estim
 }
 
 BatchOptions batchOptions(const ToolOptions& o, Method method) {
-  BatchOptions bo;
+  BatchOptions bo = o.final_batch;
   bo.method = method;
-  bo.max_iterations = o.max_iterations;
-  bo.relative_cost_tolerance = o.relative_tolerance;
-  bo.gradient_tolerance = o.gradient_tolerance;
-  bo.verbose = o.verbose;
   return bo;
 }
 

@@ -76,18 +76,19 @@ void declareSolver(OptionList& o, ToolOptions* t) {
   o.add("batch_every", &t->batch_every, "", "incremental: batch relinearisation every N steps")
       .in(0, 2147483647);
   o.add("wildfire", &t->wildfire, "", "incremental: partial back-substitution threshold").min(0);
-  o.add("max_iterations", &t->max_iterations, "",
+  o.add("max_iterations", &t->final_batch.max_iterations, "",
         "budget of batch iterations: batch mode, and the final phase of an incremental run (1: "
         "iSAM's single final batch step)")
       .in(1, 2147483647);
-  o.add("tolerance", &t->relative_tolerance, "",
+  o.add("tolerance", &t->final_batch.relative_cost_tolerance, "",
         "converged when a step lowers the cost by less than this times the cost")
       .min(0);
-  o.add("gradient_tolerance", &t->gradient_tolerance, "", "converged when max |gradient| <= this")
+  o.add("gradient_tolerance", &t->final_batch.gradient_tolerance, "",
+        "converged when max |gradient| <= this")
       .min(0);
   o.add("stats_chi2", &t->stats_chi2,
         "add the normalised chi2 to each statistics line (O(m) a step)");
-  o.add("verbose", &t->verbose, "one line per batch iteration");
+  o.add("verbose", &t->final_batch.verbose, "one line per batch iteration");
 }
 
 // The files it reads and writes besides the graph.

@@ -31,10 +31,9 @@ struct ToolOptions {
   bool robust_odometry = false;
   int batch_every = 100;
   double wildfire = 1e-9;
-  // Budget of batch iterations (batch mode, and the final phase of an incremental run).
-  int max_iterations = solver::BatchOptions{}.max_iterations;
-  double relative_tolerance = solver::BatchOptions{}.relative_cost_tolerance;
-  double gradient_tolerance = solver::BatchOptions{}.gradient_tolerance;
+  // The batch iterations (batch mode, and the final phase of an incremental run): their
+  // budget, tolerances and verbosity; the method is `method`'s.
+  solver::BatchOptions final_batch;
   int outliers = 0;
   solver::OutlierMode outlier_mode = solver::OutlierMode::kRandom;
   unsigned seed = 1;
@@ -43,7 +42,6 @@ struct ToolOptions {
   std::string stats;   // per-step statistics
   bool stats_chi2 = false;
   std::string marginals;  // comma-separated keys
-  bool verbose = false;
 
   // The settings (not the files): key, default, unit, allowed values, doc (options.cpp).
   void declareOptions(OptionList& o);

@@ -1,6 +1,7 @@
 #pragma once
 // An enum's names, one table per enum, from which its toString() and its parser come (the
-// evaluation's alignment modes, trajectory formats and plot planes).
+// evaluation's alignment modes, trajectory formats and plot planes; the solver's methods,
+// terminations, graph formats and outlier modes).
 
 #include <array>
 #include <cstddef>
@@ -10,7 +11,7 @@
 
 #include "core/common/expected.h"
 
-namespace evermap::eval {
+namespace evermap {
 
 template <class Enum, size_t N>
 using EnumNames = std::array<std::pair<Enum, const char*>, N>;
@@ -36,4 +37,4 @@ Expected<Enum> parseName(const EnumNames<Enum, N>& names, std::string_view name,
   return makeError("unknown ", what, " \"", std::string(name), "\" (expected ", expected, ")");
 }
 
-}  // namespace evermap::eval
+}  // namespace evermap
