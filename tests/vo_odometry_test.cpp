@@ -267,39 +267,48 @@ TEST(StereoOdometry, AChainBreakMakesTheFailedFrameItsOwnReference) {
   EXPECT_EQ(next.ref_utime, breaks_at);
 }
 
+// Odometry along the loop trajectory (4.7 cm, 1.8 deg per frame), frame by frame, with the
+// chained pose of the last frame.
+struct LoopRun {
+  FrameResult frame(size_t k, double brightness = 1.0) {
+    room().render(vo.camera(), poses[k], &left, &right, &rng, brightness);
+    const FrameResult res = vo.process(static_cast<int64_t>(k + 1) * 50000, left, right);
+    pose = chain.add(toMsg(res));
+    return res;
+  }
+  // The chained pose of the last frame against the truth at frame k.
+  SE3d errorAt(size_t k) const { return (poses.front().inverse() * poses[k]).inverse() * *pose; }
+
+  cv::RNG rng{7};
+  StereoOdometry vo = makeOdometry();
+  std::vector<SE3d> poses = testing::loopTrajectory(200);
+  VoTrajectory chain;
+  cv::Mat left, right;
+  std::optional<SE3d> pose;
+};
+
 TEST(StereoOdometry, AGapAfterTrackingIsBridgedByTheMotionPriorWithAnInflatedCovariance) {
   // Moving along the loop (4.7 cm, 1.8 deg per frame), the lights go off for more frames than
   // max_failed_frames: the first lit frame is placed by the constant-velocity prior, its
   // covariance covering the prior's error, and the chain goes on from it without a break.
   EVERMAP_REQUIRE_ROOM();
-  cv::RNG rng(7);
-  StereoOdometry vo = makeOdometry();
-  const std::vector<SE3d> poses = testing::loopTrajectory(200);
-  VoTrajectory chain;
-  cv::Mat l, r;
-  std::optional<SE3d> pose;
-  auto frame = [&](size_t k, double brightness) {
-    room().render(vo.camera(), poses[k], &l, &r, &rng, brightness, false);
-    const FrameResult res = vo.process(static_cast<int64_t>(k + 1) * 50000, l, r);
-    pose = chain.add(toMsg(res));
-    return res;
-  };
-  for (size_t k = 0; k < 6; ++k) ASSERT_TRUE(frame(k, 1.0).ok() || k == 0);
-  const int dark = vo.options().max_failed_frames + 1;
+  LoopRun run;
+  for (size_t k = 0; k < 6; ++k) ASSERT_TRUE(run.frame(k).ok() || k == 0);
+  const int dark = run.vo.options().max_failed_frames + 1;
   for (int j = 0; j < dark; ++j) {
-    EXPECT_EQ(frame(6 + static_cast<size_t>(j), 0.02).status, VoStatus::kInsufficientFeatures);
+    EXPECT_EQ(run.frame(6 + static_cast<size_t>(j), 0.02).status, VoStatus::kInsufficientFeatures);
   }
   const size_t lit = 6 + static_cast<size_t>(dark);
-  const FrameResult bridged = frame(lit, 1.0);
+  const FrameResult bridged = run.frame(lit);
   ASSERT_TRUE(bridged.ok()) << bridged.message;
   EXPECT_TRUE(bridged.bridged);
   EXPECT_TRUE(bridged.keyframe_changed);
   EXPECT_NE(bridged.ref_utime, bridged.utime);  // a motion from the old reference, not a restart
   EXPECT_EQ(bridged.failure_kind, "stale reference");
-  ASSERT_TRUE(pose.has_value());
+  ASSERT_TRUE(run.pose.has_value());
   // The prior's error (the truth against the bridged pose) is within 3 sigma of its
   // covariance, per axis of the translation.
-  const SE3d error = (poses.front().inverse() * poses[lit]).inverse() * *pose;
+  const SE3d error = run.errorAt(lit);
   for (int i = 0; i < 3; ++i) {
     EXPECT_LT(std::abs(error.translation()(i)), 3.0 * std::sqrt(bridged.covariance(i, i)))
         << "axis " << i;
@@ -307,10 +316,10 @@ TEST(StereoOdometry, AGapAfterTrackingIsBridgedByTheMotionPriorWithAnInflatedCov
   EXPECT_GT(bridged.covariance(0, 0), 4 * 0.05 * 0.05);  // inflated over the dark frames
   // Tracking goes on from the bridged frame, with no break in the chain.
   for (size_t k = lit + 1; k < lit + 6; ++k) {
-    const FrameResult res = frame(k, 1.0);
+    const FrameResult res = run.frame(k);
     EXPECT_TRUE(res.ok() && !res.bridged) << "frame " << k << ": " << res.message;
   }
-  EXPECT_EQ(chain.breaks(), 0);
+  EXPECT_EQ(run.chain.breaks(), 0);
 }
 
 TEST(StereoOdometry, ABurstOfLostFramesInATurnIsRegisteredNotBridged) {
@@ -319,27 +328,15 @@ TEST(StereoOdometry, ABurstOfLostFramesInATurnIsRegisteredNotBridged) {
   // prior carried over the longer interval, so the frame after the gap registers to the
   // reference as any other.
   EVERMAP_REQUIRE_ROOM();
-  cv::RNG rng(7);
-  StereoOdometry vo = makeOdometry();
-  const std::vector<SE3d> poses = testing::loopTrajectory(200);
-  VoTrajectory chain;
-  cv::Mat l, r;
-  std::optional<SE3d> pose;
-  auto frame = [&](size_t k) {
-    room().render(vo.camera(), poses[k], &l, &r, &rng);
-    const FrameResult res = vo.process(static_cast<int64_t>(k + 1) * 50000, l, r);
-    pose = chain.add(toMsg(res));
-    return res;
-  };
-  for (size_t k = 0; k < 8; ++k) ASSERT_TRUE(frame(k).ok() || k == 0);
+  LoopRun run;
+  for (size_t k = 0; k < 8; ++k) ASSERT_TRUE(run.frame(k).ok() || k == 0);
   for (size_t k = 14; k < 19; ++k) {
-    const FrameResult res = frame(k);
+    const FrameResult res = run.frame(k);
     EXPECT_TRUE(res.ok() && !res.bridged) << "frame " << k << ": " << res.message;
   }
-  ASSERT_TRUE(pose.has_value());
-  const SE3d error = (poses.front().inverse() * poses[18]).inverse() * *pose;
-  EXPECT_LT(error.translation().norm(), 0.02);
-  EXPECT_EQ(chain.breaks(), 0);
+  ASSERT_TRUE(run.pose.has_value());
+  EXPECT_LT(run.errorAt(18).translation().norm(), 0.02);
+  EXPECT_EQ(run.chain.breaks(), 0);
 }
 
 TEST(StereoOdometry, AFrameThatNoLongerMatchesTheReferenceRegistersThroughThePreviousFrame) {
