@@ -16,7 +16,7 @@
 #include "test_data.h"
 #include "tools/datasets/to_lcm.h"
 #include "tools/datasets/kitti.h"
-#include "tools/stereo-check/disparity_offset.h"
+#include "core/registration/disparity_offset.h"
 #include "tools/vo-run/offline_runner.h"
 #include "tools/vo-run/sequence_run.h"
 #include "tools/vo-run/vo_trajectory.h"
@@ -111,7 +111,7 @@ TEST(VoKitti, TheOdometryFrameOfTheClipIsItsKeyframeChain) {
 }
 
 // The clip's disparity offset from its own images (consecutive frames registered by ORB, no
-// ground truth; tools/stereo-check/disparity_offset.h), then odometry with it: issue 16's bar.
+// ground truth; core/registration/disparity_offset.h), then odometry with it: issue 16's bar.
 TEST(VoKitti, WithTheDisparityOffsetOfItsOwnImagesTheClipDriftsLessThanTwoPercent) {
   EVERMAP_REQUIRE_DATA(dir, "kitti-stereo-clip");
   const auto seq = datasets::readKittiSequence(dir, clipOptions().sequence);
