@@ -126,9 +126,10 @@ std::optional<core::DisparityOffsetState> StereoOdometry::selfCalibration() cons
   return offset_tracker_->state();
 }
 
-void StereoOdometry::selfCalibrate(const core::StereoMatchPair& pair, FrameResult* r) {
+void StereoOdometry::selfCalibrate(const core::StereoMatchPair& pair, int64_t group,
+                                   FrameResult* r) {
   if (!offset_tracker_ || !offset_tracker_->wantsPairs() || pair.uvd_a.empty()) return;
-  const core::DisparityOffsetState& state = offset_tracker_->add(pair);
+  const core::DisparityOffsetState& state = offset_tracker_->add(pair, group);
   if (state.decision == core::OffsetDecision::kPending) return;
   r->calibration_message = state.message;
   if (state.decision == core::OffsetDecision::kApply) {
@@ -336,7 +337,7 @@ FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& 
   r.mean_reprojection_px = motion.summary.mean_reprojection_px;
   if (motion.summary.ok()) {
     takeMotion(motion, &r);
-    selfCalibrate(motion.pair, &r);
+    selfCalibrate(motion.pair, motion.pair_group, &r);
   } else {
     failRegistration(motion.summary, ref_T_pred, &r);
   }
@@ -433,6 +434,7 @@ StereoOdometry::RegisteredMotion StereoOdometry::registerCurrent(const SE3d& ref
   RegisteredMotion m;
   const bool calibrating = offset_tracker_ && offset_tracker_->wantsPairs();
   m.summary = registerTo(*ref_, ref_T_pred, calibrating ? &m.pair : nullptr);
+  m.pair_group = ref_->utime;
   m.ref_T_cur = m.summary.a_T_b;
   m.covariance = m.summary.covariance;
   if (!m.summary.ok() && options_.retry_previous_frame && has_prev_) {

@@ -269,6 +269,7 @@ class StereoOdometry {
     core::SE3d ref_T_cur;
     core::Mat6 covariance = core::Mat6::Zero();
     core::StereoMatchPair pair;  // reference and current matches, for self-calibration
+    int64_t pair_group = 0;      // the reference's utime (pairs sharing it are one group)
   };
   RegisteredMotion registerCurrent(const core::SE3d& ref_T_pred, FrameResult* result) const;
   // A registered motion: the result, the motion prior, and the reference or keyframe moved on.
@@ -288,7 +289,7 @@ class StereoOdometry {
                                        const core::SE3d& from_T_pred,
                                        core::StereoMatchPair* pair = nullptr) const;
   // Self-calibration: a registered pair to the tracker; a decided offset into the camera.
-  void selfCalibrate(const core::StereoMatchPair& pair, FrameResult* result);
+  void selfCalibrate(const core::StereoMatchPair& pair, int64_t group, FrameResult* result);
   // Adds `delta_px` to the camera's disparity offset and to the features already extracted.
   void applyDisparityOffset(double delta_px);
   // The motion prior's covariance over `frames` predicted frames of `prev_T_cur`.

@@ -85,6 +85,7 @@ Status VoPipeline::handleCalibration(const evermap::stereo_calib_t& msg) {
   rectifier_ = std::move(rectifier);
   odometry_.emplace(std::move(*odometry));
   calibration_repeat_ = channels::CalibrationRepeat{};
+  calibration_decided_ = false;
   ++stats_.calibrations;
   return Ok{};
 }
@@ -131,9 +132,9 @@ PipelineOutput VoPipeline::finish(const FrameResult& result) {
 
 std::optional<evermap::stereo_calib_t> VoPipeline::calibrationDue(const FrameResult& result) {
   if (!calibration_ || !odometry_ || result.status == VoStatus::kBadInput) return std::nullopt;
-  const auto state = odometry_->selfCalibration();
-  if (!state || state->decision == core::OffsetDecision::kPending) return std::nullopt;
   const bool now = !result.calibration_message.empty();
+  calibration_decided_ = calibration_decided_ || now;
+  if (!calibration_decided_) return std::nullopt;
   if (!calibration_repeat_.due(result.utime) && !now) return std::nullopt;
   const core::StereoCalibration rectified =
       rectifier_ ? rectifier_->rectifiedCalibration() : *calibration_;

@@ -145,6 +145,7 @@ class VoPipeline {
   // the chain (NO_DATA), and with it the epoch.
   messages::OdometryFrame odometry_frame_;
   channels::CalibrationRepeat calibration_repeat_;  // VO_CALIB
+  bool calibration_decided_ = false;                // self-calibration decided once
   PipelineStats stats_;
 };
 

@@ -74,26 +74,30 @@ void DisparityOffsetTracker::restart(const StereoCamera& camera) {
   camera_ = camera;
   curves_.clear();
   minima_.clear();
+  groups_.clear();
   state_ = DisparityOffsetState{};
 }
 
-const DisparityOffsetState& DisparityOffsetTracker::add(const StereoMatchPair& pair) {
+const DisparityOffsetState& DisparityOffsetTracker::add(const StereoMatchPair& pair,
+                                                        int64_t group) {
   if (!wantsPairs() || pair.uvd_a.empty() || pair.uvd_a.size() != pair.uvd_b.size()) return state_;
   ++state_.pairs_examined;
-  std::vector<double> costs = pairCostCurve(
-      camera_, subsampled(pair, options_.max_points_per_pair), offsets_, options_.estimate);
+  std::vector<double> costs = pairCostCurve(camera_, subsampled(pair, options_.max_points_per_pair),
+                                            offsets_, options_.estimate);
   const Expected<double> own = leastCostOffset(offsets_, costs);
   if (own) {
     // Its curvature at the minimum: the information of this pair alone.
     const double least = *std::min_element(costs.begin(), costs.end());
-    const size_t best = static_cast<size_t>(std::min_element(costs.begin(), costs.end()) -
-                                            costs.begin());
+    const size_t best =
+        static_cast<size_t>(std::min_element(costs.begin(), costs.end()) - costs.begin());
     const double step = options_.estimate.step_px;
-    const double curvature = (costs[best - 1] - 2.0 * costs[best] + costs[best + 1]) / (step * step);
+    const double curvature =
+        (costs[best - 1] - 2.0 * costs[best] + costs[best + 1]) / (step * step);
     if (curvature > 0.0 && 1.0 / std::sqrt(curvature) <= options_.max_pair_sigma_px) {
       for (double& c : costs) c -= least;
       curves_.push_back(std::move(costs));
       minima_.push_back(*own);
+      groups_.push_back(group);
     }
   }
   estimate();
@@ -116,7 +120,12 @@ void DisparityOffsetTracker::estimate() {
   }
   state_.pairs_used = static_cast<int>(used.size());
   state_.pairs_left_out = static_cast<int>(n - used.size());
-  if (used.size() < static_cast<size_t>(options_.min_pairs)) return;
+  std::vector<int64_t> groups;
+  for (size_t i : used) groups.push_back(groups_[i]);
+  std::sort(groups.begin(), groups.end());
+  groups.erase(std::unique(groups.begin(), groups.end()), groups.end());
+  state_.groups_used = static_cast<int>(groups.size());
+  if (groups.size() < static_cast<size_t>(options_.min_pairs)) return;
   std::vector<double> total(offsets_.size(), 0.0);
   for (size_t i : used) {
     for (size_t s = 0; s < total.size(); ++s) total[s] += curves_[i][s];
@@ -126,13 +135,16 @@ void DisparityOffsetTracker::estimate() {
     state_.message = all.error().message;
     return;
   }
-  // Jackknife: the estimate with each pair left out in turn.
+  // Jackknife: the estimate with each group left out in turn.
   std::vector<double> partial;
-  for (size_t i : used) {
+  for (int64_t g : groups) {
     std::vector<double> without = total;
-    for (size_t s = 0; s < total.size(); ++s) without[s] -= curves_[i][s];
+    for (size_t i : used) {
+      if (groups_[i] != g) continue;
+      for (size_t s = 0; s < total.size(); ++s) without[s] -= curves_[i][s];
+    }
     const Expected<double> e = leastCostOffset(offsets_, without);
-    if (!e) return;  // one pair holds the minimum inside the grid: not converged
+    if (!e) return;  // one group holds the minimum inside the grid: not converged
     partial.push_back(*e);
   }
   double mean = 0.0;
@@ -146,8 +158,8 @@ void DisparityOffsetTracker::estimate() {
 
 void DisparityOffsetTracker::decide() {
   DisparityOffsetState& s = state_;
-  const bool converged = s.pairs_used >= options_.min_pairs &&
-                         s.standard_error_px <= options_.max_standard_error_px;
+  const bool converged =
+      s.groups_used >= options_.min_pairs && s.standard_error_px <= options_.max_standard_error_px;
   const double total = camera_.disparityOffsetPx() + s.offset_px;
   if (converged) {
     const double size = std::abs(s.offset_px);
@@ -163,10 +175,10 @@ void DisparityOffsetTracker::decide() {
   }
   char line[200];
   std::snprintf(line, sizeof(line),
-                "disparity offset %+.3f px +- %.3f (jackknife) on %+.3f from %d pairs (%d examined, "
-                "%d left out): %s%s",
+                "disparity offset %+.3f px +- %.3f (jackknife) on %+.3f from %d pairs of %d frames "
+                "(%d examined, %d left out): %s%s",
                 s.offset_px, s.standard_error_px, camera_.disparityOffsetPx(), s.pairs_used,
-                s.pairs_examined, s.pairs_left_out, toString(s.decision),
+                s.groups_used, s.pairs_examined, s.pairs_left_out, toString(s.decision),
                 s.decision == OffsetDecision::kApply ? "" : " (the calibration stays)");
   s.message = line;
   if (s.decision == OffsetDecision::kKeep && std::abs(total) > options_.max_total_offset_px) {

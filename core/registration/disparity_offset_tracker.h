@@ -15,9 +15,11 @@
 //    deviations, and more than min_outlier_distance_px, from their median: a moving object, a
 //    wrong registration) are left out;
 //  - the estimate is the least cost of the used pairs' summed curves; its standard error is
-//    their jackknife's (leave one pair out at a time: no trust in the nominal noise);
-//  - it has converged when at least min_pairs pairs are used and the standard error is at
-//    most max_standard_error_px. Then it is applied (kApply) only when it is at least
+//    their jackknife's, leaving out one *group* at a time (no trust in the nominal noise): the
+//    pairs of one group share a frame (the odometry's reference), whose disparity errors they
+//    all carry, so they are not independent evidence;
+//  - it has converged when pairs of at least min_pairs groups are used and the standard error
+//    is at most max_standard_error_px. Then it is applied (kApply) only when it is at least
 //    min_offset_px and significance standard errors from 0, and the camera's offset stays
 //    within max_total_offset_px; otherwise the calibration is kept (kKeep): a
 //    well-calibrated rig stays at 0;
@@ -26,6 +28,7 @@
 // "Measured" is what the pairs carry: with a camera that already has an offset, the estimate
 // is what is left over.
 
+#include <cstdint>
 #include <limits>
 #include <string>
 #include <vector>
@@ -44,7 +47,7 @@ struct DisparityOffsetTrackerOptions {
   // A pair is evidence when its own curve's curvature at its minimum gives a standard
   // deviation of at most this (pixels, under the nominal noise).
   double max_pair_sigma_px = 1.0;
-  int min_pairs = 8;
+  int min_pairs = 8;  // of as many groups (reference frames)
   int max_pairs = 150;
   double max_standard_error_px = 0.08;
   double min_offset_px = 0.15;
@@ -81,10 +84,8 @@ struct DisparityOffsetTrackerOptions {
         .positive();
     o.add("min_outlier_distance_px", &min_outlier_distance_px, "px", "... and at least this far")
         .nonNegative();
-    o.add("grid_min_px", &estimate.min_offset_px, "px", "smallest offset considered")
-        .any();
-    o.add("grid_max_px", &estimate.max_offset_px, "px", "largest offset considered")
-        .any();
+    o.add("grid_min_px", &estimate.min_offset_px, "px", "smallest offset considered").any();
+    o.add("grid_max_px", &estimate.max_offset_px, "px", "largest offset considered").any();
     o.add("grid_step_px", &estimate.step_px, "px", "between candidate offsets").positive();
   }
 };
@@ -98,6 +99,7 @@ struct DisparityOffsetState {
   double standard_error_px = std::numeric_limits<double>::infinity();
   int pairs_examined = 0;
   int pairs_used = 0;
+  int groups_used = 0;
   int pairs_left_out = 0;  // outliers among the informative ones
   std::string message;     // one line
 };
@@ -113,8 +115,9 @@ class DisparityOffsetTracker {
   // A new round with `camera` (after a decision; with the offset applied): pairs measured with
   // it, the evidence so far dropped.
   void restart(const StereoCamera& camera);
-  // One registered pair (matchPair, or the odometry's inliers); the decision is updated.
-  const DisparityOffsetState& add(const StereoMatchPair& pair);
+  // One registered pair (matchPair, or the odometry's matches) of `group` (pairs that share a
+  // frame: the same group); the decision is updated.
+  const DisparityOffsetState& add(const StereoMatchPair& pair, int64_t group);
   const DisparityOffsetState& state() const { return state_; }
 
  private:
@@ -130,6 +133,7 @@ class DisparityOffsetTracker {
   // The informative pairs: their curves (least cost subtracted) and own minima.
   std::vector<std::vector<double>> curves_;
   std::vector<double> minima_;
+  std::vector<int64_t> groups_;
   DisparityOffsetState state_;
 };
 
