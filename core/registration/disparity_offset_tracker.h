@@ -3,7 +3,7 @@
 // cx_right - cx_left of the images against the calibration) estimated online, from the pairs of
 // frames a visual odometry registers anyway, in rounds: each round gathers evidence until it
 // can decide, the offset is applied when the decision says so, and the next round measures
-// what is left over (a calibration that moves is followed; a right one stays).
+// what is left over, until one finds nothing to change.
 //
 // Each pair added gives its own cost curve over a grid of candidate offsets (pairCostCurve:
 // its motion re-solved under each candidate, robust costs). The evidence is judged, not
@@ -25,6 +25,9 @@
 //    well-calibrated rig stays at 0;
 //  - after max_pairs pairs examined without converging the round gives up (kGiveUp) and the
 //    calibration is kept. The grid (around the camera's offset) bounds one round's step.
+// The caller starts the next round (restart) after kApply or kGiveUp; after kKeep the tracker
+// stays decided (StereoOdometry stops there: every further round would be another chance of a
+// false alarm on a right rig).
 // "Measured" is what the pairs carry: with a camera that already has an offset, the estimate
 // is what is left over.
 
@@ -66,7 +69,9 @@ struct DisparityOffsetTrackerOptions {
     o.add("max_pair_sigma_px", &max_pair_sigma_px, "px",
           "a pair whose own curve is flatter than this is not evidence")
         .positive();
-    o.add("min_pairs", &min_pairs, "pairs", "fewest pairs used for a decision").min(3);
+    o.add("min_pairs", &min_pairs, "pairs",
+          "pairs of at least this many reference frames to decide")
+        .min(3);
     o.add("max_pairs", &max_pairs, "pairs", "pairs examined before giving up").min(1);
     o.add("max_standard_error_px", &max_standard_error_px, "px",
           "converged when the jackknife standard error is at most this")
