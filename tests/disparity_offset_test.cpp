@@ -1,4 +1,4 @@
-// tools/stereo-check/disparity_offset.h on synthetic stereo of a textured room
+// core/registration/disparity_offset.h on synthetic stereo of a textured room
 // (tests/vo_synthetic.h): an exact rig gives offset 0, a right image shifted by one pixel
 // (its principal point 1 px from the calibration's) gives +1, and a wrong baseline, which
 // only scales the points, gives 0 as well.
@@ -13,7 +13,7 @@
 #include "core/registration/frame_registration.h"
 #include "core/registration/keyframe_features.h"
 #include "test_data.h"
-#include "tools/stereo-check/disparity_offset.h"
+#include "core/registration/disparity_offset.h"
 #include "vo_synthetic.h"
 
 namespace evermap::core {

@@ -16,7 +16,7 @@
 #include "test_data.h"
 #include "tools/datasets/to_lcm.h"
 #include "tools/datasets/kitti.h"
-#include "tools/stereo-check/disparity_offset.h"
+#include "core/registration/disparity_offset.h"
 #include "tools/vo-run/offline_runner.h"
 #include "tools/vo-run/sequence_run.h"
 #include "tools/vo-run/vo_trajectory.h"
@@ -25,9 +25,19 @@
 namespace evermap::vo {
 namespace {
 
+// The odometry with the calibration held as given (self-calibration off): what these tests
+// measure; the clip with self-calibration is the last test.
 SequenceRunOptions clipOptions() {
   SequenceRunOptions o;
   o.sequence.rate_hz = 10.0;  // the clip has no times.txt; KITTI records at about 10 Hz
+  o.odometry.self_calibrate = false;
+  return o;
+}
+
+// The offline runner's options with the calibration held as given.
+OfflineOptions fixedCalibration() {
+  OfflineOptions o;
+  o.pipeline.odometry.self_calibrate = false;
   return o;
 }
 
@@ -111,7 +121,7 @@ TEST(VoKitti, TheOdometryFrameOfTheClipIsItsKeyframeChain) {
 }
 
 // The clip's disparity offset from its own images (consecutive frames registered by ORB, no
-// ground truth; tools/stereo-check/disparity_offset.h), then odometry with it: issue 16's bar.
+// ground truth; core/registration/disparity_offset.h), then odometry with it: issue 16's bar.
 TEST(VoKitti, WithTheDisparityOffsetOfItsOwnImagesTheClipDriftsLessThanTwoPercent) {
   EVERMAP_REQUIRE_DATA(dir, "kitti-stereo-clip");
   const auto seq = datasets::readKittiSequence(dir, clipOptions().sequence);
@@ -179,16 +189,16 @@ TEST(VoKitti, ALogWhoseCalibrationCarriesTheDisparityOffsetIsCorrectedWithoutAnO
   const auto converted = datasets::convertKittiToLcm(dir, offset_log, convert);
   ASSERT_TRUE(converted.ok()) << converted.error().message;
 
-  const auto corrected = runOffline(offset_log, OfflineOptions{});
+  const auto corrected = runOffline(offset_log, fixedCalibration());
   ASSERT_TRUE(corrected.ok()) << corrected.error().message;
-  OfflineOptions override_offset;
+  OfflineOptions override_offset = fixedCalibration();
   override_offset.disparity_offset_px = 0.8;
   const auto overridden = runOffline(plain_log, override_offset);
   ASSERT_TRUE(overridden.ok()) << overridden.error().message;
   override_offset.disparity_offset_px = 0.0;  // the override also takes an offset away
   const auto uncorrected = runOffline(offset_log, override_offset);
   ASSERT_TRUE(uncorrected.ok()) << uncorrected.error().message;
-  const auto as_given = runOffline(plain_log, OfflineOptions{});
+  const auto as_given = runOffline(plain_log, fixedCalibration());
   ASSERT_TRUE(as_given.ok()) << as_given.error().message;
 
   SequenceRunOptions o = clipOptions();
@@ -242,6 +252,35 @@ TEST(VoKitti, WithoutTheMotionPriorAndTheDepthAwareCliqueFewerMatchesAreConsiste
   ASSERT_TRUE(b.ok()) << b.error().message;
   std::printf("before: %.1f inliers per frame; now: %.1f\n", a->mean_inliers, b->mean_inliers);
   EXPECT_GT(b->mean_inliers, 2.0 * a->mean_inliers);
+}
+
+// Issue 46: the clip as given (calib.txt, no option), its disparity offset found online from its
+// own images by the odometry's self-calibration: the first offset applied within the first 2 s,
+// the end error less than half of the 7.7 % without (3.2 % measured; issue 46's bar of 1.5 %,
+// reached with the offset from the first frame, is not met: the frames before it carry the
+// scale error).
+TEST(VoKitti, TheClipAsGivenCalibratesItselfOnlineWithinTwoSecondsAndDriftsLess) {
+  EVERMAP_REQUIRE_DATA(dir, "kitti-stereo-clip");
+  SequenceRunOptions o = clipOptions();
+  o.odometry.self_calibrate = true;
+  const auto run = runKittiSequence(dir, o);
+  ASSERT_TRUE(run.ok()) << run.error().message;
+  int first_applied = -1;
+  for (size_t k = 0; k < run->frames.size(); ++k) {
+    const FrameResult& f = run->frames[k];
+    if (!f.calibration_message.empty())
+      std::printf("frame %zu: %s\n", k, f.calibration_message.c_str());
+    if (f.calibration_changed && first_applied < 0) first_applied = static_cast<int>(k);
+  }
+  const double offset = run->frames.back().disparity_offset_px;
+  std::printf("%s\nfirst applied at frame %d, offset at the end %+.3f px\n", run->report().c_str(),
+              first_applied, offset);
+  EXPECT_GE(first_applied, 1);
+  EXPECT_LE(first_applied, 20);
+  EXPECT_GT(offset, 0.6);
+  EXPECT_LT(offset, 1.3);
+  EXPECT_LE(run->end_error_percent, 3.85);
+  EXPECT_LE(run->end_rotation_deg, 2.0);
 }
 
 TEST(VoKitti, AFolderWithoutImagesOrTimesIsAnErrorNotACrash) {

@@ -148,6 +148,11 @@ void work(evermap::vo::BoundedQueue<QueuedFrame>* queue, Shared* shared,
     }
     sender->publish(evermap::channels::kVoDelta, out->delta);
     if (out->keyframe) sender->publish(evermap::channels::kKeyframe, *out->keyframe);
+    if (out->calibration) sender->publish(evermap::channels::kVoCalib, *out->calibration);
+    if (!out->result.calibration_message.empty()) {
+      std::fprintf(stderr, "evermap-vo-proc: self-calibration: %s\n",
+                   out->result.calibration_message.c_str());
+    }
   }
 }
 

@@ -62,6 +62,9 @@ Status OdometryOptions::validate() const {
   if (Status s = matching.validate(); !s) return s;
   if (Status s = registration.validate(); !s) return s;
   if (Status s = orb.validate(); !s) return s;
+  if (self_calibrate) {
+    if (Status s = self_calibration.validate(); !s) return s;
+  }
   if (keyframe_inlier_threshold < registration.min_inliers) {
     return makeError("odometry: keyframe_inlier_threshold ", keyframe_inlier_threshold,
                      " is below registration.min_inliers ", registration.min_inliers);
@@ -93,7 +96,13 @@ Expected<StereoOdometry> StereoOdometry::create(const core::StereoCamera& camera
   if (Status s = options.validate(); !s) return s.error();
   auto extractor = core::StereoFeatureExtractor::create(options.features);
   if (!extractor) return extractor.error();
-  return StereoOdometry(camera, options, std::move(*extractor));
+  StereoOdometry odometry(camera, options, std::move(*extractor));
+  if (options.self_calibrate) {
+    auto tracker = core::DisparityOffsetTracker::create(camera, options.self_calibration);
+    if (!tracker) return tracker.error();
+    odometry.offset_tracker_.emplace(std::move(*tracker));
+  }
+  return odometry;
 }
 
 StereoOdometry::StereoOdometry(const core::StereoCamera& camera, const OdometryOptions& options,
@@ -111,6 +120,47 @@ StereoOdometry& StereoOdometry::operator=(StereoOdometry&&) noexcept = default;
 StereoOdometry::~StereoOdometry() = default;
 
 int StereoOdometry::fastThreshold() const { return extractor_.detector().threshold(); }
+
+std::optional<core::DisparityOffsetState> StereoOdometry::selfCalibration() const {
+  if (!offset_tracker_) return std::nullopt;
+  return offset_tracker_->state();
+}
+
+void StereoOdometry::selfCalibrate(const core::StereoMatchPair& pair, int64_t group,
+                                   FrameResult* r) {
+  if (!offset_tracker_ || !offset_tracker_->wantsPairs() || pair.uvd_a.empty()) return;
+  const core::DisparityOffsetState& state = offset_tracker_->add(pair, group);
+  if (state.decision == core::OffsetDecision::kPending) return;
+  r->calibration_message = state.message;
+  if (state.decision == core::OffsetDecision::kApply) {
+    applyDisparityOffset(state.offset_px);
+    r->calibration_changed = true;
+    r->disparity_offset_px = camera_.disparityOffsetPx();
+  }
+  // After an offset applied (or a round without enough evidence), the next round measures what
+  // is left over; once a round finds nothing to change, self-calibration is over: rounds run
+  // on forever would each be a new chance of a false alarm on a right rig.
+  if (state.decision != core::OffsetDecision::kKeep) offset_tracker_->restart(camera_);
+}
+
+void StereoOdometry::applyDisparityOffset(double delta_px) {
+  auto camera = core::StereoCamera::create(camera_.fx(), camera_.fy(), camera_.cx(), camera_.cy(),
+                                           camera_.baselineM(), camera_.width(), camera_.height(),
+                                           camera_.disparityOffsetPx() + delta_px);
+  if (!camera) return;  // beyond the camera's bound (a quarter of the width): not applied
+  camera_ = *camera;
+  // The frames kept (reference, last registered, current) measured their depths with the old
+  // offset: their disparities and points move with it; a feature left without depth goes.
+  for (core::FeatureFrame* frame : {ref_.get(), prev_.get(), cur_.get()}) {
+    std::vector<core::StereoFeature>& features = frame->features;
+    for (core::StereoFeature& f : features) {
+      f.disparity += static_cast<float>(delta_px);
+      const auto p = camera_.backProject(core::Vec3(f.uv.x(), f.uv.y(), f.disparity));
+      if (p) f.point = *p;
+    }
+    std::erase_if(features, [](const core::StereoFeature& f) { return !(f.disparity > 0.0f); });
+  }
+}
 
 void StereoOdometry::reset() {
   has_ref_ = false;
@@ -158,7 +208,8 @@ void StereoOdometry::makeCurrentTheReference(FrameResult* result, bool keyframe,
 }
 
 core::RegistrationSummary StereoOdometry::registerTo(const core::FeatureFrame& from,
-                                                     const SE3d& from_T_pred) const {
+                                                     const SE3d& from_T_pred,
+                                                     core::StereoMatchPair* pair) const {
   const std::vector<core::WindowMatch> window =
       core::matchInWindow(camera_, from, *cur_, from_T_pred.inverse(), options_.matching);
   std::vector<core::Correspondence> matches;
@@ -174,7 +225,21 @@ core::RegistrationSummary StereoOdometry::registerTo(const core::FeatureFrame& f
     matches.push_back({a.uv.cast<double>(), a.point, m.uv.cast<double>(), *p_b});
     ids.emplace_back(m.ref, m.cur);
   }
-  return core::registerMatches(camera_, camera_, matches, ids, from_T_pred, options_.registration);
+  core::RegistrationSummary summary =
+      core::registerMatches(camera_, camera_, matches, ids, from_T_pred, options_.registration);
+  if (pair != nullptr && summary.ok()) {
+    // Every match, not only the inliers: the inliers were chosen under the camera's offset, and
+    // a wrong offset is what pushes the points it distorts most out of them (the estimate
+    // leans to the current offset); the offset's robust cost bounds the outliers' weight.
+    pair->a_T_b = summary.a_T_b;
+    for (size_t k = 0; k < matches.size(); ++k) {
+      const core::StereoFeature& a = from.features[static_cast<size_t>(ids[k].first)];
+      const core::StereoFeature& b = cur_->features[static_cast<size_t>(ids[k].second)];
+      pair->uvd_a.emplace_back(a.uv.x(), a.uv.y(), a.disparity);
+      pair->uvd_b.emplace_back(matches[k].uv_b.x(), matches[k].uv_b.y(), b.disparity);
+    }
+  }
+  return summary;
 }
 
 core::Mat6 StereoOdometry::priorCovariance(const SE3d& prev_T_cur, int frames) const {
@@ -249,6 +314,7 @@ FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& 
   FrameResult r;
   r.utime = utime;
   r.ref_utime = has_ref_ ? kf_utime_ : utime;
+  r.disparity_offset_px = camera_.disparityOffsetPx();
   if (!extractFrame(utime, extract, &r)) return r;
   const SE3d ref_T_pred = predictMotion(utime);
   if (has_ref_) ++frames_since_good_;
@@ -274,6 +340,7 @@ FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& 
   r.mean_reprojection_px = motion.summary.mean_reprojection_px;
   if (motion.summary.ok()) {
     takeMotion(motion, &r);
+    selfCalibrate(motion.pair, motion.pair_group, &r);
   } else {
     failRegistration(motion.summary, ref_T_pred, &r);
   }
@@ -369,7 +436,9 @@ StereoOdometry::RegisteredMotion StereoOdometry::registerCurrent(const SE3d& ref
   // Register to the reference (a = reference, b = current); failing that, to the last frame
   // that registered, the motion through it chained to the reference.
   RegisteredMotion m;
-  m.summary = registerTo(*ref_, ref_T_pred);
+  const bool calibrating = offset_tracker_ && offset_tracker_->wantsPairs();
+  m.summary = registerTo(*ref_, ref_T_pred, calibrating ? &m.pair : nullptr);
+  m.pair_group = ref_->utime;
   m.ref_T_cur = m.summary.a_T_b;
   m.covariance = m.summary.covariance;
   if (!m.summary.ok() && options_.retry_previous_frame && has_prev_) {

@@ -65,6 +65,7 @@
 #include "core/features/orb_descriptor.h"
 #include "core/features/stereo_features.h"
 #include "core/geometry/se3.h"
+#include "core/registration/disparity_offset_tracker.h"
 #include "core/registration/frame_registration.h"
 #include "core/registration/keyframe_features.h"
 #include "core/registration/rotation_estimation.h"
@@ -123,6 +124,11 @@ struct OdometryOptions {
   // ORB descriptors of keyframes (for loop closure); off saves their cost.
   bool keyframe_descriptors = true;
   core::OrbExtractor::Options orb;
+  // Self-calibration: the rig's disparity offset estimated from the frames registered to the
+  // reference (core/registration/disparity_offset_tracker.h) and, once it has converged to a
+  // significant value, applied to the camera (stereo rigs; an RGB-D camera has no offset).
+  bool self_calibrate = true;
+  core::DisparityOffsetTrackerOptions self_calibration;
 
   Status validate() const;
   std::string describe() const;
@@ -167,6 +173,9 @@ struct OdometryOptions {
     o.nest("registration.", &registration);
     o.nest("rotation.", &rotation);
     o.nest("orb.", &orb);
+    o.add("self_calibrate", &self_calibrate,
+          "estimate the stereo rig's disparity offset online and apply it");
+    o.nest("self_calibration.", &self_calibration);
   }
 
   static core::StereoFeatureExtractor::Options defaultFeatures();
@@ -198,6 +207,11 @@ struct FrameResult {
   // rejection", "reprojection error", "optimization failure", "stale reference",
   // "bad input"; with `bridged`, why the bridge was needed. Empty otherwise.
   std::string failure_kind;
+  // The camera's disparity offset after this frame (pixels, cx_right - cx_left) and, on the
+  // frame self-calibration decided, its one-line summary (calibration_changed: applied).
+  double disparity_offset_px = 0.0;
+  std::string calibration_message;
+  bool calibration_changed = false;
 
   bool ok() const { return status == VoStatus::kOk; }
 };
@@ -228,6 +242,8 @@ class StereoOdometry {
   const OdometryOptions& options() const { return options_; }
   bool hasReference() const { return has_ref_; }
   int fastThreshold() const;
+  // Self-calibration's state (nullopt when it is off).
+  std::optional<core::DisparityOffsetState> selfCalibration() const;
 
  private:
   StereoOdometry(const core::StereoCamera& camera, const OdometryOptions& options,
@@ -252,6 +268,8 @@ class StereoOdometry {
     core::RegistrationSummary summary;
     core::SE3d ref_T_cur;
     core::Mat6 covariance = core::Mat6::Zero();
+    core::StereoMatchPair pair;  // reference and current matches, for self-calibration
+    int64_t pair_group = 0;      // the reference's utime (pairs sharing it are one group)
   };
   RegisteredMotion registerCurrent(const core::SE3d& ref_T_pred, FrameResult* result) const;
   // A registered motion: the result, the motion prior, and the reference or keyframe moved on.
@@ -266,8 +284,14 @@ class StereoOdometry {
   bool farEnoughForAKeyframe(const core::SE3d& kf_T_cur) const;
   // Matches `from` into the current frame in windows around the prediction from_T_pred
   // (from_T_cur) and registers: a = from, b = current.
+  // With `pair`, a successful registration's matches go there (level-0 (u, v, d)).
   core::RegistrationSummary registerTo(const core::FeatureFrame& from,
-                                       const core::SE3d& from_T_pred) const;
+                                       const core::SE3d& from_T_pred,
+                                       core::StereoMatchPair* pair = nullptr) const;
+  // Self-calibration: a registered pair to the tracker; a decided offset into the camera.
+  void selfCalibrate(const core::StereoMatchPair& pair, int64_t group, FrameResult* result);
+  // Adds `delta_px` to the camera's disparity offset and to the features already extracted.
+  void applyDisparityOffset(double delta_px);
   // The motion prior's covariance over `frames` predicted frames of `prev_T_cur`.
   core::Mat6 priorCovariance(const core::SE3d& prev_T_cur, int frames) const;
   // Bridges the break at the current frame by ref_T_pred (see the class comment).
@@ -277,6 +301,7 @@ class StereoOdometry {
   OdometryOptions options_;
   core::StereoFeatureExtractor extractor_;
   core::OrbExtractor orb_;
+  std::optional<core::DisparityOffsetTracker> offset_tracker_;  // self_calibrate only
   // Buffers swapped, never copied: the reference, the last frame that registered to it, the
   // current frame.
   std::unique_ptr<core::FeatureFrame> ref_, prev_, cur_;

@@ -84,6 +84,8 @@ Status VoPipeline::handleCalibration(const evermap::stereo_calib_t& msg) {
   calibration_ = *calibration;
   rectifier_ = std::move(rectifier);
   odometry_.emplace(std::move(*odometry));
+  calibration_repeat_ = channels::CalibrationRepeat{};
+  calibration_decided_ = false;
   ++stats_.calibrations;
   return Ok{};
 }
@@ -120,11 +122,25 @@ PipelineOutput VoPipeline::finish(const FrameResult& result) {
   odometry_frame_.stamp(out.delta);
   ++stats_.frames;
   ++stats_.by_status[static_cast<size_t>(result.status)];
+  out.calibration = calibrationDue(result);
   if (result.keyframe) {
     out.keyframe = messages::toMsg(odometry_->camera(), *result.keyframe);
     ++stats_.keyframes;
   }
   return out;
+}
+
+std::optional<evermap::stereo_calib_t> VoPipeline::calibrationDue(const FrameResult& result) {
+  if (!calibration_ || !odometry_ || result.status == VoStatus::kBadInput) return std::nullopt;
+  const bool now = !result.calibration_message.empty();
+  calibration_decided_ = calibration_decided_ || now;
+  if (!calibration_decided_) return std::nullopt;
+  if (!calibration_repeat_.due(result.utime) && !now) return std::nullopt;
+  const core::StereoCalibration rectified =
+      rectifier_ ? rectifier_->rectifiedCalibration() : *calibration_;
+  auto with_offset = core::withDisparityOffset(rectified, odometry_->camera().disparityOffsetPx());
+  if (!with_offset) return std::nullopt;
+  return messages::toMsg(*with_offset, result.utime);
 }
 
 PipelineOutput VoPipeline::badInput(int64_t utime, const std::string& why) {
@@ -221,6 +237,7 @@ PipelineOutput VoPipeline::handleRgbdFrame(int64_t utime,
         options_.rgbd_inlier_max_reprojection_px;
     odometry_options.registration.motion.max_mean_reprojection_px =
         options_.rgbd_max_mean_reprojection_px;
+    odometry_options.self_calibrate = false;  // depth from the depth image: no disparity offset
     auto odometry = StereoOdometry::create(camera->stereo(), odometry_options);
     if (!odometry) {
       ++stats_.calibrations_refused;

@@ -31,6 +31,7 @@
 #include "core/camera/rgbd_camera.h"
 #include "core/camera/stereo_rectifier.h"
 #include "core/common/expected.h"
+#include "core/messages/channels.h"
 #include "core/messages/convert.h"
 #include "core/messages/odometry_frame.h"
 #include "core/messages/rgbd_convert.h"
@@ -67,6 +68,10 @@ struct PipelineOptions {
 struct PipelineOutput {
   evermap::vo_delta_t delta;
   std::optional<evermap::keyframe_t> keyframe;
+  // VO_CALIB: the rectified calibration VO measures with, its right cx = left cx + the
+  // disparity offset self-calibration decided on (stereo only): on the frame it decided, then
+  // once per channels::kCalibrationPeriodS of frames (state, like STEREO_CALIB).
+  std::optional<evermap::stereo_calib_t> calibration;
   FrameResult result;  // the details (message, counts)
 };
 
@@ -125,6 +130,8 @@ class VoPipeline {
   explicit VoPipeline(const PipelineOptions& options) : options_(options) {}
   PipelineOutput badInput(int64_t utime, const std::string& why);
   PipelineOutput finish(const FrameResult& result);
+  // The VO_CALIB of a stereo camera whose self-calibration has decided, when due.
+  std::optional<evermap::stereo_calib_t> calibrationDue(const FrameResult& result);
 
   PipelineOptions options_;
   std::optional<core::StereoCalibration> calibration_;  // as received
@@ -137,6 +144,8 @@ class VoPipeline {
   // Stamps every VO_DELTA with its pose in the odometry frame (odom_*): a new camera restarts
   // the chain (NO_DATA), and with it the epoch.
   messages::OdometryFrame odometry_frame_;
+  channels::CalibrationRepeat calibration_repeat_;  // VO_CALIB
+  bool calibration_decided_ = false;                // self-calibration decided once
   PipelineStats stats_;
 };
 

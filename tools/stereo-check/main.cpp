@@ -34,7 +34,7 @@
 #include "core/registration/frame_registration.h"
 #include "core/registration/keyframe_features.h"
 #include "tools/datasets/kitti.h"
-#include "tools/stereo-check/disparity_offset.h"
+#include "core/registration/disparity_offset.h"
 
 namespace {
 

@@ -65,6 +65,8 @@ struct VoRunOptions {
     o.add("constant_velocity", &odo.constant_velocity,
           "predict a constant velocity (else the rotation only, as FOVIS)");
     o.add("keyframe_descriptors", &odo.keyframe_descriptors, "ORB descriptors at keyframes");
+    o.add("self_calibrate", &odo.self_calibrate,
+          "stereo: estimate the disparity offset from the images and apply it (docs/vo.md)");
   }
 };
 
@@ -109,6 +111,7 @@ int parseCommandLine(int argc, char** argv, VoArgs* a) {
   cli.alias("--body", "body_frame", "");
   cli.alias("--no-motion-prior", "constant_velocity", "", "false");
   cli.alias("--no-descriptors", "keyframe_descriptors", "", "false");
+  cli.alias("--no-self-calibration", "self_calibrate", "", "false");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   evermap::vo::OfflineOptions& options = a->run.offline;
   if (!std::isnan(a->disparity_offset_px)) options.disparity_offset_px = a->disparity_offset_px;

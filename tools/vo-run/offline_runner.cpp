@@ -44,6 +44,7 @@ std::string OfflineSummary::report() const {
     for (const auto& [kind, n] : kinds) s << " " << kind << " " << n << ";";
     s << "\n";
   }
+  s << "self-calibration: " << (self_calibration.empty() ? "undecided" : self_calibration) << "\n";
   s << "per frame: median " << median_ms << " ms, p90 " << p90_ms << " ms, p99 " << p99_ms << " ms";
   return s.str();
 }
@@ -114,7 +115,10 @@ FrameStats frameStats(const FrameResult& r, double ms) {
 Status writeOutput(messages::LogWriter& writer, const PipelineOutput& out) {
   const int64_t utime = out.result.utime;
   if (Status s = writer.write(channels::kVoDelta, utime, out.delta); !s) return s;
-  if (out.keyframe) return writer.write(channels::kKeyframe, utime, *out.keyframe);
+  if (out.keyframe) {
+    if (Status s = writer.write(channels::kKeyframe, utime, *out.keyframe); !s) return s;
+  }
+  if (out.calibration) return writer.write(channels::kVoCalib, utime, *out.calibration);
   return Ok{};
 }
 
@@ -160,6 +164,10 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
       continue;
     }
     const FrameResult& r = out->result;
+    if (!r.calibration_message.empty()) {
+      if (!summary.self_calibration.empty()) summary.self_calibration += "\n  ";
+      summary.self_calibration += "frame " + std::to_string(frames) + ": " + r.calibration_message;
+    }
     times.push_back(ms);
     summary.frames.push_back(frameStats(r, ms));
     if (auto cam0_T_cam = chain.add(out->delta)) {

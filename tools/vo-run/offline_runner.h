@@ -59,6 +59,8 @@ struct OfflineSummary {
   double median_ms = 0.0;
   double p90_ms = 0.0;
   double p99_ms = 0.0;
+  // Self-calibration's decision and the frame it came at (empty: none).
+  std::string self_calibration;
 
   // Frames that did not register, counted by FrameResult::failure_kind (bridged frames by
   // the kind of failure that made the bridge needed).

@@ -56,6 +56,8 @@ struct DisparityOffsetOptions {
   int gauss_newton_iterations = 8;
 
   Status validate() const;
+  // The candidate offsets, min_offset_px + k step_px up to max_offset_px.
+  std::vector<double> grid() const;
 };
 
 struct DisparityOffsetSummary {
@@ -65,6 +67,17 @@ struct DisparityOffsetSummary {
   std::vector<std::pair<double, double>> curve;  // (offset px, total robust cost)
   std::string message;
 };
+
+// The robust cost of one pair at each of `offsets` (infinity where some disparity + offset <= 0),
+// each at the motion that minimises it (warm-started from the neighbouring candidate's).
+std::vector<double> pairCostCurve(const StereoCamera& camera, const StereoMatchPair& pair,
+                                  const std::vector<double>& offsets,
+                                  const DisparityOffsetOptions& options);
+
+// The minimum of a cost curve over `offsets`, refined by a parabola through its neighbours.
+// Errors: no finite cost, or the least cost at an end of the grid (or next to an infinite one).
+Expected<double> leastCostOffset(const std::vector<double>& offsets,
+                                 const std::vector<double>& costs);
 
 // Errors: invalid options, no pair with matches, no candidate offset that every disparity
 // allows, or a minimum at an end of the grid (widen it).

@@ -1,0 +1,145 @@
+#pragma once
+// A stereo rig's disparity offset (disparity_offset.h: true disparity = measured + offset,
+// cx_right - cx_left of the images against the calibration) estimated online, from the pairs of
+// frames a visual odometry registers anyway, in rounds: each round gathers evidence until it
+// can decide, the offset is applied when the decision says so, and the next round measures
+// what is left over, until one finds nothing to change.
+//
+// Each pair added gives its own cost curve over a grid of candidate offsets (pairCostCurve:
+// its motion re-solved under each candidate, robust costs). The evidence is judged, not
+// assumed:
+//  - a pair whose own curve is flat (the camera turned or hovered: without translation
+//    against a range of depths the offset is not observable) or has its minimum at an end of
+//    the grid is not evidence: examined, not used;
+//  - pairs whose own minimum lies far from the others' (more than outlier_mads robust
+//    deviations, and more than min_outlier_distance_px, from their median: a moving object, a
+//    wrong registration) are left out;
+//  - the estimate is the least cost of the used pairs' summed curves; its standard error is
+//    their jackknife's, leaving out one *group* at a time (no trust in the nominal noise): the
+//    pairs of one group share a frame (the odometry's reference), whose disparity errors they
+//    all carry, so they are not independent evidence;
+//  - it has converged when pairs of at least min_pairs groups are used and the standard error
+//    is at most max_standard_error_px. Then it is applied (kApply) only when it is at least
+//    min_offset_px and significance standard errors from 0, and the camera's offset stays
+//    within max_total_offset_px; otherwise the calibration is kept (kKeep): a
+//    well-calibrated rig stays at 0;
+//  - after max_pairs pairs examined without converging the round gives up (kGiveUp) and the
+//    calibration is kept. The grid (around the camera's offset) bounds one round's step.
+// The caller starts the next round (restart) after kApply or kGiveUp; after kKeep the tracker
+// stays decided (StereoOdometry stops there: every further round would be another chance of a
+// false alarm on a right rig).
+// "Measured" is what the pairs carry: with a camera that already has an offset, the estimate
+// is what is left over.
+
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "core/camera/stereo_camera.h"
+#include "core/common/expected.h"
+#include "core/common/option_fields.h"
+#include "core/registration/disparity_offset.h"
+
+namespace evermap::core {
+
+struct DisparityOffsetTrackerOptions {
+  DisparityOffsetOptions estimate = defaultEstimate();
+  // A pair's inliers beyond this many are subsampled evenly (the cost of a curve).
+  int max_points_per_pair = 100;
+  // A pair is evidence when its own curve's curvature at its minimum gives a standard
+  // deviation of at most this (pixels, under the nominal noise).
+  double max_pair_sigma_px = 1.0;
+  int min_pairs = 8;  // of as many groups (reference frames)
+  int max_pairs = 150;
+  double max_standard_error_px = 0.08;
+  double min_offset_px = 0.15;
+  // The camera's offset is never moved beyond this (pixels, either sign).
+  double max_total_offset_px = 3.0;
+  double significance = 4.0;  // standard errors
+  double outlier_mads = 3.0;
+  double min_outlier_distance_px = 0.5;
+
+  static DisparityOffsetOptions defaultEstimate();
+  Status validate() const;
+  void declareOptions(OptionList& o) {
+    o.add("max_points_per_pair", &max_points_per_pair, "points",
+          "a registered pair's inliers beyond this are subsampled")
+        .min(10);
+    o.add("max_pair_sigma_px", &max_pair_sigma_px, "px",
+          "a pair whose own curve is flatter than this is not evidence")
+        .positive();
+    o.add("min_pairs", &min_pairs, "pairs",
+          "pairs of at least this many reference frames to decide")
+        .min(3);
+    o.add("max_pairs", &max_pairs, "pairs", "pairs examined before giving up").min(1);
+    o.add("max_standard_error_px", &max_standard_error_px, "px",
+          "converged when the jackknife standard error is at most this")
+        .positive();
+    o.add("min_offset_px", &min_offset_px, "px", "a smaller converged offset is not applied")
+        .nonNegative();
+    o.add("significance", &significance, "sigmas",
+          "... nor one within this many standard errors of 0")
+        .nonNegative();
+    o.add("max_total_offset_px", &max_total_offset_px, "px",
+          "the camera's offset is never moved beyond this")
+        .nonNegative();
+    o.add("outlier_mads", &outlier_mads, "MADs",
+          "a pair's own minimum this far from the median's is left out ...")
+        .positive();
+    o.add("min_outlier_distance_px", &min_outlier_distance_px, "px", "... and at least this far")
+        .nonNegative();
+    o.add("grid_min_px", &estimate.min_offset_px, "px", "smallest offset considered").any();
+    o.add("grid_max_px", &estimate.max_offset_px, "px", "largest offset considered").any();
+    o.add("grid_step_px", &estimate.step_px, "px", "between candidate offsets").positive();
+  }
+};
+
+enum class OffsetDecision { kPending, kApply, kKeep, kGiveUp };
+const char* toString(OffsetDecision decision);
+
+struct DisparityOffsetState {
+  OffsetDecision decision = OffsetDecision::kPending;
+  double offset_px = 0.0;  // the estimate (0 until min_pairs pairs are used)
+  double standard_error_px = std::numeric_limits<double>::infinity();
+  int pairs_examined = 0;
+  int pairs_used = 0;
+  int groups_used = 0;
+  int pairs_left_out = 0;  // outliers among the informative ones
+  std::string message;     // one line
+};
+
+class DisparityOffsetTracker {
+ public:
+  // Refuses invalid options. `camera` measured the pairs.
+  static Expected<DisparityOffsetTracker> create(const StereoCamera& camera,
+                                                 const DisparityOffsetTrackerOptions& options);
+
+  // Whether another pair is wanted: no decision yet in this round.
+  bool wantsPairs() const { return state_.decision == OffsetDecision::kPending; }
+  // A new round with `camera` (after a decision; with the offset applied): pairs measured with
+  // it, the evidence so far dropped.
+  void restart(const StereoCamera& camera);
+  // One registered pair (matchPair, or the odometry's matches) of `group` (pairs that share a
+  // frame: the same group); the decision is updated.
+  const DisparityOffsetState& add(const StereoMatchPair& pair, int64_t group);
+  const DisparityOffsetState& state() const { return state_; }
+
+ private:
+  DisparityOffsetTracker(const StereoCamera& camera, const DisparityOffsetTrackerOptions& options)
+      : camera_(camera), options_(options), offsets_(options.estimate.grid()) {}
+  // The estimate and its standard error from the informative pairs (state_ updated).
+  void estimate();
+  void decide();
+
+  StereoCamera camera_;
+  DisparityOffsetTrackerOptions options_;
+  std::vector<double> offsets_;
+  // The informative pairs: their curves (least cost subtracted) and own minima.
+  std::vector<std::vector<double>> curves_;
+  std::vector<double> minima_;
+  std::vector<int64_t> groups_;
+  DisparityOffsetState state_;
+};
+
+}  // namespace evermap::core
