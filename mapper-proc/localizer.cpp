@@ -36,7 +36,8 @@ Status Localizer::load(const MapSnapshot& map) {
     max_session = std::max(max_session, s.node.session);
   }
   for (const auto& [floor, height_m] : map.floors) floors_[floor] = height_m;
-  for (const auto& [session, start_utime] : map.sessions) max_session = std::max(max_session, session);
+  for (const auto& [session, start_utime] : map.sessions)
+    max_session = std::max(max_session, session);
   session_ = max_session + 1;
   return Ok{};
 }

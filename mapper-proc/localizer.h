@@ -52,14 +52,14 @@ struct LocalizerStats {
   int64_t requests_node = 0;
   int64_t requests_global = 0;
   int64_t registrations_ok = 0;
-  int64_t placements = 0;      // not localized -> localized (two agreeing registrations)
-  int64_t corrections = 0;     // registrations applied while localized
-  int64_t refused_gate = 0;    // ... refused by the map gate: counted, never applied
-  int64_t refused_floor = 0;   // a node of another floor than the current one
-  int64_t disagreements = 0;   // a candidate and a registration that did not agree
-  int64_t unlocalized = 0;     // localized -> not (the bounds above)
+  int64_t placements = 0;     // not localized -> localized (two agreeing registrations)
+  int64_t corrections = 0;    // registrations applied while localized
+  int64_t refused_gate = 0;   // ... refused by the map gate: counted, never applied
+  int64_t refused_floor = 0;  // a node of another floor than the current one
+  int64_t disagreements = 0;  // a candidate and a registration that did not agree
+  int64_t unlocalized = 0;    // localized -> not (the bounds above)
   int64_t timeouts = 0;
-  int64_t dropped = 0;         // malformed messages, unknown nodes, answers to no request
+  int64_t dropped = 0;  // malformed messages, unknown nodes, answers to no request
   int64_t rides = 0;
 };
 

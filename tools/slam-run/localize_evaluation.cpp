@@ -107,9 +107,9 @@ LocalizeSummary LocalizeRunner::finish() {
 
 std::string LocalizeSummary::text() const {
   std::ostringstream o;
-  const double pct = frames > 0 ? 100.0 * static_cast<double>(localized_frames) /
-                                      static_cast<double>(frames)
-                                : 0.0;
+  const double pct =
+      frames > 0 ? 100.0 * static_cast<double>(localized_frames) / static_cast<double>(frames)
+                 : 0.0;
   o << "frames " << frames << "\nlocalized_frames " << localized_frames << " (" << pct
     << " %)\nfirst_localized_s " << first_localized_s << "\n";
   const mapper::LocalizerStats& l = localizer;
@@ -120,12 +120,12 @@ std::string LocalizeSummary::text() const {
     << " unlocalized " << l.unlocalized << " timeouts " << l.timeouts << " dropped " << l.dropped
     << " rides " << l.rides << "\n";
   o << "loopclose nodes " << loopclose.nodes << " keyframes " << loopclose.keyframes << "\n";
-  o << "ms_per_frame vo " << vo_ms << " loopclose " << loopclose_ms << " localizer "
-    << localizer_ms << "\n";
+  o << "ms_per_frame vo " << vo_ms << " loopclose " << loopclose_ms << " localizer " << localizer_ms
+    << "\n";
   o << "truth frames_localized " << frames_with_truth << " ate_rmse_m " << ate_rmse_m
-    << " ate_p95_m " << ate_p95_m << " ate_max_m " << ate_max_m << " rot_rmse_deg "
-    << yaw_rmse_deg << " false_frames " << false_frames << " false_placements "
-    << false_placements << " (beyond " << false_m << " m or " << false_deg << " deg)\n";
+    << " ate_p95_m " << ate_p95_m << " ate_max_m " << ate_max_m << " rot_rmse_deg " << yaw_rmse_deg
+    << " false_frames " << false_frames << " false_placements " << false_placements << " (beyond "
+    << false_m << " m or " << false_deg << " deg)\n";
   o << "input_errors " << input_errors << "\n";
   for (const std::string& e : errors) o << "  " << e << "\n";
   return o.str();

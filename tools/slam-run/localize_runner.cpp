@@ -62,8 +62,8 @@ Expected<std::unique_ptr<LocalizeRunner>> LocalizeRunner::create(const bow::Voca
   auto registration = loopclose::CoreRegistration::create(options.registration);
   if (!registration) return registration.error();
   r->registration_ = std::make_unique<loopclose::CoreRegistration>(std::move(*registration));
-  auto places =
-      bow::PlaceStore::openReadOnly(options.places, vocabulary.fingerprint(), vocabulary.numWords());
+  auto places = bow::PlaceStore::openReadOnly(options.places, vocabulary.fingerprint(),
+                                              vocabulary.numWords());
   if (!places) return places.error();
   auto closer = loopclose::LoopCloser::create(vocabulary, *r->registration_, options.loopclose,
                                               std::move(*places));
@@ -153,9 +153,9 @@ void LocalizeRunner::onFrame(const ReadEvent& e, double* loopclose_s, double* lo
   const bool rgbd = e.channel == channels::kRgbd;
   vo::VoPipeline& vo = p_->vo;
   Expected<vo::PipelineOutput> out =
-      rgbd      ? (e.rgbd_frame ? Expected<vo::PipelineOutput>(
-                                 vo.handleRgbdFrame(e.stereo_utime, *e.rgbd_frame))
-                                : vo.handleRgbdBytes(data, size))
+      rgbd      ? (e.rgbd_frame
+                       ? Expected<vo::PipelineOutput>(vo.handleRgbdFrame(e.stereo_utime, *e.rgbd_frame))
+                       : vo.handleRgbdBytes(data, size))
       : e.frame ? Expected<vo::PipelineOutput>(vo.handleFrame(e.stereo_utime, *e.frame))
                 : vo.handleStereoBytes(data, size);
   const double vo_s = secondsSince(t0);
@@ -203,8 +203,8 @@ void LocalizeRunner::onImu(const void* data, int64_t size, double* localizer_s) 
   }
   std::optional<attitude_t> att = p_->attitude.add(*msg);
   if (att) p_->latest_attitude = imu::fromLcm(*att);
-  const auto events = p_->elevator.add(imu::fromLcm(*msg),
-                                       p_->latest_attitude ? &*p_->latest_attitude : nullptr);
+  const auto events =
+      p_->elevator.add(imu::fromLcm(*msg), p_->latest_attitude ? &*p_->latest_attitude : nullptr);
   const auto t0 = SteadyClock::now();
   if (att) {
     if (Status s = localizer_->onAttitude(*att); !s) inputError("ATTITUDE: " + s.error().message);

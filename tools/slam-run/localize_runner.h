@@ -41,8 +41,8 @@ struct ReadEvent;
 
 // What a localization run measured (LocalizeRunner::finish; localize-summary.txt).
 struct LocalizeSummary {
-  int64_t frames = 0;            // VO frames
-  int64_t localized_frames = 0;  // ... with localized = true
+  int64_t frames = 0;             // VO frames
+  int64_t localized_frames = 0;   // ... with localized = true
   double first_localized_s = -1;  // data time from the first frame to the first localized one
   mapper::LocalizerStats localizer;
   loopclose::LoopCloserStats loopclose;
