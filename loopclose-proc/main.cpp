@@ -29,6 +29,17 @@ std::unique_ptr<FrameRegistration> makeRegistration() {
   return std::make_unique<CoreRegistration>(std::move(*r));
 }
 
+// The place store of --store (none without it), read-only with --read-only.
+Expected<std::optional<bow::PlaceStore>> openStore(const std::string& file, bool read_only,
+                                                   const bow::Vocabulary& vocabulary) {
+  if (file.empty()) return std::optional<bow::PlaceStore>();
+  auto s = read_only ? bow::PlaceStore::openReadOnly(file, vocabulary.fingerprint(),
+                                                     vocabulary.numWords())
+                     : bow::PlaceStore::open(file, vocabulary.fingerprint(), vocabulary.numWords());
+  if (!s) return s.error();
+  return std::optional<bow::PlaceStore>(std::move(*s));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -61,24 +72,17 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "evermap-loopclose-proc: %s\n", vocabulary.error().message.c_str());
     return 1;
   }
-  std::optional<bow::PlaceStore> store;
-  if (!store_file.empty()) {
-    auto s = read_only ? bow::PlaceStore::openReadOnly(store_file, vocabulary->fingerprint(),
-                                                       vocabulary->numWords())
-                       : bow::PlaceStore::open(store_file, vocabulary->fingerprint(),
-                                               vocabulary->numWords());
-    if (!s) {
-      std::fprintf(stderr, "evermap-loopclose-proc: %s\n", s.error().message.c_str());
-      return 1;
-    }
-    store = std::move(*s);
+  auto store = openStore(store_file, read_only, *vocabulary);
+  if (!store) {
+    std::fprintf(stderr, "evermap-loopclose-proc: %s\n", store.error().message.c_str());
+    return 1;
   }
   const std::unique_ptr<FrameRegistration> registration = makeRegistration();
   if (!registration) {
     std::fprintf(stderr, "evermap-loopclose-proc: invalid default registration options\n");
     return 1;
   }
-  auto loop_closer = LoopCloser::create(*vocabulary, *registration, options, std::move(store));
+  auto loop_closer = LoopCloser::create(*vocabulary, *registration, options, std::move(*store));
   if (!loop_closer) {
     std::fprintf(stderr, "evermap-loopclose-proc: %s\n", loop_closer.error().message.c_str());
     return 1;

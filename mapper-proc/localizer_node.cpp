@@ -47,8 +47,8 @@ Status LocalizerNode::on(const Msg& msg) {
   if constexpr (std::is_same_v<Msg, vo_delta_t>) {
     if (!calibration_.haveCamera()) {
       ++no_calibration_;
-      return makeError("VO_DELTA ", msg.utime, ": no STEREO_CALIB received yet (",
-                       no_calibration_, " so far)");
+      return makeError("VO_DELTA ", msg.utime, ": no STEREO_CALIB received yet (", no_calibration_,
+                       " so far)");
     }
   }
   if (Status s = apply(l_, msg); !s) {
@@ -90,10 +90,10 @@ std::string LocalizerNode::summary() const {
   const LocalizerStats& s = l_.stats();
   std::ostringstream o;
   o << "poses_published " << poses_ << "\nlocalized_poses " << localized_poses_ << "\nsteps "
-    << s.steps << "\nrequests_node " << s.requests_node << "\nrequests_global "
-    << s.requests_global << "\nplacements " << s.placements << "\ncorrections " << s.corrections
-    << "\nrefused_gate " << s.refused_gate << "\nrefused_floor " << s.refused_floor
-    << "\nunlocalized " << s.unlocalized << "\ndropped " << dropped() << "\n";
+    << s.steps << "\nrequests_node " << s.requests_node << "\nrequests_global " << s.requests_global
+    << "\nplacements " << s.placements << "\ncorrections " << s.corrections << "\nrefused_gate "
+    << s.refused_gate << "\nrefused_floor " << s.refused_floor << "\nunlocalized " << s.unlocalized
+    << "\ndropped " << dropped() << "\n";
   return o.str();
 }
 
