@@ -185,8 +185,8 @@ void Localizer::sendRequest(int8_t mode, int64_t target) {
   r.keyframe_utime = in_flight_->keyframe_utime;
   r.mode = mode;
   r.target_node_id = mode == register_request_t::MODE_NODE ? target : -1;
-  // Localized: the current floor; not: the robot may be on any floor.
-  r.floor = localized_ ? floor_ : -1;
+  // Placed: its floor (-1 when its height is no stored floor's); before: any floor.
+  r.floor = placed() ? floor_ : -1;
   r.session = session_;
   in_flight_->request_id = r.request_id;
   in_flight_->mode = mode;

@@ -26,7 +26,10 @@
 // since the last registration applied; from then on only two agreeing registrations
 // localize it again. An elevator ride (FLOOR ride start to end) takes no step; at its end the
 // ride's height change moves the pose and the floor is the stored one at that height (none
-// within floor_match_m: unknown, and not localized).
+// within floor_match_m: unknown, and not localized). During the ride the pose is not localized.
+// Once placed, a registration to a node more than floor_match_m above or below the tracked
+// height is refused (refused_floor): the floors of a building look alike, and a robot that rode
+// to a floor the map does not hold must not be placed on one it does.
 
 #include <cstdint>
 #include <map>
@@ -83,9 +86,10 @@ class Localizer {
   std::vector<register_request_t> takeRequests();
 
   // Whether the robot was ever placed on the map (pose() means something), and whether it is
-  // localized now (placed, within the bounds above).
+  // localized now (placed, within the bounds above, not riding an elevator: its height is
+  // unobserved until the ride ends).
   bool placed() const { return active_ >= 0; }
-  bool localized() const { return localized_; }
+  bool localized() const { return localized_ && !in_ride_; }
   // world_T_body now, its covariance Δ's; meaningless before placed().
   core::UncertainPose pose() const;
   int floor() const { return floor_; }
@@ -118,6 +122,9 @@ class Localizer {
                const core::UncertainPose& q_T_now);
   void place(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
              const core::UncertainPose& q_T_now);
+  // A node the robot cannot be at: another floor than the current one while localized; once
+  // placed, a node more than floor_match_m above or below the tracked height.
+  bool otherFloor(int64_t b) const;
   bool agreesWithCandidate(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime);
   // Δ := b_T_now, b the node tracked against; the dead-reckoning count restarts.
   void trackFrom(int64_t b, const core::UncertainPose& b_T_now);

@@ -36,7 +36,7 @@ Status Localizer::onRegisterResult(const register_result_t& msg) {
     return makeError("REGISTER_RESULT ", msg.request_id, ": malformed pose, covariance or node id");
   }
   ++stats_.registrations_ok;
-  if (localized_ && floor_ >= 0 && nodes_[static_cast<size_t>(b)].floor != floor_) {
+  if (otherFloor(b)) {
     ++stats_.refused_floor;  // the elevator cab, or a floor that looks like this one
     return Ok{};
   }
@@ -56,6 +56,14 @@ Status Localizer::onRegisterResult(const register_result_t& msg) {
     place(f, b, b_T_q, *q_T_now);
   }
   return Ok{};
+}
+
+bool Localizer::otherFloor(int64_t b) const {
+  if (localized_ && floor_ >= 0) return nodes_[static_cast<size_t>(b)].floor != floor_;
+  // Placed once, the height is known (the rides measured it) even where the floor is not a
+  // stored one: the floors of a building look alike, and a node at another height is one.
+  return placed() &&
+         std::abs(nodePose(b).translation().z() - pose().mean.translation().z()) > o_.floor_match_m;
 }
 
 void Localizer::correct(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,

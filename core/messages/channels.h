@@ -21,7 +21,6 @@ inline constexpr const char* kNodeAdded = "NODE_ADDED";      // node_added_t
 inline constexpr const char* kRegisterRequest = "REGISTER_REQUEST";  // register_request_t
 inline constexpr const char* kRegisterResult = "REGISTER_RESULT";    // register_result_t
 inline constexpr const char* kPose = "POSE";                         // pose_t
-inline constexpr const char* kLocalization = "LOCALIZATION";         // localization_t
 inline constexpr const char* kMapGraph = "MAP_GRAPH";                // map_graph_t
 inline constexpr const char* kMapperStats = "MAPPER_STATS";          // mapper_stats_t
 inline constexpr const char* kDeputyStatus = "DEPUTY_STATUS";        // deputy_status_t
