@@ -63,7 +63,7 @@ Status Localizer::onWheel(const wheel_odom_t& msg) {
 }
 
 Status Localizer::onAttitude(const attitude_t& msg) {
-  if (!std::isfinite(msg.heading_rad) || msg.utime <= last_attitude_utime_) {
+  if ((msg.heading_valid && !std::isfinite(msg.heading_rad)) || msg.utime <= last_attitude_utime_) {
     ++stats_.dropped;
     return makeError("ATTITUDE ", msg.utime, ": not finite or out of order");
   }
