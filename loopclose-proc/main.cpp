@@ -29,10 +29,22 @@ std::unique_ptr<FrameRegistration> makeRegistration() {
   return std::make_unique<CoreRegistration>(std::move(*r));
 }
 
+// The place store of --store (none without it), read-only with --read-only.
+Expected<std::optional<bow::PlaceStore>> openStore(const std::string& file, bool read_only,
+                                                   const bow::Vocabulary& vocabulary) {
+  if (file.empty()) return std::optional<bow::PlaceStore>();
+  auto s = read_only ? bow::PlaceStore::openReadOnly(file, vocabulary.fingerprint(),
+                                                     vocabulary.numWords())
+                     : bow::PlaceStore::open(file, vocabulary.fingerprint(), vocabulary.numWords());
+  if (!s) return s.error();
+  return std::optional<bow::PlaceStore>(std::move(*s));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::string vocab_file, store_file, url, key_file;
+  bool read_only = false;
   LoopCloserOptions options;
   CommandLine cli("evermap-loopclose-proc",
                   "The loop-closure service: place recognition and frame registration on LCM.");
@@ -40,6 +52,9 @@ int main(int argc, char** argv) {
             "vocabulary: evermap .evoc (evermap-vocab-train) or DBoW2/DBoW3 .yml.gz", true);
   cli.value("--store", &store_file, "MAP.db",
             "SQLite map store: nodes and keyframes are reloaded and persisted");
+  cli.flag("--read-only", &read_only,
+           "open --store read-only (localization, docs/localization.md): its places are "
+           "searched, nothing is written, the file's bytes do not change");
   cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
   cli.value("--rate", &options.max_rate_hz, "HZ", "answers per second of data time (2)").positive();
   cli.value("--max-places", &options.max_places, "N",
@@ -47,28 +62,27 @@ int main(int argc, char** argv) {
       .min(1);
   messages::declareKeyOption(cli, &key_file);
   cli.options(&options);
-  cli.check([&options] { return options.validate(); });
+  cli.check([&options, &read_only, &store_file]() -> Status {
+    if (read_only && store_file.empty()) return Error("--read-only needs --store MAP.db");
+    return options.validate();
+  });
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   auto vocabulary = bow::loadAnyVocabulary(vocab_file);
   if (!vocabulary) {
     std::fprintf(stderr, "evermap-loopclose-proc: %s\n", vocabulary.error().message.c_str());
     return 1;
   }
-  std::optional<bow::PlaceStore> store;
-  if (!store_file.empty()) {
-    auto s = bow::PlaceStore::open(store_file, vocabulary->fingerprint(), vocabulary->numWords());
-    if (!s) {
-      std::fprintf(stderr, "evermap-loopclose-proc: %s\n", s.error().message.c_str());
-      return 1;
-    }
-    store = std::move(*s);
+  auto store = openStore(store_file, read_only, *vocabulary);
+  if (!store) {
+    std::fprintf(stderr, "evermap-loopclose-proc: %s\n", store.error().message.c_str());
+    return 1;
   }
   const std::unique_ptr<FrameRegistration> registration = makeRegistration();
   if (!registration) {
     std::fprintf(stderr, "evermap-loopclose-proc: invalid default registration options\n");
     return 1;
   }
-  auto loop_closer = LoopCloser::create(*vocabulary, *registration, options, std::move(store));
+  auto loop_closer = LoopCloser::create(*vocabulary, *registration, options, std::move(*store));
   if (!loop_closer) {
     std::fprintf(stderr, "evermap-loopclose-proc: %s\n", loop_closer.error().message.c_str());
     return 1;

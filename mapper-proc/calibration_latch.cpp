@@ -12,8 +12,8 @@
 namespace evermap::mapper {
 
 template <typename Msg, typename Mounting>
-Status CalibrationLatch::latch(const void* data, int64_t size, const char* channel, Mapper& mapper,
-                               Mounting mounting) {
+Status CalibrationLatch::latch(const void* data, int64_t size, const char* channel,
+                               const SetMounting& set, Mounting mounting) {
   const auto* p = static_cast<const uint8_t*>(data);
   std::vector<uint8_t> bytes(p, p + std::max<int64_t>(0, size));
   // The LCM fingerprint (8 bytes) and utime (8 bytes) lead the encoding.
@@ -29,7 +29,7 @@ Status CalibrationLatch::latch(const void* data, int64_t size, const char* chann
     ++counts_.refused;
     return makeError(channel, " ", msg->utime, ": ", body_T_cam.error().message);
   }
-  mapper.setCameraMounting(*body_T_cam);
+  set(*body_T_cam);
   have_camera_ = true;
   last_ = std::move(bytes);
   ++counts_.camera_changes;
@@ -37,7 +37,15 @@ Status CalibrationLatch::latch(const void* data, int64_t size, const char* chann
 }
 
 Status CalibrationLatch::handle(const void* data, int64_t size, Mapper& mapper) {
-  return latch<stereo_calib_t>(data, size, channels::kStereoCalib, mapper,
+  return handle(data, size, [&mapper](const core::SE3d& m) { mapper.setCameraMounting(m); });
+}
+
+Status CalibrationLatch::handleRgbd(const void* data, int64_t size, Mapper& mapper) {
+  return handleRgbd(data, size, [&mapper](const core::SE3d& m) { mapper.setCameraMounting(m); });
+}
+
+Status CalibrationLatch::handle(const void* data, int64_t size, const SetMounting& set) {
+  return latch<stereo_calib_t>(data, size, channels::kStereoCalib, set,
                                [](const stereo_calib_t& msg) -> Expected<core::SE3d> {
                                  auto calibration = messages::fromMsg(msg);
                                  if (!calibration) return calibration.error();
@@ -45,8 +53,8 @@ Status CalibrationLatch::handle(const void* data, int64_t size, Mapper& mapper) 
                                });
 }
 
-Status CalibrationLatch::handleRgbd(const void* data, int64_t size, Mapper& mapper) {
-  return latch<rgbd_calib_t>(data, size, channels::kRgbdCalib, mapper,
+Status CalibrationLatch::handleRgbd(const void* data, int64_t size, const SetMounting& set) {
+  return latch<rgbd_calib_t>(data, size, channels::kRgbdCalib, set,
                              [](const rgbd_calib_t& msg) -> Expected<core::SE3d> {
                                auto camera = messages::fromMsg(msg.camera);
                                if (!camera) return camera.error();

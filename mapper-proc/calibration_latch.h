@@ -7,6 +7,7 @@
 // Used by LcmNode (mapper-proc) and the offline runner of the whole system (evermap-slam-run).
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "core/common/expected.h"
@@ -22,19 +23,23 @@ struct CalibrationLatchCounts {
 
 class CalibrationLatch {
  public:
+  // Where a new camera mounting goes (Mapper::setCameraMounting, Localizer::setCameraMounting).
+  using SetMounting = std::function<void(const core::SE3d& body_T_cam)>;
   // One STEREO_CALIB event's bytes; a new valid calibration goes to `mapper`. An error (one
   // line, naming the message) for one that is refused.
   Status handle(const void* data, int64_t size, Mapper& mapper);
+  Status handle(const void* data, int64_t size, const SetMounting& set);
   // The same for one RGBD_CALIB event (an RGB-D camera: body_T_cam of its camera). The latch
   // holds one camera, whichever kind sent it last.
   Status handleRgbd(const void* data, int64_t size, Mapper& mapper);
+  Status handleRgbd(const void* data, int64_t size, const SetMounting& set);
   bool haveCamera() const { return have_camera_; }
   const CalibrationLatchCounts& counts() const { return counts_; }
 
  private:
   // Both: the repeat test, decoding, `mounting` (the message → body_T_cam), the counts.
   template <typename Msg, typename Mounting>
-  Status latch(const void* data, int64_t size, const char* channel, Mapper& mapper,
+  Status latch(const void* data, int64_t size, const char* channel, const SetMounting& set,
                Mounting mounting);
 
   bool have_camera_ = false;

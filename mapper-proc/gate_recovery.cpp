@@ -4,6 +4,17 @@
 
 namespace evermap::mapper {
 
+std::optional<core::UncertainPose> chainPlacements(const PlacementCandidate& c,
+                                                   const core::UncertainPose& b_T_q,
+                                                   int64_t keyframe_utime, const Tracker& tracker) {
+  const auto c_T_now = tracker.sinceKeyframe(c.keyframe_utime);
+  const auto q_T_now = tracker.sinceKeyframe(keyframe_utime);
+  if (!c_T_now || !q_T_now) return std::nullopt;
+  // c.node_T_b = c.node_T_kc ⊕ kc_T_q ⊕ ⊖(b_T_q).
+  const core::UncertainPose kc_T_q = core::compound(*c_T_now, core::invert(*q_T_now));
+  return core::compound(core::compound(c.node_T_keyframe, kc_T_q), core::invert(b_T_q));
+}
+
 void GateRecovery::confirmed(int64_t keyframe_utime, int64_t bridges, double odometer_m) {
   last_confirmed_utime_ = keyframe_utime;
   bridges_at_confirmation_ = bridges;

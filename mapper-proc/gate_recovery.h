@@ -26,6 +26,15 @@ struct PlacementCandidate {
   int verifications = 0;  // node-mode requests sent to check it (Mapper::step)
 };
 
+// Two placements of the robot chained through odometry (eq. 6-7): c.node_T_b measured by the
+// candidate c and the registration b_T_q of the keyframe at keyframe_utime, the motion
+// between the two keyframes from the tracker's history (its covariance counted twice where
+// the two chains share increments: a looser test). Empty when a keyframe is no longer in the
+// history. Used by the mapper (relocalisation, gate recovery) and the localizer alike.
+std::optional<core::UncertainPose> chainPlacements(const PlacementCandidate& c,
+                                                   const core::UncertainPose& b_T_q,
+                                                   int64_t keyframe_utime, const Tracker& tracker);
+
 class GateRecovery {
  public:
   explicit GateRecovery(const MapperOptions& o)

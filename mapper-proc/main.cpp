@@ -14,6 +14,7 @@
 #include "core/common/stop_signals.h"
 #include "core/messages/key_option.h"
 #include "mapper-proc/lcm_node.h"
+#include "mapper-proc/localizer_node.h"
 #include "mapper-proc/map_store.h"
 #include "mapper-proc/mapper.h"
 #include "mapper-proc/mapper_config.h"
@@ -27,7 +28,7 @@ struct Settings {
   mapper::MapperOptions options;
   mapper::LcmNodeOptions node_options;
   std::string url, store_file, key_file;
-  bool quiet = false;
+  bool quiet = false, localize = false;
   double progress_s = 0.0;
 };
 
@@ -43,6 +44,10 @@ int parse(int argc, char** argv, Settings* s) {
            "a node at every step (the paper's baseline) instead of the reduced graph");
   cli.value("--store", &s->store_file, "MAP.db",
             "write the map store (SQLite) after every update that changes the graph");
+  cli.flag("--localize", &s->localize,
+           "localize against the map in --store instead of mapping: the store read once, "
+           "read-only (unchanged); REGISTER_REQUEST, POSE and LOCALIZATION out "
+           "(docs/localization.md)");
   cli.value("--graph-period-s", &s->node_options.graph_period_s, "S",
             "MAP_GRAPH after a change at most every S seconds of message time (default 1)")
       .min(0);
@@ -67,6 +72,8 @@ int parse(int argc, char** argv, Settings* s) {
   cli.options(&s->options, "mapper.");
   cli.check([s, &full_graph]() -> Status {
     s->options.full_graph = full_graph;
+    if (s->localize && s->store_file.empty()) return Error("--localize needs --store MAP.db");
+    if (s->localize && full_graph) return Error("--localize and --full-graph exclude each other");
     if (Status v = s->options.validate(); !v) return v;
     return s->node_options.validate();
   });
@@ -145,6 +152,44 @@ int runLoop(lcm::LCM& lcm, mapper::LcmNode& node, const mapper::Mapper& m, StopS
   return 0;
 }
 
+// --localize: the stored map read once, read-only, and the localizer run on LCM until
+// SIGINT/SIGTERM; main's exit status.
+int runLocalize(const Settings& settings, StopSignals& stop) {
+  mapper::MapStoreOptions read_only;
+  read_only.read_only = true;
+  auto store = mapper::MapStore::open(settings.store_file, read_only);
+  if (!store) {
+    std::fprintf(stderr, "evermap-mapper-proc: %s\n", store.error().message.c_str());
+    return 1;
+  }
+  auto map = store->load();
+  mapper::Localizer localizer(settings.options);
+  const Status loaded = map ? localizer.load(*map) : Status(map.error());
+  if (!loaded) {
+    std::fprintf(stderr, "evermap-mapper-proc: %s: %s\n", settings.store_file.c_str(),
+                 loaded.error().message.c_str());
+    return 1;
+  }
+  std::printf("evermap-mapper-proc: localizing against %s: %zu nodes (read-only)\n",
+              settings.store_file.c_str(), localizer.nodes().size());
+  std::fflush(stdout);
+  lcm::LCM lcm(settings.url);
+  if (!lcm.good()) {
+    std::fprintf(stderr, "evermap-mapper-proc: cannot start LCM (url \"%s\")\n",
+                 settings.url.c_str());
+    return 1;
+  }
+  mapper::LocalizerNode node(lcm, localizer, settings.node_options);
+  while (!stop.requested()) {
+    if (lcm.handleTimeout(200) < 0) {
+      std::fprintf(stderr, "evermap-mapper-proc: LCM failed\n");
+      return 1;
+    }
+  }
+  if (!settings.quiet) std::printf("evermap-mapper-proc: %s", node.summary().c_str());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -160,6 +205,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   settings.node_options.input.signer = *signer;
+  if (settings.localize) return runLocalize(settings, stop);
   auto store = openStore(settings.store_file);
   if (!store) {
     std::fprintf(stderr, "evermap-mapper-proc: %s\n", store.error().message.c_str());

@@ -54,6 +54,7 @@ void MapperOptions::declareOptions(OptionList& o) {
   declareWarmRestart(o);
   o.nest("floor_gate.", &floor_gate);
   o.nest("tracker.", &tracker);
+  o.nest("localize.", &localize);
   o.nest("solver.", &solver, declareSolverOptions);
 }
 

@@ -6,6 +6,7 @@
 #include "core/common/option_fields.h"
 #include "core/solver/incremental_solver.h"
 #include "mapper-proc/floor_gate.h"
+#include "mapper-proc/localizer_options.h"
 #include "mapper-proc/tracker.h"
 
 namespace evermap::mapper {
@@ -182,6 +183,7 @@ struct MapperOptions {
   double warm_restart_elevator_radius_m = 3.0;
   double warm_restart_ride_min_s = 10.0;
   TrackerOptions tracker;
+  LocalizerOptions localize;  // localization mode only (localizer.h)
   solver::IncrementalOptions solver = mapperSolverOptions();
 
   // Every setting once, with its unit, range and doc (core/common/option_fields.h); keys

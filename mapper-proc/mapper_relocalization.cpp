@@ -107,14 +107,10 @@ bool Mapper::confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q,
                                     const std::optional<PlacementCandidate>& candidate) {
   if (!candidate) return false;
   const PlacementCandidate c = *candidate;
-  const auto c_T_now = tracker_.sinceKeyframe(c.keyframe_utime);
-  const auto q_T_now = tracker_.sinceKeyframe(keyframe_utime);
-  if (!c_T_now || !q_T_now) return false;  // too old: the newer one becomes the candidate
-  // The two placements chained: c.node_T_b = c.node_T_kc ⊕ kc_T_q ⊕ ⊖(b_T_q) (eq. 6-7; the
-  // odometry covariance is counted twice where the two chains share increments: a looser gate).
-  const core::UncertainPose kc_T_q = core::compound(*c_T_now, core::invert(*q_T_now));
-  const core::UncertainPose measured =
-      core::compound(core::compound(c.node_T_keyframe, kc_T_q), core::invert(b_T_q));
+  // The two placements chained (gate_recovery.h); too old: the newer one becomes the candidate.
+  const auto chained = chainPlacements(c, b_T_q, keyframe_utime, tracker_);
+  if (!chained) return false;
+  const core::UncertainPose& measured = *chained;
   bool agree = false;
   if (c.node == b) {
     agree = map_gate_.agree(core::UncertainPose{}, measured);

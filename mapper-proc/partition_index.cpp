@@ -35,15 +35,17 @@ double PartitionIndex::headingApartRad(const core::SE2d& a, const core::SE2d& b)
 std::optional<int64_t> PartitionIndex::overlappingNode(
     const core::SE3d& world_T_body, int floor, int64_t newest_allowed,
     const std::vector<MapperNode>& nodes, const solver::IncrementalSolver& solver) const {
-  return closestNode(world_T_body, floor, newest_allowed, nodes, solver,
-                     o_.overlap_radius_cells * o_.cell_size_m, overlapHeadingRad());
+  return closestNode(
+      world_T_body, floor, newest_allowed, nodes,
+      [&solver](int64_t id) { return solver.estimate(id).se3; },
+      o_.overlap_radius_cells * o_.cell_size_m, overlapHeadingRad());
 }
 
 std::optional<int64_t> PartitionIndex::closestNode(const core::SE3d& world_T_body, int floor,
                                                    int64_t newest_allowed,
                                                    const std::vector<MapperNode>& nodes,
-                                                   const solver::IncrementalSolver& solver,
-                                                   double radius_m, double heading_rad) const {
+                                                   const NodePoses& poses, double radius_m,
+                                                   double heading_rad) const {
   if (!(radius_m > 0.0) || !(heading_rad > 0.0)) return std::nullopt;
   const core::SE2d p = core::toPlanar(world_T_body);
   const core::PlanarCell c = grid_.cellOf(p, floor);
@@ -66,7 +68,7 @@ std::optional<int64_t> PartitionIndex::closestNode(const core::SE3d& world_T_bod
         if (it == cells_.end()) continue;
         for (int64_t id : it->second) {
           if (nodes[static_cast<size_t>(id)].keyframe_utime > newest_allowed) continue;
-          const core::SE2d q = core::toPlanar(solver.estimate(id).se3);
+          const core::SE2d q = core::toPlanar(poses(id));
           const double d = std::hypot(q.x() - p.x(), q.y() - p.y()) / radius_m;
           const double a = headingApartRad(q, p) / heading_rad;
           if (d > 1.0 || a > 1.0) continue;
@@ -87,6 +89,15 @@ std::optional<int64_t> PartitionIndex::nodeAt(const core::SE3d& world_T_body, in
                                               const solver::IncrementalSolver& solver) const {
   if (auto id = nodeInCell(cellOf(world_T_body, floor), newest_allowed, nodes)) return id;
   return overlappingNode(world_T_body, floor, newest_allowed, nodes, solver);
+}
+
+std::optional<int64_t> PartitionIndex::nodeAt(const core::SE3d& world_T_body, int floor,
+                                              int64_t newest_allowed,
+                                              const std::vector<MapperNode>& nodes,
+                                              const NodePoses& poses) const {
+  if (auto id = nodeInCell(cellOf(world_T_body, floor), newest_allowed, nodes)) return id;
+  return closestNode(world_T_body, floor, newest_allowed, nodes, poses,
+                     o_.overlap_radius_cells * o_.cell_size_m, overlapHeadingRad());
 }
 
 void PartitionIndex::quarantine(int64_t id) {

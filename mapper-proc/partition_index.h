@@ -12,6 +12,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <unordered_map>
@@ -34,6 +35,9 @@ class PartitionIndex {
     int refresh_per_step = 200;            // nodes re-filed per step after a background batch
   };
   explicit PartitionIndex(const Options& options);
+  // A node's pose in the world by id: the solver's estimate (the mapper), or a stored map's
+  // fixed poses (the localizer, localizer.h).
+  using NodePoses = std::function<core::SE3d(int64_t)>;
 
   core::PlanarCell cellOf(const core::SE3d& world_T_body, int floor) const;
   // The most recently added node of the cell (paper section IV-B) made no later than
@@ -50,6 +54,8 @@ class PartitionIndex {
   std::optional<int64_t> nodeAt(const core::SE3d& world_T_body, int floor, int64_t newest_allowed,
                                 const std::vector<MapperNode>& nodes,
                                 const solver::IncrementalSolver& solver) const;
+  std::optional<int64_t> nodeAt(const core::SE3d& world_T_body, int floor, int64_t newest_allowed,
+                                const std::vector<MapperNode>& nodes, const NodePoses& poses) const;
 
   // The overlap's heading tolerance (overlap_heading_sectors of a sector), and how far apart
   // two headings are (radians, in [0, π]).
@@ -73,7 +79,7 @@ class PartitionIndex {
   // overlappingNode's search within radius_m and heading_rad, at most the overlap's.
   std::optional<int64_t> closestNode(const core::SE3d& world_T_body, int floor,
                                      int64_t newest_allowed, const std::vector<MapperNode>& nodes,
-                                     const solver::IncrementalSolver& solver, double radius_m,
+                                     const NodePoses& poses, double radius_m,
                                      double heading_rad) const;
   Options o_;
   core::PlanarGrid grid_;

@@ -116,6 +116,37 @@ TEST_F(PlaceStoreTest, AnotherVocabularyIsRefused) {
   EXPECT_FALSE(PlaceStore::open(file_, kFingerprint, kWords + 1).ok());
 }
 
+// Localization (docs/localization.md) reads the map's places and writes nothing.
+TEST_F(PlaceStoreTest, AReadOnlyStoreLoadsItsPlacesRefusesWritesAndLeavesTheBytesAlone) {
+  {
+    auto store = PlaceStore::open(file_, kFingerprint, kWords);
+    ASSERT_TRUE(store.ok()) << store.error().message;
+    ASSERT_TRUE(store->savePlaces(std::vector<Place>{place(1, 0, {{3, 1.0f}})}).ok());
+    ASSERT_TRUE(store->saveKeyframes(std::vector<evermap::keyframe_t>{keyframe(1000, 3)}).ok());
+  }
+  auto bytes = [this] {
+    std::ifstream in(file_, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string before = bytes();
+  {
+    auto store = PlaceStore::openReadOnly(file_, kFingerprint, kWords);
+    ASSERT_TRUE(store.ok()) << store.error().message;
+    auto places = store->loadPlaces();
+    ASSERT_TRUE(places.ok());
+    EXPECT_EQ(places->size(), 1u);
+    auto k = store->loadKeyframe(1000);
+    ASSERT_TRUE(k.ok());
+    EXPECT_TRUE(k->has_value());
+    EXPECT_FALSE(store->savePlaces(std::vector<Place>{place(2, 0, {{4, 1.0f}})}).ok());
+    EXPECT_FALSE(store->saveKeyframes(std::vector<evermap::keyframe_t>{keyframe(2000, 3)}).ok());
+  }
+  EXPECT_EQ(bytes(), before);
+  EXPECT_FALSE(PlaceStore::openReadOnly(file_, kFingerprint + 1, kWords).ok());
+  EXPECT_FALSE(PlaceStore::openReadOnly(dir_ / "absent.db", kFingerprint, kWords).ok());
+  EXPECT_FALSE(fs::exists(dir_ / "absent.db"));
+}
+
 TEST_F(PlaceStoreTest, AFailedBatchWritesNothing) {
   auto store = PlaceStore::open(file_, kFingerprint, kWords);
   ASSERT_TRUE(store.ok());

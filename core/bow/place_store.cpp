@@ -38,6 +38,39 @@ Error sqlError(const std::filesystem::path& file, sqlite3* db, const char* doing
   return makeError(file.string(), ": ", doing, ": ", db ? sqlite3_errmsg(db) : "out of memory");
 }
 
+// The vocabulary a store is bound to (bow_meta); empty strings when not written yet.
+struct Binding {
+  std::string version, fingerprint, words;
+
+  Status check(const std::filesystem::path& file, uint64_t want_fingerprint,
+               size_t want_words) const {
+    if (version != std::to_string(kPlaceStoreSchemaVersion))
+      return makeError(file.string(), ": place tables of schema version ",
+                       version.empty() ? "(none)" : version, ", this build reads version ",
+                       kPlaceStoreSchemaVersion);
+    if (fingerprint != hex16(want_fingerprint) || words != std::to_string(want_words))
+      return makeError(file.string(), ": places were made with vocabulary ", fingerprint, " (",
+                       words, " words), not with ", hex16(want_fingerprint), " (", want_words,
+                       " words)");
+    return Ok{};
+  }
+};
+
+Expected<Binding> readBinding(const std::filesystem::path& file, sqlite3* db) {
+  Binding b;
+  Statement q(db, "SELECT key, value FROM bow_meta");
+  if (!q.ok()) return sqlError(file, db, "cannot read bow_meta");
+  while (sqlite3_step(q.get()) == SQLITE_ROW) {
+    const auto* k = reinterpret_cast<const char*>(sqlite3_column_text(q.get(), 0));
+    const auto* v = reinterpret_cast<const char*>(sqlite3_column_text(q.get(), 1));
+    if (!k || !v) continue;
+    if (std::string(k) == "schema_version") b.version = v;
+    if (std::string(k) == "vocabulary_fingerprint") b.fingerprint = v;
+    if (std::string(k) == "num_words") b.words = v;
+  }
+  return b;
+}
+
 // The generated encoder indexes the arrays up to num_features without checking their sizes.
 bool hasConsistentShape(const evermap::keyframe_t& k) {
   const auto n = static_cast<size_t>(k.num_features);
@@ -161,20 +194,9 @@ Expected<PlaceStore> PlaceStore::open(const std::filesystem::path& file, uint64_
     return e;
   };
   // Read the binding; write it if the store is new.
-  std::string stored_version, stored_fingerprint, stored_words;
-  {
-    Statement q(raw, "SELECT key, value FROM bow_meta");
-    if (!q.ok()) return rollback(sqlError(file, raw, "cannot read bow_meta"));
-    while (sqlite3_step(q.get()) == SQLITE_ROW) {
-      const auto* k = reinterpret_cast<const char*>(sqlite3_column_text(q.get(), 0));
-      const auto* v = reinterpret_cast<const char*>(sqlite3_column_text(q.get(), 1));
-      if (!k || !v) continue;
-      if (std::string(k) == "schema_version") stored_version = v;
-      if (std::string(k) == "vocabulary_fingerprint") stored_fingerprint = v;
-      if (std::string(k) == "num_words") stored_words = v;
-    }
-  }
-  if (stored_version.empty()) {
+  auto binding = readBinding(file, raw);
+  if (!binding) return rollback(binding.error());
+  if (binding->version.empty()) {
     Statement ins(raw, "INSERT INTO bow_meta (key, value) VALUES (?1, ?2)");
     if (!ins.ok()) return rollback(sqlError(file, raw, "cannot write bow_meta"));
     const std::string pairs[3][2] = {{"schema_version", std::to_string(kPlaceStoreSchemaVersion)},
@@ -188,18 +210,24 @@ Expected<PlaceStore> PlaceStore::open(const std::filesystem::path& file, uint64_
         return rollback(sqlError(file, raw, "cannot write bow_meta"));
       }
     }
-  } else {
-    if (stored_version != std::to_string(kPlaceStoreSchemaVersion)) {
-      return rollback(makeError(file.string(), ": place tables of schema version ", stored_version,
-                                ", this build reads version ", kPlaceStoreSchemaVersion));
-    }
-    if (stored_fingerprint != hex16(fingerprint) || stored_words != std::to_string(num_words)) {
-      return rollback(makeError(file.string(), ": places were made with vocabulary ",
-                                stored_fingerprint, " (", stored_words, " words), not with ",
-                                hex16(fingerprint), " (", num_words, " words)"));
-    }
+  } else if (Status s = binding->check(file, fingerprint, num_words); !s) {
+    return rollback(s.error());
   }
   if (Status s = store.exec("COMMIT"); !s) return rollback(s.error());
+  return store;
+}
+
+Expected<PlaceStore> PlaceStore::openReadOnly(const std::filesystem::path& file,
+                                              uint64_t fingerprint, size_t num_words) {
+  if (!std::filesystem::is_regular_file(file)) return makeError(file.string(), ": no such file");
+  sqlite3* raw = nullptr;
+  const int rc = sqlite3_open_v2(file.c_str(), &raw, SQLITE_OPEN_READONLY, nullptr);
+  PlaceStore store(raw, file, fingerprint, num_words);  // closes `raw` on every return below
+  if (rc != SQLITE_OK) return sqlError(file, raw, "cannot open");
+  sqlite3_busy_timeout(raw, 5000);
+  auto binding = readBinding(file, raw);
+  if (!binding) return binding.error();
+  if (Status s = binding->check(file, fingerprint, num_words); !s) return s.error();
   return store;
 }
 

@@ -39,6 +39,11 @@ class PlaceStore {
   // binds it to the vocabulary. Errors name the file.
   static Expected<PlaceStore> open(const std::filesystem::path& file,
                                    uint64_t vocabulary_fingerprint, size_t num_words);
+  // Opens an existing store to read it only (SQLITE_OPEN_READONLY: localization, tools): no
+  // file is created, nothing is written (the saves fail), the file's bytes do not change.
+  // Errors: no such file, not a place store, another vocabulary.
+  static Expected<PlaceStore> openReadOnly(const std::filesystem::path& file,
+                                           uint64_t vocabulary_fingerprint, size_t num_words);
   PlaceStore(PlaceStore&& other) noexcept;
   PlaceStore& operator=(PlaceStore&& other) noexcept;
   PlaceStore(const PlaceStore&) = delete;

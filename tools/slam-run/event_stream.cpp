@@ -5,6 +5,8 @@
 
 #include "core/common/clocks.h"
 #include "core/messages/channels.h"
+#include "tools/lcmlog/log_reader.h"
+#include "tools/sim/image_session.h"
 
 namespace evermap::slam_run::detail {
 
@@ -55,6 +57,25 @@ Status EventStream::finish() {
 void StreamSink::write(const std::string& channel, int64_t utime,
                        const std::vector<uint8_t>& data) {
   if (!stream_.push(makeEvent(channel, utime, data.data(), data.size()))) stopped_ = true;
+}
+
+EventStream::Producer logProducer(std::shared_ptr<messages::LogReader> log) {
+  return [log](EventStream& out) -> Status {
+    while (const messages::LogReader::Event* e = log->next()) {
+      if (!out.push(makeEvent(e->channel, e->timestamp, e->data, static_cast<size_t>(e->datalen))))
+        return Ok{};  // the consumer stopped (--max-session-s): what follows is not used
+    }
+    return log->status();  // a log cut mid-event or damaged: the map would be of part of it
+  };
+}
+
+EventStream::Producer renderProducer(std::shared_ptr<sim::ImageSimulator> sim) {
+  return [sim](EventStream& out) -> Status {
+    StreamSink sink(out);
+    auto summary = sim->run(sink, [&sink](double) { return !sink.stopped(); });
+    if (!summary) return summary.error();
+    return Ok{};
+  };
 }
 
 }  // namespace evermap::slam_run::detail

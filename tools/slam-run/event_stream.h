@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <thread>
@@ -17,6 +18,13 @@
 #include "core/messages/rgbd_convert.h"
 #include "tools/sim/message_sink.h"
 #include "vo-proc/frame_queue.h"
+
+namespace evermap::messages {
+class LogReader;
+}
+namespace evermap::sim {
+class ImageSimulator;
+}
 
 namespace evermap::slam_run::detail {
 
@@ -67,5 +75,10 @@ class StreamSink final : public sim::MessageSink {
   EventStream& stream_;
   bool stopped_ = false;
 };
+
+// The producers of a session: an LCM log's events (an error for a log cut mid-event or
+// damaged), or the image-level simulator's rendering (evermap-slam-run, mapping or localizing).
+EventStream::Producer logProducer(std::shared_ptr<messages::LogReader> log);
+EventStream::Producer renderProducer(std::shared_ptr<sim::ImageSimulator> sim);
 
 }  // namespace evermap::slam_run::detail

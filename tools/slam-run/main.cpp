@@ -22,6 +22,7 @@
 #include "tools/eval/trajectory.h"
 #include "tools/lcmlog/log_reader.h"
 #include "tools/sim/image_sim_options.h"
+#include "tools/slam-run/localize_runner.h"
 #include "tools/slam-run/slam_runner.h"
 
 namespace {
@@ -106,7 +107,7 @@ struct SlamArgs {
   evermap::slam_run::SlamRunOptions options;
   std::string vocab_file, out_dir, config;
   std::vector<std::string> logs, sets, render_sets;
-  std::string render_config;
+  std::string render_config, localize;
   int render_sessions = -1;
   bool full_graph = false, print_config = false, places = false;
 };
@@ -131,6 +132,11 @@ int parseCommandLine(int argc, char** argv, SlamArgs* a) {
   cli.flag("--places", &a->places,
            "write loopclose-proc's place store to DIR/places.db as well "
            "(the node keyframes evermap-map-export reads; an existing one is continued)");
+  cli.value("--localize", &a->localize, "MAPDIR",
+            "localize one session (one log, or --render's render.session) against the map of "
+            "an earlier run with --places (MAPDIR/map.db, places.db; both read-only, unchanged) "
+            "instead of mapping: DIR/localization.csv and localize-summary.txt, scored against "
+            "the truth with MAPDIR/nodes.csv when there is one (docs/localization.md)");
   cli.flag("--full-graph", &a->full_graph,
            "a node at every step (the paper's baseline) instead of the reduced graph");
   cli.value("--config", &a->config, "MAPPER.conf", "mapper.* settings (docs/mapper.md)");
@@ -254,6 +260,35 @@ int writeOutputs(const std::filesystem::path& out, const evermap::slam_run::Slam
   return 0;
 }
 
+// Localizes one session against the map in a.localize, then writes the outputs; main's exit
+// status.
+int runLocalize(SlamArgs& a, std::optional<evermap::sim::ImageSimOptions>& render) {
+  using namespace evermap;
+  if (a.logs.size() + (render ? 1 : 0) != 1)
+    return fail("--localize: give one log or --render (one session)", 2);
+  const std::filesystem::path map_dir(a.localize);
+  a.options.store = map_dir / "map.db";
+  a.options.places = map_dir / "places.db";
+  std::error_code ec;
+  std::filesystem::create_directories(a.out_dir, ec);
+  if (ec) return fail(a.out_dir + ": cannot create (" + ec.message() + ")", 1);
+  auto vocabulary = bow::loadAnyVocabulary(a.vocab_file);
+  if (!vocabulary) return fail(vocabulary.error().message, 1);
+  auto runner = slam_run::LocalizeRunner::create(*vocabulary, a.options);
+  if (!runner) return fail(runner.error().message, 1);
+  if (std::filesystem::exists(map_dir / "nodes.csv")) {
+    if (Status s = (*runner)->setMapTruth(map_dir / "nodes.csv"); !s)
+      return fail(s.error().message, 1);
+  }
+  const Status s = render ? (*runner)->renderSession(*render) : (*runner)->runLog(a.logs.front());
+  if (!s) return fail(s.error().message, 1);
+  const slam_run::LocalizeSummary summary = (*runner)->finish();
+  if (Status w = slam_run::writeLocalization(a.out_dir, **runner, summary); !w)
+    return fail(w.error().message, 1);
+  std::printf("%s", summary.text().c_str());
+  return 0;
+}
+
 // Maps the logs, then the rendered sessions, then writes the outputs; main's exit status.
 int run(SlamArgs& a, std::optional<evermap::sim::ImageSimOptions>& render) {
   using namespace evermap;
@@ -302,5 +337,5 @@ int main(int argc, char** argv) {
     if (auto events = evermap::messages::LogReader::check(log); !events)
       return fail(events.error().message, 1);
   }
-  return run(a, render);
+  return a.localize.empty() ? run(a, render) : runLocalize(a, render);
 }

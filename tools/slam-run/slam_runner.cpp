@@ -206,9 +206,7 @@ void SlamRunner::exchange(double* loopclose_s, double* mapper_s) {
 }
 
 using detail::EventStream;
-using detail::makeEvent;
 using detail::ReadEvent;
-using detail::StreamSink;
 
 // One session's pipeline state: the processes that start anew with each session (vo-proc,
 // imu-proc, elevator-proc) and what the session's summary counts.
@@ -237,13 +235,7 @@ Status SlamRunner::runSession(const std::filesystem::path& log_file) {
   auto opened = messages::LogReader::open(log_file);
   if (!opened) return opened.error();
   auto log = std::make_shared<messages::LogReader>(std::move(*opened));
-  EventStream events([log](EventStream& out) -> Status {
-    while (const messages::LogReader::Event* e = log->next()) {
-      if (!out.push(makeEvent(e->channel, e->timestamp, e->data, static_cast<size_t>(e->datalen))))
-        return Ok{};  // the consumer stopped (--max-session-s): what follows is not used
-    }
-    return log->status();  // a log cut mid-event or damaged: the map would be of part of it
-  });
+  EventStream events(detail::logProducer(log));
   return mapSession(events, log_file.string(), SessionSize{count ? *count : -1, 0.0});
 }
 
@@ -258,12 +250,7 @@ Status SlamRunner::renderSession(const sim::ImageSimOptions& options) {
   if (!simulator) return simulator.error();
   std::shared_ptr<sim::ImageSimulator> sim = std::move(*simulator);
   const double duration_s = 1e-6 * static_cast<double>(sim->endUtime() - sim->startUtime());
-  EventStream events([sim](EventStream& out) -> Status {
-    StreamSink sink(out);
-    auto summary = sim->run(sink, [&sink](double) { return !sink.stopped(); });
-    if (!summary) return summary.error();
-    return Ok{};
-  });
+  EventStream events(detail::renderProducer(std::move(sim)));
   return mapSession(events, "rendered session " + std::to_string(o.render.session),
                     SessionSize{-1, duration_s});
 }

@@ -1,0 +1,100 @@
+#include "mapper-proc/localizer_node.h"
+
+#include <algorithm>
+#include <sstream>
+
+#include <evermap/attitude_t.hpp>
+#include <evermap/floor_t.hpp>
+#include <evermap/localization_t.hpp>
+#include <evermap/register_result_t.hpp>
+#include <evermap/rgbd_calib_t.hpp>
+#include <evermap/vo_delta_t.hpp>
+#include <evermap/wheel_odom_t.hpp>
+
+#include "core/messages/channels.h"
+#include "core/messages/convert.h"
+
+namespace evermap::mapper {
+
+LocalizerNode::LocalizerNode(lcm::LCM& lcm, Localizer& localizer, const LcmNodeOptions& options)
+    : out_(lcm, options.input.signer), l_(localizer), inbox_(lcm, options.input) {
+  auto on = [this](const auto& msg) { return this->on(msg); };
+  inbox_.subscribe<vo_delta_t>(channels::kVoDelta, on);
+  inbox_.subscribe<wheel_odom_t>(channels::kWheelOdom, on);
+  inbox_.subscribe<attitude_t>(channels::kAttitude, on);
+  inbox_.subscribe<floor_t>(channels::kFloor, on);
+  inbox_.subscribe<register_result_t>(channels::kRegisterResult, on);
+  const auto set = [this](const core::SE3d& m) { l_.setCameraMounting(m); };
+  inbox_.subscribeBytes<stereo_calib_t>(
+      channels::kStereoCalib,
+      [this, set](const void* data, int64_t size) { return calibration_.handle(data, size, set); });
+  inbox_.subscribeBytes<rgbd_calib_t>(channels::kRgbdCalib,
+                                      [this, set](const void* data, int64_t size) {
+                                        return calibration_.handleRgbd(data, size, set);
+                                      });
+}
+
+namespace {
+Status apply(Localizer& l, const vo_delta_t& msg) { return l.onVo(msg); }
+Status apply(Localizer& l, const wheel_odom_t& msg) { return l.onWheel(msg); }
+Status apply(Localizer& l, const attitude_t& msg) { return l.onAttitude(msg); }
+Status apply(Localizer& l, const floor_t& msg) { return l.onFloor(msg); }
+Status apply(Localizer& l, const register_result_t& msg) { return l.onRegisterResult(msg); }
+}  // namespace
+
+template <typename Msg>
+Status LocalizerNode::on(const Msg& msg) {
+  if constexpr (std::is_same_v<Msg, vo_delta_t>) {
+    if (!calibration_.haveCamera()) {
+      ++no_calibration_;
+      return makeError("VO_DELTA ", msg.utime, ": no STEREO_CALIB received yet (", no_calibration_,
+                       " so far)");
+    }
+  }
+  if (Status s = apply(l_, msg); !s) {
+    ++refused_;
+    return s;
+  }
+  bool pose = false;
+  if constexpr (std::is_same_v<Msg, vo_delta_t>) pose = true;
+  if constexpr (std::is_same_v<Msg, wheel_odom_t>) pose = !l_.tracker().voTracking();
+  afterMessage(std::is_same_v<Msg, register_result_t> ? last_utime_ : msg.utime, pose);
+  return Ok{};
+}
+
+void LocalizerNode::afterMessage(int64_t utime, bool publish_pose) {
+  last_utime_ = std::max(last_utime_, utime);
+  for (const auto& r : l_.takeRequests()) out_.publish(channels::kRegisterRequest, r);
+  if (!publish_pose) return;
+  localization_t m{};
+  m.utime = utime;
+  m.placed = l_.placed();
+  m.localized = l_.localized();
+  m.node_id = l_.activeNode();
+  m.pose = messages::toMsg(utime, l_.pose(), l_.floor(), l_.session());
+  out_.publish(kLocalizationChannel, m);
+  if (!l_.placed()) return;
+  out_.publish(channels::kPose, m.pose);
+  ++poses_;
+  if (m.localized) ++localized_poses_;
+}
+
+int64_t LocalizerNode::dropped() const {
+  int64_t n = refused_ + no_calibration_ + calibration_.counts().undecodable +
+              calibration_.counts().refused;
+  for (const auto& [channel, k] : inbox_.counts()) n += k.malformed + k.time_refused + k.failed;
+  return n;
+}
+
+std::string LocalizerNode::summary() const {
+  const LocalizerStats& s = l_.stats();
+  std::ostringstream o;
+  o << "poses_published " << poses_ << "\nlocalized_poses " << localized_poses_ << "\nsteps "
+    << s.steps << "\nrequests_node " << s.requests_node << "\nrequests_global " << s.requests_global
+    << "\nplacements " << s.placements << "\ncorrections " << s.corrections << "\nrefused_gate "
+    << s.refused_gate << "\nrefused_floor " << s.refused_floor << "\nunlocalized " << s.unlocalized
+    << "\ndropped " << dropped() << "\n";
+  return o.str();
+}
+
+}  // namespace evermap::mapper

@@ -1,0 +1,143 @@
+// mapper-proc/localizer: a robot driven along a stored corridor of nodes is placed by two
+// registrations that agree, tracks the truth while registrations correct it, counts and never
+// applies one the map gate refuses, and stops calling itself localized when it dead-reckons
+// past the bound (docs/localization.md).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include <evermap/register_result_t.hpp>
+
+#include "mapper-proc/localizer.h"
+#include "tests/mapper_messages.h"
+
+namespace evermap::mapper {
+namespace {
+
+using namespace testing;
+
+constexpr int64_t kSecond = 1000000;
+
+// A stored corridor: nodes 0..9 at x = 0..9 m on floor 0, heading +x.
+MapSnapshot corridor() {
+  MapSnapshot map;
+  map.floors = {{0, 0.0}};
+  map.sessions = {{0, 0}};
+  for (int i = 0; i < 10; ++i) {
+    StoredNode n;
+    n.node.id = i;
+    n.node.keyframe_utime = i * kSecond;
+    n.world_T_body = planar(i, 0, 0);
+    map.nodes.push_back(n);
+  }
+  return map;
+}
+
+// The robot driven along +x from x0, 0.5 m per keyframe (one a second), answering each request
+// with the true registration (shifted by `lie` when given) unless `answer` is false.
+class Drive {
+ public:
+  Drive(Localizer& l, double x0) : l_(l), x_(x0) {
+    EXPECT_TRUE(l_.onVo(voRestart(t_)).ok());
+    ref_ = t_;
+    answerAll(false, SE3d());  // VO's first frame: nothing seen yet
+  }
+  // One keyframe step; returns whether a request went out.
+  bool step(bool answer = true, const SE3d& lie = SE3d()) {
+    t_ += kSecond;
+    x_ += 0.5;
+    EXPECT_TRUE(l_.onVo(voMsg(t_, ref_, planar(0.5, 0, 0), 0.01, true)).ok());
+    ref_ = t_;
+    return answerAll(answer, lie);
+  }
+  double x() const { return x_; }
+
+ private:
+  bool answerAll(bool answer, const SE3d& lie) {
+    bool asked = false;
+    for (const register_request_t& r : l_.takeRequests()) {
+      asked = true;
+      register_result_t a{};
+      a.request_id = r.request_id;
+      a.keyframe_utime = r.keyframe_utime;
+      const int64_t node = r.mode == register_request_t::MODE_NODE
+                               ? r.target_node_id
+                               : std::clamp<int64_t>(std::lround(x_), 0, 9);
+      a.node_id = node;
+      a.status = answer ? register_result_t::STATUS_OK : register_result_t::STATUS_NO_CANDIDATE;
+      messages::putPose(lie * planar(x_ - static_cast<double>(node), 0, 0), a.translation,
+                        a.orientation);
+      for (int i = 0; i < 6; ++i) a.covariance[7 * i] = 1e-4;
+      EXPECT_TRUE(l_.onRegisterResult(a).ok());
+      // A failed node-mode request is followed by a global one: answered the same way.
+      for (const register_request_t& g : l_.takeRequests()) {
+        a.request_id = g.request_id;
+        a.status = register_result_t::STATUS_NO_CANDIDATE;
+        EXPECT_TRUE(l_.onRegisterResult(a).ok());
+      }
+    }
+    return asked;
+  }
+
+  Localizer& l_;
+  double x_;
+  int64_t t_ = 100 * kSecond;
+  int64_t ref_ = 0;
+};
+
+TEST(Localizer, ALostRobotIsPlacedByTwoRegistrationsThatAgreeAndThenTracksTheTruth) {
+  Localizer l(MapperOptions{});
+  ASSERT_TRUE(l.load(corridor()).ok());
+  Drive drive(l, 1.2);
+  EXPECT_FALSE(l.placed());
+  drive.step();  // the first registration: a candidate only
+  EXPECT_FALSE(l.localized());
+  drive.step();  // the second agrees with it through odometry
+  ASSERT_TRUE(l.localized());
+  EXPECT_EQ(l.stats().placements, 1);
+  for (int i = 0; i < 6; ++i) drive.step();
+  EXPECT_TRUE(l.localized());
+  EXPECT_GE(l.stats().corrections, 5);
+  EXPECT_NEAR(l.pose().mean.translation().x(), drive.x(), 1e-6);
+  EXPECT_EQ(l.floor(), 0);
+}
+
+TEST(Localizer, ARegistrationTheGateRefusesIsCountedAndNeverApplied) {
+  Localizer l(MapperOptions{});
+  ASSERT_TRUE(l.load(corridor()).ok());
+  Drive drive(l, 1.2);
+  drive.step();
+  drive.step();
+  ASSERT_TRUE(l.localized());
+  drive.step(true, planar(2.0, 0, 0));  // 2 m off: a false match
+  EXPECT_EQ(l.stats().refused_gate, 1);
+  EXPECT_TRUE(l.localized());
+  EXPECT_NEAR(l.pose().mean.translation().x(), drive.x(), 1e-6);
+}
+
+TEST(Localizer, DeadReckoningPastTheBoundIsNoLongerLocalizedButStillGivesThePose) {
+  MapperOptions o;
+  o.localize.max_dead_reckoning_m = 2.2;
+  Localizer l(o);
+  ASSERT_TRUE(l.load(corridor()).ok());
+  Drive drive(l, 1.2);
+  drive.step();
+  drive.step();
+  ASSERT_TRUE(l.localized());
+  for (int i = 0; i < 4; ++i) drive.step(false);  // 2 m without a registration, then 2.5
+  EXPECT_TRUE(l.localized());
+  drive.step(false);
+  EXPECT_FALSE(l.localized());
+  EXPECT_TRUE(l.placed());
+  EXPECT_EQ(l.stats().unlocalized, 1);
+  EXPECT_NEAR(l.pose().mean.translation().x(), drive.x(), 1e-6);  // dead reckoning
+}
+
+TEST(Localizer, AnEmptyMapIsRefused) {
+  Localizer l(MapperOptions{});
+  EXPECT_FALSE(l.load(MapSnapshot{}).ok());
+}
+
+}  // namespace
+}  // namespace evermap::mapper
