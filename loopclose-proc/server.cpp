@@ -43,6 +43,9 @@ LoopCloseServer::LoopCloseServer(lcm::LCM& lcm, LoopCloser& loop_closer,
 int64_t LoopCloseServer::dropped() const { return inbox_.total().dropped(); }
 
 void LoopCloseServer::publishDue() {
+  // The asks first: a node that waited for a keyframe given up is reported below.
+  for (const evermap::keyframe_request_t& r : loop_closer_.takeKeyframeRequests())
+    out_.publish(channels::kKeyframeRequest, r);
   for (const std::string& why : loop_closer_.takeNodeErrors())
     inbox_.countRefused(channels::kNodeAdded, std::string(channels::kNodeAdded) + ": " + why);
   for (const evermap::register_result_t& r : loop_closer_.poll()) {
