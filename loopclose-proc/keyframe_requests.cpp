@@ -66,11 +66,11 @@ std::vector<evermap::keyframe_request_t> KeyframeRequests::due(int64_t now,
     asks.push_back(r);
     // The waits grow from retry_us by `backoff`, up to max_retry_us. After a gap in data time
     // (a partition) the next ask is counted from now, so the gap spends one attempt at most.
-    o.wait_us = o.attempts == 1
-                    ? options_.retry_us
-                    : std::min(options_.max_retry_us,
-                               static_cast<int64_t>(static_cast<double>(o.wait_us) *
-                                                    options_.backoff));
+    o.wait_us =
+        o.attempts == 1
+            ? options_.retry_us
+            : std::min(options_.max_retry_us,
+                       static_cast<int64_t>(static_cast<double>(o.wait_us) * options_.backoff));
     o.next_us = now + o.wait_us;
     ++it;
   }

@@ -47,19 +47,18 @@ struct KeyframeRequestOptions {
           "a needed keyframe may come on its own this long before it is asked for")
         .nonNegative();
     o.add("retry_us", &retry_us, "us", "wait after the first ask before the second").positive();
-    o.add("backoff", &backoff, "", "each wait between asks is this times the one before")
-        .min(1.0);
+    o.add("backoff", &backoff, "", "each wait between asks is this times the one before").min(1.0);
     o.add("max_retry_us", &max_retry_us, "us", "longest wait between two asks").positive();
     o.add("max_open", &max_open, "", "keyframes awaited at once at most").min(1);
   }
 };
 
 struct KeyframeRequestStats {
-  int64_t asked = 0;      // keyframes asked for at least once
-  int64_t asks = 0;       // KEYFRAME_REQUEST messages
-  int64_t recovered = 0;  // asked for, then came
-  int64_t given_up = 0;   // asked max_attempts times and never came
-  int64_t refused = 0;    // needed while max_open were awaited
+  int64_t asked = 0;         // keyframes asked for at least once
+  int64_t asks = 0;          // KEYFRAME_REQUEST messages
+  int64_t recovered = 0;     // asked for, then came
+  int64_t given_up = 0;      // asked max_attempts times and never came
+  int64_t refused = 0;       // needed while max_open were awaited
   std::string text() const;  // one line
 };
 

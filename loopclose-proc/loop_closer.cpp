@@ -37,15 +37,16 @@ std::string LoopCloserStats::text() const {
   std::snprintf(line, sizeof(line),
                 "keyframes %lld (%lld rejected), nodes %lld (%lld rejected: %lld implausible, %lld "
                 "over capacity; "
-                "%lld waited for their keyframe), requests %lld, "
+                "%lld waited for their keyframe, %lld caught up from MAP_GRAPH), requests %lld, "
                 "answered %lld: ok %lld, failed %lld, stale %lld; store errors %lld",
                 static_cast<long long>(keyframes), static_cast<long long>(keyframes_rejected),
                 static_cast<long long>(nodes), static_cast<long long>(nodes_rejected),
                 static_cast<long long>(nodes_implausible),
                 static_cast<long long>(nodes_over_capacity), static_cast<long long>(nodes_waited),
-                static_cast<long long>(requests), static_cast<long long>(answered),
-                static_cast<long long>(ok), static_cast<long long>(failed),
-                static_cast<long long>(stale), static_cast<long long>(store_errors));
+                static_cast<long long>(nodes_caught_up), static_cast<long long>(requests),
+                static_cast<long long>(answered), static_cast<long long>(ok),
+                static_cast<long long>(failed), static_cast<long long>(stale),
+                static_cast<long long>(store_errors));
   return line;
 }
 
@@ -173,6 +174,30 @@ std::optional<int64_t> LoopCloser::nodeOfKeyframe(int64_t utime) const {
 
 bool LoopCloser::knowsKeyframe(int64_t utime) const {
   return recentKeyframe(utime) != nullptr || nodeOfKeyframe(utime).has_value();
+}
+
+int LoopCloser::catchUpNodes(const evermap::map_graph_t& graph) {
+  int taken = 0;
+  for (const evermap::map_node_t& n : graph.nodes) {
+    if (nodes_.count(n.node_id) || caught_up_.count(n.node_id)) continue;
+    if (std::any_of(waiting_nodes_.begin(), waiting_nodes_.end(),
+                    [&](const auto& w) { return w.node_id == n.node_id; }))
+      continue;
+    caught_up_.insert(n.node_id);
+    evermap::node_added_t msg{};
+    msg.utime = graph.utime;
+    msg.node_id = n.node_id;
+    msg.keyframe_utime = n.keyframe_utime;
+    msg.floor = n.floor;
+    msg.session = n.session;
+    if (Status s = addNode(msg); !s) {
+      node_errors_.push_back("from MAP_GRAPH: " + s.error().message);
+      continue;
+    }
+    ++stats_.nodes_caught_up;
+    ++taken;
+  }
+  return taken;
 }
 
 bool LoopCloser::awaitsKeyframe(const register_request_t& request) const {

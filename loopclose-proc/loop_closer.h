@@ -24,8 +24,10 @@
 #include <optional>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
+#include <evermap/map_graph_t.hpp>
 #include <evermap/node_added_t.hpp>
 #include <evermap/register_request_t.hpp>
 #include <evermap/register_result_t.hpp>
@@ -112,6 +114,7 @@ struct LoopCloserStats {
   int64_t nodes_implausible = 0;    // ... content no mapper sends (ids, floor, stamps)
   int64_t nodes_over_capacity = 0;  // ... max_places or max_waiting_nodes reached
   int64_t nodes_waited = 0;         // came before their keyframe and waited for it
+  int64_t nodes_caught_up = 0;      // taken from MAP_GRAPH, their NODE_ADDED never seen
   int64_t requests = 0;
   int64_t answered = 0;  // all answers, stale ones included
   int64_t stale = 0;
@@ -139,6 +142,11 @@ class LoopCloser {
   // (counted, the state left as it was): content no mapper sends (implausibleNode), a map of
   // max_places places, max_waiting_nodes nodes already waiting.
   Status addNode(const evermap::node_added_t& msg);
+  // MAP_GRAPH: a node of the mapper's map never announced here (its NODE_ADDED lost on the
+  // link, or sent while loopclose-proc was down) is added as if announced now, its keyframe
+  // asked for again if missing. Each node is caught up once at most (a refusal is final).
+  // Returns the nodes taken up (added or waiting for their keyframe).
+  int catchUpNodes(const evermap::map_graph_t& graph);
   // The waiting nodes whose keyframe did not come in time, or that failed when it came
   // (rejected, counted in nodes_rejected): one line each, naming the node. Taken once.
   std::vector<std::string> takeNodeErrors();
@@ -205,6 +213,7 @@ class LoopCloser {
   std::deque<evermap::node_added_t> waiting_nodes_;  // NODE_ADDED before its KEYFRAME
   std::vector<std::string> node_errors_;
   KeyframeRequests requests_;
+  std::unordered_set<int64_t> caught_up_;  // node ids tried from MAP_GRAPH
   int64_t now_utime_ = 0;
   std::optional<int64_t> last_answer_utime_;
   LoopCloserStats stats_;
