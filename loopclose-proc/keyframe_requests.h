@@ -27,14 +27,17 @@ namespace evermap::loopclose {
 
 struct KeyframeRequestOptions {
   // Asks per keyframe at most; 0: never ask (a lost keyframe is lost for good). At 5 % packet
-  // loss a 37 KB KEYFRAME (24 packets) arrives whole once in 3.4 sends: 16 asks leave 0.4 %.
+  // loss a 37 KB KEYFRAME (24 packets) arrives whole once in 3.4 sends: 16 asks leave 0.4 %
+  // (0.6 % with the asks lost too), over about 14 s of data time.
   int max_attempts = 16;
   // Data time a needed keyframe is given to come on its own before the first ask, µs.
   int64_t first_ask_after_us = 150'000;
   // Data time between the first ask and the second, µs; each later wait is `backoff` times
-  // the one before, up to max_retry_us.
-  int64_t retry_us = 200'000;
-  double backoff = 1.5;
+  // the one before, up to max_retry_us. A request waits for its keyframe max_request_age_us
+  // (2 s): at 5 % packet loss a keyframe took 3.7 sends on average (ask and resend both lost
+  // now and then), so the asks come close enough for 8 of them within 2 s.
+  int64_t retry_us = 100'000;
+  double backoff = 1.3;
   int64_t max_retry_us = 2'000'000;
   // Keyframes awaited at once at most.
   int max_open = 64;

@@ -201,9 +201,17 @@ int LoopCloser::catchUpNodes(const evermap::map_graph_t& graph) {
 }
 
 bool LoopCloser::awaitsKeyframe(const register_request_t& request) const {
-  if (knowsKeyframe(request.keyframe_utime)) return false;
-  return now_utime_ - request.utime < options_.keyframe_wait_us ||
-         requests_.awaits(request.keyframe_utime);
+  if (!knowsKeyframe(request.keyframe_utime)) {
+    return now_utime_ - request.utime < options_.keyframe_wait_us ||
+           requests_.awaits(request.keyframe_utime);
+  }
+  // MODE_NODE against a node that waits for its keyframe (asked for again): answered "unknown
+  // node" now, the registration would be lost.
+  if (request.mode != register_request_t::MODE_NODE || nodes_.count(request.target_node_id))
+    return false;
+  return std::any_of(waiting_nodes_.begin(), waiting_nodes_.end(), [&](const auto& n) {
+    return n.node_id == request.target_node_id && requests_.awaits(n.keyframe_utime);
+  });
 }
 
 std::string LoopCloser::implausibleNode(const evermap::node_added_t& msg) const {

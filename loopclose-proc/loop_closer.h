@@ -184,7 +184,8 @@ class LoopCloser {
   std::shared_ptr<const Keyframe> keyframeForNode(int64_t utime) const;
   std::optional<int64_t> nodeOfKeyframe(int64_t utime) const;  // the node it describes, if any
   bool knowsKeyframe(int64_t utime) const;                     // a recent one, or a node's
-  // Whether a request still waits for its query keyframe (in flight, or asked for again).
+  // Whether a request still waits for its query keyframe (in flight, or asked for again), or
+  // for the keyframe of its MODE_NODE target (asked for again).
   bool awaitsKeyframe(const evermap::register_request_t& request) const;
   // The keyframe of a node: memory, else the store (then cached). Null with a reason.
   std::shared_ptr<const Keyframe> nodeKeyframe(int64_t node_id, std::string* why);

@@ -162,6 +162,22 @@ TEST_F(LoopCloserRecoveryTest, ARequestWhoseKeyframeWasLostWaitsForItUpToItsAgeA
   EXPECT_EQ(out[0].node_id, 3);
 }
 
+TEST_F(LoopCloserRecoveryTest, ARequestAgainstANodeWhoseKeyframeIsAskedForWaitsForIt) {
+  auto lc = make();
+  const int64_t t = 100 * kSecond;
+  lc->advanceClock(t);
+  ASSERT_TRUE(lc->addNode(node(1, t, 0)).ok());  // its keyframe lost
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(0, t + 800'000)).ok());
+  lc->submit(registerRequest(1, t + 800'000, t + 800'000, kNode, 1));
+  EXPECT_FALSE(lc->takeKeyframeRequests().empty());
+  EXPECT_TRUE(lc->poll().empty());  // not "unknown node"
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(0, t)).ok());
+  const auto out = lc->poll();
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].status, kOk) << out[0].reason;
+  EXPECT_EQ(out[0].node_id, 1);
+}
+
 // The two halves over LCM: loopclose-proc's server asks on KEYFRAME_REQUEST, a stand-in for
 // vo-proc answers from its KeyframeResender on KEYFRAME, and the first answer is lost too.
 TEST_F(LoopCloserRecoveryTest, TheServerRecoversALostKeyframeFromVoProcsBufferOverLcm) {
