@@ -28,6 +28,7 @@ Status LoopCloserOptions::validate() const {
   if (global_candidates < 1) return makeError("global_candidates must be >= 1");
   if (!std::isfinite(min_candidate_score)) return makeError("min_candidate_score must be finite");
   if (exclude_recent_us < 0) return makeError("exclude_recent_us must be >= 0");
+  if (Status s = recovery.validate(); !s) return makeError("recovery.", s.error().message);
   return Ok{};
 }
 
@@ -36,15 +37,16 @@ std::string LoopCloserStats::text() const {
   std::snprintf(line, sizeof(line),
                 "keyframes %lld (%lld rejected), nodes %lld (%lld rejected: %lld implausible, %lld "
                 "over capacity; "
-                "%lld waited for their keyframe), requests %lld, "
+                "%lld waited for their keyframe, %lld caught up from MAP_GRAPH), requests %lld, "
                 "answered %lld: ok %lld, failed %lld, stale %lld; store errors %lld",
                 static_cast<long long>(keyframes), static_cast<long long>(keyframes_rejected),
                 static_cast<long long>(nodes), static_cast<long long>(nodes_rejected),
                 static_cast<long long>(nodes_implausible),
                 static_cast<long long>(nodes_over_capacity), static_cast<long long>(nodes_waited),
-                static_cast<long long>(requests), static_cast<long long>(answered),
-                static_cast<long long>(ok), static_cast<long long>(failed),
-                static_cast<long long>(stale), static_cast<long long>(store_errors));
+                static_cast<long long>(nodes_caught_up), static_cast<long long>(requests),
+                static_cast<long long>(answered), static_cast<long long>(ok),
+                static_cast<long long>(failed), static_cast<long long>(stale),
+                static_cast<long long>(store_errors));
   return line;
 }
 
@@ -54,7 +56,8 @@ LoopCloser::LoopCloser(const bow::Vocabulary& vocabulary, FrameRegistration& reg
       registration_(registration),
       options_(options),
       store_(std::move(store)),
-      places_(vocabulary.numWords(), vocabulary.fingerprint()) {}
+      places_(vocabulary.numWords(), vocabulary.fingerprint()),
+      requests_(options.recovery) {}
 
 Expected<std::unique_ptr<LoopCloser>> LoopCloser::create(const bow::Vocabulary& vocabulary,
                                                          FrameRegistration& registration,
@@ -82,7 +85,8 @@ void LoopCloser::advanceClock(int64_t utime) {
   // Any waiting node whose time is up, not only the oldest to arrive: one stamped ahead of the
   // others would otherwise hold every later one behind it.
   for (auto it = waiting_nodes_.begin(); it != waiting_nodes_.end();) {
-    if (now_utime_ - it->utime < options_.keyframe_wait_us) {
+    if (now_utime_ - it->utime < options_.keyframe_wait_us ||
+        requests_.awaits(it->keyframe_utime)) {
       ++it;
       continue;
     }
@@ -98,6 +102,27 @@ void LoopCloser::advanceClock(int64_t utime) {
 
 std::vector<std::string> LoopCloser::takeNodeErrors() { return std::exchange(node_errors_, {}); }
 
+std::vector<evermap::keyframe_request_t> LoopCloser::takeKeyframeRequests() {
+  std::vector<int64_t> given_up;
+  std::vector<evermap::keyframe_request_t> asks = requests_.due(now_utime_, &given_up);
+  for (const int64_t keyframe_utime : given_up) {
+    for (auto it = waiting_nodes_.begin(); it != waiting_nodes_.end();) {
+      if (it->keyframe_utime != keyframe_utime) {
+        ++it;
+        continue;
+      }
+      ++stats_.nodes_rejected;
+      char line[200];
+      std::snprintf(line, sizeof(line), "node %lld: its keyframe %lld did not come, asked %d times",
+                    static_cast<long long>(it->node_id), static_cast<long long>(keyframe_utime),
+                    options_.recovery.max_attempts);
+      node_errors_.emplace_back(line);
+      it = waiting_nodes_.erase(it);
+    }
+  }
+  return asks;
+}
+
 Status LoopCloser::addKeyframe(const evermap::keyframe_t& msg) {
   auto k = fromMsg(msg);
   if (!k) {
@@ -106,6 +131,7 @@ Status LoopCloser::addKeyframe(const evermap::keyframe_t& msg) {
   }
   advanceClock(msg.utime);
   ++stats_.keyframes;
+  requests_.received(msg.utime);
   auto shared = std::make_shared<const Keyframe>(std::move(*k));
   auto same = std::find_if(recent_.begin(), recent_.end(),
                            [&](const auto& r) { return r->utime() == shared->utime(); });
@@ -150,6 +176,44 @@ bool LoopCloser::knowsKeyframe(int64_t utime) const {
   return recentKeyframe(utime) != nullptr || nodeOfKeyframe(utime).has_value();
 }
 
+int LoopCloser::catchUpNodes(const evermap::map_graph_t& graph) {
+  int taken = 0;
+  for (const evermap::map_node_t& n : graph.nodes) {
+    if (nodes_.count(n.node_id) || caught_up_.count(n.node_id)) continue;
+    if (std::any_of(waiting_nodes_.begin(), waiting_nodes_.end(),
+                    [&](const auto& w) { return w.node_id == n.node_id; }))
+      continue;
+    caught_up_.insert(n.node_id);
+    evermap::node_added_t msg{};
+    msg.utime = graph.utime;
+    msg.node_id = n.node_id;
+    msg.keyframe_utime = n.keyframe_utime;
+    msg.floor = n.floor;
+    msg.session = n.session;
+    if (Status s = addNode(msg); !s) {
+      node_errors_.push_back("from MAP_GRAPH: " + s.error().message);
+      continue;
+    }
+    ++stats_.nodes_caught_up;
+    ++taken;
+  }
+  return taken;
+}
+
+bool LoopCloser::awaitsKeyframe(const register_request_t& request) const {
+  if (!knowsKeyframe(request.keyframe_utime)) {
+    return now_utime_ - request.utime < options_.keyframe_wait_us ||
+           requests_.awaits(request.keyframe_utime);
+  }
+  // MODE_NODE against a node that waits for its keyframe (asked for again): answered "unknown
+  // node" now, the registration would be lost.
+  if (request.mode != register_request_t::MODE_NODE || nodes_.count(request.target_node_id))
+    return false;
+  return std::any_of(waiting_nodes_.begin(), waiting_nodes_.end(), [&](const auto& n) {
+    return n.node_id == request.target_node_id && requests_.awaits(n.keyframe_utime);
+  });
+}
+
 std::string LoopCloser::implausibleNode(const evermap::node_added_t& msg) const {
   std::ostringstream why;
   if (msg.node_id < 0) {
@@ -164,6 +228,21 @@ std::string LoopCloser::implausibleNode(const evermap::node_added_t& msg) const 
         << msg.utime;
   }
   return why.str();
+}
+
+std::shared_ptr<const Keyframe> LoopCloser::keyframeForNode(int64_t utime) const {
+  std::shared_ptr<const Keyframe> keyframe;
+  for (const auto& r : recent_) {
+    if (r->utime() == utime) keyframe = r;
+  }
+  if (!keyframe && store_) {
+    auto stored = store_->loadKeyframe(utime);
+    if (stored && stored->has_value()) {
+      auto k = fromMsg(**stored);
+      if (k) keyframe = std::make_shared<const Keyframe>(std::move(*k));
+    }
+  }
+  return keyframe;
 }
 
 Status LoopCloser::addNode(const evermap::node_added_t& msg) {
@@ -188,23 +267,20 @@ Status LoopCloser::addNode(const evermap::node_added_t& msg) {
     ++stats_.nodes_rejected;
     return makeError("node ", msg.node_id, ": already waiting for its keyframe");
   }
-  std::shared_ptr<const Keyframe> keyframe;
-  for (const auto& r : recent_) {
-    if (r->utime() == msg.keyframe_utime) keyframe = r;
-  }
-  if (!keyframe && store_) {
-    auto stored = store_->loadKeyframe(msg.keyframe_utime);
-    if (stored && stored->has_value()) {
-      auto k = fromMsg(**stored);
-      if (k) keyframe = std::make_shared<const Keyframe>(std::move(*k));
-    }
-  }
-  if (!keyframe && now_utime_ - msg.utime < options_.keyframe_wait_us) {
+  std::shared_ptr<const Keyframe> keyframe = keyframeForNode(msg.keyframe_utime);
+  // In flight (the wait), or lost on the link and asked for again (the recovery).
+  const bool in_flight = now_utime_ - msg.utime < options_.keyframe_wait_us;
+  if (!keyframe && (in_flight || requests_.enabled())) {
     if (waiting_nodes_.size() >= options_.max_waiting_nodes) {
       ++stats_.nodes_rejected;
       ++stats_.nodes_over_capacity;
       return makeError("node ", msg.node_id, ": max_waiting_nodes = ", options_.max_waiting_nodes,
                        " nodes already wait for their keyframe");
+    }
+    if (!requests_.need(msg.keyframe_utime, now_utime_) && !in_flight) {
+      ++stats_.nodes_rejected;
+      return makeError("node ", msg.node_id, ": keyframe ", msg.keyframe_utime, " is missing and ",
+                       requests_.open(), " keyframes are asked for already");
     }
     waiting_nodes_.push_back(msg);
     ++stats_.nodes_waited;
@@ -287,6 +363,7 @@ std::shared_ptr<const Keyframe> LoopCloser::nodeKeyframe(int64_t node_id, std::s
 void LoopCloser::submit(const register_request_t& request) {
   advanceClock(request.utime);
   ++stats_.requests;
+  if (!knowsKeyframe(request.keyframe_utime)) requests_.need(request.keyframe_utime, now_utime_);
   pending_.push_back(request);
   while (pending_.size() > options_.max_pending_requests) {
     // The oldest by stamp goes: newest requests are served first.
@@ -316,15 +393,14 @@ std::vector<register_result_t> LoopCloser::poll() {
   }
   const auto period_us = static_cast<int64_t>(std::llround(1e6 / options_.max_rate_hz));
   if (!pending_.empty() && (!last_answer_utime_ || now_utime_ - *last_answer_utime_ >= period_us)) {
-    // Newest first; among equal stamps the one that arrived last.
-    auto newest = pending_.begin();
+    // Newest first; among equal stamps the one that arrived last. One whose keyframe may still
+    // come (on its way, or asked for again) waits, and the slot goes to the next.
+    auto newest = pending_.end();
     for (auto it = pending_.begin(); it != pending_.end(); ++it) {
-      if (it->utime >= newest->utime) newest = it;
+      if (awaitsKeyframe(*it)) continue;
+      if (newest == pending_.end() || it->utime >= newest->utime) newest = it;
     }
-    // Its keyframe may still be on its way: wait for it (the slot stays free) a little.
-    if (!knowsKeyframe(newest->keyframe_utime) &&
-        now_utime_ - newest->utime < options_.keyframe_wait_us)
-      return out;
+    if (newest == pending_.end()) return out;
     const register_request_t request = *newest;
     pending_.erase(newest);
     out.push_back(answer(request));

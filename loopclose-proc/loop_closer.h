@@ -7,6 +7,9 @@
 //  - answers registration requests (REGISTER_REQUEST): the query keyframe against one given
 //    node (MODE_NODE), or against the best places of an appearance search on the requested
 //    floor (MODE_GLOBAL, candidates tried in score order until one registers);
+//  - a keyframe it needs (named by a NODE_ADDED or a request) and does not hold is asked of
+//    vo-proc again (KEYFRAME_REQUEST, keyframe_requests.h): the node, or the request up to
+//    max_request_age_us, waits for it while it is asked for;
 //  - at most `max_rate_hz` answers per second of data time, newest request first; a request
 //    older than `max_request_age_us`, or pushed out of the bounded queue, is answered
 //    STATUS_STALE and counted. Every failure is an answer with a status and a reason: the
@@ -21,8 +24,10 @@
 #include <optional>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
+#include <evermap/map_graph_t.hpp>
 #include <evermap/node_added_t.hpp>
 #include <evermap/register_request_t.hpp>
 #include <evermap/register_result_t.hpp>
@@ -33,6 +38,7 @@
 #include "core/common/expected.h"
 #include "core/common/option_fields.h"
 #include "loopclose-proc/keyframe.h"
+#include "loopclose-proc/keyframe_requests.h"
 #include "loopclose-proc/registration.h"
 
 namespace evermap::loopclose {
@@ -69,6 +75,8 @@ struct LoopCloserOptions {
   int global_candidates = 3;
   double min_candidate_score = 0.0;
   int64_t exclude_recent_us = 10'000'000;
+  // Keyframes missed on a lossy link, asked of vo-proc again.
+  KeyframeRequestOptions recovery;
 
   Status validate() const;
   void declareOptions(OptionList& o) {
@@ -94,6 +102,7 @@ struct LoopCloserOptions {
     o.add("exclude_recent_us", &exclude_recent_us, "us",
           "places this recent before the query are no loop closures")
         .nonNegative();
+    o.nest("recovery.", &recovery);
   }
 };
 
@@ -105,6 +114,7 @@ struct LoopCloserStats {
   int64_t nodes_implausible = 0;    // ... content no mapper sends (ids, floor, stamps)
   int64_t nodes_over_capacity = 0;  // ... max_places or max_waiting_nodes reached
   int64_t nodes_waited = 0;         // came before their keyframe and waited for it
+  int64_t nodes_caught_up = 0;      // taken from MAP_GRAPH, their NODE_ADDED never seen
   int64_t requests = 0;
   int64_t answered = 0;  // all answers, stale ones included
   int64_t stale = 0;
@@ -127,10 +137,16 @@ class LoopCloser {
   Status addKeyframe(const evermap::keyframe_t& msg);
   // NODE_ADDED: the node's keyframe must be among the recent ones (or already stored). One
   // that came before its keyframe (the mapper's first node is made on the frame's VO_DELTA)
-  // waits for it up to keyframe_wait_us of data time, and is added when it comes. Refused
+  // waits for it up to keyframe_wait_us of data time, or while the keyframe is asked for
+  // again (recovery), and is added when it comes. Refused
   // (counted, the state left as it was): content no mapper sends (implausibleNode), a map of
   // max_places places, max_waiting_nodes nodes already waiting.
   Status addNode(const evermap::node_added_t& msg);
+  // MAP_GRAPH: a node of the mapper's map never announced here (its NODE_ADDED lost on the
+  // link, or sent while loopclose-proc was down) is added as if announced now, its keyframe
+  // asked for again if missing. Each node is caught up once at most (a refusal is final).
+  // Returns the nodes taken up (added or waiting for their keyframe).
+  int catchUpNodes(const evermap::map_graph_t& graph);
   // The waiting nodes whose keyframe did not come in time, or that failed when it came
   // (rejected, counted in nodes_rejected): one line each, naming the node. Taken once.
   std::vector<std::string> takeNodeErrors();
@@ -139,6 +155,9 @@ class LoopCloser {
   // Data time from a stream that asks nothing (VO_DELTA, 20-30 Hz): answers fall due, and
   // requests go stale, between the keyframes and requests that otherwise set the clock.
   void advanceClock(int64_t utime);
+  // KEYFRAME_REQUEST: the asks for missed keyframes due now. Nodes that waited for a keyframe
+  // given up are rejected (takeNodeErrors()).
+  std::vector<evermap::keyframe_request_t> takeKeyframeRequests();
   // The answers due now: stale requests, and at most one answer per 1/max_rate_hz of data time
   // (the newest pending request).
   std::vector<evermap::register_result_t> poll();
@@ -149,6 +168,7 @@ class LoopCloser {
   size_t numNodes() const { return places_.size(); }
   size_t pending() const { return pending_.size(); }
   const LoopCloserStats& stats() const { return stats_; }
+  const KeyframeRequestStats& recoveryStats() const { return requests_.stats(); }
 
  private:
   struct Node {
@@ -160,8 +180,13 @@ class LoopCloser {
   // "" when `msg` could come from a mapper, else why not.
   std::string implausibleNode(const evermap::node_added_t& msg) const;
   const Keyframe* recentKeyframe(int64_t utime) const;
+  // A recent keyframe, else the store's (the newest received of that utime); null if neither.
+  std::shared_ptr<const Keyframe> keyframeForNode(int64_t utime) const;
   std::optional<int64_t> nodeOfKeyframe(int64_t utime) const;  // the node it describes, if any
   bool knowsKeyframe(int64_t utime) const;                     // a recent one, or a node's
+  // Whether a request still waits for its query keyframe (in flight, or asked for again), or
+  // for the keyframe of its MODE_NODE target (asked for again).
+  bool awaitsKeyframe(const evermap::register_request_t& request) const;
   // The keyframe of a node: memory, else the store (then cached). Null with a reason.
   std::shared_ptr<const Keyframe> nodeKeyframe(int64_t node_id, std::string* why);
   evermap::register_result_t failure(const evermap::register_request_t& request, int8_t status,
@@ -188,6 +213,8 @@ class LoopCloser {
   std::deque<evermap::register_request_t> pending_;  // arrival order
   std::deque<evermap::node_added_t> waiting_nodes_;  // NODE_ADDED before its KEYFRAME
   std::vector<std::string> node_errors_;
+  KeyframeRequests requests_;
+  std::unordered_set<int64_t> caught_up_;  // node ids tried from MAP_GRAPH
   int64_t now_utime_ = 0;
   std::optional<int64_t> last_answer_utime_;
   LoopCloserStats stats_;

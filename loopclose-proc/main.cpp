@@ -118,5 +118,6 @@ int main(int argc, char** argv) {
   std::printf("loopclose-proc: %s; %lld messages dropped, %lld results published\n",
               (*loop_closer)->stats().text().c_str(), static_cast<long long>(server.dropped()),
               static_cast<long long>(server.published()));
+  std::printf("loopclose-proc: %s\n", (*loop_closer)->recoveryStats().text().c_str());
   return 0;
 }

@@ -30,6 +30,14 @@ LoopCloseServer::LoopCloseServer(lcm::LCM& lcm, LoopCloser& loop_closer,
                                                   loop_closer_.submit(m);
                                                   publishDue();
                                                 });
+  // The mapper's map: nodes whose NODE_ADDED was lost (one datagram) are caught up from it.
+  inbox_.subscribe<evermap::map_graph_t>(
+      channels::kMapGraph,
+      [this](const evermap::map_graph_t& m) {
+        loop_closer_.catchUpNodes(m);
+        publishDue();
+      },
+      2);  // the newest matters; a large map is MBs
   // The clock: keyframes and requests come about once a second, and the time guard holds
   // messages until three distinct stamps agree, so a clock set by them alone held a session's
   // first request for three seconds of data (the robot had left the place it showed by the
@@ -43,6 +51,9 @@ LoopCloseServer::LoopCloseServer(lcm::LCM& lcm, LoopCloser& loop_closer,
 int64_t LoopCloseServer::dropped() const { return inbox_.total().dropped(); }
 
 void LoopCloseServer::publishDue() {
+  // The asks first: a node that waited for a keyframe given up is reported below.
+  for (const evermap::keyframe_request_t& r : loop_closer_.takeKeyframeRequests())
+    out_.publish(channels::kKeyframeRequest, r);
   for (const std::string& why : loop_closer_.takeNodeErrors())
     inbox_.countRefused(channels::kNodeAdded, std::string(channels::kNodeAdded) + ": " + why);
   for (const evermap::register_result_t& r : loop_closer_.poll()) {

@@ -112,6 +112,13 @@ evermap::node_added_t node(int64_t id, int64_t keyframe_utime, int32_t floor) {
   return evermap::testing::nodeAdded(id, keyframe_utime, floor);
 }
 
+// Without asking vo-proc again for missed keyframes: the plain wait of keyframe_wait_us.
+LoopCloserOptions noRecovery() {
+  LoopCloserOptions o;
+  o.recovery.max_attempts = 0;
+  return o;
+}
+
 class LoopCloserTest : public ::testing::Test {
  protected:
   std::unique_ptr<LoopCloser> make(LoopCloserOptions o = {},
@@ -195,7 +202,7 @@ TEST_F(LoopCloserTest, RecentPlacesAreNotLoopClosures) {
 }
 
 TEST_F(LoopCloserTest, BadInputIsAnsweredWithAReasonNeverACrash) {
-  auto lc = make();
+  auto lc = make(noRecovery());
   addMap(*lc);
   const int64_t t = 60 * kSecond;
   ASSERT_TRUE(lc->addKeyframe(world_.keyframe(2, t)).ok());
@@ -268,7 +275,7 @@ TEST_F(LoopCloserTest, AnswersAtMostTwoPerSecondNewestFirstAndDropsStaleOnes) {
 // Live, the mapper's request (sent on the frame's VO_DELTA) often overtakes the frame's
 // KEYFRAME (tens of UDP fragments): it waits for it, for keyframe_wait_us of data time.
 TEST_F(LoopCloserTest, ARequestThatOvertookItsKeyframeWaitsForIt) {
-  auto lc = make();
+  auto lc = make(noRecovery());
   addMap(*lc);
   const int64_t t = 100 * kSecond;
   lc->advanceClock(t);
@@ -298,7 +305,7 @@ TEST_F(LoopCloserTest, ARequestThatOvertookItsKeyframeWaitsForIt) {
 // can come before the KEYFRAME (tens of fragments). Rejected, that place was never in the
 // database, and a later session starting there could not be placed. It waits instead.
 TEST_F(LoopCloserTest, ANodeThatCameBeforeItsKeyframeWaitsForIt) {
-  auto lc = make();
+  auto lc = make(noRecovery());
   const int64_t t = 100 * kSecond;
   lc->advanceClock(t);
   ASSERT_TRUE(lc->addNode(node(1, t, 0)).ok());
@@ -414,7 +421,7 @@ TEST_F(LoopCloserTest, TheMapHoldsAtMostMaxPlacesAndAtMostMaxWaitingNodesWait) {
 }
 
 TEST_F(LoopCloserTest, AWaitingNodeStampedAheadDoesNotHoldTheOthersBehindIt) {
-  auto lc = make();
+  auto lc = make(noRecovery());
   const int64_t t = 100 * kSecond;
   lc->advanceClock(t);
   ASSERT_TRUE(lc->addNode(node(1, t + 400'000, 0)).ok());  // arrived first, stamped ahead

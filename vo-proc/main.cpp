@@ -1,12 +1,15 @@
 // evermap-vo-proc: visual odometry on LCM. Subscribes to STEREO_CALIB and STEREO (a stereo
 // rig) and RGBD (an RGB-D camera, its calibration inside), publishes VO_DELTA per frame and
 // KEYFRAME per new keyframe (vo-proc/vo_pipeline.h); the outputs do not say which camera.
+// Keeps its recent keyframes and publishes one again when a receiver that missed it asks on
+// KEYFRAME_REQUEST (vo-proc/keyframe_buffer.h), at a bounded rate.
 //
 // Threads: the LCM thread only copies each received STEREO or RGBD event into a bounded queue
 // (dropping the oldest when the worker falls behind) and keeps the latest calibration; the
 // worker thread decodes (a stereo pair's two images in parallel: messages::fromMsg), runs
 // odometry and publishes (lcm::LCM::publish is thread-safe).
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -25,6 +28,7 @@
 #include "core/messages/key_option.h"
 #include "core/messages/outbox.h"
 #include "vo-proc/frame_queue.h"
+#include "vo-proc/keyframe_buffer.h"
 #include "vo-proc/vo_pipeline.h"
 
 namespace {
@@ -39,6 +43,39 @@ struct QueuedFrame {
 struct Shared {
   std::mutex mutex;
   std::optional<Bytes> calibration;  // the latest STEREO_CALIB, not yet applied
+};
+
+// KEYFRAME is published by the worker (new keyframes) and by the LCM thread (keyframes asked
+// for again): one mutex over the resender and both publishes keeps the channel's messages in
+// the envelope's counter order (a receiver with a key refuses one out of order).
+class KeyframeChannel {
+ public:
+  KeyframeChannel(const evermap::vo::KeyframeResendOptions& options,
+                  const evermap::messages::Outbox* outbox)
+      : resender_(options), outbox_(outbox) {}
+  void publishNew(const evermap::keyframe_t& keyframe) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    outbox_->publish(evermap::channels::kKeyframe, keyframe);
+    resender_.keep(keyframe);
+  }
+  evermap::Status onRequest(const evermap::keyframe_request_t& request) {
+    const double now_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (auto keyframe = resender_.answer(request, now_s)) {
+      outbox_->publish(evermap::channels::kKeyframe, *keyframe);
+    }
+    return evermap::Ok{};
+  }
+  std::string report() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return resender_.stats().text();
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  evermap::vo::KeyframeResender resender_;
+  const evermap::messages::Outbox* outbox_;
 };
 
 // The bytes come through a messages::Inbox: checked along their type's wire layout and by the
@@ -69,6 +106,7 @@ struct Settings {
   int queue_size = 2;
   double time_window_s = 120.0;  // core/messages/inbox.h, TimeGuardOptions
   evermap::vo::PipelineOptions pipeline;
+  evermap::vo::KeyframeResendOptions resend;
   std::string ready_file;
   std::string key_file;
 };
@@ -97,8 +135,10 @@ int parse(int argc, char** argv, Settings* s) {
   bool print_options = false;
   cli.flag("--print-options", &print_options, "print the odometry options in words and exit");
   cli.options(&s->pipeline);
+  cli.options(&s->resend, "resend.");
   cli.check([s, &no_descriptors] {
     if (no_descriptors) s->pipeline.odometry.keyframe_descriptors = false;
+    if (evermap::Status r = s->resend.validate(); !r) return r;
     return s->pipeline.validate();
   });
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
@@ -111,7 +151,8 @@ int parse(int argc, char** argv, Settings* s) {
 
 // The worker: applies the latest calibration, runs each queued frame and publishes.
 void work(evermap::vo::BoundedQueue<QueuedFrame>* queue, Shared* shared,
-          evermap::vo::VoPipeline* pipeline, const evermap::messages::Outbox* sender) {
+          evermap::vo::VoPipeline* pipeline, const evermap::messages::Outbox* sender,
+          KeyframeChannel* keyframes) {
   int64_t bad_frames = 0;
   while (auto frame = queue->pop()) {
     std::optional<Bytes> calibration;
@@ -147,7 +188,7 @@ void work(evermap::vo::BoundedQueue<QueuedFrame>* queue, Shared* shared,
                                  : "");
     }
     sender->publish(evermap::channels::kVoDelta, out->delta);
-    if (out->keyframe) sender->publish(evermap::channels::kKeyframe, *out->keyframe);
+    if (out->keyframe) keyframes->publishNew(*out->keyframe);
     if (out->calibration) sender->publish(evermap::channels::kVoCalib, *out->calibration);
     if (!out->result.calibration_message.empty()) {
       std::fprintf(stderr, "evermap-vo-proc: self-calibration: %s\n",
@@ -193,6 +234,7 @@ int main(int argc, char** argv) {
   input.signer = *signer;
   const evermap::messages::Outbox outbox(lcm, *signer);
   evermap::messages::Inbox inbox(lcm, input);
+  KeyframeChannel keyframes(settings.resend, &outbox);
   inbox.subscribeBytes<evermap::stereo_image_t>(
       evermap::channels::kStereo,
       [&](const void* d, int64_t n) { return receiver.onFrame(false, d, n); });
@@ -202,12 +244,15 @@ int main(int argc, char** argv) {
   inbox.subscribeBytes<evermap::stereo_calib_t>(
       evermap::channels::kStereoCalib,
       [&](const void* d, int64_t n) { return receiver.onCalibration(d, n); }, 8);
+  inbox.subscribe<evermap::keyframe_request_t>(
+      evermap::channels::kKeyframeRequest,
+      [&](const evermap::keyframe_request_t& m) { return keyframes.onRequest(m); }, 16);
 
   if (!settings.ready_file.empty()) {
     if (std::FILE* f = std::fopen(settings.ready_file.c_str(), "w")) std::fclose(f);
   }
 
-  std::thread worker([&] { work(&queue, &shared, &*pipeline, &outbox); });
+  std::thread worker([&] { work(&queue, &shared, &*pipeline, &outbox, &keyframes); });
 
   while (!stop.requested()) {
     lcm.handleTimeout(200);
@@ -219,5 +264,6 @@ int main(int argc, char** argv) {
   std::fprintf(stderr, "evermap-vo-proc: %s; %lld frames dropped behind (queue %zu)\n",
                pipeline->stats().report().c_str(), static_cast<long long>(queue.dropped()),
                queue_size);
+  std::fprintf(stderr, "evermap-vo-proc: %s\n", keyframes.report().c_str());
   return 0;
 }

@@ -5,7 +5,8 @@
 # by a veth pair with multicast TTL 1 (a clean LAN); and with evermap-lcm-link as the only
 # link, 5 % of the datagrams lost and an 8 s partition. Checked: no process died or was
 # restarted, the veth carried the traffic, the lossy link counted its drops per channel (a
-# KEYFRAME among them), the mapper went on mapping after the partition, both two-host maps are
+# KEYFRAME among them), the lost KEYFRAMEs loopclose-proc needed were recovered by asking
+# vo-proc again, the mapper went on mapping after the partition, both two-host maps are
 # near the control's (nodes, node ATE) and no loop closure is false. Nothing outside the
 # repository (the vocabulary is scripts/make-vocab.sh's). A few minutes.
 source "$(dirname "$0")/lib.sh" "$@"
@@ -53,6 +54,20 @@ grep -E '^robot->base (KEYFRAME|VO_DELTA|total) ' "$tmp/link/summary.txt"
 read -r kf_lost kf_messages < <(awk '$1 == "robot->base" && $2 == "KEYFRAME" { print $10, $8 }' "$tmp/link/summary.txt")
 [ "${kf_lost:-0}" -ge 1 ] || fail "no KEYFRAME lost on the link (of ${kf_messages:-0})"
 grep -q '^robot->base STEREO .* local [1-9]' "$tmp/link/summary.txt" || fail "STEREO was not kept on the robot"
+# The lost KEYFRAMEs loopclose-proc needed were asked for again and recovered from vo-proc's
+# buffer (docs/deployment.md): a 37 KB keyframe arrives whole once in 3.4 sends at 5 % packet
+# loss, and 16 asks leave 0.6 % missing; asks still open when the session ends are neither
+# (measured in two runs: 17-20 asked, 16-19 recovered, 1 given up, 73-78 resent; none asked
+# on one host).
+for k in keyframes_asked keyframes_recovered keyframes_given_up keyframes_resent nodes_rejected; do
+  echo "link: $k $(value "$k" "$tmp/link/summary.txt") (one host: $(value "$k" "$tmp/one/summary.txt"))"
+done
+asked="$(value keyframes_asked "$tmp/link/summary.txt")"
+recovered="$(value keyframes_recovered "$tmp/link/summary.txt")"
+given_up="$(value keyframes_given_up "$tmp/link/summary.txt")"
+[ "${recovered:-0}" -ge 1 ] || fail "no lost KEYFRAME recovered (${asked:-0} asked for again)"
+[ "$((10 * ${given_up:-0}))" -le "${asked:-0}" ] || fail "$given_up of $asked KEYFRAMEs asked for again were given up"
+[ "$(value keyframes_resent "$tmp/link/summary.txt")" -ge "$recovered" ] || fail "vo-proc resent fewer KEYFRAMEs than were recovered"
 # The mapper went on after the partition: its node count grew from the partition's end on.
 read -r at_end_of_partition at_end < <(awk '/^progress:/ { w = $3 + 0; n = $0; sub(/.*nodes /, "", n); n = n + 0
   if (w >= 35 && first == "") first = n; last = n } END { print first + 0, last + 0 }' "$tmp/link/base0/mapper-proc.log")
@@ -60,9 +75,9 @@ echo "link: $at_end_of_partition nodes after the partition, $at_end at the end"
 [ "$at_end" -gt "$at_end_of_partition" ] || fail "the map did not grow after the partition"
 
 # Both two-host maps near the control: nodes within 10 % on a clean veth; within 50 % with
-# 5 % packet loss and the partition: about 70 % of the KEYFRAMEs (24 packets each) are lost,
-# their registrations fail and the mapper makes a node where it would have merged (measured:
-# 15 against 11). Node ATE within 0.3 m (the control's is centimetres; before the tracker
+# 5 % packet loss and the partition: about 70 % of the KEYFRAMEs (24 packets each) are lost
+# at first; before they were asked for again, their registrations failed and the mapper made
+# a node where it would have merged (15 against 11; 10 and 12 against 11 with the recovery). Node ATE within 0.3 m (the control's is centimetres; before the tracker
 # bridged the wheels' hole, an 8 s partition put it at 1.8 m).
 nodes_near() { awk -v a="$1" -v b="$control" -v f="$2" 'BEGIN { exit !(a >= (1 - f) * b && a <= (1 + f) * b) }'; }
 nodes_near "$(value nodes "$tmp/veth/summary.txt")" 0.1 || fail "veth: nodes not within 10 % of the control's $control"

@@ -62,6 +62,7 @@ const std::map<std::string, std::function<Bytes()>>& channelTypes() {
       {channels::kWheelOdom, encodeDefault<wheel_odom_t>},
       {channels::kVoDelta, encodeDefault<vo_delta_t>},
       {channels::kKeyframe, encodeDefault<keyframe_t>},
+      {channels::kKeyframeRequest, encodeDefault<keyframe_request_t>},
       {channels::kAttitude, encodeDefault<attitude_t>},
       {channels::kFloor, encodeDefault<floor_t>},
       {channels::kNodeAdded, encodeDefault<node_added_t>},

@@ -1,0 +1,78 @@
+#include "vo-proc/keyframe_buffer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace evermap::vo {
+
+Status KeyframeResendOptions::validate() const { return checkOptionRanges(*this); }
+
+void KeyframeBuffer::keep(const evermap::keyframe_t& keyframe) {
+  if (max_keyframes_ <= 0) return;
+  if (!keyframes_.empty() && keyframe.utime <= keyframes_.back().utime) keyframes_.clear();
+  keyframes_.push_back(keyframe);
+  while (static_cast<int>(keyframes_.size()) > max_keyframes_ ||
+         keyframes_.back().utime - keyframes_.front().utime > max_age_us_) {
+    keyframes_.pop_front();
+  }
+}
+
+const evermap::keyframe_t* KeyframeBuffer::find(int64_t utime) const {
+  // Utimes increase: a binary search.
+  auto it = std::lower_bound(keyframes_.begin(), keyframes_.end(), utime,
+                             [](const evermap::keyframe_t& k, int64_t u) { return k.utime < u; });
+  return it != keyframes_.end() && it->utime == utime ? &*it : nullptr;
+}
+
+std::string ResendStats::text() const {
+  char line[200];
+  std::snprintf(line, sizeof(line),
+                "keyframe requests %lld: resent %lld, unknown %lld, too soon %lld, over the rate "
+                "%lld",
+                static_cast<long long>(requests), static_cast<long long>(resent),
+                static_cast<long long>(unknown), static_cast<long long>(too_soon),
+                static_cast<long long>(over_rate));
+  return line;
+}
+
+KeyframeResender::KeyframeResender(const KeyframeResendOptions& options)
+    : options_(options),
+      buffer_(options.keyframes, options.seconds),
+      tokens_(std::max(1.0, options.max_rate_hz)) {}
+
+std::optional<evermap::keyframe_t> KeyframeResender::answer(
+    const evermap::keyframe_request_t& request, double now_s) {
+  ++stats_.requests;
+  const evermap::keyframe_t* keyframe = buffer_.find(request.keyframe_utime);
+  if (!keyframe) {
+    ++stats_.unknown;
+    return std::nullopt;
+  }
+  // A clock that goes back (or is not finite) fills nothing and lets nothing through early.
+  const double burst = std::max(1.0, options_.max_rate_hz);
+  if (last_s_ && now_s > *last_s_) {
+    tokens_ = std::min(burst, tokens_ + (now_s - *last_s_) * options_.max_rate_hz);
+  }
+  if (!last_s_ || now_s > *last_s_) last_s_ = now_s;
+  // Resends older than min_interval_s no longer count, nor beyond one per kept keyframe.
+  while (!sent_.empty() && (!(now_s - sent_.front().at_s < options_.min_interval_s) ||
+                            sent_.size() > static_cast<size_t>(options_.keyframes))) {
+    sent_.pop_front();
+  }
+  if (std::any_of(sent_.begin(), sent_.end(),
+                  [&](const Sent& s) { return s.utime == request.keyframe_utime; })) {
+    ++stats_.too_soon;
+    return std::nullopt;
+  }
+  if (tokens_ < 1.0) {
+    ++stats_.over_rate;
+    return std::nullopt;
+  }
+  tokens_ -= 1.0;
+  if (options_.min_interval_s > 0.0) sent_.push_back(Sent{request.keyframe_utime, now_s});
+  ++stats_.resent;
+  return *keyframe;
+}
+
+}  // namespace evermap::vo
