@@ -80,11 +80,7 @@ LcmNode::LcmNode(lcm::LCM& lcm, Mapper& mapper, const LcmNodeOptions& options, M
       timing_at_stats_(mapper.stats().timing),
       inbox_(lcm, options.input) {
   auto on = [this](const auto& msg) { return this->on(msg); };
-  inbox_.subscribe<vo_delta_t>(channels::kVoDelta, on);
-  inbox_.subscribe<wheel_odom_t>(channels::kWheelOdom, on);
-  inbox_.subscribe<attitude_t>(channels::kAttitude, on);
-  inbox_.subscribe<floor_t>(channels::kFloor, on);
-  inbox_.subscribe<register_result_t>(channels::kRegisterResult, on);
+  subscribeMapInputs(inbox_, on);
   inbox_.subscribeBytes<stereo_calib_t>(
       channels::kStereoCalib,
       [this](const void* data, int64_t size) { return onCalibration(data, size); });
@@ -109,14 +105,6 @@ Status LcmNode::onCalibration(const void* data, int64_t size) {
   return calibration_.handle(data, size, m_);
 }
 
-namespace {
-Status apply(Mapper& m, const vo_delta_t& msg) { return m.onVo(msg); }
-Status apply(Mapper& m, const wheel_odom_t& msg) { return m.onWheel(msg); }
-Status apply(Mapper& m, const attitude_t& msg) { return m.onAttitude(msg); }
-Status apply(Mapper& m, const floor_t& msg) { return m.onFloor(msg); }
-Status apply(Mapper& m, const register_result_t& msg) { return m.onRegisterResult(msg); }
-}  // namespace
-
 template <typename Msg>
 Status LcmNode::on(const Msg& msg) {
   if constexpr (std::is_same_v<Msg, vo_delta_t>) {
@@ -127,15 +115,11 @@ Status LcmNode::on(const Msg& msg) {
                        counts_.no_calibration, " so far)");
     }
   }
-  if (Status s = apply(m_, msg); !s) {
+  if (Status s = deliver(m_, msg); !s) {
     ++counts_.refused;  // the mapper counted it too
     return s;
   }
-  bool pose = false;
-  if constexpr (std::is_same_v<Msg, vo_delta_t>) pose = true;
-  if constexpr (std::is_same_v<Msg, wheel_odom_t>) pose = !m_.tracker().voTracking();
-  // Results carry the query keyframe's time; only sensor messages move message time on.
-  afterMessage(std::is_same_v<Msg, register_result_t> ? last_utime_ : msg.utime, pose);
+  afterMessage(messageTime(msg, last_utime_), movesPose<Msg>(m_.tracker().voTracking()));
   return Ok{};
 }
 

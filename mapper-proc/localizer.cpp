@@ -14,10 +14,10 @@
 namespace evermap::mapper {
 
 Localizer::Localizer(const MapperOptions& options)
-    : o_(options),
+    : MapConsumer(options.tracker),
+      o_(options),
       partition_({options.cell_size_m, options.heading_bins, options.overlap_radius_cells,
                   options.overlap_heading_sectors, options.cell_refresh_per_step}),
-      tracker_(options.tracker),
       map_gate_(options.map_gate) {}
 
 Status Localizer::load(const MapSnapshot& map) {
@@ -98,8 +98,6 @@ Status Localizer::onFloor(const floor_t& msg) {
   return Ok{};
 }
 
-std::vector<register_request_t> Localizer::takeRequests() { return std::exchange(requests_, {}); }
-
 core::UncertainPose Localizer::pose() const {
   core::UncertainPose p = tracker_.delta();
   if (active_ >= 0) p.mean = nodePose(active_) * p.mean;
@@ -179,19 +177,12 @@ std::optional<int64_t> Localizer::stepTarget(int64_t keyframe_utime) {
 }
 
 void Localizer::sendRequest(int8_t mode, int64_t target) {
-  register_request_t r{};
-  r.utime = in_flight_->keyframe_utime;
-  r.request_id = next_request_id_++;
-  r.keyframe_utime = in_flight_->keyframe_utime;
-  r.mode = mode;
-  r.target_node_id = mode == register_request_t::MODE_NODE ? target : -1;
   // Placed: its floor (-1 when its height is no stored floor's); before: any floor.
-  r.floor = placed() ? floor_ : -1;
-  r.session = session_;
+  const register_request_t& r =
+      queueRequest(in_flight_->keyframe_utime, mode, target, placed() ? floor_ : -1, session_);
   in_flight_->request_id = r.request_id;
   in_flight_->mode = mode;
   (mode == register_request_t::MODE_NODE ? stats_.requests_node : stats_.requests_global)++;
-  requests_.push_back(r);
 }
 
 void Localizer::checkTimeout(int64_t utime) {

@@ -43,6 +43,7 @@
 
 #include "mapper-proc/gate_recovery.h"
 #include "mapper-proc/map_gate.h"
+#include "mapper-proc/map_inputs.h"
 #include "mapper-proc/map_node.h"
 #include "mapper-proc/mapper_options.h"
 #include "mapper-proc/partition_index.h"
@@ -66,24 +67,20 @@ struct LocalizerStats {
   int64_t rides = 0;
 };
 
-class Localizer {
+class Localizer : public MapConsumer {
  public:
   explicit Localizer(const MapperOptions& options);
 
   // The stored map (a map store read once, read-only): its nodes, poses and floors. Errors:
   // an empty map, ids that are not 0..n-1 in order, a pose that is not finite.
   Status load(const MapSnapshot& map);
-  // The left camera's mounting (rectified body_T_cam of STEREO_CALIB, calibration_latch.h).
-  void setCameraMounting(const core::SE3d& body_T_cam) { tracker_.setBodyTCamera(body_T_cam); }
-
-  // Inputs, as the mapper's. Each returns an error for a message it drops (also counted).
-  Status onVo(const vo_delta_t& msg);
-  Status onWheel(const wheel_odom_t& msg);
-  Status onAttitude(const attitude_t& msg);
-  Status onFloor(const floor_t& msg);
-  Status onRegisterResult(const register_result_t& msg);
-  // The requests made since the last call (session: the one after the stored map's).
-  std::vector<register_request_t> takeRequests();
+  // Inputs, as the mapper's (map_inputs.h).
+  Status onVo(const vo_delta_t& msg) override;
+  Status onWheel(const wheel_odom_t& msg) override;
+  Status onAttitude(const attitude_t& msg) override;
+  Status onFloor(const floor_t& msg) override;
+  Status onRegisterResult(const register_result_t& msg) override;
+  // Requests (takeRequests(), map_inputs.h) are made in the session after the stored map's.
 
   // Whether the robot was ever placed on the map (pose() means something), and whether it is
   // localized now (placed, within the bounds above, not riding an elevator: its height is
@@ -97,7 +94,6 @@ class Localizer {
   int session() const { return session_; }
   const std::vector<MapperNode>& nodes() const { return nodes_; }
   const core::SE3d& nodePose(int64_t id) const { return poses_[static_cast<size_t>(id)]; }
-  const Tracker& tracker() const { return tracker_; }
   const LocalizerStats& stats() const { return stats_; }
 
  private:
@@ -135,7 +131,6 @@ class Localizer {
 
   MapperOptions o_;
   PartitionIndex partition_;
-  Tracker tracker_;
   MapGate map_gate_;
   std::vector<MapperNode> nodes_;
   std::vector<core::SE3d> poses_;
@@ -151,9 +146,7 @@ class Localizer {
   std::optional<PlacementCandidate> candidate_;
   std::optional<InFlight> in_flight_;
   int64_t last_step_utime_ = -1;
-  int64_t next_request_id_ = 1;
   int64_t last_attitude_utime_ = -1;
-  std::vector<register_request_t> requests_;
   LocalizerStats stats_;
 };
 

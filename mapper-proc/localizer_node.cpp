@@ -19,11 +19,7 @@ namespace evermap::mapper {
 LocalizerNode::LocalizerNode(lcm::LCM& lcm, Localizer& localizer, const LcmNodeOptions& options)
     : out_(lcm, options.input.signer), l_(localizer), inbox_(lcm, options.input) {
   auto on = [this](const auto& msg) { return this->on(msg); };
-  inbox_.subscribe<vo_delta_t>(channels::kVoDelta, on);
-  inbox_.subscribe<wheel_odom_t>(channels::kWheelOdom, on);
-  inbox_.subscribe<attitude_t>(channels::kAttitude, on);
-  inbox_.subscribe<floor_t>(channels::kFloor, on);
-  inbox_.subscribe<register_result_t>(channels::kRegisterResult, on);
+  subscribeMapInputs(inbox_, on);
   const auto set = [this](const core::SE3d& m) { l_.setCameraMounting(m); };
   inbox_.subscribeBytes<stereo_calib_t>(
       channels::kStereoCalib,
@@ -34,14 +30,6 @@ LocalizerNode::LocalizerNode(lcm::LCM& lcm, Localizer& localizer, const LcmNodeO
                                       });
 }
 
-namespace {
-Status apply(Localizer& l, const vo_delta_t& msg) { return l.onVo(msg); }
-Status apply(Localizer& l, const wheel_odom_t& msg) { return l.onWheel(msg); }
-Status apply(Localizer& l, const attitude_t& msg) { return l.onAttitude(msg); }
-Status apply(Localizer& l, const floor_t& msg) { return l.onFloor(msg); }
-Status apply(Localizer& l, const register_result_t& msg) { return l.onRegisterResult(msg); }
-}  // namespace
-
 template <typename Msg>
 Status LocalizerNode::on(const Msg& msg) {
   if constexpr (std::is_same_v<Msg, vo_delta_t>) {
@@ -51,14 +39,11 @@ Status LocalizerNode::on(const Msg& msg) {
                        " so far)");
     }
   }
-  if (Status s = apply(l_, msg); !s) {
+  if (Status s = deliver(l_, msg); !s) {
     ++refused_;
     return s;
   }
-  bool pose = false;
-  if constexpr (std::is_same_v<Msg, vo_delta_t>) pose = true;
-  if constexpr (std::is_same_v<Msg, wheel_odom_t>) pose = !l_.tracker().voTracking();
-  afterMessage(std::is_same_v<Msg, register_result_t> ? last_utime_ : msg.utime, pose);
+  afterMessage(messageTime(msg, last_utime_), movesPose<Msg>(l_.tracker().voTracking()));
   return Ok{};
 }
 

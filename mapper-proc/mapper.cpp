@@ -9,12 +9,12 @@
 namespace evermap::mapper {
 
 Mapper::Mapper(const MapperOptions& options, int session)
-    : o_(options),
+    : MapConsumer(options.tracker),
+      o_(options),
       session_(session),
       first_session_(session),
       partition_({options.cell_size_m, options.heading_bins, options.overlap_radius_cells,
                   options.overlap_heading_sectors, options.cell_refresh_per_step}),
-      tracker_(options.tracker),
       constraints_(options.consistency_gate),
       schedule_(options.solver, options.defer_merges, options.covariance_floor),
       map_gate_(options.map_gate),
@@ -173,7 +173,6 @@ Status Mapper::onFloor(const floor_t& msg) {
   return Ok{};
 }
 
-std::vector<register_request_t> Mapper::takeRequests() { return std::exchange(requests_, {}); }
 std::vector<node_added_t> Mapper::takeNodesAdded() { return std::exchange(nodes_added_, {}); }
 std::vector<std::string> Mapper::takeNotes() {
   for (std::string& line : floors_.takeNotes()) notes_.push_back(std::move(line));

@@ -46,6 +46,7 @@
 #include "mapper-proc/floor_state.h"
 #include "mapper-proc/gate_recovery.h"
 #include "mapper-proc/map_gate.h"
+#include "mapper-proc/map_inputs.h"
 #include "mapper-proc/map_node.h"
 #include "mapper-proc/mapper_options.h"
 #include "mapper-proc/mapper_stats.h"
@@ -56,7 +57,7 @@
 
 namespace evermap::mapper {
 
-class Mapper {
+class Mapper : public MapConsumer {
  public:
   explicit Mapper(const MapperOptions& options, int session = 0);
 
@@ -91,19 +92,14 @@ class Mapper {
   // odometry ("" before the decision and for a restart without a saved state).
   const std::string& restartNote() const { return warm_.note(); }
 
-  // The left camera's mounting (rectified body_T_cam of STEREO_CALIB, calibration_latch.h):
-  // VO deltas are camera motions. Until it is set, options.tracker.body_T_cam holds.
-  void setCameraMounting(const core::SE3d& body_T_cam) { tracker_.setBodyTCamera(body_T_cam); }
+  // Inputs (map_inputs.h).
+  Status onVo(const vo_delta_t& msg) override;
+  Status onWheel(const wheel_odom_t& msg) override;
+  Status onAttitude(const attitude_t& msg) override;
+  Status onFloor(const floor_t& msg) override;
+  Status onRegisterResult(const register_result_t& msg) override;
 
-  // Inputs. Each returns an error for a message it drops (also counted).
-  Status onVo(const vo_delta_t& msg);
-  Status onWheel(const wheel_odom_t& msg);
-  Status onAttitude(const attitude_t& msg);
-  Status onFloor(const floor_t& msg);
-  Status onRegisterResult(const register_result_t& msg);
-
-  // Outputs produced since the last call.
-  std::vector<register_request_t> takeRequests();
+  // Outputs produced since the last call (and takeRequests(), map_inputs.h).
   std::vector<node_added_t> takeNodesAdded();
   // One line for each recovery from traffic that never became consistent (a session
   // quarantined, a floor's height replaced), since the last call.
@@ -124,7 +120,6 @@ class Mapper {
   }
   const ConstraintSet& constraints() const { return constraints_; }
   const solver::IncrementalSolver& solver() const { return schedule_.solver(); }
-  const Tracker& tracker() const { return tracker_; }
   const MapperStats& stats() const { return stats_; }
   int floor() const { return floors_.floor(); }
   int session() const { return session_; }
@@ -275,7 +270,6 @@ class Mapper {
   int session_;
   int first_session_;
   PartitionIndex partition_;
-  Tracker tracker_;
   ConstraintSet constraints_;
   SolverSchedule schedule_;
   MapGate map_gate_;
@@ -292,7 +286,6 @@ class Mapper {
   int64_t last_step_utime_ = -1;
   int64_t last_vo_utime_ = -1;
   int64_t session_start_utime_ = -1;  // utime of the message that started the session
-  int64_t next_request_id_ = 1;
   std::optional<InFlight> in_flight_;
   // While lost (or resumed unconfirmed): the last registration to the map, waiting for a
   // second one that agrees.
@@ -305,7 +298,6 @@ class Mapper {
   double step_cost_s_ = 0.0;  // wall time of the step in progress so far
   double step_cpu_s_ = 0.0;   // ... and CPU time of the mapper's thread
   // Outputs.
-  std::vector<register_request_t> requests_;
   std::vector<node_added_t> nodes_added_;
   std::vector<std::string> notes_;
   std::vector<StepPose> step_poses_;

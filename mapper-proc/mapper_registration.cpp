@@ -19,21 +19,16 @@
 namespace evermap::mapper {
 
 void Mapper::sendRequest(int8_t mode, int64_t target) {
-  register_request_t r{};
-  r.utime = in_flight_->keyframe_utime;
-  r.request_id = next_request_id_++;
-  r.keyframe_utime = in_flight_->keyframe_utime;
-  r.mode = mode;
-  r.target_node_id = mode == register_request_t::MODE_NODE ? target : -1;
   // A restored mapper's floor is a guess (its newest node's) until a FLOOR message or a
   // relocalisation confirms it: every other global search, the first included, covers every
   // floor (a session may begin on any floor; a restarted mapper is likely on the guessed one).
-  r.floor = mode == register_request_t::MODE_GLOBAL ? floors_.searchFloor() : floors_.floor();
-  r.session = session_;
+  const int floor =
+      mode == register_request_t::MODE_GLOBAL ? floors_.searchFloor() : floors_.floor();
+  const register_request_t& r =
+      queueRequest(in_flight_->keyframe_utime, mode, target, floor, session_);
   in_flight_->request_id = r.request_id;
   in_flight_->mode = mode;
   (mode == register_request_t::MODE_NODE ? stats_.requests_node : stats_.requests_global)++;
-  requests_.push_back(r);
 }
 
 void Mapper::checkTimeout(int64_t utime) {

@@ -22,6 +22,7 @@
 #include "tools/lcmlog/log_reader.h"
 #include "tools/sim/image_session.h"
 #include "tools/slam-run/event_stream.h"
+#include "tools/slam-run/session_processes.h"
 
 namespace evermap::slam_run {
 
@@ -29,15 +30,10 @@ using detail::EventStream;
 using detail::ReadEvent;
 
 // The processes that start with the session: vo-proc, imu-proc, elevator-proc.
-struct LocalizeRunner::Processes {
+struct LocalizeRunner::Processes : SessionProcesses {
   Processes(vo::VoPipeline vo_pipeline, const SlamRunOptions& options)
-      : vo(std::move(vo_pipeline)),
-        attitude(options.attitude, options.attitude_rate_hz),
-        elevator(options.elevator) {}
-  vo::VoPipeline vo;
-  imu::AttitudeStream attitude;
-  elevator::ElevatorTracker elevator;
-  std::optional<imu::Attitude> latest_attitude;
+      : SessionProcesses(std::move(vo_pipeline), options.attitude, options.attitude_rate_hz,
+                         options.elevator) {}
 };
 
 LocalizeRunner::LocalizeRunner(const bow::Vocabulary& vocabulary, const SlamRunOptions& options)
@@ -147,35 +143,16 @@ void LocalizeRunner::handleEvent(const ReadEvent& e, double* loopclose_s, double
 }
 
 void LocalizeRunner::onFrame(const ReadEvent& e, double* loopclose_s, double* localizer_s) {
-  auto t0 = SteadyClock::now();
-  const void* data = e.data.data();
-  const auto size = static_cast<int64_t>(e.data.size());
-  const bool rgbd = e.channel == channels::kRgbd;
-  vo::VoPipeline& vo = p_->vo;
-  Expected<vo::PipelineOutput> out =
-      rgbd      ? (e.rgbd_frame
-                       ? Expected<vo::PipelineOutput>(vo.handleRgbdFrame(e.stereo_utime, *e.rgbd_frame))
-                       : vo.handleRgbdBytes(data, size))
-      : e.frame ? Expected<vo::PipelineOutput>(vo.handleFrame(e.stereo_utime, *e.frame))
-                : vo.handleStereoBytes(data, size);
+  const auto t0 = SteadyClock::now();
+  Expected<vo::PipelineOutput> out = p_->runVo(e);
   const double vo_s = secondsSince(t0);
   if (!out) {
     inputError(e.channel + ": " + out.error().message);
     return;
   }
-  if (out->keyframe) {
-    t0 = SteadyClock::now();
-    if (Status s = loop_closer_->addKeyframe(*out->keyframe); !s)
-      inputError("KEYFRAME: " + s.error().message);
-    *loopclose_s += secondsSince(t0);
-  }
-  t0 = SteadyClock::now();
-  if (!calibration_.haveCamera()) {
-    inputError("VO_DELTA before STEREO_CALIB or RGBD_CALIB");
-  } else if (Status s = localizer_->onVo(out->delta); !s) {
-    inputError("VO_DELTA: " + s.error().message);
-  }
-  *localizer_s += secondsSince(t0);
+  deliverFrame(
+      *out, calibration_.haveCamera(), *loop_closer_, *localizer_,
+      [this](const std::string& what) { inputError(what); }, loopclose_s, localizer_s);
   exchange(loopclose_s, localizer_s);
   FrameRow row;
   row.utime = out->delta.utime;
@@ -201,15 +178,14 @@ void LocalizeRunner::onImu(const void* data, int64_t size, double* localizer_s) 
     inputError(msg.error().message);
     return;
   }
-  std::optional<attitude_t> att = p_->attitude.add(*msg);
-  if (att) p_->latest_attitude = imu::fromLcm(*att);
-  const auto events =
-      p_->elevator.add(imu::fromLcm(*msg), p_->latest_attitude ? &*p_->latest_attitude : nullptr);
+  const SessionProcesses::ImuOutputs out = p_->onImu(*msg);
   const auto t0 = SteadyClock::now();
-  if (att) {
-    if (Status s = localizer_->onAttitude(*att); !s) inputError("ATTITUDE: " + s.error().message);
+  if (out.attitude) {
+    if (Status s = localizer_->onAttitude(*out.attitude); !s) {
+      inputError("ATTITUDE: " + s.error().message);
+    }
   }
-  for (const auto& ev : events) {
+  for (const auto& ev : out.floor_events) {
     if (Status s = localizer_->onFloor(elevator::toLcm(ev)); !s)
       inputError("FLOOR: " + s.error().message);
   }

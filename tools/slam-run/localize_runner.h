@@ -21,23 +21,11 @@
 #include <string>
 #include <vector>
 
-#include "core/bow/vocabulary.h"
-#include "core/common/expected.h"
-#include "core/geometry/se3.h"
 #include "core/geometry/umeyama.h"
-#include "loopclose-proc/core_registration.h"
-#include "loopclose-proc/loop_closer.h"
-#include "mapper-proc/calibration_latch.h"
 #include "mapper-proc/localizer.h"
-#include "tools/sim/image_sim_options.h"
 #include "tools/slam-run/slam_runner.h"
 
 namespace evermap::slam_run {
-
-namespace detail {
-class EventStream;
-struct ReadEvent;
-}  // namespace detail
 
 // What a localization run measured (LocalizeRunner::finish; localize-summary.txt).
 struct LocalizeSummary {

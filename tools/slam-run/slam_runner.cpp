@@ -32,6 +32,7 @@
 #include "tools/mapper-run/store_bytes.h"
 #include "tools/sim/image_session.h"
 #include "tools/slam-run/event_stream.h"
+#include "tools/slam-run/session_processes.h"
 #include "tools/slam-run/truth_evaluation.h"
 
 namespace evermap::slam_run {
@@ -210,16 +211,11 @@ using detail::ReadEvent;
 
 // One session's pipeline state: the processes that start anew with each session (vo-proc,
 // imu-proc, elevator-proc) and what the session's summary counts.
-struct SlamRunner::Session {
+struct SlamRunner::Session : SessionProcesses {
   Session(vo::VoPipeline vo_pipeline, const SlamRunOptions& options)
-      : vo(std::move(vo_pipeline)),
-        attitude(options.attitude, options.attitude_rate_hz),
-        elevator(options.elevator) {}
+      : SessionProcesses(std::move(vo_pipeline), options.attitude, options.attitude_rate_hz,
+                         options.elevator) {}
 
-  vo::VoPipeline vo;
-  imu::AttitudeStream attitude;
-  elevator::ElevatorTracker elevator;
-  std::optional<imu::Attitude> latest_attitude;
   SessionSummary summary;
   int64_t nodes_before = 0;
   bool starts_lost = false;
@@ -366,17 +362,8 @@ void SlamRunner::handleEvent(Session& ss, const ReadEvent& e, double* loopclose_
 }
 
 void SlamRunner::onFrame(Session& ss, const ReadEvent& e, double* loopclose_s, double* mapper_s) {
-  auto t0 = SteadyClock::now();
-  // Decoded ahead by the reader; what did not decode as LCM fails here as in vo-proc.
-  const void* data = e.data.data();
-  const auto size = static_cast<int64_t>(e.data.size());
-  const bool rgbd = e.channel == channels::kRgbd;
-  Expected<vo::PipelineOutput> out =
-      rgbd      ? (e.rgbd_frame ? Expected<vo::PipelineOutput>(
-                                 ss.vo.handleRgbdFrame(e.stereo_utime, *e.rgbd_frame))
-                                : ss.vo.handleRgbdBytes(data, size))
-      : e.frame ? Expected<vo::PipelineOutput>(ss.vo.handleFrame(e.stereo_utime, *e.frame))
-                : ss.vo.handleStereoBytes(data, size);
+  const auto t0 = SteadyClock::now();
+  Expected<vo::PipelineOutput> out = ss.runVo(e);
   const double vo_s = secondsSince(t0);
   summary_.times.vo_s += vo_s;
   if (!out) {
@@ -386,20 +373,10 @@ void SlamRunner::onFrame(Session& ss, const ReadEvent& e, double* loopclose_s, d
   ++ss.summary.stereo_frames;
   if (session_start_utime_ < 0) session_start_utime_ = out->delta.utime;
   if (out->result.ok()) ++ss.summary.vo_ok;
-  if (out->keyframe) {
-    ++ss.summary.keyframes;
-    t0 = SteadyClock::now();
-    if (Status s = loop_closer_->addKeyframe(*out->keyframe); !s)
-      inputError("KEYFRAME: " + s.error().message);
-    *loopclose_s += secondsSince(t0);
-  }
-  t0 = SteadyClock::now();
-  if (!calibration_.haveCamera()) {
-    inputError("VO_DELTA before STEREO_CALIB or RGBD_CALIB");
-  } else if (Status s = mapper_->onVo(out->delta); !s) {
-    inputError("VO_DELTA: " + s.error().message);
-  }
-  *mapper_s += secondsSince(t0);
+  if (out->keyframe) ++ss.summary.keyframes;
+  deliverFrame(
+      *out, calibration_.haveCamera(), *loop_closer_, *mapper_,
+      [this](const std::string& what) { inputError(what); }, loopclose_s, mapper_s);
   exchange(loopclose_s, mapper_s);
   afterFrame(ss, *out, vo_s, *loopclose_s, *mapper_s);
 }
@@ -425,16 +402,15 @@ void SlamRunner::onImu(Session& ss, const void* data, int64_t size, double* mapp
     return;
   }
   auto t0 = SteadyClock::now();
-  std::optional<attitude_t> att = ss.attitude.add(*msg);
-  if (att) ss.latest_attitude = imu::fromLcm(*att);
-  const auto events =
-      ss.elevator.add(imu::fromLcm(*msg), ss.latest_attitude ? &*ss.latest_attitude : nullptr);
+  const SessionProcesses::ImuOutputs out = ss.onImu(*msg);
   summary_.times.imu_s += secondsSince(t0);
   t0 = SteadyClock::now();
-  if (att) {
-    if (Status s = mapper_->onAttitude(*att); !s) inputError("ATTITUDE: " + s.error().message);
+  if (out.attitude) {
+    if (Status s = mapper_->onAttitude(*out.attitude); !s) {
+      inputError("ATTITUDE: " + s.error().message);
+    }
   }
-  for (const auto& ev : events) {
+  for (const auto& ev : out.floor_events) {
     ++ss.summary.floor_events;
     if (Status s = mapper_->onFloor(elevator::toLcm(ev)); !s)
       inputError("FLOOR: " + s.error().message);

@@ -51,12 +51,20 @@ class EventStream;
 struct ReadEvent;
 }  // namespace detail
 
+inline loopclose::LoopCloserOptions withoutKeyframeRecovery() {
+  loopclose::LoopCloserOptions o;
+  o.recovery.max_attempts = 0;
+  return o;
+}
+
 struct SlamRunOptions {
   vo::PipelineOptions vo;
   imu::AttitudeFilterOptions attitude;
   double attitude_rate_hz = 50.0;  // imu-proc's publish_rate_hz
   elevator::ElevatorTrackerOptions elevator;
-  loopclose::LoopCloserOptions loopclose;
+  // In one process no keyframe is lost and nobody answers KEYFRAME_REQUEST: a node never
+  // waits for a keyframe asked again.
+  loopclose::LoopCloserOptions loopclose = withoutKeyframeRecovery();
   core::RegistrationOptions registration;  // loopclose-proc's frame registration
   mapper::MapperOptions mapper;
   std::filesystem::path store;  // the map store; required (sessions restore from it)
