@@ -10,8 +10,7 @@ namespace evermap::mapper {
 // A request about `keyframe_utime`: in MODE_NODE against node `target`, in MODE_GLOBAL an
 // appearance search on `floor` (-1: every floor).
 inline register_request_t makeRegisterRequest(int64_t request_id, int64_t keyframe_utime,
-                                              int8_t mode, int64_t target, int floor,
-                                              int session) {
+                                              int8_t mode, int64_t target, int floor, int session) {
   register_request_t r{};
   r.utime = keyframe_utime;
   r.request_id = request_id;

@@ -30,7 +30,8 @@ struct SessionProcesses {
   };
 
   SessionProcesses(vo::VoPipeline vo_pipeline, const imu::AttitudeFilterOptions& attitude_options,
-                   double attitude_rate_hz, const elevator::ElevatorTrackerOptions& elevator_options)
+                   double attitude_rate_hz,
+                   const elevator::ElevatorTrackerOptions& elevator_options)
       : vo(std::move(vo_pipeline)),
         attitude(attitude_options, attitude_rate_hz),
         elevator(elevator_options) {}
