@@ -9,6 +9,7 @@
 
 #include <evermap/attitude_t.hpp>
 #include <evermap/floor_t.hpp>
+#include <evermap/register_request_t.hpp>
 #include <evermap/register_result_t.hpp>
 #include <evermap/vo_delta_t.hpp>
 #include <evermap/wheel_odom_t.hpp>
@@ -16,7 +17,6 @@
 #include "core/common/expected.h"
 #include "core/geometry/se3.h"
 #include "core/messages/channels.h"
-#include "mapper-proc/register_request.h"
 #include "mapper-proc/tracker.h"
 
 namespace evermap::mapper {
@@ -47,12 +47,19 @@ class MapConsumer : public MapInputs {
   std::vector<register_request_t> takeRequests() { return std::exchange(requests_, {}); }
 
  protected:
-  // Queues a request about `keyframe_utime` (makeRegisterRequest) under the next id.
+  // Queues a REGISTER_REQUEST about `keyframe_utime` under the next id: in MODE_NODE against
+  // node `target`, in MODE_GLOBAL an appearance search on `floor` (-1: every floor).
   const register_request_t& queueRequest(int64_t keyframe_utime, int8_t mode, int64_t target,
                                          int floor, int session) {
-    requests_.push_back(
-        makeRegisterRequest(next_request_id_++, keyframe_utime, mode, target, floor, session));
-    return requests_.back();
+    register_request_t& r = requests_.emplace_back();
+    r.utime = keyframe_utime;
+    r.request_id = next_request_id_++;
+    r.keyframe_utime = keyframe_utime;
+    r.mode = mode;
+    r.target_node_id = mode == register_request_t::MODE_NODE ? target : -1;
+    r.floor = floor;
+    r.session = session;
+    return r;
   }
 
   Tracker tracker_;

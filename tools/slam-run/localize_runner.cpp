@@ -29,13 +29,6 @@ namespace evermap::slam_run {
 using detail::EventStream;
 using detail::ReadEvent;
 
-// The processes that start with the session: vo-proc, imu-proc, elevator-proc.
-struct LocalizeRunner::Processes : SessionProcesses {
-  Processes(vo::VoPipeline vo_pipeline, const SlamRunOptions& options)
-      : SessionProcesses(std::move(vo_pipeline), options.attitude, options.attitude_rate_hz,
-                         options.elevator) {}
-};
-
 LocalizeRunner::LocalizeRunner(const bow::Vocabulary& vocabulary, const SlamRunOptions& options)
     : vocabulary_(vocabulary), options_(options) {}
 LocalizeRunner::~LocalizeRunner() = default;
@@ -93,7 +86,8 @@ Status LocalizeRunner::renderSession(const sim::ImageSimOptions& options) {
 Status LocalizeRunner::runStream(EventStream& events, const std::string& name) {
   auto vo = vo::VoPipeline::create(options_.vo);
   if (!vo) return vo.error();
-  p_ = std::make_unique<Processes>(std::move(*vo), options_);
+  p_ = std::make_unique<SessionProcesses>(std::move(*vo), options_.attitude,
+                                          options_.attitude_rate_hz, options_.elevator);
   int64_t first = -1;
   bool cut_short = false;
   while (std::optional<ReadEvent> e = events.next()) {

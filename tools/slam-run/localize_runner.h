@@ -27,6 +27,8 @@
 
 namespace evermap::slam_run {
 
+struct SessionProcesses;  // session_processes.h
+
 // What a localization run measured (LocalizeRunner::finish; localize-summary.txt).
 struct LocalizeSummary {
   int64_t frames = 0;             // VO frames
@@ -91,8 +93,7 @@ class LocalizeRunner {
   std::unique_ptr<loopclose::LoopCloser> loop_closer_;
   std::unique_ptr<mapper::Localizer> localizer_;
   mapper::CalibrationLatch calibration_;
-  struct Processes;
-  std::unique_ptr<Processes> p_;  // vo-proc, imu-proc, elevator-proc of the session
+  std::unique_ptr<SessionProcesses> p_;  // vo-proc, imu-proc, elevator-proc of the session
   std::vector<FrameRow> frames_;
   std::map<int64_t, core::SE3d> truth_;
   std::optional<core::Similarity> map_to_truth_;
