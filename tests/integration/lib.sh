@@ -65,6 +65,21 @@ fail() {
 expect_line() {  # expect_line FILE REGEX
   grep -Eq "$2" "$1" || { cat "$1" >&2; fail "no line matching '$2'"; }
 }
+# Nothing outside the repository: EVERMAP_DATA an empty folder (as for anyone who clones the
+# repository alone), and the project's own vocabulary (scripts/make-vocab.sh) in $tmp/sim.evoc.
+without_data_folder() {
+  mkdir "$tmp/no-data"
+  export EVERMAP_DATA="$tmp/no-data"
+  BUILD_DIR="$build" bash "$src/scripts/make-vocab.sh" "$tmp/sim.evoc" > "$tmp/vocab.txt" \
+    || { cat "$tmp/vocab.txt"; fail "scripts/make-vocab.sh"; }
+}
+# map_rendered_session0 OUT SECONDS: evermap-slam-run maps the first SECONDS of session 0 of
+# the rendered 3-floor building into OUT with its place store (--places).
+map_rendered_session0() {
+  "$bin/evermap-slam-run" --vocab "$tmp/sim.evoc" --out "$1" --places \
+    --render "$src/config/sim-image-3floor.conf" --render-set "render.max_duration_s=$2" \
+    --sessions 1 > "$tmp/slam.txt" 2>&1 || { tail -20 "$tmp/slam.txt"; fail "evermap-slam-run"; }
+}
 value() { awk -v k="$1" '$1 == k { print $2; exit }' "$2"; }  # value KEY FILE: "KEY VALUE" lines
 
 # The deputy's status (evermap-deputy-ctl status --tsv, host "sandbox") in $tmp/status.tsv;

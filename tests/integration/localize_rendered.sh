@@ -7,15 +7,10 @@
 # About a minute of CPU.
 source "$(dirname "$0")/lib.sh" "$@"
 duration="${EVERMAP_LOCALIZE_DURATION_S:-60}"
-mkdir "$tmp/no-data"
-export EVERMAP_DATA="$tmp/no-data"
 conf="$src/config/sim-image-3floor.conf"
 
-BUILD_DIR="$build" bash "$src/scripts/make-vocab.sh" "$tmp/sim.evoc" > "$tmp/vocab.txt" \
-  || { cat "$tmp/vocab.txt"; fail "scripts/make-vocab.sh"; }
-"$bin/evermap-slam-run" --vocab "$tmp/sim.evoc" --out "$tmp/map" --places \
-  --render "$conf" --render-set "render.max_duration_s=$duration" \
-  --sessions 1 > "$tmp/slam.txt" 2>&1 || { tail -20 "$tmp/slam.txt"; fail "evermap-slam-run"; }
+without_data_folder
+map_rendered_session0 "$tmp/map" "$duration"
 before="$(sha256sum "$tmp/map/map.db" "$tmp/map/places.db")"
 
 "$bin/evermap-slam-run" --vocab "$tmp/sim.evoc" --localize "$tmp/map" --out "$tmp/loc" \

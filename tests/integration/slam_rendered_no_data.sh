@@ -11,11 +11,8 @@ source "$(dirname "$0")/lib.sh" "$@"
 # Seconds of each session: the elevator ride of session 0 ends at 85 s; at 100 s slam-run
 # made 44 nodes on 2 floors, relocalised session 1 after 3.3 s of it, node ATE 0.024 m.
 duration="${EVERMAP_NO_DATA_DURATION_S:-100}"
-mkdir "$tmp/no-data"
-export EVERMAP_DATA="$tmp/no-data"
 
-BUILD_DIR="$build" bash "$src/scripts/make-vocab.sh" "$tmp/sim.evoc" > "$tmp/vocab.txt" \
-  || { cat "$tmp/vocab.txt"; fail "scripts/make-vocab.sh"; }
+without_data_folder
 tail -n 1 "$tmp/vocab.txt"
 "$build/bin/evermap-slam-run" --vocab "$tmp/sim.evoc" --out "$tmp/slam" \
   --render "$src/config/sim-image-3floor.conf" --render-set "render.max_duration_s=$duration" \
