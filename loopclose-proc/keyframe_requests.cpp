@@ -17,10 +17,11 @@ std::string KeyframeRequestStats::text() const {
   char line[200];
   std::snprintf(line, sizeof(line),
                 "keyframes asked again %lld (%lld asks): recovered %lld, given up %lld, refused "
-                "%lld",
+                "%lld; parts %lld (%lld not asked for)",
                 static_cast<long long>(asked), static_cast<long long>(asks),
                 static_cast<long long>(recovered), static_cast<long long>(given_up),
-                static_cast<long long>(refused));
+                static_cast<long long>(refused), static_cast<long long>(parts),
+                static_cast<long long>(parts_unasked));
   return line;
 }
 
@@ -40,6 +41,17 @@ void KeyframeRequests::received(int64_t keyframe_utime) {
   if (it == open_.end()) return;
   if (it->second.attempts > 0) ++stats_.recovered;
   open_.erase(it);
+  parts_.erase(keyframe_utime);
+}
+
+Expected<std::optional<evermap::keyframe_t>> KeyframeRequests::addPart(
+    const evermap::keyframe_part_t& part) {
+  if (!awaits(part.utime)) {
+    ++stats_.parts_unasked;
+    return std::optional<evermap::keyframe_t>();
+  }
+  ++stats_.parts;
+  return parts_.add(part);
 }
 
 std::vector<evermap::keyframe_request_t> KeyframeRequests::due(int64_t now,
@@ -54,6 +66,7 @@ std::vector<evermap::keyframe_request_t> KeyframeRequests::due(int64_t now,
     if (o.attempts >= options_.max_attempts) {
       ++stats_.given_up;
       given_up->push_back(it->first);
+      parts_.erase(it->first);
       it = open_.erase(it);
       continue;
     }
@@ -61,6 +74,8 @@ std::vector<evermap::keyframe_request_t> KeyframeRequests::due(int64_t now,
     r.utime = now;
     r.keyframe_utime = it->first;
     r.attempt = ++o.attempts;
+    r.missing = parts_.missing(it->first);
+    r.num_missing = static_cast<int16_t>(r.missing.size());
     if (o.attempts == 1) ++stats_.asked;
     ++stats_.asks;
     asks.push_back(r);

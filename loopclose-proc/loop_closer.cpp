@@ -123,6 +123,13 @@ std::vector<evermap::keyframe_request_t> LoopCloser::takeKeyframeRequests() {
   return asks;
 }
 
+Status LoopCloser::addKeyframePart(const evermap::keyframe_part_t& msg) {
+  Expected<std::optional<evermap::keyframe_t>> keyframe = requests_.addPart(msg);
+  if (!keyframe) return keyframe.error();
+  if (!*keyframe) return Ok{};
+  return addKeyframe(**keyframe);
+}
+
 Status LoopCloser::addKeyframe(const evermap::keyframe_t& msg) {
   auto k = fromMsg(msg);
   if (!k) {

@@ -8,8 +8,9 @@
 //    node (MODE_NODE), or against the best places of an appearance search on the requested
 //    floor (MODE_GLOBAL, candidates tried in score order until one registers);
 //  - a keyframe it needs (named by a NODE_ADDED or a request) and does not hold is asked of
-//    vo-proc again (KEYFRAME_REQUEST, keyframe_requests.h): the node, or the request up to
-//    max_request_age_us, waits for it while it is asked for;
+//    vo-proc again (KEYFRAME_REQUEST, keyframe_requests.h), which answers in parts
+//    (KEYFRAME_PART): the node, or the request up to max_request_age_us, waits for it while it
+//    is asked for;
 //  - at most `max_rate_hz` answers per second of data time, newest request first; a request
 //    older than `max_request_age_us`, or pushed out of the bounded queue, is answered
 //    STATUS_STALE and counted. Every failure is an answer with a status and a reason: the
@@ -135,6 +136,9 @@ class LoopCloser {
 
   // KEYFRAME: validated and cached. An error names the keyframe (it is dropped and counted).
   Status addKeyframe(const evermap::keyframe_t& msg);
+  // KEYFRAME_PART: a part of a keyframe asked for again; the keyframe it completes is taken as
+  // a KEYFRAME. Parts of keyframes not asked for are ignored (counted in recoveryStats()).
+  Status addKeyframePart(const evermap::keyframe_part_t& msg);
   // NODE_ADDED: the node's keyframe must be among the recent ones (or already stored). One
   // that came before its keyframe (the mapper's first node is made on the frame's VO_DELTA)
   // waits for it up to keyframe_wait_us of data time, or while the keyframe is asked for

@@ -17,6 +17,15 @@ LoopCloseServer::LoopCloseServer(lcm::LCM& lcm, LoopCloser& loop_closer,
     publishDue();
     return s;
   });
+  // Parts of keyframes asked for again come in bursts of tens (a 37 KB keyframe is 31).
+  inbox_.subscribe<evermap::keyframe_part_t>(
+      channels::kKeyframePart,
+      [this](const evermap::keyframe_part_t& m) {
+        Status s = loop_closer_.addKeyframePart(m);
+        publishDue();
+        return s;
+      },
+      1000);
   inbox_.subscribe<evermap::node_added_t>(channels::kNodeAdded,
                                           [this](const evermap::node_added_t& m) {
                                             Status s = loop_closer_.addNode(m);

@@ -1,11 +1,11 @@
 #pragma once
-// LCM wiring of loopclose-proc: KEYFRAME, NODE_ADDED, REGISTER_REQUEST and MAP_GRAPH (nodes
-// whose NODE_ADDED was lost) in, REGISTER_RESULT and KEYFRAME_REQUEST (missed keyframes asked
-// again) out, through a messages::Inbox (one decoding path, bounded queues, the time guard,
-// exceptions caught). Messages that do not decode or fail validation are logged (one line) and
-// counted; the answers due are published after every message received (time is data time, so
-// nothing is due between messages). Threading: handlers run inside lcm.handle() on the
-// caller's thread, the LoopCloser's only thread.
+// LCM wiring of loopclose-proc: KEYFRAME, KEYFRAME_PART (keyframes asked for again),
+// NODE_ADDED, REGISTER_REQUEST and MAP_GRAPH (nodes whose NODE_ADDED was lost) in,
+// REGISTER_RESULT and KEYFRAME_REQUEST (missed keyframes asked again) out, through a
+// messages::Inbox (one decoding path, bounded queues, the time guard, exceptions caught). Messages
+// that do not decode or fail validation are logged (one line) and counted; the answers due are
+// published after every message received (time is data time, so nothing is due between messages).
+// Threading: handlers run inside lcm.handle() on the caller's thread, the LoopCloser's only thread.
 
 #include <cstdint>
 #include <string>

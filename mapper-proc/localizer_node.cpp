@@ -57,7 +57,7 @@ void LocalizerNode::afterMessage(int64_t utime, bool publish_pose) {
   m.localized = l_.localized();
   m.node_id = l_.activeNode();
   m.pose = messages::toMsg(utime, l_.pose(), l_.floor(), l_.session());
-  out_.publish(kLocalizationChannel, m);
+  out_.publish(channels::kLocalization, m);
   if (!l_.placed()) return;
   out_.publish(channels::kPose, m.pose);
   ++poses_;

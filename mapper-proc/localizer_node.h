@@ -19,10 +19,6 @@
 
 namespace evermap::mapper {
 
-// localization_t's channel. Kept here, not in core/messages/channels.h beside POSE, until that
-// header's next edit (every program includes it: an edit rebuilds the whole tree).
-inline constexpr const char* kLocalizationChannel = "LOCALIZATION";
-
 class LocalizerNode {
  public:
   // `lcm` and `localizer` must outlive the node. options: the mapper node's (input only).

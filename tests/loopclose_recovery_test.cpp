@@ -179,7 +179,8 @@ TEST_F(LoopCloserRecoveryTest, ARequestAgainstANodeWhoseKeyframeIsAskedForWaitsF
 }
 
 // The two halves over LCM: loopclose-proc's server asks on KEYFRAME_REQUEST, a stand-in for
-// vo-proc answers from its KeyframeResender on KEYFRAME, and the first answer is lost too.
+// vo-proc answers from its KeyframeResender on KEYFRAME_PART, and the first answer loses two
+// of its three parts: the second ask names those two, and only they are sent again.
 TEST_F(LoopCloserRecoveryTest, TheServerRecoversALostKeyframeFromVoProcsBufferOverLcm) {
   lcm::LCM lcm("memq://");
   ASSERT_TRUE(lcm.good());
@@ -193,14 +194,17 @@ TEST_F(LoopCloserRecoveryTest, TheServerRecoversALostKeyframeFromVoProcsBufferOv
   struct VoProc {
     void on(const lcm::ReceiveBuffer*, const std::string&, const evermap::keyframe_request_t* r) {
       wall_s += 1.0;
-      auto k = resender->answer(*r, wall_s);
-      if (k && ++answers > 1) lcm->publish(channels::kKeyframe, &*k);  // the first one lost
+      asked.push_back(r->missing);
+      const bool first = asked.size() == 1;
+      for (const evermap::keyframe_part_t& p : resender->answer(*r, wall_s)) {
+        if (!first || p.index == 1) lcm->publish(channels::kKeyframePart, &p);
+      }
     }
     vo::KeyframeResender* resender;
     lcm::LCM* lcm;
-    int answers = 0;
+    std::vector<std::vector<int16_t>> asked;
     double wall_s = 0.0;
-  } vo_proc{&resender, &lcm};
+  } vo_proc{&resender, &lcm, {}};
   lcm.subscribe(channels::kKeyframeRequest, &VoProc::on, &vo_proc);
   const evermap::node_added_t n = node(1, t, 0);
   for (int f = 0; f <= 60; ++f) {  // 3 s of VO at 20 Hz
@@ -213,10 +217,15 @@ TEST_F(LoopCloserRecoveryTest, TheServerRecoversALostKeyframeFromVoProcsBufferOv
     collected.deliver();
   }
   EXPECT_EQ(lc->numNodes(), 1u);
+  ASSERT_EQ(vo_proc.asked.size(), 2u);
+  EXPECT_TRUE(vo_proc.asked[0].empty());  // the first ask: the whole keyframe
+  EXPECT_EQ(vo_proc.asked[1], (std::vector<int16_t>{0, 2}));
   EXPECT_EQ(lc->recoveryStats().asked, 1);
   EXPECT_EQ(lc->recoveryStats().asks, 2);
   EXPECT_EQ(lc->recoveryStats().recovered, 1);
+  EXPECT_EQ(lc->recoveryStats().parts, 3);
   EXPECT_EQ(resender.stats().resent, 2);
+  EXPECT_EQ(resender.stats().parts, 3 + 2);
   EXPECT_EQ(server.dropped(), 0);
 }
 

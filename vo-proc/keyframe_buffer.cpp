@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/messages/keyframe_parts.h"
+
 namespace evermap::vo {
 
 Status KeyframeResendOptions::validate() const { return checkOptionRanges(*this); }
@@ -28,11 +30,11 @@ const evermap::keyframe_t* KeyframeBuffer::find(int64_t utime) const {
 std::string ResendStats::text() const {
   char line[200];
   std::snprintf(line, sizeof(line),
-                "keyframe requests %lld: resent %lld, unknown %lld, too soon %lld, over the rate "
-                "%lld",
+                "keyframe requests %lld: resent %lld (%lld parts), unknown %lld, too soon %lld, "
+                "over the rate %lld",
                 static_cast<long long>(requests), static_cast<long long>(resent),
-                static_cast<long long>(unknown), static_cast<long long>(too_soon),
-                static_cast<long long>(over_rate));
+                static_cast<long long>(parts), static_cast<long long>(unknown),
+                static_cast<long long>(too_soon), static_cast<long long>(over_rate));
   return line;
 }
 
@@ -41,13 +43,17 @@ KeyframeResender::KeyframeResender(const KeyframeResendOptions& options)
       buffer_(options.keyframes, options.seconds),
       tokens_(std::max(1.0, options.max_rate_hz)) {}
 
-std::optional<evermap::keyframe_t> KeyframeResender::answer(
+std::vector<evermap::keyframe_part_t> KeyframeResender::answer(
     const evermap::keyframe_request_t& request, double now_s) {
   ++stats_.requests;
   const evermap::keyframe_t* keyframe = buffer_.find(request.keyframe_utime);
-  if (!keyframe) {
+  std::vector<evermap::keyframe_part_t> parts =
+      keyframe ? messages::splitKeyframe(*keyframe) : std::vector<evermap::keyframe_part_t>{};
+  const size_t count = parts.size();
+  if (!request.missing.empty()) parts = wanted(std::move(parts), request.missing);
+  if (parts.empty()) {
     ++stats_.unknown;
-    return std::nullopt;
+    return {};
   }
   // A clock that goes back (or is not finite) fills nothing and lets nothing through early.
   const double burst = std::max(1.0, options_.max_rate_hz);
@@ -63,16 +69,32 @@ std::optional<evermap::keyframe_t> KeyframeResender::answer(
   if (std::any_of(sent_.begin(), sent_.end(),
                   [&](const Sent& s) { return s.utime == request.keyframe_utime; })) {
     ++stats_.too_soon;
-    return std::nullopt;
+    return {};
   }
-  if (tokens_ < 1.0) {
+  // The parts cost their share of the keyframe.
+  const double cost = static_cast<double>(parts.size()) / static_cast<double>(count);
+  if (tokens_ < cost) {
     ++stats_.over_rate;
-    return std::nullopt;
+    return {};
   }
-  tokens_ -= 1.0;
+  tokens_ -= cost;
   if (options_.min_interval_s > 0.0) sent_.push_back(Sent{request.keyframe_utime, now_s});
   ++stats_.resent;
-  return *keyframe;
+  stats_.parts += static_cast<int64_t>(parts.size());
+  return parts;
+}
+
+std::vector<evermap::keyframe_part_t> KeyframeResender::wanted(
+    std::vector<evermap::keyframe_part_t> parts, const std::vector<int16_t>& missing) {
+  std::vector<bool> want(parts.size(), false);
+  for (const int16_t i : missing) {
+    if (i >= 0 && static_cast<size_t>(i) < parts.size()) want[static_cast<size_t>(i)] = true;
+  }
+  std::vector<evermap::keyframe_part_t> out;
+  for (size_t i = 0; i < parts.size(); ++i) {
+    if (want[i]) out.push_back(std::move(parts[i]));
+  }
+  return out;
 }
 
 }  // namespace evermap::vo

@@ -2,12 +2,14 @@
 // vo-proc's side of keyframe recovery (docs/deployment.md, "A lossy link"): a KEYFRAME is
 // tens of UDP fragments, and LCM has no retransmission, so on a lossy link a receiver that
 // missed one asks for it again on KEYFRAME_REQUEST (keyframe_request_t) and vo-proc publishes
-// it again from the recent keyframes it keeps.
+// it again from the recent keyframes it keeps, in parts of one IP packet each
+// (KEYFRAME_PART, core/messages/keyframe_parts.h): the parts the receiver says it lacks.
 //  - KeyframeBuffer: the recent published keyframes, bounded by count and by seconds of their
 //    own (message) time;
 //  - KeyframeResender: answers a request from the buffer, at a bounded rate: a keyframe once
-//    per `min_interval_s` at most, all of them `max_rate_hz` a second at most (a burst of one
-//    second's worth), so no request, hostile or repeated, makes vo-proc flood the link.
+//    per `min_interval_s` at most, `max_rate_hz` keyframes' worth of parts a second at most
+//    (a burst of one second's worth), so no request, hostile or repeated, makes vo-proc flood
+//    the link.
 // The resender's clock is the caller's (wall seconds in vo-proc: the rate bounds link
 // bandwidth, not data), so tests give it their own. Threading: neither class is thread-safe;
 // vo-proc serialises keep() and answer() with its KEYFRAME publishing.
@@ -17,6 +19,9 @@
 #include <optional>
 #include <string>
 
+#include <vector>
+
+#include <evermap/keyframe_part_t.hpp>
 #include <evermap/keyframe_request_t.hpp>
 #include <evermap/keyframe_t.hpp>
 
@@ -33,7 +38,8 @@ struct KeyframeResendOptions {
   double seconds = 60.0;
   // One keyframe is published again at most once per this, seconds.
   double min_interval_s = 0.1;
-  // Keyframes published again per second at most, all together (10: 0.37 MB/s at most).
+  // Keyframes' worth of parts published again per second at most, all together (10: 0.37
+  // MB/s at most).
   double max_rate_hz = 10.0;
 
   Status validate() const;
@@ -44,7 +50,8 @@ struct KeyframeResendOptions {
         .positive();
     o.add("min_interval_s", &min_interval_s, "s", "one keyframe published again once per this")
         .nonNegative();
-    o.add("max_rate_hz", &max_rate_hz, "Hz", "keyframes published again per second at most")
+    o.add("max_rate_hz", &max_rate_hz, "Hz",
+          "keyframes' worth of parts published again per second at most")
         .positive();
   }
 };
@@ -69,7 +76,8 @@ class KeyframeBuffer {
 
 struct ResendStats {
   int64_t requests = 0;
-  int64_t resent = 0;
+  int64_t resent = 0;        // requests answered
+  int64_t parts = 0;         // KEYFRAME_PARTs published
   int64_t unknown = 0;       // not (or no longer) kept
   int64_t too_soon = 0;      // the same keyframe within min_interval_s
   int64_t over_rate = 0;     // beyond max_rate_hz
@@ -83,14 +91,19 @@ class KeyframeResender {
 
   // A keyframe just published.
   void keep(const evermap::keyframe_t& keyframe) { buffer_.keep(keyframe); }
-  // A request received at `now_s` (the caller's clock, seconds): the keyframe to publish
-  // again, or nothing (counted: unknown, too soon, over the rate).
-  std::optional<evermap::keyframe_t> answer(const evermap::keyframe_request_t& request,
-                                            double now_s);
+  // A request received at `now_s` (the caller's clock, seconds): the parts to publish, those
+  // the request lists as missing (all when it lists none), or nothing (counted: unknown, also
+  // when it lists no part of the keyframe; too soon; over the rate).
+  std::vector<evermap::keyframe_part_t> answer(const evermap::keyframe_request_t& request,
+                                               double now_s);
   const ResendStats& stats() const { return stats_; }
   const KeyframeBuffer& buffer() const { return buffer_; }
 
  private:
+  // The parts `missing` names (indices out of range are ignored).
+  static std::vector<evermap::keyframe_part_t> wanted(std::vector<evermap::keyframe_part_t> parts,
+                                                      const std::vector<int16_t>& missing);
+
   KeyframeResendOptions options_;
   KeyframeBuffer buffer_;
   double tokens_;                 // resends allowed now (a token bucket)

@@ -1,8 +1,9 @@
 // evermap-vo-proc: visual odometry on LCM. Subscribes to STEREO_CALIB and STEREO (a stereo
 // rig) and RGBD (an RGB-D camera, its calibration inside), publishes VO_DELTA per frame and
 // KEYFRAME per new keyframe (vo-proc/vo_pipeline.h); the outputs do not say which camera.
-// Keeps its recent keyframes and publishes one again when a receiver that missed it asks on
-// KEYFRAME_REQUEST (vo-proc/keyframe_buffer.h), at a bounded rate.
+// Keeps its recent keyframes and publishes the parts of one again (KEYFRAME_PART) when a
+// receiver that missed them asks on KEYFRAME_REQUEST (vo-proc/keyframe_buffer.h), at a bounded
+// rate.
 //
 // Threads: the LCM thread only copies each received STEREO or RGBD event into a bounded queue
 // (dropping the oldest when the worker falls behind) and keeps the latest calibration; the
@@ -45,9 +46,10 @@ struct Shared {
   std::optional<Bytes> calibration;  // the latest STEREO_CALIB, not yet applied
 };
 
-// KEYFRAME is published by the worker (new keyframes) and by the LCM thread (keyframes asked
-// for again): one mutex over the resender and both publishes keeps the channel's messages in
-// the envelope's counter order (a receiver with a key refuses one out of order).
+// KEYFRAME is published by the worker (new keyframes), KEYFRAME_PART by the LCM thread (parts
+// of keyframes asked for again): one mutex over the resender and both publishes keeps each
+// channel's messages in the envelope's counter order (a receiver with a key refuses one out
+// of order).
 class KeyframeChannel {
  public:
   KeyframeChannel(const evermap::vo::KeyframeResendOptions& options,
@@ -62,8 +64,8 @@ class KeyframeChannel {
     const double now_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
     std::lock_guard<std::mutex> lock(mutex_);
-    if (auto keyframe = resender_.answer(request, now_s)) {
-      outbox_->publish(evermap::channels::kKeyframe, *keyframe);
+    for (const evermap::keyframe_part_t& part : resender_.answer(request, now_s)) {
+      outbox_->publish(evermap::channels::kKeyframePart, part);
     }
     return evermap::Ok{};
   }

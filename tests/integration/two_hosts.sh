@@ -59,7 +59,7 @@ grep -q '^robot->base STEREO .* local [1-9]' "$tmp/link/summary.txt" || fail "ST
 # loss, and 16 asks leave 0.6 % missing; asks still open when the session ends are neither
 # (measured in two runs: 17-20 asked, 16-19 recovered, 1 given up, 73-78 resent; none asked
 # on one host).
-for k in keyframes_asked keyframes_recovered keyframes_given_up keyframes_resent nodes_rejected; do
+for k in keyframes_asked keyframes_recovered keyframes_given_up keyframes_resent keyframe_parts_resent nodes_rejected; do
   echo "link: $k $(value "$k" "$tmp/link/summary.txt") (one host: $(value "$k" "$tmp/one/summary.txt"))"
 done
 asked="$(value keyframes_asked "$tmp/link/summary.txt")"

@@ -63,6 +63,7 @@ const std::map<std::string, std::function<Bytes()>>& channelTypes() {
       {channels::kVoDelta, encodeDefault<vo_delta_t>},
       {channels::kKeyframe, encodeDefault<keyframe_t>},
       {channels::kKeyframeRequest, encodeDefault<keyframe_request_t>},
+      {channels::kKeyframePart, encodeDefault<keyframe_part_t>},
       {channels::kAttitude, encodeDefault<attitude_t>},
       {channels::kFloor, encodeDefault<floor_t>},
       {channels::kNodeAdded, encodeDefault<node_added_t>},
