@@ -118,7 +118,8 @@ int parse(int argc, char** argv, Settings* s) {
   using evermap::CommandLine;
   CommandLine cli("evermap-vo-proc",
                   "Visual odometry on LCM: STEREO_CALIB + STEREO or RGBD in, VO_DELTA and "
-                  "KEYFRAME out.");
+                  "KEYFRAME out; KEYFRAME_REQUEST in, KEYFRAME_PART out (keyframes asked for "
+                  "again).");
   cli.value("--lcm-url", &s->url, "URL", "LCM provider (default: $LCM_DEFAULT_URL or LCM's)");
   cli.value("--queue", &s->queue_size, "N", "frames waiting at most (default 2); older dropped")
       .in(1, 1000);
