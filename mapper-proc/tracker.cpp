@@ -170,7 +170,9 @@ Status Tracker::addVo(const vo_delta_t& msg) {
     return Ok{};
   }
   const UncertainPose& ref_T_body = motion->ref_T_body;
-  if (!vo_mode_ || msg.ref_utime != ref_utime_) rejoin(msg.ref_utime, ref_T_body, msg.utime);
+  if (!vo_mode_ || msg.ref_utime != ref_utime_) {
+    rejoin(msg.ref_utime, ref_T_body, msg.utime, odometrySinceLastFrame(msg));
+  }
   pending_ = ref_T_body;
   delta_utime_ = msg.utime;
   ++counts_.vo_applied;
@@ -228,17 +230,6 @@ void Tracker::takeStep(int64_t ref_utime, int64_t utime) {
   ref_utime_ = utime;
 }
 
-void Tracker::anchorOdometry(const vo_delta_t& msg, const Mat6& own_covariance) {
-  odometry_at_delta_.reset();
-  if (msg.odom_epoch == 0) return;
-  auto pose = messages::odometryPose(msg);
-  if (!pose) {
-    ++counts_.odometry_refused;
-    return;
-  }
-  odometry_at_delta_ = OdometryAnchor{*pose, own_covariance};
-}
-
 std::optional<std::pair<double, double>> Tracker::gyroInnovation(
     int64_t t0, int64_t t1, const UncertainPose& increment) const {
   const auto gyro = o_.gyro_heading ? gyroYaw(t0, t1) : std::nullopt;
@@ -293,10 +284,14 @@ void Tracker::enterWheelMode(int64_t lost_utime) {
     if (w.utime > lost_utime) applyWheel(w, lost_utime);
 }
 
-void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t utime) {
+void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t utime,
+                     const std::optional<UncertainPose>& since_last) {
   if (vo_mode_) {
-    // VO moved on to a reference whose keyframe change never arrived: commit what is known.
-    commit(utime, pending_);
+    // VO moved on to a reference whose keyframe change never arrived: commit what is known,
+    // up to this frame when the odometry frame spans the messages lost (without it, the
+    // motion since the last frame taken is lost: in a turn, degrees per lost keyframe change).
+    commit(utime, since_last ? core::compound(pending_, *since_last) : pending_);
+    if (since_last) ++counts_.odometry_bridged;
     pending_ = UncertainPose{};
   } else {
     // Wheel odometry reached the body at its last message, up to a wheel period before this
@@ -348,26 +343,6 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
   reanchored_ref_utime_ = ref_utime;
   recent_wheel_.clear();
   ++counts_.reanchored;
-}
-
-// WHEEL_ODOM after lost ones (a lossy link, a partition): the increment since the last one
-// taken comes from the two messages' odometry poses (one epoch), so the wheels carry the hole;
-// as received when nothing was lost or no pose spans the hole.
-wheel_odom_t Tracker::bridgeWheelHole(const wheel_odom_t& msg) const {
-  if (last_wheel_utime_ < 0 || msg.prev_utime <= last_wheel_utime_ || wheel_poses_.empty() ||
-      wheel_poses_.back().utime != last_wheel_utime_)
-    return msg;
-  const auto now = messages::wheelOdometryPose(msg);
-  if (!now || now->epoch != wheel_poses_.back().epoch) return msg;
-  const auto d = messages::wheelOdometryBetween(wheel_poses_.back(), *now);
-  if (!d) return msg;
-  wheel_odom_t m = msg;
-  m.prev_utime = last_wheel_utime_;
-  m.delta_x_m = d->a_T_b.vector()[0];
-  m.delta_y_m = d->a_T_b.vector()[1];
-  m.delta_theta_rad = d->a_T_b.vector()[2];
-  for (int k = 0; k < 9; ++k) m.covariance[k] = d->covariance(k / 3, k % 3);
-  return m;
 }
 
 Status Tracker::addWheel(const wheel_odom_t& received) {

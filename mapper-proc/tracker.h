@@ -13,8 +13,11 @@
 //    reference are taken back and VO's motion replaces them (relinked), unless the two
 //    disagree (relink_gate): then the frame is reanchored as below.
 //  - status OK, a reference the tracker does not know (a lost keyframe change, a restarted
-//    vo-proc): the frame is placed where wheel odometry put the body and the chain continues
-//    from there (reanchored). Never refused: an unknown reference must not freeze the map.
+//    vo-proc): the frame is placed where the estimate (VO's last frame, or wheel odometry)
+//    put the body and the chain continues from there (reanchored). A lost keyframe change
+//    while VO tracks: the motion since the last frame taken comes from the two frames'
+//    odometry poses (odometry_bridged). Never refused: an unknown reference must not freeze
+//    the map.
 //  - keyframe_changed with a status other than OK (NO_DATA: VO's first frame; a failure: the
 //    chain breaks): this frame is the new reference, at the current estimate.
 // Everything is expressed in the body frame: a camera motion D becomes
@@ -264,7 +267,13 @@ class Tracker {
   // increments that end after it.
   void enterWheelMode(int64_t lost_utime);
   // Puts an OK frame against reference `ref_utime` that VO mode does not continue onto Δ.
-  void rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t utime);
+  // since_last: the body's motion from the last VO frame taken to this one, when their
+  // odometry poses span it (odometrySinceLastFrame).
+  void rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t utime,
+              const std::optional<UncertainPose>& since_last);
+  // The body's motion from the last VO frame taken to `msg`'s, from their odometry poses (one
+  // epoch, VO's own chain: what the VO_DELTAs lost in between compounded); empty without them.
+  std::optional<UncertainPose> odometrySinceLastFrame(const vo_delta_t& msg) const;
   // Compounds a wheel increment, or its share after from_utime when it starts before.
   void applyWheel(const wheel_odom_t& msg, int64_t from_utime);
   // Keeps msg's odometry pose (if any) for wheelOdometryAt().

@@ -3,11 +3,11 @@
 namespace evermap::mapper {
 
 // Every field is a count of the list: one added there and not here fails to compile.
-static_assert(sizeof(TrackerCounts) == 16 * sizeof(int64_t));
+static_assert(sizeof(TrackerCounts) == 17 * sizeof(int64_t));
 
-const std::array<TrackerCounts::Counter, 16>& TrackerCounts::counters() {
+const std::array<TrackerCounts::Counter, 17>& TrackerCounts::counters() {
   using T = TrackerCounts;
-  static const std::array<Counter, 16> list{{
+  static const std::array<Counter, 17> list{{
       {"vo_applied", &T::vo_applied},
       {"vo_failed", &T::vo_failed},
       {"wheel_applied", &T::wheel_applied},
@@ -16,6 +16,7 @@ const std::array<TrackerCounts::Counter, 16>& TrackerCounts::counters() {
       {"relinks_refused", &T::relinks_refused},
       {"relinks_weaker", &T::relinks_weaker},
       {"reanchored", &T::reanchored},
+      {"odometry_bridged", &T::odometry_bridged},
       {"vo_timeouts", &T::vo_timeouts},
       {"gyro_turns", &T::gyro_turns},
       {"vo_contradicted", &T::vo_contradicted},

@@ -19,6 +19,8 @@ struct TrackerCounts {
   int64_t relinks_weaker = 0;    // ... whose motion was less certain than the wheels' over the
                                  // gap (VO's motion prior bridging a break): reanchored instead
   int64_t reanchored = 0;        // VO on a reference the tracker did not know
+  int64_t odometry_bridged = 0;  // ... placed by VO's odometry frame since the last frame taken
+                                 // (a lost keyframe change), not where the estimate was
   int64_t vo_timeouts = 0;       // VO silent for vo_timeout_s: wheel odometry took over
   int64_t gyro_turns = 0;        // wheel increments and VO keyframe steps whose yaw was fused
                                  // with the gyro's
@@ -33,7 +35,7 @@ struct TrackerCounts {
     std::string_view name;
     int64_t TrackerCounts::*field;
   };
-  static const std::array<Counter, 16>& counters();
+  static const std::array<Counter, 17>& counters();
   // Adds another tracker's counts (sessions tracked by successive trackers).
   void add(const TrackerCounts& o) {
     for (const Counter& c : counters()) this->*c.field += o.*c.field;

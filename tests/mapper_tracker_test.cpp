@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 #include <numbers>
 
 #include "core/geometry/se2.h"
@@ -276,6 +277,66 @@ TEST(Tracker, AFrameOnAnUnknownReferenceIsReanchoredWhereWheelOdometryPutsTheBod
   const auto since = t.sinceKeyframe(0);
   ASSERT_TRUE(since.has_value());
   EXPECT_NEAR(since->mean.translation().x(), 0.4, 1e-12);
+}
+
+// A turn, 2 degrees and 5 cm a frame at 20 Hz, a keyframe every third frame, stamped with
+// odometry poses as vo-proc stamps it.
+std::vector<vo_delta_t> turnStream(int frames) {
+  messages::OdometryFrame odometry;
+  std::vector<vo_delta_t> stream{voRestart(0)};
+  odometry.stamp(stream.back());
+  const SE3d step = planar(0.05, 0.0, 2.0 * std::numbers::pi / 180.0);
+  int64_t ref = 0;
+  SE3d ref_T_cur;
+  for (int k = 1; k <= frames; ++k) {
+    ref_T_cur = ref_T_cur * step;
+    const bool keyframe = k % 3 == 0;
+    stream.push_back(voMsg(k * 50'000, ref, ref_T_cur, 1e-3, keyframe));
+    odometry.stamp(stream.back());
+    if (keyframe) {
+      ref = k * 50'000;
+      ref_T_cur = SE3d();
+    }
+  }
+  return stream;
+}
+
+TEST(Tracker, ALostKeyframeChangeIsBridgedByTheOdometryPosesNotByTheEstimate) {
+  // A lossy link lost the VO_DELTA of keyframe 6 (its keyframe change): frame 7 names a
+  // reference the tracker never saw. Its odometry pose and frame 5's give the motion between
+  // them exactly; without them (an old sender) frame 7 sits where frame 5 was, two frames'
+  // motion behind (4 degrees in this turn), for good.
+  const std::vector<vo_delta_t> stream = turnStream(12);
+  Tracker all(TrackerOptions{});
+  for (const vo_delta_t& m : stream) ASSERT_TRUE(all.addVo(m));
+  Tracker bridged(TrackerOptions{}), unbridged(TrackerOptions{});
+  for (const vo_delta_t& m : stream) {
+    if (m.utime == 6 * 50'000) continue;
+    ASSERT_TRUE(bridged.addVo(m));
+    vo_delta_t old = m;
+    old.odom_epoch = 0;
+    ASSERT_TRUE(unbridged.addVo(old));
+  }
+  EXPECT_EQ(bridged.counts().reanchored, 1);
+  EXPECT_EQ(bridged.counts().odometry_bridged, 1);
+  EXPECT_EQ(unbridged.counts().odometry_bridged, 0);
+  const auto yaw_error = [&](const Tracker& t) {
+    return std::abs(core::toPlanar(t.delta().mean.inverse() * all.delta().mean).theta());
+  };
+  EXPECT_LT((bridged.delta().mean.inverse() * all.delta().mean).log().norm(), 1e-9);
+  EXPECT_NEAR(yaw_error(unbridged), 4.0 * std::numbers::pi / 180.0, 1e-9);
+  // Δ's covariance holds the bridged motion's.
+  EXPECT_GT(bridged.delta().covariance.trace(), unbridged.delta().covariance.trace());
+  // A pose that lies (100 m in 0.1 s) bridges nothing: the frame goes where the estimate is.
+  Tracker lied_to(TrackerOptions{});
+  for (vo_delta_t m : stream) {
+    if (m.utime == 6 * 50'000) continue;
+    if (m.utime == 7 * 50'000) m.odom_translation[0] += 100.0;
+    ASSERT_TRUE(lied_to.addVo(m));
+    if (m.utime == 7 * 50'000) break;
+  }
+  EXPECT_EQ(lied_to.counts().reanchored, 1);
+  EXPECT_EQ(lied_to.counts().odometry_bridged, 0);
 }
 
 TEST(Tracker, SilentVoHandsOverToWheelOdometryFromItsLastFrame) {
