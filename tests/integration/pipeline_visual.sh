@@ -54,7 +54,9 @@ start_pipeline "$tmp/s0.lcmlog" "$tmp/logs" "$tmp/mapper.lcmlog" 'MAP_GRAPH|MAPP
 # respawns it, the mapper bridges the gap with wheel odometry and VO's new reference, and the
 # map goes on growing.
 kill_at="$(awk -v d="$duration" 'BEGIN { print int(d / 2) }')"
-(sleep "$kill_at"; pkill -KILL -x evermap-vo-proc || true) &
+# Its own vo-proc only (the deputy's log names the pid), not every one on the machine.
+(sleep "$kill_at"; pid="$(sed -nE 's/.* started pid ([0-9]+) .*/\1/p' "$tmp/logs/vo-proc.log" | head -n 1)"
+  [ -n "$pid" ] && kill -KILL "$pid" || true) &
 killer=$!
 rc=0
 wait "$dpid" || rc=$?
