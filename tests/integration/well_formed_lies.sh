@@ -10,9 +10,9 @@
 #               and FLOOR each (a phantom node and session no registration confirms: issue 47
 #               found the next clean session lost, 0 nodes added);
 #   fuzz_floor  300 mutated FLOOR before the replay (floor heights reported by no elevator).
-# After each, the map must be the control's: nodes with ground truth within 10 % (clean live
-# replays alone made 147, 153 and 161 nodes, 2026-11-29; the damage this guards against, a
-# clean session lost, is half the nodes), node ATE within
+# After each, the map must be the control's: nodes with ground truth within 20 % (clean live
+# replays alone made 144, 147, 153 and 161 nodes, 2026-11-29; the damage this guards against,
+# a clean session lost, is half the nodes), node ATE within
 # 20 % (or 0.03 m: live replays vary by about that, docs/pipeline.md), every floor at its
 # height, both sessions. EVERMAP_LIES_MEASURE=1 prints the figures without judging them (the
 # before/after measurement of docs/results/reliability.md); EVERMAP_LIES_FUZZ=BIN takes the
@@ -96,8 +96,8 @@ for c in $cases; do
   [ "$measure" = 1 ] && continue
   got_nodes="$(truth_nodes "$c")"
   got_ate="$(figure node_ate_rmse_m "$c")"
-  awk -v g="$got_nodes" -v w="$want_nodes" 'BEGIN { d = g - w; if (d < 0) d = -d; exit !(d <= 0.10 * w) }' \
-    || fail "$c: $got_nodes nodes with truth, control $want_nodes (more than 10 % apart)"
+  awk -v g="$got_nodes" -v w="$want_nodes" 'BEGIN { d = g - w; if (d < 0) d = -d; exit !(d <= 0.20 * w) }' \
+    || fail "$c: $got_nodes nodes with truth, control $want_nodes (more than 20 % apart)"
   awk -v g="$got_ate" -v w="$want_ate" 'BEGIN { exit !(g != "n/a" && (g <= 1.2 * w || g <= w + 0.03)) }' \
     || fail "$c: node ATE $got_ate m, control $want_ate m"
   grep -q '^floors 3 (3 at' "$tmp/$c/eval.txt" || fail "$c: the floors are not the building's"
