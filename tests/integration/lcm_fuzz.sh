@@ -36,7 +36,7 @@ start deputy "$bin/evermap-deputy" "$tmp/deputy.pmd" --host sandbox --log-dir "$
 channels="STEREO,STEREO_CALIB,RGBD,RGBD_CALIB,IMU,ATTITUDE,VO_DELTA,WHEEL_ODOM,FLOOR,REGISTER_RESULT,DEPUTY_ORDER,KEYFRAME_REQUEST"
 if [ -n "${EVERMAP_FUZZ_VOCAB:-}" ]; then
   start loopclose-proc "$bin/evermap-loopclose-proc" --vocab "$EVERMAP_FUZZ_VOCAB"
-  channels="$channels,KEYFRAME,NODE_ADDED,REGISTER_REQUEST,MAP_GRAPH"
+  channels="$channels,KEYFRAME,KEYFRAME_PART,NODE_ADDED,REGISTER_REQUEST,MAP_GRAPH"
 fi
 for _ in $(seq 600); do [ -f "$tmp/vo.ready" ] && break; sleep 0.1; done
 [ -f "$tmp/vo.ready" ] || fail "vo-proc did not start"
