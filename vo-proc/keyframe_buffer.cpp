@@ -46,12 +46,12 @@ KeyframeResender::KeyframeResender(const KeyframeResendOptions& options)
 std::vector<evermap::keyframe_part_t> KeyframeResender::answer(
     const evermap::keyframe_request_t& request, double now_s) {
   ++stats_.requests;
+  // Which parts, from the keyframe's size alone: a request refused below encodes nothing.
   const evermap::keyframe_t* keyframe = buffer_.find(request.keyframe_utime);
-  std::vector<evermap::keyframe_part_t> parts =
-      keyframe ? messages::splitKeyframe(*keyframe) : std::vector<evermap::keyframe_part_t>{};
-  const size_t count = parts.size();
-  if (!request.missing.empty()) parts = wanted(std::move(parts), request.missing);
-  if (parts.empty()) {
+  const int count = keyframe ? messages::keyframePartCount(*keyframe) : 0;
+  const std::vector<bool> want = wanted(count, request.missing);
+  const auto num_wanted = std::count(want.begin(), want.end(), true);
+  if (num_wanted == 0) {
     ++stats_.unknown;
     return {};
   }
@@ -72,7 +72,7 @@ std::vector<evermap::keyframe_part_t> KeyframeResender::answer(
     return {};
   }
   // The parts cost their share of the keyframe.
-  const double cost = static_cast<double>(parts.size()) / static_cast<double>(count);
+  const double cost = static_cast<double>(num_wanted) / static_cast<double>(count);
   if (tokens_ < cost) {
     ++stats_.over_rate;
     return {};
@@ -80,21 +80,22 @@ std::vector<evermap::keyframe_part_t> KeyframeResender::answer(
   tokens_ -= cost;
   if (options_.min_interval_s > 0.0) sent_.push_back(Sent{request.keyframe_utime, now_s});
   ++stats_.resent;
-  stats_.parts += static_cast<int64_t>(parts.size());
-  return parts;
-}
-
-std::vector<evermap::keyframe_part_t> KeyframeResender::wanted(
-    std::vector<evermap::keyframe_part_t> parts, const std::vector<int16_t>& missing) {
-  std::vector<bool> want(parts.size(), false);
-  for (const int16_t i : missing) {
-    if (i >= 0 && static_cast<size_t>(i) < parts.size()) want[static_cast<size_t>(i)] = true;
-  }
+  std::vector<evermap::keyframe_part_t> parts = messages::splitKeyframe(*keyframe);
   std::vector<evermap::keyframe_part_t> out;
-  for (size_t i = 0; i < parts.size(); ++i) {
+  for (size_t i = 0; i < parts.size() && i < want.size(); ++i) {
     if (want[i]) out.push_back(std::move(parts[i]));
   }
+  stats_.parts += static_cast<int64_t>(out.size());
   return out;
+}
+
+std::vector<bool> KeyframeResender::wanted(int count, const std::vector<int16_t>& missing) {
+  // None listed: all of them.
+  std::vector<bool> want(static_cast<size_t>(std::max(count, 0)), missing.empty());
+  for (const int16_t i : missing) {
+    if (i >= 0 && i < count) want[static_cast<size_t>(i)] = true;
+  }
+  return want;
 }
 
 }  // namespace evermap::vo

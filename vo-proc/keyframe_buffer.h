@@ -100,9 +100,9 @@ class KeyframeResender {
   const KeyframeBuffer& buffer() const { return buffer_; }
 
  private:
-  // The parts `missing` names (indices out of range are ignored).
-  static std::vector<evermap::keyframe_part_t> wanted(std::vector<evermap::keyframe_part_t> parts,
-                                                      const std::vector<int16_t>& missing);
+  // Which of a keyframe's `count` parts a request wants: those `missing` names (indices out
+  // of range are ignored), all when it names none.
+  static std::vector<bool> wanted(int count, const std::vector<int16_t>& missing);
 
   KeyframeResendOptions options_;
   KeyframeBuffer buffer_;

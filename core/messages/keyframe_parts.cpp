@@ -7,14 +7,20 @@
 
 namespace evermap::messages {
 
+int keyframePartCount(const evermap::keyframe_t& keyframe, int part_bytes) {
+  const int64_t total = keyframe.getEncodedSize();
+  if (part_bytes <= 0 || total <= 0) return 0;
+  const int64_t count = (total + part_bytes - 1) / part_bytes;
+  return count > std::numeric_limits<int16_t>::max() ? 0 : static_cast<int>(count);
+}
+
 std::vector<evermap::keyframe_part_t> splitKeyframe(const evermap::keyframe_t& keyframe,
                                                     int part_bytes) {
+  const int count = keyframePartCount(keyframe, part_bytes);
+  if (count == 0) return {};
   const int total = keyframe.getEncodedSize();
-  if (part_bytes <= 0 || total <= 0) return {};
   std::vector<uint8_t> bytes(static_cast<size_t>(total));
   if (keyframe.encode(bytes.data(), 0, total) != total) return {};
-  const int count = (total + part_bytes - 1) / part_bytes;
-  if (count > std::numeric_limits<int16_t>::max()) return {};
   std::vector<evermap::keyframe_part_t> parts(static_cast<size_t>(count));
   for (int i = 0; i < count; ++i) {
     evermap::keyframe_part_t& p = parts[static_cast<size_t>(i)];

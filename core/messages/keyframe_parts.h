@@ -25,6 +25,9 @@ inline constexpr int kKeyframePartBytes = 1200;
 // Largest encoding a part may claim (a keyframe_t of kMaxKeyframeFeatures is 5.7 MB).
 inline constexpr int32_t kMaxKeyframeBytes = 8 << 20;
 
+// How many parts splitKeyframe makes of `keyframe`, from its encoded size alone (nothing is
+// encoded): 0 when it cannot be split.
+int keyframePartCount(const evermap::keyframe_t& keyframe, int part_bytes = kKeyframePartBytes);
 // The parts of `keyframe`'s encoding, `part_bytes` each (the last one shorter), in index order.
 // Empty when it cannot be encoded or would need more than 32767 parts.
 std::vector<evermap::keyframe_part_t> splitKeyframe(const evermap::keyframe_t& keyframe,
