@@ -277,6 +277,7 @@ void Tracker::enterWheelMode(int64_t lost_utime) {
   pending_ = UncertainPose{};
   vo_mode_ = false;
   vo_lost_utime_ = lost_utime;
+  odometry_at_vo_lost_.reset();
   delta_utime_ = lost_utime;
   std::deque<wheel_odom_t> buffered;
   buffered.swap(recent_wheel_);
@@ -299,40 +300,18 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
     // over the same interval. In a turn a wheel period is degrees.
     extrapolateWheel(utime);
   }
-  // Back on the reference VO kept through its failures: the reference's commit point is in
-  // the history; the increments after it (wheel odometry) are taken back, VO replaces them.
-  // The covariance keeps them: conservative.
-  if (!vo_mode_ && ref_utime == ref_utime_) {
-    auto at = history_.end();
-    for (auto h = history_.begin(); h != history_.end(); ++h)
-      if (h->utime == ref_utime) at = h;
-    UncertainPose wheel;  // what wheel odometry says of the same motion
-    if (at != history_.end())
-      for (auto h = std::next(at); h != history_.end(); ++h) wheel = core::compound(wheel, h->pose);
-    if (at != history_.end() && !agreesInPlane(wheel, ref_T_body, o_.relink_gate)) {
-      // VO's motion over the gap contradicts the wheels: a wrong registration (a repeated
-      // texture); the frame goes where the wheels put it instead.
-      ++counts_.relinks_refused;
-      at = history_.end();
-    } else if (at != history_.end() && std::next(at) != history_.end() &&
-               planarBlock(ref_T_body.covariance).determinant() >
-                   planarBlock(wheel.covariance).determinant()) {
-      // VO's motion over the gap is less certain than the wheels' (and the gyro's): VO
-      // predicted it (a break bridged by its motion prior, contracts.md), it did not measure
-      // it. The wheels keep the gap; the frame goes where they put it.
-      ++counts_.relinks_weaker;
-      at = history_.end();
-    }
-    if (at != history_.end()) {
-      SE3d undo;
-      for (auto h = std::next(at); h != history_.end(); ++h) undo = undo * h->pose.mean;
-      base_.mean = base_.mean * undo.inverse();
-      history_.erase(std::next(at), history_.end());
-      vo_mode_ = true;
-      recent_wheel_.clear();
-      ++counts_.relinked;
-      return;
-    }
+  // Back on the reference VO kept through its failures (relinked), or back after a silence
+  // with odometry poses that span it (bridged): VO's motion replaces the wheels'.
+  if (!vo_mode_ && ref_utime == ref_utime_ && replaceWheels(ref_utime, ref_T_body)) {
+    ++counts_.relinked;
+    return;
+  }
+  if (!vo_mode_ && ref_utime != ref_utime_ && since_last &&
+      replaceWheels(vo_lost_utime_, *since_last)) {
+    // The frame is at the end of VO's motion since its last frame taken; its reference is
+    // placed behind it, as below.
+    commit(utime, *since_last);
+    ++counts_.odometry_bridged;
   }
   // An unknown reference: the frame goes where the estimate (wheel odometry) has the body, so
   // the reference sits at Δ ⊕ (ref_T_body)⁻¹; the increment to it is committed so that the
@@ -343,6 +322,38 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
   reanchored_ref_utime_ = ref_utime;
   recent_wheel_.clear();
   ++counts_.reanchored;
+}
+
+bool Tracker::replaceWheels(int64_t from_utime, const UncertainPose& vo) {
+  // The commit point at from_utime; the increments after it are wheel odometry's.
+  auto at = history_.end();
+  for (auto h = history_.begin(); h != history_.end(); ++h)
+    if (h->utime == from_utime) at = h;
+  if (at == history_.end()) return false;
+  UncertainPose wheel;  // what wheel odometry says of the same motion
+  for (auto h = std::next(at); h != history_.end(); ++h) wheel = core::compound(wheel, h->pose);
+  if (!agreesInPlane(wheel, vo, o_.relink_gate)) {
+    // VO's motion over the gap contradicts the wheels: a wrong registration (a repeated
+    // texture); the frame goes where the wheels put it instead.
+    ++counts_.relinks_refused;
+    return false;
+  }
+  if (std::next(at) != history_.end() &&
+      planarBlock(vo.covariance).determinant() > planarBlock(wheel.covariance).determinant()) {
+    // VO's motion over the gap is less certain than the wheels' (and the gyro's): VO
+    // predicted it (a break bridged by its motion prior, contracts.md), it did not measure
+    // it. The wheels keep the gap; the frame goes where they put it.
+    ++counts_.relinks_weaker;
+    return false;
+  }
+  // The wheel increments are taken back; the covariance keeps them: conservative.
+  SE3d undo;
+  for (auto h = std::next(at); h != history_.end(); ++h) undo = undo * h->pose.mean;
+  base_.mean = base_.mean * undo.inverse();
+  history_.erase(std::next(at), history_.end());
+  vo_mode_ = true;
+  recent_wheel_.clear();
+  return true;
 }
 
 Status Tracker::addWheel(const wheel_odom_t& received) {
@@ -383,7 +394,11 @@ Status Tracker::addWheel(const wheel_odom_t& received) {
     if (last_vo_utime_ >= 0 &&
         msg.utime - last_vo_utime_ > static_cast<int64_t>(o_.vo_timeout_s * 1e6)) {
       ++counts_.vo_timeouts;
+      // VO's messages may only be lost (a partition): its last frame's odometry pose can
+      // span the silence when VO is back (rejoin).
+      const auto at_last_frame = odometry_at_delta_;
       enterWheelMode(last_vo_utime_);
+      odometry_at_vo_lost_ = at_last_frame;
     }
     return Ok{};
   }

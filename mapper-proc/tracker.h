@@ -16,8 +16,9 @@
 //    vo-proc): the frame is placed where the estimate (VO's last frame, or wheel odometry)
 //    put the body and the chain continues from there (reanchored). A lost keyframe change
 //    while VO tracks: the motion since the last frame taken comes from the two frames'
-//    odometry poses (odometry_bridged). Never refused: an unknown reference must not freeze
-//    the map.
+//    odometry poses (odometry_bridged); so does the motion over a silence (a partition of the
+//    link) the wheels carried, when the poses span it and agree with the wheels as a relink
+//    must. Never refused: an unknown reference must not freeze the map.
 //  - keyframe_changed with a status other than OK (NO_DATA: VO's first frame; a failure: the
 //    chain breaks): this frame is the new reference, at the current estimate.
 // Everything is expressed in the body frame: a camera motion D becomes
@@ -271,8 +272,13 @@ class Tracker {
   // odometry poses span it (odometrySinceLastFrame).
   void rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t utime,
               const std::optional<UncertainPose>& since_last);
+  // VO's motion `vo` since the commit point at from_utime replaces the wheel increments after
+  // it, unless the two disagree (relink_gate) or VO's is the less certain (both counted):
+  // then nothing changes. Leaves VO mode on at that commit point.
+  bool replaceWheels(int64_t from_utime, const UncertainPose& vo);
   // The body's motion from the last VO frame taken to `msg`'s, from their odometry poses (one
-  // epoch, VO's own chain: what the VO_DELTAs lost in between compounded); empty without them.
+  // epoch, VO's own chain: what the VO_DELTAs lost in between compounded); empty without them,
+  // and after wheels took over other than by a silence (VO's failure, the gyro's veto).
   std::optional<UncertainPose> odometrySinceLastFrame(const vo_delta_t& msg) const;
   // Compounds a wheel increment, or its share after from_utime when it starts before.
   void applyWheel(const wheel_odom_t& msg, int64_t from_utime);
@@ -335,6 +341,8 @@ class Tracker {
   std::deque<Increment> history_;
   std::deque<wheel_odom_t> recent_wheel_;  // while VO tracks (wheel_buffer_s)
   std::optional<OdometryAnchor> odometry_at_delta_;
+  // The last VO frame's, when VO fell silent (vo_timeout_s) and the wheels took over there.
+  std::optional<OdometryAnchor> odometry_at_vo_lost_;
   int64_t delta_utime_ = -1;
   std::deque<messages::WheelOdometryPose>
       wheel_poses_;  // the last second of WHEEL_ODOM odom_*, one epoch

@@ -15,12 +15,14 @@ struct TrackerCounts {
   int64_t implausible = 0;       // ... of which motion beyond max_speed_m_s / max_turn_rad_s
   int64_t restarts = 0;          // VO restarted from a new reference (first frame, chain break)
   int64_t relinked = 0;          // VO back on its kept reference after failing: wheel undone
-  int64_t relinks_refused = 0;   // ... whose motion contradicted the wheels: reanchored instead
+  int64_t relinks_refused = 0;   // ... (or bridged over a silence) whose motion contradicted
+                                 // the wheels: reanchored instead
   int64_t relinks_weaker = 0;    // ... whose motion was less certain than the wheels' over the
                                  // gap (VO's motion prior bridging a break): reanchored instead
   int64_t reanchored = 0;        // VO on a reference the tracker did not know
   int64_t odometry_bridged = 0;  // ... placed by VO's odometry frame since the last frame taken
-                                 // (a lost keyframe change), not where the estimate was
+                                 // (a lost keyframe change, a silence the wheels carried), not
+                                 // where the estimate was
   int64_t vo_timeouts = 0;       // VO silent for vo_timeout_s: wheel odometry took over
   int64_t gyro_turns = 0;        // wheel increments and VO keyframe steps whose yaw was fused
                                  // with the gyro's

@@ -21,16 +21,18 @@ void Tracker::anchorOdometry(const vo_delta_t& msg, const Mat6& own_covariance) 
 }
 
 std::optional<UncertainPose> Tracker::odometrySinceLastFrame(const vo_delta_t& msg) const {
-  if (!odometry_at_delta_) return std::nullopt;
+  // While VO tracks Δ is at its last frame; after a silence the wheels moved Δ on, and the
+  // last frame is where they took over.
+  const std::optional<OdometryAnchor>& last = vo_mode_ ? odometry_at_delta_ : odometry_at_vo_lost_;
+  if (!last || (!vo_mode_ && last->pose.utime != vo_lost_utime_)) return std::nullopt;
   const auto now = messages::odometryPose(msg);
-  if (!now || now->epoch != odometry_at_delta_->pose.epoch) return std::nullopt;
-  const auto d =
-      messages::odometryBetween(odometry_at_delta_->pose, odometry_at_delta_->own_covariance, *now);
+  if (!now || now->epoch != last->pose.epoch) return std::nullopt;
+  const auto d = messages::odometryBetween(last->pose, last->own_covariance, *now);
   if (!d) return std::nullopt;
   // A motion no robot makes in that time (a lying pose) bridges nothing.
   if (!implausibleMotion(d->mean.translation().norm(),
-                         Eigen::AngleAxisd(d->mean.quaternion()).angle(),
-                         odometry_at_delta_->pose.utime, now->utime)
+                         Eigen::AngleAxisd(d->mean.quaternion()).angle(), last->pose.utime,
+                         now->utime)
            .empty()) {
     return std::nullopt;
   }

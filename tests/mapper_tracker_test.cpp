@@ -281,7 +281,7 @@ TEST(Tracker, AFrameOnAnUnknownReferenceIsReanchoredWhereWheelOdometryPutsTheBod
 
 // A turn, 2 degrees and 5 cm a frame at 20 Hz, a keyframe every third frame, stamped with
 // odometry poses as vo-proc stamps it.
-std::vector<vo_delta_t> turnStream(int frames) {
+std::vector<vo_delta_t> turnStream(int frames, double variance = 1e-3) {
   messages::OdometryFrame odometry;
   std::vector<vo_delta_t> stream{voRestart(0)};
   odometry.stamp(stream.back());
@@ -291,7 +291,7 @@ std::vector<vo_delta_t> turnStream(int frames) {
   for (int k = 1; k <= frames; ++k) {
     ref_T_cur = ref_T_cur * step;
     const bool keyframe = k % 3 == 0;
-    stream.push_back(voMsg(k * 50'000, ref, ref_T_cur, 1e-3, keyframe));
+    stream.push_back(voMsg(k * 50'000, ref, ref_T_cur, variance, keyframe));
     odometry.stamp(stream.back());
     if (keyframe) {
       ref = k * 50'000;
@@ -337,6 +337,67 @@ TEST(Tracker, ALostKeyframeChangeIsBridgedByTheOdometryPosesNotByTheEstimate) {
   }
   EXPECT_EQ(lied_to.counts().reanchored, 1);
   EXPECT_EQ(lied_to.counts().odometry_bridged, 0);
+}
+
+TEST(Tracker, ASilenceTheWheelsCarriedIsReplacedByVosOdometryPosesWhenVoIsBack) {
+  // The link to the base station drops for 1.6 s in a turn. A wheel message is the first to
+  // arrive after it: VO timed out and the wheels, whose yaw reads 10 % short, carried the
+  // hole. VO's next frame rides on a keyframe the tracker never saw; its odometry pose and the
+  // last frame's span the silence, and VO's motion replaces the wheels': Δ is as if nothing
+  // had been lost. Without the poses the wheels' 6 degrees stay.
+  const std::vector<vo_delta_t> stream = turnStream(60, 1e-6);
+  std::vector<wheel_odom_t> wheels;
+  messages::WheelOdometryFrame wheel_frame;
+  const SE3d step = planar(0.05, 0.0, 2.0 * std::numbers::pi / 180.0);
+  for (int k = 1; k <= 30; ++k) {  // 10 Hz
+    const auto m = core::toPlanar(step * step);
+    wheel_odom_t w = wheelMsg((k - 1) * 100'000, k * 100'000, m.translation().x());
+    w.delta_y_m = m.translation().y();
+    w.delta_theta_rad = 0.9 * m.theta();
+    wheel_frame.stamp(w);
+    wheels.push_back(w);
+  }
+  const auto lost = [](int64_t utime, int64_t to) { return utime > 500'000 && utime <= to; };
+  const auto run = [&](Tracker& t, const std::vector<vo_delta_t>& vo, bool lose, bool poses,
+                       double lie_m) {
+    std::size_t next_wheel = 0;
+    for (vo_delta_t m : vo) {
+      for (; next_wheel < wheels.size() && wheels[next_wheel].utime <= m.utime; ++next_wheel) {
+        if (!lose || !lost(wheels[next_wheel].utime, 2'000'000)) {
+          ASSERT_TRUE(t.addWheel(wheels[next_wheel]));
+        }
+      }
+      if (lose && lost(m.utime, 2'100'000)) continue;
+      if (!poses) m.odom_epoch = 0;
+      if (m.utime == 2'150'000) m.odom_translation[0] += lie_m;
+      ASSERT_TRUE(t.addVo(m));
+    }
+  };
+  Tracker all(TrackerOptions{}), bridged(TrackerOptions{}), unbridged(TrackerOptions{});
+  ASSERT_NO_FATAL_FAILURE(run(all, stream, false, true, 0.0));
+  ASSERT_NO_FATAL_FAILURE(run(bridged, stream, true, true, 0.0));
+  ASSERT_NO_FATAL_FAILURE(run(unbridged, stream, true, false, 0.0));
+  EXPECT_EQ(bridged.counts().vo_timeouts, 1);
+  EXPECT_EQ(bridged.counts().odometry_bridged, 1);
+  EXPECT_EQ(unbridged.counts().odometry_bridged, 0);
+  const auto yaw_error = [&](const Tracker& t) {
+    return std::abs(core::toPlanar(t.delta().mean.inverse() * all.delta().mean).theta());
+  };
+  EXPECT_LT((bridged.delta().mean.inverse() * all.delta().mean).log().norm(), 1e-9);
+  EXPECT_GT(yaw_error(unbridged), 5.0 * std::numbers::pi / 180.0);
+  // A pose that lies (3 m in the turn, within what a robot drives in 1.65 s) contradicts
+  // the wheels: they keep the gap.
+  Tracker lied_to(TrackerOptions{});
+  ASSERT_NO_FATAL_FAILURE(run(lied_to, stream, true, true, 3.0));
+  EXPECT_EQ(lied_to.counts().odometry_bridged, 0);
+  EXPECT_EQ(lied_to.counts().relinks_refused, 1);
+  EXPECT_NEAR(yaw_error(lied_to), yaw_error(unbridged), 1e-9);
+  // VO's motion over the silence less certain than the wheels' (its chain bridged a break by
+  // its motion prior): the wheels keep the gap.
+  Tracker weaker(TrackerOptions{});
+  ASSERT_NO_FATAL_FAILURE(run(weaker, turnStream(60, 1e-1), true, true, 0.0));
+  EXPECT_EQ(weaker.counts().odometry_bridged, 0);
+  EXPECT_EQ(weaker.counts().relinks_weaker, 1);
 }
 
 TEST(Tracker, SilentVoHandsOverToWheelOdometryFromItsLastFrame) {
