@@ -26,6 +26,8 @@ const char* topicName(Topic t) {
       return "viewer";
     case Topic::kLog:
       return "log";
+    case Topic::kPlans:
+      return "plans";
     case Topic::kCount:
       break;
   }

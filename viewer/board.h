@@ -30,6 +30,7 @@ enum class Topic : int {
   kImage,      // the left image of STEREO, decimated, with the KEYFRAME features
   kViewer,     // the viewer's own counts (received, dropped, clients)
   kLog,        // --log: the log's span, the position, playing or not
+  kPlans,      // --plans: the floor plans of evermap-map-export's folder (plan_folder.h)
   kCount
 };
 inline constexpr int kTopicCount = static_cast<int>(Topic::kCount);

@@ -26,6 +26,7 @@
 #include "viewer/json_writer.h"
 #include "viewer/lcm_listener.h"
 #include "viewer/log_player.h"
+#include "viewer/plan_folder.h"
 #include "viewer/store_graph.h"
 #include "viewer/viewer_state.h"
 #include "viewer/web_server.h"
@@ -133,8 +134,9 @@ int playLog(evermap::viewer::LogPlayer& player, lcm::LCM& lcm,
 struct Settings {
   evermap::viewer::WebServerOptions web;
   evermap::viewer::LcmListenerOptions listen;
-  std::string url, store_file, log_file, web_dir, key_file;
+  std::string url, store_file, log_file, web_dir, key_file, plans_dir;
   double log_speed = 1.0;
+  double plans_period_s = 2.0;
   bool quiet = false;
 
   void declareOptions(evermap::OptionList& o) {
@@ -147,6 +149,9 @@ struct Settings {
     o.add("image_width", &listen.image_width, "px", "width of the camera images sent").in(16, 4096);
     o.add("log_speed", &log_speed, "x", "--log: playing speed, x real time")
         .in(evermap::viewer::kMinLogSpeed, evermap::viewer::kMaxLogSpeed);
+    o.add("plans_period_s", &plans_period_s, "s",
+          "--plans: how often the folder is looked at for a new export")
+        .in(0.1, 3600.0);
   }
 };
 
@@ -184,6 +189,9 @@ int parse(int argc, char** argv, Settings* s) {
             "--log: playing speed, x real time (default 1; 0.01-1000, also set on the page)")
       .min(viewer::kMinLogSpeed)
       .max(viewer::kMaxLogSpeed);
+  cli.value("--plans", &s->plans_dir, "DIR",
+            "show the current floor's plan from this evermap-map-export folder under the map "
+            "(a new export is picked up)");
   cli.value("--web-dir", &s->web_dir, "DIR",
             "the page's files (default: found next to the program or in the source tree)");
   cli.value("--max-clients", &s->web.max_clients, "N",
@@ -200,6 +208,8 @@ int parse(int argc, char** argv, Settings* s) {
     findPage(s->web_dir, &s->web);
     if (!s->store_file.empty() && !s->log_file.empty())
       return makeError("--store and --log: one or the other");
+    if (!s->plans_dir.empty() && !std::filesystem::is_directory(s->plans_dir))
+      return makeError("--plans ", s->plans_dir, ": not a folder");
     if (Status v = s->web.validate(); !v) return v;
     return s->listen.validate();
   });
@@ -315,6 +325,8 @@ int main(int argc, char** argv) {
   std::printf("evermap-viewer: serving http://%s:%d/ (page from %s)\n", s.web.bind.c_str(),
               (*server)->port(), s.web.web_dir.c_str());
   std::fflush(stdout);
+  std::optional<viewer::PlanWatcher> plans;
+  if (!s.plans_dir.empty()) plans.emplace(s.plans_dir, board, **server, s.plans_period_s);
   if (!s.store_file.empty()) return finish(showStore(s.store_file, s, board, **server, stop));
 
   std::optional<viewer::LogPlayer> player;

@@ -34,3 +34,23 @@ precision="$(awk '$1 == "floor" && $2 == "0" { for (i = 1; i < NF; ++i) if ($i =
 awk -v p="$precision" 'BEGIN { exit !(p != "" && p >= 0.8) }' \
   || fail "floor 0: occupied precision $precision under 0.8"
 echo "OK: floor plans exported, stores unchanged, floor 0 occupied precision $precision"
+
+# The plan under the graph in the viewer.
+chromium="$(command -v chromium || command -v chromium-browser || true)"
+if [ -z "$chromium" ] || ! command -v node > /dev/null || [ ! -x "$bin/evermap-viewer" ] \
+  || [ ! -f "$src/viewer/web/node_modules/three/build/three.module.js" ]; then
+  [ "${CI:-}" = true ] && fail "the viewer's plan needs chromium, node, three.js and evermap-viewer (scripts/setup.sh)"
+  echo "SKIP: the viewer's plan (chromium, node, three.js or evermap-viewer missing: run scripts/setup.sh)"
+  exit 0
+fi
+occupied="$(python3 -c 'import sys; print(open(sys.argv[1], "rb").read().split(b"\n", 3)[3].count(0))' "$tmp/plans/floor-0.pgm")"
+"$bin/evermap-viewer" --store "$tmp/slam/map.db" --plans "$tmp/plans" --port 0 > "$tmp/viewer.log" 2>&1 &
+kill_at_exit $!
+fail_logs+=("$tmp/viewer.log")
+for _ in $(seq 100); do grep -q '^evermap-viewer: serving' "$tmp/viewer.log" && break; sleep 0.1; done
+url="$(grep -o 'http://[0-9.]*:[0-9]*/' "$tmp/viewer.log" | head -1)"
+[ -n "$url" ] || fail "the viewer did not start"
+node "$src/tests/integration/viewer_plan.mjs" --chromium "$chromium" --url "$url" --floor 0 \
+  --occupied "$occupied" --screenshot "${EVERMAP_PLAN_SCREENSHOT:-$build/viewer-plan.png}" \
+  > "$tmp/browser.log" 2>&1 || { cat "$tmp/browser.log"; fail "the viewer did not show floor 0's plan"; }
+cat "$tmp/browser.log"

@@ -5,6 +5,8 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
+import { PlanLayer } from './plan_layer.js';
+
 const SESSION_COLOURS = [0x5fb3ff, 0x7ddc6f, 0xe36bd8, 0xf2d64b, 0x59e0c8, 0xb48cff, 0xff5f7a,
                          0xc0c0c0, 0x3fd17f, 0xffa0e0];
 const SESSION_RGB = SESSION_COLOURS.map((hex) => { const c = new THREE.Color(hex); return [c.r, c.g, c.b]; });
@@ -68,6 +70,7 @@ export class MapScene {
     this.trailLine = new THREE.LineSegments(new THREE.BufferGeometry(),
       new THREE.LineBasicMaterial({ color: 0x40e0ff }));
     this.floors = new THREE.Group();
+    this.plan = new PlanLayer();  // the current floor's plan (--plans)
     this.robot = new THREE.Mesh(new THREE.ConeGeometry(0.6, 1.8, 12),
       new THREE.MeshBasicMaterial({ color: 0x40e0ff }));
     this.robot.visible = false;
@@ -77,7 +80,7 @@ export class MapScene {
       new THREE.PointsMaterial({ size: 11, sizeAttenuation: false, color: 0xffffff, depthTest: false }));
     this.marker.renderOrder = 1;
     this.marker.visible = false;
-    for (const o of [this.floors, this.odometry, this.loops, this.fresh, this.nodes, this.trailLine, this.robot, this.marker])
+    for (const o of [this.floors, this.plan.group, this.odometry, this.loops, this.fresh, this.nodes, this.trailLine, this.robot, this.marker])
       this.group.add(o);
     for (const o of [this.nodes, this.odometry, this.loops]) o.frustumCulled = false;
 
@@ -159,7 +162,31 @@ export class MapScene {
     this.rebuildMarker();
     this.rebuildFresh();
     this.rebuildFloors();
+    this.updatePlan();
     this.dirty = true;
+  }
+
+  // The "plans" text (--plans).
+  setPlans(m) { this.plan.setPlans(m); this.updatePlan(); }
+
+  // The current floor: the one shown from the top, else the robot's, else the newest node's.
+  currentFloor() {
+    if (this.floorFilter !== null) return this.floorFilter;
+    if (this.pose && this.pose.floor >= 0) return this.pose.floor;
+    const g = this.graph;
+    return g && g.nodes.id.length > 0 ? g.nodes.floor[g.nodes.id.length - 1] : null;
+  }
+
+  // The current floor's plan under its nodes (the floor grid's height, a little above it).
+  updatePlan() {
+    const floor = this.currentFloor();
+    const f = this.graph ? this.graph.floors.find((x) => x.index === floor) : undefined;
+    const shown = this.plan.show(floor, this.z(f ? f.height_m : 0) - 0.2);
+    if (shown !== this.planShown) {
+      this.planShown = shown;
+      this.dirty = true;
+      if (this.onPlanShown) this.onPlanShown(floor, shown);
+    }
   }
 
   nodeIndex() {
@@ -327,6 +354,7 @@ export class MapScene {
     this.robot.quaternion.copy(q).multiply(new THREE.Quaternion().setFromAxisAngle(new THREE.Vector3(0, 0, 1), -Math.PI / 2));
     this.trailDirty = true;
     this.dirty = true;
+    if (this.currentFloor() !== (this.plan.shown ? this.plan.shown.floor : null)) this.updatePlan();
   }
 
   rebuildTrail() {

@@ -1,7 +1,8 @@
 // The page of evermap-viewer: one WebSocket (subprotocol "evermap") carrying JSON texts, one
 // per topic ({"type": "graph" | "pose" | "floor" | "stats" | "history" | "register" |
-// "deputy" | "vo" | "image" | "viewer", ...}; docs/viewer.md). The 3-D view is loaded on its
-// own (scene.js, three.js), so the counts and plots work even where WebGL does not.
+// "deputy" | "vo" | "image" | "viewer" | "log" | "plans", ...}; docs/viewer.md). The 3-D view
+// is loaded on its own (scene.js, three.js), so the counts and plots work even where WebGL
+// does not.
 import { drawPlot } from './plots.js';
 
 const $ = (id) => document.getElementById(id);
@@ -48,10 +49,30 @@ async function startScene() {
       }
       down = null;
     });
+    state.scene.onPlanShown = showPlan;
+    if (state.plans) state.scene.setPlans(state.plans);
     if (state.graph) showGraphInScene(state.graph);
   } catch (e) {
     setText('scene-message', '3-D view unavailable: ' + e.message + ' (three.js installed by scripts/setup.sh; WebGL needed)');
     console.warn('3-D view unavailable', e);
+  }
+}
+
+// The plan under the map (--plans): which floor's, or why none.
+function showPlan(floor, plan) {
+  const d = document.documentElement.dataset;
+  const floors = state.plans ? state.plans.floors.map((p) => p.floor) : [];
+  $('plan-line').hidden = !state.plans;
+  if (plan) {
+    setText('plan', `floor ${plan.floor}, ${plan.width}×${plan.height} cells of ${plan.resolution_m} m, ` +
+      `${plan.occupied} occupied` + (floors.length > 1 ? ` (plans of floors ${floors.join(', ')})` : ''));
+    d.planFloor = String(plan.floor);
+    d.planOccupied = String(plan.occupied);
+  } else {
+    setText('plan', floors.length === 0 ? 'none in ' + (state.plans ? state.plans.dir : '--plans')
+      : `none for floor ${floor} (plans of floors ${floors.join(', ')})`);
+    delete d.planFloor;
+    delete d.planOccupied;
   }
 }
 
@@ -144,6 +165,11 @@ const handlers = {
     const s = p.sigma_xy_m === null ? '' : ' ±' + p.sigma_xy_m.toFixed(2) + ' m';
     setText('pose', p.xyz.map((v) => v.toFixed(2)).join(', ') + ' m' + s + ' (session ' + p.session + ')');
     if (state.scene) state.scene.setPose(p);
+  },
+  plans(m) {
+    state.plans = m;
+    if (state.scene) state.scene.setPlans(m);
+    else showPlan(null, null);
   },
   floor(f) {
     setText('floor', (f.floor_index < 0 ? 'unknown' : f.floor_index) + ' at ' + f.height_m.toFixed(1) + ' m' +
