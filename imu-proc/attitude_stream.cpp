@@ -17,6 +17,7 @@ std::optional<attitude_t> AttitudeStream::add(const imu_t& msg) {
   out.heading_rad = heading_.headingRad();
   out.heading_rate_sigma_rad_s = heading_.rateSigmaRadS();
   out.heading_valid = heading_.started() ? 1 : 0;
+  out.heading_epoch = heading_.epoch();
   return out;
 }
 

@@ -21,6 +21,7 @@ void HeadingIntegrator::add(const ImuSample& s, const core::SO3d& world_R_body) 
     if (!started_) {
       started_ = true;
       utime_ = s.utime;
+      epoch_ = s.utime;
       rate_ = up_body_.dot(s.gyro_rad_s - bias_);
     }
     stillness(s);
@@ -35,6 +36,7 @@ void HeadingIntegrator::add(const ImuSample& s, const core::SO3d& world_R_body) 
     // the message times and does not bridge it with the gyro).
     ++counts_.gaps;
     window_.clear();
+    epoch_ = s.utime;
   } else {
     heading_ += 0.5 * (rate_ + rate) * dt;
   }

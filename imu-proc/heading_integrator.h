@@ -88,6 +88,9 @@ class HeadingIntegrator {
   void add(const ImuSample& sample, const core::SO3d& world_R_body);
 
   bool started() const { return started_; }
+  // The utime of the sample the current integration started at: the first, or the end of the
+  // last gap over max_gap_s (0 before the first sample).
+  int64_t epoch() const { return epoch_; }
   double headingRad() const { return heading_; }
   // 1 sigma of the bias about the vertical left in the heading rate, rad/s.
   double rateSigmaRadS() const;
@@ -100,6 +103,7 @@ class HeadingIntegrator {
   HeadingOptions o_;
   bool started_ = false;
   int64_t utime_ = 0;
+  int64_t epoch_ = 0;
   double heading_ = 0.0;
   double rate_ = 0.0;  // yaw rate at the last sample, rad/s
   Eigen::Vector3d bias_ = Eigen::Vector3d::Zero();

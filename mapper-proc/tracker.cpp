@@ -17,6 +17,9 @@ namespace {
 
 Mat6 symmetric(const Mat6& m) { return 0.5 * (m + m.transpose()); }
 
+// ATTITUDE messages this far apart (seconds) are a gap: imu-proc restarted, or messages lost.
+constexpr double kHeadingGapS = 0.5;
+
 }  // namespace
 
 Status TrackerOptions::validate() const {
@@ -308,9 +311,9 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
   }
   if (!vo_mode_ && ref_utime != ref_utime_ && since_last &&
       replaceWheels(vo_lost_utime_, *since_last)) {
-    // The frame is at the end of VO's motion since its last frame taken; its reference is
-    // placed behind it, as below.
-    commit(utime, *since_last);
+    // The frame is at the end of VO's motion since its last frame taken (the gyro's yaw over
+    // it fused in, as into a keyframe step); its reference is placed behind it, as below.
+    commit(utime, withGyroYaw(vo_lost_utime_, utime, *since_last));
     ++counts_.odometry_bridged;
   }
   // An unknown reference: the frame goes where the estimate (wheel odometry) has the body, so
@@ -466,13 +469,18 @@ Status Tracker::addHeading(const attitude_t& msg) {
     return makeError("ATTITUDE ", msg.utime, ": heading out of order");
   }
   // A gap (imu-proc restarted, messages lost) or a jump no body turns by: the headings
-  // before it belong to another integration, and nothing bridges the gap.
+  // before it belong to another integration, and nothing bridges the gap; unless both sides
+  // say they are one integration (heading_epoch): then only messages were lost.
   if (!headings_.empty()) {
-    const double dt = static_cast<double>(msg.utime - headings_.back().utime) * 1e-6;
-    if (dt > 0.5 || std::abs(msg.heading_rad - headings_.back().heading_rad) > 10.0 * dt + 0.1)
+    const HeadingSample& last = headings_.back();
+    const double dt = static_cast<double>(msg.utime - last.utime) * 1e-6;
+    const bool one_integration = msg.heading_epoch != 0 && msg.heading_epoch == last.epoch;
+    if ((dt > kHeadingGapS && !one_integration) ||
+        std::abs(msg.heading_rad - last.heading_rad) > 10.0 * dt + 0.1)
       headings_.clear();
   }
-  headings_.push_back(HeadingSample{msg.utime, msg.heading_rad, msg.heading_rate_sigma_rad_s});
+  headings_.push_back(
+      HeadingSample{msg.utime, msg.heading_rad, msg.heading_rate_sigma_rad_s, msg.heading_epoch});
   const auto keep = static_cast<int64_t>((o_.wheel_buffer_s + 5.0) * 1e6);
   while (headings_.front().utime < msg.utime - keep) headings_.pop_front();
   return Ok{};
@@ -482,12 +490,22 @@ std::optional<std::pair<double, double>> Tracker::gyroYaw(int64_t t0, int64_t t1
   if (headings_.size() < 2 || t0 < headings_.front().utime) return std::nullopt;
   const auto extrapolation = static_cast<int64_t>(o_.heading_extrapolation_s * 1e6);
   if (t1 > headings_.back().utime + extrapolation) return std::nullopt;
+  const auto gap = static_cast<int64_t>(kHeadingGapS * 1e6);
   auto at = [&](int64_t t) {
     // The samples around t (the last two past the end: extrapolated at their rate).
     auto b = std::lower_bound(headings_.begin(), headings_.end(), t,
                               [](const HeadingSample& h, int64_t u) { return h.utime < u; });
     if (b == headings_.end()) --b;
     if (b == headings_.begin()) ++b;
+    // Inside a gap of lost messages (one integration): extrapolated from the nearer side's
+    // samples, not interpolated across the gap (in a turn, the rate is not constant over it).
+    if (b->utime - std::prev(b)->utime > gap) {
+      const bool nearer_before = t - std::prev(b)->utime <= b->utime - t;
+      if (nearer_before && std::prev(b) != headings_.begin())
+        --b;
+      else if (!nearer_before && std::next(b) != headings_.end())
+        ++b;
+    }
     const HeadingSample& p = *std::prev(b);
     const double f = static_cast<double>(t - p.utime) / static_cast<double>(b->utime - p.utime);
     return p.heading_rad + f * (b->heading_rad - p.heading_rad);

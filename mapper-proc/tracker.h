@@ -309,6 +309,7 @@ class Tracker {
     int64_t utime;
     double heading_rad;
     double rate_sigma;
+    int64_t epoch;  // ATTITUDE heading_epoch (0: not said)
   };
   std::deque<HeadingSample> headings_;
   // Whether the newest heading is at or past `utime`.

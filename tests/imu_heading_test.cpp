@@ -102,7 +102,7 @@ TEST(AttitudeStream, PublishesTheGyroHeadingWithTheAttitude) {
   Robot robot;
   std::normal_distribution<double> n(0.0, robot.noise);
   double yaw = 0.0;
-  std::optional<attitude_t> last;
+  std::optional<attitude_t> first, last;
   int published = 0;
   for (int k = 0; k <= 12 * 200; ++k) {
     const double t = k / 200.0;
@@ -113,6 +113,7 @@ TEST(AttitudeStream, PublishesTheGyroHeadingWithTheAttitude) {
                    Eigen::Vector3d(n(robot.rng), n(robot.rng), n(robot.rng));
     s.accel_m_s2 = Eigen::Vector3d(0, 0, kG);
     if (auto m = stream.add(toLcm(s))) {
+      if (!first) first = m;
       last = m;
       ++published;
     }
@@ -123,6 +124,28 @@ TEST(AttitudeStream, PublishesTheGyroHeadingWithTheAttitude) {
   EXPECT_NEAR(last->heading_rad, yaw, 0.3 * kDeg);
   EXPECT_GT(last->heading_rate_sigma_rad_s, 0.0);
   EXPECT_LT(last->heading_rate_sigma_rad_s, 1e-3);
+  // One integration, from a sample before the first message on: one epoch.
+  EXPECT_GT(first->heading_epoch, 0);
+  EXPECT_LE(first->heading_epoch, first->utime);
+  EXPECT_EQ(last->heading_epoch, first->heading_epoch);
+}
+
+TEST(HeadingIntegrator, AGapItCannotIntegrateStartsANewEpoch) {
+  // Headings of one epoch differ by the rotation between them (a consumer may bridge lost
+  // messages); a gap in the IMU itself is a rotation nobody measured: a new epoch.
+  HeadingIntegrator h;
+  ImuSample s;
+  s.accel_m_s2 = Eigen::Vector3d(0, 0, kG);
+  EXPECT_EQ(h.epoch(), 0);
+  for (int64_t t = 2'000'000; t <= 3'000'000; t += 5000) {
+    s.utime = t;
+    h.add(s, core::SO3d());
+  }
+  EXPECT_EQ(h.epoch(), 2'000'000);
+  s.utime = 3'000'000 + static_cast<int64_t>(2e6 * HeadingOptions{}.max_gap_s);
+  h.add(s, core::SO3d());
+  EXPECT_EQ(h.counts().gaps, 1);
+  EXPECT_EQ(h.epoch(), s.utime);
 }
 
 }  // namespace

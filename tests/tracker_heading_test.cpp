@@ -27,8 +27,9 @@ wheel_odom_t wheel(int64_t prev, int64_t utime, double dx, double dtheta, double
   return w;
 }
 
-attitude_t heading(int64_t utime, double heading_rad, double rate_sigma = 1e-4) {
+attitude_t heading(int64_t utime, double heading_rad, double rate_sigma = 1e-4, int64_t epoch = 0) {
   attitude_t a{};
+  a.heading_epoch = epoch;
   a.utime = utime;
   a.covariance[0] = a.covariance[3] = 1e-6;
   a.accel_trusted = 1;
@@ -127,6 +128,32 @@ TEST(TrackerHeading, ARestartedImuProcBreaksTheHeadingInsteadOfJumping) {
   // After the restart the new headings are used.
   ASSERT_TRUE(t.addWheel(wheel(1800000, 1900000, 0.1, 0.0, 1e-4)));
   EXPECT_EQ(t.counts().gyro_turns, 1);
+}
+
+TEST(TrackerHeading, HeadingsLostOnALinkAreBridgedWhenTheySayTheyAreOneIntegration) {
+  // A partition drops ATTITUDE from 1.0 s to 2.6 s; the robot starts turning at 0.5 rad/s
+  // at 1.5 s, unseen. The wheels (yaw 20 % short) carry 1.05 s to 2.7 s. Headings of one
+  // epoch span the gap: the increment gets the gyro's 0.6 rad, its start (inside the gap)
+  // extrapolated from before it, not interpolated across it into the turn. Headings without
+  // an epoch (an older imu-proc), or of two epochs (a restart), bridge nothing.
+  const auto truth = [](int64_t t) { return t < 1'500'000 ? 0.0 : 0.5 * (t - 1'500'000) * 1e-6; };
+  const auto run = [&](Tracker& t, int64_t epoch_before, int64_t epoch_after) {
+    for (int64_t a = 0; a <= 3'000'000; a += 20'000) {
+      if (a > 1'000'000 && a < 2'600'000) continue;
+      ASSERT_TRUE(
+          t.addHeading(heading(a, truth(a), 1e-4, a <= 1'000'000 ? epoch_before : epoch_after)));
+    }
+    ASSERT_TRUE(t.addWheel(wheel(0, 1'050'000, 0.0, 0.0, 1e-4)));
+    ASSERT_TRUE(t.addWheel(wheel(1'050'000, 2'700'000, 0.0, 0.8 * 0.6, 1e-2)));
+  };
+  Tracker one(TrackerOptions{}), old(TrackerOptions{}), restarted(TrackerOptions{});
+  ASSERT_NO_FATAL_FAILURE(run(one, 7, 7));
+  ASSERT_NO_FATAL_FAILURE(run(old, 0, 0));
+  ASSERT_NO_FATAL_FAILURE(run(restarted, 7, 2'600'000));
+  EXPECT_NEAR(yawOf(one), 0.6, 2e-3);
+  EXPECT_EQ(one.counts().gyro_turns, 2);
+  EXPECT_NEAR(yawOf(old), 0.48, 1e-9);
+  EXPECT_NEAR(yawOf(restarted), 0.48, 1e-9);
 }
 
 TEST(TrackerHeading, MalformedHeadingsAreDroppedAndCounted) {

@@ -298,12 +298,14 @@ void GyroHeadingModel::fill(int64_t utime, const BodyState& s, attitude_t* m) {
     }
   } else if (last_utime_ < 0) {
     unwrapped_yaw_ = yaw;
+    epoch_ = utime;  // one integration for the session
   }
   last_yaw_ = yaw;
   last_utime_ = utime;
   m->heading_rad = unwrapped_yaw_ + heading_error_;
   m->heading_rate_sigma_rad_s = std::sqrt(bias_variance_);
   m->heading_valid = 1;
+  m->heading_epoch = epoch_;
 }
 
 std::vector<floor_t> floorEvents(const Building& building, const SessionPlan& plan,

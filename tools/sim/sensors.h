@@ -148,6 +148,7 @@ class GyroHeadingModel {
   double unwrapped_yaw_ = 0.0;
   double last_yaw_ = 0.0;
   int64_t last_utime_ = -1;
+  int64_t epoch_ = 0;
   double still_s_ = 0.0;
 };
 
