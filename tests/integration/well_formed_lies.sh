@@ -13,8 +13,8 @@
 # After each, the map must be the control's: nodes with ground truth within 20 % (clean live
 # replays alone made 144, 147, 153 and 161 nodes, 2026-11-29; the damage this guards against,
 # a clean session lost, is half the nodes), node ATE within
-# 20 % (or 0.03 m: live replays vary by about that, docs/pipeline.md), every floor at its
-# height, both sessions. EVERMAP_LIES_MEASURE=1 prints the figures without judging them (the
+# 20 % (or 0.05 m: live 20x replays on the lie-free path made 0.060-0.097 m, 2026-11-29 night;
+# the damage this guards against is metres), every floor at its height, both sessions. EVERMAP_LIES_MEASURE=1 prints the figures without judging them (the
 # before/after measurement of docs/results/reliability.md); EVERMAP_LIES_FUZZ=BIN takes the
 # fuzzer from another build (one without --stamp cannot send far_stamps). EVERMAP_LIES_CASES
 # restricts the lies (e.g. "far_stamps fuzz_floor"); EVERMAP_LIES_MAPPER_FLAGS adds options to
@@ -98,7 +98,7 @@ for c in $cases; do
   got_ate="$(figure node_ate_rmse_m "$c")"
   awk -v g="$got_nodes" -v w="$want_nodes" 'BEGIN { d = g - w; if (d < 0) d = -d; exit !(d <= 0.20 * w) }' \
     || fail "$c: $got_nodes nodes with truth, control $want_nodes (more than 20 % apart)"
-  awk -v g="$got_ate" -v w="$want_ate" 'BEGIN { exit !(g != "n/a" && (g <= 1.2 * w || g <= w + 0.03)) }' \
+  awk -v g="$got_ate" -v w="$want_ate" 'BEGIN { exit !(g != "n/a" && (g <= 1.2 * w || g <= w + 0.05)) }' \
     || fail "$c: node ATE $got_ate m, control $want_ate m"
   grep -q '^floors 3 (3 at' "$tmp/$c/eval.txt" || fail "$c: the floors are not the building's"
   grep -q '^sessions 2 (run: 2)' "$tmp/$c/eval.txt" || fail "$c: the map does not hold both sessions"
