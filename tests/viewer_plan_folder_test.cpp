@@ -119,7 +119,7 @@ TEST_F(PlanFolderTest, AHostilePlanIsRefusedByNameAndTheOthersAreShown) {
       {pgm,
        "image: floor-1.pgm\nresolution: nan\norigin: [0, 0, 0]\noccupied_thresh: 0.65\n"
        "free_thresh: 0.2\n",
-       "is not a number"},
+       "is not a finite number"},
       {pgm,
        "image: floor-1.pgm\nresolution: 0.1\norigin: [0, 0]\noccupied_thresh: 0.65\n"
        "free_thresh: 0.2\n",

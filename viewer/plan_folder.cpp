@@ -9,6 +9,7 @@
 #include <regex>
 #include <sstream>
 
+#include "core/common/option_fields.h"
 #include "viewer/json_writer.h"
 #include "viewer/web_server.h"
 
@@ -52,10 +53,9 @@ Expected<std::map<std::string, std::string>> yamlKeys(const fs::path& yaml) {
 }
 
 Expected<double> number(const fs::path& yaml, const std::string& key, const std::string& text) {
-  char* end = nullptr;
-  const double v = std::strtod(text.c_str(), &end);
-  if (end == text.c_str() || *end != '\0' || !std::isfinite(v))
-    return makeError(yaml.string(), ": ", key, " \"", text, "\" is not a number");
+  double v = 0.0;
+  if (Status s = option_text::parseDouble(text, &v); !s)
+    return makeError(yaml.string(), ": ", key, " ", s.error().message);
   return v;
 }
 
