@@ -19,6 +19,11 @@ ElevatorTracker::ElevatorTracker(const ElevatorTrackerOptions& options)
     : options_(checked(options)),
       gate_(options.gate),
       pulse_filter_(options.pulse),
+      // The latency of a confirmed start after the cells that raise the alarm: the longest
+      // template, the low band's and the step window's delays, the lead-in after the pulse.
+      watch_(options.watch, options.pulse.bin_s,
+             options.pulse.widths_s.back() + options.lowpass_width_s + options.step_window_s +
+                 options.lead_in_s),
       floors_(options.floors),
       bin_us_(static_cast<int64_t>(std::llround(options.pulse.bin_s * 1e6))),
       gravity_(options.initial_gravity_m_s2) {
@@ -96,11 +101,10 @@ std::vector<FloorEvent> ElevatorTracker::finish() {
   }
   drain(&events);
   for (const Pulse& p : pulse_filter_.flush()) onPulse(p, &events);
-  if (!starts_.empty()) {
-    const int64_t last =
-        history_.empty() ? 0 : history_first_ + static_cast<int64_t>(history_.size()) - 1;
-    abandon(last, "end of the data before a stop", &events);
-  }
+  const int64_t last =
+      history_.empty() ? 0 : history_first_ + static_cast<int64_t>(history_.size()) - 1;
+  if (!starts_.empty()) abandon(last, "end of the data before a stop", &events);
+  announce(watch_.finish(), last, &events);
   history_.clear();
   have_last_closed_ = false;
   return events;
@@ -180,6 +184,21 @@ void ElevatorTracker::processBin(int64_t index, const Bin& in, std::vector<Floor
   // cell's value, taken while a phone is put down, can be 2 m/s^2 off).
   if (starts_.empty() && (!frozen || !calm_reference_)) updateGravity(index);
   splitBands(index - lowpass_half_, events);
+  announce(watch_.add(index, b.accel, b.valid, b.motion, walking_, !starts_.empty()), index,
+           events);
+}
+
+void ElevatorTracker::announce(VerticalWatch::Change change, int64_t index,
+                               std::vector<FloorEvent>* events) {
+  if (change == VerticalWatch::Change::kNone) return;
+  FloorEvent e;
+  e.utime = binUtime(index);
+  e.kind = change == VerticalWatch::Change::kMotion ? FloorEvent::Kind::kVerticalMotion
+                                                    : FloorEvent::Kind::kVerticalStill;
+  e.floor_index = floors_.current();
+  e.height_m = floors_.currentHeight();
+  events->push_back(e);
+  if (change == VerticalWatch::Change::kMotion) ++counts_.vertical_alarms;
 }
 
 void ElevatorTracker::splitBands(int64_t index, std::vector<FloorEvent>* events) {

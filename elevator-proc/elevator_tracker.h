@@ -8,6 +8,9 @@
 //      (the constant accelerometer bias b that makes v(end) = 0 is removed first:
 //       b = mean(a) over the ride, v(t) = sum(a - b) dt, d = sum(v) dt)
 //   -> FloorTable: nearest floor within a threshold, else a new floor.
+// The start is confirmed only once the filter's longest template has passed it (10+ s); the
+// VerticalWatch (vertical_watch.h) announces vertical motion at once (EVENT_VERTICAL_MOTION),
+// and stillness when no ride followed (EVENT_VERTICAL_STILL).
 //
 // Walking is told from standing by band: the energy of the signal above a 1.4 s low-pass
 // (steps are 1.5-2.5 Hz, a ride's pulse under 0.7 Hz), with hysteresis. A ride starts only
@@ -34,12 +37,14 @@
 #include "core/imu/sample_gate.h"
 #include "elevator-proc/floor_table.h"
 #include "elevator-proc/pulse_filter.h"
+#include "elevator-proc/vertical_watch.h"
 
 namespace evermap::elevator {
 
 struct ElevatorTrackerOptions {
   PulseFilterOptions pulse;
   FloorTableOptions floors;
+  VerticalWatchOptions watch;
   imu::SampleGateOptions gate;
   // Gravity reference (the accelerometer's own g, which also moves by a few 0.1 m/s^2 when
   // a phone changes face: per-axis bias): the median of the vertical specific force over the
@@ -131,6 +136,7 @@ struct ElevatorTrackerOptions {
     declareGravityOptions(o);
     declareRideOptions(o);
     o.nest("gate_", &gate);
+    o.nest("watch_", &watch);
   }
   void declarePulseOptions(OptionList& o) {
     o.add("pulse_bin_s", &pulse.bin_s, "s", "grid the vertical acceleration is averaged onto")
@@ -262,7 +268,8 @@ struct ElevatorTrackerOptions {
 
 // What elevator-proc publishes on FLOOR (evermap::floor_t).
 struct FloorEvent {
-  enum class Kind { kRideStart, kRideEnd };
+  // kVerticalMotion / kVerticalStill: the watch's (vertical_watch.h), on the floor left.
+  enum class Kind { kRideStart, kRideEnd, kVerticalMotion, kVerticalStill };
   int64_t utime = 0;
   Kind kind = Kind::kRideStart;
   int floor_index = -1;  // -1 while riding
@@ -312,6 +319,7 @@ struct ElevatorCounts {
   int64_t rides = 0;
   int64_t abandoned = 0;
   int64_t rejected = 0;
+  int64_t vertical_alarms = 0;  // EVENT_VERTICAL_MOTION announced
   std::string summary() const;
 };
 
@@ -395,12 +403,15 @@ class ElevatorTracker {
   void finishRide(const Pulse& start, const Pulse& stop, const RideFit& fit,
                   std::vector<FloorEvent>* events);
   void abandon(int64_t now_index, const std::string& reason, std::vector<FloorEvent>* events);
+  // The watch's change at cell `index`, as a FLOOR event on the floor left.
+  void announce(VerticalWatch::Change change, int64_t index, std::vector<FloorEvent>* events);
   const Bin* bin(int64_t index) const;
   Bin* mutableBin(int64_t index) { return const_cast<Bin*>(bin(index)); }
 
   ElevatorTrackerOptions options_;
   imu::SampleGate gate_;
   PulseFilter pulse_filter_;
+  VerticalWatch watch_;
   FloorTable floors_;
   ElevatorCounts counts_;
   std::vector<TraceBin>* trace_ = nullptr;

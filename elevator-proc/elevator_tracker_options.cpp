@@ -40,12 +40,12 @@ std::string ElevatorCounts::summary() const {
   std::snprintf(
       buf, sizeof buf,
       "samples used %lld, without attitude %lld, bins %lld (empty %lld, filled %lld), pulses %lld, "
-      "rides %lld, abandoned %lld, rejected %lld",
+      "rides %lld, abandoned %lld, rejected %lld, vertical alarms %lld",
       static_cast<long long>(samples_used), static_cast<long long>(no_attitude),
       static_cast<long long>(bins), static_cast<long long>(empty_bins),
       static_cast<long long>(filled_bins), static_cast<long long>(pulses),
       static_cast<long long>(rides), static_cast<long long>(abandoned),
-      static_cast<long long>(rejected));
+      static_cast<long long>(rejected), static_cast<long long>(vertical_alarms));
   return buf;
 }
 

@@ -61,8 +61,10 @@ class Node {
     for (const auto& e : tracker_.add(s, att)) {
       const evermap::floor_t out = evermap::elevator::toLcm(e);
       out_->publish(evermap::channels::kFloor, out);
-      std::fprintf(stderr, "evermap-elevator-proc: %s floor %d height %.2f m (+-%.2f)%s\n",
-                   out.event == evermap::floor_t::EVENT_RIDE_START ? "ride start" : "ride end",
+      const bool ride = out.event == evermap::floor_t::EVENT_RIDE_START ||
+                        out.event == evermap::floor_t::EVENT_RIDE_END;
+      std::fprintf(stderr, "evermap-elevator-proc: %s %s floor %d height %.2f m (+-%.2f)%s\n",
+                   ride ? "ride" : "vertical", evermap::elevator::floorEventName(out.event),
                    out.floor_index, out.height_m, out.height_sigma_m,
                    out.new_floor ? " new floor" : "");
     }

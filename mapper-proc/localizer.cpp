@@ -79,16 +79,27 @@ Status Localizer::onFloor(const floor_t& msg) {
     ++stats_.dropped;
     return makeError("FLOOR ", msg.utime, ": height not finite");
   }
-  if (msg.event == floor_t::EVENT_RIDE_START) {
+  if (msg.event == floor_t::EVENT_VERTICAL_MOTION || msg.event == floor_t::EVENT_RIDE_START) {
+    // The first sign of a ride (or its confirmed start, when no sign came before it): the
+    // height is unobserved from here on.
+    if (msg.event == floor_t::EVENT_VERTICAL_MOTION) ++stats_.vertical_alarms;
+    if (!in_ride_) {
+      ride_start_height_m_ = msg.height_m;
+      ride_start_z_m_ = pose().mean.translation().z();
+    }
     in_ride_ = true;
-    ride_start_height_m_ = msg.height_m;
-    ride_start_z_m_ = pose().mean.translation().z();
+    ride_confirmed_ = ride_confirmed_ || msg.event == floor_t::EVENT_RIDE_START;
+    return Ok{};
+  }
+  if (msg.event == floor_t::EVENT_VERTICAL_STILL && in_ride_ && !ride_confirmed_) {
+    in_ride_ = false;  // no ride followed: the height never changed
     return Ok{};
   }
   if (msg.event != floor_t::EVENT_RIDE_END || !in_ride_) return Ok{};
   // The ride's height change (elevator-proc's heights are its own, their difference is not),
   // as far as odometry has not seen it already; the floor is the stored one at that height.
   in_ride_ = false;
+  ride_confirmed_ = false;
   ++stats_.rides;
   if (!placed()) return Ok{};
   const double z = ride_start_z_m_ + (msg.height_m - ride_start_height_m_);

@@ -24,9 +24,11 @@
 // the larger x-y standard deviation exceeds localize.max_sigma_m, the yaw's exceeds
 // localize.max_sigma_deg, or the robot has travelled more than localize.max_dead_reckoning_m
 // since the last registration applied; from then on only two agreeing registrations
-// localize it again. An elevator ride (FLOOR ride start to end) takes no step; at its end the
-// ride's height change moves the pose and the floor is the stored one at that height (none
-// within floor_match_m: unknown, and not localized). During the ride the pose is not localized.
+// localize it again. An elevator ride (FLOOR vertical motion, or ride start, to the ride's end)
+// takes no step; at its end the ride's height change moves the pose and the floor is the
+// stored one at that height (none within floor_match_m: unknown, and not localized). During
+// the ride the pose is not localized; vertical motion that ends still (no ride) changes
+// nothing.
 // Once placed, a registration to a node more than floor_match_m above or below the tracked
 // height is refused (refused_floor): the floors of a building look alike, and a robot that rode
 // to a floor the map does not hold must not be placed on one it does.
@@ -65,6 +67,7 @@ struct LocalizerStats {
   int64_t timeouts = 0;
   int64_t dropped = 0;  // malformed messages, unknown nodes, answers to no request
   int64_t rides = 0;
+  int64_t vertical_alarms = 0;  // EVENT_VERTICAL_MOTION: not localized until still or the end
 };
 
 class Localizer : public MapConsumer {
@@ -136,8 +139,9 @@ class Localizer : public MapConsumer {
   std::vector<core::SE3d> poses_;
   std::map<int, double> floors_;  // the stored table: floor -> height
   int session_ = 0;
-  int floor_ = -1;  // -1: unknown (before placed, after a ride to no stored floor)
-  bool in_ride_ = false;
+  int floor_ = -1;               // -1: unknown (before placed, after a ride to no stored floor)
+  bool in_ride_ = false;         // from vertical motion (or a ride's start) to the ride's end
+  bool ride_confirmed_ = false;  // ... the ride's start came
   double ride_start_height_m_ = 0.0;  // FLOOR's at the ride's start ...
   double ride_start_z_m_ = 0.0;       // ... and the pose's
   int64_t active_ = -1;

@@ -145,6 +145,10 @@ Status Mapper::onAttitude(const attitude_t& msg) {
 }
 
 Status Mapper::onFloor(const floor_t& msg) {
+  // The first sign of a ride, and its all-clear: the mapper acts on the confirmed start
+  // (its steps before it are held or made as without the sign).
+  if (msg.event == floor_t::EVENT_VERTICAL_MOTION || msg.event == floor_t::EVENT_VERTICAL_STILL)
+    return Ok{};
   // A ride's start stops the steps after it, not one held before it; a session's start
   // (EVENT_NONE) ends the session the held step belongs to: no mapper step then.
   takeHeldStep(msg.utime, msg.event == floor_t::EVENT_NONE);

@@ -142,9 +142,9 @@ TEST_P(ElevatorHackzurich, EveryLabelledRideIsFoundWithTheBarometricHeight) {
                              static_cast<int64_t>(b * 1e6), &rate));
     std::printf("  stairs unix %.0f..%.0f: barometer at most %.2f m/s\n", a, b, rate);
     EXPECT_LT(rate, kElevatorRate) << "the elevator-speed criterion must tell stairs apart";
-    for (const FloorEvent& ev : run.events) {
+    for (const FloorEvent& ev : run.rideEvents()) {
       EXPECT_FALSE(unixSeconds(ev.utime) > a && unixSeconds(ev.utime) < b)
-          << "floor event on the stairs at unix " << unixSeconds(ev.utime);
+          << "ride event on the stairs at unix " << unixSeconds(ev.utime);
     }
   }
   // No ride attempt inside a labelled episode other than the rides themselves.

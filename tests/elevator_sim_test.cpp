@@ -38,9 +38,13 @@ void expectEveryRideOnTheRightFloor(const SimFloorCheck& c) {
     EXPECT_TRUE(r.found) << "ride " << r.floor_from << " -> " << r.floor_to << " missed";
     EXPECT_TRUE(r.right_floor) << "ride " << r.floor_from << " -> " << r.floor_to << " ended on "
                                << r.mapped_floor;
+    // The vertical watch announces the cab's motion within about a second (median 1.1 s).
+    EXPECT_GE(r.alarm_latency_s, 0.0) << "ride " << r.floor_from << " -> " << r.floor_to;
+    EXPECT_LT(r.alarm_latency_s, 2.5) << "ride " << r.floor_from << " -> " << r.floor_to;
   }
   EXPECT_EQ(c.correct(), static_cast<int>(c.rides.size()));
   EXPECT_EQ(c.spurious, 0);
+  EXPECT_EQ(c.false_alarms, 0);
   EXPECT_EQ(c.table_heights.size(), 10u) << "one table floor per building floor";
   EXPECT_LT(c.worstErrorM(), 1.5);  // the floor table's match threshold; storeys are 4.1-4.9 m
 }

@@ -11,6 +11,7 @@
 
 #include "elevator-proc/floor_table.h"
 #include "elevator-proc/pulse_filter.h"
+#include "elevator-proc/vertical_watch.h"
 #include "tools/imu-elevator-run/offline_run.h"
 #include "tools/imu-elevator-run/ride_simulator.h"
 
@@ -192,7 +193,7 @@ TEST(ElevatorTracker, ShortGapsAreBridgedAndALongGapLosesOnlyItsRide) {
   // Whether or not the start of the broken ride had been reported, every start reported has
   // its end (an abandoned ride ends on the floor it left).
   int open = 0;
-  for (const FloorEvent& e : run.events) {
+  for (const FloorEvent& e : run.rideEvents()) {
     open += e.kind == FloorEvent::Kind::kRideStart ? 1 : -1;
     EXPECT_TRUE(open == 0 || open == 1);
   }
@@ -274,7 +275,7 @@ TEST(ElevatorTracker, StairsEscalatorsSittingAndStandingAreNoRides) {
                                              {K::kWalk, 10, 0}});
   const OfflineRun run = runImuElevator(truth.samples, {}, {});
   EXPECT_TRUE(run.rides.empty());
-  EXPECT_TRUE(run.events.empty()) << run.events.size() << " FLOOR events";
+  EXPECT_TRUE(run.rideEvents().empty()) << run.events.size() << " FLOOR events";
 }
 
 // A ride that fails a sanity check is reported as rejected with its reason, never as a ride,
@@ -336,7 +337,70 @@ TEST(ElevatorTracker, APhoneTurningToAnotherFaceStartsNoRide) {
   }
   const OfflineRun run = runImuElevator(truth.samples, {}, {});
   EXPECT_TRUE(run.rides.empty());
-  EXPECT_TRUE(run.events.empty());
+  EXPECT_TRUE(run.rideEvents().empty());
+}
+
+// The vertical watch alone, on a 0.1 s grid: a second of 0.6 m/s^2 (a cab starting) raises the
+// alarm when 0.2 m/s of vertical speed has built up; stillness comes hold_s after the last
+// cell that passed, unless a confirmed ride took over.
+TEST(VerticalWatch, SpeedBuiltUpRaisesTheAlarmAndItEndsStillAfterTheHold) {
+  VerticalWatch w({}, 0.1, 5.0);
+  using C = VerticalWatch::Change;
+  int64_t k = 0;
+  for (; k < 20; ++k) EXPECT_EQ(w.add(k, 0.02, true, 0.05, false, false), C::kNone);
+  int64_t alarm = -1;
+  for (; k < 30; ++k)
+    if (w.add(k, 0.6, true, 0.2, false, false) == C::kMotion) alarm = k;
+  // 0.06 m/s per cell (plus 0.002 for each earlier one in the window): 0.2 m/s at the fourth.
+  EXPECT_EQ(alarm, 23);
+  EXPECT_TRUE(w.alarmed());
+  int64_t still = -1;
+  for (; k < 120; ++k)
+    if (w.add(k, 0.0, true, 0.05, false, false) == C::kStill) still = k;
+  // The last window to pass is cell 35's (four cells of the second); 50 cells of hold after it.
+  EXPECT_EQ(still, 35 + 51);
+  EXPECT_FALSE(w.alarmed());
+}
+
+TEST(VerticalWatch, WalkingShakingAndAConfirmedRideRaiseOrEndNothing) {
+  using C = VerticalWatch::Change;
+  VerticalWatch walking({}, 0.1, 5.0);
+  VerticalWatch shaking({}, 0.1, 5.0);
+  for (int64_t k = 0; k < 40; ++k) {
+    EXPECT_EQ(walking.add(k, 0.5, true, 0.2, true, false), C::kNone);
+    EXPECT_EQ(shaking.add(k, 0.5, true, 2.0, false, false), C::kNone);  // steps: 1-5 m/s^2
+  }
+  VerticalWatch w({}, 0.1, 5.0);
+  int64_t k = 0;
+  while (w.add(k, 0.5, true, 0.2, false, false) != C::kMotion) ++k;
+  // The matched filter confirms the start: the ride's own end closes it, no stillness comes.
+  for (++k; k < 200; ++k) EXPECT_EQ(w.add(k, 0.0, true, 0.05, false, k < 150), C::kNone);
+  EXPECT_FALSE(w.alarmed());
+  EXPECT_EQ(w.finish(), C::kNone);
+}
+
+// Through the tracker: a ride's vertical motion is announced about a second after the cab
+// starts, long before the matched filter confirms its start; the floor never raises it.
+TEST(ElevatorTracker, VerticalMotionIsAnnouncedSecondsBeforeTheConfirmedStart) {
+  RideSimulatorOptions o;
+  o.rate_hz = 100.0;
+  using K = SimSegment::Kind;
+  const SimulatedRun truth =
+      simulateRun(o, {{K::kStand, 20, 0}, {K::kElevator, 0, 3}, {K::kStand, 20, 0}});
+  const OfflineRun run = runImuElevator(truth.samples, {}, {});
+  ASSERT_EQ(run.rides.size(), 1u);
+  const std::vector<FloorEvent> watch = run.watchEvents();
+  ASSERT_EQ(watch.size(), 1u) << "one alarm, ended by the ride (no stillness)";
+  EXPECT_EQ(watch[0].kind, FloorEvent::Kind::kVerticalMotion);
+  EXPECT_EQ(watch[0].floor_index, 0);
+  const double cab_start_s = truth.rides[0].start_s;
+  const double latency_s = 1e-6 * static_cast<double>(watch[0].utime) - cab_start_s;
+  EXPECT_GE(latency_s, 0.0);
+  EXPECT_LT(latency_s, 2.5);
+  // In the stream the alarm comes first; the start, confirmed later, is dated back.
+  ASSERT_FALSE(run.events.empty());
+  EXPECT_EQ(run.events.front().kind, FloorEvent::Kind::kVerticalMotion);
+  EXPECT_EQ(run.counts.vertical_alarms, 1);
 }
 
 }  // namespace

@@ -1,7 +1,8 @@
 // mapper-proc/localizer: a robot driven along a stored corridor of nodes is placed by two
 // registrations that agree, tracks the truth while registrations correct it, counts and never
 // applies one the map gate refuses, and stops calling itself localized when it dead-reckons
-// past the bound (docs/localization.md).
+// past the bound, and is not localized from the first sign of an elevator ride
+// (docs/localization.md).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -44,6 +45,7 @@ class Drive {
     answerAll(false, SE3d());  // VO's first frame: nothing seen yet
   }
   // One keyframe step; returns whether a request went out.
+  int64_t now() const { return t_; }
   bool step(bool answer = true, const SE3d& lie = SE3d()) {
     t_ += kSecond;
     x_ += 0.5;
@@ -132,6 +134,61 @@ TEST(Localizer, DeadReckoningPastTheBoundIsNoLongerLocalizedButStillGivesThePose
   EXPECT_TRUE(l.placed());
   EXPECT_EQ(l.stats().unlocalized, 1);
   EXPECT_NEAR(l.pose().mean.translation().x(), drive.x(), 1e-6);  // dead reckoning
+}
+
+// The corridor, and the same corridor on floor 1, 4 m above (nodes 10..19).
+MapSnapshot twoFloors() {
+  MapSnapshot map = corridor();
+  map.floors.push_back({1, 4.0});
+  for (int i = 0; i < 10; ++i) {
+    StoredNode n = map.nodes[static_cast<size_t>(i)];
+    n.node.id = 10 + i;
+    n.node.floor = 1;
+    n.world_T_body = SE3d(n.world_T_body.so3(), n.world_T_body.translation() + Vec3(0, 0, 4));
+    map.nodes.push_back(n);
+  }
+  return map;
+}
+
+TEST(Localizer, VerticalMotionEndsLocalizationAtOnceAndStillnessWithoutARideRestoresIt) {
+  Localizer l(MapperOptions{});
+  ASSERT_TRUE(l.load(twoFloors()).ok());
+  Drive drive(l, 1.2);
+  drive.step();
+  drive.step();
+  ASSERT_TRUE(l.localized());
+  const SE3d before = l.pose().mean;
+  // elevator-proc's first sign of a ride (its confirmed start comes seconds later).
+  ASSERT_TRUE(l.onFloor(floorMsg(drive.now(), floor_t::EVENT_VERTICAL_MOTION, 0.0, 0)).ok());
+  EXPECT_FALSE(l.localized());
+  EXPECT_EQ(l.stats().vertical_alarms, 1);
+  EXPECT_FALSE(drive.step()) << "no registration request while the height is unobserved";
+  // No ride followed: localized again, the height unchanged.
+  ASSERT_TRUE(l.onFloor(floorMsg(drive.now(), floor_t::EVENT_VERTICAL_STILL, 0.0, 0)).ok());
+  EXPECT_TRUE(l.localized());
+  EXPECT_NEAR(l.pose().mean.translation().z(), before.translation().z(), 1e-9);
+  EXPECT_EQ(l.floor(), 0);
+  EXPECT_EQ(l.stats().rides, 0);
+}
+
+TEST(Localizer, ARideAnnouncedByVerticalMotionEndsOnTheFloorItsHeightChangeReaches) {
+  Localizer l(MapperOptions{});
+  ASSERT_TRUE(l.load(twoFloors()).ok());
+  Drive drive(l, 1.2);
+  drive.step();
+  drive.step();
+  ASSERT_TRUE(l.localized());
+  // elevator-proc's heights are its own (here 10 m at the floor left): only the change counts.
+  ASSERT_TRUE(l.onFloor(floorMsg(drive.now(), floor_t::EVENT_VERTICAL_MOTION, 10.0, 0)).ok());
+  ASSERT_TRUE(l.onFloor(floorMsg(drive.now(), floor_t::EVENT_RIDE_START, 10.0, 0)).ok());
+  // A stillness after the confirmed start belongs to no ride: it changes nothing.
+  ASSERT_TRUE(l.onFloor(floorMsg(drive.now(), floor_t::EVENT_VERTICAL_STILL, 10.0, 0)).ok());
+  EXPECT_FALSE(l.localized());
+  ASSERT_TRUE(l.onFloor(floorMsg(drive.now(), floor_t::EVENT_RIDE_END, 14.0, 1)).ok());
+  EXPECT_TRUE(l.localized());
+  EXPECT_EQ(l.floor(), 1);
+  EXPECT_NEAR(l.pose().mean.translation().z(), 4.0, 1e-6);
+  EXPECT_EQ(l.stats().rides, 1);
 }
 
 TEST(Localizer, AnEmptyMapIsRefused) {

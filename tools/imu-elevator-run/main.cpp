@@ -35,6 +35,7 @@
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
 #include "elevator-proc/elevator_tracker.h"
+#include "elevator-proc/lcm_convert.h"
 #include "imu-proc/attitude_filter.h"
 #include "tools/datasets/euroc.h"
 #include "tools/datasets/hackzurich.h"
@@ -147,9 +148,8 @@ int printFloorLog(const std::string& file) {
     if (!decoded) continue;
     const floor_t& m = *decoded;
     std::printf("FLOOR utime %lld event %s floor %d height %.2f sigma %.2f in_elevator %d new %d\n",
-                static_cast<long long>(m.utime),
-                m.event == floor_t::EVENT_RIDE_START ? "start" : "end", m.floor_index, m.height_m,
-                m.height_sigma_m, m.in_elevator, m.new_floor);
+                static_cast<long long>(m.utime), elevator::floorEventName(m.event), m.floor_index,
+                m.height_m, m.height_sigma_m, m.in_elevator, m.new_floor);
   }
   if (Status s = log.status(); !s) {  // cut mid-event: the summary would be of part of it
     std::fprintf(stderr, "evermap-imu-elevator-run: %s\n", s.error().message.c_str());

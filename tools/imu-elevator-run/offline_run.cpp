@@ -29,4 +29,20 @@ OfflineRun runImuElevator(const std::vector<imu::ImuSample>& samples,
   return out;
 }
 
+std::vector<FloorEvent> OfflineRun::rideEvents() const {
+  std::vector<FloorEvent> out;
+  for (const FloorEvent& e : events)
+    if (e.kind == FloorEvent::Kind::kRideStart || e.kind == FloorEvent::Kind::kRideEnd)
+      out.push_back(e);
+  return out;
+}
+
+std::vector<FloorEvent> OfflineRun::watchEvents() const {
+  std::vector<FloorEvent> out;
+  for (const FloorEvent& e : events)
+    if (e.kind == FloorEvent::Kind::kVerticalMotion || e.kind == FloorEvent::Kind::kVerticalStill)
+      out.push_back(e);
+  return out;
+}
+
 }  // namespace evermap::elevator

@@ -18,7 +18,9 @@ struct OfflineRun {
   std::vector<RejectedRide> rejected;
   double gravity_m_s2 = 0;  // the tracker's reference at the end
   bool gravity_plausible = true;
-  std::vector<FloorEvent> events;
+  std::vector<FloorEvent> events;               // ride starts and ends, and the vertical watch's
+  std::vector<FloorEvent> rideEvents() const;   // ... only the rides' starts and ends
+  std::vector<FloorEvent> watchEvents() const;  // ... only the watch's
   std::vector<double> floor_heights;
   ElevatorCounts counts;
   imu::SampleGateCounts gate;

@@ -35,8 +35,13 @@ class ImuFeed final : public sim::MessageSink {
     ++samples;
     const bool used = filter_.add(s);
     const imu::Attitude att = filter_.initialized() ? filter_.attitude() : imu::Attitude{};
-    tracker_.add(s, used ? &att : nullptr);
+    keep(tracker_.add(s, used ? &att : nullptr));
   }
+  void keep(const std::vector<FloorEvent>& events) {
+    for (const FloorEvent& e : events)
+      if (e.kind == FloorEvent::Kind::kVerticalMotion) alarms.push_back(e.utime);
+  }
+  std::vector<int64_t> alarms;  // the watch's vertical-motion alarms
   int64_t samples = 0;
   int64_t undecodable = 0;
 
@@ -46,6 +51,41 @@ class ImuFeed final : public sim::MessageSink {
 };
 
 double seconds(int64_t utime) { return 1e-6 * static_cast<double>(utime); }
+
+// The true ride t and the reported ride overlapping it, if any (marked used).
+SimRideCheck matchRide(int session, const sim::ElevatorRide& t, const std::vector<Ride>& rides,
+                       std::vector<bool>* used) {
+  SimRideCheck c;
+  c.session = session;
+  c.start_utime = t.start_utime;
+  c.end_utime = t.end_utime;
+  c.floor_from = t.floor_from;
+  c.floor_to = t.floor_to;
+  c.true_dz_m = t.z_to - t.z_from;
+  for (size_t k = 0; k < rides.size(); ++k) {
+    const Ride& r = rides[k];
+    if (r.start_utime < t.end_utime && r.end_utime > t.start_utime) {
+      c.found = true;
+      (*used)[k] = true;
+      c.displacement_m = r.displacement_m;
+      c.table_floor = r.to_floor;
+    }
+  }
+  return c;
+}
+
+// Each alarm to the true ride whose cab moves at it (or starts within 1 s after it).
+void scoreAlarms(const std::vector<int64_t>& alarms, SimFloorCheck* out) {
+  for (const int64_t a : alarms) {
+    bool in_ride = false;
+    for (SimRideCheck& c : out->rides) {
+      if (a < c.start_utime - 1'000'000 || a > c.end_utime) continue;
+      in_ride = true;
+      if (c.alarm_latency_s < 0) c.alarm_latency_s = seconds(a - c.start_utime);
+    }
+    if (!in_ride) ++out->false_alarms;
+  }
+}
 
 }  // namespace
 
@@ -68,15 +108,17 @@ double SimFloorCheck::worstErrorM() const {
 }
 
 std::string SimFloorCheck::table() const {
-  std::string out = "  session  start_s   dur_s  floors   true_m  found_m  table  -> sim  ok\n";
+  std::string out =
+      "  session  start_s   dur_s  floors   true_m  found_m  table  -> sim  ok  alarm_s\n";
   const int64_t origin = rides.empty() ? 0 : rides.front().start_utime;
   for (const SimRideCheck& r : rides) {
     char line[200];
     if (r.found) {
-      std::snprintf(line, sizeof line, "  %7d %8.1f %7.1f  %2d->%-2d %+8.2f %+8.2f  %5d  %4d  %s\n",
-                    r.session, seconds(r.start_utime - origin),
-                    seconds(r.end_utime - r.start_utime), r.floor_from, r.floor_to, r.true_dz_m,
-                    r.displacement_m, r.table_floor, r.mapped_floor, r.right_floor ? "yes" : "NO");
+      std::snprintf(line, sizeof line,
+                    "  %7d %8.1f %7.1f  %2d->%-2d %+8.2f %+8.2f  %5d  %4d  %-3s %7.1f\n", r.session,
+                    seconds(r.start_utime - origin), seconds(r.end_utime - r.start_utime),
+                    r.floor_from, r.floor_to, r.true_dz_m, r.displacement_m, r.table_floor,
+                    r.mapped_floor, r.right_floor ? "yes" : "NO", r.alarm_latency_s);
     } else {
       std::snprintf(line, sizeof line, "  %7d %8.1f %7.1f  %2d->%-2d %+8.2f   missed\n", r.session,
                     seconds(r.start_utime - origin), seconds(r.end_utime - r.start_utime),
@@ -94,14 +136,21 @@ std::string SimFloorCheck::table() const {
 }
 
 std::string SimFloorCheck::summary() const {
-  char buf[400];
+  std::vector<double> latency;
+  for (const SimRideCheck& r : rides)
+    if (r.alarm_latency_s >= 0) latency.push_back(r.alarm_latency_s);
+  std::sort(latency.begin(), latency.end());
+  char buf[600];
   std::snprintf(
       buf, sizeof buf,
       "%d sessions, %lld IMU samples, %zu floors visited, %zu rides: %d found, %d on the right "
       "floor; "
-      "%d spurious, %d abandoned starts; worst displacement error %.2f m; table has %zu floors",
+      "%d spurious, %d abandoned starts; worst displacement error %.2f m; table has %zu floors; "
+      "vertical alarms: %zu rides alarmed, latency median %.1f s, max %.1f s, %d false",
       sessions, static_cast<long long>(imu_samples), floors_visited.size(), rides.size(), found(),
-      correct(), spurious, static_cast<int>(abandoned.size()), worstErrorM(), table_heights.size());
+      correct(), spurious, static_cast<int>(abandoned.size()), worstErrorM(), table_heights.size(),
+      latency.size(), latency.empty() ? -1.0 : latency[latency.size() / 2],
+      latency.empty() ? -1.0 : latency.back(), false_alarms);
   return buf;
 }
 
@@ -145,7 +194,7 @@ Expected<SimFloorCheck> checkSimulatedFloors(const sim::SimOptions& options,
     }
     ++out.sessions;
   }
-  tracker.finish();
+  feed.keep(tracker.finish());
   if (feed.undecodable > 0) return Error{"simulator: undecodable IMU messages"};
 
   // Table floor -> simulated floor, fixed when the table floor is first reached.
@@ -153,22 +202,7 @@ Expected<SimFloorCheck> checkSimulatedFloors(const sim::SimOptions& options,
   const std::vector<double>& heights = tracker.floors().heights();
   std::vector<bool> used(tracker.rides().size(), false);
   for (const auto& [session, t] : truth) {
-    SimRideCheck c;
-    c.session = session;
-    c.start_utime = t.start_utime;
-    c.end_utime = t.end_utime;
-    c.floor_from = t.floor_from;
-    c.floor_to = t.floor_to;
-    c.true_dz_m = t.z_to - t.z_from;
-    for (size_t k = 0; k < tracker.rides().size(); ++k) {
-      const Ride& r = tracker.rides()[k];
-      if (r.start_utime < t.end_utime && r.end_utime > t.start_utime) {
-        c.found = true;
-        used[k] = true;
-        c.displacement_m = r.displacement_m;
-        c.table_floor = r.to_floor;
-      }
-    }
+    SimRideCheck c = matchRide(session, t, tracker.rides(), &used);
     if (c.found) {
       auto it = to_sim.find(c.table_floor);
       if (it == to_sim.end()) {
@@ -180,6 +214,7 @@ Expected<SimFloorCheck> checkSimulatedFloors(const sim::SimOptions& options,
     }
     out.rides.push_back(c);
   }
+  scoreAlarms(feed.alarms, &out);
   out.spurious = static_cast<int>(std::count(used.begin(), used.end(), false));
   out.abandoned = tracker.abandoned();
   out.imu_samples = feed.samples;

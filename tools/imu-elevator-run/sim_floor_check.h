@@ -15,7 +15,9 @@
 // the simulated floor nearest to main-floor height + table height (Building::nearestFloor),
 // when it is first reached. A true ride is matched to the reported ride that overlaps it in
 // time; it "ends on the right floor" when the reported arrival floor maps to the true
-// arrival floor. Reported rides overlapping no true ride are spurious.
+// arrival floor. Reported rides overlapping no true ride are spurious. The vertical watch's
+// alarm (EVENT_VERTICAL_MOTION) belongs to the true ride whose cab is moving at it (or starts
+// within a second after it); its latency is from the cab's start. Other alarms are false.
 
 #include <cstdint>
 #include <string>
@@ -40,11 +42,13 @@ struct SimRideCheck {
   int table_floor = -1;       // its arrival floor in elevator-proc's table
   int mapped_floor = -1;      // the simulated floor that table floor maps to
   bool right_floor = false;
+  double alarm_latency_s = -1;  // the watch's first alarm after the cab started (-1: none)
 };
 
 struct SimFloorCheck {
   std::vector<SimRideCheck> rides;
   int spurious = 0;                      // reported rides over no true ride
+  int false_alarms = 0;                  // vertical-motion alarms during no true ride
   std::vector<AbandonedRide> abandoned;  // ride starts given up (not rides; for the record)
   int sessions = 0;
   int64_t imu_samples = 0;

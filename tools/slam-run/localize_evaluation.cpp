@@ -118,7 +118,7 @@ std::string LocalizeSummary::text() const {
     << l.placements << " corrections " << l.corrections << " refused_gate " << l.refused_gate
     << " refused_floor " << l.refused_floor << " disagreements " << l.disagreements
     << " unlocalized " << l.unlocalized << " timeouts " << l.timeouts << " dropped " << l.dropped
-    << " rides " << l.rides << "\n";
+    << " rides " << l.rides << " vertical_alarms " << l.vertical_alarms << "\n";
   o << "loopclose nodes " << loopclose.nodes << " keyframes " << loopclose.keyframes << "\n";
   o << "ms_per_frame vo " << vo_ms << " loopclose " << loopclose_ms << " localizer " << localizer_ms
     << "\n";
