@@ -31,7 +31,9 @@
 //  - kInsufficientInliers / kOptimizationFailure / kReprojectionError: the frame does not
 //    register to the reference (occlusion, fast motion), nor, retried, to the last frame
 //    that registered (when that is not the reference: a motion through it is chained to the
-//    reference and the frame becomes the reference). The reference is kept for up to
+//    reference and the frame becomes the reference), nor, with fast_motion_fraction (RGB-D),
+//    to either with the bounds widened for the image motion of a fast rotation (blur, a
+//    rolling shutter). The reference is kept for up to
 //    max_failed_frames failures in a row (a passer-by); after that the next frame with enough
 //    features becomes the reference. With bridge_breaks (the default) its motion is the
 //    motion prior (constant velocity, the rotation measured on the top pyramid level) with
