@@ -207,9 +207,22 @@ void StereoOdometry::makeCurrentTheReference(FrameResult* result, bool keyframe,
   }
 }
 
-core::RegistrationSummary StereoOdometry::registerTo(const core::FeatureFrame& from,
-                                                     const SE3d& from_T_pred,
-                                                     core::StereoMatchPair* pair) const {
+std::optional<core::RegistrationOptions> fastMotionRegistration(
+    const core::RegistrationOptions& registration, double fx, const SE3d& prev_T_pred,
+    double fraction) {
+  const double image_motion_px = fx * core::rotationAngle(prev_T_pred.so3());
+  const double bound_px = fraction * image_motion_px;
+  core::RegistrationOptions widened = registration;
+  core::MotionOptions& motion = widened.motion;
+  if (!(bound_px > motion.inlier_max_reprojection_px)) return std::nullopt;
+  motion.max_mean_reprojection_px *= bound_px / motion.inlier_max_reprojection_px;
+  motion.inlier_max_reprojection_px = bound_px;
+  return widened;
+}
+
+core::RegistrationSummary StereoOdometry::registerTo(
+    const core::FeatureFrame& from, const SE3d& from_T_pred, core::StereoMatchPair* pair,
+    const core::RegistrationOptions* registration) const {
   const std::vector<core::WindowMatch> window =
       core::matchInWindow(camera_, from, *cur_, from_T_pred.inverse(), options_.matching);
   std::vector<core::Correspondence> matches;
@@ -226,7 +239,8 @@ core::RegistrationSummary StereoOdometry::registerTo(const core::FeatureFrame& f
     ids.emplace_back(m.ref, m.cur);
   }
   core::RegistrationSummary summary =
-      core::registerMatches(camera_, camera_, matches, ids, from_T_pred, options_.registration);
+      core::registerMatches(camera_, camera_, matches, ids, from_T_pred,
+                            registration != nullptr ? *registration : options_.registration);
   if (pair != nullptr && summary.ok()) {
     // Every match, not only the inliers: the inliers were chosen under the camera's offset, and
     // a wrong offset is what pushes the points it distorts most out of them (the estimate
@@ -456,7 +470,40 @@ StereoOdometry::RegisteredMotion StereoOdometry::registerCurrent(const SE3d& ref
       m.covariance = chained.covariance;
     }
   }
+  if (!m.summary.ok() && options_.fast_motion_fraction > 0.0) retryFastMotion(ref_T_pred, &m, r);
   return m;
+}
+
+void StereoOdometry::retryFastMotion(const SE3d& ref_T_pred, RegisteredMotion* m,
+                                     FrameResult* r) const {
+  // The prediction over the last frame: the rotation measured on the top pyramid level.
+  const std::optional<core::RegistrationOptions> widened =
+      fastMotionRegistration(options_.registration, camera_.fx(),
+                             ref_T_prev_.inverse() * ref_T_pred, options_.fast_motion_fraction);
+  if (!widened) return;
+  const std::string failure =
+      std::string(failureKind(m->summary, options_.registration.min_inliers)) + ": " +
+      m->summary.message;
+  core::RegistrationSummary again = registerTo(*ref_, ref_T_pred, nullptr, &*widened);
+  SE3d ref_T_cur = again.a_T_b;
+  core::Mat6 covariance = again.covariance;
+  if (!again.ok() && has_prev_) {
+    again = registerTo(*prev_, ref_T_good_.inverse() * ref_T_pred, nullptr, &*widened);
+    const core::UncertainPose chained =
+        core::compound({ref_T_good_, ref_T_good_cov_}, {again.a_T_b, again.covariance});
+    ref_T_cur = chained.mean;
+    covariance = chained.covariance;
+    r->via_previous = again.ok();
+  }
+  if (!again.ok()) return;
+  r->fast_motion = true;
+  r->message = makeError("registered with the inlier bound widened to ",
+                         widened->motion.inlier_max_reprojection_px,
+                         " px for fast motion after failing (", failure, ")")
+                   .message;
+  m->summary = again;
+  m->ref_T_cur = ref_T_cur;
+  m->covariance = covariance;
 }
 
 void StereoOdometry::takeMotion(const RegisteredMotion& m, FrameResult* r) {
@@ -471,7 +518,7 @@ void StereoOdometry::takeMotion(const RegisteredMotion& m, FrameResult* r) {
   ref_T_prev_ = m.ref_T_cur;
   const int inliers = m.summary.num_inliers;
   if (first_inliers_ == 0) first_inliers_ = inliers;
-  if (r->via_previous || inliers < options_.keyframe_inlier_threshold ||
+  if (r->via_previous || r->fast_motion || inliers < options_.keyframe_inlier_threshold ||
       inliers < options_.keyframe_inlier_fraction * first_inliers_) {
     makeCurrentTheReference(r, farEnoughForAKeyframe(kf_T_cur.mean), kf_T_cur);
   } else {

@@ -31,7 +31,9 @@
 //  - kInsufficientInliers / kOptimizationFailure / kReprojectionError: the frame does not
 //    register to the reference (occlusion, fast motion), nor, retried, to the last frame
 //    that registered (when that is not the reference: a motion through it is chained to the
-//    reference and the frame becomes the reference). The reference is kept for up to
+//    reference and the frame becomes the reference), nor, with fast_motion_fraction (RGB-D),
+//    to either with the bounds widened for the image motion of a fast rotation (blur, a
+//    rolling shutter). The reference is kept for up to
 //    max_failed_frames failures in a row (a passer-by); after that the next frame with enough
 //    features becomes the reference. With bridge_breaks (the default) its motion is the
 //    motion prior (constant velocity, the rotation measured on the top pyramid level) with
@@ -112,6 +114,13 @@ struct OdometryOptions {
   // A frame that fails against the reference is registered to the last frame that
   // registered (when that is not the reference).
   bool retry_previous_frame = true;
+  // Fast motion: a frame that registers neither to the reference nor to the last registered
+  // frame is tried once more with the motion estimate's inlier and mean-error bounds widened
+  // to this fraction of the image motion the prior predicts (f times its rotation per frame),
+  // when that is above the bounds: motion blur and a rolling shutter displace a feature by a
+  // share of the image's motion during the exposure and the readout, which a rigid motion
+  // between two instants does not model. 0: off (global-shutter stereo rigs).
+  double fast_motion_fraction = 0.0;
   // Bridge a chain break with the motion prior (see the class comment).
   bool bridge_breaks = true;
   // Standard deviations of the motion prior, per predicted frame (variances add up over the
@@ -156,6 +165,10 @@ struct OdometryOptions {
     o.add("constant_velocity", &constant_velocity, "predict the last motion (else rotation only)");
     o.add("retry_previous_frame", &retry_previous_frame,
           "a frame failing against the reference tries the last registered frame");
+    o.add("fast_motion_fraction", &fast_motion_fraction, "",
+          "a frame failing both registrations is retried with bounds widened to this fraction "
+          "of the predicted image motion (0: off)")
+        .nonNegative();
     o.add("bridge_breaks", &bridge_breaks, "bridge a chain break with the motion prior");
     o.add("bridge.translation_sigma_m", &bridge.translation_sigma_m, "m",
           "motion prior's translation sigma per frame")
@@ -202,6 +215,8 @@ struct FrameResult {
   bool bridged = false;
   // kOk through the last registered frame after failing against the reference.
   bool via_previous = false;
+  // kOk by the fast-motion retry (OdometryOptions::fast_motion_fraction): widened bounds.
+  bool fast_motion = false;
   // Why, for a frame that did not register, in a few fixed words (for counting by kind):
   // "too few features", "too few consistent matches", "too few inliers after outlier
   // rejection", "reprojection error", "optimization failure", "stale reference",
@@ -215,6 +230,14 @@ struct FrameResult {
 
   bool ok() const { return status == VoStatus::kOk; }
 };
+
+// The registration options of the fast-motion retry: `registration` with the motion
+// estimate's inlier bound raised to fraction · fx · (the rotation angle of prev_T_pred, the
+// predicted motion over one frame) and its mean-error bound by the same factor; nullopt when
+// that is not above the inlier bound (the frame did not fail for its motion) or fraction is 0.
+std::optional<core::RegistrationOptions> fastMotionRegistration(
+    const core::RegistrationOptions& registration, double fx, const core::SE3d& prev_T_pred,
+    double fraction);
 
 class StereoOdometry {
  public:
@@ -285,9 +308,13 @@ class StereoOdometry {
   // Matches `from` into the current frame in windows around the prediction from_T_pred
   // (from_T_cur) and registers: a = from, b = current.
   // With `pair`, a successful registration's matches go there (level-0 (u, v, d)).
-  core::RegistrationSummary registerTo(const core::FeatureFrame& from,
-                                       const core::SE3d& from_T_pred,
-                                       core::StereoMatchPair* pair = nullptr) const;
+  // `registration`: the options to register with (default: options_.registration).
+  core::RegistrationSummary registerTo(
+      const core::FeatureFrame& from, const core::SE3d& from_T_pred,
+      core::StereoMatchPair* pair = nullptr,
+      const core::RegistrationOptions* registration = nullptr) const;
+  // The fast-motion retry of a frame that failed both registrations (m holds the failure).
+  void retryFastMotion(const core::SE3d& ref_T_pred, RegisteredMotion* m, FrameResult* r) const;
   // Self-calibration: a registered pair to the tracker; a decided offset into the camera.
   void selfCalibrate(const core::StereoMatchPair& pair, int64_t group, FrameResult* result);
   // Adds `delta_px` to the camera's disparity offset and to the features already extracted.

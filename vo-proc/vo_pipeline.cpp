@@ -237,6 +237,7 @@ PipelineOutput VoPipeline::handleRgbdFrame(int64_t utime,
         options_.rgbd_inlier_max_reprojection_px;
     odometry_options.registration.motion.max_mean_reprojection_px =
         options_.rgbd_max_mean_reprojection_px;
+    odometry_options.fast_motion_fraction = options_.rgbd_fast_motion_fraction;
     odometry_options.self_calibrate = false;  // depth from the depth image: no disparity offset
     auto odometry = StereoOdometry::create(camera->stereo(), odometry_options);
     if (!odometry) {

@@ -50,6 +50,10 @@ struct PipelineOptions {
   // frames unregistered and doubled the ATE; 2 px left 4.
   double rgbd_inlier_max_reprojection_px = 2.0;
   double rgbd_max_mean_reprojection_px = 2.0;
+  // With an RGB-D camera, odometry.fast_motion_fraction (the retry of a frame that fails at
+  // fast rotation with bounds widened for its image motion; stereo_odometry.h): the Kinect's
+  // rolling shutter and blur. 0: off.
+  double rgbd_fast_motion_fraction = 0.15;
 
   Status validate() const;
   void declareOptions(OptionList& o) {
@@ -59,6 +63,10 @@ struct PipelineOptions {
     o.add("rgbd_max_mean_reprojection_px", &rgbd_max_mean_reprojection_px, "px",
           "RGB-D: a motion's mean inlier error at most")
         .positive();
+    o.add("rgbd_fast_motion_fraction", &rgbd_fast_motion_fraction, "",
+          "RGB-D: a frame failing at fast rotation is retried with bounds widened to this "
+          "fraction of its predicted image motion (0: off)")
+        .nonNegative();
     o.nest("odometry.", &odometry);
     o.nest("rectifier.", &rectifier);
     o.nest("rgbd.", &rgbd);

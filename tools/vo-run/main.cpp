@@ -50,6 +50,10 @@ struct VoRunOptions {
     o.add("rgbd_max_mean_px", &offline.pipeline.rgbd_max_mean_reprojection_px, "px",
           "RGB-D: largest mean reprojection error of an accepted motion")
         .positive();
+    o.add("rgbd_fast_motion", &offline.pipeline.rgbd_fast_motion_fraction, "",
+          "RGB-D: a frame failing at fast rotation is retried with bounds widened to this "
+          "fraction of its predicted image motion (0: off)")
+        .nonNegative();
     o.add("depth_spread", &odo.features.rgbd.max_relative_spread, "",
           "RGB-D: refuse a corner whose 5x5 depths spread by more than this fraction of its depth")
         .positive();
@@ -103,7 +107,7 @@ int parseCommandLine(int argc, char** argv, VoArgs* a) {
   for (const char* key :
        {"keyframe_inliers", "keyframe_distance", "keyframe_angle", "disparity_sigma",
         "motion_disparity_sigma", "inlier_px", "max_mean_px", "rgbd_inlier_px", "rgbd_max_mean_px",
-        "depth_spread", "depth_noise", "clique_threshold", "search_radius"}) {
+        "rgbd_fast_motion", "depth_spread", "depth_noise", "clique_threshold", "search_radius"}) {
     std::string flag = std::string("--") + key;
     std::replace(flag.begin(), flag.end(), '_', '-');
     cli.alias(flag, key, "VALUE");

@@ -27,15 +27,17 @@ std::map<std::string, int> OfflineSummary::failuresByKind() const {
 
 std::string OfflineSummary::report() const {
   std::ostringstream s;
-  int bridged = 0, via_previous = 0;
+  int bridged = 0, via_previous = 0, fast_motion = 0;
   for (const FrameStats& f : frames) {
     bridged += f.bridged ? 1 : 0;
     via_previous += f.via_previous ? 1 : 0;
+    fast_motion += f.fast_motion ? 1 : 0;
   }
   s << stats.report() << "\n"
     << trajectory.size() << " poses, path length " << trajectory.pathLengthM() << " m, " << breaks
     << " chain breaks, " << bridged << " frames bridged by the motion prior, " << via_previous
-    << " registered through the previous frame\n";
+    << " registered through the previous frame, " << fast_motion
+    << " registered by the fast-motion retry\n";
   const auto kinds = failuresByKind();
   if (kinds.empty()) {
     s << "failures: none\n";
@@ -53,7 +55,7 @@ std::string OfflineSummary::verboseReport() const {
   std::ostringstream s;
   for (size_t k = 0; k < frames.size(); ++k) {
     const FrameStats& f = frames[k];
-    if (f.status == VoStatus::kOk && !f.bridged && !f.via_previous) continue;
+    if (f.status == VoStatus::kOk && !f.bridged && !f.via_previous && !f.fast_motion) continue;
     s << "frame " << k << " (" << f.utime << "): " << (f.bridged ? "bridged" : toString(f.status));
     if (!f.failure_kind.empty()) s << " [" << f.failure_kind << "]";
     s << ": " << f.message << "\n";
@@ -106,6 +108,7 @@ FrameStats frameStats(const FrameResult& r, double ms) {
   f.process_ms = ms;
   f.bridged = r.bridged;
   f.via_previous = r.via_previous;
+  f.fast_motion = r.fast_motion;
   f.failure_kind = r.failure_kind;
   f.message = r.message;
   return f;

@@ -47,6 +47,7 @@ struct FrameStats {
   double process_ms = 0.0;           // wall time of the frame (a measurement, not an input)
   bool bridged = false;              // kOk by the motion prior (FrameResult::bridged)
   bool via_previous = false;         // kOk through the previous frame
+  bool fast_motion = false;          // kOk by the fast-motion retry (widened bounds)
   std::string failure_kind;          // FrameResult::failure_kind
   std::string message;
 };
