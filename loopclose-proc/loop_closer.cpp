@@ -521,7 +521,12 @@ register_result_t LoopCloser::answer(const register_request_t& request) {
 
   bow::PlaceQuery q;
   if (request.floor >= 0) q.floor = request.floor;
-  q.newest_utime = query->utime() - options_.exclude_recent_us;
+  // A read-only store (localization) holds only the stored map's places, never the query
+  // session's own: none is excluded by time (a map may be seconds older than the query, when
+  // both come from one recording, or newer, when an old log is localized in a new map).
+  const bool stored_map_only = store_ && store_->readOnly();
+  const int64_t exclude_us = stored_map_only ? 0 : options_.exclude_recent_us;
+  if (!stored_map_only) q.newest_utime = query->utime() - exclude_us;
   q.top_k = options_.global_candidates;
   q.min_score = options_.min_candidate_score;
   auto candidates = places_.query(query_bow, q);
@@ -531,7 +536,7 @@ register_result_t LoopCloser::answer(const register_request_t& request) {
                   "no place%s%s more than %.1f s older than the query shares words with it "
                   "(%zu places in the map)",
                   q.floor ? " on floor " : "", q.floor ? std::to_string(*q.floor).c_str() : "",
-                  1e-6 * static_cast<double>(options_.exclude_recent_us), places_.size());
+                  1e-6 * static_cast<double>(exclude_us), places_.size());
     return failure(request, register_result_t::STATUS_NO_CANDIDATE, why);
   }
   std::string reasons;

@@ -101,7 +101,8 @@ struct LoopCloserOptions {
     o.add("min_candidate_score", &min_candidate_score, "", "lowest appearance score considered")
         .any();
     o.add("exclude_recent_us", &exclude_recent_us, "us",
-          "places this recent before the query are no loop closures")
+          "places this recent before the query are no loop closures (not applied with a "
+          "read-only store: localization)")
         .nonNegative();
     o.nest("recovery.", &recovery);
   }

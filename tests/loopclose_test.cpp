@@ -485,6 +485,51 @@ TEST_F(LoopCloserTest, TheMapStoreCarriesNodesAndKeyframesToTheNextSession) {
   std::filesystem::remove_all(dir);
 }
 
+// Localization (a read-only store): every stored place is a candidate, whatever its time. A
+// query seconds after a place (a map and a query cut from one recording) or before it (an old
+// log in a new map) finds it; the same store opened for mapping excludes the recent one.
+TEST_F(LoopCloserTest, AReadOnlyStoreExcludesNoPlaceByTime) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("evermap_loopclose_ro_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const auto file = dir / "map.db";
+  const bow::Vocabulary& v = world_.vocabulary();
+  {
+    auto store = bow::PlaceStore::open(file, v.fingerprint(), v.numWords());
+    ASSERT_TRUE(store.ok()) << store.error().message;
+    EXPECT_FALSE(store->readOnly());
+    auto lc = make({}, std::move(*store));
+    addMap(*lc);  // places 0..7 at 1..8 s
+  }
+  auto query = [&](LoopCloser& lc, int place, int64_t t) {
+    EXPECT_TRUE(lc.addKeyframe(world_.keyframe(place, t)).ok());
+    return lc.answer(registerRequest(1, t, t, kGlobal));
+  };
+  {
+    auto store = bow::PlaceStore::openReadOnly(file, v.fingerprint(), v.numWords());
+    ASSERT_TRUE(store.ok()) << store.error().message;
+    EXPECT_TRUE(store->readOnly());
+    auto lc = make({}, std::move(*store));
+    register_result_t r = query(*lc, 7, 10 * kSecond);  // 2 s after place 7 was stored
+    EXPECT_EQ(r.status, kOk) << r.reason;
+    EXPECT_EQ(r.node_id, 8);
+  }
+  {
+    auto store = bow::PlaceStore::openReadOnly(file, v.fingerprint(), v.numWords());
+    ASSERT_TRUE(store.ok());
+    auto lc = make({}, std::move(*store));
+    register_result_t r = query(*lc, 2, kSecond / 2);  // before every stored place
+    EXPECT_EQ(r.status, kOk) << r.reason;
+    EXPECT_EQ(r.node_id, 3);
+  }
+  auto store = bow::PlaceStore::open(file, v.fingerprint(), v.numWords());
+  ASSERT_TRUE(store.ok());
+  auto lc = make({}, std::move(*store));
+  EXPECT_EQ(query(*lc, 7, 10 * kSecond).status, kNoCandidate);  // mapping: 10 s excluded
+  std::filesystem::remove_all(dir);
+}
+
 TEST_F(LoopCloserTest, ServesRequestsOverLcm) {
   lcm::LCM lcm("memq://");
   ASSERT_TRUE(lcm.good());

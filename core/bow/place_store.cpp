@@ -217,6 +217,8 @@ Expected<PlaceStore> PlaceStore::open(const std::filesystem::path& file, uint64_
   return store;
 }
 
+bool PlaceStore::readOnly() const { return db_ && sqlite3_db_readonly(db_, "main") == 1; }
+
 Expected<PlaceStore> PlaceStore::openReadOnly(const std::filesystem::path& file,
                                               uint64_t fingerprint, size_t num_words) {
   if (!std::filesystem::is_regular_file(file)) return makeError(file.string(), ": no such file");

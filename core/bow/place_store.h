@@ -65,6 +65,8 @@ class PlaceStore {
   Expected<std::vector<int64_t>> keyframeUtimes() const;
 
   const std::filesystem::path& file() const { return file_; }
+  // Opened by openReadOnly (SQLite's own answer for the main database).
+  bool readOnly() const;
 
  private:
   PlaceStore(sqlite3* db, std::filesystem::path file, uint64_t fingerprint, size_t num_words);
