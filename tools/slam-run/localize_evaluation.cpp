@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 #include "core/common/percentile.h"
@@ -32,14 +33,30 @@ Status LocalizeRunner::setMapTruth(const std::filesystem::path& nodes_csv) {
   for (const char* c : {"x", "y", "z", "true_x", "true_y", "true_z"})
     if (!cols.count(c)) return makeError(nodes_csv.string(), ": no column ", c, " (nodes.csv)");
   std::vector<core::Vec3> est, gt;
+  std::optional<core::SE3d> first_est, first_gt;  // the first node's whole pose, when given
   while (std::getline(in, line)) {
     std::vector<double> v;
     std::stringstream ss(line);
     std::string cell;
     while (std::getline(ss, cell, ',')) v.push_back(std::strtod(cell.c_str(), nullptr));
-    auto at = [&](const char* c) { return cols.at(c) < v.size() ? v[cols.at(c)] : NAN; };
+    auto at = [&](const char* c) {
+      return cols.count(c) && cols.at(c) < v.size() ? v[cols.at(c)] : NAN;
+    };
     est.emplace_back(at("x"), at("y"), at("z"));
     gt.emplace_back(at("true_x"), at("true_y"), at("true_z"));
+    const Eigen::Quaterniond q(at("qw"), at("qx"), at("qy"), at("qz"));
+    const Eigen::Quaterniond true_q(at("true_qw"), at("true_qx"), at("true_qy"), at("true_qz"));
+    if (!first_est && q.coeffs().allFinite() && true_q.coeffs().allFinite() && q.norm() > 0.5 &&
+        true_q.norm() > 0.5) {
+      first_est = core::SE3d(q.normalized(), est.back());
+      first_gt = core::SE3d(true_q.normalized(), gt.back());
+    }
+  }
+  // A map of one or two nodes (a camera turning in place): the first node's pose puts it in
+  // the truth's frame; three or more: the least-squares fit of all their positions.
+  if (est.size() < 3 && first_est) {
+    map_to_truth_ = core::Similarity{1.0, *first_gt * first_est->inverse()};
+    return Ok{};
   }
   auto fit = eval::umeyama(est, gt, false);
   if (!fit) return makeError(nodes_csv.string(), ": ", fit.error().message);

@@ -90,10 +90,14 @@ Status LocalizeRunner::runStream(EventStream& events, const std::string& name) {
                                           options_.attitude_rate_hz, options_.elevator);
   int64_t first = -1;
   bool cut_short = false;
+  const auto start_us = static_cast<int64_t>(options_.start_session_s * 1e6);
   while (std::optional<ReadEvent> e = events.next()) {
     if (first < 0) first = e->timestamp;
+    const bool calibration =
+        e->channel == channels::kStereoCalib || e->channel == channels::kRgbdCalib;
+    if (e->timestamp - first < start_us && !calibration) continue;  // --start-s
     if (options_.max_session_s > 0.0 &&
-        e->timestamp - first > static_cast<int64_t>(options_.max_session_s * 1e6)) {
+        e->timestamp - first - start_us > static_cast<int64_t>(options_.max_session_s * 1e6)) {
       cut_short = true;
       break;
     }

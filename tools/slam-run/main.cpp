@@ -144,6 +144,10 @@ int parseCommandLine(int argc, char** argv, SlamArgs* a) {
   cli.value("--max-session-s", &a->options.max_session_s, "S",
             "map at most S seconds of each log (0: all)")
       .min(0);
+  cli.value("--start-s", &a->options.start_session_s, "S",
+            "with --localize: begin S seconds into the session, as a robot switched on there "
+            "(another floor, mid-corridor); --max-session-s counts from there")
+      .min(0);
   cli.value("--drop-frames", &a->options.drop.fraction, "F",
             "drop this fraction of the frames before VO, as vo-proc drops them under load: "
             "single frames, and 30 % of the drops bursts of 5 frames (seeded)")
@@ -230,13 +234,16 @@ evermap::Status writeTables(const std::filesystem::path& out,
   if (auto s = writeFileAtomically(out / "registrations.csv", reg.str()); !s) return s;
   std::ostringstream nodes_csv;
   nodes_csv << "node,session,floor,true_floor,keyframe_utime,x,y,z,true_x,true_y,true_z,yaw_deg,"
-               "true_yaw_deg\n";
+               "true_yaw_deg,qw,qx,qy,qz,true_qw,true_qx,true_qy,true_qz\n";
   for (const auto& n : summary.node_rows)
     nodes_csv << n.id << "," << n.session << "," << n.floor << "," << n.true_floor << ","
               << n.keyframe_utime << "," << n.estimate.x() << "," << n.estimate.y() << ","
               << n.estimate.z() << "," << n.truth.x() << "," << n.truth.y() << "," << n.truth.z()
               << "," << n.yaw_rad * 180.0 / std::numbers::pi << ","
-              << n.true_yaw_rad * 180.0 / std::numbers::pi << "\n";
+              << n.true_yaw_rad * 180.0 / std::numbers::pi << "," << n.rotation.w() << ","
+              << n.rotation.x() << "," << n.rotation.y() << "," << n.rotation.z() << ","
+              << n.true_rotation.w() << "," << n.true_rotation.x() << "," << n.true_rotation.y()
+              << "," << n.true_rotation.z() << "\n";
   if (summary.node_rows.empty()) return evermap::Ok{};
   return writeFileAtomically(out / "nodes.csv", nodes_csv.str());
 }
@@ -326,6 +333,8 @@ int main(int argc, char** argv) {
   std::optional<evermap::sim::ImageSimOptions> render;
   if (const int code = loadRender(&a, &render); code >= 0) return code;
   if (const int code = loadMapperOptions(&a); code >= 0) return code;
+  if (a.options.start_session_s > 0.0 && a.localize.empty())
+    return fail("--start-s is for --localize (a map is built from a session's start)", 2);
   if (a.print_config) {
     std::printf("%s%s", evermap::mapper::printMapperOptions(a.options.mapper).c_str(),
                 render ? render->toConfigText().c_str() : "");

@@ -57,6 +57,7 @@ Status SlamRunOptions::validate() const {
   if (!(false_closure_m > 0.0) || !(false_closure_deg > 0.0))
     return Error("false closure thresholds must be > 0");
   if (!(max_session_s >= 0.0)) return Error("max_session_s: must be >= 0");
+  if (!(start_session_s >= 0.0)) return Error("start_session_s: must be >= 0");
   if (!(progress_period_s >= 0.0)) return Error("progress_period_s: must be >= 0");
   return drop.validate();
 }

@@ -76,6 +76,10 @@ struct SlamRunOptions {
   double false_closure_deg = 5.0;
   // > 0: stop a session after this many seconds of its data.
   double max_session_s = 0.0;
+  // Localizing (LocalizeRunner): begin this far into the session, as a robot switched on there
+  // (wherever the session has taken it: another floor, mid-corridor); calibration before it
+  // is kept. max_session_s then counts from here.
+  double start_session_s = 0.0;
   // A progress line on stderr at most this often, seconds of wall time (0: none).
   double progress_period_s = kProgressPeriodS;
   // Frames dropped before VO, as vo-proc drops them under load (none by default).
@@ -151,7 +155,8 @@ struct SlamRunSummary {
     int true_floor = -1;  // the ground truth's floor at the node's keyframe
     int64_t keyframe_utime = 0;
     core::Vec3 truth, estimate;
-    double true_yaw_rad = 0.0, yaw_rad = 0.0;  // heading of the body, truth and map
+    double true_yaw_rad = 0.0, yaw_rad = 0.0;    // heading of the body, truth and map
+    Eigen::Quaterniond true_rotation, rotation;  // the body's whole orientation, truth and map
   };
   std::vector<NodeRow> node_rows;
   // Node-mode requests with the truth (same floor): distance and view angle between the two

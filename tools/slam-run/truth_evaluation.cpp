@@ -64,7 +64,9 @@ std::vector<SlamRunSummary::NodeRow> nodeRows(
                                 p.translation(),
                                 est.translation(),
                                 core::toPlanar(p).theta(),
-                                core::toPlanar(est).theta()};
+                                core::toPlanar(est).theta(),
+                                p.quaternion(),
+                                est.quaternion()};
     auto f = truth_floor.lower_bound(n.keyframe_utime);
     if (f != truth_floor.end()) row.true_floor = f->second.first;
     rows.push_back(row);
