@@ -15,6 +15,10 @@ std::optional<core::UncertainPose> chainPlacements(const PlacementCandidate& c,
   return core::compound(core::compound(c.node_T_keyframe, kc_T_q), core::invert(b_T_q));
 }
 
+int64_t bridgedGaps(const TrackerCounts& c, int64_t rides) {
+  return c.wheel_applied + c.restarts + c.reanchored + c.relinks_refused + c.relinks_weaker + rides;
+}
+
 void GateRecovery::confirmed(int64_t keyframe_utime, int64_t bridges, double odometer_m) {
   last_confirmed_utime_ = keyframe_utime;
   bridges_at_confirmation_ = bridges;

@@ -35,6 +35,10 @@ std::optional<core::UncertainPose> chainPlacements(const PlacementCandidate& c,
                                                    const core::UncertainPose& b_T_q,
                                                    int64_t keyframe_utime, const Tracker& tracker);
 
+// The gaps odometry has bridged so far (GateRecovery::allowed): the tracker's wheel increments,
+// VO restarts, re-anchorings and refused relinks, and the elevator rides.
+int64_t bridgedGaps(const TrackerCounts& c, int64_t rides);
+
 class GateRecovery {
  public:
   explicit GateRecovery(const MapperOptions& o)

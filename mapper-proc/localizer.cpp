@@ -18,7 +18,8 @@ Localizer::Localizer(const MapperOptions& options)
       o_(options),
       partition_({options.cell_size_m, options.heading_bins, options.overlap_radius_cells,
                   options.overlap_heading_sectors, options.cell_refresh_per_step}),
-      map_gate_(options.map_gate) {}
+      map_gate_(options.map_gate),
+      recovery_(options) {}
 
 Status Localizer::load(const MapSnapshot& map) {
   if (map.nodes.empty()) return Error("the map holds no node: nothing to localize against");

@@ -14,9 +14,9 @@
 //     predicts the robot is (the mapper's relocalisation check).
 // An answer b_T_q, while localized, is tested by the map gate against the prediction
 // x_b⁻¹ x_a Δ (its covariance Δ's): agreeing, the two are fused and b becomes the node Δ is
-// tracked against; refused, it is counted (refused_gate) and never applied. Not localized, it
-// becomes a candidate, and a second registration that agrees with it through odometry (the
-// mapper's chainPlacements, the map's relative pose of the two nodes given
+// tracked against; refused, it is counted (refused_gate) and not applied alone (below). Not
+// localized, it becomes a candidate, and a second registration that agrees with it through odometry
+// (the mapper's chainPlacements, the map's relative pose of the two nodes given
 // localize.map_sigma_*) places the robot: localized.
 //
 // Leaving the mapped area: with no registration applied, Δ is dead reckoning and its
@@ -32,6 +32,13 @@
 // Once placed, a registration to a node more than floor_match_m above or below the tracked
 // height is refused (refused_floor): the floors of a building look alike, and a robot that rode
 // to a floor the map does not hold must not be placed on one it does.
+// Drift and aliasing (gate_recovery.h, the mapper's rules): while localized, two refused
+// registrations that agree with each other re-track the pose (gate_recoveries) when no
+// registration has confirmed it for recovery_quiet_s (or odometry bridged a gap), and only
+// by a jump odometry could have drifted since the last registration applied (recovery_slack_m
+// + recovery_drift_fraction x the distance); a robot placed once and lost again is placed anew
+// only within that too (placements_too_far): repeated texture makes false matches that
+// agree with each other one texture period away.
 
 #include <cstdint>
 #include <map>
@@ -58,12 +65,15 @@ struct LocalizerStats {
   int64_t requests_node = 0;
   int64_t requests_global = 0;
   int64_t registrations_ok = 0;
-  int64_t placements = 0;     // not localized -> localized (two agreeing registrations)
-  int64_t corrections = 0;    // registrations applied while localized
-  int64_t refused_gate = 0;   // ... refused by the map gate: counted, never applied
-  int64_t refused_floor = 0;  // a node of another floor than the current one
-  int64_t disagreements = 0;  // a candidate and a registration that did not agree
-  int64_t unlocalized = 0;    // localized -> not (the bounds above)
+  int64_t placements = 0;          // not localized -> localized (two agreeing registrations)
+  int64_t corrections = 0;         // registrations applied while localized
+  int64_t refused_gate = 0;        // ... refused by the map gate: counted, never applied alone
+  int64_t gate_recoveries = 0;     // two refused that agree: the pose had drifted, re-tracked
+  int64_t recoveries_too_far = 0;  // ... not: a jump farther than odometry could drift
+  int64_t placements_too_far = 0;  // a placed robot's new placement farther than that
+  int64_t refused_floor = 0;       // a node of another floor than the current one
+  int64_t disagreements = 0;       // a candidate and a registration that did not agree
+  int64_t unlocalized = 0;         // localized -> not (the bounds above)
   int64_t timeouts = 0;
   int64_t dropped = 0;  // malformed messages, unknown nodes, answers to no request
   int64_t rides = 0;
@@ -124,9 +134,18 @@ class Localizer : public MapConsumer {
   // A node the robot cannot be at: another floor than the current one while localized; once
   // placed, a node more than floor_match_m above or below the tracked height.
   bool otherFloor(int64_t b) const;
-  bool agreesWithCandidate(int64_t b, const core::UncertainPose& b_T_q, int64_t keyframe_utime);
-  // Δ := b_T_now, b the node tracked against; the dead-reckoning count restarts.
-  void trackFrom(int64_t b, const core::UncertainPose& b_T_now);
+  // Whether b_T_q and the placement c agree through odometry and the stored map.
+  bool agrees(const PlacementCandidate& c, int64_t b, const core::UncertainPose& b_T_q,
+              int64_t keyframe_utime);
+  // A registration the gate refused while localized: with an earlier refused one that agrees
+  // with it, the pose is re-tracked from it (the gate recovery, gate_recovery.h); true then.
+  bool recover(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
+               const core::UncertainPose& q_T_now);
+  // How far the placement b_T_q puts the keyframe from where Δ had it (m).
+  double jumpM(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q) const;
+  // Δ := b_T_now, b the node tracked against, from the registration of the keyframe at
+  // keyframe_utime; the dead-reckoning count restarts.
+  void trackFrom(int64_t b, const core::UncertainPose& b_T_now, int64_t keyframe_utime);
   // The bounds of the header: localized_ follows them.
   void updateLocalized();
   // The stored floor at height_m (within floor_match_m), or -1.
@@ -135,6 +154,7 @@ class Localizer : public MapConsumer {
   MapperOptions o_;
   PartitionIndex partition_;
   MapGate map_gate_;
+  GateRecovery recovery_;
   std::vector<MapperNode> nodes_;
   std::vector<core::SE3d> poses_;
   std::map<int, double> floors_;  // the stored table: floor -> height

@@ -77,8 +77,9 @@ std::string LocalizerNode::summary() const {
   o << "poses_published " << poses_ << "\nlocalized_poses " << localized_poses_ << "\nsteps "
     << s.steps << "\nrequests_node " << s.requests_node << "\nrequests_global " << s.requests_global
     << "\nplacements " << s.placements << "\ncorrections " << s.corrections << "\nrefused_gate "
-    << s.refused_gate << "\nrefused_floor " << s.refused_floor << "\nunlocalized " << s.unlocalized
-    << "\ndropped " << dropped() << "\n";
+    << s.refused_gate << "\ngate_recoveries " << s.gate_recoveries << "\nrefused_floor "
+    << s.refused_floor << "\nunlocalized " << s.unlocalized << "\nvertical_alarms "
+    << s.vertical_alarms << "\ndropped " << dropped() << "\n";
   return o.str();
 }
 

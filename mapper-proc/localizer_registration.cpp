@@ -72,50 +72,84 @@ void Localizer::correct(const InFlight& f, int64_t b, const core::UncertainPose&
   const core::UncertainPose b_T_a{nodePose(b).inverse() * nodePose(f.active), core::Mat6::Zero()};
   const core::UncertainPose predicted = core::compound(b_T_a, f.delta_at_keyframe);
   if (!map_gate_.agree(predicted, b_T_q)) {
-    ++stats_.refused_gate;  // counted, never applied
+    ++stats_.refused_gate;  // counted, never applied alone
+    recover(f, b, b_T_q, q_T_now);
     return;
   }
   // Two independent measurements of b_T_q: their information-weighted fusion.
-  trackFrom(b, core::compound(ConstraintSet::fuse(predicted, b_T_q), q_T_now));
+  trackFrom(b, core::compound(ConstraintSet::fuse(predicted, b_T_q), q_T_now), f.keyframe_utime);
+  recovery_.rejected().reset();
   ++stats_.corrections;
+}
+
+bool Localizer::recover(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
+                        const core::UncertainPose& q_T_now) {
+  std::optional<PlacementCandidate>& rejected = recovery_.rejected();
+  const int64_t bridges = bridgedGaps(tracker_.counts(), stats_.rides);
+  bool agree = rejected && recovery_.allowed(f.keyframe_utime, bridges) &&
+               agrees(*rejected, b, b_T_q, f.keyframe_utime);
+  if (agree && jumpM(f, b, b_T_q) > recovery_.driftM(tracker_.odometerM())) {
+    ++stats_.recoveries_too_far;  // one texture period away: not a drift
+    agree = false;
+  }
+  if (!agree) {
+    rejected = PlacementCandidate{b, b_T_q, f.keyframe_utime};
+    return false;
+  }
+  rejected.reset();
+  trackFrom(b, core::compound(b_T_q, q_T_now), f.keyframe_utime);
+  ++stats_.gate_recoveries;
+  return true;
+}
+
+double Localizer::jumpM(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q) const {
+  const core::SE3d tracked = nodePose(f.active) * f.delta_at_keyframe.mean;
+  return (tracked.translation() - (nodePose(b) * b_T_q.mean).translation()).norm();
 }
 
 void Localizer::place(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
                       const core::UncertainPose& q_T_now) {
   // One match may be a false one: the robot is placed only when two registrations, chained by
   // odometry, agree on where it is.
-  if (!agreesWithCandidate(b, b_T_q, f.keyframe_utime)) {
+  if (!candidate_ || !agrees(*candidate_, b, b_T_q, f.keyframe_utime)) {
     candidate_ = PlacementCandidate{b, b_T_q, f.keyframe_utime};
     return;
   }
   candidate_.reset();
+  // Placed before, the dead-reckoned pose still bounds where the robot can be.
+  if (f.active >= 0 && jumpM(f, b, b_T_q) > recovery_.driftM(tracker_.odometerM())) {
+    ++stats_.placements_too_far;
+    return;
+  }
   floor_ = nodes_[static_cast<size_t>(b)].floor;
-  trackFrom(b, core::compound(b_T_q, q_T_now));
+  trackFrom(b, core::compound(b_T_q, q_T_now), f.keyframe_utime);
   localized_ = true;
   ++stats_.placements;
 }
 
-bool Localizer::agreesWithCandidate(int64_t b, const core::UncertainPose& b_T_q,
-                                    int64_t keyframe_utime) {
-  if (!candidate_) return false;
-  const auto measured = chainPlacements(*candidate_, b_T_q, keyframe_utime, tracker_);
+bool Localizer::agrees(const PlacementCandidate& c, int64_t b, const core::UncertainPose& b_T_q,
+                       int64_t keyframe_utime) {
+  const auto measured = chainPlacements(c, b_T_q, keyframe_utime, tracker_);
   if (!measured) return false;
   // The map's c_T_b, its stored poses' relative uncertainty given localize.map_sigma_*.
   core::Vec6 sigma;
   const double m = o_.localize.map_sigma_m;
   const double r = o_.localize.map_sigma_deg * std::numbers::pi / 180.0;
   sigma << m, m, m, r, r, r;
-  const core::UncertainPose map_c_T_b{nodePose(candidate_->node).inverse() * nodePose(b),
+  const core::UncertainPose map_c_T_b{nodePose(c.node).inverse() * nodePose(b),
                                       sigma.cwiseAbs2().asDiagonal()};
   const bool agree = map_gate_.agree(map_c_T_b, *measured);
   if (!agree) ++stats_.disagreements;
   return agree;
 }
 
-void Localizer::trackFrom(int64_t b, const core::UncertainPose& b_T_now) {
+void Localizer::trackFrom(int64_t b, const core::UncertainPose& b_T_now, int64_t keyframe_utime) {
   active_ = b;
   tracker_.reset(b_T_now);
   odometer_at_fix_m_ = tracker_.odometerM();
+  // A registration applied confirms the pose (gate_recovery.h).
+  recovery_.confirmed(keyframe_utime, bridgedGaps(tracker_.counts(), stats_.rides),
+                      odometer_at_fix_m_);
 }
 
 }  // namespace evermap::mapper

@@ -121,11 +121,7 @@ bool Mapper::confirmsRelocalization(int64_t b, const core::UncertainPose& b_T_q,
   return agree;
 }
 
-int64_t Mapper::bridges() const {
-  const TrackerCounts& c = tracker_.counts();
-  return c.wheel_applied + c.restarts + c.reanchored + c.relinks_refused + c.relinks_weaker +
-         floors_.rides();
-}
+int64_t Mapper::bridges() const { return bridgedGaps(tracker_.counts(), floors_.rides()); }
 
 bool Mapper::consistentWithMap(int64_t a, int64_t b, const core::UncertainPose& a_T_b,
                                double* information) {

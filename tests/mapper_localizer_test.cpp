@@ -118,6 +118,43 @@ TEST(Localizer, ARegistrationTheGateRefusesIsCountedAndNeverApplied) {
   EXPECT_NEAR(l.pose().mean.translation().x(), drive.x(), 1e-6);
 }
 
+// The pose drifted (here: every registration says the robot is 1.5 m further than tracked):
+// the gate refuses each alone; two that agree with each other, once none has confirmed the
+// pose for recovery_quiet_s (3 s), re-track it.
+TEST(Localizer, TwoRefusedRegistrationsThatAgreeReTrackADriftedPose) {
+  Localizer l(MapperOptions{});
+  ASSERT_TRUE(l.load(corridor()).ok());
+  Drive drive(l, 1.2);
+  drive.step();
+  drive.step();
+  ASSERT_TRUE(l.localized());
+  const SE3d ahead = planar(1.5, 0, 0);
+  drive.step(true, ahead);
+  drive.step(true, ahead);
+  EXPECT_EQ(l.stats().gate_recoveries, 0) << "2 s after the last confirmation: not yet";
+  EXPECT_NEAR(l.pose().mean.translation().x(), drive.x(), 1e-6);
+  drive.step(true, ahead);
+  EXPECT_EQ(l.stats().gate_recoveries, 1);
+  EXPECT_EQ(l.stats().refused_gate, 3);
+  EXPECT_TRUE(l.localized());
+  EXPECT_NEAR(l.pose().mean.translation().x(), drive.x() + 1.5, 1e-6);
+}
+
+// Repeated texture: false matches one texture period (12 m) away agree with each other. The
+// jump is more than odometry could have drifted (3 m + 15 % of the distance): refused.
+TEST(Localizer, AgreeingMatchesFartherThanOdometryCouldDriftMoveNothing) {
+  Localizer l(MapperOptions{});
+  ASSERT_TRUE(l.load(corridor()).ok());
+  Drive drive(l, 1.2);
+  drive.step();
+  drive.step();
+  ASSERT_TRUE(l.localized());
+  for (int i = 0; i < 4; ++i) drive.step(true, planar(12.0, 0, 0));
+  EXPECT_EQ(l.stats().gate_recoveries, 0);
+  EXPECT_GE(l.stats().recoveries_too_far, 1);
+  EXPECT_NEAR(l.pose().mean.translation().x(), drive.x(), 1e-6);
+}
+
 TEST(Localizer, DeadReckoningPastTheBoundIsNoLongerLocalizedButStillGivesThePose) {
   MapperOptions o;
   o.localize.max_dead_reckoning_m = 2.2;

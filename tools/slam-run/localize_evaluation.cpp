@@ -133,9 +133,11 @@ std::string LocalizeSummary::text() const {
   o << "localizer steps " << l.steps << " requests_node " << l.requests_node << " requests_global "
     << l.requests_global << " registrations_ok " << l.registrations_ok << " placements "
     << l.placements << " corrections " << l.corrections << " refused_gate " << l.refused_gate
-    << " refused_floor " << l.refused_floor << " disagreements " << l.disagreements
-    << " unlocalized " << l.unlocalized << " timeouts " << l.timeouts << " dropped " << l.dropped
-    << " rides " << l.rides << " vertical_alarms " << l.vertical_alarms << "\n";
+    << " gate_recoveries " << l.gate_recoveries << " recoveries_too_far " << l.recoveries_too_far
+    << " placements_too_far " << l.placements_too_far << " refused_floor " << l.refused_floor
+    << " disagreements " << l.disagreements << " unlocalized " << l.unlocalized << " timeouts "
+    << l.timeouts << " dropped " << l.dropped << " rides " << l.rides << " vertical_alarms "
+    << l.vertical_alarms << "\n";
   o << "loopclose nodes " << loopclose.nodes << " keyframes " << loopclose.keyframes << "\n";
   o << "ms_per_frame vo " << vo_ms << " loopclose " << loopclose_ms << " localizer " << localizer_ms
     << "\n";
