@@ -70,9 +70,13 @@ Expected<std::unique_ptr<LoopCloser>> LoopCloser::create(const bow::Vocabulary& 
     // The store was opened with this vocabulary's fingerprint (PlaceStore::open checks it).
     auto db = lc->store_->loadDatabase();
     if (!db) return db.error();
+    // A map continued (mapping) goes on from its newest place's time; a read-only store
+    // (localization) holds another session's places, whose times say nothing of the stream's
+    // clock: an old log localized in a newer map would be answered from the future.
+    const bool continued = !lc->store_->readOnly();
     for (const bow::Place& p : db->places()) {
       lc->nodes_[p.id] = Node{p.floor, p.utime};
-      lc->now_utime_ = std::max(lc->now_utime_, p.utime);
+      if (continued) lc->now_utime_ = std::max(lc->now_utime_, p.utime);
     }
     lc->places_ = std::move(*db);
     lc->stats_.nodes = static_cast<int64_t>(lc->nodes_.size());

@@ -486,7 +486,8 @@ TEST_F(LoopCloserTest, TheMapStoreCarriesNodesAndKeyframesToTheNextSession) {
 }
 
 // Localization (a read-only store): every stored place is a candidate, whatever its time (a
-// map and a query cut from one recording; an old log in a new map); mapping excludes it.
+// query 2 s after place 7, one before every place), and the answer is stamped with the
+// stream's clock, not the map's; mapping excludes the recent place.
 TEST_F(LoopCloserTest, AReadOnlyStoreExcludesNoPlaceByTime) {
   const auto dir = std::filesystem::temp_directory_path() /
                    ("evermap_loopclose_ro_" + std::to_string(::getpid()));
@@ -494,18 +495,12 @@ TEST_F(LoopCloserTest, AReadOnlyStoreExcludesNoPlaceByTime) {
   std::filesystem::create_directories(dir);
   const auto file = dir / "map.db";
   const bow::Vocabulary& v = world_.vocabulary();
-  {
-    auto store = bow::PlaceStore::open(file, v.fingerprint(), v.numWords());
-    ASSERT_TRUE(store.ok()) << store.error().message;
-    EXPECT_FALSE(store->readOnly());
-    auto lc = make({}, std::move(*store));
-    addMap(*lc);  // places 0..7 at 1..8 s
-  }
+  // The map: places 0..7 at 1..8 s, stored.
+  addMap(*make({}, bow::PlaceStore::open(file, v.fingerprint(), v.numWords()).value()));
   auto query = [&](LoopCloser& lc, int place, int64_t t) {
     EXPECT_TRUE(lc.addKeyframe(world_.keyframe(place, t)).ok());
     return lc.answer(registerRequest(1, t, t, kGlobal));
   };
-  // 2 s after place 7 was stored, and before every stored place.
   for (const auto& [place, t] : {std::pair<int, int64_t>{7, 10 * kSecond}, {2, kSecond / 2}}) {
     auto store = bow::PlaceStore::openReadOnly(file, v.fingerprint(), v.numWords());
     ASSERT_TRUE(store.ok()) << store.error().message;
@@ -514,9 +509,11 @@ TEST_F(LoopCloserTest, AReadOnlyStoreExcludesNoPlaceByTime) {
     const register_result_t r = query(*lc, place, t);
     EXPECT_EQ(r.status, kOk) << r.reason;
     EXPECT_EQ(r.node_id, place + 1);
+    EXPECT_LE(r.utime, t) << "answered from the map's clock";
   }
   auto store = bow::PlaceStore::open(file, v.fingerprint(), v.numWords());
   ASSERT_TRUE(store.ok());
+  EXPECT_FALSE(store->readOnly());
   auto lc = make({}, std::move(*store));
   EXPECT_EQ(query(*lc, 7, 10 * kSecond).status, kNoCandidate);  // mapping: 10 s excluded
   std::filesystem::remove_all(dir);
