@@ -88,6 +88,18 @@ class Drive {
   int64_t ref_ = 0;
 };
 
+// A localizer of `map` with the robot driven from x = 1.2 and placed by two agreeing steps.
+struct Placed {
+  explicit Placed(const MapSnapshot& map, const MapperOptions& o = {})
+      : l(o), loaded(l.load(map).ok()), drive(l, 1.2) {
+    drive.step();
+    drive.step();
+  }
+  Localizer l;
+  bool loaded;
+  Drive drive;
+};
+
 TEST(Localizer, ALostRobotIsPlacedByTwoRegistrationsThatAgreeAndThenTracksTheTruth) {
   Localizer l(MapperOptions{});
   ASSERT_TRUE(l.load(corridor()).ok());
@@ -106,12 +118,10 @@ TEST(Localizer, ALostRobotIsPlacedByTwoRegistrationsThatAgreeAndThenTracksTheTru
 }
 
 TEST(Localizer, ARegistrationTheGateRefusesIsCountedAndNeverApplied) {
-  Localizer l(MapperOptions{});
-  ASSERT_TRUE(l.load(corridor()).ok());
-  Drive drive(l, 1.2);
-  drive.step();
-  drive.step();
-  ASSERT_TRUE(l.localized());
+  Placed placed(corridor());
+  ASSERT_TRUE(placed.loaded && placed.l.localized());
+  Localizer& l = placed.l;
+  Drive& drive = placed.drive;
   drive.step(true, planar(2.0, 0, 0));  // 2 m off: a false match
   EXPECT_EQ(l.stats().refused_gate, 1);
   EXPECT_TRUE(l.localized());
@@ -122,12 +132,10 @@ TEST(Localizer, ARegistrationTheGateRefusesIsCountedAndNeverApplied) {
 // the gate refuses each alone; two that agree with each other, once none has confirmed the
 // pose for recovery_quiet_s (3 s), re-track it.
 TEST(Localizer, TwoRefusedRegistrationsThatAgreeReTrackADriftedPose) {
-  Localizer l(MapperOptions{});
-  ASSERT_TRUE(l.load(corridor()).ok());
-  Drive drive(l, 1.2);
-  drive.step();
-  drive.step();
-  ASSERT_TRUE(l.localized());
+  Placed placed(corridor());
+  ASSERT_TRUE(placed.loaded && placed.l.localized());
+  Localizer& l = placed.l;
+  Drive& drive = placed.drive;
   const SE3d ahead = planar(1.5, 0, 0);
   drive.step(true, ahead);
   drive.step(true, ahead);
@@ -143,12 +151,10 @@ TEST(Localizer, TwoRefusedRegistrationsThatAgreeReTrackADriftedPose) {
 // Repeated texture: false matches one texture period (12 m) away agree with each other. The
 // jump is more than odometry could have drifted (3 m + 15 % of the distance): refused.
 TEST(Localizer, AgreeingMatchesFartherThanOdometryCouldDriftMoveNothing) {
-  Localizer l(MapperOptions{});
-  ASSERT_TRUE(l.load(corridor()).ok());
-  Drive drive(l, 1.2);
-  drive.step();
-  drive.step();
-  ASSERT_TRUE(l.localized());
+  Placed placed(corridor());
+  ASSERT_TRUE(placed.loaded && placed.l.localized());
+  Localizer& l = placed.l;
+  Drive& drive = placed.drive;
   for (int i = 0; i < 4; ++i) drive.step(true, planar(12.0, 0, 0));
   EXPECT_EQ(l.stats().gate_recoveries, 0);
   EXPECT_GE(l.stats().recoveries_too_far, 1);
@@ -158,12 +164,10 @@ TEST(Localizer, AgreeingMatchesFartherThanOdometryCouldDriftMoveNothing) {
 TEST(Localizer, DeadReckoningPastTheBoundIsNoLongerLocalizedButStillGivesThePose) {
   MapperOptions o;
   o.localize.max_dead_reckoning_m = 2.2;
-  Localizer l(o);
-  ASSERT_TRUE(l.load(corridor()).ok());
-  Drive drive(l, 1.2);
-  drive.step();
-  drive.step();
-  ASSERT_TRUE(l.localized());
+  Placed placed(corridor(), o);
+  ASSERT_TRUE(placed.loaded && placed.l.localized());
+  Localizer& l = placed.l;
+  Drive& drive = placed.drive;
   for (int i = 0; i < 4; ++i) drive.step(false);  // 2 m without a registration, then 2.5
   EXPECT_TRUE(l.localized());
   drive.step(false);
@@ -188,12 +192,10 @@ MapSnapshot twoFloors() {
 }
 
 TEST(Localizer, VerticalMotionEndsLocalizationAtOnceAndStillnessWithoutARideRestoresIt) {
-  Localizer l(MapperOptions{});
-  ASSERT_TRUE(l.load(twoFloors()).ok());
-  Drive drive(l, 1.2);
-  drive.step();
-  drive.step();
-  ASSERT_TRUE(l.localized());
+  Placed placed(twoFloors());
+  ASSERT_TRUE(placed.loaded && placed.l.localized());
+  Localizer& l = placed.l;
+  Drive& drive = placed.drive;
   const SE3d before = l.pose().mean;
   // elevator-proc's first sign of a ride (its confirmed start comes seconds later).
   ASSERT_TRUE(l.onFloor(floorMsg(drive.now(), floor_t::EVENT_VERTICAL_MOTION, 0.0, 0)).ok());
@@ -209,12 +211,10 @@ TEST(Localizer, VerticalMotionEndsLocalizationAtOnceAndStillnessWithoutARideRest
 }
 
 TEST(Localizer, ARideAnnouncedByVerticalMotionEndsOnTheFloorItsHeightChangeReaches) {
-  Localizer l(MapperOptions{});
-  ASSERT_TRUE(l.load(twoFloors()).ok());
-  Drive drive(l, 1.2);
-  drive.step();
-  drive.step();
-  ASSERT_TRUE(l.localized());
+  Placed placed(twoFloors());
+  ASSERT_TRUE(placed.loaded && placed.l.localized());
+  Localizer& l = placed.l;
+  Drive& drive = placed.drive;
   // elevator-proc's heights are its own (here 10 m at the floor left): only the change counts.
   ASSERT_TRUE(l.onFloor(floorMsg(drive.now(), floor_t::EVENT_VERTICAL_MOTION, 10.0, 0)).ok());
   ASSERT_TRUE(l.onFloor(floorMsg(drive.now(), floor_t::EVENT_RIDE_START, 10.0, 0)).ok());
