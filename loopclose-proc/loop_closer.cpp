@@ -56,6 +56,7 @@ LoopCloser::LoopCloser(const bow::Vocabulary& vocabulary, FrameRegistration& reg
       registration_(registration),
       options_(options),
       store_(std::move(store)),
+      stored_map_only_(store_ && store_->readOnly()),
       places_(vocabulary.numWords(), vocabulary.fingerprint()),
       requests_(options.recovery) {}
 
@@ -70,13 +71,12 @@ Expected<std::unique_ptr<LoopCloser>> LoopCloser::create(const bow::Vocabulary& 
     // The store was opened with this vocabulary's fingerprint (PlaceStore::open checks it).
     auto db = lc->store_->loadDatabase();
     if (!db) return db.error();
-    // A map continued (mapping) goes on from its newest place's time; a read-only store
-    // (localization) holds another session's places, whose times say nothing of the stream's
-    // clock: an old log localized in a newer map would be answered from the future.
-    const bool continued = !lc->store_->readOnly();
+    // A map continued (mapping) goes on from its newest place's time; a stored map's times
+    // say nothing of the stream's clock (an old log localized in a newer map would be answered
+    // from the future).
     for (const bow::Place& p : db->places()) {
       lc->nodes_[p.id] = Node{p.floor, p.utime};
-      if (continued) lc->now_utime_ = std::max(lc->now_utime_, p.utime);
+      if (!lc->stored_map_only_) lc->now_utime_ = std::max(lc->now_utime_, p.utime);
     }
     lc->places_ = std::move(*db);
     lc->stats_.nodes = static_cast<int64_t>(lc->nodes_.size());
@@ -525,12 +525,10 @@ register_result_t LoopCloser::answer(const register_request_t& request) {
 
   bow::PlaceQuery q;
   if (request.floor >= 0) q.floor = request.floor;
-  // A read-only store (localization) holds only the stored map's places, never the query
-  // session's own: none is excluded by time (a map may be seconds older than the query, when
-  // both come from one recording, or newer, when an old log is localized in a new map).
-  const bool stored_map_only = store_ && store_->readOnly();
-  const int64_t exclude_us = stored_map_only ? 0 : options_.exclude_recent_us;
-  if (!stored_map_only) q.newest_utime = query->utime() - exclude_us;
+  // A stored map's places are none of the query session's: none is excluded by time (a map
+  // may be seconds older than the query, cut from one recording, or newer than an old log).
+  const int64_t exclude_us = stored_map_only_ ? 0 : options_.exclude_recent_us;
+  if (!stored_map_only_) q.newest_utime = query->utime() - exclude_us;
   q.top_k = options_.global_candidates;
   q.min_score = options_.min_candidate_score;
   auto candidates = places_.query(query_bow, q);

@@ -204,6 +204,9 @@ class LoopCloser {
   FrameRegistration& registration_;
   LoopCloserOptions options_;
   std::optional<bow::PlaceStore> store_;
+  // A read-only store (localization): it holds only the stored map's places, none of the
+  // stream's own, so their times neither start the clock nor are excluded as recent.
+  bool stored_map_only_ = false;
   bow::PlaceDatabase places_;
   std::unordered_map<int64_t, Node> nodes_;
   std::deque<std::shared_ptr<const Keyframe>> recent_;  // oldest first
