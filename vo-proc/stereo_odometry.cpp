@@ -456,18 +456,14 @@ StereoOdometry::RegisteredMotion StereoOdometry::registerCurrent(const SE3d& ref
   m.ref_T_cur = m.summary.a_T_b;
   m.covariance = m.summary.covariance;
   if (!m.summary.ok() && options_.retry_previous_frame && has_prev_) {
-    const core::RegistrationSummary again = registerTo(*prev_, ref_T_good_.inverse() * ref_T_pred);
-    if (again.ok()) {
-      const core::UncertainPose chained =
-          core::compound({ref_T_good_, ref_T_good_cov_}, {again.a_T_b, again.covariance});
+    const RegisteredMotion again = registerThroughPrevious(ref_T_pred, nullptr);
+    if (again.summary.ok()) {
       r->via_previous = true;
       r->message = "registered to the previous frame " + std::to_string(prev_->utime) +
                    " after failing against the reference (" +
                    failureKind(m.summary, options_.registration.min_inliers) + ": " +
                    m.summary.message + ")";
-      m.summary = again;
-      m.ref_T_cur = chained.mean;
-      m.covariance = chained.covariance;
+      m.takeMotionOf(again);
     }
   }
   if (!m.summary.ok() && options_.fast_motion_fraction > 0.0) retryFastMotion(ref_T_pred, &m, r);
@@ -484,26 +480,33 @@ void StereoOdometry::retryFastMotion(const SE3d& ref_T_pred, RegisteredMotion* m
   const std::string failure =
       std::string(failureKind(m->summary, options_.registration.min_inliers)) + ": " +
       m->summary.message;
-  core::RegistrationSummary again = registerTo(*ref_, ref_T_pred, nullptr, &*widened);
-  SE3d ref_T_cur = again.a_T_b;
-  core::Mat6 covariance = again.covariance;
-  if (!again.ok() && has_prev_) {
-    again = registerTo(*prev_, ref_T_good_.inverse() * ref_T_pred, nullptr, &*widened);
-    const core::UncertainPose chained =
-        core::compound({ref_T_good_, ref_T_good_cov_}, {again.a_T_b, again.covariance});
-    ref_T_cur = chained.mean;
-    covariance = chained.covariance;
-    r->via_previous = again.ok();
+  RegisteredMotion again;
+  again.summary = registerTo(*ref_, ref_T_pred, nullptr, &*widened);
+  again.ref_T_cur = again.summary.a_T_b;
+  again.covariance = again.summary.covariance;
+  if (!again.summary.ok() && has_prev_) {
+    again = registerThroughPrevious(ref_T_pred, &*widened);
+    r->via_previous = again.summary.ok();
   }
-  if (!again.ok()) return;
+  if (!again.summary.ok()) return;
   r->fast_motion = true;
   r->message = makeError("registered with the inlier bound widened to ",
                          widened->motion.inlier_max_reprojection_px,
                          " px for fast motion after failing (", failure, ")")
                    .message;
-  m->summary = again;
-  m->ref_T_cur = ref_T_cur;
-  m->covariance = covariance;
+  m->takeMotionOf(again);
+}
+
+StereoOdometry::RegisteredMotion StereoOdometry::registerThroughPrevious(
+    const SE3d& ref_T_pred, const core::RegistrationOptions* registration) const {
+  RegisteredMotion m;
+  m.summary = registerTo(*prev_, ref_T_good_.inverse() * ref_T_pred, nullptr, registration);
+  if (!m.summary.ok()) return m;
+  const core::UncertainPose chained =
+      core::compound({ref_T_good_, ref_T_good_cov_}, {m.summary.a_T_b, m.summary.covariance});
+  m.ref_T_cur = chained.mean;
+  m.covariance = chained.covariance;
+  return m;
 }
 
 void StereoOdometry::takeMotion(const RegisteredMotion& m, FrameResult* r) {

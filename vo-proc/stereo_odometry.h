@@ -293,8 +293,18 @@ class StereoOdometry {
     core::Mat6 covariance = core::Mat6::Zero();
     core::StereoMatchPair pair;  // reference and current matches, for self-calibration
     int64_t pair_group = 0;      // the reference's utime (pairs sharing it are one group)
+    // The registration and motion of `other`; the self-calibration pair stays this one's.
+    void takeMotionOf(const RegisteredMotion& other) {
+      summary = other.summary;
+      ref_T_cur = other.ref_T_cur;
+      covariance = other.covariance;
+    }
   };
   RegisteredMotion registerCurrent(const core::SE3d& ref_T_pred, FrameResult* result) const;
+  // The current frame registered to the last frame that registered, the motion through it
+  // chained to the reference (when it registers); `registration` as for registerTo.
+  RegisteredMotion registerThroughPrevious(const core::SE3d& ref_T_pred,
+                                           const core::RegistrationOptions* registration) const;
   // A registered motion: the result, the motion prior, and the reference or keyframe moved on.
   void takeMotion(const RegisteredMotion& motion, FrameResult* result);
   void failRegistration(const core::RegistrationSummary& reg, const core::SE3d& ref_T_pred,
