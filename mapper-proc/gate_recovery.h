@@ -56,6 +56,23 @@ class GateRecovery {
   double driftM(double odometer_m) const;
   // The last registration the gate rejected, waiting for a second one that agrees.
   std::optional<PlacementCandidate>& rejected() { return rejected_; }
+  // A registration the gate rejects now (`refused`, a jump of jump_m from where Δ has the
+  // robot): whether it overrides Δ. It does when it agrees with the last one rejected
+  // (`agrees(last)`, asked only while a recovery is allowed: `bridges` bridged by now) and
+  // jump_m is at most driftM(odometer_m); then none waits any more. Otherwise it waits in the
+  // last one's place; *too_far says it agreed but jumped farther.
+  template <class Agrees>
+  bool overrides(const PlacementCandidate& refused, int64_t bridges, double jump_m,
+                 double odometer_m, Agrees&& agrees, bool* too_far) {
+    const bool agree = rejected_ && allowed(refused.keyframe_utime, bridges) && agrees(*rejected_);
+    *too_far = agree && jump_m > driftM(odometer_m);
+    if (agree && !*too_far) {
+      rejected_.reset();
+      return true;
+    }
+    rejected_ = refused;
+    return false;
+  }
 
  private:
   double quiet_s_;

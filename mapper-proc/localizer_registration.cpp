@@ -84,19 +84,14 @@ void Localizer::correct(const InFlight& f, int64_t b, const core::UncertainPose&
 
 bool Localizer::recover(const InFlight& f, int64_t b, const core::UncertainPose& b_T_q,
                         const core::UncertainPose& q_T_now) {
-  std::optional<PlacementCandidate>& rejected = recovery_.rejected();
-  const int64_t bridges = bridgedGaps(tracker_.counts(), stats_.rides);
-  bool agree = rejected && recovery_.allowed(f.keyframe_utime, bridges) &&
-               agrees(*rejected, b, b_T_q, f.keyframe_utime);
-  if (agree && jumpM(f, b, b_T_q) > recovery_.driftM(tracker_.odometerM())) {
-    ++stats_.recoveries_too_far;  // one texture period away: not a drift
-    agree = false;
-  }
-  if (!agree) {
-    rejected = PlacementCandidate{b, b_T_q, f.keyframe_utime};
-    return false;
-  }
-  rejected.reset();
+  bool too_far = false;  // one texture period away: not a drift
+  const bool agree = recovery_.overrides(
+      PlacementCandidate{b, b_T_q, f.keyframe_utime}, bridgedGaps(tracker_.counts(), stats_.rides),
+      jumpM(f, b, b_T_q), tracker_.odometerM(),
+      [&](const PlacementCandidate& last) { return agrees(last, b, b_T_q, f.keyframe_utime); },
+      &too_far);
+  if (too_far) ++stats_.recoveries_too_far;
+  if (!agree) return false;
   trackFrom(b, core::compound(b_T_q, q_T_now), f.keyframe_utime);
   ++stats_.gate_recoveries;
   return true;

@@ -42,21 +42,16 @@ bool Mapper::confirmsRejected(int64_t b, const core::UncertainPose& b_T_q, int64
   // mapper adds nodes over mapped places until the session ends.
   // Repeated texture (floor tiles) makes false matches that agree with each other: a Δ that
   // registrations keep confirming, with no gap bridged since, is not overridden by them.
-  std::optional<PlacementCandidate>& rejected = recovery_.rejected();
-  bool agree = recovery_.allowed(keyframe_utime, bridges()) &&
-               confirmsRelocalization(b, b_T_q, keyframe_utime, rejected);
   // Agreeing registrations one texture period away: not a drift odometry could have made.
-  const double drift_m = recovery_.driftM(tracker_.odometerM());
-  if (agree && jump_m > drift_m) {
-    ++stats_.recoveries_too_far;
-    agree = false;
-  }
-  if (agree) {
-    ++stats_.gate_recoveries;
-    rejected.reset();
-  } else {
-    rejected = PlacementCandidate{b, b_T_q, keyframe_utime};
-  }
+  bool too_far = false;
+  const bool agree = recovery_.overrides(
+      PlacementCandidate{b, b_T_q, keyframe_utime}, bridges(), jump_m, tracker_.odometerM(),
+      [&](const PlacementCandidate& last) {
+        return confirmsRelocalization(b, b_T_q, keyframe_utime, last);
+      },
+      &too_far);
+  if (too_far) ++stats_.recoveries_too_far;
+  if (agree) ++stats_.gate_recoveries;
   return agree;
 }
 
