@@ -29,19 +29,10 @@ OfflineRun runImuElevator(const std::vector<imu::ImuSample>& samples,
   return out;
 }
 
-std::vector<FloorEvent> OfflineRun::rideEvents() const {
+std::vector<FloorEvent> OfflineRun::eventsOf(FloorEvent::Kind a, FloorEvent::Kind b) const {
   std::vector<FloorEvent> out;
   for (const FloorEvent& e : events)
-    if (e.kind == FloorEvent::Kind::kRideStart || e.kind == FloorEvent::Kind::kRideEnd)
-      out.push_back(e);
-  return out;
-}
-
-std::vector<FloorEvent> OfflineRun::watchEvents() const {
-  std::vector<FloorEvent> out;
-  for (const FloorEvent& e : events)
-    if (e.kind == FloorEvent::Kind::kVerticalMotion || e.kind == FloorEvent::Kind::kVerticalStill)
-      out.push_back(e);
+    if (e.kind == a || e.kind == b) out.push_back(e);
   return out;
 }
 

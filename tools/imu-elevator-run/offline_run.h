@@ -18,9 +18,15 @@ struct OfflineRun {
   std::vector<RejectedRide> rejected;
   double gravity_m_s2 = 0;  // the tracker's reference at the end
   bool gravity_plausible = true;
-  std::vector<FloorEvent> events;               // ride starts and ends, and the vertical watch's
-  std::vector<FloorEvent> rideEvents() const;   // ... only the rides' starts and ends
-  std::vector<FloorEvent> watchEvents() const;  // ... only the watch's
+  std::vector<FloorEvent> events;  // ride starts and ends, and the vertical watch's
+  // ... only the rides' starts and ends, or only the watch's
+  std::vector<FloorEvent> rideEvents() const {
+    return eventsOf(FloorEvent::Kind::kRideStart, FloorEvent::Kind::kRideEnd);
+  }
+  std::vector<FloorEvent> watchEvents() const {
+    return eventsOf(FloorEvent::Kind::kVerticalMotion, FloorEvent::Kind::kVerticalStill);
+  }
+  std::vector<FloorEvent> eventsOf(FloorEvent::Kind a, FloorEvent::Kind b) const;
   std::vector<double> floor_heights;
   ElevatorCounts counts;
   imu::SampleGateCounts gate;
