@@ -3,12 +3,9 @@
 
 #include <cmath>
 #include <fstream>
-#include <numbers>
 #include <optional>
 #include <sstream>
 
-#include "core/common/percentile.h"
-#include "tools/eval/alignment.h"
 #include "tools/slam-run/localize_runner.h"
 
 namespace evermap::slam_run {
@@ -32,8 +29,7 @@ Status LocalizeRunner::setMapTruth(const std::filesystem::path& nodes_csv) {
   const auto cols = columnsOf(line);
   for (const char* c : {"x", "y", "z", "true_x", "true_y", "true_z"})
     if (!cols.count(c)) return makeError(nodes_csv.string(), ": no column ", c, " (nodes.csv)");
-  std::vector<core::Vec3> est, gt;
-  std::optional<core::SE3d> first_est, first_gt;  // the first node's whole pose, when given
+  std::vector<core::SE3d> est, gt;
   while (std::getline(in, line)) {
     std::vector<double> v;
     std::stringstream ss(line);
@@ -42,66 +38,39 @@ Status LocalizeRunner::setMapTruth(const std::filesystem::path& nodes_csv) {
     auto at = [&](const char* c) {
       return cols.count(c) && cols.at(c) < v.size() ? v[cols.at(c)] : NAN;
     };
-    est.emplace_back(at("x"), at("y"), at("z"));
-    gt.emplace_back(at("true_x"), at("true_y"), at("true_z"));
-    const Eigen::Quaterniond q(at("qw"), at("qx"), at("qy"), at("qz"));
-    const Eigen::Quaterniond true_q(at("true_qw"), at("true_qx"), at("true_qy"), at("true_qz"));
-    if (!first_est && q.coeffs().allFinite() && true_q.coeffs().allFinite() && q.norm() > 0.5 &&
-        true_q.norm() > 0.5) {
-      first_est = core::SE3d(q.normalized(), est.back());
-      first_gt = core::SE3d(true_q.normalized(), gt.back());
-    }
+    // The orientations (qw..qz, true_qw..true_qz) matter only to a map of one or two nodes.
+    auto rotation = [&](const char* w, const char* x, const char* y, const char* z) {
+      const Eigen::Quaterniond q(at(w), at(x), at(y), at(z));
+      return q.coeffs().allFinite() && q.norm() > 0.5 ? q.normalized()
+                                                      : Eigen::Quaterniond::Identity();
+    };
+    est.emplace_back(rotation("qw", "qx", "qy", "qz"), core::Vec3(at("x"), at("y"), at("z")));
+    gt.emplace_back(rotation("true_qw", "true_qx", "true_qy", "true_qz"),
+                    core::Vec3(at("true_x"), at("true_y"), at("true_z")));
   }
-  // A map of one or two nodes (a camera turning in place): the first node's pose puts it in
-  // the truth's frame; three or more: the least-squares fit of all their positions.
-  if (est.size() < 3 && first_est) {
-    map_to_truth_ = core::Similarity{1.0, *first_gt * first_est->inverse()};
-    return Ok{};
-  }
-  auto fit = eval::umeyama(est, gt, false);
+  auto fit = eval::mapToTruth(est, gt);
   if (!fit) return makeError(nodes_csv.string(), ": ", fit.error().message);
-  map_to_truth_ = fit->gt_S_est;
+  map_to_truth_ = *fit;
   return Ok{};
 }
 
 void LocalizeRunner::evaluate(LocalizeSummary& s) {
   if (!map_to_truth_ || truth_.empty()) return;
-  std::vector<double> errors;
-  double yaw2 = 0.0;
-  s.false_frames = 0;
-  s.false_placements = 0;
-  bool was_localized = false;
-  for (FrameRow& f : frames_) {
-    const bool placement = f.localized && !was_localized;
-    was_localized = f.localized;
-    // The truth at the frame's time (rendered: the same stamps), within 25 ms.
-    auto it = truth_.lower_bound(f.utime - 25000);
-    if (it == truth_.end() || it->first > f.utime + 25000 || !f.placed) continue;
-    const core::SE3d est = *map_to_truth_ * f.world_T_body;
-    f.error_m = (est.translation() - it->second.translation()).norm();
-    const Eigen::AngleAxisd d(it->second.quaternion().conjugate() * est.quaternion());
-    f.error_deg = std::abs(d.angle()) * 180.0 / std::numbers::pi;
-    if (!f.localized) continue;
-    errors.push_back(f.error_m);
-    yaw2 += f.error_deg * f.error_deg;
-    const bool wrong = f.error_m > s.false_m || f.error_deg > s.false_deg;
-    if (wrong) ++s.false_frames;
-    if (wrong && placement) ++s.false_placements;
+  std::vector<eval::LocalizedPose> poses;
+  for (const FrameRow& f : frames_)
+    poses.push_back({f.utime, f.placed, f.localized, f.world_T_body});
+  s.truth =
+      eval::evaluateLocalization(poses, *map_to_truth_, truth_, s.truth.false_m, s.truth.false_deg);
+  for (size_t i = 0; i < frames_.size(); ++i) {
+    frames_[i].error_m = poses[i].error_m;
+    frames_[i].error_deg = poses[i].error_deg;
   }
-  s.frames_with_truth = static_cast<int64_t>(errors.size());
-  if (errors.empty()) return;
-  double sq = 0.0;
-  for (double e : errors) sq += e * e;
-  s.ate_rmse_m = std::sqrt(sq / static_cast<double>(errors.size()));
-  s.ate_p95_m = percentile(errors, 0.95);
-  s.ate_max_m = *std::max_element(errors.begin(), errors.end());
-  s.yaw_rmse_deg = std::sqrt(yaw2 / static_cast<double>(errors.size()));
 }
 
 LocalizeSummary LocalizeRunner::finish() {
   LocalizeSummary& s = summary_;
-  s.false_m = options_.false_closure_m;
-  s.false_deg = options_.false_closure_deg;
+  s.truth.false_m = options_.false_closure_m;
+  s.truth.false_deg = options_.false_closure_deg;
   s.frames = static_cast<int64_t>(frames_.size());
   double vo = 0, lc = 0, loc = 0;
   for (const FrameRow& f : frames_) {
@@ -141,10 +110,7 @@ std::string LocalizeSummary::text() const {
   o << "loopclose nodes " << loopclose.nodes << " keyframes " << loopclose.keyframes << "\n";
   o << "ms_per_frame vo " << vo_ms << " loopclose " << loopclose_ms << " localizer " << localizer_ms
     << "\n";
-  o << "truth frames_localized " << frames_with_truth << " ate_rmse_m " << ate_rmse_m
-    << " ate_p95_m " << ate_p95_m << " ate_max_m " << ate_max_m << " rot_rmse_deg " << yaw_rmse_deg
-    << " false_frames " << false_frames << " false_placements " << false_placements << " (beyond "
-    << false_m << " m or " << false_deg << " deg)\n";
+  o << eval::truthLine(truth);
   o << "input_errors " << input_errors << "\n";
   for (const std::string& e : errors) o << "  " << e << "\n";
   return o.str();

@@ -23,6 +23,7 @@
 
 #include "core/geometry/umeyama.h"
 #include "mapper-proc/localizer.h"
+#include "tools/eval/localization_accuracy.h"
 #include "tools/slam-run/slam_runner.h"
 
 namespace evermap::slam_run {
@@ -40,12 +41,8 @@ struct LocalizeSummary {
   std::vector<std::string> errors;
   // Mean milliseconds per VO frame: VO, loop closing, localizer.
   double vo_ms = 0, loopclose_ms = 0, localizer_ms = 0;
-  // Against the truth, localized frames only (-1: no truth or no map truth).
-  int64_t frames_with_truth = 0;
-  double ate_rmse_m = -1, ate_p95_m = -1, ate_max_m = -1, yaw_rmse_deg = -1;
-  int64_t false_frames = -1;      // localized, error > false_m or false_deg
-  int64_t false_placements = -1;  // placements whose first localized frame is such an error
-  double false_m = 0.5, false_deg = 5.0;
+  // Against the truth (localized frames; -1 without truth or a map truth).
+  eval::LocalizationAccuracy truth;
 
   std::string text() const;
 };

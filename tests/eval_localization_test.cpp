@@ -1,0 +1,87 @@
+// tools/eval/localization_accuracy: the stored map put in the truth's frame by its nodes (also a
+// map of one corridor, whose rotation about the corridor the positions leave free), and the
+// figures of a localization run against the truth (errors, false frames, false placements).
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <map>
+#include <numbers>
+#include <vector>
+
+#include "tools/eval/localization_accuracy.h"
+
+namespace evermap::eval {
+namespace {
+
+core::SE3d yawed(double yaw_rad, const core::Vec3& t) {
+  return core::SE3d(core::SO3d(Eigen::Quaterniond(Eigen::AngleAxisd(yaw_rad, core::Vec3::UnitZ()))),
+                    t);
+}
+
+// The map's frame: the truth's turned by 30 degrees and moved (truth = T * map).
+const core::SE3d kTruthFromMap = yawed(0.5236, core::Vec3(4.0, -2.0, 1.0));
+
+TEST(LocalizationAccuracy, TheMapOfOneCorridorIsPutInTheTruthsFrameRightSideUp) {
+  // Nodes along one corridor, 1 mm off its line to one side in the map and to the other in
+  // the truth (each its own small error): the positions fit best turned 180 degrees about the
+  // corridor, the first node's orientation says it is right side up.
+  std::vector<core::SE3d> map_nodes, true_nodes;
+  for (int i = 0; i < 8; ++i) {
+    const double across = 0.001 * ((i * 7) % 3 - 1);
+    map_nodes.push_back(yawed(0.0, core::Vec3(1.5 * i, across, 0.0)));
+    true_nodes.push_back(kTruthFromMap * yawed(0.0, core::Vec3(1.5 * i, -across, 0.0)));
+  }
+  auto truth_S_map = mapToTruth(map_nodes, true_nodes);
+  ASSERT_TRUE(truth_S_map.ok()) << truth_S_map.error().message;
+  const core::SE3d off = kTruthFromMap.inverse() * truth_S_map->rigid;
+  EXPECT_LT(off.translation().norm(), 0.0025);
+  EXPECT_LT(Eigen::AngleAxisd(off.quaternion()).angle(), 1e-6);
+}
+
+TEST(LocalizationAccuracy, ASpreadMapIsFittedByItsPositions) {
+  std::vector<core::SE3d> map_nodes, true_nodes;
+  for (int i = 0; i < 6; ++i) {
+    const core::SE3d node = yawed(0.3 * i, core::Vec3(2.0 * std::cos(i), 3.0 * std::sin(i), 0.1 * i));
+    map_nodes.push_back(node);
+    // Orientations that disagree do not move a fit of positions.
+    true_nodes.push_back(kTruthFromMap * node * yawed(0.1, core::Vec3::Zero()));
+  }
+  auto truth_S_map = mapToTruth(map_nodes, true_nodes);
+  ASSERT_TRUE(truth_S_map.ok());
+  EXPECT_LT((truth_S_map->rigid.translation() - kTruthFromMap.translation()).norm(), 1e-9);
+  EXPECT_FALSE(mapToTruth({}, {}).ok());
+  EXPECT_FALSE(mapToTruth(map_nodes, {}).ok());
+}
+
+TEST(LocalizationAccuracy, FalseFramesAndFalsePlacementsAreCountedOverTheLocalizedOnes) {
+  std::map<int64_t, core::SE3d> truth;
+  std::vector<LocalizedPose> poses;
+  for (int i = 0; i < 10; ++i) {
+    const int64_t utime = 1000000 + 100000 * i;
+    const core::SE3d body = yawed(0.0, core::Vec3(0.5 * i, 0.0, 0.0));
+    truth[utime] = kTruthFromMap * body;
+    LocalizedPose p{utime, i >= 2, i >= 2, body};
+    // Frames 2-3: 0.1 m off; 4: not localized; 5-6: placed again 0.8 m off (a false
+    // placement); 7-9: right.
+    if (i == 2 || i == 3) p.world_T_body = yawed(0.0, body.translation() + core::Vec3(0, 0.1, 0));
+    if (i == 4) p.localized = false;
+    if (i == 5 || i == 6) p.world_T_body = yawed(0.0, body.translation() + core::Vec3(0, 0.8, 0));
+    poses.push_back(p);
+  }
+  const LocalizationAccuracy a =
+      evaluateLocalization(poses, core::Similarity{1.0, kTruthFromMap}, truth, 0.5, 5.0);
+  EXPECT_EQ(a.poses, 10);
+  EXPECT_EQ(a.localized, 7);
+  EXPECT_NEAR(a.first_localized_s, 0.2, 1e-9);
+  EXPECT_EQ(a.poses_with_truth, 7);
+  EXPECT_EQ(a.false_poses, 2);
+  EXPECT_EQ(a.false_placements, 1);
+  EXPECT_NEAR(a.ate_max_m, 0.8, 1e-9);
+  EXPECT_NEAR(a.ate_rmse_m, std::sqrt((2 * 0.01 + 2 * 0.64) / 7.0), 1e-9);
+  EXPECT_NEAR(poses[4].error_m, 0.0, 1e-9);  // placed, not localized: its error, not counted
+  EXPECT_EQ(poses[0].error_m, -1);           // never placed: no error
+}
+
+}  // namespace
+}  // namespace evermap::eval
