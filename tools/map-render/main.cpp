@@ -69,7 +69,7 @@ struct StoreFigure {
 };
 
 Expected<StoreFigure> figureOfStore(const std::string& store_file) {
-  auto store = mapper::MapStore::open(store_file);
+  auto store = mapper::MapStore::open(store_file, mapper::MapStoreOptions{.read_only = true});
   if (!store) return store.error();
   auto snapshot = store->load();
   if (!snapshot) return snapshot.error();

@@ -43,7 +43,8 @@ int checkStore(const std::string& file) {
     std::fprintf(stderr, "evermap-mapper-run: %s: no such file\n", file.c_str());
     return 1;
   }
-  auto store = evermap::mapper::MapStore::open(file);
+  auto store =
+      evermap::mapper::MapStore::open(file, evermap::mapper::MapStoreOptions{.read_only = true});
   if (!store) {
     std::fprintf(stderr, "evermap-mapper-run: %s\n", store.error().message.c_str());
     return 1;

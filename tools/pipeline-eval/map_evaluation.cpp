@@ -68,7 +68,7 @@ Expected<EvalMap> mapFromGraph(const map_graph_t& g) {
 
 Expected<EvalMap> mapFromStore(const std::filesystem::path& file) {
   if (!std::filesystem::exists(file)) return makeError(file.string(), ": no such map store");
-  auto store = MapStore::open(file);
+  auto store = MapStore::open(file, MapStoreOptions{.read_only = true});
   if (!store) return store.error();
   auto snap = store->load();
   if (!snap) return snap.error();
