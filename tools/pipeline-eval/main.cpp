@@ -1,6 +1,8 @@
 // evermap-pipeline-eval: the end-of-run evaluation of a map against the ground truth of a
 // simulated run (tools/pipeline-eval/map_evaluation.h): node ATE, edges, floors, sessions, and from
-// a recorded log also the live POSE ATE and the last MAPPER_STATS. Exit status: 0 done (and within
+// a recorded log also the live POSE ATE and the last MAPPER_STATS; with --localization-log, a
+// localization run recorded live against the truth (localization_log.h). Exit status: 0 done (and
+// within
 // --max-ate), 1 bad input or ATE over --max-ate, 2 bad usage.
 
 #include <cstdio>
@@ -12,6 +14,7 @@
 #include "core/common/command_line.h"
 #include "core/common/option_fields.h"
 #include "tools/eval/trajectory.h"
+#include "tools/pipeline-eval/localization_log.h"
 #include "tools/pipeline-eval/map_evaluation.h"
 
 namespace {
@@ -28,7 +31,7 @@ struct PipelineEvalOptions {
 };
 
 struct EvalArgs {
-  std::string run, log, store, json, poses_tum;
+  std::string run, log, store, json, poses_tum, localization_log;
   std::vector<std::string> truth_logs;
   PipelineEvalOptions options;
 };
@@ -56,6 +59,9 @@ int parseCommandLine(int argc, char** argv, EvalArgs* a) {
   cli.value("--json", &a->json, "OUT.json", "also write the figures as JSON");
   cli.value("--poses-tum", &a->poses_tum, "OUT.tum",
             "write the live POSE trajectory of --log as TUM (for evermap-eval and its plot)");
+  cli.value("--localization-log", &a->localization_log, "LOG",
+            "also a localization run against the map, recorded live (LOCALIZATION and the "
+            "replayed session's GROUND_TRUTH): its frames localized and their error");
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
   if (a->log.empty() == a->store.empty()) {
     std::fprintf(stderr, "evermap-pipeline-eval: give exactly one of --log and --store\n%s",
@@ -111,6 +117,29 @@ Status writePoses(const EvalArgs& a, const mapper::RecordedRun& recorded) {
   return eval::writeTum(trajectory, a.poses_tum);
 }
 
+// --localization-log: the localized poses against the replayed session's truth, the map put in
+// the truth's frame by its nodes.
+Status printLocalization(const EvalArgs& a, const mapper::EvalMap& map,
+                         const mapper::RunTruth& truth) {
+  auto recorded = mapper::readRecordedLocalization(a.localization_log);
+  if (!recorded) return recorded.error();
+  auto truth_S_map = mapper::mapInTruth(map, truth);
+  if (!truth_S_map) return truth_S_map.error();
+  if (recorded->truth.empty())
+    return Error{a.localization_log + ": no GROUND_TRUTH message (record it with LOCALIZATION)"};
+  const eval::LocalizationAccuracy l =
+      eval::evaluateLocalization(recorded->poses, *truth_S_map, recorded->truth, 0.5, 5.0);
+  const double pct =
+      l.poses > 0 ? 100.0 * static_cast<double>(l.localized) / static_cast<double>(l.poses) : 0.0;
+  std::printf(
+      "localization frames %lld localized_frames %lld (%.1f %%) first_localized_s %.2f "
+      "undecodable %lld\n%s",
+      static_cast<long long>(l.poses), static_cast<long long>(l.localized), pct,
+      l.first_localized_s, static_cast<long long>(recorded->undecodable),
+      eval::truthLine(l).c_str());
+  return Ok{};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -130,6 +159,9 @@ int main(int argc, char** argv) {
   }
   if (!a.poses_tum.empty()) {
     if (Status s = writePoses(a, *recorded); !s) return fail(s.error());
+  }
+  if (!a.localization_log.empty()) {
+    if (Status s = printLocalization(a, recorded->map, *truth); !s) return fail(s.error());
   }
   if (a.options.max_ate_m > 0.0 &&
       !(e->ate_rmse_m <= a.options.max_ate_m)) {  // NaN (no node ATE) fails too
