@@ -42,7 +42,8 @@ TEST(LocalizationAccuracy, TheMapOfOneCorridorIsPutInTheTruthsFrameRightSideUp) 
 TEST(LocalizationAccuracy, ASpreadMapIsFittedByItsPositions) {
   std::vector<core::SE3d> map_nodes, true_nodes;
   for (int i = 0; i < 6; ++i) {
-    const core::SE3d node = yawed(0.3 * i, core::Vec3(2.0 * std::cos(i), 3.0 * std::sin(i), 0.1 * i));
+    const core::SE3d node =
+        yawed(0.3 * i, core::Vec3(2.0 * std::cos(i), 3.0 * std::sin(i), 0.1 * i));
     map_nodes.push_back(node);
     // Orientations that disagree do not move a fit of positions.
     true_nodes.push_back(kTruthFromMap * node * yawed(0.1, core::Vec3::Zero()));

@@ -38,7 +38,8 @@ struct LocalizationAccuracy {
 
 // The map in the truth's frame from its nodes' estimated and true poses (paired by index): the
 // least-squares rigid fit of their positions from three nodes not on one line; else (one or two
-// nodes: a camera turning in place; nodes along one corridor) the first node's whole pose. Errors: no node, sizes differ, a degenerate fit.
+// nodes: a camera turning in place; nodes along one corridor) the first node's whole pose. Errors:
+// no node, sizes differ, a degenerate fit.
 Expected<core::Similarity> mapToTruth(const std::vector<core::SE3d>& map_nodes,
                                       const std::vector<core::SE3d>& true_nodes);
 
