@@ -73,7 +73,8 @@ TEST(DisparityOffsetTracker, AStartWithFewReferenceFramesKeepsItsEvidenceUntilIt
   GroupMaker maker(3);
   for (int64_t g = 0; g < 7; ++g) {
     for (const StereoMatchPair& pair : maker.group(22)) {
-      ASSERT_EQ(tracker->add(pair, g).decision, OffsetDecision::kPending) << tracker->state().message;
+      ASSERT_EQ(tracker->add(pair, g).decision, OffsetDecision::kPending)
+          << tracker->state().message;
     }
   }
   EXPECT_TRUE(tracker->wantsPairs());
