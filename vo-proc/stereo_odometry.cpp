@@ -137,9 +137,9 @@ void StereoOdometry::selfCalibrate(const core::StereoMatchPair& pair, int64_t gr
     r->calibration_changed = true;
     r->disparity_offset_px = camera_.disparityOffsetPx();
   }
-  // After an offset applied (or a round without enough evidence), the next round measures what
-  // is left over; once a round finds nothing to change, self-calibration is over: rounds run
-  // on forever would each be a new chance of a false alarm on a right rig.
+  // After an offset applied, the next round measures what is left over; once a round finds
+  // nothing to change, self-calibration is over: rounds run on forever would each be a new
+  // chance of a false alarm on a right rig.
   if (state.decision != core::OffsetDecision::kKeep) offset_tracker_->restart(camera_);
 }
 

@@ -15,8 +15,6 @@ const char* toString(OffsetDecision decision) {
       return "applied";
     case OffsetDecision::kKeep:
       return "kept the calibration";
-    case OffsetDecision::kGiveUp:
-      return "gave up";
   }
   return "?";
 }
@@ -98,6 +96,11 @@ const DisparityOffsetState& DisparityOffsetTracker::add(const StereoMatchPair& p
       curves_.push_back(std::move(costs));
       minima_.push_back(*own);
       groups_.push_back(group);
+      if (curves_.size() > static_cast<size_t>(options_.max_pairs)) {
+        curves_.erase(curves_.begin());
+        minima_.erase(minima_.begin());
+        groups_.erase(groups_.begin());
+      }
     }
   }
   estimate();
@@ -160,19 +163,14 @@ void DisparityOffsetTracker::decide() {
   DisparityOffsetState& s = state_;
   const bool converged =
       s.groups_used >= options_.min_pairs && s.standard_error_px <= options_.max_standard_error_px;
+  if (!converged) return;
   const double total = camera_.disparityOffsetPx() + s.offset_px;
-  if (converged) {
-    const double size = std::abs(s.offset_px);
-    const bool significant =
-        size >= options_.min_offset_px && size >= options_.significance * s.standard_error_px;
-    s.decision = significant && std::abs(total) <= options_.max_total_offset_px
-                     ? OffsetDecision::kApply
-                     : OffsetDecision::kKeep;
-  } else if (s.pairs_examined >= options_.max_pairs) {
-    s.decision = OffsetDecision::kGiveUp;
-  } else {
-    return;
-  }
+  const double size = std::abs(s.offset_px);
+  const bool significant =
+      size >= options_.min_offset_px && size >= options_.significance * s.standard_error_px;
+  s.decision = significant && std::abs(total) <= options_.max_total_offset_px
+                   ? OffsetDecision::kApply
+                   : OffsetDecision::kKeep;
   char line[200];
   std::snprintf(line, sizeof(line),
                 "disparity offset %+.3f px +- %.3f (jackknife) on %+.3f from %d pairs of %d frames "

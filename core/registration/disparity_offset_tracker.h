@@ -23,11 +23,13 @@
 //    min_offset_px and significance standard errors from 0, and the camera's offset stays
 //    within max_total_offset_px; otherwise the calibration is kept (kKeep): a
 //    well-calibrated rig stays at 0;
-//  - after max_pairs pairs examined without converging the round gives up (kGiveUp) and the
-//    calibration is kept. The grid (around the camera's offset) bounds one round's step.
-// The caller starts the next round (restart) after kApply or kGiveUp; after kKeep the tracker
-// stays decided (StereoOdometry stops there: every further round would be another chance of a
-// false alarm on a right rig).
+//  - a round keeps the last max_pairs informative pairs (older ones are dropped as new ones
+//    come): the evidence of a slow start (few reference frames, a rendered walk renews its
+//    reference about once a second) is not thrown away, and the cost of a round stays bounded.
+//    The grid (around the camera's offset) bounds one round's step.
+// The caller starts the next round (restart) after kApply; after kKeep the tracker stays
+// decided (StereoOdometry stops there: every further round would be another chance of a false
+// alarm on a right rig).
 // "Measured" is what the pairs carry: with a camera that already has an offset, the estimate
 // is what is left over.
 
@@ -50,8 +52,8 @@ struct DisparityOffsetTrackerOptions {
   // A pair is evidence when its own curve's curvature at its minimum gives a standard
   // deviation of at most this (pixels, under the nominal noise).
   double max_pair_sigma_px = 1.0;
-  int min_pairs = 8;  // of as many groups (reference frames)
-  int max_pairs = 150;
+  int min_pairs = 8;    // of as many groups (reference frames)
+  int max_pairs = 150;  // informative pairs kept (the latest)
   double max_standard_error_px = 0.08;
   double min_offset_px = 0.15;
   // The camera's offset is never moved beyond this (pixels, either sign).
@@ -72,7 +74,8 @@ struct DisparityOffsetTrackerOptions {
     o.add("min_pairs", &min_pairs, "pairs",
           "pairs of at least this many reference frames to decide")
         .min(3);
-    o.add("max_pairs", &max_pairs, "pairs", "pairs examined before giving up").min(1);
+    o.add("max_pairs", &max_pairs, "pairs", "a round keeps the last this many informative pairs")
+        .min(1);
     o.add("max_standard_error_px", &max_standard_error_px, "px",
           "converged when the jackknife standard error is at most this")
         .positive();
@@ -95,7 +98,7 @@ struct DisparityOffsetTrackerOptions {
   }
 };
 
-enum class OffsetDecision { kPending, kApply, kKeep, kGiveUp };
+enum class OffsetDecision { kPending, kApply, kKeep };
 const char* toString(OffsetDecision decision);
 
 struct DisparityOffsetState {
