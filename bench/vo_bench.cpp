@@ -90,6 +90,7 @@ double peakRssMb() {
 void report(benchmark::State& state, std::vector<double> ms) {
   std::sort(ms.begin(), ms.end());
   state.counters["median_ms"] = ms[ms.size() / 2];
+  state.counters["p90_ms"] = ms[ms.size() * 9 / 10];
   state.counters["p99_ms"] = ms[std::min(ms.size() - 1, ms.size() * 99 / 100)];
   state.counters["peak_rss_MB"] = peakRssMb();
   size_t bytes = 0;
