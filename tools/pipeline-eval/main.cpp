@@ -1,9 +1,8 @@
 // evermap-pipeline-eval: the end-of-run evaluation of a map against the ground truth of a
 // simulated run (tools/pipeline-eval/map_evaluation.h): node ATE, edges, floors, sessions, and from
 // a recorded log also the live POSE ATE and the last MAPPER_STATS; with --localization-log, a
-// localization run recorded live against the truth (localization_log.h). Exit status: 0 done (and
-// within
-// --max-ate), 1 bad input or ATE over --max-ate, 2 bad usage.
+// localization run recorded live against the truth (localization_log.h). Exit status: 0 done
+// (and within --max-ate), 1 bad input or ATE over --max-ate, 2 bad usage.
 
 #include <cstdio>
 #include <filesystem>

@@ -38,7 +38,8 @@ Status LocalizeRunner::setMapTruth(const std::filesystem::path& nodes_csv) {
     auto at = [&](const char* c) {
       return cols.count(c) && cols.at(c) < v.size() ? v[cols.at(c)] : NAN;
     };
-    // The orientations (qw..qz, true_qw..true_qz) matter only to a map of one or two nodes.
+    // The orientations (qw..qz, true_qw..true_qz) matter only to a map of one or two nodes, or
+    // of nodes along one line (eval::mapToTruth).
     auto rotation = [&](const char* w, const char* x, const char* y, const char* z) {
       const Eigen::Quaterniond q(at(w), at(x), at(y), at(z));
       return q.coeffs().allFinite() && q.norm() > 0.5 ? q.normalized()
