@@ -451,10 +451,8 @@ StereoOdometry::RegisteredMotion StereoOdometry::registerCurrent(const SE3d& ref
   // that registered, the motion through it chained to the reference.
   RegisteredMotion m;
   const bool calibrating = offset_tracker_ && offset_tracker_->wantsPairs();
-  m.summary = registerTo(*ref_, ref_T_pred, calibrating ? &m.pair : nullptr);
+  m.takeRegistration(registerTo(*ref_, ref_T_pred, calibrating ? &m.pair : nullptr));
   m.pair_group = ref_->utime;
-  m.ref_T_cur = m.summary.a_T_b;
-  m.covariance = m.summary.covariance;
   if (!m.summary.ok() && options_.retry_previous_frame && has_prev_) {
     const RegisteredMotion again = registerThroughPrevious(ref_T_pred, nullptr);
     if (again.summary.ok()) {
@@ -481,9 +479,7 @@ void StereoOdometry::retryFastMotion(const SE3d& ref_T_pred, RegisteredMotion* m
       std::string(failureKind(m->summary, options_.registration.min_inliers)) + ": " +
       m->summary.message;
   RegisteredMotion again;
-  again.summary = registerTo(*ref_, ref_T_pred, nullptr, &*widened);
-  again.ref_T_cur = again.summary.a_T_b;
-  again.covariance = again.summary.covariance;
+  again.takeRegistration(registerTo(*ref_, ref_T_pred, nullptr, &*widened));
   if (!again.summary.ok() && has_prev_) {
     again = registerThroughPrevious(ref_T_pred, &*widened);
     r->via_previous = again.summary.ok();

@@ -293,6 +293,12 @@ class StereoOdometry {
     core::Mat6 covariance = core::Mat6::Zero();
     core::StereoMatchPair pair;  // reference and current matches, for self-calibration
     int64_t pair_group = 0;      // the reference's utime (pairs sharing it are one group)
+    // A registration to the reference: its motion is the registration's own.
+    void takeRegistration(const core::RegistrationSummary& registered) {
+      summary = registered;
+      ref_T_cur = registered.a_T_b;
+      covariance = registered.covariance;
+    }
     // The registration and motion of `other`; the self-calibration pair stays this one's.
     void takeMotionOf(const RegisteredMotion& other) {
       summary = other.summary;
