@@ -60,6 +60,18 @@ Expected<core::Similarity> mapToTruth(const std::vector<core::SE3d>& map_nodes,
   return fit->dst_S_src;
 }
 
+void countLocalized(const std::vector<LocalizedPose>& poses, LocalizationAccuracy* a) {
+  a->poses = static_cast<int64_t>(poses.size());
+  a->localized = 0;
+  a->first_localized_s = -1;
+  for (const LocalizedPose& p : poses) {
+    if (!p.localized) continue;
+    ++a->localized;
+    if (a->first_localized_s < 0)
+      a->first_localized_s = 1e-6 * static_cast<double>(p.utime - poses.front().utime);
+  }
+}
+
 LocalizationAccuracy evaluateLocalization(std::vector<LocalizedPose>& poses,
                                           const core::Similarity& truth_S_map,
                                           const std::map<int64_t, core::SE3d>& truth,
@@ -67,7 +79,7 @@ LocalizationAccuracy evaluateLocalization(std::vector<LocalizedPose>& poses,
   LocalizationAccuracy a;
   a.false_m = false_m;
   a.false_deg = false_deg;
-  a.poses = static_cast<int64_t>(poses.size());
+  countLocalized(poses, &a);
   a.false_poses = a.false_placements = 0;
   std::vector<double> errors;
   double rot2 = 0.0;
@@ -75,9 +87,6 @@ LocalizationAccuracy evaluateLocalization(std::vector<LocalizedPose>& poses,
   for (LocalizedPose& p : poses) {
     const bool placement = p.localized && !was_localized;
     was_localized = p.localized;
-    if (p.localized) ++a.localized;
-    if (p.localized && a.first_localized_s < 0)
-      a.first_localized_s = 1e-6 * static_cast<double>(p.utime - poses.front().utime);
     auto it = truth.lower_bound(p.utime - 25000);
     if (it == truth.end() || it->first > p.utime + 25000 || !p.placed) continue;
     const core::SE3d est = truth_S_map * p.world_T_body;

@@ -43,8 +43,11 @@ struct LocalizationAccuracy {
 Expected<core::Similarity> mapToTruth(const std::vector<core::SE3d>& map_nodes,
                                       const std::vector<core::SE3d>& true_nodes);
 
+// The counts of LocalizationAccuracy: poses, localized, first_localized_s.
+void countLocalized(const std::vector<LocalizedPose>& poses, LocalizationAccuracy* a);
+
 // Fills each pose's error (the truth at its stamp, within 25 ms, placed poses only) and
-// returns the figures; `poses` in time order.
+// returns the figures, the counts among them; `poses` in time order.
 LocalizationAccuracy evaluateLocalization(std::vector<LocalizedPose>& poses,
                                           const core::Similarity& truth_S_map,
                                           const std::map<int64_t, core::SE3d>& truth,

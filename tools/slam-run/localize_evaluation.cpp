@@ -55,11 +55,8 @@ Status LocalizeRunner::setMapTruth(const std::filesystem::path& nodes_csv) {
   return Ok{};
 }
 
-void LocalizeRunner::evaluate(LocalizeSummary& s) {
+void LocalizeRunner::evaluate(std::vector<eval::LocalizedPose>& poses, LocalizeSummary& s) {
   if (!map_to_truth_ || truth_.empty()) return;
-  std::vector<eval::LocalizedPose> poses;
-  for (const FrameRow& f : frames_)
-    poses.push_back({f.utime, f.placed, f.localized, f.world_T_body});
   s.truth =
       eval::evaluateLocalization(poses, *map_to_truth_, truth_, s.truth.false_m, s.truth.false_deg);
   for (size_t i = 0; i < frames_.size(); ++i) {
@@ -72,10 +69,16 @@ LocalizeSummary LocalizeRunner::finish() {
   LocalizeSummary& s = summary_;
   s.truth.false_m = options_.false_closure_m;
   s.truth.false_deg = options_.false_closure_deg;
-  s.frames = static_cast<int64_t>(frames_.size());
+  std::vector<eval::LocalizedPose> poses;
+  for (const FrameRow& f : frames_)
+    poses.push_back({f.utime, f.placed, f.localized, f.world_T_body});
+  eval::LocalizationAccuracy counts;
+  eval::countLocalized(poses, &counts);
+  s.frames = counts.poses;
+  s.localized_frames = counts.localized;
+  s.first_localized_s = counts.first_localized_s;
   double vo = 0, lc = 0, loc = 0;
   for (const FrameRow& f : frames_) {
-    s.localized_frames += f.localized ? 1 : 0;
     vo += f.vo_ms;
     lc += f.loopclose_ms;
     loc += f.localizer_ms;
@@ -88,7 +91,7 @@ LocalizeSummary LocalizeRunner::finish() {
   }
   s.localizer = localizer_->stats();
   s.loopclose = loop_closer_->stats();
-  evaluate(s);
+  evaluate(poses, s);
   return s;
 }
 

@@ -154,7 +154,6 @@ void LocalizeRunner::onFrame(const ReadEvent& e, double* loopclose_s, double* lo
   exchange(loopclose_s, localizer_s);
   FrameRow row;
   row.utime = out->delta.utime;
-  if (first_utime_ < 0) first_utime_ = row.utime;
   row.placed = localizer_->placed();
   row.localized = localizer_->localized();
   row.floor = localizer_->floor();
@@ -165,8 +164,6 @@ void LocalizeRunner::onFrame(const ReadEvent& e, double* loopclose_s, double* lo
   row.vo_ms = 1e3 * vo_s;
   row.loopclose_ms = 1e3 * *loopclose_s;
   row.localizer_ms = 1e3 * *localizer_s;
-  if (row.localized && summary_.first_localized_s < 0)
-    summary_.first_localized_s = 1e-6 * static_cast<double>(row.utime - first_utime_);
   frames_.push_back(row);
 }
 

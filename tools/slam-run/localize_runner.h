@@ -82,7 +82,7 @@ class LocalizeRunner {
   void exchange(double* loopclose_s, double* localizer_s);
   void inputError(const std::string& what);
   // Each frame's error against the truth (with a map truth), and the summary's figures.
-  void evaluate(LocalizeSummary& s);
+  void evaluate(std::vector<eval::LocalizedPose>& poses, LocalizeSummary& s);
 
   const bow::Vocabulary& vocabulary_;
   SlamRunOptions options_;
@@ -95,7 +95,6 @@ class LocalizeRunner {
   std::map<int64_t, core::SE3d> truth_;
   std::optional<core::Similarity> map_to_truth_;
   LocalizeSummary summary_;
-  int64_t first_utime_ = -1;
 };
 
 }  // namespace evermap::slam_run
