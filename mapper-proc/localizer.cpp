@@ -111,9 +111,19 @@ Status Localizer::onFloor(const floor_t& msg) {
 }
 
 core::UncertainPose Localizer::pose() const {
-  core::UncertainPose p = tracker_.delta();
+  core::UncertainPose p = deadReckoned();
   if (active_ >= 0) p.mean = nodePose(active_) * p.mean;
   return p;
+}
+
+core::UncertainPose Localizer::deadReckoned() const {
+  core::UncertainPose d = tracker_.delta();
+  const double xy = o_.localize.drift_per_m * deadReckoningM();
+  const double yaw = o_.localize.drift_deg_per_m * deadReckoningM() * std::numbers::pi / 180.0;
+  d.covariance(0, 0) += xy * xy;
+  d.covariance(1, 1) += xy * xy;
+  d.covariance(5, 5) += yaw * yaw;
+  return d;
 }
 
 int Localizer::floorAt(double height_m) const {
@@ -130,12 +140,10 @@ int Localizer::floorAt(double height_m) const {
 
 void Localizer::updateLocalized() {
   if (!localized_) return;
-  const core::Mat6& c = tracker_.delta().covariance;
+  const core::Mat6 c = deadReckoned().covariance;
   const double sigma_m = std::sqrt(std::max(c(0, 0), c(1, 1)));
   const double sigma_deg = std::sqrt(std::max(c(5, 5), 0.0)) * 180.0 / std::numbers::pi;
-  const double travelled_m = tracker_.odometerM() - odometer_at_fix_m_;
-  if (sigma_m > o_.localize.max_sigma_m || sigma_deg > o_.localize.max_sigma_deg ||
-      travelled_m > o_.localize.max_dead_reckoning_m || floor_ < 0) {
+  if (sigma_m > o_.localize.max_sigma_m || sigma_deg > o_.localize.max_sigma_deg || floor_ < 0) {
     localized_ = false;
     candidate_.reset();
     ++stats_.unlocalized;
@@ -157,7 +165,7 @@ void Localizer::stepAt(int64_t keyframe_utime) {
   InFlight f;
   f.keyframe_utime = keyframe_utime;
   f.active = active_;
-  f.delta_at_keyframe = tracker_.delta();
+  f.delta_at_keyframe = deadReckoned();
   f.localized = localized_;
   in_flight_ = f;
   const auto target = stepTarget(keyframe_utime);

@@ -20,26 +20,26 @@
 // localize.map_sigma_*) places the robot: localized.
 //
 // Leaving the mapped area: with no registration applied, Δ is dead reckoning and its
-// covariance grows with every increment. The pose is still given (localized = false) once
-// the larger x-y standard deviation exceeds localize.max_sigma_m, the yaw's exceeds
-// localize.max_sigma_deg, or the robot has travelled more than localize.max_dead_reckoning_m
-// since the last registration applied; from then on only two agreeing registrations
-// localize it again. An elevator ride (FLOOR vertical motion, or ride start, to the ride's end)
-// takes no step; at its end the ride's height change moves the pose and the floor is the
-// stored one at that height (none within floor_match_m: unknown, and not localized). During
-// the ride the pose is not localized; vertical motion that ends still (no ride) changes
-// nothing.
-// Once placed, a registration to a node more than floor_match_m above or below the tracked
-// height is refused (refused_floor): the floors of a building look alike, and a robot that rode
-// to a floor the map does not hold must not be placed on one it does.
-// Drift and aliasing (gate_recovery.h, the mapper's rules): while localized, two refused
-// registrations that agree with each other re-track the pose (gate_recoveries) when no
-// registration has confirmed it for recovery_quiet_s (or odometry bridged a gap), and only
-// by a jump odometry could have drifted since the last registration applied (recovery_slack_m
+// covariance grows with every increment, and with the drift of the distance travelled since
+// the last registration applied (localize.drift_per_m, drift_deg_per_m). The pose is still
+// given (localized = false) once the larger x-y standard deviation exceeds
+// localize.max_sigma_m or the yaw's localize.max_sigma_deg; from then on only two agreeing
+// registrations localize it again. An elevator ride (FLOOR vertical motion, or ride start, to the
+// ride's end) takes no step; at its end the ride's height change moves the pose and the floor is
+// the stored one at that height (none within floor_match_m: unknown, and not localized). During the
+// ride the pose is not localized; vertical motion that ends still (no ride) changes nothing. Once
+// placed, a registration to a node more than floor_match_m above or below the tracked height is
+// refused (refused_floor): the floors of a building look alike, and a robot that rode to a floor
+// the map does not hold must not be placed on one it does. Drift and aliasing (gate_recovery.h, the
+// mapper's rules): while localized, two refused registrations that agree with each other re-track
+// the pose (gate_recoveries) when no registration has confirmed it for recovery_quiet_s (or
+// odometry bridged a gap), and only by a jump odometry could have drifted since the last
+// registration applied (recovery_slack_m
 // + recovery_drift_fraction x the distance); a robot placed once and lost again is placed anew
 // only within that too (placements_too_far): repeated texture makes false matches that
 // agree with each other one texture period away.
 
+#include <algorithm>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -100,9 +100,12 @@ class Localizer : public MapConsumer {
   // unobserved until the ride ends).
   bool placed() const { return active_ >= 0; }
   bool localized() const { return localized_ && !in_ride_; }
-  // world_T_body now, its covariance Δ's; meaningless before placed().
+  // world_T_body now, its covariance Δ's with the drift since the last registration applied
+  // (localize.drift_*); meaningless before placed().
   core::UncertainPose pose() const;
   int floor() const { return floor_; }
+  // Metres travelled (the tracker's odometer) since the last registration applied.
+  double deadReckoningM() const { return std::max(tracker_.odometerM() - odometer_at_fix_m_, 0.0); }
   int64_t activeNode() const { return active_; }
   int session() const { return session_; }
   const std::vector<MapperNode>& nodes() const { return nodes_; }
@@ -146,6 +149,8 @@ class Localizer : public MapConsumer {
   // Δ := b_T_now, b the node tracked against, from the registration of the keyframe at
   // keyframe_utime; the dead-reckoning count restarts.
   void trackFrom(int64_t b, const core::UncertainPose& b_T_now, int64_t keyframe_utime);
+  // Δ, its covariance grown by the drift of the distance since the last registration applied.
+  core::UncertainPose deadReckoned() const;
   // The bounds of the header: localized_ follows them.
   void updateLocalized();
   // The stored floor at height_m (within floor_match_m), or -1.

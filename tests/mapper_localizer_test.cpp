@@ -161,20 +161,43 @@ TEST(Localizer, AgreeingMatchesFartherThanOdometryCouldDriftMoveNothing) {
   EXPECT_NEAR(l.pose().mean.translation().x(), drive.x(), 1e-6);
 }
 
+// Dead reckoning's covariance grows with the distance travelled since the last registration
+// applied (localize.drift_per_m), beyond VO's own (0.01 m per step here, which alone grows with
+// its square root); past max_sigma_m the pose is no longer localized, but still given.
 TEST(Localizer, DeadReckoningPastTheBoundIsNoLongerLocalizedButStillGivesThePose) {
   MapperOptions o;
-  o.localize.max_dead_reckoning_m = 2.2;
+  o.localize.drift_per_m = 0.1;
+  o.localize.max_sigma_m = 0.22;
   Placed placed(corridor(), o);
   ASSERT_TRUE(placed.loaded && placed.l.localized());
   Localizer& l = placed.l;
   Drive& drive = placed.drive;
+  const double sigma_at_fix = std::sqrt(l.pose().covariance(0, 0));
   for (int i = 0; i < 4; ++i) drive.step(false);  // 2 m without a registration, then 2.5
+  const double sigma_2m = std::sqrt(l.pose().covariance(0, 0));
+  EXPECT_GT(sigma_2m, 0.2);
+  EXPECT_LT(sigma_2m, 0.2 + sigma_at_fix + 0.03);
   EXPECT_TRUE(l.localized());
   drive.step(false);
   EXPECT_FALSE(l.localized());
   EXPECT_TRUE(l.placed());
   EXPECT_EQ(l.stats().unlocalized, 1);
   EXPECT_NEAR(l.pose().mean.translation().x(), drive.x(), 1e-6);  // dead reckoning
+  EXPECT_GT(std::sqrt(l.pose().covariance(0, 0)), 0.25);
+}
+
+// Without the drift, VO's covariance alone (0.01 m per step) keeps the same run localized: the
+// distance is what ends it above.
+TEST(Localizer, WithoutDriftVosOwnCovarianceGrowsTooSlowlyToEndLocalization) {
+  MapperOptions o;
+  o.localize.drift_per_m = 0.0;
+  o.localize.drift_deg_per_m = 0.0;
+  o.localize.max_sigma_m = 0.22;
+  Placed placed(corridor(), o);
+  ASSERT_TRUE(placed.loaded && placed.l.localized());
+  for (int i = 0; i < 5; ++i) placed.drive.step(false);
+  EXPECT_TRUE(placed.l.localized());
+  EXPECT_LT(std::sqrt(placed.l.pose().covariance(0, 0)), 0.05);
 }
 
 // The corridor, and the same corridor on floor 1, 4 m above (nodes 10..19).

@@ -548,13 +548,6 @@ TEST(ReducedGraph, HasFarFewerNodesThanTheFullGraphWithComparableAccuracy) {
   EXPECT_GT(reduced->store_transactions, reduced->nodes);
 }
 
-// Issue 22's scaled-down year: 40 sessions of patrols in the small building (6 h in all over
-// 60 days), the building explored in the first 4 (tours of every passage both ways). With
-// Algorithm 1 alone the map keeps growing after the exploration (places the first visits
-// passed while registered to a node metres back get their node when a later visit's
-// registration fails there); with a node at every new place the first visits leave each place
-// its node and what the later sessions add is a few new headings at the places where the robot
-// turns (docs/mapper.md, "A year"). Registration oracle: the mapper's figures.
 TEST(ViewCover, APoseIsANewViewUnlessAnEarlierOneIsWithinTheReachOnItsFloor) {
   ViewCover cover(1.0, std::numbers::pi / 4);
   auto at = [](double x, double y, double yaw) {

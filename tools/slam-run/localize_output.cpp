@@ -12,7 +12,8 @@ Status writeLocalization(const std::filesystem::path& out, const LocalizeRunner&
   std::ostringstream csv;
   csv.precision(9);
   csv << "utime,localized,placed,floor,node,x,y,z,qw,qx,qy,qz,sigma_x,sigma_y,sigma_z,"
-         "sigma_roll,sigma_pitch,sigma_yaw,vo_ms,loopclose_ms,localizer_ms,error_m,error_deg\n";
+         "sigma_roll,sigma_pitch,sigma_yaw,dead_reckoning_m,vo_ms,loopclose_ms,localizer_ms,error_"
+         "m,error_deg\n";
   for (const LocalizeRunner::FrameRow& f : runner.frames()) {
     const core::Vec3& t = f.world_T_body.translation();
     const Eigen::Quaterniond& q = f.world_T_body.quaternion();
@@ -20,8 +21,8 @@ Status writeLocalization(const std::filesystem::path& out, const LocalizeRunner&
         << "," << f.node << "," << t.x() << "," << t.y() << "," << t.z() << "," << q.w() << ","
         << q.x() << "," << q.y() << "," << q.z();
     for (int i = 0; i < 6; ++i) csv << "," << f.sigma[i];
-    csv << "," << f.vo_ms << "," << f.loopclose_ms << "," << f.localizer_ms << "," << f.error_m
-        << "," << f.error_deg << "\n";
+    csv << "," << f.dead_reckoning_m << "," << f.vo_ms << "," << f.loopclose_ms << ","
+        << f.localizer_ms << "," << f.error_m << "," << f.error_deg << "\n";
   }
   if (Status s = writeFileAtomically(out / "localization.csv", csv.str()); !s) return s;
   return writeFileAtomically(out / "localize-summary.txt", summary.text());

@@ -161,6 +161,7 @@ void LocalizeRunner::onFrame(const ReadEvent& e, double* loopclose_s, double* lo
   const core::UncertainPose pose = localizer_->pose();
   row.world_T_body = pose.mean;
   row.sigma = pose.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  row.dead_reckoning_m = localizer_->deadReckoningM();
   row.vo_ms = 1e3 * vo_s;
   row.loopclose_ms = 1e3 * *loopclose_s;
   row.localizer_ms = 1e3 * *localizer_s;

@@ -68,6 +68,7 @@ class LocalizeRunner {
     int64_t node = -1;
     core::SE3d world_T_body;
     core::Vec6 sigma = core::Vec6::Zero();  // standard deviations (x y z roll pitch yaw)
+    double dead_reckoning_m = 0;            // travelled since the last registration applied
     double vo_ms = 0, loopclose_ms = 0, localizer_ms = 0;
     double error_m = -1, error_deg = -1;  // -1: no truth
   };
