@@ -24,17 +24,21 @@
 // the last registration applied (localize.drift_per_m, drift_deg_per_m). The pose is still
 // given (localized = false) once the larger x-y standard deviation exceeds
 // localize.max_sigma_m or the yaw's localize.max_sigma_deg; from then on only two agreeing
-// registrations localize it again. An elevator ride (FLOOR vertical motion, or ride start, to the
-// ride's end) takes no step; at its end the ride's height change moves the pose and the floor is
-// the stored one at that height (none within floor_match_m: unknown, and not localized). During the
-// ride the pose is not localized; vertical motion that ends still (no ride) changes nothing. Once
-// placed, a registration to a node more than floor_match_m above or below the tracked height is
-// refused (refused_floor): the floors of a building look alike, and a robot that rode to a floor
-// the map does not hold must not be placed on one it does. Drift and aliasing (gate_recovery.h, the
-// mapper's rules): while localized, two refused registrations that agree with each other re-track
-// the pose (gate_recoveries) when no registration has confirmed it for recovery_quiet_s (or
-// odometry bridged a gap), and only by a jump odometry could have drifted since the last
-// registration applied (recovery_slack_m
+// registrations localize it again.
+//
+// An elevator ride (FLOOR vertical motion, or ride start, to the ride's end) takes no step; at
+// its end the ride's height change moves the pose and the floor is the stored one at that
+// height (none within floor_match_m: unknown, and not localized). During the ride the pose is
+// not localized; vertical motion that ends still (no ride) changes nothing.
+//
+// Once placed, a registration to a node more than floor_match_m above or below the tracked
+// height is refused (refused_floor): the floors of a building look alike, and a robot that rode
+// to a floor the map does not hold must not be placed on one it does.
+//
+// Drift and aliasing (gate_recovery.h, the mapper's rules): while localized, two refused
+// registrations that agree with each other re-track the pose (gate_recoveries) when no
+// registration has confirmed it for recovery_quiet_s (or odometry bridged a gap), and only
+// by a jump odometry could have drifted since the last registration applied (recovery_slack_m
 // + recovery_drift_fraction x the distance); a robot placed once and lost again is placed anew
 // only within that too (placements_too_far): repeated texture makes false matches that
 // agree with each other one texture period away.
