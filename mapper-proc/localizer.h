@@ -5,18 +5,18 @@
 // writes nothing.
 //
 // The pose: world_T_body = x_a ⊕ Δ, x_a a stored node's pose and Δ tracked from VO, wheels and
-// the gyro by the mapper's Tracker, its covariance Δ's (right tangent, the body's frame; the
-// stored nodes count as known). At a VO keyframe, at most once every step_interval_s, a
-// registration request goes to loopclose-proc:
+// the gyro by the mapper's Tracker, its covariance Δ's plus the drift of dead reckoning
+// (below; right tangent, the body's frame; the stored nodes count as known). At a VO keyframe, at
+// most once every step_interval_s, a registration request goes to loopclose-proc:
 //   - placed and localized: MODE_NODE to the node of the place the pose is in (the mapper's
 //     partition index over the stored poses), then MODE_GLOBAL on the floor if that fails;
 //   - not localized: MODE_GLOBAL on every floor, or MODE_NODE where a candidate placement
 //     predicts the robot is (the mapper's relocalisation check).
 // An answer b_T_q, while localized, is tested by the map gate against the prediction
-// x_b⁻¹ x_a Δ (its covariance Δ's): agreeing, the two are fused and b becomes the node Δ is
-// tracked against; refused, it is counted (refused_gate) and not applied alone (below). Not
-// localized, it becomes a candidate, and a second registration that agrees with it through odometry
-// (the mapper's chainPlacements, the map's relative pose of the two nodes given
+// x_b⁻¹ x_a Δ (its covariance Δ's plus the drift): agreeing, the two are fused and b becomes the
+// node Δ is tracked against; refused, it is counted (refused_gate) and not applied alone (below).
+// Not localized, it becomes a candidate, and a second registration that agrees with it through
+// odometry (the mapper's chainPlacements, the map's relative pose of the two nodes given
 // localize.map_sigma_*) places the robot: localized.
 //
 // Leaving the mapped area: with no registration applied, Δ is dead reckoning and its

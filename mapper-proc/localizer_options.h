@@ -14,14 +14,16 @@ struct LocalizerOptions {
   // frame counts as false; 2.5 deg: 1.96 sigma is 5 deg, the same for rotation.
   double max_sigma_m = 0.2;
   double max_sigma_deg = 2.5;
-  // Dead reckoning's drift: standard deviations per metre travelled (the odometer: wheels,
-  // else the tracked path) since the last registration applied, added to Δ's covariance in
-  // the pose, the map gate's prediction and the bounds above. VO's per-frame covariances are
-  // independent, so Δ's grows with the square root of the distance, while VO's error (scale,
-  // heading) grows with the distance itself. 1 % and 0.1 deg per m: the smallest that keep
-  // 95 % of the dead-reckoned errors within 2.45 (1.96) sigma on rendered runs without a VO
-  // fault (docs/results/localization.md, the sweep); a VO fault (a passer-by filling the
-  // view, a stretch VO under-estimates) is an outlier no drift rate covers.
+  // Dead reckoning's drift: standard deviations per metre travelled since the last
+  // registration applied, added to Δ's covariance in the pose, the map gate's prediction and
+  // the bounds above. VO's per-frame covariances are independent, so Δ's grows with the
+  // square root of the distance, while VO's error (scale, heading) grows with the distance
+  // itself. 1 % and 0.1 deg per m: the smallest that keep about 95 % of the dead-reckoned
+  // errors within 2.45 (1.96) sigma on rendered runs without a VO fault (x-y: 5 % and 6 %
+  // beyond; docs/results/localization.md, the sweep); a VO fault (a passer-by filling the
+  // view, a stretch VO under-estimates) is an outlier no drift rate covers. The distance is
+  // the tracker's odometer: the wheels' once any wheel message came, else the tracked path,
+  // which moves at VO's keyframe steps (it lags the pose by up to one keyframe).
   double drift_per_m = 0.01;
   double drift_deg_per_m = 0.1;
   // The stored map's relative uncertainty between two nodes, standard deviations: the test

@@ -120,6 +120,7 @@ void Localizer::place(const InFlight& f, int64_t b, const core::UncertainPose& b
   trackFrom(b, core::compound(b_T_q, q_T_now), f.keyframe_utime);
   localized_ = true;
   ++stats_.placements;
+  updateLocalized();  // a placement too uncertain for the bounds is not localized
 }
 
 bool Localizer::agrees(const PlacementCandidate& c, int64_t b, const core::UncertainPose& b_T_q,

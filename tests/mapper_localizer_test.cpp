@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include <evermap/register_result_t.hpp>
 
@@ -172,6 +173,8 @@ TEST(Localizer, DeadReckoningPastTheBoundIsNoLongerLocalizedButStillGivesThePose
   ASSERT_TRUE(placed.loaded && placed.l.localized());
   Localizer& l = placed.l;
   Drive& drive = placed.drive;
+  drive.step();  // a correction: the distance counts from here
+  ASSERT_GE(l.stats().corrections, 1);
   const double sigma_at_fix = std::sqrt(l.pose().covariance(0, 0));
   for (int i = 0; i < 4; ++i) drive.step(false);  // 2 m without a registration, then 2.5
   const double sigma_2m = std::sqrt(l.pose().covariance(0, 0));
@@ -198,6 +201,52 @@ TEST(Localizer, WithoutDriftVosOwnCovarianceGrowsTooSlowlyToEndLocalization) {
   for (int i = 0; i < 5; ++i) placed.drive.step(false);
   EXPECT_TRUE(placed.l.localized());
   EXPECT_LT(std::sqrt(placed.l.pose().covariance(0, 0)), 0.05);
+}
+
+// The yaw's drift (localize.drift_deg_per_m) grows the yaw's variance by (rate x distance)²,
+// and past max_sigma_deg the pose is no longer localized.
+TEST(Localizer, YawDriftGrowsWithTheDistanceAndEndsLocalization) {
+  MapperOptions without;
+  without.localize.drift_per_m = 0.0;
+  without.localize.drift_deg_per_m = 0.0;
+  without.localize.max_sigma_deg = 3.0;
+  MapperOptions with = without;
+  with.localize.drift_deg_per_m = 1.5;
+  Placed a(corridor(), without), b(corridor(), with);
+  ASSERT_TRUE(a.loaded && a.l.localized() && b.loaded && b.l.localized());
+  for (int i = 0; i < 5; ++i) {  // 2.5 m without a registration
+    a.drive.step(false);
+    b.drive.step(false);
+  }
+  const double drift_rad = 1.5 * 2.5 * std::numbers::pi / 180.0;
+  EXPECT_NEAR(b.l.pose().covariance(5, 5) - a.l.pose().covariance(5, 5), drift_rad * drift_rad,
+              1e-9);
+  EXPECT_TRUE(a.l.localized());
+  EXPECT_FALSE(b.l.localized());
+}
+
+// The map gate tests a registration against the prediction with the drift: after 2 m of dead
+// reckoning a registration 0.3 m from the prediction is within it (sigma 0.2 m) and corrects
+// the pose; with VO's covariance alone (2 cm) it is refused.
+TEST(Localizer, TheMapGateWeighsThePredictionWithTheDrift) {
+  MapperOptions without;
+  without.localize.drift_per_m = 0.0;
+  without.localize.max_sigma_m = 1.0;
+  MapperOptions with = without;
+  with.localize.drift_per_m = 0.1;
+  Placed a(corridor(), without), b(corridor(), with);
+  ASSERT_TRUE(a.loaded && a.l.localized() && b.loaded && b.l.localized());
+  for (int i = 0; i < 4; ++i) {
+    a.drive.step(false);
+    b.drive.step(false);
+  }
+  const int64_t corrections_a = a.l.stats().corrections, corrections_b = b.l.stats().corrections;
+  a.drive.step(true, planar(0.3, 0, 0));
+  b.drive.step(true, planar(0.3, 0, 0));
+  EXPECT_EQ(a.l.stats().corrections, corrections_a);
+  EXPECT_EQ(a.l.stats().refused_gate, 1);
+  EXPECT_EQ(b.l.stats().corrections, corrections_b + 1);
+  EXPECT_EQ(b.l.stats().refused_gate, 0);
 }
 
 // The corridor, and the same corridor on floor 1, 4 m above (nodes 10..19).

@@ -12,8 +12,8 @@ Status writeLocalization(const std::filesystem::path& out, const LocalizeRunner&
   std::ostringstream csv;
   csv.precision(9);
   csv << "utime,localized,placed,floor,node,x,y,z,qw,qx,qy,qz,sigma_x,sigma_y,sigma_z,"
-         "sigma_roll,sigma_pitch,sigma_yaw,dead_reckoning_m,vo_ms,loopclose_ms,localizer_ms,error_"
-         "m,error_deg\n";
+         "sigma_roll,sigma_pitch,sigma_yaw,dead_reckoning_m,"
+         "vo_ms,loopclose_ms,localizer_ms,error_m,error_deg\n";
   for (const LocalizeRunner::FrameRow& f : runner.frames()) {
     const core::Vec3& t = f.world_T_body.translation();
     const Eigen::Quaterniond& q = f.world_T_body.quaternion();

@@ -103,8 +103,8 @@ class LocalizeRunner {
 namespace evermap::slam_run {
 
 // localization.csv (per VO frame: utime, localized, placed, floor, node, the pose x y z qw qx
-// qy qz, its standard deviations sigma_x .. sigma_yaw, ms per component, error against the
-// truth) and localize-summary.txt into `out`.
+// qy qz, its standard deviations sigma_x .. sigma_yaw, dead_reckoning_m, ms per component,
+// error against the truth) and localize-summary.txt into `out`.
 Status writeLocalization(const std::filesystem::path& out, const LocalizeRunner& runner,
                          const LocalizeSummary& summary);
 
