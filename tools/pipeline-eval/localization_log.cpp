@@ -3,7 +3,6 @@
 #include <string>
 
 #include <evermap/localization_t.hpp>
-#include <evermap/pose_t.hpp>
 
 #include "core/messages/channels.h"
 #include "core/messages/convert.h"
@@ -43,13 +42,12 @@ Expected<RecordedLocalization> readRecordedLocalization(const std::filesystem::p
       }
       by_time[p.utime] = p;
     } else if (channel == channels::kGroundTruth) {
-      auto m = messages::decodeLcm<pose_t>(ev->data, ev->datalen, channel);
-      auto pose = m ? messages::fromMsg(*m) : Expected<core::UncertainPose>(m.error());
-      if (!pose) {
+      auto p = decodeLoggedPose(*ev);
+      if (!p) {
         ++r.undecodable;
         continue;
       }
-      r.truth[m->utime] = pose->mean;
+      r.truth[p->msg.utime] = p->world_T_body;
     }
   }
   if (Status s = log.status(); !s) return s.error();

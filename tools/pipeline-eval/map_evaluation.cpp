@@ -114,13 +114,12 @@ Expected<RecordedRun> readRecordedRun(const std::filesystem::path& file) {
       r.stats = *s;
       r.have_stats = true;
     } else if (channel == channels::kPose) {
-      auto p = messages::decodeLcm<pose_t>(ev->data, ev->datalen, channel);
-      auto pose = p ? messages::fromMsg(*p) : Expected<core::UncertainPose>(p.error());
-      if (!pose) {
+      auto p = decodeLoggedPose(*ev);
+      if (!p) {
         ++r.undecodable;
         continue;
       }
-      r.poses.emplace_back(p->utime, pose->mean);
+      r.poses.emplace_back(p->msg.utime, p->world_T_body);
     }
   }
   // Cut mid-event: the last MAP_GRAPH read is not the run's last map.
@@ -130,6 +129,14 @@ Expected<RecordedRun> readRecordedRun(const std::filesystem::path& file) {
   if (!map) return makeError(file.string(), ": ", map.error().message);
   r.map = std::move(*map);
   return r;
+}
+
+Expected<LoggedPose> decodeLoggedPose(const messages::LogReader::Event& ev) {
+  auto m = messages::decodeLcm<pose_t>(ev.data, ev.datalen, ev.channel);
+  if (!m) return m.error();
+  auto pose = messages::fromMsg(*m);
+  if (!pose) return pose.error();
+  return LoggedPose{*m, pose->mean};
 }
 
 bool RunTruth::at(int64_t utime, core::SE3d* out) const {
@@ -223,12 +230,10 @@ Expected<RunTruth> readLogTruth(const std::vector<std::filesystem::path>& logs) 
     messages::LogReader& log = *opened;
     while (const messages::LogReader::Event* e = log.next()) {
       if (e->channel != channels::kGroundTruth) continue;
-      auto m = messages::decodeLcm<pose_t>(e->data, e->datalen, e->channel);
-      if (!m) return makeError(file.string(), ": ", m.error().message);
-      auto pose = messages::fromMsg(*m);
-      if (!pose) return makeError(file.string(), ": ", pose.error().message);
-      poses[m->utime] = pose->mean;
-      floor_session[m->utime] = {m->floor, m->session};
+      auto p = decodeLoggedPose(*e);
+      if (!p) return makeError(file.string(), ": ", p.error().message);
+      poses[p->msg.utime] = p->world_T_body;
+      floor_session[p->msg.utime] = {p->msg.floor, p->msg.session};
     }
     if (Status s = log.status(); !s) return s.error();
   }

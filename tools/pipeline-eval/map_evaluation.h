@@ -18,9 +18,11 @@
 
 #include <evermap/map_graph_t.hpp>
 #include <evermap/mapper_stats_t.hpp>
+#include <evermap/pose_t.hpp>
 
 #include "core/common/expected.h"
 #include "core/geometry/se3.h"
+#include "tools/lcmlog/log_reader.h"
 
 namespace evermap::mapper {
 
@@ -63,6 +65,14 @@ struct RecordedRun {
 };
 // Reads an LCM log (lcm-logger's format); an error names the file, or says no MAP_GRAPH is in it.
 Expected<RecordedRun> readRecordedRun(const std::filesystem::path& log);
+
+// A pose_t event of a log (POSE, GROUND_TRUTH): the message and its pose. Errors: it does not
+// decode, or its pose is not one (the decoder's message).
+struct LoggedPose {
+  pose_t msg;
+  core::SE3d world_T_body;
+};
+Expected<LoggedPose> decodeLoggedPose(const messages::LogReader::Event& ev);
 
 // The truth of a simulated run: body poses of every session, the floor table, sessions.
 struct RunTruth {
