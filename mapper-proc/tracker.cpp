@@ -9,7 +9,6 @@
 #include <Eigen/Eigenvalues>
 
 #include "core/geometry/se2.h"
-#include "core/common/finite.h"
 #include "core/messages/pose_fields.h"
 
 namespace evermap::mapper {
@@ -227,8 +226,12 @@ void Tracker::takeStep(int64_t ref_utime, int64_t utime) {
     odometry_at_delta_.reset();
     return;
   }
+  // A step from a reanchored reference spans more than [ref_utime, utime] in Δ (the reanchor
+  // point took VO's motion to the frame back): neither the gyro nor the wheels measure it.
   commit(utime,
-         ref_utime == reanchored_ref_utime_ ? pending_ : withGyroYaw(ref_utime, utime, pending_));
+         ref_utime == reanchored_ref_utime_
+             ? pending_
+             : withGyroYaw(ref_utime, utime, withWheelTranslation(ref_utime, utime, pending_)));
   pending_ = UncertainPose{};
   ref_utime_ = utime;
 }
@@ -248,17 +251,6 @@ bool Tracker::gyroContradicts(int64_t t0, int64_t t1, const UncertainPose& incre
   if (!(o_.vo_gyro_gate > 0.0)) return false;
   const auto v = gyroInnovation(t0, t1, increment);
   return v && v->first * v->first > o_.vo_gyro_gate * v->second;
-}
-
-bool Tracker::wheelsCover(int64_t from_utime, int64_t to_utime) const {
-  if (recent_wheel_.empty() || recent_wheel_.front().utime > from_utime) return false;
-  // ... and reach `to_utime` (wheels that stopped or lag more would leave Δ frozen at
-  // from_utime).
-  return reaches(recent_wheel_.back(), to_utime);
-}
-
-bool Tracker::reaches(const wheel_odom_t& w, int64_t utime) {
-  return w.utime > w.prev_utime && utime - w.utime <= 2 * (w.utime - w.prev_utime);
 }
 
 UncertainPose Tracker::withGyroYaw(int64_t t0, int64_t t1, const UncertainPose& increment) {
@@ -359,104 +351,6 @@ bool Tracker::replaceWheels(int64_t from_utime, const UncertainPose& vo) {
   return true;
 }
 
-Status Tracker::addWheel(const wheel_odom_t& received) {
-  const wheel_odom_t msg = bridgeWheelHole(received);
-  if (msg.utime <= last_wheel_utime_ || msg.prev_utime > msg.utime) {
-    ++counts_.dropped;
-    return Error("WHEEL_ODOM " + std::to_string(msg.utime) + ": out of order");
-  }
-  if (!std::isfinite(msg.delta_x_m) || !std::isfinite(msg.delta_y_m) ||
-      !std::isfinite(msg.delta_theta_rad) || !allFinite(msg.covariance, 9)) {
-    ++counts_.dropped;
-    return Error("WHEEL_ODOM " + std::to_string(msg.utime) + ": not finite");
-  }
-  if (const auto c = messages::planarCovarianceFromMessage(msg.covariance, "WHEEL_ODOM"); !c) {
-    ++counts_.dropped;
-    return makeError("WHEEL_ODOM ", msg.utime, ": ", c.error().message);
-  }
-  if (const std::string implausible =
-          implausibleMotion(std::hypot(msg.delta_x_m, msg.delta_y_m), std::abs(msg.delta_theta_rad),
-                            msg.prev_utime, msg.utime);
-      !implausible.empty()) {
-    ++counts_.dropped;
-    ++counts_.implausible;
-    return makeError("WHEEL_ODOM ", msg.utime, ": ", implausible);
-  }
-  // A held step waits no longer than heading_wait_s of message time.
-  if (heldStepDue(msg.utime)) takeHeldStep();
-  last_wheel_utime_ = msg.utime;
-  wheel_odometer_m_ += std::hypot(msg.delta_x_m, msg.delta_y_m);
-  keepWheelPose(msg);
-  if (vo_mode_) {
-    // Kept to bridge a VO failure from its last good frame on.
-    recent_wheel_.push_back(msg);
-    const int64_t window = static_cast<int64_t>(o_.wheel_buffer_s * 1e6);
-    while (!recent_wheel_.empty() && recent_wheel_.front().utime < msg.utime - window)
-      recent_wheel_.pop_front();
-    // VO silent: vo-proc gone or its messages lost.
-    if (last_vo_utime_ >= 0 &&
-        msg.utime - last_vo_utime_ > static_cast<int64_t>(o_.vo_timeout_s * 1e6)) {
-      ++counts_.vo_timeouts;
-      // VO's messages may only be lost (a partition): its last frame's odometry pose can
-      // span the silence when VO is back (rejoin).
-      const auto at_last_frame = odometry_at_delta_;
-      enterWheelMode(last_vo_utime_);
-      odometry_at_vo_lost_ = at_last_frame;
-    }
-    return Ok{};
-  }
-  // Used only while VO is down, for the increments that end after VO was lost.
-  if (msg.utime <= vo_lost_utime_) return Ok{};
-  applyWheel(msg, vo_lost_utime_);
-  return Ok{};
-}
-
-void Tracker::keepWheelPose(const wheel_odom_t& msg) {
-  if (msg.odom_epoch == 0) return;
-  auto pose = messages::wheelOdometryPose(msg);
-  if (!pose) {
-    ++counts_.odometry_refused;
-    return;
-  }
-  if (!wheel_poses_.empty() && wheel_poses_.back().epoch != pose->epoch) wheel_poses_.clear();
-  wheel_poses_.push_back(*pose);
-  while (wheel_poses_.size() > 2 && wheel_poses_.front().utime < msg.utime - 1'000'000)
-    wheel_poses_.pop_front();
-}
-
-UncertainPose Tracker::planarMotion(const Eigen::Vector3d& x,
-                                    const Eigen::Matrix3d& covariance) const {
-  UncertainPose inc;
-  inc.mean = SE3d(core::SO3d::exp(core::Vec3(0, 0, x[2])), core::Vec3(x[0], x[1], 0.0));
-  const int idx[3] = {0, 1, 5};
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) inc.covariance(idx[r], idx[c]) = covariance(r, c);
-  const double sm = o_.wheel_offplane_sigma_m, sr = o_.wheel_offplane_sigma_rad;
-  inc.covariance(2, 2) += sm * sm;
-  inc.covariance(3, 3) += sr * sr;
-  inc.covariance(4, 4) += sr * sr;
-  inc.covariance = symmetric(inc.covariance);
-  return inc;
-}
-
-void Tracker::extrapolateWheel(int64_t utime) {
-  // Wheels silent for more than two of their periods: nothing to extrapolate from.
-  if (!last_wheel_ || utime <= last_wheel_->utime || !reaches(*last_wheel_, utime)) return;
-  const wheel_odom_t& w = *last_wheel_;
-  const double f =
-      static_cast<double>(utime - w.utime) / static_cast<double>(w.utime - w.prev_utime);
-  wheel_odom_t x = w;
-  x.prev_utime = w.utime;
-  x.utime = utime;
-  x.delta_x_m *= f;
-  x.delta_y_m *= f;
-  x.delta_theta_rad *= f;
-  // Variance of an extrapolation: the increment's own, scaled, and as much again for the
-  // change of speed it cannot see.
-  for (double& c : x.covariance) c *= 2.0 * f;
-  applyWheel(x, x.prev_utime);
-}
-
 Status Tracker::addHeading(const attitude_t& msg) {
   if (!msg.heading_valid || !o_.gyro_heading) return Ok{};
   if (!std::isfinite(msg.heading_rad) || !std::isfinite(msg.heading_rate_sigma_rad_s) ||
@@ -520,40 +414,6 @@ std::optional<std::pair<double, double>> Tracker::gyroYaw(int64_t t0, int64_t t1
   return std::make_pair(at(t1) - at(t0), sb * sb * dt * o_.gyro_bias_correlation_s +
                                              o_.gyro_noise_density * o_.gyro_noise_density * dt +
                                              extrapolated * extrapolated);
-}
-
-void Tracker::applyWheel(const wheel_odom_t& msg, int64_t from_utime) {
-  odometry_at_delta_.reset();  // Δ moves past the last VO frame
-  last_utime_ = std::max(last_utime_, msg.utime);
-  last_wheel_ = msg;
-  Eigen::Vector3d x(msg.delta_x_m, msg.delta_y_m, msg.delta_theta_rad);
-  Eigen::Matrix3d P;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) P(r, c) = msg.covariance[3 * r + c];
-  // An increment that starts before from_utime (VO's last good frame: VO covered that part):
-  // only its share after it, at constant rate.
-  const int64_t start = std::max(msg.prev_utime, from_utime);
-  if (start > msg.prev_utime && msg.utime > msg.prev_utime) {
-    const double f =
-        static_cast<double>(msg.utime - start) / static_cast<double>(msg.utime - msg.prev_utime);
-    x *= f;
-    P *= f;
-  }
-  const auto gyro = o_.gyro_heading ? gyroYaw(start, msg.utime) : std::nullopt;
-  if (gyro && P(2, 2) + gyro->second > 0.0) {
-    // The gyro's yaw as a measurement of θ (H = e_θ): a Kalman update of (x, y, θ), so a
-    // correlation between the wheels' θ and their translation carries the correction over.
-    const double innovation = std::remainder(gyro->first - x[2], 2.0 * std::numbers::pi);
-    const Eigen::Vector3d k = P.col(2) / (P(2, 2) + gyro->second);
-    x += k * innovation;
-    P -= k * P.row(2);
-    ++counts_.gyro_turns;
-  }
-  // The planar SSC covariance equals the right-perturbation one to first order for increments
-  // this small.
-  commit(msg.utime, planarMotion(x, P));
-  delta_utime_ = msg.utime;
-  ++counts_.wheel_applied;
 }
 
 UncertainPose Tracker::delta() const { return core::compound(base_, pending_); }

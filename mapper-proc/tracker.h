@@ -32,7 +32,9 @@
 // A VO keyframe step is fused with the gyro's yaw the same way; one whose yaw the gyro
 // contradicts (TrackerOptions::vo_gyro_gate) is a VO failure VO did not report, and the
 // wheels carry Δ over it. A keyframe step the newest heading does not reach waits for it
-// (TrackerOptions::heading_wait_s).
+// (TrackerOptions::heading_wait_s). Its translation is fused, before the gyro's yaw, with the
+// wheels' over the same interval, from the increments kept while VO tracks
+// (TrackerOptions::wheel_translation).
 //
 // A bounded history of the committed increments lets the mapper compound q_T_now, the motion
 // since a recent keyframe q, when a registration of q comes back.
@@ -78,6 +80,13 @@ struct TrackerOptions {
   double relink_gate = 16.27;
   // The gyro's heading (ATTITUDE heading_rad) fused into wheel increments' yaw.
   bool gyro_heading = true;
+  // The wheels' translation over a VO keyframe step fused into the step's (an EKF update by
+  // the two covariances): VO's scale is weak where every feature is far ahead (a near-blank
+  // corridor), where its covariance grows and the wheels' carries the step; a wheel slip,
+  // which the wheels' covariance does not know, moves a step VO measured well by little.
+  // Off: VO's translation alone, for wheels whose covariance is far from true (a skid-steered
+  // base turning, legs).
+  bool wheel_translation = true;
   // χ²(1) gate of VO's yaw over a keyframe step against the gyro's over the same interval,
   // each with its variance: a step beyond it is a VO failure that VO did not report (a turn
   // seen in moving texture, a wrong match of the new keyframe), and with wheel odometry at
@@ -143,6 +152,8 @@ struct TrackerOptions {
           "gate of VO's motion over a failure gap against the wheels'")
         .positive();
     o.add("gyro_heading", &gyro_heading, "fuse the gyro's heading into wheel increments' yaw");
+    o.add("wheel_translation", &wheel_translation,
+          "fuse the wheels' translation into VO's keyframe steps");
     o.add("gyro_noise_density", &gyro_noise_density, "rad/s/sqrt(Hz)", "gyro white noise")
         .positive();
     o.add("gyro_bias_correlation_s", &gyro_bias_correlation_s, "s",
@@ -292,6 +303,9 @@ class Tracker {
   // The gyro's heading change over [t0, t1] and its variance; empty when the headings kept
   // do not cover the interval.
   std::optional<std::pair<double, double>> gyroYaw(int64_t t0, int64_t t1) const;
+  // A VO keyframe step over [t0, t1] with the wheels' translation over the same interval
+  // fused in (TrackerOptions::wheel_translation); VO's when they do not cover it.
+  UncertainPose withWheelTranslation(int64_t t0, int64_t t1, const UncertainPose& vo);
   // A VO increment over [t0, t1] with the gyro's yaw over the same interval fused in.
   UncertainPose withGyroYaw(int64_t t0, int64_t t1, const UncertainPose& increment);
   // The gyro's yaw over [t0, t1] against the increment's: (innovation, its variance with the
@@ -305,6 +319,10 @@ class Tracker {
   // wheels are silent, and nothing is extrapolated from them).
   bool wheelsCover(int64_t from_utime, int64_t to_utime) const;
   static bool reaches(const wheel_odom_t& w, int64_t utime);
+  // The wheels' motion over [t0, t1] (body frames, no gyro) from the increments kept while VO
+  // tracks, the end ones by their share, past the last one at its rate; empty when they do
+  // not cover the interval (wheelsCover) or do not chain over it (a hole, an overlap).
+  std::optional<UncertainPose> wheelMotion(int64_t t0, int64_t t1) const;
   struct HeadingSample {
     int64_t utime;
     double heading_rad;
@@ -320,7 +338,8 @@ class Tracker {
     int64_t utime;
   };
   std::optional<HeldStep> held_;
-  // The keyframe step: the gyro's test and fusion, the commit, the new reference.
+  // The keyframe step: the gyro's test, the wheels' translation and the gyro's yaw fused in,
+  // the commit, the new reference.
   void takeStep(int64_t ref_utime, int64_t utime);
 
   TrackerOptions o_;

@@ -3,11 +3,11 @@
 namespace evermap::mapper {
 
 // Every field is a count of the list: one added there and not here fails to compile.
-static_assert(sizeof(TrackerCounts) == 17 * sizeof(int64_t));
+static_assert(sizeof(TrackerCounts) == 19 * sizeof(int64_t));
 
-const std::array<TrackerCounts::Counter, 17>& TrackerCounts::counters() {
+const std::array<TrackerCounts::Counter, 19>& TrackerCounts::counters() {
   using T = TrackerCounts;
-  static const std::array<Counter, 17> list{{
+  static const std::array<Counter, 19> list{{
       {"vo_applied", &T::vo_applied},
       {"vo_failed", &T::vo_failed},
       {"wheel_applied", &T::wheel_applied},
@@ -20,6 +20,8 @@ const std::array<TrackerCounts::Counter, 17>& TrackerCounts::counters() {
       {"vo_timeouts", &T::vo_timeouts},
       {"gyro_turns", &T::gyro_turns},
       {"vo_contradicted", &T::vo_contradicted},
+      {"wheel_fused", &T::wheel_fused},
+      {"wheel_disagreed", &T::wheel_disagreed},
       {"heading_waits", &T::heading_waits},
       {"heading_waits_expired", &T::heading_waits_expired},
       {"implausible_motion", &T::implausible},

@@ -29,6 +29,9 @@ struct TrackerCounts {
   int64_t odometry_refused = 0;  // VO_DELTAs whose odometry pose (odom_*) was malformed: the
                                  // frame is used, its pose is not
   int64_t vo_contradicted = 0;   // keyframe steps whose yaw the gyro contradicted (vo_gyro_gate)
+  int64_t wheel_fused = 0;       // keyframe steps whose translation was fused with the wheels'
+  int64_t wheel_disagreed = 0;   // ... where the two disagreed beyond χ²(2) 13.82 (99.9 %): a
+                                 // fault one of the two covariances did not know
   int64_t heading_waits = 0;     // keyframe steps held for the heading that covers them
   int64_t heading_waits_expired = 0;  // ... taken before one came (heading_wait_s)
 
@@ -37,7 +40,7 @@ struct TrackerCounts {
     std::string_view name;
     int64_t TrackerCounts::*field;
   };
-  static const std::array<Counter, 17>& counters();
+  static const std::array<Counter, 19>& counters();
   // Adds another tracker's counts (sessions tracked by successive trackers).
   void add(const TrackerCounts& o) {
     for (const Counter& c : counters()) this->*c.field += o.*c.field;

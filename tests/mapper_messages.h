@@ -6,6 +6,7 @@
 
 #include <evermap/floor_t.hpp>
 #include <evermap/vo_delta_t.hpp>
+#include <evermap/wheel_odom_t.hpp>
 
 #include "core/geometry/se3.h"
 #include "core/messages/pose_fields.h"
@@ -46,6 +47,16 @@ inline floor_t floorMsg(int64_t utime, int8_t event, double height_m, int32_t in
   f.floor_index = index;
   f.in_elevator = event == floor_t::EVENT_RIDE_START ? 1 : 0;
   return f;
+}
+
+// A WHEEL_ODOM increment straight ahead, each of x, y, θ with `variance`.
+inline wheel_odom_t wheelMsg(int64_t prev, int64_t utime, double dx, double variance = 1e-4) {
+  wheel_odom_t w{};
+  w.prev_utime = prev;
+  w.utime = utime;
+  w.delta_x_m = dx;
+  w.covariance[0] = w.covariance[4] = w.covariance[8] = variance;
+  return w;
 }
 
 inline vo_delta_t voRestart(int64_t utime) {

@@ -86,15 +86,6 @@ TEST(Tracker, DropsOutOfOrderAndMalformedMessages) {
   EXPECT_LT(t.delta().mean.log().norm(), 1e-15);
 }
 
-wheel_odom_t wheelMsg(int64_t prev, int64_t utime, double dx, double variance = 1e-4) {
-  wheel_odom_t w{};
-  w.prev_utime = prev;
-  w.utime = utime;
-  w.delta_x_m = dx;
-  w.covariance[0] = w.covariance[4] = w.covariance[8] = variance;
-  return w;
-}
-
 TEST(Tracker, RefusesOdometryFasterThanPhysicsAllowsAndKeepsItsEstimate) {
   TrackerOptions o;
   o.max_speed_m_s = 10.0;

@@ -226,8 +226,9 @@ Tracker driveWithAVoGlitch(double vo_gyro_gate, bool wheels, double wheels_until
   for (int k = 1; k <= 30; ++k) {
     const int64_t t1 = k * 100000;
     for (; att <= t1; att += 20000) EXPECT_TRUE(t.addHeading(heading(att, 0.0)));
-    if (wheels && t1 <= wheels_until_s * 1e6)
+    if (wheels && t1 <= wheels_until_s * 1e6) {
       EXPECT_TRUE(t.addWheel(wheel(t1 - 100000, t1, 0.1, 0.0, 1e-6)));
+    }
     const double since_ref = 1e-6 * static_cast<double>(t1 - ref);
     const bool glitch = ref == 1200000;
     const SE3d ref_T_cur =
