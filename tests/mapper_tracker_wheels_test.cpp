@@ -17,12 +17,12 @@ using namespace testing;  // tests/mapper_messages.h
 constexpr int64_t kStart = 1'000'000;  // VO's reference keyframe; the step ends 1 s later
 
 struct Step {
-  double vo_x = 0.4;          // VO's forward motion over the step
-  double vo_yaw = 0.0;        // ... and its turn
-  double vo_sigma = 0.002;    // per axis
-  double wheel_scale = 1.0;   // the wheels carry the body 0.4 m x this
+  double vo_x = 0.4;             // VO's forward motion over the step
+  double vo_yaw = 0.0;           // ... and its turn
+  double vo_sigma = 0.002;       // per axis
+  double wheel_scale = 1.0;      // the wheels carry the body 0.4 m x this
   double wheel_variance = 4e-7;  // of each 10 Hz increment
-  int lost_wheel = -1;        // a wheel message lost (not bridged)
+  int lost_wheel = -1;           // a wheel message lost (not bridged)
 };
 
 // One keyframe step [kStart, kStart + 1 s] of VO (frames every 0.1 s, the last one the
@@ -81,8 +81,8 @@ TEST(TrackerWheels, TheWheelsMeasureTheStepInItsReferencesFrameAlsoInATurn) {
 TEST(TrackerWheels, AWheelSlipMovesAStepVoMeasuredWellByLittle) {
   // The wheels slip (20 % more than the body moved), which their covariance does not know;
   // VO measured the step to 0.6 mm. The step moves toward the wheels by under 2 mm.
-  Tracker t = stepBesideWheels(TrackerOptions{},
-                               Step{.vo_sigma = 0.0006, .wheel_scale = 1.2, .wheel_variance = 1.6e-6});
+  Tracker t = stepBesideWheels(
+      TrackerOptions{}, Step{.vo_sigma = 0.0006, .wheel_scale = 1.2, .wheel_variance = 1.6e-6});
   EXPECT_GT(t.delta().mean.translation().x(), 0.4 + 1e-4);
   EXPECT_LT(t.delta().mean.translation().x(), 0.402);
   EXPECT_EQ(t.counts().wheel_disagreed, 1);
@@ -98,7 +98,8 @@ TEST(TrackerWheels, AWheelSlipMovesAStepVoMeasuredWellByLittle) {
 TEST(TrackerWheels, AHoleInTheWheelsLeavesTheStepToVo) {
   // A wheel message lost inside the step, with no odometry pose to bridge it: the wheels'
   // motion over the step is not known, and VO's step is kept as it is.
-  Tracker t = stepBesideWheels(TrackerOptions{}, Step{.vo_x = 0.2, .vo_sigma = 0.02, .lost_wheel = 5});
+  Tracker t =
+      stepBesideWheels(TrackerOptions{}, Step{.vo_x = 0.2, .vo_sigma = 0.02, .lost_wheel = 5});
   EXPECT_NEAR(t.delta().mean.translation().x(), 0.2, 1e-12);
   EXPECT_EQ(t.counts().wheel_fused, 0);
 }
