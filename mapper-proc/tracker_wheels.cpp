@@ -25,6 +25,22 @@ Eigen::Matrix3d wheelCovariance(const wheel_odom_t& w) {
   return p;
 }
 
+// w's motion over [from, to] at its constant rate: a share of it or, from its end on, an
+// extrapolation, whose variance is the increment's own scaled and as much again for the
+// change of speed it cannot see.
+wheel_odom_t spanOf(const wheel_odom_t& w, int64_t from, int64_t to) {
+  const double f = static_cast<double>(to - from) / static_cast<double>(w.utime - w.prev_utime);
+  wheel_odom_t s = w;
+  s.prev_utime = from;
+  s.utime = to;
+  s.delta_x_m *= f;
+  s.delta_y_m *= f;
+  s.delta_theta_rad *= f;
+  const double variance_scale = from >= w.utime ? 2.0 * f : f;
+  for (double& c : s.covariance) c *= variance_scale;
+  return s;
+}
+
 }  // namespace
 
 bool Tracker::wheelsCover(int64_t from_utime, int64_t to_utime) const {
@@ -121,18 +137,7 @@ UncertainPose Tracker::planarMotion(const Eigen::Vector3d& x,
 void Tracker::extrapolateWheel(int64_t utime) {
   // Wheels silent for more than two of their periods: nothing to extrapolate from.
   if (!last_wheel_ || utime <= last_wheel_->utime || !reaches(*last_wheel_, utime)) return;
-  const wheel_odom_t& w = *last_wheel_;
-  const double f =
-      static_cast<double>(utime - w.utime) / static_cast<double>(w.utime - w.prev_utime);
-  wheel_odom_t x = w;
-  x.prev_utime = w.utime;
-  x.utime = utime;
-  x.delta_x_m *= f;
-  x.delta_y_m *= f;
-  x.delta_theta_rad *= f;
-  // Variance of an extrapolation: the increment's own, scaled, and as much again for the
-  // change of speed it cannot see.
-  for (double& c : x.covariance) c *= 2.0 * f;
+  const wheel_odom_t x = spanOf(*last_wheel_, last_wheel_->utime, utime);
   applyWheel(x, x.prev_utime);
 }
 
@@ -140,17 +145,13 @@ void Tracker::applyWheel(const wheel_odom_t& msg, int64_t from_utime) {
   odometry_at_delta_.reset();  // Δ moves past the last VO frame
   last_utime_ = std::max(last_utime_, msg.utime);
   last_wheel_ = msg;
-  Eigen::Vector3d x = wheelVector(msg);
-  Eigen::Matrix3d P = wheelCovariance(msg);
   // An increment that starts before from_utime (VO's last good frame: VO covered that part):
   // only its share after it, at constant rate.
   const int64_t start = std::max(msg.prev_utime, from_utime);
-  if (start > msg.prev_utime && msg.utime > msg.prev_utime) {
-    const double f =
-        static_cast<double>(msg.utime - start) / static_cast<double>(msg.utime - msg.prev_utime);
-    x *= f;
-    P *= f;
-  }
+  const wheel_odom_t share =
+      start > msg.prev_utime && msg.utime > msg.prev_utime ? spanOf(msg, start, msg.utime) : msg;
+  Eigen::Vector3d x = wheelVector(share);
+  Eigen::Matrix3d P = wheelCovariance(share);
   const auto gyro = o_.gyro_heading ? gyroYaw(start, msg.utime) : std::nullopt;
   if (gyro && P(2, 2) + gyro->second > 0.0) {
     // The gyro's yaw as a measurement of θ (H = e_θ): a Kalman update of (x, y, θ), so a
@@ -179,18 +180,15 @@ std::optional<UncertainPose> Tracker::wheelMotion(int64_t t0, int64_t t1) const 
     previous_end = w.utime;
     if (w.utime <= t0 || w.prev_utime >= t1) continue;
     if (!chained || w.utime <= w.prev_utime) return std::nullopt;
-    // The share of the increment inside [t0, t1], at its constant rate.
-    const double f = static_cast<double>(std::min(w.utime, t1) - std::max(w.prev_utime, t0)) /
-                     static_cast<double>(w.utime - w.prev_utime);
-    out = core::compound(out, planarMotion(f * wheelVector(w), f * wheelCovariance(w)));
+    // The share of the increment inside [t0, t1].
+    const wheel_odom_t s = spanOf(w, std::max(w.prev_utime, t0), std::min(w.utime, t1));
+    out = core::compound(out, planarMotion(wheelVector(s), wheelCovariance(s)));
   }
   const wheel_odom_t& last = recent_wheel_.back();
   if (last.utime < t1) {
-    // Past the last increment at its rate, with as much variance again for the change of
-    // speed it cannot see (as extrapolateWheel).
-    const double f = static_cast<double>(t1 - std::max(last.utime, t0)) /
-                     static_cast<double>(last.utime - last.prev_utime);
-    out = core::compound(out, planarMotion(f * wheelVector(last), 2.0 * f * wheelCovariance(last)));
+    // Past the last increment, extrapolated at its rate.
+    const wheel_odom_t s = spanOf(last, std::max(last.utime, t0), t1);
+    out = core::compound(out, planarMotion(wheelVector(s), wheelCovariance(s)));
   }
   return out;
 }
