@@ -31,7 +31,8 @@
 // elevator cab); the gyro's yaw is what keeps a floor's heading through a blind stretch.
 // A VO keyframe step is fused with the gyro's yaw the same way; one whose yaw the gyro
 // contradicts (TrackerOptions::vo_gyro_gate) is a VO failure VO did not report, and the
-// wheels carry Δ over it. A keyframe step the newest heading does not reach waits for it
+// wheels carry Δ over it; on a failure, so is VO's motion since its reference (loseVo). A
+// keyframe step the newest heading does not reach waits for it
 // (TrackerOptions::heading_wait_s). Its translation is fused, before the gyro's yaw, with the
 // wheels' over the same interval, from the increments kept while VO tracks
 // (TrackerOptions::wheel_translation).
@@ -275,6 +276,9 @@ class Tracker {
   // Δ is now at msg's frame: its odometry pose (if any) becomes odometryAtDelta().
   void anchorOdometry(const vo_delta_t& msg, const Mat6& own_covariance);
   void commit(int64_t utime, const UncertainPose& increment);
+  // VO failed after last_good_utime: its motion since its reference is tested as a step,
+  // and the wheels take over.
+  void loseVo(int64_t last_good_utime);
   // Leaves VO mode at the last good VO frame (lost_utime) and compounds the buffered wheel
   // increments that end after it.
   void enterWheelMode(int64_t lost_utime);
@@ -341,6 +345,11 @@ class Tracker {
   // The keyframe step: the gyro's test, the wheels' translation and the gyro's yaw fused in,
   // the commit, the new reference.
   void takeStep(int64_t ref_utime, int64_t utime);
+  // A step's test and fusion: contradicted by the gyro's yaw, the wheels carry Δ from its
+  // reference (false); else its motion (pending_) gets the wheels' translation (with_wheels)
+  // and the gyro's yaw fused in (true). Shared by the keyframe step and the motion before a
+  // failure (loseVo).
+  bool testStep(int64_t ref_utime, int64_t utime, bool with_wheels);
 
   TrackerOptions o_;
   Mat6 ad_body_T_cam_;

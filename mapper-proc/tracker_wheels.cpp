@@ -44,7 +44,9 @@ wheel_odom_t spanOf(const wheel_odom_t& w, int64_t from, int64_t to) {
 }  // namespace
 
 bool Tracker::wheelsCover(int64_t from_utime, int64_t to_utime) const {
-  if (recent_wheel_.empty() || recent_wheel_.front().utime > from_utime) return false;
+  // The first increment kept may straddle from_utime (kept from a VO restart or a rejoin on,
+  // when the increments before were cleared): its share after from_utime counts.
+  if (recent_wheel_.empty() || recent_wheel_.front().prev_utime > from_utime) return false;
   // ... and reach `to_utime` (wheels that stopped or lag more would leave Δ frozen at
   // from_utime).
   return reaches(recent_wheel_.back(), to_utime);
