@@ -28,7 +28,8 @@ struct TrackerCounts {
                                  // with the gyro's
   int64_t odometry_refused = 0;  // VO_DELTAs whose odometry pose (odom_*) was malformed: the
                                  // frame is used, its pose is not
-  int64_t vo_contradicted = 0;   // keyframe steps whose yaw the gyro contradicted (vo_gyro_gate)
+  int64_t vo_contradicted = 0;   // keyframe steps, and VO's motions before a failure, whose yaw
+                                 // the gyro contradicted (vo_gyro_gate)
   int64_t wheel_fused = 0;       // keyframe steps whose translation was fused with the wheels'
   int64_t wheel_disagreed = 0;   // ... where the two disagreed beyond χ²(2) 13.82 (99.9 %): a
                                  // fault one of the two covariances did not know
