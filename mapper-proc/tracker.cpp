@@ -14,8 +14,6 @@
 namespace evermap::mapper {
 namespace {
 
-Mat6 symmetric(const Mat6& m) { return 0.5 * (m + m.transpose()); }
-
 // ATTITUDE messages this far apart (seconds) are a gap: imu-proc restarted, or messages lost.
 constexpr double kHeadingGapS = 0.5;
 
@@ -428,6 +426,8 @@ std::optional<std::pair<double, double>> Tracker::gyroYaw(int64_t t0, int64_t t1
                                              o_.gyro_noise_density * o_.gyro_noise_density * dt +
                                              extrapolated * extrapolated);
 }
+
+Mat6 Tracker::symmetric(const Mat6& m) { return 0.5 * (m + m.transpose()); }
 
 UncertainPose Tracker::delta() const { return core::compound(base_, pending_); }
 

@@ -323,6 +323,8 @@ class Tracker {
   // wheels are silent, and nothing is extrapolated from them).
   bool wheelsCover(int64_t from_utime, int64_t to_utime) const;
   static bool reaches(const wheel_odom_t& w, int64_t utime);
+  // A covariance made exactly symmetric (rounding in products breaks it).
+  static Mat6 symmetric(const Mat6& m);
   // The wheels' motion over [t0, t1] (body frames, no gyro) from the increments kept while VO
   // tracks, the end ones by their share, past the last one at its rate; empty when they do
   // not cover the interval (wheelsCover) or do not chain over it (a hole, an overlap).

@@ -12,8 +12,6 @@
 namespace evermap::mapper {
 namespace {
 
-Mat6 symmetric(const Mat6& m) { return 0.5 * (m + m.transpose()); }
-
 Eigen::Vector3d wheelVector(const wheel_odom_t& w) {
   return Eigen::Vector3d(w.delta_x_m, w.delta_y_m, w.delta_theta_rad);
 }

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 
+#include <evermap/attitude_t.hpp>
 #include <evermap/floor_t.hpp>
 #include <evermap/vo_delta_t.hpp>
 #include <evermap/wheel_odom_t.hpp>
@@ -57,6 +58,21 @@ inline wheel_odom_t wheelMsg(int64_t prev, int64_t utime, double dx, double vari
   w.delta_x_m = dx;
   w.covariance[0] = w.covariance[4] = w.covariance[8] = variance;
   return w;
+}
+
+// ATTITUDE as imu-proc sends it: the gyro's heading, its bias sigma left (rad/s) and its
+// integration's epoch; roll and pitch 0, trusted.
+inline attitude_t heading(int64_t utime, double heading_rad, double rate_sigma = 1e-4,
+                          int64_t epoch = 0) {
+  attitude_t a{};
+  a.heading_epoch = epoch;
+  a.utime = utime;
+  a.covariance[0] = a.covariance[3] = 1e-6;
+  a.accel_trusted = 1;
+  a.heading_rad = heading_rad;
+  a.heading_rate_sigma_rad_s = rate_sigma;
+  a.heading_valid = 1;
+  return a;
 }
 
 inline vo_delta_t voRestart(int64_t utime) {

@@ -6,8 +6,6 @@
 #include <cstdint>
 #include <numbers>
 
-#include <evermap/attitude_t.hpp>
-
 #include "mapper-proc/tracker.h"
 #include "tests/mapper_messages.h"
 
@@ -18,17 +16,6 @@ using namespace testing;  // tests/mapper_messages.h
 
 constexpr int64_t kStart = 1'000'000;  // VO's (re)start, the reference of every frame
 constexpr double kDeg = std::numbers::pi / 180.0;
-
-// A body that does not turn, as imu-proc reports it at 50 Hz: the gyro's heading constant.
-attitude_t still(int64_t utime) {
-  attitude_t a{};
-  a.utime = utime;
-  a.covariance[0] = a.covariance[3] = 1e-6;
-  a.accel_trusted = 1;
-  a.heading_rate_sigma_rad_s = 1e-4;
-  a.heading_valid = 1;
-  return a;
-}
 
 struct Drive {
   // VO's motion to frame k (0.1 s apart, k = 1..10) from the reference at kStart, as a share f
@@ -45,8 +32,9 @@ struct Drive {
 // and reports `d`; the last frame is a keyframe.
 Tracker drive(const TrackerOptions& o, const Drive& d) {
   Tracker t(o);
+  // The body does not turn: the gyro's heading at 50 Hz stays at 0.
   for (int64_t a = kStart - 200000; a <= kStart + 1500000; a += 20000)
-    EXPECT_TRUE(t.addHeading(still(a)));
+    EXPECT_TRUE(t.addHeading(heading(a, 0.0)));
   EXPECT_TRUE(t.addVo(voRestart(kStart)));
   auto wheel = [&](int i) {  // [kStart - 0.05 s + (i - 1) 0.1 s, + 0.1 s]
     const int64_t end = kStart - 50000 + i * 100000;

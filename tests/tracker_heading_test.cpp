@@ -15,6 +15,7 @@ namespace evermap::mapper {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
+using testing::heading;
 
 wheel_odom_t wheel(int64_t prev, int64_t utime, double dx, double dtheta, double theta_var) {
   wheel_odom_t w{};
@@ -25,18 +26,6 @@ wheel_odom_t wheel(int64_t prev, int64_t utime, double dx, double dtheta, double
   w.covariance[0] = w.covariance[4] = 1e-4;
   w.covariance[8] = theta_var;
   return w;
-}
-
-attitude_t heading(int64_t utime, double heading_rad, double rate_sigma = 1e-4, int64_t epoch = 0) {
-  attitude_t a{};
-  a.heading_epoch = epoch;
-  a.utime = utime;
-  a.covariance[0] = a.covariance[3] = 1e-6;
-  a.accel_trusted = 1;
-  a.heading_rad = heading_rad;
-  a.heading_rate_sigma_rad_s = rate_sigma;
-  a.heading_valid = 1;
-  return a;
 }
 
 double yawOf(const Tracker& t) { return core::toPlanar(t.delta().mean).theta(); }
