@@ -43,6 +43,9 @@ struct FeatureFrame {
   ImagePyramid left;                    // kept for sub-pixel refinement, ORB and rotation
   std::vector<StereoFeature> features;  // corners with a depth
   int num_corners = 0;                  // corners detected, with or without a depth
+  // The camera's angular velocity when the frame was taken (rad/s, its own frame), set by an
+  // odometry that corrects a rolling shutter (core/camera/rolling_shutter.h); zero otherwise.
+  Eigen::Vector3d omega = Eigen::Vector3d::Zero();
 };
 
 class StereoFeatureExtractor {

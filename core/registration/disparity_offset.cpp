@@ -5,19 +5,26 @@
 
 #include <Eigen/Cholesky>
 
+#include "core/camera/rolling_shutter.h"
+
 namespace evermap::core {
 
 namespace {
 
-// Robust cost of one pair under `offset` at the motion that minimises it, the solve started
-// from *T and its result left there (the next candidate's start).
+// Robust cost of one pair under a disparity `offset` and a further rolling-shutter
+// `line_delay_s` at the motion that minimises it, the solve started from *T and its result
+// left there (the next candidate's start).
 double pairCost(const StereoCamera& camera, const StereoMatchPair& pair, double offset,
-                const DisparityOffsetOptions& o, SE3d* T) {
+                double line_delay_s, const DisparityOffsetOptions& o, SE3d* T) {
   const size_t n = pair.uvd_a.size();
   std::vector<Eigen::Vector3d> ma(n), mb(n), pa(n), pb(n);
+  const Eigen::Vector3d shift(0.0, 0.0, offset);
   for (size_t i = 0; i < n; ++i) {
-    ma[i] = pair.uvd_a[i] + Eigen::Vector3d(0.0, 0.0, offset);
-    mb[i] = pair.uvd_b[i] + Eigen::Vector3d(0.0, 0.0, offset);
+    const auto ca = toMiddleRow(camera, pair.uvd_a[i] + shift, pair.omega_a, line_delay_s);
+    const auto cb = toMiddleRow(camera, pair.uvd_b[i] + shift, pair.omega_b, line_delay_s);
+    if (!ca || !cb) return std::numeric_limits<double>::infinity();
+    ma[i] = *ca;
+    mb[i] = *cb;
     const auto xa = camera.backProject(ma[i]), xb = camera.backProject(mb[i]);
     if (!xa || !xb) return std::numeric_limits<double>::infinity();
     pa[i] = *xa;
@@ -74,6 +81,21 @@ double pairCost(const StereoCamera& camera, const StereoMatchPair& pair, double 
 
 }  // namespace
 
+StereoMatchPair subsampledPair(const StereoMatchPair& pair, int max_points) {
+  const size_t n = pair.uvd_a.size();
+  if (n <= static_cast<size_t>(max_points)) return pair;
+  StereoMatchPair out;
+  out.a_T_b = pair.a_T_b;
+  out.omega_a = pair.omega_a;
+  out.omega_b = pair.omega_b;
+  for (int i = 0; i < max_points; ++i) {
+    const size_t k = static_cast<size_t>(i) * n / static_cast<size_t>(max_points);
+    out.uvd_a.push_back(pair.uvd_a[k]);
+    out.uvd_b.push_back(pair.uvd_b[k]);
+  }
+  return out;
+}
+
 StereoMatchPair matchPair(const KeyframeFeatures& a, const KeyframeFeatures& b,
                           const RegistrationSummary& registration) {
   StereoMatchPair pair;
@@ -95,24 +117,43 @@ std::vector<double> DisparityOffsetOptions::grid() const {
   return offsets;
 }
 
+namespace {
+
+// The pair's cost at each candidate (cost(candidate, &T)), swept outwards from the candidate
+// nearest 0 (where the registration's motion is the minimum), each solve started from its
+// neighbour's motion.
+template <typename Cost>
+std::vector<double> sweptCurve(const StereoMatchPair& pair, const std::vector<double>& candidates,
+                               const Cost& cost) {
+  std::vector<double> costs(candidates.size(), std::numeric_limits<double>::infinity());
+  if (pair.uvd_a.empty() || candidates.empty()) return costs;
+  size_t start = 0;
+  for (size_t s = 1; s < candidates.size(); ++s) {
+    if (std::abs(candidates[s]) < std::abs(candidates[start])) start = s;
+  }
+  SE3d T = pair.a_T_b;
+  for (size_t s = start; s < candidates.size(); ++s) costs[s] = cost(candidates[s], &T);
+  T = pair.a_T_b;
+  for (size_t s = start; s-- > 0;) costs[s] = cost(candidates[s], &T);
+  return costs;
+}
+
+}  // namespace
+
 std::vector<double> pairCostCurve(const StereoCamera& camera, const StereoMatchPair& pair,
                                   const std::vector<double>& offsets,
                                   const DisparityOffsetOptions& options) {
-  std::vector<double> costs(offsets.size(), std::numeric_limits<double>::infinity());
-  if (pair.uvd_a.empty() || offsets.empty()) return costs;
-  // Swept outwards from the candidate nearest 0 (where the registration's motion is the
-  // minimum), each solve started from its neighbour's motion.
-  size_t start = 0;
-  for (size_t s = 1; s < offsets.size(); ++s) {
-    if (std::abs(offsets[s]) < std::abs(offsets[start])) start = s;
-  }
-  SE3d T = pair.a_T_b;
-  for (size_t s = start; s < offsets.size(); ++s) {
-    costs[s] = pairCost(camera, pair, offsets[s], options, &T);
-  }
-  T = pair.a_T_b;
-  for (size_t s = start; s-- > 0;) costs[s] = pairCost(camera, pair, offsets[s], options, &T);
-  return costs;
+  return sweptCurve(pair, offsets, [&](double offset, SE3d* T) {
+    return pairCost(camera, pair, offset, 0.0, options, T);
+  });
+}
+
+std::vector<double> pairLineDelayCurve(const StereoCamera& camera, const StereoMatchPair& pair,
+                                       const std::vector<double>& line_delays_s,
+                                       const DisparityOffsetOptions& options) {
+  return sweptCurve(pair, line_delays_s, [&](double delay, SE3d* T) {
+    return pairCost(camera, pair, 0.0, delay, options, T);
+  });
 }
 
 Expected<double> leastCostOffset(const std::vector<double>& offsets,

@@ -34,10 +34,16 @@ namespace evermap::core {
 
 // The inliers of two registered stereo frames: measured (u, v, d) in level-0 pixels, in a and
 // in b (same index = same point), and the registration's a_T_b as the start of each solve.
+// omega_a, omega_b: each frame's angular velocity (rad/s, its camera frame), what a rolling
+// shutter's line delay acts through (core/camera/rolling_shutter.h); zero when not known.
 struct StereoMatchPair {
   std::vector<Eigen::Vector3d> uvd_a, uvd_b;
   SE3d a_T_b;
+  Eigen::Vector3d omega_a = Eigen::Vector3d::Zero(), omega_b = Eigen::Vector3d::Zero();
 };
+
+// At most `max_points` of the pair's points, evenly spaced (the cost of a curve).
+StereoMatchPair subsampledPair(const StereoMatchPair& pair, int max_points);
 
 // The inliers of registerFrames(camera, a, camera, b) as a pair (empty unless it succeeded).
 StereoMatchPair matchPair(const KeyframeFeatures& a, const KeyframeFeatures& b,
@@ -73,6 +79,13 @@ struct DisparityOffsetSummary {
 std::vector<double> pairCostCurve(const StereoCamera& camera, const StereoMatchPair& pair,
                                   const std::vector<double>& offsets,
                                   const DisparityOffsetOptions& options);
+
+// The robust cost of one pair at each of `line_delays_s` (seconds per row, added to what the
+// pair's measurements were corrected with; core/camera/rolling_shutter.h), each at the motion
+// that minimises it, as pairCostCurve. A pair whose frames did not turn has a flat curve.
+std::vector<double> pairLineDelayCurve(const StereoCamera& camera, const StereoMatchPair& pair,
+                                       const std::vector<double>& line_delays_s,
+                                       const DisparityOffsetOptions& options);
 
 // The minimum of a cost curve over `offsets`, refined by a parabola through its neighbours.
 // Errors: no finite cost, or the least cost at an end of the grid (or next to an infinite one).

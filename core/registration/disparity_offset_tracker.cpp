@@ -1,9 +1,7 @@
 #include "core/registration/disparity_offset_tracker.h"
 
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <utility>
 
 namespace evermap::core {
 
@@ -47,123 +45,51 @@ Expected<DisparityOffsetTracker> DisparityOffsetTracker::create(
 
 namespace {
 
-double median(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
-
-// At most `max_points` of the pair's points, evenly spaced.
-StereoMatchPair subsampled(const StereoMatchPair& pair, int max_points) {
-  const size_t n = pair.uvd_a.size();
-  if (n <= static_cast<size_t>(max_points)) return pair;
-  StereoMatchPair out;
-  out.a_T_b = pair.a_T_b;
-  for (int i = 0; i < max_points; ++i) {
-    const size_t k = static_cast<size_t>(i) * n / static_cast<size_t>(max_points);
-    out.uvd_a.push_back(pair.uvd_a[k]);
-    out.uvd_b.push_back(pair.uvd_b[k]);
-  }
-  return out;
+CurveEvidenceOptions evidenceOptions(const DisparityOffsetTrackerOptions& o) {
+  CurveEvidenceOptions e;
+  e.max_pair_sigma = o.max_pair_sigma_px;
+  e.min_groups = o.min_pairs;
+  e.max_pairs = o.max_pairs;
+  e.outlier_mads = o.outlier_mads;
+  e.min_outlier_distance = o.min_outlier_distance_px;
+  return e;
 }
 
 }  // namespace
 
+DisparityOffsetTracker::DisparityOffsetTracker(const StereoCamera& camera,
+                                               const DisparityOffsetTrackerOptions& options)
+    : camera_(camera),
+      options_(options),
+      evidence_(options.estimate.grid(), evidenceOptions(options)) {}
+
 void DisparityOffsetTracker::restart(const StereoCamera& camera) {
   camera_ = camera;
-  curves_.clear();
-  minima_.clear();
-  groups_.clear();
+  evidence_.clear();
   state_ = DisparityOffsetState{};
 }
 
 const DisparityOffsetState& DisparityOffsetTracker::add(const StereoMatchPair& pair,
                                                         int64_t group) {
   if (!wantsPairs() || pair.uvd_a.empty() || pair.uvd_a.size() != pair.uvd_b.size()) return state_;
-  ++state_.pairs_examined;
-  std::vector<double> costs = pairCostCurve(camera_, subsampled(pair, options_.max_points_per_pair),
-                                            offsets_, options_.estimate);
-  const Expected<double> own = leastCostOffset(offsets_, costs);
-  if (own) {
-    // Its curvature at the minimum: the information of this pair alone.
-    const double least = *std::min_element(costs.begin(), costs.end());
-    const size_t best =
-        static_cast<size_t>(std::min_element(costs.begin(), costs.end()) - costs.begin());
-    const double step = options_.estimate.step_px;
-    const double curvature =
-        (costs[best - 1] - 2.0 * costs[best] + costs[best + 1]) / (step * step);
-    if (curvature > 0.0 && 1.0 / std::sqrt(curvature) <= options_.max_pair_sigma_px) {
-      for (double& c : costs) c -= least;
-      curves_.push_back(std::move(costs));
-      minima_.push_back(*own);
-      groups_.push_back(group);
-      if (curves_.size() > static_cast<size_t>(options_.max_pairs)) {
-        curves_.erase(curves_.begin());
-        minima_.erase(minima_.begin());
-        groups_.erase(groups_.begin());
-      }
-    }
-  }
-  estimate();
+  evidence_.add(pairCostCurve(camera_, subsampledPair(pair, options_.max_points_per_pair),
+                              evidence_.grid(), options_.estimate),
+                group);
+  const CurveEstimate& e = evidence_.estimate();
+  state_.pairs_examined = e.pairs_examined;
+  state_.pairs_used = e.pairs_used;
+  state_.groups_used = e.groups_used;
+  state_.pairs_left_out = e.pairs_left_out;
+  state_.offset_px = e.value;
+  state_.standard_error_px = e.standard_error;
+  if (!e.message.empty()) state_.message = e.message;
   decide();
   return state_;
 }
 
-void DisparityOffsetTracker::estimate() {
-  const size_t n = curves_.size();
-  if (n < static_cast<size_t>(options_.min_pairs)) return;
-  // Pairs whose own minimum is far from the others' are left out.
-  const double mid = median(minima_);
-  std::vector<double> deviations;
-  for (double m : minima_) deviations.push_back(std::abs(m - mid));
-  const double bound = std::max(options_.outlier_mads * 1.4826 * median(deviations),
-                                options_.min_outlier_distance_px);
-  std::vector<size_t> used;
-  for (size_t i = 0; i < n; ++i) {
-    if (std::abs(minima_[i] - mid) <= bound) used.push_back(i);
-  }
-  state_.pairs_used = static_cast<int>(used.size());
-  state_.pairs_left_out = static_cast<int>(n - used.size());
-  std::vector<int64_t> groups;
-  for (size_t i : used) groups.push_back(groups_[i]);
-  std::sort(groups.begin(), groups.end());
-  groups.erase(std::unique(groups.begin(), groups.end()), groups.end());
-  state_.groups_used = static_cast<int>(groups.size());
-  if (groups.size() < static_cast<size_t>(options_.min_pairs)) return;
-  std::vector<double> total(offsets_.size(), 0.0);
-  for (size_t i : used) {
-    for (size_t s = 0; s < total.size(); ++s) total[s] += curves_[i][s];
-  }
-  const Expected<double> all = leastCostOffset(offsets_, total);
-  if (!all) {
-    state_.message = all.error().message;
-    return;
-  }
-  // Jackknife: the estimate with each group left out in turn.
-  std::vector<double> partial;
-  for (int64_t g : groups) {
-    std::vector<double> without = total;
-    for (size_t i : used) {
-      if (groups_[i] != g) continue;
-      for (size_t s = 0; s < total.size(); ++s) without[s] -= curves_[i][s];
-    }
-    const Expected<double> e = leastCostOffset(offsets_, without);
-    if (!e) return;  // one group holds the minimum inside the grid: not converged
-    partial.push_back(*e);
-  }
-  double mean = 0.0;
-  for (double p : partial) mean += p / static_cast<double>(partial.size());
-  double sum = 0.0;
-  for (double p : partial) sum += (p - mean) * (p - mean);
-  const double m = static_cast<double>(partial.size());
-  state_.offset_px = *all;
-  state_.standard_error_px = std::sqrt((m - 1.0) / m * sum);
-}
-
 void DisparityOffsetTracker::decide() {
   DisparityOffsetState& s = state_;
-  const bool converged =
-      s.groups_used >= options_.min_pairs && s.standard_error_px <= options_.max_standard_error_px;
-  if (!converged) return;
+  if (!evidence_.converged(options_.max_standard_error_px)) return;
   const double total = camera_.disparityOffsetPx() + s.offset_px;
   const double size = std::abs(s.offset_px);
   const bool significant =

@@ -5,28 +5,14 @@
 // can decide, the offset is applied when the decision says so, and the next round measures
 // what is left over, until one finds nothing to change.
 //
-// Each pair added gives its own cost curve over a grid of candidate offsets (pairCostCurve:
-// its motion re-solved under each candidate, robust costs). The evidence is judged, not
-// assumed:
-//  - a pair whose own curve is flat (the camera turned or hovered: without translation
-//    against a range of depths the offset is not observable) or has its minimum at an end of
-//    the grid is not evidence: examined, not used;
-//  - pairs whose own minimum lies far from the others' (more than outlier_mads robust
-//    deviations, and more than min_outlier_distance_px, from their median: a moving object, a
-//    wrong registration) are left out;
-//  - the estimate is the least cost of the used pairs' summed curves; its standard error is
-//    their jackknife's, leaving out one *group* at a time (no trust in the nominal noise): the
-//    pairs of one group share a frame (the odometry's reference), whose disparity errors they
-//    all carry, so they are not independent evidence;
-//  - it has converged when pairs of at least min_pairs groups are used and the standard error
-//    is at most max_standard_error_px. Then it is applied (kApply) only when it is at least
-//    min_offset_px and significance standard errors from 0, and the camera's offset stays
-//    within max_total_offset_px; otherwise the calibration is kept (kKeep): a
-//    well-calibrated rig stays at 0;
-//  - a round keeps the last max_pairs informative pairs (older ones are dropped as new ones
-//    come): the evidence of a slow start (few reference frames, a rendered walk renews its
-//    reference about once a second) is not thrown away, and the cost of a round stays bounded.
-//    The grid (around the camera's offset) bounds one round's step.
+// Each pair added gives its own cost curve over a grid of candidate offsets (pairCostCurve), and
+// the evidence is judged as curve_evidence.h says (flat curves and outliers not used, a
+// jackknife over reference frames for the standard error). It has converged when pairs of at
+// least min_pairs groups are used and the standard error is at most max_standard_error_px.
+// Then it is applied (kApply) only when it is at least min_offset_px and significance standard
+// errors from 0, and the camera's offset stays within max_total_offset_px; otherwise the
+// calibration is kept (kKeep): a well-calibrated rig stays at 0. The grid (around the camera's
+// offset) bounds one round's step.
 // The caller starts the next round (restart) after kApply; after kKeep the tracker stays
 // decided (StereoOdometry stops there: every further round would be another chance of a false
 // alarm on a right rig).
@@ -41,6 +27,7 @@
 #include "core/camera/stereo_camera.h"
 #include "core/common/expected.h"
 #include "core/common/option_fields.h"
+#include "core/registration/curve_evidence.h"
 #include "core/registration/disparity_offset.h"
 
 namespace evermap::core {
@@ -129,19 +116,12 @@ class DisparityOffsetTracker {
   const DisparityOffsetState& state() const { return state_; }
 
  private:
-  DisparityOffsetTracker(const StereoCamera& camera, const DisparityOffsetTrackerOptions& options)
-      : camera_(camera), options_(options), offsets_(options.estimate.grid()) {}
-  // The estimate and its standard error from the informative pairs (state_ updated).
-  void estimate();
+  DisparityOffsetTracker(const StereoCamera& camera, const DisparityOffsetTrackerOptions& options);
   void decide();
 
   StereoCamera camera_;
   DisparityOffsetTrackerOptions options_;
-  std::vector<double> offsets_;
-  // The informative pairs: their curves (least cost subtracted) and own minima.
-  std::vector<std::vector<double>> curves_;
-  std::vector<double> minima_;
-  std::vector<int64_t> groups_;
+  CurveEvidence evidence_;
   DisparityOffsetState state_;
 };
 

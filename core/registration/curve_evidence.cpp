@@ -1,0 +1,104 @@
+#include "core/registration/curve_evidence.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include "core/registration/disparity_offset.h"
+
+namespace evermap::core {
+
+namespace {
+
+double median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+void CurveEvidence::clear() {
+  curves_.clear();
+  minima_.clear();
+  groups_.clear();
+  estimate_ = CurveEstimate{};
+}
+
+void CurveEvidence::add(std::vector<double> costs, int64_t group) {
+  ++estimate_.pairs_examined;
+  const Expected<double> own = leastCostOffset(grid_, costs);
+  if (own && grid_.size() >= 2) {
+    // Its curvature at the minimum: the information of this pair alone.
+    const auto best_it = std::min_element(costs.begin(), costs.end());
+    const size_t best = static_cast<size_t>(best_it - costs.begin());
+    const double least = *best_it;
+    const double step = grid_[1] - grid_[0];
+    const double curvature =
+        (costs[best - 1] - 2.0 * costs[best] + costs[best + 1]) / (step * step);
+    if (curvature > 0.0 && 1.0 / std::sqrt(curvature) <= options_.max_pair_sigma) {
+      for (double& c : costs) c -= least;
+      curves_.push_back(std::move(costs));
+      minima_.push_back(*own);
+      groups_.push_back(group);
+      if (curves_.size() > static_cast<size_t>(options_.max_pairs)) {
+        curves_.erase(curves_.begin());
+        minima_.erase(minima_.begin());
+        groups_.erase(groups_.begin());
+      }
+    }
+  }
+  update();
+}
+
+void CurveEvidence::update() {
+  const size_t n = curves_.size();
+  if (n < static_cast<size_t>(options_.min_groups)) return;
+  // Pairs whose own minimum is far from the others' are left out.
+  const double mid = median(minima_);
+  std::vector<double> deviations;
+  for (double m : minima_) deviations.push_back(std::abs(m - mid));
+  const double bound =
+      std::max(options_.outlier_mads * 1.4826 * median(deviations), options_.min_outlier_distance);
+  std::vector<size_t> used;
+  for (size_t i = 0; i < n; ++i) {
+    if (std::abs(minima_[i] - mid) <= bound) used.push_back(i);
+  }
+  estimate_.pairs_used = static_cast<int>(used.size());
+  estimate_.pairs_left_out = static_cast<int>(n - used.size());
+  std::vector<int64_t> groups;
+  for (size_t i : used) groups.push_back(groups_[i]);
+  std::sort(groups.begin(), groups.end());
+  groups.erase(std::unique(groups.begin(), groups.end()), groups.end());
+  estimate_.groups_used = static_cast<int>(groups.size());
+  if (groups.size() < static_cast<size_t>(options_.min_groups)) return;
+  std::vector<double> total(grid_.size(), 0.0);
+  for (size_t i : used) {
+    for (size_t s = 0; s < total.size(); ++s) total[s] += curves_[i][s];
+  }
+  const Expected<double> all = leastCostOffset(grid_, total);
+  if (!all) {
+    estimate_.message = all.error().message;
+    return;
+  }
+  // Jackknife: the estimate with each group left out in turn.
+  std::vector<double> partial;
+  for (int64_t g : groups) {
+    std::vector<double> without = total;
+    for (size_t i : used) {
+      if (groups_[i] != g) continue;
+      for (size_t s = 0; s < total.size(); ++s) without[s] -= curves_[i][s];
+    }
+    const Expected<double> e = leastCostOffset(grid_, without);
+    if (!e) return;  // one group holds the minimum inside the grid: not converged
+    partial.push_back(*e);
+  }
+  double mean = 0.0;
+  for (double p : partial) mean += p / static_cast<double>(partial.size());
+  double sum = 0.0;
+  for (double p : partial) sum += (p - mean) * (p - mean);
+  const double m = static_cast<double>(partial.size());
+  estimate_.value = *all;
+  estimate_.standard_error = std::sqrt((m - 1.0) / m * sum);
+}
+
+}  // namespace evermap::core
