@@ -102,6 +102,10 @@ Expected<StereoOdometry> StereoOdometry::create(const core::StereoCamera& camera
     if (!tracker) return tracker.error();
     odometry.offset_tracker_.emplace(std::move(*tracker));
   }
+  auto rolling_shutter =
+      RollingShutterCorrector::create(options.line_delay_us, options.gather_line_delay_evidence);
+  if (!rolling_shutter) return rolling_shutter.error();
+  odometry.rolling_shutter_ = std::move(*rolling_shutter);
   return odometry;
 }
 
@@ -232,10 +236,11 @@ core::RegistrationSummary StereoOdometry::registerTo(
   for (const core::WindowMatch& m : window) {
     const core::StereoFeature& a = from.features[static_cast<size_t>(m.ref)];
     const core::StereoFeature& b = cur_->features[static_cast<size_t>(m.cur)];
-    // The refined position keeps the corner's disparity.
-    const auto p_b = camera_.backProject(core::Vec3(m.uv.x(), m.uv.y(), b.disparity));
+    // The refined position keeps the corner's disparity (and its rolling-shutter correction).
+    const Eigen::Vector2f uv_b = rolling_shutter_.corrected(b, m.uv);
+    const auto p_b = camera_.backProject(core::Vec3(uv_b.x(), uv_b.y(), b.disparity));
     if (!p_b) continue;
-    matches.push_back({a.uv.cast<double>(), a.point, m.uv.cast<double>(), *p_b});
+    matches.push_back({a.uv.cast<double>(), a.point, uv_b.cast<double>(), *p_b});
     ids.emplace_back(m.ref, m.cur);
   }
   core::RegistrationSummary summary =
@@ -246,6 +251,8 @@ core::RegistrationSummary StereoOdometry::registerTo(
     // a wrong offset is what pushes the points it distorts most out of them (the estimate
     // leans to the current offset); the offset's robust cost bounds the outliers' weight.
     pair->a_T_b = summary.a_T_b;
+    pair->omega_a = from.omega;
+    pair->omega_b = cur_->omega;
     for (size_t k = 0; k < matches.size(); ++k) {
       const core::StereoFeature& a = from.features[static_cast<size_t>(ids[k].first)];
       const core::StereoFeature& b = cur_->features[static_cast<size_t>(ids[k].second)];
@@ -331,6 +338,8 @@ FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& 
   r.disparity_offset_px = camera_.disparityOffsetPx();
   if (!extractFrame(utime, extract, &r)) return r;
   const SE3d ref_T_pred = predictMotion(utime);
+  rolling_shutter_.correctFrame(camera_, ref_T_prev_.inverse() * ref_T_pred, frame_dt_us_,
+                                cur_.get());
   if (has_ref_) ++frames_since_good_;
 
   if (r.num_features < options_.registration.min_features) {
@@ -355,6 +364,7 @@ FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& 
   if (motion.summary.ok()) {
     takeMotion(motion, &r);
     selfCalibrate(motion.pair, motion.pair_group, &r);
+    rolling_shutter_.addPair(camera_, motion.pair, motion.pair_group);
   } else {
     failRegistration(motion.summary, ref_T_pred, &r);
   }
@@ -450,7 +460,8 @@ StereoOdometry::RegisteredMotion StereoOdometry::registerCurrent(const SE3d& ref
   // Register to the reference (a = reference, b = current); failing that, to the last frame
   // that registered, the motion through it chained to the reference.
   RegisteredMotion m;
-  const bool calibrating = offset_tracker_ && offset_tracker_->wantsPairs();
+  const bool calibrating =
+      (offset_tracker_ && offset_tracker_->wantsPairs()) || rolling_shutter_.wantsPairs();
   m.takeRegistration(registerTo(*ref_, ref_T_pred, calibrating ? &m.pair : nullptr));
   m.pair_group = ref_->utime;
   if (!m.summary.ok() && options_.retry_previous_frame && has_prev_) {

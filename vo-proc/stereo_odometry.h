@@ -72,6 +72,7 @@
 #include "core/registration/keyframe_features.h"
 #include "core/registration/rotation_estimation.h"
 #include "core/registration/window_matcher.h"
+#include "vo-proc/rolling_shutter_corrector.h"
 
 namespace evermap::vo {
 
@@ -138,6 +139,13 @@ struct OdometryOptions {
   // significant value, applied to the camera (stereo rigs; an RGB-D camera has no offset).
   bool self_calibrate = true;
   core::DisparityOffsetTrackerOptions self_calibration;
+  // A rolling shutter (rolling_shutter_corrector.h): the camera's line delay, the time between
+  // two rows' exposures (microseconds per row; 0: a global shutter), the features are
+  // corrected with. A Kinect's color camera: docs/rgbd.md, "Rolling shutter".
+  double line_delay_us = 0.0;
+  // The registered pairs gathered as evidence on what is left of line_delay_us
+  // (lineDelayLeftOver; evermap-vo-run --calibrate-line-delay). Not a user setting.
+  bool gather_line_delay_evidence = false;
 
   Status validate() const;
   std::string describe() const;
@@ -189,6 +197,9 @@ struct OdometryOptions {
     o.add("self_calibrate", &self_calibrate,
           "estimate the stereo rig's disparity offset online and apply it");
     o.nest("self_calibration.", &self_calibration);
+    o.add("line_delay_us", &line_delay_us, "us",
+          "rolling shutter: the time between two rows' exposures (0: a global shutter)")
+        .nonNegative();
   }
 
   static core::StereoFeatureExtractor::Options defaultFeatures();
@@ -267,6 +278,10 @@ class StereoOdometry {
   int fastThreshold() const;
   // Self-calibration's state (nullopt when it is off).
   std::optional<core::DisparityOffsetState> selfCalibration() const;
+  // What the pairs say is left of the line delay (gather_line_delay_evidence only).
+  std::optional<core::CurveEstimate> lineDelayLeftOver() const {
+    return rolling_shutter_.leftOver();
+  }
 
  private:
   StereoOdometry(const core::StereoCamera& camera, const OdometryOptions& options,
@@ -345,6 +360,7 @@ class StereoOdometry {
   core::StereoFeatureExtractor extractor_;
   core::OrbExtractor orb_;
   std::optional<core::DisparityOffsetTracker> offset_tracker_;  // self_calibrate only
+  RollingShutterCorrector rolling_shutter_;
   // Buffers swapped, never copied: the reference, the last frame that registered to it, the
   // current frame.
   std::unique_ptr<core::FeatureFrame> ref_, prev_, cur_;

@@ -131,6 +131,10 @@ class VoPipeline {
   // body_T_cam of the rectified left camera (the frame VO poses are in); identity without a
   // camera.
   const core::SE3d& bodyTCamera() const { return body_T_cam_; }
+  // What the registered pairs say is left of the line delay (StereoOdometry).
+  std::optional<core::CurveEstimate> lineDelayLeftOver() const {
+    return odometry_ ? odometry_->lineDelayLeftOver() : std::nullopt;
+  }
   const PipelineStats& stats() const { return stats_; }
   const PipelineOptions& options() const { return options_; }
 

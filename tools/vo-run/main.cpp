@@ -71,6 +71,10 @@ struct VoRunOptions {
     o.add("keyframe_descriptors", &odo.keyframe_descriptors, "ORB descriptors at keyframes");
     o.add("self_calibrate", &odo.self_calibrate,
           "stereo: estimate the disparity offset from the images and apply it (docs/vo.md)");
+    o.add("line_delay_us", &odo.line_delay_us, "us",
+          "rolling shutter: the camera's line delay the features are corrected with (0: a "
+          "global shutter; docs/rgbd.md)")
+        .nonNegative();
   }
 };
 
@@ -80,6 +84,7 @@ struct VoArgs {
   std::string stats, output_log;
   std::vector<std::string> positional;
   bool verbose = false;
+  bool calibrate_line_delay = false;
   double disparity_offset_px = std::nan("");
 };
 
@@ -102,12 +107,16 @@ int parseCommandLine(int argc, char** argv, VoArgs* a) {
       .in(-1000, 1000);
   cli.flag("--verbose", &a->verbose,
            "one line per frame that failed, was bridged or retried, with its reason");
+  cli.flag("--calibrate-line-delay", &a->calibrate_line_delay,
+           "estimate the camera's rolling-shutter line delay from the images: the odometry run "
+           "again, from --line-delay-us, with what its registered pairs say is left, until "
+           "nothing significant is; the trajectory is the last run's (docs/rgbd.md)");
   cli.options(&a->run);
   cli.value("--max-frames", &a->run.offline.max_frames, "N", "stop after N stereo frames").min(1);
-  for (const char* key :
-       {"keyframe_inliers", "keyframe_distance", "keyframe_angle", "disparity_sigma",
-        "motion_disparity_sigma", "inlier_px", "max_mean_px", "rgbd_inlier_px", "rgbd_max_mean_px",
-        "rgbd_fast_motion", "depth_spread", "depth_noise", "clique_threshold", "search_radius"}) {
+  for (const char* key : {"keyframe_inliers", "keyframe_distance", "keyframe_angle",
+                          "disparity_sigma", "motion_disparity_sigma", "inlier_px", "max_mean_px",
+                          "rgbd_inlier_px", "rgbd_max_mean_px", "rgbd_fast_motion", "depth_spread",
+                          "depth_noise", "clique_threshold", "search_radius", "line_delay_us"}) {
     std::string flag = std::string("--") + key;
     std::replace(flag.begin(), flag.end(), '_', '-');
     cli.alias(flag, key, "VALUE");
@@ -131,10 +140,21 @@ int parseCommandLine(int argc, char** argv, VoArgs* a) {
 
 }  // namespace
 
+// The run the command line asks for: one, or the line delay's calibration (its runs printed).
+evermap::Expected<evermap::vo::OfflineSummary> run(const VoArgs& a) {
+  if (!a.calibrate_line_delay) return evermap::vo::runOffline(a.positional[0], a.run.offline);
+  auto calibration = evermap::vo::calibrateLineDelay(a.positional[0], a.run.offline);
+  if (!calibration) return calibration.error();
+  for (const std::string& line : calibration->runs) std::printf("%s\n", line.c_str());
+  std::printf("line delay: %.1f us per row, +- %.1f us (the last run's jackknife)\n",
+              calibration->line_delay_us, calibration->standard_error_us);
+  return std::move(calibration->summary);
+}
+
 int main(int argc, char** argv) {
   VoArgs a;
   if (const int code = parseCommandLine(argc, argv, &a); code >= 0) return code;
-  const auto summary = evermap::vo::runOffline(a.positional[0], a.run.offline);
+  const auto summary = run(a);
   if (!summary) {
     std::fprintf(stderr, "evermap-vo-run: %s\n", summary.error().message.c_str());
     return 1;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <sstream>
@@ -196,7 +197,43 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
   summary.median_ms = percentile(times, 0.5);
   summary.p90_ms = percentile(times, 0.9);
   summary.p99_ms = percentile(times, 0.99);
+  summary.line_delay_left_over = pipeline->lineDelayLeftOver();
   return summary;
+}
+
+Expected<LineDelayCalibration> calibrateLineDelay(const std::filesystem::path& log,
+                                                  OfflineOptions options, int max_runs) {
+  options.pipeline.odometry.gather_line_delay_evidence = true;
+  double& delay = options.pipeline.odometry.line_delay_us;
+  LineDelayCalibration calibration;
+  for (int run = 1;; ++run) {
+    auto summary = runOffline(log, options);
+    if (!summary) return summary.error();
+    const std::optional<core::CurveEstimate>& left = summary->line_delay_left_over;
+    if (!left || !std::isfinite(left->standard_error)) {
+      return makeError(log.string(), ": line delay: no estimate at ", delay, " us per row (",
+                       left ? left->pairs_used : 0,
+                       " informative pairs; the camera must turn, and its frames register)");
+    }
+    char line[200];
+    std::snprintf(line, sizeof(line),
+                  "line delay run %d: %.1f us per row, %+.1f +- %.1f us left (%d pairs of %d "
+                  "frames, %d examined)",
+                  run, delay, left->value, left->standard_error, left->pairs_used,
+                  left->groups_used, left->pairs_examined);
+    calibration.runs.push_back(line);
+    if (std::abs(left->value) <= std::max(0.25 * left->standard_error, 1.0)) {
+      calibration.line_delay_us = delay;
+      calibration.standard_error_us = left->standard_error;
+      calibration.summary = std::move(*summary);
+      return calibration;
+    }
+    if (run >= max_runs) {
+      return makeError(log.string(), ": line delay: not settled after ", max_runs, " runs (", delay,
+                       " us per row, ", left->value, " us left)");
+    }
+    delay = std::max(0.0, delay + left->value);
+  }
 }
 
 Status writeFrameStatsCsv(const std::vector<FrameStats>& frames,

@@ -62,6 +62,8 @@ struct OfflineSummary {
   double p99_ms = 0.0;
   // Self-calibration's decision and the frame it came at (empty: none).
   std::string self_calibration;
+  // With pipeline.odometry.gather_line_delay_evidence: what is left of the line delay.
+  std::optional<core::CurveEstimate> line_delay_left_over;
 
   // Frames that did not register, counted by FrameResult::failure_kind (bridged frames by
   // the kind of failure that made the bridge needed).
@@ -76,6 +78,23 @@ struct OfflineSummary {
 // summary, not errors.
 Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
                                     const OfflineOptions& options);
+
+// A rolling shutter's line delay estimated from the images (docs/rgbd.md, "Rolling shutter"):
+// the odometry run again and again, each run's line delay moved by what its registered pairs
+// say is left of it (pipeline.odometry.gather_line_delay_evidence), until that is within a
+// quarter of its standard error, or 1 us, of 0: the delay at which the pairs' evidence says
+// nothing is left (each run's estimate leans towards the delay it ran with, so one run's is
+// not the answer). Starts from options.pipeline.odometry.line_delay_us.
+struct LineDelayCalibration {
+  double line_delay_us = 0.0;
+  double standard_error_us = 0.0;  // the last run's jackknife
+  std::vector<std::string> runs;   // one line per run
+  OfflineSummary summary;          // the last run's, at line_delay_us
+};
+// Errors: those of runOffline; a run without an estimate (the camera did not turn, or too few
+// frames registered); no settled delay after max_runs runs.
+Expected<LineDelayCalibration> calibrateLineDelay(const std::filesystem::path& log,
+                                                  OfflineOptions options, int max_runs = 12);
 
 // Per-frame statistics as CSV (a header line, one line per frame), written atomically.
 Status writeFrameStatsCsv(const std::vector<FrameStats>& frames, const std::filesystem::path& file);

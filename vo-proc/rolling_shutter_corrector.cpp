@@ -1,0 +1,71 @@
+#include "vo-proc/rolling_shutter_corrector.h"
+
+#include <cmath>
+#include <utility>
+
+#include "core/camera/rolling_shutter.h"
+#include "core/features/image_pyramid.h"
+
+namespace evermap::vo {
+
+Expected<RollingShutterCorrector> RollingShutterCorrector::create(
+    double line_delay_us, bool gather_evidence, const LineDelayEvidenceOptions& options) {
+  if (!(std::isfinite(line_delay_us) && line_delay_us >= 0.0)) {
+    return makeError("rolling shutter: line delay ", line_delay_us,
+                     " us is negative or not finite");
+  }
+  RollingShutterCorrector c;
+  c.line_delay_us_ = line_delay_us;
+  if (gather_evidence) {
+    std::vector<double> grid_us;
+    for (double us = options.grid_min_us; us <= options.grid_max_us + 1e-9;
+         us += options.grid_step_us) {
+      grid_us.push_back(us);
+      c.grid_s_.push_back(us * 1e-6);
+    }
+    c.evidence_.emplace(std::move(grid_us), options.evidence);
+    c.max_points_per_pair_ = options.max_points_per_pair;
+    c.solve_ = options.solve;
+  }
+  return c;
+}
+
+void RollingShutterCorrector::correctFrame(const core::StereoCamera& camera,
+                                           const core::SE3d& prev_T_cur, int64_t dt_us,
+                                           core::FeatureFrame* frame) const {
+  frame->omega = dt_us > 0 ? Eigen::Vector3d(prev_T_cur.so3().log() / (1e-6 * double(dt_us)))
+                           : Eigen::Vector3d::Zero();
+  if (line_delay_us_ == 0.0) return;
+  for (core::StereoFeature& f : frame->features) {
+    const Eigen::Vector3d uvd(f.uv.x(), f.uv.y(), f.disparity);
+    const auto moved = core::toMiddleRow(camera, uvd, frame->omega, line_delay_us_ * 1e-6);
+    if (!moved) continue;  // a point the turn would put behind the camera: left as measured
+    const auto p = camera.backProject(*moved);
+    if (!p) continue;
+    f.uv = moved->head<2>().cast<float>();
+    f.disparity = static_cast<float>(moved->z());
+    f.point = *p;
+  }
+}
+
+Eigen::Vector2f RollingShutterCorrector::corrected(const core::StereoFeature& f,
+                                                   const Eigen::Vector2f& uv) const {
+  if (line_delay_us_ == 0.0) return uv;
+  const float s = core::ImagePyramid::scale(f.keypoint.level);
+  return f.uv + (uv - Eigen::Vector2f(f.keypoint.u * s, f.keypoint.v * s));
+}
+
+void RollingShutterCorrector::addPair(const core::StereoCamera& camera,
+                                      const core::StereoMatchPair& pair, int64_t group) {
+  if (!evidence_ || pair.uvd_a.empty() || pair.uvd_a.size() != pair.uvd_b.size()) return;
+  evidence_->add(core::pairLineDelayCurve(camera, core::subsampledPair(pair, max_points_per_pair_),
+                                          grid_s_, solve_),
+                 group);
+}
+
+std::optional<core::CurveEstimate> RollingShutterCorrector::leftOver() const {
+  if (!evidence_) return std::nullopt;
+  return evidence_->estimate();
+}
+
+}  // namespace evermap::vo
