@@ -16,6 +16,7 @@
 #include "core/common/atomic_write.h"
 #include "core/common/command_line.h"
 #include "core/common/key_value_file.h"
+#include "core/common/option_fields.h"
 #include "mapper-proc/mapper_config.h"
 #include "tools/eval/alignment.h"
 #include "tools/eval/plot.h"
@@ -139,8 +140,10 @@ int parseCommandLine(int argc, char** argv, SlamArgs* a) {
             "the truth with MAPDIR/nodes.csv when there is one (docs/localization.md)");
   cli.flag("--full-graph", &a->full_graph,
            "a node at every step (the paper's baseline) instead of the reduced graph");
-  cli.value("--config", &a->config, "MAPPER.conf", "mapper.* settings (docs/mapper.md)");
-  cli.repeated("--set", &a->sets, "mapper.KEY=VALUE", "override one mapper.* setting");
+  cli.value("--config", &a->config, "MAPPER.conf",
+            "mapper.* settings (docs/mapper.md), and vo.* ones (vo-proc's: evermap-vo-proc "
+            "--print-config; e.g. vo.odometry.line_delay_us, docs/rgbd.md)");
+  cli.repeated("--set", &a->sets, "mapper.KEY=VALUE", "override one mapper.* or vo.* setting");
   cli.value("--max-session-s", &a->options.max_session_s, "S",
             "map at most S seconds of each log (0: all)")
       .min(0);
@@ -195,7 +198,8 @@ int loadRender(SlamArgs* a, std::optional<evermap::sim::ImageSimOptions>* render
   return -1;
 }
 
-// The mapper's options from --config and --set (mapper.* keys); -1, else the exit status.
+// The mapper's and VO's options from --config and --set (mapper.* and vo.* keys); -1, else the
+// exit status.
 int loadMapperOptions(SlamArgs* a) {
   using namespace evermap;
   auto settings =
@@ -204,6 +208,10 @@ int loadMapperOptions(SlamArgs* a) {
     if (Status s = settings->setAll(a->sets, "--set"); !s) settings = s.error();
   }
   if (!settings) return fail(settings.error().message, 2);
+  const KeyValueFile vo = settings->extract("vo.");
+  if (Status s = OptionList::of(&a->options.vo, "vo.").load(vo); !s)
+    return fail(s.error().message, 2);
+  if (Status s = a->options.vo.validate(); !s) return fail(s.error().message, 2);
   if (Status s = mapper::readMapperOptions(*settings, &a->options.mapper); !s)
     return fail(s.error().message, 2);
   a->options.mapper.full_graph = a->full_graph;
