@@ -82,9 +82,9 @@ TEST(DisparityOffsetTracker, AStartWithFewReferenceFramesKeepsItsEvidenceUntilIt
   const DisparityOffsetState& s = tracker->state();
   std::printf("%s\n", s.message.c_str());
   EXPECT_EQ(s.decision, OffsetDecision::kApply) << s.message;
-  EXPECT_NEAR(s.offset_px, kOffsetPx, 0.1) << s.message;
-  EXPECT_EQ(s.groups_used, 8);
-  EXPECT_LE(s.pairs_used, 150);
+  EXPECT_NEAR(s.estimate.value, kOffsetPx, 0.1) << s.message;
+  EXPECT_EQ(s.estimate.groups_used, 8);
+  EXPECT_LE(s.estimate.pairs_used, 150);
 }
 
 TEST(DisparityOffsetTracker, OneReferenceFrameNeverDecidesAndKeepsOnlyItsLatestPairs) {
@@ -97,9 +97,9 @@ TEST(DisparityOffsetTracker, OneReferenceFrameNeverDecidesAndKeepsOnlyItsLatestP
   for (const StereoMatchPair& pair : maker.group(100)) tracker->add(pair, 0);
   const DisparityOffsetState& s = tracker->state();
   EXPECT_EQ(s.decision, OffsetDecision::kPending) << s.message;
-  EXPECT_EQ(s.pairs_examined, 100);
-  EXPECT_LE(s.pairs_used + s.pairs_left_out, 30);
-  EXPECT_EQ(s.groups_used, 1);
+  EXPECT_EQ(s.estimate.pairs_examined, 100);
+  EXPECT_LE(s.estimate.pairs_used + s.estimate.pairs_left_out, 30);
+  EXPECT_EQ(s.estimate.groups_used, 1);
 }
 
 }  // namespace

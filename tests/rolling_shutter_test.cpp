@@ -92,15 +92,21 @@ StereoMatchPair rollingPair(const StereoCamera& camera, double line_delay_s, con
   return pair;
 }
 
+// Evidence over candidate delays -40 .. 100 us by 5 us (*grid_s: the same in seconds).
+CurveEvidence lineDelayEvidence(std::vector<double>* grid_s) {
+  std::vector<double> grid_us;
+  for (double us = -40.0; us <= 100.0; us += 5.0) {
+    grid_us.push_back(us);
+    grid_s->push_back(us * 1e-6);
+  }
+  return CurveEvidence(grid_us, CurveEvidenceOptions{20.0, 5, 100, 3.0, 10.0});
+}
+
 // The delay the summed curves of 10 pairs (different turns) put their least cost at.
 double estimatedDelayUs(double true_delay_s, double turn_scale) {
   const StereoCamera camera = kinectLike();
-  std::vector<double> grid_us, grid_s;
-  for (double us = -40.0; us <= 100.0; us += 5.0) {
-    grid_us.push_back(us);
-    grid_s.push_back(us * 1e-6);
-  }
-  CurveEvidence evidence(grid_us, CurveEvidenceOptions{20.0, 5, 100, 3.0, 10.0});
+  std::vector<double> grid_s;
+  CurveEvidence evidence = lineDelayEvidence(&grid_s);
   for (unsigned k = 0; k < 10; ++k) {
     const double s = turn_scale * (k % 2 == 0 ? 1.0 : -1.0);
     const Vec3 omega_a = s * Vec3(0.3, 1.2 + 0.1 * k, 0.2);
@@ -129,12 +135,8 @@ TEST(RollingShutterEvidence, AGlobalShutterIsFoundToHaveNone) {
 
 TEST(RollingShutterEvidence, ACameraThatDoesNotTurnGivesNoEvidence) {
   const StereoCamera camera = kinectLike();
-  std::vector<double> grid_us, grid_s;
-  for (double us = -40.0; us <= 100.0; us += 5.0) {
-    grid_us.push_back(us);
-    grid_s.push_back(us * 1e-6);
-  }
-  CurveEvidence evidence(grid_us, CurveEvidenceOptions{20.0, 5, 100, 3.0, 10.0});
+  std::vector<double> grid_s;
+  CurveEvidence evidence = lineDelayEvidence(&grid_s);
   for (unsigned k = 0; k < 10; ++k) {
     const SE3d a_T_b(SO3d(), Vec3(0.05, 0.0, 0.02 * k));
     evidence.add(pairLineDelayCurve(

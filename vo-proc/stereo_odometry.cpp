@@ -137,7 +137,7 @@ void StereoOdometry::selfCalibrate(const core::StereoMatchPair& pair, int64_t gr
   if (state.decision == core::OffsetDecision::kPending) return;
   r->calibration_message = state.message;
   if (state.decision == core::OffsetDecision::kApply) {
-    applyDisparityOffset(state.offset_px);
+    applyDisparityOffset(state.estimate.value);
     r->calibration_changed = true;
     r->disparity_offset_px = camera_.disparityOffsetPx();
   }

@@ -75,14 +75,8 @@ const DisparityOffsetState& DisparityOffsetTracker::add(const StereoMatchPair& p
   evidence_.add(pairCostCurve(camera_, subsampledPair(pair, options_.max_points_per_pair),
                               evidence_.grid(), options_.estimate),
                 group);
-  const CurveEstimate& e = evidence_.estimate();
-  state_.pairs_examined = e.pairs_examined;
-  state_.pairs_used = e.pairs_used;
-  state_.groups_used = e.groups_used;
-  state_.pairs_left_out = e.pairs_left_out;
-  state_.offset_px = e.value;
-  state_.standard_error_px = e.standard_error;
-  if (!e.message.empty()) state_.message = e.message;
+  state_.estimate = evidence_.estimate();
+  if (!state_.estimate.message.empty()) state_.message = state_.estimate.message;
   decide();
   return state_;
 }
@@ -90,10 +84,11 @@ const DisparityOffsetState& DisparityOffsetTracker::add(const StereoMatchPair& p
 void DisparityOffsetTracker::decide() {
   DisparityOffsetState& s = state_;
   if (!evidence_.converged(options_.max_standard_error_px)) return;
-  const double total = camera_.disparityOffsetPx() + s.offset_px;
-  const double size = std::abs(s.offset_px);
+  const CurveEstimate& e = s.estimate;
+  const double total = camera_.disparityOffsetPx() + e.value;
+  const double size = std::abs(e.value);
   const bool significant =
-      size >= options_.min_offset_px && size >= options_.significance * s.standard_error_px;
+      size >= options_.min_offset_px && size >= options_.significance * e.standard_error;
   s.decision = significant && std::abs(total) <= options_.max_total_offset_px
                    ? OffsetDecision::kApply
                    : OffsetDecision::kKeep;
@@ -101,8 +96,8 @@ void DisparityOffsetTracker::decide() {
   std::snprintf(line, sizeof(line),
                 "disparity offset %+.3f px +- %.3f (jackknife) on %+.3f from %d pairs of %d frames "
                 "(%d examined, %d left out): %s%s",
-                s.offset_px, s.standard_error_px, camera_.disparityOffsetPx(), s.pairs_used,
-                s.groups_used, s.pairs_examined, s.pairs_left_out, toString(s.decision),
+                e.value, e.standard_error, camera_.disparityOffsetPx(), e.pairs_used, e.groups_used,
+                e.pairs_examined, e.pairs_left_out, toString(s.decision),
                 s.decision == OffsetDecision::kApply ? "" : " (the calibration stays)");
   s.message = line;
   if (s.decision == OffsetDecision::kKeep && std::abs(total) > options_.max_total_offset_px) {

@@ -90,12 +90,7 @@ const char* toString(OffsetDecision decision);
 
 struct DisparityOffsetState {
   OffsetDecision decision = OffsetDecision::kPending;
-  double offset_px = 0.0;  // the estimate (0 until min_pairs pairs are used)
-  double standard_error_px = std::numeric_limits<double>::infinity();
-  int pairs_examined = 0;
-  int pairs_used = 0;
-  int groups_used = 0;
-  int pairs_left_out = 0;  // outliers among the informative ones
+  CurveEstimate estimate;  // the offset in pixels (0 until min_pairs pairs are used)
   std::string message;     // one line
 };
 
