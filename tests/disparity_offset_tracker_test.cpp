@@ -90,7 +90,7 @@ TEST(DisparityOffsetTracker, AStartWithFewReferenceFramesKeepsItsEvidenceUntilIt
 TEST(DisparityOffsetTracker, OneReferenceFrameNeverDecidesAndKeepsOnlyItsLatestPairs) {
   // A hovering camera keeps its reference: its pairs all share that frame's errors.
   DisparityOffsetTrackerOptions options;
-  options.max_pairs = 30;
+  options.evidence.max_pairs = 30;
   auto tracker = DisparityOffsetTracker::create(kittiLikeCamera(), options);
   ASSERT_TRUE(tracker.ok());
   GroupMaker maker(5);

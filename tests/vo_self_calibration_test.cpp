@@ -100,10 +100,10 @@ TEST(SelfCalibration, IsOffWhenAskedAndRefusesBadOptions) {
   ASSERT_TRUE(odometry.ok());
   EXPECT_FALSE(odometry->selfCalibration().has_value());
   OdometryOptions bad;
-  bad.self_calibration.min_pairs = 2;
+  bad.self_calibration.evidence.min_groups = 2;
   EXPECT_FALSE(StereoOdometry::create(testing::syntheticCamera(), bad).ok());
   bad = OdometryOptions{};
-  bad.self_calibration.max_pairs = 4;  // below min_pairs
+  bad.self_calibration.evidence.max_pairs = 4;  // below min_pairs
   EXPECT_FALSE(StereoOdometry::create(testing::syntheticCamera(), bad).ok());
 }
 

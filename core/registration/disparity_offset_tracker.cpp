@@ -30,9 +30,9 @@ DisparityOffsetOptions DisparityOffsetTrackerOptions::defaultEstimate() {
 
 Status DisparityOffsetTrackerOptions::validate() const {
   if (Status s = checkOptionRanges(*this); !s) return s;
-  if (max_pairs < min_pairs) {
-    return makeError("disparity offset tracker: max_pairs ", max_pairs, " is below min_pairs ",
-                     min_pairs);
+  if (evidence.max_pairs < evidence.min_groups) {
+    return makeError("disparity offset tracker: max_pairs ", evidence.max_pairs,
+                     " is below min_pairs ", evidence.min_groups);
   }
   return estimate.validate();
 }
@@ -43,25 +43,9 @@ Expected<DisparityOffsetTracker> DisparityOffsetTracker::create(
   return DisparityOffsetTracker(camera, options);
 }
 
-namespace {
-
-CurveEvidenceOptions evidenceOptions(const DisparityOffsetTrackerOptions& o) {
-  CurveEvidenceOptions e;
-  e.max_pair_sigma = o.max_pair_sigma_px;
-  e.min_groups = o.min_pairs;
-  e.max_pairs = o.max_pairs;
-  e.outlier_mads = o.outlier_mads;
-  e.min_outlier_distance = o.min_outlier_distance_px;
-  return e;
-}
-
-}  // namespace
-
 DisparityOffsetTracker::DisparityOffsetTracker(const StereoCamera& camera,
                                                const DisparityOffsetTrackerOptions& options)
-    : camera_(camera),
-      options_(options),
-      evidence_(options.estimate.grid(), evidenceOptions(options)) {}
+    : camera_(camera), options_(options), evidence_(options.estimate.grid(), options.evidence) {}
 
 void DisparityOffsetTracker::restart(const StereoCamera& camera) {
   camera_ = camera;

@@ -8,16 +8,14 @@
 // Each pair added gives its own cost curve over a grid of candidate offsets (pairCostCurve), and
 // the evidence is judged as curve_evidence.h says (flat curves and outliers not used, a
 // jackknife over reference frames for the standard error). It has converged when pairs of at
-// least min_pairs groups are used and the standard error is at most max_standard_error_px.
-// Then it is applied (kApply) only when it is at least min_offset_px and significance standard
-// errors from 0, and the camera's offset stays within max_total_offset_px; otherwise the
-// calibration is kept (kKeep): a well-calibrated rig stays at 0. The grid (around the camera's
-// offset) bounds one round's step.
-// The caller starts the next round (restart) after kApply; after kKeep the tracker stays
-// decided (StereoOdometry stops there: every further round would be another chance of a false
-// alarm on a right rig).
-// "Measured" is what the pairs carry: with a camera that already has an offset, the estimate
-// is what is left over.
+// least min_pairs groups (evidence.min_groups) are used and the standard error is at most
+// max_standard_error_px. Then it is applied (kApply) only when it is at least min_offset_px and
+// significance standard errors from 0, and the camera's offset stays within max_total_offset_px;
+// otherwise the calibration is kept (kKeep): a well-calibrated rig stays at 0. The grid (around the
+// camera's offset) bounds one round's step. The caller starts the next round (restart) after
+// kApply; after kKeep the tracker stays decided (StereoOdometry stops there: every further round
+// would be another chance of a false alarm on a right rig). "Measured" is what the pairs carry:
+// with a camera that already has an offset, the estimate is what is left over.
 
 #include <cstdint>
 #include <limits>
@@ -36,18 +34,14 @@ struct DisparityOffsetTrackerOptions {
   DisparityOffsetOptions estimate = defaultEstimate();
   // A pair's inliers beyond this many are subsampled evenly (the cost of a curve).
   int max_points_per_pair = 100;
-  // A pair is evidence when its own curve's curvature at its minimum gives a standard
-  // deviation of at most this (pixels, under the nominal noise).
-  double max_pair_sigma_px = 1.0;
-  int min_pairs = 8;    // of as many groups (reference frames)
-  int max_pairs = 150;  // informative pairs kept (the latest)
+  // How the pairs' curves are judged (curve_evidence.h; in pixels): max_pair_sigma 1 px,
+  // min_groups 8 reference frames, max_pairs 150, outliers beyond 3 MADs and 0.5 px.
+  CurveEvidenceOptions evidence;
   double max_standard_error_px = 0.08;
   double min_offset_px = 0.15;
   // The camera's offset is never moved beyond this (pixels, either sign).
   double max_total_offset_px = 3.0;
   double significance = 4.0;  // standard errors
-  double outlier_mads = 3.0;
-  double min_outlier_distance_px = 0.5;
 
   static DisparityOffsetOptions defaultEstimate();
   Status validate() const;
@@ -55,13 +49,14 @@ struct DisparityOffsetTrackerOptions {
     o.add("max_points_per_pair", &max_points_per_pair, "points",
           "a registered pair's inliers beyond this are subsampled")
         .min(10);
-    o.add("max_pair_sigma_px", &max_pair_sigma_px, "px",
+    o.add("max_pair_sigma_px", &evidence.max_pair_sigma, "px",
           "a pair whose own curve is flatter than this is not evidence")
         .positive();
-    o.add("min_pairs", &min_pairs, "pairs",
+    o.add("min_pairs", &evidence.min_groups, "pairs",
           "pairs of at least this many reference frames to decide")
         .min(3);
-    o.add("max_pairs", &max_pairs, "pairs", "a round keeps the last this many informative pairs")
+    o.add("max_pairs", &evidence.max_pairs, "pairs",
+          "a round keeps the last this many informative pairs")
         .min(1);
     o.add("max_standard_error_px", &max_standard_error_px, "px",
           "converged when the jackknife standard error is at most this")
@@ -74,10 +69,11 @@ struct DisparityOffsetTrackerOptions {
     o.add("max_total_offset_px", &max_total_offset_px, "px",
           "the camera's offset is never moved beyond this")
         .nonNegative();
-    o.add("outlier_mads", &outlier_mads, "MADs",
+    o.add("outlier_mads", &evidence.outlier_mads, "MADs",
           "a pair's own minimum this far from the median's is left out ...")
         .positive();
-    o.add("min_outlier_distance_px", &min_outlier_distance_px, "px", "... and at least this far")
+    o.add("min_outlier_distance_px", &evidence.min_outlier_distance, "px",
+          "... and at least this far")
         .nonNegative();
     o.add("grid_min_px", &estimate.min_offset_px, "px", "smallest offset considered").any();
     o.add("grid_max_px", &estimate.max_offset_px, "px", "largest offset considered").any();
@@ -90,7 +86,7 @@ const char* toString(OffsetDecision decision);
 
 struct DisparityOffsetState {
   OffsetDecision decision = OffsetDecision::kPending;
-  CurveEstimate estimate;  // the offset in pixels (0 until min_pairs pairs are used)
+  CurveEstimate estimate;  // the offset in pixels (0 until pairs of min_groups frames are used)
   std::string message;     // one line
 };
 
