@@ -17,6 +17,10 @@ Expected<RollingShutterCorrector> RollingShutterCorrector::create(
   RollingShutterCorrector c;
   c.line_delay_us_ = line_delay_us;
   if (gather_evidence) {
+    if (!(options.grid_step_us > 0.0 && options.grid_min_us < options.grid_max_us)) {
+      return makeError("rolling shutter: the line delay's grid [", options.grid_min_us, ", ",
+                       options.grid_max_us, "] us by ", options.grid_step_us, " is empty");
+    }
     std::vector<double> grid_us;
     for (double us = options.grid_min_us; us <= options.grid_max_us + 1e-9;
          us += options.grid_step_us) {
@@ -39,7 +43,8 @@ void RollingShutterCorrector::correctFrame(const core::StereoCamera& camera,
   for (core::StereoFeature& f : frame->features) {
     const Eigen::Vector3d uvd(f.uv.x(), f.uv.y(), f.disparity);
     const auto moved = core::toMiddleRow(camera, uvd, frame->omega, line_delay_us_ * 1e-6);
-    if (!moved) continue;  // a point the turn would put behind the camera: left as measured
+    // A point the turn would put behind the camera or out of the image: left as measured.
+    if (!moved || !camera.inImage(moved->x(), moved->y())) continue;
     const auto p = camera.backProject(*moved);
     if (!p) continue;
     f.uv = moved->head<2>().cast<float>();

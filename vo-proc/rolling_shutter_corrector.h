@@ -46,14 +46,14 @@ struct LineDelayEvidenceOptions {
 class RollingShutterCorrector {
  public:
   RollingShutterCorrector() = default;  // a global shutter: changes nothing
-  // Refuses a delay that is negative or not finite.
+  // Refuses a delay that is negative or not finite, and an empty grid.
   static Expected<RollingShutterCorrector> create(double line_delay_us, bool gather_evidence,
                                                   const LineDelayEvidenceOptions& options = {});
 
-  double lineDelayUs() const { return line_delay_us_; }
   bool wantsPairs() const { return evidence_.has_value(); }
 
-  // Sets frame->omega, the angular velocity of prev_T_cur over dt_us, and corrects its features.
+  // Sets frame->omega, the angular velocity of prev_T_cur over dt_us, and corrects its features
+  // (a feature the correction would move out of the image stays as measured).
   void correctFrame(const core::StereoCamera& camera, const core::SE3d& prev_T_cur, int64_t dt_us,
                     core::FeatureFrame* frame) const;
   // A position `uv` refined in a frame's image near its feature `f`: where it is once corrected

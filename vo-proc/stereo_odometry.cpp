@@ -88,6 +88,7 @@ std::string OdometryOptions::describe() const {
     << (retry_previous_frame ? "on" : "off") << ", bridge breaks " << (bridge_breaks ? "on" : "off")
     << " (" << bridge.translation_sigma_m << " m, " << bridge.rotation_sigma_rad << " rad + "
     << bridge.velocity_fraction << " of the motion per frame)";
+  if (line_delay_us > 0.0) s << ", rolling shutter " << line_delay_us << " us per row";
   return s.str();
 }
 

@@ -9,8 +9,9 @@
 // global-shutter one for everything downstream (registration, keyframes, loop closure).
 //
 // The correction is the rotation alone: the camera's translation during a readout (a few
-// millimetres at walking speed) is left out, and so is the row's own shift under the
-// correction (second order). With omega = 0 or line_delay_s = 0 it is the identity.
+// millimetres at walking speed) is left out. The row a feature is seen at is the row it was
+// exposed at, so with the right omega and delay the correction is exact. With omega = 0 or
+// line_delay_s = 0 it is the identity.
 
 #include <optional>
 

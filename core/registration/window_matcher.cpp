@@ -32,14 +32,20 @@ std::vector<WindowMatch> matchInWindow(const StereoCamera& camera, const Feature
                                        const WindowMatchOptions& options) {
   const auto& rf = ref.features;
   const auto& cf = cur.features;
-  // Current features sorted by (level, v): the candidates of a window are a contiguous run
-  // of rows of one level.
+  // A current feature's position in its level's pixels, as the frame's features have it (a
+  // rolling shutter's correction applied: where the prediction puts it), and the current
+  // features sorted by (level, v): the candidates of a window are a contiguous run of rows of
+  // one level.
+  auto at = [&](int idx) -> Eigen::Vector2f {
+    const StereoFeature& c = cf[static_cast<size_t>(idx)];
+    return c.uv / ImagePyramid::scale(c.keypoint.level);
+  };
   std::vector<int> order(cf.size());
   std::iota(order.begin(), order.end(), 0);
   std::sort(order.begin(), order.end(), [&](int a, int b) {
-    const Keypoint& ka = cf[static_cast<size_t>(a)].keypoint;
-    const Keypoint& kb = cf[static_cast<size_t>(b)].keypoint;
-    return ka.level != kb.level ? ka.level < kb.level : ka.v < kb.v;
+    const int la = cf[static_cast<size_t>(a)].keypoint.level;
+    const int lb = cf[static_cast<size_t>(b)].keypoint.level;
+    return la != lb ? la < lb : at(a).y() < at(b).y();
   });
   const int max_sad = static_cast<int>(options.max_mean_abs_diff * kPatchBytes);
   std::vector<int> best_cur(rf.size(), -1);
@@ -56,14 +62,15 @@ std::vector<WindowMatch> matchInWindow(const StereoCamera& camera, const Feature
     const float pu = static_cast<float>(uvd->x()) / s, pv = static_cast<float>(uvd->y()) / s;
     // First current feature of this level with v >= pv - radius.
     auto first = std::lower_bound(order.begin(), order.end(), 0, [&](int idx, int) {
-      const Keypoint& k = cf[static_cast<size_t>(idx)].keypoint;
-      return k.level != level ? k.level < level : k.v < pv - radius;
+      const int l = cf[static_cast<size_t>(idx)].keypoint.level;
+      return l != level ? l < level : at(idx).y() < pv - radius;
     });
     int best = -1, best_sad = max_sad + 1;
     for (auto it = first; it != order.end(); ++it) {
       const StereoFeature& c = cf[static_cast<size_t>(*it)];
-      if (c.keypoint.level != level || c.keypoint.v > pv + radius) break;
-      if (std::abs(c.keypoint.u - pu) > radius) continue;
+      const Eigen::Vector2f c_at = at(*it);
+      if (c.keypoint.level != level || c_at.y() > pv + radius) break;
+      if (std::abs(c_at.x() - pu) > radius) continue;
       const int sad = patchSad(f.patch, c.patch);
       if (sad < best_sad) {
         best_sad = sad;
@@ -87,7 +94,8 @@ std::vector<WindowMatch> matchInWindow(const StereoCamera& camera, const Feature
     if (options.mutual && best_ref[static_cast<size_t>(j)] != static_cast<int>(i)) continue;
     const StereoFeature& f = rf[i];
     const StereoFeature& c = cf[static_cast<size_t>(j)];
-    WindowMatch m{static_cast<int>(i), j, c.uv};
+    const float s = ImagePyramid::scale(c.keypoint.level);
+    WindowMatch m{static_cast<int>(i), j, Eigen::Vector2f(c.keypoint.u * s, c.keypoint.v * s)};
     if (options.subpixel) {
       const int level = f.keypoint.level;
       const auto p = alignPatch(ref.left.level(level), static_cast<int>(f.keypoint.u),

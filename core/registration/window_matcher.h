@@ -35,9 +35,11 @@ struct WindowMatchOptions {
 };
 
 struct WindowMatch {
-  int ref = 0;         // index into ref.features
-  int cur = 0;         // index into cur.features
-  Eigen::Vector2f uv;  // the current feature, level-0 pixels (sub-pixel when refined)
+  int ref = 0;  // index into ref.features
+  int cur = 0;  // index into cur.features
+  // The current feature in its image, level-0 pixels: sub-pixel when refined, else its corner
+  // (as detected: before any correction of the frame's features, rolling_shutter_corrector.h).
+  Eigen::Vector2f uv;
 };
 
 // `cur_T_ref` maps points of the reference camera into the current one (the prediction).
