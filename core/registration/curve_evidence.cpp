@@ -21,11 +21,19 @@ void CurveEvidence::clear() {
   curves_.clear();
   minima_.clear();
   groups_.clear();
+  pairs_examined_ = 0;
+  stale_ = false;
   estimate_ = CurveEstimate{};
 }
 
+const CurveEstimate& CurveEvidence::estimate() const {
+  if (stale_) update();
+  return estimate_;
+}
+
 void CurveEvidence::add(std::vector<double> costs, int64_t group) {
-  ++estimate_.pairs_examined;
+  ++pairs_examined_;
+  stale_ = true;
   const Expected<double> own = leastCostOffset(grid_, costs);
   if (own && grid_.size() >= 2) {
     // Its curvature at the minimum: the information of this pair alone.
@@ -47,11 +55,18 @@ void CurveEvidence::add(std::vector<double> costs, int64_t group) {
       }
     }
   }
-  update();
 }
 
-void CurveEvidence::update() {
+void CurveEvidence::update() const {
+  stale_ = false;
+  // No estimate unless this update makes one (value 0, standard error infinite); the message
+  // stays, as the last reason there was none.
+  const std::string message = estimate_.message;
+  estimate_ = CurveEstimate{};
+  estimate_.message = message;
+  estimate_.pairs_examined = pairs_examined_;
   const size_t n = curves_.size();
+  estimate_.pairs_informative = static_cast<int>(n);
   if (n < static_cast<size_t>(options_.min_groups)) return;
   // Pairs whose own minimum is far from the others' are left out.
   const double mid = median(minima_);

@@ -39,6 +39,7 @@ struct CurveEstimate {
   double value = 0.0;  // 0 until pairs of min_groups groups are used
   double standard_error = std::numeric_limits<double>::infinity();
   int pairs_examined = 0;
+  int pairs_informative = 0;  // kept as evidence: not flat, a minimum inside the grid
   int pairs_used = 0;
   int groups_used = 0;
   int pairs_left_out = 0;  // outliers among the informative ones
@@ -52,18 +53,19 @@ class CurveEvidence {
       : grid_(std::move(grid)), options_(options) {}
 
   const std::vector<double>& grid() const { return grid_; }
-  // One pair's costs at the grid's candidates, of `group`; the estimate is updated.
+  // One pair's costs at the grid's candidates, of `group`.
   void add(std::vector<double> costs, int64_t group);
   void clear();
-  const CurveEstimate& estimate() const { return estimate_; }
+  // The estimate from the pairs so far (computed when asked after a change).
+  const CurveEstimate& estimate() const;
   // Pairs of min_groups groups used and a standard error of at most `max_standard_error`.
   bool converged(double max_standard_error) const {
-    return estimate_.groups_used >= options_.min_groups &&
-           estimate_.standard_error <= max_standard_error;
+    return estimate().groups_used >= options_.min_groups &&
+           estimate().standard_error <= max_standard_error;
   }
 
  private:
-  void update();
+  void update() const;
 
   std::vector<double> grid_;
   CurveEvidenceOptions options_;
@@ -71,7 +73,9 @@ class CurveEvidence {
   std::vector<std::vector<double>> curves_;
   std::vector<double> minima_;
   std::vector<int64_t> groups_;
-  CurveEstimate estimate_;
+  int pairs_examined_ = 0;
+  mutable bool stale_ = false;
+  mutable CurveEstimate estimate_;
 };
 
 }  // namespace evermap::core

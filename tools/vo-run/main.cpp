@@ -138,8 +138,6 @@ int parseCommandLine(int argc, char** argv, VoArgs* a) {
   return -1;
 }
 
-}  // namespace
-
 // The run the command line asks for: one, or the line delay's calibration (its runs printed).
 evermap::Expected<evermap::vo::OfflineSummary> run(const VoArgs& a) {
   if (!a.calibrate_line_delay) return evermap::vo::runOffline(a.positional[0], a.run.offline);
@@ -150,6 +148,8 @@ evermap::Expected<evermap::vo::OfflineSummary> run(const VoArgs& a) {
               calibration->line_delay_us, calibration->standard_error_us);
   return std::move(calibration->summary);
 }
+
+}  // namespace
 
 int main(int argc, char** argv) {
   VoArgs a;

@@ -212,8 +212,9 @@ Expected<LineDelayCalibration> calibrateLineDelay(const std::filesystem::path& l
     const std::optional<core::CurveEstimate>& left = summary->line_delay_left_over;
     if (!left || !std::isfinite(left->standard_error)) {
       return makeError(log.string(), ": line delay: no estimate at ", delay, " us per row (",
-                       left ? left->pairs_used : 0,
-                       " informative pairs; the camera must turn, and its frames register)");
+                       left ? left->pairs_informative : 0, " informative pairs of ",
+                       left ? left->pairs_examined : 0,
+                       "; the camera must turn, and its frames register)");
     }
     char line[200];
     std::snprintf(line, sizeof(line),
@@ -222,7 +223,9 @@ Expected<LineDelayCalibration> calibrateLineDelay(const std::filesystem::path& l
                   run, delay, left->value, left->standard_error, left->pairs_used,
                   left->groups_used, left->pairs_examined);
     calibration.runs.push_back(line);
-    if (std::abs(left->value) <= std::max(0.25 * left->standard_error, 1.0)) {
+    // Settled: nothing significant left, or only a negative delay would take it.
+    const double next = std::max(0.0, delay + left->value);
+    if (std::abs(left->value) <= std::max(0.25 * left->standard_error, 1.0) || next == delay) {
       calibration.line_delay_us = delay;
       calibration.standard_error_us = left->standard_error;
       calibration.summary = std::move(*summary);
@@ -232,7 +235,7 @@ Expected<LineDelayCalibration> calibrateLineDelay(const std::filesystem::path& l
       return makeError(log.string(), ": line delay: not settled after ", max_runs, " runs (", delay,
                        " us per row, ", left->value, " us left)");
     }
-    delay = std::max(0.0, delay + left->value);
+    delay = next;
   }
 }
 

@@ -82,9 +82,10 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
 // A rolling shutter's line delay estimated from the images (docs/rgbd.md, "Rolling shutter"):
 // the odometry run again and again, each run's line delay moved by what its registered pairs
 // say is left of it (pipeline.odometry.gather_line_delay_evidence), until that is within a
-// quarter of its standard error, or 1 us, of 0: the delay at which the pairs' evidence says
-// nothing is left (each run's estimate leans towards the delay it ran with, so one run's is
-// not the answer). Starts from options.pipeline.odometry.line_delay_us.
+// quarter of its standard error, or 1 us, of 0 (or only a negative delay would take it): the
+// delay at which the pairs' evidence says nothing is left (each run's estimate leans towards the
+// delay it ran with, so one run's is not the answer). Starts from
+// options.pipeline.odometry.line_delay_us.
 struct LineDelayCalibration {
   double line_delay_us = 0.0;
   double standard_error_us = 0.0;  // the last run's jackknife
