@@ -110,8 +110,8 @@ TEST(VoTumRgbd, TheFastMotionRetryIsWhatKeepsTheFastestFrames) {
 // alone (calibrateLineDelay: the registered pairs' evidence, run again until nothing is left),
 // is a physical one (a readout of 480 rows within the 33 ms frame period: at most 69 us per
 // row), and the odometry corrected with it is far more accurate than without it. Measured when
-// written (docs/results/rgbd.md): 27.5 +- 3.8 us per row after 4 runs, ATE 0.080 -> 0.032 m,
-// RPE over 30 frames 0.074 -> 0.034 m and 3.3 -> 2.0 deg, 150 of 150 tracked; the bounds are
+// written (docs/results/rgbd.md): 28.3 +- 3.9 us per row after 5 runs, ATE 0.080 -> 0.031 m,
+// RPE over 30 frames 0.074 -> 0.033 m and 3.3 -> 1.95 deg, 150 of 150 tracked; the bounds are
 // about 1.25x (ATE, RPE).
 TEST(VoTumRgbd, TheRollingShuttersLineDelayCalibratedFromTheImagesHalvesTheError) {
   EVERMAP_REQUIRE_DATA(dir, "tum-rgbd-fr1-rpy");

@@ -165,7 +165,7 @@ int parseCommandLine(int argc, char** argv, SlamArgs* a) {
             "with --render: sessions 0 .. N-1 (default: patrol.sessions)")
       .min(1);
   cli.flag("--print-config", &a->print_config,
-           "print the mapper's settings in effect (and the --render file's) and exit");
+           "print the mapper's and VO's settings in effect (and the --render file's) and exit");
   cli.positional(&a->logs, "LOG...", "LCM logs, mapped as successive sessions");
   // The keys --config and --set take, listed in --help.
   evermap::mapper::MapperOptions listed;
@@ -344,7 +344,9 @@ int main(int argc, char** argv) {
   if (a.options.start_session_s > 0.0 && a.localize.empty())
     return fail("--start-s is for --localize (a map is built from a session's start)", 2);
   if (a.print_config) {
-    std::printf("%s%s", evermap::mapper::printMapperOptions(a.options.mapper).c_str(),
+    evermap::vo::PipelineOptions vo = a.options.vo;
+    std::printf("%s%s%s", evermap::mapper::printMapperOptions(a.options.mapper).c_str(),
+                evermap::OptionList::of(&vo, "vo.").print().c_str(),
                 render ? render->toConfigText().c_str() : "");
     return 0;
   }
