@@ -94,11 +94,8 @@ StereoMatchPair rollingPair(const StereoCamera& camera, double line_delay_s, con
 
 // Evidence over candidate delays -40 .. 100 us by 5 us (*grid_s: the same in seconds).
 CurveEvidence lineDelayEvidence(std::vector<double>* grid_s) {
-  std::vector<double> grid_us;
-  for (double us = -40.0; us <= 100.0; us += 5.0) {
-    grid_us.push_back(us);
-    grid_s->push_back(us * 1e-6);
-  }
+  const std::vector<double> grid_us = evenGrid(-40.0, 100.0, 5.0);
+  for (double us : grid_us) grid_s->push_back(us * 1e-6);
   return CurveEvidence(grid_us, CurveEvidenceOptions{20.0, 5, 100, 3.0, 10.0});
 }
 

@@ -4,7 +4,6 @@
 #include <utility>
 
 #include "core/camera/rolling_shutter.h"
-#include "core/features/image_pyramid.h"
 
 namespace evermap::vo {
 
@@ -21,12 +20,9 @@ Expected<RollingShutterCorrector> RollingShutterCorrector::create(
       return makeError("rolling shutter: the line delay's grid [", options.grid_min_us, ", ",
                        options.grid_max_us, "] us by ", options.grid_step_us, " is empty");
     }
-    std::vector<double> grid_us;
-    for (double us = options.grid_min_us; us <= options.grid_max_us + 1e-9;
-         us += options.grid_step_us) {
-      grid_us.push_back(us);
-      c.grid_s_.push_back(us * 1e-6);
-    }
+    std::vector<double> grid_us =
+        core::evenGrid(options.grid_min_us, options.grid_max_us, options.grid_step_us);
+    for (double us : grid_us) c.grid_s_.push_back(us * 1e-6);
     c.evidence_.emplace(std::move(grid_us), options.evidence);
     c.max_points_per_pair_ = options.max_points_per_pair;
     c.solve_ = options.solve;
@@ -56,8 +52,7 @@ void RollingShutterCorrector::correctFrame(const core::StereoCamera& camera,
 Eigen::Vector2f RollingShutterCorrector::corrected(const core::StereoFeature& f,
                                                    const Eigen::Vector2f& uv) const {
   if (line_delay_us_ == 0.0) return uv;
-  const float s = core::ImagePyramid::scale(f.keypoint.level);
-  return f.uv + (uv - Eigen::Vector2f(f.keypoint.u * s, f.keypoint.v * s));
+  return f.uv + (uv - f.cornerUv());
 }
 
 void RollingShutterCorrector::addPair(const core::StereoCamera& camera,

@@ -62,10 +62,9 @@ Status StereoFeatureExtractor::extractWith(const StereoCamera& camera, int64_t u
   for (const Keypoint& k : corners) {
     const float d = disparity(k);
     if (!std::isfinite(d)) continue;
-    const float s = ImagePyramid::scale(k.level);
     StereoFeature f;
     f.keypoint = k;
-    f.uv = Eigen::Vector2f(k.u * s, k.v * s);
+    f.uv = f.cornerUv();
     f.disparity = d;
     const auto p = camera.backProject(Eigen::Vector3d(f.uv.x(), f.uv.y(), d));
     if (!p) continue;

@@ -36,6 +36,13 @@ struct StereoFeature {
   float disparity = 0.0f;  // level-0 pixels, > 0: the camera model's (its offset applied)
   Eigen::Vector3d point;   // left camera frame, metres
   PatchDescriptor patch;   // at its level
+
+  // The corner in level-0 pixels as detected: uv until a correction moves the feature
+  // (a rolling shutter's, vo-proc/rolling_shutter_corrector.h), where the image has it.
+  Eigen::Vector2f cornerUv() const {
+    const float s = ImagePyramid::scale(keypoint.level);
+    return Eigen::Vector2f(keypoint.u * s, keypoint.v * s);
+  }
 };
 
 struct FeatureFrame {

@@ -110,11 +110,15 @@ StereoMatchPair matchPair(const KeyframeFeatures& a, const KeyframeFeatures& b,
   return pair;
 }
 
+std::vector<double> evenGrid(double min, double max, double step) {
+  const int steps = static_cast<int>(std::floor((max - min) / step + 1e-9));
+  std::vector<double> grid;
+  for (int s = 0; s <= steps; ++s) grid.push_back(min + s * step);
+  return grid;
+}
+
 std::vector<double> DisparityOffsetOptions::grid() const {
-  const int steps = static_cast<int>(std::floor((max_offset_px - min_offset_px) / step_px + 1e-9));
-  std::vector<double> offsets;
-  for (int s = 0; s <= steps; ++s) offsets.push_back(min_offset_px + s * step_px);
-  return offsets;
+  return evenGrid(min_offset_px, max_offset_px, step_px);
 }
 
 namespace {

@@ -62,9 +62,12 @@ struct DisparityOffsetOptions {
   int gauss_newton_iterations = 8;
 
   Status validate() const;
-  // The candidate offsets, min_offset_px + k step_px up to max_offset_px.
+  // The candidate offsets, min_offset_px + k step_px up to max_offset_px (evenGrid).
   std::vector<double> grid() const;
 };
+
+// min + k step for k = 0, 1, ... up to max (a candidate grid of a cost curve).
+std::vector<double> evenGrid(double min, double max, double step);
 
 struct DisparityOffsetSummary {
   double offset_px = 0.0;  // true disparity = measured + offset_px

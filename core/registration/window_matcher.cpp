@@ -94,8 +94,7 @@ std::vector<WindowMatch> matchInWindow(const StereoCamera& camera, const Feature
     if (options.mutual && best_ref[static_cast<size_t>(j)] != static_cast<int>(i)) continue;
     const StereoFeature& f = rf[i];
     const StereoFeature& c = cf[static_cast<size_t>(j)];
-    const float s = ImagePyramid::scale(c.keypoint.level);
-    WindowMatch m{static_cast<int>(i), j, Eigen::Vector2f(c.keypoint.u * s, c.keypoint.v * s)};
+    WindowMatch m{static_cast<int>(i), j, c.cornerUv()};
     if (options.subpixel) {
       const int level = f.keypoint.level;
       const auto p = alignPatch(ref.left.level(level), static_cast<int>(f.keypoint.u),
