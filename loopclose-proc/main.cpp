@@ -67,6 +67,7 @@ int main(int argc, char** argv) {
     return options.validate();
   });
   if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  cli.logChangedOptions();
   auto vocabulary = bow::loadAnyVocabulary(vocab_file);
   if (!vocabulary) {
     std::fprintf(stderr, "evermap-loopclose-proc: %s\n", vocabulary.error().message.c_str());

@@ -77,7 +77,9 @@ int parse(int argc, char** argv, Settings* s) {
     if (Status v = s->options.validate(); !v) return v;
     return s->node_options.validate();
   });
-  return cli.parseOrExit(argc, argv);
+  if (const int code = cli.parseOrExit(argc, argv); code >= 0) return code;
+  cli.logChangedOptions();
+  return -1;
 }
 
 // The store of --store (none without it); exit status 1 printed when it cannot be opened.

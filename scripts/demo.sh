@@ -102,7 +102,7 @@ for s in 0 1; do
 done
 for s in 0 1; do
   echo "   session $s: replayed at ${visual_speed}x (about $((visual_s / visual_speed + 15)) s); vo-proc, imu-proc, elevator-proc, loopclose-proc, mapper-proc under evermap-deputy"
-  EVERMAP_BIN="$bin" EVERMAP_LOG="$vis/s$s.lcmlog" EVERMAP_MAP="$vis/map.db" EVERMAP_VOCAB="$vocab" \
+  EVERMAP_BIN="$bin" EVERMAP_CONFIG="$root/config" EVERMAP_LOG="$vis/s$s.lcmlog" EVERMAP_MAP="$vis/map.db" EVERMAP_VOCAB="$vocab" \
   EVERMAP_PLACES="$vis/places.db" EVERMAP_SPEED="$visual_speed" \
     under_deputy pipeline-log.pmd go "$vis/deputy-logs-s$s" "$vis/mapper-s$s.lcmlog" |
     keep_alive "replaying session $s, mapper-proc" "$vis/deputy-logs-s$s/mapper-proc.log"
@@ -137,7 +137,7 @@ rm -f "$out/map.db" "$out/map.db-wal" "$out/map.db-shm" "$out/mapper.lcmlog"
 rm -rf "$out/deputy-logs"
 echo "   replaying $(ls "$run"/session-*.lcmlog | wc -l) session log(s) at ${speed}x; mapper-proc and the oracle under evermap-deputy (about 80 s)"
 start_s=$(date +%s.%N)
-EVERMAP_BIN="$bin" EVERMAP_RUN="$run" EVERMAP_MAP="$out/map.db" EVERMAP_SPEED="$speed" \
+EVERMAP_BIN="$bin" EVERMAP_CONFIG="$root/config" EVERMAP_RUN="$run" EVERMAP_MAP="$out/map.db" EVERMAP_SPEED="$speed" \
 EVERMAP_MAPPER_FLAGS="--progress-s 5" \
   under_deputy pipeline-oracle.pmd replay "$out/deputy-logs" "$out/mapper.lcmlog" |
   keep_alive "replaying, mapper-proc" "$out/deputy-logs/mapper-proc.log"

@@ -227,5 +227,23 @@ TEST(CommandLineOptions, ABadSetNamesTheOptionAndTheRange) {
   EXPECT_EQ(outcome.error().message, "bad --set: option t.inner.weight: 2 is outside [0, 1]");
 }
 
+TEST(CommandLineOptions, TheOptionsOffTheirDefaultsAreOneLineNamingWhereTheyCameFrom) {
+  TestOptions o;
+  CommandLine cli("prog", "");
+  cli.options(&o, "t.");
+  ASSERT_TRUE(cli.parse(1, Args{}.data()).ok());
+  EXPECT_EQ(cli.changedOptionsLine(), "");  // every option at its default: nothing to say
+
+  // A value equal to the default is no change; the file's, then --set's, are.
+  const auto path = writeFile("evermap_option_list_changed.conf", "t.gap_s = 2.5\nt.name = x\n");
+  const Args args{"--config", path.c_str(), "--set", "t.inner.count=9"};
+  ASSERT_TRUE(cli.parse(args.argc(), args.data()).ok());
+  EXPECT_EQ(cli.changedOptionsLine(), "prog: options not at their defaults (--config " +
+                                          path.string() +
+                                          ", --set): t.name = x, t.inner.count = 9");
+  std::filesystem::remove(path);
+  EXPECT_EQ(cli.optionList().changed(), "t.name = x, t.inner.count = 9");
+}
+
 }  // namespace
 }  // namespace evermap

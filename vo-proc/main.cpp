@@ -149,6 +149,7 @@ int parse(int argc, char** argv, Settings* s) {
     std::printf("%s\n", s->pipeline.odometry.describe().c_str());
     return 0;
   }
+  cli.logChangedOptions();
   return -1;
 }
 

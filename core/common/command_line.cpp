@@ -134,6 +134,22 @@ Status CommandLine::applyOptions() {
   return Ok{};
 }
 
+std::string CommandLine::changedOptionsLine() const {
+  const std::string changed = option_list_.changed();
+  if (changed.empty()) return {};
+  std::string from;
+  if (!config_file_.empty()) from = "--config " + config_file_;
+  if (!config_sets_.empty()) from += std::string(from.empty() ? "" : ", ") + "--set";
+  return program_ + ": options not at their defaults" + (from.empty() ? "" : " (" + from + ")") +
+         ": " + changed;
+}
+
+void CommandLine::logChangedOptions() const {
+  if (const std::string line = changedOptionsLine(); !line.empty()) {
+    std::fprintf(stderr, "%s\n", line.c_str());
+  }
+}
+
 Expected<CommandLine::Outcome> CommandLine::parse(int argc, const char* const* argv) {
   for (Option& o : options_) o.seen = false;
   for (int i = 1; i < argc; ++i) {

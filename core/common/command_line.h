@@ -115,6 +115,12 @@ class CommandLine {
   std::string flagUsage() const;
   // The program, its flags and its options as Markdown (docs/options.md).
   std::string markdown() const;
+  // For a process's log at its start: the declared options whose values are not their
+  // defaults, and where they came from, as one line ("evermap-vo-proc: options not at their
+  // defaults (--config config/vo-proc.cfg): odometry.line_delay_us = 28.3"); empty when none.
+  std::string changedOptionsLine() const;
+  // Prints changedOptionsLine() on stderr, if not empty.
+  void logChangedOptions() const;
   const std::string& program() const { return program_; }
 
  private:

@@ -207,6 +207,16 @@ std::string OptionList::print() const {
   return out;
 }
 
+std::string OptionList::changed() const {
+  std::string out;
+  for (const OptionField& f : fields_) {
+    const std::string value = f.get();
+    if (value == f.default_text) continue;
+    out += (out.empty() ? "" : ", ") + f.key + " = " + value;
+  }
+  return out;
+}
+
 std::string OptionList::help() const {
   std::vector<std::vector<std::string>> rows;
   for (const OptionField& f : fields_) {

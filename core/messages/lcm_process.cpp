@@ -16,6 +16,7 @@ LcmProcess::LcmProcess(std::string name, std::string summary)
 int LcmProcess::start(int argc, char** argv) {
   cli_.printConfigAlias("--print-options");
   if (const int code = cli_.parseOrExit(argc, argv); code >= 0) return code;
+  cli_.logChangedOptions();
   auto signer = makeSigner(name_, key_file_);
   if (!signer) {
     std::fprintf(stderr, "%s: %s\n", name_.c_str(), signer.error().message.c_str());

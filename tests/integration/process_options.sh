@@ -34,8 +34,9 @@ evermap-loopclose-proc max_places 0 >= 1
 evermap-viewer viewer.port 70000 [0, 65535]
 LIST
 
-"$bin/evermap-imu-proc" --config "$src/config/imu-proc.cfg" --print-config > /dev/null ||
-  fail "config/imu-proc.cfg no longer loads"
-"$bin/evermap-elevator-proc" --config "$src/config/elevator-proc.cfg" --print-config > /dev/null ||
-  fail "config/elevator-proc.cfg no longer loads"
+# The settings the deputy's pipelines start each process with (config/pipeline-*.pmd).
+for p in vo-proc imu-proc elevator-proc mapper-proc loopclose-proc; do
+  "$bin/evermap-$p" --config "$src/config/$p.cfg" --print-config > /dev/null ||
+    fail "config/$p.cfg no longer loads"
+done
 echo "process options: ok"

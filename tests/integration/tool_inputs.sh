@@ -89,12 +89,6 @@ refused 2 "^evermap-imu-elevator-run: .*nan.cfg:1: option max_ride_s: \"nan\" is
   "$bin/evermap-imu-elevator-run" --config "$tmp/nan.cfg" --synthetic 1
 refused 2 "^evermap-imu-elevator-run: .*unknown.cfg:1: unknown option \"publish_rate_hz\"" -- \
   "$bin/evermap-imu-elevator-run" --config "$tmp/unknown.cfg" --synthetic 1
-# The shipped defaults still load.
-"$bin/evermap-imu-proc" --config "$src/config/imu-proc.cfg" --print-options > /dev/null ||
-  fail "config/imu-proc.cfg no longer loads"
-"$bin/evermap-elevator-proc" --config "$src/config/elevator-proc.cfg" --print-options > /dev/null ||
-  fail "config/elevator-proc.cfg no longer loads"
-
 # 3. Numbers out of range.
 refused 2 "^evermap-vo-run: bad --max-frames: -5 is outside >= 1" -- \
   "$bin/evermap-vo-run" --max-frames -5 "$tmp/imu.lcmlog" "$tmp/out/vo.tum"
