@@ -1,3 +1,6 @@
+#include <filesystem>
+#include <fstream>
+
 #include <gtest/gtest.h>
 
 #include "tools/slam-run/frame_dropper.h"
@@ -10,7 +13,7 @@ std::vector<int> dropRuns(FrameDropper& d, int frames) {
   std::vector<int> runs;
   int run = 0;
   for (int i = 0; i < frames; ++i) {
-    if (d.drop()) {
+    if (d.drop(i)) {
       ++run;
     } else if (run > 0) {
       runs.push_back(run);
@@ -22,7 +25,7 @@ std::vector<int> dropRuns(FrameDropper& d, int frames) {
 
 TEST(FrameDropper, DropsNothingByDefault) {
   FrameDropper d;
-  for (int i = 0; i < 1000; ++i) EXPECT_FALSE(d.drop());
+  for (int i = 0; i < 1000; ++i) EXPECT_FALSE(d.drop(i));
   EXPECT_EQ(d.dropped(), 0);
   EXPECT_EQ(d.frames(), 1000);
 }
@@ -61,12 +64,12 @@ TEST(FrameDropper, TheSameSeedDropsTheSameFrames) {
   o.fraction = 0.05;
   o.seed = 7;
   FrameDropper a(o), b(o);
-  for (int i = 0; i < 5000; ++i) ASSERT_EQ(a.drop(), b.drop()) << "frame " << i;
+  for (int i = 0; i < 5000; ++i) ASSERT_EQ(a.drop(i), b.drop(i)) << "frame " << i;
   o.seed = 8;
   FrameDropper c(o);
   FrameDropper a2(FrameDropOptions{0.05, 0.3, 5, 7});
   int differ = 0;
-  for (int i = 0; i < 5000; ++i) differ += a2.drop() != c.drop();
+  for (int i = 0; i < 5000; ++i) differ += a2.drop(i) != c.drop(i);
   EXPECT_GT(differ, 0);
 }
 
@@ -76,6 +79,40 @@ TEST(FrameDropper, RefusesAFractionOutsideItsRange) {
   EXPECT_FALSE((FrameDropOptions{0.1, 1.5, 5, 1}).validate().ok());
   EXPECT_FALSE((FrameDropOptions{0.1, 0.3, 0, 1}).validate().ok());
   EXPECT_TRUE((FrameDropOptions{0.1, 0.3, 5, 1}).validate().ok());
+}
+
+TEST(FrameDropper, DropsTheFramesALiveVoProcDroppedAsItsLogNamesThem) {
+  const auto file = std::filesystem::temp_directory_path() / "evermap_dropped_frames.log";
+  std::ofstream(file) << "[deputy 2026-11-30T19:45:54.380] started pid 2061\n"
+                         "evermap-vo-proc: message clock starts at 1000 (3 messages agree)\n"
+                         "evermap-vo-proc: dropped behind the queue: frame 1100\n"
+                         "evermap-vo-proc: dropped behind the queue: frame 1150\n"
+                         "1300\n"
+                         "evermap-vo-proc: 4800 frames: ok 4799; 2 frames dropped behind\n";
+  const auto utimes = readDroppedFrames(file);
+  std::filesystem::remove(file);
+  ASSERT_TRUE(utimes.ok()) << utimes.error().message;
+  EXPECT_EQ(*utimes, (std::vector<int64_t>{1100, 1150, 1300}));
+  FrameDropOptions o;
+  o.utimes = *utimes;
+  FrameDropper d(o);
+  std::vector<int64_t> dropped;
+  for (int64_t t = 1000; t <= 1400; t += 50) {
+    if (d.drop(t)) dropped.push_back(t);
+  }
+  EXPECT_EQ(dropped, (std::vector<int64_t>{1100, 1150, 1300}));
+  EXPECT_EQ(d.dropped(), 3);
+}
+
+TEST(FrameDropper, AFileWithoutFrameTimesIsAnErrorNamingIt) {
+  const auto file = std::filesystem::temp_directory_path() / "evermap_no_dropped_frames.log";
+  std::ofstream(file) << "evermap-vo-proc: 4800 frames: ok 4800; 0 frames dropped behind\n";
+  const auto utimes = readDroppedFrames(file);
+  std::filesystem::remove(file);
+  ASSERT_FALSE(utimes.ok());
+  EXPECT_NE(utimes.error().message.find(file.string() + ": no frame time"), std::string::npos)
+      << utimes.error().message;
+  EXPECT_FALSE(readDroppedFrames(file).ok());  // and one that is not there
 }
 
 }  // namespace

@@ -213,6 +213,16 @@ TEST(BoundedQueue, DropsTheOldestWhenFullAndCountsThem) {
   EXPECT_EQ(q.dropped(), 2);
   EXPECT_EQ(q.pushed(), 5);
   EXPECT_EQ(*q.pop(), 3);  // 1 and 2 were dropped
+  // The element dropped is handed back when asked for (vo-proc names the frame it lost).
+  std::optional<int> dropped;
+  q.push(10, &dropped);
+  EXPECT_FALSE(dropped.has_value());  // there was room
+  q.push(11, &dropped);
+  EXPECT_EQ(dropped, 4);
+  EXPECT_EQ(*q.pop(), 5);
+  EXPECT_EQ(*q.pop(), 10);
+  EXPECT_EQ(*q.pop(), 11);
+  for (int i = 4; i <= 5; ++i) q.push(i);
   // A consumer on another thread gets everything pushed after, then the end.
   std::vector<int> got;
   std::thread consumer([&] {

@@ -34,15 +34,16 @@ class BoundedQueue {
     }
   }
 
-  // Appends; when full, the oldest element is dropped first. Returns false (and drops the
-  // element) after close().
-  bool push(T value) {
+  // Appends; when full, the oldest element is dropped first (moved to *dropped when given).
+  // Returns false (and drops the element) after close().
+  bool push(T value, std::optional<T>* dropped = nullptr) {
     {
       std::unique_lock<std::mutex> lock(mutex_);
       if (when_full_ == Full::kWait)
         room_.wait(lock, [this] { return closed_ || items_.size() < capacity_; });
       if (closed_) return false;
       if (items_.size() >= capacity_) {
+        if (dropped != nullptr) *dropped = std::move(items_.front());
         items_.pop_front();
         ++dropped_;
       }

@@ -28,6 +28,7 @@
 #include "core/messages/inbox.h"
 #include "core/messages/key_option.h"
 #include "core/messages/outbox.h"
+#include "core/messages/wire_check.h"
 #include "vo-proc/frame_queue.h"
 #include "vo-proc/keyframe_buffer.h"
 #include "vo-proc/vo_pipeline.h"
@@ -88,7 +89,15 @@ class Receiver {
       : queue_(queue), shared_(shared) {}
   evermap::Status onFrame(bool rgbd, const void* data, int64_t size) {
     const auto* p = static_cast<const uint8_t*>(data);
-    queue_->push(QueuedFrame{rgbd, Bytes(p, p + size)});
+    std::optional<QueuedFrame> dropped;
+    queue_->push(QueuedFrame{rgbd, Bytes(p, p + size)}, &dropped);
+    if (dropped) {
+      // One line per frame lost, its time first: evermap-slam-run --drop-utimes replays them.
+      const auto utime = evermap::messages::leadingUtime(
+          dropped->bytes.data(), static_cast<int64_t>(dropped->bytes.size()));
+      std::fprintf(stderr, "evermap-vo-proc: dropped behind the queue: frame %lld\n",
+                   static_cast<long long>(utime.value_or(-1)));
+    }
     return evermap::Ok{};
   }
   evermap::Status onCalibration(const void* data, int64_t size) {

@@ -21,13 +21,6 @@ bool hasUtimeFirst(int type) {
          t.members[0].kind == wire::Kind::kInt64 && t.members[0].num_dims == 0;
 }
 
-int64_t readUtime(const void* data) {  // after the 8-byte hash, big-endian
-  const auto* p = static_cast<const uint8_t*>(data) + 8;
-  uint64_t v = 0;
-  for (int k = 0; k < 8; ++k) v = (v << 8) | p[k];
-  return static_cast<int64_t>(v);
-}
-
 // |a - b| > window, without overflow for any two int64 (2^62 and -2^62 included).
 bool apart(int64_t a, int64_t b, int64_t window_us) {
   const long double d = static_cast<long double>(a) - static_cast<long double>(b);
@@ -104,7 +97,7 @@ void Inbox::receive(Entry& e, const void* data, int64_t size) {
     return;
   }
   if (o_.time.window_s > 0.0 && hasUtimeFirst(e.type)) {
-    guard(e, data, size, readUtime(data));
+    guard(e, data, size, *leadingUtime(data, size));
   } else {
     deliver(e, data, size, 0);
   }

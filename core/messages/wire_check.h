@@ -14,6 +14,7 @@
 // Only then may the decoder run: what it allocates is bounded by the size of the buffer.
 
 #include <cstdint>
+#include <optional>
 
 #include <evermap/wire_layout.hpp>
 
@@ -30,5 +31,9 @@ template <typename Msg>
 Expected<int64_t> checkWire(const void* data, int64_t size) {
   return checkWire(wire::Layout<Msg>::kType, Msg::getHash(), data, size);
 }
+
+// The `int64_t utime` every evermap type has first (DESIGN.md section 2), read from a buffer of
+// at least 16 bytes (after the 8-byte hash, big-endian); nullopt for a shorter one.
+std::optional<int64_t> leadingUtime(const void* data, int64_t size);
 
 }  // namespace evermap::messages

@@ -106,8 +106,8 @@ restarted_after_kill() {
 
 # vo_proc_live NAME LOG CHANNELS FRAMES: evermap-vo-proc inside the LCM sandbox while
 # lcm-logplayer replays CHANNELS of LOG in real time (stopped after 15 s); checks that the
-# FRAMES frames were each processed or counted as dropped, at least 10 processed, and that
-# VO_DELTA/KEYFRAME arrived. Sets vo_summary, vo_frames and vo_dropped.
+# FRAMES frames were each processed or counted (and named) as dropped, at least 10 processed,
+# and that VO_DELTA/KEYFRAME arrived. Sets vo_summary, vo_frames and vo_dropped.
 vo_proc_live() {
   local name="$1" log="$2" channels="$3" want="$4"
   "$src/scripts/lcm-sandbox" bash -c '
@@ -130,6 +130,10 @@ vo_proc_live() {
   vo_dropped="$(sed -E 's/.*; ([0-9]+) frames dropped.*/\1/' <<< "$vo_summary")"
   [ "$((vo_frames + vo_dropped))" = "$want" ] ||
     fail "$vo_frames processed + $vo_dropped dropped != $want frames"
+  # Each frame dropped is named by its time, one line each (evermap-slam-run --drop-utimes).
+  local named
+  named="$(grep -c '^evermap-vo-proc: dropped behind the queue: frame [0-9]*$' "$tmp/proc.txt" || true)"
+  [ "$named" = "$vo_dropped" ] || fail "$vo_dropped frames dropped, $named named in the log"
   [ "$vo_frames" -ge 10 ] || fail "only $vo_frames frames processed"
   [ -s "$tmp/live.lcmlog" ] || fail "nothing received on VO_DELTA/KEYFRAME"
 }

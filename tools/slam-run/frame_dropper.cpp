@@ -1,6 +1,10 @@
 #include "tools/slam-run/frame_dropper.h"
 
+#include <charconv>
 #include <cmath>
+#include <fstream>
+#include <string>
+#include <string_view>
 
 namespace evermap::slam_run {
 
@@ -15,16 +19,45 @@ Status FrameDropOptions::validate() const {
   return Ok{};
 }
 
+Expected<std::vector<int64_t>> readDroppedFrames(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  if (!in) return makeError(file.string(), ": cannot read the dropped frames");
+  static constexpr std::string_view kMark = "dropped behind the queue: frame ";
+  std::vector<int64_t> utimes;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::string_view text = line;
+    if (const size_t at = text.find(kMark); at != std::string_view::npos) {
+      text.remove_prefix(at + kMark.size());
+    }
+    while (!text.empty() && (text.back() == ' ' || text.back() == '\r')) text.remove_suffix(1);
+    int64_t utime = 0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), utime);
+    if (ec == std::errc() && end == text.data() + text.size() && !text.empty()) {
+      utimes.push_back(utime);
+    }
+  }
+  if (utimes.empty()) {
+    return makeError(file.string(), ": no frame time (vo-proc's \"", kMark,
+                     "U\" lines, or one integer a line)");
+  }
+  return utimes;
+}
+
 FrameDropper::FrameDropper(const FrameDropOptions& options)
-    : options_(options), rng_(options.seed) {
+    : options_(options), rng_(options.seed), utimes_(options.utimes.begin(), options.utimes.end()) {
   const double f = options.fraction;
   const double mean_length = 1.0 + options.burst_probability * (options.burst_frames - 1);
   // f = L q / (1 - q + L q)  <=>  q = f / (L (1 - f) + f)
   start_probability_ = f > 0.0 ? f / (mean_length * (1.0 - f) + f) : 0.0;
 }
 
-bool FrameDropper::drop() {
+bool FrameDropper::drop(int64_t utime) {
   ++frames_;
+  if (utimes_.count(utime) > 0) {
+    ++dropped_;
+    return true;
+  }
   if (remaining_ == 0 && start_probability_ > 0.0) {
     std::uniform_real_distribution<double> u(0.0, 1.0);
     if (u(rng_) < start_probability_) {

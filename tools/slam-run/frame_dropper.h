@@ -7,10 +7,15 @@
 // A drop starts at a kept frame with probability q and takes `burst_frames` frames with
 // probability `burst_probability` (else one). Runs of kept frames are geometric, so over a
 // long run the fraction dropped is L q / (1 - q + L q) for a mean drop length L; q is chosen to
-// make it `fraction`.
+// make it `fraction`. Or the very frames a live vo-proc dropped (`utimes`, from its log's
+// "dropped behind the queue: frame U" lines; --drop-utimes), so that a live run's map can be
+// told apart into what its drops cost and what its timing did.
 
 #include <cstdint>
+#include <filesystem>
 #include <random>
+#include <unordered_set>
+#include <vector>
 
 #include "core/common/expected.h"
 
@@ -21,15 +26,21 @@ struct FrameDropOptions {
   double burst_probability = 0.3;
   int burst_frames = 5;  // 250 ms at 20 Hz: a core busy for a quarter second
   uint64_t seed = 1;
+  std::vector<int64_t> utimes;  // frames dropped by their utime, besides `fraction`'s
 
   Status validate() const;
 };
 
+// The frame times of `file`: vo-proc's "dropped behind the queue: frame U" lines (a deputy's
+// vo-proc.log as it is) or lines holding one integer; other lines are skipped. Errors: the file
+// cannot be read, or holds no frame time.
+Expected<std::vector<int64_t>> readDroppedFrames(const std::filesystem::path& file);
+
 class FrameDropper {
  public:
   explicit FrameDropper(const FrameDropOptions& options = {});
-  // Whether the next frame is dropped.
-  bool drop();
+  // Whether the next frame (taken at `utime`) is dropped.
+  bool drop(int64_t utime);
   int64_t dropped() const { return dropped_; }
   int64_t frames() const { return frames_; }
 
@@ -37,6 +48,7 @@ class FrameDropper {
   FrameDropOptions options_;
   double start_probability_ = 0.0;
   std::mt19937_64 rng_;
+  std::unordered_set<int64_t> utimes_;
   int remaining_ = 0;  // frames of the current drop still to go
   int64_t dropped_ = 0;
   int64_t frames_ = 0;

@@ -156,6 +156,18 @@ int parseCommandLine(int argc, char** argv, SlamArgs* a) {
             "single frames, and 30 % of the drops bursts of 5 frames (seeded)")
       .in(0, 0.5);
   cli.value("--drop-seed", &a->options.drop.seed, "N", "seed of --drop-frames").min(0);
+  cli.value(
+      "--drop-utimes",
+      [a](const std::string& file) -> evermap::Status {
+        auto utimes = evermap::slam_run::readDroppedFrames(file);
+        if (!utimes) return utimes.error();
+        a->options.drop.utimes.insert(a->options.drop.utimes.end(), utimes->begin(), utimes->end());
+        return evermap::Ok{};
+      },
+      "FILE",
+      "drop the frames a live vo-proc dropped behind its queue: its log's \"dropped behind the "
+      "queue: frame U\" lines (a deputy's vo-proc.log as it is), or one frame time a line "
+      "(repeatable)");
   cli.value("--render", &a->render_config, "SIM-IMAGE.conf",
             "render the image-level simulator's sessions on the fly instead of reading logs "
             "(config/sim-image-*.conf)");

@@ -337,7 +337,7 @@ void SlamRunner::handleEvent(Session& ss, const ReadEvent& e, double* loopclose_
       inputError("mapper: " + s.error().message);
     *mapper_s += secondsSince(t0);
   } else if (channel == channels::kStereo || channel == channels::kRgbd) {
-    if (dropper_.drop()) return;
+    if (dropper_.drop(e.stereo_utime)) return;
     onFrame(ss, e, loopclose_s, mapper_s);
   } else if (channel == channels::kImu) {
     onImu(ss, data, size, mapper_s);
