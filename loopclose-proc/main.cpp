@@ -56,12 +56,11 @@ int main(int argc, char** argv) {
            "open --store read-only (localization, docs/localization.md): its places are "
            "searched, nothing is written, the file's bytes do not change");
   cli.value("--lcm-url", &url, "URL", "LCM provider (default: $LCM_DEFAULT_URL)");
-  cli.value("--rate", &options.max_rate_hz, "HZ", "answers per second of data time (2)").positive();
-  cli.value("--max-places", &options.max_places, "N",
-            "places held at most; NODE_ADDED beyond are refused and counted (20000)")
-      .min(1);
   messages::declareKeyOption(cli, &key_file);
   cli.options(&options);
+  // Short forms, applied after --config as --set is.
+  cli.alias("--rate", "max_rate_hz", "HZ");
+  cli.alias("--max-places", "max_places", "N");
   cli.check([&options, &read_only, &store_file]() -> Status {
     if (read_only && store_file.empty()) return Error("--read-only needs --store MAP.db");
     return options.validate();

@@ -227,22 +227,35 @@ TEST(CommandLineOptions, ABadSetNamesTheOptionAndTheRange) {
   EXPECT_EQ(outcome.error().message, "bad --set: option t.inner.weight: 2 is outside [0, 1]");
 }
 
-TEST(CommandLineOptions, TheOptionsOffTheirDefaultsAreOneLineNamingWhereTheyCameFrom) {
+TEST(CommandLineOptions, TheOptionsOffTheirDefaultsAreOneLineNamingWhereEachCameFrom) {
   TestOptions o;
   CommandLine cli("prog", "");
   cli.options(&o, "t.");
+  cli.alias("--gap", "t.gap_s", "S");
   ASSERT_TRUE(cli.parse(1, Args{}.data()).ok());
   EXPECT_EQ(cli.changedOptionsLine(), "");  // every option at its default: nothing to say
 
-  // A value equal to the default is no change; the file's, then --set's, are.
-  const auto path = writeFile("evermap_option_list_changed.conf", "t.gap_s = 2.5\nt.name = x\n");
-  const Args args{"--config", path.c_str(), "--set", "t.inner.count=9"};
-  ASSERT_TRUE(cli.parse(args.argc(), args.data()).ok());
-  EXPECT_EQ(cli.changedOptionsLine(), "prog: options not at their defaults (--config " +
-                                          path.string() +
-                                          ", --set): t.name = x, t.inner.count = 9");
+  // A value equal to the default is no change; the file's, --set's and an alias's are, and a
+  // key the file and --set both give came from --set (applied after the file).
+  const auto path =
+      writeFile("evermap_option_list_changed.conf", "t.gap_s = 2.5\nt.name = x\nt.seed = 3\n");
+  TestOptions p;
+  CommandLine again("prog", "");
+  again.options(&p, "t.");
+  again.alias("--gap", "t.gap_s", "S");
+  const Args args{"--config", path.c_str(), "--set", "t.inner.count=9",
+                  "--gap",    "4",          "--set", "t.seed=5"};
+  ASSERT_TRUE(again.parse(args.argc(), args.data()).ok());
+  EXPECT_EQ(again.changedOptionsLine(),
+            "prog: options not at their defaults: t.gap_s = 4 (--gap), "
+            "t.name = x (" +
+                path.string() +
+                "), t.seed = 5 (--set), "
+                "t.inner.count = 9 (--set)");
   std::filesystem::remove(path);
-  EXPECT_EQ(cli.optionList().changed(), "t.name = x, t.inner.count = 9");
+  const auto changed = again.optionList().changed();
+  ASSERT_EQ(changed.size(), 4u);
+  EXPECT_EQ(changed[1], (std::pair<std::string, std::string>{"t.name", "x"}));
 }
 
 }  // namespace

@@ -102,11 +102,31 @@ TEST(FrameDropper, DropsTheFramesALiveVoProcDroppedAsItsLogNamesThem) {
   }
   EXPECT_EQ(dropped, (std::vector<int64_t>{1100, 1150, 1300}));
   EXPECT_EQ(d.dropped(), 3);
+  EXPECT_EQ(d.namedDropped(), 3);
+}
+
+TEST(FrameDropper, AVoProcLogThatDroppedNothingNamesNoFrameAndTheLogOfTwoRunsIsRefused) {
+  const auto file = std::filesystem::temp_directory_path() / "evermap_dropped_none.log";
+  std::ofstream(file) << "evermap-vo-proc: 4800 frames: ok 4800; 0 frames dropped behind "
+                         "(queue 2)\n";
+  const auto none = readDroppedFrames(file);
+  ASSERT_TRUE(none.ok()) << none.error().message;
+  EXPECT_TRUE(none->empty());
+  std::ofstream(file) << "evermap-vo-proc: dropped behind the queue: frame 1200\n"
+                         "evermap-vo-proc: 10 frames: ok 9; 1 frames dropped behind (queue 2)\n"
+                         "evermap-vo-proc: dropped behind the queue: frame 1100\n";
+  const auto two_runs = readDroppedFrames(file);
+  std::filesystem::remove(file);
+  ASSERT_FALSE(two_runs.ok());
+  EXPECT_NE(two_runs.error().message.find(file.string() + ":3: frame 1100 is before the one "
+                                                          "above (1200)"),
+            std::string::npos)
+      << two_runs.error().message;
 }
 
 TEST(FrameDropper, AFileWithoutFrameTimesIsAnErrorNamingIt) {
   const auto file = std::filesystem::temp_directory_path() / "evermap_no_dropped_frames.log";
-  std::ofstream(file) << "evermap-vo-proc: 4800 frames: ok 4800; 0 frames dropped behind\n";
+  std::ofstream(file) << "evermap-mapper-proc: steps 4800\nnodes 107\n";  // not vo-proc's
   const auto utimes = readDroppedFrames(file);
   std::filesystem::remove(file);
   ASSERT_FALSE(utimes.ok());

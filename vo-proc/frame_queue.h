@@ -37,6 +37,7 @@ class BoundedQueue {
   // Appends; when full, the oldest element is dropped first (moved to *dropped when given).
   // Returns false (and drops the element) after close().
   bool push(T value, std::optional<T>* dropped = nullptr) {
+    if (dropped != nullptr) dropped->reset();
     {
       std::unique_lock<std::mutex> lock(mutex_);
       if (when_full_ == Full::kWait)

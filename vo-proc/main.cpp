@@ -136,20 +136,16 @@ int parse(int argc, char** argv, Settings* s) {
             "a frame stamped more than S s from the stream's clock waits for confirmation "
             "(default 120; 0: off)")
       .nonNegative();
-  bool no_descriptors = false;
-  cli.flag("--no-descriptors", &no_descriptors,
-           "keyframes without ORB descriptors (faster; no loop closure)");
-  cli.value("--keyframe-inliers", &s->pipeline.odometry.keyframe_inlier_threshold, "N",
-            "new keyframe below N inliers (default 150; odometry.keyframe_inlier_threshold)")
-      .min(0);
   cli.value("--ready-file", &s->ready_file, "PATH", "create PATH once subscribed (for scripts)");
   evermap::messages::declareKeyOption(cli, &s->key_file);
   bool print_options = false;
   cli.flag("--print-options", &print_options, "print the odometry options in words and exit");
   cli.options(&s->pipeline);
   cli.options(&s->resend, "resend.");
-  cli.check([s, &no_descriptors] {
-    if (no_descriptors) s->pipeline.odometry.keyframe_descriptors = false;
+  // Short forms, applied after --config as --set is.
+  cli.alias("--no-descriptors", "odometry.keyframe_descriptors", "", "false");
+  cli.alias("--keyframe-inliers", "odometry.keyframe_inlier_threshold", "N");
+  cli.check([s] {
     if (evermap::Status r = s->resend.validate(); !r) return r;
     return s->pipeline.validate();
   });

@@ -116,8 +116,10 @@ void CommandLine::alias(std::string name, const std::string& key, std::string me
   o.flag_value = std::move(flag_value);
 }
 
-Status CommandLine::setAlias(const std::string& key, const std::string& value) {
+Status CommandLine::setAlias(const std::string& name, const std::string& key,
+                             const std::string& value) {
   if (Status s = option_list_.find(key)->set(value); !s) return s;
+  alias_of_set_[config_sets_.size()] = name;
   config_sets_.push_back(key + "=" + value);  // again after --config, in order with --set
   return Ok{};
 }
@@ -134,14 +136,21 @@ Status CommandLine::applyOptions() {
   return Ok{};
 }
 
+std::string CommandLine::sourceOf(const std::string& key) const {
+  for (size_t i = config_sets_.size(); i-- > 0;) {
+    if (config_sets_[i].compare(0, key.size() + 1, key + "=") != 0) continue;
+    const auto alias = alias_of_set_.find(i);
+    return alias != alias_of_set_.end() ? alias->second : "--set";
+  }
+  return config_file_.empty() ? "set by the program" : config_file_;
+}
+
 std::string CommandLine::changedOptionsLine() const {
-  const std::string changed = option_list_.changed();
-  if (changed.empty()) return {};
-  std::string from;
-  if (!config_file_.empty()) from = "--config " + config_file_;
-  if (!config_sets_.empty()) from += std::string(from.empty() ? "" : ", ") + "--set";
-  return program_ + ": options not at their defaults" + (from.empty() ? "" : " (" + from + ")") +
-         ": " + changed;
+  std::string line;
+  for (const auto& [key, value] : option_list_.changed()) {
+    line += (line.empty() ? "" : ", ") + key + " = " + value + " (" + sourceOf(key) + ")";
+  }
+  return line.empty() ? line : program_ + ": options not at their defaults: " + line;
 }
 
 void CommandLine::logChangedOptions() const {
@@ -183,8 +192,8 @@ Expected<CommandLine::Outcome> CommandLine::parse(int argc, const char* const* a
       value = argv[++i];
     }
     if (!option->alias_of.empty() && option->metavar.empty()) value = option->flag_value;
-    const Status set =
-        option->alias_of.empty() ? option->set(value) : setAlias(option->alias_of, value);
+    const Status set = option->alias_of.empty() ? option->set(value)
+                                                : setAlias(option->name, option->alias_of, value);
     if (!set) return makeError("bad ", arg, ": ", set.error().message);
     option->seen = true;
   }

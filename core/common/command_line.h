@@ -16,6 +16,7 @@
 #include <charconv>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <type_traits>
@@ -116,8 +117,9 @@ class CommandLine {
   // The program, its flags and its options as Markdown (docs/options.md).
   std::string markdown() const;
   // For a process's log at its start: the declared options whose values are not their
-  // defaults, and where they came from, as one line ("evermap-vo-proc: options not at their
-  // defaults (--config config/vo-proc.cfg): odometry.line_delay_us = 28.3"); empty when none.
+  // defaults, each with where it came from (the last --set or alias flag that set it, else
+  // the --config file), as one line ("evermap-vo-proc: options not at their defaults:
+  // odometry.line_delay_us = 28.3 (config/vo-proc.cfg)"); empty when none.
   std::string changedOptionsLine() const;
   // Prints changedOptionsLine() on stderr, if not empty.
   void logChangedOptions() const;
@@ -137,7 +139,9 @@ class CommandLine {
   Option& add(std::string name, std::string metavar, std::string help, bool required);
   bool declared(const std::string& name) const;
   // An alias()'s value into its option, and onto the --set list.
-  Status setAlias(const std::string& key, const std::string& value);
+  Status setAlias(const std::string& name, const std::string& key, const std::string& value);
+  // Where option `key`'s value came from (changedOptionsLine).
+  std::string sourceOf(const std::string& key) const;
   // --config, then the --set list, into option_list_.
   Status applyOptions();
 
@@ -151,6 +155,7 @@ class CommandLine {
   bool options_own_config_ = false;  // --config/--set/--print-config come from options()
   std::string config_file_;
   std::vector<std::string> config_sets_;
+  std::map<size_t, std::string> alias_of_set_;  // config_sets_ index -> the alias flag given
   bool print_config_ = false;
   std::vector<std::function<Status()>> checks_;
 };

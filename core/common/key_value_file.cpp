@@ -41,7 +41,13 @@ Expected<std::pair<std::string, std::string>> splitAssignment(const std::string&
 
 Expected<KeyValueFile> KeyValueFile::load(const std::filesystem::path& path) {
   std::ifstream in(path);
-  if (!in) return makeError(path.string(), ": cannot open configuration file");
+  if (!in) {
+    // A relative path is relative to where the program runs (a deputy's folder): say where.
+    std::error_code ec;
+    const std::string where =
+        path.is_relative() ? " (from " + std::filesystem::current_path(ec).string() + ")" : "";
+    return makeError(path.string(), ": cannot open configuration file", where);
+  }
   std::ostringstream text;
   text << in.rdbuf();
   auto file = parse(text.str(), path.string());

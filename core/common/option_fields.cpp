@@ -207,12 +207,11 @@ std::string OptionList::print() const {
   return out;
 }
 
-std::string OptionList::changed() const {
-  std::string out;
+std::vector<std::pair<std::string, std::string>> OptionList::changed() const {
+  std::vector<std::pair<std::string, std::string>> out;
   for (const OptionField& f : fields_) {
-    const std::string value = f.get();
-    if (value == f.default_text) continue;
-    out += (out.empty() ? "" : ", ") + f.key + " = " + value;
+    std::string value = f.get();
+    if (value != f.default_text) out.emplace_back(f.key, std::move(value));
   }
   return out;
 }

@@ -242,9 +242,8 @@ class OptionList {
 
   // "key = value  # unit" lines, readable back by loadFile().
   std::string print() const;
-  // "key = value" of each option whose value is not its default, joined by ", " (empty when
-  // every option has its default).
-  std::string changed() const;
+  // (key, value) of each option whose value is not its default, in declaration order.
+  std::vector<std::pair<std::string, std::string>> changed() const;
   // One line per option: key, default, unit, allowed values and doc, aligned.
   std::string help() const;
   // The same as a Markdown table.

@@ -133,10 +133,7 @@ Expected<int64_t> checkWire(int type, int64_t hash, const void* data, int64_t si
 
 std::optional<int64_t> leadingUtime(const void* data, int64_t size) {
   if (data == nullptr || size < 16) return std::nullopt;
-  const auto* p = static_cast<const uint8_t*>(data) + 8;
-  uint64_t v = 0;
-  for (int k = 0; k < 8; ++k) v = (v << 8) | p[k];
-  return static_cast<int64_t>(v);
+  return readInteger(static_cast<const uint8_t*>(data) + 8, 8);
 }
 
 }  // namespace evermap::messages

@@ -104,25 +104,28 @@ restarted_after_kill() {
   respawned "$1" "$2" && [ "$(field "$1" 9)" -ge 1 ] && [ "$(field "$1" 10)" = "-9" ]
 }
 
-# vo_proc_live NAME LOG CHANNELS FRAMES: evermap-vo-proc inside the LCM sandbox while
-# lcm-logplayer replays CHANNELS of LOG in real time (stopped after 15 s); checks that the
-# FRAMES frames were each processed or counted (and named) as dropped, at least 10 processed,
-# and that VO_DELTA/KEYFRAME arrived. Sets vo_summary, vo_frames and vo_dropped.
+# vo_proc_live NAME LOG CHANNELS FRAMES [VO_ARGS [SPEED]]: evermap-vo-proc (with VO_ARGS) inside
+# the LCM sandbox while lcm-logplayer replays CHANNELS of LOG in real time (or at SPEED x;
+# stopped after 15 s); checks that the FRAMES frames were each processed or counted (and
+# named) as dropped, at least 10 processed, and that VO_DELTA/KEYFRAME arrived. Sets
+# vo_summary, vo_frames and vo_dropped; vo-proc's output is in $tmp/proc.txt.
 vo_proc_live() {
-  local name="$1" log="$2" channels="$3" want="$4"
+  local name="$1" log="$2" channels="$3" want="$4" vo_args="${5:-}" speed="${6:-1}"
   "$src/scripts/lcm-sandbox" bash -c '
     set -euo pipefail
-    "$1/bin/evermap-vo-proc" --ready-file "$3" 2> "$2/proc.txt" &
+    rm -f "$3" "$2/live.lcmlog"
+    # shellcheck disable=SC2086  # the extra arguments are words
+    "$1/bin/evermap-vo-proc" --ready-file "$3" $6 2> "$2/proc.txt" &
     proc=$!
     lcm-logger -q -c "VO_DELTA|KEYFRAME" "$2/live.lcmlog" &
     logger=$!
     for _ in $(seq 300); do [ -f "$3" ] && break; sleep 0.1; done
     sleep 0.5
-    timeout 15 lcm-logplayer -e "$5" "$4" > /dev/null || true
+    timeout 15 lcm-logplayer -s "$7" -e "$5" "$4" > /dev/null || true
     sleep 2
     kill -TERM "$proc"; wait "$proc"
     kill -INT "$logger"; wait "$logger" || true
-  ' "$name" "$build" "$tmp" "$tmp/ready" "$log" "$channels"
+  ' "$name" "$build" "$tmp" "$tmp/ready" "$log" "$channels" "$vo_args" "$speed"
   tail -n 3 "$tmp/proc.txt"
   vo_summary="$(grep -E '^evermap-vo-proc: [0-9]+ frames' "$tmp/proc.txt")" ||
     fail "no summary line"

@@ -12,11 +12,13 @@ fail_logs=("$tmp/logs-*/*.log" "$tmp/deputy-*.err")
 procs="vo-proc imu-proc elevator-proc mapper-proc loopclose-proc"
 
 # pipeline CONFIG_DIR NAME: the "pipeline" script of config/pipeline-log.pmd (the five
-# processes, no replay) until each has started, then the deputy stopped;
-# the processes' logs go to $tmp/logs-NAME.
+# processes, no replay) until each has started, then the deputy stopped; CONFIG_DIR empty: the
+# default (config/ of the repository root, where the deputy runs). The processes' logs go to
+# $tmp/logs-NAME.
 pipeline() {
   local logs="$tmp/logs-$2" p
-  (cd "$src" && EVERMAP_BIN="$bin" EVERMAP_CONFIG="$1" EVERMAP_MAP="$tmp/map-$2.db" \
+  (cd "$src" && if [ -n "$1" ]; then export EVERMAP_CONFIG="$1"; else unset EVERMAP_CONFIG; fi &&
+    EVERMAP_BIN="$bin" EVERMAP_MAP="$tmp/map-$2.db" \
     EVERMAP_VOCAB="$tmp/no-vocabulary.evoc" EVERMAP_PLACES="$tmp/places-$2.db" \
     exec "$bin/evermap-deputy" config/pipeline-log.pmd --log-dir "$logs" --host sandbox \
     --script pipeline --quiet 2> "$tmp/deputy-$2.err") &
@@ -49,7 +51,7 @@ while read -r p setting; do
   line="$(grep -m 1 "^evermap-$p: options not at their defaults" "$tmp/logs-changed/$p.log" || true)"
   [ -n "$line" ] || fail "$p's log does not say which options differ from the defaults"
   echo "$line"
-  [[ "$line" == *"(--config $tmp/changed/$p.cfg): $setting" ]] ||
+  [[ "$line" == *": $setting ($tmp/changed/$p.cfg)" ]] ||
     fail "$p does not run with its config file's $setting"
 done <<'LIST'
 vo-proc odometry.line_delay_us = 28.3
@@ -61,8 +63,8 @@ LIST
 grep -q "^evermap-vo-proc: input: " "$tmp/logs-changed/vo-proc.log" ||
   fail "vo-proc did not run with its settings (no summary at its stop)"
 
-# 2. The shipped settings are the defaults.
-pipeline "$src/config" shipped
+# 2. The shipped settings (EVERMAP_CONFIG unset) are the defaults.
+pipeline "" shipped
 for p in $procs; do
   [ -s "$tmp/logs-shipped/$p.log" ] || fail "no log of $p"
   if grep -q "options not at their defaults" "$tmp/logs-shipped/$p.log"; then

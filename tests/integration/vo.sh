@@ -4,10 +4,12 @@
 #     statistics, and a log of VO_DELTA and KEYFRAME messages;
 #  2. evermap-vo-proc live, inside the LCM sandbox, while lcm-logplayer replays the stereo
 #     channels of the log in real time: every STEREO frame is either processed or counted as
-#     dropped, the frames are tracked, and VO_DELTA arrives on LCM.
+#     dropped, the frames are tracked, and VO_DELTA arrives on LCM;
+#  3. a vo-proc that cannot keep up (one frame may wait, the images at 20x): each frame it drops
+#     is named in its output, and evermap-slam-run --drop-utimes drops exactly those frames.
 # Skips (77) without the data, except under CI.
 source "$(dirname "$0")/lib.sh" "$@"
-need_data euroc-v101-micro
+need_data euroc-v101-micro vocab-orb-small
 euroc="$data/euroc-v101-micro"
 
 "$build/bin/evermap-euroc2lcm" --raw "$euroc" "$tmp/euroc.lcmlog" > /dev/null
@@ -33,3 +35,12 @@ vo_proc_live vo "$tmp/euroc.lcmlog" "STEREO|STEREO_CALIB" 95
 ok="$(sed -nE 's/.* ok ([0-9]+),.*/\1/p' <<< "$vo_summary")"
 [ -n "$ok" ] && [ "$ok" -ge "$((vo_frames - 1))" ] || fail "frames not tracked: $vo_summary"
 echo "vo: OK ($vo_frames frames processed live, $vo_dropped dropped)"
+
+# 3. Frames dropped live, named, and replayed offline.
+vo_proc_live vo "$tmp/euroc.lcmlog" "STEREO|STEREO_CALIB" 95 "--queue 1" 20
+[ "$vo_dropped" -gt 0 ] || fail "no frame dropped at 20x with a queue of 1: $vo_summary"
+"$build/bin/evermap-slam-run" --vocab "$data/vocab-orb-small/slambook2_vocabulary.yml.gz" \
+  --out "$tmp/slam" --drop-utimes "$tmp/proc.txt" "$tmp/euroc.lcmlog" > "$tmp/slam.txt"
+expect_line "$tmp/slam.txt" "^frames_dropped $vo_dropped\$"
+expect_line "$tmp/slam.txt" "^frames_named_dropped $vo_dropped \(of $vo_dropped named\)\$"
+echo "vo: OK ($vo_dropped frames dropped at 20x, named, and dropped again offline)"

@@ -24,8 +24,10 @@ Expected<std::vector<int64_t>> readDroppedFrames(const std::filesystem::path& fi
   if (!in) return makeError(file.string(), ": cannot read the dropped frames");
   static constexpr std::string_view kMark = "dropped behind the queue: frame ";
   std::vector<int64_t> utimes;
+  bool summary = false;  // vo-proc's exit line, "...; N frames dropped behind (queue Q)"
   std::string line;
-  while (std::getline(in, line)) {
+  for (int number = 1; std::getline(in, line); ++number) {
+    summary = summary || line.find(" frames dropped behind") != std::string::npos;
     std::string_view text = line;
     if (const size_t at = text.find(kMark); at != std::string_view::npos) {
       text.remove_prefix(at + kMark.size());
@@ -33,11 +35,14 @@ Expected<std::vector<int64_t>> readDroppedFrames(const std::filesystem::path& fi
     while (!text.empty() && (text.back() == ' ' || text.back() == '\r')) text.remove_suffix(1);
     int64_t utime = 0;
     const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), utime);
-    if (ec == std::errc() && end == text.data() + text.size() && !text.empty()) {
-      utimes.push_back(utime);
+    if (ec != std::errc() || end != text.data() + text.size() || text.empty()) continue;
+    if (!utimes.empty() && utime < utimes.back()) {
+      return makeError(file.string(), ":", number, ": frame ", utime, " is before the one above (",
+                       utimes.back(), "): the log of several runs? Give one run's");
     }
+    utimes.push_back(utime);
   }
-  if (utimes.empty()) {
+  if (utimes.empty() && !summary) {
     return makeError(file.string(), ": no frame time (vo-proc's \"", kMark,
                      "U\" lines, or one integer a line)");
   }
@@ -56,6 +61,7 @@ bool FrameDropper::drop(int64_t utime) {
   ++frames_;
   if (utimes_.count(utime) > 0) {
     ++dropped_;
+    ++named_dropped_;
     return true;
   }
   if (remaining_ == 0 && start_probability_ > 0.0) {

@@ -32,8 +32,9 @@ struct FrameDropOptions {
 };
 
 // The frame times of `file`: vo-proc's "dropped behind the queue: frame U" lines (a deputy's
-// vo-proc.log as it is) or lines holding one integer; other lines are skipped. Errors: the file
-// cannot be read, or holds no frame time.
+// vo-proc.log as it is) or lines holding one integer; other lines are skipped. None is fine
+// for a vo-proc log whose summary says it dropped nothing. Errors: the file cannot be read; no
+// frame time and no such summary; a time before the one above it (the log of several runs).
 Expected<std::vector<int64_t>> readDroppedFrames(const std::filesystem::path& file);
 
 class FrameDropper {
@@ -42,6 +43,7 @@ class FrameDropper {
   // Whether the next frame (taken at `utime`) is dropped.
   bool drop(int64_t utime);
   int64_t dropped() const { return dropped_; }
+  int64_t namedDropped() const { return named_dropped_; }  // by FrameDropOptions::utimes
   int64_t frames() const { return frames_; }
 
  private:
@@ -51,6 +53,7 @@ class FrameDropper {
   std::unordered_set<int64_t> utimes_;
   int remaining_ = 0;  // frames of the current drop still to go
   int64_t dropped_ = 0;
+  int64_t named_dropped_ = 0;
   int64_t frames_ = 0;
 };
 

@@ -425,6 +425,8 @@ Status SlamRunner::endSession(Session& ss) {
   out.nodes_added = static_cast<int64_t>(mapper_->nodes().size()) - ss.nodes_before;
   summary_.data_s += out.duration_s;
   summary_.frames_dropped = dropper_.dropped();
+  summary_.frames_named_dropped = dropper_.namedDropped();
+  summary_.frames_named = static_cast<int64_t>(options_.drop.utimes.size());
   const vo::PipelineStats& vs = ss.vo.stats();
   summary_.vo.frames += vs.frames;
   for (size_t i = 0; i < vs.by_status.size(); ++i) summary_.vo.by_status[i] += vs.by_status[i];

@@ -167,6 +167,9 @@ struct SlamRunSummary {
   std::vector<std::string> errors;  // first few input errors (one line each)
   int64_t input_errors = 0;
   int64_t frames_dropped = 0;  // by SlamRunOptions::drop, never seen by VO
+  // Of SlamRunOptions::drop.utimes (when given): how many met a frame, of how many.
+  int64_t frames_named_dropped = 0;
+  int64_t frames_named = 0;
 
   std::string text() const;
 };

@@ -76,6 +76,9 @@ std::string SlamRunSummary::text() const {
     << 1e3 * times.wait_s / n << " vo " << 1e3 * times.vo_s / n << " imu " << 1e3 * times.imu_s / n
     << " loopclose " << 1e3 * times.loopclose_s / n << " mapper " << 1e3 * times.mapper_s / n
     << "\ninput_errors " << input_errors << "\nframes_dropped " << frames_dropped << "\n";
+  if (frames_named > 0) {
+    s << "frames_named_dropped " << frames_named_dropped << " (of " << frames_named << " named)\n";
+  }
   for (const std::string& e : errors) s << "error " << e << "\n";
   return s.str();
 }
