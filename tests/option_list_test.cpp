@@ -244,7 +244,7 @@ TEST(CommandLineOptions, TheOptionsOffTheirDefaultsAreOneLineNamingWhereEachCame
   again.options(&p, "t.");
   again.alias("--gap", "t.gap_s", "S");
   const Args args{"--config", path.c_str(), "--set", "t.inner.count=9",
-                  "--gap",    "4",          "--set", "t.seed=5"};
+                  "--gap",    "4",          "--set", "t.seed =5"};  // a key read as --set reads it
   ASSERT_TRUE(again.parse(args.argc(), args.data()).ok());
   EXPECT_EQ(again.changedOptionsLine(),
             "prog: options not at their defaults: t.gap_s = 4 (--gap), "

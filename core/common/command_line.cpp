@@ -138,7 +138,7 @@ Status CommandLine::applyOptions() {
 
 std::string CommandLine::sourceOf(const std::string& key) const {
   for (size_t i = config_sets_.size(); i-- > 0;) {
-    if (config_sets_[i].compare(0, key.size() + 1, key + "=") != 0) continue;
+    if (OptionList::keyOf(config_sets_[i]) != key) continue;
     const auto alias = alias_of_set_.find(i);
     return alias != alias_of_set_.end() ? alias->second : "--set";
   }

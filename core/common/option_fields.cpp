@@ -169,10 +169,15 @@ Status OptionList::set(const std::string& key, const std::string& text) {
   return Ok{};
 }
 
+std::string OptionList::keyOf(const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  return eq == std::string::npos ? std::string() : trim(assignment.substr(0, eq));
+}
+
 Status OptionList::assign(const std::string& assignment) {
   const auto eq = assignment.find('=');
   if (eq == std::string::npos) return makeError("expected key=value, got \"", assignment, "\"");
-  return set(trim(assignment.substr(0, eq)), assignment.substr(eq + 1));
+  return set(keyOf(assignment), assignment.substr(eq + 1));
 }
 
 Status OptionList::loadFile(const std::filesystem::path& path) {

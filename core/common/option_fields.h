@@ -233,6 +233,8 @@ class OptionList {
   Status set(const std::string& key, const std::string& text);
   // "key=value" (a --set argument).
   Status assign(const std::string& assignment);
+  // The key an assignment sets ("key=value", the key trimmed); empty without '='.
+  static std::string keyOf(const std::string& assignment);
   // Every `key = value` of a config file; every key must be declared. Errors name file:line.
   Status loadFile(const std::filesystem::path& path);
   // Every entry of an already-read file (its origin names file:line).
