@@ -67,18 +67,18 @@ TEST(FrameDropper, TheSameSeedDropsTheSameFrames) {
   for (int i = 0; i < 5000; ++i) ASSERT_EQ(a.drop(i), b.drop(i)) << "frame " << i;
   o.seed = 8;
   FrameDropper c(o);
-  FrameDropper a2(FrameDropOptions{0.05, 0.3, 5, 7});
+  FrameDropper a2(FrameDropOptions{0.05, 0.3, 5, 7, {}});
   int differ = 0;
   for (int i = 0; i < 5000; ++i) differ += a2.drop(i) != c.drop(i);
   EXPECT_GT(differ, 0);
 }
 
 TEST(FrameDropper, RefusesAFractionOutsideItsRange) {
-  EXPECT_FALSE((FrameDropOptions{0.6, 0.3, 5, 1}).validate().ok());
-  EXPECT_FALSE((FrameDropOptions{-0.1, 0.3, 5, 1}).validate().ok());
-  EXPECT_FALSE((FrameDropOptions{0.1, 1.5, 5, 1}).validate().ok());
-  EXPECT_FALSE((FrameDropOptions{0.1, 0.3, 0, 1}).validate().ok());
-  EXPECT_TRUE((FrameDropOptions{0.1, 0.3, 5, 1}).validate().ok());
+  EXPECT_FALSE((FrameDropOptions{0.6, 0.3, 5, 1, {}}).validate().ok());
+  EXPECT_FALSE((FrameDropOptions{-0.1, 0.3, 5, 1, {}}).validate().ok());
+  EXPECT_FALSE((FrameDropOptions{0.1, 1.5, 5, 1, {}}).validate().ok());
+  EXPECT_FALSE((FrameDropOptions{0.1, 0.3, 0, 1, {}}).validate().ok());
+  EXPECT_TRUE((FrameDropOptions{0.1, 0.3, 5, 1, {}}).validate().ok());
 }
 
 TEST(FrameDropper, DropsTheFramesALiveVoProcDroppedAsItsLogNamesThem) {

@@ -7,14 +7,15 @@
 #include <sstream>
 
 namespace evermap {
-namespace {
 
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return "";
-  const auto e = s.find_last_not_of(" \t\r");
+std::string trimmed(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t\r\n");
+  if (b == std::string::npos) return {};
+  const auto e = s.find_last_not_of(" \t\r\n");
   return s.substr(b, e - b + 1);
 }
+
+namespace {
 
 bool validKey(const std::string& k) {
   if (k.empty()) return false;
@@ -30,8 +31,8 @@ bool validKey(const std::string& k) {
 Expected<std::pair<std::string, std::string>> splitAssignment(const std::string& text) {
   const auto eq = text.find('=');
   if (eq == std::string::npos) return makeError("expected 'key = value', got '", text, "'");
-  const std::string key = trim(text.substr(0, eq));
-  const std::string value = trim(text.substr(eq + 1));
+  const std::string key = trimmed(text.substr(0, eq));
+  const std::string value = trimmed(text.substr(eq + 1));
   if (!validKey(key)) return makeError("bad key '", key, "' (letters, digits, _ . - only)");
   if (value.empty()) return makeError("key '", key, "' has no value");
   return std::make_pair(key, value);
@@ -65,7 +66,7 @@ Expected<KeyValueFile> KeyValueFile::parse(const std::string& text, const std::s
     ++number;
     const std::string origin = name + ":" + std::to_string(number);
     if (line.find('\0') != std::string::npos) return makeError(origin, ": binary data in text");
-    const std::string body = trim(line.substr(0, line.find('#')));
+    const std::string body = trimmed(line.substr(0, line.find('#')));
     if (body.empty()) continue;
     auto kv = splitAssignment(body);
     if (!kv) return makeError(origin, ": ", kv.error().message);
@@ -78,7 +79,7 @@ Expected<KeyValueFile> KeyValueFile::parse(const std::string& text, const std::s
 }
 
 Status KeyValueFile::set(const std::string& assignment, const std::string& origin) {
-  auto kv = splitAssignment(trim(assignment));
+  auto kv = splitAssignment(trimmed(assignment));
   if (!kv) return makeError(origin, ": ", kv.error().message);
   for (Entry& e : entries_) {
     if (e.key == kv->first) {

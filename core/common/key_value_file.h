@@ -13,6 +13,9 @@
 
 namespace evermap {
 
+// `s` without its leading and trailing blanks (space, tab, CR, LF).
+std::string trimmed(const std::string& s);
+
 class KeyValueFile {
  public:
   struct Entry {

@@ -10,13 +10,6 @@
 namespace evermap {
 namespace {
 
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r\n");
-  if (b == std::string::npos) return {};
-  const auto e = s.find_last_not_of(" \t\r\n");
-  return s.substr(b, e - b + 1);
-}
-
 std::string limitText(double v) { return option_text::ofDouble(v); }
 
 // Markdown table cells hold no '|'.
@@ -163,7 +156,7 @@ const OptionField* OptionList::find(const std::string& key) const {
 Status OptionList::set(const std::string& key, const std::string& text) {
   const OptionField* f = find(key);
   if (!f) return makeError("unknown option \"", key, "\"");
-  if (Status s = f->set(trim(text)); !s) {
+  if (Status s = f->set(trimmed(text)); !s) {
     return makeError("option ", key, ": ", s.error().message);
   }
   return Ok{};
@@ -171,7 +164,7 @@ Status OptionList::set(const std::string& key, const std::string& text) {
 
 std::string OptionList::keyOf(const std::string& assignment) {
   const auto eq = assignment.find('=');
-  return eq == std::string::npos ? std::string() : trim(assignment.substr(0, eq));
+  return eq == std::string::npos ? std::string() : trimmed(assignment.substr(0, eq));
 }
 
 Status OptionList::assign(const std::string& assignment) {

@@ -8,6 +8,7 @@
 #include "core/common/atomic_write.h"
 #include "core/common/number_text.h"
 #include "core/common/enum_names.h"
+#include "core/common/key_value_file.h"
 #include "tools/datasets/text_lines.h"
 
 namespace evermap::eval {
@@ -15,19 +16,12 @@ namespace {
 
 using datasets::isCommentOrBlank;
 
-std::string trim(const std::string& s) {
-  const size_t b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return "";
-  const size_t e = s.find_last_not_of(" \t\r");
-  return s.substr(b, e - b + 1);
-}
-
 // One stamp per non-blank line, in seconds.
 Expected<std::vector<int64_t>> readKittiTimes(const std::filesystem::path& file) {
   std::vector<int64_t> out;
   const Status s = datasets::forEachDataLine(file, [&](const std::string& line, int n) -> Status {
     int64_t t_ns = 0;
-    const std::string field = trim(line);
+    const std::string field = trimmed(line);
     if (!datasets::parseSecondsToNs(field, &t_ns)) {
       return makeError(file.string(), ":", n, ": expected one time in seconds, got \"", field,
                        "\"");

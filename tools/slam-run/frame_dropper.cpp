@@ -50,7 +50,10 @@ Expected<std::vector<int64_t>> readDroppedFrames(const std::filesystem::path& fi
 }
 
 FrameDropper::FrameDropper(const FrameDropOptions& options)
-    : options_(options), rng_(options.seed), utimes_(options.utimes.begin(), options.utimes.end()) {
+    : burst_probability_(options.burst_probability),
+      burst_frames_(options.burst_frames),
+      rng_(options.seed),
+      utimes_(options.utimes.begin(), options.utimes.end()) {
   const double f = options.fraction;
   const double mean_length = 1.0 + options.burst_probability * (options.burst_frames - 1);
   // f = L q / (1 - q + L q)  <=>  q = f / (L (1 - f) + f)
@@ -67,7 +70,7 @@ bool FrameDropper::drop(int64_t utime) {
   if (remaining_ == 0 && start_probability_ > 0.0) {
     std::uniform_real_distribution<double> u(0.0, 1.0);
     if (u(rng_) < start_probability_) {
-      remaining_ = u(rng_) < options_.burst_probability ? options_.burst_frames : 1;
+      remaining_ = u(rng_) < burst_probability_ ? burst_frames_ : 1;
     }
   }
   if (remaining_ == 0) return false;

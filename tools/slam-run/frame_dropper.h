@@ -47,7 +47,8 @@ class FrameDropper {
   int64_t frames() const { return frames_; }
 
  private:
-  FrameDropOptions options_;
+  double burst_probability_;
+  int burst_frames_;
   double start_probability_ = 0.0;
   std::mt19937_64 rng_;
   std::unordered_set<int64_t> utimes_;
