@@ -5,6 +5,7 @@
 #include <string>
 #include <utility>
 
+#include "core/geometry/se2.h"
 #include "core/map/store_codec.h"
 #include "mapper-proc/mapper.h"
 
@@ -55,6 +56,7 @@ Status MapStore::save(const Mapper& mapper, int session, int64_t session_start_u
     return s;
   }
   // The cache takes the rows written only now that the transaction committed.
+  stored_footprints_ = mapper.footprints().size();
   for (auto& [k, pose] : written) {
     if (k >= stored_poses_.size()) stored_poses_.resize(k + 1);
     stored_poses_[k] = std::move(pose);
@@ -79,9 +81,31 @@ Status MapStore::writeUpdate(const Mapper& mapper, int session, int64_t session_
   if (Status s = writeConstraints(mapper, touched); !s) return s;
   if (Status s = markSaved(mapper); !s) return s;
   if (Status s = writeTracking(mapper); !s) return s;
+  if (Status s = writeFootprints(mapper); !s) return s;
   if (options_.fold_after == 0) return Ok{};
   for (const auto& [i, j] : touched) {
     if (Status s = foldPair(mapper, i, j); !s) return s;
+  }
+  return Ok{};
+}
+
+Status MapStore::writeFootprints(const Mapper& mapper) {
+  const std::vector<Footprint>& all = mapper.footprints();
+  if (stored_footprints_ >= all.size()) return Ok{};
+  Statement st;
+  // A restored mapper holds the store's footprints first, under their ids: ignored.
+  if (!file_.prepare(st, "INSERT OR IGNORE INTO map_footprints VALUES (?1, ?2, ?3, ?4, ?5, ?6)"))
+    return file_.sqliteError("prepare");
+  for (size_t k = stored_footprints_; k < all.size(); ++k) {
+    const core::SE2d p = core::toPlanar(all[k].node_T_view);
+    sqlite3_reset(st.s);
+    sqlite3_bind_int64(st.s, 1, static_cast<int64_t>(k));
+    sqlite3_bind_int64(st.s, 2, all[k].node);
+    sqlite3_bind_int(st.s, 3, all[k].session);
+    sqlite3_bind_double(st.s, 4, p.x());
+    sqlite3_bind_double(st.s, 5, p.y());
+    sqlite3_bind_double(st.s, 6, p.theta());
+    if (sqlite3_step(st.s) != SQLITE_DONE) return file_.sqliteError("footprints");
   }
   return Ok{};
 }

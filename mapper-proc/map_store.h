@@ -93,6 +93,8 @@ class MapStore {
   Status writeConstraints(const Mapper& mapper, NodePairs& touched);
   // map_saved: how many of its constraints this session's mapper has stored.
   Status markSaved(const Mapper& mapper);
+  // The footprints made since the last commit (map_footprints).
+  Status writeFootprints(const Mapper& mapper);
   // Replaces map_tracking's row by the mapper's state (or deletes it), inside a transaction.
   Status writeTracking(const Mapper& mapper);
 
@@ -117,6 +119,7 @@ class MapStore {
   // Each node's pose as this object last committed it (poseBlob), by id: save() writes the
   // rows that changed.
   std::vector<std::vector<double>> stored_poses_;
+  size_t stored_footprints_ = 0;  // the mapper's footprints this object has committed
 };
 
 }  // namespace evermap::mapper

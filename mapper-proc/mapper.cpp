@@ -15,6 +15,7 @@ Mapper::Mapper(const MapperOptions& options, int session)
       first_session_(session),
       partition_({options.cell_size_m, options.heading_bins, options.overlap_radius_cells,
                   options.overlap_heading_sectors, options.cell_refresh_per_step}),
+      footprints_({options.cell_size_m, options.heading_bins}, options.cell_refresh_per_step),
       constraints_(options.consistency_gate),
       schedule_(options.solver, options.defer_merges, options.covariance_floor),
       map_gate_(options.map_gate),
@@ -99,6 +100,7 @@ void Mapper::quarantineOrigin() {
     if (quarantined_[static_cast<size_t>(n.id)]) continue;
     quarantined_[static_cast<size_t>(n.id)] = true;
     partition_.quarantine(n.id);
+    footprints_.forget(n.id);
     floors_.nodesOn(n.floor, -1);
     if (origin_session < 0) origin_session = n.session;
     ++count;
@@ -274,6 +276,8 @@ void Mapper::finishStep(bool registered) {
       relocalize_ = false;
     }
   }
+  if (registered && f.view && o_.footprints && !o_.full_graph)
+    addFootprint(*f.view, f.keyframe_utime);
   stats_.timing.partition_s += secondsSince(t0);
   flushSolver();
   const auto q_T_now = tracker_.sinceKeyframe(f.keyframe_utime);

@@ -51,6 +51,7 @@
 #include "mapper-proc/mapper_options.h"
 #include "mapper-proc/mapper_stats.h"
 #include "mapper-proc/partition_index.h"
+#include "mapper-proc/view_footprints.h"
 #include "mapper-proc/solver_schedule.h"
 #include "mapper-proc/tracker.h"
 #include "mapper-proc/warm_restart.h"
@@ -110,6 +111,8 @@ class Mapper : public MapConsumer {
   core::SE3d nodePose(int64_t id) const { return schedule_.pose(id); }
   // Every node made; ids are indices.
   const std::vector<MapperNode>& nodes() const { return nodes_; }
+  // The places registered from, filed as their nodes' (view_footprints.h), in the order made.
+  const std::vector<Footprint>& footprints() const { return footprints_.all(); }
   int64_t activeNode() const { return active_; }
   // A new session not yet placed on the map by a global registration: pose() means nothing.
   bool lost() const { return lost_; }
@@ -159,6 +162,7 @@ class Mapper : public MapConsumer {
     int64_t active = -1;
     core::UncertainPose delta_at_keyframe;  // active_T_keyframe
     bool same_frame_check = false;          // a lost robot's candidate checked on its own keyframe
+    std::optional<Footprint> view;          // the step's registration: node_T_keyframe
   };
 
   // Algorithm 1's step (mapper.cpp): the request at a keyframe (to the node of the place
@@ -251,9 +255,13 @@ class Mapper : public MapConsumer {
   // The step's changes to the solver (solver_schedule.h), and the partition index after them.
   void flushSolver();
   void recordFlush(const SolverSchedule::Flush& flush);
-  // The node of the place world_T_body is in (partition_index.h).
+  // The node of the place world_T_body is in (partition_index.h), else the node of an earlier
+  // session's footprint that covers it (view_footprints.h).
   std::optional<int64_t> nodeAt(const core::SE3d& world_T_body, int floor,
                                 int64_t newest_allowed) const;
+  // The place of a step's registration filed as its node's, when no node serves it.
+  void addFootprint(const Footprint& view, int64_t keyframe_utime);
+  ViewFootprints::NodePoses poses() const;
 
   // A stored map read back (mapper_restore.cpp): its nodes and their factors, its
   // constraints, and the tracking a warm restart resumes.
@@ -270,6 +278,7 @@ class Mapper : public MapConsumer {
   int session_;
   int first_session_;
   PartitionIndex partition_;
+  ViewFootprints footprints_;
   ConstraintSet constraints_;
   SolverSchedule schedule_;
   MapGate map_gate_;

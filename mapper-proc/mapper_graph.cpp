@@ -118,7 +118,8 @@ void Mapper::addConstraint(int64_t from, int64_t to, const core::UncertainPose& 
 
 void Mapper::flushSolver() {
   const auto t_refresh = SteadyClock::now();
-  if (partition_.refresh(nodes_, schedule_.solver()))
+  const bool refreshed = partition_.refresh(nodes_, schedule_.solver());
+  if (footprints_.refresh(poses()) || refreshed)
     stats_.timing.partition_s += secondsSince(t_refresh);
   const std::optional<SolverSchedule::Flush> flush =
       schedule_.flush(last_step_utime_, constraints_);
@@ -144,14 +145,37 @@ void Mapper::recordFlush(const SolverSchedule::Flush& flush) {
   const auto t1 = SteadyClock::now();
   for (int64_t id : flush.added)
     partition_.file(id, partition_.cellOf(nodePose(id), nodes_[static_cast<size_t>(id)].floor));
-  if (flush.batch) partition_.rebuild(nodes_, schedule_.solver().estimate());
-  if (flush.batch_swapped) partition_.startRefresh();
+  if (flush.batch) {
+    partition_.rebuild(nodes_, schedule_.solver().estimate());
+    footprints_.rebuild(poses());
+  }
+  if (flush.batch_swapped) {
+    partition_.startRefresh();
+    footprints_.startRefresh();
+  }
   stats_.timing.partition_s += secondsSince(t1);
 }
 
 std::optional<int64_t> Mapper::nodeAt(const core::SE3d& world_T_body, int floor,
                                       int64_t newest_allowed) const {
-  return partition_.nodeAt(world_T_body, floor, newest_allowed, nodes_, schedule_.solver());
+  if (auto id = partition_.nodeAt(world_T_body, floor, newest_allowed, nodes_, schedule_.solver()))
+    return id;
+  if (!o_.footprints) return std::nullopt;
+  return footprints_.nodeAt(world_T_body, floor, session_);
+}
+
+ViewFootprints::NodePoses Mapper::poses() const {
+  return [this](int64_t id) { return nodePose(id); };
+}
+
+void Mapper::addFootprint(const Footprint& view, int64_t keyframe_utime) {
+  // Only where no node serves the place, nor a footprint of an earlier session.
+  // Kept planar, as the store keeps it, so that a restored map files it in the same cell.
+  const Footprint planar{view.node, core::fromPlanar(core::toPlanar(view.node_T_view)), session_};
+  const int floor = nodes_[static_cast<size_t>(view.node)].floor;
+  const core::SE3d world_T_view = nodePose(view.node) * planar.node_T_view;
+  if (nodeAt(world_T_view, floor, keyframe_utime)) return;
+  if (footprints_.add(planar, world_T_view, floor)) ++stats_.footprints;
 }
 
 }  // namespace evermap::mapper

@@ -67,6 +67,8 @@ void MapperOptions::declarePlaces(OptionList& o) {
   o.add("overlap_heading_sectors", &overlap_heading_sectors, "sectors",
         "... and within this many heading sectors")
       .in(0.0, 1.0);
+  o.add("footprints", &footprints,
+        "a place registered from in an earlier session is mapped: no node there");
   o.add("floor_match_m", &floor_match_m, "m",
         "a ride ends on the map's floor within this of its measured height")
       .positive();

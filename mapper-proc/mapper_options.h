@@ -39,6 +39,9 @@ struct MapperOptions {
   // tolerance at most a sector.
   double overlap_radius_cells = 1.0;
   double overlap_heading_sectors = 1.0;
+  // Footprints (view_footprints.h): a place the robot registered to a node from, where no
+  // node is, is filed as that node's; a step there asks that node, and adds no node.
+  bool footprints = true;
   // While lost, a registration that places the robot (a candidate, waiting for a second one
   // that agrees) is checked by up to this many node-mode requests to the node where it says
   // the robot is now, before global searches resume. 0: global searches only.

@@ -133,6 +133,7 @@ std::optional<int64_t> Mapper::handleRegistration(const register_result_t& msg, 
   } else {
     closeLoop(f, b, b_T_q, *q_T_now, registered);
   }
+  if (*registered) in_flight_->view = Footprint{b, b_T_q.mean, session_};
   return std::nullopt;
 }
 

@@ -28,6 +28,9 @@ Status Mapper::restore(const MapSnapshot& map) {
   }
   if (nodes_.empty()) return Ok{};
   flushSolver();
+  for (const Footprint& f : map.footprints)
+    footprints_.restore(f, nodePose(f.node) * f.node_T_view,
+                        nodes_[static_cast<size_t>(f.node)].floor);
   const int64_t factors = stats_.factors;
   stats_ = MapperStats{};
   stats_.factors = factors;

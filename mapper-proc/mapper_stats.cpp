@@ -7,11 +7,11 @@ namespace evermap::mapper {
 
 // Every field before timing is a counter of the list: a counter added there and not here
 // fails to compile.
-static_assert(offsetof(MapperStats, timing) == 38 * sizeof(int64_t));
+static_assert(offsetof(MapperStats, timing) == 39 * sizeof(int64_t));
 
-const std::array<MapperStats::Counter, 38>& MapperStats::counters() {
+const std::array<MapperStats::Counter, 39>& MapperStats::counters() {
   using S = MapperStats;
-  static const std::array<Counter, 38> list{{
+  static const std::array<Counter, 39> list{{
       {"steps", &S::steps},
       {"nodes", &S::nodes},
       {"constraints", &S::constraints},
@@ -28,6 +28,7 @@ const std::array<MapperStats::Counter, 38>& MapperStats::counters() {
       {"rejected_map_gate", &S::rejected_map_gate},
       {"rejected_floor", &S::rejected_floor},
       {"closures_saturated", &S::closures_saturated},
+      {"footprints", &S::footprints},
       {"gate_recoveries", &S::gate_recoveries},
       {"recoveries_too_far", &S::recoveries_too_far},
       {"relocalizations", &S::relocalizations},

@@ -47,12 +47,13 @@ struct MapperStats {
   int64_t requests_node = 0;
   int64_t requests_global = 0;
   int64_t registrations_ok = 0;
-  int64_t loop_closures = 0;       // constraints to another existing node
-  int64_t delta_replaced = 0;      // active-node registrations that replaced Δ
-  int64_t delta_kept = 0;          // ... that lost the det(Σ) test
-  int64_t delta_fused = 0;         // ... fused with Δ (fuse_active_registration)
-  int64_t rejected_map_gate = 0;   // registrations that contradicted the map or Δ
-  int64_t rejected_floor = 0;      // registrations to a node of another floor
+  int64_t loop_closures = 0;      // constraints to another existing node
+  int64_t delta_replaced = 0;     // active-node registrations that replaced Δ
+  int64_t delta_kept = 0;         // ... that lost the det(Σ) test
+  int64_t delta_fused = 0;        // ... fused with Δ (fuse_active_registration)
+  int64_t rejected_map_gate = 0;  // registrations that contradicted the map or Δ
+  int64_t rejected_floor = 0;     // registrations to a node of another floor
+  int64_t footprints = 0;  // places registered from filed as their node's (view_footprints.h)
   int64_t closures_saturated = 0;  // new pairs of saturated nodes below their bound: no factor
   int64_t gate_recoveries = 0;     // ... accepted after all: a second one agreed with them
   int64_t recoveries_too_far = 0;  // ... not: their jump was more than odometry could drift
@@ -96,7 +97,7 @@ struct MapperStats {
     std::string_view name;
     int64_t MapperStats::*field;
   };
-  static const std::array<Counter, 38>& counters();
+  static const std::array<Counter, 39>& counters();
   // "name value" lines, in counters() order.
   std::string text() const;
   // Adds the counters of another mapper's stats (sessions mapped by successive mappers).

@@ -112,7 +112,7 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheTrackingStateOpensAndIsMigrated) {
   }
   auto store = MapStore::open(file);
   ASSERT_TRUE(store) << store.error().message;
-  EXPECT_EQ(*store->schemaVersion(), 3);
+  EXPECT_EQ(*store->schemaVersion(), map::kSchemaVersion);
   auto snap = store->load();
   ASSERT_TRUE(snap);
   EXPECT_FALSE(snap->tracking);
@@ -153,7 +153,7 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheOdometryPoseIsMigratedAndTheRoundTripKe
   }
   auto store = MapStore::open(file);
   ASSERT_TRUE(store) << store.error().message;
-  EXPECT_EQ(*store->schemaVersion(), 3);
+  EXPECT_EQ(*store->schemaVersion(), map::kSchemaVersion);
   auto snap = store->load();
   ASSERT_TRUE(snap && snap->tracking);
   EXPECT_FALSE(snap->tracking->odometry);
@@ -173,8 +173,8 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheOdometryPoseIsMigratedAndTheRoundTripKe
 }
 
 // Stores of schema version 2 (map_tracking without its wheel_* columns) open read-only as
-// they are and read-write migrated to version 3; the next save stores the wheels' odometry
-// pose, which a load gives back as it was saved.
+// they are and read-write migrated to the current version; the next save stores the wheels'
+// odometry pose, which a load gives back as it was saved.
 TEST(MapStore, AStoreOfTheSchemaBeforeTheWheelPoseIsMigratedAndTheRoundTripKeepsThePose) {
   evermap::testing::ScratchDir dir;
   const auto file = dir.path() / "v2.db";
@@ -197,7 +197,7 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheWheelPoseIsMigratedAndTheRoundTripKeeps
   }
   auto store = MapStore::open(file);
   ASSERT_TRUE(store) << store.error().message;
-  EXPECT_EQ(*store->schemaVersion(), 3);
+  EXPECT_EQ(*store->schemaVersion(), map::kSchemaVersion);
   ASSERT_TRUE(store->save(drive.mapper(), 0, 0));
   const auto saved = drive.mapper().trackingState();
   ASSERT_TRUE(saved && saved->wheel);
@@ -208,6 +208,42 @@ TEST(MapStore, AStoreOfTheSchemaBeforeTheWheelPoseIsMigratedAndTheRoundTripKeeps
   EXPECT_EQ(w.utime, saved->wheel->utime);
   EXPECT_EQ(w.odom_T_body.vector(), saved->wheel->odom_T_body.vector());
   EXPECT_EQ(w.covariance, saved->wheel->covariance);
+  EXPECT_TRUE(store->integrityCheck());
+}
+
+// Stores of schema version 3 (no map_footprints) open read-only as they are, with no footprint,
+// and read-write migrated to version 4; the next save stores the mapper's footprints, which a
+// load gives back in their order.
+TEST(MapStore, AStoreOfTheSchemaBeforeTheFootprintsIsMigratedAndTheRoundTripKeepsThem) {
+  evermap::testing::ScratchDir dir;
+  const auto file = dir.path() / "v3.db";
+  ScriptedDrive drive(scriptedOptions());
+  lap(drive);
+  ASSERT_GT(drive.mapper().footprints().size(), 0u);
+  ASSERT_NO_FATAL_FAILURE(
+      saveAsAnOlderSchema(drive, file, "DROP TABLE map_footprints; PRAGMA user_version=3;"));
+  {
+    MapSnapshot snap;
+    ASSERT_NO_FATAL_FAILURE(loadReadOnly(file, &snap));
+    EXPECT_TRUE(snap.footprints.empty());
+    EXPECT_EQ(snap.nodes.size(), drive.mapper().nodes().size());
+  }
+  auto store = MapStore::open(file);
+  ASSERT_TRUE(store) << store.error().message;
+  EXPECT_EQ(*store->schemaVersion(), 4);
+  ASSERT_TRUE(store->save(drive.mapper(), 0, 0));
+  auto again = store->load();
+  ASSERT_TRUE(again) << again.error().message;
+  const std::vector<Footprint>& made = drive.mapper().footprints();
+  ASSERT_EQ(again->footprints.size(), made.size());
+  for (size_t k = 0; k < made.size(); ++k) {
+    EXPECT_EQ(again->footprints[k].node, made[k].node);
+    EXPECT_EQ(again->footprints[k].session, made[k].session);
+    EXPECT_LT((core::toPlanar(again->footprints[k].node_T_view).vector() -
+               core::toPlanar(made[k].node_T_view).vector())
+                  .norm(),
+              1e-12);
+  }
   EXPECT_TRUE(store->integrityCheck());
 }
 

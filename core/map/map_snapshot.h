@@ -85,11 +85,21 @@ struct StoredEdge {
   int64_t folded_rejected = 0;
 };
 
+// A place a node has been seen from (mapper-proc/view_footprints.h): where a registration to
+// `node` placed the robot, in the node's frame (planar: x, y and the turn about z), on the
+// node's floor, in `session`.
+struct Footprint {
+  int64_t node = 0;
+  core::SE3d node_T_view;
+  int session = 0;
+};
+
 struct MapSnapshot {
   std::vector<std::pair<int, int64_t>> sessions;  // (session, start utime)
   std::vector<std::pair<int, double>> floors;     // (floor index, height m)
   std::vector<StoredNode> nodes;                  // by id
   std::vector<StoredEdge> edges;                  // by id
+  std::vector<Footprint> footprints;              // in the order they were made
   std::optional<TrackingState> tracking;          // map_tracking's row, if any
   int max_saved_mapper = -1;                      // highest session_id of map_saved
 

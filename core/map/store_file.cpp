@@ -40,6 +40,10 @@ constexpr const char* kSchema =
     " session_id INTEGER NOT NULL, session_start_utime INTEGER NOT NULL, active_node INTEGER NOT "
     "NULL,"
     " floor INTEGER NOT NULL, in_elevator INTEGER NOT NULL, pose BLOB NOT NULL, covariance BLOB "
+    "NOT NULL);"
+    // Version 4: the nodes' footprints (an older store is migrated by this line, empty).
+    "CREATE TABLE IF NOT EXISTS map_footprints (footprint_id INTEGER PRIMARY KEY, node_id "
+    "INTEGER NOT NULL, session_id INTEGER NOT NULL, x REAL NOT NULL, y REAL NOT NULL, theta REAL "
     "NOT NULL);";
 
 }  // namespace

@@ -39,14 +39,21 @@
 //                              wheel_epoch INTEGER, wheel_utime INTEGER,
 //                              wheel_pose BLOB,            -- 3 f64: x, y, θ
 //                              wheel_covariance BLOB);     -- 9 f64, row-major (x, y, θ)
+//   CREATE TABLE map_footprints (footprint_id INTEGER PRIMARY KEY,  -- in the order made
+//                                node_id INTEGER NOT NULL,          -- a place seen from
+//                                session_id INTEGER NOT NULL,       -- in this session:
+//                                x REAL NOT NULL, y REAL NOT NULL,  -- node_T_view, planar
+//                                theta REAL NOT NULL);              --
+//                                (mapper-proc/view_footprints.h)
 //
 // Schema versions (PRAGMA user_version): 0, stores made before map_tracking (they open and
 // are migrated by creating it: a store without a row restarts lost, as before); 1, with
 // map_tracking but not its odom_* columns (migrated by adding them, NULL: the state restarts
 // warm without the odometry bridge); 2, without the wheel_* columns (migrated by adding them:
-// restarts warm, bridged by VO's odometry frame only); 3, this one. A read-only open reads an
-// older store as it is.
-// A store of a newer version is refused (its rows may mean what this code does not know).
+// restarts warm, bridged by VO's odometry frame only); 3, without map_footprints (migrated by
+// creating it: the map restarts with no footprint, and files them anew); 4, this one. A read-only
+// open reads an older store as it is. A store of a newer version is refused (its rows may mean what
+// this code does not know).
 
 #include <sqlite3.h>
 
@@ -60,7 +67,7 @@
 namespace evermap::map {
 
 // PRAGMA user_version of the schema this code writes (above).
-inline constexpr int64_t kSchemaVersion = 3;
+inline constexpr int64_t kSchemaVersion = 4;
 
 // The map_tracking columns each version after 1 added (a store is migrated by adding them;
 // a read-only open of an older store reads them as NULL).

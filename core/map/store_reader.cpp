@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/geometry/se2.h"
 #include "core/map/store_codec.h"
 
 namespace evermap::map {
@@ -181,6 +182,35 @@ Expected<TrackingState> trackingRow(sqlite3_stmt* st, const std::string& what) {
 
 // The map_tracking row, if any. A version-0 store opened read-only has no map_tracking (no
 // state); an older one lacks the later columns: read as NULL (no pose).
+// After readNodes: each footprint belongs to a node read. A store older than version 4 has none.
+Status readFootprints(const StoreFile& file, MapSnapshot& out) {
+  auto has_table = file.queryInt(
+      "SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = 'map_footprints'");
+  if (!has_table) return has_table.error();
+  if (*has_table == 0) return Ok{};
+  Statement st;
+  if (!file.prepare(st,
+                    "SELECT footprint_id, node_id, session_id, x, y, theta FROM map_footprints "
+                    "ORDER BY footprint_id"))
+    return file.sqliteError();
+  while (sqlite3_step(st.s) == SQLITE_ROW) {
+    const int64_t id = sqlite3_column_int64(st.s, 0);
+    const int64_t node = sqlite3_column_int64(st.s, 1);
+    const int session = sqlite3_column_int(st.s, 2);
+    const double x = sqlite3_column_double(st.s, 3), y = sqlite3_column_double(st.s, 4),
+                 theta = sqlite3_column_double(st.s, 5);
+    const std::string what = file.path().string() + ": footprint " + std::to_string(id);
+    if (id != static_cast<int64_t>(out.footprints.size()))
+      return makeError(what, ": footprints are not numbered in order");
+    if (node < 0 || node >= static_cast<int64_t>(out.nodes.size()))
+      return makeError(what, ": no such node ", node);
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(theta))
+      return makeError(what, ": not a finite pose");
+    out.footprints.push_back(Footprint{node, core::fromPlanar(core::SE2d(x, y, theta)), session});
+  }
+  return Ok{};
+}
+
 Status readTracking(const StoreFile& file, MapSnapshot& out) {
   auto has_tracking = file.queryInt(
       "SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = 'map_tracking'");
@@ -208,7 +238,8 @@ Status readTracking(const StoreFile& file, MapSnapshot& out) {
 
 Expected<MapSnapshot> readMap(const StoreFile& file) {
   MapSnapshot out;
-  for (auto read : {readSessions, readFloors, readNodes, readAttitudes, readEdges}) {
+  for (auto read :
+       {readSessions, readFloors, readNodes, readAttitudes, readEdges, readFootprints}) {
     if (Status s = read(file, out); !s) return s.error();
   }
   auto saved = file.queryInt("SELECT COALESCE(MAX(session_id), -1) FROM map_saved");
