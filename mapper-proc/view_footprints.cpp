@@ -32,8 +32,7 @@ std::optional<int64_t> ViewFootprints::nodeAt(const core::SE3d& world_T_body, in
           const core::SE2d& q = filed_[k].world;
           const double d = std::hypot(q.x() - p.x(), q.y() - p.y()) / radius_m;
           const double a =
-              std::abs(std::remainder(q.theta() - p.theta(), 2.0 * std::numbers::pi)) /
-              heading_rad;
+              std::abs(std::remainder(q.theta() - p.theta(), 2.0 * std::numbers::pi)) / heading_rad;
           if (d > 1.0 || a > 1.0 || d + a >= best_score) continue;
           best_score = d + a;
           best = footprints_[k].node;

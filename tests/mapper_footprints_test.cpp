@@ -21,11 +21,11 @@ namespace {
 using namespace testing;  // tests/scripted_drive.h
 
 // The cells alone (no overlap, which would hide what footprints do): a lap registered all the
-// way, then, in a later session, the corridor's first leg again in the dark. Its nodes are about 2 m apart, so the
-// dark leg crosses cells that hold none; each of them was registered from on the lap. The
-// nodes the dark leg adds. The lap runs 0.5 m beside the first node and its steps 0.05 m off
-// the 0.1 m grid of the map's frame, so that no pose lies on a cell edge (where rounding would
-// pick the cell).
+// way, then, in a later session, the corridor's first leg again in the dark. The lap's nodes
+// are about 2 m apart, so the dark leg crosses cells that hold none; each of them was
+// registered from on the lap. The nodes the dark leg adds. The lap runs 0.5 m beside the
+// first node and its steps 0.05 m off the 0.1 m grid of the map's frame, so that no pose lies
+// on a cell edge (where rounding would pick the cell).
 MapperOptions cellsAlone(bool footprints) {
   MapperOptions o = scriptedOptions();
   o.overlap_radius_cells = 0.0;
@@ -94,9 +94,9 @@ TEST(ReducedGraph, AMapReloadedFromItsStoreKeepsItsFootprints) {
   ASSERT_EQ(snap->footprints.size(), made.size());
   for (size_t k = 0; k < made.size(); ++k) {
     EXPECT_EQ(snap->footprints[k].node, made[k].node);
-    EXPECT_LT((snap->footprints[k].node_T_view.translation() - made[k].node_T_view.translation())
-                  .norm(),
-              1e-12);
+    EXPECT_LT(
+        (snap->footprints[k].node_T_view.translation() - made[k].node_T_view.translation()).norm(),
+        1e-12);
   }
   // The restarted mapper files them as the first did: in its next session the dark leg adds no
   // node. A second save adds no row for them.
