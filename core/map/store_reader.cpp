@@ -180,8 +180,6 @@ Expected<TrackingState> trackingRow(sqlite3_stmt* st, const std::string& what) {
   return t;
 }
 
-// The map_tracking row, if any. A version-0 store opened read-only has no map_tracking (no
-// state); an older one lacks the later columns: read as NULL (no pose).
 // After readNodes: each footprint belongs to a node read. A store older than version 4 has none.
 Status readFootprints(const StoreFile& file, MapSnapshot& out) {
   auto has_table = file.queryInt(
@@ -211,6 +209,8 @@ Status readFootprints(const StoreFile& file, MapSnapshot& out) {
   return Ok{};
 }
 
+// The map_tracking row, if any. A version-0 store opened read-only has no map_tracking (no
+// state); an older one lacks the later columns: read as NULL (no pose).
 Status readTracking(const StoreFile& file, MapSnapshot& out) {
   auto has_tracking = file.queryInt(
       "SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = 'map_tracking'");
