@@ -169,12 +169,12 @@ ViewFootprints::NodePoses Mapper::poses() const {
 }
 
 void Mapper::addFootprint(const Footprint& view, int64_t keyframe_utime) {
-  // Only where no node serves the place, nor a footprint of an earlier session.
+  // Only where no node serves the place (add() refuses where a footprint covers it).
   // Kept planar, as the store keeps it, so that a restored map files it in the same cell.
   const Footprint planar{view.node, core::fromPlanar(core::toPlanar(view.node_T_view)), session_};
   const int floor = nodes_[static_cast<size_t>(view.node)].floor;
   const core::SE3d world_T_view = nodePose(view.node) * planar.node_T_view;
-  if (nodeAt(world_T_view, floor, keyframe_utime)) return;
+  if (partition_.nodeAt(world_T_view, floor, keyframe_utime, nodes_, schedule_.solver())) return;
   if (footprints_.add(planar, world_T_view, floor)) ++stats_.footprints;
 }
 

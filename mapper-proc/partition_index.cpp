@@ -53,33 +53,22 @@ std::optional<int64_t> PartitionIndex::closestNode(const core::SE3d& world_T_bod
   double best_score = 2.0;
   // The cells and sectors the overlap reaches into: every candidate is filed in one of them.
   const int rings = static_cast<int>(std::ceil(o_.overlap_radius_cells));
-  const int sector_rings =
-      std::min(static_cast<int>(std::ceil(o_.overlap_heading_sectors)), o_.heading_bins / 2);
-  for (int dx = -rings; dx <= rings; ++dx) {
-    for (int dy = -rings; dy <= rings; ++dy) {
-      for (int dh = -sector_rings; dh <= sector_rings; ++dh) {
-        // each sector once: with an even number of sectors the opposite one is reached both ways
-        if (o_.heading_bins % 2 == 0 && sector_rings == o_.heading_bins / 2 && dh == -sector_rings)
-          continue;
-        core::PlanarCell n{
-            floor, c.ix + dx, c.iy + dy,
-            ((c.iheading + dh) % o_.heading_bins + o_.heading_bins) % o_.heading_bins};
-        auto it = cells_.find(n);
-        if (it == cells_.end()) continue;
-        for (int64_t id : it->second) {
-          if (nodes[static_cast<size_t>(id)].keyframe_utime > newest_allowed) continue;
-          const core::SE2d q = core::toPlanar(poses(id));
-          const double d = std::hypot(q.x() - p.x(), q.y() - p.y()) / radius_m;
-          const double a = headingApartRad(q, p) / heading_rad;
-          if (d > 1.0 || a > 1.0) continue;
-          if (d + a < best_score) {
-            best_score = d + a;
-            best = id;
-          }
-        }
+  const int sector_rings = static_cast<int>(std::ceil(o_.overlap_heading_sectors));
+  grid_.forEachNear(c, rings, sector_rings, [&](const core::PlanarCell& n) {
+    auto it = cells_.find(n);
+    if (it == cells_.end()) return;
+    for (int64_t id : it->second) {
+      if (nodes[static_cast<size_t>(id)].keyframe_utime > newest_allowed) continue;
+      const core::SE2d q = core::toPlanar(poses(id));
+      const double d = std::hypot(q.x() - p.x(), q.y() - p.y()) / radius_m;
+      const double a = headingApartRad(q, p) / heading_rad;
+      if (d > 1.0 || a > 1.0) continue;
+      if (d + a < best_score) {
+        best_score = d + a;
+        best = id;
       }
     }
-  }
+  });
   return best;
 }
 

@@ -15,31 +15,21 @@ std::optional<int64_t> ViewFootprints::nodeAt(const core::SE3d& world_T_body, in
   const core::SE2d p = core::toPlanar(world_T_body);
   const double radius_m = 0.5 * grid_.cell_size_m;
   const double heading_rad = std::numbers::pi / grid_.heading_bins;
-  const core::PlanarCell c = grid_.cellOf(p, floor);
-  const int sector_rings = grid_.heading_bins >= 3 ? 1 : 0;
   std::optional<int64_t> best;
   double best_score = 2.0;
-  for (int dx = -1; dx <= 1; ++dx) {
-    for (int dy = -1; dy <= 1; ++dy) {
-      for (int dh = -sector_rings; dh <= sector_rings; ++dh) {
-        const core::PlanarCell n{
-            floor, c.ix + dx, c.iy + dy,
-            ((c.iheading + dh) % grid_.heading_bins + grid_.heading_bins) % grid_.heading_bins};
-        auto it = cells_.find(n);
-        if (it == cells_.end()) continue;
-        for (size_t k : it->second) {
-          if (footprints_[k].session >= before_session) continue;
-          const core::SE2d& q = filed_[k].world;
-          const double d = std::hypot(q.x() - p.x(), q.y() - p.y()) / radius_m;
-          const double a =
-              std::abs(std::remainder(q.theta() - p.theta(), 2.0 * std::numbers::pi)) / heading_rad;
-          if (d > 1.0 || a > 1.0 || d + a >= best_score) continue;
-          best_score = d + a;
-          best = footprints_[k].node;
-        }
-      }
+  grid_.forEachNear(grid_.cellOf(p, floor), 1, 1, [&](const core::PlanarCell& n) {
+    auto it = cells_.find(n);
+    if (it == cells_.end()) return;
+    for (size_t k : it->second) {
+      if (footprints_[k].session >= before_session) continue;
+      const core::SE2d& q = filed_[k].world;
+      const double d = std::hypot(q.x() - p.x(), q.y() - p.y()) / radius_m;
+      const double a = PartitionIndex::headingApartRad(q, p) / heading_rad;
+      if (d > 1.0 || a > 1.0 || d + a >= best_score) continue;
+      best_score = d + a;
+      best = footprints_[k].node;
     }
-  }
+  });
   return best;
 }
 
@@ -52,25 +42,23 @@ bool ViewFootprints::add(const Footprint& f, const core::SE3d& world_T_view, int
 
 void ViewFootprints::restore(const Footprint& f, const core::SE3d& world_T_view, int floor) {
   const core::SE2d p = core::toPlanar(world_T_view);
-  const bool forgotten = forgotten_nodes_.count(f.node) > 0;
   footprints_.push_back(f);
-  filed_.push_back(Filed{p, grid_.cellOf(p, floor), forgotten});
-  if (!forgotten) cells_[filed_.back().cell].push_back(footprints_.size() - 1);
+  filed_.push_back(Filed{p, grid_.cellOf(p, floor)});
+  if (!forgotten_nodes_.count(f.node)) cells_[filed_.back().cell].push_back(footprints_.size() - 1);
 }
 
 void ViewFootprints::forget(int64_t id) {
   if (!forgotten_nodes_.insert(id).second) return;
   for (size_t k = 0; k < footprints_.size(); ++k) {
-    if (footprints_[k].node != id || filed_[k].forgotten) continue;
-    filed_[k].forgotten = true;
+    if (footprints_[k].node != id) continue;
     auto& ids = cells_[filed_[k].cell];
     ids.erase(std::find(ids.begin(), ids.end(), k));
   }
 }
 
 void ViewFootprints::refile(size_t k, const NodePoses& poses) {
-  if (filed_[k].forgotten) return;
   const Footprint& f = footprints_[k];
+  if (forgotten_nodes_.count(f.node)) return;
   filed_[k].world = core::toPlanar(poses(f.node) * f.node_T_view);
   const core::PlanarCell cell = grid_.cellOf(filed_[k].world, filed_[k].cell.floor);
   if (cell == filed_[k].cell) return;

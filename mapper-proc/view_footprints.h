@@ -27,6 +27,7 @@
 #include "core/geometry/se2.h"
 #include "core/geometry/se3.h"
 #include "core/map/map_snapshot.h"
+#include "mapper-proc/partition_index.h"
 
 namespace evermap::mapper {
 
@@ -66,9 +67,9 @@ class ViewFootprints {
   struct Filed {
     core::SE2d world;  // the estimate when last filed
     core::PlanarCell cell;
-    bool forgotten = false;
   };
   std::vector<Filed> filed_;  // by footprint index
+  // The footprints of each cell, but those of forgotten nodes.
   std::unordered_map<core::PlanarCell, std::vector<size_t>, core::PlanarCellHash> cells_;
   std::unordered_set<int64_t> forgotten_nodes_;
   size_t refresh_next_ = SIZE_MAX;

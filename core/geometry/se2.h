@@ -7,6 +7,8 @@
 // vector, which for SE(2) coincide with right-perturbation Jacobians only at small angles;
 // the SSC form is what the planar solver and the tracker use.
 
+#include <algorithm>
+
 #include <Eigen/Core>
 
 #include "core/geometry/se3.h"
@@ -72,6 +74,23 @@ struct PlanarGrid {
   double cell_size_m = 1.0;
   int heading_bins = 8;  // 45° sectors
   PlanarCell cellOf(const SE2d& pose, int floor) const;
+  // Calls f(cell) for every cell within `rings` cells (in x and in y) and `sector_rings`
+  // heading sectors of c, on c's floor, each once (the heading wraps; at most every sector).
+  template <class F>
+  void forEachNear(const PlanarCell& c, int rings, int sector_rings, F&& f) const {
+    sector_rings = std::min(sector_rings, heading_bins / 2);
+    for (int dx = -rings; dx <= rings; ++dx) {
+      for (int dy = -rings; dy <= rings; ++dy) {
+        for (int dh = -sector_rings; dh <= sector_rings; ++dh) {
+          // With an even number of sectors the opposite one is reached both ways: once.
+          if (heading_bins % 2 == 0 && sector_rings == heading_bins / 2 && dh == -sector_rings)
+            continue;
+          f(PlanarCell{c.floor, c.ix + dx, c.iy + dy,
+                       ((c.iheading + dh) % heading_bins + heading_bins) % heading_bins});
+        }
+      }
+    }
+  }
 };
 
 struct PlanarCellHash {

@@ -143,6 +143,15 @@ Expected<int64_t> StoreFile::queryInt(const char* sql, int64_t a, int64_t b) con
   return sqlite3_column_int64(st.s, 0);
 }
 
+Expected<bool> StoreFile::hasTable(const char* table) const {
+  const std::string sql =
+      std::string("SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = '") + table +
+      "'";
+  auto count = queryInt(sql.c_str());
+  if (!count) return count.error();
+  return *count > 0;
+}
+
 Expected<bool> StoreFile::hasTrackingColumn(const char* column) const {
   const std::string sql =
       std::string("SELECT COUNT(*) FROM pragma_table_info('map_tracking') WHERE name = '") +

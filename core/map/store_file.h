@@ -120,6 +120,9 @@ class StoreFile {
   Error sqliteError(const char* what) const;
   // The first column of the first row of `sql`, with ?1 = a and ?2 = b.
   Expected<int64_t> queryInt(const char* sql, int64_t a = 0, int64_t b = 0) const;
+  // Whether the file has `table` (a store of an older schema, opened read-only, lacks the
+  // later ones).
+  Expected<bool> hasTable(const char* table) const;
   // Whether map_tracking has `column` (a store of an older schema lacks the later ones).
   Expected<bool> hasTrackingColumn(const char* column) const;
 

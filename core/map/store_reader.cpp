@@ -182,10 +182,9 @@ Expected<TrackingState> trackingRow(sqlite3_stmt* st, const std::string& what) {
 
 // After readNodes: each footprint belongs to a node read. A store older than version 4 has none.
 Status readFootprints(const StoreFile& file, MapSnapshot& out) {
-  auto has_table = file.queryInt(
-      "SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = 'map_footprints'");
+  auto has_table = file.hasTable("map_footprints");
   if (!has_table) return has_table.error();
-  if (*has_table == 0) return Ok{};
+  if (!*has_table) return Ok{};
   Statement st;
   if (!file.prepare(st,
                     "SELECT footprint_id, node_id, session_id, x, y, theta FROM map_footprints "
@@ -212,10 +211,9 @@ Status readFootprints(const StoreFile& file, MapSnapshot& out) {
 // The map_tracking row, if any. A version-0 store opened read-only has no map_tracking (no
 // state); an older one lacks the later columns: read as NULL (no pose).
 Status readTracking(const StoreFile& file, MapSnapshot& out) {
-  auto has_tracking = file.queryInt(
-      "SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = 'map_tracking'");
+  auto has_tracking = file.hasTable("map_tracking");
   if (!has_tracking) return has_tracking.error();
-  if (*has_tracking == 0) return Ok{};
+  if (!*has_tracking) return Ok{};
   std::string sql =
       "SELECT utime, session_id, session_start_utime, active_node, floor, in_elevator, pose, "
       "covariance";
