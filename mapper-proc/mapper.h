@@ -209,6 +209,9 @@ class Mapper : public MapConsumer {
   std::optional<int64_t> confirmResumed(const InFlight& f, int64_t b,
                                         const core::UncertainPose& b_T_q,
                                         const core::UncertainPose& q_T_now, bool* registered);
+  // Whether `node` opens a new loop pair without the information test: below
+  // closure_partners and new (MapperOptions::closure_partner_sessions).
+  bool takesFreePair(int64_t node) const;
   // The robot placed on b by b_T_q (q_T_now since the keyframe): b active, no constraint.
   void relocalizeOn(int64_t b, const core::UncertainPose& b_T_q,
                     const core::UncertainPose& q_T_now);

@@ -116,6 +116,10 @@ void MapperOptions::declareClosures(OptionList& o) {
   o.add("saturated_closure_information", &saturated_closure_information, "nats",
         "the information a pair between saturated nodes needs")
       .nonNegative();
+  o.add("closure_partner_sessions", &closure_partner_sessions, "sessions",
+        "a node below closure_partners takes a pair freely in its first this many sessions; 0: "
+        "always")
+      .nonNegative();
 }
 
 void MapperOptions::declareRecovery(OptionList& o) {

@@ -254,11 +254,10 @@ void Mapper::closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& 
     relocalizeOn(b, b_T_q, q_T_now);
     return;
   }
-  // A new pair between two nodes that are both tied to as many others as
-  // MapperOptions::closure_partners allows needs saturated_closure_information.
+  // A new pair needs saturated_closure_information unless one of its nodes takes it freely
+  // (MapperOptions::closure_partners, closure_partner_sessions).
   const bool saturated =
-      !known_pair && o_.closure_partners > 0 &&
-      std::min(constraints_.partners(f.active), constraints_.partners(b)) >= o_.closure_partners;
+      !known_pair && o_.closure_partners > 0 && !takesFreePair(f.active) && !takesFreePair(b);
   if (saturated && information < o_.saturated_closure_information) {
     // The map already holds what this closure says about the pair: re-localised on b, no
     // factor (MapperOptions::closure_partners).
@@ -278,6 +277,12 @@ void Mapper::closeLoop(const InFlight& f, int64_t b, const core::UncertainPose& 
   tracker_.reset(core::compound(b_T_q, q_T_now));
   // Δ now reuses the registration the constraint holds: re-localise at the next chance.
   relocalize_ = true;
+}
+
+bool Mapper::takesFreePair(int64_t node) const {
+  if (constraints_.partners(node) >= o_.closure_partners) return false;
+  return o_.closure_partner_sessions == 0 ||
+         session_ - nodes_[static_cast<size_t>(node)].session < o_.closure_partner_sessions;
 }
 
 void Mapper::relocalizeOn(int64_t b, const core::UncertainPose& b_T_q,

@@ -123,6 +123,50 @@ int64_t firstSessions(const std::vector<int64_t>& by_session, size_t n) {
 // views the robot meets: nodes per view stay where exploration left them, and the last 20
 // sessions add next to no node and few factors. Without footprints (measured on this run):
 // nodes per view ×1.12, the last 20 sessions +4.4 % nodes and +8.9 % factors.
+// Session 0 maps two parallel lines 2 m apart (y = 0 out, y = 2 back: registrations reach
+// 1.5 m, so each line has its own chain of nodes, two partners each). `age` sessions later
+// the robot crosses between the lines at three places where no pair ties them: the pairs
+// those crossings open, where no closure is informative enough for a pair between nodes at
+// the bound of 3 partners (saturated_closure_information 1000 nats).
+int64_t pairsOpenedByLateCrossings(int age, int closure_partner_sessions) {
+  MapperOptions o = scriptedOptions();
+  o.closure_partners = 3;
+  o.saturated_closure_information = 1e3;
+  o.closure_partner_sessions = closure_partner_sessions;
+  ScriptedDrive drive(o);
+  drive.driveTo(8.0, 0.0);
+  drive.sidestep(2.0);
+  drive.driveTo(0.0, 0.0);
+  drive.sidestep(-2.0);
+  drive.driveTo(0.5, 0.0);
+  const int64_t nodes = drive.mapper().stats().nodes;
+  for (int k = 0; k < age; ++k) {
+    drive.newSession(3600.0, true);
+    drive.driveTo(1.0, 0.0);
+    drive.driveTo(0.5, 0.0);
+    EXPECT_FALSE(drive.mapper().lost()) << "session " << k + 1;
+  }
+  const int64_t before = drive.mapper().stats().factors;
+  for (const double x : {2.0, 4.0, 6.0}) {
+    drive.driveTo(x, 0.0);
+    drive.sidestep(2.0);
+    drive.driveTo(x + 0.5, 0.0);
+    drive.sidestep(-2.0);
+  }
+  EXPECT_EQ(drive.mapper().stats().nodes, nodes);  // every crossing is to a mapped place
+  return drive.mapper().stats().factors - before;
+}
+
+TEST(ReducedGraph, ANodeTakesAPairWithoutTheInformationTestOnlyWhileItIsNew) {
+  // In the session after the one that made them, the crossings tie the lines' nodes.
+  EXPECT_GE(pairsOpenedByLateCrossings(1, 2), 3);
+  // Two sessions later the map already knows those pairs: no factor, whatever the visits.
+  EXPECT_EQ(pairsOpenedByLateCrossings(2, 2), 0);
+  EXPECT_EQ(pairsOpenedByLateCrossings(5, 2), 0);
+  // 0: every node below the bound takes a pair in every session.
+  EXPECT_GE(pairsOpenedByLateCrossings(5, 0), 3);
+}
+
 TEST(ReducedGraph, FortySessionsGrowWithTheViewsTheRobotMeetsNotWithItsTime) {
   sim::SimOptions sim = sim::testing::smallPatrol(7, 40, 6.0, 60, 4);
   sim.patrol.explore_tours = true;
@@ -142,12 +186,14 @@ TEST(ReducedGraph, FortySessionsGrowWithTheViewsTheRobotMeetsNotWithItsTime) {
       static_cast<double>(explored_nodes) / static_cast<double>(explored_views);
   const double per_view = static_cast<double>(nodes) / static_cast<double>(views);
   EXPECT_LE(per_view, 1.05 * per_view_explored) << nodes << " nodes, " << views << " views";
-  // The last 20 sessions: at most 1 % more nodes, 5 % more factors (node pairs opened).
+  // The last 20 sessions: at most 1 % more nodes and 1 % more factors (node pairs opened),
+  // issue 51's bars for the last 100 h of the year.
   const int64_t nodes_at_20 = firstSessions(run->nodes_by_session, 20);
   const int64_t pairs_at_20 = firstSessions(run->pairs_by_session, 20);
   const int64_t pairs = firstSessions(run->pairs_by_session, 40);
   EXPECT_LE(static_cast<double>(nodes - nodes_at_20), 0.01 * static_cast<double>(nodes_at_20));
-  EXPECT_LE(static_cast<double>(pairs - pairs_at_20), 0.05 * static_cast<double>(pairs_at_20));
+  EXPECT_LE(static_cast<double>(pairs - pairs_at_20), 0.01 * static_cast<double>(pairs_at_20))
+      << pairs_at_20 << " pairs after 20 sessions, " << pairs << " after 40";
   EXPECT_GT(run->stats.footprints, 0);
   EXPECT_LT(run->ate_rmse_m, 0.1);
 }
