@@ -69,7 +69,9 @@ TEST(VoEuroc, TracksEveryFrameOfTheExcerptAndBarelyMoves) {
       if (frames == 0) first_utime = msg->utime;
       EXPECT_EQ(odom->epoch, first_utime);
       EXPECT_LT((odom->odom_T_cam.mean.inverse() * *p).log().norm(), 1e-9) << "frame " << frames;
-      if (frames > 0) EXPECT_GT(odom->odom_T_cam.covariance.trace(), 0.0) << "frame " << frames;
+      if (frames > 0) {
+        EXPECT_GT(odom->odom_T_cam.covariance.trace(), 0.0) << "frame " << frames;
+      }
     }
     ++frames;
   }
