@@ -111,27 +111,13 @@ TEST(ReducedGraph, AMapReloadedFromItsStoreKeepsItsFootprints) {
   EXPECT_EQ(reread->footprints.size(), drive.mapper().footprints().size());
 }
 
-// The sum of the first `n` entries of a per-session count (missing sessions count 0).
-int64_t firstSessions(const std::vector<int64_t>& by_session, size_t n) {
-  return std::accumulate(by_session.begin(), by_session.begin() + std::min(n, by_session.size()),
-                         int64_t{0});
-}
-
-// A year scaled down (docs/results/mapper.md, "A year"; bench/year.sh is the full one): the
-// small building explored by tours in its first 4 sessions, then patrolled in 36 more, 6 h
-// over 60 days, with the default options and the registration oracle. The map grows with the
-// views the robot meets: nodes per view stay where exploration left them, and the last 20
-// sessions add next to no node and few factors. Without footprints (measured on this run):
-// nodes per view ×1.12, the last 20 sessions +4.4 % nodes and +8.9 % factors.
 // Session 0 maps two parallel lines 2 m apart (y = 0 out, y = 2 back: registrations reach
 // 1.5 m, so each line has its own chain of nodes, two partners each). `age` sessions later
 // the robot crosses between the lines at three places where no pair ties them: the pairs
 // those crossings open, where no closure is informative enough for a pair between nodes at
 // the bound of 3 partners (saturated_closure_information 1000 nats).
 int64_t pairsOpenedByLateCrossings(int age, int closure_partner_sessions) {
-  MapperOptions o = scriptedOptions();
-  o.closure_partners = 3;
-  o.saturated_closure_information = 1e3;
+  MapperOptions o = withPartners(3);
   o.closure_partner_sessions = closure_partner_sessions;
   ScriptedDrive drive(o);
   drive.driveTo(8.0, 0.0);
@@ -167,6 +153,18 @@ TEST(ReducedGraph, ANodeTakesAPairWithoutTheInformationTestOnlyWhileItIsNew) {
   EXPECT_GE(pairsOpenedByLateCrossings(5, 0), 3);
 }
 
+// The sum of the first `n` entries of a per-session count (missing sessions count 0).
+int64_t firstSessions(const std::vector<int64_t>& by_session, size_t n) {
+  return std::accumulate(by_session.begin(), by_session.begin() + std::min(n, by_session.size()),
+                         int64_t{0});
+}
+
+// A year scaled down (docs/results/mapper.md, "A year"; bench/year.sh is the full one): the
+// small building explored by tours in its first 4 sessions, then patrolled in 36 more, 6 h
+// over 60 days, with the default options and the registration oracle. The map grows with the
+// views the robot meets: nodes per view stay where exploration left them, and the last 20
+// sessions add next to no node and few factors. Without footprints (measured on this run):
+// nodes per view ×1.12, the last 20 sessions +4.4 % nodes and +8.9 % factors.
 TEST(ReducedGraph, FortySessionsGrowWithTheViewsTheRobotMeetsNotWithItsTime) {
   sim::SimOptions sim = sim::testing::smallPatrol(7, 40, 6.0, 60, 4);
   sim.patrol.explore_tours = true;

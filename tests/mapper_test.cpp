@@ -118,15 +118,6 @@ std::vector<int64_t> factorsPerCrossingLoop(ScriptedDrive* drive, int visits) {
   return factors;
 }
 
-// The partner bound (MapperOptions::closure_partners) at `partners`, and no saturated pair
-// informative enough to open (no closure tells the map 1000 nats).
-MapperOptions withPartners(int partners) {
-  MapperOptions o = scriptedOptions();
-  o.closure_partners = partners;
-  o.saturated_closure_information = 1e3;
-  return o;
-}
-
 TEST(ReducedGraph,
      PairsOfNodesTiedToEnoughOthersOpenOnlyWhenInformativeSoFactorsStopGrowingWithVisits) {
   ScriptedDrive unbounded(withPartners(0));

@@ -253,6 +253,15 @@ inline MapperOptions scriptedOptions() {
   return o;
 }
 
+// The partner bound (MapperOptions::closure_partners) at `partners`, and no saturated pair
+// informative enough to open (no closure tells the map 1000 nats).
+inline MapperOptions withPartners(int partners) {
+  MapperOptions o = scriptedOptions();
+  o.closure_partners = partners;
+  o.saturated_closure_information = 1e3;
+  return o;
+}
+
 inline void lap(ScriptedDrive& drive) {
   drive.driveTo(8.0, 0.0);
   drive.driveTo(8.0, std::numbers::pi);
