@@ -98,12 +98,13 @@ struct MapperOptions {
   double saturated_closure_information = 1.0;
   // ... and a node takes a pair freely (below closure_partners) only while it is new: in
   // this many sessions, counting the one that made it. A node's first loop ties come in the
-  // session that made it and the next (a long year: 90 % of them); a node of an older
-  // session that still has two partners is a link of a chain the robot has tracked along in
-  // many sessions, and a pair it opens then tells the map little (median 0.55 nat), while
-  // opening one at every later passage kept the factors growing with the robot's time
-  // (docs/results/mapper.md, "Free pairs only for new nodes"). Sessions much shorter than a tour
-  // of the map (a node not seen again in its next session): raise it. 0: in every session.
+  // session that made it and the next (89 % of them in a year run's first 10 h); a node of
+  // an older session that still has two partners is a link of a chain the robot has tracked
+  // along in many sessions, and a pair it opens then tells the map little (median 0.55 nat),
+  // while opening one at every later passage kept the factors growing with the robot's time
+  // (docs/results/mapper.md, "Free pairs only for new nodes"). Raise it when part of the map
+  // may not be seen again in the next session (sessions much shorter than a tour of the map,
+  // a floor explored per session before the patrols: docs/mapper.md). 0: in every session.
   int closure_partner_sessions = 2;
   // A constraint that merges into a pair the solver already has a factor of enters the
   // solver at the next consolidation (with the scheduled batch steps) instead of as an
