@@ -177,6 +177,28 @@ TEST(StereoCamera, InconsistentModelsAreRefusedNamingTheField) {
   EXPECT_TRUE(StereoCamera::create(400, 400, 320, 240, 0.1, 640, 480).ok());
 }
 
+TEST(StereoCamera, TheRowSlopeCorrectsDisparitiesInProportionToTheRowsDistanceFromCy) {
+  EXPECT_EQ(eurocLike().disparityRowSlope(), 0.0);
+  EXPECT_EQ(eurocLike().disparityCorrectionPx(10.0), 0.0);
+  const auto kitti =
+      StereoCamera::create(718.856, 718.856, 607.1928, 185.2157, 0.537, 1241, 376, 1.3, 0.004);
+  ASSERT_TRUE(kitti.ok()) << kitti.error().message;
+  EXPECT_DOUBLE_EQ(kitti->disparityCorrectionPx(185.2157), 1.3);
+  EXPECT_DOUBLE_EQ(kitti->disparityCorrectionPx(285.2157), 1.7);
+  EXPECT_DOUBLE_EQ(kitti->disparityCorrectionPx(85.2157), 0.9);
+  EXPECT_NE(kitti->describe().find("disparity_row_slope=+0.00400"), std::string::npos)
+      << kitti->describe();
+  EXPECT_EQ(eurocLike().describe().find("disparity_row_slope"), std::string::npos);
+  // Bounded as the offset: over the image's rows, at most a quarter of the width.
+  EXPECT_TRUE(StereoCamera::create(400, 400, 320, 240, 0.1, 640, 480, 0.0, -1.0 / 3.0).ok());
+  for (double bad : {0.34, -0.5, std::numeric_limits<double>::quiet_NaN()}) {
+    const auto cam = StereoCamera::create(400, 400, 320, 240, 0.1, 640, 480, 0.0, bad);
+    ASSERT_FALSE(cam.ok()) << bad;
+    EXPECT_NE(cam.error().message.find("disparity row slope"), std::string::npos)
+        << cam.error().message;
+  }
+}
+
 TEST(StereoCamera, TheDisparityOffsetIsZeroByDefaultAndBoundedByAQuarterOfTheWidth) {
   EXPECT_EQ(eurocLike().disparityOffsetPx(), 0.0);
   const auto kitti =

@@ -10,7 +10,8 @@
 namespace evermap::core {
 Expected<StereoCamera> StereoCamera::create(double fx, double fy, double cx, double cy,
                                             double baseline_m, int width, int height,
-                                            double disparity_offset_px) {
+                                            double disparity_offset_px,
+                                            double disparity_row_slope) {
   StereoCamera c;
   c.fx_ = fx;
   c.fy_ = fy;
@@ -20,6 +21,7 @@ Expected<StereoCamera> StereoCamera::create(double fx, double fy, double cx, dou
   c.width_ = width;
   c.height_ = height;
   c.disparity_offset_px_ = disparity_offset_px;
+  c.disparity_row_slope_ = disparity_row_slope;
   if (Status s = c.validate(); !s) return s.error();
   return c;
 }
@@ -53,6 +55,13 @@ Status StereoCamera::validate() const {
         who, "disparity offset cx_right - cx_left = ", quotedNumberText(disparity_offset_px_),
         " px is not finite or beyond a quarter of the ", width_,
         " px width (a rectified pair's principal points differ by little)");
+  }
+  if (!(std::isfinite(disparity_row_slope_) &&
+        std::abs(disparity_row_slope_) * height_ <= width_ / 4.0)) {
+    return makeError(
+        who, "disparity row slope ", quotedNumberText(disparity_row_slope_),
+        " px per row is not finite or moves disparities by more than a quarter of the ", width_,
+        " px width over the ", height_, " rows");
   }
   return Ok{};
 }
@@ -118,11 +127,16 @@ std::string StereoCamera::describe() const {
   const int n =
       std::snprintf(buf, sizeof buf, "fx=%.3f fy=%.3f cx=%.3f cy=%.3f baseline=%.4fm %dx%d", fx_,
                     fy_, cx_, cy_, baseline_m_, width_, height_);
-  if (disparity_offset_px_ != 0.0 && n > 0 && static_cast<size_t>(n) < sizeof buf) {
-    std::snprintf(buf + n, sizeof buf - static_cast<size_t>(n), " disparity_offset=%+.3fpx",
-                  disparity_offset_px_);
+  std::string out = n > 0 ? buf : "";
+  if (disparity_offset_px_ != 0.0) {
+    std::snprintf(buf, sizeof buf, " disparity_offset=%+.3fpx", disparity_offset_px_);
+    out += buf;
   }
-  return buf;
+  if (disparity_row_slope_ != 0.0) {
+    std::snprintf(buf, sizeof buf, " disparity_row_slope=%+.5f", disparity_row_slope_);
+    out += buf;
+  }
+  return out;
 }
 
 }  // namespace evermap::core

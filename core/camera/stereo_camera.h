@@ -3,7 +3,8 @@
 //
 // Invariant (checked by validate()/create()): fx, fy > 0 and finite; baseline_m > 0 and finite;
 // width, height > 0; the principal point (cx, cy) lies inside the image [0, width) x [0, height);
-// |disparity_offset_px| <= width / 4 and finite.
+// |disparity_offset_px| <= width / 4 and finite; |disparity_row_slope| x height <= width / 4 and
+// finite.
 // Both cameras share fx, fy, cy and the image size; the right camera sits at +baseline_m along
 // the x axis of the left camera frame, with the same orientation (rectified images: the
 // epipolar lines are image rows). The right camera's principal point is at
@@ -12,7 +13,13 @@
 // in the left image, u along rows.
 //
 //   u = fx x / z + cx,   v = fy y / z + cy,   d = fx b / z,
-//   d = d_measured + disparity_offset_px,  d_measured = u_left - u_right (in the images).
+//   d = d_measured + disparity_offset_px + disparity_row_slope (v - cy),
+//   d_measured = u_left - u_right (in the images).
+//
+// The row slope (pixels of disparity per image row, 0 for most rigs) is a rectification
+// residual that shifts the right image's rows in proportion to their distance from cy (a
+// skew of the right camera against the left's); the KITTI clip's images say +0.004
+// (docs/vo.md, "Self-calibration of the disparity offset").
 //
 // Every disparity this class takes or returns is d, the one that gives the depth; only a
 // matcher that compares the two images (StereoDepth) sees d_measured and adds the offset.
@@ -39,7 +46,8 @@ class StereoCamera {
   // disparity_offset_px = cx_right - cx_left of the rectified images (see above).
   static Expected<StereoCamera> create(double fx, double fy, double cx, double cy,
                                        double baseline_m, int width, int height,
-                                       double disparity_offset_px = 0.0);
+                                       double disparity_offset_px = 0.0,
+                                       double disparity_row_slope = 0.0);
 
   double fx() const { return fx_; }
   double fy() const { return fy_; }
@@ -51,6 +59,12 @@ class StereoCamera {
   // cx_right - cx_left (pixels): added to a disparity measured between the images to give the
   // disparity of the model, d = d_measured + offset.
   double disparityOffsetPx() const { return disparity_offset_px_; }
+  // Pixels of disparity per image row from cy (see above).
+  double disparityRowSlope() const { return disparity_row_slope_; }
+  // What a matcher adds to a disparity measured at image row v: d = d_measured + this.
+  double disparityCorrectionPx(double v) const {
+    return disparity_offset_px_ + disparity_row_slope_ * (v - cy_);
+  }
 
   // (u, v, d) of a point in the left camera frame; nullopt when it is not in front of the
   // camera (z <= 0 or not finite). J (optional) = d(u, v, d)/d(x, y, z).
@@ -75,7 +89,8 @@ class StereoCamera {
   }
 
   // "fx=458.600 fy=457.300 cx=367.200 cy=248.400 baseline=0.1100m 752x480", then
-  // " disparity_offset=+0.800px" when the offset is not 0.
+  // " disparity_offset=+0.800px" when the offset is not 0, " disparity_row_slope=+0.00400"
+  // when the slope is not 0.
   std::string describe() const;
 
  private:
@@ -83,6 +98,7 @@ class StereoCamera {
   Status validate() const;
 
   double fx_ = 0.0, fy_ = 0.0, cx_ = 0.0, cy_ = 0.0, baseline_m_ = 0.0, disparity_offset_px_ = 0.0;
+  double disparity_row_slope_ = 0.0;
   int width_ = 0, height_ = 0;
 };
 

@@ -210,8 +210,9 @@ float StereoDepth::disparity(const StereoCamera& camera, const ImagePyramid& lef
     if (!x) return kNaN;
     d = static_cast<float>(u) - x->x();
   }
-  // Measured between the images -> the model's (stereo_camera.h): d = d_measured + offset.
-  d = d * scale + static_cast<float>(camera.disparityOffsetPx());
+  // Measured between the images -> the model's (stereo_camera.h): d = d_measured + offset
+  // (+ the row slope's share at the corner's row, in level-0 pixels).
+  d = d * scale + static_cast<float>(camera.disparityCorrectionPx(k.v * scale));
   if (!(d >= options_.min_disparity_px)) return kNaN;
   return d;
 }

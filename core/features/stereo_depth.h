@@ -12,9 +12,10 @@
 //  3. Sub-pixel: Lucas-Kanade along the row (core/features/patch_alignment.h), started at the
 //     integer match; a refinement that moves more than max_refinement_px is rejected.
 // The disparity is returned in level-0 pixels, as the camera model's:
-// d0 = d_level * 2^level + camera.disparityOffsetPx() (cx_right - cx_left of the rectified
-// images, core/camera/stereo_camera.h; 0 for most rigs). The camera is the only source of the
-// offset: a calibration that carries it (STEREO_CALIB's right cx) corrects every depth.
+// d0 = d_level * 2^level + camera.disparityCorrectionPx(v0): the offset cx_right - cx_left of
+// the rectified images and the row slope's share at the corner's row v0
+// (core/camera/stereo_camera.h; both 0 for most rigs). The camera is the only source of the
+// correction: a calibration that carries it (STEREO_CALIB's right cx) corrects every depth.
 
 #include <string>
 #include <vector>
