@@ -26,16 +26,17 @@ namespace {
 
 struct WalkResult {
   double offset_px = 0.0;  // the camera's offset at the end
+  double row_slope = 0.0;  // and its row slope
   int decisions = 0;       // rounds decided
   int applied = 0;
   int tracked = 0;
 };
 
 // 40 frames walking 8 cm each through the room, swaying and turning a little, rendered with
-// the exact rig; the right image shifted right by `right_shift_px` whole pixels; odometry with
-// `camera` (whose offset may be wrong).
+// the exact rig; the right image shifted right by `right_shift_px` whole pixels, then each row
+// by `right_slope` x (row - cy); odometry with `camera` (whose offset may be wrong).
 WalkResult walk(const testing::TexturedRoom& room, const core::StereoCamera& camera,
-                int right_shift_px) {
+                int right_shift_px, double right_slope = 0.0) {
   const core::StereoCamera rendered = testing::syntheticCamera();
   // Every frame becomes the reference, so that each pair is of another reference frame (its
   // own group): evidence from 40 frames that a hovering reference would spread over more.
@@ -51,6 +52,7 @@ WalkResult walk(const testing::TexturedRoom& room, const core::StereoCamera& cam
     cv::Mat left, right;
     room.render(rendered, world_T_cam, &left, &right, &rng);
     right = testing::shiftedRight(right, right_shift_px);
+    if (right_slope != 0.0) right = testing::shearedRight(right, right_slope, rendered.cy());
     const FrameResult r = odometry->process(1000000 + 50000 * int64_t(k), left, right);
     run.tracked += r.ok() ? 1 : 0;
     if (!r.calibration_message.empty()) {
@@ -60,6 +62,7 @@ WalkResult walk(const testing::TexturedRoom& room, const core::StereoCamera& cam
     }
   }
   run.offset_px = odometry->camera().disparityOffsetPx();
+  run.row_slope = odometry->camera().disparityRowSlope();
   return run;
 }
 
@@ -70,6 +73,7 @@ TEST(SelfCalibration, ACorrectRigStaysAtExactlyZero) {
   EXPECT_GE(run.decisions, 1);  // it had the evidence, and kept the calibration
   EXPECT_EQ(run.applied, 0);
   EXPECT_EQ(run.offset_px, 0.0);
+  EXPECT_EQ(run.row_slope, 0.0);
 }
 
 TEST(SelfCalibration, ARightImageOnePixelOffItsCalibrationIsFound) {
@@ -78,6 +82,17 @@ TEST(SelfCalibration, ARightImageOnePixelOffItsCalibrationIsFound) {
   EXPECT_GE(run.tracked, 38);
   EXPECT_GE(run.applied, 1);
   EXPECT_NEAR(run.offset_px, 1.0, 0.15);
+  EXPECT_EQ(run.row_slope, 0.0);  // a constant offset: no slope applied
+}
+
+TEST(SelfCalibration, ARightImageWhoseRowsShiftWithTheirHeightHasItsSlopeFound) {
+  // 0.004 px per row (the KITTI clip's): +-0.96 px at the top and bottom rows, 0 at cy.
+  REQUIRE_ROOM(room);
+  const WalkResult run = walk(room, testing::syntheticCamera(), 0, 0.004);
+  EXPECT_GE(run.tracked, 38);
+  EXPECT_GE(run.applied, 1);
+  EXPECT_NEAR(run.row_slope, 0.004, 0.0008);
+  EXPECT_NEAR(run.offset_px, 0.0, 0.15);
 }
 
 TEST(SelfCalibration, ACalibrationThatClaimsAnOffsetTheImagesDoNotHaveIsUndone) {

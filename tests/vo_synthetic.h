@@ -184,4 +184,13 @@ inline cv::Mat shiftedRight(const cv::Mat& image, int px) {
   return shifted;
 }
 
+// The image with each row's content moved right by slope x (row - cy) pixels (bilinear): a
+// right image whose disparities measure slope x (v - cy) short.
+inline cv::Mat shearedRight(const cv::Mat& image, double slope, double cy) {
+  const cv::Matx23d m(1.0, slope, -slope * cy, 0.0, 1.0, 0.0);
+  cv::Mat out;
+  cv::warpAffine(image, out, m, image.size(), cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  return out;
+}
+
 }  // namespace evermap::testing

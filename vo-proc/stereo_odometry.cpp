@@ -138,9 +138,10 @@ void StereoOdometry::selfCalibrate(const core::StereoMatchPair& pair, int64_t gr
   if (state.decision == core::OffsetDecision::kPending) return;
   r->calibration_message = state.message;
   if (state.decision == core::OffsetDecision::kApply) {
-    applyDisparityOffset(state.estimate.value);
+    applyDisparityCorrection(state.offset_px, state.row_slope);
     r->calibration_changed = true;
     r->disparity_offset_px = camera_.disparityOffsetPx();
+    r->disparity_row_slope = camera_.disparityRowSlope();
   }
   // After an offset applied, the next round measures what is left over; once a round finds
   // nothing to change, self-calibration is over: rounds run on forever would each be a new
@@ -148,18 +149,19 @@ void StereoOdometry::selfCalibrate(const core::StereoMatchPair& pair, int64_t gr
   if (state.decision != core::OffsetDecision::kKeep) offset_tracker_->restart(camera_);
 }
 
-void StereoOdometry::applyDisparityOffset(double delta_px) {
+void StereoOdometry::applyDisparityCorrection(double delta_px, double delta_slope) {
   auto camera = core::StereoCamera::create(camera_.fx(), camera_.fy(), camera_.cx(), camera_.cy(),
                                            camera_.baselineM(), camera_.width(), camera_.height(),
-                                           camera_.disparityOffsetPx() + delta_px);
-  if (!camera) return;  // beyond the camera's bound (a quarter of the width): not applied
+                                           camera_.disparityOffsetPx() + delta_px,
+                                           camera_.disparityRowSlope() + delta_slope);
+  if (!camera) return;  // beyond the camera's bounds (a quarter of the width): not applied
   camera_ = *camera;
   // The frames kept (reference, last registered, current) measured their depths with the old
-  // offset: their disparities and points move with it; a feature left without depth goes.
+  // correction: their disparities and points move with it; a feature left without depth goes.
   for (core::FeatureFrame* frame : {ref_.get(), prev_.get(), cur_.get()}) {
     std::vector<core::StereoFeature>& features = frame->features;
     for (core::StereoFeature& f : features) {
-      f.disparity += static_cast<float>(delta_px);
+      f.disparity += static_cast<float>(delta_px + delta_slope * (f.uv.y() - camera_.cy()));
       const auto p = camera_.backProject(core::Vec3(f.uv.x(), f.uv.y(), f.disparity));
       if (p) f.point = *p;
     }
@@ -337,6 +339,7 @@ FrameResult StereoOdometry::track(int64_t utime, const std::function<Status()>& 
   r.utime = utime;
   r.ref_utime = has_ref_ ? kf_utime_ : utime;
   r.disparity_offset_px = camera_.disparityOffsetPx();
+  r.disparity_row_slope = camera_.disparityRowSlope();
   if (!extractFrame(utime, extract, &r)) return r;
   const SE3d ref_T_pred = predictMotion(utime);
   rolling_shutter_.correctFrame(camera_, ref_T_prev_.inverse() * ref_T_pred, frame_dt_us_,

@@ -233,9 +233,11 @@ struct FrameResult {
   // rejection", "reprojection error", "optimization failure", "stale reference",
   // "bad input"; with `bridged`, why the bridge was needed. Empty otherwise.
   std::string failure_kind;
-  // The camera's disparity offset after this frame (pixels, cx_right - cx_left) and, on the
-  // frame self-calibration decided, its one-line summary (calibration_changed: applied).
+  // The camera's disparity offset (pixels, cx_right - cx_left) and row slope (pixels per row)
+  // after this frame and, on the frame self-calibration decided, its one-line summary
+  // (calibration_changed: applied).
   double disparity_offset_px = 0.0;
+  double disparity_row_slope = 0.0;
   std::string calibration_message;
   bool calibration_changed = false;
 
@@ -348,8 +350,9 @@ class StereoOdometry {
   void retryFastMotion(const core::SE3d& ref_T_pred, RegisteredMotion* m, FrameResult* r) const;
   // Self-calibration: a registered pair to the tracker; a decided offset into the camera.
   void selfCalibrate(const core::StereoMatchPair& pair, int64_t group, FrameResult* result);
-  // Adds `delta_px` to the camera's disparity offset and to the features already extracted.
-  void applyDisparityOffset(double delta_px);
+  // Adds `delta_px` to the camera's disparity offset and `delta_slope` to its row slope, and
+  // to the features already extracted.
+  void applyDisparityCorrection(double delta_px, double delta_slope);
   // The motion prior's covariance over `frames` predicted frames of `prev_T_cur`.
   core::Mat6 priorCovariance(const core::SE3d& prev_T_cur, int frames) const;
   // Bridges the break at the current frame by ref_T_pred (see the class comment).

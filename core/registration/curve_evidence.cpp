@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <tuple>
 #include <utility>
 
 #include "core/registration/disparity_offset.h"
@@ -15,10 +17,21 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+// The jackknife's standard error of `partial` (one estimate per group left out).
+double jackknifeError(const std::vector<double>& partial) {
+  double mean = 0.0;
+  for (double p : partial) mean += p / static_cast<double>(partial.size());
+  double sum = 0.0;
+  for (double p : partial) sum += (p - mean) * (p - mean);
+  const double m = static_cast<double>(partial.size());
+  return std::sqrt((m - 1.0) / m * sum);
+}
+
 }  // namespace
 
 void CurveEvidence::clear() {
   curves_.clear();
+  tables_.clear();
   minima_.clear();
   groups_.clear();
   pairs_examined_ = 0;
@@ -32,29 +45,43 @@ const CurveEstimate& CurveEvidence::estimate() const {
 }
 
 void CurveEvidence::add(std::vector<double> costs, int64_t group) {
+  if (!rows_.empty()) return;  // with rows, tables
+  if (addCurve(std::move(costs), group)) dropOldest();
+}
+
+void CurveEvidence::add(std::vector<double> costs, std::vector<std::vector<double>> table,
+                        int64_t group) {
+  if (table.size() != rows_.size() || rows_.empty()) return;
+  if (!addCurve(std::move(costs), group)) return;
+  tables_.push_back(std::move(table));
+  dropOldest();
+}
+
+bool CurveEvidence::addCurve(std::vector<double> costs, int64_t group) {
   ++pairs_examined_;
   stale_ = true;
   const Expected<double> own = leastCostOffset(grid_, costs);
-  if (own && grid_.size() >= 2) {
-    // Its curvature at the minimum: the information of this pair alone.
-    const auto best_it = std::min_element(costs.begin(), costs.end());
-    const size_t best = static_cast<size_t>(best_it - costs.begin());
-    const double least = *best_it;
-    const double step = grid_[1] - grid_[0];
-    const double curvature =
-        (costs[best - 1] - 2.0 * costs[best] + costs[best + 1]) / (step * step);
-    if (curvature > 0.0 && 1.0 / std::sqrt(curvature) <= options_.max_pair_sigma) {
-      for (double& c : costs) c -= least;
-      curves_.push_back(std::move(costs));
-      minima_.push_back(*own);
-      groups_.push_back(group);
-      if (curves_.size() > static_cast<size_t>(options_.max_pairs)) {
-        curves_.erase(curves_.begin());
-        minima_.erase(minima_.begin());
-        groups_.erase(groups_.begin());
-      }
-    }
-  }
+  if (!own || grid_.size() < 2) return false;
+  // Its curvature at the minimum: the information of this pair alone.
+  const auto best_it = std::min_element(costs.begin(), costs.end());
+  const size_t best = static_cast<size_t>(best_it - costs.begin());
+  const double least = *best_it;
+  const double step = grid_[1] - grid_[0];
+  const double curvature = (costs[best - 1] - 2.0 * costs[best] + costs[best + 1]) / (step * step);
+  if (!(curvature > 0.0 && 1.0 / std::sqrt(curvature) <= options_.max_pair_sigma)) return false;
+  for (double& c : costs) c -= least;
+  curves_.push_back(std::move(costs));
+  minima_.push_back(*own);
+  groups_.push_back(group);
+  return true;
+}
+
+void CurveEvidence::dropOldest() {
+  if (curves_.size() <= static_cast<size_t>(options_.max_pairs)) return;
+  curves_.erase(curves_.begin());
+  minima_.erase(minima_.begin());
+  groups_.erase(groups_.begin());
+  if (!tables_.empty()) tables_.erase(tables_.begin());
 }
 
 void CurveEvidence::update() const {
@@ -107,13 +134,70 @@ void CurveEvidence::update() const {
     if (!e) return;  // one group holds the minimum inside the grid: not converged
     partial.push_back(*e);
   }
-  double mean = 0.0;
-  for (double p : partial) mean += p / static_cast<double>(partial.size());
-  double sum = 0.0;
-  for (double p : partial) sum += (p - mean) * (p - mean);
-  const double m = static_cast<double>(partial.size());
   estimate_.value = *all;
-  estimate_.standard_error = std::sqrt((m - 1.0) / m * sum);
+  estimate_.standard_error = jackknifeError(partial);
+  if (!rows_.empty()) updateRows(used, groups);
+}
+
+namespace {
+
+// The second parameter where the rows' least costs are least, and the first's there (linear
+// between the two rows around it).
+Expected<std::pair<double, double>> profileMinimum(const std::vector<double>& grid,
+                                                   const std::vector<double>& rows,
+                                                   const std::vector<std::vector<double>>& total) {
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<double> least(rows.size(), inf), at(rows.size(), inf);
+  for (size_t r = 0; r < rows.size(); ++r) {
+    if (const auto p = leastCostPoint(grid, total[r])) {
+      std::tie(at[r], least[r]) = *p;
+      continue;
+    }
+    // A row whose least cost is at an end of the grid (an extreme slope wants an offset beyond
+    // it): its least candidate, an upper bound of its least cost.
+    for (size_t s = 0; s < grid.size(); ++s) {
+      if (total[r][s] < least[r]) {
+        least[r] = total[r][s];
+        at[r] = grid[s];
+      }
+    }
+  }
+  const auto m = leastCostPoint(rows, least);
+  if (!m) return m.error();
+  const double f = (m->first - rows[0]) / (rows[1] - rows[0]);
+  const size_t i = std::min(static_cast<size_t>(std::max(0.0, std::floor(f))), rows.size() - 2);
+  const double t = f - static_cast<double>(i);
+  return std::make_pair(m->first, at[i] + t * (at[i + 1] - at[i]));
+}
+
+}  // namespace
+
+void CurveEvidence::updateRows(const std::vector<size_t>& used,
+                               const std::vector<int64_t>& groups) const {
+  const std::vector<std::vector<double>> zero(rows_.size(), std::vector<double>(grid_.size(), 0.0));
+  auto summed = [&](int64_t without) {
+    auto total = zero;
+    for (size_t i : used) {
+      if (groups_[i] == without) continue;
+      for (size_t r = 0; r < rows_.size(); ++r)
+        for (size_t s = 0; s < grid_.size(); ++s) total[r][s] += tables_[i][r][s];
+    }
+    return total;
+  };
+  constexpr int64_t kNone = std::numeric_limits<int64_t>::min();
+  const auto all = profileMinimum(grid_, rows_, summed(kNone));
+  if (!all) return;
+  std::vector<double> rows, joints;
+  for (int64_t g : groups) {
+    const auto e = profileMinimum(grid_, rows_, summed(g));
+    if (!e) return;  // one group holds the profile's minimum inside the rows: not converged
+    rows.push_back(e->first);
+    joints.push_back(e->second);
+  }
+  estimate_.row_value = all->first;
+  estimate_.joint_value = all->second;
+  estimate_.row_standard_error = jackknifeError(rows);
+  estimate_.joint_standard_error = jackknifeError(joints);
 }
 
 }  // namespace evermap::core

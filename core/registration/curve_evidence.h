@@ -16,6 +16,14 @@
 //  - the last max_pairs informative pairs are kept (older ones are dropped as new ones come):
 //    the evidence of a slow start is not thrown away, and the cost stays bounded.
 // What to do with a converged estimate (apply it, keep the calibration) is the caller's.
+//
+// A second parameter (the disparity's row slope beside the offset) may be given on a small grid
+// of its own ("rows"): each pair then gives a table, one curve per row, each its motion re-solved
+// under both candidates (possibly on fewer points than the curve of the pair itself, which
+// comes with it). The pairs are judged, and the first parameter estimated, on that
+// curve, exactly as without rows; besides, the rows' summed curves give a profile (each row's
+// least cost) whose minimum is the second parameter's estimate, with the first's at it, and
+// their jackknife standard errors over the same groups.
 
 #include <cstdint>
 #include <limits>
@@ -44,6 +52,13 @@ struct CurveEstimate {
   int groups_used = 0;
   int pairs_left_out = 0;  // outliers among the informative ones
   std::string message;     // why there is no estimate yet, when the summed curve says why
+  // With rows: the second parameter at the profile's minimum, and the first's value there
+  // (both with the jackknife's standard error; infinite when the profile's least cost is at an
+  // end of the rows, in the whole or with some group left out).
+  double row_value = 0.0;
+  double row_standard_error = std::numeric_limits<double>::infinity();
+  double joint_value = 0.0;
+  double joint_standard_error = std::numeric_limits<double>::infinity();
 };
 
 class CurveEvidence {
@@ -51,10 +66,18 @@ class CurveEvidence {
   // `grid`: the candidates, increasing and evenly spaced.
   CurveEvidence(std::vector<double> grid, const CurveEvidenceOptions& options)
       : grid_(std::move(grid)), options_(options) {}
+  // With a second parameter: `rows`, increasing and evenly spaced, of odd size.
+  CurveEvidence(std::vector<double> grid, std::vector<double> rows,
+                const CurveEvidenceOptions& options)
+      : grid_(std::move(grid)), rows_(std::move(rows)), options_(options) {}
 
   const std::vector<double>& grid() const { return grid_; }
+  const std::vector<double>& rows() const { return rows_; }
   // One pair's costs at the grid's candidates, of `group`.
   void add(std::vector<double> costs, int64_t group);
+  // With rows: the pair's curve (judged and used as without rows) and one curve per row
+  // (rows().size() of them, each over the grid, all on the same points).
+  void add(std::vector<double> costs, std::vector<std::vector<double>> table, int64_t group);
   void clear();
   // The estimate from the pairs so far (computed when asked after a change).
   const CurveEstimate& estimate() const;
@@ -65,12 +88,19 @@ class CurveEvidence {
   }
 
  private:
+  // Keeps the pair's curve when it is informative (its least cost subtracted).
+  bool addCurve(std::vector<double> costs, int64_t group);
+  void dropOldest();
   void update() const;
+  void updateRows(const std::vector<size_t>& used, const std::vector<int64_t>& groups) const;
 
   std::vector<double> grid_;
+  std::vector<double> rows_;  // empty: one parameter
   CurveEvidenceOptions options_;
-  // The informative pairs: their curves (least cost subtracted) and own minima.
+  // The informative pairs: their curves (least cost subtracted) and own minima; with rows,
+  // their tables (each row's cost, as given).
   std::vector<std::vector<double>> curves_;
+  std::vector<std::vector<std::vector<double>>> tables_;
   std::vector<double> minima_;
   std::vector<int64_t> groups_;
   int pairs_examined_ = 0;

@@ -1,7 +1,9 @@
 #include "core/registration/disparity_offset.h"
 
 #include <cmath>
+#include <algorithm>
 #include <limits>
+#include <tuple>
 
 #include <Eigen/Cholesky>
 
@@ -162,6 +164,20 @@ std::vector<double> pairLineDelayCurve(const StereoCamera& camera, const StereoM
 
 Expected<double> leastCostOffset(const std::vector<double>& offsets,
                                  const std::vector<double>& costs) {
+  const auto point = leastCostPoint(offsets, costs);
+  if (!point) return point.error();
+  return point->first;
+}
+
+StereoMatchPair withRowSlope(const StereoMatchPair& pair, double cy, double slope) {
+  StereoMatchPair out = pair;
+  for (auto* uvd : {&out.uvd_a, &out.uvd_b})
+    for (Eigen::Vector3d& m : *uvd) m.z() += slope * (m.y() - cy);
+  return out;
+}
+
+Expected<std::pair<double, double>> leastCostPoint(const std::vector<double>& offsets,
+                                                   const std::vector<double>& costs) {
   size_t best = offsets.size();
   for (size_t s = 0; s < offsets.size() && s < costs.size(); ++s) {
     if (std::isfinite(costs[s]) && (best == offsets.size() || costs[s] < costs[best])) best = s;
@@ -177,7 +193,8 @@ Expected<double> leastCostOffset(const std::vector<double>& offsets,
   const double c0 = costs[best - 1], c1 = costs[best], c2 = costs[best + 1];
   const double denom = c0 - 2.0 * c1 + c2;
   const double shift = denom > 0.0 ? 0.5 * (c0 - c2) / denom : 0.0;
-  return offsets[best] + shift * (offsets[best + 1] - offsets[best]);
+  const double least = denom > 0.0 ? c1 - (c2 - c0) * (c2 - c0) / (8.0 * denom) : c1;
+  return std::make_pair(offsets[best] + shift * (offsets[best + 1] - offsets[best]), least);
 }
 
 Status DisparityOffsetOptions::validate() const {
@@ -231,6 +248,33 @@ Expected<DisparityOffsetSummary> estimateDisparityOffset(const StereoCamera& cam
                 summary.pairs, " pairs, ", summary.matches, " matches")
           .message;
   return summary;
+}
+
+Expected<DisparityPlaneSummary> estimateDisparityPlane(const StereoCamera& camera,
+                                                       const std::vector<StereoMatchPair>& pairs,
+                                                       const DisparityOffsetOptions& options,
+                                                       const std::vector<double>& slopes) {
+  if (slopes.size() < 3) return makeError("disparity plane: fewer than 3 candidate slopes");
+  std::vector<double> least(slopes.size(), std::numeric_limits<double>::infinity());
+  std::vector<double> offsets(slopes.size(), 0.0);
+  for (size_t r = 0; r < slopes.size(); ++r) {
+    std::vector<StereoMatchPair> sloped;
+    for (const auto& p : pairs) sloped.push_back(withRowSlope(p, camera.cy(), slopes[r]));
+    const auto e = estimateDisparityOffset(camera, sloped, options);
+    if (!e) continue;
+    std::vector<double> grid, costs;
+    for (const auto& [d, c] : e->curve) {
+      grid.push_back(d);
+      costs.push_back(c);
+    }
+    if (const auto p = leastCostPoint(grid, costs)) std::tie(offsets[r], least[r]) = *p;
+  }
+  const auto m = leastCostPoint(slopes, least);
+  if (!m) return makeError("disparity plane: ", m.error().message);
+  const double f = (m->first - slopes[0]) / (slopes[1] - slopes[0]);
+  const size_t i = std::min(static_cast<size_t>(std::max(0.0, std::floor(f))), slopes.size() - 2);
+  const double t = f - static_cast<double>(i);
+  return DisparityPlaneSummary{offsets[i] + t * (offsets[i + 1] - offsets[i]), m->first};
 }
 
 }  // namespace evermap::core

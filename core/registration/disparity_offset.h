@@ -94,11 +94,30 @@ std::vector<double> pairLineDelayCurve(const StereoCamera& camera, const StereoM
 // Errors: no finite cost, or the least cost at an end of the grid (or next to an infinite one).
 Expected<double> leastCostOffset(const std::vector<double>& offsets,
                                  const std::vector<double>& costs);
+// The same, with the parabola's least cost: (argument, cost).
+Expected<std::pair<double, double>> leastCostPoint(const std::vector<double>& offsets,
+                                                   const std::vector<double>& costs);
+
+// The pair with `slope` x (v - cy) added to every disparity (both frames): its measurements
+// under a disparity row slope (stereo_camera.h) that much larger.
+StereoMatchPair withRowSlope(const StereoMatchPair& pair, double cy, double slope);
 
 // Errors: invalid options, no pair with matches, no candidate offset that every disparity
 // allows, or a minimum at an end of the grid (widen it).
 Expected<DisparityOffsetSummary> estimateDisparityOffset(const StereoCamera& camera,
                                                          const std::vector<StereoMatchPair>& pairs,
                                                          const DisparityOffsetOptions& options);
+
+// The offset and the row slope together (stereo_camera.h: d = d_measured + offset + slope
+// (v - cy)): the offset's least cost under each candidate slope of `slopes` (increasing,
+// evenly spaced), the slope where those least costs are least (a parabola), the offset there.
+struct DisparityPlaneSummary {
+  double offset_px = 0.0;
+  double row_slope = 0.0;
+};
+Expected<DisparityPlaneSummary> estimateDisparityPlane(const StereoCamera& camera,
+                                                       const std::vector<StereoMatchPair>& pairs,
+                                                       const DisparityOffsetOptions& options,
+                                                       const std::vector<double>& slopes);
 
 }  // namespace evermap::core

@@ -1,5 +1,6 @@
 #include "core/registration/disparity_offset_tracker.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -30,6 +31,10 @@ DisparityOffsetOptions DisparityOffsetTrackerOptions::defaultEstimate() {
 
 Status DisparityOffsetTrackerOptions::validate() const {
   if (Status s = checkOptionRanges(*this); !s) return s;
+  if (row_slopes % 2 == 0) {
+    return makeError("disparity offset tracker: row_slopes ", row_slopes,
+                     " is even (the camera's own slope is the middle one)");
+  }
   if (evidence.max_pairs < evidence.min_groups) {
     return makeError("disparity offset tracker: max_pairs ", evidence.max_pairs,
                      " is below min_pairs ", evidence.min_groups);
@@ -45,7 +50,16 @@ Expected<DisparityOffsetTracker> DisparityOffsetTracker::create(
 
 DisparityOffsetTracker::DisparityOffsetTracker(const StereoCamera& camera,
                                                const DisparityOffsetTrackerOptions& options)
-    : camera_(camera), options_(options), evidence_(options.estimate.grid(), options.evidence) {}
+    : camera_(camera),
+      options_(options),
+      evidence_(options.estimate.grid(), rowSlopes(options), options.evidence) {}
+
+std::vector<double> DisparityOffsetTracker::rowSlopes(const DisparityOffsetTrackerOptions& o) {
+  if (o.row_slopes <= 1) return {};
+  std::vector<double> rows;
+  for (int i = 0; i < o.row_slopes; ++i) rows.push_back((i - o.row_slopes / 2) * o.row_slope_step);
+  return rows;
+}
 
 void DisparityOffsetTracker::restart(const StereoCamera& camera) {
   camera_ = camera;
@@ -56,9 +70,22 @@ void DisparityOffsetTracker::restart(const StereoCamera& camera) {
 const DisparityOffsetState& DisparityOffsetTracker::add(const StereoMatchPair& pair,
                                                         int64_t group) {
   if (!wantsPairs() || pair.uvd_a.empty() || pair.uvd_a.size() != pair.uvd_b.size()) return state_;
-  evidence_.add(pairCostCurve(camera_, subsampledPair(pair, options_.max_points_per_pair),
-                              evidence_.grid(), options_.estimate),
-                group);
+  const StereoMatchPair sub = subsampledPair(pair, options_.max_points_per_pair);
+  if (evidence_.rows().empty()) {
+    evidence_.add(pairCostCurve(camera_, sub, evidence_.grid(), options_.estimate), group);
+  } else {
+    // The rows on half the points (every row on the same ones: their costs are compared), the
+    // middle row besides on all of them, as without rows (the pair's judgement and the offset's
+    // estimate stay what they were).
+    const StereoMatchPair half = subsampledPair(sub, std::max(1, options_.max_points_per_pair / 2));
+    std::vector<std::vector<double>> table;
+    for (double slope : evidence_.rows()) {
+      table.push_back(pairCostCurve(camera_, withRowSlope(half, camera_.cy(), slope),
+                                    evidence_.grid(), options_.estimate));
+    }
+    evidence_.add(pairCostCurve(camera_, sub, evidence_.grid(), options_.estimate),
+                  std::move(table), group);
+  }
   state_.estimate = evidence_.estimate();
   if (!state_.estimate.message.empty()) state_.message = state_.estimate.message;
   decide();
@@ -67,22 +94,45 @@ const DisparityOffsetState& DisparityOffsetTracker::add(const StereoMatchPair& p
 
 void DisparityOffsetTracker::decide() {
   DisparityOffsetState& s = state_;
-  if (!evidence_.converged(options_.max_standard_error_px)) return;
   const CurveEstimate& e = s.estimate;
-  const double total = camera_.disparityOffsetPx() + e.value;
-  const double size = std::abs(e.value);
+  // The slope first: when it is significant, the offset is the one at that slope, and it is
+  // that offset's standard error that says whether the round has converged (the offset alone
+  // does not fit pairs whose points lie at different rows: its jackknife stays wide).
+  const double half_height = camera_.height() / 2.0;
+  const bool slope = e.groups_used >= options_.evidence.min_groups &&
+                     std::isfinite(e.row_standard_error) &&
+                     std::abs(e.row_value) * half_height >= options_.min_offset_px &&
+                     std::abs(e.row_value) >= options_.significance * e.row_standard_error;
+  const bool converged = evidence_.converged(options_.max_standard_error_px) ||
+                         (slope && e.joint_standard_error <= options_.max_standard_error_px);
+  if (!converged) return;
+  s.offset_px = slope ? e.joint_value : e.value;
+  s.row_slope = slope ? e.row_value : 0.0;
+  const double total = camera_.disparityOffsetPx() + s.offset_px;
+  const double size = std::abs(s.offset_px);
   const bool significant =
-      size >= options_.min_offset_px && size >= options_.significance * e.standard_error;
+      slope || (size >= options_.min_offset_px && size >= options_.significance * e.standard_error);
   s.decision = significant && std::abs(total) <= options_.max_total_offset_px
                    ? OffsetDecision::kApply
                    : OffsetDecision::kKeep;
-  char line[200];
-  std::snprintf(line, sizeof(line),
-                "disparity offset %+.3f px +- %.3f (jackknife) on %+.3f from %d pairs of %d frames "
-                "(%d examined, %d left out): %s%s",
-                e.value, e.standard_error, camera_.disparityOffsetPx(), e.pairs_used, e.groups_used,
-                e.pairs_examined, e.pairs_left_out, toString(s.decision),
-                s.decision == OffsetDecision::kApply ? "" : " (the calibration stays)");
+  char line[320];
+  int n =
+      std::snprintf(line, sizeof(line),
+                    "disparity offset %+.3f px +- %.3f (jackknife) on %+.3f from %d pairs of %d "
+                    "frames (%d examined, %d left out)",
+                    e.value, e.standard_error, camera_.disparityOffsetPx(), e.pairs_used,
+                    e.groups_used, e.pairs_examined, e.pairs_left_out);
+  if (!evidence_.rows().empty() && n > 0 && static_cast<size_t>(n) < sizeof(line)) {
+    n += std::snprintf(line + n, sizeof(line) - static_cast<size_t>(n),
+                       "; row slope %+.5f +- %.5f px per row on %+.5f, offset %+.3f +- %.3f at it",
+                       e.row_value, e.row_standard_error, camera_.disparityRowSlope(),
+                       e.joint_value, e.joint_standard_error);
+  }
+  if (n > 0 && static_cast<size_t>(n) < sizeof(line)) {
+    std::snprintf(line + n, sizeof(line) - static_cast<size_t>(n), ": %s%s%s", toString(s.decision),
+                  slope && s.decision == OffsetDecision::kApply ? " with the slope" : "",
+                  s.decision == OffsetDecision::kApply ? "" : " (the calibration stays)");
+  }
   s.message = line;
   if (s.decision == OffsetDecision::kKeep && std::abs(total) > options_.max_total_offset_px) {
     s.message += ": beyond max_total_offset_px";
