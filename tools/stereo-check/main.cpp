@@ -434,11 +434,28 @@ int selfCalibrate(const evermap::datasets::KittiSequence& seq, const Rig& rig, d
       est->pairs, seq.frames.size() - 1, est->matches);
   std::printf("  cost against offset:");
   for (const auto& [d, c] : est->curve) std::printf(" %+.1f:%.0f", d, c);
+  // With the row slope: the same pairs, the offset at each of 13 slopes 0.0015 px per row apart.
+  std::vector<double> slopes;
+  for (int i = -6; i <= 6; ++i) slopes.push_back(0.0015 * i);
+  const auto plane = evermap::core::estimateDisparityPlane(
+      *camera, pairs, evermap::core::DisparityOffsetOptions{}, slopes);
   // Its spread: the same from each half of the sequence.
   const size_t half = pairs.size() / 2;
   const std::vector<evermap::core::StereoMatchPair> first(pairs.begin(),
                                                           pairs.begin() + long(half)),
       second(pairs.begin() + long(half), pairs.end());
+  if (plane) {
+    std::printf(
+        "\nwith a row slope (d = measured + offset + slope (v - cy)): offset %+.2f px, slope "
+        "%+.5f px per row",
+        plane->offset_px, plane->row_slope);
+    for (const auto* part : {&first, &second}) {
+      const auto p = evermap::core::estimateDisparityPlane(
+          *camera, *part, evermap::core::DisparityOffsetOptions{}, slopes);
+      std::printf("; %s half %+.2f px, %+.5f", part == &first ? "first" : "second",
+                  p ? p->offset_px : std::nan(""), p ? p->row_slope : std::nan(""));
+    }
+  }
   const auto e1 = evermap::core::estimateDisparityOffset(*camera, first,
                                                          evermap::core::DisparityOffsetOptions{});
   const auto e2 = evermap::core::estimateDisparityOffset(*camera, second,
