@@ -124,7 +124,9 @@ TEST(DisparityOffsetTracker, ARowSlopeIsAppliedWithTheOffsetAtIt) {
     ASSERT_EQ(s.decision, OffsetDecision::kApply) << s.message;
     EXPECT_NEAR(s.row_slope, slope, 0.0015) << s.message;
     EXPECT_NEAR(s.offset_px, kOffsetPx, 0.15) << s.message;
-    if (slope == 0.0) EXPECT_EQ(s.row_slope, 0.0);
+    if (slope == 0.0) {
+      EXPECT_EQ(s.row_slope, 0.0);
+    }
   }
   DisparityOffsetTrackerOptions even;
   even.row_slopes = 4;

@@ -49,11 +49,13 @@ void CurveEvidence::add(std::vector<double> costs, int64_t group) {
   if (addCurve(std::move(costs), group)) dropOldest();
 }
 
-void CurveEvidence::add(std::vector<double> costs, std::vector<std::vector<double>> table,
+void CurveEvidence::add(std::vector<double> costs,
+                        const std::function<std::vector<std::vector<double>>()>& table,
                         int64_t group) {
-  if (table.size() != rows_.size() || rows_.empty()) return;
-  if (!addCurve(std::move(costs), group)) return;
-  tables_.push_back(std::move(table));
+  if (rows_.empty() || !addCurve(std::move(costs), group)) return;
+  tables_.push_back(table());
+  if (tables_.back().size() != rows_.size())  // a caller's fault: nothing to the rows
+    tables_.back().assign(rows_.size(), std::vector<double>(grid_.size(), 0.0));
   dropOldest();
 }
 

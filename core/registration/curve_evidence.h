@@ -26,6 +26,7 @@
 // their jackknife standard errors over the same groups.
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <string>
 #include <utility>
@@ -75,9 +76,11 @@ class CurveEvidence {
   const std::vector<double>& rows() const { return rows_; }
   // One pair's costs at the grid's candidates, of `group`.
   void add(std::vector<double> costs, int64_t group);
-  // With rows: the pair's curve (judged and used as without rows) and one curve per row
-  // (rows().size() of them, each over the grid, all on the same points).
-  void add(std::vector<double> costs, std::vector<std::vector<double>> table, int64_t group);
+  // With rows: the pair's curve (judged and used as without rows) and, asked only when the
+  // curve is kept as evidence (they cost rows().size() curves), one curve per row (each over
+  // the grid, all on the same points).
+  void add(std::vector<double> costs,
+           const std::function<std::vector<std::vector<double>>()>& table, int64_t group);
   void clear();
   // The estimate from the pairs so far (computed when asked after a change).
   const CurveEstimate& estimate() const;

@@ -74,17 +74,23 @@ const DisparityOffsetState& DisparityOffsetTracker::add(const StereoMatchPair& p
   if (evidence_.rows().empty()) {
     evidence_.add(pairCostCurve(camera_, sub, evidence_.grid(), options_.estimate), group);
   } else {
-    // The rows on half the points (every row on the same ones: their costs are compared), the
-    // middle row besides on all of them, as without rows (the pair's judgement and the offset's
+    // The rows on half the points (every row on the same ones: their costs are compared), only
+    // for a pair its own curve makes evidence (a hovering camera's pairs cost nothing more);
+    // the curve on all the points, as without rows (the pair's judgement and the offset's
     // estimate stay what they were).
-    const StereoMatchPair half = subsampledPair(sub, std::max(1, options_.max_points_per_pair / 2));
-    std::vector<std::vector<double>> table;
-    for (double slope : evidence_.rows()) {
-      table.push_back(pairCostCurve(camera_, withRowSlope(half, camera_.cy(), slope),
-                                    evidence_.grid(), options_.estimate));
-    }
-    evidence_.add(pairCostCurve(camera_, sub, evidence_.grid(), options_.estimate),
-                  std::move(table), group);
+    evidence_.add(
+        pairCostCurve(camera_, sub, evidence_.grid(), options_.estimate),
+        [&] {
+          const StereoMatchPair half =
+              subsampledPair(sub, std::max(1, options_.max_points_per_pair / 2));
+          std::vector<std::vector<double>> table;
+          for (double slope : evidence_.rows()) {
+            table.push_back(pairCostCurve(camera_, withRowSlope(half, camera_.cy(), slope),
+                                          evidence_.grid(), options_.estimate));
+          }
+          return table;
+        },
+        group);
   }
   state_.estimate = evidence_.estimate();
   if (!state_.estimate.message.empty()) state_.message = state_.estimate.message;

@@ -375,6 +375,10 @@ void SlamRunner::onFrame(Session& ss, const ReadEvent& e, double* loopclose_s, d
   if (session_start_utime_ < 0) session_start_utime_ = out->delta.utime;
   if (out->result.ok()) ++ss.summary.vo_ok;
   if (out->keyframe) ++ss.summary.keyframes;
+  if (!out->result.calibration_message.empty()) {
+    ss.summary.self_calibration.push_back("frame " + std::to_string(ss.summary.stereo_frames - 1) +
+                                          ": " + out->result.calibration_message);
+  }
   deliverFrame(
       *out, calibration_.haveCamera(), *loop_closer_, *mapper_,
       [this](const std::string& what) { inputError(what); }, loopclose_s, mapper_s);

@@ -114,6 +114,8 @@ struct SessionSummary {
   // The map store after the session: file bytes (with its WAL) and rows.
   int64_t store_bytes = 0;
   int64_t store_edge_rows = 0;
+  // VO's self-calibration decisions ("frame N: disparity offset ..."), one per line.
+  std::vector<std::string> self_calibration;
 };
 
 // One hour of run time (sessions end to end): growth and per-frame cost (DESIGN.md section 9).

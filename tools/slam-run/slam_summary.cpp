@@ -21,6 +21,8 @@ std::string SlamRunSummary::text() const {
       << " nodes_in_mapped_area " << ss.nodes_in_mapped_area << " relocalised_after_s "
       << ss.relocalised_after_s << " store_bytes " << ss.store_bytes << " store_edge_rows "
       << ss.store_edge_rows << "\n";
+    for (const std::string& line : ss.self_calibration)
+      s << "session." << ss.session << " self_calibration " << line << "\n";
   }
   for (const HourFigures& h : hours)
     s << "hour." << h.hour << " frames " << h.frames << " nodes_at_end " << h.nodes_at_end
