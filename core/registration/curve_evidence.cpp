@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <tuple>
 #include <utility>
 
 #include "core/registration/disparity_offset.h"
@@ -141,39 +140,6 @@ void CurveEvidence::update() const {
   if (!rows_.empty()) updateRows(used, groups);
 }
 
-namespace {
-
-// The second parameter where the rows' least costs are least, and the first's there (linear
-// between the two rows around it).
-Expected<std::pair<double, double>> profileMinimum(const std::vector<double>& grid,
-                                                   const std::vector<double>& rows,
-                                                   const std::vector<std::vector<double>>& total) {
-  const double inf = std::numeric_limits<double>::infinity();
-  std::vector<double> least(rows.size(), inf), at(rows.size(), inf);
-  for (size_t r = 0; r < rows.size(); ++r) {
-    if (const auto p = leastCostPoint(grid, total[r])) {
-      std::tie(at[r], least[r]) = *p;
-      continue;
-    }
-    // A row whose least cost is at an end of the grid (an extreme slope wants an offset beyond
-    // it): its least candidate, an upper bound of its least cost.
-    for (size_t s = 0; s < grid.size(); ++s) {
-      if (total[r][s] < least[r]) {
-        least[r] = total[r][s];
-        at[r] = grid[s];
-      }
-    }
-  }
-  const auto m = leastCostPoint(rows, least);
-  if (!m) return m.error();
-  const double f = (m->first - rows[0]) / (rows[1] - rows[0]);
-  const size_t i = std::min(static_cast<size_t>(std::max(0.0, std::floor(f))), rows.size() - 2);
-  const double t = f - static_cast<double>(i);
-  return std::make_pair(m->first, at[i] + t * (at[i + 1] - at[i]));
-}
-
-}  // namespace
-
 void CurveEvidence::updateRows(const std::vector<size_t>& used,
                                const std::vector<int64_t>& groups) const {
   const std::vector<std::vector<double>> zero(rows_.size(), std::vector<double>(grid_.size(), 0.0));
@@ -187,11 +153,11 @@ void CurveEvidence::updateRows(const std::vector<size_t>& used,
     return total;
   };
   constexpr int64_t kNone = std::numeric_limits<int64_t>::min();
-  const auto all = profileMinimum(grid_, rows_, summed(kNone));
+  const auto all = leastCostProfile(grid_, rows_, summed(kNone));
   if (!all) return;
   std::vector<double> rows, joints;
   for (int64_t g : groups) {
-    const auto e = profileMinimum(grid_, rows_, summed(g));
+    const auto e = leastCostProfile(grid_, rows_, summed(g));
     if (!e) return;  // one group holds the profile's minimum inside the rows: not converged
     rows.push_back(e->first);
     joints.push_back(e->second);

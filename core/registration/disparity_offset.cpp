@@ -1,7 +1,7 @@
 #include "core/registration/disparity_offset.h"
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <tuple>
 
@@ -215,21 +215,32 @@ Status DisparityOffsetOptions::validate() const {
   return Ok{};
 }
 
-Expected<DisparityOffsetSummary> estimateDisparityOffset(const StereoCamera& camera,
-                                                         const std::vector<StereoMatchPair>& pairs,
-                                                         const DisparityOffsetOptions& options) {
-  if (Status s = options.validate(); !s) return s.error();
-  DisparityOffsetSummary summary;
+namespace {
+
+// The pairs and matches in `summary`. Errors: a pair whose frames hold different numbers of
+// points, or no match at all.
+Status countPairs(const std::vector<StereoMatchPair>& pairs, DisparityOffsetSummary* summary) {
   for (const auto& p : pairs) {
     if (p.uvd_a.size() != p.uvd_b.size()) {
       return makeError("disparity offset: a pair has ", p.uvd_a.size(), " points in a and ",
                        p.uvd_b.size(), " in b");
     }
     if (p.uvd_a.empty()) continue;
-    ++summary.pairs;
-    summary.matches += static_cast<int>(p.uvd_a.size());
+    ++summary->pairs;
+    summary->matches += static_cast<int>(p.uvd_a.size());
   }
-  if (summary.matches == 0) return makeError("disparity offset: no matches");
+  if (summary->matches == 0) return makeError("disparity offset: no matches");
+  return Ok{};
+}
+
+}  // namespace
+
+Expected<DisparityOffsetSummary> estimateDisparityOffset(const StereoCamera& camera,
+                                                         const std::vector<StereoMatchPair>& pairs,
+                                                         const DisparityOffsetOptions& options) {
+  if (Status s = options.validate(); !s) return s.error();
+  DisparityOffsetSummary summary;
+  if (Status s = countPairs(pairs, &summary); !s) return s.error();
   const std::vector<double> offsets = options.grid();
   std::vector<double> total(offsets.size(), 0.0);
   for (const auto& p : pairs) {
@@ -250,31 +261,54 @@ Expected<DisparityOffsetSummary> estimateDisparityOffset(const StereoCamera& cam
   return summary;
 }
 
+Expected<std::pair<double, double>> leastCostProfile(
+    const std::vector<double>& grid, const std::vector<double>& rows,
+    const std::vector<std::vector<double>>& table) {
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<double> least(rows.size(), inf), at(rows.size(), inf);
+  for (size_t r = 0; r < rows.size() && r < table.size(); ++r) {
+    if (const auto p = leastCostPoint(grid, table[r])) {
+      std::tie(at[r], least[r]) = *p;
+      continue;
+    }
+    // A row whose least cost is at an end of the grid (an extreme row wants a value beyond
+    // it): its least candidate, an upper bound of its least cost.
+    for (size_t s = 0; s < grid.size() && s < table[r].size(); ++s) {
+      if (table[r][s] < least[r]) {
+        least[r] = table[r][s];
+        at[r] = grid[s];
+      }
+    }
+  }
+  const auto m = leastCostPoint(rows, least);
+  if (!m) return m.error();
+  const double f = (m->first - rows[0]) / (rows[1] - rows[0]);
+  const size_t i = std::min(static_cast<size_t>(std::max(0.0, std::floor(f))), rows.size() - 2);
+  const double t = f - static_cast<double>(i);
+  return std::make_pair(m->first, at[i] + t * (at[i + 1] - at[i]));
+}
+
 Expected<DisparityPlaneSummary> estimateDisparityPlane(const StereoCamera& camera,
                                                        const std::vector<StereoMatchPair>& pairs,
                                                        const DisparityOffsetOptions& options,
                                                        const std::vector<double>& slopes) {
+  if (Status s = options.validate(); !s) return s.error();
   if (slopes.size() < 3) return makeError("disparity plane: fewer than 3 candidate slopes");
-  std::vector<double> least(slopes.size(), std::numeric_limits<double>::infinity());
-  std::vector<double> offsets(slopes.size(), 0.0);
+  DisparityOffsetSummary counts;
+  if (Status s = countPairs(pairs, &counts); !s) return s.error();
+  const std::vector<double> offsets = options.grid();
+  std::vector<std::vector<double>> total(slopes.size(), std::vector<double>(offsets.size(), 0.0));
   for (size_t r = 0; r < slopes.size(); ++r) {
-    std::vector<StereoMatchPair> sloped;
-    for (const auto& p : pairs) sloped.push_back(withRowSlope(p, camera.cy(), slopes[r]));
-    const auto e = estimateDisparityOffset(camera, sloped, options);
-    if (!e) continue;
-    std::vector<double> grid, costs;
-    for (const auto& [d, c] : e->curve) {
-      grid.push_back(d);
-      costs.push_back(c);
+    for (const auto& p : pairs) {
+      if (p.uvd_a.empty()) continue;
+      const std::vector<double> costs =
+          pairCostCurve(camera, withRowSlope(p, camera.cy(), slopes[r]), offsets, options);
+      for (size_t s = 0; s < offsets.size(); ++s) total[r][s] += costs[s];
     }
-    if (const auto p = leastCostPoint(grid, costs)) std::tie(offsets[r], least[r]) = *p;
   }
-  const auto m = leastCostPoint(slopes, least);
+  const auto m = leastCostProfile(offsets, slopes, total);
   if (!m) return makeError("disparity plane: ", m.error().message);
-  const double f = (m->first - slopes[0]) / (slopes[1] - slopes[0]);
-  const size_t i = std::min(static_cast<size_t>(std::max(0.0, std::floor(f))), slopes.size() - 2);
-  const double t = f - static_cast<double>(i);
-  return DisparityPlaneSummary{offsets[i] + t * (offsets[i + 1] - offsets[i]), m->first};
+  return DisparityPlaneSummary{m->second, m->first};
 }
 
 }  // namespace evermap::core

@@ -98,6 +98,15 @@ Expected<double> leastCostOffset(const std::vector<double>& offsets,
 Expected<std::pair<double, double>> leastCostPoint(const std::vector<double>& offsets,
                                                    const std::vector<double>& costs);
 
+// With a second parameter on `rows` (increasing, evenly spaced, at least 2), `table` one curve
+// over `grid` per row: the row where the rows' least costs are least (a parabola through them;
+// a row whose least cost is at an end of the grid counts its least candidate), and the first
+// parameter there (linear between the two rows around it): (row, value). Errors: the rows'
+// least cost at an end of the rows.
+Expected<std::pair<double, double>> leastCostProfile(const std::vector<double>& grid,
+                                                     const std::vector<double>& rows,
+                                                     const std::vector<std::vector<double>>& table);
+
 // The pair with `slope` x (v - cy) added to every disparity (both frames): its measurements
 // under a disparity row slope (stereo_camera.h) that much larger.
 StereoMatchPair withRowSlope(const StereoMatchPair& pair, double cy, double slope);
@@ -109,8 +118,8 @@ Expected<DisparityOffsetSummary> estimateDisparityOffset(const StereoCamera& cam
                                                          const DisparityOffsetOptions& options);
 
 // The offset and the row slope together (stereo_camera.h: d = d_measured + offset + slope
-// (v - cy)): the offset's least cost under each candidate slope of `slopes` (increasing,
-// evenly spaced), the slope where those least costs are least (a parabola), the offset there.
+// (v - cy)): the pairs' summed curve over the offsets under each candidate slope of `slopes`
+// (increasing, evenly spaced, at least 3), and their leastCostProfile.
 struct DisparityPlaneSummary {
   double offset_px = 0.0;
   double row_slope = 0.0;
