@@ -118,9 +118,12 @@ void Tracker::restartChain(const vo_delta_t& msg, bool ok) {
   if (vo_mode_) {
     commit(msg.utime, pending_);
   } else {
-    // Wheel odometry last reached the body at its last message, up to a wheel period
-    // before this frame: the rest of the way is extrapolated (in a turn in place a tenth of
-    // a second is degrees), its yaw from the gyro.
+    // VO's first frame after a silence may be older than the wheels' last increments
+    // (vo-proc holds its first seconds: vo_pipeline.h): VO's frames will cover those, so they
+    // are taken back. Wheel odometry last reached the body at its last message, up to a
+    // wheel period before this frame: the rest of the way is extrapolated (in a turn in place
+    // a tenth of a second is degrees), its yaw from the gyro.
+    takeBackWheelsAfter(msg.utime);
     extrapolateWheel(msg.utime);
     commit(msg.utime, UncertainPose{});
   }
@@ -328,6 +331,17 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
   reanchored_ref_utime_ = ref_utime;
   recent_wheel_.clear();
   ++counts_.reanchored;
+}
+
+void Tracker::takeBackWheelsAfter(int64_t utime) {
+  // Only the wheels' own increments, those after VO was lost (the commit at vo_lost_utime_
+  // and everything before it are VO's); the covariance keeps them: conservative.
+  const int64_t from = std::max(utime, vo_lost_utime_);
+  while (!history_.empty() && history_.back().utime > from) {
+    base_.mean = base_.mean * history_.back().pose.mean.inverse();
+    history_.pop_back();
+    ++counts_.wheels_taken_back;
+  }
 }
 
 bool Tracker::replaceWheels(int64_t from_utime, const UncertainPose& vo) {

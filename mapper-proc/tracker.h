@@ -291,6 +291,8 @@ class Tracker {
   // it, unless the two disagree (relink_gate) or VO's is the less certain (both counted):
   // then nothing changes. Leaves VO mode on at that commit point.
   bool replaceWheels(int64_t from_utime, const UncertainPose& vo);
+  // The wheel increments committed after `utime` (and after VO was lost) taken back out of Δ.
+  void takeBackWheelsAfter(int64_t utime);
   // The body's motion from the last VO frame taken to `msg`'s, from their odometry poses (one
   // epoch, VO's own chain: what the VO_DELTAs lost in between compounded); empty without them,
   // and after wheels took over other than by a silence (VO's failure, the gyro's veto).

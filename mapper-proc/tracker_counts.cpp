@@ -3,11 +3,11 @@
 namespace evermap::mapper {
 
 // Every field is a count of the list: one added there and not here fails to compile.
-static_assert(sizeof(TrackerCounts) == 19 * sizeof(int64_t));
+static_assert(sizeof(TrackerCounts) == 20 * sizeof(int64_t));
 
-const std::array<TrackerCounts::Counter, 19>& TrackerCounts::counters() {
+const std::array<TrackerCounts::Counter, 20>& TrackerCounts::counters() {
   using T = TrackerCounts;
-  static const std::array<Counter, 19> list{{
+  static const std::array<Counter, 20> list{{
       {"vo_applied", &T::vo_applied},
       {"vo_failed", &T::vo_failed},
       {"wheel_applied", &T::wheel_applied},
@@ -24,6 +24,7 @@ const std::array<TrackerCounts::Counter, 19>& TrackerCounts::counters() {
       {"wheel_disagreed", &T::wheel_disagreed},
       {"heading_waits", &T::heading_waits},
       {"heading_waits_expired", &T::heading_waits_expired},
+      {"wheels_taken_back", &T::wheels_taken_back},
       {"implausible_motion", &T::implausible},
       {"odometry_refused", &T::odometry_refused},
       {"odometry_dropped", &T::dropped},

@@ -35,13 +35,14 @@ struct TrackerCounts {
                                  // fault one of the two covariances did not know
   int64_t heading_waits = 0;     // keyframe steps held for the heading that covers them
   int64_t heading_waits_expired = 0;  // ... taken before one came (heading_wait_s)
+  int64_t wheels_taken_back = 0;      // wheel increments a late VO restart covers (vo-proc's hold)
 
   // Every count above, once: its name (the summaries', MAPPER_STATS') and its field.
   struct Counter {
     std::string_view name;
     int64_t TrackerCounts::*field;
   };
-  static const std::array<Counter, 19>& counters();
+  static const std::array<Counter, 20>& counters();
   // Adds another tracker's counts (sessions tracked by successive trackers).
   void add(const TrackerCounts& o) {
     for (const Counter& c : counters()) this->*c.field += o.*c.field;

@@ -251,10 +251,10 @@ TEST(VoPipelineRgbd, TracksAShiftedTexturedPlane) {
   auto m0 = messages::toMsg(texturedFrame(1000000, 2.0), messages::ImageEncoding::kPng);
   auto m1 = messages::toMsg(texturedFrame(1033000, 2.0, 2), messages::ImageEncoding::kPng);
   ASSERT_TRUE(m0.ok() && m1.ok());
-  const auto out0 = pipeline.handleRgbd(*m0);
+  const auto out0 = pipeline.handleRgbd(*m0).back();
   EXPECT_EQ(out0.result.status, vo::VoStatus::kNoData) << out0.result.message;
   ASSERT_TRUE(pipeline.rgbdCamera().has_value());
-  const auto out1 = pipeline.handleRgbd(*m1);
+  const auto out1 = pipeline.handleRgbd(*m1).back();
   ASSERT_EQ(out1.result.status, vo::VoStatus::kOk) << out1.result.message;
   // The image moved 2 px left: the camera moved right by 2 px at 2 m (fx 260): ~1.5 cm in x,
   // or turned by the equivalent angle; either way a small motion, not a jump.
@@ -269,7 +269,7 @@ TEST(VoPipelineRgbd, AllZeroDepthIsTooFewFeaturesAndSaysWhy) {
   f.depth.setTo(0);
   auto m = messages::toMsg(f, messages::ImageEncoding::kPng);
   ASSERT_TRUE(m.ok());
-  const auto out = pipeline.handleRgbd(*m);
+  const auto out = pipeline.handleRgbd(*m).back();
   EXPECT_EQ(out.result.status, vo::VoStatus::kInsufficientFeatures);
   EXPECT_NE(out.result.message.find("the depth image is all zero"), std::string::npos)
       << out.result.message;
@@ -286,7 +286,7 @@ TEST(VoPipelineRgbd, BadDepthAndUnassociatedFramesAreCountedBadInput) {
   evermap::rgbd_image_t unassociated = *good;
   unassociated.depth_utime += 1000000;
   for (const auto* m : {&wrong_size, &unassociated}) {
-    const auto out = pipeline.handleRgbd(*m);
+    const auto out = pipeline.handleRgbd(*m).back();
     EXPECT_EQ(out.result.status, vo::VoStatus::kBadInput);
     EXPECT_EQ(out.result.message.rfind("RGBD: ", 0), 0u) << out.result.message;
   }
@@ -296,7 +296,7 @@ TEST(VoPipelineRgbd, BadDepthAndUnassociatedFramesAreCountedBadInput) {
   EXPECT_FALSE(pipeline.handleRgbdBytes(junk.data(), static_cast<int64_t>(junk.size())).ok());
   EXPECT_EQ(pipeline.stats().undecodable, 1);
   // A good frame still works after them.
-  EXPECT_EQ(pipeline.handleRgbd(*good).result.status, vo::VoStatus::kNoData);
+  EXPECT_EQ(pipeline.handleRgbd(*good).back().result.status, vo::VoStatus::kNoData);
 }
 
 }  // namespace

@@ -46,6 +46,19 @@ Rendered render(const SE3d& pose, uint64_t seed) {
   return r;
 }
 
+// One output per frame: the start-up hold off (its own tests: vo_self_calibration_test.cpp).
+PipelineOptions unheld() {
+  PipelineOptions o;
+  o.startup_hold_s = 0.0;
+  return o;
+}
+
+// The one output a frame released.
+PipelineOutput one(const PipelineOutputs& outs) {
+  EXPECT_EQ(outs.size(), 1u);
+  return outs.empty() ? PipelineOutput{} : outs.back();
+}
+
 TEST(PipelineOptions, ReachTheFeatureMatchingAndRegistrationOptionsOfCore) {
   PipelineOptions o;
   OptionList list = OptionList::of(&o);
@@ -82,10 +95,10 @@ TEST(PipelineOptions, ValidateNamesTheKeyOfAValueSetInCodeAndKeepsTheRulesBetwee
 TEST(VoPipeline, FramesWithoutAValidCalibrationGetBadInput) {
   const Rendered img = render(SE3d(), 1);
   if (img.left.empty()) GTEST_SKIP() << "room textures not found";
-  auto pipeline = VoPipeline::create(PipelineOptions{});
+  auto pipeline = VoPipeline::create(unheld());
   ASSERT_TRUE(pipeline.ok());
   // Before any calibration.
-  PipelineOutput out = pipeline->handleStereo(stereoMsg(10, img.left, img.right));
+  PipelineOutput out = one(pipeline->handleStereo(stereoMsg(10, img.left, img.right)));
   EXPECT_EQ(out.delta.status, +evermap::vo_delta_t::STATUS_BAD_INPUT);
   EXPECT_EQ(out.delta.utime, 10);
   EXPECT_NE(out.result.message.find("no calibration"), std::string::npos);
@@ -95,12 +108,12 @@ TEST(VoPipeline, FramesWithoutAValidCalibrationGetBadInput) {
   const Status refused = pipeline->handleCalibration(nan_calib);
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.error().message.find("fx"), std::string::npos) << refused.error().message;
-  out = pipeline->handleStereo(stereoMsg(20, img.left, img.right));
+  out = one(pipeline->handleStereo(stereoMsg(20, img.left, img.right)));
   EXPECT_EQ(out.delta.status, +evermap::vo_delta_t::STATUS_BAD_INPUT);
   EXPECT_NE(out.result.message.find("calibration refused"), std::string::npos);
   // A valid calibration: odometry starts.
   ASSERT_TRUE(pipeline->handleCalibration(messages::toMsg(rectifiedCalibration(), 0)).ok());
-  out = pipeline->handleStereo(stereoMsg(30, img.left, img.right));
+  out = one(pipeline->handleStereo(stereoMsg(30, img.left, img.right)));
   EXPECT_EQ(out.delta.status, +evermap::vo_delta_t::STATUS_NO_DATA);
   EXPECT_EQ(out.delta.keyframe_changed, 1);
   ASSERT_TRUE(out.keyframe.has_value());
@@ -109,7 +122,7 @@ TEST(VoPipeline, FramesWithoutAValidCalibrationGetBadInput) {
   // The same calibration again changes nothing (the reference survives).
   ASSERT_TRUE(pipeline->handleCalibration(messages::toMsg(rectifiedCalibration(), 99)).ok());
   const Rendered moved = render(SE3d(core::SO3d(), Vec3(0.01, 0.0, 0.02)), 2);
-  out = pipeline->handleStereo(stereoMsg(40, moved.left, moved.right));
+  out = one(pipeline->handleStereo(stereoMsg(40, moved.left, moved.right)));
   EXPECT_EQ(out.delta.status, +evermap::vo_delta_t::STATUS_OK) << out.result.message;
   EXPECT_EQ(out.delta.ref_utime, 30);
   EXPECT_NEAR(out.delta.translation[2], 0.02, 0.003);
@@ -122,21 +135,21 @@ TEST(VoPipeline, FramesWithoutAValidCalibrationGetBadInput) {
 TEST(VoPipeline, MalformedFramesGetBadInputOrAreCountedAsUndecodable) {
   const Rendered img = render(SE3d(), 3);
   if (img.left.empty()) GTEST_SKIP() << "room textures not found";
-  auto pipeline = VoPipeline::create(PipelineOptions{});
+  auto pipeline = VoPipeline::create(unheld());
   ASSERT_TRUE(pipeline->handleCalibration(messages::toMsg(rectifiedCalibration(), 0)).ok());
   // Wrong size.
   const cv::Mat small = img.left(cv::Rect(0, 0, 320, 240)).clone();
-  PipelineOutput out = pipeline->handleStereo(stereoMsg(1, small, small));
+  PipelineOutput out = one(pipeline->handleStereo(stereoMsg(1, small, small)));
   EXPECT_EQ(out.delta.status, +evermap::vo_delta_t::STATUS_BAD_INPUT);
   EXPECT_NE(out.result.message.find("320x240"), std::string::npos) << out.result.message;
   // A raw pair against a rectified calibration.
-  out = pipeline->handleStereo(stereoMsg(2, img.left, img.right, /*rectified=*/false));
+  out = one(pipeline->handleStereo(stereoMsg(2, img.left, img.right, /*rectified=*/false)));
   EXPECT_EQ(out.delta.status, +evermap::vo_delta_t::STATUS_BAD_INPUT);
   // An empty image: the message's own validation refuses it.
   evermap::stereo_image_t empty = stereoMsg(3, img.left, img.right);
   empty.left.width = empty.left.height = empty.left.row_stride = empty.left.size = 0;
   empty.left.data.clear();
-  out = pipeline->handleStereo(empty);
+  out = one(pipeline->handleStereo(empty));
   EXPECT_EQ(out.delta.status, +evermap::vo_delta_t::STATUS_BAD_INPUT);
   // Bytes that are not a stereo_image_t: nothing to publish, counted.
   const std::vector<uint8_t> junk(100, 0x5a);
@@ -150,7 +163,7 @@ TEST(VoPipeline, MalformedFramesGetBadInputOrAreCountedAsUndecodable) {
   good.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
   auto decoded = pipeline->handleStereoBytes(bytes.data(), static_cast<int64_t>(bytes.size()));
   ASSERT_TRUE(decoded.ok());
-  EXPECT_EQ(decoded->delta.status, +evermap::vo_delta_t::STATUS_NO_DATA);
+  EXPECT_EQ(one(*decoded).delta.status, +evermap::vo_delta_t::STATUS_NO_DATA);
 }
 
 core::KeyframeFeatures smallKeyframe() {

@@ -158,7 +158,31 @@ int parse(int argc, char** argv, Settings* s) {
   return -1;
 }
 
-// The worker: applies the latest calibration, runs each queued frame and publishes.
+// One output: logged when it is not OK (a flood of bad input gets 20 lines, then one in 1000;
+// bad input is counted in the pipeline's stats), then published.
+void publishOutput(const evermap::vo::PipelineOutput& out, int64_t* bad_frames,
+                   const evermap::messages::Outbox* sender, KeyframeChannel* keyframes) {
+  const bool bad = out.result.status == evermap::vo::VoStatus::kBadInput;
+  if (bad) ++*bad_frames;
+  if (out.result.status != evermap::vo::VoStatus::kOk &&
+      (!bad || *bad_frames <= 20 || *bad_frames % 1000 == 0)) {
+    std::fprintf(
+        stderr, "evermap-vo-proc: %lld %s: %s%s\n", static_cast<long long>(out.result.utime),
+        evermap::vo::toString(out.result.status), out.result.message.c_str(),
+        bad && *bad_frames > 20 ? (" (" + std::to_string(*bad_frames) + " bad frames)").c_str()
+                                : "");
+  }
+  sender->publish(evermap::channels::kVoDelta, out.delta);
+  if (out.keyframe) keyframes->publishNew(*out.keyframe);
+  if (out.calibration) sender->publish(evermap::channels::kVoCalib, *out.calibration);
+  if (!out.result.calibration_message.empty()) {
+    std::fprintf(stderr, "evermap-vo-proc: self-calibration: %s\n",
+                 out.result.calibration_message.c_str());
+  }
+}
+
+// The worker: applies the latest calibration, runs each queued frame and publishes what it
+// releases (the start-up hold's frames at its end: vo_pipeline.h); at the end, what is held.
 void work(evermap::vo::BoundedQueue<QueuedFrame>* queue, Shared* shared,
           evermap::vo::VoPipeline* pipeline, const evermap::messages::Outbox* sender,
           KeyframeChannel* keyframes) {
@@ -177,33 +201,18 @@ void work(evermap::vo::BoundedQueue<QueuedFrame>* queue, Shared* shared,
       }
     }
     const Bytes& bytes = frame->bytes;
-    auto out = frame->rgbd
-                   ? pipeline->handleRgbdBytes(bytes.data(), static_cast<int64_t>(bytes.size()))
-                   : pipeline->handleStereoBytes(bytes.data(), static_cast<int64_t>(bytes.size()));
-    if (!out) {
-      std::fprintf(stderr, "evermap-vo-proc: dropped: %s\n", out.error().message.c_str());
+    auto outs = frame->rgbd
+                    ? pipeline->handleRgbdBytes(bytes.data(), static_cast<int64_t>(bytes.size()))
+                    : pipeline->handleStereoBytes(bytes.data(), static_cast<int64_t>(bytes.size()));
+    if (!outs) {
+      std::fprintf(stderr, "evermap-vo-proc: dropped: %s\n", outs.error().message.c_str());
       continue;
     }
-    // Bad input is counted in the pipeline's stats; a flood of it gets 20 lines, then one in
-    // 1000.
-    const bool bad = out->result.status == evermap::vo::VoStatus::kBadInput;
-    if (bad) ++bad_frames;
-    if (out->result.status != evermap::vo::VoStatus::kOk &&
-        (!bad || bad_frames <= 20 || bad_frames % 1000 == 0)) {
-      std::fprintf(
-          stderr, "evermap-vo-proc: %lld %s: %s%s\n", static_cast<long long>(out->result.utime),
-          evermap::vo::toString(out->result.status), out->result.message.c_str(),
-          bad && bad_frames > 20 ? (" (" + std::to_string(bad_frames) + " bad frames)").c_str()
-                                 : "");
-    }
-    sender->publish(evermap::channels::kVoDelta, out->delta);
-    if (out->keyframe) keyframes->publishNew(*out->keyframe);
-    if (out->calibration) sender->publish(evermap::channels::kVoCalib, *out->calibration);
-    if (!out->result.calibration_message.empty()) {
-      std::fprintf(stderr, "evermap-vo-proc: self-calibration: %s\n",
-                   out->result.calibration_message.c_str());
-    }
+    for (const evermap::vo::PipelineOutput& out : *outs)
+      publishOutput(out, &bad_frames, sender, keyframes);
   }
+  for (const evermap::vo::PipelineOutput& out : pipeline->flush())
+    publishOutput(out, &bad_frames, sender, keyframes);
 }
 
 }  // namespace

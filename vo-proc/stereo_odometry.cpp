@@ -170,6 +170,9 @@ void StereoOdometry::applyDisparityCorrection(double delta_px, double delta_slop
 }
 
 void StereoOdometry::reset() {
+  // The detector's adaptive threshold too (the options were valid when this was made).
+  if (auto extractor = core::StereoFeatureExtractor::create(options_.features))
+    extractor_ = std::move(*extractor);
   has_ref_ = false;
   has_prev_ = false;
   prev_top_.release();

@@ -271,7 +271,9 @@ class StereoOdometry {
   FrameResult processRgbd(int64_t utime, const cv::Mat& gray, const cv::Mat& depth,
                           double depth_scale_m);
 
-  // Forgets the reference: the next usable frame starts anew (kNoData).
+  // Forgets what the frames taught it but the camera and self-calibration (the reference, the
+  // motion, the detector's adaptive threshold): the next usable frame starts anew (kNoData), as
+  // with a new odometry of this camera.
   void reset();
 
   const core::StereoCamera& camera() const { return camera_; }

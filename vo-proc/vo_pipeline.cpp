@@ -1,6 +1,8 @@
 #include "vo-proc/vo_pipeline.h"
 
 #include <sstream>
+#include <string>
+#include <utility>
 
 #include "core/messages/convert.h"
 #include "core/messages/keyframe_convert.h"
@@ -52,6 +54,7 @@ Status VoPipeline::handleCalibration(const evermap::stereo_calib_t& msg) {
   // A refused calibration leaves no camera: better no odometry than odometry with the wrong
   // geometry.
   auto refuse = [this](const std::string& why) -> Status {
+    releaseHeld();
     ++stats_.calibrations_refused;
     calibration_.reset();
     rectifier_.reset();
@@ -79,11 +82,13 @@ Status VoPipeline::handleCalibration(const evermap::stereo_calib_t& msg) {
   if (!camera) return refuse(camera.error().message);
   auto odometry = StereoOdometry::create(*camera, options_.odometry);
   if (!odometry) return refuse(odometry.error().message);
+  releaseHeld();
   body_T_cam_ = body_T_cam;
   rgbd_.reset();
   calibration_ = *calibration;
   rectifier_ = std::move(rectifier);
   odometry_.emplace(std::move(*odometry));
+  hold_.begin(options_.odometry.self_calibrate ? options_.startup_hold_s : 0.0);
   calibration_repeat_ = channels::CalibrationRepeat{};
   calibration_decided_ = false;
   ++stats_.calibrations;
@@ -119,15 +124,67 @@ PipelineOutput VoPipeline::finish(const FrameResult& result) {
   PipelineOutput out;
   out.result = result;
   out.delta = toMsg(result);
+  if (result.keyframe) out.keyframe = messages::toMsg(odometry_->camera(), *result.keyframe);
+  return out;
+}
+
+PipelineOutput VoPipeline::publish(PipelineOutput out) {
   odometry_frame_.stamp(out.delta);
   ++stats_.frames;
-  ++stats_.by_status[static_cast<size_t>(result.status)];
-  out.calibration = calibrationDue(result);
-  if (result.keyframe) {
-    out.keyframe = messages::toMsg(odometry_->camera(), *result.keyframe);
-    ++stats_.keyframes;
-  }
+  ++stats_.by_status[static_cast<size_t>(out.result.status)];
+  if (out.keyframe) ++stats_.keyframes;
+  out.calibration = calibrationDue(out.result);
   return out;
+}
+
+PipelineOutputs VoPipeline::emit(PipelineOutput out, const cv::Mat& left, const cv::Mat& right) {
+  PipelineOutputs outs = std::exchange(released_, {});
+  if (!hold_.active()) {
+    outs.push_back(publish(std::move(out)));
+    return outs;
+  }
+  StartupHold<PipelineOutput>::Frame frame;
+  frame.decided = !out.result.calibration_message.empty();
+  frame.corrected = out.result.calibration_changed;
+  const int64_t utime = out.result.utime;
+  frame.output = std::move(out);
+  // The images are the caller's (a decoder's or rectifier's buffers may be reused).
+  frame.left = left.clone();
+  frame.right = right.clone();
+  hold_.keep(std::move(frame), utime);
+  if (hold_.due()) endHold(&outs);
+  return outs;
+}
+
+void VoPipeline::endHold(PipelineOutputs* outs) {
+  auto frames = hold_.end();
+  // A correction on the last frame held: the frames before it are measured again with it,
+  // from a fresh start (self-calibration goes on with its next round).
+  const bool again = odometry_ && !frames.empty() && frames.back().corrected;
+  if (again) odometry_->reset();
+  for (auto& f : frames) {
+    PipelineOutput out = std::move(f.output);
+    if (again && !f.left.empty()) {
+      const FrameResult first = out.result;
+      out = finish(odometry_->process(first.utime, f.left, f.right));
+      if (f.decided) {
+        std::string& m = out.result.calibration_message;
+        m = first.calibration_message + " (the " + std::to_string(frames.size() - 1) +
+            " frames held before it processed again)" + (m.empty() ? "" : "; then " + m);
+        out.result.calibration_changed = true;
+      }
+    }
+    outs->push_back(publish(std::move(out)));
+  }
+}
+
+void VoPipeline::releaseHeld() {
+  if (hold_.active()) endHold(&released_);
+}
+
+PipelineOutputs VoPipeline::flush() {
+  releaseHeld();
+  return std::exchange(released_, {});
 }
 
 std::optional<evermap::stereo_calib_t> VoPipeline::calibrationDue(const FrameResult& result) {
@@ -143,16 +200,16 @@ std::optional<evermap::stereo_calib_t> VoPipeline::calibrationDue(const FrameRes
   return messages::toMsg(*with_offset, result.utime);
 }
 
-PipelineOutput VoPipeline::badInput(int64_t utime, const std::string& why) {
+PipelineOutputs VoPipeline::badInput(int64_t utime, const std::string& why) {
   FrameResult r;
   r.utime = utime;
   r.ref_utime = utime;
   r.status = VoStatus::kBadInput;
   r.message = why;
-  return finish(r);
+  return emit(finish(r));
 }
 
-PipelineOutput VoPipeline::handleStereo(const evermap::stereo_image_t& msg) {
+PipelineOutputs VoPipeline::handleStereo(const evermap::stereo_image_t& msg) {
   if (!odometry_) return badInput(msg.utime, no_camera_reason_);
   if (!calibration_)
     return badInput(msg.utime,
@@ -171,8 +228,8 @@ PipelineOutput VoPipeline::handleStereo(const evermap::stereo_image_t& msg) {
   return handleFrame(msg.utime, messages::fromMsg(msg));
 }
 
-PipelineOutput VoPipeline::handleFrame(int64_t utime,
-                                       const Expected<messages::StereoFrame>& frame) {
+PipelineOutputs VoPipeline::handleFrame(int64_t utime,
+                                        const Expected<messages::StereoFrame>& frame) {
   if (!odometry_) return badInput(utime, no_camera_reason_);
   if (!frame) return badInput(utime, "STEREO: " + frame.error().message);
   if (!calibration_)
@@ -185,12 +242,14 @@ PipelineOutput VoPipeline::handleFrame(int64_t utime,
   if (rectifier_) {
     auto rect = rectifier_->rectify(frame->left, frame->right);
     if (!rect) return badInput(utime, "STEREO: " + rect.error().message);
-    return finish(odometry_->process(utime, rect->left, rect->right));
+    return emit(finish(odometry_->process(utime, rect->left, rect->right)), rect->left,
+                rect->right);
   }
-  return finish(odometry_->process(utime, frame->left, frame->right));
+  return emit(finish(odometry_->process(utime, frame->left, frame->right)), frame->left,
+              frame->right);
 }
 
-Expected<PipelineOutput> VoPipeline::handleStereoBytes(const void* data, int64_t size) {
+Expected<PipelineOutputs> VoPipeline::handleStereoBytes(const void* data, int64_t size) {
   auto msg = messages::decodeLcm<evermap::stereo_image_t>(data, size, "STEREO");
   if (!msg) {
     ++stats_.undecodable;
@@ -199,7 +258,7 @@ Expected<PipelineOutput> VoPipeline::handleStereoBytes(const void* data, int64_t
   return handleStereo(*msg);
 }
 
-PipelineOutput VoPipeline::handleRgbd(const evermap::rgbd_image_t& msg) {
+PipelineOutputs VoPipeline::handleRgbd(const evermap::rgbd_image_t& msg) {
   return handleRgbdFrame(msg.utime, messages::fromMsg(msg));
 }
 
@@ -217,11 +276,13 @@ bool sameCamera(const core::CameraCalibration& a, const core::CameraCalibration&
 
 }  // namespace
 
-PipelineOutput VoPipeline::handleRgbdFrame(int64_t utime,
-                                           const Expected<messages::RgbdFrame>& frame) {
+PipelineOutputs VoPipeline::handleRgbdFrame(int64_t utime,
+                                            const Expected<messages::RgbdFrame>& frame) {
   if (!frame) return badInput(utime, "RGBD: " + frame.error().message);
   if (!rgbd_ || !odometry_ || !sameCamera(rgbd_->calibration(), frame->camera)) {
     // A new camera (the first frame, or another calibration): odometry restarts with it.
+    releaseHeld();
+    hold_.begin(0.0);  // no self-calibration
     calibration_.reset();
     rectifier_.reset();
     odometry_.reset();
@@ -253,10 +314,10 @@ PipelineOutput VoPipeline::handleRgbdFrame(int64_t utime,
   if (Status s = rgbd_->undistort(frame->gray, frame->depth, &rgbd_gray_, &rgbd_depth_); !s) {
     return badInput(utime, "RGBD: " + s.error().message);
   }
-  return finish(odometry_->processRgbd(utime, rgbd_gray_, rgbd_depth_, frame->depth_scale_m));
+  return emit(finish(odometry_->processRgbd(utime, rgbd_gray_, rgbd_depth_, frame->depth_scale_m)));
 }
 
-Expected<PipelineOutput> VoPipeline::handleRgbdBytes(const void* data, int64_t size) {
+Expected<PipelineOutputs> VoPipeline::handleRgbdBytes(const void* data, int64_t size) {
   auto msg = messages::decodeLcm<evermap::rgbd_image_t>(data, size, "RGBD");
   if (!msg) {
     ++stats_.undecodable;

@@ -5,6 +5,12 @@
 // given to StereoOdometry; the result becomes one vo_delta_t and, when the frame is a new
 // keyframe, one keyframe_t.
 //
+// The start-up hold (startup_hold.h; stereo with self-calibration on): a camera's first frames
+// are kept until self-calibration's first decision, or for startup_hold_s of message time, and
+// when that decision corrects the camera they are processed again with it before they are
+// released. So one frame may release no output (held) or several (the held ones, oldest first);
+// flush() releases what is held at the end of the input.
+//
 // RGBD frames carry their calibration: the first one, and any whose camera differs from the
 // current one, sets up (or restarts) odometry with the camera's equivalent stereo rig
 // (core/camera/rgbd_camera.h); the images are undistorted and given to
@@ -20,6 +26,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <evermap/keyframe_t.hpp>
 #include <evermap/rgbd_image_t.hpp>
@@ -35,6 +42,7 @@
 #include "core/messages/convert.h"
 #include "core/messages/odometry_frame.h"
 #include "core/messages/rgbd_convert.h"
+#include "vo-proc/startup_hold.h"
 #include "vo-proc/stereo_odometry.h"
 
 namespace evermap::vo {
@@ -54,6 +62,11 @@ struct PipelineOptions {
   // fast rotation with bounds widened for its image motion; stereo_odometry.h): the Kinect's
   // rolling shutter and blur. 0: off.
   double rgbd_fast_motion_fraction = 0.15;
+  // Stereo with self-calibration: a camera's first frames are held up to this long (message
+  // time) for self-calibration's first decision, and processed again with the calibration it
+  // applies; VO's first outputs come that much late. 0: off (the frames before the decision
+  // keep the calibration they came with).
+  double startup_hold_s = 3.0;
 
   Status validate() const;
   void declareOptions(OptionList& o) {
@@ -66,6 +79,10 @@ struct PipelineOptions {
     o.add("rgbd_fast_motion_fraction", &rgbd_fast_motion_fraction, "",
           "RGB-D: a frame failing at fast rotation is retried with bounds widened to this "
           "fraction of its predicted image motion (0: off)")
+        .nonNegative();
+    o.add("startup_hold_s", &startup_hold_s, "s",
+          "stereo: the first frames held for self-calibration's first decision, and processed "
+          "again with the calibration it applies (0: off)")
         .nonNegative();
     o.nest("odometry.", &odometry);
     o.nest("rectifier.", &rectifier);
@@ -82,6 +99,9 @@ struct PipelineOutput {
   std::optional<evermap::stereo_calib_t> calibration;
   FrameResult result;  // the details (message, counts)
 };
+// What one input releases: one output, none while the start-up is held, or several when the
+// hold ends (oldest first).
+using PipelineOutputs = std::vector<PipelineOutput>;
 
 // Counts since the start, per status and of what was refused.
 struct PipelineStats {
@@ -109,19 +129,21 @@ class VoPipeline {
   Status handleCalibrationBytes(const void* data, int64_t size);
 
   // One stereo pair.
-  PipelineOutput handleStereo(const evermap::stereo_image_t& msg);
+  PipelineOutputs handleStereo(const evermap::stereo_image_t& msg);
   // The same, with the images already decoded (messages::fromMsg of the message at `utime`,
   // or its error): decoding can run ahead on another thread.
-  PipelineOutput handleFrame(int64_t utime, const Expected<messages::StereoFrame>& frame);
+  PipelineOutputs handleFrame(int64_t utime, const Expected<messages::StereoFrame>& frame);
   // From the bytes of an LCM event; an error (nothing to publish) when they do not decode.
-  Expected<PipelineOutput> handleStereoBytes(const void* data, int64_t size);
+  Expected<PipelineOutputs> handleStereoBytes(const void* data, int64_t size);
 
   // One RGB-D frame (its calibration inside).
-  PipelineOutput handleRgbd(const evermap::rgbd_image_t& msg);
+  PipelineOutputs handleRgbd(const evermap::rgbd_image_t& msg);
   // The same, decoded (messages::fromMsg of the message at `utime`, or its error).
-  PipelineOutput handleRgbdFrame(int64_t utime, const Expected<messages::RgbdFrame>& frame);
+  PipelineOutputs handleRgbdFrame(int64_t utime, const Expected<messages::RgbdFrame>& frame);
   // From the bytes of an LCM event; an error (nothing to publish) when they do not decode.
-  Expected<PipelineOutput> handleRgbdBytes(const void* data, int64_t size);
+  Expected<PipelineOutputs> handleRgbdBytes(const void* data, int64_t size);
+  // The end of the input: what the start-up hold still keeps, as it is.
+  PipelineOutputs flush();
   // The RGB-D camera, when the current camera is one.
   const std::optional<core::RgbdCamera>& rgbdCamera() const { return rgbd_; }
 
@@ -140,8 +162,18 @@ class VoPipeline {
 
  private:
   explicit VoPipeline(const PipelineOptions& options) : options_(options) {}
-  PipelineOutput badInput(int64_t utime, const std::string& why);
+  PipelineOutputs badInput(int64_t utime, const std::string& why);
+  // A result as an output (its keyframe message made with the camera of the moment).
   PipelineOutput finish(const FrameResult& result);
+  // An output leaving the pipeline: stamped with its odometry pose, VO_CALIB when due, counted.
+  PipelineOutput publish(PipelineOutput out);
+  // An output through the start-up hold (left, right: the pair it was made from, when one was
+  // processed), with whatever was released before it.
+  PipelineOutputs emit(PipelineOutput out, const cv::Mat& left = {}, const cv::Mat& right = {});
+  // The hold ended: its frames, processed again after a correction, appended to *outs.
+  void endHold(PipelineOutputs* outs);
+  // The camera changes: what is held is released as it is (returned by the next output).
+  void releaseHeld();
   // The VO_CALIB of a stereo camera whose self-calibration has decided, when due.
   std::optional<evermap::stereo_calib_t> calibrationDue(const FrameResult& result);
 
@@ -158,6 +190,8 @@ class VoPipeline {
   messages::OdometryFrame odometry_frame_;
   channels::CalibrationRepeat calibration_repeat_;  // VO_CALIB
   bool calibration_decided_ = false;                // self-calibration decided once
+  StartupHold<PipelineOutput> hold_;
+  PipelineOutputs released_;  // released by a camera change, not yet returned
   PipelineStats stats_;
 };
 

@@ -106,6 +106,10 @@ Status LocalizeRunner::runStream(EventStream& events, const std::string& name) {
   }
   if (Status s = events.finish(); !s && !cut_short) return makeError(name, ": ", s.error().message);
   if (first < 0) return makeError(name, ": no event");
+  // What VO's start-up hold still keeps (a session shorter than the hold).
+  double loopclose_s = 0.0, localizer_s = 0.0;
+  for (const vo::PipelineOutput& out : p_->vo.flush())
+    onOutput(out, 0.0, &loopclose_s, &localizer_s);
   return Ok{};
 }
 
@@ -142,18 +146,24 @@ void LocalizeRunner::handleEvent(const ReadEvent& e, double* loopclose_s, double
 
 void LocalizeRunner::onFrame(const ReadEvent& e, double* loopclose_s, double* localizer_s) {
   const auto t0 = SteadyClock::now();
-  Expected<vo::PipelineOutput> out = p_->runVo(e);
+  Expected<vo::PipelineOutputs> outs = p_->runVo(e);
   const double vo_s = secondsSince(t0);
-  if (!out) {
-    inputError(e.channel + ": " + out.error().message);
+  if (!outs) {
+    inputError(e.channel + ": " + outs.error().message);
     return;
   }
+  for (size_t i = 0; i < outs->size(); ++i)
+    onOutput((*outs)[i], i + 1 == outs->size() ? vo_s : 0.0, loopclose_s, localizer_s);
+}
+
+void LocalizeRunner::onOutput(const vo::PipelineOutput& out, double vo_s, double* loopclose_s,
+                              double* localizer_s) {
   deliverFrame(
-      *out, calibration_.haveCamera(), *loop_closer_, *localizer_,
+      out, calibration_.haveCamera(), *loop_closer_, *localizer_,
       [this](const std::string& what) { inputError(what); }, loopclose_s, localizer_s);
   exchange(loopclose_s, localizer_s);
   FrameRow row;
-  row.utime = out->delta.utime;
+  row.utime = out.delta.utime;
   row.placed = localizer_->placed();
   row.localized = localizer_->localized();
   row.floor = localizer_->floor();

@@ -79,6 +79,9 @@ class LocalizeRunner {
   Status runStream(detail::EventStream& events, const std::string& name);
   void handleEvent(const detail::ReadEvent& e, double* loopclose_s, double* localizer_s);
   void onFrame(const detail::ReadEvent& e, double* loopclose_s, double* localizer_s);
+  // One output VO released (vo_s: the time of the input that released it, on its last output).
+  void onOutput(const vo::PipelineOutput& out, double vo_s, double* loopclose_s,
+                double* localizer_s);
   void onImu(const void* data, int64_t size, double* localizer_s);
   void exchange(double* loopclose_s, double* localizer_s);
   void inputError(const std::string& what);

@@ -5,7 +5,7 @@
 
 namespace evermap::slam_run {
 
-Expected<vo::PipelineOutput> SessionProcesses::runVo(const detail::ReadEvent& e) {
+Expected<vo::PipelineOutputs> SessionProcesses::runVo(const detail::ReadEvent& e) {
   const void* data = e.data.data();
   const auto size = static_cast<int64_t>(e.data.size());
   if (e.channel == channels::kRgbd) {

@@ -46,8 +46,8 @@ struct SessionProcesses {
   }
 
   // A STEREO or RGBD event through VO: decoded ahead by the reader; what did not decode as LCM
-  // fails here as in vo-proc.
-  Expected<vo::PipelineOutput> runVo(const detail::ReadEvent& e);
+  // fails here as in vo-proc. The outputs it releases (vo_pipeline.h: the start-up hold).
+  Expected<vo::PipelineOutputs> runVo(const detail::ReadEvent& e);
 
   vo::VoPipeline vo;
   imu::AttitudeStream attitude;

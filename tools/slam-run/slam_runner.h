@@ -250,6 +250,9 @@ class SlamRunner {
   // are added to the two counts (vo and imu to summary_.times).
   void handleEvent(Session& ss, const detail::ReadEvent& e, double* loopclose_s, double* mapper_s);
   void onFrame(Session& ss, const detail::ReadEvent& e, double* loopclose_s, double* mapper_s);
+  // One output VO released (vo_s: the time of the input that released it, on its last output).
+  void onOutput(Session& ss, const vo::PipelineOutput& out, double vo_s, double* loopclose_s,
+                double* mapper_s);
   void afterFrame(Session& ss, const vo::PipelineOutput& out, double vo_s, double loopclose_s,
                   double mapper_s);
   void onImu(Session& ss, const void* data, int64_t size, double* mapper_s);

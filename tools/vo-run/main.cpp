@@ -71,6 +71,10 @@ struct VoRunOptions {
     o.add("keyframe_descriptors", &odo.keyframe_descriptors, "ORB descriptors at keyframes");
     o.add("self_calibrate", &odo.self_calibrate,
           "stereo: estimate the disparity offset from the images and apply it (docs/vo.md)");
+    o.add("startup_hold_s", &offline.pipeline.startup_hold_s, "s",
+          "stereo: the first frames held for self-calibration's first decision and processed "
+          "again with its correction (0: off)")
+        .nonNegative();
     o.add("line_delay_us", &odo.line_delay_us, "us",
           "rolling shutter: the camera's line delay the features are corrected with (0: a "
           "global shutter; docs/rgbd.md)")

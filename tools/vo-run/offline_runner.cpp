@@ -147,6 +147,25 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
   VoTrajectory chain;
   std::vector<double> times;
   int64_t frames = 0;
+  // One output: its row, its pose, its messages.
+  auto take = [&](const PipelineOutput& out, double ms) -> Status {
+    const FrameResult& r = out.result;
+    if (!r.calibration_message.empty()) {
+      if (!summary.self_calibration.empty()) summary.self_calibration += "\n  ";
+      summary.self_calibration +=
+          "frame " + std::to_string(summary.frames.size() + 1) + ": " + r.calibration_message;
+    }
+    summary.frames.push_back(frameStats(r, ms));
+    if (auto cam0_T_cam = chain.add(out.delta)) {
+      core::SE3d pose = *cam0_T_cam;
+      if (options.body_frame) {
+        const core::SE3d& B = pipeline->bodyTCamera();
+        pose = B * pose * B.inverse();
+      }
+      summary.trajectory.poses.push_back({messages::nsFromUtime(r.utime), pose});
+    }
+    return writer ? writeOutput(*writer, out) : Status{Ok{}};
+  };
   while (const messages::LogReader::Event* event = file.next()) {
     const std::string& channel = event->channel;
     if (channel == channels::kStereoCalib) {
@@ -158,33 +177,24 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
     if (options.max_frames >= 0 && frames >= options.max_frames) break;
     ++frames;
     const auto start = std::chrono::steady_clock::now();
-    auto out = rgbd ? pipeline->handleRgbdBytes(event->data, event->datalen)
-                    : pipeline->handleStereoBytes(event->data, event->datalen);
+    auto outs = rgbd ? pipeline->handleRgbdBytes(event->data, event->datalen)
+                     : pipeline->handleStereoBytes(event->data, event->datalen);
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    if (!out) {
+    if (!outs) {
       std::fprintf(stderr, "vo: event %lld: %s\n", static_cast<long long>(event->eventnum),
-                   out.error().message.c_str());
+                   outs.error().message.c_str());
       continue;
     }
-    const FrameResult& r = out->result;
-    if (!r.calibration_message.empty()) {
-      if (!summary.self_calibration.empty()) summary.self_calibration += "\n  ";
-      summary.self_calibration += "frame " + std::to_string(frames) + ": " + r.calibration_message;
-    }
     times.push_back(ms);
-    summary.frames.push_back(frameStats(r, ms));
-    if (auto cam0_T_cam = chain.add(out->delta)) {
-      core::SE3d pose = *cam0_T_cam;
-      if (options.body_frame) {
-        const core::SE3d& B = pipeline->bodyTCamera();
-        pose = B * pose * B.inverse();
-      }
-      summary.trajectory.poses.push_back({messages::nsFromUtime(r.utime), pose});
+    // The input's time goes on the last output it released (its own frame); a frame the
+    // start-up hold released with it has 0.
+    for (size_t i = 0; i < outs->size(); ++i) {
+      if (Status s = take((*outs)[i], i + 1 == outs->size() ? ms : 0.0); !s) return s.error();
     }
-    if (writer) {
-      if (Status s = writeOutput(*writer, *out); !s) return s.error();
-    }
+  }
+  for (const PipelineOutput& out : pipeline->flush()) {
+    if (Status s = take(out, 0.0); !s) return s.error();
   }
   // A log cut mid-event (or damaged) gives a trajectory of part of the data: an error, and
   // the output log is not committed.

@@ -14,8 +14,10 @@
 //    rotation in degrees;
 //  - ATE after an SE(3) Umeyama alignment of the posed frames;
 //  - RPE over one frame, its mean translation also as % of the mean ground-truth step.
-// Time per frame is the CPU time of the calling thread in StereoOdometry::process (image
-// decoding excluded), the measure of bench/vo_bench.cpp.
+// The pairs go through vo-proc's VoPipeline as rectified frames (its start-up hold included:
+// frames may be processed twice). Time per frame is the CPU time of the calling thread in
+// VoPipeline::handleFrame (image decoding excluded), the measure of bench/vo_bench.cpp; the
+// frame that ends the hold carries the held frames' second pass.
 
 #include <filesystem>
 #include <string>
@@ -30,6 +32,7 @@ namespace evermap::vo {
 
 struct SequenceRunOptions {
   OdometryOptions odometry;
+  double startup_hold_s = 3.0;  // PipelineOptions::startup_hold_s
   datasets::KittiSequenceOptions sequence;
   // The images' disparity offset against calib.txt (pixels), made part of the calibration as
   // evermap-kitti2lcm --disparity-offset does (right cx = left cx + offset); 0: calib.txt's.
