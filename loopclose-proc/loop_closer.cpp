@@ -211,9 +211,10 @@ int LoopCloser::catchUpNodes(const evermap::map_graph_t& graph) {
   return taken;
 }
 
-bool LoopCloser::awaitsKeyframe(const register_request_t& request) const {
+bool LoopCloser::awaitsKeyframe(const Pending& pending) const {
+  const register_request_t& request = pending.request;
   if (!knowsKeyframe(request.keyframe_utime)) {
-    return now_utime_ - request.utime < options_.keyframe_wait_us ||
+    return now_utime_ - pending.arrived_utime < options_.keyframe_wait_us ||
            requests_.awaits(request.keyframe_utime);
   }
   // MODE_NODE against a node that waits for its keyframe (asked for again): answered "unknown
@@ -375,12 +376,13 @@ void LoopCloser::submit(const register_request_t& request) {
   advanceClock(request.utime);
   ++stats_.requests;
   if (!knowsKeyframe(request.keyframe_utime)) requests_.need(request.keyframe_utime, now_utime_);
-  pending_.push_back(request);
+  pending_.push_back(Pending{request, now_utime_});
   while (pending_.size() > options_.max_pending_requests) {
     // The oldest by stamp goes: newest requests are served first.
-    auto oldest = std::min_element(pending_.begin(), pending_.end(),
-                                   [](const auto& a, const auto& b) { return a.utime < b.utime; });
-    ready_.push_back(failure(*oldest, register_result_t::STATUS_STALE,
+    auto oldest = std::min_element(
+        pending_.begin(), pending_.end(),
+        [](const auto& a, const auto& b) { return a.request.utime < b.request.utime; });
+    ready_.push_back(failure(oldest->request, register_result_t::STATUS_STALE,
                              "dropped: more than " + std::to_string(options_.max_pending_requests) +
                                  " requests waiting"));
     pending_.erase(oldest);
@@ -391,12 +393,12 @@ std::vector<register_result_t> LoopCloser::poll() {
   std::vector<register_result_t> out = std::move(ready_);
   ready_.clear();
   for (auto it = pending_.begin(); it != pending_.end();) {
-    if (now_utime_ - it->utime > options_.max_request_age_us) {
+    if (now_utime_ - it->arrived_utime > options_.max_request_age_us) {
       char why[128];
-      std::snprintf(why, sizeof(why), "stale: %.3f s behind the newest data (limit %.3f s)",
-                    1e-6 * static_cast<double>(now_utime_ - it->utime),
+      std::snprintf(why, sizeof(why), "stale: waited %.3f s of data time (limit %.3f s)",
+                    1e-6 * static_cast<double>(now_utime_ - it->arrived_utime),
                     1e-6 * static_cast<double>(options_.max_request_age_us));
-      out.push_back(failure(*it, register_result_t::STATUS_STALE, why));
+      out.push_back(failure(it->request, register_result_t::STATUS_STALE, why));
       it = pending_.erase(it);
     } else {
       ++it;
@@ -409,10 +411,10 @@ std::vector<register_result_t> LoopCloser::poll() {
     auto newest = pending_.end();
     for (auto it = pending_.begin(); it != pending_.end(); ++it) {
       if (awaitsKeyframe(*it)) continue;
-      if (newest == pending_.end() || it->utime >= newest->utime) newest = it;
+      if (newest == pending_.end() || it->request.utime >= newest->request.utime) newest = it;
     }
     if (newest == pending_.end()) return out;
-    const register_request_t request = *newest;
+    const register_request_t request = newest->request;
     pending_.erase(newest);
     out.push_back(answer(request));
     last_answer_utime_ = now_utime_;

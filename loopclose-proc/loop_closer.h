@@ -12,9 +12,9 @@
 //    (KEYFRAME_PART): the node, or the request up to max_request_age_us, waits for it while it
 //    is asked for;
 //  - at most `max_rate_hz` answers per second of data time, newest request first; a request
-//    older than `max_request_age_us`, or pushed out of the bounded queue, is answered
-//    STATUS_STALE and counted. Every failure is an answer with a status and a reason: the
-//    process never dies on input.
+//    that waited `max_request_age_us` of data time since it arrived, or pushed out of the
+//    bounded queue, is answered STATUS_STALE and counted. Every failure is an answer with a status
+//    and a reason: the process never dies on input.
 // Time is data time: the newest utime of any message received (never the wall clock).
 // Threading: one thread; the caller serialises all calls.
 
@@ -47,11 +47,15 @@ namespace evermap::loopclose {
 struct LoopCloserOptions {
   // Answers per second of data time (the paper's loop closure runs at 2 Hz).
   double max_rate_hz = 2.0;
-  // Requests older than this behind the newest data time are stale, microseconds.
+  // A request that waited this long (data time since it arrived) is stale, microseconds. Since
+  // its arrival, not since its stamp: a request sent on the first of a burst of frames (VO's
+  // start-up hold releases seconds of them at once) arrives seconds behind the newest data,
+  // and answering it is as useful as it will ever be.
   int64_t max_request_age_us = 2'000'000;
-  // A request for a keyframe not received yet waits this long (data time) for it, µs: vo-proc
-  // sends KEYFRAME right after the frame's VO_DELTA, but the mapper's request on that
-  // VO_DELTA is small and a keyframe is tens of fragments, so the request often comes first.
+  // A request for a keyframe not received yet waits this long (data time since it arrived)
+  // for it, µs: vo-proc sends KEYFRAME right after the frame's VO_DELTA, but the mapper's
+  // request on that VO_DELTA is small and a keyframe is tens of fragments, so the request
+  // often comes first.
   int64_t keyframe_wait_us = 500'000;
   // Requests waiting at most; beyond, the oldest is answered stale.
   size_t max_pending_requests = 8;
@@ -83,7 +87,7 @@ struct LoopCloserOptions {
   void declareOptions(OptionList& o) {
     o.add("max_rate_hz", &max_rate_hz, "Hz", "answers per second of data time").positive();
     o.add("max_request_age_us", &max_request_age_us, "us",
-          "a request older than this behind the newest data is stale")
+          "a request that waited this long since it arrived is stale")
         .positive();
     o.add("keyframe_wait_us", &keyframe_wait_us, "us", "a request waits this long for its keyframe")
         .nonNegative();
@@ -191,7 +195,12 @@ class LoopCloser {
   bool knowsKeyframe(int64_t utime) const;                     // a recent one, or a node's
   // Whether a request still waits for its query keyframe (in flight, or asked for again), or
   // for the keyframe of its MODE_NODE target (asked for again).
-  bool awaitsKeyframe(const evermap::register_request_t& request) const;
+  // A request waiting, with the data time it arrived at (its age counts from there).
+  struct Pending {
+    evermap::register_request_t request;
+    int64_t arrived_utime = 0;
+  };
+  bool awaitsKeyframe(const Pending& pending) const;
   // The keyframe of a node: memory, else the store (then cached). Null with a reason.
   std::shared_ptr<const Keyframe> nodeKeyframe(int64_t node_id, std::string* why);
   evermap::register_result_t failure(const evermap::register_request_t& request, int8_t status,
@@ -218,7 +227,7 @@ class LoopCloser {
   std::unordered_map<int64_t, Cached> node_keyframes_;
   std::list<int64_t> lru_;                           // node ids, most recently used first
   std::vector<evermap::register_result_t> ready_;    // stale answers made by submit()
-  std::deque<evermap::register_request_t> pending_;  // arrival order
+  std::deque<Pending> pending_;                      // arrival order
   std::deque<evermap::node_added_t> waiting_nodes_;  // NODE_ADDED before its KEYFRAME
   std::vector<std::string> node_errors_;
   KeyframeRequests requests_;

@@ -272,6 +272,34 @@ TEST_F(LoopCloserTest, AnswersAtMostTwoPerSecondNewestFirstAndDropsStaleOnes) {
   EXPECT_EQ(lc->pending(), 0u);
 }
 
+// A burst (vo-proc's start-up hold releases 3 s of frames at once): the mapper's request on the
+// burst's first keyframe arrives 3 s behind the newest data. Its age counts from its arrival:
+// it is answered, and goes stale only after waiting 2 s of data time here.
+TEST_F(LoopCloserTest, ARequestsAgeCountsFromItsArrivalNotItsStamp) {
+  auto lc = make();
+  addMap(*lc);
+  const int64_t t = 100 * kSecond;
+  ASSERT_TRUE(lc->addKeyframe(world_.keyframe(0, t)).ok());
+  lc->advanceClock(t + 3 * kSecond);  // the rest of the burst
+  lc->submit(registerRequest(1, t, t, kNode, 1));
+  auto out = lc->poll();
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].status, kOk) << out[0].reason;
+  EXPECT_EQ(lc->stats().stale, 0);
+  // A request of the same burst for a keyframe that never comes (asked of vo-proc again
+  // meanwhile): it waits, and is stale 2 s of data time after it arrived.
+  lc->submit(registerRequest(2, t, t + 100'000, kNode, 1));
+  EXPECT_TRUE(lc->poll().empty());
+  lc->advanceClock(t + 4'900'000);
+  EXPECT_TRUE(lc->poll().empty());
+  lc->advanceClock(t + 5'100'000);
+  out = lc->poll();
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].request_id, 2);
+  EXPECT_EQ(out[0].status, kStale);
+  EXPECT_NE(out[0].reason.find("waited 2.100 s"), std::string::npos) << out[0].reason;
+}
+
 // Live, the mapper's request (sent on the frame's VO_DELTA) often overtakes the frame's
 // KEYFRAME (tens of UDP fragments): it waits for it, for keyframe_wait_us of data time.
 TEST_F(LoopCloserTest, ARequestThatOvertookItsKeyframeWaitsForIt) {
