@@ -16,16 +16,18 @@
 
 #include <opencv2/core.hpp>
 
+#include "vo-proc/pipeline_output.h"
+
 namespace evermap::vo {
 
-template <typename Output>
 class StartupHold {
  public:
   struct Frame {
-    Output output;           // what odometry made of it the first time
-    cv::Mat left, right;     // the rectified pair; empty when the frame was not processed
-    bool decided = false;    // self-calibration decided on it
-    bool corrected = false;  // ... and changed the camera
+    PipelineOutput output;  // what odometry made of it the first time
+    cv::Mat left, right;    // the rectified pair; empty when the frame was not processed
+    // Self-calibration decided on it (and changed the camera).
+    bool decided() const { return !output.result.calibration_message.empty(); }
+    bool corrected() const { return output.result.calibration_changed; }
   };
 
   // Holding starts (a new camera); hold_s <= 0: never.
@@ -35,15 +37,12 @@ class StartupHold {
     active_ = hold_s > 0.0;
   }
   bool active() const { return active_; }
-  void keep(Frame frame, int64_t utime) {
-    if (frames_.empty()) first_utime_ = utime;
-    last_utime_ = utime;
-    frames_.push_back(std::move(frame));
-  }
+  void keep(Frame frame) { frames_.push_back(std::move(frame)); }
   // The hold ends with the last frame kept: it carried a decision, or the frames span hold_s.
   bool due() const {
     return active_ && !frames_.empty() &&
-           (frames_.back().decided || last_utime_ - first_utime_ >= hold_us_);
+           (frames_.back().decided() ||
+            frames_.back().output.result.utime - frames_.front().output.result.utime >= hold_us_);
   }
   // The frames held (oldest first); holding is over.
   std::vector<Frame> end() {
@@ -56,8 +55,6 @@ class StartupHold {
  private:
   std::vector<Frame> frames_;
   int64_t hold_us_ = 0;
-  int64_t first_utime_ = 0;
-  int64_t last_utime_ = 0;
   bool active_ = false;
 };
 

@@ -143,15 +143,8 @@ PipelineOutputs VoPipeline::emit(PipelineOutput out, const cv::Mat& left, const 
     outs.push_back(publish(std::move(out)));
     return outs;
   }
-  StartupHold<PipelineOutput>::Frame frame;
-  frame.decided = !out.result.calibration_message.empty();
-  frame.corrected = out.result.calibration_changed;
-  const int64_t utime = out.result.utime;
-  frame.output = std::move(out);
   // The images are the caller's (a decoder's or rectifier's buffers may be reused).
-  frame.left = left.clone();
-  frame.right = right.clone();
-  hold_.keep(std::move(frame), utime);
+  hold_.keep(StartupHold::Frame{std::move(out), left.clone(), right.clone()});
   if (hold_.due()) endHold(&outs);
   return outs;
 }
@@ -160,14 +153,15 @@ void VoPipeline::endHold(PipelineOutputs* outs) {
   auto frames = hold_.end();
   // A correction on the last frame held: the frames before it are measured again with it,
   // from a fresh start (self-calibration goes on with its next round).
-  const bool again = odometry_ && !frames.empty() && frames.back().corrected;
+  const bool again = odometry_ && !frames.empty() && frames.back().corrected();
   if (again) odometry_->reset();
   for (auto& f : frames) {
+    const bool decided = f.decided();
     PipelineOutput out = std::move(f.output);
     if (again && !f.left.empty()) {
       const FrameResult first = out.result;
       out = finish(odometry_->process(first.utime, f.left, f.right));
-      if (f.decided) {
+      if (decided) {
         std::string& m = out.result.calibration_message;
         m = first.calibration_message + " (the " + std::to_string(frames.size() - 1) +
             " frames held before it processed again)" + (m.empty() ? "" : "; then " + m);

@@ -42,6 +42,7 @@
 #include "core/messages/convert.h"
 #include "core/messages/odometry_frame.h"
 #include "core/messages/rgbd_convert.h"
+#include "vo-proc/pipeline_output.h"
 #include "vo-proc/startup_hold.h"
 #include "vo-proc/stereo_odometry.h"
 
@@ -89,19 +90,6 @@ struct PipelineOptions {
     o.nest("rgbd.", &rgbd);
   }
 };
-
-struct PipelineOutput {
-  evermap::vo_delta_t delta;
-  std::optional<evermap::keyframe_t> keyframe;
-  // VO_CALIB: the rectified calibration VO measures with, its right cx = left cx + the
-  // disparity offset self-calibration decided on (stereo only): on the frame it decided, then
-  // once per channels::kCalibrationPeriodS of frames (state, like STEREO_CALIB).
-  std::optional<evermap::stereo_calib_t> calibration;
-  FrameResult result;  // the details (message, counts)
-};
-// What one input releases: one output, none while the start-up is held, or several when the
-// hold ends (oldest first).
-using PipelineOutputs = std::vector<PipelineOutput>;
 
 // Counts since the start, per status and of what was refused.
 struct PipelineStats {
@@ -190,7 +178,7 @@ class VoPipeline {
   messages::OdometryFrame odometry_frame_;
   channels::CalibrationRepeat calibration_repeat_;  // VO_CALIB
   bool calibration_decided_ = false;                // self-calibration decided once
-  StartupHold<PipelineOutput> hold_;
+  StartupHold hold_;
   PipelineOutputs released_;  // released by a camera change, not yet returned
   PipelineStats stats_;
 };
