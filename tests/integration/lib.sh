@@ -106,9 +106,11 @@ restarted_after_kill() {
 
 # vo_proc_live NAME LOG CHANNELS FRAMES [VO_ARGS [SPEED]]: evermap-vo-proc (with VO_ARGS) inside
 # the LCM sandbox while lcm-logplayer replays CHANNELS of LOG in real time (or at SPEED x;
-# stopped after 15 s); checks that the FRAMES frames were each processed or counted (and
-# named) as dropped, at least 10 processed, and that VO_DELTA/KEYFRAME arrived. Sets
-# vo_summary, vo_frames and vo_dropped; vo-proc's output is in $tmp/proc.txt.
+# stopped after 15 s); checks that each frame vo-proc received was processed or counted (and
+# named) as dropped, that the FRAMES frames were all received or counted lost on the way (by
+# LCM's queue, or by the kernel as UDP receive errors of the sandbox: at 20x a starved receive
+# thread lets the socket buffer overflow), at least 10 processed, and that VO_DELTA/KEYFRAME
+# arrived. Sets vo_summary, vo_frames and vo_dropped; vo-proc's output is in $tmp/proc.txt.
 vo_proc_live() {
   local name="$1" log="$2" channels="$3" want="$4" vo_args="${5:-}" speed="${6:-1}"
   "$src/scripts/lcm-sandbox" bash -c '
@@ -125,14 +127,35 @@ vo_proc_live() {
     sleep 2
     kill -TERM "$proc"; wait "$proc"
     kill -INT "$logger"; wait "$logger" || true
+    # The sandbox has its own network namespace: these are its UDP counters alone.
+    awk '"'"'/^Udp:/ { if (!h) { split($0, k); h = 1 } else { split($0, v); for (i = 2; i <= NF; i++) if (k[i] == "RcvbufErrors" || k[i] == "InErrors") e += v[i] } } END { print e + 0 }'"'"' /proc/net/snmp > "$2/udp_errors.txt"
   ' "$name" "$build" "$tmp" "$tmp/ready" "$log" "$channels" "$vo_args" "$speed"
   tail -n 3 "$tmp/proc.txt"
   vo_summary="$(grep -E '^evermap-vo-proc: [0-9]+ frames' "$tmp/proc.txt")" ||
     fail "no summary line"
   vo_frames="$(sed -E 's/^evermap-vo-proc: ([0-9]+) frames.*/\1/' <<< "$vo_summary")"
   vo_dropped="$(sed -E 's/.*; ([0-9]+) frames dropped.*/\1/' <<< "$vo_summary")"
-  [ "$((vo_frames + vo_dropped))" = "$want" ] ||
-    fail "$vo_frames processed + $vo_dropped dropped != $want frames"
+  # The frames that reached vo-proc (STEREO or RGBD in its input line), and those LCM's queue
+  # dropped before (core/messages/inbox.cpp): every one received is processed or dropped.
+  local input received queue_lost udp_errors lost
+  input="$(grep -E '^evermap-vo-proc: input: ' "$tmp/proc.txt")" || fail "no input line"
+  received="$(awk '{ for (i = 1; i + 2 <= NF; i++)
+    if (($i == "STEREO" || $i == "RGBD") && $(i + 2) == "received,") n += $(i + 1) } END { print n + 0 }' <<< "$input")"
+  queue_lost="$(awk '{ for (i = 1; i + 3 <= NF; i++)
+    if ($(i + 1) == "dropped" && $(i + 2) == "by" && $(i + 3) == "LCM\x27s") n += $i } END { print n + 0 }' <<< "$input")"
+  [ "$((vo_frames + vo_dropped))" = "$received" ] ||
+    fail "$vo_frames processed + $vo_dropped dropped != $received frames received"
+  # What never reached it was counted on the way, and is a small part.
+  udp_errors="$(cat "$tmp/udp_errors.txt")"
+  lost=$((want - received - queue_lost))
+  if [ "$lost" -gt 0 ] && [ "$udp_errors" = 0 ]; then
+    fail "$lost of $want frames never reached vo-proc, and the kernel counted no UDP receive error"
+  fi
+  [ "$lost" -ge 0 ] || fail "$received frames received + $queue_lost lost in LCM's queue, of $want sent"
+  [ "$((10 * (want - received)))" -le "$want" ] ||
+    fail "only $received of $want frames reached vo-proc ($queue_lost dropped by LCM's queue, $udp_errors UDP receive errors)"
+  [ "$received" = "$want" ] ||
+    echo "$((want - received)) of $want frames lost before vo-proc: $queue_lost by LCM's queue, $lost by the kernel ($udp_errors UDP receive errors, packets)"
   # Each frame dropped is named by its time, one line each (evermap-slam-run --drop-utimes).
   local named
   named="$(grep -c '^evermap-vo-proc: dropped behind the queue: frame [0-9]*$' "$tmp/proc.txt" || true)"
