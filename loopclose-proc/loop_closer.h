@@ -193,13 +193,13 @@ class LoopCloser {
   std::shared_ptr<const Keyframe> keyframeForNode(int64_t utime) const;
   std::optional<int64_t> nodeOfKeyframe(int64_t utime) const;  // the node it describes, if any
   bool knowsKeyframe(int64_t utime) const;                     // a recent one, or a node's
-  // Whether a request still waits for its query keyframe (in flight, or asked for again), or
-  // for the keyframe of its MODE_NODE target (asked for again).
   // A request waiting, with the data time it arrived at (its age counts from there).
   struct Pending {
     evermap::register_request_t request;
     int64_t arrived_utime = 0;
   };
+  // Whether a request still waits for its query keyframe (in flight, or asked for again), or
+  // for the keyframe of its MODE_NODE target (asked for again).
   bool awaitsKeyframe(const Pending& pending) const;
   // The keyframe of a node: memory, else the store (then cached). Null with a reason.
   std::shared_ptr<const Keyframe> nodeKeyframe(int64_t node_id, std::string* why);

@@ -261,7 +261,7 @@ TEST_F(LoopCloserTest, AnswersAtMostTwoPerSecondNewestFirstAndDropsStaleOnes) {
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].request_id, 2);
   EXPECT_EQ(lc->pending(), 1u);
-  // Request 1 is now 2.5 s behind the data: stale, answered so and counted.
+  // Request 1 has now waited 2.5 s of data time since it arrived: stale, answered so and counted.
   ASSERT_TRUE(lc->addKeyframe(world_.keyframe(4, t + 2'500'000)).ok());
   out = lc->poll();
   ASSERT_EQ(out.size(), 1u);
@@ -297,6 +297,19 @@ TEST_F(LoopCloserTest, ARequestsAgeCountsFromItsArrivalNotItsStamp) {
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].status, kStale);
   EXPECT_NE(out[0].reason.find("waited 2.100 s"), std::string::npos) << out[0].reason;
+  // Without asking vo-proc again: a request of a burst whose keyframe is still on its way waits
+  // keyframe_wait_us from its arrival for it, not from its stamp.
+  auto plain = make(noRecovery());
+  addMap(*plain);
+  const int64_t t2 = 200 * kSecond;
+  plain->advanceClock(t2 + 3 * kSecond);
+  plain->submit(registerRequest(3, t2, t2, kNode, 1));
+  plain->advanceClock(t2 + 3'300'000);
+  EXPECT_TRUE(plain->poll().empty());
+  ASSERT_TRUE(plain->addKeyframe(world_.keyframe(0, t2)).ok());
+  out = plain->poll();
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].status, kOk) << out[0].reason;
 }
 
 // Live, the mapper's request (sent on the frame's VO_DELTA) often overtakes the frame's

@@ -127,8 +127,9 @@ vo_proc_live() {
     sleep 2
     kill -TERM "$proc"; wait "$proc"
     kill -INT "$logger"; wait "$logger" || true
-    # The sandbox has its own network namespace: these are its UDP counters alone.
-    awk '"'"'/^Udp:/ { if (!h) { split($0, k); h = 1 } else { split($0, v); for (i = 2; i <= NF; i++) if (k[i] == "RcvbufErrors" || k[i] == "InErrors") e += v[i] } } END { print e + 0 }'"'"' /proc/net/snmp > "$2/udp_errors.txt"
+    # The sandbox network namespace'"'"'s UDP receive-buffer overflows (vo-proc'"'"'s and the
+    # logger'"'"'s sockets: evidence that the kernel dropped datagrams here, not whose).
+    awk '"'"'/^Udp:/ { if (!h) { split($0, k); h = 1 } else { split($0, v); for (i = 2; i <= NF; i++) if (k[i] == "RcvbufErrors") e += v[i] } } END { print e + 0 }'"'"' /proc/net/snmp > "$2/udp_errors.txt"
   ' "$name" "$build" "$tmp" "$tmp/ready" "$log" "$channels" "$vo_args" "$speed"
   tail -n 3 "$tmp/proc.txt"
   vo_summary="$(grep -E '^evermap-vo-proc: [0-9]+ frames' "$tmp/proc.txt")" ||
@@ -141,7 +142,7 @@ vo_proc_live() {
   input="$(grep -E '^evermap-vo-proc: input: ' "$tmp/proc.txt")" || fail "no input line"
   received="$(awk '{ for (i = 1; i + 2 <= NF; i++)
     if (($i == "STEREO" || $i == "RGBD") && $(i + 2) == "received,") n += $(i + 1) } END { print n + 0 }' <<< "$input")"
-  queue_lost="$(awk '{ for (i = 1; i + 3 <= NF; i++)
+  queue_lost="$(awk -v RS='; ' '$1 == "STEREO" || $1 == "RGBD" { for (i = 1; i + 3 <= NF; i++)
     if ($(i + 1) == "dropped" && $(i + 2) == "by" && $(i + 3) == "LCM\x27s") n += $i } END { print n + 0 }' <<< "$input")"
   [ "$((vo_frames + vo_dropped))" = "$received" ] ||
     fail "$vo_frames processed + $vo_dropped dropped != $received frames received"
