@@ -292,7 +292,9 @@ TEST_F(LoopCloserTest, ARequestsAgeCountsFromItsArrivalNotItsStamp) {
   for (const int64_t waited_us : {0, 1'000'000, 1'900'000, 2'100'000}) {
     lc->advanceClock(t + 3 * kSecond + waited_us);
     out = lc->poll();
-    if (waited_us < 2 * kSecond) EXPECT_TRUE(out.empty()) << "after " << waited_us << " us";
+    if (waited_us < 2 * kSecond) {
+      EXPECT_TRUE(out.empty()) << "after " << waited_us << " us";
+    }
   }
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].status, kStale);
