@@ -25,8 +25,9 @@ class StartupHold {
   struct Frame {
     PipelineOutput output;  // what odometry made of it the first time
     cv::Mat left, right;    // the rectified pair; empty when the frame was not processed
-    // Self-calibration decided on it (and changed the camera).
+    // Self-calibration decided on it.
     bool decided() const { return !output.result.calibration_message.empty(); }
+    // ... and changed the camera.
     bool corrected() const { return output.result.calibration_changed; }
   };
 

@@ -140,10 +140,13 @@ vo_proc_live() {
   # dropped before (core/messages/inbox.cpp): every one received is processed or dropped.
   local input received queue_lost udp_errors lost
   input="$(grep -E '^evermap-vo-proc: input: ' "$tmp/proc.txt")" || fail "no input line"
-  received="$(awk '{ for (i = 1; i + 2 <= NF; i++)
-    if (($i == "STEREO" || $i == "RGBD") && $(i + 2) == "received,") n += $(i + 1) } END { print n + 0 }' <<< "$input")"
-  queue_lost="$(awk -v RS='; ' '$1 == "STEREO" || $1 == "RGBD" { for (i = 1; i + 3 <= NF; i++)
-    if ($(i + 1) == "dropped" && $(i + 2) == "by" && $(i + 3) == "LCM\x27s") n += $i } END { print n + 0 }' <<< "$input")"
+  # One record per channel ("; "): "NAME N received, ..., M dropped by LCM's full queue".
+  read -r received queue_lost < <(awk -v RS='; ' '{
+    for (c = 1; c + 2 <= NF; c++) if (($c == "STEREO" || $c == "RGBD") && $(c + 2) == "received,") break
+    if (c + 2 > NF) next
+    r += $(c + 1)
+    for (i = c; i + 3 <= NF; i++) if ($(i + 1) == "dropped" && $(i + 2) == "by" && $(i + 3) == "LCM\x27s") q += $i
+  } END { print r + 0, q + 0 }' <<< "$input")
   [ "$((vo_frames + vo_dropped))" = "$received" ] ||
     fail "$vo_frames processed + $vo_dropped dropped != $received frames received"
   # What never reached it was counted on the way, and is a small part.
