@@ -55,13 +55,28 @@ TEST(LocalizationAccuracy, ASpreadMapIsFittedByItsPositions) {
   EXPECT_FALSE(mapToTruth(map_nodes, {}).ok());
 }
 
-TEST(LocalizationAccuracy, FalseFramesAndFalsePlacementsAreCountedOverTheLocalizedOnes) {
+// Ten frames 0.1 s apart, 0.5 m apart along the map's x axis: the map's poses (the truth's are
+// kTruthFromMap times them).
+struct StraightRun {
+  std::vector<int64_t> utimes;
+  std::vector<core::SE3d> bodies;
   std::map<int64_t, core::SE3d> truth;
+  StraightRun() {
+    for (int i = 0; i < 10; ++i) {
+      utimes.push_back(1000000 + 100000 * i);
+      bodies.push_back(yawed(0.0, core::Vec3(0.5 * i, 0.0, 0.0)));
+      truth[utimes.back()] = kTruthFromMap * bodies.back();
+    }
+  }
+};
+
+TEST(LocalizationAccuracy, FalseFramesAndFalsePlacementsAreCountedOverTheLocalizedOnes) {
+  const StraightRun run;
+  const std::map<int64_t, core::SE3d>& truth = run.truth;
   std::vector<LocalizedPose> poses;
   for (int i = 0; i < 10; ++i) {
-    const int64_t utime = 1000000 + 100000 * i;
-    const core::SE3d body = yawed(0.0, core::Vec3(0.5 * i, 0.0, 0.0));
-    truth[utime] = kTruthFromMap * body;
+    const int64_t utime = run.utimes[i];
+    const core::SE3d& body = run.bodies[i];
     LocalizedPose p{utime, i >= 2, i >= 2, body};
     // Frames 2-3: 0.1 m off; 4: not localized; 5-6: placed again 0.8 m off (a false
     // placement); 7-9: right.
@@ -71,7 +86,7 @@ TEST(LocalizationAccuracy, FalseFramesAndFalsePlacementsAreCountedOverTheLocaliz
     poses.push_back(p);
   }
   const LocalizationAccuracy a =
-      evaluateLocalization(poses, core::Similarity{1.0, kTruthFromMap}, truth, 0.5, 5.0);
+      evaluateLocalization(poses, core::Similarity{1.0, kTruthFromMap}, truth, {}, 0.5, 5.0);
   EXPECT_EQ(a.poses, 10);
   EXPECT_EQ(a.localized, 7);
   EXPECT_NEAR(a.first_localized_s, 0.2, 1e-9);
@@ -82,6 +97,51 @@ TEST(LocalizationAccuracy, FalseFramesAndFalsePlacementsAreCountedOverTheLocaliz
   EXPECT_NEAR(a.ate_rmse_m, std::sqrt((2 * 0.01 + 2 * 0.64) / 7.0), 1e-9);
   EXPECT_NEAR(poses[4].error_m, 0.0, 1e-9);  // placed, not localized: its error, not counted
   EXPECT_EQ(poses[0].error_m, -1);           // never placed: no error
+  EXPECT_EQ(a.node_poses, 0);                // no node given: no figures against one
+  EXPECT_EQ(a.node_false_poses, -1);
+}
+
+TEST(LocalizationAccuracy, AgainstTheNodeTrackedTheMapsOwnErrorIsLeftOut) {
+  // The map: node 3 is stored 8 degrees off its true orientation and 0.6 m off its place (the
+  // map's own error); node 4 is stored right. The robot is tracked against node 3 at frames
+  // 0-4, right relative to it, then against node 4 at frames 5-9, where it dead-reckons 0.12 m
+  // further off per frame.
+  const std::map<int64_t, StoredNodeTruth> nodes = {
+      {3,
+       {yawed(0.1396, core::Vec3(0.6, 0.0, 0.0)), kTruthFromMap * yawed(0.0, core::Vec3::Zero())}},
+      {4,
+       {yawed(0.0, core::Vec3(5.0, 0.0, 0.0)), kTruthFromMap * yawed(0.0, core::Vec3(5.0, 0, 0))}},
+  };
+  const StraightRun run;
+  const std::map<int64_t, core::SE3d>& truth = run.truth;
+  std::vector<LocalizedPose> poses;
+  for (int i = 0; i < 10; ++i) {
+    const int64_t utime = run.utimes[i];
+    const int64_t node = i < 5 ? 3 : 4;
+    const core::SE3d node_T_body = nodes.at(node).truth_T_node.inverse() * truth.at(utime);
+    const double drift = i < 5 ? 0.0 : 0.12 * (i - 4);
+    poses.push_back(
+        {utime, true, true,
+         nodes.at(node).world_T_node * node_T_body * yawed(0.0, core::Vec3(0, drift, 0)), node});
+  }
+  const LocalizationAccuracy a =
+      evaluateLocalization(poses, core::Similarity{1.0, kTruthFromMap}, truth, nodes, 0.5, 5.0);
+  // Against the truth the first five frames are false (8 degrees, the map's), the placement too,
+  // and the last (0.6 m dead-reckoned).
+  EXPECT_EQ(a.false_poses, 6);
+  EXPECT_EQ(a.false_placements, 1);
+  // Against the node: the first five are right; of the last five only 0.6 m is beyond 0.5 m.
+  EXPECT_EQ(a.node_poses, 10);
+  EXPECT_EQ(a.node_false_poses, 1);
+  EXPECT_EQ(a.node_false_placements, 0);
+  EXPECT_NEAR(a.node_rmse_m, 0.12 * std::sqrt((1 + 4 + 9 + 16 + 25) / 10.0), 1e-9);
+  EXPECT_NEAR(a.node_rot_rmse_deg, 0.0, 1e-6);
+  // A pose naming a node the map does not have is left out of the node figures.
+  poses[9].node = 99;
+  EXPECT_EQ(
+      evaluateLocalization(poses, core::Similarity{1.0, kTruthFromMap}, truth, nodes, 0.5, 5.0)
+          .node_poses,
+      9);
 }
 
 }  // namespace

@@ -28,7 +28,7 @@ before="$(sha256sum "$tmp/map/map.db" "$tmp/map/places.db")"
 # check WHAT SUMMARY: the localization figures of SUMMARY (localize-summary.txt's lines, or
 # evermap-pipeline-eval's) within their bounds, and the stores unchanged.
 check() {
-  local what="$1" summary="$2" localized frames rmse false_frames
+  local what="$1" summary="$2" localized frames rmse false_frames node_false
   sha256sum "$tmp/map/map.db" "$tmp/map/places.db" > "$tmp/after.sha"
   [ "$(cat "$tmp/after.sha")" = "$before" ] \
     || fail "$what: localization changed a store: $(diff <(echo "$before") "$tmp/after.sha" | tr "\n" " ")"
@@ -42,6 +42,10 @@ check() {
   awk -v r="$rmse" 'BEGIN { exit !(r != "" && r >= 0 && r < 0.3) }' \
     || fail "$what: pose error while localized: rmse $rmse m (bound 0.3 m)"
   [ "$false_frames" = "0" ] || fail "$what: $false_frames frames localized more than 0.5 m or 5 deg off"
+  # The same against the node tracked (the localizer's own error, the map's left out).
+  node_false="$(awk '$1 == "truth_against_node" { for (i = 2; i < NF; ++i) if ($i == "false_frames") print $(i + 1) }' "$summary")"
+  [ "$node_false" = "0" ] \
+    || fail "$what: against the node tracked, false frames: ${node_false:-no truth_against_node line}"
   echo "OK $what: localized $localized of $frames frames, rmse $rmse m, stores unchanged"
 }
 
@@ -69,5 +73,5 @@ done
 "$bin/evermap-pipeline-eval" --store "$tmp/map/map.db" --truth-log "$tmp/s0.lcmlog" \
   --localization-log "$tmp/live.lcmlog" > "$tmp/live.txt" 2>&1 \
   || { cat "$tmp/live.txt"; fail "evermap-pipeline-eval --localization-log"; }
-grep -E "^(localization|truth) " "$tmp/live.txt"
+grep -E "^(localization|truth|truth_against_node) " "$tmp/live.txt"
 check live "$tmp/live.txt"

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 #include <sstream>
+#include <tuple>
+#include <utility>
 
 #include <Eigen/Eigenvalues>
 
@@ -24,17 +26,54 @@ bool alongOneLine(const std::vector<core::Vec3>& points) {
   return l[1] <= 1e-3 * l[2];
 }
 
+// The localized poses' errors and how many of them are false (beyond the bounds), and how many
+// placements (a first localized pose after one that was not).
+struct Tally {
+  std::vector<double> errors;
+  double rot2 = 0.0;
+  int64_t false_poses = 0, false_placements = 0;
+
+  void add(double error_m, double error_deg, bool placement, double false_m, double false_deg) {
+    errors.push_back(error_m);
+    rot2 += error_deg * error_deg;
+    const bool wrong = error_m > false_m || error_deg > false_deg;
+    if (wrong) ++false_poses;
+    if (wrong && placement) ++false_placements;
+  }
+  double rotRmseDeg() const { return std::sqrt(rot2 / static_cast<double>(errors.size())); }
+};
+
+// The position (m) and rotation (deg) error of `est` against `truth`.
+std::pair<double, double> poseError(const core::SE3d& est, const core::SE3d& truth) {
+  const Eigen::AngleAxisd d(truth.quaternion().conjugate() * est.quaternion());
+  return {(est.translation() - truth.translation()).norm(),
+          std::abs(d.angle()) * 180.0 / std::numbers::pi};
+}
+
 // The figures over the localized poses' errors.
-void summarise(const std::vector<double>& errors, double rot2, LocalizationAccuracy* a) {
-  a->poses_with_truth = static_cast<int64_t>(errors.size());
-  if (errors.empty()) return;
+void summarise(const Tally& t, LocalizationAccuracy* a) {
+  a->poses_with_truth = static_cast<int64_t>(t.errors.size());
+  a->false_poses = t.false_poses;
+  a->false_placements = t.false_placements;
+  if (t.errors.empty()) return;
   double sq = 0.0;
-  for (double e : errors) sq += e * e;
-  const auto n = static_cast<double>(errors.size());
-  a->ate_rmse_m = std::sqrt(sq / n);
-  a->ate_p95_m = percentile(errors, 0.95);
-  a->ate_max_m = *std::max_element(errors.begin(), errors.end());
-  a->rot_rmse_deg = std::sqrt(rot2 / n);
+  for (double e : t.errors) sq += e * e;
+  a->ate_rmse_m = std::sqrt(sq / static_cast<double>(t.errors.size()));
+  a->ate_p95_m = percentile(t.errors, 0.95);
+  a->ate_max_m = *std::max_element(t.errors.begin(), t.errors.end());
+  a->rot_rmse_deg = t.rotRmseDeg();
+}
+
+// The figures against the node tracked.
+void summariseAgainstNode(const Tally& t, LocalizationAccuracy* a) {
+  a->node_poses = static_cast<int64_t>(t.errors.size());
+  if (t.errors.empty()) return;
+  double sq = 0.0;
+  for (double e : t.errors) sq += e * e;
+  a->node_rmse_m = std::sqrt(sq / static_cast<double>(t.errors.size()));
+  a->node_rot_rmse_deg = t.rotRmseDeg();
+  a->node_false_poses = t.false_poses;
+  a->node_false_placements = t.false_placements;
 }
 
 }  // namespace
@@ -75,32 +114,30 @@ void countLocalized(const std::vector<LocalizedPose>& poses, LocalizationAccurac
 LocalizationAccuracy evaluateLocalization(std::vector<LocalizedPose>& poses,
                                           const core::Similarity& truth_S_map,
                                           const std::map<int64_t, core::SE3d>& truth,
+                                          const std::map<int64_t, StoredNodeTruth>& nodes,
                                           double false_m, double false_deg) {
   LocalizationAccuracy a;
   a.false_m = false_m;
   a.false_deg = false_deg;
   countLocalized(poses, &a);
-  a.false_poses = a.false_placements = 0;
-  std::vector<double> errors;
-  double rot2 = 0.0;
+  Tally in_truth, against_node;
   bool was_localized = false;
   for (LocalizedPose& p : poses) {
     const bool placement = p.localized && !was_localized;
     was_localized = p.localized;
     auto it = truth.lower_bound(p.utime - 25000);
     if (it == truth.end() || it->first > p.utime + 25000 || !p.placed) continue;
-    const core::SE3d est = truth_S_map * p.world_T_body;
-    p.error_m = (est.translation() - it->second.translation()).norm();
-    const Eigen::AngleAxisd d(it->second.quaternion().conjugate() * est.quaternion());
-    p.error_deg = std::abs(d.angle()) * 180.0 / std::numbers::pi;
+    std::tie(p.error_m, p.error_deg) = poseError(truth_S_map * p.world_T_body, it->second);
     if (!p.localized) continue;
-    errors.push_back(p.error_m);
-    rot2 += p.error_deg * p.error_deg;
-    const bool wrong = p.error_m > false_m || p.error_deg > false_deg;
-    if (wrong) ++a.false_poses;
-    if (wrong && placement) ++a.false_placements;
+    in_truth.add(p.error_m, p.error_deg, placement, false_m, false_deg);
+    const auto node = nodes.find(p.node);
+    if (node == nodes.end()) continue;
+    const auto [m, deg] = poseError(node->second.world_T_node.inverse() * p.world_T_body,
+                                    node->second.truth_T_node.inverse() * it->second);
+    against_node.add(m, deg, placement, false_m, false_deg);
   }
-  summarise(errors, rot2, &a);
+  summarise(in_truth, &a);
+  summariseAgainstNode(against_node, &a);
   return a;
 }
 
@@ -110,6 +147,10 @@ std::string truthLine(const LocalizationAccuracy& a) {
     << " ate_p95_m " << a.ate_p95_m << " ate_max_m " << a.ate_max_m << " rot_rmse_deg "
     << a.rot_rmse_deg << " false_frames " << a.false_poses << " false_placements "
     << a.false_placements << " (beyond " << a.false_m << " m or " << a.false_deg << " deg)\n";
+  if (a.node_poses > 0)
+    o << "truth_against_node frames " << a.node_poses << " ate_rmse_m " << a.node_rmse_m
+      << " rot_rmse_deg " << a.node_rot_rmse_deg << " false_frames " << a.node_false_poses
+      << " false_placements " << a.node_false_placements << "\n";
   return o.str();
 }
 

@@ -21,6 +21,7 @@ bool decodeLocalization(const messages::LogReader::Event& ev, eval::LocalizedPos
   out->placed = m->placed;
   out->localized = m->localized;
   out->world_T_body = pose->mean;
+  out->node = m->node_id;
   return true;
 }
 
@@ -65,6 +66,16 @@ Expected<core::Similarity> mapInTruth(const EvalMap& map, const RunTruth& truth)
     gt.push_back(t);
   }
   return eval::mapToTruth(est, gt);
+}
+
+std::map<int64_t, eval::StoredNodeTruth> storedNodesInTruth(const EvalMap& map,
+                                                            const RunTruth& truth) {
+  std::map<int64_t, eval::StoredNodeTruth> out;
+  for (const EvalNode& n : map.nodes) {
+    core::SE3d t;
+    if (truth.at(n.keyframe_utime, &t)) out[n.id] = {n.world_T_body, t};
+  }
+  return out;
 }
 
 }  // namespace evermap::mapper

@@ -27,4 +27,9 @@ Expected<RecordedLocalization> readRecordedLocalization(const std::filesystem::p
 // The map in the truth's frame: its nodes with truth at their keyframes (eval::mapToTruth).
 Expected<core::Similarity> mapInTruth(const EvalMap& map, const RunTruth& truth);
 
+// The map's nodes with truth at their keyframes, by node id (the figures against the node
+// tracked).
+std::map<int64_t, eval::StoredNodeTruth> storedNodesInTruth(const EvalMap& map,
+                                                            const RunTruth& truth);
+
 }  // namespace evermap::mapper

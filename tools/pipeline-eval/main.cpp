@@ -128,7 +128,8 @@ Status printLocalization(const EvalArgs& a, const mapper::EvalMap& map,
     return Error{a.localization_log + ": no GROUND_TRUTH message (record it with LOCALIZATION)"};
   const eval::LocalizationAccuracy bounds;  // false beyond its false_m or false_deg
   const eval::LocalizationAccuracy l = eval::evaluateLocalization(
-      recorded->poses, *truth_S_map, recorded->truth, bounds.false_m, bounds.false_deg);
+      recorded->poses, *truth_S_map, recorded->truth, mapper::storedNodesInTruth(map, truth),
+      bounds.false_m, bounds.false_deg);
   const double pct =
       l.poses > 0 ? 100.0 * static_cast<double>(l.localized) / static_cast<double>(l.poses) : 0.0;
   std::printf(

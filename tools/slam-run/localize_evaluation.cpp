@@ -38,8 +38,8 @@ Status LocalizeRunner::setMapTruth(const std::filesystem::path& nodes_csv) {
     auto at = [&](const char* c) {
       return cols.count(c) && cols.at(c) < v.size() ? v[cols.at(c)] : NAN;
     };
-    // The orientations (qw..qz, true_qw..true_qz) matter only to a map of one or two nodes, or
-    // of nodes along one line (eval::mapToTruth).
+    // The orientations (qw..qz, true_qw..true_qz) matter to a map of one or two nodes, or of
+    // nodes along one line (eval::mapToTruth), and to the figures against the node tracked.
     auto rotation = [&](const char* w, const char* x, const char* y, const char* z) {
       const Eigen::Quaterniond q(at(w), at(x), at(y), at(z));
       return q.coeffs().allFinite() && q.norm() > 0.5 ? q.normalized()
@@ -48,6 +48,8 @@ Status LocalizeRunner::setMapTruth(const std::filesystem::path& nodes_csv) {
     est.emplace_back(rotation("qw", "qx", "qy", "qz"), core::Vec3(at("x"), at("y"), at("z")));
     gt.emplace_back(rotation("true_qw", "true_qx", "true_qy", "true_qz"),
                     core::Vec3(at("true_x"), at("true_y"), at("true_z")));
+    if (std::isfinite(at("node")))
+      node_truth_[static_cast<int64_t>(at("node"))] = {est.back(), gt.back()};
   }
   auto fit = eval::mapToTruth(est, gt);
   if (!fit) return makeError(nodes_csv.string(), ": ", fit.error().message);
@@ -57,8 +59,8 @@ Status LocalizeRunner::setMapTruth(const std::filesystem::path& nodes_csv) {
 
 void LocalizeRunner::evaluate(std::vector<eval::LocalizedPose>& poses, LocalizeSummary& s) {
   if (!map_to_truth_ || truth_.empty()) return;
-  s.truth =
-      eval::evaluateLocalization(poses, *map_to_truth_, truth_, s.truth.false_m, s.truth.false_deg);
+  s.truth = eval::evaluateLocalization(poses, *map_to_truth_, truth_, node_truth_, s.truth.false_m,
+                                       s.truth.false_deg);
   for (size_t i = 0; i < frames_.size(); ++i) {
     frames_[i].error_m = poses[i].error_m;
     frames_[i].error_deg = poses[i].error_deg;
@@ -71,7 +73,7 @@ LocalizeSummary LocalizeRunner::finish() {
   s.truth.false_deg = options_.false_closure_deg;
   std::vector<eval::LocalizedPose> poses;
   for (const FrameRow& f : frames_)
-    poses.push_back({f.utime, f.placed, f.localized, f.world_T_body});
+    poses.push_back({f.utime, f.placed, f.localized, f.world_T_body, f.node});
   eval::LocalizationAccuracy counts;
   eval::countLocalized(poses, &counts);
   s.frames = counts.poses;

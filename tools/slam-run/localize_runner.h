@@ -57,7 +57,8 @@ class LocalizeRunner {
   // One session against the map: a log, or the image-level simulator's session rendered.
   Status runLog(const std::filesystem::path& log);
   Status renderSession(const sim::ImageSimOptions& options);
-  // The map in the truth's frame: slam-run's nodes.csv (x,y,z and true_x,true_y,true_z).
+  // The map in the truth's frame: slam-run's nodes.csv (x,y,z and true_x,true_y,true_z; node,
+  // the orientations qw..qz and true_qw..true_qz for the figures against the node tracked).
   Status setMapTruth(const std::filesystem::path& nodes_csv);
   LocalizeSummary finish();
 
@@ -98,6 +99,7 @@ class LocalizeRunner {
   std::vector<FrameRow> frames_;
   std::map<int64_t, core::SE3d> truth_;
   std::optional<core::Similarity> map_to_truth_;
+  std::map<int64_t, eval::StoredNodeTruth> node_truth_;  // by node id, from nodes.csv
   LocalizeSummary summary_;
 };
 
