@@ -40,6 +40,11 @@ struct Tally {
     if (wrong) ++false_poses;
     if (wrong && placement) ++false_placements;
   }
+  double rmseM() const {
+    double sq = 0.0;
+    for (double e : errors) sq += e * e;
+    return std::sqrt(sq / static_cast<double>(errors.size()));
+  }
   double rotRmseDeg() const { return std::sqrt(rot2 / static_cast<double>(errors.size())); }
 };
 
@@ -56,9 +61,7 @@ void summarise(const Tally& t, LocalizationAccuracy* a) {
   a->false_poses = t.false_poses;
   a->false_placements = t.false_placements;
   if (t.errors.empty()) return;
-  double sq = 0.0;
-  for (double e : t.errors) sq += e * e;
-  a->ate_rmse_m = std::sqrt(sq / static_cast<double>(t.errors.size()));
+  a->ate_rmse_m = t.rmseM();
   a->ate_p95_m = percentile(t.errors, 0.95);
   a->ate_max_m = *std::max_element(t.errors.begin(), t.errors.end());
   a->rot_rmse_deg = t.rotRmseDeg();
@@ -68,9 +71,7 @@ void summarise(const Tally& t, LocalizationAccuracy* a) {
 void summariseAgainstNode(const Tally& t, LocalizationAccuracy* a) {
   a->node_poses = static_cast<int64_t>(t.errors.size());
   if (t.errors.empty()) return;
-  double sq = 0.0;
-  for (double e : t.errors) sq += e * e;
-  a->node_rmse_m = std::sqrt(sq / static_cast<double>(t.errors.size()));
+  a->node_rmse_m = t.rmseM();
   a->node_rot_rmse_deg = t.rotRmseDeg();
   a->node_false_poses = t.false_poses;
   a->node_false_placements = t.false_placements;
