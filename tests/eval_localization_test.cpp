@@ -104,8 +104,8 @@ TEST(LocalizationAccuracy, FalseFramesAndFalsePlacementsAreCountedOverTheLocaliz
 TEST(LocalizationAccuracy, AgainstTheNodeTrackedTheMapsOwnErrorIsLeftOut) {
   // The map: node 3 is stored 8 degrees off its true orientation and 0.6 m off its place (the
   // map's own error); node 4 is stored right. The robot is tracked against node 3 at frames
-  // 0-4, right relative to it, then against node 4 at frames 5-9, where it dead-reckons 0.12 m
-  // further off per frame.
+  // 0-3, right relative to it; frame 4 is not localized; at frames 5-9 it is tracked against
+  // node 4, placed 6 degrees off (frame 5 only) and dead reckoning 0.12 m further off a frame.
   const std::map<int64_t, StoredNodeTruth> nodes = {
       {3,
        {yawed(0.1396, core::Vec3(0.6, 0.0, 0.0)), kTruthFromMap * yawed(0.0, core::Vec3::Zero())}},
@@ -120,28 +120,29 @@ TEST(LocalizationAccuracy, AgainstTheNodeTrackedTheMapsOwnErrorIsLeftOut) {
     const int64_t node = i < 5 ? 3 : 4;
     const core::SE3d node_T_body = nodes.at(node).truth_T_node.inverse() * truth.at(utime);
     const double drift = i < 5 ? 0.0 : 0.12 * (i - 4);
+    const double yaw = i == 5 ? 6.0 * std::numbers::pi / 180.0 : 0.0;
     poses.push_back(
-        {utime, true, true,
-         nodes.at(node).world_T_node * node_T_body * yawed(0.0, core::Vec3(0, drift, 0)), node});
+        {utime, true, i != 4,
+         nodes.at(node).world_T_node * node_T_body * yawed(yaw, core::Vec3(0, drift, 0)), node});
   }
   const LocalizationAccuracy a =
       evaluateLocalization(poses, core::Similarity{1.0, kTruthFromMap}, truth, nodes, 0.5, 5.0);
-  // Against the truth the first five frames are false (8 degrees, the map's), the placement too,
-  // and the last (0.6 m dead-reckoned).
+  // Against the truth: frames 0-3 are false (8 degrees, the map's), 5 (6 degrees) and 9 (0.6 m)
+  // too; both placements (0 and 5) are false.
   EXPECT_EQ(a.false_poses, 6);
-  EXPECT_EQ(a.false_placements, 1);
-  // Against the node: the first five are right; of the last five only 0.6 m is beyond 0.5 m.
-  EXPECT_EQ(a.node_poses, 10);
-  EXPECT_EQ(a.node_false_poses, 1);
-  EXPECT_EQ(a.node_false_placements, 0);
-  EXPECT_NEAR(a.node_rmse_m, 0.12 * std::sqrt((1 + 4 + 9 + 16 + 25) / 10.0), 1e-9);
-  EXPECT_NEAR(a.node_rot_rmse_deg, 0.0, 1e-6);
+  EXPECT_EQ(a.false_placements, 2);
+  // Against the node: only frames 5 and 9, and only the placement at 5.
+  EXPECT_EQ(a.node_poses, 9);
+  EXPECT_EQ(a.node_false_poses, 2);
+  EXPECT_EQ(a.node_false_placements, 1);
+  EXPECT_NEAR(a.node_rmse_m, 0.12 * std::sqrt((1 + 4 + 9 + 16 + 25) / 9.0), 1e-9);
+  EXPECT_NEAR(a.node_rot_rmse_deg, std::sqrt(36.0 / 9.0), 1e-6);
   // A pose naming a node the map does not have is left out of the node figures.
   poses[9].node = 99;
   EXPECT_EQ(
       evaluateLocalization(poses, core::Similarity{1.0, kTruthFromMap}, truth, nodes, 0.5, 5.0)
           .node_poses,
-      9);
+      8);
 }
 
 }  // namespace

@@ -42,10 +42,14 @@ check() {
   awk -v r="$rmse" 'BEGIN { exit !(r != "" && r >= 0 && r < 0.3) }' \
     || fail "$what: pose error while localized: rmse $rmse m (bound 0.3 m)"
   [ "$false_frames" = "0" ] || fail "$what: $false_frames frames localized more than 0.5 m or 5 deg off"
-  # The same against the node tracked (the localizer's own error, the map's left out).
-  node_false="$(awk '$1 == "truth_against_node" { for (i = 2; i < NF; ++i) if ($i == "false_frames") print $(i + 1) }' "$summary")"
+  # The same against the node tracked (the map's own error left out), over the same frames:
+  # every node of the rendered map has truth.
+  node_word() { awk -v k="$1" '$1 == "truth_against_node" { for (i = 2; i < NF; ++i) if ($i == k) print $(i + 1) }' "$summary"; }
+  node_false="$(node_word false_frames)"
   [ "$node_false" = "0" ] \
     || fail "$what: against the node tracked, false frames: ${node_false:-no truth_against_node line}"
+  [ "$(node_word frames)" = "$(word frames_localized)" ] \
+    || fail "$what: against the node tracked, $(node_word frames) frames of $(word frames_localized) localized with truth"
   echo "OK $what: localized $localized of $frames frames, rmse $rmse m, stores unchanged"
 }
 

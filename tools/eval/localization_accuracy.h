@@ -67,7 +67,7 @@ LocalizationAccuracy evaluateLocalization(std::vector<LocalizedPose>& poses,
                                           const std::map<int64_t, StoredNodeTruth>& nodes,
                                           double false_m, double false_deg);
 
-// "truth poses_localized N ate_rmse_m ... false_frames F false_placements P (beyond ...)" and,
+// "truth frames_localized N ate_rmse_m ... false_frames F false_placements P (beyond ...)" and,
 // when there are node figures, "truth_against_node frames N ate_rmse_m ... false_placements P":
 // the lines localize-summary.txt and evermap-pipeline-eval print.
 std::string truthLine(const LocalizationAccuracy& a);

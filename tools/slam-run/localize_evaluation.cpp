@@ -29,6 +29,11 @@ Status LocalizeRunner::setMapTruth(const std::filesystem::path& nodes_csv) {
   const auto cols = columnsOf(line);
   for (const char* c : {"x", "y", "z", "true_x", "true_y", "true_z"})
     if (!cols.count(c)) return makeError(nodes_csv.string(), ": no column ", c, " (nodes.csv)");
+  // The figures against the node tracked need the nodes' ids and both orientations (a nodes.csv
+  // written before they were columns has neither).
+  bool with_nodes = cols.count("node") > 0;
+  for (const char* c : {"qw", "qx", "qy", "qz", "true_qw", "true_qx", "true_qy", "true_qz"})
+    with_nodes = with_nodes && cols.count(c) > 0;
   std::vector<core::SE3d> est, gt;
   while (std::getline(in, line)) {
     std::vector<double> v;
@@ -48,7 +53,7 @@ Status LocalizeRunner::setMapTruth(const std::filesystem::path& nodes_csv) {
     est.emplace_back(rotation("qw", "qx", "qy", "qz"), core::Vec3(at("x"), at("y"), at("z")));
     gt.emplace_back(rotation("true_qw", "true_qx", "true_qy", "true_qz"),
                     core::Vec3(at("true_x"), at("true_y"), at("true_z")));
-    if (std::isfinite(at("node")))
+    if (with_nodes && std::isfinite(at("node")))
       node_truth_[static_cast<int64_t>(at("node"))] = {est.back(), gt.back()};
   }
   auto fit = eval::mapToTruth(est, gt);
