@@ -29,11 +29,13 @@ bool alongOneLine(const std::vector<core::Vec3>& points) {
 // The localized poses' errors and how many of them are false (beyond the bounds), and how many
 // placements (a first localized pose after one that was not).
 struct Tally {
+  Tally(double m, double deg) : false_m(m), false_deg(deg) {}
+  double false_m, false_deg;  // a pose is false beyond either
   std::vector<double> errors;
   double rot2 = 0.0;
   int64_t false_poses = 0, false_placements = 0;
 
-  void add(double error_m, double error_deg, bool placement, double false_m, double false_deg) {
+  void add(double error_m, double error_deg, bool placement) {
     errors.push_back(error_m);
     rot2 += error_deg * error_deg;
     const bool wrong = error_m > false_m || error_deg > false_deg;
@@ -121,7 +123,7 @@ LocalizationAccuracy evaluateLocalization(std::vector<LocalizedPose>& poses,
   a.false_m = false_m;
   a.false_deg = false_deg;
   countLocalized(poses, &a);
-  Tally in_truth, against_node;
+  Tally in_truth(false_m, false_deg), against_node(false_m, false_deg);
   bool was_localized = false;
   for (LocalizedPose& p : poses) {
     const bool placement = p.localized && !was_localized;
@@ -130,12 +132,12 @@ LocalizationAccuracy evaluateLocalization(std::vector<LocalizedPose>& poses,
     if (it == truth.end() || it->first > p.utime + 25000 || !p.placed) continue;
     std::tie(p.error_m, p.error_deg) = poseError(truth_S_map * p.world_T_body, it->second);
     if (!p.localized) continue;
-    in_truth.add(p.error_m, p.error_deg, placement, false_m, false_deg);
+    in_truth.add(p.error_m, p.error_deg, placement);
     const auto node = nodes.find(p.node);
     if (node == nodes.end()) continue;
     const auto [m, deg] = poseError(node->second.world_T_node.inverse() * p.world_T_body,
                                     node->second.truth_T_node.inverse() * it->second);
-    against_node.add(m, deg, placement, false_m, false_deg);
+    against_node.add(m, deg, placement);
   }
   summarise(in_truth, &a);
   summariseAgainstNode(against_node, &a);
