@@ -26,6 +26,7 @@ Expected<RollingShutterCorrector> RollingShutterCorrector::create(
     c.evidence_.emplace(std::move(grid_us), options.evidence);
     c.max_points_per_pair_ = options.max_points_per_pair;
     c.solve_ = options.solve;
+    c.evidence_omega_ = options.angular_velocity;
   }
   return c;
 }
@@ -53,6 +54,14 @@ Eigen::Vector2f RollingShutterCorrector::corrected(const core::StereoFeature& f,
                                                    const Eigen::Vector2f& uv) const {
   if (line_delay_us_ == 0.0) return uv;
   return f.uv + (uv - f.cornerUv());
+}
+
+Eigen::Vector3d RollingShutterCorrector::evidenceOmega(const core::FeatureFrame& frame) const {
+  if (evidence_omega_) {
+    const auto it = evidence_omega_->find(frame.utime);
+    if (it != evidence_omega_->end()) return it->second;
+  }
+  return frame.omega;
 }
 
 void RollingShutterCorrector::addPair(const core::StereoCamera& camera,

@@ -15,6 +15,8 @@
 // with the estimate until nothing significant is left.
 
 #include <cstdint>
+#include <map>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -30,6 +32,9 @@
 
 namespace evermap::vo {
 
+// Angular velocities (rad/s, the camera's frame) by frame time (utime).
+using AngularVelocities = std::map<int64_t, Eigen::Vector3d>;
+
 // The evidence's candidates, around the delay the features are corrected with (us per row).
 struct LineDelayEvidenceOptions {
   double grid_min_us = -40.0;
@@ -41,6 +46,12 @@ struct LineDelayEvidenceOptions {
   core::CurveEvidenceOptions evidence{20.0, 8, 1000000, 3.0, 10.0};
   // The pair's motion solved under each candidate (as the disparity offset's online estimate).
   core::DisparityOffsetOptions solve = core::DisparityOffsetTrackerOptions::defaultEstimate();
+  // The angular velocity a frame's pairs are judged with, by frame time: a calibration's later
+  // runs give the trajectory of the run before, differenced on both sides of each frame. A
+  // frame not in it: the velocity it was corrected with, the motion prior's (one-sided and
+  // noisy), whose noise draws the estimate towards 0 (errors in the variables: on the TUM
+  // excerpt 28 us per row, against 44 us with the trajectory's; docs/results/rgbd.md).
+  std::shared_ptr<const AngularVelocities> angular_velocity;
 };
 
 class RollingShutterCorrector {
@@ -59,6 +70,8 @@ class RollingShutterCorrector {
   // A position `uv` refined in a frame's image near its feature `f`: where it is once corrected
   // as `f` was (the correction is smooth over the pixels of a refinement).
   Eigen::Vector2f corrected(const core::StereoFeature& f, const Eigen::Vector2f& uv) const;
+  // The angular velocity `frame`'s pairs are judged with (LineDelayEvidenceOptions).
+  Eigen::Vector3d evidenceOmega(const core::FeatureFrame& frame) const;
   // One registered pair (omega_a, omega_b set) of `group` (its reference frame) as evidence.
   void addPair(const core::StereoCamera& camera, const core::StereoMatchPair& pair, int64_t group);
   // What is left of the delay (us per row), from the pairs so far; nullopt without evidence.
@@ -67,6 +80,7 @@ class RollingShutterCorrector {
  private:
   double line_delay_us_ = 0.0;
   std::optional<core::CurveEvidence> evidence_;
+  std::shared_ptr<const AngularVelocities> evidence_omega_;
   std::vector<double> grid_s_;
   int max_points_per_pair_ = 100;
   core::DisparityOffsetOptions solve_;

@@ -103,8 +103,10 @@ Expected<StereoOdometry> StereoOdometry::create(const core::StereoCamera& camera
     if (!tracker) return tracker.error();
     odometry.offset_tracker_.emplace(std::move(*tracker));
   }
-  auto rolling_shutter =
-      RollingShutterCorrector::create(options.line_delay_us, options.gather_line_delay_evidence);
+  LineDelayEvidenceOptions evidence;
+  evidence.angular_velocity = options.line_delay_angular_velocity;
+  auto rolling_shutter = RollingShutterCorrector::create(
+      options.line_delay_us, options.gather_line_delay_evidence, evidence);
   if (!rolling_shutter) return rolling_shutter.error();
   odometry.rolling_shutter_ = std::move(*rolling_shutter);
   return odometry;
@@ -257,8 +259,8 @@ core::RegistrationSummary StereoOdometry::registerTo(
     // a wrong offset is what pushes the points it distorts most out of them (the estimate
     // leans to the current offset); the offset's robust cost bounds the outliers' weight.
     pair->a_T_b = summary.a_T_b;
-    pair->omega_a = from.omega;
-    pair->omega_b = cur_->omega;
+    pair->omega_a = rolling_shutter_.evidenceOmega(from);
+    pair->omega_b = rolling_shutter_.evidenceOmega(*cur_);
     for (size_t k = 0; k < matches.size(); ++k) {
       const core::StereoFeature& a = from.features[static_cast<size_t>(ids[k].first)];
       const core::StereoFeature& b = cur_->features[static_cast<size_t>(ids[k].second)];

@@ -146,6 +146,9 @@ struct OdometryOptions {
   // The registered pairs gathered as evidence on what is left of line_delay_us
   // (lineDelayLeftOver; evermap-vo-run --calibrate-line-delay). Not a user setting.
   bool gather_line_delay_evidence = false;
+  // The angular velocities that evidence is judged with (LineDelayEvidenceOptions; none: each
+  // frame's own). Not a user setting.
+  std::shared_ptr<const AngularVelocities> line_delay_angular_velocity;
 
   Status validate() const;
   std::string describe() const;

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <memory>
 #include <sstream>
+#include <utility>
 
 #include "core/common/atomic_write.h"
 #include "core/common/percentile.h"
@@ -211,10 +212,28 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
   return summary;
 }
 
+AngularVelocities angularVelocities(const eval::Trajectory& camera_trajectory) {
+  AngularVelocities omega;
+  const std::vector<eval::StampedPose>& poses = camera_trajectory.poses;
+  for (size_t k = 0; k < poses.size(); ++k) {
+    // The frames on both sides (one side at the ends).
+    const eval::StampedPose& a = poses[k == 0 ? 0 : k - 1];
+    const eval::StampedPose& b = poses[std::min(k + 1, poses.size() - 1)];
+    const double dt_s = 1e-9 * static_cast<double>(b.t_ns - a.t_ns);
+    if (!(dt_s > 0.0)) continue;
+    const core::SO3d a_R_b = a.world_T_body.so3().inverse() * b.world_T_body.so3();
+    omega[poses[k].t_ns / 1000] = a_R_b.log() / dt_s;
+  }
+  return omega;
+}
+
 Expected<LineDelayCalibration> calibrateLineDelay(const std::filesystem::path& log,
                                                   OfflineOptions options, int max_runs) {
   options.pipeline.odometry.gather_line_delay_evidence = true;
   double& delay = options.pipeline.odometry.line_delay_us;
+  // The runs' trajectories give the next run's angular velocities in the camera's frame; with
+  // --body the last delay is run once more for the body's.
+  const bool body_frame = std::exchange(options.body_frame, false);
   LineDelayCalibration calibration;
   for (int run = 1;; ++run) {
     auto summary = runOffline(log, options);
@@ -238,6 +257,12 @@ Expected<LineDelayCalibration> calibrateLineDelay(const std::filesystem::path& l
     if (std::abs(left->value) <= std::max(0.25 * left->standard_error, 1.0) || next == delay) {
       calibration.line_delay_us = delay;
       calibration.standard_error_us = left->standard_error;
+      if (body_frame) {
+        options.body_frame = true;
+        options.pipeline.odometry.gather_line_delay_evidence = false;
+        summary = runOffline(log, options);
+        if (!summary) return summary.error();
+      }
       calibration.summary = std::move(*summary);
       return calibration;
     }
@@ -246,6 +271,8 @@ Expected<LineDelayCalibration> calibrateLineDelay(const std::filesystem::path& l
                        " us per row, ", left->value, " us left)");
     }
     delay = next;
+    options.pipeline.odometry.line_delay_angular_velocity =
+        std::make_shared<const AngularVelocities>(angularVelocities(summary->trajectory));
   }
 }
 

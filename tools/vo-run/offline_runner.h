@@ -85,7 +85,9 @@ Expected<OfflineSummary> runOffline(const std::filesystem::path& log,
 // quarter of its standard error, or 1 us, of 0 (or only a negative delay would take it): the
 // delay at which the pairs' evidence says nothing is left (each run's estimate leans towards the
 // delay it ran with, so one run's is not the answer). Starts from
-// options.pipeline.odometry.line_delay_us.
+// options.pipeline.odometry.line_delay_us. From the second run on, the pairs are judged with the
+// angular velocities of the run before's trajectory, differenced on both sides of each frame
+// (angularVelocities), not with the motion prior's the features were corrected with.
 struct LineDelayCalibration {
   double line_delay_us = 0.0;
   double standard_error_us = 0.0;  // the last run's jackknife
@@ -96,6 +98,10 @@ struct LineDelayCalibration {
 // frames registered); no settled delay after max_runs runs.
 Expected<LineDelayCalibration> calibrateLineDelay(const std::filesystem::path& log,
                                                   OfflineOptions options, int max_runs = 12);
+
+// Each pose's angular velocity (rad/s, in its own frame; the key: its utime) from the poses on
+// both sides of it (one side at the ends): log(R_before⁻¹ R_after) over their interval.
+AngularVelocities angularVelocities(const eval::Trajectory& camera_trajectory);
 
 // Per-frame statistics as CSV (a header line, one line per frame), written atomically.
 Status writeFrameStatsCsv(const std::vector<FrameStats>& frames, const std::filesystem::path& file);
