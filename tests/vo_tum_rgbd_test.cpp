@@ -144,15 +144,19 @@ TEST(VoTumRgbd, TheRollingShuttersLineDelayCalibratedFromTheImagesHalvesTheError
 }
 
 // A calibration's later runs judge their pairs with the run before's trajectory, differenced on
-// both sides of each frame: a steady turn gives its rate at every pose, the ends included.
+// both sides of each frame: a steady turn gives its rate at every pose, the ends included, in
+// the camera's own frame (the camera starts turned by world_R_0, so the world frame's rate,
+// world_R_0 omega, is another vector).
 TEST(VoTumRgbd, AngularVelocitiesAreTheTurnOnBothSidesOfEachPose) {
-  const core::Vec3 omega(0.3, -1.2, 0.5);  // rad/s
+  const core::Vec3 omega(0.3, -1.2, 0.5);  // rad/s, the camera's frame
+  const core::SO3d world_R_0 = core::SO3d::exp(core::Vec3(0.0, 0.0, 1.2));
+  ASSERT_GT((world_R_0 * omega - omega).norm(), 0.5);
   eval::Trajectory trajectory;
   for (int k = 0; k < 5; ++k) {
     const double t = 0.033 * k + (k == 3 ? 0.01 : 0.0);  // an uneven interval too
     trajectory.poses.push_back(
         {static_cast<int64_t>(std::llround(t * 1e9)),
-         core::SE3d(core::SO3d::exp(omega * t), core::Vec3(0.1 * k, 0.0, 0.0))});
+         core::SE3d(world_R_0 * core::SO3d::exp(omega * t), core::Vec3(0.1 * k, 0.0, 0.0))});
   }
   const AngularVelocities velocities = angularVelocities(trajectory);
   ASSERT_EQ(velocities.size(), 5u);
