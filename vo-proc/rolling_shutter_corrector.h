@@ -50,7 +50,9 @@ struct LineDelayEvidenceOptions {
   // runs give the trajectory of the run before, differenced on both sides of each frame. A
   // frame not in it: the velocity it was corrected with, the motion prior's (one-sided and
   // noisy), whose noise draws the estimate towards 0 (errors in the variables: on the TUM
-  // excerpt 28 us per row, against 44 us with the trajectory's; docs/results/rgbd.md).
+  // excerpt 28 us per row, against 44 us with the trajectory's and 48 us with the motion
+  // capture's; docs/results/rgbd.md). The features stay corrected with the prior's velocity,
+  // so the delay found is the one that corrects best with it.
   std::shared_ptr<const AngularVelocities> angular_velocity;
 };
 

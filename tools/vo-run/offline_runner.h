@@ -100,7 +100,9 @@ Expected<LineDelayCalibration> calibrateLineDelay(const std::filesystem::path& l
                                                   OfflineOptions options, int max_runs = 12);
 
 // Each pose's angular velocity (rad/s, in its own frame; the key: its utime) from the poses on
-// both sides of it (one side at the ends): log(R_before⁻¹ R_after) over their interval.
+// both sides of it (one side at the ends): log(R_before⁻¹ R_after) over their interval. Across a
+// chain break (VoTrajectory puts the new reference at the last pose) the turn is lost, and a
+// frame without a pose keeps its own velocity; neither happens on the TUM excerpt.
 AngularVelocities angularVelocities(const eval::Trajectory& camera_trajectory);
 
 // Per-frame statistics as CSV (a header line, one line per frame), written atomically.
