@@ -14,9 +14,9 @@
 // is 148, which the run without the retry (146) fails; the ATE bound, 0.10 m, is 1.25x.
 #include <gtest/gtest.h>
 
-#include <cstdio>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 
 #include <lcm/lcm-cpp.hpp>

@@ -222,7 +222,7 @@ AngularVelocities angularVelocities(const eval::Trajectory& camera_trajectory) {
     const double dt_s = 1e-9 * static_cast<double>(b.t_ns - a.t_ns);
     if (!(dt_s > 0.0)) continue;
     const core::SO3d a_R_b = a.world_T_body.so3().inverse() * b.world_T_body.so3();
-    omega[poses[k].t_ns / 1000] = a_R_b.log() / dt_s;
+    omega[messages::utimeFromNs(poses[k].t_ns)] = a_R_b.log() / dt_s;
   }
   return omega;
 }
