@@ -104,15 +104,16 @@ restarted_after_kill() {
   respawned "$1" "$2" && [ "$(field "$1" 9)" -ge 1 ] && [ "$(field "$1" 10)" = "-9" ]
 }
 
-# vo_proc_live NAME LOG CHANNELS FRAMES [VO_ARGS [SPEED]]: evermap-vo-proc (with VO_ARGS) inside
-# the LCM sandbox while lcm-logplayer replays CHANNELS of LOG in real time (or at SPEED x;
+# vo_proc_live NAME LOG CHANNELS FRAMES [VO_ARGS [SPEED [REACH]]]: evermap-vo-proc (with VO_ARGS)
+# inside the LCM sandbox while lcm-logplayer replays CHANNELS of LOG in real time (or at SPEED x;
 # stopped after 15 s); checks that each frame vo-proc received was processed or counted (and
 # named) as dropped, that the FRAMES frames were all received or counted lost on the way (by
 # LCM's queue, or by the kernel as UDP receive errors of the sandbox: at 20x a starved receive
-# thread lets the socket buffer overflow), at least 10 processed, and that VO_DELTA/KEYFRAME
-# arrived. Sets vo_summary, vo_frames and vo_dropped; vo-proc's output is in $tmp/proc.txt.
+# thread lets the socket buffer overflow), that at least REACH % of them (default 90) reached
+# vo-proc, at least 10 processed, and that VO_DELTA/KEYFRAME arrived. Sets vo_summary, vo_frames and vo_dropped; vo-proc's output is in $tmp/proc.txt.
 vo_proc_live() {
   local name="$1" log="$2" channels="$3" want="$4" vo_args="${5:-}" speed="${6:-1}"
+  local reach="${7:-90}"
   "$src/scripts/lcm-sandbox" bash -c '
     set -euo pipefail
     rm -f "$3" "$2/live.lcmlog"
@@ -156,7 +157,7 @@ vo_proc_live() {
     fail "$lost of $want frames never reached vo-proc, and the kernel counted no UDP receive error"
   fi
   [ "$lost" -ge 0 ] || fail "$received frames received + $queue_lost lost in LCM's queue, of $want sent"
-  [ "$((10 * (want - received)))" -le "$want" ] ||
+  [ "$((100 * received))" -ge "$((reach * want))" ] ||
     fail "only $received of $want frames reached vo-proc ($queue_lost dropped by LCM's queue, $udp_errors UDP receive errors)"
   [ "$received" = "$want" ] ||
     echo "$((want - received)) of $want frames lost before vo-proc: $queue_lost by LCM's queue, $lost by the kernel ($udp_errors UDP receive errors, packets)"

@@ -36,8 +36,11 @@ ok="$(sed -nE 's/.* ok ([0-9]+),.*/\1/p' <<< "$vo_summary")"
 [ -n "$ok" ] && [ "$ok" -ge "$((vo_frames - 1))" ] || fail "frames not tracked: $vo_summary"
 echo "vo: OK ($vo_frames frames processed live, $vo_dropped dropped)"
 
-# 3. Frames dropped live, named, and replayed offline.
-vo_proc_live vo "$tmp/euroc.lcmlog" "STEREO|STEREO_CALIB" 95 "--queue 1" 20
+# 3. Frames dropped live, named, and replayed offline. At 20x the machine is overloaded on
+# purpose (the player, the logger and vo-proc's three threads on shared cores): what the kernel
+# or LCM's queue drop before vo-proc is counted and checked, and half the frames must arrive
+# (CI's slowest runs gave 70 and 82 of 95; 95 here, alone).
+vo_proc_live vo "$tmp/euroc.lcmlog" "STEREO|STEREO_CALIB" 95 "--queue 1" 20 50
 [ "$vo_dropped" -gt 0 ] || fail "no frame dropped at 20x with a queue of 1: $vo_summary"
 "$build/bin/evermap-slam-run" --vocab "$data/vocab-orb-small/slambook2_vocabulary.yml.gz" \
   --out "$tmp/slam" --drop-utimes "$tmp/proc.txt" "$tmp/euroc.lcmlog" > "$tmp/slam.txt"
