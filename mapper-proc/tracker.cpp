@@ -182,10 +182,9 @@ Status Tracker::addVo(const vo_delta_t& msg) {
   anchorOdometry(msg, msg.keyframe_changed ? Mat6::Zero() : motion->covariance);
   if (!msg.keyframe_changed) return Ok{};
   // The gyro's heading that reaches the frame may still be on its way: the step waits for it
-  // (its motion is in Δ already). Not from a reanchored reference, which the gyro does not test.
+  // (its motion is in Δ already).
   const bool headings_flow = !headings_.empty() && headings_.back().utime >= msg.utime - 1'000'000;
-  if (o_.heading_wait_s > 0.0 && o_.gyro_heading && msg.ref_utime != reanchored_ref_utime_ &&
-      headings_flow && !headingReaches(msg.utime)) {
+  if (o_.heading_wait_s > 0.0 && o_.gyro_heading && headings_flow && !headingReaches(msg.utime)) {
     held_ = HeldStep{msg.ref_utime, msg.utime};
     ++counts_.heading_waits;
     return Ok{};
@@ -224,9 +223,7 @@ void Tracker::takeStep(int64_t ref_utime, int64_t utime) {
 }
 
 bool Tracker::testStep(int64_t ref_utime, int64_t utime, bool with_wheels) {
-  // A step from a reanchored reference spans more than [ref_utime, utime] in Δ (the reanchor
-  // point took VO's motion to the frame back): neither the gyro nor the wheels measure it.
-  if (ref_utime == reanchored_ref_utime_) return true;
+  if (ref_utime == reanchored_ref_utime_) return testReanchoredStep(ref_utime, utime);
   if (gyroContradicts(ref_utime, utime, pending_) && wheelsCover(ref_utime, utime)) {
     // VO's step contradicts the gyro: the wheels carry Δ from the step's reference; VO's next
     // frame (on this frame as its reference) is placed where they put the body.
@@ -239,6 +236,22 @@ bool Tracker::testStep(int64_t ref_utime, int64_t utime, bool with_wheels) {
   if (with_wheels) pending_ = withWheelTranslation(ref_utime, utime, pending_);
   pending_ = withGyroYaw(ref_utime, utime, pending_);
   return true;
+}
+
+bool Tracker::testReanchoredStep(int64_t ref_utime, int64_t utime) {
+  // Δ spans [reanchored_at_utime_, utime] of this step (the reference sits behind the frame
+  // that placed it, by VO's motion to that frame): neither the gyro nor the wheels measure
+  // that, so nothing is fused. But VO's own motion over [ref_utime, utime] is what the gyro
+  // measures: a VO failure VO did not report that lasts beyond one step (a passer-by filling
+  // the view for a second) is caught here too, and the wheels carry Δ from the frame that
+  // placed the reference, as from a step's reference after a contradiction.
+  if (!gyroContradicts(ref_utime, utime, pending_) || !wheelsCover(reanchored_at_utime_, utime))
+    return true;
+  ++counts_.vo_contradicted;
+  pending_ = reanchored_ref_T_body_;
+  enterWheelMode(reanchored_at_utime_);
+  odometry_at_delta_.reset();
+  return false;
 }
 
 std::optional<std::pair<double, double>> Tracker::gyroInnovation(
@@ -329,7 +342,14 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
   vo_mode_ = true;
   ref_utime_ = ref_utime;
   reanchored_ref_utime_ = ref_utime;
+  reanchored_at_utime_ = utime;
+  reanchored_ref_T_body_ = ref_T_body;
+  // The wheels' last increment stays kept when it reaches this frame (within two of its
+  // periods): from here they carry Δ when the gyro contradicts the step from the reference
+  // (testReanchoredStep), also before their next increment arrives (a step 50 ms long).
   recent_wheel_.clear();
+  if (last_wheel_received_ && reaches(*last_wheel_received_, utime))
+    recent_wheel_.push_back(*last_wheel_received_);
   ++counts_.reanchored;
 }
 

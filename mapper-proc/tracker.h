@@ -94,8 +94,9 @@ struct TrackerOptions {
   // hand the wheels (with the gyro) carry Δ from the step's reference instead, as after a
   // reported failure; without it (no wheels, or wheels that stopped or lag by more than two
   // of their periods) the step keeps VO's motion with the gyro's yaw fused. A step from a
-  // reanchored reference (the one after a contradiction among them) is neither tested nor
-  // fused: its reference was placed by the wheels, not by VO. 0: no
+  // reanchored reference (the one after a contradiction among them) is tested but not fused:
+  // its reference was placed by the wheels, not by VO, so on a contradiction the wheels carry
+  // Δ from the frame that placed it. 0: no
   // test. 16 (99.99 %): on the rendered 3-floor sessions (evermap-slam-run, seeds 2-8) 0-9
   // steps a run, node ATE mean 0.189 -> 0.164 m, no seed worse (docs/mapper.md, "A year",
   // ninth pass); 9 and 30 measured alike on seeds 4 and 7.
@@ -305,7 +306,8 @@ class Tracker {
   // Wheel odometry from its last increment to `utime` at that increment's rate (a VO restart
   // between two wheel messages).
   void extrapolateWheel(int64_t utime);
-  std::optional<wheel_odom_t> last_wheel_;  // the last increment applied
+  std::optional<wheel_odom_t> last_wheel_;           // the last increment applied
+  std::optional<wheel_odom_t> last_wheel_received_;  // the last WHEEL_ODOM taken in
   // The gyro's heading change over [t0, t1] and its variance; empty when the headings kept
   // do not cover the interval.
   std::optional<std::pair<double, double>> gyroYaw(int64_t t0, int64_t t1) const;
@@ -354,6 +356,8 @@ class Tracker {
   // and the gyro's yaw fused in (true). Shared by the keyframe step and the motion before a
   // failure (loseVo).
   bool testStep(int64_t ref_utime, int64_t utime, bool with_wheels);
+  // testStep for a step from a reanchored reference: tested by the gyro, not fused.
+  bool testReanchoredStep(int64_t ref_utime, int64_t utime);
 
   TrackerOptions o_;
   Mat6 ad_body_T_cam_;
@@ -363,8 +367,12 @@ class Tracker {
   int64_t ref_utime_ = -1;  // VO's current reference keyframe
   // A reference placed by reanchoring (where the estimate has the body at a frame, through
   // VO's motion to it): the gyro's yaw over an increment from it would count that motion's
-  // error once more, so those increments are not fused with the gyro.
+  // error once more, so those increments are not fused with the gyro. The frame it was placed
+  // from, and VO's motion from the reference to it: where the wheels take over when the gyro
+  // contradicts VO's step from that reference.
   int64_t reanchored_ref_utime_ = -1;
+  int64_t reanchored_at_utime_ = -1;
+  UncertainPose reanchored_ref_T_body_;
   int64_t last_vo_utime_ = -1;
   int64_t last_wheel_utime_ = -1;
   int64_t vo_lost_utime_ = -1;

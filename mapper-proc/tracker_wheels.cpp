@@ -80,6 +80,7 @@ Status Tracker::addWheel(const wheel_odom_t& received) {
   // A held step waits no longer than heading_wait_s of message time.
   if (heldStepDue(msg.utime)) takeHeldStep();
   last_wheel_utime_ = msg.utime;
+  last_wheel_received_ = msg;
   wheel_odometer_m_ += std::hypot(msg.delta_x_m, msg.delta_y_m);
   keepWheelPose(msg);
   if (vo_mode_) {

@@ -204,8 +204,9 @@ TEST(TrackerHeading, AWheelIncrementThatStartsBeforeVoWasLostCountsOnlyItsShareA
 // with a keyframe every third frame, σ 1 mm / 1 mrad. Over the keyframe step [1.2, 1.5] s
 // VO claims a 10° turn and three times the distance (moving texture, a wrong match) with
 // the same confidence. `wheels`: whether WHEEL_ODOM is sent; `wheels_until_s`: when the
-// wheel driver stops.
-Tracker driveWithAVoGlitch(double vo_gyro_gate, bool wheels, double wheels_until_s = 10.0) {
+// wheel driver stops; `glitch_steps`: how many keyframe steps from 1.2 s on glitch alike.
+Tracker driveWithAVoGlitch(double vo_gyro_gate, bool wheels, double wheels_until_s = 10.0,
+                           int glitch_steps = 1) {
   TrackerOptions o;
   o.vo_gyro_gate = vo_gyro_gate;
   Tracker t(o);
@@ -219,7 +220,7 @@ Tracker driveWithAVoGlitch(double vo_gyro_gate, bool wheels, double wheels_until
       EXPECT_TRUE(t.addWheel(wheel(t1 - 100000, t1, 0.1, 0.0, 1e-6)));
     }
     const double since_ref = 1e-6 * static_cast<double>(t1 - ref);
-    const bool glitch = ref == 1200000;
+    const bool glitch = ref >= 1200000 && ref < 1200000 + glitch_steps * 300000;
     const SE3d ref_T_cur =
         glitch ? testing::planar(3.0 * since_ref, 0.0, 10.0 * kDeg * since_ref / 0.3)
                : testing::planar(since_ref, 0.0, 0.0);
@@ -258,6 +259,67 @@ TEST(TrackerHeading, AVoStepTheGyroContradictsIsCarriedByTheWheels) {
   TrackerOptions bad;
   bad.vo_gyro_gate = -1.0;
   EXPECT_FALSE(bad.validate());
+}
+
+// A passer-by filling the view for a second: VO's next step, whose reference the wheels
+// placed (reanchored) after the first contradiction, is wrong alike. The gyro tests it too,
+// and the wheels carry Δ from the frame that placed its reference (rendered seed 4, 160-161 s:
+// 3.6° of heading otherwise kept).
+TEST(TrackerHeading, AStepFromAReanchoredReferenceTheGyroContradictsIsCarriedByTheWheels) {
+  const Tracker twice = driveWithAVoGlitch(16.0, true, 10.0, 2);
+  EXPECT_EQ(twice.counts().vo_contradicted, 2);
+  EXPECT_EQ(twice.counts().reanchored, 2);
+  EXPECT_NEAR(twice.delta().mean.translation().x(), 3.0, 1e-6);
+  EXPECT_NEAR(twice.delta().mean.translation().y(), 0.0, 1e-6);
+  EXPECT_NEAR(yawOf(twice), 0.0, 1e-6);
+  // A right step from a reanchored reference is kept, VO's to the bit (the first glitch only).
+  const Tracker once = driveWithAVoGlitch(16.0, true);
+  EXPECT_EQ(once.counts().vo_contradicted, 1);
+  EXPECT_EQ(once.counts().reanchored, 1);
+  // Without wheels nothing carries either step: VO's motion stays.
+  const Tracker no_wheels = driveWithAVoGlitch(16.0, false, 10.0, 2);
+  EXPECT_EQ(no_wheels.counts().vo_contradicted, 0);
+  EXPECT_GT(no_wheels.delta().mean.translation().x(), 3.5);
+}
+
+// The step from a reanchored reference ends before the wheels' next increment (VO makes a
+// keyframe of every frame while few points match, and its message comes first): the wheels'
+// last increment before the reanchoring is kept, so they carry it all the same (rendered seed
+// 4, 237.5 s: 2.9° of heading otherwise kept).
+TEST(TrackerHeading,
+     TheWheelsCarryAContradictedStepFromAReanchoredReferenceBeforeTheirNextIncrement) {
+  TrackerOptions o;
+  o.vo_gyro_gate = 16.0;
+  Tracker t(o);
+  for (int64_t att = 0; att <= 1500000; att += 20000) ASSERT_TRUE(t.addHeading(heading(att, 0.0)));
+  // Straight at 1 m/s; wheels every 0.2 s, ending at odd tenths; VO every 0.1 s.
+  auto wheelTo = [&](int64_t t1) {
+    ASSERT_TRUE(t.addWheel(wheel(t1 - 200000, t1, 0.2, 0.0, 1e-6)));
+  };
+  auto vo = [&](int64_t utime, int64_t ref, double turn_deg, bool keyframe) {
+    const double d = 1e-6 * static_cast<double>(utime - ref);
+    ASSERT_TRUE(t.addVo(
+        testing::voMsg(utime, ref, testing::planar(d, 0.0, turn_deg * kDeg), 1e-3, keyframe)));
+  };
+  ASSERT_TRUE(t.addVo(testing::voRestart(0)));
+  ASSERT_TRUE(t.addWheel(wheel(0, 100000, 0.1, 0.0, 1e-6)));
+  for (int k = 1; k <= 6; ++k) {
+    if (k % 2 == 1 && k > 1) wheelTo(k * 100000);
+    vo(k * 100000, k <= 3 ? 0 : 300000, 0.0, k % 3 == 0);
+  }
+  wheelTo(700000);
+  vo(700000, 600000, 0.0, false);
+  vo(800000, 600000, 5.0, false);
+  wheelTo(900000);
+  vo(900000, 600000, 10.0, true);   // contradicted: the wheels carry Δ from 0.6 s
+  vo(1000000, 900000, 0.0, false);  // a reference the tracker did not take: reanchored here
+  vo(1100000, 900000, 8.0, true);   // before the wheels' increment to 1.1 s: contradicted too
+  wheelTo(1100000);
+  EXPECT_EQ(t.counts().vo_contradicted, 2);
+  EXPECT_EQ(t.counts().reanchored, 1);
+  EXPECT_NEAR(yawOf(t), 0.0, 1e-6);
+  EXPECT_NEAR(t.delta().mean.translation().x(), 1.1, 1e-6);
+  EXPECT_NEAR(t.delta().mean.translation().y(), 0.0, 1e-6);
 }
 
 TEST(TrackerHeading, AVoStepThatTurnsWithTheGyroIsKept) {
@@ -316,10 +378,10 @@ TEST(TrackerHeading, AKeyframeStepWaitsForTheHeadingThatReachesIt) {
   EXPECT_EQ(at_once.counts().vo_contradicted, 0);
   EXPECT_GT(std::abs(yawOf(at_once)), 0.8 * kDeg);
   // Held until the heading that reaches it: the gyro contradicts the step and the wheels carry
-  // it. Each keyframe step waits but the one after the contradiction, from a reference the
-  // wheels placed (which the gyro does not test).
+  // it. Each keyframe step waits, the one after the contradiction too (from a reference the
+  // wheels placed: the gyro tests it as well).
   const Tracker waited = driveWithLaggingHeadings(0.1, 10000);
-  EXPECT_EQ(waited.counts().heading_waits, 9);
+  EXPECT_EQ(waited.counts().heading_waits, 10);
   EXPECT_EQ(waited.counts().heading_waits_expired, 0);
   EXPECT_EQ(waited.counts().vo_contradicted, 1);
   EXPECT_NEAR(yawOf(waited), 0.0, 1e-6);
