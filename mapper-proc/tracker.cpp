@@ -243,8 +243,8 @@ bool Tracker::testReanchoredStep(int64_t ref_utime, int64_t utime) {
   // that placed it, by VO's motion to that frame): neither the gyro nor the wheels measure
   // that, so nothing is fused. But VO's own motion over [ref_utime, utime] is what the gyro
   // measures: a VO failure VO did not report that lasts beyond one step (a passer-by filling
-  // the view for a second) is caught here too, and the wheels carry Δ from the frame that
-  // placed the reference, as from a step's reference after a contradiction.
+  // the view for a second) is caught here too, and the wheels carry Δ from where it had the
+  // body when the reference was placed, as from a step's reference after a contradiction.
   if (!gyroContradicts(ref_utime, utime, pending_) || !wheelsCover(reanchored_at_utime_, utime))
     return true;
   ++counts_.vo_contradicted;
@@ -322,6 +322,9 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
     // over the same interval. In a turn a wheel period is degrees.
     extrapolateWheel(utime);
   }
+  // Where Δ has the body: at this frame, or at a wheel increment already applied past it (VO's
+  // message came later than the wheels'). The wheels take over from there (testReanchoredStep).
+  int64_t placed_at = !vo_mode_ && last_wheel_ ? std::max(utime, last_wheel_->utime) : utime;
   // Back on the reference VO kept through its failures (relinked), or back after a silence
   // with odometry poses that span it (bridged): VO's motion replaces the wheels'.
   if (!vo_mode_ && ref_utime == ref_utime_ && replaceWheels(ref_utime, ref_T_body)) {
@@ -334,6 +337,7 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
     // it fused in, as into a keyframe step); its reference is placed behind it, as below.
     commit(utime, withGyroYaw(vo_lost_utime_, utime, *since_last));
     ++counts_.odometry_bridged;
+    placed_at = utime;  // the wheels' increments after vo_lost_utime_ were taken back
   }
   // An unknown reference: the frame goes where the estimate (wheel odometry) has the body, so
   // the reference sits at Δ ⊕ (ref_T_body)⁻¹; the increment to it is committed so that the
@@ -342,13 +346,14 @@ void Tracker::rejoin(int64_t ref_utime, const UncertainPose& ref_T_body, int64_t
   vo_mode_ = true;
   ref_utime_ = ref_utime;
   reanchored_ref_utime_ = ref_utime;
-  reanchored_at_utime_ = utime;
+  reanchored_at_utime_ = placed_at;
   reanchored_ref_T_body_ = ref_T_body;
-  // The wheels' last increment stays kept when it reaches this frame (within two of its
-  // periods): from here they carry Δ when the gyro contradicts the step from the reference
-  // (testReanchoredStep), also before their next increment arrives (a step 50 ms long).
+  // The wheels' last increment stays kept when it reaches that point (within two of its
+  // periods): from there they carry Δ when the gyro contradicts the step from the reference
+  // (testReanchoredStep), also before their next increment arrives (a step 50 ms long); only
+  // its share after the point counts.
   recent_wheel_.clear();
-  if (last_wheel_received_ && reaches(*last_wheel_received_, utime))
+  if (last_wheel_received_ && reaches(*last_wheel_received_, placed_at))
     recent_wheel_.push_back(*last_wheel_received_);
   ++counts_.reanchored;
 }

@@ -367,9 +367,10 @@ class Tracker {
   int64_t ref_utime_ = -1;  // VO's current reference keyframe
   // A reference placed by reanchoring (where the estimate has the body at a frame, through
   // VO's motion to it): the gyro's yaw over an increment from it would count that motion's
-  // error once more, so those increments are not fused with the gyro. The frame it was placed
-  // from, and VO's motion from the reference to it: where the wheels take over when the gyro
-  // contradicts VO's step from that reference.
+  // error once more, so those increments are not fused with the gyro. The time Δ had reached
+  // when it was placed (the frame's, or a wheel increment's past it), and VO's motion from the
+  // reference to that frame: where the wheels take over when the gyro contradicts VO's step
+  // from that reference.
   int64_t reanchored_ref_utime_ = -1;
   int64_t reanchored_at_utime_ = -1;
   UncertainPose reanchored_ref_T_body_;

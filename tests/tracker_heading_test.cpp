@@ -272,37 +272,39 @@ TEST(TrackerHeading, AStepFromAReanchoredReferenceTheGyroContradictsIsCarriedByT
   EXPECT_NEAR(twice.delta().mean.translation().x(), 3.0, 1e-6);
   EXPECT_NEAR(twice.delta().mean.translation().y(), 0.0, 1e-6);
   EXPECT_NEAR(yawOf(twice), 0.0, 1e-6);
-  // A right step from a reanchored reference is kept, VO's to the bit (the first glitch only).
+  // A right step from a reanchored reference passes the test and is kept (the first glitch
+  // only): the body ends where it drove.
   const Tracker once = driveWithAVoGlitch(16.0, true);
   EXPECT_EQ(once.counts().vo_contradicted, 1);
   EXPECT_EQ(once.counts().reanchored, 1);
+  EXPECT_NEAR(once.delta().mean.translation().x(), 3.0, 1e-6);
+  EXPECT_NEAR(yawOf(once), 0.0, 1e-6);
   // Without wheels nothing carries either step: VO's motion stays.
   const Tracker no_wheels = driveWithAVoGlitch(16.0, false, 10.0, 2);
   EXPECT_EQ(no_wheels.counts().vo_contradicted, 0);
   EXPECT_GT(no_wheels.delta().mean.translation().x(), 3.5);
 }
 
-// The step from a reanchored reference ends before the wheels' next increment (VO makes a
-// keyframe of every frame while few points match, and its message comes first): the wheels'
-// last increment before the reanchoring is kept, so they carry it all the same (rendered seed
-// 4, 237.5 s: 2.9° of heading otherwise kept).
-TEST(TrackerHeading,
-     TheWheelsCarryAContradictedStepFromAReanchoredReferenceBeforeTheirNextIncrement) {
+// Straight at 1 m/s, wheels every 0.2 s ending at odd tenths, VO every 0.1 s. VO's keyframe
+// step to 0.9 s claims a turn the gyro contradicts; VO's frame at 1.0 s refers to that
+// keyframe, which the tracker did not take (reanchored there), and its step to 1.1 s claims a
+// turn too. `vo_late`: VO's messages for 1.0 and 1.1 s come after the wheels' increment to
+// 1.1 s (live, VO lags), else before it.
+Tracker reanchoredGlitch(bool vo_late) {
   TrackerOptions o;
   o.vo_gyro_gate = 16.0;
   Tracker t(o);
-  for (int64_t att = 0; att <= 1500000; att += 20000) ASSERT_TRUE(t.addHeading(heading(att, 0.0)));
-  // Straight at 1 m/s; wheels every 0.2 s, ending at odd tenths; VO every 0.1 s.
+  for (int64_t att = 0; att <= 1500000; att += 20000) EXPECT_TRUE(t.addHeading(heading(att, 0.0)));
   auto wheelTo = [&](int64_t t1) {
-    ASSERT_TRUE(t.addWheel(wheel(t1 - 200000, t1, 0.2, 0.0, 1e-6)));
+    EXPECT_TRUE(t.addWheel(wheel(t1 - 200000, t1, 0.2, 0.0, 1e-6)));
   };
   auto vo = [&](int64_t utime, int64_t ref, double turn_deg, bool keyframe) {
     const double d = 1e-6 * static_cast<double>(utime - ref);
-    ASSERT_TRUE(t.addVo(
+    EXPECT_TRUE(t.addVo(
         testing::voMsg(utime, ref, testing::planar(d, 0.0, turn_deg * kDeg), 1e-3, keyframe)));
   };
-  ASSERT_TRUE(t.addVo(testing::voRestart(0)));
-  ASSERT_TRUE(t.addWheel(wheel(0, 100000, 0.1, 0.0, 1e-6)));
+  EXPECT_TRUE(t.addVo(testing::voRestart(0)));
+  EXPECT_TRUE(t.addWheel(wheel(0, 100000, 0.1, 0.0, 1e-6)));
   for (int k = 1; k <= 6; ++k) {
     if (k % 2 == 1 && k > 1) wheelTo(k * 100000);
     vo(k * 100000, k <= 3 ? 0 : 300000, 0.0, k % 3 == 0);
@@ -311,15 +313,31 @@ TEST(TrackerHeading,
   vo(700000, 600000, 0.0, false);
   vo(800000, 600000, 5.0, false);
   wheelTo(900000);
-  vo(900000, 600000, 10.0, true);   // contradicted: the wheels carry Δ from 0.6 s
+  vo(900000, 600000, 10.0, true);  // contradicted: the wheels carry Δ from 0.6 s
+  if (vo_late) wheelTo(1100000);
   vo(1000000, 900000, 0.0, false);  // a reference the tracker did not take: reanchored here
-  vo(1100000, 900000, 8.0, true);   // before the wheels' increment to 1.1 s: contradicted too
-  wheelTo(1100000);
-  EXPECT_EQ(t.counts().vo_contradicted, 2);
-  EXPECT_EQ(t.counts().reanchored, 1);
-  EXPECT_NEAR(yawOf(t), 0.0, 1e-6);
-  EXPECT_NEAR(t.delta().mean.translation().x(), 1.1, 1e-6);
-  EXPECT_NEAR(t.delta().mean.translation().y(), 0.0, 1e-6);
+  vo(1100000, 900000, 8.0, true);   // contradicted too
+  if (!vo_late) wheelTo(1100000);
+  return t;
+}
+
+// The step from a reanchored reference ends before the wheels' next increment (VO makes a
+// keyframe of every frame while few points match, and its message comes first): the wheels'
+// last increment before the reanchoring is kept, so they carry it all the same (rendered seed
+// 4, 237.5 s: 2.9° of heading otherwise kept). Live, VO's messages come after the wheels':
+// the wheels take over from where Δ had the body, not from the frame, so no increment counts
+// twice.
+TEST(TrackerHeading,
+     TheWheelsCarryAContradictedStepFromAReanchoredReferenceBeforeTheirNextIncrement) {
+  for (const bool vo_late : {false, true}) {
+    SCOPED_TRACE(vo_late ? "VO late" : "VO first");
+    const Tracker t = reanchoredGlitch(vo_late);
+    EXPECT_EQ(t.counts().vo_contradicted, 2);
+    EXPECT_EQ(t.counts().reanchored, 1);
+    EXPECT_NEAR(yawOf(t), 0.0, 1e-6);
+    EXPECT_NEAR(t.delta().mean.translation().x(), 1.1, 1e-6);
+    EXPECT_NEAR(t.delta().mean.translation().y(), 0.0, 1e-6);
+  }
 }
 
 TEST(TrackerHeading, AVoStepThatTurnsWithTheGyroIsKept) {
