@@ -227,10 +227,7 @@ bool Tracker::testStep(int64_t ref_utime, int64_t utime, bool with_wheels) {
   if (gyroContradicts(ref_utime, utime, pending_) && wheelsCover(ref_utime, utime)) {
     // VO's step contradicts the gyro: the wheels carry Δ from the step's reference; VO's next
     // frame (on this frame as its reference) is placed where they put the body.
-    ++counts_.vo_contradicted;
-    pending_ = UncertainPose{};
-    enterWheelMode(ref_utime);
-    odometry_at_delta_.reset();
+    handToWheels(UncertainPose{}, ref_utime);
     return false;
   }
   if (with_wheels) pending_ = withWheelTranslation(ref_utime, utime, pending_);
@@ -247,11 +244,15 @@ bool Tracker::testReanchoredStep(int64_t ref_utime, int64_t utime) {
   // body when the reference was placed, as from a step's reference after a contradiction.
   if (!gyroContradicts(ref_utime, utime, pending_) || !wheelsCover(reanchored_at_utime_, utime))
     return true;
-  ++counts_.vo_contradicted;
-  pending_ = reanchored_ref_T_body_;
-  enterWheelMode(reanchored_at_utime_);
-  odometry_at_delta_.reset();
+  handToWheels(reanchored_ref_T_body_, reanchored_at_utime_);
   return false;
+}
+
+void Tracker::handToWheels(const UncertainPose& kept, int64_t from_utime) {
+  ++counts_.vo_contradicted;
+  pending_ = kept;
+  enterWheelMode(from_utime);
+  odometry_at_delta_.reset();
 }
 
 std::optional<std::pair<double, double>> Tracker::gyroInnovation(

@@ -96,7 +96,7 @@ struct TrackerOptions {
   // of their periods) the step keeps VO's motion with the gyro's yaw fused. A step from a
   // reanchored reference (the one after a contradiction among them) is tested but not fused:
   // its reference was placed by the wheels, not by VO, so on a contradiction the wheels carry
-  // Δ from the frame that placed it. 0: no
+  // Δ from where it had the body when the reference was placed. 0: no
   // test. 16 (99.99 %): on the rendered 3-floor sessions (evermap-slam-run, seeds 2-8) 0-9
   // steps a run, node ATE mean 0.189 -> 0.164 m, no seed worse (docs/mapper.md, "A year",
   // ninth pass); 9 and 30 measured alike on seeds 4 and 7.
@@ -233,7 +233,7 @@ class Tracker {
   int64_t lastUtime() const { return last_utime_; }
   // Distance travelled, metres: the wheels' (every WHEEL_ODOM accepted, whichever mode), or
   // without wheel odometry the path of the increments compounded into Δ.
-  double odometerM() const { return last_wheel_utime_ >= 0 ? wheel_odometer_m_ : path_odometer_m_; }
+  double odometerM() const { return last_wheel_received_ ? wheel_odometer_m_ : path_odometer_m_; }
   const TrackerCounts& counts() const { return counts_; }
 
   // The odometry pose (VO_DELTA odom_*, camera frames) of the frame Δ is at, and the
@@ -308,6 +308,7 @@ class Tracker {
   void extrapolateWheel(int64_t utime);
   std::optional<wheel_odom_t> last_wheel_;           // the last increment applied
   std::optional<wheel_odom_t> last_wheel_received_;  // the last WHEEL_ODOM taken in
+  int64_t lastWheelUtime() const { return last_wheel_received_ ? last_wheel_received_->utime : -1; }
   // The gyro's heading change over [t0, t1] and its variance; empty when the headings kept
   // do not cover the interval.
   std::optional<std::pair<double, double>> gyroYaw(int64_t t0, int64_t t1) const;
@@ -358,6 +359,9 @@ class Tracker {
   bool testStep(int64_t ref_utime, int64_t utime, bool with_wheels);
   // testStep for a step from a reanchored reference: tested by the gyro, not fused.
   bool testReanchoredStep(int64_t ref_utime, int64_t utime);
+  // A step the gyro contradicts: Δ keeps `kept` of VO's motion since the last commit point,
+  // and the wheels carry it on from `from_utime` (vo_contradicted).
+  void handToWheels(const UncertainPose& kept, int64_t from_utime);
 
   TrackerOptions o_;
   Mat6 ad_body_T_cam_;
@@ -375,7 +379,6 @@ class Tracker {
   int64_t reanchored_at_utime_ = -1;
   UncertainPose reanchored_ref_T_body_;
   int64_t last_vo_utime_ = -1;
-  int64_t last_wheel_utime_ = -1;
   int64_t vo_lost_utime_ = -1;
   int64_t last_utime_ = -1;
   double wheel_odometer_m_ = 0.0;

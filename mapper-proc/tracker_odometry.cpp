@@ -43,15 +43,15 @@ std::optional<UncertainPose> Tracker::odometrySinceLastFrame(const vo_delta_t& m
 // taken comes from the two messages' odometry poses (one epoch), so the wheels carry the hole;
 // as received when nothing was lost or no pose spans the hole.
 wheel_odom_t Tracker::bridgeWheelHole(const wheel_odom_t& msg) const {
-  if (last_wheel_utime_ < 0 || msg.prev_utime <= last_wheel_utime_ || wheel_poses_.empty() ||
-      wheel_poses_.back().utime != last_wheel_utime_)
+  if (lastWheelUtime() < 0 || msg.prev_utime <= lastWheelUtime() || wheel_poses_.empty() ||
+      wheel_poses_.back().utime != lastWheelUtime())
     return msg;
   const auto now = messages::wheelOdometryPose(msg);
   if (!now || now->epoch != wheel_poses_.back().epoch) return msg;
   const auto d = messages::wheelOdometryBetween(wheel_poses_.back(), *now);
   if (!d) return msg;
   wheel_odom_t m = msg;
-  m.prev_utime = last_wheel_utime_;
+  m.prev_utime = lastWheelUtime();
   m.delta_x_m = d->a_T_b.vector()[0];
   m.delta_y_m = d->a_T_b.vector()[1];
   m.delta_theta_rad = d->a_T_b.vector()[2];

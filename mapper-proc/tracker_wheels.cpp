@@ -56,7 +56,7 @@ bool Tracker::reaches(const wheel_odom_t& w, int64_t utime) {
 
 Status Tracker::addWheel(const wheel_odom_t& received) {
   const wheel_odom_t msg = bridgeWheelHole(received);
-  if (msg.utime <= last_wheel_utime_ || msg.prev_utime > msg.utime) {
+  if (msg.utime <= lastWheelUtime() || msg.prev_utime > msg.utime) {
     ++counts_.dropped;
     return Error("WHEEL_ODOM " + std::to_string(msg.utime) + ": out of order");
   }
@@ -79,7 +79,6 @@ Status Tracker::addWheel(const wheel_odom_t& received) {
   }
   // A held step waits no longer than heading_wait_s of message time.
   if (heldStepDue(msg.utime)) takeHeldStep();
-  last_wheel_utime_ = msg.utime;
   last_wheel_received_ = msg;
   wheel_odometer_m_ += std::hypot(msg.delta_x_m, msg.delta_y_m);
   keepWheelPose(msg);

@@ -110,7 +110,8 @@ restarted_after_kill() {
 # named) as dropped, that the FRAMES frames were all received or counted lost on the way (by
 # LCM's queue, or by the kernel as UDP receive errors of the sandbox: at 20x a starved receive
 # thread lets the socket buffer overflow), that at least REACH % of them (default 90) reached
-# vo-proc, at least 10 processed, and that VO_DELTA/KEYFRAME arrived. Sets vo_summary, vo_frames and vo_dropped; vo-proc's output is in $tmp/proc.txt.
+# vo-proc, at least 10 processed, and that VO_DELTA/KEYFRAME arrived. Sets vo_summary, vo_frames
+# and vo_dropped; vo-proc's output is in $tmp/proc.txt.
 vo_proc_live() {
   local name="$1" log="$2" channels="$3" want="$4" vo_args="${5:-}" speed="${6:-1}"
   local reach="${7:-90}"
